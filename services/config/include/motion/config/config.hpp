@@ -1,0 +1,170 @@
+// The system configuration (YAML), loaded and validated before any program does anything else.
+//
+// Validation is complete, not fail-fast: every problem is reported as
+// "<file>:<line>:<column>: <key path>: <reason>" so a user fixes a file in one pass. Checked:
+// YAML syntax, unknown keys, wrong types, ranges (node ids per family, group ids), duplicates
+// (bus/drive/axis names, node ids in one bus's address space, group ids colliding with node ids),
+// references (drive on an undeclared bus, axis on an undeclared drive, family on a bus of the wrong
+// kind), non-positive scales and limits, per-family drive set-up keys and ranges.
+//
+// Thread contract: the loaded Config is an immutable value; load functions are reentrant.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+namespace motion::config {
+
+enum class Family { kUim342, kUim242, kUc57, kAdamModbus };
+[[nodiscard]] std::string_view to_string(Family family);
+[[nodiscard]] std::optional<Family> parse_family(std::string_view text);
+
+struct IdRange {
+  int min;
+  int max;
+};
+// Valid node ids: UIM342 5..126 (SimpleCAN §5.1), UIM242 5..125, UC57 CANopen 1..127 (§4.1.2),
+// ADAM Modbus 1..64 (manual §1: at most 64 nodes).
+[[nodiscard]] IdRange node_id_range(Family family);
+
+struct Location {
+  std::string file;
+  int line = 0;    // 1-based
+  int column = 0;  // 1-based
+};
+
+// Where each key of an item was written (for errors found after reading, e.g. references).
+struct KeyLocations {
+  Location item;
+  std::map<std::string, Location, std::less<>> keys;
+  [[nodiscard]] const Location& of(std::string_view key) const {
+    auto it = keys.find(key);
+    return it == keys.end() ? item : it->second;
+  }
+};
+
+struct ConfigError {
+  Location where;
+  std::string key;  // dotted path, e.g. "drives[2].node_id"
+  std::string reason;
+  [[nodiscard]] std::string message() const;
+};
+
+struct LcmSettings {
+  std::string url;                     // empty: LCM_DEFAULT_URL or LCM's default
+  std::string channel_prefix = "MOTION_";
+};
+
+enum class TransportKind {
+  kSimCan,     // simcan:<bus>      simulated CAN bus hosted by motion-sim
+  kSocketCan,  // socketcan:<if>    Linux SocketCAN interface
+  kSerial,     // serial:<device>   a serial port (RS485 Modbus RTU, RS232 UIM2501/2502 gateway)
+  kSimSerial,  // simserial:<name>  a pseudo-terminal created by motion-sim
+};
+[[nodiscard]] bool is_can(TransportKind kind);
+
+struct Bus {
+  std::string name;
+  std::string transport;  // as written, e.g. "simcan:lab"
+  TransportKind kind = TransportKind::kSimCan;
+  std::string target;     // the part after the scheme
+  int bitrate = 500000;   // CAN
+  bool bus_timing = true; // simulated CAN: bit-timing model on
+  int baud = 115200;      // serial
+  char parity = 'N';      // 'N', 'E', 'O'
+  int stop_bits = 1;
+  int request_timeout_ms = 50;
+  int retries = 2;
+  double poll_hz = 20.0;  // status polling rate per drive
+  KeyLocations where;
+};
+
+// A scalar drive set-up value, typed by the family's schema.
+using SetupValue = std::variant<bool, long long, double, std::string>;
+
+struct Drive {
+  std::string name;
+  Family family = Family::kUim342;
+  std::string bus;
+  int node_id = 0;
+  int group_id = 0;  // UIM342 only; 0 = none
+  std::optional<int> request_timeout_ms;  // overrides the bus's
+  std::optional<int> retries;
+  std::map<std::string, SetupValue> setup;  // applied by the gateway at start-up
+  KeyLocations where;
+};
+
+struct Limits {
+  double min_position = 0;
+  double max_position = 0;
+  double max_velocity = 0;      // user units/s
+  double max_acceleration = 0;  // user units/s^2
+};
+
+enum class HomingMethod { kNone, kSwitch, kCurrentPosition };
+struct Homing {
+  HomingMethod method = HomingMethod::kNone;
+  int input = 1;                // digital input of the home switch (1-based)
+  double velocity = 0;          // user units/s, sign = direction; 0 = 10 % of max velocity towards min
+  double offset = 0;            // position assigned at the switch, user units
+};
+
+struct Axis {
+  std::string name;
+  std::string drive;
+  std::string unit = "mm";
+  double steps_per_unit = 0;  // drive counts per user unit
+  bool invert = false;
+  Limits limits;
+  Homing homing;
+  KeyLocations where;
+};
+
+struct CoordinatorSettings {
+  int default_timeout_ms = 60000;    // per request, when the client gives none
+  int progress_period_ms = 200;
+  int trigger_lead_ms = 30;          // cross-bus trigger scheduled this far ahead of arming completion
+  int gateway_timeout_ms = 1500;     // heartbeat silence after which a gateway is lost
+  int arm_timeout_ms = 2000;
+  double position_tolerance = 0.0;   // user units; 0 = one drive count
+};
+
+struct SimulationSettings {
+  std::string runtime_dir;  // where simulated buses/ptys appear; empty: $MOTION_SIM_DIR or /tmp/motion-sim
+  int reply_latency_us = 200;
+};
+
+struct Config {
+  std::string file;
+  LcmSettings lcm;
+  std::vector<Bus> buses;
+  std::vector<Drive> drives;
+  std::vector<Axis> axes;
+  CoordinatorSettings coordinator;
+  SimulationSettings simulation;
+
+  [[nodiscard]] const Bus* find_bus(std::string_view name) const;
+  [[nodiscard]] const Drive* find_drive(std::string_view name) const;
+  [[nodiscard]] const Axis* find_axis(std::string_view name) const;
+  [[nodiscard]] const Drive* drive_of(const Axis& axis) const { return find_drive(axis.drive); }
+  [[nodiscard]] std::vector<const Axis*> axes_on_bus(std::string_view bus) const;
+};
+
+struct LoadResult {
+  std::optional<Config> config;    // set only when errors is empty
+  std::vector<ConfigError> errors;
+  [[nodiscard]] bool ok() const { return config.has_value(); }
+  [[nodiscard]] std::string error_text() const;  // one line per error
+};
+
+LoadResult load_file(const std::string& path);
+LoadResult load_string(std::string_view yaml_text, const std::string& file_name = "<string>");
+
+// The simulated lab that ships as the embedded default (config/sim-lab.yaml is its file form).
+[[nodiscard]] std::string default_config_path();
+
+}  // namespace motion::config

@@ -1,0 +1,72 @@
+#include "motion/config/setup_schema.hpp"
+
+namespace motion::config {
+namespace {
+
+const std::vector<long long> kMicrostepsUim = {1, 2, 4, 8, 16, 32, 64, 128};
+
+// UIM342: MT (driver), IC (initial configuration), QE (encoder) of SimpleCAN 3.0 §5.2, §5.7, §5.9.
+const std::vector<SetupKey> kUim342 = {
+    {"micro_steps", SetupType::kInt, 1, 128, kMicrostepsUim, {}, "MT[0] micro-stepping resolution"},
+    {"current_a", SetupType::kNumber, 0.1, 8.0, {}, {}, "MT[1] working current, amperes (0.1 A steps)"},
+    {"idle_current_percent", SetupType::kInt, 0, 100, {}, {}, "MT[2] standby current, % of working current"},
+    {"auto_enable", SetupType::kBool, 0, 0, {}, {}, "IC[0] driver on at power-up"},
+    {"direction", SetupType::kChoice, 0, 0, {}, {"cw", "ccw"}, "IC[1] direction in which the counter increases"},
+    {"acceleration_unit", SetupType::kChoice, 0, 0, {}, {"rate", "time"}, "IC[4] AC/DC as pulse/s^2 or ms"},
+    {"closed_loop", SetupType::kBool, 0, 0, {}, {}, "IC[6] encoder feedback control"},
+    {"software_limits", SetupType::kBool, 0, 0, {}, {}, "IC[7] software position limits"},
+    {"encoder_resolution", SetupType::kInt, 0, 65535, {}, {}, "QE[0] encoder lines per revolution"},
+    {"stall_tolerance", SetupType::kInt, 0, 65535, {}, {}, "QE[1] stall detection tolerance, counts"},
+    {"cut_in_speed", SetupType::kInt, 0, 100000, {}, {}, "SS cut-in (start/stop) speed, pulse/s"},
+    {"stop_deceleration", SetupType::kInt, 0, 2000000000, {}, {}, "SD stop deceleration"},
+    {"backlash", SetupType::kInt, 0, 65535, {}, {}, "BL backlash compensation, pulses"},
+};
+
+// UC57 (CANopen): manufacturer objects of the UC57 manual, written by SDO and read back.
+const std::vector<SetupKey> kUc57 = {
+    {"micro_steps", SetupType::kInt, 1, 256, {}, {}, "micro-stepping resolution"},
+    {"current_a", SetupType::kNumber, 0.1, 8.0, {}, {}, "phase current, amperes"},
+    {"pulses_per_revolution", SetupType::kInt, 200, 65535, {}, {}, "pulses per motor revolution"},
+    {"closed_loop", SetupType::kBool, 0, 0, {}, {}, "encoder feedback control"},
+    {"tpdo_mode", SetupType::kChoice, 0, 0, {}, {"sync", "event"}, "axis state from SYNC-driven or event-driven TPDOs"},
+    {"heartbeat_ms", SetupType::kInt, 0, 65535, {}, {}, "producer heartbeat time (1017h)"},
+};
+
+// ADAM Modbus RTU steppers: holding registers of the manual, written and read back.
+const std::vector<SetupKey> kAdamModbus = {
+    {"subdivision", SetupType::kInt, 1, 256, {}, {}, "micro-stepping subdivision"},
+    {"current_a", SetupType::kNumber, 0.1, 8.0, {}, {}, "phase current, amperes"},
+    {"pulses_per_revolution", SetupType::kInt, 200, 65535, {}, {}, "pulses per motor revolution"},
+    {"closed_loop", SetupType::kBool, 0, 0, {}, {}, "encoder feedback control"},
+};
+
+// UIM242 through a UIM2501/2502 gateway: MCS/CUR/ICFG/MCFG/ENC/STL instructions.
+const std::vector<SetupKey> kUim242 = {
+    {"micro_steps", SetupType::kInt, 1, 16, {1, 2, 4, 8, 16}, {}, "MCS micro-stepping"},
+    {"current_a", SetupType::kNumber, 0.1, 4.0, {}, {}, "CUR phase current, amperes"},
+    {"icfg", SetupType::kInt, 0, 65535, {}, {}, "ICFG initial configuration bits"},
+    {"mcfg", SetupType::kInt, 0, 65535, {}, {}, "MCFG motion configuration bits (RTCN enables)"},
+    {"encoder_lines", SetupType::kInt, 0, 65535, {}, {}, "ENC encoder lines"},
+    {"stall_tolerance", SetupType::kInt, 0, 65535, {}, {}, "STL stall tolerance"},
+};
+
+}  // namespace
+
+std::span<const SetupKey> setup_schema(Family family) {
+  switch (family) {
+    case Family::kUim342: return kUim342;
+    case Family::kUc57: return kUc57;
+    case Family::kAdamModbus: return kAdamModbus;
+    case Family::kUim242: return kUim242;
+  }
+  return {};
+}
+
+const SetupKey* find_setup_key(Family family, std::string_view key) {
+  for (const auto& k : setup_schema(family)) {
+    if (k.key == key) return &k;
+  }
+  return nullptr;
+}
+
+}  // namespace motion::config

@@ -1,0 +1,23 @@
+// Channel names of the public LCM API (without the configurable prefix). Documented in the
+// README's "Channels" table; a change here is an API change.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+namespace motion::lcm::channels {
+
+inline constexpr std::string_view kRequest = "REQUEST";          // request_t, clients -> coordinator
+inline constexpr std::string_view kReply = "REPLY";              // reply_t, coordinator -> clients
+inline constexpr std::string_view kAxisState = "AXIS_STATE";     // axis_state_t, gateways
+inline constexpr std::string_view kEvent = "EVENT";              // event_t, gateways/coordinator
+inline constexpr std::string_view kHealth = "HEALTH";            // health_t, every process
+inline constexpr std::string_view kGatewayReply = "GW_REPLY";    // gateway_reply_t
+inline constexpr std::string_view kSyncTrigger = "SYNC_TRIGGER"; // sync_trigger_t
+
+// gateway_command_t for one bus.
+inline std::string gateway_command(std::string_view bus) { return "GW_COMMAND_" + std::string(bus); }
+// can_frame_t mirror of one bus.
+inline std::string raw_frames(std::string_view bus) { return "RAW_" + std::string(bus); }
+
+}  // namespace motion::lcm::channels

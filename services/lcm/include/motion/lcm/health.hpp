@@ -1,0 +1,40 @@
+// Heartbeat publisher (health_t on <prefix>HEALTH every period) for every process.
+// Thread contract: loop thread only.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <motionlcm/health_t.hpp>
+
+#include "motion/core/event_loop.hpp"
+#include "motion/lcm/node.hpp"
+
+namespace motion::lcm {
+
+class HealthPublisher {
+ public:
+  using BusStatsProvider = std::function<std::vector<motionlcm::bus_stats_t>()>;
+
+  HealthPublisher(EventLoop& loop, Node& node, std::string process, std::string role,
+                  std::chrono::milliseconds period = std::chrono::milliseconds(500));
+  ~HealthPublisher();
+  HealthPublisher(const HealthPublisher&) = delete;
+  HealthPublisher& operator=(const HealthPublisher&) = delete;
+
+  void set_state(std::int8_t state, std::string detail = {});
+  void set_bus_stats(BusStatsProvider provider) { bus_stats_ = std::move(provider); }
+  // Publishes at once (state changes, and the last STOPPING heartbeat on shutdown).
+  void publish_now();
+
+ private:
+  EventLoop& loop_;
+  Node& node_;
+  motionlcm::health_t msg_;
+  TimePoint started_;
+  EventLoop::TimerId timer_;
+  BusStatsProvider bus_stats_;
+};
+
+}  // namespace motion::lcm

@@ -1,0 +1,77 @@
+#include "motion/lcm/node.hpp"
+
+#include <cstdlib>
+#include <exception>
+
+#include <spdlog/spdlog.h>
+
+namespace motion::lcm {
+
+struct Node::Subscription {
+  Node* node;
+  RawHandler handler;
+  // LCM's member-function subscription: raw bytes, decoding is ours (so malformed input is seen).
+  void on_message(const ::lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    try {
+      handler(rbuf->data, static_cast<int>(rbuf->data_size), channel);
+    } catch (const std::exception& e) {
+      ++node->handler_errors_;
+      spdlog::error("lcm: handler for {} threw: {}", channel, e.what());
+    } catch (...) {
+      ++node->handler_errors_;
+      spdlog::error("lcm: handler for {} threw a non-standard exception", channel);
+    }
+  }
+};
+
+Node::Node(EventLoop& loop, NodeOptions options) : loop_(loop), url_(std::move(options.url)), prefix_(std::move(options.prefix)) {
+  if (url_.empty()) {
+    if (const char* env = std::getenv("LCM_DEFAULT_URL")) url_ = env;
+  }
+  lcm_ = std::make_unique<::lcm::LCM>(url_);
+  ok_ = lcm_->good();
+  if (!ok_) {
+    spdlog::error("lcm: cannot open '{}' (bad URL, or no multicast route: see README 'Networking')",
+                  url_.empty() ? "<default>" : url_);
+    return;
+  }
+  const int fd = lcm_->getFileno();
+  loop_.watch(fd, [this] {
+    // Non-blocking: the fd is readable, so one message is waiting.
+    if (lcm_->handleTimeout(0) < 0) spdlog::error("lcm: handle failed on {}", url_);
+  });
+}
+
+Node::~Node() {
+  if (ok_) loop_.unwatch(lcm_->getFileno());
+}
+
+bool Node::publish_raw(const std::string& full_channel, const std::vector<std::uint8_t>& data) {
+  if (!ok_) return false;
+  const int rc = lcm_->publish(full_channel, data.data(), static_cast<unsigned int>(data.size()));
+  if (rc != 0) {
+    spdlog::warn("lcm: publish on {} failed", full_channel);
+    return false;
+  }
+  return true;
+}
+
+void Node::subscribe_raw(const std::string& full_channel_regex, RawHandler handler) {
+  if (!ok_) return;
+  auto sub = std::make_unique<Subscription>(Subscription{this, std::move(handler)});
+  lcm_->subscribe(full_channel_regex, &Subscription::on_message, sub.get());
+  subscriptions_.push_back(std::move(sub));
+}
+
+void Node::report_malformed(const std::string& channel, int size, const char* type_name) {
+  ++malformed_count_;
+  const std::string what = "malformed message on " + channel + ": " + std::to_string(size) +
+                           " bytes do not decode as " + type_name;
+  if (malformed_handler_) {
+    malformed_handler_(what);
+  } else {
+    spdlog::warn("lcm: {}", what);
+  }
+}
+
+}  // namespace motion::lcm

@@ -1,0 +1,205 @@
+#include "motion/config/config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <string>
+
+namespace motion::config {
+namespace {
+
+// A minimal valid file; each test breaks one thing in it.
+const std::string kValid = R"(lcm:
+  url: "udpm://239.255.76.67:7667?ttl=0"
+buses:
+  - name: can0
+    transport: simcan:can0
+    bitrate: 500000
+  - name: rs485
+    transport: simserial:rs485
+    baud: 19200
+drives:
+  - {name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20}
+  - {name: yd, family: uim342, bus: can0, node_id: 6, group_id: 20}
+  - {name: ad, family: uc57, bus: can0, node_id: 5}
+  - {name: cd, family: adam-modbus, bus: rs485, node_id: 1}
+axes:
+  - name: x
+    drive: xd
+    steps_per_unit: 640
+    limits: {min: 0, max: 100, velocity: 10, acceleration: 100}
+)";
+
+std::string replace(std::string text, const std::string& from, const std::string& to) {
+  const auto pos = text.find(from);
+  EXPECT_NE(pos, std::string::npos) << "test bug: '" << from << "' not in the base file";
+  if (pos != std::string::npos) text.replace(pos, from.size(), to);
+  return text;
+}
+
+// Loads `text` and expects exactly one error at `line` with `key` and `reason_part`.
+void expect_single_error(const std::string& text, int line, const std::string& key, const std::string& reason_part) {
+  const auto result = load_string(text, "lab.yaml");
+  ASSERT_FALSE(result.ok()) << "accepted:\n" << text;
+  ASSERT_EQ(result.errors.size(), 1u) << result.error_text();
+  const auto& e = result.errors[0];
+  EXPECT_EQ(e.where.file, "lab.yaml");
+  EXPECT_EQ(e.where.line, line) << e.message();
+  EXPECT_EQ(e.key, key) << e.message();
+  EXPECT_NE(e.reason.find(reason_part), std::string::npos) << e.message();
+  EXPECT_EQ(e.message().rfind("lab.yaml:" + std::to_string(line) + ":", 0), 0u) << e.message();
+}
+
+TEST(Config, ValidFileLoadsWithTypedValues) {
+  const auto result = load_string(kValid, "lab.yaml");
+  ASSERT_TRUE(result.ok()) << result.error_text();
+  const Config& c = *result.config;
+  ASSERT_EQ(c.buses.size(), 2u);
+  EXPECT_EQ(c.buses[0].kind, TransportKind::kSimCan);
+  EXPECT_EQ(c.buses[0].target, "can0");
+  EXPECT_EQ(c.buses[1].baud, 19200);
+  EXPECT_EQ(c.lcm.channel_prefix, "MOTION_");
+  ASSERT_NE(c.find_drive("xd"), nullptr);
+  EXPECT_EQ(c.find_drive("xd")->group_id, 20);
+  EXPECT_EQ(c.find_drive("ad")->family, Family::kUc57);
+  EXPECT_DOUBLE_EQ(c.find_axis("x")->steps_per_unit, 640);
+  EXPECT_EQ(c.axes_on_bus("can0").size(), 1u);
+  EXPECT_TRUE(c.axes_on_bus("rs485").empty());
+}
+
+TEST(Config, ShippedFilesAreValid) {
+  const char* src = std::getenv("MOTION_SOURCE_DIR");
+  ASSERT_NE(src, nullptr);
+  for (const char* file : {"/config/sim-lab.yaml", "/config/examples/hardware.yaml"}) {
+    const auto result = load_file(std::string(src) + file);
+    EXPECT_TRUE(result.ok()) << file << ":\n" << result.error_text();
+  }
+  // The simulated lab has what the demo needs: 3 UIM342 (two in one group), 2 UC57, 1 Adam, 1 UIM242.
+  const auto lab = load_file(std::string(src) + "/config/sim-lab.yaml");
+  ASSERT_TRUE(lab.ok());
+  int counts[4] = {};
+  int grouped = 0;
+  for (const auto& d : lab.config->drives) {
+    ++counts[static_cast<int>(d.family)];
+    grouped += d.group_id != 0;
+  }
+  EXPECT_EQ(counts[static_cast<int>(Family::kUim342)], 3);
+  EXPECT_EQ(counts[static_cast<int>(Family::kUc57)], 2);
+  EXPECT_EQ(counts[static_cast<int>(Family::kAdamModbus)], 1);
+  EXPECT_EQ(counts[static_cast<int>(Family::kUim242)], 1);
+  EXPECT_EQ(grouped, 2);
+}
+
+TEST(Config, YamlSyntaxErrorHasLine) {
+  const auto result = load_string("buses:\n  - name: [unclosed\n", "bad.yaml");
+  ASSERT_FALSE(result.ok());
+  EXPECT_EQ(result.errors[0].key, "<yaml>");
+  EXPECT_GE(result.errors[0].where.line, 2);
+}
+
+TEST(Config, MissingFileIsReported) {
+  const auto result = load_file("/nonexistent/motion.yaml");
+  ASSERT_FALSE(result.ok());
+  EXPECT_NE(result.error_text().find("cannot open"), std::string::npos);
+}
+
+TEST(Config, UnknownKeyIsRefused) {
+  expect_single_error(replace(kValid, "    bitrate: 500000\n", "    bitrate: 500000\n    bitrat: 1\n"), 7,
+                      "buses[0].bitrat", "unknown key");
+  expect_single_error(replace(kValid, "lcm:\n", "lcms:\n  x: 1\nlcm:\n"), 1, "lcms", "unknown key");
+}
+
+TEST(Config, WrongTypeIsRefused) {
+  expect_single_error(replace(kValid, "bitrate: 500000", "bitrate: fast"), 6, "buses[0].bitrate", "expected an integer");
+  expect_single_error(replace(kValid, "steps_per_unit: 640", "steps_per_unit: [640]"), 18, "axes[0].steps_per_unit", "expected a number");
+  expect_single_error(replace(kValid, "node_id: 6,", "node_id: 6.5,"), 12, "drives[1].node_id", "expected an integer");
+}
+
+TEST(Config, NodeIdOutsideFamilyRangeIsRefused) {
+  expect_single_error(replace(kValid, "node_id: 6,", "node_id: 4,"), 12, "drives[1].node_id", "outside uim342's range 5..126");
+  expect_single_error(replace(kValid, "bus: rs485, node_id: 1}", "bus: rs485, node_id: 65}"), 14, "drives[3].node_id",
+                      "outside adam-modbus's range 1..64");
+  expect_single_error(replace(kValid, "bus: can0, node_id: 5}", "bus: can0, node_id: 128}"), 13, "drives[2].node_id",
+                      "outside uc57's range 1..127");
+}
+
+TEST(Config, DuplicateNodeIdOnOneBusIsRefused) {
+  // The UC57 at node 5 does not collide with the UIM342 at node 5 (11-bit vs 29-bit frames)...
+  ASSERT_TRUE(load_string(kValid, "lab.yaml").ok());
+  // ...but two UIM342 at node 5 do.
+  expect_single_error(replace(kValid, "node_id: 6,", "node_id: 5,"), 12, "drives[1].node_id", "already used by drive 'xd'");
+}
+
+TEST(Config, GroupIdCollidingWithNodeIdIsRefused) {
+  expect_single_error(replace(kValid, "node_id: 6, group_id: 20", "node_id: 6, group_id: 5"), 12, "drives[1].group_id",
+                      "collides with the node id of drive 'xd'");
+  expect_single_error(replace(kValid, "{name: cd, family: adam-modbus, bus: rs485, node_id: 1}",
+                              "{name: cd, family: adam-modbus, bus: rs485, node_id: 1, group_id: 30}"),
+                      14, "drives[3].group_id", "only for uim342");
+}
+
+TEST(Config, DuplicateNamesAreRefused) {
+  expect_single_error(replace(kValid, "{name: yd,", "{name: xd,"), 12, "drives[1].name", "duplicate drive name 'xd'");
+  std::string two_axes = kValid + R"(  - name: x
+    drive: yd
+    steps_per_unit: 640
+    limits: {min: 0, max: 100, velocity: 10, acceleration: 100}
+)";
+  expect_single_error(two_axes, 20, "axes[1].name", "duplicate axis name 'x'");
+  expect_single_error(replace(kValid, "drives:\n", "  - {name: can0, transport: socketcan:can1}\ndrives:\n"), 10, "buses[2].name",
+                      "duplicate bus name 'can0'");
+}
+
+TEST(Config, DriveOnUndeclaredBusIsRefused) {
+  expect_single_error(replace(kValid, "{name: yd, family: uim342, bus: can0", "{name: yd, family: uim342, bus: can9"), 12,
+                      "drives[1].bus", "undeclared bus 'can9'");
+}
+
+TEST(Config, FamilyOnWrongKindOfBusIsRefused) {
+  expect_single_error(replace(kValid, "{name: cd, family: adam-modbus, bus: rs485", "{name: cd, family: adam-modbus, bus: can0"), 14,
+                      "drives[3].bus", "needs a serial bus");
+}
+
+TEST(Config, AxisOnUndeclaredDriveIsRefused) {
+  expect_single_error(replace(kValid, "drive: xd", "drive: qd"), 17, "axes[0].drive", "undeclared drive 'qd'");
+}
+
+TEST(Config, NonPositiveScalesAndLimitsAreRefused) {
+  expect_single_error(replace(kValid, "steps_per_unit: 640", "steps_per_unit: 0"), 18, "axes[0].steps_per_unit", "greater than zero");
+  expect_single_error(replace(kValid, "velocity: 10,", "velocity: -1,"), 19, "axes[0].limits.velocity", "greater than zero");
+  expect_single_error(replace(kValid, "acceleration: 100}", "acceleration: 0}"), 19, "axes[0].limits.acceleration", "greater than zero");
+  expect_single_error(replace(kValid, "{min: 0, max: 100,", "{min: 100, max: 0,"), 19, "axes[0].limits.max", "greater than min");
+}
+
+TEST(Config, MissingRequiredKeyIsRefused) {
+  expect_single_error(replace(kValid, "    steps_per_unit: 640\n", ""), 16, "axes[0].steps_per_unit", "required key is missing");
+}
+
+TEST(Config, UnknownTransportIsRefused) {
+  expect_single_error(replace(kValid, "transport: simcan:can0", "transport: pcan:can0"), 5, "buses[0].transport", "unknown transport");
+}
+
+TEST(Config, DriveSetupIsValidatedPerFamily) {
+  auto with_setup = [&](const std::string& setup) {
+    return replace(kValid, "{name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20}",
+                   "{name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20, setup: " + setup + "}");
+  };
+  ASSERT_TRUE(load_string(with_setup("{micro_steps: 16, current_a: 2.0, closed_loop: true, acceleration_unit: time}")).ok());
+  expect_single_error(with_setup("{micro_steps: 12}"), 11, "drives[0].setup.micro_steps", "12 is out of range (1, 2, 4, 8, 16, 32, 64, 128)");
+  expect_single_error(with_setup("{current_a: 9.5}"), 11, "drives[0].setup.current_a", "out of range");
+  expect_single_error(with_setup("{subdivision: 16}"), 11, "drives[0].setup.subdivision", "unknown set-up key for uim342");
+  expect_single_error(with_setup("{acceleration_unit: fast}"), 11, "drives[0].setup.acceleration_unit", "not one of rate, time");
+  expect_single_error(with_setup("{closed_loop: maybe}"), 11, "drives[0].setup.closed_loop", "true or false");
+}
+
+TEST(Config, EveryErrorIsReportedNotJustTheFirst) {
+  std::string text = replace(kValid, "bitrate: 500000", "bitrate: 12345");
+  text = replace(text, "node_id: 6,", "node_id: 200,");
+  text = replace(text, "steps_per_unit: 640", "steps_per_unit: -2");
+  const auto result = load_string(text, "lab.yaml");
+  ASSERT_FALSE(result.ok());
+  EXPECT_EQ(result.errors.size(), 3u) << result.error_text();
+}
+
+}  // namespace
+}  // namespace motion::config
