@@ -4,7 +4,7 @@ add_library(motion_warnings INTERFACE)
 add_library(motion::warnings ALIAS motion_warnings)
 target_compile_options(motion_warnings INTERFACE
   -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wsign-conversion -Wnon-virtual-dtor
-  -Wold-style-cast -Woverloaded-virtual -Wnull-dereference -Wimplicit-fallthrough)
+  -Wold-style-cast -Woverloaded-virtual -Wimplicit-fallthrough)
 if(MOTION_WERROR)
   target_compile_options(motion_warnings INTERFACE -Werror)
 endif()

@@ -1,0 +1,21 @@
+// motion-coordinator: the single entry point for clients (REQUEST -> REPLY).
+#include <spdlog/spdlog.h>
+
+#include "motion/app/service.hpp"
+#include "motion/core/log.hpp"
+
+int main(int argc, char** argv) {
+  using namespace motion;
+  CLI::App cli{"motion-coordinator: validates, plans and synchronizes multi-axis moves", "motion-coordinator"};
+  app::CommonOptions options;
+  app::add_common_options(cli, options);
+  return app::run(cli, argc, argv, [&]() -> int {
+    if (!log::init("coordinator", options.log_level)) return app::kExitUsage;
+    auto config = app::load_config(options);
+    if (!config) return app::kExitConfig;
+    app::Service service(*config, options, "coordinator", "coordinator");
+    if (!service.ok()) return app::kExitUnavailable;
+    service.health().set_state(motionlcm::health_t::OK, std::to_string(config->axes.size()) + " axes");
+    return service.run();
+  });
+}

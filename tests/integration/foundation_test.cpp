@@ -1,0 +1,83 @@
+// The foundation's promise: every process of the simulated lab starts on its own LCM URL, is seen
+// by `motionctl health`, refuses bad configurations with a clear error, and stops cleanly.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "motion/config/config.hpp"
+#include "motion/testing/process_group.hpp"
+
+namespace motion::testing {
+namespace {
+
+using std::chrono::seconds;
+
+TEST(Foundation, AllProcessesOfTheSimLabHeartbeatAndMotionctlSeesThem) {
+  ProcessGroup group;
+  const std::string config = source_path("config/sim-lab.yaml");
+  const auto lab = config::load_file(config);
+  ASSERT_TRUE(lab.ok()) << lab.error_text();
+
+  std::vector<pid_t> pids;
+  pids.push_back(group.start({"sim", "motion-sim", {"--config", config}, {}}));
+  std::vector<std::string> expected{"sim", "coordinator"};
+  for (const auto& bus : lab.config->buses) {
+    pids.push_back(group.start({"gateway:" + bus.name, "motion-gateway", {"--config", config, "--bus", bus.name}, {}}));
+    expected.push_back("gateway:" + bus.name);
+  }
+  pids.push_back(group.start({"coordinator", "motion-coordinator", {"--config", config}, {}}));
+  for (const auto& name : expected) ASSERT_TRUE(group.wait_for_heartbeat(name)) << name;
+
+  std::vector<std::string> args{"--config", config, "health", "--listen", "5"};
+  for (const auto& name : expected) {
+    args.push_back("--expect");
+    args.push_back(name);
+  }
+  std::string out;
+  EXPECT_EQ(group.run_to_completion({"motionctl-health", "motionctl", args, {}}, &out), 0) << out;
+  for (const auto& name : expected) EXPECT_NE(out.find(name), std::string::npos) << name << " missing in:\n" << out;
+
+  // SIGTERM stops each process cleanly with exit code 0.
+  for (pid_t pid : pids) {
+    group.stop(pid);
+    EXPECT_EQ(group.exit_status(pid), 0);
+  }
+}
+
+TEST(Foundation, MotionctlHealthFailsWhenAnExpectedProcessIsMissing) {
+  ProcessGroup group;
+  std::string out;
+  const int rc = group.run_to_completion(
+      {"motionctl-health", "motionctl", {"--config", source_path("config/sim-lab.yaml"), "health", "--listen", "0.5", "--expect", "coordinator"}, {}},
+      &out);
+  EXPECT_EQ(rc, 4) << out;
+  EXPECT_NE(out.find("no heartbeat from 'coordinator'"), std::string::npos) << out;
+}
+
+TEST(Foundation, EveryProgramRefusesABrokenConfigBeforeDoingAnything) {
+  ProcessGroup group;
+  const std::string bad = group.work_dir() + "/bad.yaml";
+  std::ofstream(bad) << "buses:\n  - name: can0\n    transport: simcan:can0\n    bitrate: 7\n";
+  for (const auto& [binary, extra] : std::vector<std::pair<std::string, std::vector<std::string>>>{
+           {"motion-gateway", {"--bus", "can0"}}, {"motion-coordinator", {}}, {"motion-sim", {}}, {"motionctl", {"health"}}}) {
+    std::vector<std::string> args{"--config", bad};
+    args.insert(args.end(), extra.begin(), extra.end());
+    std::string out;
+    EXPECT_EQ(group.run_to_completion({binary, binary, args, {}}, &out), 3) << binary << ": " << out;
+    EXPECT_NE(out.find("bad.yaml:4:14: buses[0].bitrate: not a CAN bit rate: 7"), std::string::npos) << binary << ": " << out;
+  }
+}
+
+TEST(Foundation, ProgramsAnswerHelpAndVersion) {
+  ProcessGroup group;
+  for (const std::string binary : {"motion-gateway", "motion-coordinator", "motion-sim", "motionctl"}) {
+    std::string out;
+    EXPECT_EQ(group.run_to_completion({binary + "-version", binary, {"--version"}, {}}, &out), 0) << out;
+    EXPECT_NE(out.find("0.1.0"), std::string::npos) << binary << ": " << out;
+    EXPECT_EQ(group.run_to_completion({binary + "-help", binary, {"--help"}, {}}, &out), 0) << out;
+    EXPECT_NE(out.find("--config"), std::string::npos) << binary << ": " << out;
+  }
+}
+
+}  // namespace
+}  // namespace motion::testing

@@ -1,0 +1,32 @@
+// motionctl: command-line client of the motion system.
+#include <unistd.h>
+
+#include "motion/core/log.hpp"
+#include "motionctl.hpp"
+
+namespace motion::ctl {
+
+int Context::with_node(const std::function<int(app::Service&)>& body) {
+  if (!log::init("motionctl", options.log_level)) return app::kExitUsage;
+  auto config = app::load_config(options);
+  if (!config) return app::kExitConfig;
+  app::Service service(*config, options, "motionctl:" + std::to_string(::getpid()), "client");
+  if (!service.ok()) return app::kExitUnavailable;
+  return body(service);
+}
+
+}  // namespace motion::ctl
+
+int main(int argc, char** argv) {
+  using namespace motion;
+  CLI::App cli{"motionctl: command and watch the motion system", "motionctl"};
+  ctl::Context ctx;
+  app::add_common_options(cli, ctx.options);
+  cli.add_flag("--json", ctx.json, "Machine-readable output");
+  cli.require_subcommand(1);
+  cli.fallthrough();  // global options (--lcm-url, --config, ...) may also follow the subcommand
+  ctl::add_health_command(cli, ctx);
+  ctl::add_config_command(cli, ctx);
+  const int rc = app::run(cli, argc, argv, [&] { return app::kExitOk; });
+  return rc != app::kExitOk ? rc : ctx.result;
+}

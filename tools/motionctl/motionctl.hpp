@@ -1,0 +1,22 @@
+// motionctl: the command-line client. One subcommand per file; each registers itself here.
+#pragma once
+
+#include <functional>
+
+#include "motion/app/service.hpp"
+
+namespace motion::ctl {
+
+struct Context {
+  app::CommonOptions options;
+  bool json = false;
+  int result = app::kExitOk;
+
+  // Loads the configuration, opens LCM as a client process and runs `body` with it.
+  int with_node(const std::function<int(app::Service&)>& body);
+};
+
+void add_health_command(CLI::App& cli, Context& ctx);
+void add_config_command(CLI::App& cli, Context& ctx);
+
+}  // namespace motion::ctl
