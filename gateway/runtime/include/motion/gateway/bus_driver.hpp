@@ -1,0 +1,72 @@
+// The plug-in interface between the gateway process and the drives of one bus.
+//
+// A BusDriver owns one bus (CAN: UIM342 and CANopen stacks on one transport; RS485: Modbus RTU;
+// RS232: the UIM242 gateway). It works in drive counts; the Gateway converts to user units and
+// speaks LCM. Thread contract: everything runs on the gateway's EventLoop thread; no method
+// blocks (drivers use the loop's fds and timers).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <motionlcm/bus_stats_t.hpp>
+#include <motionlcm/gateway_command_t.hpp>
+#include <motionlcm/gateway_reply_t.hpp>
+
+namespace motion::gateway {
+
+// One axis's drive state, in drive counts.
+struct DriveStatus {
+  std::int64_t sample_utime = 0;     // when the drive reported it (wall clock, us)
+  std::int64_t position_counts = 0;
+  double velocity_counts = 0;        // counts/s
+  std::int64_t target_counts = 0;
+  bool online = false;
+  bool enabled = false;
+  bool moving = false;
+  bool in_position = false;
+  bool homed = false;
+  bool fault = false;
+  std::int32_t fault_code = 0;
+  std::string fault_text;
+  std::int32_t inputs = 0;           // bit n = input n+1
+  std::int32_t outputs = 0;
+};
+
+struct DriveEvent {
+  std::int16_t kind = 0;      // motionlcm::event_t kinds
+  std::int8_t severity = 0;   // motionlcm::event_t severities
+  std::int32_t code = 0;      // family-specific
+  std::string text;
+};
+
+// Implemented by the Gateway; drivers report through it.
+class GatewayOutput {
+ public:
+  virtual ~GatewayOutput() = default;
+  virtual void axis_status(const std::string& axis, const DriveStatus& status) = 0;
+  // axis empty: an event of the bus itself (bus-off, CRC errors, ...).
+  virtual void axis_event(const std::string& axis, const DriveEvent& event) = 0;
+  // Progress/outcome of a command (bus, utime filled in by the Gateway).
+  virtual void command_reply(motionlcm::gateway_reply_t reply) = 0;
+};
+
+class BusDriver {
+ public:
+  virtual ~BusDriver() = default;
+
+  // Opens the bus, identifies and sets up the drives (asynchronously; progress as events).
+  virtual void start() = 0;
+  // Carries out a command for axes of this bus (already checked to belong to it). Must end in a
+  // reply with status DONE or FAILED (ARM_MOVE: ARMED, then STARTED when fired, or FAILED).
+  virtual void execute(const motionlcm::gateway_command_t& command) = 0;
+  // Starts every move armed with this trigger id, now, with the bus's one-frame mechanism where
+  // the family has one.
+  virtual void fire(std::int64_t trigger_id) = 0;
+  // Health: statistics per bus, and whether all drives are online and set up.
+  [[nodiscard]] virtual std::vector<motionlcm::bus_stats_t> statistics() const = 0;
+  [[nodiscard]] virtual bool ready() const = 0;
+};
+
+}  // namespace motion::gateway

@@ -1,0 +1,64 @@
+// The gateway process's core: LCM <-> one BusDriver.
+//  - subscribes to GW_COMMAND_<bus> and SYNC_TRIGGER; validates that every axis of a command
+//    belongs to this bus (FAILED with a reason otherwise, never silence);
+//  - schedules triggers at their wall-clock fire time on the steady clock;
+//  - converts DriveStatus (counts) to axis_state_t (user units, with invert and scale);
+//  - publishes AXIS_STATE, EVENT, GW_REPLY and the heartbeat's bus statistics.
+// Thread contract: loop thread only.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+
+#include <motionlcm/axis_state_t.hpp>
+#include <motionlcm/sync_trigger_t.hpp>
+
+#include "motion/config/config.hpp"
+#include "motion/core/event_loop.hpp"
+#include "motion/gateway/bus_driver.hpp"
+#include "motion/lcm/health.hpp"
+#include "motion/lcm/node.hpp"
+
+namespace motion::gateway {
+
+// User units <-> drive counts for one axis of the configuration.
+struct AxisScale {
+  double counts_per_unit = 1;
+  bool invert = false;
+  [[nodiscard]] double to_units(double counts) const { return (invert ? -counts : counts) / counts_per_unit; }
+  [[nodiscard]] double to_counts(double units) const { return (invert ? -units : units) * counts_per_unit; }
+};
+
+class Gateway final : public GatewayOutput {
+ public:
+  Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config, std::string bus);
+  ~Gateway() override;
+
+  // Installs the driver and starts it (the driver reports through *this).
+  void attach(std::unique_ptr<BusDriver> driver);
+
+  // GatewayOutput
+  void axis_status(const std::string& axis, const DriveStatus& status) override;
+  void axis_event(const std::string& axis, const DriveEvent& event) override;
+  void command_reply(motionlcm::gateway_reply_t reply) override;
+
+  [[nodiscard]] const std::string& bus() const { return bus_; }
+  [[nodiscard]] std::string process_name() const { return "gateway:" + bus_; }
+
+ private:
+  void on_command(const motionlcm::gateway_command_t& command);
+  void on_trigger(const motionlcm::sync_trigger_t& trigger);
+  void update_health();
+
+  EventLoop& loop_;
+  lcm::Node& node_;
+  lcm::HealthPublisher& health_;
+  const config::Config& config_;
+  std::string bus_;
+  std::map<std::string, const config::Axis*> axes_;  // axes of this bus
+  std::unique_ptr<BusDriver> driver_;
+  EventLoop::TimerId health_timer_ = 0;
+};
+
+}  // namespace motion::gateway

@@ -1,0 +1,129 @@
+#include "motion/gateway/gateway.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include <motionlcm/event_t.hpp>
+#include <motionlcm/health_t.hpp>
+#include <motionlcm/sync_trigger_t.hpp>
+
+#include "motion/lcm/channels.hpp"
+
+namespace motion::gateway {
+
+Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config, std::string bus)
+    : loop_(loop), node_(node), health_(health), config_(config), bus_(std::move(bus)) {
+  for (const config::Axis* axis : config_.axes_on_bus(bus_)) axes_.emplace(axis->name, axis);
+  node_.subscribe<motionlcm::gateway_command_t>(lcm::channels::gateway_command(bus_),
+                                                [this](const motionlcm::gateway_command_t& c, const std::string&) { on_command(c); });
+  node_.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger,
+                                             [this](const motionlcm::sync_trigger_t& t, const std::string&) { on_trigger(t); });
+  health_.set_bus_stats([this] { return driver_ ? driver_->statistics() : std::vector<motionlcm::bus_stats_t>{}; });
+  health_timer_ = loop_.call_every(std::chrono::milliseconds(200), [this] { update_health(); });
+}
+
+Gateway::~Gateway() { loop_.cancel(health_timer_); }
+
+void Gateway::attach(std::unique_ptr<BusDriver> driver) {
+  driver_ = std::move(driver);
+  driver_->start();
+  update_health();
+}
+
+void Gateway::update_health() {
+  if (!driver_) {
+    health_.set_state(motionlcm::health_t::FAULT, "no driver for bus " + bus_);
+  } else if (driver_->ready()) {
+    health_.set_state(motionlcm::health_t::OK, std::to_string(axes_.size()) + " axes ready");
+  } else {
+    health_.set_state(motionlcm::health_t::DEGRADED, "drives not all online/set up");
+  }
+}
+
+void Gateway::on_command(const motionlcm::gateway_command_t& command) {
+  auto fail = [&](const std::string& reason) {
+    motionlcm::gateway_reply_t reply;
+    reply.command_id = command.command_id;
+    reply.status = motionlcm::gateway_reply_t::FAILED;
+    reply.reason = reason;
+    command_reply(std::move(reply));
+  };
+  if (command.bus != bus_) return fail("command for bus '" + command.bus + "' reached gateway of bus '" + bus_ + "'");
+  if (command.num_axes != static_cast<std::int32_t>(command.axes.size())) return fail("num_axes does not match the axes array");
+  for (const auto& a : command.axes) {
+    if (!axes_.contains(a.axis)) return fail("axis '" + a.axis + "' is not on bus '" + bus_ + "'");
+  }
+  if (!driver_) return fail("gateway has no driver for bus '" + bus_ + "'");
+  driver_->execute(command);
+}
+
+void Gateway::on_trigger(const motionlcm::sync_trigger_t& trigger) {
+  if (std::find(trigger.buses.begin(), trigger.buses.end(), bus_) == trigger.buses.end() || !driver_) return;
+  // The fire time is wall-clock (common to every machine); the loop's timers are steady-clock.
+  const auto delay = std::chrono::microseconds(trigger.fire_utime - wall_time_us());
+  const auto id = trigger.trigger_id;
+  if (delay <= std::chrono::microseconds::zero()) {
+    spdlog::warn("trigger {} arrived {} us after its fire time; firing now", id, -delay.count());
+    driver_->fire(id);
+    return;
+  }
+  loop_.call_after(delay, [this, id] { driver_->fire(id); });
+}
+
+void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
+  auto it = axes_.find(axis);
+  if (it == axes_.end()) return;
+  const config::Axis& a = *it->second;
+  const config::Drive* d = config_.drive_of(a);
+  const AxisScale scale{a.steps_per_unit, a.invert};
+  motionlcm::axis_state_t msg;
+  msg.utime = wall_time_us();
+  msg.sample_utime = status.sample_utime != 0 ? status.sample_utime : msg.utime;
+  msg.axis = a.name;
+  msg.family = std::string(config::to_string(d->family));
+  msg.bus = bus_;
+  msg.node_id = d->node_id;
+  msg.group_id = d->group_id;
+  msg.position = scale.to_units(static_cast<double>(status.position_counts));
+  msg.position_counts = status.position_counts;
+  msg.velocity = scale.to_units(status.velocity_counts);
+  msg.target_counts = status.target_counts;
+  msg.online = status.online;
+  msg.enabled = status.enabled;
+  msg.moving = status.moving;
+  msg.in_position = status.in_position;
+  msg.homed = status.homed;
+  msg.fault = status.fault;
+  msg.fault_code = status.fault_code;
+  msg.fault_text = status.fault_text;
+  msg.inputs = status.inputs;
+  msg.outputs = status.outputs;
+  node_.publish(lcm::channels::kAxisState, msg);
+}
+
+void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
+  motionlcm::event_t msg;
+  msg.utime = wall_time_us();
+  msg.source = process_name();
+  msg.axis = axis;
+  msg.bus = bus_;
+  if (auto it = axes_.find(axis); it != axes_.end()) msg.node_id = config_.drive_of(*it->second)->node_id;
+  msg.severity = event.severity;
+  msg.kind = event.kind;
+  msg.code = event.code;
+  msg.text = event.text;
+  if (event.severity >= motionlcm::event_t::WARNING) {
+    spdlog::warn("event on {}{}: {} (code {})", bus_, axis.empty() ? "" : "/" + axis, event.text, event.code);
+  }
+  node_.publish(lcm::channels::kEvent, msg);
+}
+
+void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
+  reply.utime = wall_time_us();
+  reply.bus = bus_;
+  if (reply.status == motionlcm::gateway_reply_t::FAILED) spdlog::warn("command {} failed: {}", reply.command_id, reply.reason);
+  node_.publish(lcm::channels::kGatewayReply, reply);
+}
+
+}  // namespace motion::gateway

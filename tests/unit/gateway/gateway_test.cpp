@@ -1,0 +1,170 @@
+#include "motion/gateway/gateway.hpp"
+
+#include <gtest/gtest.h>
+
+#include <motionlcm/event_t.hpp>
+#include <motionlcm/sync_trigger_t.hpp>
+
+#include "motion/lcm/channels.hpp"
+#include "motion/testing/lcm_url.hpp"
+
+namespace motion::gateway {
+namespace {
+
+using std::chrono::milliseconds;
+
+const char* kConfig = R"(
+buses:
+  - {name: can0, transport: simcan:can0}
+  - {name: can1, transport: simcan:can1}
+drives:
+  - {name: xd, family: uim342, bus: can0, node_id: 5}
+  - {name: yd, family: uim342, bus: can1, node_id: 5}
+axes:
+  - {name: x, drive: xd, steps_per_unit: 100, invert: true, limits: {min: -10, max: 10, velocity: 1, acceleration: 1}}
+  - {name: y, drive: yd, steps_per_unit: 100, limits: {min: -10, max: 10, velocity: 1, acceleration: 1}}
+)";
+
+class FakeDriver : public BusDriver {
+ public:
+  explicit FakeDriver(GatewayOutput& out, EventLoop& loop) : out_(out), loop_(loop) {}
+  void start() override { started = true; }
+  void execute(const motionlcm::gateway_command_t& command) override {
+    commands.push_back(command);
+    motionlcm::gateway_reply_t r;
+    r.command_id = command.command_id;
+    r.status = motionlcm::gateway_reply_t::ARMED;
+    out_.command_reply(r);
+  }
+  void fire(std::int64_t trigger_id) override { fired.emplace_back(trigger_id, loop_.now()); }
+  std::vector<motionlcm::bus_stats_t> statistics() const override {
+    motionlcm::bus_stats_t s;
+    s.name = "can0";
+    return {s};
+  }
+  bool ready() const override { return true; }
+
+  bool started = false;
+  std::vector<motionlcm::gateway_command_t> commands;
+  std::vector<std::pair<std::int64_t, TimePoint>> fired;
+
+ private:
+  GatewayOutput& out_;
+  EventLoop& loop_;
+};
+
+struct Fixture : ::testing::Test {
+  Fixture()
+      : config(*config::load_string(kConfig).config),
+        node(loop, {testing::unique_lcm_url(11), "GT_"}),
+        health(loop, node, "gateway:can0", "gateway"),
+        gateway(loop, node, health, config, "can0") {
+    auto d = std::make_unique<FakeDriver>(gateway, loop);
+    driver = d.get();
+    gateway.attach(std::move(d));
+    node.subscribe<motionlcm::gateway_reply_t>(lcm::channels::kGatewayReply,
+                                               [this](const motionlcm::gateway_reply_t& r, const std::string&) { replies.push_back(r); });
+    node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
+                                            [this](const motionlcm::axis_state_t& s, const std::string&) { states.push_back(s); });
+    node.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) { events.push_back(e); });
+  }
+  void pump_until(const std::function<bool()>& done) {
+    const auto deadline = loop.now() + milliseconds(3000);
+    while (!done() && loop.now() < deadline) loop.run_once(milliseconds(5));
+  }
+  motionlcm::gateway_command_t command_for(const std::string& bus, const std::string& axis) {
+    motionlcm::gateway_command_t c;
+    c.bus = bus;
+    c.command_id = 77;
+    c.kind = motionlcm::gateway_command_t::ARM_MOVE;
+    motionlcm::axis_command_t a;
+    a.axis = axis;
+    c.axes = {a};
+    c.num_axes = 1;
+    return c;
+  }
+
+  config::Config config;
+  EventLoop loop;
+  lcm::Node node;
+  lcm::HealthPublisher health;
+  Gateway gateway;
+  FakeDriver* driver = nullptr;
+  std::vector<motionlcm::gateway_reply_t> replies;
+  std::vector<motionlcm::axis_state_t> states;
+  std::vector<motionlcm::event_t> events;
+};
+
+TEST_F(Fixture, CommandForItsAxesReachesTheDriverAndTheReplyCarriesTheBus) {
+  EXPECT_TRUE(driver->started);
+  node.publish(lcm::channels::gateway_command("can0"), command_for("can0", "x"));
+  pump_until([&] { return !replies.empty(); });
+  ASSERT_EQ(driver->commands.size(), 1u);
+  ASSERT_EQ(replies.size(), 1u);
+  EXPECT_EQ(replies[0].bus, "can0");
+  EXPECT_EQ(replies[0].command_id, 77);
+  EXPECT_EQ(replies[0].status, std::int8_t{motionlcm::gateway_reply_t::ARMED});
+}
+
+TEST_F(Fixture, AxisOfAnotherBusIsRefusedWithAReason) {
+  node.publish(lcm::channels::gateway_command("can0"), command_for("can0", "y"));
+  pump_until([&] { return !replies.empty(); });
+  ASSERT_EQ(replies.size(), 1u);
+  EXPECT_EQ(replies[0].status, std::int8_t{motionlcm::gateway_reply_t::FAILED});
+  EXPECT_NE(replies[0].reason.find("axis 'y' is not on bus 'can0'"), std::string::npos) << replies[0].reason;
+  EXPECT_TRUE(driver->commands.empty());
+}
+
+TEST_F(Fixture, TriggerFiresAtItsWallClockTimeOnlyOnListedBuses) {
+  motionlcm::sync_trigger_t other;
+  other.trigger_id = 1;
+  other.fire_utime = wall_time_us();
+  other.buses = {"can1"};
+  other.num_buses = 1;
+  node.publish(lcm::channels::kSyncTrigger, other);
+
+  motionlcm::sync_trigger_t t;
+  t.trigger_id = 2;
+  t.fire_utime = wall_time_us() + 50'000;
+  t.buses = {"can1", "can0"};
+  t.num_buses = 2;
+  const TimePoint published = loop.now();
+  node.publish(lcm::channels::kSyncTrigger, t);
+  pump_until([&] { return !driver->fired.empty(); });
+  ASSERT_EQ(driver->fired.size(), 1u);
+  EXPECT_EQ(driver->fired[0].first, 2);
+  EXPECT_GE(driver->fired[0].second - published, milliseconds(49));  // not early
+}
+
+TEST_F(Fixture, StatusIsPublishedInUserUnitsWithInvertAndIdentity) {
+  DriveStatus s;
+  s.position_counts = 250;
+  s.velocity_counts = -50;
+  s.enabled = true;
+  s.inputs = 0b101;
+  gateway.axis_status("x", s);
+  pump_until([&] { return !states.empty(); });
+  ASSERT_EQ(states.size(), 1u);
+  EXPECT_EQ(states[0].axis, "x");
+  EXPECT_EQ(states[0].family, "uim342");
+  EXPECT_EQ(states[0].bus, "can0");
+  EXPECT_EQ(states[0].node_id, 5);
+  EXPECT_DOUBLE_EQ(states[0].position, -2.5);  // invert: counts up = units down
+  EXPECT_DOUBLE_EQ(states[0].velocity, 0.5);
+  EXPECT_EQ(states[0].position_counts, 250);
+  EXPECT_TRUE(states[0].enabled);
+  EXPECT_EQ(states[0].inputs, 5);
+}
+
+TEST_F(Fixture, EventsNameTheirSource) {
+  gateway.axis_event("x", {motionlcm::event_t::STALL, motionlcm::event_t::ERROR, 0x1D, "motor stall detected"});
+  pump_until([&] { return !events.empty(); });
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].source, "gateway:can0");
+  EXPECT_EQ(events[0].axis, "x");
+  EXPECT_EQ(events[0].node_id, 5);
+  EXPECT_EQ(events[0].code, 0x1D);
+}
+
+}  // namespace
+}  // namespace motion::gateway
