@@ -43,7 +43,7 @@ void Gateway::update_health() {
 
 void Gateway::on_command(const motionlcm::gateway_command_t& command) {
   auto fail = [&](const std::string& reason) {
-    motionlcm::gateway_reply_t reply;
+    motionlcm::gateway_reply_t reply{};
     reply.command_id = command.command_id;
     reply.status = motionlcm::gateway_reply_t::FAILED;
     reply.reason = reason;
@@ -77,7 +77,7 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   const config::Axis& a = *it->second;
   const config::Drive* d = config_.drive_of(a);
   const AxisScale scale{a.steps_per_unit, a.invert};
-  motionlcm::axis_state_t msg;
+  motionlcm::axis_state_t msg{};
   msg.utime = wall_time_us();
   msg.sample_utime = status.sample_utime != 0 ? status.sample_utime : msg.utime;
   msg.axis = a.name;
@@ -103,7 +103,7 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
 }
 
 void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
-  motionlcm::event_t msg;
+  motionlcm::event_t msg{};
   msg.utime = wall_time_us();
   msg.source = process_name();
   msg.axis = axis;

@@ -31,14 +31,14 @@ class FakeDriver : public BusDriver {
   void start() override { started = true; }
   void execute(const motionlcm::gateway_command_t& command) override {
     commands.push_back(command);
-    motionlcm::gateway_reply_t r;
+    motionlcm::gateway_reply_t r{};
     r.command_id = command.command_id;
     r.status = motionlcm::gateway_reply_t::ARMED;
     out_.command_reply(r);
   }
   void fire(std::int64_t trigger_id) override { fired.emplace_back(trigger_id, loop_.now()); }
   std::vector<motionlcm::bus_stats_t> statistics() const override {
-    motionlcm::bus_stats_t s;
+    motionlcm::bus_stats_t s{};
     s.name = "can0";
     return {s};
   }
@@ -73,11 +73,11 @@ struct Fixture : ::testing::Test {
     while (!done() && loop.now() < deadline) loop.run_once(milliseconds(5));
   }
   motionlcm::gateway_command_t command_for(const std::string& bus, const std::string& axis) {
-    motionlcm::gateway_command_t c;
+    motionlcm::gateway_command_t c{};
     c.bus = bus;
     c.command_id = 77;
     c.kind = motionlcm::gateway_command_t::ARM_MOVE;
-    motionlcm::axis_command_t a;
+    motionlcm::axis_command_t a{};
     a.axis = axis;
     c.axes = {a};
     c.num_axes = 1;
@@ -116,14 +116,14 @@ TEST_F(Fixture, AxisOfAnotherBusIsRefusedWithAReason) {
 }
 
 TEST_F(Fixture, TriggerFiresAtItsWallClockTimeOnlyOnListedBuses) {
-  motionlcm::sync_trigger_t other;
+  motionlcm::sync_trigger_t other{};
   other.trigger_id = 1;
   other.fire_utime = wall_time_us();
   other.buses = {"can1"};
   other.num_buses = 1;
   node.publish(lcm::channels::kSyncTrigger, other);
 
-  motionlcm::sync_trigger_t t;
+  motionlcm::sync_trigger_t t{};
   t.trigger_id = 2;
   t.fire_utime = wall_time_us() + 50'000;
   t.buses = {"can1", "can0"};

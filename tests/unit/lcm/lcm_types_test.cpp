@@ -29,7 +29,7 @@ Msg round_trip(const Msg& in) {
 }
 
 motionlcm::param_t sample_param() {
-  motionlcm::param_t p;
+  motionlcm::param_t p{};
   p.space = motionlcm::param_t::CANOPEN_OBJECT;
   p.index = 0x6081;
   p.subindex = 0;
@@ -41,7 +41,7 @@ motionlcm::param_t sample_param() {
 }
 
 TEST(LcmTypes, RequestRoundTrip) {
-  motionlcm::request_t r;
+  motionlcm::request_t r{};
   r.utime = 1700000000000001;
   r.client_id = "cli";
   r.request_id = 42;
@@ -65,7 +65,7 @@ TEST(LcmTypes, RequestRoundTrip) {
 }
 
 TEST(LcmTypes, ReplyRoundTrip) {
-  motionlcm::reply_t r;
+  motionlcm::reply_t r{};
   r.request_id = 7;
   r.status = motionlcm::reply_t::ABORTED;
   r.reason = "axis y stalled";
@@ -84,7 +84,7 @@ TEST(LcmTypes, ReplyRoundTrip) {
 }
 
 TEST(LcmTypes, AxisStateEventHealthRoundTrip) {
-  motionlcm::axis_state_t s;
+  motionlcm::axis_state_t s{};
   s.axis = "x";
   s.family = "uim342";
   s.position_counts = -123456789;
@@ -94,16 +94,16 @@ TEST(LcmTypes, AxisStateEventHealthRoundTrip) {
   EXPECT_EQ(round_trip(s).position_counts, s.position_counts);
   EXPECT_EQ(round_trip(s).inputs, 5);
 
-  motionlcm::event_t e;
+  motionlcm::event_t e{};
   e.kind = motionlcm::event_t::STALL;
   e.text = "stall";
   e.code = 0x41;
   EXPECT_EQ(round_trip(e).code, 0x41);
 
-  motionlcm::health_t h;
+  motionlcm::health_t h{};
   h.process = "gateway:can0";
   h.num_buses = 1;
-  motionlcm::bus_stats_t b;
+  motionlcm::bus_stats_t b{};
   b.name = "can0";
   b.tx_frames = 1000;
   b.bus_load = 0.25;
@@ -114,13 +114,13 @@ TEST(LcmTypes, AxisStateEventHealthRoundTrip) {
 }
 
 TEST(LcmTypes, GatewayAndTriggerAndFrameRoundTrip) {
-  motionlcm::gateway_command_t c;
+  motionlcm::gateway_command_t c{};
   c.bus = "can0";
   c.command_id = 5;
   c.kind = motionlcm::gateway_command_t::ARM_MOVE;
   c.trigger_id = 9;
   c.num_axes = 1;
-  motionlcm::axis_command_t a;
+  motionlcm::axis_command_t a{};
   a.axis = "x";
   a.target_counts = 64000;
   a.velocity = 3200;
@@ -133,21 +133,21 @@ TEST(LcmTypes, GatewayAndTriggerAndFrameRoundTrip) {
   EXPECT_EQ(oc.axes[0].target_counts, 64000);
   EXPECT_EQ(oc.axes[0].deceleration, 12000);
 
-  motionlcm::gateway_reply_t g;
+  motionlcm::gateway_reply_t g{};
   g.command_id = 5;
   g.status = motionlcm::gateway_reply_t::STARTED;
   g.trigger_utime = 123;
   g.start_mechanism = "group-bg";
   EXPECT_EQ(round_trip(g).start_mechanism, "group-bg");
 
-  motionlcm::sync_trigger_t t;
+  motionlcm::sync_trigger_t t{};
   t.trigger_id = 9;
   t.fire_utime = 1700000000500000;
   t.num_buses = 2;
   t.buses = {"can0", "rs485"};
   EXPECT_EQ(round_trip(t).buses, t.buses);
 
-  motionlcm::can_frame_t f;
+  motionlcm::can_frame_t f{};
   f.id = 0x04280095;
   f.extended = true;
   f.dlc = 1;

@@ -32,7 +32,7 @@ TEST(LcmNode, PublishSubscribeWithPrefix) {
     seen_channel = ch;
     ++received;
   });
-  motionlcm::event_t e;
+  motionlcm::event_t e{};
   e.text = "hello";
   ASSERT_TRUE(node.publish(channels::kEvent, e));
   run_until(loop, [&] { return received > 0; });
@@ -63,7 +63,7 @@ TEST(LcmNode, ThrowingHandlerDoesNotEscape) {
   node.subscribe<motionlcm::event_t>(channels::kEvent, [&](const motionlcm::event_t&, const std::string&) {
     throw std::runtime_error("handler bug");
   });
-  motionlcm::event_t e;
+  motionlcm::event_t e{};
   ASSERT_TRUE(node.publish(channels::kEvent, e));
   run_until(loop, [&] { return node.handler_errors() > 0; });
   EXPECT_EQ(node.handler_errors(), 1u);
@@ -73,7 +73,7 @@ TEST(LcmNode, BadUrlIsReported) {
   EventLoop loop;
   Node node(loop, {"nosuchprovider://x", "T4_"});
   EXPECT_FALSE(node.ok());
-  motionlcm::event_t e;
+  motionlcm::event_t e{};
   EXPECT_FALSE(node.publish(channels::kEvent, e));
 }
 
@@ -85,7 +85,7 @@ TEST(HealthPublisher, PublishesPeriodicallyWithBusStats) {
   node.subscribe<motionlcm::health_t>(channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { beats.push_back(h); });
   HealthPublisher health(loop, node, "gateway:can0", "gateway", milliseconds(20));
   health.set_bus_stats([] {
-    motionlcm::bus_stats_t b;
+    motionlcm::bus_stats_t b{};
     b.name = "can0";
     b.tx_frames = 17;
     return std::vector<motionlcm::bus_stats_t>{b};

@@ -31,7 +31,7 @@ class HealthPublisher {
  private:
   EventLoop& loop_;
   Node& node_;
-  motionlcm::health_t msg_;
+  motionlcm::health_t msg_{};
   TimePoint started_;
   EventLoop::TimerId timer_;
   BusStatsProvider bus_stats_;

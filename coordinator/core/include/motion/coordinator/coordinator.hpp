@@ -1,0 +1,149 @@
+// The coordinator: the single entry point for clients.
+//
+// Every request_t gets replies on REPLY that end in exactly one terminal status:
+//   validate (REJECTED with a reason and error code)  -> ACCEPTED
+//   moves:  plan -> ARM_MOVE to every gateway involved (each loads and verifies, replies ARMED)
+//           -> SYNC_TRIGGER at a common wall-clock time -> STARTED -> PROGRESS ... -> DONE
+//   others: one gateway command per bus -> DONE when every gateway is done
+// Abort paths: stop / e-stop requests preempt (ABORTED, kStopped); an axis of the group faults,
+// stalls or hits a limit, or a gateway's heartbeat is lost or restarts (the rest of the group is
+// stopped, ABORTED with the cause); request timeout (FAILED, kTimeout); a gateway error (FAILED).
+//
+// Thread contract: loop thread only. Never blocks.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <motionlcm/axis_state_t.hpp>
+#include <motionlcm/event_t.hpp>
+#include <motionlcm/gateway_command_t.hpp>
+#include <motionlcm/gateway_reply_t.hpp>
+#include <motionlcm/health_t.hpp>
+#include <motionlcm/reply_t.hpp>
+#include <motionlcm/request_t.hpp>
+
+#include "motion/config/config.hpp"
+#include "motion/coordinator/error_codes.hpp"
+#include "motion/core/event_loop.hpp"
+#include "motion/lcm/node.hpp"
+
+namespace motion::coordinator {
+
+// Planner seam, in drive counts. One entry per axis of a move.
+struct PlanInput {
+  std::string axis;
+  config::Family family;
+  std::int64_t start_counts = 0;
+  std::int64_t target_counts = 0;
+  double max_velocity = 0;      // counts/s
+  double max_acceleration = 0;  // counts/s^2
+};
+struct AxisPlan {
+  std::string axis;
+  std::int64_t target_counts = 0;
+  double velocity = 0;          // counts/s, as the drive will realize it
+  double acceleration = 0;      // counts/s^2
+  double deceleration = 0;      // counts/s^2
+  double duration_s = 0;        // realized duration of this axis's profile
+};
+struct MovePlan {
+  std::vector<AxisPlan> axes;
+  double duration_s = 0;          // the longest realized duration
+  double predicted_skew_us = 0;   // arrival spread after quantization
+};
+using MovePlanner = std::function<std::variant<MovePlan, std::string>(const std::vector<PlanInput>& inputs, double velocity_scale,
+                                                                       double acceleration_scale)>;
+
+class Coordinator {
+ public:
+  Coordinator(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner);
+  ~Coordinator();
+  Coordinator(const Coordinator&) = delete;
+  Coordinator& operator=(const Coordinator&) = delete;
+
+  [[nodiscard]] std::size_t active_requests() const { return requests_.size(); }
+
+ private:
+  struct AxisLive {
+    const config::Axis* axis = nullptr;
+    const config::Drive* drive = nullptr;
+    std::optional<motionlcm::axis_state_t> state;
+    TimePoint received{};
+    std::uint64_t busy_with = 0;  // serial of the request moving it, 0 = free
+  };
+  struct GatewayLive {
+    TimePoint last_heartbeat{};
+    std::int32_t pid = 0;
+    double uptime_s = 0;
+    bool seen = false;
+  };
+  enum class Phase { kWaitingGateways, kArming, kTriggered, kDone };
+  struct Request {
+    std::uint64_t serial = 0;
+    motionlcm::request_t msg{};
+    Phase phase = Phase::kWaitingGateways;
+    std::vector<std::string> axes;                 // in request order
+    std::map<std::string, std::int64_t> targets;   // counts, moves only
+    std::map<std::string, std::int64_t> starts;    // counts at planning
+    std::map<std::int64_t, std::string> pending;   // command id -> bus, awaiting the next reply
+    std::set<std::string> buses;
+    std::map<std::string, std::int64_t> started_utime;  // bus -> actual trigger time
+    std::int64_t trigger_id = 0;
+    std::int64_t fire_utime = 0;
+    MovePlan plan;
+    motionlcm::param_t param_result{};
+    EventLoop::TimerId timeout_timer = 0;
+    EventLoop::TimerId progress_timer = 0;
+    EventLoop::TimerId arm_timer = 0;
+  };
+
+  void on_request(const motionlcm::request_t& msg);
+  void on_axis_state(const motionlcm::axis_state_t& state);
+  void on_gateway_reply(const motionlcm::gateway_reply_t& reply);
+  void on_event(const motionlcm::event_t& event);
+  void on_health(const motionlcm::health_t& health);
+  void check_gateways();
+
+  // Validation: an error (code, reason) or nothing.
+  std::optional<std::pair<ReplyError, std::string>> validate(const motionlcm::request_t& msg, std::vector<std::string>& axes);
+  std::optional<std::pair<ReplyError, std::string>> check_axis_ready(const std::string& axis, bool need_enabled);
+
+  void start_move(Request& r);
+  void start_simple(Request& r);
+  void preempt(const motionlcm::request_t& stop);
+  void fire(Request& r);
+  void check_move_done(Request& r);
+  void abort_group(Request& r, std::int8_t status, ReplyError error, const std::string& reason);
+
+  std::int64_t send_command(Request& r, const std::string& bus, std::int8_t kind, std::vector<motionlcm::axis_command_t> axes);
+  void send_stop(const std::vector<std::string>& axes, bool emergency, std::int64_t request_id);
+  void reply(Request& r, std::int8_t status, ReplyError error = ReplyError::kNone, const std::string& reason = {});
+  void reply_unknown(const motionlcm::request_t& msg, std::int8_t status, ReplyError error, const std::string& reason);
+  void finish(std::uint64_t serial);
+  [[nodiscard]] bool gateway_alive(const std::string& bus) const;
+  [[nodiscard]] double tolerance_counts(const AxisLive& a) const;
+  Request* find_by_command(std::int64_t command_id);
+
+  EventLoop& loop_;
+  lcm::Node& node_;
+  const config::Config& config_;
+  MovePlanner planner_;
+  std::map<std::string, AxisLive> axes_;
+  std::map<std::string, GatewayLive> gateways_;  // by bus
+  std::map<std::uint64_t, std::unique_ptr<Request>> requests_;
+  std::set<std::pair<std::string, std::int64_t>> active_ids_;  // (client_id, request_id)
+  std::uint64_t next_serial_ = 1;
+  std::int64_t next_command_id_ = 1;
+  std::int64_t next_trigger_id_ = 1;
+  EventLoop::TimerId watchdog_ = 0;
+};
+
+}  // namespace motion::coordinator

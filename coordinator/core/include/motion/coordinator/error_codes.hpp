@@ -1,0 +1,30 @@
+// reply_t.error_code values: machine-readable causes of REJECTED / ABORTED / FAILED replies.
+// Documented in the README; append only (clients switch on them).
+#pragma once
+
+#include <cstdint>
+
+namespace motion::coordinator {
+
+enum class ReplyError : std::int32_t {
+  kNone = 0,
+  kMalformedRequest = 1,   // bad kind, array sizes, non-finite values, missing axes
+  kUnknownAxis = 2,
+  kOutsideLimits = 3,
+  kAxisDisabled = 4,
+  kAxisFaulted = 5,
+  kAxisOffline = 6,        // no fresh state from the axis's gateway
+  kGatewayOffline = 7,
+  kAxisBusy = 8,           // another request moves this axis
+  kDuplicateRequest = 9,   // same client_id + request_id already active
+  kPlanningFailed = 10,
+  kArmFailed = 11,         // a gateway could not load the move
+  kDriveError = 12,        // a gateway reported FAILED
+  kTimeout = 13,
+  kStopped = 14,           // preempted by a stop / e-stop request
+  kAxisFault = 15,         // an axis of the group faulted, stalled or hit a limit mid-move
+  kGatewayLost = 16,       // a gateway's heartbeat stopped mid-request
+  kUnsupported = 17,       // the family/configuration cannot do this
+};
+
+}  // namespace motion::coordinator

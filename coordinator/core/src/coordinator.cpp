@@ -1,0 +1,599 @@
+#include "motion/coordinator/coordinator.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <motionlcm/sync_trigger_t.hpp>
+
+#include "motion/lcm/channels.hpp"
+
+namespace motion::coordinator {
+namespace {
+
+using motionlcm::gateway_command_t;
+using motionlcm::gateway_reply_t;
+using motionlcm::reply_t;
+using motionlcm::request_t;
+
+bool is_move(std::int8_t kind) { return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE; }
+bool is_stop(std::int8_t kind) { return kind == request_t::STOP || kind == request_t::ESTOP; }
+bool single_axis(std::int8_t kind) {
+  return kind == request_t::SET_OUTPUTS || kind == request_t::PARAM_READ || kind == request_t::PARAM_WRITE;
+}
+bool terminal(std::int8_t status) {
+  return status == reply_t::DONE || status == reply_t::REJECTED || status == reply_t::ABORTED || status == reply_t::FAILED;
+}
+
+std::int8_t gateway_kind(std::int8_t request_kind) {
+  switch (request_kind) {
+    case request_t::JOG: return gateway_command_t::JOG;
+    case request_t::STOP: return gateway_command_t::STOP;
+    case request_t::ESTOP: return gateway_command_t::ESTOP;
+    case request_t::HOME: return gateway_command_t::HOME;
+    case request_t::ENABLE: return gateway_command_t::ENABLE;
+    case request_t::DISABLE: return gateway_command_t::DISABLE;
+    case request_t::FAULT_RESET: return gateway_command_t::FAULT_RESET;
+    case request_t::SET_OUTPUTS: return gateway_command_t::SET_OUTPUTS;
+    case request_t::PARAM_READ: return gateway_command_t::PARAM_READ;
+    case request_t::PARAM_WRITE: return gateway_command_t::PARAM_WRITE;
+    case request_t::SET_POSITION: return gateway_command_t::SET_POSITION;
+    default: return 0;
+  }
+}
+
+const char* kind_name(std::int8_t kind) {
+  switch (kind) {
+    case request_t::MOVE_ABSOLUTE: return "move";
+    case request_t::MOVE_RELATIVE: return "relative move";
+    case request_t::JOG: return "jog";
+    case request_t::STOP: return "stop";
+    case request_t::ESTOP: return "e-stop";
+    case request_t::HOME: return "home";
+    case request_t::ENABLE: return "enable";
+    case request_t::DISABLE: return "disable";
+    case request_t::FAULT_RESET: return "fault reset";
+    case request_t::SET_OUTPUTS: return "set outputs";
+    case request_t::PARAM_READ: return "parameter read";
+    case request_t::PARAM_WRITE: return "parameter write";
+    case request_t::SET_POSITION: return "set position";
+    default: return "unknown";
+  }
+}
+
+double scale_or_one(double s) { return s > 0 && s <= 1 ? s : 1.0; }
+
+}  // namespace
+
+Coordinator::Coordinator(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner)
+    : loop_(loop), node_(node), config_(config), planner_(std::move(planner)) {
+  for (const auto& axis : config_.axes) axes_[axis.name] = AxisLive{&axis, config_.drive_of(axis), std::nullopt, {}, 0};
+  node_.subscribe<request_t>(lcm::channels::kRequest, [this](const request_t& m, const std::string&) { on_request(m); });
+  node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
+                                           [this](const motionlcm::axis_state_t& m, const std::string&) { on_axis_state(m); });
+  node_.subscribe<gateway_reply_t>(lcm::channels::kGatewayReply, [this](const gateway_reply_t& m, const std::string&) { on_gateway_reply(m); });
+  node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& m, const std::string&) { on_event(m); });
+  node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [this](const motionlcm::health_t& m, const std::string&) { on_health(m); });
+  // A malformed request cannot be answered (its ids are unreadable): say so loudly on EVENT.
+  node_.on_malformed([this](const std::string& what) {
+    spdlog::warn("{}", what);
+    motionlcm::event_t e{};
+    e.utime = wall_time_us();
+    e.source = "coordinator";
+    e.severity = motionlcm::event_t::WARNING;
+    e.kind = motionlcm::event_t::PROTOCOL_ERROR;
+    e.text = what;
+    node_.publish(lcm::channels::kEvent, e);
+  });
+  watchdog_ = loop_.call_every(std::chrono::milliseconds(100), [this] { check_gateways(); });
+}
+
+Coordinator::~Coordinator() { loop_.cancel(watchdog_); }
+
+// ---------------------------------------------------------------- inputs
+
+void Coordinator::on_axis_state(const motionlcm::axis_state_t& state) {
+  auto it = axes_.find(state.axis);
+  if (it == axes_.end()) return;
+  it->second.state = state;
+  it->second.received = loop_.now();
+  if (const std::uint64_t serial = it->second.busy_with; serial != 0) {
+    auto rit = requests_.find(serial);
+    if (rit == requests_.end()) return;
+    Request& r = *rit->second;
+    if (r.phase == Phase::kTriggered && state.fault) {
+      abort_group(r, reply_t::ABORTED, ReplyError::kAxisFault,
+                  "axis " + state.axis + " faulted: " + (state.fault_text.empty() ? "code " + std::to_string(state.fault_code) : state.fault_text));
+      return;
+    }
+    if (r.phase == Phase::kTriggered && is_move(r.msg.kind)) check_move_done(r);
+  }
+}
+
+void Coordinator::on_event(const motionlcm::event_t& event) {
+  using E = motionlcm::event_t;
+  const bool fatal = event.kind == E::STALL || event.kind == E::LIMIT || event.kind == E::HEARTBEAT_LOST || event.kind == E::OFFLINE ||
+                     event.kind == E::BUS_OFF || (event.kind == E::ALARM && event.severity >= E::ERROR) ||
+                     (event.kind == E::EMCY && event.severity >= E::ERROR) || event.kind == E::REBOOT;
+  if (!fatal) return;
+  std::vector<std::uint64_t> hit;
+  for (auto& [serial, r] : requests_) {
+    if (is_stop(r->msg.kind) || r->phase == Phase::kDone) continue;
+    const bool bus_event = event.axis.empty() && r->buses.contains(event.bus);
+    const bool axis_event = std::find(r->axes.begin(), r->axes.end(), event.axis) != r->axes.end();
+    if (bus_event || axis_event) hit.push_back(serial);
+  }
+  for (auto serial : hit) {
+    auto it = requests_.find(serial);
+    if (it == requests_.end()) continue;
+    const std::string where = event.axis.empty() ? "bus " + event.bus : "axis " + event.axis;
+    abort_group(*it->second, reply_t::ABORTED, ReplyError::kAxisFault, where + ": " + event.text);
+  }
+}
+
+void Coordinator::on_health(const motionlcm::health_t& health) {
+  if (health.role != "gateway" || health.process.rfind("gateway:", 0) != 0) return;
+  const std::string bus = health.process.substr(8);
+  GatewayLive& g = gateways_[bus];
+  const bool restarted = g.seen && (health.pid != g.pid || health.uptime_s + 0.5 < g.uptime_s);
+  g.seen = true;
+  g.pid = health.pid;
+  g.uptime_s = health.uptime_s;
+  g.last_heartbeat = health.state == motionlcm::health_t::STOPPING ? TimePoint{} : loop_.now();
+  if (restarted || health.state == motionlcm::health_t::STOPPING) {
+    std::vector<std::uint64_t> hit;
+    for (auto& [serial, r] : requests_) {
+      if (r->buses.contains(bus)) hit.push_back(serial);
+    }
+    for (auto serial : hit) {
+      if (auto it = requests_.find(serial); it != requests_.end()) {
+        abort_group(*it->second, reply_t::ABORTED, ReplyError::kGatewayLost,
+                    "gateway of bus " + bus + (restarted ? " restarted" : " stopped") + " during the request");
+      }
+    }
+  }
+}
+
+void Coordinator::check_gateways() {
+  std::vector<std::pair<std::uint64_t, std::string>> hit;
+  for (auto& [serial, r] : requests_) {
+    for (const auto& bus : r->buses) {
+      if (!gateway_alive(bus)) {
+        hit.emplace_back(serial, bus);
+        break;
+      }
+    }
+  }
+  for (const auto& [serial, bus] : hit) {
+    if (auto it = requests_.find(serial); it != requests_.end()) {
+      abort_group(*it->second, reply_t::ABORTED, ReplyError::kGatewayLost, "lost the heartbeat of the gateway of bus " + bus);
+    }
+  }
+}
+
+bool Coordinator::gateway_alive(const std::string& bus) const {
+  auto it = gateways_.find(bus);
+  if (it == gateways_.end() || !it->second.seen || it->second.last_heartbeat == TimePoint{}) return false;
+  return loop_.now() - it->second.last_heartbeat < std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms);
+}
+
+// ---------------------------------------------------------------- requests
+
+void Coordinator::reply_unknown(const request_t& msg, std::int8_t status, ReplyError error, const std::string& reason) {
+  reply_t out{};
+  out.utime = wall_time_us();
+  out.client_id = msg.client_id;
+  out.request_id = msg.request_id;
+  out.status = status;
+  out.reason = reason;
+  out.error_code = static_cast<std::int32_t>(error);
+  node_.publish(lcm::channels::kReply, out);
+  spdlog::info("request {}/{} ({}) rejected: {}", msg.client_id, msg.request_id, kind_name(msg.kind), reason);
+}
+
+std::optional<std::pair<ReplyError, std::string>> Coordinator::check_axis_ready(const std::string& axis, bool need_enabled) {
+  const AxisLive& a = axes_.at(axis);
+  if (!gateway_alive(a.drive->bus)) return std::pair{ReplyError::kGatewayOffline, "gateway of bus " + a.drive->bus + " (axis " + axis + ") is offline"};
+  const bool fresh = a.state && loop_.now() - a.received < std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms);
+  if (!fresh || !a.state->online) return std::pair{ReplyError::kAxisOffline, "axis " + axis + " has no live state (drive offline?)"};
+  if (a.state->fault) {
+    return std::pair{ReplyError::kAxisFaulted, "axis " + axis + " is faulted (" +
+                                                   (a.state->fault_text.empty() ? "code " + std::to_string(a.state->fault_code) : a.state->fault_text) +
+                                                   "): reset it first"};
+  }
+  if (need_enabled && !a.state->enabled) return std::pair{ReplyError::kAxisDisabled, "axis " + axis + " is disabled: enable it first"};
+  return std::nullopt;
+}
+
+std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const request_t& msg, std::vector<std::string>& axes) {
+  using P = std::pair<ReplyError, std::string>;
+  if (msg.kind < request_t::MOVE_ABSOLUTE || msg.kind > request_t::SET_POSITION) return P{ReplyError::kMalformedRequest, "unknown request kind " + std::to_string(msg.kind)};
+  if (msg.num_axes != static_cast<std::int32_t>(msg.axes.size()) || msg.values.size() != msg.axes.size()) {
+    return P{ReplyError::kMalformedRequest, "num_axes does not match the axes/values arrays"};
+  }
+  if (active_ids_.contains({msg.client_id, msg.request_id})) {
+    return P{ReplyError::kDuplicateRequest, "request id " + std::to_string(msg.request_id) + " of client '" + msg.client_id + "' is still active"};
+  }
+  axes = msg.axes;
+  if (axes.empty() && is_stop(msg.kind)) {
+    for (const auto& a : config_.axes) axes.push_back(a.name);  // stop everything
+  }
+  if (axes.empty()) return P{ReplyError::kMalformedRequest, std::string(kind_name(msg.kind)) + " names no axis"};
+  if (single_axis(msg.kind) && axes.size() != 1) return P{ReplyError::kMalformedRequest, std::string(kind_name(msg.kind)) + " takes exactly one axis"};
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    const auto& name = axes[i];
+    auto it = axes_.find(name);
+    if (it == axes_.end()) {
+      std::string known;
+      for (const auto& a : config_.axes) known += (known.empty() ? "" : ", ") + a.name;
+      return P{ReplyError::kUnknownAxis, "unknown axis '" + name + "' (axes: " + known + ")"};
+    }
+    if (!seen.insert(name).second) return P{ReplyError::kMalformedRequest, "axis " + name + " appears twice"};
+    if (i < msg.values.size() && !std::isfinite(msg.values[i])) return P{ReplyError::kMalformedRequest, "value for axis " + name + " is not a finite number"};
+  }
+  if (!std::isfinite(msg.velocity_scale) || msg.velocity_scale < 0 || msg.velocity_scale > 1 || !std::isfinite(msg.acceleration_scale) ||
+      msg.acceleration_scale < 0 || msg.acceleration_scale > 1) {
+    return P{ReplyError::kMalformedRequest, "velocity_scale and acceleration_scale must be within 0..1 (0 = 1)"};
+  }
+  if (is_stop(msg.kind)) return std::nullopt;  // stops are always accepted for known axes
+
+  for (const auto& name : axes) {
+    const AxisLive& a = axes_.at(name);
+    if (a.busy_with != 0) return P{ReplyError::kAxisBusy, "axis " + name + " is busy with another request (stop it first)"};
+    const bool need_enabled = msg.kind != request_t::ENABLE && msg.kind != request_t::DISABLE && msg.kind != request_t::FAULT_RESET &&
+                              msg.kind != request_t::PARAM_READ && msg.kind != request_t::PARAM_WRITE && msg.kind != request_t::SET_OUTPUTS &&
+                              msg.kind != request_t::SET_POSITION;
+    // Reset is how a faulted axis recovers: it only needs a live gateway.
+    if (msg.kind == request_t::FAULT_RESET || msg.kind == request_t::DISABLE) {
+      if (!gateway_alive(a.drive->bus)) return P{ReplyError::kGatewayOffline, "gateway of bus " + a.drive->bus + " (axis " + name + ") is offline"};
+      continue;
+    }
+    if (auto err = check_axis_ready(name, need_enabled)) return err;
+  }
+  if (is_move(msg.kind)) {
+    for (std::size_t i = 0; i < axes.size(); ++i) {
+      const AxisLive& a = axes_.at(axes[i]);
+      const double current = a.state->position;
+      const double target = msg.kind == request_t::MOVE_ABSOLUTE ? msg.values[i] : current + msg.values[i];
+      const auto& lim = a.axis->limits;
+      if (target < lim.min_position || target > lim.max_position) {
+        char buf[256];
+        std::snprintf(buf, sizeof buf, "target %.6g %s of axis %s is outside its limits [%.6g, %.6g]", target, a.axis->unit.c_str(),
+                      axes[i].c_str(), lim.min_position, lim.max_position);
+        return P{ReplyError::kOutsideLimits, buf};
+      }
+    }
+  }
+  if (msg.kind == request_t::JOG) {
+    for (std::size_t i = 0; i < axes.size(); ++i) {
+      const auto& lim = axes_.at(axes[i]).axis->limits;
+      if (std::abs(msg.values[i]) > lim.max_velocity) {
+        return P{ReplyError::kOutsideLimits, "jog velocity " + std::to_string(msg.values[i]) + " of axis " + axes[i] + " exceeds its limit " +
+                                                 std::to_string(lim.max_velocity)};
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+void Coordinator::on_request(const request_t& msg) {
+  std::vector<std::string> axes;
+  if (auto err = validate(msg, axes)) {
+    reply_unknown(msg, reply_t::REJECTED, err->first, err->second);
+    return;
+  }
+  if (is_stop(msg.kind)) preempt(msg);
+
+  auto owned = std::make_unique<Request>();
+  Request& r = *owned;
+  r.serial = next_serial_++;
+  r.msg = msg;
+  r.axes = axes;
+  for (const auto& a : axes) r.buses.insert(axes_.at(a).drive->bus);
+  requests_.emplace(r.serial, std::move(owned));
+  active_ids_.insert({msg.client_id, msg.request_id});
+  if (!is_stop(msg.kind)) {
+    for (const auto& a : axes) axes_.at(a).busy_with = r.serial;
+  }
+  const int timeout_ms = msg.timeout_ms > 0 ? msg.timeout_ms : config_.coordinator.default_timeout_ms;
+  const std::uint64_t serial = r.serial;
+  r.timeout_timer = loop_.call_after(std::chrono::milliseconds(timeout_ms), [this, serial, timeout_ms] {
+    if (auto it = requests_.find(serial); it != requests_.end()) {
+      abort_group(*it->second, reply_t::FAILED, ReplyError::kTimeout, "timed out after " + std::to_string(timeout_ms) + " ms");
+    }
+  });
+  spdlog::info("request {}/{} ({}) accepted for {} axes", msg.client_id, msg.request_id, kind_name(msg.kind), axes.size());
+  reply(r, reply_t::ACCEPTED);
+  if (is_move(msg.kind)) {
+    start_move(r);
+  } else {
+    start_simple(r);
+  }
+}
+
+void Coordinator::preempt(const request_t& stop) {
+  std::vector<std::uint64_t> hit;
+  for (auto& [serial, r] : requests_) {
+    if (is_stop(r->msg.kind)) continue;
+    for (const auto& a : r->axes) {
+      if (stop.axes.empty() || std::find(stop.axes.begin(), stop.axes.end(), a) != stop.axes.end()) {
+        hit.push_back(serial);
+        break;
+      }
+    }
+  }
+  for (auto serial : hit) {
+    auto it = requests_.find(serial);
+    if (it == requests_.end()) continue;
+    Request& r = *it->second;
+    // The stop request itself stops these axes; the preempted request only ends.
+    reply(r, reply_t::ABORTED, ReplyError::kStopped,
+          std::string(stop.kind == request_t::ESTOP ? "e-stopped" : "stopped") + " by request " + stop.client_id + "/" + std::to_string(stop.request_id));
+    finish(serial);
+  }
+}
+
+void Coordinator::start_simple(Request& r) {
+  std::map<std::string, std::vector<motionlcm::axis_command_t>> per_bus;
+  for (std::size_t i = 0; i < r.axes.size(); ++i) {
+    const AxisLive& a = axes_.at(r.axes[i]);
+    motionlcm::axis_command_t c{};
+    c.axis = r.axes[i];
+    const double value = i < r.msg.values.size() ? r.msg.values[i] : 0.0;
+    const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
+    if (r.msg.kind == request_t::JOG) {
+      c.velocity = value * counts_per_unit * scale_or_one(r.msg.velocity_scale);
+      c.acceleration = c.deceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit * scale_or_one(r.msg.acceleration_scale);
+    } else if (r.msg.kind == request_t::SET_POSITION) {
+      c.target_counts = std::llround(value * counts_per_unit);
+    } else if (r.msg.kind == request_t::HOME) {
+      c.velocity = (a.axis->homing.velocity != 0 ? a.axis->homing.velocity : -0.1 * a.axis->limits.max_velocity) * counts_per_unit;
+      c.acceleration = c.deceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit;
+      c.target_counts = std::llround(a.axis->homing.offset * counts_per_unit);
+    }
+    c.output_mask = r.msg.output_mask;
+    c.output_value = r.msg.output_value;
+    per_bus[a.drive->bus].push_back(c);
+  }
+  r.phase = Phase::kWaitingGateways;
+  for (auto& [bus, cmds] : per_bus) send_command(r, bus, gateway_kind(r.msg.kind), std::move(cmds));
+}
+
+void Coordinator::start_move(Request& r) {
+  std::vector<PlanInput> inputs;
+  for (std::size_t i = 0; i < r.axes.size(); ++i) {
+    const AxisLive& a = axes_.at(r.axes[i]);
+    const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
+    const double target_units = r.msg.kind == request_t::MOVE_ABSOLUTE ? r.msg.values[i] : a.state->position + r.msg.values[i];
+    PlanInput in;
+    in.axis = r.axes[i];
+    in.family = a.drive->family;
+    in.start_counts = a.state->position_counts;
+    in.target_counts = std::llround(target_units * counts_per_unit);
+    in.max_velocity = a.axis->limits.max_velocity * a.axis->steps_per_unit;
+    in.max_acceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit;
+    r.starts[in.axis] = in.start_counts;
+    r.targets[in.axis] = in.target_counts;
+    inputs.push_back(in);
+  }
+  auto planned = planner_(inputs, scale_or_one(r.msg.velocity_scale), scale_or_one(r.msg.acceleration_scale));
+  if (auto* why = std::get_if<std::string>(&planned)) {
+    abort_group(r, reply_t::FAILED, ReplyError::kPlanningFailed, "planning failed: " + *why);
+    return;
+  }
+  r.plan = std::get<MovePlan>(planned);
+  r.trigger_id = next_trigger_id_++;
+  r.phase = Phase::kArming;
+  std::map<std::string, std::vector<motionlcm::axis_command_t>> per_bus;
+  for (const auto& p : r.plan.axes) {
+    motionlcm::axis_command_t c{};
+    c.axis = p.axis;
+    c.target_counts = p.target_counts;
+    c.velocity = p.velocity;
+    c.acceleration = p.acceleration;
+    c.deceleration = p.deceleration;
+    per_bus[axes_.at(p.axis).drive->bus].push_back(c);
+  }
+  for (auto& [bus, cmds] : per_bus) send_command(r, bus, gateway_command_t::ARM_MOVE, std::move(cmds));
+  const std::uint64_t serial = r.serial;
+  r.arm_timer = loop_.call_after(std::chrono::milliseconds(config_.coordinator.arm_timeout_ms), [this, serial] {
+    auto it = requests_.find(serial);
+    if (it == requests_.end() || it->second->phase != Phase::kArming) return;
+    std::string buses;
+    for (const auto& [id, bus] : it->second->pending) {
+      if (bus.rfind("armed:", 0) != 0) buses += (buses.empty() ? "" : ", ") + bus;
+    }
+    abort_group(*it->second, reply_t::FAILED, ReplyError::kArmFailed, "gateway(s) " + buses + " did not confirm the armed move in time");
+  });
+}
+
+void Coordinator::fire(Request& r) {
+  loop_.cancel(r.arm_timer);
+  r.phase = Phase::kTriggered;
+  motionlcm::sync_trigger_t t{};
+  t.utime = wall_time_us();
+  t.trigger_id = r.trigger_id;
+  // One bus: fire at once. Several: a common time far enough ahead for every gateway to hear it.
+  t.fire_utime = t.utime + (r.buses.size() > 1 ? config_.coordinator.trigger_lead_ms * 1000 : 0);
+  t.buses.assign(r.buses.begin(), r.buses.end());
+  t.num_buses = static_cast<std::int32_t>(t.buses.size());
+  r.fire_utime = t.fire_utime;
+  node_.publish(lcm::channels::kSyncTrigger, t);
+  const std::uint64_t serial = r.serial;
+  r.progress_timer = loop_.call_every(std::chrono::milliseconds(config_.coordinator.progress_period_ms), [this, serial] {
+    if (auto it = requests_.find(serial); it != requests_.end() && it->second->phase == Phase::kTriggered) reply(*it->second, reply_t::PROGRESS);
+  });
+}
+
+void Coordinator::check_move_done(Request& r) {
+  if (r.started_utime.size() < r.buses.size()) return;  // not every bus has started yet
+  for (const auto& name : r.axes) {
+    const AxisLive& a = axes_.at(name);
+    if (!a.state || a.state->sample_utime < r.fire_utime) return;
+    if (a.state->moving) return;
+    if (std::abs(static_cast<double>(a.state->position_counts - r.targets.at(name))) > tolerance_counts(a)) return;
+  }
+  reply(r, reply_t::DONE);
+  finish(r.serial);
+}
+
+double Coordinator::tolerance_counts(const AxisLive& a) const {
+  const double t = config_.coordinator.position_tolerance * a.axis->steps_per_unit;
+  return std::max(t, 1.0);
+}
+
+void Coordinator::on_gateway_reply(const gateway_reply_t& g) {
+  Request* rp = find_by_command(g.command_id);
+  if (rp == nullptr) return;
+  Request& r = *rp;
+  if (g.status == gateway_reply_t::FAILED) {
+    r.pending.erase(g.command_id);
+    const bool moving = r.phase == Phase::kTriggered;
+    abort_group(r, moving ? reply_t::ABORTED : reply_t::FAILED, r.phase == Phase::kArming ? ReplyError::kArmFailed : ReplyError::kDriveError,
+                "bus " + g.bus + ": " + g.reason);
+    return;
+  }
+  if (is_move(r.msg.kind)) {
+    if (g.status == gateway_reply_t::ARMED && r.phase == Phase::kArming) {
+      r.pending[g.command_id] = "armed:" + g.bus;
+      const bool all_armed = std::all_of(r.pending.begin(), r.pending.end(), [](const auto& p) { return p.second.rfind("armed:", 0) == 0; });
+      if (all_armed) fire(r);
+    } else if (g.status == gateway_reply_t::STARTED) {
+      r.started_utime[g.bus] = g.trigger_utime;
+      r.plan.predicted_skew_us = std::max(r.plan.predicted_skew_us, g.predicted_skew_us);
+      if (r.started_utime.size() == r.buses.size()) reply(r, reply_t::STARTED);
+      check_move_done(r);
+    }
+    return;
+  }
+  if (g.status == gateway_reply_t::DONE) {
+    r.pending.erase(g.command_id);
+    if (g.param.space != motionlcm::param_t::NONE) r.param_result = g.param;
+    if (r.pending.empty()) {
+      reply(r, reply_t::DONE);
+      finish(r.serial);
+    }
+  } else if (g.status == gateway_reply_t::STARTED && r.msg.kind != request_t::JOG) {
+    reply(r, reply_t::STARTED);
+  }
+}
+
+Coordinator::Request* Coordinator::find_by_command(std::int64_t command_id) {
+  for (auto& [serial, r] : requests_) {
+    if (r->pending.contains(command_id)) return r.get();
+  }
+  return nullptr;
+}
+
+void Coordinator::abort_group(Request& r, std::int8_t status, ReplyError error, const std::string& reason) {
+  if (r.phase == Phase::kDone) return;
+  // Stop every axis of the group that may be moving or armed.
+  if (is_move(r.msg.kind) || r.msg.kind == request_t::JOG || r.msg.kind == request_t::HOME) {
+    send_stop(r.axes, false, r.msg.request_id);
+  }
+  spdlog::warn("request {}/{} ({}) {}: {}", r.msg.client_id, r.msg.request_id, kind_name(r.msg.kind),
+               status == reply_t::ABORTED ? "aborted" : "failed", reason);
+  reply(r, status, error, reason);
+  finish(r.serial);
+}
+
+// ---------------------------------------------------------------- outputs
+
+std::int64_t Coordinator::send_command(Request& r, const std::string& bus, std::int8_t kind, std::vector<motionlcm::axis_command_t> axes) {
+  gateway_command_t c{};
+  c.utime = wall_time_us();
+  c.bus = bus;
+  c.command_id = next_command_id_++;
+  c.request_id = r.msg.request_id;
+  c.kind = kind;
+  c.trigger_id = kind == gateway_command_t::ARM_MOVE ? r.trigger_id : 0;
+  c.axes = std::move(axes);
+  c.num_axes = static_cast<std::int32_t>(c.axes.size());
+  c.param = r.msg.param;
+  r.pending[c.command_id] = bus;
+  node_.publish(lcm::channels::gateway_command(bus), c);
+  return c.command_id;
+}
+
+void Coordinator::send_stop(const std::vector<std::string>& axes, bool emergency, std::int64_t request_id) {
+  std::map<std::string, std::vector<motionlcm::axis_command_t>> per_bus;
+  for (const auto& name : axes) {
+    motionlcm::axis_command_t c{};
+    c.axis = name;
+    per_bus[axes_.at(name).drive->bus].push_back(c);
+  }
+  for (auto& [bus, cmds] : per_bus) {
+    gateway_command_t c{};
+    c.utime = wall_time_us();
+    c.bus = bus;
+    c.command_id = next_command_id_++;  // fire and forget: replies to it match no request
+    c.request_id = request_id;
+    c.kind = emergency ? gateway_command_t::ESTOP : gateway_command_t::STOP;
+    c.axes = std::move(cmds);
+    c.num_axes = static_cast<std::int32_t>(c.axes.size());
+    node_.publish(lcm::channels::gateway_command(bus), c);
+  }
+}
+
+void Coordinator::reply(Request& r, std::int8_t status, ReplyError error, const std::string& reason) {
+  reply_t out{};
+  out.utime = wall_time_us();
+  out.client_id = r.msg.client_id;
+  out.request_id = r.msg.request_id;
+  out.status = status;
+  out.reason = reason;
+  out.error_code = static_cast<std::int32_t>(error);
+  out.predicted_duration_s = r.plan.duration_s;
+  out.predicted_skew_us = r.plan.predicted_skew_us;
+  std::int64_t first = 0;
+  std::int64_t last = 0;
+  double progress_sum = 0;
+  for (const auto& name : r.axes) {
+    const AxisLive& a = axes_.at(name);
+    out.axes.push_back(name);
+    const double pos = a.state ? a.state->position : 0.0;
+    out.positions.push_back(pos);
+    const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
+    auto t = r.targets.find(name);
+    out.targets.push_back(t != r.targets.end() ? static_cast<double>(t->second) / counts_per_unit : 0.0);
+    const auto started = r.started_utime.find(a.drive->bus);
+    const std::int64_t start = started != r.started_utime.end() ? started->second : 0;
+    out.start_utime.push_back(start);
+    if (start != 0) {
+      first = first == 0 ? start : std::min(first, start);
+      last = std::max(last, start);
+    }
+    if (t != r.targets.end() && a.state) {
+      const double span = static_cast<double>(t->second - r.starts[name]);
+      progress_sum += span == 0 ? 1.0 : std::clamp(static_cast<double>(a.state->position_counts - r.starts[name]) / span, 0.0, 1.0);
+    }
+  }
+  out.num_axes = static_cast<std::int32_t>(out.axes.size());
+  out.measured_start_skew_us = static_cast<double>(last - first);
+  out.progress = status == reply_t::DONE ? 1.0 : (r.axes.empty() ? 0.0 : progress_sum / static_cast<double>(r.axes.size()));
+  out.param = r.param_result;
+  node_.publish(lcm::channels::kReply, out);
+  if (terminal(status)) r.phase = Phase::kDone;
+  if (status == reply_t::DONE) {
+    spdlog::info("request {}/{} ({}) done", r.msg.client_id, r.msg.request_id, kind_name(r.msg.kind));
+  }
+}
+
+void Coordinator::finish(std::uint64_t serial) {
+  auto it = requests_.find(serial);
+  if (it == requests_.end()) return;
+  Request& r = *it->second;
+  loop_.cancel(r.timeout_timer);
+  loop_.cancel(r.progress_timer);
+  loop_.cancel(r.arm_timer);
+  for (const auto& a : r.axes) {
+    auto& live = axes_.at(a);
+    if (live.busy_with == serial) live.busy_with = 0;
+  }
+  active_ids_.erase({r.msg.client_id, r.msg.request_id});
+  requests_.erase(it);
+}
+
+}  // namespace motion::coordinator

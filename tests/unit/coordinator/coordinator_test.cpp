@@ -1,0 +1,389 @@
+// The coordinator's request lifecycle against fake gateways on LCM: every request ends in exactly
+// one terminal reply, with the right cause.
+#include "motion/coordinator/coordinator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <motionlcm/sync_trigger_t.hpp>
+
+#include "motion/lcm/channels.hpp"
+#include "motion/testing/lcm_url.hpp"
+
+namespace motion::coordinator {
+namespace {
+
+using motionlcm::gateway_command_t;
+using motionlcm::gateway_reply_t;
+using motionlcm::reply_t;
+using motionlcm::request_t;
+using std::chrono::milliseconds;
+
+const char* kConfig = R"(
+buses:
+  - {name: can0, transport: simcan:can0}
+  - {name: rs485, transport: simserial:rs485}
+drives:
+  - {name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20}
+  - {name: yd, family: uim342, bus: can0, node_id: 6, group_id: 20}
+  - {name: cd, family: adam-modbus, bus: rs485, node_id: 1}
+axes:
+  - {name: x, drive: xd, steps_per_unit: 100, limits: {min: -10, max: 10, velocity: 5, acceleration: 50}}
+  - {name: y, drive: yd, steps_per_unit: 100, limits: {min: -10, max: 10, velocity: 5, acceleration: 50}}
+  - {name: c, drive: cd, steps_per_unit: 10, limits: {min: -10, max: 10, velocity: 5, acceleration: 50}}
+coordinator: {gateway_timeout_ms: 400, arm_timeout_ms: 500, progress_period_ms: 50}
+)";
+
+// Plans every axis with its own limits: enough for lifecycle tests (the planner has its own).
+std::variant<MovePlan, std::string> simple_planner(const std::vector<PlanInput>& in, double, double) {
+  MovePlan plan;
+  for (const auto& i : in) {
+    if (i.axis == "refuse") return std::string("refused");
+    plan.axes.push_back({i.axis, i.target_counts, i.max_velocity, i.max_acceleration, i.max_acceleration, 0.1});
+  }
+  plan.duration_s = 0.1;
+  return plan;
+}
+
+// Gateways of both buses: heartbeat, axis states, and scripted replies to commands.
+struct FakeGateways {
+  FakeGateways(EventLoop& loop, const std::string& url) : loop_(loop), node(loop, {url, "CT_"}) {
+    node.subscribe_raw("CT_GW_COMMAND_.*", [this](const void* data, int size, const std::string&) {
+      gateway_command_t c{};
+      if (c.decode(data, 0, size) != size) return;
+      commands.push_back(c);
+      if (on_command) on_command(c);
+    });
+    node.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger,
+                                              [this](const motionlcm::sync_trigger_t& t, const std::string&) { triggers.push_back(t); });
+    timer = loop_.call_every(milliseconds(50), [this] { tick(); });
+  }
+  ~FakeGateways() { loop_.cancel(timer); }
+
+  void tick() {
+    for (const std::string bus : {"can0", "rs485"}) {
+      if (silent.contains(bus)) continue;
+      motionlcm::health_t h{};
+      h.process = "gateway:" + bus;
+      h.role = "gateway";
+      h.pid = pid_of[bus];
+      h.state = motionlcm::health_t::OK;
+      h.uptime_s = 10;
+      node.publish(lcm::channels::kHealth, h);
+    }
+    for (auto& [name, s] : states) {
+      if (silent.contains(s.bus)) continue;
+      s.utime = s.sample_utime = wall_time_us();
+      node.publish(lcm::channels::kAxisState, s);
+    }
+  }
+  void reply(const gateway_command_t& c, std::int8_t status, const std::string& reason = {}) {
+    gateway_reply_t r{};
+    r.command_id = c.command_id;
+    r.bus = c.bus;
+    r.status = status;
+    r.reason = reason;
+    r.trigger_utime = wall_time_us();
+    node.publish(lcm::channels::kGatewayReply, r);
+  }
+  void add_axis(const std::string& name, const std::string& bus, double scale) {
+    motionlcm::axis_state_t s{};
+    s.axis = name;
+    s.bus = bus;
+    s.online = true;
+    s.enabled = true;
+    s.in_position = true;
+    scales[name] = scale;
+    states[name] = s;
+  }
+  void put(const std::string& name, std::int64_t counts, bool moving) {
+    auto& s = states[name];
+    s.position_counts = counts;
+    s.position = static_cast<double>(counts) / scales[name];
+    s.moving = moving;
+  }
+
+  EventLoop& loop_;
+  lcm::Node node;
+  EventLoop::TimerId timer;
+  std::map<std::string, motionlcm::axis_state_t> states;
+  std::map<std::string, double> scales;
+  std::map<std::string, std::int32_t> pid_of{{"can0", 100}, {"rs485", 200}};
+  std::set<std::string> silent;
+  std::vector<gateway_command_t> commands;
+  std::vector<motionlcm::sync_trigger_t> triggers;
+  std::function<void(const gateway_command_t&)> on_command;
+};
+
+struct CoordinatorTest : ::testing::Test {
+  CoordinatorTest()
+      : config(*config::load_string(kConfig).config),
+        url(testing::unique_lcm_url(21)),
+        node(loop, {url, "CT_"}),
+        coordinator(loop, node, config, simple_planner),
+        gateways(loop, url),
+        client(loop, {url, "CT_"}) {
+    gateways.add_axis("x", "can0", 100);
+    gateways.add_axis("y", "can0", 100);
+    gateways.add_axis("c", "rs485", 10);
+    client.subscribe<reply_t>(lcm::channels::kReply, [this](const reply_t& r, const std::string&) { replies[r.request_id].push_back(r); });
+    pump(milliseconds(200));  // heartbeats and states reach the coordinator
+  }
+  void pump(milliseconds d) {
+    const auto end = loop.now() + d;
+    while (loop.now() < end) loop.run_once(milliseconds(5));
+  }
+  bool pump_until(const std::function<bool()>& done, milliseconds limit = milliseconds(3000)) {
+    const auto end = loop.now() + limit;
+    while (!done()) {
+      if (loop.now() >= end) return false;
+      loop.run_once(milliseconds(5));
+    }
+    return true;
+  }
+  std::int64_t send(std::int8_t kind, std::vector<std::string> axes, std::vector<double> values, int timeout_ms = 0) {
+    request_t r{};
+    r.client_id = "test";
+    r.request_id = next_id++;
+    r.kind = kind;
+    r.axes = std::move(axes);
+    r.values = std::move(values);
+    r.num_axes = static_cast<std::int32_t>(r.axes.size());
+    r.timeout_ms = timeout_ms;
+    client.publish(lcm::channels::kRequest, r);
+    return r.request_id;
+  }
+  static bool is_terminal(std::int8_t s) { return s == reply_t::DONE || s == reply_t::REJECTED || s == reply_t::ABORTED || s == reply_t::FAILED; }
+  // Waits for the terminal reply of `id`, then checks no second terminal reply follows.
+  reply_t terminal(std::int64_t id) {
+    EXPECT_TRUE(pump_until([&] {
+      for (const auto& r : replies[id]) if (is_terminal(r.status)) return true;
+      return false;
+    })) << "no terminal reply for request " << id;
+    pump(milliseconds(100));
+    int count = 0;
+    reply_t last{};
+    for (const auto& r : replies[id]) {
+      if (is_terminal(r.status)) {
+        ++count;
+        last = r;
+      }
+    }
+    EXPECT_EQ(count, 1) << "request " << id << " got " << count << " terminal replies";
+    return last;
+  }
+  // Answers ARM_MOVE with ARMED, and the trigger with STARTED; moves the fake axes to target.
+  void auto_execute_moves(bool complete = true) {
+    gateways.on_command = [this, complete](const gateway_command_t& c) {
+      if (c.kind == gateway_command_t::ARM_MOVE) {
+        gateways.reply(c, gateway_reply_t::ARMED);
+        armed[c.trigger_id].push_back(c);
+      } else if (c.kind == gateway_command_t::STOP || c.kind == gateway_command_t::ESTOP) {
+        for (const auto& a : c.axes) gateways.states[a.axis].moving = false;
+        gateways.reply(c, gateway_reply_t::DONE);
+      } else {
+        gateways.reply(c, gateway_reply_t::DONE);
+      }
+    };
+    trigger_handler = [this, complete](const motionlcm::sync_trigger_t& t) {
+      for (const auto& c : armed[t.trigger_id]) {
+        gateways.reply(c, gateway_reply_t::STARTED);
+        for (const auto& a : c.axes) gateways.put(a.axis, complete ? a.target_counts : 0, !complete);
+      }
+    };
+  }
+  void pump_triggers() {
+    for (; handled_triggers < gateways.triggers.size(); ++handled_triggers) trigger_handler(gateways.triggers[handled_triggers]);
+  }
+  reply_t run_to_terminal(std::int64_t id) {
+    EXPECT_TRUE(pump_until([&] {
+      pump_triggers();
+      for (const auto& r : replies[id]) if (is_terminal(r.status)) return true;
+      return false;
+    }));
+    return terminal(id);
+  }
+
+  config::Config config;
+  EventLoop loop;
+  std::string url;
+  lcm::Node node;
+  Coordinator coordinator;
+  FakeGateways gateways;
+  lcm::Node client;
+  std::map<std::int64_t, std::vector<reply_t>> replies;
+  std::map<std::int64_t, std::vector<gateway_command_t>> armed;
+  std::function<void(const motionlcm::sync_trigger_t&)> trigger_handler;
+  std::size_t handled_triggers = 0;
+  std::int64_t next_id = 1;
+};
+
+TEST_F(CoordinatorTest, UnknownAxisIsRejectedWithTheKnownAxes) {
+  const auto r = terminal(send(request_t::MOVE_ABSOLUTE, {"q"}, {1.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kUnknownAxis));
+  EXPECT_NE(r.reason.find("unknown axis 'q' (axes: x, y, c)"), std::string::npos) << r.reason;
+}
+
+TEST_F(CoordinatorTest, TargetBeyondLimitIsRejectedNamingTheLimit) {
+  const auto r = terminal(send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {1.0, 12.5}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kOutsideLimits));
+  EXPECT_NE(r.reason.find("target 12.5 mm of axis y is outside its limits [-10, 10]"), std::string::npos) << r.reason;
+  // Relative moves are checked against current position + distance.
+  gateways.put("x", 900, false);  // 9 mm
+  pump(milliseconds(120));
+  EXPECT_EQ(terminal(send(request_t::MOVE_RELATIVE, {"x"}, {2.0})).error_code, static_cast<int>(ReplyError::kOutsideLimits));
+}
+
+TEST_F(CoordinatorTest, MalformedAndDuplicateRequestsAreRejected) {
+  request_t bad{};
+  bad.client_id = "test";
+  bad.request_id = 500;
+  bad.kind = request_t::MOVE_ABSOLUTE;
+  bad.num_axes = 1;
+  bad.axes = {"x"};
+  bad.values = {std::nan("")};
+  client.publish(lcm::channels::kRequest, bad);
+  const auto r = terminal(500);
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kMalformedRequest));
+  EXPECT_NE(r.reason.find("not a finite number"), std::string::npos) << r.reason;
+
+  bad.request_id = 501;
+  bad.kind = 99;
+  client.publish(lcm::channels::kRequest, bad);
+  EXPECT_NE(terminal(501).reason.find("unknown request kind 99"), std::string::npos);
+}
+
+TEST_F(CoordinatorTest, DisabledFaultedAndOfflineAxesAreRejected) {
+  gateways.states["x"].enabled = false;
+  gateways.states["y"].fault = true;
+  gateways.states["y"].fault_text = "stall";
+  pump(milliseconds(120));
+  EXPECT_EQ(terminal(send(request_t::MOVE_ABSOLUTE, {"x"}, {1.0})).error_code, static_cast<int>(ReplyError::kAxisDisabled));
+  const auto faulted = terminal(send(request_t::MOVE_ABSOLUTE, {"y"}, {1.0}));
+  EXPECT_EQ(faulted.error_code, static_cast<int>(ReplyError::kAxisFaulted));
+  EXPECT_NE(faulted.reason.find("stall"), std::string::npos);
+  gateways.silent.insert("rs485");
+  pump(milliseconds(500));
+  EXPECT_EQ(terminal(send(request_t::MOVE_ABSOLUTE, {"c"}, {1.0})).error_code, static_cast<int>(ReplyError::kGatewayOffline));
+}
+
+TEST_F(CoordinatorTest, SynchronizedMoveAcrossTwoBusesArmsTriggersAndCompletes) {
+  auto_execute_moves();
+  const auto id = send(request_t::MOVE_ABSOLUTE, {"x", "y", "c"}, {1.0, -2.0, 3.0});
+  const auto r = run_to_terminal(id);
+  EXPECT_EQ(r.status, std::int8_t{reply_t::DONE}) << r.reason;
+  EXPECT_DOUBLE_EQ(r.progress, 1.0);
+  ASSERT_EQ(r.positions.size(), 3u);
+  EXPECT_DOUBLE_EQ(r.positions[0], 1.0);
+  EXPECT_DOUBLE_EQ(r.positions[2], 3.0);
+  // Every bus got one ARM_MOVE with the same trigger id; one trigger names both buses.
+  ASSERT_EQ(gateways.triggers.size(), 1u);
+  EXPECT_EQ(gateways.triggers[0].num_buses, 2);
+  const auto& arms = armed[gateways.triggers[0].trigger_id];
+  ASSERT_EQ(arms.size(), 2u);
+  std::int64_t x_target = 0;
+  for (const auto& c : arms) for (const auto& a : c.axes) if (a.axis == "x") x_target = a.target_counts;
+  EXPECT_EQ(x_target, 100);
+  // Cross-bus trigger is scheduled ahead; the order of replies was ACCEPTED, STARTED, ..., DONE.
+  EXPECT_GT(gateways.triggers[0].fire_utime, gateways.triggers[0].utime);
+  const auto& all = replies[id];
+  EXPECT_EQ(all.front().status, std::int8_t{reply_t::ACCEPTED});
+  EXPECT_TRUE(std::any_of(all.begin(), all.end(), [](const reply_t& x) { return x.status == reply_t::STARTED; }));
+}
+
+TEST_F(CoordinatorTest, BusyAxisIsRejectedAndStopPreemptsTheMove) {
+  auto_execute_moves(/*complete=*/false);
+  const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {5.0, 5.0});
+  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  pump(milliseconds(50));
+  EXPECT_EQ(terminal(send(request_t::MOVE_ABSOLUTE, {"y"}, {1.0})).error_code, static_cast<int>(ReplyError::kAxisBusy));
+  const auto stop = send(request_t::STOP, {"y"}, {0.0});
+  const auto moved = terminal(move);
+  EXPECT_EQ(moved.status, std::int8_t{reply_t::ABORTED});
+  EXPECT_EQ(moved.error_code, static_cast<int>(ReplyError::kStopped));
+  EXPECT_EQ(terminal(stop).status, std::int8_t{reply_t::DONE});
+}
+
+TEST_F(CoordinatorTest, StallOfOneAxisAbortsTheGroupAndStopsTheOthers) {
+  auto_execute_moves(/*complete=*/false);
+  const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {5.0, 5.0});
+  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  pump(milliseconds(50));
+  motionlcm::event_t stall{};
+  stall.axis = "y";
+  stall.bus = "can0";
+  stall.kind = motionlcm::event_t::STALL;
+  stall.severity = motionlcm::event_t::ERROR;
+  stall.text = "motor stall detected";
+  gateways.node.publish(lcm::channels::kEvent, stall);
+  const auto r = terminal(move);
+  EXPECT_EQ(r.status, std::int8_t{reply_t::ABORTED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kAxisFault));
+  EXPECT_NE(r.reason.find("axis y: motor stall detected"), std::string::npos) << r.reason;
+  const bool stopped_both = std::any_of(gateways.commands.begin(), gateways.commands.end(), [](const gateway_command_t& c) {
+    return c.kind == gateway_command_t::STOP && c.num_axes == 2;
+  });
+  EXPECT_TRUE(stopped_both);
+}
+
+TEST_F(CoordinatorTest, LostGatewayAbortsTheRequestAndStopsTheOtherBus) {
+  auto_execute_moves(/*complete=*/false);
+  const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {5.0, 5.0});
+  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  gateways.silent.insert("rs485");
+  const auto r = terminal(move);
+  EXPECT_EQ(r.status, std::int8_t{reply_t::ABORTED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kGatewayLost));
+  EXPECT_NE(r.reason.find("bus rs485"), std::string::npos) << r.reason;
+  EXPECT_TRUE(std::any_of(gateways.commands.begin(), gateways.commands.end(),
+                          [](const gateway_command_t& c) { return c.kind == gateway_command_t::STOP && c.bus == "can0"; }));
+}
+
+TEST_F(CoordinatorTest, RestartedGatewayAbortsTheRequest) {
+  auto_execute_moves(/*complete=*/false);
+  const auto move = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0});
+  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  gateways.pid_of["can0"] = 101;  // a new process on the same bus
+  const auto r = terminal(move);
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kGatewayLost));
+  EXPECT_NE(r.reason.find("restarted"), std::string::npos) << r.reason;
+}
+
+TEST_F(CoordinatorTest, SilentGatewayDuringArmingFailsTheRequest) {
+  gateways.on_command = [](const gateway_command_t&) {};  // never answers
+  const auto r = terminal(send(request_t::MOVE_ABSOLUTE, {"x"}, {1.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kArmFailed));
+}
+
+TEST_F(CoordinatorTest, RequestTimeoutFailsAndStops) {
+  auto_execute_moves(/*complete=*/false);
+  const auto move = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0}, /*timeout_ms=*/300);
+  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  const auto r = terminal(move);
+  EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kTimeout));
+}
+
+TEST_F(CoordinatorTest, GatewayFailureOfASimpleCommandFailsTheRequestWithItsReason) {
+  gateways.on_command = [this](const gateway_command_t& c) { gateways.reply(c, gateway_reply_t::FAILED, "node 5 did not answer MO=1"); };
+  const auto r = terminal(send(request_t::ENABLE, {"x"}, {0.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kDriveError));
+  EXPECT_NE(r.reason.find("bus can0: node 5 did not answer MO=1"), std::string::npos) << r.reason;
+}
+
+TEST_F(CoordinatorTest, EnableOnTwoBusesIsDoneWhenBothGatewaysAre) {
+  auto_execute_moves();
+  const auto r = terminal(send(request_t::ENABLE, {"x", "c"}, {0.0, 0.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::DONE});
+  int enables = 0;
+  for (const auto& c : gateways.commands) enables += c.kind == gateway_command_t::ENABLE;
+  EXPECT_EQ(enables, 2);
+}
+
+}  // namespace
+}  // namespace motion::coordinator
