@@ -18,5 +18,6 @@ struct Context {
 
 void add_health_command(CLI::App& cli, Context& ctx);
 void add_config_command(CLI::App& cli, Context& ctx);
+void add_axis_commands(CLI::App& cli, Context& ctx);
 
 }  // namespace motion::ctl

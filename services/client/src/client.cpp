@@ -1,0 +1,108 @@
+#include "motion/client/client.hpp"
+
+#include "motion/lcm/channels.hpp"
+
+namespace motion::client {
+
+bool is_terminal(std::int8_t status) {
+  using R = motionlcm::reply_t;
+  return status == R::DONE || status == R::REJECTED || status == R::ABORTED || status == R::FAILED;
+}
+
+const char* status_name(std::int8_t status) {
+  using R = motionlcm::reply_t;
+  switch (status) {
+    case R::ACCEPTED: return "accepted";
+    case R::STARTED: return "started";
+    case R::PROGRESS: return "progress";
+    case R::DONE: return "done";
+    case R::REJECTED: return "rejected";
+    case R::ABORTED: return "aborted";
+    case R::FAILED: return "failed";
+    default: return "unknown";
+  }
+}
+
+Client::Client(EventLoop& loop, lcm::Node& node, std::string client_id)
+    : loop_(loop), node_(node), id_(std::move(client_id)), next_request_id_(wall_time_us()) {
+  // Request ids start at the wall clock so a restarted client never reuses a live id.
+  node_.subscribe<motionlcm::reply_t>(lcm::channels::kReply, [this](const motionlcm::reply_t& r, const std::string&) {
+    if (r.client_id != id_) return;
+    auto it = pending_.find(r.request_id);
+    if (it == pending_.end()) return;
+    auto handler = it->second;  // copy: the handler may send further requests
+    if (is_terminal(r.status)) pending_.erase(it);
+    if (handler) handler(r);
+  });
+  node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [this](const motionlcm::axis_state_t& s, const std::string&) {
+    axes_[s.axis] = s;
+    if (state_handler_) state_handler_(s);
+  });
+  node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) {
+    if (event_handler_) event_handler_(e);
+  });
+}
+
+std::int64_t Client::send(motionlcm::request_t request, ReplyHandler on_reply) {
+  request.utime = wall_time_us();
+  request.client_id = id_;
+  request.request_id = next_request_id_++;
+  request.num_axes = static_cast<std::int32_t>(request.axes.size());
+  request.values.resize(request.axes.size(), 0.0);
+  pending_[request.request_id] = std::move(on_reply);
+  node_.publish(lcm::channels::kRequest, request);
+  return request.request_id;
+}
+
+motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milliseconds timeout, ReplyHandler on_progress) {
+  motionlcm::reply_t result{};
+  bool done = false;
+  const std::int64_t id = send(std::move(request), [&](const motionlcm::reply_t& r) {
+    if (is_terminal(r.status)) {
+      result = r;
+      done = true;
+    } else if (on_progress) {
+      on_progress(r);
+    }
+  });
+  if (!wait_until([&] { return done; }, timeout)) {
+    pending_.erase(id);
+    result.client_id = id_;
+    result.request_id = id;
+    result.status = motionlcm::reply_t::FAILED;
+    result.reason = "no terminal reply from the coordinator within " + std::to_string(timeout.count()) + " ms (is motion-coordinator running on " +
+                    (node_.url().empty() ? std::string("the default LCM URL") : node_.url()) + "?)";
+  }
+  return result;
+}
+
+bool Client::wait_until(const std::function<bool()>& done, std::chrono::milliseconds timeout) {
+  const auto deadline = loop_.now() + timeout;
+  while (!done()) {
+    if (loop_.now() >= deadline || loop_.stopping()) return false;
+    loop_.run_once(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+motionlcm::request_t Client::make(std::int8_t kind, const std::map<std::string, double>& axis_values) {
+  motionlcm::request_t r{};
+  r.kind = kind;
+  for (const auto& [axis, value] : axis_values) {
+    r.axes.push_back(axis);
+    r.values.push_back(value);
+  }
+  r.num_axes = static_cast<std::int32_t>(r.axes.size());
+  return r;
+}
+
+motionlcm::request_t Client::make(std::int8_t kind, const std::vector<std::string>& axes) {
+  motionlcm::request_t r{};
+  r.kind = kind;
+  r.axes = axes;
+  r.values.assign(axes.size(), 0.0);
+  r.num_axes = static_cast<std::int32_t>(r.axes.size());
+  return r;
+}
+
+}  // namespace motion::client

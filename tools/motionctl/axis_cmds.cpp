@@ -1,0 +1,303 @@
+// motionctl commands that talk to the coordinator (requests) or watch axis state.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "motion/client/client.hpp"
+#include "motionctl.hpp"
+
+namespace motion::ctl {
+namespace {
+
+using motionlcm::request_t;
+
+// "x=120" -> ("x", 120); nullopt with a message on bad syntax.
+std::optional<std::pair<std::string, double>> parse_assignment(const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0) return std::nullopt;
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(text.substr(eq + 1), &used);
+    if (used != text.size() - eq - 1 || !std::isfinite(v)) return std::nullopt;
+    return std::pair{text.substr(0, eq), v};
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+std::vector<std::string> all_axes(const config::Config& c) {
+  std::vector<std::string> out;
+  for (const auto& a : c.axes) out.push_back(a.name);
+  return out;
+}
+
+void print_status_table(const config::Config& c, const std::map<std::string, motionlcm::axis_state_t>& states) {
+  std::printf("%-8s %-12s %-7s %4s %5s %14s %-4s %-7s %-6s %-6s %s\n", "AXIS", "FAMILY", "BUS", "NODE", "GROUP", "POSITION", "UNIT", "ENABLED",
+              "MOVING", "ONLINE", "FAULT");
+  for (const auto& a : c.axes) {
+    const auto* d = c.drive_of(a);
+    auto it = states.find(a.name);
+    if (it == states.end()) {
+      std::printf("%-8s %-12s %-7s %4d %5d %14s %-4s %-7s %-6s %-6s %s\n", a.name.c_str(), std::string(config::to_string(d->family)).c_str(),
+                  d->bus.c_str(), d->node_id, d->group_id, "-", a.unit.c_str(), "-", "-", "no", "(no state heard)");
+      continue;
+    }
+    const auto& s = it->second;
+    std::printf("%-8s %-12s %-7s %4d %5d %14.4f %-4s %-7s %-6s %-6s %s\n", a.name.c_str(), s.family.c_str(), s.bus.c_str(), s.node_id, s.group_id,
+                s.position, a.unit.c_str(), s.enabled ? "yes" : "no", s.moving ? "yes" : "no", s.online ? "yes" : "no",
+                s.fault ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
+  }
+}
+
+nlohmann::json status_json(const config::Config& c, const std::map<std::string, motionlcm::axis_state_t>& states) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& a : c.axes) {
+    const auto* d = c.drive_of(a);
+    nlohmann::json j = {{"family", config::to_string(d->family)}, {"bus", d->bus}, {"node", d->node_id}, {"group", d->group_id}, {"unit", a.unit}};
+    if (auto it = states.find(a.name); it != states.end()) {
+      const auto& s = it->second;
+      j.update({{"position", s.position}, {"position_counts", s.position_counts}, {"velocity", s.velocity}, {"enabled", s.enabled},
+                {"moving", s.moving}, {"in_position", s.in_position}, {"online", s.online}, {"fault", s.fault}, {"fault_code", s.fault_code},
+                {"fault_text", s.fault_text}, {"inputs", s.inputs}, {"outputs", s.outputs}});
+    } else {
+      j.update({{"position", nullptr}, {"enabled", nullptr}, {"moving", nullptr}, {"online", false}, {"fault", nullptr}});
+    }
+    out[a.name] = j;
+  }
+  return out;
+}
+
+// Sends `request` and reports its outcome; exit code 0 only on DONE (or STARTED without --wait).
+int run_request(Context& ctx, app::Service& service, request_t request, bool wait, double timeout_s) {
+  client::Client client(service.loop(), service.node(), "motionctl-" + std::to_string(::getpid()));
+  const bool tty = ::isatty(1) != 0 && !ctx.json;
+  bool started = false;
+  auto progress = [&](const motionlcm::reply_t& r) {
+    if (r.status == motionlcm::reply_t::STARTED) started = true;
+    if (tty && wait && (r.status == motionlcm::reply_t::PROGRESS || r.status == motionlcm::reply_t::STARTED)) {
+      const int width = 30;
+      const int filled = static_cast<int>(std::lround(r.progress * width));
+      std::printf("\r[%s%s] %3.0f%%", std::string(static_cast<std::size_t>(filled), '#').c_str(),
+                  std::string(static_cast<std::size_t>(width - filled), '.').c_str(), 100.0 * r.progress);
+      std::fflush(stdout);
+    }
+  };
+  const auto timeout = std::chrono::milliseconds(static_cast<long long>(timeout_s * 1000));
+  motionlcm::reply_t result{};
+  bool finished = false;
+  client.send(request, [&](const motionlcm::reply_t& r) {
+    progress(r);
+    if (client::is_terminal(r.status)) {
+      result = r;
+      finished = true;
+    }
+  });
+  const bool moving_kind = request.kind == request_t::MOVE_ABSOLUTE || request.kind == request_t::MOVE_RELATIVE || request.kind == request_t::HOME;
+  client.wait_until([&] { return finished || (!wait && moving_kind && started); }, timeout);
+  if (tty && wait) std::printf("\n");
+  if (!finished && !wait && started) {
+    std::cout << "started (not waiting; use --wait to follow it to the end)\n";
+    return app::kExitOk;
+  }
+  if (!finished) {
+    std::cerr << "motionctl: no terminal reply within " << timeout_s << " s (is motion-coordinator running?)\n";
+    return app::kExitUnavailable;
+  }
+  if (ctx.json) {
+    nlohmann::json j = {{"status", client::status_name(result.status)}, {"reason", result.reason}, {"error_code", result.error_code},
+                        {"predicted_duration_s", result.predicted_duration_s}, {"predicted_skew_us", result.predicted_skew_us},
+                        {"measured_start_skew_us", result.measured_start_skew_us}};
+    for (std::size_t i = 0; i < result.axes.size(); ++i) {
+      j["axes"][result.axes[i]] = {{"target", result.targets[i]}, {"position", result.positions[i]}, {"start_utime", result.start_utime[i]}};
+    }
+    if (result.param.space != motionlcm::param_t::NONE) j["value"] = result.param.value;
+    std::cout << j.dump(2) << "\n";
+  } else if (result.status == motionlcm::reply_t::DONE) {
+    std::cout << "done";
+    if (result.param.space != motionlcm::param_t::NONE) std::cout << ": value " << result.param.value;
+    for (std::size_t i = 0; i < result.axes.size() && moving_kind; ++i) std::printf("\n  %-8s %12.4f", result.axes[i].c_str(), result.positions[i]);
+    if (moving_kind && result.measured_start_skew_us >= 0) std::printf("\n  start skew %.0f us (predicted arrival spread %.0f us)", result.measured_start_skew_us, result.predicted_skew_us);
+    std::cout << "\n";
+  }
+  if (result.status != motionlcm::reply_t::DONE) {
+    std::cerr << client::status_name(result.status) << ": " << result.reason << "\n";
+    return app::kExitFailure;
+  }
+  return app::kExitOk;
+}
+
+struct AxisArgs {
+  std::vector<std::string> items;
+  bool wait = false;
+  bool relative = false;
+  double speed = 0;
+  double timeout_s = 60;
+};
+
+}  // namespace
+
+void add_axis_commands(CLI::App& cli, Context& ctx) {
+  // status / watch
+  auto* status = cli.add_subcommand("status", "Table of every axis (--json for scripts)");
+  auto listen = std::make_shared<double>(1.0);
+  status->add_option("--listen", *listen, "Seconds to collect axis states")->capture_default_str();
+  status->callback([&ctx, listen] {
+    ctx.result = ctx.with_node([&](app::Service& service) -> int {
+      client::Client client(service.loop(), service.node(), "motionctl-status");
+      const auto& cfg = service.config();
+      client.wait_until([&] { return client.axes().size() >= cfg.axes.size(); }, std::chrono::milliseconds(static_cast<long long>(*listen * 1000)));
+      if (ctx.json) {
+        std::cout << status_json(cfg, client.axes()).dump(2) << "\n";
+      } else {
+        print_status_table(cfg, client.axes());
+      }
+      return client.axes().empty() ? app::kExitUnavailable : app::kExitOk;
+    });
+  });
+  auto* watch = cli.add_subcommand("watch", "Live axis table and events (Ctrl-C ends)");
+  auto duration = std::make_shared<double>(0);
+  watch->add_option("--for", *duration, "Stop after this many seconds (0 = until Ctrl-C)");
+  watch->callback([&ctx, duration] {
+    ctx.result = ctx.with_node([&](app::Service& service) -> int {
+      client::Client client(service.loop(), service.node(), "motionctl-watch");
+      client.on_event([](const motionlcm::event_t& e) {
+        std::printf("event %s %s%s: %s (code %d)\n", e.source.c_str(), e.bus.c_str(), e.axis.empty() ? "" : ("/" + e.axis).c_str(), e.text.c_str(), e.code);
+      });
+      service.loop().call_every(std::chrono::milliseconds(250), [&] {
+        if (::isatty(1) != 0) std::printf("\033[H\033[J");
+        print_status_table(service.config(), client.axes());
+        std::fflush(stdout);
+      });
+      if (*duration > 0) service.loop().call_after(std::chrono::milliseconds(static_cast<long long>(*duration * 1000)), [&] { service.loop().stop(); });
+      service.loop().run();
+      return app::kExitOk;
+    });
+  });
+
+  // Commands on a list of axes (default: every axis).
+  struct Simple {
+    const char* name;
+    const char* help;
+    std::int8_t kind;
+    bool all_by_default;
+  };
+  for (const Simple s : {Simple{"enable", "Switch drives on", request_t::ENABLE, true}, Simple{"disable", "Switch drives off", request_t::DISABLE, true},
+                         Simple{"reset", "Clear faults", request_t::FAULT_RESET, true}, Simple{"stop", "Decelerating stop", request_t::STOP, true},
+                         Simple{"estop", "Emergency stop", request_t::ESTOP, true}, Simple{"home", "Home axes as configured", request_t::HOME, false}}) {
+    auto* cmd = cli.add_subcommand(s.name, std::string(s.help) + (s.all_by_default ? " (default: every axis)" : ""));
+    auto args = std::make_shared<AxisArgs>();
+    cmd->add_option("axes", args->items, "Axis names");
+    cmd->add_option("--timeout", args->timeout_s, "Seconds to wait for the outcome")->capture_default_str();
+    if (!s.all_by_default) cmd->get_option("axes")->required();
+    const auto kind = s.kind;
+    const bool all = s.all_by_default;
+    cmd->callback([&ctx, args, kind, all] {
+      ctx.result = ctx.with_node([&](app::Service& service) -> int {
+        auto axes = args->items.empty() && all && kind != request_t::STOP && kind != request_t::ESTOP ? all_axes(service.config()) : args->items;
+        return run_request(ctx, service, client::Client::make(kind, axes), true, args->timeout_s);
+      });
+    });
+  }
+
+  // move / jog / set-position: AXIS=VALUE assignments.
+  struct Assign {
+    const char* name;
+    const char* help;
+    std::int8_t kind;
+  };
+  for (const Assign s : {Assign{"move", "Synchronized move: AXIS=POS ... (user units)", request_t::MOVE_ABSOLUTE},
+                         Assign{"jog", "Jog: AXIS=VELOCITY ... (units/s, sign = direction)", request_t::JOG},
+                         Assign{"set-position", "Declare the current position: AXIS=POS ...", request_t::SET_POSITION}}) {
+    auto* cmd = cli.add_subcommand(s.name, s.help);
+    auto args = std::make_shared<AxisArgs>();
+    cmd->add_option("assignments", args->items, "AXIS=VALUE")->required();
+    cmd->add_option("--timeout", args->timeout_s, "Seconds to wait for the outcome")->capture_default_str();
+    const bool is_move = s.kind == request_t::MOVE_ABSOLUTE;
+    if (is_move) {
+      cmd->add_flag("--rel", args->relative, "Distances instead of targets");
+      cmd->add_option("--speed", args->speed, "Fraction (0..1] of the axes' velocity and acceleration limits");
+      cmd->add_flag("--wait", args->wait, "Wait for the end of the move, with a progress bar");
+    }
+    const auto kind = s.kind;
+    cmd->callback([&ctx, args, kind, is_move] {
+      std::map<std::string, double> values;
+      for (const auto& item : args->items) {
+        auto parsed = parse_assignment(item);
+        if (!parsed) {
+          std::cerr << "motionctl: '" << item << "' is not AXIS=NUMBER\n";
+          ctx.result = app::kExitUsage;
+          return;
+        }
+        values[parsed->first] = parsed->second;
+      }
+      ctx.result = ctx.with_node([&](app::Service& service) -> int {
+        auto request = client::Client::make(is_move && args->relative ? std::int8_t{request_t::MOVE_RELATIVE} : kind, values);
+        request.velocity_scale = args->speed;
+        request.acceleration_scale = args->speed;
+        return run_request(ctx, service, request, !is_move || args->wait, args->timeout_s);
+      });
+    });
+  }
+
+  // outputs AXIS MASK VALUE
+  auto* outputs = cli.add_subcommand("outputs", "Set digital outputs of one axis's drive: AXIS MASK VALUE");
+  auto out_args = std::make_shared<std::tuple<std::string, int, int>>();
+  outputs->add_option("axis", std::get<0>(*out_args))->required();
+  outputs->add_option("mask", std::get<1>(*out_args), "bit n = output n+1")->required();
+  outputs->add_option("value", std::get<2>(*out_args))->required();
+  outputs->callback([&ctx, out_args] {
+    ctx.result = ctx.with_node([&](app::Service& service) -> int {
+      auto request = client::Client::make(request_t::SET_OUTPUTS, std::vector<std::string>{std::get<0>(*out_args)});
+      request.output_mask = std::get<1>(*out_args);
+      request.output_value = std::get<2>(*out_args);
+      return run_request(ctx, service, request, true, 10);
+    });
+  });
+
+  // param get|set AXIS INDEX [SUBINDEX] [--value V] : expert access in the family's own terms.
+  auto* param = cli.add_subcommand("param", "Expert parameter access in the drive family's own terms");
+  auto p = std::make_shared<std::tuple<std::string, std::string, std::string, int, std::optional<long long>, int>>();
+  param->add_option("axis", std::get<0>(*p))->required();
+  param->add_option("index", std::get<1>(*p), "UIM342 function code, CANopen index, Modbus register (decimal or 0x...), UIM242 mnemonic")->required();
+  param->add_option("--sub", std::get<3>(*p), "Sub-index (-1 = none)")->default_val(-1);
+  param->add_option("--set", std::get<4>(*p), "Write this value (otherwise read)");
+  param->add_option("--width", std::get<5>(*p), "Bytes (CAN families) or registers (Modbus); 0 = from the dictionary")->default_val(0);
+  param->callback([&ctx, p] {
+    ctx.result = ctx.with_node([&](app::Service& service) -> int {
+      const auto& cfg = service.config();
+      const auto* axis = cfg.find_axis(std::get<0>(*p));
+      if (axis == nullptr) {
+        std::cerr << "motionctl: unknown axis '" << std::get<0>(*p) << "'\n";
+        return app::kExitUsage;
+      }
+      const auto family = cfg.drive_of(*axis)->family;
+      auto request = client::Client::make(std::get<4>(*p) ? std::int8_t{request_t::PARAM_WRITE} : std::int8_t{request_t::PARAM_READ},
+                                          std::vector<std::string>{axis->name});
+      auto& prm = request.param;
+      prm.space = family == config::Family::kUim342  ? motionlcm::param_t::UIM342_INSTRUCTION
+                  : family == config::Family::kUc57  ? motionlcm::param_t::CANOPEN_OBJECT
+                  : family == config::Family::kUim242 ? motionlcm::param_t::UIM242_INSTRUCTION
+                                                     : motionlcm::param_t::MODBUS_REGISTER;
+      const std::string& index = std::get<1>(*p);
+      if (family == config::Family::kUim242) {
+        prm.mnemonic = index;
+      } else {
+        try {
+          prm.index = static_cast<std::int32_t>(std::stol(index, nullptr, 0));
+        } catch (const std::exception&) {
+          std::cerr << "motionctl: index '" << index << "' is not a number\n";
+          return app::kExitUsage;
+        }
+      }
+      prm.subindex = std::get<3>(*p);
+      prm.width = static_cast<std::int8_t>(std::get<5>(*p));
+      prm.value = std::get<4>(*p).value_or(0);
+      return run_request(ctx, service, request, true, 10);
+    });
+  });
+}
+
+}  // namespace motion::ctl
