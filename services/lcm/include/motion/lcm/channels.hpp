@@ -14,6 +14,8 @@ inline constexpr std::string_view kEvent = "EVENT";              // event_t, gat
 inline constexpr std::string_view kHealth = "HEALTH";            // health_t, every process
 inline constexpr std::string_view kGatewayReply = "GW_REPLY";    // gateway_reply_t
 inline constexpr std::string_view kSyncTrigger = "SYNC_TRIGGER"; // sync_trigger_t
+inline constexpr std::string_view kSimControl = "SIM_CONTROL";   // sim_control_t, tests -> motion-sim
+inline constexpr std::string_view kSimReport = "SIM_REPORT";     // sim_report_t, motion-sim -> tests
 
 // gateway_command_t for one bus.
 inline std::string gateway_command(std::string_view bus) { return "GW_COMMAND_" + std::string(bus); }
