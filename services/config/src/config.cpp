@@ -1,5 +1,6 @@
 #include "motion/config/config.hpp"
 
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
@@ -81,6 +82,12 @@ std::string default_config_path() {
 #else
   return "config/sim-lab.yaml";
 #endif
+}
+
+std::string sim_runtime_dir(const Config& config) {
+  if (!config.simulation.runtime_dir.empty()) return config.simulation.runtime_dir;
+  if (const char* env = std::getenv("MOTION_SIM_DIR"); env != nullptr && *env != '\0') return env;
+  return "/tmp/motion-sim-" + std::to_string(::getuid());
 }
 
 namespace {

@@ -1,8 +1,11 @@
-// motion-sim: the simulated buses and drives of a configuration.
+// motion-sim: the simulated buses and drives of a configuration. Every simulated CAN bus gets a
+// bit-timed hub that gateways attach to by name; every drive gets the simulator of its family.
 #include <spdlog/spdlog.h>
 
 #include "motion/app/service.hpp"
 #include "motion/core/log.hpp"
+#include "motion/lcm/channels.hpp"
+#include "motion/sim/can_bus_host.hpp"
 
 int main(int argc, char** argv) {
   using namespace motion;
@@ -15,7 +18,46 @@ int main(int argc, char** argv) {
     if (!config) return app::kExitConfig;
     app::Service service(*config, options, "sim", "sim");
     if (!service.ok()) return app::kExitUnavailable;
-    service.health().set_state(motionlcm::health_t::OK, std::to_string(config->drives.size()) + " drives");
+
+    // Simulators by family; each family's issue registers its own here.
+    const std::map<config::Family, sim::CanDriveFactory> can_factories;
+
+    auto report = [&service](motionlcm::sim_report_t r) { service.node().publish(motion::lcm::channels::kSimReport, r); };
+    std::vector<std::unique_ptr<sim::CanBusHost>> can_buses;
+    std::vector<std::string> missing;
+    for (const auto& bus : config->buses) {
+      if (bus.kind == config::TransportKind::kSimCan) {
+        std::error_code error;
+        auto host = sim::CanBusHost::open(service.loop(), *config, bus, can_factories, report, error);
+        if (!host) {
+          spdlog::error("cannot open simulated CAN bus {} in {}: {}", bus.name, config::sim_runtime_dir(*config), error.message());
+          return app::kExitUnavailable;
+        }
+        missing.insert(missing.end(), host->missing().begin(), host->missing().end());
+        spdlog::info("simulated CAN bus {} at {} bit/s ({}), socket {}", bus.name, bus.bitrate, bus.bus_timing ? "bit-timed" : "untimed",
+                     host->hub().socket_path().string());
+        can_buses.push_back(std::move(host));
+      } else if (bus.kind == config::TransportKind::kSimSerial) {
+        for (const auto& d : config->drives) {
+          if (d.bus == bus.name) missing.push_back(d.name + " (" + std::string(config::to_string(d.family)) + ")");
+        }
+      }
+    }
+    service.node().subscribe<motionlcm::sim_control_t>(motion::lcm::channels::kSimControl, [&](const motionlcm::sim_control_t& c, const std::string&) {
+      for (auto& host : can_buses) {
+        if (host->control(c)) return;
+      }
+      spdlog::warn("sim control for drive '{}' bus '{}' (action {}) matched nothing it supports", c.drive, c.bus, c.action);
+    });
+
+    if (missing.empty()) {
+      service.health().set_state(motionlcm::health_t::OK, std::to_string(config->drives.size()) + " drives");
+    } else {
+      std::string list;
+      for (const auto& m : missing) list += (list.empty() ? "" : ", ") + m;
+      spdlog::warn("no simulator yet for: {}", list);
+      service.health().set_state(motionlcm::health_t::DEGRADED, "no simulator for " + list);
+    }
     return service.run();
   });
 }

@@ -108,10 +108,17 @@ bool ProcessGroup::pump_until(const std::function<bool()>& done, std::chrono::mi
   return true;
 }
 
-bool ProcessGroup::wait_for_heartbeat(const std::string& process, std::chrono::milliseconds timeout) {
+std::optional<motionlcm::health_t> ProcessGroup::heartbeat(const std::string& process) const {
+  auto it = heartbeats_.find(process);
+  if (it == heartbeats_.end()) return std::nullopt;
+  return it->second;
+}
+
+bool ProcessGroup::wait_for_heartbeat(const std::string& process, std::chrono::milliseconds timeout, bool accept_degraded) {
   const bool ok = pump_until([&] {
     auto it = heartbeats_.find(process);
-    return it != heartbeats_.end() && it->second.state == motionlcm::health_t::OK;
+    if (it == heartbeats_.end()) return false;
+    return it->second.state == motionlcm::health_t::OK || (accept_degraded && it->second.state == motionlcm::health_t::DEGRADED);
   }, timeout);
   if (!ok) ADD_FAILURE() << "no OK heartbeat from '" << process << "' within " << timeout.count() << " ms on " << url_;
   return ok;

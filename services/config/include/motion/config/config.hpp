@@ -164,6 +164,11 @@ struct LoadResult {
 LoadResult load_file(const std::string& path);
 LoadResult load_string(std::string_view yaml_text, const std::string& file_name = "<string>");
 
+// Where simulated buses (sockets) and serial lines (pty links) of this configuration live:
+// simulation.runtime_dir, else $MOTION_SIM_DIR, else /tmp/motion-sim-<uid>. Gateways and
+// motion-sim agree on it, so a test that sets MOTION_SIM_DIR gets a private lab.
+[[nodiscard]] std::string sim_runtime_dir(const Config& config);
+
 // The simulated lab that ships as the embedded default (config/sim-lab.yaml is its file form).
 [[nodiscard]] std::string default_config_path();
 

@@ -49,9 +49,12 @@ class ProcessGroup {
   // Runs a command to completion (e.g. motionctl), capturing stdout+stderr. Returns exit code.
   int run_to_completion(const ProcessSpec& spec, std::string* output, std::chrono::milliseconds timeout = std::chrono::seconds(30));
 
-  // Pumps LCM until `process` heartbeats with state OK, or the timeout. False on timeout (and the
-  // failing process's log is printed).
-  bool wait_for_heartbeat(const std::string& process, std::chrono::milliseconds timeout = std::chrono::seconds(15));
+  // Pumps LCM until `process` heartbeats with state OK (or also DEGRADED when `accept_degraded`),
+  // or the timeout. False on timeout (the test fails, and the logs are printed at teardown).
+  bool wait_for_heartbeat(const std::string& process, std::chrono::milliseconds timeout = std::chrono::seconds(15),
+                          bool accept_degraded = false);
+  // The latest heartbeat heard from `process`, if any.
+  [[nodiscard]] std::optional<motionlcm::health_t> heartbeat(const std::string& process) const;
   // Pumps the loop until `done()` or the timeout.
   bool pump_until(const std::function<bool()>& done, std::chrono::milliseconds timeout);
 

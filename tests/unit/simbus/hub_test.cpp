@@ -1,0 +1,380 @@
+// The hub and its endpoints over real Unix sockets, all on one EventLoop in this process.
+#include "motion/simbus/hub.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "motion/simbus/address.hpp"
+
+namespace motion::simbus {
+namespace {
+
+using std::chrono::milliseconds;
+using std::chrono::microseconds;
+
+// A private socket directory per test: no shared paths between tests or concurrent runs.
+class TempDir {
+ public:
+  TempDir() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "simbus-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+    path_ = pattern;
+  }
+  ~TempDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+bool run_until(EventLoop& loop, const std::function<bool()>& done, Duration timeout = std::chrono::seconds(3)) {
+  const TimePoint deadline = SteadyClock::now() + timeout;
+  while (!done()) {
+    if (SteadyClock::now() > deadline) return false;
+    loop.run_once(milliseconds(5));
+  }
+  return true;
+}
+
+// Watches one transport on the loop and keeps what it receives.
+class Receiver {
+ public:
+  Receiver(EventLoop& loop, can::Transport& transport) : loop_(loop), transport_(transport), fd_(transport.fd()) {
+    transport_.on_bus_event([this](const can::BusEvent& e) { events.push_back(e); });
+    loop_.watch(fd_, [this] {
+      ++wakeups;
+      while (auto f = transport_.receive()) frames.push_back(*f);
+    });
+  }
+  ~Receiver() { loop_.unwatch(fd_); }
+  Receiver(const Receiver&) = delete;
+  Receiver& operator=(const Receiver&) = delete;
+
+  [[nodiscard]] std::vector<std::uint32_t> ids() const {
+    std::vector<std::uint32_t> out;
+    for (const auto& f : frames) out.push_back(f.id);
+    return out;
+  }
+  std::vector<can::Frame> frames;
+  std::vector<can::BusEvent> events;
+  int wakeups = 0;
+
+ private:
+  EventLoop& loop_;
+  can::Transport& transport_;
+  int fd_;
+};
+
+can::Frame frame(std::uint32_t id, std::vector<std::uint8_t> payload = {}) {
+  return can::Frame::make(id, false, payload).value();
+}
+
+class HubTest : public ::testing::Test {
+ protected:
+  void open_hub(BusConfig config = {}) {
+    std::error_code error;
+    hub = Hub::open(loop, HubOptions{"lab", dir.path(), true, config}, error);
+    ASSERT_TRUE(hub) << error.message();
+  }
+  std::unique_ptr<SocketEndpoint> connect(const std::string& label, bool own_echo = false) {
+    std::error_code error;
+    auto endpoint = SocketEndpoint::connect("lab", EndpointOptions{dir.path(), label, own_echo}, error);
+    EXPECT_TRUE(endpoint) << error.message();
+    return endpoint;
+  }
+  void wait_attached(std::size_t count) {
+    ASSERT_TRUE(run_until(loop, [&] { return hub->endpoints().size() == count; }));
+  }
+  EndpointId id_of(const std::string& label) const { return hub->find_endpoint(label).value_or(0); }
+
+  TempDir dir;
+  EventLoop loop;
+  std::unique_ptr<Hub> hub;
+};
+
+TEST_F(HubTest, EveryFrameReachesEveryOtherEndpointAcrossSocketsAndInProcess) {
+  open_hub();
+  EXPECT_EQ(hub->socket_path(), dir.path() / "motion-simbus-lab.sock");
+  auto one = connect("one");
+  auto two = connect("two");
+  auto three = connect("three");
+  auto drive = hub->attach_local("drive");
+  ASSERT_TRUE(one && two && three && drive);
+  Receiver r1(loop, *one), r2(loop, *two), r3(loop, *three), rd(loop, *drive);
+  wait_attached(4);
+  ASSERT_TRUE(run_until(loop, [&] { return one->endpoint_id() != 0 && three->endpoint_id() != 0; }));
+  EXPECT_EQ(one->endpoint_id(), id_of("one"));
+  EXPECT_EQ(one->name(), "sim:lab");
+
+  ASSERT_FALSE(one->send(frame(0x101, {1})));
+  ASSERT_FALSE(two->send(frame(0x102, {2})));
+  ASSERT_FALSE(three->send(frame(0x103, {3})));
+  ASSERT_FALSE(drive->send(frame(0x104, {4})));
+  ASSERT_TRUE(run_until(loop, [&] {
+    return r1.frames.size() == 3 && r2.frames.size() == 3 && r3.frames.size() == 3 && rd.frames.size() == 3;
+  }));
+  loop.run_once(milliseconds(20));  // nothing more may arrive (in particular no own frames)
+  auto sorted = [](std::vector<std::uint32_t> v) {
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  EXPECT_EQ(sorted(r1.ids()), (std::vector<std::uint32_t>{0x102, 0x103, 0x104}));
+  EXPECT_EQ(sorted(r2.ids()), (std::vector<std::uint32_t>{0x101, 0x103, 0x104}));
+  EXPECT_EQ(sorted(r3.ids()), (std::vector<std::uint32_t>{0x101, 0x102, 0x104}));
+  EXPECT_EQ(sorted(rd.ids()), (std::vector<std::uint32_t>{0x101, 0x102, 0x103}));
+  EXPECT_EQ(one->statistics().tx_frames, 1u);
+  EXPECT_EQ(one->statistics().rx_frames, 3u);
+  EXPECT_EQ(one->statistics().rx_bytes, 3u);
+  EXPECT_EQ(hub->statistics().frames, 4u);
+}
+
+class HubBitrate : public HubTest, public ::testing::WithParamInterface<std::uint32_t> {};
+
+TEST_P(HubBitrate, BackToBackFramesAreStampedOneFrameTimeApart) {
+  BusConfig config;
+  config.bitrate = GetParam();
+  open_hub(config);
+  auto tx = connect("tx");
+  auto rx = connect("rx");
+  Receiver received(loop, *rx);
+  Receiver sent(loop, *tx);
+  wait_attached(2);
+  const std::vector<can::Frame> frames{frame(0x601, {0x40, 0x41, 0x60, 0, 0, 0, 0, 0}), frame(0x601, {}),
+                                       frame(0x601, {0xFF, 0xFF, 0xFF}), frame(0x601, std::vector<std::uint8_t>(8, 0))};
+  const std::int64_t before = wall_time_us();
+  for (const auto& f : frames) ASSERT_FALSE(tx->send(f));
+  ASSERT_TRUE(run_until(loop, [&] { return received.frames.size() == frames.size(); }));
+  for (std::size_t i = 1; i < frames.size(); ++i) {
+    EXPECT_EQ(microseconds(received.frames[i].timestamp_us - received.frames[i - 1].timestamp_us),
+              frame_duration(frames[i], GetParam()))
+        << "frame " << i;
+  }
+  // Timestamps are wall-clock end-of-frame times: after the send, and not far in the future.
+  EXPECT_GE(received.frames.front().timestamp_us, before);
+  EXPECT_LT(received.frames.back().timestamp_us, wall_time_us() + 100'000);
+  EXPECT_GT(hub->statistics().bus_load, 0.0);
+  EXPECT_EQ(rx->bitrate(), GetParam());
+}
+
+INSTANTIATE_TEST_SUITE_P(Bitrates, HubBitrate, ::testing::Values(125'000u, 500'000u, 1'000'000u));
+
+TEST_F(HubTest, OwnEchoAndFiltersArePerEndpoint) {
+  open_hub();
+  auto tx = connect("tx");
+  auto rx = connect("rx");
+  auto local = hub->attach_local("local", /*own_echo=*/true);
+  Receiver at_tx(loop, *tx), at_rx(loop, *rx), at_local(loop, *local);
+  wait_attached(3);
+  ASSERT_FALSE(tx->set_own_echo(true));
+  ASSERT_FALSE(rx->set_filters({can::Filter{0x200, 0x7FF, false, true}}));
+  ASSERT_FALSE(tx->send(frame(0x100)));
+  ASSERT_FALSE(tx->send(frame(0x200)));
+  ASSERT_FALSE(local->send(frame(0x300)));
+  ASSERT_TRUE(run_until(loop, [&] { return at_tx.frames.size() == 3 && at_local.frames.size() == 3; }));
+  loop.run_once(milliseconds(20));
+  // The local send reaches the bus at once; the hub reads tx's socket only on the next poll.
+  EXPECT_EQ(at_tx.ids(), (std::vector<std::uint32_t>{0x300, 0x100, 0x200}));     // own two echoed
+  EXPECT_EQ(at_local.ids(), (std::vector<std::uint32_t>{0x300, 0x100, 0x200}));  // own echo too
+  EXPECT_EQ(at_rx.ids(), (std::vector<std::uint32_t>{0x200}));                    // filter
+  EXPECT_EQ(rx->statistics().rx_frames, 1u);
+}
+
+TEST_F(HubTest, CorruptedFrameIsAnErrorEventNotAFrame) {
+  open_hub();
+  auto tx = connect("tx");
+  auto rx = connect("rx");
+  Receiver at_tx(loop, *tx), at_rx(loop, *rx);
+  wait_attached(2);
+  hub->inject(Fault::corrupt(1));
+  ASSERT_FALSE(tx->send(frame(0x123, {0xAA})));
+  ASSERT_FALSE(tx->send(frame(0x124)));
+  ASSERT_TRUE(run_until(loop, [&] { return at_rx.frames.size() == 1 && !at_tx.events.empty(); }));
+  EXPECT_EQ(at_rx.frames[0].id, 0x124u);
+  ASSERT_EQ(at_rx.events.size(), 1u);
+  EXPECT_EQ(at_rx.events[0].error_class, kErrorProtocol);
+  EXPECT_EQ(rx->statistics().errors, 1u);
+  EXPECT_EQ(tx->statistics().errors, 1u);
+  EXPECT_EQ(hub->statistics().errors, 1u);
+  EXPECT_EQ(rx->state(), can::BusState::kErrorActive);
+}
+
+TEST_F(HubTest, DropAndDelayFaultsApplyToSocketTraffic) {
+  open_hub();
+  auto tx = connect("tx");
+  auto rx = connect("rx");
+  Receiver at_rx(loop, *rx);
+  wait_attached(2);
+  hub->inject(Fault::drop(1));
+  hub->inject(Fault::delay_by(milliseconds(30), 1, {can::Filter{0x002, 0x7FF}}));
+  for (std::uint32_t id = 1; id <= 3; ++id) ASSERT_FALSE(tx->send(frame(id)));
+  ASSERT_TRUE(run_until(loop, [&] { return at_rx.frames.size() == 2; }));
+  EXPECT_EQ(at_rx.ids(), (std::vector<std::uint32_t>{0x003, 0x002}));
+  EXPECT_GE(at_rx.frames[1].timestamp_us - at_rx.frames[0].timestamp_us, 30'000 - 200);
+  EXPECT_EQ(hub->statistics().dropped, 1u);
+}
+
+TEST_F(HubTest, BusOffEndpointFailsSendsUntilRecovered) {
+  open_hub();
+  auto tx = connect("tx");
+  auto rx = connect("rx");
+  Receiver at_tx(loop, *tx), at_rx(loop, *rx);
+  wait_attached(2);
+  ASSERT_TRUE(hub->set_bus_off(id_of("tx")));
+  // Sent before tx has heard about it: the hub refuses it and tells tx.
+  ASSERT_FALSE(tx->send(frame(0x111)));
+  ASSERT_TRUE(run_until(loop, [&] { return tx->state() == can::BusState::kBusOff && tx->statistics().tx_dropped == 1; }));
+  EXPECT_EQ(tx->send(frame(0x112)), std::errc::network_down);
+  ASSERT_EQ(at_tx.events.size(), 1u);
+  EXPECT_EQ(at_tx.events[0].error_class, kErrorBusOff);
+  EXPECT_EQ(tx->statistics().bus_off_count, 1u);
+  EXPECT_EQ(tx->statistics().tx_dropped, 2u);
+
+  ASSERT_TRUE(hub->recover(id_of("tx")));
+  ASSERT_TRUE(run_until(loop, [&] { return tx->state() == can::BusState::kErrorActive; }));
+  EXPECT_EQ(at_tx.events.back().error_class, kErrorRestarted);
+  ASSERT_FALSE(tx->send(frame(0x113)));
+  ASSERT_TRUE(run_until(loop, [&] { return !at_rx.frames.empty(); }));
+  EXPECT_EQ(at_rx.ids(), (std::vector<std::uint32_t>{0x113}));
+
+  // Automatic recovery after a given time.
+  ASSERT_TRUE(hub->set_bus_off(id_of("tx"), milliseconds(30)));
+  ASSERT_TRUE(run_until(loop, [&] { return tx->state() == can::BusState::kBusOff; }));
+  ASSERT_TRUE(run_until(loop, [&] { return tx->state() == can::BusState::kErrorActive; }));
+}
+
+TEST_F(HubTest, LocalEndpointSeesBusOffAtOnce) {
+  open_hub();
+  auto drive = hub->attach_local("drive");
+  Receiver at_drive(loop, *drive);
+  ASSERT_TRUE(hub->set_bus_off(drive->endpoint_id()));
+  EXPECT_EQ(drive->state(), can::BusState::kBusOff);
+  EXPECT_EQ(drive->send(frame(0x1)), std::errc::network_down);
+  ASSERT_TRUE(run_until(loop, [&] { return !at_drive.events.empty(); }));
+  EXPECT_EQ(at_drive.events[0].state, can::BusState::kBusOff);
+  EXPECT_EQ(drive->statistics().bus_off_count, 1u);
+  ASSERT_TRUE(hub->recover(drive->endpoint_id()));
+  EXPECT_FALSE(drive->send(frame(0x1)));
+}
+
+TEST_F(HubTest, DisconnectCutsOffSocketAndLocalEndpoints) {
+  open_hub();
+  auto gateway = connect("gateway");
+  auto drive = hub->attach_local("drive");
+  Receiver at_gateway(loop, *gateway), at_drive(loop, *drive);
+  wait_attached(2);
+  ASSERT_TRUE(hub->disconnect(id_of("gateway")));
+  ASSERT_TRUE(hub->disconnect(drive->endpoint_id()));
+  EXPECT_FALSE(hub->disconnect(999));
+  ASSERT_TRUE(run_until(loop, [&] { return !at_gateway.events.empty() && !at_drive.events.empty(); }));
+  for (can::Transport* t : {static_cast<can::Transport*>(gateway.get()), static_cast<can::Transport*>(drive.get())}) {
+    EXPECT_EQ(t->state(), can::BusState::kDisconnected);
+    EXPECT_EQ(t->fd(), -1);
+    EXPECT_EQ(t->send(frame(0x1)), std::errc::not_connected);
+  }
+  EXPECT_EQ(at_gateway.events[0].state, can::BusState::kDisconnected);
+  EXPECT_TRUE(hub->endpoints().empty());
+  // The loop still watches the old descriptor numbers: they must stay quiet, not spin.
+  const int wakeups = at_gateway.wakeups + at_drive.wakeups;
+  loop.call_after(milliseconds(30), [&] { loop.stop(); });
+  const std::uint64_t errors = loop.run();
+  EXPECT_EQ(errors, 0u);
+  EXPECT_EQ(at_gateway.events.size(), 1u);
+  EXPECT_EQ(at_gateway.wakeups + at_drive.wakeups, wakeups);
+}
+
+TEST_F(HubTest, EndpointsNoticeTheHubGoingAwayAndCanReconnect) {
+  open_hub();
+  auto gateway = connect("gateway");
+  auto drive = hub->attach_local("drive");
+  {
+    Receiver at_gateway(loop, *gateway), at_drive(loop, *drive);
+    wait_attached(2);
+    hub.reset();
+    ASSERT_TRUE(run_until(loop, [&] { return !at_gateway.events.empty() && !at_drive.events.empty(); }));
+    EXPECT_EQ(gateway->state(), can::BusState::kDisconnected);
+    EXPECT_EQ(drive->state(), can::BusState::kDisconnected);
+    EXPECT_FALSE(std::filesystem::exists(dir.path() / "motion-simbus-lab.sock"));
+  }
+  EXPECT_TRUE(gateway->reconnect());  // no hub: fails
+  open_hub();
+  ASSERT_FALSE(gateway->reconnect());
+  auto other = connect("other");
+  Receiver at_gateway(loop, *gateway), at_other(loop, *other);
+  wait_attached(2);
+  ASSERT_FALSE(other->send(frame(0x42)));
+  ASSERT_TRUE(run_until(loop, [&] { return !at_gateway.frames.empty(); }));
+  EXPECT_EQ(gateway->state(), can::BusState::kErrorActive);
+}
+
+TEST_F(HubTest, OneHubPerBusAndStaleSocketsAreReplaced) {
+  // A socket file nobody listens on (a crashed hub): bound, then closed without unlink.
+  const auto path = socket_path("lab", dir.path());
+  {
+    const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET, 0);
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    std::strncpy(address.sun_path, path.c_str(), sizeof(address.sun_path) - 1);
+    ASSERT_EQ(::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address), 0);  // NOLINT
+    ::close(fd);
+  }
+  open_hub();
+  std::error_code error;
+  EXPECT_FALSE(Hub::open(loop, HubOptions{"lab", dir.path(), true, {}}, error));
+  EXPECT_EQ(error, std::errc::address_in_use);
+  EXPECT_FALSE(Hub::open(loop, HubOptions{"bad/name", dir.path(), true, {}}, error));
+  EXPECT_EQ(error, std::errc::invalid_argument);
+}
+
+TEST_F(HubTest, ConnectingToAMissingBusFails) {
+  std::error_code error;
+  EXPECT_FALSE(SocketEndpoint::connect("nobody", EndpointOptions{dir.path(), "x", false}, error));
+  EXPECT_EQ(error, std::errc::no_such_file_or_directory);
+  EXPECT_FALSE(SocketEndpoint::connect("", EndpointOptions{dir.path(), "x", false}, error));
+  EXPECT_EQ(error, std::errc::invalid_argument);
+}
+
+TEST_F(HubTest, TimingOffDeliversWithoutWaiting) {
+  BusConfig config;
+  config.timing = false;
+  open_hub(config);
+  auto drive = hub->attach_local("drive");
+  auto other = hub->attach_local("other");
+  Receiver at_other(loop, *other);
+  ASSERT_FALSE(drive->send(frame(0x7FF)));
+  ASSERT_FALSE(drive->send(frame(0x001)));
+  // Delivered inside send(): already waiting in the endpoint.
+  auto first = other->receive();
+  ASSERT_TRUE(first.has_value());
+  EXPECT_EQ(first->id, 0x7FFu);  // no wire, no arbitration
+  EXPECT_EQ(other->receive()->id, 0x001u);
+  EXPECT_FALSE(other->receive().has_value());
+}
+
+TEST(SocketPath, DerivesFromTheBusNameAndTheEnvironment) {
+  EXPECT_EQ(socket_path("lab", "/run/x"), std::filesystem::path("/run/x/motion-simbus-lab.sock"));
+  ::setenv("MOTION_SIM_DIR", "/some/dir", 1);
+  EXPECT_EQ(socket_path("can-1"), std::filesystem::path("/some/dir/motion-simbus-can-1.sock"));
+  ::unsetenv("MOTION_SIM_DIR");
+  EXPECT_TRUE(valid_bus_name("lab_2.x-y"));
+  EXPECT_FALSE(valid_bus_name("a/b"));
+  EXPECT_FALSE(valid_bus_name(std::string(65, 'a')));
+}
+
+}  // namespace
+}  // namespace motion::simbus
