@@ -1,0 +1,94 @@
+// A CAN bus in the gateway: one transport, several protocol stacks (UIM342 on 29-bit frames,
+// CANopen on 11-bit frames) sharing it.
+//
+// Each stack is a passive core (frames and `now` in, frames and its next deadline out). This
+// driver owns the poll-loop side: it reads the transport when its fd is readable, hands every
+// frame to the stacks, keeps one timer at the earliest deadline, and splits a gateway command
+// among the stacks whose axes it names, combining their replies into the one reply per command
+// the coordinator expects (ARMED when all are armed, STARTED with the earliest trigger time and
+// the spread between the stacks' start frames, DONE when all are done, FAILED on the first
+// failure).
+// Thread contract: the loop's thread only.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "motion/can/transport.hpp"
+#include "motion/core/event_loop.hpp"
+#include "motion/gateway/bus_driver.hpp"
+
+namespace motion::gateway {
+
+class CanStack {
+ public:
+  virtual ~CanStack() = default;
+  [[nodiscard]] virtual std::string family() const = 0;
+  // Axes this stack drives (names from the configuration).
+  [[nodiscard]] virtual std::vector<std::string> axes() const = 0;
+  virtual void start(TimePoint now) = 0;
+  // A received frame; false when it is not this stack's (the next stack gets it).
+  virtual bool on_frame(const can::Frame& frame, TimePoint now) = 0;
+  // Timeouts, retries, polling; returns the next deadline or kNever.
+  virtual TimePoint process(TimePoint now) = 0;
+  // A command naming only this stack's axes; replies go through the stack's GatewayOutput.
+  virtual void execute(const motionlcm::gateway_command_t& command, TimePoint now) = 0;
+  virtual void fire(std::int64_t trigger_id, TimePoint now) = 0;
+  [[nodiscard]] virtual bool ready() const = 0;
+  // Adds this stack's counters (timeouts, retries, drives online/total) to the bus's.
+  virtual void add_statistics(motionlcm::bus_stats_t& stats) const = 0;
+};
+
+// What a stack is built with: how to send, where to report.
+struct CanStackContext {
+  std::function<bool(const can::Frame&)> send;  // false when the transport refused it
+  GatewayOutput* out = nullptr;
+};
+
+class CanBusDriver final : public BusDriver {
+ public:
+  CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can::Transport> transport, GatewayOutput& out);
+  ~CanBusDriver() override;
+
+  // The context a stack of this bus is constructed with (its replies are combined here).
+  CanStackContext context();
+  void add_stack(std::unique_ptr<CanStack> stack);
+
+  void start() override;
+  void execute(const motionlcm::gateway_command_t& command) override;
+  void fire(std::int64_t trigger_id) override;
+  [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const override;
+  [[nodiscard]] bool ready() const override;
+
+  // Frames sent and received, for the RAW_<bus> mirror (optional).
+  void on_frame_traffic(std::function<void(const can::Frame&, bool transmitted)> tap) { tap_ = std::move(tap); }
+
+ private:
+  class Combiner;
+  struct Pending {
+    std::size_t parts = 0;
+    std::size_t finished = 0;  // parts that ended (after a failure)
+    std::map<std::int8_t, std::vector<motionlcm::gateway_reply_t>> by_status;
+    bool failed = false;
+  };
+  void on_readable();
+  void reschedule();
+  void on_stack_reply(motionlcm::gateway_reply_t reply);
+
+  EventLoop& loop_;
+  std::string bus_;
+  std::unique_ptr<can::Transport> transport_;
+  GatewayOutput& out_;
+  std::unique_ptr<Combiner> combiner_;
+  std::vector<std::unique_ptr<CanStack>> stacks_;
+  std::map<std::string, CanStack*> stack_of_axis_;
+  std::map<std::int64_t, Pending> pending_;
+  EventLoop::TimerId timer_ = 0;
+  std::function<void(const can::Frame&, bool)> tap_;
+  bool bus_off_ = false;
+};
+
+}  // namespace motion::gateway

@@ -1,0 +1,188 @@
+#include "motion/gateway/can_bus_driver.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include <motionlcm/event_t.hpp>
+
+namespace motion::gateway {
+
+// Stacks report through this: status and events pass straight on, command replies are combined.
+class CanBusDriver::Combiner final : public GatewayOutput {
+ public:
+  explicit Combiner(CanBusDriver& owner) : owner_(owner) {}
+  void axis_status(const std::string& axis, const DriveStatus& status) override { owner_.out_.axis_status(axis, status); }
+  void axis_event(const std::string& axis, const DriveEvent& event) override { owner_.out_.axis_event(axis, event); }
+  void command_reply(motionlcm::gateway_reply_t reply) override { owner_.on_stack_reply(std::move(reply)); }
+
+ private:
+  CanBusDriver& owner_;
+};
+
+CanBusDriver::CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can::Transport> transport, GatewayOutput& out)
+    : loop_(loop), bus_(std::move(bus)), transport_(std::move(transport)), out_(out), combiner_(std::make_unique<Combiner>(*this)) {
+  transport_->on_bus_event([this](const can::BusEvent& e) {
+    const bool off = e.state == can::BusState::kBusOff || e.state == can::BusState::kDisconnected;
+    if (off == bus_off_ && e.state != can::BusState::kErrorPassive) return;
+    bus_off_ = off;
+    DriveEvent ev;
+    ev.kind = off ? motionlcm::event_t::BUS_OFF : motionlcm::event_t::BUS_RECOVERED;
+    ev.severity = off ? motionlcm::event_t::ERROR : motionlcm::event_t::INFO;
+    ev.code = static_cast<std::int32_t>(e.error_class);
+    ev.text = "bus " + bus_ + " " + can::to_string(e.state) + (e.text.empty() ? "" : ": " + e.text);
+    out_.axis_event("", ev);
+  });
+}
+
+CanBusDriver::~CanBusDriver() {
+  loop_.cancel(timer_);
+  if (transport_->fd() >= 0) loop_.unwatch(transport_->fd());
+}
+
+CanStackContext CanBusDriver::context() {
+  CanStackContext ctx;
+  ctx.out = combiner_.get();
+  ctx.send = [this](const can::Frame& frame) {
+    const auto ec = transport_->send(frame);
+    if (ec) {
+      spdlog::debug("bus {}: send {} failed: {}", bus_, can::to_cansend(frame), ec.message());
+      return false;
+    }
+    if (tap_) tap_(frame, true);
+    return true;
+  };
+  return ctx;
+}
+
+void CanBusDriver::add_stack(std::unique_ptr<CanStack> stack) {
+  for (const auto& axis : stack->axes()) stack_of_axis_[axis] = stack.get();
+  stacks_.push_back(std::move(stack));
+}
+
+void CanBusDriver::start() {
+  if (transport_->fd() >= 0) loop_.watch(transport_->fd(), [this] { on_readable(); });
+  const TimePoint now = loop_.now();
+  for (auto& s : stacks_) s->start(now);
+  reschedule();
+}
+
+void CanBusDriver::on_readable() {
+  const TimePoint now = loop_.now();
+  const int fd_before = transport_->fd();
+  while (auto frame = transport_->receive()) {
+    if (tap_) tap_(*frame, false);
+    for (auto& s : stacks_) {
+      if (s->on_frame(*frame, now)) break;
+    }
+  }
+  if (transport_->fd() != fd_before) {  // disconnected (or reconnected on a new fd)
+    loop_.unwatch(fd_before);
+    if (transport_->fd() >= 0) loop_.watch(transport_->fd(), [this] { on_readable(); });
+  }
+  reschedule();
+}
+
+void CanBusDriver::reschedule() {
+  loop_.cancel(timer_);
+  const TimePoint now = loop_.now();
+  TimePoint next = kNever;
+  for (auto& s : stacks_) next = std::min(next, s->process(now));
+  if (next != kNever) timer_ = loop_.call_at(next, [this] { reschedule(); });
+}
+
+void CanBusDriver::execute(const motionlcm::gateway_command_t& command) {
+  std::map<CanStack*, motionlcm::gateway_command_t> parts;
+  for (const auto& a : command.axes) {
+    auto it = stack_of_axis_.find(a.axis);
+    if (it == stack_of_axis_.end()) {
+      motionlcm::gateway_reply_t r{};
+      r.command_id = command.command_id;
+      r.status = motionlcm::gateway_reply_t::FAILED;
+      r.reason = "no protocol stack drives axis '" + a.axis + "' on bus " + bus_ + " (family not supported by this gateway yet)";
+      out_.command_reply(r);
+      return;
+    }
+    auto& part = parts[it->second];
+    if (part.axes.empty()) {
+      part = command;
+      part.axes.clear();
+    }
+    part.axes.push_back(a);
+    part.num_axes = static_cast<std::int32_t>(part.axes.size());
+  }
+  pending_[command.command_id] = Pending{parts.size(), 0, {}, false};
+  const TimePoint now = loop_.now();
+  for (auto& [stack, part] : parts) stack->execute(part, now);
+  reschedule();
+}
+
+void CanBusDriver::on_stack_reply(motionlcm::gateway_reply_t reply) {
+  auto it = pending_.find(reply.command_id);
+  if (it == pending_.end()) {
+    out_.command_reply(std::move(reply));  // e.g. a stack's own unsolicited reply
+    return;
+  }
+  Pending& p = it->second;
+  const bool part_finished = reply.status == motionlcm::gateway_reply_t::FAILED || reply.status == motionlcm::gateway_reply_t::DONE ||
+                             reply.status == motionlcm::gateway_reply_t::STARTED;
+  // After a failure the command is over for the coordinator; the other parts are only counted
+  // down so the entry goes away when the last one finishes.
+  if (p.failed || reply.status == motionlcm::gateway_reply_t::FAILED) {
+    if (!p.failed) out_.command_reply(reply);
+    p.failed = true;
+    if (part_finished && ++p.finished == p.parts) pending_.erase(it);
+    return;
+  }
+  auto& same = p.by_status[reply.status];
+  same.push_back(reply);
+  if (same.size() < p.parts) return;
+  // Every stack reached this status: one combined reply.
+  motionlcm::gateway_reply_t combined = same.front();
+  if (reply.status == motionlcm::gateway_reply_t::STARTED) {
+    std::int64_t first = same.front().trigger_utime;
+    std::int64_t last = first;
+    std::string mechanisms;
+    double skew = 0;
+    for (const auto& r : same) {
+      first = std::min(first, r.trigger_utime);
+      last = std::max(last, r.trigger_utime);
+      skew = std::max(skew, r.predicted_skew_us);
+      if (mechanisms.find(r.start_mechanism) == std::string::npos) mechanisms += (mechanisms.empty() ? "" : "+") + r.start_mechanism;
+    }
+    combined.trigger_utime = first;
+    combined.start_mechanism = mechanisms;
+    combined.predicted_skew_us = std::max(skew, static_cast<double>(last - first));
+  }
+  out_.command_reply(std::move(combined));
+  if (part_finished) pending_.erase(it);
+}
+
+void CanBusDriver::fire(std::int64_t trigger_id) {
+  const TimePoint now = loop_.now();
+  for (auto& s : stacks_) s->fire(trigger_id, now);
+  reschedule();
+}
+
+std::vector<motionlcm::bus_stats_t> CanBusDriver::statistics() const {
+  motionlcm::bus_stats_t s{};
+  const auto t = transport_->statistics();
+  s.name = bus_;
+  s.transport = transport_->name();
+  s.state = can::to_string(transport_->state());
+  s.tx_frames = static_cast<std::int64_t>(t.tx_frames);
+  s.rx_frames = static_cast<std::int64_t>(t.rx_frames);
+  s.tx_bytes = static_cast<std::int64_t>(t.tx_bytes);
+  s.rx_bytes = static_cast<std::int64_t>(t.rx_bytes);
+  s.errors = static_cast<std::int64_t>(t.errors);
+  s.bus_load = t.bus_load;
+  for (const auto& stack : stacks_) stack->add_statistics(s);
+  return {s};
+}
+
+bool CanBusDriver::ready() const {
+  if (bus_off_ || transport_->fd() < 0) return false;
+  return std::all_of(stacks_.begin(), stacks_.end(), [](const auto& s) { return s->ready(); });
+}
+
+}  // namespace motion::gateway

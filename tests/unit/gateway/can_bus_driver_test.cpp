@@ -1,0 +1,220 @@
+#include "motion/gateway/can_bus_driver.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <deque>
+
+#include <motionlcm/event_t.hpp>
+
+namespace motion::gateway {
+namespace {
+
+using motionlcm::gateway_reply_t;
+using std::chrono::milliseconds;
+
+// An in-memory transport: frames pushed by the test become readable through an eventfd.
+class MemoryTransport : public can::Transport {
+ public:
+  MemoryTransport() : fd_(::eventfd(0, EFD_NONBLOCK)) {}
+  ~MemoryTransport() override { ::close(fd_); }
+  std::string name() const override { return "mem"; }
+  int fd() const override { return fd_; }
+  std::error_code send(const can::Frame& f) override {
+    sent.push_back(f);
+    return {};
+  }
+  std::optional<can::Frame> receive() override {
+    std::uint64_t n;
+    (void)::read(fd_, &n, sizeof n);
+    if (inbox.empty()) return std::nullopt;
+    auto f = inbox.front();
+    inbox.pop_front();
+    return f;
+  }
+  std::error_code set_filters(const std::vector<can::Filter>&) override { return {}; }
+  std::error_code set_own_echo(bool) override { return {}; }
+  can::BusState state() const override { return can::BusState::kErrorActive; }
+  can::Statistics statistics() const override { return {}; }
+  void push(const can::Frame& f) {
+    inbox.push_back(f);
+    std::uint64_t one = 1;
+    (void)::write(fd_, &one, sizeof one);
+  }
+  void raise(can::BusState s) { emit_bus_event({s, 0x40, "test"}); }
+
+  std::vector<can::Frame> sent;
+  std::deque<can::Frame> inbox;
+
+ private:
+  int fd_;
+};
+
+// A stack that takes frames of one format and replies as the test scripts it.
+class FakeStack : public CanStack {
+ public:
+  FakeStack(CanStackContext ctx, bool extended, std::vector<std::string> axes) : ctx_(std::move(ctx)), extended_(extended), axes_(std::move(axes)) {}
+  std::string family() const override { return extended_ ? "ext" : "std"; }
+  std::vector<std::string> axes() const override { return axes_; }
+  void start(TimePoint) override { started = true; }
+  bool on_frame(const can::Frame& f, TimePoint) override {
+    if (f.extended != extended_) return false;
+    frames.push_back(f);
+    return true;
+  }
+  TimePoint process(TimePoint now) override {
+    ++process_calls;
+    if (wake_at && now >= *wake_at) {
+      woke = true;
+      wake_at.reset();
+    }
+    return wake_at.value_or(kNever);
+  }
+  void execute(const motionlcm::gateway_command_t& c, TimePoint) override { commands.push_back(c); }
+  void fire(std::int64_t id, TimePoint) override { fired.push_back(id); }
+  bool ready() const override { return is_ready; }
+  void add_statistics(motionlcm::bus_stats_t& s) const override { s.timeouts += 3; }
+  void reply(std::int64_t id, std::int8_t status, std::int64_t trigger_utime = 0, const std::string& mechanism = {}) {
+    gateway_reply_t r{};
+    r.command_id = id;
+    r.status = status;
+    r.trigger_utime = trigger_utime;
+    r.start_mechanism = mechanism;
+    ctx_.out->command_reply(r);
+  }
+  bool send(const can::Frame& f) { return ctx_.send(f); }
+
+  bool started = false;
+  bool is_ready = true;
+  bool woke = false;
+  int process_calls = 0;
+  std::optional<TimePoint> wake_at;
+  std::vector<can::Frame> frames;
+  std::vector<motionlcm::gateway_command_t> commands;
+  std::vector<std::int64_t> fired;
+
+ private:
+  CanStackContext ctx_;
+  bool extended_;
+  std::vector<std::string> axes_;
+};
+
+struct Recorder : GatewayOutput {
+  void axis_status(const std::string&, const DriveStatus&) override {}
+  void axis_event(const std::string& axis, const DriveEvent& e) override { events.emplace_back(axis, e); }
+  void command_reply(gateway_reply_t r) override { replies.push_back(r); }
+  std::vector<std::pair<std::string, DriveEvent>> events;
+  std::vector<gateway_reply_t> replies;
+};
+
+struct CanBusDriverTest : ::testing::Test {
+  CanBusDriverTest() {
+    auto t = std::make_unique<MemoryTransport>();
+    transport = t.get();
+    driver = std::make_unique<CanBusDriver>(loop, "can0", std::move(t), out);
+    auto a = std::make_unique<FakeStack>(driver->context(), true, std::vector<std::string>{"x", "y"});
+    auto b = std::make_unique<FakeStack>(driver->context(), false, std::vector<std::string>{"a"});
+    uim = a.get();
+    cop = b.get();
+    driver->add_stack(std::move(a));
+    driver->add_stack(std::move(b));
+    driver->start();
+  }
+  motionlcm::gateway_command_t command(std::int64_t id, std::vector<std::string> axes) {
+    motionlcm::gateway_command_t c{};
+    c.command_id = id;
+    c.bus = "can0";
+    c.kind = motionlcm::gateway_command_t::ARM_MOVE;
+    for (auto& name : axes) {
+      motionlcm::axis_command_t a{};
+      a.axis = name;
+      c.axes.push_back(a);
+    }
+    c.num_axes = static_cast<std::int32_t>(c.axes.size());
+    return c;
+  }
+
+  EventLoop loop;
+  Recorder out;
+  MemoryTransport* transport = nullptr;
+  std::unique_ptr<CanBusDriver> driver;
+  FakeStack* uim = nullptr;
+  FakeStack* cop = nullptr;
+};
+
+TEST_F(CanBusDriverTest, FramesGoToTheStackOfTheirFormat) {
+  EXPECT_TRUE(uim->started);
+  transport->push(*can::parse_cansend("04280095#01"));
+  transport->push(*can::parse_cansend("701#05"));
+  loop.run_once(milliseconds(10));
+  ASSERT_EQ(uim->frames.size(), 1u);
+  ASSERT_EQ(cop->frames.size(), 1u);
+  EXPECT_EQ(uim->frames[0].id, 0x04280095u);
+  EXPECT_EQ(cop->frames[0].id, 0x701u);
+  EXPECT_TRUE(uim->send(*can::parse_cansend("601#40")));
+  EXPECT_EQ(transport->sent.size(), 1u);
+}
+
+TEST_F(CanBusDriverTest, CommandIsSplitAndRepliesAreCombined) {
+  driver->execute(command(5, {"x", "a", "y"}));
+  ASSERT_EQ(uim->commands.size(), 1u);
+  ASSERT_EQ(cop->commands.size(), 1u);
+  EXPECT_EQ(uim->commands[0].num_axes, 2);
+  EXPECT_EQ(cop->commands[0].axes[0].axis, "a");
+
+  uim->reply(5, gateway_reply_t::ARMED);
+  EXPECT_TRUE(out.replies.empty());  // the CANopen part is not armed yet
+  cop->reply(5, gateway_reply_t::ARMED);
+  ASSERT_EQ(out.replies.size(), 1u);
+  EXPECT_EQ(out.replies[0].status, std::int8_t{gateway_reply_t::ARMED});
+
+  driver->fire(9);
+  EXPECT_EQ(uim->fired, std::vector<std::int64_t>{9});
+  EXPECT_EQ(cop->fired, std::vector<std::int64_t>{9});
+  uim->reply(5, gateway_reply_t::STARTED, 1000, "group-bg");
+  cop->reply(5, gateway_reply_t::STARTED, 1130, "sync");
+  ASSERT_EQ(out.replies.size(), 2u);
+  EXPECT_EQ(out.replies[1].trigger_utime, 1000);
+  EXPECT_EQ(out.replies[1].start_mechanism, "group-bg+sync");
+  EXPECT_DOUBLE_EQ(out.replies[1].predicted_skew_us, 130.0);
+}
+
+TEST_F(CanBusDriverTest, FirstFailureIsReportedOnce) {
+  driver->execute(command(6, {"x", "a"}));
+  cop->reply(6, gateway_reply_t::FAILED);
+  uim->reply(6, gateway_reply_t::ARMED);
+  ASSERT_EQ(out.replies.size(), 1u);
+  EXPECT_EQ(out.replies[0].status, std::int8_t{gateway_reply_t::FAILED});
+}
+
+TEST_F(CanBusDriverTest, AxisWithoutAStackFailsWithAReason) {
+  driver->execute(command(7, {"x", "q"}));
+  ASSERT_EQ(out.replies.size(), 1u);
+  EXPECT_EQ(out.replies[0].status, std::int8_t{gateway_reply_t::FAILED});
+  EXPECT_NE(out.replies[0].reason.find("axis 'q'"), std::string::npos);
+  EXPECT_TRUE(uim->commands.empty());
+}
+
+TEST_F(CanBusDriverTest, StackDeadlineWakesTheDriver) {
+  uim->wake_at = loop.now() + milliseconds(20);
+  transport->push(*can::parse_cansend("04280095#01"));  // any event reschedules
+  const auto end = loop.now() + milliseconds(500);
+  while (!uim->woke && loop.now() < end) loop.run_once(milliseconds(50));
+  EXPECT_TRUE(uim->woke);
+}
+
+TEST_F(CanBusDriverTest, BusOffBecomesAnEventAndNotReady) {
+  EXPECT_TRUE(driver->ready());
+  transport->raise(can::BusState::kBusOff);
+  ASSERT_EQ(out.events.size(), 1u);
+  EXPECT_EQ(out.events[0].second.kind, std::int16_t{motionlcm::event_t::BUS_OFF});
+  EXPECT_FALSE(driver->ready());
+  transport->raise(can::BusState::kErrorActive);
+  EXPECT_EQ(out.events.back().second.kind, std::int16_t{motionlcm::event_t::BUS_RECOVERED});
+  EXPECT_TRUE(driver->ready());
+  EXPECT_EQ(driver->statistics()[0].timeouts, 6);  // both stacks add theirs
+}
+
+}  // namespace
+}  // namespace motion::gateway
