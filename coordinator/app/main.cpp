@@ -2,6 +2,8 @@
 #include <spdlog/spdlog.h>
 
 #include "motion/app/service.hpp"
+#include "motion/coordinator/coordinator.hpp"
+#include "motion/coordinator/move_planner.hpp"
 #include "motion/core/log.hpp"
 
 int main(int argc, char** argv) {
@@ -15,6 +17,7 @@ int main(int argc, char** argv) {
     if (!config) return app::kExitConfig;
     app::Service service(*config, options, "coordinator", "coordinator");
     if (!service.ok()) return app::kExitUnavailable;
+    coordinator::Coordinator coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(*config));
     service.health().set_state(motionlcm::health_t::OK, std::to_string(config->axes.size()) + " axes");
     return service.run();
   });

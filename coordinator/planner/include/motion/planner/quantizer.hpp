@@ -1,0 +1,131 @@
+// What a drive can really execute: DriveQuantizer maps desired motion parameters (counts/s,
+// counts/s^2) to the nearby values the drive can represent, with the native integers to send.
+//
+// A drive family plugs in by either configuring a GridQuantizer (velocity on an integer grid,
+// acceleration as an integer rate or as an integer ramp time: covers UIM342, UIM242, UC57 and the
+// ADAM steppers once their exact units are known) or by deriving from DriveQuantizer.
+// Thread contract: quantizers are immutable after construction; candidates() is const and
+// thread-safe, so one instance may serve every plan of every thread.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace motion::planner {
+
+// Motion parameters in drive counts: cruise velocity (counts/s), acceleration and deceleration
+// (counts/s^2), all magnitudes.
+struct DriveMotion {
+  double velocity_counts_per_s = 0.0;
+  double acceleration_counts_per_s2 = 0.0;
+  double deceleration_counts_per_s2 = 0.0;
+};
+
+// The integers written to the drive; their unit is the quantizer's (documented per class).
+struct NativeMotion {
+  std::int64_t velocity = 0;
+  std::int64_t acceleration = 0;
+  std::int64_t deceleration = 0;
+  friend bool operator==(const NativeMotion&, const NativeMotion&) = default;
+};
+
+// One representable setting: what to send, and what the drive will then really do.
+struct DriveSetting {
+  NativeMotion native;
+  DriveMotion realized;
+};
+
+class DriveQuantizer {
+ public:
+  virtual ~DriveQuantizer() = default;
+  // Appends to `out` the representable settings around `desired`: for each parameter, the value
+  // at or just below it and the `neighbours` (>= 1) next values on either side, in every
+  // combination. Values outside the drive's native range are left out; the caller filters by the
+  // axis limits.
+  virtual void candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const = 0;
+  [[nodiscard]] virtual std::string_view name() const = 0;
+
+ protected:
+  DriveQuantizer() = default;
+  DriveQuantizer(const DriveQuantizer&) = default;
+  DriveQuantizer& operator=(const DriveQuantizer&) = default;
+};
+
+// No quantization: the drive takes real numbers (simulations, tests). Native fields stay 0.
+class IdentityQuantizer final : public DriveQuantizer {
+ public:
+  void candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const override;
+  [[nodiscard]] std::string_view name() const override { return "identity"; }
+};
+
+// Velocity as an integer n: n * counts_per_s_per_step counts/s, n in [min_steps, max_steps].
+struct VelocityGrid {
+  double counts_per_s_per_step = 1.0;
+  std::int64_t min_steps = 1;
+  std::int64_t max_steps = std::numeric_limits<std::int32_t>::max();
+};
+
+// Acceleration (and deceleration) as an integer n, either
+//   rate:      n * step counts/s^2, or
+//   ramp time: the drive goes from 0 to the commanded velocity (or back) in n * step seconds,
+//              i.e. acceleration = velocity / (n * step).
+struct AccelerationGrid {
+  enum class Kind { rate, ramp_time };
+  Kind kind = Kind::rate;
+  double step = 1.0;  // counts/s^2 per n (rate) or seconds per n (ramp time)
+  std::int64_t min_steps = 1;
+  std::int64_t max_steps = std::numeric_limits<std::int32_t>::max();
+
+  [[nodiscard]] static AccelerationGrid rate(double counts_per_s2_per_step) { return {Kind::rate, counts_per_s2_per_step}; }
+  [[nodiscard]] static AccelerationGrid ramp_time(double seconds_per_step) { return {Kind::ramp_time, seconds_per_step}; }
+  // Rate in rpm/s (times rpm_per_s_per_step per n), for a drive with `counts_per_rev` counts.
+  [[nodiscard]] static AccelerationGrid rpm_per_s(double counts_per_rev, double rpm_per_s_per_step) {
+    return rate(counts_per_rev * rpm_per_s_per_step / 60.0);
+  }
+};
+
+// The general integer-grid drive. Native velocity/acceleration/deceleration = the grid integers.
+// Throws std::invalid_argument on a non-positive step or an empty range.
+class GridQuantizer : public DriveQuantizer {
+ public:
+  GridQuantizer(std::string name, VelocityGrid velocity, AccelerationGrid acceleration);
+  void candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const override;
+  [[nodiscard]] std::string_view name() const override { return name_; }
+  [[nodiscard]] const VelocityGrid& velocity_grid() const { return velocity_; }
+  [[nodiscard]] const AccelerationGrid& acceleration_grid() const { return acceleration_; }
+
+ private:
+  std::string name_;
+  VelocityGrid velocity_;
+  AccelerationGrid acceleration_;
+};
+
+// UIM342 rate mode: velocity in integer pulses/s, acceleration/deceleration in integer pulses/s^2
+// (a pulse = one count).
+class PpsRateQuantizer final : public GridQuantizer {
+ public:
+  explicit PpsRateQuantizer(std::int64_t max_pps = std::numeric_limits<std::int32_t>::max(),
+                            std::int64_t max_pps_per_s = std::numeric_limits<std::int32_t>::max());
+};
+
+// UIM342 time mode: velocity in integer pulses/s, acceleration/deceleration as an integer ramp
+// time in milliseconds to reach the commanded speed from rest (or rest from it).
+class PpsRampTimeQuantizer final : public GridQuantizer {
+ public:
+  explicit PpsRampTimeQuantizer(std::int64_t max_pps = std::numeric_limits<std::int32_t>::max(),
+                                std::int64_t max_ramp_ms = std::numeric_limits<std::int32_t>::max());
+};
+
+// UC57 / ADAM style: velocity in steps of `rpm_per_step` rpm for a motor of `counts_per_rev`
+// counts per revolution; acceleration in the unit the family gives (e.g.
+// AccelerationGrid::rpm_per_s(counts_per_rev, 1.0) or AccelerationGrid::ramp_time(0.001)).
+class RpmQuantizer final : public GridQuantizer {
+ public:
+  RpmQuantizer(double counts_per_rev, double rpm_per_step, AccelerationGrid acceleration,
+               std::int64_t max_velocity_steps = std::numeric_limits<std::int32_t>::max());
+};
+
+}  // namespace motion::planner
