@@ -80,7 +80,7 @@ TEST(LcmTypes, ReplyRoundTrip) {
   const auto o = round_trip(r);
   EXPECT_EQ(o.reason, r.reason);
   EXPECT_EQ(o.start_utime, r.start_utime);
-  EXPECT_EQ(o.status, motionlcm::reply_t::ABORTED);
+  EXPECT_EQ(o.status, std::int8_t{motionlcm::reply_t::ABORTED});
 }
 
 TEST(LcmTypes, AxisStateEventHealthRoundTrip) {
