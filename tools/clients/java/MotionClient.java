@@ -1,0 +1,281 @@
+// Java client of the motion system, on Debian's lcm.jar and our types jar (motionlcm.jar):
+// requests and their terminal replies, axis state, events, heartbeats. Mirrors the C++ client
+// (services/client): every request gets replies on REPLY that end in exactly one terminal status
+// (DONE, REJECTED, ABORTED, FAILED); request() waits for it.
+//
+//   try (MotionClient c = new MotionClient("udpm://239.255.76.67:7667?ttl=0", "MOTION_", "my-tool")) {
+//       reply_t r = c.request(request_t.ENABLE, new String[] {"x", "y"}, null, 10000);
+//   }
+//
+// Thread contract: thread-safe. LCM delivers messages on its own receive thread: reply, axis-state,
+// event and health callbacks run there (keep them short); request() blocks the calling thread.
+// Run with -Djava.net.preferIPv4Stack=true (LCM multicast is IPv4).
+import java.io.IOException;
+import java.util.Collections;
+import java.util.HashMap;
+import java.util.LinkedHashMap;
+import java.util.Map;
+import java.util.concurrent.CompletableFuture;
+import java.util.concurrent.ConcurrentHashMap;
+import java.util.concurrent.ExecutionException;
+import java.util.concurrent.TimeUnit;
+import java.util.concurrent.TimeoutException;
+import java.util.concurrent.atomic.AtomicLong;
+import java.util.function.Consumer;
+
+import lcm.lcm.LCM;
+import lcm.lcm.LCMDataInputStream;
+import lcm.lcm.LCMSubscriber;
+import motionlcm.axis_state_t;
+import motionlcm.event_t;
+import motionlcm.health_t;
+import motionlcm.param_t;
+import motionlcm.reply_t;
+import motionlcm.request_t;
+
+public class MotionClient implements AutoCloseable {
+    static {
+        if (System.getProperty("java.net.preferIPv4Stack") == null) System.setProperty("java.net.preferIPv4Stack", "true");
+    }
+
+    /** A request ended in a terminal status other than DONE (thrown by requestOrThrow). */
+    public static class RequestFailed extends Exception {
+        private static final long serialVersionUID = 1L;
+        public final reply_t reply;
+
+        public RequestFailed(reply_t reply) {
+            super(statusName(reply.status) + " (error " + reply.error_code + "): " + reply.reason);
+            this.reply = reply;
+        }
+    }
+
+    public static boolean isTerminal(byte status) {
+        return status == reply_t.DONE || status == reply_t.REJECTED || status == reply_t.ABORTED || status == reply_t.FAILED;
+    }
+
+    public static String statusName(byte status) {
+        switch (status) {
+            case reply_t.ACCEPTED: return "accepted";
+            case reply_t.STARTED: return "started";
+            case reply_t.PROGRESS: return "progress";
+            case reply_t.DONE: return "done";
+            case reply_t.REJECTED: return "rejected";
+            case reply_t.ABORTED: return "aborted";
+            case reply_t.FAILED: return "failed";
+            default: return "unknown";
+        }
+    }
+
+    public static String healthStateName(byte state) {
+        switch (state) {
+            case health_t.STARTING: return "STARTING";
+            case health_t.OK: return "OK";
+            case health_t.DEGRADED: return "DEGRADED";
+            case health_t.FAULT: return "FAULT";
+            case health_t.STOPPING: return "STOPPING";
+            default: return Byte.toString(state);
+        }
+    }
+
+    private final LCM lcm;
+    private final String url;
+    private final String prefix;
+    private final String id;
+    // Request ids start at the wall clock so a restarted client never reuses a live id.
+    private final AtomicLong nextRequestId = new AtomicLong(System.currentTimeMillis() * 1000);
+    private final Map<Long, Consumer<reply_t>> pending = new ConcurrentHashMap<>();
+    private final Map<String, axis_state_t> axes = new ConcurrentHashMap<>();
+    private final Map<String, health_t> heartbeats = new HashMap<>();  // guarded by itself
+    private volatile Consumer<axis_state_t> stateHandler;
+    private volatile Consumer<event_t> eventHandler;
+    private volatile Consumer<health_t> healthHandler;
+
+    /** url: null or "" = $LCM_DEFAULT_URL, then LCM's default. prefix: lcm.channel_prefix ("MOTION_"). */
+    public MotionClient(String url, String prefix, String clientId) throws IOException {
+        this.url = (url == null || url.isEmpty()) ? (System.getenv("LCM_DEFAULT_URL") != null ? System.getenv("LCM_DEFAULT_URL") : "") : url;
+        this.lcm = this.url.isEmpty() ? new LCM() : new LCM(this.url);
+        this.prefix = prefix;
+        this.id = clientId != null ? clientId : "java:" + ProcessHandle.current().pid();
+        lcm.subscribe(channel("REPLY"), new LCMSubscriber() {
+            public void messageReceived(LCM l, String ch, LCMDataInputStream ins) { onReply(ins); }
+        });
+        lcm.subscribe(channel("AXIS_STATE"), new LCMSubscriber() {
+            public void messageReceived(LCM l, String ch, LCMDataInputStream ins) { onAxisState(ins); }
+        });
+        lcm.subscribe(channel("EVENT"), new LCMSubscriber() {
+            public void messageReceived(LCM l, String ch, LCMDataInputStream ins) { onEventMessage(ins); }
+        });
+        lcm.subscribe(channel("HEALTH"), new LCMSubscriber() {
+            public void messageReceived(LCM l, String ch, LCMDataInputStream ins) { onHealthMessage(ins); }
+        });
+    }
+
+    public MotionClient(String url) throws IOException {
+        this(url, "MOTION_", null);
+    }
+
+    public String id() { return id; }
+    public String url() { return url.isEmpty() ? "the default LCM URL" : url; }
+    public String channel(String name) { return prefix + name; }
+
+    // ------------------------------------------------------------------ requests
+
+    /** A request with every field set (strings empty, param present), ready for send(). */
+    public static request_t make(byte kind, String[] axisNames, double[] values) {
+        request_t r = new request_t();
+        r.kind = kind;
+        r.client_id = "";
+        r.axes = axisNames != null ? axisNames.clone() : new String[0];
+        r.num_axes = r.axes.length;
+        r.values = new double[r.num_axes];
+        if (values != null) System.arraycopy(values, 0, r.values, 0, Math.min(values.length, r.num_axes));
+        r.param = new param_t();
+        r.param.mnemonic = "";
+        return r;
+    }
+
+    /** Fills utime/client_id/request_id/num_axes, publishes, and returns the request id; every reply goes to onReply. */
+    public long send(request_t request, Consumer<reply_t> onReply) {
+        request.utime = System.currentTimeMillis() * 1000;
+        request.client_id = id;
+        request.request_id = nextRequestId.getAndIncrement();
+        if (request.axes == null) request.axes = new String[0];
+        request.num_axes = request.axes.length;
+        if (request.values == null || request.values.length != request.num_axes) {
+            double[] v = new double[request.num_axes];
+            if (request.values != null) System.arraycopy(request.values, 0, v, 0, Math.min(v.length, request.values.length));
+            request.values = v;
+        }
+        if (request.param == null) request.param = new param_t();
+        if (request.param.mnemonic == null) request.param.mnemonic = "";
+        pending.put(request.request_id, onReply != null ? onReply : r -> {});
+        lcm.publish(channel("REQUEST"), request);
+        return request.request_id;
+    }
+
+    /** Sends and waits for the terminal reply. When none comes within timeoutMs, returns a local
+     *  FAILED reply saying so (the coordinator may be down). onProgress runs on LCM's thread. */
+    public reply_t request(request_t request, long timeoutMs, Consumer<reply_t> onProgress) {
+        CompletableFuture<reply_t> terminal = new CompletableFuture<>();
+        long requestId = send(request, r -> {
+            if (isTerminal(r.status)) terminal.complete(r);
+            else if (onProgress != null) onProgress.accept(r);
+        });
+        try {
+            return terminal.get(timeoutMs, TimeUnit.MILLISECONDS);
+        } catch (TimeoutException | ExecutionException e) {
+            pending.remove(requestId);
+            return localFailure(requestId, "no terminal reply from the coordinator within " + timeoutMs + " ms (is motion-coordinator running on " + url() + "?)");
+        } catch (InterruptedException e) {
+            pending.remove(requestId);
+            Thread.currentThread().interrupt();
+            return localFailure(requestId, "interrupted while waiting for the coordinator");
+        }
+    }
+
+    public reply_t request(byte kind, String[] axisNames, double[] values, long timeoutMs) {
+        return request(make(kind, axisNames, values), timeoutMs, null);
+    }
+
+    /** request() that throws RequestFailed unless the reply is DONE. */
+    public reply_t requestOrThrow(request_t request, long timeoutMs, Consumer<reply_t> onProgress) throws RequestFailed {
+        reply_t r = request(request, timeoutMs, onProgress);
+        if (r.status != reply_t.DONE) throw new RequestFailed(r);
+        return r;
+    }
+
+    public reply_t enable(long timeoutMs, String... axisNames) { return request(request_t.ENABLE, axisNames, null, timeoutMs); }
+    public reply_t disable(long timeoutMs, String... axisNames) { return request(request_t.DISABLE, axisNames, null, timeoutMs); }
+    public reply_t stop(long timeoutMs, String... axisNames) { return request(request_t.STOP, axisNames, null, timeoutMs); }
+
+    /** Synchronized move of several axes, targets in user units (insertion order kept). */
+    public reply_t move(Map<String, Double> targets, boolean relative, long timeoutMs, Consumer<reply_t> onProgress) {
+        Map<String, Double> ordered = new LinkedHashMap<>(targets);
+        String[] names = ordered.keySet().toArray(new String[0]);
+        double[] values = new double[names.length];
+        for (int i = 0; i < names.length; i++) values[i] = ordered.get(names[i]);
+        return request(make(relative ? request_t.MOVE_RELATIVE : request_t.MOVE_ABSOLUTE, names, values), timeoutMs, onProgress);
+    }
+
+    private reply_t localFailure(long requestId, String reason) {
+        reply_t r = new reply_t();
+        r.utime = System.currentTimeMillis() * 1000;
+        r.client_id = id;
+        r.request_id = requestId;
+        r.status = reply_t.FAILED;
+        r.reason = reason;
+        r.axes = new String[0];
+        r.targets = new double[0];
+        r.positions = new double[0];
+        r.start_utime = new long[0];
+        r.param = new param_t();
+        r.param.mnemonic = "";
+        return r;
+    }
+
+    // ------------------------------------------------------------------ state, events, health
+
+    /** Latest state of every axis heard so far (a snapshot). */
+    public Map<String, axis_state_t> axisStates() { return Collections.unmodifiableMap(new HashMap<>(axes)); }
+
+    /** Latest heartbeat of every process heard so far, by process name (a snapshot). */
+    public Map<String, health_t> heartbeats() {
+        synchronized (heartbeats) { return Collections.unmodifiableMap(new HashMap<>(heartbeats)); }
+    }
+
+    /** Waits for a heartbeat of `process`; null on timeout. */
+    public health_t waitForHeartbeat(String process, long timeoutMs) throws InterruptedException {
+        long deadline = System.nanoTime() + TimeUnit.MILLISECONDS.toNanos(timeoutMs);
+        synchronized (heartbeats) {
+            while (!heartbeats.containsKey(process)) {
+                long left = TimeUnit.NANOSECONDS.toMillis(deadline - System.nanoTime());
+                if (left <= 0) return null;
+                heartbeats.wait(left);
+            }
+            return heartbeats.get(process);
+        }
+    }
+
+    public void onAxisState(Consumer<axis_state_t> handler) { stateHandler = handler; }
+    public void onEvent(Consumer<event_t> handler) { eventHandler = handler; }
+    public void onHealth(Consumer<health_t> handler) { healthHandler = handler; }
+
+    @Override
+    public void close() { lcm.close(); }
+
+    // ------------------------------------------------------------------ LCM handlers (LCM's thread)
+
+    private void onReply(LCMDataInputStream ins) {
+        reply_t r;
+        try { r = new reply_t(ins); } catch (IOException e) { return; }  // not a reply_t: ignore
+        if (!id.equals(r.client_id)) return;
+        Consumer<reply_t> handler = isTerminal(r.status) ? pending.remove(r.request_id) : pending.get(r.request_id);
+        if (handler != null) handler.accept(r);
+    }
+
+    private void onAxisState(LCMDataInputStream ins) {
+        axis_state_t s;
+        try { s = new axis_state_t(ins); } catch (IOException e) { return; }
+        axes.put(s.axis, s);
+        Consumer<axis_state_t> h = stateHandler;
+        if (h != null) h.accept(s);
+    }
+
+    private void onEventMessage(LCMDataInputStream ins) {
+        event_t e;
+        try { e = new event_t(ins); } catch (IOException ex) { return; }
+        Consumer<event_t> h = eventHandler;
+        if (h != null) h.accept(e);
+    }
+
+    private void onHealthMessage(LCMDataInputStream ins) {
+        health_t hb;
+        try { hb = new health_t(ins); } catch (IOException e) { return; }
+        synchronized (heartbeats) {
+            heartbeats.put(hb.process, hb);
+            heartbeats.notifyAll();
+        }
+        Consumer<health_t> h = healthHandler;
+        if (h != null) h.accept(hb);
+    }
+}

@@ -1,0 +1,278 @@
+--[[
+Lua client of the motion system, on Debian's LCM binding for Lua 5.2 (liblcm-lua: require "lcm")
+and the lcm-gen Lua types (build/lcmtypes/lua on LUA_PATH: "build/lcmtypes/lua/?.lua;...").
+Requests and their terminal replies, axis state, events, heartbeats; mirrors the C++ client
+(services/client): every request gets replies on REPLY that end in exactly one terminal status
+(DONE, REJECTED, ABORTED, FAILED); request() waits for it.
+
+  local motionclient = require "motionclient"
+  local c = motionclient.new{url = "udpm://239.255.76.67:7667?ttl=0", prefix = "MOTION_", client_id = "my-tool"}
+  local r = c:request("enable", {"x", "y"}, nil, {timeout = 10})
+  print(motionclient.status_name(r.status), r.error_code, r.reason)
+
+Thread contract: single-threaded. Callbacks run inside handle(), request() and wait_until(), which
+pump LCM. Timeouts are in seconds; Lua 5.2 has no sub-second wall clock, so they are measured with
+os.time() (whole seconds, at least the requested time) unless LuaSocket's socket.gettime exists.
+--]]
+
+local lcm = require("lcm")
+local request_t = require("motionlcm.request_t")
+local reply_t = require("motionlcm.reply_t")
+local param_t = require("motionlcm.param_t")
+local axis_state_t = require("motionlcm.axis_state_t")
+local event_t = require("motionlcm.event_t")
+local health_t = require("motionlcm.health_t")
+
+local M = {}
+
+local has_socket, socket = pcall(require, "socket")
+local function now()
+  if has_socket and socket.gettime then return socket.gettime() end
+  return os.time()
+end
+-- Deadline `timeout` seconds from now; with whole-second clocks, never earlier than asked.
+local function deadline_after(timeout)
+  if has_socket and socket.gettime then return now() + timeout end
+  return os.time() + math.ceil(timeout) + 1
+end
+
+M.request_t, M.reply_t, M.axis_state_t, M.event_t, M.health_t = request_t, reply_t, axis_state_t, event_t, health_t
+
+M.kinds = {
+  move_absolute = request_t.MOVE_ABSOLUTE, move_relative = request_t.MOVE_RELATIVE, jog = request_t.JOG,
+  stop = request_t.STOP, estop = request_t.ESTOP, home = request_t.HOME, enable = request_t.ENABLE,
+  disable = request_t.DISABLE, fault_reset = request_t.FAULT_RESET, set_outputs = request_t.SET_OUTPUTS,
+  param_read = request_t.PARAM_READ, param_write = request_t.PARAM_WRITE, set_position = request_t.SET_POSITION,
+}
+
+local status_names = {
+  [reply_t.ACCEPTED] = "accepted", [reply_t.STARTED] = "started", [reply_t.PROGRESS] = "progress",
+  [reply_t.DONE] = "done", [reply_t.REJECTED] = "rejected", [reply_t.ABORTED] = "aborted", [reply_t.FAILED] = "failed",
+}
+M.health_states = {
+  [health_t.STARTING] = "STARTING", [health_t.OK] = "OK", [health_t.DEGRADED] = "DEGRADED",
+  [health_t.FAULT] = "FAULT", [health_t.STOPPING] = "STOPPING",
+}
+
+function M.is_terminal(status)
+  return status == reply_t.DONE or status == reply_t.REJECTED or status == reply_t.ABORTED or status == reply_t.FAILED
+end
+
+function M.status_name(status)
+  return status_names[status] or "unknown"
+end
+
+-- request_t kind from its number or name ("move_absolute", "ENABLE", "move-relative").
+function M.kind_value(kind)
+  if type(kind) == "number" then return kind end
+  local k = M.kinds[string.lower(tostring(kind)):gsub("-", "_")]
+  if not k then error("unknown request kind '" .. tostring(kind) .. "'", 2) end
+  return k
+end
+
+local function new_param()
+  local p = param_t:new()
+  p.mnemonic = ""
+  return p
+end
+
+local Client = {}
+Client.__index = Client
+
+-- opts: url (nil = $LCM_DEFAULT_URL, then LCM's default), prefix ("MOTION_"), client_id.
+-- Raises an error when LCM cannot be opened.
+function M.new(opts)
+  opts = opts or {}
+  local self = setmetatable({}, Client)
+  self.url = opts.url or os.getenv("LCM_DEFAULT_URL") or ""
+  self.lc = (self.url ~= "") and lcm.lcm.new(self.url) or lcm.lcm.new()
+  self.prefix = opts.prefix or "MOTION_"
+  self.id = opts.client_id or ("lua:" .. tostring(os.time()) .. ":" .. tostring(math.random(1, 1000000)))
+  -- Request ids start at the wall clock (microseconds; exact in a double) so a restarted client
+  -- never reuses a live id.
+  self.next_request_id = os.time() * 1000000
+  self.pending = {}
+  self.axes = {}
+  self.beats = {}
+  self.lc:subscribe(self.prefix .. "REPLY", function(_, data) self:_on_reply(data) end)
+  self.lc:subscribe(self.prefix .. "AXIS_STATE", function(_, data) self:_on_axis_state(data) end)
+  self.lc:subscribe(self.prefix .. "EVENT", function(_, data) self:_on_event(data) end)
+  self.lc:subscribe(self.prefix .. "HEALTH", function(_, data) self:_on_health(data) end)
+  return self
+end
+
+-- Publishes a request; every reply goes to on_reply(reply). fields: velocity_scale,
+-- acceleration_scale, timeout_ms, output_mask, output_value, param. Returns the request id.
+function Client:send(kind, axes, values, on_reply, fields)
+  local msg = request_t:new()
+  msg.utime = os.time() * 1000000
+  msg.client_id = self.id
+  msg.request_id = self.next_request_id
+  self.next_request_id = self.next_request_id + 1
+  msg.kind = M.kind_value(kind)
+  msg.axes = {}
+  msg.values = {}
+  for i, a in ipairs(axes or {}) do
+    msg.axes[i] = a
+    msg.values[i] = (values and values[i]) or 0.0
+  end
+  msg.num_axes = #msg.axes
+  msg.param = new_param()
+  for k, v in pairs(fields or {}) do
+    if k ~= "velocity_scale" and k ~= "acceleration_scale" and k ~= "timeout_ms" and k ~= "output_mask"
+        and k ~= "output_value" and k ~= "param" then
+      error("unknown request field '" .. tostring(k) .. "'", 2)
+    end
+    msg[k] = v
+  end
+  self.pending[msg.request_id] = on_reply or false
+  self.lc:publish(self.prefix .. "REQUEST", msg:encode())
+  return msg.request_id
+end
+
+-- Sends and waits for the terminal reply (a motionlcm reply_t table). When none comes within
+-- opts.timeout seconds (default 10), returns a local FAILED reply saying so. opts.on_progress(reply)
+-- gets the non-terminal replies. Other opts are request fields (see send).
+function Client:request(kind, axes, values, opts)
+  opts = opts or {}
+  local timeout = opts.timeout or 10
+  local fields = {}
+  for k, v in pairs(opts) do
+    if k ~= "timeout" and k ~= "on_progress" then fields[k] = v end
+  end
+  local result
+  local id = self:send(kind, axes, values, function(r)
+    if M.is_terminal(r.status) then
+      result = r
+    elseif opts.on_progress then
+      opts.on_progress(r)
+    end
+  end, fields)
+  if not self:wait_until(function() return result ~= nil end, timeout) then
+    self.pending[id] = nil
+    result = reply_t:new()
+    result.utime = os.time() * 1000000
+    result.client_id = self.id
+    result.request_id = id
+    result.status = reply_t.FAILED
+    result.reason = string.format("no terminal reply from the coordinator within %d ms (is motion-coordinator running on %s?)",
+                                  math.floor(timeout * 1000), self.url ~= "" and self.url or "the default LCM URL")
+    result.error_code = 0
+    result.num_axes = 0
+    result.axes, result.targets, result.positions, result.start_utime = {}, {}, {}, {}
+    result.param = new_param()
+  end
+  return result
+end
+
+function Client:enable(axes, opts) return self:request(request_t.ENABLE, axes, nil, opts) end
+function Client:disable(axes, opts) return self:request(request_t.DISABLE, axes, nil, opts) end
+function Client:stop(axes, opts) return self:request(request_t.STOP, axes, nil, opts) end
+
+-- Synchronized move: axes = {"x", "y"}, targets = {10, 5} (user units); opts.relative for distances.
+function Client:move(axes, targets, opts)
+  opts = opts or {}
+  local kind = opts.relative and request_t.MOVE_RELATIVE or request_t.MOVE_ABSOLUTE
+  local o = {}
+  for k, v in pairs(opts) do if k ~= "relative" then o[k] = v end end
+  return self:request(kind, axes, targets, o)
+end
+
+-- Latest state of every axis heard so far, by axis name (a copy).
+function Client:axis_states()
+  local copy = {}
+  for k, v in pairs(self.axes) do copy[k] = v end
+  return copy
+end
+
+-- Latest heartbeat of every process heard so far, by process name (a copy).
+function Client:heartbeats()
+  local copy = {}
+  for k, v in pairs(self.beats) do copy[k] = v end
+  return copy
+end
+
+function Client:on_axis_state(fn) self.state_handler = fn end
+function Client:on_event(fn) self.event_handler = fn end
+function Client:on_health(fn) self.health_handler = fn end
+
+-- Handles LCM messages for up to `ms` milliseconds (one batch); true when one was handled.
+function Client:handle(ms)
+  return self.lc:handle_timeout(ms or 100)
+end
+
+-- Pumps LCM until done() or the timeout (seconds); false on timeout.
+function Client:wait_until(done, timeout)
+  local deadline = deadline_after(timeout)
+  while not done() do
+    if now() >= deadline then return false end
+    self.lc:handle_timeout(50)
+  end
+  return true
+end
+
+function Client:wait_for_heartbeat(process, timeout)
+  if self:wait_until(function() return self.beats[process] ~= nil end, timeout or 10) then
+    return self.beats[process]
+  end
+  return nil
+end
+
+local function decode(t, data)
+  local ok, msg = pcall(t.decode, data)
+  if ok then return msg end
+  return nil  -- wrong fingerprint or truncated: not ours to crash on
+end
+
+function Client:_on_reply(data)
+  local r = decode(reply_t, data)
+  if not r or r.client_id ~= self.id then return end
+  local handler = self.pending[r.request_id]
+  if handler == nil then return end
+  if M.is_terminal(r.status) then self.pending[r.request_id] = nil end
+  if handler then handler(r) end
+end
+
+function Client:_on_axis_state(data)
+  local s = decode(axis_state_t, data)
+  if not s then return end
+  self.axes[s.axis] = s
+  if self.state_handler then self.state_handler(s) end
+end
+
+function Client:_on_event(data)
+  local e = decode(event_t, data)
+  if e and self.event_handler then self.event_handler(e) end
+end
+
+function Client:_on_health(data)
+  local h = decode(health_t, data)
+  if not h then return end
+  self.beats[h.process] = h
+  if self.health_handler then self.health_handler(h) end
+end
+
+-- Shared by the example programs: "--name value", "--name=value", "--axes x y". Returns a table
+-- name -> list of values, or nil and an error message.
+function M.parse_args(argv, arity)
+  local out, i = {}, 1
+  while i <= #argv do
+    local a = argv[i]
+    local name, inline = a:match("^(%-%-[%w-]+)=(.*)$")
+    name = name or a
+    local n = arity[name]
+    if not n then return nil, "unknown option " .. a end
+    local vals = {}
+    if inline then vals[1] = inline end
+    while #vals < n do
+      i = i + 1
+      if i > #argv then return nil, name .. " needs " .. n .. " value(s)" end
+      vals[#vals + 1] = argv[i]
+    end
+    out[name] = vals
+    i = i + 1
+  end
+  return out
+end
+
+return M

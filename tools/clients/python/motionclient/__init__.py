@@ -1,0 +1,23 @@
+"""motionclient: Python client of the motion system over LCM UDP multicast (no LCM binding needed).
+
+    from motionclient import Client
+    with Client("udpm://239.255.76.67:7667?ttl=0") as c:
+        print(c.request("enable", ["x", "y"]).reason)
+
+Needs the lcm-gen Python types (build/lcmtypes/python) on PYTHONPATH for Client; the transport
+(motionclient.lcm_udp) needs nothing but the standard library.
+"""
+
+from .lcm_udp import LcmUdp, Reassembler, encode_datagrams, parse_url  # noqa: F401
+
+try:
+    from .client import (Client, RequestFailed, is_terminal, kind_value, status_name,  # noqa: F401
+                         HEALTH_STATES, KINDS, TERMINAL)
+except ImportError as _e:  # the types are missing: the transport still works, Client explains
+    _import_error = _e
+
+    def __getattr__(name):
+        if name in ("Client", "RequestFailed", "is_terminal", "kind_value", "status_name", "HEALTH_STATES", "KINDS",
+                    "TERMINAL"):
+            raise ImportError(str(_import_error))
+        raise AttributeError(name)

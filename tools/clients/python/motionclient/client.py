@@ -1,0 +1,247 @@
+"""Python client of the motion system: requests and their terminal replies, axis state, events,
+heartbeats. Mirrors the C++ client (services/client): every request gets replies on REPLY that end
+in exactly one terminal status (DONE, REJECTED, ABORTED, FAILED); ``request()`` waits for it.
+
+Needs the lcm-gen Python types (``build/lcmtypes/python`` on sys.path / PYTHONPATH); their
+encode()/decode() are pure Python. Transport: motionclient.lcm_udp (no LCM binding needed).
+
+Thread contract: single-threaded. Callbacks run inside ``handle()``, ``request()`` and
+``wait_until()``, which pump the LCM socket.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+from typing import Callable, Dict, Iterable, Mapping, Optional, Sequence, Union
+
+from .lcm_udp import LcmUdp
+
+try:
+    import motionlcm
+    from motionlcm import axis_state_t, event_t, health_t, param_t, reply_t, request_t
+except ImportError as e:  # pragma: no cover - a clear message instead of a bare ImportError
+    raise ImportError("motionclient needs the generated LCM types: put build/lcmtypes/python on PYTHONPATH "
+                      f"(build the motion_lcmtypes_scripts target) ({e})") from None
+
+TERMINAL = (reply_t.DONE, reply_t.REJECTED, reply_t.ABORTED, reply_t.FAILED)
+_STATUS_NAMES = {reply_t.ACCEPTED: "accepted", reply_t.STARTED: "started", reply_t.PROGRESS: "progress",
+                 reply_t.DONE: "done", reply_t.REJECTED: "rejected", reply_t.ABORTED: "aborted",
+                 reply_t.FAILED: "failed"}
+KINDS = {name.lower(): getattr(request_t, name) for name in (
+    "MOVE_ABSOLUTE", "MOVE_RELATIVE", "JOG", "STOP", "ESTOP", "HOME", "ENABLE", "DISABLE", "FAULT_RESET",
+    "SET_OUTPUTS", "PARAM_READ", "PARAM_WRITE", "SET_POSITION")}
+HEALTH_STATES = {health_t.STARTING: "STARTING", health_t.OK: "OK", health_t.DEGRADED: "DEGRADED",
+                 health_t.FAULT: "FAULT", health_t.STOPPING: "STOPPING"}
+
+
+def is_terminal(status: int) -> bool:
+    return status in TERMINAL
+
+
+def status_name(status: int) -> str:
+    return _STATUS_NAMES.get(status, "unknown")
+
+
+def kind_value(kind: Union[int, str]) -> int:
+    """request_t kind from its number or name ("move_absolute", "ENABLE", "move-relative")."""
+    if isinstance(kind, int):
+        return kind
+    try:
+        return KINDS[kind.lower().replace("-", "_")]
+    except KeyError:
+        raise ValueError(f"unknown request kind {kind!r} (kinds: {', '.join(KINDS)})") from None
+
+
+class RequestFailed(Exception):
+    """A request ended in a terminal status other than DONE (raised by request(check=True))."""
+
+    def __init__(self, reply):
+        self.reply = reply
+        super().__init__(f"{status_name(reply.status)} (error {reply.error_code}): {reply.reason}")
+
+
+class Client:
+    """``Client(url, prefix="MOTION_", client_id=...)``; use as a context manager or call close()."""
+
+    def __init__(self, url: Optional[str] = None, prefix: str = "MOTION_", client_id: Optional[str] = None,
+                 lcm: Optional[LcmUdp] = None):
+        self.lcm = lcm or LcmUdp(url)
+        self.url = self.lcm.url
+        self.prefix = prefix
+        self.id = client_id or f"py:{socket.gethostname()}:{os.getpid()}"
+        # Request ids start at the wall clock so a restarted client never reuses a live id.
+        self._next_request_id = int(time.time() * 1e6)
+        self._pending: Dict[int, Optional[Callable]] = {}
+        self._axes: Dict[str, axis_state_t] = {}
+        self._heartbeats: Dict[str, health_t] = {}
+        self._state_handler: Optional[Callable] = None
+        self._event_handler: Optional[Callable] = None
+        self._health_handler: Optional[Callable] = None
+        self.lcm.subscribe(self.channel("REPLY"), self._on_reply)
+        self.lcm.subscribe(self.channel("AXIS_STATE"), self._on_axis_state)
+        self.lcm.subscribe(self.channel("EVENT"), self._on_event)
+        self.lcm.subscribe(self.channel("HEALTH"), self._on_health)
+
+    def channel(self, name: str) -> str:
+        return self.prefix + name
+
+    # ------------------------------------------------------------------ requests
+
+    def send(self, kind: Union[int, str], axes: Sequence[str] = (), values: Optional[Sequence[float]] = None,
+             on_reply: Optional[Callable] = None, **fields) -> int:
+        """Publishes a request and returns its request_id; every reply goes to on_reply(reply).
+        ``fields``: velocity_scale, acceleration_scale, timeout_ms, output_mask, output_value, param."""
+        msg = request_t()
+        msg.utime = int(time.time() * 1e6)
+        msg.client_id = self.id
+        msg.request_id = self._next_request_id
+        self._next_request_id += 1
+        msg.kind = kind_value(kind)
+        msg.axes = list(axes)
+        msg.num_axes = len(msg.axes)
+        vals = [float(v) for v in (values or [])]
+        msg.values = (vals + [0.0] * msg.num_axes)[:msg.num_axes]
+        msg.param = param_t()
+        for key, value in fields.items():
+            if key not in ("velocity_scale", "acceleration_scale", "timeout_ms", "output_mask", "output_value", "param"):
+                raise TypeError(f"unknown request field {key!r}")
+            setattr(msg, key, value)
+        self._pending[msg.request_id] = on_reply
+        self.lcm.publish(self.channel("REQUEST"), msg.encode())
+        return msg.request_id
+
+    def request(self, kind: Union[int, str], axes: Sequence[str] = (), values: Optional[Sequence[float]] = None,
+                timeout: float = 10.0, on_progress: Optional[Callable] = None, check: bool = False, **fields):
+        """Sends and waits for the terminal reply (a motionlcm.reply_t). When none comes within
+        `timeout` seconds, returns a local FAILED reply saying so (the coordinator may be down).
+        check=True raises RequestFailed unless the reply is DONE."""
+        result = []
+
+        def on_reply(r):
+            if is_terminal(r.status):
+                result.append(r)
+            elif on_progress:
+                on_progress(r)
+
+        request_id = self.send(kind, axes, values, on_reply, **fields)
+        if not self.wait_until(lambda: bool(result), timeout):
+            self._pending.pop(request_id, None)
+            r = reply_t()
+            r.utime = int(time.time() * 1e6)
+            r.client_id = self.id
+            r.request_id = request_id
+            r.status = reply_t.FAILED
+            r.reason = (f"no terminal reply from the coordinator within {int(timeout * 1000)} ms "
+                        f"(is motion-coordinator running on {self.url}?)")
+            r.param = param_t()
+            result.append(r)
+        if check and result[0].status != reply_t.DONE:
+            raise RequestFailed(result[0])
+        return result[0]
+
+    # Convenience wrappers (all return the terminal reply).
+    def enable(self, axes: Iterable[str], **kw):
+        return self.request(request_t.ENABLE, list(axes), **kw)
+
+    def disable(self, axes: Iterable[str], **kw):
+        return self.request(request_t.DISABLE, list(axes), **kw)
+
+    def stop(self, axes: Iterable[str] = (), emergency: bool = False, **kw):
+        return self.request(request_t.ESTOP if emergency else request_t.STOP, list(axes), **kw)
+
+    def move(self, targets: Mapping[str, float], relative: bool = False, **kw):
+        """Synchronized move of several axes: {"x": 10.0, "y": 5.0} in user units."""
+        kind = request_t.MOVE_RELATIVE if relative else request_t.MOVE_ABSOLUTE
+        return self.request(kind, list(targets.keys()), list(targets.values()), **kw)
+
+    # ------------------------------------------------------------------ state, events, health
+
+    def axis_states(self) -> Dict[str, axis_state_t]:
+        """Latest state of every axis heard so far."""
+        return dict(self._axes)
+
+    def heartbeats(self) -> Dict[str, health_t]:
+        """Latest heartbeat of every process heard so far, by process name."""
+        return dict(self._heartbeats)
+
+    def on_axis_state(self, handler: Optional[Callable]) -> None:
+        self._state_handler = handler
+
+    def on_event(self, handler: Optional[Callable]) -> None:
+        self._event_handler = handler
+
+    def on_health(self, handler: Optional[Callable]) -> None:
+        self._health_handler = handler
+
+    def handle(self, timeout: Optional[float] = 0.1) -> bool:
+        return self.lcm.handle(timeout)
+
+    def wait_until(self, done: Callable[[], bool], timeout: float) -> bool:
+        """Pumps LCM until done() or the timeout (seconds); False on timeout."""
+        deadline = time.monotonic() + timeout
+        while not done():
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            self.lcm.handle(min(remaining, 0.05))
+        return True
+
+    def wait_for_heartbeat(self, process: str, timeout: float = 10.0) -> Optional[health_t]:
+        if self.wait_until(lambda: process in self._heartbeats, timeout):
+            return self._heartbeats[process]
+        return None
+
+    def close(self) -> None:
+        self.lcm.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ LCM handlers
+
+    @staticmethod
+    def _decode(cls, payload: bytes):
+        try:
+            return cls.decode(payload)
+        except Exception:  # wrong fingerprint or truncated: not ours to crash on
+            return None
+
+    def _on_reply(self, _channel: str, payload: bytes) -> None:
+        r = self._decode(reply_t, payload)
+        if r is None or r.client_id != self.id or r.request_id not in self._pending:
+            return
+        handler = self._pending[r.request_id]
+        if is_terminal(r.status):
+            del self._pending[r.request_id]
+        if handler:
+            handler(r)
+
+    def _on_axis_state(self, _channel: str, payload: bytes) -> None:
+        s = self._decode(axis_state_t, payload)
+        if s is None:
+            return
+        self._axes[s.axis] = s
+        if self._state_handler:
+            self._state_handler(s)
+
+    def _on_event(self, _channel: str, payload: bytes) -> None:
+        e = self._decode(event_t, payload)
+        if e is not None and self._event_handler:
+            self._event_handler(e)
+
+    def _on_health(self, _channel: str, payload: bytes) -> None:
+        h = self._decode(health_t, payload)
+        if h is None:
+            return
+        self._heartbeats[h.process] = h
+        if self._health_handler:
+            self._health_handler(h)
+
+
+__all__ = ["Client", "RequestFailed", "is_terminal", "status_name", "kind_value", "KINDS", "HEALTH_STATES",
+           "TERMINAL"]
