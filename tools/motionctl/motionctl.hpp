@@ -19,5 +19,6 @@ struct Context {
 void add_health_command(CLI::App& cli, Context& ctx);
 void add_config_command(CLI::App& cli, Context& ctx);
 void add_axis_commands(CLI::App& cli, Context& ctx);
+void add_can_commands(CLI::App& cli, Context& ctx);  // dump, send (can_cmds.cpp)
 
 }  // namespace motion::ctl

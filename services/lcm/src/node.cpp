@@ -10,15 +10,18 @@ namespace motion::lcm {
 struct Node::Subscription {
   Node* node;
   RawHandler handler;
-  // LCM's member-function subscription: raw bytes, decoding is ours (so malformed input is seen).
-  void on_message(const ::lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+  // Registered with LCM's C API: its C++ member-function wrapper hands the callback a wrong
+  // user-data pointer in sanitizer builds of Debian's 1.3.1, and the C API is all we need (raw
+  // bytes; decoding is ours so malformed input is seen).
+  static void on_message(const lcm_recv_buf_t* rbuf, const char* channel, void* user_data) noexcept {
+    auto* self = static_cast<Subscription*>(user_data);
     try {
-      handler(rbuf->data, static_cast<int>(rbuf->data_size), channel);
+      self->handler(rbuf->data, static_cast<int>(rbuf->data_size), std::string(channel));
     } catch (const std::exception& e) {
-      ++node->handler_errors_;
+      ++self->node->handler_errors_;
       spdlog::error("lcm: handler for {} threw: {}", channel, e.what());
     } catch (...) {
-      ++node->handler_errors_;
+      ++self->node->handler_errors_;
       spdlog::error("lcm: handler for {} threw a non-standard exception", channel);
     }
   }
@@ -59,7 +62,7 @@ bool Node::publish_raw(const std::string& full_channel, const std::vector<std::u
 void Node::subscribe_raw(const std::string& full_channel_regex, RawHandler handler) {
   if (!ok_) return;
   auto sub = std::make_unique<Subscription>(Subscription{this, std::move(handler)});
-  lcm_->subscribe(full_channel_regex, &Subscription::on_message, sub.get());
+  lcm_subscribe(lcm_->getUnderlyingLCM(), full_channel_regex.c_str(), &Subscription::on_message, sub.get());
   subscriptions_.push_back(std::move(sub));
 }
 
