@@ -2,8 +2,10 @@
 // wire protocol and LCM.
 #include <spdlog/spdlog.h>
 
+#include "bus_assembly.hpp"
 #include "motion/app/service.hpp"
 #include "motion/core/log.hpp"
+#include "motion/gateway/gateway.hpp"
 
 int main(int argc, char** argv) {
   using namespace motion;
@@ -25,7 +27,33 @@ int main(int argc, char** argv) {
     }
     app::Service service(*config, options, "gateway:" + bus_name, "gateway");
     if (!service.ok()) return app::kExitUnavailable;
-    service.health().set_state(motionlcm::health_t::OK, bus->transport);
+    gateway::Gateway gateway(service.loop(), service.node(), service.health(), *config, bus_name);
+
+    // The bus may not exist yet (motion-sim starting, adapter unplugged): keep trying, and say
+    // why in the health meanwhile.
+    constexpr auto kRetryPeriod = std::chrono::seconds(1);
+    EventLoop::TimerId retry = 0;
+    std::string last_error;
+    auto try_open = [&] {
+      auto assembly = gateway::assemble_bus(service.loop(), *config, *bus, gateway);
+      gateway.set_unsupported(assembly.unsupported);
+      if (assembly.driver) {
+        service.loop().cancel(retry);
+        gateway.set_waiting({});
+        spdlog::info("bus {} open ({})", bus_name, bus->transport);
+        gateway.attach(std::move(assembly.driver));
+        return;
+      }
+      if (assembly.error) {
+        if (assembly.error_text != last_error) spdlog::warn("{}; retrying every {} s", assembly.error_text, kRetryPeriod.count());
+        last_error = assembly.error_text;
+        gateway.set_waiting(assembly.error_text);
+      } else {
+        service.loop().cancel(retry);  // nothing to open: no driver serves this bus's families yet
+      }
+    };
+    retry = service.loop().call_every(kRetryPeriod, try_open);
+    try_open();
     return service.run();
   });
 }

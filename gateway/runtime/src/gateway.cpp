@@ -31,13 +31,31 @@ void Gateway::attach(std::unique_ptr<BusDriver> driver) {
   update_health();
 }
 
+void Gateway::set_unsupported(const std::vector<const config::Drive*>& drives) {
+  unsupported_.clear();
+  for (const config::Drive* d : drives) unsupported_[d->name] = std::string(config::to_string(d->family));
+  update_health();
+}
+
+void Gateway::set_waiting(std::string why) {
+  waiting_ = std::move(why);
+  update_health();
+}
+
 void Gateway::update_health() {
+  std::string unsupported;
+  for (const auto& [drive, family] : unsupported_) unsupported += (unsupported.empty() ? "" : ", ") + drive + " (" + family + ")";
+  if (!unsupported.empty()) unsupported = "no driver yet for " + unsupported;
+  auto join = [](std::string a, const std::string& b) { return b.empty() ? a : a.empty() ? b : a + "; " + b; };
   if (!driver_) {
-    health_.set_state(motionlcm::health_t::FAULT, "no driver for bus " + bus_);
-  } else if (driver_->ready()) {
+    const std::string why = join(waiting_, unsupported);
+    health_.set_state(why.empty() ? motionlcm::health_t::FAULT : motionlcm::health_t::DEGRADED,
+                      why.empty() ? "no driver for bus " + bus_ : why);
+  } else if (driver_->ready() && unsupported.empty()) {
     health_.set_state(motionlcm::health_t::OK, std::to_string(axes_.size()) + " axes ready");
   } else {
-    health_.set_state(motionlcm::health_t::DEGRADED, "drives not all online/set up");
+    health_.set_state(motionlcm::health_t::DEGRADED,
+                      join(driver_->ready() ? std::string{} : std::string{"drives not all online/set up"}, unsupported));
   }
 }
 
@@ -52,9 +70,13 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
   if (command.bus != bus_) return fail("command for bus '" + command.bus + "' reached gateway of bus '" + bus_ + "'");
   if (command.num_axes != static_cast<std::int32_t>(command.axes.size())) return fail("num_axes does not match the axes array");
   for (const auto& a : command.axes) {
-    if (!axes_.contains(a.axis)) return fail("axis '" + a.axis + "' is not on bus '" + bus_ + "'");
+    const auto axis = axes_.find(a.axis);
+    if (axis == axes_.end()) return fail("axis '" + a.axis + "' is not on bus '" + bus_ + "'");
+    if (const auto u = unsupported_.find(axis->second->drive); u != unsupported_.end()) {
+      return fail("axis '" + a.axis + "': drive " + u->first + " is a " + u->second + " drive, which this gateway does not drive yet");
+    }
   }
-  if (!driver_) return fail("gateway has no driver for bus '" + bus_ + "'");
+  if (!driver_) return fail("gateway of bus '" + bus_ + "' has no driver" + (waiting_.empty() ? "" : ": " + waiting_));
   driver_->execute(command);
 }
 

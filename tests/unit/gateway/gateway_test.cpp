@@ -166,5 +166,22 @@ TEST_F(Fixture, EventsNameTheirSource) {
   EXPECT_EQ(events[0].code, 0x1D);
 }
 
+
+TEST_F(Fixture, DriveWithoutADriverFailsItsCommandsAndShowsInTheHealth) {
+  std::vector<motionlcm::health_t> heartbeats;
+  node.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { heartbeats.push_back(h); });
+  gateway.set_unsupported({config.find_drive("xd")});
+  node.publish(lcm::channels::gateway_command("can0"), command_for("can0", "x"));
+  pump_until([&] { return !replies.empty() && !heartbeats.empty(); });
+  ASSERT_EQ(replies.size(), 1u);
+  EXPECT_EQ(replies[0].status, std::int8_t{motionlcm::gateway_reply_t::FAILED});
+  EXPECT_NE(replies[0].reason.find("drive xd is a uim342 drive, which this gateway does not drive yet"), std::string::npos)
+      << replies[0].reason;
+  EXPECT_TRUE(driver->commands.empty());
+  ASSERT_FALSE(heartbeats.empty());
+  EXPECT_EQ(heartbeats.back().state, std::int8_t{motionlcm::health_t::DEGRADED});
+  EXPECT_NE(heartbeats.back().detail.find("no driver yet for xd (uim342)"), std::string::npos) << heartbeats.back().detail;
+}
+
 }  // namespace
 }  // namespace motion::gateway

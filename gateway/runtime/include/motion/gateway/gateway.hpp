@@ -37,6 +37,11 @@ class Gateway final : public GatewayOutput {
 
   // Installs the driver and starts it (the driver reports through *this).
   void attach(std::unique_ptr<BusDriver> driver);
+  // Drives of this bus that no stack serves (family not implemented): health says so and their
+  // axes' commands fail with that reason.
+  void set_unsupported(const std::vector<const config::Drive*>& drives);
+  // Why there is no driver yet (e.g. the bus cannot be opened; retried): shown in the health.
+  void set_waiting(std::string why);
 
   // GatewayOutput
   void axis_status(const std::string& axis, const DriveStatus& status) override;
@@ -58,6 +63,8 @@ class Gateway final : public GatewayOutput {
   std::string bus_;
   std::map<std::string, const config::Axis*> axes_;  // axes of this bus
   std::unique_ptr<BusDriver> driver_;
+  std::map<std::string, std::string> unsupported_;  // drive name -> family
+  std::string waiting_;
   EventLoop::TimerId health_timer_ = 0;
 };
 

@@ -1,0 +1,67 @@
+#include "bus_assembly.hpp"
+
+#include <functional>
+#include <map>
+
+#include "motion/gateway/can_bus_driver.hpp"
+#include "motion/gateway/can_transport_factory.hpp"
+
+namespace motion::gateway {
+namespace {
+
+using CanStackFactory =
+    std::function<std::unique_ptr<CanStack>(const config::Config&, const config::Bus&, CanStackContext)>;
+
+// The protocol stacks a CAN bus can carry, by drive family. Each family's issue adds its line.
+const std::map<config::Family, CanStackFactory>& can_stack_factories() {
+  static const std::map<config::Family, CanStackFactory> factories{};
+  return factories;
+}
+
+std::map<config::Family, std::vector<const config::Drive*>> drives_by_family(const config::Config& config,
+                                                                             const config::Bus& bus) {
+  std::map<config::Family, std::vector<const config::Drive*>> out;
+  for (const auto& drive : config.drives) {
+    if (drive.bus == bus.name) out[drive.family].push_back(&drive);
+  }
+  return out;
+}
+
+void list_unsupported(const std::vector<const config::Drive*>& drives, std::vector<const config::Drive*>& out) {
+  out.insert(out.end(), drives.begin(), drives.end());
+}
+
+BusAssembly assemble_can_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) {
+  BusAssembly result;
+  auto transport = open_can_transport(config, bus, "gateway:" + bus.name, result.error);
+  if (!transport) {
+    result.error_text = open_error_message(config, bus, result.error);
+    return result;
+  }
+  auto driver = std::make_unique<CanBusDriver>(loop, bus.name, std::move(transport), out);
+  for (const auto& [family, drives] : drives_by_family(config, bus)) {
+    const auto factory = can_stack_factories().find(family);
+    if (factory == can_stack_factories().end()) {
+      list_unsupported(drives, result.unsupported);
+      continue;
+    }
+    driver->add_stack(factory->second(config, bus, driver->context()));
+  }
+  result.driver = std::move(driver);
+  return result;
+}
+
+BusAssembly assemble_serial_bus(const config::Config& config, const config::Bus& bus) {
+  BusAssembly result;
+  for (const auto& [family, drives] : drives_by_family(config, bus)) list_unsupported(drives, result.unsupported);
+  return result;
+}
+
+}  // namespace
+
+BusAssembly assemble_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) {
+  if (config::is_can(bus.kind)) return assemble_can_bus(loop, config, bus, out);
+  return assemble_serial_bus(config, bus);
+}
+
+}  // namespace motion::gateway
