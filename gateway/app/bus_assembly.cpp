@@ -5,6 +5,7 @@
 
 #include "motion/gateway/can_bus_driver.hpp"
 #include "motion/gateway/can_transport_factory.hpp"
+#include "motion/uim342_driver/uim342_stack.hpp"
 
 namespace motion::gateway {
 namespace {
@@ -14,7 +15,12 @@ using CanStackFactory =
 
 // The protocol stacks a CAN bus can carry, by drive family. Each family's issue adds its line.
 const std::map<config::Family, CanStackFactory>& can_stack_factories() {
-  static const std::map<config::Family, CanStackFactory> factories{};
+  static const std::map<config::Family, CanStackFactory> factories{
+      {config::Family::kUim342,
+       [](const config::Config& config, const config::Bus& bus, CanStackContext context) -> std::unique_ptr<CanStack> {
+         return std::make_unique<Uim342Stack>(config, bus.name, std::move(context));
+       }},
+  };
   return factories;
 }
 

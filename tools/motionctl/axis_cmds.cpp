@@ -70,6 +70,28 @@ nlohmann::json status_json(const config::Config& c, const std::map<std::string, 
   return out;
 }
 
+// Per axis: target, final position, when it started relative to the first axis; then the
+// measured duration and start skew beside the planner's predictions.
+void print_move_summary(const motionlcm::reply_t& result) {
+  std::int64_t first_start = 0;
+  for (const std::int64_t t : result.start_utime) {
+    if (t != 0 && (first_start == 0 || t < first_start)) first_start = t;
+  }
+  std::printf("\n  %-8s %12s %12s %12s %10s", "AXIS", "TARGET", "FINAL", "ERROR", "START");
+  for (std::size_t i = 0; i < result.axes.size(); ++i) {
+    const std::int64_t start = i < result.start_utime.size() ? result.start_utime[i] : 0;
+    const std::string start_text = start == 0 ? std::string("-") : "+" + std::to_string(start - first_start) + " us";
+    std::printf("\n  %-8s %12.4f %12.4f %12.4f %10s", result.axes[i].c_str(), result.targets[i], result.positions[i],
+                result.positions[i] - result.targets[i], start_text.c_str());
+  }
+  if (first_start != 0) {
+    std::printf("\n  duration %.3f s (predicted %.3f s)", static_cast<double>(result.utime - first_start) / 1e6, result.predicted_duration_s);
+  }
+  if (result.measured_start_skew_us >= 0) {
+    std::printf("\n  start skew %.0f us measured (predicted arrival spread %.0f us)", result.measured_start_skew_us, result.predicted_skew_us);
+  }
+}
+
 // Sends `request` and reports its outcome; exit code 0 only on DONE (or STARTED without --wait).
 int run_request(Context& ctx, app::Service& service, request_t request, bool wait, double timeout_s) {
   client::Client client(service.loop(), service.node(), "motionctl-" + std::to_string(::getpid()));
@@ -118,8 +140,7 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
   } else if (result.status == motionlcm::reply_t::DONE) {
     std::cout << "done";
     if (result.param.space != motionlcm::param_t::NONE) std::cout << ": value " << result.param.value;
-    for (std::size_t i = 0; i < result.axes.size() && moving_kind; ++i) std::printf("\n  %-8s %12.4f", result.axes[i].c_str(), result.positions[i]);
-    if (moving_kind && result.measured_start_skew_us >= 0) std::printf("\n  start skew %.0f us (predicted arrival spread %.0f us)", result.measured_start_skew_us, result.predicted_skew_us);
+    if (moving_kind) print_move_summary(result);
     std::cout << "\n";
   }
   if (result.status != motionlcm::reply_t::DONE) {

@@ -1,0 +1,76 @@
+// Real-time notifications (RT, CW 0x5A), manual §2.4 / §5.29, spec §6: unsolicited drive frames
+// for alarms (DL 5: d0 = 0, d1 = alarm code), input edges (DL 1: d0 = 1..6) and "PTP positioning
+// finished" (DL 8: d0 = 0x29, [d7..d4] = position). Reserved bytes are written as zero and ignored
+// when decoding; unknown alarm codes are kept (a newer firmware may add some), unknown d0 values
+// are rejected. Thread contract: pure functions, thread-safe.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <variant>
+
+#include "motion/can/frame.hpp"
+#include "motion/uim342/errors.hpp"
+#include "motion/uim342/instructions.hpp"
+#include "motion/uim342/message.hpp"
+
+namespace motion::uim342 {
+
+inline constexpr std::uint8_t kNotificationControlWord = 0x5A;
+
+// d0 of a notification.
+enum class NotificationCode : std::uint8_t {
+  alarm = 0x00,
+  in1_falling = 0x01, in1_rising = 0x02,
+  in2_falling = 0x03, in2_rising = 0x04,
+  in3_falling = 0x05, in3_rising = 0x06,
+  position_reached = 0x29,
+};
+
+// d1 of an alarm (§2.4).
+enum class AlarmCode : std::uint8_t {
+  emergency_stop_lock = 0x0A,   // system emergency stop and lock
+  speed_over_limit = 0x19,
+  below_lower_limit = 0x1A,     // exceeded lower working (software) limit
+  above_upper_limit = 0x1B,     // exceeded upper working (software) limit
+  stall = 0x1D,                 // motor stall detected
+  encoder_error = 0x1E,
+  encoder_battery_low = 0x1F,
+};
+[[nodiscard]] std::string describe(AlarmCode alarm);  // manual wording; "unknown alarm 0xNN" else
+
+enum class Edge : std::uint8_t { falling, rising };
+
+struct AlarmNotification {
+  AlarmCode alarm{};
+  friend bool operator==(const AlarmNotification&, const AlarmNotification&) = default;
+};
+struct InputEdgeNotification {
+  InputPort port = InputPort::in1;
+  Edge edge = Edge::falling;
+  // d0 = 2*port + 1, +1 for the rising edge.
+  [[nodiscard]] NotificationCode code() const {
+    return static_cast<NotificationCode>(2 * static_cast<unsigned>(port) + 1 + (edge == Edge::rising ? 1 : 0));
+  }
+  friend bool operator==(const InputEdgeNotification&, const InputEdgeNotification&) = default;
+};
+struct PositionReachedNotification {
+  std::int32_t position = 0;  // absolute position [I]
+  friend bool operator==(const PositionReachedNotification&, const PositionReachedNotification&) = default;
+};
+using Notification = std::variant<AlarmNotification, InputEdgeNotification, PositionReachedNotification>;
+
+[[nodiscard]] Message encode(const Notification& notification);
+[[nodiscard]] Result<Notification> decode_notification(const Message& message);
+[[nodiscard]] Result<can::Frame> notification_frame(std::uint8_t node, const Notification& notification,
+                                                    std::uint8_t host = kMasterId);
+
+// The IE[i] bit that gates the notification (§5.3); nullopt for alarms (always sent, [I]).
+[[nodiscard]] std::optional<InformationEnable> enabled_by(const Notification& notification);
+
+// Everything a drive sends: ACK / error report, or notification.
+using DriveMessage = std::variant<Reply, Notification>;
+[[nodiscard]] Result<DriveMessage> decode_drive_message(const Message& message);
+
+}  // namespace motion::uim342

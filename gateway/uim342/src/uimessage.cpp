@@ -1,0 +1,95 @@
+#include "motion/uim342/uimessage.hpp"
+
+#include <algorithm>
+
+#include "motion/core/bytes.hpp"
+
+namespace motion::uim342 {
+namespace {
+
+constexpr std::size_t kIdAt = 1;
+constexpr std::size_t kControlWordAt = 2;
+constexpr std::size_t kLengthAt = 3;
+constexpr std::size_t kDataAt = 4;
+constexpr std::size_t kAuxAt = 12;
+constexpr std::size_t kCrcAt = 13;
+constexpr std::size_t kEndAt = 15;
+
+std::uint16_t crc_of(std::span<const std::uint8_t> frame, CrcCoverage coverage) {
+  const std::size_t first = coverage == CrcCoverage::start_to_aux ? 0 : kIdAt;
+  return crc16_modbus(frame.subspan(first, kCrcAt - first));
+}
+
+bool accepts(CrcAcceptance accept, CrcCoverage coverage) {
+  switch (accept) {
+    case CrcAcceptance::start_to_aux: return coverage == CrcCoverage::start_to_aux;
+    case CrcAcceptance::id_to_aux: return coverage == CrcCoverage::id_to_aux;
+    case CrcAcceptance::either: return true;
+  }
+  return false;
+}
+
+Result<UiFrame> encode_body(const UiMessage& message, std::uint8_t start) {
+  if (message.message.length > kMaxDataLength) return CodecErrc::length_out_of_range;
+  UiFrame out{};
+  out[0] = start;
+  out[kIdAt] = message.id;
+  out[kControlWordAt] = message.message.control_word;
+  out[kLengthAt] = message.message.length;
+  const auto payload = message.message.payload();
+  std::copy(payload.begin(), payload.end(), out.begin() + kDataAt);
+  out[kAuxAt] = message.aux;
+  out[kEndAt] = kUiEnd;
+  return out;
+}
+
+}  // namespace
+
+std::uint16_t crc16_modbus(std::span<const std::uint8_t> bytes) noexcept {
+  std::uint16_t crc = 0xFFFF;
+  for (const std::uint8_t b : bytes) {
+    crc ^= b;
+    for (int bit = 0; bit < 8; ++bit) {
+      crc = (crc & 1U) != 0 ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001U) : static_cast<std::uint16_t>(crc >> 1);
+    }
+  }
+  return crc;
+}
+
+Result<UiFrame> encode_ui_message(const UiMessage& message, CrcCoverage coverage) {
+  auto frame = encode_body(message, kUiStartWithCrc);
+  if (!frame) return frame;
+  UiFrame out = *frame;
+  bytes::write_le(std::span<std::uint8_t>(out), kCrcAt, crc_of(out, coverage));  // R0 low byte first
+  return out;
+}
+
+Result<UiFrame> encode_ui_message_without_crc(const UiMessage& message) {
+  return encode_body(message, kUiStartWithoutCrc);
+}
+
+Result<DecodedUiMessage> decode_ui_message(std::span<const std::uint8_t> frame, CrcAcceptance accept) {
+  if (frame.size() != kUiMessageSize) return CodecErrc::bad_frame_size;
+  if (frame[0] != kUiStartWithCrc && frame[0] != kUiStartWithoutCrc) return CodecErrc::bad_start_byte;
+  if (frame[kEndAt] != kUiEnd) return CodecErrc::bad_end_byte;
+  const std::uint8_t length = frame[kLengthAt];
+  if (length > kMaxDataLength) return CodecErrc::length_out_of_range;
+
+  DecodedUiMessage out;
+  if (frame[0] == kUiStartWithCrc) {
+    const auto received = *bytes::read_le<std::uint16_t>(frame, kCrcAt);
+    for (const CrcCoverage coverage : {CrcCoverage::start_to_aux, CrcCoverage::id_to_aux}) {
+      if (accepts(accept, coverage) && crc_of(frame, coverage) == received) {
+        out.crc = coverage;
+        break;
+      }
+    }
+    if (!out.crc) return CodecErrc::bad_crc;
+  }
+  const auto message = Message::make(frame[kControlWordAt], frame.subspan(kDataAt, length));
+  if (!message) return message.error();
+  out.message = UiMessage{frame[kIdAt], *message, frame[kAuxAt]};
+  return out;
+}
+
+}  // namespace motion::uim342

@@ -1,0 +1,119 @@
+// The gateway-side protocol stack of the UIROBOT UIM342 (SimpleCAN 3.0, 29-bit CAN): turns
+// gateway commands into instructions, matches the drives' ACKs, error reports and real-time
+// notifications, polls status, and reports through GatewayOutput.
+//
+// Passive core: frames and `now` in (on_frame, process, execute, fire), frames out through
+// CanStackContext::send, replies/status/events through CanStackContext::out; process() returns the
+// next deadline. No sockets, no threads, no clock reads except the optional wall clock that dates
+// STARTED replies and status samples (injected, see Uim342Stack::WallClock).
+// Thread contract: single-threaded (the gateway's event-loop thread); no method blocks.
+//
+// Manual sections implemented (UIM342C/S/XS user manual V1.0; spec digest uim342-simplecan3.md):
+//   §2.1 ACK bit and replies, one outstanding request per node; §2.3 error reports (request fails,
+//   ERROR_REPORT event); §2.4/§5.29 notifications (alarms -> ALARM/STALL/LIMIT events and fault,
+//   input edges -> INPUT_EDGE, PTP finished -> in position); §2.5 identifiers (codec);
+//   §5.1 PP[8] group id (written, then SY[1] reboot: PP values act only after a reboot);
+//   §5.2 IC, §5.3 IE[0..2,8] (input and in-position notifications), §5.4 ML identification,
+//   §5.7 QE, §5.9 MT (micro-steps, current), §5.10 MO, §5.11 BG (to the group id for a one-frame
+//   start), §5.12 ST (stops at SD: the manual's only host stop, used for STOP and ESTOP),
+//   §5.14-5.17 AC/DC/SS/SD, §5.18 JV, §5.19 SP (after PA: "#50" ordering rule), §5.21 PA,
+//   §5.22 OG (HOME and SET_POSITION: the manual has no homing procedure and no "set position"
+//   instruction, only "set origin"; SET_POSITION keeps the difference as a gateway offset),
+//   §5.23 BL, §5.24 MS[0]/MS[1] polling and MS[0]=0 (FAULT_RESET), §5.28 DI (OP1 output).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "motion/config/config.hpp"
+#include "motion/core/clock.hpp"
+#include "motion/gateway/can_bus_driver.hpp"
+#include "motion/uim342/uim342.hpp"
+
+namespace motion::gateway {
+
+// gateway_reply_t.error_code values (README "Reply error codes").
+namespace uim342_error {
+inline constexpr std::int32_t kMalformed = 1;
+inline constexpr std::int32_t kUnknownAxis = 2;
+inline constexpr std::int32_t kOutsideLimits = 3;
+inline constexpr std::int32_t kOffline = 6;
+inline constexpr std::int32_t kBusy = 8;
+inline constexpr std::int32_t kDriveError = 12;
+inline constexpr std::int32_t kTimeout = 13;
+inline constexpr std::int32_t kStopped = 14;
+inline constexpr std::int32_t kAxisFaulted = 15;
+inline constexpr std::int32_t kUnsupported = 17;
+}  // namespace uim342_error
+
+struct Uim342NodeConfig {
+  std::string drive;  // configuration name, used in every reason ("x-drive (node 5) ...")
+  std::string axis;   // the axis commands name; empty when no axis uses the drive
+  std::uint8_t node_id = uim342::kMinNodeId;
+  std::uint8_t group_id = 0;  // 0: none
+  std::chrono::milliseconds request_timeout{50};
+  int retries = 2;  // extra attempts after a timeout
+  std::map<std::string, config::SetupValue> setup;
+};
+
+struct Uim342StackConfig {
+  std::string bus;
+  std::uint32_t bitrate = 500'000;
+  std::chrono::milliseconds poll_period{50};
+  std::vector<Uim342NodeConfig> nodes;
+  std::chrono::milliseconds offline_retry_first{500};  // back-off of a silent node, doubling
+  std::chrono::milliseconds offline_retry_max{10'000};
+  std::chrono::milliseconds reboot_wait{1'000};        // after SY[1] (group id change)
+
+  // The uim342 drives of `bus` with their axes, timeouts, retries and poll rate.
+  [[nodiscard]] static Uim342StackConfig from(const config::Config& config, std::string_view bus);
+};
+
+class Uim342Stack final : public CanStack {
+ public:
+  // Wall time (us since the epoch) of a steady `now`: trigger_utime and sample_utime. The
+  // default reads the system clock; tests inject a deterministic one.
+  using WallClock = std::function<std::int64_t(TimePoint)>;
+
+  Uim342Stack(Uim342StackConfig config, CanStackContext context, WallClock wall_clock = {});
+  // What the gateway does: Uim342Stack(config, bus_name, can_driver.context()).
+  Uim342Stack(const config::Config& config, std::string_view bus, CanStackContext context, WallClock wall_clock = {});
+  ~Uim342Stack() override;
+
+  [[nodiscard]] std::string family() const override { return "uim342"; }
+  [[nodiscard]] std::vector<std::string> axes() const override;
+  void start(TimePoint now) override;
+  bool on_frame(const can::Frame& frame, TimePoint now) override;
+  TimePoint process(TimePoint now) override;
+  void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
+  void fire(std::int64_t trigger_id, TimePoint now) override;
+  [[nodiscard]] bool ready() const override;
+  void add_statistics(motionlcm::bus_stats_t& stats) const override;
+
+  struct Counters {
+    std::int64_t timeouts = 0;       // requests that got no answer after the last retry
+    std::int64_t retries = 0;        // re-sent requests
+    std::int64_t malformed = 0;      // frames from our nodes the codec refused
+    std::int64_t unexpected = 0;     // well-formed replies nobody waited for
+    std::int64_t error_reports = 0;  // CW 0x0F frames that were not ER ACKs
+    std::int64_t notifications = 0;  // CW 0x5A frames
+    std::int64_t foreign = 0;        // extended frames not from a configured node (left to others)
+  };
+  [[nodiscard]] const Counters& counters() const { return counters_; }
+  [[nodiscard]] std::optional<DriveStatus> status(std::string_view axis) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  Counters counters_;
+};
+
+}  // namespace motion::gateway
