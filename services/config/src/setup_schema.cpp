@@ -3,11 +3,11 @@
 namespace motion::config {
 namespace {
 
-const std::vector<long long> kMicrostepsUim = {1, 2, 4, 8, 16, 32, 64, 128};
+const std::vector<long long> kMicrostepsUim = {1, 2, 4, 8, 16, 32, 64};
 
 // UIM342: MT (driver), IC (initial configuration), QE (encoder) of SimpleCAN 3.0 §5.2, §5.7, §5.9.
 const std::vector<SetupKey> kUim342 = {
-    {"micro_steps", SetupType::kInt, 1, 128, kMicrostepsUim, {}, "MT[0] micro-stepping resolution"},
+    {"micro_steps", SetupType::kInt, 1, 64, kMicrostepsUim, {}, "MT[0] micro-stepping resolution (manual §5.9: 1..64 in powers of two)"},
     {"current_a", SetupType::kNumber, 0.1, 8.0, {}, {}, "MT[1] working current, amperes (0.1 A steps)"},
     {"idle_current_percent", SetupType::kInt, 0, 100, {}, {}, "MT[2] standby current, % of working current"},
     {"auto_enable", SetupType::kBool, 0, 0, {}, {}, "IC[0] driver on at power-up"},

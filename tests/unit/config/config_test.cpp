@@ -185,7 +185,7 @@ TEST(Config, DriveSetupIsValidatedPerFamily) {
                    "{name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20, setup: " + setup + "}");
   };
   ASSERT_TRUE(load_string(with_setup("{micro_steps: 16, current_a: 2.0, closed_loop: true, acceleration_unit: time}")).ok());
-  expect_single_error(with_setup("{micro_steps: 12}"), 11, "drives[0].setup.micro_steps", "12 is out of range (1, 2, 4, 8, 16, 32, 64, 128)");
+  expect_single_error(with_setup("{micro_steps: 12}"), 11, "drives[0].setup.micro_steps", "12 is out of range (1, 2, 4, 8, 16, 32, 64)");
   expect_single_error(with_setup("{current_a: 9.5}"), 11, "drives[0].setup.current_a", "out of range");
   expect_single_error(with_setup("{subdivision: 16}"), 11, "drives[0].setup.subdivision", "unknown set-up key for uim342");
   expect_single_error(with_setup("{acceleration_unit: fast}"), 11, "drives[0].setup.acceleration_unit", "not one of rate, time");
