@@ -18,7 +18,18 @@ int main(int argc, char** argv) {
     app::Service service(*config, options, "coordinator", "coordinator");
     if (!service.ok()) return app::kExitUnavailable;
     coordinator::Coordinator coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(*config));
-    service.health().set_state(motionlcm::health_t::OK, std::to_string(config->axes.size()) + " axes");
+    // OK once every bus's gateway is heard: until then requests for its axes are refused.
+    auto update_health = [&] {
+      std::string missing;
+      for (const auto& bus : coordinator.buses_without_gateway()) missing += (missing.empty() ? "" : ", ") + ("gateway:" + bus);
+      if (missing.empty()) {
+        service.health().set_state(motionlcm::health_t::OK, std::to_string(config->axes.size()) + " axes, every gateway heard");
+      } else {
+        service.health().set_state(motionlcm::health_t::DEGRADED, "no heartbeat from " + missing);
+      }
+    };
+    update_health();
+    service.loop().call_every(std::chrono::milliseconds(100), update_health);
     return service.run();
   });
 }

@@ -3,6 +3,7 @@
 #include <functional>
 #include <map>
 
+#include "motion/adam_driver/adam_bus_driver.hpp"
 #include "motion/gateway/can_bus_driver.hpp"
 #include "motion/gateway/can_transport_factory.hpp"
 #include "motion/uim342_driver/uim342_stack.hpp"
@@ -57,9 +58,17 @@ BusAssembly assemble_can_bus(EventLoop& loop, const config::Config& config, cons
   return result;
 }
 
-BusAssembly assemble_serial_bus(const config::Config& config, const config::Bus& bus) {
+// A serial line carries one family (its own framing): the first family's driver serves the
+// line, drives of any other family on it are unsupported.
+BusAssembly assemble_serial_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) {
   BusAssembly result;
-  for (const auto& [family, drives] : drives_by_family(config, bus)) list_unsupported(drives, result.unsupported);
+  for (const auto& [family, drives] : drives_by_family(config, bus)) {
+    if (!result.driver && family == config::Family::kAdamModbus) {
+      result.driver = adam_driver::AdamBusDriver::create(loop, config, bus, out);
+      continue;
+    }
+    list_unsupported(drives, result.unsupported);
+  }
   return result;
 }
 
@@ -67,7 +76,7 @@ BusAssembly assemble_serial_bus(const config::Config& config, const config::Bus&
 
 BusAssembly assemble_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) {
   if (config::is_can(bus.kind)) return assemble_can_bus(loop, config, bus, out);
-  return assemble_serial_bus(config, bus);
+  return assemble_serial_bus(loop, config, bus, out);
 }
 
 }  // namespace motion::gateway

@@ -172,6 +172,14 @@ void Coordinator::check_gateways() {
   }
 }
 
+std::vector<std::string> Coordinator::buses_without_gateway() const {
+  std::vector<std::string> out;
+  for (const auto& bus : config_.buses) {
+    if (!gateway_alive(bus.name)) out.push_back(bus.name);
+  }
+  return out;
+}
+
 bool Coordinator::gateway_alive(const std::string& bus) const {
   auto it = gateways_.find(bus);
   if (it == gateways_.end() || !it->second.seen || it->second.last_heartbeat == TimePoint{}) return false;

@@ -5,7 +5,10 @@
 #include "motion/app/service.hpp"
 #include "motion/core/log.hpp"
 #include "motion/lcm/channels.hpp"
+#include "motion/sim/adam_serial_host.hpp"
 #include "motion/sim/can_bus_host.hpp"
+#include "motion/sim/uc57_drive.hpp"
+#include "motion/sim/uim342_drive.hpp"
 
 int main(int argc, char** argv) {
   using namespace motion;
@@ -20,10 +23,14 @@ int main(int argc, char** argv) {
     if (!service.ok()) return app::kExitUnavailable;
 
     // Simulators by family; each family's issue registers its own here.
-    const std::map<config::Family, sim::CanDriveFactory> can_factories;
+    const std::map<config::Family, sim::CanDriveFactory> can_factories{
+        {config::Family::kUim342, sim::uim342_factory(*config)},
+        {config::Family::kUc57, sim::uc57_drive_factory()},
+    };
 
     auto report = [&service](motionlcm::sim_report_t r) { service.node().publish(motion::lcm::channels::kSimReport, r); };
     std::vector<std::unique_ptr<sim::CanBusHost>> can_buses;
+    std::vector<std::unique_ptr<sim::AdamSerialHost>> adam_buses;
     std::vector<std::string> missing;
     for (const auto& bus : config->buses) {
       if (bus.kind == config::TransportKind::kSimCan) {
@@ -37,6 +44,16 @@ int main(int argc, char** argv) {
         spdlog::info("simulated CAN bus {} at {} bit/s ({}), socket {}", bus.name, bus.bitrate, bus.bus_timing ? "bit-timed" : "untimed",
                      host->hub().socket_path().string());
         can_buses.push_back(std::move(host));
+      } else if (bus.kind == config::TransportKind::kSimSerial && sim::AdamSerialHost::serves(*config, bus)) {
+        std::error_code error;
+        auto host = sim::AdamSerialHost::open(service.loop(), *config, bus, report, error);
+        if (!host) {
+          spdlog::error("cannot create the simulated serial line {} in {}: {}", bus.name, config::sim_runtime_dir(*config), error.message());
+          return app::kExitUnavailable;
+        }
+        missing.insert(missing.end(), host->missing().begin(), host->missing().end());
+        spdlog::info("simulated RS485 line {} ({} ADAM drives) at {}", bus.name, host->drive_count(), host->link_path());
+        adam_buses.push_back(std::move(host));
       } else if (bus.kind == config::TransportKind::kSimSerial) {
         for (const auto& d : config->drives) {
           if (d.bus == bus.name) missing.push_back(d.name + " (" + std::string(config::to_string(d.family)) + ")");
@@ -45,6 +62,9 @@ int main(int argc, char** argv) {
     }
     service.node().subscribe<motionlcm::sim_control_t>(motion::lcm::channels::kSimControl, [&](const motionlcm::sim_control_t& c, const std::string&) {
       for (auto& host : can_buses) {
+        if (host->control(c)) return;
+      }
+      for (auto& host : adam_buses) {
         if (host->control(c)) return;
       }
       spdlog::warn("sim control for drive '{}' bus '{}' (action {}) matched nothing it supports", c.drive, c.bus, c.action);

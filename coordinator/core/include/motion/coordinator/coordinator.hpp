@@ -70,6 +70,9 @@ class Coordinator {
   Coordinator& operator=(const Coordinator&) = delete;
 
   [[nodiscard]] std::size_t active_requests() const { return requests_.size(); }
+  // Buses whose gateway has not been heard within gateway_timeout_ms (requests for their axes
+  // are rejected as offline): the coordinator's health lists them.
+  [[nodiscard]] std::vector<std::string> buses_without_gateway() const;
 
  private:
   struct AxisLive {

@@ -1,0 +1,54 @@
+// Result<T> (a T or a std::error_code; C++20 has no std::expected) and the "adam" error category
+// for the drive-level conversions and encoders of this library (range checks, bad arguments).
+// Modbus exception codes live in rtu.hpp ("modbus" category), frame errors there too
+// ("modbus_rtu" category). Thread contract: pure, stateless, thread-safe.
+#pragma once
+
+#include <system_error>
+#include <type_traits>
+#include <utility>
+#include <variant>
+
+namespace motion::adam {
+
+enum class AdamErrc {
+  value_out_of_range = 1,   // a value outside the register's documented range (manual §7/§8)
+  non_finite,               // NaN or infinity given to a unit conversion
+  invalid_subdivision,      // pulses/rev outside 200…1000000 (§8.29)
+  invalid_unit_address,     // node address outside 1…64 (§5), or 0 where a reply is needed
+  too_many_registers,       // more registers than one frame of ≤ 200 bytes can carry (§8.54)
+  empty_table,              // no table entries to load
+};
+
+[[nodiscard]] const std::error_category& adam_category() noexcept;
+[[nodiscard]] inline std::error_code make_error_code(AdamErrc e) noexcept {
+  return {static_cast<int>(e), adam_category()};
+}
+
+// Either a T or an error_code. value() on an error throws std::bad_variant_access.
+template <typename T>
+class [[nodiscard]] Result {
+ public:
+  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}             // NOLINT
+  Result(std::error_code error) : state_(std::in_place_index<1>, error) {}           // NOLINT
+  template <typename E>
+    requires std::is_error_code_enum_v<E>
+  Result(E error) : state_(std::in_place_index<1>, make_error_code(error)) {}       // NOLINT
+
+  [[nodiscard]] bool ok() const noexcept { return state_.index() == 0; }
+  explicit operator bool() const noexcept { return ok(); }
+  [[nodiscard]] const T& value() const& { return std::get<0>(state_); }
+  [[nodiscard]] T& value() & { return std::get<0>(state_); }
+  [[nodiscard]] T&& value() && { return std::get<0>(std::move(state_)); }
+  [[nodiscard]] std::error_code error() const noexcept {
+    return ok() ? std::error_code{} : std::get<1>(state_);
+  }
+
+ private:
+  std::variant<T, std::error_code> state_;
+};
+
+}  // namespace motion::adam
+
+template <>
+struct std::is_error_code_enum<motion::adam::AdamErrc> : std::true_type {};

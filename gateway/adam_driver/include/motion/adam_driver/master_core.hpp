@@ -1,0 +1,206 @@
+// The Modbus RTU master of one RS485 line of ADAM NEMA8–NEMA23 integrated steppers, as a
+// PASSIVE core: bytes and `now` in, frames out (through `send`), the next deadline out. No fd, no
+// clock, no timer: AdamBusDriver (adam_bus_driver.hpp) is the thin poll-loop shell around it, and
+// tests drive it with scripted bytes and an explicit `now`.
+//
+// The line (manual §1, §5; spec 1.3, 1.6):
+//  * one request at a time; the reply must arrive within the drive's request_timeout_ms
+//    (configuration; measured from the end of the request on the wire), else it is retried up to
+//    `retries` times; a drive that never answers fails the command with a reason naming the drive,
+//    its slave id and the register;
+//  * a reply ends at its expected length (known from the request) or after t3.5 of silence;
+//    CRC errors and malformed replies are counted, reported as PROTOCOL_ERROR events and retried;
+//  * Modbus exception replies (undocumented by the manual, spec 1.3) fail the command at once
+//    (the drive refused; repeating would not help) and are reported as ERROR_REPORT events;
+//  * broadcasts (unit 0) get no reply (§5): after one the core keeps the line silent for t3.5
+//    plus a guard time before the next frame (spec 1.6).
+//
+// Commands (gateway_command_t, drive counts), one terminal reply each (DONE or FAILED; ARM_MOVE
+// first ARMED, then STARTED when fired, then DONE/FAILED):
+//  * ENABLE/DISABLE: 0x00D4 = 0 / 1 (§8.67). The drive has no "enabled" status bit, so the core
+//    remembers what it wrote (initially from 0x0012 bit 4, power-on state, §8.15).
+//  * ARM_MOVE: per axis the profile (0x0096/0x0097 start/stop speed = 0 so the ramps are the
+//    planned ones, 0x0098/0x0099 ramp times, 0x00D8 speed) and the target as table entry 0
+//    (§8.54: size 1, pointer 0, start offset 200 → register 500). fire(): ONE broadcast
+//    0x00DD = 0 ("execute own table entry, absolute, pointer + 0", spec §4 recipe A) starts every
+//    drive at once: start_mechanism "broadcast". The broadcast reaches every drive of the line, so
+//    it is used only when every other drive is "neutral" (idle, its table entry 0 = its position:
+//    executing it moves nothing); otherwise the armed axes are started one by one with 0x00D0
+//    (absolute move), start_mechanism "sequential". DONE when every axis is idle, in position
+//    (X12) and at its target; FAILED on an alarm, a limit, or a stop short of the target.
+//  * STOP/ESTOP: 0x00C8 = 0 (ramped) / 256 (immediate) (§8.65①); DONE when stopped. Motion
+//    commands of those axes end FAILED ("stopped by command N").
+//  * JOG: 0x00CA jog word (§8.65②): speed in whole rpm (0…511), sign = direction; velocity 0 =
+//    ramped jog stop. DONE once the drive acknowledged (a jog runs until stopped).
+//  * HOME: the manual's homing (§8.48, spec 3.5): 0x009C low byte = the axis's home input (NPN,
+//    active high), then 0x00C9 (direction from the velocity sign, speed in rpm, immediate stop on
+//    the sensor, no secondary pass). DONE when idle at home (X15); then target_counts, if not 0,
+//    is preset as the home position (0x00D2).
+//  * FAULT_RESET: 0x00A4 = 0 (§8.52). SET_OUTPUTS: 0x00A0 (on) / 0x00A1 (off) bit masks (§8.51).
+//    SET_POSITION: 0x00D2 (§8.66). PARAM_READ/WRITE: param_t space MODBUS_REGISTER, index =
+//    register, width 1 or 2 registers (0: from the register map), 32-bit values low word first.
+//  * DISARM: the armed ARM_MOVEs of the trigger (or of the named axes) end FAILED ("disarmed").
+//
+// Polling: at poll_hz per drive, position+status (0x0004, 4 registers) and outputs+alarm (0x00A2,
+// 2 registers). A drive that stops answering goes OFFLINE (event), and ONLINE again when it does.
+//
+// Thread contract: single-threaded; every method returns at once.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "motion/adam/rtu.hpp"
+#include "motion/adam/status.hpp"
+#include "motion/config/config.hpp"
+#include "motion/core/clock.hpp"
+#include "motion/gateway/bus_driver.hpp"
+#include "motion/serial/silence_framer.hpp"
+
+namespace motion::adam_driver {
+
+// One drive of the line, from the configuration.
+struct DriveSettings {
+  std::string drive;                   // configuration name, e.g. "c-drive"
+  std::string axis;                    // the axis it carries ("" when none)
+  std::uint8_t unit = 1;               // Modbus slave id 1…64
+  Duration request_timeout = std::chrono::milliseconds(100);
+  int retries = 1;
+  int home_input = 1;                  // 1-based digital input of the home switch (axis homing)
+  config::HomingMethod homing_method = config::HomingMethod::kNone;
+  // Start-up writes from the drive's `setup:` map (register, words).
+  std::vector<std::pair<std::uint16_t, std::vector<std::uint16_t>>> setup_writes;
+};
+
+struct MasterSettings {
+  std::string bus;
+  std::string transport;               // for bus_stats_t, e.g. "simserial:rs485"
+  adam::rtu::SerialFormat format;
+  Duration poll_period = std::chrono::milliseconds(100);
+  Duration broadcast_guard = std::chrono::milliseconds(5);  // spec 1.6: "a few ms" after a broadcast
+  std::vector<DriveSettings> drives;
+};
+
+// The settings of `bus` from the configuration: its adam-modbus drives, their axes, timeouts,
+// retries, poll rate, and the start-up writes of each drive's `setup:` map:
+//   pulses_per_revolution → 0x0024 subdivision (pulses/rev, §8.29); otherwise subdivision
+//   (micro-steps of a 200-step motor) → 0x0024 = 200 × subdivision; current_a → 0x000D
+//   (0.01 A, §8.10); closed_loop false → 0x0017 = 65535 forces open loop (§8.18).
+[[nodiscard]] MasterSettings settings_from_config(const config::Config& config, const config::Bus& bus);
+
+// Error codes of gateway_reply_t.error_code (the reply_t codes of the README).
+enum ReplyError : std::int32_t {
+  kMalformed = 1,
+  kUnknownAxis = 2,
+  kAxisFaulted = 5,
+  kAxisOffline = 6,
+  kAxisBusy = 8,
+  kArmingFailed = 11,
+  kDriveError = 12,
+  kTimeout = 13,
+  kStopped = 14,
+  kGroupFault = 15,
+  kUnsupported = 17,
+};
+
+class MasterCore {
+ public:
+  using Send = std::function<bool(std::span<const std::uint8_t>)>;
+  using WallClock = std::function<std::int64_t()>;  // µs since the epoch (reply utimes)
+
+  MasterCore(MasterSettings settings, Send send, gateway::GatewayOutput& out, WallClock wall_clock = {});
+  ~MasterCore();
+  MasterCore(const MasterCore&) = delete;
+  MasterCore& operator=(const MasterCore&) = delete;
+
+  // Start-up: per drive read 0x0012 (power-on enable state), apply the setup writes, read 0x0024
+  // (pulses/rev, for rpm conversions); then polling begins.
+  void start(TimePoint now);
+  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint now);
+  // Timeouts, replies closed by silence, polls, the next frame. Returns the next deadline.
+  TimePoint process(TimePoint now);
+  void execute(const motionlcm::gateway_command_t& command, TimePoint now);
+  void fire(std::int64_t trigger_id, TimePoint now);
+  // A transport failure (hang-up): every command ends FAILED and the line is "closed".
+  void line_lost(const std::string& why, TimePoint now);
+
+  [[nodiscard]] motionlcm::bus_stats_t statistics() const;
+  [[nodiscard]] bool ready() const;
+  [[nodiscard]] const MasterSettings& settings() const { return settings_; }
+
+ private:
+  struct Drive;
+  struct Transaction;
+  struct Operation;
+
+  // Line.
+  void enqueue(Transaction t, bool urgent = false);
+  void send_next(TimePoint now);
+  void on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now);
+  void on_timeout(TimePoint now);
+  void retry_or_fail(const std::string& why, std::int32_t code, TimePoint now);
+  void complete_in_flight(const adam::rtu::Response& response, TimePoint now);
+  [[nodiscard]] std::optional<std::size_t> expected_reply_size(std::span<const std::uint8_t> pending) const;
+
+  // Drives and polling.
+  void run_setup(Drive& d);
+  void poll(TimePoint now);
+  void on_position_status(Drive& d, std::span<const std::uint16_t> words, TimePoint now);
+  void on_outputs_alarm(Drive& d, std::span<const std::uint16_t> words, TimePoint now);
+  void publish_status(const Drive& d) const;
+  void set_online(Drive& d, bool online, const std::string& why);
+  void event(const Drive* d, std::int16_t kind, std::int8_t severity, std::int32_t code, const std::string& text) const;
+  [[nodiscard]] Drive* drive_of_axis(const std::string& axis);
+  [[nodiscard]] std::string describe(const Transaction& t) const;
+
+  // Commands.
+  Operation& open_operation(const motionlcm::gateway_command_t& command, std::vector<Drive*> drives);
+  void add_write(Operation& op, Drive& d, const adam::rtu::Request& request, std::function<void(TimePoint)> after = {});
+  void when_transferred(Operation& op, std::function<void(TimePoint)> next);
+  void reply(const Operation& op, std::int8_t status, const std::string& reason = {}, std::int32_t code = 0,
+             std::function<void(motionlcm::gateway_reply_t&)> fill = {});
+  void finish(std::int64_t command_id, std::int8_t status, const std::string& reason = {}, std::int32_t code = 0,
+              std::function<void(motionlcm::gateway_reply_t&)> fill = {});
+  void fail_motion_of(const Drive& d, const std::string& reason, std::int32_t code);
+  void check_motion(Operation& op, TimePoint now);
+  void arm_move(Operation& op, TimePoint now);
+  void start_armed(Operation& op, TimePoint now);
+  void param(Operation& op, const motionlcm::param_t& param);
+  [[nodiscard]] bool neutral_for(const Drive& d, const Operation& firing) const;
+  [[nodiscard]] std::optional<std::string> busy_reason(const std::vector<Drive*>& drives) const;
+  [[nodiscard]] double rpm_of(const Drive& d, double counts_per_s) const;
+
+  MasterSettings settings_;
+  Send send_;
+  gateway::GatewayOutput& out_;
+  WallClock wall_clock_;
+  adam::rtu::FrameTiming timing_;
+  serial::SilenceFramer framer_;
+
+  std::vector<std::unique_ptr<Drive>> drives_;
+  std::deque<Transaction> queue_;
+  std::unique_ptr<Transaction> in_flight_;
+  TimePoint reply_deadline_ = kNever;
+  TimePoint line_free_at_{};        // no frame before this (t3.5 after the last traffic)
+  TimePoint next_poll_ = kNever;
+  std::map<std::int64_t, std::unique_ptr<Operation>> operations_;
+  bool started_ = false;
+  bool line_open_ = true;
+
+  // Statistics.
+  std::int64_t tx_frames_ = 0, rx_frames_ = 0, tx_bytes_ = 0, rx_bytes_ = 0;
+  std::int64_t errors_ = 0, timeouts_ = 0, retries_ = 0;
+  Duration busy_time_{};
+  TimePoint first_activity_ = kNever;
+  TimePoint last_activity_{};
+};
+
+}  // namespace motion::adam_driver

@@ -1,0 +1,43 @@
+// The simulated serial line of a `simserial:` bus, motion-sim's side: a pseudo-terminal pair in
+// raw mode whose slave device path is published as a symlink (<sim_runtime_dir>/<bus>.tty, see
+// serial_port.hpp). motion-sim reads and writes the master fd; the gateway (or any serial tool,
+// e.g. pymodbus/pyserial) opens the link like a real port.
+//
+// The slave fd stays open here for the link's lifetime: without it, a read of the master fails
+// with EIO whenever no client has the port open, and poll() would report the master hung up in a
+// loop (a busy wait).
+//
+// Thread contract: one thread; no call blocks (the master fd is non-blocking).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <system_error>
+
+#include "motion/serial/serial_port.hpp"
+
+namespace motion::serial {
+
+class PtyLink {
+ public:
+  // Creates the pty, configures it raw with `settings`, and (re)places the symlink atomically
+  // (a stale link of a crashed run is replaced).
+  static std::unique_ptr<PtyLink> create(const std::string& link_path, const SerialSettings& settings,
+                                         std::error_code& error);
+  ~PtyLink();  // closes both fds, removes the link if it still points to this pty
+  PtyLink(const PtyLink&) = delete;
+  PtyLink& operator=(const PtyLink&) = delete;
+
+  [[nodiscard]] int master_fd() const { return master_; }
+  [[nodiscard]] const std::string& slave_path() const { return slave_path_; }  // /dev/pts/N
+  [[nodiscard]] const std::string& link_path() const { return link_path_; }
+
+ private:
+  PtyLink(int master, int slave, std::string slave_path, std::string link_path);
+  int master_ = -1;
+  int slave_ = -1;
+  std::string slave_path_;
+  std::string link_path_;
+};
+
+}  // namespace motion::serial

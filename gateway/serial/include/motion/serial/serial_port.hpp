@@ -1,0 +1,79 @@
+// A serial port for the poll loop: opened non-blocking with termios in raw mode (baud, parity,
+// 8 data bits, stop bits from the bus configuration), exposing its fd for EventLoop::watch().
+//
+// Where a bus's port is: `serial:/dev/ttyUSB0` → that device; `simserial:<name>` → the pty that
+// motion-sim created for the bus, published as the symlink <sim_runtime_dir>/<bus>.tty
+// (simserial_link_path). Both paths are opened the same way: a pty slave is a real tty, so the
+// termios settings are exercised in tests too.
+//
+// Thread contract: a SerialPort is used from one thread (the loop's). No call blocks: reads and
+// writes return what the kernel took at once (EAGAIN is reported as "would block", not waited for).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <system_error>
+
+#include "motion/config/config.hpp"
+
+namespace motion::serial {
+
+enum class Parity : std::uint8_t { none, even, odd };
+
+struct SerialSettings {
+  int baud = 115200;
+  Parity parity = Parity::none;
+  int data_bits = 8;  // the project's serial protocols all use 8 data bits
+  int stop_bits = 1;  // 1 or 2
+  // Bits on the wire per character: start + data + parity + stop.
+  [[nodiscard]] int bits_per_character() const { return 1 + data_bits + (parity == Parity::none ? 0 : 1) + stop_bits; }
+};
+
+// The bus's line settings ('N'/'E'/'O' parity of the configuration).
+[[nodiscard]] SerialSettings settings_from(const config::Bus& bus);
+
+// <sim_runtime_dir>/<bus>.tty: where motion-sim publishes the pty of a simserial bus.
+[[nodiscard]] std::string simserial_link_path(const config::Config& config, const config::Bus& bus);
+// The path a gateway opens for a serial bus: the device of serial:, the link of simserial:.
+// Empty for CAN buses.
+[[nodiscard]] std::string device_path(const config::Config& config, const config::Bus& bus);
+
+// The termios speed constant of a baud rate; false when the kernel has no such constant
+// (e.g. 14400 and 56000, which the ADAM baud register lists, have none on Linux).
+[[nodiscard]] bool termios_speed(int baud, unsigned& speed_constant);
+
+// Applies raw 8-bit settings to an open tty fd (shared by SerialPort and the pty creator).
+[[nodiscard]] std::error_code configure_tty(int fd, const SerialSettings& settings);
+
+class SerialPort {
+ public:
+  // Opens and configures `path`. nullptr with `error` set (ENOENT when a simserial link is not
+  // there yet: motion-sim is not running).
+  static std::unique_ptr<SerialPort> open(const std::string& path, const SerialSettings& settings,
+                                          std::error_code& error);
+  ~SerialPort();
+  SerialPort(const SerialPort&) = delete;
+  SerialPort& operator=(const SerialPort&) = delete;
+
+  [[nodiscard]] int fd() const { return fd_; }
+  [[nodiscard]] const std::string& path() const { return path_; }
+  [[nodiscard]] const SerialSettings& settings() const { return settings_; }
+
+  // Reads what is available into `buffer`. Returns bytes read (0: nothing available right now);
+  // `error` set on a real error or hang-up (EIO on a pty whose other side closed).
+  std::size_t read(std::span<std::uint8_t> buffer, std::error_code& error);
+  // Writes the whole frame or reports why not (a frame ≤ 256 bytes always fits the tty buffer of
+  // an idle half-duplex line; a partial write is reported as an error, never retried blindly).
+  std::error_code write(std::span<const std::uint8_t> frame);
+
+ private:
+  SerialPort(int fd, std::string path, SerialSettings settings);
+  int fd_ = -1;
+  std::string path_;
+  SerialSettings settings_;
+};
+
+}  // namespace motion::serial

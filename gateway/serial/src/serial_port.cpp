@@ -1,0 +1,127 @@
+#include "motion/serial/serial_port.hpp"
+
+#include <fcntl.h>
+#include <sys/ioctl.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <utility>
+
+namespace motion::serial {
+namespace {
+
+std::error_code last_error() { return {errno, std::generic_category()}; }
+
+struct BaudConstant {
+  int baud;
+  speed_t constant;
+};
+constexpr std::array kBaudConstants{
+    BaudConstant{300, B300},       BaudConstant{600, B600},       BaudConstant{1200, B1200},
+    BaudConstant{2400, B2400},     BaudConstant{4800, B4800},     BaudConstant{9600, B9600},
+    BaudConstant{19200, B19200},   BaudConstant{38400, B38400},   BaudConstant{57600, B57600},
+    BaudConstant{115200, B115200}, BaudConstant{230400, B230400}, BaudConstant{460800, B460800},
+    BaudConstant{921600, B921600},
+};
+
+}  // namespace
+
+SerialSettings settings_from(const config::Bus& bus) {
+  SerialSettings s;
+  s.baud = bus.baud;
+  s.parity = bus.parity == 'E' ? Parity::even : bus.parity == 'O' ? Parity::odd : Parity::none;
+  s.stop_bits = bus.stop_bits;
+  return s;
+}
+
+std::string simserial_link_path(const config::Config& config, const config::Bus& bus) {
+  return config::sim_runtime_dir(config) + "/" + bus.name + ".tty";
+}
+
+std::string device_path(const config::Config& config, const config::Bus& bus) {
+  switch (bus.kind) {
+    case config::TransportKind::kSerial: return bus.target;
+    case config::TransportKind::kSimSerial: return simserial_link_path(config, bus);
+    default: return {};
+  }
+}
+
+bool termios_speed(int baud, unsigned& speed_constant) {
+  for (const auto& entry : kBaudConstants) {
+    if (entry.baud == baud) {
+      speed_constant = entry.constant;
+      return true;
+    }
+  }
+  return false;
+}
+
+std::error_code configure_tty(int fd, const SerialSettings& settings) {
+  unsigned speed = 0;
+  if (!termios_speed(settings.baud, speed)) return std::make_error_code(std::errc::invalid_argument);
+  if (settings.data_bits != 8 || (settings.stop_bits != 1 && settings.stop_bits != 2))
+    return std::make_error_code(std::errc::invalid_argument);
+  termios tio{};
+  if (::tcgetattr(fd, &tio) != 0) return last_error();
+  ::cfmakeraw(&tio);  // no echo, no line editing, no CR/LF translation: binary frames
+  tio.c_cflag |= CLOCAL | CREAD;
+  tio.c_cflag &= ~static_cast<tcflag_t>(CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS);
+  tio.c_cflag |= CS8;
+  if (settings.parity != Parity::none) tio.c_cflag |= PARENB;
+  if (settings.parity == Parity::odd) tio.c_cflag |= PARODD;
+  if (settings.stop_bits == 2) tio.c_cflag |= CSTOPB;
+  tio.c_cc[VMIN] = 0;  // reads return what is there (the fd is non-blocking anyway)
+  tio.c_cc[VTIME] = 0;
+  if (::cfsetispeed(&tio, speed) != 0 || ::cfsetospeed(&tio, speed) != 0) return last_error();
+  if (::tcsetattr(fd, TCSANOW, &tio) != 0) return last_error();
+  ::tcflush(fd, TCIOFLUSH);  // drop whatever a previous user left in the buffers
+  return {};
+}
+
+std::unique_ptr<SerialPort> SerialPort::open(const std::string& path, const SerialSettings& settings,
+                                             std::error_code& error) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
+    error = last_error();
+    return nullptr;
+  }
+  if (!::isatty(fd)) {
+    error = std::make_error_code(std::errc::inappropriate_io_control_operation);
+    ::close(fd);
+    return nullptr;
+  }
+  if ((error = configure_tty(fd, settings))) {
+    ::close(fd);
+    return nullptr;
+  }
+  error.clear();
+  return std::unique_ptr<SerialPort>(new SerialPort(fd, path, settings));
+}
+
+SerialPort::SerialPort(int fd, std::string path, SerialSettings settings)
+    : fd_(fd), path_(std::move(path)), settings_(settings) {}
+
+SerialPort::~SerialPort() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+std::size_t SerialPort::read(std::span<std::uint8_t> buffer, std::error_code& error) {
+  error.clear();
+  const ssize_t n = ::read(fd_, buffer.data(), buffer.size());
+  if (n > 0) return static_cast<std::size_t>(n);
+  if (n == 0) return 0;  // VMIN = 0: nothing there
+  if (errno == EAGAIN || errno == EINTR) return 0;
+  error = last_error();
+  return 0;
+}
+
+std::error_code SerialPort::write(std::span<const std::uint8_t> frame) {
+  const ssize_t n = ::write(fd_, frame.data(), frame.size());
+  if (n < 0) return last_error();
+  if (static_cast<std::size_t>(n) != frame.size()) return std::make_error_code(std::errc::resource_unavailable_try_again);
+  return {};
+}
+
+}  // namespace motion::serial

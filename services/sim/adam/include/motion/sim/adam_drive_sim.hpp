@@ -1,0 +1,84 @@
+// One simulated ADAM NEMA8–NEMA23 integrated stepper: the register bank a Modbus RTU slave
+// (motion::adam::serve) reads and writes, with the drive's behaviour behind the command
+// registers (manual §8.48, §8.51–§8.54, §8.64–§8.67; spec 3.10 "simulator motion model"):
+//  * motion by motion::sim::Kinematics (exact trapezoid): speed 0x00D8 (0.01 rpm, kept in step
+//    with 0x009A rpm), start speed 0x0096 as the cut-in speed, ramps as TIMES 0x0098/0x0099 from
+//    the start speed to the target speed, pulses of the subdivision 0x0024;
+//  * 0x00C8 velocity run/stop/e-stop, 0x00CA jog, 0x00CE/0x00D0 (standstill only, otherwise
+//    echoed and ignored, spec gap 18), 0x00DE/0x00E8 (pre-empting), 0x00D2 preset, 0x00D4
+//    enable/release/restart, 0x00DD table entry execute, 0x00C9 homing, 0x00A0/0x00A1 outputs,
+//    0x00A4 alarm clear;
+//  * status 0x0006 from the motion (bits 9–8 phase, X12 in position, X15 home) and inputs;
+//  * [I] homing: the home switch is where the drive powered up (counter 0 at power-up), or the
+//    configured home input going active; homing travels to it, stops, zeroes the position, X15.
+//  * [I] 0x00CC timed run is stored but not acted on (no test or driver uses it).
+// Motion commands are ignored while released (0x00D4 = 1) or while an alarm is active.
+//
+// Thread contract: single-threaded; every call takes the current time via set_now()/`now`.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "motion/adam/registers.hpp"
+#include "motion/adam/slave.hpp"
+#include "motion/adam/status.hpp"
+#include "motion/core/clock.hpp"
+#include "motion/sim/kinematics.hpp"
+
+namespace motion::sim {
+
+class AdamDriveSim final : public adam::RegisterBank {
+ public:
+  AdamDriveSim();
+
+  // The time of the frame being served (the bank interface has no time argument).
+  void set_now(TimePoint now) { now_ = now; }
+
+  std::optional<adam::rtu::ExceptionCode> read(std::uint16_t start, std::span<std::uint16_t> out) override;
+  std::optional<adam::rtu::ExceptionCode> write(std::uint16_t start, std::span<const std::uint16_t> values) override;
+
+  // Reports for motion-sim: a motion command started motion (cleared by reading it).
+  [[nodiscard]] bool take_motion_started() { return std::exchange(motion_started_, false); }
+  // When the current motion ends (kNever when jogging or at rest).
+  [[nodiscard]] TimePoint motion_end() const { return kinematics_.end_time(); }
+  // Called at/after motion_end(): homing completion, "finished" bookkeeping. True when a motion
+  // finished since the last call.
+  bool settle(TimePoint now);
+
+  [[nodiscard]] std::int64_t position(TimePoint now) const { return kinematics_.position_counts(now); }
+  [[nodiscard]] std::int64_t target() const { return target_; }
+  [[nodiscard]] adam::DriveStatus status(TimePoint now) const;
+
+  // Fault injection and inputs (sim_control_t).
+  void inject_alarm(adam::AlarmCode code, TimePoint now);
+  void set_input(unsigned index, bool level, TimePoint now);  // index 0…7 = X0…X7
+  void power_cycle(TimePoint now);
+
+ private:
+  [[nodiscard]] std::uint16_t reg(adam::Reg r) const { return regs_[adam::address(r)]; }
+  [[nodiscard]] std::int32_t reg32(adam::Reg r) const;
+  void refresh(TimePoint now);
+  void act(std::uint16_t address, TimePoint now);
+  [[nodiscard]] bool may_move() const;
+  [[nodiscard]] double pps_of_rpm(double rpm) const;
+  [[nodiscard]] Profile profile(double speed_rpm) const;
+  void move_to(std::int64_t target, TimePoint now, double speed_rpm);
+  void execute_table_entry(TimePoint now);
+
+  std::vector<std::uint16_t> regs_;
+  Kinematics kinematics_;
+  TimePoint now_{};
+  std::int64_t target_ = 0;
+  bool enabled_ = true;
+  bool homing_ = false;
+  bool at_home_ = true;  // [I] powered up on the home switch
+  std::uint8_t inputs_ = 0;
+  adam::AlarmState alarm_{};
+  bool motion_started_ = false;
+  bool was_moving_ = false;
+};
+
+}  // namespace motion::sim

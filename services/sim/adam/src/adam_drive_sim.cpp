@@ -1,0 +1,290 @@
+#include "motion/sim/adam_drive_sim.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "motion/adam/commands.hpp"
+#include "motion/adam/table.hpp"
+#include "motion/adam/units.hpp"
+
+namespace motion::sim {
+
+using adam::Reg;
+namespace rtu = adam::rtu;
+
+namespace {
+constexpr std::size_t kAddressSpace = 0x10000;
+// A ramp time of 0 ms means "at once"; the kinematics wants a finite rate.
+constexpr double kInstantRate = 1e12;
+// Version registers as the manual prints them (§8.1/§8.2): "170" and "105" (spec 1.5).
+constexpr std::uint16_t kHardwareVersion[] = {0x3731, 0x0030};
+constexpr std::uint16_t kFirmwareVersion[] = {0x3031, 0x0035};
+}  // namespace
+
+AdamDriveSim::AdamDriveSim() : regs_(kAddressSpace, 0) { power_cycle(TimePoint{}); }
+
+void AdamDriveSim::power_cycle(TimePoint now) {
+  std::fill(regs_.begin(), regs_.end(), std::uint16_t{0});
+  for (const adam::RegisterInfo& r : adam::register_map()) {
+    if (!r.default_value) continue;
+    const auto words = adam::encode_value(r, *r.default_value);
+    if (!words) continue;
+    for (std::uint16_t i = 0; i < r.count(); ++i) regs_[r.first() + i] = words.value()[i];
+  }
+  regs_[0x0000] = kHardwareVersion[0];
+  regs_[0x0001] = kHardwareVersion[1];
+  regs_[0x0002] = kFirmwareVersion[0];
+  regs_[0x0003] = kFirmwareVersion[1];
+  regs_[adam::address(Reg::rated_current)] = 100;       // 1.00 A (the §8.10 example)
+  regs_[adam::address(Reg::current_percentages)] = 0x1919;  // §8.11 example
+  regs_[adam::address(Reg::filter_frequency)] = 425;    // spec gap 11
+  kinematics_ = Kinematics{};
+  kinematics_.set_position(now, 0);
+  target_ = 0;
+  enabled_ = (reg(Reg::protection_bits) & static_cast<std::uint16_t>(adam::ProtectionBit::disabled_at_power_on)) == 0;
+  homing_ = false;
+  at_home_ = true;
+  alarm_ = {};
+  was_moving_ = false;
+}
+
+std::int32_t AdamDriveSim::reg32(Reg r) const {
+  return adam::decode32_signed(regs_[adam::address(r)], regs_[adam::address(r) + 1U]);
+}
+
+adam::DriveStatus AdamDriveSim::status(TimePoint now) const {
+  adam::DriveStatus s;
+  const auto state = kinematics_.at(now);
+  s.inputs = inputs_;
+  if (state.moving) {
+    // Phase from the speed's trend over the next millisecond (spec 3.10: 01 up, 11 cruise, 10 down).
+    const double later = std::abs(kinematics_.at(now + std::chrono::milliseconds(1)).velocity);
+    const double speed = std::abs(state.velocity);
+    s.phase = later > speed + 1e-9 ? adam::MotionPhase::accelerating
+              : later < speed - 1e-9 ? adam::MotionPhase::decelerating
+                                     : adam::MotionPhase::cruising;
+  }
+  s.in_position = !state.moving;
+  s.at_home = at_home_ && !state.moving;
+  return s;
+}
+
+void AdamDriveSim::refresh(TimePoint now) {
+  const auto pos = adam::encode32(static_cast<std::int32_t>(kinematics_.position_counts(now)));
+  regs_[adam::address(Reg::position)] = pos[0];
+  regs_[adam::address(Reg::position) + 1U] = pos[1];
+  const std::uint32_t raw = adam::encode_status(status(now));
+  regs_[adam::address(Reg::status)] = static_cast<std::uint16_t>(raw & 0xFFFFU);
+  regs_[adam::address(Reg::status) + 1U] = static_cast<std::uint16_t>(raw >> 16);
+  const double pps = kinematics_.at(now).velocity;
+  const double rpm = adam::pps_to_rpm(pps, std::max<std::uint32_t>(1, static_cast<std::uint32_t>(reg32(Reg::subdivision))));
+  regs_[adam::address(Reg::speed_rpm)] = adam::encode16(static_cast<std::int16_t>(std::lround(rpm)));
+  const auto centi = adam::encode32(static_cast<std::int32_t>(std::lround(rpm * 100)));
+  regs_[adam::address(Reg::speed_centi_rpm)] = centi[0];
+  regs_[adam::address(Reg::speed_centi_rpm) + 1U] = centi[1];
+  regs_[adam::address(Reg::alarm)] = adam::encode_alarms(alarm_);
+}
+
+std::optional<rtu::ExceptionCode> AdamDriveSim::read(std::uint16_t start, std::span<std::uint16_t> out) {
+  settle(now_);
+  refresh(now_);
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = regs_[(start + i) % kAddressSpace];
+  return std::nullopt;
+}
+
+std::optional<rtu::ExceptionCode> AdamDriveSim::write(std::uint16_t start, std::span<const std::uint16_t> values) {
+  settle(now_);
+  for (std::size_t i = 0; i < values.size(); ++i) regs_[(start + i) % kAddressSpace] = values[i];
+  // Act once per written entry, on its first register (32-bit commands need both halves, which
+  // the access rules guarantee).
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const auto address = static_cast<std::uint16_t>(start + i);
+    if (adam::find_register(address) != nullptr) act(address, now_);
+  }
+  return std::nullopt;
+}
+
+bool AdamDriveSim::may_move() const { return enabled_ && !alarm_.active(); }
+
+double AdamDriveSim::pps_of_rpm(double rpm) const {
+  return adam::rpm_to_pps(rpm, static_cast<std::uint32_t>(std::max(reg32(Reg::subdivision), 1)));
+}
+
+Profile AdamDriveSim::profile(double speed_rpm) const {
+  // Ramps are TIMES from the start speed to the target speed (§8.42/§8.43), so the rates follow
+  // from the speeds; if the target is below the start speed the drive runs at the start speed.
+  const double start_rpm = reg(Reg::start_speed);
+  const double target_rpm = std::max(speed_rpm, start_rpm);
+  const double rise = std::max(target_rpm - start_rpm, 0.0);
+  const double accel_ms = reg(Reg::acceleration_time);
+  const double decel_ms = reg(Reg::deceleration_time);
+  Profile p;
+  p.velocity = pps_of_rpm(target_rpm);
+  p.cut_in = pps_of_rpm(start_rpm);
+  p.acceleration = accel_ms > 0 && rise > 0 ? pps_of_rpm(rise) / (accel_ms / 1000.0) : kInstantRate;
+  p.deceleration = decel_ms > 0 && rise > 0 ? pps_of_rpm(rise) / (decel_ms / 1000.0) : kInstantRate;
+  return p;
+}
+
+void AdamDriveSim::move_to(std::int64_t target, TimePoint now, double speed_rpm) {
+  target_ = target;
+  if (kinematics_.position_counts(now) == target && !kinematics_.moving(now)) return;
+  kinematics_.move_to(now, target, profile(speed_rpm));
+  at_home_ = false;
+  motion_started_ = true;
+  was_moving_ = true;
+}
+
+void AdamDriveSim::execute_table_entry(TimePoint now) {
+  const auto command = adam::decode_table_execute(reg(Reg::table_execute));
+  if (!command) return;
+  const std::uint16_t pointer = reg(Reg::table_pointer);
+  const std::uint32_t at = adam::table_entry_address(reg(Reg::table_start), pointer);
+  if (at + 1 >= kAddressSpace) return;
+  const std::int32_t value = adam::decode32_signed(regs_[at], regs_[at + 1]);
+  const double speed = reg32(Reg::target_speed) / 100.0;
+  const std::int64_t here = kinematics_.position_counts(now);
+  move_to(command->kind == adam::TableEntryKind::absolute ? value : here + value, now, std::abs(speed));
+  const int step = command->arithmetic == adam::PointerArithmetic::add ? command->step : -int{command->step};
+  regs_[adam::address(Reg::table_pointer)] = static_cast<std::uint16_t>(std::clamp(pointer + step, 0, int{adam::kMaxTablePointer}));
+}
+
+void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
+  const bool idle = !kinematics_.moving(now);
+  const double speed_rpm = std::abs(reg32(Reg::target_speed)) / 100.0;
+  const auto stop = [&](bool immediate) {
+    homing_ = false;
+    if (immediate) kinematics_.halt(now);
+    else kinematics_.stop(now, profile(speed_rpm).deceleration, profile(speed_rpm).cut_in);
+  };
+  switch (static_cast<Reg>(address)) {
+    case Reg::working_speed:  // spec 2.2 [I]: 0x009A and 0x00D8 are one setpoint
+    {
+      const auto centi = adam::encode32(static_cast<std::int32_t>(reg(Reg::working_speed)) * 100);
+      regs_[adam::address(Reg::target_speed)] = centi[0];
+      regs_[adam::address(Reg::target_speed) + 1U] = centi[1];
+      break;
+    }
+    case Reg::target_speed:
+      regs_[adam::address(Reg::working_speed)] = static_cast<std::uint16_t>(std::min<long>(std::lround(speed_rpm), 0xFFFF));
+      break;
+    case Reg::velocity_command: {
+      const auto word = reg(Reg::velocity_command);
+      if (word == static_cast<std::uint16_t>(adam::VelocityCommand::ramped_stop)) stop(false);
+      else if (word == static_cast<std::uint16_t>(adam::VelocityCommand::emergency_stop)) stop(true);
+      else if (may_move()) {
+        Profile p = profile(reg(Reg::working_speed));
+        if (word == static_cast<std::uint16_t>(adam::VelocityCommand::run_reverse)) p.velocity = -p.velocity;
+        kinematics_.jog(now, p);
+        at_home_ = false;
+        motion_started_ = true;
+        was_moving_ = true;
+      }
+      break;
+    }
+    case Reg::jog_command: {
+      const adam::JogCommand jog = adam::decode_jog(reg(Reg::jog_command));
+      if (!jog.run) {
+        stop(jog.stop == adam::StopMethod::immediate);
+      } else if (may_move()) {
+        Profile p = profile(jog.speed_rpm);
+        if (jog.direction == adam::Rotation::ccw) p.velocity = -p.velocity;
+        kinematics_.jog(now, p);
+        at_home_ = false;
+        motion_started_ = true;
+        was_moving_ = true;
+      }
+      break;
+    }
+    case Reg::homing_command: {
+      if (!may_move() || !idle) break;
+      const adam::HomingCommand home = adam::decode_homing(reg(Reg::homing_command));
+      homing_ = true;
+      move_to(0, now, home.speed_rpm);  // [I] the switch is where the drive powered up
+      if (!was_moving_) {  // already on the switch
+        homing_ = false;
+        at_home_ = true;
+      }
+      break;
+    }
+    case Reg::relative_move:
+      if (idle && may_move()) move_to(kinematics_.position_counts(now) + reg32(Reg::relative_move), now, speed_rpm);
+      break;
+    case Reg::absolute_move:
+      if (idle && may_move()) move_to(reg32(Reg::absolute_move), now, speed_rpm);
+      break;
+    case Reg::relative_move_preempt:
+      if (may_move()) move_to(kinematics_.position_counts(now) + reg32(Reg::relative_move_preempt), now, speed_rpm);
+      break;
+    case Reg::absolute_move_preempt:
+      if (may_move()) move_to(reg32(Reg::absolute_move_preempt), now, speed_rpm);
+      break;
+    case Reg::table_execute:
+      if (idle && may_move()) execute_table_entry(now);
+      break;
+    case Reg::preset_position:
+      if (idle) {
+        kinematics_.set_position(now, reg32(Reg::preset_position));
+        target_ = reg32(Reg::preset_position);
+      }
+      break;
+    case Reg::enable_command: {
+      const auto word = reg(Reg::enable_command);
+      if (word == static_cast<std::uint16_t>(adam::EnableCommand::restart)) {
+        power_cycle(now);
+      } else {
+        enabled_ = word == static_cast<std::uint16_t>(adam::EnableCommand::enable);
+        if (!enabled_) kinematics_.halt(now);  // released: the motor is free
+      }
+      break;
+    }
+    case Reg::outputs_on: regs_[adam::address(Reg::output_state)] |= static_cast<std::uint16_t>(reg(Reg::outputs_on) & 0xFF); break;
+    case Reg::outputs_off:
+      regs_[adam::address(Reg::output_state)] &= static_cast<std::uint16_t>(~reg(Reg::outputs_off) & 0xFF);
+      break;
+    case Reg::clear_alarm:
+      if (alarm_.active()) {  // the current alarm moves into the history (spec 3.10)
+        alarm_.history = {alarm_.current, alarm_.history[0], alarm_.history[1]};
+        alarm_.current = adam::AlarmCode::none;
+      }
+      break;
+    case Reg::save_command:
+      if (reg(Reg::save_command) == static_cast<std::uint16_t>(adam::SaveCommand::restore_factory)) power_cycle(now);
+      break;
+    default: break;
+  }
+}
+
+bool AdamDriveSim::settle(TimePoint now) {
+  if (!was_moving_ || kinematics_.moving(now) || kinematics_.jogging()) return false;
+  was_moving_ = false;
+  if (homing_) {
+    homing_ = false;
+    kinematics_.set_position(now, 0);  // spec 3.5 [I]: position 0 at home, X15 = 1
+    target_ = 0;
+    at_home_ = true;
+  }
+  return true;
+}
+
+void AdamDriveSim::inject_alarm(adam::AlarmCode code, TimePoint now) {
+  alarm_.current = code;
+  homing_ = false;
+  kinematics_.halt(now);  // [I] the drive stops on an alarm
+}
+
+void AdamDriveSim::set_input(unsigned index, bool level, TimePoint now) {
+  if (index >= 8) return;
+  const auto bit = static_cast<std::uint8_t>(1U << index);
+  inputs_ = level ? static_cast<std::uint8_t>(inputs_ | bit) : static_cast<std::uint8_t>(inputs_ & ~bit);
+  // The configured home input going active during homing is the switch (0x009C low byte).
+  const adam::InputPair assignment = adam::decode_input_pair(reg(Reg::enable_home_inputs));
+  if (homing_ && level && assignment.low.enabled && assignment.low.input == index) {
+    kinematics_.halt(now);
+    settle(now);
+  }
+}
+
+}  // namespace motion::sim
