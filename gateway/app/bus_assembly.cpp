@@ -6,6 +6,7 @@
 #include "motion/adam_driver/adam_bus_driver.hpp"
 #include "motion/gateway/can_bus_driver.hpp"
 #include "motion/gateway/can_transport_factory.hpp"
+#include "motion/uc57_driver/uc57_stack.hpp"
 #include "motion/uim342_driver/uim342_stack.hpp"
 
 namespace motion::gateway {
@@ -20,6 +21,10 @@ const std::map<config::Family, CanStackFactory>& can_stack_factories() {
       {config::Family::kUim342,
        [](const config::Config& config, const config::Bus& bus, CanStackContext context) -> std::unique_ptr<CanStack> {
          return std::make_unique<Uim342Stack>(config, bus.name, std::move(context));
+       }},
+      {config::Family::kUc57,
+       [](const config::Config& config, const config::Bus& bus, CanStackContext context) -> std::unique_ptr<CanStack> {
+         return std::make_unique<uc57_driver::Uc57Stack>(config, bus, std::move(context));
        }},
   };
   return factories;

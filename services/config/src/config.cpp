@@ -13,6 +13,45 @@
 
 namespace motion::config {
 
+namespace {
+const SetupValue* find_setup(const Drive& drive, std::string_view key) {
+  const auto it = drive.setup.find(std::string(key));
+  return it == drive.setup.end() ? nullptr : &it->second;
+}
+}  // namespace
+
+std::optional<double> Drive::setup_number(std::string_view key) const {
+  const SetupValue* v = find_setup(*this, key);
+  if (v == nullptr) return std::nullopt;
+  if (const auto* d = std::get_if<double>(v)) return *d;
+  if (const auto* i = std::get_if<long long>(v)) return static_cast<double>(*i);
+  return std::nullopt;
+}
+
+std::optional<long long> Drive::setup_integer(std::string_view key) const {
+  const SetupValue* v = find_setup(*this, key);
+  if (v == nullptr) return std::nullopt;
+  if (const auto* i = std::get_if<long long>(v)) return *i;
+  if (const auto* d = std::get_if<double>(v)) return std::llround(*d);
+  if (const auto* b = std::get_if<bool>(v)) return *b ? 1 : 0;
+  return std::nullopt;
+}
+
+std::optional<bool> Drive::setup_flag(std::string_view key) const {
+  const SetupValue* v = find_setup(*this, key);
+  if (v == nullptr) return std::nullopt;
+  if (const auto* b = std::get_if<bool>(v)) return *b;
+  if (const auto* i = std::get_if<long long>(v)) return *i != 0;
+  return std::nullopt;
+}
+
+std::optional<std::string> Drive::setup_text(std::string_view key) const {
+  const SetupValue* v = find_setup(*this, key);
+  if (v == nullptr) return std::nullopt;
+  if (const auto* s = std::get_if<std::string>(v)) return *s;
+  return std::nullopt;
+}
+
 std::string_view to_string(Family family) {
   switch (family) {
     case Family::kUim342: return "uim342";

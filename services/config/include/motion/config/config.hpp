@@ -96,6 +96,13 @@ struct Drive {
   std::optional<int> retries;
   std::map<std::string, SetupValue> setup;  // applied by the gateway at start-up
   KeyLocations where;
+
+  // Typed reads of a set-up key (the schema has checked the types): nullopt when the key is not
+  // set. A number reads integers as well; an integer reads a whole-valued number.
+  [[nodiscard]] std::optional<double> setup_number(std::string_view key) const;
+  [[nodiscard]] std::optional<long long> setup_integer(std::string_view key) const;
+  [[nodiscard]] std::optional<bool> setup_flag(std::string_view key) const;
+  [[nodiscard]] std::optional<std::string> setup_text(std::string_view key) const;
 };
 
 struct Limits {

@@ -1,0 +1,186 @@
+// The gateway-side protocol stack for ADAMPOWER UC57 drives (CANopen CiA 301 + CiA 402) on a CAN
+// bus it may share with UIM342 drives (29-bit frames, ignored here).
+//
+// A passive core in the style of lely-core / CANopenNode: frames and `now` in, frames out through
+// CanStackContext::send, replies/status/events through the GatewayOutput; process(now) returns
+// the next deadline. It owns no socket, timer or thread. The one clock it may read is the wall
+// clock for the STARTED reply's trigger_utime (Options::wall_clock_us, injectable).
+//
+// Thread contract: single-threaded; every method runs on the gateway's poll-loop thread.
+//
+// What it implements (manual = UC57 user manual, seeds/002; digest = shared/spec/uc57-canopen.md):
+//  - Start-up per node (CiA 301 §7.2.8, manual §4.1.2): probe by SDO read of 1000h (low word 0192h =
+//    CiA 402) and 1018h:01 (vendor 322h), NMT pre-operational, setup keys -> 2006h/2005h written and
+//    read back (manual §5.1), 1017h producer heartbeat (no node guarding: 100Ch/100Dh are absent),
+//    RPDO1 remapped to controlword + target position, synchronous (CiA 301 remap procedure) or, when
+//    the drive refuses it (the manual prints 1400h:01/1600h:00 RO), the manual's default RPDO1 made
+//    synchronous; TPDO1/TPDO2 default mappings with transmission type 1 (tpdo_mode sync) or 255
+//    (event); NMT start; a SYNC producer at the bus poll rate. See process_data.hpp.
+//    A node that does not answer, or boots again, is re-probed with exponential back-off.
+//  - SDO (CiA 301 §7.2.4): one transfer per node at a time (canopen::SdoClient), the bus/drive
+//    request timeout and retries; aborts reported with the abort code's CiA text and the object.
+//  - CiA 402 device control (manual §4.2.1/§4.2.2, cia402::PowerController): ENABLE 0x06 -> 0x07 ->
+//    0x0F (transitions 2, 3, 4), DISABLE (shutdown, transition 8), FAULT_RESET (0x00 -> 0x80,
+//    transition 15), ESTOP (quick stop 0x02, transition 11), STOP (halt, bit 8).
+//  - Once a node is operational its controlword only travels in RPDO1, queued one image per SYNC
+//    cycle (digest §8.3 caveat: an SDO write of 6040h would be overwritten at the next SYNC).
+//  - Synchronized start (digest §8, manual §4.2.4 PP set-point handshake): ARM_MOVE writes 6060h = 1,
+//    6081h/6083h/6084h by SDO (and 607Ah by SDO in the fallback layout), leaves bit 4 at 0 -> ARMED;
+//    fire() sends every armed node's RPDO1 with bit 4 = 1 then ONE SYNC -> STARTED ("sync", skew 0);
+//    bit 12 acknowledged -> bit 4 cleared; DONE when bit 10 (target reached) or bit 15 on every axis.
+//  - JOG: profile velocity (6060h = 3, 60FFh; manual §4.2.5, §7 MC_JOG); HOME: homing mode
+//    (6060h = 6, 6098h/6099h/609Ah/607Ch, manual §4.2.6; result per conflict C-08);
+//    SET_OUTPUTS: 2030h:0D/0E output functions 5 (high) / 6 (low); SET_POSITION: 2012h (zero only);
+//    PARAM_READ/PARAM_WRITE: param_t as CANopen index/sub-index; DISARM.
+//  - EMCY (CiA 301 §7.2.7) -> events and FAILED for the node's running command; heartbeat loss ->
+//    offline, event, FAILED; TPDOs -> DriveStatus.
+// Every command ends in exactly one terminal reply (DONE or FAILED).
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <span>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+#include "motion/canopen/master.hpp"
+#include "motion/cia402/power_controller.hpp"
+#include "motion/config/config.hpp"
+#include "motion/gateway/can_bus_driver.hpp"
+#include "motion/uc57_driver/node_settings.hpp"
+#include "motion/uc57_driver/process_data.hpp"
+
+namespace motion::uc57_driver {
+
+class Uc57Stack final : public gateway::CanStack {
+ public:
+  struct Options {
+    Duration retry_initial = std::chrono::milliseconds(500);  // first re-probe of a silent node
+    Duration retry_max = std::chrono::seconds(10);            // back-off ceiling
+    Duration state_switch_timeout = std::chrono::milliseconds(1000);  // per CiA 402 transition
+    Duration set_point_timeout = std::chrono::milliseconds(500);      // bit 12 handshake waits
+    Duration stop_timeout = std::chrono::seconds(5);                  // halt / quick stop to standstill
+    std::uint16_t default_heartbeat_ms = 100;  // 1017h when the drive's setup has no heartbeat_ms
+    unsigned heartbeat_loss_factor = 3;        // consumer time = factor x producer time
+    // trigger_utime of STARTED: wall-clock microseconds of `now` (default: the system clock).
+    std::function<std::int64_t(TimePoint)> wall_clock_us;
+  };
+
+  struct Counters {
+    std::int64_t sdo_timeouts = 0;  // transfers that failed after every retry
+    std::int64_t sdo_retries = 0;   // attempts repeated after a timeout
+    std::int64_t sdo_aborts = 0;    // transfers the drive aborted
+    std::int64_t emcy = 0;          // EMCY frames received (error resets included)
+    std::int64_t protocol_errors = 0;  // malformed PDOs, refused sends
+  };
+
+  // Drives of family uc57 on `bus` (config.drives), with their axes (config.axes).
+  Uc57Stack(const config::Config& config, const config::Bus& bus, gateway::CanStackContext context);
+  Uc57Stack(const config::Config& config, const config::Bus& bus, gateway::CanStackContext context, Options options);
+  ~Uc57Stack() override;
+  Uc57Stack(const Uc57Stack&) = delete;
+  Uc57Stack& operator=(const Uc57Stack&) = delete;
+
+  [[nodiscard]] std::string family() const override { return "uc57"; }
+  [[nodiscard]] std::vector<std::string> axes() const override;
+  void start(TimePoint now) override;
+  bool on_frame(const can::Frame& frame, TimePoint now) override;
+  TimePoint process(TimePoint now) override;
+  void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
+  void fire(std::int64_t trigger_id, TimePoint now) override;
+  [[nodiscard]] bool ready() const override;
+  void add_statistics(motionlcm::bus_stats_t& stats) const override;
+
+  [[nodiscard]] const Counters& counters() const { return counters_; }
+  // The RPDO1 layout a configured node ended up with (nullopt: unknown drive or not configured).
+  [[nodiscard]] std::optional<RpdoLayout> rpdo_layout(std::string_view drive) const;
+
+ private:
+  struct Node;
+  struct Job;
+  enum class TaskKind : std::uint8_t;
+  using Continue = std::function<void(std::optional<std::string> failure)>;
+  struct ConfigOp;
+
+  // --- start-up ---
+  void begin_probe(std::size_t n, TimePoint now);
+  std::vector<ConfigOp> configuration_ops(std::size_t n);
+  void run_config(std::size_t n, unsigned session, std::shared_ptr<std::vector<ConfigOp>> ops, std::size_t step);
+  void configuration_failed(std::size_t n, const std::string& reason, bool retry);
+  void enter_starting(std::size_t n);
+  void enter_operational(std::size_t n);
+  void go_offline(std::size_t n, std::int16_t event_kind, const std::string& reason, TimePoint now);
+  void on_node_event(const canopen::NodeEvent& event);
+  void on_emcy(const canopen::EmcyEvent& event);
+
+  // --- SDO with retries and reasons ---
+  using SdoDone = std::function<void(std::error_code, std::span<const std::uint8_t>)>;
+  void sdo_read(std::size_t n, canopen::ObjectAddress object, SdoDone done, unsigned attempt = 0);
+  void sdo_write(std::size_t n, canopen::ObjectAddress object, std::vector<std::uint8_t> data, SdoDone done,
+                 unsigned attempt = 0);
+  void count_sdo_result(std::error_code error);
+  [[nodiscard]] std::string sdo_failure(std::size_t n, bool write, canopen::ObjectAddress object, std::error_code error) const;
+  // Runs writes in order; `done` gets the first failure's text.
+  void sdo_write_all(std::size_t n, std::vector<std::pair<canopen::ObjectAddress, std::vector<std::uint8_t>>> writes,
+                     Continue done);
+
+  // --- process data ---
+  void on_pdo(std::size_t n, const can::Frame& frame, TimePoint now);
+  void on_statusword(std::size_t n, TimePoint now);
+  void queue_image(std::size_t n, const RpdoImage& image);
+  [[nodiscard]] RpdoImage latest_image(std::size_t n) const;
+  void send_image(std::size_t n, const RpdoImage& image);
+  void run_sync_cycle(TimePoint now);
+  [[nodiscard]] bool image_applied(std::size_t n);  // the last queued image is in the drive for sure
+  void publish_status(std::size_t n);
+
+  // --- commands ---
+  void fail_command(const motionlcm::gateway_command_t& command, std::int32_t code, const std::string& reason);
+  void reply(const Job& job, std::int8_t status, std::int32_t code = 0, const std::string& reason = {});
+  void part_done(std::int64_t command_id, std::size_t n);
+  void part_failed(std::int64_t command_id, std::size_t n, std::int32_t code, const std::string& reason);
+  void part_armed(std::int64_t command_id, std::size_t n, TimePoint now);
+  void end_task(std::size_t n, std::int32_t code, const std::string& reason);  // fails the node's running task
+  void start_task(std::size_t n, TaskKind kind, std::int64_t command_id, TimePoint deadline);
+  void start_power(std::size_t n, Job& job, cia402::State target, TimePoint now);
+  void apply_power_action(std::size_t n, const cia402::PowerController::Action& action);
+  void start_arm(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now);
+  void start_jog(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now);
+  void start_home(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now);
+  void start_halt(std::size_t n, Job& job, TimePoint now);
+  void start_quick_stop(std::size_t n, Job& job, TimePoint now);
+  void start_outputs(std::size_t n, Job& job, const motionlcm::axis_command_t& axis);
+  void start_set_position(std::size_t n, Job& job, const motionlcm::axis_command_t& axis);
+  void start_param(std::size_t n, Job& job);
+  void disarm(const Job& disarm_job);
+  void fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoint now);
+  void check_task_timeouts(TimePoint now);
+  // Switches the mode by SDO (6060h) and keeps the RPDO image's mode byte consistent.
+  void set_mode(std::size_t n, std::int8_t mode, Continue done);
+
+  [[nodiscard]] std::optional<cia402::State> drive_state(std::size_t n) const;
+  [[nodiscard]] Duration cycle() const { return sync_period_; }
+  void event(std::size_t n, std::int16_t kind, std::int8_t severity, std::int32_t code, const std::string& text);
+
+  gateway::CanStackContext context_;
+  Options options_;
+  std::string bus_;
+  Duration sync_period_;
+  std::vector<std::unique_ptr<Node>> nodes_;
+  std::map<canopen::NodeId, std::size_t> node_index_;
+  std::set<std::uint32_t> relocated_emcy_ids_;  // 1014h values other than 80h + node-ID
+  canopen::Master master_;
+  std::map<std::int64_t, Job> jobs_;
+  Counters counters_;
+  bool started_ = false;
+  TimePoint now_{};  // the `now` of the entry point running (callbacks run inside one)
+};
+
+}  // namespace motion::uc57_driver

@@ -1,0 +1,306 @@
+// Uc57Stack commands: CiA 402 enable sequence, the synchronized SYNC start, faults, SDO aborts,
+// timeouts, and one terminal reply for every command kind.
+#include <algorithm>
+
+#include <gtest/gtest.h>
+
+#include "harness.hpp"
+
+namespace motion::uc57_driver::testing {
+namespace {
+
+using Cmd = motionlcm::gateway_command_t;
+using Reply = motionlcm::gateway_reply_t;
+using Event = motionlcm::event_t;
+
+constexpr std::int8_t status(std::int8_t s) { return s; }
+
+std::vector<std::string> texts(const std::vector<can::Frame>& frames, std::size_t from = 0) {
+  std::vector<std::string> out;
+  for (std::size_t i = from; i < frames.size(); ++i) out.push_back(can::to_cansend(frames[i]));
+  return out;
+}
+
+void enable(Bench& bench, std::vector<std::string> axes) {
+  const auto c = bench.command(Cmd::ENABLE, std::move(axes));
+  bench.execute(c);
+  bench.run_for(std::chrono::milliseconds(500));
+  ASSERT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE)) << bench.replies_of(c.command_id).back().reason;
+}
+
+Cmd arm(Bench& bench, std::vector<std::pair<std::string, std::int64_t>> targets, std::int64_t trigger) {
+  std::vector<std::string> names;
+  for (auto& t : targets) names.push_back(t.first);
+  auto c = bench.command(Cmd::ARM_MOVE, names, trigger);
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    c.axes[i].target_counts = targets[i].second;
+    c.axes[i].velocity = 3200;  // 60 RPM at 3200 pulses/rev
+    c.axes[i].acceleration = 32000;
+    c.axes[i].deceleration = 32000;
+  }
+  bench.execute(c);
+  return c;
+}
+
+TEST(Uc57Commands, EnableSendsShutdownSwitchOnEnableOperationInRpdo1) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a"});
+  // CiA 402 transitions 2 (0x06), 3 (0x07), 4 (0x0F), each confirmed by the statusword before the next.
+  const std::vector<std::uint16_t> expected{0x0006, 0x0007, 0x000F};
+  EXPECT_EQ(bench.node(1).controlwords, expected);
+  EXPECT_EQ(bench.node(1).state(), cia402::State::kOperationEnabled);
+  EXPECT_TRUE(bench.statuses["a"].enabled);
+  // They travelled in RPDO1 (controlword + target), never as SDO writes of 6040h.
+  const auto frames = texts(bench.sent);
+  EXPECT_NE(std::find_if(frames.begin(), frames.end(), [](const std::string& f) { return f.rfind("201#0600", 0) == 0; }), frames.end());
+  EXPECT_EQ(std::find_if(frames.begin(), frames.end(), [](const std::string& f) { return f.rfind("601#2B406000", 0) == 0; }), frames.end());
+
+  const auto disable = bench.command(Cmd::DISABLE, {"a"});
+  bench.execute(disable);
+  bench.run_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(bench.replies_of(disable.command_id).back().status, status(Reply::DONE));
+  EXPECT_EQ(bench.node(1).controlwords.back(), 0x0006);  // shutdown, transition 8
+}
+
+TEST(Uc57Commands, EnableTimesOutWhenTheDriveDoesNotSwitchOn) {
+  Bench bench;
+  bench.start_ready();
+  bench.node(2).refuse_enable = true;
+  const auto c = bench.command(Cmd::ENABLE, {"a", "b"});
+  bench.execute(c);
+  bench.run_for(std::chrono::seconds(2));
+  ASSERT_EQ(bench.terminal_count(c.command_id), 1U);
+  const auto r = bench.replies_of(c.command_id).back();
+  EXPECT_EQ(r.status, status(Reply::FAILED));
+  EXPECT_EQ(r.error_code, 13);
+  EXPECT_NE(r.reason.find("b-drive (node 2): CiA 402 transition 3 not confirmed"), std::string::npos) << r.reason;
+}
+
+TEST(Uc57Commands, SynchronizedMoveStartsBothNodesWithOneSync) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  const auto c = arm(bench, {{"a", 10000}, {"b", -3200}}, 7);
+  bench.run_for(std::chrono::milliseconds(300));
+  auto replies = bench.replies_of(c.command_id);
+  ASSERT_EQ(replies.size(), 1U);
+  EXPECT_EQ(replies[0].status, status(Reply::ARMED));
+  EXPECT_EQ(bench.node(1).value(0x6081), 60);  // profile velocity by SDO
+  EXPECT_EQ(bench.node(1).value(0x6060), 1);
+  EXPECT_FALSE(bench.node(1).move_started_at_sync);  // armed means not started
+
+  const std::size_t before = bench.sent.size();
+  bench.stack->fire(7, bench.now);
+  const auto fired = texts(bench.sent, before);
+  // The trigger RPDOs (bit 4 set, target inside) and exactly one SYNC after them.
+  ASSERT_EQ(fired.size(), 3U);
+  EXPECT_EQ(fired[0], "201#1F0010270000");
+  EXPECT_EQ(fired[1], "202#1F0080F3FFFF");
+  EXPECT_EQ(fired[2], "080#");
+  bench.settle();
+  ASSERT_TRUE(bench.node(1).move_started_at_sync);
+  EXPECT_EQ(bench.node(1).move_started_at_sync, bench.node(2).move_started_at_sync);
+
+  replies = bench.replies_of(c.command_id);
+  ASSERT_EQ(replies.size(), 2U);
+  EXPECT_EQ(replies[1].status, status(Reply::STARTED));
+  EXPECT_EQ(replies[1].start_mechanism, "sync");
+  EXPECT_EQ(replies[1].predicted_skew_us, 0.0);
+  EXPECT_EQ(replies[1].trigger_utime,
+            kWallOffsetUs + std::chrono::duration_cast<std::chrono::microseconds>(bench.now.time_since_epoch()).count());
+
+  bench.run_for(std::chrono::milliseconds(600));
+  replies = bench.replies_of(c.command_id);
+  ASSERT_EQ(replies.size(), 3U);
+  EXPECT_EQ(replies[2].status, status(Reply::DONE));
+  EXPECT_EQ(bench.node(1).value(0x6064), 10000);
+  EXPECT_EQ(bench.node(2).value(0x6064), -3200);
+  EXPECT_EQ(bench.statuses["b"].position_counts, -3200);
+  // Bit 4 released after the acknowledge (handshake step 8).
+  EXPECT_EQ(bench.node(1).controlwords.back(), 0x000F);
+}
+
+TEST(Uc57Commands, SynchronizedMoveWithTheManualsDefaultRpdo) {
+  Bench bench;
+  bench.node(1).pdo_remap_writable = false;
+  bench.node(2).pdo_remap_writable = false;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  const auto c = arm(bench, {{"a", 5000}, {"b", 5000}}, 9);
+  bench.run_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(bench.node(1).value(0x607A), 5000);  // target by SDO: no room in the default RPDO1
+  const std::size_t before = bench.sent.size();
+  bench.stack->fire(9, bench.now);
+  const auto fired = texts(bench.sent, before);
+  ASSERT_EQ(fired.size(), 3U);
+  EXPECT_EQ(fired[0], "201#1F000000000001");  // D-39: CW 0x1F, 60FFh 0, 6060h 1
+  EXPECT_EQ(fired[2], "080#");
+  bench.run_for(std::chrono::milliseconds(600));
+  EXPECT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE));
+  EXPECT_EQ(bench.node(2).value(0x6064), 5000);
+}
+
+TEST(Uc57Commands, FaultDuringAMoveFailsItNamingAxisAndErrorCode) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  bench.node(2).motion_syncs = 100;
+  const auto c = arm(bench, {{"a", 1000}, {"b", 1000}}, 0);  // trigger 0: start at once
+  bench.run_for(std::chrono::milliseconds(400));
+  ASSERT_EQ(bench.replies_of(c.command_id).size(), 2U);  // ARMED, STARTED
+  bench.deliver(bench.node(2).inject_fault(0x2310, 0x0001));
+  bench.run_for(std::chrono::milliseconds(200));
+  ASSERT_EQ(bench.terminal_count(c.command_id), 1U);
+  const auto r = bench.replies_of(c.command_id).back();
+  EXPECT_EQ(r.status, status(Reply::FAILED));
+  EXPECT_EQ(r.error_code, 5);
+  EXPECT_NE(r.reason.find("b-drive (node 2): EMCY 0x2310"), std::string::npos) << r.reason;
+  EXPECT_TRUE(bench.has_event(Event::EMCY));
+  EXPECT_TRUE(bench.statuses["b"].fault);
+  EXPECT_NE(bench.statuses["b"].fault_text.find("overcurrent"), std::string::npos) << bench.statuses["b"].fault_text;
+
+  // FAULT_RESET: 0x00 then 0x80 (transition 15), then the axis can be enabled again.
+  const auto reset = bench.command(Cmd::FAULT_RESET, {"b"});
+  bench.execute(reset);
+  bench.run_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(bench.replies_of(reset.command_id).back().status, status(Reply::DONE)) << bench.replies_of(reset.command_id).back().reason;
+  EXPECT_EQ(bench.node(2).controlwords.back(), 0x0080);
+  EXPECT_EQ(bench.node(2).state(), cia402::State::kSwitchOnDisabled);
+  EXPECT_FALSE(bench.statuses["b"].fault);
+}
+
+TEST(Uc57Commands, SdoAbortNamesTheObjectAndTheAbortCode) {
+  Bench bench;
+  bench.start_ready();
+  bench.node(1).forced_aborts[FakeUc57::key(0x6081, 0)] = 0x06090030;
+  auto c = bench.command(Cmd::PARAM_WRITE, {"a"});
+  c.param.space = motionlcm::param_t::CANOPEN_OBJECT;
+  c.param.index = 0x6081;
+  c.param.subindex = 0;
+  c.param.value = 5000;
+  bench.execute(c);
+  bench.run_for(std::chrono::milliseconds(100));
+  ASSERT_EQ(bench.terminal_count(c.command_id), 1U);
+  const auto r = bench.replies_of(c.command_id).back();
+  EXPECT_EQ(r.status, status(Reply::FAILED));
+  EXPECT_EQ(r.error_code, 12);
+  EXPECT_EQ(r.reason, "a-drive (node 1): SDO write 0x6081:00 aborted: invalid value for parameter (download only) (0x06090030)");
+  EXPECT_EQ(bench.stack->counters().sdo_aborts, 1);
+}
+
+TEST(Uc57Commands, ParamReadReturnsTheValueInTheObjectsType) {
+  Bench bench;
+  bench.start_ready();
+  bench.node(1).set_value(0x607A, 0, -3200);
+  auto c = bench.command(Cmd::PARAM_READ, {"a"});
+  c.param.space = motionlcm::param_t::CANOPEN_OBJECT;
+  c.param.index = 0x607A;
+  c.param.subindex = -1;
+  bench.execute(c);
+  bench.run_for(std::chrono::milliseconds(100));
+  const auto r = bench.replies_of(c.command_id).back();
+  ASSERT_EQ(r.status, status(Reply::DONE)) << r.reason;
+  EXPECT_EQ(r.param.value, -3200);  // I32 from the UC57 dictionary: sign-extended
+}
+
+TEST(Uc57Commands, TriggerBeforeEveryAxisIsArmedFails) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  const auto c = arm(bench, {{"a", 100}, {"b", 100}}, 5);
+  bench.stack->fire(5, bench.now);  // SDO set-up still under way
+  bench.settle();
+  ASSERT_EQ(bench.terminal_count(c.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(c.command_id).back().error_code, 11);
+  bench.run_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(bench.replies_of(c.command_id).size(), 1U);  // nothing after the terminal reply
+  EXPECT_FALSE(bench.node(1).move_started_at_sync);
+}
+
+TEST(Uc57Commands, MotionOnADisabledAxisIsRefused) {
+  Bench bench;
+  bench.start_ready();
+  const auto c = arm(bench, {{"a", 100}}, 0);
+  const auto r = bench.replies_of(c.command_id);
+  ASSERT_EQ(r.size(), 1U);
+  EXPECT_EQ(r[0].error_code, 4);
+  EXPECT_NE(r[0].reason.find("a-drive (node 1) is not enabled"), std::string::npos) << r[0].reason;
+}
+
+TEST(Uc57Commands, EveryCommandKindEndsInExactlyOneTerminalReply) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  const auto run = [&bench](Cmd c) {
+    bench.execute(c);
+    bench.run_for(std::chrono::milliseconds(600));
+    EXPECT_EQ(bench.terminal_count(c.command_id), 1U) << "kind " << int{c.kind};
+    const auto r = bench.replies_of(c.command_id);
+    return r.empty() ? Reply{} : r.back();
+  };
+  auto jog = bench.command(Cmd::JOG, {"a"});
+  jog.axes[0].velocity = -3200;
+  jog.axes[0].acceleration = jog.axes[0].deceleration = 32000;
+  EXPECT_EQ(run(jog).status, status(Reply::DONE));
+  EXPECT_EQ(bench.node(1).value(0x60FF), -60);
+  EXPECT_EQ(bench.node(1).value(0x6061), 3);
+  EXPECT_EQ(run(bench.command(Cmd::STOP, {"a"})).status, status(Reply::DONE));
+  EXPECT_TRUE(cia402::is_set(bench.node(1).controlwords.back(), cia402::ControlBit::kHalt));
+
+  auto home = bench.command(Cmd::HOME, {"a"});
+  home.axes[0].velocity = 3200;
+  home.axes[0].acceleration = 32000;
+  const auto homed = run(home);
+  EXPECT_EQ(homed.status, status(Reply::DONE)) << homed.reason;
+  EXPECT_EQ(bench.node(1).value(0x6098), 24);  // IN2 origin, positive direction: "forward origin"
+  EXPECT_EQ(bench.node(1).value(0x6061), 6);
+  EXPECT_TRUE(bench.statuses["a"].homed);
+
+  const auto home_b = run(bench.command(Cmd::HOME, {"b"}));  // axis b has no homing configured
+  EXPECT_EQ(home_b.status, status(Reply::FAILED));
+  EXPECT_EQ(home_b.error_code, 17);
+
+  auto outputs = bench.command(Cmd::SET_OUTPUTS, {"a"});
+  outputs.axes[0].output_mask = 0b11;
+  outputs.axes[0].output_value = 0b01;
+  EXPECT_EQ(run(outputs).status, status(Reply::DONE));
+  EXPECT_EQ(bench.node(1).value(0x2030, 0x0D), 5);  // OUT1 forced high
+  EXPECT_EQ(bench.node(1).value(0x2030, 0x0E), 6);  // OUT2 forced low
+  outputs = bench.command(Cmd::SET_OUTPUTS, {"a"});
+  outputs.axes[0].output_mask = 0b100;
+  EXPECT_EQ(run(outputs).error_code, 3);
+
+  auto zero = bench.command(Cmd::SET_POSITION, {"a"});
+  EXPECT_EQ(run(zero).status, status(Reply::DONE));
+  EXPECT_EQ(bench.node(1).value(0x2012), 1);
+  auto nonzero = bench.command(Cmd::SET_POSITION, {"a"});
+  nonzero.axes[0].target_counts = 77;
+  EXPECT_EQ(run(nonzero).error_code, 17);
+
+  auto read = bench.command(Cmd::PARAM_READ, {"a"});
+  read.param.space = motionlcm::param_t::CANOPEN_OBJECT;
+  read.param.index = 0x1000;
+  EXPECT_EQ(run(read).param.value, 0x00040192);
+  auto wrong_space = bench.command(Cmd::PARAM_READ, {"a"});
+  wrong_space.param.space = motionlcm::param_t::MODBUS_REGISTER;
+  EXPECT_EQ(run(wrong_space).error_code, 1);
+
+  // DISARM ends the armed move (FAILED) and itself (DONE).
+  const auto armed = arm(bench, {{"b", 500}}, 42);
+  bench.run_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(run(bench.command(Cmd::DISARM, {"b"}, 42)).status, status(Reply::DONE));
+  EXPECT_EQ(bench.terminal_count(armed.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(armed.command_id).back().status, status(Reply::FAILED));
+
+  EXPECT_EQ(run(bench.command(Cmd::ESTOP, {"a", "b"})).status, status(Reply::DONE));
+  EXPECT_EQ(bench.node(2).state(), cia402::State::kQuickStopActive);
+  EXPECT_EQ(run(bench.command(Cmd::FAULT_RESET, {"a"})).status, status(Reply::DONE));  // no fault: nothing to do
+  EXPECT_EQ(run(bench.command(Cmd::ENABLE, {"b"})).status, status(Reply::DONE));       // transition 16
+  EXPECT_EQ(run(bench.command(Cmd::DISABLE, {"a", "b"})).status, status(Reply::DONE));
+  EXPECT_EQ(run(bench.command(99, {"a"})).error_code, 1);
+  EXPECT_EQ(run(bench.command(Cmd::ENABLE, {"x"})).error_code, 2);  // a UIM342 axis
+}
+
+}  // namespace
+}  // namespace motion::uc57_driver::testing
