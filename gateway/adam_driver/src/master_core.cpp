@@ -200,13 +200,13 @@ void MasterCore::send_next(TimePoint now) {
     queue_.pop_front();
     auto frame = rtu::encode_request(t.request);
     if (!frame) {  // only a programming error gets here (the builders validate)
-      if (t.on_fail) t.on_fail("cannot encode " + describe(t) + ": " + frame.error().message(), kMalformed);
+      if (t.on_fail) t.on_fail("cannot encode " + describe(t) + ": " + frame.error().message(), error_code(ReplyError::kMalformedRequest));
       continue;
     }
     const auto& bytes = frame.value();
     if (!line_open_ || !send_(bytes)) {
       ++errors_;
-      if (t.on_fail) t.on_fail("serial line of bus " + settings_.bus + " not writable while " + describe(t), kTimeout);
+      if (t.on_fail) t.on_fail("serial line of bus " + settings_.bus + " not writable while " + describe(t), error_code(ReplyError::kTimeout));
       continue;
     }
     ++tx_frames_;
@@ -273,7 +273,7 @@ void MasterCore::on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now) 
     const std::string what = (crc ? "CRC error in the reply of " : "malformed reply (" + decoded.error().message() + ") from ") +
                              who + " " + describe(*in_flight_);
     event(&d, Event::PROTOCOL_ERROR, Event::WARNING, decoded.error().value(), what);
-    retry_or_fail(what, kDriveError, now);
+    retry_or_fail(what, error_code(ReplyError::kDriveError), now);
     return;
   }
   set_online(d, true, {});
@@ -284,7 +284,7 @@ void MasterCore::on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now) 
     event(&d, Event::ERROR_REPORT, Event::ERROR, static_cast<std::int32_t>(exception->code), what);
     auto t = std::move(in_flight_);
     reply_deadline_ = kNever;
-    if (t->on_fail) t->on_fail(what, kDriveError);
+    if (t->on_fail) t->on_fail(what, error_code(ReplyError::kDriveError));
     return;
   }
   complete_in_flight(decoded.value(), now);
@@ -304,7 +304,7 @@ void MasterCore::on_timeout(TimePoint now) {
                            std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d.cfg.request_timeout).count()) +
                            " ms";
   line_free_at_ = now;  // the silence has long elapsed
-  retry_or_fail(what, kTimeout, now);
+  retry_or_fail(what, error_code(ReplyError::kTimeout), now);
 }
 
 void MasterCore::retry_or_fail(const std::string& why, std::int32_t code, TimePoint now) {
@@ -318,7 +318,7 @@ void MasterCore::retry_or_fail(const std::string& why, std::int32_t code, TimePo
     return;
   }
   const std::string reason = why + " (" + std::to_string(t->attempts) + (t->attempts == 1 ? " attempt)" : " attempts)");
-  if (code == kTimeout) set_online(*t->drive, false, reason);
+  if (code == error_code(ReplyError::kTimeout)) set_online(*t->drive, false, reason);
   if (t->on_fail) t->on_fail(reason, code);
 }
 
@@ -349,7 +349,7 @@ void MasterCore::line_lost(const std::string& why, TimePoint now) {
   event(nullptr, Event::OFFLINE, Event::ERROR, 0, "serial line of bus " + settings_.bus + " lost: " + why);
   std::vector<std::int64_t> ids;
   for (const auto& [id, op] : operations_) ids.push_back(id);
-  for (const auto id : ids) finish(id, Reply::FAILED, "serial line of bus " + settings_.bus + " lost: " + why, kTimeout);
+  for (const auto id : ids) finish(id, Reply::FAILED, "serial line of bus " + settings_.bus + " lost: " + why, error_code(ReplyError::kTimeout));
   queue_.clear();
   in_flight_.reset();
   reply_deadline_ = kNever;
@@ -477,7 +477,7 @@ void MasterCore::on_outputs_alarm(Drive& d, std::span<const std::uint16_t> words
     const std::string text = d.cfg.drive + " alarm " + std::to_string(static_cast<int>(alarm.current)) + ": " +
                              std::string(adam::alarm_text(alarm.current));
     event(&d, Event::ALARM, Event::ERROR, static_cast<std::int32_t>(alarm.current), text);
-    fail_motion_of(d, text, kAxisFaulted);
+    fail_motion_of(d, text, error_code(ReplyError::kAxisFaulted));
   }
   publish_status(d);
 }
@@ -638,15 +638,15 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
     r.error_code = code;
     out_.command_reply(std::move(r));
   };
-  if (operations_.contains(command.command_id)) return refuse("duplicate command id", kMalformed);
+  if (operations_.contains(command.command_id)) return refuse("duplicate command id", error_code(ReplyError::kMalformedRequest));
   std::vector<Drive*> drives;
   for (const auto& a : command.axes) {
     Drive* d = drive_of_axis(a.axis);
-    if (!d) return refuse("axis '" + a.axis + "' is not an ADAM axis of bus " + settings_.bus, kUnknownAxis);
+    if (!d) return refuse("axis '" + a.axis + "' is not an ADAM axis of bus " + settings_.bus, error_code(ReplyError::kUnknownAxis));
     drives.push_back(d);
   }
   const bool needs_axes = command.kind != motionlcm::gateway_command_t::DISARM;
-  if (needs_axes && drives.empty()) return refuse("command names no axis", kMalformed);
+  if (needs_axes && drives.empty()) return refuse("command names no axis", error_code(ReplyError::kMalformedRequest));
   const std::string id_text = std::to_string(command.command_id);
 
   switch (command.kind) {
@@ -655,7 +655,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       const bool enable = command.kind == motionlcm::gateway_command_t::ENABLE;
       auto& op = open_operation(command, drives);
       for (Drive* d : drives) {
-        if (!enable) fail_motion_of(*d, "axis " + d->cfg.axis + " disabled by command " + id_text, kStopped);
+        if (!enable) fail_motion_of(*d, "axis " + d->cfg.axis + " disabled by command " + id_text, error_code(ReplyError::kStopped));
         add_write(op, *d, adam::command(d->cfg.unit, enable ? adam::EnableCommand::enable : adam::EnableCommand::release),
                   [this, d, enable](TimePoint) {
                     d->enabled = enable;
@@ -669,7 +669,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
     case motionlcm::gateway_command_t::ESTOP: {
       const bool emergency = command.kind == motionlcm::gateway_command_t::ESTOP;
       for (Drive* d : drives) {
-        fail_motion_of(*d, "axis " + d->cfg.axis + " stopped by command " + id_text, kStopped);
+        fail_motion_of(*d, "axis " + d->cfg.axis + " stopped by command " + id_text, error_code(ReplyError::kStopped));
       }
       auto& op = open_operation(command, drives);
       op.goal = Operation::Goal::stand_still;
@@ -686,7 +686,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       break;
     }
     case motionlcm::gateway_command_t::JOG: {
-      if (auto busy = busy_reason(drives)) return refuse(*busy, kAxisBusy);
+      if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
       auto& op = open_operation(command, drives);
       for (std::size_t i = 0; i < drives.size(); ++i) {
         Drive& d = *drives[i];
@@ -696,7 +696,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
         if (!speed || (a.velocity != 0 && speed.value().value == 0)) {
           return finish(command.command_id, Reply::FAILED,
                         "axis " + a.axis + ": jog speed " + std::to_string(rpm) + " rpm outside 1…511 rpm (0x00CA, §8.65②)",
-                        kMalformed);
+                        error_code(ReplyError::kMalformedRequest));
         }
         if (a.acceleration > 0 && speed.value().value > 0) {
           const double rate = std::abs(rpm_of(d, a.acceleration));
@@ -717,7 +717,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       break;
     }
     case motionlcm::gateway_command_t::HOME: {
-      if (auto busy = busy_reason(drives)) return refuse(*busy, kAxisBusy);
+      if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
       auto& op = open_operation(command, drives);
       op.goal = Operation::Goal::reach_home;
       bool any_switch = false;
@@ -726,7 +726,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
         const auto& a = command.axes[i];
         d.motion_owner = command.command_id;
         if (d.cfg.homing_method == config::HomingMethod::kNone) {
-          return finish(command.command_id, Reply::FAILED, "axis " + a.axis + " has no homing method configured", kUnsupported);
+          return finish(command.command_id, Reply::FAILED, "axis " + a.axis + " has no homing method configured", error_code(ReplyError::kUnsupported));
         }
         if (d.cfg.homing_method == config::HomingMethod::kCurrentPosition) {
           add_write(op, d, adam::move(d.cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(a.target_counts)),
@@ -754,10 +754,10 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       break;
     }
     case motionlcm::gateway_command_t::ARM_MOVE: {
-      if (auto busy = busy_reason(drives)) return refuse(*busy, kAxisBusy);
+      if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
       for (Drive* d : drives) {
         if (d->status && d->status->moving())
-          return refuse("axis " + d->cfg.axis + " is moving; stop it before arming a move", kAxisBusy);
+          return refuse("axis " + d->cfg.axis + " is moving; stop it before arming a move", error_code(ReplyError::kAxisBusy));
       }
       auto& op = open_operation(command, drives);
       arm_move(op, now);
@@ -777,7 +777,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
           return finish(command.command_id, Reply::FAILED,
                         "axis " + a.axis + ": output mask " + hex16(static_cast<std::uint32_t>(a.output_mask)) +
                             " names outputs beyond Y0…Y7",
-                        kMalformed);
+                        error_code(ReplyError::kMalformedRequest));
         }
         const auto on = static_cast<std::uint16_t>(a.output_mask & a.output_value);
         const auto off = static_cast<std::uint16_t>(a.output_mask & ~a.output_value);
@@ -789,12 +789,12 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       break;
     }
     case motionlcm::gateway_command_t::SET_POSITION: {
-      if (auto busy = busy_reason(drives)) return refuse(*busy, kAxisBusy);
+      if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
       auto& op = open_operation(command, drives);
       for (std::size_t i = 0; i < drives.size(); ++i) {
         const auto target = command.axes[i].target_counts;
         if (target < std::numeric_limits<std::int32_t>::min() || target > std::numeric_limits<std::int32_t>::max()) {
-          return finish(command.command_id, Reply::FAILED, "axis " + command.axes[i].axis + ": position outside INT32", kMalformed);
+          return finish(command.command_id, Reply::FAILED, "axis " + command.axes[i].axis + ": position outside INT32", error_code(ReplyError::kMalformedRequest));
         }
         add_write(op, *drives[i], adam::move(drives[i]->cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(target)));
       }
@@ -803,7 +803,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
     }
     case motionlcm::gateway_command_t::PARAM_READ:
     case motionlcm::gateway_command_t::PARAM_WRITE: {
-      if (drives.size() != 1) return refuse("a parameter command names exactly one axis", kMalformed);
+      if (drives.size() != 1) return refuse("a parameter command names exactly one axis", error_code(ReplyError::kMalformedRequest));
       auto& op = open_operation(command, drives);
       param(op, command.param);
       break;
@@ -818,12 +818,12 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
         });
         if (by_trigger || by_axis) disarmed.push_back(id);
       }
-      for (const auto id : disarmed) finish(id, Reply::FAILED, "disarmed by command " + id_text, kStopped);
+      for (const auto id : disarmed) finish(id, Reply::FAILED, "disarmed by command " + id_text, error_code(ReplyError::kStopped));
       reply(open_operation(command, drives), Reply::DONE, std::to_string(disarmed.size()) + " armed move(s) disarmed");
       operations_.erase(command.command_id);
       break;
     }
-    default: return refuse("command kind " + std::to_string(command.kind) + " is not supported by the ADAM driver", kUnsupported);
+    default: return refuse("command kind " + std::to_string(command.kind) + " is not supported by the ADAM driver", error_code(ReplyError::kUnsupported));
   }
   send_next(now);
 }
@@ -858,7 +858,7 @@ void MasterCore::arm_move(Operation& op, TimePoint now) {
   for (std::size_t i = 0; i < op.drives.size(); ++i) {
     Drive& d = *op.drives[i];
     const auto& a = op.command.axes[i];
-    const auto fail = [&](const std::string& why) { finish(id, Reply::FAILED, "axis " + a.axis + ": " + why, kArmingFailed); };
+    const auto fail = [&](const std::string& why) { finish(id, Reply::FAILED, "axis " + a.axis + ": " + why, error_code(ReplyError::kArmFailed)); };
     if (a.target_counts < std::numeric_limits<std::int32_t>::min() || a.target_counts > std::numeric_limits<std::int32_t>::max())
       return fail("target " + std::to_string(a.target_counts) + " outside INT32 pulses");
     if (!(a.velocity > 0) || !(a.acceleration > 0) || !(a.deceleration > 0))
@@ -993,7 +993,7 @@ void MasterCore::check_motion(Operation& op, TimePoint now) {
       if (s.at_limit()) reason = where + " on its " + (s.negative_limit ? "negative" : "positive") + " limit";
       else if (op.goal == Operation::Goal::reach_home) reason = where + " without finding the home switch";
       else reason = where + ", short of its target " + std::to_string(d->target);
-      return finish(id, Reply::FAILED, reason, s.at_limit() ? kGroupFault : kDriveError);
+      return finish(id, Reply::FAILED, reason, s.at_limit() ? error_code(ReplyError::kAxisFault) : error_code(ReplyError::kDriveError));
     }
   }
   if (op.arrived.size() < op.drives.size()) return;
@@ -1018,12 +1018,12 @@ void MasterCore::param(Operation& op, const motionlcm::param_t& p) {
   const std::int64_t id = op.command.command_id;
   Drive& d = *op.drives[0];
   if (p.space != motionlcm::param_t::MODBUS_REGISTER)
-    return finish(id, Reply::FAILED, "ADAM parameters are Modbus registers (param_t space MODBUS_REGISTER)", kUnsupported);
-  if (p.index < 0 || p.index > 0xFFFF) return finish(id, Reply::FAILED, "register " + std::to_string(p.index) + " outside 0…0xFFFF", kMalformed);
+    return finish(id, Reply::FAILED, "ADAM parameters are Modbus registers (param_t space MODBUS_REGISTER)", error_code(ReplyError::kUnsupported));
+  if (p.index < 0 || p.index > 0xFFFF) return finish(id, Reply::FAILED, "register " + std::to_string(p.index) + " outside 0…0xFFFF", error_code(ReplyError::kMalformedRequest));
   const auto reg = static_cast<std::uint16_t>(p.index);
   const auto* info = adam::find_register(reg);
   const int width = p.width != 0 ? p.width : (info ? info->count() : 1);
-  if (width != 1 && width != 2) return finish(id, Reply::FAILED, "width must be 1 or 2 registers", kMalformed);
+  if (width != 1 && width != 2) return finish(id, Reply::FAILED, "width must be 1 or 2 registers", error_code(ReplyError::kMalformedRequest));
   const bool is_signed = p.is_signed || (info && (info->type == adam::RegType::i16 || info->type == adam::RegType::i32));
   if (op.command.kind == motionlcm::gateway_command_t::PARAM_READ) {
     Transaction t{{d.cfg.unit, rtu::ReadRegisters{reg, static_cast<std::uint16_t>(width)}}, &d, id};
@@ -1043,7 +1043,7 @@ void MasterCore::param(Operation& op, const motionlcm::param_t& p) {
   const std::int64_t hi = width == 1 ? (is_signed ? 32767 : 0xFFFF)
                                      : (is_signed ? std::numeric_limits<std::int32_t>::max() : std::int64_t{0xFFFFFFFF});
   if (p.value < lo || p.value > hi)
-    return finish(id, Reply::FAILED, "value " + std::to_string(p.value) + " does not fit " + std::to_string(width) + " register(s)", kMalformed);
+    return finish(id, Reply::FAILED, "value " + std::to_string(p.value) + " does not fit " + std::to_string(width) + " register(s)", error_code(ReplyError::kMalformedRequest));
   const rtu::Request request =
       width == 1 ? rtu::Request{d.cfg.unit, rtu::WriteRegister{reg, static_cast<std::uint16_t>(p.value)}}
                  : rtu::Request{d.cfg.unit, rtu::WriteRegisters{reg, {adam::encode32(static_cast<std::uint32_t>(p.value))[0],

@@ -10,25 +10,11 @@
 namespace motion::uc57_driver {
 namespace {
 
-template <typename T>
-std::optional<T> setup_value(const config::Drive& drive, const char* key) {
-  const auto it = drive.setup.find(key);
-  if (it == drive.setup.end()) return std::nullopt;
-  if (const auto* value = std::get_if<T>(&it->second)) return *value;
-  return std::nullopt;
-}
-
-std::optional<double> setup_number(const config::Drive& drive, const char* key) {
-  if (auto number = setup_value<double>(drive, key)) return number;
-  if (auto integer = setup_value<long long>(drive, key)) return static_cast<double>(*integer);
-  return std::nullopt;
-}
-
 void apply_resolution(const config::Drive& drive, NodeSettings& out) {
-  std::optional<long long> pulses = setup_value<long long>(drive, "pulses_per_revolution");
+  std::optional<long long> pulses = drive.setup_integer("pulses_per_revolution");
   const char* source = "pulses_per_revolution";
   if (!pulses) {
-    const auto micro_steps = setup_value<long long>(drive, "micro_steps");
+    const auto micro_steps = drive.setup_integer("micro_steps");
     if (!micro_steps) return;  // leave 2006h as stored in the drive; it is read back at start-up
     pulses = *micro_steps * kFullStepsPerRevolution;
     source = "micro_steps";
@@ -50,7 +36,7 @@ void apply_resolution(const config::Drive& drive, NodeSettings& out) {
 }
 
 void apply_current(const config::Drive& drive, NodeSettings& out) {
-  const auto amperes = setup_number(drive, "current_a");
+  const auto amperes = drive.setup_number("current_a");
   if (!amperes) return;
   const auto* entry = cia402::uc57::find_entry(cia402::uc57::index::kRunCurrent, 0);
   const auto tenths = std::llround(*amperes * 10.0);
@@ -82,15 +68,15 @@ NodeSettings make_node_settings(const config::Config& config, const config::Bus&
 
   apply_resolution(drive, out);
   apply_current(drive, out);
-  if (const auto mode = setup_value<std::string>(drive, "tpdo_mode")) {
+  if (const auto mode = drive.setup_text("tpdo_mode")) {
     out.tpdo_mode = *mode == "event" ? TpdoMode::kEvent : TpdoMode::kSync;
   }
-  const auto heartbeat = setup_value<long long>(drive, "heartbeat_ms");
+  const auto heartbeat = drive.setup_integer("heartbeat_ms");
   out.heartbeat_ms = heartbeat ? static_cast<std::uint16_t>(std::clamp<long long>(*heartbeat, 0, 0xFFFF)) : default_heartbeat_ms;
   if (out.heartbeat_ms == 0) {
     out.warnings.push_back("heartbeat_ms: 0 disables the heartbeat; a lost node is only noticed by SDO timeouts");
   }
-  if (setup_value<bool>(drive, "closed_loop").value_or(false)) {
+  if (drive.setup_flag("closed_loop").value_or(false)) {
     out.warnings.push_back("closed_loop: the UC57 manual documents no closed-loop object; ignored");
   }
   if (!canopen::is_valid_node_id(out.node)) out.errors.push_back("node_id " + std::to_string(drive.node_id) + " is outside 1..127");

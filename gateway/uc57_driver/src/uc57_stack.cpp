@@ -1,4 +1,5 @@
 #include "motion/uc57_driver/uc57_stack.hpp"
+#include "motion/lcm/reply_error.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -31,21 +32,6 @@ using Event = motionlcm::event_t;
 
 namespace {
 
-// reply_t / gateway_reply_t error codes (README "Reply error codes").
-enum ErrorCode : std::int32_t {
-  kMalformed = 1,
-  kUnknownAxis = 2,
-  kOutsideLimits = 3,
-  kAxisDisabled = 4,
-  kAxisFaulted = 5,
-  kAxisOffline = 6,
-  kAxisBusy = 8,
-  kArmingFailed = 11,
-  kDriveError = 12,
-  kTimeout = 13,
-  kStopped = 14,
-  kUnsupported = 17,
-};
 
 // CiA 402 mode values (conflict C-01: 1/3/6).
 constexpr auto kModeProfilePosition = static_cast<std::int8_t>(cia402::ModeOfOperation::kProfilePosition);
@@ -527,7 +513,7 @@ void Uc57Stack::configuration_failed(std::size_t n, const std::string& reason, b
 
 void Uc57Stack::go_offline(std::size_t n, std::int16_t event_kind, const std::string& reason, TimePoint now) {
   Node& node = *nodes_[n];
-  end_task(n, kAxisOffline, reason);
+  end_task(n, error_code(ReplyError::kAxisOffline), reason);
   master_.sdo().cancel(node.settings.node);
   ++node.session;
   node.phase = Node::Phase::kOffline;
@@ -601,7 +587,7 @@ void Uc57Stack::on_emcy(const canopen::EmcyEvent& e) {
   node.status.fault_code = code;
   node.status.fault_text = text;
   event(n, Event::EMCY, Event::ERROR, code, text);
-  end_task(n, kAxisFaulted, text);
+  end_task(n, error_code(ReplyError::kAxisFaulted), text);
   publish_status(n);
 }
 
@@ -851,7 +837,7 @@ void Uc57Stack::on_statusword(std::size_t n, TimePoint now) {
                              (state ? std::string(cia402::to_string(*state)) : "unknown state") + ")";
     if (node.status.fault_text.empty()) node.status.fault_text = text;
     event(n, Event::ALARM, Event::ERROR, sw, text);
-    if (!(node.task == TaskKind::kPower && node.power.target() == State::kSwitchOnDisabled)) end_task(n, kAxisFaulted, text);
+    if (!(node.task == TaskKind::kPower && node.power.target() == State::kSwitchOnDisabled)) end_task(n, error_code(ReplyError::kAxisFaulted), text);
     // 603Fh names the alarm (manual §5.2 bit field).
     sdo_read(n, {od::kFaultBits, 0}, [this, n](std::error_code ec, std::span<const std::uint8_t> data) {
       if (ec) return;
@@ -918,7 +904,7 @@ void Uc57Stack::on_statusword(std::size_t n, TimePoint now) {
           break;
         }
         case cia402::uc57::HomingResult::kStoppedWithoutHome:
-          part_failed(node.task_command, n, kDriveError,
+          part_failed(node.task_command, n, error_code(ReplyError::kDriveError),
                       node.settings.label() + ": homing stopped without finding home (statusword " + hex(sw, 4) + ")");
           break;
       }
@@ -1026,22 +1012,22 @@ void Uc57Stack::check_task_timeouts(TimePoint now) {
     const auto ms = [](Duration d) { return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count()); };
     switch (node.task) {
       case TaskKind::kArming:
-        part_failed(node.task_command, n, kArmingFailed,
+        part_failed(node.task_command, n, error_code(ReplyError::kArmFailed),
                     label + ": not ready for a set-point (statusword bit 12 still set or 6061h != 1) within " +
                         ms(options_.set_point_timeout) + " ms");
         break;
       case TaskKind::kTriggered:
       case TaskKind::kReleasing:
-        part_failed(node.task_command, n, kTimeout,
+        part_failed(node.task_command, n, error_code(ReplyError::kTimeout),
                     label + ": set-point handshake timed out (statusword bit 12 " +
                         (node.task == TaskKind::kTriggered ? "never acknowledged" : "never released") + ")");
         break;
       case TaskKind::kHalt:
       case TaskKind::kQuickStop:
-        part_failed(node.task_command, n, kTimeout, label + ": motor still running " + ms(options_.stop_timeout) + " ms after the stop");
+        part_failed(node.task_command, n, error_code(ReplyError::kTimeout), label + ": motor still running " + ms(options_.stop_timeout) + " ms after the stop");
         break;
       default:
-        part_failed(node.task_command, n, kTimeout, label + ": no answer from the drive in time");
+        part_failed(node.task_command, n, error_code(ReplyError::kTimeout), label + ": no answer from the drive in time");
         break;
     }
   }
@@ -1057,10 +1043,10 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
   job.command = command;
   for (const auto& axis : command.axes) {
     const auto it = std::find_if(nodes_.begin(), nodes_.end(), [&](const auto& node) { return node->settings.axis == axis.axis; });
-    if (it == nodes_.end()) return fail_command(command, kUnknownAxis, "axis '" + axis.axis + "' is not driven by a UC57 on bus " + bus_);
+    if (it == nodes_.end()) return fail_command(command, error_code(ReplyError::kUnknownAxis), "axis '" + axis.axis + "' is not driven by a UC57 on bus " + bus_);
     job.nodes.push_back(static_cast<std::size_t>(it - nodes_.begin()));
   }
-  if (job.nodes.empty()) return fail_command(command, kMalformed, "command names no axis");
+  if (job.nodes.empty()) return fail_command(command, error_code(ReplyError::kMalformedRequest), "command names no axis");
   job.parts.assign(job.nodes.size(), Job::Part::kRunning);
 
   const std::int8_t kind = command.kind;
@@ -1072,35 +1058,35 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
   for (const std::size_t n : job.nodes) {
     const Node& node = *nodes_[n];
     if (node.phase != Node::Phase::kOperational) {
-      return fail_command(command, kAxisOffline,
+      return fail_command(command, error_code(ReplyError::kAxisOffline),
                           node.settings.label() + " is offline" + (node.offline_reason.empty() ? "" : ": " + node.offline_reason));
     }
     if (needs_slot && !preempts && node.task != TaskKind::kNone) {
-      return fail_command(command, kAxisBusy,
+      return fail_command(command, error_code(ReplyError::kAxisBusy),
                           node.settings.label() + " is busy with command " + std::to_string(node.task_command));
     }
     const auto state = drive_state(n);
     const bool motion = kind == Command::ARM_MOVE || kind == Command::JOG || kind == Command::HOME;
     if (motion && is_fault_state(state)) {
-      return fail_command(command, kAxisFaulted, node.settings.label() + " is faulted: " + node.status.fault_text);
+      return fail_command(command, error_code(ReplyError::kAxisFaulted), node.settings.label() + " is faulted: " + node.status.fault_text);
     }
     if (motion && state != State::kOperationEnabled) {
-      return fail_command(command, kAxisDisabled,
+      return fail_command(command, error_code(ReplyError::kAxisDisabled),
                           node.settings.label() + " is not enabled (" + (state ? std::string(cia402::to_string(*state)) : "no statusword") + ")");
     }
   }
   if ((kind == Command::PARAM_READ || kind == Command::PARAM_WRITE) && job.nodes.size() != 1) {
-    return fail_command(command, kMalformed, "a parameter command names exactly one axis");
+    return fail_command(command, error_code(ReplyError::kMalformedRequest), "a parameter command names exactly one axis");
   }
   if (preempts) {
     const std::string why = std::string(kind == Command::ESTOP ? "e-stopped" : kind == Command::STOP ? "stopped" : "superseded") +
                             " by command " + std::to_string(command.command_id);
-    for (const std::size_t n : job.nodes) end_task(n, kStopped, nodes_[n]->settings.label() + ": " + why);
+    for (const std::size_t n : job.nodes) end_task(n, error_code(ReplyError::kStopped), nodes_[n]->settings.label() + ": " + why);
   }
 
   const std::int64_t id = command.command_id;
   auto [it, inserted] = jobs_.emplace(id, std::move(job));
-  if (!inserted) return fail_command(command, kMalformed, "command id " + std::to_string(id) + " is already running");
+  if (!inserted) return fail_command(command, error_code(ReplyError::kMalformedRequest), "command id " + std::to_string(id) + " is already running");
   Job& live = it->second;
   const std::vector<std::size_t> targets = live.nodes;
   for (std::size_t i = 0; i < targets.size(); ++i) {
@@ -1137,7 +1123,7 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
         part_done(id, n);
         break;
       default:
-        part_failed(id, n, kMalformed, "unknown gateway command kind " + std::to_string(kind));
+        part_failed(id, n, error_code(ReplyError::kMalformedRequest), "unknown gateway command kind " + std::to_string(kind));
         return;
     }
   }
@@ -1168,13 +1154,13 @@ void Uc57Stack::apply_power_action(std::size_t n, const cia402::PowerController:
   switch (action.outcome) {
     case cia402::PowerController::Outcome::kReached: part_done(id, n); break;
     case cia402::PowerController::Outcome::kTimedOut:
-      part_failed(id, n, kTimeout,
+      part_failed(id, n, error_code(ReplyError::kTimeout),
                   label + ": CiA 402 transition " + std::to_string(node.power_transition) + " not confirmed by the statusword within " +
                       std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(options_.state_switch_timeout).count()) +
                       " ms (state " + (action.observed ? std::string(cia402::to_string(*action.observed)) : "unknown") + ")");
       break;
     case cia402::PowerController::Outcome::kUnreachable:
-      part_failed(id, n, is_fault_state(action.observed) ? kAxisFaulted : kDriveError,
+      part_failed(id, n, is_fault_state(action.observed) ? error_code(ReplyError::kAxisFaulted) : error_code(ReplyError::kDriveError),
                   label + ": cannot reach " + (target ? std::string(cia402::to_string(*target)) : "the requested state") +
                       " from " + (action.observed ? std::string(cia402::to_string(*action.observed)) : "an unknown state") +
                       (is_fault_state(action.observed) ? " (FAULT_RESET first)" : ""));
@@ -1219,12 +1205,12 @@ void Uc57Stack::start_arm(std::size_t n, Job& job, const motionlcm::axis_command
   const auto* target_entry = cia402::uc57::find_entry(od::kTargetPosition, 0);
   const auto target = cia402::uc57::quantize_position(*target_entry, static_cast<double>(axis.target_counts));
   if (target.clamped) {
-    return part_failed(id, n, kOutsideLimits,
+    return part_failed(id, n, error_code(ReplyError::kOutsideLimits),
                        label + ": target " + std::to_string(axis.target_counts) + " counts is outside 607Ah's range " +
                            std::to_string(target_entry->min) + ".." + std::to_string(target_entry->max));
   }
   if (axis.velocity <= 0 || axis.acceleration <= 0 || axis.deceleration <= 0) {
-    return part_failed(id, n, kMalformed, label + ": ARM_MOVE needs a positive velocity, acceleration and deceleration");
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": ARM_MOVE needs a positive velocity, acceleration and deceleration");
   }
   const auto speed = cia402::uc57::quantize_speed(*cia402::uc57::find_entry(od::kProfileVelocity, 0), axis.velocity, node.pulses_per_rev);
   const double speed_change = std::max(0.0, speed.realized - node.start_speed);
@@ -1245,10 +1231,10 @@ void Uc57Stack::start_arm(std::size_t n, Job& job, const motionlcm::axis_command
   start_task(n, TaskKind::kArming, id, kNever);
   const unsigned session = node.session;
   set_mode(n, kModeProfilePosition, [this, n, id, session, target_counts, writes = std::move(writes)](std::optional<std::string> failure) mutable {
-    if (failure) return part_failed(id, n, kArmingFailed, *failure);
+    if (failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *failure);
     sdo_write_all(n, std::move(writes), [this, n, id, session, target_counts](std::optional<std::string> write_failure) {
       Node& nd = *nodes_[n];
-      if (write_failure) return part_failed(id, n, kArmingFailed, *write_failure);
+      if (write_failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *write_failure);
       if (nd.session != session || nd.task_command != id || nd.task != TaskKind::kArming) return;
       RpdoImage image = latest_image(n);
       image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F: bit 4 = 0, halt off
@@ -1280,12 +1266,12 @@ void Uc57Stack::start_jog(std::size_t n, Job& job, const motionlcm::axis_command
                  {{od::kProfileDeceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(decel.native))},
                  {{od::kTargetVelocity, 0}, le<std::int32_t>(0)}},
                 [this, n, id, rpm](std::optional<std::string> failure) {
-                  if (failure) return part_failed(id, n, kDriveError, *failure);
+                  if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
                   set_mode(n, kModeProfileVelocity, [this, n, id, rpm](std::optional<std::string> mode_failure) {
-                    if (mode_failure) return part_failed(id, n, kDriveError, *mode_failure);
+                    if (mode_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *mode_failure);
                     sdo_write_all(n, {{{od::kTargetVelocity, 0}, le<std::int32_t>(rpm)}}, [this, n, id, rpm](std::optional<std::string> speed_failure) {
                       Node& nd = *nodes_[n];
-                      if (speed_failure) return part_failed(id, n, kDriveError, *speed_failure);
+                      if (speed_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *speed_failure);
                       if (nd.task_command != id || nd.task != TaskKind::kJog) return;
                       RpdoImage image = latest_image(n);
                       image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F = PV start, halt off
@@ -1305,17 +1291,17 @@ void Uc57Stack::start_home(std::size_t n, Job& job, const motionlcm::axis_comman
   const config::Homing& homing = node.settings.homing;
   if (homing.method == config::HomingMethod::kCurrentPosition) {
     if (axis.target_counts != 0) {
-      return part_failed(id, n, kUnsupported, label + ": the UC57 can only zero its position (2012h); offset " +
+      return part_failed(id, n, error_code(ReplyError::kUnsupported), label + ": the UC57 can only zero its position (2012h); offset " +
                                                   std::to_string(axis.target_counts) + " counts is not supported");
     }
     start_task(n, TaskKind::kSdoOnly, id, kNever);
     return sdo_write_all(n, {{{od::kZeroPosition, 0}, le<std::uint16_t>(kZeroPositionCommand)}}, [this, n, id](std::optional<std::string> failure) {
-      if (failure) return part_failed(id, n, kDriveError, *failure);
+      if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
       part_done(id, n);
     });
   }
   if (homing.method != config::HomingMethod::kSwitch) {
-    return part_failed(id, n, kUnsupported, label + ": no homing method configured for axis " + node.settings.axis);
+    return part_failed(id, n, error_code(ReplyError::kUnsupported), label + ": no homing method configured for axis " + node.settings.axis);
   }
   // The manual's default input functions (§3.1): IN1 positive limit, IN2 origin, IN3 negative limit.
   const double direction = axis.velocity != 0 ? axis.velocity : homing.velocity;
@@ -1327,7 +1313,7 @@ void Uc57Stack::start_home(std::size_t n, Job& job, const motionlcm::axis_comman
       break;
     case 3: method = cia402::uc57::HomingMethod::kNegativeLimit; break;
     default:
-      return part_failed(id, n, kUnsupported, label + ": homing on input " + std::to_string(homing.input) +
+      return part_failed(id, n, error_code(ReplyError::kUnsupported), label + ": homing on input " + std::to_string(homing.input) +
                                                   " is not possible (UC57: IN1 positive limit, IN2 origin, IN3 negative limit)");
   }
   cia402::uc57::HomingRequest request;
@@ -1338,7 +1324,7 @@ void Uc57Stack::start_home(std::size_t n, Job& job, const motionlcm::axis_comman
   request.offset = static_cast<double>(axis.target_counts);
   const auto settings = cia402::uc57::quantize_homing(request, node.pulses_per_rev);
   if (settings.offset.clamped) {
-    return part_failed(id, n, kOutsideLimits, label + ": homing offset " + std::to_string(axis.target_counts) + " counts exceeds 607Ch's range");
+    return part_failed(id, n, error_code(ReplyError::kOutsideLimits), label + ": homing offset " + std::to_string(axis.target_counts) + " counts exceeds 607Ch's range");
   }
   start_task(n, TaskKind::kHoming, id, kNever);
   sdo_write_all(n,
@@ -1348,10 +1334,10 @@ void Uc57Stack::start_home(std::size_t n, Job& job, const motionlcm::axis_comman
                  {{od::kHomingAcceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.acceleration.native))},
                  {{od::kHomeOffset, 0}, le<std::int32_t>(static_cast<std::int32_t>(settings.offset.native))}},
                 [this, n, id](std::optional<std::string> failure) {
-                  if (failure) return part_failed(id, n, kDriveError, *failure);
+                  if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
                   set_mode(n, kModeHoming, [this, n, id](std::optional<std::string> mode_failure) {
                     Node& nd = *nodes_[n];
-                    if (mode_failure) return part_failed(id, n, kDriveError, *mode_failure);
+                    if (mode_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *mode_failure);
                     if (nd.task_command != id || nd.task != TaskKind::kHoming) return;
                     // Two SYNC cycles: bit 4 = 0, then 1 -> the rising edge starts homing (0x0F -> 0x1F).
                     RpdoImage image = latest_image(n);
@@ -1369,7 +1355,7 @@ void Uc57Stack::start_outputs(std::size_t n, Job& job, const motionlcm::axis_com
   const std::int64_t id = job.command.command_id;
   const std::string label = nodes_[n]->settings.label();
   if ((axis.output_mask & ~((1 << kOutputCount) - 1)) != 0) {
-    return part_failed(id, n, kOutsideLimits, label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
+    return part_failed(id, n, error_code(ReplyError::kOutsideLimits), label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
                                                   " names outputs the UC57 does not have (OUT1, OUT2)");
   }
   // The outputs are driven by their function selection (2030h:0D/0E): 5 = high, 6 = low. RW/S,
@@ -1382,7 +1368,7 @@ void Uc57Stack::start_outputs(std::size_t n, Job& job, const motionlcm::axis_com
                       le<std::uint16_t>(high ? kOutputForcedHigh : kOutputForcedLow)});
   }
   sdo_write_all(n, std::move(writes), [this, n, id, mask = axis.output_mask, value = axis.output_value](std::optional<std::string> failure) {
-    if (failure) return part_failed(id, n, kDriveError, *failure);
+    if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
     auto& outputs = nodes_[n]->status.outputs;
     outputs = (outputs & ~mask) | (value & mask);
     publish_status(n);
@@ -1393,13 +1379,13 @@ void Uc57Stack::start_outputs(std::size_t n, Job& job, const motionlcm::axis_com
 void Uc57Stack::start_set_position(std::size_t n, Job& job, const motionlcm::axis_command_t& axis) {
   const std::int64_t id = job.command.command_id;
   if (axis.target_counts != 0) {
-    return part_failed(id, n, kUnsupported,
+    return part_failed(id, n, error_code(ReplyError::kUnsupported),
                        nodes_[n]->settings.label() + ": the UC57 can only set its position to zero (2012h); " +
                            std::to_string(axis.target_counts) + " counts is not possible");
   }
   start_task(n, TaskKind::kSdoOnly, id, kNever);
   sdo_write_all(n, {{{od::kZeroPosition, 0}, le<std::uint16_t>(kZeroPositionCommand)}}, [this, n, id](std::optional<std::string> failure) {
-    if (failure) return part_failed(id, n, kDriveError, *failure);
+    if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
     nodes_[n]->status.position_counts = 0;
     part_done(id, n);
   });
@@ -1410,10 +1396,10 @@ void Uc57Stack::start_param(std::size_t n, Job& job) {
   const motionlcm::param_t& param = job.command.param;
   const std::string label = nodes_[n]->settings.label();
   if (param.space != motionlcm::param_t::CANOPEN_OBJECT) {
-    return part_failed(id, n, kMalformed, label + ": UC57 parameters are CANopen objects (param_t space CANOPEN_OBJECT)");
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": UC57 parameters are CANopen objects (param_t space CANOPEN_OBJECT)");
   }
   if (param.index < 0 || param.index > 0xFFFF || param.subindex < -1 || param.subindex > 0xFF) {
-    return part_failed(id, n, kMalformed, label + ": object " + std::to_string(param.index) + ":" + std::to_string(param.subindex) +
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": object " + std::to_string(param.index) + ":" + std::to_string(param.subindex) +
                                               " is not a CANopen index (0..FFFFh) and sub-index (0..FFh)");
   }
   const ObjectAddress object{static_cast<std::uint16_t>(param.index), static_cast<std::uint8_t>(std::max(param.subindex, 0))};
@@ -1425,23 +1411,23 @@ void Uc57Stack::start_param(std::size_t n, Job& job) {
     is_signed = cia402::uc57::is_signed(entry->type);
   }
   if (width != 0 && width != 1 && width != 2 && width != 4) {
-    return part_failed(id, n, kMalformed, label + ": width " + std::to_string(width) + " (CANopen objects: 1, 2 or 4 bytes)");
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": width " + std::to_string(width) + " (CANopen objects: 1, 2 or 4 bytes)");
   }
   if (job.command.kind == Command::PARAM_READ) {
     return sdo_read(n, object, [this, n, id, object, is_signed](std::error_code ec, std::span<const std::uint8_t> data) {
-      if (ec) return part_failed(id, n, kDriveError, sdo_failure(n, false, object, ec));
+      if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, false, object, ec));
       const auto it = jobs_.find(id);
       if (it != jobs_.end()) it->second.command.param.value = is_signed ? read_signed(data) : static_cast<std::int64_t>(read_unsigned(data));
       part_done(id, n);
     });
   }
   if (width == 0) {
-    return part_failed(id, n, kMalformed, label + ": object " + object_text(object) + " is not in the UC57 dictionary: give the width");
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": object " + object_text(object) + " is not in the UC57 dictionary: give the width");
   }
   std::vector<std::uint8_t> data(width);
   for (std::size_t i = 0; i < width; ++i) data[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(param.value) >> (8 * i));
   sdo_write(n, object, std::move(data), [this, n, id, object](std::error_code ec, std::span<const std::uint8_t>) {
-    if (ec) return part_failed(id, n, kDriveError, sdo_failure(n, true, object, ec));
+    if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, true, object, ec));
     part_done(id, n);
   });
 }
@@ -1459,7 +1445,7 @@ void Uc57Stack::disarm(const Job& disarm_job) {
   // Bit 4 is still 0 in every armed drive: forgetting the job is all it takes.
   for (const auto id : victims) {
     const Job& job = jobs_.at(id);
-    part_failed(id, job.nodes.front(), kStopped, "disarmed by command " + std::to_string(disarm_job.command.command_id));
+    part_failed(id, job.nodes.front(), error_code(ReplyError::kStopped), "disarmed by command " + std::to_string(disarm_job.command.command_id));
   }
 }
 
@@ -1473,7 +1459,7 @@ void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
   }
   for (const auto id : early_jobs) {
     const Job& job = jobs_.at(id);
-    part_failed(id, job.nodes.front(), kArmingFailed,
+    part_failed(id, job.nodes.front(), error_code(ReplyError::kArmFailed),
                 "trigger " + std::to_string(trigger_id) + " arrived before every axis of command " + std::to_string(id) + " was armed");
   }
   if (!ready_jobs.empty()) fire_jobs(ready_jobs, now);

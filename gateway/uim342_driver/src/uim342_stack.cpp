@@ -47,17 +47,6 @@ std::string command_name(std::int8_t kind) {
 }
 
 template <typename T>
-std::optional<T> setup_value(const std::map<std::string, config::SetupValue>& setup, const std::string& key) {
-  const auto it = setup.find(key);
-  if (it == setup.end()) return std::nullopt;
-  if (const auto* v = std::get_if<T>(&it->second)) return *v;
-  if constexpr (std::is_same_v<T, double>) {
-    if (const auto* i = std::get_if<long long>(&it->second)) return static_cast<double>(*i);
-  }
-  return std::nullopt;
-}
-
-template <typename T>
 T saturate(long long v) {
   return static_cast<T>(std::clamp<long long>(v, std::numeric_limits<T>::min(), std::numeric_limits<T>::max()));
 }
@@ -323,32 +312,32 @@ struct Uim342Stack::Impl {
     using uim342::MotorDriver;
     using uim342::QuadratureEncoder;
     if (n.cfg.group_id != 0) enqueue(i, rq::get(uim342::ProtocolParameter::group_id), 0);
-    if (const auto v = setup_value<long long>(s, "micro_steps")) {
+    if (const auto v = config::setup_integer(s, "micro_steps")) {
       enqueue(i, rq::set(MotorDriver::microstepping, saturate<std::uint16_t>(*v)), 0);
       // §5.9: set CPR (QE[4]) together with the micro-step resolution.
       enqueue(i, rq::set(QuadratureEncoder::counts_per_revolution, saturate<std::uint16_t>(*v * uim342::kFullStepsPerRevolution)), 0);
     }
-    if (const auto v = setup_value<double>(s, "current_a")) {
+    if (const auto v = config::setup_number(s, "current_a")) {
       const auto tenths = uim342::current_to_wire(*v);
       enqueue(i, rq::set(MotorDriver::working_current, tenths ? *tenths : saturate<std::uint16_t>(std::lround(*v * 10))), 0);
     }
-    if (const auto v = setup_value<long long>(s, "idle_current_percent")) enqueue(i, rq::set(MotorDriver::idle_current_percent, saturate<std::uint16_t>(*v)), 0);
-    if (const auto v = setup_value<bool>(s, "auto_enable")) enqueue(i, rq::set(InitialConfig::auto_driver_on, *v ? 1 : 0), 0);
-    if (const auto v = setup_value<std::string>(s, "direction")) enqueue(i, rq::set(InitialConfig::positive_direction, *v == "ccw" ? 1 : 0), 0);
-    if (const auto v = setup_value<std::string>(s, "acceleration_unit")) {
+    if (const auto v = config::setup_integer(s, "idle_current_percent")) enqueue(i, rq::set(MotorDriver::idle_current_percent, saturate<std::uint16_t>(*v)), 0);
+    if (const auto v = config::setup_flag(s, "auto_enable")) enqueue(i, rq::set(InitialConfig::auto_driver_on, *v ? 1 : 0), 0);
+    if (const auto v = config::setup_text(s, "direction")) enqueue(i, rq::set(InitialConfig::positive_direction, *v == "ccw" ? 1 : 0), 0);
+    if (const auto v = config::setup_text(s, "acceleration_unit")) {
       n.unit = *v == "time" ? uim342::AccelerationUnit::milliseconds : uim342::AccelerationUnit::pulses_per_s2;
       enqueue(i, rq::set(InitialConfig::acceleration_unit, static_cast<std::uint16_t>(n.unit)), 0);
     }
-    if (const auto v = setup_value<bool>(s, "closed_loop")) enqueue(i, rq::set(InitialConfig::closed_loop, *v ? 1 : 0), 0);
-    if (const auto v = setup_value<bool>(s, "software_limits")) enqueue(i, rq::set(InitialConfig::software_limits, *v ? 1 : 0), 0);
-    if (const auto v = setup_value<long long>(s, "encoder_resolution")) enqueue(i, rq::set(QuadratureEncoder::lines_per_revolution, saturate<std::uint16_t>(*v)), 0);
-    if (const auto v = setup_value<long long>(s, "stall_tolerance")) enqueue(i, rq::set(QuadratureEncoder::stall_tolerance, saturate<std::uint16_t>(*v)), 0);
-    if (const auto v = setup_value<long long>(s, "cut_in_speed")) {
+    if (const auto v = config::setup_flag(s, "closed_loop")) enqueue(i, rq::set(InitialConfig::closed_loop, *v ? 1 : 0), 0);
+    if (const auto v = config::setup_flag(s, "software_limits")) enqueue(i, rq::set(InitialConfig::software_limits, *v ? 1 : 0), 0);
+    if (const auto v = config::setup_integer(s, "encoder_resolution")) enqueue(i, rq::set(QuadratureEncoder::lines_per_revolution, saturate<std::uint16_t>(*v)), 0);
+    if (const auto v = config::setup_integer(s, "stall_tolerance")) enqueue(i, rq::set(QuadratureEncoder::stall_tolerance, saturate<std::uint16_t>(*v)), 0);
+    if (const auto v = config::setup_integer(s, "cut_in_speed")) {
       n.cut_in_pps = static_cast<double>(*v);
       enqueue(i, rq::set_cut_in_speed(saturate<std::uint32_t>(*v)), 0);
     }
-    if (const auto v = setup_value<long long>(s, "stop_deceleration")) enqueue(i, rq::set_stop_deceleration(saturate<std::uint32_t>(*v)), 0);
-    if (const auto v = setup_value<long long>(s, "backlash")) enqueue(i, rq::set_backlash(saturate<std::uint32_t>(*v)), 0);
+    if (const auto v = config::setup_integer(s, "stop_deceleration")) enqueue(i, rq::set_stop_deceleration(saturate<std::uint32_t>(*v)), 0);
+    if (const auto v = config::setup_integer(s, "backlash")) enqueue(i, rq::set_backlash(saturate<std::uint32_t>(*v)), 0);
     // Notifications this stack relies on (§5.3): inputs for INPUT_EDGE, PTP finished for DONE.
     // Alarms (stall, limits) have no enable bit and are always sent.
     for (const auto e : {uim342::InformationEnable::in1_change, uim342::InformationEnable::in2_change,
@@ -385,7 +374,7 @@ struct Uim342Stack::Impl {
     n.phase = Phase::offline;
     n.status.online = false;
     n.status.moving = false;
-    fail_commands_of(i, uim342_error::kOffline, reason);
+    fail_commands_of(i, error_code(ReplyError::kAxisOffline), reason);
     n.queue.clear();
     n.backoff = n.backoff.count() == 0 ? config.offline_retry_first : std::min(n.backoff * 2, config.offline_retry_max);
     n.retry_at = now + n.backoff;
@@ -403,7 +392,7 @@ struct Uim342Stack::Impl {
     if (ack) apply_ack(i, r, *ack, now);
     if (r.instruction.function == FunctionCode::SY) {
       // The drive reboots without answering; identified and set up again after reboot_wait.
-      fail_commands_of(i, uim342_error::kOffline, fmt::format("{} is rebooting to apply its group id", n.name()));
+      fail_commands_of(i, error_code(ReplyError::kAxisOffline), fmt::format("{} is rebooting to apply its group id", n.name()));
       n.phase = Phase::rebooting;
       n.queue.clear();
       n.retry_at = now + config.reboot_wait;
@@ -539,18 +528,18 @@ struct Uim342Stack::Impl {
     }
     auto it = commands.find(r.command_id);
     if (it != commands.end() && it->second.cmd.kind == gateway_command_t::FAULT_RESET && locked) {
-      fail(r.command_id, uim342_error::kDriveError, fmt::format("{} is locked down (LOCK); MS[0]=0 does not release it, a reboot (SY[1]) or power cycle does", n.name()));
+      fail(r.command_id, error_code(ReplyError::kDriveError), fmt::format("{} is locked down (LOCK); MS[0]=0 does not release it, a reboot (SY[1]) or power cycle does", n.name()));
     }
     // Completion of an active move, from a status read sent after its BG was acknowledged.
     if (n.move != 0 && n.bg_acked) {
       if (stalled) {
-        fail(n.move, uim342_error::kAxisFaulted, fmt::format("{} stalled during the move (TLIF)", n.name()));
+        fail(n.move, error_code(ReplyError::kAxisFault), fmt::format("{} stalled during the move (TLIF)", n.name()));
       } else if (n.status.moving) {
         n.seen_moving = true;
       } else if (n.status.in_position) {
         arrived(i, now);
       } else if (n.seen_moving) {
-        fail(n.move, uim342_error::kAxisFaulted, fmt::format("{} stopped short of its target without a stop command", n.name()));
+        fail(n.move, error_code(ReplyError::kAxisFault), fmt::format("{} stopped short of its target without a stop command", n.name()));
       }
     }
   }
@@ -627,7 +616,7 @@ struct Uim342Stack::Impl {
 
   void execute(const gateway_command_t& cmd, TimePoint now) {
     if (cmd.axes.empty()) {
-      reply_to(cmd, gateway_reply_t::FAILED, command_name(cmd.kind) + " names no axis", uim342_error::kMalformed);
+      reply_to(cmd, gateway_reply_t::FAILED, command_name(cmd.kind) + " names no axis", error_code(ReplyError::kMalformedRequest));
       return;
     }
     Command c;
@@ -635,7 +624,7 @@ struct Uim342Stack::Impl {
     for (const auto& a : cmd.axes) {
       const auto i = node_of_axis(a.axis);
       if (!i) {
-        reply_to(cmd, gateway_reply_t::FAILED, fmt::format("axis '{}' is not driven by a uim342 drive on bus {}", a.axis, config.bus), uim342_error::kUnknownAxis);
+        reply_to(cmd, gateway_reply_t::FAILED, fmt::format("axis '{}' is not driven by a uim342 drive on bus {}", a.axis, config.bus), error_code(ReplyError::kUnknownAxis));
         return;
       }
       c.nodes.push_back(*i);
@@ -645,18 +634,18 @@ struct Uim342Stack::Impl {
     for (const auto i : c.nodes) {
       const Node& n = nodes[i];
       if (needs_drive && n.phase == Phase::offline) {
-        reply_to(cmd, gateway_reply_t::FAILED, fmt::format("{} is offline", n.name()), uim342_error::kOffline);
+        reply_to(cmd, gateway_reply_t::FAILED, fmt::format("{} is offline", n.name()), error_code(ReplyError::kAxisOffline));
         return;
       }
       const bool starts_motion = cmd.kind == gateway_command_t::ARM_MOVE || cmd.kind == gateway_command_t::JOG ||
                                  cmd.kind == gateway_command_t::HOME || cmd.kind == gateway_command_t::SET_POSITION;
       if (starts_motion && n.move != 0) {
-        reply_to(cmd, gateway_reply_t::FAILED, fmt::format("{} is busy with move command {}", n.name(), n.move), uim342_error::kBusy);
+        reply_to(cmd, gateway_reply_t::FAILED, fmt::format("{} is busy with move command {}", n.name(), n.move), error_code(ReplyError::kAxisBusy));
         return;
       }
     }
     if (commands.count(cmd.command_id) != 0) {
-      reply_to(cmd, gateway_reply_t::FAILED, fmt::format("command id {} is already in progress", cmd.command_id), uim342_error::kMalformed);
+      reply_to(cmd, gateway_reply_t::FAILED, fmt::format("command id {} is already in progress", cmd.command_id), error_code(ReplyError::kMalformedRequest));
       return;
     }
     const auto id = cmd.command_id;
@@ -688,7 +677,7 @@ struct Uim342Stack::Impl {
       case gateway_command_t::DISABLE: {
         const bool on = c.cmd.kind == gateway_command_t::ENABLE;
         for (const auto i : c.nodes) {
-          if (!on && nodes[i].move != 0) fail(nodes[i].move, uim342_error::kStopped, fmt::format("{} disabled by command {}", nodes[i].name(), id));
+          if (!on && nodes[i].move != 0) fail(nodes[i].move, error_code(ReplyError::kStopped), fmt::format("{} disabled by command {}", nodes[i].name(), id));
           enqueue(i, rq::driver_on(on), id);
         }
         return std::nullopt;
@@ -710,9 +699,9 @@ struct Uim342Stack::Impl {
           Node& n = nodes[i];
           const auto reason = fmt::format("{} stopped by {} command {}", n.name(), command_name(c.cmd.kind), id);
           if (emergency) {
-            fail_commands_of(i, uim342_error::kStopped, reason, id);  // nothing queued goes out after an e-stop
+            fail_commands_of(i, error_code(ReplyError::kStopped), reason, id);  // nothing queued goes out after an e-stop
           } else if (n.move != 0) {
-            fail(n.move, uim342_error::kStopped, reason);
+            fail(n.move, error_code(ReplyError::kStopped), reason);
           }
           enqueue(i, rq::stop(), id, /*front=*/true);
         }
@@ -729,7 +718,7 @@ struct Uim342Stack::Impl {
         return each([&](std::size_t i, const motionlcm::axis_command_t& a) -> Problem {
           if ((a.output_mask & ~1) != 0) {
             return std::pair{fmt::format("{} has one digital output (OP1, bit 0); mask 0x{:X} names others", nodes[i].name(), a.output_mask),
-                             uim342_error::kUnsupported};
+                             error_code(ReplyError::kUnsupported)};
           }
           const auto outputs = static_cast<std::uint8_t>((nodes[i].status.outputs & ~a.output_mask) | (a.output_value & a.output_mask));
           enqueue(i, rq::set_outputs(outputs), id);
@@ -746,11 +735,11 @@ struct Uim342Stack::Impl {
             armed.insert(it->first);
           }
         }
-        for (const auto a : armed) fail(a, uim342_error::kStopped, fmt::format("move disarmed by command {}", id));
+        for (const auto a : armed) fail(a, error_code(ReplyError::kStopped), fmt::format("move disarmed by command {}", id));
         return std::nullopt;
       }
       default:
-        return std::pair{fmt::format("command kind {} is not supported by the uim342 stack", int{c.cmd.kind}), uim342_error::kUnsupported};
+        return std::pair{fmt::format("command kind {} is not supported by the uim342 stack", int{c.cmd.kind}), error_code(ReplyError::kUnsupported)};
     }
   }
 
@@ -761,7 +750,7 @@ struct Uim342Stack::Impl {
     const auto wire = uim342::acceleration_to_wire(rate, n.unit, speed, n.cut_in_pps);
     if (!wire) {
       return std::pair{fmt::format("{}: {} {} counts/s^2 is outside the drive's range", n.name(), acceleration ? "acceleration" : "deceleration", rate),
-                       uim342_error::kOutsideLimits};
+                       error_code(ReplyError::kOutsideLimits)};
     }
     enqueue(i, acceleration ? rq::set_acceleration(*wire) : rq::set_deceleration(*wire), id);
     return std::nullopt;
@@ -771,11 +760,11 @@ struct Uim342Stack::Impl {
     const Node& n = nodes[i];
     const auto speed = uim342::speed_to_pps(std::abs(a.velocity));
     if (!speed || *speed <= 0) {
-      return std::pair{fmt::format("{}: ARM_MOVE needs a positive speed within 32 bits (got {} counts/s)", n.name(), a.velocity), uim342_error::kOutsideLimits};
+      return std::pair{fmt::format("{}: ARM_MOVE needs a positive speed within 32 bits (got {} counts/s)", n.name(), a.velocity), error_code(ReplyError::kOutsideLimits)};
     }
     const std::int64_t drive_target = a.target_counts - n.offset;
     if (drive_target < std::numeric_limits<std::int32_t>::min() || drive_target > std::numeric_limits<std::int32_t>::max()) {
-      return std::pair{fmt::format("{}: target {} counts does not fit PA (32 bits)", n.name(), a.target_counts), uim342_error::kOutsideLimits};
+      return std::pair{fmt::format("{}: target {} counts does not fit PA (32 bits)", n.name(), a.target_counts), error_code(ReplyError::kOutsideLimits)};
     }
     const auto id = c.cmd.command_id;
     // §5.19: in PTP mode PR/PA first, then SP (otherwise error #50).
@@ -787,7 +776,7 @@ struct Uim342Stack::Impl {
 
   Problem load_jog(Command& c, std::size_t i, const motionlcm::axis_command_t& a) {
     const auto speed = uim342::speed_to_pps(a.velocity);
-    if (!speed) return std::pair{fmt::format("{}: jog speed {} counts/s does not fit 32 bits", nodes[i].name(), a.velocity), uim342_error::kOutsideLimits};
+    if (!speed) return std::pair{fmt::format("{}: jog speed {} counts/s does not fit 32 bits", nodes[i].name(), a.velocity), error_code(ReplyError::kOutsideLimits)};
     const auto id = c.cmd.command_id;
     enqueue(i, rq::set_jog_velocity(*speed), id);
     const double magnitude = std::abs(static_cast<double>(*speed));
@@ -801,19 +790,19 @@ struct Uim342Stack::Impl {
   Problem load_param(Command& c) {
     const auto& p = c.cmd.param;
     const bool write = c.cmd.kind == gateway_command_t::PARAM_WRITE;
-    if (c.nodes.size() != 1) return std::pair{std::string("a parameter command names exactly one axis"), uim342_error::kMalformed};
+    if (c.nodes.size() != 1) return std::pair{std::string("a parameter command names exactly one axis"), error_code(ReplyError::kMalformedRequest)};
     const Node& n = nodes[c.nodes.front()];
     if (p.space != motionlcm::param_t::UIM342_INSTRUCTION) {
       return std::pair{fmt::format("{} takes UIM342 parameters (space {}), not space {}", n.name(), int{motionlcm::param_t::UIM342_INSTRUCTION}, int{p.space}),
-                       uim342_error::kUnsupported};
+                       error_code(ReplyError::kUnsupported)};
     }
     const auto* forms = p.index >= 0 && p.index <= 0x7F ? uim342::find_forms(static_cast<std::uint8_t>(p.index)) : nullptr;
-    if (!forms) return std::pair{fmt::format("{}: 0x{:02X} is not a UIM342 instruction", n.name(), p.index), uim342_error::kMalformed};
+    if (!forms) return std::pair{fmt::format("{}: 0x{:02X} is not a UIM342 instruction", n.name(), p.index), error_code(ReplyError::kMalformedRequest)};
     const auto instruction = param_instruction(*forms, p, write);
-    if (!instruction) return std::pair{fmt::format("{}: {} has no {} form with this sub-index", n.name(), forms->mnemonic, write ? "set" : "get"), uim342_error::kMalformed};
+    if (!instruction) return std::pair{fmt::format("{}: {} has no {} form with this sub-index", n.name(), forms->mnemonic, write ? "set" : "get"), error_code(ReplyError::kMalformedRequest)};
     if (write) {
       if (const auto ec = uim342::check_instruction(*instruction, n.unit)) {
-        return std::pair{fmt::format("{}: {} refused before sending: {}", n.name(), uim342::to_string(*instruction), ec.message()), uim342_error::kOutsideLimits};
+        return std::pair{fmt::format("{}: {} refused before sending: {}", n.name(), uim342::to_string(*instruction), ec.message()), error_code(ReplyError::kOutsideLimits)};
       }
     }
     enqueue(c.nodes.front(), *instruction, c.cmd.command_id);
@@ -945,7 +934,7 @@ struct Uim342Stack::Impl {
     const auto reason = fmt::format("{} refused {}: {}", n.name(), uim342::to_string(r.instruction), record.error().message());
     event(n, event_t::ERROR_REPORT, event_t::WARNING, record.code, reason);
     if (r.command_id != 0) {
-      fail(r.command_id, uim342_error::kDriveError, reason);
+      fail(r.command_id, error_code(ReplyError::kDriveError), reason);
       return;
     }
     if (n.phase == Phase::setting_up) {
@@ -970,7 +959,7 @@ struct Uim342Stack::Impl {
         n.status.fault = true;
         n.status.fault_code = code;
         n.status.fault_text = uim342::describe(alarm->alarm);
-        if (n.move != 0) fail(n.move, uim342_error::kAxisFaulted, text);
+        if (n.move != 0) fail(n.move, error_code(ReplyError::kAxisFault), text);
       }
       publish(n, now);
     } else if (const auto* edge = std::get_if<uim342::InputEdgeNotification>(&notification)) {
@@ -1028,7 +1017,7 @@ struct Uim342Stack::Impl {
     ++counters.timeouts;
     const auto reason = fmt::format("{} did not answer {} after {} tries", n.name(), uim342::mnemonic(r.instruction.function), r.attempts);
     event(n, event_t::TIMEOUT, event_t::WARNING, 0, reason);
-    if (r.command_id != 0) fail(r.command_id, uim342_error::kTimeout, reason);
+    if (r.command_id != 0) fail(r.command_id, error_code(ReplyError::kTimeout), reason);
     go_offline(i, reason, now);
   }
 };

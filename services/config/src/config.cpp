@@ -14,22 +14,23 @@
 namespace motion::config {
 
 namespace {
-const SetupValue* find_setup(const Drive& drive, std::string_view key) {
-  const auto it = drive.setup.find(std::string(key));
-  return it == drive.setup.end() ? nullptr : &it->second;
+const SetupValue* find_setup(const SetupMap& setup, std::string_view key) {
+  const auto it = setup.find(std::string(key));
+  return it == setup.end() ? nullptr : &it->second;
 }
 }  // namespace
 
-std::optional<double> Drive::setup_number(std::string_view key) const {
-  const SetupValue* v = find_setup(*this, key);
+std::optional<double> setup_number(const SetupMap& setup, std::string_view key) {
+  const SetupValue* v = find_setup(setup, key);
   if (v == nullptr) return std::nullopt;
   if (const auto* d = std::get_if<double>(v)) return *d;
   if (const auto* i = std::get_if<long long>(v)) return static_cast<double>(*i);
+  if (const auto* b = std::get_if<bool>(v)) return *b ? 1.0 : 0.0;
   return std::nullopt;
 }
 
-std::optional<long long> Drive::setup_integer(std::string_view key) const {
-  const SetupValue* v = find_setup(*this, key);
+std::optional<long long> setup_integer(const SetupMap& setup, std::string_view key) {
+  const SetupValue* v = find_setup(setup, key);
   if (v == nullptr) return std::nullopt;
   if (const auto* i = std::get_if<long long>(v)) return *i;
   if (const auto* d = std::get_if<double>(v)) return std::llround(*d);
@@ -37,16 +38,16 @@ std::optional<long long> Drive::setup_integer(std::string_view key) const {
   return std::nullopt;
 }
 
-std::optional<bool> Drive::setup_flag(std::string_view key) const {
-  const SetupValue* v = find_setup(*this, key);
+std::optional<bool> setup_flag(const SetupMap& setup, std::string_view key) {
+  const SetupValue* v = find_setup(setup, key);
   if (v == nullptr) return std::nullopt;
   if (const auto* b = std::get_if<bool>(v)) return *b;
   if (const auto* i = std::get_if<long long>(v)) return *i != 0;
   return std::nullopt;
 }
 
-std::optional<std::string> Drive::setup_text(std::string_view key) const {
-  const SetupValue* v = find_setup(*this, key);
+std::optional<std::string> setup_text(const SetupMap& setup, std::string_view key) {
+  const SetupValue* v = find_setup(setup, key);
   if (v == nullptr) return std::nullopt;
   if (const auto* s = std::get_if<std::string>(v)) return *s;
   return std::nullopt;

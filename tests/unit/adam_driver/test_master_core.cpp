@@ -205,7 +205,7 @@ TEST_F(MasterCoreTest, DriveThatNeverAnswersFailsWithDriveSlaveAndRegisterAfterR
   ASSERT_EQ(out.terminal(1), 1);
   const Reply r = out.of(1).back();
   EXPECT_EQ(r.status, kFailed);
-  EXPECT_EQ(r.error_code, kTimeout);
+  EXPECT_EQ(r.error_code, error_code(ReplyError::kTimeout));
   EXPECT_NE(r.reason.find("c-drive"), std::string::npos) << r.reason;
   EXPECT_NE(r.reason.find("slave 1"), std::string::npos) << r.reason;
   EXPECT_NE(r.reason.find("0x00D4"), std::string::npos) << r.reason;
@@ -247,7 +247,7 @@ TEST_F(MasterCoreTest, ExceptionReplyFailsAtOnceNamingTheException) {
   ASSERT_EQ(out.terminal(3), 1);
   const Reply r = out.of(3).back();
   EXPECT_EQ(r.status, kFailed);
-  EXPECT_EQ(r.error_code, kDriveError);
+  EXPECT_EQ(r.error_code, error_code(ReplyError::kDriveError));
   EXPECT_NE(r.reason.find("exception 3 (illegal data value)"), std::string::npos) << r.reason;
   advance(500ms);
   EXPECT_EQ(sent.size(), 1U) << "a refusal is not retried";
@@ -274,9 +274,9 @@ TEST_F(MasterCoreTest, UnsupportedParameterSpaceAndUnknownAxisFailWithReasons) {
   core->execute(c, now);
   core->execute(command(6, std::int8_t{Command::ENABLE}, {"nope"}), now);
   ASSERT_EQ(out.terminal(5), 1);
-  EXPECT_EQ(out.of(5).back().error_code, kUnsupported);
+  EXPECT_EQ(out.of(5).back().error_code, error_code(ReplyError::kUnsupported));
   ASSERT_EQ(out.terminal(6), 1);
-  EXPECT_EQ(out.of(6).back().error_code, kUnknownAxis);
+  EXPECT_EQ(out.of(6).back().error_code, error_code(ReplyError::kUnknownAxis));
   EXPECT_TRUE(sent.empty());
 }
 
@@ -358,7 +358,7 @@ TEST_F(TwoDriveTest, StopFailsTheRunningMoveAndEndsDoneWhenStill) {
   run_for(250ms);
   ASSERT_EQ(out.terminal(12), 1);
   EXPECT_EQ(out.of(12).back().status, kFailed);
-  EXPECT_EQ(out.of(12).back().error_code, kStopped);
+  EXPECT_EQ(out.of(12).back().error_code, error_code(ReplyError::kStopped));
   EXPECT_TRUE(was_sent("01 06 00 C8 00 00 08 34"));  // ramped stop (spec 5.4)
   ASSERT_EQ(out.terminal(13), 1);
   EXPECT_EQ(out.of(13).back().status, kDone);
@@ -388,7 +388,7 @@ TEST_F(TwoDriveTest, AlarmFailsTheMoveOfItsAxis) {
   run_for(250ms);
   ASSERT_EQ(out.terminal(16), 1);
   EXPECT_EQ(out.of(16).back().status, kFailed);
-  EXPECT_EQ(out.of(16).back().error_code, kAxisFaulted);
+  EXPECT_EQ(out.of(16).back().error_code, error_code(ReplyError::kAxisFaulted));
   EXPECT_NE(out.of(16).back().reason.find("Over-current"), std::string::npos) << out.of(16).back().reason;
   EXPECT_TRUE(out.has_event(std::int16_t{motionlcm::event_t::ALARM}));
 }

@@ -300,7 +300,7 @@ TEST_F(Uim342StackTest, SilentNodeIsOfflineRetriedWithBackOffAndRecovers) {
   EXPECT_EQ(std::count_if(out.events.begin(), out.events.end(), [](const auto& e) { return e.second.kind == event_t::OFFLINE; }), 1);
 
   const auto refused = execute(command(gateway_command_t::ENABLE, {"z"}));
-  EXPECT_EQ(last_reply(refused).error_code, uim342_error::kOffline);
+  EXPECT_EQ(last_reply(refused).error_code, error_code(ReplyError::kAxisOffline));
 
   drives.at(7).silent = false;
   run_for(milliseconds(2100));
@@ -416,7 +416,7 @@ TEST_F(Uim342StackTest, TimeoutAfterTheLastRetryFailsWithTheDriveNodeAndInstruct
   const auto r = last_reply(id);
   EXPECT_EQ(r.status, kFailed);
   EXPECT_EQ(r.reason, "x-drive (node 5) did not answer PA after 3 tries");
-  EXPECT_EQ(r.error_code, uim342_error::kTimeout);
+  EXPECT_EQ(r.error_code, error_code(ReplyError::kTimeout));
   EXPECT_EQ(count_sent(5, FC::PA), 3u);
   EXPECT_EQ(count_sent(5, FC::SP), 0u);  // nothing else of the command went out
   EXPECT_TRUE(has_event(event_t::TIMEOUT, "x"));
@@ -433,7 +433,7 @@ TEST_F(Uim342StackTest, ErrorReportFailsTheCommandWithTheDriveError) {
   const auto id = execute(command(gateway_command_t::ARM_MOVE, {"x"}));
   const auto r = last_reply(id);
   EXPECT_EQ(r.status, kFailed);
-  EXPECT_EQ(r.error_code, uim342_error::kDriveError);
+  EXPECT_EQ(r.error_code, error_code(ReplyError::kDriveError));
   EXPECT_EQ(r.reason, "x-drive (node 5) refused PA=0: instruction data error (0x33)");
   const auto* e = find_event(event_t::ERROR_REPORT);
   ASSERT_NE(e, nullptr);
@@ -456,7 +456,7 @@ TEST_F(Uim342StackTest, StallNotificationFailsTheMoveAndRaisesAStallEvent) {
   deliver(drives.at(6).alarm(uim342::AlarmCode::stall));
   const auto r = last_reply(id);
   EXPECT_EQ(r.status, kFailed);
-  EXPECT_EQ(r.error_code, uim342_error::kAxisFaulted);
+  EXPECT_EQ(r.error_code, error_code(ReplyError::kAxisFault));
   EXPECT_EQ(r.reason, "y-drive (node 6): motor stall detected (alarm 0x1D)");
   const auto* e = find_event(event_t::STALL);
   ASSERT_NE(e, nullptr);
@@ -486,7 +486,7 @@ TEST_F(Uim342StackTest, StopEndsTheMoveAndSendsSt) {
   const auto move = execute(command(gateway_command_t::ARM_MOVE, {"x"}));
   const auto stop = execute(command(gateway_command_t::STOP, {"x"}));
   EXPECT_EQ(last_reply(move).status, kFailed);
-  EXPECT_EQ(last_reply(move).error_code, uim342_error::kStopped);
+  EXPECT_EQ(last_reply(move).error_code, error_code(ReplyError::kStopped));
   EXPECT_EQ(last_reply(stop).status, kDone);
   EXPECT_EQ(count_sent(5, FC::ST), 1u);
   EXPECT_FALSE(drives.at(5).moving());
@@ -556,7 +556,7 @@ TEST_F(Uim342StackTest, SetOutputsWritesOp1AndRefusesOtherBits) {
   set = command(gateway_command_t::SET_OUTPUTS, {"x"});
   set.axes[0].output_mask = 2;
   const auto bad = execute(set);
-  EXPECT_EQ(last_reply(bad).error_code, uim342_error::kUnsupported);
+  EXPECT_EQ(last_reply(bad).error_code, error_code(ReplyError::kUnsupported));
 }
 
 TEST_F(Uim342StackTest, ParameterReadAndWriteInInstructionTerms) {
@@ -585,12 +585,12 @@ TEST_F(Uim342StackTest, ParameterReadAndWriteInInstructionTerms) {
   write.param.subindex = 0;
   write.param.value = 12;
   const auto bad = execute(write);
-  EXPECT_EQ(last_reply(bad).error_code, uim342_error::kOutsideLimits);
+  EXPECT_EQ(last_reply(bad).error_code, error_code(ReplyError::kOutsideLimits));
 
   read.command_id = ++next_id_;
   read.param.space = motionlcm::param_t::CANOPEN_OBJECT;
   const auto wrong_space = execute(read);
-  EXPECT_EQ(last_reply(wrong_space).error_code, uim342_error::kUnsupported);
+  EXPECT_EQ(last_reply(wrong_space).error_code, error_code(ReplyError::kUnsupported));
 }
 
 TEST_F(Uim342StackTest, DisarmEndsAnArmedMove) {
@@ -609,11 +609,11 @@ TEST_F(Uim342StackTest, DisarmEndsAnArmedMove) {
 TEST_F(Uim342StackTest, RefusesUnknownAxesBusyAxesAndEmptyCommands) {
   start_and_set_up();
   enable({"x"});
-  EXPECT_EQ(last_reply(execute(command(gateway_command_t::ENABLE, {"q"}))).error_code, uim342_error::kUnknownAxis);
-  EXPECT_EQ(last_reply(execute(command(gateway_command_t::ENABLE, {}))).error_code, uim342_error::kMalformed);
+  EXPECT_EQ(last_reply(execute(command(gateway_command_t::ENABLE, {"q"}))).error_code, error_code(ReplyError::kUnknownAxis));
+  EXPECT_EQ(last_reply(execute(command(gateway_command_t::ENABLE, {}))).error_code, error_code(ReplyError::kMalformedRequest));
   const auto move = execute(command(gateway_command_t::ARM_MOVE, {"x"}, 9));
-  EXPECT_EQ(last_reply(execute(command(gateway_command_t::JOG, {"x"}))).error_code, uim342_error::kBusy);
-  EXPECT_EQ(last_reply(execute(command(13 + 50, {"x"}))).error_code, uim342_error::kUnsupported);
+  EXPECT_EQ(last_reply(execute(command(gateway_command_t::JOG, {"x"}))).error_code, error_code(ReplyError::kAxisBusy));
+  EXPECT_EQ(last_reply(execute(command(13 + 50, {"x"}))).error_code, error_code(ReplyError::kUnsupported));
   execute(command(gateway_command_t::DISARM, {"x"}));
   EXPECT_EQ(last_reply(move).status, kFailed);
 }

@@ -16,13 +16,6 @@ namespace {
 
 namespace u = uim342;
 
-std::optional<double> number(const config::SetupValue& value) {
-  if (const auto* i = std::get_if<long long>(&value)) return static_cast<double>(*i);
-  if (const auto* d = std::get_if<double>(&value)) return *d;
-  if (const auto* b = std::get_if<bool>(&value)) return *b ? 1.0 : 0.0;
-  return std::nullopt;
-}
-
 std::uint16_t word(double value) { return static_cast<std::uint16_t>(std::clamp(std::lround(value), 0L, 65535L)); }
 std::uint32_t dword(double value) { return static_cast<std::uint32_t>(std::clamp(std::llround(value), 0LL, 0xFFFFFFFFLL)); }
 template <typename E>
@@ -72,10 +65,9 @@ Uim342Drive::Parameters setup_parameters(const config::Drive& drive, const Uim34
     p.input_logic[port] = u::InputActions{static_cast<std::uint8_t>(port), {}, {}};
   }
   for (const auto& rule : kRules) {
-    const auto it = drive.setup.find(std::string(rule.key));
-    if (it == drive.setup.end()) continue;
-    const auto* text = std::get_if<std::string>(&it->second);
-    rule.apply(p, number(it->second).value_or(0.0), text ? std::string_view(*text) : std::string_view{});
+    if (!drive.setup.contains(std::string(rule.key))) continue;
+    const auto text = drive.setup_text(rule.key);
+    rule.apply(p, drive.setup_number(rule.key).value_or(0.0), text ? std::string_view(*text) : std::string_view{});
   }
   return p;
 }
@@ -83,7 +75,7 @@ Uim342Drive::Parameters setup_parameters(const config::Drive& drive, const Uim34
 Uim342Identity uim342_identity(const config::Drive& drive, int bus_bitrate) {
   Uim342Identity identity;
   double current = 2.0;
-  if (const auto it = drive.setup.find("current_a"); it != drive.setup.end()) current = number(it->second).value_or(current);
+  current = drive.setup_number("current_a").value_or(current);
   identity.model_bytes = kCModels.back();
   for (const auto& model : kCModels) {
     if (model[1] >= std::lround(current * 10.0)) {

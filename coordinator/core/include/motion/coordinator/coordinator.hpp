@@ -31,7 +31,7 @@
 #include <motionlcm/request_t.hpp>
 
 #include "motion/config/config.hpp"
-#include "motion/coordinator/error_codes.hpp"
+#include "motion/lcm/reply_error.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/node.hpp"
 

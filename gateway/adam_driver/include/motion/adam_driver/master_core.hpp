@@ -47,6 +47,8 @@
 // Thread contract: single-threaded; every method returns at once.
 #pragma once
 
+#include "motion/lcm/reply_error.hpp"
+
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -96,20 +98,7 @@ struct MasterSettings {
 //   (0.01 A, §8.10); closed_loop false → 0x0017 = 65535 forces open loop (§8.18).
 [[nodiscard]] MasterSettings settings_from_config(const config::Config& config, const config::Bus& bus);
 
-// Error codes of gateway_reply_t.error_code (the reply_t codes of the README).
-enum ReplyError : std::int32_t {
-  kMalformed = 1,
-  kUnknownAxis = 2,
-  kAxisFaulted = 5,
-  kAxisOffline = 6,
-  kAxisBusy = 8,
-  kArmingFailed = 11,
-  kDriveError = 12,
-  kTimeout = 13,
-  kStopped = 14,
-  kGroupFault = 15,
-  kUnsupported = 17,
-};
+// gateway_reply_t.error_code values: motion::ReplyError (motion/lcm/reply_error.hpp).
 
 class MasterCore {
  public:

@@ -36,23 +36,12 @@
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/gateway/can_bus_driver.hpp"
+#include "motion/lcm/reply_error.hpp"
 #include "motion/uim342/uim342.hpp"
 
 namespace motion::gateway {
 
-// gateway_reply_t.error_code values (README "Reply error codes").
-namespace uim342_error {
-inline constexpr std::int32_t kMalformed = 1;
-inline constexpr std::int32_t kUnknownAxis = 2;
-inline constexpr std::int32_t kOutsideLimits = 3;
-inline constexpr std::int32_t kOffline = 6;
-inline constexpr std::int32_t kBusy = 8;
-inline constexpr std::int32_t kDriveError = 12;
-inline constexpr std::int32_t kTimeout = 13;
-inline constexpr std::int32_t kStopped = 14;
-inline constexpr std::int32_t kAxisFaulted = 15;
-inline constexpr std::int32_t kUnsupported = 17;
-}  // namespace uim342_error
+// gateway_reply_t.error_code values: motion::ReplyError (motion/lcm/reply_error.hpp).
 
 struct Uim342NodeConfig {
   std::string drive;  // configuration name, used in every reason ("x-drive (node 5) ...")
@@ -61,7 +50,7 @@ struct Uim342NodeConfig {
   std::uint8_t group_id = 0;  // 0: none
   std::chrono::milliseconds request_timeout{50};
   int retries = 2;  // extra attempts after a timeout
-  std::map<std::string, config::SetupValue> setup;
+  config::SetupMap setup;
 };
 
 struct Uim342StackConfig {

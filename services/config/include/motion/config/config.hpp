@@ -85,6 +85,15 @@ struct Bus {
 
 // A scalar drive set-up value, typed by the family's schema.
 using SetupValue = std::variant<bool, long long, double, std::string>;
+using SetupMap = std::map<std::string, SetupValue>;
+
+// Typed reads of a set-up key (the family's schema has checked the types): nullopt when the key
+// is not set. A number also reads integers and flags (0/1); an integer reads a whole-valued
+// number; a flag reads an integer (non-zero).
+[[nodiscard]] std::optional<double> setup_number(const SetupMap& setup, std::string_view key);
+[[nodiscard]] std::optional<long long> setup_integer(const SetupMap& setup, std::string_view key);
+[[nodiscard]] std::optional<bool> setup_flag(const SetupMap& setup, std::string_view key);
+[[nodiscard]] std::optional<std::string> setup_text(const SetupMap& setup, std::string_view key);
 
 struct Drive {
   std::string name;
@@ -94,15 +103,13 @@ struct Drive {
   int group_id = 0;  // UIM342 only; 0 = none
   std::optional<int> request_timeout_ms;  // overrides the bus's
   std::optional<int> retries;
-  std::map<std::string, SetupValue> setup;  // applied by the gateway at start-up
+  SetupMap setup;  // applied by the gateway at start-up
   KeyLocations where;
 
-  // Typed reads of a set-up key (the schema has checked the types): nullopt when the key is not
-  // set. A number reads integers as well; an integer reads a whole-valued number.
-  [[nodiscard]] std::optional<double> setup_number(std::string_view key) const;
-  [[nodiscard]] std::optional<long long> setup_integer(std::string_view key) const;
-  [[nodiscard]] std::optional<bool> setup_flag(std::string_view key) const;
-  [[nodiscard]] std::optional<std::string> setup_text(std::string_view key) const;
+  [[nodiscard]] std::optional<double> setup_number(std::string_view key) const { return config::setup_number(setup, key); }
+  [[nodiscard]] std::optional<long long> setup_integer(std::string_view key) const { return config::setup_integer(setup, key); }
+  [[nodiscard]] std::optional<bool> setup_flag(std::string_view key) const { return config::setup_flag(setup, key); }
+  [[nodiscard]] std::optional<std::string> setup_text(std::string_view key) const { return config::setup_text(setup, key); }
 };
 
 struct Limits {

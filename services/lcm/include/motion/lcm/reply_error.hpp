@@ -1,10 +1,11 @@
-// reply_t.error_code values: machine-readable causes of REJECTED / ABORTED / FAILED replies.
+// reply_t.error_code and gateway_reply_t.error_code values: machine-readable causes of REJECTED /
+// ABORTED / FAILED replies, one list for the coordinator and every gateway stack.
 // Documented in the README; append only (clients switch on them).
 #pragma once
 
 #include <cstdint>
 
-namespace motion::coordinator {
+namespace motion {
 
 enum class ReplyError : std::int32_t {
   kNone = 0,
@@ -27,4 +28,7 @@ enum class ReplyError : std::int32_t {
   kUnsupported = 17,       // the family/configuration cannot do this
 };
 
-}  // namespace motion::coordinator
+// The wire value of `error` (the int32 of reply_t / gateway_reply_t).
+[[nodiscard]] constexpr std::int32_t error_code(ReplyError error) noexcept { return static_cast<std::int32_t>(error); }
+
+}  // namespace motion
