@@ -6,6 +6,8 @@
 #include <limits>
 #include <utility>
 
+#include <fmt/format.h>
+
 #include <motionlcm/event_t.hpp>
 
 #include "motion/adam/commands.hpp"
@@ -41,11 +43,7 @@ constexpr std::uint16_t kForceOpenLoopLines = 0xFFFF;
 // [I] reply latency assumed for the predicted skew of a sequential start.
 constexpr auto kAssumedDriveLatency = std::chrono::milliseconds(1);
 
-std::string hex16(std::uint32_t value) {
-  char text[8];
-  std::snprintf(text, sizeof text, "0x%04X", value);
-  return text;
-}
+std::string hex16(std::uint32_t value) { return fmt::format("0x{:04X}", value); }
 
 std::string register_name(std::uint16_t address) {
   const auto* info = adam::register_containing(address);
@@ -86,13 +84,9 @@ MasterSettings settings_from_config(const config::Config& config, const config::
       ds.home_input = a.homing.input;
       ds.homing_method = a.homing.method;
     }
-    const auto ppr = d.setup.find("pulses_per_revolution");
-    const auto microsteps = d.setup.find("subdivision");
-    if (ppr != d.setup.end() || microsteps != d.setup.end()) {
-      // 200 full steps per revolution: the NEMA8–23 hybrid steppers of the manual (1.8°, §8.8).
-      const auto pulses = static_cast<std::uint32_t>(ppr != d.setup.end() ? setup_int(ppr->second)
-                                                                           : 200 * setup_int(microsteps->second));
-      const auto w = adam::encode32(pulses);
+    if (const auto pulses = adam::setup_pulses_per_revolution(d.setup_integer("pulses_per_revolution"),
+                                                                d.setup_integer("subdivision"))) {
+      const auto w = adam::encode32(static_cast<std::uint32_t>(*pulses));
       ds.setup_writes.push_back({adam::address(Reg::subdivision), {w[0], w[1]}});
     }
     if (const auto it = d.setup.find("current_a"); it != d.setup.end()) {
