@@ -20,5 +20,6 @@ void add_health_command(CLI::App& cli, Context& ctx);
 void add_config_command(CLI::App& cli, Context& ctx);
 void add_axis_commands(CLI::App& cli, Context& ctx);
 void add_can_commands(CLI::App& cli, Context& ctx);  // dump, send (can_cmds.cpp)
+void add_log_command(CLI::App& cli, Context& ctx);   // log: read an lcm-logger file (log_cmds.cpp)
 
 }  // namespace motion::ctl

@@ -404,7 +404,18 @@ void Coordinator::start_move(Request& r) {
     c.deceleration = p.deceleration;
     per_bus[axes_.at(p.axis).drive->bus].push_back(c);
   }
-  for (auto& [bus, cmds] : per_bus) send_command(r, bus, gateway_command_t::ARM_MOVE, std::move(cmds));
+  for (auto& [bus, cmds] : per_bus) {
+    // One command per start mechanism, so that each gets its one-frame start (a gateway stack
+    // starts a UIM342 group with one BG only when the command holds exactly that group) and its
+    // own measured start time; the common trigger id starts them together.
+    for (auto& group : start_groups(bus, std::move(cmds))) {
+      std::vector<std::string> names;
+      for (const auto& c : group) names.push_back(c.axis);
+      const std::int64_t id = send_command(r, bus, gateway_command_t::ARM_MOVE, std::move(group));
+      for (const auto& n : names) r.axis_command[n] = id;
+      ++r.move_commands;
+    }
+  }
   const std::uint64_t serial = r.serial;
   r.arm_timer = loop_.call_after(std::chrono::milliseconds(config_.coordinator.arm_timeout_ms), [this, serial] {
     auto it = requests_.find(serial);
@@ -415,6 +426,31 @@ void Coordinator::start_move(Request& r) {
     }
     abort_group(*it->second, reply_t::FAILED, ReplyError::kArmFailed, "gateway(s) " + buses + " did not confirm the armed move in time");
   });
+}
+
+std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(const std::string& bus,
+                                                                              std::vector<motionlcm::axis_command_t> axes) const {
+  std::map<std::string, std::size_t> moving;  // drive -> index in axes
+  for (std::size_t i = 0; i < axes.size(); ++i) moving[axes_.at(axes[i].axis).drive->name] = i;
+  std::vector<std::vector<motionlcm::axis_command_t>> out;
+  std::map<std::string, std::size_t> slot;  // key -> index in out
+  for (const auto& c : axes) {
+    const config::Drive& d = *axes_.at(c.axis).drive;
+    std::string key = std::string("family:") + std::to_string(static_cast<int>(d.family));
+    if (d.family == config::Family::kUim342) {
+      bool whole_group = d.group_id != 0;
+      for (const auto& other : config_.drives) {
+        if (whole_group && other.bus == bus && other.family == config::Family::kUim342 && other.group_id == d.group_id) {
+          whole_group = moving.contains(other.name);
+        }
+      }
+      key = whole_group ? "uim342 group " + std::to_string(d.group_id) : "uim342 node " + d.name;
+    }
+    const auto [it, added] = slot.emplace(key, out.size());
+    if (added) out.emplace_back();
+    out[it->second].push_back(c);
+  }
+  return out;
 }
 
 void Coordinator::fire(Request& r) {
@@ -436,7 +472,7 @@ void Coordinator::fire(Request& r) {
 }
 
 void Coordinator::check_move_done(Request& r) {
-  if (r.started_utime.size() < r.buses.size()) return;  // not every bus has started yet
+  if (r.started_utime.size() < r.move_commands) return;  // not every start mechanism has fired yet
   for (const auto& name : r.axes) {
     const AxisLive& a = axes_.at(name);
     if (!a.state || a.state->sample_utime < r.fire_utime) return;
@@ -469,9 +505,15 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g) {
       const bool all_armed = std::all_of(r.pending.begin(), r.pending.end(), [](const auto& p) { return p.second.rfind("armed:", 0) == 0; });
       if (all_armed) fire(r);
     } else if (g.status == gateway_reply_t::STARTED) {
-      r.started_utime[g.bus] = g.trigger_utime;
+      r.started_utime[g.command_id] = g.trigger_utime;
+      // The gateway's spread between the start frames of this command (0 for one frame; the
+      // frame times of a sequential start).
+      r.start_spread_us[g.command_id] = std::max(0.0, g.predicted_skew_us);
       r.plan.predicted_skew_us = std::max(r.plan.predicted_skew_us, g.predicted_skew_us);
-      if (r.started_utime.size() == r.buses.size()) reply(r, reply_t::STARTED);
+      if (r.started_utime.size() == r.move_commands && !r.started_sent) {
+        r.started_sent = true;
+        reply(r, reply_t::STARTED);
+      }
       check_move_done(r);
     }
     return;
@@ -555,8 +597,17 @@ void Coordinator::reply(Request& r, std::int8_t status, ReplyError error, const 
   out.error_code = static_cast<std::int32_t>(error);
   out.predicted_duration_s = r.plan.duration_s;
   out.predicted_skew_us = r.plan.predicted_skew_us;
+  // Start times are the gateways' stamps of their start frames on the wire, per start mechanism
+  // (one ARM_MOVE each: a UIM342 group's BG, a UC57 SYNC, an ADAM broadcast, ...). The measured
+  // skew spans the earliest start frame to the latest, a sequential start's own spread included.
   std::int64_t first = 0;
-  std::int64_t last = 0;
+  double last = 0;
+  for (const auto& [command, start] : r.started_utime) {
+    if (start == 0) continue;
+    const auto spread = r.start_spread_us.find(command);
+    first = first == 0 ? start : std::min(first, start);
+    last = std::max(last, static_cast<double>(start) + (spread != r.start_spread_us.end() ? spread->second : 0.0));
+  }
   double progress_sum = 0;
   for (const auto& name : r.axes) {
     const AxisLive& a = axes_.at(name);
@@ -566,20 +617,17 @@ void Coordinator::reply(Request& r, std::int8_t status, ReplyError error, const 
     const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
     auto t = r.targets.find(name);
     out.targets.push_back(t != r.targets.end() ? static_cast<double>(t->second) / counts_per_unit : 0.0);
-    const auto started = r.started_utime.find(a.drive->bus);
+    const auto command = r.axis_command.find(name);
+    const auto started = command != r.axis_command.end() ? r.started_utime.find(command->second) : r.started_utime.end();
     const std::int64_t start = started != r.started_utime.end() ? started->second : 0;
     out.start_utime.push_back(start);
-    if (start != 0) {
-      first = first == 0 ? start : std::min(first, start);
-      last = std::max(last, start);
-    }
     if (t != r.targets.end() && a.state) {
       const double span = static_cast<double>(t->second - r.starts[name]);
       progress_sum += span == 0 ? 1.0 : std::clamp(static_cast<double>(a.state->position_counts - r.starts[name]) / span, 0.0, 1.0);
     }
   }
   out.num_axes = static_cast<std::int32_t>(out.axes.size());
-  out.measured_start_skew_us = static_cast<double>(last - first);
+  out.measured_start_skew_us = first == 0 ? 0.0 : last - static_cast<double>(first);
   out.progress = status == reply_t::DONE ? 1.0 : (r.axes.empty() ? 0.0 : progress_sum / static_cast<double>(r.axes.size()));
   out.param = r.param_result;
   node_.publish(lcm::channels::kReply, out);

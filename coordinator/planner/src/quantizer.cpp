@@ -56,6 +56,8 @@ GridQuantizer::GridQuantizer(std::string name, VelocityGrid velocity, Accelerati
   require_valid(valid_range(velocity_.min_steps, velocity_.max_steps), "velocity range must be 1 <= min <= max");
   require_valid(valid_range(acceleration_.min_steps, acceleration_.max_steps),
                 "acceleration range must be 1 <= min <= max");
+  require_valid(std::isfinite(acceleration_.ramp_from) && acceleration_.ramp_from >= 0.0,
+                "ramp start speed must be finite and >= 0");
 }
 
 void GridQuantizer::candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const {
@@ -73,11 +75,16 @@ void GridQuantizer::candidates(const DriveMotion& desired, int neighbours, std::
 
   for (const std::int64_t v_native : velocity_steps) {
     const double velocity = static_cast<double>(v_native) * v_step;
+    // The speed change a ramp covers (ramp time only).
+    const double ramp_span = velocity - acceleration_.ramp_from;
+    // No ramp (the drive steps to this speed); the relative margin absorbs the rounding of a grid
+    // velocity that equals ramp_from.
+    if (ramp_time && !(ramp_span > 1e-9 * velocity)) continue;
     const auto realized_acceleration = [&](std::int64_t n) {
-      return ramp_time ? velocity / (static_cast<double>(n) * a_step) : static_cast<double>(n) * a_step;
+      return ramp_time ? ramp_span / (static_cast<double>(n) * a_step) : static_cast<double>(n) * a_step;
     };
     const auto brackets = [&](double wanted, std::vector<std::int64_t>& indices) {
-      const double guess = ramp_time ? velocity / (wanted * a_step) : wanted / a_step;
+      const double guess = ramp_time ? ramp_span / (wanted * a_step) : wanted / a_step;
       bracket_indices(wanted, guess, !ramp_time, neighbours, acceleration_.min_steps, acceleration_.max_steps,
                       realized_acceleration, indices);
     };

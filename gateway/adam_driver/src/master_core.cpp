@@ -172,8 +172,16 @@ MasterCore::~MasterCore() = default;
 
 void MasterCore::enqueue(Transaction t, bool urgent) {
   if (t.drive && !t.is_poll) t.max_retries = t.drive->cfg.retries;
-  if (urgent) queue_.push_front(std::move(t));
-  else queue_.push_back(std::move(t));
+  if (urgent) {
+    queue_.push_front(std::move(t));
+  } else if (t.is_poll) {
+    queue_.push_back(std::move(t));
+  } else {
+    // Commands (and set-up) go before the polls already queued, in their own order: with N
+    // drives a poll round queues 2N reads, which a command must not wait behind.
+    const auto first_poll = std::find_if(queue_.begin(), queue_.end(), [](const Transaction& q) { return q.is_poll; });
+    queue_.insert(first_poll, std::move(t));
+  }
 }
 
 std::string MasterCore::describe(const Transaction& t) const {
@@ -483,7 +491,9 @@ void MasterCore::publish_status(const Drive& d) const {
   s.position_counts = d.position.value_or(0);
   s.velocity_counts = d.velocity;
   s.target_counts = d.target;
-  s.online = d.online;
+  // Online for the axis's users once its position and status are known (a set-up reply alone
+  // would publish position 0, and a relative move would be planned from it).
+  s.online = d.online && d.position.has_value() && d.status.has_value();
   s.enabled = d.enabled;
   s.moving = d.status && d.status->moving();
   s.in_position = d.status && d.status->in_position;

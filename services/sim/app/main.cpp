@@ -1,5 +1,7 @@
 // motion-sim: the simulated buses and drives of a configuration. Every simulated CAN bus gets a
 // bit-timed hub that gateways attach to by name; every drive gets the simulator of its family.
+// With --simulate-socketcan the drives of socketcan: buses are simulated on their interface too
+// (a vcan in tests: the gateway then talks real SocketCAN to them).
 #include <spdlog/spdlog.h>
 
 #include "motion/app/service.hpp"
@@ -15,6 +17,9 @@ int main(int argc, char** argv) {
   CLI::App cli{"motion-sim: simulated buses and drives that speak the real wire protocols", "motion-sim"};
   app::CommonOptions options;
   app::add_common_options(cli, options);
+  bool simulate_socketcan = false;
+  cli.add_flag("--simulate-socketcan", simulate_socketcan,
+               "also simulate the drives of socketcan: buses, on their interface (e.g. a vcan; one socket per drive)");
   return app::run(cli, argc, argv, [&]() -> int {
     if (!log::init("sim", options.log_level)) return app::kExitUsage;
     auto config = app::load_config(options);
@@ -43,6 +48,16 @@ int main(int argc, char** argv) {
         missing.insert(missing.end(), host->missing().begin(), host->missing().end());
         spdlog::info("simulated CAN bus {} at {} bit/s ({}), socket {}", bus.name, bus.bitrate, bus.bus_timing ? "bit-timed" : "untimed",
                      host->hub().socket_path().string());
+        can_buses.push_back(std::move(host));
+      } else if (bus.kind == config::TransportKind::kSocketCan && simulate_socketcan) {
+        std::error_code error;
+        auto host = sim::CanBusHost::open_socketcan(service.loop(), *config, bus, can_factories, report, error);
+        if (!host) {
+          spdlog::error("cannot simulate the drives of bus {} on {}: {}", bus.name, bus.transport, error.message());
+          return app::kExitUnavailable;
+        }
+        missing.insert(missing.end(), host->missing().begin(), host->missing().end());
+        spdlog::info("simulated drives of CAN bus {} on SocketCAN {} ({} drives)", bus.name, bus.target, host->drive_count());
         can_buses.push_back(std::move(host));
       } else if (bus.kind == config::TransportKind::kSimSerial && sim::AdamSerialHost::serves(*config, bus)) {
         std::error_code error;

@@ -1,6 +1,7 @@
 #include "motion/simbus/bus.hpp"
 
 #include <algorithm>
+#include <set>
 #include <tuple>
 
 namespace motion::simbus {
@@ -143,10 +144,15 @@ void Bus::run_wire(TimePoint now) {
 }
 
 Bus::Queued Bus::take_winner(TimePoint start) {
-  // Contenders: every frame already waiting when the wire frees (or when the first one arrived).
+  // Contenders: the oldest waiting frame of each endpoint, among those already waiting when the
+  // wire frees (or when the first one arrived). An endpoint sends its own frames in submission
+  // order, as a SocketCAN interface does (FIFO queue discipline, one frame in the controller): a
+  // SYNC queued after RPDOs must not overtake them by its higher priority.
   auto best = queue_.begin();
   std::uint64_t best_key = arbitration_key(best->frame);
+  std::set<EndpointId> seen{best->from};
   for (auto it = std::next(queue_.begin()); it != queue_.end() && it->queued_at <= start; ++it) {
+    if (!seen.insert(it->from).second) continue;  // not the head of its endpoint's queue
     const std::uint64_t key = arbitration_key(it->frame);
     if (key < best_key) {  // strict: equal fields keep submission order
       best = it;

@@ -138,18 +138,34 @@ TEST_P(BackToBack, EndOfFrameTimestampsAreSpacedByFrameDurations) {
 INSTANTIATE_TEST_SUITE_P(Bitrates, BackToBack, ::testing::Values(125'000u, 500'000u, 1'000'000u));
 
 TEST_F(BusTest, FramesWaitingTogetherGoOutInArbitrationOrder) {
+  // One frame per sender (a sender's own frames keep their order: next test); o only listens.
+  const EndpointId d = bus.attach("d");
+  const EndpointId e = bus.attach("e");
+  const EndpointId o = bus.attach("o");
   can::Frame rtr = frame(0x100);
   rtr.rtr = true;
   ASSERT_FALSE(bus.submit(a, frame(0x300), kStart));
   ASSERT_FALSE(bus.submit(b, frame(0x123u << 18, {}, true), kStart));  // extended, base id 0x123
-  ASSERT_FALSE(bus.submit(a, frame(0x123), kStart));
-  ASSERT_FALSE(bus.submit(a, rtr, kStart));
-  ASSERT_FALSE(bus.submit(b, frame(0x100), kStart));
+  ASSERT_FALSE(bus.submit(c, frame(0x123), kStart));
+  ASSERT_FALSE(bus.submit(d, rtr, kStart));
+  ASSERT_FALSE(bus.submit(e, frame(0x100), kStart));
   drain();
-  std::vector<std::string> seen_by_c;
-  for (const auto& f : sink.frames_to(c)) seen_by_c.push_back(can::to_cansend(f));
+  std::vector<std::string> seen;
+  for (const auto& f : sink.frames_to(o)) seen.push_back(can::to_cansend(f));
   // Data before RTR with the same id; standard before extended with the same base id.
-  EXPECT_EQ(seen_by_c, (std::vector<std::string>{"100#", "100#R", "123#", "048C0000#", "300#"}));
+  EXPECT_EQ(seen, (std::vector<std::string>{"100#", "100#R", "123#", "048C0000#", "300#"}));
+}
+
+TEST_F(BusTest, AnEndpointsOwnFramesKeepTheirOrderAgainstAHigherPriorityOne) {
+  // a queues RPDO-like 0x201 then SYNC 0x080: the SYNC must not overtake a's earlier frame (a
+  // SocketCAN interface sends its frames in order); b's 0x200 contends with a's head only.
+  ASSERT_FALSE(bus.submit(a, frame(0x201), kStart));
+  ASSERT_FALSE(bus.submit(a, frame(0x080), kStart));
+  ASSERT_FALSE(bus.submit(b, frame(0x200), kStart));
+  drain();
+  std::vector<std::uint32_t> seen_by_c;
+  for (const auto& f : sink.frames_to(c)) seen_by_c.push_back(f.id);
+  EXPECT_EQ(seen_by_c, (std::vector<std::uint32_t>{0x200, 0x201, 0x080}));
 }
 
 TEST_F(BusTest, AFrameOnTheWireIsNotPreemptedByALowerId) {
@@ -226,8 +242,9 @@ TEST_F(BusTest, DropFramesMatchingAnIdFilterFromOneSender) {
   TimePoint t = drain();
   std::vector<std::uint32_t> seen_by_c;
   for (const auto& f : sink.frames_to(c)) seen_by_c.push_back(f.id);
-  EXPECT_EQ(seen_by_c, (std::vector<std::uint32_t>{0x181, 0x182, 0x201}));  // 0x181 here is the extended one
-  EXPECT_TRUE(sink.frames_to(c)[0].extended);
+  // a's frames in a's order (its standard 0x181 dropped); the last 0x181 is the extended one.
+  EXPECT_EQ(seen_by_c, (std::vector<std::uint32_t>{0x182, 0x201, 0x181}));
+  EXPECT_TRUE(sink.frames_to(c)[2].extended);
   EXPECT_TRUE(bus.clear_fault(id));
   EXPECT_FALSE(bus.clear_fault(id));
   ASSERT_FALSE(bus.submit(a, frame(0x181), t));

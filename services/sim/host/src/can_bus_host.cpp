@@ -4,6 +4,8 @@
 
 #include <filesystem>
 
+#include "motion/can/socketcan.hpp"
+
 namespace motion::sim {
 
 CanBusHost::CanBusHost(EventLoop& loop, const config::Config& config, const config::Bus& bus, Reporter reporter)
@@ -29,23 +31,67 @@ std::unique_ptr<CanBusHost> CanBusHost::open(EventLoop& loop, const config::Conf
   options.bus.timing = bus.bus_timing;
   host->hub_ = simbus::Hub::open(loop, options, error);
   if (!host->hub_) return nullptr;
-  host->factories_ = factories;
-  for (const auto& drive : config.drives) {
-    if (drive.bus != bus.name) continue;
+  simbus::Hub& hub = *host->hub_;
+  error = host->attach_drives(factories, [&hub](const config::Drive& drive, std::error_code&) -> std::unique_ptr<can::Transport> {
+    return hub.attach_local("sim:" + drive.name);
+  });
+  if (error) return nullptr;
+  return host;
+}
+
+std::unique_ptr<CanBusHost> CanBusHost::open_socketcan(EventLoop& loop, const config::Config& config, const config::Bus& bus,
+                                                       const std::map<config::Family, CanDriveFactory>& factories,
+                                                       Reporter reporter, std::error_code& error) {
+  // One socket per drive: like separate nodes on the wire, each drive receives the frames of
+  // the gateway and of the other drives (the kernel loops them back to every other socket on the
+  // interface) but not its own (own echo off).
+  const std::string interface = bus.target;
+  const auto bitrate = static_cast<std::uint32_t>(bus.bitrate);
+  return open_with(loop, config, bus, factories, std::move(reporter),
+                   [interface, bitrate](const config::Drive& drive, std::error_code& ec) -> std::unique_ptr<can::Transport> {
+                     auto transport = std::make_unique<can::SocketCanTransport>();
+                     can::SocketCanOptions options;
+                     options.bitrate = bitrate;
+                     ec = transport->open(interface, options);
+                     if (ec) return nullptr;
+                     transport->on_bus_event([name = drive.name](const can::BusEvent& event) {
+                       spdlog::warn("sim: drive {}: {} {}", name, can::to_string(event.state), event.text);
+                     });
+                     return transport;
+                   },
+                   error);
+}
+
+std::unique_ptr<CanBusHost> CanBusHost::open_with(EventLoop& loop, const config::Config& config, const config::Bus& bus,
+                                                  const std::map<config::Family, CanDriveFactory>& factories, Reporter reporter,
+                                                  const EndpointFactory& endpoints, std::error_code& error) {
+  std::unique_ptr<CanBusHost> host(new CanBusHost(loop, config, bus, std::move(reporter)));
+  error = host->attach_drives(factories, endpoints);
+  if (error) return nullptr;
+  return host;
+}
+
+std::error_code CanBusHost::attach_drives(const std::map<config::Family, CanDriveFactory>& factories,
+                                          const EndpointFactory& endpoints) {
+  factories_ = factories;
+  for (const auto& drive : config_.drives) {
+    if (drive.bus != bus_.name) continue;
     auto factory = factories.find(drive.family);
     if (factory == factories.end()) {
-      host->missing_.push_back(drive.name + " (" + std::string(config::to_string(drive.family)) + ")");
+      missing_.push_back(drive.name + " (" + std::string(config::to_string(drive.family)) + ")");
       continue;
     }
-    Drive& d = host->drives_[drive.name];
+    std::error_code error;
+    auto endpoint = endpoints(drive, error);
+    if (!endpoint) return error ? error : std::make_error_code(std::errc::no_such_device);
+    Drive& d = drives_[drive.name];
     d.config = &drive;
-    d.latency = std::chrono::microseconds(config.simulation.reply_latency_us);
-    d.endpoint = host->hub_->attach_local("sim:" + drive.name);
-    host->create(d, factory->second);
-    CanBusHost* self = host.get();
-    loop.watch(d.endpoint->fd(), [self, &d] { self->on_readable(d); });
+    d.latency = std::chrono::microseconds(config_.simulation.reply_latency_us);
+    d.endpoint = std::move(endpoint);
+    create(d, factory->second);
+    loop_.watch(d.endpoint->fd(), [this, &d] { on_readable(d); });
   }
-  return host;
+  return {};
 }
 
 void CanBusHost::create(Drive& d, const CanDriveFactory& factory) {
@@ -55,11 +101,11 @@ void CanBusHost::create(Drive& d, const CanDriveFactory& factory) {
   ctx.send = [this, &d](const can::Frame& frame) {
     if (d.silent) return;
     if (d.latency <= Duration::zero()) {
-      d.endpoint->send(frame);
+      transmit(d, frame);
       return;
     }
-    loop_.call_after(d.latency, [&d, frame] {
-      if (!d.silent) d.endpoint->send(frame);
+    loop_.call_after(d.latency, [this, &d, frame] {
+      if (!d.silent) transmit(d, frame);
     });
   };
   ctx.report = [this, &d](std::int8_t kind, std::int64_t frame_utime, std::int64_t position, std::int64_t target) {
@@ -76,6 +122,15 @@ void CanBusHost::create(Drive& d, const CanDriveFactory& factory) {
   d.sim = factory(*d.config, std::move(ctx));
   d.sim->power_up(loop_.now());
   reschedule(d);
+}
+
+void CanBusHost::transmit(Drive& d, const can::Frame& frame) {
+  const std::error_code error = d.endpoint->send(frame);
+  if (error && !d.send_failed) {
+    spdlog::warn("sim: drive {} cannot send on {}: {} (further send errors are not logged)", d.config->name, d.endpoint->name(),
+                 error.message());
+  }
+  d.send_failed = d.send_failed || static_cast<bool>(error);
 }
 
 void CanBusHost::on_readable(Drive& d) {
@@ -96,7 +151,7 @@ void CanBusHost::reschedule(Drive& d) {
 bool CanBusHost::control(const motionlcm::sim_control_t& c) {
   if (c.drive.empty()) {
     if (c.bus != bus_.name) return false;
-    if (c.action == motionlcm::sim_control_t::BUS_DROP) {
+    if (c.action == motionlcm::sim_control_t::BUS_DROP && hub_) {
       hub_->inject(simbus::Fault::drop(static_cast<std::uint64_t>(std::max(0, c.value))));
       return true;
     }

@@ -98,7 +98,12 @@ class Coordinator {
     std::map<std::string, std::int64_t> starts;    // counts at planning
     std::map<std::int64_t, std::string> pending;   // command id -> bus, awaiting the next reply
     std::set<std::string> buses;
-    std::map<std::string, std::int64_t> started_utime;  // bus -> actual trigger time
+    // Moves: one ARM_MOVE per start mechanism (see start_move), all on one trigger id.
+    std::map<std::string, std::int64_t> axis_command;   // axis -> its ARM_MOVE command id
+    std::size_t move_commands = 0;
+    std::map<std::int64_t, std::int64_t> started_utime;  // command -> when its start frame went on the wire
+    std::map<std::int64_t, double> start_spread_us;      // command -> its gateway's spread of its start frames
+    bool started_sent = false;
     std::int64_t trigger_id = 0;
     std::int64_t fire_utime = 0;
     MovePlan plan;
@@ -120,6 +125,11 @@ class Coordinator {
   std::optional<std::pair<ReplyError, std::string>> check_axis_ready(const std::string& axis, bool need_enabled);
 
   void start_move(Request& r);
+  // The axes of a move on `bus`, split by start mechanism: every UIM342 group moving whole (one BG
+  // to its group id), each other UIM342 axis, and per remaining family all its axes (UC57: one
+  // SYNC; ADAM: one broadcast; UIM242: global instructions).
+  [[nodiscard]] std::vector<std::vector<motionlcm::axis_command_t>> start_groups(const std::string& bus,
+                                                                                std::vector<motionlcm::axis_command_t> axes) const;
   void start_simple(Request& r);
   void preempt(const motionlcm::request_t& stop);
   void fire(Request& r);

@@ -70,17 +70,34 @@ struct VelocityGrid {
 
 // Acceleration (and deceleration) as an integer n, either
 //   rate:      n * step counts/s^2, or
-//   ramp time: the drive goes from 0 to the commanded velocity (or back) in n * step seconds,
-//              i.e. acceleration = velocity / (n * step).
+//   ramp time: the drive goes from `ramp_from` (counts/s; 0 = rest) to the commanded velocity (or
+//              back) in n * step seconds, i.e. acceleration = (velocity - ramp_from) / (n * step).
+//              A drive with a start / cut-in speed (UC57 200Eh, UIM342 time mode) jumps from rest
+//              to that speed, then ramps: the realized acceleration is the slope of that ramp
+//              (what the drive programs); the planner's trapezoid model ignores the jump, so such
+//              an axis arrives up to ramp_from * ramp time / velocity early. A velocity at or below
+//              ramp_from has no ramp and is not offered.
 struct AccelerationGrid {
   enum class Kind { rate, ramp_time };
   Kind kind = Kind::rate;
   double step = 1.0;  // counts/s^2 per n (rate) or seconds per n (ramp time)
   std::int64_t min_steps = 1;
   std::int64_t max_steps = std::numeric_limits<std::int32_t>::max();
+  double ramp_from = 0.0;  // ramp time only: the speed (counts/s, >= 0) the ramps start from / end at
 
   [[nodiscard]] static AccelerationGrid rate(double counts_per_s2_per_step) { return {Kind::rate, counts_per_s2_per_step}; }
-  [[nodiscard]] static AccelerationGrid ramp_time(double seconds_per_step) { return {Kind::ramp_time, seconds_per_step}; }
+  [[nodiscard]] static AccelerationGrid ramp_time(double seconds_per_step, double from_counts_per_s = 0.0) {
+    AccelerationGrid g{Kind::ramp_time, seconds_per_step};
+    g.ramp_from = from_counts_per_s;
+    return g;
+  }
+  // The same grid restricted to n in [min, max].
+  [[nodiscard]] AccelerationGrid steps(std::int64_t min, std::int64_t max) const {
+    AccelerationGrid g = *this;
+    g.min_steps = min;
+    g.max_steps = max;
+    return g;
+  }
   // Rate in rpm/s (times rpm_per_s_per_step per n), for a drive with `counts_per_rev` counts.
   [[nodiscard]] static AccelerationGrid rpm_per_s(double counts_per_rev, double rpm_per_s_per_step) {
     return rate(counts_per_rev * rpm_per_s_per_step / 60.0);

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 
 #include "motion/adam/result.hpp"
 
@@ -38,6 +39,20 @@ inline constexpr std::uint16_t kMaxRampMs = 0xFFFF;
 inline constexpr std::uint16_t kMaxJogSpeedRpm = 511;          // 0x00CA / 0x00C9 bits 14…6
 
 [[nodiscard]] Result<std::uint32_t> check_subdivision(std::uint32_t pulses_per_rev);
+
+// Full steps per revolution of the manual's NEMA8–23 hybrid steppers (1.8°, §8.8).
+inline constexpr std::int64_t kFullStepsPerRevolution = 200;
+// The 0x0024 subdivision (pulses/rev) a drive's set-up asks for: `pulses_per_revolution` when
+// given, else kFullStepsPerRevolution × `subdivision` (micro-steps per full step); nullopt when
+// neither is given (the drive keeps what it stores: kDefaultSubdivision from the factory). Not
+// range-checked (check_subdivision does that). The one rule for the gateway's start-up write and
+// the coordinator's velocity grid.
+[[nodiscard]] constexpr std::optional<std::int64_t> setup_pulses_per_revolution(
+    std::optional<std::int64_t> pulses_per_revolution, std::optional<std::int64_t> subdivision) noexcept {
+  if (pulses_per_revolution) return *pulses_per_revolution;
+  if (subdivision) return kFullStepsPerRevolution * *subdivision;
+  return std::nullopt;
+}
 
 // rpm ↔ pulses/s at a subdivision (no range checks; subdivision must be > 0).
 [[nodiscard]] constexpr double rpm_to_pps(double rpm, std::uint32_t subdivision) noexcept {

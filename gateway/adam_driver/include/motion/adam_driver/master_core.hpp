@@ -43,6 +43,8 @@
 //
 // Polling: at poll_hz per drive, position+status (0x0004, 4 registers) and outputs+alarm (0x00A2,
 // 2 registers). A drive that stops answering goes OFFLINE (event), and ONLINE again when it does.
+// Commands and set-up are queued before the polls already waiting (never behind a poll round of
+// every drive); stops and the broadcast start go first of all.
 //
 // Thread contract: single-threaded; every method returns at once.
 #pragma once

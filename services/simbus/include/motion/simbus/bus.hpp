@@ -3,8 +3,9 @@
 // and tests drive it with hand-picked times.
 //
 // With the timing model on, frames are serialized on a virtual wire: a frame occupies it for its
-// exact bit time (bit_timing.hpp); frames waiting when the wire frees contend by arbitration (the
-// lowest arbitration field wins, equal fields by submission order); receivers get the frame at its
+// exact bit time (bit_timing.hpp); when the wire frees, the oldest waiting frame of each endpoint
+// contends by arbitration (the lowest arbitration field wins, equal fields by submission order;
+// an endpoint's own frames keep their order, as on a SocketCAN interface); receivers get the frame at its
 // end of frame, stamped with that time. With it off, frames are delivered at the time they are
 // submitted. Like vcan, every frame reaches every other attached endpoint; an endpoint receives
 // its own frames only with own echo on. Frames are sent once (no automatic retransmission).

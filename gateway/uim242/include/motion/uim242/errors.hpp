@@ -1,0 +1,83 @@
+// Error vocabulary of the UIM242 string-protocol codec.
+//
+// * ErrorCode — the codes a UIM242 (or the gateway in front of it) returns in an error frame
+//   `EE code FF` (EN/CN §6.2; spec §1.5), in the std::error_category "uim242". The manuals write
+//   them as `65` / `66` in the same hex notation as every other byte row, so the wire bytes are
+//   0x65 and 0x66 (spec §1.5 [INF]).
+// * CodecErrc — why this library refused to encode or decode something, category "uim242-codec".
+// * Result<T> — a T or a std::error_code (C++20 has no std::expected).
+// Thread contract: pure functions and immutable singletons, thread-safe.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <system_error>
+#include <type_traits>
+#include <utility>
+#include <variant>
+
+namespace motion::uim242 {
+
+// EN/CN §6.2, CN #6 (`CUR 81;` -> `EE 66 FF`). Values are the wire bytes.
+enum class ErrorCode : std::uint8_t {
+  syntax_error = 0x65,  // unknown mnemonic, malformed number, odd hex digit count, > 20 characters, non-ASCII
+  value_error = 0x66,   // value outside the instruction's documented set or range
+};
+
+[[nodiscard]] const std::error_category& error_category() noexcept;  // name() == "uim242"
+[[nodiscard]] inline std::error_code make_error_code(ErrorCode e) noexcept {
+  return {static_cast<int>(e), error_category()};
+}
+[[nodiscard]] bool is_known_error_code(std::uint8_t code) noexcept;
+
+enum class CodecErrc {
+  value_out_of_range = 1,  // encode: value outside the instruction's range (would earn EE 66)
+  value_required,          // encode: the instruction form needs a value
+  value_not_allowed,       // encode: the instruction has no value form
+  hex_not_allowed,         // encode: no hex form documented for this instruction (spec §7 G23)
+  not_global,              // encode: no g... form of this instruction
+  bad_header,              // decode: frame does not start with AA, CC or EE
+  bad_terminator,          // decode: frame does not end with FF or FE
+  frame_too_short,
+  frame_too_long,          // framer: more than kMaxFrameBytes without a terminator
+  not_seven_bit,           // decode: a data byte with bit 7 set
+  wrong_length,            // decode: data length does not fit the expected layout
+  unexpected_frame,        // decode: header/message id is not the expected reply
+};
+
+[[nodiscard]] const std::error_category& codec_category() noexcept;  // name() == "uim242-codec"
+[[nodiscard]] inline std::error_code make_error_code(CodecErrc e) noexcept {
+  return {static_cast<int>(e), codec_category()};
+}
+
+// Either a T or an error code. value() on an error throws std::bad_variant_access.
+template <typename T>
+class [[nodiscard]] Result {
+ public:
+  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}                 // NOLINT
+  Result(std::error_code error) : state_(std::in_place_index<1>, error) {}              // NOLINT
+  Result(CodecErrc error) : state_(std::in_place_index<1>, make_error_code(error)) {}   // NOLINT
+  Result(ErrorCode error) : state_(std::in_place_index<1>, make_error_code(error)) {}   // NOLINT
+
+  [[nodiscard]] bool ok() const noexcept { return state_.index() == 0; }
+  explicit operator bool() const noexcept { return ok(); }
+  [[nodiscard]] const T& value() const& { return std::get<0>(state_); }
+  [[nodiscard]] T& value() & { return std::get<0>(state_); }
+  [[nodiscard]] T&& value() && { return std::get<0>(std::move(state_)); }
+  [[nodiscard]] const T& operator*() const& { return value(); }
+  [[nodiscard]] const T* operator->() const { return &value(); }
+  // The error, or a default (success) error_code when ok().
+  [[nodiscard]] std::error_code error() const noexcept {
+    return ok() ? std::error_code{} : std::get<1>(state_);
+  }
+
+ private:
+  std::variant<T, std::error_code> state_;
+};
+
+}  // namespace motion::uim242
+
+template <>
+struct std::is_error_code_enum<motion::uim242::ErrorCode> : std::true_type {};
+template <>
+struct std::is_error_code_enum<motion::uim242::CodecErrc> : std::true_type {};

@@ -1,0 +1,133 @@
+// The gateway-side protocol core of one RS232 bus: a UIM2501/2502 RS232-CAN gateway with UIM242
+// controllers behind it (manuals EN / CN Ver.1301/1302; spec uim242-string.md). Implements the
+// command semantics of motion::gateway::BusDriver in drive counts (pulses).
+//
+// Passive, fd-free: bytes and `now` in (on_bytes), bytes out (context.send), replies/status/events
+// out (context.out), next deadline out (process). To wrap it in a BusDriver: on the serial fd
+// readable -> on_bytes(); on the timer -> process(); execute()/fire() as they come; after EVERY
+// call, call process(now) and re-arm the timer at its result.
+// Thread contract: one thread (the gateway's loop).
+//
+// Behaviour:
+// * start(): per drive `MDL η;` (identify; a model other than 18 02 is a CONFIG_MISMATCH event),
+//   then the set-up: `MCS`, `CUR` (setup micro_steps, current_a), `MCF` (setup mcfg, default
+//   CM + STPIE + STLIE: ramps, A8 arrival and stall notifications), `ICF` (only when configured:
+//   it reboots), `QER`, `SQT`, `MMS 0;` `MMD 0;` (exact trapezoids), `STP 0;` (velocity mode, at
+//   rest). An unanswered drive is offline and identified again every second.
+// * Polling at poll_hz, one request at a time: `FBK;` (enabled, speed) and `QEC;` (position).
+// * ARM_MOVE: `QEC;` then `MAC a; MDE d; SPD 0; STP (target - position);` — the move is loaded with
+//   zero speed and does not run (spec §5.3 PT). ARMED when every axis is loaded.
+// * fire(trigger): when the armed axes are every controller of the bus and share one speed, one
+//   `gSPD v;` starts them all ("broadcast", skew 0); otherwise `SPD v_i;` axis by axis
+//   ("sequential", skew = the serial time of the other axes' starts). trigger 0 = at once.
+//   DONE when every axis reported A8 or was polled at its target at rest.
+// * JOG `STP 0; MAC; MDE; SPD v;`. STOP `STP 0;` (ramped stop, leaves PT). ESTOP `OFF;` (the only
+//   immediate stop the manual offers; `gOFF;` when every drive of the bus is named).
+//   ENABLE `ENA;`, DISABLE `OFF;`, SET_POSITION `ORG η;`, SET_OUTPUTS `DOU η;` (output 1 = P4),
+//   FAULT_RESET clears the latched stall and checks the drive answers (`FBK;`).
+// * HOME: method none / current position -> `ORG offset;`; switch on input n -> S12CON/S34CON
+//   action 1100 (reset position + emergency stop) on the falling edge of Sn with its RTCN
+//   enabled, `STP 0; SPD v;`, wait for the edge RTCN, restore the registers, `ORG offset;`.
+// * PARAM_READ/WRITE: param_t UIM242_INSTRUCTION, mnemonic = the instruction (first three letters,
+//   "MCFG" = MCF), subindex = SCF register 0..3 / STG port 0..2, else -1. CUR and MCS are read
+//   from the basic ACK of `;`.
+// * Every command ends in exactly one DONE or FAILED; a failure names drive, node and instruction.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <motionlcm/bus_stats_t.hpp>
+#include <motionlcm/gateway_command_t.hpp>
+
+#include "motion/config/config.hpp"
+#include "motion/core/clock.hpp"
+#include "motion/gateway/bus_driver.hpp"
+#include "motion/uim242/feedback.hpp"
+#include "motion/uim242_driver/request_channel.hpp"
+
+namespace motion::uim242_driver {
+
+struct CoreContext {
+  std::function<void(std::span<const std::uint8_t>)> send;  // bytes to the RS232 line
+  gateway::GatewayOutput* out = nullptr;
+  // Wall-clock utime of a core time point (trigger_utime, sample_utime); default: steady microseconds.
+  std::function<std::int64_t(TimePoint)> utime_of;
+};
+
+class Uim242BusCore {
+ public:
+  Uim242BusCore(const config::Config& config, const std::string& bus, CoreContext context);
+  ~Uim242BusCore();
+  Uim242BusCore(const Uim242BusCore&) = delete;
+  Uim242BusCore& operator=(const Uim242BusCore&) = delete;
+
+  void start(TimePoint now);
+  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint now);
+  TimePoint process(TimePoint now);
+  void execute(const motionlcm::gateway_command_t& command, TimePoint now);
+  void fire(std::int64_t trigger_id, TimePoint now);
+
+  [[nodiscard]] bool ready() const;
+  [[nodiscard]] motionlcm::bus_stats_t statistics() const;
+  [[nodiscard]] std::vector<std::string> axes() const;
+
+ private:
+  struct Drive;
+  struct Command;
+  struct Move;
+
+  // ---- plumbing
+  void submit(Drive& d, uim242::Instruction in, std::int64_t group,
+              std::function<void(const uim242::Frame&, TimePoint)> on_reply, bool front = false);
+  void run_sequence(Command& c, Drive& d, std::vector<uim242::Instruction> steps, std::function<void(TimePoint)> done);
+  void on_frame(const uim242::Frame& frame, TimePoint now);
+  void on_notification(const uim242::Notification& n, TimePoint now);
+  void reply(const motionlcm::gateway_command_t& command, std::int8_t status, const std::string& reason = {},
+             std::int32_t error_code = 0);
+  void finish(std::int64_t command_id, bool ok, const std::string& reason = {}, std::int32_t error_code = 0,
+              std::optional<motionlcm::param_t> param = std::nullopt);
+  void part_done(std::int64_t command_id);
+  void event(const Drive& d, std::int16_t kind, std::int8_t severity, std::int32_t code, const std::string& text);
+  void publish(Drive& d, TimePoint now);
+
+  // ---- start-up and polling
+  void identify(Drive& d, TimePoint now);
+  void set_up(Drive& d);
+  void poll(TimePoint now);
+  void mark_offline(Drive& d, const std::string& reason, TimePoint now);
+
+  // ---- commands
+  Drive* drive_of_axis(const std::string& axis);
+  bool for_each_axis(const motionlcm::gateway_command_t& command, const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f);
+  void arm(const motionlcm::gateway_command_t& command, TimePoint now);
+  void start_move(Move& m, TimePoint now);
+  void move_axis_arrived(Drive& d, TimePoint now);
+  void fail_moves_of(const Drive& d, const std::string& reason, std::int32_t code);
+  void home(Command& c, Drive& d, const config::Axis& axis);
+  void param(const motionlcm::gateway_command_t& command, Drive& d, bool write);
+
+  std::string bus_;
+  std::string transport_;
+  CoreContext context_;
+  Duration poll_period_;
+  RequestChannel channel_;
+  uim242::FeedbackFramer framer_;
+  std::vector<std::unique_ptr<Drive>> drives_;
+  std::map<std::int64_t, std::unique_ptr<Command>> commands_;
+  std::vector<std::unique_ptr<Move>> moves_;
+  TimePoint next_poll_{};
+  TimePoint next_identify_{};
+  std::int64_t protocol_errors_ = 0;
+  int polls_outstanding_ = 0;  // poll requests queued or in flight (a new round waits for them)
+  bool started_ = false;
+};
+
+}  // namespace motion::uim242_driver

@@ -1,0 +1,83 @@
+// One request at a time over the RS232 line to a UIM2501/2502 gateway: routing (`ADR η;` before
+// the first instruction for another controller, spec §3.1), reply matching, timeouts, retries.
+//
+// A request is one instruction for one controller (node 5..125) or for the gateway (node 0:
+// ADR, g...). It ends exactly once: on_reply with the matching frame, or on_failure with a reason
+// naming drive, node and instruction (EE error reply: no retry, the instruction was refused;
+// silence: retried `retries` times, then failed). Frames that match nothing are counted as
+// unexpected. After a timeout the gateway's target is unknown, so the next request re-selects it.
+// Thread contract: single-threaded passive core (frames and `now` in, bytes out via `send`).
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <optional>
+#include <span>
+#include <string>
+
+#include "motion/core/clock.hpp"
+#include "motion/uim242/feedback.hpp"
+
+namespace motion::uim242_driver {
+
+struct Request {
+  std::string drive;  // for reasons; "gateway" for node 0
+  int node = 0;       // 0 = gateway-level instruction (no ADR)
+  uim242::Instruction instruction;
+  std::int64_t group = 0;  // cancel key (a command id); 0 = start-up / polling
+  std::function<void(const uim242::Frame& reply, TimePoint now)> on_reply;
+  std::function<void(const std::string& reason, bool timed_out, TimePoint now)> on_failure;
+  std::function<void(TimePoint sent)> on_sent;  // each time its bytes go on the wire
+};
+
+struct ChannelSettings {
+  Duration timeout = std::chrono::milliseconds(100);
+  int retries = 1;
+};
+
+struct ChannelStatistics {
+  std::int64_t tx_frames = 0, rx_frames = 0, tx_bytes = 0, rx_bytes = 0;
+  std::int64_t errors = 0, timeouts = 0, retries = 0, unexpected = 0;
+};
+
+class RequestChannel {
+ public:
+  RequestChannel(std::function<void(std::span<const std::uint8_t>)> send, ChannelSettings settings);
+
+  // Queues a request (front = ahead of everything not yet sent, e.g. a start or a stop).
+  void submit(Request request, bool front = false);
+  // A parsed frame that is not a notification. False when it answered nothing in flight.
+  bool on_frame(const uim242::Frame& frame, TimePoint now);
+  // Sends the next request, handles the timeout; returns the next deadline or kNever.
+  TimePoint process(TimePoint now);
+  // Drops queued requests of `group` (the one in flight still completes, its callbacks are not called).
+  void cancel(std::int64_t group);
+  [[nodiscard]] bool idle() const noexcept { return !in_flight_ && queue_.empty(); }
+  [[nodiscard]] const ChannelStatistics& statistics() const noexcept { return stats_; }
+  void count_received(std::size_t bytes) noexcept { stats_.rx_bytes += static_cast<std::int64_t>(bytes); }
+  void count_protocol_error() noexcept { ++stats_.errors; }
+
+  // "u-drive (node 5): 'SPD 1000;'" — how reasons name a request.
+  [[nodiscard]] static std::string describe(const Request& request);
+
+ private:
+  struct InFlight {
+    Request request;
+    bool is_selection = false;  // the ADR sent on behalf of `request`
+    int attempts = 0;
+    TimePoint deadline;
+    bool cancelled = false;
+  };
+  void transmit(InFlight& f, TimePoint now);
+  void finish_failure(const std::string& reason, bool timed_out, TimePoint now);
+
+  std::function<void(std::span<const std::uint8_t>)> send_;
+  ChannelSettings settings_;
+  std::deque<Request> queue_;
+  std::optional<InFlight> in_flight_;
+  int selected_ = 0;  // the gateway's current target; 0 = unknown
+  ChannelStatistics stats_;
+};
+
+}  // namespace motion::uim242_driver

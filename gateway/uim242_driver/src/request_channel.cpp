@@ -1,0 +1,112 @@
+#include "motion/uim242_driver/request_channel.hpp"
+
+#include <fmt/format.h>
+
+namespace motion::uim242_driver {
+
+RequestChannel::RequestChannel(std::function<void(std::span<const std::uint8_t>)> send, ChannelSettings settings)
+    : send_(std::move(send)), settings_(settings) {}
+
+std::string RequestChannel::describe(const Request& r) {
+  const auto text = uim242::encode(r.instruction);
+  return fmt::format("{} (node {}): '{}'", r.drive.empty() ? "gateway" : r.drive, r.node,
+                     text ? *text : std::string{uim242::to_string(r.instruction.mnemonic)});
+}
+
+void RequestChannel::submit(Request request, bool front) {
+  if (front) {
+    queue_.push_front(std::move(request));
+  } else {
+    queue_.push_back(std::move(request));
+  }
+}
+
+void RequestChannel::cancel(std::int64_t group) {
+  if (group == 0) return;
+  std::erase_if(queue_, [group](const Request& r) { return r.group == group; });
+  if (in_flight_ && in_flight_->request.group == group) in_flight_->cancelled = true;
+}
+
+void RequestChannel::transmit(InFlight& f, TimePoint now) {
+  const uim242::Instruction instruction =
+      f.is_selection ? uim242::Instruction{uim242::Mnemonic::ADR, false, f.request.node, false} : f.request.instruction;
+  const auto text = uim242::encode(instruction);
+  ++f.attempts;
+  f.deadline = now + settings_.timeout;
+  if (!text) return;  // refused by the codec: times out like silence (callers only build valid forms)
+  send_(std::span(reinterpret_cast<const std::uint8_t*>(text->data()), text->size()));
+  ++stats_.tx_frames;
+  stats_.tx_bytes += static_cast<std::int64_t>(text->size());
+  if (!f.is_selection && f.request.on_sent && !f.cancelled) f.request.on_sent(now);
+}
+
+TimePoint RequestChannel::process(TimePoint now) {
+  if (in_flight_ && now >= in_flight_->deadline) {
+    if (in_flight_->attempts <= settings_.retries) {
+      ++stats_.retries;
+      transmit(*in_flight_, now);
+    } else {
+      ++stats_.timeouts;
+      selected_ = 0;  // did the gateway switch? unknown: select again next time
+      const auto timeout_ms = std::chrono::duration_cast<std::chrono::milliseconds>(settings_.timeout).count();
+      finish_failure(fmt::format("{}: no reply{} after {} attempt(s) of {} ms", describe(in_flight_->request),
+                                 in_flight_->is_selection ? " to the gateway's 'ADR' selection" : "",
+                                 in_flight_->attempts, timeout_ms),
+                     true, now);
+    }
+  }
+  while (!in_flight_ && !queue_.empty()) {
+    InFlight f{std::move(queue_.front()), false, 0, now, false};
+    queue_.pop_front();
+    f.is_selection = f.request.node != 0 && f.request.node != selected_;
+    in_flight_ = std::move(f);
+    transmit(*in_flight_, now);
+  }
+  return in_flight_ ? in_flight_->deadline : kNever;
+}
+
+void RequestChannel::finish_failure(const std::string& reason, bool timed_out, TimePoint now) {
+  InFlight f = std::move(*in_flight_);
+  in_flight_.reset();
+  if (!f.cancelled && f.request.on_failure) f.request.on_failure(reason, timed_out, now);
+}
+
+bool RequestChannel::on_frame(const uim242::Frame& frame, TimePoint now) {
+  ++stats_.rx_frames;
+  if (!in_flight_) {
+    ++stats_.unexpected;
+    return false;
+  }
+  if (const auto error = uim242::as_error(frame)) {
+    ++stats_.errors;
+    if (in_flight_->is_selection) selected_ = 0;
+    finish_failure(fmt::format("{}: refused with {}", describe(in_flight_->request), error->code.message()), false, now);
+    return true;
+  }
+  if (in_flight_->is_selection) {
+    // `AA η D0 FF` (EXT-2501 §3.3).
+    const uim242::Instruction adr{uim242::Mnemonic::ADR, false, in_flight_->request.node, false};
+    if (!uim242::reply_matches(frame, adr) || frame.node != in_flight_->request.node) {
+      ++stats_.unexpected;
+      return false;
+    }
+    selected_ = in_flight_->request.node;
+    in_flight_->is_selection = false;
+    in_flight_->attempts = 0;
+    transmit(*in_flight_, now);
+    return true;
+  }
+  const Request& r = in_flight_->request;
+  const bool quantity = uim242::reply_form(r.instruction).node_is_quantity;
+  const bool from_target = quantity || r.node == 0 || frame.node == r.node;
+  if (!uim242::reply_matches(frame, r.instruction) || !from_target) {
+    ++stats_.unexpected;
+    return false;
+  }
+  InFlight f = std::move(*in_flight_);
+  in_flight_.reset();
+  if (!f.cancelled && f.request.on_reply) f.request.on_reply(frame, now);
+  return true;
+}
+
+}  // namespace motion::uim242_driver

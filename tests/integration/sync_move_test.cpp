@@ -1,0 +1,225 @@
+// Synchronized multi-axis moves over every drive family of the simulated lab (config/sim-lab.yaml):
+// client -> coordinator -> gateways can0 (UIM342 + UC57), rs485 (ADAM Modbus), rs232 (UIM242, when
+// its driver brings u online) -> simulated drives, and back. The simulated drives' reports
+// (SIM_REPORT) are the ground truth for the start frames; every request's replies on REPLY are
+// counted by a listener of its own (the client stops listening after the terminal one), so a
+// second terminal reply would be seen. No timed assertions: waits are bounded, nothing asserts on
+// how long anything took.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "motion/lcm/reply_error.hpp"
+#include "sim_lab.hpp"
+
+namespace motion::testing {
+namespace {
+
+using client::Client;
+using motionlcm::reply_t;
+using motionlcm::request_t;
+using std::chrono::seconds;
+using Values = std::map<std::string, double>;
+
+// LCM in-class constants are never ODR-used: copy them into values.
+std::int8_t st(std::int8_t s) { return s; }
+std::int32_t code(ReplyError e) { return error_code(e); }
+
+const std::vector<std::string> kRequiredAxes{"x", "y", "z", "a", "b", "c"};
+
+// Targets of the full synchronized move (user units), well inside the limits; a and b fast
+// enough (> the UC57 start speed 200Eh, 60 deg/s at 3200 pulses/rev) to have ramps at all.
+const Values kTargets{{"x", 30.0}, {"y", 20.0}, {"z", 10.0}, {"a", 180.0}, {"b", -120.0}, {"c", 20.0}, {"u", 15.0}};
+
+class SyncMove : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    lab.group().node().subscribe<reply_t>(lcm::channels::kReply, [this](const reply_t& r, const std::string&) {
+      if (r.client_id == lab.client().id()) replies_[r.request_id].push_back(r);
+    });
+    ASSERT_TRUE(lab.start(kRequiredAxes));
+    axes = kRequiredAxes;
+    // u joins when the UIM242 gateway brings it online (its driver is still being written).
+    if (lab.client().wait_until([&] { return online("u"); }, seconds(3))) axes.push_back("u");
+    const auto enabled = lab.call(Client::make(request_t::ENABLE, axes));
+    ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;
+  }
+  void TearDown() override {
+    if (HasFailure()) lab.group().print_logs();
+  }
+
+  bool online(const std::string& axis) {
+    const auto it = lab.client().axes().find(axis);
+    return it != lab.client().axes().end() && it->second.online;
+  }
+  double position(const std::string& axis) { return lab.client().axes().at(axis).position; }
+  bool moving(const std::string& axis) { return lab.client().axes().at(axis).moving; }
+  double tolerance(const std::string& axis) { return 1.0 / lab.config().find_axis(axis)->steps_per_unit + 1e-9; }
+
+  // Sends without waiting; the replies are in replies_[id].
+  std::int64_t send(request_t request) { return lab.client().send(std::move(request)); }
+  bool ended(std::int64_t id) {
+    const auto it = replies_.find(id);
+    return it != replies_.end() && std::any_of(it->second.begin(), it->second.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
+  }
+  bool saw(std::int64_t id, std::int8_t status) {
+    const auto it = replies_.find(id);
+    return it != replies_.end() && std::any_of(it->second.begin(), it->second.end(), [&](const reply_t& r) { return r.status == status; });
+  }
+  reply_t wait_terminal(std::int64_t id, seconds timeout = seconds(30)) {
+    EXPECT_TRUE(lab.client().wait_until([&] { return ended(id); }, timeout)) << "no terminal reply to request " << id;
+    for (const auto& r : replies_[id]) {
+      if (client::is_terminal(r.status)) return r;
+    }
+    return reply_t{};
+  }
+  // Every request seen got exactly one terminal reply, and nothing after it. Listens a little
+  // longer first so that a late second terminal reply would be counted.
+  void expect_one_terminal_each(std::size_t requests) {
+    lab.client().wait_until([] { return false; }, std::chrono::milliseconds(500));
+    EXPECT_EQ(replies_.size(), requests);
+    for (const auto& [id, list] : replies_) {
+      const auto terminals = std::count_if(list.begin(), list.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
+      EXPECT_EQ(terminals, 1) << "request " << id;
+      EXPECT_TRUE(!list.empty() && client::is_terminal(list.back().status)) << "request " << id << ": a reply after the terminal one";
+    }
+  }
+  std::size_t index_of(const reply_t& r, const std::string& axis) {
+    return static_cast<std::size_t>(std::find(r.axes.begin(), r.axes.end(), axis) - r.axes.begin());
+  }
+
+  SimLab lab;
+  std::vector<std::string> axes;
+  std::map<std::int64_t, std::vector<reply_t>> replies_;
+};
+
+TEST_F(SyncMove, EveryFamilyArrivesAndEachBusStartsOnOneFramePerMechanism) {
+  Values targets;
+  for (const auto& a : axes) targets[a] = kTargets.at(a);
+  const auto id = send(Client::make(request_t::MOVE_ABSOLUTE, targets));
+  const reply_t done = wait_terminal(id, seconds(60));
+  ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
+  EXPECT_TRUE(saw(id, reply_t::ACCEPTED));
+  EXPECT_TRUE(saw(id, reply_t::STARTED));
+
+  // Every axis at its target, in the reply and in the axis state.
+  ASSERT_EQ(done.num_axes, static_cast<std::int32_t>(axes.size()));
+  for (const auto& a : axes) {
+    const auto i = index_of(done, a);
+    ASSERT_LT(i, done.axes.size()) << a;
+    EXPECT_NEAR(done.targets[i], targets[a], tolerance(a)) << a;
+    EXPECT_NEAR(done.positions[i], targets[a], tolerance(a)) << a;
+    EXPECT_TRUE(lab.client().wait_until([&] { return std::abs(position(a) - targets[a]) <= tolerance(a); }, seconds(2))) << a;
+  }
+
+  // Ground truth: one start per drive; on can0 x and y start on the group's BG frame, a and b on one SYNC.
+  std::map<std::string, std::int64_t> frame;
+  for (const auto& a : axes) {
+    const auto starts = lab.starts_of(lab.config().find_axis(a)->drive);
+    ASSERT_EQ(starts.size(), 1u) << a;
+    frame[a] = starts[0].frame_utime;
+  }
+  EXPECT_EQ(frame["x"], frame["y"]) << "x and y did not start on the same BG frame";
+  EXPECT_EQ(frame["a"], frame["b"]) << "a and b did not start on the same SYNC frame";
+
+  // The reply's figures are there: per-axis start times from the gateways (equal per mechanism),
+  // a measured start skew spanning them, and the predictions.
+  for (const auto& a : axes) EXPECT_GT(done.start_utime[index_of(done, a)], 0) << a;
+  // One start time per start mechanism: x and y share the group's BG, a and b the SYNC.
+  EXPECT_EQ(done.start_utime[index_of(done, "x")], done.start_utime[index_of(done, "y")]) << "one BG start time";
+  EXPECT_EQ(done.start_utime[index_of(done, "a")], done.start_utime[index_of(done, "b")]) << "one SYNC start time";
+  const auto [lo, hi] = std::minmax_element(done.start_utime.begin(), done.start_utime.end());
+  EXPECT_TRUE(std::isfinite(done.measured_start_skew_us));
+  EXPECT_GE(done.measured_start_skew_us, static_cast<double>(*hi - *lo));
+  EXPECT_GT(done.measured_start_skew_us, 0.0) << "two buses and two mechanisms on can0 cannot start at the same microsecond";
+  EXPECT_GT(done.predicted_duration_s, 0.0);
+  EXPECT_TRUE(std::isfinite(done.predicted_skew_us) && done.predicted_skew_us >= 0.0);
+  expect_one_terminal_each(2);  // enable + move
+}
+
+TEST_F(SyncMove, StallOfOneAxisAbortsTheWholeGroupWithTheCause) {
+  const auto id = send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 250.0}, {"a", 700.0}, {"b", -700.0}, {"c", 90.0}}));
+  ASSERT_TRUE(lab.client().wait_until([&] { return saw(id, reply_t::STARTED) || ended(id); }, seconds(20)));
+  ASSERT_FALSE(ended(id)) << replies_[id].back().reason;
+  lab.control("a-drive", motionlcm::sim_control_t::STALL);
+  const reply_t last = wait_terminal(id);
+  EXPECT_EQ(last.status, st(reply_t::ABORTED)) << last.reason;
+  EXPECT_EQ(last.error_code, code(ReplyError::kAxisFault)) << last.reason;
+  EXPECT_NE(last.reason.find("a"), std::string::npos) << last.reason;
+  // The others were stopped short of their targets.
+  for (const auto& a : std::vector<std::string>{"x", "b", "c"}) {
+    EXPECT_TRUE(lab.client().wait_until([&] { return !moving(a); }, seconds(10))) << a << " still moving";
+  }
+  EXPECT_LT(position("x"), 249.0);
+  EXPECT_GT(position("b"), -699.0);
+  EXPECT_LT(position("c"), 89.0);
+  expect_one_terminal_each(2);
+}
+
+TEST_F(SyncMove, LostGatewayAbortsNamingItAndStopsTheOtherAxes) {
+  const auto id = send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 250.0}, {"a", 700.0}, {"c", 90.0}}));
+  ASSERT_TRUE(lab.client().wait_until([&] { return saw(id, reply_t::STARTED) || ended(id); }, seconds(20)));
+  ASSERT_FALSE(ended(id)) << replies_[id].back().reason;
+  const auto gateway = lab.group().heartbeat("gateway:rs485");
+  ASSERT_TRUE(gateway.has_value());
+  ASSERT_GT(gateway->pid, 0);
+  // SIGKILL: no STOPPING heartbeat, the coordinator must notice the silence.
+  ASSERT_EQ(::kill(static_cast<pid_t>(gateway->pid), SIGKILL), 0);
+  const reply_t last = wait_terminal(id);
+  lab.group().stop(static_cast<pid_t>(gateway->pid));  // reap it
+  EXPECT_EQ(last.status, st(reply_t::ABORTED)) << last.reason;
+  EXPECT_EQ(last.error_code, code(ReplyError::kGatewayLost)) << last.reason;
+  EXPECT_NE(last.reason.find("rs485"), std::string::npos) << last.reason;
+  for (const auto& a : std::vector<std::string>{"x", "a"}) {
+    EXPECT_TRUE(lab.client().wait_until([&] { return !moving(a); }, seconds(10))) << a << " still moving";
+  }
+  EXPECT_LT(position("x"), 249.0);
+  EXPECT_LT(position("a"), 699.0);
+  expect_one_terminal_each(2);
+}
+
+TEST_F(SyncMove, BadRequestsAreRejectedWithReasonsAndEveryRequestEndsOnce) {
+  std::size_t requests = 1;  // enable
+  const auto unknown = wait_terminal(send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 1.0}, {"q", 1.0}})));
+  ++requests;
+  EXPECT_EQ(unknown.status, st(reply_t::REJECTED));
+  EXPECT_EQ(unknown.error_code, code(ReplyError::kUnknownAxis));
+  EXPECT_NE(unknown.reason.find("'q'"), std::string::npos) << unknown.reason;
+
+  const auto beyond = wait_terminal(send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", 721.0}, {"c", 1.0}})));
+  ++requests;
+  EXPECT_EQ(beyond.status, st(reply_t::REJECTED));
+  EXPECT_EQ(beyond.error_code, code(ReplyError::kOutsideLimits));
+  EXPECT_NE(beyond.reason.find("axis a"), std::string::npos) << beyond.reason;
+  EXPECT_NE(beyond.reason.find("720"), std::string::npos) << beyond.reason;
+
+  // A long move holds x and c; a move overlapping it on c is refused, one beside it is not.
+  const auto holding = send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 250.0}, {"c", 90.0}}));
+  ++requests;
+  ASSERT_TRUE(lab.client().wait_until([&] { return saw(holding, reply_t::ACCEPTED) || ended(holding); }, seconds(10)));
+  const auto overlap = wait_terminal(send(Client::make(request_t::MOVE_RELATIVE, Values{{"c", -1.0}, {"b", 10.0}})));
+  ++requests;
+  EXPECT_EQ(overlap.status, st(reply_t::REJECTED));
+  EXPECT_EQ(overlap.error_code, code(ReplyError::kAxisBusy));
+  EXPECT_NE(overlap.reason.find("axis c"), std::string::npos) << overlap.reason;
+  const auto beside = wait_terminal(send(Client::make(request_t::MOVE_RELATIVE, Values{{"b", 10.0}})));
+  ++requests;
+  EXPECT_EQ(beside.status, st(reply_t::DONE)) << beside.reason;
+
+  // Stopping ends the long move (ABORTED by the stop) and the stop itself (DONE).
+  const auto stop = wait_terminal(send(Client::make(request_t::STOP, std::vector<std::string>{"x", "c"})));
+  ++requests;
+  EXPECT_EQ(stop.status, st(reply_t::DONE)) << stop.reason;
+  const auto stopped = wait_terminal(holding);
+  EXPECT_EQ(stopped.status, st(reply_t::ABORTED)) << stopped.reason;
+  EXPECT_EQ(stopped.error_code, code(ReplyError::kStopped)) << stopped.reason;
+  expect_one_terminal_each(requests);
+}
+
+}  // namespace
+}  // namespace motion::testing

@@ -1,0 +1,382 @@
+// End-to-end benchmark on the simulated lab (config/sim-lab.yaml): one table, every figure next to
+// a bound measured in the same run, and their ratio.
+//
+//   1. Raw LCM round trip: publish -> an echo thread (its own LCM instance on the same URL) ->
+//      back, p50/p99 over `pings`. The floor of any request/reply over LCM.
+//   2. Client request -> STARTED reply latency of a synchronized x+y move (UIM342 group, can0,
+//      one BG frame), p50/p99 over `moves` moves, against (i) the raw round trip (a move needs
+//      about three: request/reply, arm/armed, trigger/started) and (ii) the wire time at the bus
+//      bitrate of the 29-bit (UIM342) CAN frames seen on can0 between the request and STARTED,
+//      read from an endpoint of our own on the simulated bus (includes the status polls that fall
+//      into the window).
+//   3. Start skew: the coordinator's measured_start_skew_us on one bus (x, y, a, b on can0: BG +
+//      SYNC) and across two buses (+ c on rs485), against the ground truth of the simulated drives
+//      (spread of the SIM_REPORT MOTION_STARTED frame times).
+//
+// The processes run on their own LCM URL and simulation directory and are killed at the end (also
+// when this process dies: PR_SET_PDEATHSIG). A plain main, not Google Benchmark: fixed end-to-end
+// workloads whose meaning is the ratio to bounds from the same run.
+//
+// Usage: bench_e2e [--quick]   (--quick: 10 moves instead of 50)
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+#include <motionlcm/health_t.hpp>
+#include <motionlcm/sim_report_t.hpp>
+#include <motionlcm/sync_trigger_t.hpp>
+
+#include "motion/client/client.hpp"
+#include "motion/config/config.hpp"
+#include "motion/core/clock.hpp"
+#include "motion/core/event_loop.hpp"
+#include "motion/lcm/channels.hpp"
+#include "motion/lcm/node.hpp"
+#include "motion/simbus/bit_timing.hpp"
+#include "motion/simbus/endpoint.hpp"
+
+namespace motion::bench {
+namespace {
+
+using motionlcm::reply_t;
+using motionlcm::request_t;
+using Steady = std::chrono::steady_clock;
+using Values = std::map<std::string, double>;
+
+double us_between(Steady::time_point a, Steady::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); }
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const double rank = p / 100.0 * static_cast<double>(v.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(rank));
+  const auto hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (v[hi] - v[lo]) * (rank - static_cast<double>(lo));
+}
+
+// ---- child processes ----
+
+struct Child {
+  std::string name;
+  pid_t pid = -1;
+};
+
+pid_t spawn(const std::string& binary, const std::vector<std::string>& args, const std::string& sim_dir, const std::string& log) {
+  const pid_t pid = ::fork();
+  if (pid != 0) return pid;
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  ::setenv("MOTION_SIM_DIR", sim_dir.c_str(), 1);
+  const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd >= 0) {
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    ::close(fd);
+  }
+  std::vector<std::string> all{binary};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  ::execv(argv[0], argv.data());
+  std::perror("execv");
+  ::_exit(127);
+}
+
+void stop_all(std::vector<Child>& children) {
+  for (const auto& c : children) {
+    if (c.pid > 0) ::kill(c.pid, SIGTERM);
+  }
+  const auto deadline = Steady::now() + std::chrono::seconds(3);
+  for (auto& c : children) {
+    while (c.pid > 0) {
+      int status = 0;
+      if (::waitpid(c.pid, &status, WNOHANG) == c.pid) {
+        c.pid = -1;
+      } else if (Steady::now() > deadline) {
+        ::kill(c.pid, SIGKILL);
+        ::waitpid(c.pid, &status, 0);
+        c.pid = -1;
+      } else {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+    }
+  }
+}
+
+// ---- raw LCM echo peer ----
+
+class Echo {
+ public:
+  Echo(const std::string& url, std::string ping, std::string pong) : lcm_(url), ping_(std::move(ping)), pong_(std::move(pong)) {
+    lcm_.subscribe(ping_, &Echo::on_ping, this);
+    thread_ = std::thread([this] {
+      while (!stop_) lcm_.handleTimeout(50);
+    });
+  }
+  ~Echo() {
+    stop_ = true;
+    thread_.join();
+  }
+  Echo(const Echo&) = delete;
+  Echo& operator=(const Echo&) = delete;
+  [[nodiscard]] bool ok() { return lcm_.good(); }
+
+ private:
+  void on_ping(const ::lcm::ReceiveBuffer* rbuf, const std::string&) { lcm_.publish(pong_, rbuf->data, rbuf->data_size); }
+  ::lcm::LCM lcm_;
+  std::string ping_;
+  std::string pong_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+struct Row {
+  std::string what;
+  double p50 = NAN;
+  double p99 = NAN;
+  std::string bound;
+  double bound_p50 = NAN;
+};
+
+int run(bool quick) {
+  const std::string config_path = MOTION_E2E_CONFIG;
+  auto loaded = config::load_file(config_path);
+  if (!loaded.ok()) {
+    std::fprintf(stderr, "%s\n", loaded.error_text().c_str());
+    return 3;
+  }
+  const config::Config cfg = *loaded.config;
+  const int port = 20000 + (static_cast<int>(::getpid()) * 13 + 5) % 40000;
+  const std::string url = "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0";
+  char tmpl[] = "/tmp/motion-bench-e2e-XXXXXX";
+  const char* made = ::mkdtemp(tmpl);
+  if (made == nullptr) return 1;
+  const std::string dir = made;
+  const std::string sim_dir = dir + "/sim";
+  std::string bin = MOTION_E2E_BIN_DIR;
+  if (const char* env = std::getenv("MOTION_BIN_DIR")) bin = env;
+
+  EventLoop loop;
+  lcm::Node node(loop, {url, cfg.lcm.channel_prefix});
+  if (!node.ok()) {
+    std::fprintf(stderr, "LCM unavailable on %s\n", url.c_str());
+    return 4;
+  }
+  client::Client client(loop, node, "bench-e2e");
+  std::map<std::string, motionlcm::health_t> health;
+  node.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { health[h.process] = h; });
+  std::vector<motionlcm::sim_report_t> reports;
+  node.subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport, [&](const motionlcm::sim_report_t& r, const std::string&) {
+    if (r.kind == motionlcm::sim_report_t::MOTION_STARTED) reports.push_back(r);
+  });
+
+  std::vector<Child> children;
+  const std::vector<std::string> common{"--config", config_path, "--lcm-url", url, "--log-level", "warn"};
+  const auto start = [&](const std::string& name, const std::string& program, std::vector<std::string> extra) {
+    extra.insert(extra.begin(), common.begin(), common.end());
+    children.push_back({name, spawn(bin + "/" + program, extra, sim_dir, dir + "/" + name + ".log")});
+  };
+  start("sim", "motion-sim", {});
+  const auto wait = [&](const std::function<bool()>& done, int seconds) {
+    return client.wait_until(done, std::chrono::seconds(seconds));
+  };
+  int rc = 0;
+  std::vector<Row> rows;
+  const auto fail = [&](const std::string& why) {
+    std::fprintf(stderr, "bench_e2e: %s (logs in %s)\n", why.c_str(), dir.c_str());
+    rc = 1;
+  };
+  do {
+    if (!wait([&] { return health.contains("sim"); }, 20)) {
+      fail("no heartbeat from motion-sim");
+      break;
+    }
+    for (const auto& bus : cfg.buses) start("gateway:" + bus.name, "motion-gateway", {"--bus", bus.name});
+    start("coordinator", "motion-coordinator", {});
+    const auto ok = [&](const std::string& p) {
+      const auto it = health.find(p);
+      return it != health.end() && it->second.state == motionlcm::health_t::OK;
+    };
+    const std::vector<std::string> axes{"x", "y", "z", "a", "b", "c"};
+    const bool ready = wait(
+        [&] {
+          if (!ok("coordinator")) return false;
+          for (const auto& a : axes) {
+            const auto it = client.axes().find(a);
+            if (it == client.axes().end() || !it->second.online) return false;
+          }
+          return true;
+        },
+        30);
+    if (!ready) {
+      fail("the lab did not come up (coordinator OK and x,y,z,a,b,c online)");
+      break;
+    }
+    const auto enabled = client.call(client::Client::make(request_t::ENABLE, axes), std::chrono::seconds(20));
+    if (enabled.status != reply_t::DONE) {
+      fail("enable failed: " + enabled.reason);
+      break;
+    }
+
+    // 1. Raw LCM round trip.
+    Echo echo(url, node.channel("BENCH_PING"), node.channel("BENCH_PONG"));
+    std::vector<double> rtt;
+    std::optional<Steady::time_point> ping_sent;
+    bool pong = false;
+    node.subscribe_raw(node.channel("BENCH_PONG"), [&](const void*, int, const std::string&) {
+      if (ping_sent) rtt.push_back(us_between(*ping_sent, Steady::now()));
+      pong = true;
+    });
+    const int pings = quick ? 50 : 300;
+    for (int i = 0; i < pings + 10; ++i) {
+      motionlcm::sync_trigger_t ping{};
+      ping.utime = wall_time_us();
+      pong = false;
+      ping_sent = i < 10 ? std::nullopt : std::optional<Steady::time_point>(Steady::now());  // 10 warm-up
+      node.publish("BENCH_PING", ping);
+      if (!wait([&] { return pong; }, 2)) break;
+    }
+    if (rtt.size() < static_cast<std::size_t>(pings) / 2) {
+      fail("the LCM echo did not answer");
+      break;
+    }
+    rows.push_back({"raw LCM round trip (publish -> echo -> back)", percentile(rtt, 50), percentile(rtt, 99), "", NAN});
+
+    // CAN frames seen on can0, from our own endpoint on the simulated bus.
+    std::error_code ec;
+    auto can0 = simbus::SocketEndpoint::connect("can0", {sim_dir, "bench-e2e", false}, ec);
+    if (!can0) {
+      fail("cannot attach to the simulated can0: " + ec.message());
+      break;
+    }
+    std::vector<can::Frame> frames;
+    loop.watch(can0->fd(), [&] {
+      while (auto f = can0->receive()) frames.push_back(*f);
+    });
+    const std::uint32_t bitrate = static_cast<std::uint32_t>(cfg.find_bus("can0")->bitrate);
+
+    // 2. request -> STARTED of x+y moves.
+    const int moves = quick ? 10 : 50;
+    std::vector<double> latency;
+    std::vector<double> wire;
+    std::vector<double> frame_counts;
+    for (int i = 0; i < moves && rc == 0; ++i) {
+      const double to = i % 2 == 0 ? 2.0 : 0.0;
+      bool started = false;
+      bool ended = false;
+      reply_t last{};
+      Steady::time_point t_started{};
+      frames.clear();
+      const std::int64_t from_utime = wall_time_us();
+      const auto t0 = Steady::now();
+      std::int64_t started_utime = 0;
+      client.send(client::Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", to}, {"y", to / 2}}), [&](const reply_t& r) {
+        if (r.status == reply_t::STARTED && !started) {
+          started = true;
+          t_started = Steady::now();
+          started_utime = wall_time_us();
+        }
+        if (client::is_terminal(r.status)) {
+          ended = true;
+          last = r;
+        }
+      });
+      if (!wait([&] { return ended; }, 20) || last.status != reply_t::DONE || !started) {
+        fail("move " + std::to_string(i) + " did not end DONE: " + last.reason);
+        break;
+      }
+      latency.push_back(us_between(t0, t_started));
+      double bits_us = 0;
+      int count = 0;
+      for (const auto& f : frames) {
+        if (!f.extended || f.timestamp_us < from_utime || f.timestamp_us > started_utime) continue;
+        bits_us += std::chrono::duration<double, std::micro>(simbus::frame_duration(f, bitrate)).count();
+        ++count;
+      }
+      wire.push_back(bits_us);
+      frame_counts.push_back(count);
+    }
+    if (rc != 0) break;
+    rows.push_back({"request -> STARTED, x+y (can0, one BG)", percentile(latency, 50), percentile(latency, 99),
+                    "raw LCM round trip p50", percentile(rtt, 50)});
+    char what[160];
+    std::snprintf(what, sizeof what, "CAN wire time of its 29-bit frames (%.0f frames p50, at %u bit/s)", percentile(frame_counts, 50),
+                  bitrate);
+    rows.push_back({what, percentile(wire, 50), percentile(wire, 99), "", NAN});
+    rows.push_back({"request -> STARTED, x+y", percentile(latency, 50), percentile(latency, 99), "its CAN wire time p50", percentile(wire, 50)});
+
+    // 3. Start skew, one bus and two buses.
+    const auto skew_run = [&](const std::vector<std::string>& group, const std::string& label) {
+      std::vector<double> measured;
+      std::vector<double> truth;
+      const int n = quick ? 4 : 12;
+      for (int i = 0; i < n && rc == 0; ++i) {
+        Values targets;
+        for (const auto& a : group) {
+          const double span = a == "a" || a == "b" ? 90.0 : 4.0;
+          targets[a] = (i % 2 == 0 ? span : 0.0) * (a == "b" ? -1.0 : 1.0);
+        }
+        reports.clear();
+        const auto r = client.call(client::Client::make(request_t::MOVE_ABSOLUTE, targets), std::chrono::seconds(30));
+        if (r.status != reply_t::DONE) {
+          fail(label + " move did not end DONE: " + r.reason);
+          return;
+        }
+        measured.push_back(r.measured_start_skew_us);
+        wait([&] { return reports.size() >= group.size(); }, 2);
+        if (reports.size() >= group.size()) {
+          std::int64_t lo = reports.front().frame_utime;
+          std::int64_t hi = lo;
+          for (const auto& s : reports) {
+            lo = std::min(lo, s.frame_utime);
+            hi = std::max(hi, s.frame_utime);
+          }
+          truth.push_back(static_cast<double>(hi - lo));
+        }
+      }
+      rows.push_back({"start skew " + label + ", ground truth (sim frames)", percentile(truth, 50), percentile(truth, 99), "", NAN});
+      rows.push_back({"start skew " + label + ", coordinator measured", percentile(measured, 50), percentile(measured, 99),
+                      "ground truth p50", percentile(truth, 50)});
+    };
+    skew_run({"x", "y", "a", "b"}, "one bus (x,y,a,b: BG+SYNC)");
+    skew_run({"x", "y", "a", "b", "c"}, "two buses (+c rs485)");
+  } while (false);
+
+  stop_all(children);
+  std::printf("end to end on the simulated lab (%s), LCM %s\n\n", config_path.c_str(), url.c_str());
+  std::printf("%-62s %11s %11s   %-24s %8s\n", "measure", "p50 us", "p99 us", "bound (same run)", "ratio");
+  for (const auto& r : rows) {
+    std::printf("%-62s %11.1f %11.1f   %-24s", r.what.c_str(), r.p50, r.p99, r.bound.c_str());
+    if (std::isfinite(r.bound_p50) && r.bound_p50 > 0) {
+      std::printf(" %7.2fx\n", r.p50 / r.bound_p50);
+    } else {
+      std::printf(" %8s\n", "");
+    }
+  }
+  if (rc == 0) std::filesystem::remove_all(dir);
+  return rc;
+}
+
+}  // namespace
+}  // namespace motion::bench
+
+int main(int argc, char** argv) {
+  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  return motion::bench::run(quick);
+}

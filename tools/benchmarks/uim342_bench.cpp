@@ -1,0 +1,568 @@
+// UIM342 (SimpleCAN 3.0) benchmark: the gateway's Uim342Stack inside gateway::CanBusDriver, as
+// motion-gateway runs it, against simulated UIM342 drives on a simbus hub (sim::CanBusHost with
+// sim::uim342_factory, as motion-sim runs them; reply latency 0), all on ONE EventLoop in this
+// process. One table; every figure sits next to a bound measured or computed in the same run, and
+// their ratio. Nothing is asserted.
+//
+//   1. Command latency, bus timing OFF (the wire takes no time, so only software remains): a
+//      gateway_command_t (ENABLE of one axis: one MO=1 frame) is published on the LCM node of this
+//      process (its own URL); the Gateway (lcm::Node + gateway::Gateway, as in motion-gateway)
+//      receives it and its first frame goes to the transport. Measured, p50/p99 over M commands:
+//        - LCM received -> first frame: from this process's own subscription to GW_COMMAND_can0
+//          (registered before the Gateway's, so LCM calls it just before the Gateway's handler)
+//          to the transport's send() of the MO frame;
+//        - LCM publish -> first frame: the same, from the publish call.
+//      Bound: a raw LCM publish -> receive of a message of the same size on the same node and loop,
+//      interleaved with the commands (the hop every command pays before the gateway sees it).
+//   2. Arm + trigger of N = 2, 8, 32 axes in one UIM342 group at 1 Mbit/s, bus timing ON: an
+//      ARM_MOVE with a trigger id is handed to the CanBusDriver; when the stack replies ARMED the
+//      bench fires the trigger; measured = from the command to the end of frame of the group BG
+//      (the drives' simulated start), p50/p99 over R moves. Bound: the wire time of the frames the
+//      move needs (every PA/SP/AC/DC request and ACK, then the one BG), back to back: the sum of
+//      simbus::frame_bits() of those frames / bit rate. Also: frames per synchronized move
+//      (arm + BG + the BG's ACKs) and how many other frames (status polls) shared the wire.
+//      Two clocks, as bench_canopen: "wall" — the real EventLoop on the steady clock; its poll has
+//      millisecond resolution, so each request -> ACK hop of a node may wait up to ~1 ms (what a
+//      gateway and motion-sim achieve). "sim" — the same code on a ManualClock advanced in 1 us
+//      steps: the protocol's own cost on the wire without the poll granularity (ideal ratio ~1).
+//   3. Status polling: N = 8, 32, 120 drives (node ids 5..124) polled at the bus's poll_hz (20),
+//      bus timing ON, wall clock, over a window of W seconds: achieved axis state updates per
+//      second (one per poll: MS[0] + MS[1], each a request and an ACK) against the rate the bus
+//      can carry (bit rate / measured bits per poll frame / 4 frames per update) and the rate
+//      asked for (N x poll_hz); and the frames per second the poll needs against the frames per
+//      second the bus can carry.
+//
+// A plain main instead of Google Benchmark, as simbus_bench and canopen_bench: fixed end-to-end
+// workloads whose meaning is the ratio to a bound from the same run.
+//
+// Usage: bench_uim342 [--quick]   (--quick: fewer commands and moves, shorter status windows)
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <motionlcm/gateway_command_t.hpp>
+#include <motionlcm/gateway_reply_t.hpp>
+#include <motionlcm/sim_report_t.hpp>
+
+#include "motion/can/frame.hpp"
+#include "motion/can/transport.hpp"
+#include "motion/config/config.hpp"
+#include "motion/core/clock.hpp"
+#include "motion/core/event_loop.hpp"
+#include "motion/gateway/can_bus_driver.hpp"
+#include "motion/gateway/gateway.hpp"
+#include "motion/lcm/channels.hpp"
+#include "motion/lcm/health.hpp"
+#include "motion/lcm/node.hpp"
+#include "motion/sim/can_bus_host.hpp"
+#include "motion/sim/uim342_drive.hpp"
+#include "motion/simbus/bit_timing.hpp"
+#include "motion/simbus/hub.hpp"
+#include "motion/uim342/message.hpp"
+#include "motion/uim342_driver/uim342_stack.hpp"
+
+namespace motion {
+namespace {
+
+using namespace std::chrono_literals;
+using motionlcm::gateway_command_t;
+using motionlcm::gateway_reply_t;
+using Clock = std::chrono::steady_clock;
+using FC = uim342::FunctionCode;
+
+constexpr std::uint32_t kBitrate = 1'000'000;
+constexpr int kPollHz = 20;
+constexpr int kGroupId = 126;  // node and group ids share 5..126 (§5.1): above every node id used here
+
+double us(Duration d) { return std::chrono::duration<double, std::micro>(d).count(); }
+std::int64_t steady_us(TimePoint t) { return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count(); }
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const auto i = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5);
+  return v[std::min(i, v.size() - 1)];
+}
+
+[[noreturn]] void die(const std::string& why) {
+  std::fprintf(stderr, "bench_uim342: %s\n", why.c_str());
+  std::exit(2);
+}
+
+// LCM in-class constants are never ODR-used: copies.
+std::int8_t k(std::int8_t v) { return v; }
+
+// ---- the table ---------------------------------------------------------------------------------
+
+struct Row {
+  std::string what;
+  std::string measured;
+  std::string bound;
+  double ratio = 0;
+  std::string note;
+};
+std::vector<Row> g_rows;
+
+std::string fmt(const char* format, double a) {
+  char text[128];
+  std::snprintf(text, sizeof text, format, a);
+  return text;
+}
+std::string fmt2(const char* format, double a, double b) {
+  char text[128];
+  std::snprintf(text, sizeof text, format, a, b);
+  return text;
+}
+
+void print_table() {
+  std::printf("\n%-56s %-28s %-30s %8s  %s\n", "figure", "measured", "bound (same run)", "ratio", "note");
+  std::printf("%s\n", std::string(170, '-').c_str());
+  for (const auto& r : g_rows) {
+    std::printf("%-56s %-28s %-30s %7.2fx  %s\n", r.what.c_str(), r.measured.c_str(), r.bound.c_str(), r.ratio, r.note.c_str());
+  }
+}
+
+// ---- infrastructure ----------------------------------------------------------------------------
+
+// Runs one EventLoop on the wall clock or on a manual clock advanced in 1 us steps.
+class Pump {
+ public:
+  explicit Pump(ManualClock* manual) : manual_(manual), loop_(manual) {}
+  EventLoop& loop() { return loop_; }
+  bool until(const std::function<bool()>& done, Duration limit) {
+    const TimePoint end = loop_.now() + limit;
+    while (!done()) {
+      if (loop_.now() >= end) return false;
+      if (manual_ != nullptr) {
+        loop_.run_once(Duration::zero());
+        if (done()) break;
+        manual_->advance(1us);
+      } else {
+        loop_.run_once(5ms);
+      }
+    }
+    return true;
+  }
+
+ private:
+  ManualClock* manual_;
+  EventLoop loop_;
+};
+
+// The gateway's transport with a tap: the time of every send() (the frame goes to the wire).
+class TapTransport final : public can::Transport {
+ public:
+  using Tap = std::function<void(const can::Frame&)>;
+  TapTransport(std::unique_ptr<can::Transport> inner, Tap tap) : inner_(std::move(inner)), tap_(std::move(tap)) {
+    inner_->on_bus_event([this](const can::BusEvent& e) { emit_bus_event(e); });
+  }
+  [[nodiscard]] std::string name() const override { return inner_->name(); }
+  [[nodiscard]] int fd() const override { return inner_->fd(); }
+  std::error_code send(const can::Frame& frame) override {
+    tap_(frame);
+    return inner_->send(frame);
+  }
+  std::optional<can::Frame> receive() override { return inner_->receive(); }
+  std::error_code set_filters(const std::vector<can::Filter>& filters) override { return inner_->set_filters(filters); }
+  std::error_code set_own_echo(bool enabled) override { return inner_->set_own_echo(enabled); }
+  [[nodiscard]] can::BusState state() const override { return inner_->state(); }
+  [[nodiscard]] can::Statistics statistics() const override { return inner_->statistics(); }
+
+ private:
+  std::unique_ptr<can::Transport> inner_;
+  Tap tap_;
+};
+
+// Collects the stack's replies and counts status updates.
+struct Capture final : gateway::GatewayOutput {
+  void axis_status(const std::string&, const gateway::DriveStatus&) override { ++status_updates; }
+  void axis_event(const std::string&, const gateway::DriveEvent&) override {}
+  void command_reply(gateway_reply_t r) override { replies[r.command_id].push_back(r.status); }
+  [[nodiscard]] bool has(std::int64_t id, std::int8_t status) const {
+    const auto it = replies.find(id);
+    return it != replies.end() && std::find(it->second.begin(), it->second.end(), status) != it->second.end();
+  }
+  [[nodiscard]] bool failed(std::int64_t id) const { return has(id, k(gateway_reply_t::FAILED)); }
+  std::map<std::int64_t, std::vector<std::int8_t>> replies;
+  std::uint64_t status_updates = 0;
+};
+
+std::string lab_config(int drives, bool timing, int group_id, const std::string& url, const std::string& hub, const std::string& dir) {
+  std::string y = "lcm: {url: \"" + url + "\", channel_prefix: \"BENCH_\"}\n";
+  y += "buses:\n  - {name: can0, transport: \"simcan:" + hub + "\", bitrate: " + std::to_string(kBitrate) +
+       ", bus_timing: " + (timing ? "true" : "false") + ", request_timeout_ms: 50, retries: 2, poll_hz: " + std::to_string(kPollHz) + "}\n";
+  y += "drives:\n";
+  for (int n = 0; n < drives; ++n) {
+    y += "  - {name: d" + std::to_string(n) + ", family: uim342, bus: can0, node_id: " + std::to_string(uim342::kMinNodeId + n) +
+         (group_id != 0 ? ", group_id: " + std::to_string(group_id) : std::string{}) +
+         ", setup: {micro_steps: 16, current_a: 2.0, acceleration_unit: rate}}\n";
+  }
+  y += "axes:\n";
+  for (int n = 0; n < drives; ++n) {
+    y += "  - {name: a" + std::to_string(n) + ", drive: d" + std::to_string(n) +
+         ", unit: mm, steps_per_unit: 640, limits: {min: -300, max: 300, velocity: 50, acceleration: 400}}\n";
+  }
+  y += "simulation: {runtime_dir: \"" + dir + "\", reply_latency_us: 0}\n";
+  return y;
+}
+
+config::Config load(const std::string& yaml) {
+  const auto loaded = config::load_string(yaml, "uim342_bench");
+  if (!loaded.ok()) die("configuration refused: " + loaded.error_text());
+  return *loaded.config;
+}
+
+std::unique_ptr<sim::CanBusHost> open_host(EventLoop& loop, const config::Config& config) {
+  std::error_code error;
+  auto host = sim::CanBusHost::open(loop, config, config.buses.front(), {{config::Family::kUim342, sim::uim342_factory(config)}},
+                                    [](motionlcm::sim_report_t) {}, error);
+  if (!host) die("cannot open the simulated bus: " + error.message());
+  return host;
+}
+
+std::optional<uim342::CanMessage> decode(const can::Frame& f) {
+  auto m = uim342::decode_can(f);
+  if (!m) return std::nullopt;
+  return *m;
+}
+bool is_function(const uim342::CanMessage& m, FC f) { return m.message.function_code() == uim342::code(f); }
+
+gateway_command_t command(std::int64_t id, std::int8_t kind, const std::vector<std::string>& axes) {
+  gateway_command_t c{};
+  c.utime = wall_time_us();
+  c.bus = "can0";
+  c.command_id = id;
+  c.kind = kind;
+  for (const auto& a : axes) {
+    motionlcm::axis_command_t ac{};
+    ac.axis = a;
+    c.axes.push_back(ac);
+  }
+  c.num_axes = static_cast<std::int32_t>(c.axes.size());
+  return c;
+}
+
+// ---- 1. LCM command -> first frame (bus timing off) ----------------------------------------------
+
+void bench_command_latency(bool quick, const std::filesystem::path& dir) {
+  const int port = 20000 + (static_cast<int>(::getpid()) * 17 + 11) % 40000;
+  const std::string url = "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0";
+  const config::Config config = load(lab_config(4, false, 0, url, "u342lat", dir.string()));
+  Pump pump(nullptr);
+  EventLoop& loop = pump.loop();
+  auto host = open_host(loop, config);
+
+  lcm::Node node(loop, {url, "BENCH_"});
+  if (!node.ok()) die("LCM unavailable on " + url);
+  // Registered before the Gateway's: called first when a command arrives.
+  std::optional<Clock::time_point> received;
+  node.subscribe_raw(node.channel(lcm::channels::gateway_command("can0")), [&](const void*, int, const std::string&) {
+    if (!received) received = Clock::now();
+  });
+  std::map<std::int64_t, std::int8_t> terminal;
+  node.subscribe<gateway_reply_t>(lcm::channels::kGatewayReply, [&](const gateway_reply_t& r, const std::string&) {
+    if (r.status == k(gateway_reply_t::DONE) || r.status == k(gateway_reply_t::FAILED)) terminal[r.command_id] = r.status;
+  });
+  std::optional<Clock::time_point> raw_received;
+  node.subscribe_raw(node.channel("BENCH_RAW"), [&](const void*, int, const std::string&) { raw_received = Clock::now(); });
+
+  lcm::HealthPublisher health(loop, node, "gateway:can0", "gateway");
+  gateway::Gateway gateway(loop, node, health, config, "can0");
+  std::optional<Clock::time_point> first_mo;
+  bool armed = false;
+  auto tap = std::make_unique<TapTransport>(host->hub().attach_local("gateway"), [&](const can::Frame& f) {
+    if (!armed || first_mo) return;
+    if (const auto m = decode(f); m && is_function(*m, FC::MO)) first_mo = Clock::now();
+  });
+  auto driver = std::make_unique<gateway::CanBusDriver>(loop, "can0", std::move(tap), gateway);
+  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver->context());
+  const gateway::Uim342Stack* stack_view = stack.get();
+  driver->add_stack(std::move(stack));
+  gateway.attach(std::move(driver));
+  if (!pump.until([&] { return stack_view->ready(); }, 30s)) die("the UIM342 drives were not set up within 30 s (latency rig)");
+
+  const int commands = quick ? 100 : 1000;
+  std::vector<double> recv_to_frame;
+  std::vector<double> publish_to_frame;
+  std::vector<double> raw;
+  const auto probe = command(0, k(gateway_command_t::ENABLE), {"a0"});
+  std::vector<std::uint8_t> raw_payload(static_cast<std::size_t>(probe.getEncodedSize()));
+  probe.encode(raw_payload.data(), 0, static_cast<int>(raw_payload.size()));
+  int failures = 0;
+  for (int i = 0; i < commands + 20; ++i) {  // 20 warm-up rounds
+    // Raw LCM publish -> receive, same size, same node and loop.
+    raw_received.reset();
+    const auto raw_t0 = Clock::now();
+    node.publish_raw(node.channel("BENCH_RAW"), raw_payload);
+    if (!pump.until([&] { return raw_received.has_value(); }, 2s)) die("LCM did not deliver the raw message");
+    // The command.
+    const std::int64_t id = 1000 + i;
+    auto c = command(id, k(gateway_command_t::ENABLE), {"a" + std::to_string(i % 4)});
+    received.reset();
+    first_mo.reset();
+    armed = true;
+    const auto t0 = Clock::now();
+    node.publish(lcm::channels::gateway_command("can0"), c);
+    if (!pump.until([&] { return terminal.contains(id); }, 5s)) die("ENABLE command got no reply");
+    armed = false;
+    if (terminal[id] != k(gateway_reply_t::DONE) || !received || !first_mo) {
+      ++failures;
+      continue;
+    }
+    if (i < 20) continue;
+    raw.push_back(us(*raw_received - raw_t0));
+    recv_to_frame.push_back(us(*first_mo - *received));
+    publish_to_frame.push_back(us(*first_mo - t0));
+    pump.until([] { return false; }, 200us);  // let the ACK and any poll settle
+  }
+  const double raw50 = percentile(raw, 0.5);
+  const double raw99 = percentile(raw, 0.99);
+  const std::string n = std::to_string(recv_to_frame.size()) + " commands" + (failures ? ", " + std::to_string(failures) + " failed" : "");
+  g_rows.push_back({"1. LCM received -> first frame (timing off) p50", fmt("%.1f us", percentile(recv_to_frame, 0.5)),
+                    fmt("%.1f us raw LCM pub->recv p50", raw50), percentile(recv_to_frame, 0.5) / raw50,
+                    n + "; ENABLE -> MO=1 to the transport; includes waiting for a poll reply in flight"});
+  g_rows.push_back({"   LCM received -> first frame p99", fmt("%.1f us", percentile(recv_to_frame, 0.99)),
+                    fmt("%.1f us raw LCM pub->recv p99", raw99), percentile(recv_to_frame, 0.99) / raw99, ""});
+  g_rows.push_back({"   LCM publish -> first frame p50", fmt("%.1f us", percentile(publish_to_frame, 0.5)),
+                    fmt("%.1f us raw LCM pub->recv p50", raw50), percentile(publish_to_frame, 0.5) / raw50, "ideal ~1 + gateway share"});
+  g_rows.push_back({"   LCM publish -> first frame p99", fmt("%.1f us", percentile(publish_to_frame, 0.99)),
+                    fmt("%.1f us raw LCM pub->recv p99", raw99), percentile(publish_to_frame, 0.99) / raw99, ""});
+}
+
+// ---- 2. arm + trigger of N grouped axes (bus timing on) -----------------------------------------
+
+struct ArmResult {
+  std::vector<double> to_bg_us;
+  std::vector<double> bound_us;
+  std::vector<double> frames;        // per move: arm frames + BG + BG ACKs
+  std::vector<double> other_frames;  // per move: polls and others in the same window
+  bool group_bg = true;              // every move started on one group BG
+  int failures = 0;
+};
+
+ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::path& dir) {
+  const std::string hub = std::string("u342arm") + (simulated ? "s" : "w") + std::to_string(axes);
+  const config::Config config = load(lab_config(axes, true, kGroupId, "udpm://239.255.76.67:7667?ttl=0", hub, dir.string()));
+  ManualClock manual(TimePoint{} + std::chrono::hours(1));
+  Pump pump(simulated ? &manual : nullptr);
+  EventLoop& loop = pump.loop();
+  auto host = open_host(loop, config);
+  // The hub stamps frames with epoch_offset + steady us (set from the wall clock when it opened):
+  // the same offset, taken now, maps loop time onto frame timestamps (to a few us).
+  const std::int64_t epoch_offset = wall_time_us() - steady_us(loop.now());
+
+  auto monitor = host->hub().attach_local("monitor");
+  std::vector<can::Frame> seen;
+  loop.watch(monitor->fd(), [&] {
+    while (auto f = monitor->receive()) seen.push_back(*f);
+  });
+  Capture out;
+  gateway::CanBusDriver driver(loop, "can0", host->hub().attach_local("gateway"), out);
+  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver.context());
+  const gateway::Uim342Stack* stack_view = stack.get();
+  driver.add_stack(std::move(stack));
+  driver.start();
+  if (!pump.until([&] { return stack_view->ready(); }, 60s)) die("the UIM342 drives were not set up (arm rig, N=" + std::to_string(axes) + ")");
+  std::vector<std::string> names;
+  for (int n = 0; n < axes; ++n) names.push_back("a" + std::to_string(n));
+  {
+    const auto enable = command(1, k(gateway_command_t::ENABLE), names);
+    driver.execute(enable);
+    if (!pump.until([&] { return out.has(1, k(gateway_reply_t::DONE)) || out.failed(1); }, 10s) || out.failed(1)) die("enable failed");
+  }
+
+  ArmResult result;
+  for (int m = 0; m < moves; ++m) {
+    pump.until([] { return false; }, 3ms);  // the previous move's last frames go by
+    const std::int64_t id = 100 + m;
+    auto c = command(id, k(gateway_command_t::ARM_MOVE), names);
+    c.trigger_id = id;
+    for (int n = 0; n < axes; ++n) {
+      auto& a = c.axes[static_cast<std::size_t>(n)];
+      a.target_counts = (m % 2 == 0 ? 1 : 0) * (1600 + 64 * n);  // out and back
+      a.velocity = 64'000;
+      a.acceleration = 256'000;
+      a.deceleration = 256'000;
+    }
+    seen.clear();
+    const TimePoint t0 = loop.now();
+    driver.execute(c);
+    if (!pump.until([&] { return out.has(id, k(gateway_reply_t::ARMED)) || out.failed(id); }, 10s) || out.failed(id)) {
+      ++result.failures;
+      continue;
+    }
+    driver.fire(id);
+    if (!pump.until([&] { return out.has(id, k(gateway_reply_t::DONE)) || out.failed(id); }, 20s) || out.failed(id)) {
+      ++result.failures;
+      continue;
+    }
+    // The frames of this move, from the monitor (end-of-frame timestamps).
+    std::optional<std::int64_t> bg_eof;
+    int bg_requests = 0;
+    for (const auto& f : seen) {
+      const auto msg = decode(f);
+      if (msg && is_function(*msg, FC::BG) && msg->address.producer == uim342::kMasterId) {
+        ++bg_requests;
+        if (!bg_eof) bg_eof = f.timestamp_us;
+        if (msg->address.consumer != kGroupId) result.group_bg = false;
+      }
+    }
+    if (!bg_eof || bg_requests != 1) result.group_bg = false;
+    if (!bg_eof) {
+      ++result.failures;
+      continue;
+    }
+    std::uint64_t bound_bits = 0;
+    int move_frames = 0;
+    int bg_acks = 0;
+    int others = 0;
+    for (const auto& f : seen) {
+      const auto msg = decode(f);
+      const bool move_frame = msg && (is_function(*msg, FC::PA) || is_function(*msg, FC::SP) || is_function(*msg, FC::AC) ||
+                                      is_function(*msg, FC::DC) || is_function(*msg, FC::BG));
+      if (msg && is_function(*msg, FC::BG) && msg->address.producer != uim342::kMasterId) {
+        ++bg_acks;  // after the start: not part of the bound
+        continue;
+      }
+      if (f.timestamp_us > *bg_eof) continue;
+      if (!move_frame) {
+        ++others;
+        continue;
+      }
+      ++move_frames;
+      const auto bits = simbus::frame_bits(f);
+      bound_bits += f.timestamp_us == *bg_eof ? bits.to_end_of_frame() : bits.total;
+    }
+    const double to_bg = static_cast<double>(*bg_eof - (steady_us(t0) + epoch_offset));
+    result.to_bg_us.push_back(to_bg);
+    result.bound_us.push_back(us(simbus::bits_duration(bound_bits, kBitrate)));
+    result.frames.push_back(move_frames + bg_acks);
+    result.other_frames.push_back(others);
+  }
+  loop.unwatch(monitor->fd());
+  return result;
+}
+
+void bench_arm(bool quick, const std::filesystem::path& dir) {
+  for (const int axes : {2, 8, 32}) {
+    for (const bool simulated : {false, true}) {
+      const int moves = quick ? 6 : (simulated ? 20 : 40);
+      const ArmResult r = run_arm(axes, simulated, moves, dir);
+      const double p50 = percentile(r.to_bg_us, 0.5);
+      const double p99 = percentile(r.to_bg_us, 0.99);
+      const double bound = percentile(r.bound_us, 0.5);
+      char note[200];
+      std::snprintf(note, sizeof note, "%s; %.0f frames/move (min %d); %.0f poll/other frames on the wire meanwhile%s%s",
+                    r.group_bg ? "one group BG per move" : "NOT one group BG", percentile(r.frames, 0.5), 9 * axes + 1,
+                    percentile(r.other_frames, 0.5), r.failures ? "; failures: " : "", r.failures ? std::to_string(r.failures).c_str() : "");
+      const std::string clock = simulated ? "sim " : "wall";
+      g_rows.push_back({"2. arm+trigger N=" + std::to_string(axes) + " (" + clock + ") command -> BG p50", fmt("%.2f ms", p50 / 1000.0),
+                        fmt("%.2f ms wire of the move frames", bound / 1000.0), p50 / bound, note});
+      g_rows.push_back({"   N=" + std::to_string(axes) + " (" + clock + ") command -> BG p99", fmt("%.2f ms", p99 / 1000.0),
+                        fmt("%.2f ms", bound / 1000.0), p99 / bound, std::to_string(r.to_bg_us.size()) + " moves"});
+    }
+  }
+}
+
+// ---- 3. status polling throughput (bus timing on) ------------------------------------------------
+
+void bench_status(int axes, bool quick, const std::filesystem::path& dir) {
+  const config::Config config =
+      load(lab_config(axes, true, 0, "udpm://239.255.76.67:7667?ttl=0", "u342st" + std::to_string(axes), dir.string()));
+  Pump pump(nullptr);
+  EventLoop& loop = pump.loop();
+  auto host = open_host(loop, config);
+  auto monitor = host->hub().attach_local("monitor");
+  std::uint64_t poll_frames = 0;
+  std::uint64_t poll_bits = 0;
+  std::uint64_t all_frames = 0;
+  bool counting = false;
+  loop.watch(monitor->fd(), [&] {
+    while (auto f = monitor->receive()) {
+      if (!counting) continue;
+      ++all_frames;
+      if (const auto m = decode(*f); m && is_function(*m, FC::MS)) {
+        ++poll_frames;
+        poll_bits += simbus::frame_bits(*f).total;
+      }
+    }
+  });
+  Capture out;
+  gateway::CanBusDriver driver(loop, "can0", host->hub().attach_local("gateway"), out);
+  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver.context());
+  const gateway::Uim342Stack* stack_view = stack.get();
+  driver.add_stack(std::move(stack));
+  driver.start();
+  if (!pump.until([&] { return stack_view->ready(); }, 120s)) die("the UIM342 drives were not set up (status rig, N=" + std::to_string(axes) + ")");
+  pump.until([] { return false; }, 500ms);  // settle into the poll rhythm
+  const auto window = quick ? 1s : 4s;
+  const std::uint64_t updates0 = out.status_updates;
+  const auto timeouts0 = stack_view->counters().timeouts;
+  counting = true;
+  const auto t0 = Clock::now();
+  pump.until([] { return false; }, window);
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  counting = false;
+  const double load = host->hub().statistics().bus_load;
+  loop.unwatch(monitor->fd());
+
+  const double achieved = static_cast<double>(out.status_updates - updates0) / seconds;
+  const double asked = static_cast<double>(axes * kPollHz);
+  const double bits_per_frame = poll_frames ? static_cast<double>(poll_bits) / static_cast<double>(poll_frames) : NAN;
+  const double capacity_frames = static_cast<double>(kBitrate) / bits_per_frame;  // frames/s the bus can carry
+  constexpr double kFramesPerUpdate = 4;  // MS[0] and MS[1]: request + ACK each
+  const double needed_frames = asked * kFramesPerUpdate;
+  const double bus_updates = capacity_frames / kFramesPerUpdate;
+  const double bound = std::min(asked, bus_updates);
+  const auto timeouts = stack_view->counters().timeouts - timeouts0;
+  char note[200];
+  std::snprintf(note, sizeof note, "asked %.0f/s (%d Hz x %d); bus carries %.0f/s (%.1f bits/poll frame); bus load %.0f%%%s", asked, kPollHz,
+                axes, bus_updates, bits_per_frame, load * 100.0,
+                timeouts ? (", " + std::to_string(timeouts) + " timeouts").c_str() : "");
+  g_rows.push_back({"3. status N=" + std::to_string(axes) + ": axis state updates/s", fmt("%.0f /s", achieved),
+                    fmt("%.0f /s min(asked, bus)", bound), achieved / bound, note});
+  g_rows.push_back({"   N=" + std::to_string(axes) + ": frames/s the poll needs vs the bus carries", fmt("%.0f frames/s needed", needed_frames),
+                    fmt("%.0f frames/s capacity", capacity_frames), needed_frames / capacity_frames,
+                    fmt2("measured on the wire: %.0f poll frames/s, %.0f frames/s in all", static_cast<double>(poll_frames) / seconds,
+                         static_cast<double>(all_frames) / seconds)});
+}
+
+}  // namespace
+}  // namespace motion
+
+int main(int argc, char** argv) {
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--quick") == 0) {
+      quick = true;
+    } else {
+      std::fprintf(stderr, "usage: bench_uim342 [--quick]\n");
+      return 2;
+    }
+  }
+  std::error_code error;
+  const auto dir = std::filesystem::temp_directory_path() / ("uim342-bench-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir, error);
+  std::printf("bench_uim342: command latency (timing off), arm+trigger N=2/8/32, status N=8/32/120; %u bit/s, poll %d Hz%s\n",
+              motion::kBitrate, motion::kPollHz, quick ? " (quick)" : "");
+  std::fflush(stdout);
+  motion::bench_command_latency(quick, dir);
+  motion::bench_arm(quick, dir);
+  for (const int axes : {8, 32, 120}) motion::bench_status(axes, quick, dir);
+  std::filesystem::remove_all(dir, error);
+  motion::print_table();
+  return 0;
+}

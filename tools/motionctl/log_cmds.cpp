@@ -1,0 +1,595 @@
+// motionctl log FILE: reads an LCM event log (written by lcm-logger) with LCM's C eventlog API and
+// prints what the motion system said in it: the requests, their replies (status, reason, start
+// skew) and every axis's trajectory (time, position, velocity, moving), as tables or as CSV.
+//
+// Only this system's channels (<prefix>REQUEST, REPLY, AXIS_STATE; prefix from the configuration,
+// or --prefix) are decoded; other channels are counted. Each record's header is checked before
+// LCM reads it, so a corrupt or truncated file is reported with its byte offset instead of being
+// skipped silently (LCM's reader resynchronizes on the next magic word).
+//
+// Exit codes: 0 the log was read (a truncated final record, as left by a killed logger, is only a
+// warning), 1 the file is missing, unreadable or corrupt (what was decoded before the damage is
+// still printed), 2 bad command line, 3 configuration refused.
+#include <lcm/eventlog.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cerrno>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <motionlcm/axis_state_t.hpp>
+#include <motionlcm/reply_t.hpp>
+#include <motionlcm/request_t.hpp>
+
+#include "motion/client/client.hpp"
+#include "motion/core/log.hpp"
+#include "motion/lcm/channels.hpp"
+#include "motionctl.hpp"
+
+namespace motion::ctl {
+namespace {
+
+using motionlcm::axis_state_t;
+using motionlcm::reply_t;
+using motionlcm::request_t;
+
+constexpr std::uint32_t kMagic = 0xEDA1DA01U;  // LCM event log record marker (big endian)
+constexpr std::int64_t kHeaderSize = 4 + 8 + 8 + 4 + 4;  // magic, eventnum, timestamp, channel length, data length
+
+struct LogArgs {
+  std::string file;
+  std::string csv;  // empty: tables on stdout; "-": CSV on stdout
+  std::vector<std::string> axes;
+  std::string prefix;  // empty: the configuration's lcm.channel_prefix
+};
+
+template <typename Msg>
+struct Logged {
+  std::int64_t log_utime;  // when lcm-logger received it
+  Msg msg;
+};
+
+struct LogContents {
+  std::int64_t first_utime = 0;
+  std::int64_t last_utime = 0;
+  std::int64_t events = 0;
+  std::map<std::string, std::int64_t> channel_counts;  // every channel, full names
+  std::int64_t undecodable = 0;                        // ours by name but failed to decode
+  std::vector<std::string> undecodable_channels;
+  std::vector<Logged<request_t>> requests;
+  std::vector<Logged<reply_t>> replies;
+  std::vector<Logged<axis_state_t>> states;
+  std::optional<std::string> corruption;  // the first damage found; reading stopped there
+  std::optional<std::string> truncated;   // a truncated final record (warning only)
+};
+
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+struct EventlogCloser {
+  void operator()(lcm_eventlog_t* l) const { lcm_eventlog_destroy(l); }
+};
+struct EventFree {
+  void operator()(lcm_eventlog_event_t* e) const { lcm_eventlog_free_event(e); }
+};
+
+std::uint64_t big_endian(const unsigned char* p, int bytes) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
+  return v;
+}
+
+// Checks the record header at `offset` through a second handle, so LCM's reader is only called on a
+// record that is whole. Returns nullopt when the record is sound; else what is wrong with it, and
+// sets `truncated` when the file merely ends inside the record.
+std::optional<std::string> check_record(std::FILE* peek, std::int64_t offset, std::int64_t file_size, bool& truncated) {
+  truncated = false;
+  std::array<unsigned char, kHeaderSize> header{};
+  if (::fseeko(peek, offset, SEEK_SET) != 0) return "cannot seek: " + std::string(std::strerror(errno));
+  const std::size_t got = std::fread(header.data(), 1, header.size(), peek);
+  const auto magic = static_cast<std::uint32_t>(big_endian(header.data(), 4));
+  if (got < 4 || magic != kMagic) {
+    if (got < 4 && offset + static_cast<std::int64_t>(got) == file_size) {
+      // A few bytes that may be the start of a magic word.
+      truncated = std::memcmp(header.data(), "\xED\xA1\xDA\x01", got) == 0;
+      if (truncated) return "the file ends inside a record header";
+    }
+    return "no record marker (0xEDA1DA01) at byte offset " + std::to_string(offset) + ": not an LCM event log, or damaged";
+  }
+  if (got < header.size()) {
+    truncated = true;
+    return "the file ends inside a record header";
+  }
+  const auto channel_len = static_cast<std::int32_t>(big_endian(header.data() + 20, 4));
+  const auto data_len = static_cast<std::int32_t>(big_endian(header.data() + 24, 4));
+  if (channel_len <= 0 || channel_len >= 1000) {
+    return "record at byte offset " + std::to_string(offset) + " has an invalid channel length " + std::to_string(channel_len);
+  }
+  if (data_len < 0) return "record at byte offset " + std::to_string(offset) + " has an invalid data length " + std::to_string(data_len);
+  const std::int64_t end = offset + kHeaderSize + channel_len + data_len;
+  if (end > file_size) {
+    truncated = true;
+    return "the file ends inside the record at byte offset " + std::to_string(offset) + " (" + std::to_string(end - file_size) + " bytes missing)";
+  }
+  return std::nullopt;
+}
+
+struct RawRecord {
+  std::int64_t timestamp = 0;
+  std::string channel;
+  std::vector<std::uint8_t> data;
+};
+
+// Header fields of the (checked) record at `offset`.
+bool read_header(std::FILE* peek, std::int64_t offset, std::int64_t& timestamp, std::int32_t& channel_len, std::int32_t& data_len) {
+  std::array<unsigned char, kHeaderSize> header{};
+  if (::fseeko(peek, offset, SEEK_SET) != 0 || std::fread(header.data(), 1, header.size(), peek) != header.size()) return false;
+  timestamp = static_cast<std::int64_t>(big_endian(header.data() + 12, 8));
+  channel_len = static_cast<std::int32_t>(big_endian(header.data() + 20, 4));
+  data_len = static_cast<std::int32_t>(big_endian(header.data() + 24, 4));
+  return true;
+}
+
+std::int64_t record_end(std::FILE* peek, std::int64_t offset) {
+  std::int64_t timestamp = 0;
+  std::int32_t channel_len = 0;
+  std::int32_t data_len = 0;
+  if (!read_header(peek, offset, timestamp, channel_len, data_len)) return offset;
+  return offset + kHeaderSize + channel_len + data_len;
+}
+
+bool marker_at(std::FILE* peek, std::int64_t offset) {
+  std::array<unsigned char, 4> m{};
+  if (::fseeko(peek, offset, SEEK_SET) != 0 || std::fread(m.data(), 1, m.size(), peek) != m.size()) return false;
+  return static_cast<std::uint32_t>(big_endian(m.data(), 4)) == kMagic;
+}
+
+std::optional<RawRecord> read_record(std::FILE* peek, std::int64_t offset) {
+  RawRecord r;
+  std::int32_t channel_len = 0;
+  std::int32_t data_len = 0;
+  if (!read_header(peek, offset, r.timestamp, channel_len, data_len)) return std::nullopt;
+  r.channel.resize(static_cast<std::size_t>(channel_len));
+  r.data.resize(static_cast<std::size_t>(data_len));
+  if (std::fread(r.channel.data(), 1, r.channel.size(), peek) != r.channel.size()) return std::nullopt;
+  if (std::fread(r.data.data(), 1, r.data.size(), peek) != r.data.size()) return std::nullopt;
+  return r;
+}
+
+// Reads the whole log. nullopt (with a message on stderr) when it cannot be opened at all.
+std::optional<LogContents> read_log(const std::string& path, const std::string& prefix) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(status)) {
+    std::cerr << "motionctl: cannot open log '" << path << "': " << (ec ? ec.message() : std::strerror(ENOENT)) << "\n";
+    return std::nullopt;
+  }
+  if (!std::filesystem::is_regular_file(status)) {
+    std::cerr << "motionctl: cannot read log '" << path << "': not a regular file\n";
+    return std::nullopt;
+  }
+  std::unique_ptr<std::FILE, FileCloser> peek(std::fopen(path.c_str(), "rb"));
+  if (!peek) {
+    std::cerr << "motionctl: cannot open log '" << path << "': " << std::strerror(errno) << "\n";
+    return std::nullopt;
+  }
+  std::unique_ptr<lcm_eventlog_t, EventlogCloser> log(lcm_eventlog_create(path.c_str(), "r"));
+  if (!log) {
+    std::cerr << "motionctl: cannot open log '" << path << "': " << std::strerror(errno) << "\n";
+    return std::nullopt;
+  }
+  const auto file_size = static_cast<std::int64_t>(std::filesystem::file_size(path, ec));
+
+  const std::string request_ch = prefix + std::string(lcm::channels::kRequest);
+  const std::string reply_ch = prefix + std::string(lcm::channels::kReply);
+  const std::string state_ch = prefix + std::string(lcm::channels::kAxisState);
+  std::set<std::string> undecodable_channels;
+
+  LogContents out;
+  auto add = [&](std::int64_t timestamp, const std::string& channel, const void* data, int size) {
+    if (out.events == 0) out.first_utime = timestamp;
+    out.last_utime = std::max(out.last_utime, timestamp);
+    ++out.events;
+    ++out.channel_counts[channel];
+    bool ok = true;
+    if (channel == request_ch) {
+      Logged<request_t> r{timestamp, request_t{}};
+      ok = r.msg.decode(data, 0, size) == size;
+      if (ok) out.requests.push_back(std::move(r));
+    } else if (channel == reply_ch) {
+      Logged<reply_t> r{timestamp, reply_t{}};
+      ok = r.msg.decode(data, 0, size) == size;
+      if (ok) out.replies.push_back(std::move(r));
+    } else if (channel == state_ch) {
+      Logged<axis_state_t> st{timestamp, axis_state_t{}};
+      ok = st.msg.decode(data, 0, size) == size;
+      if (ok) out.states.push_back(std::move(st));
+    }
+    if (!ok) {
+      ++out.undecodable;
+      undecodable_channels.insert(channel);
+    }
+  };
+  std::int64_t offset = 0;
+  while (offset < file_size) {
+    bool truncated = false;
+    if (auto problem = check_record(peek.get(), offset, file_size, truncated)) {
+      if (truncated) {
+        out.truncated = *problem;
+      } else {
+        out.corruption = *problem;
+      }
+      break;
+    }
+    // LCM 1.3.1 also refuses a sound record when the bytes after it are not a record marker; such
+    // a last good record is read here from the checked header instead, then the damage reported.
+    const std::int64_t end = record_end(peek.get(), offset);
+    if (end + 4 <= file_size && !marker_at(peek.get(), end)) {
+      if (auto last = read_record(peek.get(), offset)) add(last->timestamp, last->channel, last->data.data(), static_cast<int>(last->data.size()));
+      out.corruption = "no record marker (0xEDA1DA01) at byte offset " + std::to_string(end) + " after a record";
+      break;
+    }
+    std::unique_ptr<lcm_eventlog_event_t, EventFree> e(lcm_eventlog_read_next_event(log.get()));
+    if (!e) {
+      out.corruption = "LCM could not read the record at byte offset " + std::to_string(offset);
+      break;
+    }
+    offset = static_cast<std::int64_t>(::ftello(log->f));
+    add(e->timestamp, std::string(e->channel, static_cast<std::size_t>(e->channellen)), e->data, e->datalen);
+  }
+  out.undecodable_channels.assign(undecodable_channels.begin(), undecodable_channels.end());
+  return out;
+}
+
+const char* kind_name(std::int8_t kind) {
+  switch (kind) {
+    case request_t::MOVE_ABSOLUTE: return "MOVE_ABSOLUTE";
+    case request_t::MOVE_RELATIVE: return "MOVE_RELATIVE";
+    case request_t::JOG: return "JOG";
+    case request_t::STOP: return "STOP";
+    case request_t::ESTOP: return "ESTOP";
+    case request_t::HOME: return "HOME";
+    case request_t::ENABLE: return "ENABLE";
+    case request_t::DISABLE: return "DISABLE";
+    case request_t::FAULT_RESET: return "FAULT_RESET";
+    case request_t::SET_OUTPUTS: return "SET_OUTPUTS";
+    case request_t::PARAM_READ: return "PARAM_READ";
+    case request_t::PARAM_WRITE: return "PARAM_WRITE";
+    case request_t::SET_POSITION: return "SET_POSITION";
+    default: return "UNKNOWN";
+  }
+}
+
+// Status names as the reply_t constants spell them (DONE, REJECTED, ...).
+std::string status_name(std::int8_t status) {
+  std::string name = client::status_name(status);
+  for (char& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return name;
+}
+
+bool has_values(std::int8_t kind) {
+  return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG || kind == request_t::SET_POSITION;
+}
+
+std::string key_of(const std::string& client_id, std::int64_t request_id) { return client_id + "#" + std::to_string(request_id); }
+
+// "x=10 y=5" for requests with values, "x y" otherwise, "(all axes)" for none.
+std::string request_axes(const request_t& r, const char* separator) {
+  if (r.axes.empty()) return "(all axes)";
+  std::string out;
+  for (std::size_t i = 0; i < r.axes.size(); ++i) {
+    if (i > 0) out += separator;
+    out += r.axes[i];
+    if (has_values(r.kind) && i < r.values.size()) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "=%g", r.values[i]);
+      out += buf;
+    }
+  }
+  return out;
+}
+
+std::string joined(const std::vector<std::string>& items, const char* separator) {
+  std::string out;
+  for (std::size_t i = 0; i < items.size(); ++i) out += (i > 0 ? separator : "") + items[i];
+  return out;
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string out = "\"";
+  for (const char c : s) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string number(double v, const char* format = "%.6f") {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+class View {
+ public:
+  View(const LogContents& log, const std::vector<std::string>& axes) : log_(log), filter_(axes.begin(), axes.end()) {}
+
+  [[nodiscard]] double t(std::int64_t log_utime) const { return static_cast<double>(log_utime - log_.first_utime) / 1e6; }
+  [[nodiscard]] bool axis_selected(const std::string& axis) const { return filter_.empty() || filter_.contains(axis); }
+  [[nodiscard]] bool request_selected(const request_t& r) const {
+    if (filter_.empty() || r.axes.empty()) return true;
+    return std::any_of(r.axes.begin(), r.axes.end(), [&](const std::string& a) { return filter_.contains(a); });
+  }
+
+  [[nodiscard]] bool reply_selected(const reply_t& r) const {
+    if (filter_.empty() || r.axes.empty()) return true;
+    return std::any_of(r.axes.begin(), r.axes.end(), [&](const std::string& a) { return filter_.contains(a); });
+  }
+
+  // Requests with their replies in log order; replies whose request is not in the log come last.
+  struct Thread {
+    const Logged<request_t>* request = nullptr;
+    std::string key;
+    std::vector<const Logged<reply_t>*> replies;
+  };
+  [[nodiscard]] std::vector<Thread> threads() const {
+    std::vector<Thread> out;
+    std::map<std::string, std::size_t> index;
+    for (const auto& r : log_.requests) {
+      if (!request_selected(r.msg)) continue;
+      const auto key = key_of(r.msg.client_id, r.msg.request_id);
+      if (index.contains(key)) continue;  // a duplicate id: the coordinator rejects it; keep the first
+      index[key] = out.size();
+      out.push_back({&r, key, {}});
+    }
+    std::set<std::string> recorded;  // requests in the log, selected or not
+    for (const auto& r : log_.requests) recorded.insert(key_of(r.msg.client_id, r.msg.request_id));
+    for (const auto& r : log_.replies) {
+      const auto key = key_of(r.msg.client_id, r.msg.request_id);
+      if (auto it = index.find(key); it != index.end()) {
+        out[it->second].replies.push_back(&r);
+      } else if (!recorded.contains(key) && reply_selected(r.msg)) {  // request not recorded: group its replies anyway
+        index[key] = out.size();
+        out.push_back({nullptr, key, {&r}});
+      }
+    }
+    return out;
+  }
+
+  // Axis -> its states, in log order.
+  [[nodiscard]] std::map<std::string, std::vector<const Logged<axis_state_t>*>> trajectories() const {
+    std::map<std::string, std::vector<const Logged<axis_state_t>*>> out;
+    for (const auto& s : log_.states) {
+      if (axis_selected(s.msg.axis)) out[s.msg.axis].push_back(&s);
+    }
+    return out;
+  }
+
+ private:
+  const LogContents& log_;
+  std::set<std::string> filter_;
+};
+
+std::string reply_note(const reply_t& r) {
+  std::string note;
+  auto add = [&](const std::string& s) {
+    if (s.empty()) return;
+    if (!note.empty()) note += "; ";
+    note += s;
+  };
+  if (r.error_code != 0) add("error " + std::to_string(r.error_code));
+  add(r.reason);
+  if (r.status == reply_t::ACCEPTED && r.predicted_duration_s > 0) {
+    add("predicted " + number(r.predicted_duration_s, "%.3f") + " s, arrival spread " + number(r.predicted_skew_us, "%.0f") + " us");
+  }
+  if (client::is_terminal(r.status) && !r.axes.empty()) {
+    std::string positions;
+    for (std::size_t i = 0; i < r.axes.size() && i < r.positions.size(); ++i) {
+      positions += (i > 0 ? " " : "") + r.axes[i] + "=" + number(r.positions[i], "%.4f");
+    }
+    add("positions " + positions);
+    if (r.measured_start_skew_us >= 0 && std::any_of(r.start_utime.begin(), r.start_utime.end(), [](std::int64_t t) { return t != 0; })) {
+      add("start skew " + number(r.measured_start_skew_us, "%.0f") + " us (predicted arrival spread " + number(r.predicted_skew_us, "%.0f") + " us)");
+    }
+  }
+  return note;
+}
+
+void print_tables(const std::string& path, const std::string& prefix, const LogContents& log, const View& view) {
+  std::printf("log %s: %" PRId64 " events over %.3f s (channel prefix %s)\n", path.c_str(), log.events, view.t(log.last_utime), prefix.c_str());
+  std::int64_t others = 0;
+  std::string other_names;
+  int other_channels = 0;
+  for (const auto& [channel, count] : log.channel_counts) {
+    if (channel.rfind(prefix, 0) == 0) {
+      std::printf("  %-28s %8" PRId64 "\n", channel.c_str(), count);
+    } else {
+      others += count;
+      if (++other_channels <= 4) other_names += (other_channels > 1 ? ", " : "") + channel;
+    }
+  }
+  if (others > 0) {
+    std::printf("  (%" PRId64 " events on %d channel%s without the prefix, not decoded: %s%s)\n", others, other_channels, other_channels == 1 ? "" : "s",
+                other_names.c_str(), other_channels > 4 ? ", ..." : "");
+  }
+
+  const auto threads = view.threads();
+  std::printf("\nrequests (%zu):\n", threads.size());
+  if (threads.empty()) std::printf("  (none)\n");
+  for (const auto& th : threads) {
+    if (th.request != nullptr) {
+      const auto& r = th.request->msg;
+      std::printf("  %+9.3f s  %-24s %-14s %s", view.t(th.request->log_utime), th.key.c_str(), kind_name(r.kind), request_axes(r, " ").c_str());
+      if (r.velocity_scale > 0 && r.velocity_scale != 1) std::printf("  speed %g", r.velocity_scale);
+      std::printf("\n");
+    } else {
+      std::printf("  %11s  %-24s (request not in the log)\n", "", th.key.c_str());
+    }
+    int progress = 0;
+    for (const auto* rep : th.replies) {
+      if (rep->msg.status == reply_t::PROGRESS) {
+        ++progress;
+        continue;
+      }
+      if (progress > 0) {
+        std::printf("      %+9.3f s  (%d PROGRESS)\n", view.t(rep->log_utime), progress);
+        progress = 0;
+      }
+      std::printf("      %+9.3f s  %-9s %s\n", view.t(rep->log_utime), status_name(rep->msg.status).c_str(), reply_note(rep->msg).c_str());
+    }
+    if (progress > 0) std::printf("      %11s  (%d PROGRESS)\n", "", progress);
+    const bool terminal = std::any_of(th.replies.begin(), th.replies.end(), [](const Logged<reply_t>* r) { return client::is_terminal(r->msg.status); });
+    if (!terminal) std::printf("      (no terminal reply in the log)\n");
+  }
+
+  const auto trajectories = view.trajectories();
+  std::printf("\naxis trajectories (%zu axes):\n", trajectories.size());
+  if (trajectories.empty()) std::printf("  (no axis state)\n");
+  for (const auto& [axis, samples] : trajectories) {
+    const auto& first = samples.front()->msg;
+    std::printf("\n  axis %s (%s on %s, node %d): %zu samples\n", axis.c_str(), first.family.c_str(), first.bus.c_str(), first.node_id, samples.size());
+    std::printf("  %11s %14s %12s %-6s %-7s %-6s %s\n", "T", "POSITION", "VELOCITY", "MOVING", "ENABLED", "ONLINE", "FAULT");
+    // Runs of identical samples (an axis at rest) are shown once, with their count.
+    for (std::size_t i = 0; i < samples.size();) {
+      const auto& s = samples[i]->msg;
+      std::size_t j = i + 1;
+      while (j < samples.size()) {
+        const auto& n = samples[j]->msg;
+        if (n.position_counts != s.position_counts || n.velocity != s.velocity || n.moving != s.moving || n.enabled != s.enabled ||
+            n.online != s.online || n.fault != s.fault) {
+          break;
+        }
+        ++j;
+      }
+      std::printf("  %+9.3f s %14.4f %12.4f %-6s %-7s %-6s %s", view.t(samples[i]->log_utime), s.position, s.velocity, s.moving ? "yes" : "no",
+                  s.enabled ? "yes" : "no", s.online ? "yes" : "no", s.fault ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
+      if (j - i > 1) std::printf("  (x%zu until %+.3f s)", j - i, view.t(samples[j - 1]->log_utime));
+      std::printf("\n");
+      i = j;
+    }
+  }
+}
+
+// One long table: `record` says which columns apply (request, reply or state).
+void write_csv(std::ostream& out, const LogContents& log, const View& view) {
+  out << "record,t_s,utime,axis,position,velocity,moving,enabled,online,fault,client_id,request_id,kind,status,error_code,"
+         "predicted_skew_us,measured_skew_us,detail\n";
+  struct Row {
+    std::int64_t log_utime;
+    std::string text;
+  };
+  std::vector<Row> rows;
+  for (const auto& th : view.threads()) {
+    if (th.request != nullptr) {
+      const auto& r = th.request->msg;
+      std::ostringstream s;
+      s << "request," << number(view.t(th.request->log_utime)) << "," << r.utime << "," << csv_field(joined(r.axes, ";")) << ",,,,,,,"
+        << csv_field(r.client_id) << "," << r.request_id << "," << kind_name(r.kind) << ",,,,," << csv_field(request_axes(r, ";"));
+      rows.push_back({th.request->log_utime, s.str()});
+    }
+    for (const auto* rep : th.replies) {
+      const auto& r = rep->msg;
+      std::ostringstream s;
+      s << "reply," << number(view.t(rep->log_utime)) << "," << r.utime << "," << csv_field(joined(r.axes, ";")) << ",,,,,,," << csv_field(r.client_id) << ","
+        << r.request_id << ",," << status_name(r.status) << "," << r.error_code << "," << number(r.predicted_skew_us, "%.1f") << ","
+        << number(r.measured_start_skew_us, "%.1f") << "," << csv_field(r.reason);
+      rows.push_back({rep->log_utime, s.str()});
+    }
+  }
+  for (const auto& s : log.states) {
+    if (!view.axis_selected(s.msg.axis)) continue;
+    const auto& m = s.msg;
+    std::ostringstream o;
+    o << "state," << number(view.t(s.log_utime)) << "," << m.utime << "," << csv_field(m.axis) << "," << number(m.position, "%.6f") << ","
+      << number(m.velocity, "%.6f") << "," << (m.moving ? 1 : 0) << "," << (m.enabled ? 1 : 0) << "," << (m.online ? 1 : 0) << "," << (m.fault ? 1 : 0)
+      << ",,,,,,,," << csv_field(m.fault ? m.fault_text : std::string());
+    rows.push_back({s.log_utime, o.str()});
+  }
+  std::stable_sort(rows.begin(), rows.end(), [](const Row& a, const Row& b) { return a.log_utime < b.log_utime; });
+  for (const auto& r : rows) out << r.text << "\n";
+}
+
+int run_log(const Context& ctx, const LogArgs& args) {
+  if (!log::init("motionctl", ctx.options.log_level)) return app::kExitUsage;
+  std::string prefix = args.prefix;
+  if (prefix.empty()) {
+    auto config = app::load_config(ctx.options);
+    if (!config) return app::kExitConfig;
+    prefix = config->lcm.channel_prefix;
+  }
+  const auto log = read_log(args.file, prefix);
+  if (!log) return app::kExitFailure;
+  const View view(*log, args.axes);
+
+  if (log->events == 0 && log->corruption) {  // nothing readable: no empty tables, only the error
+    std::cerr << "motionctl: '" << args.file << "' is not an LCM event log: " << *log->corruption << "\n";
+    return app::kExitFailure;
+  }
+  if (args.csv.empty()) {
+    print_tables(args.file, prefix, *log, view);
+  } else if (args.csv == "-") {
+    write_csv(std::cout, *log, view);
+  } else {
+    std::ofstream out(args.csv, std::ios::trunc);
+    if (!out) {
+      std::cerr << "motionctl: cannot write '" << args.csv << "': " << std::strerror(errno) << "\n";
+      return app::kExitFailure;
+    }
+    write_csv(out, *log, view);
+    out.close();
+    if (!out) {
+      std::cerr << "motionctl: writing '" << args.csv << "' failed\n";
+      return app::kExitFailure;
+    }
+    std::size_t states = 0;
+    for (const auto& [axis, samples] : view.trajectories()) states += samples.size();
+    std::printf("%s: %" PRId64 " events over %.3f s; wrote %zu requests, %zu replies, %zu axis states to %s\n", args.file.c_str(), log->events,
+                view.t(log->last_utime), log->requests.size(), log->replies.size(), states, args.csv.c_str());
+  }
+
+  const auto trajectories = view.trajectories();
+  for (const auto& axis : args.axes) {
+    if (!trajectories.contains(axis)) std::cerr << "motionctl: warning: no state of axis '" << axis << "' in the log\n";
+  }
+  if (log->undecodable > 0) {
+    std::cerr << "motionctl: warning: " << log->undecodable << " messages could not be decoded (another version of the types?) on";
+    for (const auto& c : log->undecodable_channels) std::cerr << " " << c;
+    std::cerr << "\n";
+  }
+  if (log->events == 0 && !log->corruption && !log->truncated) std::cerr << "motionctl: warning: the log '" << args.file << "' holds no events\n";
+  if (log->truncated) std::cerr << "motionctl: warning: ignored a truncated final record (" << *log->truncated << ")\n";
+  if (log->corruption) {
+    std::cerr << "motionctl: log '" << args.file << "' is corrupt: " << *log->corruption << "; " << log->events << " events read before it\n";
+    return app::kExitFailure;
+  }
+  return app::kExitOk;
+}
+
+}  // namespace
+
+void add_log_command(CLI::App& cli, Context& ctx) {
+  auto* cmd = cli.add_subcommand("log", "Requests, replies and axis trajectories of an LCM event log (lcm-logger)");
+  auto args = std::make_shared<LogArgs>();
+  cmd->add_option("file", args->file, "LCM event log written by lcm-logger")->required();
+  cmd->add_option("--csv", args->csv, "Write CSV to this file ('-' = stdout) instead of the tables");
+  cmd->add_option("--axis", args->axes, "Only these axes (trajectories, and the requests naming them)");
+  cmd->add_option("--prefix", args->prefix, "Channel prefix (default: the configuration's lcm.channel_prefix)");
+  cmd->callback([&ctx, args] { ctx.result = run_log(ctx, *args); });
+}
+
+}  // namespace motion::ctl
