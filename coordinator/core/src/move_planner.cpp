@@ -10,6 +10,7 @@
 #include "motion/planner/quantize_plan.hpp"
 #include "motion/planner/sync_planner.hpp"
 #include "motion/uc57_driver/node_settings.hpp"
+#include "motion/uim242/instruction.hpp"
 #include "motion/uim342/parameters.hpp"
 
 namespace motion::coordinator {
@@ -72,6 +73,18 @@ QuantizerOrError adam_quantizer(const config::Config& config, const config::Driv
                                                  adam::kMaxTargetSpeedCentiRpm);
 }
 
+// UIM242: SPD in integer pulse/s, MAC/MDE in integer pulse/s^2 (MCFG.AM/DM = 0, value mode, which
+// the gateway's set-up keeps), ranges from the instruction table (#15, #20, #37).
+QuantizerOrError uim242_quantizer() {
+  const auto& speed = uim242::spec(uim242::Mnemonic::SPD);
+  const auto& acceleration = uim242::spec(uim242::Mnemonic::MAC);
+  const auto& deceleration = uim242::spec(uim242::Mnemonic::MDE);
+  return std::make_shared<planner::GridQuantizer>(
+      "uim242 pps+pps/s", planner::VelocityGrid{1.0, 1, speed.max},
+      planner::AccelerationGrid::rate(1.0).steps(std::max(acceleration.min, deceleration.min),
+                                                 std::min(acceleration.max, deceleration.max)));
+}
+
 }  // namespace
 
 std::uint32_t assumed_pulses_per_revolution(const config::Config& config, const config::Drive& drive) {
@@ -103,8 +116,9 @@ QuantizerOrError make_drive_quantizer(const config::Config& config, const config
     case config::Family::kUim342: return uim342_quantizer(drive);
     case config::Family::kUc57: return uc57_quantizer(config, drive);
     case config::Family::kAdamModbus: return adam_quantizer(config, drive);
-    default: return std::make_shared<planner::IdentityQuantizer>();
+    case config::Family::kUim242: return uim242_quantizer();
   }
+  return "drive " + drive.name + ": unknown drive family";
 }
 
 MovePlanner make_move_planner(const config::Config& config) {

@@ -34,7 +34,7 @@ Node::Node(EventLoop& loop, NodeOptions options) : loop_(loop), url_(std::move(o
   lcm_ = std::make_unique<::lcm::LCM>(url_);
   ok_ = lcm_->good();
   if (!ok_) {
-    spdlog::error("lcm: cannot open '{}' (bad URL, or no multicast route: see README 'Networking')",
+    spdlog::error("lcm: cannot open '{}' (bad URL, or no multicast route: see docs/recording-and-networks.md, Networking)",
                   url_.empty() ? "<default>" : url_);
     return;
   }

@@ -9,6 +9,7 @@
 #include "motion/adam_driver/master_core.hpp"
 #include "motion/cia402/uc57_od.hpp"
 #include "motion/cia402/uc57_units.hpp"
+#include "motion/uim242/instruction.hpp"
 #include "motion/uim342/parameters.hpp"
 
 namespace motion::coordinator {
@@ -22,6 +23,7 @@ const char* kConfig = R"(
 buses:
   - {name: can0, transport: simcan:can0}
   - {name: rs485, transport: simserial:rs485, baud: 115200}
+  - {name: rs232, transport: simserial:rs232, baud: 57600}
 drives:
   - {name: xd, family: uim342, bus: can0, node_id: 5, setup: {acceleration_unit: rate}}
   - {name: yd, family: uim342, bus: can0, node_id: 6, setup: {acceleration_unit: time}}
@@ -31,6 +33,7 @@ drives:
   - {name: cd, family: adam-modbus, bus: rs485, node_id: 1, setup: {subdivision: 16}}
   - {name: dd, family: adam-modbus, bus: rs485, node_id: 2, setup: {pulses_per_revolution: 1000, subdivision: 16}}
   - {name: ed, family: adam-modbus, bus: rs485, node_id: 3}
+  - {name: ud, family: uim242, bus: rs232, node_id: 5}
 axes:
   - {name: x, drive: xd, steps_per_unit: 640, limits: {min: -100, max: 100, velocity: 50, acceleration: 400}}
   - {name: y, drive: yd, steps_per_unit: 640, limits: {min: -100, max: 100, velocity: 50, acceleration: 400}}
@@ -40,6 +43,7 @@ axes:
   - {name: c, drive: cd, steps_per_unit: 320, limits: {min: -100, max: 100, velocity: 40, acceleration: 200}}
   - {name: d, drive: dd, steps_per_unit: 100, limits: {min: -100, max: 100, velocity: 40, acceleration: 200}}
   - {name: e, drive: ed, steps_per_unit: 400, limits: {min: -100, max: 100, velocity: 40, acceleration: 200}}
+  - {name: u, drive: ud, steps_per_unit: 160, limits: {min: -100, max: 100, velocity: 40, acceleration: 200}}
 )";
 
 const config::Config& lab() {
@@ -191,6 +195,25 @@ TEST(DriveQuantizers, Uim342RealizedValuesAreWhatTheStackProgramsExactly) {
   }
 }
 
+TEST(DriveQuantizers, Uim242RealizedValuesAreIntegerSpdMacMdeTheControllerAccepts) {
+  const auto settings = candidates_of(*quantizer("ud"), 4000.0);
+  ASSERT_GT(settings.size(), 20u);
+  for (const auto& s : settings) {
+    const std::string what = "v=" + std::to_string(s.realized.velocity_counts_per_s);
+    // What bus_core writes: SPD v (pulse/s), MAC a, MDE d (pulse/s^2, value mode).
+    EXPECT_EQ(s.native.velocity, static_cast<std::int64_t>(s.realized.velocity_counts_per_s)) << what;
+    EXPECT_EQ(s.native.acceleration, static_cast<std::int64_t>(s.realized.acceleration_counts_per_s2)) << what;
+    EXPECT_EQ(s.native.deceleration, static_cast<std::int64_t>(s.realized.deceleration_counts_per_s2)) << what;
+    EXPECT_FALSE(uim242::validate({uim242::Mnemonic::SPD, false, s.native.velocity, false})) << what;
+    EXPECT_FALSE(uim242::validate({uim242::Mnemonic::MAC, false, s.native.acceleration, false})) << what;
+    EXPECT_FALSE(uim242::validate({uim242::Mnemonic::MDE, false, s.native.deceleration, false})) << what;
+  }
+  // Beyond SPD's 65535 pulse/s the grid stops at the controller's maximum.
+  std::vector<DriveSetting> fast;
+  quantizer("ud")->candidates({100000.0, 1000.0, 1000.0}, 2, fast);
+  for (const auto& s : fast) EXPECT_LE(s.native.velocity, 65535) << s.native.velocity;
+}
+
 // ---- The planner as the coordinator runs it ----
 
 TEST(MovePlanner, EveryFamilysPlanIsRepresentableAndArrivalsAgree) {
@@ -198,11 +221,12 @@ TEST(MovePlanner, EveryFamilysPlanIsRepresentableAndArrivalsAgree) {
   std::vector<PlanInput> in{{"x", config::Family::kUim342, 0, 64000, 50 * 640, 400 * 640},
                             {"y", config::Family::kUim342, 1000, -12345, 50 * 640, 400 * 640},
                             {"a", config::Family::kUc57, 0, 3200, 3200, 12800},
-                            {"c", config::Family::kAdamModbus, 0, 16000, 40 * 320, 200 * 320}};
+                            {"c", config::Family::kAdamModbus, 0, 16000, 40 * 320, 200 * 320},
+                            {"u", config::Family::kUim242, 0, 4000, 40 * 160, 200 * 160}};
   auto result = planner(in, 1.0, 1.0);
   ASSERT_TRUE(std::holds_alternative<MovePlan>(result)) << std::get<std::string>(result);
   const auto& plan = std::get<MovePlan>(result);
-  ASSERT_EQ(plan.axes.size(), 4u);
+  ASSERT_EQ(plan.axes.size(), 5u);
   EXPECT_EQ(plan.axes[0].target_counts, 64000);
   EXPECT_EQ(plan.axes[1].target_counts, -12345);
   // UIM342 SP is an integer pulse/s; rate-mode AC/DC are integer pulse/s^2.
@@ -215,6 +239,9 @@ TEST(MovePlanner, EveryFamilysPlanIsRepresentableAndArrivalsAgree) {
   const auto c = adam_programs({plan.axes[3].velocity, plan.axes[3].acceleration, plan.axes[3].deceleration}, 3200);
   expect_relative(c.realized.velocity_counts_per_s, plan.axes[3].velocity, "c velocity");
   expect_relative(c.realized.acceleration_counts_per_s2, plan.axes[3].acceleration, "c acceleration");
+  // UIM242 SPD integer pulse/s, MAC/MDE integer pulse/s^2.
+  EXPECT_EQ(plan.axes[4].velocity, std::round(plan.axes[4].velocity));
+  EXPECT_EQ(plan.axes[4].acceleration, std::round(plan.axes[4].acceleration));
   // The slowest axis sets the time; every axis arrives within the predicted spread.
   EXPECT_GT(plan.duration_s, 0.5);
   for (const auto& a : plan.axes) EXPECT_NEAR(a.duration_s, plan.duration_s, plan.predicted_skew_us * 1e-6 + 1e-9) << a.axis;

@@ -15,8 +15,8 @@
 //   ADAM    0x00D8 target speed in 0.01 rpm at the drive's pulses/rev (adam::setup_pulses_per_revolution,
 //           else the factory kDefaultSubdivision); 0x0098/0x0099 ramp times in integer ms from 0
 //           (the stack's start/stop speed) to the target speed.
-//   UIM242  no quantization (identity) until its driver pins its units down: its predicted spread
-//           is 0 and the measured skew tells the truth.
+//   UIM242  SPD integer pulse/s (1..65535), MAC/MDE integer pulse/s^2 (value mode; the ranges of
+//           uim242's instruction table).
 #pragma once
 
 #include <memory>
