@@ -1,3 +1,5 @@
+include(GNUInstallDirs)
+
 # Project-wide compile options, applied through an INTERFACE target so that only our own
 # targets get them (generated LCM code and third-party headers are built without -Werror).
 add_library(motion_warnings INTERFACE)
@@ -14,21 +16,42 @@ if(MOTION_SANITIZE)
   add_link_options(-fsanitize=address,undefined)
 endif()
 
-# motion_library(NAME <short> SOURCES ... DEPS ...) -> target motion_<short>, alias motion::<short>
+# motion_library(NAME <short> SOURCES ... DEPS ... [PRIVATE_DEPS ...] [INSTALL])
+#   -> target motion_<short>, alias motion::<short>
+# INSTALL: `cmake --install` (component dev) installs the library and its include/ tree, and the
+# exported CMake package (cmake/MotionInstall.cmake) has it as motion::<short>; its DEPS must be
+# installed too, or found by motionConfig.cmake.
 function(motion_library)
-  cmake_parse_arguments(ARG "" "NAME" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "INSTALL" "NAME" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
   set(target motion_${ARG_NAME})
+  set(include_dir $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include> $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   if(ARG_SOURCES)
     add_library(${target} STATIC ${ARG_SOURCES})
-    target_include_directories(${target} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
-    target_link_libraries(${target} PUBLIC ${ARG_DEPS} PRIVATE motion::warnings ${ARG_PRIVATE_DEPS})
+    target_include_directories(${target} PUBLIC ${include_dir})
+    # Warnings are for our own build only: not part of the installed targets' interface.
+    target_link_libraries(${target} PUBLIC ${ARG_DEPS} PRIVATE $<BUILD_INTERFACE:motion::warnings> ${ARG_PRIVATE_DEPS})
     set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   else()
     add_library(${target} INTERFACE)
-    target_include_directories(${target} INTERFACE ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    target_include_directories(${target} INTERFACE ${include_dir})
     target_link_libraries(${target} INTERFACE ${ARG_DEPS})
   endif()
   add_library(motion::${ARG_NAME} ALIAS ${target})
+  if(ARG_INSTALL)
+    set_target_properties(${target} PROPERTIES EXPORT_NAME ${ARG_NAME})
+    install(TARGETS ${target} EXPORT motionTargets COMPONENT dev
+      ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+    install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev
+      FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h")
+    if(ARG_SOURCES)
+      target_compile_features(${target} PUBLIC cxx_std_20)  # consumers compile our headers as C++20
+      # For motion-client.pc's Libs, which lists them in reverse: a library before the ones it
+      # depends on (declared earlier).
+      set_property(GLOBAL APPEND PROPERTY MOTION_INSTALLED_LIBRARIES ${target})
+    else()
+      target_compile_features(${target} INTERFACE cxx_std_20)
+    endif()
+  endif()
 endfunction()
 
 # motion_executable(NAME <exe> SOURCES ... DEPS ...)

@@ -1,23 +1,33 @@
-// "Any language, any machine": the Python, Java and Lua clients against the real motion-coordinator
-// (each on this test's own LCM URL): they hear its heartbeat, get the terminal REJECTED reply for an
-// unknown axis (error 2, the reason names the axis) and for a non-finite value (error 1), and their
-// move examples stop with the coordinator's reason while the axes' gateways are offline. The Python
-// client's own LCM wire format (LC02 and fragmented LC03) is checked both ways against liblcm, and
-// lcm-spy's type scanner and lcm-spy itself (under Xvfb) against our types jar.
+// "Any language, any machine": the Python, Java, Lua and C++ clients against the simulated lab of
+// config/sim-lab.yaml (motion-sim, the gateway of bus can0, motion-coordinator; each test on its own
+// LCM URL and simulation directory). Each language's move example enables x and y, moves them with
+// one synchronized request and prints final positions that must equal the targets within one drive
+// count. The check_coordinator programs (Python, Java, Lua) and the C++ example get the terminal
+// REJECTED reply for an unknown axis (error 2, the reason names the axis) and for a non-finite value
+// (error 1); with the coordinator alone (no gateway), the example stops with the coordinator's
+// reason. The Python client's own LCM wire format (LC02 and fragmented LC03) is checked both ways
+// against liblcm, and lcm-spy's type scanner and lcm-spy itself (under Xvfb) against our types jar.
 //
 // A missing runtime (/usr/bin/python3, java/javac, lua5.2, xvfb-run) fails the test with that
 // reason. Every process is started through ProcessGroup, which kills it at the end of the test.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
 
 #include "clients_paths.hpp"
+#include "motion/config/config.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/testing/process_group.hpp"
 
@@ -39,9 +49,10 @@ struct Runtime {
   std::vector<std::string> prefix_args;  // before the program's own arguments
   std::vector<std::string> env;
 
+  // `program` empty: `exe` is the program itself (C++).
   [[nodiscard]] ProcessSpec spec(const std::string& name, const std::string& program, std::vector<std::string> args) const {
     std::vector<std::string> all = prefix_args;
-    all.push_back(program);
+    if (!program.empty()) all.push_back(program);
     all.insert(all.end(), args.begin(), args.end());
     return ProcessSpec{name, exe, all, env};
   }
@@ -72,9 +83,16 @@ Runtime lua() {
   return r;
 }
 
+Runtime cpp() {
+  Runtime r{"C++", "", paths::kCppExample, {}, {}};
+  if (!executable(r.exe)) r.missing = std::string("C++ example ") + paths::kCppExample + " not built (build example_move_cpp)";
+  return r;
+}
+
 std::string program(const Runtime& r, const std::string& base) {
   if (r.language == "Python") return std::string(paths::kPythonDir) + "/" + base + ".py";
   if (r.language == "Lua") return std::string(paths::kLuaDir) + "/" + base + ".lua";
+  if (r.language == "C++") return "";  // the example itself (there is no C++ check_coordinator)
   return base == "check_coordinator" ? "CheckCoordinator" : "ExampleMove";  // Java class names
 }
 
@@ -85,29 +103,119 @@ void start_coordinator(ProcessGroup& group) {
   ASSERT_TRUE(group.wait_for_heartbeat("coordinator", seconds(15), true));
 }
 
-// The client of `r` against the real coordinator: heartbeat, unknown axis, malformed value, and the
-// move example stopping with the coordinator's reason (the axes' gateways are offline).
-void check_client_against_coordinator(const Runtime& r) {
-  ASSERT_TRUE(r.missing.empty()) << r.language << ": " << r.missing;
-  ProcessGroup group;
-  start_coordinator(group);
-  if (::testing::Test::HasFatalFailure()) return;
-
-  std::string out;
-  const int rc = group.run_to_completion(r.spec("check-" + r.language, program(r, "check_coordinator"), {}), &out, seconds(60));
-  EXPECT_EQ(rc, 0) << out;
-  EXPECT_TRUE(contains(out, "health: process=coordinator role=coordinator state=")) << out;
-  EXPECT_TRUE(contains(out, "unknown-axis: status=rejected error_code=2 reason=unknown axis 'no_such_axis' (axes: x, y, z, a, b, c, u)")) << out;
-  EXPECT_TRUE(contains(out, "malformed: status=rejected error_code=1 reason=value for axis x is not a finite number")) << out;
-
-  const int example_rc = group.run_to_completion(r.spec("example-" + r.language, program(r, "example_move"), {"--axes", "x", "y"}), &out, seconds(60));
-  EXPECT_EQ(example_rc, 1) << out;
-  EXPECT_TRUE(contains(out, "rejected (error 7): gateway of bus can0 (axis x) is offline")) << out;
+// The part of the simulated lab (config/sim-lab.yaml) that the examples move: motion-sim, the
+// gateway of bus can0 (axes x and y) and the coordinator, on the group's LCM URL and simulation
+// directory. Waits for their heartbeats (the coordinator stays DEGRADED: the gateways of the other
+// buses are not started) and for x and y to be online.
+::testing::AssertionResult start_lab(ProcessGroup& group) {
+  const std::string config = source_path("config/sim-lab.yaml");
+  auto online = std::make_shared<std::map<std::string, bool>>();  // outlives this function in the subscription
+  group.node().subscribe<motionlcm::axis_state_t>(
+      lcm::channels::kAxisState, [online](const motionlcm::axis_state_t& s, const std::string&) { (*online)[s.axis] = s.online; });
+  group.start({"sim", "motion-sim", {"--config", config}, {}});
+  group.start({"gateway:can0", "motion-gateway", {"--config", config, "--bus", "can0"}, {}});
+  group.start({"coordinator", "motion-coordinator", {"--config", config}, {}});
+  for (const char* name : {"sim", "gateway:can0", "coordinator"}) {
+    if (!group.wait_for_heartbeat(name, seconds(20), true)) return ::testing::AssertionFailure() << "no heartbeat from " << name;
+  }
+  if (!group.pump_until([&] { return (*online)["x"] && (*online)["y"]; }, seconds(20))) {
+    return ::testing::AssertionFailure() << "axes x and y not online within 20 s (x " << ((*online)["x"] ? "online" : "not online") << ", y "
+                                         << ((*online)["y"] ? "online" : "not online") << ")";
+  }
+  return ::testing::AssertionSuccess();
 }
 
-TEST(Clients, PythonClientAgainstTheRealCoordinator) { check_client_against_coordinator(python()); }
-TEST(Clients, JavaClientAgainstTheRealCoordinator) { check_client_against_coordinator(java()); }
-TEST(Clients, LuaClientAgainstTheRealCoordinator) { check_client_against_coordinator(lua()); }
+// The "<axis> = <position>" lines of an example's output.
+std::map<std::string, double> printed_positions(const std::string& out) {
+  std::map<std::string, double> positions;
+  std::istringstream lines(out);
+  for (std::string line; std::getline(lines, line);) {
+    const auto eq = line.find(" = ");
+    if (eq == std::string::npos || eq == 0 || line.find(' ') < eq) continue;
+    const std::string value = line.substr(eq + 3);
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (end != value.c_str() && *end == '\0') positions[line.substr(0, eq)] = v;
+  }
+  return positions;
+}
+
+// One drive count of `axis` in user units (config/sim-lab.yaml).
+double one_count(const std::string& axis) {
+  static const config::LoadResult loaded = config::load_file(source_path("config/sim-lab.yaml"));
+  if (!loaded.ok()) {
+    ADD_FAILURE() << loaded.error_text();
+    return 0;
+  }
+  const config::Axis* a = loaded.config->find_axis(axis);
+  if (a == nullptr || a->steps_per_unit <= 0) {
+    ADD_FAILURE() << "axis " << axis << " without steps_per_unit in config/sim-lab.yaml";
+    return 0;
+  }
+  return 1.0 / a->steps_per_unit;
+}
+
+std::string number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
+// The client of `r` against the simulated lab: its check_coordinator (heartbeat, unknown axis,
+// malformed value; for C++ the example itself is refused both), then its move example, which must
+// end with x and y at the targets.
+void check_client_against_lab(const Runtime& r, double target_x, double target_y) {
+  ASSERT_TRUE(r.missing.empty()) << r.language << ": " << r.missing;
+  ProcessGroup group;
+  const auto started = start_lab(group);
+  ASSERT_TRUE(started) << r.language;
+
+  std::string out;
+  if (r.language == "C++") {
+    int rc = group.run_to_completion(r.spec("example-unknown-axis", "", {"--axes", "x", "no_such_axis"}), &out, seconds(60));
+    EXPECT_EQ(rc, 1) << out;
+    EXPECT_TRUE(contains(out, "rejected (error 2): unknown axis 'no_such_axis' (axes: x, y, z, a, b, c, u)")) << out;
+    rc = group.run_to_completion(r.spec("example-malformed", "", {"--axes", "x", "y", "--targets", "nan", "1"}), &out, seconds(60));
+    EXPECT_EQ(rc, 1) << out;
+    EXPECT_TRUE(contains(out, "rejected (error 1): value for axis x is not a finite number")) << out;
+  } else {
+    const int rc = group.run_to_completion(r.spec("check-" + r.language, program(r, "check_coordinator"), {}), &out, seconds(60));
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_TRUE(contains(out, "health: process=coordinator role=coordinator state=")) << out;
+    EXPECT_TRUE(contains(out, "unknown-axis: status=rejected error_code=2 reason=unknown axis 'no_such_axis' (axes: x, y, z, a, b, c, u)")) << out;
+    EXPECT_TRUE(contains(out, "malformed: status=rejected error_code=1 reason=value for axis x is not a finite number")) << out;
+  }
+
+  const int example_rc = group.run_to_completion(
+      r.spec("example-" + r.language, program(r, "example_move"), {"--axes", "x", "y", "--targets", number(target_x), number(target_y)}), &out,
+      seconds(60));
+  EXPECT_EQ(example_rc, 0) << out;
+  EXPECT_TRUE(contains(out, "enabled x y")) << out;
+  const auto positions = printed_positions(out);
+  ASSERT_TRUE(positions.contains("x") && positions.contains("y")) << "no 'x = ...' and 'y = ...' lines\n" << out;
+  EXPECT_NEAR(positions.at("x"), target_x, one_count("x")) << out;
+  EXPECT_NEAR(positions.at("y"), target_y, one_count("y")) << out;
+}
+
+// Targets differ per language, and most are not a whole number of drive counts (640 per mm).
+TEST(Clients, PythonExampleMovesTheSimulatedLab) { check_client_against_lab(python(), 12.3456, -3.25); }
+TEST(Clients, JavaExampleMovesTheSimulatedLab) { check_client_against_lab(java(), 7.75, 4.0001); }
+TEST(Clients, LuaExampleMovesTheSimulatedLab) { check_client_against_lab(lua(), 3.3333, 9.5); }
+TEST(Clients, CppExampleMovesTheSimulatedLab) { check_client_against_lab(cpp(), 20.125, 1.2345); }
+
+// With the coordinator alone (no gateway), a move example stops with the coordinator's reason
+// (one language is enough: they all print the terminal reply the same way).
+TEST(Clients, ExampleStopsWithTheCoordinatorsReasonWhenTheGatewayIsOffline) {
+  const Runtime r = cpp();
+  ASSERT_TRUE(r.missing.empty()) << r.missing;
+  ProcessGroup group;
+  start_coordinator(group);
+  if (HasFatalFailure()) return;
+  std::string out;
+  const int rc = group.run_to_completion(r.spec("example-offline", program(r, "example_move"), {"--axes", "x", "y"}), &out, seconds(60));
+  EXPECT_EQ(rc, 1) << out;
+  EXPECT_TRUE(contains(out, "rejected (error 7): gateway of bus can0 (axis x) is offline")) << out;
+}
 
 // loopback.py publishes a small (LC02) and a large (LC03) request_t; liblcm must decode both. This
 // side answers with a small and a large reply_t (liblcm fragments the latter); Python must decode both.
