@@ -64,7 +64,7 @@ std::string_view alarm_text(AlarmCode code) noexcept {
 
 AlarmState decode_alarms(std::uint16_t raw) noexcept {
   AlarmState state;
-  const auto nibble = [&](unsigned i) { return static_cast<AlarmCode>((raw >> (4 * i)) & 0xFU); };
+  const auto nibble = [&](unsigned i) { return static_cast<AlarmCode>((static_cast<unsigned>(raw) >> (4 * i)) & 0xFU); };
   state.current = nibble(0);
   for (unsigned i = 1; i < kAlarmNibbles; ++i) state.history[i - 1] = nibble(i);
   return state;
