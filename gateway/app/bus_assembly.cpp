@@ -7,6 +7,7 @@
 #include "motion/gateway/can_bus_driver.hpp"
 #include "motion/gateway/can_transport_factory.hpp"
 #include "motion/uc57_driver/uc57_stack.hpp"
+#include "motion/uim242_driver/uim242_bus_driver.hpp"
 #include "motion/uim342_driver/uim342_stack.hpp"
 
 namespace motion::gateway {
@@ -63,13 +64,32 @@ BusAssembly assemble_can_bus(EventLoop& loop, const config::Config& config, cons
   return result;
 }
 
+using SerialDriverFactory =
+    std::function<std::unique_ptr<BusDriver>(EventLoop&, const config::Config&, const config::Bus&, GatewayOutput&)>;
+
+// The serial bus drivers, by drive family. Each family's issue adds its line.
+const std::map<config::Family, SerialDriverFactory>& serial_driver_factories() {
+  static const std::map<config::Family, SerialDriverFactory> factories{
+      {config::Family::kAdamModbus,
+       [](EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) -> std::unique_ptr<BusDriver> {
+         return adam_driver::AdamBusDriver::create(loop, config, bus, out);
+       }},
+      {config::Family::kUim242,
+       [](EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) -> std::unique_ptr<BusDriver> {
+         return uim242_driver::Uim242BusDriver::create(loop, config, bus, out);
+       }},
+  };
+  return factories;
+}
+
 // A serial line carries one family (its own framing): the first family's driver serves the
 // line, drives of any other family on it are unsupported.
 BusAssembly assemble_serial_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) {
   BusAssembly result;
   for (const auto& [family, drives] : drives_by_family(config, bus)) {
-    if (!result.driver && family == config::Family::kAdamModbus) {
-      result.driver = adam_driver::AdamBusDriver::create(loop, config, bus, out);
+    const auto factory = serial_driver_factories().find(family);
+    if (!result.driver && factory != serial_driver_factories().end()) {
+      result.driver = factory->second(loop, config, bus, out);
       continue;
     }
     list_unsupported(drives, result.unsupported);

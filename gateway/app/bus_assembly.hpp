@@ -3,7 +3,9 @@
 //
 //   CAN bus (simcan:, socketcan:)  CanBusDriver over open_can_transport(), one CanStack per family
 //                                  present on the bus (UIM342 on 29-bit ids, CANopen on 11-bit)
-//   serial bus (simserial:, serial:) the family's serial bus driver (one family per line)
+//   serial bus (simserial:, serial:) the family's serial bus driver (one family per line):
+//                                  ADAM Modbus RTU (AdamBusDriver), UIM242 via a UIM2501/2502
+//                                  (Uim242BusDriver)
 //
 // Families without an implementation yet are listed in `unsupported` (the gateway reports them
 // in its health and fails commands for their axes with that reason) instead of stopping the bus.

@@ -1,6 +1,6 @@
 // ADAM Modbus RTU end to end over a real pseudo-terminal: ONE simulated RS485 line
 // (tests/integration/configs/adam-line.yaml) carrying three drives, slaves 1, 2, 3 (axes c1, c2,
-// c3), with motion-sim (AdamSerialHost on the pty), `motion-gateway --bus rs485` (AdamBusDriver,
+// c3), with motion-sim (AdamLineSim on the pty), `motion-gateway --bus rs485` (AdamBusDriver,
 // our RTU master) and motion-coordinator, each test on its own LCM URL and simulation directory.
 // The simulated drives' own reports (SIM_REPORT) are the ground truth of when motion started:
 // a synchronized move preloads each drive's table and starts them with ONE broadcast
@@ -40,9 +40,6 @@ bool saw(const std::vector<reply_t>& replies, std::int8_t s) {
 class AdamLine : public ::testing::Test {
  protected:
   void SetUp() override {
-    lab.group().node().subscribe<motionlcm::gateway_reply_t>(
-        lcm::channels::kGatewayReply, [this](const motionlcm::gateway_reply_t& r, const std::string&) { gateway_replies.push_back(r); });
-    lab.client().on_event([this](const event_t& e) { events.push_back(e); });
     const auto t0 = std::chrono::steady_clock::now();
     ASSERT_TRUE(lab.start(kAxes));
     const auto enabled = lab.call(Client::make(request_t::ENABLE, kAxes));
@@ -61,21 +58,8 @@ class AdamLine : public ::testing::Test {
         },
         timeout);
   }
-  [[nodiscard]] const motionlcm::gateway_reply_t* gateway_started() const {
-    for (auto it = gateway_replies.rbegin(); it != gateway_replies.rend(); ++it) {
-      if (it->status == motionlcm::gateway_reply_t::STARTED) return &*it;
-    }
-    return nullptr;
-  }
-  [[nodiscard]] bool has_event(std::int16_t kind, const std::string& axis, const std::string& text) const {
-    return std::any_of(events.begin(), events.end(), [&](const event_t& e) {
-      return e.kind == kind && (axis.empty() || e.axis == axis) && e.text.find(text) != std::string::npos;
-    });
-  }
 
   SimLab lab{source_path("tests/integration/configs/adam-line.yaml")};
-  std::vector<motionlcm::gateway_reply_t> gateway_replies;
-  std::vector<event_t> events;
   long long startup_ms = 0;
 };
 
@@ -121,7 +105,7 @@ TEST_F(AdamLine, SynchronizedMoveStartsOnOneBroadcastFrameAndArrives) {
   EXPECT_EQ(c3[0].target_counts, 6400);
 
   // The gateway's STARTED names the mechanism; its trigger time is that frame's end.
-  const auto* started = gateway_started();
+  const auto* started = lab.last_gateway_started();
   ASSERT_NE(started, nullptr);
   EXPECT_EQ(started->start_mechanism, "broadcast");
   EXPECT_DOUBLE_EQ(started->predicted_skew_us, 0.0);
@@ -145,7 +129,7 @@ TEST_F(AdamLine, RelativeMoveOfTwoLeavesTheThirdStill) {
   const auto c3 = lab.starts_of("c3-drive");
   ASSERT_EQ(c1.size(), 1u);
   ASSERT_EQ(c3.size(), 1u);
-  const auto* started = gateway_started();
+  const auto* started = lab.last_gateway_started();
   ASSERT_NE(started, nullptr);
   EXPECT_EQ(started->start_mechanism, "broadcast");
   EXPECT_EQ(c1[0].frame_utime, c3[0].frame_utime);
@@ -219,7 +203,7 @@ TEST_F(AdamLine, AlarmRaisesAnEventAndAbortsTheMoveWithTheReason) {
   EXPECT_TRUE(last.status == status(reply_t::ABORTED) || last.status == status(reply_t::FAILED)) << client::status_name(last.status);
   EXPECT_NE(last.reason.find("c2-drive"), std::string::npos) << last.reason;
   EXPECT_NE(last.reason.find("Over-current"), std::string::npos) << last.reason;
-  EXPECT_TRUE(lab.client().wait_until([&] { return has_event(event_t::ALARM, "c2", "Over-current"); }, seconds(2)));
+  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(event_t::ALARM, "c2", "Over-current"); }, seconds(2)));
   EXPECT_TRUE(lab.client().wait_until([&] { return lab.client().axes().at("c2").fault; }, seconds(2)));
   // c1 was stopped with c2, short of its target.
   EXPECT_TRUE(lab.client().wait_until([&] { return !lab.client().axes().at("c1").moving; }, seconds(5)));
@@ -237,7 +221,7 @@ TEST_F(AdamLine, DeadDriveDoesNotStallTheOthers) {
   lab.control("c3-drive", sim_control_t::SILENCE, 1);
   // c3 goes offline (timeout, one retry, then the event) ...
   ASSERT_TRUE(lab.client().wait_until([&] { return !lab.client().axes().at("c3").online; }, seconds(5)));
-  EXPECT_TRUE(has_event(event_t::OFFLINE, "c3", "c3-drive (slave 3)"));
+  EXPECT_TRUE(lab.has_event(event_t::OFFLINE, "c3", "c3-drive (slave 3)"));
   // ... while c1 and c2 keep being polled and move.
   const auto c1_sample = lab.client().axes().at("c1").sample_utime;
   const auto done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"c1", 5.0}, {"c2", -4.0}}));
@@ -262,7 +246,7 @@ TEST_F(AdamLine, DeadDriveDoesNotStallTheOthers) {
   // The line keeps re-probing the dead drive: when it answers again it comes back online.
   lab.control("c3-drive", sim_control_t::SILENCE, 0);
   EXPECT_TRUE(lab.client().wait_until([&] { return lab.client().axes().at("c3").online; }, seconds(10)));
-  EXPECT_TRUE(lab.client().wait_until([&] { return has_event(event_t::ONLINE, "c3", "c3-drive"); }, seconds(2)));
+  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(event_t::ONLINE, "c3", "c3-drive"); }, seconds(2)));
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // The simulated lab of config/sim-lab.yaml, started for one integration test: motion-sim, one
 // gateway per bus and the coordinator on the test's own LCM URL and simulation directory, with a
 // C++ client, the ground truth of the simulated drives (SIM_REPORT) and fault injection
-// (SIM_CONTROL). Every process is killed in the ProcessGroup's destructor.
+// (SIM_CONTROL), and what the gateways said (EVENT, GW_REPLY). Every process is killed in the
+// ProcessGroup's destructor.
 // Thread contract: the test's thread only.
 #pragma once
 
@@ -12,6 +13,11 @@
 #include <string>
 #include <vector>
 
+#include <algorithm>
+#include <cmath>
+
+#include <motionlcm/event_t.hpp>
+#include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/sim_control_t.hpp>
 #include <motionlcm/sim_report_t.hpp>
 
@@ -31,6 +37,10 @@ class SimLab {
     config_ = *loaded.config;
     group_.node().subscribe<motionlcm::sim_report_t>(
         lcm::channels::kSimReport, [this](const motionlcm::sim_report_t& r, const std::string&) { reports_.push_back(r); });
+    group_.node().subscribe<motionlcm::event_t>(
+        lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) { events_.push_back(e); });
+    group_.node().subscribe<motionlcm::gateway_reply_t>(
+        lcm::channels::kGatewayReply, [this](const motionlcm::gateway_reply_t& r, const std::string&) { gateway_replies_.push_back(r); });
   }
 
   // Starts every process and waits for their heartbeats (DEGRADED accepted: a family without a
@@ -66,6 +76,41 @@ class SimLab {
       return failure;
     }
     return ::testing::AssertionSuccess();
+  }
+
+  // Enables `axes` and waits until each of them reports it.
+  [[nodiscard]] ::testing::AssertionResult enable(const std::vector<std::string>& axes) {
+    const auto enabled = call(client::Client::make(motionlcm::request_t::ENABLE, axes));
+    if (enabled.status != motionlcm::reply_t::DONE) return ::testing::AssertionFailure() << "ENABLE: " << enabled.reason;
+    for (const auto& axis : axes) {
+      if (!client_.wait_until([&] { return state(axis).enabled; }, std::chrono::seconds(10))) {
+        return ::testing::AssertionFailure() << axis << " not enabled";
+      }
+    }
+    return ::testing::AssertionSuccess();
+  }
+
+  // The last AXIS_STATE of `axis` (seen by start()).
+  const motionlcm::axis_state_t& state(const std::string& axis) { return client_.axes().at(axis); }
+  double position(const std::string& axis) { return state(axis).position; }
+  // Waits until `axis` is at rest within `tolerance` (user units) of `where`.
+  bool settled_at(const std::string& axis, double where, double tolerance, std::chrono::milliseconds timeout = std::chrono::seconds(10)) {
+    return client_.wait_until([&] { return !state(axis).moving && std::abs(position(axis) - where) <= tolerance; }, timeout);
+  }
+  // Pumps the loop for `period` (lets a few status polls come in; asserts nothing about time).
+  void pause(std::chrono::milliseconds period) { client_.wait_until([] { return false; }, period); }
+
+  // An EVENT of `kind` for `axis` ("" = any) whose text contains `text`, seen so far.
+  [[nodiscard]] bool has_event(std::int16_t kind, const std::string& axis, const std::string& text) const {
+    return std::any_of(events_.begin(), events_.end(), [&](const motionlcm::event_t& e) {
+      return e.kind == kind && (axis.empty() || e.axis == axis) && e.text.find(text) != std::string::npos;
+    });
+  }
+  // The last STARTED a gateway sent (start mechanism, trigger time, predicted skew); null if none.
+  [[nodiscard]] const motionlcm::gateway_reply_t* last_gateway_started() const {
+    const auto it = std::find_if(gateway_replies_.rbegin(), gateway_replies_.rend(),
+                                 [](const motionlcm::gateway_reply_t& r) { return r.status == motionlcm::gateway_reply_t::STARTED; });
+    return it == gateway_replies_.rend() ? nullptr : &*it;
   }
 
   // Sends a request and waits for its terminal reply; `seen` collects every reply.
@@ -106,6 +151,8 @@ class SimLab {
   config::Config config_;
   client::Client client_;
   std::vector<motionlcm::sim_report_t> reports_;
+  std::vector<motionlcm::event_t> events_;
+  std::vector<motionlcm::gateway_reply_t> gateway_replies_;
 };
 
 }  // namespace motion::testing

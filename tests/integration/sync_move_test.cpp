@@ -1,6 +1,6 @@
 // Synchronized multi-axis moves over every drive family of the simulated lab (config/sim-lab.yaml):
-// client -> coordinator -> gateways can0 (UIM342 + UC57), rs485 (ADAM Modbus), rs232 (UIM242, when
-// its driver brings u online) -> simulated drives, and back. The simulated drives' reports
+// client -> coordinator -> gateways can0 (UIM342 + UC57), rs485 (ADAM Modbus), rs232 (UIM242 via a
+// UIM2501) -> simulated drives, and back. The simulated drives' reports
 // (SIM_REPORT) are the ground truth for the start frames; every request's replies on REPLY are
 // counted by a listener of its own (the client stops listening after the terminal one), so a
 // second terminal reply would be seen. No timed assertions: waits are bounded, nothing asserts on
@@ -30,7 +30,7 @@ using Values = std::map<std::string, double>;
 std::int8_t st(std::int8_t s) { return s; }
 std::int32_t code(ReplyError e) { return error_code(e); }
 
-const std::vector<std::string> kRequiredAxes{"x", "y", "z", "a", "b", "c"};
+const std::vector<std::string> kRequiredAxes{"x", "y", "z", "a", "b", "c", "u"};
 
 // Targets of the full synchronized move (user units), well inside the limits; a and b fast
 // enough (> the UC57 start speed 200Eh, 60 deg/s at 3200 pulses/rev) to have ramps at all.
@@ -44,8 +44,6 @@ class SyncMove : public ::testing::Test {
     });
     ASSERT_TRUE(lab.start(kRequiredAxes));
     axes = kRequiredAxes;
-    // u joins when the UIM242 gateway brings it online (its driver is still being written).
-    if (lab.client().wait_until([&] { return online("u"); }, seconds(3))) axes.push_back("u");
     const auto enabled = lab.call(Client::make(request_t::ENABLE, axes));
     ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;
   }
@@ -53,10 +51,6 @@ class SyncMove : public ::testing::Test {
     if (HasFailure()) lab.group().print_logs();
   }
 
-  bool online(const std::string& axis) {
-    const auto it = lab.client().axes().find(axis);
-    return it != lab.client().axes().end() && it->second.online;
-  }
   double position(const std::string& axis) { return lab.client().axes().at(axis).position; }
   bool moving(const std::string& axis) { return lab.client().axes().at(axis).moving; }
   double tolerance(const std::string& axis) { return 1.0 / lab.config().find_axis(axis)->steps_per_unit + 1e-9; }

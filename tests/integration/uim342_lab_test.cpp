@@ -59,18 +59,14 @@ class Uim342Lab : public ::testing::Test {
   void SetUp() override {
     lab.client().on_event([this](const event_t& e) { events.push_back(e); });
     ASSERT_TRUE(lab.start(kAxes));
-    const auto enabled = lab.call(Client::make(request_t::ENABLE, kAxes));
-    ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;
-    for (const auto& axis : kAxes) {
-      ASSERT_TRUE(lab.client().wait_until([&] { return state(axis).enabled; }, seconds(10))) << axis << " not enabled";
-    }
+    ASSERT_TRUE(lab.enable(kAxes));
   }
   void TearDown() override {
     if (HasFailure()) lab.group().print_logs();
   }
 
-  const motionlcm::axis_state_t& state(const std::string& axis) { return lab.client().axes().at(axis); }
-  double position(const std::string& axis) { return state(axis).position; }
+  const motionlcm::axis_state_t& state(const std::string& axis) { return lab.state(axis); }
+  double position(const std::string& axis) { return lab.position(axis); }
   bool settled_at(const std::string& axis, double target) {
     return !state(axis).moving && std::abs(position(axis) - target) <= kTolerance;
   }
@@ -89,10 +85,7 @@ class Uim342Lab : public ::testing::Test {
     }
     return out;
   }
-  // Pumps the loop for `period` (lets a few status polls come in; asserts nothing about time).
-  void pause(std::chrono::milliseconds period) {
-    lab.client().wait_until([] { return false; }, period);
-  }
+  void pause(std::chrono::milliseconds period) { lab.pause(period); }
 
   SimLab lab;
   std::vector<event_t> events;

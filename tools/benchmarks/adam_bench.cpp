@@ -1,5 +1,5 @@
 // ADAM Modbus RTU line benchmark: our RTU master (AdamBusDriver around MasterCore) polling N
-// simulated drives (AdamSerialHost, slaves 1…N) over pseudo-terminals, both on ONE EventLoop in
+// simulated drives (AdamLineSim, slaves 1…N) over pseudo-terminals, both on ONE EventLoop in
 // this process, exactly as motion-gateway and motion-sim run them. One table; every figure sits
 // next to the wire-time bound of the same frames and their ratio. Nothing is asserted.
 //
@@ -45,7 +45,7 @@
 #include "motion/core/event_loop.hpp"
 #include "motion/serial/pty_link.hpp"
 #include "motion/serial/serial_port.hpp"
-#include "motion/sim/adam_serial_host.hpp"
+#include "motion/sim/adam_line_sim.hpp"
 
 namespace motion {
 namespace {
@@ -185,7 +185,7 @@ LineResult run_line(int drives, int baud, bool paced, int commands, Duration win
 
   EventLoop loop;
   std::error_code error;
-  auto host = sim::AdamSerialHost::open(loop, config, bus, {}, error);
+  auto host = sim::open_adam_line(loop, config, bus, {}, error);
   if (!host) {
     result.failure = "simulator: " + error.message();
     return result;
@@ -279,7 +279,7 @@ double percentile(std::vector<double> v, double p) {
 int run(bool quick) {
   const int commands = quick ? 40 : 200;
   const Duration window = quick ? 300ms : 1s;
-  std::printf("ADAM Modbus RTU line: AdamBusDriver (our master) polling N simulated drives (AdamSerialHost) on one EventLoop, over ptys\n");
+  std::printf("ADAM Modbus RTU line: AdamBusDriver (our master) polling N simulated drives (AdamLineSim) on one EventLoop, over ptys\n");
   std::printf("poll cycle = every drive read once (2 transactions, 38 bytes); bound = bytes x bits/char / baud + t3.5 before every frame\n");
   std::printf("pty = bytes delivered at once; wire = relay pacing bytes at the baud rate with t3.5 silences (half duplex)\n");
   std::printf("command = PARAM_READ of one register while polling saturates the line, queued -> reply frame complete (wire model)\n\n");

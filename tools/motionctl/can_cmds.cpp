@@ -3,8 +3,9 @@
 //   motionctl dump BUS [--count N] [--for SECONDS]   every frame on the bus as `candump -L` lines
 //   motionctl send BUS ID#DATA [ID#DATA...]           frames in `cansend` syntax
 //
-// Both reach the bus through gateway::open_can_transport() (simcan: or socketcan:), like the
-// gateways, and need no LCM. dump writes only log lines to stdout (one flushed line per frame, so
+// Both reach the bus through gateway::open_can_transport() (simcan:, socketcan: or uimessage:,
+// where "seen on the bus" means written to the gateway's serial port), like the gateways, and
+// need no LCM. dump writes only log lines to stdout (one flushed line per frame, so
 // `> file` and pipes see each frame at once); diagnostics go to stderr, starting with
 // "listening on BUS" once the bus delivers to it (for scripts: frames sent after that line are
 // dumped). send returns when every frame has been seen on the bus (own echo), so exit status 0
@@ -79,7 +80,7 @@ const config::Bus* find_can_bus(const config::Config& config, const std::string&
   }
   if (!config::is_can(bus->kind)) {
     std::cerr << "motionctl " << command << ": bus " << bus->name << " (" << bus->transport
-              << ") is not a CAN bus (CAN transports: simcan:NAME, socketcan:IFACE)\n";
+              << ") is not a CAN bus (CAN transports: simcan:NAME, socketcan:IFACE, uimessage:DEVICE)\n";
     return nullptr;
   }
   return bus;

@@ -1,110 +1,19 @@
 #include "motion/adam_driver/adam_bus_driver.hpp"
 
-#include <array>
 #include <utility>
-
-#include <motionlcm/event_t.hpp>
 
 namespace motion::adam_driver {
 
 AdamBusDriver::AdamBusDriver(EventLoop& loop, MasterSettings settings, std::string device_path,
                              serial::SerialSettings line, gateway::GatewayOutput& out)
-    : loop_(loop),
-      device_path_(std::move(device_path)),
-      line_(line),
-      out_(out),
-      core_(
-          std::move(settings),
-          [this](std::span<const std::uint8_t> frame) { return port_ != nullptr && !port_->write(frame); }, out) {}
+    : SerialBusDriver(loop, settings.bus, std::move(device_path), line, out, [&settings, &out](Write write) {
+        return std::make_unique<MasterCore>(std::move(settings), std::move(write), out);
+      }) {}
 
 std::unique_ptr<AdamBusDriver> AdamBusDriver::create(EventLoop& loop, const config::Config& config,
                                                      const config::Bus& bus, gateway::GatewayOutput& out) {
   return std::make_unique<AdamBusDriver>(loop, settings_from_config(config, bus), serial::device_path(config, bus),
                                          serial::settings_from(bus), out);
 }
-
-AdamBusDriver::~AdamBusDriver() {
-  if (timer_ != 0) loop_.cancel(timer_);
-  if (reopen_timer_ != 0) loop_.cancel(reopen_timer_);
-  if (port_) loop_.unwatch(port_->fd());
-}
-
-void AdamBusDriver::start() { try_open(); }
-
-void AdamBusDriver::try_open() {
-  reopen_timer_ = 0;
-  std::error_code error;
-  port_ = serial::SerialPort::open(device_path_, line_, error);
-  if (!port_) {
-    const std::string text = "cannot open " + device_path_ + " for bus " + core_.settings().bus + ": " + error.message();
-    if (text != last_open_error_) {  // one event per distinct cause, not one per retry
-      gateway::DriveEvent e;
-      e.kind = motionlcm::event_t::OFFLINE;
-      e.severity = motionlcm::event_t::ERROR;
-      e.text = text;
-      out_.axis_event({}, e);
-      last_open_error_ = text;
-    }
-    reopen_timer_ = loop_.call_after(reopen_period, [this] { try_open(); });
-    return;
-  }
-  last_open_error_.clear();
-  loop_.watch(port_->fd(), [this] { on_readable(); });
-  core_.start(loop_.now());
-  pump();
-}
-
-void AdamBusDriver::close_port(const std::string& why) {
-  if (!port_) return;
-  loop_.unwatch(port_->fd());
-  port_.reset();
-  core_.line_lost(why, loop_.now());
-  if (reopen_timer_ == 0) reopen_timer_ = loop_.call_after(reopen_period, [this] { try_open(); });
-}
-
-void AdamBusDriver::on_readable() {
-  std::array<std::uint8_t, 512> buffer{};
-  for (;;) {
-    if (!port_) return;
-    std::error_code error;
-    const std::size_t n = port_->read(buffer, error);
-    if (error) {
-      close_port(error.message());
-      break;
-    }
-    if (n == 0) break;
-    core_.on_bytes(std::span<const std::uint8_t>(buffer.data(), n), loop_.now());
-  }
-  pump();
-}
-
-void AdamBusDriver::pump() {
-  const TimePoint deadline = core_.process(loop_.now());
-  if (timer_ != 0) loop_.cancel(timer_);
-  timer_ = 0;
-  if (deadline == kNever) return;
-  timer_ = loop_.call_at(deadline, [this] {
-    timer_ = 0;
-    pump();
-  });
-}
-
-void AdamBusDriver::execute(const motionlcm::gateway_command_t& command) {
-  core_.execute(command, loop_.now());
-  pump();
-}
-
-void AdamBusDriver::fire(std::int64_t trigger_id) {
-  core_.fire(trigger_id, loop_.now());
-  pump();
-}
-
-std::vector<motionlcm::bus_stats_t> AdamBusDriver::statistics() const {
-  auto stats = core_.statistics();
-  if (!port_) stats.state = "closed";
-  return {stats};
-}
-
-bool AdamBusDriver::ready() const { return port_ != nullptr && core_.ready(); }
 
 }  // namespace motion::adam_driver

@@ -61,6 +61,7 @@ void SdoClient::cancel(NodeId node) {
   std::deque<Transfer> dropped;
   if (channel.active) {
     if (sink_) sink_(sdo_request_frame(node, SdoAbort{channel.active->object, code(SdoAbortCode::kGeneralError)}));
+    abandon(channel, channel.active->object);
     dropped.push_back(std::move(*channel.active));
     channel.active.reset();
   }
@@ -83,8 +84,26 @@ bool SdoClient::on_frame(const can::Frame& frame, TimePoint now) {
          now);
     return true;
   }
+  if (is_late_answer(it->second, *response)) return true;
   handle_response(info->node, it->second, *response, now);
   return true;
+}
+
+void SdoClient::abandon(Channel& channel, ObjectAddress object) {
+  constexpr std::size_t kRemembered = 8;  // a bound for a channel that is never idle
+  if (channel.abandoned.size() == kRemembered) channel.abandoned.erase(channel.abandoned.begin());
+  channel.abandoned.push_back(object);
+}
+
+// An answer naming another object than the active transfer's, one whose request this client gave
+// up: the server answered after the timeout (the abort crossed its answer on the bus).
+bool SdoClient::is_late_answer(const Channel& channel, const SdoResponse& response) {
+  const ObjectAddress* object = nullptr;
+  if (const auto* upload = std::get_if<SdoInitiateUploadResponse>(&response)) object = &upload->object;
+  if (const auto* download = std::get_if<SdoInitiateDownloadResponse>(&response)) object = &download->object;
+  if (const auto* abort = std::get_if<SdoAbort>(&response)) object = &abort->object;
+  if (object == nullptr || *object == channel.active->object) return false;
+  return std::find(channel.abandoned.begin(), channel.abandoned.end(), *object) != channel.abandoned.end();
 }
 
 TimePoint SdoClient::process(TimePoint now) {
@@ -239,6 +258,7 @@ void SdoClient::handle_response(NodeId node, Channel& channel, const SdoResponse
 void SdoClient::handle_timeout(NodeId node, Channel& channel, TimePoint now) {
   Transfer& transfer = *channel.active;
   if (sink_) sink_(sdo_request_frame(node, SdoAbort{transfer.object, code(SdoAbortCode::kTimeout)}));
+  abandon(channel, transfer.object);
   if (transfer.attempt < config_of(channel).max_retries) {
     ++transfer.attempt;
     send_initiate(node, channel, now);
@@ -263,6 +283,7 @@ void SdoClient::complete(NodeId node, Channel& channel, std::error_code error, T
     finished.done(error, with_data ? std::span<const std::uint8_t>(finished.data) : std::span<const std::uint8_t>{});
   }
   start_next(node, channel, now);
+  if (!channel.active) channel.abandoned.clear();  // late answers are dropped as "no transfer" now
 }
 
 }  // namespace motion::canopen

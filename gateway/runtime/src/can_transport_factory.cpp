@@ -3,6 +3,7 @@
 #include "motion/can/socketcan.hpp"
 #include "motion/simbus/address.hpp"
 #include "motion/simbus/endpoint.hpp"
+#include "motion/uimessage/uimessage_transport.hpp"
 
 namespace motion::gateway {
 namespace {
@@ -12,7 +13,8 @@ class Category final : public std::error_category {
   [[nodiscard]] const char* name() const noexcept override { return "motion.can_transport"; }
   [[nodiscard]] std::string message(int value) const override {
     switch (static_cast<TransportError>(value)) {
-      case TransportError::kNotCanBus: return "not a CAN bus (CAN transports: simcan:NAME, socketcan:IFACE)";
+      case TransportError::kNotCanBus:
+        return "not a CAN bus (CAN transports: simcan:NAME, socketcan:IFACE, uimessage:DEVICE)";
     }
     return "unknown transport error " + std::to_string(value);
   }
@@ -39,6 +41,13 @@ std::unique_ptr<can::Transport> open_socketcan(const config::Bus& bus, std::erro
   return transport;
 }
 
+// A UIROBOT serial gateway (motion/uimessage/uimessage_transport.hpp): the port at the bus's
+// baud/parity/stop bits, the CRC coverage of uimessage_crc / uimessage_crc_strict. The CAN bit
+// rate is the gateway's own setting; the configured one is not sent anywhere.
+std::unique_ptr<can::Transport> open_uimessage(const config::Bus& bus, std::error_code& error) {
+  return uimessage::UiMessageTransport::open(bus.target, serial::settings_from(bus), uimessage::options_from(bus), error);
+}
+
 }  // namespace
 
 const std::error_category& transport_error_category() {
@@ -54,6 +63,7 @@ std::unique_ptr<can::Transport> open_can_transport(const config::Config& config,
   switch (bus.kind) {
     case config::TransportKind::kSimCan: return open_simcan(config, bus, std::move(label), error);
     case config::TransportKind::kSocketCan: return open_socketcan(bus, error);  // label: not listed anywhere
+    case config::TransportKind::kUiMessage: return open_uimessage(bus, error);
     case config::TransportKind::kSerial:
     case config::TransportKind::kSimSerial: break;
   }
@@ -75,6 +85,13 @@ std::string open_error_message(const config::Config& config, const config::Bus& 
   if (bus.kind == config::TransportKind::kSocketCan) {
     // SocketCAN's errors already name the interface and the remedy (socketcan_error.hpp).
     return out + error.message();
+  }
+  if (bus.kind == config::TransportKind::kUiMessage) {
+    out += "cannot open serial port " + bus.target + " at " + std::to_string(bus.baud) + " baud: " + error.message();
+    if (error == std::errc::no_such_file_or_directory) return out + " (is the UIROBOT gateway plugged in? see ls /dev/serial/by-id)";
+    if (error == std::errc::permission_denied) return out + " (add the user to the dialout group)";
+    if (error == std::errc::inappropriate_io_control_operation) return out + " (not a serial port)";
+    return out;
   }
   return out + error.message();
 }

@@ -1,6 +1,7 @@
 #include "motion/serial/serial_port.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
@@ -42,10 +43,13 @@ std::string simserial_link_path(const config::Config& config, const config::Bus&
 
 std::string device_path(const config::Config& config, const config::Bus& bus) {
   switch (bus.kind) {
-    case config::TransportKind::kSerial: return bus.target;
+    case config::TransportKind::kSerial:
+    case config::TransportKind::kUiMessage: return bus.target;
     case config::TransportKind::kSimSerial: return simserial_link_path(config, bus);
-    default: return {};
+    case config::TransportKind::kSimCan:
+    case config::TransportKind::kSocketCan: return {};
   }
+  return {};
 }
 
 bool termios_speed(int baud, unsigned& speed_constant) {
@@ -111,7 +115,13 @@ std::size_t SerialPort::read(std::span<std::uint8_t> buffer, std::error_code& er
   error.clear();
   const ssize_t n = ::read(fd_, buffer.data(), buffer.size());
   if (n > 0) return static_cast<std::size_t>(n);
-  if (n == 0) return 0;  // VMIN = 0: nothing there
+  if (n == 0) {
+    // VMIN = 0: nothing there, or a hung-up line (pty master closed, adapter unplugged), which
+    // reads 0 for ever while polling POLLHUP: tell them apart, or the loop would spin.
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, 0) == 1 && (p.revents & (POLLHUP | POLLERR | POLLNVAL)) != 0) error = std::make_error_code(std::errc::io_error);
+    return 0;
+  }
   if (errno == EAGAIN || errno == EINTR) return 0;
   error = last_error();
   return 0;

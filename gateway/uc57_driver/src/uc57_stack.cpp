@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cinttypes>
 #include <cstdio>
+#include <utility>
 
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/param_t.hpp>
@@ -135,6 +136,8 @@ struct Uc57Stack::Node {
 
   std::optional<std::uint16_t> statusword;
   std::int8_t mode_display = 0;
+  // Synchronous TPDOs: this SYNC's TPDO1, held until its TPDO2 so that both count as one sample.
+  std::optional<Tpdo1> held_tpdo1;
   gateway::DriveStatus status;
   bool fault_seen = false;       // a fault edge was handled (event, 603Fh read)
   TimePoint next_position_poll = kNever;
@@ -153,6 +156,9 @@ struct Uc57Stack::Job {
   std::vector<std::size_t> nodes;
   std::vector<Part> parts;
   bool started = false;
+  // A stop's unreachable (offline) nodes: the others are still stopped, then the reply fails.
+  std::int32_t unreached_code = 0;
+  std::string unreached;
 
   [[nodiscard]] std::size_t slot(std::size_t n) const {
     return static_cast<std::size_t>(std::find(nodes.begin(), nodes.end(), n) - nodes.begin());
@@ -229,6 +235,11 @@ void Uc57Stack::add_statistics(motionlcm::bus_stats_t& stats) const {
       std::count_if(nodes_.begin(), nodes_.end(), [](const auto& node) { return node->status.online; }));
 }
 
+std::string Uc57Stack::offline_text(std::size_t n) const {
+  const Node& node = *nodes_[n];
+  return node.settings.label() + " is offline" + (node.offline_reason.empty() ? "" : ": " + node.offline_reason);
+}
+
 void Uc57Stack::event(std::size_t n, std::int16_t kind, std::int8_t severity, std::int32_t code, const std::string& text) {
   if (context_.out == nullptr) return;
   gateway::DriveEvent e;
@@ -272,6 +283,7 @@ void Uc57Stack::begin_probe(std::size_t n, TimePoint /*now*/) {
   ++node.session;
   master_.sdo().cancel(node.settings.node);
   node.rpdo_queue.clear();
+  node.held_tpdo1.reset();
   auto ops = std::make_shared<std::vector<ConfigOp>>(configuration_ops(n));
   run_config(n, node.session, std::move(ops), 0);
 }
@@ -394,6 +406,16 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
                                return next(std::nullopt);
                              }
                              count_sdo_result(result.error);
+                             // Only an abort is the drive's answer. Without one (a timeout, a late reply
+                             // to an earlier request) the step may have been applied, the first one
+                             // too (1400h:01 invalid: RPDO1 off): reset, configure again, try the remap again.
+                             const bool refused = result.error.category() == canopen::sdo_category() &&
+                                                  result.error != canopen::SdoAbortCode::kTimeout;
+                             if (!refused) {
+                               master_.nmt().send(canopen::NmtCommand::kResetNode, remapped.settings.node);
+                               return next(remapped.settings.label() + ": RPDO1 remap step " + std::to_string(result.failed_step + 1) +
+                                           " got no usable answer (" + result.error.message() + "); node reset to restore its stored PDO mapping");
+                             }
                              remapped.remap_refused = true;
                              remapped.layout = RpdoLayout::kManualDefault;
                              const std::string why = remapped.settings.label() + ": RPDO1 remap refused at step " +
@@ -519,6 +541,7 @@ void Uc57Stack::go_offline(std::size_t n, std::int16_t event_kind, const std::st
   node.phase = Node::Phase::kOffline;
   node.starting_deadline = kNever;
   node.rpdo_queue.clear();
+  node.held_tpdo1.reset();
   node.statusword.reset();
   node.status.online = false;
   node.offline_reason = reason;
@@ -787,15 +810,17 @@ void Uc57Stack::on_pdo(std::size_t n, const can::Frame& frame, TimePoint now) {
       ++counters_.protocol_errors;
       return;
     }
+    if (node.settings.tpdo_mode == TpdoMode::kSync && node.tpdo2_active) {
+      // Both TPDOs sample one SYNC instant: the statusword waits for its position (TPDO2, next on
+      // the bus), or a "homed" / "stopped" would go out next to the previous SYNC's position.
+      if (node.held_tpdo1) take_tpdo1(n, *std::exchange(node.held_tpdo1, std::nullopt), now);  // its TPDO2 was lost
+      node.held_tpdo1 = *tpdo;
+      return;
+    }
     // TPDO2 (position) publishes every sample; TPDO1 only when what it reports changed, so a
     // state change shows at once also with event-driven TPDOs, where TPDO2 may stay silent.
-    const bool changed = node.statusword != tpdo->statusword || node.status.inputs != inputs_from_60fd(tpdo->digital_inputs);
-    node.statusword = tpdo->statusword;
-    node.mode_display = tpdo->mode_display;
-    node.status.inputs = inputs_from_60fd(tpdo->digital_inputs);
     node.status.sample_utime = frame.timestamp_us;
-    on_statusword(n, now);
-    if (changed || !node.tpdo2_active) publish_status(n);
+    if (take_tpdo1(n, *tpdo, now) || !node.tpdo2_active) publish_status(n);
   } else if (info->pdo_number == 2 && node.tpdo2_active) {
     const auto tpdo = decode_tpdo2(frame.payload());
     if (!tpdo) {
@@ -805,8 +830,21 @@ void Uc57Stack::on_pdo(std::size_t n, const can::Frame& frame, TimePoint now) {
     node.status.position_counts = tpdo->position;
     node.status.velocity_counts = cia402::uc57::rpm_to_pulses_per_second(tpdo->velocity_rpm, node.pulses_per_rev);
     node.status.sample_utime = frame.timestamp_us;
+    // The task sees the statusword with this position (a DONE is followed by the state it reached).
+    if (node.held_tpdo1) take_tpdo1(n, *std::exchange(node.held_tpdo1, std::nullopt), now);
     publish_status(n);
   }
+}
+
+bool Uc57Stack::take_tpdo1(std::size_t n, const Tpdo1& tpdo, TimePoint now) {
+  Node& node = *nodes_[n];
+  const std::int32_t inputs = inputs_from_60fd(tpdo.digital_inputs);
+  const bool changed = node.statusword != tpdo.statusword || node.status.inputs != inputs;
+  node.statusword = tpdo.statusword;
+  node.mode_display = tpdo.mode_display;
+  node.status.inputs = inputs;
+  on_statusword(n, now);
+  return changed;
 }
 
 void Uc57Stack::publish_status(std::size_t n) {
@@ -966,7 +1004,14 @@ void Uc57Stack::part_done(std::int64_t command_id, std::size_t n) {
   Job& job = it->second;
   job.parts[job.slot(n)] = Job::Part::kDone;
   if (!job.all(Job::Part::kDone)) return;
-  reply(job, Reply::DONE);
+  // The state the command left its axes in goes out first: whoever acts on the reply (the
+  // coordinator checking "enabled" for the next move, a client reading "homed") has it by then.
+  for (const std::size_t done : job.nodes) publish_status(done);
+  if (job.unreached.empty()) {
+    reply(job, Reply::DONE);
+  } else {
+    reply(job, Reply::FAILED, job.unreached_code, job.unreached);
+  }
   jobs_.erase(it);
 }
 
@@ -1050,16 +1095,18 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
   job.parts.assign(job.nodes.size(), Job::Part::kRunning);
 
   const std::int8_t kind = command.kind;
-  const bool preempts = kind == Command::STOP || kind == Command::ESTOP || kind == Command::DISABLE || kind == Command::FAULT_RESET;
+  const bool stops = kind == Command::STOP || kind == Command::ESTOP;
+  const bool preempts = stops || kind == Command::DISABLE || kind == Command::FAULT_RESET;
   // Parameter and output commands are plain SDO transfers: they may run next to a motion.
   const bool needs_slot = kind != Command::DISARM && kind != Command::PARAM_READ && kind != Command::PARAM_WRITE &&
                           kind != Command::SET_OUTPUTS;
   // Checks first, so that a refused command starts nothing on the wire.
   for (const std::size_t n : job.nodes) {
     const Node& node = *nodes_[n];
-    if (node.phase != Node::Phase::kOperational) {
-      return fail_command(command, error_code(ReplyError::kAxisOffline),
-                          node.settings.label() + " is offline" + (node.offline_reason.empty() ? "" : ": " + node.offline_reason));
+    // A stop naming an offline node must still stop the others (a group aborted because one of
+    // its nodes fell silent): that node only makes the reply fail, below.
+    if (node.phase != Node::Phase::kOperational && !stops) {
+      return fail_command(command, error_code(ReplyError::kAxisOffline), offline_text(n));
     }
     if (needs_slot && !preempts && node.task != TaskKind::kNone) {
       return fail_command(command, error_code(ReplyError::kAxisBusy),
@@ -1093,6 +1140,12 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
     if (jobs_.find(id) == jobs_.end()) return;  // an earlier part already ended the command
     const std::size_t n = targets[i];
     const auto& axis = command.axes[i];
+    if (stops && nodes_[n]->phase != Node::Phase::kOperational) {
+      live.unreached += (live.unreached.empty() ? "" : "; ") + offline_text(n);
+      live.unreached_code = error_code(ReplyError::kAxisOffline);
+      part_done(id, n);
+      continue;
+    }
     switch (kind) {
       case Command::ENABLE: start_power(n, live, State::kOperationEnabled, now); break;
       case Command::DISABLE:

@@ -332,6 +332,23 @@ void Uim242BusCore::start(TimePoint now) {
   next_identify_ = now + kIdentifyRetry;
 }
 
+void Uim242BusCore::line_lost(const std::string& why, TimePoint now) {
+  const std::string reason = fmt::format("serial line of bus {} lost: {}", bus_, why);
+  started_ = false;
+  if (context_.out) context_.out->axis_event({}, gateway::DriveEvent{event_t::OFFLINE, event_t::ERROR, 0, reason});
+  std::vector<std::int64_t> running;
+  for (const auto& [id, c] : commands_) running.push_back(id);
+  for (const auto id : running) finish(id, false, reason, kTimeout);
+  // Nothing sent before the loss will be answered: forget it, and any half-received frame.
+  channel_.reset();
+  framer_.reset();
+  polls_outstanding_ = 0;
+  for (auto& d : drives_) {
+    d->identifying = false;
+    mark_offline(*d, reason, now);
+  }
+}
+
 void Uim242BusCore::identify(Drive& d, TimePoint /*now*/) {
   if (d.identifying) return;
   d.identifying = true;

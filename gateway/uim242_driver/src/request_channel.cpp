@@ -27,6 +27,12 @@ void RequestChannel::cancel(std::int64_t group) {
   if (in_flight_ && in_flight_->request.group == group) in_flight_->cancelled = true;
 }
 
+void RequestChannel::reset() {
+  queue_.clear();
+  in_flight_.reset();
+  selected_ = 0;
+}
+
 void RequestChannel::transmit(InFlight& f, TimePoint now) {
   const uim242::Instruction instruction =
       f.is_selection ? uim242::Instruction{uim242::Mnemonic::ADR, false, f.request.node, false} : f.request.instruction;

@@ -49,6 +49,8 @@ class CodecCategory final : public std::error_category {
       case CodecErrc::value_out_of_range: return "value outside the range of its wire field";
       case CodecErrc::ack_bit_in_reply: return "drive frame with CW bit 7 set";
       case CodecErrc::not_a_notification: return "not a real-time notification (CW 0x5A)";
+      case CodecErrc::producer_not_host:
+        return "a UIMessage has no producer field: a serial gateway carries only instructions from the host (producer 4)";
     }
     return "unknown uim342 codec error";
   }

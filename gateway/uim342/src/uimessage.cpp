@@ -92,4 +92,21 @@ Result<DecodedUiMessage> decode_ui_message(std::span<const std::uint8_t> frame, 
   return out;
 }
 
+Result<UiMessage> instruction_to_ui(const CanMessage& instruction, std::uint8_t host) {
+  if (instruction.address.producer != host) return CodecErrc::producer_not_host;
+  return UiMessage{instruction.address.consumer, instruction.message, 0};
+}
+
+CanMessage drive_message_from_ui(const UiMessage& drive_message, std::uint8_t host) {
+  return {drive_to_host(drive_message.id, host), drive_message.message};
+}
+
+CanMessage instruction_from_ui(const UiMessage& instruction, std::uint8_t host) {
+  return {host_to(instruction.id, host), instruction.message};
+}
+
+UiMessage drive_message_to_ui(const CanMessage& drive_message) {
+  return {drive_message.address.producer, drive_message.message, 0};
+}
+
 }  // namespace motion::uim342

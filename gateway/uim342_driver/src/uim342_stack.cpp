@@ -137,6 +137,7 @@ struct Uim342Stack::Impl {
     std::int64_t trigger_utime = 0;
     std::string mechanism;
     double skew_us = 0;
+    std::string unreached;  // a stop's offline nodes: the others are still stopped, then it fails
   };
 
   Impl(Uim342StackConfig c, CanStackContext ctx, WallClock wc, Counters& shared_counters)
@@ -564,7 +565,11 @@ struct Uim342Stack::Impl {
 
   void stage_done(Command& c, TimePoint now) {
     if (c.cmd.kind != gateway_command_t::ARM_MOVE) {
-      finish(c.cmd.command_id, gateway_reply_t::DONE);
+      if (c.unreached.empty()) {
+        finish(c.cmd.command_id, gateway_reply_t::DONE);
+      } else {
+        fail(c.cmd.command_id, error_code(ReplyError::kAxisOffline), c.unreached);
+      }
       return;
     }
     switch (c.stage) {
@@ -631,9 +636,11 @@ struct Uim342Stack::Impl {
       c.targets[*i] = a.target_counts;
     }
     const bool needs_drive = cmd.kind != gateway_command_t::DISARM;
+    const bool stops = cmd.kind == gateway_command_t::STOP || cmd.kind == gateway_command_t::ESTOP;
     for (const auto i : c.nodes) {
       const Node& n = nodes[i];
-      if (needs_drive && n.phase == Phase::offline) {
+      // A stop naming an offline drive still stops the others (see load()).
+      if (needs_drive && n.phase == Phase::offline && !stops) {
         reply_to(cmd, gateway_reply_t::FAILED, fmt::format("{} is offline", n.name()), error_code(ReplyError::kAxisOffline));
         return;
       }
@@ -697,6 +704,10 @@ struct Uim342Stack::Impl {
         const bool emergency = c.cmd.kind == gateway_command_t::ESTOP;
         for (const auto i : c.nodes) {
           Node& n = nodes[i];
+          if (n.phase == Phase::offline) {
+            c.unreached += fmt::format("{}{} is offline", c.unreached.empty() ? "" : "; ", n.name());
+            continue;
+          }
           const auto reason = fmt::format("{} stopped by {} command {}", n.name(), command_name(c.cmd.kind), id);
           if (emergency) {
             fail_commands_of(i, error_code(ReplyError::kStopped), reason, id);  // nothing queued goes out after an e-stop

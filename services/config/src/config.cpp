@@ -80,7 +80,16 @@ IdRange node_id_range(Family family) {
   return {0, 0};
 }
 
-bool is_can(TransportKind kind) { return kind == TransportKind::kSimCan || kind == TransportKind::kSocketCan; }
+bool is_can(TransportKind kind) {
+  switch (kind) {
+    case TransportKind::kSimCan:
+    case TransportKind::kSocketCan:
+    case TransportKind::kUiMessage: return true;
+    case TransportKind::kSerial:
+    case TransportKind::kSimSerial: return false;
+  }
+  return false;
+}
 
 std::string ConfigError::message() const {
   std::ostringstream out;
@@ -233,9 +242,28 @@ void positive(Reader& r, const YAML::Node& at, const std::string& key, double va
   if (!(value > 0)) r.error(at, key, "must be greater than zero, got " + std::to_string(value));
 }
 
+// The UIMessage CRC keys: values, and only on uimessage: buses (elsewhere they would be ignored).
+void read_uimessage_keys(Reader& r, const YAML::Node& node, const std::string& path, Bus& bus) {
+  const auto only_here = [&](const char* key) {
+    if (bus.kind != TransportKind::kUiMessage && !bus.transport.empty()) {
+      r.error(node[key], path + "." + key, std::string("only for uimessage: buses (a UIROBOT serial gateway), but this bus is ") + bus.transport);
+    }
+  };
+  if (auto v = r.get<std::string>(node, path, "uimessage_crc", false)) {
+    if (*v == "start_to_aux") bus.uimessage_crc = UiMessageCrc::kStartToAux;
+    else if (*v == "id_to_aux") bus.uimessage_crc = UiMessageCrc::kIdToAux;
+    else r.error(node["uimessage_crc"], path + ".uimessage_crc", "expected start_to_aux (CRC over SM..d8, the manual) or id_to_aux (over ID..d8, UIROBOT's gateway software), got '" + *v + "'");
+    only_here("uimessage_crc");
+  }
+  if (auto v = r.get<bool>(node, path, "uimessage_crc_strict", false)) {
+    bus.uimessage_crc_strict = *v;
+    only_here("uimessage_crc_strict");
+  }
+}
+
 void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& bus) {
   if (!r.check_map(node, path, {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits",
-                                "request_timeout_ms", "retries", "poll_hz"}))
+                                "uimessage_crc", "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz"}))
     return;
   bus.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "name", true)) bus.name = *v;
@@ -248,7 +276,8 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
     else if (scheme == "socketcan") bus.kind = TransportKind::kSocketCan;
     else if (scheme == "serial") bus.kind = TransportKind::kSerial;
     else if (scheme == "simserial") bus.kind = TransportKind::kSimSerial;
-    else r.error(node["transport"], path + ".transport", "unknown transport '" + *v + "' (use simcan:NAME, socketcan:IFACE, serial:DEVICE or simserial:NAME)");
+    else if (scheme == "uimessage") bus.kind = TransportKind::kUiMessage;
+    else r.error(node["transport"], path + ".transport", "unknown transport '" + *v + "' (use simcan:NAME, socketcan:IFACE, serial:DEVICE, simserial:NAME or uimessage:DEVICE)");
     if (colon != std::string::npos && bus.target.empty()) r.error(node["transport"], path + ".transport", "missing name after '" + scheme + ":'");
     if (colon == std::string::npos) r.error(node["transport"], path + ".transport", "expected SCHEME:NAME, got '" + *v + "'");
   }
@@ -273,6 +302,7 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
     bus.stop_bits = *v;
     if (*v != 1 && *v != 2) r.error(node["stop_bits"], path + ".stop_bits", "expected 1 or 2");
   }
+  read_uimessage_keys(r, node, path, bus);
   if (auto v = r.get<int>(node, path, "request_timeout_ms", false)) {
     bus.request_timeout_ms = *v;
     positive(r, node["request_timeout_ms"], path + ".request_timeout_ms", *v);
@@ -521,8 +551,12 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
     const bool can_family = d.family == Family::kUim342 || d.family == Family::kUc57;
     if (can_family != is_can(bus_it->second->kind)) {
       where_error(d.where.of("bus"), path + ".bus", std::string(to_string(d.family)) + " drive '" + d.name + "' needs a " +
-                  (can_family ? "CAN bus (simcan: or socketcan:)" : "serial bus (serial: or simserial:)") +
+                  (can_family ? "CAN bus (simcan:, socketcan: or, for uim342, uimessage:)" : "serial bus (serial: or simserial:)") +
                   ", but bus '" + d.bus + "' is " + bus_it->second->transport);
+    } else if (bus_it->second->kind == TransportKind::kUiMessage && d.family != Family::kUim342) {
+      where_error(d.where.of("bus"), path + ".bus", std::string(to_string(d.family)) + " drive '" + d.name +
+                  "' needs a CAN adapter (simcan: or socketcan:): bus '" + d.bus + "' is a UIROBOT serial gateway (" +
+                  bus_it->second->transport + "), which carries SimpleCAN 3.0 (uim342) frames only");
     }
     auto& space = node_ids[{d.bus, std::string(to_string(d.family))}];
     auto [it, inserted] = space.emplace(d.node_id, d.name);

@@ -1,5 +1,7 @@
 // motion-sim: the simulated buses and drives of a configuration. Every simulated CAN bus gets a
-// bit-timed hub that gateways attach to by name; every drive gets the simulator of its family.
+// bit-timed hub that gateways attach to by name; every simulated serial line a pty with the
+// device of its drives' family (ADAM RS485 slaves, a UIM2501 with UIM242s); every drive gets the
+// simulator of its family.
 // With --simulate-socketcan the drives of socketcan: buses are simulated on their interface too
 // (a vcan in tests: the gateway then talks real SocketCAN to them).
 #include <spdlog/spdlog.h>
@@ -7,9 +9,11 @@
 #include "motion/app/service.hpp"
 #include "motion/core/log.hpp"
 #include "motion/lcm/channels.hpp"
-#include "motion/sim/adam_serial_host.hpp"
+#include "motion/sim/adam_line_sim.hpp"
 #include "motion/sim/can_bus_host.hpp"
+#include "motion/sim/serial_line_host.hpp"
 #include "motion/sim/uc57_drive.hpp"
+#include "motion/sim/uim242_gateway_sim.hpp"
 #include "motion/sim/uim342_drive.hpp"
 
 int main(int argc, char** argv) {
@@ -32,10 +36,14 @@ int main(int argc, char** argv) {
         {config::Family::kUim342, sim::uim342_factory(*config)},
         {config::Family::kUc57, sim::uc57_drive_factory()},
     };
+    const sim::SerialLineHost::Factories serial_factories{
+        {config::Family::kAdamModbus, sim::adam_line_factory()},
+        {config::Family::kUim242, sim::uim242_line_factory()},
+    };
 
     auto report = [&service](motionlcm::sim_report_t r) { service.node().publish(motion::lcm::channels::kSimReport, r); };
     std::vector<std::unique_ptr<sim::CanBusHost>> can_buses;
-    std::vector<std::unique_ptr<sim::AdamSerialHost>> adam_buses;
+    std::vector<std::unique_ptr<sim::SerialLineHost>> serial_lines;
     std::vector<std::string> missing;
     for (const auto& bus : config->buses) {
       if (bus.kind == config::TransportKind::kSimCan) {
@@ -59,16 +67,17 @@ int main(int argc, char** argv) {
         missing.insert(missing.end(), host->missing().begin(), host->missing().end());
         spdlog::info("simulated drives of CAN bus {} on SocketCAN {} ({} drives)", bus.name, bus.target, host->drive_count());
         can_buses.push_back(std::move(host));
-      } else if (bus.kind == config::TransportKind::kSimSerial && sim::AdamSerialHost::serves(*config, bus)) {
+      } else if (bus.kind == config::TransportKind::kSimSerial && sim::SerialLineHost::family_for(*config, bus, serial_factories)) {
         std::error_code error;
-        auto host = sim::AdamSerialHost::open(service.loop(), *config, bus, report, error);
+        auto host = sim::SerialLineHost::open(service.loop(), *config, bus, serial_factories, report, error);
         if (!host) {
           spdlog::error("cannot create the simulated serial line {} in {}: {}", bus.name, config::sim_runtime_dir(*config), error.message());
           return app::kExitUnavailable;
         }
         missing.insert(missing.end(), host->missing().begin(), host->missing().end());
-        spdlog::info("simulated RS485 line {} ({} ADAM drives) at {}", bus.name, host->drive_count(), host->link_path());
-        adam_buses.push_back(std::move(host));
+        spdlog::info("simulated serial line {} ({} {} drives, {} baud) at {}", bus.name, host->drive_count(),
+                     config::to_string(host->family()), bus.baud, host->link_path());
+        serial_lines.push_back(std::move(host));
       } else if (bus.kind == config::TransportKind::kSimSerial) {
         for (const auto& d : config->drives) {
           if (d.bus == bus.name) missing.push_back(d.name + " (" + std::string(config::to_string(d.family)) + ")");
@@ -79,7 +88,7 @@ int main(int argc, char** argv) {
       for (auto& host : can_buses) {
         if (host->control(c)) return;
       }
-      for (auto& host : adam_buses) {
+      for (auto& host : serial_lines) {
         if (host->control(c)) return;
       }
       spdlog::warn("sim control for drive '{}' bus '{}' (action {}) matched nothing it supports", c.drive, c.bus, c.action);

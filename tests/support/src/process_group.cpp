@@ -1,5 +1,7 @@
 #include "motion/testing/process_group.hpp"
 
+#include "motion/testing/pump.hpp"
+
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -100,12 +102,7 @@ int ProcessGroup::run_to_completion(const ProcessSpec& spec, std::string* output
 }
 
 bool ProcessGroup::pump_until(const std::function<bool()>& done, std::chrono::milliseconds timeout) {
-  const auto deadline = loop_.now() + timeout;
-  while (!done()) {
-    if (loop_.now() >= deadline) return false;
-    loop_.run_once(std::chrono::milliseconds(10));
-  }
-  return true;
+  return testing::pump_until(loop_, done, timeout, std::chrono::milliseconds(10));
 }
 
 std::optional<motionlcm::health_t> ProcessGroup::heartbeat(const std::string& process) const {

@@ -229,6 +229,37 @@ TEST_F(SdoClientTest, ReplyForAnotherObjectIsAMismatch) {
   EXPECT_EQ(result->error, CanopenError::kMismatchedReply);
 }
 
+// A busy server answers after the client gave up (its abort crossed the answer on the bus): that
+// late answer must not fail the next transfer (the UC57 lab under load: "SDO write 0x6083:00
+// failed: SDO reply for another object"), whose own answer still completes it.
+TEST_F(SdoClientTest, LateAnswerToAGivenUpRequestIsDropped) {
+  std::optional<Result> first;
+  std::optional<Result> second;
+  client_.download(1, {0x6081, 0}, encode_value<std::uint32_t>(60), record(first));
+  client_.download(1, {0x6083, 0}, encode_value<std::uint32_t>(50), record(second));
+  client_.process(t0);
+  client_.process(t0 + 200ms);  // timeout, retried
+  client_.process(t0 + 400ms);  // timeout, given up; 6083h goes out
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->error, SdoAbortCode::kTimeout);
+  take_sent();
+  reply("581: 60 81 60 00 00 00 00 00", t0 + 410ms);  // the late answer to 6081h
+  EXPECT_FALSE(second);
+  EXPECT_EQ(take_sent(), Texts{});  // nothing aborted
+  reply("581: 60 83 60 00 00 00 00 00", t0 + 420ms);
+  ASSERT_TRUE(second);
+  EXPECT_FALSE(second->error);
+
+  // Idle again: the given-up request is forgotten, another object's reply is a mismatch again.
+  std::optional<Result> third;
+  client_.download(1, {0x60FF, 0}, encode_value<std::int32_t>(60), record(third));
+  client_.process(t0 + 500ms);
+  take_sent();
+  reply("581: 60 81 60 00 00 00 00 00", t0 + 510ms);
+  ASSERT_TRUE(third);
+  EXPECT_EQ(third->error, CanopenError::kMismatchedReply);
+}
+
 TEST_F(SdoClientTest, SegmentedUploadLengthChecks) {
   std::optional<Result> too_long;
   client_.upload(1, {0x1008, 0}, record(too_long));

@@ -160,6 +160,36 @@ TEST(Config, FamilyOnWrongKindOfBusIsRefused) {
                       "drives[3].bus", "needs a serial bus");
 }
 
+// A UIROBOT UIM2513/UIM2533 serial gateway: a CAN bus for uim342 drives over a serial line.
+TEST(Config, UiMessageGatewayBus) {
+  const std::string gateway = replace(kValid, "transport: simcan:can0", "transport: uimessage:/dev/ttyUSB0");
+  const std::string uim342_only = replace(gateway, "  - {name: ad, family: uc57, bus: can0, node_id: 5}\n", "");
+  const auto defaults = load_string(uim342_only, "lab.yaml");
+  ASSERT_TRUE(defaults.ok()) << defaults.error_text();
+  const Bus& bus = defaults.config->buses[0];
+  EXPECT_EQ(bus.kind, TransportKind::kUiMessage);
+  EXPECT_TRUE(is_can(bus.kind));
+  EXPECT_EQ(bus.target, "/dev/ttyUSB0");
+  EXPECT_EQ(bus.baud, 115200);
+  EXPECT_EQ(bus.uimessage_crc, UiMessageCrc::kStartToAux);  // the manual's reading
+  EXPECT_FALSE(bus.uimessage_crc_strict);
+
+  const auto keyed = load_string(replace(uim342_only, "    bitrate: 500000\n",
+                                         "    baud: 57600\n    uimessage_crc: id_to_aux\n    uimessage_crc_strict: true\n"));
+  ASSERT_TRUE(keyed.ok()) << keyed.error_text();
+  EXPECT_EQ(keyed.config->buses[0].baud, 57600);
+  EXPECT_EQ(keyed.config->buses[0].uimessage_crc, UiMessageCrc::kIdToAux);
+  EXPECT_TRUE(keyed.config->buses[0].uimessage_crc_strict);
+
+  expect_single_error(replace(uim342_only, "bitrate: 500000", "uimessage_crc: sm_to_d8"), 6, "buses[0].uimessage_crc",
+                      "expected start_to_aux (CRC over SM..d8, the manual) or id_to_aux");
+  expect_single_error(replace(uim342_only, "bitrate: 500000", "baud: 12345"), 6, "buses[0].baud", "unsupported baud rate");
+  expect_single_error(replace(kValid, "bitrate: 500000", "uimessage_crc: id_to_aux"), 6, "buses[0].uimessage_crc",
+                      "only for uimessage: buses");
+  // CANopen (11-bit) cannot travel as UIMessages.
+  expect_single_error(gateway, 13, "drives[2].bus", "needs a CAN adapter (simcan: or socketcan:)");
+}
+
 TEST(Config, AxisOnUndeclaredDriveIsRefused) {
   expect_single_error(replace(kValid, "drive: xd", "drive: qd"), 17, "axes[0].drive", "undeclared drive 'qd'");
 }

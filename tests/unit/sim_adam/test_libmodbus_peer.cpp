@@ -1,6 +1,6 @@
 // libmodbus (Debian libmodbus5 3.1.x, an independent C implementation of Modbus RTU) as the
 // interop peer of our ADAM pieces, over real pseudo-terminals (termios raw, 115200 8N1):
-//  * LibmodbusClient.*: a libmodbus RTU CLIENT (modbus_new_rtu on the pty link AdamSerialHost
+//  * LibmodbusClient.*: a libmodbus RTU CLIENT (modbus_new_rtu on the pty link AdamLineSim
 //    publishes) against our simulated drives: 16-bit and 32-bit reads/writes (32-bit values in the
 //    drive's LOW-WORD-FIRST order, decoded by hand: libmodbus's MODBUS_GET_INT32_FROM_INT16 assumes
 //    high word first and is deliberately not used), Modbus exceptions for an undocumented register
@@ -36,7 +36,7 @@
 #include "motion/adam/registers.hpp"
 #include "motion/adam_driver/adam_bus_driver.hpp"
 #include "motion/serial/pty_link.hpp"
-#include "motion/sim/adam_serial_host.hpp"
+#include "motion/sim/adam_line_sim.hpp"
 
 namespace motion {
 namespace {
@@ -152,7 +152,7 @@ TEST_F(LibmodbusPeer, ClientReadsWritesAndGetsExceptionsFromSimulatedDrive) {
   load(2);
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
-  auto host = sim::AdamSerialHost::open(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+  auto host = sim::open_adam_line(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
 
   struct {
@@ -235,7 +235,7 @@ TEST_F(LibmodbusPeer, ClientBroadcastTableExecuteStartsBothDrivesWithoutReply) {
   load(2);
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
-  auto host = sim::AdamSerialHost::open(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+  auto host = sim::open_adam_line(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
 
   struct {

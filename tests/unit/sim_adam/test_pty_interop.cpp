@@ -1,5 +1,5 @@
 // Interoperability over real pseudo-terminals (termios raw, 115200 8N1):
-//  * SimSlaveAnswersPymodbusClient: AdamSerialHost (our simulated drive) serves pymodbus's
+//  * SimSlaveAnswersPymodbusClient: AdamLineSim (our simulated drive) serves pymodbus's
 //    ModbusSerialClient: reads, a 32-bit move write, an exception for an undocumented register;
 //  * MasterTalksToPymodbusServer: AdamBusDriver (our master, with its SerialPort) sets up and
 //    reads/writes registers of a pymodbus RTU server; a null-modem bridge joins the two ptys;
@@ -25,7 +25,7 @@
 
 #include "motion/adam_driver/adam_bus_driver.hpp"
 #include "motion/serial/pty_link.hpp"
-#include "motion/sim/adam_serial_host.hpp"
+#include "motion/sim/adam_line_sim.hpp"
 
 extern char** environ;
 
@@ -145,7 +145,7 @@ TEST_F(PtyInterop, SimSlaveAnswersPymodbusClient) {
   if (!pymodbus_available()) GTEST_SKIP() << "/usr/bin/python3 has no pymodbus (apt-get install python3-pymodbus)";
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
-  auto host = sim::AdamSerialHost::open(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+  auto host = sim::open_adam_line(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
   EXPECT_EQ(host->link_path(), (dir_ / "rs485.tty").string());
   const std::string script = R"PY(
@@ -251,7 +251,7 @@ StartSerialServer(context=ctx, framer=ModbusRtuFramer, port=sys.argv[1], baudrat
 TEST_F(PtyInterop, MasterAndSimulatorMoveEndToEnd) {
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
-  auto host = sim::AdamSerialHost::open(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+  auto host = sim::open_adam_line(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
   Recorder out;
   auto driver = adam_driver::AdamBusDriver::create(loop_, config_, config_.buses[0], out);

@@ -137,7 +137,8 @@ std::vector<can::Frame> FakeUc57::on_frame(const can::Frame& frame, TimePoint no
     return out;
   }
   if (frame.id == canopen::sdo_request_cob_id(id_)) return on_sdo(frame);
-  if (frame.id == canopen::rpdo_cob_id(1, id_) && nmt_ == canopen::NmtState::kOperational) {
+  const bool rpdo1_valid = (od_.at(key(0x1400, 1)).value & 0x80000000) == 0;
+  if (frame.id == canopen::rpdo_cob_id(1, id_) && nmt_ == canopen::NmtState::kOperational && rpdo1_valid) {
     const std::vector<std::uint8_t> payload(frame.payload().begin(), frame.payload().end());
     if (od_.at(key(0x1400, 2)).value <= 240) {
       rpdo_buffer_ = payload;  // synchronous: applied at the next SYNC
@@ -221,6 +222,7 @@ std::vector<can::Frame> FakeUc57::on_sdo(const can::Frame& frame) {
     for (std::size_t i = 0; i < download->data.size(); ++i) raw |= std::uint64_t{download->data.view()[i]} << (8 * i);
     write_object(object.index, object.subindex, is_signed(object.index) ? canopen::sign_extend(raw, entry.size * 8U)
                                                                          : static_cast<std::int64_t>(raw));
+    if (unanswered_once.erase(key(object.index, object.subindex)) != 0) return {};
     return {canopen::sdo_response_frame(id_, canopen::SdoInitiateDownloadResponse{object})};
   }
   return {};

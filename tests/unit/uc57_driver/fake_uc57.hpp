@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <set>
 #include <vector>
 
 #include "motion/can/frame.hpp"
@@ -41,6 +42,7 @@ class FakeUc57 {
   bool refuse_enable = false;        // ignores Switch on (for timeout tests)
   int motion_syncs = 3;              // SYNC periods a move / homing run takes
   std::map<std::uint32_t, std::uint32_t> forced_aborts;  // key(index, sub) -> abort code
+  std::set<std::uint32_t> unanswered_once;  // key(index, sub): the next write is applied, its answer lost
 
   static constexpr std::uint32_t key(std::uint16_t index, std::uint8_t sub) { return (std::uint32_t{index} << 8) | sub; }
 

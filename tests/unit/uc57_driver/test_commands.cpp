@@ -1,10 +1,12 @@
 // Uc57Stack commands: CiA 402 enable sequence, the synchronized SYNC start, faults, SDO aborts,
 // timeouts, and one terminal reply for every command kind.
 #include <algorithm>
+#include <optional>
 
 #include <gtest/gtest.h>
 
 #include "harness.hpp"
+#include "motion/lcm/reply_error.hpp"
 
 namespace motion::uc57_driver::testing {
 namespace {
@@ -26,6 +28,22 @@ void enable(Bench& bench, std::vector<std::string> axes) {
   bench.execute(c);
   bench.run_for(std::chrono::milliseconds(500));
   ASSERT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE)) << bench.replies_of(c.command_id).back().reason;
+}
+
+// How many statuses had gone out when `id` got its reply `s` (the size of the log if it never did).
+std::size_t statuses_before_reply(const Bench& bench, std::int64_t id, std::int8_t s) {
+  for (std::size_t i = 0; i < bench.replies.size(); ++i) {
+    if (bench.replies[i].command_id == id && bench.replies[i].status == s) return bench.replied_after[i];
+  }
+  return bench.status_log.size();
+}
+
+// The last status of `axis` among the first `count` published.
+std::optional<gateway::DriveStatus> last_status_before(const Bench& bench, const std::string& axis, std::size_t count) {
+  for (std::size_t i = std::min(count, bench.status_log.size()); i-- > 0;) {
+    if (bench.status_log[i].first == axis) return bench.status_log[i].second;
+  }
+  return std::nullopt;
 }
 
 Cmd arm(Bench& bench, std::vector<std::pair<std::string, std::int64_t>> targets, std::int64_t trigger) {
@@ -61,6 +79,23 @@ TEST(Uc57Commands, EnableSendsShutdownSwitchOnEnableOperationInRpdo1) {
   bench.run_for(std::chrono::milliseconds(300));
   EXPECT_EQ(bench.replies_of(disable.command_id).back().status, status(Reply::DONE));
   EXPECT_EQ(bench.node(1).controlwords.back(), 0x0006);  // shutdown, transition 8
+}
+
+// The coordinator checks "enabled" for the move that follows an ENABLE's DONE: the state that
+// says so must go out before the DONE (the lab saw "axis c is disabled" right after it).
+TEST(Uc57Commands, DoneGoesOutAfterTheStateItLeftTheAxesIn) {
+  Bench bench;
+  bench.start_ready();
+  const auto c = bench.command(Cmd::ENABLE, {"a", "b"});
+  bench.execute(c);
+  bench.run_for(std::chrono::milliseconds(500));
+  ASSERT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE));
+  const std::size_t done_at = statuses_before_reply(bench, c.command_id, Reply::DONE);
+  for (const std::string axis : {"a", "b"}) {
+    const auto before_done = last_status_before(bench, axis, done_at);
+    ASSERT_TRUE(before_done) << axis;
+    EXPECT_TRUE(before_done->enabled) << axis << ": DONE went out before the enabled state";
+  }
 }
 
 TEST(Uc57Commands, EnableTimesOutWhenTheDriveDoesNotSwitchOn) {
@@ -300,6 +335,106 @@ TEST(Uc57Commands, EveryCommandKindEndsInExactlyOneTerminalReply) {
   EXPECT_EQ(run(bench.command(Cmd::DISABLE, {"a", "b"})).status, status(Reply::DONE));
   EXPECT_EQ(run(bench.command(99, {"a"})).error_code, 1);
   EXPECT_EQ(run(bench.command(Cmd::ENABLE, {"x"})).error_code, 2);  // a UIM342 axis
+}
+
+// Synchronous TPDO1 (statusword) and TPDO2 (position) sample one SYNC. Taken one by one, the SYNC
+// that ends homing published "homed, not moving" next to the previous SYNC's position (the UC57
+// lab saw 224.775 degrees, the switch before the zeroing, after HOME's DONE).
+TEST(Uc57Commands, HomedStateAndHomingDoneCarryTheHomedPosition) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a"});
+  bench.node(1).set_value(0x6064, 0, 1998);  // on the switch, before homing zeroes the position
+  bench.run_for(std::chrono::milliseconds(200));
+  ASSERT_EQ(bench.statuses["a"].position_counts, 1998);
+
+  auto home = bench.command(Cmd::HOME, {"a"});
+  home.axes[0].velocity = 3200;
+  home.axes[0].acceleration = 32000;
+  const std::size_t from = bench.status_log.size();
+  bench.execute(home);
+  bench.run_for(std::chrono::milliseconds(600));
+  ASSERT_EQ(bench.replies_of(home.command_id).back().status, status(Reply::DONE)) << bench.replies_of(home.command_id).back().reason;
+  const std::size_t done_at = statuses_before_reply(bench, home.command_id, Reply::DONE);
+  const auto before_done = last_status_before(bench, "a", done_at);
+  ASSERT_TRUE(before_done);
+  EXPECT_TRUE(before_done->homed && !before_done->moving) << "DONE went out before the homed state";
+  EXPECT_EQ(before_done->position_counts, 0);
+  bool homed_seen = false;
+  for (std::size_t i = from; i < bench.status_log.size(); ++i) {
+    const auto& [axis, s] = bench.status_log[i];
+    if (axis != "a") continue;
+    if (s.homed) {
+      homed_seen = true;
+      EXPECT_EQ(s.position_counts, 0) << "status " << i << " says homed at a position from before the homing";
+    }
+    if (i >= done_at) {
+      EXPECT_TRUE(s.homed && !s.moving) << "status " << i << " after DONE";
+      EXPECT_EQ(s.position_counts, 0) << "status " << i << " after DONE";
+    }
+  }
+  EXPECT_TRUE(homed_seen);
+  EXPECT_LT(done_at, bench.status_log.size()) << "no state after DONE";
+}
+
+// The same for a move: no state says "stopped" at a position from before the move's end.
+TEST(Uc57Commands, AStoppedStateAfterAMoveCarriesItsEndPosition) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a"});
+  const auto c = arm(bench, {{"a", 1000}}, 0);  // trigger 0: start at once
+  bench.run_for(std::chrono::milliseconds(600));
+  ASSERT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE));
+  bool started = false;  // a sample taken before the start's SYNC may still follow STARTED
+  for (std::size_t i = statuses_before_reply(bench, c.command_id, Reply::STARTED); i < bench.status_log.size(); ++i) {
+    const auto& [axis, s] = bench.status_log[i];
+    if (axis != "a") continue;
+    started = started || s.moving;
+    if (started && !s.moving) {
+      EXPECT_EQ(s.position_counts, 1000) << "status " << i;
+    }
+  }
+  EXPECT_TRUE(started);
+  EXPECT_EQ(bench.statuses["a"].position_counts, 1000);
+}
+
+// A group whose node fell silent is stopped with one STOP naming every axis (the coordinator's
+// abort): the offline node must not keep the others running; the reply fails naming it.
+TEST(Uc57Commands, StopNamingAnOfflineNodeStillStopsTheReachableOnes) {
+  for (const std::int8_t kind : {Cmd::STOP, Cmd::ESTOP}) {
+    SCOPED_TRACE(kind == Cmd::STOP ? "STOP" : "ESTOP");
+    Bench bench;
+    bench.start_ready();
+    enable(bench, {"a", "b"});
+    bench.node(1).motion_syncs = 1000;
+    bench.node(2).motion_syncs = 1000;
+    const auto move = arm(bench, {{"a", 100000}, {"b", 100000}}, 0);
+    bench.run_for(std::chrono::milliseconds(300));
+    ASSERT_EQ(bench.replies_of(move.command_id).back().status, status(Reply::STARTED));
+    ASSERT_TRUE(bench.statuses["a"].moving);
+
+    bench.node(2).silent = true;
+    bench.run_for(std::chrono::milliseconds(500));  // heartbeat 100 ms, loss after 300 ms
+    ASSERT_FALSE(bench.statuses["b"].online);
+    ASSERT_EQ(bench.terminal_count(move.command_id), 1U);
+    ASSERT_TRUE(bench.statuses["a"].moving);
+
+    const auto stop = bench.command(kind, {"a", "b"});
+    bench.execute(stop);
+    bench.run_for(std::chrono::milliseconds(300));
+    if (kind == Cmd::STOP) {
+      EXPECT_TRUE(cia402::is_set(bench.node(1).controlwords.back(), cia402::ControlBit::kHalt));
+    } else {
+      EXPECT_EQ(bench.node(1).state(), cia402::State::kQuickStopActive);
+    }
+    EXPECT_FALSE(bench.statuses["a"].moving);
+    ASSERT_EQ(bench.terminal_count(stop.command_id), 1U);
+    const auto r = bench.replies_of(stop.command_id).back();
+    EXPECT_EQ(r.status, status(Reply::FAILED));
+    EXPECT_EQ(r.error_code, error_code(ReplyError::kAxisOffline));
+    EXPECT_NE(r.reason.find("b-drive (node 2) is offline"), std::string::npos) << r.reason;
+    EXPECT_EQ(r.reason.find("a-drive"), std::string::npos) << r.reason;
+  }
 }
 
 }  // namespace

@@ -77,6 +77,27 @@ TEST(Uc57Startup, FallsBackToTheManualsDefaultRpdoWhenRemapIsReadOnly) {
   EXPECT_EQ(bench.node(2).value(0x1600, 0), 3);   // mapping untouched
 }
 
+// A remap step without an answer may have been applied (under load the answer comes after the SDO
+// timeout): step 1 sets 1400h:01's invalid bit. Taken for a refusal, the node went on with the
+// default layout and RPDO1 switched off, and no controlword ever reached it again.
+TEST(Uc57Startup, RemapStepWithoutAnAnswerIsRetriedNotTakenForARefusal) {
+  Bench bench;
+  bench.node(1).unanswered_once.insert(FakeUc57::key(0x1400, 1));  // applied, the answer lost
+  bench.start();
+  bench.run_for(std::chrono::seconds(3));
+  ASSERT_TRUE(bench.stack->ready());
+  EXPECT_EQ(bench.stack->rpdo_layout("a-drive"), RpdoLayout::kControlwordTarget);
+  EXPECT_EQ(bench.node(1).value(0x1400, 1), 0x201);  // RPDO1 valid again
+  const auto enable = bench.command(motionlcm::gateway_command_t::ENABLE, {"a"});
+  bench.execute(enable);
+  bench.run_for(std::chrono::milliseconds(500));
+  ASSERT_FALSE(bench.replies_of(enable.command_id).empty());
+  const std::int8_t done = motionlcm::gateway_reply_t::DONE;  // never ODR-use the LCM constants
+  EXPECT_EQ(bench.replies_of(enable.command_id).back().status, done)
+      << bench.replies_of(enable.command_id).back().reason;
+  EXPECT_EQ(bench.node(1).state(), cia402::State::kOperationEnabled);
+}
+
 TEST(Uc57Startup, SilentNodeIsOfflineAndRetriedWithBackOff) {
   Bench bench;
   bench.node(2).silent = true;

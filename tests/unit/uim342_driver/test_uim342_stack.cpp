@@ -492,6 +492,30 @@ TEST_F(Uim342StackTest, StopEndsTheMoveAndSendsSt) {
   EXPECT_FALSE(drives.at(5).moving());
 }
 
+// The coordinator aborts a group whose drive fell silent with one stop naming every axis: the
+// offline drive must not keep the others running; the reply fails naming it.
+TEST_F(Uim342StackTest, StopNamingAnOfflineDriveStillStopsTheOthers) {
+  start_and_set_up();
+  enable({"x"});
+  drives.at(7).silent = true;
+  run_for(milliseconds(400));  // its polls run out of retries
+  ASSERT_FALSE(stack->status("z")->online);
+  for (const std::int8_t kind : {gateway_command_t::STOP, gateway_command_t::ESTOP}) {
+    const auto move = execute(command(gateway_command_t::ARM_MOVE, {"x"}));
+    run_for(milliseconds(20));
+    ASSERT_TRUE(drives.at(5).moving());
+    sent.clear();
+    const auto stop = execute(command(kind, {"x", "z"}));
+    run_for(milliseconds(60));
+    EXPECT_EQ(count_sent(5, FC::ST), 1u);
+    EXPECT_FALSE(drives.at(5).moving());
+    EXPECT_EQ(last_reply(move).status, kFailed);
+    EXPECT_EQ(last_reply(stop).status, kFailed);
+    EXPECT_EQ(last_reply(stop).error_code, error_code(ReplyError::kAxisOffline));
+    EXPECT_EQ(last_reply(stop).reason, "z-drive (node 7) is offline");
+  }
+}
+
 TEST_F(Uim342StackTest, EstopGoesAheadOfQueuedWorkAndFailsIt) {
   start_and_set_up();
   enable({"x"});

@@ -431,6 +431,18 @@ std::vector<Uim242ControllerSetup> Uim242GatewaySim::controllers_of(const config
   return out;
 }
 
+SerialDeviceFactory uim242_line_factory() {
+  return [](const config::Config& config, const config::Bus& bus, SerialDeviceContext line) -> std::unique_ptr<SerialDeviceSim> {
+    const Duration latency = std::chrono::microseconds(config.simulation.reply_latency_us);
+    Uim242SimContext context;
+    context.bus = bus.name;
+    context.send = [send = line.send, latency](std::span<const std::uint8_t> bytes) { send(bytes, latency); };
+    context.report = line.report;
+    context.utime_of = line.utime_of;
+    return std::make_unique<Uim242GatewaySim>(Uim242GatewaySim::controllers_of(config, bus.name), std::move(context));
+  };
+}
+
 void Uim242GatewaySim::power_up(TimePoint now) {
   selected_ = 5;
   splitter_.reset();

@@ -1,7 +1,7 @@
 // The Modbus RTU master of one RS485 line of ADAM NEMA8–NEMA23 integrated steppers, as a
 // PASSIVE core: bytes and `now` in, frames out (through `send`), the next deadline out. No fd, no
-// clock, no timer: AdamBusDriver (adam_bus_driver.hpp) is the thin poll-loop shell around it, and
-// tests drive it with scripted bytes and an explicit `now`.
+// clock, no timer: AdamBusDriver (adam_bus_driver.hpp, a gateway::SerialBusDriver) is the thin
+// poll-loop shell around it, and tests drive it with scripted bytes and an explicit `now`.
 //
 // The line (manual §1, §5; spec 1.3, 1.6):
 //  * one request at a time; the reply must arrive within the drive's request_timeout_ms
@@ -67,6 +67,7 @@
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/gateway/bus_driver.hpp"
+#include "motion/gateway/serial_line_core.hpp"
 #include "motion/serial/silence_framer.hpp"
 
 namespace motion::adam_driver {
@@ -102,29 +103,29 @@ struct MasterSettings {
 
 // gateway_reply_t.error_code values: motion::ReplyError (motion/lcm/reply_error.hpp).
 
-class MasterCore {
+class MasterCore final : public gateway::SerialLineCore {
  public:
   using Send = std::function<bool(std::span<const std::uint8_t>)>;
   using WallClock = std::function<std::int64_t()>;  // µs since the epoch (reply utimes)
 
   MasterCore(MasterSettings settings, Send send, gateway::GatewayOutput& out, WallClock wall_clock = {});
-  ~MasterCore();
+  ~MasterCore() override;
   MasterCore(const MasterCore&) = delete;
   MasterCore& operator=(const MasterCore&) = delete;
 
   // Start-up: per drive read 0x0012 (power-on enable state), apply the setup writes, read 0x0024
   // (pulses/rev, for rpm conversions); then polling begins.
-  void start(TimePoint now);
-  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint now);
+  void start(TimePoint now) override;
+  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) override;
   // Timeouts, replies closed by silence, polls, the next frame. Returns the next deadline.
-  TimePoint process(TimePoint now);
-  void execute(const motionlcm::gateway_command_t& command, TimePoint now);
-  void fire(std::int64_t trigger_id, TimePoint now);
+  TimePoint process(TimePoint now) override;
+  void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
+  void fire(std::int64_t trigger_id, TimePoint now) override;
   // A transport failure (hang-up): every command ends FAILED and the line is "closed".
-  void line_lost(const std::string& why, TimePoint now);
+  void line_lost(const std::string& why, TimePoint now) override;
 
-  [[nodiscard]] motionlcm::bus_stats_t statistics() const;
-  [[nodiscard]] bool ready() const;
+  [[nodiscard]] motionlcm::bus_stats_t statistics() const override;
+  [[nodiscard]] bool ready() const override;
   [[nodiscard]] const MasterSettings& settings() const { return settings_; }
 
  private:

@@ -12,7 +12,9 @@
 //  - Server abort: completes with that abort code, no retry. Protocol errors (wrong toggle,
 //    unexpected command specifier, length errors) abort on the wire with the CiA 301 code and
 //    complete with it, no retry. A reply naming another object than requested aborts with
-//    General error and completes with CanopenError::kMismatchedReply.
+//    General error and completes with CanopenError::kMismatchedReply, unless it names an object
+//    whose request was given up (timed out, cancelled) since the node's channel was last idle:
+//    that is the late answer to it (a busy server), dropped.
 //
 // Thread contract: single-threaded, owned by the poll loop. Callbacks run inside on_frame(),
 // process() or cancel(); they may issue new requests or cancel, but must not destroy the client.
@@ -99,6 +101,7 @@ class SdoClient {
     std::optional<SdoClientConfig> config;
     std::optional<Transfer> active;
     std::deque<Transfer> queue;
+    std::vector<ObjectAddress> abandoned;  // requests given up since the channel was last idle
   };
 
   void enqueue(NodeId node, Transfer transfer);
@@ -108,6 +111,8 @@ class SdoClient {
   void send_next_download_segment(NodeId node, Channel& channel, TimePoint now);
   void handle_response(NodeId node, Channel& channel, const SdoResponse& response, TimePoint now);
   void handle_timeout(NodeId node, Channel& channel, TimePoint now);
+  [[nodiscard]] static bool is_late_answer(const Channel& channel, const SdoResponse& response);
+  static void abandon(Channel& channel, ObjectAddress object);
   // Aborts on the wire (when `wire_code` is set) and completes the active transfer.
   void fail(NodeId node, Channel& channel, std::error_code error, std::optional<std::uint32_t> wire_code, TimePoint now);
   void succeed(NodeId node, Channel& channel, TimePoint now);

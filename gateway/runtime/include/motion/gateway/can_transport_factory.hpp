@@ -1,14 +1,17 @@
 // Opens the can::Transport of a configured CAN bus: the one place that maps a bus's `transport:`
-// (simcan:NAME, socketcan:IFACE) to a transport object. Gateways and motionctl (dump, send) use it,
-// so both reach a bus exactly the same way.
+// (simcan:NAME, socketcan:IFACE, uimessage:DEVICE) to a transport object. Gateways and motionctl
+// (dump, send) use it, so both reach a bus exactly the same way.
 //
 //   simcan:NAME     simbus::SocketEndpoint to motion-sim's hub NAME, in config::sim_runtime_dir()
 //   socketcan:IFACE can::SocketCanTransport on IFACE (bit rate set by `ip link`; the configured
 //                   one feeds the bus-load statistic only)
+//   uimessage:DEV   uimessage::UiMessageTransport on the serial port DEV (a UIROBOT UIM2513/UIM2533
+//                   gateway; baud, parity, stop bits, uimessage_crc[_strict] from the bus)
 //   anything else   error kNotCanBus (serial buses are not CAN)
 //
 // Thread contract: reentrant; the returned transport follows can::Transport's (one thread).
-// Nothing blocks: connecting to a simulated hub is a local Unix-socket connect.
+// Nothing blocks: connecting to a simulated hub is a local Unix-socket connect, opening a serial
+// port is non-blocking.
 #pragma once
 
 #include <memory>
@@ -22,7 +25,8 @@ namespace motion::gateway {
 
 // Errors of the factory itself; the transports' own failures come as errno-style codes
 // (ENOENT / ECONNREFUSED: no hub for a simulated bus; ENODEV: no such interface,
-// EAFNOSUPPORT: a kernel without AF_CAN, in SocketCAN's category that names the interface).
+// EAFNOSUPPORT: a kernel without AF_CAN, in SocketCAN's category that names the interface;
+// ENOENT / EACCES / ENOTTY: the serial port of a uimessage: bus).
 enum class TransportError {
   kNotCanBus = 1,  // the bus's transport is not a CAN transport (serial:, simserial:)
 };

@@ -37,8 +37,8 @@ struct SerialSettings {
 
 // <sim_runtime_dir>/<bus>.tty: where motion-sim publishes the pty of a simserial bus.
 [[nodiscard]] std::string simserial_link_path(const config::Config& config, const config::Bus& bus);
-// The path a gateway opens for a serial bus: the device of serial:, the link of simserial:.
-// Empty for CAN buses.
+// The path a gateway opens for a serial bus: the device of serial: and uimessage:, the link of
+// simserial:. Empty for simcan: and socketcan:.
 [[nodiscard]] std::string device_path(const config::Config& config, const config::Bus& bus);
 
 // The termios speed constant of a baud rate; false when the kernel has no such constant
@@ -63,7 +63,8 @@ class SerialPort {
   [[nodiscard]] const SerialSettings& settings() const { return settings_; }
 
   // Reads what is available into `buffer`. Returns bytes read (0: nothing available right now);
-  // `error` set on a real error or hang-up (EIO on a pty whose other side closed).
+  // `error` set on a real error or a hang-up (EIO; e.g. the pty's master side closed: a hung-up
+  // tty reads 0 and polls POLLHUP).
   std::size_t read(std::span<std::uint8_t> buffer, std::error_code& error);
   // Writes the whole frame or reports why not (a frame ≤ 256 bytes always fits the tty buffer of
   // an idle half-duplex line; a partial write is reported as an error, never retried blindly).

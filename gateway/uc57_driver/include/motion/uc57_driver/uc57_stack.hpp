@@ -21,7 +21,8 @@
 //    request timeout and retries; aborts reported with the abort code's CiA text and the object.
 //  - CiA 402 device control (manual §4.2.1/§4.2.2, cia402::PowerController): ENABLE 0x06 -> 0x07 ->
 //    0x0F (transitions 2, 3, 4), DISABLE (shutdown, transition 8), FAULT_RESET (0x00 -> 0x80,
-//    transition 15), ESTOP (quick stop 0x02, transition 11), STOP (halt, bit 8).
+//    transition 15), ESTOP (quick stop 0x02, transition 11), STOP (halt, bit 8). A STOP/ESTOP
+//    naming an offline node still stops every reachable one, then FAILS naming the offline one.
 //  - Once a node is operational its controlword only travels in RPDO1, queued one image per SYNC
 //    cycle (digest §8.3 caveat: an SDO write of 6040h would be overwritten at the next SYNC).
 //  - Synchronized start (digest §8, manual §4.2.4 PP set-point handshake): ARM_MOVE writes 6060h = 1,
@@ -33,7 +34,8 @@
 //    SET_OUTPUTS: 2030h:0D/0E output functions 5 (high) / 6 (low); SET_POSITION: 2012h (zero only);
 //    PARAM_READ/PARAM_WRITE: param_t as CANopen index/sub-index; DISARM.
 //  - EMCY (CiA 301 §7.2.7) -> events and FAILED for the node's running command; heartbeat loss ->
-//    offline, event, FAILED; TPDOs -> DriveStatus.
+//    offline, event, FAILED; TPDOs -> DriveStatus (synchronous TPDO1 + TPDO2 of one SYNC count as
+//    one sample: statusword and position are taken, and published, together).
 // Every command ends in exactly one terminal reply (DONE or FAILED).
 #pragma once
 
@@ -134,6 +136,8 @@ class Uc57Stack final : public gateway::CanStack {
   // --- process data ---
   void on_pdo(std::size_t n, const can::Frame& frame, TimePoint now);
   void on_statusword(std::size_t n, TimePoint now);
+  // Takes a TPDO1's statusword, inputs and mode and runs on_statusword; true when what it reports changed.
+  bool take_tpdo1(std::size_t n, const Tpdo1& tpdo, TimePoint now);
   void queue_image(std::size_t n, const RpdoImage& image);
   [[nodiscard]] RpdoImage latest_image(std::size_t n) const;
   void send_image(std::size_t n, const RpdoImage& image);
@@ -168,6 +172,7 @@ class Uc57Stack final : public gateway::CanStack {
   [[nodiscard]] std::optional<cia402::State> drive_state(std::size_t n) const;
   [[nodiscard]] Duration cycle() const { return sync_period_; }
   void event(std::size_t n, std::int16_t kind, std::int8_t severity, std::int32_t code, const std::string& text);
+  [[nodiscard]] std::string offline_text(std::size_t n) const;  // "<label> is offline: <why>"
 
   gateway::CanStackContext context_;
   Options options_;

@@ -3,9 +3,10 @@
 // command semantics of motion::gateway::BusDriver in drive counts (pulses).
 //
 // Passive, fd-free: bytes and `now` in (on_bytes), bytes out (context.send), replies/status/events
-// out (context.out), next deadline out (process). To wrap it in a BusDriver: on the serial fd
-// readable -> on_bytes(); on the timer -> process(); execute()/fire() as they come; after EVERY
-// call, call process(now) and re-arm the timer at its result.
+// out (context.out), next deadline out (process). A gateway::SerialLineCore: Uim242BusDriver
+// (uim242_bus_driver.hpp) wraps it in the serial poll-loop shell, which on the fd readable calls
+// on_bytes(), on the timer process(), execute()/fire() as they come, and after EVERY call
+// process(now), re-arming its timer at the result.
 // Thread contract: one thread (the gateway's loop).
 //
 // Behaviour:
@@ -31,6 +32,8 @@
 // * PARAM_READ/WRITE: param_t UIM242_INSTRUCTION, mnemonic = the instruction (first three letters,
 //   "MCFG" = MCF), subindex = SCF register 0..3 / STG port 0..2, else -1. CUR and MCS are read
 //   from the basic ACK of `;`.
+// * line_lost(): the port hung up: every command ends FAILED ("serial line of bus B lost: why"),
+//   queued requests are dropped, the drives go offline; the next start() identifies them again.
 // * Every command ends in exactly one DONE or FAILED; a failure names drive, node and instruction.
 #pragma once
 
@@ -50,6 +53,7 @@
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/gateway/bus_driver.hpp"
+#include "motion/gateway/serial_line_core.hpp"
 #include "motion/uim242/feedback.hpp"
 #include "motion/uim242_driver/request_channel.hpp"
 
@@ -62,21 +66,22 @@ struct CoreContext {
   std::function<std::int64_t(TimePoint)> utime_of;
 };
 
-class Uim242BusCore {
+class Uim242BusCore final : public gateway::SerialLineCore {
  public:
   Uim242BusCore(const config::Config& config, const std::string& bus, CoreContext context);
-  ~Uim242BusCore();
+  ~Uim242BusCore() override;
   Uim242BusCore(const Uim242BusCore&) = delete;
   Uim242BusCore& operator=(const Uim242BusCore&) = delete;
 
-  void start(TimePoint now);
-  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint now);
-  TimePoint process(TimePoint now);
-  void execute(const motionlcm::gateway_command_t& command, TimePoint now);
-  void fire(std::int64_t trigger_id, TimePoint now);
+  void start(TimePoint now) override;
+  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) override;
+  TimePoint process(TimePoint now) override;
+  void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
+  void fire(std::int64_t trigger_id, TimePoint now) override;
+  void line_lost(const std::string& why, TimePoint now) override;
 
-  [[nodiscard]] bool ready() const;
-  [[nodiscard]] motionlcm::bus_stats_t statistics() const;
+  [[nodiscard]] bool ready() const override;
+  [[nodiscard]] motionlcm::bus_stats_t statistics() const override;
   [[nodiscard]] std::vector<std::string> axes() const;
 
  private:

@@ -53,6 +53,9 @@ class RequestChannel {
   TimePoint process(TimePoint now);
   // Drops queued requests of `group` (the one in flight still completes, its callbacks are not called).
   void cancel(std::int64_t group);
+  // Drops every request, queued and in flight, without calling back (the line is gone); the
+  // gateway's target is unknown afterwards.
+  void reset();
   [[nodiscard]] bool idle() const noexcept { return !in_flight_ && queue_.empty(); }
   [[nodiscard]] const ChannelStatistics& statistics() const noexcept { return stats_; }
   void count_received(std::size_t bytes) noexcept { stats_.rx_bytes += static_cast<std::int64_t>(bytes); }

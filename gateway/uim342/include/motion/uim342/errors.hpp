@@ -58,6 +58,7 @@ enum class CodecErrc {
   value_out_of_range,        // a unit conversion produced a value outside the wire type
   ack_bit_in_reply,          // a drive frame with CW bit 7 set (replies always clear it, §2.1)
   not_a_notification,        // CW is not 0x5A
+  producer_not_host,         // an instruction for a UIMessage gateway not sent as the host (it has no producer field)
 };
 
 [[nodiscard]] const std::error_category& codec_category() noexcept;  // name() == "uim342-codec"

@@ -5,6 +5,7 @@
 //   notifications.hpp real-time notifications (CW 0x5A)
 //   matching.hpp      expected reply of a request, classification of incoming frames (§3.1)
 //   uimessage.hpp     16-byte serial/USB/Ethernet gateway framing with CRC-16/MODBUS (§2.6)
+//   uimessage_stream.hpp  UIMessages out of a serial byte stream, with resynchronization
 //   parameters.hpp    value ranges, drive-side checks, unit conversions
 //   errors.hpp        "uim342" drive error category, codec errors, Result<T>
 #pragma once
@@ -17,3 +18,4 @@
 #include "motion/uim342/notifications.hpp"
 #include "motion/uim342/parameters.hpp"
 #include "motion/uim342/uimessage.hpp"
+#include "motion/uim342/uimessage_stream.hpp"

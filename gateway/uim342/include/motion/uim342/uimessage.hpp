@@ -56,4 +56,16 @@ struct DecodedUiMessage {
 [[nodiscard]] Result<DecodedUiMessage> decode_ui_message(std::span<const std::uint8_t> frame,
                                                          CrcAcceptance accept = CrcAcceptance::either);
 
+// The one ID byte of a UIMessage is the drive's side of the exchange (spec §8): the consumer of
+// a host instruction, the producer of a drive frame (ACK, error report, notification). The host's
+// side is implicit: the gateway sends instructions as the master and hands every drive frame to
+// it. These map a SimpleCAN message to and from that form; `host` is the master ID (§2.5: 4).
+// Host side (the gateway transport): instructions out, drive frames in. Fails with
+// producer_not_host when the instruction's producer is not `host` (it could not be told apart).
+[[nodiscard]] Result<UiMessage> instruction_to_ui(const CanMessage& instruction, std::uint8_t host = kMasterId);
+[[nodiscard]] CanMessage drive_message_from_ui(const UiMessage& drive_message, std::uint8_t host = kMasterId);
+// Gateway side (simulators, tests): instructions in, drive frames out.
+[[nodiscard]] CanMessage instruction_from_ui(const UiMessage& instruction, std::uint8_t host = kMasterId);
+[[nodiscard]] UiMessage drive_message_to_ui(const CanMessage& drive_message);
+
 }  // namespace motion::uim342

@@ -64,8 +64,16 @@ enum class TransportKind {
   kSocketCan,  // socketcan:<if>    Linux SocketCAN interface
   kSerial,     // serial:<device>   a serial port (RS485 Modbus RTU, RS232 UIM2501/2502 gateway)
   kSimSerial,  // simserial:<name>  a pseudo-terminal created by motion-sim
+  kUiMessage,  // uimessage:<device> UIROBOT UIM2513 (RS232) / UIM2533 (USB) gateway: SimpleCAN
+               //                    29-bit frames as 16-byte UIMessages over a serial port
 };
+// CAN buses carry can::Frames (protocol stacks, motionctl dump/send): simcan, socketcan and
+// uimessage (which takes SimpleCAN 3.0 frames only).
 [[nodiscard]] bool is_can(TransportKind kind);
+
+// Which bytes the UIMessage CRC covers (UIM342 manual §2.6 / Appendix-1 say SM..d8; UIROBOT's
+// gateway software computes it over ID..d8): what a uimessage: bus sends.
+enum class UiMessageCrc { kStartToAux, kIdToAux };
 
 struct Bus {
   std::string name;
@@ -77,6 +85,8 @@ struct Bus {
   int baud = 115200;      // serial
   char parity = 'N';      // 'N', 'E', 'O'
   int stop_bits = 1;
+  UiMessageCrc uimessage_crc = UiMessageCrc::kStartToAux;  // uimessage: the CRC coverage sent
+  bool uimessage_crc_strict = false;  // uimessage: receive only that coverage (default: either)
   int request_timeout_ms = 50;
   int retries = 2;
   double poll_hz = 20.0;  // status polling rate per drive

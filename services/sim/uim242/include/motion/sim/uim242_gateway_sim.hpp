@@ -2,8 +2,9 @@
 // byte for byte per the UIM242 manuals (EN, CN Ver.1301/1302; spec uim242-string.md).
 //
 // Passive core: host bytes and `now` in (receive), gateway bytes out (context.send), next deadline
-// out (process). No fds, no clocks: the host (motion-sim, over the bus's pty) owns the serial line,
-// its byte timing and any reply latency. Thread contract: one thread (the host's loop).
+// out (process). No fds, no clocks: the host (motion-sim's SerialLineHost over the bus's pty, with
+// uim242_line_factory()) owns the serial line, its byte timing and the reply latency
+// (simulation.reply_latency_us). Thread contract: one thread (the host's loop).
 //
 // Gateway (EXT-2501, spec §3.1-§3.2): sticky target selected by `ADR η;` (initially 5, the factory
 // id); instructions for a target that is not on the bus get no reply. Global `g...` instructions
@@ -45,6 +46,7 @@
 
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
+#include "motion/sim/serial_device_sim.hpp"
 #include "motion/uim242/feedback.hpp"
 
 namespace motion::sim {
@@ -76,26 +78,26 @@ struct Uim242SimContext {
   std::function<std::int64_t(TimePoint)> utime_of;
 };
 
-class Uim242GatewaySim {
+class Uim242GatewaySim final : public SerialDeviceSim {
  public:
   Uim242GatewaySim(std::vector<Uim242ControllerSetup> controllers, Uim242SimContext context,
                    Uim242SimOptions options = {});
-  ~Uim242GatewaySim();
+  ~Uim242GatewaySim() override;
   Uim242GatewaySim(const Uim242GatewaySim&) = delete;
   Uim242GatewaySim& operator=(const Uim242GatewaySim&) = delete;
 
   // The UIM242 drives of `bus` in the configuration.
   static std::vector<Uim242ControllerSetup> controllers_of(const config::Config& config, const std::string& bus);
 
-  void power_up(TimePoint now);
+  void power_up(TimePoint now) override;
   // Bytes from the host, in any pieces; `now` = when the last of them arrived. Returns the next
   // deadline (as process()).
-  TimePoint receive(std::span<const std::uint8_t> bytes, TimePoint now);
+  TimePoint receive(std::span<const std::uint8_t> bytes, TimePoint now) override;
   // Advances to `now` (arrivals, notifications); returns the next deadline or kNever.
-  TimePoint process(TimePoint now);
+  TimePoint process(TimePoint now) override;
   // STALL, SET_INPUT, SILENCE, POWER_CYCLE for `control.drive`; false when unsupported/unknown.
   // Call process(now) afterwards for the next deadline.
-  bool control(const motionlcm::sim_control_t& control, TimePoint now);
+  bool control(const motionlcm::sim_control_t& control, TimePoint now) override;
 
   // Introspection for tests.
   [[nodiscard]] std::int64_t position(const std::string& drive, TimePoint now) const;
@@ -117,5 +119,9 @@ class Uim242GatewaySim {
   uim242::InstructionSplitter splitter_;
   int selected_ = 5;
 };
+
+// The factory motion-sim registers for uim242 lines: the bus's UIM242 drives behind one simulated
+// UIM2501, every frame it sends delayed by simulation.reply_latency_us, reports as SIM_REPORT.
+[[nodiscard]] SerialDeviceFactory uim242_line_factory();
 
 }  // namespace motion::sim

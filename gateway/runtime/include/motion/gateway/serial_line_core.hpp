@@ -1,0 +1,35 @@
+// The passive protocol core of one serial line, as gateway::SerialBusDriver (serial_bus_driver.hpp)
+// drives it: fd-free and clock-free (every call gets `now`); bytes go out through the write
+// function the core was built with. Implemented by adam_driver::MasterCore (Modbus RTU) and
+// uim242_driver::Uim242BusCore (UIM2501/2502 string protocol).
+// Thread contract: one thread (the gateway's loop); no call blocks.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include <motionlcm/bus_stats_t.hpp>
+#include <motionlcm/gateway_command_t.hpp>
+
+#include "motion/core/clock.hpp"
+
+namespace motion::gateway {
+
+class SerialLineCore {
+ public:
+  virtual ~SerialLineCore() = default;
+  // The port is open (again): identify and set up the drives, begin polling.
+  virtual void start(TimePoint now) = 0;
+  virtual void on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) = 0;
+  // Timeouts, polls, the next request; returns the next deadline or kNever.
+  virtual TimePoint process(TimePoint now) = 0;
+  virtual void execute(const motionlcm::gateway_command_t& command, TimePoint now) = 0;
+  virtual void fire(std::int64_t trigger_id, TimePoint now) = 0;
+  // The port hung up: every running command ends FAILED, the drives are offline until start().
+  virtual void line_lost(const std::string& why, TimePoint now) = 0;
+  [[nodiscard]] virtual motionlcm::bus_stats_t statistics() const = 0;
+  [[nodiscard]] virtual bool ready() const = 0;
+};
+
+}  // namespace motion::gateway

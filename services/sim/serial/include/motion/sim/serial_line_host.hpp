@@ -1,0 +1,73 @@
+// One `simserial:` line in motion-sim: a pty pair whose slave path is published as
+// <sim_runtime_dir>/<bus>.tty (motion::serial::PtyLink; the gateway, or any serial tool, opens it
+// like a real port), with the simulated device of the line's drive family on the master side.
+// The host reads what the gateway writes and hands it to the device with its arrival time,
+// writes the device's bytes when they are due, and keeps ONE timer at the earlier of the device's
+// next deadline and the next due write.
+//
+// A serial line carries one family (its own framing), as in the gateway: the first family of the
+// bus's drives that has a factory is served; drives of other families are listed in missing().
+// Thread contract: the loop's thread only; no call blocks (the master fd is non-blocking).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "motion/config/config.hpp"
+#include "motion/core/event_loop.hpp"
+#include "motion/serial/pty_link.hpp"
+#include "motion/sim/serial_device_sim.hpp"
+
+namespace motion::sim {
+
+class SerialLineHost {
+ public:
+  using Reporter = std::function<void(motionlcm::sim_report_t)>;
+  using Factories = std::map<config::Family, SerialDeviceFactory>;
+
+  // The family that would serve `bus` with `factories`; nullopt when none of its drives has one.
+  [[nodiscard]] static std::optional<config::Family> family_for(const config::Config& config, const config::Bus& bus,
+                                                                const Factories& factories);
+  // Creates the pty and its link, the device, and powers it up. nullptr with `error` set when the
+  // pty or the link cannot be made, or no family of the bus has a factory (ENOTSUP).
+  static std::unique_ptr<SerialLineHost> open(EventLoop& loop, const config::Config& config, const config::Bus& bus,
+                                              const Factories& factories, Reporter reporter, std::error_code& error);
+  ~SerialLineHost();
+  SerialLineHost(const SerialLineHost&) = delete;
+  SerialLineHost& operator=(const SerialLineHost&) = delete;
+
+  [[nodiscard]] const std::string& name() const { return bus_.name; }
+  [[nodiscard]] config::Family family() const { return family_; }
+  [[nodiscard]] const std::string& link_path() const { return link_->link_path(); }
+  [[nodiscard]] const std::vector<std::string>& missing() const { return missing_; }
+  [[nodiscard]] std::size_t drive_count() const { return drive_count_; }
+  // Applies a sim_control_t for one of this line's drives. False when not ours (or unsupported).
+  bool control(const motionlcm::sim_control_t& control);
+
+ private:
+  SerialLineHost(EventLoop& loop, const config::Config& config, const config::Bus& bus, config::Family family);
+  void send(std::span<const std::uint8_t> bytes, Duration delay);
+  void on_readable();
+  void on_timer();
+  void flush(TimePoint now);
+  void reschedule();
+
+  EventLoop& loop_;
+  config::Bus bus_;
+  config::Family family_;
+  std::unique_ptr<serial::PtyLink> link_;
+  std::unique_ptr<SerialDeviceSim> device_;
+  TimePoint device_deadline_ = kNever;
+  std::multimap<TimePoint, std::vector<std::uint8_t>> outbox_;  // due time -> bytes
+  EventLoop::TimerId timer_ = 0;
+  std::vector<std::string> missing_;
+  std::size_t drive_count_ = 0;
+};
+
+}  // namespace motion::sim

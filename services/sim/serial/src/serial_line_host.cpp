@@ -1,0 +1,132 @@
+#include "motion/sim/serial_line_host.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+
+#include <spdlog/spdlog.h>
+
+#include "motion/serial/serial_port.hpp"
+
+namespace motion::sim {
+
+std::optional<config::Family> SerialLineHost::family_for(const config::Config& config, const config::Bus& bus,
+                                                         const Factories& factories) {
+  // In family order, as the gateway picks its serial driver (gateway/app/bus_assembly.cpp).
+  for (const auto& [family, factory] : factories) {
+    if (std::any_of(config.drives.begin(), config.drives.end(),
+                    [&](const config::Drive& d) { return d.bus == bus.name && d.family == family; })) {
+      return family;
+    }
+  }
+  return std::nullopt;
+}
+
+SerialLineHost::SerialLineHost(EventLoop& loop, const config::Config& config, const config::Bus& bus, config::Family family)
+    : loop_(loop), bus_(bus), family_(family) {
+  for (const auto& d : config.drives) {
+    if (d.bus != bus.name) continue;
+    if (d.family == family) {
+      ++drive_count_;
+    } else {
+      missing_.push_back(d.name + " (" + std::string(config::to_string(d.family)) + ")");
+    }
+  }
+}
+
+std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const config::Config& config, const config::Bus& bus,
+                                                     const Factories& factories, Reporter reporter, std::error_code& error) {
+  const auto family = family_for(config, bus, factories);
+  if (!family) {
+    error = std::make_error_code(std::errc::not_supported);
+    return nullptr;
+  }
+  auto host = std::unique_ptr<SerialLineHost>(new SerialLineHost(loop, config, bus, *family));
+  host->link_ = serial::PtyLink::create(serial::simserial_link_path(config, bus), serial::settings_from(bus), error);
+  if (!host->link_) return nullptr;
+  SerialDeviceContext context;
+  context.bus = bus.name;
+  context.send = [h = host.get()](std::span<const std::uint8_t> bytes, Duration delay) { h->send(bytes, delay); };
+  context.report = [reporter = std::move(reporter), bus_name = bus.name](const std::string& drive, std::int8_t kind,
+                                                                          std::int64_t frame_utime, std::int64_t position,
+                                                                          std::int64_t target) {
+    if (!reporter) return;
+    motionlcm::sim_report_t r{};
+    r.utime = wall_time_us();
+    r.drive = drive;
+    r.bus = bus_name;
+    r.kind = kind;
+    r.frame_utime = frame_utime;
+    r.position_counts = position;
+    r.target_counts = target;
+    reporter(std::move(r));
+  };
+  // One steady -> wall offset for the line's life: every report of one frame carries one time.
+  const auto steady_us = [](TimePoint t) {
+    return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+  };
+  context.utime_of = [steady_us, offset = wall_time_us() - steady_us(loop.now())](TimePoint t) { return steady_us(t) + offset; };
+  host->device_ = factories.at(*family)(config, bus, std::move(context));
+  loop.watch(host->link_->master_fd(), [h = host.get()] { h->on_readable(); });
+  const TimePoint now = loop.now();
+  host->device_->power_up(now);
+  host->device_deadline_ = host->device_->process(now);
+  host->reschedule();
+  return host;
+}
+
+SerialLineHost::~SerialLineHost() {
+  if (link_) loop_.unwatch(link_->master_fd());
+  if (timer_ != 0) loop_.cancel(timer_);
+}
+
+void SerialLineHost::send(std::span<const std::uint8_t> bytes, Duration delay) {
+  outbox_.emplace(loop_.now() + delay, std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
+}
+
+void SerialLineHost::on_readable() {
+  std::array<std::uint8_t, 512> buffer{};
+  const TimePoint now = loop_.now();
+  for (;;) {
+    const ssize_t n = ::read(link_->master_fd(), buffer.data(), buffer.size());
+    if (n <= 0) break;  // EAGAIN: drained (the slave fd PtyLink keeps open means no EIO)
+    device_deadline_ = device_->receive(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), now);
+  }
+  reschedule();
+}
+
+void SerialLineHost::on_timer() {
+  timer_ = 0;
+  device_deadline_ = device_->process(loop_.now());
+  reschedule();
+}
+
+bool SerialLineHost::control(const motionlcm::sim_control_t& control) {
+  const TimePoint now = loop_.now();
+  if (!device_->control(control, now)) return false;
+  device_deadline_ = device_->process(now);
+  reschedule();
+  return true;
+}
+
+void SerialLineHost::flush(TimePoint now) {
+  while (!outbox_.empty() && outbox_.begin()->first <= now) {
+    const auto& bytes = outbox_.begin()->second;
+    if (::write(link_->master_fd(), bytes.data(), bytes.size()) < 0)
+      spdlog::warn("bus {}: {} bytes not written: {}", bus_.name, bytes.size(), std::error_code(errno, std::generic_category()).message());
+    outbox_.erase(outbox_.begin());
+  }
+}
+
+void SerialLineHost::reschedule() {
+  flush(loop_.now());
+  if (timer_ != 0) loop_.cancel(timer_);
+  timer_ = 0;
+  const TimePoint next = outbox_.empty() ? device_deadline_ : std::min(device_deadline_, outbox_.begin()->first);
+  if (next == kNever) return;
+  timer_ = loop_.call_at(next, [this] { on_timer(); });
+}
+
+}  // namespace motion::sim

@@ -1,0 +1,185 @@
+// gateway::SerialBusDriver, the serial poll-loop shell of AdamBusDriver and Uim242BusDriver, over a
+// real pseudo-terminal (serial::PtyLink) with a scripted core: the port is retried until it
+// exists (one event per cause), bytes go both ways, the core's deadline drives ONE timer, and a
+// hang-up reaches the core as line_lost() before the port is reopened and the core started again.
+#include "motion/gateway/serial_bus_driver.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <array>
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include <motionlcm/event_t.hpp>
+
+#include "motion/serial/pty_link.hpp"
+#include "motion/testing/pump.hpp"
+
+namespace motion::gateway {
+namespace {
+
+using std::chrono::milliseconds;
+
+class ScriptedCore final : public SerialLineCore {
+ public:
+  explicit ScriptedCore(SerialBusDriver::Write write) : write_(std::move(write)) {}
+  void start(TimePoint) override { ++starts; }
+  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint) override { received.append(bytes.begin(), bytes.end()); }
+  TimePoint process(TimePoint now) override {
+    ++process_calls;
+    if (wake_at && now >= *wake_at) {
+      woke_at = now;
+      wake_at.reset();
+    }
+    return wake_at.value_or(kNever);
+  }
+  void execute(const motionlcm::gateway_command_t& c, TimePoint) override { commands.push_back(c.command_id); }
+  void fire(std::int64_t id, TimePoint) override { fired.push_back(id); }
+  void line_lost(const std::string& why, TimePoint) override { lost.push_back(why); }
+  [[nodiscard]] motionlcm::bus_stats_t statistics() const override {
+    motionlcm::bus_stats_t s{};
+    s.name = "rs232";
+    s.state = "open";
+    return s;
+  }
+  [[nodiscard]] bool ready() const override { return true; }
+  bool write(const std::string& text) {
+    return write_(std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+  }
+
+  int starts = 0;
+  int process_calls = 0;
+  std::string received;
+  std::optional<TimePoint> wake_at;
+  std::optional<TimePoint> woke_at;
+  std::vector<std::int64_t> commands;
+  std::vector<std::int64_t> fired;
+  std::vector<std::string> lost;
+
+ private:
+  SerialBusDriver::Write write_;
+};
+
+struct Recorder : GatewayOutput {
+  void axis_status(const std::string&, const DriveStatus&) override {}
+  void axis_event(const std::string& axis, const DriveEvent& e) override { events.emplace_back(axis, e); }
+  void command_reply(motionlcm::gateway_reply_t r) override { replies.push_back(r); }
+  std::vector<std::pair<std::string, DriveEvent>> events;
+  std::vector<motionlcm::gateway_reply_t> replies;
+};
+
+class SerialBusDriverTest : public ::testing::Test {
+ protected:
+  SerialBusDriverTest() {
+    dir_ = std::filesystem::temp_directory_path() / ("serial-bus-driver-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+    path_ = (dir_ / "rs232.tty").string();
+    driver_ = std::make_unique<SerialBusDriver>(loop_, "rs232", path_, line_, out_, [this](SerialBusDriver::Write w) {
+      auto core = std::make_unique<ScriptedCore>(std::move(w));
+      core_ = core.get();
+      return core;
+    });
+    driver_->reopen_period = milliseconds(20);
+  }
+  ~SerialBusDriverTest() override {
+    driver_.reset();
+    link_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+  void make_link() {
+    std::error_code error;
+    link_ = serial::PtyLink::create(path_, line_, error);
+    ASSERT_TRUE(link_) << error.message();
+  }
+  bool run_until(const std::function<bool()>& done, milliseconds limit = milliseconds(2000)) {
+    return testing::pump_until(loop_, done, limit);
+  }
+  std::string read_master() {
+    std::array<char, 256> buffer{};
+    std::string out;
+    for (;;) {
+      const ssize_t n = ::read(link_->master_fd(), buffer.data(), buffer.size());
+      if (n <= 0) return out;
+      out.append(buffer.data(), static_cast<std::size_t>(n));
+    }
+  }
+
+  EventLoop loop_;
+  Recorder out_;
+  serial::SerialSettings line_{57600, serial::Parity::none, 8, 1};
+  std::filesystem::path dir_;
+  std::string path_;
+  std::unique_ptr<serial::PtyLink> link_;
+  std::unique_ptr<SerialBusDriver> driver_;
+  ScriptedCore* core_ = nullptr;
+};
+
+TEST_F(SerialBusDriverTest, RetriesUntilThePortExistsWithOneEventPerCause) {
+  driver_->start();
+  EXPECT_FALSE(driver_->port_open());
+  EXPECT_FALSE(driver_->ready());
+  EXPECT_EQ(driver_->statistics().at(0).state, "closed");
+  run_until([] { return false; }, milliseconds(100));  // several retries
+  ASSERT_EQ(out_.events.size(), 1u);
+  EXPECT_EQ(out_.events[0].first, "");
+  EXPECT_EQ(out_.events[0].second.kind, std::int16_t{motionlcm::event_t::OFFLINE});
+  EXPECT_NE(out_.events[0].second.text.find("cannot open " + path_ + " for bus rs232"), std::string::npos) << out_.events[0].second.text;
+  EXPECT_EQ(core_->starts, 0);
+
+  make_link();
+  ASSERT_TRUE(run_until([&] { return driver_->port_open(); }));
+  EXPECT_EQ(core_->starts, 1);
+  EXPECT_TRUE(driver_->ready());
+  EXPECT_EQ(driver_->statistics().at(0).state, "open");
+}
+
+TEST_F(SerialBusDriverTest, BytesBothWaysAndTheCoreDeadlineDrivesOneTimer) {
+  make_link();
+  driver_->start();
+  ASSERT_TRUE(driver_->port_open());
+  ASSERT_TRUE(core_->write("ADR 6;"));
+  run_until([] { return false; }, milliseconds(20));
+  EXPECT_EQ(read_master(), "ADR 6;");
+
+  const std::string reply = "\xAA\x06\xD0\xFF";
+  ASSERT_EQ(::write(link_->master_fd(), reply.data(), reply.size()), static_cast<ssize_t>(reply.size()));
+  ASSERT_TRUE(run_until([&] { return core_->received.size() == reply.size(); }));
+  EXPECT_EQ(core_->received, reply);
+
+  // A deadline set by a command is armed at once (process() after execute) and met, not early.
+  core_->wake_at = loop_.now() + milliseconds(30);
+  const TimePoint due = *core_->wake_at;
+  motionlcm::gateway_command_t command{};
+  command.command_id = 41;
+  driver_->execute(command);
+  driver_->fire(7);
+  EXPECT_EQ(core_->commands, std::vector<std::int64_t>{41});
+  EXPECT_EQ(core_->fired, std::vector<std::int64_t>{7});
+  ASSERT_TRUE(run_until([&] { return core_->woke_at.has_value(); }));
+  EXPECT_GE(*core_->woke_at, due);
+  // Nothing pending: the loop idles (no timer left, no busy wait).
+  const int calls = core_->process_calls;
+  run_until([] { return false; }, milliseconds(50));
+  EXPECT_EQ(core_->process_calls, calls);
+}
+
+TEST_F(SerialBusDriverTest, HangUpIsALostLineThenTheCoreStartsAgain) {
+  make_link();
+  driver_->start();
+  ASSERT_TRUE(driver_->port_open());
+  link_.reset();  // motion-sim went away: the slave side reads EIO
+  ASSERT_TRUE(run_until([&] { return !core_->lost.empty(); }));
+  EXPECT_FALSE(driver_->port_open());
+  EXPECT_FALSE(core_->write("FBK;")) << "a write while the port is closed is refused";
+  EXPECT_EQ(driver_->statistics().at(0).state, "closed");
+
+  make_link();
+  ASSERT_TRUE(run_until([&] { return driver_->port_open(); }));
+  EXPECT_EQ(core_->starts, 2);
+  EXPECT_EQ(core_->lost.size(), 1u);
+}
+
+}  // namespace
+}  // namespace motion::gateway
