@@ -9,6 +9,8 @@
 #include <utility>
 #include <variant>
 
+#include "motion/core/result.hpp"
+
 namespace motion::adam {
 
 enum class AdamErrc {
@@ -25,28 +27,8 @@ enum class AdamErrc {
   return {static_cast<int>(e), adam_category()};
 }
 
-// Either a T or an error_code. value() on an error throws std::bad_variant_access.
-template <typename T>
-class [[nodiscard]] Result {
- public:
-  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}             // NOLINT
-  Result(std::error_code error) : state_(std::in_place_index<1>, error) {}           // NOLINT
-  template <typename E>
-    requires std::is_error_code_enum_v<E>
-  Result(E error) : state_(std::in_place_index<1>, make_error_code(error)) {}       // NOLINT
-
-  [[nodiscard]] bool ok() const noexcept { return state_.index() == 0; }
-  explicit operator bool() const noexcept { return ok(); }
-  [[nodiscard]] const T& value() const& { return std::get<0>(state_); }
-  [[nodiscard]] T& value() & { return std::get<0>(state_); }
-  [[nodiscard]] T&& value() && { return std::get<0>(std::move(state_)); }
-  [[nodiscard]] std::error_code error() const noexcept {
-    return ok() ? std::error_code{} : std::get<1>(state_);
-  }
-
- private:
-  std::variant<T, std::error_code> state_;
-};
+// The shared Result<T> (motion/core/result.hpp).
+using motion::Result;
 
 }  // namespace motion::adam
 

@@ -16,6 +16,8 @@
 #include <utility>
 #include <variant>
 
+#include "motion/core/result.hpp"
+
 namespace motion::uim342 {
 
 // Manual §2.3 "Error Code for UIM342" (spec §5.2). Values are the wire bytes.
@@ -66,30 +68,8 @@ enum class CodecErrc {
   return {static_cast<int>(e), codec_category()};
 }
 
-// Either a T or an error code. value() on an error throws std::bad_variant_access.
-template <typename T>
-class [[nodiscard]] Result {
- public:
-  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}                 // NOLINT
-  Result(std::error_code error) : state_(std::in_place_index<1>, error) {}              // NOLINT
-  Result(CodecErrc error) : state_(std::in_place_index<1>, make_error_code(error)) {}   // NOLINT
-  Result(DriveErrc error) : state_(std::in_place_index<1>, make_error_code(error)) {}   // NOLINT
-
-  [[nodiscard]] bool ok() const noexcept { return state_.index() == 0; }
-  explicit operator bool() const noexcept { return ok(); }
-  [[nodiscard]] const T& value() const& { return std::get<0>(state_); }
-  [[nodiscard]] T& value() & { return std::get<0>(state_); }
-  [[nodiscard]] T&& value() && { return std::get<0>(std::move(state_)); }
-  [[nodiscard]] const T& operator*() const& { return value(); }
-  [[nodiscard]] const T* operator->() const { return &value(); }
-  // The error, or a default (success) error_code when ok().
-  [[nodiscard]] std::error_code error() const noexcept {
-    return ok() ? std::error_code{} : std::get<1>(state_);
-  }
-
- private:
-  std::variant<T, std::error_code> state_;
-};
+// The shared Result<T> (motion/core/result.hpp).
+using motion::Result;
 
 }  // namespace motion::uim342
 
