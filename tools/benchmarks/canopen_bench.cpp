@@ -52,6 +52,7 @@
 
 #include <motionlcm/sim_report_t.hpp>
 
+#include "bench_table.hpp"
 #include "motion/can/frame.hpp"
 #include "motion/canopen/cob_id.hpp"
 #include "motion/canopen/sdo_client.hpp"
@@ -93,33 +94,12 @@ Duration to_end_of_frame(const can::Frame& f) { return simbus::bits_duration(sim
 
 // ---- the table ---------------------------------------------------------------------------------
 
-struct Row {
-  std::string what;
-  std::string measured;
-  std::string bound;
-  double ratio = 0;
-  std::string note;
-};
+using bench::fmt;
+using bench::fmt2;
+using bench::Row;
 std::vector<Row> g_rows;
 
-std::string fmt(const char* format, double a) {
-  char text[96];
-  std::snprintf(text, sizeof text, format, a);
-  return text;
-}
-std::string fmt2(const char* format, double a, double b) {
-  char text[96];
-  std::snprintf(text, sizeof text, format, a, b);
-  return text;
-}
-
-void print_table() {
-  std::printf("\n%-52s %-26s %-22s %8s  %s\n", "figure (1 Mbit/s, bus timing on)", "measured", "bound", "ratio", "note");
-  std::printf("%s\n", std::string(150, '-').c_str());
-  for (const auto& r : g_rows) {
-    std::printf("%-52s %-26s %-22s %7.2fx  %s\n", r.what.c_str(), r.measured.c_str(), r.bound.c_str(), r.ratio, r.note.c_str());
-  }
-}
+void print_table() { bench::print_rows(g_rows, "figure (1 Mbit/s, bus timing on)", "bound"); }
 
 // ---- driving one EventLoop on the wall clock or on a manual clock ------------------------------
 

@@ -57,6 +57,7 @@
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/sim_report_t.hpp>
 
+#include "bench_table.hpp"
 #include "motion/can/frame.hpp"
 #include "motion/can/transport.hpp"
 #include "motion/config/config.hpp"
@@ -107,33 +108,12 @@ std::int8_t k(std::int8_t v) { return v; }
 
 // ---- the table ---------------------------------------------------------------------------------
 
-struct Row {
-  std::string what;
-  std::string measured;
-  std::string bound;
-  double ratio = 0;
-  std::string note;
-};
+using bench::fmt;
+using bench::fmt2;
+using bench::Row;
 std::vector<Row> g_rows;
 
-std::string fmt(const char* format, double a) {
-  char text[128];
-  std::snprintf(text, sizeof text, format, a);
-  return text;
-}
-std::string fmt2(const char* format, double a, double b) {
-  char text[128];
-  std::snprintf(text, sizeof text, format, a, b);
-  return text;
-}
-
-void print_table() {
-  std::printf("\n%-56s %-28s %-30s %8s  %s\n", "figure", "measured", "bound (same run)", "ratio", "note");
-  std::printf("%s\n", std::string(170, '-').c_str());
-  for (const auto& r : g_rows) {
-    std::printf("%-56s %-28s %-30s %7.2fx  %s\n", r.what.c_str(), r.measured.c_str(), r.bound.c_str(), r.ratio, r.note.c_str());
-  }
-}
+void print_table() { bench::print_rows(g_rows, "figure", "bound (same run)"); }
 
 // ---- infrastructure ----------------------------------------------------------------------------
 
