@@ -466,7 +466,7 @@ void MasterCore::on_position_status(Drive& d, std::span<const std::uint16_t> wor
         std::find(op->drives.begin(), op->drives.end(), &d) != op->drives.end())
       watching.push_back(op.get());
   }
-  for (Operation* op : watching) check_motion(*op, now);  // may finish (erase) ops: iterate a copy
+  for (Operation* op : watching) check_motion(*op, d, now);  // may finish (erase) ops: iterate a copy
 }
 
 void MasterCore::on_outputs_alarm(Drive& d, std::span<const std::uint16_t> words, TimePoint now) {
@@ -967,7 +967,7 @@ void MasterCore::start_armed(Operation& op, TimePoint now) {
   send_next(now);
 }
 
-void MasterCore::check_motion(Operation& op, TimePoint now) {
+void MasterCore::check_motion(Operation& op, const Drive& sampled, TimePoint now) {
   (void)now;
   const std::int64_t id = op.command.command_id;
   for (Drive* d : op.drives) {
@@ -990,8 +990,10 @@ void MasterCore::check_motion(Operation& op, TimePoint now) {
       continue;
     }
     // Idle but not there: give the drive a few polls to start (the broadcast has no ack), then
-    // report where it stopped.
-    if (op.seen_moving.contains(d) || ++op.idle_polls[d] >= kIdlePollsBeforeShortStop) {
+    // report where it stopped. Only a fresh sample of this drive counts: the others' samples
+    // come in between and would count its old one again.
+    if (d == &sampled && !op.seen_moving.contains(d)) ++op.idle_polls[d];
+    if (op.seen_moving.contains(d) || op.idle_polls[d] >= kIdlePollsBeforeShortStop) {
       const std::string where = "axis " + d->cfg.axis + " stopped at " + std::to_string(*d->position);
       std::string reason;
       if (s.at_limit()) reason = where + " on its " + (s.negative_limit ? "negative" : "positive") + " limit";

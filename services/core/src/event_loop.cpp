@@ -1,6 +1,7 @@
 #include "motion/core/event_loop.hpp"
 
 #include <poll.h>
+#include <time.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
 
@@ -119,10 +120,13 @@ void EventLoop::run_once(Duration max_wait) {
   std::vector<pollfd> pfds;
   pfds.reserve(fds_.size());
   for (const auto& [fd, cb] : fds_) pfds.push_back(pollfd{fd, POLLIN, 0});
-  // Round up to whole milliseconds so a sub-millisecond deadline does not spin with timeout 0.
-  const auto wait_ms = std::chrono::ceil<std::chrono::milliseconds>(wait).count();
-  const int timeout = static_cast<int>(std::min<long long>(wait_ms, 60'000));
-  const int n = ::poll(pfds.data(), pfds.size(), timeout);
+  // ppoll takes a timespec: a timer is due within the kernel's timer slack (~50 us), not rounded
+  // up to the next millisecond as poll(2) would; bit-timed simulated buses, SYNC periods and
+  // request -> ACK hops depend on it.
+  const auto capped = std::min<Duration>(wait, std::chrono::seconds(60));
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(capped).count();
+  const timespec timeout{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
+  const int n = ::ppoll(pfds.data(), pfds.size(), &timeout, nullptr);
   if (n < 0 && errno != EINTR) {
     spdlog::error("event loop: poll failed: {}", std::strerror(errno));
   }

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstring>
 #include <deque>
+#include <functional>
 #include <variant>
 
 #include <spdlog/spdlog.h>
@@ -29,11 +30,15 @@ constexpr int kSendBuffer = 1 << 20;
 namespace detail {
 
 // What a LocalEndpoint and its hub share; the hub forgets it (hub = nullptr) when it cuts the
-// endpoint off or goes away, so either side may die first.
-struct LocalLink {
+// endpoint off or goes away, so either side may die first. A link is signalled either through
+// its eventfd (the default) or, after LocalEndpoint::on_ready(), by the hub calling `on_ready`
+// from its loop (one deferred dispatch for all such links, no descriptor to poll).
+struct LocalLink : std::enable_shared_from_this<LocalLink> {
   Hub* hub = nullptr;
   EndpointId id = 0;
   int event_fd = -1;
+  std::function<void()> on_ready;
+  bool ready_queued = false;  // in the hub's ready list
   std::deque<std::variant<can::Frame, can::BusEvent>> inbox;
 
   LocalLink() = default;
@@ -45,19 +50,27 @@ struct LocalLink {
   bool post(std::variant<can::Frame, can::BusEvent> item) {
     if (inbox.size() >= kLocalQueueLimit) return false;
     inbox.push_back(std::move(item));
-    const std::uint64_t one = 1;
-    [[maybe_unused]] const auto n = ::write(event_fd, &one, sizeof one);  // cannot overflow in practice
+    signal();
     return true;
   }
+  void signal() {
+    if (!on_ready) {
+      const std::uint64_t one = 1;
+      [[maybe_unused]] const auto n = ::write(event_fd, &one, sizeof one);  // cannot overflow in practice
+    } else if (!ready_queued && hub != nullptr) {
+      ready_queued = true;
+      hub->queue_ready(shared_from_this());
+    }
+  }
   void clear_signal() const {
+    if (on_ready) return;
     std::uint64_t count = 0;
     [[maybe_unused]] const auto n = ::read(event_fd, &count, sizeof count);
   }
   void cut_off(const std::string& reason) {
-    hub = nullptr;
     inbox.emplace_back(can::BusEvent{can::BusState::kDisconnected, 0, reason});
-    const std::uint64_t one = 1;
-    [[maybe_unused]] const auto n = ::write(event_fd, &one, sizeof one);
+    signal();  // while `hub` is still known, so a callback link is told too
+    hub = nullptr;
   }
 };
 
@@ -69,13 +82,19 @@ LocalEndpoint::LocalEndpoint(std::string bus_name, std::shared_ptr<detail::Local
     : EndpointTransport(std::move(bus_name)), link_(std::move(link)) {}
 
 LocalEndpoint::~LocalEndpoint() {
+  link_->on_ready = nullptr;
   if (link_->hub != nullptr) {
     link_->hub->bus_.detach(link_->id);
     link_->hub->locals_.erase(link_->id);
   }
 }
 
-int LocalEndpoint::fd() const { return link_->hub != nullptr ? link_->event_fd : -1; }
+int LocalEndpoint::fd() const { return link_->hub != nullptr && !link_->on_ready ? link_->event_fd : -1; }
+
+void LocalEndpoint::on_ready(std::function<void()> callback) {
+  link_->on_ready = std::move(callback);
+  if (link_->on_ready && !link_->inbox.empty()) link_->signal();
+}
 
 EndpointId LocalEndpoint::endpoint_id() const { return link_->id; }
 
@@ -194,6 +213,9 @@ Hub::~Hub() {
     ::unlink(socket_path_.c_str());
   }
   for (auto& [id, link] : locals_) link->cut_off("simulated bus " + options_.bus_name + " shut down");
+  // Callback endpoints are not called for the hub's own end (their owner is going away with
+  // it); the disconnect event waits in their inbox.
+  if (ready_timer_) loop_.cancel(*ready_timer_);
 }
 
 std::unique_ptr<LocalEndpoint> Hub::attach_local(std::string label, bool own_echo) {
@@ -310,6 +332,23 @@ void Hub::reschedule() {
   timer_ = loop_.call_at(next, [this] {
     timer_.reset();
     pump();
+  });
+}
+
+void Hub::queue_ready(std::shared_ptr<detail::LocalLink> link) {
+  ready_.push_back(std::move(link));
+  if (ready_timer_) return;
+  // Called while the bus advances: the receivers run from the loop afterwards, never inside it.
+  ready_timer_ = loop_.call_at(loop_.now(), [this] {
+    ready_timer_.reset();
+    std::vector<std::shared_ptr<detail::LocalLink>> ready;
+    ready.swap(ready_);
+    for (const auto& waiting : ready) {
+      waiting->ready_queued = false;
+      if (!waiting->on_ready) continue;
+      const auto callback = waiting->on_ready;  // the callback may destroy its endpoint
+      callback();
+    }
   });
 }
 

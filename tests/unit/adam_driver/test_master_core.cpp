@@ -166,6 +166,20 @@ class MasterCoreTest : public ::testing::Test {
     return c;
   }
 
+  static Command arm(std::int64_t id, std::int64_t trigger, std::vector<std::pair<std::string, std::int64_t>> targets) {
+    std::vector<std::string> names;
+    for (auto& [axis, target] : targets) names.push_back(axis);
+    Command c = command(id, std::int8_t{Command::ARM_MOVE}, names);
+    c.trigger_id = trigger;
+    for (std::size_t i = 0; i < targets.size(); ++i) {
+      c.axes[i].target_counts = targets[i].second;
+      c.axes[i].velocity = 8000;        // 120 rpm at 4000 pulses/rev
+      c.axes[i].acceleration = 16000;
+      c.axes[i].deceleration = 16000;
+    }
+    return c;
+  }
+
   TimePoint now = TimePoint{} + 10s;
   Recorder out;
   std::vector<Bytes> sent;
@@ -288,19 +302,6 @@ class TwoDriveTest : public MasterCoreTest {
     core->start(now);
     run_for(50ms);
   }
-  static Command arm(std::int64_t id, std::int64_t trigger, std::vector<std::pair<std::string, std::int64_t>> targets) {
-    std::vector<std::string> names;
-    for (auto& [axis, target] : targets) names.push_back(axis);
-    Command c = command(id, std::int8_t{Command::ARM_MOVE}, names);
-    c.trigger_id = trigger;
-    for (std::size_t i = 0; i < targets.size(); ++i) {
-      c.axes[i].target_counts = targets[i].second;
-      c.axes[i].velocity = 8000;        // 120 rpm at 4000 pulses/rev
-      c.axes[i].acceleration = 16000;
-      c.axes[i].deceleration = 16000;
-    }
-    return c;
-  }
 };
 
 TEST_F(TwoDriveTest, ArmThenFireStartsEveryAxisWithOneBroadcastExecuteTableFrame) {
@@ -391,6 +392,56 @@ TEST_F(TwoDriveTest, AlarmFailsTheMoveOfItsAxis) {
   EXPECT_EQ(out.of(16).back().error_code, error_code(ReplyError::kAxisFaulted));
   EXPECT_NE(out.of(16).back().reason.find("Over-current"), std::string::npos) << out.of(16).back().reason;
   EXPECT_TRUE(out.has_event(std::int16_t{motionlcm::event_t::ALARM}));
+}
+
+// The line is half-duplex: after a broadcast start the drives' fresh samples come one by one.
+// A drive whose last sample predates the start must not be judged "stopped short" on that old
+// sample while the other drives' samples arrive (it used to be counted once per other drive).
+class FourDriveTest : public MasterCoreTest {
+ protected:
+  FourDriveTest() : MasterCoreTest({drive("c1-drive", "c1", 1), drive("c2-drive", "c2", 2), drive("c3-drive", "c3", 3), drive("c4-drive", "c4", 4)}) {
+    for (std::uint8_t unit = 1; unit <= 4; ++unit) banks[unit].completes_moves = false;
+    core->start(now);
+    run_for(80ms);
+  }
+  // Answers the frames one at a time until the position/status read of `unit` is answered.
+  void step_until_position_read_of(std::uint8_t unit) {
+    const std::string read = hex(Bytes{unit, 0x03, 0x00, 0x04, 0x00, 0x04}).substr(0, 17);
+    for (int step = 0; step < 2000; ++step) {
+      if (answered < sent.size()) {
+        const Bytes frame = sent[answered++];
+        for (auto& [id, bank] : banks) {
+          const auto result = adam::serve(frame, adam::SlaveConfig{id, {}, adam::ExceptionMode::standard}, bank);
+          if (!result.reply.empty()) reply(result.reply);
+        }
+        if (hex(frame).substr(0, 17) == read) return;
+      } else {
+        advance(1ms);
+      }
+    }
+    FAIL() << "no position read of unit " << int{unit};
+  }
+};
+
+TEST_F(FourDriveTest, ADriveIsJudgedOnlyOnItsOwnSamplesTakenAfterTheStart) {
+  ASSERT_TRUE(core->ready());
+  core->execute(arm(20, 5, {{"c1", 4000}, {"c2", 4000}, {"c3", 4000}, {"c4", 4000}}), now);
+  run_for(150ms);
+  ASSERT_EQ(out.of(20).size(), 1U);
+  ASSERT_EQ(out.of(20)[0].status, kArmed);
+  step_until_position_read_of(4);  // c4 sampled idle at 0 just before the start
+  core->fire(5, now);
+  // c1..c3 are sampled moving before c4 is sampled again: no verdict on c4 meanwhile.
+  step_until_position_read_of(3);
+  EXPECT_EQ(out.terminal(20), 0) << out.of(20).back().reason;
+  // Every drive arrives: the move ends DONE.
+  for (std::uint8_t unit = 1; unit <= 4; ++unit) {
+    banks[unit].set_moving(false);
+    banks[unit].set_position(4000);
+  }
+  run_for(500ms);
+  ASSERT_EQ(out.terminal(20), 1);
+  EXPECT_EQ(out.of(20).back().status, kDone) << out.of(20).back().reason;
 }
 
 }  // namespace

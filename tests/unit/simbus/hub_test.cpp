@@ -298,6 +298,46 @@ TEST_F(HubTest, DisconnectCutsOffSocketAndLocalEndpoints) {
   EXPECT_EQ(at_gateway.wakeups + at_drive.wakeups, wakeups);
 }
 
+// motion-sim's drives: a LocalEndpoint with a callback has no descriptor; the hub calls it from
+// the loop after the bus has advanced (never inside a send), and a frame sent from the callback
+// goes out like any other. Bus events and a disconnect reach it the same way.
+TEST_F(HubTest, CallbackEndpointIsCalledFromTheLoopAndMayAnswerFromThere) {
+  open_hub();
+  auto gateway = hub->attach_local("gateway");
+  auto drive = hub->attach_local("drive");
+  Receiver at_gateway(loop, *gateway);
+  std::vector<can::Frame> at_drive;
+  std::vector<can::BusEvent> drive_events;
+  bool inside_send = false;
+  int calls_inside_send = 0;
+  drive->on_bus_event([&](const can::BusEvent& e) { drive_events.push_back(e); });
+  drive->on_ready([&] {
+    if (inside_send) ++calls_inside_send;
+    while (auto f = drive->receive()) {
+      at_drive.push_back(*f);
+      EXPECT_FALSE(drive->send(frame(f->id + 0x80, {0xAA})));  // answer from inside the callback
+    }
+  });
+  EXPECT_EQ(drive->fd(), -1);
+  inside_send = true;
+  ASSERT_FALSE(gateway->send(frame(0x601, {1})));
+  ASSERT_FALSE(gateway->send(frame(0x602, {2})));
+  inside_send = false;
+  ASSERT_TRUE(run_until(loop, [&] { return at_gateway.frames.size() == 2; }));
+  EXPECT_EQ(calls_inside_send, 0);
+  EXPECT_EQ(at_gateway.ids(), (std::vector<std::uint32_t>{0x681, 0x682}));
+  ASSERT_EQ(at_drive.size(), 2u);
+  EXPECT_EQ(at_drive[1].id, 0x602u);
+  EXPECT_EQ(drive->statistics().rx_frames, 2u);
+
+  ASSERT_TRUE(hub->set_bus_off(drive->endpoint_id()));
+  ASSERT_TRUE(run_until(loop, [&] { return !drive_events.empty(); }));
+  EXPECT_EQ(drive_events.back().state, can::BusState::kBusOff);
+  ASSERT_TRUE(hub->disconnect(drive->endpoint_id()));
+  ASSERT_TRUE(run_until(loop, [&] { return drive_events.back().state == can::BusState::kDisconnected; }));
+  EXPECT_EQ(drive->state(), can::BusState::kDisconnected);
+}
+
 TEST_F(HubTest, EndpointsNoticeTheHubGoingAwayAndCanReconnect) {
   open_hub();
   auto gateway = connect("gateway");

@@ -14,7 +14,7 @@ CanBusHost::CanBusHost(EventLoop& loop, const config::Config& config, const conf
 CanBusHost::~CanBusHost() {
   for (auto& [name, d] : drives_) {
     loop_.cancel(d.timer);
-    if (d.endpoint) loop_.unwatch(d.endpoint->fd());
+    if (d.endpoint && d.endpoint->fd() >= 0) loop_.unwatch(d.endpoint->fd());
   }
 }
 
@@ -89,7 +89,11 @@ std::error_code CanBusHost::attach_drives(const std::map<config::Family, CanDriv
     d.latency = std::chrono::microseconds(config_.simulation.reply_latency_us);
     d.endpoint = std::move(endpoint);
     create(d, factory->second);
-    loop_.watch(d.endpoint->fd(), [this, &d] { on_readable(d); });
+    if (auto* local = dynamic_cast<simbus::LocalEndpoint*>(d.endpoint.get())) {
+      local->on_ready([this, &d] { on_readable(d); });  // no descriptor per simulated drive
+    } else {
+      loop_.watch(d.endpoint->fd(), [this, &d] { on_readable(d); });
+    }
   }
   return {};
 }

@@ -162,7 +162,8 @@ class MasterCore final : public gateway::SerialLineCore {
   void finish(std::int64_t command_id, std::int8_t status, const std::string& reason = {}, std::int32_t code = 0,
               std::function<void(motionlcm::gateway_reply_t&)> fill = {});
   void fail_motion_of(const Drive& d, const std::string& reason, std::int32_t code);
-  void check_motion(Operation& op, TimePoint now);
+  // A fresh position/status sample of `sampled` arrived: updates every drive of `op`.
+  void check_motion(Operation& op, const Drive& sampled, TimePoint now);
   void arm_move(Operation& op, TimePoint now);
   void start_armed(Operation& op, TimePoint now);
   void param(Operation& op, const motionlcm::param_t& param);

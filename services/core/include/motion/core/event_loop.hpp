@@ -2,7 +2,8 @@
 // transports, serial ports, Unix sockets) and timers, dispatched from a single thread.
 //
 // Contract: all methods must be called from the loop's thread (callbacks included). run()
-// blocks in poll(2) until an fd is ready or the earliest timer is due: never a busy wait.
+// blocks in ppoll(2) until an fd is ready or the earliest timer is due (a nanosecond timeout: timers
+// keep to the kernel's timer slack, not whole milliseconds): never a busy wait.
 // A callback that throws is caught and logged; the exception never leaves the loop (so it cannot
 // cross an LCM or C callback). Callbacks may add/remove fds and timers, including their own.
 #pragma once

@@ -3,9 +3,9 @@
 // It owns the Bus (bus.hpp), listens on the bus's Unix socket (address.hpp) for SocketEndpoints
 // of other processes and hands out LocalEndpoints for same-process users. Frames are read when
 // their socket polls readable and submitted at the loop's now(); deliveries are scheduled with
-// one EventLoop timer at the bus's next deadline (never a busy wait). The loop's poll has
-// millisecond resolution, so a frame may reach its receivers up to ~1 ms after its simulated
-// end of frame; its timestamp is still the exact simulated time.
+// one EventLoop timer at the bus's next deadline (never a busy wait). A frame reaches its
+// receivers within the loop's timer slack (tens of microseconds) after its simulated end of
+// frame; its timestamp is the exact simulated time.
 //
 // A receiver that does not read fast enough loses frames (counted as overruns), like a full
 // SocketCAN receive queue; the bus and the other receivers are not held up.
@@ -15,6 +15,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -42,7 +43,10 @@ struct LocalLink;
 
 // A same-process endpoint: frames and events are queued in memory, fd() is an eventfd that
 // polls readable while something is waiting. Sends are submitted to the bus at once, so send()
-// reports bus-off synchronously.
+// reports bus-off synchronously. After on_ready(callback), fd() is -1 and the hub calls the
+// callback from its loop instead (after the bus has advanced, never inside it) whenever
+// something is waiting: a simulator with a hundred drives then polls no descriptor per drive and
+// pays no write(2) per delivered frame. The callback must call receive() until it is empty.
 class LocalEndpoint final : public EndpointTransport {
  public:
   ~LocalEndpoint() override;
@@ -55,6 +59,7 @@ class LocalEndpoint final : public EndpointTransport {
   std::error_code set_own_echo(bool enabled) override;
   [[nodiscard]] can::BusState state() const override;
   [[nodiscard]] EndpointId endpoint_id() const;
+  void on_ready(std::function<void()> callback);
 
  private:
   friend class Hub;
@@ -100,6 +105,7 @@ class Hub {
   };
   class Sink;
   friend class LocalEndpoint;
+  friend struct detail::LocalLink;
 
   Hub(EventLoop& loop, HubOptions options);
   std::error_code listen();
@@ -111,6 +117,8 @@ class Hub {
   // Runs the bus up to now, delivers, closes connections that failed, re-arms the timer.
   void pump();
   void reschedule();
+  // A callback link has something waiting: call it from the loop once the bus is left.
+  void queue_ready(std::shared_ptr<detail::LocalLink> link);
 
   EventLoop& loop_;
   HubOptions options_;
@@ -124,6 +132,8 @@ class Hub {
   std::uint64_t overruns_ = 0;
   std::optional<EventLoop::TimerId> timer_;
   TimePoint timer_deadline_ = kNever;
+  std::vector<std::shared_ptr<detail::LocalLink>> ready_;
+  std::optional<EventLoop::TimerId> ready_timer_;
 };
 
 }  // namespace motion::simbus
