@@ -146,14 +146,56 @@ struct Uim342Stack::Impl {
       Node node;
       node.cfg = n;
       nodes.push_back(std::move(node));
+      exchange_time = std::max(exchange_time, poll_exchange_time(n.node_id, config.bitrate));
     }
+    fit_poll_period();
   }
+
+  // Wire time of one request and its ACK to `node`, for the longest of the poll's exchanges (the
+  // MS[1] ACK carries 8 bytes); an upper bound for the ACK of any other instruction too.
+  static Duration poll_exchange_time(std::uint8_t node, std::uint32_t bitrate) {
+    const auto request = uim342::instruction_frame(node, rq::get(uim342::MotionStatusIndex::kinematics));
+    const auto ack = uim342::reply_frame(node, uim342::Reply{FunctionCode::MS, uim342::MotionKinematics{-1, -1}});
+    if (!request.ok() || !ack.ok()) return Duration::zero();
+    return simbus::frame_duration(*request, bitrate) + simbus::frame_duration(*ack, bitrate);
+  }
+
+  // §5.24 polling within the bus capacity: N drives x (MS[0] + MS[1]) x poll rate may not take
+  // more than kPollBusShare of the wire (the rest stays free for commands and notifications, and
+  // requests do not queue up into timeouts). Beyond it every drive is polled less often, and the
+  // configuration is told so at start().
+  static constexpr double kPollBusShare = 0.75;
+  void fit_poll_period() {
+    poll_period = config.poll_period;
+    const auto cycle = 2 * exchange_time * static_cast<std::int64_t>(nodes.size());  // one poll of every drive
+    const auto needed = std::chrono::duration_cast<Duration>(std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / kPollBusShare));
+    if (needed <= poll_period) return;
+    poll_period = std::chrono::ceil<std::chrono::milliseconds>(needed);
+    poll_warning = fmt::format(
+        "bus {}: polling {} UIM342 drives at {:.1f} Hz needs {:.0f}% of {} bit/s; polling each at {:.1f} Hz instead (polls keep to {:.0f}% "
+        "of the bus)",
+        config.bus, nodes.size(), 1.0 / std::chrono::duration<double>(config.poll_period).count(),
+        100.0 * std::chrono::duration<double>(cycle).count() / std::chrono::duration<double>(config.poll_period).count(), config.bitrate,
+        1.0 / std::chrono::duration<double>(poll_period).count(), 100.0 * kPollBusShare);
+  }
+
+  // How long a request just handed to the transport may wait for the wire: every other request
+  // in flight on this bus, and its ACK, may go first. Counted into its deadline so a long
+  // transmit queue is not taken for a silent drive.
+  [[nodiscard]] Duration queued_wire_time() const {
+    const auto in_flight = std::count_if(nodes.begin(), nodes.end(), [](const Node& n) { return n.busy(); });
+    return exchange_time * in_flight;
+  }
+  [[nodiscard]] TimePoint deadline_of(const Node& n, TimePoint now) const { return now + n.cfg.request_timeout + queued_wire_time(); }
 
   Uim342StackConfig config;
   CanStackContext context;
   WallClock wall;
   Counters& counters;
   std::vector<Node> nodes;
+  Duration exchange_time{};   // wire time of the longest request + ACK (poll_exchange_time)
+  Duration poll_period{};     // config.poll_period, or longer when the bus cannot carry it
+  std::string poll_warning;   // why poll_period is longer (reported at start)
   std::map<std::int64_t, Command> commands;
   bool started = false;
 
@@ -263,7 +305,7 @@ struct Uim342Stack::Impl {
           Request& mr = nodes[m].queue.front();
           mr.sent = true;
           mr.attempts = 1;
-          mr.deadline = now + nodes[m].cfg.request_timeout;
+          mr.deadline = deadline_of(nodes[m], now);
         }
         on_sent(r.command_id, now);
         return;
@@ -271,7 +313,7 @@ struct Uim342Stack::Impl {
       if (!transmit(target, r.instruction)) return;  // transport refused: retried at the next process()
       r.attempts = 1;
       r.sent = true;
-      r.deadline = now + n.cfg.request_timeout;
+      r.deadline = deadline_of(n, now);
       const std::int64_t command_id = r.command_id;
       const bool is_start = r.instruction.function == FunctionCode::BG;
       if (!uim342::expected_reply(r.instruction)) {
@@ -362,7 +404,7 @@ struct Uim342Stack::Impl {
   void poll_if_due(std::size_t i, TimePoint now) {
     Node& n = nodes[i];
     if (!polled(n) || !n.queue.empty() || now < n.next_poll) return;
-    n.next_poll = now + config.poll_period;
+    n.next_poll = now + poll_period;
     enqueue(i, rq::get(uim342::MotionStatusIndex::status), 0);
     enqueue(i, rq::get(uim342::MotionStatusIndex::kinematics), 0);
   }
@@ -415,7 +457,7 @@ struct Uim342Stack::Impl {
     Node& n = nodes[i];
     n.phase = n.setup_refused ? Phase::setup_failed : Phase::ready;
     n.backoff = std::chrono::milliseconds{0};
-    n.next_poll = now + config.poll_period;
+    n.next_poll = now + poll_period;
     if (n.setup_refused) return;  // CONFIG_MISMATCH already reported
     event(n, event_t::ONLINE, event_t::INFO, 0,
           fmt::format("{} set up{}", n.name(), n.cfg.group_id != 0 && !n.group_ok ? " (group start disabled: group id not confirmed)" : ""));
@@ -1021,7 +1063,7 @@ struct Uim342Stack::Impl {
         r.group.reset();
         ++r.attempts;
         ++counters.retries;
-        r.deadline = now + n.cfg.request_timeout;
+        r.deadline = deadline_of(n, now);
         return;
       }
     }
@@ -1053,6 +1095,13 @@ std::vector<std::string> Uim342Stack::axes() const {
 
 void Uim342Stack::start(TimePoint now) {
   impl_->started = true;
+  if (!impl_->poll_warning.empty()) {
+    DriveEvent e;
+    e.kind = event_t::CONFIG_MISMATCH;
+    e.severity = event_t::WARNING;
+    e.text = impl_->poll_warning;
+    impl_->context.out->axis_event("", e);
+  }
   for (std::size_t i = 0; i < impl_->nodes.size(); ++i) impl_->identify(i, now);
 }
 
@@ -1060,6 +1109,8 @@ bool Uim342Stack::on_frame(const can::Frame& frame, TimePoint now) { return impl
 TimePoint Uim342Stack::process(TimePoint now) { return impl_->process(now); }
 void Uim342Stack::execute(const motionlcm::gateway_command_t& command, TimePoint now) { impl_->execute(command, now); }
 void Uim342Stack::fire(std::int64_t trigger_id, TimePoint now) { impl_->fire(trigger_id, now); }
+
+Duration Uim342Stack::poll_period() const { return impl_->poll_period; }
 
 bool Uim342Stack::ready() const {
   return impl_->started && std::all_of(impl_->nodes.begin(), impl_->nodes.end(), [](const Impl::Node& n) { return n.phase == Impl::Phase::ready; });

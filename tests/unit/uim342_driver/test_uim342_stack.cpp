@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <motionlcm/event_t.hpp>
 
 #include "fake_drive.hpp"
@@ -58,7 +59,7 @@ class Uim342StackTest : public ::testing::Test {
  protected:
   void SetUp() override { build(kLab); }
 
-  void build(const char* yaml) {
+  void build(const std::string& yaml) {
     auto loaded = config::load_string(yaml, "test.yaml");
     ASSERT_TRUE(loaded.ok()) << loaded.error_text();
     config_ = *loaded.config;
@@ -255,6 +256,56 @@ TEST_F(Uim342StackTest, StartIdentifiesAppliesSetupAndBecomesReady) {
   EXPECT_EQ(out.statuses.back().second.sample_utime, kEpochUs + 10'050'000);
   run_for(milliseconds(100));
   EXPECT_EQ(count_sent(5, FC::MS), 6u);
+}
+
+// §5.24 polling within the bus capacity. 120 drives x (MS[0] + MS[1]) at 20 Hz need ~1.0 s of
+// wire per second at 1 Mbit/s: more than the bus carries. The stack polls each drive less often,
+// so polls take at most 3/4 of the bus, and says so once at start.
+TEST_F(Uim342StackTest, PollingIsSlowedToWhatTheBusCarriesAndSaysSo) {
+  std::string yaml = "buses:\n  - {name: can0, transport: \"simcan:can0\", bitrate: 1000000, poll_hz: 20}\ndrives:\n";
+  for (int node = 5; node < 125; ++node) yaml += fmt::format("  - {{name: d{0}, family: uim342, bus: can0, node_id: {0}}}\n", node);
+  build(yaml.c_str());
+  const auto cycle = [](std::size_t polled) {
+    // One poll of a drive: two requests and two ACKs, the longest ACK 8 bytes (MS[1]).
+    const auto request = uim342::instruction_frame(5, uim342::request::get(uim342::MotionStatusIndex::kinematics));
+    const auto ack = uim342::reply_frame(5, uim342::Reply{FC::MS, uim342::MotionKinematics{-1, -1}});
+    return 2 * (simbus::frame_duration(*request, 1'000'000) + simbus::frame_duration(*ack, 1'000'000)) * static_cast<std::int64_t>(polled);
+  };
+  ASSERT_GT(cycle(120), milliseconds(37));  // more than 3/4 of the configured 50 ms period
+  // 4/3 of the cycle, rounded up to the ms; node ids differ in stuff bits by a few per frame.
+  EXPECT_GE(stack->poll_period(), cycle(120) * 4 / 3 * 97 / 100);
+  EXPECT_LT(stack->poll_period(), cycle(120) * 4 / 3 * 103 / 100 + milliseconds(1));
+  stack->start(now);
+  const auto* warning = find_event(event_t::CONFIG_MISMATCH);
+  ASSERT_NE(warning, nullptr);
+  EXPECT_EQ(warning->severity, kWarning);
+  EXPECT_NE(warning->text.find("bus can0: polling 120 UIM342 drives at 20.0 Hz needs"), std::string::npos) << warning->text;
+  EXPECT_NE(warning->text.find("polls keep to 75% of the bus"), std::string::npos) << warning->text;
+  EXPECT_EQ(std::count_if(out.events.begin(), out.events.end(), [](const auto& e) { return e.first.empty(); }), 1);
+
+  // Three drives fit: the configured rate, nothing said.
+  build(kLab);
+  clear_records();
+  EXPECT_EQ(stack->poll_period(), milliseconds(50));
+  stack->start(now);
+  settle();
+  EXPECT_EQ(find_event(event_t::CONFIG_MISMATCH), nullptr);
+}
+
+// A request's timeout counts from when it was handed to the transport plus the wire time of
+// the requests in flight ahead of it (each with its ACK): a queue on a busy bus is not a silent
+// drive. Three requests in flight at 1 Mbit/s: ~0.2 ms of wire each.
+TEST_F(Uim342StackTest, RequestTimeoutAllowsForTheRequestsAheadOnTheWire) {
+  start_and_set_up();
+  for (auto& [id, d] : drives) d.silent = true;
+  execute(command(gateway_command_t::ENABLE, {"x", "y", "z"}));
+  ASSERT_EQ(count_sent(5, FC::MO) + count_sent(6, FC::MO) + count_sent(7, FC::MO), 3u);
+  run_for(milliseconds(50) + std::chrono::microseconds(150));
+  EXPECT_EQ(stack->counters().retries, 0);  // at exactly request_timeout_ms they would all be retried
+  run_for(milliseconds(2));
+  EXPECT_EQ(stack->counters().retries, 3);
+  for (auto& [id, d] : drives) d.silent = false;
+  run_for(milliseconds(60));  // the second retries are answered: the command ends DONE
 }
 
 TEST_F(Uim342StackTest, WrongGroupIdIsWrittenAndTheDriveRebooted) {

@@ -19,7 +19,9 @@
 //   §5.14-5.17 AC/DC/SS/SD, §5.18 JV, §5.19 SP (after PA: "#50" ordering rule), §5.21 PA,
 //   §5.22 OG (HOME and SET_POSITION: the manual has no homing procedure and no "set position"
 //   instruction, only "set origin"; SET_POSITION keeps the difference as a gateway offset),
-//   §5.23 BL, §5.24 MS[0]/MS[1] polling and MS[0]=0 (FAULT_RESET), §5.28 DI (OP1 output).
+//   §5.23 BL, §5.24 MS[0]/MS[1] polling (within the bus capacity) and MS[0]=0 (FAULT_RESET),
+//   §5.28 DI (OP1 output). A request's timeout starts when it is handed to the transport, plus
+//   the wire time of the requests ahead of it, so a busy bus is not taken for a silent drive.
 #pragma once
 
 #include <chrono>
@@ -97,6 +99,9 @@ class Uim342Stack final : public CanStack {
     std::int64_t foreign = 0;        // extended frames not from a configured node (left to others)
   };
   [[nodiscard]] const Counters& counters() const { return counters_; }
+  // The status poll period in use: the configured one, or longer when polling every drive at
+  // that rate would take more than 3/4 of the bus (a CONFIG_MISMATCH warning says so at start).
+  [[nodiscard]] Duration poll_period() const;
   [[nodiscard]] std::optional<DriveStatus> status(std::string_view axis) const;
 
  private:
