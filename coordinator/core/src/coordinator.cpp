@@ -96,6 +96,13 @@ Coordinator::~Coordinator() { loop_.cancel(watchdog_); }
 void Coordinator::on_axis_state(const motionlcm::axis_state_t& state) {
   auto it = axes_.find(state.axis);
   if (it == axes_.end()) return;
+  // Only a running gateway publishes axis states: as good a sign of life as its heartbeat, so a
+  // coordinator started after its gateways accepts requests at once, not a heartbeat period
+  // later. A gateway that announced STOPPING stays stopped until it heartbeats again.
+  if (GatewayLive& g = gateways_[it->second.drive->bus]; !g.seen || g.last_heartbeat != TimePoint{}) {
+    g.seen = true;
+    g.last_heartbeat = loop_.now();
+  }
   it->second.state = state;
   it->second.received = loop_.now();
   if (const std::uint64_t serial = it->second.busy_with; serial != 0) {
@@ -136,7 +143,8 @@ void Coordinator::on_health(const motionlcm::health_t& health) {
   if (health.role != "gateway" || health.process.rfind("gateway:", 0) != 0) return;
   const std::string bus = health.process.substr(8);
   GatewayLive& g = gateways_[bus];
-  const bool restarted = g.seen && (health.pid != g.pid || health.uptime_s + 0.5 < g.uptime_s);
+  // pid 0: known only from its axis states so far, not a restart.
+  const bool restarted = g.seen && g.pid != 0 && (health.pid != g.pid || health.uptime_s + 0.5 < g.uptime_s);
   g.seen = true;
   g.pid = health.pid;
   g.uptime_s = health.uptime_s;
@@ -495,8 +503,13 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g) {
   if (g.status == gateway_reply_t::FAILED) {
     r.pending.erase(g.command_id);
     const bool moving = r.phase == Phase::kTriggered;
-    abort_group(r, moving ? reply_t::ABORTED : reply_t::FAILED, r.phase == Phase::kArming ? ReplyError::kArmFailed : ReplyError::kDriveError,
-                "bus " + g.bus + ": " + g.reason);
+    // The gateway's own code says more (a refused value, a silent drive, a fault) than "drive
+    // error"; a move that could not be loaded stays kArmFailed as documented.
+    const bool known_code = g.error_code > 0 && g.error_code <= error_code(ReplyError::kUnsupported);
+    const ReplyError error = r.phase == Phase::kArming ? ReplyError::kArmFailed
+                             : known_code             ? static_cast<ReplyError>(g.error_code)
+                                                      : ReplyError::kDriveError;
+    abort_group(r, moving ? reply_t::ABORTED : reply_t::FAILED, error, "bus " + g.bus + ": " + g.reason);
     return;
   }
   if (is_move(r.msg.kind)) {

@@ -63,7 +63,7 @@ struct FakeGateways {
 
   void tick() {
     for (const std::string bus : {"can0", "rs485"}) {
-      if (silent.contains(bus)) continue;
+      if (silent.contains(bus) || !heartbeats) continue;
       motionlcm::health_t h{};
       h.process = "gateway:" + bus;
       h.role = "gateway";
@@ -111,6 +111,7 @@ struct FakeGateways {
   std::map<std::string, double> scales;
   std::map<std::string, std::int32_t> pid_of{{"can0", 100}, {"rs485", 200}};
   std::set<std::string> silent;
+  bool heartbeats = true;  // false: axis states only (a coordinator that missed the heartbeats)
   std::vector<gateway_command_t> commands;
   std::vector<motionlcm::sync_trigger_t> triggers;
   std::function<void(const gateway_command_t&)> on_command;
@@ -128,8 +129,8 @@ struct CoordinatorTest : ::testing::Test {
     gateways.add_axis("y", "can0", 100);
     gateways.add_axis("c", "rs485", 10);
     client.subscribe<reply_t>(lcm::channels::kReply, [this](const reply_t& r, const std::string&) { replies[r.request_id].push_back(r); });
-    pump(milliseconds(200));  // heartbeats and states reach the coordinator
   }
+  void SetUp() override { pump(milliseconds(200)); }  // heartbeats and states reach the coordinator
   void pump(milliseconds d) {
     const auto end = loop.now() + d;
     while (loop.now() < end) loop.run_once(milliseconds(5));
@@ -329,6 +330,31 @@ TEST_F(CoordinatorTest, StallOfOneAxisAbortsTheGroupAndStopsTheOthers) {
   EXPECT_TRUE(stopped_both);
 }
 
+// A coordinator started after its gateways has missed their last heartbeat: their axis states
+// show them alive at once (no heartbeat period of "gateway offline"); when the states stop too,
+// the gateway is offline after gateway_timeout_ms as before.
+struct CoordinatorWithoutHeartbeats : CoordinatorTest {
+  void SetUp() override {
+    gateways.heartbeats = false;
+    CoordinatorTest::SetUp();
+  }
+};
+
+TEST_F(CoordinatorWithoutHeartbeats, AxisStatesShowTheGatewayAliveUntilTheyStop) {
+  auto_execute_moves();
+  const auto moved = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {2.0, 3.0}));
+  EXPECT_EQ(moved.status, std::int8_t{reply_t::DONE}) << moved.reason;
+  gateways.silent.insert("rs485");
+  pump(milliseconds(500));
+  const auto refused = terminal(send(request_t::MOVE_ABSOLUTE, {"c"}, {1.0}));
+  EXPECT_EQ(refused.error_code, static_cast<int>(ReplyError::kGatewayOffline)) << refused.reason;
+  // Its first heartbeat is not taken for a restart.
+  gateways.silent.erase("rs485");
+  gateways.heartbeats = true;
+  pump(milliseconds(200));
+  EXPECT_EQ(run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"c"}, {1.0})).status, std::int8_t{reply_t::DONE});
+}
+
 TEST_F(CoordinatorTest, LostGatewayAbortsTheRequestAndStopsTheOtherBus) {
   auto_execute_moves(/*complete=*/false);
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {5.0, 5.0});
@@ -366,6 +392,22 @@ TEST_F(CoordinatorTest, RequestTimeoutFailsAndStops) {
   const auto r = terminal(move);
   EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kTimeout));
+}
+
+TEST_F(CoordinatorTest, GatewaysOwnErrorCodeReachesTheClient) {
+  gateways.on_command = [this](const gateway_command_t& c) {
+    gateway_reply_t r{};
+    r.command_id = c.command_id;
+    r.bus = c.bus;
+    r.status = gateway_reply_t::FAILED;
+    r.error_code = static_cast<std::int32_t>(ReplyError::kOutsideLimits);
+    r.reason = "x-drive (node 5): value 70000 outside the range of SQT";
+    gateways.node.publish(lcm::channels::kGatewayReply, r);
+  };
+  const auto r = terminal(send(request_t::ENABLE, {"x"}, {0.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kOutsideLimits));
+  EXPECT_NE(r.reason.find("bus can0: x-drive (node 5): value 70000"), std::string::npos) << r.reason;
 }
 
 TEST_F(CoordinatorTest, GatewayFailureOfASimpleCommandFailsTheRequestWithItsReason) {

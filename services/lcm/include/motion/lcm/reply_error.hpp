@@ -20,12 +20,12 @@ enum class ReplyError : std::int32_t {
   kDuplicateRequest = 9,   // same client_id + request_id already active
   kPlanningFailed = 10,
   kArmFailed = 11,         // a gateway could not load the move
-  kDriveError = 12,        // a gateway reported FAILED
+  kDriveError = 12,        // a gateway reported FAILED without a more precise code of this list
   kTimeout = 13,
   kStopped = 14,           // preempted by a stop / e-stop request
   kAxisFault = 15,         // an axis of the group faulted, stalled or hit a limit mid-move
   kGatewayLost = 16,       // a gateway's heartbeat stopped mid-request
-  kUnsupported = 17,       // the family/configuration cannot do this
+  kUnsupported = 17,       // the family/configuration cannot do this (the last code)
 };
 
 // The wire value of `error` (the int32 of reply_t / gateway_reply_t).
