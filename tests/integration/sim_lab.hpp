@@ -10,12 +10,14 @@
 
 #include <chrono>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <algorithm>
 #include <cmath>
 
+#include <motionlcm/bus_stats_t.hpp>
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/sim_control_t.hpp>
@@ -122,13 +124,19 @@ class SimLab {
   }
 
   void control(const std::string& drive, std::int8_t action, std::int32_t value = 0, std::int32_t level = 0) {
-    motionlcm::sim_control_t c{};
-    c.utime = wall_time_us();
-    c.drive = drive;
-    c.action = action;
-    c.value = value;
-    c.level = level;
-    group_.node().publish(lcm::channels::kSimControl, c);
+    publish_control(drive, {}, action, value, level);
+  }
+  // A bus-level SIM_CONTROL (e.g. LINE_NOISE on a serial line).
+  void control_bus(const std::string& bus, std::int8_t action, std::int32_t value = 0, std::int32_t level = 0) {
+    publish_control({}, bus, action, value, level);
+  }
+  // The statistics of `bus` in its gateway's last heartbeat; null before one carried them.
+  [[nodiscard]] std::optional<motionlcm::bus_stats_t> bus_stats(const std::string& bus) const {
+    const auto health = group_.heartbeat("gateway:" + bus);
+    if (!health) return std::nullopt;
+    const auto it = std::find_if(health->buses.begin(), health->buses.end(), [&](const motionlcm::bus_stats_t& b) { return b.name == bus; });
+    if (it == health->buses.end()) return std::nullopt;
+    return *it;
   }
 
   // MOTION_STARTED reports of `drive` seen so far.
@@ -146,6 +154,17 @@ class SimLab {
   [[nodiscard]] const config::Config& config() const { return config_; }
 
  private:
+  void publish_control(const std::string& drive, const std::string& bus, std::int8_t action, std::int32_t value, std::int32_t level) {
+    motionlcm::sim_control_t c{};
+    c.utime = wall_time_us();
+    c.drive = drive;
+    c.bus = bus;
+    c.action = action;
+    c.value = value;
+    c.level = level;
+    group_.node().publish(lcm::channels::kSimControl, c);
+  }
+
   std::string config_path_;
   ProcessGroup group_;
   config::Config config_;

@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/param_t.hpp>
+
+#include "motion/lcm/reply_error.hpp"
 
 namespace motion::uim242_driver {
 
@@ -21,17 +24,17 @@ namespace {
 
 using namespace std::chrono_literals;
 
-// reply_t error codes (README "Reply error codes").
-constexpr std::int32_t kMalformed = 1;
-constexpr std::int32_t kUnknownAxis = 2;
-constexpr std::int32_t kOutsideLimits = 3;
-constexpr std::int32_t kAxisDisabled = 4;
-constexpr std::int32_t kAxisOffline = 6;
-constexpr std::int32_t kDriveError = 12;
-constexpr std::int32_t kTimeout = 13;
-constexpr std::int32_t kStopped = 14;
-constexpr std::int32_t kGroupFault = 15;
-constexpr std::int32_t kUnsupported = 17;
+// reply_t error codes: the one list in motion/lcm/reply_error.hpp.
+constexpr std::int32_t kMalformed = error_code(ReplyError::kMalformedRequest);
+constexpr std::int32_t kUnknownAxis = error_code(ReplyError::kUnknownAxis);
+constexpr std::int32_t kOutsideLimits = error_code(ReplyError::kOutsideLimits);
+constexpr std::int32_t kAxisDisabled = error_code(ReplyError::kAxisDisabled);
+constexpr std::int32_t kAxisOffline = error_code(ReplyError::kAxisOffline);
+constexpr std::int32_t kDriveError = error_code(ReplyError::kDriveError);
+constexpr std::int32_t kTimeout = error_code(ReplyError::kTimeout);
+constexpr std::int32_t kStopped = error_code(ReplyError::kStopped);
+constexpr std::int32_t kGroupFault = error_code(ReplyError::kAxisFault);
+constexpr std::int32_t kUnsupported = error_code(ReplyError::kUnsupported);
 
 // MCFG (EN/CN §5.4): CM (ramps) + STLIE + STPIE + S3IE..S1IE. Input RTCNs still need a non-zero
 // action code in S12CON/S34CON, so enabling them all changes nothing until an input is bound.
@@ -40,6 +43,10 @@ constexpr Duration kIdentifyRetry = 1s;
 constexpr std::int64_t kSpeedMax = 65535;              // SPD range (#37)
 constexpr std::int64_t kAccelerationMax = 65'000'000;  // MAC/MDE value mode (#15)
 constexpr std::uint8_t kResetAndEmergencyStop = 0xC;   // sensor action 1100 (EN/CN §8.4)
+// S34CON.STALL (bits 15..12): 0000 sends no stall notification whatever STLIE says (spec §4.4,
+// G16); 0001 = no action, notification per STLIE.
+constexpr std::uint16_t kStallField = 0xF000;
+constexpr std::uint16_t kStallNotifyOnly = 0x1000;
 constexpr int kStillPollsBeforeFailure = 2;
 
 Instruction set(Mnemonic m, std::int64_t v) { return Instruction{m, false, v, false}; }
@@ -310,14 +317,16 @@ void Uim242BusCore::on_notification(const uim242::Notification& n, TimePoint now
         fmt::format("{} (node {}): input S{} {}", d.name, d.node, input, rising ? "rising" : "falling"));
   if (d.homing_command != 0 && n.event == d.homing_edge) {
     // The switch fired: the drive reset its position and stopped (action 1100). Restore the
-    // sensor register and apply the home offset.
+    // sensor register, drop the homing speed (an e-stop keeps the desired speed: the next `ENA;`
+    // would run on), and apply the home offset.
     const std::int64_t id = d.homing_command;
     d.homing_command = 0;
     const auto c = commands_.find(id);
     if (c == commands_.end()) return;
-    run_sequence(*c->second, d, {uim242::make_scf(d.homing_restore), set(Mnemonic::ORG, d.homing_offset)},
-                 [this, id, &d](TimePoint) {
-                   d.status.homed = true;
+    const std::int64_t offset = d.homing_offset;
+    run_sequence(*c->second, d, {uim242::make_scf(d.homing_restore), set(Mnemonic::SPD, 0), set(Mnemonic::ORG, offset)},
+                 [this, id, &d, offset](TimePoint t) {
+                   homed(d, offset, t);
                    finish(id, true);
                  });
   }
@@ -399,22 +408,34 @@ void Uim242BusCore::set_up(Drive& d) {
   steps.push_back(set(Mnemonic::MMS, 0));  // no non-linear jumps: the planner's exact trapezoid
   steps.push_back(set(Mnemonic::MMD, 0));
   steps.push_back(set(Mnemonic::STP, 0));  // velocity mode, desired speed 0
-  for (std::size_t i = 0; i < steps.size(); ++i) {
+  const auto submit_step = [this, &d](Instruction in, std::function<void(const Frame&, TimePoint)> on_reply, bool front) {
     Request r;
     r.drive = d.name;
     r.node = d.node;
-    r.instruction = steps[i];
-    if (i + 1 == steps.size()) {
-      r.on_reply = [this, &d](const Frame&, TimePoint now) {
-        d.set_up = true;
-        publish(d, now);
-      };
-    }
+    r.instruction = in;
+    r.on_reply = std::move(on_reply);
     r.on_failure = [this, &d](const std::string& reason, bool timed_out, TimePoint now) {
       event(d, event_t::CONFIG_MISMATCH, event_t::ERROR, 0, "set-up failed: " + reason);
       if (timed_out) mark_offline(d, reason, now);
     };
-    channel_.submit(std::move(r));
+    channel_.submit(std::move(r), front);
+  };
+  // STLIE alone sends no stall notification: a STALL action of 0000 silences it. Keep a configured
+  // action, else bind "notify only" (the sensor bits of S34CON stay as they are).
+  submit_step(bare(Mnemonic::SCF), [submit_step](const Frame& f, TimePoint) {
+    const auto s34con = static_cast<std::uint16_t>(static_cast<std::uint32_t>(field(f, uim242::Layout::scf, 0)) >> 16);
+    if ((s34con & kStallField) != 0) return;
+    submit_step(uim242::make_scf({uim242::SensorRegister::S34CON, static_cast<std::uint16_t>(s34con | kStallNotifyOnly)}), {}, true);
+  }, false);
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    std::function<void(const Frame&, TimePoint)> on_reply;
+    if (i + 1 == steps.size()) {
+      on_reply = [this, &d](const Frame&, TimePoint now) {
+        d.set_up = true;
+        publish(d, now);
+      };
+    }
+    submit_step(steps[i], std::move(on_reply), false);
   }
 }
 
@@ -539,12 +560,17 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
     finish(id, false, "command names no axis", kMalformed);
     return;
   }
-  // One instruction sequence per axis; DONE when every axis finished it.
+  // One instruction sequence per axis; DONE when every axis finished it. The state it led to
+  // goes out before DONE: whoever acts on the reply (the coordinator planning the next move from
+  // the position, checking "enabled") has it by then.
   const auto per_axis = [&](const std::function<std::vector<Instruction>(Drive&, const motionlcm::axis_command_t&)>& steps,
                             const std::function<void(Drive&)>& after = {}) {
     for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) {
-      run_sequence(c, d, steps(d, a), [this, id, &d, after](TimePoint) {
-        if (after) after(d);
+      run_sequence(c, d, steps(d, a), [this, id, &d, after](TimePoint t) {
+        if (after) {
+          after(d);
+          if (t != TimePoint{}) publish(d, t);  // TimePoint{}: nothing was sent, nothing changed
+        }
         part_done(id);
       });
     });
@@ -608,12 +634,12 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
       });
       return;
     case gateway_command_t::FAULT_RESET:
-      per_axis([](Drive& d, const auto&) {
-        d.status.fault = false;
-        d.status.fault_code = 0;
-        d.status.fault_text.clear();
-        return std::vector{bare(Mnemonic::FBK)};
-      });
+      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::FBK)}; },
+               [](Drive& d) {
+                 d.status.fault = false;
+                 d.status.fault_code = 0;
+                 d.status.fault_text.clear();
+               });
       return;
     case gateway_command_t::SET_OUTPUTS:
       for (const auto& a : command.axes) {
@@ -642,7 +668,7 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
                });
       return;
     case gateway_command_t::HOME:
-      for_each_axis(command, [&](Drive& d, const auto&) { home(c, d, *d.axis); });
+      for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) { home(c, d, *d.axis, a); });
       return;
     case gateway_command_t::PARAM_READ:
     case gateway_command_t::PARAM_WRITE:
@@ -844,13 +870,23 @@ void Uim242BusCore::fail_moves_of(const Drive& d, const std::string& reason, std
   for (const auto id : failed) finish(id, false, reason, code);
 }
 
-void Uim242BusCore::home(Command& c, Drive& d, const config::Axis& axis) {
+void Uim242BusCore::homed(Drive& d, std::int64_t offset, TimePoint now) {
+  d.status.homed = true;
+  d.status.position_counts = offset;
+  d.status.moving = false;  // the drive took `ORG`: it refuses it while moving
+  d.status.velocity_counts = 0;
+  d.last_polled_position.reset();
+  publish(d, now);  // before DONE (see execute)
+}
+
+void Uim242BusCore::home(Command& c, Drive& d, const config::Axis& axis, const motionlcm::axis_command_t& a) {
   const std::int64_t id = c.command.command_id;
-  const auto offset = std::llround(axis.homing.offset * axis.steps_per_unit);
+  // Offset and velocity in counts as the coordinator computed them (with the axis's direction).
+  const std::int64_t offset = a.target_counts;
   if (axis.homing.method != config::HomingMethod::kSwitch) {
     // No switch: the current position becomes the home position (ORG, #28/#29).
-    run_sequence(c, d, {set(Mnemonic::ORG, offset)}, [this, id, &d](TimePoint) {
-      d.status.homed = true;
+    run_sequence(c, d, {set(Mnemonic::ORG, offset)}, [this, id, &d, offset](TimePoint now) {
+      homed(d, offset, now);
       part_done(id);
     });
     return;
@@ -860,8 +896,8 @@ void Uim242BusCore::home(Command& c, Drive& d, const config::Axis& axis) {
     finish(id, false, fmt::format("axis '{}': homing input {} is not S1..S3", axis.name, input), kOutsideLimits);
     return;
   }
-  double velocity = axis.homing.velocity * axis.steps_per_unit;
-  if (velocity == 0) velocity = -0.1 * axis.limits.max_velocity * axis.steps_per_unit;
+  double velocity = a.velocity;
+  if (velocity == 0) velocity = -0.1 * axis.limits.max_velocity * axis.steps_per_unit * (axis.invert ? -1.0 : 1.0);
   const std::int64_t speed = std::clamp<std::int64_t>(std::llround(velocity), -kSpeedMax, kSpeedMax);
   // Read the sensor registers, bind 1100 (reset position + emergency stop) to the switch's
   // falling edge (a hit switch outputs 0 V, EN §8.10), then run towards it.
@@ -896,18 +932,28 @@ void Uim242BusCore::param(const gateway_command_t& command, Drive& d, bool write
   std::function<std::int64_t(const Frame&)> value_of;
   const auto layout = [](const Instruction& i) { return uim242::reply_form(i).layout; };
   if (write) {
-    if (*m == Mnemonic::SCF && p.subindex >= 0) {
-      in = uim242::make_scf({static_cast<uim242::SensorRegister>(p.subindex & 3), static_cast<std::uint16_t>(p.value)});
-    } else if (*m == Mnemonic::STG && p.subindex >= 0) {
-      in = uim242::make_stg({static_cast<std::uint8_t>(p.subindex), static_cast<std::uint16_t>(p.value)});
+    const auto out_of_range = [&] {
+      finish(id, false, fmt::format("{} (node {}): value {} outside the range of {}", d.name, d.node, p.value, p.mnemonic),
+             kOutsideLimits);
+    };
+    const bool by_register = (*m == Mnemonic::SCF || *m == Mnemonic::STG) && p.subindex >= 0;
+    if (by_register) {
+      // One 16-bit register (SCF 0..3, STG port 0..2): check before narrowing, or 70000 would
+      // go out as 4464.
+      const std::int32_t last = *m == Mnemonic::SCF ? 3 : 2;
+      if (p.subindex > last) {
+        finish(id, false, fmt::format("{} (node {}): {} has no register {} (0..{})", d.name, d.node, p.mnemonic, p.subindex, last),
+               kOutsideLimits);
+        return;
+      }
+      if (p.value < 0 || p.value > std::numeric_limits<std::uint16_t>::max()) return out_of_range();
+      const auto value = static_cast<std::uint16_t>(p.value);
+      in = *m == Mnemonic::SCF ? uim242::make_scf({static_cast<uim242::SensorRegister>(p.subindex), value})
+                               : uim242::make_stg({static_cast<std::uint8_t>(p.subindex), value});
     } else {
       in = set(*m, p.value);
     }
-    if (uim242::validate(in) || (*m == Mnemonic::SCF && p.subindex > 3)) {
-      finish(id, false, fmt::format("{} (node {}): value {} outside the range of {}", d.name, d.node, p.value, p.mnemonic),
-             kOutsideLimits);
-      return;
-    }
+    if (uim242::validate(in)) return out_of_range();
     const std::int64_t written = p.value;
     value_of = [written](const Frame&) { return written; };
   } else {

@@ -3,16 +3,21 @@
 // and 6) and the gateway's (Uim242BusDriver: Uim242BusCore in the serial poll-loop shell) on ONE
 // EventLoop, byte for byte as between the processes. Covers what the shells add to the passive
 // cores: the pty rendezvous, the reply latency, the timers, and a hang-up of the line (every
-// running command fails naming the line, the drives go offline, and come back when it returns).
+// running command fails naming the line, the drives go offline, and come back when it returns);
+// and what needs both sides: the stall notification the set-up enables, homing (the state before
+// DONE, the switch RTCN), noise on the line.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <functional>
 #include <map>
 
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
+#include <motionlcm/param_t.hpp>
+#include <motionlcm/sim_control_t.hpp>
 
 #include "motion/sim/serial_line_host.hpp"
 #include "motion/sim/uim242_gateway_sim.hpp"
@@ -33,9 +38,13 @@ struct Recorder final : gateway::GatewayOutput {
   std::map<std::string, gateway::DriveStatus> status;
   std::vector<std::pair<std::string, gateway::DriveEvent>> events;
   std::vector<gateway_reply_t> replies;
+  std::map<std::int64_t, std::map<std::string, gateway::DriveStatus>> status_at_end;  // what was published by each terminal reply
   void axis_status(const std::string& axis, const gateway::DriveStatus& s) override { status[axis] = s; }
   void axis_event(const std::string& axis, const gateway::DriveEvent& e) override { events.emplace_back(axis, e); }
-  void command_reply(gateway_reply_t r) override { replies.push_back(std::move(r)); }
+  void command_reply(gateway_reply_t r) override {
+    if (r.status == st(gateway_reply_t::DONE) || r.status == st(gateway_reply_t::FAILED)) status_at_end[r.command_id] = status;
+    replies.push_back(std::move(r));
+  }
   [[nodiscard]] const gateway_reply_t* find(std::int64_t id, std::int8_t s) const {
     for (const auto& r : replies) {
       if (r.command_id == id && r.status == s) return &r;
@@ -63,8 +72,10 @@ class Uim242Line : public ::testing::Test {
         "  - {name: u1-drive, family: uim242, bus: rs232, node_id: 5, setup: {micro_steps: 16, current_a: 1.0}}\n"
         "  - {name: u2-drive, family: uim242, bus: rs232, node_id: 6, setup: {micro_steps: 16, current_a: 1.0}}\n"
         "axes:\n"
-        "  - {name: u1, drive: u1-drive, unit: mm, steps_per_unit: 160, limits: {min: -100, max: 100, velocity: 30, acceleration: 150}}\n"
-        "  - {name: u2, drive: u2-drive, unit: mm, steps_per_unit: 160, limits: {min: -100, max: 100, velocity: 30, acceleration: 150}}\n"
+        "  - {name: u1, drive: u1-drive, unit: mm, steps_per_unit: 160, invert: true,\n"
+        "     limits: {min: -100, max: 100, velocity: 30, acceleration: 150}, homing: {method: current-position, offset: 2.5}}\n"
+        "  - {name: u2, drive: u2-drive, unit: mm, steps_per_unit: 160,\n"
+        "     limits: {min: -100, max: 100, velocity: 30, acceleration: 150}, homing: {method: switch, input: 1, velocity: -5, offset: -1}}\n"
         "simulation: {runtime_dir: '" + dir_.string() + "', reply_latency_us: 200}\n";
     auto loaded = config::load_string(yaml);
     ASSERT_TRUE(loaded.ok()) << loaded.error_text();
@@ -110,6 +121,39 @@ class Uim242Line : public ::testing::Test {
     return a;
   }
   bool ended(std::int64_t id) { return out_.terminals(id) > 0; }
+  bool sim_control(const std::string& drive, std::int8_t action, std::int32_t value = 0, std::int32_t level = 0,
+                   const std::string& bus = {}) {
+    motionlcm::sim_control_t c{};
+    c.drive = drive;
+    c.bus = bus;
+    c.action = action;
+    c.value = value;
+    c.level = level;
+    return host_->control(c);
+  }
+  std::size_t starts_of(const std::string& drive) const {
+    return static_cast<std::size_t>(std::count_if(reports_.begin(), reports_.end(), [&](const motionlcm::sim_report_t& r) {
+      return r.drive == drive && r.kind == st(motionlcm::sim_report_t::MOTION_STARTED);
+    }));
+  }
+  bool saw_event(const std::string& axis, std::int16_t kind, const std::string& text) const {
+    return std::any_of(out_.events.begin(), out_.events.end(), [&](const auto& e) {
+      return e.first == axis && e.second.kind == kind && e.second.text.find(text) != std::string::npos;
+    });
+  }
+  gateway_command_t param(std::int64_t id, std::int8_t kind, const std::string& mnemonic, std::int32_t subindex, std::int64_t value = 0) {
+    auto c = command(id, kind, {axis("u1")});
+    c.param.space = motionlcm::param_t::UIM242_INSTRUCTION;
+    c.param.mnemonic = mnemonic;
+    c.param.subindex = subindex;
+    c.param.value = value;
+    return c;
+  }
+  void enable(const std::string& axis_name, std::int64_t id) {
+    driver_->execute(command(id, gateway_command_t::ENABLE, {axis(axis_name)}));
+    ASSERT_TRUE(run_until([&] { return ended(id); }));
+    ASSERT_NE(out_.find(id, gateway_reply_t::DONE), nullptr);
+  }
 
   std::filesystem::path dir_;
   config::Config config_;
@@ -179,6 +223,121 @@ TEST_F(Uim242Line, HangUpFailsTheArmedMoveTakesTheDrivesOfflineAndTheyReturn) {
   driver_->fire(99);
   run_until([] { return false; }, milliseconds(100));
   for (const std::int64_t id : {1, 2, 3}) EXPECT_EQ(out_.terminals(id), 1) << id;
+}
+
+// S34CON.STALL is 0000 on a new controller, which silences the stall RTCN whatever MCFG.STLIE
+// says: the set-up binds "notify only", so a stall ends the move as a stall, not as "stopped
+// short" two polls later.
+TEST_F(Uim242Line, StallNotificationFailsTheMoveAndFaultsTheAxis) {
+  ASSERT_NO_FATAL_FAILURE(enable("u1", 1));
+  constexpr std::int64_t kFarAway = 16000;  // 10 s at 1600 pps: stalled long before the end
+  driver_->execute(command(2, gateway_command_t::ARM_MOVE, {axis("u1", kFarAway)}));
+  ASSERT_TRUE(run_until([&] { return out_.find(2, gateway_reply_t::STARTED) != nullptr && starts_of("u1-drive") == 1; }));
+  ASSERT_TRUE(sim_control("u1-drive", motionlcm::sim_control_t::STALL));
+  ASSERT_TRUE(run_until([&] { return ended(2); }));
+  const auto* failed = out_.find(2, gateway_reply_t::FAILED);
+  ASSERT_NE(failed, nullptr);
+  EXPECT_NE(failed->reason.find("u1-drive (node 5): stall notification"), std::string::npos) << failed->reason;
+  EXPECT_TRUE(saw_event("u1", std::int16_t{event_t::STALL}, "u1-drive (node 5)"));
+  EXPECT_TRUE(out_.status["u1"].fault);
+  EXPECT_FALSE(out_.status["u2"].fault);
+
+  // FAULT_RESET: cleared in the state before its DONE (a move right after it is not refused).
+  driver_->execute(command(3, gateway_command_t::FAULT_RESET, {axis("u1")}));
+  ASSERT_TRUE(run_until([&] { return ended(3); }));
+  ASSERT_NE(out_.find(3, gateway_reply_t::DONE), nullptr);
+  EXPECT_FALSE(out_.status_at_end.at(3).at("u1").fault);
+}
+
+// The axis state a command leads to goes out before its DONE: a move planned right after HOME
+// starts from the home position, not from the last poll. The offset is the command's (the
+// coordinator's, in counts with the axis's direction): u1 is inverted, 2.5 mm is -400 counts.
+TEST_F(Uim242Line, HomeAppliesTheCommandsOffsetAndPublishesItBeforeDone) {
+  ASSERT_NO_FATAL_FAILURE(enable("u1", 1));
+  driver_->execute(command(2, gateway_command_t::ARM_MOVE, {axis("u1", 800)}));
+  ASSERT_TRUE(run_until([&] { return ended(2); }));
+  ASSERT_TRUE(run_until([&] { return out_.status["u1"].position_counts == 800 && !out_.status["u1"].moving; }));
+  ASSERT_FALSE(out_.status["u1"].homed);
+
+  constexpr std::int64_t kHome = -400;
+  driver_->execute(command(3, gateway_command_t::HOME, {axis("u1", kHome)}));
+  ASSERT_TRUE(run_until([&] { return ended(3); }));
+  ASSERT_NE(out_.find(3, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  const auto& at_done = out_.status_at_end.at(3).at("u1");
+  EXPECT_TRUE(at_done.homed);
+  EXPECT_EQ(at_done.position_counts, kHome);
+  // The drive's own counter says so too (polled back, not the gateway's bookkeeping).
+  const auto polled = out_.status["u1"].sample_utime;
+  ASSERT_TRUE(run_until([&] { return out_.status["u1"].sample_utime > polled; }));
+  EXPECT_EQ(out_.status["u1"].position_counts, kHome);
+}
+
+// Switch homing: the falling edge of S1 resets and e-stops the drive (action 1100), its RTCN
+// ends the homing. The e-stop keeps the homing speed as the desired speed: without the `SPD 0;`
+// at the end, the next `ENA;` would run the axis on past the switch.
+TEST_F(Uim242Line, SwitchHomingEndsAtTheSwitchAndTheAxisStaysThere) {
+  ASSERT_NO_FATAL_FAILURE(enable("u2", 1));
+  constexpr std::int64_t kHome = -160;  // offset -1 mm
+  driver_->execute(command(2, gateway_command_t::HOME, {axis("u2", kHome, -800)}));
+  ASSERT_TRUE(run_until([&] { return starts_of("u2-drive") == 1; })) << "the homing run did not start";
+  ASSERT_FALSE(ended(2));
+  ASSERT_TRUE(sim_control("u2-drive", motionlcm::sim_control_t::SET_INPUT, 1, 0));
+  ASSERT_TRUE(run_until([&] { return ended(2); }));
+  ASSERT_NE(out_.find(2, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  EXPECT_TRUE(saw_event("u2", std::int16_t{event_t::INPUT_EDGE}, "input S1 falling"));
+  EXPECT_TRUE(out_.status_at_end.at(2).at("u2").homed);
+  EXPECT_EQ(out_.status_at_end.at(2).at("u2").position_counts, kHome);
+
+  ASSERT_NO_FATAL_FAILURE(enable("u2", 3));
+  run_until([] { return false; }, milliseconds(300));  // a few polls
+  EXPECT_EQ(starts_of("u2-drive"), 1u) << "the axis ran again after ENA";
+  EXPECT_EQ(out_.status["u2"].position_counts, kHome);
+  EXPECT_FALSE(out_.status["u2"].moving);
+}
+
+// Noise on the line (motion-sim's LINE_NOISE), between frames and inside a reply: counted as
+// protocol errors, the lost reply is retried, the drives stay online and a move still arrives.
+TEST_F(Uim242Line, LineNoiseIsCountedAndTheDrivesStayOnline) {
+  constexpr std::int32_t kNoiseBytes = 40;
+  const auto errors = [&] { return driver_->statistics().at(0).errors; };
+  const auto before = errors();
+  ASSERT_TRUE(sim_control({}, motionlcm::sim_control_t::LINE_NOISE, kNoiseBytes, 0, "rs232"));
+  ASSERT_TRUE(run_until([&] { return errors() > before; }));
+  const auto between = errors();
+  ASSERT_TRUE(sim_control({}, motionlcm::sim_control_t::LINE_NOISE, kNoiseBytes, 1, "rs232"));
+  ASSERT_TRUE(run_until([&] { return errors() > between; }));
+  EXPECT_FALSE(sim_control({}, motionlcm::sim_control_t::LINE_NOISE, kNoiseBytes, 0, "other-bus"));
+
+  EXPECT_TRUE(out_.online("u1") && out_.online("u2"));
+  ASSERT_NO_FATAL_FAILURE(enable("u1", 1));
+  driver_->execute(command(2, gateway_command_t::ARM_MOVE, {axis("u1", 800)}));
+  ASSERT_TRUE(run_until([&] { return ended(2); }));
+  ASSERT_NE(out_.find(2, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  EXPECT_TRUE(out_.online("u1") && out_.online("u2"));
+}
+
+// A register-addressed write (SCF register, STG port) carries one 16-bit register: a wider
+// value or a register that does not exist is refused, not narrowed into another one.
+TEST_F(Uim242Line, RegisterWriteBeyondItsRegisterIsRefusedNotNarrowed) {
+  constexpr std::int64_t kTooWide = 70000;  // would go out as 70000 - 65536 = 4464
+  driver_->execute(param(1, gateway_command_t::PARAM_WRITE, "SCF", 0, kTooWide));
+  ASSERT_TRUE(run_until([&] { return ended(1); }));
+  const auto* refused = out_.find(1, gateway_reply_t::FAILED);
+  ASSERT_NE(refused, nullptr);
+  EXPECT_NE(refused->reason.find("u1-drive (node 5): value 70000 outside the range of SCF"), std::string::npos) << refused->reason;
+  driver_->execute(param(2, gateway_command_t::PARAM_WRITE, "STG", 258, 10));  // port 258 would be port 2
+  ASSERT_TRUE(run_until([&] { return ended(2); }));
+  ASSERT_NE(out_.find(2, gateway_reply_t::FAILED), nullptr);
+  EXPECT_NE(out_.find(2, gateway_reply_t::FAILED)->reason.find("STG has no register 258"), std::string::npos);
+
+  // Nothing reached the drive: S12CON and the S3 sampling interval are as they were.
+  driver_->execute(param(3, gateway_command_t::PARAM_READ, "SCF", 0));
+  driver_->execute(param(4, gateway_command_t::PARAM_READ, "STG", 2));
+  ASSERT_TRUE(run_until([&] { return ended(3) && ended(4); }));
+  ASSERT_NE(out_.find(3, gateway_reply_t::DONE), nullptr);
+  EXPECT_EQ(out_.find(3, gateway_reply_t::DONE)->param.value, 0);
+  ASSERT_NE(out_.find(4, gateway_reply_t::DONE), nullptr);
+  EXPECT_EQ(out_.find(4, gateway_reply_t::DONE)->param.value, 0);
 }
 
 }  // namespace

@@ -83,7 +83,18 @@ SerialLineHost::~SerialLineHost() {
 }
 
 void SerialLineHost::send(std::span<const std::uint8_t> bytes, Duration delay) {
-  outbox_.emplace(loop_.now() + delay, std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
+  std::vector<std::uint8_t> out(bytes.begin(), bytes.end());
+  if (!noise_in_frame_.empty()) {
+    out.insert(out.begin() + static_cast<std::ptrdiff_t>(out.size() / 2), noise_in_frame_.begin(), noise_in_frame_.end());
+    noise_in_frame_.clear();
+  }
+  outbox_.emplace(loop_.now() + delay, std::move(out));
+}
+
+std::vector<std::uint8_t> SerialLineHost::noise(std::size_t count) {
+  std::vector<std::uint8_t> out(count);
+  for (auto& b : out) b = static_cast<std::uint8_t>(noise_source_() & 0xFF);
+  return out;
 }
 
 void SerialLineHost::on_readable() {
@@ -105,6 +116,18 @@ void SerialLineHost::on_timer() {
 
 bool SerialLineHost::control(const motionlcm::sim_control_t& control) {
   const TimePoint now = loop_.now();
+  if (control.action == motionlcm::sim_control_t::LINE_NOISE) {
+    if (!control.drive.empty() || control.bus != bus_.name || control.value <= 0) return false;
+    auto bytes = noise(static_cast<std::size_t>(control.value));
+    spdlog::info("bus {}: {} noise bytes {}", bus_.name, bytes.size(), control.level != 0 ? "into the next frame" : "on the line");
+    if (control.level != 0) {
+      noise_in_frame_ = std::move(bytes);
+    } else {
+      outbox_.emplace(now, std::move(bytes));
+      reschedule();
+    }
+    return true;
+  }
   if (!device_->control(control, now)) return false;
   device_deadline_ = device_->process(now);
   reschedule();

@@ -11,10 +11,12 @@
 //
 // Behaviour:
 // * start(): per drive `MDL η;` (identify; a model other than 18 02 is a CONFIG_MISMATCH event),
-//   then the set-up: `MCS`, `CUR` (setup micro_steps, current_a), `MCF` (setup mcfg, default
-//   CM + STPIE + STLIE: ramps, A8 arrival and stall notifications), `ICF` (only when configured:
-//   it reboots), `QER`, `SQT`, `MMS 0;` `MMD 0;` (exact trapezoids), `STP 0;` (velocity mode, at
-//   rest). An unanswered drive is offline and identified again every second.
+//   then the set-up: `SCF;` and, when S34CON.STALL is 0000 (which silences the stall
+//   notification), S34CON.STALL := 0001 (notify, no action); `MCS`, `CUR` (setup micro_steps,
+//   current_a), `MCF` (setup mcfg, default CM + STPIE + STLIE: ramps, A8 arrival and stall
+//   notifications), `ICF` (only when configured: it reboots), `QER`, `SQT`, `MMS 0;` `MMD 0;`
+//   (exact trapezoids), `STP 0;` (velocity mode, at rest). An unanswered drive is offline and
+//   identified again every second.
 // * Polling at poll_hz, one request at a time: `FBK;` (enabled, speed) and `QEC;` (position).
 // * ARM_MOVE: `QEC;` then `MAC a; MDE d; SPD 0; STP (target - position);` — the move is loaded with
 //   zero speed and does not run (spec §5.3 PT). ARMED when every axis is loaded.
@@ -26,12 +28,14 @@
 //   immediate stop the manual offers; `gOFF;` when every drive of the bus is named).
 //   ENABLE `ENA;`, DISABLE `OFF;`, SET_POSITION `ORG η;`, SET_OUTPUTS `DOU η;` (output 1 = P4),
 //   FAULT_RESET clears the latched stall and checks the drive answers (`FBK;`).
-// * HOME: method none / current position -> `ORG offset;`; switch on input n -> S12CON/S34CON
-//   action 1100 (reset position + emergency stop) on the falling edge of Sn with its RTCN
-//   enabled, `STP 0; SPD v;`, wait for the edge RTCN, restore the registers, `ORG offset;`.
+// * HOME (offset = the command's target_counts, speed = its velocity): method none / current
+//   position -> `ORG offset;`; switch on input n -> S12CON/S34CON action 1100 (reset position +
+//   emergency stop) on the falling edge of Sn with its RTCN enabled, `STP 0; SPD v;`, wait for
+//   the edge RTCN, restore the registers, `SPD 0; ORG offset;`. Homed and at the offset in the
+//   axis state before DONE (as every command's state: ENABLE, DISABLE, SET_POSITION, outputs).
 // * PARAM_READ/WRITE: param_t UIM242_INSTRUCTION, mnemonic = the instruction (first three letters,
-//   "MCFG" = MCF), subindex = SCF register 0..3 / STG port 0..2, else -1. CUR and MCS are read
-//   from the basic ACK of `;`.
+//   "MCFG" = MCF), subindex = SCF register 0..3 / STG port 0..2 (a 16-bit value), else -1. CUR
+//   and MCS are read from the basic ACK of `;`. Values outside the instruction's range fail.
 // * line_lost(): the port hung up: every command ends FAILED ("serial line of bus B lost: why"),
 //   queued requests are dropped, the drives go offline; the next start() identifies them again.
 // * Every command ends in exactly one DONE or FAILED; a failure names drive, node and instruction.
@@ -116,7 +120,8 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   void start_move(Move& m, TimePoint now);
   void move_axis_arrived(Drive& d, TimePoint now);
   void fail_moves_of(const Drive& d, const std::string& reason, std::int32_t code);
-  void home(Command& c, Drive& d, const config::Axis& axis);
+  void home(Command& c, Drive& d, const config::Axis& axis, const motionlcm::axis_command_t& a);
+  void homed(Drive& d, std::int64_t offset, TimePoint now);
   void param(const motionlcm::gateway_command_t& command, Drive& d, bool write);
 
   std::string bus_;

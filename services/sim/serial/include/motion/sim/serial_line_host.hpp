@@ -7,6 +7,9 @@
 //
 // A serial line carries one family (its own framing), as in the gateway: the first family of the
 // bus's drives that has a factory is served; drives of other families are listed in missing().
+// Line noise (sim_control_t LINE_NOISE for the bus, whatever the family): `value` bytes of a
+// fixed pseudo-random sequence (the same in every run), written at once (between frames) or into
+// the middle of the next frame the device sends.
 // Thread contract: the loop's thread only; no call blocks (the master fd is non-blocking).
 #pragma once
 
@@ -15,6 +18,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -47,12 +51,14 @@ class SerialLineHost {
   [[nodiscard]] const std::string& link_path() const { return link_->link_path(); }
   [[nodiscard]] const std::vector<std::string>& missing() const { return missing_; }
   [[nodiscard]] std::size_t drive_count() const { return drive_count_; }
-  // Applies a sim_control_t for one of this line's drives. False when not ours (or unsupported).
+  // Applies a sim_control_t for one of this line's drives, or LINE_NOISE for the line. False
+  // when not ours (or unsupported).
   bool control(const motionlcm::sim_control_t& control);
 
  private:
   SerialLineHost(EventLoop& loop, const config::Config& config, const config::Bus& bus, config::Family family);
   void send(std::span<const std::uint8_t> bytes, Duration delay);
+  std::vector<std::uint8_t> noise(std::size_t count);
   void on_readable();
   void on_timer();
   void flush(TimePoint now);
@@ -68,6 +74,8 @@ class SerialLineHost {
   EventLoop::TimerId timer_ = 0;
   std::vector<std::string> missing_;
   std::size_t drive_count_ = 0;
+  std::minstd_rand noise_source_;              // default seed: one sequence for every run
+  std::vector<std::uint8_t> noise_in_frame_;  // goes into the middle of the next frame sent
 };
 
 }  // namespace motion::sim
