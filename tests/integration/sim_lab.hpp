@@ -45,13 +45,16 @@ class SimLab {
         lcm::channels::kGatewayReply, [this](const motionlcm::gateway_reply_t& r, const std::string&) { gateway_replies_.push_back(r); });
   }
 
+  // The gateway of `bus` (also to restart one a test killed).
+  pid_t start_gateway(const std::string& bus) {
+    return group_.start({"gateway:" + bus, "motion-gateway", {"--config", config_path_, "--bus", bus}, {}});
+  }
+
   // Starts every process and waits for their heartbeats (DEGRADED accepted: a family without a
   // driver yet) and for `axes` to be online.
   [[nodiscard]] ::testing::AssertionResult start(const std::vector<std::string>& axes) {
     group_.start({"sim", "motion-sim", {"--config", config_path_}, {}});
-    for (const auto& bus : config_.buses) {
-      group_.start({"gateway:" + bus.name, "motion-gateway", {"--config", config_path_, "--bus", bus.name}, {}});
-    }
+    for (const auto& bus : config_.buses) start_gateway(bus.name);
     group_.start({"coordinator", "motion-coordinator", {"--config", config_path_}, {}});
     // The coordinator accepts requests for a bus once it has heard that bus's gateway.
     std::vector<std::string> processes{"sim", "coordinator"};

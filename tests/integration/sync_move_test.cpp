@@ -21,6 +21,7 @@ namespace motion::testing {
 namespace {
 
 using client::Client;
+using motionlcm::event_t;
 using motionlcm::reply_t;
 using motionlcm::request_t;
 using std::chrono::seconds;
@@ -29,6 +30,7 @@ using Values = std::map<std::string, double>;
 // LCM in-class constants are never ODR-used: copy them into values.
 std::int8_t st(std::int8_t s) { return s; }
 std::int32_t code(ReplyError e) { return error_code(e); }
+std::int16_t ev(std::int16_t k) { return k; }
 
 const std::vector<std::string> kRequiredAxes{"x", "y", "z", "a", "b", "c", "u"};
 
@@ -174,6 +176,33 @@ TEST_F(SyncMove, LostGatewayAbortsNamingItAndStopsTheOtherAxes) {
   }
   EXPECT_LT(position("x"), 249.0);
   EXPECT_LT(position("a"), 699.0);
+  expect_one_terminal_each(2);
+}
+
+// A gateway killed mid-move and started again at once: the coordinator sees a new process (its
+// pid), republishes the desired state (ACTIVE_MOVES) and aborts the request; the new gateway
+// learns from that state that c was moving under a request triggered before it started, says so
+// (GATEWAY_RESTARTED, naming request, axis and target) and stops c.
+TEST_F(SyncMove, RestartedGatewayIsToldWhatItWasDoingAndStopsIt) {
+  const auto id = send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 250.0}, {"c", 90.0}}));
+  ASSERT_TRUE(lab.client().wait_until([&] { return saw(id, reply_t::STARTED) || ended(id); }, seconds(20)));
+  ASSERT_FALSE(ended(id)) << replies_[id].back().reason;
+  const auto gateway = lab.group().heartbeat("gateway:rs485");
+  ASSERT_TRUE(gateway.has_value());
+  ASSERT_EQ(::kill(static_cast<pid_t>(gateway->pid), SIGKILL), 0);
+  lab.group().stop(static_cast<pid_t>(gateway->pid));  // reap it
+  ASSERT_GT(lab.start_gateway("rs485"), 0);
+  const reply_t last = wait_terminal(id);
+  EXPECT_EQ(last.status, st(reply_t::ABORTED)) << last.reason;
+  EXPECT_EQ(last.error_code, code(ReplyError::kGatewayLost)) << last.reason;
+  EXPECT_NE(last.reason.find("rs485"), std::string::npos) << last.reason;
+  const std::string told = "/" + std::to_string(id) + " was moving c to 90";
+  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::GATEWAY_RESTARTED), "c", told); }, seconds(10))) << told;
+  EXPECT_FALSE(lab.has_event(ev(event_t::GATEWAY_RESTARTED), "x", ""));  // x is not on rs485
+  for (const auto& a : std::vector<std::string>{"x", "c"}) {
+    EXPECT_TRUE(lab.client().wait_until([&] { return !moving(a); }, seconds(10))) << a << " still moving";
+  }
+  EXPECT_LT(position("c"), 89.0);
   expect_one_terminal_each(2);
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/lcm/channels.hpp"
@@ -18,6 +19,9 @@ using motionlcm::reply_t;
 using motionlcm::request_t;
 
 bool is_move(std::int8_t kind) { return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE; }
+// Requests whose axes keep moving after their command: their desired state is republished.
+bool is_motion(std::int8_t kind) { return is_move(kind) || kind == request_t::JOG || kind == request_t::HOME; }
+constexpr std::chrono::milliseconds kActiveMovesPeriod{500};
 bool is_stop(std::int8_t kind) { return kind == request_t::STOP || kind == request_t::ESTOP; }
 bool single_axis(std::int8_t kind) {
   return kind == request_t::SET_OUTPUTS || kind == request_t::PARAM_READ || kind == request_t::PARAM_WRITE;
@@ -87,9 +91,17 @@ Coordinator::Coordinator(EventLoop& loop, lcm::Node& node, const config::Config&
     node_.publish(lcm::channels::kEvent, e);
   });
   watchdog_ = loop_.call_every(std::chrono::milliseconds(100), [this] { check_gateways(); });
+  active_moves_timer_ = loop_.call_every(kActiveMovesPeriod, [this] {
+    if (active_moves_published_ || std::any_of(requests_.begin(), requests_.end(), [](const auto& r) { return is_motion(r.second->msg.kind); })) {
+      publish_active_moves();
+    }
+  });
 }
 
-Coordinator::~Coordinator() { loop_.cancel(watchdog_); }
+Coordinator::~Coordinator() {
+  loop_.cancel(watchdog_);
+  loop_.cancel(active_moves_timer_);
+}
 
 // ---------------------------------------------------------------- inputs
 
@@ -149,6 +161,7 @@ void Coordinator::on_health(const motionlcm::health_t& health) {
   g.pid = health.pid;
   g.uptime_s = health.uptime_s;
   g.last_heartbeat = health.state == motionlcm::health_t::STOPPING ? TimePoint{} : loop_.now();
+  if (restarted) publish_active_moves();  // what the new process was doing, before it is aborted
   if (restarted || health.state == motionlcm::health_t::STOPPING) {
     std::vector<std::uint64_t> hit;
     for (auto& [serial, r] : requests_) {
@@ -375,6 +388,10 @@ void Coordinator::start_simple(Request& r) {
   }
   r.phase = Phase::kWaitingGateways;
   for (auto& [bus, cmds] : per_bus) send_command(r, bus, gateway_kind(r.msg.kind), std::move(cmds));
+  if (is_motion(r.msg.kind)) {
+    r.fire_utime = wall_time_us();  // a jog or homing run starts when its gateway gets it
+    publish_active_moves();
+  }
 }
 
 void Coordinator::start_move(Request& r) {
@@ -477,6 +494,7 @@ void Coordinator::fire(Request& r) {
   r.progress_timer = loop_.call_every(std::chrono::milliseconds(config_.coordinator.progress_period_ms), [this, serial] {
     if (auto it = requests_.find(serial); it != requests_.end() && it->second->phase == Phase::kTriggered) reply(*it->second, reply_t::PROGRESS);
   });
+  publish_active_moves();
 }
 
 void Coordinator::check_move_done(Request& r) {
@@ -644,7 +662,10 @@ void Coordinator::reply(Request& r, std::int8_t status, ReplyError error, const 
   out.progress = status == reply_t::DONE ? 1.0 : (r.axes.empty() ? 0.0 : progress_sum / static_cast<double>(r.axes.size()));
   out.param = r.param_result;
   node_.publish(lcm::channels::kReply, out);
-  if (terminal(status)) r.phase = Phase::kDone;
+  if (terminal(status)) {
+    r.phase = Phase::kDone;
+    if (is_motion(r.msg.kind)) publish_active_moves();
+  }
   if (status == reply_t::DONE) {
     spdlog::info("request {}/{} ({}) done", r.msg.client_id, r.msg.request_id, kind_name(r.msg.kind));
   }
@@ -663,6 +684,48 @@ void Coordinator::finish(std::uint64_t serial) {
   }
   active_ids_.erase({r.msg.client_id, r.msg.request_id});
   requests_.erase(it);
+}
+
+}  // namespace motion::coordinator
+
+namespace motion::coordinator {
+
+void Coordinator::publish_active_moves() {
+  motionlcm::active_moves_t out{};
+  out.utime = wall_time_us();
+  for (const auto& [serial, rp] : requests_) {
+    const Request& r = *rp;
+    if (!is_motion(r.msg.kind) || r.phase == Phase::kDone) continue;
+    for (const auto& name : r.axes) {
+      const AxisLive& a = axes_.at(name);
+      const std::string& bus = a.drive->bus;
+      std::int64_t command = 0;
+      if (const auto c = r.axis_command.find(name); c != r.axis_command.end()) {
+        command = c->second;
+      } else {
+        for (const auto& [id, pending_bus] : r.pending) {
+          if (pending_bus == bus) command = id;
+        }
+      }
+      const auto target = r.targets.find(name);
+      const std::int64_t counts = target != r.targets.end() ? target->second : 0;
+      const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
+      const bool moving = r.phase == Phase::kTriggered || (!is_move(r.msg.kind) && r.fire_utime != 0);
+      out.axes.push_back(name);
+      out.buses.push_back(bus);
+      out.client_ids.push_back(r.msg.client_id);
+      out.request_ids.push_back(r.msg.request_id);
+      out.kinds.push_back(r.msg.kind);
+      out.phases.push_back(moving ? std::int8_t{motionlcm::active_moves_t::MOVING} : std::int8_t{motionlcm::active_moves_t::ARMING});
+      out.command_ids.push_back(command);
+      out.target_counts.push_back(counts);
+      out.targets.push_back(counts_per_unit != 0 ? static_cast<double>(counts) / counts_per_unit : 0.0);
+      out.fire_utime.push_back(moving ? r.fire_utime : 0);
+    }
+  }
+  out.num_axes = static_cast<std::int32_t>(out.axes.size());
+  active_moves_published_ = out.num_axes > 0;
+  node_.publish(lcm::channels::kActiveMoves, out);
 }
 
 }  // namespace motion::coordinator

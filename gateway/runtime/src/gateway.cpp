@@ -1,8 +1,11 @@
 #include "motion/gateway/gateway.hpp"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <map>
+#include <vector>
 
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/health_t.hpp>
@@ -13,12 +16,14 @@
 namespace motion::gateway {
 
 Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config, std::string bus)
-    : loop_(loop), node_(node), health_(health), config_(config), bus_(std::move(bus)) {
+    : loop_(loop), node_(node), health_(health), config_(config), bus_(std::move(bus)), started_utime_(wall_time_us()) {
   for (const config::Axis* axis : config_.axes_on_bus(bus_)) axes_.emplace(axis->name, axis);
   node_.subscribe<motionlcm::gateway_command_t>(lcm::channels::gateway_command(bus_),
                                                 [this](const motionlcm::gateway_command_t& c, const std::string&) { on_command(c); });
   node_.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger,
                                              [this](const motionlcm::sync_trigger_t& t, const std::string&) { on_trigger(t); });
+  node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves,
+                                             [this](const motionlcm::active_moves_t& m, const std::string&) { on_active_moves(m); });
   health_.set_bus_stats([this] { return driver_ ? driver_->statistics() : std::vector<motionlcm::bus_stats_t>{}; });
   health_timer_ = loop_.call_every(std::chrono::milliseconds(200), [this] { update_health(); });
 }
@@ -91,6 +96,38 @@ void Gateway::on_trigger(const motionlcm::sync_trigger_t& trigger) {
     return;
   }
   loop_.call_after(delay, [this, id] { driver_->fire(id); });
+}
+
+void Gateway::on_active_moves(const motionlcm::active_moves_t& moves) {
+  std::map<std::pair<std::string, std::int64_t>, std::vector<std::size_t>> inherited;  // request -> its rows here
+  for (std::size_t i = 0; i < moves.axes.size(); ++i) {
+    const bool ours = moves.buses[i] == bus_ && axes_.contains(moves.axes[i]);
+    const bool before_us = moves.phases[i] == motionlcm::active_moves_t::MOVING && moves.fire_utime[i] != 0 && moves.fire_utime[i] < started_utime_;
+    if (ours && before_us) inherited[{moves.client_ids[i], moves.request_ids[i]}].push_back(i);
+  }
+  for (const auto& [request, rows] : inherited) {
+    if (!inherited_.insert(request).second) continue;  // said and stopped once
+    motionlcm::gateway_command_t stop{};
+    stop.command_id = next_own_command_--;
+    stop.bus = bus_;
+    stop.kind = motionlcm::gateway_command_t::STOP;
+    for (const auto i : rows) {
+      motionlcm::axis_command_t a{};
+      a.axis = moves.axes[i];
+      stop.axes.push_back(a);
+      DriveEvent e;
+      e.kind = motionlcm::event_t::GATEWAY_RESTARTED;
+      e.severity = motionlcm::event_t::WARNING;
+      e.code = static_cast<std::int32_t>(moves.command_ids[i]);
+      e.text = fmt::format("{} started while request {}/{} was moving {} to {:.6g} (gateway command {}, fired {:.0f} ms before this process started): {}",
+                           process_name(), request.first, request.second, moves.axes[i], moves.targets[i], moves.command_ids[i],
+                           static_cast<double>(started_utime_ - moves.fire_utime[i]) / 1000.0,
+                           driver_ ? "stopping it" : "no bus driver yet to stop it");
+      axis_event(moves.axes[i], e);
+    }
+    stop.num_axes = static_cast<std::int32_t>(stop.axes.size());
+    if (driver_) driver_->execute(stop);
+  }
 }
 
 void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <motionlcm/active_moves_t.hpp>
+
 #include <cmath>
 
 #include <motionlcm/sync_trigger_t.hpp>
@@ -353,6 +355,43 @@ TEST_F(CoordinatorWithoutHeartbeats, AxisStatesShowTheGatewayAliveUntilTheyStop)
   gateways.heartbeats = true;
   pump(milliseconds(200));
   EXPECT_EQ(run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"c"}, {1.0})).status, std::int8_t{reply_t::DONE});
+}
+
+// The desired state of active moves: one row per axis with request, bus, gateway command,
+// target (counts and user units) and fire time, republished while the move runs, then an empty
+// message once it is done.
+TEST_F(CoordinatorTest, ActiveMovesAreRepublishedWhileTheyRunAndClearedAtTheEnd) {
+  std::vector<motionlcm::active_moves_t> seen;
+  client.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves,
+                                              [&](const motionlcm::active_moves_t& m, const std::string&) { seen.push_back(m); });
+  auto_execute_moves(/*complete=*/false);
+  const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {5.0, 2.0});
+  ASSERT_TRUE(pump_until([&] {
+    pump_triggers();
+    return std::count_if(seen.begin(), seen.end(), [](const auto& m) { return m.num_axes == 2; }) >= 3;  // fire + 2 periods
+  }));
+  const auto& m = seen.back();
+  ASSERT_EQ(m.num_axes, 2);
+  EXPECT_EQ(m.axes, (std::vector<std::string>{"x", "c"}));
+  EXPECT_EQ(m.buses, (std::vector<std::string>{"can0", "rs485"}));
+  EXPECT_EQ(m.request_ids[0], move);
+  EXPECT_EQ(m.client_ids[1], "test");
+  EXPECT_EQ(m.phases[0], std::int8_t{motionlcm::active_moves_t::MOVING});
+  EXPECT_EQ(m.target_counts, (std::vector<std::int64_t>{500, 20}));  // 100 and 10 counts per unit
+  EXPECT_DOUBLE_EQ(m.targets[0], 5.0);
+  EXPECT_DOUBLE_EQ(m.targets[1], 2.0);
+  EXPECT_NE(m.command_ids[0], 0);
+  EXPECT_NE(m.command_ids[0], m.command_ids[1]);  // one ARM_MOVE per bus
+  ASSERT_EQ(gateways.triggers.size(), 1u);
+  EXPECT_EQ(m.fire_utime[0], gateways.triggers[0].fire_utime);
+  // The axes arrive: DONE, and the set is published empty once.
+  gateways.put("x", 500, false);
+  gateways.put("c", 20, false);
+  EXPECT_EQ(terminal(move).status, std::int8_t{reply_t::DONE});
+  ASSERT_TRUE(pump_until([&] { return seen.back().num_axes == 0; }));
+  const auto count = seen.size();
+  pump(milliseconds(1200));
+  EXPECT_EQ(seen.size(), count);  // nothing active: nothing more
 }
 
 TEST_F(CoordinatorTest, LostGatewayAbortsTheRequestAndStopsTheOtherBus) {

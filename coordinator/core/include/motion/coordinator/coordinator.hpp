@@ -8,6 +8,8 @@
 // Abort paths: stop / e-stop requests preempt (ABORTED, kStopped); an axis of the group faults,
 // stalls or hits a limit, or a gateway's heartbeat is lost or restarts (the rest of the group is
 // stopped, ABORTED with the cause); request timeout (FAILED, kTimeout); a gateway error (FAILED).
+// The desired state of the active motion requests goes out on ACTIVE_MOVES every 500 ms, on every
+// change, and before the requests hit by a gateway restart are aborted (active_moves_t).
 //
 // Thread contract: loop thread only. Never blocks.
 #pragma once
@@ -119,6 +121,8 @@ class Coordinator {
   void on_event(const motionlcm::event_t& event);
   void on_health(const motionlcm::health_t& health);
   void check_gateways();
+  // The desired state of every active motion request on ACTIVE_MOVES (active_moves_t).
+  void publish_active_moves();
 
   // Validation: an error (code, reason) or nothing.
   std::optional<std::pair<ReplyError, std::string>> validate(const motionlcm::request_t& msg, std::vector<std::string>& axes);
@@ -157,6 +161,8 @@ class Coordinator {
   std::int64_t next_command_id_ = 1;
   std::int64_t next_trigger_id_ = 1;
   EventLoop::TimerId watchdog_ = 0;
+  EventLoop::TimerId active_moves_timer_ = 0;
+  bool active_moves_published_ = false;  // the last ACTIVE_MOVES listed something
 };
 
 }  // namespace motion::coordinator

@@ -9,8 +9,11 @@
 
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
+#include <utility>
 
+#include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
@@ -54,6 +57,10 @@ class Gateway final : public GatewayOutput {
  private:
   void on_command(const motionlcm::gateway_command_t& command);
   void on_trigger(const motionlcm::sync_trigger_t& trigger);
+  // The coordinator's desired state: a request of this bus triggered before this process started
+  // was the previous gateway process's; its axes are stopped and a GATEWAY_RESTARTED event says
+  // what they were doing.
+  void on_active_moves(const motionlcm::active_moves_t& moves);
   void update_health();
 
   EventLoop& loop_;
@@ -64,6 +71,9 @@ class Gateway final : public GatewayOutput {
   std::map<std::string, const config::Axis*> axes_;  // axes of this bus
   std::unique_ptr<BusDriver> driver_;
   std::map<std::string, std::string> unsupported_;  // drive name -> family
+  std::int64_t started_utime_ = 0;                   // wall clock when this process's gateway started
+  std::set<std::pair<std::string, std::int64_t>> inherited_;  // (client, request) already stopped
+  std::int64_t next_own_command_ = -1;               // ids of the gateway's own commands (negative)
   std::string waiting_;
   EventLoop::TimerId health_timer_ = 0;
 };

@@ -14,6 +14,7 @@ inline constexpr std::string_view kEvent = "EVENT";              // event_t, gat
 inline constexpr std::string_view kHealth = "HEALTH";            // health_t, every process
 inline constexpr std::string_view kGatewayReply = "GW_REPLY";    // gateway_reply_t
 inline constexpr std::string_view kSyncTrigger = "SYNC_TRIGGER"; // sync_trigger_t
+inline constexpr std::string_view kActiveMoves = "ACTIVE_MOVES"; // active_moves_t, coordinator -> gateways, tools
 inline constexpr std::string_view kSimControl = "SIM_CONTROL";   // sim_control_t, tests -> motion-sim
 inline constexpr std::string_view kSimReport = "SIM_REPORT";     // sim_report_t, motion-sim -> tests
 
