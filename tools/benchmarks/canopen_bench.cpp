@@ -52,6 +52,7 @@
 
 #include <motionlcm/sim_report_t.hpp>
 
+#include "bench_pump.hpp"
 #include "bench_table.hpp"
 #include "motion/can/frame.hpp"
 #include "motion/canopen/cob_id.hpp"
@@ -103,31 +104,7 @@ void print_table() { bench::print_rows(g_rows, "figure (1 Mbit/s, bus timing on)
 
 // ---- driving one EventLoop on the wall clock or on a manual clock ------------------------------
 
-class Pump {
- public:
-  explicit Pump(ManualClock* manual) : manual_(manual), loop_(manual) {}
-  EventLoop& loop() { return loop_; }
-  [[nodiscard]] bool simulated() const { return manual_ != nullptr; }
-  // Runs the loop until `done` or `limit` of this clock's time; false on timeout.
-  bool until(const std::function<bool()>& done, Duration limit = 10s) {
-    const TimePoint end = loop_.now() + limit;
-    while (!done()) {
-      if (loop_.now() >= end) return false;
-      if (manual_ != nullptr) {
-        loop_.run_once(Duration::zero());
-        if (done()) break;
-        manual_->advance(1us);
-      } else {
-        loop_.run_once(5ms);
-      }
-    }
-    return true;
-  }
-
- private:
-  ManualClock* manual_;
-  EventLoop loop_;
-};
+using bench::Pump;
 
 std::unique_ptr<simbus::Hub> open_hub(EventLoop& loop, const std::string& name) {
   simbus::HubOptions options;

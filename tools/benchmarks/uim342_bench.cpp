@@ -60,6 +60,7 @@
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/sim_report_t.hpp>
 
+#include "bench_pump.hpp"
 #include "bench_table.hpp"
 #include "motion/can/frame.hpp"
 #include "motion/can/transport.hpp"
@@ -121,29 +122,7 @@ void print_table() { bench::print_rows(g_rows, "figure", "bound (same run)"); }
 // ---- infrastructure ----------------------------------------------------------------------------
 
 // Runs one EventLoop on the wall clock or on a manual clock advanced in 1 us steps.
-class Pump {
- public:
-  explicit Pump(ManualClock* manual) : manual_(manual), loop_(manual) {}
-  EventLoop& loop() { return loop_; }
-  bool until(const std::function<bool()>& done, Duration limit) {
-    const TimePoint end = loop_.now() + limit;
-    while (!done()) {
-      if (loop_.now() >= end) return false;
-      if (manual_ != nullptr) {
-        loop_.run_once(Duration::zero());
-        if (done()) break;
-        manual_->advance(1us);
-      } else {
-        loop_.run_once(5ms);
-      }
-    }
-    return true;
-  }
-
- private:
-  ManualClock* manual_;
-  EventLoop loop_;
-};
+using bench::Pump;
 
 // The gateway's transport with a tap: the time of every send() (the frame goes to the wire).
 class TapTransport final : public can::Transport {
