@@ -129,6 +129,10 @@ TEST_F(SyncMove, EveryFamilyArrivesAndEachBusStartsOnOneFramePerMechanism) {
   // One start time per start mechanism: x and y share the group's BG, a and b the SYNC.
   EXPECT_EQ(done.start_utime[index_of(done, "x")], done.start_utime[index_of(done, "y")]) << "one BG start time";
   EXPECT_EQ(done.start_utime[index_of(done, "a")], done.start_utime[index_of(done, "b")]) << "one SYNC start time";
+  // On can0 the gateway dates a start by its frame's echo, i.e. the frame's end on the wire:
+  // exactly the time the simulated drives record for the frame that started them.
+  EXPECT_EQ(done.start_utime[index_of(done, "x")], frame["x"]) << "BG: gateway's start time vs the drives' start frame";
+  EXPECT_EQ(done.start_utime[index_of(done, "a")], frame["a"]) << "SYNC: gateway's start time vs the drives' start frame";
   const auto [lo, hi] = std::minmax_element(done.start_utime.begin(), done.start_utime.end());
   EXPECT_TRUE(std::isfinite(done.measured_start_skew_us));
   EXPECT_GE(done.measured_start_skew_us, static_cast<double>(*hi - *lo));

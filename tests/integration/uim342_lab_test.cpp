@@ -269,6 +269,8 @@ TEST_F(Uim342Lab, GroupBgStartsAllThreeAxesOnTheSameFrame) {
   }
   EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);
   EXPECT_NEAR(done.predicted_skew_us, 0.0, 1.0);
+  // The start time in the reply is the BG's end on the wire (its echo), the drives' start frame.
+  EXPECT_EQ(done.start_utime[index_of(done, "x1")], x1[0].frame_utime);
 }
 
 TEST_F(Uim342Lab, SilentDriveGoesOfflineWhileTheOthersKeepWorking) {

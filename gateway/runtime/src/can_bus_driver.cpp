@@ -8,6 +8,12 @@
 
 namespace motion::gateway {
 
+namespace {
+// How long a STARTED reply waits for its start frame's echo: far longer than a frame queued
+// behind a full transmit queue at 125 kbit/s takes, short against any move.
+constexpr auto kEchoWait = std::chrono::milliseconds(50);
+}  // namespace
+
 // Stacks report through this: status and events pass straight on, command replies are combined.
 class CanBusDriver::Combiner final : public GatewayOutput {
  public:
@@ -37,6 +43,7 @@ CanBusDriver::CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can
 
 CanBusDriver::~CanBusDriver() {
   loop_.cancel(timer_);
+  for (const auto& [id, held] : held_) loop_.cancel(held.fallback);
   if (transport_->fd() >= 0) loop_.unwatch(transport_->fd());
 }
 
@@ -50,7 +57,11 @@ CanStackContext CanBusDriver::context() {
       return false;
     }
     if (tap_) tap_(frame, true);
+    if (own_echo_) echoes_.sent(frame);
     return true;
+  };
+  ctx.start_frame = [this](std::int64_t command_id, const can::Frame& frame) {
+    if (own_echo_) echoes_.mark_start(command_id, frame);
   };
   return ctx;
 }
@@ -61,6 +72,7 @@ void CanBusDriver::add_stack(std::unique_ptr<CanStack> stack) {
 }
 
 void CanBusDriver::start() {
+  own_echo_ = !transport_->set_own_echo(true);
   if (transport_->fd() >= 0) loop_.watch(transport_->fd(), [this] { on_readable(); });
   const TimePoint now = loop_.now();
   for (auto& s : stacks_) s->start(now);
@@ -70,7 +82,13 @@ void CanBusDriver::start() {
 void CanBusDriver::on_readable() {
   const TimePoint now = loop_.now();
   const int fd_before = transport_->fd();
+  std::vector<std::pair<std::int64_t, std::int64_t>> started;
   while (auto frame = transport_->receive()) {
+    if (own_echo_ && echoes_.on_receive(*frame, wall_time_us(), started)) {
+      for (const auto& [command_id, at] : started) release_started(command_id, at);
+      started.clear();
+      continue;  // our own frame back: not news for the stacks
+    }
     if (tap_) tap_(*frame, false);
     for (auto& s : stacks_) {
       if (s->on_frame(*frame, now)) break;
@@ -153,9 +171,48 @@ void CanBusDriver::on_stack_reply(motionlcm::gateway_reply_t reply) {
     combined.trigger_utime = first;
     combined.start_mechanism = mechanisms;
     combined.predicted_skew_us = std::max(skew, static_cast<double>(last - first));
+    if (part_finished) pending_.erase(it);
+    emit_started(std::move(combined));
+    return;
   }
   out_.command_reply(std::move(combined));
   if (part_finished) pending_.erase(it);
+}
+
+void CanBusDriver::emit_started(motionlcm::gateway_reply_t reply) {
+  const std::int64_t id = reply.command_id;
+  if (const auto echoed = echoed_starts_.find(id); echoed != echoed_starts_.end()) {
+    reply.trigger_utime = echoed->second;
+    echoed_starts_.erase(echoed);
+    out_.command_reply(std::move(reply));
+    return;
+  }
+  if (!echoes_.working() || !echoes_.awaiting(id)) {
+    echoes_.forget(id);
+    out_.command_reply(std::move(reply));  // no echo to wait for: dated at the hand-off
+    return;
+  }
+  Held& held = held_[id];
+  held.reply = std::move(reply);
+  held.fallback = loop_.call_after(kEchoWait, [this, id] {
+    echoes_.forget(id);
+    release_started(id, 0);
+  });
+}
+
+void CanBusDriver::release_started(std::int64_t command_id, std::int64_t echo_utime) {
+  const auto it = held_.find(command_id);
+  if (it == held_.end()) {
+    // The echo beat the stack's STARTED (or the command has none): kept for it, briefly.
+    if (echo_utime != 0) echoed_starts_[command_id] = echo_utime;
+    if (echoed_starts_.size() > 64) echoed_starts_.erase(echoed_starts_.begin());
+    return;
+  }
+  loop_.cancel(it->second.fallback);
+  motionlcm::gateway_reply_t reply = std::move(it->second.reply);
+  held_.erase(it);
+  if (echo_utime != 0) reply.trigger_utime = echo_utime;
+  out_.command_reply(std::move(reply));
 }
 
 void CanBusDriver::fire(std::int64_t trigger_id) {

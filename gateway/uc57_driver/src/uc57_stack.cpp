@@ -1546,8 +1546,11 @@ void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoin
     node.image_sync = applying_sync;
   }
   master_.sync()->trigger_now(now);
-  const std::int64_t trigger_utime = options_.wall_clock_us(now);
+  const std::int64_t trigger_utime = options_.wall_clock_us(now);  // the driver replaces it by the SYNC's echo
+  can::Frame sync_frame{};
+  sync_frame.id = master_.sync()->config().cob_id & 0x7FF;
   for (const auto id : command_ids) {
+    if (context_.start_frame) context_.start_frame(id, sync_frame);
     Job& job = jobs_.at(id);
     job.started = true;
     std::fill(job.parts.begin(), job.parts.end(), Job::Part::kStarted);

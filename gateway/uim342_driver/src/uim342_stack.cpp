@@ -301,13 +301,14 @@ struct Uim342Stack::Impl {
         });
         if (!all_free) return;  // the last member to become free sends it
         if (!transmit(group->group_id, r.instruction)) return;
+        const std::uint8_t group_target = group->group_id;
         for (const auto m : group->members) {
           Request& mr = nodes[m].queue.front();
           mr.sent = true;
           mr.attempts = 1;
           mr.deadline = deadline_of(nodes[m], now);
         }
-        on_sent(r.command_id, now);
+        on_sent(r.command_id, group_target, now);
         return;
       }
       if (!transmit(target, r.instruction)) return;  // transport refused: retried at the next process()
@@ -323,16 +324,20 @@ struct Uim342Stack::Impl {
         completed(i, done, std::nullopt, now);
         continue;
       }
-      if (is_start) on_sent(command_id, now);
+      if (is_start) on_sent(command_id, target, now);
       return;
     }
   }
 
-  // A start frame (BG) of a move went on the wire.
-  void on_sent(std::int64_t command_id, TimePoint now) {
+  // A start frame (BG to `target`) of a move was handed to the transport; the driver dates the
+  // STARTED reply by its echo when it can (CanStackContext::start_frame).
+  void on_sent(std::int64_t command_id, std::uint8_t target, TimePoint now) {
     auto it = commands.find(command_id);
     if (it == commands.end() || it->second.cmd.kind != gateway_command_t::ARM_MOVE || it->second.start_frames_left == 0) return;
     Command& c = it->second;
+    if (context.start_frame) {
+      if (const auto frame = uim342::instruction_frame(target, rq::begin()); frame.ok()) context.start_frame(command_id, *frame);
+    }
     if (c.trigger_utime == 0) c.trigger_utime = wall(now);
     if (--c.start_frames_left == 0) reply(c, gateway_reply_t::STARTED);
   }

@@ -23,6 +23,11 @@ class MemoryTransport : public can::Transport {
   int fd() const override { return fd_; }
   std::error_code send(const can::Frame& f) override {
     sent.push_back(f);
+    if (echo) {  // own echo, as SocketCAN with CAN_RAW_RECV_OWN_MSGS: back once "sent"
+      can::Frame back = f;
+      back.timestamp_us = next_echo_us;
+      push(back);
+    }
     return {};
   }
   std::optional<can::Frame> receive() override {
@@ -46,6 +51,8 @@ class MemoryTransport : public can::Transport {
 
   std::vector<can::Frame> sent;
   std::deque<can::Frame> inbox;
+  bool echo = false;
+  std::int64_t next_echo_us = 0;  // timestamp of the echoes
 
  private:
   int fd_;
@@ -84,6 +91,7 @@ class FakeStack : public CanStack {
     ctx_.out->command_reply(r);
   }
   bool send(const can::Frame& f) { return ctx_.send(f); }
+  void mark_start(std::int64_t id, const can::Frame& f) { ctx_.start_frame(id, f); }
 
   bool started = false;
   bool is_ready = true;
@@ -178,6 +186,50 @@ TEST_F(CanBusDriverTest, CommandIsSplitAndRepliesAreCombined) {
   EXPECT_EQ(out.replies[1].trigger_utime, 1000);
   EXPECT_EQ(out.replies[1].start_mechanism, "group-bg+sync");
   EXPECT_DOUBLE_EQ(out.replies[1].predicted_skew_us, 130.0);
+}
+
+// Own echo: a STARTED reply waits for the echo of the command's start frame and carries its time
+// (when the frame was on the wire), not the stack's hand-off time; echoes never reach the stacks.
+TEST_F(CanBusDriverTest, StartedIsDatedByTheEchoOfTheStartFrame) {
+  transport->echo = true;
+  transport->next_echo_us = 5'000;
+  ASSERT_TRUE(uim->send(*can::parse_cansend("04280095#01")));  // a first echo: echoes work
+  loop.run_once(milliseconds(10));
+  EXPECT_TRUE(uim->frames.empty()) << "an echo went to the stack";
+
+  driver->execute(command(6, {"x"}));
+  uim->reply(6, gateway_reply_t::ARMED);
+  driver->fire(1);
+  transport->next_echo_us = 7'777;
+  const auto bg = *can::parse_cansend("00A80014#");
+  ASSERT_TRUE(uim->send(bg));
+  uim->mark_start(6, bg);
+  uim->reply(6, gateway_reply_t::STARTED, 1000, "group-bg");  // dated at the hand-off
+  ASSERT_EQ(out.replies.size(), 1u) << "STARTED went out before its start frame's echo";
+  loop.run_once(milliseconds(10));
+  ASSERT_EQ(out.replies.size(), 2u);
+  EXPECT_EQ(out.replies[1].status, std::int8_t{gateway_reply_t::STARTED});
+  EXPECT_EQ(out.replies[1].trigger_utime, 7'777);
+  EXPECT_TRUE(uim->frames.empty());
+}
+
+// A start frame whose echo never comes (lost, bus off): the reply goes out after 50 ms anyway,
+// with the hand-off time.
+TEST_F(CanBusDriverTest, StartedWithoutItsEchoGoesOutAfterTheWait) {
+  transport->echo = true;
+  ASSERT_TRUE(uim->send(*can::parse_cansend("04280095#01")));
+  loop.run_once(milliseconds(10));
+  transport->echo = false;
+  driver->execute(command(7, {"x"}));
+  const auto bg = *can::parse_cansend("00A80014#");
+  ASSERT_TRUE(uim->send(bg));
+  uim->mark_start(7, bg);
+  uim->reply(7, gateway_reply_t::STARTED, 1234, "group-bg");
+  EXPECT_TRUE(out.replies.empty());
+  const auto until = loop.now() + milliseconds(200);
+  while (out.replies.empty() && loop.now() < until) loop.run_once(milliseconds(10));
+  ASSERT_EQ(out.replies.size(), 1u);
+  EXPECT_EQ(out.replies[0].trigger_utime, 1234);
 }
 
 TEST_F(CanBusDriverTest, FirstFailureIsReportedOnce) {

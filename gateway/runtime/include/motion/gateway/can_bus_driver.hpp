@@ -7,7 +7,9 @@
 // among the stacks whose axes it names, combining their replies into the one reply per command
 // the coordinator expects (ARMED when all are armed, STARTED with the earliest trigger time and
 // the spread between the stacks' start frames, DONE when all are done, FAILED on the first
-// failure).
+// failure). Own echo is turned on: a STARTED reply waits (at most kEchoWait) for the echo of the
+// command's start frames and carries their time on the wire as trigger_utime; echoes are not
+// handed to the stacks.
 // Thread contract: the loop's thread only.
 #pragma once
 
@@ -20,6 +22,7 @@
 #include "motion/can/transport.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/gateway/bus_driver.hpp"
+#include "motion/gateway/tx_echo_tracker.hpp"
 
 namespace motion::gateway {
 
@@ -46,6 +49,10 @@ class CanStack {
 struct CanStackContext {
   std::function<bool(const can::Frame&)> send;  // false when the transport refused it
   GatewayOutput* out = nullptr;
+  // Optional: the frame just sent (by its identifier) starts the move `command_id` (a group BG,
+  // the SYNC of synchronous RPDOs). The driver then dates the command's STARTED reply by the
+  // frame's echo, i.e. when it was on the wire (TxEchoTracker), not when it was handed over.
+  std::function<void(std::int64_t command_id, const can::Frame& frame)> start_frame;
 };
 
 class CanBusDriver final : public BusDriver {
@@ -77,6 +84,13 @@ class CanBusDriver final : public BusDriver {
   void on_readable();
   void reschedule();
   void on_stack_reply(motionlcm::gateway_reply_t reply);
+  // Sends a combined STARTED now, or holds it until its start frames' echoes are in.
+  void emit_started(motionlcm::gateway_reply_t reply);
+  void release_started(std::int64_t command_id, std::int64_t echo_utime);
+  struct Held {
+    motionlcm::gateway_reply_t reply;
+    EventLoop::TimerId fallback = 0;
+  };
 
   EventLoop& loop_;
   std::string bus_;
@@ -89,6 +103,10 @@ class CanBusDriver final : public BusDriver {
   EventLoop::TimerId timer_ = 0;
   std::function<void(const can::Frame&, bool)> tap_;
   bool bus_off_ = false;
+  bool own_echo_ = false;  // the transport took set_own_echo(true)
+  TxEchoTracker echoes_;
+  std::map<std::int64_t, std::int64_t> echoed_starts_;  // command -> echo time, before its STARTED
+  std::map<std::int64_t, Held> held_;                   // STARTED replies waiting for their echo
 };
 
 }  // namespace motion::gateway
