@@ -10,6 +10,7 @@
 #include <motionlcm/param_t.hpp>
 
 #include "motion/lcm/reply_error.hpp"
+#include "motion/serial/serial_port.hpp"
 
 namespace motion::uim242_driver {
 
@@ -119,7 +120,8 @@ Uim242BusCore::Uim242BusCore(const config::Config& config, const std::string& bu
     transport_ = b->transport;
     poll_period_ = std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(b->poll_hz, 0.1)));
     channel_ = RequestChannel([this](std::span<const std::uint8_t> bytes) { context_.send(bytes); },
-                              ChannelSettings{std::chrono::milliseconds(b->request_timeout_ms), b->retries});
+                              ChannelSettings{std::chrono::milliseconds(b->request_timeout_ms), b->retries,
+                                              serial::settings_from(*b).wire_time(1)});
   }
   for (const auto& d : config.drives) {
     if (d.bus != bus || d.family != config::Family::kUim242) continue;

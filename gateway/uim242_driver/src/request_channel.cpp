@@ -43,7 +43,10 @@ void RequestChannel::transmit(InFlight& f, TimePoint now) {
   send_(std::span(reinterpret_cast<const std::uint8_t*>(text->data()), text->size()));
   ++stats_.tx_frames;
   stats_.tx_bytes += static_cast<std::int64_t>(text->size());
-  if (!f.is_selection && f.request.on_sent && !f.cancelled) f.request.on_sent(now);
+  // The controller acts when the last character has arrived.
+  const TimePoint on_wire = now + settings_.character_time * static_cast<std::int64_t>(text->size());
+  f.deadline = on_wire + settings_.timeout;
+  if (!f.is_selection && f.request.on_sent && !f.cancelled) f.request.on_sent(on_wire);
 }
 
 TimePoint RequestChannel::process(TimePoint now) {

@@ -103,14 +103,26 @@ void SerialLineHost::on_readable() {
   for (;;) {
     const ssize_t n = ::read(link_->master_fd(), buffer.data(), buffer.size());
     if (n <= 0) break;  // EAGAIN: drained (the slave fd PtyLink keeps open means no EIO)
-    device_deadline_ = device_->receive(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), now);
+    const auto count = static_cast<std::size_t>(n);
+    line_busy_until_ = std::max(line_busy_until_, now) + serial::settings_from(bus_).wire_time(count);
+    inbox_.emplace_back(line_busy_until_, std::vector<std::uint8_t>(buffer.begin(), buffer.begin() + n));
   }
   reschedule();
 }
 
+void SerialLineHost::deliver(TimePoint now) {
+  while (!inbox_.empty() && inbox_.front().first <= now) {
+    const auto& [arrival, bytes] = inbox_.front();
+    device_deadline_ = device_->receive(bytes, arrival);
+    inbox_.pop_front();
+  }
+}
+
 void SerialLineHost::on_timer() {
   timer_ = 0;
-  device_deadline_ = device_->process(loop_.now());
+  const TimePoint now = loop_.now();
+  deliver(now);
+  device_deadline_ = device_->process(now);
   reschedule();
 }
 
@@ -147,7 +159,8 @@ void SerialLineHost::reschedule() {
   flush(loop_.now());
   if (timer_ != 0) loop_.cancel(timer_);
   timer_ = 0;
-  const TimePoint next = outbox_.empty() ? device_deadline_ : std::min(device_deadline_, outbox_.begin()->first);
+  TimePoint next = outbox_.empty() ? device_deadline_ : std::min(device_deadline_, outbox_.begin()->first);
+  if (!inbox_.empty()) next = std::min(next, inbox_.front().first);
   if (next == kNever) return;
   timer_ = loop_.call_at(next, [this] { on_timer(); });
 }

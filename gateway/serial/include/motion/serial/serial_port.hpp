@@ -12,6 +12,10 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <algorithm>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
@@ -30,6 +34,10 @@ struct SerialSettings {
   int stop_bits = 1;  // 1 or 2
   // Bits on the wire per character: start + data + parity + stop.
   [[nodiscard]] int bits_per_character() const { return 1 + data_bits + (parity == Parity::none ? 0 : 1) + stop_bits; }
+  // Time `bytes` characters take on the wire at this baud rate.
+  [[nodiscard]] std::chrono::nanoseconds wire_time(std::size_t bytes) const {
+    return std::chrono::nanoseconds(static_cast<std::int64_t>(bytes) * bits_per_character() * 1'000'000'000LL / std::max(baud, 1));
+  }
 };
 
 // The bus's line settings ('N'/'E'/'O' parity of the configuration).

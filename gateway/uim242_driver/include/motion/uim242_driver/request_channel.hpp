@@ -28,12 +28,13 @@ struct Request {
   std::int64_t group = 0;  // cancel key (a command id); 0 = start-up / polling
   std::function<void(const uim242::Frame& reply, TimePoint now)> on_reply;
   std::function<void(const std::string& reason, bool timed_out, TimePoint now)> on_failure;
-  std::function<void(TimePoint sent)> on_sent;  // each time its bytes go on the wire
+  std::function<void(TimePoint sent)> on_sent;  // each time its bytes have crossed the wire (last character's end)
 };
 
 struct ChannelSettings {
-  Duration timeout = std::chrono::milliseconds(100);
+  Duration timeout = std::chrono::milliseconds(100);  // from the end of the instruction on the wire
   int retries = 1;
+  Duration character_time{};  // one character at the line's baud rate (0: instant, as a pty alone)
 };
 
 struct ChannelStatistics {

@@ -1,9 +1,11 @@
 // One `simserial:` line in motion-sim: a pty pair whose slave path is published as
 // <sim_runtime_dir>/<bus>.tty (motion::serial::PtyLink; the gateway, or any serial tool, opens it
 // like a real port), with the simulated device of the line's drive family on the master side.
-// The host reads what the gateway writes and hands it to the device with its arrival time,
-// writes the device's bytes when they are due, and keeps ONE timer at the earlier of the device's
-// next deadline and the next due write.
+// The host reads what the gateway writes and hands it to the device when it has crossed the
+// line: a pty moves bytes at once, so each read is delayed by its wire time at the bus's baud
+// rate, after whatever is still on the line (a drive sees a frame when its last character ends,
+// as on a real RS232/RS485 line). It writes the device's bytes when they are due, and keeps ONE
+// timer at the earliest of the device's next deadline, the next arrival and the next due write.
 //
 // A serial line carries one family (its own framing), as in the gateway: the first family of the
 // bus's drives that has a factory is served; drives of other families are listed in missing().
@@ -14,6 +16,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -62,6 +65,7 @@ class SerialLineHost {
   void on_readable();
   void on_timer();
   void flush(TimePoint now);
+  void deliver(TimePoint now);
   void reschedule();
 
   EventLoop& loop_;
@@ -71,6 +75,8 @@ class SerialLineHost {
   std::unique_ptr<SerialDeviceSim> device_;
   TimePoint device_deadline_ = kNever;
   std::multimap<TimePoint, std::vector<std::uint8_t>> outbox_;  // due time -> bytes
+  std::deque<std::pair<TimePoint, std::vector<std::uint8_t>>> inbox_;  // arrival (end of wire time) -> bytes
+  TimePoint line_busy_until_{};                                   // when the last read ends on the wire
   EventLoop::TimerId timer_ = 0;
   std::vector<std::string> missing_;
   std::size_t drive_count_ = 0;
