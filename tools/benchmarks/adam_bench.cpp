@@ -10,7 +10,7 @@
 //     plus 3.5 characters of silence before every frame (Modbus serial line v1.02 §2.5.1.1;
 //     1.75 ms fixed above 19200 bit/s).
 //   * two line models: "pty" — the pty delivers bytes at once, so what remains is the master's
-//     own pacing (its t3.5 waits on a millisecond-granular poll loop) and CPU; "wire" — a relay
+//     own pacing (its t3.5 waits on the poll loop's timers) and CPU; "wire" — a relay
 //     thread between the master's pty and the simulator's pty delivers every frame when its last
 //     character would arrive on a half-duplex line at the baud rate, after t3.5 of silence (the
 //     simulated drives themselves answer with 0 latency; the relay's silence stands for a real
@@ -314,7 +314,7 @@ int run(bool quick) {
       std::fflush(stdout);
     }
   }
-  std::printf("\n%d commands per line; poll loop timers have 1 ms granularity (EventLoop rounds waits up to whole ms)\n", commands);
+  std::printf("\n%d commands per line; the poll loop's timers keep to the kernel's timer slack (ppoll)\n", commands);
   return all_ok ? 0 : 1;
 }
 

@@ -14,10 +14,10 @@
 //          throughput, median of R transfers. Bound: the summed wire time of every frame of the
 //          transfer (initiate, segments, responses).
 //      Two clocks: "wall" — the real EventLoop on the steady clock: the hub hands a frame to its
-//      receivers from a loop timer, and the loop's poll has millisecond resolution, so every
-//      request/response hop may wait up to ~1 ms; this is what a gateway and motion-sim achieve.
+//      receivers from a loop timer (ppoll: within the kernel's timer slack), so every
+//      request/response hop pays a loop wake-up; this is what a gateway and motion-sim achieve.
 //      "sim" — the same code on an EventLoop driven by a ManualClock advanced in 1 us steps: the
-//      protocol's own cost on the wire without the poll granularity (the ideal ratio is ~1).
+//      protocol's own cost on the wire without wake-up latency (the ideal ratio is ~1).
 //   2. SYNC producer (canopen::SyncProducer) at 1 kHz on the wall-clock EventLoop, sending on the
 //      simulated bus; a second endpoint records the end-of-frame timestamps receivers see. Jitter
 //      = |interval - 1 ms| over N periods (10 000 by default): p50/p99/max, and SYNCs skipped by the
@@ -264,7 +264,7 @@ void bench_sdo(bool quick) {
         const double p50 = percentile(rtt, 0.5);
         g_rows.push_back({std::string("SDO expedited ") + (upload ? "upload 6064h" : "download 6081h") + " RTT [" + clock + "]",
                           fmt2("p50 %.0f us, p99 %.0f us", p50, percentile(rtt, 0.99)), fmt("%.0f us (2 frames)", us(bound)),
-                          p50 / us(bound), simulated ? "Uc57DriveSim, 1 us clock steps" : "Uc57DriveSim; hub delivery on ms poll"});
+                          p50 / us(bound), simulated ? "Uc57DriveSim, 1 us clock steps" : "Uc57DriveSim; hub delivery from loop timers"});
       }
     }
     {
@@ -293,7 +293,7 @@ void bench_sdo(bool quick) {
         g_rows.push_back({std::string("SDO segmented ") + (upload ? "upload" : "download") + " 4 KiB [" + clock + "]",
                           fmt("%.1f KiB/s", percentile(rate, 0.5)), fmt("%.1f KiB/s", bound_rate), percentile(ratio, 0.5),
                           std::to_string(frames) + " frames/transfer, median of " + std::to_string(segmented) +
-                              (simulated ? "" : "; ~1 ms poll per hop")});
+                              (simulated ? "" : "; a loop wake-up per hop")});
       }
     }
   }

@@ -21,10 +21,10 @@
 //      move needs (every PA/SP/AC/DC request and ACK, then the one BG), back to back: the sum of
 //      simbus::frame_bits() of those frames / bit rate. Also: frames per synchronized move
 //      (arm + BG + the BG's ACKs) and how many other frames (status polls) shared the wire.
-//      Two clocks, as bench_canopen: "wall" — the real EventLoop on the steady clock; its poll has
-//      millisecond resolution, so each request -> ACK hop of a node may wait up to ~1 ms (what a
-//      gateway and motion-sim achieve). "sim" — the same code on a ManualClock advanced in 1 us
-//      steps: the protocol's own cost on the wire without the poll granularity (ideal ratio ~1).
+//      Two clocks, as bench_canopen: "wall" — the real EventLoop on the steady clock; each
+//      request -> ACK hop of a node pays a loop wake-up (what a gateway and motion-sim achieve).
+//      "sim" — the same code on a ManualClock advanced in 1 us steps: the protocol's own cost on
+//      the wire without wake-up latency (ideal ratio ~1).
 //   3. Status polling: N = 8, 32, 120 drives (node ids 5..124) polled at the bus's poll_hz (20),
 //      bus timing ON, wall clock, over a window of W seconds: achieved axis state updates per
 //      second (one per poll: MS[0] + MS[1], each a request and an ACK) against the rate the bus
