@@ -25,7 +25,6 @@ using motionlcm::request_t;
 using motionlcm::sim_control_t;
 using std::chrono::milliseconds;
 using std::chrono::seconds;
-using Values = std::map<std::string, double>;
 
 constexpr double kCountsPerMm = 320.0;
 constexpr double kPositionTolerance = 1.0 / kCountsPerMm;  // one pulse, in mm

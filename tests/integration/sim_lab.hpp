@@ -26,9 +26,17 @@
 #include "motion/client/client.hpp"
 #include "motion/config/config.hpp"
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/reply_error.hpp"
 #include "motion/testing/process_group.hpp"
 
 namespace motion::testing {
+
+// LCM in-class constants are never ODR-used: tests copy them into values with these.
+inline std::int8_t st(std::int8_t s) { return s; }
+inline std::int16_t ev(std::int16_t k) { return k; }
+inline std::int32_t code(ReplyError e) { return error_code(e); }
+// Targets of a move request by axis name, in user units.
+using Values = std::map<std::string, double>;
 
 class SimLab {
  public:

@@ -25,12 +25,7 @@ using motionlcm::event_t;
 using motionlcm::reply_t;
 using motionlcm::request_t;
 using std::chrono::seconds;
-using Values = std::map<std::string, double>;
 
-// LCM in-class constants are never ODR-used: copy them into values.
-std::int8_t st(std::int8_t s) { return s; }
-std::int32_t code(ReplyError e) { return error_code(e); }
-std::int16_t ev(std::int16_t k) { return k; }
 
 const std::vector<std::string> kRequiredAxes{"x", "y", "z", "a", "b", "c", "u"};
 

@@ -27,12 +27,7 @@ using motionlcm::reply_t;
 using motionlcm::request_t;
 using motionlcm::sim_control_t;
 using std::chrono::seconds;
-using Values = std::map<std::string, double>;
 
-// LCM in-class constants are never ODR-used: copy them into values.
-std::int8_t st(std::int8_t s) { return s; }
-std::int16_t ev(std::int16_t k) { return k; }
-std::int32_t code(ReplyError e) { return error_code(e); }
 
 const std::vector<std::string> kAxes{"a", "b", "c"};
 constexpr double kTolerance = 1.0 / 8.888888888888889 + 1e-9;  // one pulse, in degrees

@@ -29,13 +29,8 @@ using motionlcm::request_t;
 using motionlcm::sim_control_t;
 using std::chrono::milliseconds;
 using std::chrono::seconds;
-using Values = std::map<std::string, double>;
 using Axes = std::vector<std::string>;
 
-// LCM in-class constants are never ODR-used: copy them into values.
-std::int8_t st(std::int8_t s) { return s; }
-std::int16_t ev(std::int16_t k) { return k; }
-std::int32_t code(ReplyError e) { return error_code(e); }
 
 constexpr double kStepsPerMm = 160.0;
 constexpr double kTolerance = 1.0 / kStepsPerMm + 1e-9;  // one micro-step, in mm

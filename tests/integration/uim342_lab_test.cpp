@@ -30,14 +30,10 @@ using motionlcm::request_t;
 using motionlcm::sim_control_t;
 using motionlcm::sim_report_t;
 using std::chrono::seconds;
-using Values = std::map<std::string, double>;
 using Axes = std::vector<std::string>;
 
 // LCM in-class constants are never ODR-used: copy them into values.
-std::int8_t st(std::int8_t s) { return s; }
-std::int16_t ev(std::int16_t k) { return k; }
 std::int8_t report_kind(std::int8_t k) { return k; }
-std::int32_t code(ReplyError e) { return error_code(e); }
 
 const Axes kAxes{"x1", "x2", "x3", "w"};
 constexpr double kStepsPerMm = 640.0;

@@ -16,7 +16,6 @@ using client::Client;
 using motionlcm::reply_t;
 using motionlcm::request_t;
 using std::chrono::seconds;
-using Values = std::map<std::string, double>;
 
 constexpr double kPositionTolerance = 1.0 / 640.0;  // one micro-step, in mm
 
