@@ -1,12 +1,14 @@
 // motionctl commands that talk to the coordinator (requests) or watch axis state.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "motion/client/client.hpp"
+#include "motion/lcm/channels.hpp"
 #include "motionctl.hpp"
 
 namespace motion::ctl {
@@ -110,7 +112,9 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
   const auto timeout = std::chrono::milliseconds(static_cast<long long>(timeout_s * 1000));
   motionlcm::reply_t result{};
   bool finished = false;
+  bool answered = false;
   client.send(request, [&](const motionlcm::reply_t& r) {
+    answered = true;
     progress(r);
     if (client::is_terminal(r.status)) {
       result = r;
@@ -118,6 +122,13 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
     }
   });
   const bool moving_kind = request.kind == request_t::MOVE_ABSOLUTE || request.kind == request_t::MOVE_RELATIVE || request.kind == request_t::HOME;
+  const std::string where = service.node().url() + ", channel " + service.node().channel(lcm::channels::kRequest);
+  // The coordinator answers at once (ACCEPTED or REJECTED): silence means nobody listens.
+  if (!client.wait_until([&] { return answered; }, std::min(timeout, client::Client::kAcceptTimeout))) {
+    std::cerr << "motionctl: no reply from the coordinator within " << client::Client::kAcceptTimeout.count()
+              << " ms: is motion-coordinator running on " << where << "?\n";
+    return app::kExitUnavailable;
+  }
   client.wait_until([&] { return finished || (!wait && moving_kind && started); }, timeout);
   if (tty && wait) std::printf("\n");
   if (!finished && !wait && started) {
@@ -125,7 +136,7 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
     return app::kExitOk;
   }
   if (!finished) {
-    std::cerr << "motionctl: no terminal reply within " << timeout_s << " s (is motion-coordinator running?)\n";
+    std::cerr << "motionctl: no terminal reply within " << timeout_s << " s (" << where << ")\n";
     return app::kExitUnavailable;
   }
   if (ctx.json) {

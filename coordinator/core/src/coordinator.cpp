@@ -68,11 +68,20 @@ const char* kind_name(std::int8_t kind) {
 
 double scale_or_one(double s) { return s > 0 && s <= 1 ? s : 1.0; }
 
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+// How long a move that could not be armed everywhere waits for its DISARM replies.
+constexpr std::chrono::milliseconds kReleaseTimeout{500};
+
 }  // namespace
 
 Coordinator::Coordinator(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner)
     : loop_(loop), node_(node), config_(config), planner_(std::move(planner)) {
-  for (const auto& axis : config_.axes) axes_[axis.name] = AxisLive{&axis, config_.drive_of(axis), std::nullopt, {}, 0};
+  for (const auto& axis : config_.axes) axes_[axis.name] = AxisLive{&axis, config_.drive_of(axis), std::nullopt, {}, 0, std::nullopt, 0};
   node_.subscribe<request_t>(lcm::channels::kRequest, [this](const request_t& m, const std::string&) { on_request(m); });
   node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
                                            [this](const motionlcm::axis_state_t& m, const std::string&) { on_axis_state(m); });
@@ -118,15 +127,23 @@ void Coordinator::on_axis_state(const motionlcm::axis_state_t& state) {
   it->second.state = state;
   it->second.received = loop_.now();
   if (const std::uint64_t serial = it->second.busy_with; serial != 0) {
-    auto rit = requests_.find(serial);
-    if (rit == requests_.end()) return;
-    Request& r = *rit->second;
-    if (r.phase == Phase::kTriggered && state.fault) {
-      abort_group(r, reply_t::ABORTED, ReplyError::kAxisFault,
-                  "axis " + state.axis + " faulted: " + (state.fault_text.empty() ? "code " + std::to_string(state.fault_code) : state.fault_text));
-      return;
+    if (auto rit = requests_.find(serial); rit != requests_.end()) {
+      Request& r = *rit->second;
+      if (r.phase == Phase::kTriggered && state.fault) {
+        abort_group(r, reply_t::ABORTED, ReplyError::kAxisFault,
+                    "axis " + state.axis + " faulted: " + (state.fault_text.empty() ? "code " + std::to_string(state.fault_code) : state.fault_text));
+      } else if (r.phase == Phase::kTriggered && is_move(r.msg.kind)) {
+        check_move_done(r);
+      }
     }
-    if (r.phase == Phase::kTriggered && is_move(r.msg.kind)) check_move_done(r);
+  }
+  // Requests whose gateways are done wait for states that show it (stops do not own axes).
+  std::vector<std::uint64_t> confirming;
+  for (const auto& [serial, r] : requests_) {
+    if (r->phase == Phase::kConfirming && std::find(r->axes.begin(), r->axes.end(), state.axis) != r->axes.end()) confirming.push_back(serial);
+  }
+  for (const auto serial : confirming) {
+    if (auto rit = requests_.find(serial); rit != requests_.end()) check_confirmed(*rit->second, false);
   }
 }
 
@@ -262,9 +279,14 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
     if (!seen.insert(name).second) return P{ReplyError::kMalformedRequest, "axis " + name + " appears twice"};
     if (i < msg.values.size() && !std::isfinite(msg.values[i])) return P{ReplyError::kMalformedRequest, "value for axis " + name + " is not a finite number"};
   }
-  if (!std::isfinite(msg.velocity_scale) || msg.velocity_scale < 0 || msg.velocity_scale > 1 || !std::isfinite(msg.acceleration_scale) ||
-      msg.acceleration_scale < 0 || msg.acceleration_scale > 1) {
-    return P{ReplyError::kMalformedRequest, "velocity_scale and acceleration_scale must be within 0..1 (0 = 1)"};
+  for (const auto& [name, scale] : {std::pair{"velocity_scale", msg.velocity_scale}, std::pair{"acceleration_scale", msg.acceleration_scale}}) {
+    if (!std::isfinite(scale) || scale < 0 || scale > 1) {
+      return P{ReplyError::kMalformedRequest, std::string(name) + " " + number(scale) + " is outside (0, 1] (0 = 1, the full limit)"};
+    }
+  }
+  if (msg.timeout_ms < 0) {
+    return P{ReplyError::kMalformedRequest, "timeout_ms " + std::to_string(msg.timeout_ms) + " is negative (0 = the default, " +
+                                                std::to_string(config_.coordinator.default_timeout_ms) + " ms)"};
   }
   if (is_stop(msg.kind)) return std::nullopt;  // stops are always accepted for known axes
 
@@ -281,16 +303,16 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
     }
     if (auto err = check_axis_ready(name, need_enabled)) return err;
   }
-  if (is_move(msg.kind)) {
+  if (is_move(msg.kind) || msg.kind == request_t::SET_POSITION) {
     for (std::size_t i = 0; i < axes.size(); ++i) {
       const AxisLive& a = axes_.at(axes[i]);
-      const double current = a.state->position;
-      const double target = msg.kind == request_t::MOVE_ABSOLUTE ? msg.values[i] : current + msg.values[i];
+      const double target = msg.kind == request_t::SET_POSITION ? msg.values[i] : move_target_units(a, msg.kind, msg.values[i]);
       const auto& lim = a.axis->limits;
       if (target < lim.min_position || target > lim.max_position) {
         char buf[256];
-        std::snprintf(buf, sizeof buf, "target %.6g %s of axis %s is outside its limits [%.6g, %.6g]", target, a.axis->unit.c_str(),
-                      axes[i].c_str(), lim.min_position, lim.max_position);
+        std::snprintf(buf, sizeof buf, "%s %.6g %s of axis %s is outside its limits [%.6g, %.6g]",
+                      msg.kind == request_t::SET_POSITION ? "position" : "target", target, a.axis->unit.c_str(), axes[i].c_str(),
+                      lim.min_position, lim.max_position);
         return P{ReplyError::kOutsideLimits, buf};
       }
     }
@@ -313,14 +335,22 @@ void Coordinator::on_request(const request_t& msg) {
     reply_unknown(msg, reply_t::REJECTED, err->first, err->second);
     return;
   }
-  if (is_stop(msg.kind)) preempt(msg);
-
   auto owned = std::make_unique<Request>();
   Request& r = *owned;
-  r.serial = next_serial_++;
   r.msg = msg;
   r.axes = axes;
-  for (const auto& a : axes) r.buses.insert(axes_.at(a).drive->bus);
+  // A move is planned whole before anything is sent: a plan that fails is a refusal.
+  if (is_move(msg.kind)) {
+    if (auto err = plan_move(r)) {
+      reply_unknown(msg, reply_t::REJECTED, err->first, err->second);
+      return;
+    }
+  }
+  if (is_stop(msg.kind)) preempt(msg);
+  r.serial = next_serial_++;
+  for (const auto& a : axes) {
+    if (!r.still.contains(a)) r.buses.insert(axes_.at(a).drive->bus);
+  }
   requests_.emplace(r.serial, std::move(owned));
   active_ids_.insert({msg.client_id, msg.request_id});
   if (!is_stop(msg.kind)) {
@@ -335,11 +365,63 @@ void Coordinator::on_request(const request_t& msg) {
   });
   spdlog::info("request {}/{} ({}) accepted for {} axes", msg.client_id, msg.request_id, kind_name(msg.kind), axes.size());
   reply(r, reply_t::ACCEPTED);
-  if (is_move(msg.kind)) {
-    start_move(r);
-  } else {
+  if (!is_move(msg.kind)) {
+    for (const auto& a : axes) {
+      // Anything else that moves or re-references the axis ends "standing at the last target".
+      if (msg.kind == request_t::JOG || msg.kind == request_t::HOME || msg.kind == request_t::SET_POSITION) axes_.at(a).commanded_units.reset();
+    }
     start_simple(r);
+  } else if (r.plan.axes.empty()) {
+    check_move_done(r);  // every axis is already at its target: nothing to send
+  } else {
+    start_move(r);
   }
+}
+
+double Coordinator::move_target_units(const AxisLive& a, std::int8_t kind, double value) const {
+  if (kind == request_t::MOVE_ABSOLUTE) return value;
+  const bool at_commanded = a.commanded_units && a.state &&
+                            std::abs(static_cast<double>(a.state->position_counts - a.commanded_counts)) <= tolerance_counts(a);
+  return (at_commanded ? *a.commanded_units : (a.state ? a.state->position : 0.0)) + value;
+}
+
+std::optional<std::pair<ReplyError, std::string>> Coordinator::plan_move(Request& r) {
+  std::vector<PlanInput> inputs;
+  for (std::size_t i = 0; i < r.axes.size(); ++i) {
+    const AxisLive& a = axes_.at(r.axes[i]);
+    const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
+    const double target_units = move_target_units(a, r.msg.kind, r.msg.values[i]);
+    const double target = std::round(target_units * counts_per_unit);
+    if (!(std::abs(target) < 9.0e18)) {
+      return std::pair{ReplyError::kOutsideLimits, "target " + number(target_units) + " of axis " + r.axes[i] + " does not fit in counts"};
+    }
+    PlanInput in;
+    in.axis = r.axes[i];
+    in.family = a.drive->family;
+    in.start_counts = a.state->position_counts;
+    in.target_counts = static_cast<std::int64_t>(target);
+    in.max_velocity = a.axis->limits.max_velocity * a.axis->steps_per_unit;
+    in.max_acceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit;
+    r.starts[in.axis] = in.start_counts;
+    r.targets[in.axis] = in.target_counts;
+    r.target_units[in.axis] = target_units;
+    // An axis already at its target needs no command: it is done while its partners move.
+    if (in.target_counts == in.start_counts) {
+      r.still.insert(in.axis);
+      continue;
+    }
+    inputs.push_back(in);
+  }
+  if (inputs.empty()) return std::nullopt;
+  auto planned = planner_(inputs, scale_or_one(r.msg.velocity_scale), scale_or_one(r.msg.acceleration_scale));
+  if (auto* why = std::get_if<std::string>(&planned)) return std::pair{ReplyError::kPlanningFailed, "planning failed: " + *why};
+  r.plan = std::get<MovePlan>(planned);
+  const int timeout_ms = r.msg.timeout_ms > 0 ? r.msg.timeout_ms : config_.coordinator.default_timeout_ms;
+  if (!(r.plan.duration_s * 1000.0 < static_cast<double>(timeout_ms))) {
+    return std::pair{ReplyError::kPlanningFailed, "the move would take " + number(r.plan.duration_s) + " s, longer than its timeout of " +
+                                                      number(timeout_ms / 1000.0) + " s (raise the speed or timeout_ms)"};
+  }
+  return std::nullopt;
 }
 
 void Coordinator::preempt(const request_t& stop) {
@@ -387,7 +469,21 @@ void Coordinator::start_simple(Request& r) {
     per_bus[a.drive->bus].push_back(c);
   }
   r.phase = Phase::kWaitingGateways;
-  for (auto& [bus, cmds] : per_bus) send_command(r, bus, gateway_kind(r.msg.kind), std::move(cmds));
+  for (auto& [bus, cmds] : per_bus) {
+    if (is_stop(r.msg.kind) && !gateway_alive(bus)) {
+      std::string names;
+      for (const auto& c : cmds) names += (names.empty() ? "" : ", ") + c.axis;
+      r.unreached += (r.unreached.empty() ? "" : "; ") + names + " (gateway of bus " + bus + " offline)";
+      continue;
+    }
+    send_command(r, bus, gateway_kind(r.msg.kind), std::move(cmds));
+  }
+  if (r.pending.empty()) {
+    // A stop whose every gateway is gone: nothing to wait for.
+    r.phase = Phase::kConfirming;
+    r.gateways_done = loop_.now();
+    return check_confirmed(r, false);
+  }
   if (is_motion(r.msg.kind)) {
     r.fire_utime = wall_time_us();  // a jog or homing run starts when its gateway gets it
     publish_active_moves();
@@ -395,28 +491,6 @@ void Coordinator::start_simple(Request& r) {
 }
 
 void Coordinator::start_move(Request& r) {
-  std::vector<PlanInput> inputs;
-  for (std::size_t i = 0; i < r.axes.size(); ++i) {
-    const AxisLive& a = axes_.at(r.axes[i]);
-    const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
-    const double target_units = r.msg.kind == request_t::MOVE_ABSOLUTE ? r.msg.values[i] : a.state->position + r.msg.values[i];
-    PlanInput in;
-    in.axis = r.axes[i];
-    in.family = a.drive->family;
-    in.start_counts = a.state->position_counts;
-    in.target_counts = std::llround(target_units * counts_per_unit);
-    in.max_velocity = a.axis->limits.max_velocity * a.axis->steps_per_unit;
-    in.max_acceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit;
-    r.starts[in.axis] = in.start_counts;
-    r.targets[in.axis] = in.target_counts;
-    inputs.push_back(in);
-  }
-  auto planned = planner_(inputs, scale_or_one(r.msg.velocity_scale), scale_or_one(r.msg.acceleration_scale));
-  if (auto* why = std::get_if<std::string>(&planned)) {
-    abort_group(r, reply_t::FAILED, ReplyError::kPlanningFailed, "planning failed: " + *why);
-    return;
-  }
-  r.plan = std::get<MovePlan>(planned);
   r.trigger_id = next_trigger_id_++;
   r.phase = Phase::kArming;
   std::map<std::string, std::vector<motionlcm::axis_command_t>> per_bus;
@@ -449,7 +523,7 @@ void Coordinator::start_move(Request& r) {
     for (const auto& [id, bus] : it->second->pending) {
       if (bus.rfind("armed:", 0) != 0) buses += (buses.empty() ? "" : ", ") + bus;
     }
-    abort_group(*it->second, reply_t::FAILED, ReplyError::kArmFailed, "gateway(s) " + buses + " did not confirm the armed move in time");
+    release_armed(*it->second, {reply_t::FAILED, ReplyError::kArmFailed, "gateway(s) " + buses + " did not confirm the armed move in time"});
   });
 }
 
@@ -500,10 +574,16 @@ void Coordinator::fire(Request& r) {
 void Coordinator::check_move_done(Request& r) {
   if (r.started_utime.size() < r.move_commands) return;  // not every start mechanism has fired yet
   for (const auto& name : r.axes) {
+    if (r.still.contains(name)) continue;
     const AxisLive& a = axes_.at(name);
     if (!a.state || a.state->sample_utime < r.fire_utime) return;
     if (a.state->moving) return;
     if (std::abs(static_cast<double>(a.state->position_counts - r.targets.at(name))) > tolerance_counts(a)) return;
+  }
+  for (const auto& name : r.axes) {
+    AxisLive& a = axes_.at(name);
+    a.commanded_units = r.target_units.at(name);
+    a.commanded_counts = r.targets.at(name);
   }
   reply(r, reply_t::DONE);
   finish(r.serial);
@@ -518,16 +598,26 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g) {
   Request* rp = find_by_command(g.command_id);
   if (rp == nullptr) return;
   Request& r = *rp;
-  if (g.status == gateway_reply_t::FAILED) {
+  if (r.phase == Phase::kReleasing) {
+    if (g.status == gateway_reply_t::DONE || g.status == gateway_reply_t::FAILED) {
+      r.pending.erase(g.command_id);
+      if (r.pending.empty()) end_with(r, r.outcome);
+    }
+    return;
+  }
+  // A stop superseded by a later stop or e-stop on the same axis: that one stops it.
+  const bool superseded_stop = is_stop(r.msg.kind) && g.error_code == error_code(ReplyError::kStopped);
+  if (g.status == gateway_reply_t::FAILED && !superseded_stop) {
     r.pending.erase(g.command_id);
-    const bool moving = r.phase == Phase::kTriggered;
     // The gateway's own code says more (a refused value, a silent drive, a fault) than "drive
     // error"; a move that could not be loaded stays kArmFailed as documented.
     const bool known_code = g.error_code > 0 && g.error_code <= error_code(ReplyError::kUnsupported);
-    const ReplyError error = r.phase == Phase::kArming ? ReplyError::kArmFailed
-                             : known_code             ? static_cast<ReplyError>(g.error_code)
-                                                      : ReplyError::kDriveError;
-    abort_group(r, moving ? reply_t::ABORTED : reply_t::FAILED, error, "bus " + g.bus + ": " + g.reason);
+    if (r.phase == Phase::kArming) {
+      release_armed(r, {reply_t::FAILED, ReplyError::kArmFailed, "bus " + g.bus + ": " + g.reason});
+      return;
+    }
+    const ReplyError error = known_code ? static_cast<ReplyError>(g.error_code) : ReplyError::kDriveError;
+    abort_group(r, r.phase == Phase::kTriggered ? reply_t::ABORTED : reply_t::FAILED, error, "bus " + g.bus + ": " + g.reason);
     return;
   }
   if (is_move(r.msg.kind)) {
@@ -549,15 +639,73 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g) {
     }
     return;
   }
-  if (g.status == gateway_reply_t::DONE) {
+  if (g.status == gateway_reply_t::DONE || superseded_stop) {
     r.pending.erase(g.command_id);
     if (g.param.space != motionlcm::param_t::NONE) r.param_result = g.param;
     if (r.pending.empty()) {
-      reply(r, reply_t::DONE);
-      finish(r.serial);
+      r.phase = Phase::kConfirming;
+      r.gateways_done = loop_.now();
+      check_confirmed(r, false);
     }
   } else if (g.status == gateway_reply_t::STARTED && r.msg.kind != request_t::JOG) {
     reply(r, reply_t::STARTED);
+  }
+}
+
+std::optional<std::string> Coordinator::unconfirmed(const Request& r) const {
+  const auto k = r.msg.kind;
+  const bool shows_in_state = k == request_t::ENABLE || k == request_t::DISABLE || k == request_t::FAULT_RESET || is_stop(k);
+  if (!shows_in_state) return std::nullopt;
+  for (const auto& name : r.axes) {
+    const AxisLive& a = axes_.at(name);
+    // A stop cannot wait for an axis whose gateway is gone (start_simple left it out and says so).
+    if (is_stop(r.msg.kind) && (!gateway_alive(a.drive->bus) || (a.state && !a.state->online))) continue;
+    if (!a.state) return "no state of axis " + name;
+    const auto& s = *a.state;
+    // A state older than the gateway's DONE may predate what the command did.
+    if (a.received < r.gateways_done) return "axis " + name + " has not reported since";
+    switch (r.msg.kind) {
+      case request_t::ENABLE:
+        if (!s.enabled) return "axis " + name + " still reports disabled";
+        break;
+      case request_t::DISABLE:
+        if (s.enabled && s.online) return "axis " + name + " still reports enabled";
+        break;
+      case request_t::FAULT_RESET:
+        if (s.fault) return "axis " + name + " still reports a fault (" + (s.fault_text.empty() ? "code " + std::to_string(s.fault_code) : s.fault_text) + ")";
+        break;
+      case request_t::STOP:
+        if (s.moving && s.online) return "axis " + name + " still reports moving";
+        break;
+      case request_t::ESTOP:
+        if ((s.moving || s.enabled) && s.online) return "axis " + name + (s.moving ? " still reports moving" : " still reports enabled");
+        break;
+      default: break;
+    }
+  }
+  return std::nullopt;
+}
+
+void Coordinator::check_confirmed(Request& r, bool final_check) {
+  const auto missing = unconfirmed(r);
+  if (!missing && !r.unreached.empty()) {
+    end_with(r, {reply_t::FAILED, ReplyError::kGatewayOffline, "not reached: " + r.unreached});
+  } else if (!missing) {
+    reply(r, reply_t::DONE);
+    finish(r.serial);
+  } else if (final_check) {
+    const ReplyError error = r.msg.kind == request_t::FAULT_RESET ? ReplyError::kAxisFaulted : ReplyError::kDriveError;
+    reply(r, reply_t::FAILED, error, std::string(kind_name(r.msg.kind)) + ": the gateway reported done, but " + *missing);
+    finish(r.serial);
+  } else if (r.arm_timer == 0) {
+    // Every gateway publishes its axes at its poll rate: a few of its periods settle it.
+    const std::uint64_t serial = r.serial;
+    r.arm_timer = loop_.call_after(std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms), [this, serial] {
+      if (auto it = requests_.find(serial); it != requests_.end() && it->second->phase == Phase::kConfirming) {
+        it->second->arm_timer = 0;
+        check_confirmed(*it->second, true);
+      }
+    });
   }
 }
 
@@ -569,14 +717,51 @@ Coordinator::Request* Coordinator::find_by_command(std::int64_t command_id) {
 }
 
 void Coordinator::abort_group(Request& r, std::int8_t status, ReplyError error, const std::string& reason) {
-  if (r.phase == Phase::kDone) return;
-  // Stop every axis of the group that may be moving or armed.
+  if (r.phase == Phase::kDone || r.phase == Phase::kReleasing) return;
+  // A move not triggered yet has moved nothing: it is disarmed, not stopped.
+  if (is_move(r.msg.kind) && r.phase == Phase::kArming) return release_armed(r, {status, error, reason});
+  // Stop every axis of the group that may be moving.
   if (is_move(r.msg.kind) || r.msg.kind == request_t::JOG || r.msg.kind == request_t::HOME) {
-    send_stop(r.axes, false, r.msg.request_id);
+    std::vector<std::string> moving;
+    for (const auto& a : r.axes) {
+      if (!r.still.contains(a)) moving.push_back(a);
+      axes_.at(a).commanded_units.reset();
+    }
+    send_stop(moving, false, r.msg.request_id);
   }
+  end_with(r, {status, error, reason});
+}
+
+void Coordinator::release_armed(Request& r, Outcome outcome) {
+  loop_.cancel(r.arm_timer);
+  r.phase = Phase::kReleasing;
+  r.outcome = std::move(outcome);
+  r.pending.clear();  // replies to the ARM_MOVEs no longer matter
+  std::map<std::string, std::vector<motionlcm::axis_command_t>> per_bus;
+  for (const auto& a : r.axes) {
+    if (r.still.contains(a)) continue;
+    motionlcm::axis_command_t c{};
+    c.axis = a;
+    per_bus[axes_.at(a).drive->bus].push_back(c);
+  }
+  for (auto& [bus, cmds] : per_bus) {
+    if (gateway_alive(bus)) send_command(r, bus, gateway_command_t::DISARM, std::move(cmds));
+  }
+  if (r.pending.empty()) return end_with(r, r.outcome);
+  const std::uint64_t serial = r.serial;
+  r.arm_timer = loop_.call_after(kReleaseTimeout, [this, serial] {
+    if (auto it = requests_.find(serial); it != requests_.end() && it->second->phase == Phase::kReleasing) {
+      it->second->arm_timer = 0;
+      end_with(*it->second, it->second->outcome);
+    }
+  });
+}
+
+void Coordinator::end_with(Request& r, const Outcome& outcome) {
   spdlog::warn("request {}/{} ({}) {}: {}", r.msg.client_id, r.msg.request_id, kind_name(r.msg.kind),
-               status == reply_t::ABORTED ? "aborted" : "failed", reason);
-  reply(r, status, error, reason);
+               outcome.status == reply_t::ABORTED ? "aborted" : "failed", outcome.reason);
+  const Outcome copy = outcome;  // `outcome` may live in r, which reply() leaves intact but finish() frees
+  reply(r, copy.status, copy.error, copy.reason);
   finish(r.serial);
 }
 
@@ -589,7 +774,7 @@ std::int64_t Coordinator::send_command(Request& r, const std::string& bus, std::
   c.command_id = next_command_id_++;
   c.request_id = r.msg.request_id;
   c.kind = kind;
-  c.trigger_id = kind == gateway_command_t::ARM_MOVE ? r.trigger_id : 0;
+  c.trigger_id = kind == gateway_command_t::ARM_MOVE || kind == gateway_command_t::DISARM ? r.trigger_id : 0;
   c.axes = std::move(axes);
   c.num_axes = static_cast<std::int32_t>(c.axes.size());
   c.param = r.msg.param;

@@ -69,8 +69,15 @@ void GridQuantizer::candidates(const DriveMotion& desired, int neighbours, std::
   std::vector<std::int64_t> velocity_steps;
   std::vector<std::int64_t> acceleration_steps;
   std::vector<std::int64_t> deceleration_steps;
+  // A ramp-time drive has no ramp at or below its start speed: a slower wish is served by the
+  // nearest speeds above it (long ramps then stretch the profile to the planned duration).
+  double wanted_velocity = desired.velocity_counts_per_s;
+  if (ramp_time) {
+    const double first_above = (std::floor(acceleration_.ramp_from / v_step) + 1.0) * v_step;
+    wanted_velocity = std::max(wanted_velocity, first_above);
+  }
   bracket_indices(
-      desired.velocity_counts_per_s, desired.velocity_counts_per_s / v_step, true, neighbours, velocity_.min_steps,
+      wanted_velocity, wanted_velocity / v_step, true, neighbours, velocity_.min_steps,
       velocity_.max_steps, [&](std::int64_t n) { return static_cast<double>(n) * v_step; }, velocity_steps);
 
   for (const std::int64_t v_native : velocity_steps) {

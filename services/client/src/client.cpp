@@ -1,6 +1,7 @@
 #include "motion/client/client.hpp"
 
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/reply_error.hpp"
 
 namespace motion::client {
 
@@ -57,7 +58,9 @@ std::int64_t Client::send(motionlcm::request_t request, ReplyHandler on_reply) {
 motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milliseconds timeout, ReplyHandler on_progress) {
   motionlcm::reply_t result{};
   bool done = false;
+  bool answered = false;
   const std::int64_t id = send(std::move(request), [&](const motionlcm::reply_t& r) {
+    answered = true;
     if (is_terminal(r.status)) {
       result = r;
       done = true;
@@ -65,13 +68,21 @@ motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milli
       on_progress(r);
     }
   });
-  if (!wait_until([&] { return done; }, timeout)) {
+  // The coordinator answers every request at once (ACCEPTED or REJECTED): silence means nobody
+  // is listening, and the caller learns it within kAcceptTimeout rather than the whole timeout.
+  const auto first_wait = std::min(timeout, kAcceptTimeout);
+  const bool heard = wait_until([&] { return answered; }, first_wait);
+  if (!heard || !wait_until([&] { return done; }, timeout - first_wait)) {
     pending_.erase(id);
     result.client_id = id_;
     result.request_id = id;
     result.status = motionlcm::reply_t::FAILED;
-    result.reason = "no terminal reply from the coordinator within " + std::to_string(timeout.count()) + " ms (is motion-coordinator running on " +
-                    (node_.url().empty() ? std::string("the default LCM URL") : node_.url()) + "?)";
+    result.error_code = error_code(ReplyError::kTimeout);
+    const std::string where = (node_.url().empty() ? std::string("the default LCM URL") : node_.url()) + ", channel " +
+                              node_.channel(lcm::channels::kRequest);
+    result.reason = heard ? "no terminal reply from the coordinator within " + std::to_string(timeout.count()) + " ms (" + where + ")"
+                          : "no reply from the coordinator within " + std::to_string(first_wait.count()) +
+                                " ms: is motion-coordinator running on " + where + "?";
   }
   return result;
 }

@@ -30,10 +30,12 @@ drives:
   - {name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20}
   - {name: yd, family: uim342, bus: can0, node_id: 6, group_id: 20}
   - {name: cd, family: adam-modbus, bus: rs485, node_id: 1}
+  - {name: rd, family: uim342, bus: can0, node_id: 7}
 axes:
   - {name: x, drive: xd, steps_per_unit: 100, limits: {min: -10, max: 10, velocity: 5, acceleration: 50}}
   - {name: y, drive: yd, steps_per_unit: 100, limits: {min: -10, max: 10, velocity: 5, acceleration: 50}}
   - {name: c, drive: cd, steps_per_unit: 10, limits: {min: -10, max: 10, velocity: 5, acceleration: 50}}
+  - {name: r, drive: rd, steps_per_unit: 8.888888888888889, limits: {min: -720, max: 720, velocity: 360, acceleration: 1440}}
 coordinator: {gateway_timeout_ms: 400, arm_timeout_ms: 500, progress_period_ms: 50}
 )";
 
@@ -41,7 +43,7 @@ coordinator: {gateway_timeout_ms: 400, arm_timeout_ms: 500, progress_period_ms: 
 std::variant<MovePlan, std::string> simple_planner(const std::vector<PlanInput>& in, double, double) {
   MovePlan plan;
   for (const auto& i : in) {
-    if (i.axis == "refuse") return std::string("refused");
+    if (i.target_counts == 777) return std::string("refused: 777 counts");
     plan.axes.push_back({i.axis, i.target_counts, i.max_velocity, i.max_acceleration, i.max_acceleration, 0.1});
   }
   plan.duration_s = 0.1;
@@ -130,6 +132,7 @@ struct CoordinatorTest : ::testing::Test {
     gateways.add_axis("x", "can0", 100);
     gateways.add_axis("y", "can0", 100);
     gateways.add_axis("c", "rs485", 10);
+    gateways.add_axis("r", "can0", 8.888888888888889);
     client.subscribe<reply_t>(lcm::channels::kReply, [this](const reply_t& r, const std::string&) { replies[r.request_id].push_back(r); });
   }
   void SetUp() override { pump(milliseconds(200)); }  // heartbeats and states reach the coordinator
@@ -226,7 +229,7 @@ TEST_F(CoordinatorTest, UnknownAxisIsRejectedWithTheKnownAxes) {
   const auto r = terminal(send(request_t::MOVE_ABSOLUTE, {"q"}, {1.0}));
   EXPECT_EQ(r.status, std::int8_t{reply_t::REJECTED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kUnknownAxis));
-  EXPECT_NE(r.reason.find("unknown axis 'q' (axes: x, y, c)"), std::string::npos) << r.reason;
+  EXPECT_NE(r.reason.find("unknown axis 'q' (axes: x, y, c, r)"), std::string::npos) << r.reason;
 }
 
 TEST_F(CoordinatorTest, TargetBeyondLimitIsRejectedNamingTheLimit) {
@@ -464,6 +467,182 @@ TEST_F(CoordinatorTest, EnableOnTwoBusesIsDoneWhenBothGatewaysAre) {
   int enables = 0;
   for (const auto& c : gateways.commands) enables += c.kind == gateway_command_t::ENABLE;
   EXPECT_EQ(enables, 2);
+}
+
+// ---- ordinary requests outside the demo's path
+
+std::vector<gateway_command_t> commands_of_kind(const std::vector<gateway_command_t>& all, std::int8_t kind) {
+  std::vector<gateway_command_t> out;
+  for (const auto& c : all) {
+    if (c.kind == kind) out.push_back(c);
+  }
+  return out;
+}
+
+TEST_F(CoordinatorTest, AxisAlreadyAtItsTargetIsDoneWithoutACommandWhileItsPartnerMoves) {
+  auto_execute_moves();
+  const auto r = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {0.0, 1.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::DONE}) << r.reason;
+  const auto arms = commands_of_kind(gateways.commands, gateway_command_t::ARM_MOVE);
+  ASSERT_EQ(arms.size(), 1u);
+  ASSERT_EQ(arms[0].num_axes, 1);
+  EXPECT_EQ(arms[0].axes[0].axis, "y");
+  EXPECT_DOUBLE_EQ(gateways.states["y"].position, 1.0);
+}
+
+TEST_F(CoordinatorTest, MoveWithEveryAxisAtItsTargetIsDoneAtOnceWithoutBusTraffic) {
+  auto_execute_moves();
+  gateways.put("c", 30, false);  // 3.0 units
+  pump(milliseconds(100));
+  // A relative move below one count rounds to the position it starts from.
+  const auto absolute = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {0.0, 3.0}));
+  const auto relative = run_to_terminal(send(request_t::MOVE_RELATIVE, {"x"}, {0.004}));
+  EXPECT_EQ(absolute.status, std::int8_t{reply_t::DONE}) << absolute.reason;
+  EXPECT_EQ(relative.status, std::int8_t{reply_t::DONE}) << relative.reason;
+  EXPECT_TRUE(gateways.commands.empty()) << gateways.commands.size() << " gateway commands";
+  EXPECT_TRUE(gateways.triggers.empty());
+}
+
+TEST_F(CoordinatorTest, PlanningFailureIsRejectedAndSendsNothing) {
+  auto_execute_moves();
+  const auto refused = terminal(send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {7.77, 1.0}));
+  EXPECT_EQ(refused.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(refused.error_code, static_cast<int>(ReplyError::kPlanningFailed));
+  EXPECT_NE(refused.reason.find("777 counts"), std::string::npos) << refused.reason;
+  EXPECT_TRUE(gateways.commands.empty()) << "a refused plan sent " << gateways.commands.size() << " commands (a STOP?)";
+  // Nothing is left busy: the next move of the same axes runs.
+  const auto next = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {1.0, 1.0}));
+  EXPECT_EQ(next.status, std::int8_t{reply_t::DONE}) << next.reason;
+}
+
+TEST_F(CoordinatorTest, ArmingFailureDisarmsEveryArmedPartBeforeTheTerminalReply) {
+  std::size_t replies_when_disarmed = 0;
+  std::int64_t move = 0;
+  gateways.on_command = [&](const gateway_command_t& c) {
+    if (c.kind == gateway_command_t::ARM_MOVE) {
+      gateways.reply(c, c.bus == "rs485" ? gateway_reply_t::FAILED : gateway_reply_t::ARMED, "drive refused the profile");
+    } else if (c.kind == gateway_command_t::DISARM) {
+      replies_when_disarmed = replies[move].size();
+      gateways.reply(c, gateway_reply_t::DONE);
+    }
+  };
+  move = send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {1.0, 1.0});
+  const auto r = terminal(move);
+  EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kArmFailed));
+  EXPECT_NE(r.reason.find("bus rs485: drive refused the profile"), std::string::npos) << r.reason;
+  const auto disarms = commands_of_kind(gateways.commands, gateway_command_t::DISARM);
+  ASSERT_FALSE(disarms.empty());
+  const auto arm = commands_of_kind(gateways.commands, gateway_command_t::ARM_MOVE).front();
+  bool can0_disarmed = false;
+  for (const auto& d : disarms) can0_disarmed = can0_disarmed || (d.bus == "can0" && d.trigger_id == arm.trigger_id);
+  EXPECT_TRUE(can0_disarmed) << "the armed part on can0 was not released by trigger id";
+  EXPECT_EQ(replies_when_disarmed, 1u) << "the terminal reply went out before the DISARM";
+  EXPECT_TRUE(commands_of_kind(gateways.commands, gateway_command_t::STOP).empty()) << "nothing moved: no STOP";
+  EXPECT_TRUE(gateways.triggers.empty());
+}
+
+TEST_F(CoordinatorTest, RelativeStepsCountFromTheCommandedTargetAndRoundOnce) {
+  auto_execute_moves();
+  std::vector<std::int64_t> targets;
+  for (const double step : {4.0, 4.0, 100.0}) {
+    const auto r = run_to_terminal(send(request_t::MOVE_RELATIVE, {"r"}, {step}));
+    ASSERT_EQ(r.status, std::int8_t{reply_t::DONE}) << r.reason;
+    targets.push_back(commands_of_kind(gateways.commands, gateway_command_t::ARM_MOVE).back().axes[0].target_counts);
+  }
+  // 4, 8 and 108 degrees at 8.89 counts per degree, each rounded once from user units.
+  EXPECT_EQ(targets, (std::vector<std::int64_t>{36, 71, 960}));
+  // Moved by anything else, the axis counts from where it stands.
+  gateways.put("r", 100, false);
+  pump(milliseconds(100));
+  run_to_terminal(send(request_t::MOVE_RELATIVE, {"r"}, {1.0}));
+  EXPECT_EQ(commands_of_kind(gateways.commands, gateway_command_t::ARM_MOVE).back().axes[0].target_counts, 109);
+}
+
+TEST_F(CoordinatorTest, OutOfRangeSetPositionScaleAndTimeoutAreRejectedNamingTheValue) {
+  auto_execute_moves();
+  const auto position = terminal(send(request_t::SET_POSITION, {"x"}, {100.0}));
+  EXPECT_EQ(position.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(position.error_code, static_cast<int>(ReplyError::kOutsideLimits));
+  EXPECT_NE(position.reason.find("position 100 "), std::string::npos) << position.reason;
+  EXPECT_EQ(terminal(send(request_t::SET_POSITION, {"x"}, {1e12})).error_code, static_cast<int>(ReplyError::kOutsideLimits));
+
+  const auto timeout = terminal(send(request_t::MOVE_ABSOLUTE, {"x"}, {1.0}, -5));
+  EXPECT_EQ(timeout.error_code, static_cast<int>(ReplyError::kMalformedRequest));
+  EXPECT_NE(timeout.reason.find("timeout_ms -5"), std::string::npos) << timeout.reason;
+
+  request_t slow{};
+  slow.client_id = "test";
+  slow.request_id = 900;
+  slow.kind = request_t::MOVE_ABSOLUTE;
+  slow.axes = {"x"};
+  slow.values = {1.0};
+  slow.num_axes = 1;
+  slow.velocity_scale = 1.5;
+  client.publish(lcm::channels::kRequest, slow);
+  const auto scale = terminal(900);
+  EXPECT_EQ(scale.error_code, static_cast<int>(ReplyError::kMalformedRequest));
+  EXPECT_NE(scale.reason.find("velocity_scale 1.5"), std::string::npos) << scale.reason;
+  // A plan longer than the request's timeout is refused up front, not failed on the timeout.
+  const auto too_long = terminal(send(request_t::MOVE_ABSOLUTE, {"x"}, {1.0}, 50));
+  EXPECT_EQ(too_long.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(too_long.error_code, static_cast<int>(ReplyError::kPlanningFailed));
+  EXPECT_TRUE(gateways.commands.empty());
+}
+
+TEST_F(CoordinatorTest, ResetIsDoneOnlyOnceTheAxisStateShowsNoFault) {
+  gateways.states["x"].fault = true;
+  gateways.states["x"].fault_text = "stall";
+  bool clear_after_reset = true;
+  gateways.on_command = [&](const gateway_command_t& c) {
+    gateways.reply(c, gateway_reply_t::DONE);  // before the drive's state shows it
+    if (c.kind == gateway_command_t::FAULT_RESET && clear_after_reset) {
+      loop.call_after(milliseconds(200), [this] { gateways.states["x"].fault = false; });
+    }
+  };
+  pump(milliseconds(100));
+  const auto reset = send(request_t::FAULT_RESET, {"x"}, {0.0});
+  ASSERT_TRUE(pump_until([&] { return !replies[reset].empty() && is_terminal(replies[reset].back().status); }));
+  EXPECT_EQ(replies[reset].back().status, std::int8_t{reply_t::DONE}) << replies[reset].back().reason;
+  // At once after DONE, the coordinator's own view agrees: a move is not refused as faulted.
+  auto_execute_moves();
+  const auto move = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x"}, {1.0}));
+  EXPECT_EQ(move.status, std::int8_t{reply_t::DONE}) << move.reason;
+
+  // A drive that keeps its fault fails the reset, naming it.
+  gateways.states["y"].fault = true;
+  gateways.states["y"].fault_text = "over-current";
+  clear_after_reset = false;
+  gateways.on_command = [&](const gateway_command_t& c) { gateways.reply(c, gateway_reply_t::DONE); };
+  pump(milliseconds(100));
+  const auto stuck = terminal(send(request_t::FAULT_RESET, {"y"}, {0.0}));
+  EXPECT_EQ(stuck.status, std::int8_t{reply_t::FAILED});
+  EXPECT_EQ(stuck.error_code, static_cast<int>(ReplyError::kAxisFaulted));
+  EXPECT_NE(stuck.reason.find("over-current"), std::string::npos) << stuck.reason;
+}
+
+TEST_F(CoordinatorTest, AStopSupersededByASecondStopEndsDone) {
+  std::vector<gateway_command_t> stops;
+  gateways.on_command = [&](const gateway_command_t& c) {
+    if (c.kind != gateway_command_t::STOP) return;
+    stops.push_back(c);
+    if (stops.size() == 2) {
+      // The gateway ends the first stop as superseded (code 14), then completes the second.
+      gateway_reply_t r{};
+      r.command_id = stops[0].command_id;
+      r.bus = c.bus;
+      r.status = gateway_reply_t::FAILED;
+      r.error_code = error_code(ReplyError::kStopped);
+      r.reason = "superseded by command " + std::to_string(c.command_id);
+      gateways.node.publish(lcm::channels::kGatewayReply, r);
+      gateways.reply(c, gateway_reply_t::DONE);
+    }
+  };
+  const auto first = send(request_t::STOP, {"x"}, {0.0});
+  pump_until([&] { return stops.size() == 1; });
+  const auto second = send(request_t::STOP, {"x"}, {0.0});
+  EXPECT_EQ(terminal(first).status, std::int8_t{reply_t::DONE}) << terminal(first).reason;
+  EXPECT_EQ(terminal(second).status, std::int8_t{reply_t::DONE});
 }
 
 }  // namespace

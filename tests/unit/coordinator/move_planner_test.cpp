@@ -254,5 +254,33 @@ TEST(MovePlanner, ZeroLimitIsAPlanningError) {
   EXPECT_NE(std::get<std::string>(result).find("x"), std::string::npos) << std::get<std::string>(result);
 }
 
+// Short and slow moves of a UC57 axis: its start speed 200Eh (10 rpm, 533 counts/s at 3200
+// pulses/rev) is above the synchronized speed these moves want, and ramps exist only above it.
+TEST(MovePlanner, ShortAndSlowUc57MovesArePlannedWithinTheLimits) {
+  const auto planner = make_move_planner(lab());
+  const double a_velocity = 360 * 8.888888888888889;
+  const double a_acceleration = 1440 * 8.888888888888889;
+  for (const std::int64_t distance : {1, 2, 9, 18, 36, 44}) {  // 0.1 to 5 degrees
+    for (const double scale : {1.0, 0.5, 0.1}) {
+      auto result = planner({{"a", config::Family::kUc57, 177, 177 + distance, a_velocity, a_acceleration}}, scale, scale);
+      ASSERT_TRUE(std::holds_alternative<MovePlan>(result)) << distance << " counts at scale " << scale << ": " << std::get<std::string>(result);
+      const auto& a = std::get<MovePlan>(result).axes.at(0);
+      EXPECT_EQ(a.target_counts, 177 + distance);
+      EXPECT_GT(a.velocity, 10 * 3200 / 60.0) << "the drive has no ramp at or below its start speed";
+      EXPECT_LE(a.velocity, a_velocity);
+      EXPECT_LE(a.acceleration, a_acceleration);
+      EXPECT_LE(a.deceleration, a_acceleration);
+    }
+  }
+  // With a long partner move, the UC57 axis stretches its ramps toward the partner's duration.
+  std::vector<PlanInput> in{{"x", config::Family::kUim342, 0, 6400, 50 * 640, 400 * 640},
+                            {"a", config::Family::kUc57, 0, 9, a_velocity, a_acceleration}};
+  auto paired = planner(in, 0.5, 0.5);
+  ASSERT_TRUE(std::holds_alternative<MovePlan>(paired)) << std::get<std::string>(paired);
+  const auto& plan = std::get<MovePlan>(paired);
+  EXPECT_LT(plan.axes[1].acceleration, a_acceleration);
+  EXPECT_GE(plan.predicted_skew_us, 0.0);
+}
+
 }  // namespace
 }  // namespace motion::coordinator

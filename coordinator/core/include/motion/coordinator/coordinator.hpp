@@ -83,6 +83,11 @@ class Coordinator {
     std::optional<motionlcm::axis_state_t> state;
     TimePoint received{};
     std::uint64_t busy_with = 0;  // serial of the request moving it, 0 = free
+    // The target of the last move that ended DONE on this axis, in user units and in counts:
+    // relative moves count from it while the axis stands there, so that N relative steps round
+    // once and never drift. Cleared by anything else that moves or re-references the axis.
+    std::optional<double> commanded_units;
+    std::int64_t commanded_counts = 0;
   };
   struct GatewayLive {
     TimePoint last_heartbeat{};
@@ -90,14 +95,23 @@ class Coordinator {
     double uptime_s = 0;
     bool seen = false;
   };
-  enum class Phase { kWaitingGateways, kArming, kTriggered, kDone };
+  // kReleasing: a move that could not be armed everywhere waits for its DISARMs before its
+  // terminal reply; kConfirming: the gateways are done and the axis states must show it.
+  enum class Phase { kWaitingGateways, kArming, kTriggered, kReleasing, kConfirming, kDone };
+  struct Outcome {
+    std::int8_t status = 0;
+    ReplyError error = ReplyError::kNone;
+    std::string reason;
+  };
   struct Request {
     std::uint64_t serial = 0;
     motionlcm::request_t msg{};
     Phase phase = Phase::kWaitingGateways;
     std::vector<std::string> axes;                 // in request order
     std::map<std::string, std::int64_t> targets;   // counts, moves only
+    std::map<std::string, double> target_units;    // the same in user units, before rounding
     std::map<std::string, std::int64_t> starts;    // counts at planning
+    std::set<std::string> still;                   // moves: axes already at their target (no command)
     std::map<std::int64_t, std::string> pending;   // command id -> bus, awaiting the next reply
     std::set<std::string> buses;
     // Moves: one ARM_MOVE per start mechanism (see start_move), all on one trigger id.
@@ -110,6 +124,9 @@ class Coordinator {
     std::int64_t fire_utime = 0;
     MovePlan plan;
     motionlcm::param_t param_result{};
+    Outcome outcome;                               // kReleasing: the terminal reply to send
+    std::string unreached;                         // stops: axes whose gateway was offline
+    TimePoint gateways_done{};                     // kConfirming: when the last gateway said DONE
     EventLoop::TimerId timeout_timer = 0;
     EventLoop::TimerId progress_timer = 0;
     EventLoop::TimerId arm_timer = 0;
@@ -127,6 +144,11 @@ class Coordinator {
   // Validation: an error (code, reason) or nothing.
   std::optional<std::pair<ReplyError, std::string>> validate(const motionlcm::request_t& msg, std::vector<std::string>& axes);
   std::optional<std::pair<ReplyError, std::string>> check_axis_ready(const std::string& axis, bool need_enabled);
+  // Where a move of `kind` by `value` (user units) ends on `a`: absolute, or relative to the last
+  // commanded target while the axis stands there (else to its position).
+  [[nodiscard]] double move_target_units(const AxisLive& a, std::int8_t kind, double value) const;
+  // Targets in counts and the plan of the axes that have to move; an error leaves nothing sent.
+  std::optional<std::pair<ReplyError, std::string>> plan_move(Request& r);
 
   void start_move(Request& r);
   // The axes of a move on `bus`, split by start mechanism: every UIM342 group moving whole (one BG
@@ -139,6 +161,13 @@ class Coordinator {
   void fire(Request& r);
   void check_move_done(Request& r);
   void abort_group(Request& r, std::int8_t status, ReplyError error, const std::string& reason);
+  // A move not yet triggered: DISARM what any gateway may hold, then the terminal reply (at the
+  // latest after kReleaseTimeout).
+  void release_armed(Request& r, Outcome outcome);
+  void end_with(Request& r, const Outcome& outcome);
+  // kConfirming: the axis states show what the request did (enabled, disabled, no fault, at rest).
+  [[nodiscard]] std::optional<std::string> unconfirmed(const Request& r) const;
+  void check_confirmed(Request& r, bool final_check);
 
   std::int64_t send_command(Request& r, const std::string& bus, std::int8_t kind, std::vector<motionlcm::axis_command_t> axes);
   void send_stop(const std::vector<std::string>& axes, bool emergency, std::int64_t request_id);

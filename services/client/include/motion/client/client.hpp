@@ -32,8 +32,10 @@ class Client {
 
   // Fills utime/client_id/request_id/num_axes and publishes; replies go to `on_reply`.
   std::int64_t send(motionlcm::request_t request, ReplyHandler on_reply = {});
-  // Sends and waits for the terminal reply. When none comes within `timeout`, returns a local
-  // FAILED reply saying so (the coordinator may be down).
+  // Sends and waits for the terminal reply. Returns a local FAILED reply (error code 13,
+  // timeout) naming the LCM URL and channel when no reply at all comes within kAcceptTimeout (no
+  // coordinator listening) or no terminal one within `timeout`.
+  static constexpr std::chrono::milliseconds kAcceptTimeout{2000};
   motionlcm::reply_t call(motionlcm::request_t request, std::chrono::milliseconds timeout, ReplyHandler on_progress = {});
 
   // Latest state of every axis heard so far.
