@@ -168,29 +168,37 @@ TEST_F(Uim342Lab, JogRunsUntilStoppedThenTheAxisStandsStill) {
   EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("w", 0.0); }, seconds(10))) << position("w");
 }
 
-TEST_F(Uim342Lab, HomeSetsTheOriginWhereTheAxisStands) {
+TEST_F(Uim342Lab, HomeSearchesTheSwitchAndSetsTheOriginAtItsEdge) {
   const auto away = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x1", 12.0}}));
   ASSERT_EQ(away.status, st(reply_t::DONE)) << away.reason;
   ASSERT_TRUE(lab.client().wait_until([&] { return settled_at("x1", 12.0); }, seconds(10))) << position("x1");
   ASSERT_FALSE(state("x1").homed);
+  const auto finished_before = finishes_of("x1-drive").size();
 
-  // HOME on a UIM342: the stack sends OG (§5.22), the present position becomes 0.
+  // x1 homes on IN1 (falling edge) toward min; the simulated switch edge is half way to min:
+  // -25 mm (-16000 counts) from power-up. The stack arms IL[0] with "set origin, then decelerate
+  // to stop" (§5.26), jogs at -10 mm/s, restores IL[0] and returns to the edge.
   const auto home = lab.call(Client::make(request_t::HOME, Axes{"x1"}), nullptr, seconds(60));
   ASSERT_EQ(home.status, st(reply_t::DONE)) << home.reason;
   ASSERT_TRUE(lab.client().wait_until([&] { return state("x1").homed && settled_at("x1", 0.0); }, seconds(10)))
       << "homed " << state("x1").homed << " at " << position("x1");
-  // It stays 0 in the drive's own counter (the polls read it back, not a gateway offset).
-  pause(std::chrono::milliseconds(300));
-  EXPECT_NEAR(position("x1"), 0.0, kTolerance);
+  // The motion happened: the search jog stopped past the switch edge (just below the new origin),
+  // then the return move ended on it.
+  const auto finishes = finishes_of("x1-drive");
+  ASSERT_EQ(finishes.size(), finished_before + 2);
+  EXPECT_LT(finishes[finished_before].position_counts, 0);
+  EXPECT_EQ(finishes.back().position_counts, 0);
+  const auto* edge = find_event("x1", ev(event_t::INPUT_EDGE));
+  ASSERT_NE(edge, nullptr);
+  EXPECT_TRUE(contains(edge->text, "IN1 falling")) << edge->text;
   EXPECT_FALSE(state("x2").homed);
 
-  // The homed axis moves in its new frame: 5 mm from the origin is PA = 3200.
+  // The homed axis moves in its new frame: 5 mm from the origin is PA = 3200, i.e. 30 mm above
+  // where it powered up.
   const auto move = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x1", 5.0}}));
   ASSERT_EQ(move.status, st(reply_t::DONE)) << move.reason;
   EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("x1", 5.0); }, seconds(10))) << position("x1");
-  const auto starts = lab.starts_of("x1-drive");
-  ASSERT_EQ(starts.size(), 2u);
-  EXPECT_EQ(starts[1].target_counts, 3200);
+  EXPECT_EQ(lab.starts_of("x1-drive").back().target_counts, 3200);
   EXPECT_TRUE(state("x1").homed);
 }
 
@@ -204,7 +212,8 @@ TEST_F(Uim342Lab, InputEdgesArriveAsNotificationsInStateAndEvents) {
   EXPECT_TRUE(contains(rising->text, "rising")) << rising->text;
   EXPECT_TRUE(contains(rising->text, "x2-drive")) << rising->text;
   EXPECT_EQ(rising->node_id, 6);
-  EXPECT_EQ(state("x1").inputs, 0);
+  // x1's inputs did not change: only IN1, held high by its simulated home switch (released).
+  EXPECT_EQ(state("x1").inputs, 1);
 
   const std::size_t seen = events.size();
   lab.control("x2-drive", sim_control_t::SET_INPUT, 2, 0);

@@ -7,6 +7,7 @@
 #include <utility>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <motionlcm/event_t.hpp>
 
 #include "motion/simbus/bit_timing.hpp"
@@ -68,7 +69,10 @@ Uim342StackConfig Uim342StackConfig::from(const config::Config& config, std::str
     Uim342NodeConfig n;
     n.drive = d.name;
     for (const auto& a : config.axes) {
-      if (a.drive == d.name) n.axis = a.name;
+      if (a.drive != d.name) continue;
+      n.axis = a.name;
+      n.homing = a.homing;
+      n.travel_counts = std::llround((a.limits.max_position - a.limits.min_position) * a.steps_per_unit);
     }
     n.node_id = static_cast<std::uint8_t>(d.node_id);
     n.group_id = static_cast<std::uint8_t>(d.group_id);
@@ -119,6 +123,24 @@ struct Uim342Stack::Impl {
     std::int64_t move = 0;        // active ARM_MOVE command
     bool bg_acked = false;        // of the active move
     bool seen_moving = false;     // since the active move's BG
+    // A HOME with a switch search (§5.26), one step after the other; see load_home().
+    struct Homing {
+      enum class Step { none, reading, searching_load, searching, returning_load, returning };
+      std::int64_t command = 0;
+      Step step = Step::none;
+      uim342::InputPort port = uim342::InputPort::in1;
+      bool rising = false;          // the armed edge
+      double velocity = 0;          // of the search, counts/s; the sign is the direction
+      double acceleration = 0;      // counts/s^2 of the command (0: the drive's)
+      double deceleration = 0;
+      std::int64_t offset = 0;      // the position of the switch edge (HOME target_counts)
+      std::optional<uim342::InputActions> previous;  // IL[port] before arming, restored after
+      bool armed = false;           // IL[port] holds the origin action
+      bool seen_moving = false;     // in the present step
+      bool edge_seen = false;       // the armed edge was notified
+      TimePoint deadline = kNever;  // of the search
+      Duration bound{};
+    } homing;
     [[nodiscard]] std::string name() const { return fmt::format("{} (node {})", cfg.drive, cfg.node_id); }
     [[nodiscard]] const std::string& axis_or_drive() const { return cfg.axis.empty() ? cfg.drive : cfg.axis; }
     [[nodiscard]] bool busy() const { return !queue.empty() && queue.front().sent; }
@@ -138,6 +160,7 @@ struct Uim342Stack::Impl {
     std::string mechanism;
     double skew_us = 0;
     std::string unreached;  // a stop's offline nodes: the others are still stopped, then it fails
+    std::vector<std::string> notes;  // the DONE reply's reason (what a HOME did, per axis)
   };
 
   Impl(Uim342StackConfig c, CanStackContext ctx, WallClock wc, Counters& shared_counters)
@@ -245,6 +268,11 @@ struct Uim342Stack::Impl {
       if (n.move == id) n.move = 0;
       // Queued (unsent) requests of this command are dropped; an outstanding one runs out.
       std::erase_if(n.queue, [id](const Request& r) { return r.command_id == id && !r.sent; });
+      if (n.homing.command == id) {
+        // A homing that ends early leaves no origin action armed (§5.26): IL[i] as it was.
+        if (n.homing.armed && n.homing.previous) enqueue(i, rq::set_input_logic(n.homing.port, n.homing.previous->falling, n.homing.previous->rising), 0);
+        n.homing = {};
+      }
     }
     reply(c, status, std::move(reason), code);
   }
@@ -446,6 +474,10 @@ struct Uim342Stack::Impl {
       n.retry_at = now + config.reboot_wait;
       return;
     }
+    if (r.command_id != 0 && n.homing.command == r.command_id) {
+      if (!has_request_of(i, r.command_id)) homing_step_loaded(i, now);
+      return;
+    }
     if (r.command_id != 0) {
       auto it = commands.find(r.command_id);
       if (it != commands.end() && !has_request_of(i, r.command_id)) {
@@ -520,11 +552,22 @@ struct Uim342Stack::Impl {
       case FunctionCode::OG: {
         auto it = commands.find(r.command_id);
         if (it == commands.end()) break;
-        const bool set_position = it->second.cmd.kind == gateway_command_t::SET_POSITION;
-        n.offset = set_position ? it->second.targets[i] : 0;
+        // SET_POSITION's value, or the homing offset: the position the origin gets.
+        n.offset = it->second.targets[i];
         n.status.position_counts = n.offset;
-        if (!set_position) n.status.homed = true;
+        if (it->second.cmd.kind == gateway_command_t::HOME) n.status.homed = true;
         publish(n, now);
+        break;
+      }
+      case FunctionCode::IL: {
+        if (n.homing.command == 0 || r.command_id != n.homing.command) break;
+        const auto* actions = std::get_if<uim342::InputActions>(&body);
+        if (!actions) break;
+        if (r.instruction.operation == uim342::Operation::get) {
+          n.homing.previous = *actions;
+        } else {
+          n.homing.armed = n.homing.step == Node::Homing::Step::searching_load;  // the restore's ACK disarms
+        }
         break;
       }
       case FunctionCode::DI: {
@@ -578,6 +621,10 @@ struct Uim342Stack::Impl {
     if (it != commands.end() && it->second.cmd.kind == gateway_command_t::FAULT_RESET && locked) {
       fail(r.command_id, error_code(ReplyError::kDriveError), fmt::format("{} is locked down (LOCK); MS[0]=0 does not release it, a reboot (SY[1]) or power cycle does", n.name()));
     }
+    if (n.homing.command != 0) {
+      homing_observe(i, now);
+      return;
+    }
     // Completion of an active move, from a status read sent after its BG was acknowledged.
     if (n.move != 0 && n.bg_acked) {
       if (stalled) {
@@ -613,7 +660,7 @@ struct Uim342Stack::Impl {
   void stage_done(Command& c, TimePoint now) {
     if (c.cmd.kind != gateway_command_t::ARM_MOVE) {
       if (c.unreached.empty()) {
-        finish(c.cmd.command_id, gateway_reply_t::DONE);
+        finish(c.cmd.command_id, gateway_reply_t::DONE, fmt::format("{}", fmt::join(c.notes, "; ")));
       } else {
         fail(c.cmd.command_id, error_code(ReplyError::kAxisOffline), c.unreached);
       }
@@ -762,10 +809,14 @@ struct Uim342Stack::Impl {
             fail(n.move, error_code(ReplyError::kStopped), reason);
           }
           enqueue(i, rq::stop(), id, /*front=*/true);
+          // An e-stop leaves the power stage off, as on every family (CiA 402 quick stop ends
+          // in "switch on disabled"): the driver is switched off (MO=0, manual §5.10) once stopped.
+          if (emergency) enqueue(i, rq::driver_on(false), id);
         }
         return std::nullopt;
       }
       case gateway_command_t::HOME:
+        return each([&](std::size_t i, const motionlcm::axis_command_t& a) { return load_home(c, i, a); });
       case gateway_command_t::SET_POSITION:
         for (const auto i : c.nodes) enqueue(i, rq::set_origin(), id);
         return std::nullopt;
@@ -830,6 +881,161 @@ struct Uim342Stack::Impl {
     enqueue(i, rq::set_ptp_speed(*speed), id);
     if (auto p = ramp(i, a.acceleration, *speed, true, id)) return p;
     return ramp(i, a.deceleration, *speed, false, id);
+  }
+
+  // ---- homing (§4.3, §5.13, §5.26; see the header) ----
+
+  [[nodiscard]] static std::string edge_name(const Node::Homing& h) {
+    return fmt::format("IN{} {} edge", static_cast<int>(h.port) + 1, h.rising ? "rising" : "falling");
+  }
+
+  // HOME: OG where the axis stands (method none / current-position), or a switch search.
+  Problem load_home(Command& c, std::size_t i, const motionlcm::axis_command_t& a) {
+    Node& n = nodes[i];
+    const auto id = c.cmd.command_id;
+    if (n.cfg.homing.method != config::HomingMethod::kSwitch) {
+      enqueue(i, rq::set_origin(), id);
+      c.notes.push_back(fmt::format("{}: origin set at the current position ({} counts); no switch search (homing method {})", n.name(),
+                           a.target_counts, n.cfg.homing.method_name.empty() ? "none" : n.cfg.homing.method_name));
+      return std::nullopt;
+    }
+    if (!n.status.enabled) {
+      return std::pair{fmt::format("{} is disabled: a switch search needs the driver on (MO=1)", n.name()), error_code(ReplyError::kAxisDisabled)};
+    }
+    if (!uim342::speed_to_pps(a.velocity) || a.velocity == 0) {
+      return std::pair{fmt::format("{}: homing speed {} counts/s is zero or does not fit 32 bits", n.name(), a.velocity), error_code(ReplyError::kOutsideLimits)};
+    }
+    Node::Homing h;
+    h.command = id;
+    h.step = Node::Homing::Step::reading;
+    h.port = static_cast<uim342::InputPort>(std::clamp(n.cfg.homing.input, 1, 3) - 1);
+    h.rising = n.cfg.homing.edge == config::HomingEdge::kRising;
+    h.velocity = a.velocity;
+    h.acceleration = a.acceleration;
+    h.deceleration = a.deceleration;
+    h.offset = a.target_counts;
+    n.homing = h;
+    n.move = id;
+    // The input's present level decides the search (MS[0] d1, §3.7); IL[i] is kept to restore.
+    enqueue(i, rq::get(uim342::MotionStatusIndex::status), id);
+    enqueue(i, rq::get_input_logic(static_cast<std::uint8_t>(h.port)), id);
+    return std::nullopt;
+  }
+
+  // The requests of a homing step were all answered.
+  void homing_step_loaded(std::size_t i, TimePoint now) {
+    Node& n = nodes[i];
+    auto& h = n.homing;
+    using Step = Node::Homing::Step;
+    switch (h.step) {
+      case Step::reading: {
+        const bool level = (n.status.inputs >> static_cast<int>(h.port) & 1) != 0;
+        if (level == h.rising) {
+          // Already on the switch: leave it the other way; its edge out is the same boundary.
+          h.velocity = -h.velocity;
+          h.rising = !h.rising;
+        }
+        const double speed = std::abs(h.velocity);
+        const double ramps = h.acceleration > 0 ? 2 * speed / h.acceleration : 0.0;
+        h.bound = std::chrono::duration_cast<Duration>(std::chrono::duration<double>(static_cast<double>(n.cfg.travel_counts) / speed + ramps + 2.0));
+        h.deadline = now + h.bound;
+        h.step = Step::searching_load;
+        const auto id = h.command;
+        const auto edge_group = static_cast<uim342::ParameterGroup>(2 + 2 * static_cast<int>(h.port) + (h.rising ? 0 : 1));
+        // §5.13: the edge's own group holds the DC of action 0x06; MF applies to the next set only.
+        if (h.deceleration > 0) {
+          enqueue(i, rq::select_group(edge_group), id);
+          if (auto p = ramp(i, h.deceleration, speed, false, id)) return fail(id, p->second, p->first);
+        }
+        const uim342::EdgeAction origin{uim342::InputAction::origin_then_decelerate_stop, true};
+        const uim342::EdgeAction nothing{uim342::InputAction::none, true};
+        enqueue(i, rq::set_input_logic(h.port, h.rising ? nothing : origin, h.rising ? origin : nothing), id);
+        motionlcm::axis_command_t jog{};
+        jog.velocity = h.velocity;
+        jog.acceleration = h.acceleration;
+        jog.deceleration = h.deceleration;
+        auto it = commands.find(id);
+        if (it == commands.end()) return;
+        if (auto p = load_jog(it->second, i, jog)) return fail(id, p->second, p->first);
+        pump(i, now);
+        return;
+      }
+      case Step::searching_load:
+        h.step = Step::searching;
+        h.seen_moving = false;
+        return;
+      case Step::returning_load:
+        h.step = Step::returning;
+        h.seen_moving = false;
+        return;
+      case Step::none:
+      case Step::searching:
+      case Step::returning: return;
+    }
+  }
+
+  // A status of a homing axis (MS[0] poll, edge or position notification).
+  void homing_observe(std::size_t i, TimePoint now) {
+    Node& n = nodes[i];
+    auto& h = n.homing;
+    using Step = Node::Homing::Step;
+    if (h.step != Step::searching && h.step != Step::returning) return;
+    const auto id = h.command;
+    if (n.status.fault) return fail(id, error_code(ReplyError::kAxisFault), fmt::format("{} faulted while homing: {}", n.name(), n.status.fault_text));
+    if (n.status.moving) {
+      h.seen_moving = true;
+      return;
+    }
+    if (h.step == Step::searching) {
+      const bool on_switch = ((n.status.inputs >> static_cast<int>(h.port) & 1) != 0) == h.rising;
+      if (!(h.edge_seen || on_switch)) {
+        if (h.seen_moving) {
+          fail(id, error_code(ReplyError::kAxisFault), fmt::format("{} stopped before the home switch ({}) was reached", n.name(), edge_name(h)));
+        }
+        return;
+      }
+      // Stopped by the origin action: IL[i] as it was, then back to the switch edge (PA = 0).
+      h.step = Step::returning_load;
+      h.deadline = kNever;
+      const auto pps = uim342::speed_to_pps(std::abs(h.velocity));
+      const std::int32_t speed = pps ? *pps : 1;  // checked at load
+      enqueue(i, rq::set_input_logic(h.port, h.previous ? h.previous->falling : uim342::EdgeAction{}, h.previous ? h.previous->rising : uim342::EdgeAction{}), id);
+      enqueue(i, rq::set_absolute_position(0), id);  // §5.19: PA before SP
+      enqueue(i, rq::set_ptp_speed(speed), id);
+      enqueue(i, rq::begin(), id);
+      pump(i, now);
+      return;
+    }
+    if (!n.status.in_position) {
+      if (h.seen_moving) fail(id, error_code(ReplyError::kAxisFault), fmt::format("{} stopped short of the home switch edge", n.name()));
+      return;
+    }
+    const std::int64_t drive_position = n.status.position_counts - n.offset;
+    n.offset = h.offset;
+    n.status.position_counts = drive_position + n.offset;
+    n.status.homed = true;
+    n.status.target_counts = h.offset;
+    publish(n, now);
+    // This axis is homed; the command is DONE when every axis of it is.
+    auto it = commands.find(id);
+    if (it == commands.end()) return;
+    Command& c = it->second;
+    const auto done_text = fmt::format("{}: origin at the {}, axis at {} counts", n.name(), edge_name(h), n.status.position_counts);
+    n.homing = {};
+    n.move = 0;
+    c.notes.push_back(done_text);
+    c.waiting.erase(i);
+    if (c.waiting.empty()) stage_done(c, now);
+  }
+
+  // The search bound passed without the switch: stop, restore IL (finish()), fail.
+  void homing_not_found(std::size_t i, TimePoint) {
+    Node& n = nodes[i];
+    const auto& h = n.homing;
+    const auto reason = fmt::format("{}: home switch ({}) not found within {:.1f} s ({} counts of travel at {} counts/s); axis stopped", n.name(),
+                                    edge_name(h), std::chrono::duration<double>(h.bound).count(), n.cfg.travel_counts, std::abs(h.velocity));
+    enqueue(i, rq::stop(), 0, /*front=*/true);
+    fail(h.command, error_code(ReplyError::kTimeout), reason);
   }
 
   Problem load_jog(Command& c, std::size_t i, const motionlcm::axis_command_t& a) {
@@ -1025,6 +1231,9 @@ struct Uim342Stack::Impl {
       n.status.inputs = edge->edge == uim342::Edge::rising ? (n.status.inputs | bit) : (n.status.inputs & ~bit);
       event(n, event_t::INPUT_EDGE, event_t::INFO, static_cast<std::int32_t>(edge->code()),
             fmt::format("{}: IN{} {} edge", n.name(), static_cast<int>(edge->port) + 1, edge->edge == uim342::Edge::rising ? "rising" : "falling"));
+      if (n.homing.step == Node::Homing::Step::searching && edge->port == n.homing.port && (edge->edge == uim342::Edge::rising) == n.homing.rising) {
+        n.homing.edge_seen = true;
+      }
       publish(n, now);
     } else if (const auto* reached = std::get_if<uim342::PositionReachedNotification>(&notification)) {
       n.status.position_counts = reached->position + n.offset;
@@ -1036,6 +1245,7 @@ struct Uim342Stack::Impl {
         if (it != commands.end() && it->second.stage >= Stage::starting) arrived(i, now);
       }
       publish(n, now);
+      if (n.homing.command != 0) homing_observe(i, now);
     }
   }
 
@@ -1047,6 +1257,8 @@ struct Uim342Stack::Impl {
       Node& n = nodes[i];
       if ((n.phase == Phase::offline || n.phase == Phase::rebooting) && now >= n.retry_at) identify(i, now);
       if (n.busy() && now >= n.queue.front().deadline) timed_out(i, now);
+      if (n.homing.command != 0 && now >= n.homing.deadline) homing_not_found(i, now);
+      next = std::min(next, n.homing.deadline);
       poll_if_due(i, now);
       pump(i, now);
       if (n.busy()) next = std::min(next, n.queue.front().deadline);

@@ -3,6 +3,7 @@
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -131,6 +132,16 @@ std::string default_config_path() {
 #else
   return "config/sim-lab.yaml";
 #endif
+}
+
+HomingSupport homing_support(Family family) {
+  switch (family) {
+    // UIM342: IL[i] origin action on IN1..IN3 (manual §5.26); none/current-position: OG (§5.22).
+    case Family::kUim342: return {{"none", "switch", "current-position"}, 3, "1..3: IN1..IN3"};
+    // UC57: homing mode 6 on IN1..IN3 (manual §4.2.6, §3.1); current-position: 2012h (§5.1).
+    case Family::kUc57: return {{"none", "switch", "current-position"}, 3, "1..3: IN1 positive limit, IN2 origin, IN3 negative limit"};
+    default: return {{"none", "switch", "current-position"}, 8, "1..8"};
+  }
 }
 
 std::string sim_runtime_dir(const Config& config) {
@@ -462,16 +473,20 @@ void read_axis(Reader& r, const YAML::Node& node, const std::string& path, Axis&
 
   const std::string hpath = path + ".homing";
   const YAML::Node homing = node["homing"];
-  if (homing && r.check_map(homing, hpath, {"method", "input", "velocity", "offset"})) {
+  if (homing && r.check_map(homing, hpath, {"method", "input", "edge", "velocity", "offset"})) {
+    axis.homing.where = r.locations(homing);
+    // The method name is checked against the drive's family in the cross-checks (homing_support).
     if (auto v = r.get<std::string>(homing, hpath, "method", true)) {
-      if (*v == "none") axis.homing.method = HomingMethod::kNone;
-      else if (*v == "switch") axis.homing.method = HomingMethod::kSwitch;
+      axis.homing.method_name = *v;
+      if (*v == "switch") axis.homing.method = HomingMethod::kSwitch;
       else if (*v == "current-position") axis.homing.method = HomingMethod::kCurrentPosition;
-      else r.error(homing["method"], hpath + ".method", "expected none, switch or current-position, got '" + *v + "'");
+      else axis.homing.method = HomingMethod::kNone;
     }
-    if (auto v = r.get<int>(homing, hpath, "input", false)) {
-      axis.homing.input = *v;
-      if (*v < 1 || *v > 8) r.error(homing["input"], hpath + ".input", "expected a digital input 1..8");
+    if (auto v = r.get<int>(homing, hpath, "input", false)) axis.homing.input = *v;
+    if (auto v = r.get<std::string>(homing, hpath, "edge", false)) {
+      if (*v == "falling") axis.homing.edge = HomingEdge::kFalling;
+      else if (*v == "rising") axis.homing.edge = HomingEdge::kRising;
+      else r.error(homing["edge"], hpath + ".edge", "expected falling or rising, got '" + *v + "'");
     }
     if (auto v = r.get<double>(homing, hpath, "velocity", false)) axis.homing.velocity = *v;
     if (auto v = r.get<double>(homing, hpath, "offset", false)) axis.homing.offset = *v;
@@ -501,7 +516,26 @@ void read_coordinator(Reader& r, const YAML::Node& node, CoordinatorSettings& ou
 }
 
 void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out) {
-  if (!r.check_map(node, "simulation", {"runtime_dir", "reply_latency_us"})) return;
+  if (!r.check_map(node, "simulation", {"runtime_dir", "reply_latency_us", "home_switches"})) return;
+  if (const YAML::Node switches = node["home_switches"]) {
+    if (!switches.IsMap()) {
+      r.error(switches, "simulation.home_switches", "expected a map of drive name to switch position (counts) or none");
+    } else {
+      for (const auto& entry : switches) {
+        const auto drive = entry.first.as<std::string>();
+        const std::string path = "simulation.home_switches." + drive;
+        if (entry.second.IsScalar() && entry.second.as<std::string>() == "none") {
+          out.home_switches[drive] = std::nullopt;
+          continue;
+        }
+        try {
+          out.home_switches[drive] = entry.second.as<long long>();
+        } catch (const YAML::Exception&) {
+          r.error(entry.second, path, "expected a position in counts or none");
+        }
+      }
+    }
+  }
   if (auto v = r.get<std::string>(node, "simulation", "runtime_dir", false)) out.runtime_dir = *v;
   if (auto v = r.get<int>(node, "simulation", "reply_latency_us", false)) {
     out.reply_latency_us = *v;
@@ -578,6 +612,21 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
     const std::string path = "axes[" + std::to_string(i) + "]";
     if (!a.name.empty() && !axis_names.insert(a.name).second) where_error(a.where.of("name"), path + ".name", "duplicate axis name '" + a.name + "'");
     if (!a.drive.empty() && !drive_names.contains(a.drive)) where_error(a.where.of("drive"), path + ".drive", "axis '" + a.name + "' uses undeclared drive '" + a.drive + "'");
+    if (const Drive* d = c.find_drive(a.drive); d && !a.homing.method_name.empty()) {
+      const HomingSupport support = homing_support(d->family);
+      const std::string hpath = path + ".homing";
+      if (std::find(support.methods.begin(), support.methods.end(), a.homing.method_name) == support.methods.end()) {
+        std::string list;
+        for (const auto m : support.methods) list += (list.empty() ? "" : ", ") + std::string(m);
+        where_error(a.homing.where.of("method"), hpath + ".method",
+                    "'" + a.homing.method_name + "' is not a homing method of family " + std::string(to_string(d->family)) + " (" + list + ")");
+      }
+      if (a.homing.input < 1 || a.homing.input > support.max_input) {
+        where_error(a.homing.where.of("input"), hpath + ".input",
+                    "input " + std::to_string(a.homing.input) + " is not an input of family " + std::string(to_string(d->family)) + " (" +
+                        std::string(support.inputs) + ")");
+      }
+    }
     auto [it, inserted] = drive_users.emplace(a.drive, a.name);
     if (!inserted) where_error(a.where.of("drive"), path + ".drive", "drive '" + a.drive + "' already drives axis '" + it->second + "'");
   }

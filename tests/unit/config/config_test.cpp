@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cstdlib>
 #include <string>
 
@@ -229,6 +231,37 @@ TEST(Config, EveryErrorIsReportedNotJustTheFirst) {
   const auto result = load_string(text, "lab.yaml");
   ASSERT_FALSE(result.ok());
   EXPECT_EQ(result.errors.size(), 3u) << result.error_text();
+}
+
+// The homing method and input are checked against the axis's drive family, naming the key.
+int line_of(const std::string& text, const std::string& part) {
+  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(text.find(part)), '\n'));
+}
+
+TEST(Config, HomingMethodOrInputTheFamilyLacksIsRefusedNamingTheKey) {
+  const std::string limits = "    limits: {min: 0, max: 100, velocity: 10, acceleration: 100}\n";
+  const auto with = [&](const std::string& homing) { return replace(kValid, limits, limits + "    homing: " + homing + "\n"); };
+  const auto index = with("{method: index}");
+  expect_single_error(index, line_of(index, "homing:"), "axes[0].homing.method",
+                      "'index' is not a homing method of family uim342 (none, switch, current-position)");
+  const auto in4 = with("{method: switch, input: 4}");
+  expect_single_error(in4, line_of(in4, "homing:"), "axes[0].homing.input", "input 4 is not an input of family uim342 (1..3: IN1..IN3)");
+  const auto edge = with("{method: switch, edge: both}");
+  expect_single_error(edge, line_of(edge, "homing:"), "axes[0].homing.edge", "expected falling or rising");
+  const auto ok = load_string(with("{method: switch, input: 3, edge: rising, velocity: -2}"), "lab.yaml");
+  ASSERT_TRUE(ok.ok()) << ok.error_text();
+  EXPECT_EQ(ok.config->axes[0].homing.edge, HomingEdge::kRising);
+  EXPECT_EQ(ok.config->axes[0].homing.input, 3);
+}
+
+TEST(Config, SimulatedHomeSwitchesArePositionsOrNone) {
+  const auto ok = load_string(std::string(kValid) + "simulation: {home_switches: {xd: -3200, yd: none}}\n", "lab.yaml");
+  ASSERT_TRUE(ok.ok()) << ok.error_text();
+  EXPECT_EQ(ok.config->simulation.home_switches.at("xd"), -3200);
+  EXPECT_FALSE(ok.config->simulation.home_switches.at("yd").has_value());
+  const auto bad = load_string(std::string(kValid) + "simulation: {home_switches: {xd: left}}\n", "lab.yaml");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error_text().find("simulation.home_switches.xd"), std::string::npos) << bad.error_text();
 }
 
 }  // namespace

@@ -78,6 +78,15 @@ class FakeDrive {
         break;
       }
       case FC::PA: target_ = std::get<uim342::Signed>(in.body).value; break;
+      case FC::IL:  // ports 0..2: d1 falling-edge, d2 rising-edge action byte (§5.26)
+        if (const auto* a = std::get_if<uim342::InputActions>(&in.body)) {
+          words_[{in.function, a->index}] = static_cast<std::uint16_t>(a->falling.byte() | (a->rising.byte() << 8));
+        } else if (const auto* i = std::get_if<uim342::Index>(&in.body); i && i->index <= 2) {
+          const auto w = word(FC::IL, i->index);
+          answer = uim342::Reply{FC::IL, uim342::InputActions{i->index, uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w & 0xFF)),
+                                                              uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w >> 8))}};
+        }
+        break;
       case FC::BG:
         if (!enabled_) return {reply(uim342::error_report(uim342::DriveErrc::bg_while_driver_off, in.control_word(), 0))};
         moving_ = true;
@@ -107,6 +116,15 @@ class FakeDrive {
     in_position_ = true;
     if (!notify_in_position) return {};
     return {*uim342::notification_frame(node_, uim342::PositionReachedNotification{position_})};
+  }
+  // The armed input-logic origin action fired (§5.26): IN(port+1) changed to `level`, the
+  // counter was zeroed at the edge and the motor stopped `overshoot` counts beyond it.
+  std::vector<can::Frame> origin_action(uim342::InputPort port, bool level, std::int32_t overshoot) {
+    const auto bit = static_cast<std::uint8_t>(1U << static_cast<unsigned>(port));
+    inputs = static_cast<std::uint8_t>(level ? (inputs | bit) : (inputs & ~bit));
+    position_ = overshoot;
+    moving_ = false;
+    return {*uim342::notification_frame(node_, uim342::InputEdgeNotification{port, level ? uim342::Edge::rising : uim342::Edge::falling})};
   }
   std::vector<can::Frame> alarm(uim342::AlarmCode code) {
     moving_ = false;

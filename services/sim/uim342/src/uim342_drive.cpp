@@ -82,13 +82,19 @@ std::optional<std::size_t> history_slot(std::uint8_t index) {
 
 }  // namespace
 
-Uim342Drive::Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity)
+Uim342Drive::Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity, std::optional<Uim342HomeSwitch> home_switch)
     : context_(std::move(context)), identity_(identity), factory_(setup_parameters(drive, identity)),
-      persisted_(factory_), active_(factory_) {}
+      persisted_(factory_), active_(factory_), home_switch_(home_switch) {}
 
 std::int64_t Uim342Drive::position(TimePoint now) const { return kinematics_.position_counts(now) - origin_offset_; }
 
-void Uim342Drive::power_up(TimePoint now) { reboot(now); }
+void Uim342Drive::power_up(TimePoint now) {
+  if (home_switch_) {
+    const auto& sw = *home_switch_;
+    inputs_[sw.port] = sw.side * (kinematics_.position_counts(now) - sw.edge) >= 0 ? sw.active_level : !sw.active_level;
+  }
+  reboot(now);
+}
 
 void Uim342Drive::on_frame(const can::Frame& frame, TimePoint now) {
   if (!frame.extended || frame.rtr) return;  // 11-bit frames belong to CANopen nodes on the same bus

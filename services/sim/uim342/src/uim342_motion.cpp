@@ -82,9 +82,19 @@ TimePoint Uim342Drive::process(TimePoint now) {
     }
     next = std::min(next, pending.due);
   }
+  sample_home_switch(now);
   finish_if_done(now);
   if (motion_.active) next = std::min(next, kinematics_.end_time());
+  if (motion_.active && home_switch_) next = std::min(next, now + std::chrono::milliseconds(1));
   return next;
+}
+
+void Uim342Drive::sample_home_switch(TimePoint now) {
+  if (!home_switch_) return;
+  const auto& sw = *home_switch_;
+  const bool on = sw.side * (kinematics_.position_counts(now) - sw.edge) >= 0;
+  const bool level = on ? sw.active_level : !sw.active_level;
+  if (level != inputs_[sw.port]) set_input(sw.port, level, now, 0);
 }
 
 bool Uim342Drive::control(const motionlcm::sim_control_t& control, TimePoint now) {

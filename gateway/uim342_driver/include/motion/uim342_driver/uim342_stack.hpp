@@ -17,8 +17,18 @@
 //   §5.7 QE, §5.9 MT (micro-steps, current), §5.10 MO, §5.11 BG (to the group id for a one-frame
 //   start), §5.12 ST (stops at SD: the manual's only host stop, used for STOP and ESTOP),
 //   §5.14-5.17 AC/DC/SS/SD, §5.18 JV, §5.19 SP (after PA: "#50" ordering rule), §5.21 PA,
-//   §5.22 OG (HOME and SET_POSITION: the manual has no homing procedure and no "set position"
-//   instruction, only "set origin"; SET_POSITION keeps the difference as a gateway offset),
+//   §5.22 OG (SET_POSITION, and HOME with `homing.method: none | current-position`: the origin
+//   is set where the axis stands, no switch search, and the DONE reason says so; SET_POSITION and
+//   the homing offset are kept as a gateway offset: the manual has no "set position" instruction),
+//   §4.3/§5.26 IL[i] and §5.13 MF (HOME with `homing.method: switch`: IL[i] of the switch input
+//   read (kept), the edge's parameter group DC set, IL[i] armed with action 0x06 "set origin, then
+//   decelerate to stop" on the configured edge (FG = 1: only on a real edge), then a jog (JV, AC,
+//   DC, BG, §5.18) toward the switch; when the drive has stopped on the switch (IN edge
+//   notification and MS[0] polls) IL[i] is restored, the axis goes back to the switch edge
+//   (PA = 0, SP, BG) and the homing offset applies; DONE only then. Starting on the switch, the
+//   search goes the other way and the origin is the edge leaving it. A search that does not find
+//   the switch within travel range / speed + ramps + 2 s is stopped (ST) and FAILS naming the input.
+//   A HOME needs the driver on: IL written while it is off would go to EEPROM (§5.26 note)),
 //   §5.23 BL, §5.24 MS[0]/MS[1] polling (within the bus capacity) and MS[0]=0 (FAULT_RESET),
 //   §5.28 DI (OP1 output). A request's timeout starts when it is handed to the transport, plus
 //   the wire time of the requests ahead of it, so a busy bus is not taken for a silent drive.
@@ -53,6 +63,8 @@ struct Uim342NodeConfig {
   std::chrono::milliseconds request_timeout{50};
   int retries = 2;  // extra attempts after a timeout
   config::SetupMap setup;
+  config::Homing homing;           // of the axis (HOME)
+  std::int64_t travel_counts = 0;  // (max - min) x steps per unit: bounds a switch search
 };
 
 struct Uim342StackConfig {

@@ -130,12 +130,27 @@ struct Limits {
 };
 
 enum class HomingMethod { kNone, kSwitch, kCurrentPosition };
+// The input edge that means "the switch is reached" (UIM342 IL[i] edge, manual §5.26).
+enum class HomingEdge { kFalling, kRising };
 struct Homing {
   HomingMethod method = HomingMethod::kNone;
   int input = 1;                // digital input of the home switch (1-based)
+  HomingEdge edge = HomingEdge::kFalling;  // `edge: falling|rising`; default falling (§5.26 example)
   double velocity = 0;          // user units/s, sign = direction; 0 = 10 % of max velocity towards min
   double offset = 0;            // position assigned at the switch, user units
+  std::string method_name;      // as written (validated per family at load: homing_methods())
+  KeyLocations where;           // of the homing keys
 };
+
+// The homing methods (configuration names) and inputs a family's gateway implements; load refuses
+// others naming the key, e.g. "axes[0].homing.method: 'index' is not a homing method of family
+// uim342 (none, switch, current-position)".
+struct HomingSupport {
+  std::vector<std::string_view> methods;
+  int max_input = 8;  // inputs 1..max_input
+  std::string_view inputs;  // how the family names them, for the error text
+};
+[[nodiscard]] HomingSupport homing_support(Family family);
 
 struct Axis {
   std::string name;
@@ -160,6 +175,11 @@ struct CoordinatorSettings {
 struct SimulationSettings {
   std::string runtime_dir;  // where simulated buses/ptys appear; empty: $MOTION_SIM_DIR or /tmp/motion-sim
   int reply_latency_us = 200;
+  // Simulated home switches (`home_switches: {DRIVE: COUNTS | none}`): where the switch edge of a
+  // drive whose axis homes on a switch is, in drive counts from the power-up position; `none`: no
+  // switch. Drives not named get one half way from the power-up position to the travel limit in
+  // the homing direction.
+  std::map<std::string, std::optional<long long>, std::less<>> home_switches;
 };
 
 struct Config {

@@ -50,9 +50,26 @@ struct Uim342Identity {
 // number derived from the node ID, and the bus's bit-rate code.
 [[nodiscard]] Uim342Identity uim342_identity(const config::Drive& drive, int bus_bitrate);
 
+// A home switch of the simulated machine (not part of the drive): input `port` (0 = IN1) is at
+// `active_level` while the axis's physical position (counts from power-up; set-origin does not
+// move it) is at or beyond `edge` on `side`, and at the other level elsewhere. The drive samples
+// it every millisecond while it moves (§1: control loops within 1 ms), so input logic (§4.3,
+// §5.26) acts on the edge during motion.
+struct Uim342HomeSwitch {
+  std::size_t port = 0;
+  std::int64_t edge = 0;
+  int side = -1;              // -1: active at and below edge; +1: at and above
+  bool active_level = false;  // the level after the axis's homing edge (falling: low)
+};
+
+// The switch of `drive` from the configuration: its axis's `homing` (method switch: input, edge,
+// direction) and `simulation.home_switches` (edge position, or none). nullopt: no switch.
+[[nodiscard]] std::optional<Uim342HomeSwitch> uim342_home_switch(const config::Config& config, const config::Drive& drive);
+
 class Uim342Drive final : public CanDriveSim {
  public:
-  Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity = {});
+  Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity = {},
+              std::optional<Uim342HomeSwitch> home_switch = std::nullopt);
 
   void power_up(TimePoint now) override;
   void on_frame(const can::Frame& frame, TimePoint now) override;
@@ -180,6 +197,8 @@ class Uim342Drive final : public CanDriveSim {
   std::array<bool, 3> accepted_inputs_{};  // after the TG filter
   std::array<PendingInput, 3> pending_inputs_{};
   bool output_ = false;  // OP1
+  std::optional<Uim342HomeSwitch> home_switch_;
+  void sample_home_switch(TimePoint now);
   std::array<uim342::ErrorRecord, 9> error_history_{};  // ER[10..18], [0] = latest
 };
 

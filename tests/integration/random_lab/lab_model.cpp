@@ -1,0 +1,488 @@
+// Lab and step generators and the reference model of the randomized whole-lab test.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <sstream>
+
+#include <motionlcm/reply_t.hpp>
+#include <motionlcm/request_t.hpp>
+
+#include "motion/client/client.hpp"
+#include "motion/config/config.hpp"
+#include "motion/lcm/reply_error.hpp"
+#include "random_lab.hpp"
+
+namespace motion::random_lab {
+namespace {
+
+using motionlcm::reply_t;
+using motionlcm::request_t;
+
+std::string num(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  std::string s = buf;
+  if (s.find_first_of(".einn") == std::string::npos) s += ".0";
+  return s;
+}
+
+int uniform_int(std::mt19937_64& rng, int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); }
+double uniform(std::mt19937_64& rng, double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); }
+bool chance(std::mt19937_64& rng, double p) { return std::bernoulli_distribution(p)(rng); }
+template <typename T>
+const T& pick(std::mt19937_64& rng, const std::vector<T>& v) {
+  return v[static_cast<std::size_t>(uniform_int(rng, 0, static_cast<int>(v.size()) - 1))];
+}
+double round_to(double v, double step) { return std::round(v / step) * step; }
+
+const char* kind_name(std::int8_t kind) {
+  switch (kind) {
+    case request_t::MOVE_ABSOLUTE: return "MOVE_ABSOLUTE";
+    case request_t::MOVE_RELATIVE: return "MOVE_RELATIVE";
+    case request_t::JOG: return "JOG";
+    case request_t::STOP: return "STOP";
+    case request_t::ESTOP: return "ESTOP";
+    case request_t::HOME: return "HOME";
+    case request_t::ENABLE: return "ENABLE";
+    case request_t::DISABLE: return "DISABLE";
+    case request_t::FAULT_RESET: return "FAULT_RESET";
+    case request_t::SET_OUTPUTS: return "SET_OUTPUTS";
+    case request_t::PARAM_READ: return "PARAM_READ";
+    case request_t::PARAM_WRITE: return "PARAM_WRITE";
+    case request_t::SET_POSITION: return "SET_POSITION";
+    default: return "?";
+  }
+}
+
+std::string list(const std::vector<std::string>& v) {
+  std::string out = "{";
+  for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", \"" : "\"") + v[i] + "\"";
+  return out + "}";
+}
+std::string list(const std::vector<double>& v) {
+  std::string out = "{";
+  for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + num(v[i]);
+  return out + "}";
+}
+
+bool valid_scale(double s) { return std::isfinite(s) && s >= 0 && s <= 1; }
+
+}  // namespace
+
+// --------------------------------------------------------------------------- lab
+
+const AxisSpec* LabSpec::find(const std::string& axis) const {
+  for (const auto& a : axes) if (a.name == axis) return &a;
+  return nullptr;
+}
+
+std::string LabSpec::yaml() const {
+  std::set<std::string> buses;
+  for (const auto& a : axes) buses.insert(a.drive.bus);
+  std::ostringstream y;
+  y << "lcm:\n  url: \"udpm://239.255.76.67:7667?ttl=0\"\n  channel_prefix: \"MOTION_\"\nbuses:\n";
+  if (buses.contains("can0")) {
+    y << "  - {name: can0, transport: simcan:can0, bitrate: " << can_bitrate
+      << ", bus_timing: true, request_timeout_ms: 50, retries: 2, poll_hz: 20}\n";
+  }
+  if (buses.contains("rs485")) {
+    y << "  - {name: rs485, transport: simserial:rs485, baud: " << rs485_baud << ", parity: " << rs485_parity
+      << ", request_timeout_ms: 100, retries: 1, poll_hz: 10}\n";
+  }
+  if (buses.contains("rs232")) {
+    y << "  - {name: rs232, transport: simserial:rs232, baud: " << rs232_baud << ", request_timeout_ms: 100, retries: 1, poll_hz: 10}\n";
+  }
+  y << "drives:\n";
+  for (const auto& a : axes) {
+    const auto& d = a.drive;
+    y << "  - {name: " << a.name << "-drive, family: " << d.family << ", bus: " << d.bus << ", node_id: " << d.node_id;
+    if (d.group_id != 0) y << ", group_id: " << d.group_id;
+    if (d.family == "uim342") y << ", setup: {micro_steps: 16, current_a: 1.5, acceleration_unit: rate}";
+    if (d.family == "uc57") y << ", setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: sync}";
+    if (d.family == "adam-modbus") y << ", setup: {subdivision: 16, current_a: 2.0}";
+    if (d.family == "uim242") y << ", setup: {micro_steps: 16, current_a: 1.0}";
+    y << "}\n";
+  }
+  y << "axes:\n";
+  for (const auto& a : axes) {
+    y << "  - {name: " << a.name << ", drive: " << a.name << "-drive, unit: u, steps_per_unit: " << num(a.steps_per_unit)
+      << ", limits: {min: " << num(a.min) << ", max: " << num(a.max) << ", velocity: " << num(a.velocity)
+      << ", acceleration: " << num(a.acceleration) << "}";
+    if (a.homing) y << ", homing: {method: current-position, offset: " << num(a.home_offset) << "}";
+    y << "}\n";
+  }
+  y << "coordinator: {default_timeout_ms: 20000, progress_period_ms: 200, trigger_lead_ms: 30, gateway_timeout_ms: 1500}\n"
+       "simulation: {reply_latency_us: 200}\n";
+  return y.str();
+}
+
+LabSpec generate_lab(std::mt19937_64& rng, const GenOptions& options) {
+  LabSpec lab;
+  lab.can_bitrate = pick(rng, std::vector<int>{125000, 250000, 500000, 1000000});
+  // Both serial families at the rates their manuals list (ADAM §2, UIM2501 gateway's RS232 side).
+  lab.rs485_baud = pick(rng, std::vector<int>{9600, 19200, 38400, 57600, 115200});
+  lab.rs232_baud = pick(rng, std::vector<int>{9600, 19200, 38400, 57600, 115200});
+  if (options.parity) lab.rs485_parity = pick(rng, std::vector<std::string>{"none", "even", "odd"});
+  const int n = uniform_int(rng, options.min_drives, options.max_drives);
+  const std::vector<std::string> families{"uim342", "uc57", "adam-modbus", "uim242"};
+  std::map<std::string, std::set<int>> used;  // family -> node ids (and uim342 group ids)
+  int group_id = 0;
+  std::vector<std::string> order = families;
+  std::shuffle(order.begin(), order.end(), rng);
+  for (int i = 0; i < n; ++i) {
+    AxisSpec a;
+    a.name = "ax" + std::to_string(i);
+    // The first four drives cover every family (in a seeded order); the rest are random.
+    std::string family = order[static_cast<std::size_t>(i % 4)];
+    if (i >= 4 || chance(rng, 0.25)) family = pick(rng, families);
+    a.drive.family = family;
+    a.drive.bus = family == "adam-modbus" ? "rs485" : family == "uim242" ? "rs232" : "can0";
+    const auto fam = config::parse_family(family);
+    const auto range = config::node_id_range(*fam);
+    auto& ids = used[family];
+    int id = 0;
+    do {
+      const int r = uniform_int(rng, 0, 3);
+      id = r == 0 ? range.min : r == 1 ? range.max : uniform_int(rng, range.min, range.max);
+    } while (ids.contains(id));
+    ids.insert(id);
+    a.drive.node_id = id;
+    if (family == "uim342" && chance(rng, 0.6)) {
+      if (group_id == 0) {
+        do group_id = chance(rng, 0.5) ? 126 : uniform_int(rng, 5, 126);
+        while (ids.contains(group_id));
+      }
+      a.drive.group_id = group_id;
+    }
+    a.steps_per_unit = pick(rng, std::vector<double>{1.0, 8.888888888888889, 12.5, 33.333333333333336, 160.0, 320.0, 640.0, 533.3333333333334});
+    // A speed the drives take (pulses/s), a travel the axis crosses in 1-3 s.
+    const double pps = uniform(rng, 1600, 12800);
+    a.velocity = round_to(pps / a.steps_per_unit, 0.5);
+    if (a.velocity <= 0) a.velocity = 0.5;
+    const double travel = std::max(4.0, round_to(a.velocity * uniform(rng, 1.0, 3.0), 1.0));
+    a.min = -round_to(travel * uniform(rng, 0.0, 0.5), 1.0);
+    a.max = a.min + travel;
+    a.acceleration = round_to(a.velocity * uniform(rng, 2.0, 8.0), 0.5);
+    a.homing = chance(rng, 0.5);
+    if (a.homing && (family != "uc57" || chance(rng, 0.3))) a.home_offset = round_to(uniform(rng, a.min, a.max), 0.25);
+    lab.axes.push_back(a);
+  }
+  // A group id must not collide with a node id added after it was chosen.
+  for (auto& a : lab.axes) {
+    if (a.drive.group_id != 0 && used["uim342"].contains(a.drive.group_id)) a.drive.group_id = 0;
+  }
+  return lab;
+}
+
+// --------------------------------------------------------------------------- steps
+
+std::string Step::cpp() const {
+  // Every member, in declaration order (an aggregate initializer that compiles at -Wextra).
+  const char* op_name = op == Op::kRequest ? "Op::kRequest" : op == Op::kJogStop ? "Op::kJogStop" : "Op::kConflict";
+  std::ostringstream s;
+  s << "Step{" << op_name << ", " << client << ", " << int{kind} << " /* " << kind_name(kind) << " */, " << list(axes) << ", " << list(values)
+    << ", " << num(velocity_scale) << ", " << num(acceleration_scale) << ", " << timeout_ms << ", " << output_mask << ", " << output_value << ", "
+    << other_client << ", " << int{stop_kind} << " /* " << kind_name(stop_kind) << " */, " << int{second_kind} << " /* " << kind_name(second_kind)
+    << " */, " << list(second_axes) << ", " << list(second_values) << "}";
+  return s.str();
+}
+
+std::string describe(const Step& step) {
+  std::ostringstream s;
+  s << "client " << step.client << " " << kind_name(step.kind);
+  for (std::size_t i = 0; i < step.axes.size(); ++i) s << " " << step.axes[i] << "=" << (i < step.values.size() ? num(step.values[i]) : "");
+  if (step.axes.empty()) s << " (all axes)";
+  if (step.velocity_scale != 0 || step.acceleration_scale != 0) s << " vs=" << num(step.velocity_scale) << " as=" << num(step.acceleration_scale);
+  if (step.timeout_ms != 0) s << " timeout_ms=" << step.timeout_ms;
+  if (step.op == Op::kJogStop) s << ", then client " << step.other_client << " " << kind_name(step.stop_kind);
+  if (step.op == Op::kConflict) {
+    s << ", while it runs client " << step.other_client << " " << kind_name(step.second_kind);
+    for (std::size_t i = 0; i < step.second_axes.size(); ++i) s << " " << step.second_axes[i] << "=" << num(step.second_values[i]);
+    s << ", then " << kind_name(step.stop_kind);
+  }
+  return s.str();
+}
+
+std::string Outcome::text() const {
+  std::string out;
+  for (auto s : statuses) out += std::string(out.empty() ? "" : "|") + client::status_name(s);
+  if (!codes.empty()) {
+    out += " code ";
+    for (std::size_t i = 0; i < codes.size(); ++i) out += (i ? "|" : "") + std::to_string(codes[i]);
+  }
+  return out;
+}
+
+// --------------------------------------------------------------------------- model
+
+Model::Model(const LabSpec& lab) : lab_(lab) {
+  for (const auto& a : lab_.axes) {
+    axes_[a.name] = AxisModel{false, 0, 0.0};
+    busy_[a.name] = false;
+  }
+}
+
+std::int64_t Model::counts_of(const std::string& axis, double units) const {
+  return std::llround(units * lab_.find(axis)->steps_per_unit);
+}
+
+void Model::observe(const std::string& axis, std::int64_t counts) {
+  auto& a = axes_.at(axis);
+  a.counts = counts;
+  a.commanded = static_cast<double>(counts) / lab_.find(axis)->steps_per_unit;
+}
+
+void Model::set_busy(const std::vector<std::string>& axes, bool busy) {
+  for (const auto& a : axes) busy_.at(a) = busy;
+}
+
+Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in, const std::vector<double>& values,
+                       double velocity_scale, double acceleration_scale, std::int32_t timeout_ms, bool apply) {
+  const auto rejected = [](std::vector<std::int32_t> codes) { return Outcome{{reply_t::REJECTED}, std::move(codes)}; };
+  const bool stop = kind == request_t::STOP || kind == request_t::ESTOP;
+  std::vector<std::string> axes = axes_in;
+  if (axes.empty() && stop) for (const auto& a : lab_.axes) axes.push_back(a.name);
+  if (!valid_scale(velocity_scale) || !valid_scale(acceleration_scale) || timeout_ms < 0) return rejected({error_code(ReplyError::kMalformedRequest)});
+  if (stop) {
+    if (apply) {
+      for (const auto& name : axes) {
+        auto& a = axes_.at(name);
+        a.counts.reset();  // wherever it stopped: read back
+        if (kind == request_t::ESTOP) a.enabled = false;
+      }
+    }
+    return Outcome{{reply_t::DONE}, {}};
+  }
+  // Every reason to refuse, in no particular order: the product may name any of them.
+  std::vector<std::int32_t> reasons;
+  const bool need_enabled = kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG || kind == request_t::HOME;
+  std::vector<double> targets(axes.size(), 0.0);
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    const auto& spec = *lab_.find(axes[i]);
+    const auto& a = axes_.at(axes[i]);
+    const double v = i < values.size() ? values[i] : 0.0;
+    if (busy_.at(axes[i])) reasons.push_back(error_code(ReplyError::kAxisBusy));
+    if (need_enabled && !a.enabled) reasons.push_back(error_code(ReplyError::kAxisDisabled));
+    if (kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::SET_POSITION) {
+      targets[i] = kind == request_t::MOVE_RELATIVE ? a.commanded + v : v;
+      if (targets[i] < spec.min || targets[i] > spec.max) reasons.push_back(error_code(ReplyError::kOutsideLimits));
+    }
+    // A UC57 sets its present position to zero only (2012h): another value is unsupported.
+    if (kind == request_t::SET_POSITION && spec.drive.family == "uc57" && counts_of(axes[i], v) != 0) {
+      reasons.push_back(error_code(ReplyError::kUnsupported));
+    }
+    if (kind == request_t::JOG && std::abs(v) > spec.velocity) reasons.push_back(error_code(ReplyError::kOutsideLimits));
+    if (kind == request_t::HOME && !spec.homing) reasons.push_back(error_code(ReplyError::kUnsupported));
+    // A UC57 sets its present position to zero only (2012h): another offset is unsupported.
+    if (kind == request_t::HOME && spec.homing && spec.drive.family == "uc57" && counts_of(axes[i], spec.home_offset) != 0) {
+      reasons.push_back(error_code(ReplyError::kUnsupported));
+    }
+  }
+  if (!reasons.empty()) {
+    std::sort(reasons.begin(), reasons.end());
+    reasons.erase(std::unique(reasons.begin(), reasons.end()), reasons.end());
+    // No homing method is found out by the gateway on some families: FAILED, with nothing changed.
+    if (reasons.back() == error_code(ReplyError::kUnsupported)) return Outcome{{reply_t::REJECTED, reply_t::FAILED}, reasons};
+    return rejected(reasons);
+  }
+  if (apply) {
+    for (std::size_t i = 0; i < axes.size(); ++i) {
+      auto& a = axes_.at(axes[i]);
+      const auto& spec = *lab_.find(axes[i]);
+      switch (kind) {
+        case request_t::MOVE_ABSOLUTE:
+        case request_t::MOVE_RELATIVE:
+        case request_t::SET_POSITION:
+          a.commanded = targets[i];
+          a.counts = counts_of(axes[i], targets[i]);
+          break;
+        case request_t::JOG: a.counts.reset(); break;
+        case request_t::HOME:
+          a.commanded = spec.home_offset;
+          a.counts = counts_of(axes[i], spec.home_offset);
+          break;
+        case request_t::ENABLE: a.enabled = true; break;
+        case request_t::DISABLE: a.enabled = false; break;
+        default: break;
+      }
+    }
+  }
+  return Outcome{{reply_t::DONE}, {}};
+}
+
+// --------------------------------------------------------------------------- step generator
+
+namespace {
+
+// A value for a move of `axis` in one of the interesting classes of distance.
+double move_value(std::mt19937_64& rng, const AxisSpec& spec, const AxisModel& a, bool relative) {
+  const double count = 1.0 / spec.steps_per_unit;
+  const double sign = chance(rng, 0.5) ? 1.0 : -1.0;
+  double target = a.commanded;
+  switch (uniform_int(rng, 0, 9)) {
+    case 0: target = a.commanded; break;                           // exactly zero
+    case 1: target = a.commanded + sign * 0.4 * count; break;      // below one count
+    case 2: target = a.commanded + sign * count; break;            // one count
+    case 3: target = a.commanded + sign * uniform_int(rng, 2, 9) * count; break;  // tiny
+    case 4: target = chance(rng, 0.5) ? spec.min : spec.max; break;               // at a limit
+    case 5: target = chance(rng, 0.5) ? spec.min - uniform(rng, 0.001, 5) : spec.max + uniform(rng, 0.001, 5); break;  // beyond
+    default: target = round_to(uniform(rng, spec.min, spec.max), 0.01); break;     // ordinary
+  }
+  return relative ? target - a.commanded : target;
+}
+
+double scale(std::mt19937_64& rng) {
+  switch (uniform_int(rng, 0, 9)) {
+    case 0: case 1: case 2: case 3: return 0.0;
+    case 4: return 1.0;
+    case 5: return 0.05;
+    default: return round_to(uniform(rng, 0.1, 1.0), 0.01);
+  }
+}
+
+std::vector<std::string> some_axes(std::mt19937_64& rng, const LabSpec& lab, int max_count) {
+  std::vector<std::string> names;
+  for (const auto& a : lab.axes) names.push_back(a.name);
+  std::shuffle(names.begin(), names.end(), rng);
+  names.resize(static_cast<std::size_t>(uniform_int(rng, 1, std::min(max_count, static_cast<int>(names.size())))));
+  return names;
+}
+
+// Slowest scale at which a move of `axes` to `targets` still ends within `seconds`.
+double scale_for(const LabSpec& lab, const Model& model, const std::vector<std::string>& axes, const std::vector<double>& targets, double seconds) {
+  double need = 0;
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    const auto& spec = *lab.find(axes[i]);
+    const double d = std::abs(targets[i] - model.axes().at(axes[i]).commanded);
+    need = std::max(need, d / (spec.velocity * seconds) + spec.velocity / (spec.acceleration * seconds));
+  }
+  return need;
+}
+
+}  // namespace
+
+std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int count) {
+  Model model(lab);
+  std::vector<Step> steps;
+  std::vector<std::string> all;
+  for (const auto& a : lab.axes) all.push_back(a.name);
+  Step enable;
+  enable.kind = request_t::ENABLE;
+  enable.axes = all;
+  enable.values.assign(all.size(), 0.0);
+  steps.push_back(enable);
+  model.request(request_t::ENABLE, all, steps.back().values, 0, 0, 0, true);
+  while (static_cast<int>(steps.size()) < count) {
+    Step s;
+    s.client = uniform_int(rng, 0, 2);
+    const int r = uniform_int(rng, 0, 99);
+    bool any_disabled = false;
+    for (const auto& [name, a] : model.axes()) any_disabled = any_disabled || !a.enabled;
+    if (any_disabled && r < 15) {
+      s.kind = request_t::ENABLE;
+      s.axes = all;
+    } else if (r < 45) {
+      s.kind = chance(rng, 0.55) ? request_t::MOVE_ABSOLUTE : request_t::MOVE_RELATIVE;
+      s.axes = some_axes(rng, lab, 3);
+      for (const auto& name : s.axes) s.values.push_back(move_value(rng, *lab.find(name), model.axes().at(name), s.kind == request_t::MOVE_RELATIVE));
+      s.velocity_scale = scale(rng);
+      s.acceleration_scale = scale(rng);
+      std::vector<double> targets;
+      for (std::size_t i = 0; i < s.axes.size(); ++i) {
+        targets.push_back(s.kind == request_t::MOVE_RELATIVE ? model.axes().at(s.axes[i]).commanded + s.values[i] : s.values[i]);
+      }
+      // At most ~6 s of motion per step.
+      const double need = scale_for(lab, model, s.axes, targets, 6.0);
+      if (s.velocity_scale != 0 && s.velocity_scale < need) s.velocity_scale = std::min(1.0, round_to(need + 0.05, 0.01));
+      if (s.acceleration_scale != 0 && s.acceleration_scale < need) s.acceleration_scale = std::min(1.0, round_to(need + 0.05, 0.01));
+      const int bad = uniform_int(rng, 0, 29);
+      if (bad == 0) s.velocity_scale = pick(rng, std::vector<double>{-0.5, 1.5, 1.0000001});
+      if (bad == 1) s.acceleration_scale = pick(rng, std::vector<double>{-0.01, 2.0});
+      if (bad == 2) s.timeout_ms = -1;
+    } else if (r < 52) {
+      s.op = Op::kJogStop;
+      s.kind = request_t::JOG;
+      s.axes = some_axes(rng, lab, 2);
+      for (const auto& name : s.axes) {
+        const auto& spec = *lab.find(name);
+        s.values.push_back((chance(rng, 0.5) ? 1 : -1) * (chance(rng, 0.1) ? spec.velocity * 1.5 : round_to(spec.velocity * uniform(rng, 0.05, 0.3), 0.01)));
+      }
+      s.other_client = uniform_int(rng, 0, 2);
+      s.stop_kind = chance(rng, 0.75) ? request_t::STOP : request_t::ESTOP;
+    } else if (r < 62) {
+      s.op = Op::kConflict;
+      s.kind = request_t::MOVE_ABSOLUTE;
+      s.axes = some_axes(rng, lab, 2);
+      for (const auto& name : s.axes) {
+        const auto& spec = *lab.find(name);
+        const double at = model.axes().at(name).commanded;
+        s.values.push_back(at - spec.min > spec.max - at ? spec.min : spec.max);  // the farther limit
+      }
+      // Slow enough to last ~10 s at the planned speed: far longer than the requests in between.
+      s.velocity_scale = std::max(0.001, round_to(scale_for(lab, model, s.axes, s.values, 10.0) * 0.5, 0.001));
+      s.other_client = (s.client + uniform_int(rng, 1, 2)) % 3;
+      s.second_kind = pick(rng, std::vector<std::int8_t>{request_t::MOVE_ABSOLUTE, request_t::MOVE_RELATIVE, request_t::SET_POSITION,
+                                                         request_t::HOME, request_t::JOG, request_t::ENABLE});
+      // Half of the time an axis of the running move, else any axes (maybe the free ones).
+      s.second_axes = chance(rng, 0.5) ? std::vector<std::string>{s.axes[0]} : some_axes(rng, lab, 2);
+      for (const auto& name : s.second_axes) {
+        const auto& spec = *lab.find(name);
+        if (s.second_kind == request_t::JOG) s.second_values.push_back(spec.velocity * 0.1);
+        else if (s.second_kind == request_t::HOME || s.second_kind == request_t::ENABLE) s.second_values.push_back(0.0);
+        else s.second_values.push_back(move_value(rng, spec, model.axes().at(name), s.second_kind == request_t::MOVE_RELATIVE));
+      }
+      // A jog of a free axis would run on: only moves end by themselves.
+      if (s.second_kind == request_t::JOG) {
+        for (const auto& name : s.second_axes) {
+          if (std::find(s.axes.begin(), s.axes.end(), name) == s.axes.end()) s.second_kind = request_t::ENABLE;
+        }
+      }
+      s.stop_kind = chance(rng, 0.8) ? request_t::STOP : request_t::ESTOP;
+    } else if (r < 67) {
+      s.kind = request_t::STOP;
+      if (chance(rng, 0.6)) s.axes = some_axes(rng, lab, 3);
+    } else if (r < 70) {
+      s.kind = request_t::ESTOP;
+      if (chance(rng, 0.5)) s.axes = some_axes(rng, lab, 3);
+    } else if (r < 75) {
+      s.kind = request_t::HOME;
+      s.axes = some_axes(rng, lab, 2);
+    } else if (r < 80) {
+      s.kind = request_t::ENABLE;
+      s.axes = some_axes(rng, lab, 3);
+    } else if (r < 83) {
+      s.kind = request_t::DISABLE;
+      s.axes = some_axes(rng, lab, 2);
+    } else if (r < 86) {
+      s.kind = request_t::FAULT_RESET;
+      s.axes = some_axes(rng, lab, 3);
+    } else if (r < 93) {
+      s.kind = request_t::SET_POSITION;
+      s.axes = some_axes(rng, lab, 1);
+      const auto& spec = *lab.find(s.axes[0]);
+      const int c = uniform_int(rng, 0, 4);
+      s.values.push_back(c == 0 ? spec.min : c == 1 ? spec.max : c == 2 ? spec.max + uniform(rng, 0.01, 10) : round_to(uniform(rng, spec.min, spec.max), 0.01));
+    } else if (r < 96) {
+      s.kind = request_t::SET_OUTPUTS;
+      s.axes = some_axes(rng, lab, 1);
+      s.output_mask = 1;
+      s.output_value = uniform_int(rng, 0, 1);
+    } else {
+      s.kind = request_t::PARAM_READ;
+      s.axes = some_axes(rng, lab, 1);
+    }
+    if (s.values.size() < s.axes.size()) s.values.resize(s.axes.size(), 0.0);
+    // Advance the generator's model with the predicted outcome (positions after stops and jogs are
+    // unknown to it; it keeps the last commanded target as a guess).
+    if (s.op == Op::kRequest) {
+      model.request(s.kind, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, true);
+    } else {
+      model.request(s.stop_kind, s.axes, {}, 0, 0, 0, true);
+    }
+    steps.push_back(std::move(s));
+  }
+  return steps;
+}
+
+}  // namespace motion::random_lab

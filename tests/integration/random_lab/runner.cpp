@@ -1,0 +1,423 @@
+// Runs a generated case on real processes and checks the reference model after every step;
+// shrinks failing cases and prints them as C++.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <motionlcm/health_t.hpp>
+#include <motionlcm/reply_t.hpp>
+#include <motionlcm/request_t.hpp>
+
+#include "motion/client/client.hpp"
+#include "motion/core/clock.hpp"
+#include "motion/lcm/channels.hpp"
+#include "motion/lcm/reply_error.hpp"
+#include "motion/testing/lcm_url.hpp"
+#include "motion/testing/process_group.hpp"
+#include "random_lab.hpp"
+
+namespace motion::random_lab {
+namespace {
+
+using motionlcm::reply_t;
+using motionlcm::request_t;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+
+constexpr int kDefaultTimeoutMs = 20000;  // coordinator.default_timeout_ms of LabSpec::yaml()
+
+struct Failure {
+  std::string what;
+};
+
+class Runner {
+ public:
+  Runner(const LabSpec& lab, const RunOptions& options)
+      : lab_(lab), options_(options), group_(testing::unique_lcm_url(options.salt)), model_(lab) {
+    for (int i = 0; i < 3; ++i) clients_.push_back(std::make_unique<client::Client>(group_.loop(), group_.node(), "rl-client-" + std::to_string(i)));
+    group_.node().subscribe<reply_t>(lcm::channels::kReply, [this](const reply_t& r, const std::string&) {
+      if (client::is_terminal(r.status)) ++terminals_[{r.client_id, r.request_id}];
+    });
+  }
+
+  RunResult run(const std::vector<Step>& steps) {
+    RunResult result;
+    try {
+      start();
+      for (std::size_t i = 0; i < steps.size(); ++i) {
+        step_ = static_cast<int>(i);
+        result.log += "step " + std::to_string(i) + ": " + describe(steps[i]) + "\n";
+        if (options_.verbose) std::printf("  step %zu: %s\n", i, describe(steps[i]).c_str());
+        run_step(steps[i]);
+        check_invariants();
+        result.steps_run = static_cast<int>(i) + 1;
+      }
+    } catch (const Failure& f) {
+      result.ok = false;
+      result.failed_step = step_;
+      result.failure = f.what;
+      if (options_.print_logs_on_failure) ADD_FAILURE() << f.what;  // the group prints the processes' logs
+    }
+    return result;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& what) { throw Failure{what}; }
+
+  void start() {
+    const std::string path = group_.work_dir() + "/lab.yaml";
+    std::ofstream(path) << lab_.yaml();
+    std::set<std::string> buses;
+    for (const auto& a : lab_.axes) buses.insert(a.drive.bus);
+    pids_["sim"] = group_.start({"sim", "motion-sim", {"--config", path}, {}});
+    for (const auto& bus : buses) pids_["gateway:" + bus] = group_.start({"gateway:" + bus, "motion-gateway", {"--config", path, "--bus", bus}, {}});
+    pids_["coordinator"] = group_.start({"coordinator", "motion-coordinator", {"--config", path}, {}});
+    for (const auto& [name, pid] : pids_) {
+      const bool up = group_.pump_until([&] {
+        const auto h = group_.heartbeat(name);
+        return h && (h->state == motionlcm::health_t::OK || (name != "coordinator" && h->state == motionlcm::health_t::DEGRADED));
+      }, seconds(20));
+      if (!up) fail("lab start-up: no OK heartbeat from " + name + " within 20 s");
+    }
+    const bool online = clients_[0]->wait_until([&] {
+      for (const auto& a : lab_.axes) {
+        const auto it = clients_[0]->axes().find(a.name);
+        if (it == clients_[0]->axes().end() || !it->second.online) return false;
+      }
+      return true;
+    }, seconds(20));
+    if (!online) fail("lab start-up: not every axis online within 20 s");
+    for (const auto& a : lab_.axes) {
+      const auto& s = state(a.name);
+      model_.observe(a.name, s.position_counts);
+      model_.axis(a.name).enabled = s.enabled;
+    }
+  }
+
+  const motionlcm::axis_state_t& state(const std::string& axis) { return clients_[0]->axes().at(axis); }
+
+  motionlcm::request_t make(std::int8_t kind, const std::vector<std::string>& axes, const std::vector<double>& values, const Step& s) {
+    auto r = client::Client::make(kind, axes);
+    r.values = values;
+    r.values.resize(axes.size(), 0.0);
+    r.velocity_scale = s.velocity_scale;
+    r.acceleration_scale = s.acceleration_scale;
+    r.timeout_ms = s.timeout_ms;
+    r.output_mask = s.output_mask;
+    r.output_value = s.output_value;
+    if (kind == request_t::PARAM_READ && !axes.empty()) r.param = param_for(axes[0]);
+    return r;
+  }
+
+  // A parameter every family has, with the value the lab's set-up gives it.
+  motionlcm::param_t param_for(const std::string& axis) {
+    motionlcm::param_t p{};
+    const auto& family = lab_.find(axis)->drive.family;
+    if (family == "uc57") {
+      p.space = motionlcm::param_t::CANOPEN_OBJECT;  // 1000h device type (CiA 301 §7.5.2.1)
+      p.index = 0x1000;
+    } else if (family == "adam-modbus") {
+      p.space = motionlcm::param_t::MODBUS_REGISTER;  // 0x0024 subdivision, pulses/rev (ADAM manual §8.29)
+      p.index = 0x0024;
+      p.width = 2;
+    } else if (family == "uim242") {
+      p.space = motionlcm::param_t::UIM242_INSTRUCTION;  // CUR, phase current in tenths of an ampere
+      p.mnemonic = "CUR";
+      p.subindex = -1;
+    } else {
+      p.space = motionlcm::param_t::UIM342_INSTRUCTION;  // MT[0] micro-stepping (UIM342 manual §5.9)
+      p.index = 0x10;
+      p.subindex = 0;
+    }
+    return p;
+  }
+  std::optional<std::int64_t> expected_param(const std::string& axis) {
+    const auto& family = lab_.find(axis)->drive.family;
+    if (family == "adam-modbus") return 3200;  // 200 full steps x subdivision 16
+    if (family == "uim242") return 10;         // current_a 1.0
+    if (family == "uim342") return 16;
+    return std::nullopt;                       // uc57: checked as 402 in the low word
+  }
+
+  std::chrono::milliseconds wait_for(std::int32_t timeout_ms) const { return milliseconds((timeout_ms > 0 ? timeout_ms : kDefaultTimeoutMs) + 3000); }
+
+  reply_t call(int client, const motionlcm::request_t& r) {
+    auto& c = *clients_[static_cast<std::size_t>(client)];
+    bool seen_terminal = false;
+    reply_t result{};
+    const auto id = c.send(r, [&](const reply_t& reply) {
+      if (client::is_terminal(reply.status)) {
+        result = reply;
+        seen_terminal = true;
+      }
+    });
+    sent_.push_back({c.id(), id});
+    if (!c.wait_until([&] { return seen_terminal; }, wait_for(r.timeout_ms))) {
+      fail(std::string("no terminal reply to ") + describe_request(r) + " within its timeout + 3 s");
+    }
+    last_reply_utime_ = wall_time_us();
+    return result;
+  }
+
+  std::string describe_request(const motionlcm::request_t& r) const {
+    Step s;
+    s.kind = r.kind;
+    s.axes = r.axes;
+    s.values = r.values;
+    s.velocity_scale = r.velocity_scale;
+    s.acceleration_scale = r.acceleration_scale;
+    s.timeout_ms = r.timeout_ms;
+    return describe(s);
+  }
+
+  void check_reply(const reply_t& got, const Outcome& want, const motionlcm::request_t& r) {
+    const bool status_ok = std::find(want.statuses.begin(), want.statuses.end(), got.status) != want.statuses.end();
+    const bool code_ok = got.status == reply_t::DONE || want.codes.empty() ||
+                         std::find(want.codes.begin(), want.codes.end(), got.error_code) != want.codes.end();
+    if (!status_ok || !code_ok) {
+      fail(describe_request(r) + ": model predicts " + want.text() + ", got " + client::status_name(got.status) + " code " +
+           std::to_string(got.error_code) + " (\"" + got.reason + "\")");
+    }
+  }
+
+  // One request, predicted, sent, checked and applied to the model.
+  reply_t request(int client, std::int8_t kind, const std::vector<std::string>& axes, const std::vector<double>& values, const Step& s) {
+    auto want = model_.request(kind, axes, values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, false);
+    if (kind == request_t::SET_OUTPUTS && want.done()) {
+      // A family without digital outputs says so (unsupported) and changes nothing.
+      want = Outcome{{reply_t::DONE, reply_t::REJECTED, reply_t::FAILED}, {error_code(ReplyError::kUnsupported)}};
+    }
+    const auto r = make(kind, axes, values, s);
+    const auto got = call(client, r);
+    check_reply(got, want, r);
+    if (got.status == reply_t::DONE) {
+      model_.request(kind, axes, values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, true);
+      if (kind == request_t::PARAM_READ) {
+        const auto expected = expected_param(axes[0]);
+        const bool ok = expected ? got.param.value == *expected : (got.param.value & 0xFFFF) == 402;
+        if (!ok) fail(describe_request(r) + ": read " + std::to_string(got.param.value) + ", the lab's set-up gives " +
+                      (expected ? std::to_string(*expected) : std::string("402 in the low word")));
+      }
+      if (kind == request_t::SET_OUTPUTS) {
+        const std::string& axis = axes[0];
+        const bool ok = clients_[0]->wait_until([&] { return (state(axis).outputs & s.output_mask) == (s.output_value & s.output_mask); }, seconds(5));
+        if (!ok) fail(describe_request(r) + ": outputs of " + axis + " read " + std::to_string(state(axis).outputs) + " after DONE");
+      }
+    }
+    return got;
+  }
+
+  void run_step(const Step& s) {
+    if (s.op == Op::kRequest) {
+      request(s.client, s.kind, s.axes, s.values, s);
+      settle(s.kind == request_t::STOP || s.kind == request_t::ESTOP);
+      return;
+    }
+    if (s.op == Op::kJogStop) {
+      const auto jog = request(s.client, request_t::JOG, s.axes, s.values, s);
+      if (jog.status == reply_t::DONE) clients_[0]->wait_until([] { return false; }, milliseconds(300));
+      request(s.other_client, s.stop_kind, s.axes, {}, Step{});
+      settle(true);
+      return;
+    }
+    // Conflict: a slow move runs while another client asks for its axes (or others).
+    const auto want = model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, false);
+    auto& first_client = *clients_[static_cast<std::size_t>(s.client)];
+    std::vector<reply_t> replies;
+    const auto first_request = make(request_t::MOVE_ABSOLUTE, s.axes, s.values, s);
+    const auto id = first_client.send(first_request, [&](const reply_t& r) { replies.push_back(r); });
+    sent_.push_back({first_client.id(), id});
+    const auto terminal = [&]() -> const reply_t* {
+      for (const auto& r : replies) if (client::is_terminal(r.status)) return &r;
+      return nullptr;
+    };
+    const bool started = first_client.wait_until([&] {
+      return terminal() != nullptr || std::any_of(replies.begin(), replies.end(), [](const reply_t& r) { return r.status == reply_t::STARTED; });
+    }, seconds(10));
+    if (want.done()) {
+      if (!started || terminal() != nullptr) {
+        fail(describe_request(first_request) + ": the model predicts a move of ~10 s; " +
+             (terminal() ? std::string("it ended at once: ") + client::status_name(terminal()->status) + " code " + std::to_string(terminal()->error_code) +
+                               " (\"" + terminal()->reason + "\")"
+                         : "no STARTED within 10 s"));
+      }
+      model_.set_busy(s.axes, true);
+    } else {
+      if (!first_client.wait_until([&] { return terminal() != nullptr; }, wait_for(0))) fail(describe_request(first_request) + ": no terminal reply");
+      check_reply(*terminal(), want, first_request);
+    }
+    Step second;
+    second.kind = s.second_kind;
+    request(s.other_client, s.second_kind, s.second_axes, s.second_values, second);
+    model_.set_busy(s.axes, false);
+    if (want.done()) {
+      // The slow move's commanded target is not reached: its axes' positions are read back.
+      for (const auto& a : s.axes) model_.axis(a).counts.reset();
+    }
+    // A jog the second request started on a free axis would run on: the stop covers its axes too.
+    std::vector<std::string> stop_axes = s.axes;
+    if (s.second_kind == request_t::JOG) for (const auto& a : s.second_axes) if (std::find(stop_axes.begin(), stop_axes.end(), a) == stop_axes.end()) stop_axes.push_back(a);
+    request(s.other_client, s.stop_kind, stop_axes, {}, Step{});
+    if (want.done()) {
+      if (!first_client.wait_until([&] { return terminal() != nullptr; }, seconds(5))) {
+        fail(describe_request(first_request) + ": no terminal reply within 5 s of the stop of its axes");
+      }
+      const auto* t = terminal();
+      const bool ok = (t->status == reply_t::ABORTED && t->error_code == error_code(ReplyError::kStopped)) || t->status == reply_t::DONE;
+      if (!ok) {
+        fail(describe_request(first_request) + ": stopped by another client; expected ABORTED code 14, got " + client::status_name(t->status) +
+             " code " + std::to_string(t->error_code) + " (\"" + t->reason + "\")");
+      }
+    }
+    settle(true);
+  }
+
+  // Waits for every axis to stand still at the model's position with the model's enabled flag,
+  // in a state sampled after the step's last reply; reads back the positions the model cannot know.
+  void settle(bool after_stop) {
+    const std::int64_t since = last_reply_utime_;
+    std::string why;
+    const bool ok = clients_[0]->wait_until([&] {
+      why.clear();
+      for (const auto& [name, m] : model_.axes()) {
+        const auto it = clients_[0]->axes().find(name);
+        if (it == clients_[0]->axes().end()) { why += name + ": no state; "; continue; }
+        const auto& st = it->second;
+        if (st.utime <= since) { why += name + ": no state since the reply; "; continue; }
+        if (st.moving) why += name + ": still moving" + std::string(after_stop ? " after a stop" : "") + "; ";
+        if (m.counts && st.position_counts != *m.counts) {
+          why += name + ": at " + std::to_string(st.position_counts) + " counts, the model says " + std::to_string(*m.counts) + "; ";
+        }
+        if (st.enabled != m.enabled) why += name + ": enabled=" + (st.enabled ? "true" : "false") + ", the model says " + (m.enabled ? "true" : "false") + "; ";
+        if (st.fault) why += name + ": faulted (" + st.fault_text + "); ";
+      }
+      return why.empty();
+    }, seconds(10));
+    if (!ok) fail("after the step, within 10 s: " + why);
+    for (const auto& [name, m] : model_.axes()) {
+      if (!m.counts) model_.observe(name, state(name).position_counts);
+    }
+  }
+
+  void check_invariants() {
+    for (const auto& [client, id] : sent_) {
+      const int n = terminals_[{client, id}];
+      if (n != 1) fail("request " + client + "/" + std::to_string(id) + " got " + std::to_string(n) + " terminal replies");
+    }
+    const auto now = wall_time_us();
+    for (const auto& [name, pid] : pids_) {
+      if (auto status = group_.exit_status(pid)) fail(name + " exited with status " + std::to_string(*status));
+      const auto h = group_.heartbeat(name);
+      if (!h || now - h->utime > 3LL * h->period_ms * 1000 + 500000) fail(name + " stopped heartbeating");
+    }
+  }
+
+  LabSpec lab_;
+  RunOptions options_;
+  testing::ProcessGroup group_;
+  Model model_;
+  std::vector<std::unique_ptr<client::Client>> clients_;
+  std::map<std::string, pid_t> pids_;
+  std::map<std::pair<std::string, std::int64_t>, int> terminals_;
+  std::vector<std::pair<std::string, std::int64_t>> sent_;
+  std::int64_t last_reply_utime_ = 0;
+  int step_ = -1;
+};
+
+// The lab without the axes no step names (stops of every axis name none: then all stay).
+LabSpec used_axes_only(const LabSpec& lab, const std::vector<Step>& steps) {
+  std::set<std::string> used;
+  for (const auto& s : steps) {
+    if (s.axes.empty()) return lab;
+    used.insert(s.axes.begin(), s.axes.end());
+    used.insert(s.second_axes.begin(), s.second_axes.end());
+  }
+  LabSpec out = lab;
+  out.axes.clear();
+  for (const auto& a : lab.axes) if (used.contains(a.name)) out.axes.push_back(a);
+  return out.axes.empty() ? lab : out;
+}
+
+}  // namespace
+
+RunResult run_case(const LabSpec& lab, const std::vector<Step>& steps, const RunOptions& options) {
+  Runner runner(lab, options);
+  return runner.run(steps);
+}
+
+Shrunk shrink(const LabSpec& lab, const std::vector<Step>& steps, const RunResult& first, std::chrono::seconds budget) {
+  Shrunk best{lab, steps, first, 0};
+  const auto deadline = std::chrono::steady_clock::now() + budget;
+  int salt = 1;
+  const auto try_case = [&](const LabSpec& l, const std::vector<Step>& s) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    ++best.runs;
+    RunOptions o;
+    o.salt = salt++;
+    auto r = run_case(l, s, o);
+    std::printf("  shrink run %d: %zu steps, %zu drives: %s\n", best.runs, s.size(), l.axes.size(), r.ok ? "passes" : "fails");
+    std::fflush(stdout);
+    if (r.ok) return false;
+    best = Shrunk{l, s, r, best.runs};
+    return true;
+  };
+  // Steps after the failing one never matter.
+  if (first.failed_step >= 0 && static_cast<std::size_t>(first.failed_step + 1) < best.steps.size()) {
+    best.steps.resize(static_cast<std::size_t>(first.failed_step + 1));
+  }
+  // Delta debugging: drop chunks of n steps, halving n (the last step, the failing one, stays).
+  for (std::size_t chunk = std::max<std::size_t>(1, best.steps.size() / 2); chunk >= 1; chunk /= 2) {
+    for (std::size_t start = 0; start + 1 < best.steps.size();) {
+      std::vector<Step> candidate = best.steps;
+      const std::size_t end = std::min(start + chunk, candidate.size() - 1);
+      candidate.erase(candidate.begin() + static_cast<std::ptrdiff_t>(start), candidate.begin() + static_cast<std::ptrdiff_t>(end));
+      if (!try_case(best.lab, candidate)) start += chunk;
+      if (std::chrono::steady_clock::now() >= deadline) break;
+    }
+    if (chunk == 1 || std::chrono::steady_clock::now() >= deadline) break;
+  }
+  // Simpler values: scales back to the default, timeouts to 0.
+  for (std::size_t i = 0; i < best.steps.size(); ++i) {
+    Step s = best.steps[i];
+    if (s.velocity_scale == 0 && s.acceleration_scale == 0 && s.timeout_ms == 0) continue;
+    if (s.op == Op::kConflict) continue;  // its slowness is the point
+    s.velocity_scale = s.acceleration_scale = 0;
+    s.timeout_ms = 0;
+    auto candidate = best.steps;
+    candidate[i] = s;
+    try_case(best.lab, candidate);
+  }
+  // Fewer drives: those no step names, then each one on its own.
+  const LabSpec fewer = used_axes_only(best.lab, best.steps);
+  if (fewer.axes.size() < best.lab.axes.size()) try_case(fewer, best.steps);
+  return best;
+}
+
+std::string reproduction(const LabSpec& lab, const std::vector<Step>& steps, const RunResult& result, std::uint64_t seed) {
+  std::ostringstream out;
+  out << "// random_lab seed " << seed << ": fails at step " << result.failed_step << ": " << result.failure << "\n";
+  out << "TEST(RandomLabRegression, Seed" << seed << ") {\n";
+  out << "  LabSpec spec;\n  spec.can_bitrate = " << lab.can_bitrate << ";\n  spec.rs485_baud = " << lab.rs485_baud << ";\n  spec.rs232_baud = "
+      << lab.rs232_baud << ";\n  spec.rs485_parity = \"" << lab.rs485_parity << "\";\n";
+  for (const auto& a : lab.axes) {
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "  spec.axes.push_back(AxisSpec{\"%s\", DriveSpec{\"%s\", \"%s\", %d, %d}, %.17g, %.17g, %.17g, %.17g, %.17g, %s, %.17g});\n",
+                  a.name.c_str(), a.drive.family.c_str(), a.drive.bus.c_str(), a.drive.node_id, a.drive.group_id, a.steps_per_unit, a.min, a.max,
+                  a.velocity, a.acceleration, a.homing ? "true" : "false", a.home_offset);
+    out << buf;
+  }
+  out << "  const std::vector<Step> steps = {\n";
+  for (const auto& s : steps) out << "      " << s.cpp() << ",\n";
+  out << "  };\n  const auto result = run_case(spec, steps);\n  EXPECT_TRUE(result.ok) << result.failure << \"\\n\" << result.log;\n}\n";
+  out << "// the lab as YAML:\n";
+  std::istringstream yaml(lab.yaml());
+  for (std::string line; std::getline(yaml, line);) out << "//   " << line << "\n";
+  return out.str();
+}
+
+}  // namespace motion::random_lab
