@@ -12,6 +12,7 @@
 
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
+#include <motionlcm/health_t.hpp>
 
 #include "sim_lab.hpp"
 
@@ -246,6 +247,51 @@ TEST_F(AdamLine, DeadDriveDoesNotStallTheOthers) {
   lab.control("c3-drive", sim_control_t::SILENCE, 0);
   EXPECT_TRUE(lab.client().wait_until([&] { return lab.client().axes().at("c3").online; }, seconds(10)));
   EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(event_t::ONLINE, "c3", "c3-drive"); }, seconds(2)));
+}
+
+// Even and odd parity on the simulated line (configs/adam-line-even.yaml, -odd.yaml): the pty may
+// refuse PARENB; motion-sim and the gateway then model the parity bit instead of setting it. The
+// line opens, the drives come online and a synchronized move arrives.
+class AdamParity : public ::testing::TestWithParam<const char*> {
+ protected:
+  void TearDown() override {
+    if (HasFailure()) lab.group().print_logs();
+  }
+  SimLab lab{source_path(std::string("tests/integration/configs/adam-line-") + GetParam() + ".yaml")};
+};
+
+TEST_P(AdamParity, LineOpensDrivesComeOnlineAndAMoveArrives) {
+  const std::vector<std::string> axes{"p1", "p2"};
+  ASSERT_TRUE(lab.start(axes));
+  ASSERT_TRUE(lab.enable(axes));
+  // The heartbeat (every period) catches up with the drives coming online.
+  ASSERT_TRUE(lab.group().pump_until([&] { const auto s = lab.bus_stats("rs485"); return s && s->drives_online == 2; }, seconds(5)));
+  EXPECT_EQ(lab.bus_stats("rs485")->state, "open");
+  const Values targets{{"p1", 4.0}, {"p2", -2.5}};
+  const auto done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, targets));
+  ASSERT_EQ(done.status, status(reply_t::DONE)) << done.reason;
+  for (const auto& [axis, target] : targets) EXPECT_TRUE(lab.settled_at(axis, target, kPositionTolerance)) << axis << " at " << lab.position(axis);
+  ASSERT_EQ(lab.starts_of("p1-drive").size(), 1u);
+  EXPECT_EQ(lab.starts_of("p1-drive")[0].target_counts, 1280);
+  EXPECT_EQ(lab.starts_of("p2-drive")[0].target_counts, -800);
+}
+
+INSTANTIATE_TEST_SUITE_P(Parity, AdamParity, ::testing::Values("even", "odd"));
+
+// A bus whose device cannot be opened says why in the gateway's heartbeat: the bus state and the
+// health detail (what `motionctl health` prints), not only "drives not all online".
+TEST(AdamUnopenable, HealthSaysWhyTheBusIsClosed) {
+  SimLab lab{source_path("tests/integration/configs/adam-unopenable.yaml")};
+  lab.start_gateway("rs485");
+  ASSERT_TRUE(lab.group().wait_for_heartbeat("gateway:rs485", seconds(20), true));
+  const std::string why = "closed: cannot open /nonexistent-motion-test/ttyUSB0: No such file or directory";
+  ASSERT_TRUE(lab.group().pump_until([&] { return lab.bus_stats("rs485").has_value(); }, seconds(5)));
+  EXPECT_EQ(lab.bus_stats("rs485")->state, why);
+  const auto health = lab.group().heartbeat("gateway:rs485");
+  ASSERT_TRUE(health.has_value());
+  EXPECT_EQ(health->state, st(motionlcm::health_t::DEGRADED));
+  EXPECT_NE(health->detail.find("bus rs485 " + why), std::string::npos) << health->detail;
+  if (HasFailure()) lab.group().print_logs();
 }
 
 }  // namespace

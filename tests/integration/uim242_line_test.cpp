@@ -192,6 +192,29 @@ TEST_F(Uim242Line, JogThenStop) {
   EXPECT_NEAR(position("u1"), 0.0, kTolerance);
 }
 
+// Stopped mid-move and moved again at once (the move sent right behind the stop, while the axis
+// still brakes): the move's relative STP is computed from a position read at rest, so it ends
+// exactly at its absolute target and the request ends DONE (the coordinator waits for the
+// reported position to equal the target).
+TEST_F(Uim242Line, StopMidMoveThenMoveAgainAtOnceEndsExactlyAtTheTarget) {
+  std::vector<reply_t> first;
+  send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"u1", 90.0}}), first);
+  ASSERT_TRUE(lab.client().wait_until([&] { return position("u1") > 5.0 && state("u1").moving; }, seconds(10))) << "u1 at " << position("u1");
+  // The stop and, without waiting for it, the next move: it is armed while u1 still brakes.
+  std::vector<reply_t> stop;
+  send(Client::make(request_t::STOP, Axes{"u1"}), stop);
+  const auto again = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"u1", 20.0}}));
+  ASSERT_EQ(again.status, st(reply_t::DONE)) << client::status_name(again.status) << ": " << again.reason;
+  ASSERT_TRUE(lab.client().wait_until([&] { return ended(stop); }, seconds(10)));
+  EXPECT_EQ(stop.back().status, st(reply_t::DONE)) << stop.back().reason;
+  EXPECT_TRUE(ended(first));
+  EXPECT_TRUE(settled_at("u1", 20.0)) << "u1 at " << position("u1");
+  EXPECT_EQ(state("u1").position_counts, 3200);  // 20 mm x 160, exactly
+  const auto starts = start_targets("u1-drive");
+  ASSERT_EQ(starts.size(), 2u);
+  EXPECT_EQ(starts[1], 3200);
+}
+
 TEST_F(Uim242Line, DeadDriveGoesOfflineWhileTheOtherKeepsWorking) {
   lab.control("u2-drive", sim_control_t::SILENCE, 1);
   // u2 goes offline (timeout, one retry, then the event naming drive, node and instruction) ...

@@ -680,6 +680,14 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       for (Drive* d : drives) {
         add_write(op, *d, adam::command(d->cfg.unit, emergency ? adam::VelocityCommand::emergency_stop
                                                                : adam::VelocityCommand::ramped_stop));
+        // An e-stop leaves the motor released, as on every family (CiA 402 quick stop ends in
+        // "switch on disabled").
+        if (emergency) {
+          add_write(op, *d, adam::command(d->cfg.unit, adam::EnableCommand::release), [this, d](TimePoint) {
+            d->enabled = false;
+            publish_status(*d);
+          });
+        }
       }
       // Urgent: a stop goes before queued polls and set-up (but after the frame on the line).
       std::stable_partition(queue_.begin(), queue_.end(),

@@ -59,8 +59,15 @@ void Gateway::update_health() {
   } else if (driver_->ready() && unsupported.empty()) {
     health_.set_state(motionlcm::health_t::OK, std::to_string(axes_.size()) + " axes ready");
   } else {
-    health_.set_state(motionlcm::health_t::DEGRADED,
-                      join(driver_->ready() ? std::string{} : std::string{"drives not all online/set up"}, unsupported));
+    std::string not_ready;
+    if (!driver_->ready()) {
+      not_ready = "drives not all online/set up";
+      // A bus that is not open says why (e.g. "bus rs485 closed: cannot open /dev/ttyUSB0: Permission denied").
+      for (const auto& b : driver_->statistics()) {
+        if (b.state.rfind("closed", 0) == 0) not_ready += "; bus " + b.name + " " + b.state;
+      }
+    }
+    health_.set_state(motionlcm::health_t::DEGRADED, join(not_ready, unsupported));
   }
 }
 

@@ -29,7 +29,10 @@ void SerialBusDriver::try_open() {
   port_ = serial::SerialPort::open(device_path_, line_, error);
   if (!port_) {
     const std::string text = "cannot open " + device_path_ + " for bus " + bus_ + ": " + error.message();
+    closed_because_ = "cannot open " + device_path_ + ": " + error.message();
     if (text != last_open_error_) {  // one event per distinct cause, not one per retry
+      spdlog::warn("bus {}: {} (retrying every {} ms)", bus_, closed_because_,
+                   std::chrono::duration_cast<std::chrono::milliseconds>(reopen_period).count());
       DriveEvent e;
       e.kind = motionlcm::event_t::OFFLINE;
       e.severity = motionlcm::event_t::ERROR;
@@ -41,6 +44,11 @@ void SerialBusDriver::try_open() {
     return;
   }
   last_open_error_.clear();
+  closed_because_.clear();
+  if (port_->parity_modelled()) {
+    spdlog::info("bus {}: {} is a pseudo-terminal that refuses parity: opened 8N{}, the parity bit counted in the character time",
+                 bus_, device_path_, line_.stop_bits);
+  }
   loop_.watch(port_->fd(), [this] { on_readable(); });
   core_->start(loop_.now());
   pump();
@@ -50,6 +58,7 @@ void SerialBusDriver::close_port(const std::string& why) {
   if (!port_) return;
   loop_.unwatch(port_->fd());
   port_.reset();
+  closed_because_ = device_path_ + " lost: " + why;
   core_->line_lost(why, loop_.now());
   if (reopen_timer_ == 0) reopen_timer_ = loop_.call_after(reopen_period, [this] { try_open(); });
 }
@@ -102,7 +111,7 @@ void SerialBusDriver::fire(std::int64_t trigger_id) {
 
 std::vector<motionlcm::bus_stats_t> SerialBusDriver::statistics() const {
   auto stats = core_->statistics();
-  if (!port_) stats.state = "closed";
+  if (!port_) stats.state = closed_because_.empty() ? std::string{"closed"} : "closed: " + closed_because_;
   return {stats};
 }
 

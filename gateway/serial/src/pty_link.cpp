@@ -22,7 +22,8 @@ std::unique_ptr<PtyLink> PtyLink::create(const std::string& link_path, const Ser
   auto link = std::unique_ptr<PtyLink>(new PtyLink(master, slave, name.data(), link_path));
   // Raw on the slave side from the start: a client that opens the link late must not see echoes
   // of what the simulator wrote meanwhile.
-  if ((error = configure_tty(slave, settings))) return nullptr;
+  bool parity_modelled = false;  // the line host counts the parity bit in its wire time either way
+  if ((error = configure_tty(slave, settings, parity_modelled))) return nullptr;
   const int flags = ::fcntl(master, F_GETFL);
   if (flags < 0 || ::fcntl(master, F_SETFL, flags | O_NONBLOCK) != 0 || ::fcntl(master, F_SETFD, FD_CLOEXEC) != 0 ||
       ::fcntl(slave, F_SETFD, FD_CLOEXEC) != 0) {

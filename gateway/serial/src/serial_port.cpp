@@ -3,6 +3,8 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/ioctl.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -62,7 +64,19 @@ bool termios_speed(int baud, unsigned& speed_constant) {
   return false;
 }
 
-std::error_code configure_tty(int fd, const SerialSettings& settings) {
+bool is_pty(int fd) {
+  // Unix 98 pty slaves: character devices of majors 136..143 (UNIX98_PTY_SLAVE_MAJOR and the
+  // next seven, Documentation/admin-guide/devices.txt).
+  constexpr unsigned kFirstPtySlaveMajor = 136;
+  constexpr unsigned kLastPtySlaveMajor = 143;
+  struct stat st{};
+  if (::fstat(fd, &st) != 0 || !S_ISCHR(st.st_mode)) return false;
+  const unsigned m = major(st.st_rdev);
+  return m >= kFirstPtySlaveMajor && m <= kLastPtySlaveMajor;
+}
+
+std::error_code configure_tty(int fd, const SerialSettings& settings, bool& parity_modelled) {
+  parity_modelled = false;
   unsigned speed = 0;
   if (!termios_speed(settings.baud, speed)) return std::make_error_code(std::errc::invalid_argument);
   if (settings.data_bits != 8 || (settings.stop_bits != 1 && settings.stop_bits != 2))
@@ -79,7 +93,14 @@ std::error_code configure_tty(int fd, const SerialSettings& settings) {
   tio.c_cc[VMIN] = 0;  // reads return what is there (the fd is non-blocking anyway)
   tio.c_cc[VTIME] = 0;
   if (::cfsetispeed(&tio, speed) != 0 || ::cfsetospeed(&tio, speed) != 0) return last_error();
-  if (::tcsetattr(fd, TCSANOW, &tio) != 0) return last_error();
+  if (::tcsetattr(fd, TCSANOW, &tio) != 0) {
+    const std::error_code refused = last_error();
+    // A pty that refuses PARENB: the parity is modelled (counted in the character time), not set.
+    if (refused != std::errc::invalid_argument || settings.parity == Parity::none || !is_pty(fd)) return refused;
+    tio.c_cflag &= ~static_cast<tcflag_t>(PARENB | PARODD);
+    if (::tcsetattr(fd, TCSANOW, &tio) != 0) return last_error();
+    parity_modelled = true;
+  }
   ::tcflush(fd, TCIOFLUSH);  // drop whatever a previous user left in the buffers
   return {};
 }
@@ -96,16 +117,17 @@ std::unique_ptr<SerialPort> SerialPort::open(const std::string& path, const Seri
     ::close(fd);
     return nullptr;
   }
-  if ((error = configure_tty(fd, settings))) {
+  bool parity_modelled = false;
+  if ((error = configure_tty(fd, settings, parity_modelled))) {
     ::close(fd);
     return nullptr;
   }
   error.clear();
-  return std::unique_ptr<SerialPort>(new SerialPort(fd, path, settings));
+  return std::unique_ptr<SerialPort>(new SerialPort(fd, path, settings, parity_modelled));
 }
 
-SerialPort::SerialPort(int fd, std::string path, SerialSettings settings)
-    : fd_(fd), path_(std::move(path)), settings_(settings) {}
+SerialPort::SerialPort(int fd, std::string path, SerialSettings settings, bool parity_modelled)
+    : fd_(fd), path_(std::move(path)), settings_(settings), parity_modelled_(parity_modelled) {}
 
 SerialPort::~SerialPort() {
   if (fd_ >= 0) ::close(fd_);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #include <fmt/format.h>
@@ -49,6 +50,10 @@ constexpr std::uint8_t kResetAndEmergencyStop = 0xC;   // sensor action 1100 (EN
 constexpr std::uint16_t kStallField = 0xF000;
 constexpr std::uint16_t kStallNotifyOnly = 0x1000;
 constexpr int kStillPollsBeforeFailure = 2;
+// Settling (waiting for rest after a stop or before loading a move): how often `FBK;` asks, and
+// how long a motor may take to come to rest.
+constexpr Duration kRestCheck = 10ms;
+constexpr Duration kRestLimit = 10s;
 
 Instruction set(Mnemonic m, std::int64_t v) { return Instruction{m, false, v, false}; }
 Instruction bare(Mnemonic m) { return Instruction{m, false, std::nullopt, false}; }
@@ -224,8 +229,13 @@ void Uim242BusCore::finish(std::int64_t command_id, bool ok, const std::string& 
   commands_.erase(it);
   channel_.cancel(command_id);
   std::erase_if(moves_, [command_id](const auto& m) { return m->command_id == command_id; });
+  std::erase_if(rest_checks_, [command_id](const RestCheck& r) { return r.group == command_id; });
   for (auto& d : drives_) {
-    if (d->homing_command == command_id) d->homing_command = 0;
+    if (d->homing_command != command_id) continue;
+    d->homing_command = 0;
+    // Ended before the switch (stopped, failed, timed out): unbind the reset + e-stop action, or
+    // a later pass over the switch would zero the position and stop the axis unasked.
+    if (started_) submit(*d, uim242::make_scf(d->homing_restore), 0, {}, true);
   }
   if (!context_.out) return;
   gateway_reply_t r{};
@@ -329,7 +339,7 @@ void Uim242BusCore::on_notification(const uim242::Notification& n, TimePoint now
     run_sequence(*c->second, d, {uim242::make_scf(d.homing_restore), set(Mnemonic::SPD, 0), set(Mnemonic::ORG, offset)},
                  [this, id, &d, offset](TimePoint t) {
                    homed(d, offset, t);
-                   finish(id, true);
+                   part_done(id);  // DONE when every axis of the command is home
                  });
   }
 }
@@ -515,9 +525,15 @@ void Uim242BusCore::poll(TimePoint now) {
 
 TimePoint Uim242BusCore::process(TimePoint now) {
   if (started_) poll(now);
+  // Due rest checks leave the list before they ask again (settle() may add to it).
+  const auto split = std::stable_partition(rest_checks_.begin(), rest_checks_.end(), [now](const RestCheck& r) { return r.due > now; });
+  std::vector<RestCheck> due(std::make_move_iterator(split), std::make_move_iterator(rest_checks_.end()));
+  rest_checks_.erase(split, rest_checks_.end());
+  for (auto& r : due) settle(*r.drive, r.group, r.give_up, std::move(r.then));
   const TimePoint channel_deadline = channel_.process(now);
   if (!started_) return channel_deadline;
   TimePoint next = std::min(channel_deadline, next_poll_);
+  for (const auto& r : rest_checks_) next = std::min(next, r.due);
   if (std::any_of(drives_.begin(), drives_.end(), [](const auto& d) { return !d->status.online; })) {
     next = std::min(next, next_identify_);
   }
@@ -553,6 +569,11 @@ bool Uim242BusCore::for_each_axis(const gateway_command_t& command,
 
 void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
   const std::int64_t id = command.command_id;
+  if (commands_.contains(id)) {
+    // As the CAN stacks and the ADAM master: a reused id is refused, the running command goes on.
+    reply(command, gateway_reply_t::FAILED, fmt::format("command id {} is already in progress", id), kMalformed);
+    return;
+  }
   auto owned = std::make_unique<Command>();
   owned->command = command;
   owned->outstanding = command.axes.size();
@@ -617,7 +638,12 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
           fail_moves_of(*d, fmt::format("{} (node {}): stopped by STOP", d->name, d->node), kStopped);
         }
       }
-      per_axis([](Drive&, const auto&) { return std::vector{set(Mnemonic::STP, 0)}; });
+      // Ramped stop, DONE at rest with the real position published (settle).
+      for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t&) {
+        run_sequence(c, d, {set(Mnemonic::STP, 0)}, [this, id, &d](TimePoint t) {
+          settle(d, id, t + kRestLimit, [this, id](TimePoint) { part_done(id); });
+        });
+      });
       return;
     case gateway_command_t::JOG:
       for (const auto& a : command.axes) {
@@ -738,10 +764,13 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
   };
   for (auto& axis : m.axes) {
     Drive& d = *axis.drive;
-    // The displacement is relative (STP): read the position right before loading it.
-    submit(d, bare(Mnemonic::QEC), id, [this, &c, &d, &axis, loaded](const Frame& f, TimePoint t) {
-      const std::int64_t position = field(f, uim242::Layout::s32, 0);
-      d.status.position_counts = position;
+    // Ramps and zero speed first (`SPD 0;` brakes a motor still running), then at rest the
+    // position the relative STP is computed from (settle: EN/CN #44 counts STP from the
+    // position at its receipt, which must be the position read).
+    run_sequence(c, d, {set(Mnemonic::MAC, axis.acceleration), set(Mnemonic::MDE, axis.deceleration), set(Mnemonic::SPD, 0)},
+                 [this, &c, &d, &axis, loaded, id](TimePoint t0) {
+    settle(d, id, t0 + kRestLimit, [this, &c, &d, &axis, loaded](TimePoint t) {
+      const std::int64_t position = d.status.position_counts;
       const std::int64_t displacement = axis.target - position;
       if (displacement == 0) {  // already there: `STP 0;` would mean "leave PT", not "move 0"
         axis.loaded = axis.arrived = true;
@@ -753,21 +782,26 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
                kOutsideLimits);
         return;
       }
-      run_sequence(c, d,
-                   {set(Mnemonic::MAC, axis.acceleration), set(Mnemonic::MDE, axis.deceleration), set(Mnemonic::SPD, 0),
-                    set(Mnemonic::STP, displacement)},
-                   [&axis, loaded](TimePoint t2) {
-                     axis.loaded = true;
-                     loaded(t2);
-                   });
+      run_sequence(c, d, {set(Mnemonic::STP, displacement)}, [&axis, loaded](TimePoint t2) {
+        axis.loaded = true;
+        loaded(t2);
+      });
     });
+                 });
   }
   (void)now;
 }
 
 void Uim242BusCore::fire(std::int64_t trigger_id, TimePoint now) {
-  for (auto& m : moves_) {
-    if (m->phase == Move::Phase::armed && m->trigger_id == trigger_id) start_move(*m, now);
+  // start_move() may end a move at once (every axis already at its target: DONE), and finish()
+  // erases it from moves_: walk a list of the command ids, and look each one up again.
+  std::vector<std::int64_t> ids;
+  for (const auto& m : moves_) {
+    if (m->phase == Move::Phase::armed && m->trigger_id == trigger_id) ids.push_back(m->command_id);
+  }
+  for (const auto id : ids) {
+    const auto it = std::find_if(moves_.begin(), moves_.end(), [id](const auto& m) { return m->command_id == id; });
+    if (it != moves_.end() && (*it)->phase == Move::Phase::armed) start_move(**it, now);
   }
 }
 
@@ -872,6 +906,35 @@ void Uim242BusCore::fail_moves_of(const Drive& d, const std::string& reason, std
   for (const auto id : failed) finish(id, false, reason, code);
 }
 
+void Uim242BusCore::settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then) {
+  submit(d, bare(Mnemonic::FBK), group, [this, &d, group, give_up, then = std::move(then)](const Frame& f, TimePoint t) mutable {
+    const auto s = uim242::decode_status(f);
+    const std::int64_t speed = s ? s->speed : 0;
+    if (speed != 0) {
+      d.status.moving = true;
+      d.status.velocity_counts = static_cast<double>(speed);
+      if (t >= give_up) {
+        finish(group, false, fmt::format("{} (node {}): still moving at {} pps, not at rest within {} s", d.name, d.node, speed,
+                                         std::chrono::duration_cast<std::chrono::seconds>(kRestLimit).count()),
+               kDriveError);
+        return;
+      }
+      rest_checks_.push_back({t + kRestCheck, &d, group, give_up, std::move(then)});
+      return;
+    }
+    // At rest: the real position, published not moving before anything plans from it.
+    submit(d, bare(Mnemonic::QEC), group, [this, &d, then = std::move(then)](const Frame& q, TimePoint t2) {
+      const std::int64_t position = field(q, uim242::Layout::s32, 0);
+      d.status.position_counts = position;
+      d.last_polled_position = position;
+      d.status.moving = false;
+      d.status.velocity_counts = 0;
+      publish(d, t2);
+      then(t2);
+    }, true);
+  }, true);
+}
+
 void Uim242BusCore::homed(Drive& d, std::int64_t offset, TimePoint now) {
   d.status.homed = true;
   d.status.position_counts = offset;
@@ -885,7 +948,11 @@ void Uim242BusCore::home(Command& c, Drive& d, const config::Axis& axis, const m
   const std::int64_t id = c.command.command_id;
   // Offset and velocity in counts as the coordinator computed them (with the axis's direction).
   const std::int64_t offset = a.target_counts;
-  if (axis.homing.method != config::HomingMethod::kSwitch) {
+  if (axis.homing.method == config::HomingMethod::kNone) {
+    finish(id, false, fmt::format("axis '{}' has no homing method configured", axis.name), kUnsupported);
+    return;
+  }
+  if (axis.homing.method == config::HomingMethod::kCurrentPosition) {
     // No switch: the current position becomes the home position (ORG, #28/#29).
     run_sequence(c, d, {set(Mnemonic::ORG, offset)}, [this, id, &d, offset](TimePoint now) {
       homed(d, offset, now);
@@ -902,19 +969,21 @@ void Uim242BusCore::home(Command& c, Drive& d, const config::Axis& axis, const m
   if (velocity == 0) velocity = -0.1 * axis.limits.max_velocity * axis.steps_per_unit * (axis.invert ? -1.0 : 1.0);
   const std::int64_t speed = std::clamp<std::int64_t>(std::llround(velocity), -kSpeedMax, kSpeedMax);
   // Read the sensor registers, bind 1100 (reset position + emergency stop) to the switch's
-  // falling edge (a hit switch outputs 0 V, EN §8.10), then run towards it.
-  submit(d, bare(Mnemonic::SCF), id, [this, &c, &d, input, speed, offset](const Frame& f, TimePoint) {
+  // configured edge (falling by default: a hit switch outputs 0 V, EN §8.10), then run towards
+  // it. S12CON = S2RACT S2FACT S1RACT S1FACT, S34CON's low byte S3RACT S3FACT (EN/CN §8.6, §8.7).
+  const bool rising = axis.homing.edge == config::HomingEdge::kRising;
+  submit(d, bare(Mnemonic::SCF), id, [this, &c, &d, input, rising, speed, offset](const Frame& f, TimePoint) {
     const auto s34_s12 = static_cast<std::uint32_t>(field(f, uim242::Layout::scf, 0));
     const bool s3 = input == 3;
     const auto reg = static_cast<std::uint16_t>(s3 ? s34_s12 >> 16 : s34_s12 & 0xFFFF);
-    const int shift = input == 2 ? 8 : 0;
+    const int shift = (input == 2 ? 8 : 0) + (rising ? 4 : 0);
     const auto bound = static_cast<std::uint16_t>((reg & ~(0xF << shift)) | (kResetAndEmergencyStop << shift));
     const auto which = s3 ? uim242::SensorRegister::S34CON : uim242::SensorRegister::S12CON;
     d.homing_restore = {which, reg};
-    d.homing_edge = static_cast<uim242::Event>(0xA0 + 2 * (input - 1));
+    d.homing_edge = static_cast<uim242::Event>(0xA0 + 2 * (input - 1) + (rising ? 1 : 0));
     d.homing_offset = offset;
-    run_sequence(c, d, {uim242::make_scf({which, bound}), set(Mnemonic::STP, 0), set(Mnemonic::SPD, speed)},
-                 [&d, &c](TimePoint) { d.homing_command = c.command.command_id; });
+    d.homing_command = c.command.command_id;  // from here on, an end without the edge restores the register
+    run_sequence(c, d, {uim242::make_scf({which, bound}), set(Mnemonic::STP, 0), set(Mnemonic::SPD, speed)}, [](TimePoint) {});
   });
 }
 

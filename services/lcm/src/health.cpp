@@ -30,10 +30,22 @@ HealthPublisher::HealthPublisher(EventLoop& loop, Node& node, std::string proces
 HealthPublisher::~HealthPublisher() { loop_.cancel(timer_); }
 
 void HealthPublisher::set_state(std::int8_t state, std::string detail) {
-  const bool changed = state != msg_.state || detail != msg_.detail;
+  const bool changed = state != msg_.state || detail != detail_;
   msg_.state = state;
-  msg_.detail = std::move(detail);
+  detail_ = std::move(detail);
   if (changed) publish_now();
+}
+
+std::string HealthPublisher::detail_with_counters(const std::string& detail, std::uint64_t malformed,
+                                                  std::uint64_t handler_errors) {
+  std::string out = detail;
+  const auto append = [&out](std::uint64_t n, const char* what) {
+    if (n == 0) return;
+    out += (out.empty() ? "" : "; ") + std::to_string(n) + what;
+  };
+  append(malformed, " malformed LCM messages dropped");
+  append(handler_errors, " LCM handler errors");
+  return out;
 }
 
 void HealthPublisher::publish_now() {
@@ -41,6 +53,7 @@ void HealthPublisher::publish_now() {
   msg_.uptime_s = std::chrono::duration<double>(loop_.now() - started_).count();
   msg_.buses = bus_stats_ ? bus_stats_() : std::vector<motionlcm::bus_stats_t>{};
   msg_.num_buses = static_cast<std::int32_t>(msg_.buses.size());
+  msg_.detail = detail_with_counters(detail_, node_.malformed_count(), node_.handler_errors());
   node_.publish(channels::kHealth, msg_);
 }
 

@@ -365,6 +365,22 @@ TEST_F(TwoDriveTest, StopFailsTheRunningMoveAndEndsDoneWhenStill) {
   EXPECT_EQ(out.of(13).back().status, kDone);
 }
 
+TEST_F(TwoDriveTest, EstopStopsAtOnceAndReleasesTheMotorLikeEveryFamily) {
+  banks[1].completes_moves = false;
+  core->execute(arm(16, 0, {{"c", 50000}}), now);
+  run_for(250ms);
+  core->execute(command(17, std::int8_t{Command::ESTOP}, {"c"}), now);
+  run_for(250ms);
+  ASSERT_EQ(out.terminal(17), 1);
+  EXPECT_EQ(out.of(17).back().status, kDone);
+  // Emergency stop (0x00C8 = 0x0100), then release (0x00D4 = 1), §8.67.
+  EXPECT_TRUE(was_sent(hex(with_crc({0x01, 0x06, 0x00, 0xC8, 0x01, 0x00}))));
+  EXPECT_TRUE(was_sent(hex(with_crc({0x01, 0x06, 0x00, 0xD4, 0x00, 0x01}))));
+  const auto last = std::find_if(out.statuses.rbegin(), out.statuses.rend(), [](const auto& s) { return s.first == "c"; });
+  ASSERT_NE(last, out.statuses.rend());
+  EXPECT_FALSE(last->second.enabled);
+}
+
 TEST_F(TwoDriveTest, DisarmEndsTheArmedMoveAndIsDone) {
   core->execute(arm(14, 99, {{"c", 1000}, {"d", 2000}}), now);
   run_for(80ms);

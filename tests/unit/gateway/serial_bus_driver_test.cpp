@@ -120,7 +120,8 @@ TEST_F(SerialBusDriverTest, RetriesUntilThePortExistsWithOneEventPerCause) {
   driver_->start();
   EXPECT_FALSE(driver_->port_open());
   EXPECT_FALSE(driver_->ready());
-  EXPECT_EQ(driver_->statistics().at(0).state, "closed");
+  // The bus state says why it is closed (the gateway's heartbeat, `motionctl health`).
+  EXPECT_EQ(driver_->statistics().at(0).state, "closed: cannot open " + path_ + ": No such file or directory");
   run_until([] { return false; }, milliseconds(100));  // several retries
   ASSERT_EQ(out_.events.size(), 1u);
   EXPECT_EQ(out_.events[0].first, "");
@@ -173,12 +174,39 @@ TEST_F(SerialBusDriverTest, HangUpIsALostLineThenTheCoreStartsAgain) {
   ASSERT_TRUE(run_until([&] { return !core_->lost.empty(); }));
   EXPECT_FALSE(driver_->port_open());
   EXPECT_FALSE(core_->write("FBK;")) << "a write while the port is closed is refused";
-  EXPECT_EQ(driver_->statistics().at(0).state, "closed");
+  EXPECT_EQ(driver_->statistics().at(0).state.rfind("closed: " + path_ + " lost: ", 0), 0u) << driver_->statistics().at(0).state;
 
   make_link();
   ASSERT_TRUE(run_until([&] { return driver_->port_open(); }));
   EXPECT_EQ(core_->starts, 2);
   EXPECT_EQ(core_->lost.size(), 1u);
+}
+
+// Even and odd parity (the Modbus RTU default is even) on a simulated line: a pty may refuse
+// PARENB (tcsetattr EINVAL), so both ends open it with the parity modelled, counted in the
+// character time (1 start + 8 data + parity + stop = 11 bits at 8E1), and bytes still pass.
+TEST_F(SerialBusDriverTest, EvenAndOddParityOpenOnAPtyWithTheParityBitCounted) {
+  for (const auto parity : {serial::Parity::even, serial::Parity::odd}) {
+    SCOPED_TRACE(parity == serial::Parity::even ? "even" : "odd");
+    const serial::SerialSettings line{19200, parity, 8, 1};
+    EXPECT_EQ(line.bits_per_character(), 11);
+    EXPECT_EQ(line.wire_time(192), milliseconds(110));  // 192 x 11 bits at 19200 bit/s
+    std::error_code error;
+    auto link = serial::PtyLink::create(path_, line, error);
+    ASSERT_TRUE(link) << error.message();
+    SerialBusDriver driver(loop_, "rs485", path_, line, out_, [this](SerialBusDriver::Write w) {
+      auto core = std::make_unique<ScriptedCore>(std::move(w));
+      core_ = core.get();
+      return core;
+    });
+    driver.start();
+    ASSERT_TRUE(driver.port_open()) << driver.statistics().at(0).state;
+    EXPECT_EQ(driver.statistics().at(0).state, "open");
+    ASSERT_TRUE(core_->write("\x01\x03"));
+    std::array<char, 16> buffer{};
+    ASSERT_TRUE(run_until([&] { return ::read(link->master_fd(), buffer.data(), buffer.size()) == 2; }));
+    EXPECT_EQ(std::string(buffer.data(), 2), "\x01\x03");
+  }
 }
 
 }  // namespace

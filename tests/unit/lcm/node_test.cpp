@@ -4,7 +4,13 @@
 
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/health_t.hpp>
+#include <motionlcm/request_t.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <set>
 #include <stdexcept>
+#include <thread>
 
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/health.hpp"
@@ -54,6 +60,107 @@ TEST(LcmNode, MalformedMessageIsCountedAndNotDelivered) {
   EXPECT_EQ(delivered, 0);
   EXPECT_NE(what.find("T2_EVENT"), std::string::npos) << what;
   EXPECT_NE(what.find("event_t"), std::string::npos) << what;
+  EXPECT_NE(what.find("3 bytes"), std::string::npos) << what;
+}
+
+// A flood of malformed messages: every one counted, at most 5 reports per second and
+// subscription, the rest summed up in one "N more ... suppressed" line.
+TEST(LcmNode, MalformedReportsAreRateLimitedAndSummarized) {
+  EventLoop loop;
+  Node node(loop, {testing::unique_lcm_url(6), "T6_"});
+  ASSERT_TRUE(node.ok());
+  std::vector<std::string> reports;
+  node.on_malformed([&](const std::string& w) { reports.push_back(w); });
+  int delivered = 0;
+  node.subscribe<motionlcm::event_t>(channels::kEvent, [&](const motionlcm::event_t&, const std::string&) { ++delivered; });
+  constexpr int kFlood = 200;
+  for (int i = 0; i < kFlood; ++i) ASSERT_TRUE(node.publish_raw("T6_EVENT", {1, 2, 3}));
+  run_until(loop, [&] { return node.malformed_count() >= kFlood; });
+  ASSERT_EQ(node.malformed_count(), std::uint64_t{kFlood});
+  // The summary comes when the window ends.
+  run_until(loop, [&] { return !reports.empty() && reports.back().find("suppressed") != std::string::npos; });
+  EXPECT_EQ(delivered, 0);
+  std::uint64_t reported = 0;
+  std::uint64_t suppressed = 0;
+  for (const auto& r : reports) {
+    if (r.find("suppressed") != std::string::npos) {
+      suppressed += std::stoull(r);
+      EXPECT_NE(r.find("T6_EVENT"), std::string::npos) << r;
+    } else {
+      ++reported;
+    }
+  }
+  EXPECT_LE(reported, 10u) << "at most 5 per second (the flood may straddle two windows)";
+  EXPECT_GE(reported, 5u);
+  EXPECT_EQ(reported + suppressed, std::uint64_t{kFlood});
+  EXPECT_EQ(node.malformed_suppressed(), suppressed);
+}
+
+TEST(MalformedLimiter, FivePerWindowThenOneSummaryAfterIt) {
+  MalformedLimiter limiter(5, std::chrono::seconds(1));
+  const TimePoint t0{};
+  int admitted = 0;
+  for (int i = 0; i < 12; ++i) admitted += limiter.admit(t0 + milliseconds(i)) ? 1 : 0;
+  EXPECT_EQ(admitted, 5);
+  EXPECT_TRUE(limiter.summary_pending());
+  EXPECT_EQ(limiter.take_summary(t0 + milliseconds(999)), 0u) << "not before the window ends";
+  EXPECT_EQ(limiter.window_end(), t0 + std::chrono::seconds(1));
+  EXPECT_EQ(limiter.take_summary(t0 + std::chrono::seconds(1)), 7u);
+  EXPECT_EQ(limiter.take_summary(t0 + std::chrono::seconds(2)), 0u) << "handed out once";
+  EXPECT_TRUE(limiter.admit(t0 + std::chrono::seconds(3))) << "a new window reports again";
+  EXPECT_EQ(limiter.total(), 13u);
+  EXPECT_EQ(limiter.suppressed_total(), 7u);
+}
+
+TEST(LcmNode, UdpmUrlsGetAReceiveBuffer) {
+  EXPECT_EQ(Node::url_with_receive_buffer("udpm://239.255.76.67:7667?ttl=0", 4096),
+            "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4096");
+  EXPECT_EQ(Node::url_with_receive_buffer("udpm://239.255.76.67:7667", 4096), "udpm://239.255.76.67:7667?recv_buf_size=4096");
+  EXPECT_EQ(Node::url_with_receive_buffer("", 4096), std::string(kLcmDefaultUrl) + "&recv_buf_size=4096");
+  EXPECT_EQ(Node::url_with_receive_buffer("udpm://239.255.76.67:7667?recv_buf_size=100", 4096),
+            "udpm://239.255.76.67:7667?recv_buf_size=100")
+      << "the URL's own setting wins";
+  EXPECT_EQ(Node::url_with_receive_buffer("file:///tmp/x.log?mode=r", 4096), "file:///tmp/x.log?mode=r");
+  EXPECT_GT(Node::default_receive_buffer(), 0);
+  EXPECT_LE(Node::default_receive_buffer(), 8 << 20);
+}
+
+// 1000 requests from 4 senders without pacing all reach one node (LCM's default per-subscription
+// queue of 30 messages and the kernel's default receive buffer lost a quarter to two thirds).
+TEST(LcmNode, BurstOf1000RequestsFromFourSendersIsReceivedWhole) {
+  const std::string url = testing::unique_lcm_url(7);
+  EventLoop loop;
+  Node node(loop, {url, "T7_"});
+  ASSERT_TRUE(node.ok());
+  std::set<std::pair<std::string, std::int64_t>> seen;
+  node.subscribe<motionlcm::request_t>(channels::kRequest, [&](const motionlcm::request_t& r, const std::string&) {
+    seen.emplace(r.client_id, r.request_id);
+  });
+  constexpr int kSenders = 4;
+  constexpr int kEach = 250;
+  std::atomic<int> ready{0};
+  std::atomic<int> sent{0};
+  std::vector<std::thread> senders;
+  for (int s = 0; s < kSenders; ++s) {
+    senders.emplace_back([&, s] {
+      ::lcm::LCM lcm(url);
+      ++ready;
+      while (ready.load() < kSenders) std::this_thread::yield();
+      motionlcm::request_t r{};
+      r.client_id = "sender" + std::to_string(s);
+      r.kind = motionlcm::request_t::STOP;
+      for (int i = 0; i < kEach; ++i) {
+        r.request_id = i;
+        if (lcm.publish("T7_REQUEST", &r) == 0) ++sent;
+      }
+    });
+  }
+  run_until(loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(10000));
+  for (auto& t : senders) t.join();
+  run_until(loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(2000));
+  EXPECT_EQ(sent.load(), kSenders * kEach);
+  EXPECT_EQ(seen.size(), std::size_t{kSenders * kEach});
+  EXPECT_EQ(node.malformed_count(), 0u);
 }
 
 TEST(LcmNode, ThrowingHandlerDoesNotEscape) {
@@ -99,6 +206,25 @@ TEST(HealthPublisher, PublishesPeriodicallyWithBusStats) {
   ASSERT_EQ(beats.back().num_buses, 1);
   EXPECT_EQ(beats.back().buses[0].tx_frames, 17);
   EXPECT_GT(beats.back().pid, 0);
+}
+
+TEST(HealthPublisher, DetailShowsMalformedMessagesAndHandlerErrors) {
+  EventLoop loop;
+  Node node(loop, {testing::unique_lcm_url(8), "T8_"});
+  ASSERT_TRUE(node.ok());
+  node.on_malformed([](const std::string&) {});
+  std::vector<motionlcm::health_t> beats;
+  node.subscribe<motionlcm::health_t>(channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { beats.push_back(h); });
+  node.subscribe<motionlcm::event_t>(channels::kEvent, [](const motionlcm::event_t&, const std::string&) {});
+  HealthPublisher health(loop, node, "gateway:can0", "gateway", milliseconds(20));
+  health.set_state(motionlcm::health_t::OK, "2 axes ready");
+  ASSERT_TRUE(node.publish_raw("T8_EVENT", {9, 9, 9, 9}));
+  ASSERT_TRUE(node.publish_raw("T8_EVENT", {9}));
+  run_until(loop, [&] { return !beats.empty() && beats.back().detail.find("malformed") != std::string::npos; });
+  ASSERT_FALSE(beats.empty());
+  EXPECT_EQ(beats.back().detail, "2 axes ready; 2 malformed LCM messages dropped");
+  EXPECT_EQ(HealthPublisher::detail_with_counters("", 0, 3), "3 LCM handler errors");
+  EXPECT_EQ(HealthPublisher::detail_with_counters("ok", 0, 0), "ok");
 }
 
 }  // namespace

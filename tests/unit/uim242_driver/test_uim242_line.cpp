@@ -19,6 +19,7 @@
 #include <motionlcm/param_t.hpp>
 #include <motionlcm/sim_control_t.hpp>
 
+#include "motion/lcm/reply_error.hpp"
 #include "motion/sim/serial_line_host.hpp"
 #include "motion/sim/uim242_gateway_sim.hpp"
 #include "motion/testing/pump.hpp"
@@ -338,6 +339,104 @@ TEST_F(Uim242Line, RegisterWriteBeyondItsRegisterIsRefusedNotNarrowed) {
   EXPECT_EQ(out_.find(3, gateway_reply_t::DONE)->param.value, 0);
   ASSERT_NE(out_.find(4, gateway_reply_t::DONE), nullptr);
   EXPECT_EQ(out_.find(4, gateway_reply_t::DONE)->param.value, 0);
+}
+
+// Two armed moves on one trigger, every axis already at its target: the trigger ends each at
+// once (DONE, start mechanism "none"), which removes it from the list fire() walks.
+TEST_F(Uim242Line, TriggerOfTwoMovesAlreadyAtTheirTargetsEndsBothOnce) {
+  ASSERT_NO_FATAL_FAILURE(enable("u1", 1));
+  ASSERT_NO_FATAL_FAILURE(enable("u2", 2));
+  constexpr std::int64_t kTrigger = 7;
+  driver_->execute(command(3, gateway_command_t::ARM_MOVE, {axis("u1", 0)}, kTrigger));
+  driver_->execute(command(4, gateway_command_t::ARM_MOVE, {axis("u2", 0)}, kTrigger));
+  ASSERT_TRUE(run_until([&] { return out_.find(3, gateway_reply_t::ARMED) && out_.find(4, gateway_reply_t::ARMED); }));
+  driver_->fire(kTrigger);
+  ASSERT_TRUE(run_until([&] { return ended(3) && ended(4); }));
+  for (const std::int64_t id : {3, 4}) {
+    ASSERT_NE(out_.find(id, gateway_reply_t::DONE), nullptr) << id;
+    ASSERT_NE(out_.find(id, gateway_reply_t::STARTED), nullptr) << id;
+    EXPECT_EQ(out_.find(id, gateway_reply_t::STARTED)->start_mechanism, "none");
+    EXPECT_EQ(out_.terminals(id), 1) << id;
+  }
+  EXPECT_EQ(starts_of("u1-drive") + starts_of("u2-drive"), 0u);
+}
+
+// A command id still in use is refused (FAILED, naming the id), as by the CAN stacks and the
+// ADAM master; the command that has it goes on and ends once.
+TEST_F(Uim242Line, ReusedCommandIdIsRefusedAndTheRunningCommandGoesOn) {
+  ASSERT_NO_FATAL_FAILURE(enable("u1", 1));
+  constexpr std::int64_t kTrigger = 9;
+  driver_->execute(command(2, gateway_command_t::ARM_MOVE, {axis("u1", 800)}, kTrigger));
+  ASSERT_TRUE(run_until([&] { return out_.find(2, gateway_reply_t::ARMED) != nullptr; }));
+  driver_->execute(command(2, gateway_command_t::ARM_MOVE, {axis("u1", 1600)}, kTrigger));
+  const auto* refused = out_.find(2, gateway_reply_t::FAILED);
+  ASSERT_NE(refused, nullptr) << "a reused command id was accepted";
+  EXPECT_NE(refused->reason.find("command id 2 is already in progress"), std::string::npos) << refused->reason;
+  EXPECT_EQ(refused->error_code, error_code(ReplyError::kMalformedRequest));
+  run_until([] { return false; }, milliseconds(100));
+  const auto armed = std::count_if(out_.replies.begin(), out_.replies.end(), [](const gateway_reply_t& r) {
+    return r.command_id == 2 && r.status == st(gateway_reply_t::ARMED);
+  });
+  EXPECT_EQ(armed, 1);
+  driver_->fire(kTrigger);
+  ASSERT_TRUE(run_until([&] { return out_.find(2, gateway_reply_t::DONE) != nullptr; }));
+  EXPECT_EQ(out_.status["u1"].position_counts, 800) << "the first command's target";
+  EXPECT_EQ(starts_of("u1-drive"), 1u);
+}
+
+// STOP mid-move: DONE only at rest, with the position the drive really stopped at published not
+// moving; a move armed right after it from there ends exactly at its target (its relative STP is
+// computed from a position read at rest, not from one read while the motor still decelerated).
+TEST_F(Uim242Line, StopMidMoveThenMoveAtOnceEndsExactlyAtTheTarget) {
+  ASSERT_NO_FATAL_FAILURE(enable("u1", 1));
+  auto far = axis("u1", 16000, 3200);
+  far.acceleration = far.deceleration = 4000;  // 0.8 s of braking from 3200 pps
+  driver_->execute(command(2, gateway_command_t::ARM_MOVE, {far}));
+  ASSERT_TRUE(run_until([&] { return out_.find(2, gateway_reply_t::STARTED) != nullptr; }));
+  ASSERT_TRUE(run_until([&] { return out_.status["u1"].position_counts > 1000 && out_.status["u1"].velocity_counts > 2000; }));
+  driver_->execute(command(3, gateway_command_t::STOP, {axis("u1")}));
+  ASSERT_TRUE(run_until([&] { return ended(3); }));
+  ASSERT_NE(out_.find(3, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  ASSERT_NE(out_.find(2, gateway_reply_t::FAILED), nullptr);
+  const auto& at_stop = out_.status_at_end.at(3).at("u1");
+  EXPECT_FALSE(at_stop.moving);
+  // Ground truth: where the simulated drive reported its motion finished.
+  const auto finished = std::find_if(reports_.rbegin(), reports_.rend(), [](const motionlcm::sim_report_t& r) {
+    return r.drive == "u1-drive" && r.kind == st(motionlcm::sim_report_t::MOTION_FINISHED);
+  });
+  ASSERT_NE(finished, reports_.rend()) << "STOP ended before the drive was at rest";
+  EXPECT_EQ(at_stop.position_counts, finished->position_counts) << "published position at STOP's DONE is stale";
+
+  constexpr std::int64_t kTarget = 4000;
+  driver_->execute(command(4, gateway_command_t::ARM_MOVE, {axis("u1", kTarget, 3200)}));
+  ASSERT_TRUE(run_until([&] { return ended(4); }));
+  ASSERT_NE(out_.find(4, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  ASSERT_TRUE(run_until([&] { return !out_.status["u1"].moving && out_.status["u1"].sample_utime > out_.status_at_end.at(4).at("u1").sample_utime; }));
+  EXPECT_EQ(out_.status["u1"].position_counts, kTarget) << "polled back from the drive";
+}
+
+// A switch homing run that ends without its edge (stopped here) unbinds the reset + e-stop action
+// it put on the switch: S12CON reads back as it was before the homing.
+TEST_F(Uim242Line, StoppedSwitchHomingRestoresTheSensorRegister) {
+  ASSERT_NO_FATAL_FAILURE(enable("u2", 1));
+  driver_->execute(command(2, gateway_command_t::HOME, {axis("u2", -160, -800)}));
+  ASSERT_TRUE(run_until([&] { return starts_of("u2-drive") == 1; }));
+  driver_->execute(command(3, gateway_command_t::STOP, {axis("u2")}));
+  ASSERT_TRUE(run_until([&] { return ended(2) && ended(3); }));
+  ASSERT_NE(out_.find(2, gateway_reply_t::FAILED), nullptr);
+  EXPECT_FALSE(out_.status["u2"].homed);
+  auto read = param(4, gateway_command_t::PARAM_READ, "SCF", 0);
+  read.axes = {axis("u2")};
+  driver_->execute(read);
+  ASSERT_TRUE(run_until([&] { return ended(4); }));
+  ASSERT_NE(out_.find(4, gateway_reply_t::DONE), nullptr);
+  EXPECT_EQ(out_.find(4, gateway_reply_t::DONE)->param.value, 0) << "S1 still bound to reset + e-stop";
+  // Crossing the switch now neither zeroes the position nor reports homed.
+  const auto before = out_.status["u2"].position_counts;
+  ASSERT_TRUE(sim_control("u2-drive", motionlcm::sim_control_t::SET_INPUT, 1, 0));
+  run_until([] { return false; }, milliseconds(200));
+  EXPECT_EQ(out_.status["u2"].position_counts, before);
+  EXPECT_FALSE(out_.status["u2"].homed);
 }
 
 }  // namespace

@@ -2,8 +2,11 @@
 // shared by the serial families, around one passive protocol core (SerialLineCore: bytes and
 // `now` in, bytes out through the Write it was built with, the next deadline out of process()):
 //  * opens the bus's serial port (serial:<device>, or the simserial link motion-sim publishes),
-//    non-blocking; while it cannot (motion-sim not up yet, adapter unplugged) it retries every
-//    `reopen_period`, reports the bus "closed" and raises one OFFLINE event per distinct cause;
+//    non-blocking; while it cannot (motion-sim not up yet, adapter unplugged, no permission) it
+//    retries every `reopen_period`, reports the bus state as "closed: <why>" in its statistics
+//    (the gateway's heartbeat, `motionctl health`), e.g. "closed: cannot open /dev/ttyUSB0:
+//    Permission denied", and raises one OFFLINE event per distinct cause;
+//  * a parity the pty of a simulated line refuses is modelled, not set (serial_port.hpp);
 //  * watches the port's fd and hands what it reads to the core with `now`; after EVERY call into
 //    the core it calls process(now) and keeps ONE timer at the returned deadline: never a busy
 //    wait, never a blocking call;
@@ -67,6 +70,7 @@ class SerialBusDriver : public BusDriver {
   EventLoop::TimerId timer_ = 0;
   EventLoop::TimerId reopen_timer_ = 0;
   std::string last_open_error_;
+  std::string closed_because_;  // why the port is not open ("" before the first attempt)
 };
 
 }  // namespace motion::gateway

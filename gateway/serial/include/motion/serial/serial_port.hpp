@@ -10,8 +10,6 @@
 // writes return what the kernel took at once (EAGAIN is reported as "would block", not waited for).
 #pragma once
 
-#include <cstddef>
-#include <cstdint>
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
@@ -53,8 +51,13 @@ struct SerialSettings {
 // (e.g. 14400 and 56000, which the ADAM baud register lists, have none on Linux).
 [[nodiscard]] bool termios_speed(int baud, unsigned& speed_constant);
 
-// Applies raw 8-bit settings to an open tty fd (shared by SerialPort and the pty creator).
-[[nodiscard]] std::error_code configure_tty(int fd, const SerialSettings& settings);
+// True when `fd` is the slave side of a Unix 98 pseudo-terminal (/dev/pts/N).
+[[nodiscard]] bool is_pty(int fd);
+
+// Applies raw 8-bit settings to an open tty fd (shared by SerialPort and the pty creator). When
+// the fd is a pty that refuses the parity (see above), it is configured without PARENB and
+// `parity_modelled` is set; a real device that refuses it fails with the kernel's error.
+[[nodiscard]] std::error_code configure_tty(int fd, const SerialSettings& settings, bool& parity_modelled);
 
 class SerialPort {
  public:
@@ -68,7 +71,10 @@ class SerialPort {
 
   [[nodiscard]] int fd() const { return fd_; }
   [[nodiscard]] const std::string& path() const { return path_; }
+  // The configured settings (with their parity: the character time counts the parity bit).
   [[nodiscard]] const SerialSettings& settings() const { return settings_; }
+  // True when the parity is counted but not set on the tty (a pty that refuses PARENB).
+  [[nodiscard]] bool parity_modelled() const { return parity_modelled_; }
 
   // Reads what is available into `buffer`. Returns bytes read (0: nothing available right now);
   // `error` set on a real error or a hang-up (EIO; e.g. the pty's master side closed: a hung-up
@@ -79,10 +85,11 @@ class SerialPort {
   std::error_code write(std::span<const std::uint8_t> frame);
 
  private:
-  SerialPort(int fd, std::string path, SerialSettings settings);
+  SerialPort(int fd, std::string path, SerialSettings settings, bool parity_modelled);
   int fd_ = -1;
   std::string path_;
   SerialSettings settings_;
+  bool parity_modelled_ = false;
 };
 
 }  // namespace motion::serial

@@ -18,13 +18,21 @@
 //   (exact trapezoids), `STP 0;` (velocity mode, at rest). An unanswered drive is offline and
 //   identified again every second.
 // * Polling at poll_hz, one request at a time: `FBK;` (enabled, speed) and `QEC;` (position).
-// * ARM_MOVE: `QEC;` then `MAC a; MDE d; SPD 0; STP (target - position);` — the move is loaded with
-//   zero speed and does not run (spec §5.3 PT). ARMED when every axis is loaded.
+// * ARM_MOVE: `MAC a; MDE d; SPD 0;` (brakes whatever still runs), then at rest (below) `STP
+//   (target - position);` — the move is loaded with zero speed and does not run (spec §5.3 PT).
+//   STP is relative to the position at its receipt (EN/CN #44), so the position it is computed
+//   from is read with the motor at rest: a `QEC;` of a decelerating motor would leave the move
+//   off by the counts run meanwhile. ARMED when every axis is loaded.
+// * "At rest" (settle): `FBK;` until the actual speed is 0 (re-asked every 10 ms, given up after
+//   10 s naming the drive and its speed), then `QEC;`: the real position goes out in the axis
+//   state, not moving, before whatever waited for it goes on.
 // * fire(trigger): when the armed axes are every controller of the bus and share one speed, one
 //   `gSPD v;` starts them all ("broadcast", skew 0); otherwise `SPD v_i;` axis by axis
 //   ("sequential", skew = the serial time of the other axes' starts). trigger 0 = at once.
 //   DONE when every axis reported A8 or was polled at its target at rest.
-// * JOG `STP 0; MAC; MDE; SPD v;`. STOP `STP 0;` (ramped stop, leaves PT). ESTOP `OFF;` (the only
+// * JOG `STP 0; MAC; MDE; SPD v;`. STOP `STP 0;` (ramped stop, leaves PT), DONE at rest with the
+//   position re-read (settle): a move planned right after it starts from where the axis really
+//   stopped. ESTOP `OFF;` (the only
 //   immediate stop the manual offers; `gOFF;` when every drive of the bus is named).
 //   ENABLE `ENA;`, DISABLE `OFF;`, SET_POSITION `ORG η;`, SET_OUTPUTS `DOU η;` (output 1 = P4),
 //   FAULT_RESET clears the latched stall and checks the drive answers (`FBK;`).
@@ -120,6 +128,9 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   void start_move(Move& m, TimePoint now);
   void move_axis_arrived(Drive& d, TimePoint now);
   void fail_moves_of(const Drive& d, const std::string& reason, std::int32_t code);
+  // Waits (for command `group`) until `d` is at rest, re-reads and publishes its position, then
+  // calls `then`; the command FAILS when it still moves at `give_up`.
+  void settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then);
   void home(Command& c, Drive& d, const config::Axis& axis, const motionlcm::axis_command_t& a);
   void homed(Drive& d, std::int64_t offset, TimePoint now);
   void param(const motionlcm::gateway_command_t& command, Drive& d, bool write);
@@ -133,6 +144,14 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   std::vector<std::unique_ptr<Drive>> drives_;
   std::map<std::int64_t, std::unique_ptr<Command>> commands_;
   std::vector<std::unique_ptr<Move>> moves_;
+  struct RestCheck {
+    TimePoint due;
+    Drive* drive = nullptr;
+    std::int64_t group = 0;
+    TimePoint give_up;
+    std::function<void(TimePoint)> then;
+  };
+  std::vector<RestCheck> rest_checks_;  // settles waiting for their next `FBK;`
   TimePoint next_poll_{};
   TimePoint next_identify_{};
   std::int64_t protocol_errors_ = 0;

@@ -1,4 +1,6 @@
-// Heartbeat publisher (health_t on <prefix>HEALTH every period) for every process.
+// Heartbeat publisher (health_t on <prefix>HEALTH every period) for every process. The detail
+// it publishes is the one set_state() gave, followed by the node's counters of malformed LCM
+// messages and handler errors when they are not zero ("...; 12 malformed LCM messages dropped").
 // Thread contract: loop thread only.
 #pragma once
 
@@ -28,10 +30,14 @@ class HealthPublisher {
   // Publishes at once (state changes, and the last STOPPING heartbeat on shutdown).
   void publish_now();
 
+  [[nodiscard]] static std::string detail_with_counters(const std::string& detail, std::uint64_t malformed,
+                                                        std::uint64_t handler_errors);
+
  private:
   EventLoop& loop_;
   Node& node_;
   motionlcm::health_t msg_{};
+  std::string detail_;
   TimePoint started_;
   EventLoop::TimerId timer_;
   BusStatsProvider bus_stats_;

@@ -1,9 +1,19 @@
 // The process's LCM endpoint, driven by its EventLoop (the LCM fd is one of the loop's fds).
 //
 // Thread contract: owned by the loop's thread; handlers run on it. A handler that throws is
-// caught here and counted: no exception crosses LCM's C callback. A message that fails to decode
-// (wrong type on a channel, truncated datagram) is counted and reported with its channel, never
-// handed to the handler.
+// caught here and counted: no exception crosses LCM's C callback.
+//
+// Hostile input: a typed subscription checks every message against its byte length before
+// anything is allocated (motion/lcm/wire_reader.hpp, checkers generated from the .lcm files):
+// a message that is truncated, of another type, or claims more array elements or string bytes
+// than it carries costs O(its size), is counted (malformed_count(), shown in the HEALTH
+// heartbeat's detail) and never reaches the handler. Reports of malformed messages are rate
+// limited per subscription (MalformedLimiter: 5 per second, then one "N more ... suppressed"
+// summary per second), both the log lines and the on_malformed() handler calls.
+//
+// Bursts: the UDP receive buffer defaults to min(8 MiB, net.core.rmem_max) when the URL does
+// not set recv_buf_size, and each subscription queues up to NodeOptions::queue_capacity
+// messages in LCM (LCM's own default is 30, which dropped bursts of requests).
 //
 // Channels are named <prefix><NAME> (see channels.hpp), so several independent systems can share
 // one multicast group.
@@ -20,13 +30,23 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "motion/core/event_loop.hpp"
+#include "motion/lcm/malformed_limiter.hpp"
+#include "motion/lcm/wire_bounds.hpp"
 
 namespace motion::lcm {
 
 struct NodeOptions {
   std::string url;     // empty: $LCM_DEFAULT_URL, else LCM's default
   std::string prefix;  // channel prefix, e.g. "MOTION_"
+  // Messages LCM queues per subscription before it drops (lcm_subscription_set_queue_capacity).
+  int queue_capacity = 2048;
+  // UDP receive buffer for udpm URLs without recv_buf_size; 0: default_receive_buffer();
+  // negative: the URL as given (the kernel's default, net.core.rmem_default).
+  int recv_buf_size = 0;
 };
+
+// LCM's default URL (lcm.h), used when neither the options nor $LCM_DEFAULT_URL name one.
+inline constexpr const char* kLcmDefaultUrl = "udpm://239.255.76.67:7667?ttl=0";
 
 class Node {
  public:
@@ -38,6 +58,8 @@ class Node {
 
   [[nodiscard]] bool ok() const { return ok_; }
   [[nodiscard]] const std::string& url() const { return url_; }
+  // The URL LCM was opened with: url() plus recv_buf_size for udpm.
+  [[nodiscard]] const std::string& effective_url() const { return effective_url_; }
   [[nodiscard]] const std::string& prefix() const { return prefix_; }
   [[nodiscard]] std::string channel(std::string_view name) const { return prefix_ + std::string(name); }
 
@@ -56,35 +78,51 @@ class Node {
   }
   bool publish_raw(const std::string& full_channel, const std::vector<std::uint8_t>& data);
 
-  // Subscribes to <prefix><name> (LCM regex allowed, e.g. "GW_COMMAND_.*").
+  // Subscribes to <prefix><name> (LCM regex allowed, e.g. "GW_COMMAND_.*"). Only messages that
+  // pass the bounded check and decode exactly reach `handler`.
   template <typename Msg>
   void subscribe(std::string_view name, std::function<void(const Msg&, const std::string& channel)> handler) {
-    subscribe_raw(channel(name), [handler = std::move(handler), this](const void* data, int size,
-                                                                      const std::string& ch) {
-      Msg msg;
-      if (msg.decode(data, 0, size) != size) {
-        report_malformed(ch, size, Msg::getTypeName());
-        return;
-      }
-      handler(msg, ch);
-    });
+    add_subscription(channel(name), Msg::getTypeName(),
+                     [handler = std::move(handler)](const void* data, int size, const std::string& ch) -> std::string {
+                       Msg msg;
+                       std::string why = wire::decode_bounded(data, static_cast<std::size_t>(size), msg);
+                       if (why.empty()) handler(msg, ch);
+                       return why;
+                     });
   }
 
   using RawHandler = std::function<void(const void* data, int size, const std::string& channel)>;
   void subscribe_raw(const std::string& full_channel_regex, RawHandler handler);
 
-  // Called with a description of every malformed message (default: log a warning).
+  // Called with a description of malformed messages, at the limited rate (default: log a
+  // warning): at most 5 per second per subscription, then "N more ... suppressed" once a second.
   void on_malformed(std::function<void(const std::string& what)> handler) { malformed_handler_ = std::move(handler); }
   [[nodiscard]] std::uint64_t malformed_count() const { return malformed_count_; }
   [[nodiscard]] std::uint64_t handler_errors() const { return handler_errors_; }
+  // Malformed messages counted but not reported (rate limit).
+  [[nodiscard]] std::uint64_t malformed_suppressed() const;
+
+  // `url` with recv_buf_size=bytes added when it is a udpm URL (or empty: LCM's default) without
+  // one; other URLs unchanged.
+  [[nodiscard]] static std::string url_with_receive_buffer(const std::string& url, int bytes);
+  // min(8 MiB, net.core.rmem_max) (Linux doubles what is asked up to twice rmem_max, so LCM
+  // does not warn); 2 MiB when rmem_max cannot be read.
+  [[nodiscard]] static int default_receive_buffer();
 
  private:
   struct Subscription;
-  void report_malformed(const std::string& channel, int size, const char* type_name);
+  // Decodes and delivers; returns "" or why the message is malformed.
+  using TypedHandler = std::function<std::string(const void* data, int size, const std::string& channel)>;
+  void add_subscription(const std::string& full_channel_regex, const char* type_name, TypedHandler handler);
+  void report_malformed(Subscription& sub, const std::string& channel, int size, const std::string& why);
+  void flush_suppressed(Subscription& sub);
+  void emit_malformed(const std::string& what);
 
   EventLoop& loop_;
   std::string url_;
+  std::string effective_url_;
   std::string prefix_;
+  int queue_capacity_;
   std::unique_ptr<::lcm::LCM> lcm_;
   bool ok_ = false;
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
