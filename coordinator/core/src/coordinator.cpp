@@ -82,7 +82,9 @@ constexpr std::chrono::milliseconds kReleaseTimeout{500};
 Coordinator::Coordinator(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner)
     : loop_(loop), node_(node), config_(config), planner_(std::move(planner)) {
   for (const auto& axis : config_.axes) axes_[axis.name] = AxisLive{&axis, config_.drive_of(axis), std::nullopt, {}, 0, std::nullopt, 0};
-  node_.subscribe<request_t>(lcm::channels::kRequest, [this](const request_t& m, const std::string&) { on_request(m); });
+  node_.subscribe<request_t>(
+      lcm::channels::kRequest, [this](const request_t& m, const std::string&) { on_request(m); },
+      [this](const void* data, int size, const std::string& why) { on_malformed_request(data, size, why); });
   node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
                                            [this](const motionlcm::axis_state_t& m, const std::string&) { on_axis_state(m); });
   node_.subscribe<gateway_reply_t>(lcm::channels::kGatewayReply, [this](const gateway_reply_t& m, const std::string&) { on_gateway_reply(m); });
@@ -225,6 +227,37 @@ bool Coordinator::gateway_alive(const std::string& bus) const {
 }
 
 // ---------------------------------------------------------------- requests
+
+namespace {
+std::optional<std::pair<std::string, std::int64_t>> request_ids(const void* data, int size) {
+  // request_t on the wire: fingerprint (8), utime (int64), client_id (int32 length incl. NUL,
+  // bytes, NUL), request_id (int64), all big-endian (LCM type specification).
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  const auto n = static_cast<std::size_t>(std::max(size, 0));
+  const auto be = [p](std::size_t at, std::size_t bytes) {
+    std::uint64_t v = 0;
+    for (std::size_t i = 0; i < bytes; ++i) v = (v << 8) | p[at + i];
+    return v;
+  };
+  std::size_t at = 16;
+  if (n < at + 4) return std::nullopt;
+  const auto length = static_cast<std::size_t>(be(at, 4));
+  at += 4;
+  if (length < 1 || length > n - at || n - at - length < 8 || p[at + length - 1] != 0) return std::nullopt;
+  std::string client(reinterpret_cast<const char*>(p + at), length - 1);
+  if (client.empty()) return std::nullopt;
+  return std::pair{std::move(client), static_cast<std::int64_t>(be(at + length, 8))};
+}
+}  // namespace
+
+void Coordinator::on_malformed_request(const void* data, int size, const std::string& why) {
+  const auto ids = request_ids(data, size);
+  if (!ids) return;  // nobody to answer: counted and reported by the node
+  request_t msg{};
+  msg.client_id = ids->first;
+  msg.request_id = ids->second;
+  reply_unknown(msg, reply_t::REJECTED, ReplyError::kMalformedRequest, "malformed request: " + why);
+}
 
 void Coordinator::reply_unknown(const request_t& msg, std::int8_t status, ReplyError error, const std::string& reason) {
   reply_t out{};

@@ -262,6 +262,25 @@ TEST_F(CoordinatorTest, MalformedAndDuplicateRequestsAreRejected) {
   EXPECT_NE(terminal(501).reason.find("unknown request kind 99"), std::string::npos);
 }
 
+TEST_F(CoordinatorTest, MalformedRequestWithReadableIdsIsRejectedNamingWhy) {
+  request_t r{};
+  r.client_id = "test";
+  r.request_id = 510;
+  r.kind = request_t::MOVE_ABSOLUTE;
+  r.axes = {"x", "y"};
+  r.values = {1.0, 2.0};
+  r.num_axes = 2;
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(r.getEncodedSize()));
+  ASSERT_EQ(r.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
+  bytes.resize(bytes.size() - 10);  // the arrays claim more than the message carries
+  client.publish_raw(client.channel(lcm::channels::kRequest), bytes);
+  const auto reply = terminal(510);
+  EXPECT_EQ(reply.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(reply.error_code, static_cast<int>(ReplyError::kMalformedRequest));
+  EXPECT_NE(reply.reason.find("malformed request"), std::string::npos) << reply.reason;
+  EXPECT_TRUE(gateways.commands.empty());
+}
+
 TEST_F(CoordinatorTest, DisabledFaultedAndOfflineAxesAreRejected) {
   gateways.states["x"].enabled = false;
   gateways.states["y"].fault = true;

@@ -133,6 +133,8 @@ class Coordinator {
   };
 
   void on_request(const motionlcm::request_t& msg);
+  // A request that does not decode: REJECTED (code 1) when its client and request ids are readable.
+  void on_malformed_request(const void* data, int size, const std::string& why);
   void on_axis_state(const motionlcm::axis_state_t& state);
   void on_gateway_reply(const motionlcm::gateway_reply_t& reply);
   void on_event(const motionlcm::event_t& event);

@@ -80,13 +80,22 @@ class Node {
 
   // Subscribes to <prefix><name> (LCM regex allowed, e.g. "GW_COMMAND_.*"). Only messages that
   // pass the bounded check and decode exactly reach `handler`.
+  // `on_rejected`, when given, also sees every malformed message (its bytes and why), unlimited:
+  // for a receiver that can still answer its sender (it must stay O(size)).
+  using RejectedHandler = std::function<void(const void* data, int size, const std::string& why)>;
   template <typename Msg>
-  void subscribe(std::string_view name, std::function<void(const Msg&, const std::string& channel)> handler) {
+  void subscribe(std::string_view name, std::function<void(const Msg&, const std::string& channel)> handler,
+                 RejectedHandler on_rejected = {}) {
     add_subscription(channel(name), Msg::getTypeName(),
-                     [handler = std::move(handler)](const void* data, int size, const std::string& ch) -> std::string {
+                     [handler = std::move(handler), on_rejected = std::move(on_rejected)](const void* data, int size,
+                                                                                          const std::string& ch) -> std::string {
                        Msg msg;
                        std::string why = wire::decode_bounded(data, static_cast<std::size_t>(size), msg);
-                       if (why.empty()) handler(msg, ch);
+                       if (why.empty()) {
+                         handler(msg, ch);
+                       } else if (on_rejected) {
+                         on_rejected(data, size, why);
+                       }
                        return why;
                      });
   }
