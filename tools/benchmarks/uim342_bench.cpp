@@ -175,7 +175,7 @@ std::string lab_config(int drives, bool timing, int group_id, const std::string&
   y += "axes:\n";
   for (int n = 0; n < drives; ++n) {
     y += "  - {name: a" + std::to_string(n) + ", drive: d" + std::to_string(n) +
-         ", unit: mm, steps_per_unit: 640, limits: {min: -300, max: 300, velocity: 50, acceleration: 400}}\n";
+         ", unit: mm, steps_per_unit: 640, limits: {min: -300, max: 300, velocity: 100, acceleration: 400}}\n";
   }
   y += "simulation: {runtime_dir: \"" + dir + "\", reply_latency_us: 0}\n";
   return y;

@@ -12,12 +12,17 @@
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/reply_error.hpp"
 
 namespace motion::gateway {
 
 Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config, std::string bus)
     : loop_(loop), node_(node), health_(health), config_(config), bus_(std::move(bus)), started_utime_(wall_time_us()) {
-  for (const config::Axis* axis : config_.axes_on_bus(bus_)) axes_.emplace(axis->name, axis);
+  for (const config::Axis* axis : config_.axes_on_bus(bus_)) {
+    axes_.emplace(axis->name, axis);
+    limits_.emplace(axis->name, CountLimits::of(*axis));
+  }
+  if (const config::Bus* b = config_.find_bus(bus_); b != nullptr) poll_hz_ = b->poll_hz;
   node_.subscribe<motionlcm::gateway_command_t>(lcm::channels::gateway_command(bus_),
                                                 [this](const motionlcm::gateway_command_t& c, const std::string&) { on_command(c); });
   node_.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger,
@@ -72,11 +77,12 @@ void Gateway::update_health() {
 }
 
 void Gateway::on_command(const motionlcm::gateway_command_t& command) {
-  auto fail = [&](const std::string& reason) {
+  auto fail = [&](const std::string& reason, std::int32_t code = 0) {
     motionlcm::gateway_reply_t reply{};
     reply.command_id = command.command_id;
     reply.status = motionlcm::gateway_reply_t::FAILED;
     reply.reason = reason;
+    reply.error_code = code;
     command_reply(std::move(reply));
   };
   if (command.bus != bus_) return fail("command for bus '" + command.bus + "' reached gateway of bus '" + bus_ + "'");
@@ -88,8 +94,108 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
       return fail("axis '" + a.axis + "': drive " + u->first + " is a " + u->second + " drive, which this gateway does not drive yet");
     }
   }
+  // Whoever sent it: nothing outside the configured limits reaches a drive.
+  for (const auto& a : command.axes) {
+    const auto status = last_status_.find(a.axis);
+    const auto refusal = check_axis_command(command.kind, a, limits_.at(a.axis),
+                                            status == last_status_.end() ? std::nullopt : std::optional{status->second.position_counts});
+    if (!refusal) continue;
+    DriveEvent e;
+    e.kind = motionlcm::event_t::PROTOCOL_ERROR;
+    e.severity = motionlcm::event_t::WARNING;
+    e.code = refusal->error_code;
+    e.text = fmt::format("command {} (request {}) refused: {}", command.command_id, command.request_id, refusal->reason);
+    axis_event(a.axis, e);
+    return fail(refusal->reason, refusal->error_code);
+  }
   if (!driver_) return fail("gateway of bus '" + bus_ + "' has no driver" + (waiting_.empty() ? "" : ": " + waiting_));
+  track_jogs(command);
   driver_->execute(command);
+}
+
+void Gateway::forget_jog(const std::string& axis) {
+  jogs_.erase(axis);
+  pending_motion_.erase(axis);
+}
+
+void Gateway::track_jogs(const motionlcm::gateway_command_t& command) {
+  using C = motionlcm::gateway_command_t;
+  for (const auto& a : command.axes) {
+    switch (command.kind) {
+      case C::STOP:
+      case C::ESTOP:
+      case C::DISABLE: forget_jog(a.axis); break;
+      case C::JOG: {
+        std::optional<JogWatch> watch;
+        if (a.velocity != 0) watch = JogWatch{a.velocity, a.deceleration > 0 ? a.deceleration : a.acceleration};
+        pending_motion_[a.axis] = {command.command_id, watch};
+        break;
+      }
+      case C::ARM_MOVE:
+      case C::HOME: pending_motion_[a.axis] = {command.command_id, std::nullopt}; break;
+      default: break;
+    }
+  }
+}
+
+void Gateway::jog_reply(const motionlcm::gateway_reply_t& reply) {
+  using R = motionlcm::gateway_reply_t;
+  std::vector<std::string> watched;
+  for (auto it = pending_motion_.begin(); it != pending_motion_.end();) {
+    if (it->second.command_id != reply.command_id) {
+      ++it;
+      continue;
+    }
+    if (reply.status == R::FAILED) {
+      it = pending_motion_.erase(it);  // the previous motion (and its watch) goes on
+      continue;
+    }
+    // A jog or homing run replaces a jog once the driver has it; a move once it has started
+    // (an armed move may still be disarmed).
+    const bool move = !it->second.jog && (reply.status == R::ARMED || reply.status == R::ACCEPTED);
+    if (move) {
+      ++it;
+      continue;
+    }
+    if (it->second.jog) {
+      jogs_[it->first] = *it->second.jog;
+      watched.push_back(it->first);
+    } else {
+      jogs_.erase(it->first);
+    }
+    it = pending_motion_.erase(it);
+  }
+  for (const auto& axis : watched) check_jog(axis);
+}
+
+void Gateway::check_jog(const std::string& axis) {
+  const auto jog = jogs_.find(axis);
+  const auto status = last_status_.find(axis);
+  if (jog == jogs_.end() || status == last_status_.end()) return;
+  const CountLimits& limits = limits_.at(axis);
+  if (!jog_must_stop(jog->second, limits, status->second.position_counts, status->second.velocity_counts, poll_hz_)) return;
+  const double limit = limits.limit_toward(jog->second.velocity);
+  forget_jog(axis);
+  motionlcm::gateway_command_t stop{};
+  stop.utime = wall_time_us();
+  stop.command_id = next_own_command_--;
+  stop.bus = bus_;
+  stop.kind = motionlcm::gateway_command_t::STOP;
+  motionlcm::axis_command_t a{};
+  a.axis = axis;
+  stop.axes.push_back(a);
+  stop.num_axes = 1;
+  if (driver_) driver_->execute(stop);
+  const config::Axis& cfg = *axes_.at(axis);
+  DriveEvent e;
+  e.kind = motionlcm::event_t::LIMIT;
+  e.severity = motionlcm::event_t::WARNING;
+  e.code = error_code(ReplyError::kOutsideLimits);
+  e.text = fmt::format("axis {} jogging toward its limit {:.6g} {} ({:.6g} counts): {} at {:.6g} {} ({} counts, {:.6g} {}/s)", axis,
+                       limits.position_units(limit), cfg.unit, limit, driver_ ? "stopped" : "no bus driver to stop it",
+                       limits.position_units(static_cast<double>(status->second.position_counts)), cfg.unit, status->second.position_counts,
+                       std::abs(status->second.velocity_counts) / cfg.steps_per_unit, cfg.unit);
+  axis_event(axis, e);
 }
 
 void Gateway::on_trigger(const motionlcm::sync_trigger_t& trigger) {
@@ -133,6 +239,7 @@ void Gateway::on_active_moves(const motionlcm::active_moves_t& moves) {
       axis_event(moves.axes[i], e);
     }
     stop.num_axes = static_cast<std::int32_t>(stop.axes.size());
+    for (const auto& a : stop.axes) forget_jog(a.axis);
     if (driver_) driver_->execute(stop);
   }
 }
@@ -140,6 +247,8 @@ void Gateway::on_active_moves(const motionlcm::active_moves_t& moves) {
 void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   auto it = axes_.find(axis);
   if (it == axes_.end()) return;
+  last_status_[axis] = status;
+  check_jog(axis);
   const config::Axis& a = *it->second;
   const config::Drive* d = config_.drive_of(a);
   const AxisScale scale{a.steps_per_unit, a.invert};
@@ -186,6 +295,7 @@ void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
 }
 
 void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
+  jog_reply(reply);
   reply.utime = wall_time_us();
   reply.bus = bus_;
   if (reply.status == motionlcm::gateway_reply_t::FAILED) spdlog::warn("command {} failed: {}", reply.command_id, reply.reason);

@@ -2,6 +2,10 @@
 //  - subscribes to GW_COMMAND_<bus> and SYNC_TRIGGER; validates that every axis of a command
 //    belongs to this bus (FAILED with a reason otherwise, never silence);
 //  - schedules triggers at their wall-clock fire time on the steady clock;
+//  - checks every command's positions, velocities and ramps against the axis limits of the
+//    configuration, whoever sent it (FAILED code 3 and a PROTOCOL_ERROR event otherwise);
+//  - watches jogging axes' statuses and stops one (its own STOP, negative command id, and a LIMIT
+//    event) before it crosses its limit;
 //  - converts DriveStatus (counts) to axis_state_t (user units, with invert and scale);
 //  - publishes AXIS_STATE, EVENT, GW_REPLY and the heartbeat's bus statistics.
 // Thread contract: loop thread only.
@@ -9,6 +13,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
@@ -19,6 +24,7 @@
 
 #include "motion/config/config.hpp"
 #include "motion/core/event_loop.hpp"
+#include "motion/gateway/axis_limits.hpp"
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/lcm/health.hpp"
 #include "motion/lcm/node.hpp"
@@ -62,6 +68,12 @@ class Gateway final : public GatewayOutput {
   // what they were doing.
   void on_active_moves(const motionlcm::active_moves_t& moves);
   void update_health();
+  // Jog watch bookkeeping for a command about to go to the driver, and on its replies.
+  void track_jogs(const motionlcm::gateway_command_t& command);
+  void jog_reply(const motionlcm::gateway_reply_t& reply);
+  // Stops `axis` (its jog reaches its limit): a STOP of the gateway's own and a LIMIT event.
+  void check_jog(const std::string& axis);
+  void forget_jog(const std::string& axis);
 
   EventLoop& loop_;
   lcm::Node& node_;
@@ -75,6 +87,18 @@ class Gateway final : public GatewayOutput {
   std::set<std::pair<std::string, std::int64_t>> inherited_;  // (client, request) already stopped
   std::int64_t next_own_command_ = -1;               // ids of the gateway's own commands (negative)
   std::string waiting_;
+  double poll_hz_ = 0;                                // status rate of this bus's drives
+  std::map<std::string, CountLimits> limits_;         // axis -> its limits in counts
+  std::map<std::string, DriveStatus> last_status_;    // axis -> its last reported status
+  std::map<std::string, JogWatch> jogs_;              // axes jogging under watch
+  // axis -> the latest motion command not answered yet (JOG: its watch; ARM_MOVE/HOME: none):
+  // it replaces the watch once the driver has it (a move: once STARTED), a FAILED reply leaves the
+  // watch as it was. STOP/ESTOP/DISABLE end the watch at once.
+  struct PendingMotion {
+    std::int64_t command_id = 0;
+    std::optional<JogWatch> jog;
+  };
+  std::map<std::string, PendingMotion> pending_motion_;
   EventLoop::TimerId health_timer_ = 0;
 };
 

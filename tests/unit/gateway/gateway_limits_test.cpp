@@ -1,0 +1,297 @@
+// The gateway's own limit checks, whoever sends the command (issue "Nothing lost, nothing runs
+// away"): motion values of every command against the configured axis limits in counts, and the
+// watch that stops a jogging axis before it crosses its limit. A fake BusDriver records what
+// reaches the drives.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <motionlcm/event_t.hpp>
+
+#include "motion/gateway/axis_limits.hpp"
+#include "motion/gateway/gateway.hpp"
+#include "motion/lcm/channels.hpp"
+#include "motion/lcm/reply_error.hpp"
+#include "motion/testing/lcm_url.hpp"
+
+namespace motion::gateway {
+namespace {
+
+using motionlcm::event_t;
+using motionlcm::gateway_command_t;
+using motionlcm::gateway_reply_t;
+using std::chrono::milliseconds;
+
+std::int8_t k(std::int8_t v) { return v; }
+
+// j: counts [-1000, 1000], 200 counts/s, 400 counts/s^2. n: inverted, [-10, 30] mm -> counts
+// [-3000, 1000].
+const char* kConfig = R"(
+buses:
+  - {name: can0, transport: simcan:can0, poll_hz: 10}
+drives:
+  - {name: jd, family: uim342, bus: can0, node_id: 5}
+  - {name: nd, family: uim342, bus: can0, node_id: 6}
+axes:
+  - {name: j, drive: jd, steps_per_unit: 100, limits: {min: -10, max: 10, velocity: 2, acceleration: 4}}
+  - {name: n, drive: nd, steps_per_unit: 100, invert: true, limits: {min: -10, max: 30, velocity: 2, acceleration: 4}}
+)";
+
+class FakeDriver : public BusDriver {
+ public:
+  explicit FakeDriver(GatewayOutput& out) : out_(out) {}
+  void start() override {}
+  void execute(const gateway_command_t& command) override {
+    commands.push_back(command);
+    gateway_reply_t r{};
+    r.command_id = command.command_id;
+    r.status = command.kind == gateway_command_t::ARM_MOVE ? gateway_reply_t::ARMED : gateway_reply_t::DONE;
+    if (command.kind == fail_kind) r.status = gateway_reply_t::FAILED;
+    out_.command_reply(r);
+  }
+  void fire(std::int64_t) override {}
+  std::vector<motionlcm::bus_stats_t> statistics() const override { return {}; }
+  bool ready() const override { return true; }
+
+  std::vector<gateway_command_t> commands;
+  std::int8_t fail_kind = 0;  // commands of this kind fail at the "drive"
+
+ private:
+  GatewayOutput& out_;
+};
+
+struct Limits : ::testing::Test {
+  Limits()
+      : config(*config::load_string(kConfig).config),
+        node(loop, {testing::unique_lcm_url(23), "GL_"}),
+        health(loop, node, "gateway:can0", "gateway"),
+        gateway(loop, node, health, config, "can0") {
+    auto d = std::make_unique<FakeDriver>(gateway);
+    driver = d.get();
+    gateway.attach(std::move(d));
+    node.subscribe<gateway_reply_t>(lcm::channels::kGatewayReply, [this](const gateway_reply_t& r, const std::string&) { replies.push_back(r); });
+    node.subscribe<event_t>(lcm::channels::kEvent, [this](const event_t& e, const std::string&) { events.push_back(e); });
+  }
+  void pump_until(const std::function<bool()>& done) {
+    const auto deadline = loop.now() + milliseconds(3000);
+    while (!done() && loop.now() < deadline) loop.run_once(milliseconds(5));
+  }
+  void pump_for(milliseconds period) {
+    const auto deadline = loop.now() + period;
+    while (loop.now() < deadline) loop.run_once(milliseconds(5));
+  }
+  // Publishes a one-axis command and waits for its (first) reply.
+  gateway_reply_t send(std::int8_t kind, const std::string& axis, std::int64_t target, double velocity, double acceleration = 0,
+                       double deceleration = 0) {
+    gateway_command_t c{};
+    c.bus = "can0";
+    c.command_id = next_id++;
+    c.kind = kind;
+    motionlcm::axis_command_t a{};
+    a.axis = axis;
+    a.target_counts = target;
+    a.velocity = velocity;
+    a.acceleration = acceleration;
+    a.deceleration = deceleration;
+    c.axes = {a};
+    c.num_axes = 1;
+    node.publish(lcm::channels::gateway_command("can0"), c);
+    const gateway_reply_t* reply = nullptr;
+    pump_until([&] {
+      for (const auto& r : replies) {
+        if (r.command_id == c.command_id) reply = &r;
+      }
+      return reply != nullptr;
+    });
+    EXPECT_NE(reply, nullptr) << "no reply to command " << c.command_id;
+    return reply != nullptr ? *reply : gateway_reply_t{};
+  }
+  void status(const std::string& axis, std::int64_t position, double velocity, bool moving = true) {
+    DriveStatus s;
+    s.online = s.enabled = true;
+    s.position_counts = position;
+    s.velocity_counts = velocity;
+    s.moving = moving;
+    gateway.axis_status(axis, s);
+  }
+  [[nodiscard]] std::size_t own_stops() const {
+    std::size_t n = 0;
+    for (const auto& c : driver->commands) n += c.kind == gateway_command_t::STOP && c.command_id < 0 ? 1 : 0;
+    return n;
+  }
+  const event_t* event_of(std::int16_t kind) const {
+    for (const auto& e : events) {
+      if (e.kind == kind) return &e;
+    }
+    return nullptr;
+  }
+
+  config::Config config;
+  EventLoop loop;
+  lcm::Node node;
+  lcm::HealthPublisher health;
+  Gateway gateway;
+  FakeDriver* driver = nullptr;
+  std::int64_t next_id = 100;
+  std::vector<gateway_reply_t> replies;
+  std::vector<event_t> events;
+};
+
+void expect_outside(const gateway_reply_t& r, const std::string& text) {
+  EXPECT_EQ(r.status, k(gateway_reply_t::FAILED));
+  EXPECT_EQ(r.error_code, error_code(ReplyError::kOutsideLimits));
+  EXPECT_NE(r.reason.find(text), std::string::npos) << r.reason;
+}
+
+TEST_F(Limits, MoveBeyondThePositionLimitIsRefusedWithCodeThreeAndAnEvent) {
+  const auto r = send(gateway_command_t::ARM_MOVE, "j", 1200, 100, 100, 100);
+  expect_outside(r, "axis j: move target 12 mm (1200 counts) is outside the limits [-10, 10] mm");
+  EXPECT_TRUE(driver->commands.empty());
+  pump_until([&] { return event_of(event_t::PROTOCOL_ERROR) != nullptr; });
+  const auto* e = event_of(event_t::PROTOCOL_ERROR);
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->axis, "j");
+  EXPECT_EQ(e->severity, k(event_t::WARNING));
+  EXPECT_EQ(e->code, 3);
+  EXPECT_NE(e->text.find("outside the limits"), std::string::npos) << e->text;
+}
+
+TEST_F(Limits, MoveWithinEveryLimitReachesTheDriverIncludingRounding) {
+  EXPECT_EQ(send(gateway_command_t::ARM_MOVE, "j", 1000, 200.9, 400.5, 400).status, k(gateway_reply_t::ARMED));
+  EXPECT_EQ(send(gateway_command_t::ARM_MOVE, "j", -1000, -200, 1, 1).status, k(gateway_reply_t::ARMED));
+  EXPECT_EQ(driver->commands.size(), 2u);
+}
+
+TEST_F(Limits, MoveTooFastOrRampsTooSteepAreRefused) {
+  expect_outside(send(gateway_command_t::ARM_MOVE, "j", 500, 202, 100, 100), "velocity 2.02 mm/s (202 counts/s) exceeds the limit 2 mm/s");
+  expect_outside(send(gateway_command_t::ARM_MOVE, "j", 500, 100, 402, 100), "acceleration 4.02 mm/s^2 (402 counts/s^2) exceeds the limit 4");
+  expect_outside(send(gateway_command_t::ARM_MOVE, "j", 500, 100, 100, 402), "deceleration 4.02 mm/s^2");
+  EXPECT_TRUE(driver->commands.empty());
+}
+
+TEST_F(Limits, InvertedAxisLimitsAreOrderedByCount) {
+  // n: user [-10, 30] -> counts [-3000, 1000].
+  EXPECT_EQ(send(gateway_command_t::ARM_MOVE, "n", -2500, 100, 100, 100).status, k(gateway_reply_t::ARMED));
+  EXPECT_EQ(send(gateway_command_t::ARM_MOVE, "n", 1000, 100, 100, 100).status, k(gateway_reply_t::ARMED));
+  expect_outside(send(gateway_command_t::ARM_MOVE, "n", 1100, 100, 100, 100), "target -11 mm (1100 counts)");
+  expect_outside(send(gateway_command_t::ARM_MOVE, "n", -3100, 100, 100, 100), "target 31 mm (-3100 counts)");
+  EXPECT_EQ(driver->commands.size(), 2u);
+}
+
+TEST_F(Limits, JogHomeAndSetPositionAreChecked) {
+  expect_outside(send(gateway_command_t::JOG, "j", 0, -250, 400, 400), "jog velocity 2.5 mm/s");
+  EXPECT_EQ(send(gateway_command_t::JOG, "j", 0, -200, 0, 0).status, k(gateway_reply_t::DONE));  // 0: the drive's ramps
+  expect_outside(send(gateway_command_t::HOME, "j", 0, 300), "homing velocity 3 mm/s");
+  expect_outside(send(gateway_command_t::SET_POSITION, "j", 1001, 0), "set position target 10.01 mm (1001 counts)");
+  EXPECT_EQ(send(gateway_command_t::SET_POSITION, "j", 1000, 0).status, k(gateway_reply_t::DONE));
+  const auto nan = send(gateway_command_t::JOG, "j", 0, std::nan(""));
+  EXPECT_EQ(nan.status, k(gateway_reply_t::FAILED));
+  EXPECT_EQ(nan.error_code, error_code(ReplyError::kMalformedRequest));
+  EXPECT_EQ(driver->commands.size(), 2u);
+}
+
+TEST_F(Limits, JogStartingAtOrBeyondItsLimitIsRefusedButMayLeave) {
+  status("j", 1000, 0, false);
+  expect_outside(send(gateway_command_t::JOG, "j", 0, 100, 400, 400), "jog toward 10 mm refused: position 10 mm (1000 counts) is at or beyond");
+  EXPECT_EQ(send(gateway_command_t::JOG, "j", 0, -100, 400, 400).status, k(gateway_reply_t::DONE));
+  // Inverted: counts down is user units up, toward 30 mm (-3000 counts).
+  status("n", -3000, 0, false);
+  expect_outside(send(gateway_command_t::JOG, "n", 0, -100, 400, 400), "jog toward 30 mm refused");
+}
+
+TEST_F(Limits, JogIsStoppedBeforeItsLimitWithALimitEvent) {
+  status("j", 0, 0, false);
+  ASSERT_EQ(send(gateway_command_t::JOG, "j", 0, 200, 400, 400).status, k(gateway_reply_t::DONE));
+  // Margin: 200^2/(2*400) = 50 braking + 2*200/10 = 40 of two status periods + 1 = 91 counts.
+  status("j", 500, 200);
+  status("j", 908, 200);
+  EXPECT_EQ(own_stops(), 0u);
+  status("j", 909, 200);
+  ASSERT_EQ(own_stops(), 1u);
+  const auto& stop = driver->commands.back();
+  EXPECT_EQ(stop.kind, k(gateway_command_t::STOP));
+  EXPECT_LT(stop.command_id, 0);
+  ASSERT_EQ(stop.axes.size(), 1u);
+  EXPECT_EQ(stop.axes[0].axis, "j");
+  pump_until([&] { return event_of(event_t::LIMIT) != nullptr; });
+  const auto* e = event_of(event_t::LIMIT);
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->axis, "j");
+  EXPECT_EQ(e->severity, k(event_t::WARNING));
+  EXPECT_NE(e->text.find("axis j jogging toward its limit 10 mm (1000 counts): stopped at 9.09 mm (909 counts"), std::string::npos) << e->text;
+  // Once: the watch ends with its stop.
+  status("j", 950, 100);
+  EXPECT_EQ(own_stops(), 1u);
+}
+
+TEST_F(Limits, JogWatchUsesTheSlowerCommandedDecelerationAndTheInvertedDirection) {
+  // n inverted: user +30 mm is -3000 counts; jog counts down at 200 counts/s with 100 counts/s^2:
+  // 200 braking + 40 + 1 = 241 counts.
+  ASSERT_EQ(send(gateway_command_t::JOG, "n", 0, -200, 100, 100).status, k(gateway_reply_t::DONE));
+  status("n", -2758, -200);
+  EXPECT_EQ(own_stops(), 0u);
+  status("n", -2759, -200);
+  EXPECT_EQ(own_stops(), 1u);
+}
+
+TEST_F(Limits, StopOrAStartedMoveEndsTheWatch) {
+  ASSERT_EQ(send(gateway_command_t::JOG, "j", 0, 200, 400, 400).status, k(gateway_reply_t::DONE));
+  ASSERT_EQ(send(gateway_command_t::STOP, "j", 0, 0).status, k(gateway_reply_t::DONE));
+  status("j", 990, 50);
+  EXPECT_EQ(own_stops(), 0u);
+
+  status("j", 0, 0, false);
+  ASSERT_EQ(send(gateway_command_t::JOG, "j", 0, 200, 400, 400).status, k(gateway_reply_t::DONE));
+  const auto armed = send(gateway_command_t::ARM_MOVE, "j", 1000, 200, 400, 400);
+  ASSERT_EQ(armed.status, k(gateway_reply_t::ARMED));
+  status("j", 950, 200);  // armed only: the jog is still watched
+  EXPECT_EQ(own_stops(), 1u);
+
+  status("j", 0, 0, false);
+  ASSERT_EQ(send(gateway_command_t::JOG, "j", 0, 200, 400, 400).status, k(gateway_reply_t::DONE));
+  const auto move = send(gateway_command_t::ARM_MOVE, "j", 1000, 200, 400, 400);
+  gateway_reply_t started{};
+  started.command_id = move.command_id;
+  started.status = gateway_reply_t::STARTED;
+  gateway.command_reply(started);
+  status("j", 990, 200);  // a move to the limit is not a jog
+  EXPECT_EQ(own_stops(), 1u);
+}
+
+TEST_F(Limits, AJogTheDriverRefusedLeavesTheWatchAsItWas) {
+  status("j", 0, 0, false);
+  driver->fail_kind = gateway_command_t::JOG;
+  ASSERT_EQ(send(gateway_command_t::JOG, "j", 0, 200, 400, 400).status, k(gateway_reply_t::FAILED));
+  status("j", 995, 0, false);
+  EXPECT_EQ(own_stops(), 0u);  // no jog, no watch
+
+  // A jog toward -10 mm runs; a reversal the driver refuses leaves it watched toward -10 mm.
+  driver->fail_kind = 0;
+  status("j", 0, 0, false);
+  ASSERT_EQ(send(gateway_command_t::JOG, "j", 0, -200, 400, 400).status, k(gateway_reply_t::DONE));
+  driver->fail_kind = gateway_command_t::JOG;
+  ASSERT_EQ(send(gateway_command_t::JOG, "j", 0, 200, 400, 400).status, k(gateway_reply_t::FAILED));
+  status("j", 950, -200);
+  EXPECT_EQ(own_stops(), 0u);
+  status("j", -950, -200);
+  EXPECT_EQ(own_stops(), 1u);
+}
+
+TEST(CountLimits, CheckedDirectly) {
+  const auto cfg = *config::load_string(kConfig).config;
+  const auto limits = CountLimits::of(*cfg.find_axis("n"));
+  EXPECT_DOUBLE_EQ(limits.min_counts, -3000);
+  EXPECT_DOUBLE_EQ(limits.max_counts, 1000);
+  EXPECT_DOUBLE_EQ(limits.max_velocity, 200);
+  EXPECT_DOUBLE_EQ(limits.max_acceleration, 400);
+  motionlcm::axis_command_t a{};
+  a.axis = "n";
+  a.target_counts = 1000;
+  EXPECT_FALSE(check_axis_command(gateway_command_t::SET_POSITION, a, limits, std::nullopt));
+  a.target_counts = 1001;
+  EXPECT_TRUE(check_axis_command(gateway_command_t::SET_POSITION, a, limits, std::nullopt));
+  EXPECT_FALSE(check_axis_command(gateway_command_t::STOP, a, limits, std::nullopt));  // no motion values
+}
+
+}  // namespace
+}  // namespace motion::gateway
