@@ -350,6 +350,14 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
       }
     }
   }
+  if (msg.kind == request_t::HOME) {
+    for (const auto& name : axes) {
+      // Every family alike: an axis homes only the way its configuration says.
+      if (axes_.at(name).axis->homing.method_name.empty()) {
+        return P{ReplyError::kUnsupported, "axis " + name + " has no homing configured (add a homing: section to the axis)"};
+      }
+    }
+  }
   if (msg.kind == request_t::JOG) {
     for (std::size_t i = 0; i < axes.size(); ++i) {
       const auto& lim = axes_.at(axes[i]).axis->limits;

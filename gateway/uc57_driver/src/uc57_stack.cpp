@@ -1101,7 +1101,8 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
   const bool needs_slot = kind != Command::DISARM && kind != Command::PARAM_READ && kind != Command::PARAM_WRITE &&
                           kind != Command::SET_OUTPUTS;
   // Checks first, so that a refused command starts nothing on the wire.
-  for (const std::size_t n : job.nodes) {
+  for (std::size_t i = 0; i < job.nodes.size(); ++i) {
+    const std::size_t n = job.nodes[i];
     const Node& node = *nodes_[n];
     // A stop naming an offline node must still stop the others (a group aborted because one of
     // its nodes fell silent): that node only makes the reply fail, below.
@@ -1121,10 +1122,19 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
       return fail_command(command, error_code(ReplyError::kAxisDisabled),
                           node.settings.label() + " is not enabled (" + (state ? std::string(cia402::to_string(*state)) : "no statusword") + ")");
     }
+    // What this drive cannot do for this axis refuses the whole command here: found while the
+    // parts start, an earlier axis would already have been changed (random lab seed 1: a HOME
+    // that failed for its second axis had zeroed the first one's position).
+    if (auto refusal = refuse(n, command, command.axes[i])) {
+      return fail_command(command, refusal->first, refusal->second);
+    }
   }
   if ((kind == Command::PARAM_READ || kind == Command::PARAM_WRITE) && job.nodes.size() != 1) {
     return fail_command(command, error_code(ReplyError::kMalformedRequest), "a parameter command names exactly one axis");
   }
+  // Which nodes had nothing running before this command preempted it (a STOP there is DONE at once).
+  std::vector<bool> idle(job.nodes.size());
+  for (std::size_t i = 0; i < job.nodes.size(); ++i) idle[i] = at_rest(job.nodes[i]);
   if (preempts) {
     const std::string why = std::string(kind == Command::ESTOP ? "e-stopped" : kind == Command::STOP ? "stopped" : "superseded") +
                             " by command " + std::to_string(command.command_id);
@@ -1163,7 +1173,7 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
         }
         break;
       case Command::ESTOP: start_quick_stop(n, live, now); break;
-      case Command::STOP: start_halt(n, live, now); break;
+      case Command::STOP: start_halt(n, live, idle[i], now); break;
       case Command::ARM_MOVE: start_arm(n, live, axis, now); break;
       case Command::JOG: start_jog(n, live, axis, now); break;
       case Command::HOME: start_home(n, live, axis, now); break;
@@ -1231,13 +1241,66 @@ void Uc57Stack::start_quick_stop(std::size_t n, Job& job, TimePoint now) {
   queue_image(n, image);
 }
 
-void Uc57Stack::start_halt(std::size_t n, Job& job, TimePoint now) {
+void Uc57Stack::start_halt(std::size_t n, Job& job, bool idle, TimePoint now) {
   if (drive_state(n) != State::kOperationEnabled) return part_done(job.command.command_id, n);
-  start_task(n, TaskKind::kHalt, job.command.command_id, now + options_.stop_timeout);
   RpdoImage image = latest_image(n);
   image.controlword = cia402::with(cia402::with(image.controlword, ControlBit::kHalt, true), ControlBit::kNewSetPoint, false);
   image.target_velocity = 0;  // manual §7 MC_STOP: bit 8 = 1 and 60FFh = 0 (in the RPDO of the default layout)
+  if (idle) {
+    // Nothing runs: the halt still goes out with the next SYNC, but the STOP does not hold the
+    // node for the two SYNC cycles that would confirm it. The coordinator's abort of a failed
+    // request is such a STOP, and the request after it found the node "busy" (random lab seed 1).
+    queue_image(n, image);
+    return part_done(job.command.command_id, n);
+  }
+  start_task(n, TaskKind::kHalt, job.command.command_id, now + options_.stop_timeout);
   queue_image(n, image);
+}
+
+// At rest for certain: no task, every queued image applied and seen, the motor not running in
+// the statusword, and the applied image is no jog (a jog's task ends when it runs; its first
+// statusword may still be one from before the ramp).
+bool Uc57Stack::at_rest(std::size_t n) {
+  const Node& node = *nodes_[n];
+  if (node.task != TaskKind::kNone || !image_applied(n) || !node.statusword) return false;
+  if (cia402::is_set(*node.statusword, StatusBit::kMotorRunning)) return false;
+  const bool halted = cia402::is_set(node.image.controlword, ControlBit::kHalt);
+  return halted || node.image.mode != kModeProfileVelocity || node.image.target_velocity == 0;
+}
+
+// Why `command` cannot run on node n whatever its state: (reply code, reason), checked before any
+// part starts.
+std::optional<std::pair<std::int32_t, std::string>> Uc57Stack::refuse(std::size_t n, const Command& command,
+                                                                       const motionlcm::axis_command_t& axis) const {
+  const Node& node = *nodes_[n];
+  const std::string label = node.settings.label();
+  switch (command.kind) {
+    case Command::HOME: {
+      const config::Homing& homing = node.settings.homing;
+      if (homing.method == config::HomingMethod::kCurrentPosition) {
+        if (axis.target_counts == 0) return std::nullopt;
+        return std::pair{error_code(ReplyError::kUnsupported), label + ": the UC57 can only zero its position (2012h); offset " +
+                                                                   std::to_string(axis.target_counts) + " counts is not supported"};
+      }
+      if (homing.method != config::HomingMethod::kSwitch) {
+        return std::pair{error_code(ReplyError::kUnsupported), label + ": no homing method configured for axis " + node.settings.axis};
+      }
+      if (homing.input < 1 || homing.input > 3) {
+        return std::pair{error_code(ReplyError::kUnsupported), label + ": homing on input " + std::to_string(homing.input) +
+                                                                   " is not possible (UC57: IN1 positive limit, IN2 origin, IN3 negative limit)"};
+      }
+      return std::nullopt;
+    }
+    case Command::SET_POSITION:
+      if (axis.target_counts == 0) return std::nullopt;
+      return std::pair{error_code(ReplyError::kUnsupported), label + ": the UC57 can only set its position to zero (2012h); " +
+                                                                 std::to_string(axis.target_counts) + " counts is not possible"};
+    case Command::SET_OUTPUTS:
+      if ((axis.output_mask & ~((1 << kOutputCount) - 1)) == 0) return std::nullopt;
+      return std::pair{error_code(ReplyError::kOutsideLimits), label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
+                                                                   " names outputs the UC57 does not have (OUT1, OUT2)"};
+    default: return std::nullopt;
+  }
 }
 
 void Uc57Stack::set_mode(std::size_t n, std::int8_t mode, Continue done) {
@@ -1319,8 +1382,12 @@ void Uc57Stack::start_jog(std::size_t n, Job& job, const motionlcm::axis_command
                  {{od::kProfileDeceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(decel.native))},
                  {{od::kTargetVelocity, 0}, le<std::int32_t>(0)}},
                 [this, n, id, rpm](std::optional<std::string> failure) {
+                  // Superseded (a STOP while the ramps went out): neither the mode nor the speed
+                  // follows, or the drive would hold the jog's 60FFh behind the halt.
+                  if (nodes_[n]->task_command != id || nodes_[n]->task != TaskKind::kJog) return;
                   if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
                   set_mode(n, kModeProfileVelocity, [this, n, id, rpm](std::optional<std::string> mode_failure) {
+                    if (nodes_[n]->task_command != id || nodes_[n]->task != TaskKind::kJog) return;
                     if (mode_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *mode_failure);
                     sdo_write_all(n, {{{od::kTargetVelocity, 0}, le<std::int32_t>(rpm)}}, [this, n, id, rpm](std::optional<std::string> speed_failure) {
                       Node& nd = *nodes_[n];

@@ -586,12 +586,15 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
   // One instruction sequence per axis; DONE when every axis finished it. The state it led to
   // goes out before DONE: whoever acts on the reply (the coordinator planning the next move from
   // the position, checking "enabled") has it by then.
+  // `after` runs when the drive answered, long after execute() returned: it gets its own copy of
+  // the axis's command (the caller's `command` is gone by then; random lab seeds 2 and 4).
+  using After = std::function<void(Drive&, const motionlcm::axis_command_t&)>;
   const auto per_axis = [&](const std::function<std::vector<Instruction>(Drive&, const motionlcm::axis_command_t&)>& steps,
-                            const std::function<void(Drive&)>& after = {}) {
+                            const After& after = {}) {
     for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) {
-      run_sequence(c, d, steps(d, a), [this, id, &d, after](TimePoint t) {
+      run_sequence(c, d, steps(d, a), [this, id, &d, after, a](TimePoint t) {
         if (after) {
-          after(d);
+          after(d, a);
           if (t != TimePoint{}) publish(d, t);  // TimePoint{}: nothing was sent, nothing changed
         }
         part_done(id);
@@ -601,7 +604,7 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
   switch (command.kind) {
     case gateway_command_t::ENABLE:
       per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::ENA)}; },
-               [](Drive& d) { d.status.enabled = true; });
+               [](Drive& d, const auto&) { d.status.enabled = true; });
       return;
     case gateway_command_t::DISABLE:
     case gateway_command_t::ESTOP: {
@@ -629,7 +632,7 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
         return;
       }
       per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::OFF)}; },
-               [](Drive& d) { d.status.enabled = false; });
+               [](Drive& d, const auto&) { d.status.enabled = false; });
       return;
     }
     case gateway_command_t::STOP:
@@ -663,7 +666,7 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
       return;
     case gateway_command_t::FAULT_RESET:
       per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::FBK)}; },
-               [](Drive& d) {
+               [](Drive& d, const auto&) {
                  d.status.fault = false;
                  d.status.fault_code = 0;
                  d.status.fault_text.clear();
@@ -681,19 +684,13 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
           [](Drive&, const motionlcm::axis_command_t& a) {
             return a.output_mask & 1 ? std::vector{set(Mnemonic::DOU, a.output_value & 1)} : std::vector<Instruction>{};
           },
-          [&command](Drive& d) {
-            for (const auto& a : command.axes) {
-              if (a.axis == d.axis_name && (a.output_mask & 1)) d.status.outputs = a.output_value & 1;
-            }
+          [](Drive& d, const motionlcm::axis_command_t& a) {
+            if (a.output_mask & 1) d.status.outputs = a.output_value & 1;
           });
       return;
     case gateway_command_t::SET_POSITION:
       per_axis([](Drive&, const motionlcm::axis_command_t& a) { return std::vector{set(Mnemonic::ORG, a.target_counts)}; },
-               [&command](Drive& d) {
-                 for (const auto& a : command.axes) {
-                   if (a.axis == d.axis_name) d.status.position_counts = a.target_counts;
-                 }
-               });
+               [](Drive& d, const motionlcm::axis_command_t& a) { d.status.position_counts = a.target_counts; });
       return;
     case gateway_command_t::HOME:
       for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) { home(c, d, *d.axis, a); });

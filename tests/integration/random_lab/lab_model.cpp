@@ -268,8 +268,10 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
       targets[i] = kind == request_t::MOVE_RELATIVE ? a.commanded + v : v;
       if (targets[i] < spec.min || targets[i] > spec.max) reasons.push_back(error_code(ReplyError::kOutsideLimits));
     }
-    // A UC57 sets its present position to zero only (2012h): another value is unsupported.
-    if (kind == request_t::SET_POSITION && spec.drive.family == "uc57" && counts_of(axes[i], v) != 0) {
+    // A UC57 sets its present position to zero only (2012h): another value is unsupported (the
+    // coordinator's limit check comes first).
+    const bool beyond = kind == request_t::SET_POSITION && (v < spec.min || v > spec.max);
+    if (kind == request_t::SET_POSITION && !beyond && spec.drive.family == "uc57" && counts_of(axes[i], v) != 0) {
       reasons.push_back(error_code(ReplyError::kUnsupported));
     }
     if (kind == request_t::JOG && std::abs(v) > spec.velocity) reasons.push_back(error_code(ReplyError::kOutsideLimits));

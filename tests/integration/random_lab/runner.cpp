@@ -191,10 +191,15 @@ class Runner {
       // A family without digital outputs says so (unsupported) and changes nothing.
       want = Outcome{{reply_t::DONE, reply_t::REJECTED, reply_t::FAILED}, {error_code(ReplyError::kUnsupported)}};
     }
+    if (kind == request_t::JOG && want.done()) {
+      // A gateway stops a jog before the axis limit (LIMIT event): the request, if still running,
+      // ends ABORTED 15 with the axis stopped short of the limit.
+      want = Outcome{{reply_t::DONE, reply_t::ABORTED}, {error_code(ReplyError::kAxisFault)}};
+    }
     const auto r = make(kind, axes, values, s);
     const auto got = call(client, r);
     check_reply(got, want, r);
-    if (got.status == reply_t::DONE) {
+    if (got.status == reply_t::DONE || (kind == request_t::JOG && got.status == reply_t::ABORTED)) {
       model_.request(kind, axes, values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, true);
       if (kind == request_t::PARAM_READ) {
         const auto expected = expected_param(axes[0]);

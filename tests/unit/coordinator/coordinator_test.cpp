@@ -640,6 +640,15 @@ TEST_F(CoordinatorTest, ResetIsDoneOnlyOnceTheAxisStateShowsNoFault) {
   EXPECT_NE(stuck.reason.find("over-current"), std::string::npos) << stuck.reason;
 }
 
+TEST_F(CoordinatorTest, HomeOfAnAxisWithoutHomingIsRejectedOnEveryFamily) {
+  auto_execute_moves();
+  const auto r = terminal(send(request_t::HOME, {"x", "c"}, {0.0, 0.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kUnsupported));
+  EXPECT_NE(r.reason.find("axis x has no homing configured"), std::string::npos) << r.reason;
+  EXPECT_TRUE(gateways.commands.empty());
+}
+
 TEST_F(CoordinatorTest, AStopSupersededByASecondStopEndsDone) {
   std::vector<gateway_command_t> stops;
   gateways.on_command = [&](const gateway_command_t& c) {

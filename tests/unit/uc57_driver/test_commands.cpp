@@ -437,5 +437,113 @@ TEST(Uc57Commands, StopNamingAnOfflineNodeStillStopsTheReachableOnes) {
   }
 }
 
+// A STOP on a node at rest is DONE at once and leaves no task behind: the coordinator's abort of a
+// failed HOME is such a STOP, fire-and-forget, and the JOG a client sent next was refused "busy with
+// command 3" while the idle halt waited two SYNC cycles for its confirmation (random lab seed 1).
+TEST(Uc57Commands, StopOnANodeAtRestIsDoneAtOnceAndTheNextCommandRuns) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  const auto stop = bench.command(Cmd::STOP, {"a", "b"});
+  bench.execute(stop);
+  ASSERT_EQ(bench.terminal_count(stop.command_id), 1U) << "a STOP with nothing to stop still holds the nodes";
+  EXPECT_EQ(bench.replies_of(stop.command_id).back().status, status(Reply::DONE));
+  auto jog = bench.command(Cmd::JOG, {"b", "a"});
+  for (auto& a : jog.axes) {
+    a.velocity = -3200;
+    a.acceleration = a.deceleration = 32000;
+  }
+  bench.execute(jog);  // at once, as the coordinator does
+  bench.run_for(std::chrono::milliseconds(600));
+  ASSERT_EQ(bench.terminal_count(jog.command_id), 1U);
+  const auto r = bench.replies_of(jog.command_id).back();
+  EXPECT_EQ(r.status, status(Reply::DONE)) << r.reason;
+  EXPECT_EQ(bench.node(1).value(0x60FF), -60);
+  EXPECT_FALSE(cia402::is_set(bench.node(1).controlwords.back(), cia402::ControlBit::kHalt));
+  // A STOP on the jogging nodes is not "at rest": DONE only when the motors stopped.
+  const auto stop_jog = bench.command(Cmd::STOP, {"a", "b"});
+  bench.execute(stop_jog);
+  EXPECT_EQ(bench.terminal_count(stop_jog.command_id), 0U);
+  bench.run_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(bench.terminal_count(stop_jog.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(stop_jog.command_id).back().status, status(Reply::DONE));
+  EXPECT_TRUE(cia402::is_set(bench.node(1).controlwords.back(), cia402::ControlBit::kHalt));
+  EXPECT_FALSE(bench.statuses["a"].moving);
+}
+
+// A STOP while a JOG's SDO writes are still going out ends the jog there: neither the velocity
+// mode nor the jog's speed reaches the drive behind the halt.
+TEST(Uc57Commands, StopDuringAJogsSetUpEndsItsSdoChain) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a"});
+  auto jog = bench.command(Cmd::JOG, {"a"});
+  jog.axes[0].velocity = -3200;
+  jog.axes[0].acceleration = jog.axes[0].deceleration = 32000;
+  bench.execute(jog);
+  const auto stop = bench.command(Cmd::STOP, {"a"});
+  bench.execute(stop);
+  bench.run_for(std::chrono::milliseconds(600));
+  ASSERT_EQ(bench.terminal_count(jog.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(jog.command_id).back().error_code, error_code(ReplyError::kStopped));
+  ASSERT_EQ(bench.terminal_count(stop.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(stop.command_id).back().status, status(Reply::DONE));
+  EXPECT_NE(bench.node(1).value(0x60FF), -60) << "the superseded jog's speed was written";
+  EXPECT_NE(bench.node(1).value(0x6060), 3) << "the superseded jog switched the mode";
+  // The node is free for the next command.
+  const auto zero = bench.command(Cmd::SET_POSITION, {"a"});
+  bench.execute(zero);
+  bench.run_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(bench.replies_of(zero.command_id).back().status, status(Reply::DONE));
+}
+
+// What the UC57 cannot do for one axis refuses the whole command before anything goes out: a HOME
+// with an offset on its second axis (random lab seed 1) zeroed the first axis (2012h) and failed.
+TEST(Uc57Commands, CommandRefusedForOneAxisChangesNoOtherAxis) {
+  const std::string yaml = R"(
+buses:
+  - {name: can0, transport: simcan:can0, bitrate: 1000000, request_timeout_ms: 50, retries: 2, poll_hz: 20}
+drives:
+  - {name: a-drive, family: uc57, bus: can0, node_id: 1, setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: sync}}
+  - {name: b-drive, family: uc57, bus: can0, node_id: 2, setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: sync}}
+axes:
+  - {name: a, drive: a-drive, steps_per_unit: 160, limits: {min: -18, max: 46, velocity: 54, acceleration: 367},
+     homing: {method: current-position, offset: 0}}
+  - {name: b, drive: b-drive, steps_per_unit: 12.5, limits: {min: -220, max: 740, velocity: 384, acceleration: 1475},
+     homing: {method: current-position, offset: -105.5}}
+)";
+  Bench bench(yaml);
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  bench.node(1).set_value(0x6064, 0, 500);
+  bench.run_for(std::chrono::milliseconds(200));
+  const std::size_t frames_before = bench.sent.size();
+  auto home = bench.command(Cmd::HOME, {"a", "b"});
+  home.axes[1].target_counts = -1319;
+  bench.execute(home);
+  ASSERT_EQ(bench.terminal_count(home.command_id), 1U);
+  const auto r = bench.replies_of(home.command_id).back();
+  EXPECT_EQ(r.error_code, error_code(ReplyError::kUnsupported));
+  EXPECT_NE(r.reason.find("b-drive (node 2): the UC57 can only zero its position"), std::string::npos) << r.reason;
+  auto set_position = bench.command(Cmd::SET_POSITION, {"a", "b"});
+  set_position.axes[1].target_counts = 77;
+  bench.execute(set_position);
+  ASSERT_EQ(bench.terminal_count(set_position.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(set_position.command_id).back().error_code, error_code(ReplyError::kUnsupported));
+  auto outputs = bench.command(Cmd::SET_OUTPUTS, {"a", "b"});
+  outputs.axes[0].output_mask = outputs.axes[0].output_value = 1;
+  outputs.axes[1].output_mask = 0b100;
+  bench.execute(outputs);
+  ASSERT_EQ(bench.terminal_count(outputs.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(outputs.command_id).back().error_code, error_code(ReplyError::kOutsideLimits));
+  bench.run_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(bench.node(1).value(0x2012), 0) << "a's position was zeroed by a refused command";
+  EXPECT_EQ(bench.node(1).value(0x6064), 500);
+  EXPECT_EQ(bench.statuses["a"].position_counts, 500);
+  for (std::size_t i = frames_before; i < bench.sent.size(); ++i) {
+    EXPECT_NE(bench.sent[i].id, 0x601u) << "an SDO went to node 1: " << can::to_cansend(bench.sent[i]);
+  }
+}
+
 }  // namespace
 }  // namespace motion::uc57_driver::testing

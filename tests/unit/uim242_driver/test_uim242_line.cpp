@@ -441,3 +441,41 @@ TEST_F(Uim242Line, StoppedSwitchHomingRestoresTheSensorRegister) {
 
 }  // namespace
 }  // namespace motion
+
+namespace motion {
+namespace {
+
+// SET_OUTPUTS drives P4 with `DOU η;` (EN §7 #7): DONE once the controller acknowledged it, the
+// published outputs show the new level, and `DOU;` (#8) reads it back from the drive. The
+// command's data outlives execute() (the gateway's LCM handler hands it a temporary). Random lab
+// seeds 2 and 4: the gateway stopped heartbeating on SET_OUTPUTS.
+TEST_F(Uim242Line, SetOutputsDrivesP4AndReadsItBack) {
+  for (const std::int32_t level : {1, 0}) {
+    const std::int64_t id = 10 + level;
+    {
+      auto a = axis("u1");
+      a.output_mask = 1;
+      a.output_value = level;
+      driver_->execute(command(id, gateway_command_t::SET_OUTPUTS, {a}));  // the command dies here
+    }
+    ASSERT_TRUE(run_until([&] { return ended(id); })) << "level " << level;
+    const auto* done = out_.find(id, gateway_reply_t::DONE);
+    ASSERT_NE(done, nullptr) << out_.replies.back().reason;
+    EXPECT_EQ(out_.status_at_end.at(id).at("u1").outputs, level);
+    driver_->execute(param(20 + level, gateway_command_t::PARAM_READ, "DOU", 0));
+    ASSERT_TRUE(run_until([&] { return ended(20 + level); }));
+    ASSERT_NE(out_.find(20 + level, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+    EXPECT_EQ(out_.find(20 + level, gateway_reply_t::DONE)->param.value, level);
+  }
+  // Only P4 exists: any other bit is refused at once, nothing sent.
+  auto a = axis("u1");
+  a.output_mask = 2;
+  a.output_value = 2;
+  driver_->execute(command(30, gateway_command_t::SET_OUTPUTS, {a}));
+  const auto* refused = out_.find(30, gateway_reply_t::FAILED);
+  ASSERT_NE(refused, nullptr);
+  EXPECT_EQ(refused->error_code, error_code(ReplyError::kUnsupported));
+}
+
+}  // namespace
+}  // namespace motion

@@ -50,6 +50,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include "motion/canopen/master.hpp"
@@ -158,7 +159,12 @@ class Uc57Stack final : public gateway::CanStack {
   void start_arm(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now);
   void start_jog(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now);
   void start_home(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now);
-  void start_halt(std::size_t n, Job& job, TimePoint now);
+  void start_halt(std::size_t n, Job& job, bool idle, TimePoint now);  // idle: at_rest() before the STOP
+  [[nodiscard]] bool at_rest(std::size_t n);  // no task, nothing queued, the motor not running
+  // A reason (reply code, text) why `command` can never run for `axis` on node n, checked before
+  // any part of the command starts.
+  [[nodiscard]] std::optional<std::pair<std::int32_t, std::string>> refuse(std::size_t n, const motionlcm::gateway_command_t& command,
+                                                                           const motionlcm::axis_command_t& axis) const;
   void start_quick_stop(std::size_t n, Job& job, TimePoint now);
   void start_outputs(std::size_t n, Job& job, const motionlcm::axis_command_t& axis);
   void start_set_position(std::size_t n, Job& job, const motionlcm::axis_command_t& axis);
