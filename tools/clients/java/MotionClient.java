@@ -79,6 +79,8 @@ public class MotionClient implements AutoCloseable {
 
     private final LCM lcm;
     private final String url;
+    /** No reply at all within this many ms means no coordinator is listening (C++: kAcceptTimeout). */
+    public static final long ACCEPT_TIMEOUT_MS = 2000;
     private final String prefix;
     private final String id;
     // Request ids start at the wall clock so a restarted client never reuses a live id.
@@ -157,15 +159,31 @@ public class MotionClient implements AutoCloseable {
      *  FAILED reply saying so (the coordinator may be down). onProgress runs on LCM's thread. */
     public reply_t request(request_t request, long timeoutMs, Consumer<reply_t> onProgress) {
         CompletableFuture<reply_t> terminal = new CompletableFuture<>();
+        CompletableFuture<Boolean> answered = new CompletableFuture<>();
         long requestId = send(request, r -> {
+            answered.complete(true);
             if (isTerminal(r.status)) terminal.complete(r);
             else if (onProgress != null) onProgress.accept(r);
         });
+        // The coordinator answers every request at once (ACCEPTED or REJECTED): silence within
+        // ACCEPT_TIMEOUT_MS means nobody listens, and the caller learns it then.
+        long firstWait = Math.min(timeoutMs, ACCEPT_TIMEOUT_MS);
+        String where = url() + ", channel " + channel("REQUEST");
         try {
-            return terminal.get(timeoutMs, TimeUnit.MILLISECONDS);
+            answered.get(firstWait, TimeUnit.MILLISECONDS);
         } catch (TimeoutException | ExecutionException e) {
             pending.remove(requestId);
-            return localFailure(requestId, "no terminal reply from the coordinator within " + timeoutMs + " ms (is motion-coordinator running on " + url() + "?)");
+            return localFailure(requestId, "no reply from the coordinator within " + firstWait + " ms: is motion-coordinator running on " + where + "?");
+        } catch (InterruptedException e) {
+            pending.remove(requestId);
+            Thread.currentThread().interrupt();
+            return localFailure(requestId, "interrupted while waiting for the coordinator");
+        }
+        try {
+            return terminal.get(Math.max(0, timeoutMs - firstWait), TimeUnit.MILLISECONDS);
+        } catch (TimeoutException | ExecutionException e) {
+            pending.remove(requestId);
+            return localFailure(requestId, "no terminal reply from the coordinator within " + timeoutMs + " ms (" + where + ")");
         } catch (InterruptedException e) {
             pending.remove(requestId);
             Thread.currentThread().interrupt();
@@ -204,6 +222,7 @@ public class MotionClient implements AutoCloseable {
         r.request_id = requestId;
         r.status = reply_t.FAILED;
         r.reason = reason;
+        r.error_code = 13;  // timeout
         r.axes = new String[0];
         r.targets = new double[0];
         r.positions = new double[0];

@@ -37,6 +37,9 @@ local function deadline_after(timeout)
 end
 
 M.request_t, M.reply_t, M.axis_state_t, M.event_t, M.health_t = request_t, reply_t, axis_state_t, event_t, health_t
+-- The coordinator answers every request at once; no reply within this many seconds means no
+-- coordinator is listening (the same bound as the C++ client's kAcceptTimeout).
+M.ACCEPT_TIMEOUT = 2.0
 
 M.kinds = {
   move_absolute = request_t.MOVE_ABSOLUTE, move_relative = request_t.MOVE_RELATIVE, jog = request_t.JOG,
@@ -141,23 +144,34 @@ function Client:request(kind, axes, values, opts)
     if k ~= "timeout" and k ~= "on_progress" then fields[k] = v end
   end
   local result
+  local answered = false
   local id = self:send(kind, axes, values, function(r)
+    answered = true
     if M.is_terminal(r.status) then
       result = r
     elseif opts.on_progress then
       opts.on_progress(r)
     end
   end, fields)
-  if not self:wait_until(function() return result ~= nil end, timeout) then
+  -- The coordinator answers every request at once (ACCEPTED or REJECTED): silence within
+  -- M.ACCEPT_TIMEOUT means nobody listens, and the caller learns it then.
+  local first_wait = math.min(timeout, M.ACCEPT_TIMEOUT)
+  local heard = self:wait_until(function() return answered end, first_wait)
+  if not heard or not self:wait_until(function() return result ~= nil end, timeout - first_wait) then
     self.pending[id] = nil
     result = reply_t:new()
     result.utime = os.time() * 1000000
     result.client_id = self.id
     result.request_id = id
     result.status = reply_t.FAILED
-    result.reason = string.format("no terminal reply from the coordinator within %d ms (is motion-coordinator running on %s?)",
-                                  math.floor(timeout * 1000), self.url ~= "" and self.url or "the default LCM URL")
-    result.error_code = 0
+    local where = string.format("%s, channel %sREQUEST", self.url ~= "" and self.url or "the default LCM URL", self.prefix)
+    if heard then
+      result.reason = string.format("no terminal reply from the coordinator within %d ms (%s)", math.floor(timeout * 1000), where)
+    else
+      result.reason = string.format("no reply from the coordinator within %d ms: is motion-coordinator running on %s?",
+                                    math.floor(first_wait * 1000), where)
+    end
+    result.error_code = 13  -- timeout
     result.num_axes = 0
     result.axes, result.targets, result.positions, result.start_utime = {}, {}, {}, {}
     result.param = new_param()

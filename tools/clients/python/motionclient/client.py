@@ -25,6 +25,9 @@ except ImportError as e:  # pragma: no cover - a clear message instead of a bare
     raise ImportError("motionclient needs the generated LCM types: put build/lcmtypes/python on PYTHONPATH "
                       f"(build the motion_lcmtypes_scripts target) ({e})") from None
 
+# The coordinator answers every request at once; no reply within this many seconds means no
+# coordinator is listening (the same bound as the C++ client's kAcceptTimeout).
+ACCEPT_TIMEOUT = 2.0
 TERMINAL = (reply_t.DONE, reply_t.REJECTED, reply_t.ABORTED, reply_t.FAILED)
 _STATUS_NAMES = {reply_t.ACCEPTED: "accepted", reply_t.STARTED: "started", reply_t.PROGRESS: "progress",
                  reply_t.DONE: "done", reply_t.REJECTED: "rejected", reply_t.ABORTED: "aborted",
@@ -118,23 +121,32 @@ class Client:
         `timeout` seconds, returns a local FAILED reply saying so (the coordinator may be down).
         check=True raises RequestFailed unless the reply is DONE."""
         result = []
+        answered = []
 
         def on_reply(r):
+            answered.append(True)
             if is_terminal(r.status):
                 result.append(r)
             elif on_progress:
                 on_progress(r)
 
         request_id = self.send(kind, axes, values, on_reply, **fields)
-        if not self.wait_until(lambda: bool(result), timeout):
+        # The coordinator answers every request at once (ACCEPTED or REJECTED): silence within
+        # ACCEPT_TIMEOUT means nobody listens, and the caller learns it then, not after `timeout`.
+        first_wait = min(timeout, ACCEPT_TIMEOUT)
+        heard = self.wait_until(lambda: bool(answered), first_wait)
+        if not heard or not self.wait_until(lambda: bool(result), timeout - first_wait):
             self._pending.pop(request_id, None)
             r = reply_t()
             r.utime = int(time.time() * 1e6)
             r.client_id = self.id
             r.request_id = request_id
             r.status = reply_t.FAILED
-            r.reason = (f"no terminal reply from the coordinator within {int(timeout * 1000)} ms "
-                        f"(is motion-coordinator running on {self.url}?)")
+            r.error_code = 13  # timeout
+            where = f"{self.url}, channel {self.channel('REQUEST')}"
+            r.reason = (f"no terminal reply from the coordinator within {int(timeout * 1000)} ms ({where})" if heard else
+                        f"no reply from the coordinator within {int(first_wait * 1000)} ms: "
+                        f"is motion-coordinator running on {where}?")
             r.param = param_t()
             result.append(r)
         if check and result[0].status != reply_t.DONE:
