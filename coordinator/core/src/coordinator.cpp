@@ -350,6 +350,19 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
       }
     }
   }
+  // A UC57 sets its present position to zero only (2012h, UC57 manual §5.1): anything else is
+  // refused here, before any other axis of the request is touched.
+  if (msg.kind == request_t::SET_POSITION || msg.kind == request_t::HOME) {
+    for (std::size_t i = 0; i < axes.size(); ++i) {
+      const AxisLive& a = axes_.at(axes[i]);
+      if (a.drive->family != config::Family::kUc57) continue;
+      const bool in_place = msg.kind == request_t::SET_POSITION || a.axis->homing.method_name == "current-position";
+      const double position = msg.kind == request_t::SET_POSITION ? msg.values[i] : a.axis->homing.offset;
+      if (in_place && std::llround(position * a.axis->steps_per_unit) != 0) {
+        return P{ReplyError::kUnsupported, "axis " + axes[i] + " (UC57) can set its position to 0 only, not " + number(position) + " " + a.axis->unit};
+      }
+    }
+  }
   if (msg.kind == request_t::HOME) {
     for (const auto& name : axes) {
       // Every family alike: an axis homes only the way its configuration says.
@@ -480,7 +493,9 @@ void Coordinator::preempt(const request_t& stop) {
     auto it = requests_.find(serial);
     if (it == requests_.end()) continue;
     Request& r = *it->second;
-    // The stop request itself stops these axes; the preempted request only ends.
+    // The stop request itself stops these axes; the preempted request only ends, and its axes
+    // no longer stand at a commanded target (relative moves count from where they stop).
+    for (const auto& a : r.axes) axes_.at(a).commanded_units.reset();
     reply(r, reply_t::ABORTED, ReplyError::kStopped,
           std::string(stop.kind == request_t::ESTOP ? "e-stopped" : "stopped") + " by request " + stop.client_id + "/" + std::to_string(stop.request_id));
     finish(serial);

@@ -423,6 +423,9 @@ std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int c
       }
       // Slow enough to last ~10 s at the planned speed: far longer than the requests in between.
       s.velocity_scale = std::max(0.001, round_to(scale_for(lab, model, s.axes, s.values, 10.0) * 0.5, 0.001));
+      // The drives' grids can stretch such a slow plan well past 10 s: a timeout that covers it
+      // (the coordinator refuses a plan longer than the request's timeout).
+      s.timeout_ms = 120000;
       s.other_client = (s.client + uniform_int(rng, 1, 2)) % 3;
       s.second_kind = pick(rng, std::vector<std::int8_t>{request_t::MOVE_ABSOLUTE, request_t::MOVE_RELATIVE, request_t::SET_POSITION,
                                                          request_t::HOME, request_t::JOG, request_t::ENABLE});

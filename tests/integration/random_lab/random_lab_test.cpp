@@ -139,6 +139,24 @@ TEST(RandomLabRegression, Seed1Uc57JogAfterAFailedHome) {
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// A SET_POSITION of a UIM342 and a UC57 axis on one bus, the UC57 value not zero: refused whole
+// by the coordinator; before, the UIM342 part was applied and the request FAILED.
+TEST(RandomLabRegression, Seed100) {
+  LabSpec spec;
+  spec.can_bitrate = 1000000;
+  spec.rs485_baud = 19200;
+  spec.rs232_baud = 115200;
+  spec.rs485_parity = "none";
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uim342", "can0", 109, 0}, 533.33333333333337, -3, 11, 7, 38.5, false, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 10, 0}, 640, -8, 26, 11.5, 68, true, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kConflict, 1, 1 /* MOVE_ABSOLUTE */, {"ax1"}, {26.0}, 0.121, 0.0, 0, 0, 0, 2, 4 /* STOP */, 13 /* SET_POSITION */, {"ax0", "ax1"}, {11.0, -6.4900000000000002}},
+      Step{Op::kRequest, 2, 2 /* MOVE_RELATIVE */, {"ax0"}, {0.00075000000000002842}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 // ------------------------------------------------------------------------- the lab
 
 // The ctest set: RANDOM_LAB_SEEDS seeds from RANDOM_LAB_SEED (defaults below) of RANDOM_LAB_STEPS.
