@@ -1238,7 +1238,11 @@ void Uc57Stack::start_quick_stop(std::size_t n, Job& job, TimePoint now) {
   start_task(n, TaskKind::kQuickStop, job.command.command_id, now + options_.stop_timeout);
   RpdoImage image = latest_image(n);
   image.controlword = cia402::with(cia402::apply_command(image.controlword, cia402::Command::kQuickStop), ControlBit::kNewSetPoint, false);
+  // A jog's speed must not survive the e-stop: enabled again, a drive in profile velocity mode
+  // would run on at 60FFh. Zeroed in the process data and in the object (written by SDO for jogs).
+  image.target_velocity = 0;
   queue_image(n, image);
+  sdo_write(n, {od::kTargetVelocity, 0}, le<std::int32_t>(0), [](std::error_code, std::span<const std::uint8_t>) {});
 }
 
 void Uc57Stack::start_halt(std::size_t n, Job& job, bool idle, TimePoint now) {

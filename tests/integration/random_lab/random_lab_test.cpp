@@ -157,6 +157,26 @@ TEST(RandomLabRegression, Seed100) {
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// A UC57 jogging, e-stopped, then enabled again: it must not resume the jog (60FFh zeroed).
+TEST(RandomLabRegression, Seed108) {
+  LabSpec spec;
+  spec.can_bitrate = 500000;
+  spec.rs485_baud = 9600;
+  spec.rs232_baud = 38400;
+  spec.rs485_parity = "none";
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 1, 0}, 12.5, -39, 910, 341.5, 2184.5, false, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 42, 0}, 320, -1, 66, 25.5, 53.5, true, 59.25});
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 127, 0}, 160, -62, 76, 68.5, 476, false, 0});
+  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 42, 0}, 533.33333333333337, -5, 13, 7.5, 18, true, 4.5});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2", "ax3"}, {0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}},
+      Step{Op::kJogStop, 2, 3 /* JOG */, {"ax3", "ax2"}, {-2.1400000000000001, 16.690000000000001}, 0.0, 0.0, 0, 0, 0, 1, 5 /* ESTOP */, 0 /* ? */, {}, {}},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 // ------------------------------------------------------------------------- the lab
 
 // The ctest set: RANDOM_LAB_SEEDS seeds from RANDOM_LAB_SEED (defaults below) of RANDOM_LAB_STEPS.
