@@ -164,9 +164,19 @@ class Reader {
     return {file_, mark.line + 1, mark.column + 1};
   }
 
+  // The text of a mapping key; a key that is itself a list or mapping (`? [a, b]: 1`, `{x: 1}: 2`)
+  // is an error naming where it is, and the entry is skipped.
+  std::optional<std::string> key_of(const YAML::Node& key, const std::string& path) {
+    if (key.IsScalar()) return key.Scalar();
+    error(key, path.empty() ? "<root>" : path, "a key must be a plain name, not a list or mapping");
+    return std::nullopt;
+  }
+
   KeyLocations locations(const YAML::Node& map) const {
     KeyLocations out{at(map), {}};
-    for (const auto& kv : map) out.keys.emplace(kv.first.as<std::string>(), at(kv.second));
+    for (const auto& kv : map) {
+      if (kv.first.IsScalar()) out.keys.emplace(kv.first.Scalar(), at(kv.second));
+    }
     return out;
   }
 
@@ -182,7 +192,9 @@ class Reader {
     }
     std::set<std::string> seen;
     for (const auto& kv : node) {
-      const auto key = kv.first.as<std::string>();
+      const auto key_text = key_of(kv.first, path);
+      if (!key_text) continue;
+      const std::string& key = *key_text;
       const std::string key_path = join(path, key);
       if (!seen.insert(key).second) error(kv.first, key_path, "duplicate key");
       bool known = false;
@@ -335,7 +347,9 @@ void read_setup(Reader& r, const YAML::Node& node, const std::string& path, Fami
   }
   std::set<std::string> seen;
   for (const auto& kv : node) {
-    const auto key = kv.first.as<std::string>();
+    const auto key_text = r.key_of(kv.first, path);
+    if (!key_text) continue;
+    const std::string& key = *key_text;
     const std::string key_path = path + "." + key;
     if (!seen.insert(key).second) {
       r.error(kv.first, key_path, "duplicate key");
@@ -522,7 +536,9 @@ void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out)
       r.error(switches, "simulation.home_switches", "expected a map of drive name to switch position (counts) or none");
     } else {
       for (const auto& entry : switches) {
-        const auto drive = entry.first.as<std::string>();
+        const auto drive_text = r.key_of(entry.first, "simulation.home_switches");
+        if (!drive_text) continue;
+        const std::string& drive = *drive_text;
         const std::string path = "simulation.home_switches." + drive;
         if (entry.second.IsScalar() && entry.second.as<std::string>() == "none") {
           out.home_switches[drive] = std::nullopt;
@@ -650,15 +666,21 @@ LoadResult load_string(std::string_view yaml_text, const std::string& file_name)
   if (!root.IsMap()) {
     r.error(root, "<root>", "expected a mapping with lcm, buses, drives, axes");
   } else if (r.check_map(root, "", {"lcm", "buses", "drives", "axes", "coordinator", "simulation"})) {
-    if (root["lcm"]) read_lcm(r, root["lcm"], c.lcm);
-    read_list(r, root, "buses", c.buses, read_bus);
-    read_list(r, root, "drives", c.drives, read_drive);
-    read_list(r, root, "axes", c.axes, read_axis);
-    if (root["coordinator"]) read_coordinator(r, root["coordinator"], c.coordinator);
-    if (root["simulation"]) read_simulation(r, root["simulation"], c.simulation);
-    check_references(r, root, c);
+    try {
+      if (root["lcm"]) read_lcm(r, root["lcm"], c.lcm);
+      read_list(r, root, "buses", c.buses, read_bus);
+      read_list(r, root, "drives", c.drives, read_drive);
+      read_list(r, root, "axes", c.axes, read_axis);
+      if (root["coordinator"]) read_coordinator(r, root["coordinator"], c.coordinator);
+      if (root["simulation"]) read_simulation(r, root["simulation"], c.simulation);
+      check_references(r, root, c);
+    } catch (const YAML::Exception& e) {
+      // Every conversion above is checked; this keeps a shape the checks missed an error, not a crash.
+      result.errors.push_back({{file_name, e.mark.line + 1, e.mark.column + 1}, "<yaml>", e.msg});
+    }
   }
-  result.errors = std::move(r.errors());
+  auto& read_errors = r.errors();
+  result.errors.insert(result.errors.begin(), read_errors.begin(), read_errors.end());
   if (result.errors.empty()) result.config = std::move(c);
   return result;
 }

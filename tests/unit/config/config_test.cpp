@@ -264,5 +264,16 @@ TEST(Config, SimulatedHomeSwitchesArePositionsOrNone) {
   EXPECT_NE(bad.error_text().find("simulation.home_switches.xd"), std::string::npos) << bad.error_text();
 }
 
+TEST(Config, KeysThatAreListsOrMappingsAreErrorsNotCrashes) {
+  // Found by the config_yaml fuzz target: a key that is itself a collection threw out of the loader.
+  for (const std::string extra : {"simulation: {{a: 1}: 2}\n", "simulation: {home_switches: {[xd]: 1}}\n",
+                                  "? [lcm]\n: 1\n"}) {
+    SCOPED_TRACE(extra);
+    const auto bad = load_string(std::string(kValid) + extra, "lab.yaml");
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error_text().find("a key must be a plain name"), std::string::npos) << bad.error_text();
+  }
+}
+
 }  // namespace
 }  // namespace motion::config

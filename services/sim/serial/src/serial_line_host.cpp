@@ -15,7 +15,8 @@ namespace motion::sim {
 std::optional<config::Family> SerialLineHost::family_for(const config::Config& config, const config::Bus& bus,
                                                          const Factories& factories) {
   // In family order, as the gateway picks its serial driver (gateway/app/bus_assembly.cpp).
-  for (const auto& [family, factory] : factories) {
+  for (const auto& entry : factories) {
+    const config::Family family = entry.first;
     if (std::any_of(config.drives.begin(), config.drives.end(),
                     [&](const config::Drive& d) { return d.bus == bus.name && d.family == family; })) {
       return family;
