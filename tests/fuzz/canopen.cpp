@@ -4,7 +4,7 @@
 // master, EMCY consumer) fed the same frames. Input: frames as u16 COB-ID (11 bits), a length
 // byte, the payload; time advances 1 ms per frame.
 #include "fuzz_targets.hpp"
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/emcy.hpp"
 #include "motion/canopen/master.hpp"
 #include "motion/canopen/nmt.hpp"

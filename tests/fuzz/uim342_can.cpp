@@ -2,7 +2,7 @@
 // decoding, replies, notifications, instructions (the simulator's side), error reports. Input:
 // a sequence of frames, each u32 identifier (bit 31 = extended), a length byte, the payload.
 #include "fuzz_targets.hpp"
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/uim342/instructions.hpp"
 #include "motion/uim342/message.hpp"
 #include "motion/uim342/notifications.hpp"

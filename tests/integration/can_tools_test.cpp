@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/core/clock.hpp"
-#include "motion/simbus/bit_timing.hpp"
 #include "motion/testing/process_group.hpp"
 
 namespace motion::testing {
@@ -160,8 +160,8 @@ TEST(CanTools, DumpShowsWhatSendSentWithBitTimedTimestampsAndPythonCanReadsTheDu
     EXPECT_GE(ts, before_us - 1000) << dumped_lines[i];
     EXPECT_LE(ts, after_us + 1000) << dumped_lines[i];
     if (i == 0) continue;
-    const auto bits = simbus::frame_bits(dumped[i].frame).to_end_of_frame() + simbus::kInterframeBits;
-    const auto min_gap_us = std::chrono::duration_cast<std::chrono::microseconds>(simbus::bits_duration(bits, kBitrate)).count();
+    const auto bits = can::frame_bits(dumped[i].frame).to_end_of_frame() + can::kInterframeBits;
+    const auto min_gap_us = std::chrono::duration_cast<std::chrono::microseconds>(can::bits_duration(bits, kBitrate)).count();
     EXPECT_GT(ts, dumped[i - 1].timestamp_us) << dumped_lines[i - 1] << " / " << dumped_lines[i];
     EXPECT_GE(ts - dumped[i - 1].timestamp_us, min_gap_us - 1)
         << "frames closer than the wire allows: " << dumped_lines[i - 1] << " / " << dumped_lines[i];

@@ -43,6 +43,7 @@
 #include "motion/adam_driver/adam_bus_driver.hpp"
 #include "motion/config/config.hpp"
 #include "motion/core/event_loop.hpp"
+#include "motion/gateway/serial_line.hpp"
 #include "motion/serial/pty_link.hpp"
 #include "motion/serial/serial_port.hpp"
 #include "motion/sim/adam_line_sim.hpp"
@@ -197,8 +198,8 @@ LineResult run_line(int drives, int baud, bool paced, int commands, Duration win
   std::unique_ptr<serial::SerialPort> drive_port;
   std::unique_ptr<WireRelay> relay;
   if (paced) {
-    master_link = serial::PtyLink::create((dir / "wire.tty").string(), serial::settings_from(bus), error);
-    if (master_link) drive_port = serial::SerialPort::open(host->link_path(), serial::settings_from(bus), error);
+    master_link = serial::PtyLink::create((dir / "wire.tty").string(), gateway::serial_line_settings(bus), error);
+    if (master_link) drive_port = serial::SerialPort::open(host->link_path(), gateway::serial_line_settings(bus), error);
     if (!master_link || !drive_port) {
       result.failure = "relay: " + error.message();
       return result;
@@ -207,7 +208,7 @@ LineResult run_line(int drives, int baud, bool paced, int commands, Duration win
     device = master_link->link_path();
   }
   Recorder out;
-  adam_driver::AdamBusDriver driver(loop, settings, device, serial::settings_from(bus), out);
+  adam_driver::AdamBusDriver driver(loop, settings, device, gateway::serial_line_settings(bus), out);
   driver.start();
   const auto pump_until = [&](auto done, Duration timeout) {
     const auto end = Clock::now() + timeout;

@@ -1,6 +1,6 @@
 // CANopen (motion::canopen, the UC57 stack and simulator) benchmark on the bit-timed simulated
 // bus at 1 Mbit/s. One table; every figure sits next to a bound computed in the same run from the
-// very frames that went over the wire (simbus::frame_bits(), the simulated bus's own frame-length
+// very frames that went over the wire (can::frame_bits(), the simulated bus's own frame-length
 // function, divided by the bit rate), and their ratio. Nothing is asserted.
 //
 //   1. SDO (CiA 301 §7.2.4): canopen::SdoClient on one LocalEndpoint, the simulator's SDO server on
@@ -54,7 +54,8 @@
 
 #include "bench_pump.hpp"
 #include "bench_table.hpp"
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/cob_id.hpp"
 #include "motion/canopen/sdo_client.hpp"
 #include "motion/canopen/sdo_server.hpp"
@@ -65,7 +66,6 @@
 #include "motion/gateway/can_bus_driver.hpp"
 #include "motion/sim/can_bus_host.hpp"
 #include "motion/sim/uc57_drive.hpp"
-#include "motion/simbus/bit_timing.hpp"
 #include "motion/simbus/hub.hpp"
 #include "motion/uc57_driver/uc57_stack.hpp"
 
@@ -90,8 +90,8 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(i, v.size() - 1)];
 }
 
-Duration wire(const can::Frame& f) { return simbus::frame_duration(f, kBitrate); }
-Duration to_end_of_frame(const can::Frame& f) { return simbus::bits_duration(simbus::frame_bits(f).to_end_of_frame(), kBitrate); }
+Duration wire(const can::Frame& f) { return can::frame_duration(f, kBitrate); }
+Duration to_end_of_frame(const can::Frame& f) { return can::bits_duration(can::frame_bits(f).to_end_of_frame(), kBitrate); }
 
 // ---- the table ---------------------------------------------------------------------------------
 

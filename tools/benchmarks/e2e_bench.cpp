@@ -42,13 +42,13 @@
 #include <motionlcm/sim_report_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
+#include "motion/can_frame/bit_timing.hpp"
 #include "motion/client/client.hpp"
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/node.hpp"
-#include "motion/simbus/bit_timing.hpp"
 #include "motion/simbus/endpoint.hpp"
 
 namespace motion::bench {
@@ -306,7 +306,7 @@ int run(bool quick) {
       int count = 0;
       for (const auto& f : frames) {
         if (!f.extended || f.timestamp_us < from_utime || f.timestamp_us > started_utime) continue;
-        bits_us += std::chrono::duration<double, std::micro>(simbus::frame_duration(f, bitrate)).count();
+        bits_us += std::chrono::duration<double, std::micro>(can::frame_duration(f, bitrate)).count();
         ++count;
       }
       wire.push_back(bits_us);

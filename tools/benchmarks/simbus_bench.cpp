@@ -44,10 +44,10 @@
 #include <thread>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/core/event_loop.hpp"
-#include "motion/simbus/bit_timing.hpp"
 #include "motion/simbus/bus.hpp"
 #include "motion/simbus/endpoint.hpp"
 #include "motion/simbus/hub.hpp"
@@ -413,7 +413,7 @@ double bus_cost_ns(const can::Frame& frame, bool timing, std::uint64_t iteration
     bus.attach("rx");
     CountingSink sink;
     TimePoint now{};
-    const Duration step = frame_duration(frame, config.bitrate);
+    const Duration step = can::frame_duration(frame, config.bitrate);
     for (std::uint64_t i = 0; i < n; ++i) {
       (void)bus.submit(tx, frame, now);
       now += step;  // back-to-back: the previous frame has just left the wire
@@ -521,7 +521,7 @@ int run(bool quick) {
   for (const bool extended : {false, true}) {
     for (const auto& c : cases) {
       const can::Frame f = data_frame(extended ? 0x04280095U : 0x123U, extended, c.bytes);
-      const FrameBits model = frame_bits(f);
+      const can::FrameBits model = can::frame_bits(f);
       const SpecBits spec = spec_frame_bits(f);
       const double ratio = static_cast<double>(model.total) / static_cast<double>(spec.actual());
       worst_ratio = std::max(worst_ratio, std::abs(ratio - 1.0));
@@ -540,7 +540,7 @@ int run(bool quick) {
       for (std::size_t b = 0; b < 8; ++b) bytes[b] = static_cast<std::uint8_t>((x >> (8 * b)) & (i % 2 == 0 ? 0xFFU : 0x0FU));
       const auto id = static_cast<std::uint32_t>(x >> 35) & (extended ? can::kMaxExtendedId : can::kMaxStandardId);
       const can::Frame f = data_frame(i % 3 == 0 ? 0 : id, extended, bytes);
-      longest = std::max(longest, frame_bits(f).total);
+      longest = std::max(longest, can::frame_bits(f).total);
     }
     const SpecBits spec = spec_frame_bits(data_frame(0, extended, {}));
     std::printf("%-7s %-18s %6u %8s %6s %8s %10u %8.3f\n", extended ? "29-bit" : "11-bit", "longest in search", longest, "-", "-", "-",
@@ -558,7 +558,7 @@ int run(bool quick) {
   for (const std::uint32_t bitrate : {125'000U, 500'000U, 1'000'000U}) {
     for (const bool extended : {false, true}) {
       const can::Frame& f = extended ? ext8 : std8;
-      const std::uint32_t bits = frame_bits(f).total;
+      const std::uint32_t bits = can::frame_bits(f).total;
       const double max_fps = static_cast<double>(bitrate) / static_cast<double>(bits);
       const auto count = static_cast<std::uint64_t>(std::max(50.0, max_fps * scale));
       BusConfig config;
@@ -585,7 +585,7 @@ int run(bool quick) {
     HubThread hub(dir, "bench-latency", config);
     SimLink link(dir, "bench-latency");
     const Percentiles p = one_way_latency(link, std8, static_cast<int>(1000 * scale));
-    const double eof_us = to_us(bits_duration(frame_bits(std8).to_end_of_frame(), config.bitrate));
+    const double eof_us = to_us(can::bits_duration(can::frame_bits(std8).to_end_of_frame(), config.bitrate));
     std::printf("one-way latency at 1 Mbit/s, 11-bit: p50 %.1f us, p99 %.1f us; wire time to end of frame %.1f us; ratio p50 %.2f, p99 %.2f "
                 "(%zu samples)\n",
                 p.p50, p.p99, eof_us, p.p50 / eof_us, p.p99 / eof_us, p.samples);
@@ -599,12 +599,12 @@ int run(bool quick) {
       can::Frame f = std8;
       for (std::uint64_t i = 0; i < n; ++i) {
         f.data[0] = static_cast<std::uint8_t>(i);
-        guard += frame_bits(f).total;
+        guard += can::frame_bits(f).total;
       }
     });
     const double timed_ns = bus_cost_ns(std8, true, iterations);
     const double untimed_ns = bus_cost_ns(std8, false, iterations);
-    const double wire_ns = static_cast<double>(frame_duration(std8, 1'000'000).count());
+    const double wire_ns = static_cast<double>(can::frame_duration(std8, 1'000'000).count());
     std::printf("\n== 4. CPU cost of the model, ns per frame (best of 5 x %llu); bound: the frame's wire time at 1 Mbit/s, %.0f ns ==\n",
                 static_cast<unsigned long long>(iterations), wire_ns);
     std::printf("%-44s %10.1f   ratio %.5f\n", "frame_bits() (bit-exact length, CRC, stuffing)", bits_ns, bits_ns / wire_ns);

@@ -19,7 +19,7 @@
 //      bench fires the trigger; measured = from the command to the end of frame of the group BG
 //      (the drives' simulated start), p50/p99 over R moves. Bound: the wire time of the frames the
 //      move needs (every PA/SP/AC/DC request and ACK, then the one BG), back to back: the sum of
-//      simbus::frame_bits() of those frames / bit rate. Also: frames per synchronized move
+//      can::frame_bits() of those frames / bit rate. Also: frames per synchronized move
 //      (arm + BG + the BG's ACKs) and how many other frames (status polls) shared the wire.
 //      Two clocks, as bench_canopen: "wall" — the real EventLoop on the steady clock; each
 //      request -> ACK hop of a node pays a loop wake-up (what a gateway and motion-sim achieve).
@@ -62,8 +62,9 @@
 
 #include "bench_pump.hpp"
 #include "bench_table.hpp"
-#include "motion/can/frame.hpp"
 #include "motion/can/transport.hpp"
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/core/event_loop.hpp"
@@ -74,7 +75,6 @@
 #include "motion/lcm/node.hpp"
 #include "motion/sim/can_bus_host.hpp"
 #include "motion/sim/uim342_drive.hpp"
-#include "motion/simbus/bit_timing.hpp"
 #include "motion/simbus/hub.hpp"
 #include "motion/uim342/message.hpp"
 #include "motion/uim342_driver/uim342_stack.hpp"
@@ -405,12 +405,12 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
         continue;
       }
       ++move_frames;
-      const auto bits = simbus::frame_bits(f);
+      const auto bits = can::frame_bits(f);
       bound_bits += f.timestamp_us == *bg_eof ? bits.to_end_of_frame() : bits.total;
     }
     const double to_bg = static_cast<double>(*bg_eof - (steady_us(t0) + epoch_offset));
     result.to_bg_us.push_back(to_bg);
-    result.bound_us.push_back(us(simbus::bits_duration(bound_bits, kBitrate)));
+    result.bound_us.push_back(us(can::bits_duration(bound_bits, kBitrate)));
     result.frames.push_back(move_frames + bg_acks);
     result.other_frames.push_back(others);
   }
@@ -458,7 +458,7 @@ void bench_status(int axes, bool quick, const std::filesystem::path& dir) {
       ++all_frames;
       if (const auto m = decode(*f); m && is_function(*m, FC::MS)) {
         ++poll_frames;
-        poll_bits += simbus::frame_bits(*f).total;
+        poll_bits += can::frame_bits(*f).total;
       }
     }
   });

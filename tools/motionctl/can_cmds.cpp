@@ -23,7 +23,7 @@
 
 #include <unistd.h>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/core/log.hpp"
 #include "motion/gateway/can_transport_factory.hpp"

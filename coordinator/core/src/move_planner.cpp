@@ -9,7 +9,6 @@
 #include "motion/cia402/uc57_units.hpp"
 #include "motion/planner/quantize_plan.hpp"
 #include "motion/planner/sync_planner.hpp"
-#include "motion/uc57_driver/node_settings.hpp"
 #include "motion/uim242/instruction.hpp"
 #include "motion/uim342/parameters.hpp"
 
@@ -87,7 +86,7 @@ QuantizerOrError uim242_quantizer() {
 
 }  // namespace
 
-std::uint32_t assumed_pulses_per_revolution(const config::Config& config, const config::Drive& drive) {
+std::uint32_t assumed_pulses_per_revolution(const config::Config& /*config*/, const config::Drive& drive) {
   switch (drive.family) {
     case config::Family::kAdamModbus: {
       const auto pulses = adam::setup_pulses_per_revolution(drive.setup_integer("pulses_per_revolution"),
@@ -96,16 +95,15 @@ std::uint32_t assumed_pulses_per_revolution(const config::Config& config, const 
       return *pulses > 0 && *pulses <= std::numeric_limits<std::uint32_t>::max() ? static_cast<std::uint32_t>(*pulses) : 0;
     }
     case config::Family::kUc57: {
-      const config::Bus* bus = config.find_bus(drive.bus);
-      if (bus == nullptr) return 0;
       // The gateway's own rule (2006h code from the set-up); no code: the drive keeps its factory one.
-      const auto settings = uc57_driver::make_node_settings(config, *bus, drive, 0);
-      if (!settings.subdivision_code) {
+      const auto setup = cia402::uc57::setup_subdivision(drive.setup_integer("pulses_per_revolution"),
+                                                         drive.setup_integer("micro_steps"));
+      if (setup.status != cia402::uc57::SetupSubdivision::Status::kCode) {
         return drive.setup.contains("pulses_per_revolution") || drive.setup.contains("micro_steps")
                    ? 0
                    : cia402::uc57::kDefaultPulsesPerRevolution;
       }
-      return cia402::uc57::pulses_per_revolution(*settings.subdivision_code).value_or(0);
+      return cia402::uc57::pulses_per_revolution(setup.code).value_or(0);
     }
     default: return 0;
   }

@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "motion/gateway/serial_line.hpp"
+
 namespace motion::adam_driver {
 
 AdamBusDriver::AdamBusDriver(EventLoop& loop, MasterSettings settings, std::string device_path,
@@ -12,8 +14,8 @@ AdamBusDriver::AdamBusDriver(EventLoop& loop, MasterSettings settings, std::stri
 
 std::unique_ptr<AdamBusDriver> AdamBusDriver::create(EventLoop& loop, const config::Config& config,
                                                      const config::Bus& bus, gateway::GatewayOutput& out) {
-  return std::make_unique<AdamBusDriver>(loop, settings_from_config(config, bus), serial::device_path(config, bus),
-                                         serial::settings_from(bus), out);
+  return std::make_unique<AdamBusDriver>(loop, settings_from_config(config, bus), gateway::serial_device_path(config, bus),
+                                         gateway::serial_line_settings(bus), out);
 }
 
 }  // namespace motion::adam_driver

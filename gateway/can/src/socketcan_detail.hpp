@@ -8,7 +8,7 @@
 #include <string_view>
 #include <system_error>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 
 namespace motion::can::detail {
 

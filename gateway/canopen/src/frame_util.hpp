@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <span>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 
 namespace motion::canopen::detail {
 

@@ -44,6 +44,30 @@ std::optional<std::uint16_t> subdivision_code(std::uint32_t pulses_per_rev) {
   return static_cast<std::uint16_t>(found - kPulsesPerRevolutionByCode.begin());
 }
 
+SetupSubdivision setup_subdivision(std::optional<std::int64_t> pulses_per_revolution, std::optional<std::int64_t> micro_steps) {
+  SetupSubdivision out;
+  if (pulses_per_revolution) {
+    out.pulses = *pulses_per_revolution;
+  } else if (micro_steps) {
+    out.pulses = *micro_steps * kFullStepsPerRevolution;
+    out.from_micro_steps = true;
+  } else {
+    return out;
+  }
+  if (out.pulses <= 0 || out.pulses > std::numeric_limits<std::uint32_t>::max()) {
+    out.status = SetupSubdivision::Status::kOutOfRange;
+    return out;
+  }
+  const auto code = subdivision_code(static_cast<std::uint32_t>(out.pulses));
+  if (!code) {
+    out.status = SetupSubdivision::Status::kNotInTable;
+    return out;
+  }
+  out.status = SetupSubdivision::Status::kCode;
+  out.code = *code;
+  return out;
+}
+
 double rpm_to_pulses_per_second(double rpm, std::uint32_t pulses_per_rev) { return rpm / 60.0 * pulses_per_rev; }
 
 double pulses_per_second_to_rpm(double pulses_per_s, std::uint32_t pulses_per_rev) {

@@ -1,6 +1,7 @@
 #include "motion/gateway/can_transport_factory.hpp"
 
 #include "motion/can/socketcan.hpp"
+#include "motion/gateway/serial_line.hpp"
 #include "motion/simbus/address.hpp"
 #include "motion/simbus/endpoint.hpp"
 #include "motion/uimessage/uimessage_transport.hpp"
@@ -45,7 +46,7 @@ std::unique_ptr<can::Transport> open_socketcan(const config::Bus& bus, std::erro
 // baud/parity/stop bits, the CRC coverage of uimessage_crc / uimessage_crc_strict. The CAN bit
 // rate is the gateway's own setting; the configured one is not sent anywhere.
 std::unique_ptr<can::Transport> open_uimessage(const config::Bus& bus, std::error_code& error) {
-  return uimessage::UiMessageTransport::open(bus.target, serial::settings_from(bus), uimessage::options_from(bus), error);
+  return uimessage::UiMessageTransport::open(bus.target, serial_line_settings(bus), uimessage::options_from(bus), error);
 }
 
 }  // namespace

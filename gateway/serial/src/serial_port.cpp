@@ -31,27 +31,20 @@ constexpr std::array kBaudConstants{
 
 }  // namespace
 
-SerialSettings settings_from(const config::Bus& bus) {
+SerialSettings line_settings(int baud, char parity, int stop_bits) {
   SerialSettings s;
-  s.baud = bus.baud;
-  s.parity = bus.parity == 'E' ? Parity::even : bus.parity == 'O' ? Parity::odd : Parity::none;
-  s.stop_bits = bus.stop_bits;
+  s.baud = baud;
+  s.parity = parity == 'E' ? Parity::even : parity == 'O' ? Parity::odd : Parity::none;
+  s.stop_bits = stop_bits;
   return s;
 }
 
-std::string simserial_link_path(const config::Config& config, const config::Bus& bus) {
-  return config::sim_runtime_dir(config) + "/" + bus.name + ".tty";
-}
-
-std::string device_path(const config::Config& config, const config::Bus& bus) {
-  switch (bus.kind) {
-    case config::TransportKind::kSerial:
-    case config::TransportKind::kUiMessage: return bus.target;
-    case config::TransportKind::kSimSerial: return simserial_link_path(config, bus);
-    case config::TransportKind::kSimCan:
-    case config::TransportKind::kSocketCan: return {};
-  }
-  return {};
+std::string simserial_link_path(std::string_view runtime_dir, std::string_view bus) {
+  std::string path(runtime_dir);
+  path += '/';
+  path += bus;
+  path += ".tty";
+  return path;
 }
 
 bool termios_speed(int baud, unsigned& speed_constant) {

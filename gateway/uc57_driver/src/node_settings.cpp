@@ -11,28 +11,24 @@ namespace motion::uc57_driver {
 namespace {
 
 void apply_resolution(const config::Drive& drive, NodeSettings& out) {
-  std::optional<long long> pulses = drive.setup_integer("pulses_per_revolution");
-  const char* source = "pulses_per_revolution";
-  if (!pulses) {
-    const auto micro_steps = drive.setup_integer("micro_steps");
-    if (!micro_steps) return;  // leave 2006h as stored in the drive; it is read back at start-up
-    pulses = *micro_steps * kFullStepsPerRevolution;
-    source = "micro_steps";
+  using Status = cia402::uc57::SetupSubdivision::Status;
+  const auto setup =
+      cia402::uc57::setup_subdivision(drive.setup_integer("pulses_per_revolution"), drive.setup_integer("micro_steps"));
+  const std::string source = setup.from_micro_steps ? "micro_steps" : "pulses_per_revolution";
+  switch (setup.status) {
+    case Status::kNotSet: return;  // leave 2006h as stored in the drive; it is read back at start-up
+    case Status::kCode: out.subdivision_code = setup.code; return;
+    case Status::kOutOfRange:
+      out.errors.push_back(source + ": " + std::to_string(setup.pulses) + " pulses/rev is out of range");
+      return;
+    case Status::kNotInTable:
+      // The 2006h table has 16 fixed resolutions (manual §5.1); "1-256 subdivisions" of §1.1 is not
+      // what the object accepts (conflict C-14).
+      out.errors.push_back(source + ": " + std::to_string(setup.pulses) +
+                           " pulses/rev is not one of the UC57's 2006h resolutions (200, 400, 800, 1600, 3200, 6400, 12800, "
+                           "25600, 1000, 2000, 4000, 5000, 8000, 10000, 20000, 40000)");
+      return;
   }
-  if (*pulses <= 0 || *pulses > 0xFFFFFFFF) {
-    out.errors.push_back(std::string(source) + ": " + std::to_string(*pulses) + " pulses/rev is out of range");
-    return;
-  }
-  const auto code = cia402::uc57::subdivision_code(static_cast<std::uint32_t>(*pulses));
-  if (!code) {
-    // The 2006h table has 16 fixed resolutions (manual §5.1); "1-256 subdivisions" of §1.1 is not
-    // what the object accepts (conflict C-14).
-    out.errors.push_back(std::string(source) + ": " + std::to_string(*pulses) +
-                         " pulses/rev is not one of the UC57's 2006h resolutions (200, 400, 800, 1600, 3200, 6400, 12800, "
-                         "25600, 1000, 2000, 4000, 5000, 8000, 10000, 20000, 40000)");
-    return;
-  }
-  out.subdivision_code = *code;
 }
 
 void apply_current(const config::Drive& drive, NodeSettings& out) {

@@ -10,8 +10,8 @@
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/param_t.hpp>
 
+#include "motion/gateway/serial_line.hpp"
 #include "motion/lcm/reply_error.hpp"
-#include "motion/serial/serial_port.hpp"
 
 namespace motion::uim242_driver {
 
@@ -126,7 +126,7 @@ Uim242BusCore::Uim242BusCore(const config::Config& config, const std::string& bu
     poll_period_ = std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(b->poll_hz, 0.1)));
     channel_ = RequestChannel([this](std::span<const std::uint8_t> bytes) { context_.send(bytes); },
                               ChannelSettings{std::chrono::milliseconds(b->request_timeout_ms), b->retries,
-                                              serial::settings_from(*b).wire_time(1)});
+                                              gateway::serial_line_settings(*b).wire_time(1)});
   }
   for (const auto& d : config.drives) {
     if (d.bus != bus || d.family != config::Family::kUim242) continue;

@@ -2,13 +2,14 @@
 
 #include <utility>
 
+#include "motion/gateway/serial_line.hpp"
 #include "motion/uim242_driver/bus_core.hpp"
 
 namespace motion::uim242_driver {
 
 Uim242BusDriver::Uim242BusDriver(EventLoop& loop, const config::Config& config, const config::Bus& bus,
                                  gateway::GatewayOutput& out)
-    : SerialBusDriver(loop, bus.name, serial::device_path(config, bus), serial::settings_from(bus), out,
+    : SerialBusDriver(loop, bus.name, gateway::serial_device_path(config, bus), gateway::serial_line_settings(bus), out,
                       [&loop, &config, &bus, &out](Write write) {
                         CoreContext context;
                         // A lost write is not retried here: the request times out and is retried

@@ -10,7 +10,7 @@
 #include <fmt/ranges.h>
 #include <motionlcm/event_t.hpp>
 
-#include "motion/simbus/bit_timing.hpp"
+#include "motion/can_frame/bit_timing.hpp"
 
 namespace motion::gateway {
 namespace {
@@ -180,7 +180,7 @@ struct Uim342Stack::Impl {
     const auto request = uim342::instruction_frame(node, rq::get(uim342::MotionStatusIndex::kinematics));
     const auto ack = uim342::reply_frame(node, uim342::Reply{FunctionCode::MS, uim342::MotionKinematics{-1, -1}});
     if (!request.ok() || !ack.ok()) return Duration::zero();
-    return simbus::frame_duration(*request, bitrate) + simbus::frame_duration(*ack, bitrate);
+    return can::frame_duration(*request, bitrate) + can::frame_duration(*ack, bitrate);
   }
 
   // §5.24 polling within the bus capacity: N drives x (MS[0] + MS[1]) x poll rate may not take
@@ -694,7 +694,7 @@ struct Uim342Stack::Impl {
       if (nodes[i].cfg.group_id == group && std::find(c.nodes.begin(), c.nodes.end(), i) == c.nodes.end()) one_frame = false;
     }
     const auto bg_frame = uim342::instruction_frame(one_frame ? group : nodes[c.nodes.front()].cfg.node_id, rq::begin());
-    const auto frame_us = std::chrono::duration<double, std::micro>(simbus::frame_duration(*bg_frame, config.bitrate)).count();
+    const auto frame_us = std::chrono::duration<double, std::micro>(can::frame_duration(*bg_frame, config.bitrate)).count();
     c.mechanism = one_frame ? "group-bg" : "sequential";
     c.skew_us = one_frame ? 0.0 : frame_us * static_cast<double>(c.nodes.size() - 1);
     c.start_frames_left = one_frame ? 1 : c.nodes.size();

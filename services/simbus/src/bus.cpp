@@ -108,7 +108,7 @@ std::error_code Bus::submit(EndpointId from, const can::Frame& frame, TimePoint 
   // No wire: the frame is complete the moment it is sent.
   const Fate fate = fate_of(q);
   if (fate.drop) return {};
-  const std::uint32_t bits = frame_bits(q.frame).total;
+  const std::uint32_t bits = can::frame_bits(q.frame).total;
   occupy(bits, now);
   complete(q, fate, bits, now);
   return {};
@@ -136,10 +136,10 @@ void Bus::run_wire(TimePoint now) {
     Queued winner = take_winner(start);
     const Fate fate = fate_of(winner);
     if (fate.drop) continue;
-    const FrameBits bits = frame_bits(winner.frame);
+    const can::FrameBits bits = can::frame_bits(winner.frame);
     occupy(bits.total, start);
     on_wire_ = OnWire{std::move(winner), fate, bits.total,
-                      start + bits_duration(bits.to_end_of_frame(), config_.bitrate)};
+                      start + can::bits_duration(bits.to_end_of_frame(), config_.bitrate)};
   }
 }
 
@@ -149,11 +149,11 @@ Bus::Queued Bus::take_winner(TimePoint start) {
   // order, as a SocketCAN interface does (FIFO queue discipline, one frame in the controller): a
   // SYNC queued after RPDOs must not overtake them by its higher priority.
   auto best = queue_.begin();
-  std::uint64_t best_key = arbitration_key(best->frame);
+  std::uint64_t best_key = can::arbitration_key(best->frame);
   std::set<EndpointId> seen{best->from};
   for (auto it = std::next(queue_.begin()); it != queue_.end() && it->queued_at <= start; ++it) {
     if (!seen.insert(it->from).second) continue;  // not the head of its endpoint's queue
-    const std::uint64_t key = arbitration_key(it->frame);
+    const std::uint64_t key = can::arbitration_key(it->frame);
     if (key < best_key) {  // strict: equal fields keep submission order
       best = it;
       best_key = key;
@@ -183,7 +183,7 @@ Bus::Fate Bus::fate_of(const Queued& q) {
 }
 
 void Bus::occupy(std::uint32_t bits, TimePoint start) {
-  const TimePoint end = start + bits_duration(bits, config_.bitrate);
+  const TimePoint end = start + can::bits_duration(bits, config_.bitrate);
   wire_free_at_ = std::max(wire_free_at_, end);
   busy_.emplace_back(start, end);
   while (!busy_.empty() && busy_.front().second < start - config_.load_window) busy_.pop_front();

@@ -13,7 +13,7 @@
 #include <string_view>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 
 namespace motion::canopen::test {
 

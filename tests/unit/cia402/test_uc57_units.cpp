@@ -29,6 +29,23 @@ TEST(Uc57Units, MicrosteppingTable) {
   EXPECT_EQ(object(index::kMicrostepping).max + 1, static_cast<std::int64_t>(kPulsesPerRevolutionByCode.size()));
 }
 
+TEST(Uc57Units, SetupSubdivisionRule) {
+  using Status = SetupSubdivision::Status;
+  EXPECT_EQ(setup_subdivision(std::nullopt, std::nullopt).status, Status::kNotSet);
+  const auto from_micro_steps = setup_subdivision(std::nullopt, 16);  // 200 x 16 = 3200 pulses/rev
+  EXPECT_EQ(from_micro_steps.status, Status::kCode);
+  EXPECT_EQ(from_micro_steps.code, 4);
+  EXPECT_EQ(from_micro_steps.pulses, 3200);
+  EXPECT_TRUE(from_micro_steps.from_micro_steps);
+  const auto pulses_win = setup_subdivision(1000, 16);  // pulses_per_revolution wins over micro_steps
+  EXPECT_EQ(pulses_win.status, Status::kCode);
+  EXPECT_EQ(pulses_win.code, 8);
+  EXPECT_FALSE(pulses_win.from_micro_steps);
+  EXPECT_EQ(setup_subdivision(std::nullopt, 256).status, Status::kNotInTable);  // C-14: 51200 is no 2006h code
+  EXPECT_EQ(setup_subdivision(0, std::nullopt).status, Status::kOutOfRange);
+  EXPECT_EQ(setup_subdivision(std::int64_t{1} << 32, std::nullopt).status, Status::kOutOfRange);
+}
+
 TEST(Uc57Units, PositionAndSpeed) {
   EXPECT_DOUBLE_EQ(pulses_to_revolutions(5000, kPpr), 0.5);           // spec §3.4: 5000 = half a revolution
   EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(60, kPpr), 10000.0);      // spec §3.4: 60 RPM = 10000 pulses/s

@@ -14,6 +14,7 @@
 
 #include <motionlcm/event_t.hpp>
 
+#include "motion/gateway/serial_line.hpp"
 #include "motion/serial/pty_link.hpp"
 #include "motion/testing/pump.hpp"
 
@@ -207,6 +208,38 @@ TEST_F(SerialBusDriverTest, EvenAndOddParityOpenOnAPtyWithTheParityBitCounted) {
     ASSERT_TRUE(run_until([&] { return ::read(link->master_fd(), buffer.data(), buffer.size()) == 2; }));
     EXPECT_EQ(std::string(buffer.data(), 2), "\x01\x03");
   }
+}
+
+// A configured serial bus in motion::serial's values: the line as configured, the device of
+// serial: and uimessage:, motion-sim's link of simserial:, nothing for a CAN bus.
+TEST(SerialLine, ConfiguredBusAsSerialValues) {
+  config::Config config;
+  config.simulation.runtime_dir = "/tmp/lab-sim";
+  config::Bus bus;
+  bus.name = "rs485";
+  bus.baud = 19200;
+  bus.parity = 'E';
+  bus.stop_bits = 2;
+  const serial::SerialSettings line = serial_line_settings(bus);
+  EXPECT_EQ(line.baud, 19200);
+  EXPECT_EQ(line.parity, serial::Parity::even);
+  EXPECT_EQ(line.data_bits, 8);
+  EXPECT_EQ(line.stop_bits, 2);
+  EXPECT_EQ(line.bits_per_character(), 12);
+  bus.parity = 'O';
+  EXPECT_EQ(serial_line_settings(bus).parity, serial::Parity::odd);
+  bus.parity = 'N';
+  EXPECT_EQ(serial_line_settings(bus).parity, serial::Parity::none);
+
+  bus.kind = config::TransportKind::kSimSerial;
+  EXPECT_EQ(serial_device_path(config, bus), "/tmp/lab-sim/rs485.tty");
+  bus.kind = config::TransportKind::kSerial;
+  bus.target = "/dev/ttyUSB0";
+  EXPECT_EQ(serial_device_path(config, bus), "/dev/ttyUSB0");
+  bus.kind = config::TransportKind::kUiMessage;
+  EXPECT_EQ(serial_device_path(config, bus), "/dev/ttyUSB0");
+  bus.kind = config::TransportKind::kSimCan;
+  EXPECT_EQ(serial_device_path(config, bus), "");
 }
 
 }  // namespace

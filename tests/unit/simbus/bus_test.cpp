@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "motion/can_frame/bit_timing.hpp"
+
 namespace motion::simbus {
 namespace {
 
@@ -125,14 +127,14 @@ TEST_P(BackToBack, EndOfFrameTimestampsAreSpacedByFrameDurations) {
   for (TimePoint now = kStart; now != kNever; now = bus.next_deadline()) bus.advance(now, sink);
   const auto got = sink.frames_to(rx);
   ASSERT_EQ(got.size(), frames.size());
-  const std::int64_t first_eof = us_of(kStart + bits_duration(frame_bits(frames[0]).to_end_of_frame(), bitrate));
+  const std::int64_t first_eof = us_of(kStart + can::bits_duration(can::frame_bits(frames[0]).to_end_of_frame(), bitrate));
   EXPECT_EQ(got[0].timestamp_us, first_eof);
   for (std::size_t i = 1; i < got.size(); ++i) {
     const auto spacing = microseconds(got[i].timestamp_us - got[i - 1].timestamp_us);
-    EXPECT_EQ(spacing, frame_duration(frames[i], bitrate)) << "frame " << i;
+    EXPECT_EQ(spacing, can::frame_duration(frames[i], bitrate)) << "frame " << i;
   }
   // The 8-byte SDO request is 123 bits: 984 us at 125 kbit/s, 123 us at 1 Mbit/s.
-  EXPECT_EQ(frame_duration(frames[0], bitrate), bits_duration(123, bitrate));
+  EXPECT_EQ(can::frame_duration(frames[0], bitrate), can::bits_duration(123, bitrate));
 }
 
 INSTANTIATE_TEST_SUITE_P(Bitrates, BackToBack, ::testing::Values(125'000u, 500'000u, 1'000'000u));
@@ -226,7 +228,7 @@ TEST_F(BusTest, DropNextFramesThenExpire) {
   ASSERT_EQ(got.size(), 1u);
   EXPECT_EQ(got[0].id, 3u);  // lowest ids win the wire first, so 1 and 2 were the "next two"
   // A dropped frame uses no wire time: 3 arrives one frame time after the start.
-  EXPECT_EQ(got[0].timestamp_us, us_of(kStart + bits_duration(frame_bits(frame(3)).to_end_of_frame(), 500'000)));
+  EXPECT_EQ(got[0].timestamp_us, us_of(kStart + can::bits_duration(can::frame_bits(frame(3)).to_end_of_frame(), 500'000)));
   EXPECT_EQ(bus.statistics(kStart).dropped, 2u);
   EXPECT_EQ(bus.statistics(kStart).frames, 1u);
 }
@@ -267,9 +269,9 @@ TEST_F(BusTest, CorruptedFrameBecomesAnErrorEventForEveryone) {
     EXPECT_NE(n.event.text.find("123#01"), std::string::npos) << n.event.text;
   }
   // It still took its wire time: 0x124 ends two frame times after the start.
-  const auto duration_123 = frame_duration(frame(0x123, {1}), 500'000);
+  const auto duration_123 = can::frame_duration(frame(0x123, {1}), 500'000);
   EXPECT_EQ(sink.frames_to(b)[0].timestamp_us,
-            us_of(kStart + duration_123 + bits_duration(frame_bits(frame(0x124, {2})).to_end_of_frame(), 500'000)));
+            us_of(kStart + duration_123 + can::bits_duration(can::frame_bits(frame(0x124, {2})).to_end_of_frame(), 500'000)));
   const BusStatistics s = bus.statistics(kStart);
   EXPECT_EQ(s.errors, 1u);
   EXPECT_EQ(s.frames, 2u);
@@ -285,7 +287,7 @@ TEST_F(BusTest, DelayedFrameArrivesLaterWithALaterTimestamp) {
   const auto got = sink.frames_to(b);
   ASSERT_EQ(got.size(), 2u);
   EXPECT_EQ(got[0].id, 0x124u);  // overtaken while 0x123 was held back
-  const TimePoint eof_123 = kStart + bits_duration(frame_bits(frame(0x123)).to_end_of_frame(), 500'000);
+  const TimePoint eof_123 = kStart + can::bits_duration(can::frame_bits(frame(0x123)).to_end_of_frame(), 500'000);
   EXPECT_EQ(got[1].timestamp_us, us_of(eof_123 + milliseconds(5)));
 }
 

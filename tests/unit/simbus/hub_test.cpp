@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "motion/can_frame/bit_timing.hpp"
 #include "motion/simbus/address.hpp"
 
 namespace motion::simbus {
@@ -162,7 +163,7 @@ TEST_P(HubBitrate, BackToBackFramesAreStampedOneFrameTimeApart) {
   ASSERT_TRUE(run_until(loop, [&] { return received.frames.size() == frames.size(); }));
   for (std::size_t i = 1; i < frames.size(); ++i) {
     EXPECT_EQ(microseconds(received.frames[i].timestamp_us - received.frames[i - 1].timestamp_us),
-              frame_duration(frames[i], GetParam()))
+              can::frame_duration(frames[i], GetParam()))
         << "frame " << i;
   }
   // Timestamps are wall-clock end-of-frame times: after the send, and not far in the future.

@@ -14,7 +14,7 @@
 #include <set>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/cob_id.hpp"
 #include "motion/canopen/emcy.hpp"
 #include "motion/canopen/nmt.hpp"

@@ -9,7 +9,7 @@
 #include <string_view>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/uim342/message.hpp"
 
 namespace motion::uim342::test {

@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/uim342/uim342.hpp"
 
 namespace motion::gateway::test {

@@ -16,7 +16,7 @@
 #include <motionlcm/event_t.hpp>
 
 #include "fake_drive.hpp"
-#include "motion/simbus/bit_timing.hpp"
+#include "motion/can_frame/bit_timing.hpp"
 
 namespace motion::gateway {
 namespace {
@@ -269,7 +269,7 @@ TEST_F(Uim342StackTest, PollingIsSlowedToWhatTheBusCarriesAndSaysSo) {
     // One poll of a drive: two requests and two ACKs, the longest ACK 8 bytes (MS[1]).
     const auto request = uim342::instruction_frame(5, uim342::request::get(uim342::MotionStatusIndex::kinematics));
     const auto ack = uim342::reply_frame(5, uim342::Reply{FC::MS, uim342::MotionKinematics{-1, -1}});
-    return 2 * (simbus::frame_duration(*request, 1'000'000) + simbus::frame_duration(*ack, 1'000'000)) * static_cast<std::int64_t>(polled);
+    return 2 * (can::frame_duration(*request, 1'000'000) + can::frame_duration(*ack, 1'000'000)) * static_cast<std::int64_t>(polled);
   };
   ASSERT_GT(cycle(120), milliseconds(37));  // more than 3/4 of the configured 50 ms period
   // 4/3 of the cycle, rounded up to the ms; node ids differ in stuff bits by a few per frame.
@@ -435,7 +435,7 @@ TEST_F(Uim342StackTest, MoveOfAxesWithoutACommonGroupStartsSequentiallyAndEndsBy
   const auto started = replies_of(id)[1];
   EXPECT_EQ(started.start_mechanism, "sequential");
   const auto bg = *uim342::instruction_frame(5, uim342::request::begin());
-  const double frame_us = std::chrono::duration<double, std::micro>(simbus::frame_duration(bg, 1'000'000)).count();
+  const double frame_us = std::chrono::duration<double, std::micro>(can::frame_duration(bg, 1'000'000)).count();
   EXPECT_DOUBLE_EQ(started.predicted_skew_us, frame_us);
   run_for(milliseconds(60));
   EXPECT_EQ(last_reply(id).status, kStarted);  // polled while moving

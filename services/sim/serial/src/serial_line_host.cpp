@@ -11,6 +11,14 @@
 #include "motion/serial/serial_port.hpp"
 
 namespace motion::sim {
+namespace {
+
+// The configured line (baud, 'N'/'E'/'O' parity, stop bits; 8 data bits), as the gateway opens it.
+serial::SerialSettings configured_line(const config::Bus& bus) {
+  return serial::line_settings(bus.baud, bus.parity, bus.stop_bits);
+}
+
+}  // namespace
 
 std::optional<config::Family> SerialLineHost::family_for(const config::Config& config, const config::Bus& bus,
                                                          const Factories& factories) {
@@ -45,7 +53,8 @@ std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const conf
     return nullptr;
   }
   auto host = std::unique_ptr<SerialLineHost>(new SerialLineHost(loop, config, bus, *family));
-  host->link_ = serial::PtyLink::create(serial::simserial_link_path(config, bus), serial::settings_from(bus), error);
+  host->link_ = serial::PtyLink::create(serial::simserial_link_path(config::sim_runtime_dir(config), bus.name),
+                                       configured_line(bus), error);
   if (!host->link_) return nullptr;
   SerialDeviceContext context;
   context.bus = bus.name;
@@ -105,7 +114,7 @@ void SerialLineHost::on_readable() {
     const ssize_t n = ::read(link_->master_fd(), buffer.data(), buffer.size());
     if (n <= 0) break;  // EAGAIN: drained (the slave fd PtyLink keeps open means no EIO)
     const auto count = static_cast<std::size_t>(n);
-    line_busy_until_ = std::max(line_busy_until_, now) + serial::settings_from(bus_).wire_time(count);
+    line_busy_until_ = std::max(line_busy_until_, now) + configured_line(bus_).wire_time(count);
     inbox_.emplace_back(line_busy_until_, std::vector<std::uint8_t>(buffer.begin(), buffer.begin() + n));
   }
   reschedule();

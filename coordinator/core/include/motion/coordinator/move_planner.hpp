@@ -7,8 +7,9 @@
 //           IC[4] rate = integer pulse/s^2, or IC[4] time = integer ms ramping from `cut_in_speed`
 //           (pulse/s) to SP; the unit is the set-up's `acceleration_unit` (default rate, as the
 //           stack's).
-//   UC57    6081h profile velocity integer rpm at the node's pulses/rev (uc57_driver's set-up rule:
-//           pulses_per_revolution or micro_steps x 200 -> 2006h, else the drive's factory 10000),
+//   UC57    6081h profile velocity integer rpm at the node's pulses/rev (the gateway's set-up rule,
+//           cia402::uc57::setup_subdivision: pulses_per_revolution or micro_steps x 200 -> 2006h,
+//           else the drive's factory 10000),
 //           range from the object dictionary; 6083h/6084h ramp time integer ms from the start
 //           speed 200Eh (factory default from the OD, which the gateway does not change) to the
 //           speed (conflict C-02 in uc57_units.hpp).

@@ -16,7 +16,7 @@
 #include <system_error>
 #include <utility>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 
 namespace motion::can {
 

@@ -13,7 +13,7 @@
 #include <system_error>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 
 namespace motion::can {
 

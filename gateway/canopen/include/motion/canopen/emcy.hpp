@@ -13,7 +13,7 @@
 #include <span>
 #include <string_view>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/types.hpp"
 #include "motion/core/clock.hpp"
 

@@ -10,7 +10,7 @@
 #include <functional>
 #include <optional>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/emcy.hpp"
 #include "motion/canopen/nmt_master.hpp"
 #include "motion/canopen/sdo_client.hpp"

@@ -17,7 +17,7 @@
 #include <map>
 #include <optional>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/nmt.hpp"
 #include "motion/canopen/types.hpp"
 #include "motion/core/clock.hpp"

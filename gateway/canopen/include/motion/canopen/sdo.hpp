@@ -16,7 +16,7 @@
 #include <span>
 #include <variant>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/types.hpp"
 
 namespace motion::canopen {

@@ -30,7 +30,7 @@
 #include <system_error>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/sdo.hpp"
 #include "motion/canopen/types.hpp"
 #include "motion/core/bytes.hpp"

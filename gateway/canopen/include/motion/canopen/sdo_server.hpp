@@ -19,7 +19,7 @@
 #include <span>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/errors.hpp"
 #include "motion/canopen/sdo.hpp"
 #include "motion/canopen/types.hpp"

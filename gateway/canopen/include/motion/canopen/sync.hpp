@@ -8,7 +8,7 @@
 #include <optional>
 #include <span>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/cob_id.hpp"
 #include "motion/canopen/types.hpp"
 #include "motion/core/clock.hpp"

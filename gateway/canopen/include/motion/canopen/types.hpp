@@ -13,7 +13,7 @@
 #include <span>
 #include <stdexcept>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 
 namespace motion::canopen {
 

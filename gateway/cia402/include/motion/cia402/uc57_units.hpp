@@ -75,6 +75,27 @@ inline constexpr std::uint32_t kDefaultPulsesPerRevolution = 10000;
 [[nodiscard]] std::optional<std::uint32_t> pulses_per_revolution(std::uint16_t subdivision_code);
 [[nodiscard]] std::optional<std::uint16_t> subdivision_code(std::uint32_t pulses_per_revolution);
 
+// Full steps per motor revolution of the UC57's 1.8 degree motors (200 = 2006h code 0, "200 Pu/rev").
+inline constexpr std::uint32_t kFullStepsPerRevolution = 200;
+
+// The 2006h code a node's set-up asks for: `pulses_per_revolution` when given, else
+// kFullStepsPerRevolution x `micro_steps`. The one rule for the gateway's start-up write of 2006h
+// and the coordinator's velocity grid.
+struct SetupSubdivision {
+  enum class Status : std::uint8_t {
+    kNotSet,      // neither given: the drive keeps the code it stores
+    kCode,        // `code` is the 2006h value for `pulses`
+    kOutOfRange,  // `pulses` is not a positive 32-bit count
+    kNotInTable,  // `pulses` is none of the 16 resolutions of 2006h (C-14)
+  };
+  Status status = Status::kNotSet;
+  std::int64_t pulses = 0;        // pulses/rev asked for (0 when kNotSet)
+  bool from_micro_steps = false;  // computed from `micro_steps` (no `pulses_per_revolution`)
+  std::uint16_t code = 0;         // kCode only
+};
+[[nodiscard]] SetupSubdivision setup_subdivision(std::optional<std::int64_t> pulses_per_revolution,
+                                                 std::optional<std::int64_t> micro_steps);
+
 // --- Position and speed. Positions (607Ah, 6064h, 607Ch) are pulses = microsteps. Speeds (6081h,
 // 60FFh, 606Ch, 6099h, 200Eh) are RPM of the motor shaft: pulses/s = RPM / 60 * pulses/rev. ---
 [[nodiscard]] double rpm_to_pulses_per_second(double rpm, std::uint32_t pulses_per_rev);

@@ -18,7 +18,7 @@
 #include <utility>
 #include <vector>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 
 namespace motion::gateway {
 

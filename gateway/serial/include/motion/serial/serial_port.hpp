@@ -1,5 +1,6 @@
 // A serial port for the poll loop: opened non-blocking with termios in raw mode (baud, parity,
-// 8 data bits, stop bits from the bus configuration), exposing its fd for EventLoop::watch().
+// 8 data bits, stop bits: SerialSettings), exposing its fd for EventLoop::watch(). Plain values
+// in, no configuration: the callers turn a configured bus into a path and SerialSettings.
 //
 // Where a bus's port is: `serial:/dev/ttyUSB0` → that device; `simserial:<name>` → the pty that
 // motion-sim created for the bus, published as the symlink <sim_runtime_dir>/<bus>.tty
@@ -17,9 +18,8 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <system_error>
-
-#include "motion/config/config.hpp"
 
 namespace motion::serial {
 
@@ -38,14 +38,13 @@ struct SerialSettings {
   }
 };
 
-// The bus's line settings ('N'/'E'/'O' parity of the configuration).
-[[nodiscard]] SerialSettings settings_from(const config::Bus& bus);
+// 8 data bits at `baud` with `parity` in the 8N1 letter notation ('N' none, 'E' even, 'O' odd;
+// any other letter: none) and `stop_bits` (1 or 2; SerialPort::open refuses others).
+[[nodiscard]] SerialSettings line_settings(int baud, char parity, int stop_bits);
 
-// <sim_runtime_dir>/<bus>.tty: where motion-sim publishes the pty of a simserial bus.
-[[nodiscard]] std::string simserial_link_path(const config::Config& config, const config::Bus& bus);
-// The path a gateway opens for a serial bus: the device of serial: and uimessage:, the link of
-// simserial:. Empty for simcan: and socketcan:.
-[[nodiscard]] std::string device_path(const config::Config& config, const config::Bus& bus);
+// <runtime_dir>/<bus>.tty: where motion-sim publishes the pty of a simserial bus (runtime_dir: the
+// configuration's simulation runtime directory).
+[[nodiscard]] std::string simserial_link_path(std::string_view runtime_dir, std::string_view bus);
 
 // The termios speed constant of a baud rate; false when the kernel has no such constant
 // (e.g. 14400 and 56000, which the ADAM baud register lists, have none on Linux).

@@ -5,6 +5,7 @@
 // setup key          -> UC57 object (manual)
 //   micro_steps      -> 2006h subdivision code for 200 full steps x micro_steps (§5.1 table)
 //   pulses_per_revolution -> 2006h code for that many pulses/rev (wins over micro_steps)
+//                       (both: cia402::uc57::setup_subdivision, the rule the coordinator plans with)
 //   current_a        -> 2005h run current, 0.1 A RMS, 1..25 (§5.1; conflict C-19 in uc57_units.hpp)
 //   tpdo_mode        -> 1800h:02 / 1801h:02 transmission type: sync = 1 (every SYNC), event = 255
 //   heartbeat_ms     -> 1017h producer heartbeat (§5 comm. table; no node guarding: 100Ch/100Dh absent)
@@ -56,9 +57,6 @@ struct NodeSettings {
   // "a-drive (node 1)": the prefix of every reason and event text about this node.
   [[nodiscard]] std::string label() const;
 };
-
-// Full steps per motor revolution of the UC57's 1.8 degree motors (200 = 2006h code 0, "200 Pu/rev").
-inline constexpr std::uint32_t kFullStepsPerRevolution = 200;
 
 [[nodiscard]] NodeSettings make_node_settings(const config::Config& config, const config::Bus& bus,
                                               const config::Drive& drive, std::uint16_t default_heartbeat_ms);

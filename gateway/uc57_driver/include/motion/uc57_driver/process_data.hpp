@@ -19,7 +19,7 @@
 #include <optional>
 #include <span>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/canopen/pdo.hpp"
 #include "motion/canopen/pdo_config.hpp"
 #include "motion/canopen/types.hpp"

@@ -4,7 +4,7 @@
 // fd watch, one timer at the core's next deadline: reply timeouts, polls, re-identification).
 //
 // The line settings (baud, parity, stop bits; 8 data bits) come from the bus configuration as for
-// every serial bus (serial::settings_from); the port is serial:<device> or the simserial link
+// every serial bus (gateway/serial_line.hpp); the port is serial:<device> or the simserial link
 // motion-sim publishes. Construction from the configuration (gateway/app/bus_assembly.cpp, for a
 // serial bus whose drives are uim242):
 //   Uim242BusDriver::create(loop, config, bus, out)
@@ -22,7 +22,7 @@ namespace motion::uim242_driver {
 
 class Uim242BusDriver final : public gateway::SerialBusDriver {
  public:
-  // The bus's port (serial::device_path) with its line settings.
+  // The bus's port (gateway::serial_device_path) with its line settings.
   Uim242BusDriver(EventLoop& loop, const config::Config& config, const config::Bus& bus, gateway::GatewayOutput& out);
   static std::unique_ptr<Uim242BusDriver> create(EventLoop& loop, const config::Config& config, const config::Bus& bus,
                                                  gateway::GatewayOutput& out);

@@ -31,7 +31,7 @@
 #include <string_view>
 #include <variant>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/uim342/errors.hpp"
 #include "motion/uim342/message.hpp"
 

@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <span>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/uim342/errors.hpp"
 #include "motion/uim342/identifier.hpp"
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <variant>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/uim342/errors.hpp"
 #include "motion/uim342/instructions.hpp"
 #include "motion/uim342/message.hpp"

@@ -3,8 +3,8 @@
 // and tests drive it with hand-picked times.
 //
 // With the timing model on, frames are serialized on a virtual wire: a frame occupies it for its
-// exact bit time (bit_timing.hpp); when the wire frees, the oldest waiting frame of each endpoint
-// contends by arbitration (the lowest arbitration field wins, equal fields by submission order;
+// exact bit time (motion/can_frame/bit_timing.hpp); when the wire frees, the oldest waiting frame
+// of each endpoint contends by arbitration (the lowest arbitration field wins, equal fields by submission order;
 // an endpoint's own frames keep their order, as on a SocketCAN interface); receivers get the frame at its
 // end of frame, stamped with that time. With it off, frames are delivered at the time they are
 // submitted. Like vcan, every frame reaches every other attached endpoint; an endpoint receives
@@ -24,10 +24,10 @@
 #include <variant>
 #include <vector>
 
-#include "motion/can/frame.hpp"
 #include "motion/can/transport.hpp"
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/core/clock.hpp"
-#include "motion/simbus/bit_timing.hpp"
 
 namespace motion::simbus {
 

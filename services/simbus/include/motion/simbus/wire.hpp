@@ -17,8 +17,8 @@
 #include <string>
 #include <variant>
 
-#include "motion/can/frame.hpp"
 #include "motion/can/transport.hpp"
+#include "motion/can_frame/frame.hpp"
 
 namespace motion::simbus::wire {
 

@@ -13,7 +13,7 @@
 #include <motionlcm/sim_control_t.hpp>
 #include <motionlcm/sim_report_t.hpp>
 
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 

@@ -1,9 +1,9 @@
-#include "motion/simbus/bit_timing.hpp"
+#include "motion/can_frame/bit_timing.hpp"
 
 #include <algorithm>
 #include <array>
 
-namespace motion::simbus {
+namespace motion::can {
 namespace {
 
 // SOF..CRC of the longest frame: extended header (39 bits incl. DLC) + 64 data + 15 CRC.
@@ -25,7 +25,7 @@ class BitWriter {
 constexpr std::uint32_t kDominant = 0;
 constexpr std::uint32_t kRecessive = 1;
 
-void put_header(BitWriter& w, const can::Frame& frame) {
+void put_header(BitWriter& w, const Frame& frame) {
   const std::uint32_t rtr = frame.rtr ? kRecessive : kDominant;
   w.put(kDominant, 1);  // SOF
   if (frame.extended) {
@@ -83,7 +83,7 @@ std::uint16_t crc15_bytes(std::span<const std::uint8_t> bytes) {
   return static_cast<std::uint16_t>(crc);
 }
 
-FrameBits frame_bits(const can::Frame& frame) {
+FrameBits frame_bits(const Frame& frame) {
   const std::uint8_t dlc = std::min<std::uint8_t>(frame.dlc, 8);
   BitWriter w;
   put_header(w, frame);
@@ -105,11 +105,11 @@ Duration bits_duration(std::uint64_t bits, std::uint32_t bitrate) {
   return Duration{static_cast<Duration::rep>((bits * kNanosPerSecond + bitrate / 2) / bitrate)};
 }
 
-Duration frame_duration(const can::Frame& frame, std::uint32_t bitrate) {
+Duration frame_duration(const Frame& frame, std::uint32_t bitrate) {
   return bits_duration(frame_bits(frame).total, bitrate);
 }
 
-std::uint64_t arbitration_key(const can::Frame& frame) {
+std::uint64_t arbitration_key(const Frame& frame) {
   BitWriter w;
   put_header(w, frame);
   // Standard: SOF, id, RTR, IDE (r0 is control, but IDE decides against an extended frame).
@@ -121,4 +121,4 @@ std::uint64_t arbitration_key(const can::Frame& frame) {
   return key;
 }
 
-}  // namespace motion::simbus
+}  // namespace motion::can

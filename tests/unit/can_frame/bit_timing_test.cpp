@@ -1,4 +1,4 @@
-#include "motion/simbus/bit_timing.hpp"
+#include "motion/can_frame/bit_timing.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <string_view>
 #include <vector>
 
-namespace motion::simbus {
+namespace motion::can {
 namespace {
 
 using std::chrono::microseconds;
@@ -140,4 +140,4 @@ TEST(BitTiming, DataFrameBeatsRemoteFrameWithTheSameId) {
 }
 
 }  // namespace
-}  // namespace motion::simbus
+}  // namespace motion::can

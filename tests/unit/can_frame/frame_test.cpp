@@ -1,4 +1,4 @@
-#include "motion/can/frame.hpp"
+#include "motion/can_frame/frame.hpp"
 
 #include <gtest/gtest.h>
 
