@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include "bus_assembly.hpp"
+#include "bus_lock.hpp"
 #include "motion/app/service.hpp"
 #include "motion/core/log.hpp"
 #include "motion/gateway/gateway.hpp"
@@ -24,6 +25,11 @@ int main(int argc, char** argv) {
       for (const auto& b : config->buses) names += (names.empty() ? "" : ", ") + b.name;
       spdlog::error("bus '{}' is not in {} (buses: {})", bus_name, config->file, names);
       return app::kExitConfig;
+    }
+    auto lock = gateway::lock_bus(*config, *bus);
+    if (const auto* refused = std::get_if<std::string>(&lock)) {
+      spdlog::error("{}", *refused);
+      return app::kExitUnavailable;
     }
     app::Service service(*config, options, "gateway:" + bus_name, "gateway");
     if (!service.ok()) return app::kExitUnavailable;

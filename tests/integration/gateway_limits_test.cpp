@@ -5,6 +5,8 @@
 //    and nothing moves;
 //  - a jog of c toward its +100 mm limit, within the velocity limit: the rs485 gateway stops it
 //    before the limit and says so with a LIMIT event.
+//  - a second gateway for a bus that already has one refuses to start, naming the process that
+//    holds the bus, and the first one carries on.
 // No timed assertions: waits are bounded.
 #include <gtest/gtest.h>
 
@@ -136,6 +138,27 @@ TEST_F(GatewayLimits, JogTowardTheLimitStopsBeforeItWithALimitEvent) {
   (void)again;
   lab.pause(std::chrono::milliseconds(1500));
   EXPECT_LE(lab.position("c"), 100.0);
+}
+
+TEST_F(GatewayLimits, ASecondGatewayOnTheSameBusRefusesToStartAndNamesTheHolder) {
+  ASSERT_TRUE(lab.start({"x"}));
+  const auto first = lab.group().heartbeat("gateway:can0");
+  ASSERT_TRUE(first.has_value());
+  const pid_t second = lab.group().start({"gateway:can0-second", "motion-gateway", {"--config", lab.config_path(), "--bus", "can0"}, {}});
+  ASSERT_GT(second, 0);
+  std::optional<int> status;
+  lab.group().pump_until([&] { return (status = lab.group().exit_status(second)).has_value(); }, seconds(10));
+  ASSERT_TRUE(status.has_value()) << "the second gateway of can0 kept running";
+  EXPECT_EQ(*status, 4);  // kExitUnavailable
+  const std::string log = lab.group().log_of("gateway:can0-second");
+  EXPECT_NE(log.find("bus can0 (simcan:can0) is already served by process " + std::to_string(first->pid)), std::string::npos) << log;
+  // The first gateway still owns the bus: it heartbeats and moves x.
+  ASSERT_TRUE(lab.group().wait_for_heartbeat("gateway:can0", seconds(5)));
+  ASSERT_TRUE(lab.enable({"x"}));
+  const double x0 = lab.position("x");
+  const auto move = lab.call(Client::make(request_t::MOVE_ABSOLUTE, std::map<std::string, double>{{"x", x0 + 1.0}}));
+  EXPECT_EQ(+move.status, +reply_t::DONE) << move.reason;
+  EXPECT_TRUE(lab.settled_at("x", x0 + 1.0, 0.01));
 }
 
 }  // namespace

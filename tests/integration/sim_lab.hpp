@@ -53,6 +53,7 @@ class SimLab {
         lcm::channels::kGatewayReply, [this](const motionlcm::gateway_reply_t& r, const std::string&) { gateway_replies_.push_back(r); });
   }
 
+  [[nodiscard]] const std::string& config_path() const { return config_path_; }
   // The gateway of `bus` (also to restart one a test killed).
   pid_t start_gateway(const std::string& bus) {
     return group_.start({"gateway:" + bus, "motion-gateway", {"--config", config_path_, "--bus", bus}, {}});

@@ -21,12 +21,16 @@ ensure_packages() {
   apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 }
 
-# build_tree DIR [cmake args...]: configure (once) and build into DIR.
+# build_tree DIR [--target T] [cmake args...]: configure (once) and build DIR (all, or target T).
 build_tree() {
-  local dir=$1
+  local dir=$1 target=()
   shift
+  if [ "${1:-}" = --target ]; then
+    target=(--target "$2")
+    shift 2
+  fi
   if [ ! -f "$dir/build.ninja" ]; then
     cmake -S "$MOTION_ROOT" -B "$dir" -G Ninja "$@" >/dev/null
   fi
-  cmake --build "$dir" -j "$(nproc)"
+  cmake --build "$dir" -j "$(nproc)" "${target[@]}"
 }
