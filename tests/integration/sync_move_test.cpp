@@ -205,6 +205,63 @@ TEST_F(SyncMove, RestartedGatewayIsToldWhatItWasDoingAndStopsIt) {
   expect_one_terminal_each(2);
 }
 
+// A coordinator killed while c jogs leaves the jog running on the drive; the coordinator started
+// in its place hears c moving under no request of its own, says so (UNOWNED_MOTION) and stops it,
+// and the lab takes a new move afterwards.
+TEST_F(SyncMove, RestartedCoordinatorStopsAJogItDidNotStart) {
+  const auto jog = wait_terminal(send(Client::make(request_t::JOG, Values{{"c", 5.0}})));
+  ASSERT_EQ(jog.status, st(reply_t::DONE)) << jog.reason;
+  ASSERT_TRUE(lab.client().wait_until([&] { return moving("c"); }, seconds(5)));
+  const auto coordinator = lab.group().heartbeat("coordinator");
+  ASSERT_TRUE(coordinator.has_value());
+  ASSERT_EQ(::kill(static_cast<pid_t>(coordinator->pid), SIGKILL), 0);
+  lab.group().stop(static_cast<pid_t>(coordinator->pid));  // reap it
+  const double at_kill = position("c");
+  lab.pause(std::chrono::milliseconds(300));
+  EXPECT_TRUE(moving("c"));  // nothing stops a jog by itself
+  ASSERT_GT(lab.group().start({"coordinator-2", "motion-coordinator", {"--config", lab.config_path()}, {}}), 0);
+  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::UNOWNED_MOTION), "c", "was moving"); }, seconds(10)));
+  EXPECT_TRUE(lab.client().wait_until([&] { return !moving("c"); }, seconds(10))) << "c still jogging";
+  EXPECT_LT(position("c"), at_kill + 20.0);
+  EXPECT_LT(position("c"), 100.0);
+  ASSERT_TRUE(lab.group().wait_for_heartbeat("coordinator", seconds(10)));
+  const auto back = wait_terminal(send(Client::make(request_t::MOVE_RELATIVE, Values{{"c", -1.0}})));
+  EXPECT_EQ(back.status, st(reply_t::DONE)) << back.reason;
+}
+
+// Frames lost on can0 just as a stop is sent: whatever the lost frames were (the STOP, its
+// acknowledgement, status polls), the request ends exactly once, x and y come to rest well short
+// of their targets (stops are watched until the states show standstill, repeated, escalated),
+// and the lab takes a new move afterwards.
+TEST_F(SyncMove, AStopWhileTheBusDropsFramesStillStopsTheAxes) {
+  const auto id = send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 250.0}, {"y", 150.0}}));
+  ASSERT_TRUE(lab.client().wait_until([&] { return saw(id, reply_t::STARTED) || ended(id); }, seconds(20)));
+  ASSERT_FALSE(ended(id)) << replies_[id].back().reason;
+  lab.control_bus("can0", motionlcm::sim_control_t::BUS_DROP, 40);
+  const auto stop = wait_terminal(send(Client::make(request_t::STOP, std::vector<std::string>{"x", "y"})), seconds(30));
+  EXPECT_TRUE(stop.status == st(reply_t::DONE) || stop.status == st(reply_t::FAILED)) << stop.reason;
+  const reply_t moved = wait_terminal(id, seconds(30));
+  EXPECT_EQ(moved.status, st(reply_t::ABORTED)) << moved.reason;
+  for (const auto& a : std::vector<std::string>{"x", "y"}) {
+    EXPECT_TRUE(lab.client().wait_until([&] { return !moving(a) && lab.state(a).online; }, seconds(15))) << a << " still moving";
+  }
+  EXPECT_EQ(moved.reason.find("not confirmed"), std::string::npos) << moved.reason;
+  EXPECT_LT(position("x"), 240.0);
+  EXPECT_LT(position("y"), 140.0);
+  // Reset whatever the lost frames or an e-stop left (a drive that saw half a conversation may
+  // flag an error), then a new move completes.
+  const std::vector<std::string> both{"x", "y"};
+  if (lab.state("x").fault || lab.state("y").fault) {
+    const auto reset = lab.call(Client::make(request_t::FAULT_RESET, both));
+    EXPECT_EQ(reset.status, st(reply_t::DONE)) << reset.reason;
+  }
+  if (!lab.state("x").enabled || !lab.state("y").enabled) {
+    ASSERT_TRUE(lab.enable(both));
+  }
+  const auto again = wait_terminal(send(Client::make(request_t::MOVE_RELATIVE, Values{{"x", -5.0}, {"y", -5.0}})), seconds(30));
+  EXPECT_EQ(again.status, st(reply_t::DONE)) << again.reason;
+}
+
 TEST_F(SyncMove, BadRequestsAreRejectedWithReasonsAndEveryRequestEndsOnce) {
   std::size_t requests = 1;  // enable
   const auto unknown = wait_terminal(send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 1.0}, {"q", 1.0}})));

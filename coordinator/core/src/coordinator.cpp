@@ -93,15 +93,12 @@ Coordinator::Coordinator(EventLoop& loop, lcm::Node& node, const config::Config&
   // A malformed request cannot be answered (its ids are unreadable): say so loudly on EVENT.
   node_.on_malformed([this](const std::string& what) {
     spdlog::warn("{}", what);
-    motionlcm::event_t e{};
-    e.utime = wall_time_us();
-    e.source = "coordinator";
-    e.severity = motionlcm::event_t::WARNING;
-    e.kind = motionlcm::event_t::PROTOCOL_ERROR;
-    e.text = what;
-    node_.publish(lcm::channels::kEvent, e);
+    publish_event("", motionlcm::event_t::WARNING, motionlcm::event_t::PROTOCOL_ERROR, what);
   });
-  watchdog_ = loop_.call_every(std::chrono::milliseconds(100), [this] { check_gateways(); });
+  watchdog_ = loop_.call_every(std::chrono::milliseconds(100), [this] {
+    check_gateways();
+    check_stops();
+  });
   active_moves_timer_ = loop_.call_every(kActiveMovesPeriod, [this] {
     if (active_moves_published_ || std::any_of(requests_.begin(), requests_.end(), [](const auto& r) { return is_motion(r.second->msg.kind); })) {
       publish_active_moves();
@@ -126,8 +123,18 @@ void Coordinator::on_axis_state(const motionlcm::axis_state_t& state) {
     g.seen = true;
     g.last_heartbeat = loop_.now();
   }
+  const bool first_sight = !it->second.state.has_value();
   it->second.state = state;
   it->second.received = loop_.now();
+  if (first_sight && state.moving && state.online && it->second.busy_with == 0) {
+    // Nothing this process sent moves it: a coordinator restarted while its predecessor's move,
+    // jog or homing run went on, or a command from elsewhere. What nobody owns is stopped.
+    const std::string text = "axis " + state.axis + " was moving (at " + number(state.position) +
+                             ") when this coordinator first heard of it; no request of this coordinator moves it: stopping it";
+    spdlog::warn("{}", text);
+    publish_event(state.axis, motionlcm::event_t::WARNING, motionlcm::event_t::UNOWNED_MOTION, text);
+    send_stop({state.axis}, false, 0);
+  }
   if (const std::uint64_t serial = it->second.busy_with; serial != 0) {
     if (auto rit = requests_.find(serial); rit != requests_.end()) {
       Request& r = *rit->second;
@@ -147,6 +154,7 @@ void Coordinator::on_axis_state(const motionlcm::axis_state_t& state) {
   for (const auto serial : confirming) {
     if (auto rit = requests_.find(serial); rit != requests_.end()) check_confirmed(*rit->second, false);
   }
+  if (stops_.watching(state.axis)) check_stops();
 }
 
 void Coordinator::on_event(const motionlcm::event_t& event) {
@@ -389,6 +397,15 @@ void Coordinator::on_request(const request_t& msg) {
     reply_unknown(msg, reply_t::REJECTED, err->first, err->second);
     return;
   }
+  // Bounded work: beyond max_active_requests a request is refused at once, never queued; stops
+  // always pass (they end work, and an operator must be able to stop everything).
+  const auto limit = static_cast<std::size_t>(config_.coordinator.max_active_requests);
+  if (!is_stop(msg.kind) && requests_.size() >= limit) {
+    reply_unknown(msg, reply_t::REJECTED, ReplyError::kBusy,
+                  "busy: " + std::to_string(requests_.size()) + " requests in progress (max_active_requests " + std::to_string(limit) +
+                      "); retry when one has ended");
+    return;
+  }
   auto owned = std::make_unique<Request>();
   Request& r = *owned;
   r.msg = msg;
@@ -495,10 +512,16 @@ void Coordinator::preempt(const request_t& stop) {
     Request& r = *it->second;
     // The stop request itself stops these axes; the preempted request only ends, and its axes
     // no longer stand at a commanded target (relative moves count from where they stop).
-    for (const auto& a : r.axes) axes_.at(a).commanded_units.reset();
-    reply(r, reply_t::ABORTED, ReplyError::kStopped,
-          std::string(stop.kind == request_t::ESTOP ? "e-stopped" : "stopped") + " by request " + stop.client_id + "/" + std::to_string(stop.request_id));
-    finish(serial);
+    std::set<std::string> stopped;
+    for (const auto& a : r.axes) {
+      axes_.at(a).commanded_units.reset();
+      const bool named = stop.axes.empty() || std::find(stop.axes.begin(), stop.axes.end(), a) != stop.axes.end();
+      if (named && !r.still.contains(a) && is_motion(r.msg.kind)) stopped.insert(a);
+    }
+    const std::string by = std::string(stop.kind == request_t::ESTOP ? "e-stopped" : "stopped") + " by request " + stop.client_id + "/" +
+                           std::to_string(stop.request_id);
+    // The ABORTED reply waits until the stop request's stops are confirmed (start_simple watches them).
+    enter_stopping(r, std::move(stopped), {reply_t::ABORTED, ReplyError::kStopped, by});
   }
 }
 
@@ -531,6 +554,9 @@ void Coordinator::start_simple(Request& r) {
       for (const auto& c : cmds) names += (names.empty() ? "" : ", ") + c.axis;
       r.unreached += (r.unreached.empty() ? "" : "; ") + names + " (gateway of bus " + bus + " offline)";
       continue;
+    }
+    if (is_stop(r.msg.kind)) {
+      for (const auto& c : cmds) stops_.watch(c.axis, r.msg.kind == request_t::ESTOP, loop_.now(), stop_allowance(axes_.at(c.axis)));
     }
     send_command(r, bus, gateway_kind(r.msg.kind), std::move(cmds));
   }
@@ -662,7 +688,14 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g) {
     return;
   }
   // A stop superseded by a later stop or e-stop on the same axis: that one stops it.
-  const bool superseded_stop = is_stop(r.msg.kind) && g.error_code == error_code(ReplyError::kStopped);
+  // A stop the gateway could not complete (a drive that did not answer) is not the end of it: the
+  // StopGuard repeats and escalates it, and the axis states decide.
+  const bool superseded_stop = is_stop(r.msg.kind) && (g.error_code == error_code(ReplyError::kStopped) || g.status == gateway_reply_t::FAILED);
+  if (is_stop(r.msg.kind) && g.status == gateway_reply_t::FAILED && g.error_code != error_code(ReplyError::kStopped)) {
+    r.gateway_failure += (r.gateway_failure.empty() ? "" : "; ") + ("bus " + g.bus + ": " + g.reason);
+    spdlog::warn("request {}/{} (stop): bus {}: {}; the stop is repeated until the axis states confirm it", r.msg.client_id, r.msg.request_id,
+                 g.bus, g.reason);
+  }
   if (g.status == gateway_reply_t::FAILED && !superseded_stop) {
     r.pending.erase(g.command_id);
     // The gateway's own code says more (a refused value, a silent drive, a fault) than "drive
@@ -743,6 +776,23 @@ std::optional<std::string> Coordinator::unconfirmed(const Request& r) const {
 }
 
 void Coordinator::check_confirmed(Request& r, bool final_check) {
+  if (is_stop(r.msg.kind)) {
+    // A stop is confirmed by the StopGuard: it repeats and escalates what does not take.
+    const bool watched = std::any_of(r.axes.begin(), r.axes.end(), [this](const std::string& a) { return stops_.watching(a); });
+    if (watched) return;  // check_stops() calls again when the guard resolves them
+    const std::string told = r.gateway_failure.empty() ? "" : "; " + r.gateway_failure;
+    for (const auto& a : r.axes) {
+      if (stops_.outcome(a) == StopGuard::Outcome::kUnconfirmed) {
+        return end_with(r, {reply_t::FAILED, ReplyError::kDriveError, "axis " + a + " could not be stopped (still moving after an e-stop)" + told});
+      }
+      if (stops_.outcome(a) == StopGuard::Outcome::kSilent) {
+        return end_with(r, {reply_t::FAILED, ReplyError::kAxisOffline, "axis " + a + " could not be confirmed stopped: it has not reported since" + told});
+      }
+      if (r.msg.kind == request_t::STOP && stops_.escalated(a)) {
+        return end_with(r, {reply_t::FAILED, ReplyError::kDriveError, "axis " + a + " did not stop on STOP; it was e-stopped (disabled)"});
+      }
+    }
+  }
   const auto missing = unconfirmed(r);
   if (!missing && !r.unreached.empty()) {
     end_with(r, {reply_t::FAILED, ReplyError::kGatewayOffline, "not reached: " + r.unreached});
@@ -773,7 +823,7 @@ Coordinator::Request* Coordinator::find_by_command(std::int64_t command_id) {
 }
 
 void Coordinator::abort_group(Request& r, std::int8_t status, ReplyError error, const std::string& reason) {
-  if (r.phase == Phase::kDone || r.phase == Phase::kReleasing) return;
+  if (r.phase == Phase::kDone || r.phase == Phase::kReleasing || r.phase == Phase::kStopping) return;
   // A move not triggered yet has moved nothing: it is disarmed, not stopped.
   if (is_move(r.msg.kind) && r.phase == Phase::kArming) return release_armed(r, {status, error, reason});
   // Stop every axis of the group that may be moving.
@@ -784,8 +834,116 @@ void Coordinator::abort_group(Request& r, std::int8_t status, ReplyError error, 
       axes_.at(a).commanded_units.reset();
     }
     send_stop(moving, false, r.msg.request_id);
+    return enter_stopping(r, {moving.begin(), moving.end()}, {status, error, reason});
   }
   end_with(r, {status, error, reason});
+}
+
+void Coordinator::enter_stopping(Request& r, std::set<std::string> axes, Outcome outcome) {
+  loop_.cancel(r.arm_timer);
+  loop_.cancel(r.progress_timer);
+  r.arm_timer = r.progress_timer = 0;
+  r.pending.clear();  // replies to its commands no longer matter
+  r.phase = Phase::kStopping;
+  r.stopping = std::move(axes);
+  r.outcome = std::move(outcome);
+  if (r.stopping.empty()) return end_with(r, r.outcome);
+  // Resolved on the next guard run at the latest (a stop's watch starts when it is sent).
+}
+
+Duration Coordinator::stop_allowance(const AxisLive& a) const {
+  // From the top speed at the configured acceleration, twice over (a drive's own stop ramp may
+  // be gentler), plus the time a gateway needs to poll and publish the axis.
+  const auto& l = a.axis->limits;
+  const double ramp_s = l.max_acceleration > 0 ? 2.0 * l.max_velocity / l.max_acceleration : 1.0;
+  return std::chrono::duration_cast<Duration>(std::chrono::duration<double>(ramp_s)) +
+         std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms);
+}
+
+void Coordinator::check_stops() {
+  const auto actions = stops_.process(loop_.now(), [this](const std::string& axis, TimePoint since) {
+    const AxisLive& a = axes_.at(axis);
+    StopGuard::Observation o;
+    // A drive that misses polls (lost frames, noise) is offline for a while: its stop is repeated
+    // and escalated like any other until it reports again; only a gone gateway ends the watch.
+    o.reachable = gateway_alive(a.drive->bus);
+    o.reported_since = a.state.has_value() && a.state->online && a.received > since;
+    o.moving = a.state && a.state->moving;
+    return o;
+  });
+  if (actions.empty()) return;
+  using E = motionlcm::event_t;
+  for (const auto& act : actions) {
+    switch (act.kind) {
+      case StopGuard::Action::Kind::kSendStop:
+      case StopGuard::Action::Kind::kSendEstop: {
+        const bool estop = act.kind == StopGuard::Action::Kind::kSendEstop;
+        spdlog::warn("{}", act.text);
+        publish_event(act.axis, estop ? E::ERROR : E::WARNING, E::STOP_UNCONFIRMED, act.text);
+        // Sent directly: the guard already counts this attempt.
+        gateway_command_t c{};
+        c.utime = wall_time_us();
+        c.bus = axes_.at(act.axis).drive->bus;
+        c.command_id = next_command_id_++;
+        c.kind = estop ? gateway_command_t::ESTOP : gateway_command_t::STOP;
+        motionlcm::axis_command_t ac{};
+        ac.axis = act.axis;
+        c.axes.push_back(ac);
+        c.num_axes = 1;
+        node_.publish(lcm::channels::gateway_command(c.bus), c);
+        break;
+      }
+      case StopGuard::Action::Kind::kResolved:
+        if (act.outcome == StopGuard::Outcome::kUnconfirmed || act.outcome == StopGuard::Outcome::kSilent) {
+          spdlog::error("{}", act.text);
+          publish_event(act.axis, E::ERROR, E::STOP_UNCONFIRMED, act.text);
+        } else if (act.attempt > 1) {
+          publish_event(act.axis, E::INFO, E::STOP_UNCONFIRMED, act.text);
+        }
+        break;
+    }
+  }
+  // Requests waiting for these stops: stopping requests end, stop requests conclude.
+  std::vector<std::uint64_t> ready;
+  for (const auto& [serial, r] : requests_) {
+    const bool waiting = r->phase == Phase::kStopping || (r->phase == Phase::kConfirming && is_stop(r->msg.kind));
+    if (!waiting) continue;
+    const auto& axes = r->phase == Phase::kStopping ? std::vector<std::string>(r->stopping.begin(), r->stopping.end()) : r->axes;
+    if (std::none_of(axes.begin(), axes.end(), [this](const std::string& a) { return stops_.watching(a); })) ready.push_back(serial);
+  }
+  for (const auto serial : ready) {
+    auto it = requests_.find(serial);
+    if (it == requests_.end()) continue;
+    Request& r = *it->second;
+    if (r.phase == Phase::kConfirming) {
+      check_confirmed(r, false);
+      continue;
+    }
+    Outcome outcome = r.outcome;
+    std::string unconfirmed_axes, unreachable_axes;
+    for (const auto& a : r.stopping) {
+      const auto o = stops_.outcome(a);
+      if (o == StopGuard::Outcome::kUnconfirmed) unconfirmed_axes += (unconfirmed_axes.empty() ? "" : ", ") + a;
+      if (!o || o == StopGuard::Outcome::kUnreachable || o == StopGuard::Outcome::kSilent) {
+        unreachable_axes += (unreachable_axes.empty() ? "" : ", ") + a;
+      }
+    }
+    if (!unconfirmed_axes.empty()) outcome.reason += "; could not stop " + unconfirmed_axes + " (still moving after an e-stop)";
+    if (!unreachable_axes.empty()) outcome.reason += "; stop of " + unreachable_axes + " not confirmed (gateway or drive not reporting)";
+    end_with(r, outcome);
+  }
+}
+
+void Coordinator::publish_event(const std::string& axis, std::int8_t severity, std::int16_t kind, const std::string& text) {
+  motionlcm::event_t e{};
+  e.utime = wall_time_us();
+  e.source = "coordinator";
+  e.bus = axes_.contains(axis) ? axes_.at(axis).drive->bus : std::string();
+  e.axis = axis;
+  e.severity = severity;
+  e.kind = kind;
+  e.text = text;
+  node_.publish(lcm::channels::kEvent, e);
 }
 
 void Coordinator::release_armed(Request& r, Outcome outcome) {
@@ -853,6 +1011,7 @@ void Coordinator::send_stop(const std::vector<std::string>& axes, bool emergency
     c.command_id = next_command_id_++;  // fire and forget: replies to it match no request
     c.request_id = request_id;
     c.kind = emergency ? gateway_command_t::ESTOP : gateway_command_t::STOP;
+    for (const auto& a : cmds) stops_.watch(a.axis, emergency, loop_.now(), stop_allowance(axes_.at(a.axis)));
     c.axes = std::move(cmds);
     c.num_axes = static_cast<std::int32_t>(c.axes.size());
     node_.publish(lcm::channels::gateway_command(bus), c);

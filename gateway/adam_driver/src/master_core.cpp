@@ -320,7 +320,9 @@ void MasterCore::retry_or_fail(const std::string& why, std::int32_t code, TimePo
     return;
   }
   const std::string reason = why + " (" + std::to_string(t->attempts) + (t->attempts == 1 ? " attempt)" : " attempts)");
-  if (code == error_code(ReplyError::kTimeout)) set_online(*t->drive, false, reason);
+  // No reply, or only garbled ones (CRC, malformed) on every attempt: the drive cannot be heard,
+  // so its last state (position, "moving") is no longer known; it is offline until a reply decodes.
+  set_online(*t->drive, false, reason);
   if (t->on_fail) t->on_fail(reason, code);
 }
 

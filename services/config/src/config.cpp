@@ -510,7 +510,7 @@ void read_axis(Reader& r, const YAML::Node& node, const std::string& path, Axis&
 void read_coordinator(Reader& r, const YAML::Node& node, CoordinatorSettings& out) {
   const std::string path = "coordinator";
   if (!r.check_map(node, path, {"default_timeout_ms", "progress_period_ms", "trigger_lead_ms", "gateway_timeout_ms",
-                                "arm_timeout_ms", "position_tolerance"}))
+                                "arm_timeout_ms", "max_active_requests", "position_tolerance"}))
     return;
   auto positive_int = [&](const char* key, int& field) {
     if (auto v = r.get<int>(node, path, key, false)) {
@@ -523,6 +523,7 @@ void read_coordinator(Reader& r, const YAML::Node& node, CoordinatorSettings& ou
   positive_int("trigger_lead_ms", out.trigger_lead_ms);
   positive_int("gateway_timeout_ms", out.gateway_timeout_ms);
   positive_int("arm_timeout_ms", out.arm_timeout_ms);
+  positive_int("max_active_requests", out.max_active_requests);
   if (auto v = r.get<double>(node, path, "position_tolerance", false)) {
     out.position_tolerance = *v;
     if (*v < 0) r.error(node["position_tolerance"], path + ".position_tolerance", "must not be negative");

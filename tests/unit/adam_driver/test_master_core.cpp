@@ -248,6 +248,38 @@ TEST_F(MasterCoreTest, CrcErrorIsCountedReportedAndRetried) {
   EXPECT_EQ(core->statistics().retries, 1);
 }
 
+TEST_F(MasterCoreTest, CrcErrorsOnEveryAttemptMarkTheDriveOfflineUntilAReplyDecodes) {
+  core->execute(command(2, std::int8_t{Command::ENABLE}, {"c"}), now);
+  reply(sent.back());  // heard once: online
+  ASSERT_EQ(out.terminal(2), 1);
+  const auto onlines = [this] {
+    return std::count_if(out.events.begin(), out.events.end(), [](const auto& e) { return e.kind == motionlcm::event_t::ONLINE; });
+  };
+  ASSERT_EQ(onlines(), 1);
+  const std::size_t before = sent.size();
+  core->execute(command(3, std::int8_t{Command::ENABLE}, {"c"}), now);
+  advance(2ms);  // the line's silence before the next request
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    ASSERT_EQ(sent.size(), before + static_cast<std::size_t>(attempt + 1));
+    Bytes corrupted = sent.back();
+    corrupted.back() ^= 0x01;
+    reply(corrupted);
+    advance(2ms);  // silence closes the frame
+    advance(2ms);  // then the retry (or the end)
+  }
+  ASSERT_EQ(out.terminal(3), 1);
+  EXPECT_NE(out.of(3).back().reason.find("CRC error"), std::string::npos) << out.of(3).back().reason;
+  ASSERT_TRUE(out.has_event(std::int16_t{motionlcm::event_t::OFFLINE})) << "a drive heard only garbled is not online";
+  ASSERT_FALSE(out.statuses.empty());
+  EXPECT_FALSE(out.statuses.back().second.online);
+  // The next reply that decodes brings it back.
+  core->execute(command(4, std::int8_t{Command::ENABLE}, {"c"}), now);
+  advance(2ms);
+  reply(sent.back());
+  EXPECT_EQ(out.terminal(4), 1);
+  EXPECT_EQ(onlines(), 2);
+}
+
 TEST_F(MasterCoreTest, ExceptionReplyFailsAtOnceNamingTheException) {
   Command c = command(3, std::int8_t{Command::PARAM_WRITE}, {"c"});
   c.param.space = std::int8_t{motionlcm::param_t::MODBUS_REGISTER};

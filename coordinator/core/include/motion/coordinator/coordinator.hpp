@@ -8,6 +8,10 @@
 // Abort paths: stop / e-stop requests preempt (ABORTED, kStopped); an axis of the group faults,
 // stalls or hits a limit, or a gateway's heartbeat is lost or restarts (the rest of the group is
 // stopped, ABORTED with the cause); request timeout (FAILED, kTimeout); a gateway error (FAILED).
+// Every stop sent is watched until the axis states confirm standstill (StopGuard: repeated, then
+// an e-stop, then given up and reported); an aborted request's terminal reply waits for that and
+// says which axes could not be confirmed stopped. An axis already moving when the coordinator
+// first hears of it (a coordinator restarted mid-motion) is stopped, with an UNOWNED_MOTION event.
 // The desired state of the active motion requests goes out on ACTIVE_MOVES every 500 ms, on every
 // change, and before the requests hit by a gateway restart are aborted (active_moves_t).
 //
@@ -33,6 +37,7 @@
 #include <motionlcm/request_t.hpp>
 
 #include "motion/config/config.hpp"
+#include "motion/coordinator/stop_guard.hpp"
 #include "motion/lcm/reply_error.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/node.hpp"
@@ -96,8 +101,9 @@ class Coordinator {
     bool seen = false;
   };
   // kReleasing: a move that could not be armed everywhere waits for its DISARMs before its
-  // terminal reply; kConfirming: the gateways are done and the axis states must show it.
-  enum class Phase { kWaitingGateways, kArming, kTriggered, kReleasing, kConfirming, kDone };
+  // terminal reply; kConfirming: the gateways are done and the axis states must show it;
+  // kStopping: aborted, its terminal reply waits until the StopGuard resolved its axes.
+  enum class Phase { kWaitingGateways, kArming, kTriggered, kReleasing, kConfirming, kStopping, kDone };
   struct Outcome {
     std::int8_t status = 0;
     ReplyError error = ReplyError::kNone;
@@ -124,8 +130,10 @@ class Coordinator {
     std::int64_t fire_utime = 0;
     MovePlan plan;
     motionlcm::param_t param_result{};
-    Outcome outcome;                               // kReleasing: the terminal reply to send
+    Outcome outcome;                               // kReleasing, kStopping: the terminal reply to send
+    std::set<std::string> stopping;                // kStopping: the axes whose stop must be confirmed
     std::string unreached;                         // stops: axes whose gateway was offline
+    std::string gateway_failure;                   // stops: what a gateway said when its stop failed
     TimePoint gateways_done{};                     // kConfirming: when the last gateway said DONE
     EventLoop::TimerId timeout_timer = 0;
     EventLoop::TimerId progress_timer = 0;
@@ -173,6 +181,13 @@ class Coordinator {
 
   std::int64_t send_command(Request& r, const std::string& bus, std::int8_t kind, std::vector<motionlcm::axis_command_t> axes);
   void send_stop(const std::vector<std::string>& axes, bool emergency, std::int64_t request_id);
+  // Aborted requests wait in kStopping for their axes' stops (see StopGuard).
+  void enter_stopping(Request& r, std::set<std::string> axes, Outcome outcome);
+  // Runs the StopGuard: sends what it escalates, reports it, and ends the requests it resolved.
+  void check_stops();
+  // How long `a` may take to report standstill after one stop.
+  [[nodiscard]] Duration stop_allowance(const AxisLive& a) const;
+  void publish_event(const std::string& axis, std::int8_t severity, std::int16_t kind, const std::string& text);
   void reply(Request& r, std::int8_t status, ReplyError error = ReplyError::kNone, const std::string& reason = {});
   void reply_unknown(const motionlcm::request_t& msg, std::int8_t status, ReplyError error, const std::string& reason);
   void finish(std::uint64_t serial);
@@ -187,6 +202,7 @@ class Coordinator {
   std::map<std::string, AxisLive> axes_;
   std::map<std::string, GatewayLive> gateways_;  // by bus
   std::map<std::uint64_t, std::unique_ptr<Request>> requests_;
+  StopGuard stops_;
   std::set<std::pair<std::string, std::int64_t>> active_ids_;  // (client_id, request_id)
   std::uint64_t next_serial_ = 1;
   std::int64_t next_command_id_ = 1;

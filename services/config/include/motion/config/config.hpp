@@ -169,6 +169,9 @@ struct CoordinatorSettings {
   int trigger_lead_ms = 30;          // cross-bus trigger scheduled this far ahead of arming completion
   int gateway_timeout_ms = 1500;     // heartbeat silence after which a gateway is lost
   int arm_timeout_ms = 2000;
+  // Requests in progress at once (stops and e-stops always pass): beyond it a request is
+  // REJECTED with kBusy ("retry later") instead of queueing without bound.
+  int max_active_requests = 256;
   double position_tolerance = 0.0;   // user units; 0 = one drive count
 };
 
