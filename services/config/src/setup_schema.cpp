@@ -8,7 +8,7 @@ const std::vector<long long> kMicrostepsUim = {1, 2, 4, 8, 16, 32, 64};
 // UIM342: MT (driver), IC (initial configuration), QE (encoder) of SimpleCAN 3.0 §5.2, §5.7, §5.9.
 const std::vector<SetupKey> kUim342 = {
     {"micro_steps", SetupType::kInt, 1, 64, kMicrostepsUim, {}, "MT[0] micro-stepping resolution (manual §5.9: 1..64 in powers of two)"},
-    {"current_a", SetupType::kNumber, 0.1, 8.0, {}, {}, "MT[1] working current, amperes (0.1 A steps)"},
+    {"current_a", SetupType::kNumber, 0.5, 8.0, {}, {}, "MT[1] working current, amperes (manual §5.9: 5..80 tenths = 0.5..8.0 A)"},
     {"idle_current_percent", SetupType::kInt, 0, 100, {}, {}, "MT[2] standby current, % of working current"},
     {"auto_enable", SetupType::kBool, 0, 0, {}, {}, "IC[0] driver on at power-up"},
     {"direction", SetupType::kChoice, 0, 0, {}, {"cw", "ccw"}, "IC[1] direction in which the counter increases"},
@@ -22,11 +22,16 @@ const std::vector<SetupKey> kUim342 = {
     {"backlash", SetupType::kInt, 0, 65535, {}, {}, "BL backlash compensation, pulses"},
 };
 
-// UC57 (CANopen): manufacturer objects of the UC57 manual, written by SDO and read back.
+// UC57 (CANopen): manufacturer objects of the UC57 manual, written by SDO and read back. 2006h takes
+// one of 16 resolutions (manual §5.1), so micro_steps (× 200 full steps) and pulses_per_revolution
+// are lists, not ranges; 2005h takes 1..25 tenths of an ampere RMS (§5.1).
 const std::vector<SetupKey> kUc57 = {
-    {"micro_steps", SetupType::kInt, 1, 256, {}, {}, "micro-stepping resolution"},
-    {"current_a", SetupType::kNumber, 0.1, 8.0, {}, {}, "phase current, amperes"},
-    {"pulses_per_revolution", SetupType::kInt, 200, 65535, {}, {}, "pulses per motor revolution"},
+    {"micro_steps", SetupType::kInt, 1, 200, {1, 2, 4, 5, 8, 10, 16, 20, 25, 32, 40, 50, 64, 100, 128, 200}, {},
+     "2006h micro-stepping resolution (micro-steps per full step)"},
+    {"current_a", SetupType::kNumber, 0.1, 2.5, {}, {}, "2005h run current, amperes RMS (0.1 A steps)"},
+    {"pulses_per_revolution", SetupType::kInt, 200, 40000,
+     {200, 400, 800, 1000, 1600, 2000, 3200, 4000, 5000, 6400, 8000, 10000, 12800, 20000, 25600, 40000}, {},
+     "2006h pulses per motor revolution"},
     {"closed_loop", SetupType::kBool, 0, 0, {}, {}, "encoder feedback control"},
     {"tpdo_mode", SetupType::kChoice, 0, 0, {}, {"sync", "event"}, "axis state from SYNC-driven or event-driven TPDOs"},
     {"heartbeat_ms", SetupType::kInt, 0, 65535, {}, {}, "producer heartbeat time (1017h)"},
@@ -34,16 +39,16 @@ const std::vector<SetupKey> kUc57 = {
 
 // ADAM Modbus RTU steppers: holding registers of the manual, written and read back.
 const std::vector<SetupKey> kAdamModbus = {
-    {"subdivision", SetupType::kInt, 1, 256, {}, {}, "micro-stepping subdivision"},
-    {"current_a", SetupType::kNumber, 0.1, 8.0, {}, {}, "phase current, amperes"},
-    {"pulses_per_revolution", SetupType::kInt, 200, 65535, {}, {}, "pulses per motor revolution"},
+    {"subdivision", SetupType::kInt, 1, 256, {}, {}, "micro-steps per full step (0x0024 = 200 × subdivision)"},
+    {"current_a", SetupType::kNumber, 0.1, 6.5, {}, {}, "0x000D rated current, amperes (manual §8.10: 10..650 × 0.01 A)"},
+    {"pulses_per_revolution", SetupType::kInt, 200, 1000000, {}, {}, "0x0024 pulses per motor revolution (manual §8.29)"},
     {"closed_loop", SetupType::kBool, 0, 0, {}, {}, "encoder feedback control"},
 };
 
 // UIM242 through a UIM2501/2502 gateway: MCS/CUR/ICFG/MCFG/ENC/STL instructions.
 const std::vector<SetupKey> kUim242 = {
     {"micro_steps", SetupType::kInt, 1, 16, {1, 2, 4, 8, 16}, {}, "MCS micro-stepping"},
-    {"current_a", SetupType::kNumber, 0.1, 4.0, {}, {}, "CUR phase current, amperes"},
+    {"current_a", SetupType::kNumber, 0.1, 8.0, {}, {}, "CUR phase current, amperes (0..80 tenths; the model's own range applies)"},
     {"icfg", SetupType::kInt, 0, 65535, {}, {}, "ICFG initial configuration bits"},
     {"mcfg", SetupType::kInt, 0, 65535, {}, {}, "MCFG motion configuration bits (RTCN enables)"},
     {"encoder_lines", SetupType::kInt, 0, 65535, {}, {}, "ENC encoder lines"},
