@@ -2,7 +2,7 @@
 #include <spdlog/spdlog.h>
 
 #include "motion/app/service.hpp"
-#include "motion/coordinator/coordinator.hpp"
+#include "motion/coordinator/coordinator_service.hpp"
 #include "motion/coordinator/move_planner.hpp"
 #include "motion/core/log.hpp"
 
@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
     if (!config) return app::kExitConfig;
     app::Service service(*config, options, "coordinator", "coordinator");
     if (!service.ok()) return app::kExitUnavailable;
-    coordinator::Coordinator coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(*config));
+    coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(*config));
     // OK once every bus's gateway is heard: until then requests for its axes are refused.
     auto update_health = [&] {
       std::string missing;

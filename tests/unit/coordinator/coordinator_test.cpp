@@ -1,17 +1,26 @@
-// The coordinator's request lifecycle against fake gateways on LCM: every request ends in exactly
-// one terminal reply, with the right cause.
+// The coordinator's request lifecycle against fake gateways: every request ends in exactly one
+// terminal reply, with the right cause. The passive core runs on a simulated wire and a manual
+// clock (no multicast, no waiting); one test at the end runs CoordinatorService over LCM.
 #include "motion/coordinator/coordinator.hpp"
 
 #include <gtest/gtest.h>
 
-#include <motionlcm/active_moves_t.hpp>
-
+#include <algorithm>
 #include <cmath>
+#include <deque>
+#include <map>
+#include <memory>
+#include <set>
 
+#include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
+#include "motion/coordinator/coordinator_service.hpp"
+#include "motion/core/event_loop.hpp"
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/node.hpp"
 #include "motion/testing/lcm_url.hpp"
+#include "motion/testing/pump.hpp"
 
 namespace motion::coordinator {
 namespace {
@@ -50,20 +59,111 @@ std::variant<MovePlan, std::string> simple_planner(const std::vector<PlanInput>&
   return plan;
 }
 
+// Simulated time and wire. A message sent is delivered after everything sent before it, at the
+// time it was sent; every core handed a message runs process() right after it, as
+// CoordinatorService does. Time moves only to the next thing due: a core's deadline, a scheduled
+// action (gateway ticks, test actions) or the end of the run.
+class SimLoop {
+ public:
+  using Action = std::function<void()>;
+  using Input = std::function<void(Coordinator&, TimePoint)>;
+
+  [[nodiscard]] TimePoint now() const { return now_; }
+  // The wall clock of the simulation: microseconds since the epoch, moving with now().
+  [[nodiscard]] std::int64_t wall_us() const {
+    return kWallStartUs + std::chrono::duration_cast<std::chrono::microseconds>(now_ - kStart).count();
+  }
+
+  void attach(Coordinator& core) { cores_.push_back({&core, core.process(now_)}); }
+  // Puts a message on the wire: `delivery` runs once everything sent before it has arrived.
+  void send(Action delivery) { wire_.push_back(std::move(delivery)); }
+  // A message to every coordinator.
+  void send_to_cores(Input input) {
+    send([this, input = std::move(input)] { deliver(input); });
+  }
+  // Hands `input` to every coordinator now, each running what is due after it.
+  void deliver(const Input& input) {
+    for (auto& c : cores_) {
+      input(*c.core, now_);
+      c.deadline = c.core->process(now_);
+    }
+  }
+  void call_after(Duration delay, Action action) { scheduled_.emplace(now_ + delay, std::move(action)); }
+  void call_every(Duration period, Action action) { every(now_ + period, period, std::make_shared<Action>(std::move(action))); }
+
+  // Runs until `done()` (checked whenever nothing is due) or `end`; false when `end` came first.
+  bool run_until(TimePoint end, const std::function<bool()>& done) {
+    for (;;) {
+      if (!settle()) return false;
+      if (done && done()) return true;
+      if (!wire_.empty()) continue;  // `done` sent something
+      if (now_ >= end) return false;
+      TimePoint next = end;
+      if (!scheduled_.empty()) next = std::min(next, scheduled_.begin()->first);
+      for (const auto& c : cores_) next = std::min(next, c.deadline);
+      now_ = std::max(now_, next);
+    }
+  }
+
+ private:
+  // Far from TimePoint{} (which the core reads as "never heard").
+  static constexpr TimePoint kStart = TimePoint{} + std::chrono::hours(1000);
+  static constexpr std::int64_t kWallStartUs = 1'700'000'000'000'000;
+  struct Attached {
+    Coordinator* core;
+    TimePoint deadline;
+  };
+
+  void every(TimePoint at, Duration period, std::shared_ptr<Action> action) {
+    scheduled_.emplace(at, [this, at, period, action] {
+      (*action)();
+      every(at + period, period, action);
+    });
+  }
+  // Everything due at now_: messages, scheduled actions, the cores' deadlines. False, for good,
+  // when a core keeps returning a deadline that is already due (the loop it runs in would spin).
+  bool settle() {
+    for (int round = 0; !stuck_; ++round) {
+      if (round == 100000) {
+        ADD_FAILURE() << "a core keeps returning a deadline that is already due";
+        stuck_ = true;
+        break;
+      }
+      bool busy = false;
+      while (!wire_.empty()) {
+        Action delivery = std::move(wire_.front());
+        wire_.pop_front();
+        delivery();
+        busy = true;
+      }
+      while (!scheduled_.empty() && scheduled_.begin()->first <= now_) {
+        Action action = std::move(scheduled_.begin()->second);
+        scheduled_.erase(scheduled_.begin());
+        action();
+        busy = true;
+      }
+      for (auto& c : cores_) {
+        if (c.deadline > now_) continue;
+        c.deadline = c.core->process(now_);
+        busy = true;
+      }
+      if (!busy) return true;
+    }
+    return false;
+  }
+
+  TimePoint now_ = kStart;
+  std::deque<Action> wire_;
+  std::multimap<TimePoint, Action> scheduled_;
+  std::vector<Attached> cores_;
+  bool stuck_ = false;
+};
+
 // Gateways of both buses: heartbeat, axis states, and scripted replies to commands.
 struct FakeGateways {
-  FakeGateways(EventLoop& loop, const std::string& url) : loop_(loop), node(loop, {url, "CT_"}) {
-    node.subscribe_raw("CT_GW_COMMAND_.*", [this](const void* data, int size, const std::string&) {
-      gateway_command_t c{};
-      if (c.decode(data, 0, size) != size) return;
-      commands.push_back(c);
-      if (on_command) on_command(c);
-    });
-    node.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger,
-                                              [this](const motionlcm::sync_trigger_t& t, const std::string&) { triggers.push_back(t); });
-    timer = loop_.call_every(milliseconds(50), [this] { tick(); });
+  explicit FakeGateways(SimLoop& sim) : loop_(sim) {
+    loop_.call_every(milliseconds(50), [this] { tick(); });
   }
-  ~FakeGateways() { loop_.cancel(timer); }
 
   void tick() {
     for (const std::string bus : {"can0", "rs485"}) {
@@ -74,13 +174,24 @@ struct FakeGateways {
       h.pid = pid_of[bus];
       h.state = motionlcm::health_t::OK;
       h.uptime_s = 10;
-      node.publish(lcm::channels::kHealth, h);
+      loop_.send_to_cores([h](Coordinator& c, TimePoint now) { c.on_health(h, now); });
     }
     for (auto& [name, s] : states) {
       if (silent.contains(s.bus)) continue;
-      s.utime = s.sample_utime = wall_time_us();
-      node.publish(lcm::channels::kAxisState, s);
+      s.utime = s.sample_utime = loop_.wall_us();
+      loop_.send_to_cores([s](Coordinator& c, TimePoint now) { c.on_axis_state(s, now); });
     }
+  }
+  // GW_COMMAND_<bus> as a gateway receives it.
+  void receive(const gateway_command_t& c) {
+    commands.push_back(c);
+    if (on_command) on_command(c);
+  }
+  void publish(const gateway_reply_t& r) {
+    loop_.send_to_cores([r](Coordinator& c, TimePoint now) { c.on_gateway_reply(r, now); });
+  }
+  void publish(const motionlcm::event_t& e) {
+    loop_.send_to_cores([e](Coordinator& c, TimePoint now) { c.on_event(e, now); });
   }
   void reply(const gateway_command_t& c, std::int8_t status, const std::string& reason = {}) {
     gateway_reply_t r{};
@@ -88,8 +199,8 @@ struct FakeGateways {
     r.bus = c.bus;
     r.status = status;
     r.reason = reason;
-    r.trigger_utime = wall_time_us();
-    node.publish(lcm::channels::kGatewayReply, r);
+    r.trigger_utime = loop_.wall_us();
+    publish(r);
   }
   void add_axis(const std::string& name, const std::string& bus, double scale) {
     motionlcm::axis_state_t s{};
@@ -108,9 +219,7 @@ struct FakeGateways {
     s.moving = moving;
   }
 
-  EventLoop& loop_;
-  lcm::Node node;
-  EventLoop::TimerId timer;
+  SimLoop& loop_;
   std::map<std::string, motionlcm::axis_state_t> states;
   std::map<std::string, double> scales;
   std::map<std::string, std::int32_t> pid_of{{"can0", 100}, {"rs485", 200}};
@@ -121,32 +230,85 @@ struct FakeGateways {
   std::function<void(const gateway_command_t&)> on_command;
 };
 
+// A client: requests in, and what it hears of REPLY, ACTIVE_MOVES and EVENT.
+struct FakeClient {
+  explicit FakeClient(SimLoop& sim) : loop_(sim) {}
+  void publish(const request_t& r) {
+    loop_.send_to_cores([r](Coordinator& c, TimePoint now) { c.on_request(r, now); });
+  }
+  // REQUEST bytes as they arrive, decoded as an LCM node decodes them.
+  void publish_raw(const std::vector<std::uint8_t>& bytes) {
+    request_t r{};
+    const std::string why = lcm::wire::decode_bounded(bytes.data(), bytes.size(), r);
+    if (why.empty()) return publish(r);
+    loop_.send_to_cores([bytes, why](Coordinator& c, TimePoint now) { c.on_malformed_request(bytes, why, now); });
+  }
+
+  SimLoop& loop_;
+  std::function<void(const reply_t&)> on_reply;
+  std::function<void(const motionlcm::active_moves_t&)> on_active_moves;
+  std::function<void(const motionlcm::event_t&)> on_event;
+};
+
+// What the coordinators send, on the simulated wire to the gateways and the client; their own
+// events reach every coordinator too (they hear EVENT).
+struct Wire final : CoordinatorOutput {
+  Wire(SimLoop& sim, FakeGateways& gws, FakeClient& cl) : loop_(sim), gateways_(gws), client_(cl) {}
+  void reply(const reply_t& r) override {
+    loop_.send([this, r] {
+      if (client_.on_reply) client_.on_reply(r);
+    });
+  }
+  void gateway_command(const std::string&, const gateway_command_t& c) override {
+    loop_.send([this, c] { gateways_.receive(c); });
+  }
+  void sync_trigger(const motionlcm::sync_trigger_t& t) override {
+    loop_.send([this, t] { gateways_.triggers.push_back(t); });
+  }
+  void active_moves(const motionlcm::active_moves_t& m) override {
+    loop_.send([this, m] {
+      if (client_.on_active_moves) client_.on_active_moves(m);
+    });
+  }
+  void event(const motionlcm::event_t& e) override {
+    loop_.send([this, e] {
+      if (client_.on_event) client_.on_event(e);
+      loop_.deliver([e](Coordinator& c, TimePoint now) { c.on_event(e, now); });
+    });
+  }
+
+  SimLoop& loop_;
+  FakeGateways& gateways_;
+  FakeClient& client_;
+};
+
 struct CoordinatorTest : ::testing::Test {
   CoordinatorTest()
       : config(*config::load_string(kConfig).config),
-        url(testing::unique_lcm_url(21)),
-        node(loop, {url, "CT_"}),
-        coordinator(loop, node, config, simple_planner),
-        gateways(loop, url),
-        client(loop, {url, "CT_"}) {
+        gateways(loop),
+        client(loop),
+        wire(loop, gateways, client),
+        coordinator(config, simple_planner, wire, wall_clock()) {
+    loop.attach(coordinator);
     gateways.add_axis("x", "can0", 100);
     gateways.add_axis("y", "can0", 100);
     gateways.add_axis("c", "rs485", 10);
     gateways.add_axis("r", "can0", 8.888888888888889);
-    client.subscribe<reply_t>(lcm::channels::kReply, [this](const reply_t& r, const std::string&) { replies[r.request_id].push_back(r); });
+    client.on_reply = [this](const reply_t& r) { replies[r.request_id].push_back(r); };
   }
   void SetUp() override { pump(milliseconds(200)); }  // heartbeats and states reach the coordinator
-  void pump(milliseconds d) {
-    const auto end = loop.now() + d;
-    while (loop.now() < end) loop.run_once(milliseconds(5));
+  WallClock wall_clock() {
+    return [this] { return loop.wall_us(); };
   }
+  // One more coordinator on the same wire, from now on.
+  Coordinator& add_coordinator() {
+    more.push_back(std::make_unique<Coordinator>(config, simple_planner, wire, wall_clock()));
+    loop.attach(*more.back());
+    return *more.back();
+  }
+  void pump(milliseconds d) { loop.run_until(loop.now() + d, nullptr); }
   bool pump_until(const std::function<bool()>& done, milliseconds limit = milliseconds(3000)) {
-    const auto end = loop.now() + limit;
-    while (!done()) {
-      if (loop.now() >= end) return false;
-      loop.run_once(milliseconds(5));
-    }
-    return true;
+    return loop.run_until(loop.now() + limit, done);
   }
   std::int64_t send(std::int8_t kind, std::vector<std::string> axes, std::vector<double> values, int timeout_ms = 0) {
     request_t r{};
@@ -157,7 +319,7 @@ struct CoordinatorTest : ::testing::Test {
     r.values = std::move(values);
     r.num_axes = static_cast<std::int32_t>(r.axes.size());
     r.timeout_ms = timeout_ms;
-    client.publish(lcm::channels::kRequest, r);
+    client.publish(r);
     return r.request_id;
   }
   static bool is_terminal(std::int8_t s) { return s == reply_t::DONE || s == reply_t::REJECTED || s == reply_t::ABORTED || s == reply_t::FAILED; }
@@ -212,12 +374,12 @@ struct CoordinatorTest : ::testing::Test {
   }
 
   config::Config config;
-  EventLoop loop;
-  std::string url;
-  lcm::Node node;
-  Coordinator coordinator;
+  SimLoop loop;
   FakeGateways gateways;
-  lcm::Node client;
+  FakeClient client;
+  Wire wire;
+  Coordinator coordinator;
+  std::vector<std::unique_ptr<Coordinator>> more;
   std::map<std::int64_t, std::vector<reply_t>> replies;
   std::map<std::int64_t, std::vector<gateway_command_t>> armed;
   std::function<void(const motionlcm::sync_trigger_t&)> trigger_handler;
@@ -251,14 +413,14 @@ TEST_F(CoordinatorTest, MalformedAndDuplicateRequestsAreRejected) {
   bad.num_axes = 1;
   bad.axes = {"x"};
   bad.values = {std::nan("")};
-  client.publish(lcm::channels::kRequest, bad);
+  client.publish(bad);
   const auto r = terminal(500);
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kMalformedRequest));
   EXPECT_NE(r.reason.find("not a finite number"), std::string::npos) << r.reason;
 
   bad.request_id = 501;
   bad.kind = 99;
-  client.publish(lcm::channels::kRequest, bad);
+  client.publish(bad);
   EXPECT_NE(terminal(501).reason.find("unknown request kind 99"), std::string::npos);
 }
 
@@ -273,7 +435,7 @@ TEST_F(CoordinatorTest, MalformedRequestWithReadableIdsIsRejectedNamingWhy) {
   std::vector<std::uint8_t> bytes(static_cast<std::size_t>(r.getEncodedSize()));
   ASSERT_EQ(r.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
   bytes.resize(bytes.size() - 10);  // the arrays claim more than the message carries
-  client.publish_raw(client.channel(lcm::channels::kRequest), bytes);
+  client.publish_raw(bytes);
   const auto reply = terminal(510);
   EXPECT_EQ(reply.status, std::int8_t{reply_t::REJECTED});
   EXPECT_EQ(reply.error_code, static_cast<int>(ReplyError::kMalformedRequest));
@@ -343,7 +505,7 @@ TEST_F(CoordinatorTest, StallOfOneAxisAbortsTheGroupAndStopsTheOthers) {
   stall.kind = motionlcm::event_t::STALL;
   stall.severity = motionlcm::event_t::ERROR;
   stall.text = "motor stall detected";
-  gateways.node.publish(lcm::channels::kEvent, stall);
+  gateways.publish(stall);
   const auto r = terminal(move);
   EXPECT_EQ(r.status, std::int8_t{reply_t::ABORTED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kAxisFault));
@@ -384,8 +546,7 @@ TEST_F(CoordinatorWithoutHeartbeats, AxisStatesShowTheGatewayAliveUntilTheyStop)
 // message once it is done.
 TEST_F(CoordinatorTest, ActiveMovesAreRepublishedWhileTheyRunAndClearedAtTheEnd) {
   std::vector<motionlcm::active_moves_t> seen;
-  client.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves,
-                                              [&](const motionlcm::active_moves_t& m, const std::string&) { seen.push_back(m); });
+  client.on_active_moves = [&](const motionlcm::active_moves_t& m) { seen.push_back(m); };
   auto_execute_moves(/*complete=*/false);
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {5.0, 2.0});
   ASSERT_TRUE(pump_until([&] {
@@ -463,7 +624,7 @@ TEST_F(CoordinatorTest, GatewaysOwnErrorCodeReachesTheClient) {
     r.status = gateway_reply_t::FAILED;
     r.error_code = static_cast<std::int32_t>(ReplyError::kOutsideLimits);
     r.reason = "x-drive (node 5): value 70000 outside the range of SQT";
-    gateways.node.publish(lcm::channels::kGatewayReply, r);
+    gateways.publish(r);
   };
   const auto r = terminal(send(request_t::ENABLE, {"x"}, {0.0}));
   EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED});
@@ -598,7 +759,7 @@ TEST_F(CoordinatorTest, OutOfRangeSetPositionScaleAndTimeoutAreRejectedNamingThe
   slow.values = {1.0};
   slow.num_axes = 1;
   slow.velocity_scale = 1.5;
-  client.publish(lcm::channels::kRequest, slow);
+  client.publish(slow);
   const auto scale = terminal(900);
   EXPECT_EQ(scale.error_code, static_cast<int>(ReplyError::kMalformedRequest));
   EXPECT_NE(scale.reason.find("velocity_scale 1.5"), std::string::npos) << scale.reason;
@@ -662,7 +823,7 @@ TEST_F(CoordinatorTest, AStopSupersededByASecondStopEndsDone) {
       r.status = gateway_reply_t::FAILED;
       r.error_code = error_code(ReplyError::kStopped);
       r.reason = "superseded by command " + std::to_string(c.command_id);
-      gateways.node.publish(lcm::channels::kGatewayReply, r);
+      gateways.publish(r);
       gateways.reply(c, gateway_reply_t::DONE);
     }
   };
@@ -705,7 +866,7 @@ struct StopsThatDoNotTake : CoordinatorTest {
       }
       base(c);
     };
-    client.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) { events.push_back(e); });
+    client.on_event = [this](const motionlcm::event_t& e) { events.push_back(e); };
   }
   std::int64_t moving_x() {
     const auto id = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0});
@@ -769,12 +930,108 @@ TEST_F(StopsThatDoNotTake, AnAxisMovingWhenANewCoordinatorStartsIsStopped) {
   gateways.put("x", 120, true);  // moved by a coordinator that is gone
   pump(milliseconds(100));
   EXPECT_TRUE(stops.empty());  // the running coordinator has heard of x before: not its business
-  lcm::Node second_node(loop, {url, "CT_"});
-  Coordinator second(loop, second_node, config, simple_planner);
+  add_coordinator();  // a second coordinator on the same wire, started now
   ASSERT_TRUE(pump_until([&] { return !stops.empty(); }));
   EXPECT_EQ(stops[0].axes.at(0).axis, "x");
   EXPECT_TRUE(event_says(motionlcm::event_t::UNOWNED_MOTION, "axis x was moving"));
   EXPECT_TRUE(pump_until([&] { return !gateways.states["x"].moving; }));
+}
+
+
+// The shell on the wire: the same core behind the LCM subscriptions and publications, driven by
+// one loop timer at the deadlines it returns.
+TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
+  const config::Config config = *config::load_string(kConfig).config;
+  EventLoop loop;
+  const std::string url = testing::unique_lcm_url(21);
+  lcm::Node node(loop, {url, "CT_"});
+  lcm::Node gateway(loop, {url, "CT_"});
+  lcm::Node client(loop, {url, "CT_"});
+  ASSERT_TRUE(node.ok() && gateway.ok() && client.ok());
+  CoordinatorService service(loop, node, config, simple_planner);
+
+  // The gateway of can0 with axis x: heartbeat and state every 50 ms; ARM_MOVE armed, the trigger
+  // started and the axis at its target at once.
+  motionlcm::axis_state_t x{};
+  x.axis = "x";
+  x.bus = "can0";
+  x.online = x.enabled = x.in_position = true;
+  const auto tick = loop.call_every(milliseconds(50), [&] {
+    motionlcm::health_t h{};
+    h.process = "gateway:can0";
+    h.role = "gateway";
+    h.pid = 100;
+    h.state = motionlcm::health_t::OK;
+    h.uptime_s = 10;
+    gateway.publish(lcm::channels::kHealth, h);
+    x.utime = x.sample_utime = wall_time_us();
+    gateway.publish(lcm::channels::kAxisState, x);
+  });
+  std::vector<gateway_command_t> commands;
+  const auto answer = [&](const gateway_command_t& c, std::int8_t status) {
+    gateway_reply_t r{};
+    r.command_id = c.command_id;
+    r.bus = c.bus;
+    r.status = status;
+    r.trigger_utime = wall_time_us();
+    gateway.publish(lcm::channels::kGatewayReply, r);
+  };
+  gateway.subscribe_raw("CT_GW_COMMAND_.*", [&](const void* data, int size, const std::string&) {
+    gateway_command_t c{};
+    if (c.decode(data, 0, size) != size) return;
+    commands.push_back(c);
+    answer(c, c.kind == gateway_command_t::ARM_MOVE ? gateway_reply_t::ARMED : gateway_reply_t::DONE);
+  });
+  std::vector<motionlcm::sync_trigger_t> triggers;
+  gateway.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger, [&](const motionlcm::sync_trigger_t& t, const std::string&) {
+    triggers.push_back(t);
+    for (const auto& c : commands) {
+      if (c.kind != gateway_command_t::ARM_MOVE || c.trigger_id != t.trigger_id) continue;
+      answer(c, gateway_reply_t::STARTED);
+      x.position_counts = c.axes.at(0).target_counts;
+      x.position = static_cast<double>(x.position_counts) / 100.0;
+    }
+  });
+  std::map<std::int64_t, std::vector<reply_t>> replies;
+  client.subscribe<reply_t>(lcm::channels::kReply, [&](const reply_t& r, const std::string&) { replies[r.request_id].push_back(r); });
+  std::vector<motionlcm::active_moves_t> active;
+  client.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves,
+                                              [&](const motionlcm::active_moves_t& m, const std::string&) { active.push_back(m); });
+  const auto ended = [&](std::int64_t id) {
+    return !replies[id].empty() && replies[id].back().status != reply_t::ACCEPTED && replies[id].back().status != reply_t::STARTED &&
+           replies[id].back().status != reply_t::PROGRESS;
+  };
+
+  ASSERT_TRUE(testing::pump_until(loop, [&] { return service.buses_without_gateway() == std::vector<std::string>{"rs485"}; }, milliseconds(3000)));
+  request_t move{};
+  move.client_id = "test";
+  move.request_id = 1;
+  move.kind = request_t::MOVE_ABSOLUTE;
+  move.axes = {"x"};
+  move.values = {1.0};
+  move.num_axes = 1;
+  client.publish(lcm::channels::kRequest, move);
+  ASSERT_TRUE(testing::pump_until(loop, [&] { return ended(1); }, milliseconds(3000)));
+  EXPECT_EQ(replies[1].front().status, std::int8_t{reply_t::ACCEPTED});
+  EXPECT_EQ(replies[1].back().status, std::int8_t{reply_t::DONE}) << replies[1].back().reason;
+  ASSERT_FALSE(commands.empty());
+  EXPECT_EQ(commands.front().kind, std::int8_t{gateway_command_t::ARM_MOVE});
+  EXPECT_EQ(commands.front().axes.at(0).target_counts, 100);
+  ASSERT_EQ(triggers.size(), 1u);
+  EXPECT_EQ(triggers[0].buses, std::vector<std::string>{"can0"});
+  ASSERT_TRUE(testing::pump_until(loop, [&] { return !active.empty() && active.back().num_axes == 0; }, milliseconds(3000)));
+  EXPECT_TRUE(std::any_of(active.begin(), active.end(), [](const auto& m) { return m.num_axes == 1 && m.axes[0] == "x"; }));
+
+  // A request that does not decode is answered when its ids are readable.
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(move.getEncodedSize()));
+  move.request_id = 2;
+  ASSERT_EQ(move.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
+  bytes.resize(bytes.size() - 10);
+  client.publish_raw(client.channel(lcm::channels::kRequest), bytes);
+  ASSERT_TRUE(testing::pump_until(loop, [&] { return ended(2); }, milliseconds(3000)));
+  EXPECT_EQ(replies[2].back().error_code, static_cast<int>(ReplyError::kMalformedRequest));
+  EXPECT_EQ(service.active_requests(), 0u);
+  loop.cancel(tick);
 }
 
 }  // namespace

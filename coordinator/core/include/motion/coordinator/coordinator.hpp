@@ -15,7 +15,22 @@
 // The desired state of the active motion requests goes out on ACTIVE_MOVES every 500 ms, on every
 // change, and before the requests hit by a gateway restart are aborted (active_moves_t).
 //
-// Thread contract: loop thread only. Never blocks.
+// The lifecycle of one request (Request::phase):
+//   moves:   kArming -> kTriggered -> done
+//            kArming -> kReleasing (could not be armed everywhere: DISARM, then the terminal reply)
+//   others:  kWaitingGateways -> kConfirming (the gateways are done, the axis states must show it)
+//   any motion -> kStopping (aborted: the terminal reply waits for the StopGuard)
+//
+// Passive: no sockets, no timers, no clock reads. Messages come in through the on_*() inputs,
+// each with `now` (steady time); process(now) runs what is due (request, arming, release and
+// confirmation deadlines, PROGRESS replies, the gateway watchdog, the StopGuard, ACTIVE_MOVES
+// republishing) and returns the next deadline (kNever: nothing scheduled). Everything sent goes out
+// through CoordinatorOutput; wall-clock stamps (utime fields, SYNC fire times) come from the
+// WallClock the core is built with. The caller calls process() after every input and again at
+// the deadline it returned: CoordinatorService (coordinator_service.hpp) does so over LCM.
+//
+// Thread contract: single-threaded (the process's loop thread); no call blocks. The outputs are
+// called from inside the inputs and process() and must not call back into the core.
 #pragma once
 
 #include <cstdint>
@@ -24,10 +39,12 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <variant>
 #include <vector>
 
+#include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/gateway_command_t.hpp>
@@ -35,12 +52,12 @@
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
+#include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/config/config.hpp"
 #include "motion/coordinator/stop_guard.hpp"
+#include "motion/core/clock.hpp"
 #include "motion/lcm/reply_error.hpp"
-#include "motion/core/event_loop.hpp"
-#include "motion/lcm/node.hpp"
 
 namespace motion::coordinator {
 
@@ -69,17 +86,46 @@ struct MovePlan {
 using MovePlanner = std::function<std::variant<MovePlan, std::string>(const std::vector<PlanInput>& inputs, double velocity_scale,
                                                                        double acceleration_scale)>;
 
+// Where the coordinator's messages go (one function per channel it publishes on).
+class CoordinatorOutput {
+ public:
+  virtual ~CoordinatorOutput() = default;
+  virtual void reply(const motionlcm::reply_t& reply) = 0;                                                 // REPLY
+  virtual void gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) = 0;  // GW_COMMAND_<bus>
+  virtual void sync_trigger(const motionlcm::sync_trigger_t& trigger) = 0;                               // SYNC_TRIGGER
+  virtual void active_moves(const motionlcm::active_moves_t& moves) = 0;                                 // ACTIVE_MOVES
+  virtual void event(const motionlcm::event_t& event) = 0;                                               // EVENT
+};
+
+// Microseconds since the Unix epoch, as wall_time_us() (motion/core/clock.hpp) reads them.
+using WallClock = std::function<std::int64_t()>;
+
 class Coordinator {
  public:
-  Coordinator(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner);
-  ~Coordinator();
+  // `config` and `output` must outlive the core (the configuration is read, not copied).
+  Coordinator(const config::Config& config, MovePlanner planner, CoordinatorOutput& output, WallClock wall_clock = wall_time_us);
   Coordinator(const Coordinator&) = delete;
   Coordinator& operator=(const Coordinator&) = delete;
 
+  // ---- inputs (REQUEST, AXIS_STATE, GW_REPLY, EVENT, HEALTH)
+  void on_request(const motionlcm::request_t& msg, TimePoint now);
+  // A request that does not decode (its bytes, and why): REJECTED (code 1) when its client and
+  // request ids are readable, else nothing (nobody to answer).
+  void on_malformed_request(std::span<const std::uint8_t> bytes, const std::string& why, TimePoint now);
+  // Any other malformed message the caller received (rate-limited there): a PROTOCOL_ERROR event.
+  void on_malformed_message(const std::string& what, TimePoint now);
+  void on_axis_state(const motionlcm::axis_state_t& state, TimePoint now);
+  void on_gateway_reply(const motionlcm::gateway_reply_t& reply, TimePoint now);
+  void on_event(const motionlcm::event_t& event, TimePoint now);
+  void on_health(const motionlcm::health_t& health, TimePoint now);
+
+  // Runs everything due at `now`; returns the next deadline, kNever when nothing is scheduled.
+  [[nodiscard]] TimePoint process(TimePoint now);
+
   [[nodiscard]] std::size_t active_requests() const { return requests_.size(); }
-  // Buses whose gateway has not been heard within gateway_timeout_ms (requests for their axes
-  // are rejected as offline): the coordinator's health lists them.
-  [[nodiscard]] std::vector<std::string> buses_without_gateway() const;
+  // Buses whose gateway has not been heard within gateway_timeout_ms before `now` (requests for
+  // their axes are rejected as offline): the coordinator's health lists them.
+  [[nodiscard]] std::vector<std::string> buses_without_gateway(TimePoint now) const;
 
  private:
   struct AxisLive {
@@ -95,7 +141,7 @@ class Coordinator {
     std::int64_t commanded_counts = 0;
   };
   struct GatewayLive {
-    TimePoint last_heartbeat{};
+    TimePoint last_heartbeat{};  // TimePoint{}: announced STOPPING (offline until it heartbeats)
     std::int32_t pid = 0;
     double uptime_s = 0;
     bool seen = false;
@@ -109,6 +155,11 @@ class Coordinator {
     ReplyError error = ReplyError::kNone;
     std::string reason;
   };
+  // A gateway command of a request awaiting its next reply.
+  struct PendingCommand {
+    std::string bus;
+    bool armed = false;  // ARM_MOVE: its gateway replied ARMED
+  };
   struct Request {
     std::uint64_t serial = 0;
     motionlcm::request_t msg{};
@@ -118,7 +169,7 @@ class Coordinator {
     std::map<std::string, double> target_units;    // the same in user units, before rounding
     std::map<std::string, std::int64_t> starts;    // counts at planning
     std::set<std::string> still;                   // moves: axes already at their target (no command)
-    std::map<std::int64_t, std::string> pending;   // command id -> bus, awaiting the next reply
+    std::map<std::int64_t, PendingCommand> pending;  // by command id
     std::set<std::string> buses;
     // Moves: one ARM_MOVE per start mechanism (see start_move), all on one trigger id.
     std::map<std::string, std::int64_t> axis_command;   // axis -> its ARM_MOVE command id
@@ -135,19 +186,21 @@ class Coordinator {
     std::string unreached;                         // stops: axes whose gateway was offline
     std::string gateway_failure;                   // stops: what a gateway said when its stop failed
     TimePoint gateways_done{};                     // kConfirming: when the last gateway said DONE
-    EventLoop::TimerId timeout_timer = 0;
-    EventLoop::TimerId progress_timer = 0;
-    EventLoop::TimerId arm_timer = 0;
+    int timeout_ms = 0;                            // the request's timeout in effect
+    TimePoint timeout_at = kNever;                 // FAILED (kTimeout) then, once
+    TimePoint next_progress = kNever;              // kTriggered: the next PROGRESS reply
+    // kArming: the arm timeout; kReleasing: the end of the wait for DISARM replies; kConfirming:
+    // the last look at the axis states. Once, and only in the phase that set it.
+    TimePoint phase_deadline = kNever;
   };
 
-  void on_request(const motionlcm::request_t& msg);
-  // A request that does not decode: REJECTED (code 1) when its client and request ids are readable.
-  void on_malformed_request(const void* data, int size, const std::string& why);
-  void on_axis_state(const motionlcm::axis_state_t& state);
-  void on_gateway_reply(const motionlcm::gateway_reply_t& reply);
-  void on_event(const motionlcm::event_t& event);
-  void on_health(const motionlcm::health_t& health);
+  // Every input and process() start here: `now` becomes the core's time.
+  void begin(TimePoint now);
+  [[nodiscard]] TimePoint next_deadline() const;
+  void on_phase_deadline(Request& r);
   void check_gateways();
+  // ACTIVE_MOVES is republished while a motion request is active, and once more after the last.
+  [[nodiscard]] bool active_moves_wanted() const;
   // The desired state of every active motion request on ACTIVE_MOVES (active_moves_t).
   void publish_active_moves();
 
@@ -191,14 +244,18 @@ class Coordinator {
   void reply(Request& r, std::int8_t status, ReplyError error = ReplyError::kNone, const std::string& reason = {});
   void reply_unknown(const motionlcm::request_t& msg, std::int8_t status, ReplyError error, const std::string& reason);
   void finish(std::uint64_t serial);
-  [[nodiscard]] bool gateway_alive(const std::string& bus) const;
+  [[nodiscard]] bool gateway_alive(const std::string& bus) const { return gateway_alive_at(bus, now_); }
+  [[nodiscard]] bool gateway_alive_at(const std::string& bus, TimePoint now) const;
+  // When the gateway of `bus` counts as lost unless it is heard again (kNever: not alive now).
+  [[nodiscard]] TimePoint gateway_expiry(const std::string& bus) const;
   [[nodiscard]] double tolerance_counts(const AxisLive& a) const;
   Request* find_by_command(std::int64_t command_id);
 
-  EventLoop& loop_;
-  lcm::Node& node_;
   const config::Config& config_;
   MovePlanner planner_;
+  CoordinatorOutput& out_;
+  WallClock wall_clock_;
+  TimePoint now_{};                        // of the input or process() call running
   std::map<std::string, AxisLive> axes_;
   std::map<std::string, GatewayLive> gateways_;  // by bus
   std::map<std::uint64_t, std::unique_ptr<Request>> requests_;
@@ -207,9 +264,8 @@ class Coordinator {
   std::uint64_t next_serial_ = 1;
   std::int64_t next_command_id_ = 1;
   std::int64_t next_trigger_id_ = 1;
-  EventLoop::TimerId watchdog_ = 0;
-  EventLoop::TimerId active_moves_timer_ = 0;
-  bool active_moves_published_ = false;  // the last ACTIVE_MOVES listed something
+  TimePoint next_active_moves_ = kNever;   // the ACTIVE_MOVES period, from the first `now` seen
+  bool active_moves_published_ = false;    // the last ACTIVE_MOVES listed something
 };
 
 }  // namespace motion::coordinator

@@ -1,0 +1,291 @@
+// The coordinator core: starting requests (moves armed and triggered, other commands sent), the
+// gateways' replies, and the confirmation of what a request did in the axis states.
+#include "motion/coordinator/coordinator.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "coordinator_kinds.hpp"
+
+namespace motion::coordinator {
+
+using namespace detail;
+
+void Coordinator::start_simple(Request& r) {
+  std::map<std::string, std::vector<motionlcm::axis_command_t>> per_bus;
+  for (std::size_t i = 0; i < r.axes.size(); ++i) {
+    const AxisLive& a = axes_.at(r.axes[i]);
+    motionlcm::axis_command_t c{};
+    c.axis = r.axes[i];
+    const double value = i < r.msg.values.size() ? r.msg.values[i] : 0.0;
+    const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
+    if (r.msg.kind == request_t::JOG) {
+      c.velocity = value * counts_per_unit * scale_or_one(r.msg.velocity_scale);
+      c.acceleration = c.deceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit * scale_or_one(r.msg.acceleration_scale);
+    } else if (r.msg.kind == request_t::SET_POSITION) {
+      c.target_counts = std::llround(value * counts_per_unit);
+    } else if (r.msg.kind == request_t::HOME) {
+      c.velocity = (a.axis->homing.velocity != 0 ? a.axis->homing.velocity : -0.1 * a.axis->limits.max_velocity) * counts_per_unit;
+      c.acceleration = c.deceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit;
+      c.target_counts = std::llround(a.axis->homing.offset * counts_per_unit);
+    }
+    c.output_mask = r.msg.output_mask;
+    c.output_value = r.msg.output_value;
+    per_bus[a.drive->bus].push_back(c);
+  }
+  r.phase = Phase::kWaitingGateways;
+  for (auto& [bus, cmds] : per_bus) {
+    if (is_stop(r.msg.kind) && !gateway_alive(bus)) {
+      std::string names;
+      for (const auto& c : cmds) names += (names.empty() ? "" : ", ") + c.axis;
+      r.unreached += (r.unreached.empty() ? "" : "; ") + names + " (gateway of bus " + bus + " offline)";
+      continue;
+    }
+    if (is_stop(r.msg.kind)) {
+      for (const auto& c : cmds) stops_.watch(c.axis, r.msg.kind == request_t::ESTOP, now_, stop_allowance(axes_.at(c.axis)));
+    }
+    send_command(r, bus, gateway_kind(r.msg.kind), std::move(cmds));
+  }
+  if (r.pending.empty()) {
+    // A stop whose every gateway is gone: nothing to wait for.
+    r.phase = Phase::kConfirming;
+    r.gateways_done = now_;
+    return check_confirmed(r, false);
+  }
+  if (is_motion(r.msg.kind)) {
+    r.fire_utime = wall_clock_();  // a jog or homing run starts when its gateway gets it
+    publish_active_moves();
+  }
+}
+
+void Coordinator::start_move(Request& r) {
+  r.trigger_id = next_trigger_id_++;
+  r.phase = Phase::kArming;
+  std::map<std::string, std::vector<motionlcm::axis_command_t>> per_bus;
+  for (const auto& p : r.plan.axes) {
+    motionlcm::axis_command_t c{};
+    c.axis = p.axis;
+    c.target_counts = p.target_counts;
+    c.velocity = p.velocity;
+    c.acceleration = p.acceleration;
+    c.deceleration = p.deceleration;
+    per_bus[axes_.at(p.axis).drive->bus].push_back(c);
+  }
+  for (auto& [bus, cmds] : per_bus) {
+    // One command per start mechanism, so that each gets its one-frame start (a gateway stack
+    // starts a UIM342 group with one BG only when the command holds exactly that group) and its
+    // own measured start time; the common trigger id starts them together.
+    for (auto& group : start_groups(bus, std::move(cmds))) {
+      std::vector<std::string> names;
+      for (const auto& c : group) names.push_back(c.axis);
+      const std::int64_t id = send_command(r, bus, gateway_command_t::ARM_MOVE, std::move(group));
+      for (const auto& n : names) r.axis_command[n] = id;
+      ++r.move_commands;
+    }
+  }
+  r.phase_deadline = now_ + std::chrono::milliseconds(config_.coordinator.arm_timeout_ms);  // the arm timeout
+}
+
+std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(const std::string& bus,
+                                                                              std::vector<motionlcm::axis_command_t> axes) const {
+  std::map<std::string, std::size_t> moving;  // drive -> index in axes
+  for (std::size_t i = 0; i < axes.size(); ++i) moving[axes_.at(axes[i].axis).drive->name] = i;
+  std::vector<std::vector<motionlcm::axis_command_t>> out;
+  std::map<std::string, std::size_t> slot;  // key -> index in out
+  for (const auto& c : axes) {
+    const config::Drive& d = *axes_.at(c.axis).drive;
+    std::string key = std::string("family:") + std::to_string(static_cast<int>(d.family));
+    if (d.family == config::Family::kUim342) {
+      bool whole_group = d.group_id != 0;
+      for (const auto& other : config_.drives) {
+        if (whole_group && other.bus == bus && other.family == config::Family::kUim342 && other.group_id == d.group_id) {
+          whole_group = moving.contains(other.name);
+        }
+      }
+      key = whole_group ? "uim342 group " + std::to_string(d.group_id) : "uim342 node " + d.name;
+    }
+    const auto [it, added] = slot.emplace(key, out.size());
+    if (added) out.emplace_back();
+    out[it->second].push_back(c);
+  }
+  return out;
+}
+
+void Coordinator::fire(Request& r) {
+  r.phase_deadline = kNever;
+  r.phase = Phase::kTriggered;
+  motionlcm::sync_trigger_t t{};
+  t.utime = wall_clock_();
+  t.trigger_id = r.trigger_id;
+  // One bus: fire at once. Several: a common time far enough ahead for every gateway to hear it.
+  t.fire_utime = t.utime + (r.buses.size() > 1 ? config_.coordinator.trigger_lead_ms * 1000 : 0);
+  t.buses.assign(r.buses.begin(), r.buses.end());
+  t.num_buses = static_cast<std::int32_t>(t.buses.size());
+  r.fire_utime = t.fire_utime;
+  out_.sync_trigger(t);
+  r.next_progress = now_ + std::chrono::milliseconds(config_.coordinator.progress_period_ms);
+  publish_active_moves();
+}
+
+void Coordinator::check_move_done(Request& r) {
+  if (r.started_utime.size() < r.move_commands) return;  // not every start mechanism has fired yet
+  for (const auto& name : r.axes) {
+    if (r.still.contains(name)) continue;
+    const AxisLive& a = axes_.at(name);
+    if (!a.state || a.state->sample_utime < r.fire_utime) return;
+    if (a.state->moving) return;
+    if (std::abs(static_cast<double>(a.state->position_counts - r.targets.at(name))) > tolerance_counts(a)) return;
+  }
+  for (const auto& name : r.axes) {
+    AxisLive& a = axes_.at(name);
+    a.commanded_units = r.target_units.at(name);
+    a.commanded_counts = r.targets.at(name);
+  }
+  reply(r, reply_t::DONE);
+  finish(r.serial);
+}
+
+void Coordinator::on_gateway_reply(const gateway_reply_t& g, TimePoint now) {
+  begin(now);
+  Request* rp = find_by_command(g.command_id);
+  if (rp == nullptr) return;
+  Request& r = *rp;
+  if (r.phase == Phase::kReleasing) {
+    if (g.status == gateway_reply_t::DONE || g.status == gateway_reply_t::FAILED) {
+      r.pending.erase(g.command_id);
+      if (r.pending.empty()) end_with(r, r.outcome);
+    }
+    return;
+  }
+  // A stop superseded by a later stop or e-stop on the same axis: that one stops it.
+  // A stop the gateway could not complete (a drive that did not answer) is not the end of it: the
+  // StopGuard repeats and escalates it, and the axis states decide.
+  const bool superseded_stop = is_stop(r.msg.kind) && (g.error_code == error_code(ReplyError::kStopped) || g.status == gateway_reply_t::FAILED);
+  if (is_stop(r.msg.kind) && g.status == gateway_reply_t::FAILED && g.error_code != error_code(ReplyError::kStopped)) {
+    r.gateway_failure += (r.gateway_failure.empty() ? "" : "; ") + ("bus " + g.bus + ": " + g.reason);
+    spdlog::warn("request {}/{} (stop): bus {}: {}; the stop is repeated until the axis states confirm it", r.msg.client_id, r.msg.request_id,
+                 g.bus, g.reason);
+  }
+  if (g.status == gateway_reply_t::FAILED && !superseded_stop) {
+    r.pending.erase(g.command_id);
+    // The gateway's own code says more (a refused value, a silent drive, a fault) than "drive
+    // error"; a move that could not be loaded stays kArmFailed as documented.
+    const bool known_code = g.error_code > 0 && g.error_code <= error_code(ReplyError::kUnsupported);
+    if (r.phase == Phase::kArming) {
+      release_armed(r, {reply_t::FAILED, ReplyError::kArmFailed, "bus " + g.bus + ": " + g.reason});
+      return;
+    }
+    const ReplyError error = known_code ? static_cast<ReplyError>(g.error_code) : ReplyError::kDriveError;
+    abort_group(r, r.phase == Phase::kTriggered ? reply_t::ABORTED : reply_t::FAILED, error, "bus " + g.bus + ": " + g.reason);
+    return;
+  }
+  if (is_move(r.msg.kind)) {
+    if (g.status == gateway_reply_t::ARMED && r.phase == Phase::kArming) {
+      r.pending[g.command_id] = PendingCommand{g.bus, true};
+      const bool all_armed = std::all_of(r.pending.begin(), r.pending.end(), [](const auto& p) { return p.second.armed; });
+      if (all_armed) fire(r);
+    } else if (g.status == gateway_reply_t::STARTED) {
+      r.started_utime[g.command_id] = g.trigger_utime;
+      // The gateway's spread between the start frames of this command (0 for one frame; the
+      // frame times of a sequential start).
+      r.start_spread_us[g.command_id] = std::max(0.0, g.predicted_skew_us);
+      r.plan.predicted_skew_us = std::max(r.plan.predicted_skew_us, g.predicted_skew_us);
+      if (r.started_utime.size() == r.move_commands && !r.started_sent) {
+        r.started_sent = true;
+        reply(r, reply_t::STARTED);
+      }
+      check_move_done(r);
+    }
+    return;
+  }
+  if (g.status == gateway_reply_t::DONE || superseded_stop) {
+    r.pending.erase(g.command_id);
+    if (g.param.space != motionlcm::param_t::NONE) r.param_result = g.param;
+    if (r.pending.empty()) {
+      r.phase = Phase::kConfirming;
+      r.gateways_done = now_;
+      check_confirmed(r, false);
+    }
+  } else if (g.status == gateway_reply_t::STARTED && r.msg.kind != request_t::JOG) {
+    reply(r, reply_t::STARTED);
+  }
+}
+
+std::optional<std::string> Coordinator::unconfirmed(const Request& r) const {
+  const auto k = r.msg.kind;
+  const bool shows_in_state = k == request_t::ENABLE || k == request_t::DISABLE || k == request_t::FAULT_RESET || is_stop(k);
+  if (!shows_in_state) return std::nullopt;
+  for (const auto& name : r.axes) {
+    const AxisLive& a = axes_.at(name);
+    // A stop cannot wait for an axis whose gateway is gone (start_simple left it out and says so).
+    if (is_stop(r.msg.kind) && (!gateway_alive(a.drive->bus) || (a.state && !a.state->online))) continue;
+    if (!a.state) return "no state of axis " + name;
+    const auto& s = *a.state;
+    // A state older than the gateway's DONE may predate what the command did.
+    if (a.received < r.gateways_done) return "axis " + name + " has not reported since";
+    switch (r.msg.kind) {
+      case request_t::ENABLE:
+        if (!s.enabled) return "axis " + name + " still reports disabled";
+        break;
+      case request_t::DISABLE:
+        if (s.enabled && s.online) return "axis " + name + " still reports enabled";
+        break;
+      case request_t::FAULT_RESET:
+        if (s.fault) return "axis " + name + " still reports a fault (" + (s.fault_text.empty() ? "code " + std::to_string(s.fault_code) : s.fault_text) + ")";
+        break;
+      case request_t::STOP:
+        if (s.moving && s.online) return "axis " + name + " still reports moving";
+        break;
+      case request_t::ESTOP:
+        if ((s.moving || s.enabled) && s.online) return "axis " + name + (s.moving ? " still reports moving" : " still reports enabled");
+        break;
+      default: break;
+    }
+  }
+  return std::nullopt;
+}
+
+void Coordinator::check_confirmed(Request& r, bool final_check) {
+  if (is_stop(r.msg.kind)) {
+    // A stop is confirmed by the StopGuard: it repeats and escalates what does not take.
+    const bool watched = std::any_of(r.axes.begin(), r.axes.end(), [this](const std::string& a) { return stops_.watching(a); });
+    if (watched) return;  // check_stops() calls again when the guard resolves them
+    const std::string told = r.gateway_failure.empty() ? "" : "; " + r.gateway_failure;
+    for (const auto& a : r.axes) {
+      if (stops_.outcome(a) == StopGuard::Outcome::kUnconfirmed) {
+        return end_with(r, {reply_t::FAILED, ReplyError::kDriveError, "axis " + a + " could not be stopped (still moving after an e-stop)" + told});
+      }
+      if (stops_.outcome(a) == StopGuard::Outcome::kSilent) {
+        return end_with(r, {reply_t::FAILED, ReplyError::kAxisOffline, "axis " + a + " could not be confirmed stopped: it has not reported since" + told});
+      }
+      if (r.msg.kind == request_t::STOP && stops_.escalated(a)) {
+        return end_with(r, {reply_t::FAILED, ReplyError::kDriveError, "axis " + a + " did not stop on STOP; it was e-stopped (disabled)"});
+      }
+    }
+  }
+  const auto missing = unconfirmed(r);
+  if (!missing && !r.unreached.empty()) {
+    end_with(r, {reply_t::FAILED, ReplyError::kGatewayOffline, "not reached: " + r.unreached});
+  } else if (!missing) {
+    reply(r, reply_t::DONE);
+    finish(r.serial);
+  } else if (final_check) {
+    const ReplyError error = r.msg.kind == request_t::FAULT_RESET ? ReplyError::kAxisFaulted : ReplyError::kDriveError;
+    reply(r, reply_t::FAILED, error, std::string(kind_name(r.msg.kind)) + ": the gateway reported done, but " + *missing);
+    finish(r.serial);
+  } else if (r.phase_deadline == kNever) {
+    // Every gateway publishes its axes at its poll rate: a few of its periods settle it.
+    r.phase_deadline = now_ + std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms);  // the final check
+  }
+}
+
+Coordinator::Request* Coordinator::find_by_command(std::int64_t command_id) {
+  for (auto& [serial, r] : requests_) {
+    if (r->pending.contains(command_id)) return r.get();
+  }
+  return nullptr;
+}
+
+}  // namespace motion::coordinator
