@@ -393,6 +393,7 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
 
 void Coordinator::on_request(const request_t& msg) {
   std::vector<std::string> axes;
+  bool taken_over = false;
   if (auto err = validate(msg, axes)) {
     reply_unknown(msg, reply_t::REJECTED, err->first, err->second);
     return;
@@ -425,7 +426,15 @@ void Coordinator::on_request(const request_t& msg) {
   requests_.emplace(r.serial, std::move(owned));
   active_ids_.insert({msg.client_id, msg.request_id});
   if (!is_stop(msg.kind)) {
-    for (const auto& a : axes) axes_.at(a).busy_with = r.serial;
+    for (const auto& a : axes) {
+      axes_.at(a).busy_with = r.serial;
+      // An axis still braking from a stop is this request's now: its stop watch ends, and a
+      // request preempted there gets its ABORTED at once (see preempt()).
+      if (stops_.watching(a)) {
+        stops_.forget(a);
+        taken_over = true;
+      }
+    }
   }
   const int timeout_ms = msg.timeout_ms > 0 ? msg.timeout_ms : config_.coordinator.default_timeout_ms;
   const std::uint64_t serial = r.serial;
@@ -436,6 +445,7 @@ void Coordinator::on_request(const request_t& msg) {
   });
   spdlog::info("request {}/{} ({}) accepted for {} axes", msg.client_id, msg.request_id, kind_name(msg.kind), axes.size());
   reply(r, reply_t::ACCEPTED);
+  if (taken_over) check_stops();
   if (!is_move(msg.kind)) {
     for (const auto& a : axes) {
       // Anything else that moves or re-references the axis ends "standing at the last target".
@@ -520,7 +530,12 @@ void Coordinator::preempt(const request_t& stop) {
     }
     const std::string by = std::string(stop.kind == request_t::ESTOP ? "e-stopped" : "stopped") + " by request " + stop.client_id + "/" +
                            std::to_string(stop.request_id);
-    // The ABORTED reply waits until the stop request's stops are confirmed (start_simple watches them).
+    // The ABORTED reply waits until the stop request's stops are confirmed (start_simple watches
+    // them). The axes are free at once: the stop request owns their stop, and a request sent right
+    // behind the stop may take them (which ends this one's wait).
+    for (const auto& a : r.axes) {
+      if (auto& live = axes_.at(a); live.busy_with == serial) live.busy_with = 0;
+    }
     enter_stopping(r, std::move(stopped), {reply_t::ABORTED, ReplyError::kStopped, by});
   }
 }
@@ -871,7 +886,6 @@ void Coordinator::check_stops() {
     o.moving = a.state && a.state->moving;
     return o;
   });
-  if (actions.empty()) return;
   using E = motionlcm::event_t;
   for (const auto& act : actions) {
     switch (act.kind) {
