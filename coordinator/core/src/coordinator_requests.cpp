@@ -190,13 +190,23 @@ void Coordinator::on_request(const request_t& msg, TimePoint now) {
   }
   requests_.emplace(r.serial, std::move(owned));
   active_ids_.insert({msg.client_id, msg.request_id});
+  bool taken_over = false;
   if (!is_stop(msg.kind)) {
-    for (const auto& a : axes) axes_.at(a).busy_with = r.serial;
+    for (const auto& a : axes) {
+      axes_.at(a).busy_with = r.serial;
+      // An axis still braking from a stop is this request's now: its stop watch ends, and a
+      // request preempted there gets its ABORTED at once (see preempt()).
+      if (stops_.watching(a)) {
+        stops_.forget(a);
+        taken_over = true;
+      }
+    }
   }
   r.timeout_ms = msg.timeout_ms > 0 ? msg.timeout_ms : config_.coordinator.default_timeout_ms;
   r.timeout_at = now_ + std::chrono::milliseconds(r.timeout_ms);
   spdlog::info("request {}/{} ({}) accepted for {} axes", msg.client_id, msg.request_id, kind_name(msg.kind), axes.size());
   reply(r, reply_t::ACCEPTED);
+  if (taken_over) check_stops();
   if (!is_move(msg.kind)) {
     for (const auto& a : axes) {
       // Anything else that moves or re-references the axis ends "standing at the last target".
@@ -281,7 +291,12 @@ void Coordinator::preempt(const request_t& stop) {
     }
     const std::string by = std::string(stop.kind == request_t::ESTOP ? "e-stopped" : "stopped") + " by request " + stop.client_id + "/" +
                            std::to_string(stop.request_id);
-    // The ABORTED reply waits until the stop request's stops are confirmed (start_simple watches them).
+    // The ABORTED reply waits until the stop request's stops are confirmed (start_simple watches
+    // them). The axes are free at once: the stop request owns their stop, and a request sent right
+    // behind the stop may take them (which ends this one's wait).
+    for (const auto& a : r.axes) {
+      if (auto& live = axes_.at(a); live.busy_with == serial) live.busy_with = 0;
+    }
     enter_stopping(r, std::move(stopped), {reply_t::ABORTED, ReplyError::kStopped, by});
   }
 }

@@ -58,7 +58,6 @@ void Coordinator::check_stops() {
     o.moving = a.state && a.state->moving;
     return o;
   });
-  if (actions.empty()) return;
   using E = motionlcm::event_t;
   for (const auto& act : actions) {
     switch (act.kind) {

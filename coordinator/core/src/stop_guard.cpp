@@ -16,6 +16,10 @@ void StopGuard::watch(const std::string& axis, bool emergency, TimePoint now, Du
   escalated_.erase(axis);
 }
 
+void StopGuard::forget(const std::string& axis) {
+  if (watched_.erase(axis) > 0) outcomes_[axis] = Outcome::kTakenOver;
+}
+
 std::optional<StopGuard::Outcome> StopGuard::outcome(const std::string& axis) const {
   const auto it = outcomes_.find(axis);
   if (it == outcomes_.end()) return std::nullopt;

@@ -834,6 +834,22 @@ TEST_F(CoordinatorTest, AStopSupersededByASecondStopEndsDone) {
   EXPECT_EQ(terminal(second).status, std::int8_t{reply_t::DONE});
 }
 
+TEST_F(CoordinatorTest, AMoveSentRightBehindAStopTakesTheAxisAndEndsThePreemptedMove) {
+  auto_execute_moves(/*complete=*/false);
+  const auto first = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0});
+  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  pump(milliseconds(50));
+  // The stop, and without waiting for it, the next move of the same axis.
+  const auto stop = send(request_t::STOP, {"x"}, {0.0});
+  const auto again = send(request_t::MOVE_ABSOLUTE, {"x"}, {1.0});
+  const auto preempted = terminal(first);
+  EXPECT_EQ(preempted.status, std::int8_t{reply_t::ABORTED});
+  EXPECT_EQ(preempted.error_code, static_cast<int>(ReplyError::kStopped));
+  ASSERT_TRUE(pump_until([&] { return !replies[again].empty(); }));
+  EXPECT_EQ(replies[again].front().status, std::int8_t{reply_t::ACCEPTED}) << replies[again].front().reason;
+  EXPECT_NE(terminal(stop).status, std::int8_t{reply_t::REJECTED});
+}
+
 TEST_F(CoordinatorTest, BeyondMaxActiveRequestsARequestIsRefusedAsBusyButAStopPasses) {
   config.coordinator.max_active_requests = 2;
   gateways.on_command = [](const gateway_command_t&) {};  // nothing ends: requests stay active

@@ -121,5 +121,15 @@ TEST_F(StopGuardTest, AnUnreachableAxisEndsAtOnceAndANewStopRestartsTheSequence)
   EXPECT_FALSE(guard.outcome("x").has_value());
 }
 
+TEST_F(StopGuardTest, AnAxisTakenOverByANewRequestIsNoLongerWatched) {
+  guard.watch("x", false, t0, milliseconds(500));
+  guard.forget("x");
+  EXPECT_FALSE(guard.watching("x"));
+  EXPECT_EQ(guard.outcome("x"), StopGuard::Outcome::kTakenOver);
+  EXPECT_TRUE(at(milliseconds(600)).empty());  // no stop is repeated on the new request's motion
+  guard.forget("y");                             // never watched: nothing recorded
+  EXPECT_FALSE(guard.outcome("y").has_value());
+}
+
 }  // namespace
 }  // namespace motion::coordinator

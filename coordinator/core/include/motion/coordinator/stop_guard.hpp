@@ -28,7 +28,8 @@ namespace motion::coordinator {
 
 class StopGuard {
  public:
-  enum class Outcome { kStopped, kUnreachable, kUnconfirmed, kSilent };
+  // kTakenOver: a new request moves the axis now (forget()); its stop no longer matters.
+  enum class Outcome { kStopped, kUnreachable, kUnconfirmed, kSilent, kTakenOver };
   // What is known of an axis now. `reported_since`: a state sample arrived after `since`.
   struct Observation {
     bool reachable = true;
@@ -49,6 +50,8 @@ class StopGuard {
   // Starts (or restarts, at attempt 1) watching `axis` after a stop was sent at `now`.
   // `allowance`: how long the axis may take to report standstill after one stop.
   void watch(const std::string& axis, bool emergency, TimePoint now, Duration allowance);
+  // Stops watching `axis` because a new request moves it (outcome kTakenOver).
+  void forget(const std::string& axis);
   // Resolves what the observations show and escalates what is overdue.
   [[nodiscard]] std::vector<Action> process(TimePoint now, const Observe& observe);
 
