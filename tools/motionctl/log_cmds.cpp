@@ -38,6 +38,7 @@
 #include "motion/client/client.hpp"
 #include "motion/core/log.hpp"
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/request_kinds.hpp"
 #include "motionctl.hpp"
 
 namespace motion::ctl {
@@ -255,24 +256,7 @@ std::optional<LogContents> read_log(const std::string& path, const std::string& 
   return out;
 }
 
-const char* kind_name(std::int8_t kind) {
-  switch (kind) {
-    case request_t::MOVE_ABSOLUTE: return "MOVE_ABSOLUTE";
-    case request_t::MOVE_RELATIVE: return "MOVE_RELATIVE";
-    case request_t::JOG: return "JOG";
-    case request_t::STOP: return "STOP";
-    case request_t::ESTOP: return "ESTOP";
-    case request_t::HOME: return "HOME";
-    case request_t::ENABLE: return "ENABLE";
-    case request_t::DISABLE: return "DISABLE";
-    case request_t::FAULT_RESET: return "FAULT_RESET";
-    case request_t::SET_OUTPUTS: return "SET_OUTPUTS";
-    case request_t::PARAM_READ: return "PARAM_READ";
-    case request_t::PARAM_WRITE: return "PARAM_WRITE";
-    case request_t::SET_POSITION: return "SET_POSITION";
-    default: return "UNKNOWN";
-  }
-}
+const char* kind_name(std::int8_t kind) { return lcm::request_kind_name(kind); }
 
 // Status names as the reply_t constants spell them (DONE, REJECTED, ...).
 std::string status_name(std::int8_t status) {

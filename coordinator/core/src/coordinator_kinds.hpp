@@ -11,6 +11,7 @@
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
+#include "motion/lcm/request_kinds.hpp"
 
 namespace motion::coordinator::detail {
 
@@ -47,24 +48,7 @@ inline std::int8_t gateway_kind(std::int8_t request_kind) {
   }
 }
 
-inline const char* kind_name(std::int8_t kind) {
-  switch (kind) {
-    case request_t::MOVE_ABSOLUTE: return "move";
-    case request_t::MOVE_RELATIVE: return "relative move";
-    case request_t::JOG: return "jog";
-    case request_t::STOP: return "stop";
-    case request_t::ESTOP: return "e-stop";
-    case request_t::HOME: return "home";
-    case request_t::ENABLE: return "enable";
-    case request_t::DISABLE: return "disable";
-    case request_t::FAULT_RESET: return "fault reset";
-    case request_t::SET_OUTPUTS: return "set outputs";
-    case request_t::PARAM_READ: return "parameter read";
-    case request_t::PARAM_WRITE: return "parameter write";
-    case request_t::SET_POSITION: return "set position";
-    default: return "unknown";
-  }
-}
+inline const char* kind_name(std::int8_t kind) { return lcm::request_kind_words(kind); }
 
 inline double scale_or_one(double s) { return s > 0 && s <= 1 ? s : 1.0; }
 

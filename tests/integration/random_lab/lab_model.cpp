@@ -11,6 +11,7 @@
 #include "motion/client/client.hpp"
 #include "motion/config/config.hpp"
 #include "motion/lcm/reply_error.hpp"
+#include "motion/lcm/request_kinds.hpp"
 #include "random_lab.hpp"
 
 namespace motion::random_lab {
@@ -36,24 +37,7 @@ const T& pick(std::mt19937_64& rng, const std::vector<T>& v) {
 }
 double round_to(double v, double step) { return std::round(v / step) * step; }
 
-const char* kind_name(std::int8_t kind) {
-  switch (kind) {
-    case request_t::MOVE_ABSOLUTE: return "MOVE_ABSOLUTE";
-    case request_t::MOVE_RELATIVE: return "MOVE_RELATIVE";
-    case request_t::JOG: return "JOG";
-    case request_t::STOP: return "STOP";
-    case request_t::ESTOP: return "ESTOP";
-    case request_t::HOME: return "HOME";
-    case request_t::ENABLE: return "ENABLE";
-    case request_t::DISABLE: return "DISABLE";
-    case request_t::FAULT_RESET: return "FAULT_RESET";
-    case request_t::SET_OUTPUTS: return "SET_OUTPUTS";
-    case request_t::PARAM_READ: return "PARAM_READ";
-    case request_t::PARAM_WRITE: return "PARAM_WRITE";
-    case request_t::SET_POSITION: return "SET_POSITION";
-    default: return "?";
-  }
-}
+const char* kind_name(std::int8_t kind) { return lcm::request_kind_name(kind); }
 
 std::string list(const std::vector<std::string>& v) {
   std::string out = "{";

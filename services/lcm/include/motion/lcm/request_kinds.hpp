@@ -1,0 +1,15 @@
+// The names of request_t's kinds, from one table: as the constants spell them (MOVE_RELATIVE: logs,
+// CSV, generated test cases) and in words (relative move: replies and log lines for people).
+// Thread contract: none (pure functions).
+#pragma once
+
+#include <cstdint>
+
+namespace motion::lcm {
+
+// "MOVE_ABSOLUTE" ... "SET_POSITION"; "UNKNOWN" for a value no constant has.
+[[nodiscard]] const char* request_kind_name(std::int8_t kind);
+// "move" ... "set position"; "unknown" for a value no constant has.
+[[nodiscard]] const char* request_kind_words(std::int8_t kind);
+
+}  // namespace motion::lcm
