@@ -49,7 +49,8 @@ std::vector<std::string> stack_errors(const Config& c) {
     case Family::kUc57: return uc57_driver::make_node_settings(c, c.buses.at(0), d, 100).errors;
     case Family::kAdamModbus: {
       // The master writes the set-up as registers; each must lie in the manual's range.
-      for (const auto& [reg, words] : adam_driver::settings_from_config(c, c.buses.at(0)).drives.at(0).setup_writes) {
+      const auto settings = adam_driver::settings_from_config(c, c.buses.at(0));
+      for (const auto& [reg, words] : settings.drives.at(0).setup_writes) {
         if (reg == adam::address(adam::Reg::rated_current) && (words.at(0) < 10 || words.at(0) > 650)) {
           errors.push_back("0x000D rated current " + std::to_string(words.at(0)) + " outside 10..650 (manual §8.10)");
         }
