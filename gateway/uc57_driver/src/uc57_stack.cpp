@@ -378,7 +378,7 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
     nd.start_speed = cia402::uc57::rpm_to_pulses_per_second(static_cast<double>(read_unsigned(data)), nd.pulses_per_rev);
     return std::nullopt;
   }));
-  // 4. Error control: heartbeat (the UC57 has no node guarding objects, spec G-17).
+  // 4. Error control: heartbeat (the UC57 has no node guarding objects).
   ops.push_back(write({od::kProducerHeartbeatTime, 0}, le<std::uint16_t>(s.heartbeat_ms)));
   ops.push_back(read({od::kEmcyCobId, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
     const auto cob = static_cast<std::uint32_t>(read_unsigned(data)) & 0x7FF;

@@ -218,7 +218,7 @@ TEST_F(SdoClientTest, MalformedResponseFrameAborts) {
 }
 
 TEST_F(SdoClientTest, ReplyForAnotherObjectIsAMismatch) {
-  // Manual V-05: the printed reply to a 60FFh write names 6081h (spec G-9).
+  // Manual V-05: the printed reply to a 60FFh write names 6081h.
   std::optional<Result> result;
   client_.download(1, {0x60FF, 0}, encode_value<std::int32_t>(60), record(result));
   client_.process(t0);

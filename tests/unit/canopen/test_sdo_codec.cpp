@@ -109,7 +109,7 @@ TEST(SdoCodec, EveryManualAndDerivedExpeditedDownload) {
 }
 
 TEST(SdoCodec, ManualVelocityReplyEchoesAnotherObject) {
-  // V-05 as printed: the reply to a 60FFh write names 6081h (spec G-9). It decodes; a client must
+  // V-05 as printed: the reply to a 60FFh write names 6081h. It decodes; a client must
   // notice the mismatch (see the SDO client tests).
   const auto reply = decode_sdo_response(payload("581: 60 81 60 00 00 00 00 00"));
   ASSERT_TRUE(reply);

@@ -15,7 +15,7 @@ TEST(Uc57Homing, SupportedMethods) {
   std::set<int> values;
   for (const HomingMethodInfo& info : homing_methods()) values.insert(static_cast<int>(info.method));
   EXPECT_EQ(values, (std::set<int>{17, 18, 24, 29, 41, 42}));  // §4.2.6 / §5.2 6098h list
-  EXPECT_EQ(find_homing_method(0), nullptr);    // 6098h default: no method (spec G-5)
+  EXPECT_EQ(find_homing_method(0), nullptr);    // 6098h default: no method
   EXPECT_EQ(find_homing_method(100), nullptr);  // the §4.2.6 example's 0x64 (C-07)
   const OdEntry& method_object = *find_entry(index::kHomingMethod, 0);
   EXPECT_EQ(find_homing_method(static_cast<std::uint8_t>(method_object.default_value)), nullptr);

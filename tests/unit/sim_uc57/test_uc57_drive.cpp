@@ -173,7 +173,7 @@ TEST(Uc57Sim, SdoAbortCodes) {
   EXPECT_EQ(drive.deliver("601: 23 81 60 00 00 00 00 00"), Texts{"581: 80 81 60 00 32 00 09 06"});  // D-24
   EXPECT_EQ(drive.deliver("601: 23 40 60 00 0F 00 00 00"), Texts{"581: 80 40 60 00 10 00 07 06"});  // D-25
   EXPECT_EQ(drive.deliver("601: 23 81 60 00 E9 03 00 00"), Texts{"581: 80 81 60 00 31 00 09 06"});  // 1001 RPM
-  EXPECT_EQ(drive.deliver("601: 2F 60 60 00 02 00 00 00"), Texts{"581: 80 60 60 00 30 00 09 06"});  // G-1
+  EXPECT_EQ(drive.deliver("601: 2F 60 60 00 02 00 00 00"), Texts{"581: 80 60 60 00 30 00 09 06"});
   EXPECT_EQ(drive.deliver("601: 40 08 10 00 00 00 00 00"), Texts{"581: 80 08 10 00 00 00 02 06"});  // no 1008h
   EXPECT_EQ(drive.deliver("601: 2F 00 14 02 F5 00 00 00"), Texts{"581: 80 00 14 02 30 00 09 06"});  // type 245
   // Segmented download of 6081h (D-26) works like the expedited one.
@@ -478,7 +478,7 @@ TEST(Uc57Sim, HomingWithOffsetReversalAndFailures) {
   drive.sdo_ok("601: 2B 40 60 00 1F 00 00 00");
   drive.advance_to(drive.now + 600s);
   EXPECT_EQ(od::homing_result(drive.statusword()), od::HomingResult::kSucceeded);
-  EXPECT_EQ(drive.sim().position(drive.now), -1000);  // 6064h = -607Ch at home (G-4)
+  EXPECT_EQ(drive.sim().position(drive.now), -1000);  // 6064h = -607Ch at home
 
   // Method 42 with the origin behind: stops at the positive limit, not homed.
   Drive immediate(1, options);
@@ -491,7 +491,7 @@ TEST(Uc57Sim, HomingWithOffsetReversalAndFailures) {
   EXPECT_EQ(immediate.sim().position(immediate.now), options.positive_limit);
   EXPECT_EQ(immediate.deliver("601: 40 FD 60 00 00 00 00 00"), Texts{"581: 43 FD 60 00 02 00 00 00"});
 
-  // An invalid method (G-5): homing error at once, no motion.
+  // An invalid method: homing error at once, no motion.
   drive.sdo_ok("601: 2B 40 60 00 0F 00 00 00");
   drive.sdo_ok("601: 2F 98 60 00 64 00 00 00");  // H-03's 100
   const auto starts = drive.reports_of(kStarted).size();

@@ -132,7 +132,7 @@ TEST(SimUim342Motion, GroupBgStartsEveryDriveOfTheGroupFromOneFrame) {
   EXPECT_TRUE(z.deliver(group_bg).empty());
   ASSERT_EQ(x_ack.size(), 1U);
   ASSERT_EQ(y_ack.size(), 1U);
-  EXPECT_EQ(x_ack[0].id, 0x05200016U);  // each answers with its own node ID (G-23)
+  EXPECT_EQ(x_ack[0].id, 0x05200016U);  // each answers with its own node ID
   EXPECT_EQ(y.decode(y_ack[0]).function, FC::BG);
   for (Bench* b : {&x, &y}) {
     ASSERT_EQ(b->reports_of(started()).size(), 1U);
@@ -284,7 +284,7 @@ TEST(SimUim342Faults, AlarmsAndUnsupportedControls) {
   EXPECT_FALSE(b.sim->control(control(C::ALARM, 0), b.now));
   EXPECT_FALSE(b.sim->control(control(C::CRC_ERRORS, 1), b.now));
   EXPECT_FALSE(b.sim->control(control(C::SET_INPUT, 4, 1), b.now));
-  b.send(rq::system(u::SystemOperation::reboot));  // the lock lasts until a reboot (G-7)
+  b.send(rq::system(u::SystemOperation::reboot));  // the lock lasts until a reboot
   EXPECT_FALSE(motion_status(b).has(u::StatusFlag::locked));
 }
 

@@ -168,7 +168,7 @@ TEST_F(ManualExamples, MotionStatus) {
   run(rq::begin());
   bench.settle();
   expect_ack("05 91 01 00 00 00 00 00 00 00 00", "05 11 08 00 3D 03 00 18 FC FF FF");  // PTP, in position, rel -1000
-  expect_ack("05 91 02 00 00 00 00 00 00 00 00", "05 11 08 00 3D 01 00 00 00 00 00");  // MS[0]=0 (G-4)
+  expect_ack("05 91 02 00 00 00 00 00 00 00 00", "05 11 08 00 3D 01 00 00 00 00 00");  // MS[0]=0
   expect_ack("05 91 01 01", "05 11 08 01 00 00 00 18 FC FF FF");                       // MS[1]: speed 0, abs -1000
 }
 

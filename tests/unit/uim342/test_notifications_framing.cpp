@@ -235,7 +235,7 @@ TEST(Uim342Parameters, RangesAndUnits) {
   EXPECT_FALSE(current_to_wire(9.0).ok());
   EXPECT_EQ(counts_per_revolution(16), 3200u);
   EXPECT_EQ(*acceleration_to_wire(1000.0, AccelerationUnit::pulses_per_s2), 1000u);
-  // Time unit (G-21): ramp from the 200 pps cut-in speed to 3200 pps at 1000 pps^2 takes 3 s.
+  // Time unit: ramp from the 200 pps cut-in speed to 3200 pps at 1000 pps^2 takes 3 s.
   EXPECT_EQ(*acceleration_to_wire(1000.0, AccelerationUnit::milliseconds, 3200.0, 200.0), 3000u);
 }
 

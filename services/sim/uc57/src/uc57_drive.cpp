@@ -458,7 +458,7 @@ void Uc57DriveSim::send_tpdo(unsigned number, std::vector<std::uint8_t> payload)
 }
 
 // Event-driven TPDOs (types 254/255): on change of a mapped value, not within the inhibit time,
-// and periodically with the event timer (spec G-33).
+// and periodically with the event timer.
 void Uc57DriveSim::service_event_tpdos() {
   if (nmt_ != canopen::NmtState::kOperational) return;
   for (unsigned n = 1; n <= 4; ++n) {
@@ -513,7 +513,7 @@ void Uc57DriveSim::enter_state(State next) {
   const State before = state_;
   state_ = next;
   if (before != State::kOperationEnabled || next == State::kOperationEnabled) return;
-  if (motor_energised(next)) {  // quick stop (G-19), disable operation: ramp down with 6084h
+  if (motor_energised(next)) {  // quick stop, disable operation: ramp down with 6084h
     stop_motion(stop_deceleration(idx::kProfileDeceleration));
   } else if (motion_.active || activity_ != Activity::kIdle) {
     kinematics_.halt(now_);  // output stage off: the motor stops where it is
@@ -638,7 +638,7 @@ void Uc57DriveSim::stop_motion(double deceleration) {
 void Uc57DriveSim::accept_set_point(bool change_immediately) {
   SetPoint set_point{stored(idx::kTargetPosition, 0), cia402::is_set(controlword_, ControlBit::kRelative), frame_utime_};
   if (activity_ == Activity::kProfilePosition && !change_immediately) {
-    if (buffered_set_point_) return;  // one-deep buffer full: the edge is ignored (G-25)
+    if (buffered_set_point_) return;  // one-deep buffer full: the edge is ignored
     buffered_set_point_ = set_point;
   } else {
     start_profile_position(set_point);
@@ -659,7 +659,7 @@ void Uc57DriveSim::start_profile_position(const SetPoint& set_point) {
   begin_motion(target);
 }
 
-// --- profile velocity (manual §4.2.5, spec §3.2.4, G-32) ---
+// --- profile velocity (manual §4.2.5) ---
 
 void Uc57DriveSim::update_profile_velocity() {
   const bool runs = state_ == State::kOperationEnabled &&
@@ -680,13 +680,13 @@ void Uc57DriveSim::update_profile_velocity() {
   begin_motion(velocity > 0 ? std::numeric_limits<std::int32_t>::max() : std::numeric_limits<std::int32_t>::min());
 }
 
-// --- homing (manual §4.2.6, spec §3.3.3, G-4, G-5) ---
+// --- homing (manual §4.2.6) ---
 
 void Uc57DriveSim::start_homing() {
   homed_ = homing_attained_ = homing_finished_ = false;
   homing_legs_.clear();
   const auto* method = od::find_homing_method(static_cast<std::uint8_t>(stored(idx::kHomingMethod, 0)));
-  if (method == nullptr) {  // G-5: homing error, no motion
+  if (method == nullptr) {  // homing error, no motion
     homing_finished_ = true;
     return;
   }
@@ -737,7 +737,7 @@ void Uc57DriveSim::finish_homing(bool succeeded) {
   homing_attained_ = succeeded;
   homed_ = succeeded;
   if (!succeeded) return;
-  // G-4: 6064h = -607Ch at the mechanical home (CiA 402 style).
+  // 6064h = -607Ch at the mechanical home (CiA 402 style).
   const std::int64_t home_value = -stored(idx::kHomeOffset, 0);
   position_shift_ += static_cast<double>(position(now_) - home_value);
   kinematics_.set_position(now_, home_value);
@@ -837,7 +837,7 @@ std::uint8_t Uc57DriveSim::input_levels() const {
 }
 
 // 60FDh: bit 0 negative limit (X2 = IN3), bit 1 positive limit (X0 = IN1), bit 2 origin (X1 = IN2),
-// after the polarity of 2030h:01 (G-23).
+// after the polarity of 2030h:01.
 std::uint32_t Uc57DriveSim::digital_inputs() const {
   const auto active = static_cast<std::uint8_t>(input_levels() ^ (stored(idx::kIoConfiguration, 0x01) & 0x07));
   return ((active & 4U) != 0 ? 1U : 0U) | ((active & 1U) != 0 ? 2U : 0U) | ((active & 2U) != 0 ? 4U : 0U);

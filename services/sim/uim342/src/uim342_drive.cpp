@@ -22,7 +22,7 @@ constexpr std::size_t at(E e) {
   return static_cast<std::size_t>(e);
 }
 
-// AC, DC, SP, PR, PA address the MF-selected parameter group, then MF returns to 0 (§5.13, G-25).
+// AC, DC, SP, PR, PA address the MF-selected parameter group, then MF returns to 0 (§5.13).
 bool uses_parameter_group(FC f) { return f == FC::AC || f == FC::DC || f == FC::SP || f == FC::PR || f == FC::PA; }
 
 // The u16 register behind IC/IE/QE/MT/TG[i] and IL[16] (nullptr for other instructions).
@@ -158,7 +158,7 @@ void Uim342Drive::handle(const Instruction& instruction, std::uint8_t host, std:
       reply = configuration(instruction);
       break;
   }
-  // Gets without the ACK bit are not answered either (digest G-9).
+  // Gets without the ACK bit are not answered either.
   if (instruction.ack_requested) send(reply, host);
 }
 
@@ -168,19 +168,19 @@ std::error_code Uim342Drive::state_error(const Instruction& instruction, std::ui
   const bool running = moving(now);
   if (f == FC::BG) {
     if (!driver_on_) return E::bg_while_driver_off;
-    if (emergency_stopping_ || locked_) return E::bg_during_emergency_stop;  // G-7: locked until reboot
+    if (emergency_stopping_ || locked_) return E::bg_during_emergency_stop;  // locked until reboot
     return {};
   }
   if (f == FC::OG) return running ? make_error_code(E::og_while_running) : std::error_code{};
   if (instruction.operation != u::Operation::set) return {};
   switch (f) {
-    case FC::PP: case FC::IC: case FC::MT: case FC::QE:  // G-16
+    case FC::PP: case FC::IC: case FC::MT: case FC::QE:
       return running ? make_error_code(E::not_allowed_while_running) : std::error_code{};
-    case FC::JV:  // mode changes in motion (G-16)
+    case FC::JV:  // mode changes in motion
       return running && motion_.ptp ? make_error_code(E::not_allowed_while_running) : std::error_code{};
     case FC::PR: case FC::PA:
       return group == 0 && running && !motion_.ptp ? make_error_code(E::not_allowed_while_running) : std::error_code{};
-    case FC::SP:  // "#50": in PTP set PR/PA before SP (§5.19, G-14)
+    case FC::SP:  // "#50": in PTP set PR/PA before SP (§5.19)
       return group == 0 && mode_ == u::MotionMode::jog ? make_error_code(E::syntax_error) : std::error_code{};
     case FC::SD:
     case FC::DC: {
@@ -242,7 +242,7 @@ u::Reply Uim342Drive::motion_parameter(const Instruction& instruction, std::uint
     return *u::echo_ack(instruction);
   }
   if (f == FC::AC || f == FC::DC) return {f, u::Unsigned{*unsigned_register(active_, f, group)}};
-  if (group != 0) return {f, u::Signed{*signed_register(active_, f, group)}};  // G-24: the stored group value
+  if (group != 0) return {f, u::Signed{*signed_register(active_, f, group)}};  // the stored group value
   switch (f) {
     case FC::PR: return {f, u::Signed{wire32(relative_position(now))}};
     case FC::PA: return {f, u::Signed{wire32(position(now))}};
@@ -257,7 +257,7 @@ u::Reply Uim342Drive::motion_command(const Instruction& instruction, const can::
     case FC::MO:
       if (set) {
         const bool on = std::get<u::Byte>(instruction.body).value != 0;
-        if (!on) halt(now, frame.timestamp_us);  // G-15: the shaft freewheels, motion ends
+        if (!on) halt(now, frame.timestamp_us);  // the shaft freewheels, motion ends
         driver_on_ = on;
         auto_enable_at_ = kNever;
       }
@@ -271,7 +271,7 @@ u::Reply Uim342Drive::motion_command(const Instruction& instruction, const can::
     case FC::OG:
       set_origin(now);
       return {f, u::Empty{}};
-    default: {  // DI: d1 bit 0 enables the write of OP1 (G-12)
+    default: {  // DI: d1 bit 0 enables the write of OP1
       if (set) {
         const auto& out = std::get<u::DigitalOutput>(instruction.body);
         if ((out.write_enable & 1U) != 0) output_ = (out.outputs & 1U) != 0;
@@ -291,7 +291,7 @@ u::Reply Uim342Drive::status(const Instruction& instruction, TimePoint now) {
     case FC::MS: {
       const std::uint8_t i = instruction.sub_index().value_or(0);
       if (instruction.operation == u::Operation::set) {
-        // MS[0]=0 clears PAIF, TLIF, ERR (§3.7) and the relative counter (G-4).
+        // MS[0]=0 clears PAIF, TLIF, ERR (§3.7) and the relative counter.
         in_position_ = stalled_ = error_ = false;
         relative_origin_ = position(now);
       }
@@ -333,7 +333,7 @@ void Uim342Drive::store(const Instruction& instruction, Parameters& target, std:
 
 bool Uim342Drive::persists(const Instruction& instruction, std::uint8_t group) const {
   switch (instruction.function) {
-    case FC::PP: case FC::IC: case FC::IE: case FC::BL: return true;  // FLASH (§5.1); IC/IE/BL: G-17
+    case FC::PP: case FC::IC: case FC::IE: case FC::BL: return true;  // FLASH (§5.1), IC/IE/BL too
     case FC::JV: return false;                                         // RAM (§7.11)
     case FC::SP: case FC::PR: case FC::PA: return group != 0 && !driver_on_;  // group 0: desired values, RAM
     default: return !driver_on_;  // QE MT AC DC SS SD IL TG: EEPROM only while the driver is off
@@ -357,11 +357,11 @@ void Uim342Drive::notify(const u::Notification& notification) {
 }
 
 void Uim342Drive::reject(u::DriveErrc error, std::uint8_t received_cw, std::uint8_t sub_index, std::uint8_t host) {
-  // Sent whether or not the ACK was requested (digest G-8), kept in the ER history (§2.3).
+  // Sent whether or not the ACK was requested, kept in the ER history (§2.3).
   const u::Reply report = u::error_report(error, received_cw, sub_index);
   std::rotate(error_history_.rbegin(), error_history_.rbegin() + 1, error_history_.rend());
   error_history_[0] = std::get<u::ErrorRecord>(report.body);
-  error_ = true;  // G-18
+  error_ = true;
   send(report, host);
 }
 

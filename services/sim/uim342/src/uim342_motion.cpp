@@ -58,7 +58,7 @@ void Uim342Drive::reboot(TimePoint now) {
       auto_enable_at_ = kNever;
     }
   }
-  // Edge actions with FG = 0 run once at power-up, the one matching the present level (G-10).
+  // Edge actions with FG = 0 run once at power-up, the one matching the present level.
   for (std::size_t port = 0; port < kInputCount; ++port) {
     const auto& actions = active_.input_logic[port];
     const bool high = inputs_[port];
@@ -151,7 +151,7 @@ void Uim342Drive::begin(TimePoint now, std::int64_t utime) {
   if (mode_ == u::MotionMode::jog) {
     start_jog(now, desired.speed, desired, utime);
   } else {
-    // Relative targets count from the position at BG (G-13).
+    // Relative targets count from the position at BG.
     start_ptp(now, ptp_relative_ ? position(now) + desired.relative : desired.absolute, desired, utime);
   }
 }
@@ -228,7 +228,7 @@ void Uim342Drive::raise_alarm(u::AlarmCode alarm, TimePoint now, std::int64_t ut
     case u::AlarmCode::stall:
       stall(now, utime);
       return;
-    case u::AlarmCode::emergency_stop_lock:  // G-7: locked until a reboot
+    case u::AlarmCode::emergency_stop_lock:  // locked until a reboot
       locked_ = true;
       stop_with(now, static_cast<double>(active_.stop_deceleration), true, utime);
       break;
@@ -237,7 +237,7 @@ void Uim342Drive::raise_alarm(u::AlarmCode alarm, TimePoint now, std::int64_t ut
       stop_with(now, static_cast<double>(active_.stop_deceleration), true, utime);
       break;
     default:
-      break;  // speed, encoder, battery and unknown alarms: reported only (G-26)
+      break;  // speed, encoder, battery and unknown alarms: reported only
   }
   notify(u::AlarmNotification{alarm});
 }
@@ -282,7 +282,7 @@ void Uim342Drive::run_input_action(std::size_t port, u::Edge edge, u::InputActio
   // Parameter group of this edge: 2 + 2 * port, +1 for the falling edge (§5.13).
   const MotionGroup group = active_.groups[2 + 2 * port + (edge == u::Edge::falling ? 1 : 0)];
   const double velocity_now = motion_state(now).velocity;
-  // "Reversed" actions go against the present motion, negative when at rest (G-11).
+  // "Reversed" actions go against the present motion, negative when at rest.
   const double reverse = velocity_now < 0 ? 1.0 : -1.0;
   const bool can_move = driver_on_ && !locked_;
   const auto relative_move = [&](double direction, std::int32_t distance) {

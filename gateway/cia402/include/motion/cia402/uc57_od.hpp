@@ -98,7 +98,7 @@ enum class AccessError : std::uint8_t {
 [[nodiscard]] std::string_view to_string(AccessError error);
 
 // Simulator switches (the manual's ranges contradict each other, and its RO markings block the
-// CiA 301 PDO remap procedure; spec gaps G-7, G-12, G-27).
+// CiA 301 PDO remap procedure).
 struct WritePolicy {
   bool check_range = true;
   bool check_length = true;

@@ -33,13 +33,13 @@
 //      refuses the example's write to 6099h:00 (kReadOnly).
 // C-07 6098h: default 0 is no method; the §4.2.6 example writes 100 (0x64) for the "forward
 //      limit + origin" method, which is 24 (0x18). -> the OD accepts any U8 (the drive reports a
-//      bad method as a homing error when started, spec G-5); valid methods are the data in
+//      bad method as a homing error when started); valid methods are the data in
 //      uc57_homing.hpp. 100 is treated as a typo for 24.
 // C-08 Homing result: "homing done" = statusword bit 8 (§4.2.2, §4.2.6) vs bit 12, and failure =
 //      bit 10 + bit 13 (§7 MC_HOME); bit 13 is also "motor enabled" (§4.2.2).
 //      -> success = bit 10 and (bit 8 or bit 12); bit 13 = motor enabled, never read as failure.
-// C-09 1A01h:00 printed 0 although two entries (6064h, 606Ch) are printed -> 2 (TPDO2 active, spec
-//      G-13). A master reads 1A01h:00 and does not rely on the default.
+// C-09 1A01h:00 printed 0 although two entries (6064h, 606Ch) are printed -> 2 (TPDO2 active).
+//      A master reads 1A01h:00 and does not rely on the default.
 // C-10 14xxh/18xxh:01 (PDO COB-ID) and 16xxh/1Axxh:00 (entry count) printed RO, which blocks the
 //      CiA 301 remap -> RO as printed; WritePolicy::pdo_configuration_writable gives CiA behaviour.
 // C-11 1014h default printed "0x80" (would collide with SYNC) -> 0x80 + node-ID (CiA 301).

@@ -16,7 +16,7 @@ namespace motion::uim342 {
 
 inline constexpr std::uint8_t kGlobalId = 0;    // every drive accepts it (§1.1)
 inline constexpr std::uint8_t kMasterId = 4;    // producer ID the host must use (§2.5)
-inline constexpr std::uint8_t kMinNodeId = 5;   // node and group IDs: 5..126 (PP table §5.1; §10 G-1)
+inline constexpr std::uint8_t kMinNodeId = 5;   // node and group IDs: 5..126 (PP table §5.1)
 inline constexpr std::uint8_t kMaxNodeId = 126;
 inline constexpr std::uint8_t kMaxId = 127;     // largest value the 7-bit fields can carry
 
@@ -26,7 +26,7 @@ enum class IdKind : std::uint8_t {
   global,         // 0
   master,         // 1..4: outside the node range; 4 is the host's producer ID (spec §2.6)
   node_or_group,  // 5..126
-  unassignable,   // 127: encodable, but not a valid node/group ID (§10 G-1)
+  unassignable,   // 127: encodable, but not a valid node/group ID
   out_of_range,   // > 127: does not fit the 7-bit fields
 };
 

@@ -11,10 +11,10 @@
 // in notifications.hpp.
 //
 // Decisions where the manual is inconsistent (spec §9.6 / §10):
-// * JV/SP/PR/PA set: encoded with 4 data bytes; decoded from 1..4 bytes, zero-extended (X-12,
-//   G-22: the manual's §2.5 examples send positive values in 2 bytes).
-// * MF has a get form; IL sub-index 16 (and its table alias 3) is the stall behaviour
-//   (G-3); ER slots 0, 6, 10..18.
+// * JV/SP/PR/PA set: encoded with 4 data bytes; decoded from 1..4 bytes, zero-extended (the
+//   manual's §2.5 examples send positive values in 2 bytes).
+// * MF has a get form; IL sub-index 16 (and its table alias 3) is the stall behaviour; ER slots
+//   0, 6, 10..18.
 // * Reserved bytes inside DL (MS[0] d3, DI d2/d3, BG ACK d0..d3, ML d3/d6/d7 are kept) are written as
 //   zero and ignored when decoding.
 // * SY is the only instruction without an ACK form; a received 0xFE decodes as SY with the ACK
@@ -189,7 +189,7 @@ struct IndexedSigned {  // d0 = sub-index, [d4..d1] s32 (DV replies; ACK of JV/S
   std::int32_t value = 0;
   friend bool operator==(const IndexedSigned&, const IndexedSigned&) = default;
 };
-struct DigitalOutput {  // DI set: d0 = desired outputs (bit0 = OP1), d1 = 1 (write enable, G-12)
+struct DigitalOutput {  // DI set: d0 = desired outputs (bit0 = OP1), d1 = 1 (write enable)
   std::uint8_t outputs = 0;
   std::uint8_t write_enable = 1;
   friend bool operator==(const DigitalOutput&, const DigitalOutput&) = default;
@@ -216,7 +216,7 @@ struct SerialNumber {  // SN reply, §5.5
   friend bool operator==(const SerialNumber&, const SerialNumber&) = default;
 };
 struct ErrorRecord {  // ER reply and error report (CW 0x0F, DL 6), §2.3 / §5.6
-  std::uint8_t index = 0;         // d0: ER slot (0 in spontaneous error reports, G-28)
+  std::uint8_t index = 0;         // d0: ER slot (0 in spontaneous error reports)
   std::uint8_t code = 0;          // d1: DriveErrc value, 0 = empty slot
   std::uint8_t control_word = 0;  // d2: CW of the rejected instruction as received (bit 7 may be set)
   std::uint8_t sub_index = 0;     // d3

@@ -1,7 +1,7 @@
 // Matching drive frames to a pending request (spec §3.1). Key a pending request by (node ID,
 // expected reply); this header covers the part that depends on the frame content only — the
 // producer check (which node answered) is the caller's, because a group or global request is
-// answered by every addressed drive (G-23) and only the caller knows group membership.
+// answered by every addressed drive and only the caller knows group membership.
 // Thread contract: pure functions, thread-safe.
 #pragma once
 

@@ -24,13 +24,13 @@ struct ValueRange {
 
 inline constexpr std::uint32_t kAccelerationRateMax = 65'000'000;  // pulse/s^2 (IC[4] = 0)
 inline constexpr std::uint32_t kAccelerationTimeMaxMs = 60'000;    // ms (IC[4] = 1)
-inline constexpr std::uint32_t kBacklashMax = 65'536;              // §3.4 (G-6)
+inline constexpr std::uint32_t kBacklashMax = 65'536;              // §3.4
 inline constexpr std::uint32_t kFullStepsPerRevolution = 200;      // CPR = micro-steps x 200
 inline constexpr std::int32_t kMs1SpeedMin = -0x800000;            // MS[1] speed: signed 24 bit
 inline constexpr std::int32_t kMs1SpeedMax = 0x7FFFFF;
 
 // Whether `index` is a defined sub-index of `function` (false for functions without sub-index).
-// ER: 0, 6, 10..18; IL: 0..2, 16 and its alias 3 (G-3); MS: 0, 1.
+// ER: 0, 6, 10..18; IL: 0..2, 16 and its alias 3; MS: 0, 1.
 [[nodiscard]] bool is_defined_sub_index(FunctionCode function, std::uint8_t index) noexcept;
 
 // The range of the value a set writes (AC/DC depend on IC[4]). nullopt when the function/index
@@ -56,7 +56,7 @@ inline constexpr std::int32_t kMs1SpeedMax = 0x7FFFFF;
 [[nodiscard]] double pps_to_rpm(std::int32_t pps, std::uint32_t counts_per_rev) noexcept;
 
 // AC/DC value for a wanted ramp rate (pulse/s^2), nearest integer within the IC[4] range.
-// IC[4] = 1 (ms): ramp time T = (|speed| - cut_in) / rate (spec §10 G-21); when |speed| <= cut_in
+// IC[4] = 1 (ms): ramp time T = (|speed| - cut_in) / rate; when |speed| <= cut_in
 // there is no ramp and the shortest time, 1 ms, is returned. data_error outside the range.
 [[nodiscard]] Result<std::uint32_t> acceleration_to_wire(double rate_pps2, AccelerationUnit unit,
                                                          double speed_pps = 0.0, double cut_in_pps = 0.0);

@@ -2,8 +2,8 @@
 // gateways use for the same SimpleCAN messages (manual §2.6, Appendix-1; spec §8):
 //   byte 0 SM (0xAA = with CRC, 0xAD = without) | 1 ID | 2 CW | 3 DL | 4..11 d0..d7 | 12 d8 (aux)
 //   | 13 R0 = CRC low byte | 14 R1 = CRC high byte | 15 EM = 0xCC
-// CRC-16/MODBUS (poly 0xA001 reflected, init 0xFFFF). Which bytes it covers is ambiguous (spec
-// §10 G-2): the manual says SM..d8 (13 bytes), the gateway software in the field uses ID..d8
+// CRC-16/MODBUS (poly 0xA001 reflected, init 0xFFFF). Which bytes it covers is ambiguous: the
+// manual says SM..d8 (13 bytes), the gateway software in the field uses ID..d8
 // (12 bytes). Both are offered as CrcCoverage; the default is the manual's reading.
 // Thread contract: pure functions, thread-safe.
 #pragma once

@@ -1,6 +1,6 @@
 // A can::Transport through a UIROBOT serial gateway, UIM2513 (RS232-CAN) or UIM2533 (USB-CAN):
 // the gateway exchanges SimpleCAN 3.0 messages with the host as 16-byte UIMessages (UIM342 manual
-// §2.6 and Appendix-1; spec digest §8, §10 G-2) and puts them on its CAN bus itself, so the UIM342
+// §2.6 and Appendix-1) and puts them on its CAN bus itself, so the UIM342
 // stack runs over it unchanged.
 //   send(frame)  a 29-bit SimpleCAN frame from the host (producer 4) becomes a UIMessage whose ID
 //                is the frame's consumer, written to the port. Nothing else can travel (the
@@ -10,7 +10,7 @@
 //   receive()    bytes from the port go through uim342::UiMessageStream (resynchronizes on
 //                SM..EM, checks the CRC) and come out as the drive's frame: producer = the
 //                UIMessage ID, consumer = the host.
-// The CRC coverage sent is configurable (the manual's SM..d8 or ID..d8, G-2); receive accepts
+// The CRC coverage sent is configurable (the manual's SM..d8 or ID..d8); receive accepts
 // either unless told to be strict. Garbage and corrupt frames are dropped and counted, never
 // delivered.
 //

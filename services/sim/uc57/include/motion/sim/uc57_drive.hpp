@@ -6,13 +6,13 @@
 //    (§1.3), SDO server over the UC57 object dictionary of motion::cia402 (§1.4, abort policy
 //    §1.4.3), producer heartbeat from 1017h, EMCY on 81h + n (1014h) with the §5.4 codes,
 //    4 RPDOs / 4 TPDOs configurable by SDO (§1.8; the RO markings of the manual are lifted by
-//    `pdo_configuration_writable`, gap G-12), synchronous RPDOs buffered and applied at SYNC in
+//    `pdo_configuration_writable`), synchronous RPDOs buffered and applied at SYNC in
 //    ascending RPDO number (§8.6), TPDOs at SYNC (types 0..240) or on change / event timer
-//    (254/255, G-33).
+//    (254/255).
 //  - CiA 402: power state machine from the controlword (§2, table in motion::cia402), statusword
 //    composition of §2.7.2, profile position with the set-point handshake (bits 4/5/6, acks
 //    12, target reached 10, in position 15; §3.1), profile velocity (§3.2), homing methods 17, 18,
-//    24, 29, 41, 42 against simulated switches (§3.3, G-4), halt, quick stop (G-19), faults and
+//    24, 29, 41, 42 against simulated switches (§3.3), halt, quick stop, faults and
 //    fault reset (§5).
 // Motion is exact (motion::sim::Kinematics): a PP move ends at the time the trapezoid says.
 //
@@ -47,15 +47,15 @@ namespace motion::sim {
 // Switches for the points the manual leaves open (spec §9). Positions are physical pulses: where
 // the axis is at power-up is 0; homing shifts the reported position, not the switches.
 struct Uc57SimOptions {
-  bool pdo_configuration_writable = true;  // G-12: CiA 301 remap (14xxh/18xxh:01, 16xxh/1Axxh:00)
-  bool check_range = true;                 // G-7, G-27
-  bool sync_rpdos_supported = true;        // G-11 / §8.5: false applies every RPDO at reception
-  cia402::uc57::RampUnit ramp_unit = cia402::uc57::RampUnit::kMilliseconds;  // G-6 (C-02)
+  bool pdo_configuration_writable = true;  // CiA 301 remap (14xxh/18xxh:01, 16xxh/1Axxh:00)
+  bool check_range = true;
+  bool sync_rpdos_supported = true;        // false applies every RPDO at reception
+  cia402::uc57::RampUnit ramp_unit = cia402::uc57::RampUnit::kMilliseconds;  // (C-02)
   std::int64_t origin_position = 2000;     // IN2 active within +-origin_half_width
   std::int64_t origin_half_width = 100;
   std::int64_t positive_limit = 200000;    // IN1 active at and beyond
   std::int64_t negative_limit = -200000;   // IN3 active at and beyond
-  std::int64_t homing_backoff = 500;       // G-4: back-off distance before the slow approach
+  std::int64_t homing_backoff = 500;       // back-off distance before the slow approach
 };
 
 class Uc57DriveSim final : public CanDriveSim {

@@ -98,7 +98,7 @@ class Uim342Drive final : public CanDriveSim {
     std::array<std::uint16_t, 9> information_enable{};                    // IE[0..2], IE[8]
     std::array<std::uint16_t, 5> encoder{1000, 100, 17, 1, 3200};         // QE
     std::array<std::uint16_t, 4> driver{16, 28, 50, 0};                    // MT
-    std::uint32_t cut_in_speed = 1000;           // SS (digest G-19 example values)
+    std::uint32_t cut_in_speed = 1000;           // SS (the manual's example value)
     std::uint32_t stop_deceleration = 1'600'000;  // SD
     std::uint32_t backlash = 0;                  // BL
     std::array<uim342::InputActions, 3> input_logic{};  // IL[0..2]
@@ -182,7 +182,7 @@ class Uim342Drive final : public CanDriveSim {
   bool driver_on_ = false;
   TimePoint auto_enable_at_ = kNever;
   uim342::MotionMode mode_ = uim342::MotionMode::jog;  // DV[0]
-  bool ptp_relative_ = false;        // the last of PR/PA written decides what BG does (G-13)
+  bool ptp_relative_ = false;        // the last of PR/PA written decides what BG does
   std::uint8_t selected_group_ = 0;  // MF: for the next AC/DC/SP/PR/PA only
   bool in_position_ = false;
   bool stalled_ = false;
