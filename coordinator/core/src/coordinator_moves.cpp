@@ -159,16 +159,16 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g, TimePoint now) {
     }
     return;
   }
-  // A stop superseded by a later stop or e-stop on the same axis: that one stops it.
-  // A stop the gateway could not complete (a drive that did not answer) is not the end of it: the
-  // StopGuard repeats and escalates it, and the axis states decide.
-  const bool superseded_stop = is_stop(r.msg.kind) && (g.error_code == error_code(ReplyError::kStopped) || g.status == gateway_reply_t::FAILED);
-  if (is_stop(r.msg.kind) && g.status == gateway_reply_t::FAILED && g.error_code != error_code(ReplyError::kStopped)) {
+  // A stop's gateway part that ends FAILED — superseded by a later stop of the same axis (code 14),
+  // or not completed (a drive that did not answer) — is not the end of the stop: the StopGuard
+  // repeats and escalates it, and the axis states decide.
+  const bool stop_part_failed = is_stop(r.msg.kind) && g.status == gateway_reply_t::FAILED;
+  if (stop_part_failed && g.error_code != error_code(ReplyError::kStopped)) {
     r.gateway_failure += (r.gateway_failure.empty() ? "" : "; ") + ("bus " + g.bus + ": " + g.reason);
     spdlog::warn("request {}/{} (stop): bus {}: {}; the stop is repeated until the axis states confirm it", r.msg.client_id, r.msg.request_id,
                  g.bus, g.reason);
   }
-  if (g.status == gateway_reply_t::FAILED && !superseded_stop) {
+  if (g.status == gateway_reply_t::FAILED && !stop_part_failed) {
     r.pending.erase(g.command_id);
     // The gateway's own code says more (a refused value, a silent drive, a fault) than "drive
     // error"; a move that could not be loaded stays kArmFailed as documented.
@@ -200,7 +200,7 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g, TimePoint now) {
     }
     return;
   }
-  if (g.status == gateway_reply_t::DONE || superseded_stop) {
+  if (g.status == gateway_reply_t::DONE || stop_part_failed) {
     r.pending.erase(g.command_id);
     if (g.param.space != motionlcm::param_t::NONE) r.param_result = g.param;
     if (r.pending.empty()) {
