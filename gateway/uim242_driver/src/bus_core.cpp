@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <iterator>
 #include <limits>
+#include <optional>
 
 #include <fmt/format.h>
 #include <motionlcm/event_t.hpp>
@@ -71,6 +73,21 @@ std::int64_t clamp_rate(double counts_per_s2) {
   return std::clamp<std::int64_t>(std::llround(std::abs(counts_per_s2)), 1, kAccelerationMax);
 }
 
+// Duration of a trapezoidal (or, when too short to reach `speed`, triangular) run of `distance`
+// counts: a slow short move shows no position change between polls while it still runs.
+Duration trapezoid_duration(std::int64_t distance, std::int64_t speed, std::int64_t acceleration, std::int64_t deceleration) {
+  const double d = static_cast<double>(std::llabs(distance));
+  const double v = static_cast<double>(std::max<std::int64_t>(speed, 1));
+  const double a = static_cast<double>(std::max<std::int64_t>(acceleration, 1));
+  const double b = static_cast<double>(std::max<std::int64_t>(deceleration, 1));
+  const double ramps = v * v / (2 * a) + v * v / (2 * b);
+  const double seconds = d >= ramps ? d / v + v / (2 * a) + v / (2 * b) : [&] {
+    const double peak = std::sqrt(2 * d * a * b / (a + b));
+    return peak / a + peak / b;
+  }();
+  return std::chrono::duration_cast<Duration>(std::chrono::duration<double>(seconds));
+}
+
 }  // namespace
 
 struct Uim242BusCore::Drive {
@@ -105,6 +122,7 @@ struct Uim242BusCore::Move {
     std::int64_t deceleration = 0;
     bool loaded = false;   // armed (or already at the target)
     bool arrived = false;
+    Duration planned{};    // the trapezoid's duration from where the drive stood at the start
   };
   enum class Phase { arming, armed, starting, moving };
   std::int64_t command_id = 0;
@@ -503,15 +521,20 @@ void Uim242BusCore::poll(TimePoint now) {
       const bool still = !d.status.moving && d.last_polled_position == position;
       d.status.position_counts = position;
       d.last_polled_position = position;
-      const bool moving_to_target = std::any_of(moves_.begin(), moves_.end(), [&](const auto& m) {
-        return m->phase == Move::Phase::moving &&
-               std::any_of(m->axes.begin(), m->axes.end(), [&](const auto& a) { return a.drive == &d && !a.arrived; });
-      });
+      // The move of this drive that is under way, and when its run should have ended.
+      std::optional<TimePoint> due;
+      for (const auto& m : moves_) {
+        if (m->phase != Move::Phase::moving) continue;
+        for (const auto& a : m->axes) {
+          if (a.drive == &d && !a.arrived) due = m->last_start + a.planned;
+        }
+      }
+      const bool moving_to_target = due.has_value();
       d.status.in_position = !moving_to_target || (position == d.status.target_counts && !d.status.moving);
       if (moving_to_target) {
         if (position == d.status.target_counts && !d.status.moving) {
           move_axis_arrived(d, t);
-        } else if (still && ++d.still_polls >= kStillPollsBeforeFailure) {
+        } else if (still && t >= *due && ++d.still_polls >= kStillPollsBeforeFailure) {
           fail_moves_of(d, fmt::format("{} (node {}): stopped at {} before the target {}", d.name, d.node, position,
                                        d.status.target_counts),
                         kGroupFault);
@@ -615,23 +638,30 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
       }
       const bool every_drive = estop && command.axes.size() == drives_.size() &&
                                std::all_of(drives_.begin(), drives_.end(), [](const auto& d) { return d->status.online; });
+      // After OFF the desired speed is set to 0: a controller keeps it while disabled, and ENA
+      // runs the motor at it again (manual, ENA H-Bridge Enable; the "SPD 5000; ENA;" example), so
+      // a later enable would resume the interrupted jog or move.
       if (every_drive) {
-        // One `gOFF;` frame disables every controller at once (Summary).
-        Request r;
-        r.drive = "gateway";
-        r.instruction = Instruction{Mnemonic::OFF, true, std::nullopt, false};
-        r.group = id;
-        r.on_reply = [this, id](const Frame&, TimePoint) {
+        // One `gOFF;` frame disables every controller at once (Summary), one `gSPD 0;` zeroes
+        // every desired speed.
+        const auto broadcast = [this, id](Instruction in, std::function<void()> then) {
+          Request r;
+          r.drive = "gateway";
+          r.instruction = in;
+          r.group = id;
+          r.on_reply = [then = std::move(then)](const Frame&, TimePoint) { then(); };
+          r.on_failure = [this, id](const std::string& reason, bool timed_out, TimePoint) {
+            finish(id, false, reason, timed_out ? kTimeout : kDriveError);
+          };
+          channel_.submit(std::move(r), true);
+        };
+        broadcast(Instruction{Mnemonic::OFF, true, std::nullopt, false}, [this, id, broadcast] {
           for (auto& d : drives_) d->status.enabled = false;
-          finish(id, true);
-        };
-        r.on_failure = [this, id](const std::string& reason, bool timed_out, TimePoint) {
-          finish(id, false, reason, timed_out ? kTimeout : kDriveError);
-        };
-        channel_.submit(std::move(r), true);
+          broadcast(Instruction{Mnemonic::SPD, true, 0, false}, [this, id] { finish(id, true); });
+        });
         return;
       }
-      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::OFF)}; },
+      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::OFF), set(Mnemonic::SPD, 0)}; },
                [](Drive& d, const auto&) { d.status.enabled = false; });
       return;
     }
@@ -828,6 +858,7 @@ void Uim242BusCore::start_move(Move& m, TimePoint /*now*/) {
     m.last_start = sent;
   };
   for (auto* a : to_start) {
+    a->planned = trapezoid_duration(a->target - a->drive->status.position_counts, a->speed, a->acceleration, a->deceleration);
     a->drive->status.target_counts = a->target;
     a->drive->status.in_position = false;
     a->drive->still_polls = 0;

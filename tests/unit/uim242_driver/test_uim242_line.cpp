@@ -361,6 +361,47 @@ TEST_F(Uim242Line, TriggerOfTwoMovesAlreadyAtTheirTargetsEndsBothOnce) {
   EXPECT_EQ(starts_of("u1-drive") + starts_of("u2-drive"), 0u);
 }
 
+// A one-count move at a crawl (1 count/s, 1 count/s²: 2 s on the trapezoid) shows no position
+// change and a speed that reads 0 for many polls while it runs: it is not "stopped short" before
+// its planned time has passed, and ends DONE at the count.
+TEST_F(Uim242Line, ASlowOneCountMoveIsNotTakenForAStopBeforeItsPlannedTime) {
+  ASSERT_NO_FATAL_FAILURE(enable("u2", 1));
+  auto crawl = axis("u2", 1, 1);
+  crawl.acceleration = 1;
+  crawl.deceleration = 1;
+  driver_->execute(command(2, gateway_command_t::ARM_MOVE, {crawl}));
+  ASSERT_TRUE(run_until([&] { return ended(2); }, milliseconds(8000)));
+  ASSERT_NE(out_.find(2, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  EXPECT_EQ(out_.status["u2"].position_counts, 1);
+}
+
+// A controller keeps its desired speed while disabled and ENA runs the motor at it again: an
+// e-stopped (one gOFF for the whole line) or disabled (OFF to one drive) jog must not resume
+// when the axes are enabled again.
+TEST_F(Uim242Line, AJogStoppedByEstopOrDisableDoesNotResumeOnEnable) {
+  for (const bool whole_line : {true, false}) {
+    SCOPED_TRACE(whole_line ? "ESTOP of every drive" : "DISABLE of one drive");
+    const std::int64_t base = whole_line ? 10 : 20;
+    ASSERT_NO_FATAL_FAILURE(enable("u1", base + 1));
+    ASSERT_NO_FATAL_FAILURE(enable("u2", base + 2));
+    driver_->execute(command(base + 3, gateway_command_t::JOG, {axis("u1", 0, 800)}));
+    ASSERT_TRUE(run_until([&] { return ended(base + 3) && out_.status["u1"].moving; }));
+    if (whole_line) {
+      driver_->execute(command(base + 4, gateway_command_t::ESTOP, {axis("u1"), axis("u2")}));
+    } else {
+      driver_->execute(command(base + 4, gateway_command_t::DISABLE, {axis("u1")}));
+    }
+    ASSERT_TRUE(run_until([&] { return ended(base + 4); }));
+    ASSERT_NE(out_.find(base + 4, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+    ASSERT_TRUE(run_until([&] { return !out_.status["u1"].moving; }));
+    ASSERT_NO_FATAL_FAILURE(enable("u1", base + 5));
+    const auto at = out_.status["u1"].position_counts;
+    run_until([] { return false; }, milliseconds(400));
+    EXPECT_FALSE(out_.status["u1"].moving);
+    EXPECT_EQ(out_.status["u1"].position_counts, at) << "the jog resumed after ENA";
+  }
+}
+
 // A command id still in use is refused (FAILED, naming the id), as by the CAN stacks and the
 // ADAM master; the command that has it goes on and ends once.
 TEST_F(Uim242Line, ReusedCommandIdIsRefusedAndTheRunningCommandGoesOn) {
