@@ -1,8 +1,8 @@
-// Every example frame of the manual (§2.5, §5.1-§5.28), transcribed from spec §9.1/§9.2 (normalized
+// Every example frame of the manual (§2.5, §5.1-§5.28), transcribed from the manual (normalized
 // rows; "corrected rows" where the manual's printing is self-contradictory, with the printed row
 // checked separately below). Each row: the typed value must encode to exactly these bytes and
 // identifier, and the frame must decode back to the typed value. Each ACK row is also classified
-// against the instruction row before it (spec §3.1).
+// against the instruction row before it (§2.1).
 #include <gtest/gtest.h>
 
 #include <string>
@@ -237,7 +237,7 @@ TEST(Uim342ManualExamples, DecodedMeaningOfSelectedRows) {
 }
 
 // §2.5 "More examples": CAN-ID + data as printed. Positive 32-bit values appear with 2 bytes
-// they decode (zero-extended); this library always encodes 4 bytes.
+// (§5.18-§5.21 define 4): they decode (zero-extended); this library always encodes 4 bytes.
 struct CanExample {
   std::uint32_t can_id;
   const char* data;
@@ -271,20 +271,20 @@ TEST(Uim342ManualExamples, DirectCanExamples) {
   }
 }
 
-// The rows as the manual prints them where they contradict the text (spec §9.6): what they
+// The rows as the manual prints them where they contradict the text: what they
 // decode to under the DL rule, so nobody "fixes" the table back to them by accident.
 TEST(Uim342ManualExamples, PrintedMisprintsDecodeAsTheirDlSays) {
-  // QE get printed with DL 04 and one data byte: no QE form has DL 4.
+  // §5.7: QE get printed with DL 04 and one data byte: no QE form has DL 4.
   EXPECT_EQ(decode_instruction(test::parse_row("05 BD 04 04 00 00 00").message).error(), CodecErrc::wrong_length);
-  // MT set printed with DL 01 (d1 = 10 is padding): it is the get of MT[0].
+  // §5.9: MT set printed with DL 01 (d1 = 10 is padding): it is the get of MT[0].
   const auto mt = decode_instruction(Message{0x90, 1, {0x00, 0x10}});
   ASSERT_TRUE(mt.ok());
   EXPECT_EQ(*mt, request::get(MotorDriver::microstepping));
-  // AC set printed with DL 00: it is "get AC".
+  // §5.14: AC set printed with DL 00: it is "get AC".
   const auto ac = decode_instruction(Message{0x99, 0, {0xF4, 0x01}});
   ASSERT_TRUE(ac.ok());
   EXPECT_EQ(*ac, request::get(FC::AC));
-  // PR set printed with CW 9E: it is SP=1000, whose ACK (DV[2]) is not the printed DV[3].
+  // §5.20: PR set printed with CW 9E: it is SP=1000, whose ACK (DV[2]) is not the printed DV[3].
   const auto pr = decode_instruction(test::parse_row("05 9E 04 E8 03 00 00 00 00 00 00").message);
   ASSERT_TRUE(pr.ok());
   EXPECT_EQ(*pr, request::set_ptp_speed(1000));

@@ -1,4 +1,4 @@
-// UIMessages out of a byte stream (spec §8): frames split anywhere, line noise with false SM/EM
+// UIMessages out of a byte stream (manual §2.6, Appendix-1): frames split anywhere, line noise with false SM/EM
 // bytes, corrupt CRCs, the two coverages and strict acceptance; and the mapping between the
 // UIMessage ID and the producer/consumer of the CAN frame (§2.5, §2.6).
 #include <gtest/gtest.h>
@@ -11,7 +11,7 @@
 namespace motion::uim342 {
 namespace {
 
-// Spec §9.5: MO ACK from node 5 (ON), variant A (SM..d8) and B (ID..d8).
+// MO ACK from node 5 (ON), CRC computed with the Appendix-1 routine (not printed in the manual): variant A (SM..d8) and B (ID..d8).
 constexpr const char* kAckA = "AA 05 15 01 01 00 00 00 00 00 00 00 00 8E 15 CC";
 constexpr const char* kAckB = "AA 05 15 01 01 00 00 00 00 00 00 00 00 71 57 CC";
 // Spec §9.5: JV=-1000 with ACK to node 5, variant A: data bytes that look like nothing special.

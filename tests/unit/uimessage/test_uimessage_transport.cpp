@@ -1,5 +1,5 @@
-// UiMessageTransport over a real pty: what it writes is byte for byte the spec's UIMessage
-// vectors (digest §9.5, both CRC coverages), what the gateway side writes comes out as the
+// UiMessageTransport over a real pty: what it writes is byte for byte the UIMessage
+// vectors derived from manual §2.6 and Appendix-1 (both CRC coverages), what the gateway side writes comes out as the
 // drives' CAN frames, garbage and corrupt frames are skipped and counted, frames a UIMessage
 // cannot carry are refused, and a hung-up port is reported and opened again.
 #include "motion/uimessage/uimessage_transport.hpp"
@@ -26,7 +26,7 @@ can::Frame frame(const char* cansend) {
   return f.value_or(can::Frame{});
 }
 
-// Spec digest §9.5 "UIMessages": the host's instructions to node 5 (and one to global 0), with the
+// UIMessages (§2.6, CRC per Appendix-1; not printed in the manual): the host's instructions to node 5 (and one to global 0), with the
 // CAN frame that carries each one from master 4 (§2.5: 0x04280000 | CW to node 5).
 struct Vector {
   const char* can;

@@ -72,7 +72,7 @@ std::uint8_t* protocol_register(Uim342Drive::Parameters& p, std::uint8_t i) {
 
 std::int32_t wire32(std::int64_t value) { return static_cast<std::int32_t>(value); }  // s32 counter wraps
 
-// ER[0] and ER[10] are the latest error, ER[11..18] the earlier ones (digest X-20); ER[6], the
+// ER[0] and ER[10] are the latest error, ER[11..18] the earlier ones (the §5.6 table; §2.3 says "latest + 7"); ER[6], the
 // power-on error, is never set by the simulator.
 std::optional<std::size_t> history_slot(std::uint8_t index) {
   if (index == u::kErrorSlotLatest) return 0;
@@ -109,8 +109,8 @@ void Uim342Drive::on_frame(const can::Frame& frame, TimePoint now) {
   const u::Message& message = decoded->message;
   const auto instruction = u::decode_instruction(message);
   if (!instruction) {
-    // ML without the ACK bit does not exist: ignored (digest §4.5). Everything else the codec
-    // cannot read is an unknown function or a DL fitting no form: syntax error (§5.3 [I]).
+    // ML without the ACK bit does not exist (§5.4): ignored. Everything else the codec
+    // cannot read is an unknown function or a DL fitting no form: syntax error (0x32, §2.3; assumed).
     if (instruction.error() != make_error_code(u::CodecErrc::ack_form_not_supported)) {
       reject(u::DriveErrc::syntax_error, message.control_word, 0, address.producer);
     }
