@@ -175,7 +175,7 @@ TEST_F(ManualExamples, MotionStatus) {
 TEST_F(ManualExamples, InputLogicAndTrigger) {
   expect_ack("05 B4 03 00 06 80 00 00 00 00 00", "05 34 03 00 06 80 00 00 00 00 00");  // IL[0] set
   expect_ack("05 B4 01 00 00 00 00 00 00 00 00", "05 34 03 00 06 80 00 00 00 00 00");  // IL[0] get (§5.26: the bytes)
-  expect_ack("05 B5 01 01 00 00 00 00 00 00 00", "05 35 03 01 00 00 00 00 00 00 00");  // TG[1] (§5.27; echoes 01 like every sub-indexed ACK)
+  expect_ack("05 B5 01 01 00 00 00 00 00 00 00", "05 35 03 01 00 00 00 00 00 00 00");  // TG[1] (§5.27 prints d0 = 00; echoes 01 like every sub-indexed ACK)
   expect_ack("05 B5 03 00 64 00 00 00 00 00 00", "05 35 03 00 64 00 00 00 00 00 00");  // TG[0]=100
   expect_ack("05 B4 01 10", "05 34 03 10 00 00");                                      // IL[16] stall: hold
 }

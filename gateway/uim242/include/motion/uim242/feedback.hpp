@@ -67,7 +67,7 @@ inline constexpr std::uint8_t kSetId = 0xDD;
 inline constexpr std::uint8_t kBlc = 0xDE;             // AA: BLC; CC: MDL
 inline constexpr std::uint8_t kModel = 0xDE;
 inline constexpr std::uint8_t kGreeting = 0xAB;        // AA AB AC ... (EXT-2501)
-inline constexpr std::uint8_t kDefaultStall = 0xAA;    // G16 [INF]
+inline constexpr std::uint8_t kDefaultStall = 0xAA;    // not in the manuals (stall id undocumented): our choice
 }  // namespace message
 
 // A frame as split from the stream.
@@ -107,7 +107,7 @@ enum class Layout : std::uint8_t {
 // Decodes the data into its fields in order (e.g. scf: {u32, atconl, atconh}; status: {asb, cur,
 // speed, displacement}; model: {0x18, 0x02, cur, modules, firmware}); signed fields sign-extended.
 [[nodiscard]] Result<std::vector<std::int64_t>> decode_fields(std::span<const std::uint8_t> data, Layout layout);
-// The inverse; fields are truncated to their wire width (e.g. SPD 40000 echoes as -25536, G7).
+// The inverse; fields are truncated to their wire width (e.g. SPD 40000 echoes as -25536, EN/CN #37).
 [[nodiscard]] std::vector<std::uint8_t> encode_fields(Layout layout, std::span<const std::int64_t> fields);
 
 // ---- Status (basic ACK and FBK) ---------------------------------------------------------------
@@ -158,7 +158,7 @@ enum class Event : std::uint8_t {
   s1_falling = 0xA0, s1_rising = 0xA1, s2_falling = 0xA2, s2_rising = 0xA3,
   s3_falling = 0xA4, s3_rising = 0xA5, p4_high_to_low = 0xA6, p4_low_to_high = 0xA7,
   displacement_complete = 0xA8, position_zero = 0xA9,
-  stall = 0x00,  // its message id is a parameter (G16)
+  stall = 0x00,  // its message id is a parameter (undocumented in EN/CN §5.4)
 };
 struct Notification {
   std::uint8_t node = 0;
