@@ -42,7 +42,7 @@ constexpr Vector kInstructions[] = {
     {"04280081#0502", "AA 05 81 02 05 02 00 00 00 00 00 00 00 25 31 CC", "AA 05 81 02 05 02 00 00 00 00 00 00 00 DA 73 CC"},
     {"04280091#00", "AA 05 91 01 00 00 00 00 00 00 00 00 00 3F 77 CC", "AA 05 91 01 00 00 00 00 00 00 00 00 00 C0 35 CC"},
 };
-// §9.5 "MO ACK from node 5 (ON)"; the drive's frame to master 4 is 0x05200000 | CW (§2.5).
+// Derived "MO ACK from node 5 (ON)" (§2.6, Appendix-1 CRC); the drive's frame to master 4 is 0x05200000 | CW (§2.5).
 constexpr const char* kMoAckA = "AA 05 15 01 01 00 00 00 00 00 00 00 00 8E 15 CC";
 constexpr const char* kMoAckB = "AA 05 15 01 01 00 00 00 00 00 00 00 00 71 57 CC";
 constexpr const char* kMoAckCan = "05200015#01";
@@ -92,7 +92,7 @@ TEST_F(UiMessageTransportTest, ReceivedUiMessagesBecomeTheDrivesFramesWhicheverT
   peer->write("AD 05 15 01 01 00 00 00 00 00 00 00 00 00 00 CC");  // SM 0xAD: no CRC
   // ID 128 does not fit the 7-bit producer field: well-formed, but no CAN frame (counted).
   peer->write("AD 80 15 01 00 00 00 00 00 00 00 00 00 00 00 CC");
-  // Node 100 (ID bits 6..5 in the EID part): producer 100 -> master 4 is 0x04230000 | CW (§9.5).
+  // Node 100 (ID bits 6..5 in the EID part): producer 100 -> master 4 is 0x04230000 | CW (derived from §2.5).
   peer->write("AD 64 15 01 00 00 00 00 00 00 00 00 00 00 00 CC");
   const auto frames = receive_frames(*transport, 4);
   ASSERT_EQ(frames.size(), 4u);

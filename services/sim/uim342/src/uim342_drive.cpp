@@ -334,7 +334,7 @@ void Uim342Drive::store(const Instruction& instruction, Parameters& target, std:
 bool Uim342Drive::persists(const Instruction& instruction, std::uint8_t group) const {
   switch (instruction.function) {
     case FC::PP: case FC::IC: case FC::IE: case FC::BL: return true;  // FLASH (§5.1), IC/IE/BL too
-    case FC::JV: return false;                                         // RAM (§7.11)
+    case FC::JV: return false;                                         // RAM (§5.18)
     case FC::SP: case FC::PR: case FC::PA: return group != 0 && !driver_on_;  // group 0: desired values, RAM
     default: return !driver_on_;  // QE MT AC DC SS SD IL TG: EEPROM only while the driver is off
   }

@@ -80,7 +80,7 @@ struct Frame {
   friend bool operator==(const Frame&, const Frame&) = default;
 };
 
-inline constexpr std::size_t kMaxFrameBytes = 16;  // spec appendix A: cap, then resync
+inline constexpr std::size_t kMaxFrameBytes = 16;  // not in the manuals (13 bytes at most documented, §12.2): cap, then resync
 
 // One complete frame (header .. terminator).
 [[nodiscard]] Result<Frame> parse_frame(std::span<const std::uint8_t> bytes);

@@ -67,7 +67,7 @@ class Uc57DriveSim final : public CanDriveSim {
   void on_frame(const can::Frame& frame, TimePoint now) override;
   TimePoint process(TimePoint now) override;
   // STALL -> fault (EMCY 8611h, statusword fault + alarm); ALARM value 1..6 -> the UC57 alarm
-  // Err1..Err6 (603Fh bit, EMCY §5.4, fault); SET_INPUT value 1..3 (IN1..IN3), level 0/1.
+  // Err1..Err6 (603Fh bit, EMCY with assumed codes, fault); SET_INPUT value 1..3 (IN1..IN3), level 0/1.
   bool control(const motionlcm::sim_control_t& control, TimePoint now) override;
 
   // Observers for tests.
