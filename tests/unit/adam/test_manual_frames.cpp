@@ -1,8 +1,9 @@
 // Every example frame of the ADAM manual (§6, §8, transcribed; the manual's frames with a
 // wrong CRC (OCR damage, typos) appear in their corrected form and, as printed, in kPrintedBadCrc), and
-// derived vectors not in the manual (libmodbus-produced frames, status replies, broadcasts, exceptions).
-// Each vector checks: CRC, typed decode against the manual's stated meaning, exact re-encoding,
-// request/response pairing, and that the register map accepts the manual's own requests.
+// derived vectors not in the manual (libmodbus-produced frames, status replies, broadcasts,
+// exceptions). Each vector checks: CRC, typed decode against the manual's stated meaning, exact
+// re-encoding, request/response pairing, and that the register map accepts the manual's own
+// requests.
 #include <gtest/gtest.h>
 
 #include <optional>
@@ -43,7 +44,8 @@ struct PrintedFrame {
 };
 
 // clang-format off
-// Transcribed from the manual's §8 examples (line numbers of the manual text); CRC-failing rows are corrected.
+// Transcribed from the manual's §8 examples (line numbers of the manual text); CRC-failing rows are
+// corrected.
 const std::vector<ManualFrame> kManualFrames = {
     {"§8.1", 238, Role::request, "01 03 00 00 00 02 C4 0B", Shape::read_request, 0x0000, 2, {}, std::nullopt},  // read 2 regs @0x0000 (printed with a stray 00 and CRC byte lost)
     {"§8.1", 240, Role::response, "01 03 04 37 31 00 30 A5 9C", Shape::read_response, 0x0000, 2, {0x3731, 0x0030}, std::nullopt},  // regs 0x3731,0x0030 (ASCII \"71\", NUL \"0\")

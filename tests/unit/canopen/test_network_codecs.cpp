@@ -1,6 +1,6 @@
 // CiA 301 network codecs: COB-IDs (§7.3.3), NMT (§7.2.8.3.1, M-01, D-12..D-15), heartbeat and
-// boot-up (§7.2.8.3.2, D-17, D-18), SYNC (§7.2.5, D-16), EMCY (§7.2.7, D-45, D-46); every decoder refuses
-// short frames and trailing bytes.
+// boot-up (§7.2.8.3.2, D-17, D-18), SYNC (§7.2.5, D-16), EMCY (§7.2.7, D-45, D-46); every decoder
+// refuses short frames and trailing bytes.
 #include <gtest/gtest.h>
 
 #include <array>

@@ -1,6 +1,6 @@
 // The passive SDO client (sdo_client.hpp): expedited and segmented transfers frame by frame
-// against the manual's and derived vectors, queueing per node, timeouts with retries, server aborts, protocol
-// errors (toggle, command specifier, lengths, mismatched object) and cancellation.
+// against the manual's and derived vectors, queueing per node, timeouts with retries, server
+// aborts, protocol errors (toggle, command specifier, lengths, mismatched object) and cancellation.
 #include <gtest/gtest.h>
 
 #include <chrono>

@@ -1,7 +1,7 @@
-// CiA 301 SDO codec against every SDO frame of the UC57 manual (M-, P-, V-, H-: §4.2.2, §4.2.4-§4.2.6) and
-// derived vectors (CiA 301 §7.2.4.3: expedited D-01..D-11, D-19, aborts D-20..D-25, segmented D-26..D-28,
-// PDO configuration D-31..D-37, appendix frames of manual §7). Decoders refuse short frames, trailing bytes
-// and block-transfer command specifiers.
+// CiA 301 SDO codec against every SDO frame of the UC57 manual (M-, P-, V-, H-: §4.2.2,
+// §4.2.4-§4.2.6) and derived vectors (CiA 301 §7.2.4.3: expedited D-01..D-11, D-19, aborts
+// D-20..D-25, segmented D-26..D-28, PDO configuration D-31..D-37, appendix frames of manual §7).
+// Decoders refuse short frames, trailing bytes and block-transfer command specifiers.
 #include <gtest/gtest.h>
 
 #include <cstdint>

@@ -212,7 +212,7 @@ TEST(Controlword, ApplyCommandKeepsModeBits) {
   EXPECT_EQ(apply_command(0x008F, Command::kShutdown), 0x0006);        // bit 7 is device control
 }
 
-// ---- Statusword decoding (UC57 §4.2.1 patterns; example words with the §4.2.2 bits, composed as assumed) ----
+// ---- Statusword decoding (UC57 §4.2.1 patterns; example words of the §4.2.2 bits, composed as assumed) ----
 TEST(Statusword, DecodesEveryState) {
   const std::vector<std::pair<std::uint16_t, State>> cases = {
       {0x0000, kNotReadyToSwitchOn}, {0x0020, kNotReadyToSwitchOn},  // bit 5 "X"

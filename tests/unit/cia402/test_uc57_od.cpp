@@ -1,5 +1,6 @@
 // UC57 object dictionary: contents against the manual's tables (§5, §5.1, §5.2), lookups, access
-// and range checks (derived abort vectors D-20..D-25, CiA 301 §7.2.4.3.17), the manual's SDO frames, and the value codec.
+// and range checks (derived abort vectors D-20..D-25, CiA 301 §7.2.4.3.17), the manual's SDO
+// frames, and the value codec.
 #include <initializer_list>
 #include <gtest/gtest.h>
 
@@ -247,8 +248,8 @@ TEST(Uc57OdAccess, PolicySwitches) {
   EXPECT_EQ(write_error(0x1000, 0, 0, 4, cia301), AccessError::kReadOnly);
 }
 
-// Every SDO download printed in the manual (§4.2.2-§4.2.6) and the derived ones (not printed in the manual),
-// as frame bytes: the OD must accept them, except H-04 (C-06).
+// Every SDO download printed in the manual (§4.2.2-§4.2.6) and the derived ones (not printed in the
+// manual), as frame bytes: the OD must accept them, except H-04 (C-06).
 TEST(Uc57OdAccess, ManualAndDerivedDownloadFrames) {
   struct Frame {
     const char* id;

@@ -1,4 +1,5 @@
-// UC57 unit conversions and quantization against the manual's worked examples (§4.2.4-§4.2.6) and derived values.
+// UC57 unit conversions and quantization against the manual's worked examples (§4.2.4-§4.2.6) and
+// derived values.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,6 +1,7 @@
-// The manual's example frames (§2.4, §2.5, §5.1-§5.28; normalized rows, and corrected rows where the
-// printing contradicts the text) played against the simulator: each instruction row must produce exactly
-// the ACK row, byte for byte and with the reply identifier (producer = node 5, consumer = host 4).
+// The manual's example frames (§2.4, §2.5, §5.1-§5.28; normalized rows, and corrected rows where
+// the printing contradicts the text) played against the simulator: each instruction row must
+// produce exactly the ACK row, byte for byte and with the reply identifier (producer = node 5,
+// consumer = host 4).
 // The drive is set up so that its state matches the one the manual's examples show (node 5,
 // group 10, IC[0] = 1, 2.8 A, 16 micro-steps, BL 1000, model 342XS, serial 01 02 03 04 ...).
 #include <gtest/gtest.h>

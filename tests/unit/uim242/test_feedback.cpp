@@ -1,4 +1,5 @@
-// Feedback frames: the manuals' rows (EN/CN §6.2, §12.2, #6, #17, #22) and replies derived from the §12.3 layouts.
+// Feedback frames: the manuals' rows (EN/CN §6.2, §12.2, #6, #17, #22) and replies derived from the
+// §12.3 layouts.
 #include <gtest/gtest.h>
 
 #include "hex.hpp"

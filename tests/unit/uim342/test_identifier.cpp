@@ -1,4 +1,5 @@
-// Identifier layout (manual §2.5 "CAN-ID for SimpleCAN3.0", its formulas applied to the Instruction Set Summary CWs).
+// Identifier layout (manual §2.5 "CAN-ID for SimpleCAN3.0", its formulas applied to the Instruction
+// Set Summary CWs).
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -42,7 +43,8 @@ struct DerivedId {
   std::uint32_t can_id;
 };
 
-// Identifiers derived from the §2.5 formulas (not printed in the manual), including IDs above 31 (high ID bits in the EID).
+// Identifiers derived from the §2.5 formulas (not printed in the manual), including IDs above 31
+// (high ID bits in the EID).
 constexpr DerivedId kDerived[] = {
     {{4, 5, 0x95}, 0x10A, 0x00095, 0x04280095},
     {{5, 4, 0x15}, 0x148, 0x00015, 0x05200015},

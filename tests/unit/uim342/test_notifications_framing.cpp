@@ -18,7 +18,8 @@ namespace {
 
 using FC = FunctionCode;
 
-// §2.4: printed rows normalized to `ID CW DL d0..d7` (surplus padding column dropped; DL rules, §2.1).
+// §2.4: printed rows normalized to `ID CW DL d0..d7` (surplus padding column dropped; DL rules,
+// §2.1).
 struct NotificationExample {
   const char* row;
   Notification typed;
@@ -146,7 +147,8 @@ TEST(Uim342Decoding, RefusesForeignAndMalformedFrames) {
   EXPECT_EQ(encode(Instruction{FC::PA, Operation::set, true, Unsigned{1}}).error(), CodecErrc::body_mismatch);
 }
 
-// Derived vectors, variant A (manual §2.6: CRC over 0xAA..d8) and variant B (ID..d8, gateways in the field).
+// Derived vectors, variant A (manual §2.6: CRC over 0xAA..d8) and variant B (ID..d8, gateways in
+// the field).
 struct UiExample {
   const char* variant_a;
   const char* variant_b;

@@ -18,7 +18,8 @@ namespace {
 constexpr std::size_t kAddressSpace = 0x10000;
 // A ramp time of 0 ms means "at once"; the kinematics wants a finite rate.
 constexpr double kInstantRate = 1e12;
-// Version registers as the manual prints them (§8.1/§8.2): "170" and "105" (decoding assumed: low word first).
+// Version registers as the manual prints them (§8.1/§8.2): "170" and "105" (decoding assumed: low
+// word first).
 constexpr std::uint16_t kHardwareVersion[] = {0x3731, 0x0030};
 constexpr std::uint16_t kFirmwareVersion[] = {0x3031, 0x0035};
 }  // namespace
@@ -59,7 +60,8 @@ adam::DriveStatus AdamDriveSim::status(TimePoint now) const {
   const auto state = kinematics_.at(now);
   s.inputs = inputs_;
   if (state.moving) {
-    // Phase from the speed's trend over the next millisecond (§8.4 bits 9…8, assumed: 01 up, 11 cruise, 10 down).
+    // Phase from the speed's trend over the next millisecond (§8.4 bits 9…8, assumed: 01 up, 11
+    // cruise, 10 down).
     const double later = std::abs(kinematics_.at(now + std::chrono::milliseconds(1)).velocity);
     const double speed = std::abs(state.velocity);
     s.phase = later > speed + 1e-9 ? adam::MotionPhase::accelerating

@@ -72,8 +72,8 @@ std::uint8_t* protocol_register(Uim342Drive::Parameters& p, std::uint8_t i) {
 
 std::int32_t wire32(std::int64_t value) { return static_cast<std::int32_t>(value); }  // s32 counter wraps
 
-// ER[0] and ER[10] are the latest error, ER[11..18] the earlier ones (the §5.6 table; §2.3 says "latest + 7"); ER[6], the
-// power-on error, is never set by the simulator.
+// ER[0] and ER[10] are the latest error, ER[11..18] the earlier ones (the §5.6 table; §2.3 says
+// "latest + 7"); ER[6], the power-on error, is never set by the simulator.
 std::optional<std::size_t> history_slot(std::uint8_t index) {
   if (index == u::kErrorSlotLatest) return 0;
   if (index >= u::kErrorSlotHistoryFirst && index <= u::kErrorSlotHistoryLast) return index - u::kErrorSlotHistoryFirst;

@@ -212,8 +212,9 @@ inline constexpr std::uint8_t kMaxNodeAddress = 64;
   return static_cast<std::uint16_t>(value);
 }
 
-// Version strings (§8.1, §8.2). Not stated in the manual (assumed): the two registers form a UINT32 (low word first) holding a C
-// string least significant byte first: registers {0x3731, 0x0030} → "170".
+// Version strings (§8.1, §8.2). Not stated in the manual (assumed): the two registers form a UINT32
+// (low word first) holding a C string least significant byte first: registers {0x3731, 0x0030} →
+// "170".
 [[nodiscard]] std::string decode_version(std::uint16_t at_n, std::uint16_t at_n_plus_1);
 
 // Value of one register entry from its registers (count() words), sign-extended for signed types.

@@ -25,10 +25,11 @@
 //    naming an offline node still stops every reachable one, then FAILS naming the offline one.
 //  - Once a node is operational its controlword only travels in RPDO1, queued one image per SYNC
 //    cycle (an SDO write of 6040h would be overwritten at the next SYNC, CiA 301 §7.2.2).
-//  - Synchronized start (CiA 301 §7.2.2/§7.2.5 synchronous RPDOs, manual §4.2.4 PP set-point handshake): ARM_MOVE writes 6060h = 1,
-//    6081h/6083h/6084h by SDO (and 607Ah by SDO in the fallback layout), leaves bit 4 at 0 -> ARMED;
-//    fire() sends every armed node's RPDO1 with bit 4 = 1 then ONE SYNC -> STARTED ("sync", skew 0);
-//    bit 12 acknowledged -> bit 4 cleared; DONE when bit 10 (target reached) or bit 15 on every axis.
+//  - Synchronized start (CiA 301 §7.2.2/§7.2.5 synchronous RPDOs, manual §4.2.4 PP set-point
+//    handshake): ARM_MOVE writes 6060h = 1, 6081h/6083h/6084h by SDO (and 607Ah by SDO in the
+//    fallback layout), leaves bit 4 at 0 -> ARMED; fire() sends every armed node's RPDO1 with bit 4
+//    = 1 then ONE SYNC -> STARTED ("sync", skew 0); bit 12 acknowledged -> bit 4 cleared; DONE when
+//    bit 10 (target reached) or bit 15 on every axis.
 //  - JOG: profile velocity (6060h = 3, 60FFh; manual §4.2.5, §7 MC_JOG); HOME: homing mode
 //    (6060h = 6, 6098h/6099h/609Ah/607Ch, manual §4.2.6; result per conflict C-08);
 //    SET_OUTPUTS: 2030h:0D/0E output functions 5 (high) / 6 (low); SET_POSITION: 2012h (zero only);

@@ -10,13 +10,15 @@
 // * The gateway greeting `AA AB AC ...` has a byte >= 0x80 in the id position (EXT-2501 §2.2).
 //
 // Decisions where the manuals are silent or disagree:
-// * ORG reply (EN and CN #28/#29 differ): the simulator uses CN `CC id B0 s32` by default; reply_matches() accepts EN
-//   `AA id B7 s32` too.
+// * ORG reply (EN and CN #28/#29 differ): the simulator uses CN `CC id B0 s32` by default;
+//   reply_matches() accepts EN `AA id B7 s32` too.
 // * `AA B8` is both the QEC η and the SQT reply (EN/CN #30, #39/#40): matching is by what was sent.
-// * A8 completion RTCN (EN §4.1 vs CN §4.1): the 10-byte CN form (closed-loop flag + s32 position) by default,
-//   the 4-byte EN form accepted.
-// * Stall notification (MCFG.STLIE, EN/CN §5.4): message id undocumented; `CC id AA FF` by default, the id is a parameter.
-// * FE terminator (EN/CN §2.2, §12.2; tied to no instruction): framed exactly like FF, with more_follows set.
+// * A8 completion RTCN (EN §4.1 vs CN §4.1): the 10-byte CN form (closed-loop flag + s32 position)
+//   by default, the 4-byte EN form accepted.
+// * Stall notification (MCFG.STLIE, EN/CN §5.4): message id undocumented; `CC id AA FF` by default,
+//   the id is a parameter.
+// * FE terminator (EN/CN §2.2, §12.2; tied to no instruction): framed exactly like FF, with
+//   more_follows set.
 // Thread contract: pure functions; FeedbackFramer is a single-threaded value type.
 #pragma once
 
@@ -34,7 +36,8 @@ enum class Header : std::uint8_t { ack = 0xAA, status = 0xCC, error = 0xEE };
 inline constexpr std::uint8_t kLastFrame = 0xFF;   // terminator: nothing follows
 inline constexpr std::uint8_t kMoreFrames = 0xFE;  // terminator: more frames follow
 
-// Message ids of the Instruction Set Summary and EN/CN §4.1, §12.3. Replies and RTCNs share numbers across headers.
+// Message ids of the Instruction Set Summary and EN/CN §4.1, §12.3. Replies and RTCNs share numbers
+// across headers.
 namespace message {
 inline constexpr std::uint8_t kEnableTimer = 0xA0;     // AA: ENA η
 inline constexpr std::uint8_t kGlobalAck = 0xAD;       // AA/CC: global g... (QTY in the id byte)
@@ -185,7 +188,8 @@ struct Greeting {
 // Splits the gateway's byte stream into frames. Bytes arrive in arbitrary pieces. A frame starts
 // with AA/CC/EE and ends at the first FF/FE; bytes before a header are noise and skipped; a frame
 // that reaches kMaxFrameBytes without a terminator is dropped and the scan resumes at the next
-// byte (not stated in the manuals; our reading of §12.2). Only complete byte runs come out; parse them with parse_frame().
+// byte (not stated in the manuals; our reading of §12.2). Only complete byte runs come out; parse
+// them with parse_frame().
 class FeedbackFramer {
  public:
   std::vector<std::vector<std::uint8_t>> push(std::span<const std::uint8_t> bytes);

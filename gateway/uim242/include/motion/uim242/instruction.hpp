@@ -7,17 +7,20 @@
 // is at most 20 characters of 7-bit ASCII (§12.1).
 //
 // Decisions where the manuals are silent or disagree:
-// * Addressing (not in EN/CN §3.1): the gateway keeps a sticky target selected by `ADR η;` (EXT-2501 §3.3), ACK
-//   `AA η D0 FF`. Gateway instructions ADR, SET, BTR, BDR, ABC and g... never reach a controller.
-// * Hex forms (documented in EN/CN §12.3 only for these): only MCF, ICF, ENA (2 bytes) and SCF, STG (register/value + index, 3 bytes);
-//   the byte count must match exactly, so the EN big-endian examples without IDX are rejected.
-//   The encoder always prefers the decimal form where one exists.
+// * Addressing (not in EN/CN §3.1): the gateway keeps a sticky target selected by `ADR η;`
+//   (EXT-2501 §3.3), ACK `AA η D0 FF`. Gateway instructions ADR, SET, BTR, BDR, ABC and g... never
+//   reach a controller.
+// * Hex forms (documented in EN/CN §12.3 only for these): only MCF, ICF, ENA (2 bytes) and SCF, STG
+//   (register/value + index, 3 bytes); the byte count must match exactly, so the EN big-endian
+//   examples without IDX are rejected. The encoder always prefers the decimal form where one
+//   exists.
 // * Error mapping: a form that does not exist (unknown mnemonic, value on FBK, `CUR;`, hex on
 //   SPD, malformed number, > 20 characters, non-ASCII) is a syntax error (EE 65); a value outside
 //   the documented set/range (CN #6 `CUR 81;`) is a value error (EE 66).
 // * MMS/MMD accept 0..65535 (the 16-bit echo; 0 disables the non-linear jump, EN/CN §7.4). BTR accepts
-//   0..15 (the manuals give no index table). `STO;` (EN only) is STO0 (assumed). `MDL;` (EN Summary) asks
-//   the current target. POS/DIR (named in EN §2.3, §6.1, §7.6, never documented) are not implemented.
+//   0..15 (the manuals give no index table). `STO;` (EN only) is STO0 (assumed). `MDL;` (EN
+//   Summary) asks the current target. POS/DIR (named in EN §2.3, §6.1, §7.6, never documented) are
+//   not implemented.
 // * Macros `{ ... }` (§2.3): the splitter strips the braces as they arrive and marks the
 //   instructions received between them silent (no ACK); `{CUR 20; ...; };` thus yields exactly
 //   the one ACK of the trailing null instruction.
@@ -98,8 +101,9 @@ inline constexpr std::size_t kMaxInstructionChars = 20;  // including the `;` (�
 [[nodiscard]] Result<std::string> encode_select(int node_id);
 
 // Parses one instruction: the text between two `;` (without the `;`), per EN/CN §1.6 and §12.1
-// (filler between mnemonic and value, case-insensitive, sign, hex pairs; the exact rules are our reading of their examples). An empty/blank
-// chunk is the null instruction. Errors are ErrorCode values.
+// (filler between mnemonic and value, case-insensitive, sign, hex pairs; the exact rules are our
+// reading of their examples). An empty/blank chunk is the null instruction. Errors are ErrorCode
+// values.
 [[nodiscard]] Result<Instruction> parse_instruction(std::string_view chunk);
 
 // ---- Register-addressed instructions --------------------------------------------------------
@@ -137,8 +141,9 @@ struct InstructionChunk {
 };
 
 // Bytes arrive in arbitrary pieces; a chunk is complete at its `;`. Text that never gets a `;`
-// stays pending (not stated in the manuals: assumed no ACK, no error). A run longer than kMaxPendingChars without a
-// `;` is discarded up to the next `;`, which then yields one oversize chunk (EE 65).
+// stays pending (not stated in the manuals: assumed no ACK, no error). A run longer than
+// kMaxPendingChars without a `;` is discarded up to the next `;`, which then yields one oversize
+// chunk (EE 65).
 class InstructionSplitter {
  public:
   static constexpr std::size_t kMaxPendingChars = 64;

@@ -4,7 +4,8 @@
 // terminator bytes). Groups arrive most significant first: a 16-bit value takes 3 bytes, a 32-bit
 // value 5 bytes, the 12-bit analog values 2 bytes. Pinned by the manual's MCF example
 // (`AA 05 B0 02 0E 33 FF` = 0x8733, EN/CN #17); the 32- and 12-bit layouts follow by analogy
-// (not stated: the manuals' conversion figures 10-1/10-2, 12-1/12-2 are missing). Signed fields are the two's complement of the unpacked 16/32-bit pattern.
+// (not stated: the manuals' conversion figures 10-1/10-2, 12-1/12-2 are missing). Signed fields are
+// the two's complement of the unpacked 16/32-bit pattern.
 // Thread contract: pure functions, thread-safe.
 #pragma once
 

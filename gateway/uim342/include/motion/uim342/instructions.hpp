@@ -1,6 +1,6 @@
-// The UIM342 SimpleCAN 3.0 instruction set (manual §5.1-§5.28, Instruction Set Summary): function codes, sub-index
-// enums, typed instruction/reply bodies, and one table of instruction forms that drives both the
-// encoder and the decoder.
+// The UIM342 SimpleCAN 3.0 instruction set (manual §5.1-§5.28, Instruction Set Summary): function
+// codes, sub-index enums, typed instruction/reply bodies, and one table of instruction forms that
+// drives both the encoder and the decoder.
 //
 // Model. An Instruction (host -> drive) is {function, get|set, ACK bit, body}; a Reply (drive ->
 // host, CW bit 7 = 0) is {function of its CW, body}. The body is one of a few wire layouts
@@ -18,8 +18,8 @@
 // * Reserved bytes inside DL (MS[0] d3, DI d2/d3, BG ACK d0..d3, ML d3/d6/d7 are kept) are written as
 //   zero and ignored when decoding.
 // * SY is the only instruction without an ACK form; a received 0xFE decodes as SY with the ACK
-//   bit set (treated like 0x7E: §5.8 gives no ACK form, assumed). ML exists only with the ACK bit: 0x0B
-//   is rejected.
+//   bit set (treated like 0x7E: §5.8 gives no ACK form, assumed). ML exists only with the ACK bit:
+//   0x0B is rejected.
 // Thread contract: pure functions over values and an immutable table, thread-safe.
 #pragma once
 
@@ -383,12 +383,13 @@ namespace request {
 
 // ---- Drive side helpers (simulator) -------------------------------------------------------------
 
-// The ACK of a set, when it follows from the instruction alone (§2.1, §5.11, §5.18-§5.21): an echo for PP IC
-// IE QE MT MO MF AC DC SS SD BL IL TG; DV[i] for JV/SP/PR/PA; an all-zero record for ER[i]=0; no
-// data for BG (4 zero bytes), ST, OG. nullopt for gets, SY, and sets whose ACK reports drive state
-// (MS[0]=0, DI=N).
+// The ACK of a set, when it follows from the instruction alone (§2.1, §5.11, §5.18-§5.21): an echo
+// for PP IC IE QE MT MO MF AC DC SS SD BL IL TG; DV[i] for JV/SP/PR/PA; an all-zero record for
+// ER[i]=0; no data for BG (4 zero bytes), ST, OG. nullopt for gets, SY, and sets whose ACK reports
+// drive state (MS[0]=0, DI=N).
 [[nodiscard]] std::optional<Reply> echo_ack(const Instruction& set);
-// Error report for a rejected instruction (§2.3, ER layout of §5.6; d0 = 0 assumed): d0 = 0, d2 = CW as received, d3 = sub-index.
+// Error report for a rejected instruction (§2.3, ER layout of §5.6; d0 = 0 assumed): d0 = 0, d2 =
+// CW as received, d3 = sub-index.
 [[nodiscard]] Reply error_report(DriveErrc error, std::uint8_t received_control_word, std::uint8_t sub_index);
 
 }  // namespace motion::uim342

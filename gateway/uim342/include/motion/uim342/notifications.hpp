@@ -66,7 +66,8 @@ using Notification = std::variant<AlarmNotification, InputEdgeNotification, Posi
 [[nodiscard]] Result<can::Frame> notification_frame(std::uint8_t node, const Notification& notification,
                                                     std::uint8_t host = kMasterId);
 
-// The IE[i] bit that gates the notification (§5.3); nullopt for alarms (always sent: §5.3 has no enable bit for them, assumed).
+// The IE[i] bit that gates the notification (§5.3); nullopt for alarms (always sent: §5.3 has no
+// enable bit for them, assumed).
 [[nodiscard]] std::optional<InformationEnable> enabled_by(const Notification& notification);
 
 // Everything a drive sends: ACK / error report, or notification.

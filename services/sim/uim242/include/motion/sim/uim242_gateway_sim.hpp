@@ -6,13 +6,14 @@
 // uim242_line_factory()) owns the serial line, its byte timing and the reply latency
 // (simulation.reply_latency_us). Thread contract: one thread (the host's loop).
 //
-// Gateway (EXT-2501 §2-§3; EN/CN §3.1, Summary): sticky target selected by `ADR η;` (initially 5, the factory
-// id); instructions for a target that is not on the bus get no reply. Global `g...` instructions
-// act on every controller and are answered once, `AA QTY AD FF` (gORG: `CC QTY AD FF`); `gREG;`
-// lists the ids; `ABC;` and power-up send the greeting. `MDL η;` is routed to controller η.
+// Gateway (EXT-2501 §2-§3; EN/CN §3.1, Summary): sticky target selected by `ADR η;` (initially 5,
+// the factory id); instructions for a target that is not on the bus get no reply. Global `g...`
+// instructions act on every controller and are answered once, `AA QTY AD FF`
+// (gORG: `CC QTY AD FF`); `gREG;` lists the ids; `ABC;` and power-up send the greeting.
+// `MDL η;` is routed to controller η.
 //
-// Controllers (EN/CN §6-§10): every instruction of the manual with its reply (§12.3), EE 65 / EE 66 for
-// bad input even inside macros. Motion (EN/CN §6.1, §7.1-§7.5) by motion::sim::Kinematics:
+// Controllers (EN/CN §6-§10): every instruction of the manual with its reply (§12.3), EE 65 / EE 66
+// for bad input even inside macros. Motion (EN/CN §6.1, §7.1-§7.5) by motion::sim::Kinematics:
 // * MCFG.CM = 1: trapezoid with MAC/MDE (pps/s in value mode; period mode converts the ms to a
 //   rate for the speed change at hand), MMS as the cut-in speed of start and stop (Kinematics has
 //   one cut-in speed; the driver sets MMS = MMD). CM = 0: speed changes at once.
@@ -23,7 +24,8 @@
 //   gateway-wide synchronized start the driver uses. `SPD 0;` during a PT move brakes and keeps
 //   the target. `STP 0;` leaves PT: decelerate, no A8 (EN/CN §6.1; ramp and no A8 assumed).
 // * Arrival: A8 RTCN if MCFG.STPIE, CN 10-byte form by default (CN §4.1; EN: 4 bytes).
-// * `ORG[ η];` sets position and encoder counter at rest (EE 66 while moving: assumed, the manuals do not say).
+// * `ORG[ η];` sets position and encoder counter at rest (EE 66 while moving: assumed, the manuals
+//   do not say).
 // * Inputs (sim_control_t SET_INPUT 1..3): edge RTCNs A0..A5 per SxIE and a non-zero action code,
 //   actions 0011 decelerate, 0100 e-stop, 0110 reset position, 1011/1100 reset + stop, 1111 OFF;
 //   the motion-starting actions, analog inputs, sampling modes, P4 events, parameter groups, Elock
