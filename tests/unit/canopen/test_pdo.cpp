@@ -1,5 +1,5 @@
 // PDO payloads (default mappings of the UC57 manual's §5 comm. table, D-29, D-39..D-44), mapping
-// entries (CiA 301 §7.5.2.36), the CiA 301 remap procedure through SDO (§7.5.2.35-38, D-30..D-38)
+// entries (CiA 301 §7.5.2.36/38), the CiA 301 remap procedure through SDO (§7.5.2.35-38, D-30..D-38)
 // and its execution by run_sdo_sequence.
 #include <gtest/gtest.h>
 
