@@ -234,7 +234,7 @@ TEST_F(RemapThroughClient, SucceedsAndLeavesTheMappingInTheServer) {
 }
 
 TEST_F(RemapThroughClient, StopsAtTheFirstAbortLikeARealUc57) {
-  // The manual marks 1400h:01 RO (spec D-31: the device may answer 06010002h).
+  // The manual marks 1400h:01 RO (vector D-31: the device may answer 06010002h, CiA 301 §7.2.4.3.17).
   refuse_ = ObjectAddress{0x1400, 1};
   std::optional<SdoSequenceResult> result;
   configure_pdo(client_, 1, custom_rpdo1(), [&](const SdoSequenceResult& r) { result = r; });

@@ -260,7 +260,7 @@ TEST(Statusword, ComposeRoundTripsAndKeepsOtherBits) {
   EXPECT_EQ(compose_statusword(kReadyToSwitchOn) & 0xF, 0b0001);
   EXPECT_EQ(compose_statusword(kSwitchedOn) & 0xF, 0b0011);
   EXPECT_EQ(compose_statusword(kOperationEnabled) & 0xF, 0b0111);
-  EXPECT_EQ(compose_statusword(kSwitchedOn, mask(StatusBit::kMotorEnabled)), 0x2023);  // spec example word
+  EXPECT_EQ(compose_statusword(kSwitchedOn, mask(StatusBit::kMotorEnabled)), 0x2023);  // example word (composition assumed)
 }
 
 // ---- Path planning (master side) ----

@@ -235,7 +235,7 @@ TEST(Uc57OdAccess, PolicySwitches) {
   EXPECT_EQ(write_error(0x6040, 0, 0x000F, 4, any_length), std::nullopt);
   EXPECT_EQ(write_error(0x6081, 0, 0x3C, 1, any_length), std::nullopt);  // zero-extended to 60
 
-  // C-10: the manual's RO PDO configuration entries, writable on request (spec D-31, D-32).
+  // C-10: the manual's RO PDO configuration entries, writable on request (vectors D-31, D-32).
   EXPECT_EQ(write_error(0x1400, 1, 0x80000201, 4), AccessError::kReadOnly);
   EXPECT_EQ(write_error(0x1600, 0, 0, 1), AccessError::kReadOnly);
   const WritePolicy cia301{.pdo_configuration_writable = true};
