@@ -39,7 +39,7 @@ const Axes kAxes{"u1", "u2"};
 constexpr double kU1Home = 2.5;
 constexpr double kU2Home = -1.0;
 constexpr int kHomeSwitchInput = 1;
-// SCF register indices (param_t subindex) and S12CON/S34CON fields (spec §4.3, §4.4).
+// SCF register indices (param_t subindex) and S12CON/S34CON fields (EN/CN §8.6, §8.7).
 constexpr std::int32_t kS12con = 0;
 constexpr std::int32_t kS34con = 1;
 constexpr std::int64_t kS2NotifyOnBothEdges = 0x1100;  // S2 rising and falling action 0001: notify only

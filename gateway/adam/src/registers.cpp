@@ -24,7 +24,7 @@ constexpr bool kVol = false;  // volatile / live / command
 
 // clang-format off
 // Address order. Sources: §7 table (defaults, access, units) corrected by §8 where they disagree;
-// each [C] names the conflict and the choice, [I] an inference (spec digest sections 2.1/2.2/6).
+// each [C] names the conflict and the choice; [I] marks what the manual does not state (an assumption).
 constexpr RegisterInfo kMap[] = {
   {Reg::hardware_version, "hardware_version", RegType::string32, RO, kVol, "-", 0, kU32, kNone, "§8.1 hardware version, fixed per model; C string in a low-word-first UINT32 [I]"},
   {Reg::firmware_version, "firmware_version", RegType::string32, RO, kVol, "-", 0, kU32, kNone, "§8.2 firmware version, fixed per model; C string in a low-word-first UINT32 [I]"},

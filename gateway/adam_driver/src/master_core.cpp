@@ -24,7 +24,8 @@ using Event = motionlcm::event_t;
 
 namespace {
 
-// Status polling reads position and status in one frame (spec 3.9) and outputs + alarm in another.
+// Status polling reads position and status in one frame (0x0004…0x0007, §8.3, §8.4) and outputs +
+// alarm in another.
 constexpr std::uint16_t kPositionStatusWords = 4;
 constexpr std::uint16_t kOutputsAlarmWords = 2;
 // Where the driver keeps each drive's one-entry table: register 300 + 200 = 500, clear of a stored
@@ -35,12 +36,12 @@ constexpr int kIdlePollsBeforeShortStop = 3;
 // An offline drive is polled this many times less often, without retries, so that it does not
 // take the line from the drives that answer.
 constexpr int kOfflinePollDivider = 10;
-// [I] default homing speed when the command gives none (the manual has no default).
+// Default homing speed when the command gives none (assumed: §8.48 gives no default).
 constexpr std::uint16_t kDefaultHomingRpm = 60;
 constexpr std::uint8_t kMaxOutputs = 8;  // Y0…Y7 (§8.51)
 // 0x0017 above any real encoder's lines forces open loop (§8.18).
 constexpr std::uint16_t kForceOpenLoopLines = 0xFFFF;
-// [I] reply latency assumed for the predicted skew of a sequential start.
+// Reply latency assumed (the manual gives none) for the predicted skew of a sequential start.
 constexpr auto kAssumedDriveLatency = std::chrono::milliseconds(1);
 
 std::string hex16(std::uint32_t value) { return fmt::format("0x{:04X}", value); }
@@ -881,7 +882,8 @@ void MasterCore::arm_move(Operation& op, TimePoint now) {
     if (!speed || speed.value().value <= 0)
       return fail("speed " + std::to_string(a.velocity) + " counts/s is outside 0.01…9999.99 rpm (0x00D8)");
     const double rpm = speed.value().value * adam::kTargetSpeedRpmPerStep;
-    // Start and stop speed 0 (spec §4): the ramps are then exactly v/a, the planned trapezoid.
+    // Start and stop speed 0 (§8.40, §8.41; ramp times per §8.42, §8.43): the ramps are then
+    // exactly v/a, the planned trapezoid.
     const auto accel = adam::ramp_time_ms(0, rpm, std::abs(rpm_of(d, a.acceleration)));
     const auto decel = adam::ramp_time_ms(0, rpm, std::abs(rpm_of(d, a.deceleration)));
     if (!accel || !decel) return fail("ramp time outside 0…65535 ms (0x0098/0x0099)");
@@ -1015,7 +1017,8 @@ void MasterCore::check_motion(Operation& op, const Drive& sampled, TimePoint now
   if (op.arrived.size() < op.drives.size()) return;
   if (op.goal == Operation::Goal::reach_home) {
     for (std::size_t i = 0; i < op.drives.size(); ++i) op.drives[i]->homed = true;
-    // Home is position 0 on the drive (spec 3.5); a non-zero home position is preset after.
+    // Home is position 0 on the drive (assumed: §8.48 only says positions are relative to home); a
+    // non-zero home position is preset after.
     op.phase = Operation::Phase::transferring;
     op.goal = Operation::Goal::none;
     for (std::size_t i = 0; i < op.drives.size(); ++i) {

@@ -1359,7 +1359,7 @@ void Uc57Stack::start_arm(std::size_t n, Job& job, const motionlcm::axis_command
       RpdoImage image = latest_image(n);
       image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F: bit 4 = 0, halt off
       image.target_position = target_counts;
-      image.target_velocity = 0;  // digest §8.3: PP frames of the default RPDO1 carry 60FFh = 0
+      image.target_velocity = 0;  // PP frames of the default RPDO1 (manual §5 comm. table) carry 60FFh = 0
       image.mode = kModeProfilePosition;
       queue_image(n, image);
       nd.task_watching = true;

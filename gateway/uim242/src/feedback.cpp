@@ -84,7 +84,7 @@ Result<Frame> parse_frame(std::span<const std::uint8_t> bytes) {
     return f;
   }
   if (body[0] >= 0x80) {
-    // The gateway greeting AA AB AC ...: no id, message id in the id position (spec appendix A).
+    // The gateway greeting AA AB AC ...: no id, message id in the id position (EXT-2501 §2.2).
     f.message_id = body[0];
     f.data.assign(body.begin() + 1, body.end());
     return f;

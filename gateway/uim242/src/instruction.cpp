@@ -292,7 +292,7 @@ std::vector<InstructionChunk> InstructionSplitter::push(std::span<const std::uin
     } else if (c == '{') {
       macro_ = true;   // this and the following instructions produce no ACK (§2.3)
     } else if (c == '}') {
-      macro_ = false;  // even without a trailing ';' (spec §1.3 rule 1)
+      macro_ = false;  // even without a trailing ';' (not stated in §2.3: assumed)
     } else if (!overflow_) {
       if (pending_.size() >= kMaxPendingChars) {
         overflow_ = true;  // drop up to the next ';' and answer one syntax error then

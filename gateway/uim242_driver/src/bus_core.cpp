@@ -47,8 +47,8 @@ constexpr Duration kIdentifyRetry = 1s;
 constexpr std::int64_t kSpeedMax = 65535;              // SPD range (#37)
 constexpr std::int64_t kAccelerationMax = 65'000'000;  // MAC/MDE value mode (#15)
 constexpr std::uint8_t kResetAndEmergencyStop = 0xC;   // sensor action 1100 (EN/CN §8.4)
-// S34CON.STALL (bits 15..12): 0000 sends no stall notification whatever STLIE says (spec §4.4,
-// G16); 0001 = no action, notification per STLIE.
+// S34CON.STALL (bits 15..12): 0000 sends no stall notification whatever STLIE says (EN/CN §8.7,
+// §10.2; the stall message id is undocumented); 0001 = no action, notification per STLIE.
 constexpr std::uint16_t kStallField = 0xF000;
 constexpr std::uint16_t kStallNotifyOnly = 0x1000;
 constexpr int kStillPollsBeforeFailure = 2;

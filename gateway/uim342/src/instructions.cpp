@@ -14,7 +14,8 @@ namespace {
 using FC = FunctionCode;
 using L = Layout;
 
-// Spec §4.1 "Frame-length master table", one row per instruction.
+// Instruction forms and frame lengths of manual §5.1-§5.29 (and the Instruction Set Summary), one
+// row per instruction.
 constexpr std::array kTable{
     //               fn     mn    get         set               reply            ack forms             set ACK  i  short
     InstructionForms{FC::PP, "PP", L::index, L::indexed_byte, L::indexed_byte, AckForms::both, FC::PP, 0, false},
@@ -329,7 +330,8 @@ Result<Message> encode(const Instruction& instruction) {
 Result<Instruction> decode_instruction(const Message& message) {
   const auto* forms = find_forms(message.function_code());
   if (!forms) return CodecErrc::unknown_function;
-  // SY with bit 7 is executed like 0x7E (spec §4.9); ML without it does not exist.
+  // SY with bit 7 is executed like 0x7E (§5.8 lists no ACK form: assumed); ML without it does not
+  // exist (§5.4).
   if (forms->ack_forms == AckForms::ack_only && !message.ack_requested()) return CodecErrc::ack_form_not_supported;
   if (message.length > kMaxDataLength) return CodecErrc::length_out_of_range;
 
@@ -343,7 +345,7 @@ Result<Instruction> decode_instruction(const Message& message) {
     layout = forms->set;
     out.operation = Operation::set;
   } else if (forms->set_accepts_short && message.length >= 1 && message.length < layout_length(forms->set)) {
-    layout = forms->set;  // positive values sent in fewer bytes, zero-extended
+    layout = forms->set;  // §2.5 sends positive values in fewer bytes than §5.18-§5.21: zero-extended
     out.operation = Operation::set;
     std::copy(data.begin(), data.end(), extended.begin());
   } else {

@@ -14,7 +14,7 @@ constexpr std::int64_t kU32Max = std::numeric_limits<std::uint32_t>::max();
 constexpr std::int64_t kS32Min = std::numeric_limits<std::int32_t>::min();
 constexpr std::int64_t kS32Max = std::numeric_limits<std::int32_t>::max();
 
-// Sub-indices first..last of `function` take values in `range` (spec §4.2-§4.28).
+// Sub-indices first..last of `function` take values in `range` (manual §5.1-§5.28).
 struct IndexedRange {
   FunctionCode function;
   std::uint8_t first;

@@ -1,4 +1,4 @@
-// Command words and bit fields against the manual's examples (spec digest §5.3) and ranges.
+// Command words and bit fields against the manual's bit-field examples (§8) and ranges.
 #include <gtest/gtest.h>
 
 #include "hex.hpp"

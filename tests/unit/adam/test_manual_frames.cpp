@@ -1,8 +1,9 @@
-// Every example frame of the ADAM manual (spec digest §5.1, transcribed; the manual's frames with a
-// wrong CRC appear in their corrected form (§5.2) and, as printed, in kPrintedBadCrc), and the
-// derived vectors of §5.4 (libmodbus-produced frames, status replies, broadcasts, exceptions).
-// Each vector checks: CRC, typed decode against the spec's stated meaning, exact re-encoding,
-// request/response pairing, and that the register map accepts the manual's own requests.
+// Every example frame of the ADAM manual (§6, §8, transcribed; the manual's frames with a
+// wrong CRC (OCR damage, typos) appear in their corrected form and, as printed, in kPrintedBadCrc), and
+// derived vectors not in the manual (libmodbus-produced frames, status replies, broadcasts,
+// exceptions). Each vector checks: CRC, typed decode against the manual's stated meaning, exact
+// re-encoding, request/response pairing, and that the register map accepts the manual's own
+// requests.
 #include <gtest/gtest.h>
 
 #include <optional>
@@ -43,7 +44,8 @@ struct PrintedFrame {
 };
 
 // clang-format off
-// Generated from spec digest §5.1 (seed lines as cited); CRC-failing rows use the §5.2 corrections.
+// Transcribed from the manual's §8 examples (line numbers of the manual text); CRC-failing rows are
+// corrected.
 const std::vector<ManualFrame> kManualFrames = {
     {"§8.1", 238, Role::request, "01 03 00 00 00 02 C4 0B", Shape::read_request, 0x0000, 2, {}, std::nullopt},  // read 2 regs @0x0000 (printed with a stray 00 and CRC byte lost)
     {"§8.1", 240, Role::response, "01 03 04 37 31 00 30 A5 9C", Shape::read_response, 0x0000, 2, {0x3731, 0x0030}, std::nullopt},  // regs 0x3731,0x0030 (ASCII \"71\", NUL \"0\")
@@ -274,7 +276,7 @@ const std::vector<ManualFrame> kManualFrames = {
     {"§8.68", 2070, Role::echo, "01 06 00 DB 00 01 38 31", Shape::write_single, 0x00DB, 1, {0x0001}, std::nullopt},  // write 0x00DB := 0x0001 (1) (start stored program)
     {"§8.69", 2089, Role::echo, "01 06 00 DC 00 01 89 F0", Shape::write_single, 0x00DC, 1, {0x0001}, std::nullopt},  // write 0x00DC := 0x0001 (1) (save to flash)
 };
-// Frames as PRINTED in the manual whose CRC is wrong (§5.2): {ref, seed line, printed, corrected or ""}.
+// Frames as PRINTED in the manual whose CRC is wrong: {ref, line, printed, corrected or ""}.
 const std::vector<PrintedFrame> kPrintedBadCrc = {
     {"§8.1", 238, "01 03 00 00 00 00 02 C4", "01 03 00 00 00 02 C4 0B"},
     {"§8.1", 240, "01 03 04 37 31 00 30 A5", "01 03 04 37 31 00 30 A5 9C"},

@@ -45,8 +45,8 @@ TEST(AdamRegisterMap, NamesUniqueAndLookupsRoundTrip) {
     for (std::uint16_t i = 0; i < r.count(); ++i) EXPECT_EQ(register_containing(static_cast<std::uint16_t>(r.first() + i)), &r);
   }
   // Manual §7 prints 108 typed rows, but three of them (0x00DE, the OCR-merged 0x00DF "INT32
-  // INT32 …" and 0x00E9) stand for only two 32-bit commands, 0x00DE and 0x00E8 (§8.65⑤/⑦,
-  // spec gap 34): 107 entries. Plus 0x0012 (§8.15, missing from §7) = 108 = spec 2.1's rows.
+  // INT32 …" and 0x00E9) stand for only two 32-bit commands, 0x00DE and 0x00E8 (§8.65⑤/⑦;
+  // the §7 rows are OCR-merged): 107 entries. Plus 0x0012 (§8.15, missing from §7) = 108.
   EXPECT_EQ(register_map().size(), 108U);
   EXPECT_EQ(find_register("no_such_register"), nullptr);
   EXPECT_EQ(find_register(std::uint16_t{0x0005}), nullptr);  // high word of position: not a start
@@ -54,7 +54,7 @@ TEST(AdamRegisterMap, NamesUniqueAndLookupsRoundTrip) {
 }
 
 TEST(AdamRegisterMap, UndocumentedHolesHaveNoEntry) {
-  // Spec digest 2.1 list of gaps.
+  // The addresses neither the §7 table nor §8 documents.
   const std::pair<std::uint16_t, std::uint16_t> holes[] = {
       {0x0014, 0x0014}, {0x0018, 0x0018}, {0x0023, 0x0023}, {0x0028, 0x0028}, {0x002A, 0x002B},
       {0x0034, 0x0043}, {0x0049, 0x0065}, {0x0067, 0x006A}, {0x006D, 0x006D}, {0x0072, 0x0095},

@@ -1,4 +1,4 @@
-// Modbus RTU codec: CRC known answers, the derived vectors of spec digest §5.4 (frames libmodbus
+// Modbus RTU codec: CRC known answers, derived vectors not in the manual (frames libmodbus
 // 3.1.6 produced, status replies, broadcasts, exception frames), framing errors, timing.
 #include <gtest/gtest.h>
 
@@ -23,7 +23,7 @@ TEST(AdamRtuCrc, KnownAnswers) {
   };
   const Case cases[] = {
       {"01 03 00 00 00 01", 0x0A84},  // standard check, sent 84 0A
-      {"01 03 00 02 00 02", 0xCB65},  // spec 1.4 check value, sent 65 CB
+      {"01 03 00 02 00 02", 0xCB65},  // §8.2 example request, sent 65 CB (§6 note)
       {"31 32 33 34 35 36 37 38 39", 0x4B37},  // CRC-16/MODBUS catalogue check ("123456789")
       {"", 0xFFFF},                            // initial value, no final XOR
   };
@@ -40,7 +40,7 @@ TEST(AdamRtuCrc, AppendedLowByteFirst) {
   EXPECT_FALSE(rtu::crc_ok(frame));
 }
 
-// ---- §5.4 derived vectors: requests (master → drive) -------------------------------------------
+// ---- Derived vectors (not in the manual): requests (master → drive) ------------------------------
 
 struct RequestVector {
   const char* what;
@@ -114,7 +114,7 @@ TEST(AdamRtuDerived, RawRequestForLibmodbusHasNoCrc) {
   EXPECT_EQ(to_hex(raw.value()), "00 10 00 D0 00 02 04 86 A0 00 01");
 }
 
-// ---- §5.4 derived vectors: replies (drive → master) --------------------------------------------
+// ---- Derived vectors (not in the manual): replies (drive → master) -------------------------------
 
 struct ReplyVector {
   const char* what;

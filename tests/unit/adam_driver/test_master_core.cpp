@@ -195,7 +195,7 @@ TEST_F(MasterCoreTest, StartUpReadsPowerOnStateAndSubdivisionThenPollsPositionSt
   ASSERT_GE(sent.size(), 4U);
   EXPECT_EQ(hex(sent[0]), "01 03 00 12 00 01 24 0F");           // 0x0012 (§8.15)
   EXPECT_EQ(hex(sent[1]), "01 03 00 24 00 02 84 00");           // 0x0024 subdivision (§8.29)
-  EXPECT_EQ(hex(sent[2]), "01 03 00 04 00 04 05 C8");           // position + status (spec 5.4)
+  EXPECT_EQ(hex(sent[2]), "01 03 00 04 00 04 05 C8");           // position + status (§8.3, §8.4)
   EXPECT_EQ(hex(sent[3]), hex(with_crc({0x01, 0x03, 0x00, 0xA2, 0x00, 0x02})));  // outputs + alarm
   EXPECT_TRUE(core->ready());
   ASSERT_FALSE(out.statuses.empty());
@@ -288,8 +288,8 @@ TEST_F(MasterCoreTest, ExceptionReplyFailsAtOnceNamingTheException) {
   c.param.value = 600;
   core->execute(c, now);
   ASSERT_EQ(sent.size(), 1U);
-  EXPECT_EQ(hex(sent[0]), "01 06 00 9A 02 58 A9 7F");  // spec 5.4 working speed 600 rpm
-  reply({0x01, 0x86, 0x03, 0x02, 0x61});               // spec 5.4 exception 06/03
+  EXPECT_EQ(hex(sent[0]), "01 06 00 9A 02 58 A9 7F");  // working speed 600 rpm (§8.44)
+  reply({0x01, 0x86, 0x03, 0x02, 0x61});               // exception 06/03 (not in the manual)
   ASSERT_EQ(out.terminal(3), 1);
   const Reply r = out.of(3).back();
   EXPECT_EQ(r.status, kFailed);
@@ -349,7 +349,7 @@ TEST_F(TwoDriveTest, ArmThenFireStartsEveryAxisWithOneBroadcastExecuteTableFrame
   const std::size_t before = sent.size();
   core->fire(77, now);
   ASSERT_GT(sent.size(), before);
-  EXPECT_EQ(hex(sent[before]), "00 06 00 DD 00 00 18 21");  // spec §4 recipe A, the one start frame
+  EXPECT_EQ(hex(sent[before]), "00 06 00 DD 00 00 18 21");  // broadcast 0x00DD (§5, §8.54), the one start frame
   ASSERT_EQ(out.of(10).size(), 2U);
   EXPECT_EQ(out.of(10)[1].status, kStarted);
   EXPECT_EQ(out.of(10)[1].start_mechanism, "broadcast");
@@ -392,7 +392,7 @@ TEST_F(TwoDriveTest, StopFailsTheRunningMoveAndEndsDoneWhenStill) {
   ASSERT_EQ(out.terminal(12), 1);
   EXPECT_EQ(out.of(12).back().status, kFailed);
   EXPECT_EQ(out.of(12).back().error_code, error_code(ReplyError::kStopped));
-  EXPECT_TRUE(was_sent("01 06 00 C8 00 00 08 34"));  // ramped stop (spec 5.4)
+  EXPECT_TRUE(was_sent("01 06 00 C8 00 00 08 34"));  // ramped stop (§8.65①)
   ASSERT_EQ(out.terminal(13), 1);
   EXPECT_EQ(out.of(13).back().status, kDone);
 }

@@ -1,4 +1,4 @@
-// Test helper shared by the CANopen and UC57 simulator tests: the spec and the manual write CAN
+// Test helper shared by the CANopen and UC57 simulator tests: the tests and the manual write CAN
 // frames as `601: 2B 40 60 00 0F 00 00 00` (COB-ID, colon, data bytes in hex; `080:` has none;
 // the manual's `00:` and `581:60 ...` spellings are accepted as printed). These helpers turn such
 // text into frames and payloads so the example tables are transcribed verbatim.

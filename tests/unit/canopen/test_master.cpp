@@ -1,5 +1,5 @@
-// NMT master / heartbeat consumer (spec §1.3, §1.7: boot-up, heartbeat states, loss) and the
-// Master facade that routes frames to its services.
+// NMT master / heartbeat consumer (CiA 301 §7.2.8, UC57 manual §4.1.2: boot-up, heartbeat states,
+// loss) and the Master facade that routes frames to its services.
 #include <gtest/gtest.h>
 
 #include <chrono>

@@ -1,6 +1,6 @@
-// CiA 301 network codecs: COB-IDs (spec §1.2), NMT (§1.3, M-01, D-12..D-15), heartbeat and
-// boot-up (§1.7, D-17, D-18), SYNC (§1.5, D-16), EMCY (§1.6, D-45, D-46); every decoder refuses
-// short frames and trailing bytes.
+// CiA 301 network codecs: COB-IDs (§7.3.3), NMT (§7.2.8.3.1, M-01, D-12..D-15), heartbeat and
+// boot-up (§7.2.8.3.2, D-17, D-18), SYNC (§7.2.5, D-16), EMCY (§7.2.7, D-45, D-46); every decoder
+// refuses short frames and trailing bytes.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -19,7 +19,7 @@ namespace {
 using test::frame;
 using test::payload;
 
-// --- COB-IDs: the predefined connection set of spec §1.2, node 1 column ---
+// --- COB-IDs: the predefined connection set (CiA 301 §7.3.3; UC57 manual §4.1.2), node 1 column ---
 
 TEST(CobId, PredefinedConnectionSetForNodeOne) {
   EXPECT_EQ(emcy_cob_id(1), 0x081u);
@@ -35,7 +35,7 @@ TEST(CobId, PredefinedConnectionSetForNodeOne) {
   EXPECT_EQ(sdo_request_cob_id(1), 0x601u);
   EXPECT_EQ(heartbeat_cob_id(1), 0x701u);
   EXPECT_EQ(heartbeat_cob_id(127), 0x77Fu);
-  EXPECT_EQ(rpdo_cob_id(1, 0x12), 0x212u);  // spec §8.3: node 18 -> 212h
+  EXPECT_EQ(rpdo_cob_id(1, 0x12), 0x212u);  // node 18 -> 212h (CiA 301 §7.3.3)
 }
 
 TEST(CobId, ClassifiesEveryFunctionCode) {
@@ -76,7 +76,7 @@ TEST(Nmt, EncodesAndDecodesEverySpecFrame) {
       {"00: 01 00", {NmtCommand::kStart, kAllNodes}},               // as printed in the manual
       {"000: 01 01", {NmtCommand::kStart, 1}},                      // D-12, D-38
       {"000: 80 01", {NmtCommand::kEnterPreOperational, 1}},        // D-14, D-30
-      {"000: 80 00", {NmtCommand::kEnterPreOperational, kAllNodes}},  // §8.3 step 0.1
+      {"000: 80 00", {NmtCommand::kEnterPreOperational, kAllNodes}},  // all nodes pre-operational before a remap
       {"000: 02 01", {NmtCommand::kStop, 1}},                       // D-15
       {"000: 81 01", {NmtCommand::kResetNode, 1}},
       {"000: 82 01", {NmtCommand::kResetCommunication, 1}},
@@ -120,7 +120,7 @@ TEST(Heartbeat, RejectsShortLongToggledAndUnknownStates) {
 // --- SYNC ---
 
 TEST(Sync, PlainSyncHasNoData) {
-  EXPECT_EQ(encode_sync({}), frame("080:"));  // D-16, §8.3 step 1.4
+  EXPECT_EQ(encode_sync({}), frame("080:"));  // D-16, the SYNC that starts a synchronized move
   EXPECT_EQ(decode_sync(payload("080:")), SyncMessage{});
 }
 

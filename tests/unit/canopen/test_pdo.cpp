@@ -1,5 +1,6 @@
-// PDO payloads (spec §1.8.2 default mappings, D-29, D-39..D-44), mapping entries (§4.1), the
-// CiA 301 remap procedure through SDO (§1.8.3, D-30..D-38) and its execution by run_sdo_sequence.
+// PDO payloads (default mappings of the UC57 manual's §5 comm. table, D-29, D-39..D-44), mapping
+// entries (CiA 301 §7.5.2.36/38), the CiA 301 remap procedure through SDO (§7.5.2.35-38, D-30..D-38)
+// and its execution by run_sdo_sequence.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -21,7 +22,7 @@ using namespace std::chrono_literals;
 using test::payload;
 using Values = std::vector<std::uint64_t>;
 
-// Default mappings (spec §1.8.2).
+// Default mappings (UC57 manual §5 comm. table).
 const PdoMapping kRpdo1 = {{0x6040, 0, 16}, {0x60FF, 0, 32}, {0x6060, 0, 8}};
 const PdoMapping kRpdo2 = {{0x607A, 0, 32}, {0x6081, 0, 32}};
 const PdoMapping kTpdo1 = {{0x6041, 0, 16}, {0x60FD, 0, 32}, {0x6061, 0, 8}};
@@ -233,7 +234,7 @@ TEST_F(RemapThroughClient, SucceedsAndLeavesTheMappingInTheServer) {
 }
 
 TEST_F(RemapThroughClient, StopsAtTheFirstAbortLikeARealUc57) {
-  // The manual marks 1400h:01 RO (spec D-31: the device may answer 06010002h).
+  // The manual marks 1400h:01 RO (vector D-31: the device may answer 06010002h, CiA 301 §7.2.4.3.17).
   refuse_ = ObjectAddress{0x1400, 1};
   std::optional<SdoSequenceResult> result;
   configure_pdo(client_, 1, custom_rpdo1(), [&](const SdoSequenceResult& r) { result = r; });

@@ -1,6 +1,6 @@
 // The passive SDO client (sdo_client.hpp): expedited and segmented transfers frame by frame
-// against the spec's vectors, queueing per node, timeouts with retries, server aborts, protocol
-// errors (toggle, command specifier, lengths, mismatched object) and cancellation.
+// against the manual's and derived vectors, queueing per node, timeouts with retries, server
+// aborts, protocol errors (toggle, command specifier, lengths, mismatched object) and cancellation.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -35,7 +35,7 @@ class SdoClientTest : public ::testing::Test {
       into = Result{error, {data.begin(), data.end()}};
     };
   }
-  // The frames sent since the last call, as spec text.
+  // The frames sent since the last call, as frame text.
   std::vector<std::string> take_sent() {
     auto texts = test::to_texts(sent_);
     sent_.clear();

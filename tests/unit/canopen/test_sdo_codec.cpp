@@ -1,7 +1,7 @@
-// CiA 301 SDO codec against every SDO frame of the UC57 manual (spec §7.1: M-, P-, V-, H-) and the
-// derived vectors (spec §7.2: expedited D-01..D-11, D-19, aborts D-20..D-25, segmented D-26..D-28,
-// PDO configuration D-31..D-37, appendix frames §6). Decoders refuse short frames, trailing bytes
-// and block-transfer command specifiers.
+// CiA 301 SDO codec against every SDO frame of the UC57 manual (M-, P-, V-, H-: §4.2.2,
+// §4.2.4-§4.2.6) and derived vectors (CiA 301 §7.2.4.3: expedited D-01..D-11, D-19, aborts
+// D-20..D-25, segmented D-26..D-28, PDO configuration D-31..D-37, appendix frames of manual §7).
+// Decoders refuse short frames, trailing bytes and block-transfer command specifiers.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -66,7 +66,7 @@ std::vector<DownloadVector> manual_downloads() {
       {"H-09", "601: 2B 40 60 00 07 00 00 00", "581: 60 40 60 00 00 00 00 00", {0x6040, 0}, {0x07, 0x00}},
       {"H-10", "601: 2B 40 60 00 0F 00 00 00", "581: 60 40 60 00 00 00 00 00", {0x6040, 0}, {0x0F, 0x00}},
       {"H-11", "601: 2B 40 60 00 1F 00 00 00", "581: 60 40 60 00 00 00 00 00", {0x6040, 0}, {0x1F, 0x00}},
-      // Derived vectors (spec §7.2)
+      // Derived vectors (CiA 301 §7.2.4.3; not printed in the manual)
       {"D-02", "601: 23 7A 60 00 80 F3 FF FF", "581: 60 7A 60 00 00 00 00 00", {0x607A, 0}, {0x80, 0xF3, 0xFF, 0xFF}},
       {"D-03", "601: 23 81 60 00 78 00 00 00", "581: 60 81 60 00 00 00 00 00", {0x6081, 0}, {0x78, 0, 0, 0}},
       {"D-10", "601: 23 FF 60 00 C4 FF FF FF", "581: 60 FF 60 00 00 00 00 00", {0x60FF, 0}, {0xC4, 0xFF, 0xFF, 0xFF}},
@@ -155,7 +155,7 @@ TEST(SdoCodec, ExpeditedUploads) {
 }
 
 TEST(SdoCodec, ThreeByteExpeditedAndSizeNotIndicated) {
-  // 0x27: 3 data bytes; 0x47 the matching upload reply (spec §1.4.2).
+  // 0x27: 3 data bytes; 0x47 the matching upload reply (CiA 301 §7.2.4.3).
   const auto three = SdoInitiateData::expedited_data({0x2000, 0}, {1, 2, 3});
   EXPECT_EQ(sdo_request_frame(1, SdoInitiateDownloadRequest{three}), frame("601: 27 00 20 00 01 02 03 00"));
   EXPECT_EQ(sdo_response_frame(1, SdoInitiateUploadResponse{three}), frame("581: 47 00 20 00 01 02 03 00"));

@@ -1,5 +1,5 @@
-// The passive SDO server (sdo_server.hpp) frame by frame against the spec vectors, and end to end
-// with the SDO client; plus the encoder's handling of an empty expedited value.
+// The passive SDO server (sdo_server.hpp) frame by frame against the manual's and derived vectors,
+// and end to end with the SDO client; plus the encoder's handling of an empty expedited value.
 #include <gtest/gtest.h>
 
 #include <chrono>

@@ -16,7 +16,7 @@ using Phase = NewSetPointHandshake::Phase;
 
 const TimePoint t0 = TimePoint{} + 1h;
 
-// Spec §2.7.2 example statuswords.
+// Example statuswords: the §4.2.2 bits composed as assumed where the manual is silent.
 constexpr std::uint16_t kIdleNotHomed = 0x2427;   // Operation enabled, bit 10 (idle), bit 13
 constexpr std::uint16_t kAckedRunning = 0x7827;   // bits 11, 12, 13, 14
 constexpr std::uint16_t kRunning = 0x6027;        // bits 13, 14: ack released, still moving

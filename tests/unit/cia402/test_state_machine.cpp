@@ -212,7 +212,7 @@ TEST(Controlword, ApplyCommandKeepsModeBits) {
   EXPECT_EQ(apply_command(0x008F, Command::kShutdown), 0x0006);        // bit 7 is device control
 }
 
-// ---- Statusword decoding (UC57 §4.2.1 patterns; spec §2.7.2 example words) ----
+// ---- Statusword decoding (UC57 §4.2.1 patterns; example words of the §4.2.2 bits, composed as assumed) ----
 TEST(Statusword, DecodesEveryState) {
   const std::vector<std::pair<std::uint16_t, State>> cases = {
       {0x0000, kNotReadyToSwitchOn}, {0x0020, kNotReadyToSwitchOn},  // bit 5 "X"
@@ -260,7 +260,7 @@ TEST(Statusword, ComposeRoundTripsAndKeepsOtherBits) {
   EXPECT_EQ(compose_statusword(kReadyToSwitchOn) & 0xF, 0b0001);
   EXPECT_EQ(compose_statusword(kSwitchedOn) & 0xF, 0b0011);
   EXPECT_EQ(compose_statusword(kOperationEnabled) & 0xF, 0b0111);
-  EXPECT_EQ(compose_statusword(kSwitchedOn, mask(StatusBit::kMotorEnabled)), 0x2023);  // spec example word
+  EXPECT_EQ(compose_statusword(kSwitchedOn, mask(StatusBit::kMotorEnabled)), 0x2023);  // example word (composition assumed)
 }
 
 // ---- Path planning (master side) ----

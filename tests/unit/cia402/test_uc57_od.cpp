@@ -1,5 +1,6 @@
 // UC57 object dictionary: contents against the manual's tables (§5, §5.1, §5.2), lookups, access
-// and range checks (spec §7.2 D-20..D-25), the manual's SDO frames, and the value codec.
+// and range checks (derived abort vectors D-20..D-25, CiA 301 §7.2.4.3.17), the manual's SDO
+// frames, and the value codec.
 #include <initializer_list>
 #include <gtest/gtest.h>
 
@@ -183,7 +184,7 @@ TEST(Uc57Od, ConflictChoices) {
   EXPECT_EQ(at(0x2005, 0).max, 25);  // C-19
 }
 
-// ---- Access and range checks: spec §7.2 C (D-20..D-25) and more ----
+// ---- Access and range checks: derived abort vectors (D-20..D-25) and more ----
 TEST(Uc57OdAccess, DerivedAbortVectors) {
   EXPECT_EQ(write_error(0x6041, 0, 0x0000, 2), AccessError::kReadOnly);     // D-20
   EXPECT_EQ(check_read(0x605A, 0).error, AccessError::kNoObject);          // D-21
@@ -234,7 +235,7 @@ TEST(Uc57OdAccess, PolicySwitches) {
   EXPECT_EQ(write_error(0x6040, 0, 0x000F, 4, any_length), std::nullopt);
   EXPECT_EQ(write_error(0x6081, 0, 0x3C, 1, any_length), std::nullopt);  // zero-extended to 60
 
-  // C-10: the manual's RO PDO configuration entries, writable on request (spec D-31, D-32).
+  // C-10: the manual's RO PDO configuration entries, writable on request (vectors D-31, D-32).
   EXPECT_EQ(write_error(0x1400, 1, 0x80000201, 4), AccessError::kReadOnly);
   EXPECT_EQ(write_error(0x1600, 0, 0, 1), AccessError::kReadOnly);
   const WritePolicy cia301{.pdo_configuration_writable = true};
@@ -247,8 +248,8 @@ TEST(Uc57OdAccess, PolicySwitches) {
   EXPECT_EQ(write_error(0x1000, 0, 0, 4, cia301), AccessError::kReadOnly);
 }
 
-// Every SDO download printed in the manual (§4.2.2-§4.2.6) and the derived ones of spec §7.2,
-// as frame bytes: the OD must accept them, except H-04 (C-06).
+// Every SDO download printed in the manual (§4.2.2-§4.2.6) and the derived ones (not printed in the
+// manual), as frame bytes: the OD must accept them, except H-04 (C-06).
 TEST(Uc57OdAccess, ManualAndDerivedDownloadFrames) {
   struct Frame {
     const char* id;

@@ -1,4 +1,5 @@
-// UC57 unit conversions and quantization against the spec's worked examples and derived values.
+// UC57 unit conversions and quantization against the manual's worked examples (§4.2.4-§4.2.6) and
+// derived values.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -47,8 +48,8 @@ TEST(Uc57Units, SetupSubdivisionRule) {
 }
 
 TEST(Uc57Units, PositionAndSpeed) {
-  EXPECT_DOUBLE_EQ(pulses_to_revolutions(5000, kPpr), 0.5);           // spec §3.4: 5000 = half a revolution
-  EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(60, kPpr), 10000.0);      // spec §3.4: 60 RPM = 10000 pulses/s
+  EXPECT_DOUBLE_EQ(pulses_to_revolutions(5000, kPpr), 0.5);           // 2006h default 10000 pulses/rev (manual §5.1): 5000 = half a revolution
+  EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(60, kPpr), 10000.0);      // derived from §5.1/§5.2 units: 60 RPM = 10000 pulses/s
   EXPECT_DOUBLE_EQ(pulses_per_second_to_rpm(10000.0, kPpr), 60.0);
   EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(120, 3200), 6400.0);
   EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(-60, kPpr), -10000.0);    // D-10: 60FFh = -60 reverses

@@ -259,7 +259,7 @@ TEST_F(LibmodbusPeer, ClientBroadcastTableExecuteStartsBothDrivesWithoutReply) {
           modbus_free(ctx);
           return;
         }
-        // Preload each drive (spec §4 recipe A): table entry 0 at register 300 + 200 = 500 (INT32,
+        // Preload each drive (table data, §8.54): table entry 0 at register 300 + 200 = 500 (INT32,
         // low word first), table size 1, pointer 0, start offset 200.
         for (int i = 0; i < 2; ++i) {
           modbus_set_slave(ctx, i + 1);

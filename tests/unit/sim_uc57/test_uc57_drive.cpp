@@ -1,4 +1,4 @@
-// The simulated UC57 (services/sim/uc57) driven frame by frame with the manual's and the spec's
+// The simulated UC57 (services/sim/uc57) driven frame by frame with the manual's and derived
 // frames: boot-up, NMT, SDO with abort codes, PDO remapping, synchronous start of two drives by
 // one SYNC, the profile-position handshake with its exact arrival time, profile velocity,
 // homing, quick stop, faults with EMCY and fault reset, inputs.
@@ -129,7 +129,7 @@ TEST(Uc57Sim, BootUpOnPowerUpThenPreOperational) {
   EXPECT_EQ(drive.reports_of(motionlcm::sim_report_t::POWERED_UP).size(), 1u);
   EXPECT_EQ(drive.sim().nmt_state(), canopen::NmtState::kPreOperational);
   EXPECT_EQ(drive.sim().drive_state(), cia402::State::kSwitchOnDisabled);
-  EXPECT_EQ(drive.statusword(), 0x0040);  // spec §2.7.2
+  EXPECT_EQ(drive.statusword(), 0x0040);  // Switch on disabled (manual §4.2.1)
 }
 
 TEST(Uc57Sim, ManualPowerOnSequenceM01ToM05) {
@@ -278,7 +278,8 @@ TEST(Uc57Sim, ManualRoMarkingsWhenTheCiASwitchIsOff) {
   EXPECT_EQ(drive.deliver("601: 2F 00 14 02 01 00 00 00"), Texts{"581: 60 00 14 02 00 00 00 00"});  // type is RW/S
 }
 
-// Spec §8.3: RPDO1 synchronous, targets preloaded by RPDO2, one SYNC starts both axes.
+// Synchronous RPDO1 (CiA 301 §7.2.2, §7.2.5), targets preloaded by RPDO2, one SYNC starts both axes;
+// steps 0.x set up, 1.x start (our sequence, not the manual's).
 TEST(Uc57Sim, TwoDrivesStartedByOneSync) {
   Drive a(1);
   Drive b(2);
@@ -331,7 +332,7 @@ TEST(Uc57Sim, TwoDrivesStartedByOneSync) {
 
 TEST(Uc57Sim, SyncUnsupportedSwitchAppliesRpdosAtOnce) {
   Uc57SimOptions options;
-  options.sync_rpdos_supported = false;  // the §8.5 acceptance test then fails, as on such a drive
+  options.sync_rpdos_supported = false;  // the synchronous-RPDO acceptance test then fails, as on such a drive
   Drive drive(1, options);
   drive.sdo_ok("601: 2F 00 14 02 01 00 00 00");
   drive.sdo_ok("601: 2F 60 60 00 01 00 00 00");
@@ -597,7 +598,7 @@ TEST(Uc57Sim, InputsAndOutputs) {
 TEST(Uc57Sim, SynchronousTpdoEverySync) {
   Drive drive;
   drive.take();
-  drive.sdo_ok("601: 2F 00 18 02 01 00 00 00");  // §8.3 0.3: TPDO1 type 1
+  drive.sdo_ok("601: 2F 00 18 02 01 00 00 00");  // TPDO1 type 1 (CiA 301 §7.5.2.37)
   drive.sdo_ok("601: 2F 00 18 02 02 00 00 00");  // then every 2nd SYNC
   drive.deliver("000: 01 00");
   drive.take();

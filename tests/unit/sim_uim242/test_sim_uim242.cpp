@@ -233,7 +233,7 @@ TEST_F(SimUim242, StpZeroLeavesPositionModeWithoutCompletion) {
   send("STP 0;");
   advance_to(deadline_);
   EXPECT_FALSE(sim_.moving("u-drive", now_));
-  EXPECT_TRUE(take().empty());  // no A8 for an aborted move (G27)
+  EXPECT_TRUE(take().empty());  // no A8 for an aborted move (the manuals do not say: assumed)
   EXPECT_EQ(count(motionlcm::sim_report_t::MOTION_FINISHED), 1u);
   EXPECT_EQ(sim_.position("u-drive", now_), 2000);  // 500 up, 1000 cruise, 500 down
 }

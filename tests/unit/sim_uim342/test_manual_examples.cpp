@@ -1,6 +1,7 @@
-// The manual's example frames (§2.4, §2.5, §5.1-§5.28; digest §9.1-§9.4, normalized rows and the
-// digest's corrected rows) played against the simulator: each instruction row must produce exactly
-// the ACK row, byte for byte and with the reply identifier (producer = node 5, consumer = host 4).
+// The manual's example frames (§2.4, §2.5, §5.1-§5.28; normalized rows, and corrected rows where
+// the printing contradicts the text) played against the simulator: each instruction row must
+// produce exactly the ACK row, byte for byte and with the reply identifier (producer = node 5,
+// consumer = host 4).
 // The drive is set up so that its state matches the one the manual's examples show (node 5,
 // group 10, IC[0] = 1, 2.8 A, 16 micro-steps, BL 1000, model 342XS, serial 01 02 03 04 ...).
 #include <gtest/gtest.h>
@@ -55,7 +56,7 @@ class ManualExamples : public ::testing::Test {
 TEST_F(ManualExamples, ReplyIdentifiersAreProducer5ToHost4) {
   const auto replies = bench.deliver(instruction_row("05 95 00"));
   ASSERT_EQ(replies.size(), 1U);
-  EXPECT_EQ(replies[0].id, 0x05200015U);  // digest §2.5: MO ACK from node 5
+  EXPECT_EQ(replies[0].id, 0x05200015U);  // §2.5 layout, producer 5, consumer 4: MO ACK from node 5
   EXPECT_TRUE(replies[0].extended);
 }
 
@@ -69,7 +70,7 @@ TEST_F(ManualExamples, InitialConfigurationAndInformationEnable) {
   expect_ack("05 86 03 06 01 00 00 00 00 00 00", "05 06 03 06 01 00 00 00 00 00 00");  // IC[6]=1
   run(rq::set(u::InformationEnable::in1_change, true));
   expect_ack("05 87 01 00 00 00 00 00 00 00 00", "05 07 03 00 01 00 00 00 00 00 00");  // IE[0] = 1
-  expect_ack("05 87 03 01 01 00 00 00 00 00 00", "05 07 03 01 01 00 00 00 00 00 00");  // IE[1]=1
+  expect_ack("05 87 03 01 01 00 00 00 00 00 00", "05 07 03 01 01 00 00 00 00 00 00");  // IE[1]=1 (§5.3: the byte, not the caption)
 }
 
 TEST_F(ManualExamples, ModelAndSerialNumber) {
@@ -78,7 +79,7 @@ TEST_F(ManualExamples, ModelAndSerialNumber) {
 }
 
 TEST_F(ManualExamples, ErrorReportAndErrorHistory) {
-  // PP[5]=7 is illegal: the report is the frame the ER[0] example reads back (§5.6, digest §9.4).
+  // PP[5]=7 is illegal: the report is the frame the ER[0] example reads back (§5.6, §2.3).
   expect_ack("05 81 02 05 07", "05 0F 06 00 33 81 05 00 00 00 00");
   expect_ack("05 8F 01 00 00 00 00 00 00 00 00", "05 0F 06 00 33 81 05 00 00 00 00");  // get ER[0]
   expect_ack("05 8F 02 00 00 00 00 00 00 00 00", "05 0F 06 00 00 00 00 00 00 00 00");  // ER[0]=0
@@ -86,10 +87,10 @@ TEST_F(ManualExamples, ErrorReportAndErrorHistory) {
 }
 
 TEST_F(ManualExamples, EncoderAndDriverParameters) {
-  expect_ack("05 BD 01 04 00 00 00 00 00 00 00", "05 3D 03 04 80 0C 00 00 00 00 00");  // QE[4] = 3200
+  expect_ack("05 BD 01 04 00 00 00 00 00 00 00", "05 3D 03 04 80 0C 00 00 00 00 00");  // QE[4] = 3200 (§5.7 get, DL 1)
   expect_ack("05 BD 03 00 E8 03 00 00 00 00 00", "05 3D 03 00 E8 03 00 00 00 00 00");  // QE[0]=1000
   expect_ack("05 90 01 01 00 00 00 00 00 00 00", "05 10 03 01 1C 00 00 00 00 00 00");  // MT[1] = 2.8 A
-  expect_ack("05 90 03 00 10 00 00 00 00 00 00", "05 10 03 00 10 00 00 00 00 00 00");  // MT[0]=16
+  expect_ack("05 90 03 00 10 00 00 00 00 00 00", "05 10 03 00 10 00 00 00 00 00 00");  // MT[0]=16 (§5.9 set, DL 3)
 }
 
 TEST_F(ManualExamples, MotorDriverOnOff) {
@@ -102,7 +103,7 @@ TEST_F(ManualExamples, MotorDriverOnOff) {
 
 TEST_F(ManualExamples, RampsCutInStopDecelerationBacklash) {
   expect_ack("05 99 00 00 00 00 00 00 00 00 00", "05 19 04 E8 03 00 00 00 00 00 00");  // AC = 1000
-  expect_ack("05 99 04 F4 01 00 00 00 00 00 00", "05 19 04 F4 01 00 00 00 00 00 00");  // AC=500
+  expect_ack("05 99 04 F4 01 00 00 00 00 00 00", "05 19 04 F4 01 00 00 00 00 00 00");  // AC=500 (§5.14 set, DL 4)
   expect_ack("05 9A 00 00 00 00 00 00 00 00 00", "05 1A 04 E8 03 00 00 00 00 00 00");  // DC = 1000
   expect_ack("05 9A 04 E9 03 00 00 00 00 00 00", "05 1A 04 E9 03 00 00 00 00 00 00");  // DC=1001
   expect_ack("05 9B 00 00 00 00 00 00 00 00 00", "05 1B 04 E8 03 00 00 00 00 00 00");  // SS = 1000
@@ -142,16 +143,16 @@ TEST_F(ManualExamples, PositionsAndDesiredValues) {
   bench.take();
   expect_ack("05 9F 00 00 00 00 00 00 00 00 00", "05 1F 04 18 FC FF FF 00 00 00 00");  // PR: -1000
   expect_ack("05 A0 00 00 00 00 00 00 00 00 00", "05 20 04 18 FC FF FF 00 00 00 00");  // PA: -1000
-  expect_ack("05 9F 04 E8 03 00 00 00 00 00 00", "05 2E 05 03 E8 03 00 00 00 00 00");  // PR=+1000
+  expect_ack("05 9F 04 E8 03 00 00 00 00 00 00", "05 2E 05 03 E8 03 00 00 00 00 00");  // PR=+1000 (§5.20, CW 9F)
   expect_ack("05 A0 04 E8 03 00 00 00 00 00 00", "05 2E 05 04 E8 03 00 00 00 00 00");  // PA=+1000
   expect_ack("05 9E 04 E8 03 00 00 00 00 00 00", "05 2E 05 02 E8 03 00 00 00 00 00");  // SP=+1000
-  expect_ack("05 AE 01 02 00 00 00 00 00 00 00", "05 2E 05 02 E8 03 00 00 00 00 00");  // DV[2]
+  expect_ack("05 AE 01 02 00 00 00 00 00 00 00", "05 2E 05 02 E8 03 00 00 00 00 00");  // DV[2] (§5.25: bytes E8 03)
   expect_ack("05 A1 00 00 00 00 00 00 00 00 00", "05 21 00 00 00 00 00 00 00 00 00");  // OG
   expect_ack("05 A0 00", "05 20 04 00 00 00 00");
 }
 
 TEST_F(ManualExamples, Section25ShortPositiveValues) {
-  // §2.5 sends positive 32-bit values in 2 bytes: zero-extended.
+  // §2.5 sends positive 32-bit values in 2 bytes (§5.18-§5.21 define 4): zero-extended.
   expect_ack("05 9D 02 10 27", "05 2E 05 02 10 27 00 00");        // JV=10000
   expect_ack("05 9D 04 F0 D8 FF FF", "05 2E 05 02 F0 D8 FF FF");  // JV=-10000
   expect_ack("05 9F 02 80 0C", "05 2E 05 03 80 0C 00 00");        // PR=3200
@@ -174,8 +175,8 @@ TEST_F(ManualExamples, MotionStatus) {
 
 TEST_F(ManualExamples, InputLogicAndTrigger) {
   expect_ack("05 B4 03 00 06 80 00 00 00 00 00", "05 34 03 00 06 80 00 00 00 00 00");  // IL[0] set
-  expect_ack("05 B4 01 00 00 00 00 00 00 00 00", "05 34 03 00 06 80 00 00 00 00 00");  // IL[0] get
-  expect_ack("05 B5 01 01 00 00 00 00 00 00 00", "05 35 03 01 00 00 00 00 00 00 00");  // TG[1] (X-8: echoes 01)
+  expect_ack("05 B4 01 00 00 00 00 00 00 00 00", "05 34 03 00 06 80 00 00 00 00 00");  // IL[0] get (§5.26: the bytes)
+  expect_ack("05 B5 01 01 00 00 00 00 00 00 00", "05 35 03 01 00 00 00 00 00 00 00");  // TG[1] (§5.27 prints d0 = 00; echoes 01 like every sub-indexed ACK)
   expect_ack("05 B5 03 00 64 00 00 00 00 00 00", "05 35 03 00 64 00 00 00 00 00 00");  // TG[0]=100
   expect_ack("05 B4 01 10", "05 34 03 10 00 00");                                      // IL[16] stall: hold
 }
@@ -184,7 +185,7 @@ TEST_F(ManualExamples, DigitalInputsAndOutput) {
   bench.sim->control(control(motionlcm::sim_control_t::SET_INPUT, 1, 1), bench.now);
   bench.sim->control(control(motionlcm::sim_control_t::SET_INPUT, 2, 1), bench.now);
   expect_ack("05 B7 00 00 00 00 00 00 00 00 00", "05 37 04 03 00 00 00 00 00 00 00");
-  expect_ack("05 B7 04 01 01 00 00 00 00 00 00", "05 37 04 03 01 00 00 00 00 00 00");  // OP1 = 1
+  expect_ack("05 B7 04 01 01 00 00 00 00 00 00", "05 37 04 03 01 00 00 00 00 00 00");  // OP1 = 1 (§5.28: byte d1 = 01)
 }
 
 TEST_F(ManualExamples, SystemRebootHasNoAck) {
@@ -192,7 +193,7 @@ TEST_F(ManualExamples, SystemRebootHasNoAck) {
   EXPECT_EQ(bench.reports_of(powered_up()).size(), 2U);  // power-up, then the reboot
 }
 
-// §2.4 notification rows, normalized (digest §9.3).
+// §2.4 notification rows, normalized (DL rule, §2.1).
 TEST_F(ManualExamples, RealTimeNotifications) {
   using C = motionlcm::sim_control_t;
   for (std::uint8_t i = 0; i <= 2; ++i) run(rq::set(static_cast<u::InformationEnable>(i), true));

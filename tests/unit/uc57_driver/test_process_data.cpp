@@ -1,4 +1,5 @@
-// Process-data codecs and settings of the UC57 driver, against the spec digest's PDO vectors (§7.2 E).
+// Process-data codecs and settings of the UC57 driver, against derived PDO vectors (CiA 301 §7.2.2;
+// mappings of the manual's §5 comm. table).
 #include <gtest/gtest.h>
 
 #include "motion/uc57_driver/node_settings.hpp"

@@ -1,4 +1,5 @@
-// Feedback frames: the manuals' rows (spec §6.2) and the derived replies of spec §6.3.
+// Feedback frames: the manuals' rows (EN/CN §6.2, §12.2, #6, #17, #22) and replies derived from the
+// §12.3 layouts.
 #include <gtest/gtest.h>
 
 #include "hex.hpp"
@@ -51,7 +52,7 @@ TEST(Feedback, ValueErrorCN6) {
   EXPECT_EQ(e->code, make_error_code(ErrorCode::value_error));
   EXPECT_FALSE(e->node.has_value());
   EXPECT_EQ(serialize(make_error(ErrorCode::value_error)), hex("EE 66 FF"));
-  // The undocumented form with an id is accepted (spec §1.5).
+  // The form with an id, not in EN/CN §6.2, is accepted too.
   const auto with_id = as_error(parsed("EE 05 65 FF"));
   ASSERT_TRUE(with_id.has_value());
   EXPECT_EQ(with_id->node, 5);

@@ -1,4 +1,5 @@
-// Instruction strings: every syntax example of the manuals (spec §6.1) and the range rules.
+// Instruction strings: every syntax example of the manuals (EN/CN §1.6, §6.1, §12.3) and the range
+// rules.
 #include <gtest/gtest.h>
 
 #include "motion/uim242/instruction.hpp"
@@ -71,7 +72,8 @@ TEST(InstructionSyntax, HexValuesAreLowByteFirstEN17CN17) {
   expect_parses("ICFx 34 12", hex_set(Mnemonic::ICF, 0x1234));  // EN/CN #13
   expect_parses("MCF x0180", hex_set(Mnemonic::MCF, 0x8001));   // CN §8.11
   expect_parses("MCFx0800", hex_set(Mnemonic::MCF, 0x0008));    // CN §10.5
-  // EN writes `MCFx8733;` big-endian (spec §1.3 conflict): CN's byte rule reads it as 0x3387.
+  // EN writes `MCFx8733;` big-endian (EN #17, against EN's own §12.1 rule): CN's byte rule reads it
+  // as 0x3387.
   expect_parses("MCFx8733", hex_set(Mnemonic::MCF, 0x3387));
 }
 
@@ -150,7 +152,7 @@ TEST(InstructionErrors, SyntaxErrors) {
   expect_error("XYZ 5", ErrorCode::syntax_error);
   expect_error("SPD 10 00", ErrorCode::syntax_error);   // η has no other characters inside
   expect_error("SPD 1000x", ErrorCode::syntax_error);
-  expect_error("SPDx 10", ErrorCode::syntax_error);     // no hex form for signed values (G23)
+  expect_error("SPDx 10", ErrorCode::syntax_error);     // no hex form for signed values (EN/CN §12.3)
   expect_error("CUR", ErrorCode::syntax_error);         // no query form
   expect_error("FBK 5", ErrorCode::syntax_error);
   expect_error("SPD -", ErrorCode::syntax_error);

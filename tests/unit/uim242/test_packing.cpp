@@ -1,4 +1,4 @@
-// 7-bit packing: the manual's MCF example and the derived vectors of spec §6.3.
+// 7-bit packing: the manual's MCF example and vectors derived from its rule (EN §6.2, §12.2).
 #include <gtest/gtest.h>
 
 #include "hex.hpp"
@@ -16,7 +16,7 @@ struct PackingVector {
   const char* bytes;
 };
 
-// Spec §6.3 (the first row is the manual's own example, EN/CN #17).
+// Derived from EN §6.2, §12.2 (the first row is the manual's own example, EN/CN #17).
 const PackingVector kVectors[] = {
     {0x8733, Layout::u16, "02 0E 33"},
     {5000, Layout::s16, "00 27 08"},
@@ -52,7 +52,7 @@ TEST(Packing, SpecVectorsRoundTrip) {
 }
 
 TEST(Packing, TwelveBitThresholds) {
-  // ATCONL 491, ATCONH 3276, full scale 4095 (EN/CN §8.11, spec §6.3).
+  // ATCONL 491, ATCONH 3276, full scale 4095 (EN/CN §8.11).
   EXPECT_EQ((packed<kPacked12>(491)), (std::array<std::uint8_t, 2>{0x03, 0x6B}));
   EXPECT_EQ((packed<kPacked12>(3276)), (std::array<std::uint8_t, 2>{0x19, 0x4C}));
   EXPECT_EQ((packed<kPacked12>(4095)), (std::array<std::uint8_t, 2>{0x1F, 0x7F}));
@@ -60,7 +60,7 @@ TEST(Packing, TwelveBitThresholds) {
 }
 
 TEST(Packing, WideSpeedEchoesLow16Bits) {
-  // G7: SPD accepts +-65535 but echoes a signed 16-bit field: +40000 reads back as -25536.
+  // EN/CN #37: SPD accepts +-65535 but echoes a signed 16-bit field: +40000 reads back as -25536.
   const std::int64_t fields[] = {40000};
   const auto decoded = decode_fields(encode_fields(Layout::s16, fields), Layout::s16);
   EXPECT_EQ(decoded->front(), -25536);

@@ -39,7 +39,7 @@ struct Row {
 };
 
 // "05 81 01 08 00 00 00 00 00 00 00" -> id 5, CW 0x81, DL 1, d0 = 0x08. Columns after DL beyond
-// DL are padding and must be 00 (the spec's normalized rows guarantee it).
+// DL are padding and must be 00 (the normalized rows of the tests guarantee it).
 inline Row parse_row(std::string_view text) {
   const auto b = hex_bytes(text);
   Row row;

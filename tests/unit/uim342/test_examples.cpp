@@ -1,8 +1,8 @@
-// Every example frame of the manual (§2.5, §5.1-§5.28), transcribed from spec §9.1/§9.2 (normalized
+// Every example frame of the manual (§2.5, §5.1-§5.28), transcribed from the manual (normalized
 // rows; "corrected rows" where the manual's printing is self-contradictory, with the printed row
 // checked separately below). Each row: the typed value must encode to exactly these bytes and
 // identifier, and the frame must decode back to the typed value. Each ACK row is also classified
-// against the instruction row before it (spec §3.1).
+// against the instruction row before it (§2.1).
 #include <gtest/gtest.h>
 
 #include <string>
@@ -59,14 +59,14 @@ std::vector<Example> manual_examples() {
       {"ER[0]: 0x33 on PP[5]", 0x0520000F, "05 0F 06 00 33 81 05 00 00 00 00", ack(FC::ER, ErrorRecord{0, 0x33, 0x81, 5, {0, 0}})},
       {"ER[0]=0", 0x0428008F, "05 8F 02 00 00 00 00 00 00 00 00", rq::clear_error(0)},
       {"ER[0] cleared", 0x0520000F, "05 0F 06 00 00 00 00 00 00 00 00", ack(FC::ER, ErrorRecord{})},
-      // §5.7 QE (get row corrected, X-1)
+      // §5.7 QE (get row corrected: DL 1, as the description says)
       {"get QE[4]", 0x042800BD, "05 BD 01 04 00 00 00 00 00 00 00", rq::get(QuadratureEncoder::counts_per_revolution)},
       {"QE[4] = 3200", 0x0520003D, "05 3D 03 04 80 0C 00 00 00 00 00", ack(FC::QE, IndexedWord{4, 3200})},
       {"QE[0]=1000", 0x042800BD, "05 BD 03 00 E8 03 00 00 00 00 00", rq::set(QuadratureEncoder::lines_per_revolution, 1000)},
       {"QE[0] = 1000", 0x0520003D, "05 3D 03 00 E8 03 00 00 00 00 00", ack(FC::QE, IndexedWord{0, 1000})},
       // §5.8 SY
       {"SY[1]", 0x0428007E, "05 7E 01 01 00 00 00 00 00 00 00", rq::system(SystemOperation::reboot)},
-      // §5.9 MT (set row corrected, X-2)
+      // §5.9 MT (set row corrected: DL 3, as its ACK shows)
       {"get MT[1]", 0x04280090, "05 90 01 01 00 00 00 00 00 00 00", rq::get(MotorDriver::working_current)},
       {"MT[1] = 28", 0x05200010, "05 10 03 01 1C 00 00 00 00 00 00", ack(FC::MT, IndexedWord{1, 28})},
       {"MT[0]=16", 0x04280090, "05 90 03 00 10 00 00 00 00 00 00", rq::set(MotorDriver::microstepping, 16)},
@@ -84,7 +84,7 @@ std::vector<Example> manual_examples() {
       // §5.13 MF
       {"MF=3", 0x04280098, "05 98 01 03 00 00 00 00 00 00 00", rq::select_group(ParameterGroup::in1_falling)},
       {"MF = 3", 0x05200018, "05 18 01 03 00 00 00 00 00 00 00", ack(FC::MF, Byte{3})},
-      // §5.14 AC (set row corrected, X-3)
+      // §5.14 AC (set row corrected: DL 4, as its ACK shows)
       {"get AC", 0x04280099, "05 99 00 00 00 00 00 00 00 00 00", rq::get(FC::AC)},
       {"AC = 1000", 0x05200019, "05 19 04 E8 03 00 00 00 00 00 00", ack(FC::AC, Unsigned{1000})},
       {"AC=500", 0x04280099, "05 99 04 F4 01 00 00 00 00 00 00", rq::set_acceleration(500)},
@@ -114,7 +114,7 @@ std::vector<Example> manual_examples() {
       {"SP speed -1000", 0x0520001E, "05 1E 04 18 FC FF FF 00 00 00 00", ack(FC::SP, Signed{-1000})},
       {"SP=1000", 0x0428009E, "05 9E 04 E8 03 00 00 00 00 00 00", rq::set_ptp_speed(1000)},
       {"DV[2] = 1000", 0x0520002E, "05 2E 05 02 E8 03 00 00 00 00 00", ack(FC::DV, IndexedSigned{2, 1000})},
-      // §5.20 PR (set row corrected, X-5)
+      // §5.20 PR (set row corrected: CW 9F, its ACK is DV[3])
       {"get PR", 0x0428009F, "05 9F 00 00 00 00 00 00 00 00 00", rq::get(FC::PR)},
       {"PR -1000", 0x0520001F, "05 1F 04 18 FC FF FF 00 00 00 00", ack(FC::PR, Signed{-1000})},
       {"PR=1000", 0x0428009F, "05 9F 04 E8 03 00 00 00 00 00 00", rq::set_relative_position(1000)},
@@ -145,7 +145,7 @@ std::vector<Example> manual_examples() {
       {"IL[0] = 06 80", 0x05200034, "05 34 03 00 06 80 00 00 00 00 00", ack(FC::IL, InputActions{0, origin_decel_at_power_up, none_wait})},
       {"IL[0]=06 80", 0x042800B4, "05 B4 03 00 06 80 00 00 00 00 00", rq::set_input_logic(InputPort::in1, origin_decel_at_power_up, none_wait)},
       {"IL[0] echo", 0x05200034, "05 34 03 00 06 80 00 00 00 00 00", ack(FC::IL, InputActions{0, origin_decel_at_power_up, none_wait})},
-      // §5.27 TG: the printed get ACK has d0 = 00 instead of the echo 01: decoded as printed,
+      // §5.27 TG: the printed get ACK has d0 = 00 instead of the echo 01: decoded as printed,
       // and it does not match the TG[1] request.
       {"get TG[1]", 0x042800B5, "05 B5 01 01 00 00 00 00 00 00 00", rq::get_trigger(InputPort::in2)},
       {"TG ack as printed", 0x05200035, "05 35 03 00 00 00 00 00 00 00 00", ack(FC::TG, IndexedWord{0, 0}), false},
@@ -237,7 +237,7 @@ TEST(Uim342ManualExamples, DecodedMeaningOfSelectedRows) {
 }
 
 // §2.5 "More examples": CAN-ID + data as printed. Positive 32-bit values appear with 2 bytes
-// they decode (zero-extended); this library always encodes 4 bytes.
+// (§5.18-§5.21 define 4): they decode (zero-extended); this library always encodes 4 bytes.
 struct CanExample {
   std::uint32_t can_id;
   const char* data;
@@ -271,20 +271,20 @@ TEST(Uim342ManualExamples, DirectCanExamples) {
   }
 }
 
-// The rows as the manual prints them where they contradict the text (spec §9.6): what they
+// The rows as the manual prints them where they contradict the text: what they
 // decode to under the DL rule, so nobody "fixes" the table back to them by accident.
 TEST(Uim342ManualExamples, PrintedMisprintsDecodeAsTheirDlSays) {
-  // QE get printed with DL 04 and one data byte: no QE form has DL 4.
+  // §5.7: QE get printed with DL 04 and one data byte: no QE form has DL 4.
   EXPECT_EQ(decode_instruction(test::parse_row("05 BD 04 04 00 00 00").message).error(), CodecErrc::wrong_length);
-  // MT set printed with DL 01 (d1 = 10 is padding): it is the get of MT[0].
+  // §5.9: MT set printed with DL 01 (d1 = 10 is padding): it is the get of MT[0].
   const auto mt = decode_instruction(Message{0x90, 1, {0x00, 0x10}});
   ASSERT_TRUE(mt.ok());
   EXPECT_EQ(*mt, request::get(MotorDriver::microstepping));
-  // AC set printed with DL 00: it is "get AC".
+  // §5.14: AC set printed with DL 00: it is "get AC".
   const auto ac = decode_instruction(Message{0x99, 0, {0xF4, 0x01}});
   ASSERT_TRUE(ac.ok());
   EXPECT_EQ(*ac, request::get(FC::AC));
-  // PR set printed with CW 9E: it is SP=1000, whose ACK (DV[2]) is not the printed DV[3].
+  // §5.20: PR set printed with CW 9E: it is SP=1000, whose ACK (DV[2]) is not the printed DV[3].
   const auto pr = decode_instruction(test::parse_row("05 9E 04 E8 03 00 00 00 00 00 00").message);
   ASSERT_TRUE(pr.ok());
   EXPECT_EQ(*pr, request::set_ptp_speed(1000));

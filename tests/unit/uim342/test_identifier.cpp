@@ -1,4 +1,5 @@
-// Identifier layout (manual §2.5, spec §2, §2.7 cheat sheet, §9.5 derived identifiers).
+// Identifier layout (manual §2.5 "CAN-ID for SimpleCAN3.0", its formulas applied to the Instruction
+// Set Summary CWs).
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -42,7 +43,8 @@ struct DerivedId {
   std::uint32_t can_id;
 };
 
-// Spec §9.5 "CAN identifiers [D]", including IDs above 31 (high ID bits in the EID).
+// Identifiers derived from the §2.5 formulas (not printed in the manual), including IDs above 31
+// (high ID bits in the EID).
 constexpr DerivedId kDerived[] = {
     {{4, 5, 0x95}, 0x10A, 0x00095, 0x04280095},
     {{5, 4, 0x15}, 0x148, 0x00015, 0x05200015},
@@ -110,7 +112,7 @@ struct CheatSheetRow {
   std::uint32_t global_ack_id;  // 0 = not listed
 };
 
-// Spec §2.7 identifier cheat sheet (node 5, master 4), every row.
+// Identifiers from the §2.5 formulas for every CW of the Instruction Set Summary (node 5, master 4).
 constexpr CheatSheetRow kCheatSheet[] = {
     {FunctionCode::PP, 0x04280001, 0x04280081, 0x05200001, 0, 0x04000081},
     {FunctionCode::IC, 0x04280006, 0x04280086, 0x05200006, 0, 0x04000086},

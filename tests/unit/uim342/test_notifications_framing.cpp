@@ -1,6 +1,6 @@
 // The manual's remaining example frames: real-time notifications (§2.4 table, §5.29), the error
-// report (§2.3 / §5.6), the UIMessage gateway framing (§2.6, Appendix-1 CRC; vectors of spec §9.5
-// recomputed from the manual's CRC routine), reply matching (spec §3.1), and what the decoders
+// report (§2.3 / §5.6), the UIMessage gateway framing (§2.6, Appendix-1 CRC; derived vectors
+// computed with the manual's CRC routine), reply matching (§2.1, §2.3), and what the decoders
 // must refuse (bounds, trailing bytes, foreign identifiers).
 #include <gtest/gtest.h>
 
@@ -18,7 +18,8 @@ namespace {
 
 using FC = FunctionCode;
 
-// §2.4: printed rows normalized to `ID CW DL d0..d7` (surplus padding column dropped, X-16).
+// §2.4: printed rows normalized to `ID CW DL d0..d7` (surplus padding column dropped; DL rules,
+// §2.1).
 struct NotificationExample {
   const char* row;
   Notification typed;
@@ -146,7 +147,8 @@ TEST(Uim342Decoding, RefusesForeignAndMalformedFrames) {
   EXPECT_EQ(encode(Instruction{FC::PA, Operation::set, true, Unsigned{1}}).error(), CodecErrc::body_mismatch);
 }
 
-// Spec §9.5 variant A (manual: CRC over 0xAA..d8) and variant B (ID..d8, gateways in the field).
+// Derived vectors, variant A (manual §2.6: CRC over 0xAA..d8) and variant B (ID..d8, gateways in
+// the field).
 struct UiExample {
   const char* variant_a;
   const char* variant_b;

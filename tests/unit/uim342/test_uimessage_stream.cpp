@@ -1,6 +1,6 @@
-// UIMessages out of a byte stream (spec §8): frames split anywhere, line noise with false SM/EM
-// bytes, corrupt CRCs, the two coverages and strict acceptance; and the mapping between the
-// UIMessage ID and the producer/consumer of the CAN frame (§2.5, §2.6).
+// UIMessages out of a byte stream (manual §2.6, Appendix-1): frames split anywhere, line noise with
+// false SM/EM bytes, corrupt CRCs, the two coverages and strict acceptance; and the mapping between
+// the UIMessage ID and the producer/consumer of the CAN frame (§2.5, §2.6).
 #include <gtest/gtest.h>
 
 #include <vector>
@@ -11,10 +11,12 @@
 namespace motion::uim342 {
 namespace {
 
-// Spec §9.5: MO ACK from node 5 (ON), variant A (SM..d8) and B (ID..d8).
+// MO ACK from node 5 (ON), CRC computed with the Appendix-1 routine (not printed in the manual):
+// variant A (SM..d8) and B (ID..d8).
 constexpr const char* kAckA = "AA 05 15 01 01 00 00 00 00 00 00 00 00 8E 15 CC";
 constexpr const char* kAckB = "AA 05 15 01 01 00 00 00 00 00 00 00 00 71 57 CC";
-// Spec §9.5: JV=-1000 with ACK to node 5, variant A: data bytes that look like nothing special.
+// Derived (§2.6, Appendix-1 CRC): JV=-1000 with ACK to node 5, variant A: data bytes that look like
+// nothing special.
 constexpr const char* kJvA = "AA 05 9D 04 18 FC FF FF 00 00 00 00 00 AE 26 CC";
 
 std::vector<DecodedUiMessage> drain(UiMessageStream& stream) {
@@ -119,7 +121,7 @@ TEST(Uim342UiMessageMapping, TheIdIsTheDrivesSideOfTheExchange) {
   // An instruction from another producer has no UIMessage form.
   EXPECT_EQ(instruction_to_ui({{6, 5}, mo.message}).error(), CodecErrc::producer_not_host);
 
-  // Drive frame: MO ACK from node 100 -> master 4 is 0x04230015 (§9.5 derived vectors).
+  // Drive frame: MO ACK from node 100 -> master 4 is 0x04230015 (derived from the §2.5 layout).
   const CanMessage ack{drive_to_host(100), *Message::make(0x15, std::vector<std::uint8_t>{1})};
   const auto up = drive_message_to_ui(ack);
   EXPECT_EQ(up.id, 100);

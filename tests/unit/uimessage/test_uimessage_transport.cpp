@@ -1,7 +1,7 @@
-// UiMessageTransport over a real pty: what it writes is byte for byte the spec's UIMessage
-// vectors (digest §9.5, both CRC coverages), what the gateway side writes comes out as the
-// drives' CAN frames, garbage and corrupt frames are skipped and counted, frames a UIMessage
-// cannot carry are refused, and a hung-up port is reported and opened again.
+// UiMessageTransport over a real pty: what it writes is byte for byte the UIMessage
+// vectors derived from manual §2.6 and Appendix-1 (both CRC coverages), what the gateway side
+// writes comes out as the drives' CAN frames, garbage and corrupt frames are skipped and counted,
+// frames a UIMessage cannot carry are refused, and a hung-up port is reported and opened again.
 #include "motion/uimessage/uimessage_transport.hpp"
 
 #include <gtest/gtest.h>
@@ -26,8 +26,9 @@ can::Frame frame(const char* cansend) {
   return f.value_or(can::Frame{});
 }
 
-// Spec digest §9.5 "UIMessages": the host's instructions to node 5 (and one to global 0), with the
-// CAN frame that carries each one from master 4 (§2.5: 0x04280000 | CW to node 5).
+// UIMessages (§2.6, CRC per Appendix-1; not printed in the manual): the host's instructions to
+// node 5 (and one to global 0), with the CAN frame that carries each one from master 4
+// (§2.5: 0x04280000 | CW to node 5).
 struct Vector {
   const char* can;
   const char* variant_a;  // CRC over SM..d8 (manual)
@@ -42,7 +43,8 @@ constexpr Vector kInstructions[] = {
     {"04280081#0502", "AA 05 81 02 05 02 00 00 00 00 00 00 00 25 31 CC", "AA 05 81 02 05 02 00 00 00 00 00 00 00 DA 73 CC"},
     {"04280091#00", "AA 05 91 01 00 00 00 00 00 00 00 00 00 3F 77 CC", "AA 05 91 01 00 00 00 00 00 00 00 00 00 C0 35 CC"},
 };
-// §9.5 "MO ACK from node 5 (ON)"; the drive's frame to master 4 is 0x05200000 | CW (§2.5).
+// Derived "MO ACK from node 5 (ON)" (§2.6, Appendix-1 CRC); the drive's frame to master 4 is
+// 0x05200000 | CW (§2.5).
 constexpr const char* kMoAckA = "AA 05 15 01 01 00 00 00 00 00 00 00 00 8E 15 CC";
 constexpr const char* kMoAckB = "AA 05 15 01 01 00 00 00 00 00 00 00 00 71 57 CC";
 constexpr const char* kMoAckCan = "05200015#01";
@@ -92,7 +94,8 @@ TEST_F(UiMessageTransportTest, ReceivedUiMessagesBecomeTheDrivesFramesWhicheverT
   peer->write("AD 05 15 01 01 00 00 00 00 00 00 00 00 00 00 CC");  // SM 0xAD: no CRC
   // ID 128 does not fit the 7-bit producer field: well-formed, but no CAN frame (counted).
   peer->write("AD 80 15 01 00 00 00 00 00 00 00 00 00 00 00 CC");
-  // Node 100 (ID bits 6..5 in the EID part): producer 100 -> master 4 is 0x04230000 | CW (§9.5).
+  // Node 100 (ID bits 6..5 in the EID part): producer 100 -> master 4 is 0x04230000 | CW (derived
+  // from §2.5).
   peer->write("AD 64 15 01 00 00 00 00 00 00 00 00 00 00 00 CC");
   const auto frames = receive_frames(*transport, 4);
   ASSERT_EQ(frames.size(), 4u);

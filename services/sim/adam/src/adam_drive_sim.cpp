@@ -18,7 +18,8 @@ namespace {
 constexpr std::size_t kAddressSpace = 0x10000;
 // A ramp time of 0 ms means "at once"; the kinematics wants a finite rate.
 constexpr double kInstantRate = 1e12;
-// Version registers as the manual prints them (§8.1/§8.2): "170" and "105" (spec 1.5).
+// Version registers as the manual prints them (§8.1/§8.2): "170" and "105" (decoding assumed: low
+// word first).
 constexpr std::uint16_t kHardwareVersion[] = {0x3731, 0x0030};
 constexpr std::uint16_t kFirmwareVersion[] = {0x3031, 0x0035};
 }  // namespace
@@ -39,7 +40,7 @@ void AdamDriveSim::power_cycle(TimePoint now) {
   regs_[0x0003] = kFirmwareVersion[1];
   regs_[adam::address(Reg::rated_current)] = 100;       // 1.00 A (the §8.10 example)
   regs_[adam::address(Reg::current_percentages)] = 0x1919;  // §8.11 example
-  regs_[adam::address(Reg::filter_frequency)] = 425;    // spec gap 11
+  regs_[adam::address(Reg::filter_frequency)] = 425;    // §7 default "425K" does not fit 16 bits
   kinematics_ = Kinematics{};
   kinematics_.set_position(now, 0);
   target_ = 0;
@@ -59,7 +60,8 @@ adam::DriveStatus AdamDriveSim::status(TimePoint now) const {
   const auto state = kinematics_.at(now);
   s.inputs = inputs_;
   if (state.moving) {
-    // Phase from the speed's trend over the next millisecond (spec 3.10: 01 up, 11 cruise, 10 down).
+    // Phase from the speed's trend over the next millisecond (§8.4 bits 9…8, assumed: 01 up, 11
+    // cruise, 10 down).
     const double later = std::abs(kinematics_.at(now + std::chrono::milliseconds(1)).velocity);
     const double speed = std::abs(state.velocity);
     s.phase = later > speed + 1e-9 ? adam::MotionPhase::accelerating
@@ -160,7 +162,7 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
     else kinematics_.stop(now, profile(speed_rpm).deceleration, profile(speed_rpm).cut_in);
   };
   switch (static_cast<Reg>(address)) {
-    case Reg::working_speed:  // spec 2.2 [I]: 0x009A and 0x00D8 are one setpoint
+    case Reg::working_speed:  // assumed (§8.44, §8.64 do not say): 0x009A and 0x00D8 are one setpoint
     {
       const auto centi = adam::encode32(static_cast<std::int32_t>(reg(Reg::working_speed)) * 100);
       regs_[adam::address(Reg::target_speed)] = centi[0];
@@ -202,7 +204,7 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       if (!may_move() || !idle) break;
       const adam::HomingCommand home = adam::decode_homing(reg(Reg::homing_command));
       homing_ = true;
-      move_to(0, now, home.speed_rpm);  // [I] the switch is where the drive powered up
+      move_to(0, now, home.speed_rpm);  // assumed: the switch is where the drive powered up
       if (!was_moving_) {  // already on the switch
         homing_ = false;
         at_home_ = true;
@@ -245,7 +247,7 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       regs_[adam::address(Reg::output_state)] &= static_cast<std::uint16_t>(~reg(Reg::outputs_off) & 0xFF);
       break;
     case Reg::clear_alarm:
-      if (alarm_.active()) {  // the current alarm moves into the history (spec 3.10)
+      if (alarm_.active()) {  // the current alarm moves into the history (§8.52 fields; the shift is assumed)
         alarm_.history = {alarm_.current, alarm_.history[0], alarm_.history[1]};
         alarm_.current = adam::AlarmCode::none;
       }
@@ -262,7 +264,7 @@ bool AdamDriveSim::settle(TimePoint now) {
   was_moving_ = false;
   if (homing_) {
     homing_ = false;
-    kinematics_.set_position(now, 0);  // spec 3.5 [I]: position 0 at home, X15 = 1
+    kinematics_.set_position(now, 0);  // not stated in §8.48 (assumed): position 0 at home, X15 = 1
     target_ = 0;
     at_home_ = true;
   }
@@ -272,7 +274,7 @@ bool AdamDriveSim::settle(TimePoint now) {
 void AdamDriveSim::inject_alarm(adam::AlarmCode code, TimePoint now) {
   alarm_.current = code;
   homing_ = false;
-  kinematics_.halt(now);  // [I] the drive stops on an alarm
+  kinematics_.halt(now);  // assumed (the manual does not say): the drive stops on an alarm
 }
 
 void AdamDriveSim::set_input(unsigned index, bool level, TimePoint now) {

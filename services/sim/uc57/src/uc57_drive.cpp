@@ -38,7 +38,7 @@ SdoAbortCode abort_code(od::AccessError error) {
 
 bool in_range(std::uint16_t index, std::uint16_t first, std::uint16_t last) { return index >= first && index <= last; }
 
-// EMCY contents of the UC57 alarms Err1..Err6 (spec §5.4, an inference: the manual gives none).
+// EMCY contents of the UC57 alarms Err1..Err6 (CiA 301 §7.2.7 codes, assumed: the manual gives none).
 struct AlarmEmcy {
   std::uint16_t code;
   std::uint8_t error_register;
@@ -112,7 +112,7 @@ void Uc57DriveSim::boot(TimePoint now, bool communication_only) {
       if (const auto t = cia402::find_event_transition(state_, event)) state_ = t->to;
     }
   }
-  // Initialisation ends with the boot-up message and Pre-operational (spec §1.3).
+  // Initialisation ends with the boot-up message and Pre-operational (manual §4.1.2).
   send(canopen::encode_heartbeat(node_, canopen::NmtState::kBootUp));
   nmt_ = canopen::NmtState::kPreOperational;
   restart_heartbeat();
@@ -405,7 +405,7 @@ void Uc57DriveSim::apply_rpdo(unsigned number, std::span<const std::uint8_t> pay
 
 void Uc57DriveSim::on_sync() {
   if (nmt_ != canopen::NmtState::kOperational) return;
-  // Buffered synchronous RPDOs first, in ascending RPDO number (spec §8.6).
+  // Buffered synchronous RPDOs first, in ascending RPDO number (not stated in the manual: assumed).
   for (unsigned n = 1; n <= 4; ++n) {
     if (auto buffered = std::move(rpdo_buffer_[n - 1])) {
       rpdo_buffer_[n - 1].reset();
@@ -633,7 +633,7 @@ void Uc57DriveSim::stop_motion(double deceleration) {
   settle();
 }
 
-// --- profile position (manual §4.2.4, spec §3.1.4) ---
+// --- profile position (manual §4.2.4, §7 MC_MOVABS/MC_MOVREL) ---
 
 void Uc57DriveSim::accept_set_point(bool change_immediately) {
   SetPoint set_point{stored(idx::kTargetPosition, 0), cia402::is_set(controlword_, ControlBit::kRelative), frame_utime_};
@@ -744,7 +744,7 @@ void Uc57DriveSim::finish_homing(bool succeeded) {
   motion_.target = home_value;
 }
 
-// --- faults (manual §6, spec §5) ---
+// --- faults (manual §6, §4.2.1) ---
 
 void Uc57DriveSim::fault(const canopen::Emergency& emergency) {
   if (activity_ != Activity::kIdle) {
@@ -765,7 +765,7 @@ void Uc57DriveSim::try_fault_reset() {
   for (unsigned code = 1; code <= kAlarms.size(); ++code) {
     if (kAlarms[code - 1].needs_power_cycle) latched = static_cast<std::uint16_t>(latched | (1U << (code - 1)));
   }
-  fault_bits_ &= latched;  // auto-reset alarms clear; power-off alarms stay (spec §5.3)
+  fault_bits_ &= latched;  // auto-reset alarms clear; power-off alarms stay (manual §6; the reset rule is assumed)
   if (fault_bits_ != 0) return;
   stalled_ = false;
   if (state_ == State::kFault) {

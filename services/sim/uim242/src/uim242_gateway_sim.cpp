@@ -17,7 +17,7 @@ using uim242::Mnemonic;
 
 namespace {
 
-// MCFG bits (EN/CN §5.4, spec §4.2).
+// MCFG bits (EN/CN §5.4).
 constexpr std::uint16_t kMcfgReadZero = 0x1080;  // bits 12 and 7 are unimplemented
 constexpr std::uint16_t kCm = 1u << 10;
 constexpr std::uint16_t kAm = 1u << 9;
@@ -32,7 +32,7 @@ constexpr std::uint16_t kS34P4Bits = 0x0F00;  // P4LVL and P4EVENT, cleared by D
 constexpr double kInstantRate = 1e12;
 // Module byte of MDL (EN/CN #22): internal encoder, closed loop, advanced motion, 3 sensor ports.
 constexpr std::uint8_t kModules = 0x73;
-// CN §7.8 factory group STO0: acceleration, deceleration, MMS, MMD (G19).
+// CN §7.8 factory group STO0: acceleration, deceleration, MMS, MMD (EN #43 gives other values).
 constexpr std::int64_t kFactoryRamp = 250;
 constexpr std::int64_t kFactoryJump = 1000;
 
@@ -40,7 +40,7 @@ std::int64_t steady_us(TimePoint t) {
   return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
 }
 
-// Sensor action codes (EN/CN §8.4, spec §4.3) that the simulator carries out.
+// Sensor action codes (EN/CN §8.4, §8.6) that the simulator carries out.
 enum Action : std::uint8_t {
   kNoRtcn = 0x0, kDecelerate = 0x3, kEmergencyStop = 0x4, kResetPosition = 0x6,
   kResetDecelerate = 0xB, kResetEmergencyStop = 0xC, kOff = 0xF,
@@ -123,7 +123,7 @@ class Uim242GatewaySim::Controller {
       case Mnemonic::ICF:
         if (set) icfg_ = static_cast<std::uint16_t>(v & 0x000F);  // bits 15..4 read 0
         reply_value(icfg_);
-        if (set) power_up(now);  // an ICFG write reboots the controller; the ACK goes first [INF]
+        if (set) power_up(now);  // an ICFG write reboots the controller (EN/CN §5.1); the ACK goes first (assumed)
         break;
       case Mnemonic::MAC: if (set) acceleration_ = v; reply(std::array<std::int64_t, 2>{(mcfg_ & kAm) ? 1 : 0, acceleration_}); break;
       case Mnemonic::MDE: if (set) deceleration_ = v; reply(std::array<std::int64_t, 2>{(mcfg_ & kDm) ? 1 : 0, deceleration_}); break;
@@ -259,8 +259,8 @@ class Uim242GatewaySim::Controller {
                           static_cast<std::int32_t>(position(now) - displacement_origin_)};
   }
 
-  // Rate in pps/s for a speed change of `delta` pps (spec §5.5): value mode as is, period mode
-  // from the ramp time, basic motion at once.
+  // Rate in pps/s for a speed change of `delta` pps (AM/DM, EN/CN §5.4, §7.8): value mode as is,
+  // period mode from the ramp time (not stated in the manuals: assumed), basic motion at once.
   [[nodiscard]] double rate(std::int64_t setting, bool period_mode, double delta) const {
     if (!(mcfg_ & kCm)) return kInstantRate;
     if (!period_mode) return static_cast<double>(std::max<std::int64_t>(setting, 1));
@@ -522,7 +522,7 @@ void Uim242GatewaySim::send(const Frame& frame) {
 }
 
 void Uim242GatewaySim::execute(const uim242::InstructionChunk& chunk, TimePoint now) {
-  // Errors are never silent, not even inside a macro (spec §1.4 [INF]).
+  // Errors are never silent, not even inside a macro (EN/CN §2.3 do not say: assumed).
   if (chunk.oversize) {
     send(uim242::make_error(uim242::ErrorCode::syntax_error));
     return;

@@ -72,8 +72,8 @@ std::uint8_t* protocol_register(Uim342Drive::Parameters& p, std::uint8_t i) {
 
 std::int32_t wire32(std::int64_t value) { return static_cast<std::int32_t>(value); }  // s32 counter wraps
 
-// ER[0] and ER[10] are the latest error, ER[11..18] the earlier ones (digest X-20); ER[6], the
-// power-on error, is never set by the simulator.
+// ER[0] and ER[10] are the latest error, ER[11..18] the earlier ones (the §5.6 table; §2.3 says
+// "latest + 7"); ER[6], the power-on error, is never set by the simulator.
 std::optional<std::size_t> history_slot(std::uint8_t index) {
   if (index == u::kErrorSlotLatest) return 0;
   if (index >= u::kErrorSlotHistoryFirst && index <= u::kErrorSlotHistoryLast) return index - u::kErrorSlotHistoryFirst;
@@ -109,8 +109,8 @@ void Uim342Drive::on_frame(const can::Frame& frame, TimePoint now) {
   const u::Message& message = decoded->message;
   const auto instruction = u::decode_instruction(message);
   if (!instruction) {
-    // ML without the ACK bit does not exist: ignored (digest §4.5). Everything else the codec
-    // cannot read is an unknown function or a DL fitting no form: syntax error (§5.3 [I]).
+    // ML without the ACK bit does not exist (§5.4): ignored. Everything else the codec
+    // cannot read is an unknown function or a DL fitting no form: syntax error (0x32, §2.3; assumed).
     if (instruction.error() != make_error_code(u::CodecErrc::ack_form_not_supported)) {
       reject(u::DriveErrc::syntax_error, message.control_word, 0, address.producer);
     }
@@ -334,7 +334,7 @@ void Uim342Drive::store(const Instruction& instruction, Parameters& target, std:
 bool Uim342Drive::persists(const Instruction& instruction, std::uint8_t group) const {
   switch (instruction.function) {
     case FC::PP: case FC::IC: case FC::IE: case FC::BL: return true;  // FLASH (§5.1), IC/IE/BL too
-    case FC::JV: return false;                                         // RAM (§7.11)
+    case FC::JV: return false;                                         // RAM (§5.18)
     case FC::SP: case FC::PR: case FC::PA: return group != 0 && !driver_on_;  // group 0: desired values, RAM
     default: return !driver_on_;  // QE MT AC DC SS SD IL TG: EEPROM only while the driver is off
   }

@@ -77,7 +77,7 @@ TimePoint Uim342Drive::process(TimePoint now) {
     PendingInput& pending = pending_inputs_[port];
     if (pending.due <= now) {
       pending.due = kNever;
-      // Accepted only if the level held for the whole filter time (§4.2 [I]).
+      // Accepted only if the level held for the whole filter time (§4.2, §5.27 "filter"; assumed).
       if (inputs_[port] == pending.level && accepted_inputs_[port] != pending.level) accept_input(port, pending.level, now, pending.utime);
     }
     next = std::min(next, pending.due);
@@ -158,7 +158,7 @@ void Uim342Drive::begin(TimePoint now, std::int64_t utime) {
 
 void Uim342Drive::start_ptp(TimePoint now, std::int64_t target, const MotionGroup& group, std::int64_t utime) {
   // The direction comes from target - position, not from the sign of SP (§3.2). SP = 0 would
-  // never arrive: the drive holds (the manual is silent, [I]).
+  // never arrive: the drive holds (the manual is silent: assumed).
   const double speed_magnitude = std::abs(static_cast<double>(group.speed));
   if (speed_magnitude == 0 && target != position(now)) return;
   kinematics_.move_to(now, target + origin_offset_, profile(group, std::max(speed_magnitude, 1.0)));
@@ -182,7 +182,7 @@ void Uim342Drive::start_jog(TimePoint now, double velocity, const MotionGroup& g
 void Uim342Drive::stop_with(TimePoint now, double rate, bool emergency, std::int64_t utime) {
   if (!motion_.active) return;
   kinematics_.stop(now, rate, active_.cut_in_speed);
-  motion_.aborted = true;  // PAIF stays 0 (digest §7.4)
+  motion_.aborted = true;  // PAIF stays 0 (§3.7, §5.12 do not say: assumed)
   motion_.ended_by_utime = utime;
   emergency_stopping_ = emergency;
   finish_if_done(now);

@@ -60,7 +60,7 @@ Uim342Drive::Parameters setup_parameters(const config::Drive& drive, const Uim34
   p.bit_rate_code = identity.bit_rate_code;
   p.node_id = static_cast<std::uint8_t>(drive.node_id);
   p.group_id = static_cast<std::uint8_t>(drive.group_id);
-  // IL default: no action, wait for a real edge (digest §7.1: bytes 0x80/0x80).
+  // IL default: no action, wait for a real edge (manual §5.26: bytes 0x80/0x80).
   for (std::size_t port = 0; port < p.input_logic.size(); ++port) {
     p.input_logic[port] = u::InputActions{static_cast<std::uint8_t>(port), {}, {}};
   }

@@ -178,14 +178,14 @@ struct RegisterInfo {
 [[nodiscard]] const RegisterInfo& info(Reg reg) noexcept;
 
 // Programming area (§8.54): program steps and table data from register 300 (decimal) up.
-// [I] The manual gives no upper end; we take the rest of the address space.
+// The manual gives no upper end; we assume the rest of the address space.
 inline constexpr std::uint16_t kProgrammingAreaFirst = 300;
 inline constexpr std::uint16_t kProgrammingAreaLast = 0xFFFF;
 
 // Frame size limits of the drive: "an instruction should not exceed 200 bytes" (§8.54).
 inline constexpr std::size_t kMaxDriveFrameBytes = 200;
 inline constexpr std::uint16_t kMaxDriveWriteRegisters = 95;  // (200 − 9) / 2
-inline constexpr std::uint16_t kMaxDriveReadRegisters = 97;   // [I] keeps the reply ≤ 200 bytes
+inline constexpr std::uint16_t kMaxDriveReadRegisters = 97;   // assumed (§6 gives no limit): keeps the reply ≤ 200 bytes
 
 // Node addresses (§5): 0 = broadcast, 1…64 = nodes.
 inline constexpr std::uint8_t kMaxNodeAddress = 64;
@@ -212,8 +212,9 @@ inline constexpr std::uint8_t kMaxNodeAddress = 64;
   return static_cast<std::uint16_t>(value);
 }
 
-// Version strings (§8.1, §8.2). [I] The two registers form a UINT32 (low word first) holding a C
-// string least significant byte first: registers {0x3731, 0x0030} → "170".
+// Version strings (§8.1, §8.2). Not stated in the manual (assumed): the two registers form a UINT32
+// (low word first) holding a C string least significant byte first: registers {0x3731, 0x0030} →
+// "170".
 [[nodiscard]] std::string decode_version(std::uint16_t at_n, std::uint16_t at_n_plus_1);
 
 // Value of one register entry from its registers (count() words), sign-extended for signed types.
@@ -224,17 +225,17 @@ inline constexpr std::uint8_t kMaxNodeAddress = 64;
 // --- Register-level access rules for a slave ----------------------------------------------------
 
 struct AccessRules {
-  // Undocumented addresses (the holes of §7, spec 2.1): read as 0 instead of exception 0x02.
+  // Undocumented addresses (the holes of the §7 table): read as 0 instead of exception 0x02.
   bool holes_read_as_zero = false;
   // Writes that cover only one half of a 32-bit register: accepted instead of exception 0x02.
-  // [I] The manual always writes both halves in one FC 0x10 frame.
+  // The manual does not say; its examples always write both halves in one FC 0x10 frame.
   bool allow_partial_32bit_write = false;
-  // Reject values outside the documented range with exception 0x03. [I] The real drive's
-  // behaviour is unknown.
+  // Reject values outside the documented range with exception 0x03. The real drive's
+  // behaviour is not stated in the manual.
   bool check_value_ranges = true;
 };
 // FC 0x03: every address documented (or holes allowed), quantity ≤ 125. Reading a write-only
-// command register is allowed (it returns whatever the slave stores, spec 3.9).
+// command register is allowed (it returns whatever the slave stores; the manual does not say).
 [[nodiscard]] std::optional<rtu::ExceptionCode> check_read(std::uint16_t start, std::uint16_t quantity,
                                                             const AccessRules& rules = {}) noexcept;
 // FC 0x06 / 0x10: every address documented and writable (0x02), no split 32-bit entry (0x02),

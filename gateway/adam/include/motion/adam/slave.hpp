@@ -8,7 +8,7 @@
 //   * broadcasts (unit 0) are executed but never answered (§5); the restart command
 //     0x00D4 = 0x0100 is never answered (§8.67);
 //   * ExceptionMode::silent makes the slave send no exception frames at all (the real drive's
-//     exception behaviour is undocumented, spec 1.3).
+//     exception behaviour is not described in the manual's §6).
 //
 // Thread contract: serve() is reentrant; the RegisterBank is called on the caller's thread and
 // its own thread-safety is the caller's business.

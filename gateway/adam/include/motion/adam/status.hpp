@@ -14,7 +14,7 @@
 
 namespace motion::adam {
 
-// Status bits 9…8 (X9 MSB, X8 LSB). [I] "about to start/stop" read as the ramp phases.
+// Status bits 9…8 (X9 MSB, X8 LSB; §8.4). "about to start/stop" read as the ramp phases (assumed).
 enum class MotionPhase : std::uint8_t { idle = 0, accelerating = 1, decelerating = 2, cruising = 3 };
 
 struct DriveStatus {
@@ -33,7 +33,7 @@ struct DriveStatus {
   bool deviation_negative = false;        // bit 20, X20: sign of the position deviation
 
   [[nodiscard]] bool input(unsigned n) const noexcept { return n < 8 && ((inputs >> n) & 1U) != 0; }
-  // Motion in progress: a ramp/cruise phase, or not yet in position (spec 3.9).
+  // Motion in progress: a ramp/cruise phase, or not yet in position (bits 9…8 and X12, §8.4).
   [[nodiscard]] bool moving() const noexcept { return phase != MotionPhase::idle || !in_position; }
   [[nodiscard]] bool at_limit() const noexcept { return negative_limit || positive_limit; }
   friend bool operator==(const DriveStatus&, const DriveStatus&) = default;
@@ -55,9 +55,9 @@ enum class AlarmCode : std::uint8_t {
   phase_a_open = 4,
   phase_b_open = 5,
   position_error = 6,
-  internal_24v_fault = 7,   // manual: "internal 24V offset" [I]
-  phase_a_voltage = 8,      // manual: "AI voltage error" [I]
-  phase_b_voltage = 9,      // manual: "BI voltage error" [I]
+  internal_24v_fault = 7,   // manual (§8.52): "internal 24V offset"; name assumed
+  phase_a_voltage = 8,      // manual (§8.52): "AI voltage error"; name assumed
+  phase_b_voltage = 9,      // manual (§8.52): "BI voltage error"; name assumed
   encoder_error = 10,
 };
 // The manual's text for the code ("Over-current", …), "Unknown alarm" for 11…15.

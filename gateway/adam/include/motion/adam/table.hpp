@@ -1,8 +1,8 @@
 // Table data (§8.54) and the synchronized start it enables: the only documented way to start
-// DIFFERENT targets on several ADAM drives with ONE frame (spec §4, recipe "Option A").
+// DIFFERENT targets on several ADAM drives with ONE frame (a broadcast, §5, of 0x00DD, §8.54).
 //
 // Layout: the table lives in the programming area (register 300 = kProgrammingAreaFirst and up).
-// 0x00AC holds its start as an offset from register 300 ([I], from the §8.54 example: offset 200
+// 0x00AC holds its start as an offset from register 300 (inferred from the §8.54 example: offset 200
 // for data at register 500); entry k (INT32, low word first) occupies registers
 // 300 + start + 2k and +1. 0x00AA = number of entries, 0x00AB = pointer of the next entry.
 // Writing 0x00DD (TableExecute) runs the entry at the pointer (absolute target or relative
@@ -11,8 +11,8 @@
 // Synchronized start: preload every node with unicast frames (profile, table entry, size,
 // pointer, start), then send ONE broadcast 0x00DD = TableExecute{absolute, add, 0}
 // (00 06 00 DD 00 00 18 21); nobody replies, so poll each node's status afterwards.
-// [I] Whether the real drive needs a Save (0x00DC = 1) before table data can be executed is not
-// stated; this preload does not save (flash wear), the driver must verify on hardware.
+// Whether the real drive needs a Save (0x00DC = 1) before table data can be executed is not
+// stated (§8.54, §8.69); this preload does not save (flash wear), the driver must verify on hardware.
 //
 // Thread contract: pure functions, thread-safe.
 #pragma once
@@ -45,8 +45,8 @@ inline constexpr std::uint16_t kMaxTablePointer = 4095;   // 0x00AB range
                                                                   std::uint16_t max_registers_per_frame =
                                                                       kMaxDriveWriteRegisters - 1);
 
-// Motion profile preloaded per drive before a synchronized start ([I] spec 3.1 step 5, 3.2: all
-// moves use the working speed). Start/stop speeds rpm, ramp times ms, speed in 0.01 rpm.
+// Motion profile preloaded per drive before a synchronized start (§8.40–§8.44, §8.64; assumed, not
+// stated: all moves use the working speed). Start/stop speeds rpm, ramp times ms, speed in 0.01 rpm.
 struct MotionProfile {
   std::uint16_t start_speed_rpm = 50;        // 0x0096, 0…300
   std::uint16_t stop_speed_rpm = 50;         // 0x0097, 0…1000
@@ -56,7 +56,7 @@ struct MotionProfile {
   friend bool operator==(const MotionProfile&, const MotionProfile&) = default;
 };
 // Two FC 0x10 frames: 0x0096…0x0099 (4 registers) and 0x00D8 (2 registers, low word first).
-// [I] 0x009A is not written: the spec reads 0x009A and 0x00D8 as one setpoint.
+// 0x009A is not written: 0x009A (§8.44) and 0x00D8 (§8.64) are taken as one setpoint (an assumption).
 [[nodiscard]] Result<std::vector<rtu::Request>> profile_writes(std::uint8_t unit, const MotionProfile& profile);
 
 // Everything one node needs before the broadcast: the profile, the target as table entry 0 at

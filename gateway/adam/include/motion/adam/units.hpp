@@ -5,7 +5,8 @@
 //
 // Every quantizer returns the integer the drive accepts AND the value it realizes, or
 // AdamErrc::value_out_of_range / non_finite / invalid_subdivision. Rounding: nearest, ties away
-// from zero. [I] Step rate = rpm × subdivision / 60 (spec 3.10).
+// from zero. Step rate = rpm × subdivision / 60 (not stated in the manual: assumed from §8.29,
+// §8.44).
 //
 // Thread contract: pure functions, thread-safe.
 #pragma once

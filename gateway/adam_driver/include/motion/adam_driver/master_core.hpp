@@ -3,17 +3,17 @@
 // clock, no timer: AdamBusDriver (adam_bus_driver.hpp, a gateway::SerialBusDriver) is the thin
 // poll-loop shell around it, and tests drive it with scripted bytes and an explicit `now`.
 //
-// The line (manual §1, §5; spec 1.3, 1.6):
+// The line (manual §1, §5, §6; the manual states no timing):
 //  * one request at a time; the reply must arrive within the drive's request_timeout_ms
 //    (configuration; measured from the end of the request on the wire), else it is retried up to
 //    `retries` times; a drive that never answers fails the command with a reason naming the drive,
 //    its slave id and the register;
 //  * a reply ends at its expected length (known from the request) or after t3.5 of silence;
 //    CRC errors and malformed replies are counted, reported as PROTOCOL_ERROR events and retried;
-//  * Modbus exception replies (undocumented by the manual, spec 1.3) fail the command at once
+//  * Modbus exception replies (not described in the manual's §6) fail the command at once
 //    (the drive refused; repeating would not help) and are reported as ERROR_REPORT events;
 //  * broadcasts (unit 0) get no reply (§5): after one the core keeps the line silent for t3.5
-//    plus a guard time before the next frame (spec 1.6).
+//    plus a guard time before the next frame (not stated in the manual: assumed).
 //
 // Commands (gateway_command_t, drive counts), one terminal reply each (DONE or FAILED; ARM_MOVE
 // first ARMED, then STARTED when fired, then DONE/FAILED):
@@ -22,7 +22,7 @@
 //  * ARM_MOVE: per axis the profile (0x0096/0x0097 start/stop speed = 0 so the ramps are the
 //    planned ones, 0x0098/0x0099 ramp times, 0x00D8 speed) and the target as table entry 0
 //    (§8.54: size 1, pointer 0, start offset 200 → register 500). fire(): ONE broadcast
-//    0x00DD = 0 ("execute own table entry, absolute, pointer + 0", spec §4 recipe A) starts every
+//    0x00DD = 0 ("execute own table entry, absolute, pointer + 0", §5, §8.54) starts every
 //    drive at once: start_mechanism "broadcast". The broadcast reaches every drive of the line, so
 //    it is used only when every other drive is "neutral" (idle, its table entry 0 = its position:
 //    executing it moves nothing); otherwise the armed axes are started one by one with 0x00D0
@@ -32,7 +32,7 @@
 //    commands of those axes end FAILED ("stopped by command N").
 //  * JOG: 0x00CA jog word (§8.65②): speed in whole rpm (0…511), sign = direction; velocity 0 =
 //    ramped jog stop. DONE once the drive acknowledged (a jog runs until stopped).
-//  * HOME: the manual's homing (§8.48, spec 3.5): 0x009C low byte = the axis's home input (NPN,
+//  * HOME: the manual's homing (§8.48): 0x009C low byte = the axis's home input (NPN,
 //    active high), then 0x00C9 (direction from the velocity sign, speed in rpm, immediate stop on
 //    the sensor, no secondary pass). DONE when idle at home (X15); then target_counts, if not 0,
 //    is preset as the home position (0x00D2).
@@ -90,7 +90,7 @@ struct MasterSettings {
   std::string transport;               // for bus_stats_t, e.g. "simserial:rs485"
   adam::rtu::SerialFormat format;
   Duration poll_period = std::chrono::milliseconds(100);
-  Duration broadcast_guard = std::chrono::milliseconds(5);  // spec 1.6: "a few ms" after a broadcast
+  Duration broadcast_guard = std::chrono::milliseconds(5);  // not in the manual: assumed, a few ms after a broadcast
   std::vector<DriveSettings> drives;
 };
 

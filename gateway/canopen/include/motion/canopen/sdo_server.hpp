@@ -3,7 +3,7 @@
 // upload, toggle checking, stall timeout, client aborts) and hands whole values to the owner's
 // object access handlers, which decide the abort codes of the object dictionary.
 //  - Uploads of 1..4 bytes are answered expedited, longer ones segmented (or always segmented
-//    with `segmented_uploads`, the D-27 behaviour).
+//    with `segmented_uploads`, as the test vector D-27 expects).
 //  - A segmented transfer that stalls longer than `segment_timeout` is aborted with 05040000h.
 //  - Unknown or block-transfer command specifiers abort with 05040001h; a segment outside a
 //    transfer too. A wrong toggle aborts with 05030000h. A segmented download whose byte count
@@ -48,7 +48,7 @@ struct SdoServerHandlers {
 
 struct SdoServerConfig {
   Duration segment_timeout = std::chrono::seconds(1);
-  bool segmented_uploads = false;  // answer every upload segmented (spec D-27)
+  bool segmented_uploads = false;  // answer every upload segmented (test vector D-27)
 };
 
 class SdoServer {

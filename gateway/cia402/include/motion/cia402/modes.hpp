@@ -97,9 +97,9 @@ class NewSetPointHandshake {
   TimePoint deadline_ = kNever;
 };
 
-// The controlword of a PP set-point: Enable operation + bits 4, 5, 6, 8. Spec vectors: 0x000F,
-// 0x001F (absolute start), 0x004F, 0x005F (relative start), 0x002F/0x003F and 0x006F/0x007F
-// (change immediately), 0x010F (halt).
+// The controlword of a PP set-point: Enable operation + bits 4, 5, 6, 8 (manual §4.2.2, §4.2.4).
+// Vectors: 0x000F, 0x001F (absolute start), 0x004F, 0x005F (relative start), 0x002F/0x003F and
+// 0x006F/0x007F (change immediately), 0x010F (halt).
 [[nodiscard]] std::uint16_t profile_position_controlword(SetPointOptions options, bool new_set_point, bool halt);
 
 }  // namespace motion::cia402

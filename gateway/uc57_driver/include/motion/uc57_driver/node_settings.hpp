@@ -28,7 +28,7 @@ namespace motion::uc57_driver {
 
 enum class TpdoMode : std::uint8_t { kSync, kEvent };
 
-// CiA 301 transmission types used for the UC57's PDOs (§1.8.1 of the spec digest).
+// CiA 301 transmission types used for the UC57's PDOs (CiA 301 §7.5.2.35/37; manual §5 comm. table).
 inline constexpr std::uint8_t kTransmissionSyncEveryCycle = 1;
 inline constexpr std::uint8_t kTransmissionEventDriven = 255;
 

@@ -1,7 +1,7 @@
 // The UC57's process data as this driver uses it: the RPDO that carries the controlword to the
 // drive (applied at SYNC) and the TPDOs that report statusword, inputs and position.
 //
-// RPDO1 has two layouts (spec digest §8.2-§8.4):
+// RPDO1 has two layouts (CiA 301 §7.2.2, §7.5.2.35-38; the manual's §5 comm. table):
 //  - kControlwordTarget (preferred, CiA 301 remap): 6040h + 607Ah, 48 bits, transmission type 1.
 //    Target and new-set-point bit arrive in one frame and are applied atomically at the SYNC.
 //    Profile velocity (6081h) does not fit as well (16 + 32 + 32 = 80 bits > 64): it goes by SDO.

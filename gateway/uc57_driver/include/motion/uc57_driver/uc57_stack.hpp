@@ -8,7 +8,7 @@
 //
 // Thread contract: single-threaded; every method runs on the gateway's poll-loop thread.
 //
-// What it implements (manual = UC57 user manual, seeds/002; digest = shared/spec/uc57-canopen.md):
+// What it implements (manual = UC57 user manual):
 //  - Start-up per node (CiA 301 §7.2.8, manual §4.1.2): probe by SDO read of 1000h (low word 0192h =
 //    CiA 402) and 1018h:01 (vendor 322h), NMT pre-operational, setup keys -> 2006h/2005h written and
 //    read back (manual §5.1), 1017h producer heartbeat (no node guarding: 100Ch/100Dh are absent),
@@ -24,11 +24,12 @@
 //    transition 15), ESTOP (quick stop 0x02, transition 11), STOP (halt, bit 8). A STOP/ESTOP
 //    naming an offline node still stops every reachable one, then FAILS naming the offline one.
 //  - Once a node is operational its controlword only travels in RPDO1, queued one image per SYNC
-//    cycle (digest §8.3 caveat: an SDO write of 6040h would be overwritten at the next SYNC).
-//  - Synchronized start (digest §8, manual §4.2.4 PP set-point handshake): ARM_MOVE writes 6060h = 1,
-//    6081h/6083h/6084h by SDO (and 607Ah by SDO in the fallback layout), leaves bit 4 at 0 -> ARMED;
-//    fire() sends every armed node's RPDO1 with bit 4 = 1 then ONE SYNC -> STARTED ("sync", skew 0);
-//    bit 12 acknowledged -> bit 4 cleared; DONE when bit 10 (target reached) or bit 15 on every axis.
+//    cycle (an SDO write of 6040h would be overwritten at the next SYNC, CiA 301 §7.2.2).
+//  - Synchronized start (CiA 301 §7.2.2/§7.2.5 synchronous RPDOs, manual §4.2.4 PP set-point
+//    handshake): ARM_MOVE writes 6060h = 1, 6081h/6083h/6084h by SDO (and 607Ah by SDO in the
+//    fallback layout), leaves bit 4 at 0 -> ARMED; fire() sends every armed node's RPDO1 with bit 4
+//    = 1 then ONE SYNC -> STARTED ("sync", skew 0); bit 12 acknowledged -> bit 4 cleared; DONE when
+//    bit 10 (target reached) or bit 15 on every axis.
 //  - JOG: profile velocity (6060h = 3, 60FFh; manual §4.2.5, §7 MC_JOG); HOME: homing mode
 //    (6060h = 6, 6098h/6099h/609Ah/607Ch, manual §4.2.6; result per conflict C-08);
 //    SET_OUTPUTS: 2030h:0D/0E output functions 5 (high) / 6 (low); SET_POSITION: 2012h (zero only);

@@ -1,9 +1,9 @@
 // Error vocabulary of the UIM242 string-protocol codec.
 //
 // * ErrorCode — the codes a UIM242 (or the gateway in front of it) returns in an error frame
-//   `EE code FF` (EN/CN §6.2; spec §1.5), in the std::error_category "uim242". The manuals write
+//   `EE code FF` (EN/CN §6.2), in the std::error_category "uim242". The manuals write
 //   them as `65` / `66` in the same hex notation as every other byte row, so the wire bytes are
-//   0x65 and 0x66 (spec §1.5 [INF]).
+//   0x65 and 0x66 (not stated in the manuals: assumed).
 // * CodecErrc — why this library refused to encode or decode something, category "uim242-codec".
 // * Result<T> — a T or a std::error_code (C++20 has no std::expected).
 // Thread contract: pure functions and immutable singletons, thread-safe.
@@ -36,7 +36,7 @@ enum class CodecErrc {
   value_out_of_range = 1,  // encode: value outside the instruction's range (would earn EE 66)
   value_required,          // encode: the instruction form needs a value
   value_not_allowed,       // encode: the instruction has no value form
-  hex_not_allowed,         // encode: no hex form documented for this instruction (spec §7 G23)
+  hex_not_allowed,         // encode: no hex form documented for this instruction (EN/CN §12.3)
   not_global,              // encode: no g... form of this instruction
   bad_header,              // decode: frame does not start with AA, CC or EE
   bad_terminator,          // decode: frame does not end with FF or FE

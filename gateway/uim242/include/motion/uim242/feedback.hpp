@@ -1,22 +1,24 @@
 // UIM242 feedback (controller/gateway -> host): frame layout, the reply catalogue per
 // instruction, status, notifications, errors, and incremental framing of the byte stream.
-// EN/CN §2.2, §4, §6.2-§6.3, §12.2-§12.3; spec §2.
+// EN/CN §2.2, §4, §6.2-§6.3, §12.2-§12.3.
 //
 // Frame: `[AA|CC|EE] [ID] [message id] [7-bit data...] [FF|FE]`, at most 13 bytes documented.
 // * AA = ACK of an instruction, CC = status (FBK, live values, RTCN), EE = error.
 // * The basic ACK (AA) and the FBK status (CC) have no message id: ID is followed directly by
-//   10 data bytes (a data byte < 0x80 where the message id would be, spec §2.2).
-// * Error frames are `EE code FF`; `EE id code FF` is accepted too (spec §1.5).
+//   10 data bytes (a data byte < 0x80 where the message id would be; our reading of §12.2).
+// * Error frames are `EE code FF` (EN/CN §6.2); `EE id code FF` is accepted too (not in the manuals).
 // * The gateway greeting `AA AB AC ...` has a byte >= 0x80 in the id position (EXT-2501 §2.2).
 //
-// Decisions (spec §7):
-// * ORG reply (G13): the simulator uses CN `CC id B0 s32` by default; reply_matches() accepts EN
-//   `AA id B7 s32` too.
-// * `AA B8` is both the QEC η and the SQT reply (G14): matching is by what was sent.
-// * A8 completion RTCN (G38): the 10-byte CN form (closed-loop flag + s32 position) by default,
-//   the 4-byte EN form accepted.
-// * Stall notification (G16): undocumented; `CC id AA FF` by default, the id is a parameter.
-// * FE terminator (G10): framed exactly like FF, with more_follows set.
+// Decisions where the manuals are silent or disagree:
+// * ORG reply (EN and CN #28/#29 differ): the simulator uses CN `CC id B0 s32` by default;
+//   reply_matches() accepts EN `AA id B7 s32` too.
+// * `AA B8` is both the QEC η and the SQT reply (EN/CN #30, #39/#40): matching is by what was sent.
+// * A8 completion RTCN (EN §4.1 vs CN §4.1): the 10-byte CN form (closed-loop flag + s32 position)
+//   by default, the 4-byte EN form accepted.
+// * Stall notification (MCFG.STLIE, EN/CN §5.4): message id undocumented; `CC id AA FF` by default,
+//   the id is a parameter.
+// * FE terminator (EN/CN §2.2, §12.2; tied to no instruction): framed exactly like FF, with
+//   more_follows set.
 // Thread contract: pure functions; FeedbackFramer is a single-threaded value type.
 #pragma once
 
@@ -34,7 +36,8 @@ enum class Header : std::uint8_t { ack = 0xAA, status = 0xCC, error = 0xEE };
 inline constexpr std::uint8_t kLastFrame = 0xFF;   // terminator: nothing follows
 inline constexpr std::uint8_t kMoreFrames = 0xFE;  // terminator: more frames follow
 
-// Message ids of the master table (spec §2.9). Replies and RTCNs share numbers across headers.
+// Message ids of the Instruction Set Summary and EN/CN §4.1, §12.3. Replies and RTCNs share numbers
+// across headers.
 namespace message {
 inline constexpr std::uint8_t kEnableTimer = 0xA0;     // AA: ENA η
 inline constexpr std::uint8_t kGlobalAck = 0xAD;       // AA/CC: global g... (QTY in the id byte)
@@ -67,7 +70,7 @@ inline constexpr std::uint8_t kSetId = 0xDD;
 inline constexpr std::uint8_t kBlc = 0xDE;             // AA: BLC; CC: MDL
 inline constexpr std::uint8_t kModel = 0xDE;
 inline constexpr std::uint8_t kGreeting = 0xAB;        // AA AB AC ... (EXT-2501)
-inline constexpr std::uint8_t kDefaultStall = 0xAA;    // G16 [INF]
+inline constexpr std::uint8_t kDefaultStall = 0xAA;    // not in the manuals (stall id undocumented): our choice
 }  // namespace message
 
 // A frame as split from the stream.
@@ -80,7 +83,7 @@ struct Frame {
   friend bool operator==(const Frame&, const Frame&) = default;
 };
 
-inline constexpr std::size_t kMaxFrameBytes = 16;  // spec appendix A: cap, then resync
+inline constexpr std::size_t kMaxFrameBytes = 16;  // not in the manuals (13 bytes at most documented, §12.2): cap, then resync
 
 // One complete frame (header .. terminator).
 [[nodiscard]] Result<Frame> parse_frame(std::span<const std::uint8_t> bytes);
@@ -107,7 +110,7 @@ enum class Layout : std::uint8_t {
 // Decodes the data into its fields in order (e.g. scf: {u32, atconl, atconh}; status: {asb, cur,
 // speed, displacement}; model: {0x18, 0x02, cur, modules, firmware}); signed fields sign-extended.
 [[nodiscard]] Result<std::vector<std::int64_t>> decode_fields(std::span<const std::uint8_t> data, Layout layout);
-// The inverse; fields are truncated to their wire width (e.g. SPD 40000 echoes as -25536, G7).
+// The inverse; fields are truncated to their wire width (e.g. SPD 40000 echoes as -25536, EN/CN #37).
 [[nodiscard]] std::vector<std::uint8_t> encode_fields(Layout layout, std::span<const std::int64_t> fields);
 
 // ---- Status (basic ACK and FBK) ---------------------------------------------------------------
@@ -129,9 +132,9 @@ struct Status {
 
 // ---- Replies ------------------------------------------------------------------------------------
 
-enum class OrgReplyStyle : std::uint8_t { cn, en };  // G13
+enum class OrgReplyStyle : std::uint8_t { cn, en };  // EN and CN #28/#29 differ
 
-// What a controller/gateway answers to an instruction (spec §2.6, §2.10, §3.2).
+// What a controller/gateway answers to an instruction (EN/CN §12.3, the Summary; EXT-2501 §2-§3).
 struct ReplyForm {
   Header header = Header::ack;
   std::optional<std::uint8_t> message_id;  // none: basic status
@@ -152,13 +155,13 @@ struct ErrorReply {
 [[nodiscard]] std::optional<ErrorReply> as_error(const Frame& frame) noexcept;
 [[nodiscard]] Frame make_error(ErrorCode code);
 
-// ---- Real-time change notifications (EN/CN §4; spec §2.8, §4.9) -------------------------------
+// ---- Real-time change notifications (EN/CN §4.0-§4.2, Table 4-1) -------------------------------
 
 enum class Event : std::uint8_t {
   s1_falling = 0xA0, s1_rising = 0xA1, s2_falling = 0xA2, s2_rising = 0xA3,
   s3_falling = 0xA4, s3_rising = 0xA5, p4_high_to_low = 0xA6, p4_low_to_high = 0xA7,
   displacement_complete = 0xA8, position_zero = 0xA9,
-  stall = 0x00,  // its message id is a parameter (G16)
+  stall = 0x00,  // its message id is a parameter (undocumented in EN/CN §5.4)
 };
 struct Notification {
   std::uint8_t node = 0;
@@ -185,7 +188,8 @@ struct Greeting {
 // Splits the gateway's byte stream into frames. Bytes arrive in arbitrary pieces. A frame starts
 // with AA/CC/EE and ends at the first FF/FE; bytes before a header are noise and skipped; a frame
 // that reaches kMaxFrameBytes without a terminator is dropped and the scan resumes at the next
-// byte (spec appendix A). Only complete byte runs come out; parse them with parse_frame().
+// byte (not stated in the manuals; our reading of §12.2). Only complete byte runs come out; parse
+// them with parse_frame().
 class FeedbackFramer {
  public:
   std::vector<std::vector<std::uint8_t>> push(std::span<const std::uint8_t> bytes);

@@ -1,23 +1,26 @@
 // UIM242 instructions (host -> UIM2501/2502 gateway -> controller): the ASCII string protocol of
-// EN/CN §2.2-§2.3 and §12.1-§12.3 (spec §1.3, §3), with one table that drives the encoder, the
+// EN/CN §2.2-§2.3 and §12.1-§12.3 (and the Summary), with one table that drives the encoder, the
 // parser (used by the simulator) and the range checks.
 //
 // Shapes: `INS η;` (decimal), `INSx η;` (hex, bytes low first, even digit count), `INS;`, and the
 // global `gINS[ η];` forms the gateway broadcasts (Summary). Each instruction including its `;`
 // is at most 20 characters of 7-bit ASCII (§12.1).
 //
-// Decisions where the manuals are silent or disagree (spec §7):
-// * Addressing (G1): the gateway keeps a sticky target selected by `ADR η;` (EXT-2501 §3.3), ACK
-//   `AA η D0 FF`. Gateway instructions ADR, SET, BTR, BDR, ABC and g... never reach a controller.
-// * Hex forms (G23): only MCF, ICF, ENA (2 bytes) and SCF, STG (register/value + index, 3 bytes);
-//   the byte count must match exactly, so the EN big-endian examples without IDX are rejected.
-//   The encoder always prefers the decimal form where one exists.
+// Decisions where the manuals are silent or disagree:
+// * Addressing (not in EN/CN §3.1): the gateway keeps a sticky target selected by `ADR η;`
+//   (EXT-2501 §3.3), ACK `AA η D0 FF`. Gateway instructions ADR, SET, BTR, BDR, ABC and g... never
+//   reach a controller.
+// * Hex forms (documented in EN/CN §12.3 only for these): only MCF, ICF, ENA (2 bytes) and SCF, STG
+//   (register/value + index, 3 bytes); the byte count must match exactly, so the EN big-endian
+//   examples without IDX are rejected. The encoder always prefers the decimal form where one
+//   exists.
 // * Error mapping: a form that does not exist (unknown mnemonic, value on FBK, `CUR;`, hex on
 //   SPD, malformed number, > 20 characters, non-ASCII) is a syntax error (EE 65); a value outside
 //   the documented set/range (CN #6 `CUR 81;`) is a value error (EE 66).
-// * MMS/MMD accept 0..65535 (the 16-bit echo; 0 disables the non-linear jump, G8). BTR accepts
-//   0..15 (index table missing, G3). `STO;` (EN only) is STO0 (G21). `MDL;` (EN Summary) asks
-//   the current target. The ghost instructions POS/DIR (spec §3.4) are not implemented.
+// * MMS/MMD accept 0..65535 (the 16-bit echo; 0 disables the non-linear jump, EN/CN §7.4). BTR accepts
+//   0..15 (the manuals give no index table). `STO;` (EN only) is STO0 (assumed). `MDL;` (EN
+//   Summary) asks the current target. POS/DIR (named in EN §2.3, §6.1, §7.6, never documented) are
+//   not implemented.
 // * Macros `{ ... }` (§2.3): the splitter strips the braces as they arrive and marks the
 //   instructions received between them silent (no ACK); `{CUR 20; ...; };` thus yields exactly
 //   the one ACK of the trailing null instruction.
@@ -97,14 +100,15 @@ inline constexpr std::size_t kMaxInstructionChars = 20;  // including the `;` (�
 // `ADR η;`: route the following instructions to controller η.
 [[nodiscard]] Result<std::string> encode_select(int node_id);
 
-// Parses one instruction: the text between two `;` (without the `;`), per the tokenizer of spec
-// §1.3 (filler between mnemonic and value, case-insensitive, sign, hex pairs). An empty/blank
-// chunk is the null instruction. Errors are ErrorCode values.
+// Parses one instruction: the text between two `;` (without the `;`), per EN/CN §1.6 and §12.1
+// (filler between mnemonic and value, case-insensitive, sign, hex pairs; the exact rules are our
+// reading of their examples). An empty/blank chunk is the null instruction. Errors are ErrorCode
+// values.
 [[nodiscard]] Result<Instruction> parse_instruction(std::string_view chunk);
 
 // ---- Register-addressed instructions --------------------------------------------------------
 
-// SCF suffix / IDX (EN/CN §8.6-§8.8 and every worked example: 2 = ATCONL, 3 = ATCONH; spec §4.6).
+// SCF suffix / IDX (EN/CN §8.6-§8.8 and every worked example: 2 = ATCONL, 3 = ATCONH).
 enum class SensorRegister : std::uint8_t { S12CON = 0, S34CON = 1, ATCONL = 2, ATCONH = 3 };
 struct ScfWrite {
   SensorRegister reg = SensorRegister::S12CON;
@@ -137,8 +141,9 @@ struct InstructionChunk {
 };
 
 // Bytes arrive in arbitrary pieces; a chunk is complete at its `;`. Text that never gets a `;`
-// stays pending (spec §1.3 rule 1: no ACK, no error). A run longer than kMaxPendingChars without a
-// `;` is discarded up to the next `;`, which then yields one oversize chunk (EE 65).
+// stays pending (not stated in the manuals: assumed no ACK, no error). A run longer than
+// kMaxPendingChars without a `;` is discarded up to the next `;`, which then yields one oversize
+// chunk (EE 65).
 class InstructionSplitter {
  public:
   static constexpr std::size_t kMaxPendingChars = 64;

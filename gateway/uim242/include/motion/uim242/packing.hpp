@@ -1,10 +1,11 @@
-// The 7-bit packing of numeric data in UIM242 feedback frames (EN §6.2, §12.2; spec §2.3).
+// The 7-bit packing of numeric data in UIM242 feedback frames (EN §6.2, §12.2).
 //
 // Every data byte carries 7 value bits (bit 7 is 0, so data never collides with the header and
 // terminator bytes). Groups arrive most significant first: a 16-bit value takes 3 bytes, a 32-bit
 // value 5 bytes, the 12-bit analog values 2 bytes. Pinned by the manual's MCF example
 // (`AA 05 B0 02 0E 33 FF` = 0x8733, EN/CN #17); the 32- and 12-bit layouts follow by analogy
-// (spec §7 G6). Signed fields are the two's complement of the unpacked 16/32-bit pattern.
+// (not stated: the manuals' conversion figures 10-1/10-2, 12-1/12-2 are missing). Signed fields are
+// the two's complement of the unpacked 16/32-bit pattern.
 // Thread contract: pure functions, thread-safe.
 #pragma once
 

@@ -1,5 +1,5 @@
 // The gateway-side protocol core of one RS232 bus: a UIM2501/2502 RS232-CAN gateway with UIM242
-// controllers behind it (manuals EN / CN Ver.1301/1302; spec uim242-string.md). Implements the
+// controllers behind it (manuals EN / CN Ver.1301/1302). Implements the
 // command semantics of motion::gateway::BusDriver in drive counts (pulses).
 //
 // Passive, fd-free: bytes and `now` in (on_bytes), bytes out (context.send), replies/status/events
@@ -19,10 +19,10 @@
 //   identified again every second.
 // * Polling at poll_hz, one request at a time: `FBK;` (enabled, speed) and `QEC;` (position).
 // * ARM_MOVE: `MAC a; MDE d; SPD 0;` (brakes whatever still runs), then at rest (below) `STP
-//   (target - position);` — the move is loaded with zero speed and does not run (spec §5.3 PT).
-//   STP is relative to the position at its receipt (EN/CN #44), so the position it is computed
-//   from is read with the motor at rest: a `QEC;` of a decelerating motor would leave the move
-//   off by the counts run meanwhile. ARMED when every axis is loaded.
+//   (target - position);` — the move is loaded with zero speed and does not run (PT mode, EN/CN
+//   §6.1). STP is relative to the position at its receipt (EN/CN #44), so the position it is
+//   computed from is read with the motor at rest: a `QEC;` of a decelerating motor would leave the
+//   move off by the counts run meanwhile. ARMED when every axis is loaded.
 // * "At rest" (settle): `FBK;` until the actual speed is 0 (re-asked every 10 ms, given up after
 //   10 s naming the drive and its speed), then `QEC;`: the real position goes out in the axis
 //   state, not moving, before whatever waited for it goes on.

@@ -1,5 +1,6 @@
 // One request at a time over the RS232 line to a UIM2501/2502 gateway: routing (`ADR η;` before
-// the first instruction for another controller, spec §3.1), reply matching, timeouts, retries.
+// the first instruction for another controller, EXT-2501 §3.3; EN/CN §3.1 are silent), reply
+// matching, timeouts, retries.
 //
 // A request is one instruction for one controller (node 5..125) or for the gateway (node 0:
 // ADR, g...). It ends exactly once: on_reply with the matching frame, or on_failure with a reason

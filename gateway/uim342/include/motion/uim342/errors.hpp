@@ -20,7 +20,7 @@
 
 namespace motion::uim342 {
 
-// Manual §2.3 "Error Code for UIM342" (spec §5.2). Values are the wire bytes.
+// Manual §2.3 "Error Code for UIM342". Values are the wire bytes.
 enum class DriveErrc : std::uint8_t {
   syntax_error = 0x32,               // instruction syntax error (also "#50": SP before PR/PA)
   data_error = 0x33,                 // instruction data error (value out of range / illegal)

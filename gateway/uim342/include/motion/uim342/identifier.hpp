@@ -1,5 +1,5 @@
 // SimpleCAN 3.0 addressing: the 7-bit IDs and the 29-bit CAN identifier layout.
-// Manual §2.5 "CAN-ID for SimpleCAN3.0" (spec §2): the identifier is SID[10:0] followed by
+// Manual §2.5 "CAN-ID for SimpleCAN3.0": the identifier is SID[10:0] followed by
 // EID[17:0]:
 //   bits 28..24 producer ID bits 4..0   bits 23..19 consumer ID bits 4..0   bit 18 = 0
 //   bits 17..16 producer ID bits 6..5   bits 15..14 consumer ID bits 6..5   bits 13..8 = 0
@@ -24,7 +24,7 @@ inline constexpr std::uint8_t kMaxId = 127;     // largest value the 7-bit field
 // tell them apart (PP[7] / PP[8] decide which a drive uses).
 enum class IdKind : std::uint8_t {
   global,         // 0
-  master,         // 1..4: outside the node range; 4 is the host's producer ID (spec §2.6)
+  master,         // 1..4: outside the node range; 4 is the host's producer ID (§2.5 example)
   node_or_group,  // 5..126
   unassignable,   // 127: encodable, but not a valid node/group ID
   out_of_range,   // > 127: does not fit the 7-bit fields

@@ -1,25 +1,25 @@
-// The UIM342 SimpleCAN 3.0 instruction set (manual §5.1-§5.28, spec §4): function codes, sub-index
-// enums, typed instruction/reply bodies, and one table of instruction forms that drives both the
-// encoder and the decoder.
+// The UIM342 SimpleCAN 3.0 instruction set (manual §5.1-§5.28, Instruction Set Summary): function
+// codes, sub-index enums, typed instruction/reply bodies, and one table of instruction forms that
+// drives both the encoder and the decoder.
 //
 // Model. An Instruction (host -> drive) is {function, get|set, ACK bit, body}; a Reply (drive ->
 // host, CW bit 7 = 0) is {function of its CW, body}. The body is one of a few wire layouts
 // (Empty, Index, Byte, IndexedWord, Unsigned, Signed, ...). Which layout a form uses is fixed by
 // the table (e.g. `AC` get = Empty, `AC=N` = Unsigned, AC reply = Unsigned). A query differs from
-// a set only by DL (spec §3 rule 3), so decoding picks the form by DL.
+// a set only by DL (§5), so decoding picks the form by DL.
 // Error reports (CW 0x0F) decode as Reply{ER, ErrorRecord}; real-time notifications (CW 0x5A) are
 // in notifications.hpp.
 //
-// Decisions where the manual is inconsistent (spec §9.6 / §10):
+// Decisions where the manual is inconsistent or silent:
 // * JV/SP/PR/PA set: encoded with 4 data bytes; decoded from 1..4 bytes, zero-extended (the
-//   manual's §2.5 examples send positive values in 2 bytes).
-// * MF has a get form; IL sub-index 16 (and its table alias 3) is the stall behaviour; ER slots
-//   0, 6, 10..18.
+//   manual's §2.5 examples send positive values in 2 bytes; §5.18-§5.21 define 4).
+// * MF has a get form (Summary; §5.13 shows only the set); IL sub-index 16 (§1.5; the §5.26 table
+//   says 3, kept as an alias) is the stall behaviour; ER slots 0, 6, 10..18 (§5.6).
 // * Reserved bytes inside DL (MS[0] d3, DI d2/d3, BG ACK d0..d3, ML d3/d6/d7 are kept) are written as
 //   zero and ignored when decoding.
 // * SY is the only instruction without an ACK form; a received 0xFE decodes as SY with the ACK
-//   bit set (the drive treats it like 0x7E, spec §4.9). ML exists only with the ACK bit: 0x0B
-//   is rejected.
+//   bit set (treated like 0x7E: §5.8 gives no ACK form, assumed). ML exists only with the ACK bit:
+//   0x0B is rejected.
 // Thread contract: pure functions over values and an immutable table, thread-safe.
 #pragma once
 
@@ -37,7 +37,7 @@
 
 namespace motion::uim342 {
 
-// CW bits 6..0 (manual "Instruction Set Summary", spec §4.0).
+// CW bits 6..0 (manual "Instruction Set Summary" and §5 headers).
 enum class FunctionCode : std::uint8_t {
   PP = 0x01, IC = 0x06, IE = 0x07, ML = 0x0B, SN = 0x0C, ER = 0x0F, MT = 0x10, MS = 0x11,
   MO = 0x15, BG = 0x16, ST = 0x17, MF = 0x18, AC = 0x19, DC = 0x1A, SS = 0x1B, SD = 0x1C,
@@ -114,7 +114,7 @@ inline constexpr std::uint16_t kTriggerContinuous = 0;     // TG: 1..60000 = low
 inline constexpr std::uint16_t kTriggerMaxFilterMs = 60000;
 inline constexpr std::uint16_t kTriggerOneTime = 60001;
 
-// IL action codes (§4.3, spec §4.26), bits 6..0 of an action byte.
+// IL action codes (§4.3, §5.26), bits 6..0 of an action byte.
 enum class InputAction : std::uint8_t {
   none = 0x00,
   driver_off = 0x01,
@@ -299,7 +299,7 @@ struct InstructionForms {
   AckForms ack_forms;
   FunctionCode set_ack;       // CW of the set ACK: the function itself, or DV for JV/SP/PR/PA
   std::uint8_t set_ack_index; // DV sub-index of that ACK (0 when set_ack is the function itself)
-  bool set_accepts_short;     // decode sets from 1..4 bytes
+  bool set_accepts_short;     // decode sets from 1..4 bytes (§2.5 examples)
 };
 
 // All instructions of §5.1-§5.28 (RT is not an instruction: see notifications.hpp).
@@ -383,12 +383,13 @@ namespace request {
 
 // ---- Drive side helpers (simulator) -------------------------------------------------------------
 
-// The ACK of a set, when it follows from the instruction alone (spec §3 rule 2): an echo for PP IC
-// IE QE MT MO MF AC DC SS SD BL IL TG; DV[i] for JV/SP/PR/PA; an all-zero record for ER[i]=0; no
-// data for BG (4 zero bytes), ST, OG. nullopt for gets, SY, and sets whose ACK reports drive state
-// (MS[0]=0, DI=N).
+// The ACK of a set, when it follows from the instruction alone (§2.1, §5.11, §5.18-§5.21): an echo
+// for PP IC IE QE MT MO MF AC DC SS SD BL IL TG; DV[i] for JV/SP/PR/PA; an all-zero record for
+// ER[i]=0; no data for BG (4 zero bytes), ST, OG. nullopt for gets, SY, and sets whose ACK reports
+// drive state (MS[0]=0, DI=N).
 [[nodiscard]] std::optional<Reply> echo_ack(const Instruction& set);
-// Error report for a rejected instruction (spec §5.1): d0 = 0, d2 = CW as received, d3 = sub-index.
+// Error report for a rejected instruction (§2.3, ER layout of §5.6; d0 = 0 assumed): d0 = 0, d2 =
+// CW as received, d3 = sub-index.
 [[nodiscard]] Reply error_report(DriveErrc error, std::uint8_t received_control_word, std::uint8_t sub_index);
 
 }  // namespace motion::uim342

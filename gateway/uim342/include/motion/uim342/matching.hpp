@@ -1,6 +1,6 @@
-// Matching drive frames to a pending request (spec §3.1). Key a pending request by (node ID,
-// expected reply); this header covers the part that depends on the frame content only — the
-// producer check (which node answered) is the caller's, because a group or global request is
+// Matching drive frames to a pending request (manual §2.1, §2.3, §2.4, §5). Key a pending request
+// by (node ID, expected reply); this header covers the part that depends on the frame content only
+// — the producer check (which node answered) is the caller's, because a group or global request is
 // answered by every addressed drive and only the caller knows group membership.
 // Thread contract: pure functions, thread-safe.
 #pragma once
@@ -24,7 +24,8 @@ struct ExpectedReply {
 // The ACK the drive sends when bit 7 is set. nullopt for SY (never answered) and unknown codes;
 // the ACK bit itself is not looked at (see expects_ack).
 [[nodiscard]] std::optional<ExpectedReply> ack_key(const Instruction& request);
-// ack_key when the request asked for an ACK, else nullopt (only error reports can follow, [I]).
+// ack_key when the request asked for an ACK, else nullopt (only error reports can follow; not
+// stated in §2.1, assumed).
 [[nodiscard]] std::optional<ExpectedReply> expected_reply(const Instruction& request);
 
 enum class ReplyKind : std::uint8_t {

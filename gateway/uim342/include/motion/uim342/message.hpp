@@ -1,6 +1,7 @@
-// The transport-neutral SimpleCAN message `CW DL d0..d7` (manual §2.1, spec §3) and its CAN
-// carriage (manual §2.5, spec §2): extended data frame, identifier from producer/consumer/CW,
-// DLC = DL, data = d0..d(DL-1). The serial gateway carriage is in uimessage.hpp.
+// The transport-neutral SimpleCAN message `CW DL d0..d7` (manual §2.1, §2.2) and its CAN
+// carriage (manual §2.5 "CAN-ID for SimpleCAN3.0"): extended data frame, identifier from
+// producer/consumer/CW, DLC = DL, data = d0..d(DL-1). The serial gateway carriage is in
+// uimessage.hpp.
 // Thread contract: pure functions over values, thread-safe.
 #pragma once
 
@@ -46,7 +47,8 @@ struct CanAddress {
   friend bool operator==(const CanAddress&, const CanAddress&) = default;
 };
 [[nodiscard]] constexpr CanAddress host_to(std::uint8_t target, std::uint8_t host = kMasterId) noexcept { return {host, target}; }
-// Replies go to the master ID (spec §2.5 [I]); hosts must not rely on the consumer of drive frames.
+// Replies go to the master ID (not stated in §2.5, assumed); hosts must not rely on the consumer of
+// drive frames.
 [[nodiscard]] constexpr CanAddress drive_to_host(std::uint8_t node, std::uint8_t host = kMasterId) noexcept { return {node, host}; }
 
 struct CanMessage {

@@ -1,4 +1,4 @@
-// Real-time notifications (RT, CW 0x5A), manual §2.4 / §5.29, spec §6: unsolicited drive frames
+// Real-time notifications (RT, CW 0x5A), manual §2.4 / §4.4 / §5.29: unsolicited drive frames
 // for alarms (DL 5: d0 = 0, d1 = alarm code), input edges (DL 1: d0 = 1..6) and "PTP positioning
 // finished" (DL 8: d0 = 0x29, [d7..d4] = position). Reserved bytes are written as zero and ignored
 // when decoding; unknown alarm codes are kept (a newer firmware may add some), unknown d0 values
@@ -56,7 +56,7 @@ struct InputEdgeNotification {
   friend bool operator==(const InputEdgeNotification&, const InputEdgeNotification&) = default;
 };
 struct PositionReachedNotification {
-  std::int32_t position = 0;  // absolute position [I]
+  std::int32_t position = 0;  // absolute position (assumed: §2.4 says "current position")
   friend bool operator==(const PositionReachedNotification&, const PositionReachedNotification&) = default;
 };
 using Notification = std::variant<AlarmNotification, InputEdgeNotification, PositionReachedNotification>;
@@ -66,7 +66,8 @@ using Notification = std::variant<AlarmNotification, InputEdgeNotification, Posi
 [[nodiscard]] Result<can::Frame> notification_frame(std::uint8_t node, const Notification& notification,
                                                     std::uint8_t host = kMasterId);
 
-// The IE[i] bit that gates the notification (§5.3); nullopt for alarms (always sent, [I]).
+// The IE[i] bit that gates the notification (§5.3); nullopt for alarms (always sent: §5.3 has no
+// enable bit for them, assumed).
 [[nodiscard]] std::optional<InformationEnable> enabled_by(const Notification& notification);
 
 // Everything a drive sends: ACK / error report, or notification.

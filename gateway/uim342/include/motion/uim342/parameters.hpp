@@ -1,7 +1,7 @@
-// Value ranges the drive accepts (spec §4.2-§4.28; §5.3 "value outside the documented range ->
-// 0x33, undefined sub-index -> 0x34") and the unit conversions a driver, the coordinator and the
-// simulator share: speeds in integer pulses/s (pps), AC/DC as pps^2 or as ramp time in ms
-// (IC[4]), current in 0.1 A, counts per revolution = micro-steps x 200 (§3.5).
+// Value ranges the drive accepts (manual §5.1-§5.28; error codes per §2.3, assumed: "value outside
+// the documented range -> 0x33, undefined sub-index -> 0x34") and the unit conversions a driver,
+// the coordinator and the simulator share: speeds in integer pulses/s (pps), AC/DC as pps^2 or as
+// ramp time in ms (IC[4]), current in 0.1 A, counts per revolution = micro-steps x 200 (§3.5).
 // Failed checks return DriveErrc codes (the error the drive itself would report).
 // Thread contract: pure functions, thread-safe.
 #pragma once

@@ -1,5 +1,5 @@
 // UIMessage: the 16-byte framing the UIM2513 (RS232), UIM2523 (Ethernet) and UIM2533 (USB)
-// gateways use for the same SimpleCAN messages (manual §2.6, Appendix-1; spec §8):
+// gateways use for the same SimpleCAN messages (manual §2.6, Appendix-1):
 //   byte 0 SM (0xAA = with CRC, 0xAD = without) | 1 ID | 2 CW | 3 DL | 4..11 d0..d7 | 12 d8 (aux)
 //   | 13 R0 = CRC low byte | 14 R1 = CRC high byte | 15 EM = 0xCC
 // CRC-16/MODBUS (poly 0xA001 reflected, init 0xFFFF). Which bytes it covers is ambiguous: the
@@ -56,7 +56,7 @@ struct DecodedUiMessage {
 [[nodiscard]] Result<DecodedUiMessage> decode_ui_message(std::span<const std::uint8_t> frame,
                                                          CrcAcceptance accept = CrcAcceptance::either);
 
-// The one ID byte of a UIMessage is the drive's side of the exchange (spec §8): the consumer of
+// The one ID byte of a UIMessage is the drive's side of the exchange (§2.6, §2.1): the consumer of
 // a host instruction, the producer of a drive frame (ACK, error report, notification). The host's
 // side is implicit: the gateway sends instructions as the master and hands every drive frame to
 // it. These map a SimpleCAN message to and from that form; `host` is the master ID (§2.5: 4).

@@ -1,4 +1,4 @@
-// Finding UIMessages in a serial byte stream (manual §2.6, spec §8). The line has no framing but
+// Finding UIMessages in a serial byte stream (manual §2.6, Appendix-1). The line has no framing but
 // SM (0xAA / 0xAD) and EM (0xCC) 15 bytes apart, so a receiver that starts mid-frame or sees line
 // noise resynchronizes by trying every SM byte as a frame start. A candidate whose EM, DL or CRC
 // is wrong gives up only its first byte: a real frame may begin inside it.

@@ -8,7 +8,7 @@
 // STARTED replies and status samples (injected, see Uim342Stack::WallClock).
 // Thread contract: single-threaded (the gateway's event-loop thread); no method blocks.
 //
-// Manual sections implemented (UIM342C/S/XS user manual V1.0; spec digest uim342-simplecan3.md):
+// Manual sections implemented (UIM342C/S/XS user manual V1.0):
 //   §2.1 ACK bit and replies, one outstanding request per node; §2.3 error reports (request fails,
 //   ERROR_REPORT event); §2.4/§5.29 notifications (alarms -> ALARM/STALL/LIMIT events and fault,
 //   input edges -> INPUT_EDGE, PTP finished -> in position); §2.5 identifiers (codec);

@@ -1,17 +1,19 @@
 // One simulated ADAM NEMA8–NEMA23 integrated stepper: the register bank a Modbus RTU slave
 // (motion::adam::serve) reads and writes, with the drive's behaviour behind the command
-// registers (manual §8.48, §8.51–§8.54, §8.64–§8.67; spec 3.10 "simulator motion model"):
+// registers (manual §8.48, §8.51–§8.54, §8.64–§8.67; the motion model itself is not stated in the
+// manual):
 //  * motion by motion::sim::Kinematics (exact trapezoid): speed 0x00D8 (0.01 rpm, kept in step
 //    with 0x009A rpm), start speed 0x0096 as the cut-in speed, ramps as TIMES 0x0098/0x0099 from
 //    the start speed to the target speed, pulses of the subdivision 0x0024;
 //  * 0x00C8 velocity run/stop/e-stop, 0x00CA jog, 0x00CE/0x00D0 (standstill only, otherwise
-//    echoed and ignored, spec gap 18), 0x00DE/0x00E8 (pre-empting), 0x00D2 preset, 0x00D4
-//    enable/release/restart, 0x00DD table entry execute, 0x00C9 homing, 0x00A0/0x00A1 outputs,
-//    0x00A4 alarm clear;
+//    echoed and ignored: assumed from §8.65④/⑥ "in stop state"), 0x00DE/0x00E8 (pre-empting),
+//    0x00D2 preset, 0x00D4 enable/release/restart, 0x00DD table entry execute, 0x00C9 homing,
+//    0x00A0/0x00A1 outputs, 0x00A4 alarm clear;
 //  * status 0x0006 from the motion (bits 9–8 phase, X12 in position, X15 home) and inputs;
-//  * [I] homing: the home switch is where the drive powered up (counter 0 at power-up), or the
-//    configured home input going active; homing travels to it, stops, zeroes the position, X15.
-//  * [I] 0x00CC timed run is stored but not acted on (no test or driver uses it).
+//  * homing (assumed, §8.48 does not say): the home switch is where the drive powered up (counter 0
+//    at power-up), or the configured home input going active; homing travels to it, stops, zeroes
+//    the position, X15.
+//  * 0x00CC timed run (§8.65) is stored but not acted on (no test or driver uses it).
 // Motion commands are ignored while released (0x00D4 = 1) or while an alarm is active.
 //
 // Thread contract: single-threaded; every call takes the current time via set_now()/`now`.
@@ -74,7 +76,7 @@ class AdamDriveSim final : public adam::RegisterBank {
   std::int64_t target_ = 0;
   bool enabled_ = true;
   bool homing_ = false;
-  bool at_home_ = true;  // [I] powered up on the home switch
+  bool at_home_ = true;  // assumed: powered up on the home switch
   std::uint8_t inputs_ = 0;
   adam::AlarmState alarm_{};
   bool motion_started_ = false;

@@ -5,7 +5,7 @@
 //  * request frames are delimited by t3.5 silence, or closed at once when their header gives the
 //    length and the CRC checks; frames with a bad CRC are discarded (never answered);
 //  * broadcasts (unit 0) are executed by every drive and answered by none (§5);
-//  * bad registers/values get Modbus exceptions (0x02/0x03, spec 1.3);
+//  * bad registers/values get Modbus exceptions (0x02/0x03; not described in the manual's §6);
 //  * replies go out after simulation.reply_latency_us (SIM_CONTROL REPLY_LATENCY per drive);
 //  * SIM_REPORT MOTION_STARTED carries frame_utime = the end of the frame that started the motion
 //    (its arrival on the pty), MOTION_FINISHED when the motion ends;

@@ -1,19 +1,20 @@
 // Simulated ADAMPOWER UC57 CANopen integrated stepper (CiA 301 + CiA 402) for motion-sim.
 //
-// Behaviour follows the UC57 spec digest (shared spec uc57-canopen.md) and, where it is silent,
-// its simulator recommendations:
-//  - CiA 301: boot-up on power-up and NMT resets (§1.7), NMT states with the services each allows
-//    (§1.3), SDO server over the UC57 object dictionary of motion::cia402 (§1.4, abort policy
-//    §1.4.3), producer heartbeat from 1017h, EMCY on 81h + n (1014h) with the §5.4 codes,
-//    4 RPDOs / 4 TPDOs configurable by SDO (§1.8; the RO markings of the manual are lifted by
-//    `pdo_configuration_writable`), synchronous RPDOs buffered and applied at SYNC in
-//    ascending RPDO number (§8.6), TPDOs at SYNC (types 0..240) or on change / event timer
-//    (254/255).
-//  - CiA 402: power state machine from the controlword (§2, table in motion::cia402), statusword
-//    composition of §2.7.2, profile position with the set-point handshake (bits 4/5/6, acks
-//    12, target reached 10, in position 15; §3.1), profile velocity (§3.2), homing methods 17, 18,
-//    24, 29, 41, 42 against simulated switches (§3.3), halt, quick stop, faults and
-//    fault reset (§5).
+// Behaviour follows the UC57 manual and CiA 301/402 and, where they are silent, assumptions
+// that the comments name:
+//  - CiA 301: boot-up on power-up and NMT resets (UC57 manual §4.1.2; CiA 301 §7.2.8.3.2), NMT
+//    states with the services each allows (CiA 301 §7.3.2), SDO server over the UC57 object
+//    dictionary of motion::cia402 (CiA 301 §7.2.4; abort policy assumed, codes per §7.2.4.3.17),
+//    producer heartbeat from 1017h, EMCY on 81h + n (1014h) with assumed codes (the manual gives
+//    none), 4 RPDOs / 4 TPDOs configurable by SDO (CiA 301 §7.5.2.35-38; the RO markings of the
+//    manual's §5 comm. table are lifted by `pdo_configuration_writable`), synchronous RPDOs
+//    buffered and applied at SYNC (CiA 301 §7.2.2, §7.2.5) in ascending RPDO number (assumed),
+//    TPDOs at SYNC (types 0..240) or on change / event timer (254/255).
+//  - CiA 402: power state machine from the controlword (manual §4.2.1/§4.2.2, table in
+//    motion::cia402), statusword bits of §4.2.2 composed as assumed where the manual is silent,
+//    profile position with the set-point handshake (bits 4/5/6, acks 12, target reached 10, in
+//    position 15; manual §4.2.4), profile velocity (§4.2.5), homing methods 17, 18, 24, 29, 41,
+//    42 against simulated switches (§4.2.6), halt, quick stop, faults and fault reset (§6).
 // Motion is exact (motion::sim::Kinematics): a PP move ends at the time the trapezoid says.
 //
 // Ground truth: MOTION_STARTED carries the end-of-frame time of the frame that started the motion
@@ -44,7 +45,7 @@
 
 namespace motion::sim {
 
-// Switches for the points the manual leaves open (spec §9). Positions are physical pulses: where
+// Switches for the points the manual leaves open. Positions are physical pulses: where
 // the axis is at power-up is 0; homing shifts the reported position, not the switches.
 struct Uc57SimOptions {
   bool pdo_configuration_writable = true;  // CiA 301 remap (14xxh/18xxh:01, 16xxh/1Axxh:00)
@@ -66,7 +67,7 @@ class Uc57DriveSim final : public CanDriveSim {
   void on_frame(const can::Frame& frame, TimePoint now) override;
   TimePoint process(TimePoint now) override;
   // STALL -> fault (EMCY 8611h, statusword fault + alarm); ALARM value 1..6 -> the UC57 alarm
-  // Err1..Err6 (603Fh bit, EMCY §5.4, fault); SET_INPUT value 1..3 (IN1..IN3), level 0/1.
+  // Err1..Err6 (603Fh bit, EMCY with assumed codes, fault); SET_INPUT value 1..3 (IN1..IN3), level 0/1.
   bool control(const motionlcm::sim_control_t& control, TimePoint now) override;
 
   // Observers for tests.

@@ -1,18 +1,19 @@
 // Simulated UIM2501/2502 RS232-CAN gateway with the UIM242 controllers of one RS232 bus behind it,
-// byte for byte per the UIM242 manuals (EN, CN Ver.1301/1302; spec uim242-string.md).
+// byte for byte per the UIM242 manuals (EN, CN Ver.1301/1302).
 //
 // Passive core: host bytes and `now` in (receive), gateway bytes out (context.send), next deadline
 // out (process). No fds, no clocks: the host (motion-sim's SerialLineHost over the bus's pty, with
 // uim242_line_factory()) owns the serial line, its byte timing and the reply latency
 // (simulation.reply_latency_us). Thread contract: one thread (the host's loop).
 //
-// Gateway (EXT-2501, spec §3.1-§3.2): sticky target selected by `ADR η;` (initially 5, the factory
-// id); instructions for a target that is not on the bus get no reply. Global `g...` instructions
-// act on every controller and are answered once, `AA QTY AD FF` (gORG: `CC QTY AD FF`); `gREG;`
-// lists the ids; `ABC;` and power-up send the greeting. `MDL η;` is routed to controller η.
+// Gateway (EXT-2501 §2-§3; EN/CN §3.1, Summary): sticky target selected by `ADR η;` (initially 5,
+// the factory id); instructions for a target that is not on the bus get no reply. Global `g...`
+// instructions act on every controller and are answered once, `AA QTY AD FF`
+// (gORG: `CC QTY AD FF`); `gREG;` lists the ids; `ABC;` and power-up send the greeting.
+// `MDL η;` is routed to controller η.
 //
-// Controllers (spec §5): every instruction of the manual with its reply (§2.6), EE 65 / EE 66 for
-// bad input even inside macros. Motion (spec §5.3-§5.7) by motion::sim::Kinematics:
+// Controllers (EN/CN §6-§10): every instruction of the manual with its reply (§12.3), EE 65 / EE 66
+// for bad input even inside macros. Motion (EN/CN §6.1, §7.1-§7.5) by motion::sim::Kinematics:
 // * MCFG.CM = 1: trapezoid with MAC/MDE (pps/s in value mode; period mode converts the ms to a
 //   rate for the speed change at hand), MMS as the cut-in speed of start and stop (Kinematics has
 //   one cut-in speed; the driver sets MMS = MMD). CM = 0: speed changes at once.
@@ -21,15 +22,16 @@
 //   start when enabled with a non-zero desired speed; the position error gives the direction.
 //   `SPD 0;` then a target pre-loads a move that a later `SPD η;` / `gSPD η;` starts — the
 //   gateway-wide synchronized start the driver uses. `SPD 0;` during a PT move brakes and keeps
-//   the target. `STP 0;` leaves PT: decelerate, no A8 (G27).
-// * Arrival: A8 RTCN if MCFG.STPIE, CN 10-byte form by default (G38).
-// * `ORG[ η];` sets position and encoder counter at rest (EE 66 while moving [INF]).
+//   the target. `STP 0;` leaves PT: decelerate, no A8 (EN/CN §6.1; ramp and no A8 assumed).
+// * Arrival: A8 RTCN if MCFG.STPIE, CN 10-byte form by default (CN §4.1; EN: 4 bytes).
+// * `ORG[ η];` sets position and encoder counter at rest (EE 66 while moving: assumed, the manuals
+//   do not say).
 // * Inputs (sim_control_t SET_INPUT 1..3): edge RTCNs A0..A5 per SxIE and a non-zero action code,
 //   actions 0011 decelerate, 0100 e-stop, 0110 reset position, 1011/1100 reset + stop, 1111 OFF;
 //   the motion-starting actions, analog inputs, sampling modes, P4 events, parameter groups, Elock
 //   and user programs are accepted and stored but not simulated.
 // * Stall (sim_control_t STALL): the motor halts; `CC id [stall id] FF` if MCFG.STLIE and
-//   S34CON.STALL != 0 (G16).
+//   S34CON.STALL != 0 (the stall message id is undocumented, EN/CN §5.4, §8.7).
 // * SILENCE and POWER_CYCLE are per controller here (one serial line serves them all).
 // Reports (sim_report_t kinds) per drive: POWERED_UP at power_up, MOTION_STARTED with the time of
 // the `;` that started the move, MOTION_FINISHED when it ends (arrival, stop, OFF, stall).

@@ -2,7 +2,7 @@
 // instructions byte for byte as the manual describes and moves with the shared trapezoid
 // kinematics.
 //
-// Manual sections (UIM342C/S/XS User Manual V1.0; digest: uim342-simplecan3.md):
+// Manual sections (UIM342C/S/XS User Manual V1.0):
 //  §1.1 / §2.5  acceptance: node ID, group ID (PP[8], here `group_id` of the configuration) and
 //               global ID 0; replies carry the drive's node ID as producer, addressed to the
 //               instruction's producer (the host, 4)
@@ -15,8 +15,8 @@
 //  §3.2 / §3.3  JOG and PTP, cut-in speed SS, AC/DC as rates or ramp times (IC[4]), SD stops
 //  §3.7 / §5.24 MS[0] / MS[1] status words; §4.2-§4.4 / §5.26-§5.27 input logic and triggers
 //  §5.1-§5.28   every instruction, including MF parameter groups and the "#50" SP ordering rule
-// Where the manual is silent the digest's recommended readings ([I], §10) are followed; the
-// comments name them.
+// Where the manual is silent the simulator follows an assumed reading; the comments say so
+// where it matters.
 //
 // Passive core: frames and `now` in, frames out through SimDriveContext::send, next deadline
 // out of process(). No clock, no I/O. Thread contract: the host loop's thread only.
