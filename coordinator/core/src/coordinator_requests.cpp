@@ -151,6 +151,22 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
         return P{ReplyError::kOutsideLimits, "jog velocity " + std::to_string(msg.values[i]) + " of axis " + axes[i] + " exceeds its limit " +
                                                  std::to_string(lim.max_velocity)};
       }
+      // A jog toward a limit the axis stands at (or beyond) has nowhere to go: refused before
+      // anything is sent, in counts as the gateway checks it.
+      const AxisLive& a = axes_.at(axes[i]);
+      if (msg.values[i] != 0 && a.state) {
+        const double limit_units = msg.values[i] > 0 ? lim.max_position : lim.min_position;
+        const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
+        const double limit_counts = limit_units * counts_per_unit;
+        const auto position = static_cast<double>(a.state->position_counts);
+        const bool toward_more_counts = msg.values[i] * counts_per_unit > 0;
+        if (toward_more_counts ? position >= limit_counts : position <= limit_counts) {
+          char buf[256];
+          std::snprintf(buf, sizeof buf, "jog of axis %s toward its limit %.6g %s refused: it stands at %.6g %s, at or beyond that limit",
+                        axes[i].c_str(), limit_units, a.axis->unit.c_str(), a.state->position, a.axis->unit.c_str());
+          return P{ReplyError::kOutsideLimits, buf};
+        }
+      }
     }
   }
   return std::nullopt;

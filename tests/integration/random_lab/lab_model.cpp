@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <set>
 #include <sstream>
 
@@ -93,7 +94,11 @@ std::string LabSpec::yaml() const {
     y << "  - {name: " << a.name << ", drive: " << a.name << "-drive, unit: u, steps_per_unit: " << num(a.steps_per_unit)
       << ", limits: {min: " << num(a.min) << ", max: " << num(a.max) << ", velocity: " << num(a.velocity)
       << ", acceleration: " << num(a.acceleration) << "}";
-    if (a.homing) y << ", homing: {method: current-position, offset: " << num(a.home_offset) << "}";
+    if (a.homing && a.home_input != 0) {
+      y << ", homing: {method: switch, input: " << a.home_input << ", velocity: " << num(a.home_velocity) << ", offset: " << num(a.home_offset) << "}";
+    } else if (a.homing) {
+      y << ", homing: {method: current-position, offset: " << num(a.home_offset) << "}";
+    }
     y << "}\n";
   }
   y << "coordinator: {default_timeout_ms: 20000, progress_period_ms: 200, trigger_lead_ms: 30, gateway_timeout_ms: 1500}\n"
@@ -150,6 +155,12 @@ LabSpec generate_lab(std::mt19937_64& rng, const GenOptions& options) {
     a.acceleration = round_to(a.velocity * uniform(rng, 2.0, 8.0), 0.5);
     a.homing = chance(rng, 0.5);
     if (a.homing && (family != "uc57" || chance(rng, 0.3))) a.home_offset = round_to(uniform(rng, a.min, a.max), 0.25);
+    // Half of the UIM342 axes with homing search a switch (input 1-3) toward min at 20-80 % of the
+    // velocity limit.
+    if (a.homing && family == "uim342" && chance(rng, 0.5)) {
+      a.home_input = uniform_int(rng, 1, 3);
+      a.home_velocity = -std::max(0.5, round_to(a.velocity * uniform(rng, 0.2, 0.8), 0.5));
+    }
     lab.axes.push_back(a);
   }
   // A group id must not collide with a node id added after it was chosen.
@@ -214,7 +225,13 @@ std::int64_t Model::counts_of(const std::string& axis, double units) const {
 void Model::observe(const std::string& axis, std::int64_t counts) {
   auto& a = axes_.at(axis);
   a.counts = counts;
-  a.commanded = static_cast<double>(counts) / lab_.find(axis)->steps_per_unit;
+  // An axis standing within one count (the coordinator's default position tolerance) of a finished
+  // move's target keeps that target, in user units, as the base of a relative move; elsewhere
+  // (stopped part-way, jogged, homed, position set) the base is where it stands.
+  if (!a.at_target || std::llabs(counts - counts_of(axis, a.commanded)) > 1) {
+    a.commanded = static_cast<double>(counts) / lab_.find(axis)->steps_per_unit;
+    a.at_target = false;
+  }
 }
 
 void Model::set_busy(const std::vector<std::string>& axes, bool busy) {
@@ -259,6 +276,12 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
       reasons.push_back(error_code(ReplyError::kUnsupported));
     }
     if (kind == request_t::JOG && std::abs(v) > spec.velocity) reasons.push_back(error_code(ReplyError::kOutsideLimits));
+    // A jog toward a limit the axis stands at or beyond, compared in counts.
+    if (kind == request_t::JOG && v != 0 && a.counts) {
+      const double limit = (v > 0 ? spec.max : spec.min) * spec.steps_per_unit;
+      const auto at = static_cast<double>(*a.counts);
+      if (v > 0 ? at >= limit : at <= limit) reasons.push_back(error_code(ReplyError::kOutsideLimits));
+    }
     if (kind == request_t::HOME && !spec.homing) reasons.push_back(error_code(ReplyError::kUnsupported));
     // A UC57 sets its present position to zero only (2012h): another offset is unsupported.
     if (kind == request_t::HOME && spec.homing && spec.drive.family == "uc57" && counts_of(axes[i], spec.home_offset) != 0) {
@@ -279,14 +302,22 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
       switch (kind) {
         case request_t::MOVE_ABSOLUTE:
         case request_t::MOVE_RELATIVE:
-        case request_t::SET_POSITION:
           a.commanded = targets[i];
           a.counts = counts_of(axes[i], targets[i]);
+          a.at_target = true;
           break;
-        case request_t::JOG: a.counts.reset(); break;
-        case request_t::HOME:
-          a.commanded = spec.home_offset;
-          a.counts = counts_of(axes[i], spec.home_offset);
+        case request_t::SET_POSITION:
+        case request_t::HOME: {
+          // No move's target: the next relative move counts from the position the drive reports.
+          const double at = kind == request_t::HOME ? spec.home_offset : targets[i];
+          a.counts = counts_of(axes[i], at);
+          a.commanded = static_cast<double>(*a.counts) / spec.steps_per_unit;
+          a.at_target = false;
+          break;
+        }
+        case request_t::JOG:
+          a.counts.reset();
+          a.at_target = false;
           break;
         case request_t::ENABLE: a.enabled = true; break;
         case request_t::DISABLE: a.enabled = false; break;

@@ -38,8 +38,12 @@ struct AxisSpec {
   DriveSpec drive;
   double steps_per_unit = 1.0;
   double min = 0, max = 0, velocity = 0, acceleration = 0;
-  bool homing = false;  // `current-position` homing (origin where it stands + offset), else none
+  bool homing = false;  // homing configured (else none): see home_input
   double home_offset = 0;
+  int home_input = 0;        // 0: `current-position` (origin where it stands + offset); 1..3: `switch`
+                             // on this input (UIM342), searched at home_velocity (user units/s, < 0:
+                             // toward min), the simulated switch edge half-way to the limit
+  double home_velocity = 0;
 };
 
 struct LabSpec {
@@ -98,7 +102,9 @@ std::string describe(const Step& step);
 struct AxisModel {
   bool enabled = false;
   std::optional<std::int64_t> counts;  // nullopt: not predictable (after a jog or a stop); read back
-  double commanded = 0;                // the previous commanded target, user units
+  double commanded = 0;                // the base of a relative move, user units
+  bool at_target = false;              // `commanded` is a finished move's target (the coordinator
+                                       // keeps it while the axis stands within one count of it)
 };
 
 // Prediction of one request's terminal reply.
@@ -141,6 +147,7 @@ struct RunResult {
   std::string failure;     // what was wrong (prediction vs observation)
   std::string log;         // one line per step
   int steps_run = 0;
+  int requests = 0;        // requests sent (each checked for one terminal reply)
 };
 
 struct RunOptions {

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <string>
 
 #include <motionlcm/reply_t.hpp>
@@ -31,16 +32,31 @@ struct Case {
 Case make_case(std::uint64_t seed, int steps) {
   std::mt19937_64 rng(seed);
   GenOptions options;
-  options.parity = env_u64("RANDOM_LAB_PARITY", 0) != 0;  // even/odd simulated serial lines: opt-in
+  options.parity = env_u64("RANDOM_LAB_PARITY", 1) != 0;  // none/even/odd on the RS485 line (0: none only)
   Case c;
   c.lab = generate_lab(rng, options);
   c.steps = generate_steps(rng, c.lab, steps);
   return c;
 }
 
+// What the seeds of one test covered, printed at its end.
+struct Totals {
+  int seeds = 0, requests = 0, drives = 0;
+  std::map<std::string, int> families, parities;
+  int switch_homing = 0;
+  void print(const char* what) const {
+    std::printf("%s: %d seeds, %d requests, %d drives (", what, seeds, requests, drives);
+    for (const auto& [f, n] : families) std::printf("%s %d, ", f.c_str(), n);
+    std::printf("%d axes homing by switch), RS485 parity:", switch_homing);
+    for (const auto& [p, n] : parities) std::printf(" %s %d", p.c_str(), n);
+    std::printf("\n");
+    std::fflush(stdout);
+  }
+};
+
 // Runs one seed; on a failure shrinks it within `shrink_budget` and fails the test with the
 // reproduction. True when the seed passed.
-bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget) {
+bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget, Totals& totals) {
   const Case c = make_case(seed, steps);
   std::printf("seed %llu: %zu drives, %zu steps\n", static_cast<unsigned long long>(seed), c.lab.axes.size(), c.steps.size());
   std::fflush(stdout);
@@ -48,6 +64,16 @@ bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget)
   options.verbose = env_u64("RANDOM_LAB_VERBOSE", 0) != 0;
   options.salt = static_cast<int>(seed % 1000);
   const auto result = run_case(c.lab, c.steps, options);
+  ++totals.seeds;
+  totals.requests += result.requests;
+  totals.drives += static_cast<int>(c.lab.axes.size());
+  bool rs485 = false;
+  for (const auto& a : c.lab.axes) {
+    ++totals.families[a.drive.family];
+    totals.switch_homing += a.homing && a.home_input != 0 ? 1 : 0;
+    rs485 = rs485 || a.drive.bus == "rs485";
+  }
+  if (rs485) ++totals.parities[c.lab.rs485_parity];
   if (result.ok) return true;
   std::printf("seed %llu FAILS at step %d: %s\n%s", static_cast<unsigned long long>(seed), result.failed_step, result.failure.c_str(), result.log.c_str());
   const auto shrunk = shrink(c.lab, c.steps, result, shrink_budget);
@@ -68,7 +94,7 @@ bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget)
 
 LabSpec one_axis(double steps_per_unit, double min, double max) {
   LabSpec lab;
-  lab.axes.push_back(AxisSpec{"a", DriveSpec{"uc57", "can0", 1, 0}, steps_per_unit, min, max, 360, 1440, false, 0});
+  lab.axes.push_back(AxisSpec{"a", DriveSpec{"uc57", "can0", 1, 0}, steps_per_unit, min, max, 360, 1440, false, 0, 0, 0});
   return lab;
 }
 
@@ -112,7 +138,7 @@ TEST(RandomLabModel, OneSeedGivesOneCase) {
 TEST(RandomLabRegression, Seed2Uim242SetOutputs) {
   LabSpec spec;
   spec.rs232_baud = 38400;
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim242", "rs232", 5, 0}, 640, -18, 59, 67.5, 312, false, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim242", "rs232", 5, 0}, 640, -18, 59, 67.5, 312, false, 0, 0, 0});
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 1, 0, 0, 0, 0, {}, {}},
       Step{Op::kRequest, 1, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 1, 1, 0, 0, 0, {}, {}},
@@ -128,8 +154,8 @@ TEST(RandomLabRegression, Seed2Uim242SetOutputs) {
 TEST(RandomLabRegression, Seed1Uc57JogAfterAFailedHome) {
   LabSpec spec;
   spec.can_bitrate = 125000;
-  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 1, 0}, 160, -18, 46, 54.5, 367, true, 0});
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 61, 0}, 12.5, -220, 740, 384.5, 1475.5, true, -105.5});
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 1, 0}, 160, -18, 46, 54.5, 367, true, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 61, 0}, 12.5, -220, 740, 384.5, 1475.5, true, -105.5, 0, 0});
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
       Step{Op::kRequest, 2, 6 /* HOME */, {"ax0", "ax1"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
@@ -147,8 +173,8 @@ TEST(RandomLabRegression, Seed100) {
   spec.rs485_baud = 19200;
   spec.rs232_baud = 115200;
   spec.rs485_parity = "none";
-  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uim342", "can0", 109, 0}, 533.33333333333337, -3, 11, 7, 38.5, false, 0});
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 10, 0}, 640, -8, 26, 11.5, 68, true, 0});
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uim342", "can0", 109, 0}, 533.33333333333337, -3, 11, 7, 38.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 10, 0}, 640, -8, 26, 11.5, 68, true, 0, 0, 0});
   const std::vector<Step> steps = {
       Step{Op::kConflict, 1, 1 /* MOVE_ABSOLUTE */, {"ax1"}, {26.0}, 0.121, 0.0, 0, 0, 0, 2, 4 /* STOP */, 13 /* SET_POSITION */, {"ax0", "ax1"}, {11.0, -6.4900000000000002}},
       Step{Op::kRequest, 2, 2 /* MOVE_RELATIVE */, {"ax0"}, {0.00075000000000002842}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}},
@@ -164,14 +190,73 @@ TEST(RandomLabRegression, Seed108) {
   spec.rs485_baud = 9600;
   spec.rs232_baud = 38400;
   spec.rs485_parity = "none";
-  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 1, 0}, 12.5, -39, 910, 341.5, 2184.5, false, 0});
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 42, 0}, 320, -1, 66, 25.5, 53.5, true, 59.25});
-  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 127, 0}, 160, -62, 76, 68.5, 476, false, 0});
-  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 42, 0}, 533.33333333333337, -5, 13, 7.5, 18, true, 4.5});
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 1, 0}, 12.5, -39, 910, 341.5, 2184.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 42, 0}, 320, -1, 66, 25.5, 53.5, true, 59.25, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 127, 0}, 160, -62, 76, 68.5, 476, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 42, 0}, 533.33333333333337, -5, 13, 7.5, 18, true, 4.5, 0, 0});
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2", "ax3"}, {0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}},
       Step{Op::kJogStop, 2, 3 /* JOG */, {"ax3", "ax2"}, {-2.1400000000000001, 16.690000000000001}, 0.0, 0.0, 0, 0, 0, 1, 5 /* ESTOP */, 0 /* ? */, {}, {}},
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
+// A move that ended exactly at the upper limit (17 u = 9066.67 counts, so the drive stands at 9067),
+// then an e-stop and a relative move of 0: measured from the commanded 17 u it is within the
+// limits and DONE (the model had taken the read-back 17.0006 u as the base and refused it).
+TEST(RandomLabRegression, Seed5001RelativeZeroAtTheLimitAfterAnEstop) {
+  LabSpec spec;
+  spec.rs485_baud = 38400;
+  spec.rs232_baud = 115200;
+  spec.rs485_parity = "even";
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uim242", "rs232", 78, 0}, 533.33333333333337, -13, 17, 14, 81, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim242", "rs232", 125, 0}, 1, -1420, 9020, 9285.5, 67250.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"adam-modbus", "rs485", 64, 0}, 320, -3, 11, 6.5, 27, true, -2.5, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax2", "ax0", "ax1"}, {11.0, 17.0, 2601.2400000000002}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kRequest, 1, 5 /* ESTOP */, {"ax2", "ax0", "ax1"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax2", "ax1"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax0"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
+// A UIM242 move of one count synchronized with a long UC57 move crawls (below 1 count/s): the
+// gateway took two polls without a position change for a stop short of the target (ABORTED 15).
+TEST(RandomLabRegression, Seed11Uim242OneCountCrawlIsNotAStop) {
+  LabSpec spec;
+  spec.can_bitrate = 125000;
+  spec.rs485_baud = 57600;
+  spec.rs232_baud = 19200;
+  spec.rs485_parity = "none";
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 127, 0}, 640, -6, 45, 18, 58, true, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 5, 0}, 533.33333333333337, -6, 25, 17, 97.5, true, -3.75, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kRequest, 1, 1 /* MOVE_ABSOLUTE */, {"ax2", "ax3"}, {12.92, 0.0018749999999999999}, 0.0, 0.42999999999999999, 0, 0, 0, 0, 0, 0, {}, {}},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
+// A UIM242 jog e-stopped, then every axis enabled: ENA ran the motor at the jog's speed again
+// (the controller keeps its desired speed while disabled) and it ran on through the limits.
+TEST(RandomLabRegression, Seed12Uim242JogDoesNotResumeAfterEstopAndEnable) {
+  LabSpec spec;
+  spec.can_bitrate = 125000;
+  spec.rs485_baud = 38400;
+  spec.rs232_baud = 9600;
+  spec.rs485_parity = "none";
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 1, 0}, 640, -6, 22, 10.5, 57, true, 8.25, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 94, 0}, 1, -5103, 21734, 11272, 49960.5, false, 0, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax1", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kJogStop, 0, 3 /* JOG */, {"ax3", "ax1"}, {-1166.1700000000001, 2.21}, 0.0, 0.0, 0, 0, 0, 2, 5 /* ESTOP */, 0, {}, {}},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax1", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -187,8 +272,10 @@ TEST(RandomLab, FixedSeeds) {
   const auto budget = std::chrono::seconds(env_u64("RANDOM_LAB_SHRINK_SECONDS", 30));
   std::printf("random_lab: %llu seeds from %llu, %d steps each\n", static_cast<unsigned long long>(count), static_cast<unsigned long long>(first), steps);
   int passed = 0;
-  for (std::uint64_t seed = first; seed < first + count; ++seed) passed += run_seed(seed, steps, budget) ? 1 : 0;
+  Totals totals;
+  for (std::uint64_t seed = first; seed < first + count; ++seed) passed += run_seed(seed, steps, budget, totals) ? 1 : 0;
   std::printf("random_lab: %d of %llu seeds passed\n", passed, static_cast<unsigned long long>(count));
+  totals.print("random_lab");
 }
 
 // tools/soak: new seeds from RANDOM_LAB_SEED for RANDOM_LAB_MINUTES; stops at the first failure.
@@ -199,10 +286,15 @@ TEST(RandomLab, Soak) {
   const int steps = static_cast<int>(env_u64("RANDOM_LAB_STEPS", 30));
   const auto end = std::chrono::steady_clock::now() + std::chrono::minutes(minutes);
   std::uint64_t seed = first;
+  Totals totals;
+  const auto began = std::chrono::steady_clock::now();
   for (; std::chrono::steady_clock::now() < end; ++seed) {
-    if (!run_seed(seed, steps, std::chrono::seconds(600))) break;
+    if (!run_seed(seed, steps, std::chrono::seconds(600), totals)) break;
   }
-  std::printf("soak: seeds %llu..%llu\n", static_cast<unsigned long long>(first), static_cast<unsigned long long>(seed));
+  const auto elapsed = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::steady_clock::now() - began).count();
+  std::printf("soak: seeds %llu..%llu in %lld s\n", static_cast<unsigned long long>(first), static_cast<unsigned long long>(first + static_cast<std::uint64_t>(totals.seeds) - 1),
+              static_cast<long long>(elapsed));
+  totals.print("soak");
 }
 
 }  // namespace

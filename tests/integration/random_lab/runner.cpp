@@ -62,6 +62,7 @@ class Runner {
       result.failure = f.what;
       if (options_.print_logs_on_failure) ADD_FAILURE() << f.what;  // the group prints the processes' logs
     }
+    result.requests = static_cast<int>(sent_.size());
     return result;
   }
 
@@ -260,8 +261,12 @@ class Runner {
     request(s.other_client, s.second_kind, s.second_axes, s.second_values, second);
     model_.set_busy(s.axes, false);
     if (want.done()) {
-      // The slow move's commanded target is not reached: its axes' positions are read back.
-      for (const auto& a : s.axes) model_.axis(a).counts.reset();
+      // The slow move's target is not reached: its axes' positions are read back, and relative
+      // moves count from there.
+      for (const auto& a : s.axes) {
+        model_.axis(a).counts.reset();
+        model_.axis(a).at_target = false;
+      }
     }
     // A jog the second request started on a free axis would run on: the stop covers its axes too.
     std::vector<std::string> stop_axes = s.axes;
@@ -411,9 +416,9 @@ std::string reproduction(const LabSpec& lab, const std::vector<Step>& steps, con
   for (const auto& a : lab.axes) {
     char buf[512];
     std::snprintf(buf, sizeof buf,
-                  "  spec.axes.push_back(AxisSpec{\"%s\", DriveSpec{\"%s\", \"%s\", %d, %d}, %.17g, %.17g, %.17g, %.17g, %.17g, %s, %.17g});\n",
+                  "  spec.axes.push_back(AxisSpec{\"%s\", DriveSpec{\"%s\", \"%s\", %d, %d}, %.17g, %.17g, %.17g, %.17g, %.17g, %s, %.17g, %d, %.17g});\n",
                   a.name.c_str(), a.drive.family.c_str(), a.drive.bus.c_str(), a.drive.node_id, a.drive.group_id, a.steps_per_unit, a.min, a.max,
-                  a.velocity, a.acceleration, a.homing ? "true" : "false", a.home_offset);
+                  a.velocity, a.acceleration, a.homing ? "true" : "false", a.home_offset, a.home_input, a.home_velocity);
     out << buf;
   }
   out << "  const std::vector<Step> steps = {\n";

@@ -405,6 +405,21 @@ TEST_F(CoordinatorTest, TargetBeyondLimitIsRejectedNamingTheLimit) {
   EXPECT_EQ(terminal(send(request_t::MOVE_RELATIVE, {"x"}, {2.0})).error_code, static_cast<int>(ReplyError::kOutsideLimits));
 }
 
+// A jog toward a limit the axis stands at or beyond has nowhere to go: REJECTED naming the limit,
+// nothing sent; the other direction runs.
+TEST_F(CoordinatorTest, JogTowardALimitTheAxisStandsAtIsRejectedAndTheOtherWayIsNot) {
+  gateways.put("x", -1000, false);  // -10 mm: at its minimum
+  pump(milliseconds(120));
+  const auto r = terminal(send(request_t::JOG, {"x"}, {-1.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kOutsideLimits));
+  EXPECT_NE(r.reason.find("jog of axis x toward its limit -10 mm refused: it stands at -10 mm"), std::string::npos) << r.reason;
+  EXPECT_TRUE(gateways.commands.empty()) << "a refused jog sent " << gateways.commands.size() << " commands";
+  send(request_t::JOG, {"x"}, {1.0});
+  ASSERT_TRUE(pump_until([&] { return !gateways.commands.empty(); })) << "the jog away from the limit was not sent";
+  EXPECT_EQ(gateways.commands.front().kind, std::int8_t{gateway_command_t::JOG});
+}
+
 TEST_F(CoordinatorTest, MalformedAndDuplicateRequestsAreRejected) {
   request_t bad{};
   bad.client_id = "test";
