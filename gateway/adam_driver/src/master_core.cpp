@@ -624,6 +624,17 @@ void MasterCore::finish(std::int64_t command_id, std::int8_t status, const std::
 
 void MasterCore::fail_motion_of(const Drive& d, const std::string& reason, std::int32_t code) {
   if (d.motion_owner != 0) finish(d.motion_owner, Reply::FAILED, reason, code);
+  // A jog or homing whose writes are still queued: they would start the motor after the stop.
+  std::vector<std::int64_t> queued;
+  for (const auto& [id, op] : operations_) {
+    const auto kind = op->command.kind;
+    const bool motion = kind == motionlcm::gateway_command_t::JOG || kind == motionlcm::gateway_command_t::HOME ||
+                        kind == motionlcm::gateway_command_t::ARM_MOVE;
+    if (motion && op->phase == Operation::Phase::transferring && std::find(op->drives.begin(), op->drives.end(), &d) != op->drives.end()) {
+      queued.push_back(id);
+    }
+  }
+  for (const auto id : queued) finish(id, Reply::FAILED, reason, code);
 }
 
 std::optional<std::string> MasterCore::busy_reason(const std::vector<Drive*>& drives) const {

@@ -111,6 +111,9 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
   if (!driver_) return fail("gateway of bus '" + bus_ + "' has no driver" + (waiting_.empty() ? "" : ": " + waiting_));
   track_jogs(command);
   driver_->execute(command);
+  if (command.kind == motionlcm::gateway_command_t::JOG) {
+    for (const auto& a : command.axes) check_jog(a.axis);  // a jog starting inside its braking zone
+  }
 }
 
 void Gateway::forget_jog(const std::string& axis) {
@@ -169,12 +172,21 @@ void Gateway::jog_reply(const motionlcm::gateway_reply_t& reply) {
 }
 
 void Gateway::check_jog(const std::string& axis) {
-  const auto jog = jogs_.find(axis);
+  // A jog is watched from the moment it is handed to the driver, not from its reply: a drive may
+  // run at the new speed before the driver has confirmed every step of the jog.
+  std::optional<JogWatch> jog;
+  if (const auto pending = pending_motion_.find(axis); pending != pending_motion_.end() && pending->second.jog) {
+    jog = pending->second.jog;
+  } else if (const auto watched = jogs_.find(axis); watched != jogs_.end()) {
+    jog = watched->second;
+  }
   const auto status = last_status_.find(axis);
-  if (jog == jogs_.end() || status == last_status_.end()) return;
+  if (!jog || status == last_status_.end()) return;
   const CountLimits& limits = limits_.at(axis);
-  if (!jog_must_stop(jog->second, limits, status->second.position_counts, status->second.velocity_counts, poll_hz_)) return;
-  const double limit = limits.limit_toward(jog->second.velocity);
+  if (!jog_must_stop(*jog, limits, status->second.position_counts, status->second.velocity_counts, poll_hz_)) return;
+  const double limit = limits.limit_toward(jog->velocity);
+  const auto pending = pending_motion_.find(axis);
+  const std::int64_t unconfirmed = pending != pending_motion_.end() && pending->second.jog ? pending->second.command_id : 0;  // 0: none
   forget_jog(axis);
   motionlcm::gateway_command_t stop{};
   stop.utime = wall_time_us();
@@ -185,7 +197,6 @@ void Gateway::check_jog(const std::string& axis) {
   a.axis = axis;
   stop.axes.push_back(a);
   stop.num_axes = 1;
-  if (driver_) driver_->execute(stop);
   const config::Axis& cfg = *axes_.at(axis);
   DriveEvent e;
   e.kind = motionlcm::event_t::LIMIT;
@@ -195,6 +206,9 @@ void Gateway::check_jog(const std::string& axis) {
                        limits.position_units(limit), cfg.unit, limit, driver_ ? "stopped" : "no bus driver to stop it",
                        limits.position_units(static_cast<double>(status->second.position_counts)), cfg.unit, status->second.position_counts,
                        std::abs(status->second.velocity_counts) / cfg.steps_per_unit, cfg.unit);
+  // Before the STOP: the driver may fail the jog while it takes the STOP.
+  if (unconfirmed != 0) stopped_at_limit_[unconfirmed] = e.text;
+  if (driver_) driver_->execute(stop);
   axis_event(axis, e);
 }
 
@@ -295,6 +309,15 @@ void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
 }
 
 void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
+  // A jog the limit watch stopped before the driver confirmed it fails for that reason, not as
+  // "stopped by" the watch's own STOP.
+  if (const auto it = stopped_at_limit_.find(reply.command_id); it != stopped_at_limit_.end()) {
+    if (reply.status == motionlcm::gateway_reply_t::FAILED) {
+      reply.error_code = error_code(ReplyError::kAxisFault);
+      reply.reason = it->second;
+    }
+    if (reply.status == motionlcm::gateway_reply_t::FAILED || reply.status == motionlcm::gateway_reply_t::DONE) stopped_at_limit_.erase(it);
+  }
   jog_reply(reply);
   reply.utime = wall_time_us();
   reply.bus = bus_;

@@ -805,8 +805,18 @@ struct Uim342Stack::Impl {
           const auto reason = fmt::format("{} stopped by {} command {}", n.name(), command_name(c.cmd.kind), id);
           if (emergency) {
             fail_commands_of(i, error_code(ReplyError::kStopped), reason, id);  // nothing queued goes out after an e-stop
-          } else if (n.move != 0) {
-            fail(n.move, error_code(ReplyError::kStopped), reason);
+          } else {
+            // The running move, and every motion command whose frames are still queued (a jog's
+            // JV/BG sent after the ST would start the motor again).
+            std::set<std::int64_t> motion;
+            if (n.move != 0) motion.insert(n.move);
+            for (const auto& r : n.queue) {
+              const auto cmd = commands.find(r.command_id);
+              if (r.command_id == id || cmd == commands.end()) continue;
+              const auto kind = cmd->second.cmd.kind;
+              if (kind == gateway_command_t::JOG || kind == gateway_command_t::HOME || kind == gateway_command_t::ARM_MOVE) motion.insert(r.command_id);
+            }
+            for (const auto m : motion) fail(m, error_code(ReplyError::kStopped), reason);
           }
           enqueue(i, rq::stop(), id, /*front=*/true);
           // An e-stop leaves the power stage off, as on every family (CiA 402 quick stop ends

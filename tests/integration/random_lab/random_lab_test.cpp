@@ -262,6 +262,23 @@ TEST(RandomLabRegression, Seed12Uim242JogDoesNotResumeAfterEstopAndEnable) {
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// A UC57 one count below its upper limit jogs toward it: the gateway's jog watch stops it before
+// the limit. It watched the jog only from the jog's reply, by when the drive ran at full speed
+// (it ended 98 counts beyond the limit); the watch now starts when the jog is handed to the driver,
+// and the jog fails naming the limit (FAILED 15).
+TEST(RandomLabRegression, Uc57JogStartedNextToItsLimitStopsBeforeIt) {
+  LabSpec spec;
+  spec.can_bitrate = 125000;
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 111, 0}, 12.5, -118, 482, 216.5, 767.5, true, 0, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kRequest, 0, 1 /* MOVE_ABSOLUTE */, {"ax0"}, {481.92}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kJogStop, 2, 3 /* JOG */, {"ax0"}, {54.14}, 0.0, 0.0, 0, 0, 0, 0, 5 /* ESTOP */, 0, {}, {}},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 // ------------------------------------------------------------------------- the lab
 
 // The ctest set: RANDOM_LAB_SEEDS seeds from RANDOM_LAB_SEED (defaults below) of RANDOM_LAB_STEPS.

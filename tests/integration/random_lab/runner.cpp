@@ -194,13 +194,14 @@ class Runner {
     }
     if (kind == request_t::JOG && want.done()) {
       // A gateway stops a jog before the axis limit (LIMIT event): the request, if still running,
-      // ends ABORTED 15 with the axis stopped short of the limit.
-      want = Outcome{{reply_t::DONE, reply_t::ABORTED}, {error_code(ReplyError::kAxisFault)}};
+      // ends ABORTED 15 with the axis stopped short of the limit, or FAILED 15 when the jog was
+      // stopped before the gateway had confirmed it (it starts inside its braking distance).
+      want = Outcome{{reply_t::DONE, reply_t::ABORTED, reply_t::FAILED}, {error_code(ReplyError::kAxisFault)}};
     }
     const auto r = make(kind, axes, values, s);
     const auto got = call(client, r);
     check_reply(got, want, r);
-    if (got.status == reply_t::DONE || (kind == request_t::JOG && got.status == reply_t::ABORTED)) {
+    if (got.status == reply_t::DONE || (kind == request_t::JOG && (got.status == reply_t::ABORTED || got.status == reply_t::FAILED))) {
       model_.request(kind, axes, values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, true);
       if (kind == request_t::PARAM_READ) {
         const auto expected = expected_param(axes[0]);
@@ -310,6 +311,13 @@ class Runner {
     if (!ok) fail("after the step, within 10 s: " + why);
     for (const auto& [name, m] : model_.axes()) {
       if (!m.counts) model_.observe(name, state(name).position_counts);
+      // No request (a jog running into a limit included) leaves an axis beyond its limits.
+      const AxisSpec& spec = *lab_.find(name);
+      const auto at = static_cast<double>(state(name).position_counts);
+      if (at < spec.min * spec.steps_per_unit - 1 || at > spec.max * spec.steps_per_unit + 1) {
+        fail(name + ": at " + std::to_string(state(name).position_counts) + " counts (" + std::to_string(at / spec.steps_per_unit) +
+             " u), beyond its limits [" + std::to_string(spec.min) + ", " + std::to_string(spec.max) + "] u");
+      }
     }
   }
 

@@ -99,6 +99,7 @@ class Gateway final : public GatewayOutput {
     std::optional<JogWatch> jog;
   };
   std::map<std::string, PendingMotion> pending_motion_;
+  std::map<std::int64_t, std::string> stopped_at_limit_;  // jog command id -> why the watch stopped it (before its reply)
   EventLoop::TimerId health_timer_ = 0;
 };
 
