@@ -8,6 +8,7 @@
 
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
+#include <motionlcm/sim_control_t.hpp>
 
 #include "motion/client/client.hpp"
 #include "motion/config/config.hpp"
@@ -174,12 +175,13 @@ LabSpec generate_lab(std::mt19937_64& rng, const GenOptions& options) {
 
 std::string Step::cpp() const {
   // Every member, in declaration order (an aggregate initializer that compiles at -Wextra).
-  const char* op_name = op == Op::kRequest ? "Op::kRequest" : op == Op::kJogStop ? "Op::kJogStop" : "Op::kConflict";
+  const char* op_name = op == Op::kRequest ? "Op::kRequest" : op == Op::kJogStop ? "Op::kJogStop" : op == Op::kConflict ? "Op::kConflict" : "Op::kFault";
   std::ostringstream s;
   s << "Step{" << op_name << ", " << client << ", " << int{kind} << " /* " << kind_name(kind) << " */, " << list(axes) << ", " << list(values)
     << ", " << num(velocity_scale) << ", " << num(acceleration_scale) << ", " << timeout_ms << ", " << output_mask << ", " << output_value << ", "
     << other_client << ", " << int{stop_kind} << " /* " << kind_name(stop_kind) << " */, " << int{second_kind} << " /* " << kind_name(second_kind)
-    << " */, " << list(second_axes) << ", " << list(second_values) << "}";
+    << " */, " << list(second_axes) << ", " << list(second_values) << ", " << int{fault} << " /* " << fault_name(fault) << " */, " << fault_value
+    << "}";
   return s.str();
 }
 
@@ -196,7 +198,24 @@ std::string describe(const Step& step) {
     for (std::size_t i = 0; i < step.second_axes.size(); ++i) s << " " << step.second_axes[i] << "=" << num(step.second_values[i]);
     s << ", then " << kind_name(step.stop_kind);
   }
+  if (step.op == Op::kFault && !step.second_axes.empty()) {
+    s << ", during it " << fault_name(step.fault) << " " << step.fault_value << " on the drive of " << step.second_axes[0] << " for 1 s";
+  }
   return s.str();
+}
+
+const char* fault_name(std::int8_t action) {
+  using motionlcm::sim_control_t;
+  switch (action) {
+    case sim_control_t::STALL: return "STALL";
+    case sim_control_t::SILENCE: return "SILENCE";
+    case sim_control_t::POWER_CYCLE: return "POWER_CYCLE";
+    case sim_control_t::CRC_ERRORS: return "CRC_ERRORS";
+    case sim_control_t::REPLY_LATENCY: return "REPLY_LATENCY";
+    case sim_control_t::BUS_DROP: return "BUS_DROP";
+    case sim_control_t::LINE_NOISE: return "LINE_NOISE";
+    default: return "none";
+  }
 }
 
 std::string Outcome::text() const {
@@ -377,9 +396,41 @@ double scale_for(const LabSpec& lab, const Model& model, const std::vector<std::
   return need;
 }
 
+
+// A move of up to three axes (to targets within their limits, a few seconds long) with a fault on
+// one drive, or its bus, of the lab.
+Step fault_step(std::mt19937_64& rng, const LabSpec& lab, const Model& model) {
+  using motionlcm::sim_control_t;
+  Step s;
+  s.op = Op::kFault;
+  s.client = uniform_int(rng, 0, 2);
+  s.kind = request_t::MOVE_ABSOLUTE;
+  s.axes = some_axes(rng, lab, 3);
+  for (const auto& name : s.axes) {
+    const auto& spec = *lab.find(name);
+    s.values.push_back(round_to(uniform(rng, spec.min, spec.max), 0.01));
+  }
+  s.velocity_scale = std::min(1.0, round_to(std::max(0.05, scale_for(lab, model, s.axes, s.values, 3.0)) + 0.05, 0.01));
+  s.second_axes = {chance(rng, 0.7) ? s.axes[static_cast<std::size_t>(uniform_int(rng, 0, static_cast<int>(s.axes.size()) - 1))]
+                                    : lab.axes[static_cast<std::size_t>(uniform_int(rng, 0, static_cast<int>(lab.axes.size()) - 1))].name};
+  const bool can = lab.find(s.second_axes[0])->drive.bus == "can0";
+  std::vector<std::int8_t> faults{sim_control_t::STALL, sim_control_t::SILENCE, sim_control_t::POWER_CYCLE, sim_control_t::CRC_ERRORS,
+                                  sim_control_t::REPLY_LATENCY, can ? sim_control_t::BUS_DROP : sim_control_t::LINE_NOISE};
+  s.fault = pick(rng, faults);
+  switch (s.fault) {
+    case sim_control_t::SILENCE:
+    case sim_control_t::CRC_ERRORS: s.fault_value = 1; break;
+    case sim_control_t::REPLY_LATENCY: s.fault_value = pick(rng, std::vector<std::int32_t>{5000, 30000, 120000}); break;
+    case sim_control_t::BUS_DROP: s.fault_value = uniform_int(rng, 1, 50); break;
+    case sim_control_t::LINE_NOISE: s.fault_value = uniform_int(rng, 1, 16); break;
+    default: break;
+  }
+  return s;
+}
+
 }  // namespace
 
-std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int count) {
+std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int count, bool chaos) {
   Model model(lab);
   std::vector<Step> steps;
   std::vector<std::string> all;
@@ -396,6 +447,15 @@ std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int c
     const int r = uniform_int(rng, 0, 99);
     bool any_disabled = false;
     for (const auto& [name, a] : model.axes()) any_disabled = any_disabled || !a.enabled;
+    if (chaos && chance(rng, 0.2)) {
+      steps.push_back(fault_step(rng, lab, model));
+      // The recovery leaves every axis enabled at a position read back.
+      for (const auto& a : lab.axes) {
+        model.axis(a.name).enabled = true;
+        model.axis(a.name).at_target = false;
+      }
+      continue;
+    }
     if (any_disabled && r < 15) {
       s.kind = request_t::ENABLE;
       s.axes = all;

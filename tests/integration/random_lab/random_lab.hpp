@@ -60,6 +60,7 @@ struct GenOptions {
   int min_drives = 2;
   int max_drives = 5;
   bool parity = false;  // also even/odd parity on the RS485 line
+  bool chaos = false;   // also kFault steps (tools/chaos)
 };
 
 LabSpec generate_lab(std::mt19937_64& rng, const GenOptions& options);
@@ -72,6 +73,10 @@ enum class Op : std::int8_t {
   kConflict,    // `client` starts a slow move of `axes` to `values` (absolute); while it runs,
                 // `other_client` sends `second_kind` on `second_axes`; then `other_client` sends
                 // `stop_kind` to `axes`
+  kFault,       // chaos: `client` moves `axes` to `values` (absolute); 200 ms later the simulator
+                // injects `fault` (a sim_control_t action, `fault_value`) on the drive of
+                // `second_axes[0]` (or its bus) for 1 s; then the fault is cleared, the lab
+                // recovers (every axis online, reset, enabled) and the model reads the lab back
 };
 
 struct Step {
@@ -90,11 +95,14 @@ struct Step {
   std::int8_t second_kind = 0;
   std::vector<std::string> second_axes;
   std::vector<double> second_values;
+  std::int8_t fault = 0;                // kFault: sim_control_t action
+  std::int32_t fault_value = 0;
 
   [[nodiscard]] std::string cpp() const;  // a C++ initializer of this step
 };
 
 std::string describe(const Step& step);
+const char* fault_name(std::int8_t action);  // a sim_control_t action by its constant's name
 
 // --------------------------------------------------------------------------- the reference model
 
@@ -137,7 +145,7 @@ class Model {
   std::map<std::string, bool> busy_;
 };
 
-std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int count);
+std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int count, bool chaos = false);
 
 // --------------------------------------------------------------------------- running and shrinking
 
@@ -148,6 +156,8 @@ struct RunResult {
   std::string log;         // one line per step
   int steps_run = 0;
   int requests = 0;        // requests sent (each checked for one terminal reply)
+  int faults = 0;          // faults injected (kFault steps run)
+  int faults_biting = 0;   // of which the move during the fault did not end DONE
 };
 
 struct RunOptions {

@@ -29,23 +29,25 @@ struct Case {
   std::vector<Step> steps;
 };
 
-Case make_case(std::uint64_t seed, int steps) {
+Case make_case(std::uint64_t seed, int steps, bool chaos = false) {
   std::mt19937_64 rng(seed);
   GenOptions options;
   options.parity = env_u64("RANDOM_LAB_PARITY", 1) != 0;  // none/even/odd on the RS485 line (0: none only)
+  options.chaos = chaos;
   Case c;
   c.lab = generate_lab(rng, options);
-  c.steps = generate_steps(rng, c.lab, steps);
+  c.steps = generate_steps(rng, c.lab, steps, options.chaos);
   return c;
 }
 
 // What the seeds of one test covered, printed at its end.
 struct Totals {
-  int seeds = 0, requests = 0, drives = 0;
+  int seeds = 0, requests = 0, drives = 0, faults = 0, faults_biting = 0;
   std::map<std::string, int> families, parities;
   int switch_homing = 0;
   void print(const char* what) const {
-    std::printf("%s: %d seeds, %d requests, %d drives (", what, seeds, requests, drives);
+    std::printf("%s: %d seeds, %d requests, %d faults injected (%d ended their move short of DONE), %d drives (", what, seeds, requests, faults,
+                faults_biting, drives);
     for (const auto& [f, n] : families) std::printf("%s %d, ", f.c_str(), n);
     std::printf("%d axes homing by switch), RS485 parity:", switch_homing);
     for (const auto& [p, n] : parities) std::printf(" %s %d", p.c_str(), n);
@@ -56,8 +58,8 @@ struct Totals {
 
 // Runs one seed; on a failure shrinks it within `shrink_budget` and fails the test with the
 // reproduction. True when the seed passed.
-bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget, Totals& totals) {
-  const Case c = make_case(seed, steps);
+bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget, Totals& totals, bool chaos = false) {
+  const Case c = make_case(seed, steps, chaos);
   std::printf("seed %llu: %zu drives, %zu steps\n", static_cast<unsigned long long>(seed), c.lab.axes.size(), c.steps.size());
   std::fflush(stdout);
   RunOptions options;
@@ -66,6 +68,8 @@ bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget,
   const auto result = run_case(c.lab, c.steps, options);
   ++totals.seeds;
   totals.requests += result.requests;
+  totals.faults += result.faults;
+  totals.faults_biting += result.faults_biting;
   totals.drives += static_cast<int>(c.lab.axes.size());
   bool rs485 = false;
   for (const auto& a : c.lab.axes) {
@@ -140,9 +144,9 @@ TEST(RandomLabRegression, Seed2Uim242SetOutputs) {
   spec.rs232_baud = 38400;
   spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim242", "rs232", 5, 0}, 640, -18, 59, 67.5, 312, false, 0, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 1, 0, 0, 0, 0, {}, {}},
-      Step{Op::kRequest, 1, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 1, 1, 0, 0, 0, {}, {}},
-      Step{Op::kRequest, 2, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 2, 2, 0, 0, 0, {}, {}},  // only P4: 17
+      Step{Op::kRequest, 0, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 1, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 1, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 1, 1, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 2, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 2, 2, 0, 0, 0, {}, {}, 0, 0},  // only P4: 17
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -157,9 +161,9 @@ TEST(RandomLabRegression, Seed1Uc57JogAfterAFailedHome) {
   spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 1, 0}, 160, -18, 46, 54.5, 367, true, 0, 0, 0});
   spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 61, 0}, 12.5, -220, 740, 384.5, 1475.5, true, -105.5, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kRequest, 2, 6 /* HOME */, {"ax0", "ax1"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kJogStop, 1, 3 /* JOG */, {"ax1", "ax0"}, {-76.62, -12.55}, 0.0, 0.0, 0, 0, 0, 1, 4 /* STOP */, 0, {}, {}},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 2, 6 /* HOME */, {"ax0", "ax1"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop, 1, 3 /* JOG */, {"ax1", "ax0"}, {-76.62, -12.55}, 0.0, 0.0, 0, 0, 0, 1, 4 /* STOP */, 0, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -176,8 +180,8 @@ TEST(RandomLabRegression, Seed100) {
   spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uim342", "can0", 109, 0}, 533.33333333333337, -3, 11, 7, 38.5, false, 0, 0, 0});
   spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 10, 0}, 640, -8, 26, 11.5, 68, true, 0, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kConflict, 1, 1 /* MOVE_ABSOLUTE */, {"ax1"}, {26.0}, 0.121, 0.0, 0, 0, 0, 2, 4 /* STOP */, 13 /* SET_POSITION */, {"ax0", "ax1"}, {11.0, -6.4900000000000002}},
-      Step{Op::kRequest, 2, 2 /* MOVE_RELATIVE */, {"ax0"}, {0.00075000000000002842}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}},
+      Step{Op::kConflict, 1, 1 /* MOVE_ABSOLUTE */, {"ax1"}, {26.0}, 0.121, 0.0, 0, 0, 0, 2, 4 /* STOP */, 13 /* SET_POSITION */, {"ax0", "ax1"}, {11.0, -6.4900000000000002}, 0, 0},
+      Step{Op::kRequest, 2, 2 /* MOVE_RELATIVE */, {"ax0"}, {0.00075000000000002842}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -195,9 +199,9 @@ TEST(RandomLabRegression, Seed108) {
   spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 127, 0}, 160, -62, 76, 68.5, 476, false, 0, 0, 0});
   spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 42, 0}, 533.33333333333337, -5, 13, 7.5, 18, true, 4.5, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2", "ax3"}, {0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}},
-      Step{Op::kJogStop, 2, 3 /* JOG */, {"ax3", "ax2"}, {-2.1400000000000001, 16.690000000000001}, 0.0, 0.0, 0, 0, 0, 1, 5 /* ESTOP */, 0 /* ? */, {}, {}},
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2", "ax3"}, {0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}, 0, 0},
+      Step{Op::kJogStop, 2, 3 /* JOG */, {"ax3", "ax2"}, {-2.1400000000000001, 16.690000000000001}, 0.0, 0.0, 0, 0, 0, 1, 5 /* ESTOP */, 0 /* ? */, {}, {}, 0, 0},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -215,11 +219,11 @@ TEST(RandomLabRegression, Seed5001RelativeZeroAtTheLimitAfterAnEstop) {
   spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim242", "rs232", 125, 0}, 1, -1420, 9020, 9285.5, 67250.5, false, 0, 0, 0});
   spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"adam-modbus", "rs485", 64, 0}, 320, -3, 11, 6.5, 27, true, -2.5, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax2", "ax0", "ax1"}, {11.0, 17.0, 2601.2400000000002}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kRequest, 1, 5 /* ESTOP */, {"ax2", "ax0", "ax1"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax2", "ax1"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax0"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax2", "ax0", "ax1"}, {11.0, 17.0, 2601.2400000000002}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 1, 5 /* ESTOP */, {"ax2", "ax0", "ax1"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax2", "ax1"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax0"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -236,8 +240,8 @@ TEST(RandomLabRegression, Seed11Uim242OneCountCrawlIsNotAStop) {
   spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 127, 0}, 640, -6, 45, 18, 58, true, 0, 0, 0});
   spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 5, 0}, 533.33333333333337, -6, 25, 17, 97.5, true, -3.75, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kRequest, 1, 1 /* MOVE_ABSOLUTE */, {"ax2", "ax3"}, {12.92, 0.0018749999999999999}, 0.0, 0.42999999999999999, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 1, 1 /* MOVE_ABSOLUTE */, {"ax2", "ax3"}, {12.92, 0.0018749999999999999}, 0.0, 0.42999999999999999, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -254,9 +258,9 @@ TEST(RandomLabRegression, Seed12Uim242JogDoesNotResumeAfterEstopAndEnable) {
   spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 1, 0}, 640, -6, 22, 10.5, 57, true, 8.25, 0, 0});
   spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 94, 0}, 1, -5103, 21734, 11272, 49960.5, false, 0, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax1", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kJogStop, 0, 3 /* JOG */, {"ax3", "ax1"}, {-1166.1700000000001, 2.21}, 0.0, 0.0, 0, 0, 0, 2, 5 /* ESTOP */, 0, {}, {}},
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax1", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax1", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop, 0, 3 /* JOG */, {"ax3", "ax1"}, {-1166.1700000000001, 2.21}, 0.0, 0.0, 0, 0, 0, 2, 5 /* ESTOP */, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax1", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -271,9 +275,9 @@ TEST(RandomLabRegression, Uc57JogStartedNextToItsLimitStopsBeforeIt) {
   spec.can_bitrate = 125000;
   spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 111, 0}, 12.5, -118, 482, 216.5, 767.5, true, 0, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kRequest, 0, 1 /* MOVE_ABSOLUTE */, {"ax0"}, {481.92}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}},
-      Step{Op::kJogStop, 2, 3 /* JOG */, {"ax0"}, {54.14}, 0.0, 0.0, 0, 0, 0, 0, 5 /* ESTOP */, 0, {}, {}},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 0, 1 /* MOVE_ABSOLUTE */, {"ax0"}, {481.92}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop, 2, 3 /* JOG */, {"ax0"}, {54.14}, 0.0, 0.0, 0, 0, 0, 0, 5 /* ESTOP */, 0, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -295,7 +299,21 @@ TEST(RandomLab, FixedSeeds) {
   totals.print("random_lab");
 }
 
-// tools/soak: new seeds from RANDOM_LAB_SEED for RANDOM_LAB_MINUTES; stops at the first failure.
+// Chaos in ctest: RANDOM_LAB_CHAOS_SEEDS seeds from RANDOM_LAB_CHAOS_SEED with faults injected
+// during moves (tools/chaos runs it for longer).
+TEST(RandomLab, ChaosSeeds) {
+  const std::uint64_t first = env_u64("RANDOM_LAB_CHAOS_SEED", 1);
+  const std::uint64_t count = env_u64("RANDOM_LAB_CHAOS_SEEDS", 2);
+  const int steps = static_cast<int>(env_u64("RANDOM_LAB_CHAOS_STEPS", 12));
+  std::printf("random_lab chaos: %llu seeds from %llu, %d steps each\n", static_cast<unsigned long long>(count),
+              static_cast<unsigned long long>(first), steps);
+  Totals totals;
+  for (std::uint64_t seed = first; seed < first + count; ++seed) run_seed(seed, steps, std::chrono::seconds(30), totals, true);
+  totals.print("random_lab chaos");
+}
+
+// tools/soak and tools/chaos: new seeds from RANDOM_LAB_SEED for RANDOM_LAB_MINUTES (with faults
+// when RANDOM_LAB_CHAOS=1); stops at the first failure.
 TEST(RandomLab, Soak) {
   const std::uint64_t minutes = env_u64("RANDOM_LAB_MINUTES", 0);
   if (minutes == 0) GTEST_SKIP() << "set RANDOM_LAB_MINUTES (tools/soak --minutes M)";
@@ -306,7 +324,7 @@ TEST(RandomLab, Soak) {
   Totals totals;
   const auto began = std::chrono::steady_clock::now();
   for (; std::chrono::steady_clock::now() < end; ++seed) {
-    if (!run_seed(seed, steps, std::chrono::seconds(600), totals)) break;
+    if (!run_seed(seed, steps, std::chrono::seconds(600), totals, env_u64("RANDOM_LAB_CHAOS", 0) != 0)) break;
   }
   const auto elapsed = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::steady_clock::now() - began).count();
   std::printf("soak: seeds %llu..%llu in %lld s\n", static_cast<unsigned long long>(first), static_cast<unsigned long long>(first + static_cast<std::uint64_t>(totals.seeds) - 1),

@@ -5,17 +5,20 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
+#include <motionlcm/sim_control_t.hpp>
 
 #include "motion/client/client.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/reply_error.hpp"
+#include "motion/lcm/request_kinds.hpp"
 #include "motion/testing/lcm_url.hpp"
 #include "motion/testing/process_group.hpp"
 #include "random_lab.hpp"
@@ -29,6 +32,7 @@ using std::chrono::milliseconds;
 using std::chrono::seconds;
 
 constexpr int kDefaultTimeoutMs = 20000;  // coordinator.default_timeout_ms of LabSpec::yaml()
+constexpr std::int32_t kReplyLatencyUs = 200;  // simulation.reply_latency_us of LabSpec::yaml()
 
 struct Failure {
   std::string what;
@@ -63,6 +67,8 @@ class Runner {
       if (options_.print_logs_on_failure) ADD_FAILURE() << f.what;  // the group prints the processes' logs
     }
     result.requests = static_cast<int>(sent_.size());
+    result.faults = faults_;
+    result.faults_biting = faults_biting_;
     return result;
   }
 
@@ -218,7 +224,88 @@ class Runner {
     return got;
   }
 
+  // Publishes one fault (or its end) to motion-sim for the drive of `axis` (its bus for line and
+  // bus faults).
+  void inject(std::int8_t action, std::int32_t value, const std::string& axis) {
+    const AxisSpec& spec = *lab_.find(axis);
+    motionlcm::sim_control_t c{};
+    c.utime = wall_time_us();
+    c.action = action;
+    c.value = value;
+    const bool bus_fault = action == motionlcm::sim_control_t::BUS_DROP || action == motionlcm::sim_control_t::LINE_NOISE;
+    c.drive = bus_fault ? "" : spec.name + "-drive";
+    c.bus = spec.drive.bus;
+    c.level = action == motionlcm::sim_control_t::LINE_NOISE ? 1 : 0;
+    group_.node().publish(lcm::channels::kSimControl, c);
+  }
+
+  // Chaos: a move with a fault on one drive (or bus) during it. What the move ends with depends on
+  // timing, so only the invariants are checked: exactly one terminal reply within its timeout,
+  // no axis beyond its limits, every process alive; then the lab must recover by itself once the
+  // fault ends (every axis online; a reset and an enable, retried while an axis is still being
+  // stopped or set up, end DONE) and the model reads the positions back.
+  void run_fault(const Step& s) {
+    using motionlcm::sim_control_t;
+    ++faults_;
+    auto& c = *clients_[static_cast<std::size_t>(s.client)];
+    const auto want = model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, false);
+    const auto r = make(request_t::MOVE_ABSOLUTE, s.axes, s.values, s);
+    std::optional<reply_t> got;
+    const auto id = c.send(r, [&](const reply_t& reply) { if (client::is_terminal(reply.status)) got = reply; });
+    sent_.push_back({c.id(), id});
+    c.wait_until([] { return false; }, milliseconds(200));
+    const std::string& target = s.second_axes.at(0);
+    inject(s.fault, s.fault_value, target);
+    c.wait_until([&] { return got.has_value(); }, seconds(1));
+    if (s.fault == sim_control_t::SILENCE || s.fault == sim_control_t::CRC_ERRORS) inject(s.fault, 0, target);
+    if (s.fault == sim_control_t::REPLY_LATENCY) inject(s.fault, kReplyLatencyUs, target);
+    if (!c.wait_until([&] { return got.has_value(); }, wait_for(r.timeout_ms))) {
+      fail("no terminal reply to " + describe_request(r) + " within its timeout + 3 s (" + fault_name(s.fault) + " on " + target + ")");
+    }
+    last_reply_utime_ = wall_time_us();
+    if (!want.done()) check_reply(*got, want, r);  // refused before anything moved, whatever the fault
+    if (got->status != reply_t::DONE && want.done()) ++faults_biting_;
+    if (got->status == reply_t::DONE) {
+      model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, true);
+    } else {
+      for (const auto& a : s.axes) model_.axis(a).at_target = false;
+    }
+    recover(std::string(fault_name(s.fault)) + " on " + target);
+  }
+
+  void recover(const std::string& after) {
+    const bool online = clients_[0]->wait_until([&] {
+      for (const auto& a : lab_.axes) {
+        const auto it = clients_[0]->axes().find(a.name);
+        if (it == clients_[0]->axes().end() || !it->second.online || it->second.moving) return false;
+      }
+      return true;
+    }, seconds(30));
+    if (!online) fail("after " + after + ": not every axis online and at rest within 30 s");
+    std::vector<std::string> all;
+    for (const auto& a : lab_.axes) all.push_back(a.name);
+    for (const std::int8_t kind : {request_t::FAULT_RESET, request_t::ENABLE}) {
+      reply_t got{};
+      const auto deadline = std::chrono::steady_clock::now() + seconds(30);
+      do {
+        got = call(0, make(kind, all, {}, Step{}));
+        if (got.status == reply_t::DONE) break;
+        clients_[0]->wait_until([] { return false; }, milliseconds(500));
+      } while (std::chrono::steady_clock::now() < deadline);
+      if (got.status != reply_t::DONE) {
+        fail("after " + after + ": " + std::string(lcm::request_kind_name(kind)) + " of every axis ends " + client::status_name(got.status) + " code " +
+             std::to_string(got.error_code) + " (\"" + got.reason + "\") for 30 s");
+      }
+    }
+    for (const auto& a : lab_.axes) {
+      model_.axis(a.name).counts.reset();
+      model_.axis(a.name).enabled = true;
+    }
+    settle(true);
+  }
+
   void run_step(const Step& s) {
+    if (s.op == Op::kFault) return run_fault(s);
     if (s.op == Op::kRequest) {
       request(s.client, s.kind, s.axes, s.values, s);
       settle(s.kind == request_t::STOP || s.kind == request_t::ESTOP);
@@ -344,6 +431,8 @@ class Runner {
   std::vector<std::pair<std::string, std::int64_t>> sent_;
   std::int64_t last_reply_utime_ = 0;
   int step_ = -1;
+  int faults_ = 0;
+  int faults_biting_ = 0;
 };
 
 // The lab without the axes no step names (stops of every axis name none: then all stay).
