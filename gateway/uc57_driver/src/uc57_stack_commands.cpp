@@ -1,0 +1,688 @@
+// Uc57Stack (uc57_stack.hpp): gateway commands: bookkeeping of jobs and tasks, power, stops,
+// moves, jogs, homing, outputs, set position, parameters, arming and firing.
+#include "uc57_stack_impl.hpp"
+
+namespace motion::uc57_driver {
+
+// ---------------------------------------------------------------------------------------------
+// Commands: bookkeeping
+// ---------------------------------------------------------------------------------------------
+
+void Uc57Stack::fail_command(const Command& command, std::int32_t code, const std::string& reason) {
+  if (context_.out == nullptr) return;
+  Reply r{};
+  r.command_id = command.command_id;
+  r.status = Reply::FAILED;
+  r.error_code = code;
+  r.reason = reason;
+  context_.out->command_reply(r);
+}
+
+void Uc57Stack::reply(const Job& job, std::int8_t status, std::int32_t code, const std::string& reason) {
+  if (context_.out == nullptr) return;
+  Reply r{};
+  r.command_id = job.command.command_id;
+  r.status = status;
+  r.error_code = code;
+  r.reason = reason;
+  r.param = job.command.param;
+  context_.out->command_reply(r);
+}
+
+void Uc57Stack::start_task(std::size_t n, TaskKind kind, std::int64_t command_id, TimePoint deadline) {
+  Node& node = *nodes_[n];
+  node.task = kind;
+  node.task_command = command_id;
+  node.task_deadline = deadline;
+  node.task_watching = false;
+}
+
+void Uc57Stack::end_task(std::size_t n, std::int32_t code, const std::string& reason) {
+  Node& node = *nodes_[n];
+  if (node.task == TaskKind::kNone) return;
+  part_failed(node.task_command, n, code, reason);
+}
+
+void Uc57Stack::part_done(std::int64_t command_id, std::size_t n) {
+  Node& node = *nodes_[n];
+  if (node.task_command == command_id) {
+    node.task = TaskKind::kNone;
+    node.task_deadline = kNever;
+  }
+  const auto it = jobs_.find(command_id);
+  if (it == jobs_.end()) return;
+  Job& job = it->second;
+  job.parts[job.slot(n)] = Job::Part::kDone;
+  if (!job.all(Job::Part::kDone)) return;
+  // The state the command left its axes in goes out first: whoever acts on the reply (the
+  // coordinator checking "enabled" for the next move, a client reading "homed") has it by then.
+  for (const std::size_t done : job.nodes) publish_status(done);
+  if (job.unreached.empty()) {
+    reply(job, Reply::DONE);
+  } else {
+    reply(job, Reply::FAILED, job.unreached_code, job.unreached);
+  }
+  jobs_.erase(it);
+}
+
+void Uc57Stack::part_failed(std::int64_t command_id, std::size_t n, std::int32_t code, const std::string& reason) {
+  if (nodes_[n]->task_command == command_id) {
+    nodes_[n]->task = TaskKind::kNone;
+    nodes_[n]->task_deadline = kNever;
+  }
+  const auto it = jobs_.find(command_id);
+  if (it == jobs_.end()) return;
+  const Job job = std::move(it->second);
+  jobs_.erase(it);
+  // The command is over: the other axes' tasks for it end silently (one terminal reply).
+  for (const std::size_t other : job.nodes) {
+    Node& node = *nodes_[other];
+    if (node.task_command != command_id || node.task == TaskKind::kNone) continue;
+    if (node.task == TaskKind::kPower) node.power.cancel();
+    node.task = TaskKind::kNone;
+    node.task_deadline = kNever;
+  }
+  reply(job, Reply::FAILED, code, reason);
+}
+
+void Uc57Stack::part_armed(std::int64_t command_id, std::size_t n, TimePoint now) {
+  Node& node = *nodes_[n];
+  node.task = TaskKind::kArmed;
+  node.task_deadline = kNever;
+  const auto it = jobs_.find(command_id);
+  if (it == jobs_.end()) return;
+  Job& job = it->second;
+  job.parts[job.slot(n)] = Job::Part::kArmed;
+  if (!job.all(Job::Part::kArmed)) return;
+  reply(job, Reply::ARMED);
+  if (job.command.trigger_id == 0) fire_jobs({command_id}, now);  // "0 = at once"
+}
+
+void Uc57Stack::check_task_timeouts(TimePoint now) {
+  for (std::size_t n = 0; n < nodes_.size(); ++n) {
+    Node& node = *nodes_[n];
+    if (node.task == TaskKind::kPower && node.power.deadline() <= now) apply_power_action(n, node.power.on_timer(now));
+    if (node.task == TaskKind::kNone || now < node.task_deadline) continue;
+    const std::string label = node.settings.label();
+    const auto ms = [](Duration d) { return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count()); };
+    switch (node.task) {
+      case TaskKind::kArming:
+        part_failed(node.task_command, n, error_code(ReplyError::kArmFailed),
+                    label + ": not ready for a set-point (statusword bit 12 still set or 6061h != 1) within " +
+                        ms(options_.set_point_timeout) + " ms");
+        break;
+      case TaskKind::kTriggered:
+      case TaskKind::kReleasing:
+        part_failed(node.task_command, n, error_code(ReplyError::kTimeout),
+                    label + ": set-point handshake timed out (statusword bit 12 " +
+                        (node.task == TaskKind::kTriggered ? "never acknowledged" : "never released") + ")");
+        break;
+      case TaskKind::kHalt:
+      case TaskKind::kQuickStop:
+        part_failed(node.task_command, n, error_code(ReplyError::kTimeout), label + ": motor still running " + ms(options_.stop_timeout) + " ms after the stop");
+        break;
+      default:
+        part_failed(node.task_command, n, error_code(ReplyError::kTimeout), label + ": no answer from the drive in time");
+        break;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Commands: execution
+// ---------------------------------------------------------------------------------------------
+
+void Uc57Stack::execute(const Command& command, TimePoint now) {
+  now_ = now;
+  Job job;
+  job.command = command;
+  for (const auto& axis : command.axes) {
+    const auto it = std::find_if(nodes_.begin(), nodes_.end(), [&](const auto& node) { return node->settings.axis == axis.axis; });
+    if (it == nodes_.end()) return fail_command(command, error_code(ReplyError::kUnknownAxis), "axis '" + axis.axis + "' is not driven by a UC57 on bus " + bus_);
+    job.nodes.push_back(static_cast<std::size_t>(it - nodes_.begin()));
+  }
+  if (job.nodes.empty()) return fail_command(command, error_code(ReplyError::kMalformedRequest), "command names no axis");
+  job.parts.assign(job.nodes.size(), Job::Part::kRunning);
+
+  const std::int8_t kind = command.kind;
+  const bool stops = kind == Command::STOP || kind == Command::ESTOP;
+  const bool preempts = stops || kind == Command::DISABLE || kind == Command::FAULT_RESET;
+  // Parameter and output commands are plain SDO transfers: they may run next to a motion.
+  const bool needs_slot = kind != Command::DISARM && kind != Command::PARAM_READ && kind != Command::PARAM_WRITE &&
+                          kind != Command::SET_OUTPUTS;
+  // Checks first, so that a refused command starts nothing on the wire.
+  for (std::size_t i = 0; i < job.nodes.size(); ++i) {
+    const std::size_t n = job.nodes[i];
+    const Node& node = *nodes_[n];
+    // A stop naming an offline node must still stop the others (a group aborted because one of
+    // its nodes fell silent): that node only makes the reply fail, below.
+    if (node.phase != Node::Phase::kOperational && !stops) {
+      return fail_command(command, error_code(ReplyError::kAxisOffline), offline_text(n));
+    }
+    if (needs_slot && !preempts && node.task != TaskKind::kNone) {
+      return fail_command(command, error_code(ReplyError::kAxisBusy),
+                          node.settings.label() + " is busy with command " + std::to_string(node.task_command));
+    }
+    const auto state = drive_state(n);
+    const bool motion = kind == Command::ARM_MOVE || kind == Command::JOG || kind == Command::HOME;
+    if (motion && is_fault_state(state)) {
+      return fail_command(command, error_code(ReplyError::kAxisFaulted), node.settings.label() + " is faulted: " + node.status.fault_text);
+    }
+    if (motion && state != State::kOperationEnabled) {
+      return fail_command(command, error_code(ReplyError::kAxisDisabled),
+                          node.settings.label() + " is not enabled (" + (state ? std::string(cia402::to_string(*state)) : "no statusword") + ")");
+    }
+    // What this drive cannot do for this axis refuses the whole command here: found while the
+    // parts start, an earlier axis would already have been changed (random lab seed 1: a HOME
+    // that failed for its second axis had zeroed the first one's position).
+    if (auto refusal = refuse(n, command, command.axes[i])) {
+      return fail_command(command, refusal->first, refusal->second);
+    }
+  }
+  if ((kind == Command::PARAM_READ || kind == Command::PARAM_WRITE) && job.nodes.size() != 1) {
+    return fail_command(command, error_code(ReplyError::kMalformedRequest), "a parameter command names exactly one axis");
+  }
+  // Which nodes had nothing running before this command preempted it (a STOP there is DONE at once).
+  std::vector<bool> idle(job.nodes.size());
+  for (std::size_t i = 0; i < job.nodes.size(); ++i) idle[i] = at_rest(job.nodes[i]);
+  if (preempts) {
+    const std::string why = std::string(kind == Command::ESTOP ? "e-stopped" : kind == Command::STOP ? "stopped" : "superseded") +
+                            " by command " + std::to_string(command.command_id);
+    for (const std::size_t n : job.nodes) end_task(n, error_code(ReplyError::kStopped), nodes_[n]->settings.label() + ": " + why);
+  }
+
+  const std::int64_t id = command.command_id;
+  auto [it, inserted] = jobs_.emplace(id, std::move(job));
+  if (!inserted) return fail_command(command, error_code(ReplyError::kMalformedRequest), "command id " + std::to_string(id) + " is already running");
+  Job& live = it->second;
+  const std::vector<std::size_t> targets = live.nodes;
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    if (jobs_.find(id) == jobs_.end()) return;  // an earlier part already ended the command
+    const std::size_t n = targets[i];
+    const auto& axis = command.axes[i];
+    if (stops && nodes_[n]->phase != Node::Phase::kOperational) {
+      live.unreached += (live.unreached.empty() ? "" : "; ") + offline_text(n);
+      live.unreached_code = error_code(ReplyError::kAxisOffline);
+      part_done(id, n);
+      continue;
+    }
+    switch (kind) {
+      case Command::ENABLE: start_power(n, live, State::kOperationEnabled, now); break;
+      case Command::DISABLE:
+        if (is_fault_state(drive_state(n))) {
+          part_done(id, n);  // the motor is already released in Fault
+        } else {
+          start_power(n, live, State::kReadyToSwitchOn, now);
+        }
+        break;
+      case Command::FAULT_RESET:
+        if (!is_fault_state(drive_state(n)) && !cia402::is_set(nodes_[n]->statusword.value_or(0), StatusBit::kAlarm)) {
+          part_done(id, n);
+        } else {
+          start_power(n, live, State::kSwitchOnDisabled, now);
+        }
+        break;
+      case Command::ESTOP: start_quick_stop(n, live, now); break;
+      case Command::STOP: start_halt(n, live, idle[i], now); break;
+      case Command::ARM_MOVE: start_arm(n, live, axis, now); break;
+      case Command::JOG: start_jog(n, live, axis, now); break;
+      case Command::HOME: start_home(n, live, axis, now); break;
+      case Command::SET_OUTPUTS: start_outputs(n, live, axis); break;
+      case Command::SET_POSITION: start_set_position(n, live, axis); break;
+      case Command::PARAM_READ:
+      case Command::PARAM_WRITE: start_param(n, live); break;
+      case Command::DISARM:
+        disarm(live);
+        part_done(id, n);
+        break;
+      default:
+        part_failed(id, n, error_code(ReplyError::kMalformedRequest), "unknown gateway command kind " + std::to_string(kind));
+        return;
+    }
+  }
+}
+
+void Uc57Stack::start_power(std::size_t n, Job& job, State target, TimePoint now) {
+  Node& node = *nodes_[n];
+  start_task(n, TaskKind::kPower, job.command.command_id, kNever);
+  node.power.note_controlword_sent(latest_image(n).controlword);
+  node.power.request(target, now);
+  if (node.statusword) apply_power_action(n, node.power.on_statusword(*node.statusword, now));
+}
+
+void Uc57Stack::apply_power_action(std::size_t n, const cia402::PowerController::Action& action) {
+  Node& node = *nodes_[n];
+  const std::int64_t id = node.task_command;
+  for (const std::uint16_t device_control : action.controlwords()) {
+    // Only the device-control bits come from the controller; bit 4 is cleared so that enabling
+    // never starts a set-point, the mode bits (halt, abs/rel) stay.
+    RpdoImage image = latest_image(n);
+    const auto mode_bits = static_cast<std::uint16_t>(image.controlword & ~cia402::kDeviceControlBits & ~cia402::mask(ControlBit::kNewSetPoint));
+    image.controlword = static_cast<std::uint16_t>(mode_bits | (device_control & cia402::kDeviceControlBits));
+    queue_image(n, image);
+  }
+  if (action.outcome == cia402::PowerController::Outcome::kInProgress) node.power_transition = action.transition;
+  const std::string label = node.settings.label();
+  const auto target = node.power.target();
+  switch (action.outcome) {
+    case cia402::PowerController::Outcome::kReached: part_done(id, n); break;
+    case cia402::PowerController::Outcome::kTimedOut:
+      part_failed(id, n, error_code(ReplyError::kTimeout),
+                  label + ": CiA 402 transition " + std::to_string(node.power_transition) + " not confirmed by the statusword within " +
+                      std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(options_.state_switch_timeout).count()) +
+                      " ms (state " + (action.observed ? std::string(cia402::to_string(*action.observed)) : "unknown") + ")");
+      break;
+    case cia402::PowerController::Outcome::kUnreachable:
+      part_failed(id, n, is_fault_state(action.observed) ? error_code(ReplyError::kAxisFaulted) : error_code(ReplyError::kDriveError),
+                  label + ": cannot reach " + (target ? std::string(cia402::to_string(*target)) : "the requested state") +
+                      " from " + (action.observed ? std::string(cia402::to_string(*action.observed)) : "an unknown state") +
+                      (is_fault_state(action.observed) ? " (FAULT_RESET first)" : ""));
+      break;
+    case cia402::PowerController::Outcome::kIdle:
+    case cia402::PowerController::Outcome::kInProgress: break;
+  }
+}
+
+void Uc57Stack::start_quick_stop(std::size_t n, Job& job, TimePoint now) {
+  if (drive_state(n) != State::kOperationEnabled) return part_done(job.command.command_id, n);  // nothing runs
+  start_task(n, TaskKind::kQuickStop, job.command.command_id, now + options_.stop_timeout);
+  RpdoImage image = latest_image(n);
+  image.controlword = cia402::with(cia402::apply_command(image.controlword, cia402::Command::kQuickStop), ControlBit::kNewSetPoint, false);
+  // A jog's speed must not survive the e-stop: enabled again, a drive in profile velocity mode
+  // would run on at 60FFh. Zeroed in the process data and in the object (written by SDO for jogs).
+  image.target_velocity = 0;
+  queue_image(n, image);
+  sdo_write(n, {od::kTargetVelocity, 0}, le<std::int32_t>(0), [](std::error_code, std::span<const std::uint8_t>) {});
+}
+
+void Uc57Stack::start_halt(std::size_t n, Job& job, bool idle, TimePoint now) {
+  if (drive_state(n) != State::kOperationEnabled) return part_done(job.command.command_id, n);
+  RpdoImage image = latest_image(n);
+  image.controlword = cia402::with(cia402::with(image.controlword, ControlBit::kHalt, true), ControlBit::kNewSetPoint, false);
+  image.target_velocity = 0;  // manual §7 MC_STOP: bit 8 = 1 and 60FFh = 0 (in the RPDO of the default layout)
+  if (idle) {
+    // Nothing runs: the halt still goes out with the next SYNC, but the STOP does not hold the
+    // node for the two SYNC cycles that would confirm it. The coordinator's abort of a failed
+    // request is such a STOP, and the request after it found the node "busy" (random lab seed 1).
+    queue_image(n, image);
+    return part_done(job.command.command_id, n);
+  }
+  start_task(n, TaskKind::kHalt, job.command.command_id, now + options_.stop_timeout);
+  queue_image(n, image);
+}
+
+// At rest for certain: no task, every queued image applied and seen, the motor not running in
+// the statusword, and the applied image is no jog (a jog's task ends when it runs; its first
+// statusword may still be one from before the ramp).
+bool Uc57Stack::at_rest(std::size_t n) {
+  const Node& node = *nodes_[n];
+  if (node.task != TaskKind::kNone || !image_applied(n) || !node.statusword) return false;
+  if (cia402::is_set(*node.statusword, StatusBit::kMotorRunning)) return false;
+  const bool halted = cia402::is_set(node.image.controlword, ControlBit::kHalt);
+  return halted || node.image.mode != kModeProfileVelocity || node.image.target_velocity == 0;
+}
+
+// Why `command` cannot run on node n whatever its state: (reply code, reason), checked before any
+// part starts.
+std::optional<std::pair<std::int32_t, std::string>> Uc57Stack::refuse(std::size_t n, const Command& command,
+                                                                       const motionlcm::axis_command_t& axis) const {
+  const Node& node = *nodes_[n];
+  const std::string label = node.settings.label();
+  switch (command.kind) {
+    case Command::HOME: {
+      const config::Homing& homing = node.settings.homing;
+      if (homing.method == config::HomingMethod::kCurrentPosition) {
+        if (axis.target_counts == 0) return std::nullopt;
+        return std::pair{error_code(ReplyError::kUnsupported), label + ": the UC57 can only zero its position (2012h); offset " +
+                                                                   std::to_string(axis.target_counts) + " counts is not supported"};
+      }
+      if (homing.method != config::HomingMethod::kSwitch) {
+        return std::pair{error_code(ReplyError::kUnsupported), label + ": no homing method configured for axis " + node.settings.axis};
+      }
+      if (homing.input < 1 || homing.input > 3) {
+        return std::pair{error_code(ReplyError::kUnsupported), label + ": homing on input " + std::to_string(homing.input) +
+                                                                   " is not possible (UC57: IN1 positive limit, IN2 origin, IN3 negative limit)"};
+      }
+      return std::nullopt;
+    }
+    case Command::SET_POSITION:
+      if (axis.target_counts == 0) return std::nullopt;
+      return std::pair{error_code(ReplyError::kUnsupported), label + ": the UC57 can only set its position to zero (2012h); " +
+                                                                 std::to_string(axis.target_counts) + " counts is not possible"};
+    case Command::SET_OUTPUTS:
+      if ((axis.output_mask & ~((1 << kOutputCount) - 1)) == 0) return std::nullopt;
+      return std::pair{error_code(ReplyError::kOutsideLimits), label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
+                                                                   " names outputs the UC57 does not have (OUT1, OUT2)"};
+    default: return std::nullopt;
+  }
+}
+
+void Uc57Stack::set_mode(std::size_t n, std::int8_t mode, Continue done) {
+  sdo_write(n, {od::kModesOfOperation, 0}, le<std::int8_t>(mode),
+            [this, n, mode, done = std::move(done)](std::error_code ec, std::span<const std::uint8_t>) {
+              if (ec) return done(sdo_failure(n, true, {od::kModesOfOperation, 0}, ec));
+              Node& node = *nodes_[n];
+              node.image.mode = mode;
+              for (auto& queued : node.rpdo_queue) queued.mode = mode;
+              done(std::nullopt);
+            });
+}
+
+void Uc57Stack::start_arm(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint /*now*/) {
+  Node& node = *nodes_[n];
+  const std::int64_t id = job.command.command_id;
+  const std::string label = node.settings.label();
+  const auto* target_entry = cia402::uc57::find_entry(od::kTargetPosition, 0);
+  const auto target = cia402::uc57::quantize_position(*target_entry, static_cast<double>(axis.target_counts));
+  if (target.clamped) {
+    return part_failed(id, n, error_code(ReplyError::kOutsideLimits),
+                       label + ": target " + std::to_string(axis.target_counts) + " counts is outside 607Ah's range " +
+                           std::to_string(target_entry->min) + ".." + std::to_string(target_entry->max));
+  }
+  if (axis.velocity <= 0 || axis.acceleration <= 0 || axis.deceleration <= 0) {
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": ARM_MOVE needs a positive velocity, acceleration and deceleration");
+  }
+  const auto speed = cia402::uc57::quantize_speed(*cia402::uc57::find_entry(od::kProfileVelocity, 0), axis.velocity, node.pulses_per_rev);
+  const double speed_change = std::max(0.0, speed.realized - node.start_speed);
+  const auto accel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileAcceleration, 0), axis.acceleration,
+                                                 speed_change, node.pulses_per_rev);
+  const auto decel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileDeceleration, 0), axis.deceleration,
+                                                 speed_change, node.pulses_per_rev);
+  std::vector<std::pair<ObjectAddress, std::vector<std::uint8_t>>> writes = {
+      {{od::kProfileVelocity, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(speed.native))},
+      {{od::kProfileAcceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(accel.native))},
+      {{od::kProfileDeceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(decel.native))},
+  };
+  const auto target_counts = static_cast<std::int32_t>(target.native);
+  if (node.layout == RpdoLayout::kManualDefault) {
+    // No room for 607Ah in the default RPDO1: it goes by SDO now, the edge alone at the SYNC.
+    writes.push_back({{od::kTargetPosition, 0}, le<std::int32_t>(target_counts)});
+  }
+  start_task(n, TaskKind::kArming, id, kNever);
+  const unsigned session = node.session;
+  set_mode(n, kModeProfilePosition, [this, n, id, session, target_counts, writes = std::move(writes)](std::optional<std::string> failure) mutable {
+    if (failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *failure);
+    sdo_write_all(n, std::move(writes), [this, n, id, session, target_counts](std::optional<std::string> write_failure) {
+      Node& nd = *nodes_[n];
+      if (write_failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *write_failure);
+      if (nd.session != session || nd.task_command != id || nd.task != TaskKind::kArming) return;
+      RpdoImage image = latest_image(n);
+      image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F: bit 4 = 0, halt off
+      image.target_position = target_counts;
+      image.target_velocity = 0;  // PP frames of the default RPDO1 (manual §5 comm. table) carry 60FFh = 0
+      image.mode = kModeProfilePosition;
+      queue_image(n, image);
+      nd.task_watching = true;
+      // A TPDO after the image's SYNC decides; set_point_timeout covers a drive stuck with bit 12.
+      nd.task_deadline = now_ + options_.set_point_timeout + 3 * cycle();
+    });
+  });
+}
+
+void Uc57Stack::start_jog(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now) {
+  Node& node = *nodes_[n];
+  const std::int64_t id = job.command.command_id;
+  const auto speed = cia402::uc57::quantize_speed(*cia402::uc57::find_entry(od::kTargetVelocity, 0), axis.velocity, node.pulses_per_rev);
+  const double speed_change = std::max(0.0, std::abs(speed.realized) - node.start_speed);
+  const auto accel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileAcceleration, 0),
+                                                 std::max(axis.acceleration, 1.0), speed_change, node.pulses_per_rev);
+  const auto decel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileDeceleration, 0),
+                                                 std::max(axis.deceleration, 1.0), speed_change, node.pulses_per_rev);
+  const auto rpm = static_cast<std::int32_t>(speed.native);
+  start_task(n, TaskKind::kJog, id, now + options_.state_switch_timeout + 3 * cycle());
+  // Manual §7 MC_JOG: ramps, 60FFh = 0 before the mode switch (no jump), mode 3, then the speed.
+  sdo_write_all(n,
+                {{{od::kProfileAcceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(accel.native))},
+                 {{od::kProfileDeceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(decel.native))},
+                 {{od::kTargetVelocity, 0}, le<std::int32_t>(0)}},
+                [this, n, id, rpm](std::optional<std::string> failure) {
+                  // Superseded (a STOP while the ramps went out): neither the mode nor the speed
+                  // follows, or the drive would hold the jog's 60FFh behind the halt.
+                  if (nodes_[n]->task_command != id || nodes_[n]->task != TaskKind::kJog) return;
+                  if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
+                  set_mode(n, kModeProfileVelocity, [this, n, id, rpm](std::optional<std::string> mode_failure) {
+                    if (nodes_[n]->task_command != id || nodes_[n]->task != TaskKind::kJog) return;
+                    if (mode_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *mode_failure);
+                    sdo_write_all(n, {{{od::kTargetVelocity, 0}, le<std::int32_t>(rpm)}}, [this, n, id, rpm](std::optional<std::string> speed_failure) {
+                      Node& nd = *nodes_[n];
+                      if (speed_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *speed_failure);
+                      if (nd.task_command != id || nd.task != TaskKind::kJog) return;
+                      RpdoImage image = latest_image(n);
+                      image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F = PV start, halt off
+                      image.target_velocity = rpm;
+                      image.mode = kModeProfileVelocity;
+                      queue_image(n, image);
+                      nd.task_watching = true;
+                    });
+                  });
+                });
+}
+
+void Uc57Stack::start_home(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint /*now*/) {
+  Node& node = *nodes_[n];
+  const std::int64_t id = job.command.command_id;
+  const std::string label = node.settings.label();
+  const config::Homing& homing = node.settings.homing;
+  if (homing.method == config::HomingMethod::kCurrentPosition) {
+    if (axis.target_counts != 0) {
+      return part_failed(id, n, error_code(ReplyError::kUnsupported), label + ": the UC57 can only zero its position (2012h); offset " +
+                                                  std::to_string(axis.target_counts) + " counts is not supported");
+    }
+    start_task(n, TaskKind::kSdoOnly, id, kNever);
+    return sdo_write_all(n, {{{od::kZeroPosition, 0}, le<std::uint16_t>(kZeroPositionCommand)}}, [this, n, id](std::optional<std::string> failure) {
+      if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
+      part_done(id, n);
+    });
+  }
+  if (homing.method != config::HomingMethod::kSwitch) {
+    return part_failed(id, n, error_code(ReplyError::kUnsupported), label + ": no homing method configured for axis " + node.settings.axis);
+  }
+  // The manual's default input functions (§3.1): IN1 positive limit, IN2 origin, IN3 negative limit.
+  const double direction = axis.velocity != 0 ? axis.velocity : homing.velocity;
+  cia402::uc57::HomingMethod method{};
+  switch (homing.input) {
+    case 1: method = cia402::uc57::HomingMethod::kPositiveLimit; break;
+    case 2:
+      method = direction >= 0 ? cia402::uc57::HomingMethod::kHomeSwitchPositive : cia402::uc57::HomingMethod::kHomeSwitchNegative;
+      break;
+    case 3: method = cia402::uc57::HomingMethod::kNegativeLimit; break;
+    default:
+      return part_failed(id, n, error_code(ReplyError::kUnsupported), label + ": homing on input " + std::to_string(homing.input) +
+                                                  " is not possible (UC57: IN1 positive limit, IN2 origin, IN3 negative limit)");
+  }
+  cia402::uc57::HomingRequest request;
+  request.method = method;
+  request.search_speed = std::max(std::abs(axis.velocity), 1.0);
+  request.locate_speed = request.search_speed / 4;  // the slow approach decides the accuracy (§4.2.6)
+  request.acceleration = std::max(axis.acceleration, 1.0);
+  request.offset = static_cast<double>(axis.target_counts);
+  const auto settings = cia402::uc57::quantize_homing(request, node.pulses_per_rev);
+  if (settings.offset.clamped) {
+    return part_failed(id, n, error_code(ReplyError::kOutsideLimits), label + ": homing offset " + std::to_string(axis.target_counts) + " counts exceeds 607Ch's range");
+  }
+  start_task(n, TaskKind::kHoming, id, kNever);
+  sdo_write_all(n,
+                {{{od::kHomingMethod, 0}, le<std::uint8_t>(settings.method)},
+                 {{od::kHomingSpeeds, 1}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.search_speed.native))},
+                 {{od::kHomingSpeeds, 2}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.locate_speed.native))},
+                 {{od::kHomingAcceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.acceleration.native))},
+                 {{od::kHomeOffset, 0}, le<std::int32_t>(static_cast<std::int32_t>(settings.offset.native))}},
+                [this, n, id](std::optional<std::string> failure) {
+                  if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
+                  set_mode(n, kModeHoming, [this, n, id](std::optional<std::string> mode_failure) {
+                    Node& nd = *nodes_[n];
+                    if (mode_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *mode_failure);
+                    if (nd.task_command != id || nd.task != TaskKind::kHoming) return;
+                    // Two SYNC cycles: bit 4 = 0, then 1 -> the rising edge starts homing (0x0F -> 0x1F).
+                    RpdoImage image = latest_image(n);
+                    image.mode = kModeHoming;
+                    image.controlword = cia402::profile_position_controlword({}, false, false);
+                    queue_image(n, image);
+                    image.controlword = cia402::profile_position_controlword({}, true, false);
+                    queue_image(n, image);
+                    nd.task_watching = true;
+                  });
+                });
+}
+
+void Uc57Stack::start_outputs(std::size_t n, Job& job, const motionlcm::axis_command_t& axis) {
+  const std::int64_t id = job.command.command_id;
+  const std::string label = nodes_[n]->settings.label();
+  if ((axis.output_mask & ~((1 << kOutputCount) - 1)) != 0) {
+    return part_failed(id, n, error_code(ReplyError::kOutsideLimits), label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
+                                                  " names outputs the UC57 does not have (OUT1, OUT2)");
+  }
+  // The outputs are driven by their function selection (2030h:0D/0E): 5 = high, 6 = low. RW/S,
+  // not stored: the configured function returns after a power cycle.
+  std::vector<std::pair<ObjectAddress, std::vector<std::uint8_t>>> writes;
+  for (int output = 0; output < kOutputCount; ++output) {
+    if ((axis.output_mask & (1 << output)) == 0) continue;
+    const bool high = (axis.output_value & (1 << output)) != 0;
+    writes.push_back({{od::kIoConfiguration, static_cast<std::uint8_t>(kFirstOutputFunctionSub + output)},
+                      le<std::uint16_t>(high ? kOutputForcedHigh : kOutputForcedLow)});
+  }
+  sdo_write_all(n, std::move(writes), [this, n, id, mask = axis.output_mask, value = axis.output_value](std::optional<std::string> failure) {
+    if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
+    auto& outputs = nodes_[n]->status.outputs;
+    outputs = (outputs & ~mask) | (value & mask);
+    publish_status(n);
+    part_done(id, n);
+  });
+}
+
+void Uc57Stack::start_set_position(std::size_t n, Job& job, const motionlcm::axis_command_t& axis) {
+  const std::int64_t id = job.command.command_id;
+  if (axis.target_counts != 0) {
+    return part_failed(id, n, error_code(ReplyError::kUnsupported),
+                       nodes_[n]->settings.label() + ": the UC57 can only set its position to zero (2012h); " +
+                           std::to_string(axis.target_counts) + " counts is not possible");
+  }
+  start_task(n, TaskKind::kSdoOnly, id, kNever);
+  sdo_write_all(n, {{{od::kZeroPosition, 0}, le<std::uint16_t>(kZeroPositionCommand)}}, [this, n, id](std::optional<std::string> failure) {
+    if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
+    nodes_[n]->status.position_counts = 0;
+    part_done(id, n);
+  });
+}
+
+void Uc57Stack::start_param(std::size_t n, Job& job) {
+  const std::int64_t id = job.command.command_id;
+  const motionlcm::param_t& param = job.command.param;
+  const std::string label = nodes_[n]->settings.label();
+  if (param.space != motionlcm::param_t::CANOPEN_OBJECT) {
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": UC57 parameters are CANopen objects (param_t space CANOPEN_OBJECT)");
+  }
+  if (param.index < 0 || param.index > 0xFFFF || param.subindex < -1 || param.subindex > 0xFF) {
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": object " + std::to_string(param.index) + ":" + std::to_string(param.subindex) +
+                                              " is not a CANopen index (0..FFFFh) and sub-index (0..FFh)");
+  }
+  const ObjectAddress object{static_cast<std::uint16_t>(param.index), static_cast<std::uint8_t>(std::max(param.subindex, 0))};
+  const auto* entry = cia402::uc57::find_entry(object.index, object.subindex);
+  std::size_t width = static_cast<std::size_t>(std::max<std::int8_t>(param.width, 0));
+  bool is_signed = param.is_signed;
+  if (width == 0 && entry != nullptr) {
+    width = cia402::uc57::size_bytes(entry->type);
+    is_signed = cia402::uc57::is_signed(entry->type);
+  }
+  if (width != 0 && width != 1 && width != 2 && width != 4) {
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": width " + std::to_string(width) + " (CANopen objects: 1, 2 or 4 bytes)");
+  }
+  if (job.command.kind == Command::PARAM_READ) {
+    return sdo_read(n, object, [this, n, id, object, is_signed](std::error_code ec, std::span<const std::uint8_t> data) {
+      if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, false, object, ec));
+      const auto it = jobs_.find(id);
+      if (it != jobs_.end()) it->second.command.param.value = is_signed ? read_signed(data) : static_cast<std::int64_t>(read_unsigned(data));
+      part_done(id, n);
+    });
+  }
+  if (width == 0) {
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": object " + object_text(object) + " is not in the UC57 dictionary: give the width");
+  }
+  std::vector<std::uint8_t> data(width);
+  for (std::size_t i = 0; i < width; ++i) data[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(param.value) >> (8 * i));
+  sdo_write(n, object, std::move(data), [this, n, id, object](std::error_code ec, std::span<const std::uint8_t>) {
+    if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, true, object, ec));
+    part_done(id, n);
+  });
+}
+
+void Uc57Stack::disarm(const Job& disarm_job) {
+  std::vector<std::int64_t> victims;
+  for (const auto& [id, job] : jobs_) {
+    if (job.command.kind != Command::ARM_MOVE || job.started) continue;
+    if (disarm_job.command.trigger_id != 0 && job.command.trigger_id != disarm_job.command.trigger_id) continue;
+    const bool shares_axis = std::any_of(job.nodes.begin(), job.nodes.end(), [&](std::size_t n) {
+      return std::find(disarm_job.nodes.begin(), disarm_job.nodes.end(), n) != disarm_job.nodes.end();
+    });
+    if (shares_axis) victims.push_back(id);
+  }
+  // Bit 4 is still 0 in every armed drive: forgetting the job is all it takes.
+  for (const auto id : victims) {
+    const Job& job = jobs_.at(id);
+    part_failed(id, job.nodes.front(), error_code(ReplyError::kStopped), "disarmed by command " + std::to_string(disarm_job.command.command_id));
+  }
+}
+
+void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
+  now_ = now;
+  std::vector<std::int64_t> ready_jobs;
+  std::vector<std::int64_t> early_jobs;
+  for (const auto& [id, job] : jobs_) {
+    if (job.command.kind != Command::ARM_MOVE || job.started || job.command.trigger_id != trigger_id || trigger_id == 0) continue;
+    (job.all(Job::Part::kArmed) ? ready_jobs : early_jobs).push_back(id);
+  }
+  for (const auto id : early_jobs) {
+    const Job& job = jobs_.at(id);
+    part_failed(id, job.nodes.front(), error_code(ReplyError::kArmFailed),
+                "trigger " + std::to_string(trigger_id) + " arrived before every axis of command " + std::to_string(id) + " was armed");
+  }
+  if (!ready_jobs.empty()) fire_jobs(ready_jobs, now);
+}
+
+// The synchronized start: every armed node's RPDO1 with bit 4 = 1, then ONE SYNC applies them all.
+void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoint now) {
+  std::vector<bool> armed(nodes_.size(), false);
+  for (const auto id : command_ids) {
+    for (const std::size_t n : jobs_.at(id).nodes) armed[n] = true;
+  }
+  const std::uint64_t applying_sync = master_.sync()->sent() + 1;
+  for (std::size_t n = 0; n < nodes_.size(); ++n) {
+    Node& node = *nodes_[n];
+    if (node.phase != Node::Phase::kOperational) continue;
+    if (armed[n]) {
+      RpdoImage image = latest_image(n);
+      image.controlword = cia402::profile_position_controlword({}, true, false);  // 0x1F: absolute, new set-point
+      node.rpdo_queue.clear();
+      node.power.note_controlword_sent(image.controlword);
+      send_image(n, image);
+      node.task = TaskKind::kTriggered;
+      node.task_deadline = now + options_.set_point_timeout + 2 * cycle();
+    } else if (!node.rpdo_queue.empty()) {
+      // This SYNC applies whatever else is pending, as a periodic one would.
+      send_image(n, node.rpdo_queue.front());
+      node.rpdo_queue.pop_front();
+    } else {
+      continue;
+    }
+    node.image_sync = applying_sync;
+  }
+  master_.sync()->trigger_now(now);
+  const std::int64_t trigger_utime = options_.wall_clock_us(now);  // the driver replaces it by the SYNC's echo
+  can::Frame sync_frame{};
+  sync_frame.id = master_.sync()->config().cob_id & 0x7FF;
+  for (const auto id : command_ids) {
+    if (context_.start_frame) context_.start_frame(id, sync_frame);
+    Job& job = jobs_.at(id);
+    job.started = true;
+    std::fill(job.parts.begin(), job.parts.end(), Job::Part::kStarted);
+    Reply r{};
+    r.command_id = id;
+    r.status = Reply::STARTED;
+    r.trigger_utime = trigger_utime;
+    r.start_mechanism = "sync";
+    r.predicted_skew_us = 0;  // one frame starts every axis; the nodes' SYNC latency is undocumented
+    if (context_.out != nullptr) context_.out->command_reply(r);
+  }
+}
+
+}  // namespace motion::uc57_driver
