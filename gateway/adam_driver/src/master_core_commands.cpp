@@ -1,0 +1,520 @@
+// MasterCore (master_core.hpp): gateway commands: operations and their replies, enable, stops,
+// jogs, homing, outputs, parameters, arming, firing and watching moves.
+#include "master_core_impl.hpp"
+
+namespace motion::adam_driver {
+// ---- Commands -----------------------------------------------------------------------------------
+
+MasterCore::Operation& MasterCore::open_operation(const motionlcm::gateway_command_t& command, std::vector<Drive*> drives) {
+  auto op = std::make_unique<Operation>();
+  op->command = command;
+  op->drives = std::move(drives);
+  auto& ref = *op;
+  operations_[command.command_id] = std::move(op);
+  return ref;
+}
+
+void MasterCore::add_write(Operation& op, Drive& d, const rtu::Request& request, std::function<void(TimePoint)> after) {
+  ++op.outstanding;
+  const std::int64_t id = op.command.command_id;
+  Transaction t{request, &d, id};
+  t.on_reply = [this, id, after = std::move(after)](const rtu::Response&, TimePoint now, TimePoint) {
+    const auto it = operations_.find(id);
+    if (it == operations_.end()) return;
+    Operation& o = *it->second;
+    if (after) after(now);  // may add writes: count them before this one is taken off
+    if (--o.outstanding == 0 && o.on_transferred) std::exchange(o.on_transferred, {})(now);
+  };
+  t.on_fail = [this, id](const std::string& reason, std::int32_t code) { finish(id, Reply::FAILED, reason, code); };
+  enqueue(std::move(t));
+}
+
+void MasterCore::when_transferred(Operation& op, std::function<void(TimePoint)> next) {
+  op.on_transferred = std::move(next);
+}
+
+void MasterCore::reply(const Operation& op, std::int8_t status, const std::string& reason, std::int32_t code,
+                       std::function<void(Reply&)> fill) {
+  Reply r{};
+  r.command_id = op.command.command_id;
+  r.status = status;
+  r.reason = reason;
+  r.error_code = code;
+  if (fill) fill(r);
+  out_.command_reply(std::move(r));
+}
+
+void MasterCore::finish(std::int64_t command_id, std::int8_t status, const std::string& reason, std::int32_t code,
+                        std::function<void(Reply&)> fill) {
+  const auto it = operations_.find(command_id);
+  if (it == operations_.end()) return;  // already ended: exactly one terminal reply
+  auto op = std::move(it->second);
+  operations_.erase(it);
+  std::erase_if(queue_, [command_id](const Transaction& t) { return t.command_id == command_id; });
+  for (Drive* d : op->drives) {
+    if (d->motion_owner == command_id) d->motion_owner = 0;
+  }
+  reply(*op, status, reason, code, std::move(fill));
+}
+
+void MasterCore::fail_motion_of(const Drive& d, const std::string& reason, std::int32_t code) {
+  if (d.motion_owner != 0) finish(d.motion_owner, Reply::FAILED, reason, code);
+  // A jog or homing whose writes are still queued: they would start the motor after the stop.
+  std::vector<std::int64_t> queued;
+  for (const auto& [id, op] : operations_) {
+    const auto kind = op->command.kind;
+    const bool motion = kind == motionlcm::gateway_command_t::JOG || kind == motionlcm::gateway_command_t::HOME ||
+                        kind == motionlcm::gateway_command_t::ARM_MOVE;
+    if (motion && op->phase == Operation::Phase::transferring && std::find(op->drives.begin(), op->drives.end(), &d) != op->drives.end()) {
+      queued.push_back(id);
+    }
+  }
+  for (const auto id : queued) finish(id, Reply::FAILED, reason, code);
+}
+
+std::optional<std::string> MasterCore::busy_reason(const std::vector<Drive*>& drives) const {
+  for (const Drive* d : drives) {
+    if (d->motion_owner != 0)
+      return "axis " + d->cfg.axis + " is busy with command " + std::to_string(d->motion_owner);
+    if (d->alarm.active())
+      return "axis " + d->cfg.axis + " is faulted: " + std::string(adam::alarm_text(d->alarm.current));
+  }
+  return std::nullopt;
+}
+
+void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint now) {
+  const auto refuse = [&](const std::string& reason, std::int32_t code) {
+    Reply r{};
+    r.command_id = command.command_id;
+    r.status = Reply::FAILED;
+    r.reason = reason;
+    r.error_code = code;
+    out_.command_reply(std::move(r));
+  };
+  if (operations_.contains(command.command_id)) return refuse("duplicate command id", error_code(ReplyError::kMalformedRequest));
+  std::vector<Drive*> drives;
+  for (const auto& a : command.axes) {
+    Drive* d = drive_of_axis(a.axis);
+    if (!d) return refuse("axis '" + a.axis + "' is not an ADAM axis of bus " + settings_.bus, error_code(ReplyError::kUnknownAxis));
+    drives.push_back(d);
+  }
+  const bool needs_axes = command.kind != motionlcm::gateway_command_t::DISARM;
+  if (needs_axes && drives.empty()) return refuse("command names no axis", error_code(ReplyError::kMalformedRequest));
+  const std::string id_text = std::to_string(command.command_id);
+
+  switch (command.kind) {
+    case motionlcm::gateway_command_t::ENABLE:
+    case motionlcm::gateway_command_t::DISABLE: {
+      const bool enable = command.kind == motionlcm::gateway_command_t::ENABLE;
+      auto& op = open_operation(command, drives);
+      for (Drive* d : drives) {
+        if (!enable) fail_motion_of(*d, "axis " + d->cfg.axis + " disabled by command " + id_text, error_code(ReplyError::kStopped));
+        add_write(op, *d, adam::command(d->cfg.unit, enable ? adam::EnableCommand::enable : adam::EnableCommand::release),
+                  [this, d, enable](TimePoint) {
+                    d->enabled = enable;
+                    publish_status(*d);
+                  });
+      }
+      when_transferred(op, [this, id = command.command_id](TimePoint) { finish(id, Reply::DONE); });
+      break;
+    }
+    case motionlcm::gateway_command_t::STOP:
+    case motionlcm::gateway_command_t::ESTOP: {
+      const bool emergency = command.kind == motionlcm::gateway_command_t::ESTOP;
+      for (Drive* d : drives) {
+        fail_motion_of(*d, "axis " + d->cfg.axis + " stopped by command " + id_text, error_code(ReplyError::kStopped));
+      }
+      auto& op = open_operation(command, drives);
+      op.goal = Operation::Goal::stand_still;
+      for (Drive* d : drives) {
+        add_write(op, *d, adam::command(d->cfg.unit, emergency ? adam::VelocityCommand::emergency_stop
+                                                               : adam::VelocityCommand::ramped_stop));
+        // An e-stop leaves the motor released, as on every family (CiA 402 quick stop ends in
+        // "switch on disabled").
+        if (emergency) {
+          add_write(op, *d, adam::command(d->cfg.unit, adam::EnableCommand::release), [this, d](TimePoint) {
+            d->enabled = false;
+            publish_status(*d);
+          });
+        }
+      }
+      // Urgent: a stop goes before queued polls and set-up (but after the frame on the line).
+      std::stable_partition(queue_.begin(), queue_.end(),
+                            [id = command.command_id](const Transaction& t) { return t.command_id == id; });
+      when_transferred(op, [this, id = command.command_id](TimePoint) {
+        if (auto it = operations_.find(id); it != operations_.end()) it->second->phase = Operation::Phase::moving;
+      });
+      break;
+    }
+    case motionlcm::gateway_command_t::JOG: {
+      if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
+      auto& op = open_operation(command, drives);
+      for (std::size_t i = 0; i < drives.size(); ++i) {
+        Drive& d = *drives[i];
+        const auto& a = command.axes[i];
+        const double rpm = std::abs(rpm_of(d, a.velocity));
+        const auto speed = adam::jog_speed(rpm);
+        if (!speed || (a.velocity != 0 && speed.value().value == 0)) {
+          return finish(command.command_id, Reply::FAILED,
+                        "axis " + a.axis + ": jog speed " + std::to_string(rpm) + " rpm outside 1…511 rpm (0x00CA, §8.65②)",
+                        error_code(ReplyError::kMalformedRequest));
+        }
+        if (a.acceleration > 0 && speed.value().value > 0) {
+          const double rate = std::abs(rpm_of(d, a.acceleration));
+          const auto ramp = adam::ramp_time_ms(0, speed.value().realized, rate);
+          if (ramp) {
+            add_write(op, d, {d.cfg.unit, rtu::WriteRegisters{adam::address(Reg::start_speed),
+                                                              {0, 0, ramp.value().value, ramp.value().value}}});
+          }
+        }
+        adam::JogCommand jog;
+        jog.direction = a.velocity < 0 ? adam::Rotation::ccw : adam::Rotation::cw;
+        jog.speed_rpm = speed.value().value;
+        jog.stop = adam::StopMethod::decelerate;
+        jog.run = speed.value().value > 0;
+        add_write(op, d, adam::write16(d.cfg.unit, Reg::jog_command, adam::encode(jog).value()));
+      }
+      when_transferred(op, [this, id = command.command_id](TimePoint) { finish(id, Reply::DONE); });
+      break;
+    }
+    case motionlcm::gateway_command_t::HOME: {
+      if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
+      auto& op = open_operation(command, drives);
+      op.goal = Operation::Goal::reach_home;
+      bool any_switch = false;
+      for (std::size_t i = 0; i < drives.size(); ++i) {
+        Drive& d = *drives[i];
+        const auto& a = command.axes[i];
+        d.motion_owner = command.command_id;
+        if (d.cfg.homing_method == config::HomingMethod::kNone) {
+          return finish(command.command_id, Reply::FAILED, "axis " + a.axis + " has no homing method configured", error_code(ReplyError::kUnsupported));
+        }
+        if (d.cfg.homing_method == config::HomingMethod::kCurrentPosition) {
+          add_write(op, d, adam::move(d.cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(a.target_counts)),
+                    [&d](TimePoint) { d.homed = true; });
+          op.arrived.insert(&d);
+          continue;
+        }
+        any_switch = true;
+        adam::InputPair inputs;  // high byte: enable input (off); low byte: home input (§8.48)
+        inputs.low = {true, true, static_cast<std::uint8_t>(std::clamp(d.cfg.home_input - 1, 0, 15))};
+        add_write(op, d, adam::write16(d.cfg.unit, Reg::enable_home_inputs, adam::encode(inputs).value()));
+        const double rpm = std::abs(rpm_of(d, a.velocity));
+        adam::HomingCommand home;
+        home.direction = a.velocity < 0 ? adam::Travel::reverse : adam::Travel::forward;
+        home.speed_rpm = a.velocity == 0 ? kDefaultHomingRpm
+                                         : static_cast<std::uint16_t>(std::clamp(std::lround(rpm), 1L, long{adam::kMaxJogSpeedRpm}));
+        home.stop = adam::StopMethod::immediate;  // stop ON the sensor: the position is zeroed there
+        home.secondary_speed_code = 0;
+        add_write(op, d, adam::write16(d.cfg.unit, Reg::homing_command, adam::encode(home).value()));
+      }
+      when_transferred(op, [this, id = command.command_id, any_switch](TimePoint) {
+        if (!any_switch) return finish(id, Reply::DONE);
+        if (auto it = operations_.find(id); it != operations_.end()) it->second->phase = Operation::Phase::moving;
+      });
+      break;
+    }
+    case motionlcm::gateway_command_t::ARM_MOVE: {
+      if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
+      for (Drive* d : drives) {
+        if (d->status && d->status->moving())
+          return refuse("axis " + d->cfg.axis + " is moving; stop it before arming a move", error_code(ReplyError::kAxisBusy));
+      }
+      auto& op = open_operation(command, drives);
+      arm_move(op, now);
+      break;
+    }
+    case motionlcm::gateway_command_t::FAULT_RESET: {
+      auto& op = open_operation(command, drives);
+      for (Drive* d : drives) add_write(op, *d, adam::clear_alarm(d->cfg.unit));
+      when_transferred(op, [this, id = command.command_id](TimePoint) { finish(id, Reply::DONE); });
+      break;
+    }
+    case motionlcm::gateway_command_t::SET_OUTPUTS: {
+      auto& op = open_operation(command, drives);
+      for (std::size_t i = 0; i < drives.size(); ++i) {
+        const auto& a = command.axes[i];
+        if ((a.output_mask & ~((1 << kMaxOutputs) - 1)) != 0) {
+          return finish(command.command_id, Reply::FAILED,
+                        "axis " + a.axis + ": output mask " + hex16(static_cast<std::uint32_t>(a.output_mask)) +
+                            " names outputs beyond Y0…Y7",
+                        error_code(ReplyError::kMalformedRequest));
+        }
+        const auto on = static_cast<std::uint16_t>(a.output_mask & a.output_value);
+        const auto off = static_cast<std::uint16_t>(a.output_mask & ~a.output_value);
+        if (on != 0) add_write(op, *drives[i], adam::write16(drives[i]->cfg.unit, Reg::outputs_on, on));
+        if (off != 0) add_write(op, *drives[i], adam::write16(drives[i]->cfg.unit, Reg::outputs_off, off));
+      }
+      when_transferred(op, [this, id = command.command_id](TimePoint) { finish(id, Reply::DONE); });
+      if (op.outstanding == 0) finish(command.command_id, Reply::DONE);
+      break;
+    }
+    case motionlcm::gateway_command_t::SET_POSITION: {
+      if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
+      auto& op = open_operation(command, drives);
+      for (std::size_t i = 0; i < drives.size(); ++i) {
+        const auto target = command.axes[i].target_counts;
+        if (target < std::numeric_limits<std::int32_t>::min() || target > std::numeric_limits<std::int32_t>::max()) {
+          return finish(command.command_id, Reply::FAILED, "axis " + command.axes[i].axis + ": position outside INT32", error_code(ReplyError::kMalformedRequest));
+        }
+        add_write(op, *drives[i], adam::move(drives[i]->cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(target)));
+      }
+      when_transferred(op, [this, id = command.command_id](TimePoint) { finish(id, Reply::DONE); });
+      break;
+    }
+    case motionlcm::gateway_command_t::PARAM_READ:
+    case motionlcm::gateway_command_t::PARAM_WRITE: {
+      if (drives.size() != 1) return refuse("a parameter command names exactly one axis", error_code(ReplyError::kMalformedRequest));
+      auto& op = open_operation(command, drives);
+      param(op, command.param);
+      break;
+    }
+    case motionlcm::gateway_command_t::DISARM: {
+      std::vector<std::int64_t> disarmed;
+      for (const auto& [id, op] : operations_) {
+        if (op->command.kind != motionlcm::gateway_command_t::ARM_MOVE || op->phase == Operation::Phase::moving) continue;
+        const bool by_trigger = command.trigger_id != 0 && op->command.trigger_id == command.trigger_id;
+        const bool by_axis = std::any_of(op->drives.begin(), op->drives.end(), [&](Drive* d) {
+          return std::find(drives.begin(), drives.end(), d) != drives.end();
+        });
+        if (by_trigger || by_axis) disarmed.push_back(id);
+      }
+      for (const auto id : disarmed) finish(id, Reply::FAILED, "disarmed by command " + id_text, error_code(ReplyError::kStopped));
+      reply(open_operation(command, drives), Reply::DONE, std::to_string(disarmed.size()) + " armed move(s) disarmed");
+      operations_.erase(command.command_id);
+      break;
+    }
+    default: return refuse("command kind " + std::to_string(command.kind) + " is not supported by the ADAM driver", error_code(ReplyError::kUnsupported));
+  }
+  send_next(now);
+}
+
+void MasterCore::arm_move(Operation& op, TimePoint now) {
+  (void)now;
+  const std::int64_t id = op.command.command_id;
+  op.goal = Operation::Goal::reach_target;
+  // Other drives of the line are made neutral (table entry 0 = where they stand), so that the
+  // broadcast "execute table entry" moves only the armed ones. Queued first: done by ARMED.
+  for (auto& other : drives_) {
+    Drive* d = other.get();
+    if (std::find(op.drives.begin(), op.drives.end(), d) != op.drives.end()) continue;
+    if (!d->online || !d->position || d->motion_owner != 0 || (d->status && d->status->moving())) continue;
+    if (d->table_entry == d->position) continue;
+    const std::int32_t here = *d->position;
+    const std::int32_t entry[] = {here};
+    auto writes = adam::table_data_writes(d->cfg.unit, kTableStartOffset, entry);
+    if (!writes) continue;
+    writes.value().push_back(adam::write16(d->cfg.unit, Reg::table_size, 1));
+    writes.value().push_back(adam::write16(d->cfg.unit, Reg::table_pointer, 0));
+    writes.value().push_back(adam::write16(d->cfg.unit, Reg::table_start, kTableStartOffset));
+    for (std::size_t i = 0; i < writes.value().size(); ++i) {
+      Transaction t{writes.value()[i], d};
+      if (i + 1 == writes.value().size()) t.on_reply = [d, here](const rtu::Response&, TimePoint, TimePoint) { d->table_entry = here; };
+      t.on_fail = [this, d](const std::string& reason, std::int32_t) {
+        event(d, Event::ERROR_REPORT, Event::WARNING, 0, "could not neutralize the table of " + d->cfg.drive + ": " + reason);
+      };
+      enqueue(std::move(t));
+    }
+  }
+  for (std::size_t i = 0; i < op.drives.size(); ++i) {
+    Drive& d = *op.drives[i];
+    const auto& a = op.command.axes[i];
+    const auto fail = [&](const std::string& why) { finish(id, Reply::FAILED, "axis " + a.axis + ": " + why, error_code(ReplyError::kArmFailed)); };
+    if (a.target_counts < std::numeric_limits<std::int32_t>::min() || a.target_counts > std::numeric_limits<std::int32_t>::max())
+      return fail("target " + std::to_string(a.target_counts) + " outside INT32 pulses");
+    if (!(a.velocity > 0) || !(a.acceleration > 0) || !(a.deceleration > 0))
+      return fail("velocity, acceleration and deceleration must be positive");
+    const auto speed = adam::target_speed_from_pps(a.velocity, d.pulses_per_rev);
+    if (!speed || speed.value().value <= 0)
+      return fail("speed " + std::to_string(a.velocity) + " counts/s is outside 0.01…9999.99 rpm (0x00D8)");
+    const double rpm = speed.value().value * adam::kTargetSpeedRpmPerStep;
+    // Start and stop speed 0 (§8.40, §8.41; ramp times per §8.42, §8.43): the ramps are then
+    // exactly v/a, the planned trapezoid.
+    const auto accel = adam::ramp_time_ms(0, rpm, std::abs(rpm_of(d, a.acceleration)));
+    const auto decel = adam::ramp_time_ms(0, rpm, std::abs(rpm_of(d, a.deceleration)));
+    if (!accel || !decel) return fail("ramp time outside 0…65535 ms (0x0098/0x0099)");
+    adam::SyncMovePreload preload;
+    preload.profile = {0, 0, accel.value().value, decel.value().value, speed.value().value};
+    preload.target_pulses = static_cast<std::int32_t>(a.target_counts);
+    preload.start_offset = kTableStartOffset;
+    auto writes = adam::sync_move_preload(d.cfg.unit, preload);
+    if (!writes) return fail("cannot preload: " + writes.error().message());
+    d.motion_owner = id;
+    for (std::size_t w = 0; w < writes.value().size(); ++w) {
+      std::function<void(TimePoint)> after;
+      if (w + 1 == writes.value().size()) after = [&d, target = preload.target_pulses](TimePoint) { d.table_entry = target; };
+      add_write(op, d, writes.value()[w], std::move(after));
+    }
+  }
+  when_transferred(op, [this, id](TimePoint at) {
+    const auto it = operations_.find(id);
+    if (it == operations_.end()) return;
+    Operation& armed = *it->second;
+    armed.phase = Operation::Phase::armed;
+    reply(armed, Reply::ARMED);
+    if (armed.command.trigger_id == 0) start_armed(armed, at);
+  });
+}
+
+bool MasterCore::neutral_for(const Drive& d, const Operation& firing) const {
+  if (std::find(firing.drives.begin(), firing.drives.end(), &d) != firing.drives.end()) return true;
+  // Executing its table entry must move nothing: idle, entry = position, and no command of ours
+  // pending on it. A drive that never answered cannot be vouched for.
+  return d.motion_owner == 0 && d.status && !d.status->moving() && d.position && d.table_entry == d.position;
+}
+
+void MasterCore::fire(std::int64_t trigger_id, TimePoint now) {
+  std::vector<std::int64_t> ids;
+  for (const auto& [id, op] : operations_) {
+    if (op->phase == Operation::Phase::armed && op->command.trigger_id == trigger_id) ids.push_back(id);
+  }
+  for (const auto id : ids) {
+    if (auto it = operations_.find(id); it != operations_.end()) start_armed(*it->second, now);
+  }
+  send_next(now);
+}
+
+void MasterCore::start_armed(Operation& op, TimePoint now) {
+  const std::int64_t id = op.command.command_id;
+  op.phase = Operation::Phase::moving;  // no second fire
+  for (Drive* d : op.drives) d->target = d->table_entry.value_or(0);
+  const bool broadcast = std::all_of(drives_.begin(), drives_.end(), [&](const auto& d) { return neutral_for(*d, op); });
+  if (broadcast) {
+    Transaction start{adam::table_execute_broadcast().value(), nullptr, id};
+    start.on_reply = [this, id](const rtu::Response&, TimePoint at, TimePoint frame_end) {
+      const auto it = operations_.find(id);
+      if (it == operations_.end()) return;
+      it->second->trigger_utime = wall_clock_() + std::chrono::duration_cast<std::chrono::microseconds>(frame_end - at).count();
+      reply(*it->second, Reply::STARTED, {}, 0, [&](Reply& r) {
+        r.trigger_utime = it->second->trigger_utime;
+        r.start_mechanism = "broadcast";
+        r.predicted_skew_us = 0;
+      });
+    };
+    enqueue(std::move(start), /*urgent=*/true);
+  } else {
+    // One absolute move per axis (0x00D0, §8.65⑥), in order, each acknowledged.
+    const Duration per_axis = rtu::transmission_time(settings_.format, 13) + rtu::transmission_time(settings_.format, 8) +
+                              2 * timing_.t3_5 + kAssumedDriveLatency;
+    const double skew_us = std::chrono::duration<double, std::micro>(per_axis).count() * static_cast<double>(op.drives.size() - 1);
+    op.outstanding = 0;
+    std::vector<Transaction> starts;
+    for (Drive* d : op.drives) {
+      ++op.outstanding;
+      Transaction t{adam::move(d->cfg.unit, adam::MoveCommand::absolute_at_standstill, static_cast<std::int32_t>(d->target)), d, id};
+      t.max_retries = d->cfg.retries;
+      t.on_reply = [this, id, skew_us](const rtu::Response&, TimePoint at, TimePoint frame_end) {
+        const auto it = operations_.find(id);
+        if (it == operations_.end()) return;
+        Operation& o = *it->second;
+        if (o.trigger_utime == 0)
+          o.trigger_utime = wall_clock_() - std::chrono::duration_cast<std::chrono::microseconds>(at - frame_end).count();
+        if (--o.outstanding == 0) {
+          reply(o, Reply::STARTED, {}, 0, [&](Reply& r) {
+            r.trigger_utime = o.trigger_utime;
+            r.start_mechanism = "sequential";
+            r.predicted_skew_us = skew_us;
+          });
+        }
+      };
+      t.on_fail = [this, id](const std::string& reason, std::int32_t code) { finish(id, Reply::FAILED, reason, code); };
+      starts.push_back(std::move(t));
+    }
+    for (auto it = starts.rbegin(); it != starts.rend(); ++it) queue_.push_front(std::move(*it));
+  }
+  send_next(now);
+}
+
+void MasterCore::check_motion(Operation& op, const Drive& sampled, TimePoint now) {
+  (void)now;
+  const std::int64_t id = op.command.command_id;
+  for (Drive* d : op.drives) {
+    if (op.arrived.contains(d) || !d->status || !d->position) continue;
+    const adam::DriveStatus& s = *d->status;
+    const bool idle = s.phase == adam::MotionPhase::idle;
+    if (!idle) {
+      op.seen_moving.insert(d);
+      continue;
+    }
+    bool reached = false;
+    switch (op.goal) {
+      case Operation::Goal::reach_target: reached = s.in_position && *d->position == d->target; break;
+      case Operation::Goal::reach_home: reached = s.at_home; break;
+      case Operation::Goal::stand_still: reached = true; break;
+      case Operation::Goal::none: reached = true; break;
+    }
+    if (reached) {
+      op.arrived.insert(d);
+      continue;
+    }
+    // Idle but not there: give the drive a few polls to start (the broadcast has no ack), then
+    // report where it stopped. Only a fresh sample of this drive counts: the others' samples
+    // come in between and would count its old one again.
+    if (d == &sampled && !op.seen_moving.contains(d)) ++op.idle_polls[d];
+    if (op.seen_moving.contains(d) || op.idle_polls[d] >= kIdlePollsBeforeShortStop) {
+      const std::string where = "axis " + d->cfg.axis + " stopped at " + std::to_string(*d->position);
+      std::string reason;
+      if (s.at_limit()) reason = where + " on its " + (s.negative_limit ? "negative" : "positive") + " limit";
+      else if (op.goal == Operation::Goal::reach_home) reason = where + " without finding the home switch";
+      else reason = where + ", short of its target " + std::to_string(d->target);
+      return finish(id, Reply::FAILED, reason, s.at_limit() ? error_code(ReplyError::kAxisFault) : error_code(ReplyError::kDriveError));
+    }
+  }
+  if (op.arrived.size() < op.drives.size()) return;
+  if (op.goal == Operation::Goal::reach_home) {
+    for (std::size_t i = 0; i < op.drives.size(); ++i) op.drives[i]->homed = true;
+    // Home is position 0 on the drive (assumed: §8.48 only says positions are relative to home); a
+    // non-zero home position is preset after.
+    op.phase = Operation::Phase::transferring;
+    op.goal = Operation::Goal::none;
+    for (std::size_t i = 0; i < op.drives.size(); ++i) {
+      const auto target = op.command.axes[i].target_counts;
+      if (target != 0)
+        add_write(op, *op.drives[i], adam::move(op.drives[i]->cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(target)));
+    }
+    if (op.outstanding == 0) return finish(id, Reply::DONE);
+    when_transferred(op, [this, id](TimePoint) { finish(id, Reply::DONE); });
+    return;
+  }
+  finish(id, Reply::DONE);
+}
+
+void MasterCore::param(Operation& op, const motionlcm::param_t& p) {
+  const std::int64_t id = op.command.command_id;
+  Drive& d = *op.drives[0];
+  if (p.space != motionlcm::param_t::MODBUS_REGISTER)
+    return finish(id, Reply::FAILED, "ADAM parameters are Modbus registers (param_t space MODBUS_REGISTER)", error_code(ReplyError::kUnsupported));
+  if (p.index < 0 || p.index > 0xFFFF) return finish(id, Reply::FAILED, "register " + std::to_string(p.index) + " outside 0…0xFFFF", error_code(ReplyError::kMalformedRequest));
+  const auto reg = static_cast<std::uint16_t>(p.index);
+  const auto* info = adam::find_register(reg);
+  const int width = p.width != 0 ? p.width : (info ? info->count() : 1);
+  if (width != 1 && width != 2) return finish(id, Reply::FAILED, "width must be 1 or 2 registers", error_code(ReplyError::kMalformedRequest));
+  const bool is_signed = p.is_signed || (info && (info->type == adam::RegType::i16 || info->type == adam::RegType::i32));
+  if (op.command.kind == motionlcm::gateway_command_t::PARAM_READ) {
+    Transaction t{{d.cfg.unit, rtu::ReadRegisters{reg, static_cast<std::uint16_t>(width)}}, &d, id};
+    t.on_reply = [this, id, p, width, is_signed](const rtu::Response& r, TimePoint, TimePoint) {
+      const auto& v = std::get<rtu::ReadRegistersReply>(r.pdu).values;
+      motionlcm::param_t result = p;
+      result.width = static_cast<std::int8_t>(width);
+      if (width == 2) result.value = is_signed ? std::int64_t{adam::decode32_signed(v[0], v[1])} : std::int64_t{adam::decode32(v[0], v[1])};
+      else result.value = is_signed ? std::int64_t{adam::decode16_signed(v[0])} : std::int64_t{v[0]};
+      finish(id, Reply::DONE, {}, 0, [&](Reply& reply) { reply.param = result; });
+    };
+    t.on_fail = [this, id](const std::string& reason, std::int32_t code) { finish(id, Reply::FAILED, reason, code); };
+    enqueue(std::move(t));
+    return;
+  }
+  const std::int64_t lo = width == 1 ? (is_signed ? -32768 : 0) : (is_signed ? std::numeric_limits<std::int32_t>::min() : 0);
+  const std::int64_t hi = width == 1 ? (is_signed ? 32767 : 0xFFFF)
+                                     : (is_signed ? std::numeric_limits<std::int32_t>::max() : std::int64_t{0xFFFFFFFF});
+  if (p.value < lo || p.value > hi)
+    return finish(id, Reply::FAILED, "value " + std::to_string(p.value) + " does not fit " + std::to_string(width) + " register(s)", error_code(ReplyError::kMalformedRequest));
+  const rtu::Request request =
+      width == 1 ? rtu::Request{d.cfg.unit, rtu::WriteRegister{reg, static_cast<std::uint16_t>(p.value)}}
+                 : rtu::Request{d.cfg.unit, rtu::WriteRegisters{reg, {adam::encode32(static_cast<std::uint32_t>(p.value))[0],
+                                                                      adam::encode32(static_cast<std::uint32_t>(p.value))[1]}}};
+  add_write(op, d, request);
+  when_transferred(op, [this, id, p](TimePoint) { finish(id, Reply::DONE, {}, 0, [&](Reply& r) { r.param = p; }); });
+}
+
+}  // namespace motion::adam_driver
