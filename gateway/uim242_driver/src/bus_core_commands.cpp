@@ -1,0 +1,546 @@
+// Uim242BusCore (bus_core.hpp): gateway commands: enable, stops, jogs, moves (arm, fire, watch),
+// settling, homing and parameters.
+#include "bus_core_impl.hpp"
+
+namespace motion::uim242_driver {
+
+// ---- commands -------------------------------------------------------------------------------------
+
+Uim242BusCore::Drive* Uim242BusCore::drive_of_axis(const std::string& axis) {
+  for (auto& d : drives_) {
+    if (d->axis_name == axis) return d.get();
+  }
+  return nullptr;
+}
+
+bool Uim242BusCore::for_each_axis(const gateway_command_t& command,
+                                  const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f) {
+  for (const auto& a : command.axes) {
+    Drive* d = drive_of_axis(a.axis);
+    if (!d) {
+      finish(command.command_id, false, fmt::format("axis '{}' is not on bus {}", a.axis, bus_), kUnknownAxis);
+      return false;
+    }
+    if (!d->status.online) {
+      finish(command.command_id, false, fmt::format("{} (node {}) of axis '{}' is offline", d->name, d->node, a.axis),
+             kAxisOffline);
+      return false;
+    }
+  }
+  for (const auto& a : command.axes) f(*drive_of_axis(a.axis), a);
+  return true;
+}
+
+void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
+  const std::int64_t id = command.command_id;
+  if (commands_.contains(id)) {
+    // As the CAN stacks and the ADAM master: a reused id is refused, the running command goes on.
+    reply(command, gateway_reply_t::FAILED, fmt::format("command id {} is already in progress", id), kMalformed);
+    return;
+  }
+  auto owned = std::make_unique<Command>();
+  owned->command = command;
+  owned->outstanding = command.axes.size();
+  Command& c = *owned;
+  commands_[id] = std::move(owned);
+  if (command.axes.empty() && command.kind != gateway_command_t::DISARM) {
+    finish(id, false, "command names no axis", kMalformed);
+    return;
+  }
+  // One instruction sequence per axis; DONE when every axis finished it. The state it led to
+  // goes out before DONE: whoever acts on the reply (the coordinator planning the next move from
+  // the position, checking "enabled") has it by then.
+  // `after` runs when the drive answered, long after execute() returned: it gets its own copy of
+  // the axis's command (the caller's `command` is gone by then; random lab seeds 2 and 4).
+  using After = std::function<void(Drive&, const motionlcm::axis_command_t&)>;
+  const auto per_axis = [&](const std::function<std::vector<Instruction>(Drive&, const motionlcm::axis_command_t&)>& steps,
+                            const After& after = {}) {
+    for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) {
+      run_sequence(c, d, steps(d, a), [this, id, &d, after, a](TimePoint t) {
+        if (after) {
+          after(d, a);
+          if (t != TimePoint{}) publish(d, t);  // TimePoint{}: nothing was sent, nothing changed
+        }
+        part_done(id);
+      });
+    });
+  };
+  switch (command.kind) {
+    case gateway_command_t::ENABLE:
+      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::ENA)}; },
+               [](Drive& d, const auto&) { d.status.enabled = true; });
+      return;
+    case gateway_command_t::DISABLE:
+    case gateway_command_t::ESTOP: {
+      const bool estop = command.kind == gateway_command_t::ESTOP;
+      const std::string why = estop ? "stopped by ESTOP" : "axis disabled";
+      for (const auto& a : command.axes) {
+        if (Drive* d = drive_of_axis(a.axis)) fail_moves_of(*d, fmt::format("{} (node {}): {}", d->name, d->node, why), kStopped);
+      }
+      const bool every_drive = estop && command.axes.size() == drives_.size() &&
+                               std::all_of(drives_.begin(), drives_.end(), [](const auto& d) { return d->status.online; });
+      // After OFF the desired speed is set to 0: a controller keeps it while disabled, and ENA
+      // runs the motor at it again (manual, ENA H-Bridge Enable; the "SPD 5000; ENA;" example), so
+      // a later enable would resume the interrupted jog or move.
+      if (every_drive) {
+        // One `gOFF;` frame disables every controller at once (Summary), one `gSPD 0;` zeroes
+        // every desired speed.
+        const auto broadcast = [this, id](Instruction in, std::function<void()> then) {
+          Request r;
+          r.drive = "gateway";
+          r.instruction = in;
+          r.group = id;
+          r.on_reply = [then = std::move(then)](const Frame&, TimePoint) { then(); };
+          r.on_failure = [this, id](const std::string& reason, bool timed_out, TimePoint) {
+            finish(id, false, reason, timed_out ? kTimeout : kDriveError);
+          };
+          channel_.submit(std::move(r), true);
+        };
+        broadcast(Instruction{Mnemonic::OFF, true, std::nullopt, false}, [this, id, broadcast] {
+          for (auto& d : drives_) d->status.enabled = false;
+          broadcast(Instruction{Mnemonic::SPD, true, 0, false}, [this, id] { finish(id, true); });
+        });
+        return;
+      }
+      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::OFF), set(Mnemonic::SPD, 0)}; },
+               [](Drive& d, const auto&) { d.status.enabled = false; });
+      return;
+    }
+    case gateway_command_t::STOP:
+      for (const auto& a : command.axes) {
+        if (Drive* d = drive_of_axis(a.axis)) {
+          fail_moves_of(*d, fmt::format("{} (node {}): stopped by STOP", d->name, d->node), kStopped);
+        }
+      }
+      // Ramped stop, DONE at rest with the real position published (settle).
+      for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t&) {
+        run_sequence(c, d, {set(Mnemonic::STP, 0)}, [this, id, &d](TimePoint t) {
+          settle(d, id, t + kRestLimit, [this, id](TimePoint) { part_done(id); });
+        });
+      });
+      return;
+    case gateway_command_t::JOG:
+      for (const auto& a : command.axes) {
+        if (std::llround(std::abs(a.velocity)) > kSpeedMax) {
+          finish(id, false, fmt::format("axis '{}': jog velocity {} above the UIM242 maximum {} pps", a.axis, a.velocity, kSpeedMax),
+                 kOutsideLimits);
+          return;
+        }
+      }
+      per_axis([](Drive&, const motionlcm::axis_command_t& a) {
+        const std::int64_t v = std::llround(a.velocity);
+        if (v == 0) return std::vector{set(Mnemonic::STP, 0)};
+        return std::vector{set(Mnemonic::STP, 0), set(Mnemonic::MAC, clamp_rate(a.acceleration)),
+                           set(Mnemonic::MDE, clamp_rate(a.deceleration > 0 ? a.deceleration : a.acceleration)),
+                           set(Mnemonic::SPD, v)};
+      });
+      return;
+    case gateway_command_t::FAULT_RESET:
+      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::FBK)}; },
+               [](Drive& d, const auto&) {
+                 d.status.fault = false;
+                 d.status.fault_code = 0;
+                 d.status.fault_text.clear();
+               });
+      return;
+    case gateway_command_t::SET_OUTPUTS:
+      for (const auto& a : command.axes) {
+        if ((a.output_mask & ~1) != 0) {
+          finish(id, false, fmt::format("axis '{}': the UIM242 has one output (1 = P4), mask 0x{:X}", a.axis, a.output_mask),
+                 kUnsupported);
+          return;
+        }
+      }
+      per_axis(
+          [](Drive&, const motionlcm::axis_command_t& a) {
+            return a.output_mask & 1 ? std::vector{set(Mnemonic::DOU, a.output_value & 1)} : std::vector<Instruction>{};
+          },
+          [](Drive& d, const motionlcm::axis_command_t& a) {
+            if (a.output_mask & 1) d.status.outputs = a.output_value & 1;
+          });
+      return;
+    case gateway_command_t::SET_POSITION:
+      per_axis([](Drive&, const motionlcm::axis_command_t& a) { return std::vector{set(Mnemonic::ORG, a.target_counts)}; },
+               [](Drive& d, const motionlcm::axis_command_t& a) { d.status.position_counts = a.target_counts; });
+      return;
+    case gateway_command_t::HOME:
+      for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) { home(c, d, *d.axis, a); });
+      return;
+    case gateway_command_t::PARAM_READ:
+    case gateway_command_t::PARAM_WRITE:
+      for_each_axis(command, [&](Drive& d, const auto&) { param(command, d, command.kind == gateway_command_t::PARAM_WRITE); });
+      return;
+    case gateway_command_t::ARM_MOVE:
+      arm(command, now);
+      return;
+    case gateway_command_t::DISARM: {
+      // Forget armed moves (by trigger id, or naming these axes) and clear their loaded targets.
+      std::vector<Drive*> loaded;
+      std::vector<std::int64_t> disarmed;
+      for (const auto& m : moves_) {
+        const bool by_trigger = command.trigger_id != 0 && m->trigger_id == command.trigger_id;
+        const bool by_axis = std::any_of(m->axes.begin(), m->axes.end(), [&](const auto& a) {
+          return std::any_of(command.axes.begin(), command.axes.end(), [&](const auto& ca) { return ca.axis == a.drive->axis_name; });
+        });
+        if ((m->phase != Move::Phase::arming && m->phase != Move::Phase::armed) || !(by_trigger || by_axis)) continue;
+        disarmed.push_back(m->command_id);
+        for (const auto& a : m->axes) {
+          if (a.loaded && !a.arrived) loaded.push_back(a.drive);
+        }
+      }
+      for (const auto mid : disarmed) finish(mid, false, "disarmed before the trigger", kStopped);
+      c.outstanding = loaded.size();
+      if (loaded.empty()) {
+        finish(id, true);
+        return;
+      }
+      for (Drive* d : loaded) run_sequence(c, *d, {set(Mnemonic::STP, 0)}, [this, id](TimePoint) { part_done(id); });
+      return;
+    }
+    default:
+      finish(id, false, fmt::format("unknown command kind {}", command.kind), kMalformed);
+      return;
+  }
+}
+
+void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
+  const std::int64_t id = command.command_id;
+  auto move = std::make_unique<Move>();
+  move->command_id = id;
+  move->trigger_id = command.trigger_id;
+  for (const auto& a : command.axes) {
+    Drive* d = drive_of_axis(a.axis);
+    if (!d) return (void)finish(id, false, fmt::format("axis '{}' is not on bus {}", a.axis, bus_), kUnknownAxis);
+    if (!d->status.online) return (void)finish(id, false, fmt::format("{} (node {}) is offline", d->name, d->node), kAxisOffline);
+    if (!d->status.enabled) return (void)finish(id, false, fmt::format("{} (node {}) of axis '{}' is disabled", d->name, d->node, a.axis), kAxisDisabled);
+    const std::int64_t speed = std::llround(std::abs(a.velocity));
+    if (speed < 1 || speed > kSpeedMax) {
+      return (void)finish(id, false, fmt::format("axis '{}': speed {} pps outside 1..{} (SPD)", a.axis, a.velocity, kSpeedMax),
+                          kOutsideLimits);
+    }
+    move->axes.push_back({d, a.target_counts, speed, clamp_rate(a.acceleration),
+                          clamp_rate(a.deceleration > 0 ? a.deceleration : a.acceleration), false, false});
+  }
+  Move& m = *move;
+  moves_.push_back(std::move(move));
+  Command& c = *commands_.at(id);
+  const auto loaded = [this, id, &m](TimePoint t) {
+    if (std::any_of(m.axes.begin(), m.axes.end(), [](const auto& a) { return !a.loaded; })) return;
+    m.phase = Move::Phase::armed;
+    reply(commands_.at(id)->command, gateway_reply_t::ARMED);
+    if (m.trigger_id == 0) start_move(m, t);
+  };
+  for (auto& axis : m.axes) {
+    Drive& d = *axis.drive;
+    // Ramps and zero speed first (`SPD 0;` brakes a motor still running), then at rest the
+    // position the relative STP is computed from (settle: EN/CN #44 counts STP from the
+    // position at its receipt, which must be the position read).
+    run_sequence(c, d, {set(Mnemonic::MAC, axis.acceleration), set(Mnemonic::MDE, axis.deceleration), set(Mnemonic::SPD, 0)},
+                 [this, &c, &d, &axis, loaded, id](TimePoint t0) {
+    settle(d, id, t0 + kRestLimit, [this, &c, &d, &axis, loaded](TimePoint t) {
+      const std::int64_t position = d.status.position_counts;
+      const std::int64_t displacement = axis.target - position;
+      if (displacement == 0) {  // already there: `STP 0;` would mean "leave PT", not "move 0"
+        axis.loaded = axis.arrived = true;
+        loaded(t);
+        return;
+      }
+      if (std::abs(displacement) > std::numeric_limits<std::int32_t>::max()) {
+        finish(c.command.command_id, false, fmt::format("{} (node {}): displacement {} beyond STP's range", d.name, d.node, displacement),
+               kOutsideLimits);
+        return;
+      }
+      run_sequence(c, d, {set(Mnemonic::STP, displacement)}, [&axis, loaded](TimePoint t2) {
+        axis.loaded = true;
+        loaded(t2);
+      });
+    });
+                 });
+  }
+  (void)now;
+}
+
+void Uim242BusCore::fire(std::int64_t trigger_id, TimePoint now) {
+  // start_move() may end a move at once (every axis already at its target: DONE), and finish()
+  // erases it from moves_: walk a list of the command ids, and look each one up again.
+  std::vector<std::int64_t> ids;
+  for (const auto& m : moves_) {
+    if (m->phase == Move::Phase::armed && m->trigger_id == trigger_id) ids.push_back(m->command_id);
+  }
+  for (const auto id : ids) {
+    const auto it = std::find_if(moves_.begin(), moves_.end(), [id](const auto& m) { return m->command_id == id; });
+    if (it != moves_.end() && (*it)->phase == Move::Phase::armed) start_move(**it, now);
+  }
+}
+
+void Uim242BusCore::start_move(Move& m, TimePoint /*now*/) {
+  m.phase = Move::Phase::starting;
+  const std::int64_t id = m.command_id;
+  std::vector<Move::Axis*> to_start;
+  for (auto& a : m.axes) {
+    if (!a.arrived) to_start.push_back(&a);
+  }
+  const auto started = [this, id, &m](std::string mechanism) {
+    m.phase = Move::Phase::moving;
+    gateway_reply_t r{};
+    r.bus = bus_;
+    r.command_id = id;
+    r.status = gateway_reply_t::STARTED;
+    const TimePoint first = m.first_start.value_or(TimePoint{});
+    r.trigger_utime = context_.utime_of ? context_.utime_of(first) : steady_us(first);
+    r.start_mechanism = std::move(mechanism);
+    // Measured spread between the first and the last start instruction on the wire.
+    r.predicted_skew_us = std::chrono::duration<double, std::micro>(m.last_start - first).count();
+    if (context_.out) context_.out->command_reply(r);
+    if (std::all_of(m.axes.begin(), m.axes.end(), [](const auto& a) { return a.arrived; })) finish(id, true);
+  };
+  const auto on_sent = [&m](TimePoint sent) {
+    if (!m.first_start) m.first_start = sent;
+    m.last_start = sent;
+  };
+  for (auto* a : to_start) {
+    a->planned = trapezoid_duration(a->target - a->drive->status.position_counts, a->speed, a->acceleration, a->deceleration);
+    a->drive->status.target_counts = a->target;
+    a->drive->status.in_position = false;
+    a->drive->still_polls = 0;
+  }
+  if (to_start.empty()) {
+    m.first_start = m.last_start = TimePoint{};
+    started("none");
+    return;
+  }
+  const bool every_drive = to_start.size() == drives_.size();
+  const bool one_speed = std::all_of(to_start.begin(), to_start.end(), [&](const auto* a) { return a->speed == to_start.front()->speed; });
+  if (every_drive && one_speed) {
+    // Every controller is loaded with SPD 0 and its target: one global speed starts them all.
+    Request r;
+    r.drive = "gateway";
+    r.instruction = Instruction{Mnemonic::SPD, true, to_start.front()->speed, false};
+    r.group = id;
+    r.on_sent = on_sent;
+    r.on_reply = [started](const Frame&, TimePoint) { started("broadcast"); };
+    r.on_failure = [this, id](const std::string& reason, bool timed_out, TimePoint) {
+      finish(id, false, reason, timed_out ? kTimeout : kDriveError);
+    };
+    channel_.submit(std::move(r), true);
+    return;
+  }
+  // Axis by axis, ahead of any queued poll (submitted in reverse: each goes to the front).
+  for (std::size_t i = to_start.size(); i-- > 0;) {
+    Move::Axis& a = *to_start[i];
+    const bool last = i + 1 == to_start.size();
+    Request r;
+    r.drive = a.drive->name;
+    r.node = a.drive->node;
+    r.instruction = set(Mnemonic::SPD, a.speed);
+    r.group = id;
+    r.on_sent = on_sent;
+    if (last) r.on_reply = [started](const Frame&, TimePoint) { started("sequential"); };
+    Drive& d = *a.drive;
+    r.on_failure = [this, id, &d](const std::string& reason, bool timed_out, TimePoint t) {
+      if (timed_out) mark_offline(d, reason, t);
+      finish(id, false, reason, timed_out ? kTimeout : kDriveError);
+    };
+    channel_.submit(std::move(r), true);
+  }
+}
+
+void Uim242BusCore::move_axis_arrived(Drive& d, TimePoint now) {
+  for (auto& m : moves_) {
+    if (m->phase != Move::Phase::moving && m->phase != Move::Phase::starting) continue;
+    for (auto& a : m->axes) {
+      if (a.drive != &d || a.arrived) continue;
+      a.arrived = true;
+      d.status.in_position = true;
+      d.status.position_counts = a.target;
+      publish(d, now);
+      event(d, event_t::MOTION_COMPLETE, event_t::INFO, 0, fmt::format("{} (node {}) at {}", d.name, d.node, a.target));
+      if (m->phase == Move::Phase::moving &&
+          std::all_of(m->axes.begin(), m->axes.end(), [](const auto& x) { return x.arrived; })) {
+        finish(m->command_id, true);  // erases the move: stop iterating
+      }
+      return;
+    }
+  }
+}
+
+void Uim242BusCore::fail_moves_of(const Drive& d, const std::string& reason, std::int32_t code) {
+  std::vector<std::int64_t> failed;
+  for (const auto& m : moves_) {
+    if (std::any_of(m->axes.begin(), m->axes.end(), [&](const auto& a) { return a.drive == &d && !a.arrived; })) {
+      failed.push_back(m->command_id);
+    }
+  }
+  if (d.homing_command != 0) failed.push_back(d.homing_command);
+  for (const auto id : failed) finish(id, false, reason, code);
+}
+
+void Uim242BusCore::settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then) {
+  submit(d, bare(Mnemonic::FBK), group, [this, &d, group, give_up, then = std::move(then)](const Frame& f, TimePoint t) mutable {
+    const auto s = uim242::decode_status(f);
+    const std::int64_t speed = s ? s->speed : 0;
+    if (speed != 0) {
+      d.status.moving = true;
+      d.status.velocity_counts = static_cast<double>(speed);
+      if (t >= give_up) {
+        finish(group, false, fmt::format("{} (node {}): still moving at {} pps, not at rest within {} s", d.name, d.node, speed,
+                                         std::chrono::duration_cast<std::chrono::seconds>(kRestLimit).count()),
+               kDriveError);
+        return;
+      }
+      rest_checks_.push_back({t + kRestCheck, &d, group, give_up, std::move(then)});
+      return;
+    }
+    // At rest: the real position, published not moving before anything plans from it.
+    submit(d, bare(Mnemonic::QEC), group, [this, &d, then = std::move(then)](const Frame& q, TimePoint t2) {
+      const std::int64_t position = field(q, uim242::Layout::s32, 0);
+      d.status.position_counts = position;
+      d.last_polled_position = position;
+      d.status.moving = false;
+      d.status.velocity_counts = 0;
+      publish(d, t2);
+      then(t2);
+    }, true);
+  }, true);
+}
+
+void Uim242BusCore::homed(Drive& d, std::int64_t offset, TimePoint now) {
+  d.status.homed = true;
+  d.status.position_counts = offset;
+  d.status.moving = false;  // the drive took `ORG`: it refuses it while moving
+  d.status.velocity_counts = 0;
+  d.last_polled_position.reset();
+  publish(d, now);  // before DONE (see execute)
+}
+
+void Uim242BusCore::home(Command& c, Drive& d, const config::Axis& axis, const motionlcm::axis_command_t& a) {
+  const std::int64_t id = c.command.command_id;
+  // Offset and velocity in counts as the coordinator computed them (with the axis's direction).
+  const std::int64_t offset = a.target_counts;
+  if (axis.homing.method == config::HomingMethod::kNone) {
+    finish(id, false, fmt::format("axis '{}' has no homing method configured", axis.name), kUnsupported);
+    return;
+  }
+  if (axis.homing.method == config::HomingMethod::kCurrentPosition) {
+    // No switch: the current position becomes the home position (ORG, #28/#29).
+    run_sequence(c, d, {set(Mnemonic::ORG, offset)}, [this, id, &d, offset](TimePoint now) {
+      homed(d, offset, now);
+      part_done(id);
+    });
+    return;
+  }
+  const int input = axis.homing.input;
+  if (input < 1 || input > 3) {
+    finish(id, false, fmt::format("axis '{}': homing input {} is not S1..S3", axis.name, input), kOutsideLimits);
+    return;
+  }
+  double velocity = a.velocity;
+  if (velocity == 0) velocity = -0.1 * axis.limits.max_velocity * axis.steps_per_unit * (axis.invert ? -1.0 : 1.0);
+  const std::int64_t speed = std::clamp<std::int64_t>(std::llround(velocity), -kSpeedMax, kSpeedMax);
+  // Read the sensor registers, bind 1100 (reset position + emergency stop) to the switch's
+  // configured edge (falling by default: a hit switch outputs 0 V, EN §8.10), then run towards
+  // it. S12CON = S2RACT S2FACT S1RACT S1FACT, S34CON's low byte S3RACT S3FACT (EN/CN §8.6, §8.7).
+  const bool rising = axis.homing.edge == config::HomingEdge::kRising;
+  submit(d, bare(Mnemonic::SCF), id, [this, &c, &d, input, rising, speed, offset](const Frame& f, TimePoint) {
+    const auto s34_s12 = static_cast<std::uint32_t>(field(f, uim242::Layout::scf, 0));
+    const bool s3 = input == 3;
+    const auto reg = static_cast<std::uint16_t>(s3 ? s34_s12 >> 16 : s34_s12 & 0xFFFF);
+    const int shift = (input == 2 ? 8 : 0) + (rising ? 4 : 0);
+    const auto bound = static_cast<std::uint16_t>((reg & ~(0xF << shift)) | (kResetAndEmergencyStop << shift));
+    const auto which = s3 ? uim242::SensorRegister::S34CON : uim242::SensorRegister::S12CON;
+    d.homing_restore = {which, reg};
+    d.homing_edge = static_cast<uim242::Event>(0xA0 + 2 * (input - 1) + (rising ? 1 : 0));
+    d.homing_offset = offset;
+    d.homing_command = c.command.command_id;  // from here on, an end without the edge restores the register
+    run_sequence(c, d, {uim242::make_scf({which, bound}), set(Mnemonic::STP, 0), set(Mnemonic::SPD, speed)}, [](TimePoint) {});
+  });
+}
+
+void Uim242BusCore::param(const gateway_command_t& command, Drive& d, bool write) {
+  const std::int64_t id = command.command_id;
+  const auto& p = command.param;
+  if (p.space != motionlcm::param_t::UIM242_INSTRUCTION) {
+    finish(id, false, fmt::format("parameter space {} is not UIM242_INSTRUCTION", p.space), kMalformed);
+    return;
+  }
+  const auto m = p.mnemonic.size() >= 3 ? uim242::parse_mnemonic(std::string_view(p.mnemonic).substr(0, 3)) : std::nullopt;
+  if (!m || uim242::spec(*m).target != uim242::Target::controller || *m == Mnemonic::Null) {
+    finish(id, false, fmt::format("'{}' is not a UIM242 controller instruction", p.mnemonic), kMalformed);
+    return;
+  }
+  Instruction in = bare(*m);
+  std::function<std::int64_t(const Frame&)> value_of;
+  const auto layout = [](const Instruction& i) { return uim242::reply_form(i).layout; };
+  if (write) {
+    const auto out_of_range = [&] {
+      finish(id, false, fmt::format("{} (node {}): value {} outside the range of {}", d.name, d.node, p.value, p.mnemonic),
+             kOutsideLimits);
+    };
+    const bool by_register = (*m == Mnemonic::SCF || *m == Mnemonic::STG) && p.subindex >= 0;
+    if (by_register) {
+      // One 16-bit register (SCF 0..3, STG port 0..2): check before narrowing, or 70000 would
+      // go out as 4464.
+      const std::int32_t last = *m == Mnemonic::SCF ? 3 : 2;
+      if (p.subindex > last) {
+        finish(id, false, fmt::format("{} (node {}): {} has no register {} (0..{})", d.name, d.node, p.mnemonic, p.subindex, last),
+               kOutsideLimits);
+        return;
+      }
+      if (p.value < 0 || p.value > std::numeric_limits<std::uint16_t>::max()) return out_of_range();
+      const auto value = static_cast<std::uint16_t>(p.value);
+      in = *m == Mnemonic::SCF ? uim242::make_scf({static_cast<uim242::SensorRegister>(p.subindex), value})
+                               : uim242::make_stg({static_cast<std::uint8_t>(p.subindex), value});
+    } else {
+      in = set(*m, p.value);
+    }
+    if (uim242::validate(in)) return out_of_range();
+    const std::int64_t written = p.value;
+    value_of = [written](const Frame&) { return written; };
+  } else {
+    switch (*m) {
+      case Mnemonic::CUR:
+      case Mnemonic::MCS:
+        in = bare(Mnemonic::Null);  // their values come with the basic ACK (§2.4)
+        value_of = [mm = *m](const Frame& f) {
+          const auto s = uim242::decode_status(f);
+          return s ? std::int64_t{mm == Mnemonic::CUR ? s->current_tenths : s->micro_steps} : 0;
+        };
+        break;
+      case Mnemonic::ENA: in = Instruction{Mnemonic::ENA, false, 0xFFFF, true}; break;
+      case Mnemonic::MDL: in = set(Mnemonic::MDL, d.node); break;
+      case Mnemonic::OFF: case Mnemonic::ORG: case Mnemonic::STO:
+        finish(id, false, fmt::format("{} has no read form (its bare form acts)", p.mnemonic), kUnsupported);
+        return;
+      default: break;
+    }
+    if (!value_of) {
+      const Instruction sent = in;
+      const std::int32_t sub = p.subindex;
+      value_of = [sent, sub, layout](const Frame& f) -> std::int64_t {
+        const auto l = layout(sent);
+        switch (l) {
+          case uim242::Layout::flag_u32: return field(f, l, 1);
+          case uim242::Layout::model: return field(f, l, 4);
+          case uim242::Layout::status: return field(f, l, 3);
+          case uim242::Layout::stg: return field(f, l, static_cast<std::size_t>(std::max(sub, 0)));
+          case uim242::Layout::sensors: return field(f, l, static_cast<std::size_t>(std::clamp(sub, 0, 3)));
+          case uim242::Layout::scf: {
+            const auto regs = field(f, l, 0);
+            if (sub == 0) return regs & 0xFFFF;
+            if (sub == 1) return (regs >> 16) & 0xFFFF;
+            if (sub == 2 || sub == 3) return field(f, l, static_cast<std::size_t>(sub - 1));
+            return regs;
+          }
+          default: return field(f, l, 0);
+        }
+      };
+    }
+  }
+  submit(d, in, id, [this, id, p, value_of](const Frame& f, TimePoint) {
+    motionlcm::param_t out = p;
+    out.value = value_of(f);
+    finish(id, true, {}, 0, out);
+  });
+}
+
+}  // namespace motion::uim242_driver
