@@ -229,6 +229,32 @@ TEST_F(SyncMove, RestartedCoordinatorStopsAJogItDidNotStart) {
   EXPECT_EQ(back.status, st(reply_t::DONE)) << back.reason;
 }
 
+// A coordinator killed during a move leaves its client waiting: the gateways hand the rows of the
+// last ACTIVE_MOVES to the coordinator that starts next (ORPHANED_MOVES), which ends the request
+// once (ABORTED, code 20, naming the axes) and stops the axes as unowned motion.
+TEST_F(SyncMove, AClientsMoveInFlightWhenTheCoordinatorDiesEndsWithTheSuccessorsReply) {
+  const auto id = send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 250.0}, {"y", 150.0}}));
+  ASSERT_TRUE(lab.client().wait_until([&] { return saw(id, reply_t::STARTED) || ended(id); }, seconds(20)));
+  ASSERT_FALSE(ended(id)) << replies_[id].back().reason;
+  const auto coordinator = lab.group().heartbeat("coordinator");
+  ASSERT_TRUE(coordinator.has_value());
+  ASSERT_EQ(::kill(static_cast<pid_t>(coordinator->pid), SIGKILL), 0);
+  lab.group().stop(static_cast<pid_t>(coordinator->pid));  // reap it
+  lab.pause(std::chrono::milliseconds(500));
+  EXPECT_FALSE(ended(id));
+  ASSERT_GT(lab.group().start({"coordinator-2", "motion-coordinator", {"--config", lab.config_path()}, {}}), 0);
+  const reply_t ended_by = wait_terminal(id, seconds(15));
+  EXPECT_EQ(ended_by.status, st(reply_t::ABORTED)) << ended_by.reason;
+  EXPECT_EQ(ended_by.error_code, code(ReplyError::kCoordinatorRestarted)) << ended_by.reason;
+  EXPECT_NE(ended_by.reason.find("x (can0)"), std::string::npos) << ended_by.reason;
+  for (const auto& a : std::vector<std::string>{"x", "y"}) {
+    EXPECT_TRUE(lab.client().wait_until([&] { return !moving(a); }, seconds(15))) << a << " still moving";
+  }
+  EXPECT_LT(position("x"), 250.0);
+  lab.pause(std::chrono::milliseconds(1500));  // no second terminal reply, e.g. from a later heartbeat
+  EXPECT_EQ(std::count_if(replies_[id].begin(), replies_[id].end(), [](const reply_t& r) { return client::is_terminal(r.status); }), 1);
+}
+
 // Frames lost on can0 just as a stop is sent: whatever the lost frames were (the STOP, its
 // acknowledgement, status polls), the request ends exactly once, x and y come to rest well short
 // of their targets (stops are watched until the states show standstill, repeated, escalated),

@@ -198,6 +198,30 @@ void Coordinator::on_health(const motionlcm::health_t& health, TimePoint now) {
   }
 }
 
+void Coordinator::on_orphaned_moves(const motionlcm::active_moves_t& moves, TimePoint now) {
+  begin(now);
+  std::map<std::pair<std::string, std::int64_t>, std::vector<std::string>> requests;  // request -> its axes
+  for (std::size_t i = 0; i < moves.axes.size(); ++i) {
+    const std::pair<std::string, std::int64_t> id{moves.client_ids[i], moves.request_ids[i]};
+    if (active_ids_.contains(id) || orphans_ended_.contains(id)) continue;
+    requests[id].push_back(moves.axes[i] + " (" + moves.buses[i] + ")");
+  }
+  for (const auto& [id, axes] : requests) {
+    orphans_ended_.insert(id);
+    std::string list;
+    for (const auto& a : axes) list += (list.empty() ? "" : ", ") + a;
+    motionlcm::request_t msg{};
+    msg.client_id = id.first;
+    msg.request_id = id.second;
+    msg.kind = moves.kinds.empty() ? 0 : moves.kinds[0];
+    const std::string reason = "the coordinator serving this request stopped while it had " + list +
+                               "; its successor ends the request (axes still moving are stopped)";
+    reply_unknown(msg, reply_t::ABORTED, ReplyError::kCoordinatorRestarted, reason);
+    publish_event("", motionlcm::event_t::WARNING, motionlcm::event_t::UNOWNED_MOTION,
+                  "request " + id.first + "/" + std::to_string(id.second) + " of a previous coordinator ended: " + reason);
+  }
+}
+
 void Coordinator::on_malformed_message(const std::string& what, TimePoint now) {
   begin(now);
   publish_event("", motionlcm::event_t::WARNING, motionlcm::event_t::PROTOCOL_ERROR, what);

@@ -21,7 +21,8 @@ void Coordinator::reply_unknown(const request_t& msg, std::int8_t status, ReplyE
   out.reason = reason;
   out.error_code = static_cast<std::int32_t>(error);
   out_.reply(out);
-  spdlog::info("request {}/{} ({}) rejected: {}", msg.client_id, msg.request_id, kind_name(msg.kind), reason);
+  const char* ended = status == reply_t::REJECTED ? "rejected" : status == reply_t::ABORTED ? "aborted" : "failed";
+  spdlog::info("request {}/{} ({}) {}: {}", msg.client_id, msg.request_id, kind_name(msg.kind), ended, reason);
 }
 
 void Coordinator::publish_event(const std::string& axis, std::int8_t severity, std::int16_t kind, const std::string& text) {

@@ -38,6 +38,10 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
     core_.on_health(m, loop_.now());
     pump();
   });
+  node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kOrphanedMoves, [this](const motionlcm::active_moves_t& m, const std::string&) {
+    core_.on_orphaned_moves(m, loop_.now());
+    pump();
+  });
   // A malformed request cannot be answered (its ids are unreadable): say so loudly on EVENT.
   node_.on_malformed([this](const std::string& what) {
     spdlog::warn("{}", what);

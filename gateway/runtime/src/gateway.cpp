@@ -29,6 +29,7 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
                                              [this](const motionlcm::sync_trigger_t& t, const std::string&) { on_trigger(t); });
   node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves,
                                              [this](const motionlcm::active_moves_t& m, const std::string&) { on_active_moves(m); });
+  node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [this](const motionlcm::health_t& h, const std::string&) { on_health(h); });
   health_.set_bus_stats([this] { return driver_ ? driver_->statistics() : std::vector<motionlcm::bus_stats_t>{}; });
   health_timer_ = loop_.call_every(std::chrono::milliseconds(200), [this] { update_health(); });
 }
@@ -225,7 +226,44 @@ void Gateway::on_trigger(const motionlcm::sync_trigger_t& trigger) {
   loop_.call_after(delay, [this, id] { driver_->fire(id); });
 }
 
+void Gateway::on_health(const motionlcm::health_t& health) {
+  if (health.role != "coordinator") return;
+  const std::string id = health.host + ":" + std::to_string(health.pid);
+  const std::int64_t now = wall_time_us();
+  const bool successor = !coordinator_.empty() && id != coordinator_ &&
+                         now - coordinator_seen_utime_ > 3LL * std::max(health.period_ms, 1) * 1000;
+  if (id == coordinator_ || coordinator_.empty() || successor) {
+    if (successor && last_moves_.num_axes > 0) {
+      // The coordinator that sent the last ACTIVE_MOVES is gone and another one answers: it ends
+      // those requests (their clients get their terminal reply) and stops what still moves.
+      spdlog::warn("coordinator {} replaced by {}: handing it the {} active move row(s) of {} left behind", coordinator_, id,
+                   last_moves_.num_axes, bus_);
+      last_moves_.utime = now;
+      node_.publish(lcm::channels::kOrphanedMoves, last_moves_);
+      last_moves_ = {};
+    }
+    coordinator_ = id;
+    coordinator_seen_utime_ = now;
+  }
+}
+
 void Gateway::on_active_moves(const motionlcm::active_moves_t& moves) {
+  // This bus's rows of the latest desired state, for a successor coordinator.
+  last_moves_ = {};
+  for (std::size_t i = 0; i < moves.axes.size(); ++i) {
+    if (moves.buses[i] != bus_) continue;
+    last_moves_.axes.push_back(moves.axes[i]);
+    last_moves_.buses.push_back(moves.buses[i]);
+    last_moves_.client_ids.push_back(moves.client_ids[i]);
+    last_moves_.request_ids.push_back(moves.request_ids[i]);
+    last_moves_.kinds.push_back(moves.kinds[i]);
+    last_moves_.phases.push_back(moves.phases[i]);
+    last_moves_.command_ids.push_back(moves.command_ids[i]);
+    last_moves_.target_counts.push_back(moves.target_counts[i]);
+    last_moves_.targets.push_back(moves.targets[i]);
+    last_moves_.fire_utime.push_back(moves.fire_utime[i]);
+  }
+  last_moves_.num_axes = static_cast<std::int32_t>(last_moves_.axes.size());
   std::map<std::pair<std::string, std::int64_t>, std::vector<std::size_t>> inherited;  // request -> its rows here
   for (std::size_t i = 0; i < moves.axes.size(); ++i) {
     const bool ours = moves.buses[i] == bus_ && axes_.contains(moves.axes[i]);

@@ -559,6 +559,41 @@ TEST_F(CoordinatorWithoutHeartbeats, AxisStatesShowTheGatewayAliveUntilTheyStop)
 // The desired state of active moves: one row per axis with request, bus, gateway command,
 // target (counts and user units) and fire time, republished while the move runs, then an empty
 // message once it is done.
+// Rows a gateway kept from a coordinator that died: each request that is not this coordinator's
+// own ends once, ABORTED with code 20 naming its axes, however often the rows arrive; a request
+// this coordinator runs is left alone.
+TEST_F(CoordinatorTest, OrphanedMovesOfAPredecessorEndOnceAndOwnRequestsAreLeftAlone) {
+  auto_execute_moves(/*complete=*/false);
+  const auto own = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0});
+  ASSERT_TRUE(pump_until([&] { pump_triggers(); return !replies[own].empty() && replies[own].back().status == reply_t::STARTED; }));
+  motionlcm::active_moves_t rows{};
+  const auto row = [&rows](const std::string& axis, const std::string& client_id, std::int64_t request) {
+    rows.axes.push_back(axis);
+    rows.buses.push_back("can0");
+    rows.client_ids.push_back(client_id);
+    rows.request_ids.push_back(request);
+    rows.kinds.push_back(request_t::MOVE_ABSOLUTE);
+    rows.phases.push_back(motionlcm::active_moves_t::MOVING);
+    rows.command_ids.push_back(1);
+    rows.target_counts.push_back(0);
+    rows.targets.push_back(0.0);
+    rows.fire_utime.push_back(1);
+    rows.num_axes = static_cast<std::int32_t>(rows.axes.size());
+  };
+  row("y", "test", 7001);
+  row("r", "test", 7001);
+  row("x", "test", own);
+  for (int i = 0; i < 2; ++i) {
+    loop.send_to_cores([rows](Coordinator& c, TimePoint now) { c.on_orphaned_moves(rows, now); });
+    pump(milliseconds(50));
+  }
+  ASSERT_EQ(replies[7001].size(), 1u);
+  EXPECT_EQ(replies[7001][0].status, std::int8_t{reply_t::ABORTED});
+  EXPECT_EQ(replies[7001][0].error_code, static_cast<int>(ReplyError::kCoordinatorRestarted));
+  EXPECT_NE(replies[7001][0].reason.find("y (can0), r (can0)"), std::string::npos) << replies[7001][0].reason;
+  for (const auto& r : replies[own]) EXPECT_FALSE(is_terminal(r.status)) << "its own request was ended: " << r.reason;
+}
+
 TEST_F(CoordinatorTest, ActiveMovesAreRepublishedWhileTheyRunAndClearedAtTheEnd) {
   std::vector<motionlcm::active_moves_t> seen;
   client.on_active_moves = [&](const motionlcm::active_moves_t& m) { seen.push_back(m); };

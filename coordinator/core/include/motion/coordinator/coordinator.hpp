@@ -118,6 +118,10 @@ class Coordinator {
   void on_gateway_reply(const motionlcm::gateway_reply_t& reply, TimePoint now);
   void on_event(const motionlcm::event_t& event, TimePoint now);
   void on_health(const motionlcm::health_t& health, TimePoint now);
+  // ORPHANED_MOVES: rows a gateway last had from a coordinator that stopped heartbeating. Each of
+  // their requests that is not this coordinator's own ends once, ABORTED (code 20), so that its
+  // client gets its terminal reply; what still moves is stopped as unowned motion.
+  void on_orphaned_moves(const motionlcm::active_moves_t& moves, TimePoint now);
 
   // Runs everything due at `now`; returns the next deadline, kNever when nothing is scheduled.
   [[nodiscard]] TimePoint process(TimePoint now);
@@ -261,6 +265,7 @@ class Coordinator {
   std::map<std::uint64_t, std::unique_ptr<Request>> requests_;
   StopGuard stops_;
   std::set<std::pair<std::string, std::int64_t>> active_ids_;  // (client_id, request_id)
+  std::set<std::pair<std::string, std::int64_t>> orphans_ended_;  // requests of a predecessor answered
   std::uint64_t next_serial_ = 1;
   std::int64_t next_command_id_ = 1;
   std::int64_t next_trigger_id_ = 1;

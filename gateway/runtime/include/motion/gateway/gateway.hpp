@@ -20,6 +20,7 @@
 
 #include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
+#include <motionlcm/health_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/config/config.hpp"
@@ -67,6 +68,7 @@ class Gateway final : public GatewayOutput {
   // was the previous gateway process's; its axes are stopped and a GATEWAY_RESTARTED event says
   // what they were doing.
   void on_active_moves(const motionlcm::active_moves_t& moves);
+  void on_health(const motionlcm::health_t& health);
   void update_health();
   // Jog watch bookkeeping for a command about to go to the driver, and on its replies.
   void track_jogs(const motionlcm::gateway_command_t& command);
@@ -100,6 +102,9 @@ class Gateway final : public GatewayOutput {
   };
   std::map<std::string, PendingMotion> pending_motion_;
   std::map<std::int64_t, std::string> stopped_at_limit_;  // jog command id -> why the watch stopped it (before its reply)
+  motionlcm::active_moves_t last_moves_{};             // this bus's rows of the latest ACTIVE_MOVES
+  std::string coordinator_;                             // host:pid of the coordinator heard last
+  std::int64_t coordinator_seen_utime_ = 0;
   EventLoop::TimerId health_timer_ = 0;
 };
 

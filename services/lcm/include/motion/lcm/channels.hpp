@@ -15,6 +15,9 @@ inline constexpr std::string_view kHealth = "HEALTH";            // health_t, ev
 inline constexpr std::string_view kGatewayReply = "GW_REPLY";    // gateway_reply_t
 inline constexpr std::string_view kSyncTrigger = "SYNC_TRIGGER"; // sync_trigger_t
 inline constexpr std::string_view kActiveMoves = "ACTIVE_MOVES"; // active_moves_t, coordinator -> gateways, tools
+// active_moves_t, gateways -> a new coordinator: the rows a gateway last had from a coordinator
+// that stopped heartbeating, so that its successor can end those requests.
+inline constexpr std::string_view kOrphanedMoves = "ORPHANED_MOVES";
 inline constexpr std::string_view kSimControl = "SIM_CONTROL";   // sim_control_t, tests -> motion-sim
 inline constexpr std::string_view kSimReport = "SIM_REPORT";     // sim_report_t, motion-sim -> tests
 
