@@ -55,9 +55,9 @@ nlohmann::json LabView::axis_json(const motionlcm::axis_state_t& s) {
           {"node", s.node_id},      {"group", s.group_id},
           {"position", s.position}, {"position_counts", s.position_counts},
           {"velocity", s.velocity}, {"target_counts", s.target_counts},
-          {"online", s.online},     {"enabled", s.enabled},
-          {"moving", s.moving},     {"in_position", s.in_position},
-          {"homed", s.homed},       {"fault", s.fault},
+          {"online", s.online != 0},     {"enabled", s.enabled != 0},
+          {"moving", s.moving != 0},     {"in_position", s.in_position != 0},
+          {"homed", s.homed != 0},       {"fault", s.fault != 0},
           {"fault_code", s.fault_code}, {"fault_text", s.fault_text},
           {"inputs", s.inputs},     {"outputs", s.outputs}};
 }
@@ -155,7 +155,6 @@ std::vector<Outgoing> LabView::on_event(const motionlcm::event_t& msg) {
 }
 
 void LabView::on_request(const motionlcm::request_t& msg) {
-  if (!is_motion(msg.kind)) return;
   if (requests_.size() >= limits_.pending_requests) requests_.erase(requests_.begin());
   requests_[move_id(msg.client_id, msg.request_id)] = RequestSeen{msg.kind, msg.axes, msg.values};
 }
@@ -172,7 +171,10 @@ std::vector<Outgoing> LabView::on_reply(const motionlcm::reply_t& msg) {
     // move when the reply names axes (the web view may have started after the request).
     if (msg.status != reply_t::ACCEPTED && msg.status != reply_t::STARTED) return out;
     const auto request = requests_.find(id);
-    if (request == requests_.end() && msg.axes.empty()) return out;
+    if (request == requests_.end() ? msg.axes.empty() : !is_motion(request->second.kind)) {
+      if (request != requests_.end()) requests_.erase(request);
+      return out;
+    }
     Move fresh;
     fresh.id = id;
     fresh.accepted_utime = msg.utime;

@@ -74,7 +74,8 @@ class LabView {
   std::vector<Outgoing> on_axis_state(const motionlcm::axis_state_t& msg);
   std::vector<Outgoing> on_health(const motionlcm::health_t& msg);
   std::vector<Outgoing> on_event(const motionlcm::event_t& msg);
-  // Requests are not sent on; they give a move its kind and targets.
+  // Requests are not sent on; they say which requests are moves, and give a move its kind and
+  // targets.
   void on_request(const motionlcm::request_t& msg);
   std::vector<Outgoing> on_reply(const motionlcm::reply_t& msg);
   std::vector<Outgoing> on_active_moves(const motionlcm::active_moves_t& msg);
