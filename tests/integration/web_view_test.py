@@ -24,8 +24,9 @@ import time
 CHROMIUM = "/usr/bin/chromium"
 CHROMEDRIVER = "/usr/bin/chromedriver"
 SKIP = 77
-MOVED_AXIS = "x"
-TARGET = 5.0  # user units, inside x's limits in config/sim-lab.yaml
+MOVED_AXIS = "x"  # the axis whose row and plot are checked
+TARGET = 40.0     # user units, inside x's limits in config/sim-lab.yaml
+OTHER = ("y", 25.0)  # moved with it, so the plot shows a synchronized move
 
 
 def unique_lcm_url(salt=3):
@@ -191,8 +192,8 @@ def run(args, lab, work, browser_pids):
         before = js("return [Number(%s.dataset.updates), %s.querySelector('.position').textContent]" % (row, row))
         events_before = js("return document.querySelectorAll('#events li').length")
 
-        lab.ctl("enable", MOVED_AXIS)
-        lab.ctl("move", "--wait", "%s=%g" % (MOVED_AXIS, TARGET), timeout=40)
+        lab.ctl("enable", MOVED_AXIS, OTHER[0])
+        lab.ctl("move", "--wait", "%s=%g" % (MOVED_AXIS, TARGET), "%s=%g" % OTHER, timeout=40)
 
         def at_target():
             shown = js("return [Number(%s.dataset.updates), %s.querySelector('.position').textContent]" % (row, row))

@@ -169,8 +169,11 @@ std::vector<Outgoing> LabView::on_reply(const motionlcm::reply_t& msg) {
   if (move == nullptr) {
     // A move begins with its first ACCEPTED or STARTED reply; a request not heard counts as a
     // move when the reply names axes (the web view may have started after the request).
-    if (msg.status != reply_t::ACCEPTED && msg.status != reply_t::STARTED) return out;
     const auto request = requests_.find(id);
+    if (msg.status != reply_t::ACCEPTED && msg.status != reply_t::STARTED) {
+      if (request != requests_.end() && lcm::reply_is_terminal(msg.status)) requests_.erase(request);  // e.g. rejected
+      return out;
+    }
     if (request == requests_.end() ? msg.axes.empty() : !is_motion(request->second.kind)) {
       if (request != requests_.end()) requests_.erase(request);
       return out;

@@ -9,6 +9,7 @@
 const MAX_EVENTS = 500;
 const MAX_MOVES = 30;
 const REDRAW_MS = 200;
+const CLIENT_GONE_S = 5;
 const TERMINAL = new Set(['done', 'rejected', 'aborted', 'failed']);
 const COLORS = ['#1f77b4', '#d62728', '#2ca02c', '#ff7f0e', '#9467bd', '#8c564b', '#e377c2', '#17becf', '#7f7f7f', '#bcbd22'];
 
@@ -99,12 +100,17 @@ function drawProcesses() {
   for (const name of Object.keys(model.processes).sort()) {
     const h = model.processes[name];
     const age = Math.max(0, now / 1000 - h.utime / 1e6);
+    // Clients (motionctl, scripts) come and go: one silent for a while is gone, not lost.
+    if (h.role === 'client' && age > CLIENT_GONE_S) {
+      delete model.processes[name];
+      continue;
+    }
     const stale = age * 1000 > 3 * (h.period_ms || 500);
     const row = el('tr', { 'data-process': name });
     row.append(el('td', {}, name), el('td', {}, h.role),
       el('td', { class: h.state === 'ok' ? 'state-ok' : h.state === 'degraded' || h.state === 'starting' ? 'state-warn' : 'state-bad' }, h.state),
       el('td', { class: 'num' + (stale ? ' stale' : '') }, `${age.toFixed(1)} s`),
-      el('td', { class: 'num' }, `${fmt(h.uptime_s, 0)} s`), el('td', {}, h.detail));
+      el('td', { class: 'num' }, `${fmt(h.uptime_s, 0)} s`), el('td', { class: 'detail' }, h.detail));
     body.appendChild(row);
     for (const b of h.buses) {
       const bus = el('tr', { 'data-bus': b.name });
