@@ -511,8 +511,9 @@ void write_csv(std::ostream& out, const LogContents& log, const View& view) {
   for (const auto& r : rows) out << r.text << "\n";
 }
 
-// The trajectories as SVG panels, time from the log's first event; a request's STARTED reply and its
-// terminal one are marked in the panels of its axes. `units`: axis -> user unit, when known.
+// The trajectories as SVG panels, time from the log's first event; the STARTED reply of a request
+// that moves axes and its terminal one are marked in the panels of its axes (a request not in the log
+// counts when it was STARTED). `units`: axis -> user unit, when known.
 std::string plot_svg(const std::string& path, const View& view, const std::map<std::string, std::string>& units) {
   std::vector<web::PlotAxis> axes;
   for (const auto& [axis, samples] : view.trajectories()) {
@@ -523,6 +524,8 @@ std::string plot_svg(const std::string& path, const View& view, const std::map<s
   }
   std::vector<web::PlotMark> marks;
   for (const auto& th : view.threads()) {
+    const bool started = std::any_of(th.replies.begin(), th.replies.end(), [](const Logged<reply_t>* r) { return r->msg.status == reply_t::STARTED; });
+    if (th.request != nullptr ? !lcm::request_kind_moves(th.request->msg.kind) : !started) continue;
     const char* kind = th.request != nullptr ? lcm::request_kind_words(th.request->msg.kind) : "request";
     for (const auto* rep : th.replies) {
       const auto& r = rep->msg;

@@ -11,11 +11,6 @@ namespace {
 using motionlcm::reply_t;
 using motionlcm::request_t;
 
-bool is_motion(std::int8_t kind) {
-  return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG ||
-         kind == request_t::HOME;
-}
-
 bool has_targets(std::int8_t kind) { return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE; }
 
 std::string move_id(const std::string& client_id, std::int64_t request_id) { return client_id + "/" + std::to_string(request_id); }
@@ -174,7 +169,7 @@ std::vector<Outgoing> LabView::on_reply(const motionlcm::reply_t& msg) {
       if (request != requests_.end() && lcm::reply_is_terminal(msg.status)) requests_.erase(request);  // e.g. rejected
       return out;
     }
-    if (request == requests_.end() ? msg.axes.empty() : !is_motion(request->second.kind)) {
+    if (request == requests_.end() ? msg.axes.empty() : !lcm::request_kind_moves(request->second.kind)) {
       if (request != requests_.end()) requests_.erase(request);
       return out;
     }

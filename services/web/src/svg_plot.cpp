@@ -156,12 +156,14 @@ std::string svg_plot(const std::vector<PlotAxis>& axes, const std::vector<PlotMa
            "\" stroke-width=\"1.2\" stroke-dasharray=\"5,3\" points=\"" + vpoints + "\"/>\n";
     out += "<polyline class=\"position\" fill=\"none\" stroke=\"" + std::string(kPositionColor) + "\" stroke-width=\"1.5\" points=\"" +
            ppoints + "\"/>\n";
-    // Marks.
+    // Marks; their labels on three rows, so that marks close in time stay readable.
+    int drawn = 0;
     for (const auto& m : marks) {
       if (!m.axes.empty() && std::find(m.axes.begin(), m.axes.end(), axis.name) == m.axes.end()) continue;
+      const double label_y = top + 11 + 11 * (drawn++ % 3);
       out += "<line class=\"mark\" x1=\"" + num(x(m.t)) + "\" y1=\"" + num(top) + "\" x2=\"" + num(x(m.t)) + "\" y2=\"" + num(bottom) +
              "\" stroke=\"#444\" stroke-dasharray=\"2,2\"/>";
-      out += "<text class=\"mark\" x=\"" + num(x(m.t) + 3) + "\" y=\"" + num(top + 11) + "\" fill=\"#444\">" + xml(m.label) + "</text>\n";
+      out += "<text class=\"mark\" x=\"" + num(x(m.t) + 3) + "\" y=\"" + num(label_y) + "\" fill=\"#444\">" + xml(m.label) + "</text>\n";
     }
     out += "</g>\n";
   }
