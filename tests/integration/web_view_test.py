@@ -165,7 +165,7 @@ def open_browser(work):
 
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
-    for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1500,1700",
+    for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1500,1400",
                  "--user-data-dir=" + os.path.join(work, "chromium")):
         options.add_argument(flag)
     service = Service(executable_path=CHROMEDRIVER, log_path=os.path.join(work, "chromedriver.log"))
@@ -192,7 +192,15 @@ def run(args, lab, work, browser_pids):
         before = js("return [Number(%s.dataset.updates), %s.querySelector('.position').textContent]" % (row, row))
         events_before = js("return document.querySelectorAll('#events li').length")
 
-        lab.ctl("enable", MOVED_AXIS, OTHER[0])
+        # A drive of a loaded machine's simulated lab may drop offline for a moment (its gateway
+        # retries it): enabling is retried until it is done.
+        def enabled():
+            try:
+                return lab.ctl("enable", MOVED_AXIS, OTHER[0]) or True
+            except Failure as e:
+                print("retrying: %s" % str(e).splitlines()[0])
+                return None
+        wait_for("%s and %s enabled" % (MOVED_AXIS, OTHER[0]), enabled, timeout=20, period=0.5)
         lab.ctl("move", "--wait", "%s=%g" % (MOVED_AXIS, TARGET), "%s=%g" % OTHER, timeout=40)
 
         def at_target():
