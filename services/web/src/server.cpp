@@ -215,6 +215,10 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     }
     if (ec) return;
     if (websocket::is_upgrade(request_)) {
+      if (!same_origin()) {
+        respond(text_response(http::status::forbidden, "WebSocket from another site's page refused\n"));
+        return;
+      }
       if (request_.target() == "/ws") {
         stream_.expires_never();
         std::make_shared<WsSession>(stream_.release_socket(), server_)->run(std::move(request_));
@@ -224,6 +228,16 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return;
     }
     respond(file_response());
+  }
+
+  // Browsers send the page's origin with a WebSocket handshake, and any page may open one to a
+  // local address: only the server's own page (origin http://<Host>) and clients that are no
+  // browser (no Origin) may listen to the lab.
+  bool same_origin() const {
+    const auto origin = request_[http::field::origin];
+    if (origin.empty()) return true;
+    const auto host = request_[http::field::host];
+    return !host.empty() && origin.size() == 7 + host.size() && origin.starts_with("http://") && origin.ends_with(host);
   }
 
   http::response<http::string_body> text_response(http::status status, std::string body) const {

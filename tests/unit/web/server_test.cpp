@@ -136,5 +136,24 @@ TEST_F(ServerTest, ABrowserGetsTheSnapshotThenWhatFollowsIt) {
   server.stop();
 }
 
+TEST_F(ServerTest, AnotherSitesPageCannotOpenTheWebSocket) {
+  Server server(options(), [] { return Snapshot{1, {"{}"}}; });
+  server.start();
+  const std::string host = "127.0.0.1:" + std::to_string(server.port());
+  auto handshake = [&](const std::string& origin) {
+    asio::io_context io;
+    websocket::stream<beast::tcp_stream> ws(io);
+    beast::get_lowest_layer(ws).connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), server.port()));
+    ws.set_option(websocket::stream_base::decorator([origin](websocket::request_type& req) { req.set(http::field::origin, origin); }));
+    beast::error_code ec;
+    ws.handshake(host, "/ws", ec);
+    return !ec;
+  };
+  EXPECT_TRUE(handshake("http://" + host));
+  EXPECT_FALSE(handshake("http://evil.example"));
+  EXPECT_FALSE(handshake("http://" + host + ".evil.example"));
+  server.stop();
+}
+
 }  // namespace
 }  // namespace motion::web

@@ -7,6 +7,9 @@
 // browser that falls more than ServerOptions::max_queued messages behind is disconnected (the
 // page reconnects and starts again from a snapshot) instead of growing the queue without bound.
 //
+// A WebSocket handshake that carries an Origin other than the server's own page (http://<Host>)
+// is refused (403): another site's page in the same browser cannot read the lab.
+//
 // Files: GET/HEAD of paths under ServerOptions::static_dir ("/" is index.html); names with "..",
 // hidden files and other methods are refused.
 //
