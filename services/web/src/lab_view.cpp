@@ -140,6 +140,11 @@ std::vector<Outgoing> LabView::on_axis_state(const motionlcm::axis_state_t& msg)
 
 std::vector<Outgoing> LabView::on_health(const motionlcm::health_t& msg) {
   health_[msg.process] = msg;
+  // Clients (each motionctl run is one) come and go: one silent for a while, or stopped, is gone.
+  std::erase_if(health_, [&](const auto& entry) {
+    const auto& h = entry.second;
+    return h.role == "client" && (h.state == motionlcm::health_t::STOPPING || h.utime < msg.utime - limits_.client_silence_us);
+  });
   return {emit(health_json(msg))};
 }
 

@@ -139,6 +139,26 @@ TEST(LabView, HealthCarriesStateWordsAndBusStats) {
   EXPECT_EQ(of_type(view.snapshot(), "health").size(), 1u);
 }
 
+TEST(LabView, ClientsAreForgottenWhenSilentOrStopped) {
+  LabView view(lab());
+  auto beat = [&](const std::string& process, const std::string& role, std::int64_t utime, std::int8_t state) {
+    motionlcm::health_t h{};
+    h.utime = utime;
+    h.process = process;
+    h.role = role;
+    h.state = state;
+    view.on_health(h);
+  };
+  beat("motionctl-1", "client", 1'000'000, motionlcm::health_t::STARTING);
+  beat("motionctl-2", "client", 1'000'000, motionlcm::health_t::STARTING);
+  beat("coordinator", "coordinator", 1'000'000, motionlcm::health_t::OK);
+  beat("motionctl-2", "client", 5'000'000, motionlcm::health_t::STOPPING);
+  beat("coordinator", "coordinator", 12'000'000, motionlcm::health_t::OK);  // motionctl-1 silent for 11 s
+  const auto health = of_type(view.snapshot(), "health");
+  ASSERT_EQ(health.size(), 1u);
+  EXPECT_EQ(health[0]["process"], "coordinator");
+}
+
 TEST(LabView, EventsAreKeptOldestFirstUpToTheLimit) {
   LabView view(lab(), LabViewLimits{.events = 3});
   for (int i = 0; i < 5; ++i) {

@@ -1,7 +1,8 @@
 // What the web view shows of the lab, as JSON messages for the browser: the passive half of
 // motion-web. It takes the lab's LCM messages (decoded) and returns the JSON texts to send to every
 // connected browser, and keeps what a browser that connects later needs to catch up (snapshot()):
-// the configured axes, the last state of every axis, the last heartbeat of every process, the
+// the configured axes, the last state of every axis, the last heartbeat of every process (clients
+// only while they are heard), the
 // last events (newest kept), and the recent moves with the samples of their axes.
 //
 // Messages (one JSON object each, "type" says which; times are wall-clock microseconds since the
@@ -55,6 +56,7 @@ struct LabViewLimits {
   std::size_t samples_per_axis = 20000;  // per move and axis; later samples of a longer move are dropped
   std::size_t replies = 100;             // replies kept for the snapshot
   std::size_t pending_requests = 256;    // requests heard whose first reply has not come
+  std::int64_t client_silence_us = 10'000'000;  // a client process (role "client") silent this long is forgotten
 };
 
 struct Outgoing {
