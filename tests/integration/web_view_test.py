@@ -121,6 +121,12 @@ class Lab:
             raise Failure("motionctl %s: exit %d\n%s%s" % (" ".join(argv), done.returncode, done.stdout, done.stderr))
         return done.stdout
 
+    def ctl_start(self, name, *argv):
+        """motionctl in the background (killed with the lab unless it ended); returns its Popen."""
+        cmd = [self.program("motionctl"), "--config", self.args.config, "--lcm-url", self.url, *argv]
+        self.procs[name] = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=self.env)
+        return self.procs[name]
+
     def log(self, name):
         try:
             with open(os.path.join(self.work, name.replace(":", "-") + ".log"), errors="replace") as f:
@@ -152,7 +158,8 @@ class Lab:
 
     def down(self):
         for proc in self.procs.values():
-            kill_pid(proc.pid)
+            if proc.poll() is None:  # a pid already reaped may belong to another process by now
+                kill_pid(proc.pid)
 
     def print_logs(self):
         for name in self.procs:
@@ -201,7 +208,21 @@ def run(args, lab, work, browser_pids):
                 print("retrying: %s" % str(e).splitlines()[0])
                 return None
         wait_for("%s and %s enabled" % (MOVED_AXIS, OTHER[0]), enabled, timeout=20, period=0.5)
-        lab.ctl("move", "--wait", "%s=%g" % (MOVED_AXIS, TARGET), "%s=%g" % OTHER, timeout=40)
+        # The row while the move runs: the positions it shows with the axis moving.
+        move = lab.ctl_start("motionctl move", "move", "--wait", "%s=%g" % (MOVED_AXIS, TARGET), "%s=%g" % OTHER)
+        moving_positions = set()
+        deadline = time.monotonic() + 40
+        while move.poll() is None and time.monotonic() < deadline:
+            state, position = js("return [%s.querySelector('.state').textContent, %s.querySelector('.position').textContent]" % (row, row))
+            if "moving" in state:
+                moving_positions.add(float(position.split()[0]))
+            time.sleep(0.03)
+        output, _ = move.communicate(timeout=5)
+        if move.returncode != 0:
+            raise Failure("motionctl move: exit %s\n%s" % (move.returncode, output))
+        between = sorted(p for p in moving_positions if 0 < p < TARGET)
+        if not between:
+            raise Failure("the %s row never showed the axis moving between 0 and %g (seen while moving: %s)" % (MOVED_AXIS, TARGET, sorted(moving_positions)))
 
         def at_target():
             shown = js("return [Number(%s.dataset.updates), %s.querySelector('.position').textContent]" % (row, row))
@@ -218,8 +239,8 @@ def run(args, lab, work, browser_pids):
             const sets = Object.fromEntries(chart.data.datasets.map(d => [d.label, d.data.length]));
             return sets[arguments[0] + ' position'] > 3 ? {id: card.dataset.moveId, sets} : null;
         """, MOVED_AXIS), timeout=10)
-        print("axis %s: %d updates during the test, position %s; %d events (%d before the move); plot of move %s: %s" % (
-            MOVED_AXIS, after[0] - before[0], after[1], events, events_before, plot["id"], plot["sets"]))
+        print("axis %s: %d updates during the test, %d positions shown while moving, then %s; %d events (%d before the move); "
+              "plot of move %s: %s" % (MOVED_AXIS, after[0] - before[0], len(between), after[1], events, events_before, plot["id"], plot["sets"]))
         if plot["sets"].get("%s target" % MOVED_AXIS, 0) == 0:
             raise Failure("the move's plot has no target line for %s: %s" % (MOVED_AXIS, plot["sets"]))
 
