@@ -50,8 +50,18 @@ def wait_for(what, predicate, timeout, period=0.1):
         time.sleep(period)
 
 
+def start_time(pid):
+    """The start time of process `pid` (/proc/PID/stat field 22), None when there is none."""
+    try:
+        with open("/proc/%d/stat" % pid) as f:
+            stat = f.read()
+    except OSError:
+        return None
+    return int(stat[stat.rindex(")") + 2:].split()[19])
+
+
 def descendants(pid):
-    """Pids of every process under `pid` (from /proc), children first."""
+    """(pid, start time) of every process under `pid` (from /proc), parents before their children."""
     parents = {}
     for entry in os.listdir("/proc"):
         if not entry.isdigit():
@@ -66,7 +76,7 @@ def descendants(pid):
     out, todo = [], [pid]
     while todo:
         for child in parents.get(todo.pop(), []):
-            out.append(child)
+            out.append((child, start_time(child)))
             todo.append(child)
     return out
 
@@ -183,7 +193,7 @@ def run(args, lab, work, browser_pids):
     axes, url = lab.up()
     print("lab up: axes %s, web view at %s" % (" ".join(axes), url))
     driver = open_browser(work)
-    browser_pids.append(driver.service.process.pid)
+    browser_pids.append((driver.service.process.pid, start_time(driver.service.process.pid)))
     try:
         driver.set_script_timeout(10)
         driver.get(url)
@@ -284,8 +294,10 @@ def main():
         lab.print_logs()
         return 1
     finally:
-        for pid in reversed(browser_pids):
-            kill_pid(pid, grace=1.0)
+        # Children first; a pid whose start time changed is another process by now.
+        for pid, started_at in reversed(browser_pids):
+            if started_at is not None and start_time(pid) == started_at:
+                kill_pid(pid, grace=1.0)
         lab.down()
         shutil.rmtree(work, ignore_errors=True)
 
