@@ -2,7 +2,7 @@
 """The web view in a real browser: headless Chromium driven by Selenium against motion-web on a
 simulated lab (config/sim-lab.yaml) that this test starts on its own LCM URL and simulation folder.
 
-Checks: the page loads (Chart.js served locally), the axis table shows every configured axis and
+Checks: the page loads (Chart.js served locally) and logs no error, the axis table shows every configured axis and
 updates during a move (issued with motionctl), an event appears in the event list, the move's plot
 exists with data points for the moved axis. Saves a screenshot (--artifacts/web.png) and prints its
 path.
@@ -185,6 +185,7 @@ def open_browser(work):
     for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1500,1400",
                  "--user-data-dir=" + os.path.join(work, "chromium")):
         options.add_argument(flag)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})  # the page's console, checked for errors
     service = Service(executable_path=CHROMEDRIVER, log_path=os.path.join(work, "chromedriver.log"))
     return webdriver.Chrome(service=service, options=options)
 
@@ -253,6 +254,10 @@ def run(args, lab, work, browser_pids):
               "plot of move %s: %s" % (MOVED_AXIS, after[0] - before[0], len(between), after[1], events, events_before, plot["id"], plot["sets"]))
         if plot["sets"].get("%s target" % MOVED_AXIS, 0) == 0:
             raise Failure("the move's plot has no target line for %s: %s" % (MOVED_AXIS, plot["sets"]))
+
+        errors = [e["message"] for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
+        if errors:
+            raise Failure("the page logged errors:\n  " + "\n  ".join(errors))
 
         os.makedirs(args.artifacts, exist_ok=True)
         shot = os.path.join(args.artifacts, "web.png")

@@ -216,7 +216,8 @@ function drawMove(move) {
   const card = document.querySelector(`#moves .move[data-move-id="${CSS.escape(move.id)}"]`) || moveCard(move);
   card.dataset.status = move.status;
   const end = move.end_utime ? `, ${((move.end_utime - (move.started_utime || move.accepted_utime)) / 1e6).toFixed(2)} s` : '';
-  card.querySelector('h3').textContent = `${move.kind} ${move.axes.join(' ')}: ${move.status}${end} (${move.id})` +
+  const phase = move.open && move.phase ? `, ${move.phase}` : '';
+  card.querySelector('h3').textContent = `${move.kind} ${move.axes.join(' ')}: ${move.status}${phase}${end} (${move.id})` +
     (move.reason ? ` – ${move.reason}` : '');
   const t0 = move.accepted_utime;
   const sets = [];
@@ -256,6 +257,19 @@ function showMove(m) {
   drawMove(move);
 }
 
+// The coordinator's phase of each open move (arming: loading the drives; moving: triggered).
+function showActiveMoves(m) {
+  model.active_moves = m;
+  for (const move of Object.values(model.moves)) {
+    const row = m.rows.find((r) => r.id === move.id);
+    const phase = row ? row.phase : '';
+    if (phase !== move.phase) {
+      move.phase = phase;
+      move.dirty = true;
+    }
+  }
+}
+
 // --- connection ----------------------------------------------------------------------------
 function reset() {
   for (const move of Object.values(model.moves)) move.chart?.destroy();
@@ -272,7 +286,7 @@ const handlers = {
   event: showEvent,
   reply: showReply,
   move: showMove,
-  active_moves: (m) => { model.active_moves = m; },
+  active_moves: showActiveMoves,
 };
 
 function connect() {
