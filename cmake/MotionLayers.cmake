@@ -50,6 +50,10 @@ macro(motion_layers_rules)
   motion_layers_rule(d "the serial transport links no configuration"
     TARGETS motion_serial
     FORBID "^motion_config$")
+  motion_layers_rule(e "the web view is read-only: it links no client, coordinator, gateway runtime, stack/driver, transport or simulator"
+    UNDER services/web
+    FORBID "^motion_client$" "^motion_coordinator$" "^motion_gateway_runtime$" "^motion_.*_driver$" ${transports}
+    FORBID_UNDER services/sim)
 endmacro()
 
 # --- The check ---------------------------------------------------------------------------------

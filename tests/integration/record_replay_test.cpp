@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -142,13 +144,18 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   // (a) motionctl log --csv: the request, its DONE reply with the skew, trajectories ending at the targets.
   const std::string config = source_path("config/sim-lab.yaml");
   const std::string csv = group.work_dir() + "/session.csv";
+  const std::string svg = group.work_dir() + "/session.svg";
   std::string out;
-  ASSERT_EQ(group.run_to_completion({"motionctl-log-csv", "motionctl", {"--config", config, "log", log_path, "--csv", csv, "--axis", "x", "y"}, {}}, &out), 0)
+  ASSERT_EQ(group.run_to_completion(
+                {"motionctl-log-csv", "motionctl", {"--config", config, "log", log_path, "--csv", csv, "--plot", svg, "--axis", "x", "y"}, {}},
+                &out),
+            0)
       << out;
   const auto rows = read_csv(csv);
   ASSERT_FALSE(rows.empty()) << out;
   std::string move_id;
   std::map<std::string, std::map<std::string, std::string>> last_state;
+  std::map<std::string, std::size_t> states_of;
   std::size_t state_rows = 0;
   bool saw_moving = false;
   for (const auto& row : rows) {
@@ -158,6 +165,7 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
     }
     if (row.at("record") == "state") {
       ++state_rows;
+      ++states_of[row.at("axis")];
       EXPECT_TRUE(row.at("axis") == "x" || row.at("axis") == "y") << "--axis filter let " << row.at("axis") << " through";
       last_state[row.at("axis")] = row;
       if (row.at("moving") == "1") saw_moving = true;
@@ -177,6 +185,18 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   EXPECT_NEAR(std::stod(last_state["x"].at("position")), 10.0, kPositionTolerance);
   EXPECT_NEAR(std::stod(last_state["y"].at("position")), 5.0, kPositionTolerance);
   EXPECT_EQ(last_state["x"].at("moving"), "0");
+
+  // --plot: one panel per selected axis, each with every state of its axis.
+  std::ifstream svg_file(svg);
+  const std::string svg_text((std::istreambuf_iterator<char>(svg_file)), std::istreambuf_iterator<char>());
+  std::size_t panels = 0;
+  for (auto at = svg_text.find("<g class=\"panel\""); at != std::string::npos; at = svg_text.find("<g class=\"panel\"", at + 1)) ++panels;
+  EXPECT_EQ(panels, 2u) << out;
+  for (const std::string axis : {"x", "y"}) {
+    const std::string panel = "<g class=\"panel\" data-axis=\"" + axis + "\" data-samples=\"" + std::to_string(states_of[axis]) + "\"";
+    EXPECT_NE(svg_text.find(panel), std::string::npos) << "no " << panel << " in " << svg;
+  }
+  EXPECT_NE(svg_text.find("move done"), std::string::npos) << "the move's end is not marked";
 
   // The same as tables.
   ASSERT_EQ(group.run_to_completion({"motionctl-log", "motionctl", {"--config", config, "log", log_path, "--axis", "x"}, {}}, &out), 0) << out;

@@ -8,22 +8,9 @@
 #include <motionlcm/health_t.hpp>
 
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/message_names.hpp"
 
 namespace motion::ctl {
-namespace {
-
-const char* state_name(std::int8_t s) {
-  switch (s) {
-    case motionlcm::health_t::STARTING: return "starting";
-    case motionlcm::health_t::OK: return "ok";
-    case motionlcm::health_t::DEGRADED: return "degraded";
-    case motionlcm::health_t::FAULT: return "fault";
-    case motionlcm::health_t::STOPPING: return "stopping";
-    default: return "?";
-  }
-}
-
-}  // namespace
 
 void add_health_command(CLI::App& cli, Context& ctx) {
   auto* cmd = cli.add_subcommand("health", "List live processes from their heartbeats");
@@ -57,14 +44,14 @@ void add_health_command(CLI::App& cli, Context& ctx) {
                              {"rx_frames", b.rx_frames}, {"errors", b.errors}, {"timeouts", b.timeouts}, {"bus_load", b.bus_load},
                              {"drives_online", b.drives_online}, {"drives_total", b.drives_total}});
           }
-          out.push_back({{"process", name}, {"role", h.role}, {"host", h.host}, {"pid", h.pid}, {"state", state_name(h.state)},
+          out.push_back({{"process", name}, {"role", h.role}, {"host", h.host}, {"pid", h.pid}, {"state", lcm::health_state_name(h.state)},
                          {"detail", h.detail}, {"uptime_s", h.uptime_s}, {"version", h.version}, {"buses", buses}});
         }
         std::cout << out.dump(2) << "\n";
       } else {
         std::printf("%-22s %-12s %-10s %-16s %8s %9s  %s\n", "PROCESS", "ROLE", "STATE", "HOST", "PID", "UPTIME", "DETAIL");
         for (const auto& [name, h] : seen) {
-          std::printf("%-22s %-12s %-10s %-16s %8d %8.1fs  %s\n", name.c_str(), h.role.c_str(), state_name(h.state), h.host.c_str(),
+          std::printf("%-22s %-12s %-10s %-16s %8d %8.1fs  %s\n", name.c_str(), h.role.c_str(), lcm::health_state_name(h.state), h.host.c_str(),
                       h.pid, h.uptime_s, h.detail.c_str());
           for (const auto& b : h.buses) {
             std::printf("    bus %-10s %-22s %-14s tx %-8lld rx %-8lld err %-5lld timeouts %-5lld load %5.1f%%  drives %d/%d\n",

@@ -1,6 +1,7 @@
 // motionctl log FILE: reads an LCM event log (written by lcm-logger) with LCM's C eventlog API and
 // prints what the motion system said in it: the requests, their replies (status, reason, start
-// skew) and every axis's trajectory (time, position, velocity, moving), as tables or as CSV.
+// skew) and every axis's trajectory (time, position, velocity, moving), as tables or as CSV; with
+// --plot, also an SVG of the trajectories (one panel per axis, each request's start and end marked).
 //
 // Only this system's channels (<prefix>REQUEST, REPLY, AXIS_STATE; prefix from the configuration,
 // or --prefix) are decoded; other channels are counted. Each record's header is checked before
@@ -39,6 +40,7 @@
 #include "motion/core/log.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/request_kinds.hpp"
+#include "motion/web/svg_plot.hpp"
 #include "motionctl.hpp"
 
 namespace motion::ctl {
@@ -56,6 +58,7 @@ struct LogArgs {
   std::string csv;  // empty: tables on stdout; "-": CSV on stdout
   std::vector<std::string> axes;
   std::string prefix;  // empty: the configuration's lcm.channel_prefix
+  std::string plot;    // SVG file of the trajectories; empty: none
 };
 
 template <typename Msg>
@@ -508,13 +511,41 @@ void write_csv(std::ostream& out, const LogContents& log, const View& view) {
   for (const auto& r : rows) out << r.text << "\n";
 }
 
+// The trajectories as SVG panels, time from the log's first event; the STARTED reply of a request
+// that moves axes and its terminal one are marked in the panels of its axes (a request not in the log
+// counts when it was STARTED). `units`: axis -> user unit, when known.
+std::string plot_svg(const std::string& path, const View& view, const std::map<std::string, std::string>& units) {
+  std::vector<web::PlotAxis> axes;
+  for (const auto& [axis, samples] : view.trajectories()) {
+    web::PlotAxis plot{axis, units.contains(axis) ? units.at(axis) : std::string(), {}};
+    plot.samples.reserve(samples.size());
+    for (const auto* s : samples) plot.samples.push_back({view.t(s->log_utime), s->msg.position, s->msg.velocity});
+    axes.push_back(std::move(plot));
+  }
+  std::vector<web::PlotMark> marks;
+  for (const auto& th : view.threads()) {
+    const bool started = std::any_of(th.replies.begin(), th.replies.end(), [](const Logged<reply_t>* r) { return r->msg.status == reply_t::STARTED; });
+    if (th.request != nullptr ? !lcm::request_kind_moves(th.request->msg.kind) : !started) continue;
+    const char* kind = th.request != nullptr ? lcm::request_kind_words(th.request->msg.kind) : "request";
+    for (const auto* rep : th.replies) {
+      const auto& r = rep->msg;
+      if (r.status != reply_t::STARTED && !client::is_terminal(r.status)) continue;
+      const auto& names = !r.axes.empty() || th.request == nullptr ? r.axes : th.request->msg.axes;
+      marks.push_back({view.t(rep->log_utime), std::string(kind) + " " + client::status_name(r.status), names});
+    }
+  }
+  return web::svg_plot(axes, marks, {.title = "motionctl log " + path});
+}
+
 int run_log(const Context& ctx, const LogArgs& args) {
   if (!log::init("motionctl", ctx.options.log_level)) return app::kExitUsage;
   std::string prefix = args.prefix;
+  std::map<std::string, std::string> units;
   if (prefix.empty()) {
     auto config = app::load_config(ctx.options);
     if (!config) return app::kExitConfig;
     prefix = config->lcm.channel_prefix;
+    for (const auto& axis : config->axes) units[axis.name] = axis.unit;
   }
   const auto log = read_log(args.file, prefix);
   if (!log) return app::kExitFailure;
@@ -546,6 +577,17 @@ int run_log(const Context& ctx, const LogArgs& args) {
                 view.t(log->last_utime), log->requests.size(), log->replies.size(), states, args.csv.c_str());
   }
 
+  if (!args.plot.empty()) {
+    std::ofstream out(args.plot, std::ios::trunc);
+    if (out) out << plot_svg(args.file, view, units);
+    out.close();
+    if (!out) {
+      std::cerr << "motionctl: cannot write the plot '" << args.plot << "': " << std::strerror(errno) << "\n";
+      return app::kExitFailure;
+    }
+    std::fprintf(args.csv == "-" ? stderr : stdout, "plot of %zu axes written to %s\n", view.trajectories().size(), args.plot.c_str());
+  }
+
   const auto trajectories = view.trajectories();
   for (const auto& axis : args.axes) {
     if (!trajectories.contains(axis)) std::cerr << "motionctl: warning: no state of axis '" << axis << "' in the log\n";
@@ -573,6 +615,7 @@ void add_log_command(CLI::App& cli, Context& ctx) {
   cmd->add_option("--csv", args->csv, "Write CSV to this file ('-' = stdout) instead of the tables");
   cmd->add_option("--axis", args->axes, "Only these axes (trajectories, and the requests naming them)");
   cmd->add_option("--prefix", args->prefix, "Channel prefix (default: the configuration's lcm.channel_prefix)");
+  cmd->add_option("--plot", args->plot, "Also write the trajectories as SVG to this file: one panel per axis, position and velocity over time");
   cmd->callback([&ctx, args] { ctx.result = run_log(ctx, *args); });
 }
 

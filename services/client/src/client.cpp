@@ -1,28 +1,14 @@
 #include "motion/client/client.hpp"
 
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/message_names.hpp"
 #include "motion/lcm/reply_error.hpp"
 
 namespace motion::client {
 
-bool is_terminal(std::int8_t status) {
-  using R = motionlcm::reply_t;
-  return status == R::DONE || status == R::REJECTED || status == R::ABORTED || status == R::FAILED;
-}
+bool is_terminal(std::int8_t status) { return lcm::reply_is_terminal(status); }
 
-const char* status_name(std::int8_t status) {
-  using R = motionlcm::reply_t;
-  switch (status) {
-    case R::ACCEPTED: return "accepted";
-    case R::STARTED: return "started";
-    case R::PROGRESS: return "progress";
-    case R::DONE: return "done";
-    case R::REJECTED: return "rejected";
-    case R::ABORTED: return "aborted";
-    case R::FAILED: return "failed";
-    default: return "unknown";
-  }
-}
+const char* status_name(std::int8_t status) { return lcm::reply_status_name(status); }
 
 Client::Client(EventLoop& loop, lcm::Node& node, std::string client_id)
     : loop_(loop), node_(node), id_(std::move(client_id)), next_request_id_(wall_time_us()) {

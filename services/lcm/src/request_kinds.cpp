@@ -50,4 +50,8 @@ const char* request_kind_words(std::int8_t kind) {
   return k != nullptr ? k->words : "unknown";
 }
 
+bool request_kind_moves(std::int8_t kind) {
+  return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG || kind == request_t::HOME;
+}
+
 }  // namespace motion::lcm

@@ -31,5 +31,13 @@ TEST(RequestKinds, EveryKindHasOneNameAndOneWording) {
   EXPECT_STREQ(request_kind_words(99), "unknown");
 }
 
+TEST(RequestKinds, TheKindsThatMoveAxes) {
+  std::set<std::string> moving;
+  for (int k = -128; k <= 127; ++k) {
+    if (request_kind_moves(static_cast<std::int8_t>(k))) moving.insert(request_kind_name(static_cast<std::int8_t>(k)));
+  }
+  EXPECT_EQ(moving, (std::set<std::string>{"MOVE_ABSOLUTE", "MOVE_RELATIVE", "JOG", "HOME"}));
+}
+
 }  // namespace
 }  // namespace motion::lcm

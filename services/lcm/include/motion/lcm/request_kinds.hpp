@@ -11,5 +11,7 @@ namespace motion::lcm {
 [[nodiscard]] const char* request_kind_name(std::int8_t kind);
 // "move" ... "set position"; "unknown" for a value no constant has.
 [[nodiscard]] const char* request_kind_words(std::int8_t kind);
+// MOVE_ABSOLUTE, MOVE_RELATIVE, JOG, HOME: the kinds that set axes in motion.
+[[nodiscard]] bool request_kind_moves(std::int8_t kind);
 
 }  // namespace motion::lcm
