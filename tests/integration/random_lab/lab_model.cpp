@@ -63,6 +63,9 @@ const AxisSpec* LabSpec::find(const std::string& axis) const {
   return nullptr;
 }
 
+// Timeouts are generous (CAN requests 100 ms, serial 250 ms, UC57 heartbeat 250 ms, lost after
+// three): the test checks behaviour, and a loaded 2-core machine (parallel builds and tests) can
+// hold a simulator or gateway for a few hundred milliseconds.
 std::string LabSpec::yaml() const {
   std::set<std::string> buses;
   for (const auto& a : axes) buses.insert(a.drive.bus);
@@ -70,14 +73,14 @@ std::string LabSpec::yaml() const {
   y << "lcm:\n  url: \"udpm://239.255.76.67:7667?ttl=0\"\n  channel_prefix: \"MOTION_\"\nbuses:\n";
   if (buses.contains("can0")) {
     y << "  - {name: can0, transport: simcan:can0, bitrate: " << can_bitrate
-      << ", bus_timing: true, request_timeout_ms: 50, retries: 2, poll_hz: 20}\n";
+      << ", bus_timing: true, request_timeout_ms: 100, retries: 2, poll_hz: 20}\n";
   }
   if (buses.contains("rs485")) {
     y << "  - {name: rs485, transport: simserial:rs485, baud: " << rs485_baud << ", parity: " << rs485_parity
-      << ", request_timeout_ms: 100, retries: 1, poll_hz: 10}\n";
+      << ", request_timeout_ms: 250, retries: 1, poll_hz: 10}\n";
   }
   if (buses.contains("rs232")) {
-    y << "  - {name: rs232, transport: simserial:rs232, baud: " << rs232_baud << ", request_timeout_ms: 100, retries: 1, poll_hz: 10}\n";
+    y << "  - {name: rs232, transport: simserial:rs232, baud: " << rs232_baud << ", request_timeout_ms: 250, retries: 1, poll_hz: 10}\n";
   }
   y << "drives:\n";
   for (const auto& a : axes) {
@@ -85,7 +88,7 @@ std::string LabSpec::yaml() const {
     y << "  - {name: " << a.name << "-drive, family: " << d.family << ", bus: " << d.bus << ", node_id: " << d.node_id;
     if (d.group_id != 0) y << ", group_id: " << d.group_id;
     if (d.family == "uim342") y << ", setup: {micro_steps: 16, current_a: 1.5, acceleration_unit: rate}";
-    if (d.family == "uc57") y << ", setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: sync}";
+    if (d.family == "uc57") y << ", setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: sync, heartbeat_ms: 250}";
     if (d.family == "adam-modbus") y << ", setup: {subdivision: 16, current_a: 2.0}";
     if (d.family == "uim242") y << ", setup: {micro_steps: 16, current_a: 1.0}";
     y << "}\n";
