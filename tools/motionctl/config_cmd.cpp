@@ -1,3 +1,4 @@
+#include <cstdlib>
 #include <iostream>
 
 #include "motionctl.hpp"
@@ -7,8 +8,10 @@ namespace motion::ctl {
 void add_config_command(CLI::App& cli, Context& ctx) {
   auto* cmd = cli.add_subcommand("config", "Validate the configuration and print its buses, drives and axes");
   auto what = std::make_shared<std::string>("all");
-  cmd->add_option("what", *what, "all, buses (names only) or axes (names only)")
-      ->check(CLI::IsMember({"all", "buses", "axes"}))
+  cmd->add_option("what", *what,
+                  "all, buses (names only), axes (names only), lcm-url (the URL the programs use: --lcm-url, $LCM_DEFAULT_URL, "
+                  "lcm.url) or channel-prefix")
+      ->check(CLI::IsMember({"all", "buses", "axes", "lcm-url", "channel-prefix"}))
       ->capture_default_str();
   cmd->callback([&ctx, what] {
     auto config = app::load_config(ctx.options);
@@ -22,6 +25,17 @@ void add_config_command(CLI::App& cli, Context& ctx) {
     }
     if (*what == "axes") {
       for (const auto& a : config->axes) std::cout << a.name << "\n";
+      return;
+    }
+    if (*what == "lcm-url") {
+      const auto options = app::lcm_options(ctx.options, *config);
+      const char* env = std::getenv("LCM_DEFAULT_URL");
+      std::cout << (!options.url.empty() ? options.url : env != nullptr && *env != '\0' ? std::string(env) : std::string("udpm://239.255.76.67:7667?ttl=0"))
+                << "\n";
+      return;
+    }
+    if (*what == "channel-prefix") {
+      std::cout << config->lcm.channel_prefix << "\n";
       return;
     }
     std::cout << config->file << ": valid\n";
