@@ -8,6 +8,7 @@
 namespace motion::lcm::channels {
 
 inline constexpr std::string_view kRequest = "REQUEST";          // request_t, clients -> coordinator
+inline constexpr std::string_view kSignedRequest = "SREQUEST";   // signed_request_t, clients -> coordinator
 inline constexpr std::string_view kReply = "REPLY";              // reply_t, coordinator -> clients
 inline constexpr std::string_view kAxisState = "AXIS_STATE";     // axis_state_t, gateways
 inline constexpr std::string_view kEvent = "EVENT";              // event_t, gateways/coordinator

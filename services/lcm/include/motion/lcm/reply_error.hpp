@@ -26,7 +26,8 @@ enum class ReplyError : std::int32_t {
   kAxisFault = 15,         // an axis of the group faulted, stalled or hit a limit mid-move
   kGatewayLost = 16,       // a gateway's heartbeat stopped mid-request
   kUnsupported = 17,       // the family/configuration cannot do this
-  kBusy = 18,              // the coordinator has max_active_requests in progress: retry later (the last code)
+  kBusy = 18,              // the coordinator has max_active_requests in progress: retry later
+  kUnauthorized = 19,      // a signed request whose key's role does not allow its kind (the last code)
 };
 
 // The wire value of `error` (the int32 of reply_t / gateway_reply_t).

@@ -1,0 +1,82 @@
+#include "motion/security/request_verifier.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+
+#include "motion/lcm/request_kinds.hpp"
+#include "motion/lcm/wire_bounds.hpp"
+#include "motion/security/signed_request.hpp"
+
+namespace motion::security {
+namespace {
+
+std::string milliseconds_text(std::int64_t us) { return std::to_string(us / 1000) + " ms"; }
+
+}  // namespace
+
+RequestVerifier::RequestVerifier(AuthorizedKeys keys, std::string channel_prefix, std::chrono::milliseconds window, std::int64_t not_before_us)
+    : keys_(std::move(keys)),
+      prefix_(std::move(channel_prefix)),
+      window_us_(std::chrono::duration_cast<std::chrono::microseconds>(window).count()),
+      not_before_us_(not_before_us) {}
+
+Verdict RequestVerifier::verify(const motionlcm::signed_request_t& envelope, std::int64_t now_us) {
+  Verdict v;
+  KeyId id{};
+  std::memcpy(id.data(), envelope.key_id, kKeyIdBytes);
+  const Principal* p = keys_.find(id);
+  if (p == nullptr) {
+    v.signer = to_hex(id);
+    v.reason = "unknown key " + v.signer + " (not in authorized_keys)";
+    return v;
+  }
+  v.signer = "'" + p->name + "' (" + to_hex(id) + ")";
+  Signature signature{};
+  std::memcpy(signature.data(), envelope.signature, kSignatureBytes);
+  if (!security::verify(p->key, signed_bytes(prefix_, envelope), signature)) {
+    v.reason = "bad signature from key " + v.signer + " (forged or altered in transit)";
+    return v;
+  }
+  const std::int64_t age = now_us - envelope.utime;
+  if (envelope.utime < not_before_us_) {
+    v.reason = "stale timestamp from key " + v.signer + ": signed " + milliseconds_text(not_before_us_ - envelope.utime) +
+               " before the coordinator started (a replay?)";
+    return v;
+  }
+  if (std::abs(age) > window_us_) {
+    v.reason = "stale timestamp from key " + v.signer + ": signed " + milliseconds_text(std::abs(age)) + (age >= 0 ? " ago" : " in the future") +
+               ", outside the window of " + milliseconds_text(window_us_) + " (clocks out of sync, or a replay)";
+    return v;
+  }
+  auto [last, first] = last_counter_.try_emplace(id, 0);
+  if (!first && envelope.counter <= last->second) {
+    v.reason = "replayed counter " + std::to_string(envelope.counter) + " from key " + v.signer + " (last accepted " +
+               std::to_string(last->second) + ")";
+    return v;
+  }
+  last->second = envelope.counter;
+  motionlcm::request_t request;
+  if (std::string why = lcm::wire::decode_bounded(envelope.payload.data(), envelope.payload.size(), request); !why.empty()) {
+    v.reason = "malformed payload from key " + v.signer + ": " + why;
+    return v;
+  }
+  if (!p->owns_client_id(request.client_id)) {
+    v.reason = "client id '" + request.client_id + "' is not key " + v.signer + "'s own (it must be '" + p->name + "' or start with '" +
+               p->name + "/')";
+    return v;
+  }
+  const Role need = required_role(request.kind);
+  if (!allows(p->role, request.kind)) {
+    v.reason = "role too low: key " + v.signer + " has role " + to_string(p->role) + ", a " + lcm::request_kind_words(request.kind) +
+               " needs " + to_string(need);
+    v.answerable = true;
+    v.request = std::move(request);
+    return v;
+  }
+  v.accepted = true;
+  v.request = std::move(request);
+  return v;
+}
+
+}  // namespace motion::security
