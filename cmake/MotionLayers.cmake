@@ -50,6 +50,10 @@ macro(motion_layers_rules)
   motion_layers_rule(d "the serial transport links no configuration"
     TARGETS motion_serial
     FORBID "^motion_config$")
+  motion_layers_rule(e "the security library (keys, signatures) links no configuration, process skeleton, runtime, stack or transport"
+    TARGETS motion_security
+    FORBID "^motion_config$" "^motion_app$" "^motion_gateway_runtime$" "^motion_.*_driver$" ${transports}
+    FORBID_UNDER services/sim coordinator gateway)
 endmacro()
 
 # --- The check ---------------------------------------------------------------------------------
