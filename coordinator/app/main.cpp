@@ -15,9 +15,17 @@ int main(int argc, char** argv) {
     if (!log::init("coordinator", options.log_level)) return app::kExitUsage;
     auto config = app::load_config(options);
     if (!config) return app::kExitConfig;
+    auto verifier = coordinator::CoordinatorService::load_verifier(*config);
+    if (auto* error = std::get_if<std::string>(&verifier)) {
+      spdlog::error("{}: {}", config->file, *error);
+      return app::kExitConfig;
+    }
+    auto& gate = std::get<std::optional<security::RequestVerifier>>(verifier);
+    spdlog::info("security: mode {}, {}", config::to_string(config->security.mode),
+                 gate ? std::to_string(gate->keys().principals().size()) + " authorized keys" : std::string("no authorized_keys"));
     app::Service service(*config, options, "coordinator", "coordinator");
     if (!service.ok()) return app::kExitUnavailable;
-    coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(*config));
+    coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(*config), std::move(gate));
     // OK once every bus's gateway is heard: until then requests for its axes are refused.
     auto update_health = [&] {
       std::string missing;

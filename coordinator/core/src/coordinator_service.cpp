@@ -5,21 +5,62 @@
 #include <span>
 
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/request_kinds.hpp"
 
 namespace motion::coordinator {
 
-CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner)
-    : loop_(loop), node_(node), core_(config, std::move(planner), *this) {
+security::Loaded<std::optional<security::RequestVerifier>> CoordinatorService::load_verifier(const config::Config& config) {
+  const auto& settings = config.security;
+  if (!settings.key.empty()) {
+    // Checked now (readable, mode 0600) so that a bad key stops the start, not a later use.
+    auto key = security::load_private_key(settings.key);
+    if (auto* error = std::get_if<std::string>(&key)) return "security.key: " + *error;
+  }
+  if (settings.authorized_keys.empty()) return std::optional<security::RequestVerifier>{};
+  auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
+  if (auto* error = std::get_if<std::string>(&keys)) return "security.authorized_keys: " + *error;
+  return std::optional<security::RequestVerifier>{std::in_place, std::move(std::get<security::AuthorizedKeys>(keys)), config.lcm.channel_prefix,
+                                                   std::chrono::milliseconds(settings.window_ms), wall_time_us()};
+}
+
+CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner,
+                                       std::optional<security::RequestVerifier> verifier)
+    : loop_(loop),
+      node_(node),
+      core_(config, std::move(planner), *this),
+      enforce_(config.security.mode == config::SecuritySettings::Mode::kEnforce),
+      verifier_(std::move(verifier)) {
   using motionlcm::request_t;
   node_.subscribe<request_t>(
       lcm::channels::kRequest,
       [this](const request_t& m, const std::string&) {
-        core_.on_request(m, loop_.now());
+        if (enforce_) {
+          core_.on_refused_request(std::nullopt,
+                                   unsigned_refusal(std::string(lcm::request_kind_words(m.kind)) + " request " + std::to_string(m.request_id) +
+                                                    " of client '" + m.client_id + "'"),
+                                   loop_.now());
+        } else {
+          core_.on_request(m, loop_.now());
+        }
         pump();
       },
       [this](const void* data, int size, const std::string& why) {
-        const auto n = static_cast<std::size_t>(size > 0 ? size : 0);
-        core_.on_malformed_request(std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data), n), why, loop_.now());
+        if (enforce_) {
+          core_.on_refused_request(std::nullopt, unsigned_refusal("malformed request (" + why + ")"), loop_.now());
+        } else {
+          const auto n = static_cast<std::size_t>(size > 0 ? size : 0);
+          core_.on_malformed_request(std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data), n), why, loop_.now());
+        }
+        pump();
+      });
+  node_.subscribe<motionlcm::signed_request_t>(
+      lcm::channels::kSignedRequest,
+      [this](const motionlcm::signed_request_t& m, const std::string&) {
+        on_signed_request(m);
+        pump();
+      },
+      [this](const void*, int, const std::string& why) {
+        core_.on_refused_request(std::nullopt, "malformed signed request refused: " + why, loop_.now());
         pump();
       });
   node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [this](const motionlcm::axis_state_t& m, const std::string&) {
@@ -45,6 +86,32 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
     pump();
   });
   pump();
+}
+
+void CoordinatorService::on_signed_request(const motionlcm::signed_request_t& envelope) {
+  if (!verifier_) {
+    // Mode off without authorized_keys: nobody to check the signature against; the request is
+    // taken as a plain one would be.
+    motionlcm::request_t request;
+    const std::string why = lcm::wire::decode_bounded(envelope.payload.data(), envelope.payload.size(), request);
+    if (why.empty()) {
+      core_.on_request(request, loop_.now());
+    } else {
+      core_.on_malformed_request(envelope.payload, "signed request's payload: " + why, loop_.now());
+    }
+    return;
+  }
+  security::Verdict verdict = verifier_->verify(envelope, wall_time_us());
+  if (verdict.accepted) {
+    core_.on_request(*verdict.request, loop_.now());
+  } else {
+    core_.on_refused_request(verdict.answerable ? verdict.request : std::nullopt, "signed request refused: " + verdict.reason, loop_.now());
+  }
+}
+
+std::string CoordinatorService::unsigned_refusal(const std::string& what) const {
+  return "unsigned request refused: security is enforced (" + what + "; sign it with a key of authorized_keys and send it on " +
+         node_.channel(lcm::channels::kSignedRequest) + ")";
 }
 
 CoordinatorService::~CoordinatorService() {

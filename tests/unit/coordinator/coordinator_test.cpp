@@ -865,6 +865,36 @@ TEST_F(CoordinatorTest, BeyondMaxActiveRequestsARequestIsRefusedAsBusyButAStopPa
   EXPECT_EQ(replies[stop].front().status, std::int8_t{reply_t::ACCEPTED});
 }
 
+TEST_F(CoordinatorTest, RefusedRequestIsASecurityEventAndAnsweredOnlyWhenItsIdsAreAuthentic) {
+  std::vector<motionlcm::event_t> security;
+  client.on_event = [&](const motionlcm::event_t& e) {
+    if (e.kind == motionlcm::event_t::SECURITY) security.push_back(e);
+  };
+  auto_execute_moves();
+  request_t r{};
+  r.client_id = "test";
+  r.request_id = 900;
+  r.kind = request_t::MOVE_ABSOLUTE;
+  r.axes = {"x"};
+  r.values = {5.0};
+  r.num_axes = 1;
+  // Ids that cannot be trusted: the event only, no reply, nothing sent to a gateway.
+  loop.send_to_cores([](Coordinator& c, TimePoint now) { c.on_refused_request(std::nullopt, "unsigned request refused: test", now); });
+  // Authentic ids, role too low: the event and a REJECTED reply (kUnauthorized).
+  loop.send_to_cores([r](Coordinator& c, TimePoint now) { c.on_refused_request(r, "role too low: test", now); });
+  ASSERT_TRUE(pump_until([&] { return security.size() == 2; }));
+  EXPECT_EQ(security[0].text, "unsigned request refused: test");
+  EXPECT_EQ(security[0].source, "coordinator");
+  EXPECT_EQ(security[0].severity, std::int8_t{motionlcm::event_t::WARNING});
+  const auto refused = terminal(900);
+  EXPECT_EQ(refused.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(refused.error_code, static_cast<int>(ReplyError::kUnauthorized));
+  EXPECT_EQ(refused.reason, "role too low: test");
+  EXPECT_EQ(replies.size(), 1u);
+  EXPECT_TRUE(armed.empty());
+  EXPECT_EQ(coordinator.active_requests(), 0u);
+}
+
 // Stops that do not take: the coordinator watches every stop it sends until the axis states show
 // standstill, repeats it, then e-stops, and the aborted request says what happened only then.
 struct StopsThatDoNotTake : CoordinatorTest {
