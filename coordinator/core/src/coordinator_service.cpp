@@ -35,10 +35,7 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
       lcm::channels::kRequest,
       [this](const request_t& m, const std::string&) {
         if (enforce_) {
-          core_.on_refused_request(std::nullopt,
-                                   unsigned_refusal(std::string(lcm::request_kind_words(m.kind)) + " request " + std::to_string(m.request_id) +
-                                                    " of client '" + m.client_id + "'"),
-                                   loop_.now());
+          core_.on_refused_request(std::nullopt, unsigned_refusal(lcm::request_label(m)), loop_.now());
         } else {
           core_.on_request(m, loop_.now());
         }

@@ -50,4 +50,8 @@ const char* request_kind_words(std::int8_t kind) {
   return k != nullptr ? k->words : "unknown";
 }
 
+std::string request_label(const request_t& request) {
+  return std::string(request_kind_words(request.kind)) + " request " + std::to_string(request.request_id) + " of client '" + request.client_id + "'";
+}
+
 }  // namespace motion::lcm

@@ -23,53 +23,56 @@ RequestVerifier::RequestVerifier(AuthorizedKeys keys, std::string channel_prefix
 
 Verdict RequestVerifier::verify(const motionlcm::signed_request_t& envelope, std::int64_t now_us) {
   Verdict v;
+  // Decoded first (bounded, O(its size)) so that every refusal can say which request it claims to
+  // be; nothing of it is trusted before step 7.
+  motionlcm::request_t request;
+  const std::string malformed = lcm::wire::decode_bounded(envelope.payload.data(), envelope.payload.size(), request);
+  const std::string claimed = malformed.empty() ? ": " + lcm::request_label(request) : std::string();
   KeyId id{};
   std::memcpy(id.data(), envelope.key_id, kKeyIdBytes);
   const Principal* p = keys_.find(id);
   if (p == nullptr) {
     v.signer = to_hex(id);
-    v.reason = "unknown key " + v.signer + " (not in authorized_keys)";
+    v.reason = "unknown key " + v.signer + " (not in authorized_keys)" + claimed;
     return v;
   }
   v.signer = "'" + p->name + "' (" + to_hex(id) + ")";
   Signature signature{};
   std::memcpy(signature.data(), envelope.signature, kSignatureBytes);
   if (!security::verify(p->key, signed_bytes(prefix_, envelope), signature)) {
-    v.reason = "bad signature from key " + v.signer + " (forged or altered in transit)";
+    v.reason = "bad signature from key " + v.signer + " (forged or altered in transit)" + claimed;
     return v;
   }
   const std::int64_t age = now_us - envelope.utime;
   if (envelope.utime < not_before_us_) {
     v.reason = "stale timestamp from key " + v.signer + ": signed " + milliseconds_text(not_before_us_ - envelope.utime) +
-               " before the coordinator started (a replay?)";
+               " before the coordinator started (a replay?)" + claimed;
     return v;
   }
   if (std::abs(age) > window_us_) {
     v.reason = "stale timestamp from key " + v.signer + ": signed " + milliseconds_text(std::abs(age)) + (age >= 0 ? " ago" : " in the future") +
-               ", outside the window of " + milliseconds_text(window_us_) + " (clocks out of sync, or a replay)";
+               ", outside the window of " + milliseconds_text(window_us_) + " (clocks out of sync, or a replay)" + claimed;
     return v;
   }
   auto [last, first] = last_counter_.try_emplace(id, 0);
   if (!first && envelope.counter <= last->second) {
     v.reason = "replayed counter " + std::to_string(envelope.counter) + " from key " + v.signer + " (last accepted " +
-               std::to_string(last->second) + ")";
+               std::to_string(last->second) + ")" + claimed;
     return v;
   }
   last->second = envelope.counter;
-  motionlcm::request_t request;
-  if (std::string why = lcm::wire::decode_bounded(envelope.payload.data(), envelope.payload.size(), request); !why.empty()) {
-    v.reason = "malformed payload from key " + v.signer + ": " + why;
+  if (!malformed.empty()) {
+    v.reason = "malformed payload from key " + v.signer + ": " + malformed;
     return v;
   }
   if (!p->owns_client_id(request.client_id)) {
     v.reason = "client id '" + request.client_id + "' is not key " + v.signer + "'s own (it must be '" + p->name + "' or start with '" +
-               p->name + "/')";
+               p->name + "/')" + claimed;
     return v;
   }
-  const Role need = required_role(request.kind);
   if (!allows(p->role, request.kind)) {
     v.reason = "role too low: key " + v.signer + " has role " + to_string(p->role) + ", a " + lcm::request_kind_words(request.kind) +
-               " needs " + to_string(need);
+               " needs " + to_string(required_role(request.kind)) + claimed;
     v.answerable = true;
     v.request = std::move(request);
     return v;

@@ -8,13 +8,14 @@
 //      verifier was made (not_before_us: a message signed before
 //      this coordinator ran cannot be a fresh one)              else "stale timestamp"
 //   4. the counter is above the last one accepted from the key  else "replayed counter"
-//   5. the payload decodes as a request_t                       else "malformed payload"
+//   5. the payload decodes as a request_t (bounded)             else "malformed payload"
 //   6. its client_id is the key's own (name or "<name>/...")    else "client id of another key"
 //   7. the key's role allows the request's kind                 else "role too low"
 // Counters are kept per key in memory only; after a restart, (3)'s not_before refuses whatever
 // was signed before, so a replay needs no persisted state to be caught.
 //
-// Every refusal names the key (id and, when known, name) and what was wrong. Only a refusal at
+// Every refusal names the key (id and, when known, name), what was wrong, and the request as it
+// claims to be (lcm::request_label: kind, request id, client id). Only a refusal at
 // step 7 is `answerable`: the request is authentic, fresh and under its signer's own ids, so a
 // REJECTED reply to its (client_id, request_id) cannot land on somebody else's request. At
 // steps 1-6 the ids cannot be trusted (forged, replayed, or another key's), and nothing may be
