@@ -2,7 +2,9 @@
 // (tests/integration/configs/uim342-three-group.yaml plus a security section and an
 // authorized_keys file written by the test): a signed move of an `operate` key runs; each way of
 // being refused says why (in the reply when the request is authentic, else in a SECURITY event)
-// and moves nothing. One lab serves the whole suite to keep it short.
+// and moves nothing. The coordinator signs its gateway commands; a command straight on
+// GW_COMMAND_<bus>, or one signed with another key, is refused by the gateway. One lab serves the
+// whole suite to keep it short.
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
@@ -11,6 +13,7 @@
 
 #include <motionlcm/signed_request_t.hpp>
 
+#include "motion/security/gateway_commands.hpp"
 #include "motion/security/signed_request.hpp"
 #include "sim_lab.hpp"
 
@@ -40,7 +43,8 @@ class Security : public ::testing::Test {
     {
       std::ifstream base(source_path("tests/integration/configs/uim342-three-group.yaml"));
       std::ofstream config(*dir_ + "/lab.yaml");
-      config << base.rdbuf() << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n  window_ms: 2000\n";
+      config << base.rdbuf() << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
+             << "  coordinator_public_key: coordinator.pub\n  window_ms: 2000\n";
     }
     std::ofstream(*dir_ + "/authorized_keys") << "# the test's principals\n"
                                               << keys_->admin.authorized_line("admin") << "\n"
@@ -223,6 +227,30 @@ TEST_F(Security, RoleTooLowIsRejectedInTheReply) {
   // Every principal may stop.
   const reply_t stop = watch->call(Client::make(request_t::STOP, std::vector<std::string>{"w"}), seconds(10));
   EXPECT_EQ(stop.status, st(reply_t::DONE)) << stop.reason;
+  expect_nothing_moved();
+}
+
+TEST_F(Security, GatewayRefusesCommandsNotSignedByTheCoordinator) {
+  // A jog of w at 5 mm/s, as the coordinator would send it, straight to the gateway.
+  motionlcm::gateway_command_t jog{};
+  jog.utime = wall_time_us();
+  jog.bus = "can0";
+  jog.command_id = 900001;
+  jog.request_id = 900001;
+  jog.kind = motionlcm::gateway_command_t::JOG;
+  motionlcm::axis_command_t w{};
+  w.axis = "w";
+  w.velocity = 5 * 640;
+  jog.axes = {w};
+  jog.num_axes = 1;
+  lab_->group().node().publish(lcm::channels::gateway_command("can0"), jog);
+  EXPECT_TRUE(lab_->client().wait_until(
+      [&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", "unsigned command 900001 (request 900001) refused: security is enforced"); },
+      seconds(3)));
+  security::GatewayCommandSigner impostor(security::KeyPair::generate("coordinator"), "MOTION_");
+  jog.command_id = 900002;
+  lab_->group().node().publish(lcm::channels::signed_gateway_command("can0"), impostor.sign(jog, wall_time_us()));
+  EXPECT_TRUE(lab_->client().wait_until([&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", "is not the coordinator's"); }, seconds(3)));
   expect_nothing_moved();
 }
 

@@ -9,27 +9,40 @@
 
 namespace motion::coordinator {
 
-security::Loaded<std::optional<security::RequestVerifier>> CoordinatorService::load_verifier(const config::Config& config) {
+security::Loaded<CoordinatorService::Security> CoordinatorService::load_security(const config::Config& config) {
   const auto& settings = config.security;
+  Security out;
   if (!settings.key.empty()) {
-    // Checked now (readable, mode 0600) so that a bad key stops the start, not a later use.
     auto key = security::load_private_key(settings.key);
     if (auto* error = std::get_if<std::string>(&key)) return "security.key: " + *error;
+    const auto& pair = std::get<security::KeyPair>(key);
+    if (!settings.coordinator_public_key.empty()) {
+      // What the gateways will verify with must be this key's public half.
+      auto published = security::load_public_key(settings.coordinator_public_key);
+      if (auto* error = std::get_if<std::string>(&published)) return "security.coordinator_public_key: " + *error;
+      if (std::get<security::PublicKey>(published) != pair.public_key()) {
+        return "security.key (" + settings.key + ") and security.coordinator_public_key (" + settings.coordinator_public_key +
+               ") are not one key pair: gateways would refuse every command";
+      }
+    }
+    out.command_signer.emplace(pair, config.lcm.channel_prefix);
   }
-  if (settings.authorized_keys.empty()) return std::optional<security::RequestVerifier>{};
-  auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
-  if (auto* error = std::get_if<std::string>(&keys)) return "security.authorized_keys: " + *error;
-  return std::optional<security::RequestVerifier>{std::in_place, std::move(std::get<security::AuthorizedKeys>(keys)), config.lcm.channel_prefix,
-                                                   std::chrono::milliseconds(settings.window_ms), wall_time_us()};
+  if (!settings.authorized_keys.empty()) {
+    auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
+    if (auto* error = std::get_if<std::string>(&keys)) return "security.authorized_keys: " + *error;
+    out.verifier.emplace(std::move(std::get<security::AuthorizedKeys>(keys)), config.lcm.channel_prefix,
+                         std::chrono::milliseconds(settings.window_ms), wall_time_us());
+  }
+  return out;
 }
 
-CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner,
-                                       std::optional<security::RequestVerifier> verifier)
+CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner, Security security)
     : loop_(loop),
       node_(node),
       core_(config, std::move(planner), *this),
       enforce_(config.security.mode == config::SecuritySettings::Mode::kEnforce),
-      verifier_(std::move(verifier)) {
+      verifier_(std::move(security.verifier)),
+      command_signer_(std::move(security.command_signer)) {
   using motionlcm::request_t;
   node_.subscribe<request_t>(
       lcm::channels::kRequest,
@@ -131,7 +144,11 @@ void CoordinatorService::pump() {
 void CoordinatorService::reply(const motionlcm::reply_t& reply) { node_.publish(lcm::channels::kReply, reply); }
 
 void CoordinatorService::gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) {
-  node_.publish(lcm::channels::gateway_command(bus), command);
+  if (command_signer_) {
+    node_.publish(lcm::channels::signed_gateway_command(bus), command_signer_->sign(command, wall_time_us()));
+  } else {
+    node_.publish(lcm::channels::gateway_command(bus), command);
+  }
 }
 
 void CoordinatorService::sync_trigger(const motionlcm::sync_trigger_t& trigger) { node_.publish(lcm::channels::kSyncTrigger, trigger); }

@@ -541,7 +541,7 @@ std::string relative_to(const std::string& file, const std::string& path) {
 
 void read_security(Reader& r, const YAML::Node& node, const std::string& file, SecuritySettings& out) {
   const std::string path = "security";
-  if (!r.check_map(node, path, {"mode", "authorized_keys", "key", "window_ms"})) return;
+  if (!r.check_map(node, path, {"mode", "authorized_keys", "key", "coordinator_public_key", "window_ms"})) return;
   out.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "mode", false)) {
     if (*v == "off") {
@@ -554,12 +554,17 @@ void read_security(Reader& r, const YAML::Node& node, const std::string& file, S
   }
   if (auto v = r.get<std::string>(node, path, "authorized_keys", false)) out.authorized_keys = relative_to(file, *v);
   if (auto v = r.get<std::string>(node, path, "key", false)) out.key = relative_to(file, *v);
+  if (auto v = r.get<std::string>(node, path, "coordinator_public_key", false)) out.coordinator_public_key = relative_to(file, *v);
   if (auto v = r.get<int>(node, path, "window_ms", false)) {
     out.window_ms = *v;
     if (*v < 100 || *v > 600000) r.error(node["window_ms"], path + ".window_ms", std::to_string(*v) + " is outside 100..600000 ms");
   }
-  if (out.mode == SecuritySettings::Mode::kEnforce && out.authorized_keys.empty()) {
-    r.error(node, path + ".authorized_keys", "required when security.mode is enforce (who may send what)");
+  if (out.mode == SecuritySettings::Mode::kEnforce) {
+    if (out.authorized_keys.empty()) r.error(node, path + ".authorized_keys", "required when security.mode is enforce (who may send what)");
+    if (out.key.empty()) r.error(node, path + ".key", "required when security.mode is enforce (the coordinator signs its gateway commands)");
+    if (out.coordinator_public_key.empty()) {
+      r.error(node, path + ".coordinator_public_key", "required when security.mode is enforce (gateways verify the coordinator's commands)");
+    }
   }
 }
 

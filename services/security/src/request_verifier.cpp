@@ -1,19 +1,13 @@
 #include "motion/security/request_verifier.hpp"
 
 #include <algorithm>
-#include <cstdlib>
-#include <cstring>
 
 #include "motion/lcm/request_kinds.hpp"
 #include "motion/lcm/wire_bounds.hpp"
+#include "envelope.hpp"
 #include "motion/security/signed_request.hpp"
 
 namespace motion::security {
-namespace {
-
-std::string milliseconds_text(std::int64_t us) { return std::to_string(us / 1000) + " ms"; }
-
-}  // namespace
 
 RequestVerifier::RequestVerifier(AuthorizedKeys keys, std::string channel_prefix, std::chrono::milliseconds window, std::int64_t not_before_us)
     : keys_(std::move(keys)),
@@ -28,8 +22,7 @@ Verdict RequestVerifier::verify(const motionlcm::signed_request_t& envelope, std
   motionlcm::request_t request;
   const std::string malformed = lcm::wire::decode_bounded(envelope.payload.data(), envelope.payload.size(), request);
   const std::string claimed = malformed.empty() ? ": " + lcm::request_label(request) : std::string();
-  KeyId id{};
-  std::memcpy(id.data(), envelope.key_id, kKeyIdBytes);
+  const KeyId id = detail::key_id_of(envelope);
   const Principal* p = keys_.find(id);
   if (p == nullptr) {
     v.signer = to_hex(id);
@@ -37,21 +30,12 @@ Verdict RequestVerifier::verify(const motionlcm::signed_request_t& envelope, std
     return v;
   }
   v.signer = "'" + p->name + "' (" + to_hex(id) + ")";
-  Signature signature{};
-  std::memcpy(signature.data(), envelope.signature, kSignatureBytes);
-  if (!security::verify(p->key, signed_bytes(prefix_, envelope), signature)) {
+  if (!security::verify(p->key, signed_bytes(prefix_, envelope), detail::signature_of(envelope))) {
     v.reason = "bad signature from key " + v.signer + " (forged or altered in transit)" + claimed;
     return v;
   }
-  const std::int64_t age = now_us - envelope.utime;
-  if (envelope.utime < not_before_us_) {
-    v.reason = "stale timestamp from key " + v.signer + ": signed " + milliseconds_text(not_before_us_ - envelope.utime) +
-               " before the coordinator started (a replay?)" + claimed;
-    return v;
-  }
-  if (std::abs(age) > window_us_) {
-    v.reason = "stale timestamp from key " + v.signer + ": signed " + milliseconds_text(std::abs(age)) + (age >= 0 ? " ago" : " in the future") +
-               ", outside the window of " + milliseconds_text(window_us_) + " (clocks out of sync, or a replay)" + claimed;
+  if (auto why = detail::stale(envelope.utime, now_us, window_us_, not_before_us_, "coordinator")) {
+    v.reason = "stale timestamp from key " + v.signer + ": " + *why + claimed;
     return v;
   }
   auto [last, first] = last_counter_.try_emplace(id, 0);

@@ -1098,8 +1098,9 @@ TEST(CoordinatorServiceOverLcm, EnforcedSecurityRefusesPlainMalformedAndUnauthor
   lcm::Node node(loop, {url, "CS_"});
   lcm::Node client(loop, {url, "CS_"});
   ASSERT_TRUE(node.ok() && client.ok());
-  CoordinatorService service(loop, node, config, simple_planner,
-                             security::RequestVerifier(std::move(keys), "CS_", milliseconds(2000), wall_time_us() - 1000));
+  CoordinatorService::Security gate;
+  gate.verifier.emplace(std::move(keys), "CS_", milliseconds(2000), wall_time_us() - 1000);
+  CoordinatorService service(loop, node, config, simple_planner, std::move(gate));
   std::vector<reply_t> replies;
   std::vector<motionlcm::event_t> security_events;
   client.subscribe<reply_t>(lcm::channels::kReply, [&](const reply_t& r, const std::string&) { replies.push_back(r); });

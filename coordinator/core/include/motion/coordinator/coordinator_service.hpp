@@ -10,7 +10,8 @@
 // to the core as a request, what it refuses to Coordinator::on_refused_request. Without a
 // verifier (mode off, no authorized_keys) a signed request is unwrapped unverified. With mode
 // enforce, a plain request_t on REQUEST (well-formed or not) is refused: a SECURITY event, no
-// reply, because its ids cannot be trusted.
+// reply, because its ids cannot be trusted. With a command signer, gateway commands go out
+// signed on GW_SCOMMAND_<bus> instead of GW_COMMAND_<bus>.
 //
 // Thread contract: loop thread only. Never blocks.
 #pragma once
@@ -22,20 +23,28 @@
 #include "motion/coordinator/coordinator.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/security/gateway_commands.hpp"
 #include "motion/security/request_verifier.hpp"
 
 namespace motion::coordinator {
 
 class CoordinatorService final : private CoordinatorOutput {
  public:
-  // `loop`, `node` and `config` must outlive the service. `verifier`: see load_verifier().
-  CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner,
-                     std::optional<security::RequestVerifier> verifier = std::nullopt);
+  // What config.security gives the coordinator: the verifier of signed requests (none without
+  // authorized_keys) and the signer of its gateway commands (none without key).
+  struct Security {
+    std::optional<security::RequestVerifier> verifier;
+    std::optional<security::GatewayCommandSigner> command_signer;
+  };
 
-  // The verifier of `config.security`: none when no authorized_keys file is configured, else one
-  // over that file (its channel prefix, window_ms, and now as the start), or what is wrong with
-  // the file or the coordinator's own key (each error names the configuration key and file:line).
-  [[nodiscard]] static security::Loaded<std::optional<security::RequestVerifier>> load_verifier(const config::Config& config);
+  // `loop`, `node` and `config` must outlive the service. `security`: see load_security().
+  CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner, Security security = {});
+
+  // The Security of `config.security`: a verifier over authorized_keys (its channel prefix,
+  // window_ms, and now as the start) and a signer with key, each when configured; or what is
+  // wrong with a file (each error names the configuration key and file:line), including a key
+  // and coordinator_public_key that are not one pair.
+  [[nodiscard]] static security::Loaded<Security> load_security(const config::Config& config);
   ~CoordinatorService() override;
   CoordinatorService(const CoordinatorService&) = delete;
   CoordinatorService& operator=(const CoordinatorService&) = delete;
@@ -62,6 +71,7 @@ class CoordinatorService final : private CoordinatorOutput {
   Coordinator core_;
   bool enforce_ = false;
   std::optional<security::RequestVerifier> verifier_;
+  std::optional<security::GatewayCommandSigner> command_signer_;
   EventLoop::TimerId timer_ = 0;
   TimePoint timer_deadline_ = kNever;
 };

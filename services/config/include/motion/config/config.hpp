@@ -181,11 +181,14 @@ struct CoordinatorSettings {
 struct SecuritySettings {
   enum class Mode { kOff, kEnforce };
   // kOff: plain request_t on REQUEST is executed; signed requests on SREQUEST too (verified when
-  // authorized_keys is set, else unwrapped). kEnforce: only signed requests that verify and whose
-  // key's role allows them; a plain request moves nothing (a SECURITY event, no reply).
+  // authorized_keys is set, else unwrapped); likewise gateway commands, plain or signed.
+  // kEnforce: only signed requests that verify and whose key's role allows them; a plain request
+  // moves nothing (a SECURITY event, no reply); gateways execute only commands signed with the
+  // coordinator's key (key, coordinator_public_key: both required).
   Mode mode = Mode::kOff;
   std::string authorized_keys;  // "<base64 public key> <name> <role>" per line; required by kEnforce
-  std::string key;              // the coordinator's own private key (optional)
+  std::string key;              // the coordinator's private key: it signs its gateway commands with it
+  std::string coordinator_public_key;  // the coordinator's public key (its .pub file): gateways verify commands with it
   int window_ms = 2000;         // a signed request's utime must be within this of the coordinator's clock
   KeyLocations where;
 };
