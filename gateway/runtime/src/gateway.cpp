@@ -146,7 +146,7 @@ void Gateway::on_signed_command(const motionlcm::signed_gateway_command_t& envel
   }
   // No coordinator key configured (mode off): taken as a plain command would be.
   motionlcm::gateway_command_t command;
-  if (std::string why = lcm::wire::decode_bounded(envelope.payload.data(), envelope.payload.size(), command); !why.empty()) {
+  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command); !why.empty()) {
     return refuse("signed command with a malformed payload refused: " + why);
   }
   on_command(command);

@@ -1,7 +1,7 @@
 // What signed_request_t and signed_gateway_command_t share (internal to motion::security): the
 // bytes a signature covers, sealing a message into an envelope, and the freshness checks.
-// Both envelopes have the same fields: utime, key_id[8], counter, payload_size, payload,
-// signature[64].
+// Both envelopes have utime, key_id[8], counter, the signed message's bytes and signature[64];
+// the message field is `payload` in one and `command` in the other (payload() below).
 #pragma once
 
 #include <algorithm>
@@ -12,6 +12,9 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <motionlcm/signed_gateway_command_t.hpp>
+#include <motionlcm/signed_request_t.hpp>
 
 #include "motion/security/keys.hpp"
 
@@ -25,9 +28,19 @@ std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_vie
                                         std::int64_t counter, std::int64_t utime, std::int32_t payload_size,
                                         std::span<const std::uint8_t> payload);
 
+// The signed message's bytes and their count.
+inline std::vector<std::uint8_t>& payload(motionlcm::signed_request_t& e) { return e.payload; }
+inline const std::vector<std::uint8_t>& payload(const motionlcm::signed_request_t& e) { return e.payload; }
+inline std::int32_t& payload_size(motionlcm::signed_request_t& e) { return e.payload_size; }
+inline std::int32_t payload_size(const motionlcm::signed_request_t& e) { return e.payload_size; }
+inline std::vector<std::uint8_t>& payload(motionlcm::signed_gateway_command_t& e) { return e.command; }
+inline const std::vector<std::uint8_t>& payload(const motionlcm::signed_gateway_command_t& e) { return e.command; }
+inline std::int32_t& payload_size(motionlcm::signed_gateway_command_t& e) { return e.command_size; }
+inline std::int32_t payload_size(const motionlcm::signed_gateway_command_t& e) { return e.command_size; }
+
 template <typename Envelope>
 std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_view prefix, const Envelope& e) {
-  return covered_bytes(domain, prefix, e.key_id, e.counter, e.utime, e.payload_size, e.payload);
+  return covered_bytes(domain, prefix, e.key_id, e.counter, e.utime, payload_size(e), payload(e));
 }
 
 template <typename Envelope>
@@ -57,9 +70,9 @@ Envelope seal(const KeyPair& key, std::string_view domain, std::string_view pref
   last_counter = std::max(last_counter + 1, now_us);
   e.counter = last_counter;
   const int size = msg.getEncodedSize();
-  e.payload.resize(static_cast<std::size_t>(size));
-  msg.encode(e.payload.data(), 0, size);
-  e.payload_size = size;
+  payload(e).resize(static_cast<std::size_t>(size));
+  msg.encode(payload(e).data(), 0, size);
+  payload_size(e) = size;
   const Signature signature = key.sign(covered_bytes(domain, prefix, e));
   std::memcpy(e.signature, signature.data(), kSignatureBytes);
   return e;

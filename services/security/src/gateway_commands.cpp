@@ -43,7 +43,7 @@ CommandVerdict GatewayCommandVerifier::verify(const motionlcm::signed_gateway_co
   }
   last_counter_ = envelope.counter;
   motionlcm::gateway_command_t command;
-  if (std::string why = lcm::wire::decode_bounded(envelope.payload.data(), envelope.payload.size(), command); !why.empty()) {
+  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command); !why.empty()) {
     v.reason = "signed command refused: malformed payload: " + why;
     return v;
   }

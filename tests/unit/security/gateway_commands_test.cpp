@@ -48,7 +48,7 @@ TEST_F(GatewayCommands, OtherKeyAlteredPayloadStaleTimeAndRequestDomainAreRefuse
   GatewayCommandSigner other(KeyPair::generate("coordinator"), "MOTION_");
   EXPECT_NE(verifier.verify(other.sign(arm(1), now), now).reason.find("is not the coordinator's"), std::string::npos);
   auto altered = signer.sign(arm(1), now);
-  altered.payload[altered.payload.size() - 1] ^= 1;
+  altered.command[altered.command.size() - 1] ^= 1;
   EXPECT_EQ(verifier.verify(altered, now).reason, "signed command refused: bad signature (forged or altered in transit)");
   const auto old = verifier.verify(signer.sign(arm(2), now - 3'000'000), now);
   EXPECT_NE(old.reason.find("stale timestamp: signed 3000 ms ago, outside the window of 2000 ms"), std::string::npos) << old.reason;
