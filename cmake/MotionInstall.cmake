@@ -1,8 +1,8 @@
 # What `cmake --install` gives a program that uses the C++ client (component dev; the motion-*
 # programs install with the default component):
-#   include/motion/{core,lcm,client}/*.hpp, include/motionlcm/*.hpp (lcm-gen's C++ types)
-#   lib/libmotion_{client,lcm,core}.a
-#   lib/cmake/motion/  motionConfig.cmake: find_package(motion) -> motion::client (and motion::lcm,
+#   include/motion/{core,lcm,security,client}/*.hpp, include/motionlcm/*.hpp (lcm-gen's C++ types)
+#   lib/libmotion_{client,security,lcm,core}.a
+#   lib/cmake/motion/  motionConfig.cmake: find_package(motion) -> motion::client (and motion::security, motion::lcm,
 #                      motion::core, motion::lcmtypes)
 #   lib/pkgconfig/motion-client.pc
 # Both are relocatable: `cmake --install build --prefix DIR` anywhere works.

@@ -54,6 +54,10 @@ macro(motion_layers_rules)
     UNDER services/web
     FORBID "^motion_client$" "^motion_coordinator$" "^motion_gateway_runtime$" "^motion_.*_driver$" ${transports}
     FORBID_UNDER services/sim)
+  motion_layers_rule(f "the security library (keys, signatures) links no configuration, process skeleton, runtime, stack or transport"
+    TARGETS motion_security
+    FORBID "^motion_config$" "^motion_app$" "^motion_gateway_runtime$" "^motion_.*_driver$" ${transports}
+    FORBID_UNDER services/sim coordinator gateway)
 endmacro()
 
 # --- The check ---------------------------------------------------------------------------------

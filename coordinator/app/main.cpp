@@ -15,9 +15,19 @@ int main(int argc, char** argv) {
     if (!log::init("coordinator", options.log_level)) return app::kExitUsage;
     auto config = app::load_config(options);
     if (!config) return app::kExitConfig;
+    auto loaded = coordinator::CoordinatorService::load_security(*config);
+    if (auto* error = std::get_if<std::string>(&loaded)) {
+      spdlog::error("{}: {}", config->file, *error);
+      return app::kExitConfig;
+    }
+    auto& security = std::get<coordinator::CoordinatorService::Security>(loaded);
+    spdlog::info("security: mode {}, {}, gateway commands {}", config::to_string(config->security.mode),
+                 security.verifier ? std::to_string(security.verifier->keys().principals().size()) + " authorized keys"
+                                   : std::string("no authorized_keys"),
+                 security.command_signer ? "signed" : "not signed");
     app::Service service(*config, options, "coordinator", "coordinator");
     if (!service.ok()) return app::kExitUnavailable;
-    coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(*config));
+    coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(*config), std::move(security));
     // OK once every bus's gateway is heard: until then requests for its axes are refused.
     auto update_health = [&] {
       std::string missing;

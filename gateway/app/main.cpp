@@ -31,9 +31,15 @@ int main(int argc, char** argv) {
       spdlog::error("{}", *refused);
       return app::kExitUnavailable;
     }
+    auto verifier = gateway::Gateway::load_command_verifier(*config);
+    if (auto* error = std::get_if<std::string>(&verifier)) {
+      spdlog::error("{}: {}", config->file, *error);
+      return app::kExitConfig;
+    }
     app::Service service(*config, options, "gateway:" + bus_name, "gateway");
     if (!service.ok()) return app::kExitUnavailable;
     gateway::Gateway gateway(service.loop(), service.node(), service.health(), *config, bus_name);
+    gateway.set_command_verifier(std::move(std::get<std::optional<security::GatewayCommandVerifier>>(verifier)));
 
     // The bus may not exist yet (motion-sim starting, adapter unplugged): keep trying, and say
     // why in the health meanwhile.

@@ -97,6 +97,7 @@ void print_move_summary(const motionlcm::reply_t& result) {
 // Sends `request` and reports its outcome; exit code 0 only on DONE (or STARTED without --wait).
 int run_request(Context& ctx, app::Service& service, request_t request, bool wait, double timeout_s) {
   client::Client client(service.loop(), service.node(), "motionctl-" + std::to_string(::getpid()));
+  if (!ctx.sign_requests(client)) return ctx.result;
   const bool tty = ::isatty(1) != 0 && !ctx.json;
   bool started = false;
   auto progress = [&](const motionlcm::reply_t& r) {
@@ -122,7 +123,8 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
     }
   });
   const bool moving_kind = request.kind == request_t::MOVE_ABSOLUTE || request.kind == request_t::MOVE_RELATIVE || request.kind == request_t::HOME;
-  const std::string where = service.node().url() + ", channel " + service.node().channel(lcm::channels::kRequest);
+  const std::string where =
+      service.node().url() + ", channel " + service.node().channel(client.signing() ? lcm::channels::kSignedRequest : lcm::channels::kRequest);
   // The coordinator answers at once (ACCEPTED or REJECTED): silence means nobody listens.
   if (!client.wait_until([&] { return answered; }, std::min(timeout, client::Client::kAcceptTimeout))) {
     std::cerr << "motionctl: no reply from the coordinator within " << client::Client::kAcceptTimeout.count()

@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
   ctl::add_axis_commands(cli, ctx);
   ctl::add_can_commands(cli, ctx);
   ctl::add_log_command(cli, ctx);
+  ctl::add_key_commands(cli, ctx);
   const int rc = app::run(cli, argc, argv, [&] { return app::kExitOk; });
   return rc != app::kExitOk ? rc : ctx.result;
 }

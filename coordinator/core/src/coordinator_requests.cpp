@@ -44,6 +44,16 @@ void Coordinator::on_malformed_request(std::span<const std::uint8_t> bytes, cons
   reply_unknown(msg, reply_t::REJECTED, ReplyError::kMalformedRequest, "malformed request: " + why);
 }
 
+void Coordinator::on_refused_request(const std::optional<request_t>& answer_to, const std::string& reason, TimePoint now) {
+  begin(now);
+  publish_event("", motionlcm::event_t::WARNING, motionlcm::event_t::SECURITY, reason);
+  if (answer_to) {
+    reply_unknown(*answer_to, reply_t::REJECTED, ReplyError::kUnauthorized, reason);
+  } else {
+    spdlog::warn("request refused: {}", reason);
+  }
+}
+
 std::optional<std::pair<ReplyError, std::string>> Coordinator::check_axis_ready(const std::string& axis, bool need_enabled) {
   const AxisLive& a = axes_.at(axis);
   if (!gateway_alive(a.drive->bus)) return std::pair{ReplyError::kGatewayOffline, "gateway of bus " + a.drive->bus + " (axis " + axis + ") is offline"};

@@ -5,21 +5,72 @@
 #include <span>
 
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/request_kinds.hpp"
 
 namespace motion::coordinator {
 
-CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner)
-    : loop_(loop), node_(node), core_(config, std::move(planner), *this) {
+security::Loaded<CoordinatorService::Security> CoordinatorService::load_security(const config::Config& config) {
+  const auto& settings = config.security;
+  Security out;
+  if (!settings.key.empty()) {
+    auto key = security::load_private_key(settings.key);
+    if (auto* error = std::get_if<std::string>(&key)) return "security.key: " + *error;
+    const auto& pair = std::get<security::KeyPair>(key);
+    if (!settings.coordinator_public_key.empty()) {
+      // What the gateways will verify with must be this key's public half.
+      auto published = security::load_public_key(settings.coordinator_public_key);
+      if (auto* error = std::get_if<std::string>(&published)) return "security.coordinator_public_key: " + *error;
+      if (std::get<security::PublicKey>(published) != pair.public_key()) {
+        return "security.key (" + settings.key + ") and security.coordinator_public_key (" + settings.coordinator_public_key +
+               ") are not one key pair: gateways would refuse every command";
+      }
+    }
+    out.command_signer.emplace(pair, config.lcm.channel_prefix);
+  }
+  if (!settings.authorized_keys.empty()) {
+    auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
+    if (auto* error = std::get_if<std::string>(&keys)) return "security.authorized_keys: " + *error;
+    out.verifier.emplace(std::move(std::get<security::AuthorizedKeys>(keys)), config.lcm.channel_prefix,
+                         std::chrono::milliseconds(settings.window_ms), wall_time_us());
+  }
+  return out;
+}
+
+CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner, Security security)
+    : loop_(loop),
+      node_(node),
+      core_(config, std::move(planner), *this),
+      enforce_(config.security.mode == config::SecuritySettings::Mode::kEnforce),
+      verifier_(std::move(security.verifier)),
+      command_signer_(std::move(security.command_signer)) {
   using motionlcm::request_t;
   node_.subscribe<request_t>(
       lcm::channels::kRequest,
       [this](const request_t& m, const std::string&) {
-        core_.on_request(m, loop_.now());
+        if (enforce_) {
+          core_.on_refused_request(std::nullopt, unsigned_refusal(lcm::request_label(m)), loop_.now());
+        } else {
+          core_.on_request(m, loop_.now());
+        }
         pump();
       },
       [this](const void* data, int size, const std::string& why) {
-        const auto n = static_cast<std::size_t>(size > 0 ? size : 0);
-        core_.on_malformed_request(std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data), n), why, loop_.now());
+        if (enforce_) {
+          core_.on_refused_request(std::nullopt, unsigned_refusal("malformed request (" + why + ")"), loop_.now());
+        } else {
+          const auto n = static_cast<std::size_t>(size > 0 ? size : 0);
+          core_.on_malformed_request(std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data), n), why, loop_.now());
+        }
+        pump();
+      });
+  node_.subscribe<motionlcm::signed_request_t>(
+      lcm::channels::kSignedRequest,
+      [this](const motionlcm::signed_request_t& m, const std::string&) {
+        on_signed_request(m);
+        pump();
+      },
+      [this](const void*, int, const std::string& why) {
+        core_.on_refused_request(std::nullopt, "malformed signed request refused: " + why, loop_.now());
         pump();
       });
   node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [this](const motionlcm::axis_state_t& m, const std::string&) {
@@ -51,6 +102,32 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
   pump();
 }
 
+void CoordinatorService::on_signed_request(const motionlcm::signed_request_t& envelope) {
+  if (!verifier_) {
+    // Mode off without authorized_keys: nobody to check the signature against; the request is
+    // taken as a plain one would be.
+    motionlcm::request_t request;
+    const std::string why = lcm::wire::decode_bounded(envelope.payload.data(), envelope.payload.size(), request);
+    if (why.empty()) {
+      core_.on_request(request, loop_.now());
+    } else {
+      core_.on_malformed_request(envelope.payload, "signed request's payload: " + why, loop_.now());
+    }
+    return;
+  }
+  security::Verdict verdict = verifier_->verify(envelope, wall_time_us());
+  if (verdict.accepted) {
+    core_.on_request(*verdict.request, loop_.now());
+  } else {
+    core_.on_refused_request(verdict.answerable ? verdict.request : std::nullopt, "signed request refused: " + verdict.reason, loop_.now());
+  }
+}
+
+std::string CoordinatorService::unsigned_refusal(const std::string& what) const {
+  return "unsigned request refused: security is enforced (" + what + "; sign it with a key of authorized_keys and send it on " +
+         node_.channel(lcm::channels::kSignedRequest) + ")";
+}
+
 CoordinatorService::~CoordinatorService() {
   if (timer_ != 0) loop_.cancel(timer_);
 }
@@ -71,7 +148,11 @@ void CoordinatorService::pump() {
 void CoordinatorService::reply(const motionlcm::reply_t& reply) { node_.publish(lcm::channels::kReply, reply); }
 
 void CoordinatorService::gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) {
-  node_.publish(lcm::channels::gateway_command(bus), command);
+  if (command_signer_) {
+    node_.publish(lcm::channels::signed_gateway_command(bus), command_signer_->sign(command, wall_time_us()));
+  } else {
+    node_.publish(lcm::channels::gateway_command(bus), command);
+  }
 }
 
 void CoordinatorService::sync_trigger(const motionlcm::sync_trigger_t& trigger) { node_.publish(lcm::channels::kSyncTrigger, trigger); }

@@ -16,15 +16,40 @@
 
 namespace motion::gateway {
 
+security::Loaded<std::optional<security::GatewayCommandVerifier>> Gateway::load_command_verifier(const config::Config& config) {
+  const auto& settings = config.security;
+  if (settings.coordinator_public_key.empty()) return std::optional<security::GatewayCommandVerifier>{};
+  auto key = security::load_public_key(settings.coordinator_public_key);
+  if (auto* error = std::get_if<std::string>(&key)) return "security.coordinator_public_key: " + *error;
+  return std::optional<security::GatewayCommandVerifier>{std::in_place, std::get<security::PublicKey>(key), config.lcm.channel_prefix,
+                                                          std::chrono::milliseconds(settings.window_ms), wall_time_us()};
+}
+
 Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config, std::string bus)
-    : loop_(loop), node_(node), health_(health), config_(config), bus_(std::move(bus)), started_utime_(wall_time_us()) {
+    : loop_(loop),
+      node_(node),
+      health_(health),
+      config_(config),
+      bus_(std::move(bus)),
+      started_utime_(wall_time_us()),
+      enforce_(config.security.mode == config::SecuritySettings::Mode::kEnforce) {
   for (const config::Axis* axis : config_.axes_on_bus(bus_)) {
     axes_.emplace(axis->name, axis);
     limits_.emplace(axis->name, CountLimits::of(*axis));
   }
   if (const config::Bus* b = config_.find_bus(bus_); b != nullptr) poll_hz_ = b->poll_hz;
-  node_.subscribe<motionlcm::gateway_command_t>(lcm::channels::gateway_command(bus_),
-                                                [this](const motionlcm::gateway_command_t& c, const std::string&) { on_command(c); });
+  node_.subscribe<motionlcm::gateway_command_t>(lcm::channels::gateway_command(bus_), [this](const motionlcm::gateway_command_t& c, const std::string&) {
+    if (enforce_) {
+      refuse("unsigned command " + std::to_string(c.command_id) + " (request " + std::to_string(c.request_id) +
+             ") refused: security is enforced, commands must be signed by the coordinator");
+    } else {
+      on_command(c);
+    }
+  });
+  node_.subscribe<motionlcm::signed_gateway_command_t>(
+      lcm::channels::signed_gateway_command(bus_),
+      [this](const motionlcm::signed_gateway_command_t& m, const std::string&) { on_signed_command(m); },
+      [this](const void*, int, const std::string& why) { refuse("malformed signed command refused: " + why); });
   node_.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger,
                                              [this](const motionlcm::sync_trigger_t& t, const std::string&) { on_trigger(t); });
   node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves,
@@ -115,6 +140,28 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
   if (command.kind == motionlcm::gateway_command_t::JOG) {
     for (const auto& a : command.axes) check_jog(a.axis);  // a jog starting inside its braking zone
   }
+}
+
+void Gateway::on_signed_command(const motionlcm::signed_gateway_command_t& envelope) {
+  if (verifier_) {
+    auto verdict = verifier_->verify(envelope, wall_time_us());
+    if (!verdict.command) return refuse(verdict.reason);
+    return on_command(*verdict.command);
+  }
+  // No coordinator key configured (mode off): taken as a plain command would be.
+  motionlcm::gateway_command_t command;
+  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command); !why.empty()) {
+    return refuse("signed command with a malformed payload refused: " + why);
+  }
+  on_command(command);
+}
+
+void Gateway::refuse(const std::string& reason) {
+  DriveEvent e;
+  e.kind = motionlcm::event_t::SECURITY;
+  e.severity = motionlcm::event_t::WARNING;
+  e.text = reason;
+  axis_event("", e);
 }
 
 void Gateway::forget_jog(const std::string& axis) {

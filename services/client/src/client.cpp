@@ -3,6 +3,7 @@
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/message_names.hpp"
 #include "motion/lcm/reply_error.hpp"
+#include "motion/lcm/request_kinds.hpp"
 
 namespace motion::client {
 
@@ -17,7 +18,7 @@ Client::Client(EventLoop& loop, lcm::Node& node, std::string client_id)
     if (r.client_id != id_) return;
     auto it = pending_.find(r.request_id);
     if (it == pending_.end()) return;
-    auto handler = it->second;  // copy: the handler may send further requests
+    auto handler = it->second.handler;  // copy: the handler may send further requests
     if (is_terminal(r.status)) pending_.erase(it);
     if (handler) handler(r);
   });
@@ -26,8 +27,38 @@ Client::Client(EventLoop& loop, lcm::Node& node, std::string client_id)
     if (state_handler_) state_handler_(s);
   });
   node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) {
+    if (e.kind == motionlcm::event_t::SECURITY) on_security_event(e);
     if (event_handler_) event_handler_(e);
   });
+}
+
+void Client::sign_with(security::KeyPair key) {
+  signer_.emplace(std::move(key), node_.prefix());
+  id_ = signer_->own_client_id(id_);
+}
+
+std::string_view Client::request_channel() const { return signer_ ? lcm::channels::kSignedRequest : lcm::channels::kRequest; }
+
+void Client::on_security_event(const motionlcm::event_t& event) {
+  std::vector<std::pair<ReplyHandler, motionlcm::reply_t>> refused;
+  for (auto it = pending_.begin(); it != pending_.end();) {
+    if (event.text.find(it->second.label) == std::string::npos) {
+      ++it;
+      continue;
+    }
+    motionlcm::reply_t r{};
+    r.utime = event.utime;
+    r.client_id = id_;
+    r.request_id = it->first;
+    r.status = motionlcm::reply_t::REJECTED;
+    r.error_code = error_code(ReplyError::kUnauthorized);
+    r.reason = "refused by the coordinator's security (SECURITY event, no reply): " + event.text;
+    refused.emplace_back(std::move(it->second.handler), std::move(r));
+    it = pending_.erase(it);
+  }
+  for (const auto& [handler, reply] : refused) {
+    if (handler) handler(reply);
+  }
 }
 
 std::int64_t Client::send(motionlcm::request_t request, ReplyHandler on_reply) {
@@ -36,8 +67,12 @@ std::int64_t Client::send(motionlcm::request_t request, ReplyHandler on_reply) {
   request.request_id = next_request_id_++;
   request.num_axes = static_cast<std::int32_t>(request.axes.size());
   request.values.resize(request.axes.size(), 0.0);
-  pending_[request.request_id] = std::move(on_reply);
-  node_.publish(lcm::channels::kRequest, request);
+  pending_[request.request_id] = Pending{std::move(on_reply), lcm::request_label(request)};
+  if (signer_) {
+    node_.publish(lcm::channels::kSignedRequest, signer_->sign(request, request.utime));
+  } else {
+    node_.publish(lcm::channels::kRequest, request);
+  }
   return request.request_id;
 }
 
@@ -65,7 +100,7 @@ motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milli
     result.status = motionlcm::reply_t::FAILED;
     result.error_code = error_code(ReplyError::kTimeout);
     const std::string where = (node_.url().empty() ? std::string("the default LCM URL") : node_.url()) + ", channel " +
-                              node_.channel(lcm::channels::kRequest);
+                              node_.channel(request_channel());
     result.reason = heard ? "no terminal reply from the coordinator within " + std::to_string(timeout.count()) + " ms (" + where + ")"
                           : "no reply from the coordinator within " + std::to_string(first_wait.count()) +
                                 " ms: is motion-coordinator running on " + where + "?";

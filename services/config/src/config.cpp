@@ -64,6 +64,8 @@ std::string_view to_string(Family family) {
   return "?";
 }
 
+const char* to_string(SecuritySettings::Mode mode) { return mode == SecuritySettings::Mode::kEnforce ? "enforce" : "off"; }
+
 std::optional<Family> parse_family(std::string_view text) {
   for (Family f : {Family::kUim342, Family::kUim242, Family::kUc57, Family::kAdamModbus}) {
     if (to_string(f) == text) return f;
@@ -530,6 +532,42 @@ void read_coordinator(Reader& r, const YAML::Node& node, CoordinatorSettings& ou
   }
 }
 
+// A path as given when absolute, else from the folder of the configuration file `file`.
+std::string relative_to(const std::string& file, const std::string& path) {
+  if (path.empty() || path.front() == '/') return path;
+  const auto slash = file.rfind('/');
+  return slash == std::string::npos ? path : file.substr(0, slash + 1) + path;
+}
+
+void read_security(Reader& r, const YAML::Node& node, const std::string& file, SecuritySettings& out) {
+  const std::string path = "security";
+  if (!r.check_map(node, path, {"mode", "authorized_keys", "key", "coordinator_public_key", "window_ms"})) return;
+  out.where = r.locations(node);
+  if (auto v = r.get<std::string>(node, path, "mode", false)) {
+    if (*v == "off") {
+      out.mode = SecuritySettings::Mode::kOff;
+    } else if (*v == "enforce") {
+      out.mode = SecuritySettings::Mode::kEnforce;
+    } else {
+      r.error(node["mode"], path + ".mode", "'" + *v + "' is not a security mode (off, enforce)");
+    }
+  }
+  if (auto v = r.get<std::string>(node, path, "authorized_keys", false)) out.authorized_keys = relative_to(file, *v);
+  if (auto v = r.get<std::string>(node, path, "key", false)) out.key = relative_to(file, *v);
+  if (auto v = r.get<std::string>(node, path, "coordinator_public_key", false)) out.coordinator_public_key = relative_to(file, *v);
+  if (auto v = r.get<int>(node, path, "window_ms", false)) {
+    out.window_ms = *v;
+    if (*v < 100 || *v > 600000) r.error(node["window_ms"], path + ".window_ms", std::to_string(*v) + " is outside 100..600000 ms");
+  }
+  if (out.mode == SecuritySettings::Mode::kEnforce) {
+    if (out.authorized_keys.empty()) r.error(node, path + ".authorized_keys", "required when security.mode is enforce (who may send what)");
+    if (out.key.empty()) r.error(node, path + ".key", "required when security.mode is enforce (the coordinator signs its gateway commands)");
+    if (out.coordinator_public_key.empty()) {
+      r.error(node, path + ".coordinator_public_key", "required when security.mode is enforce (gateways verify the coordinator's commands)");
+    }
+  }
+}
+
 void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out) {
   if (!r.check_map(node, "simulation", {"runtime_dir", "reply_latency_us", "home_switches"})) return;
   if (const YAML::Node switches = node["home_switches"]) {
@@ -666,13 +704,14 @@ LoadResult load_string(std::string_view yaml_text, const std::string& file_name)
   c.file = file_name;
   if (!root.IsMap()) {
     r.error(root, "<root>", "expected a mapping with lcm, buses, drives, axes");
-  } else if (r.check_map(root, "", {"lcm", "buses", "drives", "axes", "coordinator", "simulation"})) {
+  } else if (r.check_map(root, "", {"lcm", "buses", "drives", "axes", "coordinator", "security", "simulation"})) {
     try {
       if (root["lcm"]) read_lcm(r, root["lcm"], c.lcm);
       read_list(r, root, "buses", c.buses, read_bus);
       read_list(r, root, "drives", c.drives, read_drive);
       read_list(r, root, "axes", c.axes, read_axis);
       if (root["coordinator"]) read_coordinator(r, root["coordinator"], c.coordinator);
+      if (root["security"]) read_security(r, root["security"], file_name, c.security);
       if (root["simulation"]) read_simulation(r, root["simulation"], c.simulation);
       check_references(r, root, c);
     } catch (const YAML::Exception& e) {

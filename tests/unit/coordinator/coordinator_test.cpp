@@ -19,6 +19,7 @@
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/security/signed_request.hpp"
 #include "motion/testing/lcm_url.hpp"
 #include "motion/testing/pump.hpp"
 
@@ -915,6 +916,36 @@ TEST_F(CoordinatorTest, BeyondMaxActiveRequestsARequestIsRefusedAsBusyButAStopPa
   EXPECT_EQ(replies[stop].front().status, std::int8_t{reply_t::ACCEPTED});
 }
 
+TEST_F(CoordinatorTest, RefusedRequestIsASecurityEventAndAnsweredOnlyWhenItsIdsAreAuthentic) {
+  std::vector<motionlcm::event_t> security;
+  client.on_event = [&](const motionlcm::event_t& e) {
+    if (e.kind == motionlcm::event_t::SECURITY) security.push_back(e);
+  };
+  auto_execute_moves();
+  request_t r{};
+  r.client_id = "test";
+  r.request_id = 900;
+  r.kind = request_t::MOVE_ABSOLUTE;
+  r.axes = {"x"};
+  r.values = {5.0};
+  r.num_axes = 1;
+  // Ids that cannot be trusted: the event only, no reply, nothing sent to a gateway.
+  loop.send_to_cores([](Coordinator& c, TimePoint now) { c.on_refused_request(std::nullopt, "unsigned request refused: test", now); });
+  // Authentic ids, role too low: the event and a REJECTED reply (kUnauthorized).
+  loop.send_to_cores([r](Coordinator& c, TimePoint now) { c.on_refused_request(r, "role too low: test", now); });
+  ASSERT_TRUE(pump_until([&] { return security.size() == 2; }));
+  EXPECT_EQ(security[0].text, "unsigned request refused: test");
+  EXPECT_EQ(security[0].source, "coordinator");
+  EXPECT_EQ(security[0].severity, std::int8_t{motionlcm::event_t::WARNING});
+  const auto refused = terminal(900);
+  EXPECT_EQ(refused.status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(refused.error_code, static_cast<int>(ReplyError::kUnauthorized));
+  EXPECT_EQ(refused.reason, "role too low: test");
+  EXPECT_EQ(replies.size(), 1u);
+  EXPECT_TRUE(armed.empty());
+  EXPECT_EQ(coordinator.active_requests(), 0u);
+}
+
 // Stops that do not take: the coordinator watches every stop it sends until the axis states show
 // standstill, repeats it, then e-stops, and the aborted request says what happened only then.
 struct StopsThatDoNotTake : CoordinatorTest {
@@ -1098,6 +1129,67 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
   EXPECT_EQ(replies[2].back().error_code, static_cast<int>(ReplyError::kMalformedRequest));
   EXPECT_EQ(service.active_requests(), 0u);
   loop.cancel(tick);
+}
+
+}  // namespace
+}  // namespace motion::coordinator
+
+namespace motion::coordinator {
+namespace {
+
+// The shell with security enforced: what reaches the core from REQUEST and SREQUEST.
+TEST(CoordinatorServiceOverLcm, EnforcedSecurityRefusesPlainMalformedAndUnauthorizedRequests) {
+  config::Config config = *config::load_string(kConfig).config;
+  config.security.mode = config::SecuritySettings::Mode::kEnforce;
+  const security::KeyPair watch = security::KeyPair::generate("watch");
+  auto keys = std::get<security::AuthorizedKeys>(security::AuthorizedKeys::parse(watch.authorized_line("observe") + "\n", "keys"));
+  EventLoop loop;
+  const std::string url = testing::unique_lcm_url(22);
+  lcm::Node node(loop, {url, "CS_"});
+  lcm::Node client(loop, {url, "CS_"});
+  ASSERT_TRUE(node.ok() && client.ok());
+  CoordinatorService::Security gate;
+  gate.verifier.emplace(std::move(keys), "CS_", milliseconds(2000), wall_time_us() - 1000);
+  CoordinatorService service(loop, node, config, simple_planner, std::move(gate));
+  std::vector<reply_t> replies;
+  std::vector<motionlcm::event_t> security_events;
+  client.subscribe<reply_t>(lcm::channels::kReply, [&](const reply_t& r, const std::string&) { replies.push_back(r); });
+  client.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [&](const motionlcm::event_t& e, const std::string&) {
+    if (e.kind == motionlcm::event_t::SECURITY) security_events.push_back(e);
+  });
+
+  request_t plain{};
+  plain.client_id = "plain";
+  plain.request_id = 1;
+  plain.kind = request_t::MOVE_ABSOLUTE;
+  plain.axes = {"x"};
+  plain.values = {1.0};
+  plain.num_axes = 1;
+  client.publish(lcm::channels::kRequest, plain);
+  ASSERT_TRUE(testing::pump_until(loop, [&] { return security_events.size() == 1; }, milliseconds(3000)));
+  EXPECT_EQ(security_events[0].text.rfind("unsigned request refused: security is enforced (move request 1 of client 'plain'", 0), 0u)
+      << security_events[0].text;
+
+  client.publish_raw(node.channel(lcm::channels::kSignedRequest), {1, 2, 3});
+  ASSERT_TRUE(testing::pump_until(loop, [&] { return security_events.size() == 2; }, milliseconds(3000)));
+  EXPECT_EQ(security_events[1].text.rfind("malformed signed request refused: ", 0), 0u) << security_events[1].text;
+
+  security::RequestSigner signer(watch, "CS_");
+  request_t move = plain;
+  move.client_id = "watch/ctl";
+  move.request_id = 2;
+  client.publish(lcm::channels::kSignedRequest, signer.sign(move, wall_time_us()));
+  ASSERT_TRUE(testing::pump_until(loop, [&] { return !replies.empty(); }, milliseconds(3000)));
+  EXPECT_EQ(replies[0].client_id, "watch/ctl");
+  EXPECT_EQ(replies[0].request_id, 2);
+  EXPECT_EQ(replies[0].status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(replies[0].error_code, static_cast<int>(ReplyError::kUnauthorized));
+  ASSERT_EQ(security_events.size(), 3u);
+  EXPECT_EQ(replies[0].reason.rfind("signed request refused: role too low: key 'watch'", 0), 0u) << replies[0].reason;
+  EXPECT_EQ(security_events[2].text, replies[0].reason);
+  // The plain request and the malformed envelope got no reply.
+  EXPECT_EQ(replies.size(), 1u);
+  EXPECT_EQ(service.active_requests(), 0u);
 }
 
 }  // namespace

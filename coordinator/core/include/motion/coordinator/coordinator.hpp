@@ -114,6 +114,12 @@ class Coordinator {
   void on_malformed_request(std::span<const std::uint8_t> bytes, const std::string& why, TimePoint now);
   // Any other malformed message the caller received (rate-limited there): a PROTOCOL_ERROR event.
   void on_malformed_message(const std::string& what, TimePoint now);
+  // A request the security gate refused (CoordinatorService: unsigned while security is
+  // enforced, or a signed one that did not verify): a SECURITY event with `reason`, and nothing
+  // else happens. `answer_to`: the refused request when its ids are authentic (signed, fresh,
+  // its signer's own client id): it also gets a REJECTED reply (kUnauthorized). Without it no
+  // reply goes out, since ids that cannot be trusted may be somebody else's.
+  void on_refused_request(const std::optional<motionlcm::request_t>& answer_to, const std::string& reason, TimePoint now);
   void on_axis_state(const motionlcm::axis_state_t& state, TimePoint now);
   void on_gateway_reply(const motionlcm::gateway_reply_t& reply, TimePoint now);
   void on_event(const motionlcm::event_t& event, TimePoint now);

@@ -1,9 +1,17 @@
 // The coordinator on the wire: the passive core (coordinator.hpp) driven by a process's
-// EventLoop and LCM node. It subscribes REQUEST, AXIS_STATE, GW_REPLY, EVENT and HEALTH and hands
-// each message to the core with the loop's `now`; what the core sends goes out on REPLY,
-// GW_COMMAND_<bus>, SYNC_TRIGGER, ACTIVE_MOVES and EVENT, stamped with wall_time_us(). After every
-// message, and at the deadline process() returned, the core runs what is due: one loop timer,
-// re-armed at the next deadline.
+// EventLoop and LCM node. It subscribes REQUEST, SREQUEST, AXIS_STATE, GW_REPLY, EVENT and HEALTH
+// and hands each message to the core with the loop's `now`; what the core sends goes out on
+// REPLY, GW_COMMAND_<bus>, SYNC_TRIGGER, ACTIVE_MOVES and EVENT, stamped with wall_time_us().
+// After every message, and at the deadline process() returned, the core runs what is due: one
+// loop timer, re-armed at the next deadline.
+//
+// Security (config `security`, README "Security"): signed requests (signed_request_t on
+// SREQUEST) pass the RequestVerifier, when there is one, at wall_time_us(); what it accepts goes
+// to the core as a request, what it refuses to Coordinator::on_refused_request. Without a
+// verifier (mode off, no authorized_keys) a signed request is unwrapped unverified. With mode
+// enforce, a plain request_t on REQUEST (well-formed or not) is refused: a SECURITY event, no
+// reply, because its ids cannot be trusted. With a command signer, gateway commands go out
+// signed on GW_SCOMMAND_<bus> instead of GW_COMMAND_<bus>.
 //
 // Thread contract: loop thread only. Never blocks.
 #pragma once
@@ -15,13 +23,28 @@
 #include "motion/coordinator/coordinator.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/security/gateway_commands.hpp"
+#include "motion/security/request_verifier.hpp"
 
 namespace motion::coordinator {
 
 class CoordinatorService final : private CoordinatorOutput {
  public:
-  // `loop`, `node` and `config` must outlive the service.
-  CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner);
+  // What config.security gives the coordinator: the verifier of signed requests (none without
+  // authorized_keys) and the signer of its gateway commands (none without key).
+  struct Security {
+    std::optional<security::RequestVerifier> verifier;
+    std::optional<security::GatewayCommandSigner> command_signer;
+  };
+
+  // `loop`, `node` and `config` must outlive the service. `security`: see load_security().
+  CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner, Security security = {});
+
+  // The Security of `config.security`: a verifier over authorized_keys (its channel prefix,
+  // window_ms, and now as the start) and a signer with key, each when configured; or what is
+  // wrong with a file (each error names the configuration key and file:line), including a key
+  // and coordinator_public_key that are not one pair.
+  [[nodiscard]] static security::Loaded<Security> load_security(const config::Config& config);
   ~CoordinatorService() override;
   CoordinatorService(const CoordinatorService&) = delete;
   CoordinatorService& operator=(const CoordinatorService&) = delete;
@@ -33,6 +56,9 @@ class CoordinatorService final : private CoordinatorOutput {
  private:
   // Runs the core at the loop's now and re-arms the timer at the deadline it returns.
   void pump();
+  void on_signed_request(const motionlcm::signed_request_t& envelope);
+  // The reason a plain request is refused while security is enforced.
+  [[nodiscard]] std::string unsigned_refusal(const std::string& what) const;
 
   void reply(const motionlcm::reply_t& reply) override;
   void gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) override;
@@ -43,6 +69,9 @@ class CoordinatorService final : private CoordinatorOutput {
   EventLoop& loop_;
   lcm::Node& node_;
   Coordinator core_;
+  bool enforce_ = false;
+  std::optional<security::RequestVerifier> verifier_;
+  std::optional<security::GatewayCommandSigner> command_signer_;
   EventLoop::TimerId timer_ = 0;
   TimePoint timer_deadline_ = kNever;
 };

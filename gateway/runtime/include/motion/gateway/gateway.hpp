@@ -1,6 +1,10 @@
 // The gateway process's core: LCM <-> one BusDriver.
-//  - subscribes to GW_COMMAND_<bus> and SYNC_TRIGGER; validates that every axis of a command
-//    belongs to this bus (FAILED with a reason otherwise, never silence);
+//  - subscribes to GW_COMMAND_<bus>, GW_SCOMMAND_<bus> (commands signed by the coordinator) and
+//    SYNC_TRIGGER; validates that every axis of a command belongs to this bus (FAILED with a
+//    reason otherwise, never silence);
+//  - signed commands pass the coordinator's key (set_command_verifier) when there is one; with
+//    security.mode enforce, plain commands and signed ones that do not verify are refused with a
+//    SECURITY event and no reply (their command ids cannot be trusted);
 //  - schedules triggers at their wall-clock fire time on the steady clock;
 //  - checks every command's positions, velocities and ramps against the axis limits of the
 //    configuration, whoever sent it (FAILED code 3 and a PROTOCOL_ERROR event otherwise);
@@ -29,6 +33,7 @@
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/lcm/health.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/security/gateway_commands.hpp"
 
 namespace motion::gateway {
 
@@ -52,6 +57,11 @@ class Gateway final : public GatewayOutput {
   void set_unsupported(const std::vector<const config::Drive*>& drives);
   // Why there is no driver yet (e.g. the bus cannot be opened; retried): shown in the health.
   void set_waiting(std::string why);
+  // Verifies signed commands with the coordinator's key from now on (none: they are unwrapped).
+  void set_command_verifier(std::optional<security::GatewayCommandVerifier> verifier) { verifier_ = std::move(verifier); }
+  // The verifier of `config.security` (none without coordinator_public_key), or what is wrong
+  // with the key file (naming the configuration key).
+  [[nodiscard]] static security::Loaded<std::optional<security::GatewayCommandVerifier>> load_command_verifier(const config::Config& config);
 
   // GatewayOutput
   void axis_status(const std::string& axis, const DriveStatus& status) override;
@@ -63,6 +73,9 @@ class Gateway final : public GatewayOutput {
 
  private:
   void on_command(const motionlcm::gateway_command_t& command);
+  void on_signed_command(const motionlcm::signed_gateway_command_t& envelope);
+  // A command refused by the security policy: a SECURITY event, no reply.
+  void refuse(const std::string& reason);
   void on_trigger(const motionlcm::sync_trigger_t& trigger);
   // The coordinator's desired state: a request of this bus triggered before this process started
   // was the previous gateway process's; its axes are stopped and a GATEWAY_RESTARTED event says
@@ -106,6 +119,8 @@ class Gateway final : public GatewayOutput {
   std::string coordinator_;                             // host:pid of the coordinator heard last
   std::int64_t coordinator_seen_utime_ = 0;
   EventLoop::TimerId health_timer_ = 0;
+  bool enforce_ = false;                              // security.mode enforce
+  std::optional<security::GatewayCommandVerifier> verifier_;
 };
 
 }  // namespace motion::gateway

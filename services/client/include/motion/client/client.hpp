@@ -1,6 +1,15 @@
 // The C++ client of the motion system: send requests to the coordinator and follow their replies,
 // watch axis state and events.
 //
+// Signing (README "Security"): after sign_with(key) every request goes out signed
+// (signed_request_t on SREQUEST) under the key's own client id. A request the coordinator's
+// security refuses without a reply (unsigned while enforced, unknown key, bad signature, replay,
+// stale timestamp: its ids cannot be trusted, so none is sent) is named in a SECURITY event on
+// EVENT (lcm::request_label); the client ends such a request of its own at once with a local
+// REJECTED reply (kUnauthorized) carrying the event's text, instead of waiting for the timeout.
+// Like any reply, such an event is not authenticated: another process on the network could
+// fail a request this way, never make one succeed.
+//
 // Thread contract: owned by one thread with its EventLoop. `call()` pumps that loop until the
 // terminal reply (or the timeout), so callbacks keep running while it waits.
 #pragma once
@@ -9,6 +18,8 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
+#include <string_view>
 #include <string>
 
 #include <motionlcm/axis_state_t.hpp>
@@ -18,6 +29,7 @@
 
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/security/signed_request.hpp"
 
 namespace motion::client {
 
@@ -29,6 +41,11 @@ class Client {
   using ReplyHandler = std::function<void(const motionlcm::reply_t&)>;
 
   Client(EventLoop& loop, lcm::Node& node, std::string client_id);
+
+  // From now on requests are signed with `key` and sent on SREQUEST; id() becomes the key's own
+  // client id (RequestSigner::own_client_id). Call it before the first send().
+  void sign_with(security::KeyPair key);
+  [[nodiscard]] bool signing() const { return signer_.has_value(); }
 
   // Fills utime/client_id/request_id/num_axes and publishes; replies go to `on_reply`.
   std::int64_t send(motionlcm::request_t request, ReplyHandler on_reply = {});
@@ -56,7 +73,17 @@ class Client {
   lcm::Node& node_;
   std::string id_;
   std::int64_t next_request_id_;
-  std::map<std::int64_t, ReplyHandler> pending_;
+  struct Pending {
+    ReplyHandler handler;
+    std::string label;  // lcm::request_label: how a SECURITY event names it
+  };
+  // A SECURITY event naming pending requests of this client: their local REJECTED replies.
+  void on_security_event(const motionlcm::event_t& event);
+  // The channel requests go out on.
+  [[nodiscard]] std::string_view request_channel() const;
+
+  std::optional<security::RequestSigner> signer_;
+  std::map<std::int64_t, Pending> pending_;
   std::map<std::string, motionlcm::axis_state_t> axes_;
   std::function<void(const motionlcm::axis_state_t&)> state_handler_;
   std::function<void(const motionlcm::event_t&)> event_handler_;

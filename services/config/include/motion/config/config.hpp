@@ -175,6 +175,25 @@ struct CoordinatorSettings {
   double position_tolerance = 0.0;   // user units; 0 = one drive count
 };
 
+// Who may command the coordinator (README "Security"). The files are read by the programs that
+// use them (motion::security), not by the loader; relative paths are taken from the
+// configuration file's folder.
+struct SecuritySettings {
+  enum class Mode { kOff, kEnforce };
+  // kOff: plain request_t on REQUEST is executed; signed requests on SREQUEST too (verified when
+  // authorized_keys is set, else unwrapped); likewise gateway commands, plain or signed.
+  // kEnforce: only signed requests that verify and whose key's role allows them; a plain request
+  // moves nothing (a SECURITY event, no reply); gateways execute only commands signed with the
+  // coordinator's key (key, coordinator_public_key: both required).
+  Mode mode = Mode::kOff;
+  std::string authorized_keys;  // "<base64 public key> <name> <role>" per line; required by kEnforce
+  std::string key;              // the coordinator's private key: it signs its gateway commands with it
+  std::string coordinator_public_key;  // the coordinator's public key (its .pub file): gateways verify commands with it
+  int window_ms = 2000;         // a signed request's utime must be within this of the coordinator's clock
+  KeyLocations where;
+};
+[[nodiscard]] const char* to_string(SecuritySettings::Mode mode);
+
 struct SimulationSettings {
   std::string runtime_dir;  // where simulated buses/ptys appear; empty: $MOTION_SIM_DIR or /tmp/motion-sim
   int reply_latency_us = 200;
@@ -192,6 +211,7 @@ struct Config {
   std::vector<Drive> drives;
   std::vector<Axis> axes;
   CoordinatorSettings coordinator;
+  SecuritySettings security;
   SimulationSettings simulation;
 
   [[nodiscard]] const Bus* find_bus(std::string_view name) const;

@@ -8,6 +8,7 @@
 namespace motion::lcm::channels {
 
 inline constexpr std::string_view kRequest = "REQUEST";          // request_t, clients -> coordinator
+inline constexpr std::string_view kSignedRequest = "SREQUEST";   // signed_request_t, clients -> coordinator
 inline constexpr std::string_view kReply = "REPLY";              // reply_t, coordinator -> clients
 inline constexpr std::string_view kAxisState = "AXIS_STATE";     // axis_state_t, gateways
 inline constexpr std::string_view kEvent = "EVENT";              // event_t, gateways/coordinator
@@ -23,6 +24,8 @@ inline constexpr std::string_view kSimReport = "SIM_REPORT";     // sim_report_t
 
 // gateway_command_t for one bus.
 inline std::string gateway_command(std::string_view bus) { return "GW_COMMAND_" + std::string(bus); }
+// signed_gateway_command_t for one bus (the coordinator's commands signed with its key).
+inline std::string signed_gateway_command(std::string_view bus) { return "GW_SCOMMAND_" + std::string(bus); }
 // can_frame_t mirror of one bus.
 inline std::string raw_frames(std::string_view bus) { return "RAW_" + std::string(bus); }
 

@@ -27,6 +27,7 @@ enum class ReplyError : std::int32_t {
   kGatewayLost = 16,       // a gateway's heartbeat stopped mid-request
   kUnsupported = 17,       // the family/configuration cannot do this
   kBusy = 18,              // the coordinator has max_active_requests in progress: retry later
+  kUnauthorized = 19,      // a signed request whose key's role does not allow its kind
   kCoordinatorRestarted = 20,  // ended by the successor of the coordinator that served it (its axes were stopped) (the last code)
 };
 

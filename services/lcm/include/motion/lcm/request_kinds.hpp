@@ -4,6 +4,9 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
+
+#include <motionlcm/request_t.hpp>
 
 namespace motion::lcm {
 
@@ -13,5 +16,8 @@ namespace motion::lcm {
 [[nodiscard]] const char* request_kind_words(std::int8_t kind);
 // MOVE_ABSOLUTE, MOVE_RELATIVE, JOG, HOME: the kinds that set axes in motion.
 [[nodiscard]] bool request_kind_moves(std::int8_t kind);
+// "move request 7 of client 'alice/ctl'": how refusals name a request whose ids cannot be trusted
+// (the C++ client finds its own requests in SECURITY events by it).
+[[nodiscard]] std::string request_label(const motionlcm::request_t& request);
 
 }  // namespace motion::lcm

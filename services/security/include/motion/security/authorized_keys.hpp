@@ -1,0 +1,56 @@
+// Who may do what: the authorized_keys file and the roles.
+//
+// One principal per line, "<base64 Ed25519 public key> <name> <role>"; blank lines and lines
+// starting with # are ignored. Roles, each including the ones before it:
+//   observe    STOP and ESTOP only (every principal may stop)
+//   operate    + moves (absolute, relative), jog, home, enable, disable, fault reset
+//   configure  + set-position, set outputs, parameter read and write
+//   admin      everything, including request kinds added later
+// Names are 1..64 of [A-Za-z0-9._-]; a signed request's client_id must be the name or start
+// with "<name>/" (so no key can speak under another key's client ids).
+//
+// Thread contract: a value type, immutable once parsed; pure functions.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "motion/security/keys.hpp"
+
+namespace motion::security {
+
+enum class Role : std::uint8_t { kObserve, kOperate, kConfigure, kAdmin };
+
+[[nodiscard]] const char* to_string(Role role);
+[[nodiscard]] std::optional<Role> parse_role(std::string_view text);
+// The least role that may send a request_t of `kind` (kAdmin for a kind no role lists).
+[[nodiscard]] Role required_role(std::int8_t kind);
+[[nodiscard]] inline bool allows(Role role, std::int8_t kind) { return role >= required_role(kind); }
+
+struct Principal {
+  PublicKey key{};
+  std::string name;
+  Role role = Role::kObserve;
+  int line = 0;  // in its file
+  // Whether `client_id` is this principal's: the name, or "<name>/..." .
+  [[nodiscard]] bool owns_client_id(std::string_view client_id) const;
+};
+
+class AuthorizedKeys {
+ public:
+  AuthorizedKeys() = default;
+  // Every error at once, one per line: "<file>:<line>: <what was wrong>".
+  [[nodiscard]] static Loaded<AuthorizedKeys> parse(std::string_view text, const std::string& file_name);
+  [[nodiscard]] static Loaded<AuthorizedKeys> load(const std::string& path);
+
+  [[nodiscard]] const Principal* find(const KeyId& id) const;
+  [[nodiscard]] const std::vector<Principal>& principals() const { return principals_; }
+
+ private:
+  std::vector<Principal> principals_;
+};
+
+}  // namespace motion::security

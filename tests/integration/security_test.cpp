@@ -1,0 +1,258 @@
+// Signed requests end to end on a simulated lab with `security: {mode: enforce}`
+// (tests/integration/configs/uim342-three-group.yaml plus a security section and an
+// authorized_keys file written by the test): a signed move of an `operate` key runs; each way of
+// being refused says why (in the reply when the request is authentic, else in a SECURITY event)
+// and moves nothing. The coordinator signs its gateway commands; a command straight on
+// GW_COMMAND_<bus>, or one signed with another key, is refused by the gateway. One lab serves the
+// whole suite to keep it short.
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <motionlcm/signed_request_t.hpp>
+
+#include "motion/security/gateway_commands.hpp"
+#include "motion/security/signed_request.hpp"
+#include "sim_lab.hpp"
+
+namespace motion::testing {
+namespace {
+
+using client::Client;
+using motionlcm::event_t;
+using motionlcm::reply_t;
+using motionlcm::request_t;
+using motionlcm::signed_request_t;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+namespace fs = std::filesystem;
+
+const std::vector<std::string> kAxes{"x1", "w"};
+constexpr double kTolerance = 1.0 / 640.0 + 1e-9;  // one micro-step, mm
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+class Security : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new std::string(make_dir());
+    keys_ = new Keys{security::KeyPair::generate("admin"), security::KeyPair::generate("op"), security::KeyPair::generate("watch"),
+                     security::KeyPair::generate("stranger")};
+    {
+      std::ifstream base(source_path("tests/integration/configs/uim342-three-group.yaml"));
+      std::ofstream config(*dir_ + "/lab.yaml");
+      config << base.rdbuf() << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
+             << "  coordinator_public_key: coordinator.pub\n  window_ms: 2000\n";
+    }
+    std::ofstream(*dir_ + "/authorized_keys") << "# the test's principals\n"
+                                              << keys_->admin.authorized_line("admin") << "\n"
+                                              << keys_->op.authorized_line("operate") << "\n"
+                                              << keys_->watch.authorized_line("observe") << "\n";
+    ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("coordinator"), *dir_, "admin"), std::nullopt);
+    ASSERT_EQ(security::write_key_pair(keys_->op, *dir_, "operate"), std::nullopt);  // for motionctl --key
+    lab_ = new SimLab(*dir_ + "/lab.yaml");
+    clients_ = new std::vector<std::unique_ptr<Client>>;
+    heard_ = new std::vector<signed_request_t>;
+    // What an eavesdropper records.
+    lab_->group().node().subscribe<signed_request_t>(lcm::channels::kSignedRequest,
+                                                     [](const signed_request_t& m, const std::string&) { heard_->push_back(m); });
+    lab_->client().sign_with(keys_->admin);  // the lab's own client enables the axes
+    ASSERT_TRUE(lab_->start(kAxes));
+    ASSERT_TRUE(lab_->enable(kAxes));
+  }
+  static void TearDownTestSuite() {
+    delete lab_;  // kills every process of the lab, and its node: no handler runs after this
+    lab_ = nullptr;
+    delete clients_;
+    delete heard_;
+    delete keys_;
+    if (dir_ != nullptr) fs::remove_all(*dir_);
+    delete dir_;
+  }
+  void SetUp() override {
+    ASSERT_NE(lab_, nullptr);
+    lab_->clear_reports();
+    for (const auto& a : kAxes) before_[a] = lab_->position(a);
+  }
+  void TearDown() override {
+    if (HasFailure()) lab_->group().print_logs();
+  }
+
+  static std::string make_dir() {
+    std::string pattern = (fs::temp_directory_path() / "motion-security-XXXXXX").string();
+    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+    return pattern;
+  }
+
+  static request_t move_to(const std::string& axis, double target, std::int8_t kind = request_t::MOVE_ABSOLUTE) {
+    return Client::make(kind, std::map<std::string, double>{{axis, target}});
+  }
+  // A client of its own on the lab's node, signing with `key` (none: unsigned). It lives as long
+  // as the node (whose subscriptions call it).
+  static Client* client(const std::string& id, const security::KeyPair* key) {
+    auto& c = clients_->emplace_back(std::make_unique<Client>(lab_->group().loop(), lab_->group().node(), id));
+    if (key != nullptr) c->sign_with(*key);
+    return c.get();
+  }
+  // Publishes `envelope` as it is on SREQUEST and waits for a SECURITY event containing `text`.
+  bool refused_with(const signed_request_t& envelope, const std::string& text) {
+    lab_->group().node().publish(lcm::channels::kSignedRequest, envelope);
+    return lab_->client().wait_until([&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", text); }, seconds(3));
+  }
+  // Nothing moved since SetUp: no drive started, every axis where it was.
+  void expect_nothing_moved() {
+    lab_->pause(milliseconds(300));  // a start, had there been one, would be reported by now
+    for (const auto& d : lab_->config().drives) EXPECT_TRUE(lab_->starts_of(d.name).empty()) << d.name << " started";
+    for (const auto& a : kAxes) EXPECT_NEAR(lab_->position(a), before_[a], kTolerance) << a;
+  }
+
+  struct Keys {
+    security::KeyPair admin, op, watch, stranger;
+  };
+  static std::string* dir_;
+  static Keys* keys_;
+  static SimLab* lab_;
+  static std::vector<std::unique_ptr<Client>>* clients_;
+  static std::vector<signed_request_t>* heard_;
+  std::map<std::string, double> before_;
+};
+
+std::string* Security::dir_ = nullptr;
+Security::Keys* Security::keys_ = nullptr;
+SimLab* Security::lab_ = nullptr;
+std::vector<std::unique_ptr<Client>>* Security::clients_ = nullptr;
+std::vector<signed_request_t>* Security::heard_ = nullptr;
+
+TEST_F(Security, SignedMoveOfAnOperateKeyEndsDoneAtItsTarget) {
+  const auto op = client("ctl", &keys_->op);
+  EXPECT_EQ(op->id(), "op/ctl");
+  const double target = before_["w"] + 2.0;
+  const reply_t done = op->call(move_to("w", target), seconds(20));
+  ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
+  EXPECT_EQ(done.client_id, "op/ctl");
+  EXPECT_TRUE(lab_->settled_at("w", target, kTolerance));
+}
+
+TEST_F(Security, MotionctlSignsWithItsKeyAndRefusesWithoutOne) {
+  const std::string config = *dir_ + "/lab.yaml";
+  const std::string url = lab_->group().lcm_url();
+  const double target = before_["w"] - 1.0;
+  std::string out;
+  const int rc = lab_->group().run_to_completion(
+      {"motionctl", "motionctl", {"--config", config, "--key", *dir_ + "/op.key", "move", "w=" + std::to_string(target), "--wait"}, {}}, &out,
+      seconds(20));
+  EXPECT_EQ(rc, 0) << out;
+  EXPECT_TRUE(lab_->settled_at("w", target, kTolerance));
+  lab_->clear_reports();
+  before_["w"] = lab_->position("w");
+  const int plain_rc = lab_->group().run_to_completion({"motionctl-plain", "motionctl", {"--config", config, "move", "w=0", "--wait"}, {}}, &out,
+                                                       seconds(20));
+  EXPECT_EQ(plain_rc, 1) << out;
+  EXPECT_TRUE(contains(out, "unsigned request refused: security is enforced")) << out;
+  expect_nothing_moved();
+}
+
+TEST_F(Security, PlainRequestIsRefusedWithASecurityEventAndNoReply) {
+  const auto plain = client("plain", nullptr);
+  std::vector<reply_t> replies;
+  const reply_t r = plain->call(move_to("w", before_["w"] + 3), seconds(5), [&](const reply_t& p) { replies.push_back(p); });
+  EXPECT_EQ(r.status, st(reply_t::REJECTED)) << r.reason;
+  EXPECT_EQ(r.error_code, code(ReplyError::kUnauthorized));
+  // The rejection is the client's own, from the SECURITY event: the coordinator sent nothing.
+  EXPECT_TRUE(contains(r.reason, "refused by the coordinator's security (SECURITY event, no reply): unsigned request refused: security is enforced "
+                                 "(move request " + std::to_string(r.request_id) + " of client 'plain'")) << r.reason;
+  EXPECT_TRUE(replies.empty());
+  expect_nothing_moved();
+}
+
+TEST_F(Security, UnknownKeyIsRefused) {
+  const auto stranger = client("ctl", &keys_->stranger);
+  const reply_t r = stranger->call(move_to("w", before_["w"] + 3), seconds(5));
+  EXPECT_EQ(r.status, st(reply_t::REJECTED));
+  EXPECT_TRUE(contains(r.reason, "signed request refused: unknown key " + security::to_hex(keys_->stranger.id()) + " (not in authorized_keys)"))
+      << r.reason;
+  expect_nothing_moved();
+}
+
+TEST_F(Security, WrongSignatureAndTamperedPayloadAreRefused) {
+  security::RequestSigner op(keys_->op, "MOTION_");
+  auto request = move_to("w", before_["w"] + 3);
+  request.client_id = "op";
+  signed_request_t forged = op.sign(request, wall_time_us());
+  forged.signature[5] ^= 0x10;
+  EXPECT_TRUE(refused_with(forged, "signed request refused: bad signature from key 'op'"));
+  // The signed move of 3 mm altered in transit to one of 4 mm.
+  signed_request_t tampered = op.sign(request, wall_time_us());
+  request.values[0] = before_["w"] + 4;
+  const int size = request.getEncodedSize();
+  ASSERT_EQ(size, tampered.payload_size);
+  request.encode(tampered.payload.data(), 0, size);
+  EXPECT_TRUE(refused_with(tampered, "bad signature from key 'op' (" + security::to_hex(keys_->op.id()) + ") (forged or altered in transit)"));
+  expect_nothing_moved();
+}
+
+TEST_F(Security, ReplayedCounterAndStaleTimestampAreRefused) {
+  // The operator's signed ENABLE runs once; what an eavesdropper recorded of it is refused.
+  heard_->clear();
+  const auto op = client("ctl", &keys_->op);
+  const reply_t enabled = op->call(Client::make(request_t::ENABLE, std::vector<std::string>{"w"}), seconds(10));
+  ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;
+  ASSERT_EQ(heard_->size(), 1u);
+  const signed_request_t recorded = heard_->front();
+  EXPECT_TRUE(refused_with(recorded, "replayed counter " + std::to_string(recorded.counter) + " from key 'op'"));
+  // Signed 10 s ago (before this coordinator started), and 10 s ahead (the window is 2 s).
+  security::RequestSigner late(keys_->op, "MOTION_");
+  request_t move = move_to("w", before_["w"] + 3);
+  move.client_id = "op/late";
+  EXPECT_TRUE(refused_with(late.sign(move, wall_time_us() - 10'000'000), "stale timestamp from key 'op'"));
+  security::RequestSigner early(keys_->op, "MOTION_");
+  EXPECT_TRUE(refused_with(early.sign(move, wall_time_us() + 10'000'000), "ms in the future, outside the window of 2000 ms"));
+  expect_nothing_moved();
+}
+
+TEST_F(Security, RoleTooLowIsRejectedInTheReply) {
+  const auto watch = client("ctl", &keys_->watch);
+  const reply_t moved = watch->call(move_to("w", before_["w"] + 3), seconds(5));
+  EXPECT_EQ(moved.status, st(reply_t::REJECTED));
+  EXPECT_EQ(moved.error_code, code(ReplyError::kUnauthorized));
+  EXPECT_TRUE(contains(moved.reason, "role too low: key 'watch' (" + security::to_hex(keys_->watch.id()) + ") has role observe, a move needs operate"))
+      << moved.reason;
+  const auto op = client("ctl", &keys_->op);
+  const reply_t set = op->call(move_to("w", 0.0, request_t::SET_POSITION), seconds(5));
+  EXPECT_EQ(set.status, st(reply_t::REJECTED));
+  EXPECT_EQ(set.error_code, code(ReplyError::kUnauthorized));
+  EXPECT_TRUE(contains(set.reason, "has role operate, a set position needs configure")) << set.reason;
+  // Every principal may stop.
+  const reply_t stop = watch->call(Client::make(request_t::STOP, std::vector<std::string>{"w"}), seconds(10));
+  EXPECT_EQ(stop.status, st(reply_t::DONE)) << stop.reason;
+  expect_nothing_moved();
+}
+
+TEST_F(Security, GatewayRefusesCommandsNotSignedByTheCoordinator) {
+  // A jog of w at 5 mm/s, as the coordinator would send it, straight to the gateway.
+  motionlcm::gateway_command_t jog{};
+  jog.utime = wall_time_us();
+  jog.bus = "can0";
+  jog.command_id = 900001;
+  jog.request_id = 900001;
+  jog.kind = motionlcm::gateway_command_t::JOG;
+  motionlcm::axis_command_t w{};
+  w.axis = "w";
+  w.velocity = 5 * 640;
+  jog.axes = {w};
+  jog.num_axes = 1;
+  lab_->group().node().publish(lcm::channels::gateway_command("can0"), jog);
+  EXPECT_TRUE(lab_->client().wait_until(
+      [&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", "unsigned command 900001 (request 900001) refused: security is enforced"); },
+      seconds(3)));
+  security::GatewayCommandSigner impostor(security::KeyPair::generate("coordinator"), "MOTION_");
+  jog.command_id = 900002;
+  lab_->group().node().publish(lcm::channels::signed_gateway_command("can0"), impostor.sign(jog, wall_time_us()));
+  EXPECT_TRUE(lab_->client().wait_until([&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", "is not the coordinator's"); }, seconds(3)));
+  expect_nothing_moved();
+}
+
+}  // namespace
+}  // namespace motion::testing

@@ -1,0 +1,76 @@
+// motionctl keygen: a key pair for signed requests (README "Security"), and the --key option's
+// use by every command that sends requests.
+#include <cstdlib>
+#include <iostream>
+
+#include "motionctl.hpp"
+
+namespace motion::ctl {
+namespace {
+
+std::string default_key_dir() {
+  const char* home = std::getenv("HOME");
+  return std::string(home != nullptr && *home != '\0' ? home : ".") + "/.motionbus";
+}
+
+std::string default_key_name() {
+  const char* user = std::getenv("USER");
+  return user != nullptr && security::valid_name(user) ? user : "operator";
+}
+
+}  // namespace
+
+bool Context::sign_requests(client::Client& client) {
+  if (key_path.empty()) return true;
+  auto key = security::load_private_key(key_path);
+  if (auto* error = std::get_if<std::string>(&key)) {
+    std::cerr << "motionctl: --key: " << *error << "\n";
+    result = app::kExitConfig;
+    return false;
+  }
+  client.sign_with(std::move(std::get<security::KeyPair>(key)));
+  return true;
+}
+
+void add_key_commands(CLI::App& cli, Context& ctx) {
+  cli.add_option("--key", ctx.key_path, "Private key to sign requests with (motionctl keygen); default $MOTION_KEY")->envname("MOTION_KEY");
+
+  auto* cmd = cli.add_subcommand("keygen", "Write a new Ed25519 key pair (<name>.key, mode 0600, and <name>.pub) and print its authorized_keys line");
+  struct Args {
+    std::string dir = default_key_dir();
+    std::string name = default_key_name();
+    std::string role = "operate";
+  };
+  auto args = std::make_shared<Args>();
+  cmd->add_option("--out", args->dir, "Folder of the key files (created with mode 0700)")->capture_default_str();
+  cmd->add_option("--name", args->name, "The principal's name (1..64 of A-Z a-z 0-9 . _ -)")->capture_default_str();
+  cmd->add_option("--role", args->role, "Role in the printed authorized_keys line")
+      ->check(CLI::IsMember({"observe", "operate", "configure", "admin"}))
+      ->capture_default_str();
+  cmd->callback([&ctx, args] {
+    if (!security::valid_name(args->name)) {
+      std::cerr << "motionctl keygen: --name '" << args->name << "' is not 1..64 of [A-Za-z0-9._-]\n";
+      ctx.result = app::kExitUsage;
+      return;
+    }
+    if (!security::init()) {
+      std::cerr << "motionctl keygen: libsodium cannot initialize (no random source?)\n";
+      ctx.result = app::kExitFailure;
+      return;
+    }
+    const auto key = security::KeyPair::generate(args->name);
+    if (auto error = security::write_key_pair(key, args->dir, args->role)) {
+      std::cerr << "motionctl keygen: " << *error << "\n";
+      ctx.result = app::kExitFailure;
+      return;
+    }
+    const std::string private_path = security::private_key_path(args->dir, args->name);
+    std::cout << "wrote " << private_path << " (private, mode 0600) and " << security::public_key_path(args->dir, args->name) << "\n"
+              << "key id " << security::to_hex(key.id()) << "; an administrator adds this line to the coordinator's authorized_keys\n"
+              << "(role observe, operate, configure or admin):\n\n"
+              << key.authorized_line(args->role) << "\n\n"
+              << "then sign with it: motionctl --key " << private_path << " ...  (or MOTION_KEY=" << private_path << ")\n";
+  });
+}
+
+}  // namespace motion::ctl
