@@ -172,7 +172,8 @@ TEST_F(Fixture, DriveWithoutADriverFailsItsCommandsAndShowsInTheHealth) {
   node.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { heartbeats.push_back(h); });
   gateway.set_unsupported({config.find_drive("xd")});
   node.publish(lcm::channels::gateway_command("can0"), command_for("can0", "x"));
-  pump_until([&] { return !replies.empty() && !heartbeats.empty(); });
+  // A heartbeat sent before set_unsupported() says OK: wait for one after it.
+  pump_until([&] { return !replies.empty() && !heartbeats.empty() && heartbeats.back().state != motionlcm::health_t::OK; });
   ASSERT_EQ(replies.size(), 1u);
   EXPECT_EQ(replies[0].status, std::int8_t{motionlcm::gateway_reply_t::FAILED});
   EXPECT_NE(replies[0].reason.find("drive xd is a uim342 drive, which this gateway does not drive yet"), std::string::npos)
