@@ -573,8 +573,8 @@ TEST_F(CoordinatorTest, OrphanedMovesOfAPredecessorEndOnceAndOwnRequestsAreLeftA
     rows.buses.push_back("can0");
     rows.client_ids.push_back(client_id);
     rows.request_ids.push_back(request);
-    rows.kinds.push_back(request_t::MOVE_ABSOLUTE);
-    rows.phases.push_back(motionlcm::active_moves_t::MOVING);
+    rows.kinds.push_back(std::int8_t{request_t::MOVE_ABSOLUTE});
+    rows.phases.push_back(std::int8_t{motionlcm::active_moves_t::MOVING});
     rows.command_ids.push_back(1);
     rows.target_counts.push_back(0);
     rows.targets.push_back(0.0);
