@@ -283,6 +283,28 @@ TEST(RandomLabRegression, Uc57JogStartedNextToItsLimitStopsBeforeIt) {
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// A slow UC57 move to its upper limit (6 u), halted 140 ms after its start, ran on for 2.1 s and
+// ended 309 counts past the limit.
+TEST(RandomLabRegression, Seed7085Uc57HaltNeverPassesTheTarget) {
+  LabSpec spec;
+  spec.can_bitrate = 125000;
+  spec.rs485_baud = 19200;
+  spec.rs232_baud = 115200;
+  spec.rs485_parity = "odd";
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"adam-modbus", "rs485", 64, 0}, 12.5, -188, 1879, 742.5, 5702.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim342", "can0", 37, 109}, 8.8888888888888893, -919, 2147, 1086.5, 2931.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 85, 0}, 320, -4, 6, 8.5, 27, true, -0.5, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"adam-modbus", "rs485", 55, 0}, 33.333333333333336, -248, 508, 323.5, 672, true, 499.75, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2", "ax3"}, {0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0 /* none */, 0},
+      Step{Op::kConflict, 2, 1 /* MOVE_ABSOLUTE */, {"ax1", "ax3"}, {2147.0, 508.0}, 0.11700000000000001, 0.0, 120000, 0, 0, 0, 5 /* ESTOP */, 13 /* SET_POSITION */, {"ax1"}, {-0.11249999999999999}, 0 /* none */, 0},
+      Step{Op::kConflict, 2, 1 /* MOVE_ABSOLUTE */, {"ax2", "ax3"}, {6.0, 508.0}, 0.10300000000000001, 0.0, 120000, 0, 0, 0, 4 /* STOP */, 1 /* MOVE_ABSOLUTE */, {"ax2"}, {5.21}, 0 /* none */, 0},
+      Step{Op::kConflict, 1, 1 /* MOVE_ABSOLUTE */, {"ax2", "ax0"}, {6.0, 1879.0}, 0.13300000000000001, 0.0, 120000, 0, 0, 2, 4 /* STOP */, 13 /* SET_POSITION */, {"ax2"}, {-0.0031250000000000002}, 0 /* none */, 0},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 // ------------------------------------------------------------------------- the lab
 
 // The ctest set: RANDOM_LAB_SEEDS seeds from RANDOM_LAB_SEED (defaults below) of RANDOM_LAB_STEPS.

@@ -26,6 +26,14 @@
 namespace motion::random_lab {
 namespace {
 
+// A process's arguments, with --log-level $RANDOM_LAB_LOG_LEVEL when that is set.
+std::vector<std::string> log_args(std::vector<std::string> args) {
+  if (const char* level = std::getenv("RANDOM_LAB_LOG_LEVEL"); level != nullptr && *level != '\0') {
+    args.insert(args.end(), {"--log-level", level});
+  }
+  return args;
+}
+
 using motionlcm::reply_t;
 using motionlcm::request_t;
 using std::chrono::milliseconds;
@@ -80,9 +88,9 @@ class Runner {
     std::ofstream(path) << lab_.yaml();
     std::set<std::string> buses;
     for (const auto& a : lab_.axes) buses.insert(a.drive.bus);
-    pids_["sim"] = group_.start({"sim", "motion-sim", {"--config", path}, {}});
-    for (const auto& bus : buses) pids_["gateway:" + bus] = group_.start({"gateway:" + bus, "motion-gateway", {"--config", path, "--bus", bus}, {}});
-    pids_["coordinator"] = group_.start({"coordinator", "motion-coordinator", {"--config", path}, {}});
+    pids_["sim"] = group_.start({"sim", "motion-sim", log_args({"--config", path}), {}});
+    for (const auto& bus : buses) pids_["gateway:" + bus] = group_.start({"gateway:" + bus, "motion-gateway", log_args({"--config", path, "--bus", bus}), {}});
+    pids_["coordinator"] = group_.start({"coordinator", "motion-coordinator", log_args({"--config", path}), {}});
     for (const auto& [name, pid] : pids_) {
       const bool up = group_.pump_until([&] {
         const auto h = group_.heartbeat(name);
@@ -452,7 +460,11 @@ LabSpec used_axes_only(const LabSpec& lab, const std::vector<Step>& steps) {
 }  // namespace
 
 RunResult run_case(const LabSpec& lab, const std::vector<Step>& steps, const RunOptions& options) {
-  Runner runner(lab, options);
+  RunOptions chosen = options;
+  // RANDOM_LAB_LOGS=1: a failing case prints the logs of the lab's processes (run them at a
+  // finer level with RANDOM_LAB_LOG_LEVEL=debug|trace).
+  if (const char* logs = std::getenv("RANDOM_LAB_LOGS"); logs != nullptr && std::string(logs) == "1") chosen.print_logs_on_failure = true;
+  Runner runner(lab, chosen);
   return runner.run(steps);
 }
 

@@ -393,6 +393,45 @@ TEST(Uc57Sim, ProfilePositionHandshakeAndArrivalTime) {
   EXPECT_EQ(finished[0].position, 5000);
 }
 
+// A slow move just above the start speed (12 RPM over 10 RPM) with the longest ramps (2000 ms),
+// halted at every 50 ms of its run: the halt brakes at the profile's own deceleration down to the
+// start speed and never passes the target, and it ends within one ramp time. (A halt that ramped
+// from the present speed to rest over the whole ramp time ran far past the target when it came
+// near the end: random lab seed 7085.)
+TEST(Uc57Sim, HaltOfAProfilePositionMoveNeverPassesItsTarget) {
+  const double v0 = od::rpm_to_pulses_per_second(10, od::kDefaultPulsesPerRevolution);
+  const double vmax = od::rpm_to_pulses_per_second(12, od::kDefaultPulsesPerRevolution);
+  const double accel = od::ramp_acceleration(od::RampUnit::kMilliseconds, 2000, vmax - v0, od::kDefaultPulsesPerRevolution);
+  constexpr std::int64_t kTarget = 2500;
+  Kinematics reference;
+  reference.move_to(t0, kTarget, {vmax, accel, accel, v0});
+  const auto run_time = reference.end_time() - t0;
+  int halts = 0;
+  for (auto halt_after = Duration{0}; halt_after < run_time; halt_after += 50ms) {
+    Drive drive;
+    for (const char* request : {"601: 23 83 60 00 D0 07 00 00", "601: 23 84 60 00 D0 07 00 00", "601: 23 81 60 00 0C 00 00 00",
+                                "601: 23 7A 60 00 C4 09 00 00", "601: 2F 60 60 00 01 00 00 00"}) {
+      drive.sdo_ok(request);
+    }
+    drive.enable();
+    drive.sdo_ok("601: 2B 40 60 00 1F 00 00 00");
+    const TimePoint start = drive.now;
+    drive.sdo_ok("601: 2B 40 60 00 0F 00 00 00");
+    drive.advance_to(start + halt_after);
+    drive.sdo_ok("601: 2B 40 60 00 0F 01 00 00");  // halt (bit 8)
+    const TimePoint halted = drive.now;
+    drive.advance_to(halted + 2001ms);
+    EXPECT_FALSE(bit(drive.statusword(), cia402::StatusBit::kMotorRunning)) << "halted after " << halt_after.count() << " ns";
+    const std::int64_t at = drive.sim().position(drive.now);
+    EXPECT_LE(at, kTarget) << "halted after " << halt_after.count() << " ns";
+    EXPECT_GE(at, reference.position_counts(start + halt_after) - 1);
+    drive.advance_to(drive.now + 5s);
+    EXPECT_EQ(drive.sim().position(drive.now), at);  // and stays there
+    ++halts;
+  }
+  EXPECT_GT(halts, 25);  // the move runs for about 1.5 s
+}
+
 TEST(Uc57Sim, SecondSetPointIsBufferedOrReplacesWithChangeImmediately) {
   Drive drive;
   drive.sdo_ok("601: 2F 60 60 00 01 00 00 00");

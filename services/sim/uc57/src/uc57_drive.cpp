@@ -570,8 +570,25 @@ Profile Uc57DriveSim::ramp_profile(double speed, std::uint16_t accel_index, std:
   return {speed, rate(accel_index), rate(decel_index), std::min(start_speed, magnitude)};
 }
 
-// The deceleration of a stop from the current speed with the ramp object `index`.
-double Uc57DriveSim::stop_deceleration(std::uint16_t index) const { return ramp_profile(0, index, index, 0).deceleration; }
+// The deceleration of a stop with the ramp object `index`. A stop of a running profile whose ramps
+// come from that object brakes at the profile's own deceleration: the ramp's setting spans the
+// change between the start speed and the commanded speed (§4.2.4), not the change from the present
+// speed to rest, so a halt never brakes more gently than the profile would have (a slow move halted
+// near its target otherwise ran the whole ramp time from the present speed and passed the target).
+// With nothing of that object running, the ramp spans the present speed.
+double Uc57DriveSim::stop_deceleration(std::uint16_t index) const {
+  if (activity_ != Activity::kIdle && running_.decel_index == index) return running_.profile.deceleration;
+  return ramp_profile(0, index, index, 0).deceleration;
+}
+
+void Uc57DriveSim::run_profile(const Profile& profile, std::uint16_t decel_index, std::optional<std::int64_t> target) {
+  running_ = {profile, decel_index};
+  if (target) {
+    kinematics_.move_to(now_, *target, profile);
+  } else {
+    kinematics_.jog(now_, profile);
+  }
+}
 
 void Uc57DriveSim::begin_motion(std::int64_t target) {
   if (!motion_.active) {
@@ -627,7 +644,8 @@ void Uc57DriveSim::settle() {
 
 void Uc57DriveSim::stop_motion(double deceleration) {
   if (activity_ == Activity::kIdle) return;
-  kinematics_.stop(now_, deceleration);
+  // Like the trapezoid's end (§4.2.4), the braking ends at the start speed with a step to rest.
+  kinematics_.stop(now_, deceleration, running_.profile.cut_in);
   if (activity_ != Activity::kHoming) activity_ = Activity::kStopping;
   buffered_set_point_.reset();
   settle();
@@ -651,7 +669,7 @@ void Uc57DriveSim::start_profile_position(const SetPoint& set_point) {
   const std::int64_t target = set_point.relative ? position(now_) + set_point.target : set_point.target;
   const double start_speed = od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kStartSpeed, 0)), pulses_per_rev());
   const double speed = od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kProfileVelocity, 0)), pulses_per_rev());
-  kinematics_.move_to(now_, target, ramp_profile(speed, idx::kProfileAcceleration, idx::kProfileDeceleration, start_speed));
+  run_profile(ramp_profile(speed, idx::kProfileAcceleration, idx::kProfileDeceleration, start_speed), idx::kProfileDeceleration, target);
   activity_ = Activity::kProfilePosition;
   target_reached_ = false;
   in_position_ = false;
@@ -674,7 +692,7 @@ void Uc57DriveSim::update_profile_velocity() {
   }
   if (activity_ != Activity::kIdle && activity_ != Activity::kProfileVelocity && activity_ != Activity::kStopping) return;
   const double start_speed = od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kStartSpeed, 0)), pulses_per_rev());
-  kinematics_.jog(now_, ramp_profile(velocity, idx::kProfileAcceleration, idx::kProfileDeceleration, start_speed));
+  run_profile(ramp_profile(velocity, idx::kProfileAcceleration, idx::kProfileDeceleration, start_speed), idx::kProfileDeceleration, std::nullopt);
   activity_ = Activity::kProfileVelocity;
   target_reached_ = false;
   begin_motion(velocity > 0 ? std::numeric_limits<std::int32_t>::max() : std::numeric_limits<std::int32_t>::min());
@@ -729,7 +747,7 @@ void Uc57DriveSim::start_homing_leg() {
   const HomingLeg leg = homing_legs_.front();
   homing_legs_.pop_front();
   const auto target = static_cast<std::int64_t>(std::llround(static_cast<double>(leg.physical_target) - position_shift_));
-  kinematics_.move_to(now_, target, ramp_profile(leg.speed, idx::kHomingAcceleration, idx::kHomingAcceleration, 0));
+  run_profile(ramp_profile(leg.speed, idx::kHomingAcceleration, idx::kHomingAcceleration, 0), idx::kHomingAcceleration, target);
 }
 
 void Uc57DriveSim::finish_homing(bool succeeded) {

@@ -148,6 +148,8 @@ class Uc57DriveSim final : public CanDriveSim {
   [[nodiscard]] Profile ramp_profile(double speed, std::uint16_t accel_index, std::uint16_t decel_index,
                                      double start_speed) const;
   [[nodiscard]] double stop_deceleration(std::uint16_t index) const;
+  // Starts `profile` (to `target`, or a jog without one) with its deceleration from `decel_index`.
+  void run_profile(const Profile& profile, std::uint16_t decel_index, std::optional<std::int64_t> target);
   [[nodiscard]] std::uint8_t input_levels() const;  // bit0..2 = X0..X2 physical
   [[nodiscard]] std::uint32_t digital_inputs() const;
   [[nodiscard]] std::uint16_t output_states() const;
@@ -179,6 +181,10 @@ class Uc57DriveSim final : public CanDriveSim {
   std::array<bool, 3> forced_inputs_{};
 
   Kinematics kinematics_;
+  struct RunningProfile {
+    Profile profile;
+    std::uint16_t decel_index = 0;
+  } running_;  // the profile last started (meaningful while activity_ is not kIdle)
   double position_shift_ = 0;  // physical = reported + shift
   Activity activity_ = Activity::kIdle;
   Motion motion_;
