@@ -51,8 +51,12 @@ set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "${PROJECT_DESCRIPTION}")
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
 set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE)
 set(CPACK_RESOURCE_FILE_README ${PROJECT_SOURCE_DIR}/README.md)
+# Installed with CMAKE_INSTALL_PREFIX=/usr under DESTDIR=<staging>, so /etc/motionbus (an absolute
+# destination of cmake/MotionInstallSystem.cmake) lands in the package and not on this machine.
+set(CPACK_SET_DESTDIR ON)
+set(CPACK_INSTALL_PREFIX /usr)
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
-set(CPACK_SET_DESTDIR ON)  # /etc/motionbus is an absolute destination: staged through DESTDIR
+set(CPACK_STRIP_FILES ON)  # the build's -g1 debug information stays out of the package
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION misc)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)  # dpkg-shlibdeps: liblcm1, libyaml-cpp, libsodium, libsystemd0, ...
