@@ -16,7 +16,9 @@ else()
   set(motion_python lib/python${MOTION_PYTHON_VERSION}/dist-packages)
 endif()
 
-set(staging "${MOTION_BINARY_DIR}/systemd")
+# One staging folder per destination: installs to several prefixes may run at once.
+string(MD5 destination "$ENV{DESTDIR}${CMAKE_INSTALL_PREFIX}")
+set(staging "${MOTION_BINARY_DIR}/systemd/${destination}")
 file(MAKE_DIRECTORY "${staging}")
 set(staged "")
 foreach(name motion-gateway@.service motion-coordinator.service motion-web.service motion-sim.service motionbus.target motion.env)
