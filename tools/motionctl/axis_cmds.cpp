@@ -172,7 +172,7 @@ struct AxisArgs {
   bool wait = false;
   bool relative = false;
   double speed = 0;
-  double timeout_s = 60;
+  double timeout_s = std::chrono::duration<double>(client::Client::kRequestTimeout).count();
 };
 
 }  // namespace
