@@ -23,8 +23,8 @@ std::string one_line(std::string_view text) {
 
 void send(const std::string& state) {
 #ifdef MOTION_HAVE_SYSTEMD
-  // unset_environment = 0: child processes never get started by the daemons, and tests of a
-  // running process may read the variables from /proc.
+  // unset_environment = 0: $NOTIFY_SOCKET stays for the STATUS=, WATCHDOG=1 and STOPPING=1 that
+  // follow READY=1.
   const int r = ::sd_notify(0, state.c_str());
   if (r < 0) spdlog::debug("sd_notify({}) failed: error {}", state.substr(0, state.find('\n')), -r);
 #else

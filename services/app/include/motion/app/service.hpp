@@ -31,7 +31,7 @@ class Service {
   int run();
 
  private:
-  [[nodiscard]] std::string status_line() const;  // "OK: <detail>", the heartbeat's
+  [[nodiscard]] std::string status_line() const;  // the heartbeat's "ok: <detail>", "degraded: ..."
   void notify_systemd();
 
   const config::Config& config_;

@@ -2,7 +2,8 @@
 // READY=1, STATUS=..., WATCHDOG=1 and STOPPING=1 for units of Type=notify. Every function is a
 // no-op when the process was not started with $NOTIFY_SOCKET (not under systemd, or another unit
 // type), and when the build has no libsystemd (MOTION_HAVE_SYSTEMD unset).
-// Thread contract: the loop's thread; nothing blocks (one non-blocking datagram per call).
+// Thread contract: the loop's thread. One datagram to the service manager per call, which reads
+// them at once: no call waits in practice.
 #pragma once
 
 #include <string>
