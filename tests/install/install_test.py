@@ -20,7 +20,6 @@ Every process is killed by pid at the end.
 import argparse
 import glob
 import os
-import re
 import shutil
 import subprocess
 import sys
