@@ -96,6 +96,10 @@ void print_move_summary(const motionlcm::reply_t& result) {
 
 // Sends `request` and reports its outcome; exit code 0 only on DONE (or STARTED without --wait).
 int run_request(Context& ctx, app::Service& service, request_t request, bool wait, double timeout_s) {
+  if (const auto unknown = unknown_axes(service.config(), request); !unknown.empty()) {
+    for (const auto& line : unknown) std::cerr << "motionctl: " << line << "\n";
+    return app::kExitUsage;
+  }
   client::Client client(service.loop(), service.node(), "motionctl-" + std::to_string(::getpid()));
   if (!ctx.sign_requests(client)) return ctx.result;
   const bool tty = ::isatty(1) != 0 && !ctx.json;
@@ -168,7 +172,7 @@ struct AxisArgs {
   bool wait = false;
   bool relative = false;
   double speed = 0;
-  double timeout_s = 60;
+  double timeout_s = std::chrono::duration<double>(client::Client::kRequestTimeout).count();
 };
 
 }  // namespace
@@ -304,7 +308,7 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
       const auto& cfg = service.config();
       const auto* axis = cfg.find_axis(std::get<0>(*p));
       if (axis == nullptr) {
-        std::cerr << "motionctl: unknown axis '" << std::get<0>(*p) << "'\n";
+        std::cerr << "motionctl: " << unknown_axis(cfg, std::get<0>(*p)) << "\n";
         return app::kExitUsage;
       }
       const auto family = cfg.drive_of(*axis)->family;

@@ -1,6 +1,8 @@
 // motionctl: command-line client of the motion system.
 #include <unistd.h>
 
+#include <iostream>
+
 #include "motion/core/log.hpp"
 #include "motionctl.hpp"
 
@@ -31,6 +33,10 @@ int main(int argc, char** argv) {
   ctl::add_can_commands(cli, ctx);
   ctl::add_log_command(cli, ctx);
   ctl::add_key_commands(cli, ctx);
+  if (const auto unknown = ctl::unknown_subcommand(cli, argc, argv); !unknown.empty()) {
+    std::cerr << "motionctl: " << unknown << " (motionctl --help lists the commands)\n";
+    return app::kExitUsage;
+  }
   const int rc = app::run(cli, argc, argv, [&] { return app::kExitOk; });
   return rc != app::kExitOk ? rc : ctx.result;
 }

@@ -2,6 +2,8 @@
 #pragma once
 
 #include <functional>
+#include <string>
+#include <vector>
 
 #include "motion/app/service.hpp"
 #include "motion/client/client.hpp"
@@ -21,6 +23,22 @@ struct Context {
   // Loads the configuration, opens LCM as a client process and runs `body` with it.
   int with_node(const std::function<int(app::Service&)>& body);
 };
+
+// "; did you mean 'move'?" when one of `names` is within a small edit distance of `word` (a third
+// of its length, at least 1, and less than its length; adjacent swaps count 1; the nearest, the
+// first of equals), else "".
+[[nodiscard]] std::string did_you_mean(const std::string& word, const std::vector<std::string>& names);
+
+// The first subcommand word of argv when it names no subcommand of `cli` (values of the global
+// options skipped), with a did_you_mean suggestion: "unknown command 'mvoe'; did you mean 'move'?".
+// Empty when the command line names a known subcommand or none.
+[[nodiscard]] std::string unknown_subcommand(const CLI::App& cli, int argc, const char* const* argv);
+
+// "unknown axis 'xx'; did you mean 'x'?" (or the list of the configuration's axes) when the
+// configuration has no axis `axis`, else "". unknown_axes: one line per unknown axis of `request`.
+// motionctl refuses such a request itself (exit 2), like a misspelt subcommand.
+[[nodiscard]] std::string unknown_axis(const config::Config& config, const std::string& axis);
+[[nodiscard]] std::vector<std::string> unknown_axes(const config::Config& config, const motionlcm::request_t& request);
 
 void add_health_command(CLI::App& cli, Context& ctx);
 void add_config_command(CLI::App& cli, Context& ctx);

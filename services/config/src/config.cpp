@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -129,6 +130,14 @@ std::vector<const Axis*> Config::axes_on_bus(std::string_view bus) const {
 
 std::string default_config_path() {
   if (const char* env = std::getenv("MOTION_CONFIG")) return env;
+  // An installed program (bin/ of a prefix, cmake/MotionPackage.cmake) uses its prefix's copy,
+  // not the source tree it was built from.
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    auto installed = exe.parent_path().parent_path() / "share" / "motionbus" / "config" / "sim-lab.yaml";
+    if (std::filesystem::exists(installed, ec)) return installed.string();
+  }
 #ifdef MOTION_DEFAULT_CONFIG
   return MOTION_DEFAULT_CONFIG;
 #else

@@ -1,5 +1,8 @@
 // The skeleton of a long-running motion-* process: config loaded, one EventLoop, one LCM node,
 // a heartbeat, SIGINT/SIGTERM for a clean stop (a last STOPPING heartbeat is published).
+// Under systemd (Type=notify, motion/app/systemd.hpp) run() sends READY=1 at the loop's first
+// turn, STATUS= lines mirroring the heartbeat's state and detail, WATCHDOG=1 from the loop when the
+// unit sets WatchdogSec=, and STOPPING=1 when the loop ends.
 #pragma once
 
 #include <memory>
@@ -28,11 +31,15 @@ class Service {
   int run();
 
  private:
+  [[nodiscard]] std::string status_line() const;  // the heartbeat's "ok: <detail>", "degraded: ..."
+  void notify_systemd();
+
   const config::Config& config_;
   std::string process_;
   EventLoop loop_;
   std::unique_ptr<lcm::Node> node_;
   std::unique_ptr<lcm::HealthPublisher> health_;
+  std::string status_sent_;  // the last STATUS= sent to systemd
 };
 
 }  // namespace motion::app

@@ -53,6 +53,9 @@ class Client {
   // timeout) naming the LCM URL and channel when no reply at all comes within kAcceptTimeout (no
   // coordinator listening) or no terminal one within `timeout`.
   static constexpr std::chrono::milliseconds kAcceptTimeout{2000};
+  // The default wait for a request's terminal reply (motionctl's --timeout default): long enough
+  // for a move across an axis's whole travel or a homing run.
+  static constexpr std::chrono::milliseconds kRequestTimeout{60000};
   motionlcm::reply_t call(motionlcm::request_t request, std::chrono::milliseconds timeout, ReplyHandler on_progress = {});
 
   // Latest state of every axis heard so far.

@@ -236,7 +236,9 @@ LoadResult load_string(std::string_view yaml_text, const std::string& file_name 
 // motion-sim agree on it, so a test that sets MOTION_SIM_DIR gets a private lab.
 [[nodiscard]] std::string sim_runtime_dir(const Config& config);
 
-// The simulated lab that ships as the embedded default (config/sim-lab.yaml is its file form).
+// The simulated lab that ships as the embedded default (config/sim-lab.yaml is its file form):
+// $MOTION_CONFIG, else <prefix>/share/motionbus/config/sim-lab.yaml beside an installed program,
+// else the source tree's config/sim-lab.yaml.
 [[nodiscard]] std::string default_config_path();
 
 }  // namespace motion::config

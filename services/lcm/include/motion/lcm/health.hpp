@@ -29,6 +29,9 @@ class HealthPublisher {
   void set_bus_stats(BusStatsProvider provider) { bus_stats_ = std::move(provider); }
   // Publishes at once (state changes, and the last STOPPING heartbeat on shutdown).
   void publish_now();
+  // What set_state() last gave (the process's own status: systemd's STATUS= line mirrors it).
+  [[nodiscard]] std::int8_t state() const { return msg_.state; }
+  [[nodiscard]] const std::string& detail() const { return detail_; }
 
   [[nodiscard]] static std::string detail_with_counters(const std::string& detail, std::uint64_t malformed,
                                                         std::uint64_t handler_errors);
