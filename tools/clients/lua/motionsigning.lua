@@ -139,4 +139,6 @@ function Signer:sign(request, now_us)
 end
 
 M.bytes_of = bytes_of
+-- The wall clock in µs since the epoch (signing times; os.time() has whole seconds only).
+M.now_us = sodium.now_us
 return M

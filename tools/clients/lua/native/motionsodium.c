@@ -9,10 +9,13 @@
  *   verify(public, message, signature)   boolean
  *   base64_decode(text)       bytes, or nil when text is not standard base64 with padding
  *   file_mode(path)           st_mode of stat(2) and whether it is a regular file, or nil, error
+ *   now_us()                  the wall clock in µs since the epoch (Lua 5.2 has only whole seconds;
+ *                             a signed request's utime and counter need better)
  * Strings are Lua byte strings. Thread contract: no state; each call is independent. */
 #include <errno.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #include <lauxlib.h>
 #include <lua.h>
@@ -87,9 +90,18 @@ static int l_file_mode(lua_State *L) {
   return 2;
 }
 
+static int l_now_us(lua_State *L) {
+  struct timespec ts;
+  clock_gettime(CLOCK_REALTIME, &ts);
+  /* About 2^51 today: exact in a Lua 5.2 number (a double). */
+  lua_pushnumber(L, (lua_Number)ts.tv_sec * 1e6 + (lua_Number)(ts.tv_nsec / 1000));
+  return 1;
+}
+
 static const luaL_Reg kFunctions[] = {
     {"public_key", l_public_key}, {"sign", l_sign}, {"verify", l_verify},
-    {"base64_decode", l_base64_decode}, {"file_mode", l_file_mode}, {NULL, NULL},
+    {"base64_decode", l_base64_decode}, {"file_mode", l_file_mode}, {"now_us", l_now_us},
+    {NULL, NULL},
 };
 
 int luaopen_motionsodium(lua_State *L);
