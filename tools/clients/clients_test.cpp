@@ -8,8 +8,9 @@
 // reason. The Python client's own LCM wire format (LC02 and fragmented LC03) is checked both ways
 // against liblcm, and lcm-spy's type scanner and lcm-spy itself (under Xvfb) against our types jar.
 // With `security: {mode: enforce}` (one lab for the three languages), each client's check_signed
-// program moves an axis with a signed request, and its unsigned and wrongly signed (unknown key)
-// requests end REJECTED with code 19 and move nothing.
+// program moves an axis with a signed request, and its unsigned and wrongly signed requests (a key
+// the coordinator does not know; the right key with the signature altered) end REJECTED with
+// code 19 and move nothing.
 //
 // A missing runtime (/usr/bin/python3, java/javac, lua5.2, xvfb-run) fails the test with that
 // reason. Every process is started through ProcessGroup, which kills it at the end of the test.
@@ -256,8 +257,8 @@ class SignedClients : public ::testing::Test {
     if (HasFailure()) group_->print_logs();
   }
 
-  // `r`'s check_signed against the lab: the signed move ends DONE at `target`; the unsigned and
-  // the stranger's move (to target + 5) end REJECTED with code 19 and the coordinator's reason,
+  // `r`'s check_signed against the lab: the signed move ends DONE at `target`; the unsigned, the
+  // stranger's and the forged move (to target + 5) end REJECTED with code 19 and the coordinator's reason,
   // and the axis is still at `target` half a second later. The key comes from $MOTION_KEY or from
   // --key (`key_option`).
   void check_signed(const Runtime& r, double target, bool key_option) {
@@ -282,6 +283,8 @@ class SignedClients : public ::testing::Test {
                               "reply): unsigned request refused: security is enforced")) << out;
     EXPECT_TRUE(contains(out, "stranger: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
                               "reply): signed request refused: unknown key " + *stranger_id_ + " (not in authorized_keys)")) << out;
+    EXPECT_TRUE(contains(out, "forged: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
+                              "reply): signed request refused: bad signature from key 'op'")) << out;
     const auto positions = printed_positions(out);
     ASSERT_TRUE(positions.contains("x")) << out;
     EXPECT_NEAR(positions.at("x"), target, one_count("x")) << out;
@@ -300,9 +303,9 @@ ProcessGroup* SignedClients::group_ = nullptr;
 ::testing::AssertionResult* SignedClients::started_ = nullptr;
 std::string* SignedClients::stranger_id_ = nullptr;
 
-TEST_F(SignedClients, PythonSignsAndUnsignedOrUnknownKeysAreRefused) { check_signed(python(), 6.25, false); }
-TEST_F(SignedClients, JavaSignsAndUnsignedOrUnknownKeysAreRefused) { check_signed(java(), -2.5, true); }
-TEST_F(SignedClients, LuaSignsAndUnsignedOrUnknownKeysAreRefused) { check_signed(lua(), 4.125, false); }
+TEST_F(SignedClients, PythonSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(python(), 6.25, false); }
+TEST_F(SignedClients, JavaSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(java(), -2.5, true); }
+TEST_F(SignedClients, LuaSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(lua(), 4.125, false); }
 
 // loopback.py publishes a small (LC02) and a large (LC03) request_t; liblcm must decode both. This
 // side answers with a small and a large reply_t (liblcm fragments the latter); Python must decode both.

@@ -59,11 +59,17 @@ public final class Signing {
         @Override public void nextBytes(byte[] bytes) { System.arraycopy(seed, 0, bytes, 0, Math.min(bytes.length, seed.length)); }
     }
 
-    /** An Ed25519 key pair with its name. */
-    public static final class Key {
+    /** An Ed25519 key pair with its name (not final: a test may alter what sign() returns). */
+    public static class Key {
         public final String name;
         private final PrivateKey privateKey;
         private final byte[] publicKey;
+
+        protected Key(Key other) {
+            name = other.name;
+            privateKey = other.privateKey;
+            publicKey = other.publicKey;
+        }
 
         Key(byte[] seed, String name) throws GeneralSecurityException {
             if (seed.length != 32) throw new IllegalArgumentException("an Ed25519 seed has 32 bytes");

@@ -1,9 +1,11 @@
 --[[
 Checks signing in the Lua client against a coordinator with `security: {mode: enforce}` (used by
-ctest test_clients): a signed enable and move of one axis, then the same move unsigned and signed
-with a key the coordinator does not know; one line each, as check_signed.py prints them:
+ctest test_clients): a signed enable and move of one axis, then the same move unsigned, signed
+with a key the coordinator does not know, and with the right key but its signature altered
+(forged); one line each, as check_signed.py prints them:
   signed: status=done ...   x = 12.5   unsigned: status=rejected error_code=19 ...
-  stranger: status=rejected error_code=19 ...   after: x = 12.5
+  stranger: status=rejected error_code=19 ...   forged: status=rejected error_code=19 ...
+  after: x = 12.5
 Exit 0 when all came as expected, 1 otherwise, 2 bad command line or key file, 4 LCM unavailable.
   lua5.2 check_signed.lua --lcm-url URL [--prefix MOTION_] [--key FILE] --stranger-key FILE --axis x --target 12.5
 (--key defaults to $MOTION_KEY; LUA_CPATH must find motionsodium.so, see motionsigning.lua)
@@ -44,6 +46,13 @@ end
 local signed = client("check_signed.lua", key)
 local plain = client("check_signed.lua-plain", nil)
 local other = client("check_signed.lua", stranger)
+-- `key` whose signatures have one bit flipped: what an attacker altering a message gets.
+local forged_key = setmetatable({}, {__index = key})
+function forged_key:sign(message)
+  local s = key:sign(message)
+  return s:sub(1, 5) .. string.char(bit32.bxor(s:byte(6), 0x10)) .. s:sub(7)
+end
+local forger = client("check_signed.lua-forged", forged_key)
 
 local function line(name, r)
   print(string.format("%s: status=%s error_code=%d reason=%s", name, motionclient.status_name(r.status), r.error_code, r.reason))
@@ -58,7 +67,7 @@ if ok then
     if r.axes[i] == axis then print(string.format("%s = %.6g", axis, r.positions[i])) end
   end
 end
-for _, c in ipairs({{"unsigned", plain}, {"stranger", other}}) do
+for _, c in ipairs({{"unsigned", plain}, {"stranger", other}, {"forged", forger}}) do
   r = c[2]:move({axis}, {target + 5.0}, {timeout = 5})
   line(c[1], r)
   ok = ok and r.status == motionclient.reply_t.REJECTED and r.error_code == motionclient.UNAUTHORIZED

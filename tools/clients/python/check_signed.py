@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 """Checks signing in the Python client against a coordinator with `security: {mode: enforce}`
-(used by ctest test_clients): a signed enable and move of one axis, then the same move unsigned
-and signed with a key the coordinator does not know, each printed as one line:
+(used by ctest test_clients): a signed enable and move of one axis, then the same move unsigned,
+signed with a key the coordinator does not know, and signed with the right key but its signature
+altered (forged), each printed as one line:
     signed: status=done error_code=0 reason=...
     x = 12.5
     unsigned: status=rejected error_code=19 reason=refused by the coordinator's security ...
     stranger: status=rejected error_code=19 reason=...
+    forged: status=rejected error_code=19 reason=...
     after: x = 12.5
 ("after": where the axis is once the refused requests had time to move it). Exit 0 when every
 line came as expected, 1 otherwise, 2 bad command line or key file, 4 LCM unavailable.
@@ -20,8 +22,20 @@ import time
 import _paths
 
 _paths.add_lcmtypes()
-from motionclient import UNAUTHORIZED, Client, KeyFileError, key_path, load_private_key, status_name  # noqa: E402
+from motionclient import UNAUTHORIZED, Client, KeyFileError, SigningKey, key_path, load_private_key, status_name  # noqa: E402
 from motionlcm import reply_t  # noqa: E402
+
+
+class ForgedKey(SigningKey):
+    """`key` whose signatures have one bit flipped: what an attacker altering a message gets."""
+
+    def __init__(self, key: SigningKey):
+        self.__dict__.update(key.__dict__)
+
+    def sign(self, message: bytes) -> bytes:
+        signature = bytearray(super().sign(message))
+        signature[5] ^= 0x10
+        return bytes(signature)
 
 
 def main() -> int:
@@ -48,10 +62,11 @@ def main() -> int:
         signed = Client(args.lcm_url, prefix=args.prefix, client_id="check_signed.py", key=key)
         plain = Client(args.lcm_url, prefix=args.prefix, client_id="check_signed.py-plain")
         other = Client(args.lcm_url, prefix=args.prefix, client_id="check_signed.py", key=stranger)
+        forger = Client(args.lcm_url, prefix=args.prefix, client_id="check_signed.py-forged", key=ForgedKey(key))
     except OSError as e:
         print(f"check_signed: {e}", file=sys.stderr)
         return 4
-    with signed, plain, other:
+    with signed, plain, other, forger:
         r = signed.enable([args.axis], timeout=10.0)
         if r.status == reply_t.DONE:
             r = signed.move({args.axis: args.target}, timeout=20.0)
@@ -59,7 +74,7 @@ def main() -> int:
         ok = r.status == reply_t.DONE
         if ok:
             print(f"{args.axis} = {dict(zip(r.axes, r.positions)).get(args.axis, float('nan')):.6g}")
-        for name, client in (("unsigned", plain), ("stranger", other)):
+        for name, client in (("unsigned", plain), ("stranger", other), ("forged", forger)):
             r = client.move({args.axis: args.target + 5.0}, timeout=5.0)
             print(f"{name}: status={status_name(r.status)} error_code={r.error_code} reason={r.reason}")
             ok = ok and r.status == reply_t.REJECTED and r.error_code == UNAUTHORIZED
