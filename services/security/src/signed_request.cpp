@@ -1,6 +1,5 @@
 #include "motion/security/signed_request.hpp"
 
-
 #include "envelope.hpp"
 
 namespace motion::security {

@@ -95,7 +95,6 @@ class Client:
         self.lcm.subscribe(self.channel("AXIS_STATE"), self._on_axis_state)
         self.lcm.subscribe(self.channel("EVENT"), self._on_event)
         self.lcm.subscribe(self.channel("HEALTH"), self._on_health)
-
         if key is not None:
             self.sign_with(key)
 
