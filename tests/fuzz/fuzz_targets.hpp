@@ -1,6 +1,7 @@
 // Fuzz targets: every decoder that reads bytes from outside the process (LCM messages, CAN
 // frames, serial streams, configuration files). Each is a function over arbitrary bytes that must
-// neither crash, nor leak, nor allocate more than its input justifies. libFuzzer runs one per
+// neither crash, nor leak, nor allocate more than its input justifies. signed_messages runs the
+// verifier path of signed requests and gateway commands (decode, then verify against keys). libFuzzer runs one per
 // executable (libfuzzer_main.cpp, `tools/fuzz NAME`); test_fuzz_replay runs every target over
 // its seed corpus (corpus/<name>/) and its regression inputs (regressions/<name>/).
 //
@@ -22,6 +23,7 @@ int canopen(const std::uint8_t* data, std::size_t size);
 int adam_rtu(const std::uint8_t* data, std::size_t size);
 int uim242_feedback(const std::uint8_t* data, std::size_t size);
 int config_yaml(const std::uint8_t* data, std::size_t size);
+int signed_messages(const std::uint8_t* data, std::size_t size);
 
 struct Target {
   const char* name;
@@ -32,7 +34,7 @@ struct Target {
 inline constexpr Target kTargets[] = {
     {"lcm_types", &lcm_types},           {"uim342_can", &uim342_can},     {"uimessage_stream", &uimessage_stream},
     {"canopen", &canopen},               {"adam_rtu", &adam_rtu},         {"uim242_feedback", &uim242_feedback},
-    {"config_yaml", &config_yaml},
+    {"config_yaml", &config_yaml},       {"signed_messages", &signed_messages},
 };
 
 // Consumes the fuzzer's bytes front to back; reads past the end yield zeros / empty spans.

@@ -7,6 +7,10 @@
 // (error 1); with the coordinator alone (no gateway), the example stops with the coordinator's
 // reason. The Python client's own LCM wire format (LC02 and fragmented LC03) is checked both ways
 // against liblcm, and lcm-spy's type scanner and lcm-spy itself (under Xvfb) against our types jar.
+// With `security: {mode: enforce}` (one lab for the three languages), each client's check_signed
+// program moves an axis with a signed request, and its unsigned and wrongly signed requests (a key
+// the coordinator does not know; the right key with the signature altered) end REJECTED with
+// code 19 and move nothing.
 //
 // A missing runtime (/usr/bin/python3, java/javac, lua5.2, xvfb-run) fails the test with that
 // reason. Every process is started through ProcessGroup, which kills it at the end of the test.
@@ -14,6 +18,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <fstream>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -29,6 +34,7 @@
 #include "clients_paths.hpp"
 #include "motion/config/config.hpp"
 #include "motion/lcm/channels.hpp"
+#include "motion/security/keys.hpp"
 #include "motion/testing/process_group.hpp"
 
 namespace motion::testing {
@@ -77,9 +83,10 @@ Runtime java() {
 }
 
 Runtime lua() {
-  Runtime r{"Lua", "", paths::kLua, {}, {std::string("LUA_PATH=") + paths::kLuaPath}};
+  Runtime r{"Lua", "", paths::kLua, {}, {std::string("LUA_PATH=") + paths::kLuaPath, std::string("LUA_CPATH=") + paths::kLuaCpath}};
   if (!executable(r.exe)) r.missing = "lua5.2 not found (apt-get install lua5.2 liblcm-lua): the Lua client cannot be tested";
   else if (!readable("/usr/lib/lua/5.2/lcm.so") && !readable("/usr/lib/x86_64-linux-gnu/lua/5.2/lcm.so")) r.missing = "Debian's LCM Lua binding (lcm.so for Lua 5.2) not found (apt-get install liblcm-lua)";
+  else if (std::string(paths::kLuaCpath).empty()) r.missing = "the Lua signing module motionsodium was not built (apt-get install liblua5.2-dev, then reconfigure)";
   return r;
 }
 
@@ -93,7 +100,8 @@ std::string program(const Runtime& r, const std::string& base) {
   if (r.language == "Python") return std::string(paths::kPythonDir) + "/" + base + ".py";
   if (r.language == "Lua") return std::string(paths::kLuaDir) + "/" + base + ".lua";
   if (r.language == "C++") return "";  // the example itself (there is no C++ check_coordinator)
-  return base == "check_coordinator" ? "CheckCoordinator" : "ExampleMove";  // Java class names
+  if (base == "check_signed") return "CheckSigned";  // Java class names
+  return base == "check_coordinator" ? "CheckCoordinator" : "ExampleMove";
 }
 
 // Starts the real coordinator on the group's URL and waits for its heartbeat (DEGRADED is fine:
@@ -107,8 +115,7 @@ void start_coordinator(ProcessGroup& group) {
 // gateway of bus can0 (axes x and y) and the coordinator, on the group's LCM URL and simulation
 // directory. Waits for their heartbeats (the coordinator stays DEGRADED: the gateways of the other
 // buses are not started) and for x and y to be online.
-::testing::AssertionResult start_lab(ProcessGroup& group) {
-  const std::string config = source_path("config/sim-lab.yaml");
+::testing::AssertionResult start_lab(ProcessGroup& group, const std::string& config = source_path("config/sim-lab.yaml")) {
   auto online = std::make_shared<std::map<std::string, bool>>();  // outlives this function in the subscription
   group.node().subscribe<motionlcm::axis_state_t>(
       lcm::channels::kAxisState, [online](const motionlcm::axis_state_t& s, const std::string&) { (*online)[s.axis] = s.online; });
@@ -216,6 +223,89 @@ TEST(Clients, ExampleStopsWithTheCoordinatorsReasonWhenTheGatewayIsOffline) {
   EXPECT_EQ(rc, 1) << out;
   EXPECT_TRUE(contains(out, "rejected (error 7): gateway of bus can0 (axis x) is offline")) << out;
 }
+
+// One simulated lab with `security: {mode: enforce}` for the three languages' check_signed
+// programs: config/sim-lab.yaml plus a security section, an authorized_keys file with the key "op"
+// (role operate), the coordinator's key pair; "op.key" is what the clients sign with and
+// "stranger.key" a key the coordinator does not know.
+class SignedClients : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    group_ = new ProcessGroup;
+    const std::string dir = group_->work_dir();
+    {
+      std::ifstream base(source_path("config/sim-lab.yaml"));
+      std::ofstream config(dir + "/lab.yaml");
+      config << base.rdbuf() << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
+             << "  coordinator_public_key: coordinator.pub\n";
+    }
+    const auto op = security::KeyPair::generate("op");
+    std::ofstream(dir + "/authorized_keys") << op.authorized_line("operate") << "\n";
+    ASSERT_EQ(security::write_key_pair(op, dir, "operate"), std::nullopt);
+    ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("stranger"), dir, "operate"), std::nullopt);
+    ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("coordinator"), dir, "admin"), std::nullopt);
+    stranger_id_ = new std::string(security::to_hex(std::get<security::KeyPair>(security::load_private_key(dir + "/stranger.key")).id()));
+    started_ = new ::testing::AssertionResult(start_lab(*group_, dir + "/lab.yaml"));
+  }
+  static void TearDownTestSuite() {
+    delete group_;  // kills every process of the lab
+    group_ = nullptr;
+    delete started_;
+    delete stranger_id_;
+  }
+  void TearDown() override {
+    if (HasFailure()) group_->print_logs();
+  }
+
+  // `r`'s check_signed against the lab: the signed move ends DONE at `target`; the unsigned, the
+  // stranger's and the forged move (to target + 5) end REJECTED with code 19 and the coordinator's reason,
+  // and the axis is still at `target` half a second later. The key comes from $MOTION_KEY or from
+  // --key (`key_option`).
+  void check_signed(const Runtime& r, double target, bool key_option) {
+    ASSERT_TRUE(r.missing.empty()) << r.language << ": " << r.missing;
+    ASSERT_TRUE(*started_) << r.language;
+    const std::string dir = group_->work_dir();
+    Runtime runtime = r;
+    std::vector<std::string> args{"--stranger-key", dir + "/stranger.key", "--axis", "x", "--target", number(target)};
+    if (key_option) {
+      args.insert(args.end(), {"--key", dir + "/op.key"});
+    } else {
+      runtime.env.push_back("MOTION_KEY=" + dir + "/op.key");
+    }
+    std::string out;
+    const auto started = std::chrono::steady_clock::now();
+    const int rc = group_->run_to_completion(runtime.spec("signed-" + r.language, program(r, "check_signed"), args), &out, seconds(60));
+    const auto took = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - started);
+    std::printf("check_signed (%s): %lld ms\n", r.language.c_str(), static_cast<long long>(took.count()));
+    EXPECT_EQ(rc, 0) << out;
+    EXPECT_TRUE(contains(out, "signed: status=done error_code=0")) << out;
+    EXPECT_TRUE(contains(out, "unsigned: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
+                              "reply): unsigned request refused: security is enforced")) << out;
+    EXPECT_TRUE(contains(out, "stranger: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
+                              "reply): signed request refused: unknown key " + *stranger_id_ + " (not in authorized_keys)")) << out;
+    EXPECT_TRUE(contains(out, "forged: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
+                              "reply): signed request refused: bad signature from key 'op'")) << out;
+    const auto positions = printed_positions(out);
+    ASSERT_TRUE(positions.contains("x")) << out;
+    EXPECT_NEAR(positions.at("x"), target, one_count("x")) << out;
+    // Nothing of the refused moves (to target + 5) happened.
+    const auto after = out.find("after: x = ");
+    ASSERT_NE(after, std::string::npos) << out;
+    EXPECT_NEAR(std::strtod(out.c_str() + after + 11, nullptr), target, one_count("x")) << out;
+  }
+
+  static ProcessGroup* group_;
+  static ::testing::AssertionResult* started_;
+  static std::string* stranger_id_;
+};
+
+ProcessGroup* SignedClients::group_ = nullptr;
+::testing::AssertionResult* SignedClients::started_ = nullptr;
+std::string* SignedClients::stranger_id_ = nullptr;
+
+TEST_F(SignedClients, PythonSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(python(), 6.25, false); }
+TEST_F(SignedClients, JavaSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(java(), -2.5, true); }
+TEST_F(SignedClients, LuaSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(lua(), 4.125, false); }
 
 // loopback.py publishes a small (LC02) and a large (LC03) request_t; liblcm must decode both. This
 // side answers with a small and a large reply_t (liblcm fragments the latter); Python must decode both.

@@ -11,7 +11,7 @@
 namespace motion::serial {
 
 std::unique_ptr<PtyLink> PtyLink::create(const std::string& link_path, const SerialSettings& settings,
-                                         std::error_code& error) {
+                                         std::error_code& error, const FileAccess& access) {
   int master = -1;
   int slave = -1;
   std::array<char, 128> name{};
@@ -20,6 +20,8 @@ std::unique_ptr<PtyLink> PtyLink::create(const std::string& link_path, const Ser
     return nullptr;
   }
   auto link = std::unique_ptr<PtyLink>(new PtyLink(master, slave, name.data(), link_path));
+  // Before the link is published: nobody else can find the device by it until it is restricted.
+  if ((error = restrict_access(slave, access))) return nullptr;
   // Raw on the slave side from the start: a client that opens the link late must not see echoes
   // of what the simulator wrote meanwhile.
   bool parity_modelled = false;  // the line host counts the parity bit in its wire time either way

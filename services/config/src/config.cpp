@@ -161,6 +161,16 @@ std::string sim_runtime_dir(const Config& config) {
   return "/tmp/motion-sim-" + std::to_string(::getuid());
 }
 
+std::optional<FileAccess> sim_file_access(const Config& config, std::string* why) {
+  if (config.simulation.group.empty()) return FileAccess{};
+  const auto gid = group_id(config.simulation.group);
+  if (!gid) {
+    if (why != nullptr) *why = "simulation.group: no group '" + config.simulation.group + "' on this machine";
+    return std::nullopt;
+  }
+  return FileAccess{gid};
+}
+
 namespace {
 
 // Walks the YAML tree, converting values and collecting errors with their location and key path.
@@ -578,7 +588,7 @@ void read_security(Reader& r, const YAML::Node& node, const std::string& file, S
 }
 
 void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out) {
-  if (!r.check_map(node, "simulation", {"runtime_dir", "reply_latency_us", "home_switches"})) return;
+  if (!r.check_map(node, "simulation", {"runtime_dir", "group", "reply_latency_us", "home_switches"})) return;
   if (const YAML::Node switches = node["home_switches"]) {
     if (!switches.IsMap()) {
       r.error(switches, "simulation.home_switches", "expected a map of drive name to switch position (counts) or none");
@@ -601,6 +611,7 @@ void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out)
     }
   }
   if (auto v = r.get<std::string>(node, "simulation", "runtime_dir", false)) out.runtime_dir = *v;
+  if (auto v = r.get<std::string>(node, "simulation", "group", false)) out.group = *v;
   if (auto v = r.get<int>(node, "simulation", "reply_latency_us", false)) {
     out.reply_latency_us = *v;
     if (*v < 0) r.error(node["reply_latency_us"], "simulation.reply_latency_us", "must not be negative");

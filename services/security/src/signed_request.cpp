@@ -1,7 +1,5 @@
 #include "motion/security/signed_request.hpp"
 
-#include <cstdlib>
-
 #include "envelope.hpp"
 
 namespace motion::security {
@@ -13,7 +11,15 @@ void put_be(std::uint8_t* at, std::uint64_t value, std::size_t bytes) {
   for (std::size_t i = 0; i < bytes; ++i) at[i] = static_cast<std::uint8_t>(value >> (8 * (bytes - 1 - i)));
 }
 
-std::string milliseconds_text(std::int64_t us) { return std::to_string(us / 1000) + " ms"; }
+std::string milliseconds_text(std::uint64_t us) { return std::to_string(us / 1000) + " ms"; }
+
+// |a - b| without overflow: utime is the sender's, any int64 (signed, so only an authorized key's
+// holder can send an extreme one, but it must not be undefined behaviour either).
+std::uint64_t distance(std::int64_t a, std::int64_t b) {
+  const auto ua = static_cast<std::uint64_t>(a);
+  const auto ub = static_cast<std::uint64_t>(b);
+  return a >= b ? ua - ub : ub - ua;
+}
 
 }  // namespace
 
@@ -40,12 +46,12 @@ std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_vie
 std::optional<std::string> stale(std::int64_t utime, std::int64_t now_us, std::int64_t window_us, std::int64_t not_before_us,
                                  std::string_view started) {
   if (utime < not_before_us) {
-    return "signed " + milliseconds_text(not_before_us - utime) + " before the " + std::string(started) + " started (a replay?)";
+    return "signed " + milliseconds_text(distance(not_before_us, utime)) + " before the " + std::string(started) + " started (a replay?)";
   }
-  const std::int64_t age = now_us - utime;
-  if (std::abs(age) > window_us) {
-    return "signed " + milliseconds_text(std::abs(age)) + (age >= 0 ? " ago" : " in the future") + ", outside the window of " +
-           milliseconds_text(window_us) + " (clocks out of sync, or a replay)";
+  const std::uint64_t age = distance(now_us, utime);
+  if (age > static_cast<std::uint64_t>(window_us)) {
+    return "signed " + milliseconds_text(age) + (now_us >= utime ? " ago" : " in the future") + ", outside the window of " +
+           milliseconds_text(static_cast<std::uint64_t>(window_us)) + " (clocks out of sync, or a replay)";
   }
   return std::nullopt;
 }

@@ -194,9 +194,17 @@ std::error_code Hub::listen() {
   const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (fd < 0) return detail::last_error();
   // NOLINTNEXTLINE(cppcoreguidelines-pro-type-reinterpret-cast): the sockets API
-  if (::bind(fd, reinterpret_cast<const sockaddr*>(&*address), sizeof(*address)) != 0 || ::listen(fd, 64) != 0) {
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&*address), sizeof(*address)) != 0) {
     const std::error_code error = detail::last_error();
     ::close(fd);
+    return error;
+  }
+  // Restricted before listen(): until then a connect is refused, so no other user gets in between.
+  std::error_code error = restrict_access(socket_path_, options_.access);
+  if (!error && ::listen(fd, 64) != 0) error = detail::last_error();
+  if (error) {
+    ::close(fd);
+    ::unlink(socket_path_.c_str());
     return error;
   }
   listen_fd_ = fd;

@@ -122,6 +122,26 @@ TEST(Config, BadSecuritySettingsNameTheKey) {
   expect_single_error(kValid + "security:\n  keys: k\n", 21, "security.keys", "unknown key");
 }
 
+// simulation.group: who besides motion-sim's user may open the simulated buses' sockets and ptys.
+TEST(Config, SimulationGroupGivesTheAccessOfSimulatedBuses) {
+  const auto plain = load_string(kValid, "lab.yaml");
+  ASSERT_TRUE(plain.ok()) << plain.error_text();
+  std::string why;
+  const auto owner_only = sim_file_access(*plain.config, &why);
+  ASSERT_TRUE(owner_only.has_value());
+  EXPECT_EQ(owner_only->mode(), 0600U);
+  const auto grouped = load_string(kValid + "simulation:\n  group: root\n", "lab.yaml");
+  ASSERT_TRUE(grouped.ok()) << grouped.error_text();
+  const auto root = sim_file_access(*grouped.config, &why);
+  ASSERT_TRUE(root.has_value()) << why;
+  EXPECT_EQ(root->group, gid_t{0});
+  EXPECT_EQ(root->mode(), 0660U);
+  const auto unknown = load_string(kValid + "simulation:\n  group: no-such-group-here\n", "lab.yaml");
+  ASSERT_TRUE(unknown.ok()) << unknown.error_text();  // a group of the simulator's machine, checked there
+  EXPECT_FALSE(sim_file_access(*unknown.config, &why).has_value());
+  EXPECT_EQ(why, "simulation.group: no group 'no-such-group-here' on this machine");
+}
+
 TEST(Config, YamlSyntaxErrorHasLine) {
   const auto result = load_string("buses:\n  - name: [unclosed\n", "bad.yaml");
   ASSERT_FALSE(result.ok());

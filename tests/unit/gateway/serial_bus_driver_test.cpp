@@ -5,6 +5,7 @@
 #include "motion/gateway/serial_bus_driver.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <array>
@@ -116,6 +117,22 @@ class SerialBusDriverTest : public ::testing::Test {
   std::unique_ptr<SerialBusDriver> driver_;
   ScriptedCore* core_ = nullptr;
 };
+
+// Whoever can open a simulated line's pty can write to the line: its device is its owner's alone
+// (openpty leaves it 0620, group tty), or also one configured group's (0660).
+TEST_F(SerialBusDriverTest, PtyDeviceIsItsOwnersAloneOrAlsoTheConfiguredGroups) {
+  make_link();
+  struct stat st {};
+  ASSERT_EQ(::stat(link_->slave_path().c_str(), &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+  EXPECT_EQ(st.st_mode & 07777, 0600U) << link_->slave_path();
+  std::error_code error;
+  auto grouped = serial::PtyLink::create(path_ + ".grouped", line_, error, FileAccess{::getgid()});
+  ASSERT_TRUE(grouped) << error.message();
+  ASSERT_EQ(::stat(grouped->slave_path().c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 07777, 0660U);
+  EXPECT_EQ(st.st_gid, ::getgid());
+}
 
 TEST_F(SerialBusDriverTest, RetriesUntilThePortExistsWithOneEventPerCause) {
   driver_->start();

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <limits>
 
 #include "motion/security/request_verifier.hpp"
 #include "motion/security/signed_request.hpp"
@@ -105,6 +106,22 @@ TEST_F(Verifier, TimestampOutsideTheWindowOrBeforeTheStartIsStale) {
   EXPECT_NE(before.reason.find("signed 500 ms before the coordinator started"), std::string::npos) << before.reason;
   // A stale request does not use up its counter's place: a fresh one still passes.
   EXPECT_TRUE(verifier_->verify(op_signer_.sign(move("op", 9), now_), now_).accepted);
+}
+
+// utime is the signer's: an authorized key may sign any int64. The extremes are stale, and their
+// distance to the clock is computed without overflow (the ASan/UBSan pass of the unit tests and the
+// fuzz target signed_messages would report one).
+TEST_F(Verifier, ExtremeTimestampsAreStaleWithoutOverflow) {
+  constexpr auto kMin = std::numeric_limits<std::int64_t>::min();
+  constexpr auto kMax = std::numeric_limits<std::int64_t>::max();
+  RequestSigner early(operator_, std::string(kPrefix));
+  const Verdict first = verifier_->verify(early.sign(move("op"), kMin), now_);
+  EXPECT_FALSE(first.accepted);
+  EXPECT_NE(first.reason.find("signed 9225072036854775 ms before the coordinator started"), std::string::npos) << first.reason;
+  RequestSigner late(operator_, std::string(kPrefix));
+  const Verdict last = verifier_->verify(late.sign(move("op"), kMax), now_);
+  EXPECT_FALSE(last.accepted);
+  EXPECT_NE(last.reason.find("signed 9221672036853775 ms in the future"), std::string::npos) << last.reason;
 }
 
 TEST_F(Verifier, RoleTooLowIsRefusedAndAnswerable) {

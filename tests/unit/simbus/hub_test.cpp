@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -90,7 +91,7 @@ class HubTest : public ::testing::Test {
  protected:
   void open_hub(BusConfig config = {}) {
     std::error_code error;
-    hub = Hub::open(loop, HubOptions{"lab", dir.path(), true, config}, error);
+    hub = Hub::open(loop, HubOptions{"lab", dir.path(), true, config, {}}, error);
     ASSERT_TRUE(hub) << error.message();
   }
   std::unique_ptr<SocketEndpoint> connect(const std::string& label, bool own_echo = false) {
@@ -108,6 +109,25 @@ class HubTest : public ::testing::Test {
   EventLoop loop;
   std::unique_ptr<Hub> hub;
 };
+
+// Whoever can connect to a bus socket can put frames on the bus: it is its owner's alone (0600,
+// whatever the umask), or also one configured group's (0660).
+TEST_F(HubTest, SocketIsItsOwnersAloneOrAlsoTheConfiguredGroups) {
+  open_hub();
+  struct stat st {};
+  ASSERT_EQ(::stat(hub->socket_path().c_str(), &st), 0);
+  EXPECT_TRUE(S_ISSOCK(st.st_mode));
+  EXPECT_EQ(st.st_mode & 07777, 0600U);
+  std::error_code error;
+  auto grouped = Hub::open(loop, HubOptions{"lab2", dir.path(), true, {}, FileAccess{::getgid()}}, error);
+  ASSERT_TRUE(grouped) << error.message();
+  ASSERT_EQ(::stat(grouped->socket_path().c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 07777, 0660U);
+  EXPECT_EQ(st.st_gid, ::getgid());
+  // Still a working bus for its owner.
+  auto endpoint = SocketEndpoint::connect("lab", EndpointOptions{dir.path(), "owner", false}, error);
+  EXPECT_TRUE(endpoint) << error.message();
+}
 
 TEST_F(HubTest, EveryFrameReachesEveryOtherEndpointAcrossSocketsAndInProcess) {
   open_hub();
@@ -376,9 +396,9 @@ TEST_F(HubTest, OneHubPerBusAndStaleSocketsAreReplaced) {
   }
   open_hub();
   std::error_code error;
-  EXPECT_FALSE(Hub::open(loop, HubOptions{"lab", dir.path(), true, {}}, error));
+  EXPECT_FALSE(Hub::open(loop, HubOptions{"lab", dir.path(), true, {}, {}}, error));
   EXPECT_EQ(error, std::errc::address_in_use);
-  EXPECT_FALSE(Hub::open(loop, HubOptions{"bad/name", dir.path(), true, {}}, error));
+  EXPECT_FALSE(Hub::open(loop, HubOptions{"bad/name", dir.path(), true, {}, {}}, error));
   EXPECT_EQ(error, std::errc::invalid_argument);
 }
 

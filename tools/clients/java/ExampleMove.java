@@ -1,6 +1,7 @@
 // Enables two axes, moves them together (one synchronized request) and prints their final positions.
 //   java -cp lcm.jar:motionlcm.jar:classes ExampleMove [--lcm-url URL] [--prefix MOTION_] [--axes x y]
-//        [--targets 10 5] [--timeout 30]
+//        [--targets 10 5] [--timeout 30] [--key FILE]
+// --key (default $MOTION_KEY): sign the requests with this private key (motionctl keygen).
 // Exit codes: 0 done, 1 the coordinator refused or the move failed (its reason is printed),
 // 2 bad command line, 4 LCM unavailable.
 import java.io.IOException;
@@ -12,10 +13,10 @@ import java.util.Map;
 import motionlcm.reply_t;
 
 public class ExampleMove {
-    static final String USAGE = "usage: ExampleMove [--lcm-url URL] [--prefix MOTION_] [--axes A B] [--targets P Q] [--timeout S]";
+    static final String USAGE = "usage: ExampleMove [--lcm-url URL] [--prefix MOTION_] [--axes A B] [--targets P Q] [--timeout S] [--key FILE]";
 
     public static void main(String[] argv) throws Exception {
-        Map<String, Integer> arity = Map.of("--lcm-url", 1, "--prefix", 1, "--axes", 2, "--targets", 2, "--timeout", 1);
+        Map<String, Integer> arity = Map.of("--lcm-url", 1, "--prefix", 1, "--axes", 2, "--targets", 2, "--timeout", 1, "--key", 1);
         Args args = new Args(argv, arity, USAGE);
         List<String> axes = args.list("--axes", Arrays.asList("x", "y"));
         List<String> targets = args.list("--targets", Arrays.asList("10", "5"));
@@ -35,6 +36,17 @@ public class ExampleMove {
             System.err.println("ExampleMove: LCM unavailable: " + e.getMessage());
             System.exit(4);
             return;
+        }
+        String keyPath = Signing.keyPath(args.get("--key", null));
+        if (keyPath != null) {
+            try {
+                client.signWith(Signing.loadPrivateKey(keyPath));
+            } catch (Signing.KeyFileException e) {
+                System.err.println("ExampleMove: --key: " + e.getMessage());
+                client.close();
+                System.exit(2);
+                return;
+            }
         }
         int rc = 0;
         try (MotionClient c = client) {

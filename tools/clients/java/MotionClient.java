@@ -7,10 +7,16 @@
 //       reply_t r = c.request(request_t.ENABLE, new String[] {"x", "y"}, null, 10000);
 //   }
 //
+// Signing (README "Security"): after signWith(key) (Signing.loadPrivateKey) every request goes out
+// signed on SREQUEST, byte-identical to the C++ client. A SECURITY event of the coordinator naming
+// a pending request (unsigned, unknown key, bad signature...: the coordinator sends no reply) ends it
+// at once with a local REJECTED, code 19 (unauthorized).
+//
 // Thread contract: thread-safe. LCM delivers messages on its own receive thread: reply, axis-state,
 // event and health callbacks run there (keep them short); request() blocks the calling thread.
 // Run with -Djava.net.preferIPv4Stack=true (LCM multicast is IPv4).
 import java.io.IOException;
+import java.security.GeneralSecurityException;
 import java.util.Collections;
 import java.util.HashMap;
 import java.util.LinkedHashMap;
@@ -79,10 +85,15 @@ public class MotionClient implements AutoCloseable {
 
     private final LCM lcm;
     private final String url;
+    /** Reply error code of a request the coordinator's security refused (C++ ReplyError::kUnauthorized). */
+    public static final int UNAUTHORIZED = 19;
     /** No reply at all within this many ms means no coordinator is listening (C++: kAcceptTimeout). */
     public static final long ACCEPT_TIMEOUT_MS = 2000;
     private final String prefix;
-    private final String id;
+    private volatile String id;
+    private volatile Signing.RequestSigner signer;
+    // " request <id> of client '<id>'": how a SECURITY event names a pending request.
+    private final Map<Long, String> labels = new ConcurrentHashMap<>();
     // Request ids start at the wall clock so a restarted client never reuses a live id.
     private final AtomicLong nextRequestId = new AtomicLong(System.currentTimeMillis() * 1000);
     private final Map<Long, Consumer<reply_t>> pending = new ConcurrentHashMap<>();
@@ -117,6 +128,14 @@ public class MotionClient implements AutoCloseable {
     }
 
     public String id() { return id; }
+
+    /** Signs every request from now on with `key`; the client id becomes the key's own ("<name>/<id>"),
+     *  as the coordinator requires. Call before sending. */
+    public void signWith(Signing.Key key) {
+        Signing.RequestSigner s = new Signing.RequestSigner(key, prefix);
+        id = s.ownClientId(id);
+        signer = s;
+    }
     public String url() { return url.isEmpty() ? "the default LCM URL" : url; }
     public String channel(String name) { return prefix + name; }
 
@@ -151,7 +170,18 @@ public class MotionClient implements AutoCloseable {
         if (request.param == null) request.param = new param_t();
         if (request.param.mnemonic == null) request.param.mnemonic = "";
         pending.put(request.request_id, onReply != null ? onReply : r -> {});
-        lcm.publish(channel("REQUEST"), request);
+        labels.put(request.request_id, " request " + request.request_id + " of client '" + request.client_id + "'");
+        Signing.RequestSigner s = signer;
+        if (s == null) {
+            lcm.publish(channel("REQUEST"), request);
+            return request.request_id;
+        }
+        try {
+            lcm.publish(channel("SREQUEST"), s.sign(request, request.utime));
+        } catch (GeneralSecurityException e) {
+            forget(request.request_id);
+            throw new IllegalStateException("cannot sign with key '" + s.key.name + "': " + e.getMessage(), e);
+        }
         return request.request_id;
     }
 
@@ -168,24 +198,24 @@ public class MotionClient implements AutoCloseable {
         // The coordinator answers every request at once (ACCEPTED or REJECTED): silence within
         // ACCEPT_TIMEOUT_MS means nobody listens, and the caller learns it then.
         long firstWait = Math.min(timeoutMs, ACCEPT_TIMEOUT_MS);
-        String where = url() + ", channel " + channel("REQUEST");
+        String where = url() + ", channel " + channel(signer != null ? "SREQUEST" : "REQUEST");
         try {
             answered.get(firstWait, TimeUnit.MILLISECONDS);
         } catch (TimeoutException | ExecutionException e) {
-            pending.remove(requestId);
+            forget(requestId);
             return localFailure(requestId, "no reply from the coordinator within " + firstWait + " ms: is motion-coordinator running on " + where + "?");
         } catch (InterruptedException e) {
-            pending.remove(requestId);
+            forget(requestId);
             Thread.currentThread().interrupt();
             return localFailure(requestId, "interrupted while waiting for the coordinator");
         }
         try {
             return terminal.get(Math.max(0, timeoutMs - firstWait), TimeUnit.MILLISECONDS);
         } catch (TimeoutException | ExecutionException e) {
-            pending.remove(requestId);
+            forget(requestId);
             return localFailure(requestId, "no terminal reply from the coordinator within " + timeoutMs + " ms (" + where + ")");
         } catch (InterruptedException e) {
-            pending.remove(requestId);
+            forget(requestId);
             Thread.currentThread().interrupt();
             return localFailure(requestId, "interrupted while waiting for the coordinator");
         }
@@ -264,12 +294,35 @@ public class MotionClient implements AutoCloseable {
 
     // ------------------------------------------------------------------ LCM handlers (LCM's thread)
 
+    private void forget(long requestId) {
+        pending.remove(requestId);
+        labels.remove(requestId);
+    }
+
     private void onReply(LCMDataInputStream ins) {
         reply_t r;
         try { r = new reply_t(ins); } catch (IOException e) { return; }  // not a reply_t: ignore
         if (!id.equals(r.client_id)) return;
         Consumer<reply_t> handler = isTerminal(r.status) ? pending.remove(r.request_id) : pending.get(r.request_id);
+        if (isTerminal(r.status)) labels.remove(r.request_id);
         if (handler != null) handler.accept(r);
+    }
+
+    // The coordinator refused a request of ours without a reply (its ids could not be trusted): end
+    // it now with a local REJECTED (code 19) carrying the event's text, as the C++ client does.
+    private void onSecurityEvent(event_t e) {
+        for (Map.Entry<Long, String> entry : labels.entrySet()) {
+            if (!e.text.contains(entry.getValue())) continue;
+            long requestId = entry.getKey();
+            Consumer<reply_t> handler = pending.remove(requestId);
+            labels.remove(requestId);
+            if (handler == null) continue;
+            reply_t r = localFailure(requestId, "refused by the coordinator's security (SECURITY event, no reply): " + e.text);
+            r.utime = e.utime;
+            r.status = reply_t.REJECTED;
+            r.error_code = UNAUTHORIZED;
+            handler.accept(r);
+        }
     }
 
     private void onAxisState(LCMDataInputStream ins) {
@@ -283,6 +336,7 @@ public class MotionClient implements AutoCloseable {
     private void onEventMessage(LCMDataInputStream ins) {
         event_t e;
         try { e = new event_t(ins); } catch (IOException ex) { return; }
+        if (e.kind == event_t.SECURITY) onSecurityEvent(e);
         Consumer<event_t> h = eventHandler;
         if (h != null) h.accept(e);
     }

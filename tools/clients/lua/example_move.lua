@@ -1,15 +1,17 @@
 --[[
 Enables two axes, moves them together (one synchronized request) and prints their final positions.
   LUA_PATH="build/lcmtypes/lua/?.lua;build/lcmtypes/lua/?/init.lua;tools/clients/lua/?.lua;;" \
-    lua5.2 tools/clients/lua/example_move.lua [--lcm-url URL] [--prefix MOTION_] [--axes x y] [--targets 10 5] [--timeout 30]
+    lua5.2 tools/clients/lua/example_move.lua [--lcm-url URL] [--prefix MOTION_] [--axes x y] [--targets 10 5] [--timeout 30] [--key FILE]
+--key (default $MOTION_KEY): sign the requests with this private key (motionctl keygen; needs
+motionsodium.so on LUA_CPATH, see motionsigning.lua).
 Exit codes: 0 done, 1 the coordinator refused or the move failed (its reason is printed),
 2 bad command line, 4 LCM unavailable.
 --]]
 local motionclient = require("motionclient")
 
-local usage = "usage: example_move.lua [--lcm-url URL] [--prefix MOTION_] [--axes A B] [--targets P Q] [--timeout S]"
+local usage = "usage: example_move.lua [--lcm-url URL] [--prefix MOTION_] [--axes A B] [--targets P Q] [--timeout S] [--key FILE]"
 local args, err = motionclient.parse_args(arg, {["--lcm-url"] = 1, ["--prefix"] = 1, ["--axes"] = 2, ["--targets"] = 2,
-                                               ["--timeout"] = 1, ["--help"] = 0})
+                                               ["--timeout"] = 1, ["--key"] = 1, ["--help"] = 0})
 if not args then
   io.stderr:write(err .. "\n" .. usage .. "\n")
   os.exit(2)
@@ -33,9 +35,28 @@ if not timeout then
   os.exit(2)
 end
 
+local key
+do
+  local option = args["--key"] and args["--key"][1]
+  local path = (option ~= nil and option ~= "") and option or os.getenv("MOTION_KEY")  -- motionsigning.key_path
+  if path and path ~= "" then
+    local signing_ok, signing = pcall(require, "motionsigning")
+    if not signing_ok then
+      io.stderr:write("example_move: --key: signing unavailable: " .. tostring(signing) .. "\n")
+      os.exit(2)
+    end
+    local key_err
+    key, key_err = signing.load_private_key(path)
+    if not key then
+      io.stderr:write("example_move: --key: " .. key_err .. "\n")
+      os.exit(2)
+    end
+  end
+end
+
 local ok, client = pcall(motionclient.new, {url = args["--lcm-url"] and args["--lcm-url"][1],
                                             prefix = args["--prefix"] and args["--prefix"][1] or "MOTION_",
-                                            client_id = "example_move.lua"})
+                                            client_id = "example_move.lua", key = key})
 if not ok then
   io.stderr:write("example_move: LCM unavailable: " .. tostring(client) .. "\n")
   os.exit(4)

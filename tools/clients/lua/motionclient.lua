@@ -10,6 +10,12 @@ Requests and their terminal replies, axis state, events, heartbeats; mirrors the
   local r = c:request("enable", {"x", "y"}, nil, {timeout = 10})
   print(motionclient.status_name(r.status), r.error_code, r.reason)
 
+Signing (README "Security"): after c:sign_with(key) (motionsigning.load_private_key) every request
+goes out signed on SREQUEST, byte-identical to the C++ client; opts.key = key in new() does the
+same. A SECURITY event of the coordinator naming a pending request (unsigned, unknown key, bad
+signature...: the coordinator sends no reply) ends it at once with a local REJECTED, code 19.
+motionsigning needs the native module motionsodium on LUA_CPATH; without signing it is not loaded.
+
 Thread contract: single-threaded. Callbacks run inside handle(), request() and wait_until(), which
 pump LCM. Timeouts are in seconds; Lua 5.2 has no sub-second wall clock, so they are measured with
 os.time() (whole seconds, at least the requested time) unless LuaSocket's socket.gettime exists.
@@ -40,6 +46,8 @@ M.request_t, M.reply_t, M.axis_state_t, M.event_t, M.health_t = request_t, reply
 -- The coordinator answers every request at once; no reply within this many seconds means no
 -- coordinator is listening (the same bound as the C++ client's kAcceptTimeout).
 M.ACCEPT_TIMEOUT = 2.0
+-- Reply error code of a request the coordinator's security refused (C++ ReplyError::kUnauthorized).
+M.UNAUTHORIZED = 19
 
 M.kinds = {
   move_absolute = request_t.MOVE_ABSOLUTE, move_relative = request_t.MOVE_RELATIVE, jog = request_t.JOG,
@@ -82,7 +90,7 @@ end
 local Client = {}
 Client.__index = Client
 
--- opts: url (nil = $LCM_DEFAULT_URL, then LCM's default), prefix ("MOTION_"), client_id.
+-- opts: url (nil = $LCM_DEFAULT_URL, then LCM's default), prefix ("MOTION_"), client_id, key (sign with it).
 -- Raises an error when LCM cannot be opened.
 function M.new(opts)
   opts = opts or {}
@@ -95,13 +103,22 @@ function M.new(opts)
   -- never reuses a live id.
   self.next_request_id = os.time() * 1000000
   self.pending = {}
+  self.labels = {}  -- " request <id> of client '<id>'": how a SECURITY event names a pending request
   self.axes = {}
   self.beats = {}
   self.lc:subscribe(self.prefix .. "REPLY", function(_, data) self:_on_reply(data) end)
   self.lc:subscribe(self.prefix .. "AXIS_STATE", function(_, data) self:_on_axis_state(data) end)
   self.lc:subscribe(self.prefix .. "EVENT", function(_, data) self:_on_event(data) end)
   self.lc:subscribe(self.prefix .. "HEALTH", function(_, data) self:_on_health(data) end)
+  if opts.key then self:sign_with(opts.key) end
   return self
+end
+
+-- Signs every request from now on with `key` (motionsigning.load_private_key); the client id
+-- becomes the key's own ("<name>/<id>"), as the coordinator requires.
+function Client:sign_with(key)
+  self.signer = require("motionsigning").request_signer(key, self.prefix)
+  self.id = self.signer:own_client_id(self.id)
 end
 
 -- Publishes a request; every reply goes to on_reply(reply). fields: velocity_scale,
@@ -129,7 +146,14 @@ function Client:send(kind, axes, values, on_reply, fields)
     msg[k] = v
   end
   self.pending[msg.request_id] = on_reply or false
-  self.lc:publish(self.prefix .. "REQUEST", msg:encode())
+  self.labels[msg.request_id] = string.format(" request %.0f of client '%s'", msg.request_id, msg.client_id)
+  if self.signer then
+    -- os.time()'s whole seconds would repeat counters across runs within a second.
+    msg.utime = require("motionsigning").now_us()
+    self.lc:publish(self.prefix .. "SREQUEST", self.signer:sign(msg, msg.utime):encode())
+  else
+    self.lc:publish(self.prefix .. "REQUEST", msg:encode())
+  end
   return msg.request_id
 end
 
@@ -158,13 +182,14 @@ function Client:request(kind, axes, values, opts)
   local first_wait = math.min(timeout, M.ACCEPT_TIMEOUT)
   local heard = self:wait_until(function() return answered end, first_wait)
   if not heard or not self:wait_until(function() return result ~= nil end, timeout - first_wait) then
-    self.pending[id] = nil
+    self.pending[id], self.labels[id] = nil, nil
     result = reply_t:new()
     result.utime = os.time() * 1000000
     result.client_id = self.id
     result.request_id = id
     result.status = reply_t.FAILED
-    local where = string.format("%s, channel %sREQUEST", self.url ~= "" and self.url or "the default LCM URL", self.prefix)
+    local where = string.format("%s, channel %s%s", self.url ~= "" and self.url or "the default LCM URL", self.prefix,
+                                self.signer and "SREQUEST" or "REQUEST")
     if heard then
       result.reason = string.format("no terminal reply from the coordinator within %d ms (%s)", math.floor(timeout * 1000), where)
     else
@@ -243,8 +268,32 @@ function Client:_on_reply(data)
   if not r or r.client_id ~= self.id then return end
   local handler = self.pending[r.request_id]
   if handler == nil then return end
-  if M.is_terminal(r.status) then self.pending[r.request_id] = nil end
+  if M.is_terminal(r.status) then self.pending[r.request_id], self.labels[r.request_id] = nil, nil end
   if handler then handler(r) end
+end
+
+-- The coordinator refused a request of ours without a reply (its ids could not be trusted): end
+-- it now with a local REJECTED (code 19) carrying the event's text, as the C++ client does.
+function Client:_on_security_event(e)
+  local refused = {}
+  for id, label in pairs(self.labels) do
+    if e.text:find(label, 1, true) then refused[#refused + 1] = id end
+  end
+  for _, id in ipairs(refused) do
+    local handler = self.pending[id]
+    self.pending[id], self.labels[id] = nil, nil
+    local r = reply_t:new()
+    r.utime = e.utime
+    r.client_id = self.id
+    r.request_id = id
+    r.status = reply_t.REJECTED
+    r.error_code = M.UNAUTHORIZED
+    r.reason = "refused by the coordinator's security (SECURITY event, no reply): " .. e.text
+    r.num_axes = 0
+    r.axes, r.targets, r.positions, r.start_utime = {}, {}, {}, {}
+    r.param = new_param()
+    if handler then handler(r) end
+  end
 end
 
 function Client:_on_axis_state(data)
@@ -256,7 +305,9 @@ end
 
 function Client:_on_event(data)
   local e = decode(event_t, data)
-  if e and self.event_handler then self.event_handler(e) end
+  if not e then return end
+  if e.kind == event_t.SECURITY then self:_on_security_event(e) end
+  if self.event_handler then self.event_handler(e) end
 end
 
 function Client:_on_health(data)

@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Enables two axes, moves them together (one synchronized request) and prints their final positions.
 
-    example_move.py [--lcm-url URL] [--prefix MOTION_] [--axes x y] [--targets 10 5] [--timeout 30]
+    example_move.py [--lcm-url URL] [--prefix MOTION_] [--axes x y] [--targets 10 5] [--timeout 30] [--key FILE]
+
+--key (default $MOTION_KEY): sign the requests with this private key (motionctl keygen).
 
 Exit codes as the other programs: 0 done, 1 the coordinator refused or the move failed (its reason is
 printed), 2 bad command line, 4 LCM unavailable.
@@ -12,7 +14,7 @@ import sys
 import _paths
 
 _paths.add_lcmtypes()
-from motionclient import Client, RequestFailed, status_name  # noqa: E402
+from motionclient import Client, KeyFileError, RequestFailed, key_path, load_private_key, status_name  # noqa: E402
 
 
 def main() -> int:
@@ -23,10 +25,18 @@ def main() -> int:
     p.add_argument("--targets", nargs=2, type=float, default=[10.0, 5.0], metavar="POS",
                    help="absolute targets in user units (default: 10 5)")
     p.add_argument("--timeout", type=float, default=30.0, help="seconds to wait for each terminal reply")
+    p.add_argument("--key", default=None, help="private key to sign requests with (motionctl keygen); default $MOTION_KEY")
     args = p.parse_args()
 
+    key = None
+    if key_path(args.key):
+        try:
+            key = load_private_key(key_path(args.key))
+        except (KeyFileError, ImportError) as e:
+            print(f"example_move: --key: {e}", file=sys.stderr)
+            return 2
     try:
-        client = Client(args.lcm_url, prefix=args.prefix, client_id="example_move.py")
+        client = Client(args.lcm_url, prefix=args.prefix, client_id="example_move.py", key=key)
     except OSError as e:
         print(f"example_move: {e}", file=sys.stderr)
         return 4

@@ -22,8 +22,16 @@ std::unique_ptr<CanBusHost> CanBusHost::open(EventLoop& loop, const config::Conf
                                              const std::map<config::Family, CanDriveFactory>& factories, Reporter reporter,
                                              std::error_code& error) {
   std::unique_ptr<CanBusHost> host(new CanBusHost(loop, config, bus, std::move(reporter)));
+  std::string why;
+  const auto access = config::sim_file_access(config, &why);
+  if (!access) {
+    spdlog::error("simulated CAN bus {}: {}", bus.name, why);
+    error = std::make_error_code(std::errc::invalid_argument);
+    return nullptr;
+  }
   simbus::HubOptions options;
   options.bus_name = bus.target;
+  options.access = *access;
   options.socket_dir = config::sim_runtime_dir(config);
   std::filesystem::create_directories(options.socket_dir, error);
   if (error) return nullptr;

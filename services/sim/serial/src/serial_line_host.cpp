@@ -52,9 +52,16 @@ std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const conf
     error = std::make_error_code(std::errc::not_supported);
     return nullptr;
   }
+  std::string why;
+  const auto access = config::sim_file_access(config, &why);
+  if (!access) {
+    spdlog::error("simulated serial line {}: {}", bus.name, why);
+    error = std::make_error_code(std::errc::invalid_argument);
+    return nullptr;
+  }
   auto host = std::unique_ptr<SerialLineHost>(new SerialLineHost(loop, config, bus, *family));
   host->link_ = serial::PtyLink::create(serial::simserial_link_path(config::sim_runtime_dir(config), bus.name),
-                                       configured_line(bus), error);
+                                       configured_line(bus), error, *access);
   if (!host->link_) return nullptr;
   SerialDeviceContext context;
   context.bus = bus.name;

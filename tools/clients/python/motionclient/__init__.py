@@ -5,19 +5,24 @@
         print(c.request("enable", ["x", "y"]).reason)
 
 Needs the lcm-gen Python types (build/lcmtypes/python) on PYTHONPATH for Client; the transport
-(motionclient.lcm_udp) needs nothing but the standard library.
+(motionclient.lcm_udp) needs nothing but the standard library; signing (motionclient.signing)
+needs python3-nacl:
+
+    from motionclient import Client, load_private_key, key_path
+    c = Client(url, key=load_private_key(key_path(None)))   # $MOTION_KEY
 """
 
 from .lcm_udp import LcmUdp, Reassembler, encode_datagrams, parse_url  # noqa: F401
+from .signing import KeyFileError, RequestSigner, SigningKey, key_path, load_private_key  # noqa: F401
 
 try:
-    from .client import (Client, RequestFailed, is_terminal, kind_value, status_name,  # noqa: F401
+    from .client import (Client, RequestFailed, UNAUTHORIZED, is_terminal, kind_value, status_name,  # noqa: F401
                          HEALTH_STATES, KINDS, TERMINAL)
 except ImportError as _e:  # the types are missing: the transport still works, Client explains
     _import_error = _e
 
     def __getattr__(name):
-        if name in ("Client", "RequestFailed", "is_terminal", "kind_value", "status_name", "HEALTH_STATES", "KINDS",
+        if name in ("Client", "RequestFailed", "UNAUTHORIZED", "is_terminal", "kind_value", "status_name", "HEALTH_STATES", "KINDS",
                     "TERMINAL"):
             raise ImportError(str(_import_error))
         raise AttributeError(name)

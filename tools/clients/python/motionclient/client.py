@@ -5,6 +5,11 @@ in exactly one terminal status (DONE, REJECTED, ABORTED, FAILED); ``request()`` 
 Needs the lcm-gen Python types (``build/lcmtypes/python`` on sys.path / PYTHONPATH); their
 encode()/decode() are pure Python. Transport: motionclient.lcm_udp (no LCM binding needed).
 
+Signing (README "Security"): after ``sign_with(key)`` (or ``Client(..., key=...)``) every request
+goes out signed on SREQUEST (motionclient.signing, byte-identical to the C++ client). A SECURITY
+event of the coordinator naming a pending request (unsigned, unknown key, bad signature...: the
+coordinator sends no reply) ends it at once with a local REJECTED, code 19 (unauthorized).
+
 Thread contract: single-threaded. Callbacks run inside ``handle()``, ``request()`` and
 ``wait_until()``, which pump the LCM socket.
 """
@@ -17,6 +22,7 @@ import time
 from typing import Callable, Dict, Iterable, Mapping, Optional, Sequence, Union
 
 from .lcm_udp import LcmUdp
+from .signing import RequestSigner, SigningKey
 
 try:
     import motionlcm
@@ -25,6 +31,7 @@ except ImportError as e:  # pragma: no cover - a clear message instead of a bare
     raise ImportError("motionclient needs the generated LCM types: put build/lcmtypes/python on PYTHONPATH "
                       f"(build the motion_lcmtypes_scripts target) ({e})") from None
 
+UNAUTHORIZED = 19  # reply error code (services/lcm reply_error.hpp: kUnauthorized)
 # The coordinator answers every request at once; no reply within this many seconds means no
 # coordinator is listening (the same bound as the C++ client's kAcceptTimeout).
 ACCEPT_TIMEOUT = 2.0
@@ -69,7 +76,7 @@ class Client:
     """``Client(url, prefix="MOTION_", client_id=...)``; use as a context manager or call close()."""
 
     def __init__(self, url: Optional[str] = None, prefix: str = "MOTION_", client_id: Optional[str] = None,
-                 lcm: Optional[LcmUdp] = None):
+                 lcm: Optional[LcmUdp] = None, key: Optional[SigningKey] = None):
         self.lcm = lcm or LcmUdp(url)
         self.url = self.lcm.url
         self.prefix = prefix
@@ -77,6 +84,8 @@ class Client:
         # Request ids start at the wall clock so a restarted client never reuses a live id.
         self._next_request_id = int(time.time() * 1e6)
         self._pending: Dict[int, Optional[Callable]] = {}
+        self._labels: Dict[int, str] = {}  # " request <id> of client '<id>'": how SECURITY events name it
+        self.signer: Optional[RequestSigner] = None
         self._axes: Dict[str, axis_state_t] = {}
         self._heartbeats: Dict[str, health_t] = {}
         self._state_handler: Optional[Callable] = None
@@ -86,9 +95,17 @@ class Client:
         self.lcm.subscribe(self.channel("AXIS_STATE"), self._on_axis_state)
         self.lcm.subscribe(self.channel("EVENT"), self._on_event)
         self.lcm.subscribe(self.channel("HEALTH"), self._on_health)
+        if key is not None:
+            self.sign_with(key)
 
     def channel(self, name: str) -> str:
         return self.prefix + name
+
+    def sign_with(self, key: SigningKey) -> None:
+        """Signs every request from now on with `key` (motionclient.signing.load_private_key); the
+        client id becomes the key's own ("<name>/<id>"), as the coordinator requires."""
+        self.signer = RequestSigner(key, self.prefix)
+        self.id = self.signer.own_client_id(self.id)
 
     # ------------------------------------------------------------------ requests
 
@@ -112,7 +129,11 @@ class Client:
                 raise TypeError(f"unknown request field {key!r}")
             setattr(msg, key, value)
         self._pending[msg.request_id] = on_reply
-        self.lcm.publish(self.channel("REQUEST"), msg.encode())
+        self._labels[msg.request_id] = f" request {msg.request_id} of client '{msg.client_id}'"
+        if self.signer is not None:
+            self.lcm.publish(self.channel("SREQUEST"), self.signer.sign(msg, msg.utime).encode())
+        else:
+            self.lcm.publish(self.channel("REQUEST"), msg.encode())
         return msg.request_id
 
     def request(self, kind: Union[int, str], axes: Sequence[str] = (), values: Optional[Sequence[float]] = None,
@@ -136,14 +157,14 @@ class Client:
         first_wait = min(timeout, ACCEPT_TIMEOUT)
         heard = self.wait_until(lambda: bool(answered), first_wait)
         if not heard or not self.wait_until(lambda: bool(result), timeout - first_wait):
-            self._pending.pop(request_id, None)
+            self._forget(request_id)
             r = reply_t()
             r.utime = int(time.time() * 1e6)
             r.client_id = self.id
             r.request_id = request_id
             r.status = reply_t.FAILED
             r.error_code = 13  # timeout
-            where = f"{self.url}, channel {self.channel('REQUEST')}"
+            where = f"{self.url}, channel {self.channel('SREQUEST' if self.signer else 'REQUEST')}"
             r.reason = (f"no terminal reply from the coordinator within {int(timeout * 1000)} ms ({where})" if heard else
                         f"no reply from the coordinator within {int(first_wait * 1000)} ms: "
                         f"is motion-coordinator running on {where}?")
@@ -223,15 +244,37 @@ class Client:
         except Exception:  # wrong fingerprint or truncated: not ours to crash on
             return None
 
+    def _forget(self, request_id: int) -> None:
+        self._pending.pop(request_id, None)
+        self._labels.pop(request_id, None)
+
     def _on_reply(self, _channel: str, payload: bytes) -> None:
         r = self._decode(reply_t, payload)
         if r is None or r.client_id != self.id or r.request_id not in self._pending:
             return
         handler = self._pending[r.request_id]
         if is_terminal(r.status):
-            del self._pending[r.request_id]
+            self._forget(r.request_id)
         if handler:
             handler(r)
+
+    def _on_security_event(self, e) -> None:
+        """The coordinator refused a request of ours without a reply (its ids could not be trusted):
+        end it now with a local REJECTED (code 19) carrying the event's text, as the C++ client does."""
+        refused = [rid for rid, label in self._labels.items() if label in e.text]
+        for rid in refused:
+            handler = self._pending.get(rid)
+            self._forget(rid)
+            r = reply_t()
+            r.utime = e.utime
+            r.client_id = self.id
+            r.request_id = rid
+            r.status = reply_t.REJECTED
+            r.error_code = UNAUTHORIZED
+            r.reason = "refused by the coordinator's security (SECURITY event, no reply): " + e.text
+            r.param = param_t()
+            if handler:
+                handler(r)
 
     def _on_axis_state(self, _channel: str, payload: bytes) -> None:
         s = self._decode(axis_state_t, payload)
@@ -243,7 +286,11 @@ class Client:
 
     def _on_event(self, _channel: str, payload: bytes) -> None:
         e = self._decode(event_t, payload)
-        if e is not None and self._event_handler:
+        if e is None:
+            return
+        if e.kind == event_t.SECURITY:
+            self._on_security_event(e)
+        if self._event_handler:
             self._event_handler(e)
 
     def _on_health(self, _channel: str, payload: bytes) -> None:
@@ -255,5 +302,5 @@ class Client:
             self._health_handler(h)
 
 
-__all__ = ["Client", "RequestFailed", "is_terminal", "status_name", "kind_value", "KINDS", "HEALTH_STATES",
+__all__ = ["Client", "UNAUTHORIZED", "RequestFailed", "is_terminal", "status_name", "kind_value", "KINDS", "HEALTH_STATES",
            "TERMINAL"]

@@ -14,16 +14,18 @@
 #include <string>
 #include <system_error>
 
+#include "motion/core/file_access.hpp"
 #include "motion/serial/serial_port.hpp"
 
 namespace motion::serial {
 
 class PtyLink {
  public:
-  // Creates the pty, configures it raw with `settings`, and (re)places the symlink atomically
-  // (a stale link of a crashed run is replaced).
+  // Creates the pty, configures it raw with `settings`, restricts its slave device to `access`
+  // (0600, or 0660 with a group: whoever opens it can write to the line; openpty leaves it 0620,
+  // group tty), and (re)places the symlink atomically (a stale link of a crashed run is replaced).
   static std::unique_ptr<PtyLink> create(const std::string& link_path, const SerialSettings& settings,
-                                         std::error_code& error);
+                                         std::error_code& error, const FileAccess& access = {});
   ~PtyLink();  // closes both fds, removes the link if it still points to this pty
   PtyLink(const PtyLink&) = delete;
   PtyLink& operator=(const PtyLink&) = delete;

@@ -17,6 +17,8 @@
 #include <variant>
 #include <vector>
 
+#include "motion/core/file_access.hpp"
+
 namespace motion::config {
 
 enum class Family { kUim342, kUim242, kUc57, kAdamModbus };
@@ -196,6 +198,9 @@ struct SecuritySettings {
 
 struct SimulationSettings {
   std::string runtime_dir;  // where simulated buses/ptys appear; empty: $MOTION_SIM_DIR or /tmp/motion-sim
+  // Who besides motion-sim's user may open its bus sockets and ptys (and so inject frames): a group
+  // name (mode 0660), or empty: nobody (0600).
+  std::string group;
   int reply_latency_us = 200;
   // Simulated home switches (`home_switches: {DRIVE: COUNTS | none}`): where the switch edge of a
   // drive whose axis homes on a switch is, in drive counts from the power-up position; `none`: no
@@ -235,6 +240,10 @@ LoadResult load_string(std::string_view yaml_text, const std::string& file_name 
 // simulation.runtime_dir, else $MOTION_SIM_DIR, else /tmp/motion-sim-<uid>. Gateways and
 // motion-sim agree on it, so a test that sets MOTION_SIM_DIR gets a private lab.
 [[nodiscard]] std::string sim_runtime_dir(const Config& config);
+
+// The access of the simulated buses' sockets and ptys (simulation.group, see FileAccess); nullopt
+// and `why` when the configured group does not exist on this machine.
+[[nodiscard]] std::optional<FileAccess> sim_file_access(const Config& config, std::string* why);
 
 // The simulated lab that ships as the embedded default (config/sim-lab.yaml is its file form):
 // $MOTION_CONFIG, else <prefix>/share/motionbus/config/sim-lab.yaml beside an installed program,

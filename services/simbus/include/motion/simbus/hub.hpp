@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "motion/core/event_loop.hpp"
+#include "motion/core/file_access.hpp"
 #include "motion/simbus/bus.hpp"
 #include "motion/simbus/endpoint.hpp"
 #include "motion/simbus/wire.hpp"
@@ -35,6 +36,7 @@ struct HubOptions {
   std::filesystem::path socket_dir;  // empty: default_socket_dir()
   bool listen = true;                // false: LocalEndpoints only, no socket
   BusConfig bus;                     // epoch_offset_us is set by the hub from the wall clock
+  FileAccess access;                 // the socket's mode: 0600, or 0660 with a group (frames can be injected through it)
 };
 
 namespace detail {

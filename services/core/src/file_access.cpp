@@ -1,0 +1,42 @@
+#include "motion/core/file_access.hpp"
+
+#include <fcntl.h>
+#include <grp.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <vector>
+
+namespace motion {
+namespace {
+
+std::error_code last_error() { return {errno, std::generic_category()}; }
+
+}  // namespace
+
+std::error_code restrict_access(const std::string& path, const FileAccess& access) {
+  // Group first: a chown may clear set-id bits, and the mode is what must hold in the end.
+  if (access.group && ::lchown(path.c_str(), static_cast<uid_t>(-1), *access.group) != 0) return last_error();
+  if (::fchmodat(AT_FDCWD, path.c_str(), access.mode(), 0) != 0) return last_error();
+  return {};
+}
+
+std::error_code restrict_access(int fd, const FileAccess& access) {
+  if (access.group && ::fchown(fd, static_cast<uid_t>(-1), *access.group) != 0) return last_error();
+  if (::fchmod(fd, access.mode()) != 0) return last_error();
+  return {};
+}
+
+std::optional<gid_t> group_id(const std::string& name) {
+  group entry{};
+  group* found = nullptr;
+  std::vector<char> buffer(4096);
+  while (::getgrnam_r(name.c_str(), &entry, buffer.data(), buffer.size(), &found) == ERANGE && buffer.size() < (1U << 20)) {
+    buffer.resize(buffer.size() * 2);
+  }
+  if (found == nullptr) return std::nullopt;
+  return found->gr_gid;
+}
+
+}  // namespace motion

@@ -1,0 +1,76 @@
+// The verifier path of signed messages (services/security), as the coordinator and the gateways
+// run it on what arrives on SREQUEST and GW_SCOMMAND_<bus>: the first byte selects the type (even:
+// signed_request_t, checked by a RequestVerifier against an authorized_keys of two keys; odd:
+// signed_gateway_command_t, checked by a GatewayCommandVerifier with the coordinator's public
+// key) and how far the verifier's clock is from the envelope's utime (its low bits, so that
+// fresh and stale are both reached); the rest is the message as it would arrive. It is decoded
+// bounded (as Node::subscribe does), then verified: every input is accepted or refused with a
+// reason, never a crash, and costs O(its size).
+//
+// The keys come from fixed seeds (32 bytes of 1, 2 and 3): the seed corpus
+// (corpus/signed_messages/) holds envelopes signed with them, so the fuzzer starts past the key
+// lookup and the signature, into the freshness, counter, payload, client id and role checks.
+#include <array>
+#include <chrono>
+#include <limits>
+
+#include <motionlcm/signed_gateway_command_t.hpp>
+#include <motionlcm/signed_request_t.hpp>
+
+#include "fuzz_targets.hpp"
+#include "motion/lcm/wire_bounds.hpp"
+#include "motion/security/gateway_commands.hpp"
+#include "motion/security/request_verifier.hpp"
+
+namespace motion::fuzz {
+namespace {
+
+constexpr const char* kPrefix = "MOTION_";
+constexpr std::chrono::milliseconds kWindow{2000};
+
+security::KeyPair key_of(std::uint8_t fill, const char* name) {
+  std::array<std::uint8_t, security::kSeedBytes> seed{};
+  seed.fill(fill);
+  return security::KeyPair::from_seed(seed, name);
+}
+
+const security::AuthorizedKeys& authorized() {
+  static const security::AuthorizedKeys keys = [] {
+    const std::string text = key_of(1, "op").authorized_line("operate") + "\n" + key_of(2, "watch").authorized_line("observe") + "\n";
+    return std::get<security::AuthorizedKeys>(security::AuthorizedKeys::parse(text, "fuzz_authorized_keys"));
+  }();
+  return keys;
+}
+
+const security::PublicKey& coordinator() {
+  static const security::PublicKey key = key_of(3, "coordinator").public_key();
+  return key;
+}
+
+// The verifier's clock: at the envelope's utime plus 0..3 s (by `selector`): within the window for
+// most, beyond it for the rest.
+std::int64_t now_for(std::int64_t utime, std::uint8_t selector) {
+  const std::int64_t offset = static_cast<std::int64_t>(selector >> 1) * 25'000;  // 0 .. 3.175 s
+  return utime > std::numeric_limits<std::int64_t>::max() - offset ? utime : utime + offset;
+}
+
+}  // namespace
+
+int signed_messages(const std::uint8_t* data, std::size_t size) {
+  if (size < 1) return 0;
+  const std::uint8_t selector = data[0];
+  if ((selector & 1) == 0) {
+    motionlcm::signed_request_t envelope;
+    if (!lcm::wire::decode_bounded(data + 1, size - 1, envelope).empty()) return 0;
+    security::RequestVerifier verifier(authorized(), kPrefix, kWindow, 0);
+    (void)verifier.verify(envelope, now_for(envelope.utime, selector));
+  } else {
+    motionlcm::signed_gateway_command_t envelope;
+    if (!lcm::wire::decode_bounded(data + 1, size - 1, envelope).empty()) return 0;
+    security::GatewayCommandVerifier verifier(coordinator(), kPrefix, kWindow, 0);
+    (void)verifier.verify(envelope, now_for(envelope.utime, selector));
+  }
+  return 0;
+}
+
+}  // namespace motion::fuzz

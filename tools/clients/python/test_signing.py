@@ -1,0 +1,115 @@
+"""Signing in the Python client against the cross-language vector (tests/vectors/signed_request_v1.txt,
+the bytes the C++ code produces): key file, payload, signed bytes, signature and the encoded
+signed_request_t; and the key file rules (mode 0600, one key line) and $MOTION_KEY.
+
+    PYTHONPATH=build/lcmtypes/python:tools/clients/python python3 -m unittest -v test_signing
+"""
+import os
+import tempfile
+import unittest
+
+from motionlcm import param_t, request_t
+from motionclient.signing import KeyFileError, RequestSigner, key_path, load_private_key, signed_bytes
+
+VECTOR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "tests", "vectors",
+                      "signed_request_v1.txt")
+
+
+def read_vector(path=VECTOR):
+    v = {}
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            line = line.rstrip("\n")
+            if line and not line.startswith("#") and " = " in line:
+                name, value = line.split(" = ", 1)
+                v[name] = value
+    return v
+
+
+class SigningVector(unittest.TestCase):
+    def setUp(self):
+        self.v = read_vector()
+        self.dir = tempfile.TemporaryDirectory()
+        self.key_file = os.path.join(self.dir.name, "vector.key")
+        self.write(self.key_file, "# the vector's key\n" + self.v["key_file_line"] + "\n", 0o600)
+
+    def tearDown(self):
+        self.dir.cleanup()
+
+    @staticmethod
+    def write(path, text, mode):
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.chmod(path, mode)
+
+    def request(self):
+        v = self.v
+        r = request_t()
+        r.utime = int(v["request.utime"])
+        r.client_id = v["request.client_id"]
+        r.request_id = int(v["request.request_id"])
+        r.kind = int(v["request.kind"])
+        r.axes = v["request.axes"].split()
+        r.values = [float(x) for x in v["request.values"].split()]
+        r.num_axes = len(r.axes)
+        r.velocity_scale = float(v["request.velocity_scale"])
+        r.acceleration_scale = float(v["request.acceleration_scale"])
+        r.timeout_ms = int(v["request.timeout_ms"])
+        r.output_mask = int(v["request.output_mask"])
+        r.output_value = int(v["request.output_value"])
+        r.param = param_t()
+        return r
+
+    def test_key_file_gives_the_vectors_key(self):
+        key = load_private_key(self.key_file)
+        self.assertEqual(key.name, self.v["key_name"])
+        self.assertEqual(key.public_key.hex(), self.v["public_key_hex"])
+        self.assertEqual(key.key_id.hex(), self.v["key_id_hex"])
+
+    def test_signer_produces_the_bytes_of_the_cpp_code(self):
+        signer = RequestSigner(load_private_key(self.key_file), self.v["prefix"])
+        e = signer.sign(self.request(), int(self.v["utime"]))
+        self.assertEqual(str(e.counter), self.v["counter"])
+        self.assertEqual(e.payload.hex(), self.v["payload_hex"])
+        self.assertEqual(signed_bytes(self.v["prefix"], e.key_id, e.counter, e.utime, e.payload).hex(),
+                         self.v["signed_bytes_hex"])
+        self.assertEqual(bytes(e.signature).hex(), self.v["signature_hex"])
+        self.assertEqual(e.encode().hex(), self.v["envelope_hex"])
+        # The next request of the same run: the counter goes on even when the clock does not.
+        self.assertEqual(signer.sign(self.request(), int(self.v["utime"])).counter, int(self.v["counter"]) + 1)
+
+    def test_own_client_id(self):
+        signer = RequestSigner(load_private_key(self.key_file), "MOTION_")
+        self.assertEqual(signer.own_client_id("vector"), "vector")
+        self.assertEqual(signer.own_client_id("vector/tool"), "vector/tool")
+        self.assertEqual(signer.own_client_id("vectors"), "vector/vectors")
+
+    def test_key_file_readable_by_others_is_refused(self):
+        os.chmod(self.key_file, 0o644)
+        with self.assertRaisesRegex(KeyFileError, r"is readable by group/others \(mode 0644\); chmod 600 it"):
+            load_private_key(self.key_file)
+
+    def test_public_key_file_or_two_keys_are_refused(self):
+        pub = os.path.join(self.dir.name, "vector.pub")
+        self.write(pub, "11qYAYKxCrfVS/7TyWQHOg7hcvPaoiMlrwIaaPcHURo= vector operate\n", 0o600)
+        with self.assertRaisesRegex(KeyFileError, r"vector.pub:1: expected 'motionbus-ed25519-private-key"):
+            load_private_key(pub)
+        self.write(self.key_file, self.v["key_file_line"] + "\n" + self.v["key_file_line"] + "\n", 0o600)
+        with self.assertRaisesRegex(KeyFileError, r":2: a second key line"):
+            load_private_key(self.key_file)
+
+    def test_key_path_is_the_option_else_motion_key(self):
+        saved = os.environ.pop("MOTION_KEY", None)
+        try:
+            self.assertIsNone(key_path(None))
+            os.environ["MOTION_KEY"] = "/env.key"
+            self.assertEqual(key_path(None), "/env.key")
+            self.assertEqual(key_path("/option.key"), "/option.key")
+        finally:
+            os.environ.pop("MOTION_KEY", None)
+            if saved is not None:
+                os.environ["MOTION_KEY"] = saved
+
+
+if __name__ == "__main__":
+    unittest.main()
