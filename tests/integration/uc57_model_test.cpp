@@ -68,6 +68,14 @@ TEST(Uc57Model, DriveResolutionReadBackDrivesThePlanAndTheMoveLandsOnTime) {
       },
       seconds(5)))
       << "no CONFIG_MISMATCH event saying the drive works at 3200 counts/rev";
+  // motionctl status --model asks the gateways and prints what they say.
+  std::string printed;
+  ASSERT_EQ(lab.group().run_to_completion({"status-model", "motionctl", {"--config", lab.config_path(), "status", "--model"}, {}}, &printed,
+                                          seconds(20)),
+            0)
+      << printed;
+  EXPECT_NE(printed.find("resolution  3200 counts/rev (configuration implies 10000), read back"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("start       SYNC (address 128)"), std::string::npos) << printed;
   ASSERT_TRUE(lab.client().wait_until([&] { return lab.client().axes().at("a").online; }, seconds(15)));
   const auto enabled = lab.call(Client::make(request_t::ENABLE, std::vector<std::string>{"a"}));
   ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;
