@@ -31,10 +31,12 @@ endif()
 #                       (the gateway runtime, the one owner of the simulated-bus transport)
 macro(motion_layers_rules)
   set(transports "^motion_can$" "^motion_serial$" "^motion_uimessage$" "^motion_simbus$")
-  motion_layers_rule(a "the coordinator links no gateway runtime, stack/driver, transport or simulator"
-    TARGETS motion-coordinator motion_coordinator
+  # The coordinator knows the drives only through LCM and their drive models (DRIVE_MODEL): no
+  # target under gateway/ (codecs included), no simulated bus, no simulator.
+  motion_layers_rule(a "the coordinator (and its planner) links nothing under gateway/, no transport, simulated bus or simulator"
+    TARGETS motion-coordinator motion_coordinator motion_planner
     FORBID "^motion_gateway_runtime$" "^motion_.*_driver$" ${transports}
-    FORBID_UNDER services/sim)
+    FORBID_UNDER gateway services/simbus services/sim)
   motion_layers_rule(b1 "no gateway target links the simulator"
     UNDER gateway
     FORBID_UNDER services/sim)
@@ -239,4 +241,16 @@ if(MOTION_BUILD_TESTS)
             -DMOTION_LAYERS_ADD_EDGE=motion_coordinator:motion_uc57_driver -P ${CMAKE_CURRENT_LIST_FILE})
   set_tests_properties(dependency_rules_catch_forbidden_link PROPERTIES LABELS unit TIMEOUT 60
     PASS_REGULAR_EXPRESSION "motion-coordinator -> motion_coordinator -> motion_uc57_driver")
+  # ... and a codec: the coordinator's quantizers come from the drive model, not the family code.
+  add_test(NAME dependency_rules_catch_coordinator_codec_link
+    COMMAND ${CMAKE_COMMAND} -DMOTION_LINK_GRAPH=${MOTION_LINK_GRAPH_FILE}
+            -DMOTION_LAYERS_ADD_EDGE=motion_planner:motion_cia402 -P ${CMAKE_CURRENT_LIST_FILE})
+  set_tests_properties(dependency_rules_catch_coordinator_codec_link PROPERTIES LABELS unit TIMEOUT 60
+    PASS_REGULAR_EXPRESSION "motion_planner -> motion_cia402")
+  # ... and a gateway target linking the simulator.
+  add_test(NAME dependency_rules_catch_gateway_simulator_link
+    COMMAND ${CMAKE_COMMAND} -DMOTION_LINK_GRAPH=${MOTION_LINK_GRAPH_FILE}
+            -DMOTION_LAYERS_ADD_EDGE=motion_drive_model:motion_sim_host -P ${CMAKE_CURRENT_LIST_FILE})
+  set_tests_properties(dependency_rules_catch_gateway_simulator_link PROPERTIES LABELS unit TIMEOUT 60
+    PASS_REGULAR_EXPRESSION "motion_drive_model -> motion_sim_host")
 endif()

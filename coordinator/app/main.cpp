@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
                  security.command_signer ? "signed" : "not signed");
     app::Service service(*config, options, "coordinator", "coordinator");
     if (!service.ok()) return app::kExitUnavailable;
-    coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(*config), std::move(security));
+    coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(), std::move(security));
     // OK once every bus's gateway is heard: until then requests for its axes are refused.
     auto update_health = [&] {
       std::string missing;

@@ -6,6 +6,7 @@
 #include "bus_lock.hpp"
 #include "motion/app/service.hpp"
 #include "motion/core/log.hpp"
+#include "motion/drive_model/drive_model.hpp"
 #include "motion/gateway/gateway.hpp"
 
 int main(int argc, char** argv) {
@@ -40,6 +41,9 @@ int main(int argc, char** argv) {
     if (!service.ok()) return app::kExitUnavailable;
     gateway::Gateway gateway(service.loop(), service.node(), service.health(), *config, bus_name);
     gateway.set_command_verifier(std::move(std::get<std::optional<security::GatewayCommandVerifier>>(verifier)));
+    gateway.set_model_builder([&config = *config](const config::Axis& axis, const gateway::DriveFacts& facts) {
+      return drive_model::build(config, axis, facts);
+    });
 
     // The bus may not exist yet (motion-sim starting, adapter unplugged): keep trying, and say
     // why in the health meanwhile.

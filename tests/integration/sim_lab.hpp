@@ -160,6 +160,8 @@ class SimLab {
     return out;
   }
   void clear_reports() { reports_.clear(); }
+  // Every SIM_REPORT heard (starts, finishes, power-ups).
+  [[nodiscard]] const std::vector<motionlcm::sim_report_t>& reports() const { return reports_; }
 
   client::Client& client() { return client_; }
   ProcessGroup& group() { return group_; }

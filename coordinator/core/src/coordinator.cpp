@@ -7,6 +7,7 @@
 #include <algorithm>
 
 #include "coordinator_kinds.hpp"
+#include "motion/coordinator/move_planner.hpp"
 
 namespace motion::coordinator {
 
@@ -14,7 +15,7 @@ using namespace detail;
 
 Coordinator::Coordinator(const config::Config& config, MovePlanner planner, CoordinatorOutput& output, WallClock wall_clock)
     : config_(config), planner_(std::move(planner)), out_(output), wall_clock_(std::move(wall_clock)) {
-  for (const auto& axis : config_.axes) axes_[axis.name] = AxisLive{&axis, config_.drive_of(axis), std::nullopt, {}, 0, std::nullopt, 0};
+  for (const auto& axis : config_.axes) axes_[axis.name] = AxisLive{&axis, config_.drive_of(axis), std::nullopt, {}, 0, std::nullopt, 0, std::nullopt, nullptr, {}};
 }
 
 // ---------------------------------------------------------------- time
@@ -59,6 +60,16 @@ TimePoint Coordinator::process(TimePoint now) {
   }
   check_gateways();
   check_stops();
+  if (now >= next_model_request_) {
+    if (const auto buses = buses_missing_models(); !buses.empty()) {
+      // One request for every bus: a gateway answers with the models it has (one set up since).
+      motionlcm::drive_model_request_t request{};
+      request.utime = wall_clock_();
+      request.requester = "coordinator";
+      out_.drive_model_request(request);
+      next_model_request_ = now + kModelRequestPeriod;
+    }
+  }
   if (now >= next_active_moves_) {
     while (next_active_moves_ <= now) next_active_moves_ += kActiveMovesPeriod;
     if (active_moves_wanted()) publish_active_moves();
@@ -80,7 +91,50 @@ TimePoint Coordinator::next_deadline() const {
     if (stops_.watching(name)) next = std::min(next, gateway_expiry(a.drive->bus));
   }
   if (active_moves_wanted()) next = std::min(next, next_active_moves_);
+  if (!buses_missing_models().empty()) next = std::min(next, std::max(next_model_request_, now_));
   return next;
+}
+
+std::set<std::string> Coordinator::buses_missing_models() const {
+  std::set<std::string> buses;
+  for (const auto& [name, a] : axes_) {
+    if (!a.model && gateway_alive_at(a.drive->bus, now_)) buses.insert(a.drive->bus);
+  }
+  return buses;
+}
+
+const motionlcm::drive_model_t* Coordinator::drive_model(const std::string& axis) const {
+  const auto it = axes_.find(axis);
+  return it == axes_.end() || !it->second.model ? nullptr : &*it->second.model;
+}
+
+void Coordinator::on_drive_model(const motionlcm::drive_model_t& model, TimePoint now) {
+  begin(now);
+  const auto it = axes_.find(model.axis);
+  std::string refused;
+  if (it == axes_.end()) {
+    refused = "names axis '" + model.axis + "', which is not in the configuration";
+  } else if (model.bus != it->second.drive->bus) {
+    refused = "comes from bus '" + model.bus + "', the axis is on bus '" + it->second.drive->bus + "'";
+  } else if (model.family != config::to_string(it->second.drive->family)) {
+    refused = "says family '" + model.family + "', the configuration says '" + std::string(config::to_string(it->second.drive->family)) + "'";
+  }
+  if (!refused.empty()) {
+    publish_event(it == axes_.end() ? std::string() : model.axis, motionlcm::event_t::WARNING, motionlcm::event_t::PROTOCOL_ERROR,
+                  "drive model of axis " + model.axis + " ignored: it " + refused);
+    return;
+  }
+  AxisLive& a = it->second;
+  auto quantizer = quantizer_from_model(model);
+  a.model = model;
+  if (auto* why = std::get_if<std::string>(&quantizer)) {
+    a.quantizer.reset();
+    a.model_error = *why;
+    publish_event(model.axis, motionlcm::event_t::WARNING, motionlcm::event_t::PROTOCOL_ERROR, "drive model of axis " + model.axis + " unusable: " + *why);
+  } else {
+    a.quantizer = std::get<std::shared_ptr<const planner::DriveQuantizer>>(std::move(quantizer));
+    a.model_error.clear();
+  }
 }
 
 void Coordinator::on_phase_deadline(Request& r) {

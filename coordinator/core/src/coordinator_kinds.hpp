@@ -60,6 +60,8 @@ inline std::string number(double v) {
 
 // How often ACTIVE_MOVES is republished while motion requests are active.
 inline constexpr std::chrono::milliseconds kActiveMovesPeriod{500};
+// DRIVE_MODEL_REQUEST while an axis of a live gateway has no drive model.
+inline constexpr std::chrono::milliseconds kModelRequestPeriod{1000};
 // How long a move that could not be armed everywhere waits for its DISARM replies.
 inline constexpr std::chrono::milliseconds kReleaseTimeout{500};
 

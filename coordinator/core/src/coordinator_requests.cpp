@@ -270,6 +270,7 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::plan_move(Request
     in.target_counts = static_cast<std::int64_t>(target);
     in.max_velocity = a.axis->limits.max_velocity * a.axis->steps_per_unit;
     in.max_acceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit;
+    in.quantizer = a.quantizer;
     r.starts[in.axis] = in.start_counts;
     r.targets[in.axis] = in.target_counts;
     r.target_units[in.axis] = target_units;
@@ -281,6 +282,15 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::plan_move(Request
     inputs.push_back(in);
   }
   if (inputs.empty()) return std::nullopt;
+  // Planned and quantized from the drive model only: none yet, no move.
+  for (const auto& in : inputs) {
+    const AxisLive& a = axes_.at(in.axis);
+    if (!a.model) {
+      return std::pair{ReplyError::kNoDriveModel, "axis " + in.axis + " has no drive model yet: the gateway of bus " + a.drive->bus +
+                                                      " has not published DRIVE_MODEL for it (drive not set up?)"};
+    }
+    if (!in.quantizer) return std::pair{ReplyError::kPlanningFailed, "axis " + in.axis + ": its drive model is unusable: " + a.model_error};
+  }
   auto planned = planner_(inputs, scale_or_one(r.msg.velocity_scale), scale_or_one(r.msg.acceleration_scale));
   if (auto* why = std::get_if<std::string>(&planned)) return std::pair{ReplyError::kPlanningFailed, "planning failed: " + *why};
   r.plan = std::get<MovePlan>(planned);

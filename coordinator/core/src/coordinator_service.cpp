@@ -89,6 +89,10 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
     core_.on_health(m, loop_.now());
     pump();
   });
+  node_.subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel, [this](const motionlcm::drive_model_t& m, const std::string&) {
+    core_.on_drive_model(m, loop_.now());
+    pump();
+  });
   node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kOrphanedMoves, [this](const motionlcm::active_moves_t& m, const std::string&) {
     core_.on_orphaned_moves(m, loop_.now());
     pump();
@@ -160,5 +164,9 @@ void CoordinatorService::sync_trigger(const motionlcm::sync_trigger_t& trigger) 
 void CoordinatorService::active_moves(const motionlcm::active_moves_t& moves) { node_.publish(lcm::channels::kActiveMoves, moves); }
 
 void CoordinatorService::event(const motionlcm::event_t& event) { node_.publish(lcm::channels::kEvent, event); }
+
+void CoordinatorService::drive_model_request(const motionlcm::drive_model_request_t& request) {
+  node_.publish(lcm::channels::kDriveModelRequest, request);
+}
 
 }  // namespace motion::coordinator

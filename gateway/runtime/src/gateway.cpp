@@ -55,6 +55,8 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
   node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves,
                                              [this](const motionlcm::active_moves_t& m, const std::string&) { on_active_moves(m); });
   node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [this](const motionlcm::health_t& h, const std::string&) { on_health(h); });
+  node_.subscribe<motionlcm::drive_model_request_t>(
+      lcm::channels::kDriveModelRequest, [this](const motionlcm::drive_model_request_t& r, const std::string&) { on_model_request(r); });
   health_.set_bus_stats([this] { return driver_ ? driver_->statistics() : std::vector<motionlcm::bus_stats_t>{}; });
   health_timer_ = loop_.call_every(std::chrono::milliseconds(200), [this] { update_health(); });
 }
@@ -343,10 +345,65 @@ void Gateway::on_active_moves(const motionlcm::active_moves_t& moves) {
   }
 }
 
+void Gateway::drive_facts(const std::string& axis, const DriveFacts& facts) {
+  if (!axes_.contains(axis)) return;
+  facts_[axis] = facts;
+  publish_model(axis, false);
+}
+
+void Gateway::publish_model(const std::string& axis, bool always) {
+  if (!model_builder_) return;
+  const config::Axis& cfg = *axes_.at(axis);
+  const auto facts = facts_.find(axis);
+  auto built = model_builder_(cfg, facts == facts_.end() ? DriveFacts{} : facts->second);
+  if (auto* why = std::get_if<std::string>(&built)) {
+    DriveEvent e;
+    e.kind = motionlcm::event_t::CONFIG_MISMATCH;
+    e.severity = motionlcm::event_t::ERROR;
+    e.text = "no drive model for axis " + axis + ": " + *why + " (its moves are refused)";
+    axis_event(axis, e);
+    models_.erase(axis);
+    return;
+  }
+  auto& model = std::get<motionlcm::drive_model_t>(built);
+  const auto last = models_.find(axis);
+  if (!always && last != models_.end()) {
+    std::vector<std::uint8_t> a(static_cast<std::size_t>(model.getEncodedSize()));
+    std::vector<std::uint8_t> b(static_cast<std::size_t>(last->second.getEncodedSize()));
+    model.encode(a.data(), 0, static_cast<int>(a.size()));
+    last->second.encode(b.data(), 0, static_cast<int>(b.size()));
+    if (a == b) return;  // utime is 0 in both: unchanged
+  }
+  if (model.resolution_source == motionlcm::drive_model_t::RESOLUTION_READ_BACK && model.assumed_counts_per_revolution != 0 &&
+      model.counts_per_revolution != model.assumed_counts_per_revolution && (last == models_.end() || last->second.counts_per_revolution != model.counts_per_revolution)) {
+    DriveEvent e;
+    e.kind = motionlcm::event_t::CONFIG_MISMATCH;
+    e.severity = motionlcm::event_t::WARNING;
+    e.code = model.counts_per_revolution;
+    e.text = fmt::format("axis {}: drive {} works at {} counts/rev (read from the drive), the configuration implies {}: its moves are planned at {}",
+                         axis, model.drive, model.counts_per_revolution, model.assumed_counts_per_revolution, model.counts_per_revolution);
+    axis_event(axis, e);
+  }
+  models_[axis] = model;
+  model.utime = wall_time_us();
+  node_.publish(lcm::channels::kDriveModel, model);
+}
+
+void Gateway::on_model_request(const motionlcm::drive_model_request_t& request) {
+  if (!request.bus.empty() && request.bus != bus_) return;
+  std::vector<std::string> known;
+  for (const auto& [axis, model] : models_) known.push_back(axis);
+  for (const auto& axis : known) publish_model(axis, true);
+}
+
 void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   auto it = axes_.find(axis);
   if (it == axes_.end()) return;
+  const auto previous = last_status_.find(axis);
+  const bool came_online = status.online && (previous == last_status_.end() || !previous->second.online);
   last_status_[axis] = status;
+  // Set up (online) for the first time: its model, before the status that says so.
+  if (came_online && !models_.contains(axis)) publish_model(axis, false);
   check_jog(axis);
   const config::Axis& a = *it->second;
   const config::Drive* d = config_.drive_of(a);

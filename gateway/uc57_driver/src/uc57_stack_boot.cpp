@@ -268,6 +268,10 @@ void Uc57Stack::enter_operational(std::size_t n) {
         node.settings.label() + ": configured and operational (RPDO1 " +
             (node.layout == RpdoLayout::kControlwordTarget ? "controlword + target position" : "manual default mapping") +
             ", synchronous; TPDOs " + (node.settings.tpdo_mode == TpdoMode::kSync ? "every SYNC" : "event-driven") + ")");
+  // What was read at set-up (2006h, 200Eh; manual §5.1) makes the axis's drive model.
+  if (context_.out != nullptr && !node.settings.axis.empty()) {
+    context_.out->drive_facts(node.settings.axis, {node.pulses_per_rev, node.start_speed * 60.0 / node.pulses_per_rev, {}});
+  }
   publish_status(n);
 }
 

@@ -60,6 +60,23 @@ std::variant<MovePlan, std::string> simple_planner(const std::vector<PlanInput>&
   return plan;
 }
 
+// A drive model as a gateway publishes it: velocity in 1 count/s, acceleration in 1 count/s^2.
+motionlcm::drive_model_t test_model(const std::string& axis, const std::string& bus, const std::string& family) {
+  motionlcm::drive_model_t m{};
+  m.bus = bus;
+  m.axis = axis;
+  m.family = family;
+  m.grid = "test pps+pps/s";
+  m.velocity_step = 1.0;
+  m.velocity_min = 1;
+  m.velocity_max = 1'000'000;
+  m.acceleration_kind = motionlcm::drive_model_t::ACCEL_RATE;
+  m.acceleration_step = 1.0;
+  m.acceleration_min = 1;
+  m.acceleration_max = 10'000'000;
+  return m;
+}
+
 // Simulated time and wire. A message sent is delivered after everything sent before it, at the
 // time it was sent; every core handed a message runs process() right after it, as
 // CoordinatorService does. Time moves only to the next thing due: a core's deadline, a scheduled
@@ -87,6 +104,14 @@ class SimLoop {
     for (auto& c : cores_) {
       input(*c.core, now_);
       c.deadline = c.core->process(now_);
+    }
+  }
+  // Hands `input` to one of the coordinators only.
+  void deliver_to(Coordinator& core, const Input& input) {
+    for (auto& c : cores_) {
+      if (c.core != &core) continue;
+      input(core, now_);
+      c.deadline = core.process(now_);
     }
   }
   void call_after(Duration delay, Action action) { scheduled_.emplace(now_ + delay, std::move(action)); }
@@ -177,6 +202,10 @@ struct FakeGateways {
       h.uptime_s = 10;
       loop_.send_to_cores([h](Coordinator& c, TimePoint now) { c.on_health(h, now); });
     }
+    for (const auto& [name, m] : models) {
+      if (silent.contains(m.bus) || !publish_models) continue;
+      loop_.send_to_cores([m](Coordinator& c, TimePoint now) { c.on_drive_model(m, now); });
+    }
     for (auto& [name, s] : states) {
       if (silent.contains(s.bus)) continue;
       s.utime = s.sample_utime = loop_.wall_us();
@@ -203,7 +232,8 @@ struct FakeGateways {
     r.trigger_utime = loop_.wall_us();
     publish(r);
   }
-  void add_axis(const std::string& name, const std::string& bus, double scale) {
+  void add_axis(const std::string& name, const std::string& bus, double scale, const std::string& family) {
+    models[name] = test_model(name, bus, family);
     motionlcm::axis_state_t s{};
     s.axis = name;
     s.bus = bus;
@@ -223,6 +253,9 @@ struct FakeGateways {
   SimLoop& loop_;
   std::map<std::string, motionlcm::axis_state_t> states;
   std::map<std::string, double> scales;
+  std::map<std::string, motionlcm::drive_model_t> models;  // DRIVE_MODEL, every tick
+  bool publish_models = true;
+  std::vector<TimePoint> model_requests;  // when the coordinator sent DRIVE_MODEL_REQUEST
   std::map<std::string, std::int32_t> pid_of{{"can0", 100}, {"rs485", 200}};
   std::set<std::string> silent;
   bool heartbeats = true;  // false: axis states only (a coordinator that missed the heartbeats)
@@ -277,6 +310,7 @@ struct Wire final : CoordinatorOutput {
       loop_.deliver([e](Coordinator& c, TimePoint now) { c.on_event(e, now); });
     });
   }
+  void drive_model_request(const motionlcm::drive_model_request_t&) override { gateways_.model_requests.push_back(loop_.now()); }
 
   SimLoop& loop_;
   FakeGateways& gateways_;
@@ -291,10 +325,10 @@ struct CoordinatorTest : ::testing::Test {
         wire(loop, gateways, client),
         coordinator(config, simple_planner, wire, wall_clock()) {
     loop.attach(coordinator);
-    gateways.add_axis("x", "can0", 100);
-    gateways.add_axis("y", "can0", 100);
-    gateways.add_axis("c", "rs485", 10);
-    gateways.add_axis("r", "can0", 8.888888888888889);
+    gateways.add_axis("x", "can0", 100, "uim342");
+    gateways.add_axis("y", "can0", 100, "uim342");
+    gateways.add_axis("c", "rs485", 10, "adam-modbus");
+    gateways.add_axis("r", "can0", 8.888888888888889, "uim342");
     client.on_reply = [this](const reply_t& r) { replies[r.request_id].push_back(r); };
   }
   void SetUp() override { pump(milliseconds(200)); }  // heartbeats and states reach the coordinator
@@ -393,6 +427,64 @@ TEST_F(CoordinatorTest, UnknownAxisIsRejectedWithTheKnownAxes) {
   EXPECT_EQ(r.status, std::int8_t{reply_t::REJECTED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kUnknownAxis));
   EXPECT_NE(r.reason.find("unknown axis 'q' (axes: x, y, c, r)"), std::string::npos) << r.reason;
+}
+
+// The coordinator quantizes from the drive model only: an axis whose gateway has not published
+// one is refused by name (code 21), and the coordinator asks for it once a second, no more.
+TEST_F(CoordinatorTest, MoveOfAnAxisWithoutADriveModelIsRefusedAndTheModelIsRequested) {
+  Coordinator& fresh = add_coordinator();
+  gateways.publish_models = false;
+  gateways.model_requests.clear();
+  pump(milliseconds(2500));
+  EXPECT_EQ(fresh.drive_model("x"), nullptr);
+  ASSERT_GE(gateways.model_requests.size(), 2u);
+  EXPECT_LE(gateways.model_requests.size(), 3u) << "DRIVE_MODEL_REQUEST once a second while models are missing";
+  EXPECT_GE(gateways.model_requests[1] - gateways.model_requests[0], milliseconds(1000));
+  // The first coordinator has its models (from before); the fresh one refuses, naming the axis.
+  std::vector<reply_t> fresh_replies;
+  client.on_reply = [&](const reply_t& r) {
+    if (r.request_id == 91) fresh_replies.push_back(r);
+  };
+  request_t move{};
+  move.client_id = "test";
+  move.request_id = 91;
+  move.kind = request_t::MOVE_ABSOLUTE;
+  move.axes = {"x"};
+  move.values = {1.0};
+  move.num_axes = 1;
+  loop.send([&fresh, move, this] { loop.deliver_to(fresh, [move](Coordinator& c, TimePoint now) { c.on_request(move, now); }); });
+  pump(milliseconds(50));
+  ASSERT_FALSE(fresh_replies.empty());
+  EXPECT_EQ(fresh_replies.back().status, std::int8_t{reply_t::REJECTED});
+  EXPECT_EQ(fresh_replies.back().error_code, static_cast<int>(ReplyError::kNoDriveModel));
+  EXPECT_NE(fresh_replies.back().reason.find("axis x has no drive model yet: the gateway of bus can0 has not published DRIVE_MODEL"),
+            std::string::npos)
+      << fresh_replies.back().reason;
+  // Once the models come, the requests stop and the move is planned.
+  gateways.publish_models = true;
+  pump(milliseconds(200));
+  ASSERT_NE(fresh.drive_model("x"), nullptr);
+  const auto requests = gateways.model_requests.size();
+  pump(milliseconds(2000));
+  EXPECT_EQ(gateways.model_requests.size(), requests);
+}
+
+// A model that contradicts the configuration is ignored (PROTOCOL_ERROR event); an unusable one
+// makes the axis's moves fail planning with the reason.
+TEST_F(CoordinatorTest, DriveModelsContradictingTheConfigurationAreIgnored) {
+  std::vector<motionlcm::event_t> events;
+  client.on_event = [&](const motionlcm::event_t& e) { events.push_back(e); };
+  auto wrong_family = test_model("x", "can0", "uc57");
+  loop.send_to_cores([wrong_family](Coordinator& c, TimePoint now) { c.on_drive_model(wrong_family, now); });
+  auto wrong_bus = test_model("c", "can0", "adam-modbus");
+  loop.send_to_cores([wrong_bus](Coordinator& c, TimePoint now) { c.on_drive_model(wrong_bus, now); });
+  pump(milliseconds(10));
+  ASSERT_GE(events.size(), 2u);
+  EXPECT_NE(events[0].text.find("drive model of axis x ignored: it says family 'uc57', the configuration says 'uim342'"), std::string::npos)
+      << events[0].text;
+  EXPECT_NE(events[1].text.find("drive model of axis c ignored: it comes from bus 'can0', the axis is on bus 'rs485'"), std::string::npos)
+      << events[1].text;
+  EXPECT_EQ(coordinator.drive_model("x")->family, "uim342");
 }
 
 TEST_F(CoordinatorTest, TargetBeyondLimitIsRejectedNamingTheLimit) {
@@ -1064,6 +1156,14 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
     x.utime = x.sample_utime = wall_time_us();
     gateway.publish(lcm::channels::kAxisState, x);
   });
+  // The gateway answers the coordinator's DRIVE_MODEL_REQUEST with the model of x.
+  int model_requests = 0;
+  gateway.subscribe<motionlcm::drive_model_request_t>(lcm::channels::kDriveModelRequest,
+                                                      [&](const motionlcm::drive_model_request_t& r, const std::string&) {
+                                                        EXPECT_EQ(r.requester, "coordinator");
+                                                        ++model_requests;
+                                                        gateway.publish(lcm::channels::kDriveModel, test_model("x", "can0", "uim342"));
+                                                      });
   std::vector<gateway_command_t> commands;
   const auto answer = [&](const gateway_command_t& c, std::int8_t status) {
     gateway_reply_t r{};
@@ -1100,6 +1200,8 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
   };
 
   ASSERT_TRUE(testing::pump_until(loop, [&] { return service.buses_without_gateway() == std::vector<std::string>{"rs485"}; }, milliseconds(3000)));
+  ASSERT_TRUE(testing::pump_until(loop, [&] { return model_requests > 0; }, milliseconds(3000))) << "no DRIVE_MODEL_REQUEST";
+  testing::pump_until(loop, [] { return false; }, milliseconds(100));  // the model reaches the coordinator
   request_t move{};
   move.client_id = "test";
   move.request_id = 1;

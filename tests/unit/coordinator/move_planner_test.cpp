@@ -9,6 +9,7 @@
 #include "motion/adam_driver/master_core.hpp"
 #include "motion/cia402/uc57_od.hpp"
 #include "motion/cia402/uc57_units.hpp"
+#include "motion/drive_model/drive_model.hpp"
 #include "motion/uim242/instruction.hpp"
 #include "motion/uim342/parameters.hpp"
 
@@ -57,10 +58,29 @@ const config::Config& lab() {
 
 const config::Drive& drive(const std::string& name) { return *lab().find_drive(name); }
 
-std::shared_ptr<const DriveQuantizer> quantizer(const std::string& name) {
-  auto q = make_drive_quantizer(lab(), drive(name));
+using drive_model::assumed_pulses_per_revolution;
+std::uint32_t assumed_pulses_per_revolution(const config::Config&, const config::Drive& d) { return assumed_pulses_per_revolution(d); }
+
+// The model the gateway publishes for `axis` (given what its stack read), as the coordinator gets it.
+motionlcm::drive_model_t model_of(const std::string& axis, const gateway::DriveFacts& facts = {}) {
+  auto model = drive_model::build(lab(), *lab().find_axis(axis), facts);
+  if (auto* why = std::get_if<std::string>(&model)) throw std::runtime_error(*why);
+  return std::get<motionlcm::drive_model_t>(model);
+}
+
+std::shared_ptr<const DriveQuantizer> quantizer_of_model(const motionlcm::drive_model_t& model) {
+  auto q = quantizer_from_model(model);
   if (auto* why = std::get_if<std::string>(&q)) throw std::runtime_error(*why);
   return std::get<std::shared_ptr<const DriveQuantizer>>(q);
+}
+
+// The quantizer of drive `name` ("xd": axis "x"), from its gateway's model.
+std::shared_ptr<const DriveQuantizer> quantizer(const std::string& name) { return quantizer_of_model(model_of(name.substr(0, 1))); }
+
+// Plan inputs with each axis's quantizer from its model.
+std::vector<PlanInput> with_models(std::vector<PlanInput> inputs) {
+  for (auto& in : inputs) in.quantizer = quantizer(in.axis + "d");
+  return inputs;
 }
 
 // Desired motions in counts: slow, medium, fast, and awkward ratios.
@@ -214,16 +234,120 @@ TEST(DriveQuantizers, Uim242RealizedValuesAreIntegerSpdMacMdeTheControllerAccept
   for (const auto& s : fast) EXPECT_LE(s.native.velocity, 65535) << s.native.velocity;
 }
 
+// ---- The model: what the gateway read from the drive wins over the configuration ----
+
+// A UC57 configured without a resolution (the coordinator used to assume the factory 10000) whose
+// 2006h reads 3200 and 200Eh 20 rpm: the model and its grid are at 3200 pulses/rev, and the
+// realized values are what the stack programs at the resolution it read.
+TEST(DriveModel, Uc57ModelCarriesTheResolutionReadFromTheDrive) {
+  namespace od = cia402::uc57;
+  const auto assumed = model_of("b");
+  EXPECT_EQ(assumed.resolution_source, std::int8_t{motionlcm::drive_model_t::RESOLUTION_CONFIGURED});
+  EXPECT_EQ(assumed.counts_per_revolution, 10000);
+  const auto model = model_of("b", {3200u, 20.0, {}});
+  EXPECT_EQ(model.resolution_source, std::int8_t{motionlcm::drive_model_t::RESOLUTION_READ_BACK});
+  EXPECT_EQ(model.counts_per_revolution, 3200);
+  EXPECT_EQ(model.assumed_counts_per_revolution, 10000);
+  EXPECT_DOUBLE_EQ(model.velocity_step, 3200 / 60.0);
+  EXPECT_DOUBLE_EQ(model.ramp_from, 20 * 3200 / 60.0);
+  EXPECT_EQ(model.acceleration_kind, std::int8_t{motionlcm::drive_model_t::ACCEL_RAMP_TIME});
+  EXPECT_DOUBLE_EQ(model.acceleration_step, 0.001);
+  ASSERT_EQ(model.num_starts, 1);
+  EXPECT_EQ(model.start_kinds[0], std::int8_t{motionlcm::drive_model_t::START_CANOPEN_SYNC});
+  EXPECT_EQ(model.start_addresses[0], 0x80);
+  // A SYNC (11-bit id, no data) at 500 kbit/s: 47 bits plus stuff bits, 2 us each.
+  EXPECT_GE(model.start_wire_us[0], 94.0);
+  EXPECT_LE(model.start_wire_us[0], 110.0);
+
+  const auto& velocity = *od::find_entry(od::index::kProfileVelocity, 0);
+  const auto& acceleration = *od::find_entry(od::index::kProfileAcceleration, 0);
+  std::vector<DriveSetting> settings;
+  for (const auto& m : desired_motions(3200 / 60.0 * 40.0)) quantizer_of_model(model)->candidates(m, 2, settings);
+  ASSERT_GT(settings.size(), 20u);
+  for (const auto& s : settings) {
+    const auto speed = od::quantize_speed(velocity, s.realized.velocity_counts_per_s, 3200);
+    const auto accel = od::quantize_ramp(acceleration, s.realized.acceleration_counts_per_s2, speed.realized - model.ramp_from, 3200);
+    EXPECT_EQ(speed.native, s.native.velocity);
+    EXPECT_EQ(accel.native, s.native.acceleration);
+    expect_relative(speed.realized, s.realized.velocity_counts_per_s, "velocity");
+    expect_relative(accel.realized, s.realized.acceleration_counts_per_s2, "acceleration");
+  }
+}
+
+TEST(DriveModel, StartMechanismsAndTheirWireTimes) {
+  // ADAM: the broadcast 0x00DD write, 8 bytes of 10 bits (8N1) at 115200 baud.
+  const auto c = model_of("c");
+  ASSERT_EQ(c.num_starts, 1);
+  EXPECT_EQ(c.start_kinds[0], std::int8_t{motionlcm::drive_model_t::START_ADAM_BROADCAST});
+  EXPECT_NEAR(c.start_wire_us[0], 8 * 10 / 115200.0 * 1e6, 0.01);
+  // UIM242: the global gSPD 65535; (12 characters) and the per-controller SPD at 57600 baud.
+  const auto u = model_of("u");
+  ASSERT_EQ(u.num_starts, 2);
+  EXPECT_EQ(u.start_kinds[0], std::int8_t{motionlcm::drive_model_t::START_UIM242_GLOBAL});
+  EXPECT_EQ(u.start_kinds[1], std::int8_t{motionlcm::drive_model_t::START_SINGLE});
+  EXPECT_GT(u.start_wire_us[0], u.start_wire_us[1]);
+  // UIM342 without a group: BG to its node; an extended frame without data (67 bits and stuff
+  // bits) at 500 kbit/s.
+  const auto x = model_of("x");
+  ASSERT_EQ(x.num_starts, 1);
+  EXPECT_EQ(x.start_kinds[0], std::int8_t{motionlcm::drive_model_t::START_SINGLE});
+  EXPECT_EQ(x.start_addresses[0], 5);
+  EXPECT_GE(x.start_wire_us[0], 134.0);
+  EXPECT_LE(x.start_wire_us[0], 160.0);
+  EXPECT_EQ(x.resolution_source, std::int8_t{motionlcm::drive_model_t::RESOLUTION_UNKNOWN});
+}
+
+TEST(DriveModel, UnusableModelsAreRefusedWithTheReason) {
+  const auto base = model_of("x");
+  auto why = [](motionlcm::drive_model_t m) {
+    auto q = quantizer_from_model(m);
+    return std::holds_alternative<std::string>(q) ? std::get<std::string>(q) : std::string("usable");
+  };
+  EXPECT_EQ(why(base), "usable");
+  auto m = base;
+  m.velocity_step = 0;
+  EXPECT_NE(why(m).find("velocity step"), std::string::npos) << why(m);
+  m = base;
+  m.acceleration_max = 0;
+  EXPECT_NE(why(m).find("acceleration range 1..0 is empty"), std::string::npos) << why(m);
+  m = base;
+  m.acceleration_kind = 9;
+  EXPECT_NE(why(m).find("unknown acceleration kind 9"), std::string::npos) << why(m);
+  m = base;
+  m.ramp_from = -1;
+  EXPECT_NE(why(m).find("ramp start speed"), std::string::npos) << why(m);
+  // The planner refuses an axis without a quantizer, naming it.
+  auto result = make_move_planner()({{"x", config::Family::kUim342, 0, 100, 1000, 1000}}, 1.0, 1.0);
+  ASSERT_TRUE(std::holds_alternative<std::string>(result));
+  EXPECT_EQ(std::get<std::string>(result), "axis x has no drive model");
+}
+
+// The plan follows the model: the same move of b at the read 3200 pulses/rev and at the assumed
+// 10000 realizes different speeds, each a whole rpm at its own resolution.
+TEST(MovePlanner, PlansWithTheResolutionOfTheModel) {
+  const auto planner = make_move_planner();
+  const double v = 360 * 27.777777777777779;
+  const double a = 1440 * 27.777777777777779;
+  for (const std::uint32_t ppr : {3200u, 10000u}) {
+    PlanInput in{"b", config::Family::kUc57, 0, 20000, v, a};
+    in.quantizer = quantizer_of_model(model_of("b", {ppr, 10.0, {}}));
+    auto result = planner({in}, 0.5, 0.5);
+    ASSERT_TRUE(std::holds_alternative<MovePlan>(result)) << std::get<std::string>(result);
+    const double rpm = std::get<MovePlan>(result).axes.at(0).velocity * 60.0 / ppr;
+    EXPECT_NEAR(rpm, std::round(rpm), 1e-9) << ppr;
+  }
+}
+
 // ---- The planner as the coordinator runs it ----
 
 TEST(MovePlanner, EveryFamilysPlanIsRepresentableAndArrivalsAgree) {
-  const auto planner = make_move_planner(lab());
+  const auto planner = make_move_planner();
   std::vector<PlanInput> in{{"x", config::Family::kUim342, 0, 64000, 50 * 640, 400 * 640},
                             {"y", config::Family::kUim342, 1000, -12345, 50 * 640, 400 * 640},
                             {"a", config::Family::kUc57, 0, 3200, 3200, 12800},
                             {"c", config::Family::kAdamModbus, 0, 16000, 40 * 320, 200 * 320},
                             {"u", config::Family::kUim242, 0, 4000, 40 * 160, 200 * 160}};
-  auto result = planner(in, 1.0, 1.0);
+  auto result = planner(with_models(in), 1.0, 1.0);
   ASSERT_TRUE(std::holds_alternative<MovePlan>(result)) << std::get<std::string>(result);
   const auto& plan = std::get<MovePlan>(result);
   ASSERT_EQ(plan.axes.size(), 5u);
@@ -249,7 +373,7 @@ TEST(MovePlanner, EveryFamilysPlanIsRepresentableAndArrivalsAgree) {
 }
 
 TEST(MovePlanner, ZeroLimitIsAPlanningError) {
-  auto result = make_move_planner(lab())({{"x", config::Family::kUim342, 0, 100, 0, 1000}}, 1.0, 1.0);
+  auto result = make_move_planner()(with_models({{"x", config::Family::kUim342, 0, 100, 0, 1000}}), 1.0, 1.0);
   ASSERT_TRUE(std::holds_alternative<std::string>(result));
   EXPECT_NE(std::get<std::string>(result).find("x"), std::string::npos) << std::get<std::string>(result);
 }
@@ -257,12 +381,12 @@ TEST(MovePlanner, ZeroLimitIsAPlanningError) {
 // Short and slow moves of a UC57 axis: its start speed 200Eh (10 rpm, 533 counts/s at 3200
 // pulses/rev) is above the synchronized speed these moves want, and ramps exist only above it.
 TEST(MovePlanner, ShortAndSlowUc57MovesArePlannedWithinTheLimits) {
-  const auto planner = make_move_planner(lab());
+  const auto planner = make_move_planner();
   const double a_velocity = 360 * 8.888888888888889;
   const double a_acceleration = 1440 * 8.888888888888889;
   for (const std::int64_t distance : {1, 2, 9, 18, 36, 44}) {  // 0.1 to 5 degrees
     for (const double scale : {1.0, 0.5, 0.1}) {
-      auto result = planner({{"a", config::Family::kUc57, 177, 177 + distance, a_velocity, a_acceleration}}, scale, scale);
+      auto result = planner(with_models({{"a", config::Family::kUc57, 177, 177 + distance, a_velocity, a_acceleration}}), scale, scale);
       ASSERT_TRUE(std::holds_alternative<MovePlan>(result)) << distance << " counts at scale " << scale << ": " << std::get<std::string>(result);
       const auto& a = std::get<MovePlan>(result).axes.at(0);
       EXPECT_EQ(a.target_counts, 177 + distance);
@@ -275,7 +399,7 @@ TEST(MovePlanner, ShortAndSlowUc57MovesArePlannedWithinTheLimits) {
   // With a long partner move, the UC57 axis stretches its ramps toward the partner's duration.
   std::vector<PlanInput> in{{"x", config::Family::kUim342, 0, 6400, 50 * 640, 400 * 640},
                             {"a", config::Family::kUc57, 0, 9, a_velocity, a_acceleration}};
-  auto paired = planner(in, 0.5, 0.5);
+  auto paired = planner(with_models(in), 0.5, 0.5);
   ASSERT_TRUE(std::holds_alternative<MovePlan>(paired)) << std::get<std::string>(paired);
   const auto& plan = std::get<MovePlan>(paired);
   EXPECT_LT(plan.axes[1].acceleration, a_acceleration);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <motionlcm/drive_model_request_t.hpp>
+#include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
@@ -182,6 +184,65 @@ TEST_F(Fixture, DriveWithoutADriverFailsItsCommandsAndShowsInTheHealth) {
   ASSERT_FALSE(heartbeats.empty());
   EXPECT_EQ(heartbeats.back().state, std::int8_t{motionlcm::health_t::DEGRADED});
   EXPECT_NE(heartbeats.back().detail.find("no driver yet for xd (uim342)"), std::string::npos) << heartbeats.back().detail;
+}
+
+}  // namespace
+}  // namespace motion::gateway
+
+namespace motion::gateway {
+namespace {
+
+// DRIVE_MODEL: published before the axis's first online status, again only when what the driver
+// read changes it, and for every set-up axis on a DRIVE_MODEL_REQUEST for this bus (or all buses).
+TEST_F(Fixture, DriveModelIsPublishedWhenSetUpOnChangeAndOnRequest) {
+  std::vector<std::string> order;  // "model:<cpr>" / "state"
+  std::vector<motionlcm::drive_model_t> models;
+  node.subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel, [&](const motionlcm::drive_model_t& m, const std::string&) {
+    models.push_back(m);
+    order.push_back("model:" + std::to_string(m.counts_per_revolution));
+  });
+  node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [&](const motionlcm::axis_state_t&, const std::string&) { order.push_back("state"); });
+  gateway.set_model_builder([](const config::Axis& axis, const DriveFacts& facts) -> std::variant<motionlcm::drive_model_t, std::string> {
+    motionlcm::drive_model_t m{};
+    m.axis = axis.name;
+    m.counts_per_revolution = static_cast<std::int32_t>(facts.counts_per_revolution.value_or(10000));
+    return m;
+  });
+  DriveStatus offline;
+  gateway.axis_status("x", offline);  // not set up yet: no model
+  DriveStatus online;
+  online.online = true;
+  gateway.axis_status("x", online);
+  gateway.axis_status("x", online);
+  pump_until([&] { return order.size() >= 4; });
+  ASSERT_EQ(models.size(), 1u);
+  EXPECT_EQ((std::vector<std::string>{"state", "model:10000", "state", "state"}), order);
+  EXPECT_EQ(models[0].axis, "x");
+  EXPECT_GT(models[0].utime, 0);
+
+  gateway.drive_facts("x", {3200u, std::nullopt, {}});  // read back: changed
+  gateway.drive_facts("x", {3200u, std::nullopt, {}});  // same again: nothing new
+  pump_until([&] { return models.size() >= 2; });
+  motionlcm::drive_model_request_t other{};
+  other.bus = "can1";
+  node.publish(lcm::channels::kDriveModelRequest, other);
+  motionlcm::drive_model_request_t all{};
+  node.publish(lcm::channels::kDriveModelRequest, all);
+  pump_until([&] { return models.size() >= 3; });
+  loop.run_once(milliseconds(100));
+  ASSERT_EQ(models.size(), 3u);
+  EXPECT_EQ(models[1].counts_per_revolution, 3200);
+  EXPECT_EQ(models[2].counts_per_revolution, 3200);  // the answer to the request for every bus
+
+  // A model that cannot be made is an event, and nothing is published.
+  gateway.set_model_builder([](const config::Axis&, const DriveFacts&) -> std::variant<motionlcm::drive_model_t, std::string> {
+    return std::string("no resolution");
+  });
+  gateway.drive_facts("x", {0u, std::nullopt, {}});
+  pump_until([&] { return !events.empty(); });
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.back().text, "no drive model for axis x: no resolution (its moves are refused)");
+  EXPECT_EQ(models.size(), 3u);
 }
 
 }  // namespace

@@ -46,6 +46,8 @@
 
 #include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
+#include <motionlcm/drive_model_request_t.hpp>
+#include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/gateway_command_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
@@ -56,6 +58,7 @@
 
 #include "motion/config/config.hpp"
 #include "motion/coordinator/stop_guard.hpp"
+#include "motion/planner/quantizer.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/lcm/reply_error.hpp"
 
@@ -69,6 +72,9 @@ struct PlanInput {
   std::int64_t target_counts = 0;
   double max_velocity = 0;      // counts/s
   double max_acceleration = 0;  // counts/s^2
+  // What the axis's drive can execute, from its gateway's DRIVE_MODEL (never null when the core
+  // calls the planner: an axis without a model is refused before planning).
+  std::shared_ptr<const planner::DriveQuantizer> quantizer = nullptr;
 };
 struct AxisPlan {
   std::string axis;
@@ -95,6 +101,8 @@ class CoordinatorOutput {
   virtual void sync_trigger(const motionlcm::sync_trigger_t& trigger) = 0;                               // SYNC_TRIGGER
   virtual void active_moves(const motionlcm::active_moves_t& moves) = 0;                                 // ACTIVE_MOVES
   virtual void event(const motionlcm::event_t& event) = 0;                                               // EVENT
+  // DRIVE_MODEL_REQUEST: asks the gateways for the drive models the core lacks. Default: dropped.
+  virtual void drive_model_request(const motionlcm::drive_model_request_t& /*request*/) {}
 };
 
 // Microseconds since the Unix epoch, as wall_time_us() (motion/core/clock.hpp) reads them.
@@ -128,6 +136,12 @@ class Coordinator {
   // their requests that is not this coordinator's own ends once, ABORTED (code 20), so that its
   // client gets its terminal reply; what still moves is stopped as unowned motion.
   void on_orphaned_moves(const motionlcm::active_moves_t& moves, TimePoint now);
+  // DRIVE_MODEL: what an axis's drive can execute, as its gateway knows it. Moves of an axis are
+  // planned and quantized from its latest model only; an axis without one is refused (code 21,
+  // kNoDriveModel). A model naming an unknown axis, another bus or another family than the
+  // configuration's is ignored with a PROTOCOL_ERROR event. While an axis whose gateway is alive
+  // has no model, a DRIVE_MODEL_REQUEST goes out once a second.
+  void on_drive_model(const motionlcm::drive_model_t& model, TimePoint now);
 
   // Runs everything due at `now`; returns the next deadline, kNever when nothing is scheduled.
   [[nodiscard]] TimePoint process(TimePoint now);
@@ -136,6 +150,8 @@ class Coordinator {
   // Buses whose gateway has not been heard within gateway_timeout_ms before `now` (requests for
   // their axes are rejected as offline): the coordinator's health lists them.
   [[nodiscard]] std::vector<std::string> buses_without_gateway(TimePoint now) const;
+  // The latest drive model of `axis` (nullptr: none yet).
+  [[nodiscard]] const motionlcm::drive_model_t* drive_model(const std::string& axis) const;
 
  private:
   struct AxisLive {
@@ -149,6 +165,10 @@ class Coordinator {
     // once and never drift. Cleared by anything else that moves or re-references the axis.
     std::optional<double> commanded_units;
     std::int64_t commanded_counts = 0;
+    // From DRIVE_MODEL: the message, and the quantizer made of it (or why none could be made).
+    std::optional<motionlcm::drive_model_t> model;
+    std::shared_ptr<const planner::DriveQuantizer> quantizer;
+    std::string model_error;
   };
   struct GatewayLive {
     TimePoint last_heartbeat{};  // TimePoint{}: announced STOPPING (offline until it heartbeats)
@@ -276,6 +296,9 @@ class Coordinator {
   std::int64_t next_command_id_ = 1;
   std::int64_t next_trigger_id_ = 1;
   TimePoint next_active_moves_ = kNever;   // the ACTIVE_MOVES period, from the first `now` seen
+  TimePoint next_model_request_{};         // DRIVE_MODEL_REQUEST while models are missing
+  // Axes of a live gateway that have no drive model yet (their buses, for the request).
+  [[nodiscard]] std::set<std::string> buses_missing_models() const;
   bool active_moves_published_ = false;    // the last ACTIVE_MOVES listed something
 };
 

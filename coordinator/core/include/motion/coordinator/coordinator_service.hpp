@@ -65,6 +65,7 @@ class CoordinatorService final : private CoordinatorOutput {
   void sync_trigger(const motionlcm::sync_trigger_t& trigger) override;
   void active_moves(const motionlcm::active_moves_t& moves) override;
   void event(const motionlcm::event_t& event) override;
+  void drive_model_request(const motionlcm::drive_model_request_t& request) override;
 
   EventLoop& loop_;
   lcm::Node& node_;

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,14 @@ struct DriveEvent {
   std::string text;
 };
 
+// What a driver read from a drive at set-up that decides how it executes motion (the drive model,
+// lcmtypes/drive_model_t.lcm). Unset fields: not read (the configuration's value stands).
+struct DriveFacts {
+  std::optional<std::uint32_t> counts_per_revolution;  // e.g. UC57 2006h read back (manual §5.1)
+  std::optional<double> start_speed_rpm;               // e.g. UC57 200Eh (manual §5.1)
+  std::string firmware;
+};
+
 // Implemented by the Gateway; drivers report through it.
 class GatewayOutput {
  public:
@@ -50,6 +59,10 @@ class GatewayOutput {
   virtual void axis_event(const std::string& axis, const DriveEvent& event) = 0;
   // Progress/outcome of a command (bus, utime filled in by the Gateway).
   virtual void command_reply(motionlcm::gateway_reply_t reply) = 0;
+  // What the driver read from the drive of `axis` once it is set up, reported before the axis's
+  // first online status (and again after every new set-up). Drivers of families that read
+  // nothing never call it. Default: ignored.
+  virtual void drive_facts(const std::string& /*axis*/, const DriveFacts& /*facts*/) {}
 };
 
 class BusDriver {

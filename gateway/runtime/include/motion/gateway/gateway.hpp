@@ -11,19 +11,26 @@
 //  - watches jogging axes' statuses and stops one (its own STOP, negative command id, and a LIMIT
 //    event) before it crosses its limit;
 //  - converts DriveStatus (counts) to axis_state_t (user units, with invert and scale);
-//  - publishes AXIS_STATE, EVENT, GW_REPLY and the heartbeat's bus statistics.
+//  - publishes AXIS_STATE, EVENT, GW_REPLY and the heartbeat's bus statistics;
+//  - publishes each axis's drive model (DRIVE_MODEL, drive_model_t, made by the ModelBuilder the
+//    process installs) when the axis first comes online and whenever what the driver read from the
+//    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus.
 // Thread contract: loop thread only.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
 #include <set>
 #include <string>
 #include <utility>
+#include <variant>
 
 #include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
+#include <motionlcm/drive_model_request_t.hpp>
+#include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
@@ -45,6 +52,10 @@ struct AxisScale {
   [[nodiscard]] double to_counts(double units) const { return (invert ? -units : units) * counts_per_unit; }
 };
 
+// The drive model of an axis given what its driver read from the drive, or why there is none
+// (the gateway app installs motion::drive_model::build).
+using ModelBuilder = std::function<std::variant<motionlcm::drive_model_t, std::string>(const config::Axis& axis, const DriveFacts& facts)>;
+
 class Gateway final : public GatewayOutput {
  public:
   Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config, std::string bus);
@@ -63,7 +74,11 @@ class Gateway final : public GatewayOutput {
   // with the key file (naming the configuration key).
   [[nodiscard]] static security::Loaded<std::optional<security::GatewayCommandVerifier>> load_command_verifier(const config::Config& config);
 
+  // Without a builder no DRIVE_MODEL is published (and the coordinator refuses moves of the bus).
+  void set_model_builder(ModelBuilder builder) { model_builder_ = std::move(builder); }
+
   // GatewayOutput
+  void drive_facts(const std::string& axis, const DriveFacts& facts) override;
   void axis_status(const std::string& axis, const DriveStatus& status) override;
   void axis_event(const std::string& axis, const DriveEvent& event) override;
   void command_reply(motionlcm::gateway_reply_t reply) override;
@@ -82,6 +97,9 @@ class Gateway final : public GatewayOutput {
   // what they were doing.
   void on_active_moves(const motionlcm::active_moves_t& moves);
   void on_health(const motionlcm::health_t& health);
+  void on_model_request(const motionlcm::drive_model_request_t& request);
+  // Builds the model of `axis` and publishes it when it differs from the last one (or `always`).
+  void publish_model(const std::string& axis, bool always);
   void update_health();
   // Jog watch bookkeeping for a command about to go to the driver, and on its replies.
   void track_jogs(const motionlcm::gateway_command_t& command);
@@ -105,6 +123,9 @@ class Gateway final : public GatewayOutput {
   double poll_hz_ = 0;                                // status rate of this bus's drives
   std::map<std::string, CountLimits> limits_;         // axis -> its limits in counts
   std::map<std::string, DriveStatus> last_status_;    // axis -> its last reported status
+  ModelBuilder model_builder_;
+  std::map<std::string, DriveFacts> facts_;            // axis -> what its driver read from the drive
+  std::map<std::string, motionlcm::drive_model_t> models_;  // axis -> its model as last published
   std::map<std::string, JogWatch> jogs_;              // axes jogging under watch
   // axis -> the latest motion command not answered yet (JOG: its watch; ARM_MOVE/HOME: none):
   // it replaces the watch once the driver has it (a move: once STARTED), a FAILED reply leaves the

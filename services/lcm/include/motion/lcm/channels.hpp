@@ -19,6 +19,10 @@ inline constexpr std::string_view kActiveMoves = "ACTIVE_MOVES"; // active_moves
 // active_moves_t, gateways -> a new coordinator: the rows a gateway last had from a coordinator
 // that stopped heartbeating, so that its successor can end those requests.
 inline constexpr std::string_view kOrphanedMoves = "ORPHANED_MOVES";
+// drive_model_t, gateways -> coordinator, tools: what each axis's drive can execute.
+inline constexpr std::string_view kDriveModel = "DRIVE_MODEL";
+// drive_model_request_t, anyone -> gateways: publish your DRIVE_MODEL now.
+inline constexpr std::string_view kDriveModelRequest = "DRIVE_MODEL_REQUEST";
 inline constexpr std::string_view kSimControl = "SIM_CONTROL";   // sim_control_t, tests -> motion-sim
 inline constexpr std::string_view kSimReport = "SIM_REPORT";     // sim_report_t, motion-sim -> tests
 

@@ -1,0 +1,119 @@
+// The drive model end to end (configs/uc57-resolution.yaml): a simulated UC57 whose 2006h says
+// 3200 pulses/rev while the configuration implies the factory 10000. The gateway reads 2006h back
+// at set-up (UC57 manual §5.1) and publishes it in DRIVE_MODEL; the coordinator plans from that
+// model only, so a move ends at its target count and takes the time the coordinator predicted
+// (with the assumed 10000 the stack's whole-rpm speeds would differ from the planned ones).
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <cstdio>
+#include <optional>
+
+#include <motionlcm/drive_model_t.hpp>
+#include <motionlcm/event_t.hpp>
+#include <motionlcm/param_t.hpp>
+
+#include "sim_lab.hpp"
+
+namespace motion::testing {
+namespace {
+
+using client::Client;
+using motionlcm::drive_model_t;
+using motionlcm::event_t;
+using motionlcm::reply_t;
+using motionlcm::request_t;
+using std::chrono::seconds;
+
+// 2006h subdivision code of 3200 pulses/rev (UC57 manual §5.1 table: 200, 400, 800, 1600, 3200, ...).
+constexpr std::int64_t kCode3200 = 4;
+
+TEST(Uc57Model, DriveResolutionReadBackDrivesThePlanAndTheMoveLandsOnTime) {
+  SimLab lab(source_path("tests/integration/configs/uc57-resolution.yaml"));
+  std::optional<drive_model_t> model;
+  lab.group().node().subscribe<drive_model_t>(lcm::channels::kDriveModel,
+                                              [&](const drive_model_t& m, const std::string&) { if (m.axis == "a") model = m; });
+  std::vector<event_t> events;
+  lab.client().on_event([&](const event_t& e) { events.push_back(e); });
+  ASSERT_TRUE(lab.start({"a"}));
+  ASSERT_TRUE(lab.client().wait_until([&] { return model.has_value(); }, seconds(10))) << "no DRIVE_MODEL for a";
+  EXPECT_EQ(model->counts_per_revolution, 10000);
+  EXPECT_EQ(model->resolution_source, std::int8_t{drive_model_t::RESOLUTION_READ_BACK});
+
+  // The drive is set to 3200 pulses/rev behind the gateway's back; a new gateway reads it.
+  request_t write = Client::make(request_t::PARAM_WRITE, std::vector<std::string>{"a"});
+  write.param.space = motionlcm::param_t::CANOPEN_OBJECT;
+  write.param.index = 0x2006;
+  write.param.subindex = 0;
+  write.param.width = 2;
+  write.param.value = kCode3200;
+  const auto written = lab.call(write);
+  ASSERT_EQ(written.status, st(reply_t::DONE)) << written.reason;
+  const auto gateway = lab.group().heartbeat("gateway:can0");
+  ASSERT_TRUE(gateway.has_value());
+  ASSERT_EQ(::kill(static_cast<pid_t>(gateway->pid), SIGKILL), 0);
+  lab.group().stop(static_cast<pid_t>(gateway->pid));  // reap it
+  model.reset();
+  ASSERT_GT(lab.start_gateway("can0"), 0);
+  ASSERT_TRUE(lab.client().wait_until([&] { return model.has_value(); }, seconds(15))) << "no DRIVE_MODEL from the new gateway";
+  EXPECT_EQ(model->counts_per_revolution, 3200);
+  EXPECT_EQ(model->assumed_counts_per_revolution, 10000);
+  EXPECT_EQ(model->resolution_source, std::int8_t{drive_model_t::RESOLUTION_READ_BACK});
+  EXPECT_DOUBLE_EQ(model->velocity_step, 3200 / 60.0);
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] {
+        return std::any_of(events.begin(), events.end(), [](const event_t& e) {
+          return e.axis == "a" && e.kind == ev(event_t::CONFIG_MISMATCH) && e.text.find("3200 counts/rev") != std::string::npos;
+        });
+      },
+      seconds(5)))
+      << "no CONFIG_MISMATCH event saying the drive works at 3200 counts/rev";
+  // motionctl status --model asks the gateways and prints what they say.
+  std::string printed;
+  ASSERT_EQ(lab.group().run_to_completion({"status-model", "motionctl", {"--config", lab.config_path(), "status", "--model"}, {}}, &printed,
+                                          seconds(20)),
+            0)
+      << printed;
+  EXPECT_NE(printed.find("resolution  3200 counts/rev (configuration implies 10000), read back"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("start       SYNC (address 128)"), std::string::npos) << printed;
+  ASSERT_TRUE(lab.client().wait_until([&] { return lab.client().axes().at("a").online; }, seconds(15)));
+  const auto enabled = lab.call(Client::make(request_t::ENABLE, std::vector<std::string>{"a"}));
+  ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;
+
+  // 90 degrees = 2500 counts, at half speed: 180 deg/s = 5000 counts/s, 1.5 rpm steps of 3200/60.
+  lab.clear_reports();
+  request_t move = Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", 90.0}});
+  move.velocity_scale = 0.5;
+  const auto done = lab.call(move);
+  ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
+  ASSERT_TRUE(lab.client().wait_until([&] { return !lab.client().axes().at("a").moving; }, seconds(5)));
+  EXPECT_EQ(lab.client().axes().at("a").position_counts, 2500);
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] {
+        return std::any_of(lab.reports().begin(), lab.reports().end(),
+                           [](const motionlcm::sim_report_t& r) { return r.kind == motionlcm::sim_report_t::MOTION_FINISHED; });
+      },
+      seconds(5)));
+  const motionlcm::sim_report_t* started = nullptr;
+  const motionlcm::sim_report_t* finished = nullptr;
+  for (const auto& r : lab.reports()) {
+    if (r.drive != "a-drive") continue;
+    if (r.kind == motionlcm::sim_report_t::MOTION_STARTED && started == nullptr) started = &r;
+    if (r.kind == motionlcm::sim_report_t::MOTION_FINISHED) finished = &r;
+  }
+  ASSERT_NE(started, nullptr);
+  ASSERT_NE(finished, nullptr);
+  EXPECT_EQ(started->target_counts, 2500);
+  EXPECT_EQ(finished->position_counts, 2500);
+  // The simulated drive's own start and finish: the duration the coordinator predicted, early by
+  // at most the start-speed jump the trapezoid model ignores (200Eh 10 rpm = 533 counts/s here,
+  // quantizer.hpp: tens of ms on this move), never late.
+  const double measured_s = static_cast<double>(finished->frame_utime - started->frame_utime) / 1e6;
+  std::printf("90 degrees at 3200 counts/rev: predicted %.4f s, measured %.4f s (simulated drive)\n", done.predicted_duration_s, measured_s);
+  ASSERT_GT(done.predicted_duration_s, 0.3);
+  EXPECT_LE(measured_s, done.predicted_duration_s + 0.01) << "measured " << measured_s << " s, predicted " << done.predicted_duration_s << " s";
+  EXPECT_GE(measured_s, done.predicted_duration_s - 0.05) << "measured " << measured_s << " s, predicted " << done.predicted_duration_s << " s";
+}
+
+}  // namespace
+}  // namespace motion::testing
