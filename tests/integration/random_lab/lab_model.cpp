@@ -388,16 +388,6 @@ std::vector<std::string> some_axes(std::mt19937_64& rng, const LabSpec& lab, int
   return names;
 }
 
-// Slowest scale at which a move of `axes` to `targets` still ends within `seconds`.
-double scale_for(const LabSpec& lab, const Model& model, const std::vector<std::string>& axes, const std::vector<double>& targets, double seconds) {
-  double need = 0;
-  for (std::size_t i = 0; i < axes.size(); ++i) {
-    const auto& spec = *lab.find(axes[i]);
-    const double d = std::abs(targets[i] - model.axes().at(axes[i]).commanded);
-    need = std::max(need, d / (spec.velocity * seconds) + spec.velocity / (spec.acceleration * seconds));
-  }
-  return need;
-}
 
 
 // A move of up to three axes (to targets within their limits, a few seconds long) with a fault on
@@ -432,6 +422,21 @@ Step fault_step(std::mt19937_64& rng, const LabSpec& lab, const Model& model) {
 }
 
 }  // namespace
+
+// Slowest scale at which a move of `axes` to `targets` still ends within `seconds`.
+double scale_for(const LabSpec& lab, const Model& model, const std::vector<std::string>& axes, const std::vector<double>& targets, double seconds) {
+  double need = 0;
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    const auto& spec = *lab.find(axes[i]);
+    const auto& axis = model.axes().at(axes[i]);
+    // Where an axis stands after a stopped jog or a fault is not known to the model: the farther
+    // limit bounds the distance (a slow move from there outlasted its timeout: seed 7097).
+    const double d = axis.at_target ? std::abs(targets[i] - axis.commanded)
+                                    : std::max(std::abs(targets[i] - spec.min), std::abs(targets[i] - spec.max));
+    need = std::max(need, d / (spec.velocity * seconds) + spec.velocity / (spec.acceleration * seconds));
+  }
+  return need;
+}
 
 std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int count, bool chaos) {
   Model model(lab);

@@ -145,6 +145,10 @@ class Model {
   std::map<std::string, bool> busy_;
 };
 
+// The slowest velocity/acceleration scale at which a move of `axes` to `targets` ends within
+// `seconds` (an axis of unknown position is taken at its farther limit).
+double scale_for(const LabSpec& lab, const Model& model, const std::vector<std::string>& axes, const std::vector<double>& targets,
+                 double seconds);
 std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int count, bool chaos = false);
 
 // --------------------------------------------------------------------------- running and shrinking

@@ -125,6 +125,20 @@ TEST(RandomLabModel, RefusalsNameEveryApplicableCode) {
   EXPECT_FALSE(m.axes().at("a").counts.has_value());
 }
 
+// After a jog the model does not know where the axis stands: a move's speed is sized for the
+// farther limit. (Sized from the last commanded target, a 5 % move after a jog was a 47 s plan
+// that the coordinator rightly refused: seed 7097.)
+TEST(RandomLabModel, MoveSpeedIsSizedFromTheFartherLimitWhenThePositionIsUnknown) {
+  Model m(one_axis(10, -50, 150));
+  m.request(request_t::ENABLE, {"a"}, {0}, 0, 0, 0, true);
+  ASSERT_TRUE(m.request(request_t::MOVE_ABSOLUTE, {"a"}, {-20}, 0, 0, 0, true).done());
+  const double known = scale_for(one_axis(10, -50, 150), m, {"a"}, {-19}, 6.0);
+  m.axis("a").at_target = false;  // a jog ran and was stopped somewhere
+  const double unknown = scale_for(one_axis(10, -50, 150), m, {"a"}, {-19}, 6.0);
+  EXPECT_NEAR(known, 1.0 / (360 * 6.0) + 360.0 / (1440 * 6.0), 1e-9);  // from -20 to -19
+  EXPECT_NEAR(unknown, 169.0 / (360 * 6.0) + 360.0 / (1440 * 6.0), 1e-9);  // from 150 to -19
+}
+
 TEST(RandomLabModel, OneSeedGivesOneCase) {
   const auto a = make_case(42, 30);
   const auto b = make_case(42, 30);
