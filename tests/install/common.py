@@ -2,8 +2,10 @@
 processes that are always killed by pid."""
 
 import os
-import signal
-import time
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support", "python"))
+from motion_testproc import Failure, kill_pid, unique_lcm_url, wait_for  # noqa: E402,F401 (re-exported)
 
 # One simulated CAN bus with one UIM342 drive and one axis: enough for every program to start.
 TINY_CONFIG = """\
@@ -23,43 +25,11 @@ axes:
 """
 
 
-class Failure(Exception):
-    pass
-
-
-def unique_lcm_url(salt):
-    """A multicast port of this process's own, as tests/support's unique_lcm_url() picks them."""
-    return "udpm://239.255.76.67:%d?ttl=0" % (20000 + (os.getpid() * 7 + salt) % 40000)
-
-
 def write_tiny_config(folder):
     path = os.path.join(folder, "tiny.yaml")
     with open(path, "w") as f:
         f.write(TINY_CONFIG)
     return path
-
-
-def kill_pid(pid, grace=3.0):
-    """SIGTERM, up to `grace` seconds, then SIGKILL; returns the exit status (None if killed hard)."""
-    try:
-        os.kill(pid, signal.SIGTERM)
-    except ProcessLookupError:
-        return None
-    deadline = time.monotonic() + grace
-    while time.monotonic() < deadline:
-        try:
-            done, status = os.waitpid(pid, os.WNOHANG)
-        except ChildProcessError:
-            return None
-        if done == pid:
-            return os.waitstatus_to_exitcode(status)
-        time.sleep(0.02)
-    try:
-        os.kill(pid, signal.SIGKILL)
-        os.waitpid(pid, 0)
-    except (ProcessLookupError, ChildProcessError):
-        pass
-    return None
 
 
 class Processes:

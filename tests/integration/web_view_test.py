@@ -15,11 +15,13 @@ import argparse
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
 import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support", "python"))
+from motion_testproc import Failure, kill_pid, unique_lcm_url, wait_for  # noqa: E402
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMEDRIVER = "/usr/bin/chromedriver"
@@ -27,27 +29,6 @@ SKIP = 77
 MOVED_AXIS = "x"  # the axis whose row and plot are checked
 TARGET = 40.0     # user units, inside x's limits in config/sim-lab.yaml
 OTHER = ("y", 25.0)  # moved with it, so the plot shows a synchronized move
-
-
-def unique_lcm_url(salt=3):
-    """A multicast port of this process's own, as tests/support's unique_lcm_url() picks them."""
-    return "udpm://239.255.76.67:%d?ttl=0" % (20000 + (os.getpid() * 7 + salt) % 40000)
-
-
-class Failure(Exception):
-    pass
-
-
-def wait_for(what, predicate, timeout, period=0.1):
-    """Polls predicate() until it returns something truthy; Failure naming `what` on timeout."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = predicate()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise Failure("timed out after %.0f s waiting for %s" % (timeout, what))
-        time.sleep(period)
 
 
 def start_time(pid):
@@ -81,37 +62,12 @@ def descendants(pid):
     return out
 
 
-def kill_pid(pid, grace=3.0):
-    """SIGTERM, up to `grace` seconds, then SIGKILL; a pid that is gone already is fine."""
-    try:
-        os.kill(pid, signal.SIGTERM)
-    except ProcessLookupError:
-        return
-    deadline = time.monotonic() + grace
-    while time.monotonic() < deadline:
-        try:
-            done, _ = os.waitpid(pid, os.WNOHANG)
-            if done == pid:
-                return
-        except ChildProcessError:  # not our child: poll its existence
-            try:
-                os.kill(pid, 0)
-            except ProcessLookupError:
-                return
-        time.sleep(0.05)
-    try:
-        os.kill(pid, signal.SIGKILL)
-        os.waitpid(pid, 0)
-    except (ProcessLookupError, ChildProcessError):
-        pass
-
-
 class Lab:
     """The simulated lab and motion-web as child processes with logs in `work`."""
 
     def __init__(self, args, work):
         self.args, self.work = args, work
-        self.url = unique_lcm_url()
+        self.url = unique_lcm_url(3)
         self.env = dict(os.environ, MOTION_SIM_DIR=os.path.join(work, "sim"), LCM_DEFAULT_URL=self.url)
         self.procs = {}  # name -> Popen
 
