@@ -298,11 +298,11 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
       reasons.push_back(error_code(ReplyError::kUnsupported));
     }
     if (kind == request_t::JOG && std::abs(v) > spec.velocity) reasons.push_back(error_code(ReplyError::kOutsideLimits));
-    // A jog toward a limit the axis stands at or beyond, compared in counts.
+    // A jog with less than one whole count left before the limit in its direction, in counts.
     if (kind == request_t::JOG && v != 0 && a.counts) {
       const double limit = (v > 0 ? spec.max : spec.min) * spec.steps_per_unit;
       const auto at = static_cast<double>(*a.counts);
-      if (v > 0 ? at >= limit : at <= limit) reasons.push_back(error_code(ReplyError::kOutsideLimits));
+      if ((v > 0 ? limit - at : at - limit) < 1.0) reasons.push_back(error_code(ReplyError::kOutsideLimits));
     }
     if (kind == request_t::HOME && !spec.homing) reasons.push_back(error_code(ReplyError::kUnsupported));
     // A UC57 sets its present position to zero only (2012h): another offset is unsupported.

@@ -261,6 +261,32 @@ TEST(RandomLabRegression, Seed11Uim242OneCountCrawlIsNotAStop) {
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// Soak seed 7167: a UIM242 (533.33 counts/u) set to its upper limit 43 u stands at 22933 counts,
+// a third of a count inside 22933.33; a jog toward the limit was accepted, the gateway's watch
+// stopped it at once, but the stop reached the drive over the serial line after the jog's speed
+// and the axis ended at 22935. Now a jog with less than one whole count to go is REJECTED, and a
+// UIM242 jog is a position move onto the last count inside the limit: from one count away at full
+// speed it ends inside the limit, however late the stop comes.
+TEST(RandomLabRegression, Seed7167Uim242JogNextToItsLimitNeverPassesIt) {
+  LabSpec spec;
+  spec.can_bitrate = 125000;
+  spec.rs485_baud = 9600;
+  spec.rs232_baud = 19200;
+  spec.rs485_parity = "none";
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uim242", "rs232", 125, 0}, 533.33333333333337, -4, 43, 21, 145, false, 0, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 2, 13 /* SET_POSITION */, {"ax2"}, {43.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop, 0, 3 /* JOG */, {"ax2"}, {6.04}, 0.0, 0.0, 0, 0, 0, 2, 5 /* ESTOP */, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 2, 13 /* SET_POSITION */, {"ax2"}, {42.9975}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},  // 22932 counts
+      Step{Op::kJogStop, 1, 3 /* JOG */, {"ax2"}, {21.0}, 0.0, 0.0, 0, 0, 0, 2, 4 /* STOP */, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop, 1, 3 /* JOG */, {"ax2"}, {-21.0}, 0.0, 0.0, 0, 0, 0, 2, 4 /* STOP */, 0, {}, {}, 0, 0},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 // A UIM242 jog e-stopped, then every axis enabled: ENA ran the motor at the jog's speed again
 // (the controller keeps its desired speed while disabled) and it ran on through the limits.
 TEST(RandomLabRegression, Seed12Uim242JogDoesNotResumeAfterEstopAndEnable) {
