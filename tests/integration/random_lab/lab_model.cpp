@@ -107,6 +107,11 @@ std::string LabSpec::yaml() const {
   }
   y << "coordinator: {default_timeout_ms: 20000, progress_period_ms: 200, trigger_lead_ms: 30, gateway_timeout_ms: 1500}\n"
        "simulation: {reply_latency_us: 200}\n";
+  // The key files are the runner's, next to the configuration (paths relative to it).
+  if (security) {
+    y << "security:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n  coordinator_public_key: coordinator.pub\n"
+         "  window_ms: 5000\n";
+  }
   return y.str();
 }
 

@@ -36,6 +36,9 @@ Case make_case(std::uint64_t seed, int steps, bool chaos = false) {
   options.chaos = chaos;
   Case c;
   c.lab = generate_lab(rng, options);
+  // Every other seed runs the lab under security (signed requests and gateway commands); set
+  // apart from the generator, so that a seed's lab and steps stay what they were.
+  c.lab.security = seed % 2 == 1;
   c.steps = generate_steps(rng, c.lab, steps, options.chaos);
   return c;
 }
@@ -45,11 +48,12 @@ struct Totals {
   int seeds = 0, requests = 0, drives = 0, faults = 0, faults_biting = 0;
   std::map<std::string, int> families, parities;
   int switch_homing = 0;
+  int secured = 0;  // seeds run under security: enforce
   void print(const char* what) const {
     std::printf("%s: %d seeds, %d requests, %d faults injected (%d ended their move short of DONE), %d drives (", what, seeds, requests, faults,
                 faults_biting, drives);
     for (const auto& [f, n] : families) std::printf("%s %d, ", f.c_str(), n);
-    std::printf("%d axes homing by switch), RS485 parity:", switch_homing);
+    std::printf("%d axes homing by switch), %d seeds under security enforce, RS485 parity:", switch_homing, secured);
     for (const auto& [p, n] : parities) std::printf(" %s %d", p.c_str(), n);
     std::printf("\n");
     std::fflush(stdout);
@@ -60,7 +64,7 @@ struct Totals {
 // reproduction. True when the seed passed.
 bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget, Totals& totals, bool chaos = false) {
   const Case c = make_case(seed, steps, chaos);
-  std::printf("seed %llu: %zu drives, %zu steps\n", static_cast<unsigned long long>(seed), c.lab.axes.size(), c.steps.size());
+  std::printf("seed %llu: %zu drives, %zu steps%s\n", static_cast<unsigned long long>(seed), c.lab.axes.size(), c.steps.size(), c.lab.security ? ", security enforce" : "");
   std::fflush(stdout);
   RunOptions options;
   options.verbose = env_u64("RANDOM_LAB_VERBOSE", 0) != 0;
@@ -78,6 +82,7 @@ bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget,
     rs485 = rs485 || a.drive.bus == "rs485";
   }
   if (rs485) ++totals.parities[c.lab.rs485_parity];
+  if (c.lab.security) ++totals.secured;
   if (result.ok) return true;
   std::printf("seed %llu FAILS at step %d: %s\n%s", static_cast<unsigned long long>(seed), result.failed_step, result.failure.c_str(), result.log.c_str());
   const auto shrunk = shrink(c.lab, c.steps, result, shrink_budget);
