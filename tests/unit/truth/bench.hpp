@@ -57,6 +57,7 @@ struct Report {
   std::string drive;
   std::int8_t kind = 0;
   TimePoint at{};
+  std::int64_t frame_utime = 0;  // the triggering frame's time, or a motion's end
   std::int64_t position = 0;
   std::int64_t target = 0;
 };
@@ -76,8 +77,8 @@ class SerialBench {
     context.send = [this](std::span<const std::uint8_t> bytes, Duration delay) {
       to_core.push_back({now + delay, std::vector<std::uint8_t>(bytes.begin(), bytes.end())});
     };
-    context.report = [this](const std::string& drive, std::int8_t kind, std::int64_t, std::int64_t position, std::int64_t target) {
-      reports.push_back({drive, kind, now, position, target});
+    context.report = [this](const std::string& drive, std::int8_t kind, std::int64_t utime, std::int64_t position, std::int64_t target) {
+      reports.push_back({drive, kind, now, utime, position, target});
     };
     context.utime_of = [](TimePoint t) { return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count(); };
     device = sim_factory(*config, *config->find_bus(bus), context);
