@@ -151,6 +151,13 @@ class SerialBench {
     none.reason = "no terminal reply";
     return none;
   }
+  // The start_mechanism of command `id`'s STARTED reply ("" when none).
+  [[nodiscard]] std::string mechanism_of(std::int64_t id) const {
+    for (const auto& r : out.replies) {
+      if (r.command_id == id && r.status == motionlcm::gateway_reply_t::STARTED) return r.start_mechanism;
+    }
+    return {};
+  }
   [[nodiscard]] std::vector<Report> reports_of(const std::string& drive, std::int8_t kind) const {
     std::vector<Report> r;
     std::copy_if(reports.begin(), reports.end(), std::back_inserter(r), [&](const Report& x) { return x.drive == drive && x.kind == kind; });

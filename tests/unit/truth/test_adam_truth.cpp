@@ -69,6 +69,11 @@ TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
   bench.core->fire(5, bench.now);
   const auto done = bench.finish(move);
   ASSERT_EQ(done.status, kDone) << done.reason;
+  // What the stack reported is what the drives did: one broadcast frame started both.
+  EXPECT_EQ(bench.mechanism_of(move), "broadcast");
+  ASSERT_EQ(bench.reports_of("c1-drive", kStarted).size(), 1u);
+  ASSERT_EQ(bench.reports_of("c2-drive", kStarted).size(), 1u);
+  EXPECT_EQ(bench.reports_of("c1-drive", kStarted)[0].frame_utime, bench.reports_of("c2-drive", kStarted)[0].frame_utime);
   for (const auto& [drive, target] : {std::pair{std::string("c1-drive"), 32000}, std::pair{std::string("c2-drive"), -16000}}) {
     SCOPED_TRACE(drive);
     EXPECT_EQ(line.position(drive, bench.now), target);

@@ -70,6 +70,13 @@ TEST_P(Uim242Reboot, IcfIsWrittenOnceTheRebootWaitedOutAndAMoveLands) {
   bench.core->fire(9, bench.now);
   const auto done = bench.finish(move);
   ASSERT_EQ(done.status, kDone) << done.reason;
+  // Equal speeds: one global `gSPD` started both, as reported.
+  const auto u1 = bench.reports_of("u1-drive", kStarted);
+  const auto u2 = bench.reports_of("u2-drive", kStarted);
+  ASSERT_EQ(u1.size(), 1u);
+  ASSERT_EQ(u2.size(), 1u);
+  EXPECT_EQ(u1[0].frame_utime, u2[0].frame_utime) << "reported " << bench.mechanism_of(move);
+  EXPECT_EQ(bench.mechanism_of(move), "broadcast");
   EXPECT_EQ(line.position("u1-drive", bench.now), 1600);
   EXPECT_EQ(line.position("u2-drive", bench.now), -800);
 }

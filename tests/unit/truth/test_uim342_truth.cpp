@@ -79,8 +79,9 @@ class Uim342Bench {
       context.drive = d.name;
       context.bus = d.bus;
       context.send = [this](const can::Frame& f) { to_stack.push_back(f); };
-      context.report = [this, name = d.name](std::int8_t kind, std::int64_t, std::int64_t, std::int64_t) {
+      context.report = [this, name = d.name](std::int8_t kind, std::int64_t frame_utime, std::int64_t, std::int64_t) {
         if (kind == motionlcm::sim_report_t::POWERED_UP) ++boots[name];
+        if (kind == motionlcm::sim_report_t::MOTION_STARTED) starts[name].push_back(frame_utime);
       };
       drives.push_back(std::make_unique<sim::Uim342Drive>(stored, context, sim::Uim342Identity{}, std::nullopt, apply));
     }
@@ -140,6 +141,7 @@ class Uim342Bench {
   std::unique_ptr<Uim342Stack> stack;
   std::vector<std::unique_ptr<sim::Uim342Drive>> drives;
   std::map<std::string, int> boots;
+  std::map<std::string, std::vector<std::int64_t>> starts;  // frame times of MOTION_STARTED
   std::deque<can::Frame> to_drives, to_stack;
   TimePoint now = TimePoint{} + std::chrono::seconds(10);
   std::int64_t next_id = 0;
@@ -189,6 +191,15 @@ TEST_P(Uim342MicroSteps, SetUpRestartsOnceAndAMoveLandsOnThePhysicalTarget) {
   ASSERT_TRUE(bench.run_until([&] { return bench.terminal(id).has_value(); }, std::chrono::seconds(5)));
   const auto done = *bench.terminal(id);
   ASSERT_EQ(done.status, kDone) << done.reason;
+  // What the stack reported is what the drives did: one group BG frame started both.
+  std::string mechanism;
+  for (const auto& r : bench.out.replies) {
+    if (r.command_id == id && r.status == gateway_reply_t::STARTED) mechanism = r.start_mechanism;
+  }
+  EXPECT_EQ(mechanism, "group-bg");
+  ASSERT_EQ(bench.starts["x-drive"].size(), 1u);
+  ASSERT_EQ(bench.starts["y-drive"].size(), 1u);
+  EXPECT_EQ(bench.starts["x-drive"][0], bench.starts["y-drive"][0]) << "not started by one frame";
   EXPECT_NEAR(bench.drives[0]->shaft_full_steps(bench.now), 400.0, 1e-9) << "x: 10 mm = 2 rev = 400 full steps";
   EXPECT_NEAR(bench.drives[1]->shaft_full_steps(bench.now), 200.0, 1e-9) << "y: 5 mm = 1 rev = 200 full steps";
 }
