@@ -189,7 +189,8 @@ void Uim242BusCore::on_notification(const uim242::Notification& n, TimePoint now
   Drive& d = **it;
   switch (n.event) {
     case uim242::Event::displacement_complete:
-      if (n.position) d.status.position_counts = d.status.target_counts;
+      // The position is the arriving move's target (move_axis_arrived); a displacement that is not
+      // a move's (a jog run onto its limit) leaves the position to the next poll.
       move_axis_arrived(d, now);
       return;
     case uim242::Event::stall: {

@@ -17,6 +17,7 @@
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/param_t.hpp>
 
+#include "motion/gateway/axis_limits.hpp"
 #include "motion/gateway/serial_line.hpp"
 #include "motion/lcm/reply_error.hpp"
 
@@ -119,6 +120,9 @@ struct Uim242BusCore::Drive {
   uim242::Event homing_edge = uim242::Event::s1_falling;
   uim242::ScfWrite homing_restore;
   std::int64_t homing_offset = 0;
+  // The jog being started (its instructions queued or its rest awaited): a stop ends it, so
+  // nothing of it reaches the drive after the stop.
+  std::int64_t jog_command = 0;
 };
 
 struct Uim242BusCore::Command {

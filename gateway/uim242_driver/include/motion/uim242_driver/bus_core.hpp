@@ -32,7 +32,11 @@
 //   `gSPD v;` starts them all ("broadcast", skew 0); otherwise `SPD v_i;` axis by axis
 //   ("sequential", skew = the serial time of the other axes' starts). trigger 0 = at once.
 //   DONE when every axis reported A8 or was polled at its target at rest.
-// * JOG `STP 0; MAC; MDE; SPD v;`. STOP `STP 0;` (ramped stop, leaves PT), DONE at rest with the
+// * JOG `STP 0; MAC; MDE; SPD 0;`, then at rest (settle) `STP n; SPD |v|;`: a position move
+//   (PT mode, EN/CN §6.1) to the last whole count inside the axis limit in the jog's direction, at
+//   the jog's speed. The drive itself decelerates onto the limit, so a stop that reaches it late
+//   over the serial line (the gateway's jog watch) cannot let it pass. Less than one whole count
+//   from the limit: FAILED, outside limits. STOP `STP 0;` (ramped stop, leaves PT), DONE at rest with the
 //   position re-read (settle): a move planned right after it starts from where the axis really
 //   stopped. ESTOP `OFF;` (the only
 //   immediate stop the manual offers; `gOFF;` when every drive of the bus is named).
@@ -139,6 +143,7 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   // calls `then`; the command FAILS when it still moves at `give_up`.
   void settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then);
   void home(Command& c, Drive& d, const config::Axis& axis, const motionlcm::axis_command_t& a);
+  void jog(Command& c, Drive& d, const motionlcm::axis_command_t& a);
   void homed(Drive& d, std::int64_t offset, TimePoint now);
   void param(const motionlcm::gateway_command_t& command, Drive& d, bool write);
 
