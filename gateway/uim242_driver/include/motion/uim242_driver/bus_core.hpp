@@ -14,7 +14,9 @@
 //   then the set-up: `SCF;` and, when S34CON.STALL is 0000 (which silences the stall
 //   notification), S34CON.STALL := 0001 (notify, no action); `MCS`, `CUR` (setup micro_steps,
 //   current_a), `MCF` (setup mcfg, default CM + STPIE + STLIE: ramps, A8 arrival and stall
-//   notifications), `ICF` (only when configured: it reboots), `QER`, `SQT`, `MMS 0;` `MMD 0;`
+//   notifications), `QER`, `SQT`, `MMS 0;` `MMD 0;` — all after `ICF` when `icfg` is configured
+//   (read first; written only when different, then the reboot is waited out and the value read
+//   back, §5.1),
 //   (exact trapezoids), `STP 0;` (velocity mode, at rest). An unanswered drive is offline and
 //   identified again every second.
 // * Polling at poll_hz, one request at a time: `FBK;` (enabled, speed) and `QEC;` (position).
@@ -99,6 +101,8 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   [[nodiscard]] bool ready() const override;
   [[nodiscard]] motionlcm::bus_stats_t statistics() const override;
   [[nodiscard]] std::vector<std::string> axes() const;
+  // ICF writes sent and acknowledged since construction (each is an EEPROM write and a reboot).
+  [[nodiscard]] std::int64_t icf_writes() const noexcept { return icf_writes_; }
 
  private:
   struct Drive;
@@ -122,6 +126,9 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   // ---- start-up and polling
   void identify(Drive& d, TimePoint now);
   void set_up(Drive& d);
+  void set_up_steps(Drive& d);  // everything after ICFG (see set_up)
+  void verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up, TimePoint now);
+  void after(TimePoint due, std::function<void(TimePoint)> then);
   void poll(TimePoint now);
   void mark_offline(Drive& d, const std::string& reason, TimePoint now);
 
@@ -157,6 +164,12 @@ class Uim242BusCore final : public gateway::SerialLineCore {
     std::function<void(TimePoint)> then;
   };
   std::vector<RestCheck> rest_checks_;  // settles waiting for their next `FBK;`
+  struct Timer {
+    TimePoint due;
+    std::function<void(TimePoint)> then;
+  };
+  std::vector<Timer> timers_;  // one-shot waits (an ICF reboot)
+  std::int64_t icf_writes_ = 0;
   TimePoint next_poll_{};
   TimePoint next_identify_{};
   std::int64_t protocol_errors_ = 0;
