@@ -48,6 +48,9 @@ constexpr std::uint8_t kMaxOutputs = 8;  // Y0…Y7 (§8.51)
 constexpr std::uint16_t kForceOpenLoopLines = 0xFFFF;
 // Reply latency assumed (the manual gives none) for the predicted skew of a sequential start.
 constexpr auto kAssumedDriveLatency = std::chrono::milliseconds(1);
+// A line reserved for a scheduled start frame (reserve_line) is released this long after the
+// start time when its fire never came.
+constexpr auto kReservationGrace = std::chrono::milliseconds(5);
 
 inline std::string hex16(std::uint32_t value) { return fmt::format("0x{:04X}", value); }
 

@@ -260,7 +260,10 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
   (void)now;
 }
 
+void Uim242BusCore::reserve_line(TimePoint at, TimePoint /*now*/) { channel_.reserve(at); }
+
 void Uim242BusCore::fire(std::int64_t trigger_id, TimePoint now) {
+  channel_.reserve(kNever);
   // start_move() may end a move at once (every axis already at its target: DONE), and finish()
   // erases it from moves_: walk a list of the command ids, and look each one up again.
   std::vector<std::int64_t> ids;

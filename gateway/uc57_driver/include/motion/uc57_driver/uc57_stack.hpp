@@ -144,6 +144,16 @@ class Uc57Stack final : public gateway::CanStack {
   [[nodiscard]] RpdoImage latest_image(std::size_t n) const;
   void send_image(std::size_t n, const RpdoImage& image);
   void run_sync_cycle(TimePoint now);
+  // Preloading (scheduled starts): once every node of an ARM_MOVE waiting for a trigger is armed,
+  // each node's start image (bit 4 = 1) goes out at once in its synchronous RPDO1 (transmission
+  // type 1: applied at the next SYNC, UC57 manual §5 "RPDO communication parameters", CiA 301
+  // §7.2.2.2), so that at fire() only the SYNC goes on the wire. Any other SYNC before the fire
+  // must not apply it: masked_sync() sends the armed image (bit 4 = 0) of every preloaded node
+  // before it and the start image again after it; a node whose move is no longer armed gets its
+  // armed image back and leaves the preload.
+  void preload(const Job& job);
+  void send_preload(std::size_t n);
+  void masked_sync(TimePoint now, const std::function<void()>& sync);
   [[nodiscard]] bool image_applied(std::size_t n);  // the last queued image is in the drive for sure
   void publish_status(std::size_t n);
 

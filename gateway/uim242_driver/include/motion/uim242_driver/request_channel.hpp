@@ -53,6 +53,12 @@ class RequestChannel {
   bool on_frame(const uim242::Frame& frame, TimePoint now);
   // Sends the next request, handles the timeout; returns the next deadline or kNever.
   TimePoint process(TimePoint now);
+  // A start frame goes out at `at` (kNever: no reservation): until then no request starts that
+  // would still be waiting for its reply then (its instruction, a 24-character reply and
+  // kReplyAllowance), nor any from `at` on, so the start is not queued behind a poll. Ends with
+  // reserve(kNever) (the start) or by itself 5 kReplyAllowance after `at`.
+  void reserve(TimePoint at) { reserved_at_ = at; }
+  static constexpr Duration kReplyAllowance = std::chrono::milliseconds(2);
   // Drops queued requests of `group` (the one in flight still completes, its callbacks are not called).
   void cancel(std::int64_t group);
   // Drops every request, queued and in flight, without calling back (the line is gone); the
@@ -82,6 +88,7 @@ class RequestChannel {
   std::deque<Request> queue_;
   std::optional<InFlight> in_flight_;
   int selected_ = 0;  // the gateway's current target; 0 = unknown
+  TimePoint reserved_at_ = kNever;
   ChannelStatistics stats_;
 };
 
