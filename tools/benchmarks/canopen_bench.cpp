@@ -25,7 +25,8 @@
 //      itself imposes on a SYNC (a SYNC ready while another frame is on the wire waits for it).
 //      Twice in one run: (a) on the loop's own timer (ppoll timeout, the default 50 us timer
 //      slack), as before; (b) on a PreciseTimer (timerfd, TFD_TIMER_ABSTIME) with the thread's
-//      timer slack at 1 ns, as CanBusDriver runs its stacks' deadlines now.
+//      timer slack at 1 ns, as CanBusDriver runs its stacks' deadlines now; (c) the same under
+//      SCHED_FIFO (priority 50) where the process is permitted (not used by the gateway yet).
 //   3. Boot and configure: Uc57Stack (inside gateway::CanBusDriver, as motion-gateway runs it)
 //      against 1, 8 and 32 simulated UC57s (sim::CanBusHost, as motion-sim runs them; reply
 //      latency 0), from start() until ready() (every node configured, NMT started and its
@@ -306,10 +307,15 @@ void bench_sdo(bool quick) {
 
 // ---- 2. SYNC jitter ----------------------------------------------------------------------------
 
-void bench_sync(bool quick, bool precise) {
+void bench_sync(bool quick, bool precise, bool fifo = false) {
   const std::size_t periods = quick ? 1000 : 10000;
   const Duration period = 1ms;
   if (precise) minimal_timer_slack();  // this thread from here on (part 3 runs after it)
+  const bool realtime = fifo && fifo_scheduling(50);
+  if (fifo && !realtime) {
+    g_rows.push_back({"SYNC 1 kHz period jitter [+ SCHED_FIFO]", "-", "-", 0.0, "SCHED_FIFO not permitted here: not measured"});
+    return;
+  }
   Pump pump(nullptr);
   auto hub = open_hub(pump.loop(), precise ? "syncbench2" : "syncbench");
   auto producer_ep = hub->attach_local("producer");
@@ -342,6 +348,7 @@ void bench_sync(bool quick, bool precise) {
   pump.loop().cancel(timer);
   precise_timer.cancel();
   pump.loop().unwatch(receiver_ep->fd());
+  if (realtime) normal_scheduling();
 
   std::vector<double> jitter;
   for (std::size_t i = 1; i < stamps.size(); ++i) {
@@ -352,7 +359,7 @@ void bench_sync(bool quick, bool precise) {
   const double p50 = percentile(jitter, 0.5);
   const double p99 = percentile(jitter, 0.99);
   const double max = jitter.empty() ? 0 : *std::max_element(jitter.begin(), jitter.end());
-  const std::string how = precise ? " [timerfd abs, slack 1 ns]" : " [loop timer, default slack]";
+  const std::string how = realtime ? " [timerfd, slack 1 ns, FIFO]" : precise ? " [timerfd abs, slack 1 ns]" : " [loop timer, default slack]";
   const std::string note = std::to_string(jitter.size()) + " periods, " + std::to_string(producer.skipped()) + " skipped by the producer" +
                            (precise && !precise_timer.absolute() ? "; NO timerfd: loop timer fallback" : "");
   g_rows.push_back({"SYNC 1 kHz period jitter p50" + how, fmt("%.1f us", p50), fmt("%.0f us (8-byte frame)", frame_us), p50 / frame_us, note});
@@ -471,6 +478,7 @@ int main(int argc, char** argv) {
   if (!sync_only) motion::bench_sdo(quick);
   motion::bench_sync(quick, false);
   motion::bench_sync(quick, true);
+  motion::bench_sync(quick, true, true);
   if (!sync_only) {
     for (const int nodes : {1, 8, 32}) motion::bench_boot(nodes, dir);
   }

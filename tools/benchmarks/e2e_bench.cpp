@@ -345,6 +345,7 @@ int run(bool quick, bool skew_only) {
       std::vector<double> measured;
       std::vector<double> truth;
       std::vector<double> predicted;
+      std::map<std::string, std::vector<double>> offset;  // drive -> start minus the first CAN start (x-drive)
       const int n = quick ? 4 : skew_only ? 30 : 12;
       for (int i = 0; i < n && rc == 0; ++i) {
         Values targets;
@@ -369,6 +370,10 @@ int run(bool quick, bool skew_only) {
             hi = std::max(hi, s.frame_utime);
           }
           truth.push_back(static_cast<double>(hi - lo));
+          const auto x = std::find_if(reports.begin(), reports.end(), [](const motionlcm::sim_report_t& s) { return s.drive == "x-drive"; });
+          if (x != reports.end()) {
+            for (const auto& s : reports) offset[s.drive].push_back(static_cast<double>(s.frame_utime - x->frame_utime));
+          }
         }
         predicted.push_back(scheduled.empty() ? 0.0 : scheduled.back().predicted_spread_us);
       }
@@ -383,6 +388,9 @@ int run(bool quick, bool skew_only) {
       }
       rows.push_back({"start skew " + label + ", coordinator measured", percentile(measured, 50), percentile(measured, 99),
                       "ground truth p50", percentile(truth, 50)});
+      for (const auto& [drive, values] : offset) {
+        if (drive != "x-drive") rows.push_back({"  " + drive + " start - x-drive start (ground truth)", percentile(values, 50), percentile(values, 99), "", NAN});
+      }
     };
     skew_run({"x", "y", "a", "b"}, "one bus (x,y,a,b: BG+SYNC)", true);
     skew_run({"x", "y", "a", "b", "c"}, "two buses (+c rs485)", false);

@@ -1,5 +1,6 @@
 #include "motion/core/precise_timer.hpp"
 
+#include <sched.h>
 #include <sys/prctl.h>
 #include <sys/timerfd.h>
 #include <unistd.h>
@@ -11,6 +12,18 @@
 namespace motion {
 
 bool minimal_timer_slack() { return ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL) == 0; }
+
+bool fifo_scheduling(int priority) {
+  sched_param param{};
+  param.sched_priority = priority;
+  return ::sched_setscheduler(0, SCHED_FIFO, &param) == 0;
+}
+
+void normal_scheduling() {
+  sched_param param{};
+  param.sched_priority = 0;
+  ::sched_setscheduler(0, SCHED_OTHER, &param);
+}
 
 PreciseTimer::PreciseTimer(EventLoop& loop) : loop_(loop) {
   // std::chrono::steady_clock is CLOCK_MONOTONIC (libstdc++, libc++): its time points are the

@@ -10,6 +10,7 @@
 // minimal_timer_slack(): the calling thread's timer slack to 1 ns (prctl PR_SET_TIMERSLACK; the
 // default is 50 us, by which the kernel may defer any timed wake-up, ppoll's included). Returns
 // false when the kernel refused it.
+// fifo_scheduling(): optional SCHED_FIFO for the same purpose, where permitted.
 //
 // Thread contract: the loop's thread only (as EventLoop). The callback may re-arm or cancel.
 #pragma once
@@ -22,6 +23,12 @@
 namespace motion {
 
 bool minimal_timer_slack();
+// The calling thread under SCHED_FIFO at `priority` (1..99), where the process is permitted
+// (CAP_SYS_NICE or an RLIMIT_RTPRIO); false, and nothing changed, otherwise. Only for a thread
+// that blocks in its loop (a busy real-time thread starves the CPU it runs on).
+bool fifo_scheduling(int priority);
+// Back to SCHED_OTHER (nice 0).
+void normal_scheduling();
 
 class PreciseTimer {
  public:
