@@ -227,6 +227,12 @@ void CanBusDriver::release_started(std::int64_t command_id, std::int64_t echo_ut
 
 void CanBusDriver::fire(std::int64_t trigger_id) { fire_ordered(trigger_id, {}); }
 
+void CanBusDriver::prepare_fire(TimePoint at) {
+  const TimePoint now = loop_.now();
+  for (auto& s : stacks_) s->prepare_fire(at, now);
+  reschedule();
+}
+
 void CanBusDriver::fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) {
   const TimePoint now = loop_.now();
   std::vector<CanStack*> order;

@@ -644,6 +644,15 @@ void Uc57Stack::disarm(const Job& disarm_job) {
   }
 }
 
+void Uc57Stack::prepare_fire(TimePoint at, TimePoint now) {
+  now_ = now;
+  auto* sync = master_.sync();
+  if (sync == nullptr) return;
+  const TimePoint due = sync->next_deadline();
+  if (due == kNever || due < at - kQuietBeforeStart || due > at) return;
+  sync->start(at);  // next periodic SYNC one period after the start
+}
+
 void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
   now_ = now;
   std::vector<std::int64_t> ready_jobs;

@@ -42,6 +42,9 @@ class CanStack {
   // A command naming only this stack's axes; replies go through the stack's GatewayOutput.
   virtual void execute(const motionlcm::gateway_command_t& command, TimePoint now) = 0;
   virtual void fire(std::int64_t trigger_id, TimePoint now) = 0;
+  // A fire is scheduled at `at`: keep the bus quiet around it where the stack can (e.g. no
+  // periodic SYNC whose answers would still be on the wire). Default: nothing.
+  virtual void prepare_fire(TimePoint /*at*/, TimePoint /*now*/) {}
   [[nodiscard]] virtual bool ready() const = 0;
   // Adds this stack's counters (timeouts, retries, drives online/total) to the bus's.
   virtual void add_statistics(motionlcm::bus_stats_t& stats) const = 0;
@@ -72,6 +75,7 @@ class CanBusDriver final : public BusDriver {
   // The stacks fire in the order of the first of their commands in `command_order` (the others
   // after them): each stack's start frames go out back to back, in that order, in one call.
   void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) override;
+  void prepare_fire(TimePoint at) override;
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const override;
   [[nodiscard]] bool ready() const override;
 

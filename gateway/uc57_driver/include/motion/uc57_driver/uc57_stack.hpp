@@ -99,6 +99,11 @@ class Uc57Stack final : public gateway::CanStack {
   TimePoint process(TimePoint now) override;
   void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
   void fire(std::int64_t trigger_id, TimePoint now) override;
+  // No periodic SYNC within kQuietBeforeStart of a scheduled start at `at` (nor up to it): the
+  // nodes' synchronous TPDOs answering it would still be on the wire and delay the start frames.
+  // The period restarts from `at` (the start SYNC restarts it again).
+  void prepare_fire(TimePoint at, TimePoint now) override;
+  static constexpr Duration kQuietBeforeStart = std::chrono::milliseconds(3);
   [[nodiscard]] bool ready() const override;
   void add_statistics(motionlcm::bus_stats_t& stats) const override;
 
