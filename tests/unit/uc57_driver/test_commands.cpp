@@ -221,6 +221,32 @@ TEST(Uc57Commands, PreloadedStartSurvivesPeriodicSyncsAndADisarmWithdrawsIt) {
   EXPECT_EQ(*last, "201#0F0010270000");
 }
 
+TEST(Uc57Commands, NoPeriodicSyncJustBeforeAScheduledStart) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  const auto c = arm(bench, {{"a", 10000}, {"b", -3200}}, 7);
+  bench.run_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(bench.replies_of(c.command_id).size(), 1U);  // ARMED
+  // The SYNC phase: the next periodic SYNC comes one period (50 ms at poll_hz 20) after this one.
+  const auto count_syncs = [&](std::size_t from) {
+    const auto all = texts(bench.sent, from);
+    return static_cast<std::size_t>(std::count(all.begin(), all.end(), std::string("080#")));
+  };
+  std::size_t mark = bench.sent.size();
+  for (int i = 0; i < 100 && count_syncs(mark) == 0; ++i) bench.run_for(std::chrono::milliseconds(1));
+  ASSERT_EQ(count_syncs(mark), 1U);
+  const TimePoint start = bench.now + std::chrono::milliseconds(51);  // 1 ms after the next periodic SYNC
+  bench.stack->prepare_fire(start, bench.now);
+  mark = bench.sent.size();
+  bench.run_for(start - bench.now);
+  EXPECT_EQ(count_syncs(mark), 0U) << "a periodic SYNC went out 1 ms before the start";
+  bench.stack->fire(7, bench.now);
+  EXPECT_EQ(count_syncs(mark), 1U);
+  bench.run_for(std::chrono::milliseconds(120));
+  EXPECT_GE(count_syncs(mark), 3U) << "the periodic SYNC resumes after the start";
+}
+
 TEST(Uc57Commands, FaultDuringAMoveFailsItNamingAxisAndErrorCode) {
   Bench bench;
   bench.start_ready();
