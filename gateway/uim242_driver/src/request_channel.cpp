@@ -66,6 +66,7 @@ TimePoint RequestChannel::process(TimePoint now) {
   }
   if (reserved_at_ != kNever && now >= reserved_at_ + 5 * kReplyAllowance) reserved_at_ = kNever;  // its start never came
   while (!in_flight_ && !queue_.empty()) {
+    if (queue_.front().not_before > now) return queue_.front().not_before;
     if (reserved_at_ != kNever && now < reserved_at_ + 5 * kReplyAllowance) {
       const auto text = uim242::encode(queue_.front().instruction);
       const std::int64_t chars = static_cast<std::int64_t>(text ? text->size() : 16U) + 24 + (queue_.front().node != selected_ ? 8 : 0);

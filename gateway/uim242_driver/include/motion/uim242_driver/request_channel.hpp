@@ -30,6 +30,7 @@ struct Request {
   std::function<void(const uim242::Frame& reply, TimePoint now)> on_reply;
   std::function<void(const std::string& reason, bool timed_out, TimePoint now)> on_failure;
   std::function<void(TimePoint sent)> on_sent;  // each time its bytes have crossed the wire (last character's end)
+  TimePoint not_before{};  // not handed to the line before this (a start timed to the end of a longer frame)
 };
 
 struct ChannelSettings {
@@ -66,6 +67,7 @@ class RequestChannel {
   void reset();
   [[nodiscard]] bool idle() const noexcept { return !in_flight_ && queue_.empty(); }
   [[nodiscard]] const ChannelStatistics& statistics() const noexcept { return stats_; }
+  [[nodiscard]] Duration character_time() const noexcept { return settings_.character_time; }
   void count_received(std::size_t bytes) noexcept { stats_.rx_bytes += static_cast<std::int64_t>(bytes); }
   void count_protocol_error() noexcept { ++stats_.errors; }
 
