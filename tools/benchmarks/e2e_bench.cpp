@@ -248,95 +248,95 @@ int run(bool quick, bool skew_only) {
 
     const std::uint32_t bitrate = static_cast<std::uint32_t>(cfg.find_bus("can0")->bitrate);
     if (!skew_only) {
-    // 1. Raw LCM round trip.
-    Echo echo(url, node.channel("BENCH_PING"), node.channel("BENCH_PONG"));
-    std::vector<double> rtt;
-    std::optional<Steady::time_point> ping_sent;
-    bool pong = false;
-    node.subscribe_raw(node.channel("BENCH_PONG"), [&](const void*, int, const std::string&) {
-      if (ping_sent) rtt.push_back(us_between(*ping_sent, Steady::now()));
-      pong = true;
-    });
-    const int pings = quick ? 50 : 300;
-    for (int i = 0; i < pings + 10; ++i) {
-      motionlcm::sync_trigger_t ping{};
-      ping.utime = wall_time_us();
-      pong = false;
-      ping_sent = i < 10 ? std::nullopt : std::optional<Steady::time_point>(Steady::now());  // 10 warm-up
-      node.publish("BENCH_PING", ping);
-      if (!wait([&] { return pong; }, 2)) break;
-    }
-    if (rtt.size() < static_cast<std::size_t>(pings) / 2) {
-      fail("the LCM echo did not answer");
-      break;
-    }
-    rows.push_back({"raw LCM round trip (publish -> echo -> back)", percentile(rtt, 50), percentile(rtt, 99), "", NAN});
-
-    // CAN frames seen on can0, from our own endpoint on the simulated bus.
-    std::error_code ec;
-    auto can0 = simbus::SocketEndpoint::connect("can0", {sim_dir, "bench-e2e", false}, ec);
-    if (!can0) {
-      fail("cannot attach to the simulated can0: " + ec.message());
-      break;
-    }
-    std::vector<can::Frame> frames;
-    loop.watch(can0->fd(), [&] {
-      while (auto f = can0->receive()) frames.push_back(*f);
-    });
-
-    // 2. request -> STARTED of x+y moves.
-    const int moves = quick ? 10 : 50;
-    std::vector<double> latency;
-    std::vector<double> wire;
-    std::vector<double> frame_counts;
-    for (int i = 0; i < moves && rc == 0; ++i) {
-      const double to = i % 2 == 0 ? 2.0 : 0.0;
-      bool started = false;
-      bool ended = false;
-      reply_t last{};
-      Steady::time_point t_started{};
-      frames.clear();
-      const std::int64_t from_utime = wall_time_us();
-      const auto t0 = Steady::now();
-      std::int64_t started_utime = 0;
-      client.send(client::Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", to}, {"y", to / 2}}), [&](const reply_t& r) {
-        if (r.status == reply_t::STARTED && !started) {
-          started = true;
-          t_started = Steady::now();
-          started_utime = wall_time_us();
-        }
-        if (client::is_terminal(r.status)) {
-          ended = true;
-          last = r;
-        }
+      // 1. Raw LCM round trip.
+      Echo echo(url, node.channel("BENCH_PING"), node.channel("BENCH_PONG"));
+      std::vector<double> rtt;
+      std::optional<Steady::time_point> ping_sent;
+      bool pong = false;
+      node.subscribe_raw(node.channel("BENCH_PONG"), [&](const void*, int, const std::string&) {
+        if (ping_sent) rtt.push_back(us_between(*ping_sent, Steady::now()));
+        pong = true;
       });
-      if (!wait([&] { return ended; }, 20) || last.status != reply_t::DONE || !started) {
-        fail("move " + std::to_string(i) + " did not end DONE: " + last.reason);
+      const int pings = quick ? 50 : 300;
+      for (int i = 0; i < pings + 10; ++i) {
+        motionlcm::sync_trigger_t ping{};
+        ping.utime = wall_time_us();
+        pong = false;
+        ping_sent = i < 10 ? std::nullopt : std::optional<Steady::time_point>(Steady::now());  // 10 warm-up
+        node.publish("BENCH_PING", ping);
+        if (!wait([&] { return pong; }, 2)) break;
+      }
+      if (rtt.size() < static_cast<std::size_t>(pings) / 2) {
+        fail("the LCM echo did not answer");
         break;
       }
-      latency.push_back(us_between(t0, t_started));
-      double bits_us = 0;
-      int count = 0;
-      for (const auto& f : frames) {
-        if (!f.extended || f.timestamp_us < from_utime || f.timestamp_us > started_utime) continue;
-        bits_us += std::chrono::duration<double, std::micro>(can::frame_duration(f, bitrate)).count();
-        ++count;
+      rows.push_back({"raw LCM round trip (publish -> echo -> back)", percentile(rtt, 50), percentile(rtt, 99), "", NAN});
+
+      // CAN frames seen on can0, from our own endpoint on the simulated bus.
+      std::error_code ec;
+      auto can0 = simbus::SocketEndpoint::connect("can0", {sim_dir, "bench-e2e", false}, ec);
+      if (!can0) {
+        fail("cannot attach to the simulated can0: " + ec.message());
+        break;
       }
-      wire.push_back(bits_us);
-      frame_counts.push_back(count);
-    }
-    if (rc != 0) {
+      std::vector<can::Frame> frames;
+      loop.watch(can0->fd(), [&] {
+        while (auto f = can0->receive()) frames.push_back(*f);
+      });
+
+      // 2. request -> STARTED of x+y moves.
+      const int moves = quick ? 10 : 50;
+      std::vector<double> latency;
+      std::vector<double> wire;
+      std::vector<double> frame_counts;
+      for (int i = 0; i < moves && rc == 0; ++i) {
+        const double to = i % 2 == 0 ? 2.0 : 0.0;
+        bool started = false;
+        bool ended = false;
+        reply_t last{};
+        Steady::time_point t_started{};
+        frames.clear();
+        const std::int64_t from_utime = wall_time_us();
+        const auto t0 = Steady::now();
+        std::int64_t started_utime = 0;
+        client.send(client::Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", to}, {"y", to / 2}}), [&](const reply_t& r) {
+          if (r.status == reply_t::STARTED && !started) {
+            started = true;
+            t_started = Steady::now();
+            started_utime = wall_time_us();
+          }
+          if (client::is_terminal(r.status)) {
+            ended = true;
+            last = r;
+          }
+        });
+        if (!wait([&] { return ended; }, 20) || last.status != reply_t::DONE || !started) {
+          fail("move " + std::to_string(i) + " did not end DONE: " + last.reason);
+          break;
+        }
+        latency.push_back(us_between(t0, t_started));
+        double bits_us = 0;
+        int count = 0;
+        for (const auto& f : frames) {
+          if (!f.extended || f.timestamp_us < from_utime || f.timestamp_us > started_utime) continue;
+          bits_us += std::chrono::duration<double, std::micro>(can::frame_duration(f, bitrate)).count();
+          ++count;
+        }
+        wire.push_back(bits_us);
+        frame_counts.push_back(count);
+      }
+      if (rc != 0) {
+        loop.unwatch(can0->fd());
+        break;
+      }
+      rows.push_back({"request -> STARTED, x+y (can0, one BG)", percentile(latency, 50), percentile(latency, 99),
+                      "raw LCM round trip p50", percentile(rtt, 50)});
+      char what[160];
+      std::snprintf(what, sizeof what, "CAN wire time of its 29-bit frames (%.0f frames p50, at %u bit/s)", percentile(frame_counts, 50),
+                    bitrate);
+      rows.push_back({what, percentile(wire, 50), percentile(wire, 99), "", NAN});
+      rows.push_back({"request -> STARTED, x+y", percentile(latency, 50), percentile(latency, 99), "its CAN wire time p50", percentile(wire, 50)});
       loop.unwatch(can0->fd());
-      break;
-    }
-    rows.push_back({"request -> STARTED, x+y (can0, one BG)", percentile(latency, 50), percentile(latency, 99),
-                    "raw LCM round trip p50", percentile(rtt, 50)});
-    char what[160];
-    std::snprintf(what, sizeof what, "CAN wire time of its 29-bit frames (%.0f frames p50, at %u bit/s)", percentile(frame_counts, 50),
-                  bitrate);
-    rows.push_back({what, percentile(wire, 50), percentile(wire, 99), "", NAN});
-    rows.push_back({"request -> STARTED, x+y", percentile(latency, 50), percentile(latency, 99), "its CAN wire time p50", percentile(wire, 50)});
-    loop.unwatch(can0->fd());
     }  // !skew_only
 
     // 3. Start skew, one bus and two buses.
