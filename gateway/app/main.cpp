@@ -6,6 +6,7 @@
 #include "bus_lock.hpp"
 #include "motion/app/service.hpp"
 #include "motion/core/log.hpp"
+#include "motion/core/precise_timer.hpp"
 #include "motion/drive_model/drive_model.hpp"
 #include "motion/gateway/gateway.hpp"
 
@@ -39,6 +40,9 @@ int main(int argc, char** argv) {
     }
     app::Service service(*config, options, "gateway:" + bus_name, "gateway");
     if (!service.ok()) return app::kExitUnavailable;
+    // Scheduled starts and SYNC periods keep to microseconds (PreciseTimer), not to the default
+    // 50 us timer slack of this (the loop's) thread.
+    if (!minimal_timer_slack()) spdlog::warn("could not lower the timer slack (prctl PR_SET_TIMERSLACK)");
     gateway::Gateway gateway(service.loop(), service.node(), service.health(), *config, bus_name);
     gateway.set_command_verifier(std::move(std::get<std::optional<security::GatewayCommandVerifier>>(verifier)));
     gateway.set_model_builder([&config = *config](const config::Axis& axis, const gateway::DriveFacts& facts) {

@@ -14,7 +14,11 @@
 #include <map>
 #include <set>
 
+#include <motionlcm/sync_trigger2_t.hpp>
+
+#include "motion/core/event_loop.hpp"
 #include "motion/lcm/reply_error.hpp"
+#include "motion/simbus/endpoint.hpp"
 #include "sim_lab.hpp"
 
 namespace motion::testing {
@@ -135,6 +139,52 @@ TEST_F(SyncMove, EveryFamilyArrivesAndEachBusStartsOnOneFramePerMechanism) {
   EXPECT_GT(done.predicted_duration_s, 0.0);
   EXPECT_TRUE(std::isfinite(done.predicted_skew_us) && done.predicted_skew_us >= 0.0);
   expect_one_terminal_each(2);  // enable + move
+}
+
+// Scheduled starts on one CAN bus (coordinator start_schedule.hpp): the UC57 start images (RPDO1,
+// controlword 0x1F, synchronous) are on the wire before the fire, so only the SYNC
+// goes out at the start; the group's BG (29-bit, the longer frame) goes first, the SYNC right
+// behind it with no RPDO between. The wire is read from an endpoint of our own on the simulated
+// can0; the ground truth is the drives' SIM_REPORT. Orders and contents only: nothing timed.
+TEST_F(SyncMove, Uc57TargetsArePreloadedSoOnlyTheSyncGoesOutAtTheStart) {
+  std::error_code ec;
+  auto can0 = simbus::SocketEndpoint::connect("can0", {lab.group().work_dir() + "/sim", "it-wire", false}, ec);
+  ASSERT_TRUE(can0) << ec.message();
+  std::vector<can::Frame> wire;
+  lab.group().loop().watch(can0->fd(), [&] {
+    while (auto f = can0->receive()) wire.push_back(*f);
+  });
+  std::vector<motionlcm::sync_trigger2_t> triggers;
+  lab.group().node().subscribe<motionlcm::sync_trigger2_t>(lcm::channels::kSyncTrigger2, [&](const motionlcm::sync_trigger2_t& t, const std::string&) {
+    triggers.push_back(t);
+  });
+  const reply_t done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 12.0}, {"y", 6.0}, {"a", 90.0}, {"b", -90.0}}));
+  lab.group().loop().unwatch(can0->fd());
+  ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
+  ASSERT_EQ(triggers.size(), 1u);
+  const auto& t = triggers[0];
+  ASSERT_EQ(t.buses, std::vector<std::string>{"can0"});
+  ASSERT_EQ(t.num_starts, 2);  // the group BG and the SYNC
+  const auto starts_a = lab.starts_of("a-drive");
+  const auto starts_x = lab.starts_of("x-drive");
+  ASSERT_EQ(starts_a.size(), 1u);
+  ASSERT_EQ(starts_x.size(), 1u);
+  // The frame that started a and b: a SYNC; the one that started x and y: before it.
+  const auto sync = std::find_if(wire.begin(), wire.end(), [&](const can::Frame& f) { return f.timestamp_us == starts_a[0].frame_utime; });
+  ASSERT_NE(sync, wire.end()) << "the start frame of a is not in the wire log";
+  EXPECT_EQ(sync->id, 0x080u);
+  EXPECT_FALSE(sync->extended);
+  EXPECT_LT(starts_x[0].frame_utime, sync->timestamp_us) << "the BG (the longer frame) goes first";
+  // The last RPDO1 of each UC57 before the start SYNC: the start image, and not between the BG and
+  // the SYNC.
+  for (const std::uint32_t rpdo1 : {0x201u, 0x202u}) {
+    const auto last = std::find_if(std::make_reverse_iterator(sync), wire.rend(), [&](const can::Frame& f) { return !f.extended && f.id == rpdo1; });
+    ASSERT_NE(last, wire.rend()) << std::hex << rpdo1;
+    ASSERT_GE(last->dlc, 2u);
+    EXPECT_EQ(last->data[0], 0x1F) << std::hex << rpdo1 << ": the start image (new set-point) was not preloaded";
+    // Before the BG, the first frame the fire hands over: it was on the wire before the fire.
+    EXPECT_LT(last->timestamp_us, starts_x[0].frame_utime) << std::hex << rpdo1 << " went out with the fire, not at arming";
+  }
 }
 
 TEST_F(SyncMove, StallOfOneAxisAbortsTheWholeGroupWithTheCause) {

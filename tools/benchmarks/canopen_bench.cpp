@@ -23,6 +23,10 @@
 //      = |interval - 1 ms| over N periods (10 000 by default): p50/p99/max, and SYNCs skipped by the
 //      producer (a whole period missed). Bound: one 8-byte frame at 1 Mbit/s, the jitter CAN
 //      itself imposes on a SYNC (a SYNC ready while another frame is on the wire waits for it).
+//      Twice in one run: (a) on the loop's own timer (ppoll timeout, the default 50 us timer
+//      slack), as before; (b) on a PreciseTimer (timerfd, TFD_TIMER_ABSTIME) with the thread's
+//      timer slack at 1 ns, as CanBusDriver runs its stacks' deadlines now; (c) the same under
+//      SCHED_FIFO (priority 50) where the process is permitted (not used by the gateway yet).
 //   3. Boot and configure: Uc57Stack (inside gateway::CanBusDriver, as motion-gateway runs it)
 //      against 1, 8 and 32 simulated UC57s (sim::CanBusHost, as motion-sim runs them; reply
 //      latency 0), from start() until ready() (every node configured, NMT started and its
@@ -33,7 +37,8 @@
 // A plain main instead of Google Benchmark, as simbus_bench: fixed end-to-end workloads whose
 // meaning is the ratio to a bound from the same run.
 //
-// Usage: bench_canopen [--quick]   (--quick: ~10x fewer transfers and SYNC periods)
+// Usage: bench_canopen [--quick] [--sync-only]   (--quick: ~10x fewer transfers and SYNC periods;
+//        --sync-only: part 2 only)
 #include <unistd.h>
 
 #include <algorithm>
@@ -63,6 +68,7 @@
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/core/event_loop.hpp"
+#include "motion/core/precise_timer.hpp"
 #include "motion/gateway/can_bus_driver.hpp"
 #include "motion/sim/can_bus_host.hpp"
 #include "motion/sim/uc57_drive.hpp"
@@ -301,11 +307,17 @@ void bench_sdo(bool quick) {
 
 // ---- 2. SYNC jitter ----------------------------------------------------------------------------
 
-void bench_sync(bool quick) {
+void bench_sync(bool quick, bool precise, bool fifo = false) {
   const std::size_t periods = quick ? 1000 : 10000;
   const Duration period = 1ms;
+  if (precise) minimal_timer_slack();  // this thread from here on (part 3 runs after it)
+  const bool realtime = fifo && fifo_scheduling(50);
+  if (fifo && !realtime) {
+    g_rows.push_back({"SYNC 1 kHz period jitter [+ SCHED_FIFO]", "-", "-", 0.0, "SCHED_FIFO not permitted here: not measured"});
+    return;
+  }
   Pump pump(nullptr);
-  auto hub = open_hub(pump.loop(), "syncbench");
+  auto hub = open_hub(pump.loop(), precise ? "syncbench2" : "syncbench");
   auto producer_ep = hub->attach_local("producer");
   auto receiver_ep = hub->attach_local("receiver");
   canopen::SyncProducer producer([&](const can::Frame& f) { producer_ep->send(f); }, {period, 0, canopen::kSyncCobId});
@@ -317,14 +329,26 @@ void bench_sync(bool quick) {
     }
   });
   EventLoop::TimerId timer = 0;
+  PreciseTimer precise_timer(pump.loop());
   std::function<void()> tick = [&] {
     const TimePoint next = producer.process(pump.loop().now());
-    timer = pump.loop().call_at(next, tick);
+    if (precise) {
+      precise_timer.arm(next, tick);
+    } else {
+      timer = pump.loop().call_at(next, tick);
+    }
   };
-  timer = pump.loop().call_at(producer.start(pump.loop().now()), tick);
+  const TimePoint first = producer.start(pump.loop().now());
+  if (precise) {
+    precise_timer.arm(first, tick);
+  } else {
+    timer = pump.loop().call_at(first, tick);
+  }
   pump.until([&] { return stamps.size() > periods; }, std::chrono::seconds(periods / 500 + 10));
   pump.loop().cancel(timer);
+  precise_timer.cancel();
   pump.loop().unwatch(receiver_ep->fd());
+  if (realtime) normal_scheduling();
 
   std::vector<double> jitter;
   for (std::size_t i = 1; i < stamps.size(); ++i) {
@@ -335,11 +359,12 @@ void bench_sync(bool quick) {
   const double p50 = percentile(jitter, 0.5);
   const double p99 = percentile(jitter, 0.99);
   const double max = jitter.empty() ? 0 : *std::max_element(jitter.begin(), jitter.end());
-  const std::string note = std::to_string(jitter.size()) + " periods, " + std::to_string(producer.skipped()) + " skipped by the producer";
-  g_rows.push_back({"SYNC 1 kHz period jitter p50 (receiver timestamps)", fmt("%.1f us", p50), fmt("%.0f us (8-byte frame)", frame_us),
-                    p50 / frame_us, note});
-  g_rows.push_back({"SYNC 1 kHz period jitter p99", fmt("%.1f us", p99), fmt("%.0f us (8-byte frame)", frame_us), p99 / frame_us, ""});
-  g_rows.push_back({"SYNC 1 kHz period jitter max", fmt("%.1f us", max), fmt("%.0f us (8-byte frame)", frame_us), max / frame_us, ""});
+  const std::string how = realtime ? " [timerfd, slack 1 ns, FIFO]" : precise ? " [timerfd abs, slack 1 ns]" : " [loop timer, default slack]";
+  const std::string note = std::to_string(jitter.size()) + " periods, " + std::to_string(producer.skipped()) + " skipped by the producer" +
+                           (precise && !precise_timer.absolute() ? "; NO timerfd: loop timer fallback" : "");
+  g_rows.push_back({"SYNC 1 kHz period jitter p50" + how, fmt("%.1f us", p50), fmt("%.0f us (8-byte frame)", frame_us), p50 / frame_us, note});
+  g_rows.push_back({"SYNC 1 kHz period jitter p99" + how, fmt("%.1f us", p99), fmt("%.0f us (8-byte frame)", frame_us), p99 / frame_us, ""});
+  g_rows.push_back({"SYNC 1 kHz period jitter max" + how, fmt("%.1f us", max), fmt("%.0f us (8-byte frame)", frame_us), max / frame_us, ""});
 }
 
 // ---- 3. boot and configure ---------------------------------------------------------------------
@@ -433,11 +458,14 @@ void bench_boot(int nodes, const std::filesystem::path& dir) {
 
 int main(int argc, char** argv) {
   bool quick = false;
+  bool sync_only = false;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
+    } else if (std::strcmp(argv[i], "--sync-only") == 0) {
+      sync_only = true;
     } else {
-      std::fprintf(stderr, "usage: bench_canopen [--quick]\n");
+      std::fprintf(stderr, "usage: bench_canopen [--quick] [--sync-only]\n");
       return 2;
     }
   }
@@ -447,9 +475,13 @@ int main(int argc, char** argv) {
   std::printf("bench_canopen: SDO (wall and simulated clock), SYNC jitter, boot + configure; bit rate %u bit/s%s\n", motion::kBitrate,
               quick ? " (quick)" : "");
   std::fflush(stdout);
-  motion::bench_sdo(quick);
-  motion::bench_sync(quick);
-  for (const int nodes : {1, 8, 32}) motion::bench_boot(nodes, dir);
+  if (!sync_only) motion::bench_sdo(quick);
+  motion::bench_sync(quick, false);
+  motion::bench_sync(quick, true);
+  motion::bench_sync(quick, true, true);
+  if (!sync_only) {
+    for (const int nodes : {1, 8, 32}) motion::bench_boot(nodes, dir);
+  }
   std::filesystem::remove_all(dir, error);
   motion::print_table();
   return 0;

@@ -77,10 +77,15 @@ void Coordinator::start_move(Request& r) {
     // One command per start mechanism, so that each gets its one-frame start (a gateway stack
     // starts a UIM342 group with one BG only when the command holds exactly that group) and its
     // own measured start time; the common trigger id starts them together.
-    for (auto& group : start_groups(bus, std::move(cmds))) {
+    std::vector<std::int8_t> kinds;
+    auto groups = start_groups(bus, std::move(cmds), &kinds);
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+      auto& group = groups[g];
       std::vector<std::string> names;
       for (const auto& c : group) names.push_back(c.axis);
+      const double wire_us = start_frame_wire_us(group, kinds[g]);
       const std::int64_t id = send_command(r, bus, gateway_command_t::ARM_MOVE, std::move(group));
+      r.start_frames.push_back({bus, id, wire_us});
       for (const auto& n : names) r.axis_command[n] = id;
       ++r.move_commands;
     }
@@ -88,8 +93,22 @@ void Coordinator::start_move(Request& r) {
   r.phase_deadline = now_ + std::chrono::milliseconds(config_.coordinator.arm_timeout_ms);  // the arm timeout
 }
 
+double Coordinator::start_frame_wire_us(const std::vector<motionlcm::axis_command_t>& group, std::int8_t kind) const {
+  double wire = 0;
+  for (const auto& c : group) {
+    const auto& model = axes_.at(c.axis).model;
+    if (!model) continue;
+    auto w = start_wire_us(*model, kind);
+    if (!w) w = start_wire_us(*model, motionlcm::drive_model_t::START_SINGLE);
+    if (w) wire = std::max(wire, *w);
+  }
+  return wire;
+}
+
 std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(const std::string& bus,
-                                                                              std::vector<motionlcm::axis_command_t> axes) const {
+                                                                              std::vector<motionlcm::axis_command_t> axes,
+                                                                              std::vector<std::int8_t>* kinds) const {
+  using Model = motionlcm::drive_model_t;
   std::map<std::string, std::size_t> moving;  // drive -> index in axes
   for (std::size_t i = 0; i < axes.size(); ++i) moving[axes_.at(axes[i].axis).drive->name] = i;
   std::vector<std::vector<motionlcm::axis_command_t>> out;
@@ -97,6 +116,11 @@ std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(co
   for (const auto& c : axes) {
     const config::Drive& d = *axes_.at(c.axis).drive;
     std::string key = std::string("family:") + std::to_string(static_cast<int>(d.family));
+    // (std::int8_t{...}: LCM's in-class constants are read, never bound to a reference.)
+    std::int8_t kind = d.family == config::Family::kUc57          ? std::int8_t{Model::START_CANOPEN_SYNC}
+                       : d.family == config::Family::kAdamModbus  ? std::int8_t{Model::START_ADAM_BROADCAST}
+                       : d.family == config::Family::kUim242      ? std::int8_t{Model::START_UIM242_GLOBAL}
+                                                                  : std::int8_t{Model::START_SINGLE};
     if (d.family == config::Family::kUim342) {
       bool whole_group = d.group_id != 0;
       for (const auto& other : config_.drives) {
@@ -105,9 +129,13 @@ std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(co
         }
       }
       key = whole_group ? "uim342 group " + std::to_string(d.group_id) : "uim342 node " + d.name;
+      kind = whole_group ? std::int8_t{Model::START_UIM342_GROUP_BG} : std::int8_t{Model::START_SINGLE};
     }
     const auto [it, added] = slot.emplace(key, out.size());
-    if (added) out.emplace_back();
+    if (added) {
+      out.emplace_back();
+      if (kinds != nullptr) kinds->push_back(kind);
+    }
     out[it->second].push_back(c);
   }
   return out;
@@ -116,11 +144,32 @@ std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(co
 void Coordinator::fire(Request& r) {
   r.phase_deadline = kNever;
   r.phase = Phase::kTriggered;
+  // The drives act together at act_utime: each bus hands its start frames to the wire early by
+  // their wire time (start_schedule.hpp). One bus: its longest lead starts now. Several: the
+  // hand-overs start far enough ahead for every gateway to hear the trigger.
+  const StartSchedule schedule = schedule_starts(r.start_frames);
+  const std::int64_t utime = wall_clock_();
+  const std::int64_t max_lead = static_cast<std::int64_t>(std::ceil(schedule.max_lead_us));
+  const std::int64_t earliest_send = utime + (r.buses.size() > 1 ? config_.coordinator.trigger_lead_ms * 1000 : 0);
+  motionlcm::sync_trigger2_t t2{};
+  t2.utime = utime;
+  t2.trigger_id = r.trigger_id;
+  t2.act_utime = earliest_send + max_lead;
+  t2.predicted_spread_us = schedule.predicted_spread_us;
+  for (const auto& b : schedule.buses) {
+    t2.buses.push_back(b.bus);
+    t2.lead_us.push_back(b.lead_us);
+    t2.send_utime.push_back(t2.act_utime - std::llround(b.lead_us));
+    t2.start_command_ids.insert(t2.start_command_ids.end(), b.command_ids.begin(), b.command_ids.end());
+  }
+  t2.num_buses = static_cast<std::int32_t>(t2.buses.size());
+  t2.num_starts = static_cast<std::int32_t>(t2.start_command_ids.size());
+  out_.sync_trigger2(t2);
+  // The same trigger for gateways that know only SYNC_TRIGGER: they start at fire_utime, as before.
   motionlcm::sync_trigger_t t{};
-  t.utime = wall_clock_();
+  t.utime = utime;
   t.trigger_id = r.trigger_id;
-  // One bus: fire at once. Several: a common time far enough ahead for every gateway to hear it.
-  t.fire_utime = t.utime + (r.buses.size() > 1 ? config_.coordinator.trigger_lead_ms * 1000 : 0);
+  t.fire_utime = earliest_send;
   t.buses.assign(r.buses.begin(), r.buses.end());
   t.num_buses = static_cast<std::int32_t>(t.buses.size());
   r.fire_utime = t.fire_utime;

@@ -160,6 +160,7 @@ void CoordinatorService::gateway_command(const std::string& bus, const motionlcm
 }
 
 void CoordinatorService::sync_trigger(const motionlcm::sync_trigger_t& trigger) { node_.publish(lcm::channels::kSyncTrigger, trigger); }
+void CoordinatorService::sync_trigger2(const motionlcm::sync_trigger2_t& trigger) { node_.publish(lcm::channels::kSyncTrigger2, trigger); }
 
 void CoordinatorService::active_moves(const motionlcm::active_moves_t& moves) { node_.publish(lcm::channels::kActiveMoves, moves); }
 

@@ -98,6 +98,17 @@ std::string MasterCore::describe(const Transaction& t) const {
 
 void MasterCore::send_next(TimePoint now) {
   while (!in_flight_ && !queue_.empty() && now >= line_free_at_) {
+    if (reserved_at_ != kNever && now < reserved_at_ + kReservationGrace && queue_.front().drive != nullptr) {
+      // A scheduled start frame goes out at reserved_at_: nothing that would still run then (nor
+      // after it, until the fire comes or the grace is over).
+      const Transaction& next = queue_.front();
+      const auto* read = std::get_if<rtu::ReadRegisters>(&next.request.pdu);
+      const std::size_t reply_bytes = read != nullptr ? 5U + 2U * read->quantity : 8U;  // §5: read / write replies
+      const auto request = rtu::encode_request(next.request);
+      const Duration hold = rtu::transmission_time(settings_.format, request ? request.value().size() : 8U) +
+                            rtu::transmission_time(settings_.format, reply_bytes) + kAssumedDriveLatency + 2 * timing_.t3_5;
+      if (now + hold > reserved_at_) break;
+    }
     Transaction t = std::move(queue_.front());
     queue_.pop_front();
     auto frame = rtu::encode_request(t.request);
@@ -233,6 +244,7 @@ TimePoint MasterCore::process(TimePoint now) {
     on_reply_frame(std::move(*stray), now);  // counted and reported as unsolicited
   }
   if (in_flight_ && now >= reply_deadline_) on_timeout(now);
+  if (reserved_at_ != kNever && now >= reserved_at_ + kReservationGrace) reserved_at_ = kNever;  // the fire never came
   if (started_ && now >= next_poll_) {
     poll(now);
     // Fixed rate, but never a burst of catch-up polls after a long stall.
@@ -242,10 +254,12 @@ TimePoint MasterCore::process(TimePoint now) {
 
   TimePoint next = started_ ? next_poll_ : kNever;
   if (in_flight_) next = std::min({next, reply_deadline_, framer_.deadline()});
-  else if (!queue_.empty()) next = std::min(next, line_free_at_);
+  else if (!queue_.empty()) next = std::min(next, reserved_at_ != kNever && now >= line_free_at_ ? reserved_at_ + kReservationGrace : line_free_at_);
   if (!in_flight_ && !framer_.pending().empty()) next = std::min(next, framer_.deadline());
   return next;
 }
+
+void MasterCore::reserve_line(TimePoint at, TimePoint /*now*/) { reserved_at_ = at; }
 
 void MasterCore::line_lost(const std::string& why, TimePoint now) {
   (void)now;

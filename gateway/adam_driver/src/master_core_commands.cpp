@@ -372,6 +372,7 @@ bool MasterCore::neutral_for(const Drive& d, const Operation& firing) const {
 }
 
 void MasterCore::fire(std::int64_t trigger_id, TimePoint now) {
+  reserved_at_ = kNever;
   std::vector<std::int64_t> ids;
   for (const auto& [id, op] : operations_) {
     if (op->phase == Operation::Phase::armed && op->command.trigger_id == trigger_id) ids.push_back(id);

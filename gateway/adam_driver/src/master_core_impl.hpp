@@ -53,6 +53,9 @@ constexpr auto kFlashErase = std::chrono::milliseconds(100);
 constexpr long kMaxWorkingSpeedRpm = 1000;
 // Reply latency assumed (the manual gives none) for the predicted skew of a sequential start.
 constexpr auto kAssumedDriveLatency = std::chrono::milliseconds(1);
+// A line reserved for a scheduled start frame (reserve_line) is released this long after the
+// start time when its fire never came.
+constexpr auto kReservationGrace = std::chrono::milliseconds(5);
 
 inline std::string hex16(std::uint32_t value) { return fmt::format("0x{:04X}", value); }
 

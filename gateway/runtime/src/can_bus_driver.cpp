@@ -28,7 +28,12 @@ class CanBusDriver::Combiner final : public GatewayOutput {
 };
 
 CanBusDriver::CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can::Transport> transport, GatewayOutput& out)
-    : loop_(loop), bus_(std::move(bus)), transport_(std::move(transport)), out_(out), combiner_(std::make_unique<Combiner>(*this)) {
+    : loop_(loop),
+      bus_(std::move(bus)),
+      transport_(std::move(transport)),
+      out_(out),
+      combiner_(std::make_unique<Combiner>(*this)),
+      timer_(loop) {
   transport_->on_bus_event([this](const can::BusEvent& e) {
     const bool off = e.state == can::BusState::kBusOff || e.state == can::BusState::kDisconnected;
     if (off == bus_off_ && e.state != can::BusState::kErrorPassive) return;
@@ -43,7 +48,7 @@ CanBusDriver::CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can
 }
 
 CanBusDriver::~CanBusDriver() {
-  loop_.cancel(timer_);
+  timer_.cancel();
   for (const auto& [id, held] : held_) loop_.cancel(held.fallback);
   if (transport_->fd() >= 0) loop_.unwatch(transport_->fd());
 }
@@ -103,11 +108,10 @@ void CanBusDriver::on_readable() {
 }
 
 void CanBusDriver::reschedule() {
-  loop_.cancel(timer_);
   const TimePoint now = loop_.now();
   TimePoint next = kNever;
   for (auto& s : stacks_) next = std::min(next, s->process(now));
-  if (next != kNever) timer_ = loop_.call_at(next, [this] { reschedule(); });
+  timer_.arm(next, [this] { reschedule(); });
 }
 
 void CanBusDriver::execute(const motionlcm::gateway_command_t& command) {
@@ -131,6 +135,11 @@ void CanBusDriver::execute(const motionlcm::gateway_command_t& command) {
     part.num_axes = static_cast<std::int32_t>(part.axes.size());
   }
   pending_[command.command_id] = Pending{parts.size(), 0, {}, false};
+  if (command.kind == motionlcm::gateway_command_t::ARM_MOVE) {
+    auto& stacks = armed_stacks_[command.command_id];
+    for (const auto& [stack, part] : parts) stacks.push_back(stack);
+    if (armed_stacks_.size() > 256) armed_stacks_.erase(armed_stacks_.begin());  // never fired (disarmed, failed)
+  }
   const TimePoint now = loop_.now();
   for (auto& [stack, part] : parts) stack->execute(part, now);
   reschedule();
@@ -216,9 +225,29 @@ void CanBusDriver::release_started(std::int64_t command_id, std::int64_t echo_ut
   out_.command_reply(std::move(reply));
 }
 
-void CanBusDriver::fire(std::int64_t trigger_id) {
+void CanBusDriver::fire(std::int64_t trigger_id) { fire_ordered(trigger_id, {}); }
+
+void CanBusDriver::prepare_fire(TimePoint at) {
   const TimePoint now = loop_.now();
-  for (auto& s : stacks_) s->fire(trigger_id, now);
+  for (auto& s : stacks_) s->prepare_fire(at, now);
+  reschedule();
+}
+
+void CanBusDriver::fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) {
+  const TimePoint now = loop_.now();
+  std::vector<CanStack*> order;
+  for (const auto id : command_order) {
+    const auto it = armed_stacks_.find(id);
+    if (it == armed_stacks_.end()) continue;
+    for (CanStack* s : it->second) {
+      if (std::find(order.begin(), order.end(), s) == order.end()) order.push_back(s);
+    }
+    armed_stacks_.erase(it);
+  }
+  for (auto& s : stacks_) {
+    if (std::find(order.begin(), order.end(), s.get()) == order.end()) order.push_back(s.get());
+  }
+  for (CanStack* s : order) s->fire(trigger_id, now);
   reschedule();
 }
 

@@ -52,6 +52,8 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
       [this](const void*, int, const std::string& why) { refuse("malformed signed command refused: " + why); });
   node_.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger,
                                              [this](const motionlcm::sync_trigger_t& t, const std::string&) { on_trigger(t); });
+  node_.subscribe<motionlcm::sync_trigger2_t>(lcm::channels::kSyncTrigger2,
+                                              [this](const motionlcm::sync_trigger2_t& t, const std::string&) { on_trigger2(t); });
   node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves,
                                              [this](const motionlcm::active_moves_t& m, const std::string&) { on_active_moves(m); });
   node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [this](const motionlcm::health_t& h, const std::string&) { on_health(h); });
@@ -61,7 +63,10 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
   health_timer_ = loop_.call_every(std::chrono::milliseconds(200), [this] { update_health(); });
 }
 
-Gateway::~Gateway() { loop_.cancel(health_timer_); }
+Gateway::~Gateway() {
+  loop_.cancel(health_timer_);
+  pending_fires_.clear();
+}
 
 void Gateway::attach(std::unique_ptr<BusDriver> driver) {
   driver_ = std::move(driver);
@@ -262,17 +267,56 @@ void Gateway::check_jog(const std::string& axis) {
   axis_event(axis, e);
 }
 
+namespace {
+bool recent(const std::deque<std::int64_t>& ids, std::int64_t id) { return std::find(ids.begin(), ids.end(), id) != ids.end(); }
+void remember(std::deque<std::int64_t>& ids, std::int64_t id) {
+  ids.push_back(id);
+  if (ids.size() > 64) ids.pop_front();
+}
+}  // namespace
+
 void Gateway::on_trigger(const motionlcm::sync_trigger_t& trigger) {
   if (std::find(trigger.buses.begin(), trigger.buses.end(), bus_) == trigger.buses.end() || !driver_) return;
-  // The fire time is wall-clock (common to every machine); the loop's timers are steady-clock.
-  const auto delay = std::chrono::microseconds(trigger.fire_utime - wall_time_us());
-  const auto id = trigger.trigger_id;
+  // Scheduled (or fired) by its SYNC_TRIGGER2 already: that one carries this bus's lead.
+  if (recent(scheduled_v2_, trigger.trigger_id) || recent(fired_, trigger.trigger_id) || pending_fires_.contains(trigger.trigger_id)) return;
+  schedule_fire(trigger.trigger_id, trigger.fire_utime, {});
+}
+
+void Gateway::on_trigger2(const motionlcm::sync_trigger2_t& trigger) {
+  const auto n = std::min({trigger.buses.size(), trigger.send_utime.size(), static_cast<std::size_t>(std::max(trigger.num_buses, 0))});
+  std::size_t i = 0;
+  while (i < n && trigger.buses[i] != bus_) ++i;
+  if (i == n || !driver_ || recent(scheduled_v2_, trigger.trigger_id) || recent(fired_, trigger.trigger_id)) return;
+  remember(scheduled_v2_, trigger.trigger_id);
+  if (const auto it = pending_fires_.find(trigger.trigger_id); it != pending_fires_.end()) {
+    pending_fires_.erase(it);  // its SYNC_TRIGGER came first: this one knows the lead
+  }
+  schedule_fire(trigger.trigger_id, trigger.send_utime[i], trigger.start_command_ids);
+}
+
+void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, std::vector<std::int64_t> order) {
+  // The send time is wall-clock (common to every machine); the loop's timers are steady-clock.
+  const auto delay = std::chrono::microseconds(send_utime - wall_time_us());
+  const auto fire = [this, trigger_id, order = std::move(order)] {
+    remember(fired_, trigger_id);
+    if (driver_) driver_->fire_ordered(trigger_id, order);
+  };
   if (delay <= std::chrono::microseconds::zero()) {
-    spdlog::warn("trigger {} arrived {} us after its fire time; firing now", id, -delay.count());
-    driver_->fire(id);
+    if (delay < -std::chrono::milliseconds(1)) spdlog::warn("trigger {} arrived {} us after its send time; firing now", trigger_id, -delay.count());
+    fire();
     return;
   }
-  loop_.call_after(delay, [this, id] { driver_->fire(id); });
+  const TimePoint at = loop_.now() + delay;
+  driver_->prepare_fire(at);
+  auto& timer = pending_fires_[trigger_id];
+  timer = std::make_unique<PreciseTimer>(loop_);
+  timer->arm(at, [this, trigger_id, fire] {
+    fire();
+    // Destroyed after this callback (the loop holds no reference to it once it has run).
+    loop_.call_after(Duration::zero(), [this, trigger_id] {
+      if (const auto it = pending_fires_.find(trigger_id); it != pending_fires_.end() && !it->second->armed()) pending_fires_.erase(it);
+    });
+  });
 }
 
 void Gateway::on_health(const motionlcm::health_t& health) {

@@ -109,6 +109,11 @@ void SerialBusDriver::fire(std::int64_t trigger_id) {
   pump();
 }
 
+void SerialBusDriver::prepare_fire(TimePoint at) {
+  core_->reserve_line(at, loop_.now());
+  pump();
+}
+
 std::vector<motionlcm::bus_stats_t> SerialBusDriver::statistics() const {
   auto stats = core_->statistics();
   if (!port_) stats.state = closed_because_.empty() ? std::string{"closed"} : "closed: " + closed_because_;

@@ -159,8 +159,25 @@ void Uc57Stack::run_sync_cycle(TimePoint now) {
     send_image(n, node.rpdo_queue.front());
     node.rpdo_queue.pop_front();
     node.image_sync = applying_sync;
+    node.preloaded = false;  // the queued image replaced the start image in the drive
   }
-  master_.sync()->process(now);
+  masked_sync(now, [this, now] { master_.sync()->process(now); });
+}
+
+void Uc57Stack::masked_sync(TimePoint now, const std::function<void()>& sync) {
+  now_ = now;
+  std::vector<std::size_t> keep;
+  for (std::size_t n = 0; n < nodes_.size(); ++n) {
+    Node& node = *nodes_[n];
+    if (!node.preloaded) continue;
+    // The armed image (bit 4 = 0) replaces the start image for this SYNC (the drive applies the
+    // last RPDO received before it).
+    if (node.phase == Node::Phase::kOperational) send_image(n, node.image);
+    node.preloaded = false;
+    if (node.phase == Node::Phase::kOperational && node.task == TaskKind::kArmed) keep.push_back(n);
+  }
+  sync();
+  for (const std::size_t n : keep) send_preload(n);
 }
 
 void Uc57Stack::send_image(std::size_t n, const RpdoImage& image) {

@@ -95,7 +95,28 @@ void Uc57Stack::part_armed(std::int64_t command_id, std::size_t n, TimePoint now
   job.parts[job.slot(n)] = Job::Part::kArmed;
   if (!job.all(Job::Part::kArmed)) return;
   reply(job, Reply::ARMED);
-  if (job.command.trigger_id == 0) fire_jobs({command_id}, now);  // "0 = at once"
+  if (job.command.trigger_id == 0) {
+    fire_jobs({command_id}, now);  // "0 = at once"
+  } else {
+    preload(job);
+  }
+}
+
+void Uc57Stack::preload(const Job& job) {
+  for (const std::size_t n : job.nodes) {
+    if (nodes_[n]->phase == Node::Phase::kOperational && nodes_[n]->task == TaskKind::kArmed) send_preload(n);
+  }
+}
+
+void Uc57Stack::send_preload(std::size_t n) {
+  Node& node = *nodes_[n];
+  RpdoImage image = node.image;  // the armed image as sent: target, mode, bit 4 = 0
+  image.controlword = cia402::profile_position_controlword({}, true, false);  // 0x1F: absolute, new set-point
+  if (!context_.send || !context_.send(encode_rpdo1(node.settings.node, node.layout, image))) {
+    ++counters_.protocol_errors;
+    return;  // not in the drive: fire() sends it before the SYNC
+  }
+  node.preloaded = true;
 }
 
 void Uc57Stack::check_task_timeouts(TimePoint now) {
@@ -623,6 +644,15 @@ void Uc57Stack::disarm(const Job& disarm_job) {
   }
 }
 
+void Uc57Stack::prepare_fire(TimePoint at, TimePoint now) {
+  now_ = now;
+  auto* sync = master_.sync();
+  if (sync == nullptr) return;
+  const TimePoint due = sync->next_deadline();
+  if (due == kNever || due < at - kQuietBeforeStart || due > at) return;
+  sync->start(at);  // next periodic SYNC one period after the start
+}
+
 void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
   now_ = now;
   std::vector<std::int64_t> ready_jobs;
@@ -646,6 +676,7 @@ void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoin
     for (const std::size_t n : jobs_.at(id).nodes) armed[n] = true;
   }
   const std::uint64_t applying_sync = master_.sync()->sent() + 1;
+  std::vector<std::size_t> started;  // preloaded start images: only the SYNC goes out for them
   for (std::size_t n = 0; n < nodes_.size(); ++n) {
     Node& node = *nodes_[n];
     if (node.phase != Node::Phase::kOperational) continue;
@@ -654,19 +685,27 @@ void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoin
       image.controlword = cia402::profile_position_controlword({}, true, false);  // 0x1F: absolute, new set-point
       node.rpdo_queue.clear();
       node.power.note_controlword_sent(image.controlword);
-      send_image(n, image);
+      if (node.preloaded) {
+        node.image = image;  // already in the drive since arming
+        started.push_back(n);
+      } else {
+        send_image(n, image);
+      }
       node.task = TaskKind::kTriggered;
       node.task_deadline = now + options_.set_point_timeout + 2 * cycle();
     } else if (!node.rpdo_queue.empty()) {
       // This SYNC applies whatever else is pending, as a periodic one would.
       send_image(n, node.rpdo_queue.front());
       node.rpdo_queue.pop_front();
+      node.preloaded = false;
     } else {
       continue;
     }
     node.image_sync = applying_sync;
   }
-  master_.sync()->trigger_now(now);
+  for (const std::size_t n : started) nodes_[n]->preloaded = false;  // this SYNC applies them
+  // Any other node's start image waiting for its own trigger must not be applied by this SYNC.
+  masked_sync(now, [this, now] { master_.sync()->trigger_now(now); });
   const std::int64_t trigger_utime = options_.wall_clock_us(now);  // the driver replaces it by the SYNC's echo
   can::Frame sync_frame{};
   sync_frame.id = master_.sync()->config().cob_id & 0x7FF;

@@ -136,6 +136,7 @@ struct Uc57Stack::Node {
   double start_speed = 0;        // 200Eh, pulses/s
 
   RpdoImage image;                   // as last sent, or as read from the drive
+  bool preloaded = false;            // the start image (bit 4 = 1) waits in the drive for a SYNC
   std::deque<RpdoImage> rpdo_queue;  // one image per SYNC cycle
   std::uint64_t image_sync = 0;      // the SYNC (sent count) that applies the last sent image
   cia402::PowerController power;

@@ -254,7 +254,10 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
   (void)now;
 }
 
+void Uim242BusCore::reserve_line(TimePoint at, TimePoint /*now*/) { channel_.reserve(at); }
+
 void Uim242BusCore::fire(std::int64_t trigger_id, TimePoint now) {
+  channel_.reserve(kNever);
   // start_move() may end a move at once (every axis already at its target: DONE), and finish()
   // erases it from moves_: walk a list of the command ids, and look each one up again.
   std::vector<std::int64_t> ids;
@@ -267,7 +270,7 @@ void Uim242BusCore::fire(std::int64_t trigger_id, TimePoint now) {
   }
 }
 
-void Uim242BusCore::start_move(Move& m, TimePoint /*now*/) {
+void Uim242BusCore::start_move(Move& m, TimePoint now) {
   m.phase = Move::Phase::starting;
   const std::int64_t id = m.command_id;
   std::vector<Move::Axis*> to_start;
@@ -312,6 +315,13 @@ void Uim242BusCore::start_move(Move& m, TimePoint /*now*/) {
     r.instruction = Instruction{Mnemonic::SPD, true, to_start.front()->speed, false};
     r.group = id;
     r.on_sent = on_sent;
+    // The coordinator led this start by the drive model's wire time of the longest global form
+    // (gSPD 65535;): a shorter one waits the difference, so that it ends when that one would.
+    const auto longest = uim242::encode_global(Mnemonic::SPD, uim242::spec(Mnemonic::SPD).max);
+    const auto actual = uim242::encode(r.instruction);
+    if (longest.ok() && actual.ok() && longest->size() > actual->size()) {
+      r.not_before = now + channel_.character_time() * static_cast<std::int64_t>(longest->size() - actual->size());
+    }
     r.on_reply = [started](const Frame&, TimePoint) { started("broadcast"); };
     r.on_failure = [this, id](const std::string& reason, bool timed_out, TimePoint) {
       finish(id, false, reason, timed_out ? kTimeout : kDriveError);

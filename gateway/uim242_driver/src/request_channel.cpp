@@ -65,15 +65,22 @@ TimePoint RequestChannel::process(TimePoint now) {
                      true, now);
     }
   }
-  while (!in_flight_ && !queue_.empty() && now >= hold_until_) {
+  if (reserved_at_ != kNever && now >= reserved_at_ + 5 * kReplyAllowance) reserved_at_ = kNever;  // its start never came
+  while (!in_flight_ && !queue_.empty()) {
+    if (now < hold_until_) return hold_until_;  // the pause after an STO
+    if (queue_.front().not_before > now) return queue_.front().not_before;
+    if (reserved_at_ != kNever && now < reserved_at_ + 5 * kReplyAllowance) {
+      const auto text = uim242::encode(queue_.front().instruction);
+      const std::int64_t chars = static_cast<std::int64_t>(text ? text->size() : 16U) + 24 + (queue_.front().node != selected_ ? 8 : 0);
+      if (now + settings_.character_time * chars + kReplyAllowance > reserved_at_) return reserved_at_ + 5 * kReplyAllowance;
+    }
     InFlight f{std::move(queue_.front()), false, 0, now, false};
     queue_.pop_front();
     f.is_selection = f.request.node != 0 && f.request.node != selected_;
     in_flight_ = std::move(f);
     transmit(*in_flight_, now);
   }
-  if (in_flight_) return in_flight_->deadline;
-  return queue_.empty() ? kNever : hold_until_;
+  return in_flight_ ? in_flight_->deadline : kNever;
 }
 
 void RequestChannel::finish_failure(const std::string& reason, bool timed_out, TimePoint now) {

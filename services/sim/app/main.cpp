@@ -8,6 +8,7 @@
 
 #include "motion/app/service.hpp"
 #include "motion/core/log.hpp"
+#include "motion/core/precise_timer.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/sim/adam_line_sim.hpp"
 #include "motion/sim/can_bus_host.hpp"
@@ -29,6 +30,9 @@ int main(int argc, char** argv) {
     auto config = app::load_config(options);
     if (!config) return app::kExitConfig;
     app::Service service(*config, options, "sim", "sim");
+    // The simulated wires (bit-timed CAN, wire-paced serial lines) run on this loop's timers: keep
+    // them to the microsecond, not to the default 50 us timer slack.
+    if (!minimal_timer_slack()) spdlog::warn("could not lower the timer slack (prctl PR_SET_TIMERSLACK)");
     if (!service.ok()) return app::kExitUnavailable;
 
     // Simulators by family; each family's issue registers its own here.

@@ -366,6 +366,42 @@ TEST_F(TwoDriveTest, ArmThenFireStartsEveryAxisWithOneBroadcastExecuteTableFrame
   EXPECT_EQ(out.of(10).size(), 3U);
 }
 
+TEST_F(TwoDriveTest, AReservedLineSendsTheBroadcastAtOnceWhereAPollRoundWouldHoldIt) {
+  ASSERT_TRUE(core->ready());
+  core->execute(arm(10, 77, {{"c", 100000}, {"d", -8000}}), now);
+  run_for(80ms);
+  ASSERT_EQ(out.of(10).size(), 1U);
+  ASSERT_EQ(out.of(10)[0].status, kArmed);
+  // When a poll round starts: its first read goes out as the round is due (the line is idle by
+  // then in the second round after arming), and the next one a poll period (100 ms) later.
+  const auto next_round = [&] {
+    const std::size_t mark = sent.size();
+    for (int i = 0; i < 200; ++i) {
+      serve_pending();
+      advance(1ms);
+      if (sent.size() > mark) return now;
+    }
+    return TimePoint{};
+  };
+  ASSERT_NE(next_round(), TimePoint{});
+  run_for(20ms);
+  const TimePoint round = next_round();
+  ASSERT_NE(round, TimePoint{});
+  // The start frame is due 1 ms into the next round, when its first read would hold the line.
+  const TimePoint start = round + 101ms;
+  core->reserve_line(start, now);
+  run_for(round + 95ms - now);  // this round ends
+  while (now < start) advance(1ms);  // nothing left to answer: time moves in whole steps
+  ASSERT_EQ(now, start);
+  const std::size_t before = sent.size();
+  core->fire(77, now);
+  ASSERT_EQ(sent.size(), before + 1) << "the broadcast waited behind a poll";
+  EXPECT_EQ(hex(sent[before]), "00 06 00 DD 00 00 18 21");
+  // The polls held back go out after it.
+  run_for(20ms);
+  EXPECT_GT(sent.size(), before + 1);
+}
+
 TEST_F(TwoDriveTest, MovingBystanderForcesASequentialStart) {
   banks[2].set_moving(true);  // d is jogging: a broadcast table execute could disturb it
   run_for(150ms);

@@ -74,6 +74,20 @@ motionlcm::drive_model_t test_model(const std::string& axis, const std::string& 
   m.acceleration_step = 1.0;
   m.acceleration_min = 1;
   m.acceleration_max = 10'000'000;
+  // Start mechanisms with made-up wire times (a 29-bit BG; an ADAM broadcast at 115200 baud).
+  using M = motionlcm::drive_model_t;
+  const auto start = [&m](std::int8_t kind, double wire_us) {
+    m.start_kinds.push_back(kind);
+    m.start_addresses.push_back(0);
+    m.start_wire_us.push_back(wire_us);
+    m.num_starts = static_cast<std::int32_t>(m.start_kinds.size());
+  };
+  if (family == "uim342") {
+    start(M::START_UIM342_GROUP_BG, 70.0);
+    start(M::START_SINGLE, 72.0);
+  } else if (family == "adam-modbus") {
+    start(M::START_ADAM_BROADCAST, 694.0);
+  }
   return m;
 }
 
@@ -261,6 +275,7 @@ struct FakeGateways {
   bool heartbeats = true;  // false: axis states only (a coordinator that missed the heartbeats)
   std::vector<gateway_command_t> commands;
   std::vector<motionlcm::sync_trigger_t> triggers;
+  std::vector<motionlcm::sync_trigger2_t> triggers2;
   std::function<void(const gateway_command_t&)> on_command;
 };
 
@@ -298,6 +313,9 @@ struct Wire final : CoordinatorOutput {
   }
   void sync_trigger(const motionlcm::sync_trigger_t& t) override {
     loop_.send([this, t] { gateways_.triggers.push_back(t); });
+  }
+  void sync_trigger2(const motionlcm::sync_trigger2_t& t) override {
+    loop_.send([this, t] { gateways_.triggers2.push_back(t); });
   }
   void active_moves(const motionlcm::active_moves_t& m) override {
     loop_.send([this, m] {
@@ -595,6 +613,19 @@ TEST_F(CoordinatorTest, SynchronizedMoveAcrossTwoBusesArmsTriggersAndCompletes) 
   EXPECT_EQ(x_target, 100);
   // Cross-bus trigger is scheduled ahead; the order of replies was ACCEPTED, STARTED, ..., DONE.
   EXPECT_GT(gateways.triggers[0].fire_utime, gateways.triggers[0].utime);
+  // The scheduled trigger: each bus hands its start frame over early by its wire time (from the
+  // drive models), so both act at act_utime; the old trigger's fire time is the earliest hand-over.
+  ASSERT_EQ(gateways.triggers2.size(), 1u);
+  const auto& t2 = gateways.triggers2[0];
+  EXPECT_EQ(t2.trigger_id, gateways.triggers[0].trigger_id);
+  ASSERT_EQ(t2.buses, (std::vector<std::string>{"can0", "rs485"}));
+  EXPECT_DOUBLE_EQ(t2.lead_us[0], 70.0);   // x + y: one group BG
+  EXPECT_DOUBLE_EQ(t2.lead_us[1], 694.0);  // c: the broadcast
+  EXPECT_EQ(t2.send_utime[0], t2.act_utime - 70);
+  EXPECT_EQ(t2.send_utime[1], t2.act_utime - 694);
+  EXPECT_EQ(t2.send_utime[1], gateways.triggers[0].fire_utime);
+  EXPECT_EQ(t2.num_starts, 2);
+  EXPECT_DOUBLE_EQ(t2.predicted_spread_us, 0.0);
   const auto& all = replies[id];
   EXPECT_EQ(all.front().status, std::int8_t{reply_t::ACCEPTED});
   EXPECT_TRUE(std::any_of(all.begin(), all.end(), [](const reply_t& x) { return x.status == reply_t::STARTED; }));

@@ -5,6 +5,7 @@
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
+#include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/lcm/channels.hpp"
@@ -39,6 +40,11 @@ class FakeDriver : public BusDriver {
     out_.command_reply(r);
   }
   void fire(std::int64_t trigger_id) override { fired.emplace_back(trigger_id, loop_.now()); }
+  void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& order) override {
+    fire(trigger_id);
+    orders.push_back(order);
+  }
+  void prepare_fire(TimePoint at) override { prepared.push_back(at); }
   std::vector<motionlcm::bus_stats_t> statistics() const override {
     motionlcm::bus_stats_t s{};
     s.name = "can0";
@@ -49,6 +55,8 @@ class FakeDriver : public BusDriver {
   bool started = false;
   std::vector<motionlcm::gateway_command_t> commands;
   std::vector<std::pair<std::int64_t, TimePoint>> fired;
+  std::vector<std::vector<std::int64_t>> orders;
+  std::vector<TimePoint> prepared;
 
  private:
   GatewayOutput& out_;
@@ -136,6 +144,41 @@ TEST_F(Fixture, TriggerFiresAtItsWallClockTimeOnlyOnListedBuses) {
   ASSERT_EQ(driver->fired.size(), 1u);
   EXPECT_EQ(driver->fired[0].first, 2);
   EXPECT_GE(driver->fired[0].second - published, milliseconds(49));  // not early
+}
+
+TEST_F(Fixture, ScheduledTriggerFiresAtThisBusesSendTimeInItsOrderAndOnce) {
+  motionlcm::sync_trigger2_t t{};
+  t.trigger_id = 3;
+  // can0 leads by 1.98 s (far more than any frame: the test tells the send time from the act time).
+  t.act_utime = wall_time_us() + 2'000'000;
+  t.buses = {"can0", "can1"};
+  t.send_utime = {t.act_utime - 1'980'000, t.act_utime - 100};
+  t.lead_us = {1'980'000.0, 100.0};
+  t.num_buses = 2;
+  t.start_command_ids = {12, 11, 13};
+  t.num_starts = 3;
+  const TimePoint published = loop.now();
+  node.publish(lcm::channels::kSyncTrigger2, t);
+  // The deprecated trigger of the same id (fire_utime = the earliest send) must not fire again.
+  motionlcm::sync_trigger_t old{};
+  old.trigger_id = 3;
+  old.fire_utime = t.send_utime[0];
+  old.buses = {"can0", "can1"};
+  old.num_buses = 2;
+  node.publish(lcm::channels::kSyncTrigger, old);
+  pump_until([&] { return !driver->fired.empty(); });
+  ASSERT_EQ(driver->fired.size(), 1u);
+  EXPECT_EQ(driver->fired[0].first, 3);
+  EXPECT_GE(driver->fired[0].second - published, milliseconds(19));  // at can0's send time, not at once
+  EXPECT_LT(driver->fired[0].second - published, milliseconds(1000));  // and not at the act time
+  ASSERT_EQ(driver->orders.size(), 1u);
+  EXPECT_EQ(driver->orders[0], (std::vector<std::int64_t>{12, 11, 13}));
+  ASSERT_EQ(driver->prepared.size(), 1u);  // the bus was told ahead
+  EXPECT_LE(driver->prepared[0], driver->fired[0].second);
+  // Nothing more comes for it.
+  const auto later = loop.now() + milliseconds(100);
+  pump_until([&] { return loop.now() >= later; });
+  EXPECT_EQ(driver->fired.size(), 1u);
 }
 
 TEST_F(Fixture, StatusIsPublishedInUserUnitsWithInvertAndIdentity) {

@@ -9,6 +9,7 @@
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
+#include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include <vector>
@@ -146,6 +147,20 @@ TEST(LcmTypes, GatewayAndTriggerAndFrameRoundTrip) {
   t.num_buses = 2;
   t.buses = {"can0", "rs485"};
   EXPECT_EQ(round_trip(t).buses, t.buses);
+
+  motionlcm::sync_trigger2_t t2{};
+  t2.trigger_id = 9;
+  t2.act_utime = 1700000000500000;
+  t2.num_buses = 2;
+  t2.buses = {"can0", "rs485"};
+  t2.send_utime = {1700000000499930, 1700000000499306};
+  t2.lead_us = {70.0, 694.4};
+  t2.num_starts = 2;
+  t2.start_command_ids = {4, 5};
+  const auto back = round_trip(t2);
+  EXPECT_EQ(back.send_utime, t2.send_utime);
+  EXPECT_EQ(back.lead_us, t2.lead_us);
+  EXPECT_EQ(back.start_command_ids, t2.start_command_ids);
 
   motionlcm::can_frame_t f{};
   f.id = 0x04280095;

@@ -125,14 +125,21 @@ TEST(Uc57Commands, SynchronizedMoveStartsBothNodesWithOneSync) {
   EXPECT_EQ(bench.node(1).value(0x6060), 1);
   EXPECT_FALSE(bench.node(1).move_started_at_sync);  // armed means not started
 
+  // The start RPDOs (bit 4 set, target inside) went out once armed (synchronous, transmission
+  // type 1: applied by the next SYNC); every periodic SYNC since was masked by the armed image.
+  const auto armed_frames = texts(bench.sent, 0);
+  const auto last_of = [&](const std::string& prefix) {
+    const auto it = std::find_if(armed_frames.rbegin(), armed_frames.rend(), [&](const std::string& f) { return f.rfind(prefix, 0) == 0; });
+    return it == armed_frames.rend() ? std::string() : *it;
+  };
+  EXPECT_EQ(last_of("201#"), "201#1F0010270000");
+  EXPECT_EQ(last_of("202#"), "202#1F0080F3FFFF");
   const std::size_t before = bench.sent.size();
   bench.stack->fire(7, bench.now);
   const auto fired = texts(bench.sent, before);
-  // The trigger RPDOs (bit 4 set, target inside) and exactly one SYNC after them.
-  ASSERT_EQ(fired.size(), 3U);
-  EXPECT_EQ(fired[0], "201#1F0010270000");
-  EXPECT_EQ(fired[1], "202#1F0080F3FFFF");
-  EXPECT_EQ(fired[2], "080#");
+  // At the start only the SYNC goes out.
+  ASSERT_EQ(fired.size(), 1U);
+  EXPECT_EQ(fired[0], "080#");
   bench.settle();
   ASSERT_TRUE(bench.node(1).move_started_at_sync);
   EXPECT_EQ(bench.node(1).move_started_at_sync, bench.node(2).move_started_at_sync);
@@ -165,15 +172,79 @@ TEST(Uc57Commands, SynchronizedMoveWithTheManualsDefaultRpdo) {
   const auto c = arm(bench, {{"a", 5000}, {"b", 5000}}, 9);
   bench.run_for(std::chrono::milliseconds(300));
   EXPECT_EQ(bench.node(1).value(0x607A), 5000);  // target by SDO: no room in the default RPDO1
+  const auto armed_frames = texts(bench.sent, 0);
+  const auto last_rpdo = std::find_if(armed_frames.rbegin(), armed_frames.rend(), [](const std::string& f) { return f.rfind("201#", 0) == 0; });
+  ASSERT_NE(last_rpdo, armed_frames.rend());
+  EXPECT_EQ(*last_rpdo, "201#1F000000000001");  // D-39: CW 0x1F, 60FFh 0, 6060h 1, preloaded
   const std::size_t before = bench.sent.size();
   bench.stack->fire(9, bench.now);
   const auto fired = texts(bench.sent, before);
-  ASSERT_EQ(fired.size(), 3U);
-  EXPECT_EQ(fired[0], "201#1F000000000001");  // D-39: CW 0x1F, 60FFh 0, 6060h 1
-  EXPECT_EQ(fired[2], "080#");
+  ASSERT_EQ(fired.size(), 1U);
+  EXPECT_EQ(fired[0], "080#");
   bench.run_for(std::chrono::milliseconds(600));
   EXPECT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE));
   EXPECT_EQ(bench.node(2).value(0x6064), 5000);
+}
+
+TEST(Uc57Commands, PreloadedStartSurvivesPeriodicSyncsAndADisarmWithdrawsIt) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  const auto c = arm(bench, {{"a", 10000}}, 7);
+  bench.run_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(bench.replies_of(c.command_id).size(), 1U);  // ARMED
+  // Several SYNC periods with the start image waiting in the drive: each SYNC applies the armed
+  // image sent right before it, and the start image goes out again right after it.
+  const std::size_t mark = bench.sent.size();
+  bench.run_for(std::chrono::milliseconds(500));
+  const auto all = texts(bench.sent, 0);
+  std::size_t syncs = 0;
+  for (std::size_t i = mark; i < all.size(); ++i) {
+    if (all[i] != "080#") continue;
+    ++syncs;
+    // The last RPDO1 of node 1 before this SYNC (all.rend() - i: the frame before index i).
+    const auto before_sync = std::find_if(all.rend() - static_cast<std::ptrdiff_t>(i), all.rend(), [](const std::string& f) { return f.rfind("201#", 0) == 0; });
+    ASSERT_NE(before_sync, all.rend());
+    EXPECT_EQ(*before_sync, "201#0F0010270000") << "the SYNC at " << i << " would apply the start image";
+  }
+  EXPECT_GE(syncs, 2U);
+  EXPECT_FALSE(bench.node(1).move_started_at_sync);
+  // DISARM: the next SYNC applies the armed image, so nothing starts.
+  const auto disarm = bench.command(Cmd::DISARM, {"a"}, 7);
+  bench.execute(disarm);
+  bench.run_for(std::chrono::milliseconds(500));
+  EXPECT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::FAILED));
+  EXPECT_FALSE(bench.node(1).move_started_at_sync);
+  const auto after = texts(bench.sent, 0);
+  const auto last = std::find_if(after.rbegin(), after.rend(), [](const std::string& f) { return f.rfind("201#", 0) == 0; });
+  ASSERT_NE(last, after.rend());
+  EXPECT_EQ(*last, "201#0F0010270000");
+}
+
+TEST(Uc57Commands, NoPeriodicSyncJustBeforeAScheduledStart) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  const auto c = arm(bench, {{"a", 10000}, {"b", -3200}}, 7);
+  bench.run_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(bench.replies_of(c.command_id).size(), 1U);  // ARMED
+  // The SYNC phase: the next periodic SYNC comes one period (50 ms at poll_hz 20) after this one.
+  const auto count_syncs = [&](std::size_t from) {
+    const auto all = texts(bench.sent, from);
+    return static_cast<std::size_t>(std::count(all.begin(), all.end(), std::string("080#")));
+  };
+  std::size_t mark = bench.sent.size();
+  for (int i = 0; i < 100 && count_syncs(mark) == 0; ++i) bench.run_for(std::chrono::milliseconds(1));
+  ASSERT_EQ(count_syncs(mark), 1U);
+  const TimePoint start = bench.now + std::chrono::milliseconds(51);  // 1 ms after the next periodic SYNC
+  bench.stack->prepare_fire(start, bench.now);
+  mark = bench.sent.size();
+  bench.run_for(start - bench.now);
+  EXPECT_EQ(count_syncs(mark), 0U) << "a periodic SYNC went out 1 ms before the start";
+  bench.stack->fire(7, bench.now);
+  EXPECT_EQ(count_syncs(mark), 1U);
+  bench.run_for(std::chrono::milliseconds(120));
+  EXPECT_GE(count_syncs(mark), 3U) << "the periodic SYNC resumes after the start";
 }
 
 TEST(Uc57Commands, FaultDuringAMoveFailsItNamingAxisAndErrorCode) {

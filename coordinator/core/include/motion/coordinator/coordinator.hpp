@@ -54,9 +54,11 @@
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
+#include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/config/config.hpp"
+#include "motion/coordinator/start_schedule.hpp"
 #include "motion/coordinator/stop_guard.hpp"
 #include "motion/planner/quantizer.hpp"
 #include "motion/core/clock.hpp"
@@ -99,6 +101,9 @@ class CoordinatorOutput {
   virtual void reply(const motionlcm::reply_t& reply) = 0;                                                 // REPLY
   virtual void gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) = 0;  // GW_COMMAND_<bus>
   virtual void sync_trigger(const motionlcm::sync_trigger_t& trigger) = 0;                               // SYNC_TRIGGER
+  // SYNC_TRIGGER2: the scheduled start (per-bus hand-over times), sent before SYNC_TRIGGER of the
+  // same trigger id. Default: dropped.
+  virtual void sync_trigger2(const motionlcm::sync_trigger2_t& /*trigger*/) {}
   virtual void active_moves(const motionlcm::active_moves_t& moves) = 0;                                 // ACTIVE_MOVES
   virtual void event(const motionlcm::event_t& event) = 0;                                               // EVENT
   // DRIVE_MODEL_REQUEST: asks the gateways for the drive models the core lacks. Default: dropped.
@@ -209,6 +214,7 @@ class Coordinator {
     bool started_sent = false;
     std::int64_t trigger_id = 0;
     std::int64_t fire_utime = 0;
+    std::vector<StartFrame> start_frames;  // moves: one per ARM_MOVE, with its wire time from the drive model
     MovePlan plan;
     motionlcm::param_t param_result{};
     Outcome outcome;                               // kReleasing, kStopping: the terminal reply to send
@@ -247,8 +253,12 @@ class Coordinator {
   // The axes of a move on `bus`, split by start mechanism: every UIM342 group moving whole (one BG
   // to its group id), each other UIM342 axis, and per remaining family all its axes (UC57: one
   // SYNC; ADAM: one broadcast; UIM242: global instructions).
+  // `kinds` (optional) gets each group's mechanism (drive_model_t::START_*).
   [[nodiscard]] std::vector<std::vector<motionlcm::axis_command_t>> start_groups(const std::string& bus,
-                                                                                std::vector<motionlcm::axis_command_t> axes) const;
+                                                                                std::vector<motionlcm::axis_command_t> axes,
+                                                                                std::vector<std::int8_t>* kinds = nullptr) const;
+  // The wire time of the start frame of a group of `kind` (its drive models'; 0 when none says).
+  [[nodiscard]] double start_frame_wire_us(const std::vector<motionlcm::axis_command_t>& group, std::int8_t kind) const;
   void start_simple(Request& r);
   void preempt(const motionlcm::request_t& stop);
   void fire(Request& r);

@@ -63,6 +63,7 @@ class CoordinatorService final : private CoordinatorOutput {
   void reply(const motionlcm::reply_t& reply) override;
   void gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) override;
   void sync_trigger(const motionlcm::sync_trigger_t& trigger) override;
+  void sync_trigger2(const motionlcm::sync_trigger2_t& trigger) override;
   void active_moves(const motionlcm::active_moves_t& moves) override;
   void event(const motionlcm::event_t& event) override;
   void drive_model_request(const motionlcm::drive_model_request_t& request) override;

@@ -125,6 +125,10 @@ class MasterCore final : public gateway::SerialLineCore {
   TimePoint process(TimePoint now) override;
   void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
   void fire(std::int64_t trigger_id, TimePoint now) override;
+  // No transaction that would still hold the line at `at` (its request, the reply as long as the
+  // register count gives it, the drive's assumed latency and t3.5) starts before `at`, nor any
+  // from `at` until fire() or kReservationGrace after `at`.
+  void reserve_line(TimePoint at, TimePoint now) override;
   // A transport failure (hang-up): every command ends FAILED and the line is "closed".
   void line_lost(const std::string& why, TimePoint now) override;
 
@@ -188,6 +192,7 @@ class MasterCore final : public gateway::SerialLineCore {
   TimePoint reply_deadline_ = kNever;
   TimePoint line_free_at_{};        // no frame before this (t3.5 after the last traffic)
   TimePoint next_poll_ = kNever;
+  TimePoint reserved_at_ = kNever;  // reserve_line: a start frame goes out then
   std::map<std::int64_t, std::unique_ptr<Operation>> operations_;
   bool started_ = false;
   bool line_open_ = true;

@@ -15,6 +15,8 @@
 #include <motionlcm/gateway_command_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
 
+#include "motion/core/clock.hpp"
+
 namespace motion::gateway {
 
 // One axis's drive state, in drive counts.
@@ -77,6 +79,13 @@ class BusDriver {
   // Starts every move armed with this trigger id, now, with the bus's one-frame mechanism where
   // the family has one.
   virtual void fire(std::int64_t trigger_id) = 0;
+  // The same, with the start frames of several commands (one start mechanism each) handed to the
+  // wire back to back in `command_order` (SYNC_TRIGGER2's wire order; ids of other buses and
+  // unknown ids are ignored). Default: the driver's own order.
+  // A fire is scheduled at `at` (steady clock): keep the bus free for its start frames then
+  // (serial lines: no poll transaction that would still run). Default: nothing to do.
+  virtual void prepare_fire(TimePoint /*at*/) {}
+  virtual void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& /*command_order*/) { fire(trigger_id); }
   // Health: statistics per bus, and whether all drives are online and set up.
   [[nodiscard]] virtual std::vector<motionlcm::bus_stats_t> statistics() const = 0;
   [[nodiscard]] virtual bool ready() const = 0;

@@ -9,7 +9,8 @@
 // the spread between the stacks' start frames, DONE when all are done, FAILED on the first
 // failure). Own echo is turned on: a STARTED reply waits (at most kEchoWait) for the echo of the
 // command's start frames and carries their time on the wire as trigger_utime; echoes are not
-// handed to the stacks.
+// handed to the stacks. The stacks' deadlines run on a PreciseTimer (timerfd, absolute time), so a
+// SYNC period or a scheduled start keeps to the kernel's timer slack, not the loop's.
 // Thread contract: the loop's thread only.
 #pragma once
 
@@ -21,6 +22,7 @@
 
 #include "motion/can/transport.hpp"
 #include "motion/core/event_loop.hpp"
+#include "motion/core/precise_timer.hpp"
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/gateway/tx_echo_tracker.hpp"
 
@@ -40,6 +42,9 @@ class CanStack {
   // A command naming only this stack's axes; replies go through the stack's GatewayOutput.
   virtual void execute(const motionlcm::gateway_command_t& command, TimePoint now) = 0;
   virtual void fire(std::int64_t trigger_id, TimePoint now) = 0;
+  // A fire is scheduled at `at`: keep the bus quiet around it where the stack can (e.g. no
+  // periodic SYNC whose answers would still be on the wire). Default: nothing.
+  virtual void prepare_fire(TimePoint /*at*/, TimePoint /*now*/) {}
   [[nodiscard]] virtual bool ready() const = 0;
   // Adds this stack's counters (timeouts, retries, drives online/total) to the bus's.
   virtual void add_statistics(motionlcm::bus_stats_t& stats) const = 0;
@@ -67,6 +72,10 @@ class CanBusDriver final : public BusDriver {
   void start() override;
   void execute(const motionlcm::gateway_command_t& command) override;
   void fire(std::int64_t trigger_id) override;
+  // The stacks fire in the order of the first of their commands in `command_order` (the others
+  // after them): each stack's start frames go out back to back, in that order, in one call.
+  void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) override;
+  void prepare_fire(TimePoint at) override;
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const override;
   [[nodiscard]] bool ready() const override;
 
@@ -100,7 +109,9 @@ class CanBusDriver final : public BusDriver {
   std::vector<std::unique_ptr<CanStack>> stacks_;
   std::map<std::string, CanStack*> stack_of_axis_;
   std::map<std::int64_t, Pending> pending_;
-  EventLoop::TimerId timer_ = 0;
+  std::map<std::int64_t, std::vector<CanStack*>> armed_stacks_;  // ARM_MOVE command -> its stacks, until fired
+  // The stacks' earliest deadline (SYNC periods, polls, timeouts): an absolute-time timer.
+  PreciseTimer timer_;
   std::function<void(const can::Frame&, bool)> tap_;
   bool bus_off_ = false;
   bool own_echo_ = false;  // the transport took set_own_echo(true)

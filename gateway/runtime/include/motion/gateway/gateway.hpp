@@ -1,11 +1,14 @@
 // The gateway process's core: LCM <-> one BusDriver.
 //  - subscribes to GW_COMMAND_<bus>, GW_SCOMMAND_<bus> (commands signed by the coordinator) and
-//    SYNC_TRIGGER; validates that every axis of a command belongs to this bus (FAILED with a
+//    SYNC_TRIGGER2 (and the deprecated SYNC_TRIGGER); validates that every axis of a command belongs to this bus (FAILED with a
 //    reason otherwise, never silence);
 //  - signed commands pass the coordinator's key (set_command_verifier) when there is one; with
 //    security.mode enforce, plain commands and signed ones that do not verify are refused with a
 //    SECURITY event and no reply (their command ids cannot be trusted);
-//  - schedules triggers at their wall-clock fire time on the steady clock;
+//  - schedules triggers on the steady clock: a SYNC_TRIGGER2 fires the driver at this bus's
+//    send_utime (the drives act on the start frames at act_utime), its start frames in the order
+//    it gives; a SYNC_TRIGGER (from a coordinator that does not send SYNC_TRIGGER2) at its
+//    fire_utime; one trigger id fires once whichever arrives first (SYNC_TRIGGER2 reschedules);
 //  - checks every command's positions, velocities and ramps against the axis limits of the
 //    configuration, whoever sent it (FAILED code 3 and a PROTOCOL_ERROR event otherwise);
 //  - watches jogging axes' statuses and stops one (its own STOP, negative command id, and a LIMIT
@@ -18,6 +21,7 @@
 // Thread contract: loop thread only.
 #pragma once
 
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -26,16 +30,19 @@
 #include <string>
 #include <utility>
 #include <variant>
+#include <vector>
 
 #include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/health_t.hpp>
+#include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/config/config.hpp"
 #include "motion/core/event_loop.hpp"
+#include "motion/core/precise_timer.hpp"
 #include "motion/gateway/axis_limits.hpp"
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/lcm/health.hpp"
@@ -92,6 +99,9 @@ class Gateway final : public GatewayOutput {
   // A command refused by the security policy: a SECURITY event, no reply.
   void refuse(const std::string& reason);
   void on_trigger(const motionlcm::sync_trigger_t& trigger);
+  void on_trigger2(const motionlcm::sync_trigger2_t& trigger);
+  // Fires the driver for `trigger_id` at `send_utime` (wall clock), or now when that has passed.
+  void schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, std::vector<std::int64_t> order);
   // The coordinator's desired state: a request of this bus triggered before this process started
   // was the previous gateway process's; its axes are stopped and a GATEWAY_RESTARTED event says
   // what they were doing.
@@ -140,6 +150,9 @@ class Gateway final : public GatewayOutput {
   std::string coordinator_;                             // host:pid of the coordinator heard last
   std::int64_t coordinator_seen_utime_ = 0;
   EventLoop::TimerId health_timer_ = 0;
+  std::map<std::int64_t, std::unique_ptr<PreciseTimer>> pending_fires_;  // trigger id -> its timer, until it fires
+  std::deque<std::int64_t> scheduled_v2_;                     // recent trigger ids scheduled by SYNC_TRIGGER2
+  std::deque<std::int64_t> fired_;                            // recent trigger ids fired
   bool enforce_ = false;                              // security.mode enforce
   std::optional<security::GatewayCommandVerifier> verifier_;
 };

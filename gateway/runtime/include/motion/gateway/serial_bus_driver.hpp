@@ -46,6 +46,7 @@ class SerialBusDriver : public BusDriver {
   void start() final;
   void execute(const motionlcm::gateway_command_t& command) final;
   void fire(std::int64_t trigger_id) final;
+  void prepare_fire(TimePoint at) final;
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const final;
   [[nodiscard]] bool ready() const final;
 

@@ -26,6 +26,10 @@ class SerialLineCore {
   virtual TimePoint process(TimePoint now) = 0;
   virtual void execute(const motionlcm::gateway_command_t& command, TimePoint now) = 0;
   virtual void fire(std::int64_t trigger_id, TimePoint now) = 0;
+  // A start frame goes out at `at` (a scheduled trigger): the core starts no transaction that
+  // would still hold the line then, so the start frame is not queued behind a poll. The
+  // reservation ends with the next fire() or a few milliseconds after `at`. Default: ignored.
+  virtual void reserve_line(TimePoint /*at*/, TimePoint /*now*/) {}
   // The port hung up: every running command ends FAILED, the drives are offline until start().
   virtual void line_lost(const std::string& why, TimePoint now) = 0;
   [[nodiscard]] virtual motionlcm::bus_stats_t statistics() const = 0;

@@ -99,6 +99,11 @@ class Uc57Stack final : public gateway::CanStack {
   TimePoint process(TimePoint now) override;
   void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
   void fire(std::int64_t trigger_id, TimePoint now) override;
+  // No periodic SYNC within kQuietBeforeStart of a scheduled start at `at` (nor up to it): the
+  // nodes' synchronous TPDOs answering it would still be on the wire and delay the start frames.
+  // The period restarts from `at` (the start SYNC restarts it again).
+  void prepare_fire(TimePoint at, TimePoint now) override;
+  static constexpr Duration kQuietBeforeStart = std::chrono::milliseconds(3);
   [[nodiscard]] bool ready() const override;
   void add_statistics(motionlcm::bus_stats_t& stats) const override;
 
@@ -144,6 +149,16 @@ class Uc57Stack final : public gateway::CanStack {
   [[nodiscard]] RpdoImage latest_image(std::size_t n) const;
   void send_image(std::size_t n, const RpdoImage& image);
   void run_sync_cycle(TimePoint now);
+  // Preloading (scheduled starts): once every node of an ARM_MOVE waiting for a trigger is armed,
+  // each node's start image (bit 4 = 1) goes out at once in its synchronous RPDO1 (transmission
+  // type 1: applied at the next SYNC, UC57 manual §5 "RPDO communication parameters", CiA 301
+  // §7.2.2.2), so that at fire() only the SYNC goes on the wire. Any other SYNC before the fire
+  // must not apply it: masked_sync() sends the armed image (bit 4 = 0) of every preloaded node
+  // before it and the start image again after it; a node whose move is no longer armed gets its
+  // armed image back and leaves the preload.
+  void preload(const Job& job);
+  void send_preload(std::size_t n);
+  void masked_sync(TimePoint now, const std::function<void()>& sync);
   [[nodiscard]] bool image_applied(std::size_t n);  // the last queued image is in the drive for sure
   void publish_status(std::size_t n);
 

@@ -96,6 +96,7 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   TimePoint process(TimePoint now) override;
   void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
   void fire(std::int64_t trigger_id, TimePoint now) override;
+  void reserve_line(TimePoint at, TimePoint now) override;
   void line_lost(const std::string& why, TimePoint now) override;
 
   [[nodiscard]] bool ready() const override;

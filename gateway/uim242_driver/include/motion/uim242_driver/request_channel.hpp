@@ -30,6 +30,7 @@ struct Request {
   std::function<void(const uim242::Frame& reply, TimePoint now)> on_reply;
   std::function<void(const std::string& reason, bool timed_out, TimePoint now)> on_failure;
   std::function<void(TimePoint sent)> on_sent;  // each time its bytes have crossed the wire (last character's end)
+  TimePoint not_before{};  // not handed to the line before this (a start timed to the end of a longer frame)
 };
 
 // After an STO's reply the line stays quiet this long (UIM242 manual #42: "wait 20ms before
@@ -57,6 +58,12 @@ class RequestChannel {
   bool on_frame(const uim242::Frame& frame, TimePoint now);
   // Sends the next request, handles the timeout; returns the next deadline or kNever.
   TimePoint process(TimePoint now);
+  // A start frame goes out at `at` (kNever: no reservation): until then no request starts that
+  // would still be waiting for its reply then (its instruction, a 24-character reply and
+  // kReplyAllowance), nor any from `at` on, so the start is not queued behind a poll. Ends with
+  // reserve(kNever) (the start) or by itself 5 kReplyAllowance after `at`.
+  void reserve(TimePoint at) { reserved_at_ = at; }
+  static constexpr Duration kReplyAllowance = std::chrono::milliseconds(2);
   // Drops queued requests of `group` (the one in flight still completes, its callbacks are not called).
   void cancel(std::int64_t group);
   // Drops every request, queued and in flight, without calling back (the line is gone); the
@@ -64,6 +71,7 @@ class RequestChannel {
   void reset();
   [[nodiscard]] bool idle() const noexcept { return !in_flight_ && queue_.empty(); }
   [[nodiscard]] const ChannelStatistics& statistics() const noexcept { return stats_; }
+  [[nodiscard]] Duration character_time() const noexcept { return settings_.character_time; }
   void count_received(std::size_t bytes) noexcept { stats_.rx_bytes += static_cast<std::int64_t>(bytes); }
   void count_protocol_error() noexcept { ++stats_.errors; }
 
@@ -87,6 +95,7 @@ class RequestChannel {
   std::optional<InFlight> in_flight_;
   int selected_ = 0;  // the gateway's current target; 0 = unknown
   TimePoint hold_until_{};  // nothing is sent before (the pause after an STO)
+  TimePoint reserved_at_ = kNever;
   ChannelStatistics stats_;
 };
 

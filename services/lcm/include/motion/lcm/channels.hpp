@@ -14,7 +14,9 @@ inline constexpr std::string_view kAxisState = "AXIS_STATE";     // axis_state_t
 inline constexpr std::string_view kEvent = "EVENT";              // event_t, gateways/coordinator
 inline constexpr std::string_view kHealth = "HEALTH";            // health_t, every process
 inline constexpr std::string_view kGatewayReply = "GW_REPLY";    // gateway_reply_t
-inline constexpr std::string_view kSyncTrigger = "SYNC_TRIGGER"; // sync_trigger_t
+inline constexpr std::string_view kSyncTrigger = "SYNC_TRIGGER"; // sync_trigger_t (deprecated: SYNC_TRIGGER2)
+// sync_trigger2_t, coordinator -> gateways: the scheduled start (per-bus hand-over times).
+inline constexpr std::string_view kSyncTrigger2 = "SYNC_TRIGGER2";
 inline constexpr std::string_view kActiveMoves = "ACTIVE_MOVES"; // active_moves_t, coordinator -> gateways, tools
 // active_moves_t, gateways -> a new coordinator: the rows a gateway last had from a coordinator
 // that stopped heartbeating, so that its successor can end those requests.

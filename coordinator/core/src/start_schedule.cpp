@@ -1,0 +1,44 @@
+#include "motion/coordinator/start_schedule.hpp"
+
+#include <algorithm>
+#include <map>
+
+namespace motion::coordinator {
+
+StartSchedule schedule_starts(std::vector<StartFrame> frames) {
+  std::map<std::string, std::vector<StartFrame>> by_bus;
+  for (auto& f : frames) {
+    f.wire_us = std::max(0.0, f.wire_us);
+    by_bus[f.bus].push_back(std::move(f));
+  }
+  StartSchedule out;
+  for (auto& [bus, list] : by_bus) {
+    // Longest first; equal frames in command order (deterministic).
+    std::sort(list.begin(), list.end(), [](const StartFrame& a, const StartFrame& b) {
+      return a.wire_us != b.wire_us ? a.wire_us > b.wire_us : a.command_id < b.command_id;
+    });
+    BusStart s;
+    s.bus = bus;
+    double rest = 0;
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      s.command_ids.push_back(list[i].command_id);
+      if (i > 0) rest += list[i].wire_us;
+    }
+    s.span_us = rest;
+    s.lead_us = list.front().wire_us + rest / 2.0;
+    out.max_lead_us = std::max(out.max_lead_us, s.lead_us);
+    out.predicted_spread_us = std::max(out.predicted_spread_us, s.span_us);
+    out.buses.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::optional<double> start_wire_us(const motionlcm::drive_model_t& model, std::int8_t kind) {
+  const std::size_t n = std::min({model.start_kinds.size(), model.start_wire_us.size(), static_cast<std::size_t>(std::max(model.num_starts, 0))});
+  for (std::size_t i = 0; i < n; ++i) {
+    if (model.start_kinds[i] == kind) return model.start_wire_us[i];
+  }
+  return std::nullopt;
+}
+
+}  // namespace motion::coordinator

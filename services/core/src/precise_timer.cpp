@@ -1,0 +1,90 @@
+#include "motion/core/precise_timer.hpp"
+
+#include <sched.h>
+#include <sys/prctl.h>
+#include <sys/timerfd.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdint>
+#include <ctime>
+
+namespace motion {
+
+bool minimal_timer_slack() { return ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL) == 0; }
+
+bool fifo_scheduling(int priority) {
+  sched_param param{};
+  param.sched_priority = priority;
+  return ::sched_setscheduler(0, SCHED_FIFO, &param) == 0;
+}
+
+void normal_scheduling() {
+  sched_param param{};
+  param.sched_priority = 0;
+  ::sched_setscheduler(0, SCHED_OTHER, &param);
+}
+
+PreciseTimer::PreciseTimer(EventLoop& loop) : loop_(loop) {
+  // std::chrono::steady_clock is CLOCK_MONOTONIC (libstdc++, libc++): its time points are the
+  // timerfd's absolute times.
+  if (dynamic_cast<const SystemSteadyClock*>(&loop_.clock()) == nullptr) return;
+  fd_ = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+  if (fd_ >= 0) loop_.watch(fd_, [this] { on_expired(); });
+}
+
+PreciseTimer::~PreciseTimer() {
+  loop_.cancel(fallback_);
+  if (fd_ >= 0) {
+    loop_.unwatch(fd_);
+    ::close(fd_);
+  }
+}
+
+void PreciseTimer::arm(TimePoint deadline, std::function<void()> callback) {
+  cancel();
+  if (deadline == kNever) return;
+  callback_ = std::move(callback);
+  armed_ = true;
+  if (fd_ < 0) {
+    fallback_ = loop_.call_at(deadline, [this] {
+      fallback_ = 0;
+      armed_ = false;
+      auto cb = std::move(callback_);
+      if (cb) cb();
+    });
+    return;
+  }
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(deadline.time_since_epoch()).count();
+  itimerspec spec{};
+  // 0 would disarm: a deadline at or before the epoch is "now".
+  spec.it_value.tv_sec = static_cast<time_t>(ns / 1'000'000'000);
+  spec.it_value.tv_nsec = static_cast<long>(ns % 1'000'000'000);
+  if (ns <= 0) spec.it_value.tv_nsec = 1;
+  ::timerfd_settime(fd_, TFD_TIMER_ABSTIME, &spec, nullptr);
+}
+
+void PreciseTimer::cancel() {
+  armed_ = false;
+  callback_ = nullptr;
+  if (fallback_ != 0) {
+    loop_.cancel(fallback_);
+    fallback_ = 0;
+  }
+  if (fd_ >= 0) {
+    const itimerspec off{};
+    ::timerfd_settime(fd_, TFD_TIMER_ABSTIME, &off, nullptr);
+  }
+}
+
+void PreciseTimer::on_expired() {
+  std::uint64_t expirations = 0;
+  if (::read(fd_, &expirations, sizeof expirations) != static_cast<ssize_t>(sizeof expirations)) return;  // EAGAIN: cancelled meanwhile
+  if (!armed_) return;
+  armed_ = false;
+  auto cb = std::move(callback_);
+  callback_ = nullptr;
+  if (cb) cb();
+}
+
+}  // namespace motion

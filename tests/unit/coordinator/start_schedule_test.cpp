@@ -1,0 +1,100 @@
+// The start schedule (start_schedule.hpp) from given wire times: a pure function, no clock.
+#include "motion/coordinator/start_schedule.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/canopen/sync.hpp"
+#include "motion/config/config.hpp"
+#include "motion/drive_model/drive_model.hpp"
+#include "motion/gateway/serial_line.hpp"
+
+namespace motion::coordinator {
+namespace {
+
+const BusStart& bus(const StartSchedule& s, const std::string& name) {
+  for (const auto& b : s.buses) {
+    if (b.bus == name) return b;
+  }
+  throw std::runtime_error("no bus " + name);
+}
+
+TEST(StartSchedule, OneFramePerBusLeadsByItsWireTimeAndLeavesNoSpread) {
+  const auto s = schedule_starts({{"can0", 11, 47.0}, {"rs485", 12, 694.4}, {"rs232", 13, 2604.2}});
+  ASSERT_EQ(s.buses.size(), 3U);
+  EXPECT_DOUBLE_EQ(bus(s, "can0").lead_us, 47.0);
+  EXPECT_DOUBLE_EQ(bus(s, "rs485").lead_us, 694.4);
+  EXPECT_DOUBLE_EQ(bus(s, "rs232").lead_us, 2604.2);
+  EXPECT_DOUBLE_EQ(s.max_lead_us, 2604.2);
+  EXPECT_DOUBLE_EQ(s.predicted_spread_us, 0.0);
+}
+
+TEST(StartSchedule, FramesOnOneBusGoLongestFirstAndCentreTheirEndsOnTheActInstant) {
+  // Two 29-bit BGs (70 us) and an 11-bit SYNC (50 us) on one CAN bus, given shortest first.
+  const auto s = schedule_starts({{"can0", 3, 50.0}, {"can0", 2, 70.0}, {"can0", 1, 70.0}});
+  const auto& c = bus(s, "can0");
+  EXPECT_EQ(c.command_ids, (std::vector<std::int64_t>{1, 2, 3}));
+  // Ends at 70, 140, 190 after the hand-over: span 120 = (k - 1) frames after the longest.
+  EXPECT_DOUBLE_EQ(c.span_us, 120.0);
+  EXPECT_DOUBLE_EQ(c.lead_us, 70.0 + 60.0);
+  EXPECT_DOUBLE_EQ(s.predicted_spread_us, 120.0);
+  // Any other order spreads further: SYNC first spans 140.
+  const auto sync_first = 70.0 + 70.0;
+  EXPECT_LT(c.span_us, sync_first);
+}
+
+TEST(StartSchedule, ASerialBusActsInTheMiddleOfTheCanBusSpan) {
+  const auto s = schedule_starts({{"can0", 1, 70.0}, {"can0", 2, 50.0}, {"rs485", 3, 694.0}});
+  // can0: ends at 70 and 120 after its hand-over, centred: lead 95 -> acts at -25 and +25.
+  EXPECT_DOUBLE_EQ(bus(s, "can0").lead_us, 95.0);
+  EXPECT_DOUBLE_EQ(bus(s, "rs485").lead_us, 694.0);
+  EXPECT_DOUBLE_EQ(s.predicted_spread_us, 50.0);
+}
+
+TEST(StartSchedule, NegativeWireTimesCountAsZero) {
+  const auto s = schedule_starts({{"can0", 1, -5.0}});
+  EXPECT_DOUBLE_EQ(bus(s, "can0").lead_us, 0.0);
+}
+
+TEST(StartSchedule, WireTimesComeFromTheDriveModels) {
+  auto loaded = config::load_string(R"(
+buses:
+  - {name: can0, transport: simcan:can0, bitrate: 500000}
+  - {name: rs485, transport: simserial:rs485, baud: 19200}
+drives:
+  - {name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20}
+  - {name: ad, family: uc57, bus: can0, node_id: 1}
+  - {name: cd, family: adam-modbus, bus: rs485, node_id: 1}
+axes:
+  - {name: x, drive: xd, steps_per_unit: 640, limits: {min: -100, max: 100, velocity: 50, acceleration: 400}}
+  - {name: a, drive: ad, steps_per_unit: 8.888888888888889, limits: {min: -720, max: 720, velocity: 360, acceleration: 1440}}
+  - {name: c, drive: cd, steps_per_unit: 320, limits: {min: -100, max: 100, velocity: 40, acceleration: 200}}
+)");
+  ASSERT_TRUE(loaded.ok()) << loaded.error_text();
+  const config::Config& cfg = *loaded.config;
+  const auto model = [&](const std::string& axis) {
+    auto m = drive_model::build(cfg, *cfg.find_axis(axis));
+    if (auto* why = std::get_if<std::string>(&m)) throw std::runtime_error(*why);
+    return std::get<motionlcm::drive_model_t>(m);
+  };
+  using M = motionlcm::drive_model_t;
+  const auto bg = start_wire_us(model("x"), M::START_UIM342_GROUP_BG);
+  const auto sync = start_wire_us(model("a"), M::START_CANOPEN_SYNC);
+  const auto broadcast = start_wire_us(model("c"), M::START_ADAM_BROADCAST);
+  ASSERT_TRUE(bg && sync && broadcast);
+  EXPECT_FALSE(start_wire_us(model("a"), M::START_ADAM_BROADCAST));
+  // The SYNC is CiA 301's 0-byte frame on 080h: its bits at 500 kbit/s.
+  const double sync_bits_us = std::chrono::duration<double, std::micro>(can::frame_duration(canopen::encode_sync({}), 500000)).count();
+  EXPECT_DOUBLE_EQ(*sync, sync_bits_us);
+  const auto s = schedule_starts({{"can0", 1, *sync}, {"can0", 2, *bg}, {"rs485", 3, *broadcast}});
+  EXPECT_EQ(bus(s, "can0").command_ids, (std::vector<std::int64_t>{2, 1}));  // the 29-bit BG before the SYNC
+  EXPECT_DOUBLE_EQ(bus(s, "can0").lead_us, *bg + *sync / 2);
+  EXPECT_DOUBLE_EQ(bus(s, "rs485").lead_us, *broadcast);
+  EXPECT_GT(*broadcast, 10 * *bg);  // the serial broadcast is the longest lead by far
+  EXPECT_DOUBLE_EQ(s.max_lead_us, *broadcast);
+}
+
+}  // namespace
+}  // namespace motion::coordinator
