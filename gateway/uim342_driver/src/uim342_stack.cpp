@@ -11,6 +11,7 @@
 #include <motionlcm/event_t.hpp>
 
 #include "motion/can_frame/bit_timing.hpp"
+#include "motion/gateway/power_up_watch.hpp"
 
 namespace motion::gateway {
 namespace {
@@ -120,11 +121,9 @@ struct Uim342Stack::Impl {
     uim342::AccelerationUnit unit = uim342::AccelerationUnit::pulses_per_s2;
     double cut_in_pps = 0;
     std::int64_t offset = 0;      // reported position = drive counter + offset (SET_POSITION)
-    // Power-cycle detection (see powered_up()): the drive counter and speed of the last MS[1],
-    // and whether the driver was on before the latest MS[0].
-    std::optional<std::int32_t> last_counter;
-    TimePoint last_counter_at{};
-    std::int32_t last_speed = 0;
+    // Power-cycle detection (see on_kinematics()): the drive counter's samples, and whether the
+    // driver was on before the latest MS[0].
+    PowerUpWatch power;
     bool was_enabled = false;
     std::int64_t move = 0;        // active ARM_MOVE command
     bool bg_acked = false;        // of the active move
@@ -474,7 +473,7 @@ struct Uim342Stack::Impl {
     if (ack) apply_ack(i, r, *ack, now);
     if (r.instruction.function == FunctionCode::SY) {
       // The drive reboots without answering; identified and set up again after reboot_wait.
-      n.last_counter.reset();  // our own reboot: its counter restarts at 0 (not a lost power)
+      n.power.forget();  // our own reboot: its counter restarts at 0 (not a lost power)
       fail_commands_of(i, error_code(ReplyError::kAxisOffline), fmt::format("{} is rebooting to apply its group id", n.name()));
       n.phase = Phase::rebooting;
       n.queue.clear();
@@ -551,16 +550,10 @@ struct Uim342Stack::Impl {
       case FunctionCode::MS:
         if (const auto* s = std::get_if<uim342::MotionStatus>(&body)) on_motion_status(i, *s, r, now);
         if (const auto* k = std::get_if<uim342::MotionKinematics>(&body)) {
-          const bool watched = n.phase == Phase::ready || n.phase == Phase::setup_failed || n.phase == Phase::setting_up;
-          if (watched && n.homing.command == 0) {
-            if (auto why = powered_up(n, *k, now)) {
-              on_power_cycle(i, *why, now);
-              break;
-            }
+          if (auto why = powered_up(n, *k, now)) {
+            on_power_cycle(i, *why, now);
+            break;
           }
-          n.last_counter = k->absolute_position;
-          n.last_counter_at = now;
-          n.last_speed = k->speed;
           n.status.position_counts = k->absolute_position + n.offset;
           n.status.velocity_counts = k->speed;
           publish(n, now);
@@ -570,7 +563,7 @@ struct Uim342Stack::Impl {
         auto it = commands.find(r.command_id);
         if (it == commands.end()) break;
         // SET_POSITION's value, or the homing offset: the position the origin gets.
-        n.last_counter = 0;  // the counter is 0 now by our own doing
+        n.power.counter_set(0, now);  // the counter is 0 now by our own doing
         n.offset = it->second.targets[i];
         n.status.position_counts = n.offset;
         if (it->second.cmd.kind == gateway_command_t::HOME) n.status.homed = true;
@@ -662,24 +655,19 @@ struct Uim342Stack::Impl {
 
   // The UIM342 sends nothing when it powers up (no such notification in §5.3; §5.2 IC and §5.9
   // MT[3] only say what it does at power-on), so a power cycle shows only in what it answers
-  // afterwards: its position counter starts at 0 (the manual keeps no position over power loss;
-  // it names PP values as saved to flash, §5.1), at rest, and with the driver off unless IC
-  // auto-enable is set (§5.2). A drive whose counter reads 0 at standstill where the
-  // last sample was farther than it could travel since (twice the last speed over the time
-  // between the samples, plus kJumpSlack counts), or that reads 0 at standstill with its driver
-  // turned off by nobody, lost power. Not caught: a power cycle while the counter was within that
-  // reach of 0 (then the position lost is at most that reach), or one of a drive with
-  // auto-enable that was moving when it fell silent, far enough to be able to reach 0.
-  static constexpr double kJumpSlack = 64;
-  [[nodiscard]] std::optional<std::string> powered_up(const Node& n, const uim342::MotionKinematics& k, TimePoint now) const {
-    if (!n.last_counter || *n.last_counter == 0 || k.absolute_position != 0 || k.speed != 0) return std::nullopt;
-    const double dt = std::chrono::duration<double>(now - n.last_counter_at).count();
-    const double reach = 2.0 * std::abs(static_cast<double>(n.last_speed)) * dt + kJumpSlack;
-    const bool jumped = std::abs(static_cast<double>(*n.last_counter)) > reach;
+  // afterwards (PowerUpWatch): its position counter starts at 0 (the manual keeps no position over
+  // power loss; it names PP values as saved to flash, §5.1), at rest, with the driver off unless
+  // IC auto-enable is set (§5.2). Not watched while it is identified or homed (the origin moves).
+  [[nodiscard]] std::optional<std::string> powered_up(Node& n, const uim342::MotionKinematics& k, TimePoint now) {
+    const bool watched = n.phase == Phase::ready || n.phase == Phase::setup_failed || n.phase == Phase::setting_up;
+    if (!watched || n.homing.command != 0) {
+      n.power.forget();
+      return std::nullopt;
+    }
     const bool switched_off = n.was_enabled && !n.status.enabled;
-    if (!jumped && !switched_off) return std::nullopt;
-    return fmt::format("{} answers as freshly powered up: position counter {} -> 0 at rest within {:.0f} ms{}", n.name(), *n.last_counter,
-                       dt * 1000.0, switched_off ? ", driver off" : "");
+    auto why = n.power.sample(k.absolute_position, static_cast<double>(k.speed), now, switched_off);
+    if (!why) return std::nullopt;
+    return n.name() + " " + *why;
   }
 
   // A power cycle seen in its answers: what it was doing ended, its position is lost, and its
@@ -687,7 +675,6 @@ struct Uim342Stack::Impl {
   void on_power_cycle(std::size_t i, const std::string& why, TimePoint now) {
     Node& n = nodes[i];
     fail_commands_of(i, error_code(ReplyError::kAxisFault), why);
-    n.last_counter.reset();
     n.offset = 0;
     n.status.position_counts = 0;
     n.status.velocity_counts = 0;
