@@ -3,9 +3,9 @@
 // answers afterwards. One watch per drive, fed every position sample of the drive's own counter
 // (before any offset the driver adds). A sample that reads 0 at rest where the last one was
 // farther than the drive could travel in between (twice the last speed over the time between the
-// samples, plus kSlackCounts), or that reads 0 at rest with its power stage turned off by nobody,
-// is a power-up. Not caught: a power cycle while the counter was within that reach of 0 (then the
-// position lost is at most that reach). Drivers tell the watch when they set the counter
+// samples when it was moving toward 0, plus kSlackCounts), or that reads 0 at rest with its power
+// stage turned off by nobody, is a power-up. Not caught: a power cycle while the counter was
+// within that reach of 0 (then the position lost is at most that reach). Drivers tell the watch when they set the counter
 // themselves (origin, preset, reboot), so that is not taken for one.
 // Passive value type: no I/O, no clock of its own; the driver's thread only.
 #pragma once
@@ -33,7 +33,9 @@ class PowerUpWatch {
     std::optional<std::string> why;
     if (last_ && *last_ != 0 && counter == 0 && speed == 0) {
       const double dt = std::chrono::duration<double>(now - last_at_).count();
-      const double reach = 2.0 * std::abs(last_speed_) * dt + kSlackCounts;
+      // Moving away from 0 (or at rest), it cannot get there without stopping and turning back.
+      const bool toward_zero = (last_speed_ > 0 && *last_ < 0) || (last_speed_ < 0 && *last_ > 0);
+      const double reach = (toward_zero ? 2.0 * std::abs(last_speed_) * dt : 0.0) + kSlackCounts;
       const bool jumped = std::abs(static_cast<double>(*last_)) > reach;
       if (jumped || switched_off) {
         why = fmt::format("answers as freshly powered up: position counter {} -> 0 at rest within {:.0f} ms{}", *last_, dt * 1000.0,
