@@ -49,6 +49,8 @@ struct Row {
   std::int16_t event = 0;    // an event of this kind must name the axis (0: none required)
   bool position_lost = false;  // the axis ends with its position lost (and is refused a move)
   bool done = false;         // the move rides through the fault and ends DONE at its target
+  bool offline = false;      // during the fault the axis goes offline and stops saying "moving"
+  int hold_ms = 0;           // the fault lasts this long at least (0: until the terminal reply, 1.5 s at most)
 };
 
 std::ostream& operator<<(std::ostream& os, const Row& r) { return os << r.name; }
@@ -63,7 +65,13 @@ const Row kRows[] = {
     {"PowerCycledUim242", "u", sim_control_t::POWER_CYCLE, 0, 0, false},
     {"Stall", "z", sim_control_t::STALL, 0, event_t::STALL},
     {"FramesDroppedWithTheStop", "a", kDropWithStop, 20, 0},
-    {"CrcErrors", "a", sim_control_t::CRC_ERRORS, 1, 0},
+    // Persistent CRC errors: the drive goes on executing, nothing it sends gets through (CAN: the
+    // frames fail the CRC at every receiver; Modbus: the master discards the replies); held until
+    // the move is over on the drive, so that it answers again at rest.
+    {"CrcErrorsUim342", "z", sim_control_t::CRC_ERRORS, 1, event_t::OFFLINE, false, false, true, 2000},
+    {"CrcErrorsUc57", "a", sim_control_t::CRC_ERRORS, 1, event_t::HEARTBEAT_LOST, false, false, true, 2000},
+    {"CrcErrorsAdam", "c", sim_control_t::CRC_ERRORS, 1, event_t::OFFLINE, false, false, true, 2000},
+    {"CrcErrorsUim242", "u", sim_control_t::CRC_ERRORS, 1, event_t::OFFLINE, false, false, true, 2000},
     {"ReplyLatency", "a", sim_control_t::REPLY_LATENCY, 30000, 0, false, true},
     {"LineNoise", "c", sim_control_t::LINE_NOISE, 24, event_t::PROTOCOL_ERROR},
     {"GatewayKilledAndRestarted", "c", kKillGateway, 0, event_t::GATEWAY_RESTARTED},
@@ -206,8 +214,17 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
   ASSERT_TRUE(lab().client().wait_until([&] { return state(axis).moving || terminals() > 0; }, seconds(10)));
   ASSERT_EQ(terminals(), 0) << replies.back().reason;
   lab().pause(milliseconds(200));
+  const auto fault_start = std::chrono::steady_clock::now();
   auto end_fault = inject(row);
-  lab().client().wait_until([&] { return terminals() > 0; }, milliseconds(1500));
+  if (row.offline) {
+    EXPECT_TRUE(lab().client().wait_until([&] { return !state(axis).online && !state(axis).moving; }, seconds(5)))
+        << axis << " still online or moving during the fault";
+  }
+  if (row.hold_ms > 0) {
+    lab().client().wait_until([] { return false; }, milliseconds(row.hold_ms) - std::chrono::duration_cast<milliseconds>(std::chrono::steady_clock::now() - fault_start));
+  } else {
+    lab().client().wait_until([&] { return terminals() > 0; }, milliseconds(1500));
+  }
   end_fault();
 
   // 1. Exactly one terminal reply (a second one would come within a few status periods).

@@ -442,7 +442,10 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   msg.target_counts = status.target_counts;
   msg.online = status.online;
   msg.enabled = status.enabled;
-  msg.moving = status.moving;
+  // A drive that cannot be heard (offline: timeouts, CRC errors on every try, heartbeat lost) is
+  // not reported as moving on its last word: "moving" is what a live drive says. What it does is
+  // unknown; the coordinator's stop watch counts an offline axis as unreachable, never as stopped.
+  msg.moving = status.online && status.moving;
   msg.in_position = status.in_position;
   msg.homed = status.homed;
   msg.fault = status.fault;

@@ -58,6 +58,11 @@ class Uim242GatewaySim::Controller {
   [[nodiscard]] const std::string& drive() const { return setup_.drive; }
   [[nodiscard]] std::uint8_t node() const { return setup_.node_id; }
   [[nodiscard]] bool silent() const { return silent_; }
+  // Its frames reach the UIM2501 (SILENCE: it neither hears nor answers; CRC_ERRORS: it executes
+  // what it hears, but every frame it sends fails the CAN CRC at the UIM2501 and is discarded,
+  // ISO 11898-1 CRC error and fault confinement, as a node whose frames keep failing ends bus-off).
+  [[nodiscard]] bool heard() const { return !silent_ && !corrupt_; }
+  void set_corrupt(bool corrupt) { corrupt_ = corrupt; }
   [[nodiscard]] bool enabled() const { return enabled_; }
   [[nodiscard]] std::int64_t position(TimePoint now) const { return kinematics_.position_counts(now); }
   // Kinematics counts the instant of arrival as moving; the controller has stopped by then.
@@ -384,6 +389,7 @@ class Uim242GatewaySim::Controller {
   const Uim242SimOptions& options_;
   const Uim242SimContext& context_;
   bool silent_ = false;
+  bool corrupt_ = false;
 
   // Registers and settings (EEPROM-backed ones survive power_up).
   std::uint16_t mcfg_ = kCm;  // advanced motion on: closed-loop -IE units ship with the module
@@ -460,7 +466,7 @@ TimePoint Uim242GatewaySim::process(TimePoint now) {
   TimePoint next = kNever;
   for (auto& c : controllers_) {
     for (const auto& f : c->process(now)) {
-      if (!c->silent()) send(f);
+      if (c->heard()) send(f);
     }
     next = std::min(next, c->deadline());
   }
@@ -480,9 +486,10 @@ bool Uim242GatewaySim::control(const motionlcm::sim_control_t& control, TimePoin
       break;
     case motionlcm::sim_control_t::SILENCE: c->set_silent(control.value != 0); return true;
     case motionlcm::sim_control_t::POWER_CYCLE: c->power_up(now); return true;
+    case motionlcm::sim_control_t::CRC_ERRORS: c->set_corrupt(control.value != 0); return true;
     default: return false;
   }
-  if (!c->silent()) {
+  if (c->heard()) {
     for (const auto& f : out) send(f);
   }
   return true;
@@ -542,7 +549,7 @@ void Uim242GatewaySim::execute(const uim242::InstructionChunk& chunk, TimePoint 
   Controller* c = find_node(node);
   if (!c || c->silent()) return;  // nobody answers: the host times out
   for (const auto& f : c->execute(in, now, !chunk.silent)) {
-    if (f.header == Header::error || !chunk.silent) send(f);
+    if ((f.header == Header::error || !chunk.silent) && c->heard()) send(f);
   }
 }
 
