@@ -4,7 +4,7 @@
 // (before any offset the driver adds). A sample that reads 0 at rest where the last one was
 // farther than the drive could travel in between (twice the last speed over the time between the
 // samples when it was moving toward 0, plus kSlackCounts), or that reads 0 at rest with its power
-// stage turned off by nobody, is a power-up. Not caught: a power cycle while the counter was
+// stage turned off by nobody where the last sample was beyond kSlackCounts, is a power-up. Not caught: a power cycle while the counter was
 // within that reach of 0 (then the position lost is at most that reach). Drivers tell the watch when they set the counter
 // themselves (origin, preset, reboot), so that is not taken for one.
 // Passive value type: no I/O, no clock of its own; the driver's thread only.
@@ -37,7 +37,8 @@ class PowerUpWatch {
       const bool toward_zero = (last_speed_ > 0 && *last_ < 0) || (last_speed_ < 0 && *last_ > 0);
       const double reach = (toward_zero ? 2.0 * std::abs(last_speed_) * dt : 0.0) + kSlackCounts;
       const bool jumped = std::abs(static_cast<double>(*last_)) > reach;
-      if (jumped || switched_off) {
+      // Switched off at rest, exactly at 0, from a counter beyond the slack: not a stop of ours.
+      if (jumped || (switched_off && std::abs(static_cast<double>(*last_)) > kSlackCounts)) {
         why = fmt::format("answers as freshly powered up: position counter {} -> 0 at rest within {:.0f} ms{}", *last_, dt * 1000.0,
                           switched_off ? ", power stage off" : "");
       }
