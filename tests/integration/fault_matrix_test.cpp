@@ -64,6 +64,9 @@ const Row kRows[] = {
     // its position is not lost, the move ends short of its target.
     {"PowerCycledUim242", "u", sim_control_t::POWER_CYCLE, 0, 0, false},
     {"Stall", "z", sim_control_t::STALL, 0, event_t::STALL},
+    // Dropped CAN frames hit every drive of the bus; the moving axis is a UC57 (a UIM342 that
+    // drops out mid-move is set up again only at rest: its set-up is refused while it moves).
+    {"FramesDropped", "a", sim_control_t::BUS_DROP, 50, 0},
     {"FramesDroppedWithTheStop", "a", kDropWithStop, 20, 0},
     // Persistent CRC errors: the drive goes on executing, nothing it sends gets through (CAN: the
     // frames fail the CRC at every receiver; Modbus: the master discards the replies); held until
@@ -178,6 +181,9 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
         return [] {};
       case sim_control_t::LINE_NOISE:
         lab().control_bus(bus, sim_control_t::LINE_NOISE, row.value, 1);
+        return [] {};
+      case sim_control_t::BUS_DROP:
+        lab().control_bus(bus, sim_control_t::BUS_DROP, row.value);
         return [] {};
       case sim_control_t::SILENCE:
       case sim_control_t::CRC_ERRORS:
