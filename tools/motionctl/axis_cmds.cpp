@@ -52,9 +52,11 @@ void print_status_table(const config::Config& c, const std::map<std::string, mot
       continue;
     }
     const auto& s = it->second;
+    // Not faulted but its drive lost power: the column says so (README "Safety and faults").
+    const bool lost = !s.fault && s.fault_code == motionlcm::axis_state_t::POSITION_LOST;
     std::printf("%-8s %-12s %-7s %4d %5d %14.4f %-4s %-7s %-6s %-6s %s\n", a.name.c_str(), s.family.c_str(), s.bus.c_str(), s.node_id, s.group_id,
                 s.position, a.unit.c_str(), s.enabled ? "yes" : "no", s.moving ? "yes" : "no", s.online ? "yes" : "no",
-                s.fault ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
+                s.fault || lost ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
   }
 }
 
@@ -67,7 +69,8 @@ nlohmann::json status_json(const config::Config& c, const std::map<std::string, 
       const auto& s = it->second;
       j.update({{"position", s.position}, {"position_counts", s.position_counts}, {"velocity", s.velocity}, {"enabled", s.enabled},
                 {"moving", s.moving}, {"in_position", s.in_position}, {"online", s.online}, {"fault", s.fault}, {"fault_code", s.fault_code},
-                {"fault_text", s.fault_text}, {"inputs", s.inputs}, {"outputs", s.outputs}});
+                {"fault_text", s.fault_text}, {"position_lost", !s.fault && s.fault_code == motionlcm::axis_state_t::POSITION_LOST},
+                {"homed", s.homed}, {"inputs", s.inputs}, {"outputs", s.outputs}});
     } else {
       j.update({{"position", nullptr}, {"enabled", nullptr}, {"moving", nullptr}, {"online", false}, {"fault", nullptr}});
     }
