@@ -2,6 +2,8 @@
 // by `motionctl health`, refuses bad configurations with a clear error, and stops cleanly.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <fstream>
 
 #include "motion/config/config.hpp"
@@ -43,6 +45,35 @@ TEST(Foundation, AllProcessesOfTheSimLabHeartbeatAndMotionctlSeesThem) {
     group.stop(pid);
     EXPECT_EQ(group.exit_status(pid), 0);
   }
+}
+
+// --json is honoured by every command that has a JSON form (config: its summary, the lists and
+// values) and refused, naming why, by those that speak another format (dump, send).
+TEST(Foundation, MotionctlConfigAnswersInJsonAndDumpRefusesIt) {
+  ProcessGroup group;
+  const std::string config = source_path("config/sim-lab.yaml");
+  std::string out;
+  ASSERT_EQ(group.run_to_completion({"config-json", "motionctl", {"--config", config, "--json", "config"}, {}}, &out), 0) << out;
+  const auto doc = nlohmann::json::parse(out.substr(std::min(out.find('{'), out.size())), nullptr, false);
+  ASSERT_TRUE(doc.is_object()) << out;
+  EXPECT_EQ(doc["valid"], true);
+  const auto loaded = config::load_file(config);
+  ASSERT_TRUE(loaded.ok());
+  ASSERT_EQ(doc["axes"].size(), loaded.config->axes.size());
+  ASSERT_EQ(doc["buses"].size(), loaded.config->buses.size());
+  const auto& first = loaded.config->axes.front();
+  EXPECT_EQ(doc["axes"][0]["name"], first.name);
+  EXPECT_EQ(doc["axes"][0]["limits"]["max"].get<double>(), first.limits.max_position);
+  EXPECT_EQ(doc["axes"][0]["invert"].is_boolean(), true);
+
+  ASSERT_EQ(group.run_to_completion({"config-axes-json", "motionctl", {"--config", config, "--json", "config", "axes"}, {}}, &out), 0) << out;
+  const auto names = nlohmann::json::parse(out.substr(std::min(out.find('['), out.size())), nullptr, false);
+  ASSERT_TRUE(names.is_array()) << out;
+  EXPECT_EQ(names.size(), loaded.config->axes.size());
+  EXPECT_EQ(names[0], first.name);
+
+  EXPECT_EQ(group.run_to_completion({"dump-json", "motionctl", {"--config", config, "--json", "dump", "can0", "--for", "0.2"}, {}}, &out), 2) << out;
+  EXPECT_NE(out.find("motionctl dump: --json is not supported"), std::string::npos) << out;
 }
 
 TEST(Foundation, MotionctlHealthFailsWhenAnExpectedProcessIsMissing) {

@@ -4,6 +4,8 @@
 // subscriber must receive exactly the recorded axis states. Also: motionctl log's errors on a
 // missing, foreign, corrupt and truncated file.
 #include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
 #include <lcm/eventlog.h>
 
 #include <chrono>
@@ -205,6 +207,52 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   EXPECT_NE(out.find("start skew"), std::string::npos) << out;
   EXPECT_NE(out.find("axis x (uim342 on can0"), std::string::npos) << out;
   EXPECT_EQ(out.find("axis y ("), std::string::npos) << "--axis x printed y:\n" << out;
+
+  // --json: the same content for scripts: the move with its replies, every sample of x and y.
+  ASSERT_EQ(
+      group.run_to_completion({"motionctl-log-json", "motionctl", {"--config", config, "--json", "log", log_path, "--axis", "x", "y"}, {}}, &out),
+      0)
+      << out;
+  const auto doc = nlohmann::json::parse(out.substr(std::min(out.find('{'), out.size())), nullptr, false);
+  ASSERT_TRUE(doc.is_object()) << out;
+  bool json_move = false;
+  for (const auto& r : doc["requests"]) {
+    if (r.value("kind", "") != "MOVE_ABSOLUTE") continue;
+    json_move = true;
+    EXPECT_EQ(r["values"], nlohmann::json({10.0, 5.0}));
+    EXPECT_EQ(r["terminal"], true);
+    ASSERT_FALSE(r["replies"].empty());
+    const auto& last = r["replies"].back();
+    EXPECT_EQ(last["status"], "DONE");
+    EXPECT_NEAR(last["positions"]["x"].get<double>(), 10.0, kPositionTolerance);
+  }
+  EXPECT_TRUE(json_move) << "no MOVE_ABSOLUTE in the JSON";
+  ASSERT_EQ(doc["axes"].size(), 2u) << "--axis x y let others through";
+  bool json_moving = false;
+  for (const auto& [axis, target] : {std::pair{"x", 10.0}, std::pair{"y", 5.0}}) {
+    const auto& samples = doc["axes"][axis]["samples"];
+    ASSERT_EQ(samples.size(), states_of[axis]) << axis;
+    EXPECT_NEAR(samples.back()["position"].get<double>(), target, kPositionTolerance) << axis;
+    EXPECT_TRUE(samples.back()["moving"].is_boolean()) << axis;
+    for (const auto& sample : samples) json_moving = json_moving || sample["moving"] == true;
+  }
+  EXPECT_EQ(json_moving, saw_moving);
+  EXPECT_EQ(group.run_to_completion({"motionctl-log-json-csv", "motionctl", {"--config", config, "--json", "log", log_path, "--csv", "-"}, {}}, &out), 2)
+      << out;
+  EXPECT_NE(out.find("--json and --csv both choose the output"), std::string::npos) << out;
+
+  // status --json on the running lab: real booleans and each sample's age.
+  ASSERT_EQ(group.run_to_completion({"motionctl-status-json", "motionctl", {"--config", config, "--json", "status"}, {}},
+                                    &out),
+            0)
+      << out;
+  const auto status_doc = nlohmann::json::parse(out.substr(std::min(out.find('{'), out.size())), nullptr, false);
+  ASSERT_TRUE(status_doc.is_object()) << out;
+  EXPECT_TRUE(status_doc["x"]["moving"].is_boolean()) << status_doc["x"];
+  EXPECT_TRUE(status_doc["x"]["online"].is_boolean()) << status_doc["x"];
+  ASSERT_TRUE(status_doc["x"]["age_s"].is_number()) << status_doc["x"];
+  EXPECT_GE(status_doc["x"]["age_s"].get<double>(), 0.0);
+  EXPECT_LT(status_doc["x"]["age_s"].get<double>(), 5.0) << "a live axis's last state is seconds old";
 
   // (b) lcm-logplayer onto a fresh URL: the subscriber receives the recorded axis states, in order.
   ProcessGroup replay(unique_lcm_url(1));

@@ -27,6 +27,8 @@
 #include <string>
 #include <vector>
 
+#include <lcm/eventlog.h>
+
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
@@ -397,6 +399,49 @@ TEST(Spy, RunsUnderXvfbAgainstALiveCoordinator) {
   EXPECT_EQ(rc, 124) << "lcm-spy was not running any more after 15 s (124 = stopped by timeout)\n" << out;
   EXPECT_TRUE(contains(out, "Found " + std::to_string(paths::kTypeCount) + " LCM types")) << out;
   EXPECT_FALSE(contains(out, "Exception")) << out;
+}
+
+// tools/logplayer (Debian's lcm-logplayer-gui fails on Java 17 like lcm-spy) under Xvfb replays a
+// recording onto the test's URL: every recorded message arrives, in order, byte for byte.
+TEST(LogPlayer, ReplaysARecordingOntoItsUrlUnderXvfb) {
+  const Runtime r = java();
+  ASSERT_TRUE(r.missing.empty()) << r.missing;
+  ASSERT_TRUE(executable(paths::kXvfbRun)) << "xvfb-run not found (apt-get install xvfb)";
+  ASSERT_TRUE(executable(paths::kTimeout)) << "timeout (coreutils) not found";
+  ProcessGroup group;
+  std::string channel = "LOGPLAYER_TEST";  // lcm_eventlog_event_t takes char*
+  const std::string path = group.work_dir() + "/recording.lcmlog";
+  constexpr int kEvents = 20;
+  {
+    lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
+    ASSERT_NE(log, nullptr);
+    for (int i = 0; i < kEvents; ++i) {
+      std::string payload = "message " + std::to_string(i);
+      lcm_eventlog_event_t event{};
+      event.eventnum = i;
+      event.timestamp = 1'000'000 + 20'000 * i;  // 20 ms apart: the player keeps the pace
+      event.channellen = static_cast<int32_t>(channel.size());
+      event.datalen = static_cast<int32_t>(payload.size());
+      event.channel = channel.data();
+      event.data = payload.data();
+      ASSERT_EQ(lcm_eventlog_write_event(log, &event), 0);
+    }
+    lcm_eventlog_destroy(log);
+  }
+  std::vector<std::string> received;
+  group.node().subscribe_raw(channel, [&](const void* data, int size, const std::string&) {
+    received.emplace_back(static_cast<const char*>(data), static_cast<std::size_t>(size));
+  });
+  std::string out;
+  // ProcessGroup appends --lcm-url URL, which xvfb-run and timeout pass on to tools/logplayer.
+  const int rc = group.run_to_completion(
+      {"logplayer", paths::kXvfbRun, {"-a", paths::kTimeout, "-k", "3", "10", paths::kLogPlayer, path},
+       {std::string("JAVA=") + paths::kJava, std::string("LCM_JAR=") + paths::kLcmJar}},
+      &out, seconds(60));
+  EXPECT_EQ(rc, 124) << "the log player was not running any more after 10 s (124 = stopped by timeout)\n" << out;
+  EXPECT_FALSE(contains(out, "Exception")) << out;
+  ASSERT_EQ(received.size(), static_cast<std::size_t>(kEvents)) << out;
+  for (int i = 0; i < kEvents; ++i) EXPECT_EQ(received[static_cast<std::size_t>(i)], "message " + std::to_string(i));
 }
 
 }  // namespace

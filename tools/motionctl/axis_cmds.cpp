@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <ctime>
 #include <cstdio>
+#include <deque>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -60,19 +62,23 @@ void print_status_table(const config::Config& c, const std::map<std::string, mot
   }
 }
 
-nlohmann::json status_json(const config::Config& c, const std::map<std::string, motionlcm::axis_state_t>& states) {
+// age_s: how old each axis's last state is (its publication time against `now_us`, both wall
+// clock), so that a script can tell a live value from a stale one.
+nlohmann::json status_json(const config::Config& c, const std::map<std::string, motionlcm::axis_state_t>& states, std::int64_t now_us) {
   nlohmann::json out = nlohmann::json::object();
   for (const auto& a : c.axes) {
     const auto* d = c.drive_of(a);
     nlohmann::json j = {{"family", config::to_string(d->family)}, {"bus", d->bus}, {"node", d->node_id}, {"group", d->group_id}, {"unit", a.unit}};
     if (auto it = states.find(a.name); it != states.end()) {
       const auto& s = it->second;
-      j.update({{"position", s.position}, {"position_counts", s.position_counts}, {"velocity", s.velocity}, {"enabled", s.enabled},
-                {"moving", s.moving}, {"in_position", s.in_position}, {"online", s.online}, {"fault", s.fault}, {"fault_code", s.fault_code},
-                {"fault_text", s.fault_text}, {"position_lost", !s.fault && s.fault_code == motionlcm::axis_state_t::POSITION_LOST},
-                {"homed", s.homed}, {"inputs", s.inputs}, {"outputs", s.outputs}});
+      j.update({{"position", s.position}, {"position_counts", s.position_counts}, {"velocity", s.velocity}, {"enabled", s.enabled != 0},
+                {"moving", s.moving != 0}, {"in_position", s.in_position != 0}, {"online", s.online != 0}, {"fault", s.fault != 0},
+                {"fault_code", s.fault_code},
+                {"fault_text", s.fault_text}, {"position_lost", s.fault == 0 && s.fault_code == motionlcm::axis_state_t::POSITION_LOST},
+                {"homed", s.homed != 0}, {"inputs", s.inputs}, {"outputs", s.outputs},
+                {"age_s", static_cast<double>(now_us - s.utime) / 1e6}});
     } else {
-      j.update({{"position", nullptr}, {"enabled", nullptr}, {"moving", nullptr}, {"online", false}, {"fault", nullptr}});
+      j.update({{"position", nullptr}, {"enabled", nullptr}, {"moving", nullptr}, {"online", false}, {"fault", nullptr}, {"age_s", nullptr}});
     }
     out[a.name] = j;
   }
@@ -290,7 +296,7 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
       client::Client client(service.loop(), service.node(), "motionctl-status");
       client.wait_until([&] { return client.axes().size() >= cfg.axes.size(); }, std::chrono::milliseconds(static_cast<long long>(*listen * 1000)));
       if (ctx.json) {
-        std::cout << status_json(cfg, client.axes()).dump(2) << "\n";
+        std::cout << status_json(cfg, client.axes(), wall_time_us()).dump(2) << "\n";
       } else {
         print_status_table(cfg, client.axes());
       }
@@ -303,12 +309,44 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
   watch->callback([&ctx, duration] {
     ctx.result = ctx.with_node([&](app::Service& service) -> int {
       client::Client client(service.loop(), service.node(), "motionctl-watch");
-      client.on_event([](const motionlcm::event_t& e) {
-        std::printf("event %s %s%s: %s (code %d)\n", e.source.c_str(), e.bus.c_str(), e.axis.empty() ? "" : ("/" + e.axis).c_str(), e.text.c_str(), e.code);
+      const bool tty = ::isatty(1) != 0 && !ctx.json;
+      // On a terminal the table is redrawn four times a second with the latest events kept below
+      // it; elsewhere (a pipe, a file, --json) every event is one line as it comes, and --json
+      // prints the axis table as one JSON line per redraw period.
+      constexpr std::size_t kEventsShown = 12;
+      std::deque<std::string> recent;
+      client.on_event([&](const motionlcm::event_t& e) {
+        char when[16] = "";
+        const std::time_t seconds = static_cast<std::time_t>(e.utime / 1'000'000);
+        std::tm local{};
+        if (::localtime_r(&seconds, &local) != nullptr) std::strftime(when, sizeof when, "%H:%M:%S", &local);
+        if (ctx.json) {
+          const nlohmann::json j = {{"event", {{"utime", e.utime}, {"source", e.source}, {"bus", e.bus}, {"axis", e.axis}, {"severity", e.severity},
+                                               {"kind", e.kind}, {"code", e.code}, {"text", e.text}}}};
+          std::printf("%s\n", j.dump().c_str());
+          return;
+        }
+        char line[1024];
+        std::snprintf(line, sizeof line, "event %s %s %s%s: %s (code %d)", when, e.source.c_str(), e.bus.c_str(), e.axis.empty() ? "" : ("/" + e.axis).c_str(),
+                      e.text.c_str(), e.code);
+        if (!tty) {
+          std::printf("%s\n", line);
+          return;
+        }
+        recent.emplace_back(line);
+        if (recent.size() > kEventsShown) recent.pop_front();
       });
       service.loop().call_every(std::chrono::milliseconds(250), [&] {
-        if (::isatty(1) != 0) std::printf("\033[H\033[J");
-        print_status_table(service.config(), client.axes());
+        if (ctx.json) {
+          std::printf("%s\n", nlohmann::json{{"axes", status_json(service.config(), client.axes(), wall_time_us())}}.dump().c_str());
+        } else {
+          if (tty) std::printf("\033[H\033[J");
+          print_status_table(service.config(), client.axes());
+          if (tty) {
+            std::printf("\nlatest events (%zu shown, newest last):\n", recent.size());
+            for (const auto& line : recent) std::printf("  %s\n", line.c_str());
+          }
+        }
         std::fflush(stdout);
       });
       if (*duration > 0) service.loop().call_after(std::chrono::milliseconds(static_cast<long long>(*duration * 1000)), [&] { service.loop().stop(); });

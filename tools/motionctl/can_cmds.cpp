@@ -276,7 +276,17 @@ void add_can_commands(CLI::App& cli, Context& ctx) {
       "NUMBER>=0", "non-negative");
   dump->add_option("--count", d->count, "Stop after N frames (0: no limit)")->check(non_negative)->capture_default_str();
   dump->add_option("--for", d->seconds, "Stop after SECONDS (0: no limit)")->check(non_negative)->capture_default_str();
-  dump->callback([&ctx, d] { ctx.result = run_dump(ctx, *d); });
+  // dump writes candump log lines and send reads cansend syntax: the can-utils formats, which
+  // other tools parse; no JSON form.
+  const auto no_json = [&ctx](const char* command) {
+    if (!ctx.json) return false;
+    std::cerr << "motionctl " << command << ": --json is not supported (it speaks the can-utils formats: candump -L lines, cansend frames)\n";
+    ctx.result = app::kExitUsage;
+    return true;
+  };
+  dump->callback([&ctx, d, no_json] {
+    if (!no_json("dump")) ctx.result = run_dump(ctx, *d);
+  });
 
   auto* send = cli.add_subcommand("send", "Send CAN frames in cansend syntax; returns once each has been on the bus");
   auto s = std::make_shared<SendOptions>();
@@ -285,7 +295,9 @@ void add_can_commands(CLI::App& cli, Context& ctx) {
                    "ID#DATA: 3 hex digits = 11-bit id, 8 = 29-bit id; data as hex pairs (up to 8 bytes); ID#R or ID#R<dlc> = remote frame")
       ->required()
       ->check(CLI::Validator([](std::string& text) { return cansend_problem(text); }, "ID#DATA", "cansend"));
-  send->callback([&ctx, s] { ctx.result = run_send(ctx, *s); });
+  send->callback([&ctx, s, no_json] {
+    if (!no_json("send")) ctx.result = run_send(ctx, *s);
+  });
 }
 
 }  // namespace motion::ctl

@@ -1,3 +1,4 @@
+#include "motion/core/clock.hpp"
 #include "motionctl.hpp"
 
 #include <nlohmann/json.hpp>
@@ -45,7 +46,8 @@ void add_health_command(CLI::App& cli, Context& ctx) {
                              {"drives_online", b.drives_online}, {"drives_total", b.drives_total}});
           }
           out.push_back({{"process", name}, {"role", h.role}, {"host", h.host}, {"pid", h.pid}, {"state", lcm::health_state_name(h.state)},
-                         {"detail", h.detail}, {"uptime_s", h.uptime_s}, {"version", h.version}, {"buses", buses}});
+                         {"detail", h.detail}, {"uptime_s", h.uptime_s}, {"version", h.version}, {"buses", buses},
+                         {"age_s", static_cast<double>(wall_time_us() - h.utime) / 1e6}});  // since its last heartbeat
         }
         std::cout << out.dump(2) << "\n";
       } else {

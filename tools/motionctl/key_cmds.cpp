@@ -3,6 +3,8 @@
 #include <cstdlib>
 #include <iostream>
 
+#include <nlohmann/json.hpp>
+
 #include "motionctl.hpp"
 
 namespace motion::ctl {
@@ -65,6 +67,14 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
       return;
     }
     const std::string private_path = security::private_key_path(args->dir, args->name);
+    if (ctx.json) {
+      std::cout << nlohmann::json{{"private_key", private_path}, {"public_key", security::public_key_path(args->dir, args->name)},
+                                  {"key_id", security::to_hex(key.id())}, {"role", args->role},
+                                  {"authorized_keys_line", key.authorized_line(args->role)}}
+                       .dump(2)
+                << "\n";
+      return;
+    }
     std::cout << "wrote " << private_path << " (private, mode 0600) and " << security::public_key_path(args->dir, args->name) << "\n"
               << "key id " << security::to_hex(key.id()) << "; an administrator adds this line to the coordinator's authorized_keys\n"
               << "(role observe, operate, configure or admin):\n\n"

@@ -32,6 +32,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
@@ -41,6 +43,7 @@
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/request_kinds.hpp"
 #include "motion/web/svg_plot.hpp"
+
 #include "motionctl.hpp"
 
 namespace motion::ctl {
@@ -472,6 +475,58 @@ void print_tables(const std::string& path, const std::string& prefix, const LogC
   }
 }
 
+// The same content as the tables, as one JSON document: channels, requests with every reply
+// (PROGRESS included), and each axis's samples (all of them: runs are not folded).
+nlohmann::json log_json(const std::string& path, const std::string& prefix, const LogContents& log, const View& view) {
+  nlohmann::json out = {{"file", path}, {"events", log.events}, {"duration_s", view.t(log.last_utime)}, {"channel_prefix", prefix}};
+  out["channels"] = nlohmann::json::object();
+  for (const auto& [channel, count] : log.channel_counts) out["channels"][channel] = count;
+  out["requests"] = nlohmann::json::array();
+  for (const auto& th : view.threads()) {
+    nlohmann::json j = {{"key", th.key}};
+    if (th.request != nullptr) {
+      const auto& r = th.request->msg;
+      j.update({{"t", view.t(th.request->log_utime)}, {"client_id", r.client_id}, {"request_id", r.request_id}, {"kind", kind_name(r.kind)},
+                {"axes", r.axes}, {"values", has_values(r.kind) ? nlohmann::json(r.values) : nlohmann::json::array()},
+                {"velocity_scale", r.velocity_scale}, {"acceleration_scale", r.acceleration_scale}});
+    } else {
+      j["request"] = nullptr;  // the request is not in the log
+    }
+    j["replies"] = nlohmann::json::array();
+    bool terminal = false;
+    for (const auto* rep : th.replies) {
+      const auto& r = rep->msg;
+      terminal = terminal || client::is_terminal(r.status);
+      nlohmann::json one = {{"t", view.t(rep->log_utime)}, {"status", status_name(r.status)}, {"error_code", r.error_code}, {"reason", r.reason}};
+      if (r.status == reply_t::PROGRESS) one["progress"] = r.progress;
+      if (r.status == reply_t::ACCEPTED && r.predicted_duration_s > 0) {
+        one.update({{"predicted_duration_s", r.predicted_duration_s}, {"predicted_skew_us", r.predicted_skew_us}});
+      }
+      if (client::is_terminal(r.status)) {
+        one["positions"] = nlohmann::json::object();
+        for (std::size_t i = 0; i < r.axes.size() && i < r.positions.size(); ++i) one["positions"][r.axes[i]] = r.positions[i];
+        if (r.measured_start_skew_us >= 0) one["measured_start_skew_us"] = r.measured_start_skew_us;
+      }
+      j["replies"].push_back(std::move(one));
+    }
+    j["terminal"] = terminal;
+    out["requests"].push_back(std::move(j));
+  }
+  out["axes"] = nlohmann::json::object();
+  for (const auto& [axis, samples] : view.trajectories()) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto* sample : samples) {
+      const auto& m = sample->msg;
+      list.push_back({{"t", view.t(sample->log_utime)}, {"position", m.position}, {"position_counts", m.position_counts}, {"velocity", m.velocity},
+                      {"moving", m.moving != 0}, {"enabled", m.enabled != 0}, {"online", m.online != 0}, {"fault", m.fault != 0},
+                      {"fault_text", m.fault_text}});
+    }
+    out["axes"][axis] = {{"family", samples.front()->msg.family}, {"bus", samples.front()->msg.bus}, {"node", samples.front()->msg.node_id},
+                         {"samples", std::move(list)}};
+  }
+  return out;
+}
+
 // One long table: `record` says which columns apply (request, reply or state).
 void write_csv(std::ostream& out, const LogContents& log, const View& view) {
   out << "record,t_s,utime,axis,position,velocity,moving,enabled,online,fault,client_id,request_id,kind,status,error_code,"
@@ -555,7 +610,13 @@ int run_log(const Context& ctx, const LogArgs& args) {
     std::cerr << "motionctl: '" << args.file << "' is not an LCM event log: " << *log->corruption << "\n";
     return app::kExitFailure;
   }
-  if (args.csv.empty()) {
+  if (ctx.json && !args.csv.empty()) {
+    std::cerr << "motionctl: log: --json and --csv both choose the output; give one of them\n";
+    return app::kExitUsage;
+  }
+  if (ctx.json) {
+    std::cout << log_json(args.file, prefix, *log, view).dump(2) << "\n";
+  } else if (args.csv.empty()) {
     print_tables(args.file, prefix, *log, view);
   } else if (args.csv == "-") {
     write_csv(std::cout, *log, view);
@@ -585,7 +646,7 @@ int run_log(const Context& ctx, const LogArgs& args) {
       std::cerr << "motionctl: cannot write the plot '" << args.plot << "': " << std::strerror(errno) << "\n";
       return app::kExitFailure;
     }
-    std::fprintf(args.csv == "-" ? stderr : stdout, "plot of %zu axes written to %s\n", view.trajectories().size(), args.plot.c_str());
+    std::fprintf(args.csv == "-" || ctx.json ? stderr : stdout, "plot of %zu axes written to %s\n", view.trajectories().size(), args.plot.c_str());
   }
 
   const auto trajectories = view.trajectories();

@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   ctl::add_can_commands(cli, ctx);
   ctl::add_log_command(cli, ctx);
   ctl::add_key_commands(cli, ctx);
+  ctl::add_commission_command(cli, ctx);
   if (const auto unknown = ctl::unknown_subcommand(cli, argc, argv); !unknown.empty()) {
     std::cerr << "motionctl: " << unknown << " (motionctl --help lists the commands)\n";
     return app::kExitUsage;

@@ -166,8 +166,9 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
         return P{ReplyError::kOutsideLimits, "jog velocity " + std::to_string(msg.values[i]) + " of axis " + axes[i] + " exceeds its limit " +
                                                  std::to_string(lim.max_velocity)};
       }
-      // A jog toward a limit the axis stands at (or beyond) has nowhere to go: refused before
-      // anything is sent, in counts as the gateway checks it.
+      // A jog with less than one whole count to go before the limit in its direction (or at or
+      // beyond it) has nowhere to go: refused before anything is sent, in counts as the gateway
+      // checks it.
       const AxisLive& a = axes_.at(axes[i]);
       if (msg.values[i] != 0 && a.state) {
         const double limit_units = msg.values[i] > 0 ? lim.max_position : lim.min_position;
@@ -175,9 +176,10 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
         const double limit_counts = limit_units * counts_per_unit;
         const auto position = static_cast<double>(a.state->position_counts);
         const bool toward_more_counts = msg.values[i] * counts_per_unit > 0;
-        if (toward_more_counts ? position >= limit_counts : position <= limit_counts) {
+        if ((toward_more_counts ? limit_counts - position : position - limit_counts) < 1.0) {
           char buf[256];
-          std::snprintf(buf, sizeof buf, "jog of axis %s toward its limit %.6g %s refused: it stands at %.6g %s, at or beyond that limit",
+          std::snprintf(buf, sizeof buf,
+                        "jog of axis %s toward its limit %.6g %s refused: it stands at %.6g %s, less than one count from (or beyond) that limit",
                         axes[i].c_str(), limit_units, a.axis->unit.c_str(), a.state->position, a.axis->unit.c_str());
           return P{ReplyError::kOutsideLimits, buf};
         }

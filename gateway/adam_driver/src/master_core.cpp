@@ -34,6 +34,7 @@ MasterSettings settings_from_config(const config::Config& config, const config::
       ds.setup_writes.push_back(
           {adam::address(Reg::rated_current), {static_cast<std::uint16_t>(std::lround(setup_number(it->second) * 100))}});
     }
+    ds.table_save = d.setup_flag("table_save").value_or(true);
     if (const auto it = d.setup.find("closed_loop"); it != d.setup.end() && setup_int(it->second) == 0) {
       ds.setup_writes.push_back({adam::address(Reg::min_encoder_lines), {kForceOpenLoopLines}});
     }
@@ -60,8 +61,17 @@ MasterCore::~MasterCore() = default;
 
 // ---- Line ---------------------------------------------------------------------------------------
 
+namespace {
+// A Save (0x00DC = 1) erases flash for 0.1 s, all outputs off (ADAM manual §8.69): its reply comes
+// that much later, and it is never sent twice (a retry would erase again).
+bool is_save(const rtu::Request& r) {
+  const auto* w = std::get_if<rtu::WriteRegister>(&r.pdu);
+  return w && w->address == adam::address(Reg::save_command) && w->value == static_cast<std::uint16_t>(adam::SaveCommand::save);
+}
+}  // namespace
+
 void MasterCore::enqueue(Transaction t, bool urgent) {
-  if (t.drive && !t.is_poll) t.max_retries = t.drive->cfg.retries;
+  if (t.drive && !t.is_poll) t.max_retries = is_save(t.request) ? 0 : t.drive->cfg.retries;
   if (urgent) {
     queue_.push_front(std::move(t));
   } else if (t.is_poll) {
@@ -122,7 +132,7 @@ void MasterCore::send_next(TimePoint now) {
       if (t.on_reply) t.on_reply(rtu::Response{}, now, t.frame_end);
       continue;
     }
-    reply_deadline_ = t.frame_end + t.drive->cfg.request_timeout;
+    reply_deadline_ = t.frame_end + t.drive->cfg.request_timeout + (is_save(t.request) ? kFlashErase : Duration{});
     in_flight_ = std::make_unique<Transaction>(std::move(t));
   }
 }

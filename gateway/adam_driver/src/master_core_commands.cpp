@@ -307,6 +307,7 @@ void MasterCore::arm_move(Operation& op, TimePoint now) {
     writes.value().push_back(adam::write16(d->cfg.unit, Reg::table_size, 1));
     writes.value().push_back(adam::write16(d->cfg.unit, Reg::table_pointer, 0));
     writes.value().push_back(adam::write16(d->cfg.unit, Reg::table_start, kTableStartOffset));
+    if (d->cfg.table_save) writes.value().push_back(adam::command(d->cfg.unit, adam::SaveCommand::save));
     for (std::size_t i = 0; i < writes.value().size(); ++i) {
       Transaction t{writes.value()[i], d};
       if (i + 1 == writes.value().size()) t.on_reply = [d, here](const rtu::Response&, TimePoint, TimePoint) { d->table_entry = here; };
@@ -324,21 +325,28 @@ void MasterCore::arm_move(Operation& op, TimePoint now) {
       return fail("target " + std::to_string(a.target_counts) + " outside INT32 pulses");
     if (!(a.velocity > 0) || !(a.acceleration > 0) || !(a.deceleration > 0))
       return fail("velocity, acceleration and deceleration must be positive");
-    const auto speed = adam::target_speed_from_pps(a.velocity, d.pulses_per_rev);
-    if (!speed || speed.value().value <= 0)
-      return fail("speed " + std::to_string(a.velocity) + " counts/s is outside 0.01…9999.99 rpm (0x00D8)");
-    const double rpm = speed.value().value * adam::kTargetSpeedRpmPerStep;
+    // Whole rpm, written to 0x009A (§8.44, what §8.65's motion commands read) and 0x00D8 (§8.64):
+    // which of them a table entry runs at is not said, so both hold the planned speed.
+    const long rpm_whole = std::lround(rpm_of(d, a.velocity));
+    if (rpm_whole < 1 || rpm_whole > kMaxWorkingSpeedRpm)
+      return fail("speed " + std::to_string(a.velocity) + " counts/s is outside 1…1000 whole rpm (0x009A, 0x00D8)");
+    const double rpm = static_cast<double>(rpm_whole);
+    const auto speed_centi = static_cast<std::int32_t>(rpm_whole * 100);
     // Start and stop speed 0 (§8.40, §8.41; ramp times per §8.42, §8.43): the ramps are then
     // exactly v/a, the planned trapezoid.
     const auto accel = adam::ramp_time_ms(0, rpm, std::abs(rpm_of(d, a.acceleration)));
     const auto decel = adam::ramp_time_ms(0, rpm, std::abs(rpm_of(d, a.deceleration)));
     if (!accel || !decel) return fail("ramp time outside 0…65535 ms (0x0098/0x0099)");
     adam::SyncMovePreload preload;
-    preload.profile = {0, 0, accel.value().value, decel.value().value, speed.value().value};
+    preload.profile = {0, 0, accel.value().value, decel.value().value, speed_centi};
     preload.target_pulses = static_cast<std::int32_t>(a.target_counts);
     preload.start_offset = kTableStartOffset;
     auto writes = adam::sync_move_preload(d.cfg.unit, preload);
     if (!writes) return fail("cannot preload: " + writes.error().message());
+    writes.value().insert(writes.value().begin(), adam::write16(d.cfg.unit, Reg::working_speed, static_cast<std::uint16_t>(rpm_whole)));
+    // §8.54: the table data is saved before it is executed (setup table_save); a Save erases
+    // flash for 0.1 s (§8.69) and is never retried (see is_save()).
+    if (d.cfg.table_save) writes.value().push_back(adam::command(d.cfg.unit, adam::SaveCommand::save));
     d.motion_owner = id;
     for (std::size_t w = 0; w < writes.value().size(); ++w) {
       std::function<void(TimePoint)> after;

@@ -29,12 +29,6 @@ std::int64_t clock_us(clockid_t clock) {
   return static_cast<std::int64_t>(ts.tv_sec) * kMicrosPerSecond + ts.tv_nsec / 1000;
 }
 
-// Wire bits of a frame without stuffing: SOF..IFS around the data field.
-std::uint64_t frame_bits(const Frame& frame) {
-  const std::uint64_t overhead = frame.extended ? 67 : 47;
-  return overhead + (frame.rtr ? 0U : 8U * frame.dlc);
-}
-
 std::string describe_error_frame(std::uint32_t error_class, std::uint8_t controller) {
   std::string text;
   const auto add = [&text](const char* part) {
@@ -138,7 +132,7 @@ std::error_code SocketCanTransport::open(std::string_view interface, SocketCanOp
   }
   const LinkStatus status = query_link(interface_, link_fd_);
   state_ = status.up && status.running ? BusState::kErrorActive : BusState::kDisconnected;
-  load_window_start_us_ = clock_us(CLOCK_MONOTONIC);
+  load_ = LoadMeter(options_.bitrate);
   return {};
 }
 
@@ -225,7 +219,7 @@ std::error_code SocketCanTransport::send(const Frame& frame) {
   }
   ++stats_.tx_frames;
   stats_.tx_bytes += frame.rtr ? 0U : frame.dlc;
-  account_bits(frame);
+  load_.add(frame, SteadyClock::now());
   return {};
 }
 
@@ -294,7 +288,7 @@ SocketCanTransport::ReadResult SocketCanTransport::read_one(Frame& out) {
   out.timestamp_us = timestamp_us != 0 ? timestamp_us : clock_us(CLOCK_REALTIME);
   ++stats_.rx_frames;
   stats_.rx_bytes += out.rtr ? 0U : out.dlc;
-  account_bits(out);
+  load_.add(out, SteadyClock::now());
   return ReadResult::kFrame;
 }
 
@@ -404,23 +398,9 @@ std::error_code SocketCanTransport::set_own_echo(bool enabled) {
   return set_flag(interface_, can_fd_, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, enabled);
 }
 
-void SocketCanTransport::account_bits(const Frame& frame) {
-  if (options_.bitrate == 0) return;
-  const std::int64_t now = clock_us(CLOCK_MONOTONIC);
-  const std::int64_t elapsed = now - load_window_start_us_;
-  if (elapsed >= kMicrosPerSecond) {
-    stats_.bus_load = static_cast<double>(load_window_bits_) * static_cast<double>(kMicrosPerSecond) /
-                      (static_cast<double>(options_.bitrate) * static_cast<double>(elapsed));
-    load_window_start_us_ = now;
-    load_window_bits_ = 0;
-  }
-  load_window_bits_ += frame_bits(frame);
-}
-
 Statistics SocketCanTransport::statistics() const {
   Statistics out = stats_;
-  // A window that ended long ago with no traffic since: the bus is idle.
-  if (options_.bitrate != 0 && clock_us(CLOCK_MONOTONIC) - load_window_start_us_ > 2 * kMicrosPerSecond) out.bus_load = 0.0;
+  out.bus_load = load_.load(SteadyClock::now());
   return out;
 }
 

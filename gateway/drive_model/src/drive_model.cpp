@@ -116,10 +116,13 @@ std::optional<std::string> adam(Model& m, const config::Drive& drive, const conf
   if (!adam::check_subdivision(ppr)) {
     return "drive " + drive.name + ": subdivision " + std::to_string(ppr) + " pulses/rev is outside what the ADAM drive accepts";
   }
-  m.grid = "adam 0.01 rpm+ramp ms";
-  m.velocity_step = static_cast<double>(ppr) * adam::kTargetSpeedRpmPerStep / 60.0;
+  // Whole rpm up to 1000: a table entry's speed goes to 0x009A (§8.44, whole rpm 0…1000) and to
+  // 0x00D8 (§8.64, 0.01 rpm); the manual does not say which one a table entry runs at
+  // (docs/protocols.md), so the plan must fit both.
+  m.grid = "adam 1 rpm+ramp ms";
+  m.velocity_step = static_cast<double>(ppr) / 60.0;
   m.velocity_min = 1;
-  m.velocity_max = adam::kMaxTargetSpeedCentiRpm;
+  m.velocity_max = 1000;
   ramp_time(m, adam::kRampSecondsPerStep, 0.0, 1, adam::kMaxRampMs);
   const auto request = adam::table_execute_broadcast();
   const auto bytes = request.ok() ? adam::rtu::encode_request(*request) : Result<std::vector<std::uint8_t>>{request.error()};

@@ -94,17 +94,24 @@ std::optional<Refusal> check_axis_command(std::int8_t kind, const motionlcm::axi
       }
     }
   }
-  if (kind == Command::JOG && position_counts && c.velocity != 0) {
+  if (kind == Command::JOG && position_counts && c.velocity != 0 && !jog_room(l, c.velocity, *position_counts)) {
     const double limit = l.limit_toward(c.velocity);
     const auto position = static_cast<double>(*position_counts);
-    const bool beyond = c.velocity > 0 ? position >= limit : position <= limit;
-    if (beyond) {
-      outside(fmt::format("axis {}: jog toward {:.6g} {} refused: position {:.6g} {} ({} counts) is at or beyond that limit ({:.6g} counts)",
-                          axis.name, l.position_units(limit), unit, l.position_units(position), unit, *position_counts, limit));
-    }
+    outside(fmt::format("axis {}: jog toward {:.6g} {} refused: position {:.6g} {} ({} counts) is less than one count from (or beyond) "
+                        "that limit ({:.6g} counts)",
+                        axis.name, l.position_units(limit), unit, l.position_units(position), unit, *position_counts, limit));
   }
   if (violations.empty()) return std::nullopt;
   return Refusal{error_code(ReplyError::kOutsideLimits), violations};
+}
+
+std::optional<std::int64_t> jog_room(const CountLimits& limits, double velocity, std::int64_t position_counts) {
+  if (velocity == 0) return std::nullopt;
+  const double left = limits.limit_toward(velocity) - static_cast<double>(position_counts);
+  const double whole = velocity > 0 ? std::floor(left) : std::ceil(left);
+  if (velocity > 0 ? whole < 1 : whole > -1) return std::nullopt;
+  constexpr double kMax = 9.0e18;  // far beyond any drive's range; keeps the conversion defined
+  return static_cast<std::int64_t>(std::clamp(whole, -kMax, kMax));
 }
 
 bool jog_must_stop(const JogWatch& jog, const CountLimits& limits, std::int64_t position_counts, double status_velocity, double poll_hz) {

@@ -189,7 +189,8 @@ void Uim242BusCore::on_notification(const uim242::Notification& n, TimePoint now
   Drive& d = **it;
   switch (n.event) {
     case uim242::Event::displacement_complete:
-      if (n.position) d.status.position_counts = d.status.target_counts;
+      // The position is the arriving move's target (move_axis_arrived); a displacement that is not
+      // a move's (a jog run onto its limit) leaves the position to the next poll.
       move_axis_arrived(d, now);
       return;
     case uim242::Event::stall: {
@@ -252,6 +253,7 @@ void Uim242BusCore::line_lost(const std::string& why, TimePoint now) {
   // Nothing sent before the loss will be answered: forget it, and any half-received frame.
   channel_.reset();
   framer_.reset();
+  timers_.clear();
   polls_outstanding_ = 0;
   for (auto& d : drives_) {
     d->identifying = false;
@@ -286,7 +288,81 @@ void Uim242BusCore::identify(Drive& d, TimePoint /*now*/) {
   channel_.submit(std::move(r));
 }
 
+// UIM242 manual §5.1: an ICF write is burned into EEPROM "and the controller will auto reboot"
+// (how long it takes is not said). So ICFG is read first and written only when it differs
+// (bits 15..4 read 0); after the write the controller is asked again until it answers (within
+// kIcfRebootLimit), and the rest of the set-up follows only when the value reads back. A value
+// that does not read back is a CONFIG_MISMATCH and the drive stays not ready: never a second write.
 void Uim242BusCore::set_up(Drive& d) {
+  const auto it = d.config->setup.find("icfg");
+  if (it == d.config->setup.end() || !std::holds_alternative<long long>(it->second)) {
+    set_up_steps(d);
+    return;
+  }
+  const std::int64_t wanted = std::get<long long>(it->second) & kIcfgBits;
+  const auto read_icfg = [](const Frame& f) { return field(f, uim242::reply_form(bare(Mnemonic::ICF)).layout, 0) & kIcfgBits; };
+  Request r;
+  r.drive = d.name;
+  r.node = d.node;
+  r.instruction = bare(Mnemonic::ICF);
+  r.on_reply = [this, &d, wanted, read_icfg](const Frame& f, TimePoint) {
+    if (read_icfg(f) == wanted) {
+      set_up_steps(d);
+      return;
+    }
+    Request w;
+    w.drive = d.name;
+    w.node = d.node;
+    w.instruction = set(Mnemonic::ICF, wanted);
+    w.on_reply = [this, &d, wanted, was = read_icfg(f)](const Frame&, TimePoint now) {
+      ++icf_writes_;
+      event(d, event_t::REBOOT, event_t::INFO, static_cast<std::int32_t>(wanted),
+            fmt::format("{} (node {}): ICFG 0x{:X} -> 0x{:X} (ICF), the controller reboots", d.name, d.node, was, wanted));
+      after(now + kIcfRebootCheck, [this, &d, wanted, give_up = now + kIcfRebootLimit](TimePoint t) { verify_icfg(d, wanted, give_up, t); });
+    };
+    w.on_failure = [this, &d](const std::string& reason, bool timed_out, TimePoint now) {
+      event(d, event_t::CONFIG_MISMATCH, event_t::ERROR, 0, "set-up failed: " + reason);
+      if (timed_out) mark_offline(d, reason, now);
+    };
+    channel_.submit(std::move(w), true);
+  };
+  r.on_failure = [this, &d](const std::string& reason, bool timed_out, TimePoint now) {
+    event(d, event_t::CONFIG_MISMATCH, event_t::ERROR, 0, "set-up failed: " + reason);
+    if (timed_out) mark_offline(d, reason, now);
+  };
+  channel_.submit(std::move(r));
+}
+
+void Uim242BusCore::verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up, TimePoint /*now*/) {
+  Request r;
+  r.drive = d.name;
+  r.node = d.node;
+  r.instruction = bare(Mnemonic::ICF);
+  r.on_reply = [this, &d, wanted](const Frame& f, TimePoint now) {
+    const std::int64_t read = field(f, uim242::reply_form(bare(Mnemonic::ICF)).layout, 0) & kIcfgBits;
+    if (read == wanted) {
+      event(d, event_t::ONLINE, event_t::INFO, 0, fmt::format("{} (node {}): back after its reboot, ICFG reads 0x{:X}", d.name, d.node, read));
+      set_up_steps(d);
+      return;
+    }
+    event(d, event_t::CONFIG_MISMATCH, event_t::ERROR, static_cast<std::int32_t>(read),
+          fmt::format("{} (node {}): ICFG reads 0x{:X} after the write and reboot (configured 0x{:X}); not ready", d.name, d.node, read, wanted));
+    publish(d, now);
+  };
+  r.on_failure = [this, &d, wanted, give_up](const std::string& reason, bool timed_out, TimePoint now) {
+    if (timed_out && now < give_up) {  // still rebooting
+      after(now + kIcfRebootCheck, [this, &d, wanted, give_up](TimePoint t) { verify_icfg(d, wanted, give_up, t); });
+      return;
+    }
+    event(d, event_t::CONFIG_MISMATCH, event_t::ERROR, 0, "not back after the ICF reboot: " + reason);
+    if (timed_out) mark_offline(d, reason, now);
+  };
+  channel_.submit(std::move(r), true);
+}
+
+void Uim242BusCore::after(TimePoint due, std::function<void(TimePoint)> then) { timers_.push_back({due, std::move(then)}); }
+
+void Uim242BusCore::set_up_steps(Drive& d) {
   const auto& setup = d.config->setup;
   const auto integer = [&](const char* key) -> std::optional<std::int64_t> {
     const auto it = setup.find(key);
@@ -303,7 +379,6 @@ void Uim242BusCore::set_up(Drive& d) {
     steps.push_back(set(Mnemonic::CUR, std::llround(amps * 10)));  // tenths of an ampere (#6)
   }
   steps.push_back(set(Mnemonic::MCF, integer("mcfg").value_or(kDefaultMcfg)));
-  if (const auto v = integer("icfg")) steps.push_back(set(Mnemonic::ICF, *v));
   if (const auto v = integer("encoder_lines")) steps.push_back(set(Mnemonic::QER, *v));
   if (const auto v = integer("stall_tolerance")) steps.push_back(set(Mnemonic::SQT, *v));
   steps.push_back(set(Mnemonic::MMS, 0));  // no non-linear jumps: the planner's exact trapezoid
@@ -424,10 +499,15 @@ TimePoint Uim242BusCore::process(TimePoint now) {
   std::vector<RestCheck> due(std::make_move_iterator(split), std::make_move_iterator(rest_checks_.end()));
   rest_checks_.erase(split, rest_checks_.end());
   for (auto& r : due) settle(*r.drive, r.group, r.give_up, std::move(r.then));
+  const auto timers_split = std::stable_partition(timers_.begin(), timers_.end(), [now](const Timer& t) { return t.due > now; });
+  std::vector<Timer> due_timers(std::make_move_iterator(timers_split), std::make_move_iterator(timers_.end()));
+  timers_.erase(timers_split, timers_.end());
+  for (auto& t : due_timers) t.then(now);
   const TimePoint channel_deadline = channel_.process(now);
   if (!started_) return channel_deadline;
   TimePoint next = std::min(channel_deadline, next_poll_);
   for (const auto& r : rest_checks_) next = std::min(next, r.due);
+  for (const auto& t : timers_) next = std::min(next, t.due);
   if (std::any_of(drives_.begin(), drives_.end(), [](const auto& d) { return !d->status.online; })) {
     next = std::min(next, next_identify_);
   }

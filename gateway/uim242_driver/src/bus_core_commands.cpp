@@ -127,13 +127,7 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
           return;
         }
       }
-      per_axis([](Drive&, const motionlcm::axis_command_t& a) {
-        const std::int64_t v = std::llround(a.velocity);
-        if (v == 0) return std::vector{set(Mnemonic::STP, 0)};
-        return std::vector{set(Mnemonic::STP, 0), set(Mnemonic::MAC, clamp_rate(a.acceleration)),
-                           set(Mnemonic::MDE, clamp_rate(a.deceleration > 0 ? a.deceleration : a.acceleration)),
-                           set(Mnemonic::SPD, v)};
-      });
+      for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) { jog(c, d, a); });
       return;
     case gateway_command_t::FAULT_RESET:
       per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::FBK)}; },
@@ -372,7 +366,46 @@ void Uim242BusCore::fail_moves_of(const Drive& d, const std::string& reason, std
     }
   }
   if (d.homing_command != 0) failed.push_back(d.homing_command);
+  if (d.jog_command != 0) failed.push_back(d.jog_command);
   for (const auto id : failed) finish(id, false, reason, code);
+}
+
+void Uim242BusCore::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a) {
+  const std::int64_t id = c.command.command_id;
+  const std::int64_t v = std::llround(a.velocity);
+  if (v == 0) {
+    run_sequence(c, d, {set(Mnemonic::STP, 0)}, [this, id](TimePoint) { part_done(id); });
+    return;
+  }
+  // Leave PT (stops whatever ran), ramps, zero speed; then at rest the position the displacement
+  // to the limit is counted from (STP counts from the position at its receipt, EN/CN #44).
+  d.jog_command = id;
+  run_sequence(c, d,
+               {set(Mnemonic::STP, 0), set(Mnemonic::MAC, clamp_rate(a.acceleration)),
+                set(Mnemonic::MDE, clamp_rate(a.deceleration > 0 ? a.deceleration : a.acceleration)), set(Mnemonic::SPD, 0)},
+               [this, &c, &d, a, v, id](TimePoint t0) {
+    settle(d, id, t0 + kRestLimit, [this, &c, &d, a, v, id](TimePoint) {
+      const auto limits = gateway::CountLimits::of(*d.axis);
+      const auto room = gateway::jog_room(limits, a.velocity, d.status.position_counts);
+      if (!room) {
+        d.jog_command = 0;
+        finish(id, false,
+               fmt::format("axis {}: jog toward {:.6g} {} refused: it stands at {} counts, less than one count from that limit "
+                           "({:.6g} counts)",
+                           a.axis, limits.position_units(limits.limit_toward(a.velocity)), d.axis->unit, d.status.position_counts,
+                           limits.limit_toward(a.velocity)),
+               kOutsideLimits);
+        return;
+      }
+      // STP's range is a 32-bit count (EN/CN #44): a longer way is run in the part that fits.
+      constexpr std::int64_t kStpMax = std::numeric_limits<std::int32_t>::max();
+      const std::int64_t displacement = std::clamp(*room, -kStpMax, kStpMax);
+      run_sequence(c, d, {set(Mnemonic::STP, displacement), set(Mnemonic::SPD, std::abs(v))}, [this, &d, id](TimePoint) {
+        if (d.jog_command == id) d.jog_command = 0;
+        part_done(id);
+      });
+    });
+  });
 }
 
 void Uim242BusCore::settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then) {

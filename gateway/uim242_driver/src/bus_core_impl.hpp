@@ -17,6 +17,7 @@
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/param_t.hpp>
 
+#include "motion/gateway/axis_limits.hpp"
 #include "motion/gateway/serial_line.hpp"
 #include "motion/lcm/reply_error.hpp"
 
@@ -49,6 +50,12 @@ constexpr std::int32_t kUnsupported = error_code(ReplyError::kUnsupported);
 // action code in S12CON/S34CON, so enabling them all changes nothing until an input is bound.
 constexpr std::int64_t kDefaultMcfg = 0x0400 | 0x0040 | 0x0010 | 0x0007;
 constexpr Duration kIdentifyRetry = 1s;
+// ICF (UIM242 manual §5.1): ICFG bits 3..0 exist, 15..4 read 0; after a write the controller
+// reboots for a time the manual does not give: asked again every kIcfRebootCheck (each ask waits
+// its own request timeout), given up after kIcfRebootLimit.
+constexpr std::int64_t kIcfgBits = 0x000F;
+constexpr Duration kIcfRebootCheck = 100ms;
+constexpr Duration kIcfRebootLimit = 5s;
 constexpr std::int64_t kSpeedMax = 65535;              // SPD range (#37)
 constexpr std::int64_t kAccelerationMax = 65'000'000;  // MAC/MDE value mode (#15)
 constexpr std::uint8_t kResetAndEmergencyStop = 0xC;   // sensor action 1100 (EN/CN §8.4)
@@ -113,6 +120,9 @@ struct Uim242BusCore::Drive {
   uim242::Event homing_edge = uim242::Event::s1_falling;
   uim242::ScfWrite homing_restore;
   std::int64_t homing_offset = 0;
+  // The jog being started (its instructions queued or its rest awaited): a stop ends it, so
+  // nothing of it reaches the drive after the stop.
+  std::int64_t jog_command = 0;
 };
 
 struct Uim242BusCore::Command {

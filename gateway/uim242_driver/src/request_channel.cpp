@@ -29,6 +29,7 @@ void RequestChannel::cancel(std::int64_t group) {
 
 void RequestChannel::reset() {
   queue_.clear();
+  hold_until_ = TimePoint{};
   in_flight_.reset();
   selected_ = 0;
 }
@@ -64,14 +65,15 @@ TimePoint RequestChannel::process(TimePoint now) {
                      true, now);
     }
   }
-  while (!in_flight_ && !queue_.empty()) {
+  while (!in_flight_ && !queue_.empty() && now >= hold_until_) {
     InFlight f{std::move(queue_.front()), false, 0, now, false};
     queue_.pop_front();
     f.is_selection = f.request.node != 0 && f.request.node != selected_;
     in_flight_ = std::move(f);
     transmit(*in_flight_, now);
   }
-  return in_flight_ ? in_flight_->deadline : kNever;
+  if (in_flight_) return in_flight_->deadline;
+  return queue_.empty() ? kNever : hold_until_;
 }
 
 void RequestChannel::finish_failure(const std::string& reason, bool timed_out, TimePoint now) {
@@ -114,6 +116,8 @@ bool RequestChannel::on_frame(const uim242::Frame& frame, TimePoint now) {
   }
   InFlight f = std::move(*in_flight_);
   in_flight_.reset();
+  // STO (UIM242 manual #42): about 20 ms to execute, "wait 20ms before sending other instructions".
+  if (f.request.instruction.mnemonic == uim242::Mnemonic::STO) hold_until_ = now + kStoPause;
   if (!f.cancelled && f.request.on_reply) f.request.on_reply(frame, now);
   return true;
 }

@@ -118,6 +118,8 @@ struct Uim342Stack::Impl {
     bool setup_refused = false;   // the drive refused a set-up value (CONFIG_MISMATCH)
     bool group_ok = false;        // PP[8] reads back the configured group id
     bool rebooted_for_group = false;
+    bool restarted_for_micro_steps = false;  // MT[0]/QE[4] were stored and the drive restarted
+    std::uint16_t read_micro_steps = 0;      // MT[0] as read at set-up
     uim342::AccelerationUnit unit = uim342::AccelerationUnit::pulses_per_s2;
     double cut_in_pps = 0;
     std::int64_t offset = 0;      // reported position = drive counter + offset (SET_POSITION)
@@ -393,10 +395,12 @@ struct Uim342Stack::Impl {
     using uim342::MotorDriver;
     using uim342::QuadratureEncoder;
     if (n.cfg.group_id != 0) enqueue(i, rq::get(uim342::ProtocolParameter::group_id), 0);
-    if (const auto v = config::setup_integer(s, "micro_steps")) {
-      enqueue(i, rq::set(MotorDriver::microstepping, saturate<std::uint16_t>(*v)), 0);
-      // §5.9: set CPR (QE[4]) together with the micro-step resolution.
-      enqueue(i, rq::set(QuadratureEncoder::counts_per_revolution, saturate<std::uint16_t>(*v * uim342::kFullStepsPerRevolution)), 0);
+    if (config::setup_integer(s, "micro_steps")) {
+      // §5.9, §5.7: MT[0] (with CPR QE[4]) takes effect only after it is stored with the driver
+      // off and the drive restarted. Read first; a difference is written by
+      // store_micro_steps_and_restart() once the QE[4] answer is in.
+      enqueue(i, rq::get(MotorDriver::microstepping), 0);
+      enqueue(i, rq::get(QuadratureEncoder::counts_per_revolution), 0);
     }
     if (const auto v = config::setup_number(s, "current_a")) {
       const auto tenths = uim342::current_to_wire(*v);
@@ -474,7 +478,7 @@ struct Uim342Stack::Impl {
     if (r.instruction.function == FunctionCode::SY) {
       // The drive reboots without answering; identified and set up again after reboot_wait.
       n.power.forget();  // our own reboot: its counter restarts at 0 (not a lost power)
-      fail_commands_of(i, error_code(ReplyError::kAxisOffline), fmt::format("{} is rebooting to apply its group id", n.name()));
+      fail_commands_of(i, error_code(ReplyError::kAxisOffline), fmt::format("{} is rebooting to apply its set-up (PP[8], MT[0])", n.name()));
       n.phase = Phase::rebooting;
       n.queue.clear();
       n.retry_at = now + config.reboot_wait;
@@ -495,6 +499,34 @@ struct Uim342Stack::Impl {
     if (n.phase == Phase::setting_up && n.queue.empty()) setup_finished(i, now);
   }
 
+  // §5.9, §5.7: MT[0] and QE[4] as read at set-up against the configured micro-steps. Equal: the
+  // drive runs at them (after a restart, or since its last one). Different the first time: driver
+  // off (MO=0, so the values go to EEPROM and not only to RAM), MT[0], QE[4], restart (SY[1]);
+  // set-up runs again after the reboot and reads them back. Different after that restart: the
+  // drive does not keep them, and counts per unit would be wrong: CONFIG_MISMATCH, never ready.
+  void check_micro_steps(std::size_t i, std::uint16_t read_cpr) {
+    Node& n = nodes[i];
+    const auto wanted = saturate<std::uint16_t>(config::setup_integer(n.cfg.setup, "micro_steps").value_or(0));
+    const auto wanted_cpr = saturate<std::uint16_t>(std::int64_t{wanted} * uim342::kFullStepsPerRevolution);
+    if (n.read_micro_steps == wanted && read_cpr == wanted_cpr) return;
+    const auto found = fmt::format("MT[0] {} / QE[4] {} (configured micro_steps {}: MT[0] {} / QE[4] {})", n.read_micro_steps, read_cpr,
+                                   wanted, wanted, wanted_cpr);
+    if (n.restarted_for_micro_steps) {
+      event(n, event_t::CONFIG_MISMATCH, event_t::ERROR, n.read_micro_steps,
+            fmt::format("{} reads {} after storing them and restarting: counts per unit would be wrong; not ready", n.name(), found));
+      n.setup_refused = true;
+      return;
+    }
+    event(n, event_t::REBOOT, event_t::INFO, n.read_micro_steps,
+          fmt::format("{}: {}; driver off, storing, restarting (SY[1])", n.name(), found));
+    n.restarted_for_micro_steps = true;
+    n.queue.erase(n.queue.begin() + (n.busy() ? 1 : 0), n.queue.end());
+    enqueue(i, rq::driver_on(false), 0);
+    enqueue(i, rq::set(uim342::MotorDriver::microstepping, wanted), 0);
+    enqueue(i, rq::set(uim342::QuadratureEncoder::counts_per_revolution, wanted_cpr), 0);
+    enqueue(i, rq::system(uim342::SystemOperation::reboot), 0);
+  }
+
   // The last set-up request was answered (or refused).
   void setup_finished(std::size_t i, TimePoint now) {
     Node& n = nodes[i];
@@ -502,6 +534,7 @@ struct Uim342Stack::Impl {
     n.backoff = std::chrono::milliseconds{0};
     n.next_poll = now + poll_period;
     if (n.setup_refused) return;  // CONFIG_MISMATCH already reported
+    n.restarted_for_micro_steps = false;  // a later mismatch (someone rewrote MT) may restart once more
     event(n, event_t::ONLINE, event_t::INFO, 0,
           fmt::format("{} set up{}", n.name(), n.cfg.group_id != 0 && !n.group_ok ? " (group start disabled: group id not confirmed)" : ""));
   }
@@ -541,6 +574,14 @@ struct Uim342Stack::Impl {
         enqueue(i, rq::system(uim342::SystemOperation::reboot), 0);
         break;
       }
+      case FunctionCode::MT:
+        if (r.instruction.operation == uim342::Operation::get) n.read_micro_steps = std::get<uim342::IndexedWord>(body).value;
+        break;
+      case FunctionCode::QE:
+        if (r.instruction.operation == uim342::Operation::get && n.phase == Phase::setting_up) {
+          check_micro_steps(i, std::get<uim342::IndexedWord>(body).value);
+        }
+        break;
       case FunctionCode::MO: {
         n.status.enabled = std::get<uim342::Byte>(body).value != 0;
         if (!n.status.enabled) n.status.moving = false;

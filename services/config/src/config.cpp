@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "motion/config/setup_schema.hpp"
+#include "motion/config/sim_variants.hpp"
 
 namespace motion::config {
 
@@ -588,7 +589,7 @@ void read_security(Reader& r, const YAML::Node& node, const std::string& file, S
 }
 
 void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out) {
-  if (!r.check_map(node, "simulation", {"runtime_dir", "group", "reply_latency_us", "home_switches"})) return;
+  if (!r.check_map(node, "simulation", {"runtime_dir", "group", "reply_latency_us", "home_switches", "variants"})) return;
   if (const YAML::Node switches = node["home_switches"]) {
     if (!switches.IsMap()) {
       r.error(switches, "simulation.home_switches", "expected a map of drive name to switch position (counts) or none");
@@ -606,6 +607,30 @@ void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out)
           out.home_switches[drive] = entry.second.as<long long>();
         } catch (const YAML::Exception&) {
           r.error(entry.second, path, "expected a position in counts or none");
+        }
+      }
+    }
+  }
+  if (const YAML::Node variants = node["variants"]) {
+    if (!variants.IsMap()) {
+      r.error(variants, "simulation.variants", "expected a map of drive name to {key: value}");
+    } else {
+      for (const auto& entry : variants) {
+        const auto drive = r.key_of(entry.first, "simulation.variants");
+        if (!drive) continue;
+        const std::string path = "simulation.variants." + *drive;
+        if (!entry.second.IsMap()) {
+          r.error(entry.second, path, "expected a map of variant key to value");
+          continue;
+        }
+        for (const auto& kv : entry.second) {
+          const auto key = r.key_of(kv.first, path);
+          if (!key) continue;
+          if (!kv.second.IsScalar()) {
+            r.error(kv.second, path + "." + *key, "expected a value");
+            continue;
+          }
+          out.variants[*drive][*key] = kv.second.as<std::string>();
         }
       }
     }
@@ -706,6 +731,18 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
     if (!inserted) where_error(a.where.of("drive"), path + ".drive", "drive '" + a.drive + "' already drives axis '" + it->second + "'");
   }
   if (c.buses.empty()) r.error(root, "buses", "at least one bus is required");
+  // Simulated variants name a drive of the configuration and a key of its family.
+  for (const auto& [drive, keys] : c.simulation.variants) {
+    const YAML::Node node = root["simulation"]["variants"][drive];
+    const Drive* d = c.find_drive(drive);
+    if (!d) {
+      r.error(node, "simulation.variants." + drive, "names no drive of the configuration");
+      continue;
+    }
+    for (const auto& [key, value] : keys) {
+      if (auto why = sim_variant_error(d->family, key, value); !why.empty()) r.error(node[key], "simulation.variants." + drive + "." + key, why);
+    }
+  }
 }
 
 }  // namespace

@@ -43,6 +43,8 @@ const std::vector<SetupKey> kAdamModbus = {
     {"current_a", SetupType::kNumber, 0.1, 6.5, {}, {}, "0x000D rated current, amperes (manual §8.10: 10..650 × 0.01 A)"},
     {"pulses_per_revolution", SetupType::kInt, 200, 1000000, {}, {}, "0x0024 pulses per motor revolution (manual §8.29)"},
     {"closed_loop", SetupType::kBool, 0, 0, {}, {}, "encoder feedback control"},
+    {"table_save", SetupType::kBool, 0, 0, {}, {},
+     "Save (0x00DC) after loading a move's table entry (manual §8.54 step 2; default true: one 0.1 s flash erase per move, §8.69)"},
 };
 
 // UIM242 through a UIM2501/2502 gateway: MCS/CUR/ICFG/MCFG/ENC/STL instructions.

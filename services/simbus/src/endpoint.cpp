@@ -33,8 +33,15 @@ std::error_code EndpointTransport::count_send(const can::Frame& frame, std::erro
   } else {
     ++stats_.tx_frames;
     stats_.tx_bytes += frame.rtr ? 0 : frame.dlc;
+    count_on_wire(frame);
   }
   return result;
+}
+
+can::Statistics EndpointTransport::statistics() const {
+  can::Statistics out = stats_;
+  out.bus_load = load_.load(SteadyClock::now());
+  return out;
 }
 
 bool EndpointTransport::accept(const can::Frame& frame) {
@@ -143,12 +150,14 @@ std::optional<can::Frame> SocketEndpoint::receive() {
     auto message = wire::decode({buffer.data(), static_cast<std::size_t>(n)});
     if (!message) continue;  // a newer hub's message we do not know: skip it
     if (auto* fm = std::get_if<wire::FrameMessage>(&*message)) {
+      if (!fm->own_echo) count_on_wire(fm->frame);  // an echo was counted when sent
       if (accept(fm->frame)) return fm->frame;
     } else if (const auto* ev = std::get_if<wire::BusEventMessage>(&*message)) {
       apply(ev->event, state_);
     } else if (const auto* welcome = std::get_if<wire::Welcome>(&*message)) {
       endpoint_id_ = welcome->endpoint;
       bitrate_ = welcome->bitrate;
+      set_load_bitrate(bitrate_);
     } else if (std::holds_alternative<wire::TxRejected>(*message)) {
       count_tx_rejected();
     }

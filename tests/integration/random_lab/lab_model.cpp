@@ -107,6 +107,11 @@ std::string LabSpec::yaml() const {
   }
   y << "coordinator: {default_timeout_ms: 20000, progress_period_ms: 200, trigger_lead_ms: 30, gateway_timeout_ms: 1500}\n"
        "simulation: {reply_latency_us: 200}\n";
+  // The key files are the runner's, next to the configuration (paths relative to it).
+  if (security) {
+    y << "security:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n  coordinator_public_key: coordinator.pub\n"
+         "  window_ms: 5000\n";
+  }
   return y.str();
 }
 
@@ -298,11 +303,11 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
       reasons.push_back(error_code(ReplyError::kUnsupported));
     }
     if (kind == request_t::JOG && std::abs(v) > spec.velocity) reasons.push_back(error_code(ReplyError::kOutsideLimits));
-    // A jog toward a limit the axis stands at or beyond, compared in counts.
+    // A jog with less than one whole count left before the limit in its direction, in counts.
     if (kind == request_t::JOG && v != 0 && a.counts) {
       const double limit = (v > 0 ? spec.max : spec.min) * spec.steps_per_unit;
       const auto at = static_cast<double>(*a.counts);
-      if (v > 0 ? at >= limit : at <= limit) reasons.push_back(error_code(ReplyError::kOutsideLimits));
+      if ((v > 0 ? limit - at : at - limit) < 1.0) reasons.push_back(error_code(ReplyError::kOutsideLimits));
     }
     if (kind == request_t::HOME && !spec.homing) reasons.push_back(error_code(ReplyError::kUnsupported));
     // A UC57 sets its present position to zero only (2012h): another offset is unsupported.

@@ -51,6 +51,9 @@ struct LabSpec {
   int rs485_baud = 115200;
   int rs232_baud = 57600;
   std::string rs485_parity = "none";  // none, even, odd
+  // security: {mode: enforce}: the coordinator accepts signed requests only, its gateway commands
+  // are signed; the runner's clients sign with admin keys of their own.
+  bool security = false;
   std::vector<AxisSpec> axes;
   [[nodiscard]] std::string yaml() const;
   [[nodiscard]] const AxisSpec* find(const std::string& axis) const;

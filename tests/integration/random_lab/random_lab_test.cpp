@@ -36,6 +36,9 @@ Case make_case(std::uint64_t seed, int steps, bool chaos = false) {
   options.chaos = chaos;
   Case c;
   c.lab = generate_lab(rng, options);
+  // Every other seed runs the lab under security (signed requests and gateway commands); set
+  // apart from the generator, so that a seed's lab and steps stay what they were.
+  c.lab.security = seed % 2 == 1;
   c.steps = generate_steps(rng, c.lab, steps, options.chaos);
   return c;
 }
@@ -45,11 +48,12 @@ struct Totals {
   int seeds = 0, requests = 0, drives = 0, faults = 0, faults_biting = 0;
   std::map<std::string, int> families, parities;
   int switch_homing = 0;
+  int secured = 0;  // seeds run under security: enforce
   void print(const char* what) const {
     std::printf("%s: %d seeds, %d requests, %d faults injected (%d ended their move short of DONE), %d drives (", what, seeds, requests, faults,
                 faults_biting, drives);
     for (const auto& [f, n] : families) std::printf("%s %d, ", f.c_str(), n);
-    std::printf("%d axes homing by switch), RS485 parity:", switch_homing);
+    std::printf("%d axes homing by switch), %d seeds under security enforce, RS485 parity:", switch_homing, secured);
     for (const auto& [p, n] : parities) std::printf(" %s %d", p.c_str(), n);
     std::printf("\n");
     std::fflush(stdout);
@@ -60,7 +64,7 @@ struct Totals {
 // reproduction. True when the seed passed.
 bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget, Totals& totals, bool chaos = false) {
   const Case c = make_case(seed, steps, chaos);
-  std::printf("seed %llu: %zu drives, %zu steps\n", static_cast<unsigned long long>(seed), c.lab.axes.size(), c.steps.size());
+  std::printf("seed %llu: %zu drives, %zu steps%s\n", static_cast<unsigned long long>(seed), c.lab.axes.size(), c.steps.size(), c.lab.security ? ", security enforce" : "");
   std::fflush(stdout);
   RunOptions options;
   options.verbose = env_u64("RANDOM_LAB_VERBOSE", 0) != 0;
@@ -78,6 +82,7 @@ bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget,
     rs485 = rs485 || a.drive.bus == "rs485";
   }
   if (rs485) ++totals.parities[c.lab.rs485_parity];
+  if (c.lab.security) ++totals.secured;
   if (result.ok) return true;
   std::printf("seed %llu FAILS at step %d: %s\n%s", static_cast<unsigned long long>(seed), result.failed_step, result.failure.c_str(), result.log.c_str());
   const auto shrunk = shrink(c.lab, c.steps, result, shrink_budget);
@@ -256,6 +261,32 @@ TEST(RandomLabRegression, Seed11Uim242OneCountCrawlIsNotAStop) {
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
       Step{Op::kRequest, 1, 1 /* MOVE_ABSOLUTE */, {"ax2", "ax3"}, {12.92, 0.0018749999999999999}, 0.0, 0.42999999999999999, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
+// Soak seed 7167: a UIM242 (533.33 counts/u) set to its upper limit 43 u stands at 22933 counts,
+// a third of a count inside 22933.33; a jog toward the limit was accepted, the gateway's watch
+// stopped it at once, but the stop reached the drive over the serial line after the jog's speed
+// and the axis ended at 22935. Now a jog with less than one whole count to go is REJECTED, and a
+// UIM242 jog is a position move onto the last count inside the limit: from one count away at full
+// speed it ends inside the limit, however late the stop comes.
+TEST(RandomLabRegression, Seed7167Uim242JogNextToItsLimitNeverPassesIt) {
+  LabSpec spec;
+  spec.can_bitrate = 125000;
+  spec.rs485_baud = 9600;
+  spec.rs232_baud = 19200;
+  spec.rs485_parity = "none";
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uim242", "rs232", 125, 0}, 533.33333333333337, -4, 43, 21, 145, false, 0, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 2, 13 /* SET_POSITION */, {"ax2"}, {43.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop, 0, 3 /* JOG */, {"ax2"}, {6.04}, 0.0, 0.0, 0, 0, 0, 2, 5 /* ESTOP */, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 2, 13 /* SET_POSITION */, {"ax2"}, {42.9975}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},  // 22932 counts
+      Step{Op::kJogStop, 1, 3 /* JOG */, {"ax2"}, {21.0}, 0.0, 0.0, 0, 0, 0, 2, 4 /* STOP */, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop, 1, 3 /* JOG */, {"ax2"}, {-21.0}, 0.0, 0.0, 0, 0, 0, 2, 4 /* STOP */, 0, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;

@@ -19,6 +19,7 @@
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/reply_error.hpp"
 #include "motion/lcm/request_kinds.hpp"
+#include "motion/security/keys.hpp"
 #include "motion/testing/lcm_url.hpp"
 #include "motion/testing/process_group.hpp"
 #include "random_lab.hpp"
@@ -50,7 +51,12 @@ class Runner {
  public:
   Runner(const LabSpec& lab, const RunOptions& options)
       : lab_(lab), options_(options), group_(testing::unique_lcm_url(options.salt)), model_(lab) {
-    for (int i = 0; i < 3; ++i) clients_.push_back(std::make_unique<client::Client>(group_.loop(), group_.node(), "rl-client-" + std::to_string(i)));
+    for (int i = 0; i < 3; ++i) {
+      clients_.push_back(std::make_unique<client::Client>(group_.loop(), group_.node(), "rl-client-" + std::to_string(i)));
+      // Under security every client signs with a key of its own (admin: the model predicts no
+      // role refusals); its client id becomes the key's.
+      if (lab_.security) clients_.back()->sign_with(keys_.emplace_back(security::KeyPair::generate("rl-client-" + std::to_string(i))));
+    }
     group_.node().subscribe<reply_t>(lcm::channels::kReply, [this](const reply_t& r, const std::string&) {
       if (client::is_terminal(r.status)) ++terminals_[{r.client_id, r.request_id}];
     });
@@ -85,6 +91,13 @@ class Runner {
 
   void start() {
     const std::string path = group_.work_dir() + "/lab.yaml";
+    if (lab_.security) {
+      if (const auto error = security::write_key_pair(security::KeyPair::generate("coordinator"), group_.work_dir(), "admin")) {
+        fail("lab start-up: cannot write the coordinator's key pair: " + *error);
+      }
+      std::ofstream keys(group_.work_dir() + "/authorized_keys");
+      for (const auto& key : keys_) keys << key.authorized_line("admin") << "\n";
+    }
     std::ofstream(path) << lab_.yaml();
     std::set<std::string> buses;
     for (const auto& a : lab_.axes) buses.insert(a.drive.bus);
@@ -444,6 +457,7 @@ class Runner {
   RunOptions options_;
   testing::ProcessGroup group_;
   Model model_;
+  std::vector<security::KeyPair> keys_;  // the clients' keys under security (lab_.security)
   std::vector<std::unique_ptr<client::Client>> clients_;
   std::map<std::string, pid_t> pids_;
   std::map<std::pair<std::string, std::int64_t>, int> terminals_;
@@ -533,6 +547,7 @@ std::string reproduction(const LabSpec& lab, const std::vector<Step>& steps, con
   out << "TEST(RandomLabRegression, Seed" << seed << ") {\n";
   out << "  LabSpec spec;\n  spec.can_bitrate = " << lab.can_bitrate << ";\n  spec.rs485_baud = " << lab.rs485_baud << ";\n  spec.rs232_baud = "
       << lab.rs232_baud << ";\n  spec.rs485_parity = \"" << lab.rs485_parity << "\";\n";
+  if (lab.security) out << "  spec.security = true;\n";
   for (const auto& a : lab.axes) {
     char buf[512];
     std::snprintf(buf, sizeof buf,

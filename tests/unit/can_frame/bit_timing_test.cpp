@@ -1,4 +1,5 @@
 #include "motion/can_frame/bit_timing.hpp"
+#include "motion/can_frame/load_meter.hpp"
 
 #include <gtest/gtest.h>
 
@@ -137,6 +138,37 @@ TEST(BitTiming, DataFrameBeatsRemoteFrameWithTheSameId) {
   EXPECT_TRUE(wins_arbitration(frame(0x123, false, {}), remote(0x123, false, 0)));
   EXPECT_TRUE(wins_arbitration(frame(0x1234567, true, {}), remote(0x1234567, true, 0)));
   EXPECT_FALSE(wins_arbitration(remote(0x123, false, 0), frame(0x123, false, {})));
+}
+
+}  // namespace
+}  // namespace motion::can
+
+// Bus load from the frames an endpoint saw: exact wire bits over one-second windows.
+namespace motion::can {
+namespace {
+
+TEST(LoadMeter, IsTheWireTimeOfTheFramesOverTheWindowAndFallsWhenTheBusGoesQuiet) {
+  using std::chrono::milliseconds;
+  Frame f{};
+  f.id = 0x123;
+  f.dlc = 8;
+  const std::uint32_t bits = frame_bits(f).total;
+  LoadMeter meter(125000);
+  const TimePoint t0{};
+  EXPECT_EQ(meter.load(t0), 0.0);
+  // 500 frames in the first second (one every 2 ms), then the frame that closes the window.
+  for (int i = 0; i < 500; ++i) meter.add(f, t0 + milliseconds(2 * i));
+  meter.add(f, t0 + milliseconds(1000));
+  const double expected = 500.0 * bits / 125000.0;
+  EXPECT_NEAR(meter.load(t0 + milliseconds(1000)), expected, 1e-9);
+  EXPECT_NEAR(meter.load(t0 + milliseconds(1999)), expected, 1e-9);
+  // Quiet from there: the open window (one frame) averages over its growing length.
+  EXPECT_NEAR(meter.load(t0 + milliseconds(3000)), bits / (125000.0 * 2.0), 1e-9);
+  EXPECT_LT(meter.load(t0 + milliseconds(60000)), 1e-4);
+  LoadMeter unknown;  // no bit rate: no load
+  unknown.add(f, t0);
+  unknown.add(f, t0 + milliseconds(1500));
+  EXPECT_EQ(unknown.load(t0 + milliseconds(1500)), 0.0);
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
 #include "motion/config/config.hpp"
+#include "motion/config/sim_variants.hpp"
 
 #include <gtest/gtest.h>
 
@@ -312,6 +313,22 @@ TEST(Config, SimulatedHomeSwitchesArePositionsOrNone) {
   const auto bad = load_string(std::string(kValid) + "simulation: {home_switches: {xd: left}}\n", "lab.yaml");
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error_text().find("simulation.home_switches.xd"), std::string::npos) << bad.error_text();
+}
+
+TEST(Config, SimulatedVariantsAreCheckedAgainstTheDrivesFamily) {
+  const auto ok = load_string(std::string(kValid) + "simulation: {variants: {xd: {micro_steps_apply: immediately}}}\n", "lab.yaml");
+  ASSERT_TRUE(ok.ok()) << ok.error_text();
+  EXPECT_EQ(sim_variant(*ok.config, *ok.config->find_drive("xd"), "micro_steps_apply"), "immediately");
+  EXPECT_EQ(sim_variant(*ok.config, *ok.config->find_drive("yd"), "micro_steps_apply"), "after_restart");  // the default
+  for (const auto& [extra, reason] : std::vector<std::pair<std::string, std::string>>{
+           {"simulation: {variants: {nobody: {micro_steps_apply: immediately}}}\n", "simulation.variants.nobody: names no drive"},
+           {"simulation: {variants: {xd: {reboot_ms: 5}}}\n", "'reboot_ms' is not a simulated variant of family uim342"},
+           {"simulation: {variants: {xd: {micro_steps_apply: sometimes}}}\n", "'sometimes' is not one of after_restart, immediately"}}) {
+    SCOPED_TRACE(extra);
+    const auto bad = load_string(std::string(kValid) + extra, "lab.yaml");
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error_text().find(reason), std::string::npos) << bad.error_text();
+  }
 }
 
 TEST(Config, KeysThatAreListsOrMappingsAreErrorsNotCrashes) {

@@ -506,10 +506,21 @@ TEST_F(CoordinatorTest, JogTowardALimitTheAxisStandsAtIsRejectedAndTheOtherWayIs
   const auto r = terminal(send(request_t::JOG, {"x"}, {-1.0}));
   EXPECT_EQ(r.status, std::int8_t{reply_t::REJECTED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kOutsideLimits));
-  EXPECT_NE(r.reason.find("jog of axis x toward its limit -10 mm refused: it stands at -10 mm"), std::string::npos) << r.reason;
+  EXPECT_NE(r.reason.find("jog of axis x toward its limit -10 mm refused: it stands at -10 mm, less than one count from (or beyond)"),
+            std::string::npos)
+      << r.reason;
   EXPECT_TRUE(gateways.commands.empty()) << "a refused jog sent " << gateways.commands.size() << " commands";
   send(request_t::JOG, {"x"}, {1.0});
   ASSERT_TRUE(pump_until([&] { return !gateways.commands.empty(); })) << "the jog away from the limit was not sent";
+  EXPECT_EQ(gateways.commands.front().kind, std::int8_t{gateway_command_t::JOG});
+}
+
+// One whole count to go before the limit is room enough for a jog.
+TEST_F(CoordinatorTest, JogWithOneWholeCountToItsLimitIsSent) {
+  gateways.put("x", -999, false);
+  pump(milliseconds(120));
+  send(request_t::JOG, {"x"}, {-1.0});
+  ASSERT_TRUE(pump_until([&] { return !gateways.commands.empty(); })) << "a jog with one count to go was not sent";
   EXPECT_EQ(gateways.commands.front().kind, std::int8_t{gateway_command_t::JOG});
 }
 

@@ -109,14 +109,14 @@ struct AdamProgrammed {
   DriveMotion realized;
 };
 AdamProgrammed adam_programs(const DriveMotion& m, std::uint32_t ppr) {
-  const auto speed = adam::target_speed_from_pps(m.velocity_counts_per_s, ppr);
-  EXPECT_TRUE(speed);
-  const double rpm = speed.value().value * adam::kTargetSpeedRpmPerStep;
+  // Whole rpm, as MasterCore::arm_move writes it to 0x009A and 0x00D8.
+  const long rpm_whole = std::lround(adam::pps_to_rpm(m.velocity_counts_per_s, ppr));
+  const double rpm = static_cast<double>(rpm_whole);
   const auto accel = adam::ramp_time_ms(0, rpm, std::abs(adam::pps_to_rpm(m.acceleration_counts_per_s2, ppr)));
   const auto decel = adam::ramp_time_ms(0, rpm, std::abs(adam::pps_to_rpm(m.deceleration_counts_per_s2, ppr)));
   EXPECT_TRUE(accel && decel);
-  return {{speed.value().value, accel.value().value, decel.value().value},
-          {speed.value().realized, adam::rpm_to_pps(accel.value().realized, ppr), adam::rpm_to_pps(decel.value().realized, ppr)}};
+  return {{rpm_whole, accel.value().value, decel.value().value},
+          {adam::rpm_to_pps(rpm, ppr), adam::rpm_to_pps(accel.value().realized, ppr), adam::rpm_to_pps(decel.value().realized, ppr)}};
 }
 
 TEST(DriveQuantizers, AdamPulsesPerRevolutionFollowTheGatewaysSetupRule) {
@@ -357,9 +357,11 @@ TEST(MovePlanner, EveryFamilysPlanIsRepresentableAndArrivalsAgree) {
   EXPECT_EQ(plan.axes[0].velocity, std::round(plan.axes[0].velocity));
   EXPECT_EQ(plan.axes[0].acceleration, std::round(plan.axes[0].acceleration));
   EXPECT_EQ(plan.axes[1].velocity, std::round(plan.axes[1].velocity));
-  // UC57 6081h whole rpm at 3200 pulses/rev; ADAM 0x00D8 in 0.01 rpm at 3200 pulses/rev.
+  // UC57 6081h whole rpm at 3200 pulses/rev; ADAM whole rpm too (0x009A and 0x00D8 both hold it).
   const double a_rpm = plan.axes[2].velocity * 60.0 / 3200.0;
   EXPECT_NEAR(a_rpm, std::round(a_rpm), 1e-9);
+  const double c_rpm = plan.axes[3].velocity * 60.0 / 3200.0;
+  EXPECT_NEAR(c_rpm, std::round(c_rpm), 1e-9);
   const auto c = adam_programs({plan.axes[3].velocity, plan.axes[3].acceleration, plan.axes[3].deceleration}, 3200);
   expect_relative(c.realized.velocity_counts_per_s, plan.axes[3].velocity, "c velocity");
   expect_relative(c.realized.acceleration_counts_per_s2, plan.axes[3].acceleration, "c acceleration");

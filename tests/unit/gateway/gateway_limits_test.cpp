@@ -193,11 +193,36 @@ TEST_F(Limits, JogHomeAndSetPositionAreChecked) {
 
 TEST_F(Limits, JogStartingAtOrBeyondItsLimitIsRefusedButMayLeave) {
   status("j", 1000, 0, false);
-  expect_outside(send(gateway_command_t::JOG, "j", 0, 100, 400, 400), "jog toward 10 mm refused: position 10 mm (1000 counts) is at or beyond");
+  expect_outside(send(gateway_command_t::JOG, "j", 0, 100, 400, 400),
+                 "jog toward 10 mm refused: position 10 mm (1000 counts) is less than one count from (or beyond) that limit");
   EXPECT_EQ(send(gateway_command_t::JOG, "j", 0, -100, 400, 400).status, k(gateway_reply_t::DONE));
   // Inverted: counts down is user units up, toward 30 mm (-3000 counts).
   status("n", -3000, 0, false);
   expect_outside(send(gateway_command_t::JOG, "n", 0, -100, 400, 400), "jog toward 30 mm refused");
+}
+
+// The whole counts a jog may run: the last one lies inside the limit; less than one whole count
+// (a limit between two counts, the axis on the inner one) is no room at all. Seed 7167: a UIM242
+// at 22933 counts under a limit of 22933.33 jogged toward it and ended at 22935.
+TEST(JogRoom, IsTheWholeCountsInsideTheLimitInTheJogsDirection) {
+  config::Axis axis;
+  axis.steps_per_unit = 533.33333333333337;
+  axis.limits.min_position = -4;
+  axis.limits.max_position = 43;  // 22933.33 counts
+  const auto l = CountLimits::of(axis);
+  EXPECT_EQ(jog_room(l, +1, 22933), std::nullopt);
+  EXPECT_EQ(jog_room(l, +1, 22932), std::optional<std::int64_t>{1});
+  EXPECT_EQ(jog_room(l, +1, 0), std::optional<std::int64_t>{22933});
+  EXPECT_EQ(jog_room(l, -1, 22933), std::optional<std::int64_t>{-25066});  // down to -2133.33: -2133
+  EXPECT_EQ(jog_room(l, -1, -2133), std::nullopt);
+  EXPECT_EQ(jog_room(l, -1, -2132), std::optional<std::int64_t>{-1});
+  EXPECT_EQ(jog_room(l, +1, 30000), std::nullopt);  // beyond
+  EXPECT_EQ(jog_room(l, 0, 0), std::nullopt);       // no direction
+  axis.invert = true;  // counts [-22933.33, 2133.33]: a jog up in counts heads for 2133.33
+  const auto inv = CountLimits::of(axis);
+  EXPECT_EQ(jog_room(inv, +1, 2133), std::nullopt);
+  EXPECT_EQ(jog_room(inv, -1, -22933), std::nullopt);
+  EXPECT_EQ(jog_room(inv, -1, -22932), std::optional<std::int64_t>{-1});
 }
 
 TEST_F(Limits, JogIsStoppedBeforeItsLimitWithALimitEvent) {

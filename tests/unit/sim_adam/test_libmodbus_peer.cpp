@@ -69,7 +69,13 @@ std::string yaml_for(const std::filesystem::path& dir, int drives) {
     yaml += "  - {name: " + std::string(names[i]) + ", drive: " + names[i] +
             "-drive, unit: mm, steps_per_unit: 200, limits: {min: -1000, max: 1000, velocity: 100, acceleration: 1000}}\n";
   }
-  yaml += "simulation: {runtime_dir: '" + dir.string() + "', reply_latency_us: 200}\n";
+  // libmodbus loads table data without a Save: drives that execute unsaved data (a simulated
+  // variant, docs/protocols.md), with the working speed and the target speed as one setpoint.
+  yaml += "simulation: {runtime_dir: '" + dir.string() + "', reply_latency_us: 200, variants: {";
+  for (int i = 0; i < drives; ++i) {
+    yaml += std::string(i == 0 ? "" : ", ") + names[i] + "-drive: {table_needs_save: false, table_speed_register: shared}";
+  }
+  yaml += "}}\n";
   return yaml;
 }
 

@@ -81,7 +81,8 @@ inline config::Drive uim342_drive(std::string name, int node_id, int group_id = 
 // One simulated drive, powered up at t0, with everything it sends and reports recorded.
 class Bench {
  public:
-  explicit Bench(const config::Drive& drive, Uim342Identity identity = {}) : node(static_cast<std::uint8_t>(drive.node_id)) {
+  explicit Bench(const config::Drive& drive, Uim342Identity identity = {}, MicroStepsApply apply = MicroStepsApply::after_restart)
+      : node(static_cast<std::uint8_t>(drive.node_id)) {
     SimDriveContext context;
     context.drive = drive.name;
     context.bus = drive.bus;
@@ -89,7 +90,7 @@ class Bench {
     context.report = [this](std::int8_t kind, std::int64_t utime, std::int64_t position, std::int64_t target) {
       reports.push_back({kind, utime, position, target});
     };
-    sim = std::make_unique<Uim342Drive>(drive, std::move(context), identity);
+    sim = std::make_unique<Uim342Drive>(drive, std::move(context), identity, std::nullopt, apply);
     sim->power_up(now);
   }
 

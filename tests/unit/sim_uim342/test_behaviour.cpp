@@ -60,6 +60,35 @@ u::MotionStatus motion_status(Bench& b) {
 
 // ---- Motion -------------------------------------------------------------------------------------
 
+// §5.9, §5.7 (variant micro_steps_apply: after_restart, the default): MT[0] written while the
+// driver is on reads back but lives in RAM only and is gone after a restart; written with the
+// driver off it is stored, and the motor runs at it after the restart (SY[1]), not before.
+TEST(SimUim342Setup, MicroStepsApplyOnlyAfterStoringWithTheDriverOffAndARestart) {
+  Bench b(plain_drive());
+  ASSERT_EQ(b.sim->applied_micro_steps(), 16);
+  b.exchange(rq::driver_on(true));
+  b.exchange(rq::set(u::MotorDriver::microstepping, 32));
+  EXPECT_EQ(std::get<u::IndexedWord>(b.decode(b.exchange(rq::get(u::MotorDriver::microstepping))).body).value, 32);
+  EXPECT_EQ(b.sim->applied_micro_steps(), 16) << "a RAM value does not move the motor";
+  EXPECT_TRUE(b.send(rq::system(u::SystemOperation::reboot)).empty());
+  EXPECT_EQ(std::get<u::IndexedWord>(b.decode(b.exchange(rq::get(u::MotorDriver::microstepping))).body).value, 16) << "RAM lost";
+  b.exchange(rq::driver_on(false));
+  b.exchange(rq::set(u::MotorDriver::microstepping, 32));
+  EXPECT_EQ(b.sim->applied_micro_steps(), 16) << "stored, not yet applied";
+  EXPECT_TRUE(b.send(rq::system(u::SystemOperation::reboot)).empty());
+  EXPECT_EQ(std::get<u::IndexedWord>(b.decode(b.exchange(rq::get(u::MotorDriver::microstepping))).body).value, 32);
+  EXPECT_EQ(b.sim->applied_micro_steps(), 32);
+}
+
+// Variant immediately: a written MT[0] moves the motor at once; the shaft position (full steps)
+// is continuous across the change.
+TEST(SimUim342Setup, MicroStepsApplyAtOnceUnderTheImmediateVariant) {
+  Bench b(plain_drive(), {}, MicroStepsApply::immediately);
+  b.exchange(rq::set(u::MotorDriver::microstepping, 32));
+  EXPECT_EQ(b.sim->applied_micro_steps(), 32);
+  EXPECT_DOUBLE_EQ(b.sim->shaft_full_steps(b.now), 0.0);
+}
+
 TEST(SimUim342Motion, PtpReachesTheTargetAtTheKinematicsTime) {
   Bench b(plain_drive());
   prepare_ptp(b, 2000, 1000);

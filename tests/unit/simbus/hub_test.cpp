@@ -195,6 +195,37 @@ TEST_P(HubBitrate, BackToBackFramesAreStampedOneFrameTimeApart) {
 
 INSTANTIATE_TEST_SUITE_P(Bitrates, HubBitrate, ::testing::Values(125'000u, 500'000u, 1'000'000u));
 
+// A gateway's endpoint reports the bus load it sees (health, motionctl health): the wire time of
+// the frames it sent and received against the hub's bit rate. It read 0 % at 500 frames/s.
+TEST_F(HubTest, EndpointsReportTheBusLoadOfTheFramesTheySaw) {
+  BusConfig config;
+  config.bitrate = 125'000;
+  open_hub(config);
+  auto tx = connect("tx");
+  auto rx = connect("rx");
+  Receiver received(loop, *rx);
+  Receiver sent(loop, *tx);
+  wait_attached(2);
+  ASSERT_TRUE(run_until(loop, [&] { return rx->bitrate() == 125'000u && tx->bitrate() == 125'000u; }));
+  EXPECT_EQ(rx->statistics().bus_load, 0.0);
+  std::uint64_t bits = 0;
+  for (int i = 0; i < 50; ++i) {
+    const auto f = frame(0x181, std::vector<std::uint8_t>(8, static_cast<std::uint8_t>(i)));
+    bits += can::frame_bits(f).total;
+    ASSERT_FALSE(tx->send(f));
+  }
+  ASSERT_TRUE(run_until(loop, [&] { return received.frames.size() == 50; }));
+  // Once the window has been open a second, each endpoint's load is its frames' wire time over
+  // that second or more: at most bits / bitrate, and not zero.
+  run_until(loop, [] { return false; }, milliseconds(1050));
+  const double at_most = static_cast<double>(bits) / 125'000.0;
+  for (auto* e : {rx.get(), tx.get()}) {
+    const double load = e->statistics().bus_load;
+    EXPECT_GT(load, 0.0) << e->name();
+    EXPECT_LE(load, at_most * (1 + 1e-9)) << e->name();
+  }
+}
+
 TEST_F(HubTest, OwnEchoAndFiltersArePerEndpoint) {
   open_hub();
   auto tx = connect("tx");

@@ -402,6 +402,42 @@ TEST_F(Uim242Line, AJogStoppedByEstopOrDisableDoesNotResumeOnEnable) {
   }
 }
 
+// A jog is a position move onto the last count inside the axis limit (u2: 100 mm = 16000 counts):
+// nothing stops it, and it ends exactly there by the drive's own ramp. With less than one count
+// to go it fails naming the limit and nothing moves; a STOP while the jog waits for rest ends the
+// jog and nothing of it reaches the drive afterwards.
+TEST_F(Uim242Line, AJogRunsOntoTheLastCountInsideItsLimitByItself) {
+  ASSERT_NO_FATAL_FAILURE(enable("u2", 1));
+  driver_->execute(command(2, gateway_command_t::SET_POSITION, {axis("u2", 15800)}));
+  ASSERT_TRUE(run_until([&] { return ended(2); }));
+  driver_->execute(command(3, gateway_command_t::JOG, {axis("u2", 0, 3200)}));
+  ASSERT_TRUE(run_until([&] { return ended(3); }));
+  ASSERT_NE(out_.find(3, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  ASSERT_TRUE(run_until([&] { return out_.status["u2"].moving; }));
+  ASSERT_TRUE(run_until([&] { return !out_.status["u2"].moving && out_.status["u2"].position_counts == 16000; }))
+      << "the jog ended at " << out_.status["u2"].position_counts;
+  run_until([] { return false; }, milliseconds(200));
+  EXPECT_EQ(out_.status["u2"].position_counts, 16000);
+
+  driver_->execute(command(4, gateway_command_t::JOG, {axis("u2", 0, 3200)}));
+  ASSERT_TRUE(run_until([&] { return ended(4); }));
+  const auto* refused = out_.find(4, gateway_reply_t::FAILED);
+  ASSERT_NE(refused, nullptr) << "a jog with no count to go was accepted";
+  EXPECT_EQ(refused->error_code, error_code(ReplyError::kOutsideLimits));
+  EXPECT_NE(refused->reason.find("jog toward 100 mm refused: it stands at 16000 counts, less than one count from that limit"),
+            std::string::npos)
+      << refused->reason;
+
+  driver_->execute(command(5, gateway_command_t::JOG, {axis("u2", 0, -3200)}));
+  driver_->execute(command(6, gateway_command_t::STOP, {axis("u2")}));
+  ASSERT_TRUE(run_until([&] { return ended(5) && ended(6); }));
+  ASSERT_NE(out_.find(5, gateway_reply_t::FAILED), nullptr) << "the jog was not ended by the STOP";
+  ASSERT_NE(out_.find(6, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  run_until([] { return false; }, milliseconds(300));
+  EXPECT_FALSE(out_.status["u2"].moving);
+  EXPECT_EQ(out_.status["u2"].position_counts, 16000) << "the stopped jog started after its STOP";
+}
+
 // A command id still in use is refused (FAILED, naming the id), as by the CAN stacks and the
 // ADAM master; the command that has it goes on and ends once.
 TEST_F(Uim242Line, ReusedCommandIdIsRefusedAndTheRunningCommandGoesOn) {

@@ -17,7 +17,13 @@ namespace motion::gateway::test {
 
 class FakeDrive {
  public:
-  explicit FakeDrive(std::uint8_t node, std::uint8_t group) : node_(node), group_(group), pending_group_(group) {}
+  // Micro-steps as its EEPROM holds them at power-up (MT[0], QE[4] = x 200): the lab's 16.
+  explicit FakeDrive(std::uint8_t node, std::uint8_t group, std::uint16_t micro_steps = 16) : node_(node), group_(group), pending_group_(group) {
+    words_[{uim342::FunctionCode::MT, 0}] = micro_steps;
+    words_[{uim342::FunctionCode::QE, 4}] = static_cast<std::uint16_t>(micro_steps * 200);
+  }
+  bool keeps_micro_steps = true;  // false: MT[0] reverts to `micro_steps` at every reboot
+  int reboots = 0;
 
   bool silent = false;
   bool notify_in_position = true;  // send RT 0x29 when a move finishes
@@ -59,7 +65,11 @@ class FakeDrive {
           answer = uim342::Reply{FC::PP, uim342::IndexedByte{std::get<uim342::Index>(in.body).index, group_}};
         }
         break;
-      case FC::SY: group_ = pending_group_; return {};  // reboot: never answered
+      case FC::SY:  // reboot: never answered
+        group_ = pending_group_;
+        ++reboots;
+        if (!keeps_micro_steps) words_[{FC::MT, 0}] = 0;
+        return {};
       case FC::MO:
         if (set) enabled_ = std::get<uim342::Byte>(in.body).value != 0;
         answer = uim342::Reply{FC::MO, uim342::Byte{static_cast<std::uint8_t>(enabled_ ? 1 : 0)}};

@@ -230,8 +230,11 @@ TEST_F(Uim342StackTest, StartIdentifiesAppliesSetupAndBecomesReady) {
   EXPECT_EQ(x.front(), uim342::request::get(FC::ML));  // §5.4 identification first
   const auto has = [&](const uim342::Instruction& i) { return std::find(x.begin(), x.end(), i) != x.end(); };
   EXPECT_TRUE(has(uim342::request::get(uim342::ProtocolParameter::group_id)));
-  EXPECT_TRUE(has(uim342::request::set(uim342::MotorDriver::microstepping, 16)));
-  EXPECT_TRUE(has(uim342::request::set(uim342::QuadratureEncoder::counts_per_revolution, 3200)));
+  // MT[0] / QE[4] already at the configured 16 / 3200: read, not rewritten (no restart).
+  EXPECT_TRUE(has(uim342::request::get(uim342::MotorDriver::microstepping)));
+  EXPECT_TRUE(has(uim342::request::get(uim342::QuadratureEncoder::counts_per_revolution)));
+  EXPECT_FALSE(has(uim342::request::set(uim342::MotorDriver::microstepping, 16)));
+  EXPECT_EQ(count_sent(5, FC::SY), 0u);
   EXPECT_TRUE(has(uim342::request::set(uim342::MotorDriver::working_current, 20)));
   EXPECT_TRUE(has(uim342::request::set(uim342::InitialConfig::acceleration_unit, 0)));
   EXPECT_TRUE(has(uim342::request::set(uim342::InitialConfig::closed_loop, 0)));
@@ -256,6 +259,49 @@ TEST_F(Uim342StackTest, StartIdentifiesAppliesSetupAndBecomesReady) {
   EXPECT_EQ(out.statuses.back().second.sample_utime, kEpochUs + 10'050'000);
   run_for(milliseconds(100));
   EXPECT_EQ(count_sent(5, FC::MS), 6u);
+}
+
+// §5.9, §5.7: micro-steps apply only when stored with the driver off and the drive restarted.
+// A drive at 8 gets MO=0, MT[0]=16, QE[4]=3200, SY[1], in that order, and is ready only after the
+// read-back following the restart agrees.
+TEST_F(Uim342StackTest, MicroStepsAreStoredWithTheDriverOffAndTheDriveRestartedBeforeReady) {
+  drives.erase(5);
+  drives.emplace(5, test::FakeDrive{5, 20, 8});
+  stack->start(now);
+  settle();
+  EXPECT_FALSE(stack->ready());
+  const auto x = sent_to(5);
+  const auto index_of = [&](const uim342::Instruction& i) { return std::find(x.begin(), x.end(), i) - x.begin(); };
+  const auto off = index_of(uim342::request::driver_on(false));
+  const auto mt = index_of(uim342::request::set(uim342::MotorDriver::microstepping, 16));
+  const auto qe = index_of(uim342::request::set(uim342::QuadratureEncoder::counts_per_revolution, 3200));
+  const auto sy = index_of(uim342::request::system(uim342::SystemOperation::reboot));
+  ASSERT_LT(sy, static_cast<std::ptrdiff_t>(x.size()));
+  EXPECT_LT(off, mt);
+  EXPECT_LT(mt, qe);
+  EXPECT_LT(qe, sy);
+  EXPECT_TRUE(has_event(event_t::REBOOT, "x"));
+  run_for(milliseconds(1100));  // reboot_wait, then identified, set up and read back
+  EXPECT_TRUE(stack->ready());
+  EXPECT_EQ(drives.at(5).reboots, 1);
+  EXPECT_EQ(drives.at(5).word(FC::MT, 0), 16);
+}
+
+// A drive that does not keep MT[0] over the restart: CONFIG_MISMATCH naming drive and value,
+// never ready, and no second restart (no EEPROM write loop).
+TEST_F(Uim342StackTest, MicroStepsNotKeptOverTheRestartAreAnErrorNotALoop) {
+  drives.erase(5);
+  drives.emplace(5, test::FakeDrive{5, 20, 8});
+  drives.at(5).keeps_micro_steps = false;
+  stack->start(now);
+  settle();
+  run_for(milliseconds(5000));
+  EXPECT_FALSE(stack->ready());
+  EXPECT_EQ(drives.at(5).reboots, 1);
+  const auto* mismatch = find_event(event_t::CONFIG_MISMATCH);
+  ASSERT_NE(mismatch, nullptr);
+  EXPECT_NE(mismatch->text.find("x-drive (node 5) reads MT[0] 0 / QE[4] 3200"), std::string::npos) << mismatch->text;
+  EXPECT_NE(mismatch->text.find("configured micro_steps 16"), std::string::npos) << mismatch->text;
 }
 
 // §5.24 polling within the bus capacity. 120 drives x (MS[0] + MS[1]) at 20 Hz need ~1.0 s of

@@ -1,6 +1,6 @@
 // Enables two axes, moves them together (one synchronized request) and prints their final positions.
 //   java -cp lcm.jar:motionlcm.jar:classes ExampleMove [--lcm-url URL] [--prefix MOTION_] [--axes x y]
-//        [--targets 10 5] [--timeout 30] [--key FILE]
+//        [--targets 10 5] [--timeout 60] [--key FILE]
 // --key (default $MOTION_KEY): sign the requests with this private key (motionctl keygen).
 // Exit codes: 0 done, 1 the coordinator refused or the move failed (its reason is printed),
 // 2 bad command line, 4 LCM unavailable.
@@ -23,7 +23,7 @@ public class ExampleMove {
         long timeoutMs;
         Map<String, Double> move = new LinkedHashMap<>();
         try {
-            timeoutMs = (long) (Double.parseDouble(args.get("--timeout", "30")) * 1000);
+            timeoutMs = (long) (Double.parseDouble(args.get("--timeout", String.valueOf(MotionClient.REQUEST_TIMEOUT_MS / 1000.0))) * 1000);
             for (int i = 0; i < 2; i++) move.put(axes.get(i), Double.parseDouble(targets.get(i)));
         } catch (NumberFormatException e) {
             Args.fail("not a number: " + e.getMessage(), USAGE);

@@ -89,6 +89,9 @@ public class MotionClient implements AutoCloseable {
     public static final int UNAUTHORIZED = 19;
     /** No reply at all within this many ms means no coordinator is listening (C++: kAcceptTimeout). */
     public static final long ACCEPT_TIMEOUT_MS = 2000;
+    /** Milliseconds a request waits for its terminal reply unless told otherwise: the same in every
+     *  client (C++ Client::kRequestTimeout, Python REQUEST_TIMEOUT, Lua REQUEST_TIMEOUT). */
+    public static final long REQUEST_TIMEOUT_MS = 60000;
     private final String prefix;
     private volatile String id;
     private volatile Signing.RequestSigner signer;

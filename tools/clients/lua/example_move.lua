@@ -1,7 +1,7 @@
 --[[
 Enables two axes, moves them together (one synchronized request) and prints their final positions.
   LUA_PATH="build/lcmtypes/lua/?.lua;build/lcmtypes/lua/?/init.lua;tools/clients/lua/?.lua;;" \
-    lua5.2 tools/clients/lua/example_move.lua [--lcm-url URL] [--prefix MOTION_] [--axes x y] [--targets 10 5] [--timeout 30] [--key FILE]
+    lua5.2 tools/clients/lua/example_move.lua [--lcm-url URL] [--prefix MOTION_] [--axes x y] [--targets 10 5] [--timeout 60] [--key FILE]
 --key (default $MOTION_KEY): sign the requests with this private key (motionctl keygen; needs
 motionsodium.so on LUA_CPATH, see motionsigning.lua).
 Exit codes: 0 done, 1 the coordinator refused or the move failed (its reason is printed),
@@ -29,7 +29,7 @@ for i, t in ipairs(args["--targets"] or {"10", "5"}) do
     os.exit(2)
   end
 end
-local timeout = tonumber((args["--timeout"] or {"30"})[1])
+local timeout = tonumber((args["--timeout"] or {tostring(motionclient.REQUEST_TIMEOUT)})[1])
 if not timeout then
   io.stderr:write("--timeout: not a number\n" .. usage .. "\n")
   os.exit(2)

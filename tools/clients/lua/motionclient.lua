@@ -46,6 +46,9 @@ M.request_t, M.reply_t, M.axis_state_t, M.event_t, M.health_t = request_t, reply
 -- The coordinator answers every request at once; no reply within this many seconds means no
 -- coordinator is listening (the same bound as the C++ client's kAcceptTimeout).
 M.ACCEPT_TIMEOUT = 2.0
+-- Seconds a request waits for its terminal reply by default, the same in every client (C++
+-- Client::kRequestTimeout, Java MotionClient.REQUEST_TIMEOUT_MS, Python REQUEST_TIMEOUT).
+M.REQUEST_TIMEOUT = 60
 -- Reply error code of a request the coordinator's security refused (C++ ReplyError::kUnauthorized).
 M.UNAUTHORIZED = 19
 
@@ -158,11 +161,11 @@ function Client:send(kind, axes, values, on_reply, fields)
 end
 
 -- Sends and waits for the terminal reply (a motionlcm reply_t table). When none comes within
--- opts.timeout seconds (default 10), returns a local FAILED reply saying so. opts.on_progress(reply)
+-- opts.timeout seconds (default M.REQUEST_TIMEOUT), returns a local FAILED reply saying so. opts.on_progress(reply)
 -- gets the non-terminal replies. Other opts are request fields (see send).
 function Client:request(kind, axes, values, opts)
   opts = opts or {}
-  local timeout = opts.timeout or 10
+  local timeout = opts.timeout or M.REQUEST_TIMEOUT
   local fields = {}
   for k, v in pairs(opts) do
     if k ~= "timeout" and k ~= "on_progress" then fields[k] = v end

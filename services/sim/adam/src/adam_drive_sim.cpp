@@ -24,7 +24,9 @@ constexpr std::uint16_t kHardwareVersion[] = {0x3731, 0x0030};
 constexpr std::uint16_t kFirmwareVersion[] = {0x3031, 0x0035};
 }  // namespace
 
-AdamDriveSim::AdamDriveSim() : regs_(kAddressSpace, 0) { power_cycle(TimePoint{}); }
+AdamDriveSim::AdamDriveSim(AdamTableVariants variants) : regs_(kAddressSpace, 0), variants_(variants), saved_(kAddressSpace, 0) {
+  power_cycle(TimePoint{});
+}
 
 void AdamDriveSim::power_cycle(TimePoint now) {
   std::fill(regs_.begin(), regs_.end(), std::uint16_t{0});
@@ -145,8 +147,12 @@ void AdamDriveSim::execute_table_entry(TimePoint now) {
   const std::uint16_t pointer = reg(Reg::table_pointer);
   const std::uint32_t at = adam::table_entry_address(reg(Reg::table_start), pointer);
   if (at + 1 >= kAddressSpace) return;
-  const std::int32_t value = adam::decode32_signed(regs_[at], regs_[at + 1]);
-  const double speed = reg32(Reg::target_speed) / 100.0;
+  // Table data from flash when the drive uses only saved data (variant table_needs_save).
+  const auto& data = variants_.needs_save ? saved_ : regs_;
+  const std::int32_t value = adam::decode32_signed(data[at], data[at + 1]);
+  // The speed from the register motion reads (variant table_speed_register).
+  const double speed = variants_.speed == AdamTableVariants::Speed::target_00d8 ? reg32(Reg::target_speed) / 100.0
+                                                                                : static_cast<double>(reg(Reg::working_speed));
   const std::int64_t here = kinematics_.position_counts(now);
   move_to(command->kind == adam::TableEntryKind::absolute ? value : here + value, now, std::abs(speed));
   const int step = command->arithmetic == adam::PointerArithmetic::add ? command->step : -int{command->step};
@@ -162,14 +168,16 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
     else kinematics_.stop(now, profile(speed_rpm).deceleration, profile(speed_rpm).cut_in);
   };
   switch (static_cast<Reg>(address)) {
-    case Reg::working_speed:  // assumed (§8.44, §8.64 do not say): 0x009A and 0x00D8 are one setpoint
+    case Reg::working_speed:  // variant `shared` (§8.44, §8.64 do not say): 0x009A and 0x00D8 are one setpoint
     {
+      if (variants_.speed != AdamTableVariants::Speed::shared) break;
       const auto centi = adam::encode32(static_cast<std::int32_t>(reg(Reg::working_speed)) * 100);
       regs_[adam::address(Reg::target_speed)] = centi[0];
       regs_[adam::address(Reg::target_speed) + 1U] = centi[1];
       break;
     }
     case Reg::target_speed:
+      if (variants_.speed != AdamTableVariants::Speed::shared) break;
       regs_[adam::address(Reg::working_speed)] = static_cast<std::uint16_t>(std::min<long>(std::lround(speed_rpm), 0xFFFF));
       break;
     case Reg::velocity_command: {
@@ -254,6 +262,11 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       break;
     case Reg::save_command:
       if (reg(Reg::save_command) == static_cast<std::uint16_t>(adam::SaveCommand::restore_factory)) power_cycle(now);
+      if (reg(Reg::save_command) == static_cast<std::uint16_t>(adam::SaveCommand::save)) {  // §8.69: a flash erase, 0.1 s
+        saved_ = regs_;
+        ++saves_;
+        busy_until_ = now + variants_.save_time;
+      }
       break;
     default: break;
   }

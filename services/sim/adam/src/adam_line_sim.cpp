@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include "motion/adam/rtu.hpp"
+#include "motion/config/sim_variants.hpp"
 
 namespace motion::sim {
 
@@ -28,9 +29,26 @@ AdamLineSim::AdamLineSim(const config::Config& config, const config::Bus& bus, S
     auto drive = std::make_unique<Drive>();
     drive->config = &d;
     drive->slave.unit = static_cast<std::uint8_t>(d.node_id);
+    AdamTableVariants variants;
+    const auto speed = config::sim_variant(config, d, "table_speed_register");
+    variants.speed = speed == "0x00D8" ? AdamTableVariants::Speed::target_00d8
+                     : speed == "shared" ? AdamTableVariants::Speed::shared
+                                         : AdamTableVariants::Speed::working_009a;
+    variants.needs_save = config::sim_variant(config, d, "table_needs_save") == "true";
+    drive->sim = AdamDriveSim(variants);
     drive->latency = latency;
     drives_[d.name] = std::move(drive);
   }
+}
+
+std::int64_t AdamLineSim::position(const std::string& drive, TimePoint now) const {
+  const auto it = drives_.find(drive);
+  return it == drives_.end() ? 0 : it->second->sim.position(now);
+}
+
+int AdamLineSim::saves(const std::string& drive) const {
+  const auto it = drives_.find(drive);
+  return it == drives_.end() ? 0 : it->second->sim.saves();
 }
 
 void AdamLineSim::power_up(TimePoint now) {
@@ -57,8 +75,12 @@ TimePoint AdamLineSim::process(TimePoint now) {
   if (auto frame = framer_.take_if_silent(now)) serve_frame(*frame, now);
   for (auto& [name, d] : drives_) {
     if (d->finish_at > now) continue;
+    // Reported even when a poll's read settled the drive first (the read does the bookkeeping);
+    // dated by the motion's end, not by when this runs.
+    const TimePoint ended = d->finish_at;
     d->finish_at = kNever;
-    if (d->sim.settle(now)) report(*d, motionlcm::sim_report_t::MOTION_FINISHED, context_.utime_of(now), now);
+    d->sim.settle(now);
+    report(*d, motionlcm::sim_report_t::MOTION_FINISHED, context_.utime_of(ended), now);
   }
   return next_deadline();
 }
@@ -72,8 +94,9 @@ TimePoint AdamLineSim::next_deadline() const {
 void AdamLineSim::serve_frame(const std::vector<std::uint8_t>& frame, TimePoint received) {
   const std::int64_t frame_utime = context_.utime_of(received);
   for (auto& [name, d] : drives_) {
-    if (d->silent) continue;
+    if (d->silent || received < d->sim.busy_until()) continue;  // erasing flash: no answer (§8.69)
     d->sim.set_now(received);
+    const int saves = d->sim.saves();
     const adam::ServeResult result = adam::serve(frame, d->slave, d->sim);
     if (result.outcome == adam::ServeOutcome::discarded && name == drives_.begin()->first) {
       spdlog::debug("bus {}: discarded {}-byte frame ({})", context_.bus, frame.size(),
@@ -86,7 +109,8 @@ void AdamLineSim::serve_frame(const std::vector<std::uint8_t>& frame, TimePoint 
     if (result.reply.empty()) continue;
     std::vector<std::uint8_t> reply = result.reply;
     if (d->corrupt_replies) reply.back() ^= 0xFF;  // SIM_CONTROL CRC_ERRORS
-    context_.send(reply, d->latency);
+    // A Save answers when its flash erase is done.
+    context_.send(reply, d->latency + (d->sim.saves() != saves ? d->sim.busy_until() - received : Duration{}));
   }
 }
 

@@ -1,5 +1,7 @@
 #include "motion/sim/uim242_gateway_sim.hpp"
 
+#include "motion/config/sim_variants.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -63,6 +65,9 @@ class Uim242GatewaySim::Controller {
   // ISO 11898-1 CRC error and fault confinement, as a node whose frames keep failing ends bus-off).
   [[nodiscard]] bool heard() const { return !silent_ && !corrupt_; }
   void set_corrupt(bool corrupt) { corrupt_ = corrupt; }
+  // Silent, or still rebooting after an ICF write.
+  [[nodiscard]] bool asleep(TimePoint now) const { return silent_ || now < awake_at_; }
+  [[nodiscard]] int icf_writes() const { return icf_writes_; }
   [[nodiscard]] bool enabled() const { return enabled_; }
   [[nodiscard]] std::int64_t position(TimePoint now) const { return kinematics_.position_counts(now); }
   // Kinematics counts the instant of arrival as moving; the controller has stopped by then.
@@ -128,7 +133,11 @@ class Uim242GatewaySim::Controller {
       case Mnemonic::ICF:
         if (set) icfg_ = static_cast<std::uint16_t>(v & 0x000F);  // bits 15..4 read 0
         reply_value(icfg_);
-        if (set) power_up(now);  // an ICFG write reboots the controller (EN/CN §5.1); the ACK goes first (assumed)
+        if (set) {  // an ICFG write reboots the controller (EN/CN §5.1); the ACK goes first (assumed)
+          ++icf_writes_;
+          power_up(now);
+          awake_at_ = now + setup_.reboot;
+        }
         break;
       case Mnemonic::MAC: if (set) acceleration_ = v; reply(std::array<std::int64_t, 2>{(mcfg_ & kAm) ? 1 : 0, acceleration_}); break;
       case Mnemonic::MDE: if (set) deceleration_ = v; reply(std::array<std::int64_t, 2>{(mcfg_ & kDm) ? 1 : 0, deceleration_}); break;
@@ -390,6 +399,8 @@ class Uim242GatewaySim::Controller {
   const Uim242SimContext& context_;
   bool silent_ = false;
   bool corrupt_ = false;
+  TimePoint awake_at_{};  // end of an ICF reboot
+  int icf_writes_ = 0;
 
   // Registers and settings (EEPROM-backed ones survive power_up).
   std::uint16_t mcfg_ = kCm;  // advanced motion on: closed-loop -IE units ship with the module
@@ -432,6 +443,7 @@ std::vector<Uim242ControllerSetup> Uim242GatewaySim::controllers_of(const config
     Uim242ControllerSetup setup;
     setup.drive = d.name;
     setup.node_id = static_cast<std::uint8_t>(d.node_id);
+    setup.reboot = std::chrono::milliseconds(config::sim_variant_int(config, d, "reboot_ms"));
     out.push_back(setup);
   }
   return out;
@@ -447,6 +459,11 @@ SerialDeviceFactory uim242_line_factory() {
     context.utime_of = line.utime_of;
     return std::make_unique<Uim242GatewaySim>(Uim242GatewaySim::controllers_of(config, bus.name), std::move(context));
   };
+}
+
+int Uim242GatewaySim::icf_writes(const std::string& drive) const {
+  const auto* c = find_drive(drive);
+  return c ? c->icf_writes() : 0;
 }
 
 void Uim242GatewaySim::power_up(TimePoint now) {
@@ -547,7 +564,7 @@ void Uim242GatewaySim::execute(const uim242::InstructionChunk& chunk, TimePoint 
   // MDL names its controller in the value (#22); everything else goes to the selected target.
   const int node = in.mnemonic == Mnemonic::MDL && in.value ? static_cast<int>(*in.value) : selected_;
   Controller* c = find_node(node);
-  if (!c || c->silent()) return;  // nobody answers: the host times out
+  if (!c || c->asleep(now)) return;  // nobody answers: the host times out
   for (const auto& f : c->execute(in, now, !chunk.silent)) {
     if ((f.header == Header::error || !chunk.silent) && c->heard()) send(f);
   }

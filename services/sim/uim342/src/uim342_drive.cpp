@@ -82,9 +82,20 @@ std::optional<std::size_t> history_slot(std::uint8_t index) {
 
 }  // namespace
 
-Uim342Drive::Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity, std::optional<Uim342HomeSwitch> home_switch)
+Uim342Drive::Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity, std::optional<Uim342HomeSwitch> home_switch,
+                         MicroStepsApply micro_steps_apply)
     : context_(std::move(context)), identity_(identity), factory_(setup_parameters(drive, identity)),
-      persisted_(factory_), active_(factory_), home_switch_(home_switch) {}
+      persisted_(factory_), active_(factory_), home_switch_(home_switch), micro_steps_apply_(micro_steps_apply) {}
+
+double Uim342Drive::shaft_full_steps(TimePoint now) const {
+  return shaft_base_full_steps_ + static_cast<double>(kinematics_.position_counts(now) - counts_base_) / std::max<std::uint16_t>(applied_micro_steps_, 1);
+}
+
+void Uim342Drive::apply_micro_steps(std::uint16_t micro_steps, TimePoint now) {
+  shaft_base_full_steps_ = shaft_full_steps(now);
+  counts_base_ = kinematics_.position_counts(now);
+  applied_micro_steps_ = std::max<std::uint16_t>(micro_steps, 1);
+}
 
 std::int64_t Uim342Drive::position(TimePoint now) const { return kinematics_.position_counts(now) - origin_offset_; }
 
@@ -155,7 +166,7 @@ void Uim342Drive::handle(const Instruction& instruction, std::uint8_t host, std:
       reply = status(instruction, now);
       break;
     default:
-      reply = configuration(instruction);
+      reply = configuration(instruction, now);
       break;
   }
   // Gets without the ACK bit are not answered either.
@@ -193,7 +204,7 @@ std::error_code Uim342Drive::state_error(const Instruction& instruction, std::ui
   }
 }
 
-u::Reply Uim342Drive::configuration(const Instruction& instruction) {
+u::Reply Uim342Drive::configuration(const Instruction& instruction, TimePoint now) {
   const FC f = instruction.function;
   const std::uint8_t i = instruction.sub_index().value_or(0);
   if (instruction.operation == u::Operation::set) {
@@ -202,6 +213,10 @@ u::Reply Uim342Drive::configuration(const Instruction& instruction) {
     } else {
       store(instruction, active_, 0);
       if (persists(instruction, 0)) store(instruction, persisted_, 0);
+      // §5.9: "powered off and restarted to take effect" (variant micro_steps_apply).
+      if (f == FC::MT && i == at(u::MotorDriver::microstepping) && micro_steps_apply_ == MicroStepsApply::immediately) {
+        apply_micro_steps(active_.driver[at(u::MotorDriver::microstepping)], now);
+      }
     }
     return *u::echo_ack(instruction);
   }

@@ -40,7 +40,12 @@ void Uim342Drive::reboot(TimePoint now) {
   group_id_ = active_.group_id;
   selected_group_ = 0;
   in_position_ = stalled_ = locked_ = error_ = emergency_stopping_ = false;
+  // The shaft stays where it is; the counter starts at 0 and the resolution stored in EEPROM
+  // takes effect (§5.9, §5.7: micro-steps apply after a restart).
+  shaft_base_full_steps_ = shaft_full_steps(now);
   kinematics_ = Kinematics{};  // the position counter starts at 0
+  counts_base_ = 0;
+  applied_micro_steps_ = std::max<std::uint16_t>(active_.driver[at(u::MotorDriver::microstepping)], 1);
   motion_ = Motion{};
   origin_offset_ = relative_origin_ = 0;
   output_ = false;

@@ -7,6 +7,7 @@
 #include <string>
 #include <variant>
 
+#include "motion/config/sim_variants.hpp"
 #include "motion/sim/uim342_drive.hpp"
 #include "motion/uim342/parameters.hpp"
 #include "uim342_setup.hpp"
@@ -117,12 +118,17 @@ CanDriveFactory uim342_factory(const config::Config& config) {
   std::map<std::string, int> bitrates;
   for (const auto& bus : config.buses) bitrates[bus.name] = bus.bitrate;
   std::map<std::string, std::optional<Uim342HomeSwitch>> switches;
-  for (const auto& d : config.drives) switches[d.name] = uim342_home_switch(config, d);
-  return [bitrates, switches](const config::Drive& drive, SimDriveContext context) -> std::unique_ptr<CanDriveSim> {
+  std::map<std::string, std::string> variants;
+  for (const auto& d : config.drives) {
+    switches[d.name] = uim342_home_switch(config, d);
+    variants[d.name] = config::sim_variant(config, d, "micro_steps_apply");
+  }
+  return [bitrates, switches, variants](const config::Drive& drive, SimDriveContext context) -> std::unique_ptr<CanDriveSim> {
     const auto bus = bitrates.find(drive.bus);
     const auto identity = uim342_identity(drive, bus == bitrates.end() ? 0 : bus->second);
     const auto sw = switches.find(drive.name);
-    return std::make_unique<Uim342Drive>(drive, std::move(context), identity, sw == switches.end() ? std::nullopt : sw->second);
+    const auto apply = variants.at(drive.name) == "immediately" ? MicroStepsApply::immediately : MicroStepsApply::after_restart;
+    return std::make_unique<Uim342Drive>(drive, std::move(context), identity, sw == switches.end() ? std::nullopt : sw->second, apply);
   };
 }
 

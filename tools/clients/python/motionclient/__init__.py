@@ -17,12 +17,12 @@ from .signing import KeyFileError, RequestSigner, SigningKey, key_path, load_pri
 
 try:
     from .client import (Client, RequestFailed, UNAUTHORIZED, is_terminal, kind_value, status_name,  # noqa: F401
-                         HEALTH_STATES, KINDS, TERMINAL)
+                         HEALTH_STATES, KINDS, TERMINAL, REQUEST_TIMEOUT)
 except ImportError as _e:  # the types are missing: the transport still works, Client explains
     _import_error = _e
 
     def __getattr__(name):
         if name in ("Client", "RequestFailed", "UNAUTHORIZED", "is_terminal", "kind_value", "status_name", "HEALTH_STATES", "KINDS",
-                    "TERMINAL"):
+                    "TERMINAL", "REQUEST_TIMEOUT"):
             raise ImportError(str(_import_error))
         raise AttributeError(name)

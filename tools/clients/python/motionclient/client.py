@@ -35,6 +35,9 @@ UNAUTHORIZED = 19  # reply error code (services/lcm reply_error.hpp: kUnauthoriz
 # The coordinator answers every request at once; no reply within this many seconds means no
 # coordinator is listening (the same bound as the C++ client's kAcceptTimeout).
 ACCEPT_TIMEOUT = 2.0
+# Seconds a request waits for its terminal reply by default: the same in every client (C++
+# Client::kRequestTimeout, Java MotionClient.REQUEST_TIMEOUT_MS, Lua M.REQUEST_TIMEOUT).
+REQUEST_TIMEOUT = 60.0
 TERMINAL = (reply_t.DONE, reply_t.REJECTED, reply_t.ABORTED, reply_t.FAILED)
 _STATUS_NAMES = {reply_t.ACCEPTED: "accepted", reply_t.STARTED: "started", reply_t.PROGRESS: "progress",
                  reply_t.DONE: "done", reply_t.REJECTED: "rejected", reply_t.ABORTED: "aborted",
@@ -98,6 +101,17 @@ class Client:
         if key is not None:
             self.sign_with(key)
 
+    @classmethod
+    def from_config(cls, path: str, url: Optional[str] = None, prefix: Optional[str] = None, **kw) -> "Client":
+        """A client on the LCM URL and with the channel prefix of a motionbus configuration file
+        (lcm.url, lcm.channel_prefix), as every program reads them; `url` and `prefix` override
+        the file's. Needs PyYAML (Debian python3-yaml)."""
+        import yaml  # only this constructor needs it
+        with open(path) as f:
+            config = yaml.safe_load(f) or {}
+        lcm = config.get("lcm") or {}
+        return cls(url or lcm.get("url"), prefix=prefix or lcm.get("channel_prefix", "MOTION_"), **kw)
+
     def channel(self, name: str) -> str:
         return self.prefix + name
 
@@ -137,7 +151,7 @@ class Client:
         return msg.request_id
 
     def request(self, kind: Union[int, str], axes: Sequence[str] = (), values: Optional[Sequence[float]] = None,
-                timeout: float = 10.0, on_progress: Optional[Callable] = None, check: bool = False, **fields):
+                timeout: float = REQUEST_TIMEOUT, on_progress: Optional[Callable] = None, check: bool = False, **fields):
         """Sends and waits for the terminal reply (a motionlcm.reply_t). When none comes within
         `timeout` seconds, returns a local FAILED reply saying so (the coordinator may be down).
         check=True raises RequestFailed unless the reply is DONE."""

@@ -81,6 +81,10 @@ struct DriveSettings {
   int retries = 1;
   int home_input = 1;                  // 1-based digital input of the home switch (axis homing)
   config::HomingMethod homing_method = config::HomingMethod::kNone;
+  // Save (0x00DC = 1) after loading a table entry, before it can be executed (setup table_save,
+  // default true): the manual's §8.54 sequence saves the table data, whether the drive executes
+  // unsaved data is not said (docs/protocols.md).
+  bool table_save = true;
   // Start-up writes from the drive's `setup:` map (register, words).
   std::vector<std::pair<std::uint16_t, std::vector<std::uint16_t>>> setup_writes;
 };

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "motion/can/transport.hpp"
+#include "motion/can_frame/load_meter.hpp"
 
 namespace motion::can {
 
@@ -96,7 +97,6 @@ class SocketCanTransport final : public Transport {
   std::error_code apply_socket_options();
   void close_can_socket();
   void enter_state(BusState next, std::uint32_t error_class, std::string text);
-  void account_bits(const Frame& frame);
 
   std::string interface_;
   SocketCanOptions options_;
@@ -109,9 +109,7 @@ class SocketCanTransport final : public Transport {
   std::uint32_t last_socket_drops_ = 0;
   Statistics stats_;
   SocketCanCounters counters_;
-  // bus_load: wire bits in the current one-second window (monotonic microseconds).
-  std::int64_t load_window_start_us_ = 0;
-  std::uint64_t load_window_bits_ = 0;
+  LoadMeter load_;  // bus_load, from the frames sent and received (options_.bitrate)
 };
 
 }  // namespace motion::can

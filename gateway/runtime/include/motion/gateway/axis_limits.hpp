@@ -41,12 +41,18 @@ struct Refusal {
 
 // Checks one axis's part of a command of `kind` (gateway_command_t kinds) against its limits:
 // ARM_MOVE target, |velocity|, acceleration, deceleration; JOG |velocity|, acceleration and
-// deceleration (0 = the drive's own) and, with the last known position, that the jog does not start
-// at or beyond the limit in its direction; SET_POSITION target; HOME |velocity| and ramps. Other
+// deceleration (0 = the drive's own) and, with the last known position, that the jog has at least
+// one whole count to run before the limit in its direction (jog_room); SET_POSITION target; HOME |velocity| and ramps. Other
 // kinds carry no motion values and pass. Non-finite values are malformed (code 1); values
 // outside the limits are code 3 (outside limits).
 [[nodiscard]] std::optional<Refusal> check_axis_command(std::int8_t kind, const motionlcm::axis_command_t& command, const CountLimits& limits,
                                                         std::optional<std::int64_t> position_counts);
+
+// The whole counts a jog from `position_counts` with the sign of `velocity` may run before the
+// limit in its direction (signed like the velocity: floor toward the limit, so the last count
+// lies inside it), or nothing when less than one whole count is left (or the axis is at or beyond
+// that limit): such a jog is refused, by the gateway as by the coordinator.
+[[nodiscard]] std::optional<std::int64_t> jog_room(const CountLimits& limits, double velocity, std::int64_t position_counts);
 
 // A jog watched against the limit in its direction.
 struct JogWatch {

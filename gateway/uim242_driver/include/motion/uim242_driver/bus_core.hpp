@@ -14,7 +14,9 @@
 //   then the set-up: `SCF;` and, when S34CON.STALL is 0000 (which silences the stall
 //   notification), S34CON.STALL := 0001 (notify, no action); `MCS`, `CUR` (setup micro_steps,
 //   current_a), `MCF` (setup mcfg, default CM + STPIE + STLIE: ramps, A8 arrival and stall
-//   notifications), `ICF` (only when configured: it reboots), `QER`, `SQT`, `MMS 0;` `MMD 0;`
+//   notifications), `QER`, `SQT`, `MMS 0;` `MMD 0;` — all after `ICF` when `icfg` is configured
+//   (read first; written only when different, then the reboot is waited out and the value read
+//   back, §5.1),
 //   (exact trapezoids), `STP 0;` (velocity mode, at rest). An unanswered drive is offline and
 //   identified again every second.
 // * Polling at poll_hz, one request at a time: `FBK;` (enabled, speed) and `QEC;` (position).
@@ -30,7 +32,11 @@
 //   `gSPD v;` starts them all ("broadcast", skew 0); otherwise `SPD v_i;` axis by axis
 //   ("sequential", skew = the serial time of the other axes' starts). trigger 0 = at once.
 //   DONE when every axis reported A8 or was polled at its target at rest.
-// * JOG `STP 0; MAC; MDE; SPD v;`. STOP `STP 0;` (ramped stop, leaves PT), DONE at rest with the
+// * JOG `STP 0; MAC; MDE; SPD 0;`, then at rest (settle) `STP n; SPD |v|;`: a position move
+//   (PT mode, EN/CN §6.1) to the last whole count inside the axis limit in the jog's direction, at
+//   the jog's speed. The drive itself decelerates onto the limit, so a stop that reaches it late
+//   over the serial line (the gateway's jog watch) cannot let it pass. Less than one whole count
+//   from the limit: FAILED, outside limits. STOP `STP 0;` (ramped stop, leaves PT), DONE at rest with the
 //   position re-read (settle): a move planned right after it starts from where the axis really
 //   stopped. ESTOP `OFF;` (the only
 //   immediate stop the manual offers; `gOFF;` when every drive of the bus is named).
@@ -95,6 +101,8 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   [[nodiscard]] bool ready() const override;
   [[nodiscard]] motionlcm::bus_stats_t statistics() const override;
   [[nodiscard]] std::vector<std::string> axes() const;
+  // ICF writes sent and acknowledged since construction (each is an EEPROM write and a reboot).
+  [[nodiscard]] std::int64_t icf_writes() const noexcept { return icf_writes_; }
 
  private:
   struct Drive;
@@ -118,6 +126,9 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   // ---- start-up and polling
   void identify(Drive& d, TimePoint now);
   void set_up(Drive& d);
+  void set_up_steps(Drive& d);  // everything after ICFG (see set_up)
+  void verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up, TimePoint now);
+  void after(TimePoint due, std::function<void(TimePoint)> then);
   void poll(TimePoint now);
   void mark_offline(Drive& d, const std::string& reason, TimePoint now);
 
@@ -132,6 +143,7 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   // calls `then`; the command FAILS when it still moves at `give_up`.
   void settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then);
   void home(Command& c, Drive& d, const config::Axis& axis, const motionlcm::axis_command_t& a);
+  void jog(Command& c, Drive& d, const motionlcm::axis_command_t& a);
   void homed(Drive& d, std::int64_t offset, TimePoint now);
   void param(const motionlcm::gateway_command_t& command, Drive& d, bool write);
 
@@ -152,6 +164,12 @@ class Uim242BusCore final : public gateway::SerialLineCore {
     std::function<void(TimePoint)> then;
   };
   std::vector<RestCheck> rest_checks_;  // settles waiting for their next `FBK;`
+  struct Timer {
+    TimePoint due;
+    std::function<void(TimePoint)> then;
+  };
+  std::vector<Timer> timers_;  // one-shot waits (an ICF reboot)
+  std::int64_t icf_writes_ = 0;
   TimePoint next_poll_{};
   TimePoint next_identify_{};
   std::int64_t protocol_errors_ = 0;

@@ -32,6 +32,10 @@ struct Request {
   std::function<void(TimePoint sent)> on_sent;  // each time its bytes have crossed the wire (last character's end)
 };
 
+// After an STO's reply the line stays quiet this long (UIM242 manual #42: "wait 20ms before
+// sending other instructions").
+inline constexpr Duration kStoPause = std::chrono::milliseconds(20);
+
 struct ChannelSettings {
   Duration timeout = std::chrono::milliseconds(100);  // from the end of the instruction on the wire
   int retries = 1;
@@ -82,6 +86,7 @@ class RequestChannel {
   std::deque<Request> queue_;
   std::optional<InFlight> in_flight_;
   int selected_ = 0;  // the gateway's current target; 0 = unknown
+  TimePoint hold_until_{};  // nothing is sent before (the pause after an STO)
   ChannelStatistics stats_;
 };
 

@@ -207,6 +207,9 @@ struct SimulationSettings {
   // switch. Drives not named get one half way from the power-up position to the travel limit in
   // the homing direction.
   std::map<std::string, std::optional<long long>, std::less<>> home_switches;
+  // Behaviours where a manual is silent (`variants: {DRIVE: {KEY: VALUE}}`), per drive; the keys
+  // and defaults per family are in motion/config/sim_variants.hpp (docs/protocols.md).
+  std::map<std::string, std::map<std::string, std::string, std::less<>>, std::less<>> variants;
 };
 
 struct Config {

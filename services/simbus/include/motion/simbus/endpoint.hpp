@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "motion/can/transport.hpp"
+#include "motion/can_frame/load_meter.hpp"
 #include "motion/simbus/bus.hpp"
 
 namespace motion::simbus {
@@ -29,7 +30,9 @@ class EndpointTransport : public can::Transport {
   [[nodiscard]] std::string name() const override { return "sim:" + bus_name_; }
   [[nodiscard]] const std::string& bus_name() const { return bus_name_; }
   std::error_code set_filters(const std::vector<can::Filter>& filters) override;
-  [[nodiscard]] can::Statistics statistics() const override { return stats_; }
+  // bus_load: the wire time of the frames this endpoint sent and received from others (not its
+  // own echoes) against the hub's bit rate, once the hub told it (0 without bus timing).
+  [[nodiscard]] can::Statistics statistics() const override;
 
  protected:
   explicit EndpointTransport(std::string bus_name) : bus_name_(std::move(bus_name)) {}
@@ -41,11 +44,15 @@ class EndpointTransport : public can::Transport {
   // Counts the event, updates `state` and hands it to the handler.
   void apply(const can::BusEvent& event, can::BusState& state);
   void count_tx_rejected() { ++stats_.tx_dropped; }
+  // A frame that was on the wire (sent by this endpoint, or received from another), for bus_load.
+  void count_on_wire(const can::Frame& frame) { load_.add(frame, SteadyClock::now()); }
+  void set_load_bitrate(std::uint32_t bitrate) { load_.set_bitrate(bitrate); }
 
  private:
   std::string bus_name_;
   std::vector<can::Filter> filters_;
   can::Statistics stats_;
+  can::LoadMeter load_;
 };
 
 struct EndpointOptions {

@@ -32,9 +32,22 @@
 
 namespace motion::sim {
 
+// What the manual leaves open about a table start (simulation.variants, docs/protocols.md):
+// which register's speed an executed table entry runs at (§8.44 0x009A "working speed", §8.64
+// 0x00D8 "target speed", §8.65 ties the velocity commands to 0x009A; `shared`: one setpoint
+// behind both, as the simulator assumed before), and whether table data written by Modbus is used
+// only after a Save (§8.54 step 2 "after sending, it is necessary to send a save command"). A
+// Save (0x00DC = 1) erases flash for save_time (§8.69: 0.1 s); the drive answers after it.
+struct AdamTableVariants {
+  enum class Speed { working_009a, target_00d8, shared };
+  Speed speed = Speed::working_009a;
+  bool needs_save = true;
+  Duration save_time = std::chrono::milliseconds(100);
+};
+
 class AdamDriveSim final : public adam::RegisterBank {
  public:
-  AdamDriveSim();
+  explicit AdamDriveSim(AdamTableVariants variants = {});
 
   // The time of the frame being served (the bank interface has no time argument).
   void set_now(TimePoint now) { now_ = now; }
@@ -52,6 +65,10 @@ class AdamDriveSim final : public adam::RegisterBank {
 
   [[nodiscard]] std::int64_t position(TimePoint now) const { return kinematics_.position_counts(now); }
   [[nodiscard]] std::int64_t target() const { return target_; }
+  // Saves (0x00DC = 1) taken, and until when the last one keeps the drive busy (no answer).
+  [[nodiscard]] int saves() const { return saves_; }
+  [[nodiscard]] TimePoint busy_until() const { return busy_until_; }
+  [[nodiscard]] const AdamTableVariants& variants() const { return variants_; }
   [[nodiscard]] adam::DriveStatus status(TimePoint now) const;
 
   // Fault injection and inputs (sim_control_t).
@@ -71,6 +88,10 @@ class AdamDriveSim final : public adam::RegisterBank {
   void execute_table_entry(TimePoint now);
 
   std::vector<std::uint16_t> regs_;
+  AdamTableVariants variants_;
+  std::vector<std::uint16_t> saved_;  // flash: what the last Save wrote (kept over power cycles)
+  int saves_ = 0;
+  TimePoint busy_until_{};
   Kinematics kinematics_;
   TimePoint now_{};
   std::int64_t target_ = 0;

@@ -39,6 +39,10 @@ class AdamLineSim final : public SerialDeviceSim {
   TimePoint process(TimePoint now) override;
   bool control(const motionlcm::sim_control_t& control, TimePoint now) override;
 
+  // Introspection for tests (0 for an unknown drive): position counts, Saves taken.
+  [[nodiscard]] std::int64_t position(const std::string& drive, TimePoint now) const;
+  [[nodiscard]] int saves(const std::string& drive) const;
+
  private:
   struct Drive {
     const config::Drive* config = nullptr;

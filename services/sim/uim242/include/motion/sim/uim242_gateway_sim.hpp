@@ -59,6 +59,9 @@ struct Uim242ControllerSetup {
   std::uint8_t node_id = 5;
   std::uint8_t max_current_tenths = 40;  // MDL: UIM24204
   std::uint16_t firmware = 1302;
+  // How long the controller is silent after an ICF write (manual §5.1: "will auto reboot", no
+  // time given): simulation.variants key reboot_ms.
+  Duration reboot = std::chrono::milliseconds(300);
 };
 
 struct Uim242SimOptions {
@@ -107,6 +110,8 @@ class Uim242GatewaySim final : public SerialDeviceSim {
   [[nodiscard]] bool moving(const std::string& drive, TimePoint now) const;
   [[nodiscard]] bool enabled(const std::string& drive) const;
   [[nodiscard]] int selected_node() const noexcept { return selected_; }
+  // ICF writes the controller took (each an EEPROM write and a reboot).
+  [[nodiscard]] int icf_writes(const std::string& drive) const;
 
  private:
   class Controller;

@@ -66,10 +66,18 @@ struct Uim342HomeSwitch {
 // direction) and `simulation.home_switches` (edge position, or none). nullopt: no switch.
 [[nodiscard]] std::optional<Uim342HomeSwitch> uim342_home_switch(const config::Config& config, const config::Drive& drive);
 
+// When a written MT[0] micro-step resolution moves the motor (simulation.variants key
+// `micro_steps_apply`, docs/protocols.md). The manual (§5.9, §5.7) says the drive must be
+// powered off and restarted for it to take effect: after_restart (the default) applies the
+// resolution stored in EEPROM at each (re)boot only, so a value written while the driver is on
+// (RAM only) reads back but never moves the motor; immediately applies any written value at once.
+enum class MicroStepsApply { after_restart, immediately };
+
 class Uim342Drive final : public CanDriveSim {
  public:
   Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity = {},
-              std::optional<Uim342HomeSwitch> home_switch = std::nullopt);
+              std::optional<Uim342HomeSwitch> home_switch = std::nullopt,
+              MicroStepsApply micro_steps_apply = MicroStepsApply::after_restart);
 
   void power_up(TimePoint now) override;
   void on_frame(const can::Frame& frame, TimePoint now) override;
@@ -81,6 +89,11 @@ class Uim342Drive final : public CanDriveSim {
   [[nodiscard]] bool moving(TimePoint now) const { return motion_state(now).moving; }
   [[nodiscard]] bool driver_on() const { return driver_on_; }
   [[nodiscard]] std::uint8_t node_id() const { return node_id_; }
+  // Ground truth of the shaft: where it stands in full steps (1/200 rev) since power-up, whatever
+  // resolution the counts were made at; kept over a reboot (the counter restarts at 0, the shaft
+  // does not move). And the resolution the motor runs at (micro-steps per full step).
+  [[nodiscard]] double shaft_full_steps(TimePoint now) const;
+  [[nodiscard]] std::uint16_t applied_micro_steps() const { return applied_micro_steps_; }
 
   // Parameters the drive keeps over a reboot (SY[1]); see store() for which sets persist.
   struct MotionGroup {  // MF §5.13: 0 = normal, 2..7 = input edges
@@ -128,7 +141,7 @@ class Uim342Drive final : public CanDriveSim {
   // The error a state check raises (empty when the instruction may run); `group` = MF selection.
   [[nodiscard]] std::error_code state_error(const Instruction& instruction, std::uint8_t group, TimePoint now) const;
   // Gets and sets by instruction family; each returns the ACK (the caller sends it if asked).
-  [[nodiscard]] uim342::Reply configuration(const Instruction& instruction);
+  [[nodiscard]] uim342::Reply configuration(const Instruction& instruction, TimePoint now);
   [[nodiscard]] uim342::Reply motion_parameter(const Instruction& instruction, std::uint8_t group, TimePoint now);
   [[nodiscard]] uim342::Reply motion_command(const Instruction& instruction, const can::Frame& frame, TimePoint now);
   [[nodiscard]] uim342::Reply status(const Instruction& instruction, TimePoint now);
@@ -198,6 +211,11 @@ class Uim342Drive final : public CanDriveSim {
   std::array<PendingInput, 3> pending_inputs_{};
   bool output_ = false;  // OP1
   std::optional<Uim342HomeSwitch> home_switch_;
+  MicroStepsApply micro_steps_apply_ = MicroStepsApply::after_restart;
+  std::uint16_t applied_micro_steps_ = 16;  // the resolution the motor runs at
+  double shaft_base_full_steps_ = 0;        // shaft position at counts_base_
+  std::int64_t counts_base_ = 0;            // kinematics counts when applied_micro_steps_ last changed
+  void apply_micro_steps(std::uint16_t micro_steps, TimePoint now);
   void sample_home_switch(TimePoint now);
   std::array<uim342::ErrorRecord, 9> error_history_{};  // ER[10..18], [0] = latest
 };

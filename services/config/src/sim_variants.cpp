@@ -1,0 +1,91 @@
+#include "motion/config/sim_variants.hpp"
+
+#include <charconv>
+
+namespace motion::config {
+namespace {
+
+// UIM342 manual §5.9 / §5.7: MT[0] and QE[4] "need to be powered off and restarted to take
+// effect"; written while the driver is on they stay in RAM. Whether a drive also applies a RAM
+// value at once is not said.
+const std::vector<SimVariantKey> kUim342 = {
+    {"micro_steps_apply", {"after_restart", "immediately"}, 0, 0, "after_restart",
+     "when a written MT[0] micro-step resolution takes effect"},
+};
+
+// UIM242 manual §5.1: an ICF write is burned into EEPROM "and the controller will auto reboot";
+// how long the reboot takes is not said. STO (#42) takes about 20 ms.
+const std::vector<SimVariantKey> kUim242 = {
+    {"reboot_ms", {}, 0, 10000, "300", "how long the controller is silent after an ICF write (auto reboot)"},
+};
+
+// ADAM Modbus manual §8.44 (0x009A working speed), §8.64 (0x00D8 target speed), §8.65 (motion
+// commands run at 0x009A), §8.54 (table data, "after sending ... send a save command"), §8.69
+// (Save, 0x00DC: 0.1 s per flash erase).
+const std::vector<SimVariantKey> kAdam = {
+    {"table_speed_register", {"0x009A", "0x00D8", "shared"}, 0, 0, "0x009A",
+     "the register whose speed an executed table entry runs at (shared: one setpoint behind both)"},
+    {"table_needs_save", {"false", "true"}, 0, 0, "true", "whether table data written by Modbus is used only after a Save (0x00DC)"},
+};
+
+const std::vector<SimVariantKey> kUc57 = {};
+
+}  // namespace
+
+std::span<const SimVariantKey> sim_variant_schema(Family family) {
+  switch (family) {
+    case Family::kUim342: return kUim342;
+    case Family::kUc57: return kUc57;
+    case Family::kAdamModbus: return kAdam;
+    case Family::kUim242: return kUim242;
+  }
+  return {};
+}
+
+const SimVariantKey* find_sim_variant(Family family, std::string_view key) {
+  for (const auto& k : sim_variant_schema(family)) {
+    if (k.key == key) return &k;
+  }
+  return nullptr;
+}
+
+std::string sim_variant(const Config& config, const Drive& drive, std::string_view key) {
+  if (const auto d = config.simulation.variants.find(drive.name); d != config.simulation.variants.end()) {
+    if (const auto v = d->second.find(key); v != d->second.end()) return v->second;
+  }
+  const auto* k = find_sim_variant(drive.family, key);
+  return k ? std::string(k->default_value) : std::string{};
+}
+
+long long sim_variant_int(const Config& config, const Drive& drive, std::string_view key) {
+  const auto text = sim_variant(config, drive, key);
+  long long value = 0;
+  std::from_chars(text.data(), text.data() + text.size(), value);
+  return value;
+}
+
+std::string sim_variant_error(Family family, std::string_view key, std::string_view value) {
+  const auto* k = find_sim_variant(family, key);
+  if (!k) {
+    std::string list;
+    for (const auto& s : sim_variant_schema(family)) list += (list.empty() ? "" : ", ") + std::string(s.key);
+    return "'" + std::string(key) + "' is not a simulated variant of family " + std::string(to_string(family)) + " (" +
+           (list.empty() ? std::string("none") : list) + ")";
+  }
+  if (!k->choices.empty()) {
+    std::string list;
+    for (const auto c : k->choices) {
+      if (c == value) return {};
+      list += (list.empty() ? "" : ", ") + std::string(c);
+    }
+    return "'" + std::string(value) + "' is not one of " + list;
+  }
+  long long number = 0;
+  const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), number);
+  if (ec != std::errc{} || end != value.data() + value.size() || number < k->min || number > k->max) {
+    return "'" + std::string(value) + "' is not an integer in " + std::to_string(k->min) + ".." + std::to_string(k->max);
+  }
+  return {};
+}
+
+}  // namespace motion::config

@@ -1,0 +1,99 @@
+// ADAM table start (manual §8.44 0x009A working speed, §8.64 0x00D8 target speed, §8.65, §8.54
+// "after sending, it is necessary to send a save command", §8.69 Save = 0.1 s flash erase). Under
+// every simulated variant — the table entry runs at 0x009A, at 0x00D8 or at one shared setpoint;
+// the drive executes only saved table data or any — a synchronized move (one broadcast "execute
+// table") lands both drives on their targets and runs at the planned speed (the simulator's
+// start/finish times), and each drive took exactly one Save per move.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <ostream>
+
+#include "bench.hpp"
+#include "motion/adam_driver/master_core.hpp"
+#include "motion/sim/adam_line_sim.hpp"
+
+namespace motion::truth {
+namespace {
+
+using motionlcm::gateway_command_t;
+
+constexpr const char* kLine = R"(
+buses:
+  - {name: rs485, transport: "simserial:rs485", baud: 115200, parity: none, request_timeout_ms: 100, retries: 1, poll_hz: 10}
+drives:
+  - {name: c1-drive, family: adam-modbus, bus: rs485, node_id: 1, setup: {subdivision: 16, current_a: 2.0}}
+  - {name: c2-drive, family: adam-modbus, bus: rs485, node_id: 2, setup: {subdivision: 16, current_a: 2.0}}
+axes:
+  - {name: c1, drive: c1-drive, unit: mm, steps_per_unit: 320, limits: {min: -200, max: 200, velocity: 100, acceleration: 400}}
+  - {name: c2, drive: c2-drive, unit: mm, steps_per_unit: 320, limits: {min: -200, max: 200, velocity: 100, acceleration: 400}}
+simulation:
+  variants:
+    c1-drive: {table_speed_register: SPEED, table_needs_save: SAVE}
+    c2-drive: {table_speed_register: SPEED, table_needs_save: SAVE}
+)";
+
+struct Variant {
+  std::string speed;
+  std::string save;
+};
+void PrintTo(const Variant& v, std::ostream* os) { *os << "table_speed_register " << v.speed << ", table_needs_save " << v.save; }
+
+class AdamTable : public ::testing::TestWithParam<Variant> {};
+
+TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
+  std::string yaml = kLine;
+  for (auto at = yaml.find("SPEED"); at != std::string::npos; at = yaml.find("SPEED")) yaml.replace(at, 5, GetParam().speed);
+  for (auto at = yaml.find("SAVE"); at != std::string::npos; at = yaml.find("SAVE")) yaml.replace(at, 4, GetParam().save);
+  SerialBench bench(yaml, "rs485", sim::adam_line_factory());
+  bench.attach([&bench](std::function<void(std::span<const std::uint8_t>)> send, gateway::GatewayOutput& out) {
+    auto settings = adam_driver::settings_from_config(*bench.config, *bench.config->find_bus("rs485"));
+    return std::make_unique<adam_driver::MasterCore>(
+        settings,
+        [send = std::move(send)](std::span<const std::uint8_t> bytes) {
+          send(bytes);
+          return true;
+        },
+        out, [] { return std::int64_t{1'700'000'000'000'000}; });
+  });
+  ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(5)));
+  auto& line = dynamic_cast<sim::AdamLineSim&>(*bench.device);
+
+  // 450 rpm (not the 300 rpm factory value of 0x009A) at 3200 pulses/rev = 24000 counts/s, ramps
+  // of 0.25 s; 10 and 5 revolutions.
+  constexpr double kSpeed = 24000;
+  constexpr double kRate = 96000;
+  const auto move = bench.execute(command(gateway_command_t::ARM_MOVE, "rs485",
+                                          {axis_move("c1", 32000, kSpeed, kRate), axis_move("c2", -16000, kSpeed, kRate)}, 5));
+  bench.run_for(std::chrono::milliseconds(400));  // loaded and saved (0.1 s flash erase each)
+  bench.core->fire(5, bench.now);
+  const auto done = bench.finish(move);
+  ASSERT_EQ(done.status, kDone) << done.reason;
+  // What the stack reported is what the drives did: one broadcast frame started both.
+  EXPECT_EQ(bench.mechanism_of(move), "broadcast");
+  ASSERT_EQ(bench.reports_of("c1-drive", kStarted).size(), 1u);
+  ASSERT_EQ(bench.reports_of("c2-drive", kStarted).size(), 1u);
+  EXPECT_EQ(bench.reports_of("c1-drive", kStarted)[0].frame_utime, bench.reports_of("c2-drive", kStarted)[0].frame_utime);
+  for (const auto& [drive, target] : {std::pair{std::string("c1-drive"), 32000}, std::pair{std::string("c2-drive"), -16000}}) {
+    SCOPED_TRACE(drive);
+    EXPECT_EQ(line.position(drive, bench.now), target);
+    const auto started = bench.reports_of(drive, kStarted);
+    const auto finished = bench.reports_of(drive, kFinished);
+    ASSERT_EQ(started.size(), 1u);
+    ASSERT_EQ(finished.size(), 1u);
+    const double seconds = static_cast<double>(finished[0].frame_utime - started[0].frame_utime) * 1e-6;
+    const double planned = std::abs(target) / kSpeed + kSpeed / kRate;  // trapezoid, equal ramps
+    EXPECT_NEAR(seconds, planned, 0.01) << "ran at another speed than planned";
+    EXPECT_EQ(line.saves(drive), 1) << "one Save per move, never a retried one";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Variants, AdamTable,
+                         ::testing::Values(Variant{"0x009A", "true"}, Variant{"0x009A", "false"}, Variant{"0x00D8", "true"},
+                                           Variant{"0x00D8", "false"}, Variant{"shared", "true"}, Variant{"shared", "false"}),
+                         [](const ::testing::TestParamInfo<Variant>& p) {
+                           return "speed_" + (p.param.speed == "shared" ? p.param.speed : p.param.speed.substr(2)) + "_needs_save_" + p.param.save;
+                         });
+
+}  // namespace
+}  // namespace motion::truth

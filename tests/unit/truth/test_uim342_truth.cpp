@@ -1,0 +1,211 @@
+// UIM342 micro-stepping (manual §5.9, §5.7): the simulated drive's EEPROM holds 8 micro-steps, the
+// configuration asks for 16 (640 counts/mm over a 5 mm lead). Under either simulated variant of
+// when a written MT[0] applies (after_restart: the manual's reading; immediately), the stack
+// stores it with the driver off, restarts the drive, reads it back, and a synchronized (group BG)
+// move to 10 mm turns the shaft 400 full steps (2 revolutions), the simulator's ground truth.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <motionlcm/event_t.hpp>
+
+#include "motion/config/config.hpp"
+#include "motion/config/sim_variants.hpp"
+#include "motion/sim/uim342_drive.hpp"
+#include "motion/uim342/uim342.hpp"
+#include "motion/uim342_driver/uim342_stack.hpp"
+
+namespace motion::gateway {
+namespace {
+
+using motionlcm::event_t;
+using motionlcm::gateway_command_t;
+using motionlcm::gateway_reply_t;
+using std::chrono::milliseconds;
+
+// Copies of LCM constants (never ODR-use the generated in-class constants).
+constexpr std::int8_t kDone = gateway_reply_t::DONE;
+
+constexpr const char* kLabTemplate = R"(
+buses:
+  - {name: can0, transport: "simcan:can0", bitrate: 1000000, request_timeout_ms: 50, retries: 2, poll_hz: 20}
+drives:
+  - {name: x-drive, family: uim342, bus: can0, node_id: 5, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
+  - {name: y-drive, family: uim342, bus: can0, node_id: 6, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
+axes:
+  - {name: x, drive: x-drive, unit: mm, steps_per_unit: 640, limits: {min: -10, max: 300, velocity: 50, acceleration: 400}}
+  - {name: y, drive: y-drive, unit: mm, steps_per_unit: 640, limits: {min: -10, max: 200, velocity: 50, acceleration: 400}}
+simulation:
+  variants:
+    x-drive: {micro_steps_apply: VARIANT}
+    y-drive: {micro_steps_apply: VARIANT}
+)";
+
+class Recorder final : public GatewayOutput {
+ public:
+  void axis_status(const std::string&, const DriveStatus&) override {}
+  void axis_event(const std::string& axis, const DriveEvent& event) override { events.emplace_back(axis, event); }
+  void command_reply(gateway_reply_t reply) override { replies.push_back(std::move(reply)); }
+  std::vector<std::pair<std::string, DriveEvent>> events;
+  std::vector<gateway_reply_t> replies;
+};
+
+// The stack and two simulated drives on one zero-latency wire, time advanced by hand.
+class Uim342Bench {
+ public:
+  explicit Uim342Bench(const std::string& variant) {
+    std::string yaml = kLabTemplate;
+    for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT")) yaml.replace(at, 7, variant);
+    auto loaded = config::load_string(yaml, "truth.yaml");
+    EXPECT_TRUE(loaded.ok()) << loaded.error_text();
+    config_ = *loaded.config;
+    CanStackContext ctx;
+    ctx.out = &out;
+    ctx.send = [this](const can::Frame& f) {
+      to_drives.push_back(f);
+      return true;
+    };
+    stack = std::make_unique<Uim342Stack>(config_, "can0", ctx);
+    for (const auto& d : config_.drives) {
+      config::Drive stored = d;
+      stored.setup["micro_steps"] = 8LL;  // what the drive's EEPROM holds at power-up
+      const auto apply = config::sim_variant(config_, d, "micro_steps_apply") == "immediately" ? sim::MicroStepsApply::immediately
+                                                                                            : sim::MicroStepsApply::after_restart;
+      sim::SimDriveContext context;
+      context.drive = d.name;
+      context.bus = d.bus;
+      context.send = [this](const can::Frame& f) { to_stack.push_back(f); };
+      context.report = [this, name = d.name](std::int8_t kind, std::int64_t frame_utime, std::int64_t, std::int64_t) {
+        if (kind == motionlcm::sim_report_t::POWERED_UP) ++boots[name];
+        if (kind == motionlcm::sim_report_t::MOTION_STARTED) starts[name].push_back(frame_utime);
+      };
+      drives.push_back(std::make_unique<sim::Uim342Drive>(stored, context, sim::Uim342Identity{}, std::nullopt, apply));
+    }
+    for (auto& d : drives) d->power_up(now);
+  }
+
+  void settle() {
+    while (!to_drives.empty() || !to_stack.empty()) {
+      while (!to_drives.empty()) {
+        auto f = to_drives.front();
+        to_drives.pop_front();
+        f.timestamp_us = std::chrono::duration_cast<std::chrono::microseconds>(now.time_since_epoch()).count();
+        for (auto& d : drives) d->on_frame(f, now);
+      }
+      while (!to_stack.empty()) {
+        const auto f = to_stack.front();
+        to_stack.pop_front();
+        stack->on_frame(f, now);
+      }
+    }
+  }
+  void run_for(Duration span) {
+    const auto end = now + span;
+    while (true) {
+      TimePoint next = stack->process(now);
+      for (auto& d : drives) next = std::min(next, d->process(now));
+      settle();
+      if (next > end) break;
+      now = std::max(next, now + std::chrono::microseconds(10));
+    }
+    now = end;
+  }
+  bool run_until(const std::function<bool()>& done, Duration limit) {
+    for (Duration spent{}; spent < limit; spent += milliseconds(10)) {
+      if (done()) return true;
+      run_for(milliseconds(10));
+    }
+    return done();
+  }
+  std::int64_t execute(gateway_command_t c) {
+    c.bus = "can0";
+    c.command_id = ++next_id;
+    c.num_axes = static_cast<std::int32_t>(c.axes.size());
+    stack->execute(c, now);
+    settle();
+    return c.command_id;
+  }
+  [[nodiscard]] std::optional<gateway_reply_t> terminal(std::int64_t id) const {
+    for (const auto& r : out.replies) {
+      if (r.command_id == id && (r.status == gateway_reply_t::DONE || r.status == gateway_reply_t::FAILED)) return r;
+    }
+    return std::nullopt;
+  }
+
+  config::Config config_;
+  Recorder out;
+  std::unique_ptr<Uim342Stack> stack;
+  std::vector<std::unique_ptr<sim::Uim342Drive>> drives;
+  std::map<std::string, int> boots;
+  std::map<std::string, std::vector<std::int64_t>> starts;  // frame times of MOTION_STARTED
+  std::deque<can::Frame> to_drives, to_stack;
+  TimePoint now = TimePoint{} + std::chrono::seconds(10);
+  std::int64_t next_id = 0;
+};
+
+motionlcm::axis_command_t axis_move(const std::string& axis, std::int64_t target) {
+  motionlcm::axis_command_t a{};
+  a.axis = axis;
+  a.target_counts = target;
+  a.velocity = 32000;  // 50 mm/s
+  a.acceleration = 256000;
+  a.deceleration = 256000;
+  return a;
+}
+
+class Uim342MicroSteps : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Uim342MicroSteps, SetUpRestartsOnceAndAMoveLandsOnThePhysicalTarget) {
+  Uim342Bench bench(GetParam());
+  bench.stack->start(bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
+  for (const auto& d : bench.drives) {
+    EXPECT_EQ(d->applied_micro_steps(), 16) << "the motor does not run at the configured resolution";
+    EXPECT_EQ(bench.boots[d->node_id() == 5 ? "x-drive" : "y-drive"], 2) << "power-up and exactly one restart";
+  }
+  gateway_command_t enable{};
+  enable.kind = gateway_command_t::ENABLE;
+  for (const auto* axis : {"x", "y"}) {
+    motionlcm::axis_command_t a{};
+    a.axis = axis;
+    enable.axes.push_back(a);
+  }
+  const auto enabled = bench.execute(enable);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(enabled).has_value(); }, std::chrono::seconds(1)));
+  ASSERT_EQ(bench.terminal(enabled)->status, kDone) << bench.terminal(enabled)->reason;
+
+  // 10 mm and 5 mm, started by one group BG (trigger 7 fired below).
+  gateway_command_t move{};
+  move.kind = gateway_command_t::ARM_MOVE;
+  move.trigger_id = 7;
+  move.axes = {axis_move("x", 6400), axis_move("y", 3200)};
+  const auto id = bench.execute(move);
+  bench.run_for(milliseconds(20));
+  bench.stack->fire(7, bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(id).has_value(); }, std::chrono::seconds(5)));
+  const auto done = *bench.terminal(id);
+  ASSERT_EQ(done.status, kDone) << done.reason;
+  // What the stack reported is what the drives did: one group BG frame started both.
+  std::string mechanism;
+  for (const auto& r : bench.out.replies) {
+    if (r.command_id == id && r.status == gateway_reply_t::STARTED) mechanism = r.start_mechanism;
+  }
+  EXPECT_EQ(mechanism, "group-bg");
+  ASSERT_EQ(bench.starts["x-drive"].size(), 1u);
+  ASSERT_EQ(bench.starts["y-drive"].size(), 1u);
+  EXPECT_EQ(bench.starts["x-drive"][0], bench.starts["y-drive"][0]) << "not started by one frame";
+  EXPECT_NEAR(bench.drives[0]->shaft_full_steps(bench.now), 400.0, 1e-9) << "x: 10 mm = 2 rev = 400 full steps";
+  EXPECT_NEAR(bench.drives[1]->shaft_full_steps(bench.now), 200.0, 1e-9) << "y: 5 mm = 1 rev = 200 full steps";
+}
+
+INSTANTIATE_TEST_SUITE_P(Variants, Uim342MicroSteps, ::testing::Values("after_restart", "immediately"),
+                         [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
+
+}  // namespace
+}  // namespace motion::gateway
