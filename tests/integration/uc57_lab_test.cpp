@@ -196,12 +196,20 @@ TEST_F(Uc57Lab, PowerCycledNodeIsDetectedReconfiguredAndMovesAgain) {
   const auto first = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"b", 45.0}}));
   ASSERT_EQ(first.status, st(reply_t::DONE)) << first.reason;
 
+  // Power-cycled in the middle of a long move.
+  std::vector<reply_t> replies;
+  ASSERT_NE(lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"b", 400.0}}), [&](const reply_t& r) { replies.push_back(r); }), 0);
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("b").moving && position("b") > 60.0; }, seconds(10))) << position("b");
   lab.control("b-drive", sim_control_t::POWER_CYCLE);
   // The boot-up message is seen: a REBOOT event naming b, and b goes through offline.
   ASSERT_TRUE(lab.client().wait_until([&] { return saw_event("b", ev(event_t::REBOOT)); }, seconds(10)));
   const event_t* reboot = find_event("b", ev(event_t::REBOOT));
   ASSERT_NE(reboot, nullptr);
   EXPECT_TRUE(contains(reboot->text, "b-drive")) << reboot->text;
+  // Exactly one terminal reply to the move, not DONE.
+  const auto terminal = [&] { return std::count_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); }); };
+  ASSERT_TRUE(lab.client().wait_until([&] { return terminal() == 1; }, seconds(15)));
+  EXPECT_FALSE(saw(replies, reply_t::DONE));
   // Re-configured: online again (an ONLINE event after the reboot) with the drive's fresh state:
   // position 0 (volatile), disabled (CiA 402 starts in Switch on disabled).
   ASSERT_TRUE(lab.client().wait_until(
@@ -213,14 +221,28 @@ TEST_F(Uc57Lab, PowerCycledNodeIsDetectedReconfiguredAndMovesAgain) {
       seconds(15)));
   ASSERT_TRUE(lab.client().wait_until([&] { return !state("b").enabled && std::abs(position("b")) <= kTolerance; }, seconds(5)))
       << "enabled " << state("b").enabled << " position " << position("b");
+  // Position lost / not homed, in its state and in an event naming it.
+  EXPECT_EQ(state("b").fault_code, motionlcm::axis_state_t::POSITION_LOST) << state("b").fault_text;
+  EXPECT_FALSE(state("b").homed);
+  EXPECT_TRUE(std::any_of(events.begin(), events.end(), [](const event_t& e) {
+    return e.axis == "b" && e.kind == ev(event_t::REBOOT) && e.text.find("position lost") != std::string::npos;
+  }));
   // The setup keys were written again (2005h is volatile in the simulated drive too).
   const auto current = param(request_t::PARAM_READ, "b", 0x2005, 0);
   ASSERT_EQ(current.status, st(reply_t::DONE)) << current.reason;
   EXPECT_EQ(current.param.value, 20);
 
-  // It can move again, in step with the others.
+  // Enabled again, it still does not move until it is homed.
   const auto enabled = lab.call(Client::make(request_t::ENABLE, std::vector<std::string>{"b"}));
   ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;
+  const auto refused = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"b", 60.0}}));
+  EXPECT_EQ(refused.status, st(reply_t::REJECTED)) << refused.reason;
+  EXPECT_EQ(refused.error_code, code(ReplyError::kPositionLost)) << refused.reason;
+  const auto homed = lab.call(Client::make(request_t::HOME, std::vector<std::string>{"b"}));
+  ASSERT_EQ(homed.status, st(reply_t::DONE)) << homed.reason;
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("b").homed && state("b").fault_code != motionlcm::axis_state_t::POSITION_LOST; }, seconds(5)));
+
+  // It can move again, in step with the others.
   lab.clear_reports();
   const auto again = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", 20.0}, {"b", 60.0}}));
   ASSERT_EQ(again.status, st(reply_t::DONE)) << again.reason;

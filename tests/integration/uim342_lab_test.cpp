@@ -326,5 +326,60 @@ TEST_F(Uim342Lab, SilentDriveGoesOfflineWhileTheOthersKeepWorking) {
   EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("x3", 3.0); }, seconds(10))) << position("x3");
 }
 
+TEST_F(Uim342Lab, PowerCycledMidMoveSaysPositionLostRefusesMovesUntilItsPositionIsSet) {
+  // A known position first (the origin set to 10 mm), then a long move of w alone.
+  const auto set = lab.call(Client::make(request_t::SET_POSITION, Values{{"w", 10.0}}));
+  ASSERT_EQ(set.status, st(reply_t::DONE)) << set.reason;
+  ASSERT_TRUE(lab.client().wait_until([&] { return settled_at("w", 10.0); }, seconds(10))) << position("w");
+  std::vector<reply_t> replies;
+  const auto id = lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"w", 48.0}}), [&](const reply_t& r) { replies.push_back(r); });
+  ASSERT_NE(id, 0);
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").moving && position("w") > 12.0; }, seconds(10))) << position("w");
+  const std::size_t seen = events.size();
+  lab.control("w-drive", sim_control_t::POWER_CYCLE);  // back at once: counter 0, driver off, no message (§5.3)
+
+  // Exactly one terminal reply, not DONE, naming what happened; w at rest, not at its target.
+  const auto terminal = [&] { return std::count_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); }); };
+  ASSERT_TRUE(lab.client().wait_until([&] { return terminal() == 1; }, seconds(15)));
+  const auto end = *std::find_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
+  EXPECT_NE(end.status, st(reply_t::DONE)) << end.reason;
+  EXPECT_TRUE(contains(end.reason, "powered up")) << end.reason;
+  // The state says it: not homed, position lost, at rest; a REBOOT event names the axis.
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").fault_code == motionlcm::axis_state_t::POSITION_LOST && !state("w").moving; }, seconds(10)))
+      << state("w").fault_code << " " << state("w").fault_text;
+  EXPECT_FALSE(state("w").homed);
+  EXPECT_FALSE(state("w").fault);
+  EXPECT_TRUE(contains(state("w").fault_text, "position lost")) << state("w").fault_text;
+  const event_t* lost = find_event("w", ev(event_t::REBOOT), seen);
+  ASSERT_NE(lost, nullptr);
+  EXPECT_TRUE(contains(lost->text, "position lost")) << lost->text;
+  // Set up again (its RAM settings are gone): online, and it can be enabled.
+  const auto set_up_again = [&] {
+    return std::any_of(events.begin() + static_cast<std::ptrdiff_t>(seen), events.end(),
+                       [](const event_t& e) { return e.axis == "w" && e.kind == ev(event_t::ONLINE) && contains(e.text, "set up"); });
+  };
+  ASSERT_TRUE(lab.client().wait_until([&] { return set_up_again() && state("w").online; }, seconds(15)));
+  ASSERT_TRUE(lab.enable(Axes{"w"}));
+  // Moves and jogs are refused, naming the axis; the others still move.
+  lab.clear_reports();
+  const auto refused = lab.call(Client::make(request_t::MOVE_RELATIVE, Values{{"w", 1.0}}));
+  EXPECT_EQ(refused.status, st(reply_t::REJECTED)) << refused.reason;
+  EXPECT_EQ(refused.error_code, code(ReplyError::kPositionLost)) << refused.reason;
+  EXPECT_TRUE(contains(refused.reason, "w")) << refused.reason;
+  const auto jog = lab.call(Client::make(request_t::JOG, Values{{"w", 5.0}}));
+  EXPECT_EQ(jog.status, st(reply_t::REJECTED)) << jog.reason;
+  EXPECT_EQ(jog.error_code, code(ReplyError::kPositionLost)) << jog.reason;
+  EXPECT_TRUE(lab.starts_of("w-drive").empty());
+  const auto others = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x1", 2.0}}));
+  EXPECT_EQ(others.status, st(reply_t::DONE)) << others.reason;
+  // Its position set: valid again, and it moves.
+  const auto again = lab.call(Client::make(request_t::SET_POSITION, Values{{"w", 0.0}}));
+  ASSERT_EQ(again.status, st(reply_t::DONE)) << again.reason;
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").fault_code != motionlcm::axis_state_t::POSITION_LOST; }, seconds(5)));
+  const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"w", 3.0}}));
+  ASSERT_EQ(moved.status, st(reply_t::DONE)) << moved.reason;
+  EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("w", 3.0); }, seconds(10))) << position("w");
+}
+
 }  // namespace
 }  // namespace motion::testing

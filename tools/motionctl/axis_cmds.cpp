@@ -54,9 +54,11 @@ void print_status_table(const config::Config& c, const std::map<std::string, mot
       continue;
     }
     const auto& s = it->second;
+    // Not faulted but its drive lost power: the column says so (README "Safety and faults").
+    const bool lost = !s.fault && s.fault_code == motionlcm::axis_state_t::POSITION_LOST;
     std::printf("%-8s %-12s %-7s %4d %5d %14.4f %-4s %-7s %-6s %-6s %s\n", a.name.c_str(), s.family.c_str(), s.bus.c_str(), s.node_id, s.group_id,
                 s.position, a.unit.c_str(), s.enabled ? "yes" : "no", s.moving ? "yes" : "no", s.online ? "yes" : "no",
-                s.fault ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
+                s.fault || lost ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
   }
 }
 
@@ -72,7 +74,8 @@ nlohmann::json status_json(const config::Config& c, const std::map<std::string, 
       j.update({{"position", s.position}, {"position_counts", s.position_counts}, {"velocity", s.velocity}, {"enabled", s.enabled != 0},
                 {"moving", s.moving != 0}, {"in_position", s.in_position != 0}, {"online", s.online != 0}, {"fault", s.fault != 0},
                 {"fault_code", s.fault_code},
-                {"fault_text", s.fault_text}, {"inputs", s.inputs}, {"outputs", s.outputs},
+                {"fault_text", s.fault_text}, {"position_lost", s.fault == 0 && s.fault_code == motionlcm::axis_state_t::POSITION_LOST},
+                {"homed", s.homed != 0}, {"inputs", s.inputs}, {"outputs", s.outputs},
                 {"age_s", static_cast<double>(now_us - s.utime) / 1e6}});
     } else {
       j.update({{"position", nullptr}, {"enabled", nullptr}, {"moving", nullptr}, {"online", false}, {"fault", nullptr}, {"age_s", nullptr}});

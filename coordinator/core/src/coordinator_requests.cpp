@@ -118,6 +118,11 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
       continue;
     }
     if (auto err = check_axis_ready(name, need_enabled)) return err;
+    // Its drive lost power: the position it reports is not the machine's (the gateway refuses
+    // these too, whoever sends them). Home and set-position are how it becomes valid again.
+    if ((is_move(msg.kind) || msg.kind == request_t::JOG) && a.state->fault_code == motionlcm::axis_state_t::POSITION_LOST) {
+      return P{ReplyError::kPositionLost, "axis " + name + " lost its position (" + a.state->fault_text + "): home it or set its position first"};
+    }
   }
   if (is_move(msg.kind) || msg.kind == request_t::SET_POSITION) {
     for (std::size_t i = 0; i < axes.size(); ++i) {

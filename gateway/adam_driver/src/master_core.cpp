@@ -365,6 +365,25 @@ void MasterCore::on_position_status(Drive& d, std::span<const std::uint16_t> wor
     if (dt > 0) d.velocity = (position - *d.position) / dt;
   }
   if (!status.moving()) d.velocity = 0;
+  // The drive sends nothing when it powers up (Modbus RTU slaves only answer); its position
+  // register starts at 0 and every register at its default (manual §7 register table), so a power
+  // cycle shows in the samples only (PowerUpWatch). Not watched while a homing or preset of the
+  // drive is under way (the position is set on purpose), or before it is set up.
+  const bool presetting = std::any_of(operations_.begin(), operations_.end(), [&d](const auto& entry) {
+    const auto kind = entry.second->command.kind;
+    return (kind == motionlcm::gateway_command_t::HOME || kind == motionlcm::gateway_command_t::SET_POSITION) &&
+           std::find(entry.second->drives.begin(), entry.second->drives.end(), &d) != entry.second->drives.end();
+  });
+  if (presetting || !d.set_up) {
+    d.power.forget();
+  } else if (auto why = d.power.sample(position, d.velocity, now, false)) {
+    const std::string reason = d.cfg.drive + " (slave " + std::to_string(d.cfg.unit) + ") " + *why;
+    fail_motion_of(d, reason, error_code(ReplyError::kAxisFault));
+    d.homed = false;
+    d.table_entry.reset();  // its registers are back at their defaults
+    d.set_up = false;       // set up again at the next poll (poll())
+    if (!d.cfg.axis.empty()) out_.position_lost(d.cfg.axis, reason);
+  }
   const bool limit_before = d.status && d.status->at_limit();
   d.position = position;
   d.position_time = now;

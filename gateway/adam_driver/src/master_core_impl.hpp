@@ -17,6 +17,7 @@
 
 #include "motion/adam/commands.hpp"
 #include "motion/adam/registers.hpp"
+#include "motion/gateway/power_up_watch.hpp"
 #include "motion/adam/table.hpp"
 #include "motion/adam/units.hpp"
 
@@ -102,6 +103,7 @@ struct MasterCore::Drive {
   bool poll_queued = false;
   int poll_skips = 0;
   std::int64_t motion_owner = 0;  // command holding the axis (armed or moving), 0 = none
+  gateway::PowerUpWatch power;    // its position samples (on_position_status)
 };
 
 struct MasterCore::Transaction {

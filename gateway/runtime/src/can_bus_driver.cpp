@@ -22,6 +22,7 @@ class CanBusDriver::Combiner final : public GatewayOutput {
   void axis_event(const std::string& axis, const DriveEvent& event) override { owner_.out_.axis_event(axis, event); }
   void command_reply(motionlcm::gateway_reply_t reply) override { owner_.on_stack_reply(std::move(reply)); }
   void drive_facts(const std::string& axis, const DriveFacts& facts) override { owner_.out_.drive_facts(axis, facts); }
+  void position_lost(const std::string& axis, const std::string& why) override { owner_.out_.position_lost(axis, why); }
 
  private:
   CanBusDriver& owner_;

@@ -127,6 +127,26 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
       return fail("axis '" + a.axis + "': drive " + u->first + " is a " + u->second + " drive, which this gateway does not drive yet");
     }
   }
+  // A drive that lost power does not know where the machine is: neither its limits nor a target
+  // mean anything until the axis is homed or its position set.
+  if (command.kind == motionlcm::gateway_command_t::ARM_MOVE || command.kind == motionlcm::gateway_command_t::JOG) {
+    for (const auto& a : command.axes) {
+      const auto lost = position_lost_.find(a.axis);
+      if (lost == position_lost_.end()) continue;
+      const std::string reason = fmt::format("axis {} lost its position ({}): home it or set its position first", a.axis, lost->second);
+      DriveEvent e;
+      e.kind = motionlcm::event_t::PROTOCOL_ERROR;
+      e.severity = motionlcm::event_t::WARNING;
+      e.code = error_code(ReplyError::kPositionLost);
+      e.text = fmt::format("command {} (request {}) refused: {}", command.command_id, command.request_id, reason);
+      axis_event(a.axis, e);
+      return fail(reason, error_code(ReplyError::kPositionLost));
+    }
+  }
+  if (command.kind == motionlcm::gateway_command_t::HOME || command.kind == motionlcm::gateway_command_t::SET_POSITION) {
+    auto& axes = referencing_[command.command_id];
+    for (const auto& a : command.axes) axes.push_back(a.axis);
+  }
   // Whoever sent it: nothing outside the configured limits reaches a drive.
   for (const auto& a : command.axes) {
     const auto status = last_status_.find(a.axis);
@@ -466,15 +486,37 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   msg.target_counts = status.target_counts;
   msg.online = status.online;
   msg.enabled = status.enabled;
-  msg.moving = status.moving;
+  // A drive that cannot be heard (offline: timeouts, CRC errors on every try, heartbeat lost) is
+  // not reported as moving on its last word: "moving" is what a live drive says. What it does is
+  // unknown; the coordinator's stop watch counts an offline axis as unreachable, never as stopped.
+  msg.moving = status.online && status.moving;
   msg.in_position = status.in_position;
   msg.homed = status.homed;
   msg.fault = status.fault;
   msg.fault_code = status.fault_code;
   msg.fault_text = status.fault_text;
+  if (const auto lost = position_lost_.find(axis); lost != position_lost_.end()) {
+    msg.homed = false;
+    if (!status.fault) {  // a fault says more; once reset, the lost position shows again
+      msg.fault_code = motionlcm::axis_state_t::POSITION_LOST;
+      msg.fault_text = "position lost: " + lost->second + "; home or set-position";
+    }
+  }
   msg.inputs = status.inputs;
   msg.outputs = status.outputs;
   node_.publish(lcm::channels::kAxisState, msg);
+}
+
+void Gateway::position_lost(const std::string& axis, const std::string& why) {
+  if (!axes_.contains(axis)) return;
+  position_lost_[axis] = why;
+  DriveEvent e;
+  e.kind = motionlcm::event_t::REBOOT;
+  e.severity = motionlcm::event_t::ERROR;
+  e.code = motionlcm::axis_state_t::POSITION_LOST;
+  e.text = fmt::format("axis {}: position lost / not homed ({}): its moves and jogs are refused until it is homed or its position set", axis, why);
+  axis_event(axis, e);
+  if (const auto status = last_status_.find(axis); status != last_status_.end()) axis_status(axis, DriveStatus{status->second});
 }
 
 void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
@@ -505,6 +547,16 @@ void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
     if (reply.status == motionlcm::gateway_reply_t::FAILED || reply.status == motionlcm::gateway_reply_t::DONE) stopped_at_limit_.erase(it);
   }
   jog_reply(reply);
+  if (const auto it = referencing_.find(reply.command_id); it != referencing_.end()) {
+    if (reply.status == motionlcm::gateway_reply_t::DONE) {
+      for (const auto& axis : it->second) {
+        if (position_lost_.erase(axis) == 0) continue;
+        spdlog::info("axis {}: position valid again (command {})", axis, reply.command_id);
+        if (const auto status = last_status_.find(axis); status != last_status_.end()) axis_status(axis, DriveStatus{status->second});
+      }
+    }
+    if (reply.status == motionlcm::gateway_reply_t::DONE || reply.status == motionlcm::gateway_reply_t::FAILED) referencing_.erase(it);
+  }
   reply.utime = wall_time_us();
   reply.bus = bus_;
   if (reply.status == motionlcm::gateway_reply_t::FAILED) spdlog::warn("command {} failed: {}", reply.command_id, reply.reason);

@@ -258,6 +258,7 @@ void Uc57Stack::enter_starting(std::size_t n) {
 void Uc57Stack::enter_operational(std::size_t n) {
   Node& node = *nodes_[n];
   node.phase = Node::Phase::kOperational;
+  node.ever_operational = true;
   node.starting_deadline = kNever;
   node.backoff = Duration{};
   node.offline_reported = false;
@@ -320,6 +321,13 @@ void Uc57Stack::on_node_event(const canopen::NodeEvent& e) {
     case canopen::NodeEventKind::kBootUp:
     case canopen::NodeEventKind::kRebooted:
       if (node.phase == Node::Phase::kConfigError) return;
+      // The boot-up message (CiA 301 §7.2.8.3.2; UC57 manual §4.1.2) ends a power-up or an NMT
+      // reset: the position actual value (6064h) starts again from 0, whatever the machine's
+      // position is. Whether the node went silent first (heartbeat lost) or not, once it had been
+      // operational its position is lost.
+      if (node.ever_operational && context_.out != nullptr && !node.settings.axis.empty()) {
+        context_.out->position_lost(node.settings.axis, label + " sent a boot-up message (power cycle or reset)");
+      }
       if (node.phase == Node::Phase::kOperational || node.phase == Node::Phase::kStarting) {
         // It lost its PDO configuration and its CiA 402 state: everything starts again.
         go_offline(n, Event::REBOOT, label + ": rebooted (boot-up message); configuring it again", e.at);

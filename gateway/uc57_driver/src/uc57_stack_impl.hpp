@@ -127,6 +127,7 @@ struct Uc57Stack::Node {
   Duration backoff{};
   TimePoint starting_deadline = kNever;
   bool offline_reported = false;  // an offline event went out since the node was last online
+  bool ever_operational = false;  // its position has meant something: a later boot-up loses it
   std::string offline_reason;
 
   RpdoLayout layout = RpdoLayout::kControlwordTarget;

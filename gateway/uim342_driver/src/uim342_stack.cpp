@@ -11,6 +11,7 @@
 #include <motionlcm/event_t.hpp>
 
 #include "motion/can_frame/bit_timing.hpp"
+#include "motion/gateway/power_up_watch.hpp"
 
 namespace motion::gateway {
 namespace {
@@ -122,6 +123,10 @@ struct Uim342Stack::Impl {
     uim342::AccelerationUnit unit = uim342::AccelerationUnit::pulses_per_s2;
     double cut_in_pps = 0;
     std::int64_t offset = 0;      // reported position = drive counter + offset (SET_POSITION)
+    // Power-cycle detection (see on_kinematics()): the drive counter's samples, and whether the
+    // driver was on before the latest MS[0].
+    PowerUpWatch power;
+    bool was_enabled = false;
     std::int64_t move = 0;        // active ARM_MOVE command
     bool bg_acked = false;        // of the active move
     bool seen_moving = false;     // since the active move's BG
@@ -472,6 +477,7 @@ struct Uim342Stack::Impl {
     if (ack) apply_ack(i, r, *ack, now);
     if (r.instruction.function == FunctionCode::SY) {
       // The drive reboots without answering; identified and set up again after reboot_wait.
+      n.power.forget();  // our own reboot: its counter restarts at 0 (not a lost power)
       fail_commands_of(i, error_code(ReplyError::kAxisOffline), fmt::format("{} is rebooting to apply its set-up (PP[8], MT[0])", n.name()));
       n.phase = Phase::rebooting;
       n.queue.clear();
@@ -585,6 +591,10 @@ struct Uim342Stack::Impl {
       case FunctionCode::MS:
         if (const auto* s = std::get_if<uim342::MotionStatus>(&body)) on_motion_status(i, *s, r, now);
         if (const auto* k = std::get_if<uim342::MotionKinematics>(&body)) {
+          if (auto why = powered_up(n, *k, now)) {
+            on_power_cycle(i, *why, now);
+            break;
+          }
           n.status.position_counts = k->absolute_position + n.offset;
           n.status.velocity_counts = k->speed;
           publish(n, now);
@@ -594,6 +604,7 @@ struct Uim342Stack::Impl {
         auto it = commands.find(r.command_id);
         if (it == commands.end()) break;
         // SET_POSITION's value, or the homing offset: the position the origin gets.
+        n.power.counter_set(0, now);  // the counter is 0 now by our own doing
         n.offset = it->second.targets[i];
         n.status.position_counts = n.offset;
         if (it->second.cmd.kind == gateway_command_t::HOME) n.status.homed = true;
@@ -641,6 +652,7 @@ struct Uim342Stack::Impl {
     using uim342::IoStatusBit;
     using uim342::StatusFlag;
     n.status.online = true;
+    n.was_enabled = n.status.enabled;
     n.status.enabled = s.has(IoStatusBit::driver_on);
     n.status.moving = !s.has(StatusFlag::stopped);
     n.status.in_position = s.has(StatusFlag::in_position);
@@ -666,8 +678,10 @@ struct Uim342Stack::Impl {
       homing_observe(i, now);
       return;
     }
-    // Completion of an active move, from a status read sent after its BG was acknowledged.
-    if (n.move != 0 && n.bg_acked) {
+    // Completion of an active move, from a status read sent after its BG was acknowledged. A
+    // driver turned off by nobody may be a power cycle: the position read next decides (powered_up()).
+    const bool switched_off = n.was_enabled && !n.status.enabled;
+    if (n.move != 0 && n.bg_acked && !(switched_off && r.command_id == 0)) {
       if (stalled) {
         fail(n.move, error_code(ReplyError::kAxisFault), fmt::format("{} stalled during the move (TLIF)", n.name()));
       } else if (n.status.moving) {
@@ -678,6 +692,40 @@ struct Uim342Stack::Impl {
         fail(n.move, error_code(ReplyError::kAxisFault), fmt::format("{} stopped short of its target without a stop command", n.name()));
       }
     }
+  }
+
+  // The UIM342 sends nothing when it powers up (no such notification in §5.3; §5.2 IC and §5.9
+  // MT[3] only say what it does at power-on), so a power cycle shows only in what it answers
+  // afterwards (PowerUpWatch): its position counter starts at 0 (the manual keeps no position over
+  // power loss; it names PP values as saved to flash, §5.1), at rest, with the driver off unless
+  // IC auto-enable is set (§5.2). Not watched while it is identified or homed (the origin moves).
+  [[nodiscard]] std::optional<std::string> powered_up(Node& n, const uim342::MotionKinematics& k, TimePoint now) {
+    const bool watched = n.phase == Phase::ready || n.phase == Phase::setup_failed || n.phase == Phase::setting_up;
+    if (!watched || n.homing.command != 0) {
+      n.power.forget();
+      return std::nullopt;
+    }
+    const bool switched_off = n.was_enabled && !n.status.enabled;
+    auto why = n.power.sample(k.absolute_position, static_cast<double>(k.speed), now, switched_off);
+    if (!why) return std::nullopt;
+    return n.name() + " " + *why;
+  }
+
+  // A power cycle seen in its answers: what it was doing ended, its position is lost, and its
+  // RAM settings are gone, so it is identified and set up again (as after a reboot).
+  void on_power_cycle(std::size_t i, const std::string& why, TimePoint now) {
+    Node& n = nodes[i];
+    fail_commands_of(i, error_code(ReplyError::kAxisFault), why);
+    n.offset = 0;
+    n.status.position_counts = 0;
+    n.status.velocity_counts = 0;
+    n.status.moving = false;
+    n.status.in_position = false;
+    n.status.homed = false;
+    publish(n, now);
+    if (!n.cfg.axis.empty()) context.out->position_lost(n.cfg.axis, why);
+    if (n.phase == Phase::setting_up) return;  // being set up already (it was offline)
+    identify(i, now);  // commands arriving meanwhile queue behind its set-up
   }
 
   void arrived(std::size_t i, TimePoint) {

@@ -318,6 +318,17 @@ class Runner {
              std::to_string(got.error_code) + " (\"" + got.reason + "\") for 30 s");
       }
     }
+    // A drive that lost power says so (README "Safety and faults"): its moves are refused until
+    // its position is set again, here to where it says it stands (what the model reads back).
+    for (const auto& a : lab_.axes) {
+      const auto it = clients_[0]->axes().find(a.name);
+      if (it == clients_[0]->axes().end() || it->second.fault_code != motionlcm::axis_state_t::POSITION_LOST) continue;
+      const auto set = call(0, make(request_t::SET_POSITION, {a.name}, {it->second.position}, Step{}));
+      if (set.status != reply_t::DONE) {
+        fail("after " + after + ": " + a.name + " lost its position, and SET_POSITION " + std::to_string(it->second.position) + " ends " +
+             client::status_name(set.status) + " code " + std::to_string(set.error_code) + " (\"" + set.reason + "\")");
+      }
+    }
     for (const auto& a : lab_.axes) {
       model_.axis(a.name).counts.reset();
       model_.axis(a.name).enabled = true;

@@ -594,6 +594,24 @@ TEST_F(CoordinatorTest, DisabledFaultedAndOfflineAxesAreRejected) {
   EXPECT_EQ(terminal(send(request_t::MOVE_ABSOLUTE, {"c"}, {1.0})).error_code, static_cast<int>(ReplyError::kGatewayOffline));
 }
 
+// An axis whose drive lost power (fault_code POSITION_LOST, not faulted): moves and jogs are
+// refused with code 22 naming it and why; set-position (how it becomes valid again) is not.
+TEST_F(CoordinatorTest, AnAxisThatLostItsPositionIsRefusedMovesAndJogsButNotASetPosition) {
+  gateways.states["x"].fault_code = motionlcm::axis_state_t::POSITION_LOST;
+  gateways.states["x"].fault_text = "position lost: x-drive answers as freshly powered up; home or set-position";
+  pump(milliseconds(120));
+  for (const auto kind : {request_t::MOVE_ABSOLUTE, request_t::MOVE_RELATIVE, request_t::JOG}) {
+    const auto refused = terminal(send(kind, {"x"}, {1.0}));
+    EXPECT_EQ(refused.status, std::int8_t{reply_t::REJECTED}) << refused.reason;
+    EXPECT_EQ(refused.error_code, static_cast<int>(ReplyError::kPositionLost)) << refused.reason;
+    EXPECT_NE(refused.reason.find("axis x lost its position (position lost: x-drive answers"), std::string::npos) << refused.reason;
+  }
+  EXPECT_TRUE(gateways.commands.empty());
+  send(request_t::SET_POSITION, {"x"}, {0.0});
+  ASSERT_TRUE(pump_until([&] { return !gateways.commands.empty(); })) << "the set-position was not sent";
+  EXPECT_EQ(gateways.commands.back().kind, std::int8_t{gateway_command_t::SET_POSITION});
+}
+
 TEST_F(CoordinatorTest, SynchronizedMoveAcrossTwoBusesArmsTriggersAndCompletes) {
   auto_execute_moves();
   const auto id = send(request_t::MOVE_ABSOLUTE, {"x", "y", "c"}, {1.0, -2.0, 3.0});

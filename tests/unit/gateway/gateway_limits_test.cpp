@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/event_t.hpp>
 
 #include "motion/gateway/axis_limits.hpp"
@@ -300,6 +301,56 @@ TEST_F(Limits, AJogTheDriverRefusedLeavesTheWatchAsItWas) {
   EXPECT_EQ(own_stops(), 0u);
   status("j", -950, -200);
   EXPECT_EQ(own_stops(), 1u);
+}
+
+// A drive that lost power: whoever sends them, moves and jogs of its axis are refused (code 22,
+// with an event) until a HOME or SET_POSITION of it is DONE; its state says so meanwhile.
+TEST_F(Limits, PositionLostRefusesMovesAndJogsUntilASetPositionIsDone) {
+  std::vector<motionlcm::axis_state_t> states;
+  node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [&](const motionlcm::axis_state_t& a, const std::string&) { states.push_back(a); });
+  status("j", 0, 0, false);
+  gateway.position_lost("j", "jd answers as freshly powered up");
+  pump_until([&] { return event_of(event_t::REBOOT) != nullptr && !states.empty() && states.back().fault_code != 0; });
+  const auto* e = event_of(event_t::REBOOT);
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->axis, "j");
+  EXPECT_NE(e->text.find("position lost"), std::string::npos) << e->text;
+  ASSERT_FALSE(states.empty());
+  EXPECT_EQ(states.back().fault_code, motionlcm::axis_state_t::POSITION_LOST);
+  EXPECT_FALSE(states.back().fault);
+  EXPECT_FALSE(states.back().homed);
+
+  const auto move = send(gateway_command_t::ARM_MOVE, "j", 100, 100, 100, 100);
+  EXPECT_EQ(move.status, k(gateway_reply_t::FAILED));
+  EXPECT_EQ(move.error_code, error_code(ReplyError::kPositionLost)) << move.reason;
+  EXPECT_NE(move.reason.find("axis j lost its position"), std::string::npos) << move.reason;
+  EXPECT_EQ(send(gateway_command_t::JOG, "j", 0, 50, 100).error_code, error_code(ReplyError::kPositionLost));
+  EXPECT_TRUE(driver->commands.empty());
+  // The other axis is not concerned.
+  EXPECT_EQ(send(gateway_command_t::ARM_MOVE, "n", 100, 100, 100, 100).status, k(gateway_reply_t::ARMED));
+  // A SET_POSITION the drive refuses leaves it lost; one that is DONE makes it valid again.
+  driver->fail_kind = gateway_command_t::SET_POSITION;
+  EXPECT_EQ(send(gateway_command_t::SET_POSITION, "j", 0, 0).status, k(gateway_reply_t::FAILED));
+  EXPECT_EQ(send(gateway_command_t::ARM_MOVE, "j", 100, 100, 100, 100).error_code, error_code(ReplyError::kPositionLost));
+  driver->fail_kind = 0;
+  EXPECT_EQ(send(gateway_command_t::SET_POSITION, "j", 0, 0).status, k(gateway_reply_t::DONE));
+  pump_until([&] { return !states.empty() && states.back().fault_code != motionlcm::axis_state_t::POSITION_LOST; });
+  EXPECT_NE(states.back().fault_code, motionlcm::axis_state_t::POSITION_LOST);
+  EXPECT_EQ(send(gateway_command_t::ARM_MOVE, "j", 100, 100, 100, 100).status, k(gateway_reply_t::ARMED));
+}
+
+// An axis that cannot be heard is not published as moving on its last word.
+TEST_F(Limits, AnOfflineAxisIsNotReportedMoving) {
+  std::vector<motionlcm::axis_state_t> states;
+  node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [&](const motionlcm::axis_state_t& a, const std::string&) { states.push_back(a); });
+  DriveStatus s;
+  s.online = false;
+  s.moving = true;
+  gateway.axis_status("j", s);
+  pump_until([&] { return !states.empty(); });
+  ASSERT_FALSE(states.empty());
+  EXPECT_FALSE(states.back().online);
+  EXPECT_FALSE(states.back().moving);
 }
 
 TEST(CountLimits, CheckedDirectly) {

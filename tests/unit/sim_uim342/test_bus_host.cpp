@@ -139,8 +139,12 @@ TEST(SimUim342BusHost, GroupBgOverTheSimulatedBusStartsBothDrivesOnOneFrame) {
   EXPECT_EQ(notifications[0].id, 0x0620005AU);  // RT from node 6 to the host
   motionlcm::sim_control_t unsupported{};
   unsupported.drive = "x-drive";
-  unsupported.action = motionlcm::sim_control_t::CRC_ERRORS;
+  unsupported.action = motionlcm::sim_control_t::LINE_NOISE;  // a serial line's
   EXPECT_FALSE(host->control(unsupported));
+  motionlcm::sim_control_t crc = unsupported;  // CAN: its frames fail the CRC and never arrive
+  crc.action = motionlcm::sim_control_t::CRC_ERRORS;
+  crc.value = 1;
+  EXPECT_TRUE(host->control(crc));
   loop.unwatch(gateway->fd());
 }
 

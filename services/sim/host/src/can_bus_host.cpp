@@ -111,13 +111,13 @@ void CanBusHost::create(Drive& d, const CanDriveFactory& factory) {
   ctx.drive = d.config->name;
   ctx.bus = bus_.name;
   ctx.send = [this, &d](const can::Frame& frame) {
-    if (d.silent) return;
+    if (d.silent || d.corrupt) return;
     if (d.latency <= Duration::zero()) {
       transmit(d, frame);
       return;
     }
     loop_.call_after(d.latency, [this, &d, frame] {
-      if (!d.silent) transmit(d, frame);
+      if (!d.silent && !d.corrupt) transmit(d, frame);
     });
   };
   ctx.report = [this, &d](std::int8_t kind, std::int64_t frame_utime, std::int64_t position, std::int64_t target) {
@@ -179,6 +179,13 @@ bool CanBusHost::control(const motionlcm::sim_control_t& c) {
       return true;
     case motionlcm::sim_control_t::REPLY_LATENCY:
       d.latency = std::chrono::microseconds(c.value);
+      return true;
+    case motionlcm::sim_control_t::CRC_ERRORS:
+      // A frame failing the CAN CRC is discarded by every receiver (ISO 11898-1: CRC error, error frame) and
+      // retransmitted; a node whose frames keep failing counts itself to error passive and then
+      // bus-off. So the drive goes on executing what it receives, and nothing it sends arrives.
+      d.corrupt = c.value != 0;
+      spdlog::info("sim: drive {} {}", c.drive, d.corrupt ? "sends frames that fail the CAN CRC" : "sends intact frames again");
       return true;
     case motionlcm::sim_control_t::POWER_CYCLE:
       spdlog::info("sim: power-cycling drive {}", c.drive);

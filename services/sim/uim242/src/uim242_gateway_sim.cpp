@@ -60,6 +60,11 @@ class Uim242GatewaySim::Controller {
   [[nodiscard]] const std::string& drive() const { return setup_.drive; }
   [[nodiscard]] std::uint8_t node() const { return setup_.node_id; }
   [[nodiscard]] bool silent() const { return silent_; }
+  // Its frames reach the UIM2501 (SILENCE: it neither hears nor answers; CRC_ERRORS: it executes
+  // what it hears, but every frame it sends fails the CAN CRC at the UIM2501 and is discarded,
+  // ISO 11898-1 CRC error and fault confinement, as a node whose frames keep failing ends bus-off).
+  [[nodiscard]] bool heard() const { return !silent_ && !corrupt_; }
+  void set_corrupt(bool corrupt) { corrupt_ = corrupt; }
   // Silent, or still rebooting after an ICF write.
   [[nodiscard]] bool asleep(TimePoint now) const { return silent_ || now < awake_at_; }
   [[nodiscard]] int icf_writes() const { return icf_writes_; }
@@ -393,6 +398,7 @@ class Uim242GatewaySim::Controller {
   const Uim242SimOptions& options_;
   const Uim242SimContext& context_;
   bool silent_ = false;
+  bool corrupt_ = false;
   TimePoint awake_at_{};  // end of an ICF reboot
   int icf_writes_ = 0;
 
@@ -477,7 +483,7 @@ TimePoint Uim242GatewaySim::process(TimePoint now) {
   TimePoint next = kNever;
   for (auto& c : controllers_) {
     for (const auto& f : c->process(now)) {
-      if (!c->silent()) send(f);
+      if (c->heard()) send(f);
     }
     next = std::min(next, c->deadline());
   }
@@ -497,9 +503,10 @@ bool Uim242GatewaySim::control(const motionlcm::sim_control_t& control, TimePoin
       break;
     case motionlcm::sim_control_t::SILENCE: c->set_silent(control.value != 0); return true;
     case motionlcm::sim_control_t::POWER_CYCLE: c->power_up(now); return true;
+    case motionlcm::sim_control_t::CRC_ERRORS: c->set_corrupt(control.value != 0); return true;
     default: return false;
   }
-  if (!c->silent()) {
+  if (c->heard()) {
     for (const auto& f : out) send(f);
   }
   return true;
@@ -559,7 +566,7 @@ void Uim242GatewaySim::execute(const uim242::InstructionChunk& chunk, TimePoint 
   Controller* c = find_node(node);
   if (!c || c->asleep(now)) return;  // nobody answers: the host times out
   for (const auto& f : c->execute(in, now, !chunk.silent)) {
-    if (f.header == Header::error || !chunk.silent) send(f);
+    if ((f.header == Header::error || !chunk.silent) && c->heard()) send(f);
   }
 }
 

@@ -117,7 +117,7 @@ bool Uim342Drive::control(const motionlcm::sim_control_t& control, TimePoint now
       set_input(static_cast<std::size_t>(control.value - 1), control.level != 0, now, control.utime);
       return true;
     default:
-      return false;  // CRC_ERRORS has no meaning on CAN; the host handles the others
+      return false;  // the host handles the others (CRC_ERRORS: its frames are discarded on the wire)
   }
 }
 

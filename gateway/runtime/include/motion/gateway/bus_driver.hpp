@@ -65,6 +65,10 @@ class GatewayOutput {
   // first online status (and again after every new set-up). Drivers of families that read
   // nothing never call it. Default: ignored.
   virtual void drive_facts(const std::string& /*axis*/, const DriveFacts& /*facts*/) {}
+  // The drive of `axis` lost power (a power cycle the driver detected, `why` says how): the
+  // position it reports is no longer the machine's. The Gateway latches "position lost" until a
+  // HOME or SET_POSITION of the axis is DONE (README "Safety and faults"). Default: ignored.
+  virtual void position_lost(const std::string& /*axis*/, const std::string& /*why*/) {}
 };
 
 class BusDriver {

@@ -89,6 +89,10 @@ class Gateway final : public GatewayOutput {
   void axis_status(const std::string& axis, const DriveStatus& status) override;
   void axis_event(const std::string& axis, const DriveEvent& event) override;
   void command_reply(motionlcm::gateway_reply_t reply) override;
+  // Latches "position lost" for `axis`: its states say so (homed false, fault_code
+  // axis_state_t::POSITION_LOST while not faulted), a REBOOT event names it, and its ARM_MOVE and
+  // JOG commands are refused (code 22) until a HOME or SET_POSITION of it is DONE.
+  void position_lost(const std::string& axis, const std::string& why) override;
 
   [[nodiscard]] const std::string& bus() const { return bus_; }
   [[nodiscard]] std::string process_name() const { return "gateway:" + bus_; }
@@ -145,6 +149,8 @@ class Gateway final : public GatewayOutput {
     std::optional<JogWatch> jog;
   };
   std::map<std::string, PendingMotion> pending_motion_;
+  std::map<std::string, std::string> position_lost_;     // axis -> why its position is not the machine's
+  std::map<std::int64_t, std::vector<std::string>> referencing_;  // HOME/SET_POSITION command id -> its axes
   std::map<std::int64_t, std::string> stopped_at_limit_;  // jog command id -> why the watch stopped it (before its reply)
   motionlcm::active_moves_t last_moves_{};             // this bus's rows of the latest ACTIVE_MOVES
   std::string coordinator_;                             // host:pid of the coordinator heard last

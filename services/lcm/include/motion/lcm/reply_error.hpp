@@ -29,7 +29,8 @@ enum class ReplyError : std::int32_t {
   kBusy = 18,              // the coordinator has max_active_requests in progress: retry later
   kUnauthorized = 19,      // a signed request whose key's role does not allow its kind
   kCoordinatorRestarted = 20,  // ended by the successor of the coordinator that served it (its axes were stopped)
-  kNoDriveModel = 21,      // a move of an axis whose gateway has not published its drive model (DRIVE_MODEL) yet (the last code)
+  kNoDriveModel = 21,      // a move of an axis whose gateway has not published its drive model (DRIVE_MODEL) yet
+  kPositionLost = 22,      // a move or jog of an axis whose drive lost power: home it or set its position first (the last code)
 };
 
 // The wire value of `error` (the int32 of reply_t / gateway_reply_t).

@@ -69,6 +69,7 @@ class CanBusHost {
     EventLoop::TimerId timer = 0;
     Duration latency{};
     bool silent = false;
+    bool corrupt = false;      // CRC_ERRORS: what it sends fails the CAN CRC (see control())
     bool send_failed = false;  // a send error was logged already
   };
   CanBusHost(EventLoop& loop, const config::Config& config, const config::Bus& bus, Reporter reporter);

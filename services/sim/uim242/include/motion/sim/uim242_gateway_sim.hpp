@@ -32,7 +32,8 @@
 //   and user programs are accepted and stored but not simulated.
 // * Stall (sim_control_t STALL): the motor halts; `CC id [stall id] FF` if MCFG.STLIE and
 //   S34CON.STALL != 0 (the stall message id is undocumented, EN/CN §5.4, §8.7).
-// * SILENCE and POWER_CYCLE are per controller here (one serial line serves them all).
+// * SILENCE, POWER_CYCLE and CRC_ERRORS are per controller here (one serial line serves them
+//   all); with CRC_ERRORS a controller executes what it hears but none of its frames gets through.
 // Reports (sim_report_t kinds) per drive: POWERED_UP at power_up, MOTION_STARTED with the time of
 // the `;` that started the move, MOTION_FINISHED when it ends (arrival, stop, OFF, stall).
 #pragma once
