@@ -163,8 +163,14 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
           const double rate = std::abs(rpm_of(d, a.acceleration));
           const auto ramp = adam::ramp_time_ms(0, speed.value().realized, rate);
           if (ramp) {
+            // The ramp times span the start speed to a speed register (§8.42/§8.43): 0x009A
+            // (§8.44) and 0x00D8 (§8.64) get the jog's speed too, so that they are the jog's
+            // ramps, not the last move's speed over them (soak seed 7338: after a move at 1 rpm a
+            // jog's ramped stop took half a minute).
+            const auto rpm_whole = static_cast<std::uint16_t>(std::lround(speed.value().realized));
             add_write(op, d, {d.cfg.unit, rtu::WriteRegisters{adam::address(Reg::start_speed),
-                                                              {0, 0, ramp.value().value, ramp.value().value}}});
+                                                              {0, 0, ramp.value().value, ramp.value().value, rpm_whole}}});
+            add_write(op, d, adam::write32(d.cfg.unit, Reg::target_speed, static_cast<std::int32_t>(rpm_whole) * 100));
           }
         }
         adam::JogCommand jog;

@@ -292,6 +292,45 @@ TEST(RandomLabRegression, Seed7167Uim242JogNextToItsLimitNeverPassesIt) {
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// Soak seed 7338 (ADAM at 9600 baud with parity odd, a UIM342, a UIM242): an ADAM jog right
+// after a synchronized move in which the ADAM axis was already at its target (a sub-count relative
+// step) did not stop on STOP; the coordinator e-stopped it (FAILED 12).
+TEST(RandomLabRegression, Seed7338AdamJogAfterAnAtTargetMoveStopsOnStop) {
+  LabSpec spec;
+  spec.can_bitrate = 125000;
+  spec.rs485_baud = 9600;
+  spec.rs232_baud = 19200;
+  spec.rs485_parity = "odd";
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"adam-modbus", "rs485", 1, 0}, 33.333333333333336, -50, 484, 179, 630.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim342", "can0", 54, 126}, 533.33333333333337, -5, 22, 22.5, 92, true, 15.5, 2, -17});
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uim242", "rs232", 45, 0}, 1, -8782, 17319, 10165, 80713.5, true, -5507, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* UNKNOWN */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
+      Step{Op::kJogStop, 0, 3 /* JOG */, {"ax0", "ax1"}, {-37.5, 6.6699999999999999}, 0.0, 0.0, 0, 0, 0, 2, 4 /* STOP */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
+      Step{Op::kRequest, 0, 1 /* MOVE_ABSOLUTE */, {"ax0", "ax2"}, {85.579999999999998, -2531.5799999999999}, 0.0, 0.0, 0, 0, 0, 0, 0 /* UNKNOWN */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
+      Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax0", "ax1", "ax2"}, {-0.012000000000000455, -5.0018750000000001, 7585.96}, 0.0, 0.0, 0, 0, 0, 0, 0 /* UNKNOWN */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
+      Step{Op::kJogStop, 1, 3 /* JOG */, {"ax0", "ax1"}, {-31.34, -6.2199999999999998}, 0.0, 0.0, 0, 0, 0, 1, 4 /* STOP */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
+// The same cause, sharper: an ADAM drive's ramp times span the start speed to a speed register
+// (ADAM manual §8.42/§8.43); after a slow move (1 rpm) a fast jog (about 100 rpm) kept the move's
+// speed there, so its ramped stop took the jog's ramp time per rpm of the move: half a minute.
+TEST(RandomLabRegression, AdamFastJogAfterASlowMoveStopsWithinItsRamp) {
+  LabSpec spec;
+  spec.rs485_baud = 19200;
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"adam-modbus", "rs485", 1, 0}, 33.333333333333336, -50, 484, 179, 630.5, false, 0, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest, 0, 1 /* MOVE_ABSOLUTE */, {"ax0"}, {2.0}, 0.01, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop, 0, 3 /* JOG */, {"ax0"}, {170.0}, 0.0, 0.0, 0, 0, 0, 1, 4 /* STOP */, 0, {}, {}, 0, 0},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 // A UIM242 jog e-stopped, then every axis enabled: ENA ran the motor at the jog's speed again
 // (the controller keeps its desired speed while disabled) and it ran on through the limits.
 TEST(RandomLabRegression, Seed12Uim242JogDoesNotResumeAfterEstopAndEnable) {
