@@ -261,7 +261,13 @@ bool writable(Access access) { return access != Access::kReadOnly; }
 std::span<const OdEntry> object_dictionary() { return kDictionary; }
 
 std::span<const OdEntry> object_entries(std::uint16_t index) {
-  const auto [first, last] = std::ranges::equal_range(kDictionary, index, {}, &OdEntry::index);
+  // std::equal_range rather than std::ranges::equal_range: clang 14 (the fuzzing build) cannot
+  // instantiate libstdc++ 12's ranges on this subrange.
+  struct ByIndex {
+    bool operator()(const OdEntry& e, std::uint16_t i) const { return e.index < i; }
+    bool operator()(std::uint16_t i, const OdEntry& e) const { return i < e.index; }
+  };
+  const auto [first, last] = std::equal_range(kDictionary.begin(), kDictionary.end(), index, ByIndex{});
   return {first, last};
 }
 
