@@ -1,8 +1,17 @@
 #include "motion/can_frame/load_meter.hpp"
 
-#include "motion/can_frame/bit_timing.hpp"
+#include <algorithm>
+
 
 namespace motion::can {
+
+std::uint32_t LoadMeter::nominal_bits(const Frame& frame) {
+  // SOF, arbitration, control, CRC, delimiters, ACK, EOF and the 3-bit intermission around the
+  // data field; stuff bits are not counted (at most about a fifth more), which keeps this cheap
+  // on every frame a transport sends or receives (bit_timing's exact count computes the CRC).
+  const std::uint32_t overhead = frame.extended ? 67U : 47U;
+  return overhead + (frame.rtr ? 0U : 8U * std::min<std::uint32_t>(frame.dlc, 8U));
+}
 
 double LoadMeter::ratio(std::uint64_t bits, Duration elapsed) const {
   return static_cast<double>(bits) / (static_cast<double>(bitrate_) * std::chrono::duration<double>(elapsed).count());
@@ -19,7 +28,7 @@ void LoadMeter::add(const Frame& frame, TimePoint now) {
     window_start_ = now;
     window_bits_ = 0;
   }
-  window_bits_ += frame_bits(frame).total;
+  window_bits_ += nominal_bits(frame);
 }
 
 double LoadMeter::load(TimePoint now) const {

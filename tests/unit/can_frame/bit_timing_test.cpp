@@ -152,7 +152,9 @@ TEST(LoadMeter, IsTheWireTimeOfTheFramesOverTheWindowAndFallsWhenTheBusGoesQuiet
   Frame f{};
   f.id = 0x123;
   f.dlc = 8;
-  const std::uint32_t bits = frame_bits(f).total;
+  const std::uint32_t bits = LoadMeter::nominal_bits(f);
+  EXPECT_EQ(bits, 111u);  // 47 + 64: SOF..IFS without stuff bits
+  EXPECT_LE(bits, frame_bits(f).total);
   LoadMeter meter(125000);
   const TimePoint t0{};
   EXPECT_EQ(meter.load(t0), 0.0);

@@ -211,7 +211,7 @@ TEST_F(HubTest, EndpointsReportTheBusLoadOfTheFramesTheySaw) {
   std::uint64_t bits = 0;
   for (int i = 0; i < 50; ++i) {
     const auto f = frame(0x181, std::vector<std::uint8_t>(8, static_cast<std::uint8_t>(i)));
-    bits += can::frame_bits(f).total;
+    bits += can::LoadMeter::nominal_bits(f);
     ASSERT_FALSE(tx->send(f));
   }
   ASSERT_TRUE(run_until(loop, [&] { return received.frames.size() == 50; }));

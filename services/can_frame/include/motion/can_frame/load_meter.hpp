@@ -1,6 +1,6 @@
-// Bus load as one endpoint sees it: the wire time of the frames it sent and received (exact
-// lengths, stuff bits and interframe space included: bit_timing.hpp) over one-second windows,
-// as a fraction of the bit rate. What a transport reports as Statistics::bus_load.
+// Bus load as one endpoint sees it: the wire time of the frames it sent and received (nominal
+// lengths with the interframe space, stuff bits not counted: nominal_bits) over one-second
+// windows, as a fraction of the bit rate. What a transport reports as Statistics::bus_load.
 //
 // Passive: frames and `now` in, the load out; no clock of its own. A single-threaded value type.
 #pragma once
@@ -27,6 +27,8 @@ class LoadMeter {
   // after it opened); a window open for longer than a second gives its own average, so a bus
   // that went quiet falls toward 0. 0 with no bit rate or no frame yet.
   [[nodiscard]] double load(TimePoint now) const;
+  // Bits of `frame` on the wire without stuff bits (a lower bound of its exact length).
+  [[nodiscard]] static std::uint32_t nominal_bits(const Frame& frame);
 
  private:
   [[nodiscard]] double ratio(std::uint64_t bits, Duration elapsed) const;
