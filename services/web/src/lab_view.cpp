@@ -112,6 +112,7 @@ nlohmann::json LabView::move_json(const Move& m, bool with_samples) const {
                         {"reason", m.reason},
                         {"accepted_utime", m.accepted_utime},
                         {"started_utime", m.started_utime},
+                        {"predicted_duration_s", m.predicted_duration_s},
                         {"end_utime", m.end_utime}};
   if (with_samples) {
     nlohmann::json samples = nlohmann::json::object();
@@ -210,6 +211,7 @@ std::vector<Outgoing> LabView::on_reply(const motionlcm::reply_t& msg) {
                                         [](std::int64_t a, std::int64_t b) { return a != 0 && (b == 0 || a < b); });
     move->started_utime = first != msg.start_utime.end() && *first != 0 ? *first : msg.utime;
   }
+  if (msg.predicted_duration_s > 0) move->predicted_duration_s = msg.predicted_duration_s;
   if (lcm::reply_is_terminal(msg.status)) {
     move->end_utime = msg.utime;
     move->reason = msg.reason;

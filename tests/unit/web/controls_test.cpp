@@ -58,6 +58,8 @@ TEST(WebControls, AMoveOfTwoAxesBecomesOneRequestWithItsValuesAndScale) {
   EXPECT_EQ(r.values, (std::vector<double>{40.0, -2.5}));
   EXPECT_DOUBLE_EQ(r.velocity_scale, 0.5);
   EXPECT_DOUBLE_EQ(r.acceleration_scale, 0.0);  // absent: the coordinator's default
+  EXPECT_EQ(r.timeout_ms, 0);                    // the coordinator's default, not whatever was in memory
+  EXPECT_EQ(r.output_mask, 0);
   auto parsed = parse_control(c.dump(), lab(), kToken);
   EXPECT_EQ(std::get<ControlRequest>(parsed).tag, 7);
 }

@@ -196,10 +196,13 @@ TEST(LabView, AMoveCollectsItsAxesSamplesFromAcceptedToItsTerminalReply) {
   EXPECT_FALSE(out[1].contains("samples"));  // live, the browser collects them itself
 
   auto started = reply(reply_t::STARTED, 1100, {"x"}, {10.0});
+  EXPECT_EQ(out[1]["predicted_duration_s"], 0.0);  // not told yet
   started.start_utime = {1050};
+  started.predicted_duration_s = 1.25;
   out = parsed(view.on_reply(started));
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[1]["started_utime"], 1050);
+  EXPECT_EQ(out[1]["predicted_duration_s"], 1.25);  // the plot's planned arrival: start + 1.25 s
 
   for (int i = 1; i <= 4; ++i) view.on_axis_state(state("x", 1100 + i * 100, 2.5 * i, 5.0));
   view.on_axis_state(state("y", 1300, 7.0, 1.0));  // another axis: not part of the move

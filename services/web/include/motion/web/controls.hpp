@@ -32,7 +32,7 @@ namespace motion::web {
 
 struct ControlRequest {
   std::int64_t tag = 0;
-  motionlcm::request_t request;  // kind, axes, values, scales; ids are the client's to fill
+  motionlcm::request_t request{};  // kind, axes, values, scales (the rest zero); ids are the client's to fill
 };
 struct ControlError {
   std::optional<std::int64_t> tag;  // nullopt when the text had none (or was no JSON)

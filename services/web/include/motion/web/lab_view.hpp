@@ -15,7 +15,8 @@
 //   active_moves  the coordinator's ACTIVE_MOVES rows
 //   move          a motion request (move, relative move, jog, home) from its first ACCEPTED or
 //                 STARTED reply to its terminal one: id "client_id/request_id", kind, axes,
-//                 targets, status, accepted/started/end times; "samples" (per axis
+//                 targets, status, accepted/started/end times, the planned duration from the
+//                 start (predicted_duration_s, 0 when not told); "samples" (per axis
 //                 [[sample_utime, position, velocity], ...]) only in the snapshot. Live, the
 //                 browser appends the axis messages of a move's axes to the move itself while the
 //                 move is open (status not terminal), as this class does.
@@ -103,6 +104,7 @@ class LabView {
     std::string reason;
     std::int64_t accepted_utime = 0;
     std::int64_t started_utime = 0;
+    double predicted_duration_s = 0;  // from start to arrival, as the coordinator planned it (0: not told)
     std::int64_t end_utime = 0;
     std::map<std::string, std::vector<std::array<double, 3>>> samples;  // axis -> (utime, position, velocity)
     [[nodiscard]] bool open() const;
