@@ -159,9 +159,12 @@ void MasterCore::on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) {
   framer_.push(bytes, now);
   const auto pending = framer_.pending();
   // A pty delivers a frame at once; closing it at its known length saves the t3.5 wait. A frame
-  // of the right length with a bad CRC waits for the silence (more garbage may follow).
-  if (const auto size = expected_reply_size(pending); size && pending.size() == *size && rtu::crc_ok(pending)) {
-    on_reply_frame(framer_.complete_now(), now);
+  // of the right length with a bad CRC waits for the silence (more garbage may follow). Bytes
+  // beyond a valid reply (a late answer to an earlier attempt, joined to this one without a
+  // silence between them) stay buffered as a frame of their own.
+  if (const auto size = expected_reply_size(pending);
+      size && pending.size() >= *size && rtu::crc_ok(pending.first(*size))) {
+    on_reply_frame(framer_.complete_prefix(*size), now);
   }
 }
 

@@ -292,6 +292,24 @@ TEST_F(MasterCoreTest, APieceOfAReplyThatNeverCompletesEndsAtTheReplyDeadlineAnd
   EXPECT_EQ(core->statistics().retries, 1);
 }
 
+TEST_F(MasterCoreTest, ALateReplyJoinedToTheRetrysReplyIsOneReplyAndOneStrayFrameNotACrcError) {
+  core->execute(command(7, std::int8_t{Command::ENABLE}, {"c"}), now);
+  advance(101ms);  // no answer within request_timeout: the retry goes out
+  ASSERT_EQ(sent.size(), 2U);
+  // Then both answers arrive in one read, without a silence between them.
+  Bytes both = sent[0];
+  both.insert(both.end(), sent[1].begin(), sent[1].end());
+  reply(both);
+  ASSERT_EQ(out.terminal(7), 1);
+  EXPECT_EQ(out.of(7).back().status, kDone);
+  advance(2ms);  // the second echo, closed by silence with nothing in flight: a stray frame
+  EXPECT_FALSE(std::any_of(out.events.begin(), out.events.end(), [](const auto& e) {
+    return e.kind == motionlcm::event_t::OFFLINE || e.text.find("CRC") != std::string::npos;
+  }));
+  EXPECT_TRUE(out.has_event(std::int16_t{motionlcm::event_t::ONLINE})) << "the decoded echo brings the drive online";
+  EXPECT_EQ(core->statistics().errors, 1) << "the stray second echo is counted, once";
+}
+
 TEST_F(MasterCoreTest, CrcErrorsOnEveryAttemptMarkTheDriveOfflineUntilAReplyDecodes) {
   core->execute(command(2, std::int8_t{Command::ENABLE}, {"c"}), now);
   reply(sent.back());  // heard once: online
