@@ -199,6 +199,7 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
     EXPECT_NE(svg_text.find(panel), std::string::npos) << "no " << panel << " in " << svg;
   }
   EXPECT_NE(svg_text.find("move done"), std::string::npos) << "the move's end is not marked";
+  EXPECT_NE(svg_text.find("move planned arrival"), std::string::npos) << "the move's planned arrival is not marked";
 
   // The same as tables.
   ASSERT_EQ(group.run_to_completion({"motionctl-log", "motionctl", {"--config", config, "log", log_path, "--axis", "x"}, {}}, &out), 0) << out;
