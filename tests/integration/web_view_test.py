@@ -270,9 +270,13 @@ def run(args, lab, work, browser_pids):
         jog_status = wait_for("the jog's terminal reply", lambda: js("""
             const r = window.motionWeb.requests[arguments[0]];
             return r && ['done', 'rejected', 'aborted', 'failed'].includes(r.status) ? r.status : null;""", jog_id), timeout=5)
+        jog_plot = wait_for("the jog's plot following x until it stood", lambda: js("""
+            const move = window.motionWeb.moves[arguments[0]];
+            return move && !move.open && (move.samples[arguments[1]] || []).length > 3 ? move.samples[arguments[1]].length : null;
+        """, jog_id, MOVED_AXIS), timeout=5)
         time.sleep(0.5)
         still = float(js("return %s.querySelector('.position').textContent" % row).split()[0])
-        print("jog %s ended %s; %s stopped at %.4f, %.4f 0.5 s later" % (jog_id, jog_status, MOVED_AXIS, stopped_at, still))
+        print("jog %s ended %s (its plot: %d samples); %s stopped at %.4f, %.4f 0.5 s later" % (jog_id, jog_status, jog_plot, MOVED_AXIS, stopped_at, still))
         if not (TARGET < stopped_at < 300) or abs(still - stopped_at) > 1e-3:
             raise Failure("after the e-stop %s should stand between %g and 300: at %.4f, then %.4f" % (MOVED_AXIS, TARGET, stopped_at, still))
 
