@@ -132,6 +132,14 @@ struct Uc57Stack::Node {
 
   RpdoLayout layout = RpdoLayout::kControlwordTarget;
   bool remap_refused = false;    // remembered across re-configurations
+  // RPDO1 transmission type 1 aborted by the drive (remembered): RPDO1 runs asynchronous (FFh).
+  bool sync_refused = false;
+  // How RPDO1 applies, found at set-up (rpdo_acceptance_op): at the SYNC (the one-frame start
+  // and preloading work) or on reception (moves start node by node, never preloaded).
+  bool rpdo_at_sync = true;
+  std::string rpdo_finding;      // "honoured (detected)", "refused", ...: events and the drive model
+  Duration rpdo_end{};           // wire_sent_ after this node's last RPDO1 (start skew)
+  can::Frame last_rpdo{};        // that RPDO1
   bool tpdo2_active = true;
   std::uint32_t pulses_per_rev = cia402::uc57::kDefaultPulsesPerRevolution;
   double start_speed = 0;        // 200Eh, pulses/s

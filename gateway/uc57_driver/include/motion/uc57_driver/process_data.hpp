@@ -38,8 +38,9 @@ struct RpdoImage {
 };
 
 [[nodiscard]] canopen::PdoMapping rpdo1_mapping(RpdoLayout layout);
-// The CiA 301 remap of RPDO1 to kControlwordTarget, synchronous (type 1).
-[[nodiscard]] canopen::PdoConfiguration rpdo1_remap(canopen::NodeId node);
+// The CiA 301 remap of RPDO1 to kControlwordTarget, synchronous (type 1) unless another
+// transmission type is given (255 where the drive refuses type 1).
+[[nodiscard]] canopen::PdoConfiguration rpdo1_remap(canopen::NodeId node, std::uint8_t transmission_type = 1);
 [[nodiscard]] can::Frame encode_rpdo1(canopen::NodeId node, RpdoLayout layout, const RpdoImage& image);
 [[nodiscard]] std::optional<RpdoImage> decode_rpdo1(RpdoLayout layout, std::span<const std::uint8_t> payload);
 

@@ -108,6 +108,13 @@ class Uc57Stack final : public gateway::CanStack {
   void add_statistics(motionlcm::bus_stats_t& stats) const override;
 
   [[nodiscard]] const Counters& counters() const { return counters_; }
+  // The SYNC period in force: 1 / poll_hz, or longer when the nodes' synchronous TPDOs at that
+  // rate would take more than kPollBusShare of the bus (fit_sync_period; said once at start()).
+  [[nodiscard]] Duration sync_period() const { return sync_period_; }
+  static constexpr double kPollBusShare = 0.75;
+  // What set-up found about RPDO1 of `drive` ("honoured (detected)", "on_reception (detected)",
+  // "refused", "on_reception (configured)", ...); empty before the node is operational.
+  [[nodiscard]] std::string rpdo_sync_finding(std::string_view drive) const;
   // The RPDO1 layout a configured node ended up with (nullopt: unknown drive or not configured).
   [[nodiscard]] std::optional<RpdoLayout> rpdo_layout(std::string_view drive) const;
 
@@ -128,6 +135,23 @@ class Uc57Stack final : public gateway::CanStack {
   void go_offline(std::size_t n, std::int16_t event_kind, const std::string& reason, TimePoint now);
   void on_node_event(const canopen::NodeEvent& event);
   void on_emcy(const canopen::EmcyEvent& event);
+
+  // --- RPDO1 acceptance test (uc57_stack_rpdo.cpp) ---
+  ConfigOp rpdo_acceptance_op(std::size_t n);
+  void rpdo_test_attempt(std::size_t n, unsigned session, unsigned attempt, Continue next);
+  void rpdo_found(std::size_t n, bool at_sync, const std::string& finding);
+  // Runs `run` once the SYNC producer has sent more than `count` SYNCs (checked after each SYNC).
+  void after_sync(std::uint64_t count, std::function<void()> run);
+  void run_sync_waiters();
+  struct StartFacts {
+    std::string mechanism;  // "sync": one SYNC; "rpdo": each node's RPDO1, back to back
+    double skew_us = 0;
+    can::Frame frame;       // the command's first start frame
+  };
+  [[nodiscard]] StartFacts start_facts(const Job& job) const;
+  // The bus budget of the synchronous TPDOs (fit_sync_period) and its warning.
+  void fit_sync_period(const config::Bus& bus);
+  std::string poll_warning_;
 
   // --- SDO with retries and reasons ---
   using SdoDone = std::function<void(std::error_code, std::span<const std::uint8_t>)>;
@@ -207,6 +231,10 @@ class Uc57Stack final : public gateway::CanStack {
   std::map<std::int64_t, Job> jobs_;
   Counters counters_;
   bool started_ = false;
+  std::uint32_t bitrate_ = 125000;
+  Duration wire_sent_{};      // wire time of every frame handed to the transport (start skew)
+  Duration last_sync_end_{};  // wire_sent_ after the last SYNC
+  std::vector<std::pair<std::uint64_t, std::function<void()>>> sync_waiters_;
   TimePoint now_{};  // the `now` of the entry point running (callbacks run inside one)
 };
 
