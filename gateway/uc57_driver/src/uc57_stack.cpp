@@ -2,6 +2,7 @@
 #include "uc57_stack_impl.hpp"
 
 #include "motion/can_frame/bit_timing.hpp"
+#include "motion/canopen/nmt.hpp"
 #include "motion/canopen/sync.hpp"
 
 namespace motion::uc57_driver {
@@ -49,27 +50,34 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
 // SYNC makes every node with synchronous TPDOs send TPDO1 and TPDO2 (UC57 manual §5 comm. table,
 // 1800h/1801h:02 = 1; CiA 301 §7.2.2). At the UC57's default 125 kbit/s (2009h = 2, manual §5.1)
 // 32 nodes at 20 Hz ask for 1,300 frames/s, more than the bus carries. The SYNC, and with it the
-// status rate, is slowed until the SYNC and those TPDOs take at most kPollBusShare of the wire; the
-// rest stays for SDO, RPDOs, heartbeats and EMCY. Stuff bits are counted for all-zero data (the
-// most a 0-filled payload gets), so a real cycle is at most a few bits shorter.
+// status rate, is slowed until the SYNC and those TPDOs, with the nodes' heartbeats (1017h, set up
+// here), take at most kPollBusShare of the wire; the rest stays for SDO, RPDOs and EMCY. Stuff
+// bits are counted for all-zero data (the most a 0-filled payload gets), so a real cycle is at
+// most a few bits shorter.
 void Uc57Stack::fit_sync_period(const config::Bus& bus) {
   Duration cycle = can::frame_duration(canopen::encode_sync({}), bitrate_);
   std::size_t synchronous = 0;
+  double heartbeat_share = 0;  // of the wire, per second
   for (const auto& node : nodes_) {
+    if (node->settings.heartbeat_ms > 0) {
+      const auto beat = canopen::encode_heartbeat(node->settings.node, canopen::NmtState::kOperational);
+      heartbeat_share += std::chrono::duration<double>(can::frame_duration(beat, bitrate_)).count() * 1000.0 / node->settings.heartbeat_ms;
+    }
     if (node->settings.tpdo_mode != TpdoMode::kSync) continue;
     ++synchronous;
     cycle += can::frame_duration(encode_tpdo1(node->settings.node, {}), bitrate_) +
              can::frame_duration(encode_tpdo2(node->settings.node, {}), bitrate_);
   }
   const auto configured = sync_period_;
-  const auto needed = std::chrono::duration_cast<Duration>(std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / kPollBusShare));
+  const double share = std::max(kPollBusShare - heartbeat_share, kPollBusShare / 4);
+  const auto needed = std::chrono::duration_cast<Duration>(std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / share));
   if (needed <= configured) return;
   sync_period_ = std::chrono::ceil<std::chrono::milliseconds>(needed);
   const auto hz = [](Duration d) { return 1.0 / std::chrono::duration<double>(d).count(); };
   char text[320];
   std::snprintf(text, sizeof text,
                 "bus %s: %zu UC57 nodes with synchronous TPDOs at %.1f Hz need %.0f%% of %u bit/s; SYNC (and status) at %.1f Hz instead "
-                "(polls keep to %.0f%% of the bus)",
+                "(polls and heartbeats keep to %.0f%% of the bus)",
                 bus.name.c_str(), synchronous, hz(configured), 100.0 * std::chrono::duration<double>(cycle).count() * hz(configured),
                 bitrate_, hz(sync_period_), 100.0 * kPollBusShare);
   poll_warning_ = text;
