@@ -9,7 +9,8 @@
 //  - on_reception: type 1 accepted, but an RPDO applies when it arrives;
 //  - refused: the SDO write of type 1 is aborted (handled where it is written, uc57_stack_boot.cpp:
 //    RPDO1 then runs with FFh).
-// The acceptance test tells the first two apart without moving anything: right after a SYNC it
+// The acceptance test tells the first two apart without moving anything: it sends RPDO1 with the
+// values read at set-up (replacing anything stale buffered in the drive), and right after a SYNC it
 // sends RPDO1 with the drive's own controlword (no new set-point edge: bit 4 unchanged, manual
 // §4.2.4) and a changed target (607Ah; with the manual's default mapping 60FFh, which only
 // profile velocity reads, §4.2.5), reads the target back by SDO before the next SYNC, then again
@@ -84,7 +85,11 @@ Uc57Stack::ConfigOp Uc57Stack::rpdo_acceptance_op(std::size_t n) {
       return next(std::nullopt);
     }
     const unsigned session = node.session;
-    // Start right after a SYNC: the RPDO and the read then have a whole period.
+    // First the drive's own image (as read at set-up): a synchronous RPDO1 still buffered in the
+    // drive (an earlier set-up's test, a gateway that died between an RPDO and its SYNC) is
+    // replaced by it, so the SYNC below leaves the values the test compares against. Then start
+    // right after that SYNC: the RPDO and the read have a whole period.
+    send_image(n, node.image);
     after_sync(master_.sync()->sent(), [this, n, session, next] { rpdo_test_attempt(n, session, 0, next); });
   }};
 }

@@ -273,6 +273,35 @@ TEST_P(Uc57RpdoSync, SetUpFindsTheVariantAndASynchronizedMoveReportsWhatTheDrive
               bench.stack->rpdo_sync_finding("a-drive").c_str(), started->start_mechanism.c_str(), started->predicted_skew_us, spread_us);
 }
 
+// A gateway restarted against drives that an earlier gateway set up (and left enabled) finds the same.
+TEST(Uc57RpdoSyncRestart, ASecondGatewayFindsHonouredAgain) {
+  std::string yaml = kLabTemplate;
+  for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT")) yaml.replace(at, 7, "honoured");
+  Uc57Bench bench(yaml);
+  bench.stack->start(bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5)));
+  gateway_command_t enable{};
+  enable.kind = gateway_command_t::ENABLE;
+  motionlcm::axis_command_t a{};
+  a.axis = "a";
+  enable.axes.push_back(a);
+  const auto enabled = bench.execute(enable);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(enabled).has_value(); }, std::chrono::seconds(2)));
+  bench.run_for(milliseconds(7));
+  CanStackContext ctx;
+  ctx.out = &bench.out;
+  ctx.send = [&bench](const can::Frame& f) {
+    bench.to_drives.push_back(bench.stamp(f));
+    return true;
+  };
+  bench.stack = std::make_unique<uc57_driver::Uc57Stack>(bench.config_, *bench.config_.find_bus("can0"), ctx);
+  bench.stack->start(bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5)));
+  EXPECT_TRUE(bench.stack->rpdo_sync_finding("a-drive").starts_with("honoured")) << bench.stack->rpdo_sync_finding("a-drive");
+}
+
 INSTANTIATE_TEST_SUITE_P(Variants, Uc57RpdoSync, ::testing::Values("honoured", "on_reception", "refused"),
                          [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
 
