@@ -1,5 +1,6 @@
 // Private to the UC57 stack's sources (uc57_stack.cpp: construction, process data; uc57_stack_boot.cpp:
-// probe, configuration, SDO; uc57_stack_commands.cpp: commands): the helpers and the node, job
+// probe, configuration, SDO; uc57_stack_commands.cpp: commands; uc57_stack_rpdo.cpp: the RPDO1
+// acceptance test and start facts): the helpers and the node, job
 // and task types they share. Not installed, not included elsewhere.
 #pragma once
 #include "motion/uc57_driver/uc57_stack.hpp"
