@@ -74,7 +74,7 @@ struct Report {
 // Delivery is immediate; each frame's timestamp is its end on a wire that sends back to back.
 class Uc57Bench {
  public:
-  explicit Uc57Bench(const std::string& yaml) {
+  explicit Uc57Bench(const std::string& yaml, sim::Uc57SimOptions sim_options = {}) {
     auto loaded = config::load_string(yaml, "truth.yaml");
     EXPECT_TRUE(loaded.ok()) << loaded.error_text();
     config_ = *loaded.config;
@@ -87,7 +87,7 @@ class Uc57Bench {
     uc57_driver::Uc57Stack::Options options;
     options.wall_clock_us = [](TimePoint t) { return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count(); };
     stack = std::make_unique<uc57_driver::Uc57Stack>(config_, *config_.find_bus("can0"), ctx, options);
-    const auto factory = sim::uc57_drive_factory(config_);
+    const auto factory = sim::uc57_drive_factory(config_, sim_options);
     for (const auto& d : config_.drives) {
       sim::SimDriveContext context;
       context.drive = d.name;
@@ -201,11 +201,11 @@ motionlcm::axis_command_t axis_move(const std::string& axis, std::int64_t target
 
 class Uc57RpdoSync : public ::testing::TestWithParam<std::string> {};
 
-TEST_P(Uc57RpdoSync, SetUpFindsTheVariantAndASynchronizedMoveReportsWhatTheDrivesDid) {
-  const std::string variant = GetParam();
+// Set-up under `variant`, then a preloaded synchronized move of a and b judged by the drives.
+void synchronized_move_under(const std::string& variant, sim::Uc57SimOptions sim_options = {}) {
   std::string yaml = kLabTemplate;
   for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT")) yaml.replace(at, 7, variant);
-  Uc57Bench bench(yaml);
+  Uc57Bench bench(yaml, sim_options);
   bench.stack->start(bench.now);
   bench.settle();
   ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
@@ -271,6 +271,17 @@ TEST_P(Uc57RpdoSync, SetUpFindsTheVariantAndASynchronizedMoveReportsWhatTheDrive
   EXPECT_NEAR(started->predicted_skew_us, spread_us, 1.0);  // the wire stamps are whole microseconds
   std::printf("rpdo_sync %s: found \"%s\"; STARTED %s, predicted skew %.1f us, drives started %.0f us apart\n", variant.c_str(),
               bench.stack->rpdo_sync_finding("a-drive").c_str(), started->start_mechanism.c_str(), started->predicted_skew_us, spread_us);
+}
+
+TEST_P(Uc57RpdoSync, SetUpFindsTheVariantAndASynchronizedMoveReportsWhatTheDrivesDid) { synchronized_move_under(GetParam()); }
+
+// The same with the manual's RO remap objects (§5 comm. table: 1400h:01, 1600h:00): the stack
+// keeps the default RPDO1 (6040h + 60FFh + 6060h), tests with 60FFh outside profile velocity, and
+// under refused writes 255 to 1400h:02 instead of failing the set-up over and over.
+TEST_P(Uc57RpdoSync, WithTheManualsDefaultRpdo1) {
+  sim::Uc57SimOptions options;
+  options.pdo_configuration_writable = false;
+  synchronized_move_under(GetParam(), options);
 }
 
 // A gateway restarted against drives that an earlier gateway set up (and left enabled) finds the same.
