@@ -184,14 +184,28 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
                                                            ObjectAddress{canopen::pdo_communication_index(canopen::PdoDirection::kReceive, 1),
                                                                          canopen::kPdoTransmissionTypeSub};
                              if (type_refused && !remapped.sync_refused) {
-                               // Transmission type 1 refused (the manual's §5 table gives only FFh): the remap is
-                               // fine, RPDO1 becomes asynchronous. The PDO is disabled: reset, configure again.
+                               // Transmission type 1 refused (the manual's §5 table gives only FFh): RPDO1 becomes
+                               // asynchronous (remembered). The PDO is still disabled: the remap again from its
+                               // first step, with 255.
                                remapped.sync_refused = true;
                                event(n, Event::CONFIG_MISMATCH, Event::WARNING, result.error.value(),
                                      remapped.settings.label() + ": RPDO1 transmission type 1 (synchronous) refused (" + result.error.message() +
                                          "); RPDO1 asynchronous (255), moves start node by node");
-                               master_.nmt().send(canopen::NmtCommand::kResetNode, remapped.settings.node);
-                               return next(remapped.settings.label() + ": RPDO1 remap again with transmission type 255; node reset");
+                               return canopen::configure_pdo(
+                                   master_.sdo(), remapped.settings.node, rpdo1_remap(remapped.settings.node, kTransmissionEventDriven),
+                                   [this, n, session, next](const canopen::SdoSequenceResult& again) {
+                                     Node& async = *nodes_[n];
+                                     if (async.session != session) return;
+                                     if (!again.error) {
+                                       async.layout = RpdoLayout::kControlwordTarget;
+                                       return next(std::nullopt);
+                                     }
+                                     count_sdo_result(again.error);
+                                     master_.nmt().send(canopen::NmtCommand::kResetNode, async.settings.node);
+                                     next(async.settings.label() + ": RPDO1 remap with transmission type 255 failed at step " +
+                                          std::to_string(again.failed_step + 1) + " (" + again.error.message() +
+                                          "); node reset to restore its stored PDO mapping");
+                                   });
                              }
                              remapped.remap_refused = true;
                              remapped.layout = RpdoLayout::kManualDefault;

@@ -35,6 +35,7 @@ constexpr std::int8_t kDone = gateway_reply_t::DONE;
 constexpr std::int8_t kStarted = gateway_reply_t::STARTED;
 constexpr std::int8_t kMotionStarted = motionlcm::sim_report_t::MOTION_STARTED;
 constexpr std::int8_t kMotionFinished = motionlcm::sim_report_t::MOTION_FINISHED;
+constexpr std::int16_t kOffline = event_t::OFFLINE;
 constexpr std::uint32_t kBitrate = 125000;
 
 constexpr const char* kLabTemplate = R"(
@@ -210,6 +211,9 @@ void synchronized_move_under(const std::string& variant, sim::Uc57SimOptions sim
   bench.settle();
   ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
   const bool at_sync = variant == "honoured";
+  for (const auto& [axis, e] : bench.out.events) {
+    EXPECT_NE(e.kind, kOffline) << "set-up went through an offline retry: " << e.text;  // refused: no reset loop
+  }
   for (const auto* drive : {"a-drive", "b-drive"}) {
     EXPECT_TRUE(bench.stack->rpdo_sync_finding(drive).starts_with(variant)) << drive << ": " << bench.stack->rpdo_sync_finding(drive);
     EXPECT_TRUE(bench.reports_of(drive, kMotionStarted).empty()) << "the acceptance test moved " << drive;
