@@ -104,7 +104,8 @@ void Uc57Stack::part_armed(std::int64_t command_id, std::size_t n, TimePoint now
 
 void Uc57Stack::preload(const Job& job) {
   for (const std::size_t n : job.nodes) {
-    if (nodes_[n]->phase == Node::Phase::kOperational && nodes_[n]->task == TaskKind::kArmed) send_preload(n);
+    // A node applying RPDO1 on reception would start now: its start image waits for fire().
+    if (nodes_[n]->phase == Node::Phase::kOperational && nodes_[n]->task == TaskKind::kArmed && nodes_[n]->rpdo_at_sync) send_preload(n);
   }
 }
 
@@ -706,20 +707,19 @@ void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoin
   for (const std::size_t n : started) nodes_[n]->preloaded = false;  // this SYNC applies them
   // Any other node's start image waiting for its own trigger must not be applied by this SYNC.
   masked_sync(now, [this, now] { master_.sync()->trigger_now(now); });
-  const std::int64_t trigger_utime = options_.wall_clock_us(now);  // the driver replaces it by the SYNC's echo
-  can::Frame sync_frame{};
-  sync_frame.id = master_.sync()->config().cob_id & 0x7FF;
+  const std::int64_t trigger_utime = options_.wall_clock_us(now);  // the driver replaces it by the start frame's echo
   for (const auto id : command_ids) {
-    if (context_.start_frame) context_.start_frame(id, sync_frame);
     Job& job = jobs_.at(id);
+    const StartFacts how = start_facts(job);  // SYNC, or RPDO1s back to back (uc57_stack_rpdo.cpp)
+    if (context_.start_frame) context_.start_frame(id, how.frame);
     job.started = true;
     std::fill(job.parts.begin(), job.parts.end(), Job::Part::kStarted);
     Reply r{};
     r.command_id = id;
     r.status = Reply::STARTED;
     r.trigger_utime = trigger_utime;
-    r.start_mechanism = "sync";
-    r.predicted_skew_us = 0;  // one frame starts every axis; the nodes' SYNC latency is undocumented
+    r.start_mechanism = how.mechanism;
+    r.predicted_skew_us = how.skew_us;  // 0 for one SYNC: the nodes' SYNC latency is undocumented
     if (context_.out != nullptr) context_.out->command_reply(r);
   }
 }
