@@ -117,7 +117,7 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
         return app::kExitUsage;
       }
       client::Client client(service.loop(), service.node(), "motionctl-" + std::to_string(::getpid()));
-      if (!ctx.sign_requests(client)) return ctx.result;
+      if (!ctx.sign_requests(client, service.config())) return ctx.result;
       int result = app::kExitOk;
       nlohmann::json out = nlohmann::json::array();
       for (const auto& d : cfg.drives) {
