@@ -200,7 +200,7 @@ void Gateway::refuse(const std::string& reason) {
 void Gateway::set_coordinator_key(const std::optional<security::PublicKey>& coordinator) {
   const std::int64_t now = wall_time_us();
   const std::chrono::milliseconds window(config_.security.window_ms);
-  const std::string& prefix = config_.lcm.channel_prefix;
+  const std::string prefix = node_.prefix();  // what the coordinator signed for: the channels this gateway hears
   auto verifier = [&](std::string_view channel) {
     return coordinator ? std::optional<security::MessageVerifier>{std::in_place, *coordinator, prefix, std::string(channel), window, now}
                        : std::nullopt;

@@ -6,7 +6,7 @@
 #include "motion/lcm/message_names.hpp"
 #include "motion/lcm/reply_error.hpp"
 #include "motion/lcm/request_kinds.hpp"
-#include "motion/lcm/wire_reader.hpp"
+#include "motion/lcm/wire_bounds.hpp"
 
 namespace motion::client {
 

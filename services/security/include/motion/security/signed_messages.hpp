@@ -21,7 +21,7 @@
 
 #include <motionlcm/signed_message_t.hpp>
 
-#include "motion/lcm/wire_reader.hpp"
+#include "motion/lcm/wire_bounds.hpp"
 #include "motion/security/keys.hpp"
 
 namespace motion::security {
