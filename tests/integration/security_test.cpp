@@ -8,6 +8,7 @@
 // takes no forged REPLY. One lab serves the whole suite to keep it short.
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -322,6 +323,17 @@ TEST_F(Security, GatewaysActOnNoTriggerOrActiveMovesNotSignedByTheCoordinator) {
   lab_->pause(milliseconds(200));
   EXPECT_FALSE(lab_->has_event(event_t::GATEWAY_RESTARTED, "w", "op/ghost"));
   expect_nothing_moved();
+}
+
+TEST_F(Security, SimulatorsRuntimeFolderAndBusSocketAreItsOwnersAlone) {
+  // As motion-sim made them: set explicitly (by the umask alone the folder would be 0777 less it).
+  const fs::path dir = lab_->group().work_dir() + "/sim";
+  struct stat st {};
+  ASSERT_EQ(::lstat(dir.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISDIR(st.st_mode));
+  EXPECT_EQ(st.st_mode & 07777, 0700U);
+  ASSERT_EQ(::stat((dir / "motion-simbus-can0.sock").c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 07777, 0600U);
 }
 
 }  // namespace
