@@ -284,7 +284,7 @@ TEST_F(Security, ForgedReplyForAPendingRequestDoesNotEndItWhenTheClientVerifies)
   ASSERT_TRUE(op->wait_until([&] { return !seen.empty() && client::is_terminal(seen.back().status); }, seconds(20)));
   for (const auto& r : seen) EXPECT_NE(r.reason, "forged") << "the client took a forged reply of request " << id;
   EXPECT_EQ(seen.back().status, st(reply_t::DONE)) << seen.back().reason;
-  EXPECT_GE(op->forged_replies(), 2u);
+  EXPECT_EQ(op->forged_replies(), 1u);  // the signed one; the plain one is not even a candidate
   EXPECT_TRUE(lab_->settled_at("w", target, kTolerance));
   // A client that does not verify would have ended on the lie: the forgery did reach the wire.
 }

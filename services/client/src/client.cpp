@@ -18,8 +18,9 @@ Client::Client(EventLoop& loop, lcm::Node& node, std::string client_id)
     : loop_(loop), node_(node), id_(std::move(client_id)), next_request_id_(wall_time_us()) {
   // Request ids start at the wall clock so a restarted client never reuses a live id.
   node_.subscribe<motionlcm::reply_t>(lcm::channels::kReply, [this](const motionlcm::reply_t& r, const std::string&) {
-    if (!reply_verifier_) return on_reply(r);
-    forged_reply(r, "unsigned (plain REPLY) while the client verifies the coordinator's signature");
+    // While verifying, a plain REPLY is not a reply: the coordinator's own come signed on SREPLY
+    // too (its plain copies are for clients that do not verify), so it is not counted either.
+    if (!reply_verifier_) on_reply(r);
   });
   node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [this](const motionlcm::axis_state_t& s, const std::string&) {
     axes_[s.axis] = s;

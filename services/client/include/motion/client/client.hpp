@@ -13,9 +13,11 @@
 // Verifying (README "Security"): after verify_with(coordinator's public key) replies and
 // SECURITY events count only when signed by the coordinator (signed_message_t on SREPLY and
 // SEVENT, security::MessageVerifier: key, signature, window, counter, nothing signed before the
-// client started). A plain REPLY for one of its pending requests, or a signed one that does not
-// verify, is not a reply: the request goes on waiting, the forgery is counted (forged_replies())
-// and logged (the first 10). on_event() handlers still get the plain EVENTs of every process.
+// client started). A plain REPLY is not a reply then (ignored: the coordinator publishes a plain
+// copy of each of its replies for clients that do not verify), and a signed one for a pending
+// request that does not verify is a forgery: the request goes on waiting, the forgery is counted
+// (forged_replies()) and logged (the first 10). on_event() handlers still get the plain EVENTs
+// of every process.
 //
 // Thread contract: owned by one thread with its EventLoop. `call()` pumps that loop until the
 // terminal reply (or the timeout), so callbacks keep running while it waits.
@@ -59,7 +61,7 @@ class Client {
   // `window`: config security.window_ms. Call it before the first send().
   void verify_with(const security::PublicKey& coordinator, std::chrono::milliseconds window);
   [[nodiscard]] bool verifying() const { return reply_verifier_.has_value(); }
-  // Replies for this client's ids that were refused: plain while verifying, or signed and not verified.
+  // Signed replies for this client's pending requests that did not verify (see above).
   [[nodiscard]] std::uint64_t forged_replies() const { return forged_replies_; }
 
   // Fills utime/client_id/request_id/num_axes and publishes; replies go to `on_reply`.
