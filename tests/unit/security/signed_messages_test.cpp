@@ -2,7 +2,10 @@
 // signed_message_t and verified per channel, on a manual wall clock.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
+#include <fstream>
+#include <iterator>
 
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
@@ -80,6 +83,23 @@ TEST_F(SignedMessages, OtherKeyAlteredOtherChannelOtherPrefixStaleAndWrongTypeAr
   r.client_id = "x";
   const auto wrong = triggers.verify<sync_trigger2_t>(signer.sign("SYNC_TRIGGER2", r, now + 10), now + 10);
   EXPECT_NE(wrong.reason.find("malformed message"), std::string::npos) << wrong.reason;
+}
+
+// The fuzz target's seed envelope was signed by Python (python3-nacl) with the seed 32 x 0x03 at
+// utime 1.7e15 µs: byte for byte the layout signed_message_t.lcm documents.
+TEST(SignedMessageLayout, AnEnvelopeSignedOutsideCppVerifies) {
+  std::ifstream in(MOTION_SIGNED_MESSAGE_SEED, std::ios::binary);
+  const std::vector<std::uint8_t> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  ASSERT_GT(bytes.size(), 1u);
+  motionlcm::signed_message_t envelope;
+  ASSERT_EQ(lcm::wire::decode_bounded(bytes.data() + 1, bytes.size() - 1, envelope), "");  // after the fuzz target's selector byte
+  std::array<std::uint8_t, kSeedBytes> seed{};
+  seed.fill(3);
+  MessageVerifier verifier(KeyPair::from_seed(seed, "coordinator").public_key(), "MOTION_", "SYNC_TRIGGER2", 2000ms, 0);
+  const auto v = verifier.verify<sync_trigger2_t>(envelope, 1'700'000'000'000'000);
+  ASSERT_TRUE(v.message) << v.reason;
+  EXPECT_EQ(v.message->trigger_id, 5);
+  EXPECT_EQ(v.message->start_command_ids, std::vector<std::int64_t>{11});
 }
 
 }  // namespace
