@@ -85,7 +85,7 @@ TEST_F(SignedMessages, OtherKeyAlteredOtherChannelOtherPrefixStaleAndWrongTypeAr
   EXPECT_NE(wrong.reason.find("malformed message"), std::string::npos) << wrong.reason;
 }
 
-// The fuzz target's seed envelope was signed by Python (python3-nacl) with the seed 32 x 0x03 at
+// The fuzz target's seed envelope was signed by Python (motionclient.signing.MessageSigner, python3-nacl) with the seed 32 x 0x03 at
 // utime 1.7e15 µs: byte for byte the layout signed_message_t.lcm documents.
 TEST(SignedMessageLayout, AnEnvelopeSignedOutsideCppVerifies) {
   std::ifstream in(MOTION_SIGNED_MESSAGE_SEED, std::ios::binary);
