@@ -23,15 +23,6 @@ security::Loaded<std::optional<security::PublicKey>> Gateway::load_coordinator_k
   return std::optional<security::PublicKey>{std::get<security::PublicKey>(key)};
 }
 
-security::Loaded<std::optional<security::GatewayCommandVerifier>> Gateway::load_command_verifier(const config::Config& config) {
-  auto key = load_coordinator_key(config);
-  if (auto* error = std::get_if<std::string>(&key)) return *error;
-  const auto& coordinator = std::get<std::optional<security::PublicKey>>(key);
-  if (!coordinator) return std::optional<security::GatewayCommandVerifier>{};
-  return std::optional<security::GatewayCommandVerifier>{std::in_place, *coordinator, config.lcm.channel_prefix,
-                                                          std::chrono::milliseconds(config.security.window_ms), wall_time_us()};
-}
-
 Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config, std::string bus)
     : loop_(loop),
       node_(node),

@@ -2,7 +2,7 @@
 //  - subscribes to GW_COMMAND_<bus>, GW_SCOMMAND_<bus> (commands signed by the coordinator) and
 //    SYNC_TRIGGER2 (and the deprecated SYNC_TRIGGER); validates that every axis of a command belongs to this bus (FAILED with a
 //    reason otherwise, never silence);
-//  - signed commands pass the coordinator's key (set_command_verifier) when there is one; with
+//  - signed commands pass the coordinator's key (set_coordinator_key) when there is one; with
 //    security.mode enforce, plain commands and signed ones that do not verify are refused with a
 //    SECURITY event and no reply (their command ids cannot be trusted);
 //  - the same for triggers and ACTIVE_MOVES: signed copies (signed_message_t on SSYNC_TRIGGER,
@@ -81,16 +81,12 @@ class Gateway final : public GatewayOutput {
   void set_unsupported(const std::vector<const config::Drive*>& drives);
   // Why there is no driver yet (e.g. the bus cannot be opened; retried): shown in the health.
   void set_waiting(std::string why);
-  // Verifies signed commands with the coordinator's key from now on (none: they are unwrapped).
-  void set_command_verifier(std::optional<security::GatewayCommandVerifier> verifier) { verifier_ = std::move(verifier); }
   // Verifies signed commands, triggers and ACTIVE_MOVES with `coordinator` from now on (none:
-  // signed ones are unwrapped unverified), with config security.window_ms.
+  // signed ones are unwrapped unverified), with config security.window_ms, for the channel prefix
+  // of the gateway's node (the one the coordinator signs for).
   void set_coordinator_key(const std::optional<security::PublicKey>& coordinator);
   // security.coordinator_public_key of `config` (none when not set), or what is wrong with it.
   [[nodiscard]] static security::Loaded<std::optional<security::PublicKey>> load_coordinator_key(const config::Config& config);
-  // The verifier of `config.security` (none without coordinator_public_key), or what is wrong
-  // with the key file (naming the configuration key).
-  [[nodiscard]] static security::Loaded<std::optional<security::GatewayCommandVerifier>> load_command_verifier(const config::Config& config);
 
   // Without a builder no DRIVE_MODEL is published (and the coordinator refuses moves of the bus).
   void set_model_builder(ModelBuilder builder) { model_builder_ = std::move(builder); }
