@@ -33,7 +33,7 @@ int main(int argc, char** argv) {
       spdlog::error("{}", *refused);
       return app::kExitUnavailable;
     }
-    auto verifier = gateway::Gateway::load_command_verifier(*config);
+    auto verifier = gateway::Gateway::load_coordinator_key(*config);
     if (auto* error = std::get_if<std::string>(&verifier)) {
       spdlog::error("{}: {}", config->file, *error);
       return app::kExitConfig;
@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
     // 50 us timer slack of this (the loop's) thread.
     if (!minimal_timer_slack()) spdlog::warn("could not lower the timer slack (prctl PR_SET_TIMERSLACK)");
     gateway::Gateway gateway(service.loop(), service.node(), service.health(), *config, bus_name);
-    gateway.set_command_verifier(std::move(std::get<std::optional<security::GatewayCommandVerifier>>(verifier)));
+    gateway.set_coordinator_key(std::get<std::optional<security::PublicKey>>(verifier));
     gateway.set_model_builder([&config = *config](const config::Axis& axis, const gateway::DriveFacts& facts) {
       return drive_model::build(config, axis, facts);
     });

@@ -1,5 +1,9 @@
-// The verifier path of signed messages (services/security), as the coordinator and the gateways
-// run it on what arrives on SREQUEST and GW_SCOMMAND_<bus>: the first byte selects the type (even:
+// The verifier path of signed messages (services/security), as the coordinator, the gateways and
+// the clients run it on what arrives on SREQUEST, GW_SCOMMAND_<bus> and S<channel>. A
+// signed_message_t (told by its fingerprint) is checked by a MessageVerifier of the coordinator's
+// key for its own channel when that is one the system signs (SYNC_TRIGGER, SYNC_TRIGGER2,
+// ACTIVE_MOVES, REPLY, EVENT; else SYNC_TRIGGER2), and the message inside decoded as that
+// channel's type. Otherwise the first byte selects the type (even:
 // signed_request_t, checked by a RequestVerifier against an authorized_keys of two keys; odd:
 // signed_gateway_command_t, checked by a GatewayCommandVerifier with the coordinator's public
 // key) and how far the verifier's clock is from the envelope's utime (its low bits, so that
@@ -14,13 +18,21 @@
 #include <chrono>
 #include <limits>
 
+#include <motionlcm/active_moves_t.hpp>
+#include <motionlcm/event_t.hpp>
+#include <motionlcm/reply_t.hpp>
 #include <motionlcm/signed_gateway_command_t.hpp>
+#include <motionlcm/signed_message_t.hpp>
 #include <motionlcm/signed_request_t.hpp>
+#include <motionlcm/sync_trigger2_t.hpp>
+#include <motionlcm/sync_trigger_t.hpp>
 
 #include "fuzz_targets.hpp"
 #include "motion/lcm/wire_bounds.hpp"
 #include "motion/security/gateway_commands.hpp"
+#include "motion/lcm/channels.hpp"
 #include "motion/security/request_verifier.hpp"
+#include "motion/security/signed_messages.hpp"
 
 namespace motion::fuzz {
 namespace {
@@ -54,11 +66,30 @@ std::int64_t now_for(std::int64_t utime, std::uint8_t selector) {
   return utime > std::numeric_limits<std::int64_t>::max() - offset ? utime : utime + offset;
 }
 
+template <typename Msg>
+void verify_as(const motionlcm::signed_message_t& envelope, std::string_view channel, std::uint8_t selector) {
+  security::MessageVerifier verifier(coordinator(), kPrefix, std::string(channel), kWindow, 0);
+  (void)verifier.verify<Msg>(envelope, now_for(envelope.utime, selector));
+}
+
+void verify_message(const motionlcm::signed_message_t& envelope, std::uint8_t selector) {
+  namespace ch = lcm::channels;
+  if (envelope.channel == ch::kSyncTrigger) return verify_as<motionlcm::sync_trigger_t>(envelope, ch::kSyncTrigger, selector);
+  if (envelope.channel == ch::kActiveMoves) return verify_as<motionlcm::active_moves_t>(envelope, ch::kActiveMoves, selector);
+  if (envelope.channel == ch::kReply) return verify_as<motionlcm::reply_t>(envelope, ch::kReply, selector);
+  if (envelope.channel == ch::kEvent) return verify_as<motionlcm::event_t>(envelope, ch::kEvent, selector);
+  verify_as<motionlcm::sync_trigger2_t>(envelope, ch::kSyncTrigger2, selector);
+}
+
 }  // namespace
 
 int signed_messages(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
   const std::uint8_t selector = data[0];
+  if (motionlcm::signed_message_t message; lcm::wire::decode_bounded(data + 1, size - 1, message).empty()) {
+    verify_message(message, selector);
+    return 0;
+  }
   if ((selector & 1) == 0) {
     motionlcm::signed_request_t envelope;
     if (!lcm::wire::decode_bounded(data + 1, size - 1, envelope).empty()) return 0;

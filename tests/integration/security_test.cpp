@@ -3,10 +3,12 @@
 // authorized_keys file written by the test): a signed move of an `operate` key runs; each way of
 // being refused says why (in the reply when the request is authentic, else in a SECURITY event)
 // and moves nothing. The coordinator signs its gateway commands; a command straight on
-// GW_COMMAND_<bus>, or one signed with another key, is refused by the gateway. One lab serves the
-// whole suite to keep it short.
+// GW_COMMAND_<bus>, or one signed with another key, is refused by the gateway, and so are triggers
+// and ACTIVE_MOVES not signed by the coordinator. A client holding the coordinator's public key
+// takes no forged REPLY. One lab serves the whole suite to keep it short.
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -14,6 +16,7 @@
 #include <motionlcm/signed_request_t.hpp>
 
 #include "motion/security/gateway_commands.hpp"
+#include "motion/security/signed_messages.hpp"
 #include "motion/security/signed_request.hpp"
 #include "sim_lab.hpp"
 
@@ -252,6 +255,85 @@ TEST_F(Security, GatewayRefusesCommandsNotSignedByTheCoordinator) {
   lab_->group().node().publish(lcm::channels::signed_gateway_command("can0"), impostor.sign(jog, wall_time_us()));
   EXPECT_TRUE(lab_->client().wait_until([&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", "is not the coordinator's"); }, seconds(3)));
   expect_nothing_moved();
+}
+
+TEST_F(Security, ForgedReplyForAPendingRequestDoesNotEndItWhenTheClientVerifies) {
+  const auto op = client("verifying", &keys_->op);
+  const auto coordinator = security::load_public_key(*dir_ + "/coordinator.pub");
+  ASSERT_TRUE(std::holds_alternative<security::PublicKey>(coordinator));
+  op->verify_with(std::get<security::PublicKey>(coordinator), milliseconds(2000));
+  const double target = before_["w"] + 2.0;
+  std::vector<reply_t> seen;
+  bool forged = false;
+  security::MessageSigner impostor(security::KeyPair::generate("coordinator"), "MOTION_");
+  const std::int64_t id = op->send(move_to("w", target), [&](const reply_t& r) {
+    seen.push_back(r);
+    if (forged) return;
+    forged = true;
+    // The moment the move is accepted, an attacker says it failed: plain on REPLY, and signed
+    // with a key of its own on SREPLY.
+    reply_t lie{};
+    lie.utime = wall_time_us();
+    lie.client_id = r.client_id;
+    lie.request_id = r.request_id;
+    lie.status = reply_t::FAILED;
+    lie.reason = "forged";
+    lab_->group().node().publish(lcm::channels::kReply, lie);
+    lab_->group().node().publish(security::signed_channel(lcm::channels::kReply), impostor.sign(lcm::channels::kReply, lie, wall_time_us()));
+  });
+  ASSERT_TRUE(op->wait_until([&] { return !seen.empty() && client::is_terminal(seen.back().status); }, seconds(20)));
+  for (const auto& r : seen) EXPECT_NE(r.reason, "forged") << "the client took a forged reply of request " << id;
+  EXPECT_EQ(seen.back().status, st(reply_t::DONE)) << seen.back().reason;
+  EXPECT_EQ(op->forged_replies(), 1u);  // the signed one; the plain one is not even a candidate
+  EXPECT_TRUE(lab_->settled_at("w", target, kTolerance));
+  // A client that does not verify would have ended on the lie: the forgery did reach the wire.
+}
+
+TEST_F(Security, GatewaysActOnNoTriggerOrActiveMovesNotSignedByTheCoordinator) {
+  motionlcm::sync_trigger2_t trigger{};
+  trigger.trigger_id = 424242;
+  trigger.act_utime = wall_time_us();
+  trigger.buses = {"can0"};
+  trigger.send_utime = {trigger.act_utime};
+  trigger.lead_us = {0.0};
+  trigger.num_buses = 1;
+  lab_->group().node().publish(lcm::channels::kSyncTrigger2, trigger);
+  EXPECT_TRUE(lab_->client().wait_until(
+      [&] { return lab_->has_event(event_t::SECURITY, "", "unsigned SYNC_TRIGGER2 (trigger 424242) refused: security is enforced"); }, seconds(3)));
+  security::MessageSigner impostor(security::KeyPair::generate("coordinator"), "MOTION_");
+  trigger.trigger_id = 424243;
+  lab_->group().node().publish(security::signed_channel(lcm::channels::kSyncTrigger2),
+                               impostor.sign(lcm::channels::kSyncTrigger2, trigger, wall_time_us()));
+  EXPECT_TRUE(lab_->client().wait_until([&] { return lab_->has_event(event_t::SECURITY, "", "signed SYNC_TRIGGER2 refused: key"); }, seconds(3)));
+  // A desired state saying w moves since long ago: a gateway taking it would stop w, and say so.
+  motionlcm::active_moves_t moves{};
+  moves.axes = {"w"};
+  moves.buses = {"can0"};
+  moves.client_ids = {"op/ghost"};
+  moves.request_ids = {7};
+  moves.kinds = {request_t::MOVE_ABSOLUTE};
+  moves.phases = {motionlcm::active_moves_t::MOVING};
+  moves.command_ids = {7};
+  moves.target_counts = {0};
+  moves.targets = {0.0};
+  moves.fire_utime = {wall_time_us() - 60'000'000};
+  moves.num_axes = 1;
+  lab_->group().node().publish(lcm::channels::kActiveMoves, moves);
+  EXPECT_TRUE(lab_->client().wait_until([&] { return lab_->has_event(event_t::SECURITY, "", "unsigned ACTIVE_MOVES (1 rows) refused"); }, seconds(3)));
+  lab_->pause(milliseconds(200));
+  EXPECT_FALSE(lab_->has_event(event_t::GATEWAY_RESTARTED, "w", "op/ghost"));
+  expect_nothing_moved();
+}
+
+TEST_F(Security, SimulatorsRuntimeFolderAndBusSocketAreItsOwnersAlone) {
+  // As motion-sim made them: set explicitly (by the umask alone the folder would be 0777 less it).
+  const fs::path dir = lab_->group().work_dir() + "/sim";
+  struct stat st {};
+  ASSERT_EQ(::lstat(dir.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISDIR(st.st_mode));
+  EXPECT_EQ(st.st_mode & 07777, 0700U);
+  ASSERT_EQ(::stat((dir / "motion-simbus-can0.sock").c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 07777, 0600U);
 }
 
 }  // namespace

@@ -222,7 +222,7 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
     return app::kExitUsage;
   }
   client::Client client(service.loop(), service.node(), "motionctl-" + std::to_string(::getpid()));
-  if (!ctx.sign_requests(client)) return ctx.result;
+  if (!ctx.sign_requests(client, service.config())) return ctx.result;
   const bool tty = ::isatty(1) != 0 && !ctx.json;
   bool started = false;
   auto progress = [&](const motionlcm::reply_t& r) {

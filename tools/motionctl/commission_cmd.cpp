@@ -140,7 +140,7 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
         return app::kExitUsage;
       }
       client::Client client(service.loop(), service.node(), "motionctl-" + std::to_string(::getpid()));
-      if (!ctx.sign_requests(client)) return ctx.result;
+      if (!ctx.sign_requests(client, service.config())) return ctx.result;
       // The drive models (DRIVE_MODEL) of the bus's UC57 axes: how their gateway starts them.
       std::map<std::string, motionlcm::drive_model_t> models;
       std::size_t uc57_axes = 0;

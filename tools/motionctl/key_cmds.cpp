@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "motion/security/gateway_commands.hpp"
 #include "motionctl.hpp"
 
 namespace motion::ctl {
@@ -22,7 +23,17 @@ std::string default_key_name() {
 
 }  // namespace
 
-bool Context::sign_requests(client::Client& client) {
+bool Context::sign_requests(client::Client& client, const config::Config& config) {
+  // With security enforced and the coordinator's public key known, only its signed replies count.
+  if (config.security.mode == config::SecuritySettings::Mode::kEnforce && !config.security.coordinator_public_key.empty()) {
+    auto coordinator = security::load_public_key(config.security.coordinator_public_key);
+    if (auto* error = std::get_if<std::string>(&coordinator)) {
+      std::cerr << "motionctl: security.coordinator_public_key: " << *error << "\n";
+      result = app::kExitConfig;
+      return false;
+    }
+    client.verify_with(std::get<security::PublicKey>(coordinator), std::chrono::milliseconds(config.security.window_ms));
+  }
   if (key_path.empty()) return true;
   auto key = security::load_private_key(key_path);
   if (auto* error = std::get_if<std::string>(&key)) {

@@ -16,9 +16,10 @@ struct Context {
   std::string key_path;  // --key / $MOTION_KEY: sign requests with it
   int result = app::kExitOk;
 
-  // Signs `client`'s requests with --key when one is given; false (result set, error printed)
-  // when the key cannot be loaded.
-  bool sign_requests(client::Client& client);
+  // Signs `client`'s requests with --key when one is given, and has it verify the coordinator's
+  // replies when `config` enforces security and names security.coordinator_public_key; false
+  // (result set, error printed) when a key cannot be loaded.
+  bool sign_requests(client::Client& client, const config::Config& config);
 
   // Loads the configuration, opens LCM as a client process and runs `body` with it.
   int with_node(const std::function<int(app::Service&)>& body);

@@ -26,6 +26,7 @@ security::Loaded<CoordinatorService::Security> CoordinatorService::load_security
       }
     }
     out.command_signer.emplace(pair, config.lcm.channel_prefix);
+    out.message_signer.emplace(pair, config.lcm.channel_prefix);
   }
   if (!settings.authorized_keys.empty()) {
     auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
@@ -42,7 +43,8 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
       core_(config, std::move(planner), *this),
       enforce_(config.security.mode == config::SecuritySettings::Mode::kEnforce),
       verifier_(std::move(security.verifier)),
-      command_signer_(std::move(security.command_signer)) {
+      command_signer_(std::move(security.command_signer)),
+      message_signer_(std::move(security.message_signer)) {
   using motionlcm::request_t;
   node_.subscribe<request_t>(
       lcm::channels::kRequest,
@@ -149,7 +151,13 @@ void CoordinatorService::pump() {
   });
 }
 
-void CoordinatorService::reply(const motionlcm::reply_t& reply) { node_.publish(lcm::channels::kReply, reply); }
+template <typename Msg>
+void CoordinatorService::publish_coordinator_message(std::string_view channel, const Msg& message, bool plain_under_enforce) {
+  if (!message_signer_ || !enforce_ || plain_under_enforce) node_.publish(channel, message);
+  if (message_signer_) node_.publish(security::signed_channel(channel), message_signer_->sign(channel, message, wall_time_us()));
+}
+
+void CoordinatorService::reply(const motionlcm::reply_t& reply) { publish_coordinator_message(lcm::channels::kReply, reply, true); }
 
 void CoordinatorService::gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) {
   if (command_signer_) {
@@ -159,12 +167,18 @@ void CoordinatorService::gateway_command(const std::string& bus, const motionlcm
   }
 }
 
-void CoordinatorService::sync_trigger(const motionlcm::sync_trigger_t& trigger) { node_.publish(lcm::channels::kSyncTrigger, trigger); }
-void CoordinatorService::sync_trigger2(const motionlcm::sync_trigger2_t& trigger) { node_.publish(lcm::channels::kSyncTrigger2, trigger); }
+void CoordinatorService::sync_trigger(const motionlcm::sync_trigger_t& trigger) {
+  publish_coordinator_message(lcm::channels::kSyncTrigger, trigger, false);
+}
+void CoordinatorService::sync_trigger2(const motionlcm::sync_trigger2_t& trigger) {
+  publish_coordinator_message(lcm::channels::kSyncTrigger2, trigger, false);
+}
 
-void CoordinatorService::active_moves(const motionlcm::active_moves_t& moves) { node_.publish(lcm::channels::kActiveMoves, moves); }
+void CoordinatorService::active_moves(const motionlcm::active_moves_t& moves) {
+  publish_coordinator_message(lcm::channels::kActiveMoves, moves, false);
+}
 
-void CoordinatorService::event(const motionlcm::event_t& event) { node_.publish(lcm::channels::kEvent, event); }
+void CoordinatorService::event(const motionlcm::event_t& event) { publish_coordinator_message(lcm::channels::kEvent, event, true); }
 
 void CoordinatorService::drive_model_request(const motionlcm::drive_model_request_t& request) {
   node_.publish(lcm::channels::kDriveModelRequest, request);

@@ -34,8 +34,8 @@ std::unique_ptr<PtyLink> PtyLink::create(const std::string& link_path, const Ser
   }
   namespace fs = std::filesystem;
   const fs::path target{link_path};
-  fs::create_directories(target.parent_path(), error);
-  if (error) return nullptr;
+  // Its folder (the simulator's runtime folder) is the owner's too, whatever the umask says.
+  if (target.has_parent_path() && (error = make_private_dir(target.parent_path().string(), access))) return nullptr;
   // symlink to a temporary name, then rename over the final one: a gateway polling for the link
   // never sees a half-made or missing link while a stale one is replaced.
   const fs::path temporary = target.string() + ".tmp" + std::to_string(::getpid());

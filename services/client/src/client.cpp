@@ -1,9 +1,12 @@
 #include "motion/client/client.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/message_names.hpp"
 #include "motion/lcm/reply_error.hpp"
 #include "motion/lcm/request_kinds.hpp"
+#include "motion/lcm/wire_bounds.hpp"
 
 namespace motion::client {
 
@@ -15,21 +18,60 @@ Client::Client(EventLoop& loop, lcm::Node& node, std::string client_id)
     : loop_(loop), node_(node), id_(std::move(client_id)), next_request_id_(wall_time_us()) {
   // Request ids start at the wall clock so a restarted client never reuses a live id.
   node_.subscribe<motionlcm::reply_t>(lcm::channels::kReply, [this](const motionlcm::reply_t& r, const std::string&) {
-    if (r.client_id != id_) return;
-    auto it = pending_.find(r.request_id);
-    if (it == pending_.end()) return;
-    auto handler = it->second.handler;  // copy: the handler may send further requests
-    if (is_terminal(r.status)) pending_.erase(it);
-    if (handler) handler(r);
+    // While verifying, a plain REPLY is not a reply: the coordinator's own come signed on SREPLY
+    // too (its plain copies are for clients that do not verify), so it is not counted either.
+    if (!reply_verifier_) on_reply(r);
   });
   node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [this](const motionlcm::axis_state_t& s, const std::string&) {
     axes_[s.axis] = s;
     if (state_handler_) state_handler_(s);
   });
   node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) {
-    if (e.kind == motionlcm::event_t::SECURITY) on_security_event(e);
+    if (e.kind == motionlcm::event_t::SECURITY && !event_verifier_) on_security_event(e);
     if (event_handler_) event_handler_(e);
   });
+}
+
+void Client::verify_with(const security::PublicKey& coordinator, std::chrono::milliseconds window) {
+  const bool subscribed = reply_verifier_.has_value();
+  const std::int64_t now = wall_time_us();
+  reply_verifier_.emplace(coordinator, node_.prefix(), std::string(lcm::channels::kReply), window, now);
+  event_verifier_.emplace(coordinator, node_.prefix(), std::string(lcm::channels::kEvent), window, now);
+  if (subscribed) return;
+  node_.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kReply),
+                                               [this](const motionlcm::signed_message_t& m, const std::string&) {
+                                                 auto verified = reply_verifier_->verify<motionlcm::reply_t>(m, wall_time_us());
+                                                 if (verified.message) return on_reply(*verified.message);
+                                                 // What it claims to be, to tell whether it concerns this client.
+                                                 motionlcm::reply_t claimed;
+                                                 if (lcm::wire::decode_bounded(m.message.data(), m.message.size(), claimed).empty()) {
+                                                   forged_reply(claimed, verified.reason);
+                                                 }
+                                               });
+  node_.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kEvent),
+                                               [this](const motionlcm::signed_message_t& m, const std::string&) {
+                                                 auto verified = event_verifier_->verify<motionlcm::event_t>(m, wall_time_us());
+                                                 if (verified.message && verified.message->kind == motionlcm::event_t::SECURITY) {
+                                                   on_security_event(*verified.message);
+                                                 }
+                                               });
+}
+
+void Client::on_reply(const motionlcm::reply_t& r) {
+  if (r.client_id != id_) return;
+  auto it = pending_.find(r.request_id);
+  if (it == pending_.end()) return;
+  auto handler = it->second.handler;  // copy: the handler may send further requests
+  if (is_terminal(r.status)) pending_.erase(it);
+  if (handler) handler(r);
+}
+
+void Client::forged_reply(const motionlcm::reply_t& r, const std::string& why) {
+  if (r.client_id != id_ || !pending_.contains(r.request_id)) return;
+  ++forged_replies_;
+  if (forged_replies_ <= 10) {
+    spdlog::warn("SECURITY: a {} reply to request {} is not the coordinator's and is ignored: {}", status_name(r.status), r.request_id, why);
+  }
 }
 
 void Client::sign_with(security::KeyPair key) {

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <filesystem>
 #include <vector>
 
 namespace motion {
@@ -26,6 +27,31 @@ std::error_code restrict_access(int fd, const FileAccess& access) {
   if (access.group && ::fchown(fd, static_cast<uid_t>(-1), *access.group) != 0) return last_error();
   if (::fchmod(fd, access.mode()) != 0) return last_error();
   return {};
+}
+
+std::error_code make_private_dir(const std::string& path, const FileAccess& access) {
+  std::error_code error;
+  if (const auto parent = std::filesystem::path(path).parent_path(); !parent.empty()) {
+    std::filesystem::create_directories(parent, error);
+    if (error) return error;
+  }
+  if (::mkdir(path.c_str(), 0700) != 0 && errno != EEXIST) return last_error();
+  // O_NOFOLLOW | O_DIRECTORY: a symbolic link planted in its place is refused, and what is
+  // checked and changed below is the folder opened, not whatever the name points to meanwhile.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return errno == ELOOP ? std::make_error_code(std::errc::not_a_directory) : last_error();
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    error = last_error();
+  } else if (st.st_uid != ::geteuid()) {
+    error = std::make_error_code(std::errc::permission_denied);
+  } else if (access.group && ::fchown(fd, static_cast<uid_t>(-1), *access.group) != 0) {
+    error = last_error();
+  } else if (::fchmod(fd, access.dir_mode()) != 0) {
+    error = last_error();
+  }
+  ::close(fd);
+  return error;
 }
 
 std::optional<gid_t> group_id(const std::string& name) {

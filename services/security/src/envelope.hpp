@@ -1,7 +1,7 @@
-// What signed_request_t and signed_gateway_command_t share (internal to motion::security): the
+// What signed_request_t, signed_gateway_command_t and signed_message_t share (internal to motion::security): the
 // bytes a signature covers, sealing a message into an envelope, and the freshness checks.
-// Both envelopes have utime, key_id[8], counter, the signed message's bytes and signature[64];
-// the message field is `payload` in one and `command` in the other (payload() below).
+// Every envelope has utime, key_id[8], counter, the signed message's bytes and signature[64];
+// the message field is `payload`, `command` or `message` (payload() below).
 #pragma once
 
 #include <algorithm>
@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <motionlcm/signed_gateway_command_t.hpp>
+#include <motionlcm/signed_message_t.hpp>
 #include <motionlcm/signed_request_t.hpp>
 
 #include "motion/security/keys.hpp"
@@ -22,6 +23,7 @@ namespace motion::security::detail {
 
 inline constexpr std::string_view kRequestDomain = "motionbus signed_request_t v1";
 inline constexpr std::string_view kGatewayCommandDomain = "motionbus signed_gateway_command_t v1";
+inline constexpr std::string_view kMessageDomain = "motionbus signed_message_t v1";
 
 // domain NUL prefix NUL key_id counter utime payload_size payload (integers big-endian).
 std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_view prefix, const std::uint8_t (&key_id)[kKeyIdBytes],
@@ -37,6 +39,10 @@ inline std::vector<std::uint8_t>& payload(motionlcm::signed_gateway_command_t& e
 inline const std::vector<std::uint8_t>& payload(const motionlcm::signed_gateway_command_t& e) { return e.command; }
 inline std::int32_t& payload_size(motionlcm::signed_gateway_command_t& e) { return e.command_size; }
 inline std::int32_t payload_size(const motionlcm::signed_gateway_command_t& e) { return e.command_size; }
+inline std::vector<std::uint8_t>& payload(motionlcm::signed_message_t& e) { return e.message; }
+inline const std::vector<std::uint8_t>& payload(const motionlcm::signed_message_t& e) { return e.message; }
+inline std::int32_t& payload_size(motionlcm::signed_message_t& e) { return e.message_size; }
+inline std::int32_t payload_size(const motionlcm::signed_message_t& e) { return e.message_size; }
 
 template <typename Envelope>
 std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_view prefix, const Envelope& e) {

@@ -28,6 +28,7 @@
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
+#include <motionlcm/signed_message_t.hpp>
 #include <spdlog/spdlog.h>
 
 #include "motion/app/service.hpp"
@@ -35,6 +36,7 @@
 #include "motion/core/log.hpp"
 #include "motion/core/loop_mailbox.hpp"
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/wire_bounds.hpp"
 #include "motion/security/keys.hpp"
 #include "motion/web/controls.hpp"
 #include "motion/web/lab_view.hpp"
@@ -68,6 +70,23 @@ class Bridge {
   template <typename Msg>
   void forward(lcm::Node& node, std::string_view channel, std::vector<Outgoing> (LabView::*on)(const Msg&)) {
     node.subscribe<Msg>(channel, [this, on](const Msg& msg, const std::string&) {
+      std::vector<Outgoing> out;
+      {
+        const std::lock_guard lock(mutex_);
+        out = (view_.*on)(msg);
+      }
+      for (auto& message : out) server_.broadcast(std::move(message));
+    });
+  }
+
+  // The same from the coordinator's signed copies (signed_message_t on S<channel>, README
+  // "Security"): with security.mode enforce there are no plain ACTIVE_MOVES. Unwrapped without
+  // verifying: the view only shows them.
+  template <typename Msg>
+  void forward_signed(lcm::Node& node, std::string_view channel, std::vector<Outgoing> (LabView::*on)(const Msg&)) {
+    node.subscribe<motionlcm::signed_message_t>("S" + std::string(channel), [this, on](const motionlcm::signed_message_t& env, const std::string&) {
+      Msg msg;
+      if (!lcm::wire::decode_bounded(env.message.data(), env.message.size(), msg).empty()) return;
       std::vector<Outgoing> out;
       {
         const std::lock_guard lock(mutex_);
@@ -188,6 +207,8 @@ int main(int argc, char** argv) {
     bridge->forward(node, motion::lcm::channels::kEvent, &web::LabView::on_event);
     bridge->forward(node, motion::lcm::channels::kReply, &web::LabView::on_reply);
     bridge->forward(node, motion::lcm::channels::kActiveMoves, &web::LabView::on_active_moves);
+    // Under enforce the coordinator sends ACTIVE_MOVES signed only (otherwise plain too: taken once).
+    if (config->security.mode == motion::config::SecuritySettings::Mode::kEnforce) bridge->forward_signed(node, motion::lcm::channels::kActiveMoves, &web::LabView::on_active_moves);
     bridge->follow_requests(node);
 
     auto& server = bridge->server();

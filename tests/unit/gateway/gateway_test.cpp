@@ -2,13 +2,17 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
+#include <motionlcm/request_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/lcm/channels.hpp"
+#include "motion/security/signed_messages.hpp"
 #include "motion/testing/lcm_url.hpp"
 
 namespace motion::gateway {
@@ -64,8 +68,8 @@ class FakeDriver : public BusDriver {
 };
 
 struct Fixture : ::testing::Test {
-  Fixture()
-      : config(*config::load_string(kConfig).config),
+  explicit Fixture(const std::string& config_text = kConfig)
+      : config(*config::load_string(config_text).config),
         node(loop, {testing::unique_lcm_url(11), "GT_"}),
         health(loop, node, "gateway:can0", "gateway"),
         gateway(loop, node, health, config, "can0") {
@@ -286,6 +290,134 @@ TEST_F(Fixture, DriveModelIsPublishedWhenSetUpOnChangeAndOnRequest) {
   ASSERT_FALSE(events.empty());
   EXPECT_EQ(events.back().text, "no drive model for axis x: no resolution (its moves are refused)");
   EXPECT_EQ(models.size(), 3u);
+}
+
+}  // namespace
+}  // namespace motion::gateway
+
+namespace motion::gateway {
+namespace {
+
+// security.mode enforce: triggers and ACTIVE_MOVES count only when signed by the coordinator's key;
+// anything else fires or stops nothing and is a SECURITY event (at most 5 a second).
+struct Enforced : Fixture {
+  Enforced()
+      : Fixture(std::string(kConfig) +
+                "security: {mode: enforce, authorized_keys: ak, key: c.key, coordinator_public_key: c.pub, window_ms: 2000}\n") {
+    gateway.set_coordinator_key(coordinator.public_key());
+  }
+  // A trigger of can0 whose send time is now: it would fire at once.
+  static motionlcm::sync_trigger2_t trigger(std::int64_t id) {
+    motionlcm::sync_trigger2_t t{};
+    t.trigger_id = id;
+    t.act_utime = wall_time_us() + 100;
+    t.buses = {"can0"};
+    t.send_utime = {t.act_utime - 100};
+    t.lead_us = {100.0};
+    t.num_buses = 1;
+    return t;
+  }
+  // The desired state of a request moving x since before this gateway started: a gateway that
+  // takes it stops x (a restarted gateway's duty).
+  static motionlcm::active_moves_t moving_x() {
+    motionlcm::active_moves_t m{};
+    m.axes = {"x"};
+    m.buses = {"can0"};
+    m.client_ids = {"op/ctl"};
+    m.request_ids = {41};
+    m.kinds = {motionlcm::request_t::MOVE_ABSOLUTE};
+    m.phases = {motionlcm::active_moves_t::MOVING};
+    m.command_ids = {12};
+    m.target_counts = {500};
+    m.targets = {5.0};
+    m.fire_utime = {wall_time_us() - 10'000'000};
+    m.num_axes = 1;
+    return m;
+  }
+  template <typename Msg>
+  void publish_signed(security::MessageSigner& by, std::string_view channel, const Msg& msg) {
+    node.publish(security::signed_channel(channel), by.sign(channel, msg, wall_time_us()));
+  }
+  // Pumps until a SECURITY event containing `text` (or 3 s).
+  bool refused(const std::string& text) {
+    const auto said = [&] {
+      return std::any_of(events.begin(), events.end(), [&](const motionlcm::event_t& e) {
+        return e.kind == motionlcm::event_t::SECURITY && e.text.find(text) != std::string::npos;
+      });
+    };
+    pump_until(said);
+    return said();
+  }
+  void pump_for(milliseconds d) {
+    const auto until = loop.now() + d;
+    pump_until([&] { return loop.now() >= until; });
+  }
+
+  security::KeyPair coordinator = security::KeyPair::generate("coordinator");
+  security::MessageSigner signer{coordinator, "GT_"};
+};
+
+TEST_F(Enforced, UnsignedOrWronglySignedTriggersFireNothingAndOnlyTheCoordinatorsDoes) {
+  node.publish(lcm::channels::kSyncTrigger2, trigger(1));
+  EXPECT_TRUE(refused("unsigned SYNC_TRIGGER2 (trigger 1) refused: security is enforced"));
+  motionlcm::sync_trigger_t old{};
+  old.trigger_id = 2;
+  old.fire_utime = wall_time_us();
+  old.buses = {"can0"};
+  old.num_buses = 1;
+  node.publish(lcm::channels::kSyncTrigger, old);
+  EXPECT_TRUE(refused("unsigned SYNC_TRIGGER (trigger 2) refused"));
+  security::MessageSigner impostor(security::KeyPair::generate("coordinator"), "GT_");
+  publish_signed(impostor, lcm::channels::kSyncTrigger2, trigger(3));
+  EXPECT_TRUE(refused("signed SYNC_TRIGGER2 refused: key " + security::to_hex(impostor.key().id()) + " is not the coordinator's"));
+  auto altered = signer.sign(lcm::channels::kSyncTrigger2, trigger(4), wall_time_us());
+  altered.message.back() ^= 1;
+  node.publish(security::signed_channel(lcm::channels::kSyncTrigger2), altered);
+  EXPECT_TRUE(refused("signed SYNC_TRIGGER2 refused: bad signature"));
+  pump_for(milliseconds(50));
+  EXPECT_TRUE(driver->fired.empty());
+  // The coordinator's own fires (and so would the others have, had they been taken).
+  publish_signed(signer, lcm::channels::kSyncTrigger2, trigger(5));
+  publish_signed(signer, lcm::channels::kSyncTrigger, old);
+  pump_until([&] { return driver->fired.size() >= 2; });
+  ASSERT_EQ(driver->fired.size(), 2u);
+  EXPECT_EQ(driver->fired[0].first, 5);
+  EXPECT_EQ(driver->fired[1].first, 2);
+}
+
+TEST_F(Enforced, ReplayedTriggerFiresNothing) {
+  // Two triggers the coordinator signed; an eavesdropper holds back the first and sends it after
+  // the second was taken: its counter is not above the last accepted.
+  const auto first = signer.sign(lcm::channels::kSyncTrigger2, trigger(7), wall_time_us());
+  publish_signed(signer, lcm::channels::kSyncTrigger2, trigger(8));
+  pump_until([&] { return !driver->fired.empty(); });
+  ASSERT_EQ(driver->fired.size(), 1u);
+  node.publish(security::signed_channel(lcm::channels::kSyncTrigger2), first);
+  EXPECT_TRUE(refused("signed SYNC_TRIGGER2 refused: replayed counter " + std::to_string(first.counter)));
+  pump_for(milliseconds(50));
+  EXPECT_EQ(driver->fired.size(), 1u);
+}
+
+TEST_F(Enforced, UnsignedActiveMovesStopNothingAndTheCoordinatorsDo) {
+  node.publish(lcm::channels::kActiveMoves, moving_x());
+  EXPECT_TRUE(refused("unsigned ACTIVE_MOVES (1 rows) refused"));
+  security::MessageSigner impostor(security::KeyPair::generate("coordinator"), "GT_");
+  publish_signed(impostor, lcm::channels::kActiveMoves, moving_x());
+  EXPECT_TRUE(refused("signed ACTIVE_MOVES refused: key"));
+  pump_for(milliseconds(50));
+  EXPECT_TRUE(driver->commands.empty());
+  publish_signed(signer, lcm::channels::kActiveMoves, moving_x());
+  pump_until([&] { return !driver->commands.empty(); });
+  ASSERT_EQ(driver->commands.size(), 1u);
+  EXPECT_EQ(driver->commands[0].kind, std::int8_t{motionlcm::gateway_command_t::STOP});
+}
+
+TEST_F(Enforced, AFloodOfForgedTriggersIsFiveEventsASecond) {
+  for (int i = 0; i < 40; ++i) node.publish(lcm::channels::kSyncTrigger2, trigger(100 + i));
+  pump_for(milliseconds(300));
+  const auto security_events = std::count_if(events.begin(), events.end(), [](const auto& e) { return e.kind == motionlcm::event_t::SECURITY; });
+  EXPECT_EQ(security_events, 5);
+  EXPECT_TRUE(driver->fired.empty());
 }
 
 }  // namespace

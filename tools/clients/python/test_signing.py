@@ -4,12 +4,16 @@ signed_request_t; and the key file rules (mode 0600, one key line) and $MOTION_K
 
     PYTHONPATH=build/lcmtypes/python:tools/clients/python python3 -m unittest -v test_signing
 """
+import base64
 import os
 import tempfile
+import time
 import unittest
 
-from motionlcm import param_t, request_t
-from motionclient.signing import KeyFileError, RequestSigner, key_path, load_private_key, signed_bytes
+from motionlcm import param_t, reply_t, request_t
+from motionclient.client import Client
+from motionclient.signing import (KeyFileError, MessageSigner, RequestSigner, SigningKey, key_path, load_private_key,
+                                  load_public_key, signed_bytes)
 
 VECTOR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "tests", "vectors",
                       "signed_request_v1.txt")
@@ -113,3 +117,72 @@ class SigningVector(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+class FakeLcm:
+    """Records subscriptions and publications: the test delivers messages to the handlers itself."""
+    url = "fake://"
+
+    def __init__(self):
+        self.handlers = {}
+        self.published = []
+
+    def subscribe(self, channel, handler):
+        self.handlers[channel] = handler
+        return len(self.handlers)
+
+    def publish(self, channel, payload):
+        self.published.append((channel, payload))
+
+    def deliver(self, channel, payload):
+        self.handlers[channel](channel, payload)
+
+    def close(self):
+        pass
+
+
+class ReplyVerification(unittest.TestCase):
+    """A client holding the coordinator's public key takes only replies the coordinator signed
+    (SREPLY): a forged REPLY, plain or signed with another key, does not end the request."""
+
+    def setUp(self):
+        self.coordinator = SigningKey(bytes([3]) * 32, "coordinator")
+        self.lcm = FakeLcm()
+        self.client = Client(lcm=self.lcm, client_id="py-test")
+        self.client.verify_with(self.coordinator.public_key, window_ms=2000)
+        self.seen = []
+        self.rid = self.client.send("move_absolute", ["x"], [1.0], on_reply=self.seen.append)
+
+    def reply(self, status, reason):
+        r = reply_t()
+        r.utime = int(time.time() * 1e6)
+        r.client_id = "py-test"
+        r.request_id = self.rid
+        r.status = status
+        r.reason = reason
+        r.param = param_t()
+        return r
+
+    def test_forged_replies_do_not_end_the_request_and_the_coordinators_does(self):
+        lie = self.reply(reply_t.FAILED, "forged")
+        self.lcm.deliver("MOTION_REPLY", lie.encode())
+        impostor = MessageSigner(SigningKey(bytes([9]) * 32, "coordinator"), "MOTION_")
+        self.lcm.deliver("MOTION_SREPLY", impostor.sign("REPLY", lie, int(time.time() * 1e6)).encode())
+        self.assertEqual(self.seen, [])
+        self.assertEqual(self.client.forged_replies, 1)
+        done = self.reply(reply_t.DONE, "")
+        signer = MessageSigner(self.coordinator, "MOTION_")
+        recorded = signer.sign("REPLY", done, int(time.time() * 1e6))
+        self.lcm.deliver("MOTION_SREPLY", recorded.encode())
+        self.assertEqual([r.status for r in self.seen], [reply_t.DONE])
+        # Sent again (replayed counter): not a reply either, even for a request still pending.
+        self.rid = self.client.send("move_absolute", ["x"], [2.0], on_reply=self.seen.append)
+        self.lcm.deliver("MOTION_SREPLY", recorded.encode())
+        self.assertEqual(len(self.seen), 1)
+
+    def test_public_key_file_as_keygen_writes_it(self):
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "coordinator.pub")
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(base64.b64encode(self.coordinator.public_key).decode() + " coordinator admin\n")
+            self.assertEqual(load_public_key(path), self.coordinator.public_key)
+

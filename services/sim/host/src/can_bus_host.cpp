@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "motion/can/socketcan.hpp"
+#include "motion/core/file_access.hpp"
 
 namespace motion::sim {
 
@@ -33,8 +34,8 @@ std::unique_ptr<CanBusHost> CanBusHost::open(EventLoop& loop, const config::Conf
   options.bus_name = bus.target;
   options.access = *access;
   options.socket_dir = config::sim_runtime_dir(config);
-  std::filesystem::create_directories(options.socket_dir, error);
-  if (error) return nullptr;
+  // The folder is the owner's (0700; 0710 with simulation.group), set explicitly: not the umask's.
+  if ((error = make_private_dir(options.socket_dir, options.access))) return nullptr;
   options.bus.bitrate = static_cast<std::uint32_t>(bus.bitrate);
   options.bus.timing = bus.bus_timing;
   host->hub_ = simbus::Hub::open(loop, options, error);

@@ -22,11 +22,11 @@ import time
 from typing import Callable, Dict, Iterable, Mapping, Optional, Sequence, Union
 
 from .lcm_udp import LcmUdp
-from .signing import RequestSigner, SigningKey
+from .signing import MessageVerifier, RequestSigner, SigningKey
 
 try:
     import motionlcm
-    from motionlcm import axis_state_t, event_t, health_t, param_t, reply_t, request_t
+    from motionlcm import axis_state_t, event_t, health_t, param_t, reply_t, request_t, signed_message_t
 except ImportError as e:  # pragma: no cover - a clear message instead of a bare ImportError
     raise ImportError("motionclient needs the generated LCM types: put build/lcmtypes/python on PYTHONPATH "
                       f"(build the motion_lcmtypes_scripts target) ({e})") from None
@@ -98,6 +98,9 @@ class Client:
         self.lcm.subscribe(self.channel("AXIS_STATE"), self._on_axis_state)
         self.lcm.subscribe(self.channel("EVENT"), self._on_event)
         self.lcm.subscribe(self.channel("HEALTH"), self._on_health)
+        self._reply_verifier: Optional[MessageVerifier] = None
+        self._event_verifier: Optional[MessageVerifier] = None
+        self.forged_replies = 0  # signed replies for pending requests that did not verify
         if key is not None:
             self.sign_with(key)
 
@@ -120,6 +123,19 @@ class Client:
         client id becomes the key's own ("<name>/<id>"), as the coordinator requires."""
         self.signer = RequestSigner(key, self.prefix)
         self.id = self.signer.own_client_id(self.id)
+
+    def verify_with(self, coordinator: bytes, window_ms: int = 2000) -> None:
+        """From now on only replies and SECURITY events signed by the coordinator count (SREPLY,
+        SEVENT; `coordinator`: its public key, motionclient.signing.load_public_key of
+        security.coordinator_public_key), as in the C++ client: a plain REPLY is ignored (the
+        coordinator's own come signed too), a signed one that does not verify is a forgery: the
+        request goes on waiting and forged_replies counts it."""
+        subscribed = self._reply_verifier is not None
+        self._reply_verifier = MessageVerifier(coordinator, self.prefix, "REPLY", window_ms)
+        self._event_verifier = MessageVerifier(coordinator, self.prefix, "EVENT", window_ms)
+        if not subscribed:
+            self.lcm.subscribe(self.channel("SREPLY"), self._on_signed_reply)
+            self.lcm.subscribe(self.channel("SEVENT"), self._on_signed_event)
 
     # ------------------------------------------------------------------ requests
 
@@ -263,7 +279,31 @@ class Client:
         self._labels.pop(request_id, None)
 
     def _on_reply(self, _channel: str, payload: bytes) -> None:
-        r = self._decode(reply_t, payload)
+        if self._reply_verifier is None:
+            self._take_reply(self._decode(reply_t, payload))
+
+    def _on_signed_reply(self, _channel: str, payload: bytes) -> None:
+        env = self._decode(signed_message_t, payload)
+        if env is None:
+            return
+        message, _why = self._reply_verifier.verify(env, int(time.time() * 1e6))
+        if message is not None:
+            self._take_reply(self._decode(reply_t, message))
+            return
+        claimed = self._decode(reply_t, bytes(env.message))
+        if claimed is not None and claimed.client_id == self.id and claimed.request_id in self._pending:
+            self.forged_replies += 1
+
+    def _on_signed_event(self, _channel: str, payload: bytes) -> None:
+        env = self._decode(signed_message_t, payload)
+        if env is None:
+            return
+        message, _why = self._event_verifier.verify(env, int(time.time() * 1e6))
+        e = self._decode(event_t, message) if message is not None else None
+        if e is not None and e.kind == event_t.SECURITY:
+            self._on_security_event(e)
+
+    def _take_reply(self, r) -> None:
         if r is None or r.client_id != self.id or r.request_id not in self._pending:
             return
         handler = self._pending[r.request_id]
@@ -302,7 +342,7 @@ class Client:
         e = self._decode(event_t, payload)
         if e is None:
             return
-        if e.kind == event_t.SECURITY:
+        if e.kind == event_t.SECURITY and self._event_verifier is None:
             self._on_security_event(e)
         if self._event_handler:
             self._event_handler(e)

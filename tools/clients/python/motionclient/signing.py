@@ -7,7 +7,14 @@ The signature covers, concatenated (lcmtypes/signed_request_t.lcm):
   b"motionbus signed_request_t v1" NUL, channel prefix, NUL, key_id (8 bytes),
   counter (int64 big-endian), utime (int64 big-endian), payload_size (int32 big-endian), payload.
 
-Thread contract: a RequestSigner belongs to one thread; the functions are pure.
+The coordinator's own messages (replies, events, triggers) come signed in a signed_message_t on
+<prefix>S<channel> (lcmtypes/signed_message_t.lcm); MessageVerifier checks them with the
+coordinator's public key (its .pub file, load_public_key), MessageSigner makes them (tests). The
+signature covers b"motionbus signed_message_t v1" NUL, prefix, NUL, channel, NUL, key_id, counter,
+utime, message_size, message (the same layout).
+
+Thread contract: a RequestSigner, MessageSigner or MessageVerifier belongs to one thread; the
+functions are pure.
 """
 
 from __future__ import annotations
@@ -18,6 +25,7 @@ import struct
 from typing import Optional
 
 REQUEST_DOMAIN = b"motionbus signed_request_t v1"
+MESSAGE_DOMAIN = b"motionbus signed_message_t v1"
 PRIVATE_TAG = "motionbus-ed25519-private-key"
 KEY_ID_BYTES = 8
 
@@ -141,5 +149,91 @@ class RequestSigner:
         return env
 
 
-__all__ = ["KeyFileError", "SigningKey", "RequestSigner", "load_private_key", "key_path", "signed_bytes",
-           "name_owns_client_id", "valid_name", "REQUEST_DOMAIN"]
+def load_public_key(path: str) -> bytes:
+    """The 32-byte key of a public key file ("<base64 public key> <name> [<role>]", as motionctl
+    keygen writes <name>.pub), e.g. the coordinator's (security.coordinator_public_key)."""
+    import base64
+    import binascii
+    try:
+        with open(path, encoding="utf-8") as f:
+            lines = f.readlines()
+    except OSError as e:
+        raise KeyFileError(f"cannot read public key file {path}: {e.strerror}") from None
+    for number, line in enumerate(lines, 1):
+        fields = line.split()
+        if not fields or fields[0].startswith("#"):
+            continue
+        try:
+            key = base64.b64decode(fields[0], validate=True)
+        except binascii.Error:
+            key = b""
+        if len(key) != 32:
+            raise KeyFileError(f"{path}:{number}: expected '<base64 public key> <name> [<role>]' (is this a .pub file?)")
+        return key
+    raise KeyFileError(f"public key file {path} holds no key line")
+
+
+def _message_bytes(prefix: str, channel: str, env) -> bytes:
+    return signed_bytes(prefix + "\0" + channel, env.key_id, env.counter, env.utime, env.message, domain=MESSAGE_DOMAIN)
+
+
+class MessageSigner:
+    """Signs messages of the coordinator's channels into signed_message_t (as the C++
+    security::MessageSigner; the coordinator's job, here for tests and tools)."""
+
+    def __init__(self, key: SigningKey, prefix: str):
+        self.key = key
+        self.prefix = prefix
+        self._last_counter = 0
+
+    def sign(self, channel: str, message, now_us: int):
+        from motionlcm import signed_message_t
+        env = signed_message_t()
+        env.utime = now_us
+        env.key_id = self.key.key_id
+        self._last_counter = max(self._last_counter + 1, now_us)
+        env.counter = self._last_counter
+        env.channel = channel
+        env.message = message.encode()
+        env.message_size = len(env.message)
+        env.signature = self.key.sign(_message_bytes(self.prefix, channel, env))
+        return env
+
+
+class MessageVerifier:
+    """Takes a signed_message_t of one channel when it is the coordinator's, fresh (utime within
+    window_ms of now and not before the verifier was made) and its counter is above the last one
+    taken (as the C++ security::MessageVerifier). verify() returns (message bytes, "") or (None, why)."""
+
+    def __init__(self, coordinator: bytes, prefix: str, channel: str, window_ms: int = 2000,
+                 not_before_us: Optional[int] = None):
+        import time
+        self._key = _nacl_signing().VerifyKey(bytes(coordinator))
+        self.key_id = bytes(coordinator)[:KEY_ID_BYTES]
+        self.prefix = prefix
+        self.channel = channel
+        self.window_us = window_ms * 1000
+        self.not_before_us = int(time.time() * 1e6) if not_before_us is None else not_before_us
+        self._last_counter = 0
+
+    def verify(self, env, now_us: int):
+        what = f"signed {self.channel} refused: "
+        if env.channel != self.channel:
+            return None, what + f"it was signed for channel '{env.channel[:64]}'"
+        if bytes(env.key_id) != self.key_id:
+            return None, what + f"key {bytes(env.key_id).hex()} is not the coordinator's ({self.key_id.hex()})"
+        try:
+            self._key.verify(_message_bytes(self.prefix, self.channel, env), bytes(env.signature))
+        except Exception:  # nacl.exceptions.BadSignatureError
+            return None, what + "bad signature (forged or altered in transit)"
+        if env.utime < self.not_before_us or abs(now_us - env.utime) > self.window_us:
+            return None, what + "stale timestamp (outside the window, or signed before this client started)"
+        if env.counter <= self._last_counter:
+            return None, what + f"replayed counter {env.counter} (last accepted {self._last_counter})"
+        self._last_counter = env.counter
+        return bytes(env.message), ""
+
+
+__all__ = ["KeyFileError", "SigningKey", "RequestSigner", "MessageSigner", "MessageVerifier", "load_private_key",
+           "load_public_key", "key_path", "signed_bytes", "name_owns_client_id", "valid_name", "REQUEST_DOMAIN",
+           "MESSAGE_DOMAIN"]

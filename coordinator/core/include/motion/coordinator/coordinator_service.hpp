@@ -11,7 +11,11 @@
 // verifier (mode off, no authorized_keys) a signed request is unwrapped unverified. With mode
 // enforce, a plain request_t on REQUEST (well-formed or not) is refused: a SECURITY event, no
 // reply, because its ids cannot be trusted. With a command signer, gateway commands go out
-// signed on GW_SCOMMAND_<bus> instead of GW_COMMAND_<bus>.
+// signed on GW_SCOMMAND_<bus> instead of GW_COMMAND_<bus>, and its triggers, ACTIVE_MOVES, replies
+// and events also go out signed (signed_message_t on SSYNC_TRIGGER, SSYNC_TRIGGER2, SACTIVE_MOVES,
+// SREPLY, SEVENT); with mode enforce the plain triggers and ACTIVE_MOVES are not sent at all
+// (gateways would refuse them), plain REPLY and EVENT still are (for observers and clients that
+// do not verify).
 //
 // Thread contract: loop thread only. Never blocks.
 #pragma once
@@ -25,6 +29,7 @@
 #include "motion/lcm/node.hpp"
 #include "motion/security/gateway_commands.hpp"
 #include "motion/security/request_verifier.hpp"
+#include "motion/security/signed_messages.hpp"
 
 namespace motion::coordinator {
 
@@ -35,6 +40,7 @@ class CoordinatorService final : private CoordinatorOutput {
   struct Security {
     std::optional<security::RequestVerifier> verifier;
     std::optional<security::GatewayCommandSigner> command_signer;
+    std::optional<security::MessageSigner> message_signer;  // with command_signer: the same key
   };
 
   // `loop`, `node` and `config` must outlive the service. `security`: see load_security().
@@ -74,6 +80,11 @@ class CoordinatorService final : private CoordinatorOutput {
   bool enforce_ = false;
   std::optional<security::RequestVerifier> verifier_;
   std::optional<security::GatewayCommandSigner> command_signer_;
+  std::optional<security::MessageSigner> message_signer_;
+  // Publishes `message` signed on S<channel> when there is a signer, and plain on <channel>
+  // unless there is one, the mode is enforce and not `plain_under_enforce`.
+  template <typename Msg>
+  void publish_coordinator_message(std::string_view channel, const Msg& message, bool plain_under_enforce);
   EventLoop::TimerId timer_ = 0;
   TimePoint timer_deadline_ = kNever;
 };

@@ -2,9 +2,13 @@
 //  - subscribes to GW_COMMAND_<bus>, GW_SCOMMAND_<bus> (commands signed by the coordinator) and
 //    SYNC_TRIGGER2 (and the deprecated SYNC_TRIGGER); validates that every axis of a command belongs to this bus (FAILED with a
 //    reason otherwise, never silence);
-//  - signed commands pass the coordinator's key (set_command_verifier) when there is one; with
+//  - signed commands pass the coordinator's key (set_coordinator_key) when there is one; with
 //    security.mode enforce, plain commands and signed ones that do not verify are refused with a
 //    SECURITY event and no reply (their command ids cannot be trusted);
+//  - the same for triggers and ACTIVE_MOVES: signed copies (signed_message_t on SSYNC_TRIGGER,
+//    SSYNC_TRIGGER2, SACTIVE_MOVES) pass the coordinator's key (set_coordinator_key); with
+//    enforce, plain ones and signed ones that do not verify do nothing but a SECURITY event.
+//    SECURITY events are rate-limited: 5 a second, then a count of the suppressed ones;
 //  - schedules triggers on the steady clock: a SYNC_TRIGGER2 fires the driver at this bus's
 //    send_utime (the drives act on the start frames at act_utime), its start frames in the order
 //    it gives; a SYNC_TRIGGER (from a coordinator that does not send SYNC_TRIGGER2) at its
@@ -47,7 +51,9 @@
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/lcm/health.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/lcm/malformed_limiter.hpp"
 #include "motion/security/gateway_commands.hpp"
+#include "motion/security/signed_messages.hpp"
 
 namespace motion::gateway {
 
@@ -75,11 +81,12 @@ class Gateway final : public GatewayOutput {
   void set_unsupported(const std::vector<const config::Drive*>& drives);
   // Why there is no driver yet (e.g. the bus cannot be opened; retried): shown in the health.
   void set_waiting(std::string why);
-  // Verifies signed commands with the coordinator's key from now on (none: they are unwrapped).
-  void set_command_verifier(std::optional<security::GatewayCommandVerifier> verifier) { verifier_ = std::move(verifier); }
-  // The verifier of `config.security` (none without coordinator_public_key), or what is wrong
-  // with the key file (naming the configuration key).
-  [[nodiscard]] static security::Loaded<std::optional<security::GatewayCommandVerifier>> load_command_verifier(const config::Config& config);
+  // Verifies signed commands, triggers and ACTIVE_MOVES with `coordinator` from now on (none:
+  // signed ones are unwrapped unverified), with config security.window_ms, for the channel prefix
+  // of the gateway's node (the one the coordinator signs for).
+  void set_coordinator_key(const std::optional<security::PublicKey>& coordinator);
+  // security.coordinator_public_key of `config` (none when not set), or what is wrong with it.
+  [[nodiscard]] static security::Loaded<std::optional<security::PublicKey>> load_coordinator_key(const config::Config& config);
 
   // Without a builder no DRIVE_MODEL is published (and the coordinator refuses moves of the bus).
   void set_model_builder(ModelBuilder builder) { model_builder_ = std::move(builder); }
@@ -102,6 +109,12 @@ class Gateway final : public GatewayOutput {
   void on_signed_command(const motionlcm::signed_gateway_command_t& envelope);
   // A command refused by the security policy: a SECURITY event, no reply.
   void refuse(const std::string& reason);
+  // Triggers and ACTIVE_MOVES: signed ones verified (set_coordinator_key), plain ones refused
+  // under enforce.
+  void subscribe_coordinator_messages();
+  template <typename Msg>
+  void on_signed_message(std::optional<security::MessageVerifier>& verifier, const motionlcm::signed_message_t& envelope,
+                         void (Gateway::*handler)(const Msg&));
   void on_trigger(const motionlcm::sync_trigger_t& trigger);
   void on_trigger2(const motionlcm::sync_trigger2_t& trigger);
   // Fires the driver for `trigger_id` at `send_utime` (wall clock), or now when that has passed.
@@ -161,6 +174,10 @@ class Gateway final : public GatewayOutput {
   std::deque<std::int64_t> fired_;                            // recent trigger ids fired
   bool enforce_ = false;                              // security.mode enforce
   std::optional<security::GatewayCommandVerifier> verifier_;
+  std::optional<security::MessageVerifier> trigger_verifier_;   // SSYNC_TRIGGER
+  std::optional<security::MessageVerifier> trigger2_verifier_;  // SSYNC_TRIGGER2
+  std::optional<security::MessageVerifier> moves_verifier_;     // SACTIVE_MOVES
+  lcm::MalformedLimiter security_events_;                       // refusals reported (5 a second)
 };
 
 }  // namespace motion::gateway

@@ -7,8 +7,17 @@
 // stale timestamp: its ids cannot be trusted, so none is sent) is named in a SECURITY event on
 // EVENT (lcm::request_label); the client ends such a request of its own at once with a local
 // REJECTED reply (kUnauthorized) carrying the event's text, instead of waiting for the timeout.
-// Like any reply, such an event is not authenticated: another process on the network could
-// fail a request this way, never make one succeed.
+// Like any reply, such an event is not authenticated unless the client verifies: another
+// process on the network could then fail a request this way, never make one succeed.
+//
+// Verifying (README "Security"): after verify_with(coordinator's public key) replies and
+// SECURITY events count only when signed by the coordinator (signed_message_t on SREPLY and
+// SEVENT, security::MessageVerifier: key, signature, window, counter, nothing signed before the
+// client started). A plain REPLY is not a reply then (ignored: the coordinator publishes a plain
+// copy of each of its replies for clients that do not verify), and a signed one for a pending
+// request that does not verify is a forgery: the request goes on waiting, the forgery is counted
+// (forged_replies()) and logged (the first 10). on_event() handlers still get the plain EVENTs
+// of every process.
 //
 // Thread contract: owned by one thread with its EventLoop. `call()` pumps that loop until the
 // terminal reply (or the timeout), so callbacks keep running while it waits.
@@ -29,6 +38,7 @@
 
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/security/signed_messages.hpp"
 #include "motion/security/signed_request.hpp"
 
 namespace motion::client {
@@ -46,6 +56,13 @@ class Client {
   // client id (RequestSigner::own_client_id). Call it before the first send().
   void sign_with(security::KeyPair key);
   [[nodiscard]] bool signing() const { return signer_.has_value(); }
+
+  // From now on only replies and SECURITY events signed with `coordinator` count (see above);
+  // `window`: config security.window_ms. Call it before the first send().
+  void verify_with(const security::PublicKey& coordinator, std::chrono::milliseconds window);
+  [[nodiscard]] bool verifying() const { return reply_verifier_.has_value(); }
+  // Signed replies for this client's pending requests that did not verify (see above).
+  [[nodiscard]] std::uint64_t forged_replies() const { return forged_replies_; }
 
   // Fills utime/client_id/request_id/num_axes and publishes; replies go to `on_reply`.
   std::int64_t send(motionlcm::request_t request, ReplyHandler on_reply = {});
@@ -82,10 +99,17 @@ class Client {
   };
   // A SECURITY event naming pending requests of this client: their local REJECTED replies.
   void on_security_event(const motionlcm::event_t& event);
+  // A reply taken as the coordinator's: to its pending request's handler.
+  void on_reply(const motionlcm::reply_t& reply);
+  // A reply for this client that is not the coordinator's (why): counted and logged, else ignored.
+  void forged_reply(const motionlcm::reply_t& reply, const std::string& why);
   // The channel requests go out on.
   [[nodiscard]] std::string_view request_channel() const;
 
   std::optional<security::RequestSigner> signer_;
+  std::optional<security::MessageVerifier> reply_verifier_;  // SREPLY
+  std::optional<security::MessageVerifier> event_verifier_;  // SEVENT
+  std::uint64_t forged_replies_ = 0;
   std::map<std::int64_t, Pending> pending_;
   std::map<std::string, motionlcm::axis_state_t> axes_;
   std::function<void(const motionlcm::axis_state_t&)> state_handler_;

@@ -190,7 +190,7 @@ struct SecuritySettings {
   Mode mode = Mode::kOff;
   std::string authorized_keys;  // "<base64 public key> <name> <role>" per line; required by kEnforce
   std::string key;              // the coordinator's private key: it signs its gateway commands with it
-  std::string coordinator_public_key;  // the coordinator's public key (its .pub file): gateways verify commands with it
+  std::string coordinator_public_key;  // the coordinator's public key (its .pub file): gateways verify its commands, triggers and ACTIVE_MOVES with it, clients its replies
   int window_ms = 2000;         // a signed request's utime must be within this of the coordinator's clock
   KeyLocations where;
 };

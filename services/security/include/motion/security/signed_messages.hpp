@@ -1,0 +1,91 @@
+// The coordinator's own messages signed with its key: any LCM message inside a signed_message_t
+// (lcmtypes/signed_message_t.lcm) on <prefix>S<channel>, e.g. SSYNC_TRIGGER2 for the
+// sync_trigger2_t of SYNC_TRIGGER2. Gateways verify triggers and ACTIVE_MOVES with them, clients
+// REPLY and EVENT (README "Security").
+//
+// A MessageVerifier listens for one channel. It accepts an envelope when, in this order, its
+// channel is that one, its key id is the coordinator's, the signature verifies, utime is within
+// `window` of the receiver's clock and not before the verifier was made, the counter is above the
+// last one it accepted (replay), and the message decodes (bounded) as the expected type. Every
+// refusal says which of these failed.
+//
+// Thread contract: each object belongs to one thread; no call blocks.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <motionlcm/signed_message_t.hpp>
+
+#include "motion/lcm/wire_bounds.hpp"
+#include "motion/security/keys.hpp"
+
+namespace motion::security {
+
+// The channel (without prefix) a signed copy of `channel`'s messages goes on: "S" + channel.
+[[nodiscard]] std::string signed_channel(std::string_view channel);
+
+class MessageSigner {
+ public:
+  MessageSigner(KeyPair key, std::string channel_prefix);
+  // `message` (any LCM type) encoded and signed for `channel` (without prefix) at `now_us` (µs
+  // since the epoch), with the next counter: max(last + 1, now_us). One counter for all channels.
+  template <typename Msg>
+  [[nodiscard]] motionlcm::signed_message_t sign(std::string_view channel, const Msg& message, std::int64_t now_us) {
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(message.getEncodedSize()));
+    message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    return sign_bytes(channel, std::move(bytes), now_us);
+  }
+  [[nodiscard]] motionlcm::signed_message_t sign_bytes(std::string_view channel, std::vector<std::uint8_t> message, std::int64_t now_us);
+  [[nodiscard]] const KeyPair& key() const { return key_; }
+
+ private:
+  KeyPair key_;
+  std::string prefix_;
+  std::int64_t last_counter_ = 0;
+};
+
+template <typename Msg>
+struct Verified {
+  std::optional<Msg> message;  // set when accepted
+  std::string reason;          // else what was wrong
+};
+
+class MessageVerifier {
+ public:
+  // `channel`: the plain channel (without prefix) this verifier accepts envelopes for.
+  MessageVerifier(PublicKey coordinator, std::string channel_prefix, std::string channel, std::chrono::milliseconds window,
+                  std::int64_t not_before_us);
+
+  // The envelope's message bytes when accepted (nullopt and `reason` otherwise).
+  [[nodiscard]] std::optional<std::vector<std::uint8_t>> verify_bytes(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
+                                                                      std::string& reason);
+  template <typename Msg>
+  [[nodiscard]] Verified<Msg> verify(const motionlcm::signed_message_t& envelope, std::int64_t now_us) {
+    Verified<Msg> v;
+    auto bytes = verify_bytes(envelope, now_us, v.reason);
+    if (!bytes) return v;
+    Msg msg;
+    if (std::string why = lcm::wire::decode_bounded(bytes->data(), bytes->size(), msg); !why.empty()) {
+      v.reason = "signed " + channel_ + " refused: malformed message: " + why;
+      return v;
+    }
+    v.message = std::move(msg);
+    return v;
+  }
+  [[nodiscard]] const std::string& channel() const { return channel_; }
+
+ private:
+  PublicKey coordinator_;
+  std::string prefix_;
+  std::string channel_;
+  std::int64_t window_us_;
+  std::int64_t not_before_us_;
+  std::int64_t last_counter_ = 0;
+};
+
+}  // namespace motion::security
