@@ -19,14 +19,6 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::event_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using motionlcm::sim_control_t;
-using std::chrono::milliseconds;
-using std::chrono::seconds;
-
 constexpr double kCountsPerMm = 320.0;
 constexpr double kPositionTolerance = 1.0 / kCountsPerMm;  // one pulse, in mm
 const std::vector<std::string> kAxes{"c1", "c2", "c3"};

@@ -10,10 +10,6 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-
 TEST(Commission, ReadsBackTheSetUpAndNamesAContradiction) {
   SimLab lab(source_path("tests/integration/configs/uim242-two.yaml"));
   ASSERT_TRUE(lab.start({"u1", "u2"}));

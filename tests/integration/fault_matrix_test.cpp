@@ -27,14 +27,6 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::event_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using motionlcm::sim_control_t;
-using std::chrono::milliseconds;
-using std::chrono::seconds;
-
 // Faults that are not a SIM_CONTROL action.
 constexpr std::int8_t kKillGateway = -1;      // SIGKILL the axis's gateway, start it again at once
 constexpr std::int8_t kMalformed = -2;        // malformed and oversized messages on its channels

@@ -20,13 +20,8 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::event_t;
 using motionlcm::gateway_command_t;
 using motionlcm::gateway_reply_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using std::chrono::seconds;
 
 class GatewayLimits : public ::testing::Test {
  protected:

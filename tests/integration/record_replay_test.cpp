@@ -28,12 +28,7 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
 using motionlcm::axis_state_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using std::chrono::milliseconds;
-using std::chrono::seconds;
 using Clock = std::chrono::steady_clock;
 
 constexpr const char* kLogger = "/usr/bin/lcm-logger";

@@ -23,13 +23,7 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::event_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
 using motionlcm::signed_request_t;
-using std::chrono::milliseconds;
-using std::chrono::seconds;
 namespace fs = std::filesystem;
 
 const std::vector<std::string> kAxes{"x1", "w"};

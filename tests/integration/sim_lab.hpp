@@ -31,6 +31,15 @@
 
 namespace motion::testing {
 
+// The names every lab test uses.
+using client::Client;
+using motionlcm::event_t;
+using motionlcm::reply_t;
+using motionlcm::request_t;
+using motionlcm::sim_control_t;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+
 // LCM in-class constants are never ODR-used: tests copy them into values with these.
 inline std::int8_t st(std::int8_t s) { return s; }
 inline std::int16_t ev(std::int16_t k) { return k; }

@@ -24,13 +24,6 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::event_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using std::chrono::seconds;
-
-
 const std::vector<std::string> kRequiredAxes{"x", "y", "z", "a", "b", "c", "u"};
 
 // Targets of the full synchronized move (user units), well inside the limits; a and b fast

@@ -21,14 +21,6 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::event_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using motionlcm::sim_control_t;
-using std::chrono::seconds;
-
-
 const std::vector<std::string> kAxes{"a", "b", "c"};
 constexpr double kTolerance = 1.0 / 8.888888888888889 + 1e-9;  // one pulse, in degrees
 

@@ -18,12 +18,7 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
 using motionlcm::drive_model_t;
-using motionlcm::event_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using std::chrono::seconds;
 
 // 2006h subdivision code of 3200 pulses/rev (UC57 manual §5.1 table: 200, 400, 800, 1600, 3200, ...).
 constexpr std::int64_t kCode3200 = 4;

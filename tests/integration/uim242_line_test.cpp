@@ -22,13 +22,6 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::event_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using motionlcm::sim_control_t;
-using std::chrono::milliseconds;
-using std::chrono::seconds;
 using Axes = std::vector<std::string>;
 
 

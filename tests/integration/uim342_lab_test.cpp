@@ -23,13 +23,7 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::event_t;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using motionlcm::sim_control_t;
 using motionlcm::sim_report_t;
-using std::chrono::seconds;
 using Axes = std::vector<std::string>;
 
 // LCM in-class constants are never ODR-used: copy them into values.

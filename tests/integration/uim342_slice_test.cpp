@@ -12,11 +12,6 @@
 namespace motion::testing {
 namespace {
 
-using client::Client;
-using motionlcm::reply_t;
-using motionlcm::request_t;
-using std::chrono::seconds;
-
 constexpr double kPositionTolerance = 1.0 / 640.0;  // one micro-step, in mm
 
 std::int8_t status(std::int8_t s) { return s; }

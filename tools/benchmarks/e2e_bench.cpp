@@ -58,101 +58,14 @@
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/node.hpp"
 #include "motion/simbus/endpoint.hpp"
+#include "bench_process.hpp"
 
 namespace motion::bench {
 namespace {
 
 using motionlcm::reply_t;
 using motionlcm::request_t;
-using Steady = std::chrono::steady_clock;
 using Values = std::map<std::string, double>;
-
-double us_between(Steady::time_point a, Steady::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); }
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double rank = p / 100.0 * static_cast<double>(v.size() - 1);
-  const auto lo = static_cast<std::size_t>(std::floor(rank));
-  const auto hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (v[hi] - v[lo]) * (rank - static_cast<double>(lo));
-}
-
-// ---- child processes ----
-
-struct Child {
-  std::string name;
-  pid_t pid = -1;
-};
-
-pid_t spawn(const std::string& binary, const std::vector<std::string>& args, const std::string& sim_dir, const std::string& log) {
-  const pid_t pid = ::fork();
-  if (pid != 0) return pid;
-  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-  ::setenv("MOTION_SIM_DIR", sim_dir.c_str(), 1);
-  const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  if (fd >= 0) {
-    ::dup2(fd, 1);
-    ::dup2(fd, 2);
-    ::close(fd);
-  }
-  std::vector<std::string> all{binary};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  ::execv(argv[0], argv.data());
-  std::perror("execv");
-  ::_exit(127);
-}
-
-void stop_all(std::vector<Child>& children) {
-  for (const auto& c : children) {
-    if (c.pid > 0) ::kill(c.pid, SIGTERM);
-  }
-  const auto deadline = Steady::now() + std::chrono::seconds(3);
-  for (auto& c : children) {
-    while (c.pid > 0) {
-      int status = 0;
-      if (::waitpid(c.pid, &status, WNOHANG) == c.pid) {
-        c.pid = -1;
-      } else if (Steady::now() > deadline) {
-        ::kill(c.pid, SIGKILL);
-        ::waitpid(c.pid, &status, 0);
-        c.pid = -1;
-      } else {
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
-      }
-    }
-  }
-}
-
-// ---- raw LCM echo peer ----
-
-class Echo {
- public:
-  Echo(const std::string& url, std::string ping, std::string pong) : lcm_(url), ping_(std::move(ping)), pong_(std::move(pong)) {
-    lcm_.subscribe(ping_, &Echo::on_ping, this);
-    thread_ = std::thread([this] {
-      while (!stop_) lcm_.handleTimeout(50);
-    });
-  }
-  ~Echo() {
-    stop_ = true;
-    thread_.join();
-  }
-  Echo(const Echo&) = delete;
-  Echo& operator=(const Echo&) = delete;
-  [[nodiscard]] bool ok() { return lcm_.good(); }
-
- private:
-  void on_ping(const ::lcm::ReceiveBuffer* rbuf, const std::string&) { lcm_.publish(pong_, rbuf->data, rbuf->data_size); }
-  ::lcm::LCM lcm_;
-  std::string ping_;
-  std::string pong_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
 
 struct Row {
   std::string what;

@@ -25,27 +25,6 @@ double TrapezoidShape::velocity(double t_s) const {
   return deceleration * (total - t_s);
 }
 
-TrapezoidShape time_optimal_shape(double distance, double max_velocity, double max_acceleration,
-                                  double max_deceleration) {
-  TrapezoidShape shape;
-  if (!(distance > 0.0)) return shape;
-  shape.acceleration = max_acceleration;
-  shape.deceleration = max_deceleration;
-  const double ramps_distance =
-      0.5 * max_velocity * max_velocity * (1.0 / max_acceleration + 1.0 / max_deceleration);
-  if (ramps_distance <= distance) {
-    shape.peak_velocity = max_velocity;
-    shape.t_cruise_s = (distance - ramps_distance) / max_velocity;
-  } else {
-    // Triangle: v^2/(2a) + v^2/(2d) = distance.
-    shape.peak_velocity =
-        std::sqrt(2.0 * distance * max_acceleration * max_deceleration / (max_acceleration + max_deceleration));
-  }
-  shape.t_acc_s = shape.peak_velocity / max_acceleration;
-  shape.t_dec_s = shape.peak_velocity / max_deceleration;
-  return shape;
-}
-
 MotionSample AxisProfile::sample(double t_s) const {
   const std::int64_t distance = distance_counts();
   const double direction = distance < 0 ? -1.0 : 1.0;

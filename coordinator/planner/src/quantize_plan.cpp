@@ -12,12 +12,17 @@ namespace {
 // Spreads closer than this are equal; the tie goes to the window nearest the planned duration.
 constexpr double kSpreadTieSeconds = 1e-12;
 
-// Kept small (16 bytes; the setting itself is regenerated for the winner only): thousands of them
-// are sorted per plan and must stay in cache.
+// Kept small (16 bytes; the setting stays in the workspace): hundreds of them are sorted per plan.
 struct Candidate {
   double duration_s;
   std::uint32_t axis;
-  std::uint32_t setting;  // index into the axis's append_axis_candidates()
+  std::uint32_t setting;  // index into the workspace's settings (every axis's, in order)
+};
+
+// By duration; equal durations in the order their settings were made (axis by axis, each axis's
+// quantizer order), so that a choice among them never depends on the sort.
+constexpr auto earlier = [](const Candidate& a, const Candidate& b) {
+  return a.duration_s < b.duration_s || (a.duration_s == b.duration_s && a.setting < b.setting);
 };
 
 struct AxisCaps {
@@ -67,8 +72,9 @@ std::optional<DriveMotion> duration_matching(double distance, double duration_s,
 // Smallest window of the duration-sorted candidates holding at least one candidate of every moving
 // axis (classic "smallest range covering k lists", O(M) after the sort). Returns [first, last].
 std::pair<std::size_t, std::size_t> tightest_window(const std::vector<Candidate>& sorted, std::size_t axis_count,
-                                                    std::size_t moving_count, double planned_duration_s) {
-  std::vector<std::size_t> in_window(axis_count, 0);
+                                                    std::size_t moving_count, double planned_duration_s,
+                                                    std::vector<std::size_t>& in_window) {
+  in_window.assign(axis_count, 0);
   std::size_t covered = 0;
   std::size_t first = 0;
   std::pair<std::size_t, std::size_t> best{0, sorted.size() - 1};
@@ -92,38 +98,113 @@ std::pair<std::size_t, std::size_t> tightest_window(const std::vector<Candidate>
   return best;
 }
 
+// The candidates that can be part of the tightest window, in `earlier` order. A window of spread
+// at most `bound` (the spread of some covering choice, so at least the tightest one's) fits in two
+// adjacent buckets of that width, so only candidates in a bucket that, with a neighbour, holds every
+// moving axis are kept (per bucket, the axes present as a bit mask, axis index modulo 64: more
+// axes only keep more). The candidates kept are sorted; the window search over them finds what
+// it finds over all (every window within the tie margin of the tightest, and every candidate
+// inside it, is kept).
+// The axes present in one duration bucket; `plan` tells whether it was written by this plan, so
+// that the buckets need no clearing between plans.
+struct BucketAxes {
+  std::uint64_t plan = 0;
+  std::uint64_t axes = 0;
+};
+
+void tight_candidates(const std::vector<Candidate>& candidates, double shortest, double longest, double bound,
+                      std::uint64_t plan_stamp, std::vector<BucketAxes>& bucket_axes, std::vector<Candidate>& sorted) {
+  // The width covers the tie margin and the rounding of the bucket index.
+  const double width = (bound + 4.0 * kSpreadTieSeconds) * (1.0 + 1e-9) + 1e-300;
+  const double range = longest - shortest;
+  const std::size_t most = 16 * candidates.size() + 16;
+  const double wanted = range / width + 1.0;
+  const std::size_t buckets = wanted < static_cast<double>(most) ? static_cast<std::size_t>(wanted) + 1 : most;
+  const double per_second = static_cast<double>(buckets) / std::max(range, static_cast<double>(buckets) * width);
+  const auto bucket_of = [&](const Candidate& c) {
+    return std::min(buckets - 1, static_cast<std::size_t>((c.duration_s - shortest) * per_second)) + 1;
+  };
+  if (bucket_axes.size() < buckets + 2) bucket_axes.resize(buckets + 2);  // one empty bucket on either side
+  const auto axes_in = [&](std::size_t b) { return bucket_axes[b].plan == plan_stamp ? bucket_axes[b].axes : 0; };
+  std::uint64_t every_axis = 0;
+  for (const Candidate& c : candidates) {
+    const std::uint64_t bit = std::uint64_t{1} << (c.axis % 64);
+    every_axis |= bit;
+    BucketAxes& bucket = bucket_axes[bucket_of(c)];
+    bucket.axes = (bucket.plan == plan_stamp ? bucket.axes : 0) | bit;
+    bucket.plan = plan_stamp;
+  }
+  sorted.clear();
+  for (const Candidate& c : candidates) {
+    const std::size_t b = bucket_of(c);
+    const std::uint64_t here = bucket_axes[b].axes;
+    if ((here | axes_in(b - 1)) == every_axis || (here | axes_in(b + 1)) == every_axis) sorted.push_back(c);
+  }
+  std::ranges::sort(sorted, earlier);
+}
+
+// Scratch buffers of one thread's plans, reused: planning allocates only for its result once they
+// have grown to the largest plan seen.
+struct Workspace {
+  std::vector<DriveSetting> settings;     // every moving axis's settings, axis after axis
+  std::vector<Candidate> candidates;
+  std::vector<Candidate> sorted;          // the candidates in `earlier` order
+  std::vector<BucketAxes> bucket_axes;    // tight_candidates' axes per bucket
+  std::uint64_t plans = 0;                // plans made with this workspace
+  std::vector<std::size_t> in_window;     // tightest_window's per-axis counts
+  std::vector<const Candidate*> chosen;   // per axis
+  std::vector<double> nearest;            // per axis, its duration nearest the planned one (-1: still)
+};
+
+Workspace& thread_workspace() {
+  thread_local Workspace workspace;
+  return workspace;
+}
+
+}  // namespace
+
+namespace {
+
+// append_axis_candidates() before the filter by the axis's hard limits.
+void axis_settings(const SyncPlan& plan, std::size_t axis, const DriveQuantizer& quantizer, const QuantizeOptions& options,
+                   const AxisCaps& caps, std::vector<DriveSetting>& out) {
+  const AxisProfile& planned = plan.axes[axis];
+  const DriveMotion desired = desired_motion(planned.shape, caps);
+  const std::size_t first = out.size();
+  quantizer.candidates(desired, options.neighbours, out);
+  if (!options.match_duration) return;
+  // One more round per representable velocity, around its duration-matching ramps: the velocities
+  // of the first round in increasing order, each once (a grid gives them grouped and in order).
+  thread_local std::vector<double> velocities;
+  velocities.clear();
+  for (std::size_t k = first; k < out.size(); ++k) {
+    const double v = out[k].realized.velocity_counts_per_s;
+    if (velocities.empty() || velocities.back() != v) velocities.push_back(v);
+  }
+  if (!std::ranges::is_sorted(velocities, std::ranges::less_equal{})) {
+    std::ranges::sort(velocities);
+    const auto [duplicates, end] = std::ranges::unique(velocities);
+    velocities.erase(duplicates, end);
+  }
+  const double distance = std::abs(static_cast<double>(planned.distance_counts()));
+  for (const double velocity : velocities) {
+    const auto matching = duration_matching(distance, plan.duration_s(), velocity, desired);
+    if (!matching) continue;
+    // The ramps were fitted to this velocity only; its neighbours are already in the first round.
+    quantizer.candidates_at_velocity(DriveMotion{velocity, std::min(matching->acceleration_counts_per_s2, caps.acceleration),
+                                                 std::min(matching->deceleration_counts_per_s2, caps.deceleration)},
+                                     options.neighbours, out);
+  }
+}
+
 }  // namespace
 
 void append_axis_candidates(const SyncPlan& plan, std::size_t axis, const DriveQuantizer& quantizer,
                             const QuantizeOptions& options, std::vector<DriveSetting>& out) {
-  const AxisProfile& planned = plan.axes[axis];
-  if (planned.is_still()) return;
+  if (plan.axes[axis].is_still()) return;
   const AxisCaps caps = hard_limits(plan, static_cast<Eigen::Index>(axis));
-  const DriveMotion desired = desired_motion(planned.shape, caps);
   const std::size_t first = out.size();
-  quantizer.candidates(desired, options.neighbours, out);
-  if (options.match_duration) {
-    // One more round per representable velocity, around its duration-matching ramps.
-    const double distance = std::abs(static_cast<double>(planned.distance_counts()));
-    std::vector<double> velocities;
-    for (std::size_t k = first; k < out.size(); ++k) velocities.push_back(out[k].realized.velocity_counts_per_s);
-    std::ranges::sort(velocities);
-    const auto [duplicates, end] = std::ranges::unique(velocities);
-    velocities.erase(duplicates, end);
-    for (const double velocity : velocities) {
-      const auto matching = duration_matching(distance, plan.duration_s(), velocity, desired);
-      if (!matching) continue;
-      const std::size_t round_first = out.size();
-      quantizer.candidates(DriveMotion{velocity, std::min(matching->acceleration_counts_per_s2, caps.acceleration),
-                                       std::min(matching->deceleration_counts_per_s2, caps.deceleration)},
-                           options.neighbours, out);
-      // The ramps were fitted to this velocity only; its neighbours are already in the first round.
-      const auto other_velocity = std::remove_if(
-          out.begin() + static_cast<std::ptrdiff_t>(round_first), out.end(),
-          [velocity](const DriveSetting& s) { return s.realized.velocity_counts_per_s != velocity; });
-      out.erase(other_velocity, out.end());
-    }
-  }
+  axis_settings(plan, axis, quantizer, options, caps, out);
   const auto kept = std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
                                    [&](const DriveSetting& s) { return !within(s.realized, caps); });
   out.erase(kept, out.end());
@@ -140,58 +221,69 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
   QuantizedPlan out;
   out.planned_duration_s = plan.duration_s();
   out.axes.resize(axis_count);
-  std::vector<Candidate> candidates;
-  std::vector<DriveSetting> settings;  // scratch, one axis at a time
-  const auto generate = [&](std::size_t axis) {
-    settings.clear();
-    append_axis_candidates(plan, axis, *quantizers[axis], options, settings);
-  };
+  Workspace& w = thread_workspace();
+  w.settings.clear();
+  w.candidates.clear();
+  w.nearest.assign(axis_count, -1.0);
   std::size_t moving_count = 0;
+  double shortest = std::numeric_limits<double>::infinity();
+  double longest = 0.0;
   for (std::size_t i = 0; i < axis_count; ++i) {
     const AxisProfile& planned = plan.axes[i];
     out.axes[i].profile = AxisProfile{planned.start_counts, planned.target_counts, {}};
     if (planned.is_still()) continue;
     ++moving_count;
     const double distance = std::abs(static_cast<double>(planned.distance_counts()));
-    generate(i);
-    if (settings.empty()) {
-      const AxisCaps caps = hard_limits(plan, static_cast<Eigen::Index>(i));
-      return PlanFailure{PlanErrc::quantization_impossible, i, plan.axis_names[i],
-                         desired_motion(planned.shape, caps).velocity_counts_per_s, caps.velocity};
-    }
-    const std::size_t axis_first = candidates.size();
-    for (std::size_t k = 0; k < settings.size(); ++k) {
-      const DriveMotion& realized = settings[k].realized;
+    const AxisCaps caps = hard_limits(plan, static_cast<Eigen::Index>(i));
+    const std::size_t settings_first = w.settings.size();
+    const std::size_t candidates_first = w.candidates.size();
+    axis_settings(plan, i, *quantizers[i], options, caps, w.settings);
+    // The settings within the hard limits, each with the duration the drive's own trapezoid takes.
+    for (std::size_t k = settings_first; k < w.settings.size(); ++k) {
+      const DriveMotion& realized = w.settings[k].realized;
+      if (!within(realized, caps)) continue;
       const TrapezoidShape shape = time_optimal_shape(distance, realized.velocity_counts_per_s,
                                                       realized.acceleration_counts_per_s2,
                                                       realized.deceleration_counts_per_s2);
-      candidates.push_back(Candidate{shape.duration_s(), static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k)});
+      const double duration_s = shape.duration_s();
+      shortest = std::min(shortest, duration_s);
+      longest = std::max(longest, duration_s);
+      double& nearest = w.nearest[i];
+      if (nearest < 0.0 || std::abs(duration_s - out.planned_duration_s) < std::abs(nearest - out.planned_duration_s)) {
+        nearest = duration_s;
+      }
+      w.candidates.push_back(Candidate{duration_s, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k)});
     }
-    // Equal durations of one axis are interchangeable (the rounds overlap): keep one of each, so
-    // that the global sort below handles a fraction of the settings.
-    const auto axis_candidates = std::ranges::subrange(candidates.begin() + static_cast<std::ptrdiff_t>(axis_first),
-                                                       candidates.end());
-    std::ranges::sort(axis_candidates, {}, &Candidate::duration_s);
-    const auto duplicates = std::ranges::unique(axis_candidates, {}, &Candidate::duration_s);
-    candidates.erase(duplicates.begin(), duplicates.end());
+    if (w.candidates.size() == candidates_first) {
+      return PlanFailure{PlanErrc::quantization_impossible, i, plan.axis_names[i],
+                         desired_motion(planned.shape, caps).velocity_counts_per_s, caps.velocity};
+    }
   }
   if (moving_count == 0) return out;
 
-  std::ranges::sort(candidates, {}, &Candidate::duration_s);  // a merge of sorted runs
-  const auto [first, last] = tightest_window(candidates, axis_count, moving_count, out.planned_duration_s);
+  // A first covering choice: per axis the candidate nearest the planned duration.
+  double nearest_shortest = std::numeric_limits<double>::infinity();
+  double nearest_longest = 0.0;
+  for (std::size_t i = 0; i < axis_count; ++i) {
+    if (w.nearest[i] < 0.0) continue;
+    nearest_shortest = std::min(nearest_shortest, w.nearest[i]);
+    nearest_longest = std::max(nearest_longest, w.nearest[i]);
+  }
+  tight_candidates(w.candidates, shortest, longest, nearest_longest - nearest_shortest, ++w.plans, w.bucket_axes, w.sorted);
+  const std::vector<Candidate>& candidates = w.sorted;
+  const auto [first, last] = tightest_window(candidates, axis_count, moving_count, out.planned_duration_s, w.in_window);
   // Every axis has a candidate in the window; within it, take the one nearest the window centre.
   const double centre = 0.5 * (candidates[first].duration_s + candidates[last].duration_s);
-  std::vector<const Candidate*> chosen(axis_count, nullptr);
+  w.chosen.assign(axis_count, nullptr);
   for (std::size_t k = first; k <= last; ++k) {
     const Candidate& c = candidates[k];
-    const Candidate*& best = chosen[c.axis];
+    const Candidate*& best = w.chosen[c.axis];
     if (best == nullptr || std::abs(c.duration_s - centre) < std::abs(best->duration_s - centre)) best = &c;
   }
   for (std::size_t i = 0; i < axis_count; ++i) {
-    if (chosen[i] == nullptr) continue;
-    generate(i);
+    if (w.chosen[i] == nullptr) continue;
     RealizedAxis& axis = out.axes[i];
-    axis.setting = settings[chosen[i]->setting];
+    axis.setting = w.settings[w.chosen[i]->setting];
     const DriveMotion& realized = axis.setting->realized;
     axis.profile = time_optimal_profile(axis.profile.start_counts, axis.profile.target_counts,
                                         realized.velocity_counts_per_s, realized.acceleration_counts_per_s2,

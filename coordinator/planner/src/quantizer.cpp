@@ -1,6 +1,7 @@
 #include "motion/planner/quantizer.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -14,19 +15,19 @@ void require_valid(bool ok, std::string_view what) {
 
 bool valid_range(std::int64_t min_steps, std::int64_t max_steps) { return min_steps >= 1 && max_steps >= min_steps; }
 
-// Appends the grid indices n in [min_steps, max_steps] of the value at or just below `desired`
-// and of the `neighbours` next values on either side of it (so an exactly representable desired
-// value still gets a lower alternative, whatever the floating-point rounding of value_of).
-// value_of is monotonic (increasing for rates, decreasing for ramp times); `guess` is the real
-// index of `desired`, refined here because value_of(n) is computed in floating point.
+// The grid index n of the value at or just below `desired`, within [min_steps - 1, max_steps + 1]:
+// the settings offered are that index and the `neighbours` next ones on either side of it, inside
+// [min_steps, max_steps] (so an exactly representable desired value still gets a lower
+// alternative, whatever the floating-point rounding of value_of). value_of is monotonic
+// (increasing for rates, decreasing for ramp times); `guess` is the real index of `desired` in
+// closed form, corrected here by at most a step or two because value_of(n) is computed in
+// floating point.
 template <typename ValueOf>
-void bracket_indices(double desired, double guess, bool increasing, int neighbours, std::int64_t min_steps,
-                     std::int64_t max_steps, ValueOf value_of, std::vector<std::int64_t>& out) {
-  out.clear();
+std::int64_t at_or_below_index(double desired, double guess, bool increasing, std::int64_t min_steps,
+                               std::int64_t max_steps, ValueOf value_of) {
   const auto lowest = min_steps - 1;
   const auto highest = max_steps + 1;
   const double clamped = std::clamp(guess, static_cast<double>(lowest), static_cast<double>(highest));
-  // `at_or_below`: the index of the largest value not above `desired`.
   auto at_or_below = static_cast<std::int64_t>(increasing ? std::floor(clamped) : std::ceil(clamped));
   const std::int64_t toward_lower_value = increasing ? -1 : +1;
   const auto inside = [&](std::int64_t n) { return n >= lowest && n <= highest; };
@@ -34,10 +35,92 @@ void bracket_indices(double desired, double guess, bool increasing, int neighbou
   while (inside(at_or_below - toward_lower_value) && value_of(at_or_below - toward_lower_value) <= desired) {
     at_or_below -= toward_lower_value;
   }
-  for (int k = -neighbours; k <= neighbours; ++k) {
-    // k <= 0: at or below desired; k > 0: above.
-    const std::int64_t n = at_or_below - toward_lower_value * k;
-    if (n >= min_steps && n <= max_steps) out.push_back(n);
+  return at_or_below;
+}
+
+// The offered indices around `at_or_below`, in order of increasing value: k = -neighbours..neighbours,
+// k <= 0 at or below desired, k > 0 above; those outside [min_steps, max_steps] are left out.
+struct Bracket {
+  std::int64_t at_or_below;
+  std::int64_t toward_lower_value;  // -1 for increasing values, +1 for decreasing ones
+  int neighbours;
+  std::int64_t min_steps;
+  std::int64_t max_steps;
+
+  [[nodiscard]] int size() const { return 2 * neighbours + 1; }
+  // The j-th index (j = k + neighbours), or 0 when it lies outside the range.
+  [[nodiscard]] std::int64_t index(int j) const {
+    const std::int64_t n = at_or_below - toward_lower_value * (j - neighbours);
+    return n >= min_steps && n <= max_steps ? n : 0;
+  }
+};
+
+// Realized accelerations cached per bracket position for the usual small `neighbours`; beyond, each
+// is computed where it is used.
+constexpr int kCachedBracket = 17;
+
+// The settings of GridQuantizer::candidates; with `only_velocity`, only those whose realized
+// velocity equals it (the velocity loop runs as for candidates(), the ramps only for that one).
+void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& acceleration_grid,
+                     const DriveMotion& desired, int neighbours, const double* only_velocity,
+                     std::vector<DriveSetting>& out) {
+  neighbours = std::max(neighbours, 1);
+  const double v_step = velocity_grid.counts_per_s_per_step;
+  const double a_step = acceleration_grid.step;
+  const bool ramp_time = acceleration_grid.kind == AccelerationGrid::Kind::ramp_time;
+
+  // A ramp-time drive has no ramp at or below its start speed: a slower wish is served by the
+  // nearest speeds above it (long ramps then stretch the profile to the planned duration).
+  double wanted_velocity = desired.velocity_counts_per_s;
+  if (ramp_time) {
+    const double first_above = (std::floor(acceleration_grid.ramp_from / v_step) + 1.0) * v_step;
+    wanted_velocity = std::max(wanted_velocity, first_above);
+  }
+  const auto velocity_of = [&](std::int64_t n) { return static_cast<double>(n) * v_step; };
+  const Bracket velocities{at_or_below_index(wanted_velocity, wanted_velocity / v_step, true, velocity_grid.min_steps,
+                                             velocity_grid.max_steps, velocity_of),
+                           -1, neighbours, velocity_grid.min_steps, velocity_grid.max_steps};
+
+  for (int jv = 0; jv < velocities.size(); ++jv) {
+    const std::int64_t v_native = velocities.index(jv);
+    if (v_native == 0) continue;
+    const double velocity = velocity_of(v_native);
+    if (only_velocity != nullptr && velocity != *only_velocity) continue;
+    // The speed change a ramp covers (ramp time only).
+    const double ramp_span = velocity - acceleration_grid.ramp_from;
+    // No ramp (the drive steps to this speed); the relative margin absorbs the rounding of a grid
+    // velocity that equals ramp_from.
+    if (ramp_time && !(ramp_span > 1e-9 * velocity)) continue;
+    const auto realized_acceleration = [&](std::int64_t n) {
+      return ramp_time ? ramp_span / (static_cast<double>(n) * a_step) : static_cast<double>(n) * a_step;
+    };
+    const auto bracket = [&](double wanted) {
+      const double guess = ramp_time ? ramp_span / (wanted * a_step) : wanted / a_step;
+      return Bracket{at_or_below_index(wanted, guess, !ramp_time, acceleration_grid.min_steps, acceleration_grid.max_steps,
+                                       realized_acceleration),
+                     ramp_time ? 1 : -1, neighbours, acceleration_grid.min_steps, acceleration_grid.max_steps};
+    };
+    const Bracket accelerations = bracket(desired.acceleration_counts_per_s2);
+    const Bracket decelerations = bracket(desired.deceleration_counts_per_s2);
+    std::array<double, kCachedBracket> cached_deceleration{};
+    const bool cache = decelerations.size() <= kCachedBracket;
+    if (cache) {
+      for (int jd = 0; jd < decelerations.size(); ++jd) {
+        const std::int64_t n = decelerations.index(jd);
+        if (n != 0) cached_deceleration[static_cast<std::size_t>(jd)] = realized_acceleration(n);
+      }
+    }
+    for (int ja = 0; ja < accelerations.size(); ++ja) {
+      const std::int64_t a_native = accelerations.index(ja);
+      if (a_native == 0) continue;
+      const double acceleration = realized_acceleration(a_native);
+      for (int jd = 0; jd < decelerations.size(); ++jd) {
+        const std::int64_t d_native = decelerations.index(jd);
+        if (d_native == 0) continue;
+        const double deceleration = cache ? cached_deceleration[static_cast<std::size_t>(jd)] : realized_acceleration(d_native);
+        out.push_back(DriveSetting{NativeMotion{v_native, a_native, d_native}, DriveMotion{velocity, acceleration, deceleration}});
+      }
+    }
   }
 }
 
@@ -61,49 +144,21 @@ GridQuantizer::GridQuantizer(std::string name, VelocityGrid velocity, Accelerati
 }
 
 void GridQuantizer::candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const {
-  neighbours = std::max(neighbours, 1);
-  const double v_step = velocity_.counts_per_s_per_step;
-  const double a_step = acceleration_.step;
-  const bool ramp_time = acceleration_.kind == AccelerationGrid::Kind::ramp_time;
+  grid_candidates(velocity_, acceleration_, desired, neighbours, nullptr, out);
+}
 
-  std::vector<std::int64_t> velocity_steps;
-  std::vector<std::int64_t> acceleration_steps;
-  std::vector<std::int64_t> deceleration_steps;
-  // A ramp-time drive has no ramp at or below its start speed: a slower wish is served by the
-  // nearest speeds above it (long ramps then stretch the profile to the planned duration).
-  double wanted_velocity = desired.velocity_counts_per_s;
-  if (ramp_time) {
-    const double first_above = (std::floor(acceleration_.ramp_from / v_step) + 1.0) * v_step;
-    wanted_velocity = std::max(wanted_velocity, first_above);
-  }
-  bracket_indices(
-      wanted_velocity, wanted_velocity / v_step, true, neighbours, velocity_.min_steps,
-      velocity_.max_steps, [&](std::int64_t n) { return static_cast<double>(n) * v_step; }, velocity_steps);
+void GridQuantizer::candidates_at_velocity(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const {
+  grid_candidates(velocity_, acceleration_, desired, neighbours, &desired.velocity_counts_per_s, out);
+}
 
-  for (const std::int64_t v_native : velocity_steps) {
-    const double velocity = static_cast<double>(v_native) * v_step;
-    // The speed change a ramp covers (ramp time only).
-    const double ramp_span = velocity - acceleration_.ramp_from;
-    // No ramp (the drive steps to this speed); the relative margin absorbs the rounding of a grid
-    // velocity that equals ramp_from.
-    if (ramp_time && !(ramp_span > 1e-9 * velocity)) continue;
-    const auto realized_acceleration = [&](std::int64_t n) {
-      return ramp_time ? ramp_span / (static_cast<double>(n) * a_step) : static_cast<double>(n) * a_step;
-    };
-    const auto brackets = [&](double wanted, std::vector<std::int64_t>& indices) {
-      const double guess = ramp_time ? ramp_span / (wanted * a_step) : wanted / a_step;
-      bracket_indices(wanted, guess, !ramp_time, neighbours, acceleration_.min_steps, acceleration_.max_steps,
-                      realized_acceleration, indices);
-    };
-    brackets(desired.acceleration_counts_per_s2, acceleration_steps);
-    brackets(desired.deceleration_counts_per_s2, deceleration_steps);
-    for (const std::int64_t a_native : acceleration_steps) {
-      for (const std::int64_t d_native : deceleration_steps) {
-        out.push_back(DriveSetting{NativeMotion{v_native, a_native, d_native},
-                                   DriveMotion{velocity, realized_acceleration(a_native), realized_acceleration(d_native)}});
-      }
-    }
-  }
+void DriveQuantizer::candidates_at_velocity(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const {
+  const std::size_t first = out.size();
+  candidates(desired, neighbours, out);
+  const auto other_velocity =
+      std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(), [&](const DriveSetting& s) {
+        return s.realized.velocity_counts_per_s != desired.velocity_counts_per_s;
+      });
+  out.erase(other_velocity, out.end());
 }
 
 PpsRateQuantizer::PpsRateQuantizer(std::int64_t max_pps, std::int64_t max_pps_per_s)

@@ -2,6 +2,7 @@
 // Thread contract: pure functions and plain values, thread-safe.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 namespace motion::planner {
@@ -27,8 +28,28 @@ struct TrapezoidShape {
 // The fastest rest-to-rest shape for `distance` (>= 0) with velocity, acceleration and
 // deceleration caps (> 0): a trapezoid when the cruise speed is reachable, a triangle otherwise.
 // This is also the model of what a drive's own ramp generator does with the values it is given.
-[[nodiscard]] TrapezoidShape time_optimal_shape(double distance, double max_velocity,
-                                                double max_acceleration, double max_deceleration);
+// Inline: quantization evaluates it for every candidate setting.
+[[nodiscard]] inline TrapezoidShape time_optimal_shape(double distance, double max_velocity,
+                                                       double max_acceleration, double max_deceleration) {
+  TrapezoidShape shape;
+  if (!(distance > 0.0)) return shape;
+  shape.acceleration = max_acceleration;
+  shape.deceleration = max_deceleration;
+  const double ramps_distance =
+      0.5 * max_velocity * max_velocity * (1.0 / max_acceleration + 1.0 / max_deceleration);
+  if (ramps_distance <= distance) {
+    shape.peak_velocity = max_velocity;
+    shape.t_cruise_s = (distance - ramps_distance) / max_velocity;
+  } else {
+    // Triangle: v^2/(2a) + v^2/(2d) = distance.
+    shape.peak_velocity =
+        std::sqrt(2.0 * distance * max_acceleration * max_deceleration / (max_acceleration + max_deceleration));
+  }
+  shape.t_acc_s = shape.peak_velocity / max_acceleration;
+  shape.t_dec_s = shape.peak_velocity / max_deceleration;
+  return shape;
+}
+
 
 struct MotionSample {
   double position_counts = 0.0;

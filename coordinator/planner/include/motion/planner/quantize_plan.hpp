@@ -6,9 +6,15 @@
 // Among the representable neighbours of every axis's values (rounded down or up, and one step
 // further each way; plus ramps re-fitted to the planned duration), the refinement picks one
 // setting per axis so that the spread of arrival times is minimal (exactly, over those
-// candidates; ties go to the arrival nearest the plan), never exceeding the axis's hard limits
-// (SyncPlan::*_limit_*: the speed override does not bind there).
-// Thread contract: quantize_plan is pure; thread-safe if the quantizers are (ours are).
+// candidates; ties go to the arrival nearest the plan, then to the setting the quantizer offered
+// first), never exceeding the axis's hard limits (SyncPlan::*_limit_*: the speed override does
+// not bind there).
+// Cost: linear in the candidates, no sort of them all: only those that can lie in the tightest
+// window (given the spread of the settings nearest the planned duration) are sorted. Scratch
+// buffers are per thread and reused, so once they have grown to a plan's size the only
+// allocation is the result's.
+// Thread contract: quantize_plan is pure (its scratch is thread-local); thread-safe if the
+// quantizers are (ours are).
 #pragma once
 
 #include <optional>

@@ -46,6 +46,10 @@ class DriveQuantizer {
   // combination. Values outside the drive's native range are left out; the caller filters by the
   // axis limits.
   virtual void candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const = 0;
+  // The settings of candidates(desired, neighbours) whose realized velocity is exactly
+  // desired.velocity_counts_per_s (a representable velocity): only the ramps around it. Appended
+  // to `out` in the same order. The default filters candidates(); grids compute only those.
+  virtual void candidates_at_velocity(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const;
   [[nodiscard]] virtual std::string_view name() const = 0;
 
  protected:
@@ -110,6 +114,7 @@ class GridQuantizer : public DriveQuantizer {
  public:
   GridQuantizer(std::string name, VelocityGrid velocity, AccelerationGrid acceleration);
   void candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const override;
+  void candidates_at_velocity(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const override;
   [[nodiscard]] std::string_view name() const override { return name_; }
   [[nodiscard]] const VelocityGrid& velocity_grid() const { return velocity_; }
   [[nodiscard]] const AccelerationGrid& acceleration_grid() const { return acceleration_; }
