@@ -1,6 +1,8 @@
 #!/usr/bin/python3
 """The web view in a real browser: headless Chromium driven by Selenium against motion-web on a
-simulated lab (config/sim-lab.yaml) that this test starts on its own LCM URL and simulation folder.
+simulated lab (config/sim-lab.yaml with security enforced, as tools/demo runs it) that this test
+starts on its own LCM URL and simulation folder; the page's commands are signed with the web view's
+own key (role operate).
 
 Checks: the page loads (Chart.js served locally) and logs no error, the axis table shows every
 configured axis; opened without the access token the page has no controls and motion-web refuses a
@@ -73,18 +75,33 @@ class Lab:
         self.url = unique_lcm_url(3)
         self.env = dict(os.environ, MOTION_SIM_DIR=os.path.join(work, "sim"), LCM_DEFAULT_URL=self.url)
         self.procs = {}  # name -> Popen
+        self.config = args.config
+
+    def secure(self):
+        """Security enforced, as tools/demo runs the lab: the coordinator's key pair and the web
+        view's own key (role operate), which its page's commands are signed with."""
+        keys = os.path.join(self.work, "keys")
+        for name, role in (("coordinator", "admin"), ("web", "operate")):
+            self.ctl("keygen", "--out", keys, "--name", name, "--role", role)
+        with open(os.path.join(keys, "web.pub")) as pub, open(os.path.join(keys, "authorized_keys"), "w") as out:
+            out.write(pub.read())
+        self.config = os.path.join(self.work, "lab.yaml")
+        with open(self.args.config) as base, open(self.config, "w") as out:
+            out.write(base.read() + "\nsecurity:\n  mode: enforce\n  authorized_keys: %s\n  key: %s\n  coordinator_public_key: %s\n"
+                      % (os.path.join(keys, "authorized_keys"), os.path.join(keys, "coordinator.key"), os.path.join(keys, "coordinator.pub")))
+        return os.path.join(keys, "web.key")
 
     def program(self, name):
         return os.path.join(self.args.bin, name)
 
     def start(self, name, program, *extra):
         log = open(os.path.join(self.work, name.replace(":", "-") + ".log"), "wb")
-        cmd = [self.program(program), "--config", self.args.config, "--lcm-url", self.url, *extra]
+        cmd = [self.program(program), "--config", self.config, "--lcm-url", self.url, *extra]
         self.procs[name] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=self.env)
         log.close()
 
     def ctl(self, *argv, timeout=30):
-        cmd = [self.program("motionctl"), "--config", self.args.config, "--lcm-url", self.url, *argv]
+        cmd = [self.program("motionctl"), "--config", self.config, "--lcm-url", self.url, *argv]
         done = subprocess.run(cmd, capture_output=True, text=True, env=self.env, timeout=timeout)
         if done.returncode != 0:
             raise Failure("motionctl %s: exit %d\n%s%s" % (" ".join(argv), done.returncode, done.stdout, done.stderr))
@@ -106,12 +123,13 @@ class Lab:
         return None
 
     def up(self):
+        web_key = self.secure()
         buses = self.ctl("config", "buses").split()
         self.start("sim", "motion-sim")
         for bus in buses:
             self.start("gateway:" + bus, "motion-gateway", "--bus", bus)
         self.start("coordinator", "motion-coordinator")
-        self.start("web", "motion-web", "--listen", "127.0.0.1:0", "--controls")
+        self.start("web", "motion-web", "--listen", "127.0.0.1:0", "--controls", "--key", web_key)
         expect = ["sim", "coordinator", "web"] + ["gateway:" + b for b in buses]
         self.ctl("health", "--listen", "20", *[a for name in expect for a in ("--expect", name)], timeout=40)
         axes = json.loads(self.ctl("--json", "status", "--listen", "0.5"))

@@ -1,5 +1,5 @@
 // motion-web: a live web view of the lab. Listens to the lab's LCM channels (AXIS_STATE, HEALTH,
-// EVENT, REQUEST, REPLY, ACTIVE_MOVES), turns them into JSON (motion::web::LabView) and sends them
+// EVENT, REQUEST and SREQUEST, REPLY, ACTIVE_MOVES), turns them into JSON (motion::web::LabView) and sends them
 // to every browser over a WebSocket; serves the page (HTML, JS, CSS and Chart.js) from a folder of
 // files.
 //
@@ -29,6 +29,7 @@
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
 #include <motionlcm/signed_message_t.hpp>
+#include <motionlcm/signed_request_t.hpp>
 #include <spdlog/spdlog.h>
 
 #include "motion/app/service.hpp"
@@ -96,8 +97,16 @@ class Bridge {
     });
   }
 
+  // Requests, plain and signed (signed_request_t on SREQUEST, unwrapped without verifying: they
+  // only say which requests are moves, and of which kind, for the plots).
   void follow_requests(lcm::Node& node) {
     node.subscribe<motionlcm::request_t>(lcm::channels::kRequest, [this](const motionlcm::request_t& msg, const std::string&) {
+      const std::lock_guard lock(mutex_);
+      view_.on_request(msg);
+    });
+    node.subscribe<motionlcm::signed_request_t>(lcm::channels::kSignedRequest, [this](const motionlcm::signed_request_t& env, const std::string&) {
+      motionlcm::request_t msg;
+      if (!lcm::wire::decode_bounded(env.payload.data(), env.payload.size(), msg).empty()) return;
       const std::lock_guard lock(mutex_);
       view_.on_request(msg);
     });
