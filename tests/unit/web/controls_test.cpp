@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "shipped_lab.hpp"
+
 #include <set>
 #include <string>
 
@@ -16,15 +18,7 @@ namespace {
 
 using nlohmann::json;
 using motionlcm::request_t;
-
-const config::Config& lab() {
-  static const config::Config config = [] {
-    auto loaded = config::load_file(config::default_config_path());
-    if (!loaded.ok()) throw std::runtime_error(loaded.error_text());
-    return *loaded.config;
-  }();
-  return config;
-}
+using testing::lab;
 
 constexpr const char* kToken = "0123456789abcdef0123456789abcdef";
 

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "shipped_lab.hpp"
+
 #include <string>
 #include <vector>
 
@@ -13,15 +15,7 @@ namespace {
 using nlohmann::json;
 using motionlcm::reply_t;
 using motionlcm::request_t;
-
-const config::Config& lab() {
-  static const config::Config config = [] {
-    auto loaded = config::load_file(config::default_config_path());
-    if (!loaded.ok()) throw std::runtime_error(loaded.error_text());
-    return *loaded.config;
-  }();
-  return config;
-}
+using testing::lab;
 
 std::vector<json> parsed(const std::vector<Outgoing>& out) {
   std::vector<json> messages;
