@@ -3,15 +3,6 @@
 #include "uim342_stack_impl.hpp"
 
 namespace motion::gateway {
-namespace {
-
-std::int64_t system_wall_time(TimePoint now) {
-  // Steady -> wall: the offset between the two clocks at this moment.
-  const auto steady_now = SteadyClock::now();
-  return wall_time_us() - std::chrono::duration_cast<std::chrono::microseconds>(steady_now - now).count();
-}
-
-}  // namespace
 
 // ---- configuration -------------------------------------------------------------------------------
 
@@ -46,7 +37,7 @@ Uim342StackConfig Uim342StackConfig::from(const config::Config& config, std::str
 // ---- the stack -----------------------------------------------------------------------------------
 
 Uim342Stack::Impl::Impl(Uim342StackConfig c, CanStackContext ctx, WallClock wc, Counters& shared_counters)
-    : config(std::move(c)), context(std::move(ctx)), wall(wc ? std::move(wc) : WallClock{system_wall_time}), counters(shared_counters) {
+    : config(std::move(c)), context(std::move(ctx)), wall(wc ? std::move(wc) : WallClock{system_wall_clock}), counters(shared_counters) {
   for (const auto& n : config.nodes) {
     Node node;
     node.cfg = n;
@@ -102,32 +93,10 @@ void Uim342Stack::Impl::event(const Node& n, std::int16_t kind, std::int8_t seve
   context.out->axis_event(n.axis_or_drive(), e);
 }
 
-void Uim342Stack::Impl::reply(const Command& c, std::int8_t status, std::string reason, std::int32_t code) {
-  gateway_reply_t r{};
-  r.bus = config.bus;
-  r.command_id = c.cmd.command_id;
-  r.status = status;
-  r.reason = std::move(reason);
-  r.error_code = code;
-  r.trigger_utime = c.trigger_utime;
-  r.start_mechanism = c.mechanism;
-  r.predicted_skew_us = c.skew_us;
-  r.param = c.cmd.param;
-  context.out->command_reply(r);
-}
-
-void Uim342Stack::Impl::reply_to(const gateway_command_t& cmd, std::int8_t status, std::string reason, std::int32_t code) {
-  Command c;
-  c.cmd = cmd;
-  reply(c, status, std::move(reason), code);
-}
-
-void Uim342Stack::Impl::finish(std::int64_t id, std::int8_t status, std::string reason, std::int32_t code) {
-  auto it = commands.find(id);
-  if (it == commands.end()) return;
-  Command c = std::move(it->second);
-  commands.erase(it);
-  for (const auto i : c.nodes) {
+void Uim342Stack::Impl::finish(std::int64_t id, Lifecycle terminal, std::int32_t code, std::string reason) {
+  auto c = commands.finish(id, terminal, code, std::move(reason));
+  if (!c) return;  // ended before (its one terminal reply went out then)
+  for (const auto i : c->nodes) {
     Node& n = nodes[i];
     if (n.move == id) n.move = 0;
     // Queued (unsent) requests of this command are dropped; an outstanding one runs out.
@@ -138,7 +107,6 @@ void Uim342Stack::Impl::finish(std::int64_t id, std::int8_t status, std::string 
       n.homing = {};
     }
   }
-  reply(c, status, std::move(reason), code);
 }
 
 // Every command with work on node `i` (queued requests or an active move) fails.
@@ -156,7 +124,7 @@ Uim342Stack::Impl::Request& Uim342Stack::Impl::enqueue(std::size_t i, Instructio
   r.instruction = std::move(instruction);
   r.command_id = command_id;
   if (command_id != 0) {
-    if (auto it = commands.find(command_id); it != commands.end()) it->second.waiting.insert(i);
+    if (auto* c = commands.find(command_id)) c->data.waiting.insert(i);
   }
   auto& q = nodes[i].queue;
   if (!front) return q.emplace_back(std::move(r));
@@ -197,7 +165,7 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
         mr.attempts = 1;
         mr.deadline = deadline_of(nodes[m], now);
       }
-      on_sent(r.command_id, group_target, now);
+      on_sent(r.command_id, group_target, group->members, now);
       return;
     }
     if (!transmit(target, r.instruction)) return;  // transport refused: retried at the next process()
@@ -213,22 +181,23 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
       completed(i, done, std::nullopt, now);
       continue;
     }
-    if (is_start) on_sent(command_id, target, now);
+    if (is_start) on_sent(command_id, target, {i}, now);
     return;
   }
 }
 
 // A start frame (BG to `target`) of a move was handed to the transport; the driver dates the
 // STARTED reply by its echo when it can (CanStackContext::start_frame).
-void Uim342Stack::Impl::on_sent(std::int64_t command_id, std::uint8_t target, TimePoint now) {
-  auto it = commands.find(command_id);
-  if (it == commands.end() || it->second.cmd.kind != gateway_command_t::ARM_MOVE || it->second.start_frames_left == 0) return;
-  Command& c = it->second;
+void Uim342Stack::Impl::on_sent(std::int64_t command_id, std::uint8_t target, const std::vector<std::size_t>& parts, TimePoint now) {
+  Command* c = commands.find(command_id);
+  if (!c || c->command.kind != gateway_command_t::ARM_MOVE) return;
   if (context.start_frame) {
     if (const auto frame = uim342::instruction_frame(target, rq::begin()); frame.ok()) context.start_frame(command_id, *frame);
   }
-  if (c.trigger_utime == 0) c.trigger_utime = wall(now);
-  if (--c.start_frames_left == 0) reply(c, gateway_reply_t::STARTED);
+  if (c->reply.peek().trigger_utime == 0) {
+    c->reply.started(wall(now), c->reply.peek().start_mechanism, c->reply.peek().predicted_skew_us);
+  }
+  for (const auto i : parts) commands.advance(command_id, i, Lifecycle::kStarted);
 }
 
 // Set-up nodes are polled, except an armed one: it waits for its trigger with an empty queue so
@@ -236,8 +205,8 @@ void Uim342Stack::Impl::on_sent(std::int64_t command_id, std::uint8_t target, Ti
 bool Uim342Stack::Impl::polled(const Node& n) const {
   if (n.phase != Phase::ready && n.phase != Phase::setup_failed) return false;
   if (n.move == 0) return true;
-  const auto it = commands.find(n.move);
-  return it == commands.end() || it->second.stage != Stage::armed;
+  const auto* c = commands.find(n.move);
+  return c == nullptr || !c->all(Lifecycle::kArmed);
 }
 
 void Uim342Stack::Impl::poll_if_due(std::size_t i, TimePoint now) {
@@ -372,8 +341,8 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
     n.status.moving = false;
     n.status.velocity_counts = 0;
     if (n.move != 0) {
-      auto it = commands.find(n.move);
-      if (it != commands.end() && it->second.stage >= Stage::starting) arrived(i, now);
+      const auto* c = commands.find(n.move);
+      if (c != nullptr && c->state_of(i) == Lifecycle::kStarted) arrived(i, now);
     }
     publish(n, now);
     if (n.homing.command != 0) homing_observe(i, now);

@@ -23,50 +23,39 @@ std::string uim342_stack_detail::command_name(std::int8_t kind) {
   }
 }
 
+// The part of node `i` is in position: Done; the command is DONE with its last part.
 void Uim342Stack::Impl::arrived(std::size_t i, TimePoint) {
   Node& n = nodes[i];
-  auto it = commands.find(n.move);
-  if (it == commands.end()) return;
-  Command& c = it->second;
-  if (!c.arrived.insert(i).second) return;
+  const auto id = n.move;
+  const Command* c = commands.find(id);
+  if (c == nullptr || c->state_of(i) != Lifecycle::kStarted) return;
   n.status.in_position = true;
   n.status.moving = false;
-  n.status.target_counts = c.targets[i];
+  n.status.target_counts = c->data.targets.at(i);
   event(n, event_t::MOTION_COMPLETE, event_t::INFO, 0, fmt::format("{} in position at {}", n.name(), n.status.position_counts));
-  check_move_done(c);
-}
-
-void Uim342Stack::Impl::check_move_done(Command& c) {
-  if (c.stage != Stage::moving || c.arrived.size() < c.nodes.size()) return;
-  finish(c.cmd.command_id, gateway_reply_t::DONE);
+  const auto others_done = std::count(c->parts.begin(), c->parts.end(), Lifecycle::kDone);
+  if (static_cast<std::size_t>(others_done) + 1 == c->parts.size()) {
+    done(id);  // the last part: the nodes let go of the command, the ledger replies DONE
+  } else {
+    commands.advance(id, i, Lifecycle::kDone);
+  }
 }
 
 void Uim342Stack::Impl::stage_done(Command& c, TimePoint now) {
-  if (c.cmd.kind != gateway_command_t::ARM_MOVE) {
-    if (c.unreached.empty()) {
-      finish(c.cmd.command_id, gateway_reply_t::DONE, fmt::format("{}", fmt::join(c.notes, "; ")));
+  if (c.command.kind != gateway_command_t::ARM_MOVE) {
+    if (c.data.unreached.empty()) {
+      done(c.command.command_id, fmt::format("{}", fmt::join(c.data.notes, "; ")));
     } else {
-      fail(c.cmd.command_id, error_code(ReplyError::kAxisOffline), c.unreached);
+      fail(c.command.command_id, error_code(ReplyError::kAxisOffline), c.data.unreached);
     }
     return;
   }
-  switch (c.stage) {
-    case Stage::loading:
-      c.stage = Stage::armed;
-      reply(c, gateway_reply_t::ARMED);
-      if (c.cmd.trigger_id == 0) start_move(c, now);
-      break;
-    case Stage::starting:
-      c.stage = Stage::moving;
-      check_move_done(c);
-      break;
-    case Stage::armed:
-    case Stage::moving: break;
-  }
+  // Every part Armed (the ledger replied ARMED): a move without a trigger starts at once. Later
+  // steps (the BG ACKs) change no part: a part is Done when its drive is in position (arrived()).
+  if (c.all(Lifecycle::kArmed) && c.command.trigger_id == 0) start_move(c, now);
 }
 
 void Uim342Stack::Impl::start_move(Command& c, TimePoint now) {
-  c.stage = Stage::starting;
   const std::uint8_t group = nodes[c.nodes.front()].cfg.group_id;
   // One BG to the group id starts every drive of the group, so it is used only when the group
   // is exactly this command's axes (a drive of the group outside the command would start too).
@@ -77,12 +66,11 @@ void Uim342Stack::Impl::start_move(Command& c, TimePoint now) {
   }
   const auto bg_frame = uim342::instruction_frame(one_frame ? group : nodes[c.nodes.front()].cfg.node_id, rq::begin());
   const auto frame_us = std::chrono::duration<double, std::micro>(can::frame_duration(*bg_frame, config.bitrate)).count();
-  c.mechanism = one_frame ? "group-bg" : "sequential";
-  c.skew_us = one_frame ? 0.0 : frame_us * static_cast<double>(c.nodes.size() - 1);
-  c.start_frames_left = one_frame ? 1 : c.nodes.size();
+  // trigger_utime is set when the first BG is handed over (on_sent()).
+  c.reply.started(0, one_frame ? "group-bg" : "sequential", one_frame ? 0.0 : frame_us * static_cast<double>(c.nodes.size() - 1));
   std::shared_ptr<GroupSend> shared;
   if (one_frame) shared = std::make_shared<GroupSend>(GroupSend{group, c.nodes});
-  for (const auto i : c.nodes) enqueue(i, rq::begin(), c.cmd.command_id, /*front=*/true).group = shared;
+  for (const auto i : c.nodes) enqueue(i, rq::begin(), c.command.command_id, /*front=*/true).group = shared;
   for (const auto i : c.nodes) pump(i, now);
 }
 
@@ -95,66 +83,70 @@ std::optional<std::size_t> Uim342Stack::Impl::node_of_axis(const std::string& ax
 
 void Uim342Stack::Impl::execute(const gateway_command_t& cmd, TimePoint now) {
   if (cmd.axes.empty()) {
-    reply_to(cmd, gateway_reply_t::FAILED, command_name(cmd.kind) + " names no axis", error_code(ReplyError::kMalformedRequest));
+    commands.reject(cmd, error_code(ReplyError::kMalformedRequest), command_name(cmd.kind) + " names no axis");
     return;
   }
-  Command c;
-  c.cmd = cmd;
+  std::vector<std::size_t> parts;  // one per node
+  CommandData data;
   for (const auto& a : cmd.axes) {
     const auto i = node_of_axis(a.axis);
     if (!i) {
-      reply_to(cmd, gateway_reply_t::FAILED, fmt::format("axis '{}' is not driven by a uim342 drive on bus {}", a.axis, config.bus), error_code(ReplyError::kUnknownAxis));
+      commands.reject(cmd, error_code(ReplyError::kUnknownAxis), fmt::format("axis '{}' is not driven by a uim342 drive on bus {}", a.axis, config.bus));
       return;
     }
-    c.nodes.push_back(*i);
-    c.targets[*i] = a.target_counts;
+    if (data.targets.count(*i) != 0) {
+      commands.reject(cmd, error_code(ReplyError::kMalformedRequest), fmt::format("{} names axis '{}' twice", command_name(cmd.kind), a.axis));
+      return;
+    }
+    parts.push_back(*i);
+    data.targets[*i] = a.target_counts;
   }
   const bool needs_drive = cmd.kind != gateway_command_t::DISARM;
   const bool stops = cmd.kind == gateway_command_t::STOP || cmd.kind == gateway_command_t::ESTOP;
-  for (const auto i : c.nodes) {
+  for (const auto i : parts) {
     const Node& n = nodes[i];
     // A stop naming an offline drive still stops the others (see load()).
     if (needs_drive && n.phase == Phase::offline && !stops) {
-      reply_to(cmd, gateway_reply_t::FAILED, fmt::format("{} is offline", n.name()), error_code(ReplyError::kAxisOffline));
+      commands.reject(cmd, error_code(ReplyError::kAxisOffline), fmt::format("{} is offline", n.name()));
       return;
     }
     const bool starts_motion = cmd.kind == gateway_command_t::ARM_MOVE || cmd.kind == gateway_command_t::JOG ||
                                cmd.kind == gateway_command_t::HOME || cmd.kind == gateway_command_t::SET_POSITION;
     if (starts_motion && n.move != 0) {
-      reply_to(cmd, gateway_reply_t::FAILED, fmt::format("{} is busy with move command {}", n.name(), n.move), error_code(ReplyError::kAxisBusy));
+      commands.reject(cmd, error_code(ReplyError::kAxisBusy), fmt::format("{} is busy with move command {}", n.name(), n.move));
       return;
     }
   }
-  if (commands.count(cmd.command_id) != 0) {
-    reply_to(cmd, gateway_reply_t::FAILED, fmt::format("command id {} is already in progress", cmd.command_id), error_code(ReplyError::kMalformedRequest));
+  Command* stored = commands.add(cmd, std::move(parts), std::move(data));
+  if (stored == nullptr) {
+    commands.reject(cmd, error_code(ReplyError::kMalformedRequest), fmt::format("command id {} is already in progress", cmd.command_id));
     return;
   }
+  stored->reply.bus(config.bus);
   const auto id = cmd.command_id;
-  auto& stored = commands.emplace(id, std::move(c)).first->second;
-  if (const auto problem = load(stored)) {
-    commands.erase(id);
+  if (const auto problem = load(*stored)) {
+    // Nothing of it stays behind: no part, no queued request, no node bound to it.
+    fail(id, problem->second, problem->first);
     drop_requests(id);
-    reply_to(cmd, gateway_reply_t::FAILED, problem->first, problem->second);
     return;
   }
-  auto it = commands.find(id);
-  if (it != commands.end() && it->second.waiting.empty()) stage_done(it->second, now);
+  if (auto* c = commands.find(id); c != nullptr && c->data.waiting.empty()) stage_done(*c, now);
   for (std::size_t i = 0; i < nodes.size(); ++i) pump(i, now);
 }
 
 // Queues the command's requests; a reason when the command cannot be carried out.
 Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
-  const auto id = c.cmd.command_id;
+  const auto id = c.command.command_id;
   const auto each = [&](auto&& per_node) -> Problem {
     for (std::size_t k = 0; k < c.nodes.size(); ++k) {
-      if (auto p = per_node(c.nodes[k], c.cmd.axes[k])) return p;
+      if (auto p = per_node(c.nodes[k], c.command.axes[k])) return p;
     }
     return std::nullopt;
   };
-  switch (c.cmd.kind) {
+  switch (c.command.kind) {
     case gateway_command_t::ENABLE:
     case gateway_command_t::DISABLE: {
-      const bool on = c.cmd.kind == gateway_command_t::ENABLE;
+      const bool on = c.command.kind == gateway_command_t::ENABLE;
       for (const auto i : c.nodes) {
         if (!on && nodes[i].move != 0) fail(nodes[i].move, error_code(ReplyError::kStopped), fmt::format("{} disabled by command {}", nodes[i].name(), id));
         enqueue(i, rq::driver_on(on), id);
@@ -166,21 +158,21 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
       for (const auto i : c.nodes) {
         nodes[i].move = id;
         nodes[i].bg_acked = false;
-        nodes[i].status.target_counts = c.targets.at(i);
+        nodes[i].status.target_counts = c.data.targets.at(i);
       }
       return std::nullopt;
     case gateway_command_t::JOG:
       return each([&](std::size_t i, const motionlcm::axis_command_t& a) { return load_jog(c, i, a); });
     case gateway_command_t::STOP:
     case gateway_command_t::ESTOP: {
-      const bool emergency = c.cmd.kind == gateway_command_t::ESTOP;
+      const bool emergency = c.command.kind == gateway_command_t::ESTOP;
       for (const auto i : c.nodes) {
         Node& n = nodes[i];
         if (n.phase == Phase::offline) {
-          c.unreached += fmt::format("{}{} is offline", c.unreached.empty() ? "" : "; ", n.name());
+          c.data.unreached += fmt::format("{}{} is offline", c.data.unreached.empty() ? "" : "; ", n.name());
           continue;
         }
-        const auto reason = fmt::format("{} stopped by {} command {}", n.name(), command_name(c.cmd.kind), id);
+        const auto reason = fmt::format("{} stopped by {} command {}", n.name(), command_name(c.command.kind), id);
         if (emergency) {
           fail_commands_of(i, error_code(ReplyError::kStopped), reason, id);  // nothing queued goes out after an e-stop
         } else {
@@ -189,9 +181,9 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
           std::set<std::int64_t> motion;
           if (n.move != 0) motion.insert(n.move);
           for (const auto& r : n.queue) {
-            const auto cmd = commands.find(r.command_id);
-            if (r.command_id == id || cmd == commands.end()) continue;
-            const auto kind = cmd->second.cmd.kind;
+            const auto* other = commands.find(r.command_id);
+            if (r.command_id == id || other == nullptr) continue;
+            const auto kind = other->command.kind;
             if (kind == gateway_command_t::JOG || kind == gateway_command_t::HOME || kind == gateway_command_t::ARM_MOVE) motion.insert(r.command_id);
           }
           for (const auto m : motion) fail(m, error_code(ReplyError::kStopped), reason);
@@ -226,17 +218,16 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
     case gateway_command_t::DISARM: {
       std::set<std::int64_t> armed;
       for (const auto i : c.nodes) {
-        auto it = commands.find(nodes[i].move);
-        if (it != commands.end() && it->second.stage == Stage::armed &&
-            (c.cmd.trigger_id == 0 || it->second.cmd.trigger_id == c.cmd.trigger_id)) {
-          armed.insert(it->first);
+        const auto* move = commands.find(nodes[i].move);
+        if (move != nullptr && move->all(Lifecycle::kArmed) && (c.command.trigger_id == 0 || move->command.trigger_id == c.command.trigger_id)) {
+          armed.insert(nodes[i].move);
         }
       }
       for (const auto a : armed) fail(a, error_code(ReplyError::kStopped), fmt::format("move disarmed by command {}", id));
       return std::nullopt;
     }
     default:
-      return std::pair{fmt::format("command kind {} is not supported by the uim342 stack", int{c.cmd.kind}), error_code(ReplyError::kUnsupported)};
+      return std::pair{fmt::format("command kind {} is not supported by the uim342 stack", int{c.command.kind}), error_code(ReplyError::kUnsupported)};
   }
 }
 
@@ -263,7 +254,7 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_move(Command& c, std::size_t 
   if (drive_target < std::numeric_limits<std::int32_t>::min() || drive_target > std::numeric_limits<std::int32_t>::max()) {
     return std::pair{fmt::format("{}: target {} counts does not fit PA (32 bits)", n.name(), a.target_counts), error_code(ReplyError::kOutsideLimits)};
   }
-  const auto id = c.cmd.command_id;
+  const auto id = c.command.command_id;
   // §5.19: in PTP mode PR/PA first, then SP (otherwise error #50).
   enqueue(i, rq::set_absolute_position(static_cast<std::int32_t>(drive_target)), id);
   enqueue(i, rq::set_ptp_speed(*speed), id);
@@ -274,7 +265,7 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_move(Command& c, std::size_t 
 Uim342Stack::Impl::Problem Uim342Stack::Impl::load_jog(Command& c, std::size_t i, const motionlcm::axis_command_t& a) {
   const auto speed = uim342::speed_to_pps(a.velocity);
   if (!speed) return std::pair{fmt::format("{}: jog speed {} counts/s does not fit 32 bits", nodes[i].name(), a.velocity), error_code(ReplyError::kOutsideLimits)};
-  const auto id = c.cmd.command_id;
+  const auto id = c.command.command_id;
   enqueue(i, rq::set_jog_velocity(*speed), id);
   const double magnitude = std::abs(static_cast<double>(*speed));
   if (auto p = ramp(i, a.acceleration, magnitude, true, id)) return p;
@@ -285,8 +276,8 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_jog(Command& c, std::size_t i
 
 // PARAM_READ / PARAM_WRITE in the family's terms: index = function code, subindex = sub-index.
 Uim342Stack::Impl::Problem Uim342Stack::Impl::load_param(Command& c) {
-  const auto& p = c.cmd.param;
-  const bool write = c.cmd.kind == gateway_command_t::PARAM_WRITE;
+  const auto& p = c.command.param;
+  const bool write = c.command.kind == gateway_command_t::PARAM_WRITE;
   if (c.nodes.size() != 1) return std::pair{std::string("a parameter command names exactly one axis"), error_code(ReplyError::kMalformedRequest)};
   const Node& n = nodes[c.nodes.front()];
   if (p.space != motionlcm::param_t::UIM342_INSTRUCTION) {
@@ -302,7 +293,7 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_param(Command& c) {
       return std::pair{fmt::format("{}: {} refused before sending: {}", n.name(), uim342::to_string(*instruction), ec.message()), error_code(ReplyError::kOutsideLimits)};
     }
   }
-  enqueue(c.nodes.front(), *instruction, c.cmd.command_id);
+  enqueue(c.nodes.front(), *instruction, c.command.command_id);
   return std::nullopt;
 }
 
@@ -359,11 +350,11 @@ std::int64_t Uim342Stack::Impl::param_value(const uim342::Reply& ack, const moti
 
 void Uim342Stack::Impl::fire(std::int64_t trigger_id, TimePoint now) {
   std::vector<std::int64_t> ids;
-  for (auto& [id, c] : commands) {
-    if (c.cmd.kind == gateway_command_t::ARM_MOVE && c.stage == Stage::armed && c.cmd.trigger_id == trigger_id && trigger_id != 0) ids.push_back(id);
+  for (auto& [id, c] : commands.entries()) {
+    if (c.command.kind == gateway_command_t::ARM_MOVE && c.all(Lifecycle::kArmed) && c.command.trigger_id == trigger_id && trigger_id != 0) ids.push_back(id);
   }
   for (const auto id : ids) {
-    if (auto it = commands.find(id); it != commands.end()) start_move(it->second, now);
+    if (auto* c = commands.find(id)) start_move(*c, now);
   }
 }
 

@@ -10,10 +10,10 @@ std::string Uim342Stack::Impl::edge_name(const Node::Homing& h) {
 // HOME: OG where the axis stands (method none / current-position), or a switch search.
 Uim342Stack::Impl::Problem Uim342Stack::Impl::load_home(Command& c, std::size_t i, const motionlcm::axis_command_t& a) {
   Node& n = nodes[i];
-  const auto id = c.cmd.command_id;
+  const auto id = c.command.command_id;
   if (n.cfg.homing.method != config::HomingMethod::kSwitch) {
     enqueue(i, rq::set_origin(), id);
-    c.notes.push_back(fmt::format("{}: origin set at the current position ({} counts); no switch search (homing method {})", n.name(),
+    c.data.notes.push_back(fmt::format("{}: origin set at the current position ({} counts); no switch search (homing method {})", n.name(),
                          a.target_counts, n.cfg.homing.method_name.empty() ? "none" : n.cfg.homing.method_name));
     return std::nullopt;
   }
@@ -72,9 +72,9 @@ void Uim342Stack::Impl::homing_step_loaded(std::size_t i, TimePoint now) {
       jog.velocity = h.velocity;
       jog.acceleration = h.acceleration;
       jog.deceleration = h.deceleration;
-      auto it = commands.find(id);
-      if (it == commands.end()) return;
-      if (auto p = load_jog(it->second, i, jog)) return fail(id, p->second, p->first);
+      auto* c = commands.find(id);
+      if (c == nullptr) return;
+      if (auto p = load_jog(*c, i, jog)) return fail(id, p->second, p->first);
       pump(i, now);
       return;
     }
@@ -135,15 +135,15 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
   n.status.target_counts = h.offset;
   publish(n, now);
   // This axis is homed; the command is DONE when every axis of it is.
-  auto it = commands.find(id);
-  if (it == commands.end()) return;
-  Command& c = it->second;
+  auto* found = commands.find(id);
+  if (found == nullptr) return;
+  Command& c = *found;
   const auto done_text = fmt::format("{}: origin at the {}, axis at {} counts", n.name(), edge_name(h), n.status.position_counts);
   n.homing = {};
   n.move = 0;
-  c.notes.push_back(done_text);
-  c.waiting.erase(i);
-  if (c.waiting.empty()) stage_done(c, now);
+  c.data.notes.push_back(done_text);
+  c.data.waiting.erase(i);
+  if (c.data.waiting.empty()) stage_done(c, now);
 }
 
 // The search bound passed without the switch: stop, restore IL (finish()), fail.

@@ -17,6 +17,7 @@
 #include <motionlcm/event_t.hpp>
 
 #include "motion/can_frame/bit_timing.hpp"
+#include "motion/gateway/command_ledger.hpp"
 #include "motion/gateway/power_up_watch.hpp"
 
 namespace motion::gateway {
@@ -107,22 +108,16 @@ struct Uim342Stack::Impl {
     [[nodiscard]] bool busy() const { return !queue.empty() && queue.front().sent; }
   };
 
-  enum class Stage { loading, armed, starting, moving };
-
-  struct Command {
-    gateway_command_t cmd;
-    std::vector<std::size_t> nodes;
+  // What the stack keeps per command beside its parts' lifecycle (the CommandLedger's): the
+  // nodes with requests of the current step not yet answered, targets, a stop's unreachable nodes.
+  struct CommandData {
     std::set<std::size_t> waiting;  // nodes with requests of the current stage not yet answered
-    Stage stage = Stage::loading;
     std::map<std::size_t, std::int64_t> targets;
-    std::set<std::size_t> arrived;
-    std::size_t start_frames_left = 0;
-    std::int64_t trigger_utime = 0;
-    std::string mechanism;
-    double skew_us = 0;
     std::string unreached;  // a stop's offline nodes: the others are still stopped, then it fails
     std::vector<std::string> notes;  // the DONE reply's reason (what a HOME did, per axis)
   };
+  using Ledger = CommandLedger<CommandData>;
+  using Command = Ledger::Entry;  // parts per node: Loading -> Armed -> Started -> Done | Failed | Stopped
 
   Impl(Uim342StackConfig c, CanStackContext ctx, WallClock wc, Counters& shared_counters);
 
@@ -151,20 +146,22 @@ struct Uim342Stack::Impl {
   Duration exchange_time{};   // wire time of the longest request + ACK (poll_exchange_time)
   Duration poll_period{};     // config.poll_period, or longer when the bus cannot carry it
   std::string poll_warning;   // why poll_period is longer (reported at start)
-  std::map<std::int64_t, Command> commands;
+  Ledger commands{[this](gateway_reply_t r) { context.out->command_reply(std::move(r)); }};
   bool started = false;
 
   // ---- output helpers ----
 
   void publish(Node& n, TimePoint now);
   void event(const Node& n, std::int16_t kind, std::int8_t severity, std::int32_t code, std::string text);
-  void reply(const Command& c, std::int8_t status, std::string reason = {}, std::int32_t code = 0);
-  void reply_to(const gateway_command_t& cmd, std::int8_t status, std::string reason, std::int32_t code);
 
   // ---- command bookkeeping ----
 
-  void finish(std::int64_t id, std::int8_t status, std::string reason = {}, std::int32_t code = 0);
-  void fail(std::int64_t id, std::int32_t code, std::string reason) { finish(id, gateway_reply_t::FAILED, std::move(reason), code); }
+  // Ends command `id` (the ledger's one terminal reply) and clears what its nodes held for it.
+  void finish(std::int64_t id, Lifecycle terminal, std::int32_t code = 0, std::string reason = {});
+  void done(std::int64_t id, std::string reason = {}) { finish(id, Lifecycle::kDone, 0, std::move(reason)); }
+  void fail(std::int64_t id, std::int32_t code, std::string reason) {
+    finish(id, code == error_code(ReplyError::kStopped) ? Lifecycle::kStopped : Lifecycle::kFailed, code, std::move(reason));
+  }
 
   // Every command with work on node `i` (queued requests or an active move) fails.
   void fail_commands_of(std::size_t i, std::int32_t code, const std::string& reason, std::int64_t except = 0);
@@ -181,9 +178,10 @@ struct Uim342Stack::Impl {
 
   void pump(std::size_t i, TimePoint now);
 
-  // A start frame (BG to `target`) of a move was handed to the transport; the driver dates the
-  // STARTED reply by its echo when it can (CanStackContext::start_frame).
-  void on_sent(std::int64_t command_id, std::uint8_t target, TimePoint now);
+  // A start frame (BG to `target`) of a move was handed to the transport: the `parts` (nodes) are
+  // Started (the ledger replies STARTED with the last); the driver dates the STARTED reply by the
+  // frame's echo when it can (CanStackContext::start_frame).
+  void on_sent(std::int64_t command_id, std::uint8_t target, const std::vector<std::size_t>& parts, TimePoint now);
 
   // ---- start-up: identify, set up, poll ----
 
@@ -230,7 +228,6 @@ struct Uim342Stack::Impl {
 
   void arrived(std::size_t i, TimePoint);
 
-  void check_move_done(Command& c);
 
   void stage_done(Command& c, TimePoint now);
 

@@ -76,10 +76,15 @@ void Uim342Stack::Impl::completed(std::size_t i, const Request& r, const std::op
     return;
   }
   if (r.command_id != 0) {
-    auto it = commands.find(r.command_id);
-    if (it != commands.end() && !has_request_of(i, r.command_id)) {
-      it->second.waiting.erase(i);
-      if (it->second.waiting.empty()) stage_done(it->second, now);
+    Command* c = commands.find(r.command_id);
+    if (c != nullptr && !has_request_of(i, r.command_id)) {
+      c->data.waiting.erase(i);
+      // An ARM_MOVE part is loaded: Armed (the ledger replies ARMED with the last part).
+      if (c->command.kind == gateway_command_t::ARM_MOVE && c->state_of(i) == Lifecycle::kLoading) {
+        commands.advance(r.command_id, i, Lifecycle::kArmed);
+        c = commands.find(r.command_id);
+      }
+      if (c != nullptr && c->data.waiting.empty()) stage_done(*c, now);
     }
     return;
   }
@@ -188,13 +193,13 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
       }
       break;
     case FunctionCode::OG: {
-      auto it = commands.find(r.command_id);
-      if (it == commands.end()) break;
+      const auto* c = commands.find(r.command_id);
+      if (c == nullptr) break;
       // SET_POSITION's value, or the homing offset: the position the origin gets.
       n.power.counter_set(0, now);  // the counter is 0 now by our own doing
-      n.offset = it->second.targets[i];
+      n.offset = c->data.targets.at(i);
       n.status.position_counts = n.offset;
-      if (it->second.cmd.kind == gateway_command_t::HOME) n.status.homed = true;
+      if (c->command.kind == gateway_command_t::HOME) n.status.homed = true;
       publish(n, now);
       break;
     }
@@ -226,10 +231,11 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
       break;
     default: break;
   }
-  if (auto it = commands.find(r.command_id); it != commands.end()) {
-    auto& c = it->second;
-    if (c.cmd.kind == gateway_command_t::PARAM_READ || c.cmd.kind == gateway_command_t::PARAM_WRITE) {
-      c.cmd.param.value = param_value(ack, c.cmd.param);
+  if (auto* c = commands.find(r.command_id)) {
+    if (c->command.kind == gateway_command_t::PARAM_READ || c->command.kind == gateway_command_t::PARAM_WRITE) {
+      auto param = c->reply.peek().param;
+      param.value = param_value(ack, param);
+      c->reply.param(param);
     }
   }
 }
@@ -257,8 +263,8 @@ void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStat
     n.status.fault_code = 0;
     n.status.fault_text.clear();
   }
-  auto it = commands.find(r.command_id);
-  if (it != commands.end() && it->second.cmd.kind == gateway_command_t::FAULT_RESET && locked) {
+  const auto* c = commands.find(r.command_id);
+  if (c != nullptr && c->command.kind == gateway_command_t::FAULT_RESET && locked) {
     fail(r.command_id, error_code(ReplyError::kDriveError), fmt::format("{} is locked down (LOCK); MS[0]=0 does not release it, a reboot (SY[1]) or power cycle does", n.name()));
   }
   if (n.homing.command != 0) {
