@@ -19,7 +19,7 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
       master_([this](const can::Frame& frame) {
         if (!context_.send || !context_.send(frame)) ++counters_.protocol_errors;
       }) {
-  if (!options_.wall_clock_us) options_.wall_clock_us = [](TimePoint) { return wall_time_us(); };
+  options_.wall_clock_us = gateway::or_system_clock(std::move(options_.wall_clock_us));
   for (const auto& drive : config.drives) {
     if (drive.family != config::Family::kUc57 || drive.bus != bus.name) continue;
     auto node = std::make_unique<Node>();
