@@ -52,9 +52,15 @@ macro(motion_layers_rules)
   motion_layers_rule(d "the serial transport links no configuration"
     TARGETS motion_serial
     FORBID "^motion_config$")
-  motion_layers_rule(e "the web view is read-only: it links no client, coordinator, gateway runtime, stack/driver, transport or simulator"
-    UNDER services/web
+  # The web view's libraries only watch; the program (motion-web) sends the page's commands as a
+  # client of the coordinator (--controls), never past it.
+  motion_layers_rule(e "the web view's libraries link no client, coordinator, gateway runtime, stack/driver, transport or simulator"
+    UNDER services/web EXCEPT motion-web
     FORBID "^motion_client$" "^motion_coordinator$" "^motion_gateway_runtime$" "^motion_.*_driver$" ${transports}
+    FORBID_UNDER services/sim)
+  motion_layers_rule(e2 "motion-web commands only through the coordinator: no coordinator, gateway runtime, stack/driver, transport or simulator"
+    TARGETS motion-web
+    FORBID "^motion_coordinator$" "^motion_gateway_runtime$" "^motion_.*_driver$" ${transports}
     FORBID_UNDER services/sim)
   motion_layers_rule(f "the security library (keys, signatures) links no configuration, process skeleton, runtime, stack or transport"
     TARGETS motion_security

@@ -25,6 +25,7 @@ int uim242_feedback(const std::uint8_t* data, std::size_t size);
 int config_yaml(const std::uint8_t* data, std::size_t size);
 int signed_messages(const std::uint8_t* data, std::size_t size);
 int uc57_pdo(const std::uint8_t* data, std::size_t size);
+int web_controls(const std::uint8_t* data, std::size_t size);
 
 struct Target {
   const char* name;
@@ -36,6 +37,7 @@ inline constexpr Target kTargets[] = {
     {"lcm_types", &lcm_types},           {"uim342_can", &uim342_can},     {"uimessage_stream", &uimessage_stream},
     {"canopen", &canopen},               {"adam_rtu", &adam_rtu},         {"uim242_feedback", &uim242_feedback},
     {"config_yaml", &config_yaml},       {"signed_messages", &signed_messages}, {"uc57_pdo", &uc57_pdo},
+    {"web_controls", &web_controls},
 };
 
 // Consumes the fuzzer's bytes front to back; reads past the end yield zeros / empty spans.

@@ -36,5 +36,32 @@ TEST(Commission, ReadsBackTheSetUpAndNamesAContradiction) {
   EXPECT_TRUE(lab.starts_of("u2-drive").empty()) << "commission moved an axis";
 }
 
+// UC57 rpdo_sync (configs/uc57-rpdo-variants.yaml): commission names the variant each simulated
+// drive follows; b-drive's configured answer (honoured) contradicts what its gateway found (exit 1).
+TEST(Commission, NamesTheUc57RpdoSyncVariantOfEachDrive) {
+  SimLab lab(source_path("tests/integration/configs/uc57-rpdo-variants.yaml"));
+  ASSERT_TRUE(lab.start({"a", "b", "c"}));
+  const std::vector<std::string> args{"--config", lab.config_path(), "commission", "can0"};
+  std::string printed;
+  EXPECT_EQ(lab.group().run_to_completion({"commission", "motionctl", args, {}}, &printed, std::chrono::seconds(30)), 1) << printed;
+  const auto a = printed.find("a-drive (uc57, node 1)\n");
+  ASSERT_NE(a, std::string::npos) << printed;
+  EXPECT_EQ(printed.find("1400h:02 RPDO1 transmission type: 1; rpdo_sync: honoured\n"), printed.find("1400h:02", a)) << printed;
+  EXPECT_NE(printed.find("1400h:02 RPDO1 transmission type: 1; rpdo_sync: on_reception CONTRADICTS the configuration (rpdo_sync: honoured)"),
+            std::string::npos)
+      << printed;
+  EXPECT_NE(printed.find("1400h:02 RPDO1 transmission type: 255; rpdo_sync: refused (moves start node by node"), std::string::npos) << printed;
+  for (const auto* drive : {"a-drive", "b-drive", "c-drive"}) EXPECT_TRUE(lab.starts_of(drive).empty()) << "commission moved " << drive;
+
+  // A synchronized move of all three: a by its SYNC, b and c by their own RPDO1 (one start each,
+  // planned by the coordinator from their drive models), every one at its target.
+  const auto enabled = lab.call(Client::make(request_t::ENABLE, std::vector<std::string>{"a", "b", "c"}));
+  ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;
+  const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", 1.0}, {"b", -1.0}, {"c", 0.5}}));
+  ASSERT_EQ(moved.status, st(reply_t::DONE)) << moved.reason;
+  for (const auto* axis : {"a", "b", "c"}) EXPECT_TRUE(lab.settled_at(axis, std::string(axis) == "b" ? -1.0 : std::string(axis) == "c" ? 0.5 : 1.0, 1e-9)) << axis;
+  for (const auto* drive : {"a-drive", "b-drive", "c-drive"}) EXPECT_EQ(lab.starts_of(drive).size(), 1u) << drive;
+}
+
 }  // namespace
 }  // namespace motion::testing

@@ -1,4 +1,4 @@
-// Across machines: three "hosts" are network namespaces (motion-<pid>-a/b/c), each with one veth
+// Across machines, with security enforced: three "hosts" are network namespaces (motion-<pid>-a/b/c), each with one veth
 // port on a Linux bridge in a fourth namespace (motion-<pid>-br) and a multicast route, set up by
 // tools/netns/motion-netns. LCM runs over UDP multicast with TTL 1, as on a real lab network:
 // motion-sim and the gateways in host A (they share MOTION_SIM_DIR: unix sockets are file-system
@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "motion/config/config.hpp"
+#include "motion/security/keys.hpp"
 #include "motion/testing/lcm_url.hpp"
 #include "motion/testing/process_group.hpp"
 
@@ -166,6 +167,22 @@ TEST_F(MultiHost, GatewaysCoordinatorAndClientOnThreeHostsCompleteASynchronizedM
   const double t_net = seconds_since(t0);
   ProcessGroup group(lab_url(1));
 
+  // Security enforced, as a lab network should run: the coordinator's key pair (gateways verify
+  // its commands and triggers with the public half), and the operator key of host C's motionctl.
+  const std::string dir = group.work_dir();
+  const auto op = security::KeyPair::generate("op");
+  {
+    std::ifstream base(config_path_);
+    std::ofstream config(dir + "/lab.yaml");
+    config << base.rdbuf() << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
+           << "  coordinator_public_key: coordinator.pub\n";
+    std::ofstream(dir + "/authorized_keys") << op.authorized_line("operate") << "\n";
+  }
+  ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("coordinator"), dir, "admin"), std::nullopt);
+  ASSERT_EQ(security::write_key_pair(op, dir, "operate"), std::nullopt);
+  config_path_ = dir + "/lab.yaml";
+  const std::string key = dir + "/op.key";
+
   // Host A: the simulated drives and one gateway per bus; host B: the coordinator.
   std::vector<std::string> expect{"sim", "coordinator"};
   group.start(net_.in("a", "sim", "motion-sim", {"--config", config_path_}));
@@ -197,15 +214,19 @@ TEST_F(MultiHost, GatewaysCoordinatorAndClientOnThreeHostsCompleteASynchronizedM
   int rc = -1;
   const auto t_enable = Clock::now();
   while (seconds_since(t_enable) < 30) {
-    rc = motionctl(group, "c", {"enable", "x", "y", "z", "--timeout", "10"}, &out);
+    rc = motionctl(group, "c", {"--key", key, "enable", "x", "y", "z", "--timeout", "10"}, &out);
     if (rc == 0) break;
     group.pump_until([] { return false; }, std::chrono::milliseconds(500));
   }
   ASSERT_EQ(rc, 0) << "enable from host C failed:\n" << out;
   const double t_enabled = seconds_since(t_enable);
 
+  // Unsigned, the same move from host C moves nothing: the coordinator refuses it.
+  EXPECT_NE(motionctl(group, "c", {"move", "x=10", "--wait", "--timeout", "10"}, &out), 0) << out;
+  EXPECT_NE(out.find("unsigned"), std::string::npos) << out;
+
   const auto t_move = Clock::now();
-  ASSERT_EQ(motionctl(group, "c", {"--json", "move", "x=10", "y=5", "z=-2", "--wait", "--timeout", "30"}, &out), 0) << out;
+  ASSERT_EQ(motionctl(group, "c", {"--key", key, "--json", "move", "x=10", "y=5", "z=-2", "--wait", "--timeout", "30"}, &out), 0) << out;
   const double move_s = seconds_since(t_move);
   const auto result = nlohmann::json::parse(out.substr(out.find('{')), nullptr, false);
   ASSERT_FALSE(result.is_discarded()) << out;

@@ -138,6 +138,22 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   EXPECT_EQ(group.exit_status(logger), 0) << group.log_of("lcm-logger");
   const double t_recorded = seconds_since(t0);
 
+  // motionctl move on the simulated lab puts the simulated drives' own start times (SIM_REPORT)
+  // beside the coordinator's measured skew: x and y start on one group BG frame, so the ground
+  // truth is 0 µs.
+  {
+    std::string moved_out;
+    ASSERT_EQ(group.run_to_completion({"motionctl-move", "motionctl",
+                                       {"--config", source_path("config/sim-lab.yaml"), "--json", "move", "x=2", "y=1", "--wait"}, {}},
+                                      &moved_out),
+              0)
+        << moved_out;
+    const auto j = nlohmann::json::parse(moved_out.substr(std::min(moved_out.find('{'), moved_out.size())), nullptr, false);
+    ASSERT_TRUE(j.is_object()) << moved_out;
+    ASSERT_TRUE(j["ground_truth_start_skew_us"].is_number()) << moved_out;
+    EXPECT_EQ(j["ground_truth_start_skew_us"].get<double>(), 0.0) << moved_out;
+  }
+
   const std::string prefix = lab.config().lcm.channel_prefix;
   const auto states = recorded(log_path, prefix + std::string(lcm::channels::kAxisState));
   ASSERT_FALSE(states.empty()) << "no axis state in the log (" << size_of(log_path) << " bytes)";
@@ -199,6 +215,7 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
     EXPECT_NE(svg_text.find(panel), std::string::npos) << "no " << panel << " in " << svg;
   }
   EXPECT_NE(svg_text.find("move done"), std::string::npos) << "the move's end is not marked";
+  EXPECT_NE(svg_text.find("move planned arrival"), std::string::npos) << "the move's planned arrival is not marked";
 
   // The same as tables.
   ASSERT_EQ(group.run_to_completion({"motionctl-log", "motionctl", {"--config", config, "log", log_path, "--axis", "x"}, {}}, &out), 0) << out;

@@ -2,10 +2,13 @@
 """The web view in a real browser: headless Chromium driven by Selenium against motion-web on a
 simulated lab (config/sim-lab.yaml) that this test starts on its own LCM URL and simulation folder.
 
-Checks: the page loads (Chart.js served locally) and logs no error, the axis table shows every configured axis and
-updates during a move (issued with motionctl), an event appears in the event list, the move's plot
-exists with data points for the moved axis. Saves a screenshot (--artifacts/web.png) and prints its
-path.
+Checks: the page loads (Chart.js served locally) and logs no error, the axis table shows every
+configured axis; opened without the access token the page has no controls and motion-web refuses a
+command sent over its WebSocket; opened at the address `motion-web --controls` printed, the page
+enables two axes and moves them (its buttons), the table updates during the move and shows the
+target after it, the move's plot exists with data points and its target line, an event appears;
+then a jog started from the page is stopped by its E-STOP button and the axis stays where it
+stopped. Saves a screenshot (--artifacts/web.png) and prints its path.
 
 Exit codes: 0 passed, 1 failed, 77 skipped (chromium or chromedriver not installed; ctest
 SKIP_RETURN_CODE). Every process it starts (the lab, motion-web, chromedriver and the browser
@@ -87,12 +90,6 @@ class Lab:
             raise Failure("motionctl %s: exit %d\n%s%s" % (" ".join(argv), done.returncode, done.stdout, done.stderr))
         return done.stdout
 
-    def ctl_start(self, name, *argv):
-        """motionctl in the background (killed with the lab unless it ended); returns its Popen."""
-        cmd = [self.program("motionctl"), "--config", self.args.config, "--lcm-url", self.url, *argv]
-        self.procs[name] = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=self.env)
-        return self.procs[name]
-
     def log(self, name):
         try:
             with open(os.path.join(self.work, name.replace(":", "-") + ".log"), errors="replace") as f:
@@ -100,9 +97,9 @@ class Lab:
         except OSError:
             return ""
 
-    def web_url(self):
+    def web_url(self, what="serving"):
         for line in self.log("web").splitlines():
-            if line.startswith("motion-web: serving "):
+            if line.startswith("motion-web: %s " % what):
                 return line.split()[-1]
         if self.procs["web"].poll() is not None:
             raise Failure("motion-web exited with %s:\n%s" % (self.procs["web"].returncode, self.log("web")))
@@ -114,13 +111,14 @@ class Lab:
         for bus in buses:
             self.start("gateway:" + bus, "motion-gateway", "--bus", bus)
         self.start("coordinator", "motion-coordinator")
-        self.start("web", "motion-web", "--listen", "127.0.0.1:0")
+        self.start("web", "motion-web", "--listen", "127.0.0.1:0", "--controls")
         expect = ["sim", "coordinator", "web"] + ["gateway:" + b for b in buses]
         self.ctl("health", "--listen", "20", *[a for name in expect for a in ("--expect", name)], timeout=40)
         axes = json.loads(self.ctl("--json", "status", "--listen", "0.5"))
         wait_for("every axis online", lambda: all(a.get("online") for a in json.loads(self.ctl("--json", "status", "--listen", "0.5")).values()),
                  timeout=20, period=0)
-        return sorted(axes), wait_for("motion-web's address", self.web_url, timeout=10)
+        return (sorted(axes), wait_for("motion-web's address", self.web_url, timeout=10),
+                wait_for("motion-web's controls address", lambda: self.web_url("controls at"), timeout=10))
 
     def down(self):
         for proc in self.procs.values():
@@ -147,49 +145,86 @@ def open_browser(work):
 
 
 def run(args, lab, work, browser_pids):
-    axes, url = lab.up()
+    axes, url, controls_url = lab.up()
     print("lab up: axes %s, web view at %s" % (" ".join(axes), url))
+    if "?token=" not in controls_url or not controls_url.startswith(url):
+        raise Failure("motion-web --controls printed '%s', not %s?token=..." % (controls_url, url))
     driver = open_browser(work)
     browser_pids.append((driver.service.process.pid, start_time(driver.service.process.pid)))
     try:
         driver.set_script_timeout(10)
-        driver.get(url)
         js = driver.execute_script
+
+        # Without the token: no controls on the page, and motion-web refuses a command sent anyway.
+        driver.get(url)
         if not js("return typeof Chart === 'function'"):
             raise Failure("Chart.js did not load from %svendor/chart.min.js" % url)
         wait_for("the axis table to show every configured axis with a state",
                  lambda: js("return [...document.querySelectorAll('#axes tbody tr')]"
                             ".filter(r => Number(r.dataset.updates) > 0).map(r => r.dataset.axis).sort()") == axes, timeout=10)
+        if not js("return document.getElementById('controls-section').hidden"):
+            raise Failure("the page opened without the access token shows its controls")
+        forged = driver.execute_async_script("""
+            const done = arguments[arguments.length - 1];
+            const ws = new WebSocket(`ws://${location.host}/ws`);
+            ws.onopen = () => ws.send(JSON.stringify({type: 'command', token: 'guessed', tag: 99, kind: 'MOVE_ABSOLUTE',
+                                                      axes: ['x'], values: [100]}));
+            ws.onmessage = (m) => { const r = JSON.parse(m.data); if (r.type === 'command_result') { ws.close(); done(r); } };
+        """)
+        if forged.get("ok") is not False or "access token" not in forged.get("error", "") or forged.get("tag") != 99:
+            raise Failure("a command with a wrong token was not refused for it: %s" % forged)
+
+        driver.get(controls_url)
+        wait_for("the controls and the axis table",
+                 lambda: not js("return document.getElementById('controls-section').hidden") and
+                 js("return [...document.querySelectorAll('#axes tbody tr')].filter(r => Number(r.dataset.updates) > 0).length") == len(axes),
+                 timeout=10)
         wait_for("a heartbeat of motion-web in the process table",
                  lambda: js("return !!document.querySelector('#processes tr[data-process=\"web\"]')"), timeout=5)
         row = "document.querySelector('#axes tr[data-axis=\"%s\"]')" % MOVED_AXIS
         before = js("return [Number(%s.dataset.updates), %s.querySelector('.position').textContent]" % (row, row))
         events_before = js("return document.querySelectorAll('#events li').length")
 
+        def command(kind, values, timeout):
+            """Ticks the axes of `values` (only those), types their values, clicks `kind`'s button and
+            waits for the request's terminal status; returns (status, request id)."""
+            js("""
+                const values = arguments[0];
+                for (const label of document.querySelectorAll('#control-axes label')) {
+                  const axis = label.dataset.axis;
+                  label.querySelector('.pick').checked = axis in values;
+                  if (axis in values) label.querySelector('.value').value = String(values[axis]);
+                }
+                document.querySelector(`#controls-section button[data-kind="${arguments[1]}"]`).click();
+            """, values, kind)
+            def ended():
+                line = js("const l = document.getElementById('control-status'); return [l.dataset.status, l.dataset.request, l.textContent]")
+                return line if line[0] in ("done", "rejected", "aborted", "failed", "refused") else None
+            status, request, text = wait_for("%s from the page to end" % kind, ended, timeout=timeout)
+            print("page: %s" % text)
+            return status, request, text
+
         # A drive of a loaded machine's simulated lab may drop offline for a moment (its gateway
         # retries it): enabling is retried until it is done.
-        def enabled():
-            try:
-                return lab.ctl("enable", MOVED_AXIS, OTHER[0]) or True
-            except Failure as e:
-                print("retrying: %s" % str(e).splitlines()[0])
-                return None
-        wait_for("%s and %s enabled" % (MOVED_AXIS, OTHER[0]), enabled, timeout=20, period=0.5)
-        # The row while the move runs: the positions it shows with the axis moving.
-        move = lab.ctl_start("motionctl move", "move", "--wait", "%s=%g" % (MOVED_AXIS, TARGET), "%s=%g" % OTHER)
-        moving_positions = set()
-        deadline = time.monotonic() + 40
-        while move.poll() is None and time.monotonic() < deadline:
-            state, position = js("return [%s.querySelector('.state').textContent, %s.querySelector('.position').textContent]" % (row, row))
-            if "moving" in state:
-                moving_positions.add(float(position.split()[0]))
-            time.sleep(0.03)
-        output, _ = move.communicate(timeout=5)
-        if move.returncode != 0:
-            raise Failure("motionctl move: exit %s\n%s" % (move.returncode, output))
+        wait_for("%s and %s enabled from the page" % (MOVED_AXIS, OTHER[0]),
+                 lambda: command("ENABLE", {MOVED_AXIS: 0, OTHER[0]: 0}, 15)[0] == "done" or None, timeout=40, period=0.5)
+        # The move, from the page; the row while it runs: the positions it shows with the axis moving.
+        js("""
+            window.moving_positions = [];
+            const row = document.querySelector('#axes tr[data-axis="%s"]');
+            window.watcher = setInterval(() => {
+              if (row.querySelector('.state').textContent.includes('moving')) {
+                window.moving_positions.push(parseFloat(row.querySelector('.position').textContent));
+              }
+            }, 20);
+        """ % MOVED_AXIS)
+        status, move_id, text = command("MOVE_ABSOLUTE", {MOVED_AXIS: TARGET, OTHER[0]: OTHER[1]}, 40)
+        if status != "done":
+            raise Failure("the move from the page ended %s: %s" % (status, text))
+        moving_positions = js("clearInterval(window.watcher); return window.moving_positions")
         between = sorted(p for p in moving_positions if 0 < p < TARGET)
         if not between:
-            raise Failure("the %s row never showed the axis moving between 0 and %g (seen while moving: %s)" % (MOVED_AXIS, TARGET, sorted(moving_positions)))
+            raise Failure("the %s row never showed the axis moving between 0 and %g (seen while moving: %s)" % (MOVED_AXIS, TARGET, sorted(set(moving_positions))))
 
         def at_target():
             shown = js("return [Number(%s.dataset.updates), %s.querySelector('.position').textContent]" % (row, row))
@@ -200,16 +235,50 @@ def run(args, lab, work, browser_pids):
         events = wait_for("an event in the event list",
                           lambda: js("return document.querySelectorAll('#events li').length") or None, timeout=10)
         plot = wait_for("the move's plot with data points of %s" % MOVED_AXIS, lambda: js("""
-            const card = [...document.querySelectorAll('#moves .move')].find(c => c.dataset.status === 'done');
-            if (!card) return null;
+            const card = document.querySelector(`#moves .move[data-move-id="${arguments[1]}"]`);
+            if (!card || card.dataset.status !== 'done') return null;
             const chart = Chart.getChart(card.querySelector('canvas'));
             const sets = Object.fromEntries(chart.data.datasets.map(d => [d.label, d.data.length]));
-            return sets[arguments[0] + ' position'] > 3 ? {id: card.dataset.moveId, sets} : null;
-        """, MOVED_AXIS), timeout=10)
+            return sets[arguments[0] + ' position'] > 3 ? {id: card.dataset.moveId, sets,
+                predicted: window.motionWeb.moves[arguments[1]].predicted_duration_s} : null;
+        """, MOVED_AXIS, move_id), timeout=10)
         print("axis %s: %d updates during the test, %d positions shown while moving, then %s; %d events (%d before the move); "
-              "plot of move %s: %s" % (MOVED_AXIS, after[0] - before[0], len(between), after[1], events, events_before, plot["id"], plot["sets"]))
+              "plot of move %s: %s, planned duration %s s" % (MOVED_AXIS, after[0] - before[0], len(between), after[1], events, events_before,
+                                                              plot["id"], plot["sets"], plot["predicted"]))
         if plot["sets"].get("%s target" % MOVED_AXIS, 0) == 0:
             raise Failure("the move's plot has no target line for %s: %s" % (MOVED_AXIS, plot["sets"]))
+        if not plot["predicted"] or plot["predicted"] <= 0:
+            raise Failure("the move has no planned duration for its planned-arrival mark: %s" % plot)
+
+        # A jog from the page, stopped by the page's E-STOP.
+        js("""
+            for (const label of document.querySelectorAll('#control-axes label')) {
+              label.querySelector('.pick').checked = label.dataset.axis === arguments[0];
+              if (label.dataset.axis === arguments[0]) label.querySelector('.value').value = '20';
+            }
+            document.querySelector('#controls-section button[data-kind="JOG"]').click();
+        """, MOVED_AXIS)
+        wait_for("%s jogging" % MOVED_AXIS, lambda: "moving" in js("return %s.querySelector('.state').textContent" % row), timeout=10)
+        jog_id = wait_for("the jog's request id", lambda: js("return document.getElementById('control-status').dataset.request") or None, timeout=5)
+        time.sleep(0.3)
+        status, _, text = command("ESTOP", {}, 10)
+        if status != "done":
+            raise Failure("E-STOP from the page ended %s: %s" % (status, text))
+        wait_for("%s standing after the e-stop" % MOVED_AXIS,
+                 lambda: "moving" not in js("return %s.querySelector('.state').textContent" % row), timeout=5)
+        stopped_at = float(js("return %s.querySelector('.position').textContent" % row).split()[0])
+        jog_status = wait_for("the jog's terminal reply", lambda: js("""
+            const r = window.motionWeb.requests[arguments[0]];
+            return r && ['done', 'rejected', 'aborted', 'failed'].includes(r.status) ? r.status : null;""", jog_id), timeout=5)
+        jog_plot = wait_for("the jog's plot following x until it stood", lambda: js("""
+            const move = window.motionWeb.moves[arguments[0]];
+            return move && !move.open && (move.samples[arguments[1]] || []).length > 3 ? move.samples[arguments[1]].length : null;
+        """, jog_id, MOVED_AXIS), timeout=5)
+        time.sleep(0.5)
+        still = float(js("return %s.querySelector('.position').textContent" % row).split()[0])
+        print("jog %s ended %s (its plot: %d samples); %s stopped at %.4f, %.4f 0.5 s later" % (jog_id, jog_status, jog_plot, MOVED_AXIS, stopped_at, still))
+        if not (TARGET < stopped_at < 300) or abs(still - stopped_at) > 1e-3:
+            raise Failure("after the e-stop %s should stand between %g and 300: at %.4f, then %.4f" % (MOVED_AXIS, TARGET, stopped_at, still))
 
         errors = [e["message"] for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
         if errors:

@@ -7,10 +7,14 @@
 #include <cstdio>
 #include <deque>
 #include <iostream>
+#include <map>
+#include <optional>
+#include <set>
 #include <nlohmann/json.hpp>
 
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
+#include <motionlcm/sim_report_t.hpp>
 
 #include "motion/client/client.hpp"
 #include "motion/core/clock.hpp"
@@ -158,9 +162,38 @@ nlohmann::json models_json(const std::map<std::string, motionlcm::drive_model_t>
   return out;
 }
 
+// The ground truth of a move's start on the simulated lab: when each simulated drive of the move's
+// axes acted on its start frame (SIM_REPORT MOTION_STARTED, the first after the request was
+// sent). Real drives send no such report, so on hardware there is none.
+class StartTruth {
+ public:
+  StartTruth(app::Service& service, const request_t& request) {
+    for (const auto& name : request.axes) {
+      const auto* axis = service.config().find_axis(name);
+      if (axis != nullptr) drives_.insert(axis->drive);
+    }
+    service.node().subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport, [this](const motionlcm::sim_report_t& r, const std::string&) {
+      if (r.kind == motionlcm::sim_report_t::MOTION_STARTED && drives_.contains(r.drive) && !started_.contains(r.drive)) {
+        started_[r.drive] = r.frame_utime;
+      }
+    });
+  }
+  // Spread of the drives' start times, µs; nullopt unless every drive of the move reported.
+  [[nodiscard]] std::optional<double> skew_us() const {
+    if (drives_.empty() || started_.size() != drives_.size()) return std::nullopt;
+    const auto [lo, hi] = std::minmax_element(started_.begin(), started_.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+    return static_cast<double>(hi->second - lo->second);
+  }
+
+ private:
+  std::set<std::string> drives_;
+  std::map<std::string, std::int64_t> started_;
+};
+
 // Per axis: target, final position, when it started relative to the first axis; then the
-// measured duration and start skew beside the planner's predictions.
-void print_move_summary(const motionlcm::reply_t& result) {
+// measured duration and start skew beside the planner's predictions and, on the simulated lab,
+// the simulated drives' own start times.
+void print_move_summary(const motionlcm::reply_t& result, std::optional<double> truth_skew_us) {
   std::int64_t first_start = 0;
   for (const std::int64_t t : result.start_utime) {
     if (t != 0 && (first_start == 0 || t < first_start)) first_start = t;
@@ -176,7 +209,9 @@ void print_move_summary(const motionlcm::reply_t& result) {
     std::printf("\n  duration %.3f s (predicted %.3f s)", static_cast<double>(result.utime - first_start) / 1e6, result.predicted_duration_s);
   }
   if (result.measured_start_skew_us >= 0) {
-    std::printf("\n  start skew %.0f us measured (predicted arrival spread %.0f us)", result.measured_start_skew_us, result.predicted_skew_us);
+    std::printf("\n  start skew %.0f us measured", result.measured_start_skew_us);
+    if (truth_skew_us) std::printf(", %.0f us ground truth (the simulated drives)", *truth_skew_us);
+    std::printf(" (predicted arrival spread %.0f us)", result.predicted_skew_us);
   }
 }
 
@@ -204,6 +239,9 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
   motionlcm::reply_t result{};
   bool finished = false;
   bool answered = false;
+  const bool moving_kind = request.kind == request_t::MOVE_ABSOLUTE || request.kind == request_t::MOVE_RELATIVE || request.kind == request_t::HOME;
+  std::optional<StartTruth> truth;
+  if (moving_kind) truth.emplace(service, request);
   client.send(request, [&](const motionlcm::reply_t& r) {
     answered = true;
     progress(r);
@@ -212,7 +250,6 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
       finished = true;
     }
   });
-  const bool moving_kind = request.kind == request_t::MOVE_ABSOLUTE || request.kind == request_t::MOVE_RELATIVE || request.kind == request_t::HOME;
   const std::string where =
       service.node().url() + ", channel " + service.node().channel(client.signing() ? lcm::channels::kSignedRequest : lcm::channels::kRequest);
   // The coordinator answers at once (ACCEPTED or REJECTED): silence means nobody listens.
@@ -235,6 +272,10 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
     nlohmann::json j = {{"status", client::status_name(result.status)}, {"reason", result.reason}, {"error_code", result.error_code},
                         {"predicted_duration_s", result.predicted_duration_s}, {"predicted_skew_us", result.predicted_skew_us},
                         {"measured_start_skew_us", result.measured_start_skew_us}};
+    if (moving_kind) {
+      const auto skew = truth->skew_us();
+      j["ground_truth_start_skew_us"] = skew ? nlohmann::json(*skew) : nlohmann::json(nullptr);
+    }
     for (std::size_t i = 0; i < result.axes.size(); ++i) {
       j["axes"][result.axes[i]] = {{"target", result.targets[i]}, {"position", result.positions[i]}, {"start_utime", result.start_utime[i]}};
     }
@@ -243,7 +284,7 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
   } else if (result.status == motionlcm::reply_t::DONE) {
     std::cout << "done";
     if (result.param.space != motionlcm::param_t::NONE) std::cout << ": value " << result.param.value;
-    if (moving_kind) print_move_summary(result);
+    if (moving_kind) print_move_summary(result, truth->skew_us());
     std::cout << "\n";
   }
   if (result.status != motionlcm::reply_t::DONE) {

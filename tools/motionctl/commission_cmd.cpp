@@ -2,17 +2,23 @@
 // manuals leave to the drive (docs/protocols.md), says what it found and what the gateway will do
 // about it, and which simulated variant stays unknowable from reads. Moves nothing. Exit 1 when
 // something the drive reports contradicts the configuration (the gateway's set-up has run, so a
-// difference did not take hold), 4 when a drive does not answer. Requests go through the coordinator (PARAM_READ), so the gateway of the
+// difference did not take hold), 4 when a drive does not answer. UC57: which rpdo_sync variant
+// holds, from 1400h:02 and the start mechanism in the drive model (the gateway's acceptance test). Requests go through the coordinator (PARAM_READ), so the gateway of the
 // bus and the coordinator must run.
 #include "motionctl.hpp"
+
+#include "motion/lcm/channels.hpp"
 
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
 #include <iostream>
+#include <map>
 #include <optional>
 
+#include <motionlcm/drive_model_request_t.hpp>
+#include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/param_t.hpp>
 #include <motionlcm/reply_t.hpp>
 
@@ -51,6 +57,21 @@ param_t modbus(int reg, int width) {
   p.subindex = -1;
   p.width = static_cast<std::int8_t>(width);
   return p;
+}
+
+constexpr const char* kRpdo1Type = "1400h:02 RPDO1 transmission type";
+
+// UC57 rpdo_sync (docs/protocols.md UC57 #1) from RPDO1's transmission type as read and the start
+// mechanism the gateway's acceptance test left in the drive model: refused when set-up had to fall
+// back to an asynchronous type, honoured when the model offers the SYNC start, on_reception when
+// type 1 holds but the model offers only the node's own RPDO1.
+std::string rpdo_sync_variant(long long transmission_type, const motionlcm::drive_model_t* model) {
+  if (transmission_type > 240) return "refused";
+  if (model == nullptr) return "unknown (no drive model from the gateway)";
+  for (const auto kind : model->start_kinds) {
+    if (kind == motionlcm::drive_model_t::START_CANOPEN_SYNC) return "honoured";
+  }
+  return "on_reception";
 }
 
 // The checks of one drive and the notes on what reads cannot tell (docs/protocols.md).
@@ -96,7 +117,9 @@ std::pair<std::vector<Check>, std::vector<std::string>> checks_of(const config::
       p.index = 0x2006;
       p.subindex = 0;
       checks.push_back({"2006h resolution code", p, std::nullopt, -1, "the drive model carries what it reads"});
-      notes.push_back("rpdo_sync: not yet checked (docs/protocols.md)");
+      p.index = 0x1400;  // RPDO1 communication parameter, sub 2 transmission type (UC57 manual §5 comm. table)
+      p.subindex = 2;
+      checks.push_back({kRpdo1Type, p, std::nullopt, -1, ""});
       break;
     }
   }
@@ -118,6 +141,25 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
       }
       client::Client client(service.loop(), service.node(), "motionctl-" + std::to_string(::getpid()));
       if (!ctx.sign_requests(client)) return ctx.result;
+      // The drive models (DRIVE_MODEL) of the bus's UC57 axes: how their gateway starts them.
+      std::map<std::string, motionlcm::drive_model_t> models;
+      std::size_t uc57_axes = 0;
+      for (const auto& d : cfg.drives) {
+        if (d.bus == *bus && d.family == config::Family::kUc57) ++uc57_axes;
+      }
+      if (uc57_axes > 0) {
+        service.node().subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel, [&](const motionlcm::drive_model_t& m, const std::string&) {
+          if (m.bus == *bus) models[m.drive] = m;
+        });
+        motionlcm::drive_model_request_t ask{};
+        ask.utime = wall_time_us();
+        ask.requester = "motionctl-commission";
+        service.node().publish(lcm::channels::kDriveModelRequest, ask);
+        const auto deadline = service.loop().now() + std::chrono::seconds(3);
+        while (models.size() < uc57_axes && service.loop().now() < deadline) {
+          service.loop().run_once(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - service.loop().now()));
+        }
+      }
       int result = app::kExitOk;
       nlohmann::json out = nlohmann::json::array();
       for (const auto& d : cfg.drives) {
@@ -158,6 +200,21 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
                 jc["contradiction"] = true;
                 result = std::max(result, int{app::kExitFailure});
               }
+            }
+          }
+          if (c.what == kRpdo1Type && r.status == reply_t::DONE) {
+            const auto model = models.find(d.name);
+            const std::string variant = rpdo_sync_variant(r.param.value, model == models.end() ? nullptr : &model->second);
+            line += "; rpdo_sync: " + variant;
+            jd["rpdo_sync"] = variant;
+            const auto configured = d.setup_text("rpdo_sync");
+            if (configured && *configured != "detect" && (variant == "honoured" || variant == "on_reception") && *configured != variant) {
+              line += " CONTRADICTS the configuration (rpdo_sync: " + *configured + "); the gateway goes by the drive: put " + variant +
+                      " in the configuration";
+              jc["contradiction"] = true;
+              result = std::max(result, int{app::kExitFailure});
+            } else if (variant == "on_reception" || variant == "refused") {
+              line += " (moves start node by node; STARTED reports the skew)";
             }
           }
           if (!ctx.json) std::cout << "  " << c.what << ": " << line << "\n";

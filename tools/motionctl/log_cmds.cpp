@@ -567,8 +567,9 @@ void write_csv(std::ostream& out, const LogContents& log, const View& view) {
 }
 
 // The trajectories as SVG panels, time from the log's first event; the STARTED reply of a request
-// that moves axes and its terminal one are marked in the panels of its axes (a request not in the log
-// counts when it was STARTED). `units`: axis -> user unit, when known.
+// that moves axes, its planned arrival (STARTED + predicted duration) and its terminal reply are
+// marked in the panels of its axes (a request not in the log counts when it was STARTED). `units`:
+// axis -> user unit, when known.
 std::string plot_svg(const std::string& path, const View& view, const std::map<std::string, std::string>& units) {
   std::vector<web::PlotAxis> axes;
   for (const auto& [axis, samples] : view.trajectories()) {
@@ -587,6 +588,10 @@ std::string plot_svg(const std::string& path, const View& view, const std::map<s
       if (r.status != reply_t::STARTED && !client::is_terminal(r.status)) continue;
       const auto& names = !r.axes.empty() || th.request == nullptr ? r.axes : th.request->msg.axes;
       marks.push_back({view.t(rep->log_utime), std::string(kind) + " " + client::status_name(r.status), names});
+      // Where the coordinator planned the axes to arrive: STARTED + its predicted duration.
+      if (r.status == reply_t::STARTED && r.predicted_duration_s > 0) {
+        marks.push_back({view.t(rep->log_utime) + r.predicted_duration_s, std::string(kind) + " planned arrival", names});
+      }
     }
   }
   return web::svg_plot(axes, marks, {.title = "motionctl log " + path});

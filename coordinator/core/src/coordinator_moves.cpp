@@ -121,6 +121,14 @@ std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(co
                        : d.family == config::Family::kAdamModbus  ? std::int8_t{Model::START_ADAM_BROADCAST}
                        : d.family == config::Family::kUim242      ? std::int8_t{Model::START_UIM242_GLOBAL}
                                                                   : std::int8_t{Model::START_SINGLE};
+    if (d.family == config::Family::kUc57) {
+      // A UC57 whose model offers no SYNC start (RPDO1 applies on reception) starts by its own RPDO1.
+      const auto& model = axes_.at(c.axis).model;
+      if (model && !start_wire_us(*model, Model::START_CANOPEN_SYNC)) {
+        key = "uc57 node " + d.name;
+        kind = std::int8_t{Model::START_SINGLE};
+      }
+    }
     if (d.family == config::Family::kUim342) {
       bool whole_group = d.group_id != 0;
       for (const auto& other : config_.drives) {

@@ -160,9 +160,12 @@ void MasterCore::on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) {
   framer_.push(bytes, now);
   const auto pending = framer_.pending();
   // A pty delivers a frame at once; closing it at its known length saves the t3.5 wait. A frame
-  // of the right length with a bad CRC waits for the silence (more garbage may follow).
-  if (const auto size = expected_reply_size(pending); size && pending.size() == *size && rtu::crc_ok(pending)) {
-    on_reply_frame(framer_.complete_now(), now);
+  // of the right length with a bad CRC waits for the silence (more garbage may follow). Bytes
+  // beyond a valid reply (a late answer to an earlier attempt, joined to this one without a
+  // silence between them) stay buffered as a frame of their own.
+  if (const auto size = expected_reply_size(pending);
+      size && pending.size() >= *size && rtu::crc_ok(pending.first(*size))) {
+    on_reply_frame(framer_.complete_prefix(*size), now);
   }
 }
 
@@ -238,9 +241,20 @@ void MasterCore::retry_or_fail(const std::string& why, std::int32_t code, TimePo
   if (t->on_fail) t->on_fail(reason, code);
 }
 
+bool MasterCore::reply_incomplete() const {
+  const auto pending = framer_.pending();
+  return in_flight_ && !pending.empty() && pending.size() < expected_reply_size(pending).value_or(kShortestReply);
+}
+
 TimePoint MasterCore::process(TimePoint now) {
   if (in_flight_) {
-    if (auto frame = framer_.take_if_silent(now)) on_reply_frame(std::move(*frame), now);
+    // Bytes short of the reply's known length are not a reply yet, whatever the silence after them:
+    // a USB adapter or a loaded host delivers one reply in pieces with pauses longer than t3.5, and
+    // the rest (or the reply deadline) decides. The Modbus RTU rule (a frame ends at t3.5 silence)
+    // still ends every frame of full length or more.
+    if (!reply_incomplete()) {
+      if (auto frame = framer_.take_if_silent(now)) on_reply_frame(std::move(*frame), now);
+    }
   } else if (auto stray = framer_.take_if_silent(now)) {
     on_reply_frame(std::move(*stray), now);  // counted and reported as unsolicited
   }
@@ -254,7 +268,7 @@ TimePoint MasterCore::process(TimePoint now) {
   send_next(now);
 
   TimePoint next = started_ ? next_poll_ : kNever;
-  if (in_flight_) next = std::min({next, reply_deadline_, framer_.deadline()});
+  if (in_flight_) next = std::min({next, reply_deadline_, reply_incomplete() ? kNever : framer_.deadline()});
   else if (!queue_.empty()) next = std::min(next, reserved_at_ != kNever && now >= line_free_at_ ? reserved_at_ + kReservationGrace : line_free_at_);
   if (!in_flight_ && !framer_.pending().empty()) next = std::min(next, framer_.deadline());
   return next;

@@ -1,6 +1,7 @@
 #include "motion/drive_model/drive_model.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -9,6 +10,7 @@
 #include "motion/adam/units.hpp"
 #include "motion/adam/rtu.hpp"
 #include "motion/can_frame/bit_timing.hpp"
+#include "motion/canopen/cob_id.hpp"
 #include "motion/canopen/sync.hpp"
 #include "motion/cia402/uc57_od.hpp"
 #include "motion/cia402/uc57_units.hpp"
@@ -103,6 +105,16 @@ std::optional<std::string> uc57(Model& m, const config::Drive& drive, const conf
   const double start_rpm = facts.start_speed_rpm.value_or(static_cast<double>(start_speed->default_value));
   ramp_time(m, 1.0 / od::ramp_acceleration(od::RampUnit::kMilliseconds, 1, 1.0, ppr), od::rpm_to_pulses_per_second(start_rpm, ppr),
             std::max(acceleration->min, deceleration->min), std::min(acceleration->max, deceleration->max));
+  if (facts.one_frame_start == false) {
+    // The drive applies RPDO1 on reception (or refused transmission type 1): its own RPDO1
+    // starts it (CiA 301 §7.2.2; docs/protocols.md UC57 #1). Wire time of the longer RPDO1
+    // layout (the manual's default 1600h: 6040h + 60FFh + 6060h, 7 bytes), zero data.
+    const std::array<std::uint8_t, 7> data{};
+    const auto rpdo = can::Frame::make(canopen::rpdo_cob_id(1, static_cast<canopen::NodeId>(drive.node_id)), false, data);
+    if (!rpdo) return "drive " + drive.name + ": no RPDO1 frame for node " + std::to_string(drive.node_id);
+    add_start(m, Model::START_SINGLE, drive.node_id, micros(can::frame_duration(*rpdo, static_cast<std::uint32_t>(bus.bitrate))));
+    return std::nullopt;
+  }
   add_start(m, Model::START_CANOPEN_SYNC, static_cast<std::int32_t>(canopen::kSyncCobId),
             micros(can::frame_duration(canopen::encode_sync({}), static_cast<std::uint32_t>(bus.bitrate))));
   return std::nullopt;

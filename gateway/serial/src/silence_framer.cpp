@@ -17,4 +17,11 @@ std::optional<std::vector<std::uint8_t>> SilenceFramer::take_if_silent(TimePoint
 
 std::vector<std::uint8_t> SilenceFramer::complete_now() { return std::exchange(buffer_, {}); }
 
+std::vector<std::uint8_t> SilenceFramer::complete_prefix(std::size_t size) {
+  if (size >= buffer_.size()) return complete_now();
+  std::vector<std::uint8_t> frame(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(size));
+  buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(size));
+  return frame;
+}
+
 }  // namespace motion::serial

@@ -67,6 +67,10 @@ NodeSettings make_node_settings(const config::Config& config, const config::Bus&
   if (const auto mode = drive.setup_text("tpdo_mode")) {
     out.tpdo_mode = *mode == "event" ? TpdoMode::kEvent : TpdoMode::kSync;
   }
+  if (const auto answer = drive.setup_text("rpdo_sync")) {
+    out.rpdo_sync = *answer == "honoured" ? RpdoSyncAnswer::kHonoured : *answer == "on_reception" ? RpdoSyncAnswer::kOnReception
+                                                                                                   : RpdoSyncAnswer::kDetect;
+  }
   const auto heartbeat = drive.setup_integer("heartbeat_ms");
   out.heartbeat_ms = heartbeat ? static_cast<std::uint16_t>(std::clamp<long long>(*heartbeat, 0, 0xFFFF)) : default_heartbeat_ms;
   if (out.heartbeat_ms == 0) {

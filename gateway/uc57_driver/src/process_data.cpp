@@ -32,12 +32,12 @@ canopen::PdoMapping rpdo1_mapping(RpdoLayout layout) {
   return {kControlwordEntry, kTargetVelocityEntry, kModeEntry};
 }
 
-canopen::PdoConfiguration rpdo1_remap(canopen::NodeId node) {
+canopen::PdoConfiguration rpdo1_remap(canopen::NodeId node, std::uint8_t transmission_type) {
   canopen::PdoConfiguration config;
   config.direction = canopen::PdoDirection::kReceive;
   config.number = 1;
   config.cob_id = canopen::rpdo_cob_id(1, node);
-  config.transmission_type = kTransmissionSyncEveryCycle;
+  config.transmission_type = transmission_type;
   config.mapping = rpdo1_mapping(RpdoLayout::kControlwordTarget);
   return config;
 }

@@ -1,6 +1,10 @@
 // Uc57Stack (uc57_stack.hpp): construction, accessors, frames in and the SYNC cycle, process data.
 #include "uc57_stack_impl.hpp"
 
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/canopen/nmt.hpp"
+#include "motion/canopen/sync.hpp"
+
 namespace motion::uc57_driver {
 
 // ---------------------------------------------------------------------------------------------
@@ -17,8 +21,14 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
       bus_(bus.name),
       sync_period_(std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(bus.poll_hz, 0.1)))),
       master_([this](const can::Frame& frame) {
-        if (!context_.send || !context_.send(frame)) ++counters_.protocol_errors;
+        if (!context_.send || !context_.send(frame)) {
+          ++counters_.protocol_errors;
+          return;
+        }
+        wire_sent_ += can::frame_duration(frame, bitrate_);
+        if (frame.id == canopen::kSyncCobId) last_sync_end_ = wire_sent_;
       }) {
+  bitrate_ = static_cast<std::uint32_t>(std::max(bus.bitrate, 1));
   options_.wall_clock_us = gateway::or_system_clock(std::move(options_.wall_clock_us));
   for (const auto& drive : config.drives) {
     if (drive.family != config::Family::kUc57 || drive.bus != bus.name) continue;
@@ -32,7 +42,45 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
   }
   master_.nmt().on_event([this](const canopen::NodeEvent& e) { on_node_event(e); });
   master_.emcy().on_event([this](const canopen::EmcyEvent& e) { on_emcy(e); });
+  fit_sync_period(bus);
   master_.configure_sync({sync_period_, 0, canopen::kSyncCobId});
+}
+
+// Polling within the bus budget, as the UIM342 stack keeps its polls (UIM342 manual §5.24): each
+// SYNC makes every node with synchronous TPDOs send TPDO1 and TPDO2 (UC57 manual §5 comm. table,
+// 1800h/1801h:02 = 1; CiA 301 §7.2.2). At the UC57's default 125 kbit/s (2009h = 2, manual §5.1)
+// 32 nodes at 20 Hz ask for 1,300 frames/s, more than the bus carries. The SYNC, and with it the
+// status rate, is slowed until the SYNC and those TPDOs, with the nodes' heartbeats (1017h, set up
+// here), take at most kPollBusShare of the wire; the rest stays for SDO, RPDOs and EMCY. Stuff
+// bits are counted for all-zero data (the most a 0-filled payload gets), so a real cycle is at
+// most a few bits shorter.
+void Uc57Stack::fit_sync_period(const config::Bus& bus) {
+  Duration cycle = can::frame_duration(canopen::encode_sync({}), bitrate_);
+  std::size_t synchronous = 0;
+  double heartbeat_share = 0;  // of the wire, per second
+  for (const auto& node : nodes_) {
+    if (node->settings.heartbeat_ms > 0) {
+      const auto beat = canopen::encode_heartbeat(node->settings.node, canopen::NmtState::kOperational);
+      heartbeat_share += std::chrono::duration<double>(can::frame_duration(beat, bitrate_)).count() * 1000.0 / node->settings.heartbeat_ms;
+    }
+    if (node->settings.tpdo_mode != TpdoMode::kSync) continue;
+    ++synchronous;
+    cycle += can::frame_duration(encode_tpdo1(node->settings.node, {}), bitrate_) +
+             can::frame_duration(encode_tpdo2(node->settings.node, {}), bitrate_);
+  }
+  const auto configured = sync_period_;
+  const double share = std::max(kPollBusShare - heartbeat_share, kPollBusShare / 4);
+  const auto needed = std::chrono::duration_cast<Duration>(std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / share));
+  if (needed <= configured) return;
+  sync_period_ = std::chrono::ceil<std::chrono::milliseconds>(needed);
+  const auto hz = [](Duration d) { return 1.0 / std::chrono::duration<double>(d).count(); };
+  char text[320];
+  std::snprintf(text, sizeof text,
+                "bus %s: %zu UC57 nodes with synchronous TPDOs at %.1f Hz need %.0f%% of %u bit/s; SYNC (and status) at %.1f Hz instead "
+                "(polls and heartbeats keep to %.0f%% of the bus)",
+                bus.name.c_str(), synchronous, hz(configured), 100.0 * std::chrono::duration<double>(cycle).count() * hz(configured),
+                bitrate_, hz(sync_period_), 100.0 * kPollBusShare);
+  poll_warning_ = text;
 }
 
 Uc57Stack::~Uc57Stack() = default;
@@ -43,6 +91,13 @@ std::vector<std::string> Uc57Stack::axes() const {
     if (!node->settings.axis.empty()) out.push_back(node->settings.axis);
   }
   return out;
+}
+
+std::string Uc57Stack::rpdo_sync_finding(std::string_view drive) const {
+  for (const auto& node : nodes_) {
+    if (node->settings.drive == drive && node->phase == Node::Phase::kOperational) return node->rpdo_finding;
+  }
+  return {};
 }
 
 std::optional<RpdoLayout> Uc57Stack::rpdo_layout(std::string_view drive) const {
@@ -162,6 +217,7 @@ void Uc57Stack::run_sync_cycle(TimePoint now) {
     node.preloaded = false;  // the queued image replaced the start image in the drive
   }
   masked_sync(now, [this, now] { master_.sync()->process(now); });
+  run_sync_waiters();
 }
 
 void Uc57Stack::masked_sync(TimePoint now, const std::function<void()>& sync) {
@@ -184,7 +240,13 @@ void Uc57Stack::send_image(std::size_t n, const RpdoImage& image) {
   Node& node = *nodes_[n];
   node.image = image;
   const can::Frame frame = encode_rpdo1(node.settings.node, node.layout, image);
-  if (!context_.send || !context_.send(frame)) ++counters_.protocol_errors;
+  if (!context_.send || !context_.send(frame)) {
+    ++counters_.protocol_errors;
+    return;
+  }
+  wire_sent_ += can::frame_duration(frame, bitrate_);
+  node.rpdo_end = wire_sent_;
+  node.last_rpdo = frame;
 }
 
 RpdoImage Uc57Stack::latest_image(std::size_t n) const {

@@ -11,6 +11,13 @@ namespace motion::uc57_driver {
 void Uc57Stack::start(TimePoint now) {
   now_ = now;
   started_ = true;
+  if (!poll_warning_.empty() && context_.out != nullptr) {
+    gateway::DriveEvent e;
+    e.kind = Event::CONFIG_MISMATCH;
+    e.severity = Event::WARNING;
+    e.text = poll_warning_;
+    context_.out->axis_event("", e);
+  }
   for (std::size_t n = 0; n < nodes_.size(); ++n) {
     Node& node = *nodes_[n];
     for (const auto& warning : node.settings.warnings) {
@@ -151,8 +158,10 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
       return next(std::nullopt);
     }
     const unsigned session = nd.session;
-    canopen::configure_pdo(master_.sdo(), nd.settings.node, rpdo1_remap(nd.settings.node),
-                           [this, n, session, next](const canopen::SdoSequenceResult& result) {
+    const auto remap = rpdo1_remap(nd.settings.node, nd.sync_refused ? kTransmissionEventDriven : kTransmissionSyncEveryCycle);
+    const auto steps = canopen::pdo_remap_steps(remap);
+    canopen::configure_pdo(master_.sdo(), nd.settings.node, remap,
+                           [this, n, session, next, steps](const canopen::SdoSequenceResult& result) {
                              Node& remapped = *nodes_[n];
                              if (remapped.session != session) return;
                              if (!result.error) {
@@ -170,6 +179,34 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
                                return next(remapped.settings.label() + ": RPDO1 remap step " + std::to_string(result.failed_step + 1) +
                                            " got no usable answer (" + result.error.message() + "); node reset to restore its stored PDO mapping");
                              }
+                             const bool type_refused = steps && result.failed_step < steps->size() &&
+                                                       (*steps)[result.failed_step].object ==
+                                                           ObjectAddress{canopen::pdo_communication_index(canopen::PdoDirection::kReceive, 1),
+                                                                         canopen::kPdoTransmissionTypeSub};
+                             if (type_refused && !remapped.sync_refused) {
+                               // Transmission type 1 refused (the manual's §5 table gives only FFh): RPDO1 becomes
+                               // asynchronous (remembered). The PDO is still disabled: the remap again from its
+                               // first step, with 255.
+                               remapped.sync_refused = true;
+                               event(n, Event::CONFIG_MISMATCH, Event::WARNING, result.error.value(),
+                                     remapped.settings.label() + ": RPDO1 transmission type 1 (synchronous) refused (" + result.error.message() +
+                                         "); RPDO1 asynchronous (255), moves start node by node");
+                               return canopen::configure_pdo(
+                                   master_.sdo(), remapped.settings.node, rpdo1_remap(remapped.settings.node, kTransmissionEventDriven),
+                                   [this, n, session, next](const canopen::SdoSequenceResult& again) {
+                                     Node& async = *nodes_[n];
+                                     if (async.session != session) return;
+                                     if (!again.error) {
+                                       async.layout = RpdoLayout::kControlwordTarget;
+                                       return next(std::nullopt);
+                                     }
+                                     count_sdo_result(again.error);
+                                     master_.nmt().send(canopen::NmtCommand::kResetNode, async.settings.node);
+                                     next(async.settings.label() + ": RPDO1 remap with transmission type 255 failed at step " +
+                                          std::to_string(again.failed_step + 1) + " (" + again.error.message() +
+                                          "); node reset to restore its stored PDO mapping");
+                                   });
+                             }
                              remapped.remap_refused = true;
                              remapped.layout = RpdoLayout::kManualDefault;
                              const std::string why = remapped.settings.label() + ": RPDO1 remap refused at step " +
@@ -186,9 +223,17 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
   }});
   ops.push_back({[this, n, write](Continue next) {
     if (nodes_[n]->layout != RpdoLayout::kManualDefault) return next(std::nullopt);
-    write({canopen::pdo_communication_index(canopen::PdoDirection::kReceive, 1), canopen::kPdoTransmissionTypeSub},
-          le<std::uint8_t>(kTransmissionSyncEveryCycle))
-        .run(std::move(next));
+    const ObjectAddress type{canopen::pdo_communication_index(canopen::PdoDirection::kReceive, 1), canopen::kPdoTransmissionTypeSub};
+    if (nodes_[n]->sync_refused) return write(type, le<std::uint8_t>(kTransmissionEventDriven)).run(std::move(next));
+    sdo_write(n, type, le<std::uint8_t>(kTransmissionSyncEveryCycle), [this, n, type, write, next](std::error_code ec, std::span<const std::uint8_t>) {
+      if (!ec) return next(std::nullopt);
+      if (ec.category() != canopen::sdo_category() || ec == canopen::SdoAbortCode::kTimeout) return next(sdo_failure(n, true, type, ec));
+      // Refused: asynchronous RPDO1, the manual's default FFh (§5 comm. table); moves start node by node.
+      nodes_[n]->sync_refused = true;
+      event(n, Event::CONFIG_MISMATCH, Event::WARNING, ec.value(),
+            sdo_failure(n, true, type, ec) + " for transmission type 1; RPDO1 asynchronous (255), moves start node by node");
+      write(type, le<std::uint8_t>(kTransmissionEventDriven)).run(next);
+    });
   }});
   // 6. TPDO1 / TPDO2 transmission type (1800h/1801h:02, RW/S) and whether TPDO2 is mapped (C-09).
   for (std::uint16_t tpdo = 1; tpdo <= 2; ++tpdo) {
@@ -240,6 +285,8 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
     master_.nmt().send(canopen::NmtCommand::kStart, nd.settings.node);
     next(std::nullopt);
   }});
+  // 9. Does RPDO1 apply at the SYNC, on reception, or was type 1 refused (uc57_stack_rpdo.cpp)?
+  ops.push_back(rpdo_acceptance_op(n));
   return ops;
 }
 
@@ -268,10 +315,14 @@ void Uc57Stack::enter_operational(std::size_t n) {
   event(n, Event::ONLINE, Event::INFO, node.settings.node,
         node.settings.label() + ": configured and operational (RPDO1 " +
             (node.layout == RpdoLayout::kControlwordTarget ? "controlword + target position" : "manual default mapping") +
-            ", synchronous; TPDOs " + (node.settings.tpdo_mode == TpdoMode::kSync ? "every SYNC" : "event-driven") + ")");
+            ", " + node.rpdo_finding + "; TPDOs " + (node.settings.tpdo_mode == TpdoMode::kSync ? "every SYNC" : "event-driven") + ")");
   // What was read at set-up (2006h, 200Eh; manual §5.1) makes the axis's drive model.
   if (context_.out != nullptr && !node.settings.axis.empty()) {
-    context_.out->drive_facts(node.settings.axis, {node.pulses_per_rev, node.start_speed * 60.0 / node.pulses_per_rev, {}});
+    gateway::DriveFacts facts;
+    facts.counts_per_revolution = node.pulses_per_rev;
+    facts.start_speed_rpm = node.start_speed * 60.0 / node.pulses_per_rev;
+    facts.one_frame_start = node.rpdo_at_sync;  // false: no synchronous RPDO start (uc57_stack_rpdo.cpp)
+    context_.out->drive_facts(node.settings.axis, facts);
   }
   publish_status(n);
 }

@@ -81,7 +81,8 @@ void Uc57Stack::part_armed(std::int64_t command_id, std::size_t n, TimePoint now
 
 void Uc57Stack::preload(const Job& job) {
   for (const std::size_t n : job.nodes) {
-    if (nodes_[n]->phase == Node::Phase::kOperational && nodes_[n]->task == TaskKind::kArmed) send_preload(n);
+    // A node applying RPDO1 on reception would start now: its start image waits for fire().
+    if (nodes_[n]->phase == Node::Phase::kOperational && nodes_[n]->task == TaskKind::kArmed && nodes_[n]->rpdo_at_sync) send_preload(n);
   }
 }
 
@@ -690,16 +691,15 @@ void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoin
   for (const std::size_t n : started) nodes_[n]->preloaded = false;  // this SYNC applies them
   // Any other node's start image waiting for its own trigger must not be applied by this SYNC.
   masked_sync(now, [this, now] { master_.sync()->trigger_now(now); });
-  const std::int64_t trigger_utime = options_.wall_clock_us(now);  // the driver replaces it by the SYNC's echo
-  can::Frame sync_frame{};
-  sync_frame.id = master_.sync()->config().cob_id & 0x7FF;
+  const std::int64_t trigger_utime = options_.wall_clock_us(now);  // the driver replaces it by the start frame's echo
   for (const auto id : command_ids) {
-    if (context_.start_frame) context_.start_frame(id, sync_frame);
     Job* job = jobs_.find(id);
     if (job == nullptr) continue;
+    const StartFacts how = start_facts(*job);  // SYNC, or RPDO1s back to back (uc57_stack_rpdo.cpp)
+    if (context_.start_frame) context_.start_frame(id, how.frame);
     job->data.started = true;
-    // One frame starts every axis; the nodes' SYNC latency is undocumented (skew 0).
-    job->reply.started(trigger_utime, "sync", 0.0);
+    // 0 skew for one SYNC: the nodes' SYNC latency is undocumented.
+    job->reply.started(trigger_utime, how.mechanism, how.skew_us);
     jobs_.advance_all(id, Lifecycle::kStarted);  // the ledger replies STARTED
   }
 }

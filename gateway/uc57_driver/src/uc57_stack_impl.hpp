@@ -1,5 +1,6 @@
 // Private to the UC57 stack's sources (uc57_stack.cpp: construction, process data; uc57_stack_boot.cpp:
-// probe, configuration, SDO; uc57_stack_commands.cpp: commands): the helpers and the node, job
+// probe, configuration, SDO; uc57_stack_commands.cpp: commands; uc57_stack_rpdo.cpp: the RPDO1
+// acceptance test and start facts): the helpers and the node, job
 // and task types they share. Not installed, not included elsewhere.
 #pragma once
 #include "motion/uc57_driver/uc57_stack.hpp"
@@ -133,6 +134,14 @@ struct Uc57Stack::Node {
 
   RpdoLayout layout = RpdoLayout::kControlwordTarget;
   bool remap_refused = false;    // remembered across re-configurations
+  // RPDO1 transmission type 1 aborted by the drive (remembered): RPDO1 runs asynchronous (FFh).
+  bool sync_refused = false;
+  // How RPDO1 applies, found at set-up (rpdo_acceptance_op): at the SYNC (the one-frame start
+  // and preloading work) or on reception (moves start node by node, never preloaded).
+  bool rpdo_at_sync = true;
+  std::string rpdo_finding;      // "honoured (detected)", "refused", ...: events and the drive model
+  Duration rpdo_end{};           // wire_sent_ after this node's last RPDO1 (start skew)
+  can::Frame last_rpdo{};        // that RPDO1
   bool tpdo2_active = true;
   std::uint32_t pulses_per_rev = cia402::uc57::kDefaultPulsesPerRevolution;
   double start_speed = 0;        // 200Eh, pulses/s

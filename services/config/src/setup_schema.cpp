@@ -35,6 +35,9 @@ const std::vector<SetupKey> kUc57 = {
     {"closed_loop", SetupType::kBool, 0, 0, {}, {}, "encoder feedback control"},
     {"tpdo_mode", SetupType::kChoice, 0, 0, {}, {"sync", "event"}, "axis state from SYNC-driven or event-driven TPDOs"},
     {"heartbeat_ms", SetupType::kInt, 0, 65535, {}, {}, "producer heartbeat time (1017h)"},
+    {"rpdo_sync", SetupType::kChoice, 0, 0, {}, {"detect", "honoured", "on_reception"},
+     "whether the drive applies a synchronous RPDO at the SYNC (honoured) or on reception; detect: set-up tests it "
+     "(the answer is used only where the test cannot run)"},
 };
 
 // ADAM Modbus RTU steppers: holding registers of the manual, written and read back.

@@ -28,7 +28,13 @@ const std::vector<SimVariantKey> kAdam = {
     {"table_needs_save", {"false", "true"}, 0, 0, "true", "whether table data written by Modbus is used only after a Save (0x00DC)"},
 };
 
-const std::vector<SimVariantKey> kUc57 = {};
+// UC57 manual §4.1.2 (SYNC: "assuming that the devices in the network support synchronous PDO
+// function") and §5 (1400h:02 RPDO transmission type, RW/S, default FFh): whether a UC57 takes
+// transmission type 1 and applies a synchronous RPDO at the next SYNC is not said.
+const std::vector<SimVariantKey> kUc57 = {
+    {"rpdo_sync", {"honoured", "on_reception", "refused"}, 0, 0, "honoured",
+     "RPDO transmission type 1: applied at the next SYNC, accepted but applied on reception, or refused by SDO abort"},
+};
 
 }  // namespace
 

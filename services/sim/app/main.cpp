@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
     // Simulators by family; each family's issue registers its own here.
     const std::map<config::Family, sim::CanDriveFactory> can_factories{
         {config::Family::kUim342, sim::uim342_factory(*config)},
-        {config::Family::kUc57, sim::uc57_drive_factory()},
+        {config::Family::kUc57, sim::uc57_drive_factory(*config)},
     };
     const sim::SerialLineHost::Factories serial_factories{
         {config::Family::kAdamModbus, sim::adam_line_factory()},

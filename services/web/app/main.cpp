@@ -1,17 +1,26 @@
-// motion-web: a live, read-only web view of the lab. Listens to the lab's LCM channels (AXIS_STATE,
-// HEALTH, EVENT, REQUEST, REPLY, ACTIVE_MOVES), turns them into JSON (motion::web::LabView) and
-// sends them to every browser over a WebSocket; serves the page (HTML, JS, CSS and Chart.js) from a
-// folder of files.
+// motion-web: a live web view of the lab. Listens to the lab's LCM channels (AXIS_STATE, HEALTH,
+// EVENT, REQUEST, REPLY, ACTIVE_MOVES), turns them into JSON (motion::web::LabView) and sends them
+// to every browser over a WebSocket; serves the page (HTML, JS, CSS and Chart.js) from a folder of
+// files.
 //
-// Threads: LCM on the process's EventLoop (the main thread); the HTTP/WebSocket server on its own
-// thread. One mutex guards the LabView between the two.
+// With --controls the page may also command the lab (enable, move, jog, stop, e-stop, home, fault
+// reset; controls.hpp): motion-web is then a client of the coordinator like motionctl, signing
+// with its own key (--key) when security is enforced, so the key's role in authorized_keys is
+// what the page may do. A browser's command counts only with the access token motion-web prints
+// at start ("controls at http://...?token=..."): anyone else who reaches the port only watches.
+//
+// Threads: LCM and the client on the process's EventLoop (the main thread); the HTTP/WebSocket
+// server on its own thread. One mutex guards the LabView between the two; commands from browsers
+// reach the main thread through a LoopMailbox.
 #include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <mutex>
+#include <optional>
 #include <string_view>
+#include <variant>
 
 #include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
@@ -19,10 +28,15 @@
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
+#include <spdlog/spdlog.h>
 
 #include "motion/app/service.hpp"
+#include "motion/client/client.hpp"
 #include "motion/core/log.hpp"
+#include "motion/core/loop_mailbox.hpp"
 #include "motion/lcm/channels.hpp"
+#include "motion/security/keys.hpp"
+#include "motion/web/controls.hpp"
 #include "motion/web/lab_view.hpp"
 #include "motion/web/server.hpp"
 
@@ -76,6 +90,42 @@ class Bridge {
   Server server_;
 };
 
+// The page's commands, on the main thread: checked (controls.hpp), then sent by the client.
+class Controls {
+ public:
+  Controls(const config::Config& config, EventLoop& loop, lcm::Node& node, std::string token)
+      : config_(config), client_(loop, node, "web"), mailbox_(loop, 256), token_(std::move(token)) {}
+
+  void sign_with(security::KeyPair key) { client_.sign_with(std::move(key)); }
+  [[nodiscard]] const std::string& token() const { return token_; }
+
+  // On the server thread: hands the command to the main thread, or answers at once when 256 are
+  // already waiting.
+  void post(std::string text, Server::Reply reply) {
+    if (!mailbox_.post([this, text, reply] { handle(text, reply); })) {
+      reply(control_refused({std::nullopt, "motion-web is busy (256 commands waiting): try again"}));
+    }
+  }
+
+ private:
+  void handle(const std::string& text, const Server::Reply& reply) {
+    auto parsed = parse_control(text, config_, token_);
+    if (const auto* error = std::get_if<ControlError>(&parsed)) {
+      spdlog::warn("web: a browser's command refused: {}", error->error);
+      reply(control_refused(*error));
+      return;
+    }
+    auto& command = std::get<ControlRequest>(parsed);
+    const std::int64_t id = client_.send(std::move(command.request));
+    reply(control_accepted(command.tag, client_.id() + "/" + std::to_string(id)));
+  }
+
+  const config::Config& config_;
+  client::Client client_;
+  LoopMailbox mailbox_;
+  const std::string token_;
+};
+
 }  // namespace
 }  // namespace motion::web
 
@@ -86,8 +136,14 @@ int main(int argc, char** argv) {
   app::add_common_options(cli, options);
   std::string listen = "127.0.0.1:8080";
   std::string static_dir;
+  bool controls = false;
+  std::string key_path;
   cli.add_option("--listen", listen, "ADDR:PORT the web server listens on (port 0: any free port)")->capture_default_str();
   cli.add_option("--static", static_dir, "Folder of the page's files (default: web/ beside the program, else ../share/motion/web)");
+  cli.add_flag("--controls", controls,
+               "Let the page command the lab (enable, move, jog, stop, e-stop, home, fault reset) with the access token printed at start");
+  cli.add_option("--key", key_path, "The web view's private key to sign its requests with (needed by --controls when security is enforced)")
+      ->envname("MOTION_WEB_KEY");
   return app::run(cli, argc, argv, [&]() -> int {
     if (!log::init("web", options.log_level)) return app::kExitUsage;
     const auto address = web::parse_listen(listen);
@@ -102,6 +158,20 @@ int main(int argc, char** argv) {
     }
     auto config = app::load_config(options);
     if (!config) return app::kExitConfig;
+    std::optional<security::KeyPair> key;
+    if (!key_path.empty()) {
+      auto loaded = security::load_private_key(key_path);
+      if (const auto* error = std::get_if<std::string>(&loaded)) {
+        std::cerr << "motion-web: --key: " << *error << "\n";
+        return app::kExitConfig;
+      }
+      key = std::move(std::get<security::KeyPair>(loaded));
+    }
+    if (controls && !key && config->security.mode == config::SecuritySettings::Mode::kEnforce) {
+      std::cerr << "motion-web: --controls with security enforced needs --key: the web view's own key, authorized with the "
+                   "role its page may use (README \"Security\")\n";
+      return app::kExitConfig;
+    }
 
     std::unique_ptr<web::Bridge> bridge;
     try {
@@ -121,9 +191,25 @@ int main(int argc, char** argv) {
     bridge->follow_requests(node);
 
     auto& server = bridge->server();
+    std::unique_ptr<web::Controls> page_controls;
+    if (controls) {
+      std::string token = web::new_access_token();
+      if (token.empty()) {
+        std::cerr << "motion-web: --controls: no random source for the access token\n";
+        return app::kExitUnavailable;
+      }
+      page_controls = std::make_unique<web::Controls>(*config, service.loop(), node, std::move(token));
+      if (key) page_controls->sign_with(std::move(*key));
+      server.on_command([c = page_controls.get()](std::string text, web::Server::Reply reply) { c->post(std::move(text), std::move(reply)); });
+    } else {
+      server.on_command([](const std::string&, const web::Server::Reply& reply) {
+        reply(web::control_refused({std::nullopt, "this motion-web is read-only (start it with --controls to command the lab)"}));
+      });
+    }
     server.start();
     // The address on stdout, alone on its line: for people and for scripts that asked for port 0.
     std::printf("motion-web: serving %s\n", server.url().c_str());
+    if (page_controls) std::printf("motion-web: controls at %s?token=%s\n", server.url().c_str(), page_controls->token().c_str());
     std::fflush(stdout);
     auto update_health = [&] {
       const auto browsers = server.clients();
@@ -133,7 +219,7 @@ int main(int argc, char** argv) {
     update_health();
     service.loop().call_every(std::chrono::seconds(1), update_health);
     const int code = service.run();
-    server.stop();
+    server.stop();  // no command handler runs after this, so the controls may go
     return code;
   });
 }

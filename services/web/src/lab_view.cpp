@@ -11,6 +11,9 @@ namespace {
 using motionlcm::reply_t;
 using motionlcm::request_t;
 
+// A DONE jog whose axes were never seen moving closes this long after its DONE.
+constexpr std::int64_t kJogSettleUs = 1'000'000;
+
 bool has_targets(std::int8_t kind) { return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE; }
 
 std::string move_id(const std::string& client_id, std::int64_t request_id) { return client_id + "/" + std::to_string(request_id); }
@@ -22,7 +25,7 @@ void keep_last(std::deque<T>& items, std::size_t limit) {
 
 }  // namespace
 
-bool LabView::Move::open() const { return !lcm::reply_is_terminal(status); }
+bool LabView::Move::open() const { return !lcm::reply_is_terminal(status) || following; }
 
 LabView::LabView(const config::Config& config, LabViewLimits limits) : config_(config), limits_(limits) {}
 
@@ -112,6 +115,7 @@ nlohmann::json LabView::move_json(const Move& m, bool with_samples) const {
                         {"reason", m.reason},
                         {"accepted_utime", m.accepted_utime},
                         {"started_utime", m.started_utime},
+                        {"predicted_duration_s", m.predicted_duration_s},
                         {"end_utime", m.end_utime}};
   if (with_samples) {
     nlohmann::json samples = nlohmann::json::object();
@@ -128,14 +132,25 @@ LabView::Move* LabView::find_move(const std::string& id) {
 
 std::vector<Outgoing> LabView::on_axis_state(const motionlcm::axis_state_t& msg) {
   axes_[msg.axis] = msg;
+  std::vector<Outgoing> out{emit(axis_json(msg))};
   for (auto& move : moves_) {
     if (!move.open() || std::find(move.axes.begin(), move.axes.end(), msg.axis) == move.axes.end()) continue;
     auto& points = move.samples[msg.axis];
     if (points.size() < limits_.samples_per_axis) {
       points.push_back({static_cast<double>(msg.sample_utime != 0 ? msg.sample_utime : msg.utime), msg.position, msg.velocity});
     }
+    if (msg.moving != 0) move.seen_moving = true;
+    const bool all_stand = std::all_of(move.axes.begin(), move.axes.end(), [&](const std::string& axis) {
+      const auto it = axes_.find(axis);
+      return it != axes_.end() && it->second.moving == 0;
+    });
+    if (move.following && all_stand && (move.seen_moving || msg.utime - move.done_utime > kJogSettleUs)) {
+      move.following = false;
+      move.end_utime = msg.utime;
+      out.push_back(emit(move_json(move, false)));
+    }
   }
-  return {emit(axis_json(msg))};
+  return out;
 }
 
 std::vector<Outgoing> LabView::on_health(const motionlcm::health_t& msg) {
@@ -210,9 +225,17 @@ std::vector<Outgoing> LabView::on_reply(const motionlcm::reply_t& msg) {
                                         [](std::int64_t a, std::int64_t b) { return a != 0 && (b == 0 || a < b); });
     move->started_utime = first != msg.start_utime.end() && *first != 0 ? *first : msg.utime;
   }
+  if (msg.predicted_duration_s > 0) move->predicted_duration_s = msg.predicted_duration_s;
   if (lcm::reply_is_terminal(msg.status)) {
     move->end_utime = msg.utime;
     move->reason = msg.reason;
+    // A jog is DONE when it runs (its axes may not report moving yet): its plot goes on until
+    // they stand again.
+    move->following = msg.status == reply_t::DONE && move->kind == request_t::JOG;
+    if (move->following) {
+      move->done_utime = msg.utime;
+      move->end_utime = 0;
+    }
   }
   out.push_back(emit(move_json(*move, false)));
   return out;

@@ -100,6 +100,7 @@ class WsSession;
 struct Server::Impl {
   ServerOptions options;
   SnapshotProvider snapshot;
+  CommandHandler on_command;
   asio::io_context io{1};
   tcp::acceptor acceptor{io};
   std::set<std::shared_ptr<WsSession>> sessions;
@@ -124,6 +125,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   void run(http::request<http::string_body> request) {
     ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+    ws_.read_message_max(server_.options.max_incoming);
     ws_.text(true);
     ws_.async_accept(request, [self = shared_from_this()](beast::error_code ec) { self->on_accept(ec); });
   }
@@ -150,16 +152,29 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     read();
   }
 
-  // Browsers send nothing the view acts on; reading keeps the close handshake and pings working.
+  // Reading also keeps the close handshake and pings working.
   void read() {
     ws_.async_read(incoming_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
       if (ec) {
         self->drop();
         return;
       }
+      if (self->server_.on_command && self->ws_.got_text()) {
+        self->server_.on_command(beast::buffers_to_string(self->incoming_.data()), self->reply_to_me());
+      }
       self->incoming_.clear();
       self->read();
     });
+  }
+
+  // Answers this browser from any thread, while it is connected.
+  Server::Reply reply_to_me() {
+    return [weak = weak_from_this(), io = &server_.io](std::string text) {
+      auto shared = std::make_shared<const std::string>(std::move(text));
+      asio::post(*io, [weak, shared] {
+        if (const auto self = weak.lock()) self->enqueue(shared);
+      });
+    };
   }
 
   void enqueue(const std::shared_ptr<const std::string>& text) {
@@ -251,7 +266,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
   http::response<http::string_body> file_response() const {
     if (request_.method() != http::verb::get && request_.method() != http::verb::head) {
-      auto res = text_response(http::status::method_not_allowed, "the web view is read-only: GET and HEAD only\n");
+      auto res = text_response(http::status::method_not_allowed, "GET and HEAD only (commands go over the WebSocket)\n");
       res.set(http::field::allow, "GET, HEAD");
       return res;
     }
@@ -318,6 +333,8 @@ Server::Server(ServerOptions options, SnapshotProvider snapshot) : impl_(std::ma
 }
 
 Server::~Server() { stop(); }
+
+void Server::on_command(CommandHandler handler) { impl_->on_command = std::move(handler); }
 
 void Server::start() {
   if (impl_->thread.joinable()) return;

@@ -3,7 +3,13 @@
 // services/web/include/motion/web/lab_view.hpp). On each (re)connection the server starts with a
 // snapshot, so the page then starts from scratch.
 //
-// The model is kept in window.motionWeb (axes, processes, events, moves) for tests and the console.
+// Controls: opened with ?token=... (the address `motion-web --controls` prints), the page shows
+// buttons that send commands over the same WebSocket (services/web/include/motion/web/controls.hpp);
+// motion-web answers each with a command_result naming the request, whose replies then arrive
+// like everyone else's.
+//
+// The model is kept in window.motionWeb (axes, processes, events, moves, commands) for tests and
+// the console.
 'use strict';
 
 const MAX_EVENTS = 500;
@@ -13,7 +19,10 @@ const CLIENT_GONE_S = 5;
 const TERMINAL = new Set(['done', 'rejected', 'aborted', 'failed']);
 const COLORS = ['#1f77b4', '#d62728', '#2ca02c', '#ff7f0e', '#9467bd', '#8c564b', '#e377c2', '#17becf', '#7f7f7f', '#bcbd22'];
 
-const model = { lab: null, axes: {}, processes: {}, events: [], requests: {}, moves: {}, messages: 0 };
+const model = { lab: null, axes: {}, processes: {}, events: [], requests: {}, moves: {}, messages: 0, commands: {} };
+const token = new URLSearchParams(location.search).get('token');
+let socket = null;
+let nextTag = 1;
 window.motionWeb = model;
 
 const $ = (id) => document.getElementById(id);
@@ -47,6 +56,7 @@ function axisRow(name) {
 
 function showLab(lab) {
   model.lab = lab;
+  showControlAxes(lab);
   $('lab-file').textContent = `${lab.file} (channels ${lab.prefix}*)`;
   for (const a of lab.axes) {
     const row = axisRow(a.name);
@@ -154,6 +164,7 @@ function showReply(r) {
   status.textContent = r.status + (r.status === 'progress' ? ` ${Math.round(100 * r.progress)} %` : '');
   status.className = 'status ' + (r.status === 'done' ? 'state-ok' : TERMINAL.has(r.status) ? 'state-bad' : 'state-warn');
   row.querySelector('.reason').textContent = r.reason;
+  drawControlStatus();
 }
 
 // --- moves ---------------------------------------------------------------------------------
@@ -165,6 +176,9 @@ const marksPlugin = {
     const { ctx, chartArea, scales } = chart;
     const marks = [];
     if (move.started_utime) marks.push([move.started_utime, 'start', '#17803d']);
+    if (move.started_utime && move.predicted_duration_s > 0) {
+      marks.push([move.started_utime + move.predicted_duration_s * 1e6, 'planned arrival', '#6a3d9a']);
+    }
     if (move.end_utime) marks.push([move.end_utime, move.status, move.status === 'done' ? '#1d2329' : '#c0262d']);
     ctx.save();
     for (const [utime, label, color] of marks) {
@@ -270,10 +284,81 @@ function showActiveMoves(m) {
   }
 }
 
+// --- controls ------------------------------------------------------------------------------
+function showControlAxes(lab) {
+  const box = $('control-axes');
+  if (box.children.length) return;  // kept across reconnections, with what the user typed
+  for (const a of lab.axes) {
+    const label = el('label', { 'data-axis': a.name });
+    label.append(el('input', { type: 'checkbox', class: 'pick' }), document.createTextNode(` ${a.name} `),
+      el('input', { type: 'number', step: 'any', value: '0', class: 'value', title: `${a.name} (${a.unit})` }),
+      document.createTextNode(` ${a.unit}`));
+    box.appendChild(label);
+  }
+}
+
+// Sends one command; ESTOP always stops every axis, STOP every axis when none is ticked.
+function sendCommand(kind) {
+  const picked = [...document.querySelectorAll('#control-axes label')].filter((l) => l.querySelector('.pick').checked);
+  const axes = kind === 'ESTOP' ? [] : picked.map((l) => l.dataset.axis);
+  const command = { type: 'command', token, tag: nextTag++, kind, axes };
+  if (['MOVE_ABSOLUTE', 'MOVE_RELATIVE', 'JOG'].includes(kind)) {
+    command.values = picked.map((l) => Number(l.querySelector('.value').value));
+    command.velocity_scale = Number($('control-speed').value);
+  }
+  model.commands[command.tag] = { kind, axes, sent: Date.now() };
+  if (!socket || socket.readyState !== WebSocket.OPEN) {
+    Object.assign(model.commands[command.tag], { ok: false, error: 'not connected to motion-web' });
+  } else {
+    socket.send(JSON.stringify(command));
+  }
+  drawControlStatus();
+}
+
+function showCommandResult(r) {
+  const command = model.commands[r.tag];
+  if (command) Object.assign(command, { ok: r.ok, id: r.id, error: r.error });
+  else model.commands[`unmatched-${Date.now()}`] = { kind: '?', axes: [], ok: r.ok, id: r.id, error: r.error };
+  drawControlStatus();
+}
+
+// The last command: refused by motion-web, or its request's latest status from the coordinator.
+function drawControlStatus() {
+  const tags = Object.keys(model.commands);
+  if (!tags.length) return;
+  const c = model.commands[tags[tags.length - 1]];
+  const line = $('control-status');
+  const what = `${c.kind.toLowerCase()} ${c.axes.join(' ') || 'all axes'}`;
+  let text; let cls;
+  if (c.ok === false) {
+    [text, cls] = [`${what}: refused by motion-web: ${c.error}`, 'state-bad'];
+  } else if (!c.id) {
+    [text, cls] = [`${what}: sent…`, 'state-warn'];
+  } else {
+    const r = model.requests[c.id];
+    const status = r ? r.status : 'sent';
+    [text, cls] = [`${what}: ${status} (${c.id})${r && r.reason ? ' – ' + r.reason : ''}`,
+      status === 'done' ? 'state-ok' : TERMINAL.has(status) ? 'state-bad' : 'state-warn'];
+  }
+  line.textContent = text;
+  line.className = cls;
+  line.dataset.status = c.ok === false ? 'refused' : (c.id && model.requests[c.id] ? model.requests[c.id].status : 'sent');
+  line.dataset.request = c.id || '';
+}
+
+function setUpControls() {
+  if (!token) return;
+  $('controls-section').hidden = false;
+  $('mode').textContent = 'controls on';
+  for (const button of document.querySelectorAll('#controls-section button[data-kind]')) {
+    button.addEventListener('click', () => sendCommand(button.dataset.kind));
+  }
+}
+
 // --- connection ----------------------------------------------------------------------------
 function reset() {
   for (const move of Object.values(model.moves)) move.chart?.destroy();
-  Object.assign(model, { lab: null, axes: {}, processes: {}, events: [], requests: {}, moves: {}, messages: 0 });
+  Object.assign(model, { lab: null, axes: {}, processes: {}, events: [], requests: {}, moves: {}, messages: 0 });  // commands kept
   for (const id of ['axes', 'processes', 'buses', 'requests']) $(id).tBodies[0].replaceChildren();
   $('events').replaceChildren();
   $('moves').replaceChildren();
@@ -287,10 +372,12 @@ const handlers = {
   reply: showReply,
   move: showMove,
   active_moves: showActiveMoves,
+  command_result: showCommandResult,
 };
 
 function connect() {
   const ws = new WebSocket(`${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws`);
+  socket = ws;
   const status = $('connection');
   ws.onopen = () => {
     reset();
@@ -314,4 +401,5 @@ setInterval(() => {
   for (const move of Object.values(model.moves)) if (move.dirty) drawMove(move);
   drawProcesses();
 }, REDRAW_MS);
+setUpControls();
 connect();

@@ -248,6 +248,68 @@ TEST_F(MasterCoreTest, CrcErrorIsCountedReportedAndRetried) {
   EXPECT_EQ(core->statistics().retries, 1);
 }
 
+TEST_F(MasterCoreTest, AReplyDeliveredInPiecesWithPausesLongerThanT35IsJoinedNotACrcError) {
+  banks[1].set_position(-123456);
+  // A read of 0x0004…0x0007 as the poll makes it: 13 reply bytes, delivered 5 + 4 + 4 with 10 ms
+  // between pieces (a USB adapter's latency timer, or a loaded host), each pause > t3.5 (1.75 ms).
+  const Bytes request = with_crc({0x01, 0x03, 0x00, 0x04, 0x00, 0x04});
+  core->start(now);
+  // Answer the start-up reads whole until the first poll of position and status goes out.
+  for (int i = 0; i < 50 && !was_sent(hex(request)); ++i) {
+    serve_pending();
+    advance(1ms);
+  }
+  ASSERT_TRUE(was_sent(hex(request)));
+  ASSERT_EQ(hex(sent.back()), hex(request));
+  const auto served = adam::serve(sent.back(), adam::SlaveConfig{1, {}, adam::ExceptionMode::standard}, banks[1]);
+  ASSERT_EQ(served.reply.size(), 13U);
+  answered = sent.size();
+  const auto errors_before = core->statistics().errors;
+  const std::size_t sent_before = sent.size();
+  for (std::size_t at = 0; at < 13;) {
+    const std::size_t n = at == 0 ? 5 : 4;
+    reply(Bytes(served.reply.begin() + static_cast<std::ptrdiff_t>(at), served.reply.begin() + static_cast<std::ptrdiff_t>(at + n)));
+    at += n;
+    if (at < 13) advance(10ms);
+  }
+  EXPECT_EQ(core->statistics().errors, errors_before) << "a reply split by pauses was taken for garbage";
+  EXPECT_EQ(sent.size(), sent_before) << "the request was repeated";
+  EXPECT_FALSE(out.has_event(std::int16_t{motionlcm::event_t::PROTOCOL_ERROR}));
+  ASSERT_FALSE(out.statuses.empty());
+  EXPECT_EQ(out.statuses.back().second.position_counts, -123456);
+}
+
+TEST_F(MasterCoreTest, APieceOfAReplyThatNeverCompletesEndsAtTheReplyDeadlineAndIsRetried) {
+  core->execute(command(6, std::int8_t{Command::ENABLE}, {"c"}), now);
+  reply(Bytes(sent[0].begin(), sent[0].begin() + 3));  // 3 of the echo's 8 bytes, then nothing
+  advance(50ms);
+  EXPECT_EQ(sent.size(), 1U) << "the piece was closed by silence instead of waiting for the rest";
+  advance(51ms);  // request_timeout 100 ms
+  ASSERT_EQ(sent.size(), 2U) << "retried at the reply deadline";
+  reply(sent[1]);
+  ASSERT_EQ(out.terminal(6), 1);
+  EXPECT_EQ(out.of(6).back().status, kDone);
+  EXPECT_EQ(core->statistics().retries, 1);
+}
+
+TEST_F(MasterCoreTest, ALateReplyJoinedToTheRetrysReplyIsOneReplyAndOneStrayFrameNotACrcError) {
+  core->execute(command(7, std::int8_t{Command::ENABLE}, {"c"}), now);
+  advance(101ms);  // no answer within request_timeout: the retry goes out
+  ASSERT_EQ(sent.size(), 2U);
+  // Then both answers arrive in one read, without a silence between them.
+  Bytes both = sent[0];
+  both.insert(both.end(), sent[1].begin(), sent[1].end());
+  reply(both);
+  ASSERT_EQ(out.terminal(7), 1);
+  EXPECT_EQ(out.of(7).back().status, kDone);
+  advance(2ms);  // the second echo, closed by silence with nothing in flight: a stray frame
+  EXPECT_FALSE(std::any_of(out.events.begin(), out.events.end(), [](const auto& e) {
+    return e.kind == motionlcm::event_t::OFFLINE || e.text.find("CRC") != std::string::npos;
+  }));
+  EXPECT_TRUE(out.has_event(std::int16_t{motionlcm::event_t::ONLINE})) << "the decoded echo brings the drive online";
+  EXPECT_EQ(core->statistics().errors, 1) << "the stray second echo is counted, once";
+}
+
 TEST_F(MasterCoreTest, CrcErrorsOnEveryAttemptMarkTheDriveOfflineUntilAReplyDecodes) {
   core->execute(command(2, std::int8_t{Command::ENABLE}, {"c"}), now);
   reply(sent.back());  // heard once: online

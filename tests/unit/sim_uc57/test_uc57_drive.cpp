@@ -332,7 +332,7 @@ TEST(Uc57Sim, TwoDrivesStartedByOneSync) {
 
 TEST(Uc57Sim, SyncUnsupportedSwitchAppliesRpdosAtOnce) {
   Uc57SimOptions options;
-  options.sync_rpdos_supported = false;  // the synchronous-RPDO acceptance test then fails, as on such a drive
+  options.rpdo_sync = sim::RpdoSync::kOnReception;  // the synchronous-RPDO acceptance test then fails, as on such a drive
   Drive drive(1, options);
   drive.sdo_ok("601: 2F 00 14 02 01 00 00 00");
   drive.sdo_ok("601: 2F 60 60 00 01 00 00 00");
@@ -340,6 +340,39 @@ TEST(Uc57Sim, SyncUnsupportedSwitchAppliesRpdosAtOnce) {
   drive.enable();
   drive.deliver("201: 0F 00 00 00 00 00 01");
   drive.deliver("201: 1F 00 00 00 00 00 01");
+  EXPECT_EQ(drive.reports_of(kStarted).size(), 1u);
+}
+
+// rpdo_sync: refused. Type 1 to 1400h:02 is aborted with 0609 0030h (value range); the manual's
+// default FFh is accepted, and such an RPDO applies when it arrives.
+TEST(Uc57Sim, RefusedVariantAbortsSynchronousRpdoTransmissionType) {
+  Uc57SimOptions options;
+  options.rpdo_sync = sim::RpdoSync::kRefused;
+  Drive drive(1, options);
+  drive.take();
+  EXPECT_EQ(drive.deliver("601: 2F 00 14 02 01 00 00 00"), Texts{"581: 80 00 14 02 30 00 09 06"});
+  drive.sdo_ok("601: 2F 00 14 02 FF 00 00 00");
+  drive.sdo_ok("601: 2F 01 18 02 01 00 00 00");  // synchronous TPDOs are not affected
+  drive.sdo_ok("601: 2F 60 60 00 01 00 00 00");
+  drive.deliver("000: 01 00");
+  drive.enable();
+  drive.deliver("201: 0F 00 00 00 00 00 01");
+  drive.deliver("201: 1F 00 00 00 00 00 01");
+  EXPECT_EQ(drive.reports_of(kStarted).size(), 1u);
+}
+
+// rpdo_sync: honoured. A type-1 RPDO waits for the SYNC.
+TEST(Uc57Sim, HonouredVariantAppliesSynchronousRpdoAtSync) {
+  Drive drive(1);
+  drive.sdo_ok("601: 2F 00 14 02 01 00 00 00");
+  drive.sdo_ok("601: 2F 60 60 00 01 00 00 00");
+  drive.deliver("000: 01 00");
+  drive.enable();
+  drive.deliver("201: 0F 00 00 00 00 00 01");
+  drive.deliver("080:");
+  drive.deliver("201: 1F 00 00 00 00 00 01");
+  EXPECT_EQ(drive.reports_of(kStarted).size(), 0u);
+  drive.deliver("080:");
   EXPECT_EQ(drive.reports_of(kStarted).size(), 1u);
 }
 

@@ -63,6 +63,9 @@ Cmd arm(Bench& bench, std::vector<std::pair<std::string, std::int64_t>> targets,
 TEST(Uc57Commands, EnableSendsShutdownSwitchOnEnableOperationInRpdo1) {
   Bench bench;
   bench.start_ready();
+  // Set-up's RPDO1 acceptance test (flush, test, restore) repeats the drive's own controlword: no transition.
+  EXPECT_EQ(bench.node(1).controlwords, (std::vector<std::uint16_t>{0, 0, 0}));
+  bench.node(1).controlwords.clear();
   enable(bench, {"a"});
   // CiA 402 transitions 2 (0x06), 3 (0x07), 4 (0x0F), each confirmed by the statusword before the next.
   const std::vector<std::uint16_t> expected{0x0006, 0x0007, 0x000F};

@@ -196,10 +196,13 @@ TEST(LabView, AMoveCollectsItsAxesSamplesFromAcceptedToItsTerminalReply) {
   EXPECT_FALSE(out[1].contains("samples"));  // live, the browser collects them itself
 
   auto started = reply(reply_t::STARTED, 1100, {"x"}, {10.0});
+  EXPECT_EQ(out[1]["predicted_duration_s"], 0.0);  // not told yet
   started.start_utime = {1050};
+  started.predicted_duration_s = 1.25;
   out = parsed(view.on_reply(started));
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[1]["started_utime"], 1050);
+  EXPECT_EQ(out[1]["predicted_duration_s"], 1.25);  // the plot's planned arrival: start + 1.25 s
 
   for (int i = 1; i <= 4; ++i) view.on_axis_state(state("x", 1100 + i * 100, 2.5 * i, 5.0));
   view.on_axis_state(state("y", 1300, 7.0, 1.0));  // another axis: not part of the move
@@ -263,6 +266,53 @@ TEST(LabView, ClosedMovesGoFirstWhenOverTheLimit) {
   EXPECT_EQ(moves[0]["targets"], json::array());  // a jog's values are velocities
   EXPECT_EQ(moves[1]["id"], "cli/3");
   EXPECT_EQ(moves[1]["kind"], "home");
+}
+
+TEST(LabView, AJogsPlotFollowsItsAxisAfterItsDoneUntilTheAxisStands) {
+  LabView view(lab());
+  view.on_request(request(request_t::JOG, {"x"}, {5.0}, 4));
+  view.on_reply(reply(reply_t::ACCEPTED, 1000, {"x"}, {}, 4));
+  view.on_axis_state(state("x", 1100, 0.0, 0.0));  // not moving yet when the DONE comes
+  // DONE as soon as the jog runs: the move stays open while x moves.
+  auto out = parsed(view.on_reply(reply(reply_t::DONE, 1150, {"x"}, {}, 4)));
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[1]["status"], "done");
+  EXPECT_EQ(out[1]["open"], true);
+  EXPECT_EQ(out[1]["end_utime"], 0);
+  for (int i = 1; i <= 3; ++i) {
+    out = parsed(view.on_axis_state(state("x", 1150 + i * 100, 0.5 + i, 5.0)));
+    EXPECT_EQ(out.size(), 1u);  // the axis only
+  }
+  out = parsed(view.on_axis_state(state("x", 1600, 4.0, 0.0)));  // stopped (by a STOP from anyone)
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[1]["type"], "move");
+  EXPECT_EQ(out[1]["open"], false);
+  EXPECT_EQ(out[1]["end_utime"], 1600);
+  view.on_axis_state(state("x", 1700, 4.0, 0.0));  // after the end: not part of the move
+  const auto moves = of_type(view.snapshot(), "move");
+  ASSERT_EQ(moves.size(), 1u);
+  EXPECT_EQ(moves[0]["samples"]["x"].size(), 5u);  // 1100, three while jogging, and the stop
+}
+
+TEST(LabView, ADoneJogWhoseAxisNeverMovesClosesASecondAfterItsDone) {
+  LabView view(lab());
+  view.on_request(request(request_t::JOG, {"x"}, {5.0}, 6));
+  view.on_reply(reply(reply_t::ACCEPTED, 1000, {"x"}, {}, 6));
+  view.on_reply(reply(reply_t::DONE, 2000, {"x"}, {}, 6));
+  EXPECT_EQ(parsed(view.on_axis_state(state("x", 900'000, 0.0, 0.0))).size(), 1u);  // still following
+  const auto out = parsed(view.on_axis_state(state("x", 1'100'000, 0.0, 0.0)));
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[1]["open"], false);
+}
+
+TEST(LabView, AJogThatEndsWithItsAxisStandingClosesAtItsReply) {
+  LabView view(lab());
+  view.on_request(request(request_t::JOG, {"x"}, {5.0}, 5));
+  view.on_reply(reply(reply_t::ACCEPTED, 1000, {"x"}, {}, 5));
+  view.on_axis_state(state("x", 1100, 0.0, 0.0));
+  const auto out = parsed(view.on_reply(reply(reply_t::FAILED, 1150, {"x"}, {}, 5)));
+  EXPECT_EQ(out[1]["open"], false);
+  EXPECT_EQ(out[1]["end_utime"], 1150);
 }
 
 TEST(LabView, SequenceNumbersCountEveryMessageAndTheSnapshotNamesTheLast) {

@@ -9,8 +9,11 @@
 
 #include <chrono>
 #include <fstream>
+#include <memory>
+#include <mutex>
 #include <thread>
 #include <string>
+#include <vector>
 
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -133,6 +136,62 @@ TEST_F(ServerTest, ABrowserGetsTheSnapshotThenWhatFollowsIt) {
   EXPECT_EQ(next(), "{\"n\":3}");
 
   ws.close(websocket::close_code::normal);
+  server.stop();
+}
+
+TEST_F(ServerTest, ABrowsersMessageReachesTheCommandHandlerAndTheAnswerOnlyThatBrowser) {
+  Server server(options(), [] { return Snapshot{1, {"{\"n\":1}"}}; });
+  std::mutex mutex;
+  std::vector<std::string> received;
+  server.on_command([&](std::string text, Server::Reply reply) {
+    {
+      const std::lock_guard lock(mutex);
+      received.push_back(text);
+    }
+    // Answered from another thread, as motion-web's main thread does.
+    std::thread([reply, text] { reply("answer to " + text); }).detach();
+  });
+  server.start();
+
+  asio::io_context io;
+  auto open = [&] {
+    auto ws = std::make_unique<websocket::stream<beast::tcp_stream>>(io);
+    beast::get_lowest_layer(*ws).connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), server.port()));
+    ws->handshake("127.0.0.1", "/ws");
+    return ws;
+  };
+  auto next = [](websocket::stream<beast::tcp_stream>& ws) {
+    beast::flat_buffer buffer;
+    ws.read(buffer);
+    return beast::buffers_to_string(buffer.data());
+  };
+  auto sender = open();
+  auto watcher = open();
+  EXPECT_EQ(next(*sender), "{\"n\":1}");
+  EXPECT_EQ(next(*watcher), "{\"n\":1}");
+  sender->write(asio::buffer(std::string("{\"type\":\"command\",\"tag\":1}")));
+  EXPECT_EQ(next(*sender), "answer to {\"type\":\"command\",\"tag\":1}");
+  {
+    const std::lock_guard lock(mutex);
+    EXPECT_EQ(received, (std::vector<std::string>{"{\"type\":\"command\",\"tag\":1}"}));
+  }
+  // The watcher got no answer: the next thing it reads is the next broadcast.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (server.clients() < 2 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  server.broadcast({2, "{\"n\":2}"});
+  EXPECT_EQ(next(*watcher), "{\"n\":2}");
+  EXPECT_EQ(next(*sender), "{\"n\":2}");
+
+  // A message longer than max_incoming closes that browser's connection; the handler never sees it.
+  sender->write(asio::buffer(std::string(options().max_incoming + 1, 'x')));
+  beast::flat_buffer buffer;
+  beast::error_code ec;
+  sender->read(buffer, ec);
+  EXPECT_TRUE(ec) << "the oversized message's sender is still connected";
+  {
+    const std::lock_guard lock(mutex);
+    EXPECT_EQ(received.size(), 1u);
+  }
   server.stop();
 }
 

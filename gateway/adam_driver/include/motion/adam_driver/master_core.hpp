@@ -150,6 +150,10 @@ class MasterCore final : public gateway::SerialLineCore {
   void retry_or_fail(const std::string& why, std::int32_t code, TimePoint now);
   void complete_in_flight(const adam::rtu::Response& response, TimePoint now);
   [[nodiscard]] std::optional<std::size_t> expected_reply_size(std::span<const std::uint8_t> pending) const;
+  // Bytes of the reply in flight are pending but fewer than its length (expected_reply_size, or
+  // the shortest reply while the function byte has not come).
+  [[nodiscard]] bool reply_incomplete() const;
+  static constexpr std::size_t kShortestReply = 5;  // unit, function | 0x80, exception code, CRC
 
   // Drives and polling.
   void run_setup(Drive& d);

@@ -11,7 +11,8 @@
 //           (UC57 manual §5.1), else the set-up rule (cia402::uc57::setup_subdivision), else the
 //           factory 10000; 6083h/6084h integer ms ramps from the start speed 200Eh as read (else
 //           its object-dictionary default) to the speed. Start: synchronous RPDO + one SYNC
-//           (CiA 301 §7.2.5).
+//           (CiA 301 §7.2.5); START_SINGLE (its own RPDO1)
+//           instead when the stack found that the drive applies RPDO1 on reception (DriveFacts).
 //   ADAM    0x00D8 target speed in 0.01 rpm at the pulses/rev of the set-up (else the factory
 //           subdivision); 0x0098/0x0099 integer ms ramps from 0. Start: broadcast table execute
 //           0x00DD (ADAM manual §5, §8.54).

@@ -50,6 +50,9 @@ struct DriveFacts {
   std::optional<std::uint32_t> counts_per_revolution;  // e.g. UC57 2006h read back (manual §5.1)
   std::optional<double> start_speed_rpm;               // e.g. UC57 200Eh (manual §5.1)
   std::string firmware;
+  // false: the drive cannot join the family's one-frame start (e.g. a UC57 that applies RPDOs on
+  // reception): its axis starts by its own frame (START_SINGLE). nullopt: as the family does.
+  std::optional<bool> one_frame_start = std::nullopt;
 };
 
 // Implemented by the Gateway; drivers report through it.

@@ -27,6 +27,9 @@ class SilenceFramer {
   [[nodiscard]] std::optional<std::vector<std::uint8_t>> take_if_silent(TimePoint now);
   // The buffered bytes as a frame at once (the protocol knows the frame is complete).
   [[nodiscard]] std::vector<std::uint8_t> complete_now();
+  // The first `size` buffered bytes as a frame (all of them when fewer); the rest stay buffered
+  // with their arrival time (two frames that arrived without a silence between them).
+  [[nodiscard]] std::vector<std::uint8_t> complete_prefix(std::size_t size);
   void clear() { buffer_.clear(); }
 
   [[nodiscard]] std::span<const std::uint8_t> pending() const { return buffer_; }

@@ -9,6 +9,8 @@
 //   current_a        -> 2005h run current, 0.1 A RMS, 1..25 (§5.1; conflict C-19 in uc57_units.hpp)
 //   tpdo_mode        -> 1800h:02 / 1801h:02 transmission type: sync = 1 (every SYNC), event = 255
 //   heartbeat_ms     -> 1017h producer heartbeat (§5 comm. table; no node guarding: 100Ch/100Dh absent)
+//   rpdo_sync        -> none: how RPDO1 applies (docs/protocols.md). detect (default): set-up tests it
+//                       (Uc57Stack); honoured / on_reception: the answer where the test cannot run
 //   closed_loop      -> none: the manual documents no closed-loop object (a warning when true)
 //
 // Pure: no I/O. Thread contract: values only.
@@ -27,6 +29,8 @@
 namespace motion::uc57_driver {
 
 enum class TpdoMode : std::uint8_t { kSync, kEvent };
+// The configured answer to "does the drive apply a synchronous RPDO at the SYNC?" (setup rpdo_sync).
+enum class RpdoSyncAnswer : std::uint8_t { kDetect, kHonoured, kOnReception };
 
 // CiA 301 transmission types used for the UC57's PDOs (CiA 301 §7.5.2.35/37; manual §5 comm. table).
 inline constexpr std::uint8_t kTransmissionSyncEveryCycle = 1;
@@ -41,6 +45,7 @@ struct NodeSettings {
   std::optional<std::uint16_t> run_current;       // 2005h value to write (0.1 A)
   TpdoMode tpdo_mode = TpdoMode::kSync;
   std::uint16_t heartbeat_ms = 0;                  // 1017h; 0 = heartbeat off (no loss detection)
+  RpdoSyncAnswer rpdo_sync = RpdoSyncAnswer::kDetect;
 
   Duration sdo_timeout = std::chrono::milliseconds(50);
   unsigned sdo_retries = 2;

@@ -3,7 +3,8 @@
 //
 // RPDO1 has two layouts (CiA 301 §7.2.2, §7.5.2.35-38; the manual's §5 comm. table):
 //  - kControlwordTarget (preferred, CiA 301 remap): 6040h + 607Ah, 48 bits, transmission type 1.
-//    Target and new-set-point bit arrive in one frame and are applied atomically at the SYNC.
+//    Target and new-set-point bit arrive in one frame and are applied atomically at the SYNC
+//    (type 255, on reception, where the drive refuses type 1: Uc57Stack then starts node by node).
 //    Profile velocity (6081h) does not fit as well (16 + 32 + 32 = 80 bits > 64): it goes by SDO.
 //  - kManualDefault (fallback): the manual's default 1600h mapping 6040h + 60FFh + 6060h, type 1,
 //    used when the drive refuses the remap (the manual prints 1400h:01 and 1600h:00 as RO, C-10).
@@ -38,8 +39,9 @@ struct RpdoImage {
 };
 
 [[nodiscard]] canopen::PdoMapping rpdo1_mapping(RpdoLayout layout);
-// The CiA 301 remap of RPDO1 to kControlwordTarget, synchronous (type 1).
-[[nodiscard]] canopen::PdoConfiguration rpdo1_remap(canopen::NodeId node);
+// The CiA 301 remap of RPDO1 to kControlwordTarget, synchronous (type 1) unless another
+// transmission type is given (255 where the drive refuses type 1).
+[[nodiscard]] canopen::PdoConfiguration rpdo1_remap(canopen::NodeId node, std::uint8_t transmission_type = 1);
 [[nodiscard]] can::Frame encode_rpdo1(canopen::NodeId node, RpdoLayout layout, const RpdoImage& image);
 [[nodiscard]] std::optional<RpdoImage> decode_rpdo1(RpdoLayout layout, std::span<const std::uint8_t> payload);
 

@@ -14,8 +14,11 @@
 //    read back (manual §5.1), 1017h producer heartbeat (no node guarding: 100Ch/100Dh are absent),
 //    RPDO1 remapped to controlword + target position, synchronous (CiA 301 remap procedure) or, when
 //    the drive refuses it (the manual prints 1400h:01/1600h:00 RO), the manual's default RPDO1 made
-//    synchronous; TPDO1/TPDO2 default mappings with transmission type 1 (tpdo_mode sync) or 255
-//    (event); NMT start; a SYNC producer at the bus poll rate. See process_data.hpp.
+//    synchronous (a drive aborting type 1 gets 255, the manual's FFh, once: no retry loop);
+//    TPDO1/TPDO2 default mappings with transmission type 1 (tpdo_mode sync) or 255 (event); NMT
+//    start; the RPDO1 acceptance test (applies at the SYNC or on reception? uc57_stack_rpdo.cpp,
+//    moves nothing); a SYNC producer at the bus poll rate, slowed so that SYNC, synchronous TPDOs
+//    and heartbeats keep to kPollBusShare of the bus (sync_period()). See process_data.hpp.
 //    A node that does not answer, or boots again, is re-probed with exponential back-off.
 //  - SDO (CiA 301 §7.2.4): one transfer per node at a time (canopen::SdoClient), the bus/drive
 //    request timeout and retries; aborts reported with the abort code's CiA text and the object.
@@ -29,7 +32,10 @@
 //    handshake): ARM_MOVE writes 6060h = 1, 6081h/6083h/6084h by SDO (and 607Ah by SDO in the
 //    fallback layout), leaves bit 4 at 0 -> ARMED; fire() sends every armed node's RPDO1 with bit 4
 //    = 1 then ONE SYNC -> STARTED ("sync", skew 0); bit 12 acknowledged -> bit 4 cleared; DONE when
-//    bit 10 (target reached) or bit 15 on every axis.
+//    bit 10 (target reached) or bit 15 on every axis. A node whose RPDO1 applies on reception (or
+//    is asynchronous) is never preloaded; its RPDO1 starts it: STARTED "rpdo" with the wire time
+//    between the command's first and last start frame as skew; its drive model offers
+//    START_SINGLE instead of START_CANOPEN_SYNC (DriveFacts::one_frame_start).
 //  - JOG: profile velocity (6060h = 3, 60FFh; manual §4.2.5, §7 MC_JOG); HOME: homing mode
 //    (6060h = 6, 6098h/6099h/609Ah/607Ch, manual §4.2.6; result per conflict C-08);
 //    SET_OUTPUTS: 2030h:0D/0E output functions 5 (high) / 6 (low); SET_POSITION: 2012h (zero only);
@@ -109,6 +115,13 @@ class Uc57Stack final : public gateway::CanStack {
   void add_statistics(motionlcm::bus_stats_t& stats) const override;
 
   [[nodiscard]] const Counters& counters() const { return counters_; }
+  // The SYNC period in force: 1 / poll_hz, or longer when the nodes' synchronous TPDOs at that
+  // rate would take more than kPollBusShare of the bus (fit_sync_period; said once at start()).
+  [[nodiscard]] Duration sync_period() const { return sync_period_; }
+  static constexpr double kPollBusShare = 0.75;
+  // What set-up found about RPDO1 of `drive` ("honoured (detected)", "on_reception (detected)",
+  // "refused", "on_reception (configured)", ...); empty before the node is operational.
+  [[nodiscard]] std::string rpdo_sync_finding(std::string_view drive) const;
   // The RPDO1 layout a configured node ended up with (nullopt: unknown drive or not configured).
   [[nodiscard]] std::optional<RpdoLayout> rpdo_layout(std::string_view drive) const;
 
@@ -136,6 +149,23 @@ class Uc57Stack final : public gateway::CanStack {
   void go_offline(std::size_t n, std::int16_t event_kind, const std::string& reason, TimePoint now);
   void on_node_event(const canopen::NodeEvent& event);
   void on_emcy(const canopen::EmcyEvent& event);
+
+  // --- RPDO1 acceptance test (uc57_stack_rpdo.cpp) ---
+  ConfigOp rpdo_acceptance_op(std::size_t n);
+  void rpdo_test_attempt(std::size_t n, unsigned session, unsigned attempt, Continue next);
+  void rpdo_found(std::size_t n, bool at_sync, const std::string& finding);
+  // Runs `run` once the SYNC producer has sent more than `count` SYNCs (checked after each SYNC).
+  void after_sync(std::uint64_t count, std::function<void()> run);
+  void run_sync_waiters();
+  struct StartFacts {
+    std::string mechanism;  // "sync": one SYNC; "rpdo": each node's RPDO1, back to back
+    double skew_us = 0;
+    can::Frame frame;       // the command's first start frame
+  };
+  [[nodiscard]] StartFacts start_facts(const Job& job) const;
+  // The bus budget of the synchronous TPDOs (fit_sync_period) and its warning.
+  void fit_sync_period(const config::Bus& bus);
+  std::string poll_warning_;
 
   // --- SDO with retries and reasons ---
   using SdoDone = std::function<void(std::error_code, std::span<const std::uint8_t>)>;
@@ -215,6 +245,10 @@ class Uc57Stack final : public gateway::CanStack {
   }};
   Counters counters_;
   bool started_ = false;
+  std::uint32_t bitrate_ = 125000;
+  Duration wire_sent_{};      // wire time of every frame handed to the transport (start skew)
+  Duration last_sync_end_{};  // wire_sent_ after the last SYNC
+  std::vector<std::pair<std::uint64_t, std::function<void()>>> sync_waiters_;
   TimePoint now_{};  // the `now` of the entry point running (callbacks run inside one)
 };
 

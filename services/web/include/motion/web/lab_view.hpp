@@ -15,10 +15,13 @@
 //   active_moves  the coordinator's ACTIVE_MOVES rows
 //   move          a motion request (move, relative move, jog, home) from its first ACCEPTED or
 //                 STARTED reply to its terminal one: id "client_id/request_id", kind, axes,
-//                 targets, status, accepted/started/end times; "samples" (per axis
+//                 targets, status, accepted/started/end times, the planned duration from the
+//                 start (predicted_duration_s, 0 when not told); "samples" (per axis
 //                 [[sample_utime, position, velocity], ...]) only in the snapshot. Live, the
 //                 browser appends the axis messages of a move's axes to the move itself while the
-//                 move is open (status not terminal), as this class does.
+//                 move is open ("open": status not terminal, or a jog that ended DONE whose
+//                 axes still move), as this class does; a jog's move message is sent again with
+//                 "open" false and its end time when the last of its axes stands.
 //
 // Every returned message carries a sequence number (1, 2, ...), and snapshot() the number of the
 // last one it includes, so a browser that connects while messages are in flight skips those the
@@ -103,8 +106,14 @@ class LabView {
     std::string reason;
     std::int64_t accepted_utime = 0;
     std::int64_t started_utime = 0;
+    double predicted_duration_s = 0;  // from start to arrival, as the coordinator planned it (0: not told)
     std::int64_t end_utime = 0;
     std::map<std::string, std::vector<std::array<double, 3>>> samples;  // axis -> (utime, position, velocity)
+    // A jog is DONE once it runs; its plot follows its axes on until every one of them stands
+    // after one was seen moving (or none moved within kJogSettle of the DONE).
+    bool following = false;
+    bool seen_moving = false;
+    std::int64_t done_utime = 0;
     [[nodiscard]] bool open() const;
   };
   struct RequestSeen {

@@ -1,6 +1,8 @@
 // The network half of motion-web: an HTTP server (Boost.Beast) for the page's files and a
-// WebSocket endpoint (/ws) that sends every browser the lab's JSON messages (lab_view.hpp). It
-// reads nothing from the browsers but their connection: the view is read-only.
+// WebSocket endpoint (/ws) that sends every browser the lab's JSON messages (lab_view.hpp). Text
+// messages a browser sends (at most ServerOptions::max_incoming bytes each; a longer one closes
+// its connection) go to the CommandHandler with a way to answer that browser alone; without a
+// handler they are read and dropped.
 //
 // A browser that connects first gets a snapshot (from the SnapshotProvider), then every message
 // broadcast after it; messages whose sequence number the snapshot already covers are skipped. A
@@ -14,8 +16,10 @@
 // hidden files and other methods are refused.
 //
 // Thread contract: the constructor binds and listens on the caller's thread; start() runs the
-// server on a thread of its own, which calls the SnapshotProvider (the provider must be safe to call
-// from it). broadcast() and clients() may be called from any thread and never block. stop() (and
+// server on a thread of its own, which calls the SnapshotProvider and the CommandHandler (both
+// must be safe to call from it; the handler must not block). A Reply may be called from any
+// thread, later too: it answers its browser if that one is still connected. on_command() before
+// start(). broadcast() and clients() may be called from any thread and never block. stop() (and
 // the destructor) blocks until the server thread has ended; call it from the thread that owns the
 // Server.
 #pragma once
@@ -43,11 +47,14 @@ struct ServerOptions {
   ListenAddress listen{"127.0.0.1", 8080};  // port 0: a free port (see Server::port())
   std::filesystem::path static_dir;
   std::size_t max_queued = 20000;  // messages per browser not yet written
+  std::size_t max_incoming = 16 * 1024;  // bytes of one message from a browser
 };
 
 class Server {
  public:
   using SnapshotProvider = std::function<Snapshot()>;
+  using Reply = std::function<void(std::string text)>;
+  using CommandHandler = std::function<void(std::string text, Reply reply)>;
 
   // Binds and listens. Throws std::runtime_error naming the address and why, e.g. "cannot listen
   // on 127.0.0.1:8080: address in use".
@@ -56,6 +63,7 @@ class Server {
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
 
+  void on_command(CommandHandler handler);
   void start();
   void stop();
 

@@ -31,6 +31,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <string_view>
 #include <vector>
 
 #include "motion/canopen/emcy.hpp"
@@ -45,12 +46,23 @@
 
 namespace motion::sim {
 
+// What the drive does with RPDO transmission type 1 (synchronous, CiA 301 §7.2.2). The UC57
+// manual's §4.1.2 ("SYNC ... assuming that the devices in the network support synchronous PDO
+// function") and §5 comm. table (1400h:02 Transmission, RW/S, default FFh) do not say that a
+// UC57 supports it: simulation.variants `rpdo_sync` (docs/protocols.md).
+enum class RpdoSync : std::uint8_t {
+  kHonoured,     // type 1 accepted; the mapped values apply at the next SYNC (the default)
+  kOnReception,  // type 1 accepted (reads back 1) but every RPDO applies when it arrives
+  kRefused,      // writing 1..240 to 1400h+n:02 is aborted (0609 0030h value range); 254/255 accepted
+};
+[[nodiscard]] std::optional<RpdoSync> parse_rpdo_sync(std::string_view text);
+
 // Switches for the points the manual leaves open. Positions are physical pulses: where
 // the axis is at power-up is 0; homing shifts the reported position, not the switches.
 struct Uc57SimOptions {
   bool pdo_configuration_writable = true;  // CiA 301 remap (14xxh/18xxh:01, 16xxh/1Axxh:00)
   bool check_range = true;
-  bool sync_rpdos_supported = true;        // false applies every RPDO at reception
+  RpdoSync rpdo_sync = RpdoSync::kHonoured;
   cia402::uc57::RampUnit ramp_unit = cia402::uc57::RampUnit::kMilliseconds;  // (C-02)
   std::int64_t origin_position = 2000;     // IN2 active within +-origin_half_width
   std::int64_t origin_half_width = 100;
@@ -201,5 +213,7 @@ class Uc57DriveSim final : public CanDriveSim {
 
 // The motion-sim factory for family uc57 (node-ID from the configuration).
 [[nodiscard]] CanDriveFactory uc57_drive_factory(Uc57SimOptions options = {});
+// The same with each drive's `simulation.variants` of `config` (rpdo_sync) over `options`.
+[[nodiscard]] CanDriveFactory uc57_drive_factory(const config::Config& config, Uc57SimOptions options = {});
 
 }  // namespace motion::sim
