@@ -47,9 +47,10 @@ MasterCore::MasterCore(MasterSettings settings, Send send, gateway::GatewayOutpu
     : settings_(std::move(settings)),
       send_(std::move(send)),
       out_(out),
-      wall_clock_(wall_clock ? std::move(wall_clock) : WallClock{&wall_time_us}),
+      wall_clock_(gateway::or_system_clock(std::move(wall_clock))),
       timing_(rtu::frame_timing(settings_.format)),
-      framer_(timing_.t3_5) {
+      framer_(timing_.t3_5),
+      operations_([this](motionlcm::gateway_reply_t r) { out_.command_reply(std::move(r)); }) {
   for (const auto& d : settings_.drives) {
     auto drive = std::make_unique<Drive>();
     drive->cfg = d;
@@ -280,7 +281,7 @@ void MasterCore::line_lost(const std::string& why, TimePoint now) {
   line_open_ = false;
   event(nullptr, Event::OFFLINE, Event::ERROR, 0, "serial line of bus " + settings_.bus + " lost: " + why);
   std::vector<std::int64_t> ids;
-  for (const auto& [id, op] : operations_) ids.push_back(id);
+  for (const auto& [id, entry] : operations_.entries()) ids.push_back(id);
   for (const auto id : ids) finish(id, Reply::FAILED, "serial line of bus " + settings_.bus + " lost: " + why, error_code(ReplyError::kTimeout));
   queue_.clear();
   in_flight_.reset();
@@ -383,10 +384,11 @@ void MasterCore::on_position_status(Drive& d, std::span<const std::uint16_t> wor
   // register starts at 0 and every register at its default (manual §7 register table), so a power
   // cycle shows in the samples only (PowerUpWatch). Not watched while a homing or preset of the
   // drive is under way (the position is set on purpose), or before it is set up.
-  const bool presetting = std::any_of(operations_.begin(), operations_.end(), [&d](const auto& entry) {
-    const auto kind = entry.second->command.kind;
+  const bool presetting = std::any_of(operations_.entries().begin(), operations_.entries().end(), [&d](const auto& entry) {
+    const auto& op = *entry.second.data;
+    const auto kind = op.command.kind;
     return (kind == motionlcm::gateway_command_t::HOME || kind == motionlcm::gateway_command_t::SET_POSITION) &&
-           std::find(entry.second->drives.begin(), entry.second->drives.end(), &d) != entry.second->drives.end();
+           std::find(op.drives.begin(), op.drives.end(), &d) != op.drives.end();
   });
   if (presetting || !d.set_up) {
     d.power.forget();
@@ -401,7 +403,7 @@ void MasterCore::on_position_status(Drive& d, std::span<const std::uint16_t> wor
   const bool limit_before = d.status && d.status->at_limit();
   d.position = position;
   d.position_time = now;
-  d.sample_utime = wall_clock_();
+  d.sample_utime = wall_clock_(now);
   d.status = status;
   if (status.at_limit() && !limit_before) {
     event(&d, Event::LIMIT, Event::WARNING, status.negative_limit ? -1 : 1,
@@ -410,8 +412,9 @@ void MasterCore::on_position_status(Drive& d, std::span<const std::uint16_t> wor
   }
   publish_status(d);
   std::vector<Operation*> watching;
-  for (auto& [id, op] : operations_) {
-    if (op->phase == Operation::Phase::moving &&
+  for (auto& [id, entry] : operations_.entries()) {
+    const auto& op = entry.data;
+    if (op->watching &&
         std::find(op->drives.begin(), op->drives.end(), &d) != op->drives.end())
       watching.push_back(op.get());
   }

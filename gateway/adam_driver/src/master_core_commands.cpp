@@ -9,9 +9,23 @@ MasterCore::Operation& MasterCore::open_operation(const motionlcm::gateway_comma
   auto op = std::make_unique<Operation>();
   op->command = command;
   op->drives = std::move(drives);
+  std::vector<std::size_t> parts;  // one per drive
+  for (const Drive* d : op->drives) {
+    if (std::find(parts.begin(), parts.end(), index_of(*d)) == parts.end()) parts.push_back(index_of(*d));
+  }
   auto& ref = *op;
-  operations_[command.command_id] = std::move(op);
+  operations_.add(command, std::move(parts), std::move(op));  // a duplicate id was refused in execute()
   return ref;
+}
+
+MasterCore::Operation* MasterCore::operation(std::int64_t id) {
+  auto* entry = operations_.find(id);
+  return entry != nullptr ? entry->data.get() : nullptr;
+}
+
+std::size_t MasterCore::index_of(const Drive& d) const {
+  const auto it = std::find_if(drives_.begin(), drives_.end(), [&d](const auto& owned) { return owned.get() == &d; });
+  return static_cast<std::size_t>(it - drives_.begin());
 }
 
 void MasterCore::add_write(Operation& op, Drive& d, const rtu::Request& request, std::function<void(TimePoint)> after) {
@@ -19,9 +33,9 @@ void MasterCore::add_write(Operation& op, Drive& d, const rtu::Request& request,
   const std::int64_t id = op.command.command_id;
   Transaction t{request, &d, id};
   t.on_reply = [this, id, after = std::move(after)](const rtu::Response&, TimePoint now, TimePoint) {
-    const auto it = operations_.find(id);
-    if (it == operations_.end()) return;
-    Operation& o = *it->second;
+    Operation* found = operation(id);
+    if (found == nullptr) return;
+    Operation& o = *found;
     if (after) after(now);  // may add writes: count them before this one is taken off
     if (--o.outstanding == 0 && o.on_transferred) std::exchange(o.on_transferred, {})(now);
   };
@@ -33,39 +47,31 @@ void MasterCore::when_transferred(Operation& op, std::function<void(TimePoint)> 
   op.on_transferred = std::move(next);
 }
 
-void MasterCore::reply(const Operation& op, std::int8_t status, const std::string& reason, std::int32_t code,
-                       std::function<void(Reply&)> fill) {
-  Reply r{};
-  r.command_id = op.command.command_id;
-  r.status = status;
-  r.reason = reason;
-  r.error_code = code;
-  if (fill) fill(r);
-  out_.command_reply(std::move(r));
-}
-
 void MasterCore::finish(std::int64_t command_id, std::int8_t status, const std::string& reason, std::int32_t code,
-                        std::function<void(Reply&)> fill) {
-  const auto it = operations_.find(command_id);
-  if (it == operations_.end()) return;  // already ended: exactly one terminal reply
-  auto op = std::move(it->second);
-  operations_.erase(it);
+                        std::optional<motionlcm::param_t> param) {
+  auto* entry = operations_.find(command_id);
+  if (entry == nullptr) return;  // already ended: exactly one terminal reply
+  if (param) entry->reply.param(*param);
+  const auto terminal = status == Reply::DONE ? gateway::Lifecycle::kDone
+                        : code == error_code(ReplyError::kStopped) ? gateway::Lifecycle::kStopped
+                                                                    : gateway::Lifecycle::kFailed;
+  auto ended = operations_.finish(command_id, terminal, code, reason);
   std::erase_if(queue_, [command_id](const Transaction& t) { return t.command_id == command_id; });
-  for (Drive* d : op->drives) {
+  for (Drive* d : ended->data->drives) {
     if (d->motion_owner == command_id) d->motion_owner = 0;
   }
-  reply(*op, status, reason, code, std::move(fill));
 }
 
 void MasterCore::fail_motion_of(const Drive& d, const std::string& reason, std::int32_t code) {
   if (d.motion_owner != 0) finish(d.motion_owner, Reply::FAILED, reason, code);
   // A jog or homing whose writes are still queued: they would start the motor after the stop.
   std::vector<std::int64_t> queued;
-  for (const auto& [id, op] : operations_) {
+  for (const auto& [id, entry] : operations_.entries()) {
+    const auto& op = entry.data;
     const auto kind = op->command.kind;
     const bool motion = kind == motionlcm::gateway_command_t::JOG || kind == motionlcm::gateway_command_t::HOME ||
                         kind == motionlcm::gateway_command_t::ARM_MOVE;
-    if (motion && op->phase == Operation::Phase::transferring && std::find(op->drives.begin(), op->drives.end(), &d) != op->drives.end()) {
+    if (motion && !op->watching && std::find(op->drives.begin(), op->drives.end(), &d) != op->drives.end()) {
       queued.push_back(id);
     }
   }
@@ -83,15 +89,8 @@ std::optional<std::string> MasterCore::busy_reason(const std::vector<Drive*>& dr
 }
 
 void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint now) {
-  const auto refuse = [&](const std::string& reason, std::int32_t code) {
-    Reply r{};
-    r.command_id = command.command_id;
-    r.status = Reply::FAILED;
-    r.reason = reason;
-    r.error_code = code;
-    out_.command_reply(std::move(r));
-  };
-  if (operations_.contains(command.command_id)) return refuse("duplicate command id", error_code(ReplyError::kMalformedRequest));
+  const auto refuse = [&](const std::string& reason, std::int32_t code) { operations_.reject(command, code, reason); };
+  if (operations_.find(command.command_id) != nullptr) return refuse("duplicate command id", error_code(ReplyError::kMalformedRequest));
   std::vector<Drive*> drives;
   for (const auto& a : command.axes) {
     Drive* d = drive_of_axis(a.axis);
@@ -142,7 +141,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       std::stable_partition(queue_.begin(), queue_.end(),
                             [id = command.command_id](const Transaction& t) { return t.command_id == id; });
       when_transferred(op, [this, id = command.command_id](TimePoint) {
-        if (auto it = operations_.find(id); it != operations_.end()) it->second->phase = Operation::Phase::moving;
+        if (Operation* stopping = operation(id)) stopping->watching = true;
       });
       break;
     }
@@ -216,7 +215,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       }
       when_transferred(op, [this, id = command.command_id, any_switch](TimePoint) {
         if (!any_switch) return finish(id, Reply::DONE);
-        if (auto it = operations_.find(id); it != operations_.end()) it->second->phase = Operation::Phase::moving;
+        if (Operation* stopping = operation(id)) stopping->watching = true;
       });
       break;
     }
@@ -277,8 +276,9 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
     }
     case motionlcm::gateway_command_t::DISARM: {
       std::vector<std::int64_t> disarmed;
-      for (const auto& [id, op] : operations_) {
-        if (op->command.kind != motionlcm::gateway_command_t::ARM_MOVE || op->phase == Operation::Phase::moving) continue;
+      for (const auto& [id, entry] : operations_.entries()) {
+        const auto& op = entry.data;
+        if (op->command.kind != motionlcm::gateway_command_t::ARM_MOVE || op->watching) continue;
         const bool by_trigger = command.trigger_id != 0 && op->command.trigger_id == command.trigger_id;
         const bool by_axis = std::any_of(op->drives.begin(), op->drives.end(), [&](Drive* d) {
           return std::find(drives.begin(), drives.end(), d) != drives.end();
@@ -286,8 +286,8 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
         if (by_trigger || by_axis) disarmed.push_back(id);
       }
       for (const auto id : disarmed) finish(id, Reply::FAILED, "disarmed by command " + id_text, error_code(ReplyError::kStopped));
-      reply(open_operation(command, drives), Reply::DONE, std::to_string(disarmed.size()) + " armed move(s) disarmed");
-      operations_.erase(command.command_id);
+      open_operation(command, drives);
+      finish(command.command_id, Reply::DONE, std::to_string(disarmed.size()) + " armed move(s) disarmed");
       break;
     }
     default: return refuse("command kind " + std::to_string(command.kind) + " is not supported by the ADAM driver", error_code(ReplyError::kUnsupported));
@@ -361,12 +361,10 @@ void MasterCore::arm_move(Operation& op, TimePoint now) {
     }
   }
   when_transferred(op, [this, id](TimePoint at) {
-    const auto it = operations_.find(id);
-    if (it == operations_.end()) return;
-    Operation& armed = *it->second;
-    armed.phase = Operation::Phase::armed;
-    reply(armed, Reply::ARMED);
-    if (armed.command.trigger_id == 0) start_armed(armed, at);
+    Operation* armed = operation(id);
+    if (armed == nullptr) return;
+    operations_.advance_all(id, gateway::Lifecycle::kArmed);  // the ledger replies ARMED
+    if (armed->command.trigger_id == 0) start_armed(*armed, at);
   });
 }
 
@@ -380,31 +378,29 @@ bool MasterCore::neutral_for(const Drive& d, const Operation& firing) const {
 void MasterCore::fire(std::int64_t trigger_id, TimePoint now) {
   reserved_at_ = kNever;
   std::vector<std::int64_t> ids;
-  for (const auto& [id, op] : operations_) {
-    if (op->phase == Operation::Phase::armed && op->command.trigger_id == trigger_id) ids.push_back(id);
+  for (const auto& [id, entry] : operations_.entries()) {
+    if (!entry.data->watching && entry.all(gateway::Lifecycle::kArmed) && entry.data->command.trigger_id == trigger_id) ids.push_back(id);
   }
   for (const auto id : ids) {
-    if (auto it = operations_.find(id); it != operations_.end()) start_armed(*it->second, now);
+    if (Operation* op = operation(id)) start_armed(*op, now);
   }
   send_next(now);
 }
 
 void MasterCore::start_armed(Operation& op, TimePoint now) {
   const std::int64_t id = op.command.command_id;
-  op.phase = Operation::Phase::moving;  // no second fire
+  op.watching = true;  // no second fire
   for (Drive* d : op.drives) d->target = d->table_entry.value_or(0);
   const bool broadcast = std::all_of(drives_.begin(), drives_.end(), [&](const auto& d) { return neutral_for(*d, op); });
   if (broadcast) {
     Transaction start{adam::table_execute_broadcast().value(), nullptr, id};
     start.on_reply = [this, id](const rtu::Response&, TimePoint at, TimePoint frame_end) {
-      const auto it = operations_.find(id);
-      if (it == operations_.end()) return;
-      it->second->trigger_utime = wall_clock_() + std::chrono::duration_cast<std::chrono::microseconds>(frame_end - at).count();
-      reply(*it->second, Reply::STARTED, {}, 0, [&](Reply& r) {
-        r.trigger_utime = it->second->trigger_utime;
-        r.start_mechanism = "broadcast";
-        r.predicted_skew_us = 0;
-      });
+      auto* entry = operations_.find(id);
+      if (entry == nullptr) return;
+      (void)at;
+      entry->data->trigger_utime = wall_clock_(frame_end);
+      entry->reply.started(entry->data->trigger_utime, "broadcast", 0.0);
+      operations_.advance_all(id, gateway::Lifecycle::kStarted);  // the ledger replies STARTED
     };
     enqueue(std::move(start), /*urgent=*/true);
   } else {
@@ -419,17 +415,14 @@ void MasterCore::start_armed(Operation& op, TimePoint now) {
       Transaction t{adam::move(d->cfg.unit, adam::MoveCommand::absolute_at_standstill, static_cast<std::int32_t>(d->target)), d, id};
       t.max_retries = d->cfg.retries;
       t.on_reply = [this, id, skew_us](const rtu::Response&, TimePoint at, TimePoint frame_end) {
-        const auto it = operations_.find(id);
-        if (it == operations_.end()) return;
-        Operation& o = *it->second;
-        if (o.trigger_utime == 0)
-          o.trigger_utime = wall_clock_() - std::chrono::duration_cast<std::chrono::microseconds>(at - frame_end).count();
+        auto* entry = operations_.find(id);
+        if (entry == nullptr) return;
+        Operation& o = *entry->data;
+        (void)at;
+        if (o.trigger_utime == 0) o.trigger_utime = wall_clock_(frame_end);
         if (--o.outstanding == 0) {
-          reply(o, Reply::STARTED, {}, 0, [&](Reply& r) {
-            r.trigger_utime = o.trigger_utime;
-            r.start_mechanism = "sequential";
-            r.predicted_skew_us = skew_us;
-          });
+          entry->reply.started(o.trigger_utime, "sequential", skew_us);
+          operations_.advance_all(id, gateway::Lifecycle::kStarted);  // the ledger replies STARTED
         }
       };
       t.on_fail = [this, id](const std::string& reason, std::int32_t code) { finish(id, Reply::FAILED, reason, code); };
@@ -480,7 +473,7 @@ void MasterCore::check_motion(Operation& op, const Drive& sampled, TimePoint now
     for (std::size_t i = 0; i < op.drives.size(); ++i) op.drives[i]->homed = true;
     // Home is position 0 on the drive (assumed: §8.48 only says positions are relative to home); a
     // non-zero home position is preset after.
-    op.phase = Operation::Phase::transferring;
+    op.watching = false;  // the presets are written, then DONE
     op.goal = Operation::Goal::none;
     for (std::size_t i = 0; i < op.drives.size(); ++i) {
       const auto target = op.command.axes[i].target_counts;
@@ -513,7 +506,7 @@ void MasterCore::param(Operation& op, const motionlcm::param_t& p) {
       result.width = static_cast<std::int8_t>(width);
       if (width == 2) result.value = is_signed ? std::int64_t{adam::decode32_signed(v[0], v[1])} : std::int64_t{adam::decode32(v[0], v[1])};
       else result.value = is_signed ? std::int64_t{adam::decode16_signed(v[0])} : std::int64_t{v[0]};
-      finish(id, Reply::DONE, {}, 0, [&](Reply& reply) { reply.param = result; });
+      finish(id, Reply::DONE, {}, 0, result);
     };
     t.on_fail = [this, id](const std::string& reason, std::int32_t code) { finish(id, Reply::FAILED, reason, code); };
     enqueue(std::move(t));
@@ -529,7 +522,7 @@ void MasterCore::param(Operation& op, const motionlcm::param_t& p) {
                  : rtu::Request{d.cfg.unit, rtu::WriteRegisters{reg, {adam::encode32(static_cast<std::uint32_t>(p.value))[0],
                                                                       adam::encode32(static_cast<std::uint32_t>(p.value))[1]}}};
   add_write(op, d, request);
-  when_transferred(op, [this, id, p](TimePoint) { finish(id, Reply::DONE, {}, 0, [&](Reply& r) { r.param = p; }); });
+  when_transferred(op, [this, id, p](TimePoint) { finish(id, Reply::DONE, {}, 0, p); });
 }
 
 }  // namespace motion::adam_driver

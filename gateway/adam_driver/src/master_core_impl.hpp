@@ -124,7 +124,9 @@ struct MasterCore::Operation {
   std::vector<Drive*> drives;  // aligned with command.axes
   std::size_t outstanding = 0;
   std::function<void(TimePoint)> on_transferred;
-  enum class Phase { transferring, armed, moving } phase = Phase::transferring;
+  // Its drives' samples are checked against `goal` (check_motion): set once its writes are on
+  // the drives (a stop, a jog) or its start went out (a move). Armed/started are the ledger's.
+  bool watching = false;
   enum class Goal { none, reach_target, reach_home, stand_still } goal = Goal::none;
   std::set<Drive*> arrived;
   std::map<Drive*, int> idle_polls;

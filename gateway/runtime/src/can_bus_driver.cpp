@@ -34,6 +34,13 @@ CanBusDriver::CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can
       transport_(std::move(transport)),
       out_(out),
       combiner_(std::make_unique<Combiner>(*this)),
+      pending_([this](motionlcm::gateway_reply_t reply) {
+        if (reply.status == motionlcm::gateway_reply_t::STARTED) {
+          emit_started(std::move(reply));
+        } else {
+          out_.command_reply(std::move(reply));
+        }
+      }),
       timer_(loop) {
   transport_->on_bus_event([this](const can::BusEvent& e) {
     const bool off = e.state == can::BusState::kBusOff || e.state == can::BusState::kDisconnected;
@@ -82,7 +89,7 @@ void CanBusDriver::start() {
   own_echo_ = !transport_->set_own_echo(true);
   if (transport_->fd() >= 0) loop_.watch(transport_->fd(), [this] { on_readable(); });
   const TimePoint now = loop_.now();
-  for (auto& s : stacks_) s->start(now);
+  for (auto& s : stacks_) call(s.get(), [&](CanStack& stack) { stack.start(now); });
   reschedule();
 }
 
@@ -98,7 +105,9 @@ void CanBusDriver::on_readable() {
     }
     if (tap_) tap_(*frame, false);
     for (auto& s : stacks_) {
-      if (s->on_frame(*frame, now)) break;
+      bool taken = false;
+      call(s.get(), [&](CanStack& stack) { taken = stack.on_frame(*frame, now); });
+      if (taken) break;
     }
   }
   if (transport_->fd() != fd_before) {  // disconnected (or reconnected on a new fd)
@@ -111,7 +120,7 @@ void CanBusDriver::on_readable() {
 void CanBusDriver::reschedule() {
   const TimePoint now = loop_.now();
   TimePoint next = kNever;
-  for (auto& s : stacks_) next = std::min(next, s->process(now));
+  for (auto& s : stacks_) call(s.get(), [&](CanStack& stack) { next = std::min(next, stack.process(now)); });
   timer_.arm(next, [this] { reschedule(); });
 }
 
@@ -120,11 +129,7 @@ void CanBusDriver::execute(const motionlcm::gateway_command_t& command) {
   for (const auto& a : command.axes) {
     auto it = stack_of_axis_.find(a.axis);
     if (it == stack_of_axis_.end()) {
-      motionlcm::gateway_reply_t r{};
-      r.command_id = command.command_id;
-      r.status = motionlcm::gateway_reply_t::FAILED;
-      r.reason = "no protocol stack drives axis '" + a.axis + "' on bus " + bus_ + " (family not supported by this gateway yet)";
-      out_.command_reply(r);
+      pending_.reject(command, 0, "no protocol stack drives axis '" + a.axis + "' on bus " + bus_ + " (family not supported by this gateway yet)");
       return;
     }
     auto& part = parts[it->second];
@@ -135,39 +140,49 @@ void CanBusDriver::execute(const motionlcm::gateway_command_t& command) {
     part.axes.push_back(a);
     part.num_axes = static_cast<std::int32_t>(part.axes.size());
   }
-  pending_[command.command_id] = Pending{parts.size(), 0, {}, false};
+  std::vector<std::size_t> keys;
+  for (const auto& [stack, part] : parts) keys.push_back(part_of(stack));
+  pending_.release(command.command_id);  // an id used again: the new command is the one combined
+  pending_.add(command, std::move(keys));
   if (command.kind == motionlcm::gateway_command_t::ARM_MOVE) {
     auto& stacks = armed_stacks_[command.command_id];
     for (const auto& [stack, part] : parts) stacks.push_back(stack);
     if (armed_stacks_.size() > 256) armed_stacks_.erase(armed_stacks_.begin());  // never fired (disarmed, failed)
   }
   const TimePoint now = loop_.now();
-  for (auto& [stack, part] : parts) stack->execute(part, now);
+  for (auto& [stack, part] : parts) call(stack, [&, &cmd = part](CanStack& s) { s.execute(cmd, now); });
   reschedule();
 }
 
+std::size_t CanBusDriver::part_of(const CanStack* s) const {
+  const auto it = std::find_if(stacks_.begin(), stacks_.end(), [s](const auto& owned) { return owned.get() == s; });
+  return static_cast<std::size_t>(it - stacks_.begin());
+}
+
 void CanBusDriver::on_stack_reply(motionlcm::gateway_reply_t reply) {
-  auto it = pending_.find(reply.command_id);
-  if (it == pending_.end()) {
-    out_.command_reply(std::move(reply));  // e.g. a stack's own unsolicited reply
+  auto* entry = pending_.find(reply.command_id);
+  const auto to = lifecycle_of(reply.status);
+  if (entry == nullptr || !to || *to == Lifecycle::kLoading) {
+    out_.command_reply(std::move(reply));  // e.g. a stack's own unsolicited reply, or after STARTED
     return;
   }
-  Pending& p = it->second;
-  const bool part_finished = reply.status == motionlcm::gateway_reply_t::FAILED || reply.status == motionlcm::gateway_reply_t::DONE ||
-                             reply.status == motionlcm::gateway_reply_t::STARTED;
-  // After a failure the command is over for the coordinator; the other parts are only counted
-  // down so the entry goes away when the last one finishes.
-  if (p.failed || reply.status == motionlcm::gateway_reply_t::FAILED) {
-    if (!p.failed) out_.command_reply(reply);
-    p.failed = true;
-    if (part_finished && ++p.finished == p.parts) pending_.erase(it);
+  // The part of the stack being called; a reply from outside a call (none today) takes the first
+  // part that can get there.
+  std::optional<std::size_t> key;
+  if (calling_ != nullptr && entry->slot(part_of(calling_))) key = part_of(calling_);
+  for (std::size_t k = 0; !key && k < entry->nodes.size(); ++k) {
+    if (find_transition(entry->parts[k], *to)) key = entry->nodes[k];
+  }
+  if (!key) {
+    pending_.advance(reply.command_id, part_of(calling_), *to);  // refused and counted: never sent
     return;
   }
-  auto& same = p.by_status[reply.status];
+  const std::int64_t id = reply.command_id;
+  auto& same = entry->data.by_status[reply.status];
   same.push_back(reply);
-  if (same.size() < p.parts) return;
-  // Every stack reached this status: one combined reply.
-  motionlcm::gateway_reply_t combined = same.front();
+  // What the combined reply of this status carries: the first stack's, and for STARTED the
+  // earliest trigger time, every mechanism and the larger of the predicted and the real spread.
+  ReplyBuilder combined(same.front());
   if (reply.status == motionlcm::gateway_reply_t::STARTED) {
     std::int64_t first = same.front().trigger_utime;
     std::int64_t last = first;
@@ -179,15 +194,21 @@ void CanBusDriver::on_stack_reply(motionlcm::gateway_reply_t reply) {
       skew = std::max(skew, r.predicted_skew_us);
       if (mechanisms.find(r.start_mechanism) == std::string::npos) mechanisms += (mechanisms.empty() ? "" : "+") + r.start_mechanism;
     }
-    combined.trigger_utime = first;
-    combined.start_mechanism = mechanisms;
-    combined.predicted_skew_us = std::max(skew, static_cast<double>(last - first));
-    if (part_finished) pending_.erase(it);
-    emit_started(std::move(combined));
+    combined.started(first, mechanisms, std::max(skew, static_cast<double>(last - first)));
+  }
+  entry->reply = *to == Lifecycle::kFailed ? ReplyBuilder(reply) : std::move(combined);  // a failure as its stack said it
+  // DONE keeps the first stack's reason (the combined reply's); FAILED is this stack's.
+  if (!pending_.advance(id, *key, *to, reply.error_code, *to == Lifecycle::kDone ? std::string{} : reply.reason)) {
+    spdlog::warn("bus {}: command {}: a {} reply refused by the ledger (not sent)", bus_, id, to_string(*to));
     return;
   }
-  out_.command_reply(std::move(combined));
-  if (part_finished) pending_.erase(it);
+  // After the combined STARTED (or a failure, once no part is still loading or armed) the
+  // command is no longer combined: later replies pass on as they come.
+  entry = pending_.find(id);
+  if (entry == nullptr) return;
+  const bool past_start = std::all_of(entry->parts.begin(), entry->parts.end(),
+                                      [](Lifecycle p) { return p == Lifecycle::kStarted || is_terminal(p); });
+  if (past_start && (entry->ended || entry->reported == motionlcm::gateway_reply_t::STARTED)) pending_.release(id);
 }
 
 void CanBusDriver::emit_started(motionlcm::gateway_reply_t reply) {
@@ -230,7 +251,7 @@ void CanBusDriver::fire(std::int64_t trigger_id) { fire_ordered(trigger_id, {});
 
 void CanBusDriver::prepare_fire(TimePoint at) {
   const TimePoint now = loop_.now();
-  for (auto& s : stacks_) s->prepare_fire(at, now);
+  for (auto& s : stacks_) call(s.get(), [&](CanStack& stack) { stack.prepare_fire(at, now); });
   reschedule();
 }
 
@@ -248,7 +269,7 @@ void CanBusDriver::fire_ordered(std::int64_t trigger_id, const std::vector<std::
   for (auto& s : stacks_) {
     if (std::find(order.begin(), order.end(), s.get()) == order.end()) order.push_back(s.get());
   }
-  for (CanStack* s : order) s->fire(trigger_id, now);
+  for (CanStack* s : order) call(s, [&](CanStack& stack) { stack.fire(trigger_id, now); });
   reschedule();
 }
 

@@ -11,6 +11,7 @@
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
+#include "motion/gateway/command_ledger.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/reply_error.hpp"
 
@@ -103,14 +104,7 @@ void Gateway::update_health() {
 }
 
 void Gateway::on_command(const motionlcm::gateway_command_t& command) {
-  auto fail = [&](const std::string& reason, std::int32_t code = 0) {
-    motionlcm::gateway_reply_t reply{};
-    reply.command_id = command.command_id;
-    reply.status = motionlcm::gateway_reply_t::FAILED;
-    reply.reason = reason;
-    reply.error_code = code;
-    command_reply(std::move(reply));
-  };
+  auto fail = [&](const std::string& reason, std::int32_t code = 0) { command_reply(ReplyBuilder(command.command_id).failed(code, reason).build()); };
   if (command.bus != bus_) return fail("command for bus '" + command.bus + "' reached gateway of bus '" + bus_ + "'");
   if (command.num_axes != static_cast<std::int32_t>(command.axes.size())) return fail("num_axes does not match the axes array");
   for (const auto& a : command.axes) {

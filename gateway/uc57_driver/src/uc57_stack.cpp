@@ -29,7 +29,7 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
         if (frame.id == canopen::kSyncCobId) last_sync_end_ = wire_sent_;
       }) {
   bitrate_ = static_cast<std::uint32_t>(std::max(bus.bitrate, 1));
-  if (!options_.wall_clock_us) options_.wall_clock_us = [](TimePoint) { return wall_time_us(); };
+  options_.wall_clock_us = gateway::or_system_clock(std::move(options_.wall_clock_us));
   for (const auto& drive : config.drives) {
     if (drive.family != config::Family::kUc57 || drive.bus != bus.name) continue;
     auto node = std::make_unique<Node>();

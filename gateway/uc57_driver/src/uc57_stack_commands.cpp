@@ -8,27 +8,6 @@ namespace motion::uc57_driver {
 // Commands: bookkeeping
 // ---------------------------------------------------------------------------------------------
 
-void Uc57Stack::fail_command(const Command& command, std::int32_t code, const std::string& reason) {
-  if (context_.out == nullptr) return;
-  Reply r{};
-  r.command_id = command.command_id;
-  r.status = Reply::FAILED;
-  r.error_code = code;
-  r.reason = reason;
-  context_.out->command_reply(r);
-}
-
-void Uc57Stack::reply(const Job& job, std::int8_t status, std::int32_t code, const std::string& reason) {
-  if (context_.out == nullptr) return;
-  Reply r{};
-  r.command_id = job.command.command_id;
-  r.status = status;
-  r.error_code = code;
-  r.reason = reason;
-  r.param = job.command.param;
-  context_.out->command_reply(r);
-}
-
 void Uc57Stack::start_task(std::size_t n, TaskKind kind, std::int64_t command_id, TimePoint deadline) {
   Node& node = *nodes_[n];
   node.task = kind;
@@ -49,20 +28,22 @@ void Uc57Stack::part_done(std::int64_t command_id, std::size_t n) {
     node.task = TaskKind::kNone;
     node.task_deadline = kNever;
   }
-  const auto it = jobs_.find(command_id);
-  if (it == jobs_.end()) return;
-  Job& job = it->second;
-  job.parts[job.slot(n)] = Job::Part::kDone;
-  if (!job.all(Job::Part::kDone)) return;
-  // The state the command left its axes in goes out first: whoever acts on the reply (the
-  // coordinator checking "enabled" for the next move, a client reading "homed") has it by then.
-  for (const std::size_t done : job.nodes) publish_status(done);
-  if (job.unreached.empty()) {
-    reply(job, Reply::DONE);
-  } else {
-    reply(job, Reply::FAILED, job.unreached_code, job.unreached);
+  Job* job = jobs_.find(command_id);
+  const auto part = job != nullptr ? job->state_of(n) : std::nullopt;
+  if (!part || gateway::is_terminal(*part)) return;
+  const auto done_parts = std::count(job->parts.begin(), job->parts.end(), Lifecycle::kDone);
+  if (static_cast<std::size_t>(done_parts) + 1 < job->parts.size()) {
+    jobs_.advance(command_id, n, Lifecycle::kDone);
+    return;
   }
-  jobs_.erase(it);
+  // The last part. The state the command left its axes in goes out first: whoever acts on the
+  // reply (the coordinator checking "enabled" for the next move, a client reading "homed") has it by then.
+  for (const std::size_t done : job->nodes) publish_status(done);
+  if (job->data.unreached.empty()) {
+    jobs_.finish(command_id, Lifecycle::kDone);
+  } else {
+    jobs_.finish(command_id, Lifecycle::kFailed, job->data.unreached_code, job->data.unreached);
+  }
 }
 
 void Uc57Stack::part_failed(std::int64_t command_id, std::size_t n, std::int32_t code, const std::string& reason) {
@@ -70,35 +51,31 @@ void Uc57Stack::part_failed(std::int64_t command_id, std::size_t n, std::int32_t
     nodes_[n]->task = TaskKind::kNone;
     nodes_[n]->task_deadline = kNever;
   }
-  const auto it = jobs_.find(command_id);
-  if (it == jobs_.end()) return;
-  const Job job = std::move(it->second);
-  jobs_.erase(it);
-  // The command is over: the other axes' tasks for it end silently (one terminal reply).
-  for (const std::size_t other : job.nodes) {
+  const auto terminal = code == error_code(ReplyError::kStopped) ? Lifecycle::kStopped : Lifecycle::kFailed;
+  const auto job = jobs_.finish(command_id, terminal, code, reason);  // the one terminal reply
+  if (!job) return;
+  // The command is over: the other axes' tasks for it end silently.
+  for (const std::size_t other : job->nodes) {
     Node& node = *nodes_[other];
     if (node.task_command != command_id || node.task == TaskKind::kNone) continue;
     if (node.task == TaskKind::kPower) node.power.cancel();
     node.task = TaskKind::kNone;
     node.task_deadline = kNever;
   }
-  reply(job, Reply::FAILED, code, reason);
 }
 
 void Uc57Stack::part_armed(std::int64_t command_id, std::size_t n, TimePoint now) {
   Node& node = *nodes_[n];
   node.task = TaskKind::kArmed;
   node.task_deadline = kNever;
-  const auto it = jobs_.find(command_id);
-  if (it == jobs_.end()) return;
-  Job& job = it->second;
-  job.parts[job.slot(n)] = Job::Part::kArmed;
-  if (!job.all(Job::Part::kArmed)) return;
-  reply(job, Reply::ARMED);
-  if (job.command.trigger_id == 0) {
+  // The ledger replies ARMED with the last part.
+  if (!jobs_.advance(command_id, n, Lifecycle::kArmed)) return;
+  Job* job = jobs_.find(command_id);
+  if (job == nullptr || !job->all(Lifecycle::kArmed)) return;
+  if (job->command.trigger_id == 0) {
     fire_jobs({command_id}, now);  // "0 = at once"
   } else {
-    preload(job);
+    preload(*job);
   }
 }
 
@@ -156,15 +133,17 @@ void Uc57Stack::check_task_timeouts(TimePoint now) {
 
 void Uc57Stack::execute(const Command& command, TimePoint now) {
   now_ = now;
-  Job job;
-  job.command = command;
+  std::vector<std::size_t> parts;  // one per node
   for (const auto& axis : command.axes) {
     const auto it = std::find_if(nodes_.begin(), nodes_.end(), [&](const auto& node) { return node->settings.axis == axis.axis; });
-    if (it == nodes_.end()) return fail_command(command, error_code(ReplyError::kUnknownAxis), "axis '" + axis.axis + "' is not driven by a UC57 on bus " + bus_);
-    job.nodes.push_back(static_cast<std::size_t>(it - nodes_.begin()));
+    if (it == nodes_.end()) return jobs_.reject(command, error_code(ReplyError::kUnknownAxis), "axis '" + axis.axis + "' is not driven by a UC57 on bus " + bus_);
+    const auto n = static_cast<std::size_t>(it - nodes_.begin());
+    if (std::find(parts.begin(), parts.end(), n) != parts.end()) {
+      return jobs_.reject(command, error_code(ReplyError::kMalformedRequest), "the command names axis '" + axis.axis + "' twice");
+    }
+    parts.push_back(n);
   }
-  if (job.nodes.empty()) return fail_command(command, error_code(ReplyError::kMalformedRequest), "command names no axis");
-  job.parts.assign(job.nodes.size(), Job::Part::kRunning);
+  if (parts.empty()) return jobs_.reject(command, error_code(ReplyError::kMalformedRequest), "command names no axis");
 
   const std::int8_t kind = command.kind;
   const bool stops = kind == Command::STOP || kind == Command::ESTOP;
@@ -173,58 +152,58 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
   const bool needs_slot = kind != Command::DISARM && kind != Command::PARAM_READ && kind != Command::PARAM_WRITE &&
                           kind != Command::SET_OUTPUTS;
   // Checks first, so that a refused command starts nothing on the wire.
-  for (std::size_t i = 0; i < job.nodes.size(); ++i) {
-    const std::size_t n = job.nodes[i];
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const std::size_t n = parts[i];
     const Node& node = *nodes_[n];
     // A stop naming an offline node must still stop the others (a group aborted because one of
     // its nodes fell silent): that node only makes the reply fail, below.
     if (node.phase != Node::Phase::kOperational && !stops) {
-      return fail_command(command, error_code(ReplyError::kAxisOffline), offline_text(n));
+      return jobs_.reject(command, error_code(ReplyError::kAxisOffline), offline_text(n));
     }
     if (needs_slot && !preempts && node.task != TaskKind::kNone) {
-      return fail_command(command, error_code(ReplyError::kAxisBusy),
+      return jobs_.reject(command, error_code(ReplyError::kAxisBusy),
                           node.settings.label() + " is busy with command " + std::to_string(node.task_command));
     }
     const auto state = drive_state(n);
     const bool motion = kind == Command::ARM_MOVE || kind == Command::JOG || kind == Command::HOME;
     if (motion && is_fault_state(state)) {
-      return fail_command(command, error_code(ReplyError::kAxisFaulted), node.settings.label() + " is faulted: " + node.status.fault_text);
+      return jobs_.reject(command, error_code(ReplyError::kAxisFaulted), node.settings.label() + " is faulted: " + node.status.fault_text);
     }
     if (motion && state != State::kOperationEnabled) {
-      return fail_command(command, error_code(ReplyError::kAxisDisabled),
+      return jobs_.reject(command, error_code(ReplyError::kAxisDisabled),
                           node.settings.label() + " is not enabled (" + (state ? std::string(cia402::to_string(*state)) : "no statusword") + ")");
     }
     // What this drive cannot do for this axis refuses the whole command here: found while the
     // parts start, an earlier axis would already have been changed (random lab seed 1: a HOME
     // that failed for its second axis had zeroed the first one's position).
     if (auto refusal = refuse(n, command, command.axes[i])) {
-      return fail_command(command, refusal->first, refusal->second);
+      return jobs_.reject(command, refusal->first, refusal->second);
     }
   }
-  if ((kind == Command::PARAM_READ || kind == Command::PARAM_WRITE) && job.nodes.size() != 1) {
-    return fail_command(command, error_code(ReplyError::kMalformedRequest), "a parameter command names exactly one axis");
+  if ((kind == Command::PARAM_READ || kind == Command::PARAM_WRITE) && parts.size() != 1) {
+    return jobs_.reject(command, error_code(ReplyError::kMalformedRequest), "a parameter command names exactly one axis");
   }
   // Which nodes had nothing running before this command preempted it (a STOP there is DONE at once).
-  std::vector<bool> idle(job.nodes.size());
-  for (std::size_t i = 0; i < job.nodes.size(); ++i) idle[i] = at_rest(job.nodes[i]);
+  std::vector<bool> idle(parts.size());
+  for (std::size_t i = 0; i < parts.size(); ++i) idle[i] = at_rest(parts[i]);
   if (preempts) {
     const std::string why = std::string(kind == Command::ESTOP ? "e-stopped" : kind == Command::STOP ? "stopped" : "superseded") +
                             " by command " + std::to_string(command.command_id);
-    for (const std::size_t n : job.nodes) end_task(n, error_code(ReplyError::kStopped), nodes_[n]->settings.label() + ": " + why);
+    for (const std::size_t n : parts) end_task(n, error_code(ReplyError::kStopped), nodes_[n]->settings.label() + ": " + why);
   }
 
   const std::int64_t id = command.command_id;
-  auto [it, inserted] = jobs_.emplace(id, std::move(job));
-  if (!inserted) return fail_command(command, error_code(ReplyError::kMalformedRequest), "command id " + std::to_string(id) + " is already running");
-  Job& live = it->second;
+  Job* added = jobs_.add(command, parts);
+  if (added == nullptr) return jobs_.reject(command, error_code(ReplyError::kMalformedRequest), "command id " + std::to_string(id) + " is already running");
+  Job& live = *added;
   const std::vector<std::size_t> targets = live.nodes;
   for (std::size_t i = 0; i < targets.size(); ++i) {
-    if (jobs_.find(id) == jobs_.end()) return;  // an earlier part already ended the command
+    if (jobs_.find(id) == nullptr) return;  // an earlier part already ended the command
     const std::size_t n = targets[i];
     const auto& axis = command.axes[i];
     if (stops && nodes_[n]->phase != Node::Phase::kOperational) {
-      live.unreached += (live.unreached.empty() ? "" : "; ") + offline_text(n);
-      live.unreached_code = error_code(ReplyError::kAxisOffline);
+      live.data.unreached += (live.data.unreached.empty() ? "" : "; ") + offline_text(n);
+      live.data.unreached_code = error_code(ReplyError::kAxisOffline);
       part_done(id, n);
       continue;
     }
@@ -612,8 +591,11 @@ void Uc57Stack::start_param(std::size_t n, Job& job) {
   if (job.command.kind == Command::PARAM_READ) {
     return sdo_read(n, object, [this, n, id, object, is_signed](std::error_code ec, std::span<const std::uint8_t> data) {
       if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, false, object, ec));
-      const auto it = jobs_.find(id);
-      if (it != jobs_.end()) it->second.command.param.value = is_signed ? read_signed(data) : static_cast<std::int64_t>(read_unsigned(data));
+      if (Job* live = jobs_.find(id)) {
+        auto value = live->reply.peek().param;
+        value.value = is_signed ? read_signed(data) : static_cast<std::int64_t>(read_unsigned(data));
+        live->reply.param(value);
+      }
       part_done(id, n);
     });
   }
@@ -630,8 +612,8 @@ void Uc57Stack::start_param(std::size_t n, Job& job) {
 
 void Uc57Stack::disarm(const Job& disarm_job) {
   std::vector<std::int64_t> victims;
-  for (const auto& [id, job] : jobs_) {
-    if (job.command.kind != Command::ARM_MOVE || job.started) continue;
+  for (const auto& [id, job] : jobs_.entries()) {
+    if (job.command.kind != Command::ARM_MOVE || job.data.started) continue;
     if (disarm_job.command.trigger_id != 0 && job.command.trigger_id != disarm_job.command.trigger_id) continue;
     const bool shares_axis = std::any_of(job.nodes.begin(), job.nodes.end(), [&](std::size_t n) {
       return std::find(disarm_job.nodes.begin(), disarm_job.nodes.end(), n) != disarm_job.nodes.end();
@@ -640,8 +622,9 @@ void Uc57Stack::disarm(const Job& disarm_job) {
   }
   // Bit 4 is still 0 in every armed drive: forgetting the job is all it takes.
   for (const auto id : victims) {
-    const Job& job = jobs_.at(id);
-    part_failed(id, job.nodes.front(), error_code(ReplyError::kStopped), "disarmed by command " + std::to_string(disarm_job.command.command_id));
+    const Job* job = jobs_.find(id);
+    if (job == nullptr) continue;
+    part_failed(id, job->nodes.front(), error_code(ReplyError::kStopped), "disarmed by command " + std::to_string(disarm_job.command.command_id));
   }
 }
 
@@ -658,13 +641,14 @@ void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
   now_ = now;
   std::vector<std::int64_t> ready_jobs;
   std::vector<std::int64_t> early_jobs;
-  for (const auto& [id, job] : jobs_) {
-    if (job.command.kind != Command::ARM_MOVE || job.started || job.command.trigger_id != trigger_id || trigger_id == 0) continue;
-    (job.all(Job::Part::kArmed) ? ready_jobs : early_jobs).push_back(id);
+  for (const auto& [id, job] : jobs_.entries()) {
+    if (job.command.kind != Command::ARM_MOVE || job.data.started || job.command.trigger_id != trigger_id || trigger_id == 0) continue;
+    (job.all(Lifecycle::kArmed) ? ready_jobs : early_jobs).push_back(id);
   }
   for (const auto id : early_jobs) {
-    const Job& job = jobs_.at(id);
-    part_failed(id, job.nodes.front(), error_code(ReplyError::kArmFailed),
+    const Job* job = jobs_.find(id);
+    if (job == nullptr) continue;
+    part_failed(id, job->nodes.front(), error_code(ReplyError::kArmFailed),
                 "trigger " + std::to_string(trigger_id) + " arrived before every axis of command " + std::to_string(id) + " was armed");
   }
   if (!ready_jobs.empty()) fire_jobs(ready_jobs, now);
@@ -674,7 +658,7 @@ void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
 void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoint now) {
   std::vector<bool> armed(nodes_.size(), false);
   for (const auto id : command_ids) {
-    for (const std::size_t n : jobs_.at(id).nodes) armed[n] = true;
+    for (const std::size_t n : jobs_.find(id)->nodes) armed[n] = true;
   }
   const std::uint64_t applying_sync = master_.sync()->sent() + 1;
   std::vector<std::size_t> started;  // preloaded start images: only the SYNC goes out for them
@@ -709,18 +693,14 @@ void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoin
   masked_sync(now, [this, now] { master_.sync()->trigger_now(now); });
   const std::int64_t trigger_utime = options_.wall_clock_us(now);  // the driver replaces it by the start frame's echo
   for (const auto id : command_ids) {
-    Job& job = jobs_.at(id);
-    const StartFacts how = start_facts(job);  // SYNC, or RPDO1s back to back (uc57_stack_rpdo.cpp)
+    Job* job = jobs_.find(id);
+    if (job == nullptr) continue;
+    const StartFacts how = start_facts(*job);  // SYNC, or RPDO1s back to back (uc57_stack_rpdo.cpp)
     if (context_.start_frame) context_.start_frame(id, how.frame);
-    job.started = true;
-    std::fill(job.parts.begin(), job.parts.end(), Job::Part::kStarted);
-    Reply r{};
-    r.command_id = id;
-    r.status = Reply::STARTED;
-    r.trigger_utime = trigger_utime;
-    r.start_mechanism = how.mechanism;
-    r.predicted_skew_us = how.skew_us;  // 0 for one SYNC: the nodes' SYNC latency is undocumented
-    if (context_.out != nullptr) context_.out->command_reply(r);
+    job->data.started = true;
+    // 0 skew for one SYNC: the nodes' SYNC latency is undocumented.
+    job->reply.started(trigger_utime, how.mechanism, how.skew_us);
+    jobs_.advance_all(id, Lifecycle::kStarted);  // the ledger replies STARTED
   }
 }
 

@@ -36,6 +36,7 @@ using cia402::StatusBit;
 using Reply = motionlcm::gateway_reply_t;
 using Command = motionlcm::gateway_command_t;
 using Event = motionlcm::event_t;
+using gateway::Lifecycle;
 
 namespace stack_detail {
 
@@ -166,24 +167,6 @@ struct Uc57Stack::Node {
   std::int64_t task_command = 0;
   TimePoint task_deadline = kNever;
   bool task_watching = false;    // SDO part done, the statusword now decides
-};
-
-struct Uc57Stack::Job {
-  enum class Part : std::uint8_t { kRunning, kArmed, kStarted, kDone };
-  Command command;
-  std::vector<std::size_t> nodes;
-  std::vector<Part> parts;
-  bool started = false;
-  // A stop's unreachable (offline) nodes: the others are still stopped, then the reply fails.
-  std::int32_t unreached_code = 0;
-  std::string unreached;
-
-  [[nodiscard]] std::size_t slot(std::size_t n) const {
-    return static_cast<std::size_t>(std::find(nodes.begin(), nodes.end(), n) - nodes.begin());
-  }
-  [[nodiscard]] bool all(Part state) const {
-    return std::all_of(parts.begin(), parts.end(), [state](Part p) { return p == state; });
-  }
 };
 
 struct Uc57Stack::ConfigOp {

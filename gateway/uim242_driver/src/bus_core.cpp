@@ -98,24 +98,13 @@ void Uim242BusCore::run_sequence(Command& c, Drive& d, std::vector<Instruction> 
   if (steps.empty()) done(TimePoint{});
 }
 
-void Uim242BusCore::reply(const gateway_command_t& command, std::int8_t status, const std::string& reason,
-                          std::int32_t error_code) {
-  if (!context_.out) return;
-  gateway_reply_t r{};
-  r.bus = bus_;
-  r.command_id = command.command_id;
-  r.status = status;
-  r.reason = reason;
-  r.error_code = error_code;
-  context_.out->command_reply(r);
-}
-
 void Uim242BusCore::finish(std::int64_t command_id, bool ok, const std::string& reason, std::int32_t error_code,
                            std::optional<motionlcm::param_t> param) {
-  const auto it = commands_.find(command_id);
-  if (it == commands_.end()) return;  // already ended: exactly one terminal reply
-  const auto command = std::move(it->second->command);
-  commands_.erase(it);
+  Command* c = commands_.find(command_id);
+  if (c == nullptr) return;  // already ended: exactly one terminal reply
+  if (param) c->reply.param(*param);
+  // The one terminal reply; the entry leaves the ledger before anything below can end it again.
+  commands_.finish(command_id, ok ? Lifecycle::kDone : (error_code == kStopped ? Lifecycle::kStopped : Lifecycle::kFailed), ok ? 0 : error_code, reason);
   channel_.cancel(command_id);
   std::erase_if(moves_, [command_id](const auto& m) { return m->command_id == command_id; });
   std::erase_if(rest_checks_, [command_id](const RestCheck& r) { return r.group == command_id; });
@@ -126,21 +115,12 @@ void Uim242BusCore::finish(std::int64_t command_id, bool ok, const std::string& 
     // a later pass over the switch would zero the position and stop the axis unasked.
     if (started_) submit(*d, uim242::make_scf(d->homing_restore), 0, {}, true);
   }
-  if (!context_.out) return;
-  gateway_reply_t r{};
-  r.bus = bus_;
-  r.command_id = command_id;
-  r.status = ok ? std::int8_t{gateway_reply_t::DONE} : std::int8_t{gateway_reply_t::FAILED};
-  r.reason = reason;
-  r.error_code = ok ? 0 : error_code;
-  if (param) r.param = *param;
-  context_.out->command_reply(r);
 }
 
 void Uim242BusCore::part_done(std::int64_t command_id) {
-  const auto it = commands_.find(command_id);
-  if (it == commands_.end()) return;
-  if (it->second->outstanding > 0 && --it->second->outstanding > 0) return;
+  Command* c = commands_.find(command_id);
+  if (c == nullptr) return;
+  if (c->data.outstanding > 0 && --c->data.outstanding > 0) return;
   finish(command_id, true);
 }
 
@@ -223,10 +203,10 @@ void Uim242BusCore::on_notification(const uim242::Notification& n, TimePoint now
     // would run on), and apply the home offset.
     const std::int64_t id = d.homing_command;
     d.homing_command = 0;
-    const auto c = commands_.find(id);
-    if (c == commands_.end()) return;
+    Command* c = commands_.find(id);
+    if (c == nullptr) return;
     const std::int64_t offset = d.homing_offset;
-    run_sequence(*c->second, d, {uim242::make_scf(d.homing_restore), set(Mnemonic::SPD, 0), set(Mnemonic::ORG, offset)},
+    run_sequence(*c, d, {uim242::make_scf(d.homing_restore), set(Mnemonic::SPD, 0), set(Mnemonic::ORG, offset)},
                  [this, id, &d, offset](TimePoint t) {
                    homed(d, offset, t);
                    part_done(id);  // DONE when every axis of the command is home
@@ -248,7 +228,7 @@ void Uim242BusCore::line_lost(const std::string& why, TimePoint now) {
   started_ = false;
   if (context_.out) context_.out->axis_event({}, gateway::DriveEvent{event_t::OFFLINE, event_t::ERROR, 0, reason});
   std::vector<std::int64_t> running;
-  for (const auto& [id, c] : commands_) running.push_back(id);
+  for (const auto& [id, c] : commands_.entries()) running.push_back(id);
   for (const auto id : running) finish(id, false, reason, kTimeout);
   // Nothing sent before the loss will be answered: forget it, and any half-received frame.
   channel_.reset();
@@ -470,7 +450,8 @@ void Uim242BusCore::poll(TimePoint now) {
       // The move of this drive that is under way, and when its run should have ended.
       std::optional<TimePoint> due;
       for (const auto& m : moves_) {
-        if (m->phase != Move::Phase::moving) continue;
+        const Command* c = commands_.find(m->command_id);
+        if (c == nullptr || c->reported != gateway_reply_t::STARTED) continue;  // not moving yet
         for (const auto& a : m->axes) {
           if (a.drive == &d && !a.arrived) due = m->last_start + a.planned;
         }

@@ -13,6 +13,11 @@ Uim242BusCore::Drive* Uim242BusCore::drive_of_axis(const std::string& axis) {
   return nullptr;
 }
 
+std::size_t Uim242BusCore::index_of(const Drive& d) const {
+  const auto it = std::find_if(drives_.begin(), drives_.end(), [&d](const auto& owned) { return owned.get() == &d; });
+  return static_cast<std::size_t>(it - drives_.begin());
+}
+
 bool Uim242BusCore::for_each_axis(const gateway_command_t& command,
                                   const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f) {
   for (const auto& a : command.axes) {
@@ -33,16 +38,20 @@ bool Uim242BusCore::for_each_axis(const gateway_command_t& command,
 
 void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
   const std::int64_t id = command.command_id;
-  if (commands_.contains(id)) {
+  // One part per drive named (axes of other buses fail below, in for_each_axis / arm).
+  std::vector<std::size_t> parts;
+  for (const auto& a : command.axes) {
+    const Drive* d = drive_of_axis(a.axis);
+    if (d != nullptr && std::find(parts.begin(), parts.end(), index_of(*d)) == parts.end()) parts.push_back(index_of(*d));
+  }
+  Command* added = commands_.add(command, std::move(parts), CommandData{command.axes.size()});
+  if (added == nullptr) {
     // As the CAN stacks and the ADAM master: a reused id is refused, the running command goes on.
-    reply(command, gateway_reply_t::FAILED, fmt::format("command id {} is already in progress", id), kMalformed);
+    commands_.reject(command, kMalformed, fmt::format("command id {} is already in progress", id));
     return;
   }
-  auto owned = std::make_unique<Command>();
-  owned->command = command;
-  owned->outstanding = command.axes.size();
-  Command& c = *owned;
-  commands_[id] = std::move(owned);
+  added->reply.bus(bus_);
+  Command& c = *added;
   if (command.axes.empty() && command.kind != gateway_command_t::DISARM) {
     finish(id, false, "command names no axis", kMalformed);
     return;
@@ -176,14 +185,14 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
         const bool by_axis = std::any_of(m->axes.begin(), m->axes.end(), [&](const auto& a) {
           return std::any_of(command.axes.begin(), command.axes.end(), [&](const auto& ca) { return ca.axis == a.drive->axis_name; });
         });
-        if ((m->phase != Move::Phase::arming && m->phase != Move::Phase::armed) || !(by_trigger || by_axis)) continue;
+        if (m->start_sent || !(by_trigger || by_axis)) continue;
         disarmed.push_back(m->command_id);
         for (const auto& a : m->axes) {
           if (a.loaded && !a.arrived) loaded.push_back(a.drive);
         }
       }
       for (const auto mid : disarmed) finish(mid, false, "disarmed before the trigger", kStopped);
-      c.outstanding = loaded.size();
+      c.data.outstanding = loaded.size();
       if (loaded.empty()) {
         finish(id, true);
         return;
@@ -217,11 +226,13 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
   }
   Move& m = *move;
   moves_.push_back(std::move(move));
-  Command& c = *commands_.at(id);
-  const auto loaded = [this, id, &m](TimePoint t) {
-    if (std::any_of(m.axes.begin(), m.axes.end(), [](const auto& a) { return !a.loaded; })) return;
-    m.phase = Move::Phase::armed;
-    reply(commands_.at(id)->command, gateway_reply_t::ARMED);
+  Command& c = *commands_.find(id);
+  // An axis is loaded: its part is Armed (the ledger replies ARMED with the last one).
+  const auto loaded = [this, id, &m](const Drive& d, TimePoint t) {
+    commands_.advance(id, index_of(d), Lifecycle::kArmed);
+    const Command* armed = commands_.find(id);
+    if (armed == nullptr || !armed->all(Lifecycle::kArmed)) return;
+    if (std::any_of(m.axes.begin(), m.axes.end(), [](const auto& a) { return !a.loaded; })) return;  // an axis named twice
     if (m.trigger_id == 0) start_move(m, t);
   };
   for (auto& axis : m.axes) {
@@ -236,7 +247,7 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
       const std::int64_t displacement = axis.target - position;
       if (displacement == 0) {  // already there: `STP 0;` would mean "leave PT", not "move 0"
         axis.loaded = axis.arrived = true;
-        loaded(t);
+        loaded(d, t);
         return;
       }
       if (std::abs(displacement) > std::numeric_limits<std::int32_t>::max()) {
@@ -244,9 +255,9 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
                kOutsideLimits);
         return;
       }
-      run_sequence(c, d, {set(Mnemonic::STP, displacement)}, [&axis, loaded](TimePoint t2) {
+      run_sequence(c, d, {set(Mnemonic::STP, displacement)}, [&axis, &d, loaded](TimePoint t2) {
         axis.loaded = true;
-        loaded(t2);
+        loaded(d, t2);
       });
     });
                  });
@@ -262,34 +273,34 @@ void Uim242BusCore::fire(std::int64_t trigger_id, TimePoint now) {
   // erases it from moves_: walk a list of the command ids, and look each one up again.
   std::vector<std::int64_t> ids;
   for (const auto& m : moves_) {
-    if (m->phase == Move::Phase::armed && m->trigger_id == trigger_id) ids.push_back(m->command_id);
+    const Command* c = commands_.find(m->command_id);
+    if (!m->start_sent && c != nullptr && c->all(Lifecycle::kArmed) && m->trigger_id == trigger_id) ids.push_back(m->command_id);
   }
   for (const auto id : ids) {
     const auto it = std::find_if(moves_.begin(), moves_.end(), [id](const auto& m) { return m->command_id == id; });
-    if (it != moves_.end() && (*it)->phase == Move::Phase::armed) start_move(**it, now);
+    if (it != moves_.end() && !(*it)->start_sent) start_move(**it, now);
   }
 }
 
 void Uim242BusCore::start_move(Move& m, TimePoint now) {
-  m.phase = Move::Phase::starting;
+  m.start_sent = true;
   const std::int64_t id = m.command_id;
   std::vector<Move::Axis*> to_start;
   for (auto& a : m.axes) {
     if (!a.arrived) to_start.push_back(&a);
   }
   const auto started = [this, id, &m](std::string mechanism) {
-    m.phase = Move::Phase::moving;
-    gateway_reply_t r{};
-    r.bus = bus_;
-    r.command_id = id;
-    r.status = gateway_reply_t::STARTED;
+    Command* c = commands_.find(id);
+    if (c == nullptr) return;
     const TimePoint first = m.first_start.value_or(TimePoint{});
-    r.trigger_utime = context_.utime_of ? context_.utime_of(first) : steady_us(first);
-    r.start_mechanism = std::move(mechanism);
     // Measured spread between the first and the last start instruction on the wire.
-    r.predicted_skew_us = std::chrono::duration<double, std::micro>(m.last_start - first).count();
-    if (context_.out) context_.out->command_reply(r);
-    if (std::all_of(m.axes.begin(), m.axes.end(), [](const auto& a) { return a.arrived; })) finish(id, true);
+    c->reply.started(context_.utime_of ? context_.utime_of(first) : steady_us(first), std::move(mechanism),
+                     std::chrono::duration<double, std::micro>(m.last_start - first).count());
+    commands_.advance_all(id, Lifecycle::kStarted);  // the ledger replies STARTED
+    if (std::all_of(m.axes.begin(), m.axes.end(), [](const auto& a) { return a.arrived; })) return finish(id, true);
+    for (const auto& a : m.axes) {
+      if (a.arrived) commands_.advance(id, index_of(*a.drive), Lifecycle::kDone);  // at its target before the start
+    }
   };
   const auto on_sent = [&m](TimePoint sent) {
     if (!m.first_start) m.first_start = sent;
@@ -351,7 +362,7 @@ void Uim242BusCore::start_move(Move& m, TimePoint now) {
 
 void Uim242BusCore::move_axis_arrived(Drive& d, TimePoint now) {
   for (auto& m : moves_) {
-    if (m->phase != Move::Phase::moving && m->phase != Move::Phase::starting) continue;
+    if (!m->start_sent) continue;
     for (auto& a : m->axes) {
       if (a.drive != &d || a.arrived) continue;
       a.arrived = true;
@@ -359,9 +370,12 @@ void Uim242BusCore::move_axis_arrived(Drive& d, TimePoint now) {
       d.status.position_counts = a.target;
       publish(d, now);
       event(d, event_t::MOTION_COMPLETE, event_t::INFO, 0, fmt::format("{} (node {}) at {}", d.name, d.node, a.target));
-      if (m->phase == Move::Phase::moving &&
-          std::all_of(m->axes.begin(), m->axes.end(), [](const auto& x) { return x.arrived; })) {
+      const Command* c = commands_.find(m->command_id);
+      if (c == nullptr || c->reported != gateway_reply_t::STARTED) return;  // started() ends it if all are there
+      if (std::all_of(m->axes.begin(), m->axes.end(), [](const auto& x) { return x.arrived; })) {
         finish(m->command_id, true);  // erases the move: stop iterating
+      } else {
+        commands_.advance(m->command_id, index_of(d), Lifecycle::kDone);
       }
       return;
     }

@@ -26,6 +26,7 @@ namespace motion::uim242_driver {
 using motionlcm::event_t;
 using motionlcm::gateway_command_t;
 using motionlcm::gateway_reply_t;
+using gateway::Lifecycle;
 using uim242::Frame;
 using uim242::Instruction;
 using uim242::Mnemonic;
@@ -125,11 +126,6 @@ struct Uim242BusCore::Drive {
   std::int64_t jog_command = 0;
 };
 
-struct Uim242BusCore::Command {
-  gateway_command_t command;
-  std::size_t outstanding = 0;
-};
-
 struct Uim242BusCore::Move {
   struct Axis {
     Drive* drive = nullptr;
@@ -137,14 +133,15 @@ struct Uim242BusCore::Move {
     std::int64_t speed = 0;
     std::int64_t acceleration = 0;
     std::int64_t deceleration = 0;
-    bool loaded = false;   // armed (or already at the target)
-    bool arrived = false;
+    bool loaded = false;   // armed (or already at the target): its part is Armed
+    bool arrived = false;  // its part is Done once the move is Started
     Duration planned{};    // the trapezoid's duration from where the drive stood at the start
   };
-  enum class Phase { arming, armed, starting, moving };
+  // The lifecycle is the ledger's (parts Loading -> Armed -> Started -> Done); this only says
+  // that the start instructions were handed to the line (fire() must not start it twice).
   std::int64_t command_id = 0;
   std::int64_t trigger_id = 0;
-  Phase phase = Phase::arming;
+  bool start_sent = false;
   std::vector<Axis> axes;
   std::optional<TimePoint> first_start;
   TimePoint last_start{};

@@ -121,7 +121,7 @@ class MasterCoreTest : public ::testing::Test {
     s.drives = std::move(drives);
     core = std::make_unique<MasterCore>(
         s, [this](std::span<const std::uint8_t> b) { sent.emplace_back(b.begin(), b.end()); return true; }, out,
-        [] { return std::int64_t{1'000'000}; });
+        [](TimePoint) { return std::int64_t{1'000'000}; });
   }
   void advance(Duration dt) {
     now += dt;

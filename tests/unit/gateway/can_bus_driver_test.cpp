@@ -78,7 +78,10 @@ class FakeStack : public CanStack {
     }
     return wake_at.value_or(kNever);
   }
-  void execute(const motionlcm::gateway_command_t& c, TimePoint) override { commands.push_back(c); }
+  void execute(const motionlcm::gateway_command_t& c, TimePoint) override {
+    commands.push_back(c);
+    for (const auto status : replies_in_execute) reply(c.command_id, status);
+  }
   void fire(std::int64_t id, TimePoint) override { fired.push_back(id); }
   bool ready() const override { return is_ready; }
   void add_statistics(motionlcm::bus_stats_t& s) const override { s.timeouts += 3; }
@@ -101,6 +104,7 @@ class FakeStack : public CanStack {
   std::vector<can::Frame> frames;
   std::vector<motionlcm::gateway_command_t> commands;
   std::vector<std::int64_t> fired;
+  std::vector<std::int8_t> replies_in_execute;  // sent from inside execute(), in this order
 
  private:
   CanStackContext ctx_;
@@ -186,6 +190,20 @@ TEST_F(CanBusDriverTest, CommandIsSplitAndRepliesAreCombined) {
   EXPECT_EQ(out.replies[1].trigger_utime, 1000);
   EXPECT_EQ(out.replies[1].start_mechanism, "group-bg+sync");
   EXPECT_DOUBLE_EQ(out.replies[1].predicted_skew_us, 130.0);
+}
+
+// A reply belongs to the part of the stack that sends it: one stack's second DONE (from inside its
+// execute()) is refused, not taken for the other stack's, and the command is DONE once, when the
+// other stack is done too.
+TEST_F(CanBusDriverTest, AStacksSecondTerminalReplyIsNotTheOtherStacks) {
+  uim->replies_in_execute = {gateway_reply_t::DONE, gateway_reply_t::DONE};
+  auto c = command(12, {"x", "a"});
+  c.kind = motionlcm::gateway_command_t::ENABLE;
+  driver->execute(c);
+  EXPECT_TRUE(out.replies.empty()) << "DONE before the CANopen part was done";
+  cop->reply(12, gateway_reply_t::DONE);
+  ASSERT_EQ(out.replies.size(), 1u);
+  EXPECT_EQ(out.replies[0].status, std::int8_t{gateway_reply_t::DONE});
 }
 
 // Own echo: a STARTED reply waits for the echo of the command's start frame and carries its time

@@ -54,7 +54,7 @@ TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
           send(bytes);
           return true;
         },
-        out, [] { return std::int64_t{1'700'000'000'000'000}; });
+        out, [](TimePoint) { return std::int64_t{1'700'000'000'000'000}; });
   });
   ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(5)));
   auto& line = dynamic_cast<sim::AdamLineSim&>(*bench.device);

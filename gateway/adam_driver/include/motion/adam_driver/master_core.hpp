@@ -67,6 +67,7 @@
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/gateway/bus_driver.hpp"
+#include "motion/gateway/command_ledger.hpp"
 #include "motion/gateway/serial_line_core.hpp"
 #include "motion/serial/silence_framer.hpp"
 
@@ -110,7 +111,7 @@ struct MasterSettings {
 class MasterCore final : public gateway::SerialLineCore {
  public:
   using Send = std::function<bool(std::span<const std::uint8_t>)>;
-  using WallClock = std::function<std::int64_t()>;  // µs since the epoch (reply utimes)
+  using WallClock = gateway::WallClock;  // µs since the epoch of a steady time (reply and sample utimes)
 
   MasterCore(MasterSettings settings, Send send, gateway::GatewayOutput& out, WallClock wall_clock = {});
   ~MasterCore() override;
@@ -169,10 +170,11 @@ class MasterCore final : public gateway::SerialLineCore {
   Operation& open_operation(const motionlcm::gateway_command_t& command, std::vector<Drive*> drives);
   void add_write(Operation& op, Drive& d, const adam::rtu::Request& request, std::function<void(TimePoint)> after = {});
   void when_transferred(Operation& op, std::function<void(TimePoint)> next);
-  void reply(const Operation& op, std::int8_t status, const std::string& reason = {}, std::int32_t code = 0,
-             std::function<void(motionlcm::gateway_reply_t&)> fill = {});
+  // Ends the command: the ledger's one terminal reply (DONE with `param` when given; FAILED).
   void finish(std::int64_t command_id, std::int8_t status, const std::string& reason = {}, std::int32_t code = 0,
-              std::function<void(motionlcm::gateway_reply_t&)> fill = {});
+              std::optional<motionlcm::param_t> param = std::nullopt);
+  [[nodiscard]] Operation* operation(std::int64_t id);  // nullptr once it ended
+  [[nodiscard]] std::size_t index_of(const Drive& d) const;  // the drive's part key
   void fail_motion_of(const Drive& d, const std::string& reason, std::int32_t code);
   // A fresh position/status sample of `sampled` arrived: updates every drive of `op`.
   void check_motion(Operation& op, const Drive& sampled, TimePoint now);
@@ -197,7 +199,9 @@ class MasterCore final : public gateway::SerialLineCore {
   TimePoint line_free_at_{};        // no frame before this (t3.5 after the last traffic)
   TimePoint next_poll_ = kNever;
   TimePoint reserved_at_ = kNever;  // reserve_line: a start frame goes out then
-  std::map<std::int64_t, std::unique_ptr<Operation>> operations_;
+  // Each command's parts (one per drive: Loading -> Armed -> Started -> Done | Failed | Stopped)
+  // and, beside them, what the master does for it (Operation).
+  gateway::CommandLedger<std::unique_ptr<Operation>> operations_;  // replies to out_ (set in the constructor)
   bool started_ = false;
   bool line_open_ = true;
 

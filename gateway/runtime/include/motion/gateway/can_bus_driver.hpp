@@ -5,9 +5,11 @@
 // driver owns the poll-loop side: it reads the transport when its fd is readable, hands every
 // frame to the stacks, keeps one timer at the earliest deadline, and splits a gateway command
 // among the stacks whose axes it names, combining their replies into the one reply per command
-// the coordinator expects (ARMED when all are armed, STARTED with the earliest trigger time and
-// the spread between the stacks' start frames, DONE when all are done, FAILED on the first
-// failure). Own echo is turned on: a STARTED reply waits (at most kEchoWait) for the echo of the
+// the coordinator expects: one CommandLedger part per stack (command_ledger.hpp), so ARMED when
+// all are armed, STARTED with the earliest trigger time and the spread between the stacks' start
+// frames, DONE when all are done, FAILED on the first failure, and never a second terminal reply.
+// A reply is the part of the stack the driver is calling when it comes (every stack call goes
+// through this driver). After the combined STARTED each stack's later replies pass on as they come. Own echo is turned on: a STARTED reply waits (at most kEchoWait) for the echo of the
 // command's start frames and carries their time on the wire as trigger_utime; echoes are not
 // handed to the stacks. The stacks' deadlines run on a PreciseTimer (timerfd, absolute time), so a
 // SYNC period or a scheduled start keeps to the kernel's timer slack, not the loop's.
@@ -21,6 +23,7 @@
 #include <vector>
 
 #include "motion/can/transport.hpp"
+#include "motion/gateway/command_ledger.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/core/precise_timer.hpp"
 #include "motion/gateway/bus_driver.hpp"
@@ -84,12 +87,20 @@ class CanBusDriver final : public BusDriver {
 
  private:
   class Combiner;
+  // Per command beside the parts: the stacks' replies so far, by status (the combined reply of a
+  // status is built from them when the last part gets there).
   struct Pending {
-    std::size_t parts = 0;
-    std::size_t finished = 0;  // parts that ended (after a failure)
     std::map<std::int8_t, std::vector<motionlcm::gateway_reply_t>> by_status;
-    bool failed = false;
   };
+  // Calls `f` on stack `s`, attributing the replies it sends meanwhile to its part.
+  template <typename F>
+  void call(CanStack* s, F&& f) {
+    CanStack* const outer = calling_;
+    calling_ = s;
+    f(*s);
+    calling_ = outer;
+  }
+  [[nodiscard]] std::size_t part_of(const CanStack* s) const;
   void on_readable();
   void reschedule();
   void on_stack_reply(motionlcm::gateway_reply_t reply);
@@ -108,7 +119,8 @@ class CanBusDriver final : public BusDriver {
   std::unique_ptr<Combiner> combiner_;
   std::vector<std::unique_ptr<CanStack>> stacks_;
   std::map<std::string, CanStack*> stack_of_axis_;
-  std::map<std::int64_t, Pending> pending_;
+  CommandLedger<Pending> pending_;
+  CanStack* calling_ = nullptr;  // the stack being called (its replies are its part's)
   std::map<std::int64_t, std::vector<CanStack*>> armed_stacks_;  // ARM_MOVE command -> its stacks, until fired
   // The stacks' earliest deadline (SYNC periods, polls, timeouts): an absolute-time timer.
   PreciseTimer timer_;

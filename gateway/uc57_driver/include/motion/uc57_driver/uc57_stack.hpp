@@ -64,6 +64,7 @@
 #include "motion/cia402/power_controller.hpp"
 #include "motion/config/config.hpp"
 #include "motion/gateway/can_bus_driver.hpp"
+#include "motion/gateway/command_ledger.hpp"
 #include "motion/uc57_driver/node_settings.hpp"
 #include "motion/uc57_driver/process_data.hpp"
 
@@ -79,8 +80,8 @@ class Uc57Stack final : public gateway::CanStack {
     Duration stop_timeout = std::chrono::seconds(5);                  // halt / quick stop to standstill
     std::uint16_t default_heartbeat_ms = 100;  // 1017h when the drive's setup has no heartbeat_ms
     unsigned heartbeat_loss_factor = 3;        // consumer time = factor x producer time
-    // trigger_utime of STARTED: wall-clock microseconds of `now` (default: the system clock).
-    std::function<std::int64_t(TimePoint)> wall_clock_us;
+    // trigger_utime of STARTED: wall-clock microseconds of `now` (default: system_wall_clock).
+    gateway::WallClock wall_clock_us;
   };
 
   struct Counters {
@@ -126,7 +127,14 @@ class Uc57Stack final : public gateway::CanStack {
 
  private:
   struct Node;
-  struct Job;
+  // A command's parts (one per node) live in the gateway's CommandLedger; beside them a stop keeps
+  // its unreachable (offline) nodes: the others are still stopped, then the reply fails.
+  struct JobData {
+    std::int32_t unreached_code = 0;
+    std::string unreached;
+    bool started = false;  // an ARM_MOVE's SYNC went out
+  };
+  using Job = gateway::CommandLedger<JobData>::Entry;
   enum class TaskKind : std::uint8_t;
   using Continue = std::function<void(std::optional<std::string> failure)>;
   struct ConfigOp;
@@ -193,8 +201,6 @@ class Uc57Stack final : public gateway::CanStack {
   void publish_status(std::size_t n);
 
   // --- commands ---
-  void fail_command(const motionlcm::gateway_command_t& command, std::int32_t code, const std::string& reason);
-  void reply(const Job& job, std::int8_t status, std::int32_t code = 0, const std::string& reason = {});
   void part_done(std::int64_t command_id, std::size_t n);
   void part_failed(std::int64_t command_id, std::size_t n, std::int32_t code, const std::string& reason);
   void part_armed(std::int64_t command_id, std::size_t n, TimePoint now);
@@ -234,7 +240,9 @@ class Uc57Stack final : public gateway::CanStack {
   std::map<canopen::NodeId, std::size_t> node_index_;
   std::set<std::uint32_t> relocated_emcy_ids_;  // 1014h values other than 80h + node-ID
   canopen::Master master_;
-  std::map<std::int64_t, Job> jobs_;
+  gateway::CommandLedger<JobData> jobs_{[this](motionlcm::gateway_reply_t reply) {
+    if (context_.out != nullptr) context_.out->command_reply(std::move(reply));
+  }};
   Counters counters_;
   bool started_ = false;
   std::uint32_t bitrate_ = 125000;

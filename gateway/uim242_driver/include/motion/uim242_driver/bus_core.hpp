@@ -71,6 +71,7 @@
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/gateway/bus_driver.hpp"
+#include "motion/gateway/command_ledger.hpp"
 #include "motion/gateway/serial_line_core.hpp"
 #include "motion/uim242/feedback.hpp"
 #include "motion/uim242_driver/request_channel.hpp"
@@ -81,7 +82,7 @@ struct CoreContext {
   std::function<void(std::span<const std::uint8_t>)> send;  // bytes to the RS232 line
   gateway::GatewayOutput* out = nullptr;
   // Wall-clock utime of a core time point (trigger_utime, sample_utime); default: steady microseconds.
-  std::function<std::int64_t(TimePoint)> utime_of;
+  gateway::WallClock utime_of;
 };
 
 class Uim242BusCore final : public gateway::SerialLineCore {
@@ -107,7 +108,12 @@ class Uim242BusCore final : public gateway::SerialLineCore {
 
  private:
   struct Drive;
-  struct Command;
+  // A command's parts (one per drive it names) live in the gateway's CommandLedger; beside them
+  // the instruction sequences still running for it (DONE when none is left).
+  struct CommandData {
+    std::size_t outstanding = 0;
+  };
+  using Command = gateway::CommandLedger<CommandData>::Entry;
   struct Move;
 
   // ---- plumbing
@@ -116,8 +122,6 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   void run_sequence(Command& c, Drive& d, std::vector<uim242::Instruction> steps, std::function<void(TimePoint)> done);
   void on_frame(const uim242::Frame& frame, TimePoint now);
   void on_notification(const uim242::Notification& n, TimePoint now);
-  void reply(const motionlcm::gateway_command_t& command, std::int8_t status, const std::string& reason = {},
-             std::int32_t error_code = 0);
   void finish(std::int64_t command_id, bool ok, const std::string& reason = {}, std::int32_t error_code = 0,
               std::optional<motionlcm::param_t> param = std::nullopt);
   void part_done(std::int64_t command_id);
@@ -135,6 +139,7 @@ class Uim242BusCore final : public gateway::SerialLineCore {
 
   // ---- commands
   Drive* drive_of_axis(const std::string& axis);
+  [[nodiscard]] std::size_t index_of(const Drive& d) const;  // the drive's part key
   bool for_each_axis(const motionlcm::gateway_command_t& command, const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f);
   void arm(const motionlcm::gateway_command_t& command, TimePoint now);
   void start_move(Move& m, TimePoint now);
@@ -155,7 +160,9 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   RequestChannel channel_;
   uim242::FeedbackFramer framer_;
   std::vector<std::unique_ptr<Drive>> drives_;
-  std::map<std::int64_t, std::unique_ptr<Command>> commands_;
+  gateway::CommandLedger<CommandData> commands_{[this](motionlcm::gateway_reply_t reply) {
+    if (context_.out) context_.out->command_reply(std::move(reply));
+  }};
   std::vector<std::unique_ptr<Move>> moves_;
   struct RestCheck {
     TimePoint due;

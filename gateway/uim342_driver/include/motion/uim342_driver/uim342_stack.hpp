@@ -48,6 +48,7 @@
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/gateway/can_bus_driver.hpp"
+#include "motion/gateway/command_ledger.hpp"
 #include "motion/lcm/reply_error.hpp"
 #include "motion/uim342/uim342.hpp"
 
@@ -83,8 +84,8 @@ struct Uim342StackConfig {
 class Uim342Stack final : public CanStack {
  public:
   // Wall time (us since the epoch) of a steady `now`: trigger_utime and sample_utime. The
-  // default reads the system clock; tests inject a deterministic one.
-  using WallClock = std::function<std::int64_t(TimePoint)>;
+  // gateway's one clock shape (command_ledger.hpp); default system_wall_clock, tests inject one.
+  using WallClock = ::motion::gateway::WallClock;
 
   Uim342Stack(Uim342StackConfig config, CanStackContext context, WallClock wall_clock = {});
   // What the gateway does: Uim342Stack(config, bus_name, can_driver.context()).

@@ -1,0 +1,303 @@
+// Private to the UIM342 stack's sources (uim342_stack.cpp: construction, bookkeeping, sending,
+// polling, frames in, time; uim342_stack_setup.cpp: identification, set-up, reboots, ACKs and
+// status; uim342_stack_commands.cpp: commands, synchronized start, parameters;
+// uim342_stack_homing.cpp: HOME with a switch search): the Impl and the helpers they share. Not
+// installed, not included elsewhere. Thread contract as Uim342Stack's: single-threaded, nothing blocks.
+#pragma once
+#include "motion/uim342_driver/uim342_stack.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <utility>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <motionlcm/event_t.hpp>
+
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/gateway/command_ledger.hpp"
+#include "motion/gateway/power_up_watch.hpp"
+
+namespace motion::gateway {
+namespace uim342_stack_detail {
+
+using motionlcm::event_t;
+using motionlcm::gateway_command_t;
+using motionlcm::gateway_reply_t;
+using uim342::FunctionCode;
+using uim342::Instruction;
+namespace rq = uim342::request;
+
+// A gateway command kind as text ("ARM_MOVE"), for reasons.
+std::string command_name(std::int8_t kind);
+
+template <typename T>
+T saturate(long long v) {
+  return static_cast<T>(std::clamp<long long>(v, std::numeric_limits<T>::min(), std::numeric_limits<T>::max()));
+}
+
+}  // namespace uim342_stack_detail
+
+using namespace uim342_stack_detail;  // the helpers above, unqualified in the stack's sources
+
+struct Uim342Stack::Impl {
+  enum class Phase { idle, identifying, setting_up, ready, setup_failed, offline, rebooting };
+
+  // One shared BG frame for every member of a group start, sent once when all of them are free.
+  struct GroupSend {
+    std::uint8_t group_id = 0;
+    std::vector<std::size_t> members;
+  };
+
+  struct Request {
+    Instruction instruction;
+    std::int64_t command_id = 0;  // 0: the stack's own (identify, setup, poll)
+    std::shared_ptr<GroupSend> group;
+    int attempts = 0;
+    bool sent = false;
+    TimePoint deadline{};
+  };
+
+  struct Node {
+    Uim342NodeConfig cfg;
+    Phase phase = Phase::idle;
+    std::deque<Request> queue;
+    DriveStatus status;
+    TimePoint next_poll{};
+    TimePoint retry_at{};
+    std::chrono::milliseconds backoff{0};
+    bool ever_online = false;
+    bool offline_reported = false;
+    bool setup_refused = false;   // the drive refused a set-up value (CONFIG_MISMATCH)
+    bool group_ok = false;        // PP[8] reads back the configured group id
+    bool rebooted_for_group = false;
+    bool restarted_for_micro_steps = false;  // MT[0]/QE[4] were stored and the drive restarted
+    std::uint16_t read_micro_steps = 0;      // MT[0] as read at set-up
+    uim342::AccelerationUnit unit = uim342::AccelerationUnit::pulses_per_s2;
+    double cut_in_pps = 0;
+    std::int64_t offset = 0;      // reported position = drive counter + offset (SET_POSITION)
+    // Power-cycle detection (see on_kinematics()): the drive counter's samples, and whether the
+    // driver was on before the latest MS[0].
+    PowerUpWatch power;
+    bool was_enabled = false;
+    std::int64_t move = 0;        // active ARM_MOVE command
+    bool bg_acked = false;        // of the active move
+    bool seen_moving = false;     // since the active move's BG
+    // A HOME with a switch search (§5.26), one step after the other; see load_home().
+    struct Homing {
+      enum class Step { none, reading, searching_load, searching, returning_load, returning };
+      std::int64_t command = 0;
+      Step step = Step::none;
+      uim342::InputPort port = uim342::InputPort::in1;
+      bool rising = false;          // the armed edge
+      double velocity = 0;          // of the search, counts/s; the sign is the direction
+      double acceleration = 0;      // counts/s^2 of the command (0: the drive's)
+      double deceleration = 0;
+      std::int64_t offset = 0;      // the position of the switch edge (HOME target_counts)
+      std::optional<uim342::InputActions> previous;  // IL[port] before arming, restored after
+      bool armed = false;           // IL[port] holds the origin action
+      bool seen_moving = false;     // in the present step
+      bool edge_seen = false;       // the armed edge was notified
+      TimePoint deadline = kNever;  // of the search
+      Duration bound{};
+    } homing;
+    [[nodiscard]] std::string name() const { return fmt::format("{} (node {})", cfg.drive, cfg.node_id); }
+    [[nodiscard]] const std::string& axis_or_drive() const { return cfg.axis.empty() ? cfg.drive : cfg.axis; }
+    [[nodiscard]] bool busy() const { return !queue.empty() && queue.front().sent; }
+  };
+
+  // What the stack keeps per command beside its parts' lifecycle (the CommandLedger's): the
+  // nodes with requests of the current step not yet answered, targets, a stop's unreachable nodes.
+  struct CommandData {
+    std::set<std::size_t> waiting;  // nodes with requests of the current stage not yet answered
+    std::map<std::size_t, std::int64_t> targets;
+    std::string unreached;  // a stop's offline nodes: the others are still stopped, then it fails
+    std::vector<std::string> notes;  // the DONE reply's reason (what a HOME did, per axis)
+  };
+  using Ledger = CommandLedger<CommandData>;
+  using Command = Ledger::Entry;  // parts per node: Loading -> Armed -> Started -> Done | Failed | Stopped
+
+  Impl(Uim342StackConfig c, CanStackContext ctx, WallClock wc, Counters& shared_counters);
+
+  // Wire time of one request and its ACK to `node`, for the longest of the poll's exchanges (the
+  // MS[1] ACK carries 8 bytes); an upper bound for the ACK of any other instruction too.
+  static Duration poll_exchange_time(std::uint8_t node, std::uint32_t bitrate);
+
+  // §5.24 polling within the bus capacity: N drives x (MS[0] + MS[1]) x poll rate may not take
+  // more than kPollBusShare of the wire (the rest stays free for commands and notifications, and
+  // requests do not queue up into timeouts). Beyond it every drive is polled less often, and the
+  // configuration is told so at start().
+  static constexpr double kPollBusShare = 0.75;
+  void fit_poll_period();
+
+  // How long a request just handed to the transport may wait for the wire: every other request
+  // in flight on this bus, and its ACK, may go first. Counted into its deadline so a long
+  // transmit queue is not taken for a silent drive.
+  [[nodiscard]] Duration queued_wire_time() const;
+  [[nodiscard]] TimePoint deadline_of(const Node& n, TimePoint now) const { return now + n.cfg.request_timeout + queued_wire_time(); }
+
+  Uim342StackConfig config;
+  CanStackContext context;
+  WallClock wall;
+  Counters& counters;
+  std::vector<Node> nodes;
+  Duration exchange_time{};   // wire time of the longest request + ACK (poll_exchange_time)
+  Duration poll_period{};     // config.poll_period, or longer when the bus cannot carry it
+  std::string poll_warning;   // why poll_period is longer (reported at start)
+  Ledger commands{[this](gateway_reply_t r) { context.out->command_reply(std::move(r)); }};
+  bool started = false;
+
+  // ---- output helpers ----
+
+  void publish(Node& n, TimePoint now);
+  void event(const Node& n, std::int16_t kind, std::int8_t severity, std::int32_t code, std::string text);
+
+  // ---- command bookkeeping ----
+
+  // Ends command `id` (the ledger's one terminal reply) and clears what its nodes held for it.
+  void finish(std::int64_t id, Lifecycle terminal, std::int32_t code = 0, std::string reason = {});
+  void done(std::int64_t id, std::string reason = {}) { finish(id, Lifecycle::kDone, 0, std::move(reason)); }
+  void fail(std::int64_t id, std::int32_t code, std::string reason) {
+    finish(id, code == error_code(ReplyError::kStopped) ? Lifecycle::kStopped : Lifecycle::kFailed, code, std::move(reason));
+  }
+
+  // Every command with work on node `i` (queued requests or an active move) fails.
+  void fail_commands_of(std::size_t i, std::int32_t code, const std::string& reason, std::int64_t except = 0);
+
+  Request& enqueue(std::size_t i, Instruction instruction, std::int64_t command_id, bool front = false);
+
+  void drop_requests(std::int64_t command_id);
+
+  [[nodiscard]] bool has_request_of(std::size_t i, std::int64_t command_id) const;
+
+  // ---- sending ----
+
+  bool transmit(std::uint8_t target, const Instruction& instruction);
+
+  void pump(std::size_t i, TimePoint now);
+
+  // A start frame (BG to `target`) of a move was handed to the transport: the `parts` (nodes) are
+  // Started (the ledger replies STARTED with the last); the driver dates the STARTED reply by the
+  // frame's echo when it can (CanStackContext::start_frame).
+  void on_sent(std::int64_t command_id, std::uint8_t target, const std::vector<std::size_t>& parts, TimePoint now);
+
+  // ---- start-up: identify, set up, poll ----
+
+  void identify(std::size_t i, TimePoint now);
+
+  void set_up(std::size_t i);
+
+  // Set-up nodes are polled, except an armed one: it waits for its trigger with an empty queue so
+  // the BG goes out without delay (and nothing changes on a drive that has not started).
+  [[nodiscard]] bool polled(const Node& n) const;
+
+  void poll_if_due(std::size_t i, TimePoint now);
+
+  void go_offline(std::size_t i, const std::string& reason, TimePoint now);
+
+  // ---- replies ----
+
+  void completed(std::size_t i, const Request& r, const std::optional<uim342::Reply>& ack, TimePoint now);
+
+  // §5.9, §5.7: MT[0] and QE[4] as read at set-up against the configured micro-steps. Equal: the
+  // drive runs at them (after a restart, or since its last one). Different the first time: driver
+  // off (MO=0, so the values go to EEPROM and not only to RAM), MT[0], QE[4], restart (SY[1]);
+  // set-up runs again after the reboot and reads them back. Different after that restart: the
+  // drive does not keep them, and counts per unit would be wrong: CONFIG_MISMATCH, never ready.
+  void check_micro_steps(std::size_t i, std::uint16_t read_cpr);
+
+  // The last set-up request was answered (or refused).
+  void setup_finished(std::size_t i, TimePoint now);
+
+  void apply_ack(std::size_t i, const Request& r, const uim342::Reply& ack, TimePoint now);
+
+  void on_motion_status(std::size_t i, const uim342::MotionStatus& s, const Request& r, TimePoint now);
+
+  // The UIM342 sends nothing when it powers up (no such notification in §5.3; §5.2 IC and §5.9
+  // MT[3] only say what it does at power-on), so a power cycle shows only in what it answers
+  // afterwards (PowerUpWatch): its position counter starts at 0 (the manual keeps no position over
+  // power loss; it names PP values as saved to flash, §5.1), at rest, with the driver off unless
+  // IC auto-enable is set (§5.2). Not watched while it is identified or homed (the origin moves).
+  [[nodiscard]] std::optional<std::string> powered_up(Node& n, const uim342::MotionKinematics& k, TimePoint now);
+
+  // A power cycle seen in its answers: what it was doing ended, its position is lost, and its
+  // RAM settings are gone, so it is identified and set up again (as after a reboot).
+  void on_power_cycle(std::size_t i, const std::string& why, TimePoint now);
+
+  void arrived(std::size_t i, TimePoint);
+
+
+  void stage_done(Command& c, TimePoint now);
+
+  // ---- synchronized start (§5.11, §3.2) ----
+
+  void start_move(Command& c, TimePoint now);
+
+  // ---- commands ----
+
+  std::optional<std::size_t> node_of_axis(const std::string& axis) const;
+
+  void execute(const gateway_command_t& cmd, TimePoint now);
+
+  using Problem = std::optional<std::pair<std::string, std::int32_t>>;
+
+  // Queues the command's requests; a reason when the command cannot be carried out.
+  Problem load(Command& c);
+
+  // AC/DC in the drive's IC[4] unit; nullopt when the command leaves the drive's value.
+  Problem ramp(std::size_t i, double rate, double speed, bool acceleration, std::int64_t id);
+
+  Problem load_move(Command& c, std::size_t i, const motionlcm::axis_command_t& a);
+
+  // ---- homing (§4.3, §5.13, §5.26; see the header) ----
+
+  [[nodiscard]] static std::string edge_name(const Node::Homing& h);
+
+  // HOME: OG where the axis stands (method none / current-position), or a switch search.
+  Problem load_home(Command& c, std::size_t i, const motionlcm::axis_command_t& a);
+
+  // The requests of a homing step were all answered.
+  void homing_step_loaded(std::size_t i, TimePoint now);
+
+  // A status of a homing axis (MS[0] poll, edge or position notification).
+  void homing_observe(std::size_t i, TimePoint now);
+
+  // The search bound passed without the switch: stop, restore IL (finish()), fail.
+  void homing_not_found(std::size_t i, TimePoint);
+
+  Problem load_jog(Command& c, std::size_t i, const motionlcm::axis_command_t& a);
+
+  // PARAM_READ / PARAM_WRITE in the family's terms: index = function code, subindex = sub-index.
+  Problem load_param(Command& c);
+
+  static std::optional<Instruction> param_instruction(const uim342::InstructionForms& forms, const motionlcm::param_t& p, bool write);
+
+  // The value of a parameter reply: its data bytes after the echoed sub-index, little-endian,
+  // `width` bytes (all when 0), sign-extended when `is_signed`.
+  static std::int64_t param_value(const uim342::Reply& ack, const motionlcm::param_t& p);
+
+  void fire(std::int64_t trigger_id, TimePoint now);
+
+  // ---- incoming frames ----
+
+  std::optional<std::size_t> node_of_id(std::uint8_t id) const;
+
+  bool on_frame(const can::Frame& frame, TimePoint now);
+
+  void on_reply(std::size_t i, const uim342::Message& message, const uim342::Reply& reply, TimePoint now);
+
+  // §2.3: the instruction was not executed.
+  void refused(std::size_t i, const Request& r, const uim342::ErrorRecord& record, TimePoint now);
+
+  void on_notification(std::size_t i, const uim342::Notification& notification, TimePoint now);
+
+  // ---- time ----
+
+  TimePoint process(TimePoint now);
+
+  void timed_out(std::size_t i, TimePoint now);
+};
+
+}  // namespace motion::gateway

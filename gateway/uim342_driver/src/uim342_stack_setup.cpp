@@ -1,0 +1,324 @@
+// Uim342Stack (uim342_stack.hpp): identification (§5.4 ML), set-up (§5.1, §5.7, §5.9, §5.3), reboots
+// (SY[1]), what each ACK and status read means, and power cycles seen in the answers.
+#include "uim342_stack_impl.hpp"
+
+namespace motion::gateway {
+
+void Uim342Stack::Impl::identify(std::size_t i, TimePoint now) {
+  Node& n = nodes[i];
+  n.phase = Phase::identifying;
+  n.queue.clear();
+  enqueue(i, rq::get(FunctionCode::ML), 0);
+  pump(i, now);
+}
+
+void Uim342Stack::Impl::set_up(std::size_t i) {
+  Node& n = nodes[i];
+  n.phase = Phase::setting_up;
+  const auto& s = n.cfg.setup;
+  using uim342::InitialConfig;
+  using uim342::MotorDriver;
+  using uim342::QuadratureEncoder;
+  if (n.cfg.group_id != 0) enqueue(i, rq::get(uim342::ProtocolParameter::group_id), 0);
+  if (config::setup_integer(s, "micro_steps")) {
+    // §5.9, §5.7: MT[0] (with CPR QE[4]) takes effect only after it is stored with the driver
+    // off and the drive restarted. Read first; a difference is written by
+    // store_micro_steps_and_restart() once the QE[4] answer is in.
+    enqueue(i, rq::get(MotorDriver::microstepping), 0);
+    enqueue(i, rq::get(QuadratureEncoder::counts_per_revolution), 0);
+  }
+  if (const auto v = config::setup_number(s, "current_a")) {
+    const auto tenths = uim342::current_to_wire(*v);
+    enqueue(i, rq::set(MotorDriver::working_current, tenths ? *tenths : saturate<std::uint16_t>(std::lround(*v * 10))), 0);
+  }
+  if (const auto v = config::setup_integer(s, "idle_current_percent")) enqueue(i, rq::set(MotorDriver::idle_current_percent, saturate<std::uint16_t>(*v)), 0);
+  if (const auto v = config::setup_flag(s, "auto_enable")) enqueue(i, rq::set(InitialConfig::auto_driver_on, *v ? 1 : 0), 0);
+  if (const auto v = config::setup_text(s, "direction")) enqueue(i, rq::set(InitialConfig::positive_direction, *v == "ccw" ? 1 : 0), 0);
+  if (const auto v = config::setup_text(s, "acceleration_unit")) {
+    n.unit = *v == "time" ? uim342::AccelerationUnit::milliseconds : uim342::AccelerationUnit::pulses_per_s2;
+    enqueue(i, rq::set(InitialConfig::acceleration_unit, static_cast<std::uint16_t>(n.unit)), 0);
+  }
+  if (const auto v = config::setup_flag(s, "closed_loop")) enqueue(i, rq::set(InitialConfig::closed_loop, *v ? 1 : 0), 0);
+  if (const auto v = config::setup_flag(s, "software_limits")) enqueue(i, rq::set(InitialConfig::software_limits, *v ? 1 : 0), 0);
+  if (const auto v = config::setup_integer(s, "encoder_resolution")) enqueue(i, rq::set(QuadratureEncoder::lines_per_revolution, saturate<std::uint16_t>(*v)), 0);
+  if (const auto v = config::setup_integer(s, "stall_tolerance")) enqueue(i, rq::set(QuadratureEncoder::stall_tolerance, saturate<std::uint16_t>(*v)), 0);
+  if (const auto v = config::setup_integer(s, "cut_in_speed")) {
+    n.cut_in_pps = static_cast<double>(*v);
+    enqueue(i, rq::set_cut_in_speed(saturate<std::uint32_t>(*v)), 0);
+  }
+  if (const auto v = config::setup_integer(s, "stop_deceleration")) enqueue(i, rq::set_stop_deceleration(saturate<std::uint32_t>(*v)), 0);
+  if (const auto v = config::setup_integer(s, "backlash")) enqueue(i, rq::set_backlash(saturate<std::uint32_t>(*v)), 0);
+  // Notifications this stack relies on (§5.3): inputs for INPUT_EDGE, PTP finished for DONE.
+  // Alarms (stall, limits) have no enable bit and are always sent.
+  for (const auto e : {uim342::InformationEnable::in1_change, uim342::InformationEnable::in2_change,
+                       uim342::InformationEnable::in3_change, uim342::InformationEnable::position_reached}) {
+    enqueue(i, rq::set(e, true), 0);
+  }
+  // The last setup request: its ACK makes the node ready (see completed()).
+  enqueue(i, rq::get(uim342::MotionStatusIndex::status), 0);
+  enqueue(i, rq::get(uim342::MotionStatusIndex::kinematics), 0);
+}
+
+void Uim342Stack::Impl::completed(std::size_t i, const Request& r, const std::optional<uim342::Reply>& ack, TimePoint now) {
+  Node& n = nodes[i];
+  if (ack) apply_ack(i, r, *ack, now);
+  if (r.instruction.function == FunctionCode::SY) {
+    // The drive reboots without answering; identified and set up again after reboot_wait.
+    n.power.forget();  // our own reboot: its counter restarts at 0 (not a lost power)
+    fail_commands_of(i, error_code(ReplyError::kAxisOffline), fmt::format("{} is rebooting to apply its set-up (PP[8], MT[0])", n.name()));
+    n.phase = Phase::rebooting;
+    n.queue.clear();
+    n.retry_at = now + config.reboot_wait;
+    return;
+  }
+  if (r.command_id != 0 && n.homing.command == r.command_id) {
+    if (!has_request_of(i, r.command_id)) homing_step_loaded(i, now);
+    return;
+  }
+  if (r.command_id != 0) {
+    Command* c = commands.find(r.command_id);
+    if (c != nullptr && !has_request_of(i, r.command_id)) {
+      c->data.waiting.erase(i);
+      // An ARM_MOVE part is loaded: Armed (the ledger replies ARMED with the last part).
+      if (c->command.kind == gateway_command_t::ARM_MOVE && c->state_of(i) == Lifecycle::kLoading) {
+        commands.advance(r.command_id, i, Lifecycle::kArmed);
+        c = commands.find(r.command_id);
+      }
+      if (c != nullptr && c->data.waiting.empty()) stage_done(*c, now);
+    }
+    return;
+  }
+  if (n.phase == Phase::setting_up && n.queue.empty()) setup_finished(i, now);
+}
+
+// §5.9, §5.7: MT[0] and QE[4] as read at set-up against the configured micro-steps. Equal: the
+// drive runs at them (after a restart, or since its last one). Different the first time: driver
+// off (MO=0, so the values go to EEPROM and not only to RAM), MT[0], QE[4], restart (SY[1]);
+// set-up runs again after the reboot and reads them back. Different after that restart: the
+// drive does not keep them, and counts per unit would be wrong: CONFIG_MISMATCH, never ready.
+void Uim342Stack::Impl::check_micro_steps(std::size_t i, std::uint16_t read_cpr) {
+  Node& n = nodes[i];
+  const auto wanted = saturate<std::uint16_t>(config::setup_integer(n.cfg.setup, "micro_steps").value_or(0));
+  const auto wanted_cpr = saturate<std::uint16_t>(std::int64_t{wanted} * uim342::kFullStepsPerRevolution);
+  if (n.read_micro_steps == wanted && read_cpr == wanted_cpr) return;
+  const auto found = fmt::format("MT[0] {} / QE[4] {} (configured micro_steps {}: MT[0] {} / QE[4] {})", n.read_micro_steps, read_cpr,
+                                 wanted, wanted, wanted_cpr);
+  if (n.restarted_for_micro_steps) {
+    event(n, event_t::CONFIG_MISMATCH, event_t::ERROR, n.read_micro_steps,
+          fmt::format("{} reads {} after storing them and restarting: counts per unit would be wrong; not ready", n.name(), found));
+    n.setup_refused = true;
+    return;
+  }
+  event(n, event_t::REBOOT, event_t::INFO, n.read_micro_steps,
+        fmt::format("{}: {}; driver off, storing, restarting (SY[1])", n.name(), found));
+  n.restarted_for_micro_steps = true;
+  n.queue.erase(n.queue.begin() + (n.busy() ? 1 : 0), n.queue.end());
+  enqueue(i, rq::driver_on(false), 0);
+  enqueue(i, rq::set(uim342::MotorDriver::microstepping, wanted), 0);
+  enqueue(i, rq::set(uim342::QuadratureEncoder::counts_per_revolution, wanted_cpr), 0);
+  enqueue(i, rq::system(uim342::SystemOperation::reboot), 0);
+}
+
+// The last set-up request was answered (or refused).
+void Uim342Stack::Impl::setup_finished(std::size_t i, TimePoint now) {
+  Node& n = nodes[i];
+  n.phase = n.setup_refused ? Phase::setup_failed : Phase::ready;
+  n.backoff = std::chrono::milliseconds{0};
+  n.next_poll = now + poll_period;
+  if (n.setup_refused) return;  // CONFIG_MISMATCH already reported
+  n.restarted_for_micro_steps = false;  // a later mismatch (someone rewrote MT) may restart once more
+  event(n, event_t::ONLINE, event_t::INFO, 0,
+        fmt::format("{} set up{}", n.name(), n.cfg.group_id != 0 && !n.group_ok ? " (group start disabled: group id not confirmed)" : ""));
+}
+
+void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342::Reply& ack, TimePoint now) {
+  Node& n = nodes[i];
+  const auto& body = ack.body;
+  switch (r.instruction.function) {
+    case FunctionCode::ML: {
+      const auto& model = std::get<uim342::ModelInfo>(body);
+      n.status.online = true;
+      n.offline_reported = false;
+      n.setup_refused = false;
+      event(n, event_t::ONLINE, event_t::INFO, static_cast<std::int32_t>(model.model_bytes[0]),
+            fmt::format("{} online: model {:02X} {:02X} {:02X}, firmware {}", n.name(), model.model_bytes[0],
+                        model.model_bytes[1], model.model_bytes[2], model.firmware));
+      n.ever_online = true;
+      if (n.phase == Phase::identifying) set_up(i);
+      break;
+    }
+    case FunctionCode::PP: {
+      const auto& pp = std::get<uim342::IndexedByte>(body);
+      if (pp.index != static_cast<std::uint8_t>(uim342::ProtocolParameter::group_id) || r.instruction.operation != uim342::Operation::get) break;
+      n.group_ok = pp.value == n.cfg.group_id;
+      if (n.group_ok) break;
+      if (n.rebooted_for_group) {
+        event(n, event_t::CONFIG_MISMATCH, event_t::ERROR, pp.value,
+              fmt::format("{} keeps group id {} after a reboot (configured {}): moves start axis by axis", n.name(), pp.value, n.cfg.group_id));
+        break;
+      }
+      // §5.1: PP values act after a reboot; everything in RAM is set up again afterwards.
+      event(n, event_t::REBOOT, event_t::INFO, pp.value,
+            fmt::format("{}: group id {} -> {} (PP[8]), rebooting (SY[1])", n.name(), pp.value, n.cfg.group_id));
+      n.rebooted_for_group = true;
+      n.queue.erase(n.queue.begin() + (n.busy() ? 1 : 0), n.queue.end());
+      enqueue(i, rq::set(uim342::ProtocolParameter::group_id, n.cfg.group_id), 0);
+      enqueue(i, rq::system(uim342::SystemOperation::reboot), 0);
+      break;
+    }
+    case FunctionCode::MT:
+      if (r.instruction.operation == uim342::Operation::get) n.read_micro_steps = std::get<uim342::IndexedWord>(body).value;
+      break;
+    case FunctionCode::QE:
+      if (r.instruction.operation == uim342::Operation::get && n.phase == Phase::setting_up) {
+        check_micro_steps(i, std::get<uim342::IndexedWord>(body).value);
+      }
+      break;
+    case FunctionCode::MO: {
+      n.status.enabled = std::get<uim342::Byte>(body).value != 0;
+      if (!n.status.enabled) n.status.moving = false;
+      publish(n, now);
+      break;
+    }
+    case FunctionCode::MS:
+      if (const auto* s = std::get_if<uim342::MotionStatus>(&body)) on_motion_status(i, *s, r, now);
+      if (const auto* k = std::get_if<uim342::MotionKinematics>(&body)) {
+        if (auto why = powered_up(n, *k, now)) {
+          on_power_cycle(i, *why, now);
+          break;
+        }
+        n.status.position_counts = k->absolute_position + n.offset;
+        n.status.velocity_counts = k->speed;
+        publish(n, now);
+      }
+      break;
+    case FunctionCode::OG: {
+      const auto* c = commands.find(r.command_id);
+      if (c == nullptr) break;
+      // SET_POSITION's value, or the homing offset: the position the origin gets.
+      n.power.counter_set(0, now);  // the counter is 0 now by our own doing
+      n.offset = c->data.targets.at(i);
+      n.status.position_counts = n.offset;
+      if (c->command.kind == gateway_command_t::HOME) n.status.homed = true;
+      publish(n, now);
+      break;
+    }
+    case FunctionCode::IL: {
+      if (n.homing.command == 0 || r.command_id != n.homing.command) break;
+      const auto* actions = std::get_if<uim342::InputActions>(&body);
+      if (!actions) break;
+      if (r.instruction.operation == uim342::Operation::get) {
+        n.homing.previous = *actions;
+      } else {
+        n.homing.armed = n.homing.step == Node::Homing::Step::searching_load;  // the restore's ACK disarms
+      }
+      break;
+    }
+    case FunctionCode::DI: {
+      const auto& io = std::get<uim342::DigitalIo>(body);
+      n.status.inputs = io.inputs & 0x07;
+      n.status.outputs = io.outputs & 0x01;
+      publish(n, now);
+      break;
+    }
+    case FunctionCode::BG:
+      if (n.move == r.command_id && r.command_id != 0) {
+        n.bg_acked = true;
+        n.seen_moving = false;
+        n.status.in_position = false;
+        n.status.moving = true;
+      }
+      break;
+    default: break;
+  }
+  if (auto* c = commands.find(r.command_id)) {
+    if (c->command.kind == gateway_command_t::PARAM_READ || c->command.kind == gateway_command_t::PARAM_WRITE) {
+      auto param = c->reply.peek().param;
+      param.value = param_value(ack, param);
+      c->reply.param(param);
+    }
+  }
+}
+
+void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStatus& s, const Request& r, TimePoint now) {
+  Node& n = nodes[i];
+  using uim342::IoStatusBit;
+  using uim342::StatusFlag;
+  n.status.online = true;
+  n.was_enabled = n.status.enabled;
+  n.status.enabled = s.has(IoStatusBit::driver_on);
+  n.status.moving = !s.has(StatusFlag::stopped);
+  n.status.in_position = s.has(StatusFlag::in_position);
+  n.status.inputs = (s.has(IoStatusBit::in1) ? 1 : 0) | (s.has(IoStatusBit::in2) ? 2 : 0) | (s.has(IoStatusBit::in3) ? 4 : 0);
+  n.status.outputs = s.has(IoStatusBit::op1) ? 1 : 0;
+  const bool stalled = s.has(StatusFlag::stalled);
+  const bool locked = s.has(StatusFlag::locked);
+  if (stalled || locked || s.has(StatusFlag::error)) {
+    n.status.fault = true;
+    if (stalled) n.status.fault_text = "motor stall detected (TLIF)";
+    if (locked) n.status.fault_text = "system locked down (LOCK): only a reboot or power cycle releases it";
+    if (!stalled && !locked) n.status.fault_text = "system error detected (ERR)";
+  } else {
+    n.status.fault = false;
+    n.status.fault_code = 0;
+    n.status.fault_text.clear();
+  }
+  const auto* c = commands.find(r.command_id);
+  if (c != nullptr && c->command.kind == gateway_command_t::FAULT_RESET && locked) {
+    fail(r.command_id, error_code(ReplyError::kDriveError), fmt::format("{} is locked down (LOCK); MS[0]=0 does not release it, a reboot (SY[1]) or power cycle does", n.name()));
+  }
+  if (n.homing.command != 0) {
+    homing_observe(i, now);
+    return;
+  }
+  // Completion of an active move, from a status read sent after its BG was acknowledged. A
+  // driver turned off by nobody may be a power cycle: the position read next decides (powered_up()).
+  const bool switched_off = n.was_enabled && !n.status.enabled;
+  if (n.move != 0 && n.bg_acked && !(switched_off && r.command_id == 0)) {
+    if (stalled) {
+      fail(n.move, error_code(ReplyError::kAxisFault), fmt::format("{} stalled during the move (TLIF)", n.name()));
+    } else if (n.status.moving) {
+      n.seen_moving = true;
+    } else if (n.status.in_position) {
+      arrived(i, now);
+    } else if (n.seen_moving) {
+      fail(n.move, error_code(ReplyError::kAxisFault), fmt::format("{} stopped short of its target without a stop command", n.name()));
+    }
+  }
+}
+
+// The UIM342 sends nothing when it powers up (no such notification in §5.3; §5.2 IC and §5.9
+// MT[3] only say what it does at power-on), so a power cycle shows only in what it answers
+// afterwards (PowerUpWatch): its position counter starts at 0 (the manual keeps no position over
+// power loss; it names PP values as saved to flash, §5.1), at rest, with the driver off unless
+// IC auto-enable is set (§5.2). Not watched while it is identified or homed (the origin moves).
+std::optional<std::string> Uim342Stack::Impl::powered_up(Node& n, const uim342::MotionKinematics& k, TimePoint now) {
+  const bool watched = n.phase == Phase::ready || n.phase == Phase::setup_failed || n.phase == Phase::setting_up;
+  if (!watched || n.homing.command != 0) {
+    n.power.forget();
+    return std::nullopt;
+  }
+  const bool switched_off = n.was_enabled && !n.status.enabled;
+  auto why = n.power.sample(k.absolute_position, static_cast<double>(k.speed), now, switched_off);
+  if (!why) return std::nullopt;
+  return n.name() + " " + *why;
+}
+
+// A power cycle seen in its answers: what it was doing ended, its position is lost, and its
+// RAM settings are gone, so it is identified and set up again (as after a reboot).
+void Uim342Stack::Impl::on_power_cycle(std::size_t i, const std::string& why, TimePoint now) {
+  Node& n = nodes[i];
+  fail_commands_of(i, error_code(ReplyError::kAxisFault), why);
+  n.offset = 0;
+  n.status.position_counts = 0;
+  n.status.velocity_counts = 0;
+  n.status.moving = false;
+  n.status.in_position = false;
+  n.status.homed = false;
+  publish(n, now);
+  if (!n.cfg.axis.empty()) context.out->position_lost(n.cfg.axis, why);
+  if (n.phase == Phase::setting_up) return;  // being set up already (it was offline)
+  identify(i, now);  // commands arriving meanwhile queue behind its set-up
+}
+
+}  // namespace motion::gateway
