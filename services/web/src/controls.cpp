@@ -50,7 +50,7 @@ std::variant<ControlRequest, ControlError> parse_control(std::string_view text, 
   if (const auto t = json.find("tag"); t != json.end() && t->is_number_integer()) tag = t->get<std::int64_t>();
   auto refuse = [&](std::string why) { return ControlError{tag, std::move(why)}; };
 
-  if (json.value("type", std::string()) != "command") return refuse("\"type\" must be \"command\"");
+  if (const auto type = json.find("type"); type == json.end() || *type != "command") return refuse("\"type\" must be \"command\"");
   if (!tag) return refuse("\"tag\" must be an integer");
   const auto given = json.find("token");
   if (given == json.end() || !given->is_string() || !same_token(given->get_ref<const std::string&>(), token)) {

@@ -105,6 +105,10 @@ TEST(WebControls, MalformedCommandsAreRefusedNamingWhatWasWrong) {
   auto c = command("MOVE_ABSOLUTE", {"x"}, {1.0});
   c["type"] = "hello";
   EXPECT_EQ(refused(c.dump()), "\"type\" must be \"command\"");
+  c["type"] = json::array();  // not a string at all (found by fuzz_web_controls: it threw)
+  EXPECT_EQ(refused(c.dump()), "\"type\" must be \"command\"");
+  c.erase("type");
+  EXPECT_EQ(refused(c.dump()), "\"type\" must be \"command\"");
   c = command("MOVE_ABSOLUTE", {"x"}, {1.0});
   c["tag"] = "seven";
   EXPECT_EQ(refused(c.dump()), "\"tag\" must be an integer");
