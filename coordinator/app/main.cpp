@@ -27,13 +27,16 @@ int main(int argc, char** argv) {
                  security.command_signer ? "signed" : "not signed");
     app::Service service(*config, options, "coordinator", "coordinator");
     if (!service.ok()) return app::kExitUnavailable;
-    coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config, coordinator::make_move_planner(), std::move(security));
+    coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config,
+                                                coordinator::make_move_planner(), std::move(security));
     // OK once every bus's gateway is heard: until then requests for its axes are refused.
     auto update_health = [&] {
       std::string missing;
-      for (const auto& bus : coordinator.buses_without_gateway()) missing += (missing.empty() ? "" : ", ") + ("gateway:" + bus);
+      for (const auto& bus : coordinator.buses_without_gateway())
+        missing += (missing.empty() ? "" : ", ") + ("gateway:" + bus);
       if (missing.empty()) {
-        service.health().set_state(motionlcm::health_t::OK, std::to_string(config->axes.size()) + " axes, every gateway heard");
+        service.health().set_state(motionlcm::health_t::OK,
+                                   std::to_string(config->axes.size()) + " axes, every gateway heard");
       } else {
         service.health().set_state(motionlcm::health_t::DEGRADED, "no heartbeat from " + missing);
       }

@@ -44,7 +44,8 @@ void list_unsupported(const std::vector<const config::Drive*>& drives, std::vect
   out.insert(out.end(), drives.begin(), drives.end());
 }
 
-BusAssembly assemble_can_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) {
+BusAssembly assemble_can_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus,
+                             GatewayOutput& out) {
   BusAssembly result;
   auto transport = open_can_transport(config, bus, "gateway:" + bus.name, result.error);
   if (!transport) {
@@ -71,20 +72,19 @@ using SerialDriverFactory =
 const std::map<config::Family, SerialDriverFactory>& serial_driver_factories() {
   static const std::map<config::Family, SerialDriverFactory> factories{
       {config::Family::kAdamModbus,
-       [](EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) -> std::unique_ptr<BusDriver> {
-         return adam_driver::AdamBusDriver::create(loop, config, bus, out);
-       }},
+       [](EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out)
+           -> std::unique_ptr<BusDriver> { return adam_driver::AdamBusDriver::create(loop, config, bus, out); }},
       {config::Family::kUim242,
-       [](EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) -> std::unique_ptr<BusDriver> {
-         return uim242_driver::Uim242BusDriver::create(loop, config, bus, out);
-       }},
+       [](EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out)
+           -> std::unique_ptr<BusDriver> { return uim242_driver::Uim242BusDriver::create(loop, config, bus, out); }},
   };
   return factories;
 }
 
 // A serial line carries one family (its own framing): the first family's driver serves the
 // line, drives of any other family on it are unsupported.
-BusAssembly assemble_serial_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus, GatewayOutput& out) {
+BusAssembly assemble_serial_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus,
+                                GatewayOutput& out) {
   BusAssembly result;
   for (const auto& [family, drives] : drives_by_family(config, bus)) {
     const auto factory = serial_driver_factories().find(family);

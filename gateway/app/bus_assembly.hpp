@@ -24,10 +24,10 @@
 namespace motion::gateway {
 
 struct BusAssembly {
-  std::unique_ptr<BusDriver> driver;     // nullptr: the bus could not be opened (see error)
+  std::unique_ptr<BusDriver> driver;              // nullptr: the bus could not be opened (see error)
   std::vector<const config::Drive*> unsupported;  // drives no stack or driver serves yet
   std::error_code error;
-  std::string error_text;                // for users: bus, transport, what failed, what to do
+  std::string error_text;  // for users: bus, transport, what failed, what to do
 };
 
 [[nodiscard]] BusAssembly assemble_bus(EventLoop& loop, const config::Config& config, const config::Bus& bus,

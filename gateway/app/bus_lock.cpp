@@ -31,7 +31,9 @@ BusLock::~BusLock() {
 
 namespace {
 
-bool writable_dir(const std::string& dir) { return std::filesystem::is_directory(dir) && ::access(dir.c_str(), W_OK) == 0; }
+bool writable_dir(const std::string& dir) {
+  return std::filesystem::is_directory(dir) && ::access(dir.c_str(), W_OK) == 0;
+}
 
 std::string lock_dir(const config::Config& config, const config::Bus& bus) {
   if (bus.transport.rfind("sim", 0) == 0) return config::sim_runtime_dir(config);

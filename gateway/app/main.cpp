@@ -16,7 +16,8 @@ int main(int argc, char** argv) {
   app::CommonOptions options;
   std::string bus_name;
   app::add_common_options(cli, options);
-  cli.add_option("--bus", bus_name, "Name of the bus (from the configuration's buses list) this gateway owns")->required();
+  cli.add_option("--bus", bus_name, "Name of the bus (from the configuration's buses list) this gateway owns")
+      ->required();
   return app::run(cli, argc, argv, [&]() -> int {
     if (!log::init("gateway:" + bus_name, options.log_level)) return app::kExitUsage;
     auto config = app::load_config(options);
@@ -65,7 +66,8 @@ int main(int argc, char** argv) {
         return;
       }
       if (assembly.error) {
-        if (assembly.error_text != last_error) spdlog::warn("{}; retrying every {} s", assembly.error_text, kRetryPeriod.count());
+        if (assembly.error_text != last_error)
+          spdlog::warn("{}; retrying every {} s", assembly.error_text, kRetryPeriod.count());
         last_error = assembly.error_text;
         gateway.set_waiting(assembly.error_text);
       } else {

@@ -17,8 +17,9 @@ int canopen(const std::uint8_t* data, std::size_t size) {
   Input in(data, size);
   canopen::Master master([](const can::Frame&) {});
   master.sdo().upload(5, {0x1008, 0}, [](std::error_code, std::span<const std::uint8_t>) {});
-  master.sdo().download(6, {0x2000, 1}, std::vector<std::uint8_t>(20, 0x5A), [](std::error_code, std::span<const std::uint8_t>) {},
-                        canopen::SdoDownloadMode::kSegmented);
+  master.sdo().download(
+      6, {0x2000, 1}, std::vector<std::uint8_t>(20, 0x5A), [](std::error_code, std::span<const std::uint8_t>) {},
+      canopen::SdoDownloadMode::kSegmented);
   TimePoint now{};
   while (!in.empty()) {
     const std::uint16_t cob_id = in.u16() & 0x7FFU;

@@ -34,9 +34,15 @@ struct Target {
 // The targets tools/fuzz --smoke runs (lcm_types_unchecked is only the demonstration of what
 // the bounded check prevents; it is expected to exceed the malloc limit).
 inline constexpr Target kTargets[] = {
-    {"lcm_types", &lcm_types},           {"uim342_can", &uim342_can},     {"uimessage_stream", &uimessage_stream},
-    {"canopen", &canopen},               {"adam_rtu", &adam_rtu},         {"uim242_feedback", &uim242_feedback},
-    {"config_yaml", &config_yaml},       {"signed_messages", &signed_messages}, {"uc57_pdo", &uc57_pdo},
+    {"lcm_types", &lcm_types},
+    {"uim342_can", &uim342_can},
+    {"uimessage_stream", &uimessage_stream},
+    {"canopen", &canopen},
+    {"adam_rtu", &adam_rtu},
+    {"uim242_feedback", &uim242_feedback},
+    {"config_yaml", &config_yaml},
+    {"signed_messages", &signed_messages},
+    {"uc57_pdo", &uc57_pdo},
     {"web_controls", &web_controls},
 };
 

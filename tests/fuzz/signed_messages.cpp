@@ -28,9 +28,9 @@
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "fuzz_targets.hpp"
+#include "motion/lcm/channels.hpp"
 #include "motion/lcm/wire_bounds.hpp"
 #include "motion/security/gateway_commands.hpp"
-#include "motion/lcm/channels.hpp"
 #include "motion/security/request_verifier.hpp"
 #include "motion/security/signed_messages.hpp"
 
@@ -48,7 +48,8 @@ security::KeyPair key_of(std::uint8_t fill, const char* name) {
 
 const security::AuthorizedKeys& authorized() {
   static const security::AuthorizedKeys keys = [] {
-    const std::string text = key_of(1, "op").authorized_line("operate") + "\n" + key_of(2, "watch").authorized_line("observe") + "\n";
+    const std::string text =
+        key_of(1, "op").authorized_line("operate") + "\n" + key_of(2, "watch").authorized_line("observe") + "\n";
     return std::get<security::AuthorizedKeys>(security::AuthorizedKeys::parse(text, "fuzz_authorized_keys"));
   }();
   return keys;
@@ -74,8 +75,10 @@ void verify_as(const motionlcm::signed_message_t& envelope, std::string_view cha
 
 void verify_message(const motionlcm::signed_message_t& envelope, std::uint8_t selector) {
   namespace ch = lcm::channels;
-  if (envelope.channel == ch::kSyncTrigger) return verify_as<motionlcm::sync_trigger_t>(envelope, ch::kSyncTrigger, selector);
-  if (envelope.channel == ch::kActiveMoves) return verify_as<motionlcm::active_moves_t>(envelope, ch::kActiveMoves, selector);
+  if (envelope.channel == ch::kSyncTrigger)
+    return verify_as<motionlcm::sync_trigger_t>(envelope, ch::kSyncTrigger, selector);
+  if (envelope.channel == ch::kActiveMoves)
+    return verify_as<motionlcm::active_moves_t>(envelope, ch::kActiveMoves, selector);
   if (envelope.channel == ch::kReply) return verify_as<motionlcm::reply_t>(envelope, ch::kReply, selector);
   if (envelope.channel == ch::kEvent) return verify_as<motionlcm::event_t>(envelope, ch::kEvent, selector);
   verify_as<motionlcm::sync_trigger2_t>(envelope, ch::kSyncTrigger2, selector);

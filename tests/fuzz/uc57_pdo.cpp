@@ -21,7 +21,9 @@ int uc57_pdo(const std::uint8_t* data, std::size_t size) {
       (void)inputs_from_60fd(t1->digital_inputs);
       const auto frame = encode_tpdo1(node, *t1);
       const auto again = decode_tpdo1(frame.payload());
-      if (!again || again->statusword != t1->statusword || again->digital_inputs != t1->digital_inputs || again->mode_display != t1->mode_display) std::abort();
+      if (!again || again->statusword != t1->statusword || again->digital_inputs != t1->digital_inputs ||
+          again->mode_display != t1->mode_display)
+        std::abort();
     }
     if (const auto t2 = decode_tpdo2(payload)) {
       const auto again = decode_tpdo2(encode_tpdo2(node, *t2).payload());

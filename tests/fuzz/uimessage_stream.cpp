@@ -1,9 +1,9 @@
 // The UIROBOT serial gateway's byte stream (UIM342 manual §2.6, 16-byte UIMessages with CRC):
 // arbitrary pieces fed to UiMessageStream, every message taken out, and each 16-byte window
 // decoded on its own. First byte: CRC acceptance and piece size.
+#include "motion/uim342/uimessage_stream.hpp"
 #include "fuzz_targets.hpp"
 #include "motion/uim342/uimessage.hpp"
-#include "motion/uim342/uimessage_stream.hpp"
 
 namespace motion::fuzz {
 
@@ -16,11 +16,10 @@ int uimessage_stream(const std::uint8_t* data, std::size_t size) {
   uim342::UiMessageStream stream(accept);
   for (std::size_t at = 0; at < bytes.size(); at += piece) {
     stream.feed(bytes.subspan(at, std::min(piece, bytes.size() - at)));
-    while (const auto message = stream.next()) {
-      (void)uim342::drive_message_from_ui(message->message);
-    }
+    while (const auto message = stream.next()) { (void)uim342::drive_message_from_ui(message->message); }
   }
-  for (std::size_t at = 0; at + 16 <= bytes.size(); ++at) (void)uim342::decode_ui_message(bytes.subspan(at, 16), accept);
+  for (std::size_t at = 0; at + 16 <= bytes.size(); ++at)
+    (void)uim342::decode_ui_message(bytes.subspan(at, 16), accept);
   return 0;
 }
 

@@ -101,7 +101,8 @@ TEST_F(AdamLine, SynchronizedMoveStartsOnOneBroadcastFrameAndArrives) {
   ASSERT_NE(started, nullptr);
   EXPECT_EQ(started->start_mechanism, "broadcast");
   EXPECT_DOUBLE_EQ(started->predicted_skew_us, 0.0);
-  EXPECT_LT(std::abs(started->trigger_utime - c1[0].frame_utime), 20'000) << "trigger time vs the simulator's frame time";
+  EXPECT_LT(std::abs(started->trigger_utime - c1[0].frame_utime), 20'000)
+      << "trigger time vs the simulator's frame time";
   EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);
 
   ASSERT_EQ(done.num_axes, 3);
@@ -141,7 +142,8 @@ TEST_F(AdamLine, JogThenStop) {
   const auto jog = lab.call(Client::make(request_t::JOG, Values{{"c2", 10.0}}));  // 10 mm/s = 60 rpm
   ASSERT_EQ(jog.status, status(reply_t::DONE)) << jog.reason;
   ASSERT_EQ(lab.starts_of("c2-drive").size(), 1u);
-  ASSERT_TRUE(lab.client().wait_until([&] { return position("c2") > 1.0 && lab.client().axes().at("c2").moving; }, seconds(5)))
+  ASSERT_TRUE(
+      lab.client().wait_until([&] { return position("c2") > 1.0 && lab.client().axes().at("c2").moving; }, seconds(5)))
       << "c2 at " << position("c2");
   const auto stop = lab.call(Client::make(request_t::STOP, std::vector<std::string>{"c2"}));
   ASSERT_EQ(stop.status, status(reply_t::DONE)) << stop.reason;
@@ -157,15 +159,18 @@ TEST_F(AdamLine, JogThenStop) {
 
 TEST_F(AdamLine, EmergencyStopAbortsAMoveShortOfItsTarget) {
   std::vector<reply_t> replies;
-  lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"c1", 90.0}, {"c2", 80.0}}), [&](const reply_t& r) { replies.push_back(r); });
+  lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"c1", 90.0}, {"c2", 80.0}}),
+                    [&](const reply_t& r) { replies.push_back(r); });
   ASSERT_TRUE(lab.client().wait_until([&] { return saw(replies, reply_t::STARTED); }, seconds(10)));
   ASSERT_TRUE(lab.client().wait_until([&] { return position("c1") > 5.0; }, seconds(5)));
   const auto estop = lab.call(Client::make(request_t::ESTOP, std::vector<std::string>{"c1", "c2"}));
   ASSERT_EQ(estop.status, status(reply_t::DONE)) << estop.reason;
-  ASSERT_TRUE(lab.client().wait_until([&] { return !replies.empty() && client::is_terminal(replies.back().status); }, seconds(5)));
+  ASSERT_TRUE(lab.client().wait_until([&] { return !replies.empty() && client::is_terminal(replies.back().status); },
+                                      seconds(5)));
   EXPECT_TRUE(replies.back().status == status(reply_t::ABORTED) || replies.back().status == status(reply_t::FAILED))
       << client::status_name(replies.back().status) << ": " << replies.back().reason;
-  ASSERT_TRUE(lab.client().wait_until([&] { return !lab.client().axes().at("c1").moving && !lab.client().axes().at("c2").moving; }, seconds(5)));
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] { return !lab.client().axes().at("c1").moving && !lab.client().axes().at("c2").moving; }, seconds(5)));
   EXPECT_LT(position("c1"), 89.0);
   EXPECT_LT(position("c2"), 79.0);
 }
@@ -187,12 +192,15 @@ TEST_F(AdamLine, SetPositionPresetsTheCounterWithoutMotion) {
 
 TEST_F(AdamLine, AlarmRaisesAnEventAndAbortsTheMoveWithTheReason) {
   std::vector<reply_t> replies;
-  lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"c1", 80.0}, {"c2", 70.0}}), [&](const reply_t& r) { replies.push_back(r); });
+  lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"c1", 80.0}, {"c2", 70.0}}),
+                    [&](const reply_t& r) { replies.push_back(r); });
   ASSERT_TRUE(lab.client().wait_until([&] { return saw(replies, reply_t::STARTED); }, seconds(10)));
   lab.control("c2-drive", sim_control_t::ALARM, 1);  // over-current (§8.52 code 1)
-  ASSERT_TRUE(lab.client().wait_until([&] { return !replies.empty() && client::is_terminal(replies.back().status); }, seconds(5)));
+  ASSERT_TRUE(lab.client().wait_until([&] { return !replies.empty() && client::is_terminal(replies.back().status); },
+                                      seconds(5)));
   const reply_t& last = replies.back();
-  EXPECT_TRUE(last.status == status(reply_t::ABORTED) || last.status == status(reply_t::FAILED)) << client::status_name(last.status);
+  EXPECT_TRUE(last.status == status(reply_t::ABORTED) || last.status == status(reply_t::FAILED))
+      << client::status_name(last.status);
   EXPECT_NE(last.reason.find("c2-drive"), std::string::npos) << last.reason;
   EXPECT_NE(last.reason.find("Over-current"), std::string::npos) << last.reason;
   EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(event_t::ALARM, "c2", "Over-current"); }, seconds(2)));
@@ -231,7 +239,8 @@ TEST_F(AdamLine, DeadDriveDoesNotStallTheOthers) {
   EXPECT_EQ(refused.status, status(reply_t::REJECTED)) << refused.reason;
   EXPECT_NE(refused.reason.find("c3"), std::string::npos) << refused.reason;
   const auto stop = lab.call(Client::make(request_t::STOP, std::vector<std::string>{"c3"}));
-  EXPECT_TRUE(stop.status == status(reply_t::FAILED) || stop.status == status(reply_t::ABORTED)) << client::status_name(stop.status);
+  EXPECT_TRUE(stop.status == status(reply_t::FAILED) || stop.status == status(reply_t::ABORTED))
+      << client::status_name(stop.status);
   EXPECT_NE(stop.reason.find("c3-drive (slave 3)"), std::string::npos) << stop.reason;
   EXPECT_NE(stop.reason.find("0x00C8"), std::string::npos) << stop.reason;
 
@@ -257,12 +266,18 @@ TEST_P(AdamParity, LineOpensDrivesComeOnlineAndAMoveArrives) {
   ASSERT_TRUE(lab.start(axes));
   ASSERT_TRUE(lab.enable(axes));
   // The heartbeat (every period) catches up with the drives coming online.
-  ASSERT_TRUE(lab.group().pump_until([&] { const auto s = lab.bus_stats("rs485"); return s && s->drives_online == 2; }, seconds(5)));
+  ASSERT_TRUE(lab.group().pump_until(
+      [&] {
+        const auto s = lab.bus_stats("rs485");
+        return s && s->drives_online == 2;
+      },
+      seconds(5)));
   EXPECT_EQ(lab.bus_stats("rs485")->state, "open");
   const Values targets{{"p1", 4.0}, {"p2", -2.5}};
   const auto done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, targets));
   ASSERT_EQ(done.status, status(reply_t::DONE)) << done.reason;
-  for (const auto& [axis, target] : targets) EXPECT_TRUE(lab.settled_at(axis, target, kPositionTolerance)) << axis << " at " << lab.position(axis);
+  for (const auto& [axis, target] : targets)
+    EXPECT_TRUE(lab.settled_at(axis, target, kPositionTolerance)) << axis << " at " << lab.position(axis);
   ASSERT_EQ(lab.starts_of("p1-drive").size(), 1u);
   EXPECT_EQ(lab.starts_of("p1-drive")[0].target_counts, 1280);
   EXPECT_EQ(lab.starts_of("p2-drive")[0].target_counts, -800);

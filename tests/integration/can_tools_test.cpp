@@ -5,8 +5,8 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <chrono>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -67,9 +67,11 @@ pid_t start_dump(ProcessGroup& group, const std::string& config, const std::vect
   std::vector<std::string> args{"--config", config, "dump", kBus};
   args.insert(args.end(), extra.begin(), extra.end());
   const pid_t pid = group.start({"dump", "motionctl", args, {}});
-  EXPECT_TRUE(group.pump_until([&] { return group.log_of("dump").find(kListening) != std::string::npos || group.exit_status(pid); },
-                               seconds(10)))
-      << "dump never said it was listening:\n" << group.log_of("dump");
+  EXPECT_TRUE(group.pump_until(
+      [&] { return group.log_of("dump").find(kListening) != std::string::npos || group.exit_status(pid); },
+      seconds(10)))
+      << "dump never said it was listening:\n"
+      << group.log_of("dump");
   return pid;
 }
 
@@ -77,8 +79,8 @@ pid_t start_dump(ProcessGroup& group, const std::string& config, const std::vect
 // the largest ids, RTR with and without a DLC, empty and full payloads, '.' separators), then a
 // burst to check that nothing is lost.
 std::vector<std::string> frames_to_send() {
-  std::vector<std::string> out{"04280095#01", "123#DEADBEEF", "7FF#R",  "1FFFFFFF#0011223344556677", "000#",
-                               "00000123#R4", "701#05",       "080#",   "12345678#11.22.33",        "123#"};
+  std::vector<std::string> out{"04280095#01", "123#DEADBEEF", "7FF#R", "1FFFFFFF#0011223344556677", "000#",
+                               "00000123#R4", "701#05",       "080#",  "12345678#11.22.33",         "123#"};
   for (int i = 0; i < 40; ++i) {
     char buf[40];
     std::snprintf(buf, sizeof buf, "%03X#", 0x200 + i);
@@ -122,7 +124,8 @@ TEST(CanTools, DumpShowsWhatSendSentWithBitTimedTimestampsAndPythonCanReadsTheDu
   EXPECT_EQ(send_out, "") << "send prints nothing on success";
 
   // --count: dump stops by itself once it has every frame.
-  ASSERT_TRUE(group.pump_until([&] { return group.exit_status(dump).has_value(); }, seconds(15))) << group.log_of("dump");
+  ASSERT_TRUE(group.pump_until([&] { return group.exit_status(dump).has_value(); }, seconds(15)))
+      << group.log_of("dump");
   EXPECT_EQ(group.exit_status(dump), 0);
   const std::int64_t after_us = wall_time_us();
 
@@ -148,7 +151,9 @@ TEST(CanTools, DumpShowsWhatSendSentWithBitTimedTimestampsAndPythonCanReadsTheDu
   // bus may differ from the command line; the frames themselves must not.
   EXPECT_EQ(sorted_cansend(dumped_frames), sorted_cansend(sent));
   // Format flags survive (to_cansend encodes them, but check the fields directly too).
-  const auto count_if = [](const std::vector<can::Frame>& v, auto pred) { return std::count_if(v.begin(), v.end(), pred); };
+  const auto count_if = [](const std::vector<can::Frame>& v, auto pred) {
+    return std::count_if(v.begin(), v.end(), pred);
+  };
   EXPECT_EQ(count_if(dumped_frames, [](const can::Frame& f) { return f.extended; }), 4);
   EXPECT_EQ(count_if(dumped_frames, [](const can::Frame& f) { return f.rtr; }), 2);
 
@@ -161,7 +166,8 @@ TEST(CanTools, DumpShowsWhatSendSentWithBitTimedTimestampsAndPythonCanReadsTheDu
     EXPECT_LE(ts, after_us + 1000) << dumped_lines[i];
     if (i == 0) continue;
     const auto bits = can::frame_bits(dumped[i].frame).to_end_of_frame() + can::kInterframeBits;
-    const auto min_gap_us = std::chrono::duration_cast<std::chrono::microseconds>(can::bits_duration(bits, kBitrate)).count();
+    const auto min_gap_us =
+        std::chrono::duration_cast<std::chrono::microseconds>(can::bits_duration(bits, kBitrate)).count();
     EXPECT_GT(ts, dumped[i - 1].timestamp_us) << dumped_lines[i - 1] << " / " << dumped_lines[i];
     EXPECT_GE(ts - dumped[i - 1].timestamp_us, min_gap_us - 1)
         << "frames closer than the wire allows: " << dumped_lines[i - 1] << " / " << dumped_lines[i];
@@ -173,9 +179,11 @@ TEST(CanTools, DumpShowsWhatSendSentWithBitTimedTimestampsAndPythonCanReadsTheDu
 
   // python-can reads the dump.
   const std::string python = "/usr/bin/python3";
-  ASSERT_EQ(::access(python.c_str(), X_OK), 0) << python << " is missing: install Debian's python3 and python3-can "
-                                                             "(tools/lib/packages.txt); this test needs python-can as an independent "
-                                                             "candump -L parser";
+  ASSERT_EQ(::access(python.c_str(), X_OK), 0)
+      << python
+      << " is missing: install Debian's python3 and python3-can "
+         "(tools/lib/packages.txt); this test needs python-can as an independent "
+         "candump -L parser";
   const std::string log_file = group.work_dir() + "/dump.log";
   {
     std::ofstream out(log_file);
@@ -229,7 +237,8 @@ for m in can.CanutilsLogReader(sys.argv[1]):
       }
     }
     EXPECT_EQ(data_hex, expected_data.empty() ? "-" : expected_data) << msgs[i] << " vs " << dumped_lines[i];
-    EXPECT_NEAR(timestamp * 1e6, static_cast<double>(dumped[i].timestamp_us), 2.0) << msgs[i] << " vs " << dumped_lines[i];
+    EXPECT_NEAR(timestamp * 1e6, static_cast<double>(dumped[i].timestamp_us), 2.0)
+        << msgs[i] << " vs " << dumped_lines[i];
     EXPECT_EQ(channel, kBus) << msgs[i];
   }
 }
@@ -251,7 +260,9 @@ TEST(CanTools, SendRefusesBadCansendSyntaxWithTheReason) {
   for (const auto& [text, reason] : cases) {
     std::string out;
     // A good frame first: one bad frame anywhere refuses the whole command before anything is sent.
-    EXPECT_EQ(group.run_to_completion({"send-bad", "motionctl", {"--config", config, "send", kBus, "123#00", text}, {}}, &out), 2)
+    EXPECT_EQ(group.run_to_completion({"send-bad", "motionctl", {"--config", config, "send", kBus, "123#00", text}, {}},
+                                      &out),
+              2)
         << text << ": " << out;
     EXPECT_NE(out.find("'" + text + "' is not cansend syntax ID#DATA"), std::string::npos) << text << ": " << out;
     EXPECT_NE(out.find(reason), std::string::npos) << text << ": " << out;
@@ -263,21 +274,33 @@ TEST(CanTools, BusErrorsNameTheBusAndTransport) {
   const std::string config = write_config(group);
   std::string out;
   // No motion-sim: no hub for the simulated bus.
-  EXPECT_EQ(group.run_to_completion({"dump-nosim", "motionctl", {"--config", config, "dump", kBus, "--for", "1"}, {}}, &out), 4) << out;
-  EXPECT_NE(out.find("bus can7 (simcan:simlab7): no simulated bus 'simlab7' at " + group.work_dir() + "/sim/motion-simbus-simlab7.sock"),
+  EXPECT_EQ(
+      group.run_to_completion({"dump-nosim", "motionctl", {"--config", config, "dump", kBus, "--for", "1"}, {}}, &out),
+      4)
+      << out;
+  EXPECT_NE(out.find("bus can7 (simcan:simlab7): no simulated bus 'simlab7' at " + group.work_dir() +
+                     "/sim/motion-simbus-simlab7.sock"),
             std::string::npos)
       << out;
   EXPECT_NE(out.find("is motion-sim running"), std::string::npos) << out;
-  EXPECT_EQ(group.run_to_completion({"send-nosim", "motionctl", {"--config", config, "send", kBus, "123#00"}, {}}, &out), 4) << out;
+  EXPECT_EQ(
+      group.run_to_completion({"send-nosim", "motionctl", {"--config", config, "send", kBus, "123#00"}, {}}, &out), 4)
+      << out;
   EXPECT_NE(out.find("bus can7 (simcan:simlab7): no simulated bus"), std::string::npos) << out;
   // A serial bus is not CAN; an unknown bus lists the CAN buses.
-  EXPECT_EQ(group.run_to_completion({"send-serial", "motionctl", {"--config", config, "send", "rs485", "123#00"}, {}}, &out), 2) << out;
+  EXPECT_EQ(
+      group.run_to_completion({"send-serial", "motionctl", {"--config", config, "send", "rs485", "123#00"}, {}}, &out),
+      2)
+      << out;
   EXPECT_NE(out.find("bus rs485 (simserial:rs485) is not a CAN bus"), std::string::npos) << out;
-  EXPECT_EQ(group.run_to_completion({"dump-unknown", "motionctl", {"--config", config, "dump", "nope"}, {}}, &out), 2) << out;
+  EXPECT_EQ(group.run_to_completion({"dump-unknown", "motionctl", {"--config", config, "dump", "nope"}, {}}, &out), 2)
+      << out;
   EXPECT_NE(out.find("bus 'nope' is not in " + config + " (CAN buses: can7, hw0)"), std::string::npos) << out;
   // SocketCAN: no AF_CAN in this kernel, or no can0 interface on a machine with one: either way it
   // fails and names the bus and interface.
-  EXPECT_NE(group.run_to_completion({"dump-socketcan", "motionctl", {"--config", config, "dump", "hw0", "--for", "0.5"}, {}}, &out), 0)
+  EXPECT_NE(group.run_to_completion(
+                {"dump-socketcan", "motionctl", {"--config", config, "dump", "hw0", "--for", "0.5"}, {}}, &out),
+            0)
       << out;
   EXPECT_NE(out.find("bus hw0 (socketcan:can0)"), std::string::npos) << out;
 }
@@ -289,7 +312,9 @@ TEST(CanTools, DumpForStopsOnTimeAndDumpsNothingOnAQuietBus) {
   if (HasFatalFailure()) return;
   const auto start = std::chrono::steady_clock::now();
   std::string out;
-  EXPECT_EQ(group.run_to_completion({"dump", "motionctl", {"--config", config, "dump", kBus, "--for", "0.7"}, {}}, &out, seconds(10)), 0)
+  EXPECT_EQ(group.run_to_completion({"dump", "motionctl", {"--config", config, "dump", kBus, "--for", "0.7"}, {}}, &out,
+                                    seconds(10)),
+            0)
       << out;
   const auto elapsed = std::chrono::steady_clock::now() - start;
   EXPECT_GE(elapsed, milliseconds(700));

@@ -15,8 +15,11 @@ TEST(Commission, ReadsBackTheSetUpAndNamesAContradiction) {
   ASSERT_TRUE(lab.start({"u1", "u2"}));
   const std::vector<std::string> args{"--config", lab.config_path(), "commission", "rs232"};
   std::string printed;
-  ASSERT_EQ(lab.group().run_to_completion({"commission", "motionctl", args, {}}, &printed, std::chrono::seconds(30)), 0) << printed;
-  EXPECT_NE(printed.find("u1-drive (uim242, node 5)\n  ICFG: 0\n  MCS micro-steps: 16 (as configured)"), std::string::npos) << printed;
+  ASSERT_EQ(lab.group().run_to_completion({"commission", "motionctl", args, {}}, &printed, std::chrono::seconds(30)), 0)
+      << printed;
+  EXPECT_NE(printed.find("u1-drive (uim242, node 5)\n  ICFG: 0\n  MCS micro-steps: 16 (as configured)"),
+            std::string::npos)
+      << printed;
   EXPECT_NE(printed.find("u2-drive (uim242, node 6)"), std::string::npos) << printed;
 
   request_t write = Client::make(request_t::PARAM_WRITE, std::vector<std::string>{"u1"});
@@ -26,7 +29,9 @@ TEST(Commission, ReadsBackTheSetUpAndNamesAContradiction) {
   const auto written = lab.call(write);
   ASSERT_EQ(written.status, st(reply_t::DONE)) << written.reason;
   printed.clear();
-  EXPECT_EQ(lab.group().run_to_completion({"commission-2", "motionctl", args, {}}, &printed, std::chrono::seconds(30)), 1) << printed;
+  EXPECT_EQ(lab.group().run_to_completion({"commission-2", "motionctl", args, {}}, &printed, std::chrono::seconds(30)),
+            1)
+      << printed;
   EXPECT_NE(printed.find("MCS micro-steps: 8 CONTRADICTS the configuration (16)"), std::string::npos) << printed;
   EXPECT_TRUE(lab.starts_of("u1-drive").empty()) << "commission moved an axis";
   EXPECT_TRUE(lab.starts_of("u2-drive").empty()) << "commission moved an axis";
@@ -39,15 +44,21 @@ TEST(Commission, NamesTheUc57RpdoSyncVariantOfEachDrive) {
   ASSERT_TRUE(lab.start({"a", "b", "c"}));
   const std::vector<std::string> args{"--config", lab.config_path(), "commission", "can0"};
   std::string printed;
-  EXPECT_EQ(lab.group().run_to_completion({"commission", "motionctl", args, {}}, &printed, std::chrono::seconds(30)), 1) << printed;
+  EXPECT_EQ(lab.group().run_to_completion({"commission", "motionctl", args, {}}, &printed, std::chrono::seconds(30)), 1)
+      << printed;
   const auto a = printed.find("a-drive (uc57, node 1)\n");
   ASSERT_NE(a, std::string::npos) << printed;
-  EXPECT_EQ(printed.find("1400h:02 RPDO1 transmission type: 1; rpdo_sync: honoured\n"), printed.find("1400h:02", a)) << printed;
-  EXPECT_NE(printed.find("1400h:02 RPDO1 transmission type: 1; rpdo_sync: on_reception CONTRADICTS the configuration (rpdo_sync: honoured)"),
+  EXPECT_EQ(printed.find("1400h:02 RPDO1 transmission type: 1; rpdo_sync: honoured\n"), printed.find("1400h:02", a))
+      << printed;
+  EXPECT_NE(printed.find("1400h:02 RPDO1 transmission type: 1; rpdo_sync: on_reception CONTRADICTS the configuration "
+                         "(rpdo_sync: honoured)"),
             std::string::npos)
       << printed;
-  EXPECT_NE(printed.find("1400h:02 RPDO1 transmission type: 255; rpdo_sync: refused (moves start node by node"), std::string::npos) << printed;
-  for (const auto* drive : {"a-drive", "b-drive", "c-drive"}) EXPECT_TRUE(lab.starts_of(drive).empty()) << "commission moved " << drive;
+  EXPECT_NE(printed.find("1400h:02 RPDO1 transmission type: 255; rpdo_sync: refused (moves start node by node"),
+            std::string::npos)
+      << printed;
+  for (const auto* drive : {"a-drive", "b-drive", "c-drive"})
+    EXPECT_TRUE(lab.starts_of(drive).empty()) << "commission moved " << drive;
 
   // A synchronized move of all three: a by its SYNC, b and c by their own RPDO1 (one start each,
   // planned by the coordinator from their drive models), every one at its target.
@@ -55,7 +66,13 @@ TEST(Commission, NamesTheUc57RpdoSyncVariantOfEachDrive) {
   ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;
   const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", 1.0}, {"b", -1.0}, {"c", 0.5}}));
   ASSERT_EQ(moved.status, st(reply_t::DONE)) << moved.reason;
-  for (const auto* axis : {"a", "b", "c"}) EXPECT_TRUE(lab.settled_at(axis, std::string(axis) == "b" ? -1.0 : std::string(axis) == "c" ? 0.5 : 1.0, 1e-9)) << axis;
+  for (const auto* axis : {"a", "b", "c"})
+    EXPECT_TRUE(lab.settled_at(axis,
+                               std::string(axis) == "b"   ? -1.0
+                               : std::string(axis) == "c" ? 0.5
+                                                          : 1.0,
+                               1e-9))
+        << axis;
   for (const auto* drive : {"a-drive", "b-drive", "c-drive"}) EXPECT_EQ(lab.starts_of(drive).size(), 1u) << drive;
 }
 

@@ -28,21 +28,21 @@ namespace motion::testing {
 namespace {
 
 // Faults that are not a SIM_CONTROL action.
-constexpr std::int8_t kKillGateway = -1;      // SIGKILL the axis's gateway, start it again at once
-constexpr std::int8_t kMalformed = -2;        // malformed and oversized messages on its channels
-constexpr std::int8_t kSecondGateway = -3;    // a second gateway for the axis's bus
-constexpr std::int8_t kDropWithStop = -4;     // the bus drops frames, a STOP is sent into it
+constexpr std::int8_t kKillGateway = -1;    // SIGKILL the axis's gateway, start it again at once
+constexpr std::int8_t kMalformed = -2;      // malformed and oversized messages on its channels
+constexpr std::int8_t kSecondGateway = -3;  // a second gateway for the axis's bus
+constexpr std::int8_t kDropWithStop = -4;   // the bus drops frames, a STOP is sent into it
 
 struct Row {
   const char* name;
   const char* axis;
-  std::int8_t fault;         // sim_control_t action, or one of the k... above
+  std::int8_t fault;  // sim_control_t action, or one of the k... above
   std::int32_t value = 0;
-  std::int16_t event = 0;    // an event of this kind must name the axis (0: none required)
+  std::int16_t event = 0;      // an event of this kind must name the axis (0: none required)
   bool position_lost = false;  // the axis ends with its position lost (and is refused a move)
-  bool done = false;         // the move rides through the fault and ends DONE at its target
-  bool offline = false;      // during the fault the axis goes offline and stops saying "moving"
-  int hold_ms = 0;           // the fault lasts this long at least (0: until the terminal reply, 1.5 s at most)
+  bool done = false;           // the move rides through the fault and ends DONE at its target
+  bool offline = false;        // during the fault the axis goes offline and stops saying "moving"
+  int hold_ms = 0;             // the fault lasts this long at least (0: until the terminal reply, 1.5 s at most)
 };
 
 std::ostream& operator<<(std::ostream& os, const Row& r) { return os << r.name; }
@@ -110,7 +110,9 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
     return std::any_of(events_.begin() + static_cast<std::ptrdiff_t>(first_event_), events_.end(),
                        [&](const event_t& e) { return e.kind == kind && e.axis == axis; });
   }
-  std::string process_of(const std::string& axis) { return "gateway:" + lab().config().drive_of(axis_config(axis))->bus; }
+  std::string process_of(const std::string& axis) {
+    return "gateway:" + lab().config().drive_of(axis_config(axis))->bus;
+  }
 
   // Reset and enable every axis, retried while an axis is still being stopped or set up; the
   // position of an axis that lost it is set to where it stands.
@@ -122,12 +124,14 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
         if (got.status == reply_t::DONE) break;
         lab().pause(milliseconds(250));
       }
-      if (got.status != reply_t::DONE) return ::testing::AssertionFailure() << "kind " << int{kind} << ": " << got.reason;
+      if (got.status != reply_t::DONE)
+        return ::testing::AssertionFailure() << "kind " << int{kind} << ": " << got.reason;
     }
     for (const auto& axis : all_axes()) {
       if (state(axis).fault_code != motionlcm::axis_state_t::POSITION_LOST) continue;
       const auto set = lab().call(Client::make(request_t::SET_POSITION, Values{{axis, state(axis).position}}));
-      if (set.status != reply_t::DONE) return ::testing::AssertionFailure() << "set-position " << axis << ": " << set.reason;
+      if (set.status != reply_t::DONE)
+        return ::testing::AssertionFailure() << "set-position " << axis << ": " << set.reason;
     }
     return ::testing::AssertionSuccess();
   }
@@ -160,7 +164,8 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
         return [] {};
       }
       case kSecondGateway: {
-        const pid_t second = lab().group().start({"gateway:" + bus + "-second", "motion-gateway", {"--config", lab().config_path(), "--bus", bus}, {}});
+        const pid_t second = lab().group().start(
+            {"gateway:" + bus + "-second", "motion-gateway", {"--config", lab().config_path(), "--bus", bus}, {}});
         std::optional<int> status;
         lab().group().pump_until([&] { return (status = lab().group().exit_status(second)).has_value(); }, seconds(10));
         EXPECT_EQ(status, std::optional<int>{4}) << "a second gateway of " << bus << " kept running or ended otherwise";
@@ -169,22 +174,18 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
       case kDropWithStop:
         lab().control_bus(bus, sim_control_t::BUS_DROP, row.value);
         stop_id_ = lab().client().send(Client::make(request_t::STOP, std::vector<std::string>{axis}),
-                                       [this](const reply_t& r) { if (client::is_terminal(r.status)) stop_reply_ = r; });
+                                       [this](const reply_t& r) {
+                                         if (client::is_terminal(r.status)) stop_reply_ = r;
+                                       });
         return [] {};
-      case sim_control_t::LINE_NOISE:
-        lab().control_bus(bus, sim_control_t::LINE_NOISE, row.value, 1);
-        return [] {};
-      case sim_control_t::BUS_DROP:
-        lab().control_bus(bus, sim_control_t::BUS_DROP, row.value);
-        return [] {};
+      case sim_control_t::LINE_NOISE: lab().control_bus(bus, sim_control_t::LINE_NOISE, row.value, 1); return [] {};
+      case sim_control_t::BUS_DROP: lab().control_bus(bus, sim_control_t::BUS_DROP, row.value); return [] {};
       case sim_control_t::SILENCE:
       case sim_control_t::CRC_ERRORS:
       case sim_control_t::REPLY_LATENCY:
         lab().control(drive, row.fault, row.value);
         return [this, drive, fault = row.fault] { lab().control(drive, fault, 0); };
-      default:
-        lab().control(drive, row.fault, row.value);
-        return [] {};
+      default: lab().control(drive, row.fault, row.value); return [] {};
     }
   }
 
@@ -206,9 +207,13 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
   ASSERT_TRUE(recover());  // whatever the previous row left
   const double target = target_from(axis, 1.0);
   std::vector<reply_t> replies;
-  const auto id = lab().client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{axis, target}}), [&](const reply_t& r) { replies.push_back(r); });
+  const auto id = lab().client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{axis, target}}),
+                                      [&](const reply_t& r) { replies.push_back(r); });
   ASSERT_NE(id, 0);
-  const auto terminals = [&] { return std::count_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); }); };
+  const auto terminals = [&] {
+    return std::count_if(replies.begin(), replies.end(),
+                         [](const reply_t& r) { return client::is_terminal(r.status); });
+  };
   ASSERT_TRUE(lab().client().wait_until([&] { return state(axis).moving || terminals() > 0; }, seconds(10)));
   ASSERT_EQ(terminals(), 0) << replies.back().reason;
   lab().pause(milliseconds(200));
@@ -219,7 +224,9 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
         << axis << " still online or moving during the fault";
   }
   if (row.hold_ms > 0) {
-    lab().client().wait_until([] { return false; }, milliseconds(row.hold_ms) - std::chrono::duration_cast<milliseconds>(std::chrono::steady_clock::now() - fault_start));
+    lab().client().wait_until([] { return false; },
+                              milliseconds(row.hold_ms) - std::chrono::duration_cast<milliseconds>(
+                                                              std::chrono::steady_clock::now() - fault_start));
   } else {
     lab().client().wait_until([&] { return terminals() > 0; }, milliseconds(1500));
   }
@@ -229,18 +236,20 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
   ASSERT_TRUE(lab().client().wait_until([&] { return terminals() > 0; }, seconds(40))) << "no terminal reply";
   lab().pause(milliseconds(300));
   ASSERT_EQ(terminals(), 1);
-  const reply_t end = *std::find_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
-  std::cout << "[ row      ] " << row.name << ": " << client::status_name(end.status) << " code " << end.error_code << " (" << end.reason << ")\n";
-  if (row.done) {
-    EXPECT_EQ(end.status, st(reply_t::DONE)) << end.reason;
-  }
+  const reply_t end =
+      *std::find_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
+  std::cout << "[ row      ] " << row.name << ": " << client::status_name(end.status) << " code " << end.error_code
+            << " (" << end.reason << ")\n";
+  if (row.done) { EXPECT_EQ(end.status, st(reply_t::DONE)) << end.reason; }
   if (row.fault == kDropWithStop) {
     EXPECT_NE(end.status, st(reply_t::DONE)) << "the stop did not take: " << end.reason;
-    ASSERT_TRUE(lab().client().wait_until([&] { return stop_reply_.has_value(); }, seconds(30))) << "no terminal reply to the STOP";
+    ASSERT_TRUE(lab().client().wait_until([&] { return stop_reply_.has_value(); }, seconds(30)))
+        << "no terminal reply to the STOP";
   }
   // 2. The event naming the fault.
   if (row.event != 0) {
-    EXPECT_TRUE(lab().client().wait_until([&] { return event_since(row.event, axis); }, seconds(10))) << "no event of kind " << row.event << " naming " << axis;
+    EXPECT_TRUE(lab().client().wait_until([&] { return event_since(row.event, axis); }, seconds(10)))
+        << "no event of kind " << row.event << " naming " << axis;
   }
   // 3. Every axis online, at rest, within its limits; DONE means at the target; every process OK.
   const bool settled = lab().client().wait_until(
@@ -258,11 +267,9 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
     EXPECT_LE(state(a).position, lim.max_position + 1e-6) << a;
   }
   const double tolerance = 1.5 / axis_config(axis).steps_per_unit;
-  if (end.status == reply_t::DONE) {
-    EXPECT_NEAR(state(axis).position, target, tolerance);
-  }
-  for (const auto& process : {std::string("sim"), std::string("coordinator"), std::string("gateway:can0"), std::string("gateway:rs485"),
-                              std::string("gateway:rs232")}) {
+  if (end.status == reply_t::DONE) { EXPECT_NEAR(state(axis).position, target, tolerance); }
+  for (const auto& process : {std::string("sim"), std::string("coordinator"), std::string("gateway:can0"),
+                              std::string("gateway:rs485"), std::string("gateway:rs232")}) {
     EXPECT_TRUE(lab().group().wait_for_heartbeat(process, seconds(20))) << process << " not OK";
   }
   if (row.fault == kMalformed) {
@@ -272,13 +279,16 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
   }
   // 4. Position lost: said, and a move refused until its position is set; then a new move is DONE.
   if (row.position_lost) {
-    EXPECT_TRUE(lab().client().wait_until([&] { return state(axis).fault_code == motionlcm::axis_state_t::POSITION_LOST; }, seconds(10)))
+    EXPECT_TRUE(lab().client().wait_until(
+        [&] { return state(axis).fault_code == motionlcm::axis_state_t::POSITION_LOST; }, seconds(10)))
         << state(axis).fault_text;
     EXPECT_FALSE(state(axis).homed);
     ASSERT_TRUE(lab().client().wait_until([&] { return state(axis).online; }, seconds(10)));
     const auto refused = lab().call(Client::make(request_t::MOVE_RELATIVE, Values{{axis, 1.0}}));
     EXPECT_EQ(refused.status, st(reply_t::REJECTED)) << refused.reason;
-    EXPECT_TRUE(refused.error_code == code(ReplyError::kPositionLost) || refused.error_code == code(ReplyError::kAxisDisabled)) << refused.reason;
+    EXPECT_TRUE(refused.error_code == code(ReplyError::kPositionLost) ||
+                refused.error_code == code(ReplyError::kAxisDisabled))
+        << refused.reason;
   } else {
     EXPECT_NE(state(axis).fault_code, motionlcm::axis_state_t::POSITION_LOST) << state(axis).fault_text;
   }
@@ -289,7 +299,8 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
   EXPECT_TRUE(lab().settled_at(axis, again, tolerance)) << state(axis).position;
 }
 
-INSTANTIATE_TEST_SUITE_P(Rows, FaultMatrix, ::testing::ValuesIn(kRows), [](const ::testing::TestParamInfo<Row>& row) { return std::string(row.param.name); });
+INSTANTIATE_TEST_SUITE_P(Rows, FaultMatrix, ::testing::ValuesIn(kRows),
+                         [](const ::testing::TestParamInfo<Row>& row) { return std::string(row.param.name); });
 
 }  // namespace
 }  // namespace motion::testing

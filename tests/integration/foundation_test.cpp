@@ -53,7 +53,9 @@ TEST(Foundation, MotionctlConfigAnswersInJsonAndDumpRefusesIt) {
   ProcessGroup group;
   const std::string config = source_path("config/sim-lab.yaml");
   std::string out;
-  ASSERT_EQ(group.run_to_completion({"config-json", "motionctl", {"--config", config, "--json", "config"}, {}}, &out), 0) << out;
+  ASSERT_EQ(group.run_to_completion({"config-json", "motionctl", {"--config", config, "--json", "config"}, {}}, &out),
+            0)
+      << out;
   const auto doc = nlohmann::json::parse(out.substr(std::min(out.find('{'), out.size())), nullptr, false);
   ASSERT_TRUE(doc.is_object()) << out;
   EXPECT_EQ(doc["valid"], true);
@@ -66,13 +68,19 @@ TEST(Foundation, MotionctlConfigAnswersInJsonAndDumpRefusesIt) {
   EXPECT_EQ(doc["axes"][0]["limits"]["max"].get<double>(), first.limits.max_position);
   EXPECT_EQ(doc["axes"][0]["invert"].is_boolean(), true);
 
-  ASSERT_EQ(group.run_to_completion({"config-axes-json", "motionctl", {"--config", config, "--json", "config", "axes"}, {}}, &out), 0) << out;
+  ASSERT_EQ(group.run_to_completion(
+                {"config-axes-json", "motionctl", {"--config", config, "--json", "config", "axes"}, {}}, &out),
+            0)
+      << out;
   const auto names = nlohmann::json::parse(out.substr(std::min(out.find('['), out.size())), nullptr, false);
   ASSERT_TRUE(names.is_array()) << out;
   EXPECT_EQ(names.size(), loaded.config->axes.size());
   EXPECT_EQ(names[0], first.name);
 
-  EXPECT_EQ(group.run_to_completion({"dump-json", "motionctl", {"--config", config, "--json", "dump", "can0", "--for", "0.2"}, {}}, &out), 2) << out;
+  EXPECT_EQ(group.run_to_completion(
+                {"dump-json", "motionctl", {"--config", config, "--json", "dump", "can0", "--for", "0.2"}, {}}, &out),
+            2)
+      << out;
   EXPECT_NE(out.find("motionctl dump: --json is not supported"), std::string::npos) << out;
 }
 
@@ -80,7 +88,10 @@ TEST(Foundation, MotionctlHealthFailsWhenAnExpectedProcessIsMissing) {
   ProcessGroup group;
   std::string out;
   const int rc = group.run_to_completion(
-      {"motionctl-health", "motionctl", {"--config", source_path("config/sim-lab.yaml"), "health", "--listen", "0.5", "--expect", "coordinator"}, {}},
+      {"motionctl-health",
+       "motionctl",
+       {"--config", source_path("config/sim-lab.yaml"), "health", "--listen", "0.5", "--expect", "coordinator"},
+       {}},
       &out);
   EXPECT_EQ(rc, 4) << out;
   EXPECT_NE(out.find("no heartbeat from 'coordinator'"), std::string::npos) << out;
@@ -90,13 +101,17 @@ TEST(Foundation, EveryProgramRefusesABrokenConfigBeforeDoingAnything) {
   ProcessGroup group;
   const std::string bad = group.work_dir() + "/bad.yaml";
   std::ofstream(bad) << "buses:\n  - name: can0\n    transport: simcan:can0\n    bitrate: 7\n";
-  for (const auto& [binary, extra] : std::vector<std::pair<std::string, std::vector<std::string>>>{
-           {"motion-gateway", {"--bus", "can0"}}, {"motion-coordinator", {}}, {"motion-sim", {}}, {"motionctl", {"health"}}}) {
+  for (const auto& [binary, extra] :
+       std::vector<std::pair<std::string, std::vector<std::string>>>{{"motion-gateway", {"--bus", "can0"}},
+                                                                     {"motion-coordinator", {}},
+                                                                     {"motion-sim", {}},
+                                                                     {"motionctl", {"health"}}}) {
     std::vector<std::string> args{"--config", bad};
     args.insert(args.end(), extra.begin(), extra.end());
     std::string out;
     EXPECT_EQ(group.run_to_completion({binary, binary, args, {}}, &out), 3) << binary << ": " << out;
-    EXPECT_NE(out.find("bad.yaml:4:14: buses[0].bitrate: not a CAN bit rate: 7"), std::string::npos) << binary << ": " << out;
+    EXPECT_NE(out.find("bad.yaml:4:14: buses[0].bitrate: not a CAN bit rate: 7"), std::string::npos)
+        << binary << ": " << out;
   }
 }
 

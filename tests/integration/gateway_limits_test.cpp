@@ -26,9 +26,10 @@ using motionlcm::gateway_reply_t;
 class GatewayLimits : public ::testing::Test {
  protected:
   void SetUp() override {
-    lab.group().node().subscribe<gateway_reply_t>(lcm::channels::kGatewayReply, [this](const gateway_reply_t& r, const std::string&) {
-      if (r.command_id >= kOwnIds) replies_[r.command_id] = r;
-    });
+    lab.group().node().subscribe<gateway_reply_t>(lcm::channels::kGatewayReply,
+                                                  [this](const gateway_reply_t& r, const std::string&) {
+                                                    if (r.command_id >= kOwnIds) replies_[r.command_id] = r;
+                                                  });
   }
   void TearDown() override {
     if (HasFailure()) lab.group().print_logs();
@@ -37,7 +38,8 @@ class GatewayLimits : public ::testing::Test {
   // Command ids far from the coordinator's (it counts from 1).
   static constexpr std::int64_t kOwnIds = 900'000'000;
 
-  std::optional<gateway_reply_t> arm_move_directly(std::int64_t id, const std::vector<motionlcm::axis_command_t>& axes) {
+  std::optional<gateway_reply_t> arm_move_directly(std::int64_t id,
+                                                   const std::vector<motionlcm::axis_command_t>& axes) {
     gateway_command_t c{};
     c.utime = wall_time_us();
     c.bus = "can0";
@@ -57,7 +59,8 @@ class GatewayLimits : public ::testing::Test {
   std::map<std::int64_t, gateway_reply_t> replies_;
 };
 
-motionlcm::axis_command_t axis_command(const std::string& axis, std::int64_t target, double velocity, double acceleration) {
+motionlcm::axis_command_t axis_command(const std::string& axis, std::int64_t target, double velocity,
+                                       double acceleration) {
   motionlcm::axis_command_t a{};
   a.axis = axis;
   a.target_counts = target;
@@ -98,7 +101,8 @@ TEST_F(GatewayLimits, ArmMovePastTheCoordinatorBeyondTheLimitsFailsAndNothingMov
   EXPECT_NE(a->reason.find("axis a"), std::string::npos) << a->reason;
   EXPECT_NE(a->reason.find("900 deg"), std::string::npos) << a->reason;
 
-  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::PROTOCOL_ERROR), "x", "outside the limits"); }, seconds(5)));
+  EXPECT_TRUE(lab.client().wait_until(
+      [&] { return lab.has_event(ev(event_t::PROTOCOL_ERROR), "x", "outside the limits"); }, seconds(5)));
   // Nothing moves: a few status periods later both stand where they were, and no simulated drive
   // reported a start.
   lab.pause(std::chrono::milliseconds(600));
@@ -118,9 +122,11 @@ TEST_F(GatewayLimits, JogTowardTheLimitStopsBeforeItWithALimitEvent) {
   // 30 mm/s, within c's 40 mm/s.
   const auto jog = lab.call(Client::make(request_t::JOG, std::map<std::string, double>{{"c", 30.0}}));
   ASSERT_EQ(jog.status, st(reply_t::DONE)) << jog.reason;
-  ASSERT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::LIMIT), "c", "limit 100 mm"); }, seconds(20)))
+  ASSERT_TRUE(
+      lab.client().wait_until([&] { return lab.has_event(ev(event_t::LIMIT), "c", "limit 100 mm"); }, seconds(20)))
       << "no LIMIT event for c; at " << lab.position("c") << " mm";
-  ASSERT_TRUE(lab.client().wait_until([&] { return !lab.state("c").moving && lab.state("c").sample_utime > 0; }, seconds(10)));
+  ASSERT_TRUE(
+      lab.client().wait_until([&] { return !lab.state("c").moving && lab.state("c").sample_utime > 0; }, seconds(10)));
   lab.pause(std::chrono::milliseconds(500));  // a few more status polls: it stays stopped
   EXPECT_FALSE(lab.state("c").moving);
   EXPECT_LE(lab.position("c"), 100.0);
@@ -139,14 +145,17 @@ TEST_F(GatewayLimits, ASecondGatewayOnTheSameBusRefusesToStartAndNamesTheHolder)
   ASSERT_TRUE(lab.start({"x"}));
   const auto first = lab.group().heartbeat("gateway:can0");
   ASSERT_TRUE(first.has_value());
-  const pid_t second = lab.group().start({"gateway:can0-second", "motion-gateway", {"--config", lab.config_path(), "--bus", "can0"}, {}});
+  const pid_t second = lab.group().start(
+      {"gateway:can0-second", "motion-gateway", {"--config", lab.config_path(), "--bus", "can0"}, {}});
   ASSERT_GT(second, 0);
   std::optional<int> status;
   lab.group().pump_until([&] { return (status = lab.group().exit_status(second)).has_value(); }, seconds(10));
   ASSERT_TRUE(status.has_value()) << "the second gateway of can0 kept running";
   EXPECT_EQ(*status, 4);  // kExitUnavailable
   const std::string log = lab.group().log_of("gateway:can0-second");
-  EXPECT_NE(log.find("bus can0 (simcan:can0) is already served by process " + std::to_string(first->pid)), std::string::npos) << log;
+  EXPECT_NE(log.find("bus can0 (simcan:can0) is already served by process " + std::to_string(first->pid)),
+            std::string::npos)
+      << log;
   // The first gateway still owns the bus: it heartbeats and moves x.
   ASSERT_TRUE(lab.group().wait_for_heartbeat("gateway:can0", seconds(5)));
   ASSERT_TRUE(lab.enable({"x"}));

@@ -59,10 +59,13 @@ std::string ip_binary() {
 // Why network namespaces cannot be used here, or nullopt when they can.
 std::optional<std::string> netns_unavailable() {
   if (ip_binary().empty()) return "iproute2's `ip` is not installed";
-  if (::geteuid() != 0) return "creating network namespaces needs root (CAP_NET_ADMIN + CAP_SYS_ADMIN); uid is " + std::to_string(::geteuid());
+  if (::geteuid() != 0)
+    return "creating network namespaces needs root (CAP_NET_ADMIN + CAP_SYS_ADMIN); uid is " +
+           std::to_string(::geteuid());
   const std::string probe = "motion-" + std::to_string(::getpid()) + "-probe";
   std::string out;
-  if (shell(ip_binary() + " netns add " + probe, &out) != 0) return "`ip netns add` failed (no CAP_NET_ADMIN / CAP_SYS_ADMIN?): " + out;
+  if (shell(ip_binary() + " netns add " + probe, &out) != 0)
+    return "`ip netns add` failed (no CAP_NET_ADMIN / CAP_SYS_ADMIN?): " + out;
   shell(ip_binary() + " netns del " + probe);
   return std::nullopt;
 }
@@ -97,7 +100,8 @@ class NetnsLab {
   ~NetnsLab() {
     if (!created_) return;
     std::string out;
-    if (shell(script() + " down " + prefix_, &out) != 0) ADD_FAILURE() << "could not delete the namespaces " << prefix_ << "-*: " << out;
+    if (shell(script() + " down " + prefix_, &out) != 0)
+      ADD_FAILURE() << "could not delete the namespaces " << prefix_ << "-*: " << out;
   }
   NetnsLab(const NetnsLab&) = delete;
   NetnsLab& operator=(const NetnsLab&) = delete;
@@ -113,7 +117,8 @@ class NetnsLab {
   [[nodiscard]] std::string ns(const std::string& host) const { return prefix_ + "-" + host; }
   [[nodiscard]] const std::string& prefix() const { return prefix_; }
   // `ip netns exec NS program args...` (the group appends --lcm-url).
-  [[nodiscard]] ProcessSpec in(const std::string& host, const std::string& name, const std::string& program, std::vector<std::string> args) const {
+  [[nodiscard]] ProcessSpec in(const std::string& host, const std::string& name, const std::string& program,
+                               std::vector<std::string> args) const {
     std::vector<std::string> argv{"netns", "exec", ns(host), bin_path(program)};
     argv.insert(argv.end(), args.begin(), args.end());
     return {name, ip_binary(), argv, {}};
@@ -148,10 +153,12 @@ class MultiHost : public ::testing::Test {
   }
 
   // Runs motionctl in `host` to completion.
-  int motionctl(ProcessGroup& group, const std::string& host, std::vector<std::string> args, std::string* out, seconds timeout = seconds(40)) {
+  int motionctl(ProcessGroup& group, const std::string& host, std::vector<std::string> args, std::string* out,
+                seconds timeout = seconds(40)) {
     std::vector<std::string> argv{"--config", config_path_};
     argv.insert(argv.end(), args.begin(), args.end());
-    return group.run_to_completion(net_.in(host, "motionctl-" + host + "-" + std::to_string(++runs_), "motionctl", argv), out, timeout);
+    return group.run_to_completion(
+        net_.in(host, "motionctl-" + host + "-" + std::to_string(++runs_), "motionctl", argv), out, timeout);
   }
 
   // Members are destroyed in reverse: the processes (group) before the namespaces (net_).
@@ -174,7 +181,8 @@ TEST_F(MultiHost, GatewaysCoordinatorAndClientOnThreeHostsCompleteASynchronizedM
   {
     std::ifstream base(config_path_);
     std::ofstream config(dir + "/lab.yaml");
-    config << base.rdbuf() << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
+    config << base.rdbuf()
+           << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
            << "  coordinator_public_key: coordinator.pub\n";
     std::ofstream(dir + "/authorized_keys") << op.authorized_line("operate") << "\n";
   }
@@ -208,7 +216,9 @@ TEST_F(MultiHost, GatewaysCoordinatorAndClientOnThreeHostsCompleteASynchronizedM
   for (const auto& p : seen) {
     if (p.at("process") == "coordinator") coordinator_is_ours = p.at("pid").get<int>() == coordinator;
   }
-  EXPECT_TRUE(coordinator_is_ours) << "the coordinator heard in host C is not the process the group started (pid " << coordinator << "):\n" << out;
+  EXPECT_TRUE(coordinator_is_ours) << "the coordinator heard in host C is not the process the group started (pid "
+                                   << coordinator << "):\n"
+                                   << out;
 
   // The coordinator takes requests once it has heard the gateways: retry enable until then.
   int rc = -1;
@@ -226,7 +236,10 @@ TEST_F(MultiHost, GatewaysCoordinatorAndClientOnThreeHostsCompleteASynchronizedM
   EXPECT_NE(out.find("unsigned"), std::string::npos) << out;
 
   const auto t_move = Clock::now();
-  ASSERT_EQ(motionctl(group, "c", {"--key", key, "--json", "move", "x=10", "y=5", "z=-2", "--wait", "--timeout", "30"}, &out), 0) << out;
+  ASSERT_EQ(
+      motionctl(group, "c", {"--key", key, "--json", "move", "x=10", "y=5", "z=-2", "--wait", "--timeout", "30"}, &out),
+      0)
+      << out;
   const double move_s = seconds_since(t_move);
   const auto result = nlohmann::json::parse(out.substr(out.find('{')), nullptr, false);
   ASSERT_FALSE(result.is_discarded()) << out;
@@ -234,9 +247,11 @@ TEST_F(MultiHost, GatewaysCoordinatorAndClientOnThreeHostsCompleteASynchronizedM
   for (const auto& [axis, target] : std::vector<std::pair<std::string, double>>{{"x", 10.0}, {"y", 5.0}, {"z", -2.0}}) {
     EXPECT_NEAR(result.at("axes").at(axis).at("position").get<double>(), target, 1.0 / 640.0) << axis << "\n" << out;
   }
-  std::printf("[ timing ] namespaces up %.2f s; all %zu heartbeats heard in host C after %.2f s; enable ok after %.2f s; "
-              "move x/y/z from host C %.2f s, start skew %.0f us (predicted arrival spread %.0f us)\n",
-              t_net, expect.size(), t_heard, t_enabled, move_s, result.value("measured_start_skew_us", -1.0), result.value("predicted_skew_us", -1.0));
+  std::printf(
+      "[ timing ] namespaces up %.2f s; all %zu heartbeats heard in host C after %.2f s; enable ok after %.2f s; "
+      "move x/y/z from host C %.2f s, start skew %.0f us (predicted arrival spread %.0f us)\n",
+      t_net, expect.size(), t_heard, t_enabled, move_s, result.value("measured_start_skew_us", -1.0),
+      result.value("predicted_skew_us", -1.0));
 
   // SIGTERM by the group's pid reaches the real coordinator in host B: it stops cleanly.
   group.stop(coordinator);

@@ -5,8 +5,8 @@
 // missing, foreign, corrupt and truncated file.
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
 #include <lcm/eventlog.h>
+#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -119,13 +119,16 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   // Record everything on the lab's URL. The log grows with every axis state (poll rate), so its
   // first bytes on disk prove the logger is subscribed.
   const std::string log_path = group.work_dir() + "/session.lcmlog";
-  const pid_t logger = group.start({"lcm-logger", kLogger, {"--quiet", "--force", "--flush-interval=50", log_path}, {}});
-  ASSERT_TRUE(group.pump_until([&] { return size_of(log_path) > 0; }, seconds(10))) << "lcm-logger wrote nothing:\n" << group.log_of("lcm-logger");
+  const pid_t logger =
+      group.start({"lcm-logger", kLogger, {"--quiet", "--force", "--flush-interval=50", log_path}, {}});
+  ASSERT_TRUE(group.pump_until([&] { return size_of(log_path) > 0; }, seconds(10))) << "lcm-logger wrote nothing:\n"
+                                                                                    << group.log_of("lcm-logger");
 
   const auto enabled = lab.call(Client::make(request_t::ENABLE, std::vector<std::string>{"x", "y"}));
   ASSERT_EQ(enabled.status, status(reply_t::DONE)) << enabled.reason;
   std::vector<reply_t> replies;
-  const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, std::map<std::string, double>{{"x", 10.0}, {"y", 5.0}}), &replies);
+  const auto moved = lab.call(
+      Client::make(request_t::MOVE_ABSOLUTE, std::map<std::string, double>{{"x", 10.0}, {"y", 5.0}}), &replies);
   ASSERT_EQ(moved.status, status(reply_t::DONE)) << moved.reason;
   // A few more samples of the axes at rest, then stop the logger (SIGTERM: it flushes and exits 0).
   group.pump_until([] { return false; }, milliseconds(500));
@@ -138,12 +141,16 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   // truth is 0 µs.
   {
     std::string moved_out;
-    ASSERT_EQ(group.run_to_completion({"motionctl-move", "motionctl",
-                                       {"--config", source_path("config/sim-lab.yaml"), "--json", "move", "x=2", "y=1", "--wait"}, {}},
-                                      &moved_out),
+    ASSERT_EQ(group.run_to_completion(
+                  {"motionctl-move",
+                   "motionctl",
+                   {"--config", source_path("config/sim-lab.yaml"), "--json", "move", "x=2", "y=1", "--wait"},
+                   {}},
+                  &moved_out),
               0)
         << moved_out;
-    const auto j = nlohmann::json::parse(moved_out.substr(std::min(moved_out.find('{'), moved_out.size())), nullptr, false);
+    const auto j =
+        nlohmann::json::parse(moved_out.substr(std::min(moved_out.find('{'), moved_out.size())), nullptr, false);
     ASSERT_TRUE(j.is_object()) << moved_out;
     ASSERT_TRUE(j["ground_truth_start_skew_us"].is_number()) << moved_out;
     EXPECT_EQ(j["ground_truth_start_skew_us"].get<double>(), 0.0) << moved_out;
@@ -159,10 +166,13 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   const std::string csv = group.work_dir() + "/session.csv";
   const std::string svg = group.work_dir() + "/session.svg";
   std::string out;
-  ASSERT_EQ(group.run_to_completion(
-                {"motionctl-log-csv", "motionctl", {"--config", config, "log", log_path, "--csv", csv, "--plot", svg, "--axis", "x", "y"}, {}},
-                &out),
-            0)
+  ASSERT_EQ(
+      group.run_to_completion({"motionctl-log-csv",
+                               "motionctl",
+                               {"--config", config, "log", log_path, "--csv", csv, "--plot", svg, "--axis", "x", "y"},
+                               {}},
+                              &out),
+      0)
       << out;
   const auto rows = read_csv(csv);
   ASSERT_FALSE(rows.empty()) << out;
@@ -179,7 +189,8 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
     if (row.at("record") == "state") {
       ++state_rows;
       ++states_of[row.at("axis")];
-      EXPECT_TRUE(row.at("axis") == "x" || row.at("axis") == "y") << "--axis filter let " << row.at("axis") << " through";
+      EXPECT_TRUE(row.at("axis") == "x" || row.at("axis") == "y")
+          << "--axis filter let " << row.at("axis") << " through";
       last_state[row.at("axis")] = row;
       if (row.at("moving") == "1") saw_moving = true;
     }
@@ -203,17 +214,23 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   std::ifstream svg_file(svg);
   const std::string svg_text((std::istreambuf_iterator<char>(svg_file)), std::istreambuf_iterator<char>());
   std::size_t panels = 0;
-  for (auto at = svg_text.find("<g class=\"panel\""); at != std::string::npos; at = svg_text.find("<g class=\"panel\"", at + 1)) ++panels;
+  for (auto at = svg_text.find("<g class=\"panel\""); at != std::string::npos;
+       at = svg_text.find("<g class=\"panel\"", at + 1))
+    ++panels;
   EXPECT_EQ(panels, 2u) << out;
   for (const std::string axis : {"x", "y"}) {
-    const std::string panel = "<g class=\"panel\" data-axis=\"" + axis + "\" data-samples=\"" + std::to_string(states_of[axis]) + "\"";
+    const std::string panel =
+        "<g class=\"panel\" data-axis=\"" + axis + "\" data-samples=\"" + std::to_string(states_of[axis]) + "\"";
     EXPECT_NE(svg_text.find(panel), std::string::npos) << "no " << panel << " in " << svg;
   }
   EXPECT_NE(svg_text.find("move done"), std::string::npos) << "the move's end is not marked";
   EXPECT_NE(svg_text.find("move planned arrival"), std::string::npos) << "the move's planned arrival is not marked";
 
   // The same as tables.
-  ASSERT_EQ(group.run_to_completion({"motionctl-log", "motionctl", {"--config", config, "log", log_path, "--axis", "x"}, {}}, &out), 0) << out;
+  ASSERT_EQ(group.run_to_completion(
+                {"motionctl-log", "motionctl", {"--config", config, "log", log_path, "--axis", "x"}, {}}, &out),
+            0)
+      << out;
   EXPECT_NE(out.find("MOVE_ABSOLUTE  x=10 y=5"), std::string::npos) << out;
   EXPECT_NE(out.find("DONE"), std::string::npos) << out;
   EXPECT_NE(out.find("start skew"), std::string::npos) << out;
@@ -222,7 +239,9 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
 
   // --json: the same content for scripts: the move with its replies, every sample of x and y.
   ASSERT_EQ(
-      group.run_to_completion({"motionctl-log-json", "motionctl", {"--config", config, "--json", "log", log_path, "--axis", "x", "y"}, {}}, &out),
+      group.run_to_completion(
+          {"motionctl-log-json", "motionctl", {"--config", config, "--json", "log", log_path, "--axis", "x", "y"}, {}},
+          &out),
       0)
       << out;
   const auto doc = nlohmann::json::parse(out.substr(std::min(out.find('{'), out.size())), nullptr, false);
@@ -249,13 +268,17 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
     for (const auto& sample : samples) json_moving = json_moving || sample["moving"] == true;
   }
   EXPECT_EQ(json_moving, saw_moving);
-  EXPECT_EQ(group.run_to_completion({"motionctl-log-json-csv", "motionctl", {"--config", config, "--json", "log", log_path, "--csv", "-"}, {}}, &out), 2)
+  EXPECT_EQ(
+      group.run_to_completion(
+          {"motionctl-log-json-csv", "motionctl", {"--config", config, "--json", "log", log_path, "--csv", "-"}, {}},
+          &out),
+      2)
       << out;
   EXPECT_NE(out.find("--json and --csv both choose the output"), std::string::npos) << out;
 
   // status --json on the running lab: real booleans and each sample's age.
-  ASSERT_EQ(group.run_to_completion({"motionctl-status-json", "motionctl", {"--config", config, "--json", "status"}, {}},
-                                    &out),
+  ASSERT_EQ(group.run_to_completion(
+                {"motionctl-status-json", "motionctl", {"--config", config, "--json", "status"}, {}}, &out),
             0)
       << out;
   const auto status_doc = nlohmann::json::parse(out.substr(std::min(out.find('{'), out.size())), nullptr, false);
@@ -270,13 +293,15 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   ProcessGroup replay(unique_lcm_url(1));
   ASSERT_NE(replay.lcm_url(), group.lcm_url());
   std::vector<std::vector<std::uint8_t>> received;
-  replay.node().subscribe_raw(prefix + std::string(lcm::channels::kAxisState), [&](const void* data, int size, const std::string&) {
-    const auto* p = static_cast<const std::uint8_t*>(data);
-    received.emplace_back(p, p + size);
-  });
+  replay.node().subscribe_raw(prefix + std::string(lcm::channels::kAxisState),
+                              [&](const void* data, int size, const std::string&) {
+                                const auto* p = static_cast<const std::uint8_t*>(data);
+                                received.emplace_back(p, p + size);
+                              });
   const auto replay_start = Clock::now();
   const pid_t player = replay.start({"lcm-logplayer", kLogPlayer, {"--speed=2", log_path}, {}});
-  ASSERT_TRUE(replay.pump_until([&] { return replay.exit_status(player).has_value(); }, seconds(60))) << "lcm-logplayer did not finish";
+  ASSERT_TRUE(replay.pump_until([&] { return replay.exit_status(player).has_value(); }, seconds(60)))
+      << "lcm-logplayer did not finish";
   const double replay_s = seconds_since(replay_start);
   EXPECT_EQ(replay.exit_status(player), 0) << replay.log_of("lcm-logplayer");
   replay.pump_until([&] { return received.size() >= states.size(); }, seconds(2));
@@ -297,8 +322,10 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   }();
   EXPECT_NEAR(last_x.position, 10.0, kPositionTolerance);
 
-  std::printf("[ timing ] lab up %.2f s; recorded %.2f s; log %ju bytes, %zu axis states (%zu rows x/y in CSV); replay at 2x took %.2f s, %zu received\n",
-              t_lab, t_recorded - t_lab, size_of(log_path), states.size(), state_rows, replay_s, received.size());
+  std::printf(
+      "[ timing ] lab up %.2f s; recorded %.2f s; log %ju bytes, %zu axis states (%zu rows x/y in CSV); replay at 2x "
+      "took %.2f s, %zu received\n",
+      t_lab, t_recorded - t_lab, size_of(log_path), states.size(), state_rows, replay_s, received.size());
 }
 
 // A small log written with LCM's eventlog API: `count` axis states of axis "x".
@@ -403,7 +430,9 @@ TEST_F(MotionctlLogFiles, ABrokenConfigurationIsExitCode3) {
   const std::string bad = group.work_dir() + "/bad.yaml";
   std::ofstream(bad) << "lcm: {url: 3, nonsense: true}\n";
   std::string out;
-  EXPECT_EQ(group.run_to_completion({"motionctl-log-badconfig", "motionctl", {"--config", bad, "log", path}, {}}, &out), 3) << out;
+  EXPECT_EQ(group.run_to_completion({"motionctl-log-badconfig", "motionctl", {"--config", bad, "log", path}, {}}, &out),
+            3)
+      << out;
 }
 
 }  // namespace

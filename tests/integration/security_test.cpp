@@ -35,12 +35,13 @@ class Security : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new std::string(make_dir());
-    keys_ = new Keys{security::KeyPair::generate("admin"), security::KeyPair::generate("op"), security::KeyPair::generate("watch"),
-                     security::KeyPair::generate("stranger")};
+    keys_ = new Keys{security::KeyPair::generate("admin"), security::KeyPair::generate("op"),
+                     security::KeyPair::generate("watch"), security::KeyPair::generate("stranger")};
     {
       std::ifstream base(source_path("tests/integration/configs/uim342-three-group.yaml"));
       std::ofstream config(*dir_ + "/lab.yaml");
-      config << base.rdbuf() << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
+      config << base.rdbuf()
+             << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
              << "  coordinator_public_key: coordinator.pub\n  window_ms: 2000\n";
     }
     std::ofstream(*dir_ + "/authorized_keys") << "# the test's principals\n"
@@ -53,8 +54,8 @@ class Security : public ::testing::Test {
     clients_ = new std::vector<std::unique_ptr<Client>>;
     heard_ = new std::vector<signed_request_t>;
     // What an eavesdropper records.
-    lab_->group().node().subscribe<signed_request_t>(lcm::channels::kSignedRequest,
-                                                     [](const signed_request_t& m, const std::string&) { heard_->push_back(m); });
+    lab_->group().node().subscribe<signed_request_t>(
+        lcm::channels::kSignedRequest, [](const signed_request_t& m, const std::string&) { heard_->push_back(m); });
     lab_->client().sign_with(keys_->admin);  // the lab's own client enables the axes
     ASSERT_TRUE(lab_->start(kAxes));
     ASSERT_TRUE(lab_->enable(kAxes));
@@ -96,7 +97,8 @@ class Security : public ::testing::Test {
   // Publishes `envelope` as it is on SREQUEST and waits for a SECURITY event containing `text`.
   bool refused_with(const signed_request_t& envelope, const std::string& text) {
     lab_->group().node().publish(lcm::channels::kSignedRequest, envelope);
-    return lab_->client().wait_until([&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", text); }, seconds(3));
+    return lab_->client().wait_until([&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", text); },
+                                     seconds(3));
   }
   // Nothing moved since SetUp: no drive started, every axis where it was.
   void expect_nothing_moved() {
@@ -138,14 +140,17 @@ TEST_F(Security, MotionctlSignsWithItsKeyAndRefusesWithoutOne) {
   const double target = before_["w"] - 1.0;
   std::string out;
   const int rc = lab_->group().run_to_completion(
-      {"motionctl", "motionctl", {"--config", config, "--key", *dir_ + "/op.key", "move", "w=" + std::to_string(target), "--wait"}, {}}, &out,
-      seconds(20));
+      {"motionctl",
+       "motionctl",
+       {"--config", config, "--key", *dir_ + "/op.key", "move", "w=" + std::to_string(target), "--wait"},
+       {}},
+      &out, seconds(20));
   EXPECT_EQ(rc, 0) << out;
   EXPECT_TRUE(lab_->settled_at("w", target, kTolerance));
   lab_->clear_reports();
   before_["w"] = lab_->position("w");
-  const int plain_rc = lab_->group().run_to_completion({"motionctl-plain", "motionctl", {"--config", config, "move", "w=0", "--wait"}, {}}, &out,
-                                                       seconds(20));
+  const int plain_rc = lab_->group().run_to_completion(
+      {"motionctl-plain", "motionctl", {"--config", config, "move", "w=0", "--wait"}, {}}, &out, seconds(20));
   EXPECT_EQ(plain_rc, 1) << out;
   EXPECT_TRUE(contains(out, "unsigned request refused: security is enforced")) << out;
   expect_nothing_moved();
@@ -154,12 +159,17 @@ TEST_F(Security, MotionctlSignsWithItsKeyAndRefusesWithoutOne) {
 TEST_F(Security, PlainRequestIsRefusedWithASecurityEventAndNoReply) {
   const auto plain = client("plain", nullptr);
   std::vector<reply_t> replies;
-  const reply_t r = plain->call(move_to("w", before_["w"] + 3), seconds(5), [&](const reply_t& p) { replies.push_back(p); });
+  const reply_t r =
+      plain->call(move_to("w", before_["w"] + 3), seconds(5), [&](const reply_t& p) { replies.push_back(p); });
   EXPECT_EQ(r.status, st(reply_t::REJECTED)) << r.reason;
   EXPECT_EQ(r.error_code, code(ReplyError::kUnauthorized));
   // The rejection is the client's own, from the SECURITY event: the coordinator sent nothing.
-  EXPECT_TRUE(contains(r.reason, "refused by the coordinator's security (SECURITY event, no reply): unsigned request refused: security is enforced "
-                                 "(move request " + std::to_string(r.request_id) + " of client 'plain'")) << r.reason;
+  EXPECT_TRUE(contains(r.reason,
+                       "refused by the coordinator's security (SECURITY event, no reply): unsigned request refused: "
+                       "security is enforced "
+                       "(move request " +
+                           std::to_string(r.request_id) + " of client 'plain'"))
+      << r.reason;
   EXPECT_TRUE(replies.empty());
   expect_nothing_moved();
 }
@@ -168,7 +178,8 @@ TEST_F(Security, UnknownKeyIsRefused) {
   const auto stranger = client("ctl", &keys_->stranger);
   const reply_t r = stranger->call(move_to("w", before_["w"] + 3), seconds(5));
   EXPECT_EQ(r.status, st(reply_t::REJECTED));
-  EXPECT_TRUE(contains(r.reason, "signed request refused: unknown key " + security::to_hex(keys_->stranger.id()) + " (not in authorized_keys)"))
+  EXPECT_TRUE(contains(r.reason, "signed request refused: unknown key " + security::to_hex(keys_->stranger.id()) +
+                                     " (not in authorized_keys)"))
       << r.reason;
   expect_nothing_moved();
 }
@@ -186,7 +197,8 @@ TEST_F(Security, WrongSignatureAndTamperedPayloadAreRefused) {
   const int size = request.getEncodedSize();
   ASSERT_EQ(size, tampered.payload_size);
   request.encode(tampered.payload.data(), 0, size);
-  EXPECT_TRUE(refused_with(tampered, "bad signature from key 'op' (" + security::to_hex(keys_->op.id()) + ") (forged or altered in transit)"));
+  EXPECT_TRUE(refused_with(tampered, "bad signature from key 'op' (" + security::to_hex(keys_->op.id()) +
+                                         ") (forged or altered in transit)"));
   expect_nothing_moved();
 }
 
@@ -205,7 +217,8 @@ TEST_F(Security, ReplayedCounterAndStaleTimestampAreRefused) {
   move.client_id = "op/late";
   EXPECT_TRUE(refused_with(late.sign(move, wall_time_us() - 10'000'000), "stale timestamp from key 'op'"));
   security::RequestSigner early(keys_->op, "MOTION_");
-  EXPECT_TRUE(refused_with(early.sign(move, wall_time_us() + 10'000'000), "ms in the future, outside the window of 2000 ms"));
+  EXPECT_TRUE(
+      refused_with(early.sign(move, wall_time_us() + 10'000'000), "ms in the future, outside the window of 2000 ms"));
   expect_nothing_moved();
 }
 
@@ -214,7 +227,8 @@ TEST_F(Security, RoleTooLowIsRejectedInTheReply) {
   const reply_t moved = watch->call(move_to("w", before_["w"] + 3), seconds(5));
   EXPECT_EQ(moved.status, st(reply_t::REJECTED));
   EXPECT_EQ(moved.error_code, code(ReplyError::kUnauthorized));
-  EXPECT_TRUE(contains(moved.reason, "role too low: key 'watch' (" + security::to_hex(keys_->watch.id()) + ") has role observe, a move needs operate"))
+  EXPECT_TRUE(contains(moved.reason, "role too low: key 'watch' (" + security::to_hex(keys_->watch.id()) +
+                                         ") has role observe, a move needs operate"))
       << moved.reason;
   const auto op = client("ctl", &keys_->op);
   const reply_t set = op->call(move_to("w", 0.0, request_t::SET_POSITION), seconds(5));
@@ -242,12 +256,16 @@ TEST_F(Security, GatewayRefusesCommandsNotSignedByTheCoordinator) {
   jog.num_axes = 1;
   lab_->group().node().publish(lcm::channels::gateway_command("can0"), jog);
   EXPECT_TRUE(lab_->client().wait_until(
-      [&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", "unsigned command 900001 (request 900001) refused: security is enforced"); },
+      [&] {
+        return lab_->has_event(motionlcm::event_t::SECURITY, "",
+                               "unsigned command 900001 (request 900001) refused: security is enforced");
+      },
       seconds(3)));
   security::GatewayCommandSigner impostor(security::KeyPair::generate("coordinator"), "MOTION_");
   jog.command_id = 900002;
   lab_->group().node().publish(lcm::channels::signed_gateway_command("can0"), impostor.sign(jog, wall_time_us()));
-  EXPECT_TRUE(lab_->client().wait_until([&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", "is not the coordinator's"); }, seconds(3)));
+  EXPECT_TRUE(lab_->client().wait_until(
+      [&] { return lab_->has_event(motionlcm::event_t::SECURITY, "", "is not the coordinator's"); }, seconds(3)));
   expect_nothing_moved();
 }
 
@@ -273,7 +291,8 @@ TEST_F(Security, ForgedReplyForAPendingRequestDoesNotEndItWhenTheClientVerifies)
     lie.status = reply_t::FAILED;
     lie.reason = "forged";
     lab_->group().node().publish(lcm::channels::kReply, lie);
-    lab_->group().node().publish(security::signed_channel(lcm::channels::kReply), impostor.sign(lcm::channels::kReply, lie, wall_time_us()));
+    lab_->group().node().publish(security::signed_channel(lcm::channels::kReply),
+                                 impostor.sign(lcm::channels::kReply, lie, wall_time_us()));
   });
   ASSERT_TRUE(op->wait_until([&] { return !seen.empty() && client::is_terminal(seen.back().status); }, seconds(20)));
   for (const auto& r : seen) EXPECT_NE(r.reason, "forged") << "the client took a forged reply of request " << id;
@@ -293,12 +312,17 @@ TEST_F(Security, GatewaysActOnNoTriggerOrActiveMovesNotSignedByTheCoordinator) {
   trigger.num_buses = 1;
   lab_->group().node().publish(lcm::channels::kSyncTrigger2, trigger);
   EXPECT_TRUE(lab_->client().wait_until(
-      [&] { return lab_->has_event(event_t::SECURITY, "", "unsigned SYNC_TRIGGER2 (trigger 424242) refused: security is enforced"); }, seconds(3)));
+      [&] {
+        return lab_->has_event(event_t::SECURITY, "",
+                               "unsigned SYNC_TRIGGER2 (trigger 424242) refused: security is enforced");
+      },
+      seconds(3)));
   security::MessageSigner impostor(security::KeyPair::generate("coordinator"), "MOTION_");
   trigger.trigger_id = 424243;
   lab_->group().node().publish(security::signed_channel(lcm::channels::kSyncTrigger2),
                                impostor.sign(lcm::channels::kSyncTrigger2, trigger, wall_time_us()));
-  EXPECT_TRUE(lab_->client().wait_until([&] { return lab_->has_event(event_t::SECURITY, "", "signed SYNC_TRIGGER2 refused: key"); }, seconds(3)));
+  EXPECT_TRUE(lab_->client().wait_until(
+      [&] { return lab_->has_event(event_t::SECURITY, "", "signed SYNC_TRIGGER2 refused: key"); }, seconds(3)));
   // A desired state saying w moves since long ago: a gateway taking it would stop w, and say so.
   motionlcm::active_moves_t moves{};
   moves.axes = {"w"};
@@ -313,7 +337,8 @@ TEST_F(Security, GatewaysActOnNoTriggerOrActiveMovesNotSignedByTheCoordinator) {
   moves.fire_utime = {wall_time_us() - 60'000'000};
   moves.num_axes = 1;
   lab_->group().node().publish(lcm::channels::kActiveMoves, moves);
-  EXPECT_TRUE(lab_->client().wait_until([&] { return lab_->has_event(event_t::SECURITY, "", "unsigned ACTIVE_MOVES (1 rows) refused"); }, seconds(3)));
+  EXPECT_TRUE(lab_->client().wait_until(
+      [&] { return lab_->has_event(event_t::SECURITY, "", "unsigned ACTIVE_MOVES (1 rows) refused"); }, seconds(3)));
   lab_->pause(milliseconds(200));
   EXPECT_FALSE(lab_->has_event(event_t::GATEWAY_RESTARTED, "w", "op/ghost"));
   expect_nothing_moved();

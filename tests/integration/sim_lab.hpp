@@ -55,11 +55,13 @@ class SimLab {
     if (!loaded.ok()) throw std::runtime_error(loaded.error_text());
     config_ = *loaded.config;
     group_.node().subscribe<motionlcm::sim_report_t>(
-        lcm::channels::kSimReport, [this](const motionlcm::sim_report_t& r, const std::string&) { reports_.push_back(r); });
+        lcm::channels::kSimReport,
+        [this](const motionlcm::sim_report_t& r, const std::string&) { reports_.push_back(r); });
     group_.node().subscribe<motionlcm::event_t>(
         lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) { events_.push_back(e); });
     group_.node().subscribe<motionlcm::gateway_reply_t>(
-        lcm::channels::kGatewayReply, [this](const motionlcm::gateway_reply_t& r, const std::string&) { gateway_replies_.push_back(r); });
+        lcm::channels::kGatewayReply,
+        [this](const motionlcm::gateway_reply_t& r, const std::string&) { gateway_replies_.push_back(r); });
   }
 
   [[nodiscard]] const std::string& config_path() const { return config_path_; }
@@ -78,7 +80,8 @@ class SimLab {
     std::vector<std::string> processes{"sim", "coordinator"};
     for (const auto& bus : config_.buses) processes.push_back("gateway:" + bus.name);
     for (const auto& name : processes) {
-      if (!group_.wait_for_heartbeat(name, std::chrono::seconds(20), true)) return ::testing::AssertionFailure() << "no heartbeat from " << name;
+      if (!group_.wait_for_heartbeat(name, std::chrono::seconds(20), true))
+        return ::testing::AssertionFailure() << "no heartbeat from " << name;
     }
     // The coordinator says OK once it has heard every gateway.
     if (!group_.wait_for_heartbeat("coordinator", std::chrono::seconds(20))) {
@@ -95,7 +98,8 @@ class SimLab {
         std::chrono::seconds(20));
     if (!online) {
       auto failure = ::testing::AssertionFailure() << "axes not online within 20 s:";
-      for (const auto& axis : axes) failure << " " << axis << (client_.axes().contains(axis) ? "(state seen)" : "(no state)");
+      for (const auto& axis : axes)
+        failure << " " << axis << (client_.axes().contains(axis) ? "(state seen)" : "(no state)");
       return failure;
     }
     return ::testing::AssertionSuccess();
@@ -104,7 +108,8 @@ class SimLab {
   // Enables `axes` and waits until each of them reports it.
   [[nodiscard]] ::testing::AssertionResult enable(const std::vector<std::string>& axes) {
     const auto enabled = call(client::Client::make(motionlcm::request_t::ENABLE, axes));
-    if (enabled.status != motionlcm::reply_t::DONE) return ::testing::AssertionFailure() << "ENABLE: " << enabled.reason;
+    if (enabled.status != motionlcm::reply_t::DONE)
+      return ::testing::AssertionFailure() << "ENABLE: " << enabled.reason;
     for (const auto& axis : axes) {
       if (!client_.wait_until([&] { return state(axis).enabled; }, std::chrono::seconds(10))) {
         return ::testing::AssertionFailure() << axis << " not enabled";
@@ -117,11 +122,15 @@ class SimLab {
   const motionlcm::axis_state_t& state(const std::string& axis) { return client_.axes().at(axis); }
   double position(const std::string& axis) { return state(axis).position; }
   // Waits until `axis` is at rest within `tolerance` (user units) of `where`.
-  bool settled_at(const std::string& axis, double where, double tolerance, std::chrono::milliseconds timeout = std::chrono::seconds(10)) {
-    return client_.wait_until([&] { return !state(axis).moving && std::abs(position(axis) - where) <= tolerance; }, timeout);
+  bool settled_at(const std::string& axis, double where, double tolerance,
+                  std::chrono::milliseconds timeout = std::chrono::seconds(10)) {
+    return client_.wait_until([&] { return !state(axis).moving && std::abs(position(axis) - where) <= tolerance; },
+                              timeout);
   }
   // Pumps the loop for `period` (lets a few status polls come in; asserts nothing about time).
-  void pause(std::chrono::milliseconds period) { client_.wait_until([] { return false; }, period); }
+  void pause(std::chrono::milliseconds period) {
+    client_.wait_until([] { return false; }, period);
+  }
 
   // An EVENT of `kind` for `axis` ("" = any) whose text contains `text`, seen so far.
   [[nodiscard]] bool has_event(std::int16_t kind, const std::string& axis, const std::string& text) const {
@@ -131,8 +140,9 @@ class SimLab {
   }
   // The last STARTED a gateway sent (start mechanism, trigger time, predicted skew); null if none.
   [[nodiscard]] const motionlcm::gateway_reply_t* last_gateway_started() const {
-    const auto it = std::find_if(gateway_replies_.rbegin(), gateway_replies_.rend(),
-                                 [](const motionlcm::gateway_reply_t& r) { return r.status == motionlcm::gateway_reply_t::STARTED; });
+    const auto it = std::find_if(
+        gateway_replies_.rbegin(), gateway_replies_.rend(),
+        [](const motionlcm::gateway_reply_t& r) { return r.status == motionlcm::gateway_reply_t::STARTED; });
     return it == gateway_replies_.rend() ? nullptr : &*it;
   }
 
@@ -155,7 +165,8 @@ class SimLab {
   [[nodiscard]] std::optional<motionlcm::bus_stats_t> bus_stats(const std::string& bus) const {
     const auto health = group_.heartbeat("gateway:" + bus);
     if (!health) return std::nullopt;
-    const auto it = std::find_if(health->buses.begin(), health->buses.end(), [&](const motionlcm::bus_stats_t& b) { return b.name == bus; });
+    const auto it = std::find_if(health->buses.begin(), health->buses.end(),
+                                 [&](const motionlcm::bus_stats_t& b) { return b.name == bus; });
     if (it == health->buses.end()) return std::nullopt;
     return *it;
   }
@@ -177,7 +188,8 @@ class SimLab {
   [[nodiscard]] const config::Config& config() const { return config_; }
 
  private:
-  void publish_control(const std::string& drive, const std::string& bus, std::int8_t action, std::int32_t value, std::int32_t level) {
+  void publish_control(const std::string& drive, const std::string& bus, std::int8_t action, std::int32_t value,
+                       std::int32_t level) {
     motionlcm::sim_control_t c{};
     c.utime = wall_time_us();
     c.drive = drive;

@@ -53,11 +53,13 @@ class SyncMove : public ::testing::Test {
   std::int64_t send(request_t request) { return lab.client().send(std::move(request)); }
   bool ended(std::int64_t id) {
     const auto it = replies_.find(id);
-    return it != replies_.end() && std::any_of(it->second.begin(), it->second.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
+    return it != replies_.end() && std::any_of(it->second.begin(), it->second.end(),
+                                               [](const reply_t& r) { return client::is_terminal(r.status); });
   }
   bool saw(std::int64_t id, std::int8_t status) {
     const auto it = replies_.find(id);
-    return it != replies_.end() && std::any_of(it->second.begin(), it->second.end(), [&](const reply_t& r) { return r.status == status; });
+    return it != replies_.end() &&
+           std::any_of(it->second.begin(), it->second.end(), [&](const reply_t& r) { return r.status == status; });
   }
   reply_t wait_terminal(std::int64_t id, seconds timeout = seconds(30)) {
     EXPECT_TRUE(lab.client().wait_until([&] { return ended(id); }, timeout)) << "no terminal reply to request " << id;
@@ -72,9 +74,11 @@ class SyncMove : public ::testing::Test {
     lab.client().wait_until([] { return false; }, std::chrono::milliseconds(500));
     EXPECT_EQ(replies_.size(), requests);
     for (const auto& [id, list] : replies_) {
-      const auto terminals = std::count_if(list.begin(), list.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
+      const auto terminals =
+          std::count_if(list.begin(), list.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
       EXPECT_EQ(terminals, 1) << "request " << id;
-      EXPECT_TRUE(!list.empty() && client::is_terminal(list.back().status)) << "request " << id << ": a reply after the terminal one";
+      EXPECT_TRUE(!list.empty() && client::is_terminal(list.back().status))
+          << "request " << id << ": a reply after the terminal one";
     }
   }
   std::size_t index_of(const reply_t& r, const std::string& axis) {
@@ -102,7 +106,8 @@ TEST_F(SyncMove, EveryFamilyArrivesAndEachBusStartsOnOneFramePerMechanism) {
     ASSERT_LT(i, done.axes.size()) << a;
     EXPECT_NEAR(done.targets[i], targets[a], tolerance(a)) << a;
     EXPECT_NEAR(done.positions[i], targets[a], tolerance(a)) << a;
-    EXPECT_TRUE(lab.client().wait_until([&] { return std::abs(position(a) - targets[a]) <= tolerance(a); }, seconds(2))) << a;
+    EXPECT_TRUE(lab.client().wait_until([&] { return std::abs(position(a) - targets[a]) <= tolerance(a); }, seconds(2)))
+        << a;
   }
 
   // Ground truth: one start per drive; on can0 x and y start on the group's BG frame, a and b on one SYNC.
@@ -124,11 +129,13 @@ TEST_F(SyncMove, EveryFamilyArrivesAndEachBusStartsOnOneFramePerMechanism) {
   // On can0 the gateway dates a start by its frame's echo, i.e. the frame's end on the wire:
   // exactly the time the simulated drives record for the frame that started them.
   EXPECT_EQ(done.start_utime[index_of(done, "x")], frame["x"]) << "BG: gateway's start time vs the drives' start frame";
-  EXPECT_EQ(done.start_utime[index_of(done, "a")], frame["a"]) << "SYNC: gateway's start time vs the drives' start frame";
+  EXPECT_EQ(done.start_utime[index_of(done, "a")], frame["a"])
+      << "SYNC: gateway's start time vs the drives' start frame";
   const auto [lo, hi] = std::minmax_element(done.start_utime.begin(), done.start_utime.end());
   EXPECT_TRUE(std::isfinite(done.measured_start_skew_us));
   EXPECT_GE(done.measured_start_skew_us, static_cast<double>(*hi - *lo));
-  EXPECT_GT(done.measured_start_skew_us, 0.0) << "two buses and two mechanisms on can0 cannot start at the same microsecond";
+  EXPECT_GT(done.measured_start_skew_us, 0.0)
+      << "two buses and two mechanisms on can0 cannot start at the same microsecond";
   EXPECT_GT(done.predicted_duration_s, 0.0);
   EXPECT_TRUE(std::isfinite(done.predicted_skew_us) && done.predicted_skew_us >= 0.0);
   expect_one_terminal_each(2);  // enable + move
@@ -148,10 +155,11 @@ TEST_F(SyncMove, Uc57TargetsArePreloadedSoOnlyTheSyncGoesOutAtTheStart) {
     while (auto f = can0->receive()) wire.push_back(*f);
   });
   std::vector<motionlcm::sync_trigger2_t> triggers;
-  lab.group().node().subscribe<motionlcm::sync_trigger2_t>(lcm::channels::kSyncTrigger2, [&](const motionlcm::sync_trigger2_t& t, const std::string&) {
-    triggers.push_back(t);
-  });
-  const reply_t done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 12.0}, {"y", 6.0}, {"a", 90.0}, {"b", -90.0}}));
+  lab.group().node().subscribe<motionlcm::sync_trigger2_t>(
+      lcm::channels::kSyncTrigger2,
+      [&](const motionlcm::sync_trigger2_t& t, const std::string&) { triggers.push_back(t); });
+  const reply_t done =
+      lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 12.0}, {"y", 6.0}, {"a", 90.0}, {"b", -90.0}}));
   lab.group().loop().unwatch(can0->fd());
   ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
   ASSERT_EQ(triggers.size(), 1u);
@@ -163,7 +171,8 @@ TEST_F(SyncMove, Uc57TargetsArePreloadedSoOnlyTheSyncGoesOutAtTheStart) {
   ASSERT_EQ(starts_a.size(), 1u);
   ASSERT_EQ(starts_x.size(), 1u);
   // The frame that started a and b: a SYNC; the one that started x and y: before it.
-  const auto sync = std::find_if(wire.begin(), wire.end(), [&](const can::Frame& f) { return f.timestamp_us == starts_a[0].frame_utime; });
+  const auto sync = std::find_if(wire.begin(), wire.end(),
+                                 [&](const can::Frame& f) { return f.timestamp_us == starts_a[0].frame_utime; });
   ASSERT_NE(sync, wire.end()) << "the start frame of a is not in the wire log";
   EXPECT_EQ(sync->id, 0x080u);
   EXPECT_FALSE(sync->extended);
@@ -171,17 +180,20 @@ TEST_F(SyncMove, Uc57TargetsArePreloadedSoOnlyTheSyncGoesOutAtTheStart) {
   // The last RPDO1 of each UC57 before the start SYNC: the start image, and not between the BG and
   // the SYNC.
   for (const std::uint32_t rpdo1 : {0x201u, 0x202u}) {
-    const auto last = std::find_if(std::make_reverse_iterator(sync), wire.rend(), [&](const can::Frame& f) { return !f.extended && f.id == rpdo1; });
+    const auto last = std::find_if(std::make_reverse_iterator(sync), wire.rend(),
+                                   [&](const can::Frame& f) { return !f.extended && f.id == rpdo1; });
     ASSERT_NE(last, wire.rend()) << std::hex << rpdo1;
     ASSERT_GE(last->dlc, 2u);
     EXPECT_EQ(last->data[0], 0x1F) << std::hex << rpdo1 << ": the start image (new set-point) was not preloaded";
     // Before the BG, the first frame the fire hands over: it was on the wire before the fire.
-    EXPECT_LT(last->timestamp_us, starts_x[0].frame_utime) << std::hex << rpdo1 << " went out with the fire, not at arming";
+    EXPECT_LT(last->timestamp_us, starts_x[0].frame_utime)
+        << std::hex << rpdo1 << " went out with the fire, not at arming";
   }
 }
 
 TEST_F(SyncMove, StallOfOneAxisAbortsTheWholeGroupWithTheCause) {
-  const auto id = send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 250.0}, {"a", 700.0}, {"b", -700.0}, {"c", 90.0}}));
+  const auto id =
+      send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 250.0}, {"a", 700.0}, {"b", -700.0}, {"c", 90.0}}));
   ASSERT_TRUE(lab.client().wait_until([&] { return saw(id, reply_t::STARTED) || ended(id); }, seconds(20)));
   ASSERT_FALSE(ended(id)) << replies_[id].back().reason;
   lab.control("a-drive", motionlcm::sim_control_t::STALL);
@@ -239,7 +251,9 @@ TEST_F(SyncMove, RestartedGatewayIsToldWhatItWasDoingAndStopsIt) {
   EXPECT_EQ(last.error_code, code(ReplyError::kGatewayLost)) << last.reason;
   EXPECT_NE(last.reason.find("rs485"), std::string::npos) << last.reason;
   const std::string told = "/" + std::to_string(id) + " was moving c to 90";
-  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::GATEWAY_RESTARTED), "c", told); }, seconds(10))) << told;
+  EXPECT_TRUE(
+      lab.client().wait_until([&] { return lab.has_event(ev(event_t::GATEWAY_RESTARTED), "c", told); }, seconds(10)))
+      << told;
   EXPECT_FALSE(lab.has_event(ev(event_t::GATEWAY_RESTARTED), "x", ""));  // x is not on rs485
   for (const auto& a : std::vector<std::string>{"x", "c"}) {
     EXPECT_TRUE(lab.client().wait_until([&] { return !moving(a); }, seconds(10))) << a << " still moving";
@@ -263,7 +277,8 @@ TEST_F(SyncMove, RestartedCoordinatorStopsAJogItDidNotStart) {
   lab.pause(std::chrono::milliseconds(300));
   EXPECT_TRUE(moving("c"));  // nothing stops a jog by itself
   ASSERT_GT(lab.group().start({"coordinator-2", "motion-coordinator", {"--config", lab.config_path()}, {}}), 0);
-  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::UNOWNED_MOTION), "c", "was moving"); }, seconds(10)));
+  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::UNOWNED_MOTION), "c", "was moving"); },
+                                      seconds(10)));
   EXPECT_TRUE(lab.client().wait_until([&] { return !moving("c"); }, seconds(10))) << "c still jogging";
   EXPECT_LT(position("c"), at_kill + 20.0);
   EXPECT_LT(position("c"), 100.0);
@@ -295,7 +310,9 @@ TEST_F(SyncMove, AClientsMoveInFlightWhenTheCoordinatorDiesEndsWithTheSuccessors
   }
   EXPECT_LT(position("x"), 250.0);
   lab.pause(std::chrono::milliseconds(1500));  // no second terminal reply, e.g. from a later heartbeat
-  EXPECT_EQ(std::count_if(replies_[id].begin(), replies_[id].end(), [](const reply_t& r) { return client::is_terminal(r.status); }), 1);
+  EXPECT_EQ(std::count_if(replies_[id].begin(), replies_[id].end(),
+                          [](const reply_t& r) { return client::is_terminal(r.status); }),
+            1);
 }
 
 // Frames lost on can0 just as a stop is sent: whatever the lost frames were (the STOP, its
@@ -312,7 +329,8 @@ TEST_F(SyncMove, AStopWhileTheBusDropsFramesStillStopsTheAxes) {
   const reply_t moved = wait_terminal(id, seconds(30));
   EXPECT_EQ(moved.status, st(reply_t::ABORTED)) << moved.reason;
   for (const auto& a : std::vector<std::string>{"x", "y"}) {
-    EXPECT_TRUE(lab.client().wait_until([&] { return !moving(a) && lab.state(a).online; }, seconds(15))) << a << " still moving";
+    EXPECT_TRUE(lab.client().wait_until([&] { return !moving(a) && lab.state(a).online; }, seconds(15)))
+        << a << " still moving";
   }
   EXPECT_EQ(moved.reason.find("not confirmed"), std::string::npos) << moved.reason;
   EXPECT_LT(position("x"), 240.0);
@@ -324,10 +342,9 @@ TEST_F(SyncMove, AStopWhileTheBusDropsFramesStillStopsTheAxes) {
     const auto reset = lab.call(Client::make(request_t::FAULT_RESET, both));
     EXPECT_EQ(reset.status, st(reply_t::DONE)) << reset.reason;
   }
-  if (!lab.state("x").enabled || !lab.state("y").enabled) {
-    ASSERT_TRUE(lab.enable(both));
-  }
-  const auto again = wait_terminal(send(Client::make(request_t::MOVE_RELATIVE, Values{{"x", -5.0}, {"y", -5.0}})), seconds(30));
+  if (!lab.state("x").enabled || !lab.state("y").enabled) { ASSERT_TRUE(lab.enable(both)); }
+  const auto again =
+      wait_terminal(send(Client::make(request_t::MOVE_RELATIVE, Values{{"x", -5.0}, {"y", -5.0}})), seconds(30));
   EXPECT_EQ(again.status, st(reply_t::DONE)) << again.reason;
 }
 

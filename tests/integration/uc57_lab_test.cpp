@@ -52,13 +52,16 @@ class Uc57Lab : public ::testing::Test {
     return static_cast<std::size_t>(std::find(r.axes.begin(), r.axes.end(), axis) - r.axes.begin());
   }
   bool saw_event(const std::string& axis, std::int16_t kind) {
-    return std::any_of(events.begin(), events.end(), [&](const event_t& e) { return e.axis == axis && e.kind == kind; });
+    return std::any_of(events.begin(), events.end(),
+                       [&](const event_t& e) { return e.axis == axis && e.kind == kind; });
   }
   const event_t* find_event(const std::string& axis, std::int16_t kind) {
-    const auto it = std::find_if(events.begin(), events.end(), [&](const event_t& e) { return e.axis == axis && e.kind == kind; });
+    const auto it =
+        std::find_if(events.begin(), events.end(), [&](const event_t& e) { return e.axis == axis && e.kind == kind; });
     return it == events.end() ? nullptr : &*it;
   }
-  reply_t param(std::int8_t kind, const std::string& axis, std::int32_t index, std::int32_t subindex, std::int64_t value = 0) {
+  reply_t param(std::int8_t kind, const std::string& axis, std::int32_t index, std::int32_t subindex,
+                std::int64_t value = 0) {
     request_t r = Client::make(kind, std::vector<std::string>{axis});
     r.param.space = motionlcm::param_t::CANOPEN_OBJECT;
     r.param.index = index;
@@ -73,7 +76,8 @@ class Uc57Lab : public ::testing::Test {
 
 TEST_F(Uc57Lab, ThreeNodesBootConfigureAndEnable) {
   for (const auto& axis : kAxes) {
-    EXPECT_TRUE(lab.client().wait_until([&] { return state(axis).online && state(axis).enabled && !state(axis).fault; }, seconds(5)))
+    EXPECT_TRUE(lab.client().wait_until([&] { return state(axis).online && state(axis).enabled && !state(axis).fault; },
+                                        seconds(5)))
         << axis;
     EXPECT_TRUE(saw_event(axis, ev(event_t::ONLINE)) || state(axis).online) << axis;
   }
@@ -114,7 +118,8 @@ TEST_F(Uc57Lab, JogRunsInProfileVelocityUntilStopped) {
   const auto jog = lab.call(Client::make(request_t::JOG, Values{{"b", 90.0}}));
   ASSERT_EQ(jog.status, st(reply_t::DONE)) << jog.reason;
   // Running forward: the position grows while jogging.
-  ASSERT_TRUE(lab.client().wait_until([&] { return state("b").moving && position("b") > 10.0; }, seconds(10))) << position("b");
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("b").moving && position("b") > 10.0; }, seconds(10)))
+      << position("b");
   const double before = position("b");
   ASSERT_TRUE(lab.client().wait_until([&] { return position("b") > before + 5.0; }, seconds(10))) << position("b");
 
@@ -179,7 +184,8 @@ TEST_F(Uc57Lab, ThreeAxesStartOnOneSyncAndArrive) {
     const auto i = index_of(done, axis);
     ASSERT_LT(i, done.axes.size()) << axis;
     EXPECT_NEAR(done.positions[i], target, kTolerance) << axis;
-    EXPECT_TRUE(lab.client().wait_until([&] { return settled_at(axis, target); }, seconds(5))) << axis << " at " << position(axis);
+    EXPECT_TRUE(lab.client().wait_until([&] { return settled_at(axis, target); }, seconds(5)))
+        << axis << " at " << position(axis);
   }
   EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);
 }
@@ -190,8 +196,11 @@ TEST_F(Uc57Lab, PowerCycledNodeIsDetectedReconfiguredAndMovesAgain) {
 
   // Power-cycled in the middle of a long move.
   std::vector<reply_t> replies;
-  ASSERT_NE(lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"b", 400.0}}), [&](const reply_t& r) { replies.push_back(r); }), 0);
-  ASSERT_TRUE(lab.client().wait_until([&] { return state("b").moving && position("b") > 60.0; }, seconds(10))) << position("b");
+  ASSERT_NE(lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"b", 400.0}}),
+                              [&](const reply_t& r) { replies.push_back(r); }),
+            0);
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("b").moving && position("b") > 60.0; }, seconds(10)))
+      << position("b");
   lab.control("b-drive", sim_control_t::POWER_CYCLE);
   // The boot-up message is seen: a REBOOT event naming b, and b goes through offline.
   ASSERT_TRUE(lab.client().wait_until([&] { return saw_event("b", ev(event_t::REBOOT)); }, seconds(10)));
@@ -199,19 +208,26 @@ TEST_F(Uc57Lab, PowerCycledNodeIsDetectedReconfiguredAndMovesAgain) {
   ASSERT_NE(reboot, nullptr);
   EXPECT_TRUE(contains(reboot->text, "b-drive")) << reboot->text;
   // Exactly one terminal reply to the move, not DONE.
-  const auto terminal = [&] { return std::count_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); }); };
+  const auto terminal = [&] {
+    return std::count_if(replies.begin(), replies.end(),
+                         [](const reply_t& r) { return client::is_terminal(r.status); });
+  };
   ASSERT_TRUE(lab.client().wait_until([&] { return terminal() == 1; }, seconds(15)));
   EXPECT_FALSE(saw(replies, reply_t::DONE));
   // Re-configured: online again (an ONLINE event after the reboot) with the drive's fresh state:
   // position 0 (volatile), disabled (CiA 402 starts in Switch on disabled).
   ASSERT_TRUE(lab.client().wait_until(
       [&] {
-        const auto reboot_at = std::find_if(events.begin(), events.end(), [](const event_t& e) { return e.axis == "b" && e.kind == ev(event_t::REBOOT); });
-        return std::any_of(reboot_at, events.end(), [](const event_t& e) { return e.axis == "b" && e.kind == ev(event_t::ONLINE); }) &&
+        const auto reboot_at = std::find_if(events.begin(), events.end(), [](const event_t& e) {
+          return e.axis == "b" && e.kind == ev(event_t::REBOOT);
+        });
+        return std::any_of(reboot_at, events.end(),
+                           [](const event_t& e) { return e.axis == "b" && e.kind == ev(event_t::ONLINE); }) &&
                state("b").online;
       },
       seconds(15)));
-  ASSERT_TRUE(lab.client().wait_until([&] { return !state("b").enabled && std::abs(position("b")) <= kTolerance; }, seconds(5)))
+  ASSERT_TRUE(
+      lab.client().wait_until([&] { return !state("b").enabled && std::abs(position("b")) <= kTolerance; }, seconds(5)))
       << "enabled " << state("b").enabled << " position " << position("b");
   // Position lost / not homed, in its state and in an event naming it.
   EXPECT_EQ(state("b").fault_code, motionlcm::axis_state_t::POSITION_LOST) << state("b").fault_text;
@@ -232,13 +248,15 @@ TEST_F(Uc57Lab, PowerCycledNodeIsDetectedReconfiguredAndMovesAgain) {
   EXPECT_EQ(refused.error_code, code(ReplyError::kPositionLost)) << refused.reason;
   const auto homed = lab.call(Client::make(request_t::HOME, std::vector<std::string>{"b"}));
   ASSERT_EQ(homed.status, st(reply_t::DONE)) << homed.reason;
-  ASSERT_TRUE(lab.client().wait_until([&] { return state("b").homed && state("b").fault_code != motionlcm::axis_state_t::POSITION_LOST; }, seconds(5)));
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] { return state("b").homed && state("b").fault_code != motionlcm::axis_state_t::POSITION_LOST; }, seconds(5)));
 
   // It can move again, in step with the others.
   lab.clear_reports();
   const auto again = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", 20.0}, {"b", 60.0}}));
   ASSERT_EQ(again.status, st(reply_t::DONE)) << again.reason;
-  EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("b", 60.0) && settled_at("a", 20.0); }, seconds(5))) << position("b");
+  EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("b", 60.0) && settled_at("a", 20.0); }, seconds(5)))
+      << position("b");
   const auto a = lab.starts_of("a-drive");
   const auto b = lab.starts_of("b-drive");
   ASSERT_EQ(a.size(), 1u);
@@ -295,7 +313,8 @@ TEST_F(Uc57Lab, HeartbeatLossRaisesAnEventAndAbortsTheGroupNamingTheAxis) {
   ASSERT_TRUE(lab.client().wait_until([&] { return state("a").moving && state("c").moving; }, seconds(5)));
   lab.control("c-drive", sim_control_t::SILENCE, 1);
 
-  ASSERT_TRUE(lab.client().wait_until([&] { return !replies.empty() && client::is_terminal(replies.back().status); }, seconds(15)));
+  ASSERT_TRUE(lab.client().wait_until([&] { return !replies.empty() && client::is_terminal(replies.back().status); },
+                                      seconds(15)));
   const reply_t& last = replies.back();
   EXPECT_EQ(last.status, st(reply_t::ABORTED)) << last.reason;
   EXPECT_TRUE(contains(last.reason, "c-drive") || contains(last.reason, "axis c")) << last.reason;

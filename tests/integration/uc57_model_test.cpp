@@ -27,7 +27,9 @@ TEST(Uc57Model, DriveResolutionReadBackDrivesThePlanAndTheMoveLandsOnTime) {
   SimLab lab(source_path("tests/integration/configs/uc57-resolution.yaml"));
   std::optional<drive_model_t> model;
   lab.group().node().subscribe<drive_model_t>(lcm::channels::kDriveModel,
-                                              [&](const drive_model_t& m, const std::string&) { if (m.axis == "a") model = m; });
+                                              [&](const drive_model_t& m, const std::string&) {
+                                                if (m.axis == "a") model = m;
+                                              });
   std::vector<event_t> events;
   lab.client().on_event([&](const event_t& e) { events.push_back(e); });
   ASSERT_TRUE(lab.start({"a"}));
@@ -50,7 +52,8 @@ TEST(Uc57Model, DriveResolutionReadBackDrivesThePlanAndTheMoveLandsOnTime) {
   lab.group().stop(static_cast<pid_t>(gateway->pid));  // reap it
   model.reset();
   ASSERT_GT(lab.start_gateway("can0"), 0);
-  ASSERT_TRUE(lab.client().wait_until([&] { return model.has_value(); }, seconds(15))) << "no DRIVE_MODEL from the new gateway";
+  ASSERT_TRUE(lab.client().wait_until([&] { return model.has_value(); }, seconds(15)))
+      << "no DRIVE_MODEL from the new gateway";
   EXPECT_EQ(model->counts_per_revolution, 3200);
   EXPECT_EQ(model->assumed_counts_per_revolution, 10000);
   EXPECT_EQ(model->resolution_source, std::int8_t{drive_model_t::RESOLUTION_READ_BACK});
@@ -58,18 +61,21 @@ TEST(Uc57Model, DriveResolutionReadBackDrivesThePlanAndTheMoveLandsOnTime) {
   ASSERT_TRUE(lab.client().wait_until(
       [&] {
         return std::any_of(events.begin(), events.end(), [](const event_t& e) {
-          return e.axis == "a" && e.kind == ev(event_t::CONFIG_MISMATCH) && e.text.find("3200 counts/rev") != std::string::npos;
+          return e.axis == "a" && e.kind == ev(event_t::CONFIG_MISMATCH) &&
+                 e.text.find("3200 counts/rev") != std::string::npos;
         });
       },
       seconds(5)))
       << "no CONFIG_MISMATCH event saying the drive works at 3200 counts/rev";
   // motionctl status --model asks the gateways and prints what they say.
   std::string printed;
-  ASSERT_EQ(lab.group().run_to_completion({"status-model", "motionctl", {"--config", lab.config_path(), "status", "--model"}, {}}, &printed,
-                                          seconds(20)),
+  ASSERT_EQ(lab.group().run_to_completion(
+                {"status-model", "motionctl", {"--config", lab.config_path(), "status", "--model"}, {}}, &printed,
+                seconds(20)),
             0)
       << printed;
-  EXPECT_NE(printed.find("resolution  3200 counts/rev (configuration implies 10000), read back"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("resolution  3200 counts/rev (configuration implies 10000), read back"), std::string::npos)
+      << printed;
   EXPECT_NE(printed.find("start       SYNC (address 128)"), std::string::npos) << printed;
   ASSERT_TRUE(lab.client().wait_until([&] { return lab.client().axes().at("a").online; }, seconds(15)));
   const auto enabled = lab.call(Client::make(request_t::ENABLE, std::vector<std::string>{"a"}));
@@ -85,8 +91,9 @@ TEST(Uc57Model, DriveResolutionReadBackDrivesThePlanAndTheMoveLandsOnTime) {
   EXPECT_EQ(lab.client().axes().at("a").position_counts, 2500);
   ASSERT_TRUE(lab.client().wait_until(
       [&] {
-        return std::any_of(lab.reports().begin(), lab.reports().end(),
-                           [](const motionlcm::sim_report_t& r) { return r.kind == motionlcm::sim_report_t::MOTION_FINISHED; });
+        return std::any_of(lab.reports().begin(), lab.reports().end(), [](const motionlcm::sim_report_t& r) {
+          return r.kind == motionlcm::sim_report_t::MOTION_FINISHED;
+        });
       },
       seconds(5)));
   const motionlcm::sim_report_t* started = nullptr;
@@ -104,10 +111,13 @@ TEST(Uc57Model, DriveResolutionReadBackDrivesThePlanAndTheMoveLandsOnTime) {
   // at most the start-speed jump the trapezoid model ignores (200Eh 10 rpm = 533 counts/s here,
   // quantizer.hpp: tens of ms on this move), never late.
   const double measured_s = static_cast<double>(finished->frame_utime - started->frame_utime) / 1e6;
-  std::printf("90 degrees at 3200 counts/rev: predicted %.4f s, measured %.4f s (simulated drive)\n", done.predicted_duration_s, measured_s);
+  std::printf("90 degrees at 3200 counts/rev: predicted %.4f s, measured %.4f s (simulated drive)\n",
+              done.predicted_duration_s, measured_s);
   ASSERT_GT(done.predicted_duration_s, 0.3);
-  EXPECT_LE(measured_s, done.predicted_duration_s + 0.01) << "measured " << measured_s << " s, predicted " << done.predicted_duration_s << " s";
-  EXPECT_GE(measured_s, done.predicted_duration_s - 0.05) << "measured " << measured_s << " s, predicted " << done.predicted_duration_s << " s";
+  EXPECT_LE(measured_s, done.predicted_duration_s + 0.01)
+      << "measured " << measured_s << " s, predicted " << done.predicted_duration_s << " s";
+  EXPECT_GE(measured_s, done.predicted_duration_s - 0.05)
+      << "measured " << measured_s << " s, predicted " << done.predicted_duration_s << " s";
 }
 
 }  // namespace

@@ -24,7 +24,6 @@ namespace {
 
 using Axes = std::vector<std::string>;
 
-
 constexpr double kStepsPerMm = 160.0;
 constexpr double kTolerance = 1.0 / kStepsPerMm + 1e-9;  // one micro-step, in mm
 const Axes kAxes{"u1", "u2"};
@@ -56,11 +55,13 @@ class Uim242Line : public ::testing::Test {
 
   // Requests a move; it must end DONE after ACCEPTED and STARTED, its reply and every axis at rest
   // at `at` (user units).
-  ::testing::AssertionResult move_arrives(std::int8_t kind, const Values& move, const Values& at, reply_t* reply = nullptr) {
+  ::testing::AssertionResult move_arrives(std::int8_t kind, const Values& move, const Values& at,
+                                          reply_t* reply = nullptr) {
     std::vector<reply_t> seen;
     const auto done = lab.call(Client::make(kind, move), &seen);
     if (reply != nullptr) *reply = done;
-    if (done.status != reply_t::DONE) return ::testing::AssertionFailure() << client::status_name(done.status) << ": " << done.reason;
+    if (done.status != reply_t::DONE)
+      return ::testing::AssertionFailure() << client::status_name(done.status) << ": " << done.reason;
     for (const std::int8_t status : {st(reply_t::ACCEPTED), st(reply_t::STARTED)}) {
       if (std::none_of(seen.begin(), seen.end(), [status](const reply_t& r) { return r.status == status; })) {
         return ::testing::AssertionFailure() << "no " << client::status_name(status) << " before DONE";
@@ -72,7 +73,8 @@ class Uim242Line : public ::testing::Test {
       }
     }
     for (const auto& [axis, where] : at) {
-      if (!settled_at(axis, where)) return ::testing::AssertionFailure() << axis << " at " << position(axis) << ", not " << where;
+      if (!settled_at(axis, where))
+        return ::testing::AssertionFailure() << axis << " at " << position(axis) << ", not " << where;
     }
     return ::testing::AssertionSuccess();
   }
@@ -80,7 +82,9 @@ class Uim242Line : public ::testing::Test {
   void send(request_t request, std::vector<reply_t>& replies) {
     lab.client().send(std::move(request), [&replies](const reply_t& r) { replies.push_back(r); });
   }
-  static bool ended(const std::vector<reply_t>& replies) { return !replies.empty() && client::is_terminal(replies.back().status); }
+  static bool ended(const std::vector<reply_t>& replies) {
+    return !replies.empty() && client::is_terminal(replies.back().status);
+  }
   bool event_arrives(std::int16_t kind, const std::string& axis, const std::string& text) {
     return lab.client().wait_until([&] { return lab.has_event(kind, axis, text); }, seconds(5));
   }
@@ -111,7 +115,8 @@ TEST_F(Uim242Line, BothDrivesComeOnlineIdentifiedAndEnableRoundTrips) {
   }
   EXPECT_EQ(state("u2").node_id, 6);
   // `MDL η;` identified each controller behind the gateway.
-  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::ONLINE), "u1", "u1-drive (node 5): UIM242"); }, seconds(2)));
+  EXPECT_TRUE(lab.client().wait_until(
+      [&] { return lab.has_event(ev(event_t::ONLINE), "u1", "u1-drive (node 5): UIM242"); }, seconds(2)));
   EXPECT_TRUE(lab.has_event(ev(event_t::ONLINE), "u2", "u2-drive (node 6): UIM242"));
 
   // `OFF;`: the axis reports disabled and a move of it is refused before anything is sent.
@@ -139,7 +144,8 @@ TEST_F(Uim242Line, AbsoluteAndRelativeMovesArrive) {
   EXPECT_TRUE(lab.starts_of("u2-drive").empty());
 
   // Relative, two axes: each from where it is (u1 from 12.5, u2 from 0).
-  ASSERT_TRUE(move_arrives(request_t::MOVE_RELATIVE, Values{{"u1", -20.0}, {"u2", 7.0}}, Values{{"u1", -7.5}, {"u2", 7.0}}));
+  ASSERT_TRUE(
+      move_arrives(request_t::MOVE_RELATIVE, Values{{"u1", -20.0}, {"u2", 7.0}}, Values{{"u1", -7.5}, {"u2", 7.0}}));
   EXPECT_EQ(start_targets("u1-drive"), (std::vector<std::int64_t>{2000, -1200}));
   EXPECT_EQ(start_targets("u2-drive"), std::vector<std::int64_t>{1120});
 }
@@ -147,7 +153,8 @@ TEST_F(Uim242Line, AbsoluteAndRelativeMovesArrive) {
 TEST_F(Uim242Line, TwoAxisMoveStartsOnOneGlobalSpeedFrame) {
   reply_t done;
   // Equal distances: one planned speed, so one `gSPD v;` can start both.
-  ASSERT_TRUE(move_arrives(request_t::MOVE_ABSOLUTE, Values{{"u1", 10.0}, {"u2", -10.0}}, Values{{"u1", 10.0}, {"u2", -10.0}}, &done));
+  ASSERT_TRUE(move_arrives(request_t::MOVE_ABSOLUTE, Values{{"u1", 10.0}, {"u2", -10.0}},
+                           Values{{"u1", 10.0}, {"u2", -10.0}}, &done));
 
   // Ground truth: both controllers started on the same frame (the gateway-wide `gSPD v;`).
   const auto u1 = lab.starts_of("u1-drive");
@@ -163,7 +170,8 @@ TEST_F(Uim242Line, TwoAxisMoveStartsOnOneGlobalSpeedFrame) {
   ASSERT_NE(started, nullptr);
   EXPECT_EQ(started->start_mechanism, "broadcast");
   EXPECT_DOUBLE_EQ(started->predicted_skew_us, 0.0);
-  EXPECT_LT(std::abs(started->trigger_utime - u1[0].frame_utime), 20'000) << "trigger time vs the simulator's frame time";
+  EXPECT_LT(std::abs(started->trigger_utime - u1[0].frame_utime), 20'000)
+      << "trigger time vs the simulator's frame time";
   EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);
 }
 
@@ -192,7 +200,8 @@ TEST_F(Uim242Line, JogThenStop) {
 TEST_F(Uim242Line, StopMidMoveThenMoveAgainAtOnceEndsExactlyAtTheTarget) {
   std::vector<reply_t> first;
   send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"u1", 90.0}}), first);
-  ASSERT_TRUE(lab.client().wait_until([&] { return position("u1") > 5.0 && state("u1").moving; }, seconds(10))) << "u1 at " << position("u1");
+  ASSERT_TRUE(lab.client().wait_until([&] { return position("u1") > 5.0 && state("u1").moving; }, seconds(10)))
+      << "u1 at " << position("u1");
   // The stop and, without waiting for it, the next move: it is armed while u1 still brakes.
   std::vector<reply_t> stop;
   send(Client::make(request_t::STOP, Axes{"u1"}), stop);
@@ -212,7 +221,8 @@ TEST_F(Uim242Line, DeadDriveGoesOfflineWhileTheOtherKeepsWorking) {
   lab.control("u2-drive", sim_control_t::SILENCE, 1);
   // u2 goes offline (timeout, one retry, then the event naming drive, node and instruction) ...
   ASSERT_TRUE(lab.client().wait_until([&] { return !state("u2").online; }, seconds(5)));
-  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::OFFLINE), "u2", "u2-drive (node 6): '"); }, seconds(2)));
+  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::OFFLINE), "u2", "u2-drive (node 6): '"); },
+                                      seconds(2)));
   EXPECT_FALSE(lab.has_event(ev(event_t::OFFLINE), "u1", ""));
   // ... while u1 keeps being polled and moves.
   const auto u1_sample = state("u1").sample_utime;
@@ -227,13 +237,15 @@ TEST_F(Uim242Line, DeadDriveGoesOfflineWhileTheOtherKeepsWorking) {
   EXPECT_EQ(refused.status, st(reply_t::REJECTED)) << refused.reason;
   EXPECT_TRUE(contains(refused.reason, "u2")) << refused.reason;
   const auto stop = lab.call(Client::make(request_t::STOP, Axes{"u2"}));
-  EXPECT_TRUE(stop.status == st(reply_t::FAILED) || stop.status == st(reply_t::ABORTED)) << client::status_name(stop.status);
+  EXPECT_TRUE(stop.status == st(reply_t::FAILED) || stop.status == st(reply_t::ABORTED))
+      << client::status_name(stop.status);
   EXPECT_TRUE(contains(stop.reason, "u2-drive (node 6)")) << stop.reason;
 
   // The gateway keeps identifying the dead drive: when it answers again it comes back online.
   lab.control("u2-drive", sim_control_t::SILENCE, 0);
   EXPECT_TRUE(lab.client().wait_until([&] { return state("u2").online; }, seconds(10)));
-  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::ONLINE), "u2", "u2-drive (node 6)"); }, seconds(2)));
+  EXPECT_TRUE(lab.client().wait_until([&] { return lab.has_event(ev(event_t::ONLINE), "u2", "u2-drive (node 6)"); },
+                                      seconds(2)));
 }
 
 TEST_F(Uim242Line, MoveBeyondTheLimitsIsRejectedNamingTheAxis) {
@@ -361,21 +373,24 @@ TEST_F(Uim242Line, NoiseOnTheLineIsCountedAndDoesNotWedgeTheGateway) {
   ASSERT_TRUE(lab.client().wait_until([&] { return lab.bus_stats("rs232").has_value(); }, seconds(5)));
   const auto before = errors();
   lab.control_bus("rs232", sim_control_t::LINE_NOISE, kNoiseBytes, kBetweenFrames);
-  ASSERT_TRUE(lab.client().wait_until([&] { return errors() > before; }, seconds(10))) << "noise between frames not counted";
+  ASSERT_TRUE(lab.client().wait_until([&] { return errors() > before; }, seconds(10)))
+      << "noise between frames not counted";
   const auto between = errors();
   // Into a reply: that one is lost (retried); the framer resynchronises on the next frame.
   lab.control_bus("rs232", sim_control_t::LINE_NOISE, kNoiseBytes, kInsideAFrame);
-  ASSERT_TRUE(lab.client().wait_until([&] { return errors() > between; }, seconds(10))) << "noise inside a frame not counted";
+  ASSERT_TRUE(lab.client().wait_until([&] { return errors() > between; }, seconds(10)))
+      << "noise inside a frame not counted";
 
   // Both axes stayed online and are still polled ...
   for (const auto& axis : kAxes) EXPECT_FALSE(lab.has_event(ev(event_t::OFFLINE), axis, "")) << axis;
   const auto u1_sample = state("u1").sample_utime;
   const auto u2_sample = state("u2").sample_utime;
-  ASSERT_TRUE(lab.client().wait_until([&] { return state("u1").sample_utime > u1_sample && state("u2").sample_utime > u2_sample; },
-                                      seconds(5)));
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] { return state("u1").sample_utime > u1_sample && state("u2").sample_utime > u2_sample; }, seconds(5)));
   EXPECT_TRUE(state("u1").online && state("u2").online);
   // ... and a move of both still arrives, on one global start.
-  ASSERT_TRUE(move_arrives(request_t::MOVE_ABSOLUTE, Values{{"u1", 10.0}, {"u2", -10.0}}, Values{{"u1", 10.0}, {"u2", -10.0}}));
+  ASSERT_TRUE(
+      move_arrives(request_t::MOVE_ABSOLUTE, Values{{"u1", 10.0}, {"u2", -10.0}}, Values{{"u1", 10.0}, {"u2", -10.0}}));
   EXPECT_EQ(lab.bus_stats("rs232").value().drives_online, 2);
 }
 
@@ -407,7 +422,8 @@ TEST_F(Uim242Line, ExpertParametersReadAndWriteByMnemonic) {
   // Refused, saying what was wrong and naming the drive where it got that far; nothing written.
   const auto unknown = param(request_t::PARAM_READ, "u2", "XYZ");
   EXPECT_EQ(unknown.status, st(reply_t::FAILED)) << unknown.reason;
-  EXPECT_EQ(unknown.error_code, code(ReplyError::kMalformedRequest)) << unknown.reason;  // the gateway's code, passed on
+  EXPECT_EQ(unknown.error_code, code(ReplyError::kMalformedRequest))
+      << unknown.reason;  // the gateway's code, passed on
   EXPECT_TRUE(contains(unknown.reason, "'XYZ' is not a UIM242 controller instruction")) << unknown.reason;
   constexpr std::int64_t kAboveSixteenBits = 70000;
   const auto too_big = param(request_t::PARAM_WRITE, "u2", "SQT", -1, kAboveSixteenBits);

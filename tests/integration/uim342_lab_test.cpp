@@ -41,9 +41,11 @@ bool contains(const std::string& text, const std::string& part) { return text.fi
 class Uim342Lab : public ::testing::Test {
  protected:
   Uim342Lab() : lab(source_path("tests/integration/configs/uim342-three-group.yaml")) {
-    lab.group().node().subscribe<sim_report_t>(lcm::channels::kSimReport, [this](const sim_report_t& r, const std::string&) {
-      if (r.kind == report_kind(sim_report_t::MOTION_FINISHED)) finished.push_back(r);
-    });
+    lab.group().node().subscribe<sim_report_t>(lcm::channels::kSimReport,
+                                               [this](const sim_report_t& r, const std::string&) {
+                                                 if (r.kind == report_kind(sim_report_t::MOTION_FINISHED))
+                                                   finished.push_back(r);
+                                               });
   }
 
   void SetUp() override {
@@ -64,8 +66,8 @@ class Uim342Lab : public ::testing::Test {
     return static_cast<std::size_t>(std::find(r.axes.begin(), r.axes.end(), axis) - r.axes.begin());
   }
   const event_t* find_event(const std::string& axis, std::int16_t kind, std::size_t from = 0) {
-    const auto it = std::find_if(events.begin() + static_cast<std::ptrdiff_t>(std::min(from, events.size())), events.end(),
-                                 [&](const event_t& e) { return e.axis == axis && e.kind == kind; });
+    const auto it = std::find_if(events.begin() + static_cast<std::ptrdiff_t>(std::min(from, events.size())),
+                                 events.end(), [&](const event_t& e) { return e.axis == axis && e.kind == kind; });
     return it == events.end() ? nullptr : &*it;
   }
   std::vector<sim_report_t> finishes_of(const std::string& drive) const {
@@ -140,7 +142,8 @@ TEST_F(Uim342Lab, AbsoluteAndRelativeMovesArrive) {
 TEST_F(Uim342Lab, JogRunsUntilStoppedThenTheAxisStandsStill) {
   const auto jog = lab.call(Client::make(request_t::JOG, Values{{"w", 10.0}}));
   ASSERT_EQ(jog.status, st(reply_t::DONE)) << jog.reason;
-  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").moving && position("w") > 1.0; }, seconds(10))) << position("w");
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").moving && position("w") > 1.0; }, seconds(10)))
+      << position("w");
   const double before = position("w");
   ASSERT_TRUE(lab.client().wait_until([&] { return position("w") > before + 1.0; }, seconds(10))) << position("w");
   EXPECT_GT(state("w").velocity, 0.0);
@@ -153,7 +156,8 @@ TEST_F(Uim342Lab, JogRunsUntilStoppedThenTheAxisStandsStill) {
   const double stopped = position("w");
   pause(std::chrono::milliseconds(300));
   EXPECT_NEAR(position("w"), stopped, kTolerance);
-  EXPECT_NEAR(position("w"), static_cast<double>(finishes_of("w-drive").back().position_counts) / kStepsPerMm, kTolerance);
+  EXPECT_NEAR(position("w"), static_cast<double>(finishes_of("w-drive").back().position_counts) / kStepsPerMm,
+              kTolerance);
   EXPECT_GT(stopped, before);
 
   // The axis takes position moves again after the jog (PA switches the drive back to PTP).
@@ -198,8 +202,9 @@ TEST_F(Uim342Lab, HomeSearchesTheSwitchAndSetsTheOriginAtItsEdge) {
 
 TEST_F(Uim342Lab, InputEdgesArriveAsNotificationsInStateAndEvents) {
   lab.control("x2-drive", sim_control_t::SET_INPUT, 2, 1);
-  ASSERT_TRUE(lab.client().wait_until([&] { return find_event("x2", ev(event_t::INPUT_EDGE)) != nullptr && (state("x2").inputs & 2) != 0; },
-                                      seconds(10)))
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] { return find_event("x2", ev(event_t::INPUT_EDGE)) != nullptr && (state("x2").inputs & 2) != 0; },
+      seconds(10)))
       << "inputs " << state("x2").inputs;
   const event_t* rising = find_event("x2", ev(event_t::INPUT_EDGE));
   EXPECT_TRUE(contains(rising->text, "IN2")) << rising->text;
@@ -211,8 +216,9 @@ TEST_F(Uim342Lab, InputEdgesArriveAsNotificationsInStateAndEvents) {
 
   const std::size_t seen = events.size();
   lab.control("x2-drive", sim_control_t::SET_INPUT, 2, 0);
-  ASSERT_TRUE(lab.client().wait_until([&] { return find_event("x2", ev(event_t::INPUT_EDGE), seen) != nullptr && (state("x2").inputs & 2) == 0; },
-                                      seconds(10)))
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] { return find_event("x2", ev(event_t::INPUT_EDGE), seen) != nullptr && (state("x2").inputs & 2) == 0; },
+      seconds(10)))
       << "inputs " << state("x2").inputs;
   EXPECT_TRUE(contains(find_event("x2", ev(event_t::INPUT_EDGE), seen)->text, "falling"));
   // An input edge is information, not a fault.
@@ -224,7 +230,8 @@ TEST_F(Uim342Lab, PositionReachedNotificationEndsTheMove) {
   ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
   // The drive's PTP-finished notification (IE[8], §2.4) carries the final position: the stack's
   // MOTION_COMPLETE event names it exactly (a status poll would only have an earlier sample).
-  ASSERT_TRUE(lab.client().wait_until([&] { return find_event("x3", ev(event_t::MOTION_COMPLETE)) != nullptr; }, seconds(10)));
+  ASSERT_TRUE(
+      lab.client().wait_until([&] { return find_event("x3", ev(event_t::MOTION_COMPLETE)) != nullptr; }, seconds(10)));
   const event_t* complete = find_event("x3", ev(event_t::MOTION_COMPLETE));
   EXPECT_TRUE(contains(complete->text, "in position at 1920")) << complete->text;
   EXPECT_TRUE(contains(complete->text, "x3-drive")) << complete->text;
@@ -264,7 +271,8 @@ TEST_F(Uim342Lab, GroupBgStartsAllThreeAxesOnTheSameFrame) {
     const auto i = index_of(done, axis);
     ASSERT_LT(i, done.axes.size()) << axis;
     EXPECT_NEAR(done.positions[i], target, kTolerance) << axis;
-    EXPECT_TRUE(lab.client().wait_until([&] { return settled_at(axis, target); }, seconds(10))) << axis << " at " << position(axis);
+    EXPECT_TRUE(lab.client().wait_until([&] { return settled_at(axis, target); }, seconds(10)))
+        << axis << " at " << position(axis);
   }
   EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);
   EXPECT_NEAR(done.predicted_skew_us, 0.0, 1.0);
@@ -275,7 +283,8 @@ TEST_F(Uim342Lab, GroupBgStartsAllThreeAxesOnTheSameFrame) {
 TEST_F(Uim342Lab, SilentDriveGoesOfflineWhileTheOthersKeepWorking) {
   lab.control("x3-drive", sim_control_t::SILENCE, 1);
   // Its status polls run out of retries: TIMEOUT and OFFLINE events naming the drive.
-  ASSERT_TRUE(lab.client().wait_until([&] { return find_event("x3", ev(event_t::OFFLINE)) != nullptr && !state("x3").online; }, seconds(15)));
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] { return find_event("x3", ev(event_t::OFFLINE)) != nullptr && !state("x3").online; }, seconds(15)));
   const event_t* offline = find_event("x3", ev(event_t::OFFLINE));
   EXPECT_TRUE(contains(offline->text, "x3-drive")) << offline->text;
   const event_t* timeout = find_event("x3", ev(event_t::TIMEOUT));
@@ -298,7 +307,8 @@ TEST_F(Uim342Lab, SilentDriveGoesOfflineWhileTheOthersKeepWorking) {
   const auto done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, targets));
   ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
   for (const auto& [axis, target] : targets) {
-    EXPECT_TRUE(lab.client().wait_until([&] { return settled_at(axis, target); }, seconds(10))) << axis << " at " << position(axis);
+    EXPECT_TRUE(lab.client().wait_until([&] { return settled_at(axis, target); }, seconds(10)))
+        << axis << " at " << position(axis);
   }
   EXPECT_EQ(lab.starts_of("x1-drive").size(), 1u);
   EXPECT_EQ(lab.starts_of("x2-drive").size(), 1u);
@@ -307,7 +317,8 @@ TEST_F(Uim342Lab, SilentDriveGoesOfflineWhileTheOthersKeepWorking) {
   // Answering again: identified, set up and online again; the whole group starts on one BG.
   const std::size_t seen = events.size();
   lab.control("x3-drive", sim_control_t::SILENCE, 0);
-  ASSERT_TRUE(lab.client().wait_until([&] { return find_event("x3", ev(event_t::ONLINE), seen) != nullptr && state("x3").online; }, seconds(30)));
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] { return find_event("x3", ev(event_t::ONLINE), seen) != nullptr && state("x3").online; }, seconds(30)));
   ASSERT_TRUE(lab.client().wait_until([&] { return state("x3").enabled; }, seconds(10)));
   lab.clear_reports();
   const auto group = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x1", 1.0}, {"x2", 2.0}, {"x3", 3.0}}));
@@ -326,20 +337,28 @@ TEST_F(Uim342Lab, PowerCycledMidMoveSaysPositionLostRefusesMovesUntilItsPosition
   ASSERT_EQ(set.status, st(reply_t::DONE)) << set.reason;
   ASSERT_TRUE(lab.client().wait_until([&] { return settled_at("w", 10.0); }, seconds(10))) << position("w");
   std::vector<reply_t> replies;
-  const auto id = lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"w", 48.0}}), [&](const reply_t& r) { replies.push_back(r); });
+  const auto id = lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"w", 48.0}}),
+                                    [&](const reply_t& r) { replies.push_back(r); });
   ASSERT_NE(id, 0);
-  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").moving && position("w") > 12.0; }, seconds(10))) << position("w");
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").moving && position("w") > 12.0; }, seconds(10)))
+      << position("w");
   const std::size_t seen = events.size();
   lab.control("w-drive", sim_control_t::POWER_CYCLE);  // back at once: counter 0, driver off, no message (§5.3)
 
   // Exactly one terminal reply, not DONE, naming what happened; w at rest, not at its target.
-  const auto terminal = [&] { return std::count_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); }); };
+  const auto terminal = [&] {
+    return std::count_if(replies.begin(), replies.end(),
+                         [](const reply_t& r) { return client::is_terminal(r.status); });
+  };
   ASSERT_TRUE(lab.client().wait_until([&] { return terminal() == 1; }, seconds(15)));
-  const auto end = *std::find_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
+  const auto end =
+      *std::find_if(replies.begin(), replies.end(), [](const reply_t& r) { return client::is_terminal(r.status); });
   EXPECT_NE(end.status, st(reply_t::DONE)) << end.reason;
   EXPECT_TRUE(contains(end.reason, "powered up")) << end.reason;
   // The state says it: not homed, position lost, at rest; a REBOOT event names the axis.
-  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").fault_code == motionlcm::axis_state_t::POSITION_LOST && !state("w").moving; }, seconds(10)))
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] { return state("w").fault_code == motionlcm::axis_state_t::POSITION_LOST && !state("w").moving; },
+      seconds(10)))
       << state("w").fault_code << " " << state("w").fault_text;
   EXPECT_FALSE(state("w").homed);
   EXPECT_FALSE(state("w").fault);
@@ -349,8 +368,9 @@ TEST_F(Uim342Lab, PowerCycledMidMoveSaysPositionLostRefusesMovesUntilItsPosition
   EXPECT_TRUE(contains(lost->text, "position lost")) << lost->text;
   // Set up again (its RAM settings are gone): online, and it can be enabled.
   const auto set_up_again = [&] {
-    return std::any_of(events.begin() + static_cast<std::ptrdiff_t>(seen), events.end(),
-                       [](const event_t& e) { return e.axis == "w" && e.kind == ev(event_t::ONLINE) && contains(e.text, "set up"); });
+    return std::any_of(events.begin() + static_cast<std::ptrdiff_t>(seen), events.end(), [](const event_t& e) {
+      return e.axis == "w" && e.kind == ev(event_t::ONLINE) && contains(e.text, "set up");
+    });
   };
   ASSERT_TRUE(lab.client().wait_until([&] { return set_up_again() && state("w").online; }, seconds(15)));
   ASSERT_TRUE(lab.enable(Axes{"w"}));
@@ -369,7 +389,8 @@ TEST_F(Uim342Lab, PowerCycledMidMoveSaysPositionLostRefusesMovesUntilItsPosition
   // Its position set: valid again, and it moves.
   const auto again = lab.call(Client::make(request_t::SET_POSITION, Values{{"w", 0.0}}));
   ASSERT_EQ(again.status, st(reply_t::DONE)) << again.reason;
-  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").fault_code != motionlcm::axis_state_t::POSITION_LOST; }, seconds(5)));
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("w").fault_code != motionlcm::axis_state_t::POSITION_LOST; },
+                                      seconds(5)));
   const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"w", 3.0}}));
   ASSERT_EQ(moved.status, st(reply_t::DONE)) << moved.reason;
   EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("w", 3.0); }, seconds(10))) << position("w");

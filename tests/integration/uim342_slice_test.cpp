@@ -54,7 +54,8 @@ TEST_F(Uim342Slice, GroupMoveStartsOnOneBgFrameAndArrives) {
   EXPECT_EQ(y[0].target_counts, 3200);
 
   ASSERT_EQ(done.num_axes, 2);
-  for (std::size_t i = 0; i < done.axes.size(); ++i) EXPECT_NEAR(done.positions[i], done.targets[i], kPositionTolerance) << done.axes[i];
+  for (std::size_t i = 0; i < done.axes.size(); ++i)
+    EXPECT_NEAR(done.positions[i], done.targets[i], kPositionTolerance) << done.axes[i];
   EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);
   EXPECT_TRUE(lab.client().wait_until([&] { return std::abs(position("x") - 10.0) < kPositionTolerance; }, seconds(2)));
 }
@@ -78,7 +79,8 @@ TEST_F(Uim342Slice, StallAbortsTheWholeMoveWithTheReason) {
   (void)id;
   ASSERT_TRUE(lab.client().wait_until([&] { return saw(replies, reply_t::STARTED); }, seconds(10)));
   lab.control("y-drive", motionlcm::sim_control_t::STALL);
-  ASSERT_TRUE(lab.client().wait_until([&] { return !replies.empty() && client::is_terminal(replies.back().status); }, seconds(10)));
+  ASSERT_TRUE(lab.client().wait_until([&] { return !replies.empty() && client::is_terminal(replies.back().status); },
+                                      seconds(10)));
   const reply_t& last = replies.back();
   EXPECT_EQ(last.status, status(reply_t::ABORTED)) << last.reason;
   EXPECT_NE(last.reason.find("y"), std::string::npos) << last.reason;

@@ -43,7 +43,7 @@ using Values = std::map<std::string, double>;
 
 constexpr const char* kInterface = "vcan0";
 constexpr const char* kBus = "can0";
-constexpr int kGroupId = 20;             // x-drive and y-drive in vm-lab.yaml
+constexpr int kGroupId = 20;              // x-drive and y-drive in vm-lab.yaml
 constexpr std::uint32_t kSyncId = 0x080;  // CANopen SYNC (COB-ID 80h)
 constexpr auto kStartTimeout = seconds(60);
 constexpr auto kRequestTimeout = seconds(45);
@@ -110,7 +110,8 @@ class VmLab {
   VmLab& operator=(const VmLab&) = delete;
 
   ::testing::AssertionResult start(const std::vector<std::string>& axes) {
-    if (const auto ec = listener_.open(kInterface)) return ::testing::AssertionFailure() << "listener on " << kInterface << ": " << ec.message();
+    if (const auto ec = listener_.open(kInterface))
+      return ::testing::AssertionFailure() << "listener on " << kInterface << ": " << ec.message();
     group_.loop().watch(listener_.fd(), [this] {
       while (auto frame = listener_.receive()) frames_.push_back(*frame);
     });
@@ -121,9 +122,11 @@ class VmLab {
     group_.start({std::string("gateway:") + kBus, "motion-gateway", {"--config", config_path_, "--bus", kBus}, {}});
     group_.start({"coordinator", "motion-coordinator", {"--config", config_path_}, {}});
     for (const std::string name : {"sim", "gateway:can0", "coordinator"}) {
-      if (!group_.wait_for_heartbeat(name, kStartTimeout, true)) return ::testing::AssertionFailure() << "no heartbeat from " << name;
+      if (!group_.wait_for_heartbeat(name, kStartTimeout, true))
+        return ::testing::AssertionFailure() << "no heartbeat from " << name;
     }
-    if (!group_.wait_for_heartbeat("coordinator", kStartTimeout)) return ::testing::AssertionFailure() << "the coordinator never heard the gateway";
+    if (!group_.wait_for_heartbeat("coordinator", kStartTimeout))
+      return ::testing::AssertionFailure() << "the coordinator never heard the gateway";
     const bool online = client_.wait_until(
         [&] {
           return std::all_of(axes.begin(), axes.end(), [&](const std::string& axis) {
@@ -134,7 +137,8 @@ class VmLab {
         kStartTimeout);
     if (!online) {
       auto failure = ::testing::AssertionFailure() << "axes not online within " << kStartTimeout.count() << " s:";
-      for (const auto& axis : axes) failure << " " << axis << (client_.axes().contains(axis) ? "(state seen)" : "(no state)");
+      for (const auto& axis : axes)
+        failure << " " << axis << (client_.axes().contains(axis) ? "(state seen)" : "(no state)");
       return failure;
     }
     return ::testing::AssertionSuccess();
@@ -220,7 +224,8 @@ class SocketCanE2e : public ::testing::Test {
       EXPECT_NEAR(done.targets[i], targets.at(done.axes[i]), lab_->tolerance(done.axes[i])) << done.axes[i];
     }
     for (const auto& [axis, target] : targets) {
-      EXPECT_TRUE(lab_->client().wait_until([&] { return std::abs(lab_->position(axis) - target) <= lab_->tolerance(axis); }, seconds(5)))
+      EXPECT_TRUE(lab_->client().wait_until(
+          [&] { return std::abs(lab_->position(axis) - target) <= lab_->tolerance(axis); }, seconds(5)))
           << axis << " reports " << lab_->position(axis) << ", expected " << target;
     }
   }

@@ -42,7 +42,8 @@ Frame make_frame(std::uint32_t id, bool extended, std::vector<std::uint8_t> payl
 }
 
 std::int64_t wall_us() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
 }
 
 void shell(const std::string& command) { ASSERT_EQ(std::system(command.c_str()), 0) << command; }
@@ -195,11 +196,11 @@ TEST_F(SocketCanVm, KernelFiltersAgreeWithPasses) {
                                     make_frame(0x105, true, {3}), make_frame(0x10F, false, {4}),
                                     make_frame(0x18FF0105, true, {5})};
   const std::vector<std::vector<Filter>> filter_sets = {
-      {{0x100, 0x7F0, false, true}},                          // standard 0x100..0x10F only
-      {{0x105, kMaxExtendedId, false, false}},                // id 0x105 in either format
-      {{0x105, kMaxExtendedId, true, true}},                  // extended 0x105 only
+      {{0x100, 0x7F0, false, true}},                                // standard 0x100..0x10F only
+      {{0x105, kMaxExtendedId, false, false}},                      // id 0x105 in either format
+      {{0x105, kMaxExtendedId, true, true}},                        // extended 0x105 only
       {{0x0105, 0xFFFF, true, true}, {0x205, 0x7FF, false, true}},  // two filters
-      {},                                                     // everything
+      {},                                                           // everything
   };
   for (const auto& filters : filter_sets) {
     ASSERT_FALSE(b.transport.set_filters(filters));

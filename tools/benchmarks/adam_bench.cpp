@@ -67,7 +67,8 @@ struct Recorder final : gateway::GatewayOutput {
   void axis_status(const std::string&, const gateway::DriveStatus&) override {}
   void axis_event(const std::string&, const gateway::DriveEvent&) override {}
   void command_reply(Reply r) override {
-    if (r.command_id != waiting_for || (r.status != std::int8_t{Reply::DONE} && r.status != std::int8_t{Reply::FAILED})) return;
+    if (r.command_id != waiting_for || (r.status != std::int8_t{Reply::DONE} && r.status != std::int8_t{Reply::FAILED}))
+      return;
     done_at = Clock::now();
     done = true;
     failed = r.status == std::int8_t{Reply::FAILED};
@@ -144,7 +145,8 @@ std::string yaml_for(const std::filesystem::path& dir, int drives, int baud) {
   std::string yaml = "buses:\n  - {name: rs485, transport: 'simserial:rs485', baud: " + std::to_string(baud) +
                      ", request_timeout_ms: 200, retries: 1, poll_hz: 1000}\ndrives:\n";
   for (int i = 1; i <= drives; ++i) {
-    yaml += "  - {name: d" + std::to_string(i) + ", family: adam-modbus, bus: rs485, node_id: " + std::to_string(i) + "}\n";
+    yaml +=
+        "  - {name: d" + std::to_string(i) + ", family: adam-modbus, bus: rs485, node_id: " + std::to_string(i) + "}\n";
   }
   yaml += "axes:\n";
   for (int i = 1; i <= drives; ++i) {
@@ -166,8 +168,8 @@ struct LineResult {
 // One line: N drives at `baud`, paced or not; the cycle, then (if commands > 0) the latencies.
 LineResult run_line(int drives, int baud, bool paced, int commands, Duration window) {
   LineResult result;
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("adam-bench-" + std::to_string(::getpid()) + "-" + std::to_string(drives) + "-" + std::to_string(baud));
+  const auto dir = std::filesystem::temp_directory_path() / ("adam-bench-" + std::to_string(::getpid()) + "-" +
+                                                             std::to_string(drives) + "-" + std::to_string(baud));
   std::filesystem::create_directories(dir);
   struct Cleanup {
     std::filesystem::path dir;
@@ -199,7 +201,8 @@ LineResult run_line(int drives, int baud, bool paced, int commands, Duration win
   std::unique_ptr<WireRelay> relay;
   if (paced) {
     master_link = serial::PtyLink::create((dir / "wire.tty").string(), gateway::serial_line_settings(bus), error);
-    if (master_link) drive_port = serial::SerialPort::open(host->link_path(), gateway::serial_line_settings(bus), error);
+    if (master_link)
+      drive_port = serial::SerialPort::open(host->link_path(), gateway::serial_line_settings(bus), error);
     if (!master_link || !drive_port) {
       result.failure = "relay: " + error.message();
       return result;
@@ -234,7 +237,8 @@ LineResult run_line(int drives, int baud, bool paced, int commands, Duration win
     loop.run_once(10ms);
     after = driver.statistics().at(0);
   }
-  const double cycles = static_cast<double>(after.rx_frames - before.rx_frames) / static_cast<double>(transactions_per_cycle);
+  const double cycles =
+      static_cast<double>(after.rx_frames - before.rx_frames) / static_cast<double>(transactions_per_cycle);
   result.cycle_ms = ms(Clock::now() - t0) / cycles;
 
   // Command latency while polling runs.
@@ -273,20 +277,31 @@ LineResult run_line(int drives, int baud, bool paced, int commands, Duration win
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
-  const auto index = static_cast<std::size_t>(std::min<double>(static_cast<double>(v.size()) - 1, p * static_cast<double>(v.size() - 1) + 0.5));
+  const auto index = static_cast<std::size_t>(
+      std::min<double>(static_cast<double>(v.size()) - 1, p * static_cast<double>(v.size() - 1) + 0.5));
   return v[index];
 }
 
 int run(bool quick) {
   const int commands = quick ? 40 : 200;
   const Duration window = quick ? 300ms : 1s;
-  std::printf("ADAM Modbus RTU line: AdamBusDriver (our master) polling N simulated drives (AdamLineSim) on one EventLoop, over ptys\n");
-  std::printf("poll cycle = every drive read once (2 transactions, 38 bytes); bound = bytes x bits/char / baud + t3.5 before every frame\n");
-  std::printf("pty = bytes delivered at once; wire = relay pacing bytes at the baud rate with t3.5 silences (half duplex)\n");
-  std::printf("command = PARAM_READ of one register while polling saturates the line, queued -> reply frame complete (wire model)\n\n");
-  std::printf("%4s %7s | %11s | %9s %6s | %9s %6s | %9s | %8s %6s | %8s %6s | %s\n", "N", "baud", "cycle bound", "pty ms", "ratio",
-              "wire ms", "ratio", "cmd bound", "cmd p50", "ratio", "cmd p99", "ratio", "errors/timeouts/failed");
-  std::printf("%.*s\n", 140, "----------------------------------------------------------------------------------------------------------------------------------------------------");
+  std::printf(
+      "ADAM Modbus RTU line: AdamBusDriver (our master) polling N simulated drives (AdamLineSim) on one EventLoop, "
+      "over ptys\n");
+  std::printf(
+      "poll cycle = every drive read once (2 transactions, 38 bytes); bound = bytes x bits/char / baud + t3.5 before "
+      "every frame\n");
+  std::printf(
+      "pty = bytes delivered at once; wire = relay pacing bytes at the baud rate with t3.5 silences (half duplex)\n");
+  std::printf(
+      "command = PARAM_READ of one register while polling saturates the line, queued -> reply frame complete (wire "
+      "model)\n\n");
+  std::printf("%4s %7s | %11s | %9s %6s | %9s %6s | %9s | %8s %6s | %8s %6s | %s\n", "N", "baud", "cycle bound",
+              "pty ms", "ratio", "wire ms", "ratio", "cmd bound", "cmd p50", "ratio", "cmd p99", "ratio",
+              "errors/timeouts/failed");
+  std::printf("%.*s\n", 140,
+              "--------------------------------------------------------------------------------------------------------"
+              "--------------------------------------------");
   bool all_ok = true;
   for (const int baud : {115200, 19200}) {
     rtu::SerialFormat format;
@@ -308,10 +323,11 @@ int run(bool quick) {
       }
       const double p50 = percentile(wire.latencies_ms, 0.50);
       const double p99 = percentile(wire.latencies_ms, 0.99);
-      std::printf("%4d %7d | %8.2f ms | %9.2f %6.2f | %9.2f %6.2f | %6.2f ms | %8.2f %6.2f | %8.2f %6.2f | %lld/%lld/%lld\n", drives, baud,
-                  bound, raw.cycle_ms, raw.cycle_ms / bound, wire.cycle_ms, wire.cycle_ms / bound, ms(command), p50, p50 / ms(command), p99,
-                  p99 / ms(command), static_cast<long long>(raw.errors + wire.errors), static_cast<long long>(raw.timeouts + wire.timeouts),
-                  static_cast<long long>(wire.failed_commands));
+      std::printf(
+          "%4d %7d | %8.2f ms | %9.2f %6.2f | %9.2f %6.2f | %6.2f ms | %8.2f %6.2f | %8.2f %6.2f | %lld/%lld/%lld\n",
+          drives, baud, bound, raw.cycle_ms, raw.cycle_ms / bound, wire.cycle_ms, wire.cycle_ms / bound, ms(command),
+          p50, p50 / ms(command), p99, p99 / ms(command), static_cast<long long>(raw.errors + wire.errors),
+          static_cast<long long>(raw.timeouts + wire.timeouts), static_cast<long long>(wire.failed_commands));
       std::fflush(stdout);
     }
   }

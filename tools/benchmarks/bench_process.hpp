@@ -26,7 +26,9 @@ namespace motion::bench {
 
 using Steady = std::chrono::steady_clock;
 
-inline double us_between(Steady::time_point a, Steady::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); }
+inline double us_between(Steady::time_point a, Steady::time_point b) {
+  return std::chrono::duration<double, std::micro>(b - a).count();
+}
 
 inline double percentile(std::vector<double> v, double p) {
   if (v.empty()) return NAN;
@@ -44,7 +46,8 @@ struct Child {
   pid_t pid = -1;
 };
 
-inline pid_t spawn(const std::string& binary, const std::vector<std::string>& args, const std::string& sim_dir, const std::string& log) {
+inline pid_t spawn(const std::string& binary, const std::vector<std::string>& args, const std::string& sim_dir,
+                   const std::string& log) {
   const pid_t pid = ::fork();
   if (pid != 0) return pid;
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
@@ -90,7 +93,8 @@ inline void stop_all(std::vector<Child>& children) {
 
 class Echo {
  public:
-  Echo(const std::string& url, std::string ping, std::string pong) : lcm_(url), ping_(std::move(ping)), pong_(std::move(pong)) {
+  Echo(const std::string& url, std::string ping, std::string pong)
+      : lcm_(url), ping_(std::move(ping)), pong_(std::move(pong)) {
     lcm_.subscribe(ping_, &Echo::on_ping, this);
     thread_ = std::thread([this] {
       while (!stop_) lcm_.handleTimeout(50);
@@ -105,7 +109,9 @@ class Echo {
   [[nodiscard]] bool ok() { return lcm_.good(); }
 
  private:
-  void on_ping(const ::lcm::ReceiveBuffer* rbuf, const std::string&) { lcm_.publish(pong_, rbuf->data, rbuf->data_size); }
+  void on_ping(const ::lcm::ReceiveBuffer* rbuf, const std::string&) {
+    lcm_.publish(pong_, rbuf->data, rbuf->data_size);
+  }
   ::lcm::LCM lcm_;
   std::string ping_;
   std::string pong_;

@@ -97,7 +97,9 @@ double percentile(std::vector<double> v, double p) {
 }
 
 Duration wire(const can::Frame& f) { return can::frame_duration(f, kBitrate); }
-Duration to_end_of_frame(const can::Frame& f) { return can::bits_duration(can::frame_bits(f).to_end_of_frame(), kBitrate); }
+Duration to_end_of_frame(const can::Frame& f) {
+  return can::bits_duration(can::frame_bits(f).to_end_of_frame(), kBitrate);
+}
 
 // ---- the table ---------------------------------------------------------------------------------
 
@@ -176,9 +178,7 @@ class SdoRig {
       server_ = std::make_unique<canopen::SdoServer>(kNode, server_send, std::move(handlers));
     }
     pump_.loop().watch(client_ep_->fd(), [this] {
-      while (auto f = client_ep_->receive()) {
-        client_->on_frame(*f, pump_.loop().now());
-      }
+      while (auto f = client_ep_->receive()) { client_->on_frame(*f, pump_.loop().now()); }
     });
     pump_.loop().watch(server_ep_->fd(), [this] {
       while (auto f = server_ep_->receive()) {
@@ -200,8 +200,8 @@ class SdoRig {
 
   struct Result {
     bool ok = false;
-    Duration elapsed{};   // this clock, from the request to the completion callback
-    Duration bound{};     // every frame of the transfer, back to back
+    Duration elapsed{};  // this clock, from the request to the completion callback
+    Duration bound{};    // every frame of the transfer, back to back
     std::size_t frames = 0;
   };
 
@@ -220,7 +220,8 @@ class SdoRig {
     Result r;
     const bool finished = pump_.until([&] { return done; });
     r.ok = finished && !error;
-    r.elapsed = pump_.simulated() ? pump_.loop().now() - t0 : std::chrono::duration_cast<Duration>(Clock::now() - wall0);
+    r.elapsed =
+        pump_.simulated() ? pump_.loop().now() - t0 : std::chrono::duration_cast<Duration>(Clock::now() - wall0);
     r.frames = sent_.size();
     for (std::size_t i = 0; i < sent_.size(); ++i) {
       r.bound += i + 1 == sent_.size() ? to_end_of_frame(sent_[i]) : wire(sent_[i]);
@@ -259,7 +260,8 @@ void bench_sdo(bool quick) {
             if (upload) {
               rig.client().upload(kNode, {0x6064, 0}, std::move(cb));
             } else {
-              rig.client().download(kNode, {0x6081, 0}, canopen::encode_value<std::uint32_t>(static_cast<std::uint32_t>(60 + i % 100)),
+              rig.client().download(kNode, {0x6081, 0},
+                                    canopen::encode_value<std::uint32_t>(static_cast<std::uint32_t>(60 + i % 100)),
                                     std::move(cb));
             }
           });
@@ -268,9 +270,11 @@ void bench_sdo(bool quick) {
           bound = r.bound;
         }
         const double p50 = percentile(rtt, 0.5);
-        g_rows.push_back({std::string("SDO expedited ") + (upload ? "upload 6064h" : "download 6081h") + " RTT [" + clock + "]",
-                          fmt2("p50 %.0f us, p99 %.0f us", p50, percentile(rtt, 0.99)), fmt("%.0f us (2 frames)", us(bound)),
-                          p50 / us(bound), simulated ? "Uc57DriveSim, 1 us clock steps" : "Uc57DriveSim; hub delivery from loop timers"});
+        g_rows.push_back(
+            {std::string("SDO expedited ") + (upload ? "upload 6064h" : "download 6081h") + " RTT [" + clock + "]",
+             fmt2("p50 %.0f us, p99 %.0f us", p50, percentile(rtt, 0.99)), fmt("%.0f us (2 frames)", us(bound)),
+             p50 / us(bound),
+             simulated ? "Uc57DriveSim, 1 us clock steps" : "Uc57DriveSim; hub delivery from loop timers"});
       }
     }
     {
@@ -286,7 +290,8 @@ void bench_sdo(bool quick) {
               rig.client().upload(kNode, kDomain, std::move(cb));
             } else {
               std::vector<std::uint8_t> data(kDomainSize, static_cast<std::uint8_t>(i));
-              rig.client().download(kNode, kDomain, std::move(data), std::move(cb), canopen::SdoDownloadMode::kSegmented);
+              rig.client().download(kNode, kDomain, std::move(data), std::move(cb),
+                                    canopen::SdoDownloadMode::kSegmented);
             }
           });
           if (!r.ok) return;
@@ -297,7 +302,8 @@ void bench_sdo(bool quick) {
           frames = r.frames;
         }
         g_rows.push_back({std::string("SDO segmented ") + (upload ? "upload" : "download") + " 4 KiB [" + clock + "]",
-                          fmt("%.1f KiB/s", percentile(rate, 0.5)), fmt("%.1f KiB/s", bound_rate), percentile(ratio, 0.5),
+                          fmt("%.1f KiB/s", percentile(rate, 0.5)), fmt("%.1f KiB/s", bound_rate),
+                          percentile(ratio, 0.5),
                           std::to_string(frames) + " frames/transfer, median of " + std::to_string(segmented) +
                               (simulated ? "" : "; a loop wake-up per hop")});
       }
@@ -313,7 +319,8 @@ void bench_sync(bool quick, bool precise, bool fifo = false) {
   if (precise) minimal_timer_slack();  // this thread from here on (part 3 runs after it)
   const bool realtime = fifo && fifo_scheduling(50);
   if (fifo && !realtime) {
-    g_rows.push_back({"SYNC 1 kHz period jitter [+ SCHED_FIFO]", "-", "-", 0.0, "SCHED_FIFO not permitted here: not measured"});
+    g_rows.push_back(
+        {"SYNC 1 kHz period jitter [+ SCHED_FIFO]", "-", "-", 0.0, "SCHED_FIFO not permitted here: not measured"});
     return;
   }
   Pump pump(nullptr);
@@ -359,12 +366,18 @@ void bench_sync(bool quick, bool precise, bool fifo = false) {
   const double p50 = percentile(jitter, 0.5);
   const double p99 = percentile(jitter, 0.99);
   const double max = jitter.empty() ? 0 : *std::max_element(jitter.begin(), jitter.end());
-  const std::string how = realtime ? " [timerfd, slack 1 ns, FIFO]" : precise ? " [timerfd abs, slack 1 ns]" : " [loop timer, default slack]";
-  const std::string note = std::to_string(jitter.size()) + " periods, " + std::to_string(producer.skipped()) + " skipped by the producer" +
+  const std::string how = realtime  ? " [timerfd, slack 1 ns, FIFO]"
+                          : precise ? " [timerfd abs, slack 1 ns]"
+                                    : " [loop timer, default slack]";
+  const std::string note = std::to_string(jitter.size()) + " periods, " + std::to_string(producer.skipped()) +
+                           " skipped by the producer" +
                            (precise && !precise_timer.absolute() ? "; NO timerfd: loop timer fallback" : "");
-  g_rows.push_back({"SYNC 1 kHz period jitter p50" + how, fmt("%.1f us", p50), fmt("%.0f us (8-byte frame)", frame_us), p50 / frame_us, note});
-  g_rows.push_back({"SYNC 1 kHz period jitter p99" + how, fmt("%.1f us", p99), fmt("%.0f us (8-byte frame)", frame_us), p99 / frame_us, ""});
-  g_rows.push_back({"SYNC 1 kHz period jitter max" + how, fmt("%.1f us", max), fmt("%.0f us (8-byte frame)", frame_us), max / frame_us, ""});
+  g_rows.push_back({"SYNC 1 kHz period jitter p50" + how, fmt("%.1f us", p50), fmt("%.0f us (8-byte frame)", frame_us),
+                    p50 / frame_us, note});
+  g_rows.push_back({"SYNC 1 kHz period jitter p99" + how, fmt("%.1f us", p99), fmt("%.0f us (8-byte frame)", frame_us),
+                    p99 / frame_us, ""});
+  g_rows.push_back({"SYNC 1 kHz period jitter max" + how, fmt("%.1f us", max), fmt("%.0f us (8-byte frame)", frame_us),
+                    max / frame_us, ""});
 }
 
 // ---- 3. boot and configure ---------------------------------------------------------------------
@@ -377,7 +390,8 @@ struct NullOutput final : gateway::GatewayOutput {
 
 std::string boot_config(int nodes, const std::string& dir) {
   std::string y = "lcm: {url: \"udpm://239.255.76.67:7667?ttl=0\", channel_prefix: \"BENCH_\"}\n";
-  y += "buses:\n  - {name: can0, transport: \"simcan:canopenbench\", bitrate: 1000000, bus_timing: true, request_timeout_ms: 50, "
+  y += "buses:\n  - {name: can0, transport: \"simcan:canopenbench\", bitrate: 1000000, bus_timing: true, "
+       "request_timeout_ms: 50, "
        "retries: 2, poll_hz: 20}\n";
   y += "drives:\n";
   for (int n = 1; n <= nodes; ++n) {
@@ -387,7 +401,8 @@ std::string boot_config(int nodes, const std::string& dir) {
   y += "axes:\n";
   for (int n = 1; n <= nodes; ++n) {
     y += "  - {name: a" + std::to_string(n) + ", drive: d" + std::to_string(n) +
-         ", unit: deg, steps_per_unit: 8.888888888888889, limits: {min: -720, max: 720, velocity: 360, acceleration: 1440}}\n";
+         ", unit: deg, steps_per_unit: 8.888888888888889, limits: {min: -720, max: 720, velocity: 360, acceleration: "
+         "1440}}\n";
   }
   y += "simulation: {runtime_dir: \"" + dir + "\", reply_latency_us: 0}\n";
   return y;
@@ -403,8 +418,9 @@ void bench_boot(int nodes, const std::filesystem::path& dir) {
   const config::Bus& bus = config.buses.front();
   Pump pump(nullptr);
   std::error_code error;
-  auto host = sim::CanBusHost::open(pump.loop(), config, bus, {{config::Family::kUc57, sim::uc57_drive_factory()}},
-                                    [](motionlcm::sim_report_t) {}, error);
+  auto host = sim::CanBusHost::open(
+      pump.loop(), config, bus, {{config::Family::kUc57, sim::uc57_drive_factory()}}, [](motionlcm::sim_report_t) {},
+      error);
   if (!host) {
     std::fprintf(stderr, "bench_canopen: cannot open the simulated bus: %s\n", error.message().c_str());
     std::exit(2);
@@ -447,10 +463,12 @@ void bench_boot(int nodes, const std::filesystem::path& dir) {
   char note[160];
   std::snprintf(note, sizeof note, "%s; %zu config frames; last config frame at %.1f ms; all traffic %.1f ms wire",
                 ready ? "ready" : "NOT READY within 60 s", config_frames, until_last_config_ms, ms(all_wire));
-  g_rows.push_back({"boot + configure " + std::to_string(nodes) + " UC57 node" + (nodes == 1 ? "" : "s") + " (start -> ready)",
-                    fmt("%.1f ms", ms(elapsed)), fmt("%.2f ms config wire", ms(config_wire)), ms(elapsed) / ms(config_wire), note});
-  g_rows.push_back({"  same, to the last configuration frame", fmt("%.1f ms", until_last_config_ms), fmt("%.2f ms config wire", ms(config_wire)),
-                    until_last_config_ms / ms(config_wire), "excludes the wait for the first Operational heartbeat"});
+  g_rows.push_back(
+      {"boot + configure " + std::to_string(nodes) + " UC57 node" + (nodes == 1 ? "" : "s") + " (start -> ready)",
+       fmt("%.1f ms", ms(elapsed)), fmt("%.2f ms config wire", ms(config_wire)), ms(elapsed) / ms(config_wire), note});
+  g_rows.push_back({"  same, to the last configuration frame", fmt("%.1f ms", until_last_config_ms),
+                    fmt("%.2f ms config wire", ms(config_wire)), until_last_config_ms / ms(config_wire),
+                    "excludes the wait for the first Operational heartbeat"});
 }
 
 }  // namespace
@@ -472,8 +490,8 @@ int main(int argc, char** argv) {
   std::error_code error;
   const auto dir = std::filesystem::temp_directory_path() / ("canopen-bench-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir, error);
-  std::printf("bench_canopen: SDO (wall and simulated clock), SYNC jitter, boot + configure; bit rate %u bit/s%s\n", motion::kBitrate,
-              quick ? " (quick)" : "");
+  std::printf("bench_canopen: SDO (wall and simulated clock), SYNC jitter, boot + configure; bit rate %u bit/s%s\n",
+              motion::kBitrate, quick ? " (quick)" : "");
   std::fflush(stdout);
   if (!sync_only) motion::bench_sdo(quick);
   motion::bench_sync(quick, false);

@@ -49,6 +49,7 @@
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
+#include "bench_process.hpp"
 #include "motion/can_frame/bit_timing.hpp"
 #include "motion/canopen/sync.hpp"
 #include "motion/client/client.hpp"
@@ -58,7 +59,6 @@
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/node.hpp"
 #include "motion/simbus/endpoint.hpp"
-#include "bench_process.hpp"
 
 namespace motion::bench {
 namespace {
@@ -102,14 +102,17 @@ int run(bool quick, bool skew_only) {
   }
   client::Client client(loop, node, "bench-e2e");
   std::map<std::string, motionlcm::health_t> health;
-  node.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { health[h.process] = h; });
+  node.subscribe<motionlcm::health_t>(lcm::channels::kHealth,
+                                      [&](const motionlcm::health_t& h, const std::string&) { health[h.process] = h; });
   std::vector<motionlcm::sim_report_t> reports;
-  node.subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport, [&](const motionlcm::sim_report_t& r, const std::string&) {
-    if (r.kind == motionlcm::sim_report_t::MOTION_STARTED) reports.push_back(r);
-  });
+  node.subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport,
+                                          [&](const motionlcm::sim_report_t& r, const std::string&) {
+                                            if (r.kind == motionlcm::sim_report_t::MOTION_STARTED) reports.push_back(r);
+                                          });
   std::vector<motionlcm::sync_trigger2_t> scheduled;
-  node.subscribe<motionlcm::sync_trigger2_t>(lcm::channels::kSyncTrigger2,
-                                             [&](const motionlcm::sync_trigger2_t& t, const std::string&) { scheduled.push_back(t); });
+  node.subscribe<motionlcm::sync_trigger2_t>(
+      lcm::channels::kSyncTrigger2,
+      [&](const motionlcm::sync_trigger2_t& t, const std::string&) { scheduled.push_back(t); });
 
   std::vector<Child> children;
   const std::vector<std::string> common{"--config", config_path, "--lcm-url", url, "--log-level", "warn"};
@@ -183,7 +186,8 @@ int run(bool quick, bool skew_only) {
         fail("the LCM echo did not answer");
         break;
       }
-      rows.push_back({"raw LCM round trip (publish -> echo -> back)", percentile(rtt, 50), percentile(rtt, 99), "", NAN});
+      rows.push_back(
+          {"raw LCM round trip (publish -> echo -> back)", percentile(rtt, 50), percentile(rtt, 99), "", NAN});
 
       // CAN frames seen on can0, from our own endpoint on the simulated bus.
       std::error_code ec;
@@ -212,17 +216,18 @@ int run(bool quick, bool skew_only) {
         const std::int64_t from_utime = wall_time_us();
         const auto t0 = Steady::now();
         std::int64_t started_utime = 0;
-        client.send(client::Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", to}, {"y", to / 2}}), [&](const reply_t& r) {
-          if (r.status == reply_t::STARTED && !started) {
-            started = true;
-            t_started = Steady::now();
-            started_utime = wall_time_us();
-          }
-          if (client::is_terminal(r.status)) {
-            ended = true;
-            last = r;
-          }
-        });
+        client.send(client::Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", to}, {"y", to / 2}}),
+                    [&](const reply_t& r) {
+                      if (r.status == reply_t::STARTED && !started) {
+                        started = true;
+                        t_started = Steady::now();
+                        started_utime = wall_time_us();
+                      }
+                      if (client::is_terminal(r.status)) {
+                        ended = true;
+                        last = r;
+                      }
+                    });
         if (!wait([&] { return ended; }, 20) || last.status != reply_t::DONE || !started) {
           fail("move " + std::to_string(i) + " did not end DONE: " + last.reason);
           break;
@@ -245,15 +250,17 @@ int run(bool quick, bool skew_only) {
       rows.push_back({"request -> STARTED, x+y (can0, one BG)", percentile(latency, 50), percentile(latency, 99),
                       "raw LCM round trip p50", percentile(rtt, 50)});
       char what[160];
-      std::snprintf(what, sizeof what, "CAN wire time of its 29-bit frames (%.0f frames p50, at %u bit/s)", percentile(frame_counts, 50),
-                    bitrate);
+      std::snprintf(what, sizeof what, "CAN wire time of its 29-bit frames (%.0f frames p50, at %u bit/s)",
+                    percentile(frame_counts, 50), bitrate);
       rows.push_back({what, percentile(wire, 50), percentile(wire, 99), "", NAN});
-      rows.push_back({"request -> STARTED, x+y", percentile(latency, 50), percentile(latency, 99), "its CAN wire time p50", percentile(wire, 50)});
+      rows.push_back({"request -> STARTED, x+y", percentile(latency, 50), percentile(latency, 99),
+                      "its CAN wire time p50", percentile(wire, 50)});
       loop.unwatch(can0->fd());
     }  // !skew_only
 
     // 3. Start skew, one bus and two buses.
-    const double sync_us = std::chrono::duration<double, std::micro>(can::frame_duration(canopen::encode_sync({}), bitrate)).count();
+    const double sync_us =
+        std::chrono::duration<double, std::micro>(can::frame_duration(canopen::encode_sync({}), bitrate)).count();
     const auto skew_run = [&](const std::vector<std::string>& group, const std::string& label, bool one_bus) {
       std::vector<double> measured;
       std::vector<double> truth;
@@ -283,14 +290,17 @@ int run(bool quick, bool skew_only) {
             hi = std::max(hi, s.frame_utime);
           }
           truth.push_back(static_cast<double>(hi - lo));
-          const auto x = std::find_if(reports.begin(), reports.end(), [](const motionlcm::sim_report_t& s) { return s.drive == "x-drive"; });
+          const auto x = std::find_if(reports.begin(), reports.end(),
+                                      [](const motionlcm::sim_report_t& s) { return s.drive == "x-drive"; });
           if (x != reports.end()) {
-            for (const auto& s : reports) offset[s.drive].push_back(static_cast<double>(s.frame_utime - x->frame_utime));
+            for (const auto& s : reports)
+              offset[s.drive].push_back(static_cast<double>(s.frame_utime - x->frame_utime));
           }
         }
         predicted.push_back(scheduled.empty() ? 0.0 : scheduled.back().predicted_spread_us);
       }
-      rows.push_back({"start skew " + label + ", ground truth (sim frames)", percentile(truth, 50), percentile(truth, 99), "", NAN});
+      rows.push_back({"start skew " + label + ", ground truth (sim frames)", percentile(truth, 50),
+                      percentile(truth, 99), "", NAN});
       if (one_bus) {
         // k = 2 distinct start frames (BG, SYNC): the SYNC's wire time after the BG, + 50 us.
         rows.push_back({"  same, against (k-1) frame times + 50 us", percentile(truth, 50), percentile(truth, 99),
@@ -299,10 +309,12 @@ int run(bool quick, bool skew_only) {
         rows.push_back({"  same, against 200 us + predicted spread", percentile(truth, 50), percentile(truth, 99),
                         "goal + SYNC_TRIGGER2 spread", 200.0 + percentile(predicted, 50), true});
       }
-      rows.push_back({"start skew " + label + ", coordinator measured", percentile(measured, 50), percentile(measured, 99),
-                      "ground truth p50", percentile(truth, 50)});
+      rows.push_back({"start skew " + label + ", coordinator measured", percentile(measured, 50),
+                      percentile(measured, 99), "ground truth p50", percentile(truth, 50)});
       for (const auto& [drive, values] : offset) {
-        if (drive != "x-drive") rows.push_back({"  " + drive + " start - x-drive start (ground truth)", percentile(values, 50), percentile(values, 99), "", NAN});
+        if (drive != "x-drive")
+          rows.push_back({"  " + drive + " start - x-drive start (ground truth)", percentile(values, 50),
+                          percentile(values, 99), "", NAN});
       }
     };
     skew_run({"x", "y", "a", "b"}, "one bus (x,y,a,b: BG+SYNC)", true);
@@ -311,7 +323,8 @@ int run(bool quick, bool skew_only) {
   } while (false);
 
   stop_all(children);
-  std::printf("end to end on the simulated lab (%s), binaries %s, LCM %s\n\n", config_path.c_str(), bin.c_str(), url.c_str());
+  std::printf("end to end on the simulated lab (%s), binaries %s, LCM %s\n\n", config_path.c_str(), bin.c_str(),
+              url.c_str());
   std::printf("%-62s %11s %11s   %-24s %8s\n", "measure", "p50 us", "p99 us", "bound (same run)", "ratio");
   for (const auto& r : rows) {
     std::printf("%-62s %11.1f %11.1f   %-24s", r.what.c_str(), r.p50, r.p99, r.bound.c_str());
@@ -334,8 +347,10 @@ int main(int argc, char** argv) {
   bool quick = false;
   bool skew_only = false;
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--quick") == 0) quick = true;
-    else if (std::strcmp(argv[i], "--skew-only") == 0) skew_only = true;
+    if (std::strcmp(argv[i], "--quick") == 0)
+      quick = true;
+    else if (std::strcmp(argv[i], "--skew-only") == 0)
+      skew_only = true;
   }
   return motion::bench::run(quick, skew_only);
 }

@@ -100,27 +100,31 @@ std::string lab_yaml(const std::vector<BusPlan>& buses, std::map<std::string, st
   std::ostringstream drives;
   std::ostringstream axes;
   for (const auto& b : buses) {
-    buses_out << "  - {name: " << b.name << ", transport: " << (b.kind == "can" ? "simcan:" : "simserial:") << b.name << ", "
-              << (b.kind == "can" ? "bitrate: " : "baud: ") << b.rate << (b.kind == "can" ? ", bus_timing: true" : "")
-              << ", request_timeout_ms: " << (b.kind == "can" ? 50 : 100) << ", retries: 2, poll_hz: " << b.poll_hz << "}\n";
+    buses_out << "  - {name: " << b.name << ", transport: " << (b.kind == "can" ? "simcan:" : "simserial:") << b.name
+              << ", " << (b.kind == "can" ? "bitrate: " : "baud: ") << b.rate
+              << (b.kind == "can" ? ", bus_timing: true" : "")
+              << ", request_timeout_ms: " << (b.kind == "can" ? 50 : 100) << ", retries: 2, poll_hz: " << b.poll_hz
+              << "}\n";
     const auto add = [&](const std::string& family, int first, int count, int group) {
       for (int k = 0; k < count; ++k) {
         const int id = first + k;
-        const std::string axis = b.name + "_" + (family == "uc57" && !b.extra_family.empty() ? "co" : "") + std::to_string(id);
+        const std::string axis =
+            b.name + "_" + (family == "uc57" && !b.extra_family.empty() ? "co" : "") + std::to_string(id);
         drives << "  - {name: " << axis << "-drive, family: " << family << ", bus: " << b.name << ", node_id: " << id
-               << (group != 0 ? ", group_id: " + std::to_string(group) : "") << ", setup: " << setup_of(family) << "}\n";
+               << (group != 0 ? ", group_id: " + std::to_string(group) : "") << ", setup: " << setup_of(family)
+               << "}\n";
         const double steps = family == "uc57" ? 8.888888888888889 : 640.0;  // deg (3200 counts/rev) or mm
         axes << "  - {name: " << axis << ", drive: " << axis << "-drive, steps_per_unit: " << steps
-             << ", limits: {min: -720, max: 720, velocity: " << (family == "uc57" ? 360 : 20) << ", acceleration: "
-             << (family == "uc57" ? 1440 : 200) << "}}\n";
+             << ", limits: {min: -720, max: 720, velocity: " << (family == "uc57" ? 360 : 20)
+             << ", acceleration: " << (family == "uc57" ? 1440 : 200) << "}}\n";
         axis_bus[axis] = b.name;
       }
     };
     add(b.family, b.first_id, b.count, b.group_id);
     if (b.extra_count > 0) add(b.extra_family, b.extra_first_id, b.extra_count, 0);
   }
-  return "lcm: {channel_prefix: \"MOTION_\"}\nbuses:\n" + buses_out.str() + "drives:\n" + drives.str() + "axes:\n" + axes.str() +
-         "coordinator: {default_timeout_ms: 60000, progress_period_ms: 500}\n";
+  return "lcm: {channel_prefix: \"MOTION_\"}\nbuses:\n" + buses_out.str() + "drives:\n" + drives.str() + "axes:\n" +
+         axes.str() + "coordinator: {default_timeout_ms: 60000, progress_period_ms: 500}\n";
 }
 
 // CPU seconds (utime + stime) of `pid`, from /proc/PID/stat; nullopt when it is gone.
@@ -155,7 +159,8 @@ std::string tail_of(const std::string& path, int lines) {
   std::string line;
   while (std::getline(in, line)) all.push_back(line);
   std::string out;
-  for (std::size_t i = all.size() > static_cast<std::size_t>(lines) ? all.size() - static_cast<std::size_t>(lines) : 0; i < all.size(); ++i) {
+  for (std::size_t i = all.size() > static_cast<std::size_t>(lines) ? all.size() - static_cast<std::size_t>(lines) : 0;
+       i < all.size(); ++i) {
     out += "      " + all[i] + "\n";
   }
   return out;
@@ -190,17 +195,20 @@ int run(const Options& opt) {
   }
   client::Client client(loop, node, "bench-lab");
   std::map<std::string, motionlcm::health_t> health;
-  node.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { health[h.process] = h; });
+  node.subscribe<motionlcm::health_t>(lcm::channels::kHealth,
+                                      [&](const motionlcm::health_t& h, const std::string&) { health[h.process] = h; });
   std::map<std::string, long> state_count;  // per bus, AXIS_STATE messages
-  node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
-                                          [&](const motionlcm::axis_state_t& s, const std::string&) { ++state_count[s.bus]; });
+  node.subscribe<motionlcm::axis_state_t>(
+      lcm::channels::kAxisState, [&](const motionlcm::axis_state_t& s, const std::string&) { ++state_count[s.bus]; });
   std::vector<motionlcm::sim_report_t> reports;
-  node.subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport, [&](const motionlcm::sim_report_t& r, const std::string&) {
-    if (r.kind == motionlcm::sim_report_t::MOTION_STARTED) reports.push_back(r);
-  });
+  node.subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport,
+                                          [&](const motionlcm::sim_report_t& r, const std::string&) {
+                                            if (r.kind == motionlcm::sim_report_t::MOTION_STARTED) reports.push_back(r);
+                                          });
   std::vector<motionlcm::sync_trigger2_t> scheduled;
-  node.subscribe<motionlcm::sync_trigger2_t>(lcm::channels::kSyncTrigger2,
-                                             [&](const motionlcm::sync_trigger2_t& t, const std::string&) { scheduled.push_back(t); });
+  node.subscribe<motionlcm::sync_trigger2_t>(
+      lcm::channels::kSyncTrigger2,
+      [&](const motionlcm::sync_trigger2_t& t, const std::string&) { scheduled.push_back(t); });
 
   std::vector<Child> children;
   const std::string bin = MOTION_LAB_BIN_DIR;
@@ -214,7 +222,8 @@ int run(const Options& opt) {
   };
   const auto online_on = [&](const std::string& bus) {
     int n = 0;
-    for (const auto& [axis, s] : client.axes()) n += s.online && axis_bus.contains(axis) && axis_bus.at(axis) == bus ? 1 : 0;
+    for (const auto& [axis, s] : client.axes())
+      n += s.online && axis_bus.contains(axis) && axis_bus.at(axis) == bus ? 1 : 0;
     return n;
   };
 
@@ -229,7 +238,8 @@ int run(const Options& opt) {
       rc = 1;
       break;
     }
-    rows.push_back({"motion-sim up (first heartbeat)", fmt("%.1f s", us_between(t_sim, Steady::now()) / 1e6), "", 0, ""});
+    rows.push_back(
+        {"motion-sim up (first heartbeat)", fmt("%.1f s", us_between(t_sim, Steady::now()) / 1e6), "", 0, ""});
     const auto t0 = Steady::now();
     for (const auto& b : buses) start("gateway:" + b.name, "motion-gateway", {"--bus", b.name});
     start("coordinator", "motion-coordinator", {});
@@ -238,7 +248,8 @@ int run(const Options& opt) {
     wait(
         [&] {
           for (const auto& b : buses) {
-            if (!up_s.contains(b.name) && online_on(b.name) == bus_axes[b.name]) up_s[b.name] = us_between(t0, Steady::now()) / 1e6;
+            if (!up_s.contains(b.name) && online_on(b.name) == bus_axes[b.name])
+              up_s[b.name] = us_between(t0, Steady::now()) / 1e6;
           }
           return up_s.size() == buses.size();
         },
@@ -249,9 +260,12 @@ int run(const Options& opt) {
       if (up_s.contains(b.name)) {
         rows.push_back({what, fmt("%.1f s", up_s[b.name]), "", 0, "every axis online"});
       } else {
-        rows.push_back({what, fmt2("%.0f of %.0f online", static_cast<double>(online), static_cast<double>(bus_axes[b.name])), fmt("%.0f s deadline", opt.bring_up_s), 0, "NOT all online"});
-        findings.push_back("bus " + b.name + ": " + std::to_string(online) + " of " + std::to_string(bus_axes[b.name]) + " axes online after " +
-                           std::to_string(opt.bring_up_s) + " s; its gateway's log ends:\n" + tail_of(dir + "/gateway:" + b.name + ".log", 6));
+        rows.push_back({what,
+                        fmt2("%.0f of %.0f online", static_cast<double>(online), static_cast<double>(bus_axes[b.name])),
+                        fmt("%.0f s deadline", opt.bring_up_s), 0, "NOT all online"});
+        findings.push_back("bus " + b.name + ": " + std::to_string(online) + " of " + std::to_string(bus_axes[b.name]) +
+                           " axes online after " + std::to_string(opt.bring_up_s) + " s; its gateway's log ends:\n" +
+                           tail_of(dir + "/gateway:" + b.name + ".log", 6));
       }
     }
 
@@ -270,19 +284,23 @@ int run(const Options& opt) {
         continue;
       }
       const double share = (*after - cpu_before[c.pid]) / window;
-      rows.push_back({"CPU " + c.name, fmt("%.1f %%", 100 * share), "1 core", share, fmt("RSS %.1f MiB", rss_mib(c.pid))});
+      rows.push_back(
+          {"CPU " + c.name, fmt("%.1f %%", 100 * share), "1 core", share, fmt("RSS %.1f MiB", rss_mib(c.pid))});
     }
     for (const auto& b : buses) {
       const int online = online_on(b.name);
       const double per_s = static_cast<double>(state_count[b.name]) / window;
       const double wanted = static_cast<double>(online * b.poll_hz);
-      rows.push_back({"status updates/s " + b.name, fmt("%.0f /s", per_s), fmt2("%.0f Hz x %.0f online", b.poll_hz, static_cast<double>(online)),
+      rows.push_back({"status updates/s " + b.name, fmt("%.0f /s", per_s),
+                      fmt2("%.0f Hz x %.0f online", b.poll_hz, static_cast<double>(online)),
                       wanted > 0 ? per_s / wanted : 0, ""});
       const auto h = health.find("gateway:" + b.name);
       if (h != health.end()) {
         for (const auto& s : h->second.buses) {
-          rows.push_back({"bus load " + b.name + " (gateway's bus_stats)", fmt("%.1f %%", 100 * s.bus_load), "capacity 100 %", s.bus_load,
-                          fmt2("%.0f tx, %.0f timeouts", static_cast<double>(s.tx_frames), static_cast<double>(s.timeouts))});
+          rows.push_back(
+              {"bus load " + b.name + " (gateway's bus_stats)", fmt("%.1f %%", 100 * s.bus_load), "capacity 100 %",
+               s.bus_load,
+               fmt2("%.0f tx, %.0f timeouts", static_cast<double>(s.tx_frames), static_cast<double>(s.timeouts))});
         }
       }
     }
@@ -361,7 +379,8 @@ int run(const Options& opt) {
         }
       });
       if (!wait([&] { return ended; }, 60) || last.status != reply_t::DONE) {
-        findings.push_back("move " + std::to_string(i) + " of " + std::to_string(group.size()) + " axes did not end DONE: " + last.reason);
+        findings.push_back("move " + std::to_string(i) + " of " + std::to_string(group.size()) +
+                           " axes did not end DONE: " + last.reason);
         rc = 1;
         break;
       }
@@ -379,28 +398,32 @@ int run(const Options& opt) {
     }
     const std::string move = std::to_string(group.size()) + " axes on " + std::to_string(group_buses.size()) + " buses";
     if (!latency.empty()) {
-      rows.push_back({"request -> STARTED p50, " + move, fmt("%.0f us", percentile(latency, 50)), fmt("%.0f us LCM RTT p50", percentile(rtt, 50)),
-                      percentile(latency, 50) / percentile(rtt, 50), fmt("p99 %.0f us", percentile(latency, 99))});
+      rows.push_back({"request -> STARTED p50, " + move, fmt("%.0f us", percentile(latency, 50)),
+                      fmt("%.0f us LCM RTT p50", percentile(rtt, 50)), percentile(latency, 50) / percentile(rtt, 50),
+                      fmt("p99 %.0f us", percentile(latency, 99))});
     }
     if (!truth.empty()) {
       const double bound = 200.0 + percentile(predicted, 50);
-      rows.push_back({"start skew p50 (ground truth), " + move, fmt("%.0f us", percentile(truth, 50)), fmt("%.0f us = 200 + predicted", bound),
-                      percentile(truth, 50) / bound, fmt2("p99 %.0f us (%.2fx)", percentile(truth, 99), percentile(truth, 99) / bound)});
+      rows.push_back({"start skew p50 (ground truth), " + move, fmt("%.0f us", percentile(truth, 50)),
+                      fmt("%.0f us = 200 + predicted", bound), percentile(truth, 50) / bound,
+                      fmt2("p99 %.0f us (%.2fx)", percentile(truth, 99), percentile(truth, 99) / bound)});
     } else {
       findings.push_back("no SIM_REPORT ground truth for the moves");
     }
   } while (false);
 
   stop_all(children);
-  std::printf("lab-scale bench: %zu axes on %zu buses (scale %.2f), config %s, LCM %s\n", axis_bus.size(), buses.size(), opt.scale,
-              config_path.c_str(), url.c_str());
+  std::printf("lab-scale bench: %zu axes on %zu buses (scale %.2f), config %s, LCM %s\n", axis_bus.size(), buses.size(),
+              opt.scale, config_path.c_str(), url.c_str());
   print_rows(rows, "figure", "bound (same run)");
   if (!findings.empty()) {
     std::printf("\nfindings:\n");
     for (const auto& f : findings) std::printf("  - %s\n", f.c_str());
   }
-  if (rc == 0) std::filesystem::remove_all(dir);
-  else std::printf("\nlogs kept in %s\n", dir.c_str());
+  if (rc == 0)
+    std::filesystem::remove_all(dir);
+  else
+    std::printf("\nlogs kept in %s\n", dir.c_str());
   return rc;
 }
 
@@ -412,11 +435,16 @@ int main(int argc, char** argv) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string flag = argv[i];
     const double value = std::atof(argv[i + 1]);
-    if (flag == "--scale" && value > 0 && value <= 1) opt.scale = value;
-    else if (flag == "--bring-up-s") opt.bring_up_s = static_cast<int>(value);
-    else if (flag == "--window-s") opt.window_s = static_cast<int>(value);
-    else if (flag == "--moves") opt.moves = static_cast<int>(value);
-    else if (flag == "--per-bus") opt.per_bus = static_cast<int>(value);
+    if (flag == "--scale" && value > 0 && value <= 1)
+      opt.scale = value;
+    else if (flag == "--bring-up-s")
+      opt.bring_up_s = static_cast<int>(value);
+    else if (flag == "--window-s")
+      opt.window_s = static_cast<int>(value);
+    else if (flag == "--moves")
+      opt.moves = static_cast<int>(value);
+    else if (flag == "--per-bus")
+      opt.per_bus = static_cast<int>(value);
     else {
       std::fprintf(stderr, "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N]\n");
       return 2;

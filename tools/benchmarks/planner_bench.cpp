@@ -72,7 +72,8 @@ double fastest_us(const std::function<void()>& work, int batches = 200, int call
   for (int b = 0; b < batches; ++b) {
     const auto start = std::chrono::steady_clock::now();
     for (int k = 0; k < calls; ++k) work();
-    best = std::min(best, std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count() / calls);
+    best = std::min(
+        best, std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count() / calls);
   }
   return best;
 }
@@ -84,15 +85,15 @@ void print_figures() {
   for (const double axes : {8.0, 64.0}) {
     const Workload w = make_workload(static_cast<int>(axes));
     const double plan_us = fastest_us([&] { sink += plan_synchronized(w.axes).value().duration_s(); });
-    const double quantized_us = fastest_us([&] {
-      sink += quantize_plan(plan_synchronized(w.axes).value(), w.quantizers).value().predicted_spread_s();
-    });
+    const double quantized_us = fastest_us(
+        [&] { sink += quantize_plan(plan_synchronized(w.axes).value(), w.quantizers).value().predicted_spread_s(); });
     const double scale = axes / 8.0;
-    rows.push_back({bench::fmt("%.0f axes, plan + quantize (match_duration)", axes), bench::fmt("%.2f us", quantized_us),
-                    bench::fmt("%.2f us goal", kGoalUs * scale), quantized_us / (kGoalUs * scale),
-                    axes == 8 ? "issue 17 goal" : "the goal scaled by axes / 8"});
-    rows.push_back({bench::fmt("%.0f axes, plan + quantize (match_duration)", axes), bench::fmt("%.2f us", quantized_us),
-                    bench::fmt("%.2f us plan alone", plan_us), quantized_us / plan_us, "planning without quantization, same run"});
+    rows.push_back({bench::fmt("%.0f axes, plan + quantize (match_duration)", axes),
+                    bench::fmt("%.2f us", quantized_us), bench::fmt("%.2f us goal", kGoalUs * scale),
+                    quantized_us / (kGoalUs * scale), axes == 8 ? "issue 17 goal" : "the goal scaled by axes / 8"});
+    rows.push_back({bench::fmt("%.0f axes, plan + quantize (match_duration)", axes),
+                    bench::fmt("%.2f us", quantized_us), bench::fmt("%.2f us plan alone", plan_us),
+                    quantized_us / plan_us, "planning without quantization, same run"});
   }
   bench::print_rows(rows, "figure (fastest of 200 batches)", "bound");
   benchmark::DoNotOptimize(sink);

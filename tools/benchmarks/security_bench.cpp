@@ -33,7 +33,8 @@ motionlcm::request_t move(int axes) {
 
 AuthorizedKeys keys_with(const KeyPair& signer, int principals) {
   std::string text;
-  for (int i = 1; i < principals; ++i) text += KeyPair::generate("other" + std::to_string(i)).authorized_line("observe") + "\n";
+  for (int i = 1; i < principals; ++i)
+    text += KeyPair::generate("other" + std::to_string(i)).authorized_line("observe") + "\n";
   text += signer.authorized_line("operate") + "\n";
   return std::get<AuthorizedKeys>(AuthorizedKeys::parse(text, "bench"));
 }

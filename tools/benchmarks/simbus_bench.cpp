@@ -208,8 +208,7 @@ class SimLink final : public Link {
       while (e->endpoint_id() == 0 && Clock::now() < deadline) {
         pollfd p{e->fd(), POLLIN, 0};
         ::poll(&p, 1, 50);
-        while (e->receive()) {
-        }
+        while (e->receive()) {}
       }
       if (e->endpoint_id() == 0) {
         std::fprintf(stderr, "bench_simbus: no Welcome from the hub\n");
@@ -225,8 +224,7 @@ class SimLink final : public Link {
   }
   std::optional<can::Frame> receive() override { return rx_->receive(); }
   void drain_tx_side() override {
-    while (tx_->receive()) {
-    }
+    while (tx_->receive()) {}
   }
 
  private:
@@ -295,7 +293,8 @@ class RawRelayLink final : public Link {
       const ssize_t n = ::recv(rx_, buffer.data(), buffer.size(), MSG_DONTWAIT);
       if (n <= 0) return std::nullopt;
       const auto message = wire::decode({buffer.data(), static_cast<std::size_t>(n)});
-      if (message && std::holds_alternative<wire::FrameMessage>(*message)) return std::get<wire::FrameMessage>(*message).frame;
+      if (message && std::holds_alternative<wire::FrameMessage>(*message))
+        return std::get<wire::FrameMessage>(*message).frame;
     }
   }
 
@@ -316,7 +315,8 @@ struct StreamResult {
 };
 
 // Sends `count` copies of `frame` keeping at most `window` in flight, until all arrived or `timeout`.
-StreamResult stream(Link& link, const can::Frame& frame, std::uint64_t count, std::uint64_t window, std::chrono::milliseconds timeout) {
+StreamResult stream(Link& link, const can::Frame& frame, std::uint64_t count, std::uint64_t window,
+                    std::chrono::milliseconds timeout) {
   StreamResult r;
   const auto start = Clock::now();
   const auto deadline = start + timeout;
@@ -374,7 +374,9 @@ Percentiles one_way_latency(Link& link, const can::Frame& frame, int samples) {
   Percentiles out;
   out.samples = us.size();
   if (us.empty()) return out;
-  auto at = [&us](double q) { return us[std::min(us.size() - 1, static_cast<std::size_t>(q * static_cast<double>(us.size())))]; };
+  auto at = [&us](double q) {
+    return us[std::min(us.size() - 1, static_cast<std::size_t>(q * static_cast<double>(us.size())))];
+  };
   out.p50 = at(0.50);
   out.p99 = at(0.99);
   return out;
@@ -396,7 +398,8 @@ double best_ns_per_op(std::uint64_t iterations, F&& body) {
   for (int rep = 0; rep < 5; ++rep) {
     const auto t0 = Clock::now();
     body(iterations);
-    const double ns = std::chrono::duration<double, std::nano>(Clock::now() - t0).count() / static_cast<double>(iterations);
+    const double ns =
+        std::chrono::duration<double, std::nano>(Clock::now() - t0).count() / static_cast<double>(iterations);
     best = std::min(best, ns);
   }
   return best;
@@ -439,8 +442,8 @@ void check(bool ok, const char* what) {
 
 int run(bool quick) {
   const double scale = quick ? 0.1 : 1.0;
-  std::printf("simbus benchmark: %u CPUs, load average %s at start%s\n", std::thread::hardware_concurrency(), load_average().c_str(),
-              quick ? " (--quick)" : "");
+  std::printf("simbus benchmark: %u CPUs, load average %s at start%s\n", std::thread::hardware_concurrency(),
+              load_average().c_str(), quick ? " (--quick)" : "");
 
   char tmpl[] = "/tmp/bench-simbus-XXXXXX";
   const char* made = ::mkdtemp(tmpl);
@@ -491,22 +494,25 @@ int run(bool quick) {
         keep_best(sim_latency, one_way_latency(link, std8, latency_samples));
       }
     }
-    std::printf("\n== 1. Unix-socket path, timing model off: endpoint -> hub thread -> endpoint; bound: a bare relay thread\n"
-                "      (recv, decode, encode, send; no bus) on socketpairs, same client loop; best of %d alternating runs ==\n",
-                kRounds);
+    std::printf(
+        "\n== 1. Unix-socket path, timing model off: endpoint -> hub thread -> endpoint; bound: a bare relay thread\n"
+        "      (recv, decode, encode, send; no bus) on socketpairs, same client loop; best of %d alternating runs ==\n",
+        kRounds);
     std::printf("%-34s %14s %14s %8s\n", "", "simbus", "bound", "ratio");
-    std::printf("%-34s %14.0f %14.0f %8.3f   (%llu frames per run, window %llu, lost %llu)\n", "throughput, frames/s", sim_fps, raw_fps,
-                sim_fps / raw_fps, static_cast<unsigned long long>(frames), static_cast<unsigned long long>(kWindow),
-                static_cast<unsigned long long>(lost));
-    std::printf("%-34s %14.1f %14.1f %8.2f   (%d samples per run)\n", "one-way latency p50, us", sim_latency.p50, raw_latency.p50,
-                sim_latency.p50 / raw_latency.p50, latency_samples);
-    std::printf("%-34s %14.1f %14.1f %8.2f\n", "one-way latency p99, us", sim_latency.p99, raw_latency.p99, sim_latency.p99 / raw_latency.p99);
+    std::printf("%-34s %14.0f %14.0f %8.3f   (%llu frames per run, window %llu, lost %llu)\n", "throughput, frames/s",
+                sim_fps, raw_fps, sim_fps / raw_fps, static_cast<unsigned long long>(frames),
+                static_cast<unsigned long long>(kWindow), static_cast<unsigned long long>(lost));
+    std::printf("%-34s %14.1f %14.1f %8.2f   (%d samples per run)\n", "one-way latency p50, us", sim_latency.p50,
+                raw_latency.p50, sim_latency.p50 / raw_latency.p50, latency_samples);
+    std::printf("%-34s %14.1f %14.1f %8.2f\n", "one-way latency p99, us", sim_latency.p99, raw_latency.p99,
+                sim_latency.p99 / raw_latency.p99);
     check(lost == 0, "no frame lost on the untimed bus");
   }
 
   // 2. Frame length: model against the spec.
   std::printf("\n== 2. Frame length, 8-byte data frames, bits incl. 3-bit interframe space ==\n");
-  std::printf("%-7s %-18s %6s %8s %6s %8s %10s %8s\n", "format", "payload", "model", "spec", "ratio", "stuff", "worst(*)", "m/worst");
+  std::printf("%-7s %-18s %6s %8s %6s %8s %10s %8s\n", "format", "payload", "model", "spec", "ratio", "stuff",
+              "worst(*)", "m/worst");
   struct Case {
     const char* name;
     std::array<std::uint8_t, 8> bytes;
@@ -525,8 +531,9 @@ int run(bool quick) {
       const SpecBits spec = spec_frame_bits(f);
       const double ratio = static_cast<double>(model.total) / static_cast<double>(spec.actual());
       worst_ratio = std::max(worst_ratio, std::abs(ratio - 1.0));
-      std::printf("%-7s %-18s %6u %8u %6.4f %8u %10u %8.3f\n", extended ? "29-bit" : "11-bit", c.name, model.total, spec.actual(), ratio,
-                  model.stuff, spec.worst, static_cast<double>(model.total) / static_cast<double>(spec.worst));
+      std::printf("%-7s %-18s %6u %8u %6.4f %8u %10u %8.3f\n", extended ? "29-bit" : "11-bit", c.name, model.total,
+                  spec.actual(), ratio, model.stuff, spec.worst,
+                  static_cast<double>(model.total) / static_cast<double>(spec.worst));
       check(model.stuff == spec.stuff, "stuff bits: model == independent bit stream");
     }
     // The longest 8-byte frame the model finds over a pseudo-random search (ids and payloads).
@@ -537,24 +544,28 @@ int run(bool quick) {
       x ^= x >> 7;
       x ^= x << 17;
       std::array<std::uint8_t, 8> bytes{};
-      for (std::size_t b = 0; b < 8; ++b) bytes[b] = static_cast<std::uint8_t>((x >> (8 * b)) & (i % 2 == 0 ? 0xFFU : 0x0FU));
+      for (std::size_t b = 0; b < 8; ++b)
+        bytes[b] = static_cast<std::uint8_t>((x >> (8 * b)) & (i % 2 == 0 ? 0xFFU : 0x0FU));
       const auto id = static_cast<std::uint32_t>(x >> 35) & (extended ? can::kMaxExtendedId : can::kMaxStandardId);
       const can::Frame f = data_frame(i % 3 == 0 ? 0 : id, extended, bytes);
       longest = std::max(longest, can::frame_bits(f).total);
     }
     const SpecBits spec = spec_frame_bits(data_frame(0, extended, {}));
-    std::printf("%-7s %-18s %6u %8s %6s %8s %10u %8.3f\n", extended ? "29-bit" : "11-bit", "longest in search", longest, "-", "-", "-",
-                spec.worst, static_cast<double>(longest) / static_cast<double>(spec.worst));
+    std::printf("%-7s %-18s %6u %8s %6s %8s %10u %8.3f\n", extended ? "29-bit" : "11-bit", "longest in search", longest,
+                "-", "-", "-", spec.worst, static_cast<double>(longest) / static_cast<double>(spec.worst));
     check(longest <= spec.worst, "no frame longer than the worst-case bound");
   }
-  std::printf("(*) worst case 8n+47+floor((34+8n-1)/4) (11-bit), 8n+67+floor((54+8n-1)/4) (29-bit); max |model/spec - 1| = %.4f\n",
-              worst_ratio);
+  std::printf(
+      "(*) worst case 8n+47+floor((34+8n-1)/4) (11-bit), 8n+67+floor((54+8n-1)/4) (29-bit); max |model/spec - 1| = "
+      "%.4f\n",
+      worst_ratio);
   check(worst_ratio <= 0.02, "model and spec frame lengths agree within 2 %");
 
   // 3. Timing on: back-to-back frames against bitrate / frame bits.
-  std::printf("\n== 3. Bit-timed wire, back-to-back 8-byte frames (payload 12 34 .. F0), ~%.1f s per row ==\n", 1.0 * scale);
-  std::printf("%-8s %-7s %5s %10s | %10s %7s | %10s %7s | %5s\n", "bit/s", "format", "bits", "max fr/s", "sim-time", "ratio", "wall",
-              "ratio", "lost");
+  std::printf("\n== 3. Bit-timed wire, back-to-back 8-byte frames (payload 12 34 .. F0), ~%.1f s per row ==\n",
+              1.0 * scale);
+  std::printf("%-8s %-7s %5s %10s | %10s %7s | %10s %7s | %5s\n", "bit/s", "format", "bits", "max fr/s", "sim-time",
+              "ratio", "wall", "ratio", "lost");
   for (const std::uint32_t bitrate : {125'000U, 500'000U, 1'000'000U}) {
     for (const bool extended : {false, true}) {
       const can::Frame& f = extended ? ext8 : std8;
@@ -572,8 +583,9 @@ int run(bool quick) {
       const double sim_s = static_cast<double>(r.last_ts_us - r.first_ts_us) * 1e-6;
       const double sim_fps = r.received > 1 ? static_cast<double>(r.received - 1) / sim_s : 0;
       const double wall_fps = static_cast<double>(r.received) / r.wall_s;
-      std::printf("%-8u %-7s %5u %10.1f | %10.1f %7.4f | %10.1f %7.4f | %5llu\n", bitrate, extended ? "29-bit" : "11-bit", bits, max_fps,
-                  sim_fps, sim_fps / max_fps, wall_fps, wall_fps / max_fps, static_cast<unsigned long long>(r.sent - r.received));
+      std::printf("%-8u %-7s %5u %10.1f | %10.1f %7.4f | %10.1f %7.4f | %5llu\n", bitrate,
+                  extended ? "29-bit" : "11-bit", bits, max_fps, sim_fps, sim_fps / max_fps, wall_fps,
+                  wall_fps / max_fps, static_cast<unsigned long long>(r.sent - r.received));
       check(r.received == r.sent, "no frame lost on the timed bus");
       check(std::abs(sim_fps / max_fps - 1.0) <= 0.02, "simulated-time rate within 2 % of bitrate / frame bits");
     }
@@ -586,9 +598,11 @@ int run(bool quick) {
     SimLink link(dir, "bench-latency");
     const Percentiles p = one_way_latency(link, std8, static_cast<int>(1000 * scale));
     const double eof_us = to_us(can::bits_duration(can::frame_bits(std8).to_end_of_frame(), config.bitrate));
-    std::printf("one-way latency at 1 Mbit/s, 11-bit: p50 %.1f us, p99 %.1f us; wire time to end of frame %.1f us; ratio p50 %.2f, p99 %.2f "
-                "(%zu samples)\n",
-                p.p50, p.p99, eof_us, p.p50 / eof_us, p.p99 / eof_us, p.samples);
+    std::printf(
+        "one-way latency at 1 Mbit/s, 11-bit: p50 %.1f us, p99 %.1f us; wire time to end of frame %.1f us; ratio p50 "
+        "%.2f, p99 %.2f "
+        "(%zu samples)\n",
+        p.p50, p.p99, eof_us, p.p50 / eof_us, p.p99 / eof_us, p.samples);
   }
 
   // 4. CPU cost of the model.
@@ -605,17 +619,23 @@ int run(bool quick) {
     const double timed_ns = bus_cost_ns(std8, true, iterations);
     const double untimed_ns = bus_cost_ns(std8, false, iterations);
     const double wire_ns = static_cast<double>(can::frame_duration(std8, 1'000'000).count());
-    std::printf("\n== 4. CPU cost of the model, ns per frame (best of 5 x %llu); bound: the frame's wire time at 1 Mbit/s, %.0f ns ==\n",
-                static_cast<unsigned long long>(iterations), wire_ns);
-    std::printf("%-44s %10.1f   ratio %.5f\n", "frame_bits() (bit-exact length, CRC, stuffing)", bits_ns, bits_ns / wire_ns);
-    std::printf("%-44s %10.1f   ratio %.5f\n", "Bus::submit()+advance(), timing on, 1 rx", timed_ns, timed_ns / wire_ns);
-    std::printf("%-44s %10.1f   ratio %.5f\n", "Bus::submit()+advance(), timing off, 1 rx", untimed_ns, untimed_ns / wire_ns);
+    std::printf(
+        "\n== 4. CPU cost of the model, ns per frame (best of 5 x %llu); bound: the frame's wire time at 1 Mbit/s, "
+        "%.0f ns ==\n",
+        static_cast<unsigned long long>(iterations), wire_ns);
+    std::printf("%-44s %10.1f   ratio %.5f\n", "frame_bits() (bit-exact length, CRC, stuffing)", bits_ns,
+                bits_ns / wire_ns);
+    std::printf("%-44s %10.1f   ratio %.5f\n", "Bus::submit()+advance(), timing on, 1 rx", timed_ns,
+                timed_ns / wire_ns);
+    std::printf("%-44s %10.1f   ratio %.5f\n", "Bus::submit()+advance(), timing off, 1 rx", untimed_ns,
+                untimed_ns / wire_ns);
     if (guard == 0) std::printf(" ");
   }
 
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
-  std::printf("\nload average %s at end; %s\n", load_average().c_str(), g_failed ? "CHECKS FAILED" : "all checks passed");
+  std::printf("\nload average %s at end; %s\n", load_average().c_str(),
+              g_failed ? "CHECKS FAILED" : "all checks passed");
   return g_failed ? 1 : 0;
 }
 

@@ -93,7 +93,9 @@ constexpr int kPollHz = 20;
 constexpr int kGroupId = 126;  // node and group ids share 5..126 (§5.1): above every node id used here
 
 double us(Duration d) { return std::chrono::duration<double, std::micro>(d).count(); }
-std::int64_t steady_us(TimePoint t) { return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count(); }
+std::int64_t steady_us(TimePoint t) {
+  return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+}
 
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return NAN;
@@ -162,13 +164,16 @@ struct Capture final : gateway::GatewayOutput {
   std::uint64_t status_updates = 0;
 };
 
-std::string lab_config(int drives, bool timing, int group_id, const std::string& url, const std::string& hub, const std::string& dir) {
+std::string lab_config(int drives, bool timing, int group_id, const std::string& url, const std::string& hub,
+                       const std::string& dir) {
   std::string y = "lcm: {url: \"" + url + "\", channel_prefix: \"BENCH_\"}\n";
   y += "buses:\n  - {name: can0, transport: \"simcan:" + hub + "\", bitrate: " + std::to_string(kBitrate) +
-       ", bus_timing: " + (timing ? "true" : "false") + ", request_timeout_ms: 50, retries: 2, poll_hz: " + std::to_string(kPollHz) + "}\n";
+       ", bus_timing: " + (timing ? "true" : "false") +
+       ", request_timeout_ms: 50, retries: 2, poll_hz: " + std::to_string(kPollHz) + "}\n";
   y += "drives:\n";
   for (int n = 0; n < drives; ++n) {
-    y += "  - {name: d" + std::to_string(n) + ", family: uim342, bus: can0, node_id: " + std::to_string(uim342::kMinNodeId + n) +
+    y += "  - {name: d" + std::to_string(n) +
+         ", family: uim342, bus: can0, node_id: " + std::to_string(uim342::kMinNodeId + n) +
          (group_id != 0 ? ", group_id: " + std::to_string(group_id) : std::string{}) +
          ", setup: {micro_steps: 16, current_a: 2.0, acceleration_unit: rate}}\n";
   }
@@ -189,8 +194,9 @@ config::Config load(const std::string& yaml) {
 
 std::unique_ptr<sim::CanBusHost> open_host(EventLoop& loop, const config::Config& config) {
   std::error_code error;
-  auto host = sim::CanBusHost::open(loop, config, config.buses.front(), {{config::Family::kUim342, sim::uim342_factory(config)}},
-                                    [](motionlcm::sim_report_t) {}, error);
+  auto host = sim::CanBusHost::open(
+      loop, config, config.buses.front(), {{config::Family::kUim342, sim::uim342_factory(config)}},
+      [](motionlcm::sim_report_t) {}, error);
   if (!host) die("cannot open the simulated bus: " + error.message());
   return host;
 }
@@ -236,10 +242,12 @@ void bench_command_latency(bool quick, const std::filesystem::path& dir) {
   });
   std::map<std::int64_t, std::int8_t> terminal;
   node.subscribe<gateway_reply_t>(lcm::channels::kGatewayReply, [&](const gateway_reply_t& r, const std::string&) {
-    if (r.status == k(gateway_reply_t::DONE) || r.status == k(gateway_reply_t::FAILED)) terminal[r.command_id] = r.status;
+    if (r.status == k(gateway_reply_t::DONE) || r.status == k(gateway_reply_t::FAILED))
+      terminal[r.command_id] = r.status;
   });
   std::optional<Clock::time_point> raw_received;
-  node.subscribe_raw(node.channel("BENCH_RAW"), [&](const void*, int, const std::string&) { raw_received = Clock::now(); });
+  node.subscribe_raw(node.channel("BENCH_RAW"),
+                     [&](const void*, int, const std::string&) { raw_received = Clock::now(); });
 
   lcm::HealthPublisher health(loop, node, "gateway:can0", "gateway");
   gateway::Gateway gateway(loop, node, health, config, "can0");
@@ -254,7 +262,8 @@ void bench_command_latency(bool quick, const std::filesystem::path& dir) {
   const gateway::Uim342Stack* stack_view = stack.get();
   driver->add_stack(std::move(stack));
   gateway.attach(std::move(driver));
-  if (!pump.until([&] { return stack_view->ready(); }, 30s)) die("the UIM342 drives were not set up within 30 s (latency rig)");
+  if (!pump.until([&] { return stack_view->ready(); }, 30s))
+    die("the UIM342 drives were not set up within 30 s (latency rig)");
 
   const int commands = quick ? 100 : 1000;
   std::vector<double> recv_to_frame;
@@ -292,14 +301,16 @@ void bench_command_latency(bool quick, const std::filesystem::path& dir) {
   }
   const double raw50 = percentile(raw, 0.5);
   const double raw99 = percentile(raw, 0.99);
-  const std::string n = std::to_string(recv_to_frame.size()) + " commands" + (failures ? ", " + std::to_string(failures) + " failed" : "");
+  const std::string n = std::to_string(recv_to_frame.size()) + " commands" +
+                        (failures ? ", " + std::to_string(failures) + " failed" : "");
   g_rows.push_back({"1. LCM received -> first frame (timing off) p50", fmt("%.1f us", percentile(recv_to_frame, 0.5)),
                     fmt("%.1f us raw LCM pub->recv p50", raw50), percentile(recv_to_frame, 0.5) / raw50,
                     n + "; ENABLE -> MO=1 to the transport; includes waiting for a poll reply in flight"});
   g_rows.push_back({"   LCM received -> first frame p99", fmt("%.1f us", percentile(recv_to_frame, 0.99)),
                     fmt("%.1f us raw LCM pub->recv p99", raw99), percentile(recv_to_frame, 0.99) / raw99, ""});
   g_rows.push_back({"   LCM publish -> first frame p50", fmt("%.1f us", percentile(publish_to_frame, 0.5)),
-                    fmt("%.1f us raw LCM pub->recv p50", raw50), percentile(publish_to_frame, 0.5) / raw50, "ideal ~1 + gateway share"});
+                    fmt("%.1f us raw LCM pub->recv p50", raw50), percentile(publish_to_frame, 0.5) / raw50,
+                    "ideal ~1 + gateway share"});
   g_rows.push_back({"   LCM publish -> first frame p99", fmt("%.1f us", percentile(publish_to_frame, 0.99)),
                     fmt("%.1f us raw LCM pub->recv p99", raw99), percentile(publish_to_frame, 0.99) / raw99, ""});
 }
@@ -317,7 +328,8 @@ struct ArmResult {
 
 ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::path& dir) {
   const std::string hub = std::string("u342arm") + (simulated ? "s" : "w") + std::to_string(axes);
-  const config::Config config = load(lab_config(axes, true, kGroupId, "udpm://239.255.76.67:7667?ttl=0", hub, dir.string()));
+  const config::Config config =
+      load(lab_config(axes, true, kGroupId, "udpm://239.255.76.67:7667?ttl=0", hub, dir.string()));
   ManualClock manual(TimePoint{} + std::chrono::hours(1));
   Pump pump(simulated ? &manual : nullptr);
   EventLoop& loop = pump.loop();
@@ -337,13 +349,15 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
   const gateway::Uim342Stack* stack_view = stack.get();
   driver.add_stack(std::move(stack));
   driver.start();
-  if (!pump.until([&] { return stack_view->ready(); }, 60s)) die("the UIM342 drives were not set up (arm rig, N=" + std::to_string(axes) + ")");
+  if (!pump.until([&] { return stack_view->ready(); }, 60s))
+    die("the UIM342 drives were not set up (arm rig, N=" + std::to_string(axes) + ")");
   std::vector<std::string> names;
   for (int n = 0; n < axes; ++n) names.push_back("a" + std::to_string(n));
   {
     const auto enable = command(1, k(gateway_command_t::ENABLE), names);
     driver.execute(enable);
-    if (!pump.until([&] { return out.has(1, k(gateway_reply_t::DONE)) || out.failed(1); }, 10s) || out.failed(1)) die("enable failed");
+    if (!pump.until([&] { return out.has(1, k(gateway_reply_t::DONE)) || out.failed(1); }, 10s) || out.failed(1))
+      die("enable failed");
   }
 
   ArmResult result;
@@ -393,8 +407,9 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
     int others = 0;
     for (const auto& f : seen) {
       const auto msg = decode(f);
-      const bool move_frame = msg && (is_function(*msg, FC::PA) || is_function(*msg, FC::SP) || is_function(*msg, FC::AC) ||
-                                      is_function(*msg, FC::DC) || is_function(*msg, FC::BG));
+      const bool move_frame =
+          msg && (is_function(*msg, FC::PA) || is_function(*msg, FC::SP) || is_function(*msg, FC::AC) ||
+                  is_function(*msg, FC::DC) || is_function(*msg, FC::BG));
       if (msg && is_function(*msg, FC::BG) && msg->address.producer != uim342::kMasterId) {
         ++bg_acks;  // after the start: not part of the bound
         continue;
@@ -427,14 +442,18 @@ void bench_arm(bool quick, const std::filesystem::path& dir) {
       const double p99 = percentile(r.to_bg_us, 0.99);
       const double bound = percentile(r.bound_us, 0.5);
       char note[200];
-      std::snprintf(note, sizeof note, "%s; %.0f frames/move (min %d); %.0f poll/other frames on the wire meanwhile%s%s",
+      std::snprintf(note, sizeof note,
+                    "%s; %.0f frames/move (min %d); %.0f poll/other frames on the wire meanwhile%s%s",
                     r.group_bg ? "one group BG per move" : "NOT one group BG", percentile(r.frames, 0.5), 9 * axes + 1,
-                    percentile(r.other_frames, 0.5), r.failures ? "; failures: " : "", r.failures ? std::to_string(r.failures).c_str() : "");
+                    percentile(r.other_frames, 0.5), r.failures ? "; failures: " : "",
+                    r.failures ? std::to_string(r.failures).c_str() : "");
       const std::string clock = simulated ? "sim " : "wall";
-      g_rows.push_back({"2. arm+trigger N=" + std::to_string(axes) + " (" + clock + ") command -> BG p50", fmt("%.2f ms", p50 / 1000.0),
-                        fmt("%.2f ms wire of the move frames", bound / 1000.0), p50 / bound, note});
-      g_rows.push_back({"   N=" + std::to_string(axes) + " (" + clock + ") command -> BG p99", fmt("%.2f ms", p99 / 1000.0),
-                        fmt("%.2f ms", bound / 1000.0), p99 / bound, std::to_string(r.to_bg_us.size()) + " moves"});
+      g_rows.push_back({"2. arm+trigger N=" + std::to_string(axes) + " (" + clock + ") command -> BG p50",
+                        fmt("%.2f ms", p50 / 1000.0), fmt("%.2f ms wire of the move frames", bound / 1000.0),
+                        p50 / bound, note});
+      g_rows.push_back({"   N=" + std::to_string(axes) + " (" + clock + ") command -> BG p99",
+                        fmt("%.2f ms", p99 / 1000.0), fmt("%.2f ms", bound / 1000.0), p99 / bound,
+                        std::to_string(r.to_bg_us.size()) + " moves"});
     }
   }
 }
@@ -468,7 +487,8 @@ void bench_status(int axes, bool quick, const std::filesystem::path& dir) {
   const gateway::Uim342Stack* stack_view = stack.get();
   driver.add_stack(std::move(stack));
   driver.start();
-  if (!pump.until([&] { return stack_view->ready(); }, 120s)) die("the UIM342 drives were not set up (status rig, N=" + std::to_string(axes) + ")");
+  if (!pump.until([&] { return stack_view->ready(); }, 120s))
+    die("the UIM342 drives were not set up (status rig, N=" + std::to_string(axes) + ")");
   pump.until([] { return false; }, 500ms);  // settle into the poll rhythm
   const auto window = quick ? 1s : 4s;
   const std::uint64_t updates0 = out.status_updates;
@@ -485,7 +505,7 @@ void bench_status(int axes, bool quick, const std::filesystem::path& dir) {
   const double asked = static_cast<double>(axes * kPollHz);
   const double bits_per_frame = poll_frames ? static_cast<double>(poll_bits) / static_cast<double>(poll_frames) : NAN;
   const double capacity_frames = static_cast<double>(kBitrate) / bits_per_frame;  // frames/s the bus can carry
-  constexpr double kFramesPerUpdate = 4;  // MS[0] and MS[1]: request + ACK each
+  constexpr double kFramesPerUpdate = 4;                                          // MS[0] and MS[1]: request + ACK each
   const double needed_frames = asked * kFramesPerUpdate;
   const double bus_updates = capacity_frames / kFramesPerUpdate;
   const double bound = std::min(asked, bus_updates);
@@ -493,16 +513,20 @@ void bench_status(int axes, bool quick, const std::filesystem::path& dir) {
   char note[320];
   const double polled_hz = 1.0 / std::chrono::duration<double>(stack_view->poll_period()).count();
   std::snprintf(note, sizeof note,
-                "asked %.0f/s (%d Hz x %d); stack polls at %.1f Hz (polls <= 75%% of the bus); bus carries %.0f/s (%.1f bits/poll frame); "
+                "asked %.0f/s (%d Hz x %d); stack polls at %.1f Hz (polls <= 75%% of the bus); bus carries %.0f/s "
+                "(%.1f bits/poll frame); "
                 "bus load %.0f%%; %lld retries, %lld timeouts, %lld unexpected",
-                asked, kPollHz, axes, polled_hz, bus_updates, bits_per_frame, load * 100.0, static_cast<long long>(after.retries - before.retries),
-                static_cast<long long>(after.timeouts - before.timeouts), static_cast<long long>(after.unexpected - before.unexpected));
+                asked, kPollHz, axes, polled_hz, bus_updates, bits_per_frame, load * 100.0,
+                static_cast<long long>(after.retries - before.retries),
+                static_cast<long long>(after.timeouts - before.timeouts),
+                static_cast<long long>(after.unexpected - before.unexpected));
   g_rows.push_back({"3. status N=" + std::to_string(axes) + ": axis state updates/s", fmt("%.0f /s", achieved),
                     fmt("%.0f /s min(asked, bus)", bound), achieved / bound, note});
-  g_rows.push_back({"   N=" + std::to_string(axes) + ": frames/s the poll needs vs the bus carries", fmt("%.0f frames/s needed", needed_frames),
-                    fmt("%.0f frames/s capacity", capacity_frames), needed_frames / capacity_frames,
-                    fmt2("measured on the wire: %.0f poll frames/s, %.0f frames/s in all", static_cast<double>(poll_frames) / seconds,
-                         static_cast<double>(all_frames) / seconds)});
+  g_rows.push_back({"   N=" + std::to_string(axes) + ": frames/s the poll needs vs the bus carries",
+                    fmt("%.0f frames/s needed", needed_frames), fmt("%.0f frames/s capacity", capacity_frames),
+                    needed_frames / capacity_frames,
+                    fmt2("measured on the wire: %.0f poll frames/s, %.0f frames/s in all",
+                         static_cast<double>(poll_frames) / seconds, static_cast<double>(all_frames) / seconds)});
 }
 
 }  // namespace
@@ -521,8 +545,9 @@ int main(int argc, char** argv) {
   std::error_code error;
   const auto dir = std::filesystem::temp_directory_path() / ("uim342-bench-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir, error);
-  std::printf("bench_uim342: command latency (timing off), arm+trigger N=2/8/32, status N=8/32/120; %u bit/s, poll %d Hz%s\n",
-              motion::kBitrate, motion::kPollHz, quick ? " (quick)" : "");
+  std::printf(
+      "bench_uim342: command latency (timing off), arm+trigger N=2/8/32, status N=8/32/120; %u bit/s, poll %d Hz%s\n",
+      motion::kBitrate, motion::kPollHz, quick ? " (quick)" : "");
   std::fflush(stdout);
   motion::bench_command_latency(quick, dir);
   motion::bench_arm(quick, dir);

@@ -18,9 +18,9 @@
 #include <unistd.h>
 
 #include <cmath>
-#include <fstream>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -47,7 +47,9 @@ using std::chrono::seconds;
 
 bool executable(const std::string& path) { return !path.empty() && ::access(path.c_str(), X_OK) == 0; }
 bool readable(const std::string& path) { return !path.empty() && ::access(path.c_str(), R_OK) == 0; }
-bool contains(const std::string& haystack, const std::string& needle) { return haystack.find(needle) != std::string::npos; }
+bool contains(const std::string& haystack, const std::string& needle) {
+  return haystack.find(needle) != std::string::npos;
+}
 
 // How to run a client program of one language; `missing` says why it cannot run.
 struct Runtime {
@@ -58,7 +60,8 @@ struct Runtime {
   std::vector<std::string> env;
 
   // `program` empty: `exe` is the program itself (C++).
-  [[nodiscard]] ProcessSpec spec(const std::string& name, const std::string& program, std::vector<std::string> args) const {
+  [[nodiscard]] ProcessSpec spec(const std::string& name, const std::string& program,
+                                 std::vector<std::string> args) const {
     std::vector<std::string> all = prefix_args;
     if (!program.empty()) all.push_back(program);
     all.insert(all.end(), args.begin(), args.end());
@@ -69,39 +72,56 @@ struct Runtime {
 Runtime python() {
   Runtime r{"Python", "", paths::kPython, {"-B"}, {}};
   r.env = {std::string("PYTHONPATH=") + paths::kPythonTypes + ":" + paths::kPythonDir, "PYTHONDONTWRITEBYTECODE=1"};
-  if (!executable(r.exe)) r.missing = "/usr/bin/python3 not found (apt-get install python3): the Python client cannot be tested";
-  else if (!readable(std::string(paths::kPythonTypes) + "/motionlcm/reply_t.py")) r.missing = std::string("generated Python types missing in ") + paths::kPythonTypes + " (build motion_lcmtypes_scripts)";
+  if (!executable(r.exe))
+    r.missing = "/usr/bin/python3 not found (apt-get install python3): the Python client cannot be tested";
+  else if (!readable(std::string(paths::kPythonTypes) + "/motionlcm/reply_t.py"))
+    r.missing =
+        std::string("generated Python types missing in ") + paths::kPythonTypes + " (build motion_lcmtypes_scripts)";
   return r;
 }
 
 Runtime java() {
   const std::string cp = std::string(paths::kLcmJar) + ":" + paths::kTypesJar + ":" + paths::kJavaClasses;
   Runtime r{"Java", "", paths::kJava, {"-Djava.net.preferIPv4Stack=true", "-cp", cp}, {}};
-  if (!executable(paths::kJavac) || !executable(r.exe)) r.missing = "javac/java not found at configure time (apt-get install default-jdk-headless): the Java client cannot be tested";
-  else if (!readable(paths::kLcmJar)) r.missing = "lcm.jar not found (apt-get install liblcm-java)";
-  else if (!readable(paths::kTypesJar)) r.missing = std::string("types jar ") + paths::kTypesJar + " missing (build motion_lcmtypes_java)";
-  else if (!readable(std::string(paths::kJavaClasses) + "/MotionClient.class")) r.missing = "Java client classes missing (build motion_clients_java)";
+  if (!executable(paths::kJavac) || !executable(r.exe))
+    r.missing =
+        "javac/java not found at configure time (apt-get install default-jdk-headless): the Java client cannot be "
+        "tested";
+  else if (!readable(paths::kLcmJar))
+    r.missing = "lcm.jar not found (apt-get install liblcm-java)";
+  else if (!readable(paths::kTypesJar))
+    r.missing = std::string("types jar ") + paths::kTypesJar + " missing (build motion_lcmtypes_java)";
+  else if (!readable(std::string(paths::kJavaClasses) + "/MotionClient.class"))
+    r.missing = "Java client classes missing (build motion_clients_java)";
   return r;
 }
 
 Runtime lua() {
-  Runtime r{"Lua", "", paths::kLua, {}, {std::string("LUA_PATH=") + paths::kLuaPath, std::string("LUA_CPATH=") + paths::kLuaCpath}};
-  if (!executable(r.exe)) r.missing = "lua5.2 not found (apt-get install lua5.2 liblcm-lua): the Lua client cannot be tested";
-  else if (!readable("/usr/lib/lua/5.2/lcm.so") && !readable("/usr/lib/x86_64-linux-gnu/lua/5.2/lcm.so")) r.missing = "Debian's LCM Lua binding (lcm.so for Lua 5.2) not found (apt-get install liblcm-lua)";
-  else if (std::string(paths::kLuaCpath).empty()) r.missing = "the Lua signing module motionsodium was not built (apt-get install liblua5.2-dev, then reconfigure)";
+  Runtime r{"Lua",
+            "",
+            paths::kLua,
+            {},
+            {std::string("LUA_PATH=") + paths::kLuaPath, std::string("LUA_CPATH=") + paths::kLuaCpath}};
+  if (!executable(r.exe))
+    r.missing = "lua5.2 not found (apt-get install lua5.2 liblcm-lua): the Lua client cannot be tested";
+  else if (!readable("/usr/lib/lua/5.2/lcm.so") && !readable("/usr/lib/x86_64-linux-gnu/lua/5.2/lcm.so"))
+    r.missing = "Debian's LCM Lua binding (lcm.so for Lua 5.2) not found (apt-get install liblcm-lua)";
+  else if (std::string(paths::kLuaCpath).empty())
+    r.missing = "the Lua signing module motionsodium was not built (apt-get install liblua5.2-dev, then reconfigure)";
   return r;
 }
 
 Runtime cpp() {
   Runtime r{"C++", "", paths::kCppExample, {}, {}};
-  if (!executable(r.exe)) r.missing = std::string("C++ example ") + paths::kCppExample + " not built (build example_move_cpp)";
+  if (!executable(r.exe))
+    r.missing = std::string("C++ example ") + paths::kCppExample + " not built (build example_move_cpp)";
   return r;
 }
 
 std::string program(const Runtime& r, const std::string& base) {
   if (r.language == "Python") return std::string(paths::kPythonDir) + "/" + base + ".py";
   if (r.language == "Lua") return std::string(paths::kLuaDir) + "/" + base + ".lua";
-  if (r.language == "C++") return "";  // the example itself (there is no C++ check_coordinator)
+  if (r.language == "C++") return "";                // the example itself (there is no C++ check_coordinator)
   if (base == "check_signed") return "CheckSigned";  // Java class names
   return base == "check_coordinator" ? "CheckCoordinator" : "ExampleMove";
 }
@@ -117,18 +137,22 @@ void start_coordinator(ProcessGroup& group) {
 // gateway of bus can0 (axes x and y) and the coordinator, on the group's LCM URL and simulation
 // directory. Waits for their heartbeats (the coordinator stays DEGRADED: the gateways of the other
 // buses are not started) and for x and y to be online.
-::testing::AssertionResult start_lab(ProcessGroup& group, const std::string& config = source_path("config/sim-lab.yaml")) {
+::testing::AssertionResult start_lab(ProcessGroup& group,
+                                     const std::string& config = source_path("config/sim-lab.yaml")) {
   auto online = std::make_shared<std::map<std::string, bool>>();  // outlives this function in the subscription
   group.node().subscribe<motionlcm::axis_state_t>(
-      lcm::channels::kAxisState, [online](const motionlcm::axis_state_t& s, const std::string&) { (*online)[s.axis] = s.online; });
+      lcm::channels::kAxisState,
+      [online](const motionlcm::axis_state_t& s, const std::string&) { (*online)[s.axis] = s.online; });
   group.start({"sim", "motion-sim", {"--config", config}, {}});
   group.start({"gateway:can0", "motion-gateway", {"--config", config, "--bus", "can0"}, {}});
   group.start({"coordinator", "motion-coordinator", {"--config", config}, {}});
   for (const char* name : {"sim", "gateway:can0", "coordinator"}) {
-    if (!group.wait_for_heartbeat(name, seconds(20), true)) return ::testing::AssertionFailure() << "no heartbeat from " << name;
+    if (!group.wait_for_heartbeat(name, seconds(20), true))
+      return ::testing::AssertionFailure() << "no heartbeat from " << name;
   }
   if (!group.pump_until([&] { return (*online)["x"] && (*online)["y"]; }, seconds(20))) {
-    return ::testing::AssertionFailure() << "axes x and y not online within 20 s (x " << ((*online)["x"] ? "online" : "not online") << ", y "
+    return ::testing::AssertionFailure() << "axes x and y not online within 20 s (x "
+                                         << ((*online)["x"] ? "online" : "not online") << ", y "
                                          << ((*online)["y"] ? "online" : "not online") << ")";
   }
   return ::testing::AssertionSuccess();
@@ -181,23 +205,31 @@ void check_client_against_lab(const Runtime& r, double target_x, double target_y
 
   std::string out;
   if (r.language == "C++") {
-    int rc = group.run_to_completion(r.spec("example-unknown-axis", "", {"--axes", "x", "no_such_axis"}), &out, seconds(60));
+    int rc =
+        group.run_to_completion(r.spec("example-unknown-axis", "", {"--axes", "x", "no_such_axis"}), &out, seconds(60));
     EXPECT_EQ(rc, 1) << out;
     EXPECT_TRUE(contains(out, "rejected (error 2): unknown axis 'no_such_axis' (axes: x, y, z, a, b, c, u)")) << out;
-    rc = group.run_to_completion(r.spec("example-malformed", "", {"--axes", "x", "y", "--targets", "nan", "1"}), &out, seconds(60));
+    rc = group.run_to_completion(r.spec("example-malformed", "", {"--axes", "x", "y", "--targets", "nan", "1"}), &out,
+                                 seconds(60));
     EXPECT_EQ(rc, 1) << out;
     EXPECT_TRUE(contains(out, "rejected (error 1): value for axis x is not a finite number")) << out;
   } else {
-    const int rc = group.run_to_completion(r.spec("check-" + r.language, program(r, "check_coordinator"), {}), &out, seconds(60));
+    const int rc =
+        group.run_to_completion(r.spec("check-" + r.language, program(r, "check_coordinator"), {}), &out, seconds(60));
     EXPECT_EQ(rc, 0) << out;
     EXPECT_TRUE(contains(out, "health: process=coordinator role=coordinator state=")) << out;
-    EXPECT_TRUE(contains(out, "unknown-axis: status=rejected error_code=2 reason=unknown axis 'no_such_axis' (axes: x, y, z, a, b, c, u)")) << out;
-    EXPECT_TRUE(contains(out, "malformed: status=rejected error_code=1 reason=value for axis x is not a finite number")) << out;
+    EXPECT_TRUE(contains(
+        out,
+        "unknown-axis: status=rejected error_code=2 reason=unknown axis 'no_such_axis' (axes: x, y, z, a, b, c, u)"))
+        << out;
+    EXPECT_TRUE(contains(out, "malformed: status=rejected error_code=1 reason=value for axis x is not a finite number"))
+        << out;
   }
 
-  const int example_rc = group.run_to_completion(
-      r.spec("example-" + r.language, program(r, "example_move"), {"--axes", "x", "y", "--targets", number(target_x), number(target_y)}), &out,
-      seconds(60));
+  const int example_rc =
+      group.run_to_completion(r.spec("example-" + r.language, program(r, "example_move"),
+                                     {"--axes", "x", "y", "--targets", number(target_x), number(target_y)}),
+                              &out, seconds(60));
   EXPECT_EQ(example_rc, 0) << out;
   EXPECT_TRUE(contains(out, "enabled x y")) << out;
   const auto positions = printed_positions(out);
@@ -221,7 +253,8 @@ TEST(Clients, ExampleStopsWithTheCoordinatorsReasonWhenTheGatewayIsOffline) {
   start_coordinator(group);
   if (HasFatalFailure()) return;
   std::string out;
-  const int rc = group.run_to_completion(r.spec("example-offline", program(r, "example_move"), {"--axes", "x", "y"}), &out, seconds(60));
+  const int rc = group.run_to_completion(r.spec("example-offline", program(r, "example_move"), {"--axes", "x", "y"}),
+                                         &out, seconds(60));
   EXPECT_EQ(rc, 1) << out;
   EXPECT_TRUE(contains(out, "rejected (error 7): gateway of bus can0 (axis x) is offline")) << out;
 }
@@ -238,7 +271,8 @@ class SignedClients : public ::testing::Test {
     {
       std::ifstream base(source_path("config/sim-lab.yaml"));
       std::ofstream config(dir + "/lab.yaml");
-      config << base.rdbuf() << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
+      config << base.rdbuf()
+             << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
              << "  coordinator_public_key: coordinator.pub\n";
     }
     const auto op = security::KeyPair::generate("op");
@@ -246,7 +280,8 @@ class SignedClients : public ::testing::Test {
     ASSERT_EQ(security::write_key_pair(op, dir, "operate"), std::nullopt);
     ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("stranger"), dir, "operate"), std::nullopt);
     ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("coordinator"), dir, "admin"), std::nullopt);
-    stranger_id_ = new std::string(security::to_hex(std::get<security::KeyPair>(security::load_private_key(dir + "/stranger.key")).id()));
+    stranger_id_ = new std::string(
+        security::to_hex(std::get<security::KeyPair>(security::load_private_key(dir + "/stranger.key")).id()));
     started_ = new ::testing::AssertionResult(start_lab(*group_, dir + "/lab.yaml"));
   }
   static void TearDownTestSuite() {
@@ -276,17 +311,28 @@ class SignedClients : public ::testing::Test {
     }
     std::string out;
     const auto started = std::chrono::steady_clock::now();
-    const int rc = group_->run_to_completion(runtime.spec("signed-" + r.language, program(r, "check_signed"), args), &out, seconds(60));
+    const int rc = group_->run_to_completion(runtime.spec("signed-" + r.language, program(r, "check_signed"), args),
+                                             &out, seconds(60));
     const auto took = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - started);
     std::printf("check_signed (%s): %lld ms\n", r.language.c_str(), static_cast<long long>(took.count()));
     EXPECT_EQ(rc, 0) << out;
     EXPECT_TRUE(contains(out, "signed: status=done error_code=0")) << out;
-    EXPECT_TRUE(contains(out, "unsigned: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
-                              "reply): unsigned request refused: security is enforced")) << out;
-    EXPECT_TRUE(contains(out, "stranger: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
-                              "reply): signed request refused: unknown key " + *stranger_id_ + " (not in authorized_keys)")) << out;
-    EXPECT_TRUE(contains(out, "forged: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
-                              "reply): signed request refused: bad signature from key 'op'")) << out;
+    EXPECT_TRUE(contains(
+        out,
+        "unsigned: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
+        "reply): unsigned request refused: security is enforced"))
+        << out;
+    EXPECT_TRUE(contains(
+        out,
+        "stranger: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
+        "reply): signed request refused: unknown key " +
+            *stranger_id_ + " (not in authorized_keys)"))
+        << out;
+    EXPECT_TRUE(contains(
+        out,
+        "forged: status=rejected error_code=19 reason=refused by the coordinator's security (SECURITY event, no "
+        "reply): signed request refused: bad signature from key 'op'"))
+        << out;
     const auto positions = printed_positions(out);
     ASSERT_TRUE(positions.contains("x")) << out;
     EXPECT_NEAR(positions.at("x"), target, one_count("x")) << out;
@@ -319,48 +365,51 @@ TEST(Clients, PythonWireFormatInteroperatesWithLiblcm) {
   bool small_ok = false;
   bool large_ok = false;
   int bad = 0;
-  group.node().subscribe<motionlcm::request_t>(lcm::channels::kRequest, [&](const motionlcm::request_t& m, const std::string&) {
-    if (m.client_id != "py-loopback") return;
-    if (m.request_id == 1) {
-      const bool ok = m.num_axes == 1 && m.axes == std::vector<std::string>{"small"} && m.values == std::vector<double>{1.5};
-      small_ok = small_ok || ok;
-      if (!ok) ++bad;
-    } else if (m.request_id == 2) {
-      bool ok = m.num_axes == kLarge && m.axes.size() == kLarge && m.values.size() == kLarge;
-      for (int i = 0; ok && i < kLarge; ++i) {
-        char name[8];
-        std::snprintf(name, sizeof name, "a%03d", i);
-        const auto index = static_cast<std::size_t>(i);
-        ok = m.axes[index] == name && m.values[index] == i / 4.0;
-      }
-      large_ok = large_ok || ok;
-      if (!ok) ++bad;
-    }
-    if (!small_ok || !large_ok) return;
-    motionlcm::reply_t small{};
-    small.client_id = "py-loopback";
-    small.request_id = 1;
-    small.status = motionlcm::reply_t::DONE;
-    small.reason = "small ok";
-    group.node().publish(lcm::channels::kReply, small);
-    motionlcm::reply_t large{};
-    large.client_id = "py-loopback";
-    large.request_id = 2;
-    large.status = motionlcm::reply_t::DONE;
-    large.reason = "large ok";
-    large.num_axes = kLarge;
-    for (int i = 0; i < kLarge; ++i) {
-      char name[8];
-      std::snprintf(name, sizeof name, "a%03d", i);
-      large.axes.emplace_back(name);
-      large.targets.push_back(0.0);
-      large.positions.push_back(i / 2.0);
-      large.start_utime.push_back(0);
-    }
-    group.node().publish(lcm::channels::kReply, large);
-  });
+  group.node().subscribe<motionlcm::request_t>(
+      lcm::channels::kRequest, [&](const motionlcm::request_t& m, const std::string&) {
+        if (m.client_id != "py-loopback") return;
+        if (m.request_id == 1) {
+          const bool ok =
+              m.num_axes == 1 && m.axes == std::vector<std::string>{"small"} && m.values == std::vector<double>{1.5};
+          small_ok = small_ok || ok;
+          if (!ok) ++bad;
+        } else if (m.request_id == 2) {
+          bool ok = m.num_axes == kLarge && m.axes.size() == kLarge && m.values.size() == kLarge;
+          for (int i = 0; ok && i < kLarge; ++i) {
+            char name[8];
+            std::snprintf(name, sizeof name, "a%03d", i);
+            const auto index = static_cast<std::size_t>(i);
+            ok = m.axes[index] == name && m.values[index] == i / 4.0;
+          }
+          large_ok = large_ok || ok;
+          if (!ok) ++bad;
+        }
+        if (!small_ok || !large_ok) return;
+        motionlcm::reply_t small{};
+        small.client_id = "py-loopback";
+        small.request_id = 1;
+        small.status = motionlcm::reply_t::DONE;
+        small.reason = "small ok";
+        group.node().publish(lcm::channels::kReply, small);
+        motionlcm::reply_t large{};
+        large.client_id = "py-loopback";
+        large.request_id = 2;
+        large.status = motionlcm::reply_t::DONE;
+        large.reason = "large ok";
+        large.num_axes = kLarge;
+        for (int i = 0; i < kLarge; ++i) {
+          char name[8];
+          std::snprintf(name, sizeof name, "a%03d", i);
+          large.axes.emplace_back(name);
+          large.targets.push_back(0.0);
+          large.positions.push_back(i / 2.0);
+          large.start_utime.push_back(0);
+        }
+        group.node().publish(lcm::channels::kReply, large);
+      });
   std::string out;
-  const int rc = group.run_to_completion(r.spec("py-loopback", std::string(paths::kPythonDir) + "/loopback.py", {}), &out, seconds(40));
+  const int rc = group.run_to_completion(r.spec("py-loopback", std::string(paths::kPythonDir) + "/loopback.py", {}),
+                                         &out, seconds(40));
   EXPECT_TRUE(small_ok) << "liblcm did not decode Python's LC02 request_t\n" << out;
   EXPECT_TRUE(large_ok) << "liblcm did not decode Python's fragmented (LC03) request_t\n" << out;
   EXPECT_EQ(bad, 0) << "requests from Python with wrong contents\n" << out;
@@ -385,17 +434,20 @@ TEST(Spy, TypeScannerFindsEveryMotionlcmType) {
 TEST(Spy, RunsUnderXvfbAgainstALiveCoordinator) {
   const Runtime r = java();
   ASSERT_TRUE(r.missing.empty()) << r.missing;
-  ASSERT_TRUE(executable(paths::kXvfbRun)) << "xvfb-run not found (apt-get install xvfb): lcm-spy cannot be started without a display";
+  ASSERT_TRUE(executable(paths::kXvfbRun))
+      << "xvfb-run not found (apt-get install xvfb): lcm-spy cannot be started without a display";
   ASSERT_TRUE(executable(paths::kTimeout)) << "timeout (coreutils) not found";
   ProcessGroup group;
   start_coordinator(group);
   if (HasFatalFailure()) return;
   std::string out;
   // ProcessGroup appends --lcm-url URL, which xvfb-run and timeout pass on to tools/spy.
-  const int rc = group.run_to_completion(
-      {"spy", paths::kXvfbRun, {"-a", paths::kTimeout, "-k", "3", "15", paths::kSpy, "--jar", paths::kTypesJar},
-       {std::string("JAVA=") + paths::kJava, std::string("LCM_JAR=") + paths::kLcmJar}},
-      &out, seconds(60));
+  const int rc =
+      group.run_to_completion({"spy",
+                               paths::kXvfbRun,
+                               {"-a", paths::kTimeout, "-k", "3", "15", paths::kSpy, "--jar", paths::kTypesJar},
+                               {std::string("JAVA=") + paths::kJava, std::string("LCM_JAR=") + paths::kLcmJar}},
+                              &out, seconds(60));
   EXPECT_EQ(rc, 124) << "lcm-spy was not running any more after 15 s (124 = stopped by timeout)\n" << out;
   EXPECT_TRUE(contains(out, "Found " + std::to_string(paths::kTypeCount) + " LCM types")) << out;
   EXPECT_FALSE(contains(out, "Exception")) << out;
@@ -434,10 +486,12 @@ TEST(LogPlayer, ReplaysARecordingOntoItsUrlUnderXvfb) {
   });
   std::string out;
   // ProcessGroup appends --lcm-url URL, which xvfb-run and timeout pass on to tools/logplayer.
-  const int rc = group.run_to_completion(
-      {"logplayer", paths::kXvfbRun, {"-a", paths::kTimeout, "-k", "3", "10", paths::kLogPlayer, path},
-       {std::string("JAVA=") + paths::kJava, std::string("LCM_JAR=") + paths::kLcmJar}},
-      &out, seconds(60));
+  const int rc =
+      group.run_to_completion({"logplayer",
+                               paths::kXvfbRun,
+                               {"-a", paths::kTimeout, "-k", "3", "10", paths::kLogPlayer, path},
+                               {std::string("JAVA=") + paths::kJava, std::string("LCM_JAR=") + paths::kLcmJar}},
+                              &out, seconds(60));
   EXPECT_EQ(rc, 124) << "the log player was not running any more after 10 s (124 = stopped by timeout)\n" << out;
   EXPECT_FALSE(contains(out, "Exception")) << out;
   ASSERT_EQ(received.size(), static_cast<std::size_t>(kEvents)) << out;

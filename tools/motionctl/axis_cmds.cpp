@@ -3,14 +3,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <cstdio>
+#include <ctime>
 #include <deque>
 #include <iostream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
-#include <nlohmann/json.hpp>
 
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
@@ -35,9 +35,7 @@ std::optional<std::pair<std::string, double>> parse_assignment(const std::string
     const double v = std::stod(text.substr(eq + 1), &used);
     if (used != text.size() - eq - 1 || !std::isfinite(v)) return std::nullopt;
     return std::pair{text.substr(0, eq), v};
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
+  } catch (const std::exception&) { return std::nullopt; }
 }
 
 std::vector<std::string> all_axes(const config::Config& c) {
@@ -47,42 +45,64 @@ std::vector<std::string> all_axes(const config::Config& c) {
 }
 
 void print_status_table(const config::Config& c, const std::map<std::string, motionlcm::axis_state_t>& states) {
-  std::printf("%-8s %-12s %-7s %4s %5s %14s %-4s %-7s %-6s %-6s %s\n", "AXIS", "FAMILY", "BUS", "NODE", "GROUP", "POSITION", "UNIT", "ENABLED",
-              "MOVING", "ONLINE", "FAULT");
+  std::printf("%-8s %-12s %-7s %4s %5s %14s %-4s %-7s %-6s %-6s %s\n", "AXIS", "FAMILY", "BUS", "NODE", "GROUP",
+              "POSITION", "UNIT", "ENABLED", "MOVING", "ONLINE", "FAULT");
   for (const auto& a : c.axes) {
     const auto* d = c.drive_of(a);
     auto it = states.find(a.name);
     if (it == states.end()) {
-      std::printf("%-8s %-12s %-7s %4d %5d %14s %-4s %-7s %-6s %-6s %s\n", a.name.c_str(), std::string(config::to_string(d->family)).c_str(),
-                  d->bus.c_str(), d->node_id, d->group_id, "-", a.unit.c_str(), "-", "-", "no", "(no state heard)");
+      std::printf("%-8s %-12s %-7s %4d %5d %14s %-4s %-7s %-6s %-6s %s\n", a.name.c_str(),
+                  std::string(config::to_string(d->family)).c_str(), d->bus.c_str(), d->node_id, d->group_id, "-",
+                  a.unit.c_str(), "-", "-", "no", "(no state heard)");
       continue;
     }
     const auto& s = it->second;
     // Not faulted but its drive lost power: the column says so (README "Safety and faults").
     const bool lost = !s.fault && s.fault_code == motionlcm::axis_state_t::POSITION_LOST;
-    std::printf("%-8s %-12s %-7s %4d %5d %14.4f %-4s %-7s %-6s %-6s %s\n", a.name.c_str(), s.family.c_str(), s.bus.c_str(), s.node_id, s.group_id,
-                s.position, a.unit.c_str(), s.enabled ? "yes" : "no", s.moving ? "yes" : "no", s.online ? "yes" : "no",
-                s.fault || lost ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
+    std::printf(
+        "%-8s %-12s %-7s %4d %5d %14.4f %-4s %-7s %-6s %-6s %s\n", a.name.c_str(), s.family.c_str(), s.bus.c_str(),
+        s.node_id, s.group_id, s.position, a.unit.c_str(), s.enabled ? "yes" : "no", s.moving ? "yes" : "no",
+        s.online ? "yes" : "no",
+        s.fault || lost ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
   }
 }
 
 // age_s: how old each axis's last state is (its publication time against `now_us`, both wall
 // clock), so that a script can tell a live value from a stale one.
-nlohmann::json status_json(const config::Config& c, const std::map<std::string, motionlcm::axis_state_t>& states, std::int64_t now_us) {
+nlohmann::json status_json(const config::Config& c, const std::map<std::string, motionlcm::axis_state_t>& states,
+                           std::int64_t now_us) {
   nlohmann::json out = nlohmann::json::object();
   for (const auto& a : c.axes) {
     const auto* d = c.drive_of(a);
-    nlohmann::json j = {{"family", config::to_string(d->family)}, {"bus", d->bus}, {"node", d->node_id}, {"group", d->group_id}, {"unit", a.unit}};
+    nlohmann::json j = {{"family", config::to_string(d->family)},
+                        {"bus", d->bus},
+                        {"node", d->node_id},
+                        {"group", d->group_id},
+                        {"unit", a.unit}};
     if (auto it = states.find(a.name); it != states.end()) {
       const auto& s = it->second;
-      j.update({{"position", s.position}, {"position_counts", s.position_counts}, {"velocity", s.velocity}, {"enabled", s.enabled != 0},
-                {"moving", s.moving != 0}, {"in_position", s.in_position != 0}, {"online", s.online != 0}, {"fault", s.fault != 0},
+      j.update({{"position", s.position},
+                {"position_counts", s.position_counts},
+                {"velocity", s.velocity},
+                {"enabled", s.enabled != 0},
+                {"moving", s.moving != 0},
+                {"in_position", s.in_position != 0},
+                {"online", s.online != 0},
+                {"fault", s.fault != 0},
                 {"fault_code", s.fault_code},
-                {"fault_text", s.fault_text}, {"position_lost", s.fault == 0 && s.fault_code == motionlcm::axis_state_t::POSITION_LOST},
-                {"homed", s.homed != 0}, {"inputs", s.inputs}, {"outputs", s.outputs},
+                {"fault_text", s.fault_text},
+                {"position_lost", s.fault == 0 && s.fault_code == motionlcm::axis_state_t::POSITION_LOST},
+                {"homed", s.homed != 0},
+                {"inputs", s.inputs},
+                {"outputs", s.outputs},
                 {"age_s", static_cast<double>(now_us - s.utime) / 1e6}});
     } else {
-      j.update({{"position", nullptr}, {"enabled", nullptr}, {"moving", nullptr}, {"online", false}, {"fault", nullptr}, {"age_s", nullptr}});
+      j.update({{"position", nullptr},
+                {"enabled", nullptr},
+                {"moving", nullptr},
+                {"online", false},
+                {"fault", nullptr},
+                {"age_s", nullptr}});
     }
     out[a.name] = j;
   }
@@ -114,31 +134,36 @@ void print_models(const config::Config& c, const std::map<std::string, motionlcm
   for (const auto& a : c.axes) {
     const auto it = models.find(a.name);
     if (it == models.end()) {
-      std::printf("%s: no drive model heard (gateway of bus %s not running, or the drive not set up)\n", a.name.c_str(), c.drive_of(a)->bus.c_str());
+      std::printf("%s: no drive model heard (gateway of bus %s not running, or the drive not set up)\n", a.name.c_str(),
+                  c.drive_of(a)->bus.c_str());
       continue;
     }
     const auto& m = it->second;
-    std::printf("%s: %s %s on %s node %d%s\n", a.name.c_str(), m.family.c_str(), m.drive.c_str(), m.bus.c_str(), m.node_id,
-                m.group_id != 0 ? (" group " + std::to_string(m.group_id)).c_str() : "");
-    std::string resolution = m.counts_per_revolution > 0 ? std::to_string(m.counts_per_revolution) + " counts/rev" : std::string("-");
+    std::printf("%s: %s %s on %s node %d%s\n", a.name.c_str(), m.family.c_str(), m.drive.c_str(), m.bus.c_str(),
+                m.node_id, m.group_id != 0 ? (" group " + std::to_string(m.group_id)).c_str() : "");
+    std::string resolution =
+        m.counts_per_revolution > 0 ? std::to_string(m.counts_per_revolution) + " counts/rev" : std::string("-");
     if (m.assumed_counts_per_revolution > 0 && m.assumed_counts_per_revolution != m.counts_per_revolution) {
       resolution += " (configuration implies " + std::to_string(m.assumed_counts_per_revolution) + ")";
     }
-    std::printf("  resolution  %s, %s; %.9g counts/%s%s%s\n", resolution.c_str(), resolution_source(m.resolution_source), m.counts_per_unit,
-                a.unit.c_str(), m.firmware.empty() ? "" : "; firmware ", m.firmware.c_str());
+    std::printf("  resolution  %s, %s; %.9g counts/%s%s%s\n", resolution.c_str(),
+                resolution_source(m.resolution_source), m.counts_per_unit, a.unit.c_str(),
+                m.firmware.empty() ? "" : "; firmware ", m.firmware.c_str());
     std::printf("  grid        %s\n", m.grid.c_str());
-    std::printf("  velocity    n x %.9g counts/s, n %lld..%lld\n", m.velocity_step, static_cast<long long>(m.velocity_min),
-                static_cast<long long>(m.velocity_max));
+    std::printf("  velocity    n x %.9g counts/s, n %lld..%lld\n", m.velocity_step,
+                static_cast<long long>(m.velocity_min), static_cast<long long>(m.velocity_max));
     if (m.acceleration_kind == motionlcm::drive_model_t::ACCEL_RAMP_TIME) {
       std::printf("  ramps       n x %.9g s from %.9g counts/s, n %lld..%lld\n", m.acceleration_step, m.ramp_from,
                   static_cast<long long>(m.acceleration_min), static_cast<long long>(m.acceleration_max));
     } else {
-      std::printf("  accel       n x %.9g counts/s^2, n %lld..%lld\n", m.acceleration_step, static_cast<long long>(m.acceleration_min),
-                  static_cast<long long>(m.acceleration_max));
+      std::printf("  accel       n x %.9g counts/s^2, n %lld..%lld\n", m.acceleration_step,
+                  static_cast<long long>(m.acceleration_min), static_cast<long long>(m.acceleration_max));
     }
-    std::printf("  position    %lld..%lld counts\n", static_cast<long long>(m.position_min), static_cast<long long>(m.position_max));
+    std::printf("  position    %lld..%lld counts\n", static_cast<long long>(m.position_min),
+                static_cast<long long>(m.position_max));
     for (std::size_t i = 0; i < m.start_kinds.size(); ++i) {
-      std::printf("  start       %s (address %d), %.1f us on the wire\n", start_name(m.start_kinds[i]).c_str(), m.start_addresses[i], m.start_wire_us[i]);
+      std::printf("  start       %s (address %d), %.1f us on the wire\n", start_name(m.start_kinds[i]).c_str(),
+                  m.start_addresses[i], m.start_wire_us[i]);
     }
   }
 }
@@ -148,16 +173,32 @@ nlohmann::json models_json(const std::map<std::string, motionlcm::drive_model_t>
   for (const auto& [axis, m] : models) {
     nlohmann::json starts = nlohmann::json::array();
     for (std::size_t i = 0; i < m.start_kinds.size(); ++i) {
-      starts.push_back({{"kind", start_name(m.start_kinds[i])}, {"address", m.start_addresses[i]}, {"wire_us", m.start_wire_us[i]}});
+      starts.push_back(
+          {{"kind", start_name(m.start_kinds[i])}, {"address", m.start_addresses[i]}, {"wire_us", m.start_wire_us[i]}});
     }
-    out[axis] = {{"family", m.family}, {"bus", m.bus}, {"drive", m.drive}, {"node", m.node_id}, {"group", m.group_id},
-                 {"counts_per_revolution", m.counts_per_revolution}, {"assumed_counts_per_revolution", m.assumed_counts_per_revolution},
-                 {"resolution_source", resolution_source(m.resolution_source)}, {"counts_per_unit", m.counts_per_unit},
-                 {"firmware", m.firmware}, {"grid", m.grid}, {"velocity_step", m.velocity_step}, {"velocity_min", m.velocity_min},
-                 {"velocity_max", m.velocity_max},
-                 {"acceleration_kind", m.acceleration_kind == motionlcm::drive_model_t::ACCEL_RAMP_TIME ? "ramp_time" : "rate"},
-                 {"acceleration_step", m.acceleration_step}, {"acceleration_min", m.acceleration_min}, {"acceleration_max", m.acceleration_max},
-                 {"ramp_from", m.ramp_from}, {"position_min", m.position_min}, {"position_max", m.position_max}, {"starts", starts}};
+    out[axis] = {
+        {"family", m.family},
+        {"bus", m.bus},
+        {"drive", m.drive},
+        {"node", m.node_id},
+        {"group", m.group_id},
+        {"counts_per_revolution", m.counts_per_revolution},
+        {"assumed_counts_per_revolution", m.assumed_counts_per_revolution},
+        {"resolution_source", resolution_source(m.resolution_source)},
+        {"counts_per_unit", m.counts_per_unit},
+        {"firmware", m.firmware},
+        {"grid", m.grid},
+        {"velocity_step", m.velocity_step},
+        {"velocity_min", m.velocity_min},
+        {"velocity_max", m.velocity_max},
+        {"acceleration_kind", m.acceleration_kind == motionlcm::drive_model_t::ACCEL_RAMP_TIME ? "ramp_time" : "rate"},
+        {"acceleration_step", m.acceleration_step},
+        {"acceleration_min", m.acceleration_min},
+        {"acceleration_max", m.acceleration_max},
+        {"ramp_from", m.ramp_from},
+        {"position_min", m.position_min},
+        {"position_max", m.position_max},
+        {"starts", starts}};
   }
   return out;
 }
@@ -172,16 +213,19 @@ class StartTruth {
       const auto* axis = service.config().find_axis(name);
       if (axis != nullptr) drives_.insert(axis->drive);
     }
-    service.node().subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport, [this](const motionlcm::sim_report_t& r, const std::string&) {
-      if (r.kind == motionlcm::sim_report_t::MOTION_STARTED && drives_.contains(r.drive) && !started_.contains(r.drive)) {
-        started_[r.drive] = r.frame_utime;
-      }
-    });
+    service.node().subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport,
+                                                      [this](const motionlcm::sim_report_t& r, const std::string&) {
+                                                        if (r.kind == motionlcm::sim_report_t::MOTION_STARTED &&
+                                                            drives_.contains(r.drive) && !started_.contains(r.drive)) {
+                                                          started_[r.drive] = r.frame_utime;
+                                                        }
+                                                      });
   }
   // Spread of the drives' start times, µs; nullopt unless every drive of the move reported.
   [[nodiscard]] std::optional<double> skew_us() const {
     if (drives_.empty() || started_.size() != drives_.size()) return std::nullopt;
-    const auto [lo, hi] = std::minmax_element(started_.begin(), started_.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+    const auto [lo, hi] = std::minmax_element(started_.begin(), started_.end(),
+                                              [](const auto& a, const auto& b) { return a.second < b.second; });
     return static_cast<double>(hi->second - lo->second);
   }
 
@@ -206,7 +250,8 @@ void print_move_summary(const motionlcm::reply_t& result, std::optional<double> 
                 result.positions[i] - result.targets[i], start_text.c_str());
   }
   if (first_start != 0) {
-    std::printf("\n  duration %.3f s (predicted %.3f s)", static_cast<double>(result.utime - first_start) / 1e6, result.predicted_duration_s);
+    std::printf("\n  duration %.3f s (predicted %.3f s)", static_cast<double>(result.utime - first_start) / 1e6,
+                result.predicted_duration_s);
   }
   if (result.measured_start_skew_us >= 0) {
     std::printf("\n  start skew %.0f us measured", result.measured_start_skew_us);
@@ -239,7 +284,8 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
   motionlcm::reply_t result{};
   bool finished = false;
   bool answered = false;
-  const bool moving_kind = request.kind == request_t::MOVE_ABSOLUTE || request.kind == request_t::MOVE_RELATIVE || request.kind == request_t::HOME;
+  const bool moving_kind = request.kind == request_t::MOVE_ABSOLUTE || request.kind == request_t::MOVE_RELATIVE ||
+                           request.kind == request_t::HOME;
   std::optional<StartTruth> truth;
   if (moving_kind) truth.emplace(service, request);
   client.send(request, [&](const motionlcm::reply_t& r) {
@@ -251,7 +297,8 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
     }
   });
   const std::string where =
-      service.node().url() + ", channel " + service.node().channel(client.signing() ? lcm::channels::kSignedRequest : lcm::channels::kRequest);
+      service.node().url() + ", channel " +
+      service.node().channel(client.signing() ? lcm::channels::kSignedRequest : lcm::channels::kRequest);
   // The coordinator answers at once (ACCEPTED or REJECTED): silence means nobody listens.
   if (!client.wait_until([&] { return answered; }, std::min(timeout, client::Client::kAcceptTimeout))) {
     std::cerr << "motionctl: no reply from the coordinator within " << client::Client::kAcceptTimeout.count()
@@ -269,15 +316,19 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
     return app::kExitUnavailable;
   }
   if (ctx.json) {
-    nlohmann::json j = {{"status", client::status_name(result.status)}, {"reason", result.reason}, {"error_code", result.error_code},
-                        {"predicted_duration_s", result.predicted_duration_s}, {"predicted_skew_us", result.predicted_skew_us},
+    nlohmann::json j = {{"status", client::status_name(result.status)},
+                        {"reason", result.reason},
+                        {"error_code", result.error_code},
+                        {"predicted_duration_s", result.predicted_duration_s},
+                        {"predicted_skew_us", result.predicted_skew_us},
                         {"measured_start_skew_us", result.measured_start_skew_us}};
     if (moving_kind) {
       const auto skew = truth->skew_us();
       j["ground_truth_start_skew_us"] = skew ? nlohmann::json(*skew) : nlohmann::json(nullptr);
     }
     for (std::size_t i = 0; i < result.axes.size(); ++i) {
-      j["axes"][result.axes[i]] = {{"target", result.targets[i]}, {"position", result.positions[i]}, {"start_utime", result.start_utime[i]}};
+      j["axes"][result.axes[i]] = {
+          {"target", result.targets[i]}, {"position", result.positions[i]}, {"start_utime", result.start_utime[i]}};
     }
     if (result.param.space != motionlcm::param_t::NONE) j["value"] = result.param.value;
     std::cout << j.dump(2) << "\n";
@@ -317,15 +368,17 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
       if (*model) {
         // Ask every gateway (DRIVE_MODEL_REQUEST) and collect their answers.
         std::map<std::string, motionlcm::drive_model_t> models;
-        service.node().subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel,
-                                                           [&](const motionlcm::drive_model_t& m, const std::string&) { models[m.axis] = m; });
+        service.node().subscribe<motionlcm::drive_model_t>(
+            lcm::channels::kDriveModel,
+            [&](const motionlcm::drive_model_t& m, const std::string&) { models[m.axis] = m; });
         motionlcm::drive_model_request_t request{};
         request.utime = wall_time_us();
         request.requester = "motionctl";
         service.node().publish(lcm::channels::kDriveModelRequest, request);
         const auto deadline = service.loop().now() + std::chrono::milliseconds(static_cast<long long>(*listen * 1000));
         while (models.size() < cfg.axes.size() && service.loop().now() < deadline) {
-          service.loop().run_once(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - service.loop().now()));
+          service.loop().run_once(
+              std::chrono::duration_cast<std::chrono::milliseconds>(deadline - service.loop().now()));
         }
         if (ctx.json) {
           std::cout << models_json(models).dump(2) << "\n";
@@ -335,7 +388,8 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
         return models.empty() ? app::kExitUnavailable : app::kExitOk;
       }
       client::Client client(service.loop(), service.node(), "motionctl-status");
-      client.wait_until([&] { return client.axes().size() >= cfg.axes.size(); }, std::chrono::milliseconds(static_cast<long long>(*listen * 1000)));
+      client.wait_until([&] { return client.axes().size() >= cfg.axes.size(); },
+                        std::chrono::milliseconds(static_cast<long long>(*listen * 1000)));
       if (ctx.json) {
         std::cout << status_json(cfg, client.axes(), wall_time_us()).dump(2) << "\n";
       } else {
@@ -362,14 +416,21 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
         std::tm local{};
         if (::localtime_r(&seconds, &local) != nullptr) std::strftime(when, sizeof when, "%H:%M:%S", &local);
         if (ctx.json) {
-          const nlohmann::json j = {{"event", {{"utime", e.utime}, {"source", e.source}, {"bus", e.bus}, {"axis", e.axis}, {"severity", e.severity},
-                                               {"kind", e.kind}, {"code", e.code}, {"text", e.text}}}};
+          const nlohmann::json j = {{"event",
+                                     {{"utime", e.utime},
+                                      {"source", e.source},
+                                      {"bus", e.bus},
+                                      {"axis", e.axis},
+                                      {"severity", e.severity},
+                                      {"kind", e.kind},
+                                      {"code", e.code},
+                                      {"text", e.text}}}};
           std::printf("%s\n", j.dump().c_str());
           return;
         }
         char line[1024];
-        std::snprintf(line, sizeof line, "event %s %s %s%s: %s (code %d)", when, e.source.c_str(), e.bus.c_str(), e.axis.empty() ? "" : ("/" + e.axis).c_str(),
-                      e.text.c_str(), e.code);
+        std::snprintf(line, sizeof line, "event %s %s %s%s: %s (code %d)", when, e.source.c_str(), e.bus.c_str(),
+                      e.axis.empty() ? "" : ("/" + e.axis).c_str(), e.text.c_str(), e.code);
         if (!tty) {
           std::printf("%s\n", line);
           return;
@@ -379,7 +440,9 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
       });
       service.loop().call_every(std::chrono::milliseconds(250), [&] {
         if (ctx.json) {
-          std::printf("%s\n", nlohmann::json{{"axes", status_json(service.config(), client.axes(), wall_time_us())}}.dump().c_str());
+          std::printf(
+              "%s\n",
+              nlohmann::json{{"axes", status_json(service.config(), client.axes(), wall_time_us())}}.dump().c_str());
         } else {
           if (tty) std::printf("\033[H\033[J");
           print_status_table(service.config(), client.axes());
@@ -390,7 +453,9 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
         }
         std::fflush(stdout);
       });
-      if (*duration > 0) service.loop().call_after(std::chrono::milliseconds(static_cast<long long>(*duration * 1000)), [&] { service.loop().stop(); });
+      if (*duration > 0)
+        service.loop().call_after(std::chrono::milliseconds(static_cast<long long>(*duration * 1000)),
+                                  [&] { service.loop().stop(); });
       service.loop().run();
       return app::kExitOk;
     });
@@ -403,9 +468,12 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
     std::int8_t kind;
     bool all_by_default;
   };
-  for (const Simple s : {Simple{"enable", "Switch drives on", request_t::ENABLE, true}, Simple{"disable", "Switch drives off", request_t::DISABLE, true},
-                         Simple{"reset", "Clear faults", request_t::FAULT_RESET, true}, Simple{"stop", "Decelerating stop", request_t::STOP, true},
-                         Simple{"estop", "Emergency stop", request_t::ESTOP, true}, Simple{"home", "Home axes as configured", request_t::HOME, false}}) {
+  for (const Simple s : {Simple{"enable", "Switch drives on", request_t::ENABLE, true},
+                         Simple{"disable", "Switch drives off", request_t::DISABLE, true},
+                         Simple{"reset", "Clear faults", request_t::FAULT_RESET, true},
+                         Simple{"stop", "Decelerating stop", request_t::STOP, true},
+                         Simple{"estop", "Emergency stop", request_t::ESTOP, true},
+                         Simple{"home", "Home axes as configured", request_t::HOME, false}}) {
     auto* cmd = cli.add_subcommand(s.name, std::string(s.help) + (s.all_by_default ? " (default: every axis)" : ""));
     auto args = std::make_shared<AxisArgs>();
     cmd->add_option("axes", args->items, "Axis names");
@@ -415,7 +483,9 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
     const bool all = s.all_by_default;
     cmd->callback([&ctx, args, kind, all] {
       ctx.result = ctx.with_node([&](app::Service& service) -> int {
-        auto axes = args->items.empty() && all && kind != request_t::STOP && kind != request_t::ESTOP ? all_axes(service.config()) : args->items;
+        auto axes = args->items.empty() && all && kind != request_t::STOP && kind != request_t::ESTOP
+                        ? all_axes(service.config())
+                        : args->items;
         return run_request(ctx, service, client::Client::make(kind, axes), true, args->timeout_s);
       });
     });
@@ -427,9 +497,10 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
     const char* help;
     std::int8_t kind;
   };
-  for (const Assign s : {Assign{"move", "Synchronized move: AXIS=POS ... (user units)", request_t::MOVE_ABSOLUTE},
-                         Assign{"jog", "Jog: AXIS=VELOCITY ... (units/s, sign = direction)", request_t::JOG},
-                         Assign{"set-position", "Declare the current position: AXIS=POS ...", request_t::SET_POSITION}}) {
+  for (const Assign s :
+       {Assign{"move", "Synchronized move: AXIS=POS ... (user units)", request_t::MOVE_ABSOLUTE},
+        Assign{"jog", "Jog: AXIS=VELOCITY ... (units/s, sign = direction)", request_t::JOG},
+        Assign{"set-position", "Declare the current position: AXIS=POS ...", request_t::SET_POSITION}}) {
     auto* cmd = cli.add_subcommand(s.name, s.help);
     auto args = std::make_shared<AxisArgs>();
     cmd->add_option("assignments", args->items, "AXIS=VALUE")->required();
@@ -453,7 +524,8 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
         values[parsed->first] = parsed->second;
       }
       ctx.result = ctx.with_node([&](app::Service& service) -> int {
-        auto request = client::Client::make(is_move && args->relative ? std::int8_t{request_t::MOVE_RELATIVE} : kind, values);
+        auto request =
+            client::Client::make(is_move && args->relative ? std::int8_t{request_t::MOVE_RELATIVE} : kind, values);
         request.velocity_scale = args->speed;
         request.acceleration_scale = args->speed;
         return run_request(ctx, service, request, !is_move || args->wait, args->timeout_s);
@@ -480,10 +552,14 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
   auto* param = cli.add_subcommand("param", "Expert parameter access in the drive family's own terms");
   auto p = std::make_shared<std::tuple<std::string, std::string, std::string, int, std::optional<long long>, int>>();
   param->add_option("axis", std::get<0>(*p))->required();
-  param->add_option("index", std::get<1>(*p), "UIM342 function code, CANopen index, Modbus register (decimal or 0x...), UIM242 mnemonic")->required();
+  param
+      ->add_option("index", std::get<1>(*p),
+                   "UIM342 function code, CANopen index, Modbus register (decimal or 0x...), UIM242 mnemonic")
+      ->required();
   param->add_option("--sub", std::get<3>(*p), "Sub-index (-1 = none)")->default_val(-1);
   param->add_option("--set", std::get<4>(*p), "Write this value (otherwise read)");
-  param->add_option("--width", std::get<5>(*p), "Bytes (CAN families) or registers (Modbus); 0 = from the dictionary")->default_val(0);
+  param->add_option("--width", std::get<5>(*p), "Bytes (CAN families) or registers (Modbus); 0 = from the dictionary")
+      ->default_val(0);
   param->callback([&ctx, p] {
     ctx.result = ctx.with_node([&](app::Service& service) -> int {
       const auto& cfg = service.config();
@@ -493,13 +569,14 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
         return app::kExitUsage;
       }
       const auto family = cfg.drive_of(*axis)->family;
-      auto request = client::Client::make(std::get<4>(*p) ? std::int8_t{request_t::PARAM_WRITE} : std::int8_t{request_t::PARAM_READ},
-                                          std::vector<std::string>{axis->name});
+      auto request = client::Client::make(
+          std::get<4>(*p) ? std::int8_t{request_t::PARAM_WRITE} : std::int8_t{request_t::PARAM_READ},
+          std::vector<std::string>{axis->name});
       auto& prm = request.param;
-      prm.space = family == config::Family::kUim342  ? motionlcm::param_t::UIM342_INSTRUCTION
-                  : family == config::Family::kUc57  ? motionlcm::param_t::CANOPEN_OBJECT
+      prm.space = family == config::Family::kUim342   ? motionlcm::param_t::UIM342_INSTRUCTION
+                  : family == config::Family::kUc57   ? motionlcm::param_t::CANOPEN_OBJECT
                   : family == config::Family::kUim242 ? motionlcm::param_t::UIM242_INSTRUCTION
-                                                     : motionlcm::param_t::MODBUS_REGISTER;
+                                                      : motionlcm::param_t::MODBUS_REGISTER;
       const std::string& index = std::get<1>(*p);
       if (family == config::Family::kUim242) {
         prm.mnemonic = index;

@@ -111,8 +111,8 @@ int open_bus(Context& ctx, const std::string& bus_name, const char* command, Ope
   out.bus = find_can_bus(*out.config, bus_name, command);
   if (out.bus == nullptr) return app::kExitUsage;
   std::error_code error;
-  out.transport = gateway::open_can_transport(*out.config, *out.bus,
-                                              "motionctl " + std::string(command) + " (pid " + std::to_string(::getpid()) + ")", error);
+  out.transport = gateway::open_can_transport(
+      *out.config, *out.bus, "motionctl " + std::string(command) + " (pid " + std::to_string(::getpid()) + ")", error);
   if (!out.transport) {
     std::cerr << "motionctl " << command << ": " << gateway::open_error_message(*out.config, *out.bus, error) << "\n";
     return app::kExitUnavailable;
@@ -139,7 +139,8 @@ int run_dump(Context& ctx, const DumpOptions& options) {
     std::cerr << "motionctl dump: listening on " << interface << " (" << open.bus->transport << ")" << std::endl;
   };
   transport.on_bus_event([&](const can::BusEvent& e) {
-    std::cerr << "motionctl dump: bus " << interface << ": " << can::to_string(e.state) << (e.text.empty() ? "" : ": " + e.text) << std::endl;
+    std::cerr << "motionctl dump: bus " << interface << ": " << can::to_string(e.state)
+              << (e.text.empty() ? "" : ": " + e.text) << std::endl;
     if (e.state == can::BusState::kDisconnected) {
       rc = app::kExitFailure;
       loop.stop();
@@ -260,7 +261,8 @@ int run_send(Context& ctx, const SendOptions& options) {
 }  // namespace
 
 void add_can_commands(CLI::App& cli, Context& ctx) {
-  auto* dump = cli.add_subcommand("dump", "Print every frame on a CAN bus as candump -L log lines: (SECONDS.MICROS) BUS ID#DATA");
+  auto* dump = cli.add_subcommand(
+      "dump", "Print every frame on a CAN bus as candump -L log lines: (SECONDS.MICROS) BUS ID#DATA");
   auto d = std::make_shared<DumpOptions>();
   dump->add_option("bus", d->bus, "Bus name from the configuration (printed as the interface)")->required();
   const CLI::Validator non_negative(
@@ -269,18 +271,20 @@ void add_can_commands(CLI::App& cli, Context& ctx) {
           std::size_t used = 0;
           const double v = std::stod(text, &used);
           if (used == text.size() && v >= 0 && std::isfinite(v)) return std::string{};
-        } catch (const std::exception&) {
-        }
+        } catch (const std::exception&) {}
         return "'" + text + "' is not a number >= 0";
       },
       "NUMBER>=0", "non-negative");
-  dump->add_option("--count", d->count, "Stop after N frames (0: no limit)")->check(non_negative)->capture_default_str();
+  dump->add_option("--count", d->count, "Stop after N frames (0: no limit)")
+      ->check(non_negative)
+      ->capture_default_str();
   dump->add_option("--for", d->seconds, "Stop after SECONDS (0: no limit)")->check(non_negative)->capture_default_str();
   // dump writes candump log lines and send reads cansend syntax: the can-utils formats, which
   // other tools parse; no JSON form.
   const auto no_json = [&ctx](const char* command) {
     if (!ctx.json) return false;
-    std::cerr << "motionctl " << command << ": --json is not supported (it speaks the can-utils formats: candump -L lines, cansend frames)\n";
+    std::cerr << "motionctl " << command
+              << ": --json is not supported (it speaks the can-utils formats: candump -L lines, cansend frames)\n";
     ctx.result = app::kExitUsage;
     return true;
   };
@@ -292,7 +296,8 @@ void add_can_commands(CLI::App& cli, Context& ctx) {
   auto s = std::make_shared<SendOptions>();
   send->add_option("bus", s->bus, "Bus name from the configuration")->required();
   send->add_option("frames", s->frames,
-                   "ID#DATA: 3 hex digits = 11-bit id, 8 = 29-bit id; data as hex pairs (up to 8 bytes); ID#R or ID#R<dlc> = remote frame")
+                   "ID#DATA: 3 hex digits = 11-bit id, 8 = 29-bit id; data as hex pairs (up to 8 bytes); ID#R or "
+                   "ID#R<dlc> = remote frame")
       ->required()
       ->check(CLI::Validator([](std::string& text) { return cansend_problem(text); }, "ID#DATA", "cansend"));
   send->callback([&ctx, s, no_json] {

@@ -29,11 +29,11 @@ using motionlcm::param_t;
 using motionlcm::reply_t;
 
 struct Check {
-  std::string what;            // "MT[0] micro-steps"
+  std::string what;  // "MT[0] micro-steps"
   param_t param;
   std::optional<long long> expected;
-  long long mask = -1;         // bits that exist (UIM242 ICFG 15..4 read 0)
-  std::string if_different;    // what set-up does about a difference
+  long long mask = -1;       // bits that exist (UIM242 ICFG 15..4 read 0)
+  std::string if_different;  // what set-up does about a difference
 };
 
 param_t uim342(int function, int sub) {
@@ -82,12 +82,17 @@ std::pair<std::vector<Check>, std::vector<std::string>> checks_of(const config::
     case config::Family::kUim342: {
       constexpr int kPP = 0x01, kMT = 0x10, kQE = 0x3D;  // SimpleCAN 3.0 function codes (UIM342 manual §5)
       const auto steps = d.setup_integer("micro_steps");
-      checks.push_back({"MT[0] micro-steps", uim342(kMT, 0), steps, -1, "set-up stores it with the driver off and restarts (SY[1])"});
-      checks.push_back({"QE[4] counts/rev", uim342(kQE, 4), steps ? std::optional<long long>(*steps * 200) : std::nullopt, -1,
+      checks.push_back({"MT[0] micro-steps", uim342(kMT, 0), steps, -1,
+                        "set-up stores it with the driver off and restarts (SY[1])"});
+      checks.push_back({"QE[4] counts/rev", uim342(kQE, 4),
+                        steps ? std::optional<long long>(*steps * 200) : std::nullopt, -1,
                         "set-up stores it with MT[0] and restarts"});
-      if (d.group_id != 0) checks.push_back({"PP[8] group id", uim342(kPP, 8), d.group_id, -1, "set-up writes PP[8] and restarts"});
-      notes.push_back("micro_steps_apply: not readable (a value written while the driver was on reads back but applies only after a "
-                      "restart); power-cycle once after commissioning to be sure");
+      if (d.group_id != 0)
+        checks.push_back({"PP[8] group id", uim342(kPP, 8), d.group_id, -1, "set-up writes PP[8] and restarts"});
+      notes.push_back(
+          "micro_steps_apply: not readable (a value written while the driver was on reads back but applies only after "
+          "a "
+          "restart); power-cycle once after commissioning to be sure");
       break;
     }
     case config::Family::kUim242: {
@@ -129,7 +134,8 @@ std::pair<std::vector<Check>, std::vector<std::string>> checks_of(const config::
 }  // namespace
 
 void add_commission_command(CLI::App& cli, Context& ctx) {
-  auto* cmd = cli.add_subcommand("commission", "Read back each drive's set-up on a bus and say what the manuals leave open (moves nothing)");
+  auto* cmd = cli.add_subcommand(
+      "commission", "Read back each drive's set-up on a bus and say what the manuals leave open (moves nothing)");
   auto bus = std::make_shared<std::string>();
   cmd->add_option("bus", *bus, "Bus name from the configuration")->required();
   cmd->callback([&ctx, bus] {
@@ -148,16 +154,18 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
         if (d.bus == *bus && d.family == config::Family::kUc57) ++uc57_axes;
       }
       if (uc57_axes > 0) {
-        service.node().subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel, [&](const motionlcm::drive_model_t& m, const std::string&) {
-          if (m.bus == *bus) models[m.drive] = m;
-        });
+        service.node().subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel,
+                                                           [&](const motionlcm::drive_model_t& m, const std::string&) {
+                                                             if (m.bus == *bus) models[m.drive] = m;
+                                                           });
         motionlcm::drive_model_request_t ask{};
         ask.utime = wall_time_us();
         ask.requester = "motionctl-commission";
         service.node().publish(lcm::channels::kDriveModelRequest, ask);
         const auto deadline = service.loop().now() + std::chrono::seconds(3);
         while (models.size() < uc57_axes && service.loop().now() < deadline) {
-          service.loop().run_once(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - service.loop().now()));
+          service.loop().run_once(
+              std::chrono::duration_cast<std::chrono::milliseconds>(deadline - service.loop().now()));
         }
       }
       int result = app::kExitOk;
@@ -176,7 +184,8 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
         }
         const auto [checks, notes] = checks_of(d);
         for (const auto& c : checks) {
-          auto request = client::Client::make(std::int8_t{motionlcm::request_t::PARAM_READ}, std::vector<std::string>{axis->name});
+          auto request =
+              client::Client::make(std::int8_t{motionlcm::request_t::PARAM_READ}, std::vector<std::string>{axis->name});
           request.param = c.param;
           const reply_t r = client.call(request, std::chrono::seconds(5));
           nlohmann::json jc{{"check", c.what}};
@@ -196,7 +205,8 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
               } else {
                 // The gateway has set the drive up by now: a difference did not take hold.
                 line += " CONTRADICTS the configuration (" + std::to_string(*c.expected) + "); " + c.if_different +
-                        ": restart the gateway, and if it stays, put " + std::to_string(value) + " in the configuration or fix the drive";
+                        ": restart the gateway, and if it stays, put " + std::to_string(value) +
+                        " in the configuration or fix the drive";
                 jc["contradiction"] = true;
                 result = std::max(result, int{app::kExitFailure});
               }
@@ -204,13 +214,15 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
           }
           if (c.what == kRpdo1Type && r.status == reply_t::DONE) {
             const auto model = models.find(d.name);
-            const std::string variant = rpdo_sync_variant(r.param.value, model == models.end() ? nullptr : &model->second);
+            const std::string variant =
+                rpdo_sync_variant(r.param.value, model == models.end() ? nullptr : &model->second);
             line += "; rpdo_sync: " + variant;
             jd["rpdo_sync"] = variant;
             const auto configured = d.setup_text("rpdo_sync");
-            if (configured && *configured != "detect" && (variant == "honoured" || variant == "on_reception") && *configured != variant) {
-              line += " CONTRADICTS the configuration (rpdo_sync: " + *configured + "); the gateway goes by the drive: put " + variant +
-                      " in the configuration";
+            if (configured && *configured != "detect" && (variant == "honoured" || variant == "on_reception") &&
+                *configured != variant) {
+              line += " CONTRADICTS the configuration (rpdo_sync: " + *configured +
+                      "); the gateway goes by the drive: put " + variant + " in the configuration";
               jc["contradiction"] = true;
               result = std::max(result, int{app::kExitFailure});
             } else if (variant == "on_reception" || variant == "refused") {

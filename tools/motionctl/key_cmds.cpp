@@ -25,14 +25,16 @@ std::string default_key_name() {
 
 bool Context::sign_requests(client::Client& client, const config::Config& config) {
   // With security enforced and the coordinator's public key known, only its signed replies count.
-  if (config.security.mode == config::SecuritySettings::Mode::kEnforce && !config.security.coordinator_public_key.empty()) {
+  if (config.security.mode == config::SecuritySettings::Mode::kEnforce &&
+      !config.security.coordinator_public_key.empty()) {
     auto coordinator = security::load_public_key(config.security.coordinator_public_key);
     if (auto* error = std::get_if<std::string>(&coordinator)) {
       std::cerr << "motionctl: security.coordinator_public_key: " << *error << "\n";
       result = app::kExitConfig;
       return false;
     }
-    client.verify_with(std::get<security::PublicKey>(coordinator), std::chrono::milliseconds(config.security.window_ms));
+    client.verify_with(std::get<security::PublicKey>(coordinator),
+                       std::chrono::milliseconds(config.security.window_ms));
   }
   if (key_path.empty()) return true;
   auto key = security::load_private_key(key_path);
@@ -46,9 +48,12 @@ bool Context::sign_requests(client::Client& client, const config::Config& config
 }
 
 void add_key_commands(CLI::App& cli, Context& ctx) {
-  cli.add_option("--key", ctx.key_path, "Private key to sign requests with (motionctl keygen); default $MOTION_KEY")->envname("MOTION_KEY");
+  cli.add_option("--key", ctx.key_path, "Private key to sign requests with (motionctl keygen); default $MOTION_KEY")
+      ->envname("MOTION_KEY");
 
-  auto* cmd = cli.add_subcommand("keygen", "Write a new Ed25519 key pair (<name>.key, mode 0600, and <name>.pub) and print its authorized_keys line");
+  auto* cmd = cli.add_subcommand(
+      "keygen",
+      "Write a new Ed25519 key pair (<name>.key, mode 0600, and <name>.pub) and print its authorized_keys line");
   struct Args {
     std::string dir = default_key_dir();
     std::string name = default_key_name();
@@ -79,18 +84,23 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
     }
     const std::string private_path = security::private_key_path(args->dir, args->name);
     if (ctx.json) {
-      std::cout << nlohmann::json{{"private_key", private_path}, {"public_key", security::public_key_path(args->dir, args->name)},
-                                  {"key_id", security::to_hex(key.id())}, {"role", args->role},
+      std::cout << nlohmann::json{{"private_key", private_path},
+                                  {"public_key", security::public_key_path(args->dir, args->name)},
+                                  {"key_id", security::to_hex(key.id())},
+                                  {"role", args->role},
                                   {"authorized_keys_line", key.authorized_line(args->role)}}
                        .dump(2)
                 << "\n";
       return;
     }
-    std::cout << "wrote " << private_path << " (private, mode 0600) and " << security::public_key_path(args->dir, args->name) << "\n"
-              << "key id " << security::to_hex(key.id()) << "; an administrator adds this line to the coordinator's authorized_keys\n"
+    std::cout << "wrote " << private_path << " (private, mode 0600) and "
+              << security::public_key_path(args->dir, args->name) << "\n"
+              << "key id " << security::to_hex(key.id())
+              << "; an administrator adds this line to the coordinator's authorized_keys\n"
               << "(role observe, operate, configure or admin):\n\n"
               << key.authorized_line(args->role) << "\n\n"
-              << "then sign with it: motionctl --key " << private_path << " ...  (or MOTION_KEY=" << private_path << ")\n";
+              << "then sign with it: motionctl --key " << private_path << " ...  (or MOTION_KEY=" << private_path
+              << ")\n";
   });
 }
 

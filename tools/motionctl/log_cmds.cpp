@@ -53,7 +53,7 @@ using motionlcm::axis_state_t;
 using motionlcm::reply_t;
 using motionlcm::request_t;
 
-constexpr std::uint32_t kMagic = 0xEDA1DA01U;  // LCM event log record marker (big endian)
+constexpr std::uint32_t kMagic = 0xEDA1DA01U;            // LCM event log record marker (big endian)
 constexpr std::int64_t kHeaderSize = 4 + 8 + 8 + 4 + 4;  // magic, eventnum, timestamp, channel length, data length
 
 struct LogArgs {
@@ -115,7 +115,8 @@ std::optional<std::string> check_record(std::FILE* peek, std::int64_t offset, st
       truncated = std::memcmp(header.data(), "\xED\xA1\xDA\x01", got) == 0;
       if (truncated) return "the file ends inside a record header";
     }
-    return "no record marker (0xEDA1DA01) at byte offset " + std::to_string(offset) + ": not an LCM event log, or damaged";
+    return "no record marker (0xEDA1DA01) at byte offset " + std::to_string(offset) +
+           ": not an LCM event log, or damaged";
   }
   if (got < header.size()) {
     truncated = true;
@@ -124,13 +125,17 @@ std::optional<std::string> check_record(std::FILE* peek, std::int64_t offset, st
   const auto channel_len = static_cast<std::int32_t>(big_endian(header.data() + 20, 4));
   const auto data_len = static_cast<std::int32_t>(big_endian(header.data() + 24, 4));
   if (channel_len <= 0 || channel_len >= 1000) {
-    return "record at byte offset " + std::to_string(offset) + " has an invalid channel length " + std::to_string(channel_len);
+    return "record at byte offset " + std::to_string(offset) + " has an invalid channel length " +
+           std::to_string(channel_len);
   }
-  if (data_len < 0) return "record at byte offset " + std::to_string(offset) + " has an invalid data length " + std::to_string(data_len);
+  if (data_len < 0)
+    return "record at byte offset " + std::to_string(offset) + " has an invalid data length " +
+           std::to_string(data_len);
   const std::int64_t end = offset + kHeaderSize + channel_len + data_len;
   if (end > file_size) {
     truncated = true;
-    return "the file ends inside the record at byte offset " + std::to_string(offset) + " (" + std::to_string(end - file_size) + " bytes missing)";
+    return "the file ends inside the record at byte offset " + std::to_string(offset) + " (" +
+           std::to_string(end - file_size) + " bytes missing)";
   }
   return std::nullopt;
 }
@@ -142,9 +147,11 @@ struct RawRecord {
 };
 
 // Header fields of the (checked) record at `offset`.
-bool read_header(std::FILE* peek, std::int64_t offset, std::int64_t& timestamp, std::int32_t& channel_len, std::int32_t& data_len) {
+bool read_header(std::FILE* peek, std::int64_t offset, std::int64_t& timestamp, std::int32_t& channel_len,
+                 std::int32_t& data_len) {
   std::array<unsigned char, kHeaderSize> header{};
-  if (::fseeko(peek, offset, SEEK_SET) != 0 || std::fread(header.data(), 1, header.size(), peek) != header.size()) return false;
+  if (::fseeko(peek, offset, SEEK_SET) != 0 || std::fread(header.data(), 1, header.size(), peek) != header.size())
+    return false;
   timestamp = static_cast<std::int64_t>(big_endian(header.data() + 12, 8));
   channel_len = static_cast<std::int32_t>(big_endian(header.data() + 20, 4));
   data_len = static_cast<std::int32_t>(big_endian(header.data() + 24, 4));
@@ -246,7 +253,8 @@ std::optional<LogContents> read_log(const std::string& path, const std::string& 
     // a last good record is read here from the checked header instead, then the damage reported.
     const std::int64_t end = record_end(peek.get(), offset);
     if (end + 4 <= file_size && !marker_at(peek.get(), end)) {
-      if (auto last = read_record(peek.get(), offset)) add(last->timestamp, last->channel, last->data.data(), static_cast<int>(last->data.size()));
+      if (auto last = read_record(peek.get(), offset))
+        add(last->timestamp, last->channel, last->data.data(), static_cast<int>(last->data.size()));
       out.corruption = "no record marker (0xEDA1DA01) at byte offset " + std::to_string(end) + " after a record";
       break;
     }
@@ -272,10 +280,13 @@ std::string status_name(std::int8_t status) {
 }
 
 bool has_values(std::int8_t kind) {
-  return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG || kind == request_t::SET_POSITION;
+  return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG ||
+         kind == request_t::SET_POSITION;
 }
 
-std::string key_of(const std::string& client_id, std::int64_t request_id) { return client_id + "#" + std::to_string(request_id); }
+std::string key_of(const std::string& client_id, std::int64_t request_id) {
+  return client_id + "#" + std::to_string(request_id);
+}
 
 // "x=10 y=5" for requests with values, "x y" otherwise, "(all axes)" for none.
 std::string request_axes(const request_t& r, const char* separator) {
@@ -319,7 +330,9 @@ class View {
  public:
   View(const LogContents& log, const std::vector<std::string>& axes) : log_(log), filter_(axes.begin(), axes.end()) {}
 
-  [[nodiscard]] double t(std::int64_t log_utime) const { return static_cast<double>(log_utime - log_.first_utime) / 1e6; }
+  [[nodiscard]] double t(std::int64_t log_utime) const {
+    return static_cast<double>(log_utime - log_.first_utime) / 1e6;
+  }
   [[nodiscard]] bool axis_selected(const std::string& axis) const { return filter_.empty() || filter_.contains(axis); }
   [[nodiscard]] bool request_selected(const request_t& r) const {
     if (filter_.empty() || r.axes.empty()) return true;
@@ -385,7 +398,8 @@ std::string reply_note(const reply_t& r) {
   if (r.error_code != 0) add("error " + std::to_string(r.error_code));
   add(r.reason);
   if (r.status == reply_t::ACCEPTED && r.predicted_duration_s > 0) {
-    add("predicted " + number(r.predicted_duration_s, "%.3f") + " s, arrival spread " + number(r.predicted_skew_us, "%.0f") + " us");
+    add("predicted " + number(r.predicted_duration_s, "%.3f") + " s, arrival spread " +
+        number(r.predicted_skew_us, "%.0f") + " us");
   }
   if (client::is_terminal(r.status) && !r.axes.empty()) {
     std::string positions;
@@ -393,15 +407,18 @@ std::string reply_note(const reply_t& r) {
       positions += (i > 0 ? " " : "") + r.axes[i] + "=" + number(r.positions[i], "%.4f");
     }
     add("positions " + positions);
-    if (r.measured_start_skew_us >= 0 && std::any_of(r.start_utime.begin(), r.start_utime.end(), [](std::int64_t t) { return t != 0; })) {
-      add("start skew " + number(r.measured_start_skew_us, "%.0f") + " us (predicted arrival spread " + number(r.predicted_skew_us, "%.0f") + " us)");
+    if (r.measured_start_skew_us >= 0 &&
+        std::any_of(r.start_utime.begin(), r.start_utime.end(), [](std::int64_t t) { return t != 0; })) {
+      add("start skew " + number(r.measured_start_skew_us, "%.0f") + " us (predicted arrival spread " +
+          number(r.predicted_skew_us, "%.0f") + " us)");
     }
   }
   return note;
 }
 
 void print_tables(const std::string& path, const std::string& prefix, const LogContents& log, const View& view) {
-  std::printf("log %s: %" PRId64 " events over %.3f s (channel prefix %s)\n", path.c_str(), log.events, view.t(log.last_utime), prefix.c_str());
+  std::printf("log %s: %" PRId64 " events over %.3f s (channel prefix %s)\n", path.c_str(), log.events,
+              view.t(log.last_utime), prefix.c_str());
   std::int64_t others = 0;
   std::string other_names;
   int other_channels = 0;
@@ -414,8 +431,8 @@ void print_tables(const std::string& path, const std::string& prefix, const LogC
     }
   }
   if (others > 0) {
-    std::printf("  (%" PRId64 " events on %d channel%s without the prefix, not decoded: %s%s)\n", others, other_channels, other_channels == 1 ? "" : "s",
-                other_names.c_str(), other_channels > 4 ? ", ..." : "");
+    std::printf("  (%" PRId64 " events on %d channel%s without the prefix, not decoded: %s%s)\n", others,
+                other_channels, other_channels == 1 ? "" : "s", other_names.c_str(), other_channels > 4 ? ", ..." : "");
   }
 
   const auto threads = view.threads();
@@ -424,7 +441,8 @@ void print_tables(const std::string& path, const std::string& prefix, const LogC
   for (const auto& th : threads) {
     if (th.request != nullptr) {
       const auto& r = th.request->msg;
-      std::printf("  %+9.3f s  %-24s %-14s %s", view.t(th.request->log_utime), th.key.c_str(), kind_name(r.kind), request_axes(r, " ").c_str());
+      std::printf("  %+9.3f s  %-24s %-14s %s", view.t(th.request->log_utime), th.key.c_str(), kind_name(r.kind),
+                  request_axes(r, " ").c_str());
       if (r.velocity_scale > 0 && r.velocity_scale != 1) std::printf("  speed %g", r.velocity_scale);
       std::printf("\n");
     } else {
@@ -440,10 +458,12 @@ void print_tables(const std::string& path, const std::string& prefix, const LogC
         std::printf("      %+9.3f s  (%d PROGRESS)\n", view.t(rep->log_utime), progress);
         progress = 0;
       }
-      std::printf("      %+9.3f s  %-9s %s\n", view.t(rep->log_utime), status_name(rep->msg.status).c_str(), reply_note(rep->msg).c_str());
+      std::printf("      %+9.3f s  %-9s %s\n", view.t(rep->log_utime), status_name(rep->msg.status).c_str(),
+                  reply_note(rep->msg).c_str());
     }
     if (progress > 0) std::printf("      %11s  (%d PROGRESS)\n", "", progress);
-    const bool terminal = std::any_of(th.replies.begin(), th.replies.end(), [](const Logged<reply_t>* r) { return client::is_terminal(r->msg.status); });
+    const bool terminal = std::any_of(th.replies.begin(), th.replies.end(),
+                                      [](const Logged<reply_t>* r) { return client::is_terminal(r->msg.status); });
     if (!terminal) std::printf("      (no terminal reply in the log)\n");
   }
 
@@ -452,22 +472,25 @@ void print_tables(const std::string& path, const std::string& prefix, const LogC
   if (trajectories.empty()) std::printf("  (no axis state)\n");
   for (const auto& [axis, samples] : trajectories) {
     const auto& first = samples.front()->msg;
-    std::printf("\n  axis %s (%s on %s, node %d): %zu samples\n", axis.c_str(), first.family.c_str(), first.bus.c_str(), first.node_id, samples.size());
-    std::printf("  %11s %14s %12s %-6s %-7s %-6s %s\n", "T", "POSITION", "VELOCITY", "MOVING", "ENABLED", "ONLINE", "FAULT");
+    std::printf("\n  axis %s (%s on %s, node %d): %zu samples\n", axis.c_str(), first.family.c_str(), first.bus.c_str(),
+                first.node_id, samples.size());
+    std::printf("  %11s %14s %12s %-6s %-7s %-6s %s\n", "T", "POSITION", "VELOCITY", "MOVING", "ENABLED", "ONLINE",
+                "FAULT");
     // Runs of identical samples (an axis at rest) are shown once, with their count.
     for (std::size_t i = 0; i < samples.size();) {
       const auto& s = samples[i]->msg;
       std::size_t j = i + 1;
       while (j < samples.size()) {
         const auto& n = samples[j]->msg;
-        if (n.position_counts != s.position_counts || n.velocity != s.velocity || n.moving != s.moving || n.enabled != s.enabled ||
-            n.online != s.online || n.fault != s.fault) {
+        if (n.position_counts != s.position_counts || n.velocity != s.velocity || n.moving != s.moving ||
+            n.enabled != s.enabled || n.online != s.online || n.fault != s.fault) {
           break;
         }
         ++j;
       }
-      std::printf("  %+9.3f s %14.4f %12.4f %-6s %-7s %-6s %s", view.t(samples[i]->log_utime), s.position, s.velocity, s.moving ? "yes" : "no",
-                  s.enabled ? "yes" : "no", s.online ? "yes" : "no", s.fault ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
+      std::printf("  %+9.3f s %14.4f %12.4f %-6s %-7s %-6s %s", view.t(samples[i]->log_utime), s.position, s.velocity,
+                  s.moving ? "yes" : "no", s.enabled ? "yes" : "no", s.online ? "yes" : "no",
+                  s.fault ? (s.fault_text.empty() ? std::to_string(s.fault_code).c_str() : s.fault_text.c_str()) : "-");
       if (j - i > 1) std::printf("  (x%zu until %+.3f s)", j - i, view.t(samples[j - 1]->log_utime));
       std::printf("\n");
       i = j;
@@ -478,7 +501,8 @@ void print_tables(const std::string& path, const std::string& prefix, const LogC
 // The same content as the tables, as one JSON document: channels, requests with every reply
 // (PROGRESS included), and each axis's samples (all of them: runs are not folded).
 nlohmann::json log_json(const std::string& path, const std::string& prefix, const LogContents& log, const View& view) {
-  nlohmann::json out = {{"file", path}, {"events", log.events}, {"duration_s", view.t(log.last_utime)}, {"channel_prefix", prefix}};
+  nlohmann::json out = {
+      {"file", path}, {"events", log.events}, {"duration_s", view.t(log.last_utime)}, {"channel_prefix", prefix}};
   out["channels"] = nlohmann::json::object();
   for (const auto& [channel, count] : log.channel_counts) out["channels"][channel] = count;
   out["requests"] = nlohmann::json::array();
@@ -486,9 +510,14 @@ nlohmann::json log_json(const std::string& path, const std::string& prefix, cons
     nlohmann::json j = {{"key", th.key}};
     if (th.request != nullptr) {
       const auto& r = th.request->msg;
-      j.update({{"t", view.t(th.request->log_utime)}, {"client_id", r.client_id}, {"request_id", r.request_id}, {"kind", kind_name(r.kind)},
-                {"axes", r.axes}, {"values", has_values(r.kind) ? nlohmann::json(r.values) : nlohmann::json::array()},
-                {"velocity_scale", r.velocity_scale}, {"acceleration_scale", r.acceleration_scale}});
+      j.update({{"t", view.t(th.request->log_utime)},
+                {"client_id", r.client_id},
+                {"request_id", r.request_id},
+                {"kind", kind_name(r.kind)},
+                {"axes", r.axes},
+                {"values", has_values(r.kind) ? nlohmann::json(r.values) : nlohmann::json::array()},
+                {"velocity_scale", r.velocity_scale},
+                {"acceleration_scale", r.acceleration_scale}});
     } else {
       j["request"] = nullptr;  // the request is not in the log
     }
@@ -497,14 +526,18 @@ nlohmann::json log_json(const std::string& path, const std::string& prefix, cons
     for (const auto* rep : th.replies) {
       const auto& r = rep->msg;
       terminal = terminal || client::is_terminal(r.status);
-      nlohmann::json one = {{"t", view.t(rep->log_utime)}, {"status", status_name(r.status)}, {"error_code", r.error_code}, {"reason", r.reason}};
+      nlohmann::json one = {{"t", view.t(rep->log_utime)},
+                            {"status", status_name(r.status)},
+                            {"error_code", r.error_code},
+                            {"reason", r.reason}};
       if (r.status == reply_t::PROGRESS) one["progress"] = r.progress;
       if (r.status == reply_t::ACCEPTED && r.predicted_duration_s > 0) {
         one.update({{"predicted_duration_s", r.predicted_duration_s}, {"predicted_skew_us", r.predicted_skew_us}});
       }
       if (client::is_terminal(r.status)) {
         one["positions"] = nlohmann::json::object();
-        for (std::size_t i = 0; i < r.axes.size() && i < r.positions.size(); ++i) one["positions"][r.axes[i]] = r.positions[i];
+        for (std::size_t i = 0; i < r.axes.size() && i < r.positions.size(); ++i)
+          one["positions"][r.axes[i]] = r.positions[i];
         if (r.measured_start_skew_us >= 0) one["measured_start_skew_us"] = r.measured_start_skew_us;
       }
       j["replies"].push_back(std::move(one));
@@ -517,11 +550,19 @@ nlohmann::json log_json(const std::string& path, const std::string& prefix, cons
     nlohmann::json list = nlohmann::json::array();
     for (const auto* sample : samples) {
       const auto& m = sample->msg;
-      list.push_back({{"t", view.t(sample->log_utime)}, {"position", m.position}, {"position_counts", m.position_counts}, {"velocity", m.velocity},
-                      {"moving", m.moving != 0}, {"enabled", m.enabled != 0}, {"online", m.online != 0}, {"fault", m.fault != 0},
+      list.push_back({{"t", view.t(sample->log_utime)},
+                      {"position", m.position},
+                      {"position_counts", m.position_counts},
+                      {"velocity", m.velocity},
+                      {"moving", m.moving != 0},
+                      {"enabled", m.enabled != 0},
+                      {"online", m.online != 0},
+                      {"fault", m.fault != 0},
                       {"fault_text", m.fault_text}});
     }
-    out["axes"][axis] = {{"family", samples.front()->msg.family}, {"bus", samples.front()->msg.bus}, {"node", samples.front()->msg.node_id},
+    out["axes"][axis] = {{"family", samples.front()->msg.family},
+                         {"bus", samples.front()->msg.bus},
+                         {"node", samples.front()->msg.node_id},
                          {"samples", std::move(list)}};
   }
   return out;
@@ -529,7 +570,8 @@ nlohmann::json log_json(const std::string& path, const std::string& prefix, cons
 
 // One long table: `record` says which columns apply (request, reply or state).
 void write_csv(std::ostream& out, const LogContents& log, const View& view) {
-  out << "record,t_s,utime,axis,position,velocity,moving,enabled,online,fault,client_id,request_id,kind,status,error_code,"
+  out << "record,t_s,utime,axis,position,velocity,moving,enabled,online,fault,client_id,request_id,kind,status,error_"
+         "code,"
          "predicted_skew_us,measured_skew_us,detail\n";
   struct Row {
     std::int64_t log_utime;
@@ -540,16 +582,18 @@ void write_csv(std::ostream& out, const LogContents& log, const View& view) {
     if (th.request != nullptr) {
       const auto& r = th.request->msg;
       std::ostringstream s;
-      s << "request," << number(view.t(th.request->log_utime)) << "," << r.utime << "," << csv_field(joined(r.axes, ";")) << ",,,,,,,"
-        << csv_field(r.client_id) << "," << r.request_id << "," << kind_name(r.kind) << ",,,,," << csv_field(request_axes(r, ";"));
+      s << "request," << number(view.t(th.request->log_utime)) << "," << r.utime << ","
+        << csv_field(joined(r.axes, ";")) << ",,,,,,," << csv_field(r.client_id) << "," << r.request_id << ","
+        << kind_name(r.kind) << ",,,,," << csv_field(request_axes(r, ";"));
       rows.push_back({th.request->log_utime, s.str()});
     }
     for (const auto* rep : th.replies) {
       const auto& r = rep->msg;
       std::ostringstream s;
-      s << "reply," << number(view.t(rep->log_utime)) << "," << r.utime << "," << csv_field(joined(r.axes, ";")) << ",,,,,,," << csv_field(r.client_id) << ","
-        << r.request_id << ",," << status_name(r.status) << "," << r.error_code << "," << number(r.predicted_skew_us, "%.1f") << ","
-        << number(r.measured_start_skew_us, "%.1f") << "," << csv_field(r.reason);
+      s << "reply," << number(view.t(rep->log_utime)) << "," << r.utime << "," << csv_field(joined(r.axes, ";"))
+        << ",,,,,,," << csv_field(r.client_id) << "," << r.request_id << ",," << status_name(r.status) << ","
+        << r.error_code << "," << number(r.predicted_skew_us, "%.1f") << "," << number(r.measured_start_skew_us, "%.1f")
+        << "," << csv_field(r.reason);
       rows.push_back({rep->log_utime, s.str()});
     }
   }
@@ -557,9 +601,10 @@ void write_csv(std::ostream& out, const LogContents& log, const View& view) {
     if (!view.axis_selected(s.msg.axis)) continue;
     const auto& m = s.msg;
     std::ostringstream o;
-    o << "state," << number(view.t(s.log_utime)) << "," << m.utime << "," << csv_field(m.axis) << "," << number(m.position, "%.6f") << ","
-      << number(m.velocity, "%.6f") << "," << (m.moving ? 1 : 0) << "," << (m.enabled ? 1 : 0) << "," << (m.online ? 1 : 0) << "," << (m.fault ? 1 : 0)
-      << ",,,,,,,," << csv_field(m.fault ? m.fault_text : std::string());
+    o << "state," << number(view.t(s.log_utime)) << "," << m.utime << "," << csv_field(m.axis) << ","
+      << number(m.position, "%.6f") << "," << number(m.velocity, "%.6f") << "," << (m.moving ? 1 : 0) << ","
+      << (m.enabled ? 1 : 0) << "," << (m.online ? 1 : 0) << "," << (m.fault ? 1 : 0) << ",,,,,,,,"
+      << csv_field(m.fault ? m.fault_text : std::string());
     rows.push_back({s.log_utime, o.str()});
   }
   std::stable_sort(rows.begin(), rows.end(), [](const Row& a, const Row& b) { return a.log_utime < b.log_utime; });
@@ -580,7 +625,8 @@ std::string plot_svg(const std::string& path, const View& view, const std::map<s
   }
   std::vector<web::PlotMark> marks;
   for (const auto& th : view.threads()) {
-    const bool started = std::any_of(th.replies.begin(), th.replies.end(), [](const Logged<reply_t>* r) { return r->msg.status == reply_t::STARTED; });
+    const bool started = std::any_of(th.replies.begin(), th.replies.end(),
+                                     [](const Logged<reply_t>* r) { return r->msg.status == reply_t::STARTED; });
     if (th.request != nullptr ? !lcm::request_kind_moves(th.request->msg.kind) : !started) continue;
     const char* kind = th.request != nullptr ? lcm::request_kind_words(th.request->msg.kind) : "request";
     for (const auto* rep : th.replies) {
@@ -590,7 +636,8 @@ std::string plot_svg(const std::string& path, const View& view, const std::map<s
       marks.push_back({view.t(rep->log_utime), std::string(kind) + " " + client::status_name(r.status), names});
       // Where the coordinator planned the axes to arrive: STARTED + its predicted duration.
       if (r.status == reply_t::STARTED && r.predicted_duration_s > 0) {
-        marks.push_back({view.t(rep->log_utime) + r.predicted_duration_s, std::string(kind) + " planned arrival", names});
+        marks.push_back(
+            {view.t(rep->log_utime) + r.predicted_duration_s, std::string(kind) + " planned arrival", names});
       }
     }
   }
@@ -639,8 +686,9 @@ int run_log(const Context& ctx, const LogArgs& args) {
     }
     std::size_t states = 0;
     for (const auto& [axis, samples] : view.trajectories()) states += samples.size();
-    std::printf("%s: %" PRId64 " events over %.3f s; wrote %zu requests, %zu replies, %zu axis states to %s\n", args.file.c_str(), log->events,
-                view.t(log->last_utime), log->requests.size(), log->replies.size(), states, args.csv.c_str());
+    std::printf("%s: %" PRId64 " events over %.3f s; wrote %zu requests, %zu replies, %zu axis states to %s\n",
+                args.file.c_str(), log->events, view.t(log->last_utime), log->requests.size(), log->replies.size(),
+                states, args.csv.c_str());
   }
 
   if (!args.plot.empty()) {
@@ -651,7 +699,8 @@ int run_log(const Context& ctx, const LogArgs& args) {
       std::cerr << "motionctl: cannot write the plot '" << args.plot << "': " << std::strerror(errno) << "\n";
       return app::kExitFailure;
     }
-    std::fprintf(args.csv == "-" || ctx.json ? stderr : stdout, "plot of %zu axes written to %s\n", view.trajectories().size(), args.plot.c_str());
+    std::fprintf(args.csv == "-" || ctx.json ? stderr : stdout, "plot of %zu axes written to %s\n",
+                 view.trajectories().size(), args.plot.c_str());
   }
 
   const auto trajectories = view.trajectories();
@@ -659,14 +708,17 @@ int run_log(const Context& ctx, const LogArgs& args) {
     if (!trajectories.contains(axis)) std::cerr << "motionctl: warning: no state of axis '" << axis << "' in the log\n";
   }
   if (log->undecodable > 0) {
-    std::cerr << "motionctl: warning: " << log->undecodable << " messages could not be decoded (another version of the types?) on";
+    std::cerr << "motionctl: warning: " << log->undecodable
+              << " messages could not be decoded (another version of the types?) on";
     for (const auto& c : log->undecodable_channels) std::cerr << " " << c;
     std::cerr << "\n";
   }
-  if (log->events == 0 && !log->corruption && !log->truncated) std::cerr << "motionctl: warning: the log '" << args.file << "' holds no events\n";
+  if (log->events == 0 && !log->corruption && !log->truncated)
+    std::cerr << "motionctl: warning: the log '" << args.file << "' holds no events\n";
   if (log->truncated) std::cerr << "motionctl: warning: ignored a truncated final record (" << *log->truncated << ")\n";
   if (log->corruption) {
-    std::cerr << "motionctl: log '" << args.file << "' is corrupt: " << *log->corruption << "; " << log->events << " events read before it\n";
+    std::cerr << "motionctl: log '" << args.file << "' is corrupt: " << *log->corruption << "; " << log->events
+              << " events read before it\n";
     return app::kExitFailure;
   }
   return app::kExitOk;
@@ -681,7 +733,9 @@ void add_log_command(CLI::App& cli, Context& ctx) {
   cmd->add_option("--csv", args->csv, "Write CSV to this file ('-' = stdout) instead of the tables");
   cmd->add_option("--axis", args->axes, "Only these axes (trajectories, and the requests naming them)");
   cmd->add_option("--prefix", args->prefix, "Channel prefix (default: the configuration's lcm.channel_prefix)");
-  cmd->add_option("--plot", args->plot, "Also write the trajectories as SVG to this file: one panel per axis, position and velocity over time");
+  cmd->add_option(
+      "--plot", args->plot,
+      "Also write the trajectories as SVG to this file: one panel per axis, position and velocity over time");
   cmd->callback([&ctx, args] { ctx.result = run_log(ctx, *args); });
 }
 

@@ -44,9 +44,9 @@ struct Context {
 void add_health_command(CLI::App& cli, Context& ctx);
 void add_config_command(CLI::App& cli, Context& ctx);
 void add_axis_commands(CLI::App& cli, Context& ctx);
-void add_can_commands(CLI::App& cli, Context& ctx);  // dump, send (can_cmds.cpp)
-void add_log_command(CLI::App& cli, Context& ctx);   // log: read an lcm-logger file (log_cmds.cpp)
-void add_key_commands(CLI::App& cli, Context& ctx);  // --key, keygen (key_cmds.cpp)
+void add_can_commands(CLI::App& cli, Context& ctx);        // dump, send (can_cmds.cpp)
+void add_log_command(CLI::App& cli, Context& ctx);         // log: read an lcm-logger file (log_cmds.cpp)
+void add_key_commands(CLI::App& cli, Context& ctx);        // --key, keygen (key_cmds.cpp)
 void add_commission_command(CLI::App& cli, Context& ctx);  // commission BUS (commission_cmd.cpp)
 
 }  // namespace motion::ctl

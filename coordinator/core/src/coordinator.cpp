@@ -13,9 +13,12 @@ namespace motion::coordinator {
 
 using namespace detail;
 
-Coordinator::Coordinator(const config::Config& config, MovePlanner planner, CoordinatorOutput& output, WallClock wall_clock)
+Coordinator::Coordinator(const config::Config& config, MovePlanner planner, CoordinatorOutput& output,
+                         WallClock wall_clock)
     : config_(config), planner_(std::move(planner)), out_(output), wall_clock_(std::move(wall_clock)) {
-  for (const auto& axis : config_.axes) axes_[axis.name] = AxisLive{&axis, config_.drive_of(axis), std::nullopt, {}, 0, std::nullopt, 0, std::nullopt, nullptr, {}};
+  for (const auto& axis : config_.axes)
+    axes_[axis.name] =
+        AxisLive{&axis, config_.drive_of(axis), std::nullopt, {}, 0, std::nullopt, 0, std::nullopt, nullptr, {}};
 }
 
 // ---------------------------------------------------------------- time
@@ -42,7 +45,8 @@ TimePoint Coordinator::process(TimePoint now) {
   for (const auto serial : serials) {
     if (Request* r = find(serial); r != nullptr && r->timeout_at <= now) {
       r->timeout_at = kNever;
-      abort_group(*r, reply_t::FAILED, ReplyError::kTimeout, "timed out after " + std::to_string(r->timeout_ms) + " ms");
+      abort_group(*r, reply_t::FAILED, ReplyError::kTimeout,
+                  "timed out after " + std::to_string(r->timeout_ms) + " ms");
     }
     if (Request* r = find(serial); r != nullptr && r->phase_deadline <= now) {
       r->phase_deadline = kNever;
@@ -117,11 +121,12 @@ void Coordinator::on_drive_model(const motionlcm::drive_model_t& model, TimePoin
   } else if (model.bus != it->second.drive->bus) {
     refused = "comes from bus '" + model.bus + "', the axis is on bus '" + it->second.drive->bus + "'";
   } else if (model.family != config::to_string(it->second.drive->family)) {
-    refused = "says family '" + model.family + "', the configuration says '" + std::string(config::to_string(it->second.drive->family)) + "'";
+    refused = "says family '" + model.family + "', the configuration says '" +
+              std::string(config::to_string(it->second.drive->family)) + "'";
   }
   if (!refused.empty()) {
-    publish_event(it == axes_.end() ? std::string() : model.axis, motionlcm::event_t::WARNING, motionlcm::event_t::PROTOCOL_ERROR,
-                  "drive model of axis " + model.axis + " ignored: it " + refused);
+    publish_event(it == axes_.end() ? std::string() : model.axis, motionlcm::event_t::WARNING,
+                  motionlcm::event_t::PROTOCOL_ERROR, "drive model of axis " + model.axis + " ignored: it " + refused);
     return;
   }
   AxisLive& a = it->second;
@@ -130,7 +135,8 @@ void Coordinator::on_drive_model(const motionlcm::drive_model_t& model, TimePoin
   if (auto* why = std::get_if<std::string>(&quantizer)) {
     a.quantizer.reset();
     a.model_error = *why;
-    publish_event(model.axis, motionlcm::event_t::WARNING, motionlcm::event_t::PROTOCOL_ERROR, "drive model of axis " + model.axis + " unusable: " + *why);
+    publish_event(model.axis, motionlcm::event_t::WARNING, motionlcm::event_t::PROTOCOL_ERROR,
+                  "drive model of axis " + model.axis + " unusable: " + *why);
   } else {
     a.quantizer = std::get<std::shared_ptr<const planner::DriveQuantizer>>(std::move(quantizer));
     a.model_error.clear();
@@ -144,7 +150,8 @@ void Coordinator::on_phase_deadline(Request& r) {
       for (const auto& [id, command] : r.pending) {
         if (!command.armed) buses += (buses.empty() ? "" : ", ") + command.bus;
       }
-      release_armed(r, {reply_t::FAILED, ReplyError::kArmFailed, "gateway(s) " + buses + " did not confirm the armed move in time"});
+      release_armed(r, {reply_t::FAILED, ReplyError::kArmFailed,
+                        "gateway(s) " + buses + " did not confirm the armed move in time"});
       break;
     }
     case Phase::kReleasing: end_with(r, r.outcome); break;
@@ -154,7 +161,8 @@ void Coordinator::on_phase_deadline(Request& r) {
 }
 
 bool Coordinator::active_moves_wanted() const {
-  return active_moves_published_ || std::any_of(requests_.begin(), requests_.end(), [](const auto& r) { return is_motion(r.second->msg.kind); });
+  return active_moves_published_ ||
+         std::any_of(requests_.begin(), requests_.end(), [](const auto& r) { return is_motion(r.second->msg.kind); });
 }
 
 // ---------------------------------------------------------------- inputs
@@ -176,8 +184,9 @@ void Coordinator::on_axis_state(const motionlcm::axis_state_t& state, TimePoint 
   if (first_sight && state.moving && state.online && it->second.busy_with == 0) {
     // Nothing this process sent moves it: a coordinator restarted while its predecessor's move,
     // jog or homing run went on, or a command from elsewhere. What nobody owns is stopped.
-    const std::string text = "axis " + state.axis + " was moving (at " + number(state.position) +
-                             ") when this coordinator first heard of it; no request of this coordinator moves it: stopping it";
+    const std::string text =
+        "axis " + state.axis + " was moving (at " + number(state.position) +
+        ") when this coordinator first heard of it; no request of this coordinator moves it: stopping it";
     spdlog::warn("{}", text);
     publish_event(state.axis, motionlcm::event_t::WARNING, motionlcm::event_t::UNOWNED_MOTION, text);
     send_stop({state.axis}, false, 0);
@@ -187,7 +196,8 @@ void Coordinator::on_axis_state(const motionlcm::axis_state_t& state, TimePoint 
       Request& r = *rit->second;
       if (r.phase == Phase::kTriggered && state.fault) {
         abort_group(r, reply_t::ABORTED, ReplyError::kAxisFault,
-                    "axis " + state.axis + " faulted: " + (state.fault_text.empty() ? "code " + std::to_string(state.fault_code) : state.fault_text));
+                    "axis " + state.axis + " faulted: " +
+                        (state.fault_text.empty() ? "code " + std::to_string(state.fault_code) : state.fault_text));
       } else if (r.phase == Phase::kTriggered && is_move(r.msg.kind)) {
         check_move_done(r);
       }
@@ -196,7 +206,8 @@ void Coordinator::on_axis_state(const motionlcm::axis_state_t& state, TimePoint 
   // Requests whose gateways are done wait for states that show it (stops do not own axes).
   std::vector<std::uint64_t> confirming;
   for (const auto& [serial, r] : requests_) {
-    if (r->phase == Phase::kConfirming && std::find(r->axes.begin(), r->axes.end(), state.axis) != r->axes.end()) confirming.push_back(serial);
+    if (r->phase == Phase::kConfirming && std::find(r->axes.begin(), r->axes.end(), state.axis) != r->axes.end())
+      confirming.push_back(serial);
   }
   for (const auto serial : confirming) {
     if (auto rit = requests_.find(serial); rit != requests_.end()) check_confirmed(*rit->second, false);
@@ -207,8 +218,9 @@ void Coordinator::on_axis_state(const motionlcm::axis_state_t& state, TimePoint 
 void Coordinator::on_event(const motionlcm::event_t& event, TimePoint now) {
   begin(now);
   using E = motionlcm::event_t;
-  const bool fatal = event.kind == E::STALL || event.kind == E::LIMIT || event.kind == E::HEARTBEAT_LOST || event.kind == E::OFFLINE ||
-                     event.kind == E::BUS_OFF || (event.kind == E::ALARM && event.severity >= E::ERROR) ||
+  const bool fatal = event.kind == E::STALL || event.kind == E::LIMIT || event.kind == E::HEARTBEAT_LOST ||
+                     event.kind == E::OFFLINE || event.kind == E::BUS_OFF ||
+                     (event.kind == E::ALARM && event.severity >= E::ERROR) ||
                      (event.kind == E::EMCY && event.severity >= E::ERROR) || event.kind == E::REBOOT;
   if (!fatal) return;
   std::vector<std::uint64_t> hit;
@@ -271,8 +283,9 @@ void Coordinator::on_orphaned_moves(const motionlcm::active_moves_t& moves, Time
     const std::string reason = "the coordinator serving this request stopped while it had " + list +
                                "; its successor ends the request (axes still moving are stopped)";
     reply_unknown(msg, reply_t::ABORTED, ReplyError::kCoordinatorRestarted, reason);
-    publish_event("", motionlcm::event_t::WARNING, motionlcm::event_t::UNOWNED_MOTION,
-                  "request " + id.first + "/" + std::to_string(id.second) + " of a previous coordinator ended: " + reason);
+    publish_event(
+        "", motionlcm::event_t::WARNING, motionlcm::event_t::UNOWNED_MOTION,
+        "request " + id.first + "/" + std::to_string(id.second) + " of a previous coordinator ended: " + reason);
   }
 }
 
@@ -295,7 +308,8 @@ void Coordinator::check_gateways() {
   }
   for (const auto& [serial, bus] : hit) {
     if (auto it = requests_.find(serial); it != requests_.end()) {
-      abort_group(*it->second, reply_t::ABORTED, ReplyError::kGatewayLost, "lost the heartbeat of the gateway of bus " + bus);
+      abort_group(*it->second, reply_t::ABORTED, ReplyError::kGatewayLost,
+                  "lost the heartbeat of the gateway of bus " + bus);
     }
   }
 }

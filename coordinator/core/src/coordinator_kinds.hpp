@@ -28,7 +28,8 @@ inline bool single_axis(std::int8_t kind) {
   return kind == request_t::SET_OUTPUTS || kind == request_t::PARAM_READ || kind == request_t::PARAM_WRITE;
 }
 inline bool terminal(std::int8_t status) {
-  return status == reply_t::DONE || status == reply_t::REJECTED || status == reply_t::ABORTED || status == reply_t::FAILED;
+  return status == reply_t::DONE || status == reply_t::REJECTED || status == reply_t::ABORTED ||
+         status == reply_t::FAILED;
 }
 
 inline std::int8_t gateway_kind(std::int8_t request_kind) {

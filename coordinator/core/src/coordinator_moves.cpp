@@ -23,11 +23,13 @@ void Coordinator::start_simple(Request& r) {
     const double counts_per_unit = a.axis->steps_per_unit * (a.axis->invert ? -1.0 : 1.0);
     if (r.msg.kind == request_t::JOG) {
       c.velocity = value * counts_per_unit * scale_or_one(r.msg.velocity_scale);
-      c.acceleration = c.deceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit * scale_or_one(r.msg.acceleration_scale);
+      c.acceleration = c.deceleration =
+          a.axis->limits.max_acceleration * a.axis->steps_per_unit * scale_or_one(r.msg.acceleration_scale);
     } else if (r.msg.kind == request_t::SET_POSITION) {
       c.target_counts = std::llround(value * counts_per_unit);
     } else if (r.msg.kind == request_t::HOME) {
-      c.velocity = (a.axis->homing.velocity != 0 ? a.axis->homing.velocity : -0.1 * a.axis->limits.max_velocity) * counts_per_unit;
+      c.velocity = (a.axis->homing.velocity != 0 ? a.axis->homing.velocity : -0.1 * a.axis->limits.max_velocity) *
+                   counts_per_unit;
       c.acceleration = c.deceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit;
       c.target_counts = std::llround(a.axis->homing.offset * counts_per_unit);
     }
@@ -44,7 +46,8 @@ void Coordinator::start_simple(Request& r) {
       continue;
     }
     if (is_stop(r.msg.kind)) {
-      for (const auto& c : cmds) stops_.watch(c.axis, r.msg.kind == request_t::ESTOP, now_, stop_allowance(axes_.at(c.axis)));
+      for (const auto& c : cmds)
+        stops_.watch(c.axis, r.msg.kind == request_t::ESTOP, now_, stop_allowance(axes_.at(c.axis)));
     }
     send_command(r, bus, gateway_kind(r.msg.kind), std::move(cmds));
   }
@@ -105,9 +108,8 @@ double Coordinator::start_frame_wire_us(const std::vector<motionlcm::axis_comman
   return wire;
 }
 
-std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(const std::string& bus,
-                                                                              std::vector<motionlcm::axis_command_t> axes,
-                                                                              std::vector<std::int8_t>* kinds) const {
+std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(
+    const std::string& bus, std::vector<motionlcm::axis_command_t> axes, std::vector<std::int8_t>* kinds) const {
   using Model = motionlcm::drive_model_t;
   std::map<std::string, std::size_t> moving;  // drive -> index in axes
   for (std::size_t i = 0; i < axes.size(); ++i) moving[axes_.at(axes[i].axis).drive->name] = i;
@@ -117,10 +119,10 @@ std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(co
     const config::Drive& d = *axes_.at(c.axis).drive;
     std::string key = std::string("family:") + std::to_string(static_cast<int>(d.family));
     // (std::int8_t{...}: LCM's in-class constants are read, never bound to a reference.)
-    std::int8_t kind = d.family == config::Family::kUc57          ? std::int8_t{Model::START_CANOPEN_SYNC}
-                       : d.family == config::Family::kAdamModbus  ? std::int8_t{Model::START_ADAM_BROADCAST}
-                       : d.family == config::Family::kUim242      ? std::int8_t{Model::START_UIM242_GLOBAL}
-                                                                  : std::int8_t{Model::START_SINGLE};
+    std::int8_t kind = d.family == config::Family::kUc57         ? std::int8_t{Model::START_CANOPEN_SYNC}
+                       : d.family == config::Family::kAdamModbus ? std::int8_t{Model::START_ADAM_BROADCAST}
+                       : d.family == config::Family::kUim242     ? std::int8_t{Model::START_UIM242_GLOBAL}
+                                                                 : std::int8_t{Model::START_SINGLE};
     if (d.family == config::Family::kUc57) {
       // A UC57 whose model offers no SYNC start (RPDO1 applies on reception) starts by its own RPDO1.
       const auto& model = axes_.at(c.axis).model;
@@ -132,7 +134,8 @@ std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(co
     if (d.family == config::Family::kUim342) {
       bool whole_group = d.group_id != 0;
       for (const auto& other : config_.drives) {
-        if (whole_group && other.bus == bus && other.family == config::Family::kUim342 && other.group_id == d.group_id) {
+        if (whole_group && other.bus == bus && other.family == config::Family::kUim342 &&
+            other.group_id == d.group_id) {
           whole_group = moving.contains(other.name);
         }
       }
@@ -222,8 +225,8 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g, TimePoint now) {
   const bool stop_part_failed = is_stop(r.msg.kind) && g.status == gateway_reply_t::FAILED;
   if (stop_part_failed && g.error_code != error_code(ReplyError::kStopped)) {
     r.gateway_failure += (r.gateway_failure.empty() ? "" : "; ") + ("bus " + g.bus + ": " + g.reason);
-    spdlog::warn("request {}/{} (stop): bus {}: {}; the stop is repeated until the axis states confirm it", r.msg.client_id, r.msg.request_id,
-                 g.bus, g.reason);
+    spdlog::warn("request {}/{} (stop): bus {}: {}; the stop is repeated until the axis states confirm it",
+                 r.msg.client_id, r.msg.request_id, g.bus, g.reason);
   }
   if (g.status == gateway_reply_t::FAILED && !stop_part_failed) {
     r.pending.erase(g.command_id);
@@ -235,13 +238,15 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g, TimePoint now) {
       return;
     }
     const ReplyError error = known_code ? static_cast<ReplyError>(g.error_code) : ReplyError::kDriveError;
-    abort_group(r, r.phase == Phase::kTriggered ? reply_t::ABORTED : reply_t::FAILED, error, "bus " + g.bus + ": " + g.reason);
+    abort_group(r, r.phase == Phase::kTriggered ? reply_t::ABORTED : reply_t::FAILED, error,
+                "bus " + g.bus + ": " + g.reason);
     return;
   }
   if (is_move(r.msg.kind)) {
     if (g.status == gateway_reply_t::ARMED && r.phase == Phase::kArming) {
       r.pending[g.command_id] = PendingCommand{g.bus, true};
-      const bool all_armed = std::all_of(r.pending.begin(), r.pending.end(), [](const auto& p) { return p.second.armed; });
+      const bool all_armed =
+          std::all_of(r.pending.begin(), r.pending.end(), [](const auto& p) { return p.second.armed; });
       if (all_armed) fire(r);
     } else if (g.status == gateway_reply_t::STARTED) {
       r.started_utime[g.command_id] = g.trigger_utime;
@@ -272,7 +277,8 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g, TimePoint now) {
 
 std::optional<std::string> Coordinator::unconfirmed(const Request& r) const {
   const auto k = r.msg.kind;
-  const bool shows_in_state = k == request_t::ENABLE || k == request_t::DISABLE || k == request_t::FAULT_RESET || is_stop(k);
+  const bool shows_in_state =
+      k == request_t::ENABLE || k == request_t::DISABLE || k == request_t::FAULT_RESET || is_stop(k);
   if (!shows_in_state) return std::nullopt;
   for (const auto& name : r.axes) {
     const AxisLive& a = axes_.at(name);
@@ -290,13 +296,16 @@ std::optional<std::string> Coordinator::unconfirmed(const Request& r) const {
         if (s.enabled && s.online) return "axis " + name + " still reports enabled";
         break;
       case request_t::FAULT_RESET:
-        if (s.fault) return "axis " + name + " still reports a fault (" + (s.fault_text.empty() ? "code " + std::to_string(s.fault_code) : s.fault_text) + ")";
+        if (s.fault)
+          return "axis " + name + " still reports a fault (" +
+                 (s.fault_text.empty() ? "code " + std::to_string(s.fault_code) : s.fault_text) + ")";
         break;
       case request_t::STOP:
         if (s.moving && s.online) return "axis " + name + " still reports moving";
         break;
       case request_t::ESTOP:
-        if ((s.moving || s.enabled) && s.online) return "axis " + name + (s.moving ? " still reports moving" : " still reports enabled");
+        if ((s.moving || s.enabled) && s.online)
+          return "axis " + name + (s.moving ? " still reports moving" : " still reports enabled");
         break;
       default: break;
     }
@@ -307,18 +316,22 @@ std::optional<std::string> Coordinator::unconfirmed(const Request& r) const {
 void Coordinator::check_confirmed(Request& r, bool final_check) {
   if (is_stop(r.msg.kind)) {
     // A stop is confirmed by the StopGuard: it repeats and escalates what does not take.
-    const bool watched = std::any_of(r.axes.begin(), r.axes.end(), [this](const std::string& a) { return stops_.watching(a); });
+    const bool watched =
+        std::any_of(r.axes.begin(), r.axes.end(), [this](const std::string& a) { return stops_.watching(a); });
     if (watched) return;  // check_stops() calls again when the guard resolves them
     const std::string told = r.gateway_failure.empty() ? "" : "; " + r.gateway_failure;
     for (const auto& a : r.axes) {
       if (stops_.outcome(a) == StopGuard::Outcome::kUnconfirmed) {
-        return end_with(r, {reply_t::FAILED, ReplyError::kDriveError, "axis " + a + " could not be stopped (still moving after an e-stop)" + told});
+        return end_with(r, {reply_t::FAILED, ReplyError::kDriveError,
+                            "axis " + a + " could not be stopped (still moving after an e-stop)" + told});
       }
       if (stops_.outcome(a) == StopGuard::Outcome::kSilent) {
-        return end_with(r, {reply_t::FAILED, ReplyError::kAxisOffline, "axis " + a + " could not be confirmed stopped: it has not reported since" + told});
+        return end_with(r, {reply_t::FAILED, ReplyError::kAxisOffline,
+                            "axis " + a + " could not be confirmed stopped: it has not reported since" + told});
       }
       if (r.msg.kind == request_t::STOP && stops_.escalated(a)) {
-        return end_with(r, {reply_t::FAILED, ReplyError::kDriveError, "axis " + a + " did not stop on STOP; it was e-stopped (disabled)"});
+        return end_with(r, {reply_t::FAILED, ReplyError::kDriveError,
+                            "axis " + a + " did not stop on STOP; it was e-stopped (disabled)"});
       }
     }
   }
@@ -330,7 +343,8 @@ void Coordinator::check_confirmed(Request& r, bool final_check) {
     finish(r.serial);
   } else if (final_check) {
     const ReplyError error = r.msg.kind == request_t::FAULT_RESET ? ReplyError::kAxisFaulted : ReplyError::kDriveError;
-    reply(r, reply_t::FAILED, error, std::string(kind_name(r.msg.kind)) + ": the gateway reported done, but " + *missing);
+    reply(r, reply_t::FAILED, error,
+          std::string(kind_name(r.msg.kind)) + ": the gateway reported done, but " + *missing);
     finish(r.serial);
   } else if (r.phase_deadline == kNever) {
     // Every gateway publishes its axes at its poll rate: a few of its periods settle it.

@@ -25,7 +25,8 @@ void Coordinator::reply_unknown(const request_t& msg, std::int8_t status, ReplyE
   spdlog::info("request {}/{} ({}) {}: {}", msg.client_id, msg.request_id, kind_name(msg.kind), ended, reason);
 }
 
-void Coordinator::publish_event(const std::string& axis, std::int8_t severity, std::int16_t kind, const std::string& text) {
+void Coordinator::publish_event(const std::string& axis, std::int8_t severity, std::int16_t kind,
+                                const std::string& text) {
   motionlcm::event_t e{};
   e.utime = wall_clock_();
   e.source = "coordinator";
@@ -37,7 +38,8 @@ void Coordinator::publish_event(const std::string& axis, std::int8_t severity, s
   out_.event(e);
 }
 
-std::int64_t Coordinator::send_command(Request& r, const std::string& bus, std::int8_t kind, std::vector<motionlcm::axis_command_t> axes) {
+std::int64_t Coordinator::send_command(Request& r, const std::string& bus, std::int8_t kind,
+                                       std::vector<motionlcm::axis_command_t> axes) {
   gateway_command_t c{};
   c.utime = wall_clock_();
   c.bus = bus;
@@ -84,17 +86,20 @@ void Coordinator::reply(Request& r, std::int8_t status, ReplyError error, const 
     auto t = r.targets.find(name);
     out.targets.push_back(t != r.targets.end() ? static_cast<double>(t->second) / counts_per_unit : 0.0);
     const auto command = r.axis_command.find(name);
-    const auto started = command != r.axis_command.end() ? r.started_utime.find(command->second) : r.started_utime.end();
+    const auto started =
+        command != r.axis_command.end() ? r.started_utime.find(command->second) : r.started_utime.end();
     const std::int64_t start = started != r.started_utime.end() ? started->second : 0;
     out.start_utime.push_back(start);
     if (t != r.targets.end() && a.state) {
       const double span = static_cast<double>(t->second - r.starts[name]);
-      progress_sum += span == 0 ? 1.0 : std::clamp(static_cast<double>(a.state->position_counts - r.starts[name]) / span, 0.0, 1.0);
+      progress_sum +=
+          span == 0 ? 1.0 : std::clamp(static_cast<double>(a.state->position_counts - r.starts[name]) / span, 0.0, 1.0);
     }
   }
   out.num_axes = static_cast<std::int32_t>(out.axes.size());
   out.measured_start_skew_us = first == 0 ? 0.0 : last - static_cast<double>(first);
-  out.progress = status == reply_t::DONE ? 1.0 : (r.axes.empty() ? 0.0 : progress_sum / static_cast<double>(r.axes.size()));
+  out.progress =
+      status == reply_t::DONE ? 1.0 : (r.axes.empty() ? 0.0 : progress_sum / static_cast<double>(r.axes.size()));
   out.param = r.param_result;
   out_.reply(out);
   if (terminal(status)) {
@@ -146,7 +151,8 @@ void Coordinator::publish_active_moves() {
       out.client_ids.push_back(r.msg.client_id);
       out.request_ids.push_back(r.msg.request_id);
       out.kinds.push_back(r.msg.kind);
-      out.phases.push_back(moving ? std::int8_t{motionlcm::active_moves_t::MOVING} : std::int8_t{motionlcm::active_moves_t::ARMING});
+      out.phases.push_back(moving ? std::int8_t{motionlcm::active_moves_t::MOVING}
+                                  : std::int8_t{motionlcm::active_moves_t::ARMING});
       out.command_ids.push_back(command);
       out.target_counts.push_back(counts);
       out.targets.push_back(counts_per_unit != 0 ? static_cast<double>(counts) / counts_per_unit : 0.0);

@@ -44,7 +44,8 @@ void Coordinator::on_malformed_request(std::span<const std::uint8_t> bytes, cons
   reply_unknown(msg, reply_t::REJECTED, ReplyError::kMalformedRequest, "malformed request: " + why);
 }
 
-void Coordinator::on_refused_request(const std::optional<request_t>& answer_to, const std::string& reason, TimePoint now) {
+void Coordinator::on_refused_request(const std::optional<request_t>& answer_to, const std::string& reason,
+                                     TimePoint now) {
   begin(now);
   publish_event("", motionlcm::event_t::WARNING, motionlcm::event_t::SECURITY, reason);
   if (answer_to) {
@@ -54,35 +55,45 @@ void Coordinator::on_refused_request(const std::optional<request_t>& answer_to, 
   }
 }
 
-std::optional<std::pair<ReplyError, std::string>> Coordinator::check_axis_ready(const std::string& axis, bool need_enabled) {
+std::optional<std::pair<ReplyError, std::string>> Coordinator::check_axis_ready(const std::string& axis,
+                                                                                bool need_enabled) {
   const AxisLive& a = axes_.at(axis);
-  if (!gateway_alive(a.drive->bus)) return std::pair{ReplyError::kGatewayOffline, "gateway of bus " + a.drive->bus + " (axis " + axis + ") is offline"};
+  if (!gateway_alive(a.drive->bus))
+    return std::pair{ReplyError::kGatewayOffline, "gateway of bus " + a.drive->bus + " (axis " + axis + ") is offline"};
   const bool fresh = a.state && now_ - a.received < std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms);
-  if (!fresh || !a.state->online) return std::pair{ReplyError::kAxisOffline, "axis " + axis + " has no live state (drive offline?)"};
+  if (!fresh || !a.state->online)
+    return std::pair{ReplyError::kAxisOffline, "axis " + axis + " has no live state (drive offline?)"};
   if (a.state->fault) {
-    return std::pair{ReplyError::kAxisFaulted, "axis " + axis + " is faulted (" +
-                                                   (a.state->fault_text.empty() ? "code " + std::to_string(a.state->fault_code) : a.state->fault_text) +
-                                                   "): reset it first"};
+    return std::pair{
+        ReplyError::kAxisFaulted,
+        "axis " + axis + " is faulted (" +
+            (a.state->fault_text.empty() ? "code " + std::to_string(a.state->fault_code) : a.state->fault_text) +
+            "): reset it first"};
   }
-  if (need_enabled && !a.state->enabled) return std::pair{ReplyError::kAxisDisabled, "axis " + axis + " is disabled: enable it first"};
+  if (need_enabled && !a.state->enabled)
+    return std::pair{ReplyError::kAxisDisabled, "axis " + axis + " is disabled: enable it first"};
   return std::nullopt;
 }
 
-std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const request_t& msg, std::vector<std::string>& axes) {
+std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const request_t& msg,
+                                                                        std::vector<std::string>& axes) {
   using P = std::pair<ReplyError, std::string>;
-  if (msg.kind < request_t::MOVE_ABSOLUTE || msg.kind > request_t::SET_POSITION) return P{ReplyError::kMalformedRequest, "unknown request kind " + std::to_string(msg.kind)};
+  if (msg.kind < request_t::MOVE_ABSOLUTE || msg.kind > request_t::SET_POSITION)
+    return P{ReplyError::kMalformedRequest, "unknown request kind " + std::to_string(msg.kind)};
   if (msg.num_axes != static_cast<std::int32_t>(msg.axes.size()) || msg.values.size() != msg.axes.size()) {
     return P{ReplyError::kMalformedRequest, "num_axes does not match the axes/values arrays"};
   }
   if (active_ids_.contains({msg.client_id, msg.request_id})) {
-    return P{ReplyError::kDuplicateRequest, "request id " + std::to_string(msg.request_id) + " of client '" + msg.client_id + "' is still active"};
+    return P{ReplyError::kDuplicateRequest,
+             "request id " + std::to_string(msg.request_id) + " of client '" + msg.client_id + "' is still active"};
   }
   axes = msg.axes;
   if (axes.empty() && is_stop(msg.kind)) {
     for (const auto& a : config_.axes) axes.push_back(a.name);  // stop everything
   }
   if (axes.empty()) return P{ReplyError::kMalformedRequest, std::string(kind_name(msg.kind)) + " names no axis"};
-  if (single_axis(msg.kind) && axes.size() != 1) return P{ReplyError::kMalformedRequest, std::string(kind_name(msg.kind)) + " takes exactly one axis"};
+  if (single_axis(msg.kind) && axes.size() != 1)
+    return P{ReplyError::kMalformedRequest, std::string(kind_name(msg.kind)) + " takes exactly one axis"};
   std::set<std::string> seen;
   for (std::size_t i = 0; i < axes.size(); ++i) {
     const auto& name = axes[i];
@@ -93,47 +104,57 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
       return P{ReplyError::kUnknownAxis, "unknown axis '" + name + "' (axes: " + known + ")"};
     }
     if (!seen.insert(name).second) return P{ReplyError::kMalformedRequest, "axis " + name + " appears twice"};
-    if (i < msg.values.size() && !std::isfinite(msg.values[i])) return P{ReplyError::kMalformedRequest, "value for axis " + name + " is not a finite number"};
+    if (i < msg.values.size() && !std::isfinite(msg.values[i]))
+      return P{ReplyError::kMalformedRequest, "value for axis " + name + " is not a finite number"};
   }
-  for (const auto& [name, scale] : {std::pair{"velocity_scale", msg.velocity_scale}, std::pair{"acceleration_scale", msg.acceleration_scale}}) {
+  for (const auto& [name, scale] :
+       {std::pair{"velocity_scale", msg.velocity_scale}, std::pair{"acceleration_scale", msg.acceleration_scale}}) {
     if (!std::isfinite(scale) || scale < 0 || scale > 1) {
-      return P{ReplyError::kMalformedRequest, std::string(name) + " " + number(scale) + " is outside (0, 1] (0 = 1, the full limit)"};
+      return P{ReplyError::kMalformedRequest,
+               std::string(name) + " " + number(scale) + " is outside (0, 1] (0 = 1, the full limit)"};
     }
   }
   if (msg.timeout_ms < 0) {
-    return P{ReplyError::kMalformedRequest, "timeout_ms " + std::to_string(msg.timeout_ms) + " is negative (0 = the default, " +
+    return P{ReplyError::kMalformedRequest, "timeout_ms " + std::to_string(msg.timeout_ms) +
+                                                " is negative (0 = the default, " +
                                                 std::to_string(config_.coordinator.default_timeout_ms) + " ms)"};
   }
   if (is_stop(msg.kind)) return std::nullopt;  // stops are always accepted for known axes
 
   for (const auto& name : axes) {
     const AxisLive& a = axes_.at(name);
-    if (a.busy_with != 0) return P{ReplyError::kAxisBusy, "axis " + name + " is busy with another request (stop it first)"};
-    const bool need_enabled = msg.kind != request_t::ENABLE && msg.kind != request_t::DISABLE && msg.kind != request_t::FAULT_RESET &&
-                              msg.kind != request_t::PARAM_READ && msg.kind != request_t::PARAM_WRITE && msg.kind != request_t::SET_OUTPUTS &&
+    if (a.busy_with != 0)
+      return P{ReplyError::kAxisBusy, "axis " + name + " is busy with another request (stop it first)"};
+    const bool need_enabled = msg.kind != request_t::ENABLE && msg.kind != request_t::DISABLE &&
+                              msg.kind != request_t::FAULT_RESET && msg.kind != request_t::PARAM_READ &&
+                              msg.kind != request_t::PARAM_WRITE && msg.kind != request_t::SET_OUTPUTS &&
                               msg.kind != request_t::SET_POSITION;
     // Reset is how a faulted axis recovers: it only needs a live gateway.
     if (msg.kind == request_t::FAULT_RESET || msg.kind == request_t::DISABLE) {
-      if (!gateway_alive(a.drive->bus)) return P{ReplyError::kGatewayOffline, "gateway of bus " + a.drive->bus + " (axis " + name + ") is offline"};
+      if (!gateway_alive(a.drive->bus))
+        return P{ReplyError::kGatewayOffline, "gateway of bus " + a.drive->bus + " (axis " + name + ") is offline"};
       continue;
     }
     if (auto err = check_axis_ready(name, need_enabled)) return err;
     // Its drive lost power: the position it reports is not the machine's (the gateway refuses
     // these too, whoever sends them). Home and set-position are how it becomes valid again.
-    if ((is_move(msg.kind) || msg.kind == request_t::JOG) && a.state->fault_code == motionlcm::axis_state_t::POSITION_LOST) {
-      return P{ReplyError::kPositionLost, "axis " + name + " lost its position (" + a.state->fault_text + "): home it or set its position first"};
+    if ((is_move(msg.kind) || msg.kind == request_t::JOG) &&
+        a.state->fault_code == motionlcm::axis_state_t::POSITION_LOST) {
+      return P{ReplyError::kPositionLost,
+               "axis " + name + " lost its position (" + a.state->fault_text + "): home it or set its position first"};
     }
   }
   if (is_move(msg.kind) || msg.kind == request_t::SET_POSITION) {
     for (std::size_t i = 0; i < axes.size(); ++i) {
       const AxisLive& a = axes_.at(axes[i]);
-      const double target = msg.kind == request_t::SET_POSITION ? msg.values[i] : move_target_units(a, msg.kind, msg.values[i]);
+      const double target =
+          msg.kind == request_t::SET_POSITION ? msg.values[i] : move_target_units(a, msg.kind, msg.values[i]);
       const auto& lim = a.axis->limits;
       if (target < lim.min_position || target > lim.max_position) {
         char buf[256];
         std::snprintf(buf, sizeof buf, "%s %.6g %s of axis %s is outside its limits [%.6g, %.6g]",
-                      msg.kind == request_t::SET_POSITION ? "position" : "target", target, a.axis->unit.c_str(), axes[i].c_str(),
-                      lim.min_position, lim.max_position);
+                      msg.kind == request_t::SET_POSITION ? "position" : "target", target, a.axis->unit.c_str(),
+                      axes[i].c_str(), lim.min_position, lim.max_position);
         return P{ReplyError::kOutsideLimits, buf};
       }
     }
@@ -147,7 +168,8 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
       const bool in_place = msg.kind == request_t::SET_POSITION || a.axis->homing.method_name == "current-position";
       const double position = msg.kind == request_t::SET_POSITION ? msg.values[i] : a.axis->homing.offset;
       if (in_place && std::llround(position * a.axis->steps_per_unit) != 0) {
-        return P{ReplyError::kUnsupported, "axis " + axes[i] + " (UC57) can set its position to 0 only, not " + number(position) + " " + a.axis->unit};
+        return P{ReplyError::kUnsupported, "axis " + axes[i] + " (UC57) can set its position to 0 only, not " +
+                                               number(position) + " " + a.axis->unit};
       }
     }
   }
@@ -155,7 +177,8 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
     for (const auto& name : axes) {
       // Every family alike: an axis homes only the way its configuration says.
       if (axes_.at(name).axis->homing.method_name.empty()) {
-        return P{ReplyError::kUnsupported, "axis " + name + " has no homing configured (add a homing: section to the axis)"};
+        return P{ReplyError::kUnsupported,
+                 "axis " + name + " has no homing configured (add a homing: section to the axis)"};
       }
     }
   }
@@ -163,8 +186,8 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
     for (std::size_t i = 0; i < axes.size(); ++i) {
       const auto& lim = axes_.at(axes[i]).axis->limits;
       if (std::abs(msg.values[i]) > lim.max_velocity) {
-        return P{ReplyError::kOutsideLimits, "jog velocity " + std::to_string(msg.values[i]) + " of axis " + axes[i] + " exceeds its limit " +
-                                                 std::to_string(lim.max_velocity)};
+        return P{ReplyError::kOutsideLimits, "jog velocity " + std::to_string(msg.values[i]) + " of axis " + axes[i] +
+                                                 " exceeds its limit " + std::to_string(lim.max_velocity)};
       }
       // A jog with less than one whole count to go before the limit in its direction (or at or
       // beyond it) has nowhere to go: refused before anything is sent, in counts as the gateway
@@ -179,7 +202,8 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
         if ((toward_more_counts ? limit_counts - position : position - limit_counts) < 1.0) {
           char buf[256];
           std::snprintf(buf, sizeof buf,
-                        "jog of axis %s toward its limit %.6g %s refused: it stands at %.6g %s, less than one count from (or beyond) that limit",
+                        "jog of axis %s toward its limit %.6g %s refused: it stands at %.6g %s, less than one count "
+                        "from (or beyond) that limit",
                         axes[i].c_str(), limit_units, a.axis->unit.c_str(), a.state->position, a.axis->unit.c_str());
           return P{ReplyError::kOutsideLimits, buf};
         }
@@ -201,8 +225,8 @@ void Coordinator::on_request(const request_t& msg, TimePoint now) {
   const auto limit = static_cast<std::size_t>(config_.coordinator.max_active_requests);
   if (!is_stop(msg.kind) && requests_.size() >= limit) {
     reply_unknown(msg, reply_t::REJECTED, ReplyError::kBusy,
-                  "busy: " + std::to_string(requests_.size()) + " requests in progress (max_active_requests " + std::to_string(limit) +
-                      "); retry when one has ended");
+                  "busy: " + std::to_string(requests_.size()) + " requests in progress (max_active_requests " +
+                      std::to_string(limit) + "); retry when one has ended");
     return;
   }
   auto owned = std::make_unique<Request>();
@@ -237,13 +261,15 @@ void Coordinator::on_request(const request_t& msg, TimePoint now) {
   }
   r.timeout_ms = msg.timeout_ms > 0 ? msg.timeout_ms : config_.coordinator.default_timeout_ms;
   r.timeout_at = now_ + std::chrono::milliseconds(r.timeout_ms);
-  spdlog::info("request {}/{} ({}) accepted for {} axes", msg.client_id, msg.request_id, kind_name(msg.kind), axes.size());
+  spdlog::info("request {}/{} ({}) accepted for {} axes", msg.client_id, msg.request_id, kind_name(msg.kind),
+               axes.size());
   reply(r, reply_t::ACCEPTED);
   if (taken_over) check_stops();
   if (!is_move(msg.kind)) {
     for (const auto& a : axes) {
       // Anything else that moves or re-references the axis ends "standing at the last target".
-      if (msg.kind == request_t::JOG || msg.kind == request_t::HOME || msg.kind == request_t::SET_POSITION) axes_.at(a).commanded_units.reset();
+      if (msg.kind == request_t::JOG || msg.kind == request_t::HOME || msg.kind == request_t::SET_POSITION)
+        axes_.at(a).commanded_units.reset();
     }
     start_simple(r);
   } else if (r.plan.axes.empty()) {
@@ -255,8 +281,9 @@ void Coordinator::on_request(const request_t& msg, TimePoint now) {
 
 double Coordinator::move_target_units(const AxisLive& a, std::int8_t kind, double value) const {
   if (kind == request_t::MOVE_ABSOLUTE) return value;
-  const bool at_commanded = a.commanded_units && a.state &&
-                            std::abs(static_cast<double>(a.state->position_counts - a.commanded_counts)) <= tolerance_counts(a);
+  const bool at_commanded =
+      a.commanded_units && a.state &&
+      std::abs(static_cast<double>(a.state->position_counts - a.commanded_counts)) <= tolerance_counts(a);
   return (at_commanded ? *a.commanded_units : (a.state ? a.state->position : 0.0)) + value;
 }
 
@@ -268,7 +295,8 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::plan_move(Request
     const double target_units = move_target_units(a, r.msg.kind, r.msg.values[i]);
     const double target = std::round(target_units * counts_per_unit);
     if (!(std::abs(target) < 9.0e18)) {
-      return std::pair{ReplyError::kOutsideLimits, "target " + number(target_units) + " of axis " + r.axes[i] + " does not fit in counts"};
+      return std::pair{ReplyError::kOutsideLimits,
+                       "target " + number(target_units) + " of axis " + r.axes[i] + " does not fit in counts"};
     }
     PlanInput in;
     in.axis = r.axes[i];
@@ -293,18 +321,23 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::plan_move(Request
   for (const auto& in : inputs) {
     const AxisLive& a = axes_.at(in.axis);
     if (!a.model) {
-      return std::pair{ReplyError::kNoDriveModel, "axis " + in.axis + " has no drive model yet: the gateway of bus " + a.drive->bus +
+      return std::pair{ReplyError::kNoDriveModel, "axis " + in.axis + " has no drive model yet: the gateway of bus " +
+                                                      a.drive->bus +
                                                       " has not published DRIVE_MODEL for it (drive not set up?)"};
     }
-    if (!in.quantizer) return std::pair{ReplyError::kPlanningFailed, "axis " + in.axis + ": its drive model is unusable: " + a.model_error};
+    if (!in.quantizer)
+      return std::pair{ReplyError::kPlanningFailed,
+                       "axis " + in.axis + ": its drive model is unusable: " + a.model_error};
   }
   auto planned = planner_(inputs, scale_or_one(r.msg.velocity_scale), scale_or_one(r.msg.acceleration_scale));
-  if (auto* why = std::get_if<std::string>(&planned)) return std::pair{ReplyError::kPlanningFailed, "planning failed: " + *why};
+  if (auto* why = std::get_if<std::string>(&planned))
+    return std::pair{ReplyError::kPlanningFailed, "planning failed: " + *why};
   r.plan = std::get<MovePlan>(planned);
   const int timeout_ms = r.msg.timeout_ms > 0 ? r.msg.timeout_ms : config_.coordinator.default_timeout_ms;
   if (!(r.plan.duration_s * 1000.0 < static_cast<double>(timeout_ms))) {
-    return std::pair{ReplyError::kPlanningFailed, "the move would take " + number(r.plan.duration_s) + " s, longer than its timeout of " +
-                                                      number(timeout_ms / 1000.0) + " s (raise the speed or timeout_ms)"};
+    return std::pair{ReplyError::kPlanningFailed, "the move would take " + number(r.plan.duration_s) +
+                                                      " s, longer than its timeout of " + number(timeout_ms / 1000.0) +
+                                                      " s (raise the speed or timeout_ms)"};
   }
   return std::nullopt;
 }
@@ -332,8 +365,8 @@ void Coordinator::preempt(const request_t& stop) {
       const bool named = stop.axes.empty() || std::find(stop.axes.begin(), stop.axes.end(), a) != stop.axes.end();
       if (named && !r.still.contains(a) && is_motion(r.msg.kind)) stopped.insert(a);
     }
-    const std::string by = std::string(stop.kind == request_t::ESTOP ? "e-stopped" : "stopped") + " by request " + stop.client_id + "/" +
-                           std::to_string(stop.request_id);
+    const std::string by = std::string(stop.kind == request_t::ESTOP ? "e-stopped" : "stopped") + " by request " +
+                           stop.client_id + "/" + std::to_string(stop.request_id);
     // The ABORTED reply waits until the stop request's stops are confirmed (start_simple watches
     // them). The axes are free at once: the stop request owns their stop, and a request sent right
     // behind the stop may take them (which ends this one's wait).

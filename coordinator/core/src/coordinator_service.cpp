@@ -21,8 +21,8 @@ security::Loaded<CoordinatorService::Security> CoordinatorService::load_security
       auto published = security::load_public_key(settings.coordinator_public_key);
       if (auto* error = std::get_if<std::string>(&published)) return "security.coordinator_public_key: " + *error;
       if (std::get<security::PublicKey>(published) != pair.public_key()) {
-        return "security.key (" + settings.key + ") and security.coordinator_public_key (" + settings.coordinator_public_key +
-               ") are not one key pair: gateways would refuse every command";
+        return "security.key (" + settings.key + ") and security.coordinator_public_key (" +
+               settings.coordinator_public_key + ") are not one key pair: gateways would refuse every command";
       }
     }
     out.command_signer.emplace(pair, config.lcm.channel_prefix);
@@ -37,7 +37,8 @@ security::Loaded<CoordinatorService::Security> CoordinatorService::load_security
   return out;
 }
 
-CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner, Security security)
+CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config,
+                                       MovePlanner planner, Security security)
     : loop_(loop),
       node_(node),
       core_(config, std::move(planner), *this),
@@ -61,7 +62,8 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
           core_.on_refused_request(std::nullopt, unsigned_refusal("malformed request (" + why + ")"), loop_.now());
         } else {
           const auto n = static_cast<std::size_t>(size > 0 ? size : 0);
-          core_.on_malformed_request(std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data), n), why, loop_.now());
+          core_.on_malformed_request(std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data), n), why,
+                                     loop_.now());
         }
         pump();
       });
@@ -75,30 +77,35 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
         core_.on_refused_request(std::nullopt, "malformed signed request refused: " + why, loop_.now());
         pump();
       });
-  node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [this](const motionlcm::axis_state_t& m, const std::string&) {
-    core_.on_axis_state(m, loop_.now());
-    pump();
-  });
-  node_.subscribe<motionlcm::gateway_reply_t>(lcm::channels::kGatewayReply, [this](const motionlcm::gateway_reply_t& m, const std::string&) {
-    core_.on_gateway_reply(m, loop_.now());
-    pump();
-  });
+  node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
+                                           [this](const motionlcm::axis_state_t& m, const std::string&) {
+                                             core_.on_axis_state(m, loop_.now());
+                                             pump();
+                                           });
+  node_.subscribe<motionlcm::gateway_reply_t>(lcm::channels::kGatewayReply,
+                                              [this](const motionlcm::gateway_reply_t& m, const std::string&) {
+                                                core_.on_gateway_reply(m, loop_.now());
+                                                pump();
+                                              });
   node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& m, const std::string&) {
     core_.on_event(m, loop_.now());
     pump();
   });
-  node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [this](const motionlcm::health_t& m, const std::string&) {
-    core_.on_health(m, loop_.now());
-    pump();
-  });
-  node_.subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel, [this](const motionlcm::drive_model_t& m, const std::string&) {
-    core_.on_drive_model(m, loop_.now());
-    pump();
-  });
-  node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kOrphanedMoves, [this](const motionlcm::active_moves_t& m, const std::string&) {
-    core_.on_orphaned_moves(m, loop_.now());
-    pump();
-  });
+  node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth,
+                                       [this](const motionlcm::health_t& m, const std::string&) {
+                                         core_.on_health(m, loop_.now());
+                                         pump();
+                                       });
+  node_.subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel,
+                                            [this](const motionlcm::drive_model_t& m, const std::string&) {
+                                              core_.on_drive_model(m, loop_.now());
+                                              pump();
+                                            });
+  node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kOrphanedMoves,
+                                             [this](const motionlcm::active_moves_t& m, const std::string&) {
+                                               core_.on_orphaned_moves(m, loop_.now());
+                                               pump();
+                                             });
   // A malformed request cannot be answered (its ids are unreadable): say so loudly on EVENT.
   node_.on_malformed([this](const std::string& what) {
     spdlog::warn("{}", what);
@@ -125,13 +132,14 @@ void CoordinatorService::on_signed_request(const motionlcm::signed_request_t& en
   if (verdict.accepted) {
     core_.on_request(*verdict.request, loop_.now());
   } else {
-    core_.on_refused_request(verdict.answerable ? verdict.request : std::nullopt, "signed request refused: " + verdict.reason, loop_.now());
+    core_.on_refused_request(verdict.answerable ? verdict.request : std::nullopt,
+                             "signed request refused: " + verdict.reason, loop_.now());
   }
 }
 
 std::string CoordinatorService::unsigned_refusal(const std::string& what) const {
-  return "unsigned request refused: security is enforced (" + what + "; sign it with a key of authorized_keys and send it on " +
-         node_.channel(lcm::channels::kSignedRequest) + ")";
+  return "unsigned request refused: security is enforced (" + what +
+         "; sign it with a key of authorized_keys and send it on " + node_.channel(lcm::channels::kSignedRequest) + ")";
 }
 
 CoordinatorService::~CoordinatorService() {
@@ -152,12 +160,16 @@ void CoordinatorService::pump() {
 }
 
 template <typename Msg>
-void CoordinatorService::publish_coordinator_message(std::string_view channel, const Msg& message, bool plain_under_enforce) {
+void CoordinatorService::publish_coordinator_message(std::string_view channel, const Msg& message,
+                                                     bool plain_under_enforce) {
   if (!message_signer_ || !enforce_ || plain_under_enforce) node_.publish(channel, message);
-  if (message_signer_) node_.publish(security::signed_channel(channel), message_signer_->sign(channel, message, wall_time_us()));
+  if (message_signer_)
+    node_.publish(security::signed_channel(channel), message_signer_->sign(channel, message, wall_time_us()));
 }
 
-void CoordinatorService::reply(const motionlcm::reply_t& reply) { publish_coordinator_message(lcm::channels::kReply, reply, true); }
+void CoordinatorService::reply(const motionlcm::reply_t& reply) {
+  publish_coordinator_message(lcm::channels::kReply, reply, true);
+}
 
 void CoordinatorService::gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) {
   if (command_signer_) {
@@ -178,7 +190,9 @@ void CoordinatorService::active_moves(const motionlcm::active_moves_t& moves) {
   publish_coordinator_message(lcm::channels::kActiveMoves, moves, false);
 }
 
-void CoordinatorService::event(const motionlcm::event_t& event) { publish_coordinator_message(lcm::channels::kEvent, event, true); }
+void CoordinatorService::event(const motionlcm::event_t& event) {
+  publish_coordinator_message(lcm::channels::kEvent, event, true);
+}
 
 void CoordinatorService::drive_model_request(const motionlcm::drive_model_request_t& request) {
   node_.publish(lcm::channels::kDriveModelRequest, request);

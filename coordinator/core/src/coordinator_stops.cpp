@@ -94,8 +94,10 @@ void Coordinator::check_stops() {
   for (const auto& [serial, r] : requests_) {
     const bool waiting = r->phase == Phase::kStopping || (r->phase == Phase::kConfirming && is_stop(r->msg.kind));
     if (!waiting) continue;
-    const auto& axes = r->phase == Phase::kStopping ? std::vector<std::string>(r->stopping.begin(), r->stopping.end()) : r->axes;
-    if (std::none_of(axes.begin(), axes.end(), [this](const std::string& a) { return stops_.watching(a); })) ready.push_back(serial);
+    const auto& axes =
+        r->phase == Phase::kStopping ? std::vector<std::string>(r->stopping.begin(), r->stopping.end()) : r->axes;
+    if (std::none_of(axes.begin(), axes.end(), [this](const std::string& a) { return stops_.watching(a); }))
+      ready.push_back(serial);
   }
   for (const auto serial : ready) {
     auto it = requests_.find(serial);
@@ -114,8 +116,10 @@ void Coordinator::check_stops() {
         unreachable_axes += (unreachable_axes.empty() ? "" : ", ") + a;
       }
     }
-    if (!unconfirmed_axes.empty()) outcome.reason += "; could not stop " + unconfirmed_axes + " (still moving after an e-stop)";
-    if (!unreachable_axes.empty()) outcome.reason += "; stop of " + unreachable_axes + " not confirmed (gateway or drive not reporting)";
+    if (!unconfirmed_axes.empty())
+      outcome.reason += "; could not stop " + unconfirmed_axes + " (still moving after an e-stop)";
+    if (!unreachable_axes.empty())
+      outcome.reason += "; stop of " + unreachable_axes + " not confirmed (gateway or drive not reporting)";
     end_with(r, outcome);
   }
 }

@@ -9,31 +9,37 @@
 
 namespace motion::coordinator {
 
-std::variant<std::shared_ptr<const planner::DriveQuantizer>, std::string> quantizer_from_model(const motionlcm::drive_model_t& m) {
+std::variant<std::shared_ptr<const planner::DriveQuantizer>, std::string> quantizer_from_model(
+    const motionlcm::drive_model_t& m) {
   using M = motionlcm::drive_model_t;
   const auto positive = [](double v) { return std::isfinite(v) && v > 0; };
-  if (!positive(m.velocity_step)) return "velocity step " + std::to_string(m.velocity_step) + " counts/s is not positive";
-  if (!positive(m.acceleration_step)) return "acceleration step " + std::to_string(m.acceleration_step) + " is not positive";
+  if (!positive(m.velocity_step))
+    return "velocity step " + std::to_string(m.velocity_step) + " counts/s is not positive";
+  if (!positive(m.acceleration_step))
+    return "acceleration step " + std::to_string(m.acceleration_step) + " is not positive";
   if (m.velocity_min < 1 || m.velocity_max < m.velocity_min) {
     return "velocity range " + std::to_string(m.velocity_min) + ".." + std::to_string(m.velocity_max) + " is empty";
   }
   if (m.acceleration_min < 1 || m.acceleration_max < m.acceleration_min) {
-    return "acceleration range " + std::to_string(m.acceleration_min) + ".." + std::to_string(m.acceleration_max) + " is empty";
+    return "acceleration range " + std::to_string(m.acceleration_min) + ".." + std::to_string(m.acceleration_max) +
+           " is empty";
   }
-  if (!std::isfinite(m.ramp_from) || m.ramp_from < 0) return "ramp start speed " + std::to_string(m.ramp_from) + " is negative";
+  if (!std::isfinite(m.ramp_from) || m.ramp_from < 0)
+    return "ramp start speed " + std::to_string(m.ramp_from) + " is negative";
   planner::AccelerationGrid grid;
   switch (m.acceleration_kind) {
     case M::ACCEL_RATE: grid = planner::AccelerationGrid::rate(m.acceleration_step); break;
     case M::ACCEL_RAMP_TIME: grid = planner::AccelerationGrid::ramp_time(m.acceleration_step, m.ramp_from); break;
     default: return "unknown acceleration kind " + std::to_string(m.acceleration_kind);
   }
-  return std::make_shared<planner::GridQuantizer>(m.grid.empty() ? m.family : m.grid,
-                                                  planner::VelocityGrid{m.velocity_step, m.velocity_min, m.velocity_max},
-                                                  grid.steps(m.acceleration_min, m.acceleration_max));
+  return std::make_shared<planner::GridQuantizer>(
+      m.grid.empty() ? m.family : m.grid, planner::VelocityGrid{m.velocity_step, m.velocity_min, m.velocity_max},
+      grid.steps(m.acceleration_min, m.acceleration_max));
 }
 
 MovePlanner make_move_planner() {
-  return [](const std::vector<PlanInput>& inputs, double velocity_scale, double acceleration_scale) -> std::variant<MovePlan, std::string> {
+  return [](const std::vector<PlanInput>& inputs, double velocity_scale,
+            double acceleration_scale) -> std::variant<MovePlan, std::string> {
     // The coordinator has checked positions against the limits in user units; here everything is
     // in counts (counts_per_user = 1) and position limits are open.
     constexpr double kOpen = std::numeric_limits<double>::infinity();

@@ -34,7 +34,8 @@ StartSchedule schedule_starts(std::vector<StartFrame> frames) {
 }
 
 std::optional<double> start_wire_us(const motionlcm::drive_model_t& model, std::int8_t kind) {
-  const std::size_t n = std::min({model.start_kinds.size(), model.start_wire_us.size(), static_cast<std::size_t>(std::max(model.num_starts, 0))});
+  const std::size_t n = std::min(
+      {model.start_kinds.size(), model.start_wire_us.size(), static_cast<std::size_t>(std::max(model.num_starts, 0))});
   for (std::size_t i = 0; i < n; ++i) {
     if (model.start_kinds[i] == kind) return model.start_wire_us[i];
   }

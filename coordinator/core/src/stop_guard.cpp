@@ -50,15 +50,17 @@ std::vector<StopGuard::Action> StopGuard::process(TimePoint now, const Observe& 
       continue;
     }
     if (seen.reported_since && !seen.moving) {
-      resolve(Outcome::kStopped, w.attempt == 1 ? "axis " + axis + " stopped"
-                                                : "axis " + axis + " stopped after " + std::to_string(w.attempt) + " stops");
+      resolve(Outcome::kStopped, w.attempt == 1
+                                     ? "axis " + axis + " stopped"
+                                     : "axis " + axis + " stopped after " + std::to_string(w.attempt) + " stops");
       continue;
     }
     if (now < w.deadline) {
       ++it;
       continue;
     }
-    const std::string late = "axis " + axis + " still " + (seen.reported_since ? "reports moving " : "has not reported ") +
+    const std::string late = "axis " + axis + " still " +
+                             (seen.reported_since ? "reports moving " : "has not reported ") +
                              milliseconds(now - w.sent) + " after " + (w.estop_sent ? "an e-stop" : "a stop");
     if (w.attempt >= 3 || (w.emergency && w.attempt >= 2)) {
       if (seen.reported_since) {

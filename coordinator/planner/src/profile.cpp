@@ -41,9 +41,9 @@ AxisProfile time_optimal_profile(std::int64_t start_counts, std::int64_t target_
                                  double max_velocity_counts_per_s, double max_acceleration_counts_per_s2,
                                  double max_deceleration_counts_per_s2) {
   AxisProfile profile{start_counts, target_counts, {}};
-  profile.shape = time_optimal_shape(std::abs(static_cast<double>(target_counts - start_counts)),
-                                     max_velocity_counts_per_s, max_acceleration_counts_per_s2,
-                                     max_deceleration_counts_per_s2);
+  profile.shape =
+      time_optimal_shape(std::abs(static_cast<double>(target_counts - start_counts)), max_velocity_counts_per_s,
+                         max_acceleration_counts_per_s2, max_deceleration_counts_per_s2);
   return profile;
 }
 

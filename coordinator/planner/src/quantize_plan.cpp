@@ -56,8 +56,8 @@ std::optional<DriveMotion> duration_matching(double distance, double duration_s,
                                              const DriveMotion& planned) {
   // Ramp time per unit velocity at scale 1: (1/a + 1/d) / 2; scaling both ramps by `lambda`
   // divides it by lambda.
-  const double half_inverse_ramps = 0.5 * (1.0 / planned.acceleration_counts_per_s2 +
-                                           1.0 / planned.deceleration_counts_per_s2);
+  const double half_inverse_ramps =
+      0.5 * (1.0 / planned.acceleration_counts_per_s2 + 1.0 / planned.deceleration_counts_per_s2);
   const double cruise_only_s = distance / velocity;
   if (!(duration_s > cruise_only_s)) return std::nullopt;
   // Trapezoid: distance/v + v * k / lambda = T.
@@ -66,7 +66,8 @@ std::optional<DriveMotion> duration_matching(double distance, double duration_s,
     // The ramps do not fit: a triangle, whose duration is sqrt(4 * distance * k / lambda).
     lambda = 4.0 * distance * half_inverse_ramps / (duration_s * duration_s);
   }
-  return DriveMotion{velocity, lambda * planned.acceleration_counts_per_s2, lambda * planned.deceleration_counts_per_s2};
+  return DriveMotion{velocity, lambda * planned.acceleration_counts_per_s2,
+                     lambda * planned.deceleration_counts_per_s2};
 }
 
 // Smallest window of the duration-sorted candidates holding at least one candidate of every moving
@@ -146,14 +147,14 @@ void tight_candidates(const std::vector<Candidate>& candidates, double shortest,
 // Scratch buffers of one thread's plans, reused: planning allocates only for its result once they
 // have grown to the largest plan seen.
 struct Workspace {
-  std::vector<DriveSetting> settings;     // every moving axis's settings, axis after axis
+  std::vector<DriveSetting> settings;  // every moving axis's settings, axis after axis
   std::vector<Candidate> candidates;
-  std::vector<Candidate> sorted;          // the candidates in `earlier` order
-  std::vector<BucketAxes> bucket_axes;    // tight_candidates' axes per bucket
-  std::uint64_t plans = 0;                // plans made with this workspace
-  std::vector<std::size_t> in_window;     // tightest_window's per-axis counts
-  std::vector<const Candidate*> chosen;   // per axis
-  std::vector<double> nearest;            // per axis, its duration nearest the planned one (-1: still)
+  std::vector<Candidate> sorted;         // the candidates in `earlier` order
+  std::vector<BucketAxes> bucket_axes;   // tight_candidates' axes per bucket
+  std::uint64_t plans = 0;               // plans made with this workspace
+  std::vector<std::size_t> in_window;    // tightest_window's per-axis counts
+  std::vector<const Candidate*> chosen;  // per axis
+  std::vector<double> nearest;           // per axis, its duration nearest the planned one (-1: still)
 };
 
 Workspace& thread_workspace() {
@@ -166,8 +167,8 @@ Workspace& thread_workspace() {
 namespace {
 
 // append_axis_candidates() before the filter by the axis's hard limits.
-void axis_settings(const SyncPlan& plan, std::size_t axis, const DriveQuantizer& quantizer, const QuantizeOptions& options,
-                   const AxisCaps& caps, std::vector<DriveSetting>& out) {
+void axis_settings(const SyncPlan& plan, std::size_t axis, const DriveQuantizer& quantizer,
+                   const QuantizeOptions& options, const AxisCaps& caps, std::vector<DriveSetting>& out) {
   const AxisProfile& planned = plan.axes[axis];
   const DriveMotion desired = desired_motion(planned.shape, caps);
   const std::size_t first = out.size();
@@ -191,9 +192,10 @@ void axis_settings(const SyncPlan& plan, std::size_t axis, const DriveQuantizer&
     const auto matching = duration_matching(distance, plan.duration_s(), velocity, desired);
     if (!matching) continue;
     // The ramps were fitted to this velocity only; its neighbours are already in the first round.
-    quantizer.candidates_at_velocity(DriveMotion{velocity, std::min(matching->acceleration_counts_per_s2, caps.acceleration),
-                                                 std::min(matching->deceleration_counts_per_s2, caps.deceleration)},
-                                     options.neighbours, out);
+    quantizer.candidates_at_velocity(
+        DriveMotion{velocity, std::min(matching->acceleration_counts_per_s2, caps.acceleration),
+                    std::min(matching->deceleration_counts_per_s2, caps.deceleration)},
+        options.neighbours, out);
   }
 }
 
@@ -214,7 +216,10 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
                                     const QuantizeOptions& options) {
   const std::size_t axis_count = plan.axes.size();
   if (quantizers.size() != axis_count || std::ranges::find(quantizers, nullptr) != quantizers.end()) {
-    return PlanFailure{PlanErrc::quantizer_count_mismatch, kNoAxis, {}, static_cast<double>(quantizers.size()),
+    return PlanFailure{PlanErrc::quantizer_count_mismatch,
+                       kNoAxis,
+                       {},
+                       static_cast<double>(quantizers.size()),
                        static_cast<double>(axis_count)};
   }
 
@@ -242,9 +247,9 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     for (std::size_t k = settings_first; k < w.settings.size(); ++k) {
       const DriveMotion& realized = w.settings[k].realized;
       if (!within(realized, caps)) continue;
-      const TrapezoidShape shape = time_optimal_shape(distance, realized.velocity_counts_per_s,
-                                                      realized.acceleration_counts_per_s2,
-                                                      realized.deceleration_counts_per_s2);
+      const TrapezoidShape shape =
+          time_optimal_shape(distance, realized.velocity_counts_per_s, realized.acceleration_counts_per_s2,
+                             realized.deceleration_counts_per_s2);
       const double duration_s = shape.duration_s();
       shortest = std::min(shortest, duration_s);
       longest = std::max(longest, duration_s);
@@ -269,7 +274,8 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     nearest_shortest = std::min(nearest_shortest, w.nearest[i]);
     nearest_longest = std::max(nearest_longest, w.nearest[i]);
   }
-  tight_candidates(w.candidates, shortest, longest, nearest_longest - nearest_shortest, ++w.plans, w.bucket_axes, w.sorted);
+  tight_candidates(w.candidates, shortest, longest, nearest_longest - nearest_shortest, ++w.plans, w.bucket_axes,
+                   w.sorted);
   const std::vector<Candidate>& candidates = w.sorted;
   const auto [first, last] = tightest_window(candidates, axis_count, moving_count, out.planned_duration_s, w.in_window);
   // Every axis has a candidate in the window; within it, take the one nearest the window centre.
@@ -285,9 +291,9 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     RealizedAxis& axis = out.axes[i];
     axis.setting = w.settings[w.chosen[i]->setting];
     const DriveMotion& realized = axis.setting->realized;
-    axis.profile = time_optimal_profile(axis.profile.start_counts, axis.profile.target_counts,
-                                        realized.velocity_counts_per_s, realized.acceleration_counts_per_s2,
-                                        realized.deceleration_counts_per_s2);
+    axis.profile =
+        time_optimal_profile(axis.profile.start_counts, axis.profile.target_counts, realized.velocity_counts_per_s,
+                             realized.acceleration_counts_per_s2, realized.deceleration_counts_per_s2);
   }
   out.earliest_arrival_s = std::numeric_limits<double>::infinity();
   out.latest_arrival_s = 0.0;

@@ -96,8 +96,8 @@ void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& 
     };
     const auto bracket = [&](double wanted) {
       const double guess = ramp_time ? ramp_span / (wanted * a_step) : wanted / a_step;
-      return Bracket{at_or_below_index(wanted, guess, !ramp_time, acceleration_grid.min_steps, acceleration_grid.max_steps,
-                                       realized_acceleration),
+      return Bracket{at_or_below_index(wanted, guess, !ramp_time, acceleration_grid.min_steps,
+                                       acceleration_grid.max_steps, realized_acceleration),
                      ramp_time ? 1 : -1, neighbours, acceleration_grid.min_steps, acceleration_grid.max_steps};
     };
     const Bracket accelerations = bracket(desired.acceleration_counts_per_s2);
@@ -117,8 +117,10 @@ void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& 
       for (int jd = 0; jd < decelerations.size(); ++jd) {
         const std::int64_t d_native = decelerations.index(jd);
         if (d_native == 0) continue;
-        const double deceleration = cache ? cached_deceleration[static_cast<std::size_t>(jd)] : realized_acceleration(d_native);
-        out.push_back(DriveSetting{NativeMotion{v_native, a_native, d_native}, DriveMotion{velocity, acceleration, deceleration}});
+        const double deceleration =
+            cache ? cached_deceleration[static_cast<std::size_t>(jd)] : realized_acceleration(d_native);
+        out.push_back(DriveSetting{NativeMotion{v_native, a_native, d_native},
+                                   DriveMotion{velocity, acceleration, deceleration}});
       }
     }
   }
@@ -126,7 +128,8 @@ void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& 
 
 }  // namespace
 
-void IdentityQuantizer::candidates(const DriveMotion& desired, int /*neighbours*/, std::vector<DriveSetting>& out) const {
+void IdentityQuantizer::candidates(const DriveMotion& desired, int /*neighbours*/,
+                                   std::vector<DriveSetting>& out) const {
   out.push_back(DriveSetting{NativeMotion{}, desired});
 }
 
@@ -147,17 +150,18 @@ void GridQuantizer::candidates(const DriveMotion& desired, int neighbours, std::
   grid_candidates(velocity_, acceleration_, desired, neighbours, nullptr, out);
 }
 
-void GridQuantizer::candidates_at_velocity(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const {
+void GridQuantizer::candidates_at_velocity(const DriveMotion& desired, int neighbours,
+                                           std::vector<DriveSetting>& out) const {
   grid_candidates(velocity_, acceleration_, desired, neighbours, &desired.velocity_counts_per_s, out);
 }
 
-void DriveQuantizer::candidates_at_velocity(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const {
+void DriveQuantizer::candidates_at_velocity(const DriveMotion& desired, int neighbours,
+                                            std::vector<DriveSetting>& out) const {
   const std::size_t first = out.size();
   candidates(desired, neighbours, out);
-  const auto other_velocity =
-      std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(), [&](const DriveSetting& s) {
-        return s.realized.velocity_counts_per_s != desired.velocity_counts_per_s;
-      });
+  const auto other_velocity = std::remove_if(
+      out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
+      [&](const DriveSetting& s) { return s.realized.velocity_counts_per_s != desired.velocity_counts_per_s; });
   out.erase(other_velocity, out.end());
 }
 

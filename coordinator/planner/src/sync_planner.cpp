@@ -10,8 +10,7 @@ namespace {
 constexpr double kMaxExactCounts = 9007199254740992.0;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
-PlanFailure failure(PlanErrc code, std::size_t index, const AxisRequest* axis, double value = 0.0,
-                    double limit = 0.0) {
+PlanFailure failure(PlanErrc code, std::size_t index, const AxisRequest* axis, double value = 0.0, double limit = 0.0) {
   return PlanFailure{code, index, axis != nullptr ? axis->name : std::string{}, value, limit};
 }
 

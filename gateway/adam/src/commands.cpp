@@ -45,11 +45,21 @@ constexpr std::uint32_t raw(E e) {
 }
 
 constexpr std::array<std::pair<BaudCode, std::uint32_t>, 15> kBaudRates{{
-    {BaudCode::b300, 300},       {BaudCode::b600, 600},       {BaudCode::b1200, 1200},
-    {BaudCode::b2400, 2400},     {BaudCode::b4800, 4800},     {BaudCode::b9600, 9600},
-    {BaudCode::b14400, 14400},   {BaudCode::b19200, 19200},   {BaudCode::b38400, 38400},
-    {BaudCode::b56000, 56000},   {BaudCode::b57600, 57600},   {BaudCode::b115200, 115200},
-    {BaudCode::b230400, 230400}, {BaudCode::b460800, 460800}, {BaudCode::b921600, 921600},
+    {BaudCode::b300, 300},
+    {BaudCode::b600, 600},
+    {BaudCode::b1200, 1200},
+    {BaudCode::b2400, 2400},
+    {BaudCode::b4800, 4800},
+    {BaudCode::b9600, 9600},
+    {BaudCode::b14400, 14400},
+    {BaudCode::b19200, 19200},
+    {BaudCode::b38400, 38400},
+    {BaudCode::b56000, 56000},
+    {BaudCode::b57600, 57600},
+    {BaudCode::b115200, 115200},
+    {BaudCode::b230400, 230400},
+    {BaudCode::b460800, 460800},
+    {BaudCode::b921600, 921600},
 }};
 
 std::uint32_t encode_input(const InputAssignment& a) {
@@ -149,9 +159,7 @@ rtu::Request write32(std::uint8_t unit, Reg reg, std::int32_t value) {
   return write32(unit, reg, static_cast<std::uint32_t>(value));
 }
 
-rtu::Request read(std::uint8_t unit, Reg reg) {
-  return {unit, rtu::ReadRegisters{address(reg), info(reg).count()}};
-}
+rtu::Request read(std::uint8_t unit, Reg reg) { return {unit, rtu::ReadRegisters{address(reg), info(reg).count()}}; }
 
 rtu::Request command(std::uint8_t unit, VelocityCommand c) {
   return write16(unit, Reg::velocity_command, static_cast<std::uint16_t>(c));

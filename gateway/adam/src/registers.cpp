@@ -208,7 +208,8 @@ Result<std::array<std::uint16_t, 2>> encode_value(const RegisterInfo& reg, std::
   return encode32(raw);
 }
 
-std::optional<ExceptionCode> check_read(std::uint16_t start, std::uint16_t quantity, const AccessRules& rules) noexcept {
+std::optional<ExceptionCode> check_read(std::uint16_t start, std::uint16_t quantity,
+                                        const AccessRules& rules) noexcept {
   if (quantity == 0 || quantity > rtu::kMaxReadQuantity) return ExceptionCode::illegal_data_value;
   for (std::uint32_t a = start; a < std::uint32_t{start} + quantity; ++a) {
     if (a > 0xFFFF) return ExceptionCode::illegal_data_address;
@@ -240,7 +241,8 @@ std::optional<ExceptionCode> check_write(std::uint16_t start, std::span<const st
     }
     const auto words = values.subspan(a - start, reg->count());
     const std::int64_t value = decode_value(*reg, words);
-    if (rules.check_value_ranges && (value < reg->min || value > reg->max)) value_error = ExceptionCode::illegal_data_value;
+    if (rules.check_value_ranges && (value < reg->min || value > reg->max))
+      value_error = ExceptionCode::illegal_data_value;
     a = reg_end;
   }
   return value_error;  // address errors take precedence over value errors

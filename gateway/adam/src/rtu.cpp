@@ -105,9 +105,7 @@ Result<Bytes> encode_adu_body(const Request& request) {
   return out;
 }
 
-bool fits_address_space(std::uint16_t start, std::size_t quantity) {
-  return std::size_t{start} + quantity <= 0x10000;
-}
+bool fits_address_space(std::uint16_t start, std::size_t quantity) { return std::size_t{start} + quantity <= 0x10000; }
 
 }  // namespace
 

@@ -35,11 +35,13 @@ ServeResult serve(std::span<const std::uint8_t> frame, const SlaveConfig& config
     return result;
   }
   if (const auto* rejected = std::get_if<rtu::RejectedRequest>(&parsed)) {
-    if (rejected->unit != config.unit && rejected->unit != rtu::kBroadcastUnit) return outcome_only(ServeOutcome::not_addressed);
+    if (rejected->unit != config.unit && rejected->unit != rtu::kBroadcastUnit)
+      return outcome_only(ServeOutcome::not_addressed);
     return refuse(rejected->unit, rejected->function, rejected->code, config, std::nullopt);
   }
   const auto& request = std::get<rtu::Request>(parsed);
-  if (request.unit != config.unit && request.unit != rtu::kBroadcastUnit) return outcome_only(ServeOutcome::not_addressed);
+  if (request.unit != config.unit && request.unit != rtu::kBroadcastUnit)
+    return outcome_only(ServeOutcome::not_addressed);
   const auto function = static_cast<std::uint8_t>(rtu::function_of(request.pdu));
 
   if (const auto code = check_request(request.pdu, config.rules))

@@ -8,30 +8,28 @@ namespace {
 // Single-bit flags of the status word, in bit order (§8.4).
 struct FlagBit {
   unsigned bit;
-  bool DriveStatus::* flag;
+  bool DriveStatus::*flag;
 };
 constexpr FlagBit kFlags[] = {
-    {10, &DriveStatus::deviation_exceeded}, {11, &DriveStatus::reminder_x11},
-    {12, &DriveStatus::in_position},        {13, &DriveStatus::negative_limit},
-    {14, &DriveStatus::positive_limit},     {15, &DriveStatus::at_home},
-    {16, &DriveStatus::enable_input_high},  {17, &DriveStatus::reminder_x17},
-    {18, &DriveStatus::reminder_x18},       {19, &DriveStatus::reminder_x19},
-    {20, &DriveStatus::deviation_negative},
+    {10, &DriveStatus::deviation_exceeded}, {11, &DriveStatus::reminder_x11},       {12, &DriveStatus::in_position},
+    {13, &DriveStatus::negative_limit},     {14, &DriveStatus::positive_limit},     {15, &DriveStatus::at_home},
+    {16, &DriveStatus::enable_input_high},  {17, &DriveStatus::reminder_x17},       {18, &DriveStatus::reminder_x18},
+    {19, &DriveStatus::reminder_x19},       {20, &DriveStatus::deviation_negative},
 };
 constexpr unsigned kPhaseShift = 8;
 
 constexpr std::string_view kAlarmTexts[] = {
-    "Normal",                     // 0
-    "Over-current",               // 1
-    "Over-voltage",               // 2
-    "Under-voltage",              // 3
-    "Phase A open circuit",       // 4
-    "Phase B open circuit",       // 5
-    "offset pulses or others",    // 6 (position error)
-    "internal 24V offset",        // 7
-    "AI voltage error",           // 8
-    "BI voltage error",           // 9
-    "Encoder error",              // 10
+    "Normal",                   // 0
+    "Over-current",             // 1
+    "Over-voltage",             // 2
+    "Under-voltage",            // 3
+    "Phase A open circuit",     // 4
+    "Phase B open circuit",     // 5
+    "offset pulses or others",  // 6 (position error)
+    "internal 24V offset",      // 7
+    "AI voltage error",         // 8
+    "BI voltage error",         // 9
+    "Encoder error",            // 10
 };
 constexpr unsigned kAlarmNibbles = 4;
 
@@ -64,7 +62,9 @@ std::string_view alarm_text(AlarmCode code) noexcept {
 
 AlarmState decode_alarms(std::uint16_t raw) noexcept {
   AlarmState state;
-  const auto nibble = [&](unsigned i) { return static_cast<AlarmCode>((static_cast<unsigned>(raw) >> (4 * i)) & 0xFU); };
+  const auto nibble = [&](unsigned i) {
+    return static_cast<AlarmCode>((static_cast<unsigned>(raw) >> (4 * i)) & 0xFU);
+  };
   state.current = nibble(0);
   for (unsigned i = 1; i < kAlarmNibbles; ++i) state.history[i - 1] = nibble(i);
   return state;
@@ -72,7 +72,8 @@ AlarmState decode_alarms(std::uint16_t raw) noexcept {
 
 std::uint16_t encode_alarms(const AlarmState& state) noexcept {
   std::uint32_t raw = static_cast<std::uint32_t>(state.current) & 0xFU;
-  for (unsigned i = 1; i < kAlarmNibbles; ++i) raw |= (static_cast<std::uint32_t>(state.history[i - 1]) & 0xFU) << (4 * i);
+  for (unsigned i = 1; i < kAlarmNibbles; ++i)
+    raw |= (static_cast<std::uint32_t>(state.history[i - 1]) & 0xFU) << (4 * i);
   return static_cast<std::uint16_t>(raw);
 }
 

@@ -18,7 +18,8 @@ Result<std::vector<rtu::Request>> table_data_writes(std::uint8_t unit, std::uint
   std::vector<rtu::Request> frames;
   for (std::size_t first = 0; first < entries.size(); first += entries_per_frame) {
     const std::size_t last = std::min(entries.size(), first + entries_per_frame);
-    rtu::WriteRegisters write{static_cast<std::uint16_t>(table_entry_address(start_offset, static_cast<std::uint16_t>(first))), {}};
+    rtu::WriteRegisters write{
+        static_cast<std::uint16_t>(table_entry_address(start_offset, static_cast<std::uint16_t>(first))), {}};
     for (std::size_t i = first; i < last; ++i) {
       const auto words = encode32(entries[i]);
       write.values.insert(write.values.end(), words.begin(), words.end());
@@ -34,9 +35,9 @@ Result<std::vector<rtu::Request>> profile_writes(std::uint8_t unit, const Motion
       !in_range(Reg::target_speed, p.speed_centi_rpm) || p.speed_centi_rpm < 0)
     return AdamErrc::value_out_of_range;
   std::vector<rtu::Request> frames;
-  frames.push_back({unit, rtu::WriteRegisters{address(Reg::start_speed),
-                                              {p.start_speed_rpm, p.stop_speed_rpm, p.acceleration_ms,
-                                               p.deceleration_ms}}});
+  frames.push_back(
+      {unit, rtu::WriteRegisters{address(Reg::start_speed),
+                                 {p.start_speed_rpm, p.stop_speed_rpm, p.acceleration_ms, p.deceleration_ms}}});
   frames.push_back(write32(unit, Reg::target_speed, p.speed_centi_rpm));
   return frames;
 }

@@ -14,8 +14,9 @@ AdamBusDriver::AdamBusDriver(EventLoop& loop, MasterSettings settings, std::stri
 
 std::unique_ptr<AdamBusDriver> AdamBusDriver::create(EventLoop& loop, const config::Config& config,
                                                      const config::Bus& bus, gateway::GatewayOutput& out) {
-  return std::make_unique<AdamBusDriver>(loop, settings_from_config(config, bus), gateway::serial_device_path(config, bus),
-                                         gateway::serial_line_settings(bus), out);
+  return std::make_unique<AdamBusDriver>(loop, settings_from_config(config, bus),
+                                         gateway::serial_device_path(config, bus), gateway::serial_line_settings(bus),
+                                         out);
 }
 
 }  // namespace motion::adam_driver

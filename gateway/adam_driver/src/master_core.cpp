@@ -26,13 +26,13 @@ MasterSettings settings_from_config(const config::Config& config, const config::
       ds.homing_method = a.homing.method;
     }
     if (const auto pulses = adam::setup_pulses_per_revolution(d.setup_integer("pulses_per_revolution"),
-                                                                d.setup_integer("subdivision"))) {
+                                                              d.setup_integer("subdivision"))) {
       const auto w = adam::encode32(static_cast<std::uint32_t>(*pulses));
       ds.setup_writes.push_back({adam::address(Reg::subdivision), {w[0], w[1]}});
     }
     if (const auto it = d.setup.find("current_a"); it != d.setup.end()) {
-      ds.setup_writes.push_back(
-          {adam::address(Reg::rated_current), {static_cast<std::uint16_t>(std::lround(setup_number(it->second) * 100))}});
+      ds.setup_writes.push_back({adam::address(Reg::rated_current),
+                                 {static_cast<std::uint16_t>(std::lround(setup_number(it->second) * 100))}});
     }
     ds.table_save = d.setup_flag("table_save").value_or(true);
     if (const auto it = d.setup.find("closed_loop"); it != d.setup.end() && setup_int(it->second) == 0) {
@@ -67,7 +67,8 @@ namespace {
 // that much later, and it is never sent twice (a retry would erase again).
 bool is_save(const rtu::Request& r) {
   const auto* w = std::get_if<rtu::WriteRegister>(&r.pdu);
-  return w && w->address == adam::address(Reg::save_command) && w->value == static_cast<std::uint16_t>(adam::SaveCommand::save);
+  return w && w->address == adam::address(Reg::save_command) &&
+         w->value == static_cast<std::uint16_t>(adam::SaveCommand::save);
 }
 }  // namespace
 
@@ -107,20 +108,25 @@ void MasterCore::send_next(TimePoint now) {
       const std::size_t reply_bytes = read != nullptr ? 5U + 2U * read->quantity : 8U;  // §5: read / write replies
       const auto request = rtu::encode_request(next.request);
       const Duration hold = rtu::transmission_time(settings_.format, request ? request.value().size() : 8U) +
-                            rtu::transmission_time(settings_.format, reply_bytes) + kAssumedDriveLatency + 2 * timing_.t3_5;
+                            rtu::transmission_time(settings_.format, reply_bytes) + kAssumedDriveLatency +
+                            2 * timing_.t3_5;
       if (now + hold > reserved_at_) break;
     }
     Transaction t = std::move(queue_.front());
     queue_.pop_front();
     auto frame = rtu::encode_request(t.request);
     if (!frame) {  // only a programming error gets here (the builders validate)
-      if (t.on_fail) t.on_fail("cannot encode " + describe(t) + ": " + frame.error().message(), error_code(ReplyError::kMalformedRequest));
+      if (t.on_fail)
+        t.on_fail("cannot encode " + describe(t) + ": " + frame.error().message(),
+                  error_code(ReplyError::kMalformedRequest));
       continue;
     }
     const auto& bytes = frame.value();
     if (!line_open_ || !send_(bytes)) {
       ++errors_;
-      if (t.on_fail) t.on_fail("serial line of bus " + settings_.bus + " not writable while " + describe(t), error_code(ReplyError::kTimeout));
+      if (t.on_fail)
+        t.on_fail("serial line of bus " + settings_.bus + " not writable while " + describe(t),
+                  error_code(ReplyError::kTimeout));
       continue;
     }
     ++tx_frames_;
@@ -187,8 +193,9 @@ void MasterCore::on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now) 
   if (!decoded) {
     ++errors_;
     const bool crc = decoded.error() == rtu::FrameErrc::bad_crc;
-    const std::string what = (crc ? "CRC error in the reply of " : "malformed reply (" + decoded.error().message() + ") from ") +
-                             who + " " + describe(*in_flight_);
+    const std::string what =
+        (crc ? "CRC error in the reply of " : "malformed reply (" + decoded.error().message() + ") from ") + who + " " +
+        describe(*in_flight_);
     event(&d, Event::PROTOCOL_ERROR, Event::WARNING, decoded.error().value(), what);
     retry_or_fail(what, error_code(ReplyError::kDriveError), now);
     return;
@@ -216,10 +223,10 @@ void MasterCore::complete_in_flight(const rtu::Response& response, TimePoint now
 void MasterCore::on_timeout(TimePoint now) {
   ++timeouts_;
   Drive& d = *in_flight_->drive;
-  const std::string what = "drive " + d.cfg.drive + " (slave " + std::to_string(d.cfg.unit) + ") did not answer " +
-                           describe(*in_flight_) + " within " +
-                           std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d.cfg.request_timeout).count()) +
-                           " ms";
+  const std::string what =
+      "drive " + d.cfg.drive + " (slave " + std::to_string(d.cfg.unit) + ") did not answer " + describe(*in_flight_) +
+      " within " +
+      std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d.cfg.request_timeout).count()) + " ms";
   line_free_at_ = now;  // the silence has long elapsed
   retry_or_fail(what, error_code(ReplyError::kTimeout), now);
 }
@@ -268,8 +275,11 @@ TimePoint MasterCore::process(TimePoint now) {
   send_next(now);
 
   TimePoint next = started_ ? next_poll_ : kNever;
-  if (in_flight_) next = std::min({next, reply_deadline_, reply_incomplete() ? kNever : framer_.deadline()});
-  else if (!queue_.empty()) next = std::min(next, reserved_at_ != kNever && now >= line_free_at_ ? reserved_at_ + kReservationGrace : line_free_at_);
+  if (in_flight_)
+    next = std::min({next, reply_deadline_, reply_incomplete() ? kNever : framer_.deadline()});
+  else if (!queue_.empty())
+    next = std::min(next,
+                    reserved_at_ != kNever && now >= line_free_at_ ? reserved_at_ + kReservationGrace : line_free_at_);
   if (!in_flight_ && !framer_.pending().empty()) next = std::min(next, framer_.deadline());
   return next;
 }
@@ -282,7 +292,9 @@ void MasterCore::line_lost(const std::string& why, TimePoint now) {
   event(nullptr, Event::OFFLINE, Event::ERROR, 0, "serial line of bus " + settings_.bus + " lost: " + why);
   std::vector<std::int64_t> ids;
   for (const auto& [id, entry] : operations_.entries()) ids.push_back(id);
-  for (const auto id : ids) finish(id, Reply::FAILED, "serial line of bus " + settings_.bus + " lost: " + why, error_code(ReplyError::kTimeout));
+  for (const auto id : ids)
+    finish(id, Reply::FAILED, "serial line of bus " + settings_.bus + " lost: " + why,
+           error_code(ReplyError::kTimeout));
   queue_.clear();
   in_flight_.reset();
   reply_deadline_ = kNever;
@@ -350,13 +362,15 @@ void MasterCore::poll(TimePoint now) {
     if (drive->online && !drive->set_up && !drive->setup_running) run_setup(*drive);
     if (!drive->online && drive->ever_answered && ++drive->poll_skips % kOfflinePollDivider != 0) continue;
     drive->poll_queued = true;
-    Transaction position{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::position), kPositionStatusWords}}, drive};
+    Transaction position{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::position), kPositionStatusWords}},
+                         drive};
     position.is_poll = true;
     position.on_reply = [this, drive](const rtu::Response& r, TimePoint at, TimePoint) {
       on_position_status(*drive, std::get<rtu::ReadRegistersReply>(r.pdu).values, at);
     };
     position.on_fail = [drive](const std::string&, std::int32_t) { drive->poll_queued = false; };
-    Transaction alarm{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::output_state), kOutputsAlarmWords}}, drive};
+    Transaction alarm{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::output_state), kOutputsAlarmWords}},
+                      drive};
     alarm.is_poll = true;
     alarm.on_reply = [this, drive](const rtu::Response& r, TimePoint at, TimePoint) {
       drive->poll_queued = false;
@@ -384,12 +398,13 @@ void MasterCore::on_position_status(Drive& d, std::span<const std::uint16_t> wor
   // register starts at 0 and every register at its default (manual §7 register table), so a power
   // cycle shows in the samples only (PowerUpWatch). Not watched while a homing or preset of the
   // drive is under way (the position is set on purpose), or before it is set up.
-  const bool presetting = std::any_of(operations_.entries().begin(), operations_.entries().end(), [&d](const auto& entry) {
-    const auto& op = *entry.second.data;
-    const auto kind = op.command.kind;
-    return (kind == motionlcm::gateway_command_t::HOME || kind == motionlcm::gateway_command_t::SET_POSITION) &&
-           std::find(op.drives.begin(), op.drives.end(), &d) != op.drives.end();
-  });
+  const bool presetting =
+      std::any_of(operations_.entries().begin(), operations_.entries().end(), [&d](const auto& entry) {
+        const auto& op = *entry.second.data;
+        const auto kind = op.command.kind;
+        return (kind == motionlcm::gateway_command_t::HOME || kind == motionlcm::gateway_command_t::SET_POSITION) &&
+               std::find(op.drives.begin(), op.drives.end(), &d) != op.drives.end();
+      });
   if (presetting || !d.set_up) {
     d.power.forget();
   } else if (auto why = d.power.sample(position, d.velocity, now, false)) {
@@ -414,8 +429,7 @@ void MasterCore::on_position_status(Drive& d, std::span<const std::uint16_t> wor
   std::vector<Operation*> watching;
   for (auto& [id, entry] : operations_.entries()) {
     const auto& op = entry.data;
-    if (op->watching &&
-        std::find(op->drives.begin(), op->drives.end(), &d) != op->drives.end())
+    if (op->watching && std::find(op->drives.begin(), op->drives.end(), &d) != op->drives.end())
       watching.push_back(op.get());
   }
   for (Operation* op : watching) check_motion(*op, d, now);  // may finish (erase) ops: iterate a copy
@@ -466,7 +480,8 @@ void MasterCore::set_online(Drive& d, bool online, const std::string& why) {
   if (online) {
     event(&d, Event::ONLINE, Event::INFO, 0, d.cfg.drive + " (slave " + std::to_string(d.cfg.unit) + ") answers");
   } else {
-    event(&d, Event::OFFLINE, Event::ERROR, 0, d.cfg.drive + " (slave " + std::to_string(d.cfg.unit) + ") offline: " + why);
+    event(&d, Event::OFFLINE, Event::ERROR, 0,
+          d.cfg.drive + " (slave " + std::to_string(d.cfg.unit) + ") offline: " + why);
   }
   publish_status(d);
 }
@@ -509,12 +524,14 @@ motionlcm::bus_stats_t MasterCore::statistics() const {
                                    std::chrono::duration<double>(last_activity_ - first_activity_).count());
   }
   s.drives_total = static_cast<std::int32_t>(drives_.size());
-  s.drives_online = static_cast<std::int32_t>(std::count_if(drives_.begin(), drives_.end(), [](const auto& d) { return d->online; }));
+  s.drives_online =
+      static_cast<std::int32_t>(std::count_if(drives_.begin(), drives_.end(), [](const auto& d) { return d->online; }));
   return s;
 }
 
 bool MasterCore::ready() const {
-  return started_ && line_open_ && std::all_of(drives_.begin(), drives_.end(), [](const auto& d) { return d->online && d->set_up; });
+  return started_ && line_open_ &&
+         std::all_of(drives_.begin(), drives_.end(), [](const auto& d) { return d->online && d->set_up; });
 }
 
 }  // namespace motion::adam_driver

@@ -5,7 +5,8 @@
 namespace motion::adam_driver {
 // ---- Commands -----------------------------------------------------------------------------------
 
-MasterCore::Operation& MasterCore::open_operation(const motionlcm::gateway_command_t& command, std::vector<Drive*> drives) {
+MasterCore::Operation& MasterCore::open_operation(const motionlcm::gateway_command_t& command,
+                                                  std::vector<Drive*> drives) {
   auto op = std::make_unique<Operation>();
   op->command = command;
   op->drives = std::move(drives);
@@ -52,9 +53,9 @@ void MasterCore::finish(std::int64_t command_id, std::int8_t status, const std::
   auto* entry = operations_.find(command_id);
   if (entry == nullptr) return;  // already ended: exactly one terminal reply
   if (param) entry->reply.param(*param);
-  const auto terminal = status == Reply::DONE ? gateway::Lifecycle::kDone
+  const auto terminal = status == Reply::DONE                      ? gateway::Lifecycle::kDone
                         : code == error_code(ReplyError::kStopped) ? gateway::Lifecycle::kStopped
-                                                                    : gateway::Lifecycle::kFailed;
+                                                                   : gateway::Lifecycle::kFailed;
   auto ended = operations_.finish(command_id, terminal, code, reason);
   std::erase_if(queue_, [command_id](const Transaction& t) { return t.command_id == command_id; });
   for (Drive* d : ended->data->drives) {
@@ -80,8 +81,7 @@ void MasterCore::fail_motion_of(const Drive& d, const std::string& reason, std::
 
 std::optional<std::string> MasterCore::busy_reason(const std::vector<Drive*>& drives) const {
   for (const Drive* d : drives) {
-    if (d->motion_owner != 0)
-      return "axis " + d->cfg.axis + " is busy with command " + std::to_string(d->motion_owner);
+    if (d->motion_owner != 0) return "axis " + d->cfg.axis + " is busy with command " + std::to_string(d->motion_owner);
     if (d->alarm.active())
       return "axis " + d->cfg.axis + " is faulted: " + std::string(adam::alarm_text(d->alarm.current));
   }
@@ -90,11 +90,14 @@ std::optional<std::string> MasterCore::busy_reason(const std::vector<Drive*>& dr
 
 void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint now) {
   const auto refuse = [&](const std::string& reason, std::int32_t code) { operations_.reject(command, code, reason); };
-  if (operations_.find(command.command_id) != nullptr) return refuse("duplicate command id", error_code(ReplyError::kMalformedRequest));
+  if (operations_.find(command.command_id) != nullptr)
+    return refuse("duplicate command id", error_code(ReplyError::kMalformedRequest));
   std::vector<Drive*> drives;
   for (const auto& a : command.axes) {
     Drive* d = drive_of_axis(a.axis);
-    if (!d) return refuse("axis '" + a.axis + "' is not an ADAM axis of bus " + settings_.bus, error_code(ReplyError::kUnknownAxis));
+    if (!d)
+      return refuse("axis '" + a.axis + "' is not an ADAM axis of bus " + settings_.bus,
+                    error_code(ReplyError::kUnknownAxis));
     drives.push_back(d);
   }
   const bool needs_axes = command.kind != motionlcm::gateway_command_t::DISARM;
@@ -107,8 +110,11 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       const bool enable = command.kind == motionlcm::gateway_command_t::ENABLE;
       auto& op = open_operation(command, drives);
       for (Drive* d : drives) {
-        if (!enable) fail_motion_of(*d, "axis " + d->cfg.axis + " disabled by command " + id_text, error_code(ReplyError::kStopped));
-        add_write(op, *d, adam::command(d->cfg.unit, enable ? adam::EnableCommand::enable : adam::EnableCommand::release),
+        if (!enable)
+          fail_motion_of(*d, "axis " + d->cfg.axis + " disabled by command " + id_text,
+                         error_code(ReplyError::kStopped));
+        add_write(op, *d,
+                  adam::command(d->cfg.unit, enable ? adam::EnableCommand::enable : adam::EnableCommand::release),
                   [this, d, enable](TimePoint) {
                     d->enabled = enable;
                     publish_status(*d);
@@ -126,8 +132,9 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       auto& op = open_operation(command, drives);
       op.goal = Operation::Goal::stand_still;
       for (Drive* d : drives) {
-        add_write(op, *d, adam::command(d->cfg.unit, emergency ? adam::VelocityCommand::emergency_stop
-                                                               : adam::VelocityCommand::ramped_stop));
+        add_write(op, *d,
+                  adam::command(d->cfg.unit, emergency ? adam::VelocityCommand::emergency_stop
+                                                       : adam::VelocityCommand::ramped_stop));
         // An e-stop leaves the motor released, as on every family (CiA 402 quick stop ends in
         // "switch on disabled").
         if (emergency) {
@@ -154,9 +161,10 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
         const double rpm = std::abs(rpm_of(d, a.velocity));
         const auto speed = adam::jog_speed(rpm);
         if (!speed || (a.velocity != 0 && speed.value().value == 0)) {
-          return finish(command.command_id, Reply::FAILED,
-                        "axis " + a.axis + ": jog speed " + std::to_string(rpm) + " rpm outside 1…511 rpm (0x00CA, §8.65②)",
-                        error_code(ReplyError::kMalformedRequest));
+          return finish(
+              command.command_id, Reply::FAILED,
+              "axis " + a.axis + ": jog speed " + std::to_string(rpm) + " rpm outside 1…511 rpm (0x00CA, §8.65②)",
+              error_code(ReplyError::kMalformedRequest));
         }
         if (a.acceleration > 0 && speed.value().value > 0) {
           const double rate = std::abs(rpm_of(d, a.acceleration));
@@ -167,8 +175,9 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
             // ramps, not the last move's speed over them (soak seed 7338: after a move at 1 rpm a
             // jog's ramped stop took half a minute).
             const auto rpm_whole = static_cast<std::uint16_t>(std::lround(speed.value().realized));
-            add_write(op, d, {d.cfg.unit, rtu::WriteRegisters{adam::address(Reg::start_speed),
-                                                              {0, 0, ramp.value().value, ramp.value().value, rpm_whole}}});
+            add_write(op, d,
+                      {d.cfg.unit, rtu::WriteRegisters{adam::address(Reg::start_speed),
+                                                       {0, 0, ramp.value().value, ramp.value().value, rpm_whole}}});
             add_write(op, d, adam::write32(d.cfg.unit, Reg::target_speed, static_cast<std::int32_t>(rpm_whole) * 100));
           }
         }
@@ -192,11 +201,14 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
         const auto& a = command.axes[i];
         d.motion_owner = command.command_id;
         if (d.cfg.homing_method == config::HomingMethod::kNone) {
-          return finish(command.command_id, Reply::FAILED, "axis " + a.axis + " has no homing method configured", error_code(ReplyError::kUnsupported));
+          return finish(command.command_id, Reply::FAILED, "axis " + a.axis + " has no homing method configured",
+                        error_code(ReplyError::kUnsupported));
         }
         if (d.cfg.homing_method == config::HomingMethod::kCurrentPosition) {
-          add_write(op, d, adam::move(d.cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(a.target_counts)),
-                    [&d](TimePoint) { d.homed = true; });
+          add_write(
+              op, d,
+              adam::move(d.cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(a.target_counts)),
+              [&d](TimePoint) { d.homed = true; });
           op.arrived.insert(&d);
           continue;
         }
@@ -207,8 +219,9 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
         const double rpm = std::abs(rpm_of(d, a.velocity));
         adam::HomingCommand home;
         home.direction = a.velocity < 0 ? adam::Travel::reverse : adam::Travel::forward;
-        home.speed_rpm = a.velocity == 0 ? kDefaultHomingRpm
-                                         : static_cast<std::uint16_t>(std::clamp(std::lround(rpm), 1L, long{adam::kMaxJogSpeedRpm}));
+        home.speed_rpm =
+            a.velocity == 0 ? kDefaultHomingRpm
+                            : static_cast<std::uint16_t>(std::clamp(std::lround(rpm), 1L, long{adam::kMaxJogSpeedRpm}));
         home.stop = adam::StopMethod::immediate;  // stop ON the sensor: the position is zeroed there
         home.secondary_speed_code = 0;
         add_write(op, d, adam::write16(d.cfg.unit, Reg::homing_command, adam::encode(home).value()));
@@ -223,7 +236,8 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
       for (Drive* d : drives) {
         if (d->status && d->status->moving())
-          return refuse("axis " + d->cfg.axis + " is moving; stop it before arming a move", error_code(ReplyError::kAxisBusy));
+          return refuse("axis " + d->cfg.axis + " is moving; stop it before arming a move",
+                        error_code(ReplyError::kAxisBusy));
       }
       auto& op = open_operation(command, drives);
       arm_move(op, now);
@@ -260,16 +274,20 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
       for (std::size_t i = 0; i < drives.size(); ++i) {
         const auto target = command.axes[i].target_counts;
         if (target < std::numeric_limits<std::int32_t>::min() || target > std::numeric_limits<std::int32_t>::max()) {
-          return finish(command.command_id, Reply::FAILED, "axis " + command.axes[i].axis + ": position outside INT32", error_code(ReplyError::kMalformedRequest));
+          return finish(command.command_id, Reply::FAILED, "axis " + command.axes[i].axis + ": position outside INT32",
+                        error_code(ReplyError::kMalformedRequest));
         }
-        add_write(op, *drives[i], adam::move(drives[i]->cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(target)));
+        add_write(
+            op, *drives[i],
+            adam::move(drives[i]->cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(target)));
       }
       when_transferred(op, [this, id = command.command_id](TimePoint) { finish(id, Reply::DONE); });
       break;
     }
     case motionlcm::gateway_command_t::PARAM_READ:
     case motionlcm::gateway_command_t::PARAM_WRITE: {
-      if (drives.size() != 1) return refuse("a parameter command names exactly one axis", error_code(ReplyError::kMalformedRequest));
+      if (drives.size() != 1)
+        return refuse("a parameter command names exactly one axis", error_code(ReplyError::kMalformedRequest));
       auto& op = open_operation(command, drives);
       param(op, command.param);
       break;
@@ -285,12 +303,15 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
         });
         if (by_trigger || by_axis) disarmed.push_back(id);
       }
-      for (const auto id : disarmed) finish(id, Reply::FAILED, "disarmed by command " + id_text, error_code(ReplyError::kStopped));
+      for (const auto id : disarmed)
+        finish(id, Reply::FAILED, "disarmed by command " + id_text, error_code(ReplyError::kStopped));
       open_operation(command, drives);
       finish(command.command_id, Reply::DONE, std::to_string(disarmed.size()) + " armed move(s) disarmed");
       break;
     }
-    default: return refuse("command kind " + std::to_string(command.kind) + " is not supported by the ADAM driver", error_code(ReplyError::kUnsupported));
+    default:
+      return refuse("command kind " + std::to_string(command.kind) + " is not supported by the ADAM driver",
+                    error_code(ReplyError::kUnsupported));
   }
   send_next(now);
 }
@@ -316,9 +337,11 @@ void MasterCore::arm_move(Operation& op, TimePoint now) {
     if (d->cfg.table_save) writes.value().push_back(adam::command(d->cfg.unit, adam::SaveCommand::save));
     for (std::size_t i = 0; i < writes.value().size(); ++i) {
       Transaction t{writes.value()[i], d};
-      if (i + 1 == writes.value().size()) t.on_reply = [d, here](const rtu::Response&, TimePoint, TimePoint) { d->table_entry = here; };
+      if (i + 1 == writes.value().size())
+        t.on_reply = [d, here](const rtu::Response&, TimePoint, TimePoint) { d->table_entry = here; };
       t.on_fail = [this, d](const std::string& reason, std::int32_t) {
-        event(d, Event::ERROR_REPORT, Event::WARNING, 0, "could not neutralize the table of " + d->cfg.drive + ": " + reason);
+        event(d, Event::ERROR_REPORT, Event::WARNING, 0,
+              "could not neutralize the table of " + d->cfg.drive + ": " + reason);
       };
       enqueue(std::move(t));
     }
@@ -326,8 +349,11 @@ void MasterCore::arm_move(Operation& op, TimePoint now) {
   for (std::size_t i = 0; i < op.drives.size(); ++i) {
     Drive& d = *op.drives[i];
     const auto& a = op.command.axes[i];
-    const auto fail = [&](const std::string& why) { finish(id, Reply::FAILED, "axis " + a.axis + ": " + why, error_code(ReplyError::kArmFailed)); };
-    if (a.target_counts < std::numeric_limits<std::int32_t>::min() || a.target_counts > std::numeric_limits<std::int32_t>::max())
+    const auto fail = [&](const std::string& why) {
+      finish(id, Reply::FAILED, "axis " + a.axis + ": " + why, error_code(ReplyError::kArmFailed));
+    };
+    if (a.target_counts < std::numeric_limits<std::int32_t>::min() ||
+        a.target_counts > std::numeric_limits<std::int32_t>::max())
       return fail("target " + std::to_string(a.target_counts) + " outside INT32 pulses");
     if (!(a.velocity > 0) || !(a.acceleration > 0) || !(a.deceleration > 0))
       return fail("velocity, acceleration and deceleration must be positive");
@@ -349,14 +375,16 @@ void MasterCore::arm_move(Operation& op, TimePoint now) {
     preload.start_offset = kTableStartOffset;
     auto writes = adam::sync_move_preload(d.cfg.unit, preload);
     if (!writes) return fail("cannot preload: " + writes.error().message());
-    writes.value().insert(writes.value().begin(), adam::write16(d.cfg.unit, Reg::working_speed, static_cast<std::uint16_t>(rpm_whole)));
+    writes.value().insert(writes.value().begin(),
+                          adam::write16(d.cfg.unit, Reg::working_speed, static_cast<std::uint16_t>(rpm_whole)));
     // §8.54: the table data is saved before it is executed (setup table_save); a Save erases
     // flash for 0.1 s (§8.69) and is never retried (see is_save()).
     if (d.cfg.table_save) writes.value().push_back(adam::command(d.cfg.unit, adam::SaveCommand::save));
     d.motion_owner = id;
     for (std::size_t w = 0; w < writes.value().size(); ++w) {
       std::function<void(TimePoint)> after;
-      if (w + 1 == writes.value().size()) after = [&d, target = preload.target_pulses](TimePoint) { d.table_entry = target; };
+      if (w + 1 == writes.value().size())
+        after = [&d, target = preload.target_pulses](TimePoint) { d.table_entry = target; };
       add_write(op, d, writes.value()[w], std::move(after));
     }
   }
@@ -379,7 +407,8 @@ void MasterCore::fire(std::int64_t trigger_id, TimePoint now) {
   reserved_at_ = kNever;
   std::vector<std::int64_t> ids;
   for (const auto& [id, entry] : operations_.entries()) {
-    if (!entry.data->watching && entry.all(gateway::Lifecycle::kArmed) && entry.data->command.trigger_id == trigger_id) ids.push_back(id);
+    if (!entry.data->watching && entry.all(gateway::Lifecycle::kArmed) && entry.data->command.trigger_id == trigger_id)
+      ids.push_back(id);
   }
   for (const auto id : ids) {
     if (Operation* op = operation(id)) start_armed(*op, now);
@@ -391,7 +420,8 @@ void MasterCore::start_armed(Operation& op, TimePoint now) {
   const std::int64_t id = op.command.command_id;
   op.watching = true;  // no second fire
   for (Drive* d : op.drives) d->target = d->table_entry.value_or(0);
-  const bool broadcast = std::all_of(drives_.begin(), drives_.end(), [&](const auto& d) { return neutral_for(*d, op); });
+  const bool broadcast =
+      std::all_of(drives_.begin(), drives_.end(), [&](const auto& d) { return neutral_for(*d, op); });
   if (broadcast) {
     Transaction start{adam::table_execute_broadcast().value(), nullptr, id};
     start.on_reply = [this, id](const rtu::Response&, TimePoint at, TimePoint frame_end) {
@@ -405,14 +435,17 @@ void MasterCore::start_armed(Operation& op, TimePoint now) {
     enqueue(std::move(start), /*urgent=*/true);
   } else {
     // One absolute move per axis (0x00D0, §8.65⑥), in order, each acknowledged.
-    const Duration per_axis = rtu::transmission_time(settings_.format, 13) + rtu::transmission_time(settings_.format, 8) +
-                              2 * timing_.t3_5 + kAssumedDriveLatency;
-    const double skew_us = std::chrono::duration<double, std::micro>(per_axis).count() * static_cast<double>(op.drives.size() - 1);
+    const Duration per_axis = rtu::transmission_time(settings_.format, 13) +
+                              rtu::transmission_time(settings_.format, 8) + 2 * timing_.t3_5 + kAssumedDriveLatency;
+    const double skew_us =
+        std::chrono::duration<double, std::micro>(per_axis).count() * static_cast<double>(op.drives.size() - 1);
     op.outstanding = 0;
     std::vector<Transaction> starts;
     for (Drive* d : op.drives) {
       ++op.outstanding;
-      Transaction t{adam::move(d->cfg.unit, adam::MoveCommand::absolute_at_standstill, static_cast<std::int32_t>(d->target)), d, id};
+      Transaction t{
+          adam::move(d->cfg.unit, adam::MoveCommand::absolute_at_standstill, static_cast<std::int32_t>(d->target)), d,
+          id};
       t.max_retries = d->cfg.retries;
       t.on_reply = [this, id, skew_us](const rtu::Response&, TimePoint at, TimePoint frame_end) {
         auto* entry = operations_.find(id);
@@ -462,10 +495,14 @@ void MasterCore::check_motion(Operation& op, const Drive& sampled, TimePoint now
     if (op.seen_moving.contains(d) || op.idle_polls[d] >= kIdlePollsBeforeShortStop) {
       const std::string where = "axis " + d->cfg.axis + " stopped at " + std::to_string(*d->position);
       std::string reason;
-      if (s.at_limit()) reason = where + " on its " + (s.negative_limit ? "negative" : "positive") + " limit";
-      else if (op.goal == Operation::Goal::reach_home) reason = where + " without finding the home switch";
-      else reason = where + ", short of its target " + std::to_string(d->target);
-      return finish(id, Reply::FAILED, reason, s.at_limit() ? error_code(ReplyError::kAxisFault) : error_code(ReplyError::kDriveError));
+      if (s.at_limit())
+        reason = where + " on its " + (s.negative_limit ? "negative" : "positive") + " limit";
+      else if (op.goal == Operation::Goal::reach_home)
+        reason = where + " without finding the home switch";
+      else
+        reason = where + ", short of its target " + std::to_string(d->target);
+      return finish(id, Reply::FAILED, reason,
+                    s.at_limit() ? error_code(ReplyError::kAxisFault) : error_code(ReplyError::kDriveError));
     }
   }
   if (op.arrived.size() < op.drives.size()) return;
@@ -478,7 +515,9 @@ void MasterCore::check_motion(Operation& op, const Drive& sampled, TimePoint now
     for (std::size_t i = 0; i < op.drives.size(); ++i) {
       const auto target = op.command.axes[i].target_counts;
       if (target != 0)
-        add_write(op, *op.drives[i], adam::move(op.drives[i]->cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(target)));
+        add_write(
+            op, *op.drives[i],
+            adam::move(op.drives[i]->cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(target)));
     }
     if (op.outstanding == 0) return finish(id, Reply::DONE);
     when_transferred(op, [this, id](TimePoint) { finish(id, Reply::DONE); });
@@ -491,36 +530,50 @@ void MasterCore::param(Operation& op, const motionlcm::param_t& p) {
   const std::int64_t id = op.command.command_id;
   Drive& d = *op.drives[0];
   if (p.space != motionlcm::param_t::MODBUS_REGISTER)
-    return finish(id, Reply::FAILED, "ADAM parameters are Modbus registers (param_t space MODBUS_REGISTER)", error_code(ReplyError::kUnsupported));
-  if (p.index < 0 || p.index > 0xFFFF) return finish(id, Reply::FAILED, "register " + std::to_string(p.index) + " outside 0…0xFFFF", error_code(ReplyError::kMalformedRequest));
+    return finish(id, Reply::FAILED, "ADAM parameters are Modbus registers (param_t space MODBUS_REGISTER)",
+                  error_code(ReplyError::kUnsupported));
+  if (p.index < 0 || p.index > 0xFFFF)
+    return finish(id, Reply::FAILED, "register " + std::to_string(p.index) + " outside 0…0xFFFF",
+                  error_code(ReplyError::kMalformedRequest));
   const auto reg = static_cast<std::uint16_t>(p.index);
   const auto* info = adam::find_register(reg);
   const int width = p.width != 0 ? p.width : (info ? info->count() : 1);
-  if (width != 1 && width != 2) return finish(id, Reply::FAILED, "width must be 1 or 2 registers", error_code(ReplyError::kMalformedRequest));
-  const bool is_signed = p.is_signed || (info && (info->type == adam::RegType::i16 || info->type == adam::RegType::i32));
+  if (width != 1 && width != 2)
+    return finish(id, Reply::FAILED, "width must be 1 or 2 registers", error_code(ReplyError::kMalformedRequest));
+  const bool is_signed =
+      p.is_signed || (info && (info->type == adam::RegType::i16 || info->type == adam::RegType::i32));
   if (op.command.kind == motionlcm::gateway_command_t::PARAM_READ) {
     Transaction t{{d.cfg.unit, rtu::ReadRegisters{reg, static_cast<std::uint16_t>(width)}}, &d, id};
     t.on_reply = [this, id, p, width, is_signed](const rtu::Response& r, TimePoint, TimePoint) {
       const auto& v = std::get<rtu::ReadRegistersReply>(r.pdu).values;
       motionlcm::param_t result = p;
       result.width = static_cast<std::int8_t>(width);
-      if (width == 2) result.value = is_signed ? std::int64_t{adam::decode32_signed(v[0], v[1])} : std::int64_t{adam::decode32(v[0], v[1])};
-      else result.value = is_signed ? std::int64_t{adam::decode16_signed(v[0])} : std::int64_t{v[0]};
+      if (width == 2)
+        result.value =
+            is_signed ? std::int64_t{adam::decode32_signed(v[0], v[1])} : std::int64_t{adam::decode32(v[0], v[1])};
+      else
+        result.value = is_signed ? std::int64_t{adam::decode16_signed(v[0])} : std::int64_t{v[0]};
       finish(id, Reply::DONE, {}, 0, result);
     };
     t.on_fail = [this, id](const std::string& reason, std::int32_t code) { finish(id, Reply::FAILED, reason, code); };
     enqueue(std::move(t));
     return;
   }
-  const std::int64_t lo = width == 1 ? (is_signed ? -32768 : 0) : (is_signed ? std::numeric_limits<std::int32_t>::min() : 0);
-  const std::int64_t hi = width == 1 ? (is_signed ? 32767 : 0xFFFF)
-                                     : (is_signed ? std::numeric_limits<std::int32_t>::max() : std::int64_t{0xFFFFFFFF});
+  const std::int64_t lo =
+      width == 1 ? (is_signed ? -32768 : 0) : (is_signed ? std::numeric_limits<std::int32_t>::min() : 0);
+  const std::int64_t hi = width == 1
+                              ? (is_signed ? 32767 : 0xFFFF)
+                              : (is_signed ? std::numeric_limits<std::int32_t>::max() : std::int64_t{0xFFFFFFFF});
   if (p.value < lo || p.value > hi)
-    return finish(id, Reply::FAILED, "value " + std::to_string(p.value) + " does not fit " + std::to_string(width) + " register(s)", error_code(ReplyError::kMalformedRequest));
+    return finish(id, Reply::FAILED,
+                  "value " + std::to_string(p.value) + " does not fit " + std::to_string(width) + " register(s)",
+                  error_code(ReplyError::kMalformedRequest));
   const rtu::Request request =
-      width == 1 ? rtu::Request{d.cfg.unit, rtu::WriteRegister{reg, static_cast<std::uint16_t>(p.value)}}
-                 : rtu::Request{d.cfg.unit, rtu::WriteRegisters{reg, {adam::encode32(static_cast<std::uint32_t>(p.value))[0],
-                                                                      adam::encode32(static_cast<std::uint32_t>(p.value))[1]}}};
+      width == 1
+          ? rtu::Request{d.cfg.unit, rtu::WriteRegister{reg, static_cast<std::uint16_t>(p.value)}}
+          : rtu::Request{d.cfg.unit, rtu::WriteRegisters{reg,
+                                                         {adam::encode32(static_cast<std::uint32_t>(p.value))[0],
+                                                          adam::encode32(static_cast<std::uint32_t>(p.value))[1]}}};
   add_write(op, d, request);
   when_transferred(op, [this, id, p](TimePoint) { finish(id, Reply::DONE, {}, 0, p); });
 }

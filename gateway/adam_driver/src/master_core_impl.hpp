@@ -17,9 +17,9 @@
 
 #include "motion/adam/commands.hpp"
 #include "motion/adam/registers.hpp"
-#include "motion/gateway/power_up_watch.hpp"
 #include "motion/adam/table.hpp"
 #include "motion/adam/units.hpp"
+#include "motion/gateway/power_up_watch.hpp"
 
 namespace motion::adam_driver {
 
@@ -109,7 +109,7 @@ struct MasterCore::Drive {
 struct MasterCore::Transaction {
   Transaction(rtu::Request r, Drive* d, std::int64_t id = 0) : request(std::move(r)), drive(d), command_id(id) {}
   rtu::Request request;
-  Drive* drive = nullptr;  // nullptr: broadcast
+  Drive* drive = nullptr;       // nullptr: broadcast
   std::int64_t command_id = 0;  // 0: polling / start-up
   std::function<void(const rtu::Response&, TimePoint now, TimePoint frame_end)> on_reply;
   std::function<void(const std::string& reason, std::int32_t code)> on_fail;

@@ -177,7 +177,8 @@ std::error_code SocketCanTransport::apply_socket_options() {
     return ec;
   }
   const can_err_mask_t error_mask = options_.error_classes & CAN_ERR_MASK;
-  if (auto ec = set_option(interface_, can_fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &error_mask, sizeof error_mask)) return ec;
+  if (auto ec = set_option(interface_, can_fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &error_mask, sizeof error_mask))
+    return ec;
   if (auto ec = set_flag(interface_, can_fd_, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, options_.own_echo)) return ec;
   if (auto ec = set_flag(interface_, can_fd_, SOL_SOCKET, SO_TIMESTAMP, true)) return ec;
   return set_flag(interface_, can_fd_, SOL_SOCKET, SO_RXQ_OVFL, true);
@@ -228,12 +229,9 @@ std::optional<Frame> SocketCanTransport::receive() {
   for (;;) {
     Frame frame;
     switch (read_one(frame)) {
-      case ReadResult::kFrame:
-        return frame;
-      case ReadResult::kHandled:
-        continue;
-      case ReadResult::kEmpty:
-        break;
+      case ReadResult::kFrame: return frame;
+      case ReadResult::kHandled: continue;
+      case ReadResult::kEmpty: break;
     }
     // Link notifications are looked at once the CAN socket is drained: one extra syscall per
     // wake-up, not per frame.
@@ -252,9 +250,7 @@ SocketCanTransport::ReadResult SocketCanTransport::read_one(Frame& out) {
   message.msg_control = control;
   message.msg_controllen = sizeof control;
   ssize_t size = 0;
-  do {
-    size = ::recvmsg(can_fd_, &message, MSG_DONTWAIT);
-  } while (size < 0 && errno == EINTR);
+  do { size = ::recvmsg(can_fd_, &message, MSG_DONTWAIT); } while (size < 0 && errno == EINTR);
   if (size < 0) {
     if (errno == EAGAIN || errno == EWOULDBLOCK) return ReadResult::kEmpty;
     handle_socket_error(errno);
@@ -319,9 +315,7 @@ void SocketCanTransport::handle_socket_error(int error) {
       close_can_socket();
       enter_state(BusState::kDisconnected, 0, "interface removed");
       break;
-    default:
-      ++stats_.errors;
-      return;
+    default: ++stats_.errors; return;
   }
   // The interface may already be back (the loop woke late): report the recovery right away.
   refresh_link();
@@ -389,7 +383,8 @@ std::error_code SocketCanTransport::set_filters(const std::vector<Filter>& filte
   options_.filters = filters;
   if (can_fd_ < 0) return {};  // applied when the socket is (re)opened
   const auto kernel = kernel_filters(filters);
-  return set_option(interface_, can_fd_, SOL_CAN_RAW, CAN_RAW_FILTER, kernel.data(), kernel.size() * sizeof(can_filter));
+  return set_option(interface_, can_fd_, SOL_CAN_RAW, CAN_RAW_FILTER, kernel.data(),
+                    kernel.size() * sizeof(can_filter));
 }
 
 std::error_code SocketCanTransport::set_own_echo(bool enabled) {

@@ -18,27 +18,19 @@ class InterfaceErrorCategory final : public std::error_category {
   [[nodiscard]] std::string message(int ev) const override {
     const std::string what = "SocketCAN interface '" + interface_ + "'";
     switch (ev) {
-      case ENODEV:
-        return what + " does not exist or is not a CAN interface (ip -details link show " + interface_ + ")";
+      case ENODEV: return what + " does not exist or is not a CAN interface (ip -details link show " + interface_ + ")";
       case EAFNOSUPPORT:
       case EPROTONOSUPPORT:
         return "cannot open " + what + ": this kernel has no AF_CAN support (modules can, can-raw, can-bcm)";
-      case ENETDOWN:
-        return what + " is down (ip link set " + interface_ + " up)";
+      case ENETDOWN: return what + " is down (ip link set " + interface_ + " up)";
       case ENOBUFS:
-      case EAGAIN:
-        return what + ": transmit queue full (no ACK on the bus, bus-off, or txqueuelen too small)";
+      case EAGAIN: return what + ": transmit queue full (no ACK on the bus, bus-off, or txqueuelen too small)";
       case EBADF:
-      case ENOTCONN:
-        return what + " is not open";
-      case ENAMETOOLONG:
-        return what + ": name longer than 15 characters";
-      case EINVAL:
-        return what + ": invalid frame or argument";
-      case ENOENT:
-        return what + ": no cyclic transmission with that identifier";
-      default:
-        return what + ": " + std::generic_category().message(ev);
+      case ENOTCONN: return what + " is not open";
+      case ENAMETOOLONG: return what + ": name longer than 15 characters";
+      case EINVAL: return what + ": invalid frame or argument";
+      case ENOENT: return what + ": no cyclic transmission with that identifier";
+      default: return what + ": " + std::generic_category().message(ev);
     }
   }
 
@@ -58,7 +50,8 @@ const std::error_category& category_for(std::string_view interface) {
   const std::lock_guard lock(mutex);
   auto it = categories->find(interface);
   if (it == categories->end()) {
-    it = categories->emplace(std::string(interface), std::make_unique<InterfaceErrorCategory>(std::string(interface))).first;
+    it = categories->emplace(std::string(interface), std::make_unique<InterfaceErrorCategory>(std::string(interface)))
+             .first;
   }
   return *it->second;
 }

@@ -54,8 +54,7 @@ std::string_view description(SdoAbortCode code) {
     case SdoAbortCode::kParameterIncompatibility: return "General parameter incompatibility reason";
     case SdoAbortCode::kInternalIncompatibility: return "General internal incompatibility in the device";
     case SdoAbortCode::kHardwareError: return "Access failed due to an hardware error";
-    case SdoAbortCode::kLengthMismatch:
-      return "Data type does not match, length of service parameter does not match";
+    case SdoAbortCode::kLengthMismatch: return "Data type does not match, length of service parameter does not match";
     case SdoAbortCode::kLengthTooHigh: return "Data type does not match, length of service parameter too high";
     case SdoAbortCode::kLengthTooLow: return "Data type does not match, length of service parameter too low";
     case SdoAbortCode::kSubindexDoesNotExist: return "Sub-index does not exist";

@@ -41,8 +41,7 @@ std::optional<NmtRequest> decode_nmt(std::span<const std::uint8_t> payload) {
     case NmtCommand::kStop:
     case NmtCommand::kEnterPreOperational:
     case NmtCommand::kResetNode:
-    case NmtCommand::kResetCommunication:
-      return NmtRequest{command, payload[1]};
+    case NmtCommand::kResetCommunication: return NmtRequest{command, payload[1]};
   }
   return std::nullopt;
 }
@@ -59,8 +58,7 @@ std::optional<NmtState> decode_heartbeat(std::span<const std::uint8_t> payload) 
     case NmtState::kBootUp:
     case NmtState::kStopped:
     case NmtState::kOperational:
-    case NmtState::kPreOperational:
-      return state;
+    case NmtState::kPreOperational: return state;
   }
   return std::nullopt;
 }

@@ -13,7 +13,7 @@ constexpr std::uint64_t low_mask(unsigned bits) {
 
 constexpr bool fits(std::uint64_t value, unsigned bits) {
   if (bits >= 64) return true;
-  if ((value >> bits) == 0) return true;  // unsigned
+  if ((value >> bits) == 0) return true;                                 // unsigned
   return static_cast<std::uint64_t>(sign_extend(value, bits)) == value;  // negative two's complement
 }
 

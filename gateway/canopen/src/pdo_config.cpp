@@ -33,9 +33,8 @@ struct SequenceRun : std::enable_shared_from_this<SequenceRun> {
     const SdoStep& step = steps[next];
     auto self = shared_from_this();
     if (step.action == SdoStep::Action::kWrite) {
-      client.download(node, step.object, step.value, [self](std::error_code error, std::span<const std::uint8_t>) {
-        self->advance(error);
-      });
+      client.download(node, step.object, step.value,
+                      [self](std::error_code error, std::span<const std::uint8_t>) { self->advance(error); });
       return;
     }
     client.upload(node, step.object, [self](std::error_code error, std::span<const std::uint8_t> data) {
@@ -81,8 +80,8 @@ std::optional<std::vector<SdoStep>> pdo_remap_steps(const PdoConfiguration& conf
   steps.push_back(write_step<std::uint32_t>(comm, kPdoCobIdSub, enabled_cob_id | kPdoCobIdInvalid));
   steps.push_back(write_step<std::uint8_t>(map, 0, 0));
   for (std::uint8_t i = 0; i < count; ++i) {
-    steps.push_back(write_step<std::uint32_t>(map, static_cast<std::uint8_t>(i + 1),
-                                              encode_mapping_entry(config.mapping[i])));
+    steps.push_back(
+        write_step<std::uint32_t>(map, static_cast<std::uint8_t>(i + 1), encode_mapping_entry(config.mapping[i])));
   }
   steps.push_back(write_step<std::uint8_t>(map, 0, count));
   if (config.transmission_type) steps.push_back(write_step(comm, kPdoTransmissionTypeSub, *config.transmission_type));

@@ -22,9 +22,7 @@ void put_object(SdoPayload& out, ObjectAddress object) {
   out[3] = object.subindex;
 }
 
-ObjectAddress object_of(std::span<const std::uint8_t> in) {
-  return {*bytes::read_le<std::uint16_t>(in, 1), in[3]};
-}
+ObjectAddress object_of(std::span<const std::uint8_t> in) { return {*bytes::read_le<std::uint16_t>(in, 1), in[3]}; }
 
 SdoPayload encode_initiate(std::uint8_t specifier, const SdoInitiateData& message) {
   SdoPayload out{};
@@ -67,9 +65,9 @@ SdoInitiateData decode_initiate(std::span<const std::uint8_t> in) {
 
 SdoPayload encode_segment(std::uint8_t specifier, const SdoSegmentData& message) {
   SdoPayload out{};
-  out[0] = static_cast<std::uint8_t>(command_byte(specifier) | toggle_bit(message.toggle) |
-                                     ((kSdoSegmentMax - message.data.size()) << 1) |
-                                     (message.last ? kLastSegmentBit : 0u));
+  out[0] =
+      static_cast<std::uint8_t>(command_byte(specifier) | toggle_bit(message.toggle) |
+                                ((kSdoSegmentMax - message.data.size()) << 1) | (message.last ? kLastSegmentBit : 0u));
   std::copy(message.data.view().begin(), message.data.view().end(), out.begin() + 1);
   return out;
 }
@@ -103,7 +101,9 @@ SdoPayload encode_abort(const SdoAbort& abort) {
   return out;
 }
 
-SdoAbort decode_abort(std::span<const std::uint8_t> in) { return {object_of(in), *bytes::read_le<std::uint32_t>(in, 4)}; }
+SdoAbort decode_abort(std::span<const std::uint8_t> in) {
+  return {object_of(in), *bytes::read_le<std::uint32_t>(in, 4)};
+}
 
 template <class... Ts>
 struct Overloaded : Ts... {
@@ -116,24 +116,37 @@ Overloaded(Ts...) -> Overloaded<Ts...>;  // clang 14 has no CTAD for aggregates
 
 SdoPayload encode_sdo_request(const SdoRequest& request) {
   constexpr auto spec = [](SdoClientCommand c) { return static_cast<std::uint8_t>(c); };
-  return std::visit(
-      Overloaded{
-          [&](const SdoInitiateDownloadRequest& m) { return encode_initiate(spec(SdoClientCommand::kInitiateDownload), m); },
-          [&](const SdoDownloadSegmentRequest& m) { return encode_segment(spec(SdoClientCommand::kDownloadSegment), m); },
-          [&](const SdoInitiateUploadRequest& m) { return encode_object_only(spec(SdoClientCommand::kInitiateUpload), m.object); },
-          [&](const SdoUploadSegmentRequest& m) { return encode_toggle_only(spec(SdoClientCommand::kUploadSegment), m.toggle); },
-          [&](const SdoAbort& m) { return encode_abort(m); },
-      },
-      request);
+  return std::visit(Overloaded{
+                        [&](const SdoInitiateDownloadRequest& m) {
+                          return encode_initiate(spec(SdoClientCommand::kInitiateDownload), m);
+                        },
+                        [&](const SdoDownloadSegmentRequest& m) {
+                          return encode_segment(spec(SdoClientCommand::kDownloadSegment), m);
+                        },
+                        [&](const SdoInitiateUploadRequest& m) {
+                          return encode_object_only(spec(SdoClientCommand::kInitiateUpload), m.object);
+                        },
+                        [&](const SdoUploadSegmentRequest& m) {
+                          return encode_toggle_only(spec(SdoClientCommand::kUploadSegment), m.toggle);
+                        },
+                        [&](const SdoAbort& m) { return encode_abort(m); },
+                    },
+                    request);
 }
 
 SdoPayload encode_sdo_response(const SdoResponse& response) {
   constexpr auto spec = [](SdoServerCommand c) { return static_cast<std::uint8_t>(c); };
   return std::visit(
       Overloaded{
-          [&](const SdoInitiateDownloadResponse& m) { return encode_object_only(spec(SdoServerCommand::kInitiateDownload), m.object); },
-          [&](const SdoDownloadSegmentResponse& m) { return encode_toggle_only(spec(SdoServerCommand::kDownloadSegment), m.toggle); },
-          [&](const SdoInitiateUploadResponse& m) { return encode_initiate(spec(SdoServerCommand::kInitiateUpload), m); },
+          [&](const SdoInitiateDownloadResponse& m) {
+            return encode_object_only(spec(SdoServerCommand::kInitiateDownload), m.object);
+          },
+          [&](const SdoDownloadSegmentResponse& m) {
+            return encode_toggle_only(spec(SdoServerCommand::kDownloadSegment), m.toggle);
+          },
+          [&](const SdoInitiateUploadResponse& m) {
+            return encode_initiate(spec(SdoServerCommand::kInitiateUpload), m);
+          },
           [&](const SdoUploadSegmentResponse& m) { return encode_segment(spec(SdoServerCommand::kUploadSegment), m); },
           [&](const SdoAbort& m) { return encode_abort(m); },
       },

@@ -156,8 +156,9 @@ void SdoClient::send_initiate(NodeId node, Channel& channel, TimePoint now) {
     return;
   }
   const SdoInitiateData initiate =
-      fits_expedited(transfer.mode, transfer.data.size()) ? SdoInitiateData::expedited_data(transfer.object, *InlineBytes<kSdoExpeditedMax>::from(transfer.data))
-                : SdoInitiateData::segmented(transfer.object, static_cast<std::uint32_t>(transfer.data.size()));
+      fits_expedited(transfer.mode, transfer.data.size())
+          ? SdoInitiateData::expedited_data(transfer.object, *InlineBytes<kSdoExpeditedMax>::from(transfer.data))
+          : SdoInitiateData::segmented(transfer.object, static_cast<std::uint32_t>(transfer.data.size()));
   send_request(node, channel, SdoInitiateDownloadRequest{initiate}, now);
 }
 

@@ -114,7 +114,8 @@ void SdoServer::on_initiate_upload(ObjectAddress object, TimePoint now) {
   const bool expedited = !config_.segmented_uploads && !result.data.empty() && result.data.size() <= kSdoExpeditedMax;
   if (expedited) {
     const auto data = *InlineBytes<kSdoExpeditedMax>::from(result.data);
-    if (sink_) sink_(sdo_response_frame(node_, SdoInitiateUploadResponse{SdoInitiateData::expedited_data(object, data)}));
+    if (sink_)
+      sink_(sdo_response_frame(node_, SdoInitiateUploadResponse{SdoInitiateData::expedited_data(object, data)}));
     return;
   }
   Transfer transfer;

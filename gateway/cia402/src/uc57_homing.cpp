@@ -50,8 +50,10 @@ HomingSettings quantize_homing(const HomingRequest& request, std::uint32_t pulse
                                Rounding rounding) {
   HomingSettings settings;
   settings.method = static_cast<std::uint8_t>(request.method);
-  settings.search_speed = quantize_speed(entry(index::kHomingSpeeds, 1), request.search_speed, pulses_per_rev, rounding);
-  settings.locate_speed = quantize_speed(entry(index::kHomingSpeeds, 2), request.locate_speed, pulses_per_rev, rounding);
+  settings.search_speed =
+      quantize_speed(entry(index::kHomingSpeeds, 1), request.search_speed, pulses_per_rev, rounding);
+  settings.locate_speed =
+      quantize_speed(entry(index::kHomingSpeeds, 2), request.locate_speed, pulses_per_rev, rounding);
   settings.acceleration = quantize_ramp(entry(index::kHomingAcceleration, 0), request.acceleration,
                                         settings.search_speed.realized, pulses_per_rev, unit, rounding);
   settings.offset = quantize_position(entry(index::kHomeOffset, 0), request.offset);

@@ -192,8 +192,8 @@ constexpr void build_dictionary(Sink& add) {
   add(row(0x6064, 0x00, "Position actual value", I32, RO, kPdo, 0, full(I32), Unit::kPulses));
   add(row(0x606C, 0x00, "Velocity actual value", I32, RO, kPdo, 0, full(I32), Unit::kRpm));
   add(row(0x607A, 0x00, "Target position", I32, RW, kPdo, 5000, {-1000000, 1000000}, Unit::kPulses));
-  add(row(0x607C, 0x00, "Home offset", I32, RW, kPdo, 0, {-1000000, 1000000}, Unit::kPulses));  // C-05
-  add(row(0x6081, 0x00, "Profile velocity", U32, RW, kPdo, 60, {5, 1000}, Unit::kRpm));          // C-03
+  add(row(0x607C, 0x00, "Home offset", I32, RW, kPdo, 0, {-1000000, 1000000}, Unit::kPulses));       // C-05
+  add(row(0x6081, 0x00, "Profile velocity", U32, RW, kPdo, 60, {5, 1000}, Unit::kRpm));              // C-03
   add(row(0x6083, 0x00, "Profile acceleration", U32, RW, kPdo, 50, {1, 2000}, Unit::kRampSetting));  // C-02
   add(row(0x6084, 0x00, "Profile deceleration", U32, RW, kPdo, 50, {1, 2000}, Unit::kRampSetting));
   add(row(0x6098, 0x00, "Homing method", U8, RW, kPdo, 0, full(U8), Unit::kEnumerated));  // C-07
@@ -234,7 +234,8 @@ constexpr bool key_less(const OdEntry& a, const OdEntry& b) {
 }
 
 static_assert(std::adjacent_find(kDictionary.begin(), kDictionary.end(),
-                                 [](const OdEntry& a, const OdEntry& b) { return !key_less(a, b); }) == kDictionary.end(),
+                                 [](const OdEntry& a, const OdEntry& b) { return !key_less(a, b); }) ==
+                  kDictionary.end(),
               "the object dictionary must be sorted by (index, subindex) without duplicates");
 
 constexpr bool in_range(std::uint16_t index, std::uint16_t first, std::uint16_t last) {

@@ -44,7 +44,8 @@ std::optional<std::uint16_t> subdivision_code(std::uint32_t pulses_per_rev) {
   return static_cast<std::uint16_t>(found - kPulsesPerRevolutionByCode.begin());
 }
 
-SetupSubdivision setup_subdivision(std::optional<std::int64_t> pulses_per_revolution, std::optional<std::int64_t> micro_steps) {
+SetupSubdivision setup_subdivision(std::optional<std::int64_t> pulses_per_revolution,
+                                   std::optional<std::int64_t> micro_steps) {
   SetupSubdivision out;
   if (pulses_per_revolution) {
     out.pulses = *pulses_per_revolution;
@@ -90,8 +91,7 @@ double ramp_acceleration(RampUnit unit, std::int64_t setting, double speed_chang
 
 Quantized quantize_speed(const OdEntry& object, double pulses_per_s, std::uint32_t pulses_per_rev, Rounding rounding) {
   const double rpm = saturate(pulses_per_second_to_rpm(pulses_per_s, pulses_per_rev));
-  Quantized result =
-      clamp_to(object, rounding == Rounding::kNearest ? round_nearest(rpm) : round_magnitude_down(rpm));
+  Quantized result = clamp_to(object, rounding == Rounding::kNearest ? round_nearest(rpm) : round_magnitude_down(rpm));
   result.realized = rpm_to_pulses_per_second(static_cast<double>(result.native), pulses_per_rev);
   return result;
 }
@@ -102,8 +102,8 @@ Quantized quantize_ramp(const OdEntry& object, double pulses_per_s2, double spee
   switch (unit) {
     case RampUnit::kRevolutionsPerSecondSquared: {
       const double rev_per_s2 = saturate(pulses_per_s2 / pulses_per_rev);
-      result = clamp_to(object, rounding == Rounding::kNearest ? round_nearest(rev_per_s2)
-                                                               : round_magnitude_down(rev_per_s2));
+      result = clamp_to(object,
+                        rounding == Rounding::kNearest ? round_nearest(rev_per_s2) : round_magnitude_down(rev_per_s2));
       break;
     }
     case RampUnit::kMilliseconds: {

@@ -6,9 +6,9 @@
 #include <limits>
 #include <optional>
 
+#include "motion/adam/rtu.hpp"
 #include "motion/adam/table.hpp"
 #include "motion/adam/units.hpp"
-#include "motion/adam/rtu.hpp"
 #include "motion/can_frame/bit_timing.hpp"
 #include "motion/canopen/cob_id.hpp"
 #include "motion/canopen/sync.hpp"
@@ -82,7 +82,8 @@ std::optional<std::string> uim342(Model& m, const config::Drive& drive, const co
   return std::nullopt;
 }
 
-std::optional<std::string> uc57(Model& m, const config::Drive& drive, const config::Bus& bus, const gateway::DriveFacts& facts) {
+std::optional<std::string> uc57(Model& m, const config::Drive& drive, const config::Bus& bus,
+                                const gateway::DriveFacts& facts) {
   namespace od = cia402::uc57;
   const std::uint32_t assumed = assumed_pulses_per_revolution(drive);
   const std::uint32_t ppr = facts.counts_per_revolution.value_or(assumed);
@@ -103,16 +104,19 @@ std::optional<std::string> uc57(Model& m, const config::Drive& drive, const conf
   m.velocity_max = velocity->max;
   // The rate of a 1 ms ramp over a 1 pulse/s change is 1 / (seconds per ramp step).
   const double start_rpm = facts.start_speed_rpm.value_or(static_cast<double>(start_speed->default_value));
-  ramp_time(m, 1.0 / od::ramp_acceleration(od::RampUnit::kMilliseconds, 1, 1.0, ppr), od::rpm_to_pulses_per_second(start_rpm, ppr),
-            std::max(acceleration->min, deceleration->min), std::min(acceleration->max, deceleration->max));
+  ramp_time(m, 1.0 / od::ramp_acceleration(od::RampUnit::kMilliseconds, 1, 1.0, ppr),
+            od::rpm_to_pulses_per_second(start_rpm, ppr), std::max(acceleration->min, deceleration->min),
+            std::min(acceleration->max, deceleration->max));
   if (facts.one_frame_start == false) {
     // The drive applies RPDO1 on reception (or refused transmission type 1): its own RPDO1
     // starts it (CiA 301 §7.2.2; docs/protocols.md UC57 #1). Wire time of the longer RPDO1
     // layout (the manual's default 1600h: 6040h + 60FFh + 6060h, 7 bytes), zero data.
     const std::array<std::uint8_t, 7> data{};
-    const auto rpdo = can::Frame::make(canopen::rpdo_cob_id(1, static_cast<canopen::NodeId>(drive.node_id)), false, data);
+    const auto rpdo =
+        can::Frame::make(canopen::rpdo_cob_id(1, static_cast<canopen::NodeId>(drive.node_id)), false, data);
     if (!rpdo) return "drive " + drive.name + ": no RPDO1 frame for node " + std::to_string(drive.node_id);
-    add_start(m, Model::START_SINGLE, drive.node_id, micros(can::frame_duration(*rpdo, static_cast<std::uint32_t>(bus.bitrate))));
+    add_start(m, Model::START_SINGLE, drive.node_id,
+              micros(can::frame_duration(*rpdo, static_cast<std::uint32_t>(bus.bitrate))));
     return std::nullopt;
   }
   add_start(m, Model::START_CANOPEN_SYNC, static_cast<std::int32_t>(canopen::kSyncCobId),
@@ -126,7 +130,8 @@ std::optional<std::string> adam(Model& m, const config::Drive& drive, const conf
   m.counts_per_revolution = static_cast<std::int32_t>(ppr);
   m.assumed_counts_per_revolution = static_cast<std::int32_t>(ppr);
   if (!adam::check_subdivision(ppr)) {
-    return "drive " + drive.name + ": subdivision " + std::to_string(ppr) + " pulses/rev is outside what the ADAM drive accepts";
+    return "drive " + drive.name + ": subdivision " + std::to_string(ppr) +
+           " pulses/rev is outside what the ADAM drive accepts";
   }
   // Whole rpm up to 1000: a table entry's speed goes to 0x009A (§8.44, whole rpm 0…1000) and to
   // 0x00D8 (§8.64, 0.01 rpm); the manual does not say which one a table entry runs at
@@ -137,7 +142,8 @@ std::optional<std::string> adam(Model& m, const config::Drive& drive, const conf
   m.velocity_max = 1000;
   ramp_time(m, adam::kRampSecondsPerStep, 0.0, 1, adam::kMaxRampMs);
   const auto request = adam::table_execute_broadcast();
-  const auto bytes = request.ok() ? adam::rtu::encode_request(*request) : Result<std::vector<std::uint8_t>>{request.error()};
+  const auto bytes =
+      request.ok() ? adam::rtu::encode_request(*request) : Result<std::vector<std::uint8_t>>{request.error()};
   if (!bytes.ok()) return std::string("no ADAM table-execute broadcast frame");
   add_start(m, Model::START_ADAM_BROADCAST, adam::rtu::kBroadcastUnit,
             micros(gateway::serial_line_settings(bus).wire_time(bytes->size())));
@@ -167,16 +173,20 @@ std::optional<std::string> uim242(Model& m, const config::Bus& bus) {
 std::uint32_t assumed_pulses_per_revolution(const config::Drive& drive) {
   switch (drive.family) {
     case config::Family::kAdamModbus: {
-      const auto pulses = adam::setup_pulses_per_revolution(drive.setup_integer("pulses_per_revolution"), drive.setup_integer("subdivision"));
+      const auto pulses = adam::setup_pulses_per_revolution(drive.setup_integer("pulses_per_revolution"),
+                                                            drive.setup_integer("subdivision"));
       if (!pulses) return adam::kDefaultSubdivision;
-      return *pulses > 0 && *pulses <= std::numeric_limits<std::uint32_t>::max() ? static_cast<std::uint32_t>(*pulses) : 0;
+      return *pulses > 0 && *pulses <= std::numeric_limits<std::uint32_t>::max() ? static_cast<std::uint32_t>(*pulses)
+                                                                                 : 0;
     }
     case config::Family::kUc57: {
       // The gateway's own rule (2006h code from the set-up); no code: the drive keeps its factory one.
-      const auto setup = cia402::uc57::setup_subdivision(drive.setup_integer("pulses_per_revolution"), drive.setup_integer("micro_steps"));
+      const auto setup = cia402::uc57::setup_subdivision(drive.setup_integer("pulses_per_revolution"),
+                                                         drive.setup_integer("micro_steps"));
       if (setup.status != cia402::uc57::SetupSubdivision::Status::kCode) {
-        return drive.setup.contains("pulses_per_revolution") || drive.setup.contains("micro_steps") ? 0
-                                                                                                      : cia402::uc57::kDefaultPulsesPerRevolution;
+        return drive.setup.contains("pulses_per_revolution") || drive.setup.contains("micro_steps")
+                   ? 0
+                   : cia402::uc57::kDefaultPulsesPerRevolution;
       }
       return cia402::uc57::pulses_per_revolution(setup.code).value_or(0);
     }

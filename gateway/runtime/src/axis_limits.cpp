@@ -67,39 +67,47 @@ std::optional<Refusal> check_axis_command(std::int8_t kind, const motionlcm::axi
   if (has_target) {
     const auto target = static_cast<double>(c.target_counts);
     if (target < l.min_counts - kPositionRounding || target > l.max_counts + kPositionRounding) {
-      outside(fmt::format("axis {}: {} target {:.6g} {} ({} counts) is outside the limits [{:.6g}, {:.6g}] {} ([{:.6g}, {:.6g}] counts)",
-                          axis.name, what, l.position_units(target), unit, c.target_counts, axis.limits.min_position,
-                          axis.limits.max_position, unit, l.min_counts, l.max_counts));
+      outside(
+          fmt::format("axis {}: {} target {:.6g} {} ({} counts) is outside the limits [{:.6g}, {:.6g}] {} ([{:.6g}, "
+                      "{:.6g}] counts)",
+                      axis.name, what, l.position_units(target), unit, c.target_counts, axis.limits.min_position,
+                      axis.limits.max_position, unit, l.min_counts, l.max_counts));
     }
   }
   if (moves) {
     for (const auto& [name, value] : {std::pair{"velocity", c.velocity}, std::pair{"acceleration", c.acceleration},
                                       std::pair{"deceleration", c.deceleration}}) {
       if (!std::isfinite(value)) {
-        return Refusal{error_code(ReplyError::kMalformedRequest), fmt::format("axis {}: {} {} is not a finite number", axis.name, what, name)};
+        return Refusal{error_code(ReplyError::kMalformedRequest),
+                       fmt::format("axis {}: {} {} is not a finite number", axis.name, what, name)};
       }
     }
     if (std::abs(c.velocity) > rate_bound(l.max_velocity)) {
-      outside(fmt::format("axis {}: {} velocity {:.6g} {}/s ({:.6g} counts/s) exceeds the limit {:.6g} {}/s ({:.6g} counts/s)", axis.name,
-                          what, std::abs(c.velocity) / s, unit, std::abs(c.velocity), axis.limits.max_velocity, unit, l.max_velocity));
+      outside(fmt::format(
+          "axis {}: {} velocity {:.6g} {}/s ({:.6g} counts/s) exceeds the limit {:.6g} {}/s ({:.6g} counts/s)",
+          axis.name, what, std::abs(c.velocity) / s, unit, std::abs(c.velocity), axis.limits.max_velocity, unit,
+          l.max_velocity));
     }
-    for (const auto& [name, value] : {std::pair{"acceleration", c.acceleration}, std::pair{"deceleration", c.deceleration}}) {
+    for (const auto& [name, value] :
+         {std::pair{"acceleration", c.acceleration}, std::pair{"deceleration", c.deceleration}}) {
       if (value < 0) {
         return Refusal{error_code(ReplyError::kMalformedRequest),
                        fmt::format("axis {}: {} {} {:.6g} counts/s^2 is negative", axis.name, what, name, value)};
       }
       if (value > rate_bound(l.max_acceleration)) {
-        outside(fmt::format("axis {}: {} {} {:.6g} {}/s^2 ({:.6g} counts/s^2) exceeds the limit {:.6g} {}/s^2 ({:.6g} counts/s^2)",
-                            axis.name, what, name, value / s, unit, value, axis.limits.max_acceleration, unit, l.max_acceleration));
+        outside(fmt::format(
+            "axis {}: {} {} {:.6g} {}/s^2 ({:.6g} counts/s^2) exceeds the limit {:.6g} {}/s^2 ({:.6g} counts/s^2)",
+            axis.name, what, name, value / s, unit, value, axis.limits.max_acceleration, unit, l.max_acceleration));
       }
     }
   }
   if (kind == Command::JOG && position_counts && c.velocity != 0 && !jog_room(l, c.velocity, *position_counts)) {
     const double limit = l.limit_toward(c.velocity);
     const auto position = static_cast<double>(*position_counts);
-    outside(fmt::format("axis {}: jog toward {:.6g} {} refused: position {:.6g} {} ({} counts) is less than one count from (or beyond) "
-                        "that limit ({:.6g} counts)",
-                        axis.name, l.position_units(limit), unit, l.position_units(position), unit, *position_counts, limit));
+    outside(fmt::format(
+        "axis {}: jog toward {:.6g} {} refused: position {:.6g} {} ({} counts) is less than one count from (or beyond) "
+        "that limit ({:.6g} counts)",
+        axis.name, l.position_units(limit), unit, l.position_units(position), unit, *position_counts, limit));
   }
   if (violations.empty()) return std::nullopt;
   return Refusal{error_code(ReplyError::kOutsideLimits), violations};
@@ -114,7 +122,8 @@ std::optional<std::int64_t> jog_room(const CountLimits& limits, double velocity,
   return static_cast<std::int64_t>(std::clamp(whole, -kMax, kMax));
 }
 
-bool jog_must_stop(const JogWatch& jog, const CountLimits& limits, std::int64_t position_counts, double status_velocity, double poll_hz) {
+bool jog_must_stop(const JogWatch& jog, const CountLimits& limits, std::int64_t position_counts, double status_velocity,
+                   double poll_hz) {
   if (jog.velocity == 0) return false;
   const double limit = limits.limit_toward(jog.velocity);
   const auto position = static_cast<double>(position_counts);

@@ -18,7 +18,9 @@ constexpr auto kEchoWait = std::chrono::milliseconds(50);
 class CanBusDriver::Combiner final : public GatewayOutput {
  public:
   explicit Combiner(CanBusDriver& owner) : owner_(owner) {}
-  void axis_status(const std::string& axis, const DriveStatus& status) override { owner_.out_.axis_status(axis, status); }
+  void axis_status(const std::string& axis, const DriveStatus& status) override {
+    owner_.out_.axis_status(axis, status);
+  }
   void axis_event(const std::string& axis, const DriveEvent& event) override { owner_.out_.axis_event(axis, event); }
   void command_reply(motionlcm::gateway_reply_t reply) override { owner_.on_stack_reply(std::move(reply)); }
   void drive_facts(const std::string& axis, const DriveFacts& facts) override { owner_.out_.drive_facts(axis, facts); }
@@ -28,7 +30,8 @@ class CanBusDriver::Combiner final : public GatewayOutput {
   CanBusDriver& owner_;
 };
 
-CanBusDriver::CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can::Transport> transport, GatewayOutput& out)
+CanBusDriver::CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can::Transport> transport,
+                           GatewayOutput& out)
     : loop_(loop),
       bus_(std::move(bus)),
       transport_(std::move(transport)),
@@ -129,7 +132,9 @@ void CanBusDriver::execute(const motionlcm::gateway_command_t& command) {
   for (const auto& a : command.axes) {
     auto it = stack_of_axis_.find(a.axis);
     if (it == stack_of_axis_.end()) {
-      pending_.reject(command, 0, "no protocol stack drives axis '" + a.axis + "' on bus " + bus_ + " (family not supported by this gateway yet)");
+      pending_.reject(command, 0,
+                      "no protocol stack drives axis '" + a.axis + "' on bus " + bus_ +
+                          " (family not supported by this gateway yet)");
       return;
     }
     auto& part = parts[it->second];
@@ -192,11 +197,13 @@ void CanBusDriver::on_stack_reply(motionlcm::gateway_reply_t reply) {
       first = std::min(first, r.trigger_utime);
       last = std::max(last, r.trigger_utime);
       skew = std::max(skew, r.predicted_skew_us);
-      if (mechanisms.find(r.start_mechanism) == std::string::npos) mechanisms += (mechanisms.empty() ? "" : "+") + r.start_mechanism;
+      if (mechanisms.find(r.start_mechanism) == std::string::npos)
+        mechanisms += (mechanisms.empty() ? "" : "+") + r.start_mechanism;
     }
     combined.started(first, mechanisms, std::max(skew, static_cast<double>(last - first)));
   }
-  entry->reply = *to == Lifecycle::kFailed ? ReplyBuilder(reply) : std::move(combined);  // a failure as its stack said it
+  entry->reply =
+      *to == Lifecycle::kFailed ? ReplyBuilder(reply) : std::move(combined);  // a failure as its stack said it
   // DONE keeps the first stack's reason (the combined reply's); FAILED is this stack's.
   if (!pending_.advance(id, *key, *to, reply.error_code, *to == Lifecycle::kDone ? std::string{} : reply.reason)) {
     spdlog::warn("bus {}: command {}: a {} reply refused by the ledger (not sent)", bus_, id, to_string(*to));

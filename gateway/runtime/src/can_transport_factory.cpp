@@ -46,7 +46,8 @@ std::unique_ptr<can::Transport> open_socketcan(const config::Bus& bus, std::erro
 // baud/parity/stop bits, the CRC coverage of uimessage_crc / uimessage_crc_strict. The CAN bit
 // rate is the gateway's own setting; the configured one is not sent anywhere.
 std::unique_ptr<can::Transport> open_uimessage(const config::Bus& bus, std::error_code& error) {
-  return uimessage::UiMessageTransport::open(bus.target, serial_line_settings(bus), uimessage::options_from(bus), error);
+  return uimessage::UiMessageTransport::open(bus.target, serial_line_settings(bus), uimessage::options_from(bus),
+                                             error);
 }
 
 }  // namespace
@@ -58,8 +59,8 @@ const std::error_category& transport_error_category() {
 
 std::error_code make_error_code(TransportError error) { return {static_cast<int>(error), transport_error_category()}; }
 
-std::unique_ptr<can::Transport> open_can_transport(const config::Config& config, const config::Bus& bus, std::string label,
-                                                   std::error_code& error) {
+std::unique_ptr<can::Transport> open_can_transport(const config::Config& config, const config::Bus& bus,
+                                                   std::string label, std::error_code& error) {
   error.clear();
   switch (bus.kind) {
     case config::TransportKind::kSimCan: return open_simcan(config, bus, std::move(label), error);
@@ -89,7 +90,8 @@ std::string open_error_message(const config::Config& config, const config::Bus& 
   }
   if (bus.kind == config::TransportKind::kUiMessage) {
     out += "cannot open serial port " + bus.target + " at " + std::to_string(bus.baud) + " baud: " + error.message();
-    if (error == std::errc::no_such_file_or_directory) return out + " (is the UIROBOT gateway plugged in? see ls /dev/serial/by-id)";
+    if (error == std::errc::no_such_file_or_directory)
+      return out + " (is the UIROBOT gateway plugged in? see ls /dev/serial/by-id)";
     if (error == std::errc::permission_denied) return out + " (add the user to the dialout group)";
     if (error == std::errc::inappropriate_io_control_operation) return out + " (not a serial port)";
     return out;

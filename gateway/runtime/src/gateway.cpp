@@ -24,7 +24,8 @@ security::Loaded<std::optional<security::PublicKey>> Gateway::load_coordinator_k
   return std::optional<security::PublicKey>{std::get<security::PublicKey>(key)};
 }
 
-Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config, std::string bus)
+Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config,
+                 std::string bus)
     : loop_(loop),
       node_(node),
       health_(health),
@@ -37,22 +38,25 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
     limits_.emplace(axis->name, CountLimits::of(*axis));
   }
   if (const config::Bus* b = config_.find_bus(bus_); b != nullptr) poll_hz_ = b->poll_hz;
-  node_.subscribe<motionlcm::gateway_command_t>(lcm::channels::gateway_command(bus_), [this](const motionlcm::gateway_command_t& c, const std::string&) {
-    if (enforce_) {
-      refuse("unsigned command " + std::to_string(c.command_id) + " (request " + std::to_string(c.request_id) +
-             ") refused: security is enforced, commands must be signed by the coordinator");
-    } else {
-      on_command(c);
-    }
-  });
+  node_.subscribe<motionlcm::gateway_command_t>(
+      lcm::channels::gateway_command(bus_), [this](const motionlcm::gateway_command_t& c, const std::string&) {
+        if (enforce_) {
+          refuse("unsigned command " + std::to_string(c.command_id) + " (request " + std::to_string(c.request_id) +
+                 ") refused: security is enforced, commands must be signed by the coordinator");
+        } else {
+          on_command(c);
+        }
+      });
   node_.subscribe<motionlcm::signed_gateway_command_t>(
       lcm::channels::signed_gateway_command(bus_),
       [this](const motionlcm::signed_gateway_command_t& m, const std::string&) { on_signed_command(m); },
       [this](const void*, int, const std::string& why) { refuse("malformed signed command refused: " + why); });
   subscribe_coordinator_messages();
-  node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [this](const motionlcm::health_t& h, const std::string&) { on_health(h); });
+  node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth,
+                                       [this](const motionlcm::health_t& h, const std::string&) { on_health(h); });
   node_.subscribe<motionlcm::drive_model_request_t>(
-      lcm::channels::kDriveModelRequest, [this](const motionlcm::drive_model_request_t& r, const std::string&) { on_model_request(r); });
+      lcm::channels::kDriveModelRequest,
+      [this](const motionlcm::drive_model_request_t& r, const std::string&) { on_model_request(r); });
   health_.set_bus_stats([this] { return driver_ ? driver_->statistics() : std::vector<motionlcm::bus_stats_t>{}; });
   health_timer_ = loop_.call_every(std::chrono::milliseconds(200), [this] { update_health(); });
 }
@@ -81,7 +85,8 @@ void Gateway::set_waiting(std::string why) {
 
 void Gateway::update_health() {
   std::string unsupported;
-  for (const auto& [drive, family] : unsupported_) unsupported += (unsupported.empty() ? "" : ", ") + drive + " (" + family + ")";
+  for (const auto& [drive, family] : unsupported_)
+    unsupported += (unsupported.empty() ? "" : ", ") + drive + " (" + family + ")";
   if (!unsupported.empty()) unsupported = "no driver yet for " + unsupported;
   auto join = [](std::string a, const std::string& b) { return b.empty() ? a : a.empty() ? b : a + "; " + b; };
   if (!driver_) {
@@ -104,14 +109,18 @@ void Gateway::update_health() {
 }
 
 void Gateway::on_command(const motionlcm::gateway_command_t& command) {
-  auto fail = [&](const std::string& reason, std::int32_t code = 0) { command_reply(ReplyBuilder(command.command_id).failed(code, reason).build()); };
+  auto fail = [&](const std::string& reason, std::int32_t code = 0) {
+    command_reply(ReplyBuilder(command.command_id).failed(code, reason).build());
+  };
   if (command.bus != bus_) return fail("command for bus '" + command.bus + "' reached gateway of bus '" + bus_ + "'");
-  if (command.num_axes != static_cast<std::int32_t>(command.axes.size())) return fail("num_axes does not match the axes array");
+  if (command.num_axes != static_cast<std::int32_t>(command.axes.size()))
+    return fail("num_axes does not match the axes array");
   for (const auto& a : command.axes) {
     const auto axis = axes_.find(a.axis);
     if (axis == axes_.end()) return fail("axis '" + a.axis + "' is not on bus '" + bus_ + "'");
     if (const auto u = unsupported_.find(axis->second->drive); u != unsupported_.end()) {
-      return fail("axis '" + a.axis + "': drive " + u->first + " is a " + u->second + " drive, which this gateway does not drive yet");
+      return fail("axis '" + a.axis + "': drive " + u->first + " is a " + u->second +
+                  " drive, which this gateway does not drive yet");
     }
   }
   // A drive that lost power does not know where the machine is: neither its limits nor a target
@@ -120,7 +129,8 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
     for (const auto& a : command.axes) {
       const auto lost = position_lost_.find(a.axis);
       if (lost == position_lost_.end()) continue;
-      const std::string reason = fmt::format("axis {} lost its position ({}): home it or set its position first", a.axis, lost->second);
+      const std::string reason =
+          fmt::format("axis {} lost its position ({}): home it or set its position first", a.axis, lost->second);
       DriveEvent e;
       e.kind = motionlcm::event_t::PROTOCOL_ERROR;
       e.severity = motionlcm::event_t::WARNING;
@@ -130,21 +140,24 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
       return fail(reason, error_code(ReplyError::kPositionLost));
     }
   }
-  if (command.kind == motionlcm::gateway_command_t::HOME || command.kind == motionlcm::gateway_command_t::SET_POSITION) {
+  if (command.kind == motionlcm::gateway_command_t::HOME ||
+      command.kind == motionlcm::gateway_command_t::SET_POSITION) {
     auto& axes = referencing_[command.command_id];
     for (const auto& a : command.axes) axes.push_back(a.axis);
   }
   // Whoever sent it: nothing outside the configured limits reaches a drive.
   for (const auto& a : command.axes) {
     const auto status = last_status_.find(a.axis);
-    const auto refusal = check_axis_command(command.kind, a, limits_.at(a.axis),
-                                            status == last_status_.end() ? std::nullopt : std::optional{status->second.position_counts});
+    const auto refusal =
+        check_axis_command(command.kind, a, limits_.at(a.axis),
+                           status == last_status_.end() ? std::nullopt : std::optional{status->second.position_counts});
     if (!refusal) continue;
     DriveEvent e;
     e.kind = motionlcm::event_t::PROTOCOL_ERROR;
     e.severity = motionlcm::event_t::WARNING;
     e.code = refusal->error_code;
-    e.text = fmt::format("command {} (request {}) refused: {}", command.command_id, command.request_id, refusal->reason);
+    e.text =
+        fmt::format("command {} (request {}) refused: {}", command.command_id, command.request_id, refusal->reason);
     axis_event(a.axis, e);
     return fail(refusal->reason, refusal->error_code);
   }
@@ -164,7 +177,8 @@ void Gateway::on_signed_command(const motionlcm::signed_gateway_command_t& envel
   }
   // No coordinator key configured (mode off): taken as a plain command would be.
   motionlcm::gateway_command_t command;
-  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command); !why.empty()) {
+  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command);
+      !why.empty()) {
     return refuse("signed command with a malformed payload refused: " + why);
   }
   on_command(command);
@@ -178,7 +192,9 @@ void Gateway::refuse(const std::string& reason) {
   DriveEvent e;
   e.kind = motionlcm::event_t::SECURITY;
   e.severity = motionlcm::event_t::WARNING;
-  e.text = suppressed == 0 ? reason : reason + " (and " + std::to_string(suppressed) + " more refusals not reported, at most 5 a second)";
+  e.text = suppressed == 0
+               ? reason
+               : reason + " (and " + std::to_string(suppressed) + " more refusals not reported, at most 5 a second)";
   axis_event("", e);
 }
 
@@ -187,10 +203,13 @@ void Gateway::set_coordinator_key(const std::optional<security::PublicKey>& coor
   const std::chrono::milliseconds window(config_.security.window_ms);
   const std::string prefix = node_.prefix();  // what the coordinator signed for: the channels this gateway hears
   auto verifier = [&](std::string_view channel) {
-    return coordinator ? std::optional<security::MessageVerifier>{std::in_place, *coordinator, prefix, std::string(channel), window, now}
+    return coordinator ? std::optional<security::MessageVerifier>{std::in_place,        *coordinator, prefix,
+                                                                  std::string(channel), window,       now}
                        : std::nullopt;
   };
-  verifier_ = coordinator ? std::optional<security::GatewayCommandVerifier>{std::in_place, *coordinator, prefix, window, now} : std::nullopt;
+  verifier_ = coordinator
+                  ? std::optional<security::GatewayCommandVerifier>{std::in_place, *coordinator, prefix, window, now}
+                  : std::nullopt;
   trigger_verifier_ = verifier(lcm::channels::kSyncTrigger);
   trigger2_verifier_ = verifier(lcm::channels::kSyncTrigger2);
   moves_verifier_ = verifier(lcm::channels::kActiveMoves);
@@ -198,38 +217,51 @@ void Gateway::set_coordinator_key(const std::optional<security::PublicKey>& coor
 
 void Gateway::subscribe_coordinator_messages() {
   const auto unsigned_refusal = [this](std::string_view channel, const std::string& what) {
-    refuse("unsigned " + std::string(channel) + " (" + what + ") refused: security is enforced, it must be signed by the coordinator (" +
+    refuse("unsigned " + std::string(channel) + " (" + what +
+           ") refused: security is enforced, it must be signed by the coordinator (" +
            node_.channel(security::signed_channel(channel)) + ")");
   };
-  node_.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger, [this, unsigned_refusal](const motionlcm::sync_trigger_t& t, const std::string&) {
-    if (enforce_) return unsigned_refusal(lcm::channels::kSyncTrigger, "trigger " + std::to_string(t.trigger_id));
-    on_trigger(t);
-  });
-  node_.subscribe<motionlcm::sync_trigger2_t>(lcm::channels::kSyncTrigger2, [this, unsigned_refusal](const motionlcm::sync_trigger2_t& t, const std::string&) {
-    if (enforce_) return unsigned_refusal(lcm::channels::kSyncTrigger2, "trigger " + std::to_string(t.trigger_id));
-    on_trigger2(t);
-  });
-  node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves, [this, unsigned_refusal](const motionlcm::active_moves_t& m, const std::string&) {
-    if (enforce_) return unsigned_refusal(lcm::channels::kActiveMoves, std::to_string(m.num_axes) + " rows");
-    on_active_moves(m);
-  });
-  const auto malformed = [this](const void*, int, const std::string& why) { refuse("malformed signed message refused: " + why); };
+  node_.subscribe<motionlcm::sync_trigger_t>(
+      lcm::channels::kSyncTrigger, [this, unsigned_refusal](const motionlcm::sync_trigger_t& t, const std::string&) {
+        if (enforce_) return unsigned_refusal(lcm::channels::kSyncTrigger, "trigger " + std::to_string(t.trigger_id));
+        on_trigger(t);
+      });
+  node_.subscribe<motionlcm::sync_trigger2_t>(
+      lcm::channels::kSyncTrigger2, [this, unsigned_refusal](const motionlcm::sync_trigger2_t& t, const std::string&) {
+        if (enforce_) return unsigned_refusal(lcm::channels::kSyncTrigger2, "trigger " + std::to_string(t.trigger_id));
+        on_trigger2(t);
+      });
+  node_.subscribe<motionlcm::active_moves_t>(
+      lcm::channels::kActiveMoves, [this, unsigned_refusal](const motionlcm::active_moves_t& m, const std::string&) {
+        if (enforce_) return unsigned_refusal(lcm::channels::kActiveMoves, std::to_string(m.num_axes) + " rows");
+        on_active_moves(m);
+      });
+  const auto malformed = [this](const void*, int, const std::string& why) {
+    refuse("malformed signed message refused: " + why);
+  };
   node_.subscribe<motionlcm::signed_message_t>(
       security::signed_channel(lcm::channels::kSyncTrigger),
-      [this](const motionlcm::signed_message_t& m, const std::string&) { on_signed_message(trigger_verifier_, m, &Gateway::on_trigger); }, malformed);
+      [this](const motionlcm::signed_message_t& m, const std::string&) {
+        on_signed_message(trigger_verifier_, m, &Gateway::on_trigger);
+      },
+      malformed);
   node_.subscribe<motionlcm::signed_message_t>(
       security::signed_channel(lcm::channels::kSyncTrigger2),
-      [this](const motionlcm::signed_message_t& m, const std::string&) { on_signed_message(trigger2_verifier_, m, &Gateway::on_trigger2); },
+      [this](const motionlcm::signed_message_t& m, const std::string&) {
+        on_signed_message(trigger2_verifier_, m, &Gateway::on_trigger2);
+      },
       malformed);
   node_.subscribe<motionlcm::signed_message_t>(
       security::signed_channel(lcm::channels::kActiveMoves),
-      [this](const motionlcm::signed_message_t& m, const std::string&) { on_signed_message(moves_verifier_, m, &Gateway::on_active_moves); },
+      [this](const motionlcm::signed_message_t& m, const std::string&) {
+        on_signed_message(moves_verifier_, m, &Gateway::on_active_moves);
+      },
       malformed);
 }
 
 template <typename Msg>
-void Gateway::on_signed_message(std::optional<security::MessageVerifier>& verifier, const motionlcm::signed_message_t& envelope,
-                                void (Gateway::*handler)(const Msg&)) {
+void Gateway::on_signed_message(std::optional<security::MessageVerifier>& verifier,
+                                const motionlcm::signed_message_t& envelope, void (Gateway::*handler)(const Msg&)) {
   if (verifier) {
     auto verified = verifier->verify<Msg>(envelope, wall_time_us());
     if (!verified.message) return refuse(verified.reason);
@@ -237,7 +269,8 @@ void Gateway::on_signed_message(std::optional<security::MessageVerifier>& verifi
   }
   // No coordinator key configured (mode off): taken as the plain message would be.
   Msg msg;
-  if (std::string why = lcm::wire::decode_bounded(envelope.message.data(), envelope.message.size(), msg); !why.empty()) {
+  if (std::string why = lcm::wire::decode_bounded(envelope.message.data(), envelope.message.size(), msg);
+      !why.empty()) {
     return refuse("signed " + envelope.channel.substr(0, 64) + " with a malformed message refused: " + why);
   }
   (this->*handler)(msg);
@@ -313,7 +346,8 @@ void Gateway::check_jog(const std::string& axis) {
   if (!jog_must_stop(*jog, limits, status->second.position_counts, status->second.velocity_counts, poll_hz_)) return;
   const double limit = limits.limit_toward(jog->velocity);
   const auto pending = pending_motion_.find(axis);
-  const std::int64_t unconfirmed = pending != pending_motion_.end() && pending->second.jog ? pending->second.command_id : 0;  // 0: none
+  const std::int64_t unconfirmed =
+      pending != pending_motion_.end() && pending->second.jog ? pending->second.command_id : 0;  // 0: none
   forget_jog(axis);
   motionlcm::gateway_command_t stop{};
   stop.utime = wall_time_us();
@@ -329,10 +363,11 @@ void Gateway::check_jog(const std::string& axis) {
   e.kind = motionlcm::event_t::LIMIT;
   e.severity = motionlcm::event_t::WARNING;
   e.code = error_code(ReplyError::kOutsideLimits);
-  e.text = fmt::format("axis {} jogging toward its limit {:.6g} {} ({:.6g} counts): {} at {:.6g} {} ({} counts, {:.6g} {}/s)", axis,
-                       limits.position_units(limit), cfg.unit, limit, driver_ ? "stopped" : "no bus driver to stop it",
-                       limits.position_units(static_cast<double>(status->second.position_counts)), cfg.unit, status->second.position_counts,
-                       std::abs(status->second.velocity_counts) / cfg.steps_per_unit, cfg.unit);
+  e.text = fmt::format(
+      "axis {} jogging toward its limit {:.6g} {} ({:.6g} counts): {} at {:.6g} {} ({} counts, {:.6g} {}/s)", axis,
+      limits.position_units(limit), cfg.unit, limit, driver_ ? "stopped" : "no bus driver to stop it",
+      limits.position_units(static_cast<double>(status->second.position_counts)), cfg.unit,
+      status->second.position_counts, std::abs(status->second.velocity_counts) / cfg.steps_per_unit, cfg.unit);
   // Before the STOP: the driver may fail the jog while it takes the STOP.
   if (unconfirmed != 0) stopped_at_limit_[unconfirmed] = e.text;
   if (driver_) driver_->execute(stop);
@@ -340,7 +375,9 @@ void Gateway::check_jog(const std::string& axis) {
 }
 
 namespace {
-bool recent(const std::deque<std::int64_t>& ids, std::int64_t id) { return std::find(ids.begin(), ids.end(), id) != ids.end(); }
+bool recent(const std::deque<std::int64_t>& ids, std::int64_t id) {
+  return std::find(ids.begin(), ids.end(), id) != ids.end();
+}
 void remember(std::deque<std::int64_t>& ids, std::int64_t id) {
   ids.push_back(id);
   if (ids.size() > 64) ids.pop_front();
@@ -350,12 +387,15 @@ void remember(std::deque<std::int64_t>& ids, std::int64_t id) {
 void Gateway::on_trigger(const motionlcm::sync_trigger_t& trigger) {
   if (std::find(trigger.buses.begin(), trigger.buses.end(), bus_) == trigger.buses.end() || !driver_) return;
   // Scheduled (or fired) by its SYNC_TRIGGER2 already: that one carries this bus's lead.
-  if (recent(scheduled_v2_, trigger.trigger_id) || recent(fired_, trigger.trigger_id) || pending_fires_.contains(trigger.trigger_id)) return;
+  if (recent(scheduled_v2_, trigger.trigger_id) || recent(fired_, trigger.trigger_id) ||
+      pending_fires_.contains(trigger.trigger_id))
+    return;
   schedule_fire(trigger.trigger_id, trigger.fire_utime, {});
 }
 
 void Gateway::on_trigger2(const motionlcm::sync_trigger2_t& trigger) {
-  const auto n = std::min({trigger.buses.size(), trigger.send_utime.size(), static_cast<std::size_t>(std::max(trigger.num_buses, 0))});
+  const auto n = std::min(
+      {trigger.buses.size(), trigger.send_utime.size(), static_cast<std::size_t>(std::max(trigger.num_buses, 0))});
   std::size_t i = 0;
   while (i < n && trigger.buses[i] != bus_) ++i;
   if (i == n || !driver_ || recent(scheduled_v2_, trigger.trigger_id) || recent(fired_, trigger.trigger_id)) return;
@@ -374,7 +414,8 @@ void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, st
     if (driver_) driver_->fire_ordered(trigger_id, order);
   };
   if (delay <= std::chrono::microseconds::zero()) {
-    if (delay < -std::chrono::milliseconds(1)) spdlog::warn("trigger {} arrived {} us after its send time; firing now", trigger_id, -delay.count());
+    if (delay < -std::chrono::milliseconds(1))
+      spdlog::warn("trigger {} arrived {} us after its send time; firing now", trigger_id, -delay.count());
     fire();
     return;
   }
@@ -386,7 +427,8 @@ void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, st
     fire();
     // Destroyed after this callback (the loop holds no reference to it once it has run).
     loop_.call_after(Duration::zero(), [this, trigger_id] {
-      if (const auto it = pending_fires_.find(trigger_id); it != pending_fires_.end() && !it->second->armed()) pending_fires_.erase(it);
+      if (const auto it = pending_fires_.find(trigger_id); it != pending_fires_.end() && !it->second->armed())
+        pending_fires_.erase(it);
     });
   });
 }
@@ -401,8 +443,8 @@ void Gateway::on_health(const motionlcm::health_t& health) {
     if (successor && last_moves_.num_axes > 0) {
       // The coordinator that sent the last ACTIVE_MOVES is gone and another one answers: it ends
       // those requests (their clients get their terminal reply) and stops what still moves.
-      spdlog::warn("coordinator {} replaced by {}: handing it the {} active move row(s) of {} left behind", coordinator_, id,
-                   last_moves_.num_axes, bus_);
+      spdlog::warn("coordinator {} replaced by {}: handing it the {} active move row(s) of {} left behind",
+                   coordinator_, id, last_moves_.num_axes, bus_);
       last_moves_.utime = now;
       node_.publish(lcm::channels::kOrphanedMoves, last_moves_);
       last_moves_ = {};
@@ -432,7 +474,8 @@ void Gateway::on_active_moves(const motionlcm::active_moves_t& moves) {
   std::map<std::pair<std::string, std::int64_t>, std::vector<std::size_t>> inherited;  // request -> its rows here
   for (std::size_t i = 0; i < moves.axes.size(); ++i) {
     const bool ours = moves.buses[i] == bus_ && axes_.contains(moves.axes[i]);
-    const bool before_us = moves.phases[i] == motionlcm::active_moves_t::MOVING && moves.fire_utime[i] != 0 && moves.fire_utime[i] < started_utime_;
+    const bool before_us = moves.phases[i] == motionlcm::active_moves_t::MOVING && moves.fire_utime[i] != 0 &&
+                           moves.fire_utime[i] < started_utime_;
     if (ours && before_us) inherited[{moves.client_ids[i], moves.request_ids[i]}].push_back(i);
   }
   for (const auto& [request, rows] : inherited) {
@@ -449,10 +492,12 @@ void Gateway::on_active_moves(const motionlcm::active_moves_t& moves) {
       e.kind = motionlcm::event_t::GATEWAY_RESTARTED;
       e.severity = motionlcm::event_t::WARNING;
       e.code = static_cast<std::int32_t>(moves.command_ids[i]);
-      e.text = fmt::format("{} started while request {}/{} was moving {} to {:.6g} (gateway command {}, fired {:.0f} ms before this process started): {}",
-                           process_name(), request.first, request.second, moves.axes[i], moves.targets[i], moves.command_ids[i],
-                           static_cast<double>(started_utime_ - moves.fire_utime[i]) / 1000.0,
-                           driver_ ? "stopping it" : "no bus driver yet to stop it");
+      e.text = fmt::format(
+          "{} started while request {}/{} was moving {} to {:.6g} (gateway command {}, fired {:.0f} ms before this "
+          "process started): {}",
+          process_name(), request.first, request.second, moves.axes[i], moves.targets[i], moves.command_ids[i],
+          static_cast<double>(started_utime_ - moves.fire_utime[i]) / 1000.0,
+          driver_ ? "stopping it" : "no bus driver yet to stop it");
       axis_event(moves.axes[i], e);
     }
     stop.num_axes = static_cast<std::int32_t>(stop.axes.size());
@@ -490,14 +535,18 @@ void Gateway::publish_model(const std::string& axis, bool always) {
     last->second.encode(b.data(), 0, static_cast<int>(b.size()));
     if (a == b) return;  // utime is 0 in both: unchanged
   }
-  if (model.resolution_source == motionlcm::drive_model_t::RESOLUTION_READ_BACK && model.assumed_counts_per_revolution != 0 &&
-      model.counts_per_revolution != model.assumed_counts_per_revolution && (last == models_.end() || last->second.counts_per_revolution != model.counts_per_revolution)) {
+  if (model.resolution_source == motionlcm::drive_model_t::RESOLUTION_READ_BACK &&
+      model.assumed_counts_per_revolution != 0 && model.counts_per_revolution != model.assumed_counts_per_revolution &&
+      (last == models_.end() || last->second.counts_per_revolution != model.counts_per_revolution)) {
     DriveEvent e;
     e.kind = motionlcm::event_t::CONFIG_MISMATCH;
     e.severity = motionlcm::event_t::WARNING;
     e.code = model.counts_per_revolution;
-    e.text = fmt::format("axis {}: drive {} works at {} counts/rev (read from the drive), the configuration implies {}: its moves are planned at {}",
-                         axis, model.drive, model.counts_per_revolution, model.assumed_counts_per_revolution, model.counts_per_revolution);
+    e.text = fmt::format(
+        "axis {}: drive {} works at {} counts/rev (read from the drive), the configuration implies {}: its moves are "
+        "planned at {}",
+        axis, model.drive, model.counts_per_revolution, model.assumed_counts_per_revolution,
+        model.counts_per_revolution);
     axis_event(axis, e);
   }
   models_[axis] = model;
@@ -566,9 +615,12 @@ void Gateway::position_lost(const std::string& axis, const std::string& why) {
   e.kind = motionlcm::event_t::REBOOT;
   e.severity = motionlcm::event_t::ERROR;
   e.code = motionlcm::axis_state_t::POSITION_LOST;
-  e.text = fmt::format("axis {}: position lost / not homed ({}): its moves and jogs are refused until it is homed or its position set", axis, why);
+  e.text = fmt::format(
+      "axis {}: position lost / not homed ({}): its moves and jogs are refused until it is homed or its position set",
+      axis, why);
   axis_event(axis, e);
-  if (const auto status = last_status_.find(axis); status != last_status_.end()) axis_status(axis, DriveStatus{status->second});
+  if (const auto status = last_status_.find(axis); status != last_status_.end())
+    axis_status(axis, DriveStatus{status->second});
 }
 
 void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
@@ -596,7 +648,8 @@ void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
       reply.error_code = error_code(ReplyError::kAxisFault);
       reply.reason = it->second;
     }
-    if (reply.status == motionlcm::gateway_reply_t::FAILED || reply.status == motionlcm::gateway_reply_t::DONE) stopped_at_limit_.erase(it);
+    if (reply.status == motionlcm::gateway_reply_t::FAILED || reply.status == motionlcm::gateway_reply_t::DONE)
+      stopped_at_limit_.erase(it);
   }
   jog_reply(reply);
   if (const auto it = referencing_.find(reply.command_id); it != referencing_.end()) {
@@ -604,14 +657,17 @@ void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
       for (const auto& axis : it->second) {
         if (position_lost_.erase(axis) == 0) continue;
         spdlog::info("axis {}: position valid again (command {})", axis, reply.command_id);
-        if (const auto status = last_status_.find(axis); status != last_status_.end()) axis_status(axis, DriveStatus{status->second});
+        if (const auto status = last_status_.find(axis); status != last_status_.end())
+          axis_status(axis, DriveStatus{status->second});
       }
     }
-    if (reply.status == motionlcm::gateway_reply_t::DONE || reply.status == motionlcm::gateway_reply_t::FAILED) referencing_.erase(it);
+    if (reply.status == motionlcm::gateway_reply_t::DONE || reply.status == motionlcm::gateway_reply_t::FAILED)
+      referencing_.erase(it);
   }
   reply.utime = wall_time_us();
   reply.bus = bus_;
-  if (reply.status == motionlcm::gateway_reply_t::FAILED) spdlog::warn("command {} failed: {}", reply.command_id, reply.reason);
+  if (reply.status == motionlcm::gateway_reply_t::FAILED)
+    spdlog::warn("command {} failed: {}", reply.command_id, reply.reason);
   node_.publish(lcm::channels::kGatewayReply, reply);
 }
 

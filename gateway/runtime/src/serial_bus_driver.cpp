@@ -46,8 +46,10 @@ void SerialBusDriver::try_open() {
   last_open_error_.clear();
   closed_because_.clear();
   if (port_->parity_modelled()) {
-    spdlog::info("bus {}: {} is a pseudo-terminal that refuses parity: opened 8N{}, the parity bit counted in the character time",
-                 bus_, device_path_, line_.stop_bits);
+    spdlog::info(
+        "bus {}: {} is a pseudo-terminal that refuses parity: opened 8N{}, the parity bit counted in the character "
+        "time",
+        bus_, device_path_, line_.stop_bits);
   }
   loop_.watch(port_->fd(), [this] { on_readable(); });
   core_->start(loop_.now());

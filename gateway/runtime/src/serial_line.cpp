@@ -10,7 +10,8 @@ std::string serial_device_path(const config::Config& config, const config::Bus& 
   switch (bus.kind) {
     case config::TransportKind::kSerial:
     case config::TransportKind::kUiMessage: return bus.target;
-    case config::TransportKind::kSimSerial: return serial::simserial_link_path(config::sim_runtime_dir(config), bus.name);
+    case config::TransportKind::kSimSerial:
+      return serial::simserial_link_path(config::sim_runtime_dir(config), bus.name);
     case config::TransportKind::kSimCan:
     case config::TransportKind::kSocketCan: return {};
   }

@@ -22,15 +22,17 @@ void TxEchoTracker::sent(const can::Frame& frame) {
 
 bool TxEchoTracker::mark_start(std::int64_t command_id, const can::Frame& frame) {
   if (disabled_) return false;
-  const auto it = std::find_if(entries_.rbegin(), entries_.rend(),
-                               [&](const Entry& e) { return e.frame.id == frame.id && e.frame.extended == frame.extended; });
+  const auto it = std::find_if(entries_.rbegin(), entries_.rend(), [&](const Entry& e) {
+    return e.frame.id == frame.id && e.frame.extended == frame.extended;
+  });
   if (it == entries_.rend()) return false;
   it->starts.push_back(command_id);
   ++starts_[command_id].frames;
   return true;
 }
 
-bool TxEchoTracker::on_receive(const can::Frame& frame, std::int64_t now_us, std::vector<std::pair<std::int64_t, std::int64_t>>& started) {
+bool TxEchoTracker::on_receive(const can::Frame& frame, std::int64_t now_us,
+                               std::vector<std::pair<std::int64_t, std::int64_t>>& started) {
   if (disabled_) return false;
   // Echoes come back in send order; a frame of another node is never equal to one of ours
   // (node and producer ids differ), so the first equal entry is this echo.

@@ -62,7 +62,7 @@ bool is_pty(int fd) {
   // next seven, Documentation/admin-guide/devices.txt).
   constexpr unsigned kFirstPtySlaveMajor = 136;
   constexpr unsigned kLastPtySlaveMajor = 143;
-  struct stat st{};
+  struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISCHR(st.st_mode)) return false;
   const unsigned m = major(st.st_rdev);
   return m >= kFirstPtySlaveMajor && m <= kLastPtySlaveMajor;
@@ -134,7 +134,8 @@ std::size_t SerialPort::read(std::span<std::uint8_t> buffer, std::error_code& er
     // VMIN = 0: nothing there, or a hung-up line (pty master closed, adapter unplugged), which
     // reads 0 for ever while polling POLLHUP: tell them apart, or the loop would spin.
     pollfd p{fd_, POLLIN, 0};
-    if (::poll(&p, 1, 0) == 1 && (p.revents & (POLLHUP | POLLERR | POLLNVAL)) != 0) error = std::make_error_code(std::errc::io_error);
+    if (::poll(&p, 1, 0) == 1 && (p.revents & (POLLHUP | POLLERR | POLLNVAL)) != 0)
+      error = std::make_error_code(std::errc::io_error);
     return 0;
   }
   if (errno == EAGAIN || errno == EINTR) return 0;
@@ -145,7 +146,8 @@ std::size_t SerialPort::read(std::span<std::uint8_t> buffer, std::error_code& er
 std::error_code SerialPort::write(std::span<const std::uint8_t> frame) {
   const ssize_t n = ::write(fd_, frame.data(), frame.size());
   if (n < 0) return last_error();
-  if (static_cast<std::size_t>(n) != frame.size()) return std::make_error_code(std::errc::resource_unavailable_try_again);
+  if (static_cast<std::size_t>(n) != frame.size())
+    return std::make_error_code(std::errc::resource_unavailable_try_again);
   return {};
 }
 

@@ -24,9 +24,10 @@ void apply_resolution(const config::Drive& drive, NodeSettings& out) {
     case Status::kNotInTable:
       // The 2006h table has 16 fixed resolutions (manual §5.1); "1-256 subdivisions" of §1.1 is not
       // what the object accepts (conflict C-14).
-      out.errors.push_back(source + ": " + std::to_string(setup.pulses) +
-                           " pulses/rev is not one of the UC57's 2006h resolutions (200, 400, 800, 1600, 3200, 6400, 12800, "
-                           "25600, 1000, 2000, 4000, 5000, 8000, 10000, 20000, 40000)");
+      out.errors.push_back(
+          source + ": " + std::to_string(setup.pulses) +
+          " pulses/rev is not one of the UC57's 2006h resolutions (200, 400, 800, 1600, 3200, 6400, 12800, "
+          "25600, 1000, 2000, 4000, 5000, 8000, 10000, 20000, 40000)");
       return;
   }
 }
@@ -37,7 +38,8 @@ void apply_current(const config::Drive& drive, NodeSettings& out) {
   const auto* entry = cia402::uc57::find_entry(cia402::uc57::index::kRunCurrent, 0);
   const auto tenths = std::llround(*amperes * 10.0);
   if (entry != nullptr && (tenths < entry->min || tenths > entry->max)) {
-    out.errors.push_back("current_a: " + std::to_string(*amperes) + " A is outside the UC57's 2005h range 0.1..2.5 A RMS");
+    out.errors.push_back("current_a: " + std::to_string(*amperes) +
+                         " A is outside the UC57's 2005h range 0.1..2.5 A RMS");
     return;
   }
   out.run_current = static_cast<std::uint16_t>(tenths);
@@ -68,18 +70,21 @@ NodeSettings make_node_settings(const config::Config& config, const config::Bus&
     out.tpdo_mode = *mode == "event" ? TpdoMode::kEvent : TpdoMode::kSync;
   }
   if (const auto answer = drive.setup_text("rpdo_sync")) {
-    out.rpdo_sync = *answer == "honoured" ? RpdoSyncAnswer::kHonoured : *answer == "on_reception" ? RpdoSyncAnswer::kOnReception
-                                                                                                   : RpdoSyncAnswer::kDetect;
+    out.rpdo_sync = *answer == "honoured"       ? RpdoSyncAnswer::kHonoured
+                    : *answer == "on_reception" ? RpdoSyncAnswer::kOnReception
+                                                : RpdoSyncAnswer::kDetect;
   }
   const auto heartbeat = drive.setup_integer("heartbeat_ms");
-  out.heartbeat_ms = heartbeat ? static_cast<std::uint16_t>(std::clamp<long long>(*heartbeat, 0, 0xFFFF)) : default_heartbeat_ms;
+  out.heartbeat_ms =
+      heartbeat ? static_cast<std::uint16_t>(std::clamp<long long>(*heartbeat, 0, 0xFFFF)) : default_heartbeat_ms;
   if (out.heartbeat_ms == 0) {
     out.warnings.push_back("heartbeat_ms: 0 disables the heartbeat; a lost node is only noticed by SDO timeouts");
   }
   if (drive.setup_flag("closed_loop").value_or(false)) {
     out.warnings.push_back("closed_loop: the UC57 manual documents no closed-loop object; ignored");
   }
-  if (!canopen::is_valid_node_id(out.node)) out.errors.push_back("node_id " + std::to_string(drive.node_id) + " is outside 1..127");
+  if (!canopen::is_valid_node_id(out.node))
+    out.errors.push_back("node_id " + std::to_string(drive.node_id) + " is outside 1..127");
   return out;
 }
 

@@ -19,7 +19,8 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
     : context_(std::move(context)),
       options_(std::move(options)),
       bus_(bus.name),
-      sync_period_(std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(bus.poll_hz, 0.1)))),
+      sync_period_(
+          std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(bus.poll_hz, 0.1)))),
       master_([this](const can::Frame& frame) {
         if (!context_.send || !context_.send(frame)) {
           ++counters_.protocol_errors;
@@ -61,7 +62,8 @@ void Uc57Stack::fit_sync_period(const config::Bus& bus) {
   for (const auto& node : nodes_) {
     if (node->settings.heartbeat_ms > 0) {
       const auto beat = canopen::encode_heartbeat(node->settings.node, canopen::NmtState::kOperational);
-      heartbeat_share += std::chrono::duration<double>(can::frame_duration(beat, bitrate_)).count() * 1000.0 / node->settings.heartbeat_ms;
+      heartbeat_share += std::chrono::duration<double>(can::frame_duration(beat, bitrate_)).count() * 1000.0 /
+                         node->settings.heartbeat_ms;
     }
     if (node->settings.tpdo_mode != TpdoMode::kSync) continue;
     ++synchronous;
@@ -70,16 +72,19 @@ void Uc57Stack::fit_sync_period(const config::Bus& bus) {
   }
   const auto configured = sync_period_;
   const double share = std::max(kPollBusShare - heartbeat_share, kPollBusShare / 4);
-  const auto needed = std::chrono::duration_cast<Duration>(std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / share));
+  const auto needed = std::chrono::duration_cast<Duration>(
+      std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / share));
   if (needed <= configured) return;
   sync_period_ = std::chrono::ceil<std::chrono::milliseconds>(needed);
   const auto hz = [](Duration d) { return 1.0 / std::chrono::duration<double>(d).count(); };
   char text[320];
   std::snprintf(text, sizeof text,
-                "bus %s: %zu UC57 nodes with synchronous TPDOs at %.1f Hz need %.0f%% of %u bit/s; SYNC (and status) at %.1f Hz instead "
+                "bus %s: %zu UC57 nodes with synchronous TPDOs at %.1f Hz need %.0f%% of %u bit/s; SYNC (and status) "
+                "at %.1f Hz instead "
                 "(polls and heartbeats keep to %.0f%% of the bus)",
-                bus.name.c_str(), synchronous, hz(configured), 100.0 * std::chrono::duration<double>(cycle).count() * hz(configured),
-                bitrate_, hz(sync_period_), 100.0 * kPollBusShare);
+                bus.name.c_str(), synchronous, hz(configured),
+                100.0 * std::chrono::duration<double>(cycle).count() * hz(configured), bitrate_, hz(sync_period_),
+                100.0 * kPollBusShare);
   poll_warning_ = text;
 }
 
@@ -108,7 +113,8 @@ std::optional<RpdoLayout> Uc57Stack::rpdo_layout(std::string_view drive) const {
 }
 
 bool Uc57Stack::ready() const {
-  return std::all_of(nodes_.begin(), nodes_.end(), [](const auto& node) { return node->phase == Node::Phase::kOperational; });
+  return std::all_of(nodes_.begin(), nodes_.end(),
+                     [](const auto& node) { return node->phase == Node::Phase::kOperational; });
 }
 
 void Uc57Stack::add_statistics(motionlcm::bus_stats_t& stats) const {
@@ -126,7 +132,8 @@ std::string Uc57Stack::offline_text(std::size_t n) const {
   return node.settings.label() + " is offline" + (node.offline_reason.empty() ? "" : ": " + node.offline_reason);
 }
 
-void Uc57Stack::event(std::size_t n, std::int16_t kind, std::int8_t severity, std::int32_t code, const std::string& text) {
+void Uc57Stack::event(std::size_t n, std::int16_t kind, std::int8_t severity, std::int32_t code,
+                      const std::string& text) {
   if (context_.out == nullptr) return;
   gateway::DriveEvent e;
   e.kind = kind;
@@ -159,12 +166,8 @@ bool Uc57Stack::on_frame(const can::Frame& frame, TimePoint now) {
   switch (info->kind) {
     case canopen::MessageKind::kSdoResponse:
     case canopen::MessageKind::kHeartbeat:
-    case canopen::MessageKind::kEmcy:
-      master_.on_frame(frame, now);
-      return true;
-    case canopen::MessageKind::kTpdo:
-      on_pdo(*n, frame, now);
-      return true;
+    case canopen::MessageKind::kEmcy: master_.on_frame(frame, now); return true;
+    case canopen::MessageKind::kTpdo: on_pdo(*n, frame, now); return true;
     default:
       // Requests and RPDOs *to* our nodes come from another master: not ours.
       return false;
@@ -200,7 +203,8 @@ TimePoint Uc57Stack::process(TimePoint now) {
   next = std::min(next, master_.process(now));
   for (const auto& node : nodes_) {
     next = std::min({next, node->retry_at, node->starting_deadline, node->task_deadline, node->power.deadline()});
-    if (node->phase == Node::Phase::kOperational && !node->tpdo2_active) next = std::min(next, node->next_position_poll);
+    if (node->phase == Node::Phase::kOperational && !node->tpdo2_active)
+      next = std::min(next, node->next_position_poll);
   }
   return std::max(next, now);
 }
@@ -347,14 +351,16 @@ void Uc57Stack::on_statusword(std::size_t n, TimePoint now) {
                              (state ? std::string(cia402::to_string(*state)) : "unknown state") + ")";
     if (node.status.fault_text.empty()) node.status.fault_text = text;
     event(n, Event::ALARM, Event::ERROR, sw, text);
-    if (!(node.task == TaskKind::kPower && node.power.target() == State::kSwitchOnDisabled)) end_task(n, error_code(ReplyError::kAxisFaulted), text);
+    if (!(node.task == TaskKind::kPower && node.power.target() == State::kSwitchOnDisabled))
+      end_task(n, error_code(ReplyError::kAxisFaulted), text);
     // 603Fh names the alarm (manual §5.2 bit field).
     sdo_read(n, {od::kFaultBits, 0}, [this, n](std::error_code ec, std::span<const std::uint8_t> data) {
       if (ec) return;
       Node& nd = *nodes_[n];
       const auto bits = static_cast<std::uint16_t>(read_unsigned(data));
       nd.status.fault_code = bits;
-      nd.status.fault_text = nd.settings.label() + ": alarm " + fault_bits_text(bits) + " (603Fh = " + hex(bits, 4) + ")";
+      nd.status.fault_text =
+          nd.settings.label() + ": alarm " + fault_bits_text(bits) + " (603Fh = " + hex(bits, 4) + ")";
       event(n, Event::ALARM, Event::ERROR, bits, nd.status.fault_text);
       publish_status(n);
     });
@@ -366,9 +372,7 @@ void Uc57Stack::on_statusword(std::size_t n, TimePoint now) {
 
   const bool acknowledged = cia402::is_set(sw, StatusBit::kSetPointAcknowledge);
   switch (node.task) {
-    case TaskKind::kPower:
-      apply_power_action(n, node.power.on_statusword(sw, now));
-      break;
+    case TaskKind::kPower: apply_power_action(n, node.power.on_statusword(sw, now)); break;
     case TaskKind::kQuickStop:
       if (image_applied(n) && state != State::kOperationEnabled) part_done(node.task_command, n);
       break;
@@ -400,7 +404,8 @@ void Uc57Stack::on_statusword(std::size_t n, TimePoint now) {
       }
       break;
     case TaskKind::kJog:
-      if (node.task_watching && image_applied(n) && node.mode_display == kModeProfileVelocity) part_done(node.task_command, n);
+      if (node.task_watching && image_applied(n) && node.mode_display == kModeProfileVelocity)
+        part_done(node.task_command, n);
       break;
     case TaskKind::kHoming:
       if (!node.task_watching || !image_applied(n)) break;
@@ -421,8 +426,7 @@ void Uc57Stack::on_statusword(std::size_t n, TimePoint now) {
       break;
     case TaskKind::kNone:
     case TaskKind::kSdoOnly:
-    case TaskKind::kArmed:
-      break;
+    case TaskKind::kArmed: break;
   }
 }
 

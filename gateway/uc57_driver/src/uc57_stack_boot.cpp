@@ -49,7 +49,8 @@ void Uc57Stack::begin_probe(std::size_t n, TimePoint /*now*/) {
   run_config(n, node.session, std::move(ops), 0);
 }
 
-void Uc57Stack::run_config(std::size_t n, unsigned session, std::shared_ptr<std::vector<ConfigOp>> ops, std::size_t step) {
+void Uc57Stack::run_config(std::size_t n, unsigned session, std::shared_ptr<std::vector<ConfigOp>> ops,
+                           std::size_t step) {
   if (nodes_[n]->session != session || nodes_[n]->phase != Node::Phase::kConfiguring) return;
   if (step == ops->size()) {
     enter_starting(n);
@@ -71,7 +72,8 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
   const NodeSettings& s = node.settings;
   std::vector<ConfigOp> ops;
 
-  const auto read = [this, n](ObjectAddress object, std::function<std::optional<std::string>(std::span<const std::uint8_t>)> use) {
+  const auto read = [this, n](ObjectAddress object,
+                              std::function<std::optional<std::string>(std::span<const std::uint8_t>)> use) {
     return ConfigOp{[this, n, object, use](Continue next) {
       sdo_read(n, object, [this, n, object, use, next](std::error_code ec, std::span<const std::uint8_t> data) {
         if (ec) return next(sdo_failure(n, false, object, ec));
@@ -117,26 +119,28 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
     next(std::nullopt);
   }});
   // 3. Setup keys, written and read back (RW/S objects, not saved to EEPROM: 200Ch default 1).
-  if (s.subdivision_code) {
-    ops.push_back(write({od::kMicrostepping, 0}, le<std::uint16_t>(*s.subdivision_code)));
-  }
-  ops.push_back(read({od::kMicrostepping, 0}, [this, n, expect, code = s.subdivision_code](std::span<const std::uint8_t> data)
-                         -> std::optional<std::string> {
-    if (code) {
-      if (auto mismatch = expect({od::kMicrostepping, 0}, *code)(data)) return mismatch;
-    }
-    const auto ppr = cia402::uc57::pulses_per_revolution(static_cast<std::uint16_t>(read_unsigned(data)));
-    if (!ppr) return nodes_[n]->settings.label() + ": 2006h holds an unknown subdivision code " + std::to_string(read_unsigned(data));
-    nodes_[n]->pulses_per_rev = *ppr;
-    return std::nullopt;
-  }));
+  if (s.subdivision_code) { ops.push_back(write({od::kMicrostepping, 0}, le<std::uint16_t>(*s.subdivision_code))); }
+  ops.push_back(read(
+      {od::kMicrostepping, 0},
+      [this, n, expect, code = s.subdivision_code](std::span<const std::uint8_t> data) -> std::optional<std::string> {
+        if (code) {
+          if (auto mismatch = expect({od::kMicrostepping, 0}, *code)(data)) return mismatch;
+        }
+        const auto ppr = cia402::uc57::pulses_per_revolution(static_cast<std::uint16_t>(read_unsigned(data)));
+        if (!ppr)
+          return nodes_[n]->settings.label() + ": 2006h holds an unknown subdivision code " +
+                 std::to_string(read_unsigned(data));
+        nodes_[n]->pulses_per_rev = *ppr;
+        return std::nullopt;
+      }));
   if (s.run_current) {
     ops.push_back(write({od::kRunCurrent, 0}, le<std::uint16_t>(*s.run_current)));
     ops.push_back(read({od::kRunCurrent, 0}, expect({od::kRunCurrent, 0}, *s.run_current)));
   }
   ops.push_back(read({od::kStartSpeed, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
     Node& nd = *nodes_[n];
-    nd.start_speed = cia402::uc57::rpm_to_pulses_per_second(static_cast<double>(read_unsigned(data)), nd.pulses_per_rev);
+    nd.start_speed =
+        cia402::uc57::rpm_to_pulses_per_second(static_cast<double>(read_unsigned(data)), nd.pulses_per_rev);
     return std::nullopt;
   }));
   // 4. Error control: heartbeat (the UC57 has no node guarding objects).
@@ -158,120 +162,135 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
       return next(std::nullopt);
     }
     const unsigned session = nd.session;
-    const auto remap = rpdo1_remap(nd.settings.node, nd.sync_refused ? kTransmissionEventDriven : kTransmissionSyncEveryCycle);
+    const auto remap =
+        rpdo1_remap(nd.settings.node, nd.sync_refused ? kTransmissionEventDriven : kTransmissionSyncEveryCycle);
     const auto steps = canopen::pdo_remap_steps(remap);
-    canopen::configure_pdo(master_.sdo(), nd.settings.node, remap,
-                           [this, n, session, next, steps](const canopen::SdoSequenceResult& result) {
-                             Node& remapped = *nodes_[n];
-                             if (remapped.session != session) return;
-                             if (!result.error) {
-                               remapped.layout = RpdoLayout::kControlwordTarget;
-                               return next(std::nullopt);
-                             }
-                             count_sdo_result(result.error);
-                             // Only an abort is the drive's answer. Without one (a timeout, a late reply
-                             // to an earlier request) the step may have been applied, the first one
-                             // too (1400h:01 invalid: RPDO1 off): reset, configure again, try the remap again.
-                             const bool refused = result.error.category() == canopen::sdo_category() &&
-                                                  result.error != canopen::SdoAbortCode::kTimeout;
-                             if (!refused) {
-                               master_.nmt().send(canopen::NmtCommand::kResetNode, remapped.settings.node);
-                               return next(remapped.settings.label() + ": RPDO1 remap step " + std::to_string(result.failed_step + 1) +
-                                           " got no usable answer (" + result.error.message() + "); node reset to restore its stored PDO mapping");
-                             }
-                             const bool type_refused = steps && result.failed_step < steps->size() &&
-                                                       (*steps)[result.failed_step].object ==
-                                                           ObjectAddress{canopen::pdo_communication_index(canopen::PdoDirection::kReceive, 1),
-                                                                         canopen::kPdoTransmissionTypeSub};
-                             if (type_refused && !remapped.sync_refused) {
-                               // Transmission type 1 refused (the manual's §5 table gives only FFh): RPDO1 becomes
-                               // asynchronous (remembered). The PDO is still disabled: the remap again from its
-                               // first step, with 255.
-                               remapped.sync_refused = true;
-                               event(n, Event::CONFIG_MISMATCH, Event::WARNING, result.error.value(),
-                                     remapped.settings.label() + ": RPDO1 transmission type 1 (synchronous) refused (" + result.error.message() +
-                                         "); RPDO1 asynchronous (255), moves start node by node");
-                               return canopen::configure_pdo(
-                                   master_.sdo(), remapped.settings.node, rpdo1_remap(remapped.settings.node, kTransmissionEventDriven),
-                                   [this, n, session, next](const canopen::SdoSequenceResult& again) {
-                                     Node& async = *nodes_[n];
-                                     if (async.session != session) return;
-                                     if (!again.error) {
-                                       async.layout = RpdoLayout::kControlwordTarget;
-                                       return next(std::nullopt);
-                                     }
-                                     count_sdo_result(again.error);
-                                     master_.nmt().send(canopen::NmtCommand::kResetNode, async.settings.node);
-                                     next(async.settings.label() + ": RPDO1 remap with transmission type 255 failed at step " +
-                                          std::to_string(again.failed_step + 1) + " (" + again.error.message() +
-                                          "); node reset to restore its stored PDO mapping");
-                                   });
-                             }
-                             remapped.remap_refused = true;
-                             remapped.layout = RpdoLayout::kManualDefault;
-                             const std::string why = remapped.settings.label() + ": RPDO1 remap refused at step " +
-                                                     std::to_string(result.failed_step + 1) + " (" + result.error.message() + ")";
-                             if (result.failed_step == 0) {
-                               // Nothing changed in the drive: go on with its default mapping.
-                               event(n, Event::CONFIG_MISMATCH, Event::INFO, 0, why + "; using the manual's default RPDO1");
-                               return next(std::nullopt);
-                             }
-                             // Half-applied: a node reset restores the stored mapping; configure again.
-                             master_.nmt().send(canopen::NmtCommand::kResetNode, remapped.settings.node);
-                             next(why + "; node reset to restore its stored PDO mapping");
-                           });
+    canopen::configure_pdo(
+        master_.sdo(), nd.settings.node, remap,
+        [this, n, session, next, steps](const canopen::SdoSequenceResult& result) {
+          Node& remapped = *nodes_[n];
+          if (remapped.session != session) return;
+          if (!result.error) {
+            remapped.layout = RpdoLayout::kControlwordTarget;
+            return next(std::nullopt);
+          }
+          count_sdo_result(result.error);
+          // Only an abort is the drive's answer. Without one (a timeout, a late reply
+          // to an earlier request) the step may have been applied, the first one
+          // too (1400h:01 invalid: RPDO1 off): reset, configure again, try the remap again.
+          const bool refused =
+              result.error.category() == canopen::sdo_category() && result.error != canopen::SdoAbortCode::kTimeout;
+          if (!refused) {
+            master_.nmt().send(canopen::NmtCommand::kResetNode, remapped.settings.node);
+            return next(remapped.settings.label() + ": RPDO1 remap step " + std::to_string(result.failed_step + 1) +
+                        " got no usable answer (" + result.error.message() +
+                        "); node reset to restore its stored PDO mapping");
+          }
+          const bool type_refused =
+              steps && result.failed_step < steps->size() &&
+              (*steps)[result.failed_step].object ==
+                  ObjectAddress{canopen::pdo_communication_index(canopen::PdoDirection::kReceive, 1),
+                                canopen::kPdoTransmissionTypeSub};
+          if (type_refused && !remapped.sync_refused) {
+            // Transmission type 1 refused (the manual's §5 table gives only FFh): RPDO1 becomes
+            // asynchronous (remembered). The PDO is still disabled: the remap again from its
+            // first step, with 255.
+            remapped.sync_refused = true;
+            event(n, Event::CONFIG_MISMATCH, Event::WARNING, result.error.value(),
+                  remapped.settings.label() + ": RPDO1 transmission type 1 (synchronous) refused (" +
+                      result.error.message() + "); RPDO1 asynchronous (255), moves start node by node");
+            return canopen::configure_pdo(
+                master_.sdo(), remapped.settings.node, rpdo1_remap(remapped.settings.node, kTransmissionEventDriven),
+                [this, n, session, next](const canopen::SdoSequenceResult& again) {
+                  Node& async = *nodes_[n];
+                  if (async.session != session) return;
+                  if (!again.error) {
+                    async.layout = RpdoLayout::kControlwordTarget;
+                    return next(std::nullopt);
+                  }
+                  count_sdo_result(again.error);
+                  master_.nmt().send(canopen::NmtCommand::kResetNode, async.settings.node);
+                  next(async.settings.label() + ": RPDO1 remap with transmission type 255 failed at step " +
+                       std::to_string(again.failed_step + 1) + " (" + again.error.message() +
+                       "); node reset to restore its stored PDO mapping");
+                });
+          }
+          remapped.remap_refused = true;
+          remapped.layout = RpdoLayout::kManualDefault;
+          const std::string why = remapped.settings.label() + ": RPDO1 remap refused at step " +
+                                  std::to_string(result.failed_step + 1) + " (" + result.error.message() + ")";
+          if (result.failed_step == 0) {
+            // Nothing changed in the drive: go on with its default mapping.
+            event(n, Event::CONFIG_MISMATCH, Event::INFO, 0, why + "; using the manual's default RPDO1");
+            return next(std::nullopt);
+          }
+          // Half-applied: a node reset restores the stored mapping; configure again.
+          master_.nmt().send(canopen::NmtCommand::kResetNode, remapped.settings.node);
+          next(why + "; node reset to restore its stored PDO mapping");
+        });
   }});
   ops.push_back({[this, n, write](Continue next) {
     if (nodes_[n]->layout != RpdoLayout::kManualDefault) return next(std::nullopt);
-    const ObjectAddress type{canopen::pdo_communication_index(canopen::PdoDirection::kReceive, 1), canopen::kPdoTransmissionTypeSub};
+    const ObjectAddress type{canopen::pdo_communication_index(canopen::PdoDirection::kReceive, 1),
+                             canopen::kPdoTransmissionTypeSub};
     if (nodes_[n]->sync_refused) return write(type, le<std::uint8_t>(kTransmissionEventDriven)).run(std::move(next));
-    sdo_write(n, type, le<std::uint8_t>(kTransmissionSyncEveryCycle), [this, n, type, write, next](std::error_code ec, std::span<const std::uint8_t>) {
-      if (!ec) return next(std::nullopt);
-      if (ec.category() != canopen::sdo_category() || ec == canopen::SdoAbortCode::kTimeout) return next(sdo_failure(n, true, type, ec));
-      // Refused: asynchronous RPDO1, the manual's default FFh (§5 comm. table); moves start node by node.
-      nodes_[n]->sync_refused = true;
-      event(n, Event::CONFIG_MISMATCH, Event::WARNING, ec.value(),
-            sdo_failure(n, true, type, ec) + " for transmission type 1; RPDO1 asynchronous (255), moves start node by node");
-      write(type, le<std::uint8_t>(kTransmissionEventDriven)).run(next);
-    });
+    sdo_write(n, type, le<std::uint8_t>(kTransmissionSyncEveryCycle),
+              [this, n, type, write, next](std::error_code ec, std::span<const std::uint8_t>) {
+                if (!ec) return next(std::nullopt);
+                if (ec.category() != canopen::sdo_category() || ec == canopen::SdoAbortCode::kTimeout)
+                  return next(sdo_failure(n, true, type, ec));
+                // Refused: asynchronous RPDO1, the manual's default FFh (§5 comm. table); moves start node by node.
+                nodes_[n]->sync_refused = true;
+                event(n, Event::CONFIG_MISMATCH, Event::WARNING, ec.value(),
+                      sdo_failure(n, true, type, ec) +
+                          " for transmission type 1; RPDO1 asynchronous (255), moves start node by node");
+                write(type, le<std::uint8_t>(kTransmissionEventDriven)).run(next);
+              });
   }});
   // 6. TPDO1 / TPDO2 transmission type (1800h/1801h:02, RW/S) and whether TPDO2 is mapped (C-09).
   for (std::uint16_t tpdo = 1; tpdo <= 2; ++tpdo) {
-    ops.push_back(write({canopen::pdo_communication_index(canopen::PdoDirection::kTransmit, tpdo), canopen::kPdoTransmissionTypeSub},
-                        le<std::uint8_t>(s.tpdo_transmission_type())));
+    ops.push_back(write(
+        {canopen::pdo_communication_index(canopen::PdoDirection::kTransmit, tpdo), canopen::kPdoTransmissionTypeSub},
+        le<std::uint8_t>(s.tpdo_transmission_type())));
   }
   ops.push_back(read({canopen::pdo_mapping_index(canopen::PdoDirection::kTransmit, 2), 0},
                      [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
                        Node& nd = *nodes_[n];
                        nd.tpdo2_active = read_unsigned(data) == tpdo2_mapping().size();
                        if (!nd.tpdo2_active) {
-                         event(n, Event::CONFIG_MISMATCH, Event::WARNING, 0,
-                               nd.settings.label() + ": TPDO2 (1A01h) is not mapped; position is polled by SDO (6064h)");
+                         event(
+                             n, Event::CONFIG_MISMATCH, Event::WARNING, 0,
+                             nd.settings.label() + ": TPDO2 (1A01h) is not mapped; position is polled by SDO (6064h)");
                        }
                        return std::nullopt;
                      }));
   // 7. The drive's current process image, so the first RPDO changes nothing by accident.
-  ops.push_back(read({od::kControlword, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
-    nodes_[n]->image.controlword = static_cast<std::uint16_t>(read_unsigned(data));
-    nodes_[n]->power.note_controlword_sent(nodes_[n]->image.controlword);
-    return std::nullopt;
-  }));
-  ops.push_back(read({od::kModesOfOperation, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
-    nodes_[n]->image.mode = static_cast<std::int8_t>(read_signed(data));
-    return std::nullopt;
-  }));
-  ops.push_back(read({od::kTargetVelocity, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
-    nodes_[n]->image.target_velocity = static_cast<std::int32_t>(read_signed(data));
-    return std::nullopt;
-  }));
-  ops.push_back(read({od::kTargetPosition, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
-    nodes_[n]->image.target_position = static_cast<std::int32_t>(read_signed(data));
-    return std::nullopt;
-  }));
-  ops.push_back(read({od::kPositionActual, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
-    nodes_[n]->status.position_counts = read_signed(data);
-    return std::nullopt;
-  }));
+  ops.push_back(
+      read({od::kControlword, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
+        nodes_[n]->image.controlword = static_cast<std::uint16_t>(read_unsigned(data));
+        nodes_[n]->power.note_controlword_sent(nodes_[n]->image.controlword);
+        return std::nullopt;
+      }));
+  ops.push_back(
+      read({od::kModesOfOperation, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
+        nodes_[n]->image.mode = static_cast<std::int8_t>(read_signed(data));
+        return std::nullopt;
+      }));
+  ops.push_back(
+      read({od::kTargetVelocity, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
+        nodes_[n]->image.target_velocity = static_cast<std::int32_t>(read_signed(data));
+        return std::nullopt;
+      }));
+  ops.push_back(
+      read({od::kTargetPosition, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
+        nodes_[n]->image.target_position = static_cast<std::int32_t>(read_signed(data));
+        return std::nullopt;
+      }));
+  ops.push_back(
+      read({od::kPositionActual, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
+        nodes_[n]->status.position_counts = read_signed(data);
+        return std::nullopt;
+      }));
   ops.push_back(read({od::kStatusword, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
     nodes_[n]->statusword = static_cast<std::uint16_t>(read_unsigned(data));
     return std::nullopt;
@@ -298,7 +317,8 @@ void Uc57Stack::enter_starting(std::size_t n) {
   }
   // The next heartbeat must say Operational (on_node_event); give it a few producer periods.
   node.phase = Node::Phase::kStarting;
-  node.starting_deadline = now_ + std::chrono::milliseconds(node.settings.heartbeat_ms) * options_.heartbeat_loss_factor;
+  node.starting_deadline =
+      now_ + std::chrono::milliseconds(node.settings.heartbeat_ms) * options_.heartbeat_loss_factor;
   if (master_.nmt().state(node.settings.node) == canopen::NmtState::kOperational) enter_operational(n);
 }
 
@@ -312,10 +332,12 @@ void Uc57Stack::enter_operational(std::size_t n) {
   node.fault_seen = false;
   node.status.online = true;
   node.next_position_poll = node.tpdo2_active ? kNever : TimePoint{};
-  event(n, Event::ONLINE, Event::INFO, node.settings.node,
-        node.settings.label() + ": configured and operational (RPDO1 " +
-            (node.layout == RpdoLayout::kControlwordTarget ? "controlword + target position" : "manual default mapping") +
-            ", " + node.rpdo_finding + "; TPDOs " + (node.settings.tpdo_mode == TpdoMode::kSync ? "every SYNC" : "event-driven") + ")");
+  event(
+      n, Event::ONLINE, Event::INFO, node.settings.node,
+      node.settings.label() + ": configured and operational (RPDO1 " +
+          (node.layout == RpdoLayout::kControlwordTarget ? "controlword + target position" : "manual default mapping") +
+          ", " + node.rpdo_finding + "; TPDOs " +
+          (node.settings.tpdo_mode == TpdoMode::kSync ? "every SYNC" : "event-driven") + ")");
   // What was read at set-up (2006h, 200Eh; manual §5.1) makes the axis's drive model.
   if (context_.out != nullptr && !node.settings.axis.empty()) {
     gateway::DriveFacts facts;
@@ -388,7 +410,8 @@ void Uc57Stack::on_node_event(const canopen::NodeEvent& e) {
     case canopen::NodeEventKind::kHeartbeatLost:
       if (node.phase == Node::Phase::kOperational || node.phase == Node::Phase::kStarting) {
         go_offline(n, Event::HEARTBEAT_LOST,
-                   label + ": heartbeat lost (none for " + std::to_string(node.settings.heartbeat_ms * options_.heartbeat_loss_factor) + " ms)",
+                   label + ": heartbeat lost (none for " +
+                       std::to_string(node.settings.heartbeat_ms * options_.heartbeat_loss_factor) + " ms)",
                    e.at);
       }
       return;
@@ -399,7 +422,8 @@ void Uc57Stack::on_node_event(const canopen::NodeEvent& e) {
       } else if (node.phase == Node::Phase::kOperational && e.state && e.state != canopen::NmtState::kOperational) {
         // Someone else's NMT command (or a node-side error): PDOs stopped; put it back.
         event(n, Event::PROTOCOL_ERROR, Event::WARNING, static_cast<std::int32_t>(*e.state),
-              label + ": left Operational (NMT state " + std::string(canopen::to_string(*e.state)) + "); sending NMT start");
+              label + ": left Operational (NMT state " + std::string(canopen::to_string(*e.state)) +
+                  "); sending NMT start");
         master_.nmt().send(canopen::NmtCommand::kStart, node.settings.node);
       } else if (node.phase == Node::Phase::kOffline && e.kind == canopen::NodeEventKind::kHeartbeatRecovered) {
         begin_probe(n, e.at);
@@ -465,7 +489,8 @@ std::string Uc57Stack::sdo_failure(std::size_t n, bool write, ObjectAddress obje
 void Uc57Stack::sdo_read(std::size_t n, ObjectAddress object, SdoDone done, unsigned attempt) {
   const unsigned session = nodes_[n]->session;
   master_.sdo().upload(nodes_[n]->settings.node, object,
-                       [this, n, object, done = std::move(done), attempt, session](std::error_code ec, std::span<const std::uint8_t> data) {
+                       [this, n, object, done = std::move(done), attempt, session](std::error_code ec,
+                                                                                   std::span<const std::uint8_t> data) {
                          if (ec == canopen::SdoAbortCode::kTimeout && attempt < nodes_[n]->settings.sdo_retries &&
                              nodes_[n]->session == session) {
                            ++counters_.sdo_retries;
@@ -477,11 +502,12 @@ void Uc57Stack::sdo_read(std::size_t n, ObjectAddress object, SdoDone done, unsi
                        });
 }
 
-void Uc57Stack::sdo_write(std::size_t n, ObjectAddress object, std::vector<std::uint8_t> data, SdoDone done, unsigned attempt) {
+void Uc57Stack::sdo_write(std::size_t n, ObjectAddress object, std::vector<std::uint8_t> data, SdoDone done,
+                          unsigned attempt) {
   const unsigned session = nodes_[n]->session;
   master_.sdo().download(nodes_[n]->settings.node, object, data,
-                         [this, n, object, data, done = std::move(done), attempt, session](std::error_code ec,
-                                                                                            std::span<const std::uint8_t> reply) {
+                         [this, n, object, data, done = std::move(done), attempt, session](
+                             std::error_code ec, std::span<const std::uint8_t> reply) {
                            if (ec == canopen::SdoAbortCode::kTimeout && attempt < nodes_[n]->settings.sdo_retries &&
                                nodes_[n]->session == session) {
                              ++counters_.sdo_retries;
@@ -493,13 +519,14 @@ void Uc57Stack::sdo_write(std::size_t n, ObjectAddress object, std::vector<std::
                          });
 }
 
-void Uc57Stack::sdo_write_all(std::size_t n, std::vector<std::pair<ObjectAddress, std::vector<std::uint8_t>>> writes, Continue done) {
+void Uc57Stack::sdo_write_all(std::size_t n, std::vector<std::pair<ObjectAddress, std::vector<std::uint8_t>>> writes,
+                              Continue done) {
   if (writes.empty()) return done(std::nullopt);
   auto first = writes.front();
   writes.erase(writes.begin());
   sdo_write(n, first.first, first.second,
-            [this, n, object = first.first, rest = std::move(writes), done = std::move(done)](std::error_code ec,
-                                                                                             std::span<const std::uint8_t>) mutable {
+            [this, n, object = first.first, rest = std::move(writes), done = std::move(done)](
+                std::error_code ec, std::span<const std::uint8_t>) mutable {
               if (ec) return done(sdo_failure(n, true, object, ec));
               sdo_write_all(n, std::move(rest), std::move(done));
             });

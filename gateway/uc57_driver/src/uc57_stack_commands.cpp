@@ -82,7 +82,8 @@ void Uc57Stack::part_armed(std::int64_t command_id, std::size_t n, TimePoint now
 void Uc57Stack::preload(const Job& job) {
   for (const std::size_t n : job.nodes) {
     // A node applying RPDO1 on reception would start now: its start image waits for fire().
-    if (nodes_[n]->phase == Node::Phase::kOperational && nodes_[n]->task == TaskKind::kArmed && nodes_[n]->rpdo_at_sync) send_preload(n);
+    if (nodes_[n]->phase == Node::Phase::kOperational && nodes_[n]->task == TaskKind::kArmed && nodes_[n]->rpdo_at_sync)
+      send_preload(n);
   }
 }
 
@@ -103,7 +104,9 @@ void Uc57Stack::check_task_timeouts(TimePoint now) {
     if (node.task == TaskKind::kPower && node.power.deadline() <= now) apply_power_action(n, node.power.on_timer(now));
     if (node.task == TaskKind::kNone || now < node.task_deadline) continue;
     const std::string label = node.settings.label();
-    const auto ms = [](Duration d) { return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count()); };
+    const auto ms = [](Duration d) {
+      return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count());
+    };
     switch (node.task) {
       case TaskKind::kArming:
         part_failed(node.task_command, n, error_code(ReplyError::kArmFailed),
@@ -118,10 +121,12 @@ void Uc57Stack::check_task_timeouts(TimePoint now) {
         break;
       case TaskKind::kHalt:
       case TaskKind::kQuickStop:
-        part_failed(node.task_command, n, error_code(ReplyError::kTimeout), label + ": motor still running " + ms(options_.stop_timeout) + " ms after the stop");
+        part_failed(node.task_command, n, error_code(ReplyError::kTimeout),
+                    label + ": motor still running " + ms(options_.stop_timeout) + " ms after the stop");
         break;
       default:
-        part_failed(node.task_command, n, error_code(ReplyError::kTimeout), label + ": no answer from the drive in time");
+        part_failed(node.task_command, n, error_code(ReplyError::kTimeout),
+                    label + ": no answer from the drive in time");
         break;
     }
   }
@@ -135,11 +140,15 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
   now_ = now;
   std::vector<std::size_t> parts;  // one per node
   for (const auto& axis : command.axes) {
-    const auto it = std::find_if(nodes_.begin(), nodes_.end(), [&](const auto& node) { return node->settings.axis == axis.axis; });
-    if (it == nodes_.end()) return jobs_.reject(command, error_code(ReplyError::kUnknownAxis), "axis '" + axis.axis + "' is not driven by a UC57 on bus " + bus_);
+    const auto it =
+        std::find_if(nodes_.begin(), nodes_.end(), [&](const auto& node) { return node->settings.axis == axis.axis; });
+    if (it == nodes_.end())
+      return jobs_.reject(command, error_code(ReplyError::kUnknownAxis),
+                          "axis '" + axis.axis + "' is not driven by a UC57 on bus " + bus_);
     const auto n = static_cast<std::size_t>(it - nodes_.begin());
     if (std::find(parts.begin(), parts.end(), n) != parts.end()) {
-      return jobs_.reject(command, error_code(ReplyError::kMalformedRequest), "the command names axis '" + axis.axis + "' twice");
+      return jobs_.reject(command, error_code(ReplyError::kMalformedRequest),
+                          "the command names axis '" + axis.axis + "' twice");
     }
     parts.push_back(n);
   }
@@ -167,11 +176,13 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
     const auto state = drive_state(n);
     const bool motion = kind == Command::ARM_MOVE || kind == Command::JOG || kind == Command::HOME;
     if (motion && is_fault_state(state)) {
-      return jobs_.reject(command, error_code(ReplyError::kAxisFaulted), node.settings.label() + " is faulted: " + node.status.fault_text);
+      return jobs_.reject(command, error_code(ReplyError::kAxisFaulted),
+                          node.settings.label() + " is faulted: " + node.status.fault_text);
     }
     if (motion && state != State::kOperationEnabled) {
       return jobs_.reject(command, error_code(ReplyError::kAxisDisabled),
-                          node.settings.label() + " is not enabled (" + (state ? std::string(cia402::to_string(*state)) : "no statusword") + ")");
+                          node.settings.label() + " is not enabled (" +
+                              (state ? std::string(cia402::to_string(*state)) : "no statusword") + ")");
     }
     // What this drive cannot do for this axis refuses the whole command here: found while the
     // parts start, an earlier axis would already have been changed (random lab seed 1: a HOME
@@ -181,20 +192,26 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
     }
   }
   if ((kind == Command::PARAM_READ || kind == Command::PARAM_WRITE) && parts.size() != 1) {
-    return jobs_.reject(command, error_code(ReplyError::kMalformedRequest), "a parameter command names exactly one axis");
+    return jobs_.reject(command, error_code(ReplyError::kMalformedRequest),
+                        "a parameter command names exactly one axis");
   }
   // Which nodes had nothing running before this command preempted it (a STOP there is DONE at once).
   std::vector<bool> idle(parts.size());
   for (std::size_t i = 0; i < parts.size(); ++i) idle[i] = at_rest(parts[i]);
   if (preempts) {
-    const std::string why = std::string(kind == Command::ESTOP ? "e-stopped" : kind == Command::STOP ? "stopped" : "superseded") +
+    const std::string why = std::string(kind == Command::ESTOP  ? "e-stopped"
+                                        : kind == Command::STOP ? "stopped"
+                                                                : "superseded") +
                             " by command " + std::to_string(command.command_id);
-    for (const std::size_t n : parts) end_task(n, error_code(ReplyError::kStopped), nodes_[n]->settings.label() + ": " + why);
+    for (const std::size_t n : parts)
+      end_task(n, error_code(ReplyError::kStopped), nodes_[n]->settings.label() + ": " + why);
   }
 
   const std::int64_t id = command.command_id;
   Job* added = jobs_.add(command, parts);
-  if (added == nullptr) return jobs_.reject(command, error_code(ReplyError::kMalformedRequest), "command id " + std::to_string(id) + " is already running");
+  if (added == nullptr)
+    return jobs_.reject(command, error_code(ReplyError::kMalformedRequest),
+                        "command id " + std::to_string(id) + " is already running");
   Job& live = *added;
   const std::vector<std::size_t> targets = live.nodes;
   for (std::size_t i = 0; i < targets.size(); ++i) {
@@ -237,7 +254,8 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
         part_done(id, n);
         break;
       default:
-        part_failed(id, n, error_code(ReplyError::kMalformedRequest), "unknown gateway command kind " + std::to_string(kind));
+        part_failed(id, n, error_code(ReplyError::kMalformedRequest),
+                    "unknown gateway command kind " + std::to_string(kind));
         return;
     }
   }
@@ -258,7 +276,8 @@ void Uc57Stack::apply_power_action(std::size_t n, const cia402::PowerController:
     // Only the device-control bits come from the controller; bit 4 is cleared so that enabling
     // never starts a set-point, the mode bits (halt, abs/rel) stay.
     RpdoImage image = latest_image(n);
-    const auto mode_bits = static_cast<std::uint16_t>(image.controlword & ~cia402::kDeviceControlBits & ~cia402::mask(ControlBit::kNewSetPoint));
+    const auto mode_bits = static_cast<std::uint16_t>(image.controlword & ~cia402::kDeviceControlBits &
+                                                      ~cia402::mask(ControlBit::kNewSetPoint));
     image.controlword = static_cast<std::uint16_t>(mode_bits | (device_control & cia402::kDeviceControlBits));
     queue_image(n, image);
   }
@@ -268,16 +287,21 @@ void Uc57Stack::apply_power_action(std::size_t n, const cia402::PowerController:
   switch (action.outcome) {
     case cia402::PowerController::Outcome::kReached: part_done(id, n); break;
     case cia402::PowerController::Outcome::kTimedOut:
-      part_failed(id, n, error_code(ReplyError::kTimeout),
-                  label + ": CiA 402 transition " + std::to_string(node.power_transition) + " not confirmed by the statusword within " +
-                      std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(options_.state_switch_timeout).count()) +
-                      " ms (state " + (action.observed ? std::string(cia402::to_string(*action.observed)) : "unknown") + ")");
+      part_failed(
+          id, n, error_code(ReplyError::kTimeout),
+          label + ": CiA 402 transition " + std::to_string(node.power_transition) +
+              " not confirmed by the statusword within " +
+              std::to_string(
+                  std::chrono::duration_cast<std::chrono::milliseconds>(options_.state_switch_timeout).count()) +
+              " ms (state " + (action.observed ? std::string(cia402::to_string(*action.observed)) : "unknown") + ")");
       break;
     case cia402::PowerController::Outcome::kUnreachable:
-      part_failed(id, n, is_fault_state(action.observed) ? error_code(ReplyError::kAxisFaulted) : error_code(ReplyError::kDriveError),
-                  label + ": cannot reach " + (target ? std::string(cia402::to_string(*target)) : "the requested state") +
-                      " from " + (action.observed ? std::string(cia402::to_string(*action.observed)) : "an unknown state") +
-                      (is_fault_state(action.observed) ? " (FAULT_RESET first)" : ""));
+      part_failed(
+          id, n,
+          is_fault_state(action.observed) ? error_code(ReplyError::kAxisFaulted) : error_code(ReplyError::kDriveError),
+          label + ": cannot reach " + (target ? std::string(cia402::to_string(*target)) : "the requested state") +
+              " from " + (action.observed ? std::string(cia402::to_string(*action.observed)) : "an unknown state") +
+              (is_fault_state(action.observed) ? " (FAULT_RESET first)" : ""));
       break;
     case cia402::PowerController::Outcome::kIdle:
     case cia402::PowerController::Outcome::kInProgress: break;
@@ -288,7 +312,8 @@ void Uc57Stack::start_quick_stop(std::size_t n, Job& job, TimePoint now) {
   if (drive_state(n) != State::kOperationEnabled) return part_done(job.command.command_id, n);  // nothing runs
   start_task(n, TaskKind::kQuickStop, job.command.command_id, now + options_.stop_timeout);
   RpdoImage image = latest_image(n);
-  image.controlword = cia402::with(cia402::apply_command(image.controlword, cia402::Command::kQuickStop), ControlBit::kNewSetPoint, false);
+  image.controlword = cia402::with(cia402::apply_command(image.controlword, cia402::Command::kQuickStop),
+                                   ControlBit::kNewSetPoint, false);
   // A jog's speed must not survive the e-stop: enabled again, a drive in profile velocity mode
   // would run on at 60FFh. Zeroed in the process data and in the object (written by SDO for jogs).
   image.target_velocity = 0;
@@ -299,7 +324,8 @@ void Uc57Stack::start_quick_stop(std::size_t n, Job& job, TimePoint now) {
 void Uc57Stack::start_halt(std::size_t n, Job& job, bool idle, TimePoint now) {
   if (drive_state(n) != State::kOperationEnabled) return part_done(job.command.command_id, n);
   RpdoImage image = latest_image(n);
-  image.controlword = cia402::with(cia402::with(image.controlword, ControlBit::kHalt, true), ControlBit::kNewSetPoint, false);
+  image.controlword =
+      cia402::with(cia402::with(image.controlword, ControlBit::kHalt, true), ControlBit::kNewSetPoint, false);
   image.target_velocity = 0;  // manual §7 MC_STOP: bit 8 = 1 and 60FFh = 0 (in the RPDO of the default layout)
   if (idle) {
     // Nothing runs: the halt still goes out with the next SYNC, but the STOP does not hold the
@@ -326,7 +352,7 @@ bool Uc57Stack::at_rest(std::size_t n) {
 // Why `command` cannot run on node n whatever its state: (reply code, reason), checked before any
 // part starts.
 std::optional<std::pair<std::int32_t, std::string>> Uc57Stack::refuse(std::size_t n, const Command& command,
-                                                                       const motionlcm::axis_command_t& axis) const {
+                                                                      const motionlcm::axis_command_t& axis) const {
   const Node& node = *nodes_[n];
   const std::string label = node.settings.label();
   switch (command.kind) {
@@ -334,26 +360,31 @@ std::optional<std::pair<std::int32_t, std::string>> Uc57Stack::refuse(std::size_
       const config::Homing& homing = node.settings.homing;
       if (homing.method == config::HomingMethod::kCurrentPosition) {
         if (axis.target_counts == 0) return std::nullopt;
-        return std::pair{error_code(ReplyError::kUnsupported), label + ": the UC57 can only zero its position (2012h); offset " +
-                                                                   std::to_string(axis.target_counts) + " counts is not supported"};
+        return std::pair{error_code(ReplyError::kUnsupported),
+                         label + ": the UC57 can only zero its position (2012h); offset " +
+                             std::to_string(axis.target_counts) + " counts is not supported"};
       }
       if (homing.method != config::HomingMethod::kSwitch) {
-        return std::pair{error_code(ReplyError::kUnsupported), label + ": no homing method configured for axis " + node.settings.axis};
+        return std::pair{error_code(ReplyError::kUnsupported),
+                         label + ": no homing method configured for axis " + node.settings.axis};
       }
       if (homing.input < 1 || homing.input > 3) {
-        return std::pair{error_code(ReplyError::kUnsupported), label + ": homing on input " + std::to_string(homing.input) +
-                                                                   " is not possible (UC57: IN1 positive limit, IN2 origin, IN3 negative limit)"};
+        return std::pair{error_code(ReplyError::kUnsupported),
+                         label + ": homing on input " + std::to_string(homing.input) +
+                             " is not possible (UC57: IN1 positive limit, IN2 origin, IN3 negative limit)"};
       }
       return std::nullopt;
     }
     case Command::SET_POSITION:
       if (axis.target_counts == 0) return std::nullopt;
-      return std::pair{error_code(ReplyError::kUnsupported), label + ": the UC57 can only set its position to zero (2012h); " +
-                                                                 std::to_string(axis.target_counts) + " counts is not possible"};
+      return std::pair{error_code(ReplyError::kUnsupported),
+                       label + ": the UC57 can only set its position to zero (2012h); " +
+                           std::to_string(axis.target_counts) + " counts is not possible"};
     case Command::SET_OUTPUTS:
       if ((axis.output_mask & ~((1 << kOutputCount) - 1)) == 0) return std::nullopt;
-      return std::pair{error_code(ReplyError::kOutsideLimits), label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
-                                                                   " names outputs the UC57 does not have (OUT1, OUT2)"};
+      return std::pair{error_code(ReplyError::kOutsideLimits),
+                       label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
+                           " names outputs the UC57 does not have (OUT1, OUT2)"};
     default: return std::nullopt;
   }
 }
@@ -381,14 +412,16 @@ void Uc57Stack::start_arm(std::size_t n, Job& job, const motionlcm::axis_command
                            std::to_string(target_entry->min) + ".." + std::to_string(target_entry->max));
   }
   if (axis.velocity <= 0 || axis.acceleration <= 0 || axis.deceleration <= 0) {
-    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": ARM_MOVE needs a positive velocity, acceleration and deceleration");
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
+                       label + ": ARM_MOVE needs a positive velocity, acceleration and deceleration");
   }
-  const auto speed = cia402::uc57::quantize_speed(*cia402::uc57::find_entry(od::kProfileVelocity, 0), axis.velocity, node.pulses_per_rev);
+  const auto speed = cia402::uc57::quantize_speed(*cia402::uc57::find_entry(od::kProfileVelocity, 0), axis.velocity,
+                                                  node.pulses_per_rev);
   const double speed_change = std::max(0.0, speed.realized - node.start_speed);
-  const auto accel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileAcceleration, 0), axis.acceleration,
-                                                 speed_change, node.pulses_per_rev);
-  const auto decel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileDeceleration, 0), axis.deceleration,
-                                                 speed_change, node.pulses_per_rev);
+  const auto accel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileAcceleration, 0),
+                                                 axis.acceleration, speed_change, node.pulses_per_rev);
+  const auto decel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileDeceleration, 0),
+                                                 axis.deceleration, speed_change, node.pulses_per_rev);
   std::vector<std::pair<ObjectAddress, std::vector<std::uint8_t>>> writes = {
       {{od::kProfileVelocity, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(speed.native))},
       {{od::kProfileAcceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(accel.native))},
@@ -401,29 +434,33 @@ void Uc57Stack::start_arm(std::size_t n, Job& job, const motionlcm::axis_command
   }
   start_task(n, TaskKind::kArming, id, kNever);
   const unsigned session = node.session;
-  set_mode(n, kModeProfilePosition, [this, n, id, session, target_counts, writes = std::move(writes)](std::optional<std::string> failure) mutable {
-    if (failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *failure);
-    sdo_write_all(n, std::move(writes), [this, n, id, session, target_counts](std::optional<std::string> write_failure) {
-      Node& nd = *nodes_[n];
-      if (write_failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *write_failure);
-      if (nd.session != session || nd.task_command != id || nd.task != TaskKind::kArming) return;
-      RpdoImage image = latest_image(n);
-      image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F: bit 4 = 0, halt off
-      image.target_position = target_counts;
-      image.target_velocity = 0;  // PP frames of the default RPDO1 (manual §5 comm. table) carry 60FFh = 0
-      image.mode = kModeProfilePosition;
-      queue_image(n, image);
-      nd.task_watching = true;
-      // A TPDO after the image's SYNC decides; set_point_timeout covers a drive stuck with bit 12.
-      nd.task_deadline = now_ + options_.set_point_timeout + 3 * cycle();
-    });
-  });
+  set_mode(
+      n, kModeProfilePosition,
+      [this, n, id, session, target_counts, writes = std::move(writes)](std::optional<std::string> failure) mutable {
+        if (failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *failure);
+        sdo_write_all(
+            n, std::move(writes), [this, n, id, session, target_counts](std::optional<std::string> write_failure) {
+              Node& nd = *nodes_[n];
+              if (write_failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *write_failure);
+              if (nd.session != session || nd.task_command != id || nd.task != TaskKind::kArming) return;
+              RpdoImage image = latest_image(n);
+              image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F: bit 4 = 0, halt off
+              image.target_position = target_counts;
+              image.target_velocity = 0;  // PP frames of the default RPDO1 (manual §5 comm. table) carry 60FFh = 0
+              image.mode = kModeProfilePosition;
+              queue_image(n, image);
+              nd.task_watching = true;
+              // A TPDO after the image's SYNC decides; set_point_timeout covers a drive stuck with bit 12.
+              nd.task_deadline = now_ + options_.set_point_timeout + 3 * cycle();
+            });
+      });
 }
 
 void Uc57Stack::start_jog(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now) {
   Node& node = *nodes_[n];
   const std::int64_t id = job.command.command_id;
-  const auto speed = cia402::uc57::quantize_speed(*cia402::uc57::find_entry(od::kTargetVelocity, 0), axis.velocity, node.pulses_per_rev);
+  const auto speed = cia402::uc57::quantize_speed(*cia402::uc57::find_entry(od::kTargetVelocity, 0), axis.velocity,
+                                                  node.pulses_per_rev);
   const double speed_change = std::max(0.0, std::abs(speed.realized) - node.start_speed);
   const auto accel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileAcceleration, 0),
                                                  std::max(axis.acceleration, 1.0), speed_change, node.pulses_per_rev);
@@ -444,17 +481,20 @@ void Uc57Stack::start_jog(std::size_t n, Job& job, const motionlcm::axis_command
                   set_mode(n, kModeProfileVelocity, [this, n, id, rpm](std::optional<std::string> mode_failure) {
                     if (nodes_[n]->task_command != id || nodes_[n]->task != TaskKind::kJog) return;
                     if (mode_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *mode_failure);
-                    sdo_write_all(n, {{{od::kTargetVelocity, 0}, le<std::int32_t>(rpm)}}, [this, n, id, rpm](std::optional<std::string> speed_failure) {
-                      Node& nd = *nodes_[n];
-                      if (speed_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *speed_failure);
-                      if (nd.task_command != id || nd.task != TaskKind::kJog) return;
-                      RpdoImage image = latest_image(n);
-                      image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F = PV start, halt off
-                      image.target_velocity = rpm;
-                      image.mode = kModeProfileVelocity;
-                      queue_image(n, image);
-                      nd.task_watching = true;
-                    });
+                    sdo_write_all(n, {{{od::kTargetVelocity, 0}, le<std::int32_t>(rpm)}},
+                                  [this, n, id, rpm](std::optional<std::string> speed_failure) {
+                                    Node& nd = *nodes_[n];
+                                    if (speed_failure)
+                                      return part_failed(id, n, error_code(ReplyError::kDriveError), *speed_failure);
+                                    if (nd.task_command != id || nd.task != TaskKind::kJog) return;
+                                    RpdoImage image = latest_image(n);
+                                    image.controlword = cia402::profile_position_controlword(
+                                        {}, false, false);  // 0x0F = PV start, halt off
+                                    image.target_velocity = rpm;
+                                    image.mode = kModeProfileVelocity;
+                                    queue_image(n, image);
+                                    nd.task_watching = true;
+                                  });
                   });
                 });
 }
@@ -466,17 +506,20 @@ void Uc57Stack::start_home(std::size_t n, Job& job, const motionlcm::axis_comman
   const config::Homing& homing = node.settings.homing;
   if (homing.method == config::HomingMethod::kCurrentPosition) {
     if (axis.target_counts != 0) {
-      return part_failed(id, n, error_code(ReplyError::kUnsupported), label + ": the UC57 can only zero its position (2012h); offset " +
-                                                  std::to_string(axis.target_counts) + " counts is not supported");
+      return part_failed(id, n, error_code(ReplyError::kUnsupported),
+                         label + ": the UC57 can only zero its position (2012h); offset " +
+                             std::to_string(axis.target_counts) + " counts is not supported");
     }
     start_task(n, TaskKind::kSdoOnly, id, kNever);
-    return sdo_write_all(n, {{{od::kZeroPosition, 0}, le<std::uint16_t>(kZeroPositionCommand)}}, [this, n, id](std::optional<std::string> failure) {
-      if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
-      part_done(id, n);
-    });
+    return sdo_write_all(n, {{{od::kZeroPosition, 0}, le<std::uint16_t>(kZeroPositionCommand)}},
+                         [this, n, id](std::optional<std::string> failure) {
+                           if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
+                           part_done(id, n);
+                         });
   }
   if (homing.method != config::HomingMethod::kSwitch) {
-    return part_failed(id, n, error_code(ReplyError::kUnsupported), label + ": no homing method configured for axis " + node.settings.axis);
+    return part_failed(id, n, error_code(ReplyError::kUnsupported),
+                       label + ": no homing method configured for axis " + node.settings.axis);
   }
   // The manual's default input functions (§3.1): IN1 positive limit, IN2 origin, IN3 negative limit.
   const double direction = axis.velocity != 0 ? axis.velocity : homing.velocity;
@@ -484,12 +527,14 @@ void Uc57Stack::start_home(std::size_t n, Job& job, const motionlcm::axis_comman
   switch (homing.input) {
     case 1: method = cia402::uc57::HomingMethod::kPositiveLimit; break;
     case 2:
-      method = direction >= 0 ? cia402::uc57::HomingMethod::kHomeSwitchPositive : cia402::uc57::HomingMethod::kHomeSwitchNegative;
+      method = direction >= 0 ? cia402::uc57::HomingMethod::kHomeSwitchPositive
+                              : cia402::uc57::HomingMethod::kHomeSwitchNegative;
       break;
     case 3: method = cia402::uc57::HomingMethod::kNegativeLimit; break;
     default:
-      return part_failed(id, n, error_code(ReplyError::kUnsupported), label + ": homing on input " + std::to_string(homing.input) +
-                                                  " is not possible (UC57: IN1 positive limit, IN2 origin, IN3 negative limit)");
+      return part_failed(id, n, error_code(ReplyError::kUnsupported),
+                         label + ": homing on input " + std::to_string(homing.input) +
+                             " is not possible (UC57: IN1 positive limit, IN2 origin, IN3 negative limit)");
   }
   cia402::uc57::HomingRequest request;
   request.method = method;
@@ -499,39 +544,43 @@ void Uc57Stack::start_home(std::size_t n, Job& job, const motionlcm::axis_comman
   request.offset = static_cast<double>(axis.target_counts);
   const auto settings = cia402::uc57::quantize_homing(request, node.pulses_per_rev);
   if (settings.offset.clamped) {
-    return part_failed(id, n, error_code(ReplyError::kOutsideLimits), label + ": homing offset " + std::to_string(axis.target_counts) + " counts exceeds 607Ch's range");
+    return part_failed(
+        id, n, error_code(ReplyError::kOutsideLimits),
+        label + ": homing offset " + std::to_string(axis.target_counts) + " counts exceeds 607Ch's range");
   }
   start_task(n, TaskKind::kHoming, id, kNever);
-  sdo_write_all(n,
-                {{{od::kHomingMethod, 0}, le<std::uint8_t>(settings.method)},
-                 {{od::kHomingSpeeds, 1}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.search_speed.native))},
-                 {{od::kHomingSpeeds, 2}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.locate_speed.native))},
-                 {{od::kHomingAcceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.acceleration.native))},
-                 {{od::kHomeOffset, 0}, le<std::int32_t>(static_cast<std::int32_t>(settings.offset.native))}},
-                [this, n, id](std::optional<std::string> failure) {
-                  if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
-                  set_mode(n, kModeHoming, [this, n, id](std::optional<std::string> mode_failure) {
-                    Node& nd = *nodes_[n];
-                    if (mode_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *mode_failure);
-                    if (nd.task_command != id || nd.task != TaskKind::kHoming) return;
-                    // Two SYNC cycles: bit 4 = 0, then 1 -> the rising edge starts homing (0x0F -> 0x1F).
-                    RpdoImage image = latest_image(n);
-                    image.mode = kModeHoming;
-                    image.controlword = cia402::profile_position_controlword({}, false, false);
-                    queue_image(n, image);
-                    image.controlword = cia402::profile_position_controlword({}, true, false);
-                    queue_image(n, image);
-                    nd.task_watching = true;
-                  });
-                });
+  sdo_write_all(
+      n,
+      {{{od::kHomingMethod, 0}, le<std::uint8_t>(settings.method)},
+       {{od::kHomingSpeeds, 1}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.search_speed.native))},
+       {{od::kHomingSpeeds, 2}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.locate_speed.native))},
+       {{od::kHomingAcceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(settings.acceleration.native))},
+       {{od::kHomeOffset, 0}, le<std::int32_t>(static_cast<std::int32_t>(settings.offset.native))}},
+      [this, n, id](std::optional<std::string> failure) {
+        if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
+        set_mode(n, kModeHoming, [this, n, id](std::optional<std::string> mode_failure) {
+          Node& nd = *nodes_[n];
+          if (mode_failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *mode_failure);
+          if (nd.task_command != id || nd.task != TaskKind::kHoming) return;
+          // Two SYNC cycles: bit 4 = 0, then 1 -> the rising edge starts homing (0x0F -> 0x1F).
+          RpdoImage image = latest_image(n);
+          image.mode = kModeHoming;
+          image.controlword = cia402::profile_position_controlword({}, false, false);
+          queue_image(n, image);
+          image.controlword = cia402::profile_position_controlword({}, true, false);
+          queue_image(n, image);
+          nd.task_watching = true;
+        });
+      });
 }
 
 void Uc57Stack::start_outputs(std::size_t n, Job& job, const motionlcm::axis_command_t& axis) {
   const std::int64_t id = job.command.command_id;
   const std::string label = nodes_[n]->settings.label();
   if ((axis.output_mask & ~((1 << kOutputCount) - 1)) != 0) {
-    return part_failed(id, n, error_code(ReplyError::kOutsideLimits), label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
-                                                  " names outputs the UC57 does not have (OUT1, OUT2)");
+    return part_failed(id, n, error_code(ReplyError::kOutsideLimits),
+                       label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
+                           " names outputs the UC57 does not have (OUT1, OUT2)");
   }
   // The outputs are driven by their function selection (2030h:0D/0E): 5 = high, 6 = low. RW/S,
   // not stored: the configured function returns after a power cycle.
@@ -542,13 +591,14 @@ void Uc57Stack::start_outputs(std::size_t n, Job& job, const motionlcm::axis_com
     writes.push_back({{od::kIoConfiguration, static_cast<std::uint8_t>(kFirstOutputFunctionSub + output)},
                       le<std::uint16_t>(high ? kOutputForcedHigh : kOutputForcedLow)});
   }
-  sdo_write_all(n, std::move(writes), [this, n, id, mask = axis.output_mask, value = axis.output_value](std::optional<std::string> failure) {
-    if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
-    auto& outputs = nodes_[n]->status.outputs;
-    outputs = (outputs & ~mask) | (value & mask);
-    publish_status(n);
-    part_done(id, n);
-  });
+  sdo_write_all(n, std::move(writes),
+                [this, n, id, mask = axis.output_mask, value = axis.output_value](std::optional<std::string> failure) {
+                  if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
+                  auto& outputs = nodes_[n]->status.outputs;
+                  outputs = (outputs & ~mask) | (value & mask);
+                  publish_status(n);
+                  part_done(id, n);
+                });
 }
 
 void Uc57Stack::start_set_position(std::size_t n, Job& job, const motionlcm::axis_command_t& axis) {
@@ -559,11 +609,12 @@ void Uc57Stack::start_set_position(std::size_t n, Job& job, const motionlcm::axi
                            std::to_string(axis.target_counts) + " counts is not possible");
   }
   start_task(n, TaskKind::kSdoOnly, id, kNever);
-  sdo_write_all(n, {{{od::kZeroPosition, 0}, le<std::uint16_t>(kZeroPositionCommand)}}, [this, n, id](std::optional<std::string> failure) {
-    if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
-    nodes_[n]->status.position_counts = 0;
-    part_done(id, n);
-  });
+  sdo_write_all(n, {{{od::kZeroPosition, 0}, le<std::uint16_t>(kZeroPositionCommand)}},
+                [this, n, id](std::optional<std::string> failure) {
+                  if (failure) return part_failed(id, n, error_code(ReplyError::kDriveError), *failure);
+                  nodes_[n]->status.position_counts = 0;
+                  part_done(id, n);
+                });
 }
 
 void Uc57Stack::start_param(std::size_t n, Job& job) {
@@ -571,13 +622,16 @@ void Uc57Stack::start_param(std::size_t n, Job& job) {
   const motionlcm::param_t& param = job.command.param;
   const std::string label = nodes_[n]->settings.label();
   if (param.space != motionlcm::param_t::CANOPEN_OBJECT) {
-    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": UC57 parameters are CANopen objects (param_t space CANOPEN_OBJECT)");
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
+                       label + ": UC57 parameters are CANopen objects (param_t space CANOPEN_OBJECT)");
   }
   if (param.index < 0 || param.index > 0xFFFF || param.subindex < -1 || param.subindex > 0xFF) {
-    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": object " + std::to_string(param.index) + ":" + std::to_string(param.subindex) +
-                                              " is not a CANopen index (0..FFFFh) and sub-index (0..FFh)");
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
+                       label + ": object " + std::to_string(param.index) + ":" + std::to_string(param.subindex) +
+                           " is not a CANopen index (0..FFFFh) and sub-index (0..FFh)");
   }
-  const ObjectAddress object{static_cast<std::uint16_t>(param.index), static_cast<std::uint8_t>(std::max(param.subindex, 0))};
+  const ObjectAddress object{static_cast<std::uint16_t>(param.index),
+                             static_cast<std::uint8_t>(std::max(param.subindex, 0))};
   const auto* entry = cia402::uc57::find_entry(object.index, object.subindex);
   std::size_t width = static_cast<std::size_t>(std::max<std::int8_t>(param.width, 0));
   bool is_signed = param.is_signed;
@@ -586,24 +640,28 @@ void Uc57Stack::start_param(std::size_t n, Job& job) {
     is_signed = cia402::uc57::is_signed(entry->type);
   }
   if (width != 0 && width != 1 && width != 2 && width != 4) {
-    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": width " + std::to_string(width) + " (CANopen objects: 1, 2 or 4 bytes)");
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
+                       label + ": width " + std::to_string(width) + " (CANopen objects: 1, 2 or 4 bytes)");
   }
   if (job.command.kind == Command::PARAM_READ) {
-    return sdo_read(n, object, [this, n, id, object, is_signed](std::error_code ec, std::span<const std::uint8_t> data) {
-      if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, false, object, ec));
-      if (Job* live = jobs_.find(id)) {
-        auto value = live->reply.peek().param;
-        value.value = is_signed ? read_signed(data) : static_cast<std::int64_t>(read_unsigned(data));
-        live->reply.param(value);
-      }
-      part_done(id, n);
-    });
+    return sdo_read(
+        n, object, [this, n, id, object, is_signed](std::error_code ec, std::span<const std::uint8_t> data) {
+          if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, false, object, ec));
+          if (Job* live = jobs_.find(id)) {
+            auto value = live->reply.peek().param;
+            value.value = is_signed ? read_signed(data) : static_cast<std::int64_t>(read_unsigned(data));
+            live->reply.param(value);
+          }
+          part_done(id, n);
+        });
   }
   if (width == 0) {
-    return part_failed(id, n, error_code(ReplyError::kMalformedRequest), label + ": object " + object_text(object) + " is not in the UC57 dictionary: give the width");
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
+                       label + ": object " + object_text(object) + " is not in the UC57 dictionary: give the width");
   }
   std::vector<std::uint8_t> data(width);
-  for (std::size_t i = 0; i < width; ++i) data[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(param.value) >> (8 * i));
+  for (std::size_t i = 0; i < width; ++i)
+    data[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(param.value) >> (8 * i));
   sdo_write(n, object, std::move(data), [this, n, id, object](std::error_code ec, std::span<const std::uint8_t>) {
     if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, true, object, ec));
     part_done(id, n);
@@ -624,7 +682,8 @@ void Uc57Stack::disarm(const Job& disarm_job) {
   for (const auto id : victims) {
     const Job* job = jobs_.find(id);
     if (job == nullptr) continue;
-    part_failed(id, job->nodes.front(), error_code(ReplyError::kStopped), "disarmed by command " + std::to_string(disarm_job.command.command_id));
+    part_failed(id, job->nodes.front(), error_code(ReplyError::kStopped),
+                "disarmed by command " + std::to_string(disarm_job.command.command_id));
   }
 }
 
@@ -642,14 +701,17 @@ void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
   std::vector<std::int64_t> ready_jobs;
   std::vector<std::int64_t> early_jobs;
   for (const auto& [id, job] : jobs_.entries()) {
-    if (job.command.kind != Command::ARM_MOVE || job.data.started || job.command.trigger_id != trigger_id || trigger_id == 0) continue;
+    if (job.command.kind != Command::ARM_MOVE || job.data.started || job.command.trigger_id != trigger_id ||
+        trigger_id == 0)
+      continue;
     (job.all(Lifecycle::kArmed) ? ready_jobs : early_jobs).push_back(id);
   }
   for (const auto id : early_jobs) {
     const Job* job = jobs_.find(id);
     if (job == nullptr) continue;
     part_failed(id, job->nodes.front(), error_code(ReplyError::kArmFailed),
-                "trigger " + std::to_string(trigger_id) + " arrived before every axis of command " + std::to_string(id) + " was armed");
+                "trigger " + std::to_string(trigger_id) + " arrived before every axis of command " +
+                    std::to_string(id) + " was armed");
   }
   if (!ready_jobs.empty()) fire_jobs(ready_jobs, now);
 }

@@ -40,7 +40,6 @@ using gateway::Lifecycle;
 
 namespace stack_detail {
 
-
 // CiA 402 mode values (conflict C-01: 1/3/6).
 constexpr auto kModeProfilePosition = static_cast<std::int8_t>(cia402::ModeOfOperation::kProfilePosition);
 constexpr auto kModeProfileVelocity = static_cast<std::int8_t>(cia402::ModeOfOperation::kProfileVelocity);
@@ -85,8 +84,9 @@ inline std::int64_t read_signed(std::span<const std::uint8_t> data) {
 
 // 603Fh bit field (manual §5.2) as text.
 inline std::string fault_bits_text(std::uint16_t bits) {
-  static constexpr std::string_view kNames[] = {"overcurrent", "overvoltage", "operational amplifier failure",
-                                                "phase loss", "EEPROM read/write error", "undervoltage"};
+  static constexpr std::string_view kNames[] = {
+      "overcurrent", "overvoltage", "operational amplifier failure", "phase loss", "EEPROM read/write error",
+      "undervoltage"};
   std::string text;
   for (std::size_t bit = 0; bit < std::size(kNames); ++bit) {
     if ((bits & (1U << bit)) == 0) continue;
@@ -106,17 +106,17 @@ using namespace stack_detail;  // the helpers above, unqualified in the stack's 
 // What a node is busy with on behalf of a command (at most one per node).
 enum class Uc57Stack::TaskKind : std::uint8_t {
   kNone,
-  kSdoOnly,     // parameters, outputs, set position: ends in its SDO callback
-  kPower,       // PowerController towards a target state
-  kQuickStop,   // waiting to leave Operation enabled
-  kHalt,        // waiting for standstill
-  kArming,      // SDO set-up, then bit 4 = 0 and bit 12 = 0 in the drive
-  kArmed,       // waiting for fire()
-  kTriggered,   // bit 4 = 1 applied by the SYNC, waiting for bit 12 = 1
-  kReleasing,   // bit 4 = 0 again, waiting for bit 12 = 0
-  kMoving,      // waiting for bit 10 / bit 15
-  kJog,         // PV settings in, waiting for them to show
-  kHoming,      // edge applied, waiting for the homing result
+  kSdoOnly,    // parameters, outputs, set position: ends in its SDO callback
+  kPower,      // PowerController towards a target state
+  kQuickStop,  // waiting to leave Operation enabled
+  kHalt,       // waiting for standstill
+  kArming,     // SDO set-up, then bit 4 = 0 and bit 12 = 0 in the drive
+  kArmed,      // waiting for fire()
+  kTriggered,  // bit 4 = 1 applied by the SYNC, waiting for bit 12 = 1
+  kReleasing,  // bit 4 = 0 again, waiting for bit 12 = 0
+  kMoving,     // waiting for bit 10 / bit 15
+  kJog,        // PV settings in, waiting for them to show
+  kHoming,     // edge applied, waiting for the homing result
 };
 
 struct Uc57Stack::Node {
@@ -124,7 +124,7 @@ struct Uc57Stack::Node {
 
   NodeSettings settings;
   Phase phase = Phase::kOffline;
-  unsigned session = 0;          // bumped by every (re)configuration: stale callbacks are dropped
+  unsigned session = 0;  // bumped by every (re)configuration: stale callbacks are dropped
   TimePoint retry_at = kNever;
   Duration backoff{};
   TimePoint starting_deadline = kNever;
@@ -133,18 +133,18 @@ struct Uc57Stack::Node {
   std::string offline_reason;
 
   RpdoLayout layout = RpdoLayout::kControlwordTarget;
-  bool remap_refused = false;    // remembered across re-configurations
+  bool remap_refused = false;  // remembered across re-configurations
   // RPDO1 transmission type 1 aborted by the drive (remembered): RPDO1 runs asynchronous (FFh).
   bool sync_refused = false;
   // How RPDO1 applies, found at set-up (rpdo_acceptance_op): at the SYNC (the one-frame start
   // and preloading work) or on reception (moves start node by node, never preloaded).
   bool rpdo_at_sync = true;
-  std::string rpdo_finding;      // "honoured (detected)", "refused", ...: events and the drive model
-  Duration rpdo_end{};           // wire_sent_ after this node's last RPDO1 (start skew)
-  can::Frame last_rpdo{};        // that RPDO1
+  std::string rpdo_finding;  // "honoured (detected)", "refused", ...: events and the drive model
+  Duration rpdo_end{};       // wire_sent_ after this node's last RPDO1 (start skew)
+  can::Frame last_rpdo{};    // that RPDO1
   bool tpdo2_active = true;
   std::uint32_t pulses_per_rev = cia402::uc57::kDefaultPulsesPerRevolution;
-  double start_speed = 0;        // 200Eh, pulses/s
+  double start_speed = 0;  // 200Eh, pulses/s
 
   RpdoImage image;                   // as last sent, or as read from the drive
   bool preloaded = false;            // the start image (bit 4 = 1) waits in the drive for a SYNC
@@ -158,7 +158,7 @@ struct Uc57Stack::Node {
   // Synchronous TPDOs: this SYNC's TPDO1, held until its TPDO2 so that both count as one sample.
   std::optional<Tpdo1> held_tpdo1;
   gateway::DriveStatus status;
-  bool fault_seen = false;       // a fault edge was handled (event, 603Fh read)
+  bool fault_seen = false;  // a fault edge was handled (event, 603Fh read)
   TimePoint next_position_poll = kNever;
   bool position_poll_in_flight = false;
 
@@ -166,7 +166,7 @@ struct Uc57Stack::Node {
   TaskKind task = TaskKind::kNone;
   std::int64_t task_command = 0;
   TimePoint task_deadline = kNever;
-  bool task_watching = false;    // SDO part done, the statusword now decides
+  bool task_watching = false;  // SDO part done, the statusword now decides
 };
 
 struct Uc57Stack::ConfigOp {

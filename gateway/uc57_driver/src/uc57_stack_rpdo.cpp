@@ -57,12 +57,14 @@ void Uc57Stack::rpdo_found(std::size_t n, bool at_sync, const std::string& findi
   const bool detected = finding.find("detected") != std::string::npos || finding.starts_with("refused");
   if (detected && answer != RpdoSyncAnswer::kDetect && (answer == RpdoSyncAnswer::kHonoured) != at_sync) {
     event(n, Event::CONFIG_MISMATCH, Event::WARNING, 0,
-          node.settings.label() + ": set-up says rpdo_sync " + (answer == RpdoSyncAnswer::kHonoured ? "honoured" : "on_reception") +
-              ", the drive's RPDO1 is " + finding + "; going by the drive");
+          node.settings.label() + ": set-up says rpdo_sync " +
+              (answer == RpdoSyncAnswer::kHonoured ? "honoured" : "on_reception") + ", the drive's RPDO1 is " +
+              finding + "; going by the drive");
   }
   if (!at_sync) {
     event(n, Event::CONFIG_MISMATCH, Event::INFO, 0,
-          node.settings.label() + ": RPDO1 " + finding + ": its moves start by their own RPDO1, node by node (skew in STARTED)");
+          node.settings.label() + ": RPDO1 " + finding +
+              ": its moves start by their own RPDO1, node by node (skew in STARTED)");
   }
 }
 
@@ -76,7 +78,9 @@ Uc57Stack::ConfigOp Uc57Stack::rpdo_acceptance_op(std::size_t n) {
     if (node.layout == RpdoLayout::kManualDefault && node.image.mode == kModeProfileVelocity) {
       // 60FFh would change a running speed: not tested.
       switch (node.settings.rpdo_sync) {
-        case RpdoSyncAnswer::kHonoured: rpdo_found(n, true, "honoured (configured; not testable in profile velocity mode)"); break;
+        case RpdoSyncAnswer::kHonoured:
+          rpdo_found(n, true, "honoured (configured; not testable in profile velocity mode)");
+          break;
         case RpdoSyncAnswer::kOnReception: rpdo_found(n, false, "on_reception (configured)"); break;
         case RpdoSyncAnswer::kDetect:
           rpdo_found(n, false, "on_reception (assumed: not testable in profile velocity mode; set rpdo_sync to say)");
@@ -112,50 +116,61 @@ void Uc57Stack::rpdo_test_attempt(std::size_t n, unsigned session, unsigned atte
   const std::uint64_t before = master_.sync()->sent();
   send_image(n, test);
   node.image = original;  // what the drive holds once restored
-  sdo_read(n, probe, [this, n, session, attempt, next, probe, before, test_value, restore](std::error_code ec,
-                                                                                          std::span<const std::uint8_t> data) {
-    Node& nd = *nodes_[n];
-    if (nd.session != session) return;
-    if (ec) {
-      restore();
-      return next(sdo_failure(n, false, probe, ec));
-    }
-    const std::string label = nd.settings.label();
-    if (master_.sync()->sent() != before) {
-      restore();
-      if (attempt + 1 < kRpdoTestAttempts) {
-        return after_sync(master_.sync()->sent(), [this, n, session, attempt, next] { rpdo_test_attempt(n, session, attempt + 1, next); });
-      }
-      switch (nd.settings.rpdo_sync) {
-        case RpdoSyncAnswer::kHonoured: rpdo_found(n, true, "honoured (configured; the test got no answer within a SYNC period)"); break;
-        case RpdoSyncAnswer::kOnReception: rpdo_found(n, false, "on_reception (configured)"); break;
-        case RpdoSyncAnswer::kDetect:
-          rpdo_found(n, false, "on_reception (assumed: the test got no answer within a SYNC period; set rpdo_sync to say)");
-          break;
-      }
-      return next(std::nullopt);
-    }
-    if (read_signed(data) == test_value) {
-      restore();
-      rpdo_found(n, false, "on_reception (detected: " + object_text(probe) + " changed before the SYNC)");
-      return next(std::nullopt);
-    }
-    // Not applied on reception: the next SYNC must apply it.
-    after_sync(before, [this, n, session, next, probe, test_value, restore] {
-      if (nodes_[n]->session != session) return;
-      sdo_read(n, probe, [this, n, session, next, probe, test_value, restore](std::error_code ec2, std::span<const std::uint8_t> data2) {
-        if (nodes_[n]->session != session) return;
-        restore();
-        if (ec2) return next(sdo_failure(n, false, probe, ec2));
-        if (read_signed(data2) != test_value) {
-          return next(nodes_[n]->settings.label() + ": RPDO1 is applied neither on reception nor at the SYNC (" + object_text(probe) +
-                      " reads " + std::to_string(read_signed(data2)) + ", " + std::to_string(test_value) + " was sent)");
+  sdo_read(
+      n, probe,
+      [this, n, session, attempt, next, probe, before, test_value, restore](std::error_code ec,
+                                                                            std::span<const std::uint8_t> data) {
+        Node& nd = *nodes_[n];
+        if (nd.session != session) return;
+        if (ec) {
+          restore();
+          return next(sdo_failure(n, false, probe, ec));
         }
-        rpdo_found(n, true, "honoured (detected: " + object_text(probe) + " changed at the SYNC, not before)");
-        next(std::nullopt);
+        const std::string label = nd.settings.label();
+        if (master_.sync()->sent() != before) {
+          restore();
+          if (attempt + 1 < kRpdoTestAttempts) {
+            return after_sync(master_.sync()->sent(),
+                              [this, n, session, attempt, next] { rpdo_test_attempt(n, session, attempt + 1, next); });
+          }
+          switch (nd.settings.rpdo_sync) {
+            case RpdoSyncAnswer::kHonoured:
+              rpdo_found(n, true, "honoured (configured; the test got no answer within a SYNC period)");
+              break;
+            case RpdoSyncAnswer::kOnReception: rpdo_found(n, false, "on_reception (configured)"); break;
+            case RpdoSyncAnswer::kDetect:
+              rpdo_found(n, false,
+                         "on_reception (assumed: the test got no answer within a SYNC period; set rpdo_sync to say)");
+              break;
+          }
+          return next(std::nullopt);
+        }
+        if (read_signed(data) == test_value) {
+          restore();
+          rpdo_found(n, false, "on_reception (detected: " + object_text(probe) + " changed before the SYNC)");
+          return next(std::nullopt);
+        }
+        // Not applied on reception: the next SYNC must apply it.
+        after_sync(before, [this, n, session, next, probe, test_value, restore] {
+          if (nodes_[n]->session != session) return;
+          sdo_read(n, probe,
+                   [this, n, session, next, probe, test_value, restore](std::error_code ec2,
+                                                                        std::span<const std::uint8_t> data2) {
+                     if (nodes_[n]->session != session) return;
+                     restore();
+                     if (ec2) return next(sdo_failure(n, false, probe, ec2));
+                     if (read_signed(data2) != test_value) {
+                       return next(nodes_[n]->settings.label() +
+                                   ": RPDO1 is applied neither on reception nor at the SYNC (" + object_text(probe) +
+                                   " reads " + std::to_string(read_signed(data2)) + ", " + std::to_string(test_value) +
+                                   " was sent)");
+                     }
+                     rpdo_found(n, true,
+                                "honoured (detected: " + object_text(probe) + " changed at the SYNC, not before)");
+                     next(std::nullopt);
+                   });
+        });
       });
-    });
-  });
 }
 
 Uc57Stack::StartFacts Uc57Stack::start_facts(const Job& job) const {

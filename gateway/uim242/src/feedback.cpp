@@ -41,7 +41,8 @@ std::vector<Field> fields_of(Layout layout) {
 
 std::int64_t decode_field(std::span<const std::uint8_t> bytes, Field f) {
   if (f.bytes == 1) return bytes[0];
-  if (f.bytes == kPacked16) return f.is_signed ? std::int64_t{unpack_s16(bytes)} : std::int64_t{unpack(bytes) & 0xFFFFu};
+  if (f.bytes == kPacked16)
+    return f.is_signed ? std::int64_t{unpack_s16(bytes)} : std::int64_t{unpack(bytes) & 0xFFFFu};
   if (f.bytes == kPacked32) return f.is_signed ? std::int64_t{unpack_s32(bytes)} : std::int64_t{unpack(bytes)};
   return unpack(bytes) & 0xFFFu;  // 12-bit analog / threshold
 }
@@ -50,9 +51,21 @@ void append_field(std::vector<std::uint8_t>& out, std::int64_t value, Field f) {
   const auto raw = static_cast<std::uint32_t>(static_cast<std::uint64_t>(value));
   switch (f.bytes) {
     case 1: out.push_back(static_cast<std::uint8_t>(raw & 0x7F)); return;
-    case kPacked12: { const auto p = packed<kPacked12>(raw); out.insert(out.end(), p.begin(), p.end()); return; }
-    case kPacked16: { const auto p = packed<kPacked16>(raw); out.insert(out.end(), p.begin(), p.end()); return; }
-    default: { const auto p = packed<kPacked32>(raw); out.insert(out.end(), p.begin(), p.end()); return; }
+    case kPacked12: {
+      const auto p = packed<kPacked12>(raw);
+      out.insert(out.end(), p.begin(), p.end());
+      return;
+    }
+    case kPacked16: {
+      const auto p = packed<kPacked16>(raw);
+      out.insert(out.end(), p.begin(), p.end());
+      return;
+    }
+    default: {
+      const auto p = packed<kPacked32>(raw);
+      out.insert(out.end(), p.begin(), p.end());
+      return;
+    }
   }
 }
 
@@ -96,7 +109,8 @@ Result<Frame> parse_frame(std::span<const std::uint8_t> bytes) {
     data_start = 2;
   }
   f.data.assign(body.begin() + static_cast<std::ptrdiff_t>(data_start), body.end());
-  if (std::any_of(f.data.begin(), f.data.end(), [](std::uint8_t b) { return b >= 0x80; })) return CodecErrc::not_seven_bit;
+  if (std::any_of(f.data.begin(), f.data.end(), [](std::uint8_t b) { return b >= 0x80; }))
+    return CodecErrc::not_seven_bit;
   return f;
 }
 
@@ -161,9 +175,9 @@ Result<Status> decode_status(const Frame& frame) {
 }
 
 Frame make_status_frame(Header header, std::uint8_t node, const Status& s) {
-  const auto asb = static_cast<std::uint8_t>((s.current_reduction ? kAsbCurrentReduction : 0) |
-                                             (s.enabled ? kAsbEnabled : 0) | (s.positive_direction ? kAsbPositive : 0) |
-                                             ((s.micro_steps - 1) & kAsbMicroSteps));
+  const auto asb =
+      static_cast<std::uint8_t>((s.current_reduction ? kAsbCurrentReduction : 0) | (s.enabled ? kAsbEnabled : 0) |
+                                (s.positive_direction ? kAsbPositive : 0) | ((s.micro_steps - 1) & kAsbMicroSteps));
   const std::int64_t fields[] = {asb, s.current_tenths, s.speed, s.displacement};
   return Frame{header, node, std::nullopt, encode_fields(Layout::status, fields), false};
 }
@@ -252,7 +266,8 @@ std::optional<Notification> as_notification(const Frame& frame, std::uint8_t sta
   if (id < 0xA0 || id > 0xA9) return std::nullopt;
   n.event = static_cast<Event>(id);
   if (frame.data.empty()) return n;
-  if (n.event != Event::displacement_complete || frame.data.size() != data_length(Layout::flag_s32)) return std::nullopt;
+  if (n.event != Event::displacement_complete || frame.data.size() != data_length(Layout::flag_s32))
+    return std::nullopt;
   const auto fields = decode_fields(frame.data, Layout::flag_s32);
   n.closed_loop = (*fields)[0] != 0;
   n.position = static_cast<std::int32_t>((*fields)[1]);
@@ -279,7 +294,8 @@ std::optional<Greeting> as_greeting(const Frame& frame) noexcept {
 }
 
 Frame make_greeting(Greeting g) {
-  return Frame{Header::ack, 0, message::kGreeting, {0xAC, 0x19, 0x01, 0, 0, 0, 0, 0, g.version_high, g.version_low}, false};
+  return Frame{
+      Header::ack, 0, message::kGreeting, {0xAC, 0x19, 0x01, 0, 0, 0, 0, 0, g.version_high, g.version_low}, false};
 }
 
 // ---- FeedbackFramer ---------------------------------------------------------------------------

@@ -17,38 +17,67 @@ using T = Target;
 // Order = Mnemonic order. Sources: EN/CN §12.3 entries (#n), Summary, EXT-2501 for the gateway.
 constexpr std::array kTable{
     //            mnem           text   target         bare   dec    sign   min      max        hex glob
-    InstructionSpec{Mnemonic::Null, "",    T::controller, true,  false, false, 0,       0,         0, false, "query desired status (#1)"},
-    InstructionSpec{Mnemonic::ACR, "ACR", T::controller, true,  true,  false, 0,       99,        0, true,  "automatic current reduction: 0 off, 1 = 50 %, 2..99 % (#2, #3)"},
-    InstructionSpec{Mnemonic::BLC, "BLC", T::controller, true,  true,  false, 0,       kU16,      0, false, "backlash compensation, pulses (#4, #5)"},
-    InstructionSpec{Mnemonic::CUR, "CUR", T::controller, false, true,  false, 0,       80,        0, true,  "phase current, tenths of an ampere (#6)"},
-    InstructionSpec{Mnemonic::DOU, "DOU", T::controller, true,  true,  false, 0,       1,         0, true,  "TTL output P4 level (#7, #8)"},
-    InstructionSpec{Mnemonic::ENA, "ENA", T::controller, true,  true,  false, 1,       60000,     2, true,  "enable H-bridge; ENA η = auto-enable delay, ms (#9-#11)"},
-    InstructionSpec{Mnemonic::FBK, "FBK", T::controller, true,  false, false, 0,       0,         0, false, "read current motor status (#12)"},
-    InstructionSpec{Mnemonic::ICF, "ICF", T::controller, true,  true,  false, 0,       kU16,      2, false, "initial configuration register ICFG, reboots (#13, #14)"},
-    InstructionSpec{Mnemonic::MAC, "MAC", T::controller, true,  true,  false, 1,       kAccelerationMax, 0, false, "acceleration, pps/s (AM 0) or ms (AM 1) (#15, #16)"},
-    InstructionSpec{Mnemonic::MCF, "MCF", T::controller, true,  true,  false, 0,       kU16,      2, false, "master configuration register MCFG (#17, #18)"},
-    InstructionSpec{Mnemonic::MCS, "MCS", T::controller, false, true,  false, 1,       16,        0, true,  "micro-stepping 1, 2, 4, 8, 16 (#19)"},
-    InstructionSpec{Mnemonic::MDE, "MDE", T::controller, true,  true,  false, 1,       kAccelerationMax, 0, false, "deceleration, pps/s (DM 0) or ms (DM 1) (#20, #21)"},
-    InstructionSpec{Mnemonic::MDL, "MDL", T::controller, true,  true,  false, 5,       125,       0, false, "model, modules, firmware of controller η (#22)"},
-    InstructionSpec{Mnemonic::MMD, "MMD", T::controller, true,  true,  false, 0,       kU16,      0, false, "maximum cessation speed, pps (#23, #24)"},
-    InstructionSpec{Mnemonic::MMS, "MMS", T::controller, true,  true,  false, 0,       kU16,      0, false, "maximum starting speed, pps (#25, #26)"},
-    InstructionSpec{Mnemonic::OFF, "OFF", T::controller, true,  false, false, 0,       0,         0, true,  "disable H-bridge (#27)"},
-    InstructionSpec{Mnemonic::ORG, "ORG", T::controller, true,  true,  true,  -kS32,   kS32,      0, true,  "set the current position (#28, #29)"},
-    InstructionSpec{Mnemonic::QEC, "QEC", T::controller, true,  true,  true,  -2'000'000'000, 2'000'000'000, 0, true, "go to / read absolute encoder position (#30, #31)"},
-    InstructionSpec{Mnemonic::QER, "QER", T::controller, true,  true,  false, 0,       65000,     0, false, "encoder lines per revolution (#32, #33)"},
-    InstructionSpec{Mnemonic::SCF, "SCF", T::controller, true,  true,  false, 0,       1048563,   3, false, "sensor registers: register x 16 + suffix 0..3 (#34, #35)"},
-    InstructionSpec{Mnemonic::SFB, "SFB", T::controller, true,  false, false, 0,       0,         0, false, "read sensors (#36)"},
-    InstructionSpec{Mnemonic::SPD, "SPD", T::controller, true,  true,  true,  -kU16,   kU16,      0, true,  "desired speed, pps, sign = direction (#37, #38)"},
-    InstructionSpec{Mnemonic::SQT, "SQT", T::controller, true,  true,  false, 0,       kU16,      0, false, "stall tolerance (#39, #40)"},
-    InstructionSpec{Mnemonic::STG, "STG", T::controller, true,  false, false, 0,       0,         3, false, "sensor sampling modes (EN #40/#41, CN #41/#42)"},
-    InstructionSpec{Mnemonic::STO, "STO", T::controller, true,  true,  false, 0,       7,         0, false, "store / bind parameter group (EN #42/#43, CN #43)"},
-    InstructionSpec{Mnemonic::STP, "STP", T::controller, true,  true,  true,  -kS32,   kS32,      0, true,  "relative displacement, pulses; 0 = leave PT (#44, #45)"},
-    InstructionSpec{Mnemonic::ADR, "ADR", T::gateway,    false, true,  false, 5,       125,       0, false, "gateway: select target controller (EXT-2501 §3.3)"},
-    InstructionSpec{Mnemonic::SET, "SET", T::gateway,    false, true,  false, 5,       125,       0, false, "gateway: assign node id to the single controller (§3.1)"},
-    InstructionSpec{Mnemonic::BTR, "BTR", T::gateway,    true,  true,  false, 0,       15,        0, false, "gateway: CAN bit-rate index (Summary)"},
-    InstructionSpec{Mnemonic::BDR, "BDR", T::gateway,    false, true,  false, 9600,    115200,    0, false, "gateway: RS232 baud (EXT-2501 §2.3)"},
-    InstructionSpec{Mnemonic::ABC, "ABC", T::gateway,    true,  false, false, 0,       0,         0, false, "gateway: handshake, answered by the greeting (EXT-2501 §2.2)"},
-    InstructionSpec{Mnemonic::REG, "REG", T::gateway,    true,  false, false, 0,       0,         0, true,  "gateway: enumerate controllers, only as gREG (EXT-2501 §3.4)"},
+    InstructionSpec{Mnemonic::Null, "", T::controller, true, false, false, 0, 0, 0, false, "query desired status (#1)"},
+    InstructionSpec{Mnemonic::ACR, "ACR", T::controller, true, true, false, 0, 99, 0, true,
+                    "automatic current reduction: 0 off, 1 = 50 %, 2..99 % (#2, #3)"},
+    InstructionSpec{Mnemonic::BLC, "BLC", T::controller, true, true, false, 0, kU16, 0, false,
+                    "backlash compensation, pulses (#4, #5)"},
+    InstructionSpec{Mnemonic::CUR, "CUR", T::controller, false, true, false, 0, 80, 0, true,
+                    "phase current, tenths of an ampere (#6)"},
+    InstructionSpec{Mnemonic::DOU, "DOU", T::controller, true, true, false, 0, 1, 0, true,
+                    "TTL output P4 level (#7, #8)"},
+    InstructionSpec{Mnemonic::ENA, "ENA", T::controller, true, true, false, 1, 60000, 2, true,
+                    "enable H-bridge; ENA η = auto-enable delay, ms (#9-#11)"},
+    InstructionSpec{Mnemonic::FBK, "FBK", T::controller, true, false, false, 0, 0, 0, false,
+                    "read current motor status (#12)"},
+    InstructionSpec{Mnemonic::ICF, "ICF", T::controller, true, true, false, 0, kU16, 2, false,
+                    "initial configuration register ICFG, reboots (#13, #14)"},
+    InstructionSpec{Mnemonic::MAC, "MAC", T::controller, true, true, false, 1, kAccelerationMax, 0, false,
+                    "acceleration, pps/s (AM 0) or ms (AM 1) (#15, #16)"},
+    InstructionSpec{Mnemonic::MCF, "MCF", T::controller, true, true, false, 0, kU16, 2, false,
+                    "master configuration register MCFG (#17, #18)"},
+    InstructionSpec{Mnemonic::MCS, "MCS", T::controller, false, true, false, 1, 16, 0, true,
+                    "micro-stepping 1, 2, 4, 8, 16 (#19)"},
+    InstructionSpec{Mnemonic::MDE, "MDE", T::controller, true, true, false, 1, kAccelerationMax, 0, false,
+                    "deceleration, pps/s (DM 0) or ms (DM 1) (#20, #21)"},
+    InstructionSpec{Mnemonic::MDL, "MDL", T::controller, true, true, false, 5, 125, 0, false,
+                    "model, modules, firmware of controller η (#22)"},
+    InstructionSpec{Mnemonic::MMD, "MMD", T::controller, true, true, false, 0, kU16, 0, false,
+                    "maximum cessation speed, pps (#23, #24)"},
+    InstructionSpec{Mnemonic::MMS, "MMS", T::controller, true, true, false, 0, kU16, 0, false,
+                    "maximum starting speed, pps (#25, #26)"},
+    InstructionSpec{Mnemonic::OFF, "OFF", T::controller, true, false, false, 0, 0, 0, true, "disable H-bridge (#27)"},
+    InstructionSpec{Mnemonic::ORG, "ORG", T::controller, true, true, true, -kS32, kS32, 0, true,
+                    "set the current position (#28, #29)"},
+    InstructionSpec{Mnemonic::QEC, "QEC", T::controller, true, true, true, -2'000'000'000, 2'000'000'000, 0, true,
+                    "go to / read absolute encoder position (#30, #31)"},
+    InstructionSpec{Mnemonic::QER, "QER", T::controller, true, true, false, 0, 65000, 0, false,
+                    "encoder lines per revolution (#32, #33)"},
+    InstructionSpec{Mnemonic::SCF, "SCF", T::controller, true, true, false, 0, 1048563, 3, false,
+                    "sensor registers: register x 16 + suffix 0..3 (#34, #35)"},
+    InstructionSpec{Mnemonic::SFB, "SFB", T::controller, true, false, false, 0, 0, 0, false, "read sensors (#36)"},
+    InstructionSpec{Mnemonic::SPD, "SPD", T::controller, true, true, true, -kU16, kU16, 0, true,
+                    "desired speed, pps, sign = direction (#37, #38)"},
+    InstructionSpec{Mnemonic::SQT, "SQT", T::controller, true, true, false, 0, kU16, 0, false,
+                    "stall tolerance (#39, #40)"},
+    InstructionSpec{Mnemonic::STG, "STG", T::controller, true, false, false, 0, 0, 3, false,
+                    "sensor sampling modes (EN #40/#41, CN #41/#42)"},
+    InstructionSpec{Mnemonic::STO, "STO", T::controller, true, true, false, 0, 7, 0, false,
+                    "store / bind parameter group (EN #42/#43, CN #43)"},
+    InstructionSpec{Mnemonic::STP, "STP", T::controller, true, true, true, -kS32, kS32, 0, true,
+                    "relative displacement, pulses; 0 = leave PT (#44, #45)"},
+    InstructionSpec{Mnemonic::ADR, "ADR", T::gateway, false, true, false, 5, 125, 0, false,
+                    "gateway: select target controller (EXT-2501 §3.3)"},
+    InstructionSpec{Mnemonic::SET, "SET", T::gateway, false, true, false, 5, 125, 0, false,
+                    "gateway: assign node id to the single controller (§3.1)"},
+    InstructionSpec{Mnemonic::BTR, "BTR", T::gateway, true, true, false, 0, 15, 0, false,
+                    "gateway: CAN bit-rate index (Summary)"},
+    InstructionSpec{Mnemonic::BDR, "BDR", T::gateway, false, true, false, 9600, 115200, 0, false,
+                    "gateway: RS232 baud (EXT-2501 §2.3)"},
+    InstructionSpec{Mnemonic::ABC, "ABC", T::gateway, true, false, false, 0, 0, 0, false,
+                    "gateway: handshake, answered by the greeting (EXT-2501 §2.2)"},
+    InstructionSpec{Mnemonic::REG, "REG", T::gateway, true, false, false, 0, 0, 0, true,
+                    "gateway: enumerate controllers, only as gREG (EXT-2501 §3.4)"},
 };
 
 constexpr bool table_in_enum_order() {
@@ -256,7 +285,8 @@ std::optional<ScfWrite> scf_write(const Instruction& scf) noexcept {
 }
 
 Instruction make_scf(ScfWrite write) noexcept {
-  return Instruction{Mnemonic::SCF, false, std::int64_t{write.value} * 16 + static_cast<std::int64_t>(write.reg), false};
+  return Instruction{Mnemonic::SCF, false, std::int64_t{write.value} * 16 + static_cast<std::int64_t>(write.reg),
+                     false};
 }
 
 std::optional<StgWrite> stg_write(const Instruction& stg) noexcept {
@@ -290,7 +320,7 @@ std::vector<InstructionChunk> InstructionSplitter::push(std::span<const std::uin
       pending_.clear();
       overflow_ = false;
     } else if (c == '{') {
-      macro_ = true;   // this and the following instructions produce no ACK (§2.3)
+      macro_ = true;  // this and the following instructions produce no ACK (§2.3)
     } else if (c == '}') {
       macro_ = false;  // even without a trailing ';' (not stated in §2.3: assumed)
     } else if (!overflow_) {

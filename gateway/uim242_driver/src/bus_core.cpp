@@ -88,12 +88,14 @@ void Uim242BusCore::submit(Drive& d, Instruction in, std::int64_t group,
   channel_.submit(std::move(r), front);
 }
 
-void Uim242BusCore::run_sequence(Command& c, Drive& d, std::vector<Instruction> steps, std::function<void(TimePoint)> done) {
+void Uim242BusCore::run_sequence(Command& c, Drive& d, std::vector<Instruction> steps,
+                                 std::function<void(TimePoint)> done) {
   const std::int64_t id = c.command.command_id;
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const bool last = i + 1 == steps.size();
-    submit(d, steps[i], id, last ? std::function<void(const Frame&, TimePoint)>{[done](const Frame&, TimePoint now) { done(now); }}
-                                 : std::function<void(const Frame&, TimePoint)>{});
+    submit(d, steps[i], id,
+           last ? std::function<void(const Frame&, TimePoint)>{[done](const Frame&, TimePoint now) { done(now); }}
+                : std::function<void(const Frame&, TimePoint)>{});
   }
   if (steps.empty()) done(TimePoint{});
 }
@@ -104,7 +106,9 @@ void Uim242BusCore::finish(std::int64_t command_id, bool ok, const std::string& 
   if (c == nullptr) return;  // already ended: exactly one terminal reply
   if (param) c->reply.param(*param);
   // The one terminal reply; the entry leaves the ledger before anything below can end it again.
-  commands_.finish(command_id, ok ? Lifecycle::kDone : (error_code == kStopped ? Lifecycle::kStopped : Lifecycle::kFailed), ok ? 0 : error_code, reason);
+  commands_.finish(command_id,
+                   ok ? Lifecycle::kDone : (error_code == kStopped ? Lifecycle::kStopped : Lifecycle::kFailed),
+                   ok ? 0 : error_code, reason);
   channel_.cancel(command_id);
   std::erase_if(moves_, [command_id](const auto& m) { return m->command_id == command_id; });
   std::erase_if(rest_checks_, [command_id](const RestCheck& r) { return r.group == command_id; });
@@ -280,7 +284,9 @@ void Uim242BusCore::set_up(Drive& d) {
     return;
   }
   const std::int64_t wanted = std::get<long long>(it->second) & kIcfgBits;
-  const auto read_icfg = [](const Frame& f) { return field(f, uim242::reply_form(bare(Mnemonic::ICF)).layout, 0) & kIcfgBits; };
+  const auto read_icfg = [](const Frame& f) {
+    return field(f, uim242::reply_form(bare(Mnemonic::ICF)).layout, 0) & kIcfgBits;
+  };
   Request r;
   r.drive = d.name;
   r.node = d.node;
@@ -297,8 +303,10 @@ void Uim242BusCore::set_up(Drive& d) {
     w.on_reply = [this, &d, wanted, was = read_icfg(f)](const Frame&, TimePoint now) {
       ++icf_writes_;
       event(d, event_t::REBOOT, event_t::INFO, static_cast<std::int32_t>(wanted),
-            fmt::format("{} (node {}): ICFG 0x{:X} -> 0x{:X} (ICF), the controller reboots", d.name, d.node, was, wanted));
-      after(now + kIcfRebootCheck, [this, &d, wanted, give_up = now + kIcfRebootLimit](TimePoint t) { verify_icfg(d, wanted, give_up, t); });
+            fmt::format("{} (node {}): ICFG 0x{:X} -> 0x{:X} (ICF), the controller reboots", d.name, d.node, was,
+                        wanted));
+      after(now + kIcfRebootCheck,
+            [this, &d, wanted, give_up = now + kIcfRebootLimit](TimePoint t) { verify_icfg(d, wanted, give_up, t); });
     };
     w.on_failure = [this, &d](const std::string& reason, bool timed_out, TimePoint now) {
       event(d, event_t::CONFIG_MISMATCH, event_t::ERROR, 0, "set-up failed: " + reason);
@@ -321,12 +329,14 @@ void Uim242BusCore::verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up
   r.on_reply = [this, &d, wanted](const Frame& f, TimePoint now) {
     const std::int64_t read = field(f, uim242::reply_form(bare(Mnemonic::ICF)).layout, 0) & kIcfgBits;
     if (read == wanted) {
-      event(d, event_t::ONLINE, event_t::INFO, 0, fmt::format("{} (node {}): back after its reboot, ICFG reads 0x{:X}", d.name, d.node, read));
+      event(d, event_t::ONLINE, event_t::INFO, 0,
+            fmt::format("{} (node {}): back after its reboot, ICFG reads 0x{:X}", d.name, d.node, read));
       set_up_steps(d);
       return;
     }
     event(d, event_t::CONFIG_MISMATCH, event_t::ERROR, static_cast<std::int32_t>(read),
-          fmt::format("{} (node {}): ICFG reads 0x{:X} after the write and reboot (configured 0x{:X}); not ready", d.name, d.node, read, wanted));
+          fmt::format("{} (node {}): ICFG reads 0x{:X} after the write and reboot (configured 0x{:X}); not ready",
+                      d.name, d.node, read, wanted));
     publish(d, now);
   };
   r.on_failure = [this, &d, wanted, give_up](const std::string& reason, bool timed_out, TimePoint now) {
@@ -340,7 +350,9 @@ void Uim242BusCore::verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up
   channel_.submit(std::move(r), true);
 }
 
-void Uim242BusCore::after(TimePoint due, std::function<void(TimePoint)> then) { timers_.push_back({due, std::move(then)}); }
+void Uim242BusCore::after(TimePoint due, std::function<void(TimePoint)> then) {
+  timers_.push_back({due, std::move(then)});
+}
 
 void Uim242BusCore::set_up_steps(Drive& d) {
   const auto& setup = d.config->setup;
@@ -354,8 +366,9 @@ void Uim242BusCore::set_up_steps(Drive& d) {
   std::vector<Instruction> steps;
   if (const auto m = integer("micro_steps")) steps.push_back(set(Mnemonic::MCS, *m));
   if (const auto it = setup.find("current_a"); it != setup.end()) {
-    const double amps = std::holds_alternative<double>(it->second) ? std::get<double>(it->second)
-                                                                   : static_cast<double>(std::get<long long>(it->second));
+    const double amps = std::holds_alternative<double>(it->second)
+                            ? std::get<double>(it->second)
+                            : static_cast<double>(std::get<long long>(it->second));
     steps.push_back(set(Mnemonic::CUR, std::llround(amps * 10)));  // tenths of an ampere (#6)
   }
   steps.push_back(set(Mnemonic::MCF, integer("mcfg").value_or(kDefaultMcfg)));
@@ -364,7 +377,8 @@ void Uim242BusCore::set_up_steps(Drive& d) {
   steps.push_back(set(Mnemonic::MMS, 0));  // no non-linear jumps: the planner's exact trapezoid
   steps.push_back(set(Mnemonic::MMD, 0));
   steps.push_back(set(Mnemonic::STP, 0));  // velocity mode, desired speed 0
-  const auto submit_step = [this, &d](Instruction in, std::function<void(const Frame&, TimePoint)> on_reply, bool front) {
+  const auto submit_step = [this, &d](Instruction in, std::function<void(const Frame&, TimePoint)> on_reply,
+                                      bool front) {
     Request r;
     r.drive = d.name;
     r.node = d.node;
@@ -378,11 +392,17 @@ void Uim242BusCore::set_up_steps(Drive& d) {
   };
   // STLIE alone sends no stall notification: a STALL action of 0000 silences it. Keep a configured
   // action, else bind "notify only" (the sensor bits of S34CON stay as they are).
-  submit_step(bare(Mnemonic::SCF), [submit_step](const Frame& f, TimePoint) {
-    const auto s34con = static_cast<std::uint16_t>(static_cast<std::uint32_t>(field(f, uim242::Layout::scf, 0)) >> 16);
-    if ((s34con & kStallField) != 0) return;
-    submit_step(uim242::make_scf({uim242::SensorRegister::S34CON, static_cast<std::uint16_t>(s34con | kStallNotifyOnly)}), {}, true);
-  }, false);
+  submit_step(
+      bare(Mnemonic::SCF),
+      [submit_step](const Frame& f, TimePoint) {
+        const auto s34con =
+            static_cast<std::uint16_t>(static_cast<std::uint32_t>(field(f, uim242::Layout::scf, 0)) >> 16);
+        if ((s34con & kStallField) != 0) return;
+        submit_step(
+            uim242::make_scf({uim242::SensorRegister::S34CON, static_cast<std::uint16_t>(s34con | kStallNotifyOnly)}),
+            {}, true);
+      },
+      false);
   for (std::size_t i = 0; i < steps.size(); ++i) {
     std::function<void(const Frame&, TimePoint)> on_reply;
     if (i + 1 == steps.size()) {
@@ -462,8 +482,9 @@ void Uim242BusCore::poll(TimePoint now) {
         if (position == d.status.target_counts && !d.status.moving) {
           move_axis_arrived(d, t);
         } else if (still && t >= *due && ++d.still_polls >= kStillPollsBeforeFailure) {
-          fail_moves_of(d, fmt::format("{} (node {}): stopped at {} before the target {}", d.name, d.node, position,
-                                       d.status.target_counts),
+          fail_moves_of(d,
+                        fmt::format("{} (node {}): stopped at {} before the target {}", d.name, d.node, position,
+                                    d.status.target_counts),
                         kGroupFault);
         }
       }
@@ -476,11 +497,13 @@ void Uim242BusCore::poll(TimePoint now) {
 TimePoint Uim242BusCore::process(TimePoint now) {
   if (started_) poll(now);
   // Due rest checks leave the list before they ask again (settle() may add to it).
-  const auto split = std::stable_partition(rest_checks_.begin(), rest_checks_.end(), [now](const RestCheck& r) { return r.due > now; });
+  const auto split = std::stable_partition(rest_checks_.begin(), rest_checks_.end(),
+                                           [now](const RestCheck& r) { return r.due > now; });
   std::vector<RestCheck> due(std::make_move_iterator(split), std::make_move_iterator(rest_checks_.end()));
   rest_checks_.erase(split, rest_checks_.end());
   for (auto& r : due) settle(*r.drive, r.group, r.give_up, std::move(r.then));
-  const auto timers_split = std::stable_partition(timers_.begin(), timers_.end(), [now](const Timer& t) { return t.due > now; });
+  const auto timers_split =
+      std::stable_partition(timers_.begin(), timers_.end(), [now](const Timer& t) { return t.due > now; });
   std::vector<Timer> due_timers(std::make_move_iterator(timers_split), std::make_move_iterator(timers_.end()));
   timers_.erase(timers_split, timers_.end());
   for (auto& t : due_timers) t.then(now);

@@ -42,7 +42,8 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
   std::vector<std::size_t> parts;
   for (const auto& a : command.axes) {
     const Drive* d = drive_of_axis(a.axis);
-    if (d != nullptr && std::find(parts.begin(), parts.end(), index_of(*d)) == parts.end()) parts.push_back(index_of(*d));
+    if (d != nullptr && std::find(parts.begin(), parts.end(), index_of(*d)) == parts.end())
+      parts.push_back(index_of(*d));
   }
   Command* added = commands_.add(command, std::move(parts), CommandData{command.axes.size()});
   if (added == nullptr) {
@@ -62,18 +63,19 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
   // `after` runs when the drive answered, long after execute() returned: it gets its own copy of
   // the axis's command (the caller's `command` is gone by then; random lab seeds 2 and 4).
   using After = std::function<void(Drive&, const motionlcm::axis_command_t&)>;
-  const auto per_axis = [&](const std::function<std::vector<Instruction>(Drive&, const motionlcm::axis_command_t&)>& steps,
-                            const After& after = {}) {
-    for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) {
-      run_sequence(c, d, steps(d, a), [this, id, &d, after, a](TimePoint t) {
-        if (after) {
-          after(d, a);
-          if (t != TimePoint{}) publish(d, t);  // TimePoint{}: nothing was sent, nothing changed
-        }
-        part_done(id);
-      });
-    });
-  };
+  const auto per_axis =
+      [&](const std::function<std::vector<Instruction>(Drive&, const motionlcm::axis_command_t&)>& steps,
+          const After& after = {}) {
+        for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) {
+          run_sequence(c, d, steps(d, a), [this, id, &d, after, a](TimePoint t) {
+            if (after) {
+              after(d, a);
+              if (t != TimePoint{}) publish(d, t);  // TimePoint{}: nothing was sent, nothing changed
+            }
+            part_done(id);
+          });
+        });
+      };
   switch (command.kind) {
     case gateway_command_t::ENABLE:
       per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::ENA)}; },
@@ -84,10 +86,12 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
       const bool estop = command.kind == gateway_command_t::ESTOP;
       const std::string why = estop ? "stopped by ESTOP" : "axis disabled";
       for (const auto& a : command.axes) {
-        if (Drive* d = drive_of_axis(a.axis)) fail_moves_of(*d, fmt::format("{} (node {}): {}", d->name, d->node, why), kStopped);
+        if (Drive* d = drive_of_axis(a.axis))
+          fail_moves_of(*d, fmt::format("{} (node {}): {}", d->name, d->node, why), kStopped);
       }
-      const bool every_drive = estop && command.axes.size() == drives_.size() &&
-                               std::all_of(drives_.begin(), drives_.end(), [](const auto& d) { return d->status.online; });
+      const bool every_drive =
+          estop && command.axes.size() == drives_.size() &&
+          std::all_of(drives_.begin(), drives_.end(), [](const auto& d) { return d->status.online; });
       // After OFF the desired speed is set to 0: a controller keeps it while disabled, and ENA
       // runs the motor at it again (manual, ENA H-Bridge Enable; the "SPD 5000; ENA;" example), so
       // a later enable would resume the interrupted jog or move.
@@ -111,8 +115,11 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
         });
         return;
       }
-      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::OFF), set(Mnemonic::SPD, 0)}; },
-               [](Drive& d, const auto&) { d.status.enabled = false; });
+      per_axis(
+          [](Drive&, const auto&) {
+            return std::vector{bare(Mnemonic::OFF), set(Mnemonic::SPD, 0)};
+          },
+          [](Drive& d, const auto&) { d.status.enabled = false; });
       return;
     }
     case gateway_command_t::STOP:
@@ -131,8 +138,10 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
     case gateway_command_t::JOG:
       for (const auto& a : command.axes) {
         if (std::llround(std::abs(a.velocity)) > kSpeedMax) {
-          finish(id, false, fmt::format("axis '{}': jog velocity {} above the UIM242 maximum {} pps", a.axis, a.velocity, kSpeedMax),
-                 kOutsideLimits);
+          finish(
+              id, false,
+              fmt::format("axis '{}': jog velocity {} above the UIM242 maximum {} pps", a.axis, a.velocity, kSpeedMax),
+              kOutsideLimits);
           return;
         }
       }
@@ -149,7 +158,8 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
     case gateway_command_t::SET_OUTPUTS:
       for (const auto& a : command.axes) {
         if ((a.output_mask & ~1) != 0) {
-          finish(id, false, fmt::format("axis '{}': the UIM242 has one output (1 = P4), mask 0x{:X}", a.axis, a.output_mask),
+          finish(id, false,
+                 fmt::format("axis '{}': the UIM242 has one output (1 = P4), mask 0x{:X}", a.axis, a.output_mask),
                  kUnsupported);
           return;
         }
@@ -163,19 +173,19 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
           });
       return;
     case gateway_command_t::SET_POSITION:
-      per_axis([](Drive&, const motionlcm::axis_command_t& a) { return std::vector{set(Mnemonic::ORG, a.target_counts)}; },
-               [](Drive& d, const motionlcm::axis_command_t& a) { d.status.position_counts = a.target_counts; });
+      per_axis(
+          [](Drive&, const motionlcm::axis_command_t& a) { return std::vector{set(Mnemonic::ORG, a.target_counts)}; },
+          [](Drive& d, const motionlcm::axis_command_t& a) { d.status.position_counts = a.target_counts; });
       return;
     case gateway_command_t::HOME:
       for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) { home(c, d, *d.axis, a); });
       return;
     case gateway_command_t::PARAM_READ:
     case gateway_command_t::PARAM_WRITE:
-      for_each_axis(command, [&](Drive& d, const auto&) { param(command, d, command.kind == gateway_command_t::PARAM_WRITE); });
+      for_each_axis(command,
+                    [&](Drive& d, const auto&) { param(command, d, command.kind == gateway_command_t::PARAM_WRITE); });
       return;
-    case gateway_command_t::ARM_MOVE:
-      arm(command, now);
-      return;
+    case gateway_command_t::ARM_MOVE: arm(command, now); return;
     case gateway_command_t::DISARM: {
       // Forget armed moves (by trigger id, or naming these axes) and clear their loaded targets.
       std::vector<Drive*> loaded;
@@ -183,7 +193,8 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
       for (const auto& m : moves_) {
         const bool by_trigger = command.trigger_id != 0 && m->trigger_id == command.trigger_id;
         const bool by_axis = std::any_of(m->axes.begin(), m->axes.end(), [&](const auto& a) {
-          return std::any_of(command.axes.begin(), command.axes.end(), [&](const auto& ca) { return ca.axis == a.drive->axis_name; });
+          return std::any_of(command.axes.begin(), command.axes.end(),
+                             [&](const auto& ca) { return ca.axis == a.drive->axis_name; });
         });
         if (m->start_sent || !(by_trigger || by_axis)) continue;
         disarmed.push_back(m->command_id);
@@ -200,9 +211,7 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
       for (Drive* d : loaded) run_sequence(c, *d, {set(Mnemonic::STP, 0)}, [this, id](TimePoint) { part_done(id); });
       return;
     }
-    default:
-      finish(id, false, fmt::format("unknown command kind {}", command.kind), kMalformed);
-      return;
+    default: finish(id, false, fmt::format("unknown command kind {}", command.kind), kMalformed); return;
   }
 }
 
@@ -214,11 +223,15 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
   for (const auto& a : command.axes) {
     Drive* d = drive_of_axis(a.axis);
     if (!d) return (void)finish(id, false, fmt::format("axis '{}' is not on bus {}", a.axis, bus_), kUnknownAxis);
-    if (!d->status.online) return (void)finish(id, false, fmt::format("{} (node {}) is offline", d->name, d->node), kAxisOffline);
-    if (!d->status.enabled) return (void)finish(id, false, fmt::format("{} (node {}) of axis '{}' is disabled", d->name, d->node, a.axis), kAxisDisabled);
+    if (!d->status.online)
+      return (void)finish(id, false, fmt::format("{} (node {}) is offline", d->name, d->node), kAxisOffline);
+    if (!d->status.enabled)
+      return (void)finish(id, false, fmt::format("{} (node {}) of axis '{}' is disabled", d->name, d->node, a.axis),
+                          kAxisDisabled);
     const std::int64_t speed = std::llround(std::abs(a.velocity));
     if (speed < 1 || speed > kSpeedMax) {
-      return (void)finish(id, false, fmt::format("axis '{}': speed {} pps outside 1..{} (SPD)", a.axis, a.velocity, kSpeedMax),
+      return (void)finish(id, false,
+                          fmt::format("axis '{}': speed {} pps outside 1..{} (SPD)", a.axis, a.velocity, kSpeedMax),
                           kOutsideLimits);
     }
     move->axes.push_back({d, a.target_counts, speed, clamp_rate(a.acceleration),
@@ -232,7 +245,8 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
     commands_.advance(id, index_of(d), Lifecycle::kArmed);
     const Command* armed = commands_.find(id);
     if (armed == nullptr || !armed->all(Lifecycle::kArmed)) return;
-    if (std::any_of(m.axes.begin(), m.axes.end(), [](const auto& a) { return !a.loaded; })) return;  // an axis named twice
+    if (std::any_of(m.axes.begin(), m.axes.end(), [](const auto& a) { return !a.loaded; }))
+      return;  // an axis named twice
     if (m.trigger_id == 0) start_move(m, t);
   };
   for (auto& axis : m.axes) {
@@ -240,27 +254,29 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
     // Ramps and zero speed first (`SPD 0;` brakes a motor still running), then at rest the
     // position the relative STP is computed from (settle: EN/CN #44 counts STP from the
     // position at its receipt, which must be the position read).
-    run_sequence(c, d, {set(Mnemonic::MAC, axis.acceleration), set(Mnemonic::MDE, axis.deceleration), set(Mnemonic::SPD, 0)},
-                 [this, &c, &d, &axis, loaded, id](TimePoint t0) {
-    settle(d, id, t0 + kRestLimit, [this, &c, &d, &axis, loaded](TimePoint t) {
-      const std::int64_t position = d.status.position_counts;
-      const std::int64_t displacement = axis.target - position;
-      if (displacement == 0) {  // already there: `STP 0;` would mean "leave PT", not "move 0"
-        axis.loaded = axis.arrived = true;
-        loaded(d, t);
-        return;
-      }
-      if (std::abs(displacement) > std::numeric_limits<std::int32_t>::max()) {
-        finish(c.command.command_id, false, fmt::format("{} (node {}): displacement {} beyond STP's range", d.name, d.node, displacement),
-               kOutsideLimits);
-        return;
-      }
-      run_sequence(c, d, {set(Mnemonic::STP, displacement)}, [&axis, &d, loaded](TimePoint t2) {
-        axis.loaded = true;
-        loaded(d, t2);
-      });
-    });
-                 });
+    run_sequence(
+        c, d, {set(Mnemonic::MAC, axis.acceleration), set(Mnemonic::MDE, axis.deceleration), set(Mnemonic::SPD, 0)},
+        [this, &c, &d, &axis, loaded, id](TimePoint t0) {
+          settle(d, id, t0 + kRestLimit, [this, &c, &d, &axis, loaded](TimePoint t) {
+            const std::int64_t position = d.status.position_counts;
+            const std::int64_t displacement = axis.target - position;
+            if (displacement == 0) {  // already there: `STP 0;` would mean "leave PT", not "move 0"
+              axis.loaded = axis.arrived = true;
+              loaded(d, t);
+              return;
+            }
+            if (std::abs(displacement) > std::numeric_limits<std::int32_t>::max()) {
+              finish(c.command.command_id, false,
+                     fmt::format("{} (node {}): displacement {} beyond STP's range", d.name, d.node, displacement),
+                     kOutsideLimits);
+              return;
+            }
+            run_sequence(c, d, {set(Mnemonic::STP, displacement)}, [&axis, &d, loaded](TimePoint t2) {
+              axis.loaded = true;
+              loaded(d, t2);
+            });
+          });
+        });
   }
   (void)now;
 }
@@ -274,7 +290,8 @@ void Uim242BusCore::fire(std::int64_t trigger_id, TimePoint now) {
   std::vector<std::int64_t> ids;
   for (const auto& m : moves_) {
     const Command* c = commands_.find(m->command_id);
-    if (!m->start_sent && c != nullptr && c->all(Lifecycle::kArmed) && m->trigger_id == trigger_id) ids.push_back(m->command_id);
+    if (!m->start_sent && c != nullptr && c->all(Lifecycle::kArmed) && m->trigger_id == trigger_id)
+      ids.push_back(m->command_id);
   }
   for (const auto id : ids) {
     const auto it = std::find_if(moves_.begin(), moves_.end(), [id](const auto& m) { return m->command_id == id; });
@@ -307,7 +324,8 @@ void Uim242BusCore::start_move(Move& m, TimePoint now) {
     m.last_start = sent;
   };
   for (auto* a : to_start) {
-    a->planned = trapezoid_duration(a->target - a->drive->status.position_counts, a->speed, a->acceleration, a->deceleration);
+    a->planned =
+        trapezoid_duration(a->target - a->drive->status.position_counts, a->speed, a->acceleration, a->deceleration);
     a->drive->status.target_counts = a->target;
     a->drive->status.in_position = false;
     a->drive->still_polls = 0;
@@ -318,7 +336,8 @@ void Uim242BusCore::start_move(Move& m, TimePoint now) {
     return;
   }
   const bool every_drive = to_start.size() == drives_.size();
-  const bool one_speed = std::all_of(to_start.begin(), to_start.end(), [&](const auto* a) { return a->speed == to_start.front()->speed; });
+  const bool one_speed =
+      std::all_of(to_start.begin(), to_start.end(), [&](const auto* a) { return a->speed == to_start.front()->speed; });
   if (every_drive && one_speed) {
     // Every controller is loaded with SPD 0 and its target: one global speed starts them all.
     Request r;
@@ -404,61 +423,71 @@ void Uim242BusCore::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a
   // Leave PT (stops whatever ran), ramps, zero speed; then at rest the position the displacement
   // to the limit is counted from (STP counts from the position at its receipt, EN/CN #44).
   d.jog_command = id;
-  run_sequence(c, d,
-               {set(Mnemonic::STP, 0), set(Mnemonic::MAC, clamp_rate(a.acceleration)),
-                set(Mnemonic::MDE, clamp_rate(a.deceleration > 0 ? a.deceleration : a.acceleration)), set(Mnemonic::SPD, 0)},
-               [this, &c, &d, a, v, id](TimePoint t0) {
-    settle(d, id, t0 + kRestLimit, [this, &c, &d, a, v, id](TimePoint) {
-      const auto limits = gateway::CountLimits::of(*d.axis);
-      const auto room = gateway::jog_room(limits, a.velocity, d.status.position_counts);
-      if (!room) {
-        d.jog_command = 0;
-        finish(id, false,
-               fmt::format("axis {}: jog toward {:.6g} {} refused: it stands at {} counts, less than one count from that limit "
-                           "({:.6g} counts)",
-                           a.axis, limits.position_units(limits.limit_toward(a.velocity)), d.axis->unit, d.status.position_counts,
-                           limits.limit_toward(a.velocity)),
-               kOutsideLimits);
-        return;
-      }
-      // STP's range is a 32-bit count (EN/CN #44): a longer way is run in the part that fits.
-      constexpr std::int64_t kStpMax = std::numeric_limits<std::int32_t>::max();
-      const std::int64_t displacement = std::clamp(*room, -kStpMax, kStpMax);
-      run_sequence(c, d, {set(Mnemonic::STP, displacement), set(Mnemonic::SPD, std::abs(v))}, [this, &d, id](TimePoint) {
-        if (d.jog_command == id) d.jog_command = 0;
-        part_done(id);
+  run_sequence(
+      c, d,
+      {set(Mnemonic::STP, 0), set(Mnemonic::MAC, clamp_rate(a.acceleration)),
+       set(Mnemonic::MDE, clamp_rate(a.deceleration > 0 ? a.deceleration : a.acceleration)), set(Mnemonic::SPD, 0)},
+      [this, &c, &d, a, v, id](TimePoint t0) {
+        settle(d, id, t0 + kRestLimit, [this, &c, &d, a, v, id](TimePoint) {
+          const auto limits = gateway::CountLimits::of(*d.axis);
+          const auto room = gateway::jog_room(limits, a.velocity, d.status.position_counts);
+          if (!room) {
+            d.jog_command = 0;
+            finish(id, false,
+                   fmt::format("axis {}: jog toward {:.6g} {} refused: it stands at {} counts, less than one count "
+                               "from that limit "
+                               "({:.6g} counts)",
+                               a.axis, limits.position_units(limits.limit_toward(a.velocity)), d.axis->unit,
+                               d.status.position_counts, limits.limit_toward(a.velocity)),
+                   kOutsideLimits);
+            return;
+          }
+          // STP's range is a 32-bit count (EN/CN #44): a longer way is run in the part that fits.
+          constexpr std::int64_t kStpMax = std::numeric_limits<std::int32_t>::max();
+          const std::int64_t displacement = std::clamp(*room, -kStpMax, kStpMax);
+          run_sequence(c, d, {set(Mnemonic::STP, displacement), set(Mnemonic::SPD, std::abs(v))},
+                       [this, &d, id](TimePoint) {
+                         if (d.jog_command == id) d.jog_command = 0;
+                         part_done(id);
+                       });
+        });
       });
-    });
-  });
 }
 
 void Uim242BusCore::settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then) {
-  submit(d, bare(Mnemonic::FBK), group, [this, &d, group, give_up, then = std::move(then)](const Frame& f, TimePoint t) mutable {
-    const auto s = uim242::decode_status(f);
-    const std::int64_t speed = s ? s->speed : 0;
-    if (speed != 0) {
-      d.status.moving = true;
-      d.status.velocity_counts = static_cast<double>(speed);
-      if (t >= give_up) {
-        finish(group, false, fmt::format("{} (node {}): still moving at {} pps, not at rest within {} s", d.name, d.node, speed,
-                                         std::chrono::duration_cast<std::chrono::seconds>(kRestLimit).count()),
-               kDriveError);
-        return;
-      }
-      rest_checks_.push_back({t + kRestCheck, &d, group, give_up, std::move(then)});
-      return;
-    }
-    // At rest: the real position, published not moving before anything plans from it.
-    submit(d, bare(Mnemonic::QEC), group, [this, &d, then = std::move(then)](const Frame& q, TimePoint t2) {
-      const std::int64_t position = field(q, uim242::Layout::s32, 0);
-      d.status.position_counts = position;
-      d.last_polled_position = position;
-      d.status.moving = false;
-      d.status.velocity_counts = 0;
-      publish(d, t2);
-      then(t2);
-    }, true);
-  }, true);
+  submit(
+      d, bare(Mnemonic::FBK), group,
+      [this, &d, group, give_up, then = std::move(then)](const Frame& f, TimePoint t) mutable {
+        const auto s = uim242::decode_status(f);
+        const std::int64_t speed = s ? s->speed : 0;
+        if (speed != 0) {
+          d.status.moving = true;
+          d.status.velocity_counts = static_cast<double>(speed);
+          if (t >= give_up) {
+            finish(group, false,
+                   fmt::format("{} (node {}): still moving at {} pps, not at rest within {} s", d.name, d.node, speed,
+                               std::chrono::duration_cast<std::chrono::seconds>(kRestLimit).count()),
+                   kDriveError);
+            return;
+          }
+          rest_checks_.push_back({t + kRestCheck, &d, group, give_up, std::move(then)});
+          return;
+        }
+        // At rest: the real position, published not moving before anything plans from it.
+        submit(
+            d, bare(Mnemonic::QEC), group,
+            [this, &d, then = std::move(then)](const Frame& q, TimePoint t2) {
+              const std::int64_t position = field(q, uim242::Layout::s32, 0);
+              d.status.position_counts = position;
+              d.last_polled_position = position;
+              d.status.moving = false;
+              d.status.velocity_counts = 0;
+              publish(d, t2);
+              then(t2);
+            },
+            true);
+      },
+      true);
 }
 
 void Uim242BusCore::homed(Drive& d, std::int64_t offset, TimePoint now) {
@@ -509,7 +538,8 @@ void Uim242BusCore::home(Command& c, Drive& d, const config::Axis& axis, const m
     d.homing_edge = static_cast<uim242::Event>(0xA0 + 2 * (input - 1) + (rising ? 1 : 0));
     d.homing_offset = offset;
     d.homing_command = c.command.command_id;  // from here on, an end without the edge restores the register
-    run_sequence(c, d, {uim242::make_scf({which, bound}), set(Mnemonic::STP, 0), set(Mnemonic::SPD, speed)}, [](TimePoint) {});
+    run_sequence(c, d, {uim242::make_scf({which, bound}), set(Mnemonic::STP, 0), set(Mnemonic::SPD, speed)},
+                 [](TimePoint) {});
   });
 }
 
@@ -520,7 +550,8 @@ void Uim242BusCore::param(const gateway_command_t& command, Drive& d, bool write
     finish(id, false, fmt::format("parameter space {} is not UIM242_INSTRUCTION", p.space), kMalformed);
     return;
   }
-  const auto m = p.mnemonic.size() >= 3 ? uim242::parse_mnemonic(std::string_view(p.mnemonic).substr(0, 3)) : std::nullopt;
+  const auto m =
+      p.mnemonic.size() >= 3 ? uim242::parse_mnemonic(std::string_view(p.mnemonic).substr(0, 3)) : std::nullopt;
   if (!m || uim242::spec(*m).target != uim242::Target::controller || *m == Mnemonic::Null) {
     finish(id, false, fmt::format("'{}' is not a UIM242 controller instruction", p.mnemonic), kMalformed);
     return;
@@ -530,7 +561,8 @@ void Uim242BusCore::param(const gateway_command_t& command, Drive& d, bool write
   const auto layout = [](const Instruction& i) { return uim242::reply_form(i).layout; };
   if (write) {
     const auto out_of_range = [&] {
-      finish(id, false, fmt::format("{} (node {}): value {} outside the range of {}", d.name, d.node, p.value, p.mnemonic),
+      finish(id, false,
+             fmt::format("{} (node {}): value {} outside the range of {}", d.name, d.node, p.value, p.mnemonic),
              kOutsideLimits);
     };
     const bool by_register = (*m == Mnemonic::SCF || *m == Mnemonic::STG) && p.subindex >= 0;
@@ -539,7 +571,8 @@ void Uim242BusCore::param(const gateway_command_t& command, Drive& d, bool write
       // go out as 4464.
       const std::int32_t last = *m == Mnemonic::SCF ? 3 : 2;
       if (p.subindex > last) {
-        finish(id, false, fmt::format("{} (node {}): {} has no register {} (0..{})", d.name, d.node, p.mnemonic, p.subindex, last),
+        finish(id, false,
+               fmt::format("{} (node {}): {} has no register {} (0..{})", d.name, d.node, p.mnemonic, p.subindex, last),
                kOutsideLimits);
         return;
       }
@@ -565,7 +598,9 @@ void Uim242BusCore::param(const gateway_command_t& command, Drive& d, bool write
         break;
       case Mnemonic::ENA: in = Instruction{Mnemonic::ENA, false, 0xFFFF, true}; break;
       case Mnemonic::MDL: in = set(Mnemonic::MDL, d.node); break;
-      case Mnemonic::OFF: case Mnemonic::ORG: case Mnemonic::STO:
+      case Mnemonic::OFF:
+      case Mnemonic::ORG:
+      case Mnemonic::STO:
         finish(id, false, fmt::format("{} has no read form (its bare form acts)", p.mnemonic), kUnsupported);
         return;
       default: break;

@@ -23,10 +23,10 @@
 
 namespace motion::uim242_driver {
 
+using gateway::Lifecycle;
 using motionlcm::event_t;
 using motionlcm::gateway_command_t;
 using motionlcm::gateway_reply_t;
-using gateway::Lifecycle;
 using uim242::Frame;
 using uim242::Instruction;
 using uim242::Mnemonic;
@@ -88,7 +88,8 @@ inline std::int64_t clamp_rate(double counts_per_s2) {
 
 // Duration of a trapezoidal (or, when too short to reach `speed`, triangular) run of `distance`
 // counts: a slow short move shows no position change between polls while it still runs.
-inline Duration trapezoid_duration(std::int64_t distance, std::int64_t speed, std::int64_t acceleration, std::int64_t deceleration) {
+inline Duration trapezoid_duration(std::int64_t distance, std::int64_t speed, std::int64_t acceleration,
+                                   std::int64_t deceleration) {
   const double d = static_cast<double>(std::llabs(distance));
   const double v = static_cast<double>(std::max<std::int64_t>(speed, 1));
   const double a = static_cast<double>(std::max<std::int64_t>(acceleration, 1));

@@ -65,14 +65,17 @@ TimePoint RequestChannel::process(TimePoint now) {
                      true, now);
     }
   }
-  if (reserved_at_ != kNever && now >= reserved_at_ + 5 * kReplyAllowance) reserved_at_ = kNever;  // its start never came
+  if (reserved_at_ != kNever && now >= reserved_at_ + 5 * kReplyAllowance)
+    reserved_at_ = kNever;  // its start never came
   while (!in_flight_ && !queue_.empty()) {
     if (now < hold_until_) return hold_until_;  // the pause after an STO
     if (queue_.front().not_before > now) return queue_.front().not_before;
     if (reserved_at_ != kNever && now < reserved_at_ + 5 * kReplyAllowance) {
       const auto text = uim242::encode(queue_.front().instruction);
-      const std::int64_t chars = static_cast<std::int64_t>(text ? text->size() : 16U) + 24 + (queue_.front().node != selected_ ? 8 : 0);
-      if (now + settings_.character_time * chars + kReplyAllowance > reserved_at_) return reserved_at_ + 5 * kReplyAllowance;
+      const std::int64_t chars =
+          static_cast<std::int64_t>(text ? text->size() : 16U) + 24 + (queue_.front().node != selected_ ? 8 : 0);
+      if (now + settings_.character_time * chars + kReplyAllowance > reserved_at_)
+        return reserved_at_ + 5 * kReplyAllowance;
     }
     InFlight f{std::move(queue_.front()), false, 0, now, false};
     queue_.pop_front();
@@ -98,7 +101,8 @@ bool RequestChannel::on_frame(const uim242::Frame& frame, TimePoint now) {
   if (const auto error = uim242::as_error(frame)) {
     ++stats_.errors;
     if (in_flight_->is_selection) selected_ = 0;
-    finish_failure(fmt::format("{}: refused with {}", describe(in_flight_->request), error->code.message()), false, now);
+    finish_failure(fmt::format("{}: refused with {}", describe(in_flight_->request), error->code.message()), false,
+                   now);
     return true;
   }
   if (in_flight_->is_selection) {

@@ -50,7 +50,8 @@ class CodecCategory final : public std::error_category {
       case CodecErrc::ack_bit_in_reply: return "drive frame with CW bit 7 set";
       case CodecErrc::not_a_notification: return "not a real-time notification (CW 0x5A)";
       case CodecErrc::producer_not_host:
-        return "a UIMessage has no producer field: a serial gateway carries only instructions from the host (producer 4)";
+        return "a UIMessage has no producer field: a serial gateway carries only instructions from the host (producer "
+               "4)";
     }
     return "unknown uim342 codec error";
   }

@@ -63,13 +63,23 @@ std::error_code write_body(Layout layout, const Body& body, std::span<std::uint8
     case L::empty:
     case L::zeros4: return std::holds_alternative<Empty>(body) ? std::error_code{} : mismatch;
     case L::index:
-      if (const auto* b = std::get_if<Index>(&body)) { d[0] = b->index; return {}; }
+      if (const auto* b = std::get_if<Index>(&body)) {
+        d[0] = b->index;
+        return {};
+      }
       return mismatch;
     case L::byte:
-      if (const auto* b = std::get_if<Byte>(&body)) { d[0] = b->value; return {}; }
+      if (const auto* b = std::get_if<Byte>(&body)) {
+        d[0] = b->value;
+        return {};
+      }
       return mismatch;
     case L::indexed_byte:
-      if (const auto* b = std::get_if<IndexedByte>(&body)) { d[0] = b->index; d[1] = b->value; return {}; }
+      if (const auto* b = std::get_if<IndexedByte>(&body)) {
+        d[0] = b->index;
+        d[1] = b->value;
+        return {};
+      }
       return mismatch;
     case L::input_logic:
       if (const auto* b = std::get_if<InputActions>(&body); b && is_input_port(b->index)) {
@@ -89,10 +99,16 @@ std::error_code write_body(Layout layout, const Body& body, std::span<std::uint8
       }
       return mismatch;
     case L::u32:
-      if (const auto* b = std::get_if<Unsigned>(&body)) { bytes::write_le(d, 0, b->value); return {}; }
+      if (const auto* b = std::get_if<Unsigned>(&body)) {
+        bytes::write_le(d, 0, b->value);
+        return {};
+      }
       return mismatch;
     case L::s32:
-      if (const auto* b = std::get_if<Signed>(&body)) { bytes::write_le(d, 0, b->value); return {}; }
+      if (const auto* b = std::get_if<Signed>(&body)) {
+        bytes::write_le(d, 0, b->value);
+        return {};
+      }
       return mismatch;
     case L::indexed_s32:
       if (const auto* b = std::get_if<IndexedSigned>(&body)) {
@@ -102,10 +118,18 @@ std::error_code write_body(Layout layout, const Body& body, std::span<std::uint8
       }
       return mismatch;
     case L::digital_output:
-      if (const auto* b = std::get_if<DigitalOutput>(&body)) { d[0] = b->outputs; d[1] = b->write_enable; return {}; }
+      if (const auto* b = std::get_if<DigitalOutput>(&body)) {
+        d[0] = b->outputs;
+        d[1] = b->write_enable;
+        return {};
+      }
       return mismatch;
     case L::digital_io:
-      if (const auto* b = std::get_if<DigitalIo>(&body)) { d[0] = b->inputs; d[1] = b->outputs; return {}; }
+      if (const auto* b = std::get_if<DigitalIo>(&body)) {
+        d[0] = b->inputs;
+        d[1] = b->outputs;
+        return {};
+      }
       return mismatch;
     case L::model:
       if (const auto* b = std::get_if<ModelInfo>(&body)) {
@@ -168,7 +192,8 @@ Result<Body> read_body(Layout layout, std::span<const std::uint8_t> d) {
     case L::byte: return Body{Byte{d[0]}};
     case L::indexed_byte: return Body{IndexedByte{d[0], d[1]}};
     case L::input_logic:
-      if (is_input_port(d[0])) return Body{InputActions{d[0], EdgeAction::from_byte(d[1]), EdgeAction::from_byte(d[2])}};
+      if (is_input_port(d[0]))
+        return Body{InputActions{d[0], EdgeAction::from_byte(d[1]), EdgeAction::from_byte(d[2])}};
       return Body{IndexedWord{d[0], u16(1)}};
     case L::indexed_word: return Body{IndexedWord{d[0], u16(1)}};
     case L::u32: return Body{Unsigned{u32(0)}};
@@ -230,9 +255,12 @@ std::string value_text(const Body& body) {
     std::string operator()(const Signed& b) const { return fmt::format("{}", b.value); }
     std::string operator()(const IndexedSigned& b) const { return fmt::format("{}", b.value); }
     std::string operator()(const DigitalOutput& b) const { return fmt::format("0x{:02X}", b.outputs); }
-    std::string operator()(const DigitalIo& b) const { return fmt::format("in 0x{:02X} out 0x{:02X}", b.inputs, b.outputs); }
+    std::string operator()(const DigitalIo& b) const {
+      return fmt::format("in 0x{:02X} out 0x{:02X}", b.inputs, b.outputs);
+    }
     std::string operator()(const ModelInfo& b) const {
-      return fmt::format("{:02X} {:02X} {:02X} fw {}", b.model_bytes[0], b.model_bytes[1], b.model_bytes[2], b.firmware);
+      return fmt::format("{:02X} {:02X} {:02X} fw {}", b.model_bytes[0], b.model_bytes[1], b.model_bytes[2],
+                         b.firmware);
     }
     std::string operator()(const SerialNumber& b) const {
       return fmt::format("sn {} mfr {} vendor {}", b.serial, b.manufacturer, b.vendor);
@@ -308,8 +336,9 @@ std::uint8_t layout_length(Layout layout) noexcept {
 std::span<const InstructionForms> instruction_table() noexcept { return kTable; }
 
 const InstructionForms* find_forms(std::uint8_t function_code) noexcept {
-  const auto* it = std::find_if(kTable.begin(), kTable.end(),
-                                [function_code](const InstructionForms& f) { return code(f.function) == function_code; });
+  const auto* it = std::find_if(kTable.begin(), kTable.end(), [function_code](const InstructionForms& f) {
+    return code(f.function) == function_code;
+  });
   return it == kTable.end() ? nullptr : &*it;
 }
 
@@ -351,7 +380,8 @@ Result<Instruction> decode_instruction(const Message& message) {
   } else {
     return CodecErrc::wrong_length;
   }
-  const auto body = read_body(layout, message.length < layout_length(layout) ? std::span<const std::uint8_t>(extended) : data);
+  const auto body =
+      read_body(layout, message.length < layout_length(layout) ? std::span<const std::uint8_t>(extended) : data);
   if (!body) return body.error();
   out.body = *body;
   return out;
@@ -490,7 +520,8 @@ std::optional<Reply> echo_ack(const Instruction& set) {
 }
 
 Reply error_report(DriveErrc error, std::uint8_t received_control_word, std::uint8_t sub_index) {
-  return Reply{FC::ER, ErrorRecord{kErrorSlotLatest, static_cast<std::uint8_t>(error), received_control_word, sub_index, {}}};
+  return Reply{FC::ER,
+               ErrorRecord{kErrorSlotLatest, static_cast<std::uint8_t>(error), received_control_word, sub_index, {}}};
 }
 
 }  // namespace motion::uim342

@@ -22,29 +22,29 @@ struct IndexedRange {
   ValueRange range;
 };
 constexpr std::array kIndexedRanges{
-    IndexedRange{FC::PP, 5, 5, {0, 4}},          // bit rate code
+    IndexedRange{FC::PP, 5, 5, {0, 4}},  // bit rate code
     IndexedRange{FC::PP, 7, 8, {kMinNodeId, kMaxNodeId}},
     IndexedRange{FC::IC, 0, 7, {0, 1}},
     IndexedRange{FC::IE, 0, 2, {0, 1}},
     IndexedRange{FC::IE, 8, 8, {0, 1}},
-    IndexedRange{FC::QE, 0, 0, {1, kU16Max}},    // lines per revolution
-    IndexedRange{FC::QE, 1, 1, {10, kU16Max}},   // stall tolerance
-    IndexedRange{FC::QE, 2, 2, {17, 20}},        // 17 or 20 bits
-    IndexedRange{FC::QE, 3, 3, {0, 1}},          // battery status
-    IndexedRange{FC::QE, 4, 4, {200, 25600}},    // counts per revolution
-    IndexedRange{FC::MT, 0, 0, {1, 64}},         // micro-steps, powers of two
-    IndexedRange{FC::MT, 1, 1, {5, 80}},         // 0.1 A
-    IndexedRange{FC::MT, 2, 2, {0, 100}},        // %
-    IndexedRange{FC::MT, 3, 3, {0, 60000}},      // ms
+    IndexedRange{FC::QE, 0, 0, {1, kU16Max}},   // lines per revolution
+    IndexedRange{FC::QE, 1, 1, {10, kU16Max}},  // stall tolerance
+    IndexedRange{FC::QE, 2, 2, {17, 20}},       // 17 or 20 bits
+    IndexedRange{FC::QE, 3, 3, {0, 1}},         // battery status
+    IndexedRange{FC::QE, 4, 4, {200, 25600}},   // counts per revolution
+    IndexedRange{FC::MT, 0, 0, {1, 64}},        // micro-steps, powers of two
+    IndexedRange{FC::MT, 1, 1, {5, 80}},        // 0.1 A
+    IndexedRange{FC::MT, 2, 2, {0, 100}},       // %
+    IndexedRange{FC::MT, 3, 3, {0, 60000}},     // ms
     IndexedRange{FC::TG, 0, 2, {0, kTriggerOneTime}},
-    IndexedRange{FC::IL, 0, 2, {0, kU16Max}},    // two action bytes, checked separately
+    IndexedRange{FC::IL, 0, 2, {0, kU16Max}},  // two action bytes, checked separately
     IndexedRange{FC::IL, kInputLogicStallBehaviourAlias, kInputLogicStallBehaviourAlias, {0, 1}},
     IndexedRange{FC::IL, kInputLogicStallBehaviour, kInputLogicStallBehaviour, {0, 1}},
     IndexedRange{FC::ER, kErrorSlotLatest, kErrorSlotLatest, {0, 0}},  // only "=0" (clear)
     IndexedRange{FC::ER, kErrorSlotPowerOn, kErrorSlotPowerOn, {0, 0}},
     IndexedRange{FC::ER, kErrorSlotHistoryFirst, kErrorSlotHistoryLast, {0, 0}},
-    IndexedRange{FC::MS, 0, 0, {0, 0}},          // MS[0]=0 clears the flags
-    IndexedRange{FC::MS, 1, 1, {1, 0}},          // readable, never writable (empty range)
+    IndexedRange{FC::MS, 0, 0, {0, 0}},  // MS[0]=0 clears the flags
+    IndexedRange{FC::MS, 1, 1, {1, 0}},  // readable, never writable (empty range)
     IndexedRange{FC::DV, 0, 4, {1, 0}},
     IndexedRange{FC::SY, 1, 2, {0, 0}},
 };
@@ -71,7 +71,9 @@ std::optional<std::int64_t> set_value(const Body& body) {
   return std::nullopt;
 }
 
-bool is_known_action(EdgeAction a) { return static_cast<std::uint8_t>(a.action) <= static_cast<std::uint8_t>(InputAction::absolute); }
+bool is_known_action(EdgeAction a) {
+  return static_cast<std::uint8_t>(a.action) <= static_cast<std::uint8_t>(InputAction::absolute);
+}
 
 // Values the range admits but the enumeration does not.
 bool excluded(FunctionCode function, std::uint8_t index, std::int64_t value) {
@@ -103,7 +105,8 @@ std::optional<ValueRange> value_range(FunctionCode function, std::uint8_t index,
     case FC::MF: return ValueRange{0, static_cast<std::uint8_t>(ParameterGroup::in3_falling)};
     case FC::AC:
     case FC::DC:
-      return unit == AccelerationUnit::pulses_per_s2 ? ValueRange{1, kAccelerationRateMax} : ValueRange{1, kAccelerationTimeMaxMs};
+      return unit == AccelerationUnit::pulses_per_s2 ? ValueRange{1, kAccelerationRateMax}
+                                                     : ValueRange{1, kAccelerationTimeMaxMs};
     case FC::SS:
     case FC::SD: return ValueRange{0, kU32Max};
     case FC::BL: return ValueRange{0, kBacklashMax};
@@ -127,8 +130,9 @@ std::error_code check_instruction(const Instruction& instruction, AccelerationUn
   if (instruction.operation == Operation::get) return {};
 
   if (const auto* actions = std::get_if<InputActions>(&instruction.body)) {
-    return is_known_action(actions->falling) && is_known_action(actions->rising) ? std::error_code{}
-                                                                                 : make_error_code(DriveErrc::data_error);
+    return is_known_action(actions->falling) && is_known_action(actions->rising)
+               ? std::error_code{}
+               : make_error_code(DriveErrc::data_error);
   }
   const auto value = set_value(instruction.body);
   if (!value) return {};  // BG, ST, OG, SY, DI: nothing numeric to check
@@ -153,7 +157,8 @@ double pps_to_rpm(std::int32_t pps, std::uint32_t counts_per_rev) noexcept {
   return counts_per_rev == 0 ? 0.0 : static_cast<double>(pps) * 60.0 / static_cast<double>(counts_per_rev);
 }
 
-Result<std::uint32_t> acceleration_to_wire(double rate_pps2, AccelerationUnit unit, double speed_pps, double cut_in_pps) {
+Result<std::uint32_t> acceleration_to_wire(double rate_pps2, AccelerationUnit unit, double speed_pps,
+                                           double cut_in_pps) {
   const auto range = *value_range(FC::AC, 0, unit);
   if (unit == AccelerationUnit::pulses_per_s2) return rounded_in(rate_pps2, range);
   if (!std::isfinite(rate_pps2) || rate_pps2 <= 0.0 || !std::isfinite(speed_pps) || !std::isfinite(cut_in_pps)) {
@@ -164,7 +169,8 @@ Result<std::uint32_t> acceleration_to_wire(double rate_pps2, AccelerationUnit un
   return rounded_in(delta / rate_pps2 * 1000.0, range);
 }
 
-double acceleration_from_wire(std::uint32_t value, AccelerationUnit unit, double speed_pps, double cut_in_pps) noexcept {
+double acceleration_from_wire(std::uint32_t value, AccelerationUnit unit, double speed_pps,
+                              double cut_in_pps) noexcept {
   if (unit == AccelerationUnit::pulses_per_s2) return value;
   const double delta = std::abs(speed_pps) - cut_in_pps;
   if (delta <= 0.0 || value == 0) return std::numeric_limits<double>::infinity();
@@ -172,7 +178,8 @@ double acceleration_from_wire(std::uint32_t value, AccelerationUnit unit, double
 }
 
 Result<std::uint16_t> current_to_wire(double amps) {
-  const auto tenths = rounded_in(amps * 10.0, *value_range(FC::MT, static_cast<std::uint8_t>(MotorDriver::working_current)));
+  const auto tenths =
+      rounded_in(amps * 10.0, *value_range(FC::MT, static_cast<std::uint8_t>(MotorDriver::working_current)));
   if (!tenths) return tenths.error();
   return static_cast<std::uint16_t>(*tenths);
 }

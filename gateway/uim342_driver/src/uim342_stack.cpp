@@ -12,7 +12,8 @@ Uim342StackConfig Uim342StackConfig::from(const config::Config& config, std::str
   const auto* b = config.find_bus(bus);
   if (b) {
     out.bitrate = static_cast<std::uint32_t>(std::max(b->bitrate, 1));
-    out.poll_period = std::chrono::milliseconds(b->poll_hz > 0 ? static_cast<long>(std::lround(1000.0 / b->poll_hz)) : 1000);
+    out.poll_period =
+        std::chrono::milliseconds(b->poll_hz > 0 ? static_cast<long>(std::lround(1000.0 / b->poll_hz)) : 1000);
   }
   for (const auto& d : config.drives) {
     if (d.family != config::Family::kUim342 || d.bus != bus) continue;
@@ -37,7 +38,10 @@ Uim342StackConfig Uim342StackConfig::from(const config::Config& config, std::str
 // ---- the stack -----------------------------------------------------------------------------------
 
 Uim342Stack::Impl::Impl(Uim342StackConfig c, CanStackContext ctx, WallClock wc, Counters& shared_counters)
-    : config(std::move(c)), context(std::move(ctx)), wall(wc ? std::move(wc) : WallClock{system_wall_clock}), counters(shared_counters) {
+    : config(std::move(c)),
+      context(std::move(ctx)),
+      wall(wc ? std::move(wc) : WallClock{system_wall_clock}),
+      counters(shared_counters) {
   for (const auto& n : config.nodes) {
     Node node;
     node.cfg = n;
@@ -59,15 +63,17 @@ Duration Uim342Stack::Impl::poll_exchange_time(std::uint8_t node, std::uint32_t 
 void Uim342Stack::Impl::fit_poll_period() {
   poll_period = config.poll_period;
   const auto cycle = 2 * exchange_time * static_cast<std::int64_t>(nodes.size());  // one poll of every drive
-  const auto needed = std::chrono::duration_cast<Duration>(std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / kPollBusShare));
+  const auto needed = std::chrono::duration_cast<Duration>(
+      std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / kPollBusShare));
   if (needed <= poll_period) return;
   poll_period = std::chrono::ceil<std::chrono::milliseconds>(needed);
   poll_warning = fmt::format(
-      "bus {}: polling {} UIM342 drives at {:.1f} Hz needs {:.0f}% of {} bit/s; polling each at {:.1f} Hz instead (polls keep to {:.0f}% "
+      "bus {}: polling {} UIM342 drives at {:.1f} Hz needs {:.0f}% of {} bit/s; polling each at {:.1f} Hz instead "
+      "(polls keep to {:.0f}% "
       "of the bus)",
       config.bus, nodes.size(), 1.0 / std::chrono::duration<double>(config.poll_period).count(),
-      100.0 * std::chrono::duration<double>(cycle).count() / std::chrono::duration<double>(config.poll_period).count(), config.bitrate,
-      1.0 / std::chrono::duration<double>(poll_period).count(), 100.0 * kPollBusShare);
+      100.0 * std::chrono::duration<double>(cycle).count() / std::chrono::duration<double>(config.poll_period).count(),
+      config.bitrate, 1.0 / std::chrono::duration<double>(poll_period).count(), 100.0 * kPollBusShare);
 }
 
 // How long a request just handed to the transport may wait for the wire: every other request
@@ -84,7 +90,8 @@ void Uim342Stack::Impl::publish(Node& n, TimePoint now) {
   context.out->axis_status(n.cfg.axis, n.status);
 }
 
-void Uim342Stack::Impl::event(const Node& n, std::int16_t kind, std::int8_t severity, std::int32_t code, std::string text) {
+void Uim342Stack::Impl::event(const Node& n, std::int16_t kind, std::int8_t severity, std::int32_t code,
+                              std::string text) {
   DriveEvent e;
   e.kind = kind;
   e.severity = severity;
@@ -103,14 +110,16 @@ void Uim342Stack::Impl::finish(std::int64_t id, Lifecycle terminal, std::int32_t
     std::erase_if(n.queue, [id](const Request& r) { return r.command_id == id && !r.sent; });
     if (n.homing.command == id) {
       // A homing that ends early leaves no origin action armed (§5.26): IL[i] as it was.
-      if (n.homing.armed && n.homing.previous) enqueue(i, rq::set_input_logic(n.homing.port, n.homing.previous->falling, n.homing.previous->rising), 0);
+      if (n.homing.armed && n.homing.previous)
+        enqueue(i, rq::set_input_logic(n.homing.port, n.homing.previous->falling, n.homing.previous->rising), 0);
       n.homing = {};
     }
   }
 }
 
 // Every command with work on node `i` (queued requests or an active move) fails.
-void Uim342Stack::Impl::fail_commands_of(std::size_t i, std::int32_t code, const std::string& reason, std::int64_t except) {
+void Uim342Stack::Impl::fail_commands_of(std::size_t i, std::int32_t code, const std::string& reason,
+                                         std::int64_t except) {
   std::set<std::int64_t> ids;
   for (const auto& r : nodes[i].queue) {
     if (r.command_id != 0 && r.command_id != except) ids.insert(r.command_id);
@@ -119,7 +128,8 @@ void Uim342Stack::Impl::fail_commands_of(std::size_t i, std::int32_t code, const
   for (const auto id : ids) fail(id, code, reason);
 }
 
-Uim342Stack::Impl::Request& Uim342Stack::Impl::enqueue(std::size_t i, Instruction instruction, std::int64_t command_id, bool front) {
+Uim342Stack::Impl::Request& Uim342Stack::Impl::enqueue(std::size_t i, Instruction instruction, std::int64_t command_id,
+                                                       bool front) {
   Request r;
   r.instruction = std::move(instruction);
   r.command_id = command_id;
@@ -133,11 +143,13 @@ Uim342Stack::Impl::Request& Uim342Stack::Impl::enqueue(std::size_t i, Instructio
 }
 
 void Uim342Stack::Impl::drop_requests(std::int64_t command_id) {
-  for (auto& n : nodes) std::erase_if(n.queue, [command_id](const Request& r) { return r.command_id == command_id && !r.sent; });
+  for (auto& n : nodes)
+    std::erase_if(n.queue, [command_id](const Request& r) { return r.command_id == command_id && !r.sent; });
 }
 
 bool Uim342Stack::Impl::has_request_of(std::size_t i, std::int64_t command_id) const {
-  return std::any_of(nodes[i].queue.begin(), nodes[i].queue.end(), [command_id](const Request& r) { return r.command_id == command_id; });
+  return std::any_of(nodes[i].queue.begin(), nodes[i].queue.end(),
+                     [command_id](const Request& r) { return r.command_id == command_id; });
 }
 
 bool Uim342Stack::Impl::transmit(std::uint8_t target, const Instruction& instruction) {
@@ -188,11 +200,13 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
 
 // A start frame (BG to `target`) of a move was handed to the transport; the driver dates the
 // STARTED reply by its echo when it can (CanStackContext::start_frame).
-void Uim342Stack::Impl::on_sent(std::int64_t command_id, std::uint8_t target, const std::vector<std::size_t>& parts, TimePoint now) {
+void Uim342Stack::Impl::on_sent(std::int64_t command_id, std::uint8_t target, const std::vector<std::size_t>& parts,
+                                TimePoint now) {
   Command* c = commands.find(command_id);
   if (!c || c->command.kind != gateway_command_t::ARM_MOVE) return;
   if (context.start_frame) {
-    if (const auto frame = uim342::instruction_frame(target, rq::begin()); frame.ok()) context.start_frame(command_id, *frame);
+    if (const auto frame = uim342::instruction_frame(target, rq::begin()); frame.ok())
+      context.start_frame(command_id, *frame);
   }
   if (c->reply.peek().trigger_utime == 0) {
     c->reply.started(wall(now), c->reply.peek().start_mechanism, c->reply.peek().predicted_skew_us);
@@ -252,7 +266,8 @@ bool Uim342Stack::Impl::on_frame(const can::Frame& frame, TimePoint now) {
     return false;
   }
   const auto message = uim342::decode_can(frame);
-  const auto drive_message = message ? uim342::decode_drive_message(message->message) : uim342::Result<uim342::DriveMessage>(message.error());
+  const auto drive_message =
+      message ? uim342::decode_drive_message(message->message) : uim342::Result<uim342::DriveMessage>(message.error());
   if (!drive_message) {
     ++counters.malformed;
     return true;
@@ -267,9 +282,11 @@ bool Uim342Stack::Impl::on_frame(const can::Frame& frame, TimePoint now) {
   return true;
 }
 
-void Uim342Stack::Impl::on_reply(std::size_t i, const uim342::Message& message, const uim342::Reply& reply, TimePoint now) {
+void Uim342Stack::Impl::on_reply(std::size_t i, const uim342::Message& message, const uim342::Reply& reply,
+                                 TimePoint now) {
   Node& n = nodes[i];
-  const auto kind = n.busy() ? uim342::classify_reply(n.queue.front().instruction, message) : uim342::ReplyKind::unrelated;
+  const auto kind =
+      n.busy() ? uim342::classify_reply(n.queue.front().instruction, message) : uim342::ReplyKind::unrelated;
   if (kind == uim342::ReplyKind::ack) {
     const Request r = std::move(n.queue.front());
     n.queue.pop_front();
@@ -295,7 +312,8 @@ void Uim342Stack::Impl::on_reply(std::size_t i, const uim342::Message& message, 
 // §2.3: the instruction was not executed.
 void Uim342Stack::Impl::refused(std::size_t i, const Request& r, const uim342::ErrorRecord& record, TimePoint now) {
   Node& n = nodes[i];
-  const auto reason = fmt::format("{} refused {}: {}", n.name(), uim342::to_string(r.instruction), record.error().message());
+  const auto reason =
+      fmt::format("{} refused {}: {}", n.name(), uim342::to_string(r.instruction), record.error().message());
   event(n, event_t::ERROR_REPORT, event_t::WARNING, record.code, reason);
   if (r.command_id != 0) {
     fail(r.command_id, error_code(ReplyError::kDriveError), reason);
@@ -316,7 +334,8 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
     const auto text = fmt::format("{}: {} (alarm 0x{:02X})", n.name(), uim342::describe(alarm->alarm), code);
     std::int16_t kind = event_t::ALARM;
     if (alarm->alarm == uim342::AlarmCode::stall) kind = event_t::STALL;
-    if (alarm->alarm == uim342::AlarmCode::below_lower_limit || alarm->alarm == uim342::AlarmCode::above_upper_limit) kind = event_t::LIMIT;
+    if (alarm->alarm == uim342::AlarmCode::below_lower_limit || alarm->alarm == uim342::AlarmCode::above_upper_limit)
+      kind = event_t::LIMIT;
     const bool warning_only = alarm->alarm == uim342::AlarmCode::encoder_battery_low;
     event(n, kind, warning_only ? event_t::WARNING : event_t::ERROR, code, text);
     if (!warning_only) {
@@ -330,8 +349,10 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
     const int bit = 1 << static_cast<int>(edge->port);
     n.status.inputs = edge->edge == uim342::Edge::rising ? (n.status.inputs | bit) : (n.status.inputs & ~bit);
     event(n, event_t::INPUT_EDGE, event_t::INFO, static_cast<std::int32_t>(edge->code()),
-          fmt::format("{}: IN{} {} edge", n.name(), static_cast<int>(edge->port) + 1, edge->edge == uim342::Edge::rising ? "rising" : "falling"));
-    if (n.homing.step == Node::Homing::Step::searching && edge->port == n.homing.port && (edge->edge == uim342::Edge::rising) == n.homing.rising) {
+          fmt::format("{}: IN{} {} edge", n.name(), static_cast<int>(edge->port) + 1,
+                      edge->edge == uim342::Edge::rising ? "rising" : "falling"));
+    if (n.homing.step == Node::Homing::Step::searching && edge->port == n.homing.port &&
+        (edge->edge == uim342::Edge::rising) == n.homing.rising) {
       n.homing.edge_seen = true;
     }
     publish(n, now);
@@ -383,7 +404,8 @@ void Uim342Stack::Impl::timed_out(std::size_t i, TimePoint now) {
     }
   }
   ++counters.timeouts;
-  const auto reason = fmt::format("{} did not answer {} after {} tries", n.name(), uim342::mnemonic(r.instruction.function), r.attempts);
+  const auto reason = fmt::format("{} did not answer {} after {} tries", n.name(),
+                                  uim342::mnemonic(r.instruction.function), r.attempts);
   event(n, event_t::TIMEOUT, event_t::WARNING, 0, reason);
   if (r.command_id != 0) fail(r.command_id, error_code(ReplyError::kTimeout), reason);
   go_offline(i, reason, now);
@@ -394,7 +416,8 @@ void Uim342Stack::Impl::timed_out(std::size_t i, TimePoint now) {
 Uim342Stack::Uim342Stack(Uim342StackConfig config, CanStackContext context, WallClock wall_clock)
     : impl_(std::make_unique<Impl>(std::move(config), std::move(context), std::move(wall_clock), counters_)) {}
 
-Uim342Stack::Uim342Stack(const config::Config& config, std::string_view bus, CanStackContext context, WallClock wall_clock)
+Uim342Stack::Uim342Stack(const config::Config& config, std::string_view bus, CanStackContext context,
+                         WallClock wall_clock)
     : Uim342Stack(Uim342StackConfig::from(config, bus), std::move(context), std::move(wall_clock)) {}
 
 Uim342Stack::~Uim342Stack() = default;
@@ -427,7 +450,8 @@ void Uim342Stack::fire(std::int64_t trigger_id, TimePoint now) { impl_->fire(tri
 Duration Uim342Stack::poll_period() const { return impl_->poll_period; }
 
 bool Uim342Stack::ready() const {
-  return impl_->started && std::all_of(impl_->nodes.begin(), impl_->nodes.end(), [](const Impl::Node& n) { return n.phase == Impl::Phase::ready; });
+  return impl_->started && std::all_of(impl_->nodes.begin(), impl_->nodes.end(),
+                                       [](const Impl::Node& n) { return n.phase == Impl::Phase::ready; });
 }
 
 void Uim342Stack::add_statistics(motionlcm::bus_stats_t& stats) const {

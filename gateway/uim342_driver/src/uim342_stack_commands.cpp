@@ -32,7 +32,8 @@ void Uim342Stack::Impl::arrived(std::size_t i, TimePoint) {
   n.status.in_position = true;
   n.status.moving = false;
   n.status.target_counts = c->data.targets.at(i);
-  event(n, event_t::MOTION_COMPLETE, event_t::INFO, 0, fmt::format("{} in position at {}", n.name(), n.status.position_counts));
+  event(n, event_t::MOTION_COMPLETE, event_t::INFO, 0,
+        fmt::format("{} in position at {}", n.name(), n.status.position_counts));
   const auto others_done = std::count(c->parts.begin(), c->parts.end(), Lifecycle::kDone);
   if (static_cast<std::size_t>(others_done) + 1 == c->parts.size()) {
     done(id);  // the last part: the nodes let go of the command, the ledger replies DONE
@@ -62,12 +63,15 @@ void Uim342Stack::Impl::start_move(Command& c, TimePoint now) {
   bool one_frame = group != 0;
   for (const auto i : c.nodes) one_frame = one_frame && nodes[i].cfg.group_id == group && nodes[i].group_ok;
   for (std::size_t i = 0; i < nodes.size() && one_frame; ++i) {
-    if (nodes[i].cfg.group_id == group && std::find(c.nodes.begin(), c.nodes.end(), i) == c.nodes.end()) one_frame = false;
+    if (nodes[i].cfg.group_id == group && std::find(c.nodes.begin(), c.nodes.end(), i) == c.nodes.end())
+      one_frame = false;
   }
   const auto bg_frame = uim342::instruction_frame(one_frame ? group : nodes[c.nodes.front()].cfg.node_id, rq::begin());
-  const auto frame_us = std::chrono::duration<double, std::micro>(can::frame_duration(*bg_frame, config.bitrate)).count();
+  const auto frame_us =
+      std::chrono::duration<double, std::micro>(can::frame_duration(*bg_frame, config.bitrate)).count();
   // trigger_utime is set when the first BG is handed over (on_sent()).
-  c.reply.started(0, one_frame ? "group-bg" : "sequential", one_frame ? 0.0 : frame_us * static_cast<double>(c.nodes.size() - 1));
+  c.reply.started(0, one_frame ? "group-bg" : "sequential",
+                  one_frame ? 0.0 : frame_us * static_cast<double>(c.nodes.size() - 1));
   std::shared_ptr<GroupSend> shared;
   if (one_frame) shared = std::make_shared<GroupSend>(GroupSend{group, c.nodes});
   for (const auto i : c.nodes) enqueue(i, rq::begin(), c.command.command_id, /*front=*/true).group = shared;
@@ -91,11 +95,13 @@ void Uim342Stack::Impl::execute(const gateway_command_t& cmd, TimePoint now) {
   for (const auto& a : cmd.axes) {
     const auto i = node_of_axis(a.axis);
     if (!i) {
-      commands.reject(cmd, error_code(ReplyError::kUnknownAxis), fmt::format("axis '{}' is not driven by a uim342 drive on bus {}", a.axis, config.bus));
+      commands.reject(cmd, error_code(ReplyError::kUnknownAxis),
+                      fmt::format("axis '{}' is not driven by a uim342 drive on bus {}", a.axis, config.bus));
       return;
     }
     if (data.targets.count(*i) != 0) {
-      commands.reject(cmd, error_code(ReplyError::kMalformedRequest), fmt::format("{} names axis '{}' twice", command_name(cmd.kind), a.axis));
+      commands.reject(cmd, error_code(ReplyError::kMalformedRequest),
+                      fmt::format("{} names axis '{}' twice", command_name(cmd.kind), a.axis));
       return;
     }
     parts.push_back(*i);
@@ -113,13 +119,15 @@ void Uim342Stack::Impl::execute(const gateway_command_t& cmd, TimePoint now) {
     const bool starts_motion = cmd.kind == gateway_command_t::ARM_MOVE || cmd.kind == gateway_command_t::JOG ||
                                cmd.kind == gateway_command_t::HOME || cmd.kind == gateway_command_t::SET_POSITION;
     if (starts_motion && n.move != 0) {
-      commands.reject(cmd, error_code(ReplyError::kAxisBusy), fmt::format("{} is busy with move command {}", n.name(), n.move));
+      commands.reject(cmd, error_code(ReplyError::kAxisBusy),
+                      fmt::format("{} is busy with move command {}", n.name(), n.move));
       return;
     }
   }
   Command* stored = commands.add(cmd, std::move(parts), std::move(data));
   if (stored == nullptr) {
-    commands.reject(cmd, error_code(ReplyError::kMalformedRequest), fmt::format("command id {} is already in progress", cmd.command_id));
+    commands.reject(cmd, error_code(ReplyError::kMalformedRequest),
+                    fmt::format("command id {} is already in progress", cmd.command_id));
     return;
   }
   stored->reply.bus(config.bus);
@@ -148,13 +156,16 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
     case gateway_command_t::DISABLE: {
       const bool on = c.command.kind == gateway_command_t::ENABLE;
       for (const auto i : c.nodes) {
-        if (!on && nodes[i].move != 0) fail(nodes[i].move, error_code(ReplyError::kStopped), fmt::format("{} disabled by command {}", nodes[i].name(), id));
+        if (!on && nodes[i].move != 0)
+          fail(nodes[i].move, error_code(ReplyError::kStopped),
+               fmt::format("{} disabled by command {}", nodes[i].name(), id));
         enqueue(i, rq::driver_on(on), id);
       }
       return std::nullopt;
     }
     case gateway_command_t::ARM_MOVE:
-      if (auto p = each([&](std::size_t i, const motionlcm::axis_command_t& a) { return load_move(c, i, a); })) return p;
+      if (auto p = each([&](std::size_t i, const motionlcm::axis_command_t& a) { return load_move(c, i, a); }))
+        return p;
       for (const auto i : c.nodes) {
         nodes[i].move = id;
         nodes[i].bg_acked = false;
@@ -184,7 +195,9 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
             const auto* other = commands.find(r.command_id);
             if (r.command_id == id || other == nullptr) continue;
             const auto kind = other->command.kind;
-            if (kind == gateway_command_t::JOG || kind == gateway_command_t::HOME || kind == gateway_command_t::ARM_MOVE) motion.insert(r.command_id);
+            if (kind == gateway_command_t::JOG || kind == gateway_command_t::HOME ||
+                kind == gateway_command_t::ARM_MOVE)
+              motion.insert(r.command_id);
           }
           for (const auto m : motion) fail(m, error_code(ReplyError::kStopped), reason);
         }
@@ -206,10 +219,12 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
     case gateway_command_t::SET_OUTPUTS:
       return each([&](std::size_t i, const motionlcm::axis_command_t& a) -> Problem {
         if ((a.output_mask & ~1) != 0) {
-          return std::pair{fmt::format("{} has one digital output (OP1, bit 0); mask 0x{:X} names others", nodes[i].name(), a.output_mask),
+          return std::pair{fmt::format("{} has one digital output (OP1, bit 0); mask 0x{:X} names others",
+                                       nodes[i].name(), a.output_mask),
                            error_code(ReplyError::kUnsupported)};
         }
-        const auto outputs = static_cast<std::uint8_t>((nodes[i].status.outputs & ~a.output_mask) | (a.output_value & a.output_mask));
+        const auto outputs =
+            static_cast<std::uint8_t>((nodes[i].status.outputs & ~a.output_mask) | (a.output_value & a.output_mask));
         enqueue(i, rq::set_outputs(outputs), id);
         return std::nullopt;
       });
@@ -219,25 +234,30 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
       std::set<std::int64_t> armed;
       for (const auto i : c.nodes) {
         const auto* move = commands.find(nodes[i].move);
-        if (move != nullptr && move->all(Lifecycle::kArmed) && (c.command.trigger_id == 0 || move->command.trigger_id == c.command.trigger_id)) {
+        if (move != nullptr && move->all(Lifecycle::kArmed) &&
+            (c.command.trigger_id == 0 || move->command.trigger_id == c.command.trigger_id)) {
           armed.insert(nodes[i].move);
         }
       }
-      for (const auto a : armed) fail(a, error_code(ReplyError::kStopped), fmt::format("move disarmed by command {}", id));
+      for (const auto a : armed)
+        fail(a, error_code(ReplyError::kStopped), fmt::format("move disarmed by command {}", id));
       return std::nullopt;
     }
     default:
-      return std::pair{fmt::format("command kind {} is not supported by the uim342 stack", int{c.command.kind}), error_code(ReplyError::kUnsupported)};
+      return std::pair{fmt::format("command kind {} is not supported by the uim342 stack", int{c.command.kind}),
+                       error_code(ReplyError::kUnsupported)};
   }
 }
 
 // AC/DC in the drive's IC[4] unit; nullopt when the command leaves the drive's value.
-Uim342Stack::Impl::Problem Uim342Stack::Impl::ramp(std::size_t i, double rate, double speed, bool acceleration, std::int64_t id) {
+Uim342Stack::Impl::Problem Uim342Stack::Impl::ramp(std::size_t i, double rate, double speed, bool acceleration,
+                                                   std::int64_t id) {
   if (rate <= 0) return std::nullopt;
   const Node& n = nodes[i];
   const auto wire = uim342::acceleration_to_wire(rate, n.unit, speed, n.cut_in_pps);
   if (!wire) {
-    return std::pair{fmt::format("{}: {} {} counts/s^2 is outside the drive's range", n.name(), acceleration ? "acceleration" : "deceleration", rate),
+    return std::pair{fmt::format("{}: {} {} counts/s^2 is outside the drive's range", n.name(),
+                                 acceleration ? "acceleration" : "deceleration", rate),
                      error_code(ReplyError::kOutsideLimits)};
   }
   enqueue(i, acceleration ? rq::set_acceleration(*wire) : rq::set_deceleration(*wire), id);
@@ -248,11 +268,15 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_move(Command& c, std::size_t 
   const Node& n = nodes[i];
   const auto speed = uim342::speed_to_pps(std::abs(a.velocity));
   if (!speed || *speed <= 0) {
-    return std::pair{fmt::format("{}: ARM_MOVE needs a positive speed within 32 bits (got {} counts/s)", n.name(), a.velocity), error_code(ReplyError::kOutsideLimits)};
+    return std::pair{
+        fmt::format("{}: ARM_MOVE needs a positive speed within 32 bits (got {} counts/s)", n.name(), a.velocity),
+        error_code(ReplyError::kOutsideLimits)};
   }
   const std::int64_t drive_target = a.target_counts - n.offset;
-  if (drive_target < std::numeric_limits<std::int32_t>::min() || drive_target > std::numeric_limits<std::int32_t>::max()) {
-    return std::pair{fmt::format("{}: target {} counts does not fit PA (32 bits)", n.name(), a.target_counts), error_code(ReplyError::kOutsideLimits)};
+  if (drive_target < std::numeric_limits<std::int32_t>::min() ||
+      drive_target > std::numeric_limits<std::int32_t>::max()) {
+    return std::pair{fmt::format("{}: target {} counts does not fit PA (32 bits)", n.name(), a.target_counts),
+                     error_code(ReplyError::kOutsideLimits)};
   }
   const auto id = c.command.command_id;
   // §5.19: in PTP mode PR/PA first, then SP (otherwise error #50).
@@ -264,7 +288,9 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_move(Command& c, std::size_t 
 
 Uim342Stack::Impl::Problem Uim342Stack::Impl::load_jog(Command& c, std::size_t i, const motionlcm::axis_command_t& a) {
   const auto speed = uim342::speed_to_pps(a.velocity);
-  if (!speed) return std::pair{fmt::format("{}: jog speed {} counts/s does not fit 32 bits", nodes[i].name(), a.velocity), error_code(ReplyError::kOutsideLimits)};
+  if (!speed)
+    return std::pair{fmt::format("{}: jog speed {} counts/s does not fit 32 bits", nodes[i].name(), a.velocity),
+                     error_code(ReplyError::kOutsideLimits)};
   const auto id = c.command.command_id;
   enqueue(i, rq::set_jog_velocity(*speed), id);
   const double magnitude = std::abs(static_cast<double>(*speed));
@@ -278,26 +304,38 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_jog(Command& c, std::size_t i
 Uim342Stack::Impl::Problem Uim342Stack::Impl::load_param(Command& c) {
   const auto& p = c.command.param;
   const bool write = c.command.kind == gateway_command_t::PARAM_WRITE;
-  if (c.nodes.size() != 1) return std::pair{std::string("a parameter command names exactly one axis"), error_code(ReplyError::kMalformedRequest)};
+  if (c.nodes.size() != 1)
+    return std::pair{std::string("a parameter command names exactly one axis"),
+                     error_code(ReplyError::kMalformedRequest)};
   const Node& n = nodes[c.nodes.front()];
   if (p.space != motionlcm::param_t::UIM342_INSTRUCTION) {
-    return std::pair{fmt::format("{} takes UIM342 parameters (space {}), not space {}", n.name(), int{motionlcm::param_t::UIM342_INSTRUCTION}, int{p.space}),
+    return std::pair{fmt::format("{} takes UIM342 parameters (space {}), not space {}", n.name(),
+                                 int{motionlcm::param_t::UIM342_INSTRUCTION}, int{p.space}),
                      error_code(ReplyError::kUnsupported)};
   }
-  const auto* forms = p.index >= 0 && p.index <= 0x7F ? uim342::find_forms(static_cast<std::uint8_t>(p.index)) : nullptr;
-  if (!forms) return std::pair{fmt::format("{}: 0x{:02X} is not a UIM342 instruction", n.name(), p.index), error_code(ReplyError::kMalformedRequest)};
+  const auto* forms =
+      p.index >= 0 && p.index <= 0x7F ? uim342::find_forms(static_cast<std::uint8_t>(p.index)) : nullptr;
+  if (!forms)
+    return std::pair{fmt::format("{}: 0x{:02X} is not a UIM342 instruction", n.name(), p.index),
+                     error_code(ReplyError::kMalformedRequest)};
   const auto instruction = param_instruction(*forms, p, write);
-  if (!instruction) return std::pair{fmt::format("{}: {} has no {} form with this sub-index", n.name(), forms->mnemonic, write ? "set" : "get"), error_code(ReplyError::kMalformedRequest)};
+  if (!instruction)
+    return std::pair{
+        fmt::format("{}: {} has no {} form with this sub-index", n.name(), forms->mnemonic, write ? "set" : "get"),
+        error_code(ReplyError::kMalformedRequest)};
   if (write) {
     if (const auto ec = uim342::check_instruction(*instruction, n.unit)) {
-      return std::pair{fmt::format("{}: {} refused before sending: {}", n.name(), uim342::to_string(*instruction), ec.message()), error_code(ReplyError::kOutsideLimits)};
+      return std::pair{
+          fmt::format("{}: {} refused before sending: {}", n.name(), uim342::to_string(*instruction), ec.message()),
+          error_code(ReplyError::kOutsideLimits)};
     }
   }
   enqueue(c.nodes.front(), *instruction, c.command.command_id);
   return std::nullopt;
 }
 
-std::optional<Instruction> Uim342Stack::Impl::param_instruction(const uim342::InstructionForms& forms, const motionlcm::param_t& p, bool write) {
+std::optional<Instruction> Uim342Stack::Impl::param_instruction(const uim342::InstructionForms& forms,
+                                                                const motionlcm::param_t& p, bool write) {
   using L = uim342::Layout;
   const auto sub = static_cast<std::uint8_t>(std::max(p.subindex, 0));
   const bool has_sub = p.subindex >= 0;
@@ -341,7 +379,8 @@ std::int64_t Uim342Stack::Impl::param_value(const uim342::Reply& ack, const moti
   if (!message) return 0;
   auto data = message->payload();
   if (ack.sub_index() && !data.empty()) data = data.subspan(1);
-  const std::size_t width = p.width > 0 ? std::min<std::size_t>(static_cast<std::size_t>(p.width), data.size()) : data.size();
+  const std::size_t width =
+      p.width > 0 ? std::min<std::size_t>(static_cast<std::size_t>(p.width), data.size()) : data.size();
   std::uint64_t raw = 0;
   for (std::size_t k = 0; k < width && k < 8; ++k) raw |= std::uint64_t{data[k]} << (8 * k);
   if (p.is_signed && width > 0 && width < 8 && (data[width - 1] & 0x80) != 0) raw |= ~std::uint64_t{0} << (8 * width);
@@ -351,7 +390,9 @@ std::int64_t Uim342Stack::Impl::param_value(const uim342::Reply& ack, const moti
 void Uim342Stack::Impl::fire(std::int64_t trigger_id, TimePoint now) {
   std::vector<std::int64_t> ids;
   for (auto& [id, c] : commands.entries()) {
-    if (c.command.kind == gateway_command_t::ARM_MOVE && c.all(Lifecycle::kArmed) && c.command.trigger_id == trigger_id && trigger_id != 0) ids.push_back(id);
+    if (c.command.kind == gateway_command_t::ARM_MOVE && c.all(Lifecycle::kArmed) &&
+        c.command.trigger_id == trigger_id && trigger_id != 0)
+      ids.push_back(id);
   }
   for (const auto id : ids) {
     if (auto* c = commands.find(id)) start_move(*c, now);

@@ -13,15 +13,18 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_home(Command& c, std::size_t 
   const auto id = c.command.command_id;
   if (n.cfg.homing.method != config::HomingMethod::kSwitch) {
     enqueue(i, rq::set_origin(), id);
-    c.data.notes.push_back(fmt::format("{}: origin set at the current position ({} counts); no switch search (homing method {})", n.name(),
-                         a.target_counts, n.cfg.homing.method_name.empty() ? "none" : n.cfg.homing.method_name));
+    c.data.notes.push_back(
+        fmt::format("{}: origin set at the current position ({} counts); no switch search (homing method {})", n.name(),
+                    a.target_counts, n.cfg.homing.method_name.empty() ? "none" : n.cfg.homing.method_name));
     return std::nullopt;
   }
   if (!n.status.enabled) {
-    return std::pair{fmt::format("{} is disabled: a switch search needs the driver on (MO=1)", n.name()), error_code(ReplyError::kAxisDisabled)};
+    return std::pair{fmt::format("{} is disabled: a switch search needs the driver on (MO=1)", n.name()),
+                     error_code(ReplyError::kAxisDisabled)};
   }
   if (!uim342::speed_to_pps(a.velocity) || a.velocity == 0) {
-    return std::pair{fmt::format("{}: homing speed {} counts/s is zero or does not fit 32 bits", n.name(), a.velocity), error_code(ReplyError::kOutsideLimits)};
+    return std::pair{fmt::format("{}: homing speed {} counts/s is zero or does not fit 32 bits", n.name(), a.velocity),
+                     error_code(ReplyError::kOutsideLimits)};
   }
   Node::Homing h;
   h.command = id;
@@ -55,11 +58,13 @@ void Uim342Stack::Impl::homing_step_loaded(std::size_t i, TimePoint now) {
       }
       const double speed = std::abs(h.velocity);
       const double ramps = h.acceleration > 0 ? 2 * speed / h.acceleration : 0.0;
-      h.bound = std::chrono::duration_cast<Duration>(std::chrono::duration<double>(static_cast<double>(n.cfg.travel_counts) / speed + ramps + 2.0));
+      h.bound = std::chrono::duration_cast<Duration>(
+          std::chrono::duration<double>(static_cast<double>(n.cfg.travel_counts) / speed + ramps + 2.0));
       h.deadline = now + h.bound;
       h.step = Step::searching_load;
       const auto id = h.command;
-      const auto edge_group = static_cast<uim342::ParameterGroup>(2 + 2 * static_cast<int>(h.port) + (h.rising ? 0 : 1));
+      const auto edge_group =
+          static_cast<uim342::ParameterGroup>(2 + 2 * static_cast<int>(h.port) + (h.rising ? 0 : 1));
       // §5.13: the edge's own group holds the DC of action 0x06; MF applies to the next set only.
       if (h.deceleration > 0) {
         enqueue(i, rq::select_group(edge_group), id);
@@ -99,7 +104,9 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
   using Step = Node::Homing::Step;
   if (h.step != Step::searching && h.step != Step::returning) return;
   const auto id = h.command;
-  if (n.status.fault) return fail(id, error_code(ReplyError::kAxisFault), fmt::format("{} faulted while homing: {}", n.name(), n.status.fault_text));
+  if (n.status.fault)
+    return fail(id, error_code(ReplyError::kAxisFault),
+                fmt::format("{} faulted while homing: {}", n.name(), n.status.fault_text));
   if (n.status.moving) {
     h.seen_moving = true;
     return;
@@ -108,7 +115,8 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
     const bool on_switch = ((n.status.inputs >> static_cast<int>(h.port) & 1) != 0) == h.rising;
     if (!(h.edge_seen || on_switch)) {
       if (h.seen_moving) {
-        fail(id, error_code(ReplyError::kAxisFault), fmt::format("{} stopped before the home switch ({}) was reached", n.name(), edge_name(h)));
+        fail(id, error_code(ReplyError::kAxisFault),
+             fmt::format("{} stopped before the home switch ({}) was reached", n.name(), edge_name(h)));
       }
       return;
     }
@@ -117,7 +125,10 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
     h.deadline = kNever;
     const auto pps = uim342::speed_to_pps(std::abs(h.velocity));
     const std::int32_t speed = pps ? *pps : 1;  // checked at load
-    enqueue(i, rq::set_input_logic(h.port, h.previous ? h.previous->falling : uim342::EdgeAction{}, h.previous ? h.previous->rising : uim342::EdgeAction{}), id);
+    enqueue(i,
+            rq::set_input_logic(h.port, h.previous ? h.previous->falling : uim342::EdgeAction{},
+                                h.previous ? h.previous->rising : uim342::EdgeAction{}),
+            id);
     enqueue(i, rq::set_absolute_position(0), id);  // §5.19: PA before SP
     enqueue(i, rq::set_ptp_speed(speed), id);
     enqueue(i, rq::begin(), id);
@@ -125,7 +136,8 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
     return;
   }
   if (!n.status.in_position) {
-    if (h.seen_moving) fail(id, error_code(ReplyError::kAxisFault), fmt::format("{} stopped short of the home switch edge", n.name()));
+    if (h.seen_moving)
+      fail(id, error_code(ReplyError::kAxisFault), fmt::format("{} stopped short of the home switch edge", n.name()));
     return;
   }
   const std::int64_t drive_position = n.status.position_counts - n.offset;
@@ -138,7 +150,8 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
   auto* found = commands.find(id);
   if (found == nullptr) return;
   Command& c = *found;
-  const auto done_text = fmt::format("{}: origin at the {}, axis at {} counts", n.name(), edge_name(h), n.status.position_counts);
+  const auto done_text =
+      fmt::format("{}: origin at the {}, axis at {} counts", n.name(), edge_name(h), n.status.position_counts);
   n.homing = {};
   n.move = 0;
   c.data.notes.push_back(done_text);
@@ -150,8 +163,9 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
 void Uim342Stack::Impl::homing_not_found(std::size_t i, TimePoint) {
   Node& n = nodes[i];
   const auto& h = n.homing;
-  const auto reason = fmt::format("{}: home switch ({}) not found within {:.1f} s ({} counts of travel at {} counts/s); axis stopped", n.name(),
-                                  edge_name(h), std::chrono::duration<double>(h.bound).count(), n.cfg.travel_counts, std::abs(h.velocity));
+  const auto reason = fmt::format(
+      "{}: home switch ({}) not found within {:.1f} s ({} counts of travel at {} counts/s); axis stopped", n.name(),
+      edge_name(h), std::chrono::duration<double>(h.bound).count(), n.cfg.travel_counts, std::abs(h.velocity));
   enqueue(i, rq::stop(), 0, /*front=*/true);
   fail(h.command, error_code(ReplyError::kTimeout), reason);
 }

@@ -70,37 +70,37 @@ struct Uim342Stack::Impl {
     std::chrono::milliseconds backoff{0};
     bool ever_online = false;
     bool offline_reported = false;
-    bool setup_refused = false;   // the drive refused a set-up value (CONFIG_MISMATCH)
-    bool group_ok = false;        // PP[8] reads back the configured group id
+    bool setup_refused = false;  // the drive refused a set-up value (CONFIG_MISMATCH)
+    bool group_ok = false;       // PP[8] reads back the configured group id
     bool rebooted_for_group = false;
     bool restarted_for_micro_steps = false;  // MT[0]/QE[4] were stored and the drive restarted
     std::uint16_t read_micro_steps = 0;      // MT[0] as read at set-up
     uim342::AccelerationUnit unit = uim342::AccelerationUnit::pulses_per_s2;
     double cut_in_pps = 0;
-    std::int64_t offset = 0;      // reported position = drive counter + offset (SET_POSITION)
+    std::int64_t offset = 0;  // reported position = drive counter + offset (SET_POSITION)
     // Power-cycle detection (see on_kinematics()): the drive counter's samples, and whether the
     // driver was on before the latest MS[0].
     PowerUpWatch power;
     bool was_enabled = false;
-    std::int64_t move = 0;        // active ARM_MOVE command
-    bool bg_acked = false;        // of the active move
-    bool seen_moving = false;     // since the active move's BG
+    std::int64_t move = 0;     // active ARM_MOVE command
+    bool bg_acked = false;     // of the active move
+    bool seen_moving = false;  // since the active move's BG
     // A HOME with a switch search (§5.26), one step after the other; see load_home().
     struct Homing {
       enum class Step { none, reading, searching_load, searching, returning_load, returning };
       std::int64_t command = 0;
       Step step = Step::none;
       uim342::InputPort port = uim342::InputPort::in1;
-      bool rising = false;          // the armed edge
-      double velocity = 0;          // of the search, counts/s; the sign is the direction
-      double acceleration = 0;      // counts/s^2 of the command (0: the drive's)
+      bool rising = false;      // the armed edge
+      double velocity = 0;      // of the search, counts/s; the sign is the direction
+      double acceleration = 0;  // counts/s^2 of the command (0: the drive's)
       double deceleration = 0;
-      std::int64_t offset = 0;      // the position of the switch edge (HOME target_counts)
+      std::int64_t offset = 0;                       // the position of the switch edge (HOME target_counts)
       std::optional<uim342::InputActions> previous;  // IL[port] before arming, restored after
-      bool armed = false;           // IL[port] holds the origin action
-      bool seen_moving = false;     // in the present step
-      bool edge_seen = false;       // the armed edge was notified
-      TimePoint deadline = kNever;  // of the search
+      bool armed = false;                            // IL[port] holds the origin action
+      bool seen_moving = false;                      // in the present step
+      bool edge_seen = false;                        // the armed edge was notified
+      TimePoint deadline = kNever;                   // of the search
       Duration bound{};
     } homing;
     [[nodiscard]] std::string name() const { return fmt::format("{} (node {})", cfg.drive, cfg.node_id); }
@@ -113,7 +113,7 @@ struct Uim342Stack::Impl {
   struct CommandData {
     std::set<std::size_t> waiting;  // nodes with requests of the current stage not yet answered
     std::map<std::size_t, std::int64_t> targets;
-    std::string unreached;  // a stop's offline nodes: the others are still stopped, then it fails
+    std::string unreached;           // a stop's offline nodes: the others are still stopped, then it fails
     std::vector<std::string> notes;  // the DONE reply's reason (what a HOME did, per axis)
   };
   using Ledger = CommandLedger<CommandData>;
@@ -136,16 +136,18 @@ struct Uim342Stack::Impl {
   // in flight on this bus, and its ACK, may go first. Counted into its deadline so a long
   // transmit queue is not taken for a silent drive.
   [[nodiscard]] Duration queued_wire_time() const;
-  [[nodiscard]] TimePoint deadline_of(const Node& n, TimePoint now) const { return now + n.cfg.request_timeout + queued_wire_time(); }
+  [[nodiscard]] TimePoint deadline_of(const Node& n, TimePoint now) const {
+    return now + n.cfg.request_timeout + queued_wire_time();
+  }
 
   Uim342StackConfig config;
   CanStackContext context;
   WallClock wall;
   Counters& counters;
   std::vector<Node> nodes;
-  Duration exchange_time{};   // wire time of the longest request + ACK (poll_exchange_time)
-  Duration poll_period{};     // config.poll_period, or longer when the bus cannot carry it
-  std::string poll_warning;   // why poll_period is longer (reported at start)
+  Duration exchange_time{};  // wire time of the longest request + ACK (poll_exchange_time)
+  Duration poll_period{};    // config.poll_period, or longer when the bus cannot carry it
+  std::string poll_warning;  // why poll_period is longer (reported at start)
   Ledger commands{[this](gateway_reply_t r) { context.out->command_reply(std::move(r)); }};
   bool started = false;
 
@@ -160,7 +162,8 @@ struct Uim342Stack::Impl {
   void finish(std::int64_t id, Lifecycle terminal, std::int32_t code = 0, std::string reason = {});
   void done(std::int64_t id, std::string reason = {}) { finish(id, Lifecycle::kDone, 0, std::move(reason)); }
   void fail(std::int64_t id, std::int32_t code, std::string reason) {
-    finish(id, code == error_code(ReplyError::kStopped) ? Lifecycle::kStopped : Lifecycle::kFailed, code, std::move(reason));
+    finish(id, code == error_code(ReplyError::kStopped) ? Lifecycle::kStopped : Lifecycle::kFailed, code,
+           std::move(reason));
   }
 
   // Every command with work on node `i` (queued requests or an active move) fails.
@@ -228,7 +231,6 @@ struct Uim342Stack::Impl {
 
   void arrived(std::size_t i, TimePoint);
 
-
   void stage_done(Command& c, TimePoint now);
 
   // ---- synchronized start (§5.11, §3.2) ----
@@ -272,7 +274,8 @@ struct Uim342Stack::Impl {
   // PARAM_READ / PARAM_WRITE in the family's terms: index = function code, subindex = sub-index.
   Problem load_param(Command& c);
 
-  static std::optional<Instruction> param_instruction(const uim342::InstructionForms& forms, const motionlcm::param_t& p, bool write);
+  static std::optional<Instruction> param_instruction(const uim342::InstructionForms& forms,
+                                                      const motionlcm::param_t& p, bool write);
 
   // The value of a parameter reply: its data bytes after the echoed sub-index, little-endian,
   // `width` bytes (all when 0), sign-extended when `is_signed`.

@@ -29,24 +29,33 @@ void Uim342Stack::Impl::set_up(std::size_t i) {
   }
   if (const auto v = config::setup_number(s, "current_a")) {
     const auto tenths = uim342::current_to_wire(*v);
-    enqueue(i, rq::set(MotorDriver::working_current, tenths ? *tenths : saturate<std::uint16_t>(std::lround(*v * 10))), 0);
+    enqueue(i, rq::set(MotorDriver::working_current, tenths ? *tenths : saturate<std::uint16_t>(std::lround(*v * 10))),
+            0);
   }
-  if (const auto v = config::setup_integer(s, "idle_current_percent")) enqueue(i, rq::set(MotorDriver::idle_current_percent, saturate<std::uint16_t>(*v)), 0);
-  if (const auto v = config::setup_flag(s, "auto_enable")) enqueue(i, rq::set(InitialConfig::auto_driver_on, *v ? 1 : 0), 0);
-  if (const auto v = config::setup_text(s, "direction")) enqueue(i, rq::set(InitialConfig::positive_direction, *v == "ccw" ? 1 : 0), 0);
+  if (const auto v = config::setup_integer(s, "idle_current_percent"))
+    enqueue(i, rq::set(MotorDriver::idle_current_percent, saturate<std::uint16_t>(*v)), 0);
+  if (const auto v = config::setup_flag(s, "auto_enable"))
+    enqueue(i, rq::set(InitialConfig::auto_driver_on, *v ? 1 : 0), 0);
+  if (const auto v = config::setup_text(s, "direction"))
+    enqueue(i, rq::set(InitialConfig::positive_direction, *v == "ccw" ? 1 : 0), 0);
   if (const auto v = config::setup_text(s, "acceleration_unit")) {
     n.unit = *v == "time" ? uim342::AccelerationUnit::milliseconds : uim342::AccelerationUnit::pulses_per_s2;
     enqueue(i, rq::set(InitialConfig::acceleration_unit, static_cast<std::uint16_t>(n.unit)), 0);
   }
-  if (const auto v = config::setup_flag(s, "closed_loop")) enqueue(i, rq::set(InitialConfig::closed_loop, *v ? 1 : 0), 0);
-  if (const auto v = config::setup_flag(s, "software_limits")) enqueue(i, rq::set(InitialConfig::software_limits, *v ? 1 : 0), 0);
-  if (const auto v = config::setup_integer(s, "encoder_resolution")) enqueue(i, rq::set(QuadratureEncoder::lines_per_revolution, saturate<std::uint16_t>(*v)), 0);
-  if (const auto v = config::setup_integer(s, "stall_tolerance")) enqueue(i, rq::set(QuadratureEncoder::stall_tolerance, saturate<std::uint16_t>(*v)), 0);
+  if (const auto v = config::setup_flag(s, "closed_loop"))
+    enqueue(i, rq::set(InitialConfig::closed_loop, *v ? 1 : 0), 0);
+  if (const auto v = config::setup_flag(s, "software_limits"))
+    enqueue(i, rq::set(InitialConfig::software_limits, *v ? 1 : 0), 0);
+  if (const auto v = config::setup_integer(s, "encoder_resolution"))
+    enqueue(i, rq::set(QuadratureEncoder::lines_per_revolution, saturate<std::uint16_t>(*v)), 0);
+  if (const auto v = config::setup_integer(s, "stall_tolerance"))
+    enqueue(i, rq::set(QuadratureEncoder::stall_tolerance, saturate<std::uint16_t>(*v)), 0);
   if (const auto v = config::setup_integer(s, "cut_in_speed")) {
     n.cut_in_pps = static_cast<double>(*v);
     enqueue(i, rq::set_cut_in_speed(saturate<std::uint32_t>(*v)), 0);
   }
-  if (const auto v = config::setup_integer(s, "stop_deceleration")) enqueue(i, rq::set_stop_deceleration(saturate<std::uint32_t>(*v)), 0);
+  if (const auto v = config::setup_integer(s, "stop_deceleration"))
+    enqueue(i, rq::set_stop_deceleration(saturate<std::uint32_t>(*v)), 0);
   if (const auto v = config::setup_integer(s, "backlash")) enqueue(i, rq::set_backlash(saturate<std::uint32_t>(*v)), 0);
   // Notifications this stack relies on (§5.3): inputs for INPUT_EDGE, PTP finished for DONE.
   // Alarms (stall, limits) have no enable bit and are always sent.
@@ -59,13 +68,15 @@ void Uim342Stack::Impl::set_up(std::size_t i) {
   enqueue(i, rq::get(uim342::MotionStatusIndex::kinematics), 0);
 }
 
-void Uim342Stack::Impl::completed(std::size_t i, const Request& r, const std::optional<uim342::Reply>& ack, TimePoint now) {
+void Uim342Stack::Impl::completed(std::size_t i, const Request& r, const std::optional<uim342::Reply>& ack,
+                                  TimePoint now) {
   Node& n = nodes[i];
   if (ack) apply_ack(i, r, *ack, now);
   if (r.instruction.function == FunctionCode::SY) {
     // The drive reboots without answering; identified and set up again after reboot_wait.
     n.power.forget();  // our own reboot: its counter restarts at 0 (not a lost power)
-    fail_commands_of(i, error_code(ReplyError::kAxisOffline), fmt::format("{} is rebooting to apply its set-up (PP[8], MT[0])", n.name()));
+    fail_commands_of(i, error_code(ReplyError::kAxisOffline),
+                     fmt::format("{} is rebooting to apply its set-up (PP[8], MT[0])", n.name()));
     n.phase = Phase::rebooting;
     n.queue.clear();
     n.retry_at = now + config.reboot_wait;
@@ -101,11 +112,12 @@ void Uim342Stack::Impl::check_micro_steps(std::size_t i, std::uint16_t read_cpr)
   const auto wanted = saturate<std::uint16_t>(config::setup_integer(n.cfg.setup, "micro_steps").value_or(0));
   const auto wanted_cpr = saturate<std::uint16_t>(std::int64_t{wanted} * uim342::kFullStepsPerRevolution);
   if (n.read_micro_steps == wanted && read_cpr == wanted_cpr) return;
-  const auto found = fmt::format("MT[0] {} / QE[4] {} (configured micro_steps {}: MT[0] {} / QE[4] {})", n.read_micro_steps, read_cpr,
-                                 wanted, wanted, wanted_cpr);
+  const auto found = fmt::format("MT[0] {} / QE[4] {} (configured micro_steps {}: MT[0] {} / QE[4] {})",
+                                 n.read_micro_steps, read_cpr, wanted, wanted, wanted_cpr);
   if (n.restarted_for_micro_steps) {
     event(n, event_t::CONFIG_MISMATCH, event_t::ERROR, n.read_micro_steps,
-          fmt::format("{} reads {} after storing them and restarting: counts per unit would be wrong; not ready", n.name(), found));
+          fmt::format("{} reads {} after storing them and restarting: counts per unit would be wrong; not ready",
+                      n.name(), found));
     n.setup_refused = true;
     return;
   }
@@ -125,10 +137,11 @@ void Uim342Stack::Impl::setup_finished(std::size_t i, TimePoint now) {
   n.phase = n.setup_refused ? Phase::setup_failed : Phase::ready;
   n.backoff = std::chrono::milliseconds{0};
   n.next_poll = now + poll_period;
-  if (n.setup_refused) return;  // CONFIG_MISMATCH already reported
+  if (n.setup_refused) return;          // CONFIG_MISMATCH already reported
   n.restarted_for_micro_steps = false;  // a later mismatch (someone rewrote MT) may restart once more
   event(n, event_t::ONLINE, event_t::INFO, 0,
-        fmt::format("{} set up{}", n.name(), n.cfg.group_id != 0 && !n.group_ok ? " (group start disabled: group id not confirmed)" : ""));
+        fmt::format("{} set up{}", n.name(),
+                    n.cfg.group_id != 0 && !n.group_ok ? " (group start disabled: group id not confirmed)" : ""));
 }
 
 void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342::Reply& ack, TimePoint now) {
@@ -149,12 +162,15 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
     }
     case FunctionCode::PP: {
       const auto& pp = std::get<uim342::IndexedByte>(body);
-      if (pp.index != static_cast<std::uint8_t>(uim342::ProtocolParameter::group_id) || r.instruction.operation != uim342::Operation::get) break;
+      if (pp.index != static_cast<std::uint8_t>(uim342::ProtocolParameter::group_id) ||
+          r.instruction.operation != uim342::Operation::get)
+        break;
       n.group_ok = pp.value == n.cfg.group_id;
       if (n.group_ok) break;
       if (n.rebooted_for_group) {
         event(n, event_t::CONFIG_MISMATCH, event_t::ERROR, pp.value,
-              fmt::format("{} keeps group id {} after a reboot (configured {}): moves start axis by axis", n.name(), pp.value, n.cfg.group_id));
+              fmt::format("{} keeps group id {} after a reboot (configured {}): moves start axis by axis", n.name(),
+                          pp.value, n.cfg.group_id));
         break;
       }
       // §5.1: PP values act after a reboot; everything in RAM is set up again afterwards.
@@ -167,7 +183,8 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
       break;
     }
     case FunctionCode::MT:
-      if (r.instruction.operation == uim342::Operation::get) n.read_micro_steps = std::get<uim342::IndexedWord>(body).value;
+      if (r.instruction.operation == uim342::Operation::get)
+        n.read_micro_steps = std::get<uim342::IndexedWord>(body).value;
       break;
     case FunctionCode::QE:
       if (r.instruction.operation == uim342::Operation::get && n.phase == Phase::setting_up) {
@@ -240,7 +257,8 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
   }
 }
 
-void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStatus& s, const Request& r, TimePoint now) {
+void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStatus& s, const Request& r,
+                                         TimePoint now) {
   Node& n = nodes[i];
   using uim342::IoStatusBit;
   using uim342::StatusFlag;
@@ -249,7 +267,8 @@ void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStat
   n.status.enabled = s.has(IoStatusBit::driver_on);
   n.status.moving = !s.has(StatusFlag::stopped);
   n.status.in_position = s.has(StatusFlag::in_position);
-  n.status.inputs = (s.has(IoStatusBit::in1) ? 1 : 0) | (s.has(IoStatusBit::in2) ? 2 : 0) | (s.has(IoStatusBit::in3) ? 4 : 0);
+  n.status.inputs =
+      (s.has(IoStatusBit::in1) ? 1 : 0) | (s.has(IoStatusBit::in2) ? 2 : 0) | (s.has(IoStatusBit::in3) ? 4 : 0);
   n.status.outputs = s.has(IoStatusBit::op1) ? 1 : 0;
   const bool stalled = s.has(StatusFlag::stalled);
   const bool locked = s.has(StatusFlag::locked);
@@ -265,7 +284,9 @@ void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStat
   }
   const auto* c = commands.find(r.command_id);
   if (c != nullptr && c->command.kind == gateway_command_t::FAULT_RESET && locked) {
-    fail(r.command_id, error_code(ReplyError::kDriveError), fmt::format("{} is locked down (LOCK); MS[0]=0 does not release it, a reboot (SY[1]) or power cycle does", n.name()));
+    fail(r.command_id, error_code(ReplyError::kDriveError),
+         fmt::format("{} is locked down (LOCK); MS[0]=0 does not release it, a reboot (SY[1]) or power cycle does",
+                     n.name()));
   }
   if (n.homing.command != 0) {
     homing_observe(i, now);
@@ -282,7 +303,8 @@ void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStat
     } else if (n.status.in_position) {
       arrived(i, now);
     } else if (n.seen_moving) {
-      fail(n.move, error_code(ReplyError::kAxisFault), fmt::format("{} stopped short of its target without a stop command", n.name()));
+      fail(n.move, error_code(ReplyError::kAxisFault),
+           fmt::format("{} stopped short of its target without a stop command", n.name()));
     }
   }
 }
@@ -318,7 +340,7 @@ void Uim342Stack::Impl::on_power_cycle(std::size_t i, const std::string& why, Ti
   publish(n, now);
   if (!n.cfg.axis.empty()) context.out->position_lost(n.cfg.axis, why);
   if (n.phase == Phase::setting_up) return;  // being set up already (it was offline)
-  identify(i, now);  // commands arriving meanwhile queue behind its set-up
+  identify(i, now);                          // commands arriving meanwhile queue behind its set-up
 }
 
 }  // namespace motion::gateway

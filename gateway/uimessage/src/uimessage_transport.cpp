@@ -67,7 +67,7 @@ std::error_code make_error_code(UiMessageErrc error) { return {static_cast<int>(
 UiMessageOptions options_from(const config::Bus& bus) {
   UiMessageOptions options;
   options.crc = bus.uimessage_crc == config::UiMessageCrc::kIdToAux ? uim342::CrcCoverage::id_to_aux
-                                                                     : uim342::CrcCoverage::start_to_aux;
+                                                                    : uim342::CrcCoverage::start_to_aux;
   if (bus.uimessage_crc_strict) {
     options.accept = options.crc == uim342::CrcCoverage::id_to_aux ? uim342::CrcAcceptance::id_to_aux
                                                                    : uim342::CrcAcceptance::start_to_aux;
@@ -75,7 +75,8 @@ UiMessageOptions options_from(const config::Bus& bus) {
   return options;
 }
 
-UiMessageTransport::UiMessageTransport(std::string device, const serial::SerialSettings& settings, UiMessageOptions options)
+UiMessageTransport::UiMessageTransport(std::string device, const serial::SerialSettings& settings,
+                                       UiMessageOptions options)
     : device_(std::move(device)), settings_(settings), options_(options), stream_(options.accept) {}
 
 std::unique_ptr<UiMessageTransport> UiMessageTransport::open(std::string device, const serial::SerialSettings& settings,

@@ -10,7 +10,8 @@
 namespace motion::app {
 
 void add_common_options(CLI::App& cli, CommonOptions& options) {
-  cli.add_option("--config", options.config_path, "Configuration file (default: the simulated lab, config/sim-lab.yaml)");
+  cli.add_option("--config", options.config_path,
+                 "Configuration file (default: the simulated lab, config/sim-lab.yaml)");
   cli.add_option("--lcm-url", options.lcm_url, "LCM URL (overrides LCM_DEFAULT_URL and the config's lcm.url)");
   cli.add_option("--log-level", options.log_level, "trace, debug, info, warn, error or off")->capture_default_str();
   cli.set_version_flag("--version", std::string(kVersion));
@@ -20,7 +21,8 @@ std::optional<config::Config> load_config(const CommonOptions& options) {
   const std::string path = options.config_path.empty() ? config::default_config_path() : options.config_path;
   auto result = config::load_file(path);
   if (!result.ok()) {
-    std::cerr << "configuration refused (" << result.errors.size() << " error" << (result.errors.size() == 1 ? "" : "s") << "):\n"
+    std::cerr << "configuration refused (" << result.errors.size() << " error" << (result.errors.size() == 1 ? "" : "s")
+              << "):\n"
               << result.error_text();
     return std::nullopt;
   }
@@ -43,9 +45,7 @@ lcm::NodeOptions lcm_options(const CommonOptions& options, const config::Config&
 int run(CLI::App& cli, int argc, char** argv, const std::function<int()>& body) {
   try {
     cli.parse(argc, argv);
-  } catch (const CLI::CallForHelp& e) {
-    return cli.exit(e);
-  } catch (const CLI::CallForVersion& e) {
+  } catch (const CLI::CallForHelp& e) { return cli.exit(e); } catch (const CLI::CallForVersion& e) {
     return cli.exit(e);
   } catch (const CLI::ParseError& e) {
     cli.exit(e);

@@ -15,7 +15,8 @@ Service::Service(const config::Config& config, const CommonOptions& options, std
 }
 
 int Service::run() {
-  spdlog::info("{} running (LCM {}, prefix {})", process_, node_->url().empty() ? "<default>" : node_->url(), node_->prefix());
+  spdlog::info("{} running (LCM {}, prefix {})", process_, node_->url().empty() ? "<default>" : node_->url(),
+               node_->prefix());
   notify_systemd();
   const auto errors = loop_.run();
   systemd::notify_stopping();

@@ -29,17 +29,17 @@ void put_header(BitWriter& w, const Frame& frame) {
   const std::uint32_t rtr = frame.rtr ? kRecessive : kDominant;
   w.put(kDominant, 1);  // SOF
   if (frame.extended) {
-    w.put(frame.id >> 18, 11);                     // base identifier
-    w.put(kRecessive, 1);                          // SRR
-    w.put(kRecessive, 1);                          // IDE
-    w.put(frame.id & 0x3FFFFU, 18);                // identifier extension
+    w.put(frame.id >> 18, 11);       // base identifier
+    w.put(kRecessive, 1);            // SRR
+    w.put(kRecessive, 1);            // IDE
+    w.put(frame.id & 0x3FFFFU, 18);  // identifier extension
     w.put(rtr, 1);
-    w.put(kDominant, 2);                           // r1, r0
+    w.put(kDominant, 2);  // r1, r0
   } else {
     w.put(frame.id, 11);
     w.put(rtr, 1);
-    w.put(kDominant, 1);                           // IDE
-    w.put(kDominant, 1);                           // r0
+    w.put(kDominant, 1);  // IDE
+    w.put(kDominant, 1);  // r0
   }
 }
 

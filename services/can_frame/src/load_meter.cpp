@@ -2,7 +2,6 @@
 
 #include <algorithm>
 
-
 namespace motion::can {
 
 std::uint32_t LoadMeter::nominal_bits(const Frame& frame) {

@@ -22,10 +22,11 @@ Client::Client(EventLoop& loop, lcm::Node& node, std::string client_id)
     // too (its plain copies are for clients that do not verify), so it is not counted either.
     if (!reply_verifier_) on_reply(r);
   });
-  node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [this](const motionlcm::axis_state_t& s, const std::string&) {
-    axes_[s.axis] = s;
-    if (state_handler_) state_handler_(s);
-  });
+  node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
+                                           [this](const motionlcm::axis_state_t& s, const std::string&) {
+                                             axes_[s.axis] = s;
+                                             if (state_handler_) state_handler_(s);
+                                           });
   node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) {
     if (e.kind == motionlcm::event_t::SECURITY && !event_verifier_) on_security_event(e);
     if (event_handler_) event_handler_(e);
@@ -38,23 +39,25 @@ void Client::verify_with(const security::PublicKey& coordinator, std::chrono::mi
   reply_verifier_.emplace(coordinator, node_.prefix(), std::string(lcm::channels::kReply), window, now);
   event_verifier_.emplace(coordinator, node_.prefix(), std::string(lcm::channels::kEvent), window, now);
   if (subscribed) return;
-  node_.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kReply),
-                                               [this](const motionlcm::signed_message_t& m, const std::string&) {
-                                                 auto verified = reply_verifier_->verify<motionlcm::reply_t>(m, wall_time_us());
-                                                 if (verified.message) return on_reply(*verified.message);
-                                                 // What it claims to be, to tell whether it concerns this client.
-                                                 motionlcm::reply_t claimed;
-                                                 if (lcm::wire::decode_bounded(m.message.data(), m.message.size(), claimed).empty()) {
-                                                   forged_reply(claimed, verified.reason);
-                                                 }
-                                               });
-  node_.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kEvent),
-                                               [this](const motionlcm::signed_message_t& m, const std::string&) {
-                                                 auto verified = event_verifier_->verify<motionlcm::event_t>(m, wall_time_us());
-                                                 if (verified.message && verified.message->kind == motionlcm::event_t::SECURITY) {
-                                                   on_security_event(*verified.message);
-                                                 }
-                                               });
+  node_.subscribe<motionlcm::signed_message_t>(
+      security::signed_channel(lcm::channels::kReply),
+      [this](const motionlcm::signed_message_t& m, const std::string&) {
+        auto verified = reply_verifier_->verify<motionlcm::reply_t>(m, wall_time_us());
+        if (verified.message) return on_reply(*verified.message);
+        // What it claims to be, to tell whether it concerns this client.
+        motionlcm::reply_t claimed;
+        if (lcm::wire::decode_bounded(m.message.data(), m.message.size(), claimed).empty()) {
+          forged_reply(claimed, verified.reason);
+        }
+      });
+  node_.subscribe<motionlcm::signed_message_t>(
+      security::signed_channel(lcm::channels::kEvent),
+      [this](const motionlcm::signed_message_t& m, const std::string&) {
+        auto verified = event_verifier_->verify<motionlcm::event_t>(m, wall_time_us());
+        if (verified.message && verified.message->kind == motionlcm::event_t::SECURITY) {
+          on_security_event(*verified.message);
+        }
+      });
 }
 
 void Client::on_reply(const motionlcm::reply_t& r) {
@@ -70,7 +73,8 @@ void Client::forged_reply(const motionlcm::reply_t& r, const std::string& why) {
   if (r.client_id != id_ || !pending_.contains(r.request_id)) return;
   ++forged_replies_;
   if (forged_replies_ <= 10) {
-    spdlog::warn("SECURITY: a {} reply to request {} is not the coordinator's and is ignored: {}", status_name(r.status), r.request_id, why);
+    spdlog::warn("SECURITY: a {} reply to request {} is not the coordinator's and is ignored: {}",
+                 status_name(r.status), r.request_id, why);
   }
 }
 
@@ -79,7 +83,9 @@ void Client::sign_with(security::KeyPair key) {
   id_ = signer_->own_client_id(id_);
 }
 
-std::string_view Client::request_channel() const { return signer_ ? lcm::channels::kSignedRequest : lcm::channels::kRequest; }
+std::string_view Client::request_channel() const {
+  return signer_ ? lcm::channels::kSignedRequest : lcm::channels::kRequest;
+}
 
 void Client::on_security_event(const motionlcm::event_t& event) {
   std::vector<std::pair<ReplyHandler, motionlcm::reply_t>> refused;
@@ -118,7 +124,8 @@ std::int64_t Client::send(motionlcm::request_t request, ReplyHandler on_reply) {
   return request.request_id;
 }
 
-motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milliseconds timeout, ReplyHandler on_progress) {
+motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milliseconds timeout,
+                                ReplyHandler on_progress) {
   motionlcm::reply_t result{};
   bool done = false;
   bool answered = false;
@@ -143,7 +150,8 @@ motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milli
     result.error_code = error_code(ReplyError::kTimeout);
     const std::string where = (node_.url().empty() ? std::string("the default LCM URL") : node_.url()) + ", channel " +
                               node_.channel(request_channel());
-    result.reason = heard ? "no terminal reply from the coordinator within " + std::to_string(timeout.count()) + " ms (" + where + ")"
+    result.reason = heard ? "no terminal reply from the coordinator within " + std::to_string(timeout.count()) +
+                                " ms (" + where + ")"
                           : "no reply from the coordinator within " + std::to_string(first_wait.count()) +
                                 " ms: is motion-coordinator running on " + where + "?";
   }

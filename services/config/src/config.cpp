@@ -59,7 +59,9 @@ std::string_view to_string(Family family) {
   return "?";
 }
 
-const char* to_string(SecuritySettings::Mode mode) { return mode == SecuritySettings::Mode::kEnforce ? "enforce" : "off"; }
+const char* to_string(SecuritySettings::Mode mode) {
+  return mode == SecuritySettings::Mode::kEnforce ? "enforce" : "off";
+}
 
 std::optional<Family> parse_family(std::string_view text) {
   for (Family f : {Family::kUim342, Family::kUim242, Family::kUc57, Family::kAdamModbus}) {
@@ -102,15 +104,18 @@ std::string LoadResult::error_text() const {
 }
 
 const Bus* Config::find_bus(std::string_view name) const {
-  for (const auto& b : buses) if (b.name == name) return &b;
+  for (const auto& b : buses)
+    if (b.name == name) return &b;
   return nullptr;
 }
 const Drive* Config::find_drive(std::string_view name) const {
-  for (const auto& d : drives) if (d.name == name) return &d;
+  for (const auto& d : drives)
+    if (d.name == name) return &d;
   return nullptr;
 }
 const Axis* Config::find_axis(std::string_view name) const {
-  for (const auto& a : axes) if (a.name == name) return &a;
+  for (const auto& a : axes)
+    if (a.name == name) return &a;
   return nullptr;
 }
 std::vector<const Axis*> Config::axes_on_bus(std::string_view bus) const {
@@ -144,7 +149,8 @@ HomingSupport homing_support(Family family) {
     // UIM342: IL[i] origin action on IN1..IN3 (manual §5.26); none/current-position: OG (§5.22).
     case Family::kUim342: return {{"none", "switch", "current-position"}, 3, "1..3: IN1..IN3"};
     // UC57: homing mode 6 on IN1..IN3 (manual §4.2.6, §3.1); current-position: 2012h (§5.1).
-    case Family::kUc57: return {{"none", "switch", "current-position"}, 3, "1..3: IN1 positive limit, IN2 origin, IN3 negative limit"};
+    case Family::kUc57:
+      return {{"none", "switch", "current-position"}, 3, "1..3: IN1 positive limit, IN2 origin, IN3 negative limit"};
     default: return {{"none", "switch", "current-position"}, 8, "1..8"};
   }
 }

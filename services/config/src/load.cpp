@@ -12,7 +12,6 @@ namespace motion::config {
 
 namespace {
 
-using detail::Reader;
 using detail::read_axis;
 using detail::read_bus;
 using detail::read_coordinator;
@@ -20,6 +19,7 @@ using detail::read_drive;
 using detail::read_lcm;
 using detail::read_security;
 using detail::read_simulation;
+using detail::Reader;
 
 template <typename T, typename ReadOne>
 void read_list(Reader& r, const YAML::Node& root, const char* key, std::vector<T>& out, ReadOne read_one) {
@@ -44,7 +44,8 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
   std::map<std::string, const Bus*> buses;
   for (std::size_t i = 0; i < c.buses.size(); ++i) {
     const Bus& b = c.buses[i];
-    if (!b.name.empty() && !buses.emplace(b.name, &b).second) where_error(b.where.of("name"), "buses[" + std::to_string(i) + "].name", "duplicate bus name '" + b.name + "'");
+    if (!b.name.empty() && !buses.emplace(b.name, &b).second)
+      where_error(b.where.of("name"), "buses[" + std::to_string(i) + "].name", "duplicate bus name '" + b.name + "'");
   }
   std::set<std::string> drive_names;
   // (bus, address space) -> node id -> drive. UIM342 (29-bit) and CANopen (11-bit) frames do not
@@ -53,7 +54,8 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
   for (std::size_t i = 0; i < c.drives.size(); ++i) {
     const Drive& d = c.drives[i];
     const std::string path = "drives[" + std::to_string(i) + "]";
-    if (!d.name.empty() && !drive_names.insert(d.name).second) where_error(d.where.of("name"), path + ".name", "duplicate drive name '" + d.name + "'");
+    if (!d.name.empty() && !drive_names.insert(d.name).second)
+      where_error(d.where.of("name"), path + ".name", "duplicate drive name '" + d.name + "'");
     auto bus_it = buses.find(d.bus);
     if (!d.bus.empty() && bus_it == buses.end()) {
       where_error(d.where.of("bus"), path + ".bus", "drive '" + d.name + "' is on undeclared bus '" + d.bus + "'");
@@ -62,25 +64,33 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
     if (bus_it == buses.end()) continue;
     const bool can_family = d.family == Family::kUim342 || d.family == Family::kUc57;
     if (can_family != is_can(bus_it->second->kind)) {
-      where_error(d.where.of("bus"), path + ".bus", std::string(to_string(d.family)) + " drive '" + d.name + "' needs a " +
-                  (can_family ? "CAN bus (simcan:, socketcan: or, for uim342, uimessage:)" : "serial bus (serial: or simserial:)") +
-                  ", but bus '" + d.bus + "' is " + bus_it->second->transport);
+      where_error(d.where.of("bus"), path + ".bus",
+                  std::string(to_string(d.family)) + " drive '" + d.name + "' needs a " +
+                      (can_family ? "CAN bus (simcan:, socketcan: or, for uim342, uimessage:)"
+                                  : "serial bus (serial: or simserial:)") +
+                      ", but bus '" + d.bus + "' is " + bus_it->second->transport);
     } else if (bus_it->second->kind == TransportKind::kUiMessage && d.family != Family::kUim342) {
-      where_error(d.where.of("bus"), path + ".bus", std::string(to_string(d.family)) + " drive '" + d.name +
-                  "' needs a CAN adapter (simcan: or socketcan:): bus '" + d.bus + "' is a UIROBOT serial gateway (" +
-                  bus_it->second->transport + "), which carries SimpleCAN 3.0 (uim342) frames only");
+      where_error(d.where.of("bus"), path + ".bus",
+                  std::string(to_string(d.family)) + " drive '" + d.name +
+                      "' needs a CAN adapter (simcan: or socketcan:): bus '" + d.bus +
+                      "' is a UIROBOT serial gateway (" + bus_it->second->transport +
+                      "), which carries SimpleCAN 3.0 (uim342) frames only");
     }
     auto& space = node_ids[{d.bus, std::string(to_string(d.family))}];
     auto [it, inserted] = space.emplace(d.node_id, d.name);
-    if (!inserted) where_error(d.where.of("node_id"), path + ".node_id", "node id " + std::to_string(d.node_id) + " on bus '" + d.bus + "' is already used by drive '" + it->second + "'");
+    if (!inserted)
+      where_error(d.where.of("node_id"), path + ".node_id",
+                  "node id " + std::to_string(d.node_id) + " on bus '" + d.bus + "' is already used by drive '" +
+                      it->second + "'");
   }
   for (std::size_t i = 0; i < c.drives.size(); ++i) {
     const Drive& d = c.drives[i];
     if (d.group_id == 0) continue;
     const auto& space = node_ids[{d.bus, std::string(to_string(d.family))}];
     if (auto it = space.find(d.group_id); it != space.end()) {
-      where_error(d.where.of("group_id"), "drives[" + std::to_string(i) + "].group_id", "group id " + std::to_string(d.group_id) +
-                  " collides with the node id of drive '" + it->second + "' (SimpleCAN §5.1: must differ)");
+      where_error(d.where.of("group_id"), "drives[" + std::to_string(i) + "].group_id",
+                  "group id " + std::to_string(d.group_id) + " collides with the node id of drive '" + it->second +
+                      "' (SimpleCAN §5.1: must differ)");
     }
   }
   std::set<std::string> axis_names;
@@ -88,8 +98,11 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
   for (std::size_t i = 0; i < c.axes.size(); ++i) {
     const Axis& a = c.axes[i];
     const std::string path = "axes[" + std::to_string(i) + "]";
-    if (!a.name.empty() && !axis_names.insert(a.name).second) where_error(a.where.of("name"), path + ".name", "duplicate axis name '" + a.name + "'");
-    if (!a.drive.empty() && !drive_names.contains(a.drive)) where_error(a.where.of("drive"), path + ".drive", "axis '" + a.name + "' uses undeclared drive '" + a.drive + "'");
+    if (!a.name.empty() && !axis_names.insert(a.name).second)
+      where_error(a.where.of("name"), path + ".name", "duplicate axis name '" + a.name + "'");
+    if (!a.drive.empty() && !drive_names.contains(a.drive))
+      where_error(a.where.of("drive"), path + ".drive",
+                  "axis '" + a.name + "' uses undeclared drive '" + a.drive + "'");
     if (const Drive* d = c.find_drive(a.drive); d && !a.homing.method_name.empty()) {
       const HomingSupport support = homing_support(d->family);
       const std::string hpath = path + ".homing";
@@ -97,16 +110,19 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
         std::string list;
         for (const auto m : support.methods) list += (list.empty() ? "" : ", ") + std::string(m);
         where_error(a.homing.where.of("method"), hpath + ".method",
-                    "'" + a.homing.method_name + "' is not a homing method of family " + std::string(to_string(d->family)) + " (" + list + ")");
+                    "'" + a.homing.method_name + "' is not a homing method of family " +
+                        std::string(to_string(d->family)) + " (" + list + ")");
       }
       if (a.homing.input < 1 || a.homing.input > support.max_input) {
         where_error(a.homing.where.of("input"), hpath + ".input",
-                    "input " + std::to_string(a.homing.input) + " is not an input of family " + std::string(to_string(d->family)) + " (" +
-                        std::string(support.inputs) + ")");
+                    "input " + std::to_string(a.homing.input) + " is not an input of family " +
+                        std::string(to_string(d->family)) + " (" + std::string(support.inputs) + ")");
       }
     }
     auto [it, inserted] = drive_users.emplace(a.drive, a.name);
-    if (!inserted) where_error(a.where.of("drive"), path + ".drive", "drive '" + a.drive + "' already drives axis '" + it->second + "'");
+    if (!inserted)
+      where_error(a.where.of("drive"), path + ".drive",
+                  "drive '" + a.drive + "' already drives axis '" + it->second + "'");
   }
   if (c.buses.empty()) r.error(root, "buses", "at least one bus is required");
   // Simulated variants name a drive of the configuration and a key of its family.
@@ -118,7 +134,8 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
       continue;
     }
     for (const auto& [key, value] : keys) {
-      if (auto why = sim_variant_error(d->family, key, value); !why.empty()) r.error(node[key], "simulation.variants." + drive + "." + key, why);
+      if (auto why = sim_variant_error(d->family, key, value); !why.empty())
+        r.error(node[key], "simulation.variants." + drive + "." + key, why);
     }
   }
 }

@@ -23,13 +23,20 @@ void positive(Reader& r, const YAML::Node& at, const std::string& key, double va
 void read_uimessage_keys(Reader& r, const YAML::Node& node, const std::string& path, Bus& bus) {
   const auto only_here = [&](const char* key) {
     if (bus.kind != TransportKind::kUiMessage && !bus.transport.empty()) {
-      r.error(node[key], path + "." + key, std::string("only for uimessage: buses (a UIROBOT serial gateway), but this bus is ") + bus.transport);
+      r.error(node[key], path + "." + key,
+              std::string("only for uimessage: buses (a UIROBOT serial gateway), but this bus is ") + bus.transport);
     }
   };
   if (auto v = r.get<std::string>(node, path, "uimessage_crc", false)) {
-    if (*v == "start_to_aux") bus.uimessage_crc = UiMessageCrc::kStartToAux;
-    else if (*v == "id_to_aux") bus.uimessage_crc = UiMessageCrc::kIdToAux;
-    else r.error(node["uimessage_crc"], path + ".uimessage_crc", "expected start_to_aux (CRC over SM..d8, the manual) or id_to_aux (over ID..d8, UIROBOT's gateway software), got '" + *v + "'");
+    if (*v == "start_to_aux")
+      bus.uimessage_crc = UiMessageCrc::kStartToAux;
+    else if (*v == "id_to_aux")
+      bus.uimessage_crc = UiMessageCrc::kIdToAux;
+    else
+      r.error(node["uimessage_crc"], path + ".uimessage_crc",
+              "expected start_to_aux (CRC over SM..d8, the manual) or id_to_aux (over ID..d8, UIROBOT's gateway "
+              "software), got '" +
+                  *v + "'");
     only_here("uimessage_crc");
   }
   if (auto v = r.get<bool>(node, path, "uimessage_crc_strict", false)) {
@@ -41,8 +48,9 @@ void read_uimessage_keys(Reader& r, const YAML::Node& node, const std::string& p
 }  // namespace
 
 void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& bus) {
-  if (!r.check_map(node, path, {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits",
-                                "uimessage_crc", "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz"}))
+  if (!r.check_map(node, path,
+                   {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits", "uimessage_crc",
+                    "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz"}))
     return;
   bus.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "name", true)) bus.name = *v;
@@ -51,14 +59,24 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
     const auto colon = v->find(':');
     const std::string scheme = v->substr(0, colon);
     bus.target = colon == std::string::npos ? "" : v->substr(colon + 1);
-    if (scheme == "simcan") bus.kind = TransportKind::kSimCan;
-    else if (scheme == "socketcan") bus.kind = TransportKind::kSocketCan;
-    else if (scheme == "serial") bus.kind = TransportKind::kSerial;
-    else if (scheme == "simserial") bus.kind = TransportKind::kSimSerial;
-    else if (scheme == "uimessage") bus.kind = TransportKind::kUiMessage;
-    else r.error(node["transport"], path + ".transport", "unknown transport '" + *v + "' (use simcan:NAME, socketcan:IFACE, serial:DEVICE, simserial:NAME or uimessage:DEVICE)");
-    if (colon != std::string::npos && bus.target.empty()) r.error(node["transport"], path + ".transport", "missing name after '" + scheme + ":'");
-    if (colon == std::string::npos) r.error(node["transport"], path + ".transport", "expected SCHEME:NAME, got '" + *v + "'");
+    if (scheme == "simcan")
+      bus.kind = TransportKind::kSimCan;
+    else if (scheme == "socketcan")
+      bus.kind = TransportKind::kSocketCan;
+    else if (scheme == "serial")
+      bus.kind = TransportKind::kSerial;
+    else if (scheme == "simserial")
+      bus.kind = TransportKind::kSimSerial;
+    else if (scheme == "uimessage")
+      bus.kind = TransportKind::kUiMessage;
+    else
+      r.error(node["transport"], path + ".transport",
+              "unknown transport '" + *v +
+                  "' (use simcan:NAME, socketcan:IFACE, serial:DEVICE, simserial:NAME or uimessage:DEVICE)");
+    if (colon != std::string::npos && bus.target.empty())
+      r.error(node["transport"], path + ".transport", "missing name after '" + scheme + ":'");
+    if (colon == std::string::npos)
+      r.error(node["transport"], path + ".transport", "expected SCHEME:NAME, got '" + *v + "'");
   }
   if (auto v = r.get<int>(node, path, "bitrate", false)) {
     bus.bitrate = *v;
@@ -72,10 +90,14 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
     if (!kBauds.contains(*v)) r.error(node["baud"], path + ".baud", "unsupported baud rate: " + std::to_string(*v));
   }
   if (auto v = r.get<std::string>(node, path, "parity", false)) {
-    if (*v == "none") bus.parity = 'N';
-    else if (*v == "even") bus.parity = 'E';
-    else if (*v == "odd") bus.parity = 'O';
-    else r.error(node["parity"], path + ".parity", "expected none, even or odd, got '" + *v + "'");
+    if (*v == "none")
+      bus.parity = 'N';
+    else if (*v == "even")
+      bus.parity = 'E';
+    else if (*v == "odd")
+      bus.parity = 'O';
+    else
+      r.error(node["parity"], path + ".parity", "expected none, even or odd, got '" + *v + "'");
   }
   if (auto v = r.get<int>(node, path, "stop_bits", false)) {
     bus.stop_bits = *v;
@@ -117,7 +139,8 @@ void read_setup(Reader& r, const YAML::Node& node, const std::string& path, Fami
     if (schema == nullptr) {
       std::string list;
       for (const auto& k : setup_schema(family)) list += (list.empty() ? "" : ", ") + std::string(k.key);
-      r.error(kv.first, key_path, "unknown set-up key for " + std::string(to_string(family)) + " (allowed: " + list + ")");
+      r.error(kv.first, key_path,
+              "unknown set-up key for " + std::string(to_string(family)) + " (allowed: " + list + ")");
       continue;
     }
     switch (schema->type) {
@@ -126,14 +149,16 @@ void read_setup(Reader& r, const YAML::Node& node, const std::string& path, Fami
         break;
       case SetupType::kInt:
         if (auto v = r.convert<int>(kv.second, key_path)) {
-          const bool listed = schema->allowed_ints.empty() ||
-                              std::find(schema->allowed_ints.begin(), schema->allowed_ints.end(), *v) != schema->allowed_ints.end();
+          const bool listed =
+              schema->allowed_ints.empty() ||
+              std::find(schema->allowed_ints.begin(), schema->allowed_ints.end(), *v) != schema->allowed_ints.end();
           if (*v < schema->min || *v > schema->max || !listed) {
             std::string allowed;
             if (!schema->allowed_ints.empty()) {
               for (auto a : schema->allowed_ints) allowed += (allowed.empty() ? "" : ", ") + std::to_string(a);
             } else {
-              allowed = std::to_string(static_cast<long long>(schema->min)) + ".." + std::to_string(static_cast<long long>(schema->max));
+              allowed = std::to_string(static_cast<long long>(schema->min)) + ".." +
+                        std::to_string(static_cast<long long>(schema->max));
             }
             r.error(kv.second, key_path, std::to_string(*v) + " is out of range (" + allowed + ")");
           } else {
@@ -170,14 +195,18 @@ void read_setup(Reader& r, const YAML::Node& node, const std::string& path, Fami
 }  // namespace
 
 void read_drive(Reader& r, const YAML::Node& node, const std::string& path, Drive& drive) {
-  if (!r.check_map(node, path, {"name", "family", "bus", "node_id", "group_id", "request_timeout_ms", "retries", "setup"})) return;
+  if (!r.check_map(node, path,
+                   {"name", "family", "bus", "node_id", "group_id", "request_timeout_ms", "retries", "setup"}))
+    return;
   drive.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "name", true)) drive.name = *v;
   std::optional<Family> family;
   if (auto v = r.get<std::string>(node, path, "family", true)) {
     family = parse_family(*v);
-    if (!family) r.error(node["family"], path + ".family", "unknown family '" + *v + "' (uim342, uim242, uc57, adam-modbus)");
-    else drive.family = *family;
+    if (!family)
+      r.error(node["family"], path + ".family", "unknown family '" + *v + "' (uim342, uim242, uc57, adam-modbus)");
+    else
+      drive.family = *family;
   }
   if (auto v = r.get<std::string>(node, path, "bus", true)) drive.bus = *v;
   if (auto v = r.get<int>(node, path, "node_id", true)) {
@@ -185,8 +214,9 @@ void read_drive(Reader& r, const YAML::Node& node, const std::string& path, Driv
     if (family) {
       const auto range = node_id_range(*family);
       if (*v < range.min || *v > range.max) {
-        r.error(node["node_id"], path + ".node_id", "node id " + std::to_string(*v) + " is outside " +
-                std::string(to_string(*family)) + "'s range " + std::to_string(range.min) + ".." + std::to_string(range.max));
+        r.error(node["node_id"], path + ".node_id",
+                "node id " + std::to_string(*v) + " is outside " + std::string(to_string(*family)) + "'s range " +
+                    std::to_string(range.min) + ".." + std::to_string(range.max));
       }
     }
   }
@@ -195,7 +225,8 @@ void read_drive(Reader& r, const YAML::Node& node, const std::string& path, Driv
     if (family && *family != Family::kUim342) {
       r.error(node["group_id"], path + ".group_id", "group ids exist only for uim342 drives");
     } else if (*v < 5 || *v > 126) {
-      r.error(node["group_id"], path + ".group_id", "group id " + std::to_string(*v) + " is outside 5..126 (SimpleCAN §5.1)");
+      r.error(node["group_id"], path + ".group_id",
+              "group id " + std::to_string(*v) + " is outside 5..126 (SimpleCAN §5.1)");
     }
   }
   if (auto v = r.get<int>(node, path, "request_timeout_ms", false)) {
@@ -252,15 +283,21 @@ void read_axis(Reader& r, const YAML::Node& node, const std::string& path, Axis&
     // The method name is checked against the drive's family in the cross-checks (homing_support).
     if (auto v = r.get<std::string>(homing, hpath, "method", true)) {
       axis.homing.method_name = *v;
-      if (*v == "switch") axis.homing.method = HomingMethod::kSwitch;
-      else if (*v == "current-position") axis.homing.method = HomingMethod::kCurrentPosition;
-      else axis.homing.method = HomingMethod::kNone;
+      if (*v == "switch")
+        axis.homing.method = HomingMethod::kSwitch;
+      else if (*v == "current-position")
+        axis.homing.method = HomingMethod::kCurrentPosition;
+      else
+        axis.homing.method = HomingMethod::kNone;
     }
     if (auto v = r.get<int>(homing, hpath, "input", false)) axis.homing.input = *v;
     if (auto v = r.get<std::string>(homing, hpath, "edge", false)) {
-      if (*v == "falling") axis.homing.edge = HomingEdge::kFalling;
-      else if (*v == "rising") axis.homing.edge = HomingEdge::kRising;
-      else r.error(homing["edge"], hpath + ".edge", "expected falling or rising, got '" + *v + "'");
+      if (*v == "falling")
+        axis.homing.edge = HomingEdge::kFalling;
+      else if (*v == "rising")
+        axis.homing.edge = HomingEdge::kRising;
+      else
+        r.error(homing["edge"], hpath + ".edge", "expected falling or rising, got '" + *v + "'");
     }
     if (auto v = r.get<double>(homing, hpath, "velocity", false)) axis.homing.velocity = *v;
     if (auto v = r.get<double>(homing, hpath, "offset", false)) axis.homing.offset = *v;
@@ -269,8 +306,9 @@ void read_axis(Reader& r, const YAML::Node& node, const std::string& path, Axis&
 
 void read_coordinator(Reader& r, const YAML::Node& node, CoordinatorSettings& out) {
   const std::string path = "coordinator";
-  if (!r.check_map(node, path, {"default_timeout_ms", "progress_period_ms", "trigger_lead_ms", "gateway_timeout_ms",
-                                "arm_timeout_ms", "max_active_requests", "position_tolerance"}))
+  if (!r.check_map(node, path,
+                   {"default_timeout_ms", "progress_period_ms", "trigger_lead_ms", "gateway_timeout_ms",
+                    "arm_timeout_ms", "max_active_requests", "position_tolerance"}))
     return;
   auto positive_int = [&](const char* key, int& field) {
     if (auto v = r.get<int>(node, path, key, false)) {
@@ -316,22 +354,29 @@ void read_security(Reader& r, const YAML::Node& node, const std::string& file, S
   }
   if (auto v = r.get<std::string>(node, path, "authorized_keys", false)) out.authorized_keys = relative_to(file, *v);
   if (auto v = r.get<std::string>(node, path, "key", false)) out.key = relative_to(file, *v);
-  if (auto v = r.get<std::string>(node, path, "coordinator_public_key", false)) out.coordinator_public_key = relative_to(file, *v);
+  if (auto v = r.get<std::string>(node, path, "coordinator_public_key", false))
+    out.coordinator_public_key = relative_to(file, *v);
   if (auto v = r.get<int>(node, path, "window_ms", false)) {
     out.window_ms = *v;
-    if (*v < 100 || *v > 600000) r.error(node["window_ms"], path + ".window_ms", std::to_string(*v) + " is outside 100..600000 ms");
+    if (*v < 100 || *v > 600000)
+      r.error(node["window_ms"], path + ".window_ms", std::to_string(*v) + " is outside 100..600000 ms");
   }
   if (out.mode == SecuritySettings::Mode::kEnforce) {
-    if (out.authorized_keys.empty()) r.error(node, path + ".authorized_keys", "required when security.mode is enforce (who may send what)");
-    if (out.key.empty()) r.error(node, path + ".key", "required when security.mode is enforce (the coordinator signs its gateway commands)");
+    if (out.authorized_keys.empty())
+      r.error(node, path + ".authorized_keys", "required when security.mode is enforce (who may send what)");
+    if (out.key.empty())
+      r.error(node, path + ".key",
+              "required when security.mode is enforce (the coordinator signs its gateway commands)");
     if (out.coordinator_public_key.empty()) {
-      r.error(node, path + ".coordinator_public_key", "required when security.mode is enforce (gateways verify the coordinator's commands)");
+      r.error(node, path + ".coordinator_public_key",
+              "required when security.mode is enforce (gateways verify the coordinator's commands)");
     }
   }
 }
 
 void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out) {
-  if (!r.check_map(node, "simulation", {"runtime_dir", "group", "reply_latency_us", "home_switches", "variants"})) return;
+  if (!r.check_map(node, "simulation", {"runtime_dir", "group", "reply_latency_us", "home_switches", "variants"}))
+    return;
   if (const YAML::Node switches = node["home_switches"]) {
     if (!switches.IsMap()) {
       r.error(switches, "simulation.home_switches", "expected a map of drive name to switch position (counts) or none");
@@ -347,9 +392,7 @@ void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out)
         }
         try {
           out.home_switches[drive] = entry.second.as<long long>();
-        } catch (const YAML::Exception&) {
-          r.error(entry.second, path, "expected a position in counts or none");
-        }
+        } catch (const YAML::Exception&) { r.error(entry.second, path, "expected a position in counts or none"); }
       }
     }
   }

@@ -9,7 +9,11 @@ namespace {
 // effect"; written while the driver is on they stay in RAM. Whether a drive also applies a RAM
 // value at once is not said.
 const std::vector<SimVariantKey> kUim342 = {
-    {"micro_steps_apply", {"after_restart", "immediately"}, 0, 0, "after_restart",
+    {"micro_steps_apply",
+     {"after_restart", "immediately"},
+     0,
+     0,
+     "after_restart",
      "when a written MT[0] micro-step resolution takes effect"},
 };
 
@@ -23,16 +27,29 @@ const std::vector<SimVariantKey> kUim242 = {
 // commands run at 0x009A), §8.54 (table data, "after sending ... send a save command"), §8.69
 // (Save, 0x00DC: 0.1 s per flash erase).
 const std::vector<SimVariantKey> kAdam = {
-    {"table_speed_register", {"0x009A", "0x00D8", "shared"}, 0, 0, "0x009A",
+    {"table_speed_register",
+     {"0x009A", "0x00D8", "shared"},
+     0,
+     0,
+     "0x009A",
      "the register whose speed an executed table entry runs at (shared: one setpoint behind both)"},
-    {"table_needs_save", {"false", "true"}, 0, 0, "true", "whether table data written by Modbus is used only after a Save (0x00DC)"},
+    {"table_needs_save",
+     {"false", "true"},
+     0,
+     0,
+     "true",
+     "whether table data written by Modbus is used only after a Save (0x00DC)"},
 };
 
 // UC57 manual §4.1.2 (SYNC: "assuming that the devices in the network support synchronous PDO
 // function") and §5 (1400h:02 RPDO transmission type, RW/S, default FFh): whether a UC57 takes
 // transmission type 1 and applies a synchronous RPDO at the next SYNC is not said.
 const std::vector<SimVariantKey> kUc57 = {
-    {"rpdo_sync", {"honoured", "on_reception", "refused"}, 0, 0, "honoured",
+    {"rpdo_sync",
+     {"honoured", "on_reception", "refused"},
+     0,
+     0,
+     "honoured",
      "RPDO transmission type 1: applied at the next SYNC, accepted but applied on reception, or refused by SDO abort"},
 };
 
@@ -89,7 +106,8 @@ std::string sim_variant_error(Family family, std::string_view key, std::string_v
   long long number = 0;
   const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), number);
   if (ec != std::errc{} || end != value.data() + value.size() || number < k->min || number > k->max) {
-    return "'" + std::string(value) + "' is not an integer in " + std::to_string(k->min) + ".." + std::to_string(k->max);
+    return "'" + std::string(value) + "' is not an integer in " + std::to_string(k->min) + ".." +
+           std::to_string(k->max);
   }
   return {};
 }

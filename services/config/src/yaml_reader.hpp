@@ -87,7 +87,11 @@ class Reader {
   template <typename T>
   std::optional<T> convert(const YAML::Node& node, const std::string& key_path) {
     if (!node.IsScalar()) {
-      error(node, key_path, std::string("expected ") + type_name<T>() + ", got a " + (node.IsMap() ? "mapping" : node.IsSequence() ? "sequence" : "null"));
+      error(node, key_path,
+            std::string("expected ") + type_name<T>() + ", got a " +
+                (node.IsMap()        ? "mapping"
+                 : node.IsSequence() ? "sequence"
+                                     : "null"));
       return std::nullopt;
     }
     try {
@@ -105,7 +109,9 @@ class Reader {
     }
   }
 
-  static std::string join(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+  static std::string join(const std::string& path, const std::string& key) {
+    return path.empty() ? key : path + "." + key;
+  }
 
  private:
   template <typename T>

@@ -1,8 +1,8 @@
 #include "motion/core/event_loop.hpp"
 
 #include <poll.h>
-#include <time.h>
 #include <sys/signalfd.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -94,9 +94,7 @@ void EventLoop::dispatch_timers() {
     if (it->second.period > Duration::zero()) {
       // Periodic: next deadline from the previous one (no drift), skipping missed periods.
       Timer& timer = it->second;
-      do {
-        timer.deadline += timer.period;
-      } while (timer.deadline <= t);
+      do { timer.deadline += timer.period; } while (timer.deadline <= t);
       deadlines_.emplace(timer.deadline, id);
       callback = timer.callback;
     } else {
@@ -114,9 +112,7 @@ void EventLoop::run_once(Duration max_wait) {
     deadlines_.erase(deadlines_.begin());
   }
   Duration wait = max_wait;
-  if (!deadlines_.empty()) {
-    wait = std::min(wait, std::max(Duration::zero(), deadlines_.begin()->first - now()));
-  }
+  if (!deadlines_.empty()) { wait = std::min(wait, std::max(Duration::zero(), deadlines_.begin()->first - now())); }
   std::vector<pollfd> pfds;
   pfds.reserve(fds_.size());
   for (const auto& [fd, cb] : fds_) pfds.push_back(pollfd{fd, POLLIN, 0});
@@ -127,9 +123,7 @@ void EventLoop::run_once(Duration max_wait) {
   const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(capped).count();
   const timespec timeout{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
   const int n = ::ppoll(pfds.data(), pfds.size(), &timeout, nullptr);
-  if (n < 0 && errno != EINTR) {
-    spdlog::error("event loop: poll failed: {}", std::strerror(errno));
-  }
+  if (n < 0 && errno != EINTR) { spdlog::error("event loop: poll failed: {}", std::strerror(errno)); }
   if (n > 0) {
     for (const auto& p : pfds) {
       if (p.revents == 0) continue;

@@ -58,7 +58,8 @@ std::optional<gid_t> group_id(const std::string& name) {
   group entry{};
   group* found = nullptr;
   std::vector<char> buffer(4096);
-  while (::getgrnam_r(name.c_str(), &entry, buffer.data(), buffer.size(), &found) == ERANGE && buffer.size() < (1U << 20)) {
+  while (::getgrnam_r(name.c_str(), &entry, buffer.data(), buffer.size(), &found) == ERANGE &&
+         buffer.size() < (1U << 20)) {
     buffer.resize(buffer.size() * 2);
   }
   if (found == nullptr) return std::nullopt;

@@ -34,7 +34,9 @@ class SyslogPriorityFlag final : public spdlog::custom_flag_formatter {
     const auto prefix = syslog_prefix(msg.level);
     dest.append(prefix.data(), prefix.data() + prefix.size());
   }
-  [[nodiscard]] std::unique_ptr<custom_flag_formatter> clone() const override { return std::make_unique<SyslogPriorityFlag>(); }
+  [[nodiscard]] std::unique_ptr<custom_flag_formatter> clone() const override {
+    return std::make_unique<SyslogPriorityFlag>();
+  }
 };
 
 }  // namespace

@@ -52,9 +52,7 @@ void LoopMailbox::drain() {
   for (auto& callback : batch) {
     try {
       callback();
-    } catch (const std::exception& e) {
-      spdlog::error("a callback posted to the event loop threw: {}", e.what());
-    }
+    } catch (const std::exception& e) { spdlog::error("a callback posted to the event loop threw: {}", e.what()); }
   }
 }
 

@@ -79,7 +79,8 @@ void PreciseTimer::cancel() {
 
 void PreciseTimer::on_expired() {
   std::uint64_t expirations = 0;
-  if (::read(fd_, &expirations, sizeof expirations) != static_cast<ssize_t>(sizeof expirations)) return;  // EAGAIN: cancelled meanwhile
+  if (::read(fd_, &expirations, sizeof expirations) != static_cast<ssize_t>(sizeof expirations))
+    return;  // EAGAIN: cancelled meanwhile
   if (!armed_) return;
   armed_ = false;
   auto cb = std::move(callback_);

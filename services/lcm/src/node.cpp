@@ -42,7 +42,9 @@ struct Node::Subscription {
 };
 
 Node::Node(EventLoop& loop, NodeOptions options)
-    : loop_(loop), url_(std::move(options.url)), prefix_(std::move(options.prefix)),
+    : loop_(loop),
+      url_(std::move(options.url)),
+      prefix_(std::move(options.prefix)),
       queue_capacity_(std::max(1, options.queue_capacity)) {
   if (url_.empty()) {
     if (const char* env = std::getenv("LCM_DEFAULT_URL")) url_ = env;
@@ -52,8 +54,9 @@ Node::Node(EventLoop& loop, NodeOptions options)
   lcm_ = std::make_unique<::lcm::LCM>(effective_url_);
   ok_ = lcm_->good();
   if (!ok_) {
-    spdlog::error("lcm: cannot open '{}' (bad URL, or no multicast route: see docs/recording-and-networks.md, Networking)",
-                  url_.empty() ? "<default>" : url_);
+    spdlog::error(
+        "lcm: cannot open '{}' (bad URL, or no multicast route: see docs/recording-and-networks.md, Networking)",
+        url_.empty() ? "<default>" : url_);
     return;
   }
   const int fd = lcm_->getFileno();
@@ -86,9 +89,10 @@ int Node::default_receive_buffer() {
     static bool warned = false;
     if (!warned) {
       warned = true;
-      spdlog::warn("lcm: the kernel limits UDP receive buffers to {} bytes (net.core.rmem_max): bursts of messages "
-                   "may be lost; raise it, e.g. sysctl -w net.core.rmem_max=8388608",
-                   rmem_max);
+      spdlog::warn(
+          "lcm: the kernel limits UDP receive buffers to {} bytes (net.core.rmem_max): bursts of messages "
+          "may be lost; raise it, e.g. sysctl -w net.core.rmem_max=8388608",
+          rmem_max);
     }
   }
   return static_cast<int>(std::min(kWanted, rmem_max));
@@ -106,7 +110,8 @@ bool Node::publish_raw(const std::string& full_channel, const std::vector<std::u
 
 void Node::subscribe_raw(const std::string& full_channel_regex, RawHandler handler) {
   if (!ok_) return;
-  auto sub = std::make_unique<Subscription>(Subscription{this, full_channel_regex, nullptr, std::move(handler), {}, {}, 0});
+  auto sub =
+      std::make_unique<Subscription>(Subscription{this, full_channel_regex, nullptr, std::move(handler), {}, {}, 0});
   lcm_subscription_t* s =
       lcm_subscribe(lcm_->getUnderlyingLCM(), full_channel_regex.c_str(), &Subscription::on_message, sub.get());
   if (s != nullptr) lcm_subscription_set_queue_capacity(s, queue_capacity_);
@@ -115,7 +120,8 @@ void Node::subscribe_raw(const std::string& full_channel_regex, RawHandler handl
 
 void Node::add_subscription(const std::string& full_channel_regex, const char* type_name, TypedHandler handler) {
   if (!ok_) return;
-  auto sub = std::make_unique<Subscription>(Subscription{this, full_channel_regex, type_name, {}, std::move(handler), {}, 0});
+  auto sub =
+      std::make_unique<Subscription>(Subscription{this, full_channel_regex, type_name, {}, std::move(handler), {}, 0});
   lcm_subscription_t* s =
       lcm_subscribe(lcm_->getUnderlyingLCM(), full_channel_regex.c_str(), &Subscription::on_message, sub.get());
   if (s != nullptr) lcm_subscription_set_queue_capacity(s, queue_capacity_);

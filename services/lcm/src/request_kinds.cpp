@@ -51,11 +51,13 @@ const char* request_kind_words(std::int8_t kind) {
 }
 
 bool request_kind_moves(std::int8_t kind) {
-  return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG || kind == request_t::HOME;
+  return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG ||
+         kind == request_t::HOME;
 }
 
 std::string request_label(const request_t& request) {
-  return std::string(request_kind_words(request.kind)) + " request " + std::to_string(request.request_id) + " of client '" + request.client_id + "'";
+  return std::string(request_kind_words(request.kind)) + " request " + std::to_string(request.request_id) +
+         " of client '" + request.client_id + "'";
 }
 
 }  // namespace motion::lcm

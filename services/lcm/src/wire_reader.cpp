@@ -19,7 +19,8 @@ bool WireReader::string(const char* field) {
   std::int64_t length = 0;
   if (!integer(4, field, length)) return false;
   if (length < 1) return fail(field, "string length (must be >= 1, it includes the NUL) is", length);
-  if (static_cast<std::uint64_t>(length) > remaining()) return fail(field, "string length exceeds what remains:", length);
+  if (static_cast<std::uint64_t>(length) > remaining())
+    return fail(field, "string length exceeds what remains:", length);
   pos_ += static_cast<std::size_t>(length);
   if (data_[pos_ - 1] != 0) return fail(field, "string does not end with NUL; length", length);
   return true;
@@ -56,7 +57,8 @@ bool WireReader::fail(const char* field, const char* problem, std::int64_t value
   return false;
 }
 
-std::string describe_fingerprint_mismatch(const char* type_name, std::size_t size, std::int64_t got, std::int64_t want) {
+std::string describe_fingerprint_mismatch(const char* type_name, std::size_t size, std::int64_t got,
+                                          std::int64_t want) {
   (void)want;
   return std::to_string(size) + " bytes are not a " + std::string(type_name) + " (fingerprint " + std::to_string(got) +
          ")";

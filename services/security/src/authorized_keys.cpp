@@ -38,23 +38,19 @@ std::optional<Role> parse_role(std::string_view text) {
 Role required_role(std::int8_t kind) {
   switch (kind) {
     case request_t::STOP:
-    case request_t::ESTOP:
-      return Role::kObserve;
+    case request_t::ESTOP: return Role::kObserve;
     case request_t::MOVE_ABSOLUTE:
     case request_t::MOVE_RELATIVE:
     case request_t::JOG:
     case request_t::HOME:
     case request_t::ENABLE:
     case request_t::DISABLE:
-    case request_t::FAULT_RESET:
-      return Role::kOperate;
+    case request_t::FAULT_RESET: return Role::kOperate;
     case request_t::SET_POSITION:
     case request_t::SET_OUTPUTS:
     case request_t::PARAM_READ:
-    case request_t::PARAM_WRITE:
-      return Role::kConfigure;
-    default:
-      return Role::kAdmin;
+    case request_t::PARAM_WRITE: return Role::kConfigure;
+    default: return Role::kAdmin;
   }
 }
 
@@ -76,14 +72,16 @@ Loaded<AuthorizedKeys> AuthorizedKeys::parse(std::string_view text, const std::s
     const std::string where = file_name + ":" + std::to_string(number) + ": ";
     auto fail = [&](const std::string& what) { errors += (errors.empty() ? "" : "\n") + where + what; };
     if (fields.size() != 3) {
-      fail("expected '<base64 public key> <name> <role>', got " + std::to_string(fields.size()) + " field" + (fields.size() == 1 ? "" : "s"));
+      fail("expected '<base64 public key> <name> <role>', got " + std::to_string(fields.size()) + " field" +
+           (fields.size() == 1 ? "" : "s"));
       continue;
     }
     Principal p;
     p.line = number;
     const auto key = base64_decode(fields[0]);
     if (!key || key->size() != kPublicKeyBytes) {
-      fail("'" + fields[0].substr(0, 16) + (fields[0].size() > 16 ? "...'" : "'") + " is not a base64 Ed25519 public key (32 bytes)");
+      fail("'" + fields[0].substr(0, 16) + (fields[0].size() > 16 ? "...'" : "'") +
+           " is not a base64 Ed25519 public key (32 bytes)");
       continue;
     }
     std::copy(key->begin(), key->end(), p.key.begin());
@@ -100,7 +98,8 @@ Loaded<AuthorizedKeys> AuthorizedKeys::parse(std::string_view text, const std::s
     p.role = *role;
     // Key ids are 8 bytes of the key: two keys sharing them could not be told apart.
     if (auto [it, fresh] = key_lines.emplace(key_id(p.key), number); !fresh) {
-      fail("key of '" + p.name + "' is already listed at line " + std::to_string(it->second) + " (same key id " + to_hex(key_id(p.key)) + ")");
+      fail("key of '" + p.name + "' is already listed at line " + std::to_string(it->second) + " (same key id " +
+           to_hex(key_id(p.key)) + ")");
       continue;
     }
     if (auto [it, fresh] = name_lines.emplace(p.name, number); !fresh) {

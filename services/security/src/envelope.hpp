@@ -26,8 +26,9 @@ inline constexpr std::string_view kGatewayCommandDomain = "motionbus signed_gate
 inline constexpr std::string_view kMessageDomain = "motionbus signed_message_t v1";
 
 // domain NUL prefix NUL key_id counter utime payload_size payload (integers big-endian).
-std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_view prefix, const std::uint8_t (&key_id)[kKeyIdBytes],
-                                        std::int64_t counter, std::int64_t utime, std::int32_t payload_size,
+std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_view prefix,
+                                        const std::uint8_t (&key_id)[kKeyIdBytes], std::int64_t counter,
+                                        std::int64_t utime, std::int32_t payload_size,
                                         std::span<const std::uint8_t> payload);
 
 // The signed message's bytes and their count.
@@ -66,8 +67,8 @@ Signature signature_of(const Envelope& e) {
 // `msg` encoded, signed by `key` at `now_us` with the counter after `last_counter` (max(last + 1,
 // now_us), which becomes the last).
 template <typename Envelope, typename Msg>
-Envelope seal(const KeyPair& key, std::string_view domain, std::string_view prefix, std::int64_t& last_counter, const Msg& msg,
-              std::int64_t now_us) {
+Envelope seal(const KeyPair& key, std::string_view domain, std::string_view prefix, std::int64_t& last_counter,
+              const Msg& msg, std::int64_t now_us) {
   Envelope e{};
   e.utime = now_us;
   const KeyId id = key.id();
@@ -86,7 +87,7 @@ Envelope seal(const KeyPair& key, std::string_view domain, std::string_view pref
 
 // Why `utime` is not fresh at `now_us` (all µs since the epoch), e.g. "signed 2500 ms ago, outside
 // the window of 2000 ms (clocks out of sync, or a replay)"; nothing when it is.
-std::optional<std::string> stale(std::int64_t utime, std::int64_t now_us, std::int64_t window_us, std::int64_t not_before_us,
-                                 std::string_view started);
+std::optional<std::string> stale(std::int64_t utime, std::int64_t now_us, std::int64_t window_us,
+                                 std::int64_t not_before_us, std::string_view started);
 
 }  // namespace motion::security::detail

@@ -8,27 +8,33 @@
 
 namespace motion::security {
 
-GatewayCommandSigner::GatewayCommandSigner(KeyPair key, std::string channel_prefix) : key_(std::move(key)), prefix_(std::move(channel_prefix)) {}
+GatewayCommandSigner::GatewayCommandSigner(KeyPair key, std::string channel_prefix)
+    : key_(std::move(key)), prefix_(std::move(channel_prefix)) {}
 
-motionlcm::signed_gateway_command_t GatewayCommandSigner::sign(const motionlcm::gateway_command_t& command, std::int64_t now_us) {
-  return detail::seal<motionlcm::signed_gateway_command_t>(key_, detail::kGatewayCommandDomain, prefix_, last_counter_, command, now_us);
+motionlcm::signed_gateway_command_t GatewayCommandSigner::sign(const motionlcm::gateway_command_t& command,
+                                                               std::int64_t now_us) {
+  return detail::seal<motionlcm::signed_gateway_command_t>(key_, detail::kGatewayCommandDomain, prefix_, last_counter_,
+                                                           command, now_us);
 }
 
-GatewayCommandVerifier::GatewayCommandVerifier(PublicKey coordinator, std::string channel_prefix, std::chrono::milliseconds window,
-                                               std::int64_t not_before_us)
+GatewayCommandVerifier::GatewayCommandVerifier(PublicKey coordinator, std::string channel_prefix,
+                                               std::chrono::milliseconds window, std::int64_t not_before_us)
     : coordinator_(coordinator),
       prefix_(std::move(channel_prefix)),
       window_us_(std::chrono::duration_cast<std::chrono::microseconds>(window).count()),
       not_before_us_(not_before_us) {}
 
-CommandVerdict GatewayCommandVerifier::verify(const motionlcm::signed_gateway_command_t& envelope, std::int64_t now_us) {
+CommandVerdict GatewayCommandVerifier::verify(const motionlcm::signed_gateway_command_t& envelope,
+                                              std::int64_t now_us) {
   CommandVerdict v;
   const KeyId id = detail::key_id_of(envelope);
   if (id != key_id(coordinator_)) {
-    v.reason = "signed command refused: key " + to_hex(id) + " is not the coordinator's (" + to_hex(key_id(coordinator_)) + ")";
+    v.reason = "signed command refused: key " + to_hex(id) + " is not the coordinator's (" +
+               to_hex(key_id(coordinator_)) + ")";
     return v;
   }
-  if (!security::verify(coordinator_, detail::covered_bytes(detail::kGatewayCommandDomain, prefix_, envelope), detail::signature_of(envelope))) {
+  if (!security::verify(coordinator_, detail::covered_bytes(detail::kGatewayCommandDomain, prefix_, envelope),
+                        detail::signature_of(envelope))) {
     v.reason = "signed command refused: bad signature (forged or altered in transit)";
     return v;
   }
@@ -43,7 +49,8 @@ CommandVerdict GatewayCommandVerifier::verify(const motionlcm::signed_gateway_co
   }
   last_counter_ = envelope.counter;
   motionlcm::gateway_command_t command;
-  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command); !why.empty()) {
+  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command);
+      !why.empty()) {
     v.reason = "signed command refused: malformed payload: " + why;
     return v;
   }
@@ -62,7 +69,8 @@ Loaded<PublicKey> load_public_key(const std::string& path) {
     if (!(fields_in >> text) || text[0] == '#') continue;
     const auto key = base64_decode(text);
     if (!key || key->size() != kPublicKeyBytes) {
-      return path + ":" + std::to_string(number) + ": expected '<base64 public key> <name> [<role>]' (is this a .pub file?)";
+      return path + ":" + std::to_string(number) +
+             ": expected '<base64 public key> <name> [<role>]' (is this a .pub file?)";
     }
     PublicKey out{};
     std::copy(key->begin(), key->end(), out.begin());

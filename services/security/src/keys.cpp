@@ -77,7 +77,8 @@ std::optional<std::vector<std::uint8_t>> base64_decode(std::string_view text) {
   std::vector<std::uint8_t> out(text.size() / 4 * 3 + 3);
   std::size_t length = 0;
   const char* end = nullptr;
-  if (sodium_base642bin(out.data(), out.size(), text.data(), text.size(), nullptr, &length, &end, sodium_base64_VARIANT_ORIGINAL) != 0 ||
+  if (sodium_base642bin(out.data(), out.size(), text.data(), text.size(), nullptr, &length, &end,
+                        sodium_base64_VARIANT_ORIGINAL) != 0 ||
       end != text.data() + text.size()) {
     return std::nullopt;
   }
@@ -88,7 +89,8 @@ std::optional<std::vector<std::uint8_t>> base64_decode(std::string_view text) {
 bool valid_name(std::string_view name) {
   if (name.empty() || name.size() > 64) return false;
   for (const char c : name) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
     if (!ok) return false;
   }
   return true;
@@ -132,8 +134,8 @@ Signature KeyPair::sign(std::span<const std::uint8_t> message) const {
 std::string KeyPair::private_file_text() const {
   // The seed is the first half of libsodium's secret key.
   const std::string seed = base64_encode(std::span<const std::uint8_t>(secret_.data(), kSeedBytes));
-  return "# motionbus Ed25519 private key of '" + name_ + "': keep it secret (mode 0600)\n" + std::string(kPrivateTag) + " " + seed + " " +
-         name_ + "\n";
+  return "# motionbus Ed25519 private key of '" + name_ + "': keep it secret (mode 0600)\n" + std::string(kPrivateTag) +
+         " " + seed + " " + name_ + "\n";
 }
 
 std::string KeyPair::authorized_line(std::string_view role) const {
@@ -159,7 +161,8 @@ Loaded<KeyPair> load_private_key(const std::string& path) {
     const std::string where = path + ":" + std::to_string(number) + ": ";
     if (found) return where + "a second key line (a private key file holds one key)";
     if (fields.size() != 3 || fields[0] != kPrivateTag) {
-      return where + "expected '" + std::string(kPrivateTag) + " <base64 seed> <name>' (is this a private key file? a .pub file is not)";
+      return where + "expected '" + std::string(kPrivateTag) +
+             " <base64 seed> <name>' (is this a private key file? a .pub file is not)";
     }
     auto seed = base64_decode(fields[1]);
     if (!seed || seed->size() != kSeedBytes) return where + "the seed is not base64 of 32 bytes";
@@ -171,8 +174,12 @@ Loaded<KeyPair> load_private_key(const std::string& path) {
   return std::move(*found);
 }
 
-std::string private_key_path(const std::string& dir, std::string_view name) { return dir + "/" + std::string(name) + ".key"; }
-std::string public_key_path(const std::string& dir, std::string_view name) { return dir + "/" + std::string(name) + ".pub"; }
+std::string private_key_path(const std::string& dir, std::string_view name) {
+  return dir + "/" + std::string(name) + ".key";
+}
+std::string public_key_path(const std::string& dir, std::string_view name) {
+  return dir + "/" + std::string(name) + ".pub";
+}
 
 std::optional<std::string> write_key_pair(const KeyPair& key, const std::string& dir, std::string_view role) {
   if (::mkdir(dir.c_str(), 0700) != 0 && errno != EEXIST) return "cannot create " + dir + ": " + std::strerror(errno);

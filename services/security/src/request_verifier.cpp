@@ -2,14 +2,15 @@
 
 #include <algorithm>
 
+#include "envelope.hpp"
 #include "motion/lcm/request_kinds.hpp"
 #include "motion/lcm/wire_bounds.hpp"
-#include "envelope.hpp"
 #include "motion/security/signed_request.hpp"
 
 namespace motion::security {
 
-RequestVerifier::RequestVerifier(AuthorizedKeys keys, std::string channel_prefix, std::chrono::milliseconds window, std::int64_t not_before_us)
+RequestVerifier::RequestVerifier(AuthorizedKeys keys, std::string channel_prefix, std::chrono::milliseconds window,
+                                 std::int64_t not_before_us)
     : keys_(std::move(keys)),
       prefix_(std::move(channel_prefix)),
       window_us_(std::chrono::duration_cast<std::chrono::microseconds>(window).count()),
@@ -50,13 +51,13 @@ Verdict RequestVerifier::verify(const motionlcm::signed_request_t& envelope, std
     return v;
   }
   if (!p->owns_client_id(request.client_id)) {
-    v.reason = "client id '" + request.client_id + "' is not key " + v.signer + "'s own (it must be '" + p->name + "' or start with '" +
-               p->name + "/')" + claimed;
+    v.reason = "client id '" + request.client_id + "' is not key " + v.signer + "'s own (it must be '" + p->name +
+               "' or start with '" + p->name + "/')" + claimed;
     return v;
   }
   if (!allows(p->role, request.kind)) {
-    v.reason = "role too low: key " + v.signer + " has role " + to_string(p->role) + ", a " + lcm::request_kind_words(request.kind) +
-               " needs " + to_string(required_role(request.kind)) + claimed;
+    v.reason = "role too low: key " + v.signer + " has role " + to_string(p->role) + ", a " +
+               lcm::request_kind_words(request.kind) + " needs " + to_string(required_role(request.kind)) + claimed;
     v.answerable = true;
     v.request = std::move(request);
     return v;

@@ -18,9 +18,11 @@ std::string scope(std::string_view prefix, std::string_view channel) {
 
 std::string signed_channel(std::string_view channel) { return "S" + std::string(channel); }
 
-MessageSigner::MessageSigner(KeyPair key, std::string channel_prefix) : key_(std::move(key)), prefix_(std::move(channel_prefix)) {}
+MessageSigner::MessageSigner(KeyPair key, std::string channel_prefix)
+    : key_(std::move(key)), prefix_(std::move(channel_prefix)) {}
 
-motionlcm::signed_message_t MessageSigner::sign_bytes(std::string_view channel, std::vector<std::uint8_t> message, std::int64_t now_us) {
+motionlcm::signed_message_t MessageSigner::sign_bytes(std::string_view channel, std::vector<std::uint8_t> message,
+                                                      std::int64_t now_us) {
   motionlcm::signed_message_t e{};
   e.utime = now_us;
   const KeyId id = key_.id();
@@ -35,16 +37,16 @@ motionlcm::signed_message_t MessageSigner::sign_bytes(std::string_view channel, 
   return e;
 }
 
-MessageVerifier::MessageVerifier(PublicKey coordinator, std::string channel_prefix, std::string channel, std::chrono::milliseconds window,
-                                 std::int64_t not_before_us)
+MessageVerifier::MessageVerifier(PublicKey coordinator, std::string channel_prefix, std::string channel,
+                                 std::chrono::milliseconds window, std::int64_t not_before_us)
     : coordinator_(coordinator),
       prefix_(std::move(channel_prefix)),
       channel_(std::move(channel)),
       window_us_(std::chrono::duration_cast<std::chrono::microseconds>(window).count()),
       not_before_us_(not_before_us) {}
 
-std::optional<std::vector<std::uint8_t>> MessageVerifier::verify_bytes(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
-                                                                       std::string& reason) {
+std::optional<std::vector<std::uint8_t>> MessageVerifier::verify_bytes(const motionlcm::signed_message_t& envelope,
+                                                                       std::int64_t now_us, std::string& reason) {
   const std::string what = "signed " + channel_ + " refused: ";
   if (envelope.channel != channel_) {
     reason = what + "it was signed for channel '" + envelope.channel.substr(0, 64) + "'";
@@ -65,7 +67,8 @@ std::optional<std::vector<std::uint8_t>> MessageVerifier::verify_bytes(const mot
     return std::nullopt;
   }
   if (envelope.counter <= last_counter_) {
-    reason = what + "replayed counter " + std::to_string(envelope.counter) + " (last accepted " + std::to_string(last_counter_) + ")";
+    reason = what + "replayed counter " + std::to_string(envelope.counter) + " (last accepted " +
+             std::to_string(last_counter_) + ")";
     return std::nullopt;
   }
   last_counter_ = envelope.counter;

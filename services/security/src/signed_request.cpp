@@ -23,8 +23,9 @@ std::uint64_t distance(std::int64_t a, std::int64_t b) {
 
 }  // namespace
 
-std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_view prefix, const std::uint8_t (&key_id)[kKeyIdBytes],
-                                        std::int64_t counter, std::int64_t utime, std::int32_t payload_size,
+std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_view prefix,
+                                        const std::uint8_t (&key_id)[kKeyIdBytes], std::int64_t counter,
+                                        std::int64_t utime, std::int32_t payload_size,
                                         std::span<const std::uint8_t> payload) {
   // Sized once and filled in place (GCC 12 misreads repeated vector inserts as overflows).
   std::vector<std::uint8_t> out(domain.size() + 1 + prefix.size() + 1 + kKeyIdBytes + 8 + 8 + 4 + payload.size());
@@ -43,15 +44,17 @@ std::vector<std::uint8_t> covered_bytes(std::string_view domain, std::string_vie
   return out;
 }
 
-std::optional<std::string> stale(std::int64_t utime, std::int64_t now_us, std::int64_t window_us, std::int64_t not_before_us,
-                                 std::string_view started) {
+std::optional<std::string> stale(std::int64_t utime, std::int64_t now_us, std::int64_t window_us,
+                                 std::int64_t not_before_us, std::string_view started) {
   if (utime < not_before_us) {
-    return "signed " + milliseconds_text(distance(not_before_us, utime)) + " before the " + std::string(started) + " started (a replay?)";
+    return "signed " + milliseconds_text(distance(not_before_us, utime)) + " before the " + std::string(started) +
+           " started (a replay?)";
   }
   const std::uint64_t age = distance(now_us, utime);
   if (age > static_cast<std::uint64_t>(window_us)) {
-    return "signed " + milliseconds_text(age) + (now_us >= utime ? " ago" : " in the future") + ", outside the window of " +
-           milliseconds_text(static_cast<std::uint64_t>(window_us)) + " (clocks out of sync, or a replay)";
+    return "signed " + milliseconds_text(age) + (now_us >= utime ? " ago" : " in the future") +
+           ", outside the window of " + milliseconds_text(static_cast<std::uint64_t>(window_us)) +
+           " (clocks out of sync, or a replay)";
   }
   return std::nullopt;
 }
@@ -62,7 +65,8 @@ std::vector<std::uint8_t> signed_bytes(std::string_view channel_prefix, const mo
   return detail::covered_bytes(detail::kRequestDomain, channel_prefix, envelope);
 }
 
-RequestSigner::RequestSigner(KeyPair key, std::string channel_prefix) : key_(std::move(key)), prefix_(std::move(channel_prefix)) {}
+RequestSigner::RequestSigner(KeyPair key, std::string channel_prefix)
+    : key_(std::move(key)), prefix_(std::move(channel_prefix)) {}
 
 std::string RequestSigner::own_client_id(std::string_view client_id) const {
   if (name_owns_client_id(key_.name(), client_id)) return std::string(client_id);
@@ -70,7 +74,8 @@ std::string RequestSigner::own_client_id(std::string_view client_id) const {
 }
 
 motionlcm::signed_request_t RequestSigner::sign(const motionlcm::request_t& request, std::int64_t now_us) {
-  return detail::seal<motionlcm::signed_request_t>(key_, detail::kRequestDomain, prefix_, last_counter_, request, now_us);
+  return detail::seal<motionlcm::signed_request_t>(key_, detail::kRequestDomain, prefix_, last_counter_, request,
+                                                   now_us);
 }
 
 }  // namespace motion::security

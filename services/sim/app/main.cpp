@@ -45,7 +45,9 @@ int main(int argc, char** argv) {
         {config::Family::kUim242, sim::uim242_line_factory()},
     };
 
-    auto report = [&service](motionlcm::sim_report_t r) { service.node().publish(motion::lcm::channels::kSimReport, r); };
+    auto report = [&service](motionlcm::sim_report_t r) {
+      service.node().publish(motion::lcm::channels::kSimReport, r);
+    };
     std::vector<std::unique_ptr<sim::CanBusHost>> can_buses;
     std::vector<std::unique_ptr<sim::SerialLineHost>> serial_lines;
     std::vector<std::string> missing;
@@ -54,12 +56,13 @@ int main(int argc, char** argv) {
         std::error_code error;
         auto host = sim::CanBusHost::open(service.loop(), *config, bus, can_factories, report, error);
         if (!host) {
-          spdlog::error("cannot open simulated CAN bus {} in {}: {}", bus.name, config::sim_runtime_dir(*config), error.message());
+          spdlog::error("cannot open simulated CAN bus {} in {}: {}", bus.name, config::sim_runtime_dir(*config),
+                        error.message());
           return app::kExitUnavailable;
         }
         missing.insert(missing.end(), host->missing().begin(), host->missing().end());
-        spdlog::info("simulated CAN bus {} at {} bit/s ({}), socket {}", bus.name, bus.bitrate, bus.bus_timing ? "bit-timed" : "untimed",
-                     host->hub().socket_path().string());
+        spdlog::info("simulated CAN bus {} at {} bit/s ({}), socket {}", bus.name, bus.bitrate,
+                     bus.bus_timing ? "bit-timed" : "untimed", host->hub().socket_path().string());
         can_buses.push_back(std::move(host));
       } else if (bus.kind == config::TransportKind::kSocketCan && simulate_socketcan) {
         std::error_code error;
@@ -69,13 +72,16 @@ int main(int argc, char** argv) {
           return app::kExitUnavailable;
         }
         missing.insert(missing.end(), host->missing().begin(), host->missing().end());
-        spdlog::info("simulated drives of CAN bus {} on SocketCAN {} ({} drives)", bus.name, bus.target, host->drive_count());
+        spdlog::info("simulated drives of CAN bus {} on SocketCAN {} ({} drives)", bus.name, bus.target,
+                     host->drive_count());
         can_buses.push_back(std::move(host));
-      } else if (bus.kind == config::TransportKind::kSimSerial && sim::SerialLineHost::family_for(*config, bus, serial_factories)) {
+      } else if (bus.kind == config::TransportKind::kSimSerial &&
+                 sim::SerialLineHost::family_for(*config, bus, serial_factories)) {
         std::error_code error;
         auto host = sim::SerialLineHost::open(service.loop(), *config, bus, serial_factories, report, error);
         if (!host) {
-          spdlog::error("cannot create the simulated serial line {} in {}: {}", bus.name, config::sim_runtime_dir(*config), error.message());
+          spdlog::error("cannot create the simulated serial line {} in {}: {}", bus.name,
+                        config::sim_runtime_dir(*config), error.message());
           return app::kExitUnavailable;
         }
         missing.insert(missing.end(), host->missing().begin(), host->missing().end());
@@ -88,15 +94,17 @@ int main(int argc, char** argv) {
         }
       }
     }
-    service.node().subscribe<motionlcm::sim_control_t>(motion::lcm::channels::kSimControl, [&](const motionlcm::sim_control_t& c, const std::string&) {
-      for (auto& host : can_buses) {
-        if (host->control(c)) return;
-      }
-      for (auto& host : serial_lines) {
-        if (host->control(c)) return;
-      }
-      spdlog::warn("sim control for drive '{}' bus '{}' (action {}) matched nothing it supports", c.drive, c.bus, c.action);
-    });
+    service.node().subscribe<motionlcm::sim_control_t>(
+        motion::lcm::channels::kSimControl, [&](const motionlcm::sim_control_t& c, const std::string&) {
+          for (auto& host : can_buses) {
+            if (host->control(c)) return;
+          }
+          for (auto& host : serial_lines) {
+            if (host->control(c)) return;
+          }
+          spdlog::warn("sim control for drive '{}' bus '{}' (action {}) matched nothing it supports", c.drive, c.bus,
+                       c.action);
+        });
 
     if (missing.empty()) {
       service.health().set_state(motionlcm::health_t::OK, std::to_string(config->drives.size()) + " drives");

@@ -195,8 +195,9 @@ void Bus::complete(const Queued& q, const Fate& fate, std::uint32_t bits, TimePo
   stats_.bits += bits;
   if (fate.corrupt) {
     ++stats_.errors;
-    schedule(end_of_frame, EventOut{0, can::BusEvent{can::BusState::kErrorActive, kErrorProtocol,
-                                                     "CRC error: corrupted frame " + can::to_cansend(q.frame)},
+    schedule(end_of_frame, EventOut{0,
+                                    can::BusEvent{can::BusState::kErrorActive, kErrorProtocol,
+                                                  "CRC error: corrupted frame " + can::to_cansend(q.frame)},
                                     true});
     return;
   }
@@ -311,8 +312,7 @@ BusStatistics Bus::statistics(TimePoint now) const {
 }
 
 std::int64_t Bus::to_epoch_us(TimePoint t) const {
-  return config_.epoch_offset_us +
-         std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+  return config_.epoch_offset_us + std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
 }
 
 }  // namespace motion::simbus

@@ -161,12 +161,14 @@ class Hub::Sink final : public BusSink {
   Hub& hub_;
 };
 
-Hub::Hub(EventLoop& loop, HubOptions options) : loop_(loop), options_(std::move(options)), bus_([&] {
-  BusConfig config = options_.bus;
-  config.epoch_offset_us =
-      wall_time_us() - std::chrono::duration_cast<std::chrono::microseconds>(loop.now().time_since_epoch()).count();
-  return config;
-}()) {}
+Hub::Hub(EventLoop& loop, HubOptions options)
+    : loop_(loop), options_(std::move(options)), bus_([&] {
+        BusConfig config = options_.bus;
+        config.epoch_offset_us =
+            wall_time_us() -
+            std::chrono::duration_cast<std::chrono::microseconds>(loop.now().time_since_epoch()).count();
+        return config;
+      }()) {}
 
 std::unique_ptr<Hub> Hub::open(EventLoop& loop, HubOptions options, std::error_code& error) {
   if (!valid_bus_name(options.bus_name)) {
@@ -288,7 +290,8 @@ void Hub::handle(Connection& connection, const wire::Message& message) {
     connection.id = bus_.attach(hello->label, hello->own_echo);
     connection_of_[connection.id] = connection.fd;
     const std::uint32_t bitrate = options_.bus.timing ? bus_.config().bitrate : 0;
-    if (detail::send_message(connection.fd, wire::Welcome{wire::kProtocolVersion, connection.id, bitrate, options_.bus_name})) {
+    if (detail::send_message(connection.fd,
+                             wire::Welcome{wire::kProtocolVersion, connection.id, bitrate, options_.bus_name})) {
       failed_.push_back(connection.fd);
     }
     return;

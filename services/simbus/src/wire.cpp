@@ -64,7 +64,9 @@ class Reader {
     pos_ += n;
     return s;
   }
-  [[nodiscard]] std::span<const std::uint8_t> rest() const { return pos_ <= in_.size() ? in_.subspan(pos_) : std::span<const std::uint8_t>{}; }
+  [[nodiscard]] std::span<const std::uint8_t> rest() const {
+    return pos_ <= in_.size() ? in_.subspan(pos_) : std::span<const std::uint8_t>{};
+  }
   // True when every read succeeded and exactly the whole datagram was consumed.
   [[nodiscard]] bool complete(std::size_t trailing = 0) const { return ok_ && pos_ + trailing == in_.size(); }
 
@@ -98,7 +100,8 @@ struct Encoder {
   void operator()(const FrameMessage& m) {
     const can::Frame& f = m.frame;
     w.u8(static_cast<std::uint8_t>(Type::kFrame));
-    w.u8(static_cast<std::uint8_t>((f.extended ? kFlagExtended : 0) | (f.rtr ? kFlagRtr : 0) | (m.own_echo ? kFlagOwnEcho : 0)));
+    w.u8(static_cast<std::uint8_t>((f.extended ? kFlagExtended : 0) | (f.rtr ? kFlagRtr : 0) |
+                                   (m.own_echo ? kFlagOwnEcho : 0)));
     w.u8(f.dlc);
     w.u8(0);
     w.le(f.id);
@@ -180,8 +183,7 @@ std::optional<Message> decode(std::span<const std::uint8_t> in) {
       out = std::move(m);
       break;
     }
-    case Type::kFrame:
-      return decode_frame(r);
+    case Type::kFrame: return decode_frame(r);
     case Type::kSetOwnEcho: {
       const auto enabled = decode_bool(r.u8());
       if (!enabled) return std::nullopt;
@@ -207,8 +209,7 @@ std::optional<Message> decode(std::span<const std::uint8_t> in) {
       out = m;
       break;
     }
-    default:
-      return std::nullopt;
+    default: return std::nullopt;
   }
   if (!r.complete()) return std::nullopt;
   return out;

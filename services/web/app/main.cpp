@@ -22,6 +22,7 @@
 #include <string_view>
 #include <variant>
 
+#include <spdlog/spdlog.h>
 #include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/event_t.hpp>
@@ -30,7 +31,6 @@
 #include <motionlcm/request_t.hpp>
 #include <motionlcm/signed_message_t.hpp>
 #include <motionlcm/signed_request_t.hpp>
-#include <spdlog/spdlog.h>
 
 #include "motion/app/service.hpp"
 #include "motion/client/client.hpp"
@@ -85,31 +85,34 @@ class Bridge {
   // verifying: the view only shows them.
   template <typename Msg>
   void forward_signed(lcm::Node& node, std::string_view channel, std::vector<Outgoing> (LabView::*on)(const Msg&)) {
-    node.subscribe<motionlcm::signed_message_t>("S" + std::string(channel), [this, on](const motionlcm::signed_message_t& env, const std::string&) {
-      Msg msg;
-      if (!lcm::wire::decode_bounded(env.message.data(), env.message.size(), msg).empty()) return;
-      std::vector<Outgoing> out;
-      {
-        const std::lock_guard lock(mutex_);
-        out = (view_.*on)(msg);
-      }
-      for (auto& message : out) server_.broadcast(std::move(message));
-    });
+    node.subscribe<motionlcm::signed_message_t>(
+        "S" + std::string(channel), [this, on](const motionlcm::signed_message_t& env, const std::string&) {
+          Msg msg;
+          if (!lcm::wire::decode_bounded(env.message.data(), env.message.size(), msg).empty()) return;
+          std::vector<Outgoing> out;
+          {
+            const std::lock_guard lock(mutex_);
+            out = (view_.*on)(msg);
+          }
+          for (auto& message : out) server_.broadcast(std::move(message));
+        });
   }
 
   // Requests, plain and signed (signed_request_t on SREQUEST, unwrapped without verifying: they
   // only say which requests are moves, and of which kind, for the plots).
   void follow_requests(lcm::Node& node) {
-    node.subscribe<motionlcm::request_t>(lcm::channels::kRequest, [this](const motionlcm::request_t& msg, const std::string&) {
-      const std::lock_guard lock(mutex_);
-      view_.on_request(msg);
-    });
-    node.subscribe<motionlcm::signed_request_t>(lcm::channels::kSignedRequest, [this](const motionlcm::signed_request_t& env, const std::string&) {
-      motionlcm::request_t msg;
-      if (!lcm::wire::decode_bounded(env.payload.data(), env.payload.size(), msg).empty()) return;
-      const std::lock_guard lock(mutex_);
-      view_.on_request(msg);
-    });
+    node.subscribe<motionlcm::request_t>(lcm::channels::kRequest,
+                                         [this](const motionlcm::request_t& msg, const std::string&) {
+                                           const std::lock_guard lock(mutex_);
+                                           view_.on_request(msg);
+                                         });
+    node.subscribe<motionlcm::signed_request_t>(
+        lcm::channels::kSignedRequest, [this](const motionlcm::signed_request_t& env, const std::string&) {
+          motionlcm::request_t msg;
+          if (!lcm::wire::decode_bounded(env.payload.data(), env.payload.size(), msg).empty()) return;
+          const std::lock_guard lock(mutex_);
+          view_.on_request(msg);
+        });
   }
 
  private:
@@ -159,18 +162,24 @@ class Controls {
 
 int main(int argc, char** argv) {
   using namespace motion;
-  CLI::App cli{"motion-web: a live web view of the lab (axes, processes, buses, events, a plot of every move)", "motion-web"};
+  CLI::App cli{"motion-web: a live web view of the lab (axes, processes, buses, events, a plot of every move)",
+               "motion-web"};
   app::CommonOptions options;
   app::add_common_options(cli, options);
   std::string listen = "127.0.0.1:8080";
   std::string static_dir;
   bool controls = false;
   std::string key_path;
-  cli.add_option("--listen", listen, "ADDR:PORT the web server listens on (port 0: any free port)")->capture_default_str();
-  cli.add_option("--static", static_dir, "Folder of the page's files (default: web/ beside the program, else ../share/motion/web)");
+  cli.add_option("--listen", listen, "ADDR:PORT the web server listens on (port 0: any free port)")
+      ->capture_default_str();
+  cli.add_option("--static", static_dir,
+                 "Folder of the page's files (default: web/ beside the program, else ../share/motion/web)");
   cli.add_flag("--controls", controls,
-               "Let the page command the lab (enable, move, jog, stop, e-stop, home, fault reset) with the access token printed at start");
-  cli.add_option("--key", key_path, "The web view's private key to sign its requests with (needed by --controls when security is enforced)")
+               "Let the page command the lab (enable, move, jog, stop, e-stop, home, fault reset) with the access "
+               "token printed at start");
+  cli.add_option(
+         "--key", key_path,
+         "The web view's private key to sign its requests with (needed by --controls when security is enforced)")
       ->envname("MOTION_WEB_KEY");
   return app::run(cli, argc, argv, [&]() -> int {
     if (!log::init("web", options.log_level)) return app::kExitUsage;
@@ -179,9 +188,11 @@ int main(int argc, char** argv) {
       std::cerr << "motion-web: --listen '" << listen << "': expected ADDR:PORT, e.g. 127.0.0.1:8080 or [::1]:8080\n";
       return app::kExitUsage;
     }
-    const std::filesystem::path files = static_dir.empty() ? web::default_static_dir() : std::filesystem::path(static_dir);
+    const std::filesystem::path files =
+        static_dir.empty() ? web::default_static_dir() : std::filesystem::path(static_dir);
     if (!std::filesystem::exists(files / "index.html")) {
-      std::cerr << "motion-web: no index.html in " << files.string() << " (the page's files; --static names their folder)\n";
+      std::cerr << "motion-web: no index.html in " << files.string()
+                << " (the page's files; --static names their folder)\n";
       return app::kExitUsage;
     }
     auto config = app::load_config(options);
@@ -196,8 +207,9 @@ int main(int argc, char** argv) {
       key = std::move(std::get<security::KeyPair>(loaded));
     }
     if (controls && !key && config->security.mode == config::SecuritySettings::Mode::kEnforce) {
-      std::cerr << "motion-web: --controls with security enforced needs --key: the web view's own key, authorized with the "
-                   "role its page may use (README \"Security\")\n";
+      std::cerr
+          << "motion-web: --controls with security enforced needs --key: the web view's own key, authorized with the "
+             "role its page may use (README \"Security\")\n";
       return app::kExitConfig;
     }
 
@@ -217,7 +229,8 @@ int main(int argc, char** argv) {
     bridge->forward(node, motion::lcm::channels::kReply, &web::LabView::on_reply);
     bridge->forward(node, motion::lcm::channels::kActiveMoves, &web::LabView::on_active_moves);
     // Under enforce the coordinator sends ACTIVE_MOVES signed only (otherwise plain too: taken once).
-    if (config->security.mode == motion::config::SecuritySettings::Mode::kEnforce) bridge->forward_signed(node, motion::lcm::channels::kActiveMoves, &web::LabView::on_active_moves);
+    if (config->security.mode == motion::config::SecuritySettings::Mode::kEnforce)
+      bridge->forward_signed(node, motion::lcm::channels::kActiveMoves, &web::LabView::on_active_moves);
     bridge->follow_requests(node);
 
     auto& server = bridge->server();
@@ -230,21 +243,25 @@ int main(int argc, char** argv) {
       }
       page_controls = std::make_unique<web::Controls>(*config, service.loop(), node, std::move(token));
       if (key) page_controls->sign_with(std::move(*key));
-      server.on_command([c = page_controls.get()](std::string text, web::Server::Reply reply) { c->post(std::move(text), std::move(reply)); });
+      server.on_command([c = page_controls.get()](std::string text, web::Server::Reply reply) {
+        c->post(std::move(text), std::move(reply));
+      });
     } else {
       server.on_command([](const std::string&, const web::Server::Reply& reply) {
-        reply(web::control_refused({std::nullopt, "this motion-web is read-only (start it with --controls to command the lab)"}));
+        reply(web::control_refused(
+            {std::nullopt, "this motion-web is read-only (start it with --controls to command the lab)"}));
       });
     }
     server.start();
     // The address on stdout, alone on its line: for people and for scripts that asked for port 0.
     std::printf("motion-web: serving %s\n", server.url().c_str());
-    if (page_controls) std::printf("motion-web: controls at %s?token=%s\n", server.url().c_str(), page_controls->token().c_str());
+    if (page_controls)
+      std::printf("motion-web: controls at %s?token=%s\n", server.url().c_str(), page_controls->token().c_str());
     std::fflush(stdout);
     auto update_health = [&] {
       const auto browsers = server.clients();
-      service.health().set_state(motionlcm::health_t::OK, "serving " + server.url() + ", " + std::to_string(browsers) + " browser" +
-                                                              (browsers == 1 ? "" : "s"));
+      service.health().set_state(motionlcm::health_t::OK, "serving " + server.url() + ", " + std::to_string(browsers) +
+                                                              " browser" + (browsers == 1 ? "" : "s"));
     };
     update_health();
     service.loop().call_every(std::chrono::seconds(1), update_health);

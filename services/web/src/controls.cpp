@@ -17,9 +17,9 @@ namespace {
 using motionlcm::request_t;
 
 // The kinds the page may send, by their constant names.
-constexpr std::array kPageKinds{request_t::ENABLE, request_t::DISABLE,     request_t::MOVE_ABSOLUTE,
-                                request_t::MOVE_RELATIVE, request_t::JOG, request_t::STOP,
-                                request_t::ESTOP,  request_t::HOME,        request_t::FAULT_RESET};
+constexpr std::array kPageKinds{request_t::ENABLE,        request_t::DISABLE, request_t::MOVE_ABSOLUTE,
+                                request_t::MOVE_RELATIVE, request_t::JOG,     request_t::STOP,
+                                request_t::ESTOP,         request_t::HOME,    request_t::FAULT_RESET};
 
 bool takes_values(std::int8_t kind) {
   return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG;
@@ -50,19 +50,24 @@ std::variant<ControlRequest, ControlError> parse_control(std::string_view text, 
   if (const auto t = json.find("tag"); t != json.end() && t->is_number_integer()) tag = t->get<std::int64_t>();
   auto refuse = [&](std::string why) { return ControlError{tag, std::move(why)}; };
 
-  if (const auto type = json.find("type"); type == json.end() || *type != "command") return refuse("\"type\" must be \"command\"");
+  if (const auto type = json.find("type"); type == json.end() || *type != "command")
+    return refuse("\"type\" must be \"command\"");
   if (!tag) return refuse("\"tag\" must be an integer");
   const auto given = json.find("token");
   if (given == json.end() || !given->is_string() || !same_token(given->get_ref<const std::string&>(), token)) {
-    return refuse("wrong or missing access token: open the page at the address motion-web printed (\"controls at ...?token=...\")");
+    return refuse(
+        "wrong or missing access token: open the page at the address motion-web printed (\"controls at "
+        "...?token=...\")");
   }
 
   const auto kind_field = json.find("kind");
-  if (kind_field == json.end() || !kind_field->is_string()) return refuse("\"kind\" must be one of " + page_kind_names());
+  if (kind_field == json.end() || !kind_field->is_string())
+    return refuse("\"kind\" must be one of " + page_kind_names());
   const auto& kind_name = kind_field->get_ref<const std::string&>();
   const auto kind = std::find_if(kPageKinds.begin(), kPageKinds.end(),
                                  [&](std::int8_t k) { return kind_name == lcm::request_kind_name(k); });
-  if (kind == kPageKinds.end()) return refuse("kind '" + kind_name + "' is not one the page may send (" + page_kind_names() + ")");
+  if (kind == kPageKinds.end())
+    return refuse("kind '" + kind_name + "' is not one the page may send (" + page_kind_names() + ")");
 
   ControlRequest out;
   out.tag = *tag;
@@ -79,7 +84,8 @@ std::variant<ControlRequest, ControlError> parse_control(std::string_view text, 
     if (!seen.insert(name).second) return refuse("axis '" + name + "' named twice");
     r.axes.push_back(name);
   }
-  if (r.axes.empty() && !may_name_no_axis(r.kind)) return refuse(std::string(lcm::request_kind_name(r.kind)) + " needs at least one axis");
+  if (r.axes.empty() && !may_name_no_axis(r.kind))
+    return refuse(std::string(lcm::request_kind_name(r.kind)) + " needs at least one axis");
 
   const auto values = json.find("values");
   if (takes_values(r.kind)) {
@@ -96,7 +102,8 @@ std::variant<ControlRequest, ControlError> parse_control(std::string_view text, 
     }
     r.values.assign(r.axes.size(), 0.0);
   }
-  for (const auto& [field, target] : {std::pair{"velocity_scale", &r.velocity_scale}, std::pair{"acceleration_scale", &r.acceleration_scale}}) {
+  for (const auto& [field, target] :
+       {std::pair{"velocity_scale", &r.velocity_scale}, std::pair{"acceleration_scale", &r.acceleration_scale}}) {
     const auto f = json.find(field);
     if (f == json.end() || f->is_null()) continue;
     if (!f->is_number() || !(f->get<double>() > 0.0 && f->get<double>() <= 1.0)) {

@@ -16,7 +16,9 @@ constexpr std::int64_t kJogSettleUs = 1'000'000;
 
 bool has_targets(std::int8_t kind) { return kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE; }
 
-std::string move_id(const std::string& client_id, std::int64_t request_id) { return client_id + "/" + std::to_string(request_id); }
+std::string move_id(const std::string& client_id, std::int64_t request_id) {
+  return client_id + "/" + std::to_string(request_id);
+}
 
 template <typename T>
 void keep_last(std::deque<T>& items, std::size_t limit) {
@@ -43,50 +45,89 @@ nlohmann::json LabView::lab_json(const config::Config& config) {
   }
   nlohmann::json buses = nlohmann::json::array();
   for (const auto& b : config.buses) buses.push_back({{"name", b.name}, {"transport", b.transport}});
-  return {{"type", "lab"}, {"file", config.file}, {"prefix", config.lcm.channel_prefix}, {"axes", axes}, {"buses", buses}};
+  return {
+      {"type", "lab"}, {"file", config.file}, {"prefix", config.lcm.channel_prefix}, {"axes", axes}, {"buses", buses}};
 }
 
 nlohmann::json LabView::axis_json(const motionlcm::axis_state_t& s) {
-  return {{"type", "axis"},         {"axis", s.axis},
-          {"utime", s.utime},       {"sample_utime", s.sample_utime},
-          {"family", s.family},     {"bus", s.bus},
-          {"node", s.node_id},      {"group", s.group_id},
-          {"position", s.position}, {"position_counts", s.position_counts},
-          {"velocity", s.velocity}, {"target_counts", s.target_counts},
-          {"online", s.online != 0},     {"enabled", s.enabled != 0},
-          {"moving", s.moving != 0},     {"in_position", s.in_position != 0},
-          {"homed", s.homed != 0},       {"fault", s.fault != 0},
-          {"fault_code", s.fault_code}, {"fault_text", s.fault_text},
-          {"inputs", s.inputs},     {"outputs", s.outputs}};
+  return {{"type", "axis"},
+          {"axis", s.axis},
+          {"utime", s.utime},
+          {"sample_utime", s.sample_utime},
+          {"family", s.family},
+          {"bus", s.bus},
+          {"node", s.node_id},
+          {"group", s.group_id},
+          {"position", s.position},
+          {"position_counts", s.position_counts},
+          {"velocity", s.velocity},
+          {"target_counts", s.target_counts},
+          {"online", s.online != 0},
+          {"enabled", s.enabled != 0},
+          {"moving", s.moving != 0},
+          {"in_position", s.in_position != 0},
+          {"homed", s.homed != 0},
+          {"fault", s.fault != 0},
+          {"fault_code", s.fault_code},
+          {"fault_text", s.fault_text},
+          {"inputs", s.inputs},
+          {"outputs", s.outputs}};
 }
 
 nlohmann::json LabView::health_json(const motionlcm::health_t& h) {
   nlohmann::json buses = nlohmann::json::array();
   for (const auto& b : h.buses) {
-    buses.push_back({{"name", b.name},          {"transport", b.transport}, {"state", b.state},
-                     {"tx_frames", b.tx_frames}, {"rx_frames", b.rx_frames}, {"tx_bytes", b.tx_bytes},
-                     {"rx_bytes", b.rx_bytes},   {"errors", b.errors},       {"timeouts", b.timeouts},
-                     {"retries", b.retries},     {"bus_load", b.bus_load},   {"drives_online", b.drives_online},
+    buses.push_back({{"name", b.name},
+                     {"transport", b.transport},
+                     {"state", b.state},
+                     {"tx_frames", b.tx_frames},
+                     {"rx_frames", b.rx_frames},
+                     {"tx_bytes", b.tx_bytes},
+                     {"rx_bytes", b.rx_bytes},
+                     {"errors", b.errors},
+                     {"timeouts", b.timeouts},
+                     {"retries", b.retries},
+                     {"bus_load", b.bus_load},
+                     {"drives_online", b.drives_online},
                      {"drives_total", b.drives_total}});
   }
-  return {{"type", "health"}, {"utime", h.utime},         {"process", h.process},
-          {"role", h.role},   {"host", h.host},           {"pid", h.pid},
-          {"version", h.version}, {"state", lcm::health_state_name(h.state)}, {"detail", h.detail},
-          {"uptime_s", h.uptime_s}, {"period_ms", h.period_ms}, {"buses", buses}};
+  return {{"type", "health"},         {"utime", h.utime},
+          {"process", h.process},     {"role", h.role},
+          {"host", h.host},           {"pid", h.pid},
+          {"version", h.version},     {"state", lcm::health_state_name(h.state)},
+          {"detail", h.detail},       {"uptime_s", h.uptime_s},
+          {"period_ms", h.period_ms}, {"buses", buses}};
 }
 
 nlohmann::json LabView::event_json(const motionlcm::event_t& e) {
-  return {{"type", "event"}, {"utime", e.utime}, {"source", e.source}, {"axis", e.axis}, {"bus", e.bus},
-          {"node", e.node_id}, {"severity", lcm::event_severity_name(e.severity)}, {"kind", lcm::event_kind_name(e.kind)},
-          {"kind_code", e.kind}, {"code", e.code}, {"text", e.text}};
+  return {{"type", "event"},
+          {"utime", e.utime},
+          {"source", e.source},
+          {"axis", e.axis},
+          {"bus", e.bus},
+          {"node", e.node_id},
+          {"severity", lcm::event_severity_name(e.severity)},
+          {"kind", lcm::event_kind_name(e.kind)},
+          {"kind_code", e.kind},
+          {"code", e.code},
+          {"text", e.text}};
 }
 
 nlohmann::json LabView::reply_json(const motionlcm::reply_t& r) {
-  return {{"type", "reply"},        {"utime", r.utime},          {"id", move_id(r.client_id, r.request_id)},
-          {"client_id", r.client_id}, {"request_id", r.request_id}, {"status", lcm::reply_status_name(r.status)},
-          {"reason", r.reason},     {"error_code", r.error_code}, {"progress", r.progress},
-          {"axes", r.axes},         {"targets", r.targets},      {"positions", r.positions},
-          {"start_utime", r.start_utime}, {"predicted_duration_s", r.predicted_duration_s},
+  return {{"type", "reply"},
+          {"utime", r.utime},
+          {"id", move_id(r.client_id, r.request_id)},
+          {"client_id", r.client_id},
+          {"request_id", r.request_id},
+          {"status", lcm::reply_status_name(r.status)},
+          {"reason", r.reason},
+          {"error_code", r.error_code},
+          {"progress", r.progress},
+          {"axes", r.axes},
+          {"targets", r.targets},
+          {"positions", r.positions},
+          {"start_utime", r.start_utime},
+          {"predicted_duration_s", r.predicted_duration_s},
           {"measured_start_skew_us", r.measured_start_skew_us}};
 }
 
@@ -137,7 +178,8 @@ std::vector<Outgoing> LabView::on_axis_state(const motionlcm::axis_state_t& msg)
     if (!move.open() || std::find(move.axes.begin(), move.axes.end(), msg.axis) == move.axes.end()) continue;
     auto& points = move.samples[msg.axis];
     if (points.size() < limits_.samples_per_axis) {
-      points.push_back({static_cast<double>(msg.sample_utime != 0 ? msg.sample_utime : msg.utime), msg.position, msg.velocity});
+      points.push_back(
+          {static_cast<double>(msg.sample_utime != 0 ? msg.sample_utime : msg.utime), msg.position, msg.velocity});
     }
     if (msg.moving != 0) move.seen_moving = true;
     const bool all_stand = std::all_of(move.axes.begin(), move.axes.end(), [&](const std::string& axis) {
@@ -158,7 +200,8 @@ std::vector<Outgoing> LabView::on_health(const motionlcm::health_t& msg) {
   // Clients (each motionctl run is one) come and go: one silent for a while, or stopped, is gone.
   std::erase_if(health_, [&](const auto& entry) {
     const auto& h = entry.second;
-    return h.role == "client" && (h.state == motionlcm::health_t::STOPPING || h.utime < msg.utime - limits_.client_silence_us);
+    return h.role == "client" &&
+           (h.state == motionlcm::health_t::STOPPING || h.utime < msg.utime - limits_.client_silence_us);
   });
   return {emit(health_json(msg))};
 }

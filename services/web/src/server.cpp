@@ -10,12 +10,12 @@
 #include <stdexcept>
 #include <thread>
 
+#include <spdlog/spdlog.h>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
-#include <spdlog/spdlog.h>
 
 namespace motion::web {
 namespace {
@@ -180,7 +180,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void enqueue(const std::shared_ptr<const std::string>& text) {
     if (closed_) return;
     if (queue_.size() >= server_.options.max_queued) {
-      spdlog::warn("web: a browser fell {} messages behind; disconnected (it reconnects from a snapshot)", queue_.size());
+      spdlog::warn("web: a browser fell {} messages behind; disconnected (it reconnects from a snapshot)",
+                   queue_.size());
       drop();
       return;
     }
@@ -219,7 +220,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void read() {
     request_ = {};
     stream_.expires_after(kHttpTimeout);
-    http::async_read(stream_, buffer_, request_, [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_read(ec); });
+    http::async_read(stream_, buffer_, request_,
+                     [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_read(ec); });
   }
 
  private:
@@ -266,7 +268,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
   http::response<http::string_body> file_response() const {
     if (request_.method() != http::verb::get && request_.method() != http::verb::head) {
-      auto res = text_response(http::status::method_not_allowed, "GET and HEAD only (commands go over the WebSocket)\n");
+      auto res =
+          text_response(http::status::method_not_allowed, "GET and HEAD only (commands go over the WebSocket)\n");
       res.set(http::field::allow, "GET, HEAD");
       return res;
     }
@@ -342,9 +345,7 @@ void Server::start() {
   impl_->thread = std::thread([impl = impl_.get()] {
     try {
       impl->io.run();
-    } catch (const std::exception& e) {
-      spdlog::error("web: the server thread ended: {}", e.what());
-    }
+    } catch (const std::exception& e) { spdlog::error("web: the server thread ended: {}", e.what()); }
   });
 }
 

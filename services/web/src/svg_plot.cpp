@@ -75,7 +75,8 @@ struct Scale {
 
 }  // namespace
 
-std::string svg_plot(const std::vector<PlotAxis>& axes, const std::vector<PlotMark>& marks, const SvgPlotOptions& options) {
+std::string svg_plot(const std::vector<PlotAxis>& axes, const std::vector<PlotMark>& marks,
+                     const SvgPlotOptions& options) {
   const int panels = static_cast<int>(axes.size());
   const int height = kSvgPlotTitle + std::max(panels, 1) * options.panel_height;
   const double left = kSvgPlotLeft;
@@ -93,13 +94,15 @@ std::string svg_plot(const std::vector<PlotAxis>& axes, const std::vector<PlotMa
 
   std::string out;
   out += "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
-  out += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + std::to_string(options.width) + "\" height=\"" + std::to_string(height) +
-         "\" viewBox=\"0 0 " + std::to_string(options.width) + " " + std::to_string(height) +
+  out += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + std::to_string(options.width) + "\" height=\"" +
+         std::to_string(height) + "\" viewBox=\"0 0 " + std::to_string(options.width) + " " + std::to_string(height) +
          "\" font-family=\"sans-serif\" font-size=\"11\">\n";
   out += "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
-  out += "<text x=\"" + num(left) + "\" y=\"20\" font-size=\"14\" font-weight=\"bold\">" + xml(options.title) + "</text>\n";
+  out += "<text x=\"" + num(left) + "\" y=\"20\" font-size=\"14\" font-weight=\"bold\">" + xml(options.title) +
+         "</text>\n";
   out += "<text x=\"" + num(right) + "\" y=\"20\" text-anchor=\"end\"><tspan fill=\"" + kPositionColor +
-         "\">— position (left scale)</tspan>  <tspan fill=\"" + kVelocityColor + "\">- - velocity (right scale)</tspan></text>\n";
+         "\">— position (left scale)</tspan>  <tspan fill=\"" + kVelocityColor +
+         "\">- - velocity (right scale)</tspan></text>\n";
   if (axes.empty()) {
     out += "<text x=\"" + num(left) + "\" y=\"" + num(kSvgPlotTitle + 40) + "\">no axis state</text>\n";
   }
@@ -119,31 +122,35 @@ std::string svg_plot(const std::vector<PlotAxis>& axes, const std::vector<PlotMa
     const std::string unit = axis.unit.empty() ? "" : " (" + xml(axis.unit) + ")";
     const std::string vunit = axis.unit.empty() ? "" : " (" + xml(axis.unit) + "/s)";
 
-    out += "<g class=\"panel\" data-axis=\"" + xml(axis.name) + "\" data-samples=\"" + std::to_string(axis.samples.size()) + "\">\n";
-    out += "<text x=\"" + num(left) + "\" y=\"" + num(top - 6) + "\" font-weight=\"bold\">axis " + xml(axis.name) + ": " +
-           std::to_string(axis.samples.size()) + " samples</text>\n";
-    out += "<rect class=\"frame\" x=\"" + num(left) + "\" y=\"" + num(top) + "\" width=\"" + num(right - left) + "\" height=\"" +
-           num(bottom - top) + "\" fill=\"none\" stroke=\"#888\"/>\n";
+    out += "<g class=\"panel\" data-axis=\"" + xml(axis.name) + "\" data-samples=\"" +
+           std::to_string(axis.samples.size()) + "\">\n";
+    out += "<text x=\"" + num(left) + "\" y=\"" + num(top - 6) + "\" font-weight=\"bold\">axis " + xml(axis.name) +
+           ": " + std::to_string(axis.samples.size()) + " samples</text>\n";
+    out += "<rect class=\"frame\" x=\"" + num(left) + "\" y=\"" + num(top) + "\" width=\"" + num(right - left) +
+           "\" height=\"" + num(bottom - top) + "\" fill=\"none\" stroke=\"#888\"/>\n";
     // Time grid and scale.
     for (double t = std::ceil(time.lo / time_step) * time_step; t <= time.hi + time_step * 1e-9; t += time_step) {
-      out += "<line x1=\"" + num(x(t)) + "\" y1=\"" + num(top) + "\" x2=\"" + num(x(t)) + "\" y2=\"" + num(bottom) + "\" stroke=\"#eee\"/>";
-      out += "<text x=\"" + num(x(t)) + "\" y=\"" + num(bottom + 13) + "\" text-anchor=\"middle\">" + tick_label(t, time_step) + "</text>\n";
+      out += "<line x1=\"" + num(x(t)) + "\" y1=\"" + num(top) + "\" x2=\"" + num(x(t)) + "\" y2=\"" + num(bottom) +
+             "\" stroke=\"#eee\"/>";
+      out += "<text x=\"" + num(x(t)) + "\" y=\"" + num(bottom + 13) + "\" text-anchor=\"middle\">" +
+             tick_label(t, time_step) + "</text>\n";
     }
     out += "<text x=\"" + num(right) + "\" y=\"" + num(bottom + 26) + "\" text-anchor=\"end\">t (s)</text>\n";
     // Position scale (left) and velocity scale (right).
     const Range pr = y.domain;
     const double pstep = nice_step(pr.span(), 4);
     for (double p = std::ceil(pr.lo / pstep) * pstep; p <= pr.hi; p += pstep) {
-      out += "<text x=\"" + num(left - 4) + "\" y=\"" + num(y(p) + 4) + "\" text-anchor=\"end\" fill=\"" + kPositionColor + "\">" +
-             tick_label(p, pstep) + "</text>";
+      out += "<text x=\"" + num(left - 4) + "\" y=\"" + num(y(p) + 4) + "\" text-anchor=\"end\" fill=\"" +
+             kPositionColor + "\">" + tick_label(p, pstep) + "</text>";
     }
     const Range vr = v.domain;
     const double vstep = nice_step(vr.span(), 4);
     for (double w = std::ceil(vr.lo / vstep) * vstep; w <= vr.hi; w += vstep) {
-      out += "<text x=\"" + num(right + 4) + "\" y=\"" + num(v(w) + 4) + "\" fill=\"" + kVelocityColor + "\">" + tick_label(w, vstep) + "</text>";
+      out += "<text x=\"" + num(right + 4) + "\" y=\"" + num(v(w) + 4) + "\" fill=\"" + kVelocityColor + "\">" +
+             tick_label(w, vstep) + "</text>";
     }
-    out += "\n<text transform=\"translate(12," + num((top + bottom) / 2) + ") rotate(-90)\" text-anchor=\"middle\" fill=\"" + kPositionColor +
-           "\">position" + unit + "</text>\n";
+    out += "\n<text transform=\"translate(12," + num((top + bottom) / 2) +
+           ") rotate(-90)\" text-anchor=\"middle\" fill=\"" + kPositionColor + "\">position" + unit + "</text>\n";
     out += "<text transform=\"translate(" + num(options.width - 8) + "," + num((top + bottom) / 2) +
            ") rotate(90)\" text-anchor=\"middle\" fill=\"" + kVelocityColor + "\">velocity" + vunit + "</text>\n";
     // Curves.
@@ -154,16 +161,17 @@ std::string svg_plot(const std::vector<PlotAxis>& axes, const std::vector<PlotMa
     }
     out += "<polyline class=\"velocity\" fill=\"none\" stroke=\"" + std::string(kVelocityColor) +
            "\" stroke-width=\"1.2\" stroke-dasharray=\"5,3\" points=\"" + vpoints + "\"/>\n";
-    out += "<polyline class=\"position\" fill=\"none\" stroke=\"" + std::string(kPositionColor) + "\" stroke-width=\"1.5\" points=\"" +
-           ppoints + "\"/>\n";
+    out += "<polyline class=\"position\" fill=\"none\" stroke=\"" + std::string(kPositionColor) +
+           "\" stroke-width=\"1.5\" points=\"" + ppoints + "\"/>\n";
     // Marks; their labels on three rows, so that marks close in time stay readable.
     int drawn = 0;
     for (const auto& m : marks) {
       if (!m.axes.empty() && std::find(m.axes.begin(), m.axes.end(), axis.name) == m.axes.end()) continue;
       const double label_y = top + 11 + 11 * (drawn++ % 3);
-      out += "<line class=\"mark\" x1=\"" + num(x(m.t)) + "\" y1=\"" + num(top) + "\" x2=\"" + num(x(m.t)) + "\" y2=\"" + num(bottom) +
-             "\" stroke=\"#444\" stroke-dasharray=\"2,2\"/>";
-      out += "<text class=\"mark\" x=\"" + num(x(m.t) + 3) + "\" y=\"" + num(label_y) + "\" fill=\"#444\">" + xml(m.label) + "</text>\n";
+      out += "<line class=\"mark\" x1=\"" + num(x(m.t)) + "\" y1=\"" + num(top) + "\" x2=\"" + num(x(m.t)) +
+             "\" y2=\"" + num(bottom) + "\" stroke=\"#444\" stroke-dasharray=\"2,2\"/>";
+      out += "<text class=\"mark\" x=\"" + num(x(m.t) + 3) + "\" y=\"" + num(label_y) + "\" fill=\"#444\">" +
+             xml(m.label) + "</text>\n";
     }
     out += "</g>\n";
   }

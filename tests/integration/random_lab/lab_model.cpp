@@ -31,7 +31,9 @@ std::string num(double v) {
 }
 
 int uniform_int(std::mt19937_64& rng, int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); }
-double uniform(std::mt19937_64& rng, double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); }
+double uniform(std::mt19937_64& rng, double lo, double hi) {
+  return std::uniform_real_distribution<double>(lo, hi)(rng);
+}
 bool chance(std::mt19937_64& rng, double p) { return std::bernoulli_distribution(p)(rng); }
 template <typename T>
 const T& pick(std::mt19937_64& rng, const std::vector<T>& v) {
@@ -59,7 +61,8 @@ bool valid_scale(double s) { return std::isfinite(s) && s >= 0 && s <= 1; }
 // --------------------------------------------------------------------------- lab
 
 const AxisSpec* LabSpec::find(const std::string& axis) const {
-  for (const auto& a : axes) if (a.name == axis) return &a;
+  for (const auto& a : axes)
+    if (a.name == axis) return &a;
   return nullptr;
 }
 
@@ -80,7 +83,8 @@ std::string LabSpec::yaml() const {
       << ", request_timeout_ms: 250, retries: 1, poll_hz: 10}\n";
   }
   if (buses.contains("rs232")) {
-    y << "  - {name: rs232, transport: simserial:rs232, baud: " << rs232_baud << ", request_timeout_ms: 250, retries: 1, poll_hz: 10}\n";
+    y << "  - {name: rs232, transport: simserial:rs232, baud: " << rs232_baud
+      << ", request_timeout_ms: 250, retries: 1, poll_hz: 10}\n";
   }
   y << "drives:\n";
   for (const auto& a : axes) {
@@ -95,21 +99,25 @@ std::string LabSpec::yaml() const {
   }
   y << "axes:\n";
   for (const auto& a : axes) {
-    y << "  - {name: " << a.name << ", drive: " << a.name << "-drive, unit: u, steps_per_unit: " << num(a.steps_per_unit)
-      << ", limits: {min: " << num(a.min) << ", max: " << num(a.max) << ", velocity: " << num(a.velocity)
-      << ", acceleration: " << num(a.acceleration) << "}";
+    y << "  - {name: " << a.name << ", drive: " << a.name
+      << "-drive, unit: u, steps_per_unit: " << num(a.steps_per_unit) << ", limits: {min: " << num(a.min)
+      << ", max: " << num(a.max) << ", velocity: " << num(a.velocity) << ", acceleration: " << num(a.acceleration)
+      << "}";
     if (a.homing && a.home_input != 0) {
-      y << ", homing: {method: switch, input: " << a.home_input << ", velocity: " << num(a.home_velocity) << ", offset: " << num(a.home_offset) << "}";
+      y << ", homing: {method: switch, input: " << a.home_input << ", velocity: " << num(a.home_velocity)
+        << ", offset: " << num(a.home_offset) << "}";
     } else if (a.homing) {
       y << ", homing: {method: current-position, offset: " << num(a.home_offset) << "}";
     }
     y << "}\n";
   }
-  y << "coordinator: {default_timeout_ms: 20000, progress_period_ms: 200, trigger_lead_ms: 30, gateway_timeout_ms: 1500}\n"
+  y << "coordinator: {default_timeout_ms: 20000, progress_period_ms: 200, trigger_lead_ms: 30, gateway_timeout_ms: "
+       "1500}\n"
        "simulation: {reply_latency_us: 200}\n";
   // The key files are the runner's, next to the configuration (paths relative to it).
   if (security) {
-    y << "security:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n  coordinator_public_key: coordinator.pub\n"
+    y << "security:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n  "
+         "coordinator_public_key: coordinator.pub\n"
          "  window_ms: 5000\n";
   }
   return y.str();
@@ -153,7 +161,8 @@ LabSpec generate_lab(std::mt19937_64& rng, const GenOptions& options) {
       }
       a.drive.group_id = group_id;
     }
-    a.steps_per_unit = pick(rng, std::vector<double>{1.0, 8.888888888888889, 12.5, 33.333333333333336, 160.0, 320.0, 640.0, 533.3333333333334});
+    a.steps_per_unit = pick(rng, std::vector<double>{1.0, 8.888888888888889, 12.5, 33.333333333333336, 160.0, 320.0,
+                                                     640.0, 533.3333333333334});
     // A speed the drives take (pulses/s), a travel the axis crosses in 1-3 s.
     const double pps = uniform(rng, 1600, 12800);
     a.velocity = round_to(pps / a.steps_per_unit, 0.5);
@@ -183,31 +192,39 @@ LabSpec generate_lab(std::mt19937_64& rng, const GenOptions& options) {
 
 std::string Step::cpp() const {
   // Every member, in declaration order (an aggregate initializer that compiles at -Wextra).
-  const char* op_name = op == Op::kRequest ? "Op::kRequest" : op == Op::kJogStop ? "Op::kJogStop" : op == Op::kConflict ? "Op::kConflict" : "Op::kFault";
+  const char* op_name = op == Op::kRequest    ? "Op::kRequest"
+                        : op == Op::kJogStop  ? "Op::kJogStop"
+                        : op == Op::kConflict ? "Op::kConflict"
+                                              : "Op::kFault";
   std::ostringstream s;
-  s << "Step{" << op_name << ", " << client << ", " << int{kind} << " /* " << kind_name(kind) << " */, " << list(axes) << ", " << list(values)
-    << ", " << num(velocity_scale) << ", " << num(acceleration_scale) << ", " << timeout_ms << ", " << output_mask << ", " << output_value << ", "
-    << other_client << ", " << int{stop_kind} << " /* " << kind_name(stop_kind) << " */, " << int{second_kind} << " /* " << kind_name(second_kind)
-    << " */, " << list(second_axes) << ", " << list(second_values) << ", " << int{fault} << " /* " << fault_name(fault) << " */, " << fault_value
-    << "}";
+  s << "Step{" << op_name << ", " << client << ", " << int{kind} << " /* " << kind_name(kind) << " */, " << list(axes)
+    << ", " << list(values) << ", " << num(velocity_scale) << ", " << num(acceleration_scale) << ", " << timeout_ms
+    << ", " << output_mask << ", " << output_value << ", " << other_client << ", " << int{stop_kind} << " /* "
+    << kind_name(stop_kind) << " */, " << int{second_kind} << " /* " << kind_name(second_kind) << " */, "
+    << list(second_axes) << ", " << list(second_values) << ", " << int{fault} << " /* " << fault_name(fault) << " */, "
+    << fault_value << "}";
   return s.str();
 }
 
 std::string describe(const Step& step) {
   std::ostringstream s;
   s << "client " << step.client << " " << kind_name(step.kind);
-  for (std::size_t i = 0; i < step.axes.size(); ++i) s << " " << step.axes[i] << "=" << (i < step.values.size() ? num(step.values[i]) : "");
+  for (std::size_t i = 0; i < step.axes.size(); ++i)
+    s << " " << step.axes[i] << "=" << (i < step.values.size() ? num(step.values[i]) : "");
   if (step.axes.empty()) s << " (all axes)";
-  if (step.velocity_scale != 0 || step.acceleration_scale != 0) s << " vs=" << num(step.velocity_scale) << " as=" << num(step.acceleration_scale);
+  if (step.velocity_scale != 0 || step.acceleration_scale != 0)
+    s << " vs=" << num(step.velocity_scale) << " as=" << num(step.acceleration_scale);
   if (step.timeout_ms != 0) s << " timeout_ms=" << step.timeout_ms;
   if (step.op == Op::kJogStop) s << ", then client " << step.other_client << " " << kind_name(step.stop_kind);
   if (step.op == Op::kConflict) {
     s << ", while it runs client " << step.other_client << " " << kind_name(step.second_kind);
-    for (std::size_t i = 0; i < step.second_axes.size(); ++i) s << " " << step.second_axes[i] << "=" << num(step.second_values[i]);
+    for (std::size_t i = 0; i < step.second_axes.size(); ++i)
+      s << " " << step.second_axes[i] << "=" << num(step.second_values[i]);
     s << ", then " << kind_name(step.stop_kind);
   }
   if (step.op == Op::kFault && !step.second_axes.empty()) {
-    s << ", during it " << fault_name(step.fault) << " " << step.fault_value << " on the drive of " << step.second_axes[0] << " for 1 s";
+    s << ", during it " << fault_name(step.fault) << " " << step.fault_value << " on the drive of "
+      << step.second_axes[0] << " for 1 s";
   }
   return s.str();
 }
@@ -270,8 +287,10 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
   const auto rejected = [](std::vector<std::int32_t> codes) { return Outcome{{reply_t::REJECTED}, std::move(codes)}; };
   const bool stop = kind == request_t::STOP || kind == request_t::ESTOP;
   std::vector<std::string> axes = axes_in;
-  if (axes.empty() && stop) for (const auto& a : lab_.axes) axes.push_back(a.name);
-  if (!valid_scale(velocity_scale) || !valid_scale(acceleration_scale) || timeout_ms < 0) return rejected({error_code(ReplyError::kMalformedRequest)});
+  if (axes.empty() && stop)
+    for (const auto& a : lab_.axes) axes.push_back(a.name);
+  if (!valid_scale(velocity_scale) || !valid_scale(acceleration_scale) || timeout_ms < 0)
+    return rejected({error_code(ReplyError::kMalformedRequest)});
   if (stop) {
     if (apply) {
       for (const auto& name : axes) {
@@ -284,7 +303,8 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
   }
   // Every reason to refuse, in no particular order: the product may name any of them.
   std::vector<std::int32_t> reasons;
-  const bool need_enabled = kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG || kind == request_t::HOME;
+  const bool need_enabled = kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE ||
+                            kind == request_t::JOG || kind == request_t::HOME;
   std::vector<double> targets(axes.size(), 0.0);
   for (std::size_t i = 0; i < axes.size(); ++i) {
     const auto& spec = *lab_.find(axes[i]);
@@ -302,7 +322,8 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
     if (kind == request_t::SET_POSITION && !beyond && spec.drive.family == "uc57" && counts_of(axes[i], v) != 0) {
       reasons.push_back(error_code(ReplyError::kUnsupported));
     }
-    if (kind == request_t::JOG && std::abs(v) > spec.velocity) reasons.push_back(error_code(ReplyError::kOutsideLimits));
+    if (kind == request_t::JOG && std::abs(v) > spec.velocity)
+      reasons.push_back(error_code(ReplyError::kOutsideLimits));
     // A jog with less than one whole count left before the limit in its direction, in counts.
     if (kind == request_t::JOG && v != 0 && a.counts) {
       const double limit = (v > 0 ? spec.max : spec.min) * spec.steps_per_unit;
@@ -311,7 +332,8 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
     }
     if (kind == request_t::HOME && !spec.homing) reasons.push_back(error_code(ReplyError::kUnsupported));
     // A UC57 sets its present position to zero only (2012h): another offset is unsupported.
-    if (kind == request_t::HOME && spec.homing && spec.drive.family == "uc57" && counts_of(axes[i], spec.home_offset) != 0) {
+    if (kind == request_t::HOME && spec.homing && spec.drive.family == "uc57" &&
+        counts_of(axes[i], spec.home_offset) != 0) {
       reasons.push_back(error_code(ReplyError::kUnsupported));
     }
   }
@@ -319,7 +341,8 @@ Outcome Model::request(std::int8_t kind, const std::vector<std::string>& axes_in
     std::sort(reasons.begin(), reasons.end());
     reasons.erase(std::unique(reasons.begin(), reasons.end()), reasons.end());
     // No homing method is found out by the gateway on some families: FAILED, with nothing changed.
-    if (reasons.back() == error_code(ReplyError::kUnsupported)) return Outcome{{reply_t::REJECTED, reply_t::FAILED}, reasons};
+    if (reasons.back() == error_code(ReplyError::kUnsupported))
+      return Outcome{{reply_t::REJECTED, reply_t::FAILED}, reasons};
     return rejected(reasons);
   }
   if (apply) {
@@ -365,20 +388,25 @@ double move_value(std::mt19937_64& rng, const AxisSpec& spec, const AxisModel& a
   const double sign = chance(rng, 0.5) ? 1.0 : -1.0;
   double target = a.commanded;
   switch (uniform_int(rng, 0, 9)) {
-    case 0: target = a.commanded; break;                           // exactly zero
-    case 1: target = a.commanded + sign * 0.4 * count; break;      // below one count
-    case 2: target = a.commanded + sign * count; break;            // one count
+    case 0: target = a.commanded; break;                                          // exactly zero
+    case 1: target = a.commanded + sign * 0.4 * count; break;                     // below one count
+    case 2: target = a.commanded + sign * count; break;                           // one count
     case 3: target = a.commanded + sign * uniform_int(rng, 2, 9) * count; break;  // tiny
     case 4: target = chance(rng, 0.5) ? spec.min : spec.max; break;               // at a limit
-    case 5: target = chance(rng, 0.5) ? spec.min - uniform(rng, 0.001, 5) : spec.max + uniform(rng, 0.001, 5); break;  // beyond
-    default: target = round_to(uniform(rng, spec.min, spec.max), 0.01); break;     // ordinary
+    case 5:
+      target = chance(rng, 0.5) ? spec.min - uniform(rng, 0.001, 5) : spec.max + uniform(rng, 0.001, 5);
+      break;                                                                    // beyond
+    default: target = round_to(uniform(rng, spec.min, spec.max), 0.01); break;  // ordinary
   }
   return relative ? target - a.commanded : target;
 }
 
 double scale(std::mt19937_64& rng) {
   switch (uniform_int(rng, 0, 9)) {
-    case 0: case 1: case 2: case 3: return 0.0;
+    case 0:
+    case 1:
+    case 2:
+    case 3: return 0.0;
     case 4: return 1.0;
     case 5: return 0.05;
     default: return round_to(uniform(rng, 0.1, 1.0), 0.01);
@@ -392,8 +420,6 @@ std::vector<std::string> some_axes(std::mt19937_64& rng, const LabSpec& lab, int
   names.resize(static_cast<std::size_t>(uniform_int(rng, 1, std::min(max_count, static_cast<int>(names.size())))));
   return names;
 }
-
-
 
 // A move of up to three axes (to targets within their limits, a few seconds long) with a fault on
 // one drive, or its bus, of the lab.
@@ -409,11 +435,15 @@ Step fault_step(std::mt19937_64& rng, const LabSpec& lab, const Model& model) {
     s.values.push_back(round_to(uniform(rng, spec.min, spec.max), 0.01));
   }
   s.velocity_scale = std::min(1.0, round_to(std::max(0.05, scale_for(lab, model, s.axes, s.values, 3.0)) + 0.05, 0.01));
-  s.second_axes = {chance(rng, 0.7) ? s.axes[static_cast<std::size_t>(uniform_int(rng, 0, static_cast<int>(s.axes.size()) - 1))]
-                                    : lab.axes[static_cast<std::size_t>(uniform_int(rng, 0, static_cast<int>(lab.axes.size()) - 1))].name};
+  s.second_axes = {
+      chance(rng, 0.7)
+          ? s.axes[static_cast<std::size_t>(uniform_int(rng, 0, static_cast<int>(s.axes.size()) - 1))]
+          : lab.axes[static_cast<std::size_t>(uniform_int(rng, 0, static_cast<int>(lab.axes.size()) - 1))].name};
   const bool can = lab.find(s.second_axes[0])->drive.bus == "can0";
-  std::vector<std::int8_t> faults{sim_control_t::STALL, sim_control_t::SILENCE, sim_control_t::POWER_CYCLE, sim_control_t::CRC_ERRORS,
-                                  sim_control_t::REPLY_LATENCY, can ? sim_control_t::BUS_DROP : sim_control_t::LINE_NOISE};
+  std::vector<std::int8_t> faults{
+      sim_control_t::STALL,         sim_control_t::SILENCE,
+      sim_control_t::POWER_CYCLE,   sim_control_t::CRC_ERRORS,
+      sim_control_t::REPLY_LATENCY, can ? sim_control_t::BUS_DROP : sim_control_t::LINE_NOISE};
   s.fault = pick(rng, faults);
   switch (s.fault) {
     case sim_control_t::SILENCE:
@@ -429,7 +459,8 @@ Step fault_step(std::mt19937_64& rng, const LabSpec& lab, const Model& model) {
 }  // namespace
 
 // Slowest scale at which a move of `axes` to `targets` still ends within `seconds`.
-double scale_for(const LabSpec& lab, const Model& model, const std::vector<std::string>& axes, const std::vector<double>& targets, double seconds) {
+double scale_for(const LabSpec& lab, const Model& model, const std::vector<std::string>& axes,
+                 const std::vector<double>& targets, double seconds) {
   double need = 0;
   for (std::size_t i = 0; i < axes.size(); ++i) {
     const auto& spec = *lab.find(axes[i]);
@@ -475,17 +506,21 @@ std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int c
     } else if (r < 45) {
       s.kind = chance(rng, 0.55) ? request_t::MOVE_ABSOLUTE : request_t::MOVE_RELATIVE;
       s.axes = some_axes(rng, lab, 3);
-      for (const auto& name : s.axes) s.values.push_back(move_value(rng, *lab.find(name), model.axes().at(name), s.kind == request_t::MOVE_RELATIVE));
+      for (const auto& name : s.axes)
+        s.values.push_back(move_value(rng, *lab.find(name), model.axes().at(name), s.kind == request_t::MOVE_RELATIVE));
       s.velocity_scale = scale(rng);
       s.acceleration_scale = scale(rng);
       std::vector<double> targets;
       for (std::size_t i = 0; i < s.axes.size(); ++i) {
-        targets.push_back(s.kind == request_t::MOVE_RELATIVE ? model.axes().at(s.axes[i]).commanded + s.values[i] : s.values[i]);
+        targets.push_back(s.kind == request_t::MOVE_RELATIVE ? model.axes().at(s.axes[i]).commanded + s.values[i]
+                                                             : s.values[i]);
       }
       // At most ~6 s of motion per step.
       const double need = scale_for(lab, model, s.axes, targets, 6.0);
-      if (s.velocity_scale != 0 && s.velocity_scale < need) s.velocity_scale = std::min(1.0, round_to(need + 0.05, 0.01));
-      if (s.acceleration_scale != 0 && s.acceleration_scale < need) s.acceleration_scale = std::min(1.0, round_to(need + 0.05, 0.01));
+      if (s.velocity_scale != 0 && s.velocity_scale < need)
+        s.velocity_scale = std::min(1.0, round_to(need + 0.05, 0.01));
+      if (s.acceleration_scale != 0 && s.acceleration_scale < need)
+        s.acceleration_scale = std::min(1.0, round_to(need + 0.05, 0.01));
       const int bad = uniform_int(rng, 0, 29);
       if (bad == 0) s.velocity_scale = pick(rng, std::vector<double>{-0.5, 1.5, 1.0000001});
       if (bad == 1) s.acceleration_scale = pick(rng, std::vector<double>{-0.01, 2.0});
@@ -496,7 +531,9 @@ std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int c
       s.axes = some_axes(rng, lab, 2);
       for (const auto& name : s.axes) {
         const auto& spec = *lab.find(name);
-        s.values.push_back((chance(rng, 0.5) ? 1 : -1) * (chance(rng, 0.1) ? spec.velocity * 1.5 : round_to(spec.velocity * uniform(rng, 0.05, 0.3), 0.01)));
+        s.values.push_back(
+            (chance(rng, 0.5) ? 1 : -1) *
+            (chance(rng, 0.1) ? spec.velocity * 1.5 : round_to(spec.velocity * uniform(rng, 0.05, 0.3), 0.01)));
       }
       s.other_client = uniform_int(rng, 0, 2);
       s.stop_kind = chance(rng, 0.75) ? request_t::STOP : request_t::ESTOP;
@@ -515,15 +552,20 @@ std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int c
       // (the coordinator refuses a plan longer than the request's timeout).
       s.timeout_ms = 120000;
       s.other_client = (s.client + uniform_int(rng, 1, 2)) % 3;
-      s.second_kind = pick(rng, std::vector<std::int8_t>{request_t::MOVE_ABSOLUTE, request_t::MOVE_RELATIVE, request_t::SET_POSITION,
-                                                         request_t::HOME, request_t::JOG, request_t::ENABLE});
+      s.second_kind = pick(
+          rng, std::vector<std::int8_t>{request_t::MOVE_ABSOLUTE, request_t::MOVE_RELATIVE, request_t::SET_POSITION,
+                                        request_t::HOME, request_t::JOG, request_t::ENABLE});
       // Half of the time an axis of the running move, else any axes (maybe the free ones).
       s.second_axes = chance(rng, 0.5) ? std::vector<std::string>{s.axes[0]} : some_axes(rng, lab, 2);
       for (const auto& name : s.second_axes) {
         const auto& spec = *lab.find(name);
-        if (s.second_kind == request_t::JOG) s.second_values.push_back(spec.velocity * 0.1);
-        else if (s.second_kind == request_t::HOME || s.second_kind == request_t::ENABLE) s.second_values.push_back(0.0);
-        else s.second_values.push_back(move_value(rng, spec, model.axes().at(name), s.second_kind == request_t::MOVE_RELATIVE));
+        if (s.second_kind == request_t::JOG)
+          s.second_values.push_back(spec.velocity * 0.1);
+        else if (s.second_kind == request_t::HOME || s.second_kind == request_t::ENABLE)
+          s.second_values.push_back(0.0);
+        else
+          s.second_values.push_back(
+              move_value(rng, spec, model.axes().at(name), s.second_kind == request_t::MOVE_RELATIVE));
       }
       // A jog of a free axis would run on: only moves end by themselves.
       if (s.second_kind == request_t::JOG) {
@@ -555,7 +597,10 @@ std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int c
       s.axes = some_axes(rng, lab, 1);
       const auto& spec = *lab.find(s.axes[0]);
       const int c = uniform_int(rng, 0, 4);
-      s.values.push_back(c == 0 ? spec.min : c == 1 ? spec.max : c == 2 ? spec.max + uniform(rng, 0.01, 10) : round_to(uniform(rng, spec.min, spec.max), 0.01));
+      s.values.push_back(c == 0   ? spec.min
+                         : c == 1 ? spec.max
+                         : c == 2 ? spec.max + uniform(rng, 0.01, 10)
+                                  : round_to(uniform(rng, spec.min, spec.max), 0.01));
     } else if (r < 96) {
       s.kind = request_t::SET_OUTPUTS;
       s.axes = some_axes(rng, lab, 1);

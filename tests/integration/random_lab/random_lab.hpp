@@ -27,10 +27,10 @@ namespace motion::random_lab {
 // --------------------------------------------------------------------------- the lab
 
 struct DriveSpec {
-  std::string family;   // uim342, uc57, adam-modbus, uim242
-  std::string bus;      // can0, rs485, rs232
+  std::string family;  // uim342, uc57, adam-modbus, uim242
+  std::string bus;     // can0, rs485, rs232
   int node_id = 0;
-  int group_id = 0;     // uim342 only, 0 = none
+  int group_id = 0;  // uim342 only, 0 = none
 };
 
 struct AxisSpec {
@@ -40,9 +40,9 @@ struct AxisSpec {
   double min = 0, max = 0, velocity = 0, acceleration = 0;
   bool homing = false;  // homing configured (else none): see home_input
   double home_offset = 0;
-  int home_input = 0;        // 0: `current-position` (origin where it stands + offset); 1..3: `switch`
-                             // on this input (UIM342), searched at home_velocity (user units/s, < 0:
-                             // toward min), the simulated switch edge half-way to the limit
+  int home_input = 0;  // 0: `current-position` (origin where it stands + offset); 1..3: `switch`
+                       // on this input (UIM342), searched at home_velocity (user units/s, < 0:
+                       // toward min), the simulated switch edge half-way to the limit
   double home_velocity = 0;
 };
 
@@ -71,21 +71,21 @@ LabSpec generate_lab(std::mt19937_64& rng, const GenOptions& options);
 // --------------------------------------------------------------------------- the steps
 
 enum class Op : std::int8_t {
-  kRequest,     // one request of `client`, awaited to its terminal reply
-  kJogStop,     // `client` jogs `axes` at `values`, then `other_client` sends `stop_kind` to them
-  kConflict,    // `client` starts a slow move of `axes` to `values` (absolute); while it runs,
-                // `other_client` sends `second_kind` on `second_axes`; then `other_client` sends
-                // `stop_kind` to `axes`
-  kFault,       // chaos: `client` moves `axes` to `values` (absolute); 200 ms later the simulator
-                // injects `fault` (a sim_control_t action, `fault_value`) on the drive of
-                // `second_axes[0]` (or its bus) for 1 s; then the fault is cleared, the lab
-                // recovers (every axis online, reset, enabled) and the model reads the lab back
+  kRequest,   // one request of `client`, awaited to its terminal reply
+  kJogStop,   // `client` jogs `axes` at `values`, then `other_client` sends `stop_kind` to them
+  kConflict,  // `client` starts a slow move of `axes` to `values` (absolute); while it runs,
+              // `other_client` sends `second_kind` on `second_axes`; then `other_client` sends
+              // `stop_kind` to `axes`
+  kFault,     // chaos: `client` moves `axes` to `values` (absolute); 200 ms later the simulator
+              // injects `fault` (a sim_control_t action, `fault_value`) on the drive of
+              // `second_axes[0]` (or its bus) for 1 s; then the fault is cleared, the lab
+              // recovers (every axis online, reset, enabled) and the model reads the lab back
 };
 
 struct Step {
   Op op = Op::kRequest;
   int client = 0;
-  std::int8_t kind = 0;                 // request_t kind
+  std::int8_t kind = 0;  // request_t kind
   std::vector<std::string> axes;
   std::vector<double> values;
   double velocity_scale = 0;
@@ -98,7 +98,7 @@ struct Step {
   std::int8_t second_kind = 0;
   std::vector<std::string> second_axes;
   std::vector<double> second_values;
-  std::int8_t fault = 0;                // kFault: sim_control_t action
+  std::int8_t fault = 0;  // kFault: sim_control_t action
   std::int32_t fault_value = 0;
 
   [[nodiscard]] std::string cpp() const;  // a C++ initializer of this step
@@ -120,8 +120,8 @@ struct AxisModel {
 
 // Prediction of one request's terminal reply.
 struct Outcome {
-  std::vector<std::int8_t> statuses;   // acceptable terminal statuses
-  std::vector<std::int32_t> codes;     // acceptable error codes (of the first status that is not DONE)
+  std::vector<std::int8_t> statuses;  // acceptable terminal statuses
+  std::vector<std::int32_t> codes;    // acceptable error codes (of the first status that is not DONE)
   [[nodiscard]] bool done() const { return statuses.size() == 1 && statuses[0] == 4; }
   [[nodiscard]] std::string text() const;
 };
@@ -150,27 +150,27 @@ class Model {
 
 // The slowest velocity/acceleration scale at which a move of `axes` to `targets` ends within
 // `seconds` (an axis of unknown position is taken at its farther limit).
-double scale_for(const LabSpec& lab, const Model& model, const std::vector<std::string>& axes, const std::vector<double>& targets,
-                 double seconds);
+double scale_for(const LabSpec& lab, const Model& model, const std::vector<std::string>& axes,
+                 const std::vector<double>& targets, double seconds);
 std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int count, bool chaos = false);
 
 // --------------------------------------------------------------------------- running and shrinking
 
 struct RunResult {
   bool ok = true;
-  int failed_step = -1;    // index of the step whose check failed, -1 = lab start-up / none
-  std::string failure;     // what was wrong (prediction vs observation)
-  std::string log;         // one line per step
+  int failed_step = -1;  // index of the step whose check failed, -1 = lab start-up / none
+  std::string failure;   // what was wrong (prediction vs observation)
+  std::string log;       // one line per step
   int steps_run = 0;
-  int requests = 0;        // requests sent (each checked for one terminal reply)
-  int faults = 0;          // faults injected (kFault steps run)
-  int faults_biting = 0;   // of which the move during the fault did not end DONE
+  int requests = 0;       // requests sent (each checked for one terminal reply)
+  int faults = 0;         // faults injected (kFault steps run)
+  int faults_biting = 0;  // of which the move during the fault did not end DONE
 };
 
 struct RunOptions {
-  bool verbose = false;            // print each step as it runs
+  bool verbose = false;                // print each step as it runs
   bool print_logs_on_failure = false;  // the processes' logs (ADD_FAILURE first so the group prints them)
-  int salt = 0;                    // varies the LCM port between runs of one process
+  int salt = 0;                        // varies the LCM port between runs of one process
 };
 
 RunResult run_case(const LabSpec& lab, const std::vector<Step>& steps, const RunOptions& options = {});
@@ -187,6 +187,7 @@ struct Shrunk {
 Shrunk shrink(const LabSpec& lab, const std::vector<Step>& steps, const RunResult& first, std::chrono::seconds budget);
 
 // Ready-to-paste C++ for a regression test.
-std::string reproduction(const LabSpec& lab, const std::vector<Step>& steps, const RunResult& result, std::uint64_t seed);
+std::string reproduction(const LabSpec& lab, const std::vector<Step>& steps, const RunResult& result,
+                         std::uint64_t seed);
 
 }  // namespace motion::random_lab

@@ -50,8 +50,8 @@ struct Totals {
   int switch_homing = 0;
   int secured = 0;  // seeds run under security: enforce
   void print(const char* what) const {
-    std::printf("%s: %d seeds, %d requests, %d faults injected (%d ended their move short of DONE), %d drives (", what, seeds, requests, faults,
-                faults_biting, drives);
+    std::printf("%s: %d seeds, %d requests, %d faults injected (%d ended their move short of DONE), %d drives (", what,
+                seeds, requests, faults, faults_biting, drives);
     for (const auto& [f, n] : families) std::printf("%s %d, ", f.c_str(), n);
     std::printf("%d axes homing by switch), %d seeds under security enforce, RS485 parity:", switch_homing, secured);
     for (const auto& [p, n] : parities) std::printf(" %s %d", p.c_str(), n);
@@ -64,7 +64,8 @@ struct Totals {
 // reproduction. True when the seed passed.
 bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget, Totals& totals, bool chaos = false) {
   const Case c = make_case(seed, steps, chaos);
-  std::printf("seed %llu: %zu drives, %zu steps%s\n", static_cast<unsigned long long>(seed), c.lab.axes.size(), c.steps.size(), c.lab.security ? ", security enforce" : "");
+  std::printf("seed %llu: %zu drives, %zu steps%s\n", static_cast<unsigned long long>(seed), c.lab.axes.size(),
+              c.steps.size(), c.lab.security ? ", security enforce" : "");
   std::fflush(stdout);
   RunOptions options;
   options.verbose = env_u64("RANDOM_LAB_VERBOSE", 0) != 0;
@@ -84,18 +85,23 @@ bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget,
   if (rs485) ++totals.parities[c.lab.rs485_parity];
   if (c.lab.security) ++totals.secured;
   if (result.ok) return true;
-  std::printf("seed %llu FAILS at step %d: %s\n%s", static_cast<unsigned long long>(seed), result.failed_step, result.failure.c_str(), result.log.c_str());
+  std::printf("seed %llu FAILS at step %d: %s\n%s", static_cast<unsigned long long>(seed), result.failed_step,
+              result.failure.c_str(), result.log.c_str());
   const auto shrunk = shrink(c.lab, c.steps, result, shrink_budget);
   const std::string repro = reproduction(shrunk.lab, shrunk.steps, shrunk.result, seed);
-  std::printf("shrunk in %d runs to %zu steps, %zu drives:\n%s\n", shrunk.runs, shrunk.steps.size(), shrunk.lab.axes.size(), repro.c_str());
+  std::printf("shrunk in %d runs to %zu steps, %zu drives:\n%s\n", shrunk.runs, shrunk.steps.size(),
+              shrunk.lab.axes.size(), repro.c_str());
   std::fflush(stdout);
   // Once more with the processes' logs printed.
   RunOptions loud;
   loud.print_logs_on_failure = true;
   loud.salt = 999;
   const auto again = run_case(shrunk.lab, shrunk.steps, loud);
-  if (again.ok) ADD_FAILURE() << "seed " << seed << " failed (the shrunk case passed on its last re-run: timing-dependent)\n" << repro;
-  else ADD_FAILURE() << "seed " << seed << ":\n" << repro;
+  if (again.ok)
+    ADD_FAILURE() << "seed " << seed << " failed (the shrunk case passed on its last re-run: timing-dependent)\n"
+                  << repro;
+  else
+    ADD_FAILURE() << "seed " << seed << ":\n" << repro;
   return false;
 }
 
@@ -103,7 +109,8 @@ bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget,
 
 LabSpec one_axis(double steps_per_unit, double min, double max) {
   LabSpec lab;
-  lab.axes.push_back(AxisSpec{"a", DriveSpec{"uc57", "can0", 1, 0}, steps_per_unit, min, max, 360, 1440, false, 0, 0, 0});
+  lab.axes.push_back(
+      AxisSpec{"a", DriveSpec{"uc57", "can0", 1, 0}, steps_per_unit, min, max, 360, 1440, false, 0, 0, 0});
   return lab;
 }
 
@@ -140,7 +147,7 @@ TEST(RandomLabModel, MoveSpeedIsSizedFromTheFartherLimitWhenThePositionIsUnknown
   const double known = scale_for(one_axis(10, -50, 150), m, {"a"}, {-19}, 6.0);
   m.axis("a").at_target = false;  // a jog ran and was stopped somewhere
   const double unknown = scale_for(one_axis(10, -50, 150), m, {"a"}, {-19}, 6.0);
-  EXPECT_NEAR(known, 1.0 / (360 * 6.0) + 360.0 / (1440 * 6.0), 1e-9);  // from -20 to -19
+  EXPECT_NEAR(known, 1.0 / (360 * 6.0) + 360.0 / (1440 * 6.0), 1e-9);      // from -20 to -19
   EXPECT_NEAR(unknown, 169.0 / (360 * 6.0) + 360.0 / (1440 * 6.0), 1e-9);  // from 150 to -19
 }
 
@@ -165,7 +172,23 @@ TEST(RandomLabRegression, Seed2Uim242SetOutputs) {
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 1, 0, 0, 0, 0, {}, {}, 0, 0},
       Step{Op::kRequest, 1, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 1, 1, 0, 0, 0, {}, {}, 0, 0},
-      Step{Op::kRequest, 2, 10 /* SET_OUTPUTS */, {"ax1"}, {0.0}, 0.0, 0.0, 0, 2, 2, 0, 0, 0, {}, {}, 0, 0},  // only P4: 17
+      Step{Op::kRequest,
+           2,
+           10 /* SET_OUTPUTS */,
+           {"ax1"},
+           {0.0},
+           0.0,
+           0.0,
+           0,
+           2,
+           2,
+           0,
+           0,
+           0,
+           {},
+           {},
+           0,
+           0},  // only P4: 17
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -178,11 +201,28 @@ TEST(RandomLabRegression, Seed1Uc57JogAfterAFailedHome) {
   LabSpec spec;
   spec.can_bitrate = 125000;
   spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 1, 0}, 160, -18, 46, 54.5, 367, true, 0, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 61, 0}, 12.5, -220, 740, 384.5, 1475.5, true, -105.5, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax1", DriveSpec{"uc57", "can0", 61, 0}, 12.5, -220, 740, 384.5, 1475.5, true, -105.5, 0, 0});
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
       Step{Op::kRequest, 2, 6 /* HOME */, {"ax0", "ax1"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
-      Step{Op::kJogStop, 1, 3 /* JOG */, {"ax1", "ax0"}, {-76.62, -12.55}, 0.0, 0.0, 0, 0, 0, 1, 4 /* STOP */, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop,
+           1,
+           3 /* JOG */,
+           {"ax1", "ax0"},
+           {-76.62, -12.55},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           1,
+           4 /* STOP */,
+           0,
+           {},
+           {},
+           0,
+           0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -196,11 +236,44 @@ TEST(RandomLabRegression, Seed100) {
   spec.rs485_baud = 19200;
   spec.rs232_baud = 115200;
   spec.rs485_parity = "none";
-  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uim342", "can0", 109, 0}, 533.33333333333337, -3, 11, 7, 38.5, false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax0", DriveSpec{"uim342", "can0", 109, 0}, 533.33333333333337, -3, 11, 7, 38.5, false, 0, 0, 0});
   spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 10, 0}, 640, -8, 26, 11.5, 68, true, 0, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kConflict, 1, 1 /* MOVE_ABSOLUTE */, {"ax1"}, {26.0}, 0.121, 0.0, 0, 0, 0, 2, 4 /* STOP */, 13 /* SET_POSITION */, {"ax0", "ax1"}, {11.0, -6.4900000000000002}, 0, 0},
-      Step{Op::kRequest, 2, 2 /* MOVE_RELATIVE */, {"ax0"}, {0.00075000000000002842}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}, 0, 0},
+      Step{Op::kConflict,
+           1,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax1"},
+           {26.0},
+           0.121,
+           0.0,
+           0,
+           0,
+           0,
+           2,
+           4 /* STOP */,
+           13 /* SET_POSITION */,
+           {"ax0", "ax1"},
+           {11.0, -6.4900000000000002},
+           0,
+           0},
+      Step{Op::kRequest,
+           2,
+           2 /* MOVE_RELATIVE */,
+           {"ax0"},
+           {0.00075000000000002842},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* ? */,
+           0 /* ? */,
+           {},
+           {},
+           0,
+           0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -214,12 +287,46 @@ TEST(RandomLabRegression, Seed108) {
   spec.rs232_baud = 38400;
   spec.rs485_parity = "none";
   spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uc57", "can0", 1, 0}, 12.5, -39, 910, 341.5, 2184.5, false, 0, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 42, 0}, 320, -1, 66, 25.5, 53.5, true, 59.25, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 42, 0}, 320, -1, 66, 25.5, 53.5, true, 59.25, 0, 0});
   spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 127, 0}, 160, -62, 76, 68.5, 476, false, 0, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 42, 0}, 533.33333333333337, -5, 13, 7.5, 18, true, 4.5, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 42, 0}, 533.33333333333337, -5, 13, 7.5, 18, true, 4.5, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2", "ax3"}, {0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}, 0, 0},
-      Step{Op::kJogStop, 2, 3 /* JOG */, {"ax3", "ax2"}, {-2.1400000000000001, 16.690000000000001}, 0.0, 0.0, 0, 0, 0, 1, 5 /* ESTOP */, 0 /* ? */, {}, {}, 0, 0},
+      Step{Op::kRequest,
+           0,
+           7 /* ENABLE */,
+           {"ax0", "ax1", "ax2", "ax3"},
+           {0.0, 0.0, 0.0, 0.0},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* ? */,
+           0 /* ? */,
+           {},
+           {},
+           0,
+           0},
+      Step{Op::kJogStop,
+           2,
+           3 /* JOG */,
+           {"ax3", "ax2"},
+           {-2.1400000000000001, 16.690000000000001},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           1,
+           5 /* ESTOP */,
+           0 /* ? */,
+           {},
+           {},
+           0,
+           0},
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* ? */, 0 /* ? */, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
@@ -234,14 +341,81 @@ TEST(RandomLabRegression, Seed5001RelativeZeroAtTheLimitAfterAnEstop) {
   spec.rs485_baud = 38400;
   spec.rs232_baud = 115200;
   spec.rs485_parity = "even";
-  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uim242", "rs232", 78, 0}, 533.33333333333337, -13, 17, 14, 81, false, 0, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim242", "rs232", 125, 0}, 1, -1420, 9020, 9285.5, 67250.5, false, 0, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"adam-modbus", "rs485", 64, 0}, 320, -3, 11, 6.5, 27, true, -2.5, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax0", DriveSpec{"uim242", "rs232", 78, 0}, 533.33333333333337, -13, 17, 14, 81, false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax1", DriveSpec{"uim242", "rs232", 125, 0}, 1, -1420, 9020, 9285.5, 67250.5, false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax2", DriveSpec{"adam-modbus", "rs485", 64, 0}, 320, -3, 11, 6.5, 27, true, -2.5, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
-      Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax2", "ax0", "ax1"}, {11.0, 17.0, 2601.2400000000002}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
-      Step{Op::kRequest, 1, 5 /* ESTOP */, {"ax2", "ax0", "ax1"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax2", "ax1"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest,
+           0,
+           7 /* ENABLE */,
+           {"ax0", "ax1", "ax2"},
+           {0.0, 0.0, 0.0},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           {},
+           {},
+           0,
+           0},
+      Step{Op::kRequest,
+           1,
+           2 /* MOVE_RELATIVE */,
+           {"ax2", "ax0", "ax1"},
+           {11.0, 17.0, 2601.2400000000002},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           {},
+           {},
+           0,
+           0},
+      Step{Op::kRequest,
+           1,
+           5 /* ESTOP */,
+           {"ax2", "ax0", "ax1"},
+           {0.0, 0.0, 0.0},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           {},
+           {},
+           0,
+           0},
+      Step{Op::kRequest,
+           0,
+           7 /* ENABLE */,
+           {"ax0", "ax2", "ax1"},
+           {0.0, 0.0, 0.0},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           {},
+           {},
+           0,
+           0},
       Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax0"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
@@ -257,10 +431,27 @@ TEST(RandomLabRegression, Seed11Uim242OneCountCrawlIsNotAStop) {
   spec.rs232_baud = 19200;
   spec.rs485_parity = "none";
   spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 127, 0}, 640, -6, 45, 18, 58, true, 0, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 5, 0}, 533.33333333333337, -6, 25, 17, 97.5, true, -3.75, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 5, 0}, 533.33333333333337, -6, 25, 17, 97.5, true, -3.75, 0, 0});
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
-      Step{Op::kRequest, 1, 1 /* MOVE_ABSOLUTE */, {"ax2", "ax3"}, {12.92, 0.0018749999999999999}, 0.0, 0.42999999999999999, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kRequest,
+           1,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax2", "ax3"},
+           {12.92, 0.0018749999999999999},
+           0.0,
+           0.42999999999999999,
+           0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           {},
+           {},
+           0,
+           0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -278,13 +469,30 @@ TEST(RandomLabRegression, Seed7167Uim242JogNextToItsLimitNeverPassesIt) {
   spec.rs485_baud = 9600;
   spec.rs232_baud = 19200;
   spec.rs485_parity = "none";
-  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uim242", "rs232", 125, 0}, 533.33333333333337, -4, 43, 21, 145, false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax2", DriveSpec{"uim242", "rs232", 125, 0}, 533.33333333333337, -4, 43, 21, 145, false, 0, 0, 0});
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
       Step{Op::kRequest, 2, 13 /* SET_POSITION */, {"ax2"}, {43.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
       Step{Op::kJogStop, 0, 3 /* JOG */, {"ax2"}, {6.04}, 0.0, 0.0, 0, 0, 0, 2, 5 /* ESTOP */, 0, {}, {}, 0, 0},
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax2"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
-      Step{Op::kRequest, 2, 13 /* SET_POSITION */, {"ax2"}, {42.9975}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},  // 22932 counts
+      Step{Op::kRequest,
+           2,
+           13 /* SET_POSITION */,
+           {"ax2"},
+           {42.9975},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           {},
+           {},
+           0,
+           0},  // 22932 counts
       Step{Op::kJogStop, 1, 3 /* JOG */, {"ax2"}, {21.0}, 0.0, 0.0, 0, 0, 0, 2, 4 /* STOP */, 0, {}, {}, 0, 0},
       Step{Op::kJogStop, 1, 3 /* JOG */, {"ax2"}, {-21.0}, 0.0, 0.0, 0, 0, 0, 2, 4 /* STOP */, 0, {}, {}, 0, 0},
   };
@@ -301,15 +509,98 @@ TEST(RandomLabRegression, Seed7338AdamJogAfterAnAtTargetMoveStopsOnStop) {
   spec.rs485_baud = 9600;
   spec.rs232_baud = 19200;
   spec.rs485_parity = "odd";
-  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"adam-modbus", "rs485", 1, 0}, 33.333333333333336, -50, 484, 179, 630.5, false, 0, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim342", "can0", 54, 126}, 533.33333333333337, -5, 22, 22.5, 92, true, 15.5, 2, -17});
-  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uim242", "rs232", 45, 0}, 1, -8782, 17319, 10165, 80713.5, true, -5507, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"adam-modbus", "rs485", 1, 0}, 33.333333333333336, -50, 484, 179, 630.5,
+                               false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax1", DriveSpec{"uim342", "can0", 54, 126}, 533.33333333333337, -5, 22, 22.5, 92, true, 15.5, 2, -17});
+  spec.axes.push_back(
+      AxisSpec{"ax2", DriveSpec{"uim242", "rs232", 45, 0}, 1, -8782, 17319, 10165, 80713.5, true, -5507, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2"}, {0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0 /* UNKNOWN */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
-      Step{Op::kJogStop, 0, 3 /* JOG */, {"ax0", "ax1"}, {-37.5, 6.6699999999999999}, 0.0, 0.0, 0, 0, 0, 2, 4 /* STOP */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
-      Step{Op::kRequest, 0, 1 /* MOVE_ABSOLUTE */, {"ax0", "ax2"}, {85.579999999999998, -2531.5799999999999}, 0.0, 0.0, 0, 0, 0, 0, 0 /* UNKNOWN */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
-      Step{Op::kRequest, 1, 2 /* MOVE_RELATIVE */, {"ax0", "ax1", "ax2"}, {-0.012000000000000455, -5.0018750000000001, 7585.96}, 0.0, 0.0, 0, 0, 0, 0, 0 /* UNKNOWN */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
-      Step{Op::kJogStop, 1, 3 /* JOG */, {"ax0", "ax1"}, {-31.34, -6.2199999999999998}, 0.0, 0.0, 0, 0, 0, 1, 4 /* STOP */, 0 /* UNKNOWN */, {}, {}, 0 /* none */, 0},
+      Step{Op::kRequest,
+           0,
+           7 /* ENABLE */,
+           {"ax0", "ax1", "ax2"},
+           {0.0, 0.0, 0.0},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+      Step{Op::kJogStop,
+           0,
+           3 /* JOG */,
+           {"ax0", "ax1"},
+           {-37.5, 6.6699999999999999},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           2,
+           4 /* STOP */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+      Step{Op::kRequest,
+           0,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax0", "ax2"},
+           {85.579999999999998, -2531.5799999999999},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+      Step{Op::kRequest,
+           1,
+           2 /* MOVE_RELATIVE */,
+           {"ax0", "ax1", "ax2"},
+           {-0.012000000000000455, -5.0018750000000001, 7585.96},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+      Step{Op::kJogStop,
+           1,
+           3 /* JOG */,
+           {"ax0", "ax1"},
+           {-31.34, -6.2199999999999998},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           1,
+           4 /* STOP */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -321,7 +612,8 @@ TEST(RandomLabRegression, Seed7338AdamJogAfterAnAtTargetMoveStopsOnStop) {
 TEST(RandomLabRegression, AdamFastJogAfterASlowMoveStopsWithinItsRamp) {
   LabSpec spec;
   spec.rs485_baud = 19200;
-  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"adam-modbus", "rs485", 1, 0}, 33.333333333333336, -50, 484, 179, 630.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"adam-modbus", "rs485", 1, 0}, 33.333333333333336, -50, 484, 179, 630.5,
+                               false, 0, 0, 0});
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0"}, {0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
       Step{Op::kRequest, 0, 1 /* MOVE_ABSOLUTE */, {"ax0"}, {2.0}, 0.01, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
@@ -339,11 +631,29 @@ TEST(RandomLabRegression, Seed12Uim242JogDoesNotResumeAfterEstopAndEnable) {
   spec.rs485_baud = 38400;
   spec.rs232_baud = 9600;
   spec.rs485_parity = "none";
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 1, 0}, 640, -6, 22, 10.5, 57, true, 8.25, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 94, 0}, 1, -5103, 21734, 11272, 49960.5, false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 1, 0}, 640, -6, 22, 10.5, 57, true, 8.25, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax3", DriveSpec{"uim242", "rs232", 94, 0}, 1, -5103, 21734, 11272, 49960.5, false, 0, 0, 0});
   const std::vector<Step> steps = {
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax1", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
-      Step{Op::kJogStop, 0, 3 /* JOG */, {"ax3", "ax1"}, {-1166.1700000000001, 2.21}, 0.0, 0.0, 0, 0, 0, 2, 5 /* ESTOP */, 0, {}, {}, 0, 0},
+      Step{Op::kJogStop,
+           0,
+           3 /* JOG */,
+           {"ax3", "ax1"},
+           {-1166.1700000000001, 2.21},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           2,
+           5 /* ESTOP */,
+           0,
+           {},
+           {},
+           0,
+           0},
       Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax1", "ax3"}, {0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
   };
   const auto result = run_case(spec, steps);
@@ -375,15 +685,82 @@ TEST(RandomLabRegression, Seed7085Uc57HaltNeverPassesTheTarget) {
   spec.rs485_baud = 19200;
   spec.rs232_baud = 115200;
   spec.rs485_parity = "odd";
-  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"adam-modbus", "rs485", 64, 0}, 12.5, -188, 1879, 742.5, 5702.5, false, 0, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim342", "can0", 37, 109}, 8.8888888888888893, -919, 2147, 1086.5, 2931.5, false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax0", DriveSpec{"adam-modbus", "rs485", 64, 0}, 12.5, -188, 1879, 742.5, 5702.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uim342", "can0", 37, 109}, 8.8888888888888893, -919, 2147, 1086.5,
+                               2931.5, false, 0, 0, 0});
   spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uc57", "can0", 85, 0}, 320, -4, 6, 8.5, 27, true, -0.5, 0, 0});
-  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"adam-modbus", "rs485", 55, 0}, 33.333333333333336, -248, 508, 323.5, 672, true, 499.75, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax3", DriveSpec{"adam-modbus", "rs485", 55, 0}, 33.333333333333336, -248, 508, 323.5,
+                               672, true, 499.75, 0, 0});
   const std::vector<Step> steps = {
-      Step{Op::kRequest, 0, 7 /* ENABLE */, {"ax0", "ax1", "ax2", "ax3"}, {0.0, 0.0, 0.0, 0.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0 /* none */, 0},
-      Step{Op::kConflict, 2, 1 /* MOVE_ABSOLUTE */, {"ax1", "ax3"}, {2147.0, 508.0}, 0.11700000000000001, 0.0, 120000, 0, 0, 0, 5 /* ESTOP */, 13 /* SET_POSITION */, {"ax1"}, {-0.11249999999999999}, 0 /* none */, 0},
-      Step{Op::kConflict, 2, 1 /* MOVE_ABSOLUTE */, {"ax2", "ax3"}, {6.0, 508.0}, 0.10300000000000001, 0.0, 120000, 0, 0, 0, 4 /* STOP */, 1 /* MOVE_ABSOLUTE */, {"ax2"}, {5.21}, 0 /* none */, 0},
-      Step{Op::kConflict, 1, 1 /* MOVE_ABSOLUTE */, {"ax2", "ax0"}, {6.0, 1879.0}, 0.13300000000000001, 0.0, 120000, 0, 0, 2, 4 /* STOP */, 13 /* SET_POSITION */, {"ax2"}, {-0.0031250000000000002}, 0 /* none */, 0},
+      Step{Op::kRequest,
+           0,
+           7 /* ENABLE */,
+           {"ax0", "ax1", "ax2", "ax3"},
+           {0.0, 0.0, 0.0, 0.0},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           {},
+           {},
+           0 /* none */,
+           0},
+      Step{Op::kConflict,
+           2,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax1", "ax3"},
+           {2147.0, 508.0},
+           0.11700000000000001,
+           0.0,
+           120000,
+           0,
+           0,
+           0,
+           5 /* ESTOP */,
+           13 /* SET_POSITION */,
+           {"ax1"},
+           {-0.11249999999999999},
+           0 /* none */,
+           0},
+      Step{Op::kConflict,
+           2,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax2", "ax3"},
+           {6.0, 508.0},
+           0.10300000000000001,
+           0.0,
+           120000,
+           0,
+           0,
+           0,
+           4 /* STOP */,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax2"},
+           {5.21},
+           0 /* none */,
+           0},
+      Step{Op::kConflict,
+           1,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax2", "ax0"},
+           {6.0, 1879.0},
+           0.13300000000000001,
+           0.0,
+           120000,
+           0,
+           0,
+           2,
+           4 /* STOP */,
+           13 /* SET_POSITION */,
+           {"ax2"},
+           {-0.0031250000000000002},
+           0 /* none */,
+           0},
   };
   const auto result = run_case(spec, steps);
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
@@ -397,10 +774,12 @@ TEST(RandomLab, FixedSeeds) {
   const std::uint64_t count = env_u64("RANDOM_LAB_SEEDS", 12);
   const int steps = static_cast<int>(env_u64("RANDOM_LAB_STEPS", 24));
   const auto budget = std::chrono::seconds(env_u64("RANDOM_LAB_SHRINK_SECONDS", 30));
-  std::printf("random_lab: %llu seeds from %llu, %d steps each\n", static_cast<unsigned long long>(count), static_cast<unsigned long long>(first), steps);
+  std::printf("random_lab: %llu seeds from %llu, %d steps each\n", static_cast<unsigned long long>(count),
+              static_cast<unsigned long long>(first), steps);
   int passed = 0;
   Totals totals;
-  for (std::uint64_t seed = first; seed < first + count; ++seed) passed += run_seed(seed, steps, budget, totals) ? 1 : 0;
+  for (std::uint64_t seed = first; seed < first + count; ++seed)
+    passed += run_seed(seed, steps, budget, totals) ? 1 : 0;
   std::printf("random_lab: %d of %llu seeds passed\n", passed, static_cast<unsigned long long>(count));
   totals.print("random_lab");
 }
@@ -414,7 +793,8 @@ TEST(RandomLab, ChaosSeeds) {
   std::printf("random_lab chaos: %llu seeds from %llu, %d steps each\n", static_cast<unsigned long long>(count),
               static_cast<unsigned long long>(first), steps);
   Totals totals;
-  for (std::uint64_t seed = first; seed < first + count; ++seed) run_seed(seed, steps, std::chrono::seconds(30), totals, true);
+  for (std::uint64_t seed = first; seed < first + count; ++seed)
+    run_seed(seed, steps, std::chrono::seconds(30), totals, true);
   totals.print("random_lab chaos");
 }
 
@@ -432,8 +812,10 @@ TEST(RandomLab, Soak) {
   for (; std::chrono::steady_clock::now() < end; ++seed) {
     if (!run_seed(seed, steps, std::chrono::seconds(600), totals, env_u64("RANDOM_LAB_CHAOS", 0) != 0)) break;
   }
-  const auto elapsed = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::steady_clock::now() - began).count();
-  std::printf("soak: seeds %llu..%llu in %lld s\n", static_cast<unsigned long long>(first), static_cast<unsigned long long>(first + static_cast<std::uint64_t>(totals.seeds) - 1),
+  const auto elapsed =
+      std::chrono::duration_cast<std::chrono::seconds>(std::chrono::steady_clock::now() - began).count();
+  std::printf("soak: seeds %llu..%llu in %lld s\n", static_cast<unsigned long long>(first),
+              static_cast<unsigned long long>(first + static_cast<std::uint64_t>(totals.seeds) - 1),
               static_cast<long long>(elapsed));
   totals.print("soak");
 }

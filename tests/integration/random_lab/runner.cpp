@@ -40,7 +40,7 @@ using motionlcm::request_t;
 using std::chrono::milliseconds;
 using std::chrono::seconds;
 
-constexpr int kDefaultTimeoutMs = 20000;  // coordinator.default_timeout_ms of LabSpec::yaml()
+constexpr int kDefaultTimeoutMs = 20000;       // coordinator.default_timeout_ms of LabSpec::yaml()
 constexpr std::int32_t kReplyLatencyUs = 200;  // simulation.reply_latency_us of LabSpec::yaml()
 
 struct Failure {
@@ -52,10 +52,12 @@ class Runner {
   Runner(const LabSpec& lab, const RunOptions& options)
       : lab_(lab), options_(options), group_(testing::unique_lcm_url(options.salt)), model_(lab) {
     for (int i = 0; i < 3; ++i) {
-      clients_.push_back(std::make_unique<client::Client>(group_.loop(), group_.node(), "rl-client-" + std::to_string(i)));
+      clients_.push_back(
+          std::make_unique<client::Client>(group_.loop(), group_.node(), "rl-client-" + std::to_string(i)));
       // Under security every client signs with a key of its own (admin: the model predicts no
       // role refusals); its client id becomes the key's.
-      if (lab_.security) clients_.back()->sign_with(keys_.emplace_back(security::KeyPair::generate("rl-client-" + std::to_string(i))));
+      if (lab_.security)
+        clients_.back()->sign_with(keys_.emplace_back(security::KeyPair::generate("rl-client-" + std::to_string(i))));
     }
     group_.node().subscribe<reply_t>(lcm::channels::kReply, [this](const reply_t& r, const std::string&) {
       if (client::is_terminal(r.status)) ++terminals_[{r.client_id, r.request_id}];
@@ -92,7 +94,8 @@ class Runner {
   void start() {
     const std::string path = group_.work_dir() + "/lab.yaml";
     if (lab_.security) {
-      if (const auto error = security::write_key_pair(security::KeyPair::generate("coordinator"), group_.work_dir(), "admin")) {
+      if (const auto error =
+              security::write_key_pair(security::KeyPair::generate("coordinator"), group_.work_dir(), "admin")) {
         fail("lab start-up: cannot write the coordinator's key pair: " + *error);
       }
       std::ofstream keys(group_.work_dir() + "/authorized_keys");
@@ -102,22 +105,29 @@ class Runner {
     std::set<std::string> buses;
     for (const auto& a : lab_.axes) buses.insert(a.drive.bus);
     pids_["sim"] = group_.start({"sim", "motion-sim", log_args({"--config", path}), {}});
-    for (const auto& bus : buses) pids_["gateway:" + bus] = group_.start({"gateway:" + bus, "motion-gateway", log_args({"--config", path, "--bus", bus}), {}});
+    for (const auto& bus : buses)
+      pids_["gateway:" + bus] =
+          group_.start({"gateway:" + bus, "motion-gateway", log_args({"--config", path, "--bus", bus}), {}});
     pids_["coordinator"] = group_.start({"coordinator", "motion-coordinator", log_args({"--config", path}), {}});
     for (const auto& [name, pid] : pids_) {
-      const bool up = group_.pump_until([&] {
-        const auto h = group_.heartbeat(name);
-        return h && (h->state == motionlcm::health_t::OK || (name != "coordinator" && h->state == motionlcm::health_t::DEGRADED));
-      }, seconds(20));
+      const bool up = group_.pump_until(
+          [&] {
+            const auto h = group_.heartbeat(name);
+            return h && (h->state == motionlcm::health_t::OK ||
+                         (name != "coordinator" && h->state == motionlcm::health_t::DEGRADED));
+          },
+          seconds(20));
       if (!up) fail("lab start-up: no OK heartbeat from " + name + " within 20 s");
     }
-    const bool online = clients_[0]->wait_until([&] {
-      for (const auto& a : lab_.axes) {
-        const auto it = clients_[0]->axes().find(a.name);
-        if (it == clients_[0]->axes().end() || !it->second.online) return false;
-      }
-      return true;
-    }, seconds(20));
+    const bool online = clients_[0]->wait_until(
+        [&] {
+          for (const auto& a : lab_.axes) {
+            const auto it = clients_[0]->axes().find(a.name);
+            if (it == clients_[0]->axes().end() || !it->second.online) return false;
+          }
+          return true;
+        },
+        seconds(20));
     if (!online) fail("lab start-up: not every axis online within 20 s");
     for (const auto& a : lab_.axes) {
       const auto& s = state(a.name);
@@ -128,7 +138,8 @@ class Runner {
 
   const motionlcm::axis_state_t& state(const std::string& axis) { return clients_[0]->axes().at(axis); }
 
-  motionlcm::request_t make(std::int8_t kind, const std::vector<std::string>& axes, const std::vector<double>& values, const Step& s) {
+  motionlcm::request_t make(std::int8_t kind, const std::vector<std::string>& axes, const std::vector<double>& values,
+                            const Step& s) {
     auto r = client::Client::make(kind, axes);
     r.values = values;
     r.values.resize(axes.size(), 0.0);
@@ -168,10 +179,12 @@ class Runner {
     if (family == "adam-modbus") return 3200;  // 200 full steps x subdivision 16
     if (family == "uim242") return 10;         // current_a 1.0
     if (family == "uim342") return 16;
-    return std::nullopt;                       // uc57: checked as 402 in the low word
+    return std::nullopt;  // uc57: checked as 402 in the low word
   }
 
-  std::chrono::milliseconds wait_for(std::int32_t timeout_ms) const { return milliseconds((timeout_ms > 0 ? timeout_ms : kDefaultTimeoutMs) + 3000); }
+  std::chrono::milliseconds wait_for(std::int32_t timeout_ms) const {
+    return milliseconds((timeout_ms > 0 ? timeout_ms : kDefaultTimeoutMs) + 3000);
+  }
 
   reply_t call(int client, const motionlcm::request_t& r) {
     auto& c = *clients_[static_cast<std::size_t>(client)];
@@ -207,13 +220,14 @@ class Runner {
     const bool code_ok = got.status == reply_t::DONE || want.codes.empty() ||
                          std::find(want.codes.begin(), want.codes.end(), got.error_code) != want.codes.end();
     if (!status_ok || !code_ok) {
-      fail(describe_request(r) + ": model predicts " + want.text() + ", got " + client::status_name(got.status) + " code " +
-           std::to_string(got.error_code) + " (\"" + got.reason + "\")");
+      fail(describe_request(r) + ": model predicts " + want.text() + ", got " + client::status_name(got.status) +
+           " code " + std::to_string(got.error_code) + " (\"" + got.reason + "\")");
     }
   }
 
   // One request, predicted, sent, checked and applied to the model.
-  reply_t request(int client, std::int8_t kind, const std::vector<std::string>& axes, const std::vector<double>& values, const Step& s) {
+  reply_t request(int client, std::int8_t kind, const std::vector<std::string>& axes, const std::vector<double>& values,
+                  const Step& s) {
     auto want = model_.request(kind, axes, values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, false);
     if (kind == request_t::SET_OUTPUTS && want.done()) {
       // A family without digital outputs says so (unsupported) and changes nothing.
@@ -228,18 +242,23 @@ class Runner {
     const auto r = make(kind, axes, values, s);
     const auto got = call(client, r);
     check_reply(got, want, r);
-    if (got.status == reply_t::DONE || (kind == request_t::JOG && (got.status == reply_t::ABORTED || got.status == reply_t::FAILED))) {
+    if (got.status == reply_t::DONE ||
+        (kind == request_t::JOG && (got.status == reply_t::ABORTED || got.status == reply_t::FAILED))) {
       model_.request(kind, axes, values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, true);
       if (kind == request_t::PARAM_READ) {
         const auto expected = expected_param(axes[0]);
         const bool ok = expected ? got.param.value == *expected : (got.param.value & 0xFFFF) == 402;
-        if (!ok) fail(describe_request(r) + ": read " + std::to_string(got.param.value) + ", the lab's set-up gives " +
-                      (expected ? std::to_string(*expected) : std::string("402 in the low word")));
+        if (!ok)
+          fail(describe_request(r) + ": read " + std::to_string(got.param.value) + ", the lab's set-up gives " +
+               (expected ? std::to_string(*expected) : std::string("402 in the low word")));
       }
       if (kind == request_t::SET_OUTPUTS) {
         const std::string& axis = axes[0];
-        const bool ok = clients_[0]->wait_until([&] { return (state(axis).outputs & s.output_mask) == (s.output_value & s.output_mask); }, seconds(5));
-        if (!ok) fail(describe_request(r) + ": outputs of " + axis + " read " + std::to_string(state(axis).outputs) + " after DONE");
+        const bool ok = clients_[0]->wait_until(
+            [&] { return (state(axis).outputs & s.output_mask) == (s.output_value & s.output_mask); }, seconds(5));
+        if (!ok)
+          fail(describe_request(r) + ": outputs of " + axis + " read " + std::to_string(state(axis).outputs) +
+               " after DONE");
       }
     }
     return got;
@@ -253,7 +272,8 @@ class Runner {
     c.utime = wall_time_us();
     c.action = action;
     c.value = value;
-    const bool bus_fault = action == motionlcm::sim_control_t::BUS_DROP || action == motionlcm::sim_control_t::LINE_NOISE;
+    const bool bus_fault =
+        action == motionlcm::sim_control_t::BUS_DROP || action == motionlcm::sim_control_t::LINE_NOISE;
     c.drive = bus_fault ? "" : spec.name + "-drive";
     c.bus = spec.drive.bus;
     c.level = action == motionlcm::sim_control_t::LINE_NOISE ? 1 : 0;
@@ -269,10 +289,13 @@ class Runner {
     using motionlcm::sim_control_t;
     ++faults_;
     auto& c = *clients_[static_cast<std::size_t>(s.client)];
-    const auto want = model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, false);
+    const auto want = model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale,
+                                     s.timeout_ms, false);
     const auto r = make(request_t::MOVE_ABSOLUTE, s.axes, s.values, s);
     std::optional<reply_t> got;
-    const auto id = c.send(r, [&](const reply_t& reply) { if (client::is_terminal(reply.status)) got = reply; });
+    const auto id = c.send(r, [&](const reply_t& reply) {
+      if (client::is_terminal(reply.status)) got = reply;
+    });
     sent_.push_back({c.id(), id});
     c.wait_until([] { return false; }, milliseconds(200));
     const std::string& target = s.second_axes.at(0);
@@ -281,13 +304,15 @@ class Runner {
     if (s.fault == sim_control_t::SILENCE || s.fault == sim_control_t::CRC_ERRORS) inject(s.fault, 0, target);
     if (s.fault == sim_control_t::REPLY_LATENCY) inject(s.fault, kReplyLatencyUs, target);
     if (!c.wait_until([&] { return got.has_value(); }, wait_for(r.timeout_ms))) {
-      fail("no terminal reply to " + describe_request(r) + " within its timeout + 3 s (" + fault_name(s.fault) + " on " + target + ")");
+      fail("no terminal reply to " + describe_request(r) + " within its timeout + 3 s (" + fault_name(s.fault) +
+           " on " + target + ")");
     }
     last_reply_utime_ = wall_time_us();
     if (!want.done()) check_reply(*got, want, r);  // refused before anything moved, whatever the fault
     if (got->status != reply_t::DONE && want.done()) ++faults_biting_;
     if (got->status == reply_t::DONE) {
-      model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, true);
+      model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms,
+                     true);
     } else {
       for (const auto& a : s.axes) model_.axis(a).at_target = false;
     }
@@ -295,13 +320,15 @@ class Runner {
   }
 
   void recover(const std::string& after) {
-    const bool online = clients_[0]->wait_until([&] {
-      for (const auto& a : lab_.axes) {
-        const auto it = clients_[0]->axes().find(a.name);
-        if (it == clients_[0]->axes().end() || !it->second.online || it->second.moving) return false;
-      }
-      return true;
-    }, seconds(30));
+    const bool online = clients_[0]->wait_until(
+        [&] {
+          for (const auto& a : lab_.axes) {
+            const auto it = clients_[0]->axes().find(a.name);
+            if (it == clients_[0]->axes().end() || !it->second.online || it->second.moving) return false;
+          }
+          return true;
+        },
+        seconds(30));
     if (!online) fail("after " + after + ": not every axis online and at rest within 30 s");
     std::vector<std::string> all;
     for (const auto& a : lab_.axes) all.push_back(a.name);
@@ -314,8 +341,9 @@ class Runner {
         clients_[0]->wait_until([] { return false; }, milliseconds(500));
       } while (std::chrono::steady_clock::now() < deadline);
       if (got.status != reply_t::DONE) {
-        fail("after " + after + ": " + std::string(lcm::request_kind_name(kind)) + " of every axis ends " + client::status_name(got.status) + " code " +
-             std::to_string(got.error_code) + " (\"" + got.reason + "\") for 30 s");
+        fail("after " + after + ": " + std::string(lcm::request_kind_name(kind)) + " of every axis ends " +
+             client::status_name(got.status) + " code " + std::to_string(got.error_code) + " (\"" + got.reason +
+             "\") for 30 s");
       }
     }
     // A drive that lost power says so (README "Safety and faults"): its moves are refused until
@@ -325,8 +353,9 @@ class Runner {
       if (it == clients_[0]->axes().end() || it->second.fault_code != motionlcm::axis_state_t::POSITION_LOST) continue;
       const auto set = call(0, make(request_t::SET_POSITION, {a.name}, {it->second.position}, Step{}));
       if (set.status != reply_t::DONE) {
-        fail("after " + after + ": " + a.name + " lost its position, and SET_POSITION " + std::to_string(it->second.position) + " ends " +
-             client::status_name(set.status) + " code " + std::to_string(set.error_code) + " (\"" + set.reason + "\")");
+        fail("after " + after + ": " + a.name + " lost its position, and SET_POSITION " +
+             std::to_string(it->second.position) + " ends " + client::status_name(set.status) + " code " +
+             std::to_string(set.error_code) + " (\"" + set.reason + "\")");
       }
     }
     for (const auto& a : lab_.axes) {
@@ -351,29 +380,35 @@ class Runner {
       return;
     }
     // Conflict: a slow move runs while another client asks for its axes (or others).
-    const auto want = model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, false);
+    const auto want = model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale,
+                                     s.timeout_ms, false);
     auto& first_client = *clients_[static_cast<std::size_t>(s.client)];
     std::vector<reply_t> replies;
     const auto first_request = make(request_t::MOVE_ABSOLUTE, s.axes, s.values, s);
     const auto id = first_client.send(first_request, [&](const reply_t& r) { replies.push_back(r); });
     sent_.push_back({first_client.id(), id});
     const auto terminal = [&]() -> const reply_t* {
-      for (const auto& r : replies) if (client::is_terminal(r.status)) return &r;
+      for (const auto& r : replies)
+        if (client::is_terminal(r.status)) return &r;
       return nullptr;
     };
-    const bool started = first_client.wait_until([&] {
-      return terminal() != nullptr || std::any_of(replies.begin(), replies.end(), [](const reply_t& r) { return r.status == reply_t::STARTED; });
-    }, seconds(10));
+    const bool started = first_client.wait_until(
+        [&] {
+          return terminal() != nullptr || std::any_of(replies.begin(), replies.end(),
+                                                      [](const reply_t& r) { return r.status == reply_t::STARTED; });
+        },
+        seconds(10));
     if (want.done()) {
       if (!started || terminal() != nullptr) {
         fail(describe_request(first_request) + ": the model predicts a move of ~10 s; " +
-             (terminal() ? std::string("it ended at once: ") + client::status_name(terminal()->status) + " code " + std::to_string(terminal()->error_code) +
-                               " (\"" + terminal()->reason + "\")"
+             (terminal() ? std::string("it ended at once: ") + client::status_name(terminal()->status) + " code " +
+                               std::to_string(terminal()->error_code) + " (\"" + terminal()->reason + "\")"
                          : "no STARTED within 10 s"));
       }
       model_.set_busy(s.axes, true);
     } else {
-      if (!first_client.wait_until([&] { return terminal() != nullptr; }, wait_for(0))) fail(describe_request(first_request) + ": no terminal reply");
+      if (!first_client.wait_until([&] { return terminal() != nullptr; }, wait_for(0)))
+        fail(describe_request(first_request) + ": no terminal reply");
       check_reply(*terminal(), want, first_request);
     }
     Step second;
@@ -390,17 +425,20 @@ class Runner {
     }
     // A jog the second request started on a free axis would run on: the stop covers its axes too.
     std::vector<std::string> stop_axes = s.axes;
-    if (s.second_kind == request_t::JOG) for (const auto& a : s.second_axes) if (std::find(stop_axes.begin(), stop_axes.end(), a) == stop_axes.end()) stop_axes.push_back(a);
+    if (s.second_kind == request_t::JOG)
+      for (const auto& a : s.second_axes)
+        if (std::find(stop_axes.begin(), stop_axes.end(), a) == stop_axes.end()) stop_axes.push_back(a);
     request(s.other_client, s.stop_kind, stop_axes, {}, Step{});
     if (want.done()) {
       if (!first_client.wait_until([&] { return terminal() != nullptr; }, seconds(5))) {
         fail(describe_request(first_request) + ": no terminal reply within 5 s of the stop of its axes");
       }
       const auto* t = terminal();
-      const bool ok = (t->status == reply_t::ABORTED && t->error_code == error_code(ReplyError::kStopped)) || t->status == reply_t::DONE;
+      const bool ok = (t->status == reply_t::ABORTED && t->error_code == error_code(ReplyError::kStopped)) ||
+                      t->status == reply_t::DONE;
       if (!ok) {
-        fail(describe_request(first_request) + ": stopped by another client; expected ABORTED code 14, got " + client::status_name(t->status) +
-             " code " + std::to_string(t->error_code) + " (\"" + t->reason + "\")");
+        fail(describe_request(first_request) + ": stopped by another client; expected ABORTED code 14, got " +
+             client::status_name(t->status) + " code " + std::to_string(t->error_code) + " (\"" + t->reason + "\")");
       }
     }
     settle(true);
@@ -411,22 +449,33 @@ class Runner {
   void settle(bool after_stop) {
     const std::int64_t since = last_reply_utime_;
     std::string why;
-    const bool ok = clients_[0]->wait_until([&] {
-      why.clear();
-      for (const auto& [name, m] : model_.axes()) {
-        const auto it = clients_[0]->axes().find(name);
-        if (it == clients_[0]->axes().end()) { why += name + ": no state; "; continue; }
-        const auto& st = it->second;
-        if (st.utime <= since) { why += name + ": no state since the reply; "; continue; }
-        if (st.moving) why += name + ": still moving" + std::string(after_stop ? " after a stop" : "") + "; ";
-        if (m.counts && st.position_counts != *m.counts) {
-          why += name + ": at " + std::to_string(st.position_counts) + " counts, the model says " + std::to_string(*m.counts) + "; ";
-        }
-        if (st.enabled != m.enabled) why += name + ": enabled=" + (st.enabled ? "true" : "false") + ", the model says " + (m.enabled ? "true" : "false") + "; ";
-        if (st.fault) why += name + ": faulted (" + st.fault_text + "); ";
-      }
-      return why.empty();
-    }, seconds(10));
+    const bool ok = clients_[0]->wait_until(
+        [&] {
+          why.clear();
+          for (const auto& [name, m] : model_.axes()) {
+            const auto it = clients_[0]->axes().find(name);
+            if (it == clients_[0]->axes().end()) {
+              why += name + ": no state; ";
+              continue;
+            }
+            const auto& st = it->second;
+            if (st.utime <= since) {
+              why += name + ": no state since the reply; ";
+              continue;
+            }
+            if (st.moving) why += name + ": still moving" + std::string(after_stop ? " after a stop" : "") + "; ";
+            if (m.counts && st.position_counts != *m.counts) {
+              why += name + ": at " + std::to_string(st.position_counts) + " counts, the model says " +
+                     std::to_string(*m.counts) + "; ";
+            }
+            if (st.enabled != m.enabled)
+              why += name + ": enabled=" + (st.enabled ? "true" : "false") + ", the model says " +
+                     (m.enabled ? "true" : "false") + "; ";
+            if (st.fault) why += name + ": faulted (" + st.fault_text + "); ";
+          }
+          return why.empty();
+        },
+        seconds(10));
     if (!ok) fail("after the step, within 10 s: " + why);
     for (const auto& [name, m] : model_.axes()) {
       if (!m.counts) model_.observe(name, state(name).position_counts);
@@ -434,8 +483,9 @@ class Runner {
       const AxisSpec& spec = *lab_.find(name);
       const auto at = static_cast<double>(state(name).position_counts);
       if (at < spec.min * spec.steps_per_unit - 1 || at > spec.max * spec.steps_per_unit + 1) {
-        fail(name + ": at " + std::to_string(state(name).position_counts) + " counts (" + std::to_string(at / spec.steps_per_unit) +
-             " u), beyond its limits [" + std::to_string(spec.min) + ", " + std::to_string(spec.max) + "] u");
+        fail(name + ": at " + std::to_string(state(name).position_counts) + " counts (" +
+             std::to_string(at / spec.steps_per_unit) + " u), beyond its limits [" + std::to_string(spec.min) + ", " +
+             std::to_string(spec.max) + "] u");
       }
     }
   }
@@ -443,7 +493,8 @@ class Runner {
   void check_invariants() {
     for (const auto& [client, id] : sent_) {
       const int n = terminals_[{client, id}];
-      if (n != 1) fail("request " + client + "/" + std::to_string(id) + " got " + std::to_string(n) + " terminal replies");
+      if (n != 1)
+        fail("request " + client + "/" + std::to_string(id) + " got " + std::to_string(n) + " terminal replies");
     }
     const auto now = wall_time_us();
     for (const auto& [name, pid] : pids_) {
@@ -478,7 +529,8 @@ LabSpec used_axes_only(const LabSpec& lab, const std::vector<Step>& steps) {
   }
   LabSpec out = lab;
   out.axes.clear();
-  for (const auto& a : lab.axes) if (used.contains(a.name)) out.axes.push_back(a);
+  for (const auto& a : lab.axes)
+    if (used.contains(a.name)) out.axes.push_back(a);
   return out.axes.empty() ? lab : out;
 }
 
@@ -488,7 +540,8 @@ RunResult run_case(const LabSpec& lab, const std::vector<Step>& steps, const Run
   RunOptions chosen = options;
   // RANDOM_LAB_LOGS=1: a failing case prints the logs of the lab's processes (run them at a
   // finer level with RANDOM_LAB_LOG_LEVEL=debug|trace).
-  if (const char* logs = std::getenv("RANDOM_LAB_LOGS"); logs != nullptr && std::string(logs) == "1") chosen.print_logs_on_failure = true;
+  if (const char* logs = std::getenv("RANDOM_LAB_LOGS"); logs != nullptr && std::string(logs) == "1")
+    chosen.print_logs_on_failure = true;
   Runner runner(lab, chosen);
   return runner.run(steps);
 }
@@ -503,7 +556,8 @@ Shrunk shrink(const LabSpec& lab, const std::vector<Step>& steps, const RunResul
     RunOptions o;
     o.salt = salt++;
     auto r = run_case(l, s, o);
-    std::printf("  shrink run %d: %zu steps, %zu drives: %s\n", best.runs, s.size(), l.axes.size(), r.ok ? "passes" : "fails");
+    std::printf("  shrink run %d: %zu steps, %zu drives: %s\n", best.runs, s.size(), l.axes.size(),
+                r.ok ? "passes" : "fails");
     std::fflush(stdout);
     if (r.ok) return false;
     best = Shrunk{l, s, r, best.runs};
@@ -518,7 +572,8 @@ Shrunk shrink(const LabSpec& lab, const std::vector<Step>& steps, const RunResul
     for (std::size_t start = 0; start + 1 < best.steps.size();) {
       std::vector<Step> candidate = best.steps;
       const std::size_t end = std::min(start + chunk, candidate.size() - 1);
-      candidate.erase(candidate.begin() + static_cast<std::ptrdiff_t>(start), candidate.begin() + static_cast<std::ptrdiff_t>(end));
+      candidate.erase(candidate.begin() + static_cast<std::ptrdiff_t>(start),
+                      candidate.begin() + static_cast<std::ptrdiff_t>(end));
       if (!try_case(best.lab, candidate)) start += chunk;
       if (std::chrono::steady_clock::now() >= deadline) break;
     }
@@ -541,24 +596,28 @@ Shrunk shrink(const LabSpec& lab, const std::vector<Step>& steps, const RunResul
   return best;
 }
 
-std::string reproduction(const LabSpec& lab, const std::vector<Step>& steps, const RunResult& result, std::uint64_t seed) {
+std::string reproduction(const LabSpec& lab, const std::vector<Step>& steps, const RunResult& result,
+                         std::uint64_t seed) {
   std::ostringstream out;
   out << "// random_lab seed " << seed << ": fails at step " << result.failed_step << ": " << result.failure << "\n";
   out << "TEST(RandomLabRegression, Seed" << seed << ") {\n";
-  out << "  LabSpec spec;\n  spec.can_bitrate = " << lab.can_bitrate << ";\n  spec.rs485_baud = " << lab.rs485_baud << ";\n  spec.rs232_baud = "
-      << lab.rs232_baud << ";\n  spec.rs485_parity = \"" << lab.rs485_parity << "\";\n";
+  out << "  LabSpec spec;\n  spec.can_bitrate = " << lab.can_bitrate << ";\n  spec.rs485_baud = " << lab.rs485_baud
+      << ";\n  spec.rs232_baud = " << lab.rs232_baud << ";\n  spec.rs485_parity = \"" << lab.rs485_parity << "\";\n";
   if (lab.security) out << "  spec.security = true;\n";
   for (const auto& a : lab.axes) {
     char buf[512];
     std::snprintf(buf, sizeof buf,
-                  "  spec.axes.push_back(AxisSpec{\"%s\", DriveSpec{\"%s\", \"%s\", %d, %d}, %.17g, %.17g, %.17g, %.17g, %.17g, %s, %.17g, %d, %.17g});\n",
-                  a.name.c_str(), a.drive.family.c_str(), a.drive.bus.c_str(), a.drive.node_id, a.drive.group_id, a.steps_per_unit, a.min, a.max,
-                  a.velocity, a.acceleration, a.homing ? "true" : "false", a.home_offset, a.home_input, a.home_velocity);
+                  "  spec.axes.push_back(AxisSpec{\"%s\", DriveSpec{\"%s\", \"%s\", %d, %d}, %.17g, %.17g, %.17g, "
+                  "%.17g, %.17g, %s, %.17g, %d, %.17g});\n",
+                  a.name.c_str(), a.drive.family.c_str(), a.drive.bus.c_str(), a.drive.node_id, a.drive.group_id,
+                  a.steps_per_unit, a.min, a.max, a.velocity, a.acceleration, a.homing ? "true" : "false",
+                  a.home_offset, a.home_input, a.home_velocity);
     out << buf;
   }
   out << "  const std::vector<Step> steps = {\n";
   for (const auto& s : steps) out << "      " << s.cpp() << ",\n";
-  out << "  };\n  const auto result = run_case(spec, steps);\n  EXPECT_TRUE(result.ok) << result.failure << \"\\n\" << result.log;\n}\n";
+  out << "  };\n  const auto result = run_case(spec, steps);\n  EXPECT_TRUE(result.ok) << result.failure << \"\\n\" << "
+         "result.log;\n}\n";
   out << "// the lab as YAML:\n";
   std::istringstream yaml(lab.yaml());
   for (std::string line; std::getline(yaml, line);) out << "//   " << line << "\n";

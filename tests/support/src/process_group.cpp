@@ -32,14 +32,14 @@ std::string source_path(const std::string& relative) {
   return std::string(dir != nullptr ? dir : ".") + "/" + relative;
 }
 
-ProcessGroup::ProcessGroup(std::string lcm_url, std::string prefix) : url_(lcm_url.empty() ? unique_lcm_url() : std::move(lcm_url)) {
+ProcessGroup::ProcessGroup(std::string lcm_url, std::string prefix)
+    : url_(lcm_url.empty() ? unique_lcm_url() : std::move(lcm_url)) {
   char tmpl[] = "/tmp/motion-test-XXXXXX";
   const char* made = ::mkdtemp(tmpl);
   dir_ = made != nullptr ? made : "/tmp";
   node_ = std::make_unique<lcm::Node>(loop_, lcm::NodeOptions{url_, std::move(prefix)});
-  node_->subscribe<motionlcm::health_t>(lcm::channels::kHealth, [this](const motionlcm::health_t& h, const std::string&) {
-    heartbeats_[h.process] = h;
-  });
+  node_->subscribe<motionlcm::health_t>(
+      lcm::channels::kHealth, [this](const motionlcm::health_t& h, const std::string&) { heartbeats_[h.process] = h; });
 }
 
 ProcessGroup::~ProcessGroup() {
@@ -51,7 +51,8 @@ ProcessGroup::~ProcessGroup() {
 
 pid_t ProcessGroup::start(const ProcessSpec& spec) {
   Child child{spec, -1, dir_ + "/" + spec.name + ".log", std::nullopt};
-  for (char& ch : child.log_path) if (ch == ':') ch = '_';
+  for (char& ch : child.log_path)
+    if (ch == ':') ch = '_';
   std::vector<std::string> argv_s{spec.binary.find('/') == std::string::npos ? bin_path(spec.binary) : spec.binary};
   argv_s.insert(argv_s.end(), spec.args.begin(), spec.args.end());
   argv_s.push_back("--lcm-url");
@@ -111,12 +112,16 @@ std::optional<motionlcm::health_t> ProcessGroup::heartbeat(const std::string& pr
   return it->second;
 }
 
-bool ProcessGroup::wait_for_heartbeat(const std::string& process, std::chrono::milliseconds timeout, bool accept_degraded) {
-  const bool ok = pump_until([&] {
-    auto it = heartbeats_.find(process);
-    if (it == heartbeats_.end()) return false;
-    return it->second.state == motionlcm::health_t::OK || (accept_degraded && it->second.state == motionlcm::health_t::DEGRADED);
-  }, timeout);
+bool ProcessGroup::wait_for_heartbeat(const std::string& process, std::chrono::milliseconds timeout,
+                                      bool accept_degraded) {
+  const bool ok = pump_until(
+      [&] {
+        auto it = heartbeats_.find(process);
+        if (it == heartbeats_.end()) return false;
+        return it->second.state == motionlcm::health_t::OK ||
+               (accept_degraded && it->second.state == motionlcm::health_t::DEGRADED);
+      },
+      timeout);
   if (!ok) ADD_FAILURE() << "no OK heartbeat from '" << process << "' within " << timeout.count() << " ms on " << url_;
   return ok;
 }
@@ -126,9 +131,7 @@ std::optional<int> ProcessGroup::exit_status(pid_t pid) {
     if (c.pid != pid) continue;
     if (c.status) return c.status;
     int st = 0;
-    if (::waitpid(pid, &st, WNOHANG) == pid) {
-      c.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-    }
+    if (::waitpid(pid, &st, WNOHANG) == pid) { c.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st); }
     return c.status;
   }
   return std::nullopt;
@@ -142,7 +145,8 @@ void ProcessGroup::stop(pid_t pid) {
     ::kill(pid, SIGKILL);
     int st = 0;
     ::waitpid(pid, &st, 0);
-    for (auto& c : children_) if (c.pid == pid) c.status = 128 + SIGKILL;
+    for (auto& c : children_)
+      if (c.pid == pid) c.status = 128 + SIGKILL;
   }
 }
 
@@ -159,8 +163,8 @@ std::string ProcessGroup::log_of(const std::string& name) const {
 
 void ProcessGroup::print_logs() const {
   for (const auto& c : children_) {
-    std::cout << "----- log of " << c.spec.name << " (pid " << c.pid << ") -----\n" << log_of(c.spec.name) << "----- end of "
-              << c.spec.name << " -----\n";
+    std::cout << "----- log of " << c.spec.name << " (pid " << c.pid << ") -----\n"
+              << log_of(c.spec.name) << "----- end of " << c.spec.name << " -----\n";
   }
 }
 

@@ -50,7 +50,8 @@ TEST(AdamCommands, HomingWord) {
   EXPECT_EQ(encode(example).value(), 0xB22A);
   EXPECT_EQ(decode_homing(0xB22A), example);
   EXPECT_EQ(example.secondary_speed_code * kSecondaryHomeRpmPerCode, 50);
-  EXPECT_EQ(encode(HomingCommand{Travel::forward, 0, StopMethod::decelerate, 32}).error(), AdamErrc::value_out_of_range);
+  EXPECT_EQ(encode(HomingCommand{Travel::forward, 0, StopMethod::decelerate, 32}).error(),
+            AdamErrc::value_out_of_range);
 }
 
 TEST(AdamCommands, TorqueWord) {
@@ -98,8 +99,8 @@ TEST(AdamCommands, PositionReminders) {
     std::uint32_t raw;
   };
   const Case cases[] = {
-      {{ReminderComparison::at_or_above, -500}, 0x7FFFFE0C},  // §8.53 X11
-      {{ReminderComparison::below, 5000}, 0x80001388},        // §8.53 X17
+      {{ReminderComparison::at_or_above, -500}, 0x7FFFFE0C},        // §8.53 X11
+      {{ReminderComparison::below, 5000}, 0x80001388},              // §8.53 X17
       {{ReminderComparison::at_or_above, 1073741823}, 0x3FFFFFFF},  // default X17…X19
       {{ReminderComparison::below, -1073741824}, 0xC0000000},
   };
@@ -125,7 +126,7 @@ TEST(AdamCommands, BuildersProduceTheManualsFrames) {
   const auto jog = encode(JogCommand{Rotation::cw, 50, StopMethod::decelerate, true});
   EXPECT_EQ(to_hex(rtu::encode_request(write16(1, Reg::jog_command, jog.value())).value()), "01 06 00 CA 0C 81 6C 94");
   EXPECT_EQ(to_hex(rtu::encode_request(move(1, MoveCommand::timed_run_ms, -6400)).value()),
-            "01 10 00 CC 00 02 04 E7 00 FF FF C8 AE");  // §8.65③
+            "01 10 00 CC 00 02 04 E7 00 FF FF C8 AE");                                        // §8.65③
   EXPECT_EQ(to_hex(rtu::encode_request(clear_alarm(1)).value()), "01 06 00 A4 00 00 C8 29");  // §8.52 corrected
   const auto reminder = encode(PositionReminder{ReminderComparison::below, 5000});
   EXPECT_EQ(to_hex(rtu::encode_request(write32(1, Reg::reminder_x17, reminder.value())).value()),

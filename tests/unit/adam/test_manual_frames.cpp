@@ -383,9 +383,7 @@ TEST(AdamManualFrames, PrintedFramesWithWrongCrcAreRejectedForCrc) {
     ASSERT_TRUE(std::holds_alternative<rtu::FrameErrc>(as_request)) << f.ref << " " << f.seed_line;
     EXPECT_EQ(std::get<rtu::FrameErrc>(as_request), rtu::FrameErrc::bad_crc) << f.ref << " " << f.seed_line;
     EXPECT_EQ(rtu::decode_response(printed).error(), rtu::FrameErrc::bad_crc) << f.ref << " " << f.seed_line;
-    if (!f.corrected.empty()) {
-      EXPECT_TRUE(rtu::crc_ok(hex(f.corrected))) << f.ref << " " << f.seed_line;
-    }
+    if (!f.corrected.empty()) { EXPECT_TRUE(rtu::crc_ok(hex(f.corrected))) << f.ref << " " << f.seed_line; }
   }
 }
 

@@ -21,8 +21,8 @@ TEST(AdamRegisterMap, EveryDefaultIsWithinItsRangeAndFitsItsWidth) {
     EXPECT_LE(r.min, r.max) << r.name;
     const bool is_signed = r.type == RegType::i16 || r.type == RegType::i32;
     const std::int64_t lo = is_signed ? -(std::int64_t{1} << (bit_width(r.type) - 1)) : 0;
-    const std::int64_t hi = is_signed ? (std::int64_t{1} << (bit_width(r.type) - 1)) - 1
-                                      : (std::int64_t{1} << bit_width(r.type)) - 1;
+    const std::int64_t hi =
+        is_signed ? (std::int64_t{1} << (bit_width(r.type) - 1)) - 1 : (std::int64_t{1} << bit_width(r.type)) - 1;
     EXPECT_GE(r.min, lo) << r.name;
     EXPECT_LE(r.max, hi) << r.name;
     if (r.default_value) {
@@ -42,7 +42,8 @@ TEST(AdamRegisterMap, NamesUniqueAndLookupsRoundTrip) {
     EXPECT_EQ(find_register(r.first()), &r) << r.name;
     EXPECT_EQ(find_register(r.name), &r) << r.name;
     EXPECT_EQ(&info(r.reg), &r) << r.name;
-    for (std::uint16_t i = 0; i < r.count(); ++i) EXPECT_EQ(register_containing(static_cast<std::uint16_t>(r.first() + i)), &r);
+    for (std::uint16_t i = 0; i < r.count(); ++i)
+      EXPECT_EQ(register_containing(static_cast<std::uint16_t>(r.first() + i)), &r);
   }
   // Manual §7 prints 108 typed rows, but three of them (0x00DE, the OCR-merged 0x00DF "INT32
   // INT32 …" and 0x00E9) stand for only two 32-bit commands, 0x00DE and 0x00E8 (§8.65⑤/⑦;
@@ -56,10 +57,9 @@ TEST(AdamRegisterMap, NamesUniqueAndLookupsRoundTrip) {
 TEST(AdamRegisterMap, UndocumentedHolesHaveNoEntry) {
   // The addresses neither the §7 table nor §8 documents.
   const std::pair<std::uint16_t, std::uint16_t> holes[] = {
-      {0x0014, 0x0014}, {0x0018, 0x0018}, {0x0023, 0x0023}, {0x0028, 0x0028}, {0x002A, 0x002B},
-      {0x0034, 0x0043}, {0x0049, 0x0065}, {0x0067, 0x006A}, {0x006D, 0x006D}, {0x0072, 0x0095},
-      {0x00B9, 0x00B9}, {0x00BC, 0x00BD}, {0x00D5, 0x00D5}, {0x00DA, 0x00DA}, {0x00E0, 0x00E7},
-      {0x00EA, 0x012B},
+      {0x0014, 0x0014}, {0x0018, 0x0018}, {0x0023, 0x0023}, {0x0028, 0x0028}, {0x002A, 0x002B}, {0x0034, 0x0043},
+      {0x0049, 0x0065}, {0x0067, 0x006A}, {0x006D, 0x006D}, {0x0072, 0x0095}, {0x00B9, 0x00B9}, {0x00BC, 0x00BD},
+      {0x00D5, 0x00D5}, {0x00DA, 0x00DA}, {0x00E0, 0x00E7}, {0x00EA, 0x012B},
   };
   std::size_t hole_count = 0;
   for (const auto& [first, last] : holes) {
@@ -140,8 +140,8 @@ TEST(AdamWordOrder, LowWordAtLowerAddress) {
 }
 
 TEST(AdamWordOrder, RoundTrips) {
-  const std::int32_t signed_values[] = {0, 1, -1, 4000, -10000, 100000, -100000, 65535, 65536, -65536,
-                                        INT32_MIN, INT32_MAX, 0x150000C8, -6400};
+  const std::int32_t signed_values[] = {0,     1,     -1,     4000,      -10000,    100000,     -100000,
+                                        65535, 65536, -65536, INT32_MIN, INT32_MAX, 0x150000C8, -6400};
   for (const std::int32_t v : signed_values) {
     const auto w = encode32(v);
     EXPECT_EQ(decode32_signed(w[0], w[1]), v) << v;
@@ -211,10 +211,15 @@ TEST(AdamAccessRules, ReadsAndWritesAgainstTheMap) {
       {"target speed -999999", rtu::WriteRegisters{0x00D8, {0xBDC1, 0xFFF0}}, std::nullopt, {}},
       {"profile block", rtu::WriteRegisters{0x0096, {0, 0, 200, 200, 600}}, std::nullopt, {}},
       {"95 registers", rtu::WriteRegisters{500, std::vector<std::uint16_t>(95, 0)}, std::nullopt, {}},
-      {"96 registers (> 200 bytes)", rtu::WriteRegisters{500, std::vector<std::uint16_t>(96, 0)}, E::illegal_data_value, {}},
+      {"96 registers (> 200 bytes)",
+       rtu::WriteRegisters{500, std::vector<std::uint16_t>(96, 0)},
+       E::illegal_data_value,
+       {}},
       {"value error in a block", rtu::WriteRegisters{0x0008, {0, 99, 250}}, E::illegal_data_value, {}},
-      {"address error beats value error", rtu::WriteRegisters{0x0009, {99, 250, 200, 100, 100, 0, 1000, 20, 0}},
-       E::illegal_data_address, {}},
+      {"address error beats value error",
+       rtu::WriteRegisters{0x0009, {99, 250, 200, 100, 100, 0, 1000, 20, 0}},
+       E::illegal_data_address,
+       {}},
   };
   for (const auto& c : cases) EXPECT_EQ(check_request(c.pdu, c.rules), c.expected) << c.what;
 }

@@ -105,10 +105,10 @@ TEST(AdamSlave, BroadcastsAndRestartAreExecutedWithoutReply) {
   FakeBank bank;
   const SlaveConfig config;
   const char* silent[] = {
-      "00 06 00 C8 00 01 C8 25",                    // broadcast run forward
-      "00 10 00 E8 00 02 04 79 60 FF FE 21 8F",     // broadcast pre-empting absolute move
-      "00 06 00 DD 00 00 18 21",                    // broadcast execute table
-      "01 06 00 D4 01 00 C8 62",                    // restart, addressed (§8.67)
+      "00 06 00 C8 00 01 C8 25",                 // broadcast run forward
+      "00 10 00 E8 00 02 04 79 60 FF FE 21 8F",  // broadcast pre-empting absolute move
+      "00 06 00 DD 00 00 18 21",                 // broadcast execute table
+      "01 06 00 D4 01 00 C8 62",                 // restart, addressed (§8.67)
   };
   for (const char* frame : silent) {
     const ServeResult r = serve(hex(frame), config, bank);

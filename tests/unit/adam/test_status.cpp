@@ -38,12 +38,12 @@ TEST(AdamStatus, DerivedStatusReplies) {
 TEST(AdamStatus, EveryFlagHasItsBit) {
   struct Case {
     unsigned bit;
-    bool DriveStatus::* flag;
+    bool DriveStatus::*flag;
   };
   const Case cases[] = {
-      {10, &DriveStatus::deviation_exceeded}, {11, &DriveStatus::reminder_x11}, {12, &DriveStatus::in_position},
-      {13, &DriveStatus::negative_limit},     {14, &DriveStatus::positive_limit}, {15, &DriveStatus::at_home},
-      {16, &DriveStatus::enable_input_high},  {17, &DriveStatus::reminder_x17},   {18, &DriveStatus::reminder_x18},
+      {10, &DriveStatus::deviation_exceeded}, {11, &DriveStatus::reminder_x11},       {12, &DriveStatus::in_position},
+      {13, &DriveStatus::negative_limit},     {14, &DriveStatus::positive_limit},     {15, &DriveStatus::at_home},
+      {16, &DriveStatus::enable_input_high},  {17, &DriveStatus::reminder_x17},       {18, &DriveStatus::reminder_x18},
       {19, &DriveStatus::reminder_x19},       {20, &DriveStatus::deviation_negative},
   };
   for (const auto& c : cases) {
@@ -66,7 +66,8 @@ TEST(AdamAlarms, CodesHistoryAndManualTexts) {
 
   const AlarmState h = decode_alarms(0xA41C);
   EXPECT_EQ(h.current, static_cast<AlarmCode>(12));
-  EXPECT_EQ(h.history, (std::array<AlarmCode, 3>{AlarmCode::over_current, AlarmCode::phase_a_open, AlarmCode::encoder_error}));
+  EXPECT_EQ(h.history,
+            (std::array<AlarmCode, 3>{AlarmCode::over_current, AlarmCode::phase_a_open, AlarmCode::encoder_error}));
   EXPECT_EQ(encode_alarms(h), 0xA41C);
   EXPECT_FALSE(decode_alarms(0xFFF0).active());
 

@@ -14,7 +14,7 @@ using test::to_hex;
 
 // The 24 entries of the §8.54 example table (registers 500…547).
 const std::vector<std::int32_t> kManualTable = {
-    25535, -13575, 12352, -11231, 24563, -18963, 12345, -600, 5635, -3565, 25635, -25635,
+    25535, -13575, 12352, -11231, 24563, -18963, 12345, -600,  5635, -3565, 25635, -25635,
     1345,  -6000,  56315, -35615, 2565,  -2535,  2345,  -5600, 8635, -1365, 15635, -5635,
 };
 constexpr std::uint16_t kManualStartOffset = 200;  // 0x00AC example: 500 − 300

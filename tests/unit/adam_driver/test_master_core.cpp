@@ -53,12 +53,14 @@ struct Recorder final : gateway::GatewayOutput {
   void command_reply(Reply r) override { replies.push_back(std::move(r)); }
   [[nodiscard]] std::vector<Reply> of(std::int64_t id) const {
     std::vector<Reply> out;
-    std::copy_if(replies.begin(), replies.end(), std::back_inserter(out), [id](const Reply& r) { return r.command_id == id; });
+    std::copy_if(replies.begin(), replies.end(), std::back_inserter(out),
+                 [id](const Reply& r) { return r.command_id == id; });
     return out;
   }
   [[nodiscard]] int terminal(std::int64_t id) const {
     const auto all = of(id);
-    return static_cast<int>(std::count_if(all.begin(), all.end(), [](const Reply& r) { return r.status == kDone || r.status == kFailed; }));
+    return static_cast<int>(
+        std::count_if(all.begin(), all.end(), [](const Reply& r) { return r.status == kDone || r.status == kFailed; }));
   }
   [[nodiscard]] bool has_event(std::int16_t kind) const {
     return std::any_of(events.begin(), events.end(), [kind](const auto& e) { return e.kind == kind; });
@@ -70,8 +72,8 @@ struct FakeDrive final : adam::RegisterBank {
   std::vector<std::uint16_t> regs = std::vector<std::uint16_t>(0x10000, 0);
   bool completes_moves = true;
   FakeDrive() {
-    regs[0x0024] = 4000;                                   // subdivision 4000 pulses/rev
-    regs[0x0006] = 0x1000;                                 // X12 in position, idle
+    regs[0x0024] = 4000;    // subdivision 4000 pulses/rev
+    regs[0x0006] = 0x1000;  // X12 in position, idle
   }
   void set_position(std::int32_t p) {
     const auto w = adam::encode32(p);
@@ -87,8 +89,10 @@ struct FakeDrive final : adam::RegisterBank {
   std::optional<adam::rtu::ExceptionCode> write(std::uint16_t start, std::span<const std::uint16_t> values) override {
     for (std::size_t i = 0; i < values.size(); ++i) regs[start + i] = values[i];
     const auto move_to = [&](std::int32_t target) {
-      if (completes_moves) set_position(target);
-      else set_moving(true);
+      if (completes_moves)
+        set_position(target);
+      else
+        set_moving(true);
     };
     if (start == 0x00DD) {  // execute table entry 0 (absolute) at 300 + 0x00AC
       const std::uint32_t at = 300U + regs[0x00AC];
@@ -120,8 +124,12 @@ class MasterCoreTest : public ::testing::Test {
     s.poll_period = 100ms;
     s.drives = std::move(drives);
     core = std::make_unique<MasterCore>(
-        s, [this](std::span<const std::uint8_t> b) { sent.emplace_back(b.begin(), b.end()); return true; }, out,
-        [](TimePoint) { return std::int64_t{1'000'000}; });
+        s,
+        [this](std::span<const std::uint8_t> b) {
+          sent.emplace_back(b.begin(), b.end());
+          return true;
+        },
+        out, [](TimePoint) { return std::int64_t{1'000'000}; });
   }
   void advance(Duration dt) {
     now += dt;
@@ -173,7 +181,7 @@ class MasterCoreTest : public ::testing::Test {
     c.trigger_id = trigger;
     for (std::size_t i = 0; i < targets.size(); ++i) {
       c.axes[i].target_counts = targets[i].second;
-      c.axes[i].velocity = 8000;        // 120 rpm at 4000 pulses/rev
+      c.axes[i].velocity = 8000;  // 120 rpm at 4000 pulses/rev
       c.axes[i].acceleration = 16000;
       c.axes[i].deceleration = 16000;
     }
@@ -193,9 +201,9 @@ TEST_F(MasterCoreTest, StartUpReadsPowerOnStateAndSubdivisionThenPollsPositionSt
   core->start(now);
   run_for(20ms);
   ASSERT_GE(sent.size(), 4U);
-  EXPECT_EQ(hex(sent[0]), "01 03 00 12 00 01 24 0F");           // 0x0012 (§8.15)
-  EXPECT_EQ(hex(sent[1]), "01 03 00 24 00 02 84 00");           // 0x0024 subdivision (§8.29)
-  EXPECT_EQ(hex(sent[2]), "01 03 00 04 00 04 05 C8");           // position + status (§8.3, §8.4)
+  EXPECT_EQ(hex(sent[0]), "01 03 00 12 00 01 24 0F");                            // 0x0012 (§8.15)
+  EXPECT_EQ(hex(sent[1]), "01 03 00 24 00 02 84 00");                            // 0x0024 subdivision (§8.29)
+  EXPECT_EQ(hex(sent[2]), "01 03 00 04 00 04 05 C8");                            // position + status (§8.3, §8.4)
   EXPECT_EQ(hex(sent[3]), hex(with_crc({0x01, 0x03, 0x00, 0xA2, 0x00, 0x02})));  // outputs + alarm
   EXPECT_TRUE(core->ready());
   ASSERT_FALSE(out.statuses.empty());
@@ -268,7 +276,8 @@ TEST_F(MasterCoreTest, AReplyDeliveredInPiecesWithPausesLongerThanT35IsJoinedNot
   const std::size_t sent_before = sent.size();
   for (std::size_t at = 0; at < 13;) {
     const std::size_t n = at == 0 ? 5 : 4;
-    reply(Bytes(served.reply.begin() + static_cast<std::ptrdiff_t>(at), served.reply.begin() + static_cast<std::ptrdiff_t>(at + n)));
+    reply(Bytes(served.reply.begin() + static_cast<std::ptrdiff_t>(at),
+                served.reply.begin() + static_cast<std::ptrdiff_t>(at + n)));
     at += n;
     if (at < 13) advance(10ms);
   }
@@ -315,7 +324,8 @@ TEST_F(MasterCoreTest, CrcErrorsOnEveryAttemptMarkTheDriveOfflineUntilAReplyDeco
   reply(sent.back());  // heard once: online
   ASSERT_EQ(out.terminal(2), 1);
   const auto onlines = [this] {
-    return std::count_if(out.events.begin(), out.events.end(), [](const auto& e) { return e.kind == motionlcm::event_t::ONLINE; });
+    return std::count_if(out.events.begin(), out.events.end(),
+                         [](const auto& e) { return e.kind == motionlcm::event_t::ONLINE; });
   };
   ASSERT_EQ(onlines(), 1);
   const std::size_t before = sent.size();
@@ -452,7 +462,7 @@ TEST_F(TwoDriveTest, AReservedLineSendsTheBroadcastAtOnceWhereAPollRoundWouldHol
   // The start frame is due 1 ms into the next round, when its first read would hold the line.
   const TimePoint start = round + 101ms;
   core->reserve_line(start, now);
-  run_for(round + 95ms - now);  // this round ends
+  run_for(round + 95ms - now);       // this round ends
   while (now < start) advance(1ms);  // nothing left to answer: time moves in whole steps
   ASSERT_EQ(now, start);
   const std::size_t before = sent.size();
@@ -474,7 +484,8 @@ TEST_F(TwoDriveTest, MovingBystanderForcesASequentialStart) {
   EXPECT_EQ(replies[0].status, kArmed);
   EXPECT_EQ(replies[1].status, kStarted);
   EXPECT_EQ(replies[1].start_mechanism, "sequential");
-  EXPECT_TRUE(was_sent("01 10 00 D0 00 02 04 0F A0 00 00 7D 8F") || was_sent(hex(with_crc({0x01, 0x10, 0x00, 0xD0, 0x00, 0x02, 0x04, 0x0F, 0xA0, 0x00, 0x00}))));
+  EXPECT_TRUE(was_sent("01 10 00 D0 00 02 04 0F A0 00 00 7D 8F") ||
+              was_sent(hex(with_crc({0x01, 0x10, 0x00, 0xD0, 0x00, 0x02, 0x04, 0x0F, 0xA0, 0x00, 0x00}))));
   EXPECT_FALSE(was_sent("00 06 00 DD 00 00 18 21"));
   EXPECT_EQ(out.terminal(11), 1);
   EXPECT_EQ(replies.back().status, kDone);
@@ -506,7 +517,8 @@ TEST_F(TwoDriveTest, EstopStopsAtOnceAndReleasesTheMotorLikeEveryFamily) {
   // Emergency stop (0x00C8 = 0x0100), then release (0x00D4 = 1), §8.67.
   EXPECT_TRUE(was_sent(hex(with_crc({0x01, 0x06, 0x00, 0xC8, 0x01, 0x00}))));
   EXPECT_TRUE(was_sent(hex(with_crc({0x01, 0x06, 0x00, 0xD4, 0x00, 0x01}))));
-  const auto last = std::find_if(out.statuses.rbegin(), out.statuses.rend(), [](const auto& s) { return s.first == "c"; });
+  const auto last =
+      std::find_if(out.statuses.rbegin(), out.statuses.rend(), [](const auto& s) { return s.first == "c"; });
   ASSERT_NE(last, out.statuses.rend());
   EXPECT_FALSE(last->second.enabled);
 }
@@ -545,7 +557,9 @@ TEST_F(TwoDriveTest, AlarmFailsTheMoveOfItsAxis) {
 // sample while the other drives' samples arrive (it used to be counted once per other drive).
 class FourDriveTest : public MasterCoreTest {
  protected:
-  FourDriveTest() : MasterCoreTest({drive("c1-drive", "c1", 1), drive("c2-drive", "c2", 2), drive("c3-drive", "c3", 3), drive("c4-drive", "c4", 4)}) {
+  FourDriveTest()
+      : MasterCoreTest({drive("c1-drive", "c1", 1), drive("c2-drive", "c2", 2), drive("c3-drive", "c3", 3),
+                        drive("c4-drive", "c4", 4)}) {
     for (std::uint8_t unit = 1; unit <= 4; ++unit) banks[unit].completes_moves = false;
     core->start(now);
     run_for(80ms);

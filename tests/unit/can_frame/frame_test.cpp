@@ -27,10 +27,10 @@ TEST(CanFrame, ParsesCansendExtendedStandardAndRtr) {
 }
 
 TEST(CanFrame, RejectsMalformedCansend) {
-  EXPECT_FALSE(parse_cansend("12#00"));          // id of neither 3 nor 8 digits
-  EXPECT_FALSE(parse_cansend("800#00"));         // 11-bit id out of range
-  EXPECT_FALSE(parse_cansend("20000000#00"));    // 29-bit id out of range
-  EXPECT_FALSE(parse_cansend("123#0"));          // odd nibble
+  EXPECT_FALSE(parse_cansend("12#00"));                   // id of neither 3 nor 8 digits
+  EXPECT_FALSE(parse_cansend("800#00"));                  // 11-bit id out of range
+  EXPECT_FALSE(parse_cansend("20000000#00"));             // 29-bit id out of range
+  EXPECT_FALSE(parse_cansend("123#0"));                   // odd nibble
   EXPECT_FALSE(parse_cansend("123#000102030405060708"));  // 9 bytes
   EXPECT_FALSE(parse_cansend("123#GG"));
   EXPECT_FALSE(parse_cansend("123"));

@@ -72,12 +72,12 @@ struct NmtVector {
 
 TEST(Nmt, EncodesAndDecodesEverySpecFrame) {
   const std::vector<NmtVector> vectors = {
-      {"000: 01 00", {NmtCommand::kStart, kAllNodes}},              // M-01, P-01, V-01, H-01, D-13
-      {"00: 01 00", {NmtCommand::kStart, kAllNodes}},               // as printed in the manual
-      {"000: 01 01", {NmtCommand::kStart, 1}},                      // D-12, D-38
-      {"000: 80 01", {NmtCommand::kEnterPreOperational, 1}},        // D-14, D-30
+      {"000: 01 00", {NmtCommand::kStart, kAllNodes}},                // M-01, P-01, V-01, H-01, D-13
+      {"00: 01 00", {NmtCommand::kStart, kAllNodes}},                 // as printed in the manual
+      {"000: 01 01", {NmtCommand::kStart, 1}},                        // D-12, D-38
+      {"000: 80 01", {NmtCommand::kEnterPreOperational, 1}},          // D-14, D-30
       {"000: 80 00", {NmtCommand::kEnterPreOperational, kAllNodes}},  // all nodes pre-operational before a remap
-      {"000: 02 01", {NmtCommand::kStop, 1}},                       // D-15
+      {"000: 02 01", {NmtCommand::kStop, 1}},                         // D-15
       {"000: 81 01", {NmtCommand::kResetNode, 1}},
       {"000: 82 01", {NmtCommand::kResetCommunication, 1}},
       {"000: 02 00", {NmtCommand::kStop, kAllNodes}},
@@ -100,7 +100,7 @@ TEST(Nmt, RejectsShortLongAndUnknownFrames) {
 // --- Heartbeat / boot-up ---
 
 TEST(Heartbeat, BootUpAndStatesOfNodeOne) {
-  EXPECT_EQ(encode_heartbeat(1, NmtState::kBootUp), frame("701: 00"));  // D-17
+  EXPECT_EQ(encode_heartbeat(1, NmtState::kBootUp), frame("701: 00"));       // D-17
   EXPECT_EQ(encode_heartbeat(1, NmtState::kOperational), frame("701: 05"));  // D-18
   EXPECT_EQ(encode_heartbeat(1, NmtState::kPreOperational), frame("701: 7F"));
   EXPECT_EQ(encode_heartbeat(1, NmtState::kStopped), frame("701: 04"));

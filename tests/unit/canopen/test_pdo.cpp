@@ -87,9 +87,9 @@ TEST(PdoPayload, RejectsShortFramesTrailingBytesAndValuesThatDoNotFit) {
   EXPECT_FALSE(unpack_pdo(kRpdo1, payload("201: 0F 00 00 00 00 00")));        // 6 of 7 bytes
   EXPECT_FALSE(unpack_pdo(kRpdo1, payload("201: 0F 00 00 00 00 00 01 00")));  // trailing byte
   EXPECT_FALSE(unpack_pdo(kRpdo1, payload("201:")));
-  EXPECT_FALSE(pack_pdo(kRpdo1, Values{0x1'0000, 0, 1}));                      // 17 bits in 16
-  EXPECT_FALSE(pack_pdo(kRpdo1, Values{0x0F, 0}));                             // value count
-  EXPECT_FALSE(pack_pdo(kRpdo1, Values{0x0F, 0, as_raw(-129)}));               // below I8
+  EXPECT_FALSE(pack_pdo(kRpdo1, Values{0x1'0000, 0, 1}));         // 17 bits in 16
+  EXPECT_FALSE(pack_pdo(kRpdo1, Values{0x0F, 0}));                // value count
+  EXPECT_FALSE(pack_pdo(kRpdo1, Values{0x0F, 0, as_raw(-129)}));  // below I8
   EXPECT_TRUE(pack_pdo(kRpdo1, Values{0x0F, 0, as_raw(-128)}));
 }
 

@@ -208,7 +208,8 @@ TEST(SdoCodec, SegmentedDownloadD26) {
   EXPECT_EQ(decode_sdo_request(payload("601: 07 78 00 00 00 00 00 00")), SdoRequest{segment});
   EXPECT_EQ(sdo_response_frame(1, SdoDownloadSegmentResponse{false}), frame("581: 20 00 00 00 00 00 00 00"));
   EXPECT_EQ(sdo_response_frame(1, SdoDownloadSegmentResponse{true}), frame("581: 30 00 00 00 00 00 00 00"));
-  EXPECT_EQ(decode_sdo_response(payload("581: 30 00 00 00 00 00 00 00")), SdoResponse{SdoDownloadSegmentResponse{true}});
+  EXPECT_EQ(decode_sdo_response(payload("581: 30 00 00 00 00 00 00 00")),
+            SdoResponse{SdoDownloadSegmentResponse{true}});
 }
 
 TEST(SdoCodec, SegmentedUploadsD27AndD28) {
@@ -233,7 +234,7 @@ TEST(SdoCodec, SegmentedUploadsD27AndD28) {
 }
 
 TEST(SdoCodec, RejectsShortFramesTrailingBytesAndBlockTransfer) {
-  EXPECT_FALSE(decode_sdo_request(payload("601: 2B 40 60 00 0F 00 00")));      // 7 bytes
+  EXPECT_FALSE(decode_sdo_request(payload("601: 2B 40 60 00 0F 00 00")));  // 7 bytes
   EXPECT_FALSE(decode_sdo_request(payload("601:")));
   EXPECT_FALSE(decode_sdo_response(payload("581: 60 40 60 00")));
   const std::vector<std::uint8_t> nine = {0x60, 0x40, 0x60, 0x00, 0, 0, 0, 0, 0};

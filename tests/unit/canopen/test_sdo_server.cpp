@@ -111,7 +111,8 @@ TEST_F(SdoServerTest, ClientAndServerEndToEnd) {
   SdoClient client([&](const can::Frame& f) { to_server.push_back(f); });
   std::vector<std::uint8_t> name;
   std::error_code write_error;
-  client.upload(1, {0x1008, 0}, [&](std::error_code, std::span<const std::uint8_t> d) { name.assign(d.begin(), d.end()); });
+  client.upload(1, {0x1008, 0},
+                [&](std::error_code, std::span<const std::uint8_t> d) { name.assign(d.begin(), d.end()); });
   client.download(1, {0x1008, 0}, {'a', 'b', 'c', 'd', 'e', 'f', 'g', 'h', 'i', 'j'},
                   [&](std::error_code e, std::span<const std::uint8_t>) { write_error = e; });
   client.process(t0);

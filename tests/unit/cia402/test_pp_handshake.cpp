@@ -17,10 +17,10 @@ using Phase = NewSetPointHandshake::Phase;
 const TimePoint t0 = TimePoint{} + 1h;
 
 // Example statuswords: the §4.2.2 bits composed as assumed where the manual is silent.
-constexpr std::uint16_t kIdleNotHomed = 0x2427;   // Operation enabled, bit 10 (idle), bit 13
-constexpr std::uint16_t kAckedRunning = 0x7827;   // bits 11, 12, 13, 14
-constexpr std::uint16_t kRunning = 0x6027;        // bits 13, 14: ack released, still moving
-constexpr std::uint16_t kReachedInPlace = 0xA427; // bits 10, 13, 15
+constexpr std::uint16_t kIdleNotHomed = 0x2427;    // Operation enabled, bit 10 (idle), bit 13
+constexpr std::uint16_t kAckedRunning = 0x7827;    // bits 11, 12, 13, 14
+constexpr std::uint16_t kRunning = 0x6027;         // bits 13, 14: ack released, still moving
+constexpr std::uint16_t kReachedInPlace = 0xA427;  // bits 10, 13, 15
 
 TEST(Modes, Uc57SupportsOnlyProfilePositionVelocityHoming) {
   EXPECT_TRUE(uc57_supports(ModeOfOperation::kNoMode));
@@ -45,7 +45,7 @@ TEST(Modes, DecodesCiAValuesOnly) {
 
 TEST(ProfilePositionControlword, SpecVectors) {
   EXPECT_EQ(profile_position_controlword({}, false, false), 0x000F);
-  EXPECT_EQ(profile_position_controlword({}, true, false), 0x001F);  // absolute start
+  EXPECT_EQ(profile_position_controlword({}, true, false), 0x001F);                   // absolute start
   EXPECT_EQ(profile_position_controlword({.relative = true}, false, false), 0x004F);  // P-11
   EXPECT_EQ(profile_position_controlword({.relative = true}, true, false), 0x005F);   // P-12
   EXPECT_EQ(profile_position_controlword({.change_immediately = true}, false, false), 0x002F);

@@ -1,7 +1,7 @@
 // CiA 402 transition table: one test per transition number (drive side), statusword decoding of
 // every state, controlword commands, and path planning from every state (master side).
-#include <initializer_list>
 #include <gtest/gtest.h>
+#include <initializer_list>
 
 #include <algorithm>
 #include <cstdint>
@@ -111,15 +111,13 @@ TEST(TransitionTable, T05_DisableOperationFromOperationEnabled) {
   EXPECT_EQ(drive(kOperationEnabled, 0x0007), (Row{5, kSwitchedOn}));
 }
 
-TEST(TransitionTable, T06_ShutdownFromSwitchedOn) {
-  EXPECT_EQ(drive(kSwitchedOn, 0x0006), (Row{6, kReadyToSwitchOn}));
-}
+TEST(TransitionTable, T06_ShutdownFromSwitchedOn) { EXPECT_EQ(drive(kSwitchedOn, 0x0006), (Row{6, kReadyToSwitchOn})); }
 
 TEST(TransitionTable, T07_DisableVoltageOrQuickStopFromReadyToSwitchOn) {
   EXPECT_EQ(drive(kReadyToSwitchOn, 0x0000), (Row{7, kSwitchOnDisabled}));
   EXPECT_EQ(drive(kReadyToSwitchOn, 0x0005), (Row{7, kSwitchOnDisabled}));  // bit 1 = 0: disable voltage
   EXPECT_EQ(drive(kReadyToSwitchOn, 0x0002), (Row{7, kSwitchOnDisabled}));  // quick stop
-  EXPECT_EQ(drive(kReadyToSwitchOn, 0x0006), std::nullopt);                  // shutdown: stays
+  EXPECT_EQ(drive(kReadyToSwitchOn, 0x0006), std::nullopt);                 // shutdown: stays
 }
 
 TEST(TransitionTable, T08_ShutdownFromOperationEnabled) {
@@ -148,8 +146,8 @@ TEST(TransitionTable, T12_DisableVoltageOrQuickStopEndFromQuickStopActive) {
 }
 
 TEST(TransitionTable, T13_FaultFromEveryPoweredOrUnpoweredState) {
-  for (const State state : {kNotReadyToSwitchOn, kSwitchOnDisabled, kReadyToSwitchOn, kSwitchedOn, kOperationEnabled,
-                            kQuickStopActive}) {
+  for (const State state :
+       {kNotReadyToSwitchOn, kSwitchOnDisabled, kReadyToSwitchOn, kSwitchedOn, kOperationEnabled, kQuickStopActive}) {
     SCOPED_TRACE(to_string(state));
     EXPECT_EQ(drive_event(state, DriveEvent::kFaultDetected), (Row{13, kFaultReactionActive}));
   }
@@ -165,9 +163,9 @@ TEST(TransitionTable, T14_FaultReactionDoneEntersFault) {
 TEST(TransitionTable, T15_FaultResetOnRisingEdgeOnly) {
   EXPECT_EQ(drive(kFault, 0x0080, 0x0000), (Row{15, kSwitchOnDisabled}));  // MC_RESET: bit 7 0 -> 1
   EXPECT_EQ(drive(kFault, 0x008F, 0x000F), (Row{15, kSwitchOnDisabled}));  // other bits "X"
-  EXPECT_EQ(drive(kFault, 0x0080, 0x0080), std::nullopt);                   // level, no edge
-  EXPECT_EQ(drive(kFault, 0x0000, 0x0080), std::nullopt);                   // falling edge
-  EXPECT_EQ(drive(kFault, 0x0006), std::nullopt);                           // other commands: stays
+  EXPECT_EQ(drive(kFault, 0x0080, 0x0080), std::nullopt);                  // level, no edge
+  EXPECT_EQ(drive(kFault, 0x0000, 0x0080), std::nullopt);                  // falling edge
+  EXPECT_EQ(drive(kFault, 0x0006), std::nullopt);                          // other commands: stays
   EXPECT_EQ(drive(kFault, 0x000F), std::nullopt);
 }
 
@@ -185,11 +183,12 @@ TEST(TransitionTable, AtMostOneCommandRowMatchesAnyControlword) {
   for (const State state : kDecodableStates) {
     for (std::uint32_t word = 0; word <= 0x01FF; ++word) {
       for (const std::uint16_t previous : {std::uint16_t{0x0000}, std::uint16_t{0x0080}}) {
-        const auto count = std::count_if(transition_table().begin(), transition_table().end(), [&](const Transition& row) {
-          const auto* command = std::get_if<Command>(&row.trigger);
-          return row.from == state && command != nullptr &&
-                 matches(*command, previous, static_cast<std::uint16_t>(word));
-        });
+        const auto count =
+            std::count_if(transition_table().begin(), transition_table().end(), [&](const Transition& row) {
+              const auto* command = std::get_if<Command>(&row.trigger);
+              return row.from == state && command != nullptr &&
+                     matches(*command, previous, static_cast<std::uint16_t>(word));
+            });
         ASSERT_LE(count, 1) << to_string(state) << " word 0x" << std::hex << word;
       }
     }
@@ -209,25 +208,35 @@ TEST(Controlword, CommandValues) {
 
 TEST(Controlword, ApplyCommandKeepsModeBits) {
   EXPECT_EQ(apply_command(0x0150, Command::kEnableOperation), 0x015F);  // halt + relative + set-point kept
-  EXPECT_EQ(apply_command(0x008F, Command::kShutdown), 0x0006);        // bit 7 is device control
+  EXPECT_EQ(apply_command(0x008F, Command::kShutdown), 0x0006);         // bit 7 is device control
 }
 
 // ---- Statusword decoding (UC57 §4.2.1 patterns; example words of the §4.2.2 bits, composed as assumed) ----
 TEST(Statusword, DecodesEveryState) {
   const std::vector<std::pair<std::uint16_t, State>> cases = {
-      {0x0000, kNotReadyToSwitchOn}, {0x0020, kNotReadyToSwitchOn},  // bit 5 "X"
-      {0x0040, kSwitchOnDisabled},   {0x0060, kSwitchOnDisabled},
-      {0x0021, kReadyToSwitchOn},    {0x0031, kReadyToSwitchOn},      // bit 4 (voltage) ignored
-      {0x0023, kSwitchedOn},         {0x2023, kSwitchedOn},
-      {0x0027, kOperationEnabled},   {0x2427, kOperationEnabled},     {0x7827, kOperationEnabled},
-      {0xA427, kOperationEnabled},   {0xA527, kOperationEnabled},     {0x0237, kOperationEnabled},  // D-04
-      {0x0007, kQuickStopActive},    {0x2007, kQuickStopActive},
-      {0x000F, kFaultReactionActive}, {0x002F, kFaultReactionActive},
-      {0x0008, kFault},              {0x0088, kFault},                {0x0028, kFault},
+      {0x0000, kNotReadyToSwitchOn},
+      {0x0020, kNotReadyToSwitchOn},  // bit 5 "X"
+      {0x0040, kSwitchOnDisabled},
+      {0x0060, kSwitchOnDisabled},
+      {0x0021, kReadyToSwitchOn},
+      {0x0031, kReadyToSwitchOn},  // bit 4 (voltage) ignored
+      {0x0023, kSwitchedOn},
+      {0x2023, kSwitchedOn},
+      {0x0027, kOperationEnabled},
+      {0x2427, kOperationEnabled},
+      {0x7827, kOperationEnabled},
+      {0xA427, kOperationEnabled},
+      {0xA527, kOperationEnabled},
+      {0x0237, kOperationEnabled},  // D-04
+      {0x0007, kQuickStopActive},
+      {0x2007, kQuickStopActive},
+      {0x000F, kFaultReactionActive},
+      {0x002F, kFaultReactionActive},
+      {0x0008, kFault},
+      {0x0088, kFault},
+      {0x0028, kFault},
   };
-  for (const auto& [word, state] : cases) {
-    EXPECT_EQ(decode_state(word), state) << "0x" << std::hex << word;
-  }
+  for (const auto& [word, state] : cases) { EXPECT_EQ(decode_state(word), state) << "0x" << std::hex << word; }
 }
 
 TEST(Statusword, UndefinedPatternsDecodeToNothing) {
@@ -260,7 +269,8 @@ TEST(Statusword, ComposeRoundTripsAndKeepsOtherBits) {
   EXPECT_EQ(compose_statusword(kReadyToSwitchOn) & 0xF, 0b0001);
   EXPECT_EQ(compose_statusword(kSwitchedOn) & 0xF, 0b0011);
   EXPECT_EQ(compose_statusword(kOperationEnabled) & 0xF, 0b0111);
-  EXPECT_EQ(compose_statusword(kSwitchedOn, mask(StatusBit::kMotorEnabled)), 0x2023);  // example word (composition assumed)
+  EXPECT_EQ(compose_statusword(kSwitchedOn, mask(StatusBit::kMotorEnabled)),
+            0x2023);  // example word (composition assumed)
 }
 
 // ---- Path planning (master side) ----

@@ -15,8 +15,8 @@ TEST(Uc57Homing, SupportedMethods) {
   std::set<int> values;
   for (const HomingMethodInfo& info : homing_methods()) values.insert(static_cast<int>(info.method));
   EXPECT_EQ(values, (std::set<int>{17, 18, 24, 29, 41, 42}));  // §4.2.6 / §5.2 6098h list
-  EXPECT_EQ(find_homing_method(0), nullptr);    // 6098h default: no method
-  EXPECT_EQ(find_homing_method(100), nullptr);  // the §4.2.6 example's 0x64 (C-07)
+  EXPECT_EQ(find_homing_method(0), nullptr);                   // 6098h default: no method
+  EXPECT_EQ(find_homing_method(100), nullptr);                 // the §4.2.6 example's 0x64 (C-07)
   const OdEntry& method_object = *find_entry(index::kHomingMethod, 0);
   EXPECT_EQ(find_homing_method(static_cast<std::uint8_t>(method_object.default_value)), nullptr);
 }
@@ -61,9 +61,9 @@ TEST(Uc57Homing, MethodProcedures) {
 }
 
 TEST(Uc57Homing, ResultFromStatusword) {
-  EXPECT_EQ(homing_result(0x3027), HomingResult::kInProgress);   // running, bit 10 = 0
-  EXPECT_EQ(homing_result(0xA527), HomingResult::kSucceeded);    // bit 8 + bit 10 (§4.2.6)
-  EXPECT_EQ(homing_result(0x3427), HomingResult::kSucceeded);    // bit 12 + bit 10 (§7 MC_HOME)
+  EXPECT_EQ(homing_result(0x3027), HomingResult::kInProgress);  // running, bit 10 = 0
+  EXPECT_EQ(homing_result(0xA527), HomingResult::kSucceeded);   // bit 8 + bit 10 (§4.2.6)
+  EXPECT_EQ(homing_result(0x3427), HomingResult::kSucceeded);   // bit 12 + bit 10 (§7 MC_HOME)
   // C-08: bit 10 + bit 13 is "motor enabled", not a failure; without bit 8/12 home was not found.
   EXPECT_EQ(homing_result(0x2427), HomingResult::kStoppedWithoutHome);
   EXPECT_EQ(homing_result(mask(StatusBit::kHomingDone)), HomingResult::kInProgress);
@@ -92,7 +92,7 @@ TEST(Uc57Homing, ParametersAreClampedToTheHomingRanges) {
   request.search_speed = 1e9;  // > 1000 RPM
   request.locate_speed = 1.0;  // < 1 RPM
   request.acceleration = 1e3;
-  request.offset = 2e6;        // > 1000000 pulses
+  request.offset = 2e6;  // > 1000000 pulses
   const HomingSettings settings = quantize_homing(request, kDefaultPulsesPerRevolution);
   EXPECT_EQ(settings.search_speed.native, 1000);
   EXPECT_TRUE(settings.search_speed.clamped);

@@ -1,8 +1,8 @@
 // UC57 object dictionary: contents against the manual's tables (§5, §5.1, §5.2), lookups, access
 // and range checks (derived abort vectors D-20..D-25, CiA 301 §7.2.4.3.17), the manual's SDO
 // frames, and the value codec.
-#include <initializer_list>
 #include <gtest/gtest.h>
+#include <initializer_list>
 
 #include <algorithm>
 #include <array>
@@ -51,8 +51,8 @@ TEST(Uc57Od, ListsExactlyTheManualsObjects) {
 TEST(Uc57Od, SortedAndUnique) {
   const auto od = object_dictionary();
   for (std::size_t i = 1; i < od.size(); ++i) {
-    const bool ordered = od[i - 1].index < od[i].index ||
-                         (od[i - 1].index == od[i].index && od[i - 1].subindex < od[i].subindex);
+    const bool ordered =
+        od[i - 1].index < od[i].index || (od[i - 1].index == od[i].index && od[i - 1].subindex < od[i].subindex);
     EXPECT_TRUE(ordered) << std::hex << od[i].index << ":" << int{od[i].subindex};
   }
 }
@@ -65,10 +65,12 @@ TEST(Uc57Od, SubindexLayouts) {
   };
   EXPECT_EQ(subindexes(0x1003), (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8}));
   EXPECT_EQ(subindexes(0x1018), (std::vector<int>{0, 1, 2, 3, 4}));
-  for (const std::uint16_t pdo : std::initializer_list<std::uint16_t>{0x1400, 0x1401, 0x1402, 0x1403, 0x1800, 0x1801, 0x1802, 0x1803}) {
+  for (const std::uint16_t pdo :
+       std::initializer_list<std::uint16_t>{0x1400, 0x1401, 0x1402, 0x1403, 0x1800, 0x1801, 0x1802, 0x1803}) {
     EXPECT_EQ(subindexes(pdo), (std::vector<int>{0, 1, 2, 3, 5})) << std::hex << pdo;  // no sub04
   }
-  for (const std::uint16_t map : std::initializer_list<std::uint16_t>{0x1600, 0x1601, 0x1602, 0x1603, 0x1A00, 0x1A01, 0x1A02, 0x1A03}) {
+  for (const std::uint16_t map :
+       std::initializer_list<std::uint16_t>{0x1600, 0x1601, 0x1602, 0x1603, 0x1A00, 0x1A01, 0x1A02, 0x1A03}) {
     EXPECT_EQ(subindexes(map), (std::vector<int>{0, 1, 2, 3, 4})) << std::hex << map;
   }
   EXPECT_EQ(subindexes(0x2030), (std::vector<int>{0x00, 0x01, 0x02, 0x03, 0x04, 0x0C, 0x0D, 0x0E}));
@@ -151,11 +153,11 @@ TEST(Uc57Od, NodeIdDependentDefaults) {
 TEST(Uc57Od, DefaultPdoMappings) {
   EXPECT_EQ(mapping_entry(0x6081, 0, 32), 0x60810020U);  // the manual's address form
   const std::vector<std::tuple<std::uint16_t, std::uint8_t, std::int64_t>> cases = {
-      {0x1600, 0, 3}, {0x1600, 1, 0x60400010}, {0x1600, 2, 0x60FF0020}, {0x1600, 3, 0x60600008}, {0x1600, 4, 0},
-      {0x1601, 0, 2}, {0x1601, 1, 0x607A0020}, {0x1601, 2, 0x60810020}, {0x1602, 0, 0},          {0x1603, 0, 0},
-      {0x1A00, 0, 3}, {0x1A00, 1, 0x60410010}, {0x1A00, 2, 0x60FD0020}, {0x1A00, 3, 0x60610008},
-      {0x1A01, 0, 2},  // C-09: printed 0
-      {0x1A01, 1, 0x60640020}, {0x1A01, 2, 0x606C0020}, {0x1A02, 0, 0}, {0x1A03, 0, 0},
+      {0x1600, 0, 3},          {0x1600, 1, 0x60400010}, {0x1600, 2, 0x60FF0020}, {0x1600, 3, 0x60600008},
+      {0x1600, 4, 0},          {0x1601, 0, 2},          {0x1601, 1, 0x607A0020}, {0x1601, 2, 0x60810020},
+      {0x1602, 0, 0},          {0x1603, 0, 0},          {0x1A00, 0, 3},          {0x1A00, 1, 0x60410010},
+      {0x1A00, 2, 0x60FD0020}, {0x1A00, 3, 0x60610008}, {0x1A01, 0, 2},  // C-09: printed 0
+      {0x1A01, 1, 0x60640020}, {0x1A01, 2, 0x606C0020}, {0x1A02, 0, 0},          {0x1A03, 0, 0},
   };
   for (const auto& [index, sub, value] : cases) {
     EXPECT_EQ(at(index, sub).default_value, value) << std::hex << index << ":" << int{sub};
@@ -174,23 +176,23 @@ TEST(Uc57Od, ConflictChoices) {
   }
   EXPECT_EQ(at(0x60FF, 0).default_value, 120);  // C-04
   EXPECT_EQ(at(0x60FF, 0).min, -1000);
-  EXPECT_EQ(at(0x607C, 0).max, 1000000);  // C-05
+  EXPECT_EQ(at(0x607C, 0).max, 1000000);               // C-05
   EXPECT_EQ(at(0x6099, 0).access, Access::kReadOnly);  // C-06
-  EXPECT_EQ(at(0x6098, 0).max, 255);  // C-07
-  EXPECT_EQ(at(0x1009, 0).default_value, 0x0100);  // C-13
-  EXPECT_EQ(at(0x2008, 0).max, 127);  // C-15
-  EXPECT_EQ(at(0x2011, 0).max, 1);  // C-12
-  EXPECT_EQ(at(0x1003, 0).default_value, 8);  // C-18
-  EXPECT_EQ(at(0x2005, 0).max, 25);  // C-19
+  EXPECT_EQ(at(0x6098, 0).max, 255);                   // C-07
+  EXPECT_EQ(at(0x1009, 0).default_value, 0x0100);      // C-13
+  EXPECT_EQ(at(0x2008, 0).max, 127);                   // C-15
+  EXPECT_EQ(at(0x2011, 0).max, 1);                     // C-12
+  EXPECT_EQ(at(0x1003, 0).default_value, 8);           // C-18
+  EXPECT_EQ(at(0x2005, 0).max, 25);                    // C-19
 }
 
 // ---- Access and range checks: derived abort vectors (D-20..D-25) and more ----
 TEST(Uc57OdAccess, DerivedAbortVectors) {
-  EXPECT_EQ(write_error(0x6041, 0, 0x0000, 2), AccessError::kReadOnly);     // D-20
-  EXPECT_EQ(check_read(0x605A, 0).error, AccessError::kNoObject);          // D-21
-  EXPECT_EQ(check_read(0x6099, 3).error, AccessError::kNoSubindex);        // D-22
-  EXPECT_EQ(write_error(0x6099, 0, 120, 4), AccessError::kReadOnly);       // D-23 (= manual H-04)
-  EXPECT_EQ(write_error(0x6081, 0, 0, 4), AccessError::kValueTooLow);      // D-24
+  EXPECT_EQ(write_error(0x6041, 0, 0x0000, 2), AccessError::kReadOnly);        // D-20
+  EXPECT_EQ(check_read(0x605A, 0).error, AccessError::kNoObject);              // D-21
+  EXPECT_EQ(check_read(0x6099, 3).error, AccessError::kNoSubindex);            // D-22
+  EXPECT_EQ(write_error(0x6099, 0, 120, 4), AccessError::kReadOnly);           // D-23 (= manual H-04)
+  EXPECT_EQ(write_error(0x6081, 0, 0, 4), AccessError::kValueTooLow);          // D-24
   EXPECT_EQ(write_error(0x6040, 0, 0x000F, 4), AccessError::kLengthMismatch);  // D-25
 }
 

@@ -18,7 +18,7 @@ constexpr std::uint32_t kPpr = kDefaultPulsesPerRevolution;  // 10000, 2006h def
 
 TEST(Uc57Units, MicrosteppingTable) {
   EXPECT_EQ(pulses_per_revolution(kDefaultSubdivisionCode), 10000U);  // §5.1 default 13
-  EXPECT_EQ(pulses_per_revolution(4), 3200U);                          // D-57
+  EXPECT_EQ(pulses_per_revolution(4), 3200U);                         // D-57
   EXPECT_EQ(pulses_per_revolution(0), 200U);
   EXPECT_EQ(pulses_per_revolution(7), 25600U);
   EXPECT_EQ(pulses_per_revolution(8), 1000U);
@@ -48,11 +48,13 @@ TEST(Uc57Units, SetupSubdivisionRule) {
 }
 
 TEST(Uc57Units, PositionAndSpeed) {
-  EXPECT_DOUBLE_EQ(pulses_to_revolutions(5000, kPpr), 0.5);           // 2006h default 10000 pulses/rev (manual §5.1): 5000 = half a revolution
-  EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(60, kPpr), 10000.0);      // derived from §5.1/§5.2 units: 60 RPM = 10000 pulses/s
+  EXPECT_DOUBLE_EQ(pulses_to_revolutions(5000, kPpr),
+                   0.5);  // 2006h default 10000 pulses/rev (manual §5.1): 5000 = half a revolution
+  EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(60, kPpr),
+                   10000.0);  // derived from §5.1/§5.2 units: 60 RPM = 10000 pulses/s
   EXPECT_DOUBLE_EQ(pulses_per_second_to_rpm(10000.0, kPpr), 60.0);
   EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(120, 3200), 6400.0);
-  EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(-60, kPpr), -10000.0);    // D-10: 60FFh = -60 reverses
+  EXPECT_DOUBLE_EQ(rpm_to_pulses_per_second(-60, kPpr), -10000.0);  // D-10: 60FFh = -60 reverses
 }
 
 TEST(Uc57Units, RunCurrent) {
@@ -64,7 +66,7 @@ TEST(Uc57Units, RunCurrent) {
 // Manual §4.2.4 example (P-03..P-06): ramps 100 ("100 ms"), 60 RPM, start speed 10 RPM (200Eh
 // default), 5000 pulses, 10000 pulses/rev.
 TEST(Uc57Units, RampSettingUnderBothReadings) {
-  const double start = rpm_to_pulses_per_second(10, kPpr);  // 1666.67 pulses/s
+  const double start = rpm_to_pulses_per_second(10, kPpr);   // 1666.67 pulses/s
   const double cruise = rpm_to_pulses_per_second(60, kPpr);  // 10000 pulses/s
   EXPECT_NEAR(ramp_acceleration(RampUnit::kMilliseconds, 100, cruise - start, kPpr), 83333.333, 1e-3);
   EXPECT_DOUBLE_EQ(ramp_acceleration(RampUnit::kRevolutionsPerSecondSquared, 100, cruise - start, kPpr), 1.0e6);

@@ -97,10 +97,12 @@ TEST(Config, SecurityIsOffByDefaultAndItsPathsAreFromTheFilesFolder) {
   const auto plain = load_string(kValid, "/etc/motionbus/lab.yaml");
   ASSERT_TRUE(plain.ok()) << plain.error_text();
   EXPECT_EQ(plain.config->security.mode, SecuritySettings::Mode::kOff);
-  const auto secured = load_string(kValid + "security:\n  mode: enforce\n  authorized_keys: keys/authorized_keys\n"
-                                            "  key: /etc/motionbus/keys/coordinator.key\n  coordinator_public_key: keys/coordinator.pub\n"
-                                            "  window_ms: 500\n",
-                                   "/etc/motionbus/lab.yaml");
+  const auto secured =
+      load_string(kValid +
+                      "security:\n  mode: enforce\n  authorized_keys: keys/authorized_keys\n"
+                      "  key: /etc/motionbus/keys/coordinator.key\n  coordinator_public_key: keys/coordinator.pub\n"
+                      "  window_ms: 500\n",
+                  "/etc/motionbus/lab.yaml");
   ASSERT_TRUE(secured.ok()) << secured.error_text();
   const auto& s = secured.config->security;
   EXPECT_EQ(s.mode, SecuritySettings::Mode::kEnforce);
@@ -112,14 +114,19 @@ TEST(Config, SecurityIsOffByDefaultAndItsPathsAreFromTheFilesFolder) {
 }
 
 TEST(Config, BadSecuritySettingsNameTheKey) {
-  expect_single_error(kValid + "security:\n  mode: strict\n", 21, "security.mode", "'strict' is not a security mode (off, enforce)");
+  expect_single_error(kValid + "security:\n  mode: strict\n", 21, "security.mode",
+                      "'strict' is not a security mode (off, enforce)");
   const std::string keys = "  key: c.key\n  coordinator_public_key: c.pub\n";
-  expect_single_error(kValid + "security:\n  mode: enforce\n" + keys, 21, "security.authorized_keys", "required when security.mode is enforce");
-  expect_single_error(kValid + "security:\n  mode: enforce\n  authorized_keys: k\n  coordinator_public_key: c.pub\n", 21, "security.key",
+  expect_single_error(kValid + "security:\n  mode: enforce\n" + keys, 21, "security.authorized_keys",
+                      "required when security.mode is enforce");
+  expect_single_error(kValid + "security:\n  mode: enforce\n  authorized_keys: k\n  coordinator_public_key: c.pub\n",
+                      21, "security.key",
                       "required when security.mode is enforce (the coordinator signs its gateway commands)");
-  expect_single_error(kValid + "security:\n  mode: enforce\n  authorized_keys: k\n  key: c.key\n", 21, "security.coordinator_public_key",
+  expect_single_error(kValid + "security:\n  mode: enforce\n  authorized_keys: k\n  key: c.key\n", 21,
+                      "security.coordinator_public_key",
                       "required when security.mode is enforce (gateways verify the coordinator's commands)");
-  expect_single_error(kValid + "security:\n  authorized_keys: k\n  window_ms: 50\n", 22, "security.window_ms", "50 is outside 100..600000 ms");
+  expect_single_error(kValid + "security:\n  authorized_keys: k\n  window_ms: 50\n", 22, "security.window_ms",
+                      "50 is outside 100..600000 ms");
   expect_single_error(kValid + "security:\n  keys: k\n", 21, "security.keys", "unknown key");
 }
 
@@ -163,13 +170,16 @@ TEST(Config, UnknownKeyIsRefused) {
 }
 
 TEST(Config, WrongTypeIsRefused) {
-  expect_single_error(replace(kValid, "bitrate: 500000", "bitrate: fast"), 6, "buses[0].bitrate", "expected an integer");
-  expect_single_error(replace(kValid, "steps_per_unit: 640", "steps_per_unit: [640]"), 18, "axes[0].steps_per_unit", "expected a number");
+  expect_single_error(replace(kValid, "bitrate: 500000", "bitrate: fast"), 6, "buses[0].bitrate",
+                      "expected an integer");
+  expect_single_error(replace(kValid, "steps_per_unit: 640", "steps_per_unit: [640]"), 18, "axes[0].steps_per_unit",
+                      "expected a number");
   expect_single_error(replace(kValid, "node_id: 6,", "node_id: 6.5,"), 12, "drives[1].node_id", "expected an integer");
 }
 
 TEST(Config, NodeIdOutsideFamilyRangeIsRefused) {
-  expect_single_error(replace(kValid, "node_id: 6,", "node_id: 4,"), 12, "drives[1].node_id", "outside uim342's range 5..126");
+  expect_single_error(replace(kValid, "node_id: 6,", "node_id: 4,"), 12, "drives[1].node_id",
+                      "outside uim342's range 5..126");
   expect_single_error(replace(kValid, "bus: rs485, node_id: 1}", "bus: rs485, node_id: 65}"), 14, "drives[3].node_id",
                       "outside adam-modbus's range 1..64");
   expect_single_error(replace(kValid, "bus: can0, node_id: 5}", "bus: can0, node_id: 128}"), 13, "drives[2].node_id",
@@ -180,7 +190,8 @@ TEST(Config, DuplicateNodeIdOnOneBusIsRefused) {
   // The UC57 at node 5 does not collide with the UIM342 at node 5 (11-bit vs 29-bit frames)...
   ASSERT_TRUE(load_string(kValid, "lab.yaml").ok());
   // ...but two UIM342 at node 5 do.
-  expect_single_error(replace(kValid, "node_id: 6,", "node_id: 5,"), 12, "drives[1].node_id", "already used by drive 'xd'");
+  expect_single_error(replace(kValid, "node_id: 6,", "node_id: 5,"), 12, "drives[1].node_id",
+                      "already used by drive 'xd'");
 }
 
 TEST(Config, GroupIdCollidingWithNodeIdIsRefused) {
@@ -199,18 +210,19 @@ TEST(Config, DuplicateNamesAreRefused) {
     limits: {min: 0, max: 100, velocity: 10, acceleration: 100}
 )";
   expect_single_error(two_axes, 20, "axes[1].name", "duplicate axis name 'x'");
-  expect_single_error(replace(kValid, "drives:\n", "  - {name: can0, transport: socketcan:can1}\ndrives:\n"), 10, "buses[2].name",
-                      "duplicate bus name 'can0'");
+  expect_single_error(replace(kValid, "drives:\n", "  - {name: can0, transport: socketcan:can1}\ndrives:\n"), 10,
+                      "buses[2].name", "duplicate bus name 'can0'");
 }
 
 TEST(Config, DriveOnUndeclaredBusIsRefused) {
-  expect_single_error(replace(kValid, "{name: yd, family: uim342, bus: can0", "{name: yd, family: uim342, bus: can9"), 12,
-                      "drives[1].bus", "undeclared bus 'can9'");
+  expect_single_error(replace(kValid, "{name: yd, family: uim342, bus: can0", "{name: yd, family: uim342, bus: can9"),
+                      12, "drives[1].bus", "undeclared bus 'can9'");
 }
 
 TEST(Config, FamilyOnWrongKindOfBusIsRefused) {
-  expect_single_error(replace(kValid, "{name: cd, family: adam-modbus, bus: rs485", "{name: cd, family: adam-modbus, bus: can0"), 14,
-                      "drives[3].bus", "needs a serial bus");
+  expect_single_error(
+      replace(kValid, "{name: cd, family: adam-modbus, bus: rs485", "{name: cd, family: adam-modbus, bus: can0"), 14,
+      "drives[3].bus", "needs a serial bus");
 }
 
 // A UIROBOT UIM2513/UIM2533 serial gateway: a CAN bus for uim342 drives over a serial line.
@@ -227,8 +239,9 @@ TEST(Config, UiMessageGatewayBus) {
   EXPECT_EQ(bus.uimessage_crc, UiMessageCrc::kStartToAux);  // the manual's reading
   EXPECT_FALSE(bus.uimessage_crc_strict);
 
-  const auto keyed = load_string(replace(uim342_only, "    bitrate: 500000\n",
-                                         "    baud: 57600\n    uimessage_crc: id_to_aux\n    uimessage_crc_strict: true\n"));
+  const auto keyed =
+      load_string(replace(uim342_only, "    bitrate: 500000\n",
+                          "    baud: 57600\n    uimessage_crc: id_to_aux\n    uimessage_crc_strict: true\n"));
   ASSERT_TRUE(keyed.ok()) << keyed.error_text();
   EXPECT_EQ(keyed.config->buses[0].baud, 57600);
   EXPECT_EQ(keyed.config->buses[0].uimessage_crc, UiMessageCrc::kIdToAux);
@@ -236,7 +249,8 @@ TEST(Config, UiMessageGatewayBus) {
 
   expect_single_error(replace(uim342_only, "bitrate: 500000", "uimessage_crc: sm_to_d8"), 6, "buses[0].uimessage_crc",
                       "expected start_to_aux (CRC over SM..d8, the manual) or id_to_aux");
-  expect_single_error(replace(uim342_only, "bitrate: 500000", "baud: 12345"), 6, "buses[0].baud", "unsupported baud rate");
+  expect_single_error(replace(uim342_only, "bitrate: 500000", "baud: 12345"), 6, "buses[0].baud",
+                      "unsupported baud rate");
   expect_single_error(replace(kValid, "bitrate: 500000", "uimessage_crc: id_to_aux"), 6, "buses[0].uimessage_crc",
                       "only for uimessage: buses");
   // CANopen (11-bit) cannot travel as UIMessages.
@@ -248,18 +262,24 @@ TEST(Config, AxisOnUndeclaredDriveIsRefused) {
 }
 
 TEST(Config, NonPositiveScalesAndLimitsAreRefused) {
-  expect_single_error(replace(kValid, "steps_per_unit: 640", "steps_per_unit: 0"), 18, "axes[0].steps_per_unit", "greater than zero");
-  expect_single_error(replace(kValid, "velocity: 10,", "velocity: -1,"), 19, "axes[0].limits.velocity", "greater than zero");
-  expect_single_error(replace(kValid, "acceleration: 100}", "acceleration: 0}"), 19, "axes[0].limits.acceleration", "greater than zero");
-  expect_single_error(replace(kValid, "{min: 0, max: 100,", "{min: 100, max: 0,"), 19, "axes[0].limits.max", "greater than min");
+  expect_single_error(replace(kValid, "steps_per_unit: 640", "steps_per_unit: 0"), 18, "axes[0].steps_per_unit",
+                      "greater than zero");
+  expect_single_error(replace(kValid, "velocity: 10,", "velocity: -1,"), 19, "axes[0].limits.velocity",
+                      "greater than zero");
+  expect_single_error(replace(kValid, "acceleration: 100}", "acceleration: 0}"), 19, "axes[0].limits.acceleration",
+                      "greater than zero");
+  expect_single_error(replace(kValid, "{min: 0, max: 100,", "{min: 100, max: 0,"), 19, "axes[0].limits.max",
+                      "greater than min");
 }
 
 TEST(Config, MissingRequiredKeyIsRefused) {
-  expect_single_error(replace(kValid, "    steps_per_unit: 640\n", ""), 16, "axes[0].steps_per_unit", "required key is missing");
+  expect_single_error(replace(kValid, "    steps_per_unit: 640\n", ""), 16, "axes[0].steps_per_unit",
+                      "required key is missing");
 }
 
 TEST(Config, UnknownTransportIsRefused) {
-  expect_single_error(replace(kValid, "transport: simcan:can0", "transport: pcan:can0"), 5, "buses[0].transport", "unknown transport");
+  expect_single_error(replace(kValid, "transport: simcan:can0", "transport: pcan:can0"), 5, "buses[0].transport",
+                      "unknown transport");
 }
 
 TEST(Config, DriveSetupIsValidatedPerFamily) {
@@ -267,11 +287,15 @@ TEST(Config, DriveSetupIsValidatedPerFamily) {
     return replace(kValid, "{name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20}",
                    "{name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20, setup: " + setup + "}");
   };
-  ASSERT_TRUE(load_string(with_setup("{micro_steps: 16, current_a: 2.0, closed_loop: true, acceleration_unit: time}")).ok());
-  expect_single_error(with_setup("{micro_steps: 12}"), 11, "drives[0].setup.micro_steps", "12 is out of range (1, 2, 4, 8, 16, 32, 64)");
+  ASSERT_TRUE(
+      load_string(with_setup("{micro_steps: 16, current_a: 2.0, closed_loop: true, acceleration_unit: time}")).ok());
+  expect_single_error(with_setup("{micro_steps: 12}"), 11, "drives[0].setup.micro_steps",
+                      "12 is out of range (1, 2, 4, 8, 16, 32, 64)");
   expect_single_error(with_setup("{current_a: 9.5}"), 11, "drives[0].setup.current_a", "out of range");
-  expect_single_error(with_setup("{subdivision: 16}"), 11, "drives[0].setup.subdivision", "unknown set-up key for uim342");
-  expect_single_error(with_setup("{acceleration_unit: fast}"), 11, "drives[0].setup.acceleration_unit", "not one of rate, time");
+  expect_single_error(with_setup("{subdivision: 16}"), 11, "drives[0].setup.subdivision",
+                      "unknown set-up key for uim342");
+  expect_single_error(with_setup("{acceleration_unit: fast}"), 11, "drives[0].setup.acceleration_unit",
+                      "not one of rate, time");
   expect_single_error(with_setup("{closed_loop: maybe}"), 11, "drives[0].setup.closed_loop", "true or false");
 }
 
@@ -286,17 +310,21 @@ TEST(Config, EveryErrorIsReportedNotJustTheFirst) {
 
 // The homing method and input are checked against the axis's drive family, naming the key.
 int line_of(const std::string& text, const std::string& part) {
-  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(text.find(part)), '\n'));
+  return 1 +
+         static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(text.find(part)), '\n'));
 }
 
 TEST(Config, HomingMethodOrInputTheFamilyLacksIsRefusedNamingTheKey) {
   const std::string limits = "    limits: {min: 0, max: 100, velocity: 10, acceleration: 100}\n";
-  const auto with = [&](const std::string& homing) { return replace(kValid, limits, limits + "    homing: " + homing + "\n"); };
+  const auto with = [&](const std::string& homing) {
+    return replace(kValid, limits, limits + "    homing: " + homing + "\n");
+  };
   const auto index = with("{method: index}");
   expect_single_error(index, line_of(index, "homing:"), "axes[0].homing.method",
                       "'index' is not a homing method of family uim342 (none, switch, current-position)");
   const auto in4 = with("{method: switch, input: 4}");
-  expect_single_error(in4, line_of(in4, "homing:"), "axes[0].homing.input", "input 4 is not an input of family uim342 (1..3: IN1..IN3)");
+  expect_single_error(in4, line_of(in4, "homing:"), "axes[0].homing.input",
+                      "input 4 is not an input of family uim342 (1..3: IN1..IN3)");
   const auto edge = with("{method: switch, edge: both}");
   expect_single_error(edge, line_of(edge, "homing:"), "axes[0].homing.edge", "expected falling or rising");
   const auto ok = load_string(with("{method: switch, input: 3, edge: rising, velocity: -2}"), "lab.yaml");
@@ -316,14 +344,19 @@ TEST(Config, SimulatedHomeSwitchesArePositionsOrNone) {
 }
 
 TEST(Config, SimulatedVariantsAreCheckedAgainstTheDrivesFamily) {
-  const auto ok = load_string(std::string(kValid) + "simulation: {variants: {xd: {micro_steps_apply: immediately}}}\n", "lab.yaml");
+  const auto ok =
+      load_string(std::string(kValid) + "simulation: {variants: {xd: {micro_steps_apply: immediately}}}\n", "lab.yaml");
   ASSERT_TRUE(ok.ok()) << ok.error_text();
   EXPECT_EQ(sim_variant(*ok.config, *ok.config->find_drive("xd"), "micro_steps_apply"), "immediately");
-  EXPECT_EQ(sim_variant(*ok.config, *ok.config->find_drive("yd"), "micro_steps_apply"), "after_restart");  // the default
+  EXPECT_EQ(sim_variant(*ok.config, *ok.config->find_drive("yd"), "micro_steps_apply"),
+            "after_restart");  // the default
   for (const auto& [extra, reason] : std::vector<std::pair<std::string, std::string>>{
-           {"simulation: {variants: {nobody: {micro_steps_apply: immediately}}}\n", "simulation.variants.nobody: names no drive"},
-           {"simulation: {variants: {xd: {reboot_ms: 5}}}\n", "'reboot_ms' is not a simulated variant of family uim342"},
-           {"simulation: {variants: {xd: {micro_steps_apply: sometimes}}}\n", "'sometimes' is not one of after_restart, immediately"}}) {
+           {"simulation: {variants: {nobody: {micro_steps_apply: immediately}}}\n",
+            "simulation.variants.nobody: names no drive"},
+           {"simulation: {variants: {xd: {reboot_ms: 5}}}\n",
+            "'reboot_ms' is not a simulated variant of family uim342"},
+           {"simulation: {variants: {xd: {micro_steps_apply: sometimes}}}\n",
+            "'sometimes' is not one of after_restart, immediately"}}) {
     SCOPED_TRACE(extra);
     const auto bad = load_string(std::string(kValid) + extra, "lab.yaml");
     ASSERT_FALSE(bad.ok());
@@ -333,8 +366,8 @@ TEST(Config, SimulatedVariantsAreCheckedAgainstTheDrivesFamily) {
 
 TEST(Config, KeysThatAreListsOrMappingsAreErrorsNotCrashes) {
   // Found by the config_yaml fuzz target: a key that is itself a collection threw out of the loader.
-  for (const std::string extra : {"simulation: {{a: 1}: 2}\n", "simulation: {home_switches: {[xd]: 1}}\n",
-                                  "? [lcm]\n: 1\n"}) {
+  for (const std::string extra :
+       {"simulation: {{a: 1}: 2}\n", "simulation: {home_switches: {[xd]: 1}}\n", "? [lcm]\n: 1\n"}) {
     SCOPED_TRACE(extra);
     const auto bad = load_string(std::string(kValid) + extra, "lab.yaml");
     ASSERT_FALSE(bad.ok());

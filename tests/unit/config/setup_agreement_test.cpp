@@ -20,9 +20,11 @@ std::string with_setup(Family family, const std::string& key, const std::string&
   const bool can = family == Family::kUc57 || family == Family::kUim342;
   std::ostringstream y;
   y << "buses:\n  - {name: b, transport: " << (can ? "simcan:b" : "simserial:b") << "}\n"
-    << "drives:\n  - {name: d, family: " << to_string(family) << ", bus: b, node_id: " << (family == Family::kUim342 || family == Family::kUim242 ? 5 : 1)
-    << ", setup: {" << key << ": " << value << "}}\n"
-    << "axes:\n  - {name: a, drive: d, steps_per_unit: 100, limits: {min: -10, max: 10, velocity: 5, acceleration: 50}}\n";
+    << "drives:\n  - {name: d, family: " << to_string(family)
+    << ", bus: b, node_id: " << (family == Family::kUim342 || family == Family::kUim242 ? 5 : 1) << ", setup: {" << key
+    << ": " << value << "}}\n"
+    << "axes:\n  - {name: a, drive: d, steps_per_unit: 100, limits: {min: -10, max: 10, velocity: 5, acceleration: "
+       "50}}\n";
   return y.str();
 }
 
@@ -55,8 +57,10 @@ std::vector<std::string> stack_errors(const Config& c) {
           errors.push_back("0x000D rated current " + std::to_string(words.at(0)) + " outside 10..650 (manual §8.10)");
         }
         if (reg == adam::address(adam::Reg::subdivision)) {
-          const std::uint32_t pulses = static_cast<std::uint32_t>(words.at(0)) | (static_cast<std::uint32_t>(words.at(1)) << 16);
-          if (pulses < 200 || pulses > 1000000) errors.push_back("0x0024 subdivision " + std::to_string(pulses) + " outside 200..1000000 (§8.29)");
+          const std::uint32_t pulses =
+              static_cast<std::uint32_t>(words.at(0)) | (static_cast<std::uint32_t>(words.at(1)) << 16);
+          if (pulses < 200 || pulses > 1000000)
+            errors.push_back("0x0024 subdivision " + std::to_string(pulses) + " outside 200..1000000 (§8.29)");
         }
       }
       return errors;
@@ -102,7 +106,8 @@ TEST(SetupAgreement, TheManualsRangesAreTheSchemasRanges) {
   EXPECT_DOUBLE_EQ(find_setup_key(Family::kAdamModbus, "pulses_per_revolution")->max, 1000000);
   const auto loaded = load_string(with_setup(Family::kUc57, "current_a", "2.5"), "a.yaml");
   ASSERT_TRUE(loaded.ok()) << loaded.error_text();
-  const auto u = uc57_driver::make_node_settings(*loaded.config, loaded.config->buses[0], loaded.config->drives[0], 100);
+  const auto u =
+      uc57_driver::make_node_settings(*loaded.config, loaded.config->buses[0], loaded.config->drives[0], 100);
   EXPECT_EQ(u.run_current, std::optional<std::uint16_t>(25));
 }
 

@@ -23,7 +23,6 @@
 
 namespace motion::coordinator::test_fixture {
 
-
 using motionlcm::gateway_command_t;
 using motionlcm::gateway_reply_t;
 using motionlcm::reply_t;
@@ -127,7 +126,9 @@ class SimLoop {
     }
   }
   void call_after(Duration delay, Action action) { scheduled_.emplace(now_ + delay, std::move(action)); }
-  void call_every(Duration period, Action action) { every(now_ + period, period, std::make_shared<Action>(std::move(action))); }
+  void call_every(Duration period, Action action) {
+    every(now_ + period, period, std::make_shared<Action>(std::move(action)));
+  }
 
   // Runs until `done()` (checked whenever nothing is due) or `end`; false when `end` came first.
   bool run_until(TimePoint end, const std::function<bool()>& done) {
@@ -326,7 +327,9 @@ struct Wire final : CoordinatorOutput {
       loop_.deliver([e](Coordinator& c, TimePoint now) { c.on_event(e, now); });
     });
   }
-  void drive_model_request(const motionlcm::drive_model_request_t&) override { gateways_.model_requests.push_back(loop_.now()); }
+  void drive_model_request(const motionlcm::drive_model_request_t&) override {
+    gateways_.model_requests.push_back(loop_.now());
+  }
 
   SimLoop& loop_;
   FakeGateways& gateways_;
@@ -373,13 +376,17 @@ struct CoordinatorTest : ::testing::Test {
     client.publish(r);
     return r.request_id;
   }
-  static bool is_terminal(std::int8_t s) { return s == reply_t::DONE || s == reply_t::REJECTED || s == reply_t::ABORTED || s == reply_t::FAILED; }
+  static bool is_terminal(std::int8_t s) {
+    return s == reply_t::DONE || s == reply_t::REJECTED || s == reply_t::ABORTED || s == reply_t::FAILED;
+  }
   // Waits for the terminal reply of `id`, then checks no second terminal reply follows.
   reply_t terminal(std::int64_t id) {
     EXPECT_TRUE(pump_until([&] {
-      for (const auto& r : replies[id]) if (is_terminal(r.status)) return true;
+      for (const auto& r : replies[id])
+        if (is_terminal(r.status)) return true;
       return false;
-    })) << "no terminal reply for request " << id;
+    })) << "no terminal reply for request "
+        << id;
     pump(milliseconds(100));
     int count = 0;
     reply_t last{};
@@ -413,12 +420,14 @@ struct CoordinatorTest : ::testing::Test {
     };
   }
   void pump_triggers() {
-    for (; handled_triggers < gateways.triggers.size(); ++handled_triggers) trigger_handler(gateways.triggers[handled_triggers]);
+    for (; handled_triggers < gateways.triggers.size(); ++handled_triggers)
+      trigger_handler(gateways.triggers[handled_triggers]);
   }
   reply_t run_to_terminal(std::int64_t id) {
     EXPECT_TRUE(pump_until([&] {
       pump_triggers();
-      for (const auto& r : replies[id]) if (is_terminal(r.status)) return true;
+      for (const auto& r : replies[id])
+        if (is_terminal(r.status)) return true;
       return false;
     }));
     return terminal(id);

@@ -21,7 +21,9 @@ TEST_F(CoordinatorTest, SynchronizedMoveAcrossTwoBusesArmsTriggersAndCompletes) 
   const auto& arms = armed[gateways.triggers[0].trigger_id];
   ASSERT_EQ(arms.size(), 2u);
   std::int64_t x_target = 0;
-  for (const auto& c : arms) for (const auto& a : c.axes) if (a.axis == "x") x_target = a.target_counts;
+  for (const auto& c : arms)
+    for (const auto& a : c.axes)
+      if (a.axis == "x") x_target = a.target_counts;
   EXPECT_EQ(x_target, 100);
   // Cross-bus trigger is scheduled ahead; the order of replies was ACCEPTED, STARTED, ..., DONE.
   EXPECT_GT(gateways.triggers[0].fire_utime, gateways.triggers[0].utime);
@@ -46,7 +48,10 @@ TEST_F(CoordinatorTest, SynchronizedMoveAcrossTwoBusesArmsTriggersAndCompletes) 
 TEST_F(CoordinatorTest, BusyAxisIsRejectedAndStopPreemptsTheMove) {
   auto_execute_moves(/*complete=*/false);
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {5.0, 5.0});
-  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  pump_until([&] {
+    pump_triggers();
+    return !gateways.triggers.empty();
+  });
   pump(milliseconds(50));
   EXPECT_EQ(terminal(send(request_t::MOVE_ABSOLUTE, {"y"}, {1.0})).error_code, static_cast<int>(ReplyError::kAxisBusy));
   const auto stop = send(request_t::STOP, {"y"}, {0.0});
@@ -59,7 +64,10 @@ TEST_F(CoordinatorTest, BusyAxisIsRejectedAndStopPreemptsTheMove) {
 TEST_F(CoordinatorTest, StallOfOneAxisAbortsTheGroupAndStopsTheOthers) {
   auto_execute_moves(/*complete=*/false);
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {5.0, 5.0});
-  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  pump_until([&] {
+    pump_triggers();
+    return !gateways.triggers.empty();
+  });
   pump(milliseconds(50));
   motionlcm::event_t stall{};
   stall.axis = "y";
@@ -72,9 +80,9 @@ TEST_F(CoordinatorTest, StallOfOneAxisAbortsTheGroupAndStopsTheOthers) {
   EXPECT_EQ(r.status, std::int8_t{reply_t::ABORTED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kAxisFault));
   EXPECT_NE(r.reason.find("axis y: motor stall detected"), std::string::npos) << r.reason;
-  const bool stopped_both = std::any_of(gateways.commands.begin(), gateways.commands.end(), [](const gateway_command_t& c) {
-    return c.kind == gateway_command_t::STOP && c.num_axes == 2;
-  });
+  const bool stopped_both =
+      std::any_of(gateways.commands.begin(), gateways.commands.end(),
+                  [](const gateway_command_t& c) { return c.kind == gateway_command_t::STOP && c.num_axes == 2; });
   EXPECT_TRUE(stopped_both);
 }
 
@@ -112,7 +120,10 @@ TEST_F(CoordinatorWithoutHeartbeats, AxisStatesShowTheGatewayAliveUntilTheyStop)
 TEST_F(CoordinatorTest, OrphanedMovesOfAPredecessorEndOnceAndOwnRequestsAreLeftAlone) {
   auto_execute_moves(/*complete=*/false);
   const auto own = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0});
-  ASSERT_TRUE(pump_until([&] { pump_triggers(); return !replies[own].empty() && replies[own].back().status == reply_t::STARTED; }));
+  ASSERT_TRUE(pump_until([&] {
+    pump_triggers();
+    return !replies[own].empty() && replies[own].back().status == reply_t::STARTED;
+  }));
   motionlcm::active_moves_t rows{};
   const auto row = [&rows](const std::string& axis, const std::string& client_id, std::int64_t request) {
     rows.axes.push_back(axis);
@@ -148,7 +159,8 @@ TEST_F(CoordinatorTest, ActiveMovesAreRepublishedWhileTheyRunAndClearedAtTheEnd)
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {5.0, 2.0});
   ASSERT_TRUE(pump_until([&] {
     pump_triggers();
-    return std::count_if(seen.begin(), seen.end(), [](const auto& m) { return m.num_axes == 2; }) >= 3;  // fire + 2 periods
+    return std::count_if(seen.begin(), seen.end(), [](const auto& m) { return m.num_axes == 2; }) >=
+           3;  // fire + 2 periods
   }));
   const auto& m = seen.back();
   ASSERT_EQ(m.num_axes, 2);
@@ -177,20 +189,27 @@ TEST_F(CoordinatorTest, ActiveMovesAreRepublishedWhileTheyRunAndClearedAtTheEnd)
 TEST_F(CoordinatorTest, LostGatewayAbortsTheRequestAndStopsTheOtherBus) {
   auto_execute_moves(/*complete=*/false);
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {5.0, 5.0});
-  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  pump_until([&] {
+    pump_triggers();
+    return !gateways.triggers.empty();
+  });
   gateways.silent.insert("rs485");
   const auto r = terminal(move);
   EXPECT_EQ(r.status, std::int8_t{reply_t::ABORTED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kGatewayLost));
   EXPECT_NE(r.reason.find("bus rs485"), std::string::npos) << r.reason;
-  EXPECT_TRUE(std::any_of(gateways.commands.begin(), gateways.commands.end(),
-                          [](const gateway_command_t& c) { return c.kind == gateway_command_t::STOP && c.bus == "can0"; }));
+  EXPECT_TRUE(std::any_of(gateways.commands.begin(), gateways.commands.end(), [](const gateway_command_t& c) {
+    return c.kind == gateway_command_t::STOP && c.bus == "can0";
+  }));
 }
 
 TEST_F(CoordinatorTest, RestartedGatewayAbortsTheRequest) {
   auto_execute_moves(/*complete=*/false);
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0});
-  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  pump_until([&] {
+    pump_triggers();
+    return !gateways.triggers.empty();
+  });
   gateways.pid_of["can0"] = 101;  // a new process on the same bus
   const auto r = terminal(move);
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kGatewayLost));
@@ -207,7 +226,10 @@ TEST_F(CoordinatorTest, SilentGatewayDuringArmingFailsTheRequest) {
 TEST_F(CoordinatorTest, RequestTimeoutFailsAndStops) {
   auto_execute_moves(/*complete=*/false);
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0}, /*timeout_ms=*/300);
-  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  pump_until([&] {
+    pump_triggers();
+    return !gateways.triggers.empty();
+  });
   const auto r = terminal(move);
   EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kTimeout));
@@ -230,7 +252,9 @@ TEST_F(CoordinatorTest, GatewaysOwnErrorCodeReachesTheClient) {
 }
 
 TEST_F(CoordinatorTest, GatewayFailureOfASimpleCommandFailsTheRequestWithItsReason) {
-  gateways.on_command = [this](const gateway_command_t& c) { gateways.reply(c, gateway_reply_t::FAILED, "node 5 did not answer MO=1"); };
+  gateways.on_command = [this](const gateway_command_t& c) {
+    gateways.reply(c, gateway_reply_t::FAILED, "node 5 did not answer MO=1");
+  };
   const auto r = terminal(send(request_t::ENABLE, {"x"}, {0.0}));
   EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kDriveError));

@@ -55,7 +55,8 @@ TEST_F(CoordinatorTest, ArmingFailureDisarmsEveryArmedPartBeforeTheTerminalReply
   std::int64_t move = 0;
   gateways.on_command = [&](const gateway_command_t& c) {
     if (c.kind == gateway_command_t::ARM_MOVE) {
-      gateways.reply(c, c.bus == "rs485" ? gateway_reply_t::FAILED : gateway_reply_t::ARMED, "drive refused the profile");
+      gateways.reply(c, c.bus == "rs485" ? gateway_reply_t::FAILED : gateway_reply_t::ARMED,
+                     "drive refused the profile");
     } else if (c.kind == gateway_command_t::DISARM) {
       replies_when_disarmed = replies[move].size();
       gateways.reply(c, gateway_reply_t::DONE);
@@ -100,7 +101,8 @@ TEST_F(CoordinatorTest, OutOfRangeSetPositionScaleAndTimeoutAreRejectedNamingThe
   EXPECT_EQ(position.status, std::int8_t{reply_t::REJECTED});
   EXPECT_EQ(position.error_code, static_cast<int>(ReplyError::kOutsideLimits));
   EXPECT_NE(position.reason.find("position 100 "), std::string::npos) << position.reason;
-  EXPECT_EQ(terminal(send(request_t::SET_POSITION, {"x"}, {1e12})).error_code, static_cast<int>(ReplyError::kOutsideLimits));
+  EXPECT_EQ(terminal(send(request_t::SET_POSITION, {"x"}, {1e12})).error_code,
+            static_cast<int>(ReplyError::kOutsideLimits));
 
   const auto timeout = terminal(send(request_t::MOVE_ABSOLUTE, {"x"}, {1.0}, -5));
   EXPECT_EQ(timeout.error_code, static_cast<int>(ReplyError::kMalformedRequest));
@@ -192,7 +194,10 @@ TEST_F(CoordinatorTest, AStopSupersededByASecondStopEndsDone) {
 TEST_F(CoordinatorTest, AMoveSentRightBehindAStopTakesTheAxisAndEndsThePreemptedMove) {
   auto_execute_moves(/*complete=*/false);
   const auto first = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0});
-  pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+  pump_until([&] {
+    pump_triggers();
+    return !gateways.triggers.empty();
+  });
   pump(milliseconds(50));
   // The stop, and without waiting for it, the next move of the same axis.
   const auto stop = send(request_t::STOP, {"x"}, {0.0});
@@ -214,7 +219,8 @@ TEST_F(CoordinatorTest, BeyondMaxActiveRequestsARequestIsRefusedAsBusyButAStopPa
   const auto refused = terminal(send(request_t::ENABLE, {"y"}, {0.0}));
   EXPECT_EQ(refused.status, std::int8_t{reply_t::REJECTED});
   EXPECT_EQ(refused.error_code, static_cast<int>(ReplyError::kBusy));
-  EXPECT_NE(refused.reason.find("busy: 2 requests in progress (max_active_requests 2)"), std::string::npos) << refused.reason;
+  EXPECT_NE(refused.reason.find("busy: 2 requests in progress (max_active_requests 2)"), std::string::npos)
+      << refused.reason;
   const auto stop = send(request_t::STOP, {"y"}, {0.0});
   ASSERT_TRUE(pump_until([&] { return !replies[stop].empty(); }));
   EXPECT_EQ(replies[stop].front().status, std::int8_t{reply_t::ACCEPTED});
@@ -234,7 +240,8 @@ TEST_F(CoordinatorTest, RefusedRequestIsASecurityEventAndAnsweredOnlyWhenItsIdsA
   r.values = {5.0};
   r.num_axes = 1;
   // Ids that cannot be trusted: the event only, no reply, nothing sent to a gateway.
-  loop.send_to_cores([](Coordinator& c, TimePoint now) { c.on_refused_request(std::nullopt, "unsigned request refused: test", now); });
+  loop.send_to_cores(
+      [](Coordinator& c, TimePoint now) { c.on_refused_request(std::nullopt, "unsigned request refused: test", now); });
   // Authentic ids, role too low: the event and a REJECTED reply (kUnauthorized).
   loop.send_to_cores([r](Coordinator& c, TimePoint now) { c.on_refused_request(r, "role too low: test", now); });
   ASSERT_TRUE(pump_until([&] { return security.size() == 2; }));

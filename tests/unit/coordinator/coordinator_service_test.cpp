@@ -43,12 +43,12 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
   });
   // The gateway answers the coordinator's DRIVE_MODEL_REQUEST with the model of x.
   int model_requests = 0;
-  gateway.subscribe<motionlcm::drive_model_request_t>(lcm::channels::kDriveModelRequest,
-                                                      [&](const motionlcm::drive_model_request_t& r, const std::string&) {
-                                                        EXPECT_EQ(r.requester, "coordinator");
-                                                        ++model_requests;
-                                                        gateway.publish(lcm::channels::kDriveModel, test_model("x", "can0", "uim342"));
-                                                      });
+  gateway.subscribe<motionlcm::drive_model_request_t>(
+      lcm::channels::kDriveModelRequest, [&](const motionlcm::drive_model_request_t& r, const std::string&) {
+        EXPECT_EQ(r.requester, "coordinator");
+        ++model_requests;
+        gateway.publish(lcm::channels::kDriveModel, test_model("x", "can0", "uim342"));
+      });
   std::vector<gateway_command_t> commands;
   const auto answer = [&](const gateway_command_t& c, std::int8_t status) {
     gateway_reply_t r{};
@@ -65,28 +65,35 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
     answer(c, c.kind == gateway_command_t::ARM_MOVE ? gateway_reply_t::ARMED : gateway_reply_t::DONE);
   });
   std::vector<motionlcm::sync_trigger_t> triggers;
-  gateway.subscribe<motionlcm::sync_trigger_t>(lcm::channels::kSyncTrigger, [&](const motionlcm::sync_trigger_t& t, const std::string&) {
-    triggers.push_back(t);
-    for (const auto& c : commands) {
-      if (c.kind != gateway_command_t::ARM_MOVE || c.trigger_id != t.trigger_id) continue;
-      answer(c, gateway_reply_t::STARTED);
-      x.position_counts = c.axes.at(0).target_counts;
-      x.position = static_cast<double>(x.position_counts) / 100.0;
-    }
-  });
+  gateway.subscribe<motionlcm::sync_trigger_t>(
+      lcm::channels::kSyncTrigger, [&](const motionlcm::sync_trigger_t& t, const std::string&) {
+        triggers.push_back(t);
+        for (const auto& c : commands) {
+          if (c.kind != gateway_command_t::ARM_MOVE || c.trigger_id != t.trigger_id) continue;
+          answer(c, gateway_reply_t::STARTED);
+          x.position_counts = c.axes.at(0).target_counts;
+          x.position = static_cast<double>(x.position_counts) / 100.0;
+        }
+      });
   std::map<std::int64_t, std::vector<reply_t>> replies;
-  client.subscribe<reply_t>(lcm::channels::kReply, [&](const reply_t& r, const std::string&) { replies[r.request_id].push_back(r); });
+  client.subscribe<reply_t>(lcm::channels::kReply,
+                            [&](const reply_t& r, const std::string&) { replies[r.request_id].push_back(r); });
   std::vector<motionlcm::active_moves_t> active;
-  client.subscribe<motionlcm::active_moves_t>(lcm::channels::kActiveMoves,
-                                              [&](const motionlcm::active_moves_t& m, const std::string&) { active.push_back(m); });
+  client.subscribe<motionlcm::active_moves_t>(
+      lcm::channels::kActiveMoves,
+      [&](const motionlcm::active_moves_t& m, const std::string&) { active.push_back(m); });
   const auto ended = [&](std::int64_t id) {
-    return !replies[id].empty() && replies[id].back().status != reply_t::ACCEPTED && replies[id].back().status != reply_t::STARTED &&
-           replies[id].back().status != reply_t::PROGRESS;
+    return !replies[id].empty() && replies[id].back().status != reply_t::ACCEPTED &&
+           replies[id].back().status != reply_t::STARTED && replies[id].back().status != reply_t::PROGRESS;
   };
 
-  ASSERT_TRUE(testing::pump_until(loop, [&] { return service.buses_without_gateway() == std::vector<std::string>{"rs485"}; }, milliseconds(3000)));
-  ASSERT_TRUE(testing::pump_until(loop, [&] { return model_requests > 0; }, milliseconds(3000))) << "no DRIVE_MODEL_REQUEST";
-  testing::pump_until(loop, [] { return false; }, milliseconds(100));  // the model reaches the coordinator
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return service.buses_without_gateway() == std::vector<std::string>{"rs485"}; }, milliseconds(3000)));
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return model_requests > 0; }, milliseconds(3000)))
+      << "no DRIVE_MODEL_REQUEST";
+  testing::pump_until(
+      loop, [] { return false; }, milliseconds(100));  // the model reaches the coordinator
   request_t move{};
   move.client_id = "test";
   move.request_id = 1;
@@ -95,7 +102,8 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
   move.values = {1.0};
   move.num_axes = 1;
   client.publish(lcm::channels::kRequest, move);
-  ASSERT_TRUE(testing::pump_until(loop, [&] { return ended(1); }, milliseconds(3000)));
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return ended(1); }, milliseconds(3000)));
   EXPECT_EQ(replies[1].front().status, std::int8_t{reply_t::ACCEPTED});
   EXPECT_EQ(replies[1].back().status, std::int8_t{reply_t::DONE}) << replies[1].back().reason;
   ASSERT_FALSE(commands.empty());
@@ -103,8 +111,10 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
   EXPECT_EQ(commands.front().axes.at(0).target_counts, 100);
   ASSERT_EQ(triggers.size(), 1u);
   EXPECT_EQ(triggers[0].buses, std::vector<std::string>{"can0"});
-  ASSERT_TRUE(testing::pump_until(loop, [&] { return !active.empty() && active.back().num_axes == 0; }, milliseconds(3000)));
-  EXPECT_TRUE(std::any_of(active.begin(), active.end(), [](const auto& m) { return m.num_axes == 1 && m.axes[0] == "x"; }));
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return !active.empty() && active.back().num_axes == 0; }, milliseconds(3000)));
+  EXPECT_TRUE(
+      std::any_of(active.begin(), active.end(), [](const auto& m) { return m.num_axes == 1 && m.axes[0] == "x"; }));
 
   // A request that does not decode is answered when its ids are readable.
   std::vector<std::uint8_t> bytes(static_cast<std::size_t>(move.getEncodedSize()));
@@ -112,7 +122,8 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
   ASSERT_EQ(move.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
   bytes.resize(bytes.size() - 10);
   client.publish_raw(client.channel(lcm::channels::kRequest), bytes);
-  ASSERT_TRUE(testing::pump_until(loop, [&] { return ended(2); }, milliseconds(3000)));
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return ended(2); }, milliseconds(3000)));
   EXPECT_EQ(replies[2].back().error_code, static_cast<int>(ReplyError::kMalformedRequest));
   EXPECT_EQ(service.active_requests(), 0u);
   loop.cancel(tick);
@@ -123,7 +134,8 @@ TEST(CoordinatorServiceOverLcm, EnforcedSecurityRefusesPlainMalformedAndUnauthor
   config::Config config = *config::load_string(kConfig).config;
   config.security.mode = config::SecuritySettings::Mode::kEnforce;
   const security::KeyPair watch = security::KeyPair::generate("watch");
-  auto keys = std::get<security::AuthorizedKeys>(security::AuthorizedKeys::parse(watch.authorized_line("observe") + "\n", "keys"));
+  auto keys = std::get<security::AuthorizedKeys>(
+      security::AuthorizedKeys::parse(watch.authorized_line("observe") + "\n", "keys"));
   EventLoop loop;
   const std::string url = testing::unique_lcm_url(22);
   lcm::Node node(loop, {url, "CS_"});
@@ -147,12 +159,16 @@ TEST(CoordinatorServiceOverLcm, EnforcedSecurityRefusesPlainMalformedAndUnauthor
   plain.values = {1.0};
   plain.num_axes = 1;
   client.publish(lcm::channels::kRequest, plain);
-  ASSERT_TRUE(testing::pump_until(loop, [&] { return security_events.size() == 1; }, milliseconds(3000)));
-  EXPECT_EQ(security_events[0].text.rfind("unsigned request refused: security is enforced (move request 1 of client 'plain'", 0), 0u)
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return security_events.size() == 1; }, milliseconds(3000)));
+  EXPECT_EQ(security_events[0].text.rfind(
+                "unsigned request refused: security is enforced (move request 1 of client 'plain'", 0),
+            0u)
       << security_events[0].text;
 
   client.publish_raw(node.channel(lcm::channels::kSignedRequest), {1, 2, 3});
-  ASSERT_TRUE(testing::pump_until(loop, [&] { return security_events.size() == 2; }, milliseconds(3000)));
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return security_events.size() == 2; }, milliseconds(3000)));
   EXPECT_EQ(security_events[1].text.rfind("malformed signed request refused: ", 0), 0u) << security_events[1].text;
 
   security::RequestSigner signer(watch, "CS_");
@@ -160,7 +176,8 @@ TEST(CoordinatorServiceOverLcm, EnforcedSecurityRefusesPlainMalformedAndUnauthor
   move.client_id = "watch/ctl";
   move.request_id = 2;
   client.publish(lcm::channels::kSignedRequest, signer.sign(move, wall_time_us()));
-  ASSERT_TRUE(testing::pump_until(loop, [&] { return !replies.empty(); }, milliseconds(3000)));
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return !replies.empty(); }, milliseconds(3000)));
   EXPECT_EQ(replies[0].client_id, "watch/ctl");
   EXPECT_EQ(replies[0].request_id, 2);
   EXPECT_EQ(replies[0].status, std::int8_t{reply_t::REJECTED});

@@ -24,12 +24,16 @@ struct StopsThatDoNotTake : CoordinatorTest {
   }
   std::int64_t moving_x() {
     const auto id = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0});
-    pump_until([&] { pump_triggers(); return !gateways.triggers.empty(); });
+    pump_until([&] {
+      pump_triggers();
+      return !gateways.triggers.empty();
+    });
     pump(milliseconds(100));
     return id;
   }
   [[nodiscard]] bool event_says(std::int16_t kind, const std::string& text) const {
-    return std::any_of(events.begin(), events.end(), [&](const auto& e) { return e.kind == kind && e.text.find(text) != std::string::npos; });
+    return std::any_of(events.begin(), events.end(),
+                       [&](const auto& e) { return e.kind == kind && e.text.find(text) != std::string::npos; });
   }
   std::vector<gateway_command_t> stops;
   std::vector<motionlcm::event_t> events;
@@ -70,8 +74,12 @@ TEST_F(StopsThatDoNotTake, AnAxisThatNeverStopsIsGivenUpAndTheAbortNamesIt) {
   ignore_stops(100);
   const auto move = moving_x();
   gateways.states["x"].fault = true;
-  EXPECT_TRUE(pump_until([&] { return std::any_of(replies[move].begin(), replies[move].end(), [](const reply_t& r) { return is_terminal(r.status); }); },
-                         milliseconds(5000)));
+  EXPECT_TRUE(pump_until(
+      [&] {
+        return std::any_of(replies[move].begin(), replies[move].end(),
+                           [](const reply_t& r) { return is_terminal(r.status); });
+      },
+      milliseconds(5000)));
   const auto r = terminal(move);
   EXPECT_EQ(r.status, std::int8_t{reply_t::ABORTED});
   EXPECT_NE(r.reason.find("could not stop x (still moving after an e-stop)"), std::string::npos) << r.reason;
@@ -84,7 +92,7 @@ TEST_F(StopsThatDoNotTake, AnAxisMovingWhenANewCoordinatorStartsIsStopped) {
   gateways.put("x", 120, true);  // moved by a coordinator that is gone
   pump(milliseconds(100));
   EXPECT_TRUE(stops.empty());  // the running coordinator has heard of x before: not its business
-  add_coordinator();  // a second coordinator on the same wire, started now
+  add_coordinator();           // a second coordinator on the same wire, started now
   ASSERT_TRUE(pump_until([&] { return !stops.empty(); }));
   EXPECT_EQ(stops[0].axes.at(0).axis, "x");
   EXPECT_TRUE(event_says(motionlcm::event_t::UNOWNED_MOTION, "axis x was moving"));

@@ -35,12 +35,15 @@ TEST_F(CoordinatorTest, MoveOfAnAxisWithoutADriveModelIsRefusedAndTheModelIsRequ
   move.axes = {"x"};
   move.values = {1.0};
   move.num_axes = 1;
-  loop.send([&fresh, move, this] { loop.deliver_to(fresh, [move](Coordinator& c, TimePoint now) { c.on_request(move, now); }); });
+  loop.send([&fresh, move, this] {
+    loop.deliver_to(fresh, [move](Coordinator& c, TimePoint now) { c.on_request(move, now); });
+  });
   pump(milliseconds(50));
   ASSERT_FALSE(fresh_replies.empty());
   EXPECT_EQ(fresh_replies.back().status, std::int8_t{reply_t::REJECTED});
   EXPECT_EQ(fresh_replies.back().error_code, static_cast<int>(ReplyError::kNoDriveModel));
-  EXPECT_NE(fresh_replies.back().reason.find("axis x has no drive model yet: the gateway of bus can0 has not published DRIVE_MODEL"),
+  EXPECT_NE(fresh_replies.back().reason.find(
+                "axis x has no drive model yet: the gateway of bus can0 has not published DRIVE_MODEL"),
             std::string::npos)
       << fresh_replies.back().reason;
   // Once the models come, the requests stop and the move is planned.
@@ -63,9 +66,12 @@ TEST_F(CoordinatorTest, DriveModelsContradictingTheConfigurationAreIgnored) {
   loop.send_to_cores([wrong_bus](Coordinator& c, TimePoint now) { c.on_drive_model(wrong_bus, now); });
   pump(milliseconds(10));
   ASSERT_GE(events.size(), 2u);
-  EXPECT_NE(events[0].text.find("drive model of axis x ignored: it says family 'uc57', the configuration says 'uim342'"), std::string::npos)
+  EXPECT_NE(
+      events[0].text.find("drive model of axis x ignored: it says family 'uc57', the configuration says 'uim342'"),
+      std::string::npos)
       << events[0].text;
-  EXPECT_NE(events[1].text.find("drive model of axis c ignored: it comes from bus 'can0', the axis is on bus 'rs485'"), std::string::npos)
+  EXPECT_NE(events[1].text.find("drive model of axis c ignored: it comes from bus 'can0', the axis is on bus 'rs485'"),
+            std::string::npos)
       << events[1].text;
   EXPECT_EQ(coordinator.drive_model("x")->family, "uim342");
 }
@@ -78,7 +84,8 @@ TEST_F(CoordinatorTest, TargetBeyondLimitIsRejectedNamingTheLimit) {
   // Relative moves are checked against current position + distance.
   gateways.put("x", 900, false);  // 9 mm
   pump(milliseconds(120));
-  EXPECT_EQ(terminal(send(request_t::MOVE_RELATIVE, {"x"}, {2.0})).error_code, static_cast<int>(ReplyError::kOutsideLimits));
+  EXPECT_EQ(terminal(send(request_t::MOVE_RELATIVE, {"x"}, {2.0})).error_code,
+            static_cast<int>(ReplyError::kOutsideLimits));
 }
 
 // A jog toward a limit the axis stands at or beyond has nowhere to go: REJECTED naming the limit,
@@ -89,8 +96,10 @@ TEST_F(CoordinatorTest, JogTowardALimitTheAxisStandsAtIsRejectedAndTheOtherWayIs
   const auto r = terminal(send(request_t::JOG, {"x"}, {-1.0}));
   EXPECT_EQ(r.status, std::int8_t{reply_t::REJECTED});
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kOutsideLimits));
-  EXPECT_NE(r.reason.find("jog of axis x toward its limit -10 mm refused: it stands at -10 mm, less than one count from (or beyond)"),
-            std::string::npos)
+  EXPECT_NE(
+      r.reason.find(
+          "jog of axis x toward its limit -10 mm refused: it stands at -10 mm, less than one count from (or beyond)"),
+      std::string::npos)
       << r.reason;
   EXPECT_TRUE(gateways.commands.empty()) << "a refused jog sent " << gateways.commands.size() << " commands";
   send(request_t::JOG, {"x"}, {1.0});
@@ -150,13 +159,15 @@ TEST_F(CoordinatorTest, DisabledFaultedAndOfflineAxesAreRejected) {
   gateways.states["y"].fault = true;
   gateways.states["y"].fault_text = "stall";
   pump(milliseconds(120));
-  EXPECT_EQ(terminal(send(request_t::MOVE_ABSOLUTE, {"x"}, {1.0})).error_code, static_cast<int>(ReplyError::kAxisDisabled));
+  EXPECT_EQ(terminal(send(request_t::MOVE_ABSOLUTE, {"x"}, {1.0})).error_code,
+            static_cast<int>(ReplyError::kAxisDisabled));
   const auto faulted = terminal(send(request_t::MOVE_ABSOLUTE, {"y"}, {1.0}));
   EXPECT_EQ(faulted.error_code, static_cast<int>(ReplyError::kAxisFaulted));
   EXPECT_NE(faulted.reason.find("stall"), std::string::npos);
   gateways.silent.insert("rs485");
   pump(milliseconds(500));
-  EXPECT_EQ(terminal(send(request_t::MOVE_ABSOLUTE, {"c"}, {1.0})).error_code, static_cast<int>(ReplyError::kGatewayOffline));
+  EXPECT_EQ(terminal(send(request_t::MOVE_ABSOLUTE, {"c"}, {1.0})).error_code,
+            static_cast<int>(ReplyError::kGatewayOffline));
 }
 
 // An axis whose drive lost power (fault_code POSITION_LOST, not faulted): moves and jogs are
@@ -169,7 +180,8 @@ TEST_F(CoordinatorTest, AnAxisThatLostItsPositionIsRefusedMovesAndJogsButNotASet
     const auto refused = terminal(send(kind, {"x"}, {1.0}));
     EXPECT_EQ(refused.status, std::int8_t{reply_t::REJECTED}) << refused.reason;
     EXPECT_EQ(refused.error_code, static_cast<int>(ReplyError::kPositionLost)) << refused.reason;
-    EXPECT_NE(refused.reason.find("axis x lost its position (position lost: x-drive answers"), std::string::npos) << refused.reason;
+    EXPECT_NE(refused.reason.find("axis x lost its position (position lost: x-drive answers"), std::string::npos)
+        << refused.reason;
   }
   EXPECT_TRUE(gateways.commands.empty());
   send(request_t::SET_POSITION, {"x"}, {0.0});

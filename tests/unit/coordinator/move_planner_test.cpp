@@ -59,7 +59,9 @@ const config::Config& lab() {
 const config::Drive& drive(const std::string& name) { return *lab().find_drive(name); }
 
 using drive_model::assumed_pulses_per_revolution;
-std::uint32_t assumed_pulses_per_revolution(const config::Config&, const config::Drive& d) { return assumed_pulses_per_revolution(d); }
+std::uint32_t assumed_pulses_per_revolution(const config::Config&, const config::Drive& d) {
+  return assumed_pulses_per_revolution(d);
+}
 
 // The model the gateway publishes for `axis` (given what its stack read), as the coordinator gets it.
 motionlcm::drive_model_t model_of(const std::string& axis, const gateway::DriveFacts& facts = {}) {
@@ -75,7 +77,9 @@ std::shared_ptr<const DriveQuantizer> quantizer_of_model(const motionlcm::drive_
 }
 
 // The quantizer of drive `name` ("xd": axis "x"), from its gateway's model.
-std::shared_ptr<const DriveQuantizer> quantizer(const std::string& name) { return quantizer_of_model(model_of(name.substr(0, 1))); }
+std::shared_ptr<const DriveQuantizer> quantizer(const std::string& name) {
+  return quantizer_of_model(model_of(name.substr(0, 1)));
+}
 
 // Plan inputs with each axis's quantizer from its model.
 std::vector<PlanInput> with_models(std::vector<PlanInput> inputs) {
@@ -116,7 +120,8 @@ AdamProgrammed adam_programs(const DriveMotion& m, std::uint32_t ppr) {
   const auto decel = adam::ramp_time_ms(0, rpm, std::abs(adam::pps_to_rpm(m.deceleration_counts_per_s2, ppr)));
   EXPECT_TRUE(accel && decel);
   return {{rpm_whole, accel.value().value, decel.value().value},
-          {adam::rpm_to_pps(rpm, ppr), adam::rpm_to_pps(accel.value().realized, ppr), adam::rpm_to_pps(decel.value().realized, ppr)}};
+          {adam::rpm_to_pps(rpm, ppr), adam::rpm_to_pps(accel.value().realized, ppr),
+           adam::rpm_to_pps(decel.value().realized, ppr)}};
 }
 
 TEST(DriveQuantizers, AdamPulsesPerRevolutionFollowTheGatewaysSetupRule) {
@@ -197,8 +202,9 @@ TEST(DriveQuantizers, Uim342RealizedValuesAreWhatTheStackProgramsExactly) {
     uim342::AccelerationUnit unit;
     double cut_in;
   };
-  for (const auto& c : {Case{"xd", uim342::AccelerationUnit::pulses_per_s2, 0}, Case{"yd", uim342::AccelerationUnit::milliseconds, 0},
-                        Case{"zd", uim342::AccelerationUnit::milliseconds, 300}}) {
+  for (const auto& c :
+       {Case{"xd", uim342::AccelerationUnit::pulses_per_s2, 0}, Case{"yd", uim342::AccelerationUnit::milliseconds, 0},
+        Case{"zd", uim342::AccelerationUnit::milliseconds, 300}}) {
     const auto settings = candidates_of(*quantizer(c.drive), 4000.0);
     ASSERT_GT(settings.size(), 20u) << c.drive;
     for (const auto& s : settings) {
@@ -209,8 +215,10 @@ TEST(DriveQuantizers, Uim342RealizedValuesAreWhatTheStackProgramsExactly) {
       const auto decel = uim342::acceleration_to_wire(s.realized.deceleration_counts_per_s2, c.unit, *speed, c.cut_in);
       ASSERT_TRUE(accel && decel) << what;
       EXPECT_EQ((planner::NativeMotion{*speed, *accel, *decel}), s.native) << what;
-      expect_relative(uim342::acceleration_from_wire(*accel, c.unit, *speed, c.cut_in), s.realized.acceleration_counts_per_s2, what);
-      expect_relative(uim342::acceleration_from_wire(*decel, c.unit, *speed, c.cut_in), s.realized.deceleration_counts_per_s2, what);
+      expect_relative(uim342::acceleration_from_wire(*accel, c.unit, *speed, c.cut_in),
+                      s.realized.acceleration_counts_per_s2, what);
+      expect_relative(uim342::acceleration_from_wire(*decel, c.unit, *speed, c.cut_in),
+                      s.realized.deceleration_counts_per_s2, what);
     }
   }
 }
@@ -266,7 +274,8 @@ TEST(DriveModel, Uc57ModelCarriesTheResolutionReadFromTheDrive) {
   ASSERT_GT(settings.size(), 20u);
   for (const auto& s : settings) {
     const auto speed = od::quantize_speed(velocity, s.realized.velocity_counts_per_s, 3200);
-    const auto accel = od::quantize_ramp(acceleration, s.realized.acceleration_counts_per_s2, speed.realized - model.ramp_from, 3200);
+    const auto accel =
+        od::quantize_ramp(acceleration, s.realized.acceleration_counts_per_s2, speed.realized - model.ramp_from, 3200);
     EXPECT_EQ(speed.native, s.native.velocity);
     EXPECT_EQ(accel.native, s.native.acceleration);
     expect_relative(speed.realized, s.realized.velocity_counts_per_s, "velocity");
@@ -370,7 +379,8 @@ TEST(MovePlanner, EveryFamilysPlanIsRepresentableAndArrivalsAgree) {
   EXPECT_EQ(plan.axes[4].acceleration, std::round(plan.axes[4].acceleration));
   // The slowest axis sets the time; every axis arrives within the predicted spread.
   EXPECT_GT(plan.duration_s, 0.5);
-  for (const auto& a : plan.axes) EXPECT_NEAR(a.duration_s, plan.duration_s, plan.predicted_skew_us * 1e-6 + 1e-9) << a.axis;
+  for (const auto& a : plan.axes)
+    EXPECT_NEAR(a.duration_s, plan.duration_s, plan.predicted_skew_us * 1e-6 + 1e-9) << a.axis;
   EXPECT_LT(plan.predicted_skew_us, 5000.0);
 }
 
@@ -388,8 +398,10 @@ TEST(MovePlanner, ShortAndSlowUc57MovesArePlannedWithinTheLimits) {
   const double a_acceleration = 1440 * 8.888888888888889;
   for (const std::int64_t distance : {1, 2, 9, 18, 36, 44}) {  // 0.1 to 5 degrees
     for (const double scale : {1.0, 0.5, 0.1}) {
-      auto result = planner(with_models({{"a", config::Family::kUc57, 177, 177 + distance, a_velocity, a_acceleration}}), scale, scale);
-      ASSERT_TRUE(std::holds_alternative<MovePlan>(result)) << distance << " counts at scale " << scale << ": " << std::get<std::string>(result);
+      auto result = planner(
+          with_models({{"a", config::Family::kUc57, 177, 177 + distance, a_velocity, a_acceleration}}), scale, scale);
+      ASSERT_TRUE(std::holds_alternative<MovePlan>(result))
+          << distance << " counts at scale " << scale << ": " << std::get<std::string>(result);
       const auto& a = std::get<MovePlan>(result).axes.at(0);
       EXPECT_EQ(a.target_counts, 177 + distance);
       EXPECT_GT(a.velocity, 10 * 3200 / 60.0) << "the drive has no ramp at or below its start speed";

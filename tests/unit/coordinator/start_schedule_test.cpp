@@ -86,7 +86,8 @@ axes:
   ASSERT_TRUE(bg && sync && broadcast);
   EXPECT_FALSE(start_wire_us(model("a"), M::START_ADAM_BROADCAST));
   // The SYNC is CiA 301's 0-byte frame on 080h: its bits at 500 kbit/s.
-  const double sync_bits_us = std::chrono::duration<double, std::micro>(can::frame_duration(canopen::encode_sync({}), 500000)).count();
+  const double sync_bits_us =
+      std::chrono::duration<double, std::micro>(can::frame_duration(canopen::encode_sync({}), 500000)).count();
   EXPECT_DOUBLE_EQ(*sync, sync_bits_us);
   const auto s = schedule_starts({{"can0", 1, *sync}, {"can0", 2, *bg}, {"rs485", 3, *broadcast}});
   EXPECT_EQ(bus(s, "can0").command_ids, (std::vector<std::int64_t>{2, 1}));  // the 29-bit BG before the SYNC

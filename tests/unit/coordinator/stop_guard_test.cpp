@@ -57,7 +57,9 @@ TEST_F(StopGuardTest, StillMovingAfterItsAllowanceIsStoppedAgainThenEStoppedThen
   ASSERT_EQ(second.size(), 1u);
   EXPECT_EQ(second[0].kind, Kind::kSendStop);
   EXPECT_EQ(second[0].attempt, 2);
-  EXPECT_NE(second[0].text.find("axis x still reports moving 500 ms after a stop; stopping it again"), std::string::npos) << second[0].text;
+  EXPECT_NE(second[0].text.find("axis x still reports moving 500 ms after a stop; stopping it again"),
+            std::string::npos)
+      << second[0].text;
   EXPECT_EQ(guard.next_deadline(), t0 + milliseconds(1000));
   report(milliseconds(900), true);
   auto third = at(milliseconds(1000));
@@ -106,7 +108,8 @@ TEST_F(StopGuardTest, ADriveThatNeverReportsAfterItsStopsIsGivenUpAsSilent) {
   const auto given_up = at(milliseconds(600));
   ASSERT_EQ(given_up.size(), 1u);
   EXPECT_EQ(given_up[0].outcome, StopGuard::Outcome::kSilent);
-  EXPECT_NE(given_up[0].text.find("axis x still has not reported 200 ms after an e-stop"), std::string::npos) << given_up[0].text;
+  EXPECT_NE(given_up[0].text.find("axis x still has not reported 200 ms after an e-stop"), std::string::npos)
+      << given_up[0].text;
 }
 
 TEST_F(StopGuardTest, AnUnreachableAxisEndsAtOnceAndANewStopRestartsTheSequence) {
@@ -127,7 +130,7 @@ TEST_F(StopGuardTest, AnAxisTakenOverByANewRequestIsNoLongerWatched) {
   EXPECT_FALSE(guard.watching("x"));
   EXPECT_EQ(guard.outcome("x"), StopGuard::Outcome::kTakenOver);
   EXPECT_TRUE(at(milliseconds(600)).empty());  // no stop is repeated on the new request's motion
-  guard.forget("y");                             // never watched: nothing recorded
+  guard.forget("y");                           // never watched: nothing recorded
   EXPECT_FALSE(guard.outcome("y").has_value());
 }
 

@@ -60,7 +60,11 @@ TEST_F(FileAccessTest, ASymbolicLinkOrAFileInItsPlaceIsRefusedAndLeftAlone) {
   EXPECT_EQ(make_private_dir(planted.string(), FileAccess{}), std::make_error_code(std::errc::not_a_directory));
   EXPECT_EQ(mode_of(elsewhere), 0755U);  // not followed
   const fs::path file = root / "file";
-  { FILE* f = ::fopen(file.c_str(), "w"); ASSERT_NE(f, nullptr); ::fclose(f); }
+  {
+    FILE* f = ::fopen(file.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    ::fclose(f);
+  }
   EXPECT_TRUE(make_private_dir(file.string(), FileAccess{}));
 }
 

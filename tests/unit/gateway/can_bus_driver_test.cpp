@@ -61,7 +61,8 @@ class MemoryTransport : public can::Transport {
 // A stack that takes frames of one format and replies as the test scripts it.
 class FakeStack : public CanStack {
  public:
-  FakeStack(CanStackContext ctx, bool extended, std::vector<std::string> axes) : ctx_(std::move(ctx)), extended_(extended), axes_(std::move(axes)) {}
+  FakeStack(CanStackContext ctx, bool extended, std::vector<std::string> axes)
+      : ctx_(std::move(ctx)), extended_(extended), axes_(std::move(axes)) {}
   std::string family() const override { return extended_ ? "ext" : "std"; }
   std::vector<std::string> axes() const override { return axes_; }
   void start(TimePoint) override { started = true; }

@@ -12,7 +12,7 @@ namespace {
 
 using Reply = motionlcm::gateway_reply_t;
 
-constexpr Lifecycle kAll[] = {Lifecycle::kLoading, Lifecycle::kArmed, Lifecycle::kStarted,
+constexpr Lifecycle kAll[] = {Lifecycle::kLoading, Lifecycle::kArmed,  Lifecycle::kStarted,
                               Lifecycle::kDone,    Lifecycle::kFailed, Lifecycle::kStopped};
 
 motionlcm::gateway_command_t command(std::int64_t id, std::int8_t kind = motionlcm::gateway_command_t::ARM_MOVE) {
@@ -48,7 +48,8 @@ TEST_P(LifecycleRow, IsAcceptedAndLandsInItsTarget) {
   ASSERT_NE(f.ledger.add(command(7), {0, 1}), nullptr);
   for (const auto step : path_to(row.from)) ASSERT_TRUE(f.ledger.advance(7, 0, step));
   f.sent.clear();
-  ASSERT_TRUE(f.ledger.advance(7, 0, row.to, error_code(ReplyError::kStopped), "why")) << to_string(row.from) << " -> " << to_string(row.to);
+  ASSERT_TRUE(f.ledger.advance(7, 0, row.to, error_code(ReplyError::kStopped), "why"))
+      << to_string(row.from) << " -> " << to_string(row.to);
   ASSERT_NE(f.ledger.find(7), nullptr);  // node 1 still loading: the command lives on
   EXPECT_EQ(f.ledger.find(7)->state_of(0), row.to);
   EXPECT_EQ(f.ledger.find(7)->state_of(1), Lifecycle::kLoading);
@@ -81,7 +82,8 @@ TEST(Lifecycle, EveryPairOutsideTheTableIsRefusedAndLeavesThePartWhereItWas) {
     }
   }
   for (const auto from : {Lifecycle::kDone, Lifecycle::kFailed, Lifecycle::kStopped}) {
-    for (const auto to : kAll) EXPECT_FALSE(find_transition(from, to)) << "terminal " << to_string(from) << " has a way out";
+    for (const auto to : kAll)
+      EXPECT_FALSE(find_transition(from, to)) << "terminal " << to_string(from) << " has a way out";
   }
   EXPECT_EQ(refused, 7);  // 3 x 6 pairs out of non-terminal states, 11 rows
 }
@@ -153,7 +155,8 @@ TEST(CommandLedger, ARefusedPartLeavesNothingBehind) {
   // A command refused while loading (a value outside the drive's range on node 1).
   f.ledger.add(command(11), {0, 1});
   ASSERT_TRUE(f.ledger.advance(11, 0, Lifecycle::kArmed));
-  auto e = f.ledger.finish(11, Lifecycle::kFailed, error_code(ReplyError::kOutsideLimits), "node 1: speed out of range");
+  auto e =
+      f.ledger.finish(11, Lifecycle::kFailed, error_code(ReplyError::kOutsideLimits), "node 1: speed out of range");
   ASSERT_TRUE(e);
   EXPECT_EQ(f.ledger.find(11), nullptr);
   EXPECT_EQ(f.ledger.size(), 0U);

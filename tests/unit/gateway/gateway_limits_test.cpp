@@ -70,8 +70,10 @@ struct Limits : ::testing::Test {
     auto d = std::make_unique<FakeDriver>(gateway);
     driver = d.get();
     gateway.attach(std::move(d));
-    node.subscribe<gateway_reply_t>(lcm::channels::kGatewayReply, [this](const gateway_reply_t& r, const std::string&) { replies.push_back(r); });
-    node.subscribe<event_t>(lcm::channels::kEvent, [this](const event_t& e, const std::string&) { events.push_back(e); });
+    node.subscribe<gateway_reply_t>(lcm::channels::kGatewayReply,
+                                    [this](const gateway_reply_t& r, const std::string&) { replies.push_back(r); });
+    node.subscribe<event_t>(lcm::channels::kEvent,
+                            [this](const event_t& e, const std::string&) { events.push_back(e); });
   }
   void pump_until(const std::function<bool()>& done) {
     const auto deadline = loop.now() + milliseconds(3000);
@@ -82,8 +84,8 @@ struct Limits : ::testing::Test {
     while (loop.now() < deadline) loop.run_once(milliseconds(5));
   }
   // Publishes a one-axis command and waits for its (first) reply.
-  gateway_reply_t send(std::int8_t kind, const std::string& axis, std::int64_t target, double velocity, double acceleration = 0,
-                       double deceleration = 0) {
+  gateway_reply_t send(std::int8_t kind, const std::string& axis, std::int64_t target, double velocity,
+                       double acceleration = 0, double deceleration = 0) {
     gateway_command_t c{};
     c.bus = "can0";
     c.command_id = next_id++;
@@ -164,8 +166,10 @@ TEST_F(Limits, MoveWithinEveryLimitReachesTheDriverIncludingRounding) {
 }
 
 TEST_F(Limits, MoveTooFastOrRampsTooSteepAreRefused) {
-  expect_outside(send(gateway_command_t::ARM_MOVE, "j", 500, 202, 100, 100), "velocity 2.02 mm/s (202 counts/s) exceeds the limit 2 mm/s");
-  expect_outside(send(gateway_command_t::ARM_MOVE, "j", 500, 100, 402, 100), "acceleration 4.02 mm/s^2 (402 counts/s^2) exceeds the limit 4");
+  expect_outside(send(gateway_command_t::ARM_MOVE, "j", 500, 202, 100, 100),
+                 "velocity 2.02 mm/s (202 counts/s) exceeds the limit 2 mm/s");
+  expect_outside(send(gateway_command_t::ARM_MOVE, "j", 500, 100, 402, 100),
+                 "acceleration 4.02 mm/s^2 (402 counts/s^2) exceeds the limit 4");
   expect_outside(send(gateway_command_t::ARM_MOVE, "j", 500, 100, 100, 402), "deceleration 4.02 mm/s^2");
   EXPECT_TRUE(driver->commands.empty());
 }
@@ -193,8 +197,9 @@ TEST_F(Limits, JogHomeAndSetPositionAreChecked) {
 
 TEST_F(Limits, JogStartingAtOrBeyondItsLimitIsRefusedButMayLeave) {
   status("j", 1000, 0, false);
-  expect_outside(send(gateway_command_t::JOG, "j", 0, 100, 400, 400),
-                 "jog toward 10 mm refused: position 10 mm (1000 counts) is less than one count from (or beyond) that limit");
+  expect_outside(
+      send(gateway_command_t::JOG, "j", 0, 100, 400, 400),
+      "jog toward 10 mm refused: position 10 mm (1000 counts) is less than one count from (or beyond) that limit");
   EXPECT_EQ(send(gateway_command_t::JOG, "j", 0, -100, 400, 400).status, k(gateway_reply_t::DONE));
   // Inverted: counts down is user units up, toward 30 mm (-3000 counts).
   status("n", -3000, 0, false);
@@ -218,7 +223,7 @@ TEST(JogRoom, IsTheWholeCountsInsideTheLimitInTheJogsDirection) {
   EXPECT_EQ(jog_room(l, -1, -2132), std::optional<std::int64_t>{-1});
   EXPECT_EQ(jog_room(l, +1, 30000), std::nullopt);  // beyond
   EXPECT_EQ(jog_room(l, 0, 0), std::nullopt);       // no direction
-  axis.invert = true;  // counts [-22933.33, 2133.33]: a jog up in counts heads for 2133.33
+  axis.invert = true;                               // counts [-22933.33, 2133.33]: a jog up in counts heads for 2133.33
   const auto inv = CountLimits::of(axis);
   EXPECT_EQ(jog_room(inv, +1, 2133), std::nullopt);
   EXPECT_EQ(jog_room(inv, -1, -22933), std::nullopt);
@@ -244,7 +249,9 @@ TEST_F(Limits, JogIsStoppedBeforeItsLimitWithALimitEvent) {
   ASSERT_NE(e, nullptr);
   EXPECT_EQ(e->axis, "j");
   EXPECT_EQ(e->severity, k(event_t::WARNING));
-  EXPECT_NE(e->text.find("axis j jogging toward its limit 10 mm (1000 counts): stopped at 9.09 mm (909 counts"), std::string::npos) << e->text;
+  EXPECT_NE(e->text.find("axis j jogging toward its limit 10 mm (1000 counts): stopped at 9.09 mm (909 counts"),
+            std::string::npos)
+      << e->text;
   // Once: the watch ends with its stop.
   status("j", 950, 100);
   EXPECT_EQ(own_stops(), 1u);
@@ -307,7 +314,8 @@ TEST_F(Limits, AJogTheDriverRefusedLeavesTheWatchAsItWas) {
 // with an event) until a HOME or SET_POSITION of it is DONE; its state says so meanwhile.
 TEST_F(Limits, PositionLostRefusesMovesAndJogsUntilASetPositionIsDone) {
   std::vector<motionlcm::axis_state_t> states;
-  node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [&](const motionlcm::axis_state_t& a, const std::string&) { states.push_back(a); });
+  node.subscribe<motionlcm::axis_state_t>(
+      lcm::channels::kAxisState, [&](const motionlcm::axis_state_t& a, const std::string&) { states.push_back(a); });
   status("j", 0, 0, false);
   gateway.position_lost("j", "jd answers as freshly powered up");
   pump_until([&] { return event_of(event_t::REBOOT) != nullptr && !states.empty() && states.back().fault_code != 0; });
@@ -331,7 +339,8 @@ TEST_F(Limits, PositionLostRefusesMovesAndJogsUntilASetPositionIsDone) {
   // A SET_POSITION the drive refuses leaves it lost; one that is DONE makes it valid again.
   driver->fail_kind = gateway_command_t::SET_POSITION;
   EXPECT_EQ(send(gateway_command_t::SET_POSITION, "j", 0, 0).status, k(gateway_reply_t::FAILED));
-  EXPECT_EQ(send(gateway_command_t::ARM_MOVE, "j", 100, 100, 100, 100).error_code, error_code(ReplyError::kPositionLost));
+  EXPECT_EQ(send(gateway_command_t::ARM_MOVE, "j", 100, 100, 100, 100).error_code,
+            error_code(ReplyError::kPositionLost));
   driver->fail_kind = 0;
   EXPECT_EQ(send(gateway_command_t::SET_POSITION, "j", 0, 0).status, k(gateway_reply_t::DONE));
   pump_until([&] { return !states.empty() && states.back().fault_code != motionlcm::axis_state_t::POSITION_LOST; });
@@ -342,7 +351,8 @@ TEST_F(Limits, PositionLostRefusesMovesAndJogsUntilASetPositionIsDone) {
 // An axis that cannot be heard is not published as moving on its last word.
 TEST_F(Limits, AnOfflineAxisIsNotReportedMoving) {
   std::vector<motionlcm::axis_state_t> states;
-  node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [&](const motionlcm::axis_state_t& a, const std::string&) { states.push_back(a); });
+  node.subscribe<motionlcm::axis_state_t>(
+      lcm::channels::kAxisState, [&](const motionlcm::axis_state_t& a, const std::string&) { states.push_back(a); });
   DriveStatus s;
   s.online = false;
   s.moving = true;

@@ -76,11 +76,14 @@ struct Fixture : ::testing::Test {
     auto d = std::make_unique<FakeDriver>(gateway, loop);
     driver = d.get();
     gateway.attach(std::move(d));
-    node.subscribe<motionlcm::gateway_reply_t>(lcm::channels::kGatewayReply,
-                                               [this](const motionlcm::gateway_reply_t& r, const std::string&) { replies.push_back(r); });
-    node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
-                                            [this](const motionlcm::axis_state_t& s, const std::string&) { states.push_back(s); });
-    node.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) { events.push_back(e); });
+    node.subscribe<motionlcm::gateway_reply_t>(
+        lcm::channels::kGatewayReply,
+        [this](const motionlcm::gateway_reply_t& r, const std::string&) { replies.push_back(r); });
+    node.subscribe<motionlcm::axis_state_t>(
+        lcm::channels::kAxisState,
+        [this](const motionlcm::axis_state_t& s, const std::string&) { states.push_back(s); });
+    node.subscribe<motionlcm::event_t>(
+        lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) { events.push_back(e); });
   }
   void pump_until(const std::function<bool()>& done) {
     const auto deadline = loop.now() + milliseconds(3000);
@@ -173,7 +176,7 @@ TEST_F(Fixture, ScheduledTriggerFiresAtThisBusesSendTimeInItsOrderAndOnce) {
   pump_until([&] { return !driver->fired.empty(); });
   ASSERT_EQ(driver->fired.size(), 1u);
   EXPECT_EQ(driver->fired[0].first, 3);
-  EXPECT_GE(driver->fired[0].second - published, milliseconds(19));  // at can0's send time, not at once
+  EXPECT_GE(driver->fired[0].second - published, milliseconds(19));    // at can0's send time, not at once
   EXPECT_LT(driver->fired[0].second - published, milliseconds(1000));  // and not at the act time
   ASSERT_EQ(driver->orders.size(), 1u);
   EXPECT_EQ(driver->orders[0], (std::vector<std::int64_t>{12, 11, 13}));
@@ -215,22 +218,25 @@ TEST_F(Fixture, EventsNameTheirSource) {
   EXPECT_EQ(events[0].code, 0x1D);
 }
 
-
 TEST_F(Fixture, DriveWithoutADriverFailsItsCommandsAndShowsInTheHealth) {
   std::vector<motionlcm::health_t> heartbeats;
-  node.subscribe<motionlcm::health_t>(lcm::channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { heartbeats.push_back(h); });
+  node.subscribe<motionlcm::health_t>(
+      lcm::channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { heartbeats.push_back(h); });
   gateway.set_unsupported({config.find_drive("xd")});
   node.publish(lcm::channels::gateway_command("can0"), command_for("can0", "x"));
   // A heartbeat sent before set_unsupported() says OK: wait for one after it.
-  pump_until([&] { return !replies.empty() && !heartbeats.empty() && heartbeats.back().state != motionlcm::health_t::OK; });
+  pump_until(
+      [&] { return !replies.empty() && !heartbeats.empty() && heartbeats.back().state != motionlcm::health_t::OK; });
   ASSERT_EQ(replies.size(), 1u);
   EXPECT_EQ(replies[0].status, std::int8_t{motionlcm::gateway_reply_t::FAILED});
-  EXPECT_NE(replies[0].reason.find("drive xd is a uim342 drive, which this gateway does not drive yet"), std::string::npos)
+  EXPECT_NE(replies[0].reason.find("drive xd is a uim342 drive, which this gateway does not drive yet"),
+            std::string::npos)
       << replies[0].reason;
   EXPECT_TRUE(driver->commands.empty());
   ASSERT_FALSE(heartbeats.empty());
   EXPECT_EQ(heartbeats.back().state, std::int8_t{motionlcm::health_t::DEGRADED});
-  EXPECT_NE(heartbeats.back().detail.find("no driver yet for xd (uim342)"), std::string::npos) << heartbeats.back().detail;
+  EXPECT_NE(heartbeats.back().detail.find("no driver yet for xd (uim342)"), std::string::npos)
+      << heartbeats.back().detail;
 }
 
 }  // namespace
@@ -244,17 +250,20 @@ namespace {
 TEST_F(Fixture, DriveModelIsPublishedWhenSetUpOnChangeAndOnRequest) {
   std::vector<std::string> order;  // "model:<cpr>" / "state"
   std::vector<motionlcm::drive_model_t> models;
-  node.subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel, [&](const motionlcm::drive_model_t& m, const std::string&) {
-    models.push_back(m);
-    order.push_back("model:" + std::to_string(m.counts_per_revolution));
-  });
-  node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState, [&](const motionlcm::axis_state_t&, const std::string&) { order.push_back("state"); });
-  gateway.set_model_builder([](const config::Axis& axis, const DriveFacts& facts) -> std::variant<motionlcm::drive_model_t, std::string> {
-    motionlcm::drive_model_t m{};
-    m.axis = axis.name;
-    m.counts_per_revolution = static_cast<std::int32_t>(facts.counts_per_revolution.value_or(10000));
-    return m;
-  });
+  node.subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel,
+                                           [&](const motionlcm::drive_model_t& m, const std::string&) {
+                                             models.push_back(m);
+                                             order.push_back("model:" + std::to_string(m.counts_per_revolution));
+                                           });
+  node.subscribe<motionlcm::axis_state_t>(
+      lcm::channels::kAxisState, [&](const motionlcm::axis_state_t&, const std::string&) { order.push_back("state"); });
+  gateway.set_model_builder(
+      [](const config::Axis& axis, const DriveFacts& facts) -> std::variant<motionlcm::drive_model_t, std::string> {
+        motionlcm::drive_model_t m{};
+        m.axis = axis.name;
+        m.counts_per_revolution = static_cast<std::int32_t>(facts.counts_per_revolution.value_or(10000));
+        return m;
+      });
   DriveStatus offline;
   gateway.axis_status("x", offline);  // not set up yet: no model
   DriveStatus online;
@@ -282,9 +291,10 @@ TEST_F(Fixture, DriveModelIsPublishedWhenSetUpOnChangeAndOnRequest) {
   EXPECT_EQ(models[2].counts_per_revolution, 3200);  // the answer to the request for every bus
 
   // A model that cannot be made is an event, and nothing is published.
-  gateway.set_model_builder([](const config::Axis&, const DriveFacts&) -> std::variant<motionlcm::drive_model_t, std::string> {
-    return std::string("no resolution");
-  });
+  gateway.set_model_builder(
+      [](const config::Axis&, const DriveFacts&) -> std::variant<motionlcm::drive_model_t, std::string> {
+        return std::string("no resolution");
+      });
   gateway.drive_facts("x", {0u, std::nullopt, {}});
   pump_until([&] { return !events.empty(); });
   ASSERT_FALSE(events.empty());
@@ -303,7 +313,8 @@ namespace {
 struct Enforced : Fixture {
   Enforced()
       : Fixture(std::string(kConfig) +
-                "security: {mode: enforce, authorized_keys: ak, key: c.key, coordinator_public_key: c.pub, window_ms: 2000}\n") {
+                "security: {mode: enforce, authorized_keys: ak, key: c.key, coordinator_public_key: c.pub, window_ms: "
+                "2000}\n") {
     gateway.set_coordinator_key(coordinator.public_key());
   }
   // A trigger of can0 whose send time is now: it would fire at once.
@@ -369,7 +380,8 @@ TEST_F(Enforced, UnsignedOrWronglySignedTriggersFireNothingAndOnlyTheCoordinator
   EXPECT_TRUE(refused("unsigned SYNC_TRIGGER (trigger 2) refused"));
   security::MessageSigner impostor(security::KeyPair::generate("coordinator"), "GT_");
   publish_signed(impostor, lcm::channels::kSyncTrigger2, trigger(3));
-  EXPECT_TRUE(refused("signed SYNC_TRIGGER2 refused: key " + security::to_hex(impostor.key().id()) + " is not the coordinator's"));
+  EXPECT_TRUE(refused("signed SYNC_TRIGGER2 refused: key " + security::to_hex(impostor.key().id()) +
+                      " is not the coordinator's"));
   auto altered = signer.sign(lcm::channels::kSyncTrigger2, trigger(4), wall_time_us());
   altered.message.back() ^= 1;
   node.publish(security::signed_channel(lcm::channels::kSyncTrigger2), altered);
@@ -415,7 +427,8 @@ TEST_F(Enforced, UnsignedActiveMovesStopNothingAndTheCoordinatorsDo) {
 TEST_F(Enforced, AFloodOfForgedTriggersIsFiveEventsASecond) {
   for (int i = 0; i < 40; ++i) node.publish(lcm::channels::kSyncTrigger2, trigger(100 + i));
   pump_for(milliseconds(300));
-  const auto security_events = std::count_if(events.begin(), events.end(), [](const auto& e) { return e.kind == motionlcm::event_t::SECURITY; });
+  const auto security_events =
+      std::count_if(events.begin(), events.end(), [](const auto& e) { return e.kind == motionlcm::event_t::SECURITY; });
   EXPECT_EQ(security_events, 5);
   EXPECT_TRUE(driver->fired.empty());
 }

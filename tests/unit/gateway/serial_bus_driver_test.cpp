@@ -28,7 +28,9 @@ class ScriptedCore final : public SerialLineCore {
  public:
   explicit ScriptedCore(SerialBusDriver::Write write) : write_(std::move(write)) {}
   void start(TimePoint) override { ++starts; }
-  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint) override { received.append(bytes.begin(), bytes.end()); }
+  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint) override {
+    received.append(bytes.begin(), bytes.end());
+  }
   TimePoint process(TimePoint now) override {
     ++process_calls;
     if (wake_at && now >= *wake_at) {
@@ -144,7 +146,8 @@ TEST_F(SerialBusDriverTest, RetriesUntilThePortExistsWithOneEventPerCause) {
   ASSERT_EQ(out_.events.size(), 1u);
   EXPECT_EQ(out_.events[0].first, "");
   EXPECT_EQ(out_.events[0].second.kind, std::int16_t{motionlcm::event_t::OFFLINE});
-  EXPECT_NE(out_.events[0].second.text.find("cannot open " + path_ + " for bus rs232"), std::string::npos) << out_.events[0].second.text;
+  EXPECT_NE(out_.events[0].second.text.find("cannot open " + path_ + " for bus rs232"), std::string::npos)
+      << out_.events[0].second.text;
   EXPECT_EQ(core_->starts, 0);
 
   make_link();
@@ -192,7 +195,8 @@ TEST_F(SerialBusDriverTest, HangUpIsALostLineThenTheCoreStartsAgain) {
   ASSERT_TRUE(run_until([&] { return !core_->lost.empty(); }));
   EXPECT_FALSE(driver_->port_open());
   EXPECT_FALSE(core_->write("FBK;")) << "a write while the port is closed is refused";
-  EXPECT_EQ(driver_->statistics().at(0).state.rfind("closed: " + path_ + " lost: ", 0), 0u) << driver_->statistics().at(0).state;
+  EXPECT_EQ(driver_->statistics().at(0).state.rfind("closed: " + path_ + " lost: ", 0), 0u)
+      << driver_->statistics().at(0).state;
 
   make_link();
   ASSERT_TRUE(run_until([&] { return driver_->port_open(); }));

@@ -28,8 +28,7 @@ void* counted_alloc(std::size_t size) {
   *static_cast<std::size_t*>(raw) = size;
   const std::size_t now = g_current.fetch_add(size) + size;
   std::size_t peak = g_peak.load();
-  while (now > peak && !g_peak.compare_exchange_weak(peak, now)) {
-  }
+  while (now > peak && !g_peak.compare_exchange_weak(peak, now)) {}
   return static_cast<char*>(raw) + kHeader;
 }
 
@@ -86,8 +85,7 @@ TEST(HostileMessage, LcmGenDecodeAllocatesTheClaimedCountFirst) {
     // the first (zero-length) element.
     try {
       EXPECT_LT(msg.decode(bytes.data(), 0, static_cast<int>(bytes.size())), 0);
-    } catch (const std::length_error&) {
-    }
+    } catch (const std::length_error&) {}
   }
   const auto us = std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - t0).count();
   std::printf("lcm-gen decode, 74 bytes claiming 1e6 axes: peak %zu bytes, %lld us\n", meter.peak(),
@@ -115,8 +113,8 @@ TEST(HostileMessage, NodeReceivesItWithoutAllocatingTheClaim) {
   int delivered = 0;
   std::string report;
   node.on_malformed([&](const std::string& w) { report = w; });
-  node.subscribe<motionlcm::gateway_command_t>(channels::gateway_command("can0"),
-                                               [&](const motionlcm::gateway_command_t&, const std::string&) { ++delivered; });
+  node.subscribe<motionlcm::gateway_command_t>(
+      channels::gateway_command("can0"), [&](const motionlcm::gateway_command_t&, const std::string&) { ++delivered; });
   const auto bytes = hostile_gateway_command(20'000'000);
   PeakMeter meter;
   ASSERT_TRUE(node.publish_raw("HA_" + channels::gateway_command("can0"), bytes));

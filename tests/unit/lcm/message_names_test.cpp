@@ -20,7 +20,8 @@ using motionlcm::reply_t;
 
 TEST(MessageNames, ReplyStatuses) {
   std::set<std::string> names;
-  for (int s = reply_t::ACCEPTED; s <= reply_t::FAILED; ++s) names.insert(reply_status_name(static_cast<std::int8_t>(s)));
+  for (int s = reply_t::ACCEPTED; s <= reply_t::FAILED; ++s)
+    names.insert(reply_status_name(static_cast<std::int8_t>(s)));
   EXPECT_EQ(names.size(), 7u);
   EXPECT_FALSE(names.contains("unknown"));
   EXPECT_STREQ(reply_status_name(reply_t::DONE), "done");
@@ -34,14 +35,16 @@ TEST(MessageNames, ReplyStatuses) {
 
 TEST(MessageNames, HealthStates) {
   std::set<std::string> names;
-  for (int s = health_t::STARTING; s <= health_t::STOPPING; ++s) names.insert(health_state_name(static_cast<std::int8_t>(s)));
+  for (int s = health_t::STARTING; s <= health_t::STOPPING; ++s)
+    names.insert(health_state_name(static_cast<std::int8_t>(s)));
   EXPECT_EQ(names, (std::set<std::string>{"starting", "ok", "degraded", "fault", "stopping"}));
   EXPECT_STREQ(health_state_name(9), "?");
 }
 
 TEST(MessageNames, EventKindsAndSeverities) {
   std::set<std::string> kinds;
-  for (int k = event_t::ALARM; k <= event_t::UNOWNED_MOTION; ++k) kinds.insert(event_kind_name(static_cast<std::int16_t>(k)));
+  for (int k = event_t::ALARM; k <= event_t::UNOWNED_MOTION; ++k)
+    kinds.insert(event_kind_name(static_cast<std::int16_t>(k)));
   EXPECT_EQ(kinds.size(), static_cast<std::size_t>(event_t::UNOWNED_MOTION));
   EXPECT_FALSE(kinds.contains("unknown"));
   EXPECT_STREQ(event_kind_name(event_t::MOTION_COMPLETE), "motion complete");

@@ -53,7 +53,8 @@ TEST(LcmNode, MalformedMessageIsCountedAndNotDelivered) {
   int delivered = 0;
   std::string what;
   node.on_malformed([&](const std::string& w) { what = w; });
-  node.subscribe<motionlcm::event_t>(channels::kEvent, [&](const motionlcm::event_t&, const std::string&) { ++delivered; });
+  node.subscribe<motionlcm::event_t>(channels::kEvent,
+                                     [&](const motionlcm::event_t&, const std::string&) { ++delivered; });
   ASSERT_TRUE(node.publish_raw("T2_EVENT", {1, 2, 3}));
   run_until(loop, [&] { return node.malformed_count() > 0; });
   EXPECT_EQ(node.malformed_count(), 1u);
@@ -72,7 +73,8 @@ TEST(LcmNode, MalformedReportsAreRateLimitedAndSummarized) {
   std::vector<std::string> reports;
   node.on_malformed([&](const std::string& w) { reports.push_back(w); });
   int delivered = 0;
-  node.subscribe<motionlcm::event_t>(channels::kEvent, [&](const motionlcm::event_t&, const std::string&) { ++delivered; });
+  node.subscribe<motionlcm::event_t>(channels::kEvent,
+                                     [&](const motionlcm::event_t&, const std::string&) { ++delivered; });
   constexpr int kFlood = 200;
   for (int i = 0; i < kFlood; ++i) ASSERT_TRUE(node.publish_raw("T6_EVENT", {1, 2, 3}));
   run_until(loop, [&] { return node.malformed_count() >= kFlood; });
@@ -115,7 +117,8 @@ TEST(MalformedLimiter, FivePerWindowThenOneSummaryAfterIt) {
 TEST(LcmNode, UdpmUrlsGetAReceiveBuffer) {
   EXPECT_EQ(Node::url_with_receive_buffer("udpm://239.255.76.67:7667?ttl=0", 4096),
             "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4096");
-  EXPECT_EQ(Node::url_with_receive_buffer("udpm://239.255.76.67:7667", 4096), "udpm://239.255.76.67:7667?recv_buf_size=4096");
+  EXPECT_EQ(Node::url_with_receive_buffer("udpm://239.255.76.67:7667", 4096),
+            "udpm://239.255.76.67:7667?recv_buf_size=4096");
   EXPECT_EQ(Node::url_with_receive_buffer("", 4096), std::string(kLcmDefaultUrl) + "&recv_buf_size=4096");
   EXPECT_EQ(Node::url_with_receive_buffer("udpm://239.255.76.67:7667?recv_buf_size=100", 4096),
             "udpm://239.255.76.67:7667?recv_buf_size=100")
@@ -155,9 +158,11 @@ TEST(LcmNode, BurstOf1000RequestsFromFourSendersIsReceivedWhole) {
       }
     });
   }
-  run_until(loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(10000));
+  run_until(
+      loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(10000));
   for (auto& t : senders) t.join();
-  run_until(loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(2000));
+  run_until(
+      loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(2000));
   EXPECT_EQ(sent.load(), kSenders * kEach);
   EXPECT_EQ(seen.size(), std::size_t{kSenders * kEach});
   EXPECT_EQ(node.malformed_count(), 0u);
@@ -189,7 +194,8 @@ TEST(HealthPublisher, PublishesPeriodicallyWithBusStats) {
   Node node(loop, {testing::unique_lcm_url(4), "T5_"});
   ASSERT_TRUE(node.ok());
   std::vector<motionlcm::health_t> beats;
-  node.subscribe<motionlcm::health_t>(channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { beats.push_back(h); });
+  node.subscribe<motionlcm::health_t>(channels::kHealth,
+                                      [&](const motionlcm::health_t& h, const std::string&) { beats.push_back(h); });
   HealthPublisher health(loop, node, "gateway:can0", "gateway", milliseconds(20));
   health.set_bus_stats([] {
     motionlcm::bus_stats_t b{};
@@ -214,7 +220,8 @@ TEST(HealthPublisher, DetailShowsMalformedMessagesAndHandlerErrors) {
   ASSERT_TRUE(node.ok());
   node.on_malformed([](const std::string&) {});
   std::vector<motionlcm::health_t> beats;
-  node.subscribe<motionlcm::health_t>(channels::kHealth, [&](const motionlcm::health_t& h, const std::string&) { beats.push_back(h); });
+  node.subscribe<motionlcm::health_t>(channels::kHealth,
+                                      [&](const motionlcm::health_t& h, const std::string&) { beats.push_back(h); });
   node.subscribe<motionlcm::event_t>(channels::kEvent, [](const motionlcm::event_t&, const std::string&) {});
   HealthPublisher health(loop, node, "gateway:can0", "gateway", milliseconds(20));
   health.set_state(motionlcm::health_t::OK, "2 axes ready");

@@ -132,7 +132,8 @@ TEST(WireBounds, EveryTruncationAndTrailingByteIsRefused) {
   }
   auto longer = bytes;
   longer.push_back(0);
-  EXPECT_NE(check_message<motionlcm::gateway_command_t>(longer.data(), longer.size()).find("trailing"), std::string::npos);
+  EXPECT_NE(check_message<motionlcm::gateway_command_t>(longer.data(), longer.size()).find("trailing"),
+            std::string::npos);
 }
 
 TEST(WireBounds, WrongTypeAndMissingNulAreRefused) {

@@ -3,8 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <optional>
 #include <random>
@@ -53,9 +53,7 @@ class RandomPlans {
     return a;
   }
 
-  PlanOptions options() {
-    return {chance(0.3) ? 1.0 : uniform(0.05, 1.0), chance(0.3) ? 1.0 : uniform(0.05, 1.0)};
-  }
+  PlanOptions options() { return {chance(0.3) ? 1.0 : uniform(0.05, 1.0), chance(0.3) ? 1.0 : uniform(0.05, 1.0)}; }
 
   const DriveQuantizer* quantizer() {
     static const IdentityQuantizer identity;
@@ -177,8 +175,7 @@ void check_plan(const Case& c, const SyncPlan& plan) {
     const Eigen::VectorXd positions = plan.positions_counts_at(t);
     const double fraction = plan.time_law.travelled(1.0, t);
     for (Eigen::Index i = 0; i < positions.size(); ++i) {
-      const double expected =
-          static_cast<double>(plan.start_counts[i]) + fraction * plan.distance_counts[i];
+      const double expected = static_cast<double>(plan.start_counts[i]) + fraction * plan.distance_counts[i];
       EXPECT_NEAR(positions[i], expected, 1e-9 * (std::abs(plan.distance_counts[i]) + 1.0)) << "t " << t;
     }
   }
@@ -281,9 +278,7 @@ void check_quantized(const Case& c, const SyncPlan& plan, const QuantizedPlan& q
   for (const RealizedAxis& a : q.axes) {
     if (!a.setting) continue;
     for (const RealizedAxis& b : q.axes) {
-      if (b.setting) {
-        EXPECT_LE(std::abs(a.duration_s() - b.duration_s()), q.predicted_spread_s());
-      }
+      if (b.setting) { EXPECT_LE(std::abs(a.duration_s() - b.duration_s()), q.predicted_spread_s()); }
     }
   }
   // The refinement is optimal over its candidates, and (re-fitted ramps included) never worse than
@@ -309,12 +304,10 @@ void count(const Case& c, const SyncPlan& plan, const QuantizedPlan& q, Coverage
   seen.all_still += moving == 0;
   seen.some_still += still > 0 && moving > 0;
   seen.triangle += moving > 0 && plan.time_law.t_cruise_s == 0.0;
-  seen.one_count_move += std::ranges::any_of(plan.axes, [](const AxisProfile& a) {
-    return std::abs(a.distance_counts()) == 1;
-  });
-  seen.huge_move += std::ranges::any_of(plan.axes, [](const AxisProfile& a) {
-    return std::abs(a.distance_counts()) > 1'000'000'000'000;
-  });
+  seen.one_count_move +=
+      std::ranges::any_of(plan.axes, [](const AxisProfile& a) { return std::abs(a.distance_counts()) == 1; });
+  seen.huge_move += std::ranges::any_of(
+      plan.axes, [](const AxisProfile& a) { return std::abs(a.distance_counts()) > 1'000'000'000'000; });
   seen.nonzero_spread += q.predicted_spread_s() > 0.0;
 }
 
@@ -343,10 +336,11 @@ TEST_P(PlannerProperties, RandomPlansKeepEveryInvariant) {
   EXPECT_GE(seen.huge_move, 100);
   EXPECT_GE(seen.brute_forced, 500);
   EXPECT_GE(seen.nonzero_spread, 1000);
-  std::printf("coverage: single %d, all still %d, some still %d, triangle %d, 1-count %d, huge %d, brute-forced %d, "
-              "spread>0 %d\n",
-              seen.single_axis, seen.all_still, seen.some_still, seen.triangle, seen.one_count_move,
-              seen.huge_move, seen.brute_forced, seen.nonzero_spread);
+  std::printf(
+      "coverage: single %d, all still %d, some still %d, triangle %d, 1-count %d, huge %d, brute-forced %d, "
+      "spread>0 %d\n",
+      seen.single_axis, seen.all_still, seen.some_still, seen.triangle, seen.one_count_move, seen.huge_move,
+      seen.brute_forced, seen.nonzero_spread);
 }
 
 INSTANTIATE_TEST_SUITE_P(FixedSeeds, PlannerProperties, ::testing::Values(1u, 20240611u));

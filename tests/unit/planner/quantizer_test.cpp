@@ -132,9 +132,13 @@ SyncPlan plan_of(const std::vector<AxisRequest>& axes) {
 }
 
 SyncPlan x1000_y333() {
-  return plan_of({make_axis({.name = "x", .target_user = 1000.0, .max_velocity_user_per_s = 100.0,
+  return plan_of({make_axis({.name = "x",
+                             .target_user = 1000.0,
+                             .max_velocity_user_per_s = 100.0,
                              .max_acceleration_user_per_s2 = 1000.0}),
-                  make_axis({.name = "y", .target_user = 333.0, .max_velocity_user_per_s = 100.0,
+                  make_axis({.name = "y",
+                             .target_user = 333.0,
+                             .max_velocity_user_per_s = 100.0,
                              .max_acceleration_user_per_s2 = 1000.0})});
 }
 
@@ -187,9 +191,13 @@ TEST(QuantizePlan, SlowTinyMoveGetsATriangleOfRefittedRamps) {
   // need 2 * 1/(2 * 0.03) = 33 counts > 3, so a triangle of 2 * sqrt(3/0.03) = 20 s: 81 s early.
   // Re-fitted: a triangle lasting 101 s needs a = 4 * 3 / 101^2 = 0.0011763 c/s^2, a ramp of
   // 1/a = 850083 ms; 2 * sqrt(3 * 850.083) = 101.0000 s.
-  const SyncPlan plan = plan_of({make_axis({.name = "x", .target_user = 100000.0, .max_velocity_user_per_s = 1000.0,
+  const SyncPlan plan = plan_of({make_axis({.name = "x",
+                                            .target_user = 100000.0,
+                                            .max_velocity_user_per_s = 1000.0,
                                             .max_acceleration_user_per_s2 = 1000.0}),
-                                 make_axis({.name = "y", .target_user = 3.0, .max_velocity_user_per_s = 1000.0,
+                                 make_axis({.name = "y",
+                                            .target_user = 3.0,
+                                            .max_velocity_user_per_s = 1000.0,
                                             .max_acceleration_user_per_s2 = 1000.0})});
   ASSERT_NEAR(plan.duration_s(), 101.0, 1e-9);
   const IdentityQuantizer identity;
@@ -237,8 +245,8 @@ TEST(QuantizePlan, AllStillNeedsNoQuantizerCall) {
 
 TEST(QuantizePlan, CustomFamilyQuantizerPlugsIn) {
   // 100 counts at v 55 c/s, a 1000: the drive offers 50 or 60 c/s; 60 exceeds the limit of 55.
-  const SyncPlan plan = plan_of({make_axis({.target_user = 100.0, .max_velocity_user_per_s = 55.0,
-                                            .max_acceleration_user_per_s2 = 1000.0})});
+  const SyncPlan plan = plan_of(
+      {make_axis({.target_user = 100.0, .max_velocity_user_per_s = 55.0, .max_acceleration_user_per_s2 = 1000.0})});
   const TenPpsFixedRamp custom;
   const std::vector<const DriveQuantizer*> quantizers{&custom};
   const auto result = quantize_plan(plan, quantizers);
@@ -249,8 +257,11 @@ TEST(QuantizePlan, CustomFamilyQuantizerPlugsIn) {
 }
 
 TEST(QuantizePlan, Errors) {
-  const SyncPlan plan = plan_of({make_axis({.name = "slow", .target_user = 100.0, .counts_per_user = 1.0,
-                                            .max_velocity_user_per_s = 10.0, .max_acceleration_user_per_s2 = 100.0})});
+  const SyncPlan plan = plan_of({make_axis({.name = "slow",
+                                            .target_user = 100.0,
+                                            .counts_per_user = 1.0,
+                                            .max_velocity_user_per_s = 10.0,
+                                            .max_acceleration_user_per_s2 = 100.0})});
   const PpsRateQuantizer pps;
   const std::vector<const DriveQuantizer*> none;
   EXPECT_EQ(quantize_plan(plan, none).error().code, PlanErrc::quantizer_count_mismatch);

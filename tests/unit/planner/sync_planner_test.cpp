@@ -17,9 +17,15 @@ using testing::make_axis;
 // X: 0 -> 10 mm at 100 counts/mm = 1000 counts, v 2 mm/s = 200 c/s, a 4 mm/s^2 = 400 c/s^2.
 // Y: 0 -> 5 mm at 100 counts/mm = 500 counts, v 0.5 mm/s = 50 c/s, a 4 mm/s^2 = 400 c/s^2.
 std::vector<AxisRequest> two_axes() {
-  return {make_axis({.name = "x", .target_user = 10.0, .counts_per_user = 100.0, .max_velocity_user_per_s = 2.0,
+  return {make_axis({.name = "x",
+                     .target_user = 10.0,
+                     .counts_per_user = 100.0,
+                     .max_velocity_user_per_s = 2.0,
                      .max_acceleration_user_per_s2 = 4.0}),
-          make_axis({.name = "y", .target_user = 5.0, .counts_per_user = 100.0, .max_velocity_user_per_s = 0.5,
+          make_axis({.name = "y",
+                     .target_user = 5.0,
+                     .counts_per_user = 100.0,
+                     .max_velocity_user_per_s = 0.5,
                      .max_acceleration_user_per_s2 = 4.0})};
 }
 
@@ -60,8 +66,10 @@ TEST(SyncPlanner, SpeedOverrideScalesVelocityOnly) {
 TEST(SyncPlanner, SeparateDecelerationInUserUnits) {
   // 0 -> 10 units at 100 counts/unit: 1000 counts, v 100 c/s, a 100 c/s^2, d 50 c/s^2 ->
   // 1 s + 8.5 s + 2 s = 11.5 s (see the profile test).
-  const std::vector<AxisRequest> axes{make_axis({.target_user = 10.0, .counts_per_user = 100.0,
-                                                 .max_velocity_user_per_s = 1.0, .max_acceleration_user_per_s2 = 1.0,
+  const std::vector<AxisRequest> axes{make_axis({.target_user = 10.0,
+                                                 .counts_per_user = 100.0,
+                                                 .max_velocity_user_per_s = 1.0,
+                                                 .max_acceleration_user_per_s2 = 1.0,
                                                  .max_deceleration_user_per_s2 = 0.5})};
   const auto result = plan_synchronized(axes);
   ASSERT_TRUE(result.ok());
@@ -70,13 +78,15 @@ TEST(SyncPlanner, SeparateDecelerationInUserUnits) {
 }
 
 TEST(SyncPlanner, OneAxisIsItsOwnTimeOptimalProfile) {
-  const std::vector<AxisRequest> axes{make_axis({.start_user = -3.0, .target_user = 7.25, .counts_per_user = 400.0,
+  const std::vector<AxisRequest> axes{make_axis({.start_user = -3.0,
+                                                 .target_user = 7.25,
+                                                 .counts_per_user = 400.0,
                                                  .max_velocity_user_per_s = 3.0,
                                                  .max_acceleration_user_per_s2 = 11.0})};
   const auto result = plan_synchronized(axes, PlanOptions{.velocity_scale = 0.8, .acceleration_scale = 0.5});
   ASSERT_TRUE(result.ok());
-  const AxisProfile expected = time_optimal_profile(-1200, 2900, 0.8 * 3.0 * 400.0, 0.5 * 11.0 * 400.0,
-                                                    0.5 * 11.0 * 400.0);
+  const AxisProfile expected =
+      time_optimal_profile(-1200, 2900, 0.8 * 3.0 * 400.0, 0.5 * 11.0 * 400.0, 0.5 * 11.0 * 400.0);
   EXPECT_NEAR(result.value().duration_s(), expected.duration_s(), 1e-9);
   EXPECT_NEAR(result.value().axes[0].shape.peak_velocity, expected.shape.peak_velocity, 1e-9);
 }
@@ -105,7 +115,8 @@ TEST(SyncPlanner, AllAxesStillGiveAZeroDurationPlan) {
 
 TEST(SyncPlanner, OneCountMoveIsATriangle) {
   // 1 count, v 1000 c/s, a 100 c/s^2: peak sqrt(2*1*100*100/200) = 10 c/s, 0.1 s + 0.1 s.
-  const std::vector<AxisRequest> axes{make_axis({.start_user = 0.0, .target_user = 1.0,
+  const std::vector<AxisRequest> axes{make_axis({.start_user = 0.0,
+                                                 .target_user = 1.0,
                                                  .max_velocity_user_per_s = 1000.0,
                                                  .max_acceleration_user_per_s2 = 100.0})};
   const auto result = plan_synchronized(axes);
@@ -119,11 +130,15 @@ TEST(SyncPlanner, OneCountMoveIsATriangle) {
 TEST(SyncPlanner, HugeMoveEndsExactlyInCounts) {
   // 2^50 counts: still exact in a double, sampling ends on the integer target.
   const double huge = 1125899906842624.0;
-  const std::vector<AxisRequest> axes{
-      make_axis({.start_user = -1.0, .target_user = huge, .max_velocity_user_per_s = 1e6,
-                 .max_acceleration_user_per_s2 = 1e5, .max_position_user = 2 * huge}),
-      make_axis({.start_user = 5.0, .target_user = 6.0, .max_velocity_user_per_s = 1e6,
-                 .max_acceleration_user_per_s2 = 1e5})};
+  const std::vector<AxisRequest> axes{make_axis({.start_user = -1.0,
+                                                 .target_user = huge,
+                                                 .max_velocity_user_per_s = 1e6,
+                                                 .max_acceleration_user_per_s2 = 1e5,
+                                                 .max_position_user = 2 * huge}),
+                                      make_axis({.start_user = 5.0,
+                                                 .target_user = 6.0,
+                                                 .max_velocity_user_per_s = 1e6,
+                                                 .max_acceleration_user_per_s2 = 1e5})};
   const auto result = plan_synchronized(axes);
   ASSERT_TRUE(result.ok());
   const SyncPlan& plan = result.value();
@@ -177,9 +192,15 @@ TEST(SyncPlannerErrors, EveryInvalidInputHasItsReason) {
             PlanErrc::non_positive_limit);
   EXPECT_EQ(with([&](AxisRequest& a) { a.limits.max_deceleration_user_per_s2 = 0.0; }).code,
             PlanErrc::non_positive_limit);
-  EXPECT_EQ(with([&](AxisRequest& a) { a.limits.min_position_user = 5.0; a.limits.max_position_user = 4.0; }).code,
+  EXPECT_EQ(with([&](AxisRequest& a) {
+              a.limits.min_position_user = 5.0;
+              a.limits.max_position_user = 4.0;
+            }).code,
             PlanErrc::invalid_position_range);
-  EXPECT_EQ(with([&](AxisRequest& a) { a.target_user = 1e16; a.limits.max_position_user = inf; }).code,
+  EXPECT_EQ(with([&](AxisRequest& a) {
+              a.target_user = 1e16;
+              a.limits.max_position_user = inf;
+            }).code,
             PlanErrc::counts_out_of_range);
   const PlanFailure f = with([&](AxisRequest& a) { a.counts_per_user = 0.0; });
   EXPECT_EQ(f.axis_index, 1u);

@@ -49,13 +49,16 @@ TEST_F(GatewayCommands, OtherKeyAlteredPayloadStaleTimeAndRequestDomainAreRefuse
   EXPECT_NE(verifier.verify(other.sign(arm(1), now), now).reason.find("is not the coordinator's"), std::string::npos);
   auto altered = signer.sign(arm(1), now);
   altered.command[altered.command.size() - 1] ^= 1;
-  EXPECT_EQ(verifier.verify(altered, now).reason, "signed command refused: bad signature (forged or altered in transit)");
+  EXPECT_EQ(verifier.verify(altered, now).reason,
+            "signed command refused: bad signature (forged or altered in transit)");
   const auto old = verifier.verify(signer.sign(arm(2), now - 3'000'000), now);
-  EXPECT_NE(old.reason.find("stale timestamp: signed 3000 ms ago, outside the window of 2000 ms"), std::string::npos) << old.reason;
+  EXPECT_NE(old.reason.find("stale timestamp: signed 3000 ms ago, outside the window of 2000 ms"), std::string::npos)
+      << old.reason;
   const auto before = verifier.verify(signer.sign(arm(2), kStart - 1000), kStart + 1000);
   EXPECT_NE(before.reason.find("before the gateway started"), std::string::npos) << before.reason;
   GatewayCommandSigner other_prefix(coordinator, "LAB2_");
-  EXPECT_EQ(verifier.verify(other_prefix.sign(arm(5), now), now).reason, "signed command refused: bad signature (forged or altered in transit)");
+  EXPECT_EQ(verifier.verify(other_prefix.sign(arm(5), now), now).reason,
+            "signed command refused: bad signature (forged or altered in transit)");
 }
 
 TEST(PublicKeyFile, ReadsThePubFileAndNamesBadLines) {

@@ -51,8 +51,9 @@ TEST(Keys, SignatureVerifiesAndFailsOnAnyChange) {
 
 TEST(Keys, SeedGivesTheRfc8032TestVector) {
   // RFC 8032 §7.1, TEST 1: secret key 9d61b19d..., public key d75a9801...
-  const std::array<std::uint8_t, 32> seed{0x9d, 0x61, 0xb1, 0x9d, 0xef, 0xfd, 0x5a, 0x60, 0xba, 0x84, 0x4a, 0xf4, 0x92, 0xec, 0x2c, 0xc4,
-                                          0x44, 0x49, 0xc5, 0x69, 0x7b, 0x32, 0x69, 0x19, 0x70, 0x3b, 0xac, 0x03, 0x1c, 0xae, 0x7f, 0x60};
+  const std::array<std::uint8_t, 32> seed{0x9d, 0x61, 0xb1, 0x9d, 0xef, 0xfd, 0x5a, 0x60, 0xba, 0x84, 0x4a,
+                                          0xf4, 0x92, 0xec, 0x2c, 0xc4, 0x44, 0x49, 0xc5, 0x69, 0x7b, 0x32,
+                                          0x69, 0x19, 0x70, 0x3b, 0xac, 0x03, 0x1c, 0xae, 0x7f, 0x60};
   const KeyPair key = KeyPair::from_seed(seed, "rfc");
   EXPECT_EQ(to_hex(key.id()), "d75a980182b10ab7");
   const Signature sig = key.sign({});
@@ -102,7 +103,8 @@ TEST_F(KeyFiles, WrittenPairLoadsBackWithMode0600AndIsNeverOverwritten) {
 TEST_F(KeyFiles, GroupOrOtherReadableKeyIsRefusedSayingHowToFixIt) {
   const KeyPair key = KeyPair::generate("alice");
   const fs::path path = dir_ / "alice.key";
-  write(path, key.private_file_text(), fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
+  write(path, key.private_file_text(),
+        fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
   const auto loaded = load_private_key(path.string());
   EXPECT_EQ(error_of(loaded), "key file " + path.string() + " is readable by group/others (mode 0644); chmod 600 it");
 }
@@ -114,12 +116,16 @@ TEST_F(KeyFiles, BadContentNamesFileAndLine) {
   EXPECT_EQ(error_of(load_private_key(path.string())), path.string() + ":3: the seed is not base64 of 32 bytes");
   const KeyPair key = KeyPair::generate("alice");
   write(path, key.authorized_line("admin") + "\n", rw);
-  EXPECT_NE(error_of(load_private_key(path.string())).find(path.string() + ":1: expected 'motionbus-ed25519-private-key"), std::string::npos);
+  EXPECT_NE(
+      error_of(load_private_key(path.string())).find(path.string() + ":1: expected 'motionbus-ed25519-private-key"),
+      std::string::npos);
   write(path, key.private_file_text() + key.private_file_text(), rw);
-  EXPECT_EQ(error_of(load_private_key(path.string())), path.string() + ":4: a second key line (a private key file holds one key)");
+  EXPECT_EQ(error_of(load_private_key(path.string())),
+            path.string() + ":4: a second key line (a private key file holds one key)");
   write(path, "# nothing\n", rw);
   EXPECT_EQ(error_of(load_private_key(path.string())), "key file " + path.string() + " holds no key line");
-  EXPECT_NE(error_of(load_private_key((dir_ / "missing.key").string())).find("cannot read key file"), std::string::npos);
+  EXPECT_NE(error_of(load_private_key((dir_ / "missing.key").string())).find("cannot read key file"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -21,10 +21,12 @@ class Verifier : public ::testing::Test {
  protected:
   Verifier() {
     const std::string text = operator_.authorized_line("operate") + "\n" + observer_.authorized_line("observe") + "\n";
-    verifier_.emplace(std::get<AuthorizedKeys>(AuthorizedKeys::parse(text, "keys")), std::string(kPrefix), 2000ms, kStart);
+    verifier_.emplace(std::get<AuthorizedKeys>(AuthorizedKeys::parse(text, "keys")), std::string(kPrefix), 2000ms,
+                      kStart);
   }
 
-  static request_t move(const std::string& client_id, std::int64_t request_id = 1, std::int8_t kind = request_t::MOVE_ABSOLUTE) {
+  static request_t move(const std::string& client_id, std::int64_t request_id = 1,
+                        std::int8_t kind = request_t::MOVE_ABSOLUTE) {
     request_t r{};
     r.client_id = client_id;
     r.request_id = request_id;
@@ -57,7 +59,8 @@ TEST_F(Verifier, UnknownKeyIsRefusedUnanswered) {
   const Verdict v = verifier_->verify(stranger.sign(move("op"), now_), now_);
   EXPECT_FALSE(v.accepted);
   EXPECT_FALSE(v.answerable);
-  EXPECT_EQ(v.reason, "unknown key " + to_hex(stranger.key().id()) + " (not in authorized_keys): move request 1 of client 'op'");
+  EXPECT_EQ(v.reason,
+            "unknown key " + to_hex(stranger.key().id()) + " (not in authorized_keys): move request 1 of client 'op'");
 }
 
 TEST_F(Verifier, AlteredPayloadOrSignatureOrOtherPrefixIsABadSignature) {
@@ -66,7 +69,10 @@ TEST_F(Verifier, AlteredPayloadOrSignatureOrOtherPrefixIsABadSignature) {
   Verdict v = verifier_->verify(tampered, now_);
   EXPECT_FALSE(v.accepted);
   EXPECT_FALSE(v.answerable);
-  EXPECT_EQ(v.reason.rfind("bad signature from key 'op' (" + to_hex(operator_.id()) + ") (forged or altered in transit)", 0), 0u) << v.reason;
+  EXPECT_EQ(
+      v.reason.rfind("bad signature from key 'op' (" + to_hex(operator_.id()) + ") (forged or altered in transit)", 0),
+      0u)
+      << v.reason;
 
   signed_request_t resigned = op_signer_.sign(move("op"), now_);
   resigned.signature[10] ^= 1;
@@ -86,8 +92,9 @@ TEST_F(Verifier, ReplayedCounterIsRefusedUnanswered) {
   const Verdict again = verifier_->verify(once, now_ + 1000);
   EXPECT_FALSE(again.accepted);
   EXPECT_FALSE(again.answerable);
-  EXPECT_EQ(again.reason, "replayed counter " + std::to_string(once.counter) + " from key 'op' (" + to_hex(operator_.id()) +
-                              ") (last accepted " + std::to_string(once.counter) + "): move request 1 of client 'op'");
+  EXPECT_EQ(again.reason, "replayed counter " + std::to_string(once.counter) + " from key 'op' (" +
+                              to_hex(operator_.id()) + ") (last accepted " + std::to_string(once.counter) +
+                              "): move request 1 of client 'op'");
   // The next counter passes; counters are per key.
   EXPECT_TRUE(verifier_->verify(op_signer_.sign(move("op", 2), now_), now_).accepted);
   EXPECT_TRUE(verifier_->verify(observe_signer_.sign(move("watch", 1, request_t::STOP), now_), now_).accepted);
@@ -117,7 +124,8 @@ TEST_F(Verifier, ExtremeTimestampsAreStaleWithoutOverflow) {
   RequestSigner early(operator_, std::string(kPrefix));
   const Verdict first = verifier_->verify(early.sign(move("op"), kMin), now_);
   EXPECT_FALSE(first.accepted);
-  EXPECT_NE(first.reason.find("signed 9225072036854775 ms before the coordinator started"), std::string::npos) << first.reason;
+  EXPECT_NE(first.reason.find("signed 9225072036854775 ms before the coordinator started"), std::string::npos)
+      << first.reason;
   RequestSigner late(operator_, std::string(kPrefix));
   const Verdict last = verifier_->verify(late.sign(move("op"), kMax), now_);
   EXPECT_FALSE(last.accepted);
@@ -130,7 +138,8 @@ TEST_F(Verifier, RoleTooLowIsRefusedAndAnswerable) {
   EXPECT_TRUE(v.answerable);
   ASSERT_TRUE(v.request);
   EXPECT_EQ(v.request->request_id, 3);
-  EXPECT_EQ(v.reason, "role too low: key 'watch' (" + to_hex(observer_.id()) + ") has role observe, a move needs operate: move request 3 of client 'watch'");
+  EXPECT_EQ(v.reason, "role too low: key 'watch' (" + to_hex(observer_.id()) +
+                          ") has role observe, a move needs operate: move request 3 of client 'watch'");
   const Verdict set = verifier_->verify(op_signer_.sign(move("op", 4, request_t::SET_POSITION), now_), now_);
   EXPECT_FALSE(set.accepted);
   EXPECT_NE(set.reason.find("has role operate, a set position needs configure"), std::string::npos) << set.reason;

@@ -61,22 +61,27 @@ TEST_F(SignedMessages, AnOlderCounterIsAReplayEvenForAMessageNeverSeen) {
 
 TEST_F(SignedMessages, OtherKeyAlteredOtherChannelOtherPrefixStaleAndWrongTypeAreRefused) {
   MessageSigner impostor(KeyPair::generate("coordinator"), "MOTION_");
-  EXPECT_NE(triggers.verify<sync_trigger2_t>(impostor.sign("SYNC_TRIGGER2", trigger(1), now), now).reason.find("is not the coordinator's"),
+  EXPECT_NE(triggers.verify<sync_trigger2_t>(impostor.sign("SYNC_TRIGGER2", trigger(1), now), now)
+                .reason.find("is not the coordinator's"),
             std::string::npos);
   auto altered = signer.sign("SYNC_TRIGGER2", trigger(1), now);
   altered.message[altered.message.size() - 1] ^= 1;
-  EXPECT_EQ(triggers.verify<sync_trigger2_t>(altered, now).reason, "signed SYNC_TRIGGER2 refused: bad signature (forged or altered in transit)");
+  EXPECT_EQ(triggers.verify<sync_trigger2_t>(altered, now).reason,
+            "signed SYNC_TRIGGER2 refused: bad signature (forged or altered in transit)");
   // Signed for another channel, relabelled: the channel is covered by the signature.
   auto relabelled = signer.sign("SYNC_TRIGGER", trigger(1), now);
-  EXPECT_NE(triggers.verify<sync_trigger2_t>(relabelled, now).reason.find("it was signed for channel 'SYNC_TRIGGER'"), std::string::npos);
+  EXPECT_NE(triggers.verify<sync_trigger2_t>(relabelled, now).reason.find("it was signed for channel 'SYNC_TRIGGER'"),
+            std::string::npos);
   relabelled.channel = "SYNC_TRIGGER2";
   EXPECT_NE(triggers.verify<sync_trigger2_t>(relabelled, now).reason.find("bad signature"), std::string::npos);
   MessageSigner other_prefix(coordinator, "LAB2_");
-  EXPECT_NE(triggers.verify<sync_trigger2_t>(other_prefix.sign("SYNC_TRIGGER2", trigger(1), now), now).reason.find("bad signature"),
+  EXPECT_NE(triggers.verify<sync_trigger2_t>(other_prefix.sign("SYNC_TRIGGER2", trigger(1), now), now)
+                .reason.find("bad signature"),
             std::string::npos);
   const auto old = triggers.verify<sync_trigger2_t>(signer.sign("SYNC_TRIGGER2", trigger(2), now - 3'000'000), now);
   EXPECT_NE(old.reason.find("stale timestamp: signed 3000 ms ago"), std::string::npos) << old.reason;
-  const auto before = triggers.verify<sync_trigger2_t>(signer.sign("SYNC_TRIGGER2", trigger(2), kStart - 1000), kStart + 1000);
+  const auto before =
+      triggers.verify<sync_trigger2_t>(signer.sign("SYNC_TRIGGER2", trigger(2), kStart - 1000), kStart + 1000);
   EXPECT_NE(before.reason.find("before the receiver started"), std::string::npos) << before.reason;
   // Authentic, but not a sync_trigger2_t inside.
   reply_t r{};
@@ -92,7 +97,8 @@ TEST(SignedMessageLayout, AnEnvelopeSignedOutsideCppVerifies) {
   const std::vector<std::uint8_t> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
   ASSERT_GT(bytes.size(), 1u);
   motionlcm::signed_message_t envelope;
-  ASSERT_EQ(lcm::wire::decode_bounded(bytes.data() + 1, bytes.size() - 1, envelope), "");  // after the fuzz target's selector byte
+  ASSERT_EQ(lcm::wire::decode_bounded(bytes.data() + 1, bytes.size() - 1, envelope),
+            "");  // after the fuzz target's selector byte
   std::array<std::uint8_t, kSeedBytes> seed{};
   seed.fill(3);
   MessageVerifier verifier(KeyPair::from_seed(seed, "coordinator").public_key(), "MOTION_", "SYNC_TRIGGER2", 2000ms, 0);

@@ -7,7 +7,9 @@
 namespace motion::sim {
 namespace {
 
-TimePoint at_s(double s) { return TimePoint{} + std::chrono::duration_cast<Duration>(std::chrono::duration<double>(s)); }
+TimePoint at_s(double s) {
+  return TimePoint{} + std::chrono::duration_cast<Duration>(std::chrono::duration<double>(s));
+}
 double secs(TimePoint t) { return std::chrono::duration<double>(t - TimePoint{}).count(); }
 
 TEST(Kinematics, TrapezoidFromRest) {

@@ -58,22 +58,26 @@ void put_low_word_first(std::uint16_t* regs, std::int32_t value) {
 std::string yaml_for(const std::filesystem::path& dir, int drives) {
   std::string yaml =
       "buses:\n"
-      "  - {name: rs485, transport: 'simserial:rs485', baud: 115200, request_timeout_ms: 200, retries: 1, poll_hz: 20}\n"
+      "  - {name: rs485, transport: 'simserial:rs485', baud: 115200, request_timeout_ms: 200, retries: 1, poll_hz: "
+      "20}\n"
       "drives:\n";
   const char* names[] = {"c", "d"};
   for (int i = 0; i < drives; ++i) {
-    yaml += "  - {name: " + std::string(names[i]) + "-drive, family: adam-modbus, bus: rs485, node_id: " + std::to_string(i + 1) + "}\n";
+    yaml += "  - {name: " + std::string(names[i]) +
+            "-drive, family: adam-modbus, bus: rs485, node_id: " + std::to_string(i + 1) + "}\n";
   }
   yaml += "axes:\n";
   for (int i = 0; i < drives; ++i) {
-    yaml += "  - {name: " + std::string(names[i]) + ", drive: " + names[i] +
-            "-drive, unit: mm, steps_per_unit: 200, limits: {min: -1000, max: 1000, velocity: 100, acceleration: 1000}}\n";
+    yaml +=
+        "  - {name: " + std::string(names[i]) + ", drive: " + names[i] +
+        "-drive, unit: mm, steps_per_unit: 200, limits: {min: -1000, max: 1000, velocity: 100, acceleration: 1000}}\n";
   }
   // libmodbus loads table data without a Save: drives that execute unsaved data (a simulated
   // variant, docs/protocols.md), with the working speed and the target speed as one setpoint.
   yaml += "simulation: {runtime_dir: '" + dir.string() + "', reply_latency_us: 200, variants: {";
   for (int i = 0; i < drives; ++i) {
-    yaml += std::string(i == 0 ? "" : ", ") + names[i] + "-drive: {table_needs_save: false, table_speed_register: shared}";
+    yaml +=
+        std::string(i == 0 ? "" : ", ") + names[i] + "-drive: {table_needs_save: false, table_speed_register: shared}";
   }
   yaml += "}}\n";
   return yaml;
@@ -88,7 +92,8 @@ struct Recorder final : gateway::GatewayOutput {
   void command_reply(Reply r) override { replies.push_back(std::move(r)); }
   [[nodiscard]] const Reply* terminal(std::int64_t id) const {
     for (const auto& r : replies) {
-      if (r.command_id == id && (r.status == std::int8_t{Reply::DONE} || r.status == std::int8_t{Reply::FAILED})) return &r;
+      if (r.command_id == id && (r.status == std::int8_t{Reply::DONE} || r.status == std::int8_t{Reply::FAILED}))
+        return &r;
     }
     return nullptr;
   }
@@ -104,7 +109,7 @@ class LibmodbusPeer : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = std::filesystem::temp_directory_path() / ("adam-libmodbus-" + std::to_string(::getpid()) + "-" +
-                                                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
+                                                     ::testing::UnitTest::GetInstance()->current_test_info()->name());
     std::filesystem::create_directories(dir_);
   }
   void TearDown() override {
@@ -158,7 +163,8 @@ TEST_F(LibmodbusPeer, ClientReadsWritesAndGetsExceptionsFromSimulatedDrive) {
   load(2);
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
-  auto host = sim::open_adam_line(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+  auto host = sim::open_adam_line(
+      loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
 
   struct {
@@ -241,7 +247,8 @@ TEST_F(LibmodbusPeer, ClientBroadcastTableExecuteStartsBothDrivesWithoutReply) {
   load(2);
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
-  auto host = sim::open_adam_line(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+  auto host = sim::open_adam_line(
+      loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
 
   struct {
@@ -283,7 +290,8 @@ TEST_F(LibmodbusPeer, ClientBroadcastTableExecuteStartsBothDrivesWithoutReply) {
         modbus_set_response_timeout(ctx, 0, 300000);
         const auto before = std::chrono::steady_clock::now();
         record(r.broadcast, modbus_write_register(ctx, 0x00DD, 0));
-        r.broadcast_took = std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - before);
+        r.broadcast_took =
+            std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - before);
         // The line is clean afterwards: unicast reads of both drives match their requests.
         modbus_set_response_timeout(ctx, 1, 0);
         for (int i = 0; i < 2; ++i) {
@@ -304,7 +312,8 @@ TEST_F(LibmodbusPeer, ClientBroadcastTableExecuteStartsBothDrivesWithoutReply) {
   }
   // Either libmodbus did not wait (rc 1) or it waited the whole 300 ms and heard nothing.
   std::printf("[ libmodbus %s ] broadcast write: rc %d (%s) after %lld us\n", LIBMODBUS_VERSION_STRING, r.broadcast.rc,
-              r.broadcast.rc == -1 ? modbus_strerror(r.broadcast.error) : "no wait", static_cast<long long>(r.broadcast_took.count()));
+              r.broadcast.rc == -1 ? modbus_strerror(r.broadcast.error) : "no wait",
+              static_cast<long long>(r.broadcast_took.count()));
   if (r.broadcast.rc == -1) {
     EXPECT_EQ(r.broadcast.error, ETIMEDOUT) << modbus_strerror(r.broadcast.error);
     EXPECT_GE(r.broadcast_took, 290ms);
@@ -461,7 +470,8 @@ class LibmodbusServerPeer : public LibmodbusPeer {
 
 TEST_F(LibmodbusServerPeer, MasterSetsUpPollsAndWritesAgainstLibmodbus) {
   Recorder out;
-  adam_driver::AdamBusDriver driver(loop_, adam_driver::settings_from_config(config_, config_.buses[0]), a_->link_path(), line_, out);
+  adam_driver::AdamBusDriver driver(loop_, adam_driver::settings_from_config(config_, config_.buses[0]),
+                                    a_->link_path(), line_, out);
   driver.start();
   ASSERT_TRUE(pump_until([&] { return driver.ready(); }, 10s)) << "our master never finished set-up against libmodbus";
   // Status polling decoded the negative 32-bit position low word first.
@@ -526,7 +536,8 @@ TEST_F(LibmodbusServerPeer, MasterSetsUpPollsAndWritesAgainstLibmodbus) {
 
 TEST_F(LibmodbusServerPeer, MasterBroadcastStartIsExecutedByLibmodbusWithoutReply) {
   Recorder out;
-  adam_driver::AdamBusDriver driver(loop_, adam_driver::settings_from_config(config_, config_.buses[0]), a_->link_path(), line_, out);
+  adam_driver::AdamBusDriver driver(loop_, adam_driver::settings_from_config(config_, config_.buses[0]),
+                                    a_->link_path(), line_, out);
   driver.start();
   ASSERT_TRUE(pump_until([&] { return driver.ready(); }, 10s)) << "our master never finished set-up against libmodbus";
 
@@ -553,9 +564,7 @@ TEST_F(LibmodbusServerPeer, MasterBroadcastStartIsExecutedByLibmodbusWithoutRepl
   EXPECT_EQ(broadcast->function, MODBUS_FC_WRITE_SINGLE_REGISTER);
   EXPECT_EQ(broadcast->address, 0x00DD);
   for (const auto& s : seen) {
-    if (&s != &*broadcast) {
-      EXPECT_EQ(s.slave, 1) << "function " << s.function << " at " << s.address;
-    }
+    if (&s != &*broadcast) { EXPECT_EQ(s.slave, 1) << "function " << s.function << " at " << s.address; }
   }
   // The table entry libmodbus holds: -98000 low word first at 500/501, size 1, pointer 0, offset 200.
   EXPECT_EQ(server_.with_registers([](const std::uint16_t* r) { return low_word_first(&r[500]); }), -98000);

@@ -36,9 +36,7 @@ using namespace std::chrono_literals;
 using Reply = motionlcm::gateway_reply_t;
 constexpr const char* kPython = "/usr/bin/python3";
 
-bool pymodbus_available() {
-  return std::system("/usr/bin/python3 -c 'import pymodbus' >/dev/null 2>&1") == 0;
-}
+bool pymodbus_available() { return std::system("/usr/bin/python3 -c 'import pymodbus' >/dev/null 2>&1") == 0; }
 
 struct Recorder final : gateway::GatewayOutput {
   std::vector<Reply> replies;
@@ -48,7 +46,8 @@ struct Recorder final : gateway::GatewayOutput {
   void command_reply(Reply r) override { replies.push_back(std::move(r)); }
   [[nodiscard]] const Reply* terminal(std::int64_t id) const {
     for (const auto& r : replies) {
-      if (r.command_id == id && (r.status == std::int8_t{Reply::DONE} || r.status == std::int8_t{Reply::FAILED})) return &r;
+      if (r.command_id == id && (r.status == std::int8_t{Reply::DONE} || r.status == std::int8_t{Reply::FAILED}))
+        return &r;
     }
     return nullptr;
   }
@@ -58,17 +57,20 @@ class PtyInterop : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = std::filesystem::temp_directory_path() / ("adam-pty-" + std::to_string(::getpid()) + "-" +
-                                                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
+                                                     ::testing::UnitTest::GetInstance()->current_test_info()->name());
     std::filesystem::create_directories(dir_);
     const std::string yaml =
         "buses:\n"
-        "  - {name: rs485, transport: 'simserial:rs485', baud: 115200, request_timeout_ms: 100, retries: 1, poll_hz: 10}\n"
+        "  - {name: rs485, transport: 'simserial:rs485', baud: 115200, request_timeout_ms: 100, retries: 1, poll_hz: "
+        "10}\n"
         "drives:\n"
         "  - {name: c-drive, family: adam-modbus, bus: rs485, node_id: 1}\n"
         "axes:\n"
-        "  - {name: c, drive: c-drive, unit: mm, steps_per_unit: 200, limits: {min: -1000, max: 1000, velocity: 100, acceleration: 1000},\n"
+        "  - {name: c, drive: c-drive, unit: mm, steps_per_unit: 200, limits: {min: -1000, max: 1000, velocity: 100, "
+        "acceleration: 1000},\n"
         "     homing: {method: switch, input: 3, velocity: -10}}\n"
-        "simulation: {runtime_dir: '" + dir_.string() + "', reply_latency_us: 200}\n";
+        "simulation: {runtime_dir: '" +
+        dir_.string() + "', reply_latency_us: 200}\n";
     auto loaded = config::load_string(yaml);
     ASSERT_TRUE(loaded.ok()) << loaded.error_text();
     config_ = *loaded.config;
@@ -113,7 +115,8 @@ class PtyInterop : public ::testing::Test {
   std::string drain_output() {
     std::array<char, 4096> buffer{};
     ssize_t n = 0;
-    while ((n = ::read(output_fd_, buffer.data(), buffer.size())) > 0) output_.append(buffer.data(), static_cast<std::size_t>(n));
+    while ((n = ::read(output_fd_, buffer.data(), buffer.size())) > 0)
+      output_.append(buffer.data(), static_cast<std::size_t>(n));
     return output_;
   }
   // Pumps the loop until `done()` or the timeout.
@@ -145,7 +148,8 @@ TEST_F(PtyInterop, SimSlaveAnswersPymodbusClient) {
   if (!pymodbus_available()) GTEST_SKIP() << "/usr/bin/python3 has no pymodbus (apt-get install python3-pymodbus)";
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
-  auto host = sim::open_adam_line(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+  auto host = sim::open_adam_line(
+      loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
   EXPECT_EQ(host->link_path(), (dir_ / "rs485.tty").string());
   const std::string script = R"PY(
@@ -167,8 +171,8 @@ print("end", flush=True)
   drain_output();
   EXPECT_EQ(WEXITSTATUS(status), 0) << output_;
   EXPECT_NE(output_.find("version [14129, 48]"), std::string::npos) << output_;  // 0x3731, 0x0030 (§8.1)
-  EXPECT_NE(output_.find("write 208 2"), std::string::npos) << output_;         // FC 0x10 ack of 0x00D0
-  EXPECT_NE(output_.find("hole True 2"), std::string::npos) << output_;         // exception 0x02
+  EXPECT_NE(output_.find("write 208 2"), std::string::npos) << output_;          // FC 0x10 ack of 0x00D0
+  EXPECT_NE(output_.find("hole True 2"), std::string::npos) << output_;          // exception 0x02
   EXPECT_NE(output_.find("subdivision [4000, 0]"), std::string::npos) << output_;
   ASSERT_FALSE(reports.empty());
   const auto started = std::find_if(reports.begin(), reports.end(), [](const auto& r) {
@@ -216,7 +220,8 @@ StartSerialServer(context=ctx, framer=ModbusRtuFramer, port=sys.argv[1], baudrat
   adam_driver::MasterSettings settings = adam_driver::settings_from_config(config_, config_.buses[0]);
   adam_driver::AdamBusDriver driver(loop_, settings, a->link_path(), line, out);
   driver.start();
-  ASSERT_TRUE(pump_until([&] { return driver.ready(); }, 30s)) << "pymodbus server never answered; its output:\n" << drain_output();
+  ASSERT_TRUE(pump_until([&] { return driver.ready(); }, 30s)) << "pymodbus server never answered; its output:\n"
+                                                               << drain_output();
 
   motionlcm::gateway_command_t write{};
   write.command_id = 1;
@@ -251,7 +256,8 @@ StartSerialServer(context=ctx, framer=ModbusRtuFramer, port=sys.argv[1], baudrat
 TEST_F(PtyInterop, MasterAndSimulatorMoveEndToEnd) {
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
-  auto host = sim::open_adam_line(loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+  auto host = sim::open_adam_line(
+      loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
   Recorder out;
   auto driver = adam_driver::AdamBusDriver::create(loop_, config_, config_.buses[0], out);
@@ -265,14 +271,15 @@ TEST_F(PtyInterop, MasterAndSimulatorMoveEndToEnd) {
   move.axes.push_back(motionlcm::axis_command_t{});
   move.axes[0].axis = "c";
   move.axes[0].target_counts = 2000;
-  move.axes[0].velocity = 8000;      // 120 rpm at the default 4000 pulses/rev
+  move.axes[0].velocity = 8000;  // 120 rpm at the default 4000 pulses/rev
   move.axes[0].acceleration = 40000;
   move.axes[0].deceleration = 40000;
   move.num_axes = 1;
   driver->execute(move);
   ASSERT_TRUE(pump_until([&] { return out.terminal(7) != nullptr; }, 10s));
   ASSERT_EQ(out.terminal(7)->status, std::int8_t{Reply::DONE}) << out.terminal(7)->reason;
-  const auto started = std::find_if(out.replies.begin(), out.replies.end(), [](const Reply& r) { return r.status == std::int8_t{Reply::STARTED}; });
+  const auto started = std::find_if(out.replies.begin(), out.replies.end(),
+                                    [](const Reply& r) { return r.status == std::int8_t{Reply::STARTED}; });
   ASSERT_NE(started, out.replies.end());
   EXPECT_EQ(started->start_mechanism, "broadcast");
   const auto report = std::find_if(reports.begin(), reports.end(), [](const auto& r) {

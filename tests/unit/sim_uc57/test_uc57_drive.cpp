@@ -41,8 +41,7 @@ struct Report {
 // One simulated drive with a recording context and a manual clock.
 class Drive {
  public:
-  explicit Drive(canopen::NodeId node = 1, Uc57SimOptions options = {})
-      : node_(node), sim_(node, context(), options) {
+  explicit Drive(canopen::NodeId node = 1, Uc57SimOptions options = {}) : node_(node), sim_(node, context(), options) {
     sim_.power_up(now);
   }
 
@@ -192,7 +191,7 @@ TEST(Uc57Sim, NmtStatesHeartbeatAndResets) {
   drive.take();
   drive.advance_to(t0 + 2000ms);
   EXPECT_EQ(drive.take(), Texts{"701: 05"});  // D-18
-  drive.deliver("000: 02 00");  // stop: SDO is not served
+  drive.deliver("000: 02 00");                // stop: SDO is not served
   EXPECT_TRUE(drive.deliver("601: 40 41 60 00 00 00 00 00").empty());
   drive.advance_to(t0 + 3000ms);
   EXPECT_EQ(drive.take(), Texts{"701: 04"});
@@ -229,7 +228,7 @@ TEST(Uc57Sim, TpdosOnStartAndRpdosOnlyWhenOperational) {
 TEST(Uc57Sim, RemapRpdo1AsControlwordAndTargetD30ToD38) {
   Drive drive;
   drive.take();
-  EXPECT_TRUE(drive.deliver("000: 80 01").empty());                                                  // D-30
+  EXPECT_TRUE(drive.deliver("000: 80 01").empty());                                                 // D-30
   EXPECT_EQ(drive.deliver("601: 23 00 14 01 01 02 00 80"), Texts{"581: 60 00 14 01 00 00 00 00"});  // D-31
   EXPECT_EQ(drive.deliver("601: 2F 00 16 00 00 00 00 00"), Texts{"581: 60 00 16 00 00 00 00 00"});  // D-32
   EXPECT_EQ(drive.deliver("601: 23 00 16 01 10 00 40 60"), Texts{"581: 60 00 16 01 00 00 00 00"});  // D-33
@@ -332,7 +331,8 @@ TEST(Uc57Sim, TwoDrivesStartedByOneSync) {
 
 TEST(Uc57Sim, SyncUnsupportedSwitchAppliesRpdosAtOnce) {
   Uc57SimOptions options;
-  options.rpdo_sync = sim::RpdoSync::kOnReception;  // the synchronous-RPDO acceptance test then fails, as on such a drive
+  options.rpdo_sync =
+      sim::RpdoSync::kOnReception;  // the synchronous-RPDO acceptance test then fails, as on such a drive
   Drive drive(1, options);
   drive.sdo_ok("601: 2F 00 14 02 01 00 00 00");
   drive.sdo_ok("601: 2F 60 60 00 01 00 00 00");
@@ -379,10 +379,11 @@ TEST(Uc57Sim, HonouredVariantAppliesSynchronousRpdoAtSync) {
 // Manual §4.2.4 example (P-01..P-12): relative 5000 pulses at 60 RPM with 100/100 ramps.
 TEST(Uc57Sim, ProfilePositionHandshakeAndArrivalTime) {
   Drive drive;
-  for (const char* request : {"601: 2B 40 60 00 00 00 00 00", "601: 23 83 60 00 64 00 00 00", "601: 23 84 60 00 64 00 00 00",
-                              "601: 23 81 60 00 3C 00 00 00", "601: 23 7A 60 00 88 13 00 00", "601: 2F 60 60 00 01 00 00 00",
-                              "601: 2B 40 60 00 06 00 00 00", "601: 2B 40 60 00 07 00 00 00", "601: 2B 40 60 00 0F 00 00 00",
-                              "601: 2B 40 60 00 4F 00 00 00"}) {
+  for (const char* request :
+       {"601: 2B 40 60 00 00 00 00 00", "601: 23 83 60 00 64 00 00 00", "601: 23 84 60 00 64 00 00 00",
+        "601: 23 81 60 00 3C 00 00 00", "601: 23 7A 60 00 88 13 00 00", "601: 2F 60 60 00 01 00 00 00",
+        "601: 2B 40 60 00 06 00 00 00", "601: 2B 40 60 00 07 00 00 00", "601: 2B 40 60 00 0F 00 00 00",
+        "601: 2B 40 60 00 4F 00 00 00"}) {
     drive.sdo_ok(request);
   }
   EXPECT_FALSE(bit(drive.statusword(), cia402::StatusBit::kSetPointAcknowledge));
@@ -400,7 +401,8 @@ TEST(Uc57Sim, ProfilePositionHandshakeAndArrivalTime) {
   const double ppr = od::kDefaultPulsesPerRevolution;
   const double v0 = od::rpm_to_pulses_per_second(10, od::kDefaultPulsesPerRevolution);
   const double vmax = od::rpm_to_pulses_per_second(60, od::kDefaultPulsesPerRevolution);
-  const double accel = od::ramp_acceleration(od::RampUnit::kMilliseconds, 100, vmax - v0, od::kDefaultPulsesPerRevolution);
+  const double accel =
+      od::ramp_acceleration(od::RampUnit::kMilliseconds, 100, vmax - v0, od::kDefaultPulsesPerRevolution);
   Kinematics reference;
   reference.move_to(start, 5000, {vmax, accel, accel, v0});
   const TimePoint arrival = reference.end_time();
@@ -434,7 +436,8 @@ TEST(Uc57Sim, ProfilePositionHandshakeAndArrivalTime) {
 TEST(Uc57Sim, HaltOfAProfilePositionMoveNeverPassesItsTarget) {
   const double v0 = od::rpm_to_pulses_per_second(10, od::kDefaultPulsesPerRevolution);
   const double vmax = od::rpm_to_pulses_per_second(12, od::kDefaultPulsesPerRevolution);
-  const double accel = od::ramp_acceleration(od::RampUnit::kMilliseconds, 2000, vmax - v0, od::kDefaultPulsesPerRevolution);
+  const double accel =
+      od::ramp_acceleration(od::RampUnit::kMilliseconds, 2000, vmax - v0, od::kDefaultPulsesPerRevolution);
   constexpr std::int64_t kTarget = 2500;
   Kinematics reference;
   reference.move_to(t0, kTarget, {vmax, accel, accel, v0});
@@ -442,8 +445,9 @@ TEST(Uc57Sim, HaltOfAProfilePositionMoveNeverPassesItsTarget) {
   int halts = 0;
   for (auto halt_after = Duration{0}; halt_after < run_time; halt_after += 50ms) {
     Drive drive;
-    for (const char* request : {"601: 23 83 60 00 D0 07 00 00", "601: 23 84 60 00 D0 07 00 00", "601: 23 81 60 00 0C 00 00 00",
-                                "601: 23 7A 60 00 C4 09 00 00", "601: 2F 60 60 00 01 00 00 00"}) {
+    for (const char* request :
+         {"601: 23 83 60 00 D0 07 00 00", "601: 23 84 60 00 D0 07 00 00", "601: 23 81 60 00 0C 00 00 00",
+          "601: 23 7A 60 00 C4 09 00 00", "601: 2F 60 60 00 01 00 00 00"}) {
       drive.sdo_ok(request);
     }
     drive.enable();
@@ -454,7 +458,8 @@ TEST(Uc57Sim, HaltOfAProfilePositionMoveNeverPassesItsTarget) {
     drive.sdo_ok("601: 2B 40 60 00 0F 01 00 00");  // halt (bit 8)
     const TimePoint halted = drive.now;
     drive.advance_to(halted + 2001ms);
-    EXPECT_FALSE(bit(drive.statusword(), cia402::StatusBit::kMotorRunning)) << "halted after " << halt_after.count() << " ns";
+    EXPECT_FALSE(bit(drive.statusword(), cia402::StatusBit::kMotorRunning))
+        << "halted after " << halt_after.count() << " ns";
     const std::int64_t at = drive.sim().position(drive.now);
     EXPECT_LE(at, kTarget) << "halted after " << halt_after.count() << " ns";
     EXPECT_GE(at, reference.position_counts(start + halt_after) - 1);
@@ -496,9 +501,10 @@ TEST(Uc57Sim, SecondSetPointIsBufferedOrReplacesWithChangeImmediately) {
 
 TEST(Uc57Sim, ProfileVelocityV01ToV09) {
   Drive drive;
-  for (const char* request : {"601: 2B 40 60 00 00 00 00 00", "601: 23 83 60 00 64 00 00 00", "601: 23 84 60 00 64 00 00 00",
-                              "601: 23 FF 60 00 3C 00 00 00", "601: 2F 60 60 00 03 00 00 00", "601: 2B 40 60 00 06 00 00 00",
-                              "601: 2B 40 60 00 07 00 00 00"}) {
+  for (const char* request :
+       {"601: 2B 40 60 00 00 00 00 00", "601: 23 83 60 00 64 00 00 00", "601: 23 84 60 00 64 00 00 00",
+        "601: 23 FF 60 00 3C 00 00 00", "601: 2F 60 60 00 03 00 00 00", "601: 2B 40 60 00 06 00 00 00",
+        "601: 2B 40 60 00 07 00 00 00"}) {
     drive.sdo_ok(request);
   }
   EXPECT_TRUE(drive.reports_of(kStarted).empty());
@@ -521,8 +527,9 @@ TEST(Uc57Sim, ProfileVelocityV01ToV09) {
 // D-50: method 24 (forward origin), 120/60 RPM, ramp 100, offset 0.
 TEST(Uc57Sim, HomingMethod24FindsTheOrigin) {
   Drive drive;
-  for (const char* request : {"601: 2F 98 60 00 18 00 00 00", "601: 23 99 60 01 78 00 00 00", "601: 23 99 60 02 3C 00 00 00",
-                              "601: 23 9A 60 00 64 00 00 00", "601: 23 7C 60 00 00 00 00 00", "601: 2F 60 60 00 06 00 00 00"}) {
+  for (const char* request :
+       {"601: 2F 98 60 00 18 00 00 00", "601: 23 99 60 01 78 00 00 00", "601: 23 99 60 02 3C 00 00 00",
+        "601: 23 9A 60 00 64 00 00 00", "601: 23 7C 60 00 00 00 00 00", "601: 2F 60 60 00 06 00 00 00"}) {
     drive.sdo_ok(request);
   }
   EXPECT_EQ(drive.deliver("601: 40 61 60 00 00 00 00 00"), Texts{"581: 4F 61 60 00 06 00 00 00"});

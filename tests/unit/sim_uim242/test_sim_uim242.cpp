@@ -29,12 +29,14 @@ class SimUim242 : public ::testing::Test {
  protected:
   SimUim242()
       : sim_({{"u-drive", 5, 40, 1302}, {"v-drive", 6, 20, 1302}},
-             Uim242SimContext{"rs232",
-                              [this](std::span<const std::uint8_t> b) { wire_.insert(wire_.end(), b.begin(), b.end()); },
-                              [this](const std::string& d, std::int8_t k, std::int64_t u, std::int64_t p, std::int64_t t) {
-                                reports_.push_back({d, k, u, p, t});
-                              },
-                              [](TimePoint t) { return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count(); }}) {
+             Uim242SimContext{
+                 "rs232", [this](std::span<const std::uint8_t> b) { wire_.insert(wire_.end(), b.begin(), b.end()); },
+                 [this](const std::string& d, std::int8_t k, std::int64_t u, std::int64_t p, std::int64_t t) {
+                   reports_.push_back({d, k, u, p, t});
+                 },
+                 [](TimePoint t) {
+                   return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+                 }}) {
     sim_.power_up(now_);
     wire_.clear();
   }
@@ -81,12 +83,14 @@ class SimUim242 : public ::testing::Test {
 TEST_F(SimUim242, PowerUpGreetsAndReports) {
   std::vector<std::uint8_t> wire;
   std::vector<std::string> powered;
-  Uim242GatewaySim sim({{"u-drive", 5, 40, 1302}},
-                       Uim242SimContext{"rs232", [&](std::span<const std::uint8_t> b) { wire.assign(b.begin(), b.end()); },
-                                        [&](const std::string& d, std::int8_t k, std::int64_t, std::int64_t, std::int64_t) {
-                                          if (k == motionlcm::sim_report_t::POWERED_UP) powered.push_back(d);
-                                        },
-                                        {}});
+  Uim242GatewaySim sim(
+      {{"u-drive", 5, 40, 1302}},
+      Uim242SimContext{"rs232",
+                       [&](std::span<const std::uint8_t> b) { wire.assign(b.begin(), b.end()); },
+                       [&](const std::string& d, std::int8_t k, std::int64_t, std::int64_t, std::int64_t) {
+                         if (k == motionlcm::sim_report_t::POWERED_UP) powered.push_back(d);
+                       },
+                       {}});
   sim.power_up(now_);
   EXPECT_EQ(wire, hex("AA AB AC 19 01 00 00 00 00 00 01 00 FF"));
   EXPECT_EQ(powered, std::vector<std::string>{"u-drive"});
@@ -215,9 +219,7 @@ TEST_F(SimUim242, PreloadedMovesStartOnOneGlobalSpeed) {
   EXPECT_EQ(send("gSPD 400;"), hex("AA 02 AD FF"));
   ASSERT_EQ(count(motionlcm::sim_report_t::MOTION_STARTED), 2u);
   for (const auto& r : reports_) {
-    if (r.kind == motionlcm::sim_report_t::MOTION_STARTED) {
-      EXPECT_EQ(r.utime, fire.time_since_epoch() / 1us);
-    }
+    if (r.kind == motionlcm::sim_report_t::MOTION_STARTED) { EXPECT_EQ(r.utime, fire.time_since_epoch() / 1us); }
   }
   advance_to(now_ + 10s);
   EXPECT_EQ(sim_.position("u-drive", now_), 500);

@@ -57,7 +57,9 @@ inline can::Frame row_frame(std::string_view row, bool from_host, std::int64_t t
   frame.timestamp_us = timestamp_us;
   return frame;
 }
-inline can::Frame instruction_row(std::string_view row, std::int64_t timestamp_us = 0) { return row_frame(row, true, timestamp_us); }
+inline can::Frame instruction_row(std::string_view row, std::int64_t timestamp_us = 0) {
+  return row_frame(row, true, timestamp_us);
+}
 inline can::Frame reply_row(std::string_view row) { return row_frame(row, false); }
 
 inline can::Frame encode(std::uint8_t target, const uim342::Instruction& instruction, std::int64_t timestamp_us = 0) {
@@ -81,7 +83,8 @@ inline config::Drive uim342_drive(std::string name, int node_id, int group_id = 
 // One simulated drive, powered up at t0, with everything it sends and reports recorded.
 class Bench {
  public:
-  explicit Bench(const config::Drive& drive, Uim342Identity identity = {}, MicroStepsApply apply = MicroStepsApply::after_restart)
+  explicit Bench(const config::Drive& drive, Uim342Identity identity = {},
+                 MicroStepsApply apply = MicroStepsApply::after_restart)
       : node(static_cast<std::uint8_t>(drive.node_id)) {
     SimDriveContext context;
     context.drive = drive.name;

@@ -71,7 +71,8 @@ TEST(SimUim342Setup, MicroStepsApplyOnlyAfterStoringWithTheDriverOffAndARestart)
   EXPECT_EQ(std::get<u::IndexedWord>(b.decode(b.exchange(rq::get(u::MotorDriver::microstepping))).body).value, 32);
   EXPECT_EQ(b.sim->applied_micro_steps(), 16) << "a RAM value does not move the motor";
   EXPECT_TRUE(b.send(rq::system(u::SystemOperation::reboot)).empty());
-  EXPECT_EQ(std::get<u::IndexedWord>(b.decode(b.exchange(rq::get(u::MotorDriver::microstepping))).body).value, 16) << "RAM lost";
+  EXPECT_EQ(std::get<u::IndexedWord>(b.decode(b.exchange(rq::get(u::MotorDriver::microstepping))).body).value, 16)
+      << "RAM lost";
   b.exchange(rq::driver_on(false));
   b.exchange(rq::set(u::MotorDriver::microstepping, 32));
   EXPECT_EQ(b.sim->applied_micro_steps(), 16) << "stored, not yet applied";
@@ -121,7 +122,8 @@ TEST(SimUim342Motion, PtpReachesTheTargetAtTheKinematicsTime) {
 }
 
 TEST(SimUim342Motion, RampTimesInMillisecondsFollowIc4) {
-  Bench b(uim342_drive("t", 5, 0, {{"auto_enable", true}, {"cut_in_speed", 0LL}, {"acceleration_unit", std::string("time")}}));
+  Bench b(uim342_drive("t", 5, 0,
+                       {{"auto_enable", true}, {"cut_in_speed", 0LL}, {"acceleration_unit", std::string("time")}}));
   prepare_ptp(b, 4000, 2000, 1000);  // 1000 ms ramps to 2000 pulse/s = 2000 pulse/s^2
   b.send(rq::begin());
   Kinematics reference;
@@ -224,7 +226,7 @@ TEST(SimUim342Errors, MalformedInstructionsAreSyntaxErrors) {
   EXPECT_EQ(unknown.control_word, 0x82);
   EXPECT_EQ(error_of(b, b.deliver(instruction_row("05 95 02 01 00"))).code, 0x32);  // MO with DL 2
   EXPECT_EQ(error_of(b, b.deliver(instruction_row("05 AE 02 02 00"))).code, 0x32);  // DV with DL 2
-  EXPECT_TRUE(b.deliver(instruction_row("05 0B 00")).empty());                       // ML without ACK: ignored
+  EXPECT_TRUE(b.deliver(instruction_row("05 0B 00")).empty());                      // ML without ACK: ignored
 }
 
 TEST(SimUim342Errors, SubIndexAndValueErrors) {
@@ -358,8 +360,8 @@ TEST(SimUim342Inputs, FallingEdgeSetsOriginAndDeceleratesLikeAHomeSwitch) {
   b.sim->control(control(C::SET_INPUT, 1, 0), b.now);  // the switch
   EXPECT_EQ(b.sim->position(b.now), 0);
   b.settle();
-  EXPECT_EQ(b.now, b.at(5.5));                      // 2000 pulse/s at 4000 pulse/s^2
-  EXPECT_EQ(b.sim->position(b.now), -500);          // stopped past the new origin
+  EXPECT_EQ(b.now, b.at(5.5));              // 2000 pulse/s at 4000 pulse/s^2
+  EXPECT_EQ(b.sim->position(b.now), -500);  // stopped past the new origin
 }
 
 TEST(SimUim342Inputs, RelativeMoveOnRisingEdgeWithItsOwnParameterGroup) {

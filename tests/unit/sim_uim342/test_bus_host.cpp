@@ -53,11 +53,13 @@ bool run_until(EventLoop& loop, const std::function<bool()>& done, Duration time
 config::Config lab(const std::filesystem::path& runtime_dir) {
   const std::string yaml = R"(
 buses:
-  - {name: can0, transport: simcan:uimhost)" + std::to_string(::getpid()) + R"(, bitrate: 1000000, bus_timing: true}
+  - {name: can0, transport: simcan:uimhost)" +
+                           std::to_string(::getpid()) + R"(, bitrate: 1000000, bus_timing: true}
 drives:
   - {name: x-drive, family: uim342, bus: can0, node_id: 5, group_id: 20, setup: {auto_enable: true, cut_in_speed: 0}}
   - {name: y-drive, family: uim342, bus: can0, node_id: 6, group_id: 20, setup: {auto_enable: true, cut_in_speed: 0}}
-simulation: {runtime_dir: ")" + runtime_dir.string() + R"(", reply_latency_us: 100}
+simulation: {runtime_dir: ")" +
+                           runtime_dir.string() + R"(", reply_latency_us: 100}
 )";
   auto loaded = config::load_string(yaml);
   if (!loaded.ok()) throw std::runtime_error(loaded.error_text());
@@ -70,8 +72,9 @@ TEST(SimUim342BusHost, GroupBgOverTheSimulatedBusStartsBothDrivesOnOneFrame) {
   EventLoop loop;
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
-  auto host = CanBusHost::open(loop, config, config.buses.front(), {{config::Family::kUim342, uim342_factory(config)}},
-                               [&reports](motionlcm::sim_report_t r) { reports.push_back(std::move(r)); }, error);
+  auto host = CanBusHost::open(
+      loop, config, config.buses.front(), {{config::Family::kUim342, uim342_factory(config)}},
+      [&reports](motionlcm::sim_report_t r) { reports.push_back(std::move(r)); }, error);
   ASSERT_TRUE(host) << error.message();
   EXPECT_TRUE(host->missing().empty());
   EXPECT_EQ(reports.size(), 2U);  // POWERED_UP of each drive

@@ -70,7 +70,8 @@ TEST_F(ManualExamples, InitialConfigurationAndInformationEnable) {
   expect_ack("05 86 03 06 01 00 00 00 00 00 00", "05 06 03 06 01 00 00 00 00 00 00");  // IC[6]=1
   run(rq::set(u::InformationEnable::in1_change, true));
   expect_ack("05 87 01 00 00 00 00 00 00 00 00", "05 07 03 00 01 00 00 00 00 00 00");  // IE[0] = 1
-  expect_ack("05 87 03 01 01 00 00 00 00 00 00", "05 07 03 01 01 00 00 00 00 00 00");  // IE[1]=1 (§5.3: the byte, not the caption)
+  expect_ack("05 87 03 01 01 00 00 00 00 00 00",
+             "05 07 03 01 01 00 00 00 00 00 00");  // IE[1]=1 (§5.3: the byte, not the caption)
 }
 
 TEST_F(ManualExamples, ModelAndSerialNumber) {
@@ -116,7 +117,7 @@ TEST_F(ManualExamples, RampsCutInStopDecelerationBacklash) {
 
 TEST_F(ManualExamples, ParameterFrameSelectsAGroupForOneInstruction) {
   expect_ack("05 98 01 03 00 00 00 00 00 00 00", "05 18 01 03 00 00 00 00 00 00 00");  // MF=3
-  expect_ack("05 99 04 88 13 00 00", "05 19 04 88 13 00 00");                         // AC=5000 into group 3
+  expect_ack("05 99 04 88 13 00 00", "05 19 04 88 13 00 00");                          // AC=5000 into group 3
   expect_ack("05 98 00", "05 18 01 00");                                               // MF is back to 0
   expect_ack("05 99 00", "05 19 04 E8 03 00 00");                                      // group 0 untouched
   run(rq::select_group(u::ParameterGroup::in1_falling));
@@ -163,7 +164,8 @@ TEST_F(ManualExamples, Section25ShortPositiveValues) {
 }
 
 TEST_F(ManualExamples, MotionStatus) {
-  for (int input = 1; input <= 3; ++input) bench.sim->control(control(motionlcm::sim_control_t::SET_INPUT, input, 1), bench.now);
+  for (int input = 1; input <= 3; ++input)
+    bench.sim->control(control(motionlcm::sim_control_t::SET_INPUT, input, 1), bench.now);
   run(rq::set_relative_position(-1000));
   run(rq::set_ptp_speed(2000));
   run(rq::begin());
@@ -176,7 +178,8 @@ TEST_F(ManualExamples, MotionStatus) {
 TEST_F(ManualExamples, InputLogicAndTrigger) {
   expect_ack("05 B4 03 00 06 80 00 00 00 00 00", "05 34 03 00 06 80 00 00 00 00 00");  // IL[0] set
   expect_ack("05 B4 01 00 00 00 00 00 00 00 00", "05 34 03 00 06 80 00 00 00 00 00");  // IL[0] get (§5.26: the bytes)
-  expect_ack("05 B5 01 01 00 00 00 00 00 00 00", "05 35 03 01 00 00 00 00 00 00 00");  // TG[1] (§5.27 prints d0 = 00; echoes 01 like every sub-indexed ACK)
+  expect_ack("05 B5 01 01 00 00 00 00 00 00 00",
+             "05 35 03 01 00 00 00 00 00 00 00");  // TG[1] (§5.27 prints d0 = 00; echoes 01 like every sub-indexed ACK)
   expect_ack("05 B5 03 00 64 00 00 00 00 00 00", "05 35 03 00 64 00 00 00 00 00 00");  // TG[0]=100
   expect_ack("05 B4 01 10", "05 34 03 10 00 00");                                      // IL[16] stall: hold
 }

@@ -42,9 +42,7 @@ struct RecordingSink final : BusSink {
 
 const TimePoint kStart = TimePoint{} + std::chrono::seconds(1);
 
-std::int64_t us_of(TimePoint t) {
-  return std::chrono::duration_cast<microseconds>(t.time_since_epoch()).count();
-}
+std::int64_t us_of(TimePoint t) { return std::chrono::duration_cast<microseconds>(t.time_since_epoch()).count(); }
 
 can::Frame frame(std::uint32_t id, std::vector<std::uint8_t> payload = {}, bool extended = false) {
   return can::Frame::make(id, extended, payload).value();
@@ -127,7 +125,8 @@ TEST_P(BackToBack, EndOfFrameTimestampsAreSpacedByFrameDurations) {
   for (TimePoint now = kStart; now != kNever; now = bus.next_deadline()) bus.advance(now, sink);
   const auto got = sink.frames_to(rx);
   ASSERT_EQ(got.size(), frames.size());
-  const std::int64_t first_eof = us_of(kStart + can::bits_duration(can::frame_bits(frames[0]).to_end_of_frame(), bitrate));
+  const std::int64_t first_eof =
+      us_of(kStart + can::bits_duration(can::frame_bits(frames[0]).to_end_of_frame(), bitrate));
   EXPECT_EQ(got[0].timestamp_us, first_eof);
   for (std::size_t i = 1; i < got.size(); ++i) {
     const auto spacing = microseconds(got[i].timestamp_us - got[i - 1].timestamp_us);
@@ -228,7 +227,8 @@ TEST_F(BusTest, DropNextFramesThenExpire) {
   ASSERT_EQ(got.size(), 1u);
   EXPECT_EQ(got[0].id, 3u);  // lowest ids win the wire first, so 1 and 2 were the "next two"
   // A dropped frame uses no wire time: 3 arrives one frame time after the start.
-  EXPECT_EQ(got[0].timestamp_us, us_of(kStart + can::bits_duration(can::frame_bits(frame(3)).to_end_of_frame(), 500'000)));
+  EXPECT_EQ(got[0].timestamp_us,
+            us_of(kStart + can::bits_duration(can::frame_bits(frame(3)).to_end_of_frame(), 500'000)));
   EXPECT_EQ(bus.statistics(kStart).dropped, 2u);
   EXPECT_EQ(bus.statistics(kStart).frames, 1u);
 }
@@ -270,8 +270,9 @@ TEST_F(BusTest, CorruptedFrameBecomesAnErrorEventForEveryone) {
   }
   // It still took its wire time: 0x124 ends two frame times after the start.
   const auto duration_123 = can::frame_duration(frame(0x123, {1}), 500'000);
-  EXPECT_EQ(sink.frames_to(b)[0].timestamp_us,
-            us_of(kStart + duration_123 + can::bits_duration(can::frame_bits(frame(0x124, {2})).to_end_of_frame(), 500'000)));
+  EXPECT_EQ(
+      sink.frames_to(b)[0].timestamp_us,
+      us_of(kStart + duration_123 + can::bits_duration(can::frame_bits(frame(0x124, {2})).to_end_of_frame(), 500'000)));
   const BusStatistics s = bus.statistics(kStart);
   EXPECT_EQ(s.errors, 1u);
   EXPECT_EQ(s.frames, 2u);

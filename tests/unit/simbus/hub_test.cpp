@@ -22,8 +22,8 @@
 namespace motion::simbus {
 namespace {
 
-using std::chrono::milliseconds;
 using std::chrono::microseconds;
+using std::chrono::milliseconds;
 
 // A private socket directory per test: no shared paths between tests or concurrent runs.
 class TempDir {
@@ -217,7 +217,8 @@ TEST_F(HubTest, EndpointsReportTheBusLoadOfTheFramesTheySaw) {
   ASSERT_TRUE(run_until(loop, [&] { return received.frames.size() == 50; }));
   // Once the window has been open a second, each endpoint's load is its frames' wire time over
   // that second or more: at most bits / bitrate, and not zero.
-  run_until(loop, [] { return false; }, milliseconds(1050));
+  run_until(
+      loop, [] { return false; }, milliseconds(1050));
   const double at_most = static_cast<double>(bits) / 125'000.0;
   for (auto* e : {rx.get(), tx.get()}) {
     const double load = e->statistics().bus_load;
@@ -243,7 +244,7 @@ TEST_F(HubTest, OwnEchoAndFiltersArePerEndpoint) {
   // The local send reaches the bus at once; the hub reads tx's socket only on the next poll.
   EXPECT_EQ(at_tx.ids(), (std::vector<std::uint32_t>{0x300, 0x100, 0x200}));     // own two echoed
   EXPECT_EQ(at_local.ids(), (std::vector<std::uint32_t>{0x300, 0x100, 0x200}));  // own echo too
-  EXPECT_EQ(at_rx.ids(), (std::vector<std::uint32_t>{0x200}));                    // filter
+  EXPECT_EQ(at_rx.ids(), (std::vector<std::uint32_t>{0x200}));                   // filter
   EXPECT_EQ(rx->statistics().rx_frames, 1u);
 }
 
@@ -290,7 +291,8 @@ TEST_F(HubTest, BusOffEndpointFailsSendsUntilRecovered) {
   ASSERT_TRUE(hub->set_bus_off(id_of("tx")));
   // Sent before tx has heard about it: the hub refuses it and tells tx.
   ASSERT_FALSE(tx->send(frame(0x111)));
-  ASSERT_TRUE(run_until(loop, [&] { return tx->state() == can::BusState::kBusOff && tx->statistics().tx_dropped == 1; }));
+  ASSERT_TRUE(
+      run_until(loop, [&] { return tx->state() == can::BusState::kBusOff && tx->statistics().tx_dropped == 1; }));
   EXPECT_EQ(tx->send(frame(0x112)), std::errc::network_down);
   ASSERT_EQ(at_tx.events.size(), 1u);
   EXPECT_EQ(at_tx.events[0].error_class, kErrorBusOff);

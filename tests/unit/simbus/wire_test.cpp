@@ -62,11 +62,11 @@ TEST(Wire, FrameLayoutIsFixed) {
 TEST(Wire, MalformedDatagramsAreRejected) {
   auto bytes = encoded(FrameMessage{sample_frame(), false});
   EXPECT_FALSE(decode({}).has_value());
-  EXPECT_FALSE(decode(std::vector<std::uint8_t>{0x7F}).has_value());                   // unknown type
-  EXPECT_FALSE(decode({bytes.data(), bytes.size() - 1}).has_value());                  // short data
+  EXPECT_FALSE(decode(std::vector<std::uint8_t>{0x7F}).has_value());   // unknown type
+  EXPECT_FALSE(decode({bytes.data(), bytes.size() - 1}).has_value());  // short data
   auto longer = bytes;
   longer.push_back(0);
-  EXPECT_FALSE(decode(longer).has_value());                                            // trailing byte
+  EXPECT_FALSE(decode(longer).has_value());  // trailing byte
   auto bad_dlc = bytes;
   bad_dlc[2] = 9;
   EXPECT_FALSE(decode(bad_dlc).has_value());
@@ -76,8 +76,8 @@ TEST(Wire, MalformedDatagramsAreRejected) {
   auto bad_id = bytes;
   bad_id[1] = 0;  // standard, but the id has 29 bits
   EXPECT_FALSE(decode(bad_id).has_value());
-  EXPECT_FALSE(decode(std::vector<std::uint8_t>{4, 2}).has_value());                  // echo flag 2
-  EXPECT_FALSE(decode(std::vector<std::uint8_t>{5, 9, 0, 0, 0, 0, 0}).has_value());    // state 9
+  EXPECT_FALSE(decode(std::vector<std::uint8_t>{4, 2}).has_value());                 // echo flag 2
+  EXPECT_FALSE(decode(std::vector<std::uint8_t>{5, 9, 0, 0, 0, 0, 0}).has_value());  // state 9
 }
 
 TEST(Wire, EncodeRefusesInvalidFramesAndSmallBuffers) {

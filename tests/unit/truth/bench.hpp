@@ -34,7 +34,9 @@ inline constexpr std::int8_t kFinished = motionlcm::sim_report_t::MOTION_FINISHE
 class Recorder final : public gateway::GatewayOutput {
  public:
   void axis_status(const std::string&, const gateway::DriveStatus&) override {}
-  void axis_event(const std::string& axis, const gateway::DriveEvent& event) override { events.emplace_back(axis, event); }
+  void axis_event(const std::string& axis, const gateway::DriveEvent& event) override {
+    events.emplace_back(axis, event);
+  }
   void command_reply(motionlcm::gateway_reply_t reply) override { replies.push_back(std::move(reply)); }
   [[nodiscard]] std::optional<motionlcm::gateway_reply_t> terminal(std::int64_t id) const {
     for (const auto& r : replies) {
@@ -65,8 +67,8 @@ struct Report {
 class SerialBench {
  public:
   // `make_core` builds the core with the bench's send function and recorder.
-  using CoreFactory = std::function<std::unique_ptr<gateway::SerialLineCore>(std::function<void(std::span<const std::uint8_t>)> send,
-                                                                             gateway::GatewayOutput& out)>;
+  using CoreFactory = std::function<std::unique_ptr<gateway::SerialLineCore>(
+      std::function<void(std::span<const std::uint8_t>)> send, gateway::GatewayOutput& out)>;
 
   SerialBench(const std::string& yaml, const std::string& bus, const sim::SerialDeviceFactory& sim_factory) {
     auto loaded = config::load_string(yaml, "truth.yaml");
@@ -77,10 +79,13 @@ class SerialBench {
     context.send = [this](std::span<const std::uint8_t> bytes, Duration delay) {
       to_core.push_back({now + delay, std::vector<std::uint8_t>(bytes.begin(), bytes.end())});
     };
-    context.report = [this](const std::string& drive, std::int8_t kind, std::int64_t utime, std::int64_t position, std::int64_t target) {
+    context.report = [this](const std::string& drive, std::int8_t kind, std::int64_t utime, std::int64_t position,
+                            std::int64_t target) {
       reports.push_back({drive, kind, now, utime, position, target});
     };
-    context.utime_of = [](TimePoint t) { return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count(); };
+    context.utime_of = [](TimePoint t) {
+      return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+    };
     device = sim_factory(*config, *config->find_bus(bus), context);
     device->power_up(now);
   }
@@ -160,7 +165,8 @@ class SerialBench {
   }
   [[nodiscard]] std::vector<Report> reports_of(const std::string& drive, std::int8_t kind) const {
     std::vector<Report> r;
-    std::copy_if(reports.begin(), reports.end(), std::back_inserter(r), [&](const Report& x) { return x.drive == drive && x.kind == kind; });
+    std::copy_if(reports.begin(), reports.end(), std::back_inserter(r),
+                 [&](const Report& x) { return x.drive == drive && x.kind == kind; });
     return r;
   }
 
@@ -176,7 +182,8 @@ class SerialBench {
   std::int64_t next_id = 0;
 };
 
-inline motionlcm::axis_command_t axis_move(const std::string& axis, std::int64_t target, double velocity, double acceleration) {
+inline motionlcm::axis_command_t axis_move(const std::string& axis, std::int64_t target, double velocity,
+                                           double acceleration) {
   motionlcm::axis_command_t a{};
   a.axis = axis;
   a.target_counts = target;
@@ -186,8 +193,8 @@ inline motionlcm::axis_command_t axis_move(const std::string& axis, std::int64_t
   return a;
 }
 
-inline motionlcm::gateway_command_t command(std::int8_t kind, const std::string& bus, std::vector<motionlcm::axis_command_t> axes,
-                                            std::int64_t trigger_id = 0) {
+inline motionlcm::gateway_command_t command(std::int8_t kind, const std::string& bus,
+                                            std::vector<motionlcm::axis_command_t> axes, std::int64_t trigger_id = 0) {
   motionlcm::gateway_command_t c{};
   c.kind = kind;
   c.bus = bus;

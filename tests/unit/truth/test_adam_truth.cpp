@@ -37,14 +37,18 @@ struct Variant {
   std::string speed;
   std::string save;
 };
-void PrintTo(const Variant& v, std::ostream* os) { *os << "table_speed_register " << v.speed << ", table_needs_save " << v.save; }
+void PrintTo(const Variant& v, std::ostream* os) {
+  *os << "table_speed_register " << v.speed << ", table_needs_save " << v.save;
+}
 
 class AdamTable : public ::testing::TestWithParam<Variant> {};
 
 TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
   std::string yaml = kLine;
-  for (auto at = yaml.find("SPEED"); at != std::string::npos; at = yaml.find("SPEED")) yaml.replace(at, 5, GetParam().speed);
-  for (auto at = yaml.find("SAVE"); at != std::string::npos; at = yaml.find("SAVE")) yaml.replace(at, 4, GetParam().save);
+  for (auto at = yaml.find("SPEED"); at != std::string::npos; at = yaml.find("SPEED"))
+    yaml.replace(at, 5, GetParam().speed);
+  for (auto at = yaml.find("SAVE"); at != std::string::npos; at = yaml.find("SAVE"))
+    yaml.replace(at, 4, GetParam().save);
   SerialBench bench(yaml, "rs485", sim::adam_line_factory());
   bench.attach([&bench](std::function<void(std::span<const std::uint8_t>)> send, gateway::GatewayOutput& out) {
     auto settings = adam_driver::settings_from_config(*bench.config, *bench.config->find_bus("rs485"));
@@ -63,8 +67,9 @@ TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
   // of 0.25 s; 10 and 5 revolutions.
   constexpr double kSpeed = 24000;
   constexpr double kRate = 96000;
-  const auto move = bench.execute(command(gateway_command_t::ARM_MOVE, "rs485",
-                                          {axis_move("c1", 32000, kSpeed, kRate), axis_move("c2", -16000, kSpeed, kRate)}, 5));
+  const auto move =
+      bench.execute(command(gateway_command_t::ARM_MOVE, "rs485",
+                            {axis_move("c1", 32000, kSpeed, kRate), axis_move("c2", -16000, kSpeed, kRate)}, 5));
   bench.run_for(std::chrono::milliseconds(400));  // loaded and saved (0.1 s flash erase each)
   bench.core->fire(5, bench.now);
   const auto done = bench.finish(move);
@@ -73,8 +78,10 @@ TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
   EXPECT_EQ(bench.mechanism_of(move), "broadcast");
   ASSERT_EQ(bench.reports_of("c1-drive", kStarted).size(), 1u);
   ASSERT_EQ(bench.reports_of("c2-drive", kStarted).size(), 1u);
-  EXPECT_EQ(bench.reports_of("c1-drive", kStarted)[0].frame_utime, bench.reports_of("c2-drive", kStarted)[0].frame_utime);
-  for (const auto& [drive, target] : {std::pair{std::string("c1-drive"), 32000}, std::pair{std::string("c2-drive"), -16000}}) {
+  EXPECT_EQ(bench.reports_of("c1-drive", kStarted)[0].frame_utime,
+            bench.reports_of("c2-drive", kStarted)[0].frame_utime);
+  for (const auto& [drive, target] :
+       {std::pair{std::string("c1-drive"), 32000}, std::pair{std::string("c2-drive"), -16000}}) {
     SCOPED_TRACE(drive);
     EXPECT_EQ(line.position(drive, bench.now), target);
     const auto started = bench.reports_of(drive, kStarted);
@@ -89,10 +96,12 @@ TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, AdamTable,
-                         ::testing::Values(Variant{"0x009A", "true"}, Variant{"0x009A", "false"}, Variant{"0x00D8", "true"},
-                                           Variant{"0x00D8", "false"}, Variant{"shared", "true"}, Variant{"shared", "false"}),
+                         ::testing::Values(Variant{"0x009A", "true"}, Variant{"0x009A", "false"},
+                                           Variant{"0x00D8", "true"}, Variant{"0x00D8", "false"},
+                                           Variant{"shared", "true"}, Variant{"shared", "false"}),
                          [](const ::testing::TestParamInfo<Variant>& p) {
-                           return "speed_" + (p.param.speed == "shared" ? p.param.speed : p.param.speed.substr(2)) + "_needs_save_" + p.param.save;
+                           return "speed_" + (p.param.speed == "shared" ? p.param.speed : p.param.speed.substr(2)) +
+                                  "_needs_save_" + p.param.save;
                          });
 
 }  // namespace

@@ -86,7 +86,9 @@ class Uc57Bench {
       return true;
     };
     uc57_driver::Uc57Stack::Options options;
-    options.wall_clock_us = [](TimePoint t) { return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count(); };
+    options.wall_clock_us = [](TimePoint t) {
+      return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+    };
     stack = std::make_unique<uc57_driver::Uc57Stack>(config_, *config_.find_bus("can0"), ctx, options);
     const auto factory = sim::uc57_drive_factory(config_, sim_options);
     for (const auto& d : config_.drives) {
@@ -98,7 +100,8 @@ class Uc57Bench {
         to_stack.push_back(stamped);
         to_peers.push_back(stamped);
       };
-      context.report = [this, name = d.name](std::int8_t kind, std::int64_t frame_utime, std::int64_t position, std::int64_t target) {
+      context.report = [this, name = d.name](std::int8_t kind, std::int64_t frame_utime, std::int64_t position,
+                                             std::int64_t target) {
         reports[name].push_back({kind, frame_utime, position, target});
       };
       drives.push_back(factory(d, context));
@@ -170,7 +173,8 @@ class Uc57Bench {
   [[nodiscard]] std::vector<Report> reports_of(const std::string& drive, std::int8_t kind) const {
     std::vector<Report> r;
     if (const auto it = reports.find(drive); it != reports.end()) {
-      std::copy_if(it->second.begin(), it->second.end(), std::back_inserter(r), [kind](const Report& x) { return x.kind == kind; });
+      std::copy_if(it->second.begin(), it->second.end(), std::back_inserter(r),
+                   [kind](const Report& x) { return x.kind == kind; });
     }
     return r;
   }
@@ -215,7 +219,8 @@ void synchronized_move_under(const std::string& variant, sim::Uc57SimOptions sim
     EXPECT_NE(e.kind, kOffline) << "set-up went through an offline retry: " << e.text;  // refused: no reset loop
   }
   for (const auto* drive : {"a-drive", "b-drive"}) {
-    EXPECT_TRUE(bench.stack->rpdo_sync_finding(drive).starts_with(variant)) << drive << ": " << bench.stack->rpdo_sync_finding(drive);
+    EXPECT_TRUE(bench.stack->rpdo_sync_finding(drive).starts_with(variant))
+        << drive << ": " << bench.stack->rpdo_sync_finding(drive);
     EXPECT_TRUE(bench.reports_of(drive, kMotionStarted).empty()) << "the acceptance test moved " << drive;
   }
   for (const auto* axis : {"a", "b"}) {
@@ -240,9 +245,11 @@ void synchronized_move_under(const std::string& variant, sim::Uc57SimOptions sim
   move.trigger_id = 7;
   move.axes = {axis_move("a", 6400), axis_move("b", -3200)};
   const auto id = bench.execute(move);
-  ASSERT_TRUE(bench.run_until([&] { return bench.reply(id, gateway_reply_t::ARMED).has_value(); }, std::chrono::seconds(2)));
+  ASSERT_TRUE(
+      bench.run_until([&] { return bench.reply(id, gateway_reply_t::ARMED).has_value(); }, std::chrono::seconds(2)));
   bench.run_for(milliseconds(120));  // periodic SYNCs while armed must not start anything
-  for (const auto* drive : {"a-drive", "b-drive"}) EXPECT_TRUE(bench.reports_of(drive, kMotionStarted).empty()) << drive << " started early";
+  for (const auto* drive : {"a-drive", "b-drive"})
+    EXPECT_TRUE(bench.reports_of(drive, kMotionStarted).empty()) << drive << " started early";
   const auto fired_us = std::chrono::duration_cast<std::chrono::microseconds>(bench.now.time_since_epoch()).count();
   bench.stack->fire(7, bench.now);
   bench.settle();
@@ -273,11 +280,14 @@ void synchronized_move_under(const std::string& variant, sim::Uc57SimOptions sim
     EXPECT_GT(spread_us, 400.0) << "back to back: one RPDO1 (~0.5 ms at 125 kbit/s) apart";
   }
   EXPECT_NEAR(started->predicted_skew_us, spread_us, 1.0);  // the wire stamps are whole microseconds
-  std::printf("rpdo_sync %s: found \"%s\"; STARTED %s, predicted skew %.1f us, drives started %.0f us apart\n", variant.c_str(),
-              bench.stack->rpdo_sync_finding("a-drive").c_str(), started->start_mechanism.c_str(), started->predicted_skew_us, spread_us);
+  std::printf("rpdo_sync %s: found \"%s\"; STARTED %s, predicted skew %.1f us, drives started %.0f us apart\n",
+              variant.c_str(), bench.stack->rpdo_sync_finding("a-drive").c_str(), started->start_mechanism.c_str(),
+              started->predicted_skew_us, spread_us);
 }
 
-TEST_P(Uc57RpdoSync, SetUpFindsTheVariantAndASynchronizedMoveReportsWhatTheDrivesDid) { synchronized_move_under(GetParam()); }
+TEST_P(Uc57RpdoSync, SetUpFindsTheVariantAndASynchronizedMoveReportsWhatTheDrivesDid) {
+  synchronized_move_under(GetParam());
+}
 
 // The same with the manual's RO remap objects (§5 comm. table: 1400h:01, 1600h:00): the stack
 // keeps the default RPDO1 (6040h + 60FFh + 6060h), tests with 60FFh outside profile velocity, and
@@ -291,7 +301,8 @@ TEST_P(Uc57RpdoSync, WithTheManualsDefaultRpdo1) {
 // A gateway restarted against drives that an earlier gateway set up (and left enabled) finds the same.
 TEST(Uc57RpdoSyncRestart, ASecondGatewayFindsHonouredAgain) {
   std::string yaml = kLabTemplate;
-  for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT")) yaml.replace(at, 7, "honoured");
+  for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT"))
+    yaml.replace(at, 7, "honoured");
   Uc57Bench bench(yaml);
   bench.stack->start(bench.now);
   bench.settle();
@@ -314,7 +325,8 @@ TEST(Uc57RpdoSyncRestart, ASecondGatewayFindsHonouredAgain) {
   bench.stack->start(bench.now);
   bench.settle();
   ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5)));
-  EXPECT_TRUE(bench.stack->rpdo_sync_finding("a-drive").starts_with("honoured")) << bench.stack->rpdo_sync_finding("a-drive");
+  EXPECT_TRUE(bench.stack->rpdo_sync_finding("a-drive").starts_with("honoured"))
+      << bench.stack->rpdo_sync_finding("a-drive");
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, Uc57RpdoSync, ::testing::Values("honoured", "on_reception", "refused"),
@@ -325,7 +337,9 @@ INSTANTIATE_TEST_SUITE_P(Variants, Uc57RpdoSync, ::testing::Values("honoured", "
 // wire take at most 3/4 of it, and a warning says so once at start.
 TEST(Uc57PollBudget, ThirtyTwoNodesAt20HzStayWithinWhat125kbitCarries) {
   std::string yaml = "buses:\n  - {name: can0, transport: \"simcan:can0\", bitrate: 125000, poll_hz: 20}\ndrives:\n";
-  for (int node = 1; node <= 32; ++node) yaml += "  - {name: d" + std::to_string(node) + ", family: uc57, bus: can0, node_id: " + std::to_string(node) + "}\n";
+  for (int node = 1; node <= 32; ++node)
+    yaml +=
+        "  - {name: d" + std::to_string(node) + ", family: uc57, bus: can0, node_id: " + std::to_string(node) + "}\n";
   Uc57Bench bench(yaml);
   ASSERT_GT(bench.stack->sync_period(), milliseconds(50)) << "the configured 20 Hz does not fit";
   bench.stack->start(bench.now);
@@ -352,7 +366,8 @@ TEST(Uc57PollBudget, ThirtyTwoNodesAt20HzStayWithinWhat125kbitCarries) {
   EXPECT_LE(busy_share, 0.76) << "polls and heartbeats keep to 3/4 of the bus";
   EXPECT_GE(busy_share, 0.60) << "polling slowed more than needed";
   std::printf("32 UC57 nodes at 125 kbit/s: SYNC every %.1f ms, %.0f frames/s, wire %.0f%% busy\n",
-              std::chrono::duration<double, std::milli>(bench.stack->sync_period()).count(), frames_per_s, 100 * busy_share);
+              std::chrono::duration<double, std::milli>(bench.stack->sync_period()).count(), frames_per_s,
+              100 * busy_share);
 }
 
 }  // namespace

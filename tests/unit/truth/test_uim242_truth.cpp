@@ -62,10 +62,11 @@ TEST_P(Uim242Reboot, IcfIsWrittenOnceTheRebootWaitedOutAndAMoveLands) {
   EXPECT_EQ(line.icf_writes("u1-drive"), 1);
   EXPECT_EQ(line.icf_writes("u2-drive"), 1);
 
-  const auto enabled = bench.execute(command(gateway_command_t::ENABLE, "rs232", {axis_move("u1", 0, 0, 0), axis_move("u2", 0, 0, 0)}));
+  const auto enabled =
+      bench.execute(command(gateway_command_t::ENABLE, "rs232", {axis_move("u1", 0, 0, 0), axis_move("u2", 0, 0, 0)}));
   ASSERT_EQ(bench.finish(enabled).status, kDone) << bench.finish(enabled).reason;
-  const auto move = bench.execute(
-      command(gateway_command_t::ARM_MOVE, "rs232", {axis_move("u1", 1600, 3200, 16000), axis_move("u2", -800, 3200, 16000)}, 9));
+  const auto move = bench.execute(command(gateway_command_t::ARM_MOVE, "rs232",
+                                          {axis_move("u1", 1600, 3200, 16000), axis_move("u2", -800, 3200, 16000)}, 9));
   bench.run_for(std::chrono::milliseconds(300));
   bench.core->fire(9, bench.now);
   const auto done = bench.finish(move);
@@ -107,7 +108,8 @@ TEST(Uim242Sto, NothingIsSentWithin20msAfterAnSto) {
   ASSERT_TRUE(stored.has_value());
   ASSERT_TRUE(bench.out.terminal(read_id).has_value());
   EXPECT_EQ(bench.out.terminal(sto_id)->status, kDone);
-  const auto after = std::find_if(bench.sent_at.begin(), bench.sent_at.end(), [&](TimePoint t) { return t >= *stored; });
+  const auto after =
+      std::find_if(bench.sent_at.begin(), bench.sent_at.end(), [&](TimePoint t) { return t >= *stored; });
   ASSERT_NE(after, bench.sent_at.end());
   const TimePoint read_sent = *after;
   EXPECT_GE(read_sent - *stored, std::chrono::milliseconds(19));

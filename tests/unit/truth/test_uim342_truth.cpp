@@ -59,7 +59,8 @@ class Uim342Bench {
  public:
   explicit Uim342Bench(const std::string& variant) {
     std::string yaml = kLabTemplate;
-    for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT")) yaml.replace(at, 7, variant);
+    for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT"))
+      yaml.replace(at, 7, variant);
     auto loaded = config::load_string(yaml, "truth.yaml");
     EXPECT_TRUE(loaded.ok()) << loaded.error_text();
     config_ = *loaded.config;
@@ -73,8 +74,9 @@ class Uim342Bench {
     for (const auto& d : config_.drives) {
       config::Drive stored = d;
       stored.setup["micro_steps"] = 8LL;  // what the drive's EEPROM holds at power-up
-      const auto apply = config::sim_variant(config_, d, "micro_steps_apply") == "immediately" ? sim::MicroStepsApply::immediately
-                                                                                            : sim::MicroStepsApply::after_restart;
+      const auto apply = config::sim_variant(config_, d, "micro_steps_apply") == "immediately"
+                             ? sim::MicroStepsApply::immediately
+                             : sim::MicroStepsApply::after_restart;
       sim::SimDriveContext context;
       context.drive = d.name;
       context.bus = d.bus;

@@ -16,15 +16,16 @@ constexpr std::uint32_t kRemapRefused = 0x06010002;  // write of a read-only ent
 
 // The I8/I32 objects among those the fake holds (manual §5.2); everything else is unsigned.
 bool is_signed(std::uint16_t index) {
-  return index == 0x6060 || index == 0x6061 || index == 0x6064 || index == 0x606C || index == 0x607A || index == 0x607C ||
-         index == 0x60FF;
+  return index == 0x6060 || index == 0x6061 || index == 0x6064 || index == 0x606C || index == 0x607A ||
+         index == 0x607C || index == 0x60FF;
 }
 
 }  // namespace
 
 void FakeUc57::reset_dictionary() {
   od_.clear();
-  const auto add = [this](std::uint16_t index, std::uint8_t sub, std::int64_t value, std::uint8_t size, bool writable = true) {
+  const auto add = [this](std::uint16_t index, std::uint8_t sub, std::int64_t value, std::uint8_t size,
+                          bool writable = true) {
     od_[key(index, sub)] = Entry{value, size, writable};
   };
   add(0x1000, 0, 0x00040192, 4, false);
@@ -105,7 +106,8 @@ std::uint16_t FakeUc57::statusword() const {
   const auto set = [&other](StatusBit bit, bool on) {
     if (on) other = static_cast<std::uint16_t>(other | cia402::mask(bit));
   };
-  const bool energised = state_ == State::kSwitchedOn || state_ == State::kOperationEnabled || state_ == State::kQuickStopActive;
+  const bool energised =
+      state_ == State::kSwitchedOn || state_ == State::kOperationEnabled || state_ == State::kQuickStopActive;
   set(StatusBit::kAlarm, alarm_);
   set(StatusBit::kHomingDone, homed_);
   set(StatusBit::kTargetReached, target_reached_);
@@ -199,12 +201,14 @@ std::vector<can::Frame> FakeUc57::on_sdo(const can::Frame& frame) {
   };
   if (const auto* upload = std::get_if<canopen::SdoInitiateUploadRequest>(&*request)) {
     const auto object = upload->object;
-    if (const auto it = forced_aborts.find(key(object.index, object.subindex)); it != forced_aborts.end()) return abort(object, it->second);
+    if (const auto it = forced_aborts.find(key(object.index, object.subindex)); it != forced_aborts.end())
+      return abort(object, it->second);
     if (const auto missing = lookup(object)) return abort(object, *missing);
     if (object.index == 0x6041) set_value(0x6041, 0, statusword());
     const Entry& entry = od_.at(key(object.index, object.subindex));
     std::vector<std::uint8_t> bytes(entry.size);
-    for (std::size_t i = 0; i < entry.size; ++i) bytes[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(entry.value) >> (8 * i));
+    for (std::size_t i = 0; i < entry.size; ++i)
+      bytes[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(entry.value) >> (8 * i));
     const auto data = canopen::InlineBytes<4>::from(bytes);
     canopen::SdoInitiateUploadResponse response;
     static_cast<canopen::SdoInitiateData&>(response) = canopen::SdoInitiateData::expedited_data(object, *data);
@@ -212,16 +216,18 @@ std::vector<can::Frame> FakeUc57::on_sdo(const can::Frame& frame) {
   }
   if (const auto* download = std::get_if<canopen::SdoInitiateDownloadRequest>(&*request)) {
     const auto object = download->object;
-    if (const auto it = forced_aborts.find(key(object.index, object.subindex)); it != forced_aborts.end()) return abort(object, it->second);
+    if (const auto it = forced_aborts.find(key(object.index, object.subindex)); it != forced_aborts.end())
+      return abort(object, it->second);
     if (const auto missing = lookup(object)) return abort(object, *missing);
     Entry& entry = od_.at(key(object.index, object.subindex));
-    const bool remap_object = (object.index == 0x1400 && object.subindex == 1) || (object.index == 0x1600 && object.subindex == 0);
+    const bool remap_object =
+        (object.index == 0x1400 && object.subindex == 1) || (object.index == 0x1600 && object.subindex == 0);
     if (!entry.writable || (remap_object && !pdo_remap_writable)) return abort(object, kRemapRefused);
     if (download->data.size() != entry.size) return abort(object, 0x06070010);
     std::uint64_t raw = 0;
     for (std::size_t i = 0; i < download->data.size(); ++i) raw |= std::uint64_t{download->data.view()[i]} << (8 * i);
-    write_object(object.index, object.subindex, is_signed(object.index) ? canopen::sign_extend(raw, entry.size * 8U)
-                                                                         : static_cast<std::int64_t>(raw));
+    write_object(object.index, object.subindex,
+                 is_signed(object.index) ? canopen::sign_extend(raw, entry.size * 8U) : static_cast<std::int64_t>(raw));
     if (unanswered_once.erase(key(object.index, object.subindex)) != 0) return {};
     return {canopen::sdo_response_frame(id_, canopen::SdoInitiateDownloadResponse{object})};
   }
@@ -277,7 +283,8 @@ void FakeUc57::apply_controlword(std::uint16_t controlword) {
     target_reached_ = true;
     motion_left_ = 0;
   }
-  if (enabled && cia402::rising_edge(previous, controlword, ControlBit::kNewSetPoint) && !cia402::is_set(controlword, ControlBit::kHalt)) {
+  if (enabled && cia402::rising_edge(previous, controlword, ControlBit::kNewSetPoint) &&
+      !cia402::is_set(controlword, ControlBit::kHalt)) {
     if (mode == 1) {
       set_point_ack_ = true;
       motion_target_ = value(0x607A);
@@ -313,7 +320,8 @@ void FakeUc57::step_motion() {
 }
 
 void FakeUc57::transmit_tpdos(std::vector<can::Frame>& out, bool sync_event) {
-  const auto emit = [&](std::uint16_t comm, std::uint16_t map_index, std::uint8_t number, std::optional<std::vector<std::uint8_t>>& last) {
+  const auto emit = [&](std::uint16_t comm, std::uint16_t map_index, std::uint8_t number,
+                        std::optional<std::vector<std::uint8_t>>& last) {
     const auto type = value(comm, 2);
     const auto map = mapping(map_index);
     if (map.empty()) return;

@@ -37,14 +37,16 @@ class FakeUc57 {
   explicit FakeUc57(canopen::NodeId id) : id_(id) { reset_dictionary(); }
 
   // --- switches ---
-  bool silent = false;               // answers nothing (powered off / unplugged)
-  bool pdo_remap_writable = true;    // CiA 301; false = the manual's RO 1400h:01 / 1600h:00
-  bool refuse_enable = false;        // ignores Switch on (for timeout tests)
-  int motion_syncs = 3;              // SYNC periods a move / homing run takes
+  bool silent = false;                                   // answers nothing (powered off / unplugged)
+  bool pdo_remap_writable = true;                        // CiA 301; false = the manual's RO 1400h:01 / 1600h:00
+  bool refuse_enable = false;                            // ignores Switch on (for timeout tests)
+  int motion_syncs = 3;                                  // SYNC periods a move / homing run takes
   std::map<std::uint32_t, std::uint32_t> forced_aborts;  // key(index, sub) -> abort code
-  std::set<std::uint32_t> unanswered_once;  // key(index, sub): the next write is applied, its answer lost
+  std::set<std::uint32_t> unanswered_once;               // key(index, sub): the next write is applied, its answer lost
 
-  static constexpr std::uint32_t key(std::uint16_t index, std::uint8_t sub) { return (std::uint32_t{index} << 8) | sub; }
+  static constexpr std::uint32_t key(std::uint16_t index, std::uint8_t sub) {
+    return (std::uint32_t{index} << 8) | sub;
+  }
 
   // --- observations ---
   std::vector<std::uint16_t> controlwords;  // every controlword applied, in order

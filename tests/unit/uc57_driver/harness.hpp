@@ -152,7 +152,9 @@ class Bench : public gateway::GatewayOutput {
     statuses[axis] = status;
     status_log.emplace_back(axis, status);
   }
-  void axis_event(const std::string& axis, const gateway::DriveEvent& event) override { events.emplace_back(axis, event); }
+  void axis_event(const std::string& axis, const gateway::DriveEvent& event) override {
+    events.emplace_back(axis, event);
+  }
   void command_reply(motionlcm::gateway_reply_t reply) override {
     replies.push_back(std::move(reply));
     replied_after.push_back(status_log.size());
@@ -165,8 +167,8 @@ class Bench : public gateway::GatewayOutput {
   std::vector<can::Frame> sent;
   std::deque<can::Frame> wire;
   std::size_t unclaimed = 0;
-  std::map<std::string, gateway::DriveStatus> statuses;                     // the latest per axis
-  std::vector<std::pair<std::string, gateway::DriveStatus>> status_log;      // every one, in order
+  std::map<std::string, gateway::DriveStatus> statuses;                  // the latest per axis
+  std::vector<std::pair<std::string, gateway::DriveStatus>> status_log;  // every one, in order
   std::vector<std::pair<std::string, gateway::DriveEvent>> events;
   std::vector<motionlcm::gateway_reply_t> replies;
   std::vector<std::size_t> replied_after;  // per reply: how many statuses had gone out before it

@@ -27,7 +27,8 @@ void enable(Bench& bench, std::vector<std::string> axes) {
   const auto c = bench.command(Cmd::ENABLE, std::move(axes));
   bench.execute(c);
   bench.run_for(std::chrono::milliseconds(500));
-  ASSERT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE)) << bench.replies_of(c.command_id).back().reason;
+  ASSERT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE))
+      << bench.replies_of(c.command_id).back().reason;
 }
 
 // How many statuses had gone out when `id` got its reply `s` (the size of the log if it never did).
@@ -74,8 +75,12 @@ TEST(Uc57Commands, EnableSendsShutdownSwitchOnEnableOperationInRpdo1) {
   EXPECT_TRUE(bench.statuses["a"].enabled);
   // They travelled in RPDO1 (controlword + target), never as SDO writes of 6040h.
   const auto frames = texts(bench.sent);
-  EXPECT_NE(std::find_if(frames.begin(), frames.end(), [](const std::string& f) { return f.rfind("201#0600", 0) == 0; }), frames.end());
-  EXPECT_EQ(std::find_if(frames.begin(), frames.end(), [](const std::string& f) { return f.rfind("601#2B406000", 0) == 0; }), frames.end());
+  EXPECT_NE(
+      std::find_if(frames.begin(), frames.end(), [](const std::string& f) { return f.rfind("201#0600", 0) == 0; }),
+      frames.end());
+  EXPECT_EQ(
+      std::find_if(frames.begin(), frames.end(), [](const std::string& f) { return f.rfind("601#2B406000", 0) == 0; }),
+      frames.end());
 
   const auto disable = bench.command(Cmd::DISABLE, {"a"});
   bench.execute(disable);
@@ -132,7 +137,8 @@ TEST(Uc57Commands, SynchronizedMoveStartsBothNodesWithOneSync) {
   // type 1: applied by the next SYNC); every periodic SYNC since was masked by the armed image.
   const auto armed_frames = texts(bench.sent, 0);
   const auto last_of = [&](const std::string& prefix) {
-    const auto it = std::find_if(armed_frames.rbegin(), armed_frames.rend(), [&](const std::string& f) { return f.rfind(prefix, 0) == 0; });
+    const auto it = std::find_if(armed_frames.rbegin(), armed_frames.rend(),
+                                 [&](const std::string& f) { return f.rfind(prefix, 0) == 0; });
     return it == armed_frames.rend() ? std::string() : *it;
   };
   EXPECT_EQ(last_of("201#"), "201#1F0010270000");
@@ -152,8 +158,9 @@ TEST(Uc57Commands, SynchronizedMoveStartsBothNodesWithOneSync) {
   EXPECT_EQ(replies[1].status, status(Reply::STARTED));
   EXPECT_EQ(replies[1].start_mechanism, "sync");
   EXPECT_EQ(replies[1].predicted_skew_us, 0.0);
-  EXPECT_EQ(replies[1].trigger_utime,
-            kWallOffsetUs + std::chrono::duration_cast<std::chrono::microseconds>(bench.now.time_since_epoch()).count());
+  EXPECT_EQ(
+      replies[1].trigger_utime,
+      kWallOffsetUs + std::chrono::duration_cast<std::chrono::microseconds>(bench.now.time_since_epoch()).count());
 
   bench.run_for(std::chrono::milliseconds(600));
   replies = bench.replies_of(c.command_id);
@@ -176,7 +183,8 @@ TEST(Uc57Commands, SynchronizedMoveWithTheManualsDefaultRpdo) {
   bench.run_for(std::chrono::milliseconds(300));
   EXPECT_EQ(bench.node(1).value(0x607A), 5000);  // target by SDO: no room in the default RPDO1
   const auto armed_frames = texts(bench.sent, 0);
-  const auto last_rpdo = std::find_if(armed_frames.rbegin(), armed_frames.rend(), [](const std::string& f) { return f.rfind("201#", 0) == 0; });
+  const auto last_rpdo = std::find_if(armed_frames.rbegin(), armed_frames.rend(),
+                                      [](const std::string& f) { return f.rfind("201#", 0) == 0; });
   ASSERT_NE(last_rpdo, armed_frames.rend());
   EXPECT_EQ(*last_rpdo, "201#1F000000000001");  // D-39: CW 0x1F, 60FFh 0, 6060h 1, preloaded
   const std::size_t before = bench.sent.size();
@@ -206,7 +214,8 @@ TEST(Uc57Commands, PreloadedStartSurvivesPeriodicSyncsAndADisarmWithdrawsIt) {
     if (all[i] != "080#") continue;
     ++syncs;
     // The last RPDO1 of node 1 before this SYNC (all.rend() - i: the frame before index i).
-    const auto before_sync = std::find_if(all.rend() - static_cast<std::ptrdiff_t>(i), all.rend(), [](const std::string& f) { return f.rfind("201#", 0) == 0; });
+    const auto before_sync = std::find_if(all.rend() - static_cast<std::ptrdiff_t>(i), all.rend(),
+                                          [](const std::string& f) { return f.rfind("201#", 0) == 0; });
     ASSERT_NE(before_sync, all.rend());
     EXPECT_EQ(*before_sync, "201#0F0010270000") << "the SYNC at " << i << " would apply the start image";
   }
@@ -219,7 +228,8 @@ TEST(Uc57Commands, PreloadedStartSurvivesPeriodicSyncsAndADisarmWithdrawsIt) {
   EXPECT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::FAILED));
   EXPECT_FALSE(bench.node(1).move_started_at_sync);
   const auto after = texts(bench.sent, 0);
-  const auto last = std::find_if(after.rbegin(), after.rend(), [](const std::string& f) { return f.rfind("201#", 0) == 0; });
+  const auto last =
+      std::find_if(after.rbegin(), after.rend(), [](const std::string& f) { return f.rfind("201#", 0) == 0; });
   ASSERT_NE(last, after.rend());
   EXPECT_EQ(*last, "201#0F0010270000");
 }
@@ -273,7 +283,8 @@ TEST(Uc57Commands, FaultDuringAMoveFailsItNamingAxisAndErrorCode) {
   const auto reset = bench.command(Cmd::FAULT_RESET, {"b"});
   bench.execute(reset);
   bench.run_for(std::chrono::milliseconds(300));
-  EXPECT_EQ(bench.replies_of(reset.command_id).back().status, status(Reply::DONE)) << bench.replies_of(reset.command_id).back().reason;
+  EXPECT_EQ(bench.replies_of(reset.command_id).back().status, status(Reply::DONE))
+      << bench.replies_of(reset.command_id).back().reason;
   EXPECT_EQ(bench.node(2).controlwords.back(), 0x0080);
   EXPECT_EQ(bench.node(2).state(), cia402::State::kSwitchOnDisabled);
   EXPECT_FALSE(bench.statuses["b"].fault);
@@ -294,7 +305,8 @@ TEST(Uc57Commands, SdoAbortNamesTheObjectAndTheAbortCode) {
   const auto r = bench.replies_of(c.command_id).back();
   EXPECT_EQ(r.status, status(Reply::FAILED));
   EXPECT_EQ(r.error_code, 12);
-  EXPECT_EQ(r.reason, "a-drive (node 1): SDO write 0x6081:00 aborted: invalid value for parameter (download only) (0x06090030)");
+  EXPECT_EQ(r.reason,
+            "a-drive (node 1): SDO write 0x6081:00 aborted: invalid value for parameter (download only) (0x06090030)");
   EXPECT_EQ(bench.stack->counters().sdo_aborts, 1);
 }
 
@@ -428,7 +440,8 @@ TEST(Uc57Commands, HomedStateAndHomingDoneCarryTheHomedPosition) {
   const std::size_t from = bench.status_log.size();
   bench.execute(home);
   bench.run_for(std::chrono::milliseconds(600));
-  ASSERT_EQ(bench.replies_of(home.command_id).back().status, status(Reply::DONE)) << bench.replies_of(home.command_id).back().reason;
+  ASSERT_EQ(bench.replies_of(home.command_id).back().status, status(Reply::DONE))
+      << bench.replies_of(home.command_id).back().reason;
   const std::size_t done_at = statuses_before_reply(bench, home.command_id, Reply::DONE);
   const auto before_done = last_status_before(bench, "a", done_at);
   ASSERT_TRUE(before_done);
@@ -464,9 +477,7 @@ TEST(Uc57Commands, AStoppedStateAfterAMoveCarriesItsEndPosition) {
     const auto& [axis, s] = bench.status_log[i];
     if (axis != "a") continue;
     started = started || s.moving;
-    if (started && !s.moving) {
-      EXPECT_EQ(s.position_counts, 1000) << "status " << i;
-    }
+    if (started && !s.moving) { EXPECT_EQ(s.position_counts, 1000) << "status " << i; }
   }
   EXPECT_TRUE(started);
   EXPECT_EQ(bench.statuses["a"].position_counts, 1000);

@@ -28,18 +28,18 @@ TEST(Uc57Startup, ProbesConfiguresAndStartsEveryNode) {
   // Node 1's SDO requests, in order: probe (D-05, D-06), setup, heartbeat, RPDO1 remap (D-31..D-37).
   const auto sdo = texts(bench.sent, 0x601);
   ASSERT_GE(sdo.size(), 10U);
-  EXPECT_EQ(sdo[0], "601#4000100000000000");  // read 1000h
-  EXPECT_EQ(sdo[1], "601#4018100100000000");  // read 1018h:01
-  EXPECT_EQ(sdo[2], "601#2B06200004000000");  // 2006h := 4 (3200 pulses/rev = 200 x 16)
+  EXPECT_EQ(sdo[0], "601#4000100000000000");                     // read 1000h
+  EXPECT_EQ(sdo[1], "601#4018100100000000");                     // read 1018h:01
+  EXPECT_EQ(sdo[2], "601#2B06200004000000");                     // 2006h := 4 (3200 pulses/rev = 200 x 16)
   EXPECT_LT(index_of(sdo, "601#2B05200014000000"), sdo.size());  // 2005h := 20 (2.0 A)
   EXPECT_LT(index_of(sdo, "601#2B17100064000000"), sdo.size());  // 1017h := 100 ms
-  const auto disable = index_of(sdo, "601#2300140101020080");   // D-31
-  const auto count0 = index_of(sdo, "601#2F00160000000000");    // D-32
-  const auto entry1 = index_of(sdo, "601#2300160110004060");    // D-33
-  const auto entry2 = index_of(sdo, "601#2300160220007A60");    // D-34
-  const auto count2 = index_of(sdo, "601#2F00160002000000");    // D-35
-  const auto sync_type = index_of(sdo, "601#2F00140201000000"); // D-36
-  const auto enable = index_of(sdo, "601#2300140101020000");    // D-37
+  const auto disable = index_of(sdo, "601#2300140101020080");    // D-31
+  const auto count0 = index_of(sdo, "601#2F00160000000000");     // D-32
+  const auto entry1 = index_of(sdo, "601#2300160110004060");     // D-33
+  const auto entry2 = index_of(sdo, "601#2300160220007A60");     // D-34
+  const auto count2 = index_of(sdo, "601#2F00160002000000");     // D-35
+  const auto sync_type = index_of(sdo, "601#2F00140201000000");  // D-36
+  const auto enable = index_of(sdo, "601#2300140101020000");     // D-37
   EXPECT_LT(disable, count0);
   EXPECT_LT(count0, entry1);
   EXPECT_LT(entry1, entry2);
@@ -73,8 +73,8 @@ TEST(Uc57Startup, FallsBackToTheManualsDefaultRpdoWhenRemapIsReadOnly) {
   bench.start_ready();
   EXPECT_EQ(bench.stack->rpdo_layout("a-drive"), RpdoLayout::kControlwordTarget);
   EXPECT_EQ(bench.stack->rpdo_layout("b-drive"), RpdoLayout::kManualDefault);
-  EXPECT_EQ(bench.node(2).value(0x1400, 2), 1);   // the default RPDO1 made synchronous
-  EXPECT_EQ(bench.node(2).value(0x1600, 0), 3);   // mapping untouched
+  EXPECT_EQ(bench.node(2).value(0x1400, 2), 1);  // the default RPDO1 made synchronous
+  EXPECT_EQ(bench.node(2).value(0x1600, 0), 3);  // mapping untouched
 }
 
 // A remap step without an answer may have been applied (under load the answer comes after the SDO
@@ -104,10 +104,12 @@ TEST(Uc57Startup, SilentNodeIsOfflineAndRetriedWithBackOff) {
   bench.start();
   bench.run_for(std::chrono::seconds(3));
   EXPECT_FALSE(bench.stack->ready());
-  const auto offline = std::find_if(bench.events.begin(), bench.events.end(), [](const auto& e) { return e.second.kind == Event::OFFLINE; });
+  const auto offline = std::find_if(bench.events.begin(), bench.events.end(),
+                                    [](const auto& e) { return e.second.kind == Event::OFFLINE; });
   ASSERT_NE(offline, bench.events.end());
   EXPECT_EQ(offline->first, "b");
-  EXPECT_NE(offline->second.text.find("b-drive (node 2): SDO read 0x1000:00 timed out"), std::string::npos) << offline->second.text;
+  EXPECT_NE(offline->second.text.find("b-drive (node 2): SDO read 0x1000:00 timed out"), std::string::npos)
+      << offline->second.text;
   EXPECT_GT(bench.stack->counters().sdo_timeouts, 1);
   EXPECT_GT(bench.stack->counters().sdo_retries, 1);
   // Probes are spaced out: 3 attempts of 50 ms, then 0.5 s, 1 s, 2 s back-off.
@@ -160,17 +162,17 @@ TEST(Uc57Startup, FramesOfOtherProtocolsAndNodesAreNotClaimed) {
   Bench bench;
   bench.start_ready();
   const auto frame = [](const char* text) { return *can::parse_cansend(text); };
-  EXPECT_FALSE(bench.stack->on_frame(frame("04280095#01"), bench.now));          // UIM342, 29-bit
+  EXPECT_FALSE(bench.stack->on_frame(frame("04280095#01"), bench.now));                // UIM342, 29-bit
   EXPECT_FALSE(bench.stack->on_frame(frame("00000581#4300100092010400"), bench.now));  // extended id 581h
-  EXPECT_FALSE(bench.stack->on_frame(frame("589#4300100092010400"), bench.now));  // SDO reply of node 9
-  EXPECT_FALSE(bench.stack->on_frame(frame("709#05"), bench.now));                // heartbeat of node 9
-  EXPECT_FALSE(bench.stack->on_frame(frame("089#1023030101000000"), bench.now));  // EMCY of node 9
-  EXPECT_FALSE(bench.stack->on_frame(frame("189#2742000000000000"), bench.now));  // TPDO of node 9
-  EXPECT_FALSE(bench.stack->on_frame(frame("601#4000100000000000"), bench.now));  // another master's request
-  EXPECT_FALSE(bench.stack->on_frame(frame("080#"), bench.now));                  // another SYNC producer
-  EXPECT_FALSE(bench.stack->on_frame(frame("000#0100"), bench.now));              // NMT
-  EXPECT_FALSE(bench.stack->on_frame(frame("181#R"), bench.now));                 // RTR
-  EXPECT_TRUE(bench.stack->on_frame(frame("701#05"), bench.now));                 // our node's heartbeat
+  EXPECT_FALSE(bench.stack->on_frame(frame("589#4300100092010400"), bench.now));       // SDO reply of node 9
+  EXPECT_FALSE(bench.stack->on_frame(frame("709#05"), bench.now));                     // heartbeat of node 9
+  EXPECT_FALSE(bench.stack->on_frame(frame("089#1023030101000000"), bench.now));       // EMCY of node 9
+  EXPECT_FALSE(bench.stack->on_frame(frame("189#2742000000000000"), bench.now));       // TPDO of node 9
+  EXPECT_FALSE(bench.stack->on_frame(frame("601#4000100000000000"), bench.now));       // another master's request
+  EXPECT_FALSE(bench.stack->on_frame(frame("080#"), bench.now));                       // another SYNC producer
+  EXPECT_FALSE(bench.stack->on_frame(frame("000#0100"), bench.now));                   // NMT
+  EXPECT_FALSE(bench.stack->on_frame(frame("181#R"), bench.now));                      // RTR
+  EXPECT_TRUE(bench.stack->on_frame(frame("701#05"), bench.now));                      // our node's heartbeat
   EXPECT_EQ(bench.unclaimed, 0U);  // every frame our fakes sent was claimed
 }
 
@@ -205,7 +207,8 @@ TEST(Uc57Startup, InvalidSetupIsRefusedWithoutTouchingTheBus) {
     return e.second.kind == Event::CONFIG_MISMATCH && e.second.severity == Event::ERROR;
   });
   ASSERT_NE(mismatch, bench.events.end());
-  EXPECT_NE(mismatch->second.text.find("a-drive (node 1): cannot be set up: micro_steps: 600 pulses/rev"), std::string::npos)
+  EXPECT_NE(mismatch->second.text.find("a-drive (node 1): cannot be set up: micro_steps: 600 pulses/rev"),
+            std::string::npos)
       << mismatch->second.text;
   EXPECT_TRUE(texts(bench.sent, 0x601).empty());
 }

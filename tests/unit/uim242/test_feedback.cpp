@@ -99,9 +99,9 @@ TEST(Feedback, DerivedRepliesSpec63) {
       {"ACR 30", "AA 05 BA 1E FF", {30}},
       {"DOU 1", "AA 05 C1 01 FF", {1}},
       {"STGx C8 00 00", "AA 05 C9 00 01 48 00 00 00 00 00 00 FF", {200, 0, 0}},
-      {"MCF 32769", "AA 05 B0 02 00 01 FF", {32769}},                               // §8.11
-      {"SCF", "AA 05 C0 00 00 00 00 2A 03 6B 19 4C FF", {0x2A, 491, 3276}},          // after §8.11
-      {"SCF", "AA 05 C0 00 50 00 04 0A 00 00 00 00 FF", {0x0A00020A, 0, 0}},         // after §8.10 + §10.5
+      {"MCF 32769", "AA 05 B0 02 00 01 FF", {32769}},                         // §8.11
+      {"SCF", "AA 05 C0 00 00 00 00 2A 03 6B 19 4C FF", {0x2A, 491, 3276}},   // after §8.11
+      {"SCF", "AA 05 C0 00 50 00 04 0A 00 00 00 00 FF", {0x0A00020A, 0, 0}},  // after §8.10 + §10.5
   };
   for (const auto& row : rows) {
     SCOPED_TRACE(row.instruction);

@@ -84,15 +84,15 @@ TEST(InstructionSyntax, ScfRegisterWritesEN8CN8) {
     return parsed.ok() ? scf_write(*parsed) : std::nullopt;
   };
   EXPECT_EQ(scf("SCFx 34 12 00"), (ScfWrite{SensorRegister::S12CON, 0x1234}));  // #34
-  EXPECT_EQ(scf("SCF 8352"), (ScfWrite{SensorRegister::S12CON, 0x020A}));        // §8.10
-  EXPECT_EQ(scf("SCFx0A0200"), (ScfWrite{SensorRegister::S12CON, 0x020A}));      // CN §8.10
-  EXPECT_EQ(scf("SCF 672"), (ScfWrite{SensorRegister::S12CON, 0x002A}));         // §8.11
+  EXPECT_EQ(scf("SCF 8352"), (ScfWrite{SensorRegister::S12CON, 0x020A}));       // §8.10
+  EXPECT_EQ(scf("SCFx0A0200"), (ScfWrite{SensorRegister::S12CON, 0x020A}));     // CN §8.10
+  EXPECT_EQ(scf("SCF 672"), (ScfWrite{SensorRegister::S12CON, 0x002A}));        // §8.11
   EXPECT_EQ(scf("SCF x2A0000"), (ScfWrite{SensorRegister::S12CON, 0x002A}));
   EXPECT_EQ(scf("SCF 52419"), (ScfWrite{SensorRegister::ATCONH, 3276}));
   EXPECT_EQ(scf("SCF xCC0C03"), (ScfWrite{SensorRegister::ATCONH, 3276}));
   EXPECT_EQ(scf("SCF 7858"), (ScfWrite{SensorRegister::ATCONL, 491}));
   EXPECT_EQ(scf("SCF xEB0102"), (ScfWrite{SensorRegister::ATCONL, 491}));
-  EXPECT_EQ(scf("SCF 40961"), (ScfWrite{SensorRegister::S34CON, 0x0A00}));       // §10.5
+  EXPECT_EQ(scf("SCF 40961"), (ScfWrite{SensorRegister::S34CON, 0x0A00}));  // §10.5
   EXPECT_EQ(scf("SCF x000A01"), (ScfWrite{SensorRegister::S34CON, 0x0A00}));
   EXPECT_EQ(make_scf(ScfWrite{SensorRegister::S12CON, 0x020A}), set(Mnemonic::SCF, 8352));
 }
@@ -150,15 +150,15 @@ TEST(InstructionErrors, ValueErrorsCN6) {
 
 TEST(InstructionErrors, SyntaxErrors) {
   expect_error("XYZ 5", ErrorCode::syntax_error);
-  expect_error("SPD 10 00", ErrorCode::syntax_error);   // η has no other characters inside
+  expect_error("SPD 10 00", ErrorCode::syntax_error);  // η has no other characters inside
   expect_error("SPD 1000x", ErrorCode::syntax_error);
-  expect_error("SPDx 10", ErrorCode::syntax_error);     // no hex form for signed values (EN/CN §12.3)
-  expect_error("CUR", ErrorCode::syntax_error);         // no query form
+  expect_error("SPDx 10", ErrorCode::syntax_error);  // no hex form for signed values (EN/CN §12.3)
+  expect_error("CUR", ErrorCode::syntax_error);      // no query form
   expect_error("FBK 5", ErrorCode::syntax_error);
   expect_error("SPD -", ErrorCode::syntax_error);
   expect_error("SPD %?&%*abc 1000", ErrorCode::syntax_error);
   expect_error("SPD = = = = = 100000", ErrorCode::syntax_error);  // 21 characters with the ';'
-  expect_error("SPD \xC3\xA9 1", ErrorCode::syntax_error);         // extended ASCII
+  expect_error("SPD \xC3\xA9 1", ErrorCode::syntax_error);        // extended ASCII
 }
 
 TEST(InstructionEncode, DecimalHexGlobalAndSelect) {

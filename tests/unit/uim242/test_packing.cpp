@@ -66,9 +66,7 @@ TEST(Packing, WideSpeedEchoesLow16Bits) {
   EXPECT_EQ(decoded->front(), -25536);
 }
 
-TEST(Packing, IgnoresBitSevenWhenUnpacking) {
-  EXPECT_EQ(unpack(hex("82 8E B3")), 0x8733u);
-}
+TEST(Packing, IgnoresBitSevenWhenUnpacking) { EXPECT_EQ(unpack(hex("82 8E B3")), 0x8733u); }
 
 }  // namespace
 }  // namespace motion::uim242

@@ -39,11 +39,13 @@ struct Recorder final : gateway::GatewayOutput {
   std::map<std::string, gateway::DriveStatus> status;
   std::vector<std::pair<std::string, gateway::DriveEvent>> events;
   std::vector<gateway_reply_t> replies;
-  std::map<std::int64_t, std::map<std::string, gateway::DriveStatus>> status_at_end;  // what was published by each terminal reply
+  std::map<std::int64_t, std::map<std::string, gateway::DriveStatus>>
+      status_at_end;  // what was published by each terminal reply
   void axis_status(const std::string& axis, const gateway::DriveStatus& s) override { status[axis] = s; }
   void axis_event(const std::string& axis, const gateway::DriveEvent& e) override { events.emplace_back(axis, e); }
   void command_reply(gateway_reply_t r) override {
-    if (r.status == st(gateway_reply_t::DONE) || r.status == st(gateway_reply_t::FAILED)) status_at_end[r.command_id] = status;
+    if (r.status == st(gateway_reply_t::DONE) || r.status == st(gateway_reply_t::FAILED))
+      status_at_end[r.command_id] = status;
     replies.push_back(std::move(r));
   }
   [[nodiscard]] const gateway_reply_t* find(std::int64_t id, std::int8_t s) const {
@@ -64,20 +66,24 @@ class Uim242Line : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = std::filesystem::temp_directory_path() / ("uim242-line-" + std::to_string(::getpid()) + "-" +
-                                                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
+                                                     ::testing::UnitTest::GetInstance()->current_test_info()->name());
     std::filesystem::create_directories(dir_);
     const std::string yaml =
         "buses:\n"
-        "  - {name: rs232, transport: 'simserial:rs232', baud: 57600, request_timeout_ms: 50, retries: 1, poll_hz: 20}\n"
+        "  - {name: rs232, transport: 'simserial:rs232', baud: 57600, request_timeout_ms: 50, retries: 1, poll_hz: "
+        "20}\n"
         "drives:\n"
         "  - {name: u1-drive, family: uim242, bus: rs232, node_id: 5, setup: {micro_steps: 16, current_a: 1.0}}\n"
         "  - {name: u2-drive, family: uim242, bus: rs232, node_id: 6, setup: {micro_steps: 16, current_a: 1.0}}\n"
         "axes:\n"
         "  - {name: u1, drive: u1-drive, unit: mm, steps_per_unit: 160, invert: true,\n"
-        "     limits: {min: -100, max: 100, velocity: 30, acceleration: 150}, homing: {method: current-position, offset: 2.5}}\n"
+        "     limits: {min: -100, max: 100, velocity: 30, acceleration: 150}, homing: {method: current-position, "
+        "offset: 2.5}}\n"
         "  - {name: u2, drive: u2-drive, unit: mm, steps_per_unit: 160,\n"
-        "     limits: {min: -100, max: 100, velocity: 30, acceleration: 150}, homing: {method: switch, input: 1, velocity: -5, offset: -1}}\n"
-        "simulation: {runtime_dir: '" + dir_.string() + "', reply_latency_us: 200}\n";
+        "     limits: {min: -100, max: 100, velocity: 30, acceleration: 150}, homing: {method: switch, input: 1, "
+        "velocity: -5, offset: -1}}\n"
+        "simulation: {runtime_dir: '" +
+        dir_.string() + "', reply_latency_us: 200}\n";
     auto loaded = config::load_string(yaml);
     ASSERT_TRUE(loaded.ok()) << loaded.error_text();
     config_ = *loaded.config;
@@ -95,14 +101,16 @@ class Uim242Line : public ::testing::Test {
   }
   void open_sim() {
     std::error_code error;
-    host_ = sim::SerialLineHost::open(loop_, config_, config_.buses[0], {{config::Family::kUim242, sim::uim242_line_factory()}},
-                                      [this](motionlcm::sim_report_t r) { reports_.push_back(std::move(r)); }, error);
+    host_ = sim::SerialLineHost::open(
+        loop_, config_, config_.buses[0], {{config::Family::kUim242, sim::uim242_line_factory()}},
+        [this](motionlcm::sim_report_t r) { reports_.push_back(std::move(r)); }, error);
     ASSERT_TRUE(host_) << error.message();
   }
   bool run_until(const std::function<bool()>& done, milliseconds limit = milliseconds(5000)) {
     return testing::pump_until(loop_, done, limit);
   }
-  gateway_command_t command(std::int64_t id, std::int8_t kind, std::vector<motionlcm::axis_command_t> axes, std::int64_t trigger = 0) {
+  gateway_command_t command(std::int64_t id, std::int8_t kind, std::vector<motionlcm::axis_command_t> axes,
+                            std::int64_t trigger = 0) {
     gateway_command_t c{};
     c.command_id = id;
     c.bus = "rs232";
@@ -133,16 +141,18 @@ class Uim242Line : public ::testing::Test {
     return host_->control(c);
   }
   std::size_t starts_of(const std::string& drive) const {
-    return static_cast<std::size_t>(std::count_if(reports_.begin(), reports_.end(), [&](const motionlcm::sim_report_t& r) {
-      return r.drive == drive && r.kind == st(motionlcm::sim_report_t::MOTION_STARTED);
-    }));
+    return static_cast<std::size_t>(
+        std::count_if(reports_.begin(), reports_.end(), [&](const motionlcm::sim_report_t& r) {
+          return r.drive == drive && r.kind == st(motionlcm::sim_report_t::MOTION_STARTED);
+        }));
   }
   bool saw_event(const std::string& axis, std::int16_t kind, const std::string& text) const {
     return std::any_of(out_.events.begin(), out_.events.end(), [&](const auto& e) {
       return e.first == axis && e.second.kind == kind && e.second.text.find(text) != std::string::npos;
     });
   }
-  gateway_command_t param(std::int64_t id, std::int8_t kind, const std::string& mnemonic, std::int32_t subindex, std::int64_t value = 0) {
+  gateway_command_t param(std::int64_t id, std::int8_t kind, const std::string& mnemonic, std::int32_t subindex,
+                          std::int64_t value = 0) {
     auto c = command(id, kind, {axis("u1")});
     c.param.space = motionlcm::param_t::UIM242_INSTRUCTION;
     c.param.mnemonic = mnemonic;
@@ -191,7 +201,8 @@ TEST_F(Uim242Line, DrivesComeOnlineOverThePtyAndOneGlobalSpeedStartsBoth) {
   }
   ASSERT_EQ(starts.size(), 2u);
   EXPECT_EQ(starts[0].frame_utime, starts[1].frame_utime) << "not started by the one gSPD frame";
-  ASSERT_TRUE(run_until([&] { return out_.status["u1"].position_counts == 800 && out_.status["u2"].position_counts == -800; }));
+  ASSERT_TRUE(
+      run_until([&] { return out_.status["u1"].position_counts == 800 && out_.status["u2"].position_counts == -800; }));
 }
 
 TEST_F(Uim242Line, HangUpFailsTheArmedMoveTakesTheDrivesOfflineAndTheyReturn) {
@@ -233,7 +244,8 @@ TEST_F(Uim242Line, StallNotificationFailsTheMoveAndFaultsTheAxis) {
   ASSERT_NO_FATAL_FAILURE(enable("u1", 1));
   constexpr std::int64_t kFarAway = 16000;  // 10 s at 1600 pps: stalled long before the end
   driver_->execute(command(2, gateway_command_t::ARM_MOVE, {axis("u1", kFarAway)}));
-  ASSERT_TRUE(run_until([&] { return out_.find(2, gateway_reply_t::STARTED) != nullptr && starts_of("u1-drive") == 1; }));
+  ASSERT_TRUE(
+      run_until([&] { return out_.find(2, gateway_reply_t::STARTED) != nullptr && starts_of("u1-drive") == 1; }));
   ASSERT_TRUE(sim_control("u1-drive", motionlcm::sim_control_t::STALL));
   ASSERT_TRUE(run_until([&] { return ended(2); }));
   const auto* failed = out_.find(2, gateway_reply_t::FAILED);
@@ -325,7 +337,8 @@ TEST_F(Uim242Line, RegisterWriteBeyondItsRegisterIsRefusedNotNarrowed) {
   ASSERT_TRUE(run_until([&] { return ended(1); }));
   const auto* refused = out_.find(1, gateway_reply_t::FAILED);
   ASSERT_NE(refused, nullptr);
-  EXPECT_NE(refused->reason.find("u1-drive (node 5): value 70000 outside the range of SCF"), std::string::npos) << refused->reason;
+  EXPECT_NE(refused->reason.find("u1-drive (node 5): value 70000 outside the range of SCF"), std::string::npos)
+      << refused->reason;
   driver_->execute(param(2, gateway_command_t::PARAM_WRITE, "STG", 258, 10));  // port 258 would be port 2
   ASSERT_TRUE(run_until([&] { return ended(2); }));
   ASSERT_NE(out_.find(2, gateway_reply_t::FAILED), nullptr);
@@ -424,8 +437,9 @@ TEST_F(Uim242Line, AJogRunsOntoTheLastCountInsideItsLimitByItself) {
   const auto* refused = out_.find(4, gateway_reply_t::FAILED);
   ASSERT_NE(refused, nullptr) << "a jog with no count to go was accepted";
   EXPECT_EQ(refused->error_code, error_code(ReplyError::kOutsideLimits));
-  EXPECT_NE(refused->reason.find("jog toward 100 mm refused: it stands at 16000 counts, less than one count from that limit"),
-            std::string::npos)
+  EXPECT_NE(
+      refused->reason.find("jog toward 100 mm refused: it stands at 16000 counts, less than one count from that limit"),
+      std::string::npos)
       << refused->reason;
 
   driver_->execute(command(5, gateway_command_t::JOG, {axis("u2", 0, -3200)}));
@@ -470,7 +484,8 @@ TEST_F(Uim242Line, StopMidMoveThenMoveAtOnceEndsExactlyAtTheTarget) {
   far.acceleration = far.deceleration = 4000;  // 0.8 s of braking from 3200 pps
   driver_->execute(command(2, gateway_command_t::ARM_MOVE, {far}));
   ASSERT_TRUE(run_until([&] { return out_.find(2, gateway_reply_t::STARTED) != nullptr; }));
-  ASSERT_TRUE(run_until([&] { return out_.status["u1"].position_counts > 1000 && out_.status["u1"].velocity_counts > 2000; }));
+  ASSERT_TRUE(
+      run_until([&] { return out_.status["u1"].position_counts > 1000 && out_.status["u1"].velocity_counts > 2000; }));
   driver_->execute(command(3, gateway_command_t::STOP, {axis("u1")}));
   ASSERT_TRUE(run_until([&] { return ended(3); }));
   ASSERT_NE(out_.find(3, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
@@ -488,7 +503,9 @@ TEST_F(Uim242Line, StopMidMoveThenMoveAtOnceEndsExactlyAtTheTarget) {
   driver_->execute(command(4, gateway_command_t::ARM_MOVE, {axis("u1", kTarget, 3200)}));
   ASSERT_TRUE(run_until([&] { return ended(4); }));
   ASSERT_NE(out_.find(4, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
-  ASSERT_TRUE(run_until([&] { return !out_.status["u1"].moving && out_.status["u1"].sample_utime > out_.status_at_end.at(4).at("u1").sample_utime; }));
+  ASSERT_TRUE(run_until([&] {
+    return !out_.status["u1"].moving && out_.status["u1"].sample_utime > out_.status_at_end.at(4).at("u1").sample_utime;
+  }));
   EXPECT_EQ(out_.status["u1"].position_counts, kTarget) << "polled back from the drive";
 }
 

@@ -50,19 +50,22 @@ std::vector<Example> manual_examples() {
       {"IE[1] = 1", 0x05200007, "05 07 03 01 01 00 00 00 00 00 00", ack(FC::IE, IndexedWord{1, 1})},
       // §5.4 ML
       {"get ML", 0x0428008B, "05 8B 00 00 00 00 00 00 00 00 00", rq::get(FC::ML)},
-      {"ML 342XS", 0x0520000B, "05 0B 08 20 0A 11 00 00 00 00 00", ack(FC::ML, ModelInfo{{0x20, 0x0A, 0x11, 0x00}, 0, 0})},
+      {"ML 342XS", 0x0520000B, "05 0B 08 20 0A 11 00 00 00 00 00",
+       ack(FC::ML, ModelInfo{{0x20, 0x0A, 0x11, 0x00}, 0, 0})},
       // §5.5 SN
       {"get SN", 0x0428008C, "05 8C 00 00 00 00 00 00 00 00 00", rq::get(FC::SN)},
       {"SN", 0x0520000C, "05 0C 08 01 02 03 04 05 06 07 08", ack(FC::SN, SerialNumber{67305985, 1541, 2055})},
       // §5.6 ER
       {"get ER[0]", 0x0428008F, "05 8F 01 00 00 00 00 00 00 00 00", rq::get_error(0)},
-      {"ER[0]: 0x33 on PP[5]", 0x0520000F, "05 0F 06 00 33 81 05 00 00 00 00", ack(FC::ER, ErrorRecord{0, 0x33, 0x81, 5, {0, 0}})},
+      {"ER[0]: 0x33 on PP[5]", 0x0520000F, "05 0F 06 00 33 81 05 00 00 00 00",
+       ack(FC::ER, ErrorRecord{0, 0x33, 0x81, 5, {0, 0}})},
       {"ER[0]=0", 0x0428008F, "05 8F 02 00 00 00 00 00 00 00 00", rq::clear_error(0)},
       {"ER[0] cleared", 0x0520000F, "05 0F 06 00 00 00 00 00 00 00 00", ack(FC::ER, ErrorRecord{})},
       // §5.7 QE (get row corrected: DL 1, as the description says)
       {"get QE[4]", 0x042800BD, "05 BD 01 04 00 00 00 00 00 00 00", rq::get(QuadratureEncoder::counts_per_revolution)},
       {"QE[4] = 3200", 0x0520003D, "05 3D 03 04 80 0C 00 00 00 00 00", ack(FC::QE, IndexedWord{4, 3200})},
-      {"QE[0]=1000", 0x042800BD, "05 BD 03 00 E8 03 00 00 00 00 00", rq::set(QuadratureEncoder::lines_per_revolution, 1000)},
+      {"QE[0]=1000", 0x042800BD, "05 BD 03 00 E8 03 00 00 00 00 00",
+       rq::set(QuadratureEncoder::lines_per_revolution, 1000)},
       {"QE[0] = 1000", 0x0520003D, "05 3D 03 00 E8 03 00 00 00 00 00", ack(FC::QE, IndexedWord{0, 1000})},
       // §5.8 SY
       {"SY[1]", 0x0428007E, "05 7E 01 01 00 00 00 00 00 00 00", rq::system(SystemOperation::reboot)},
@@ -142,9 +145,12 @@ std::vector<Example> manual_examples() {
       {"DV[2] = 1000 (get)", 0x0520002E, "05 2E 05 02 E8 03 00 00 00 00 00", ack(FC::DV, IndexedSigned{2, 1000})},
       // §5.26 IL
       {"get IL[0]", 0x042800B4, "05 B4 01 00 00 00 00 00 00 00 00", rq::get_input_logic(0)},
-      {"IL[0] = 06 80", 0x05200034, "05 34 03 00 06 80 00 00 00 00 00", ack(FC::IL, InputActions{0, origin_decel_at_power_up, none_wait})},
-      {"IL[0]=06 80", 0x042800B4, "05 B4 03 00 06 80 00 00 00 00 00", rq::set_input_logic(InputPort::in1, origin_decel_at_power_up, none_wait)},
-      {"IL[0] echo", 0x05200034, "05 34 03 00 06 80 00 00 00 00 00", ack(FC::IL, InputActions{0, origin_decel_at_power_up, none_wait})},
+      {"IL[0] = 06 80", 0x05200034, "05 34 03 00 06 80 00 00 00 00 00",
+       ack(FC::IL, InputActions{0, origin_decel_at_power_up, none_wait})},
+      {"IL[0]=06 80", 0x042800B4, "05 B4 03 00 06 80 00 00 00 00 00",
+       rq::set_input_logic(InputPort::in1, origin_decel_at_power_up, none_wait)},
+      {"IL[0] echo", 0x05200034, "05 34 03 00 06 80 00 00 00 00 00",
+       ack(FC::IL, InputActions{0, origin_decel_at_power_up, none_wait})},
       // §5.27 TG: the printed get ACK has d0 = 00 instead of the echo 01: decoded as printed,
       // and it does not match the TG[1] request.
       {"get TG[1]", 0x042800B5, "05 B5 01 01 00 00 00 00 00 00 00", rq::get_trigger(InputPort::in2)},

@@ -46,12 +46,9 @@ struct DerivedId {
 // Identifiers derived from the §2.5 formulas (not printed in the manual), including IDs above 31
 // (high ID bits in the EID).
 constexpr DerivedId kDerived[] = {
-    {{4, 5, 0x95}, 0x10A, 0x00095, 0x04280095},
-    {{5, 4, 0x15}, 0x148, 0x00015, 0x05200015},
-    {{5, 4, 0x5A}, 0x148, 0x0005A, 0x0520005A},
-    {{4, 0, 0x16}, 0x100, 0x00016, 0x04000016},
-    {{4, 100, 0x95}, 0x108, 0x0C095, 0x0420C095},
-    {{100, 4, 0x15}, 0x108, 0x30015, 0x04230015},
+    {{4, 5, 0x95}, 0x10A, 0x00095, 0x04280095},   {{5, 4, 0x15}, 0x148, 0x00015, 0x05200015},
+    {{5, 4, 0x5A}, 0x148, 0x0005A, 0x0520005A},   {{4, 0, 0x16}, 0x100, 0x00016, 0x04000016},
+    {{4, 100, 0x95}, 0x108, 0x0C095, 0x0420C095}, {{100, 4, 0x15}, 0x108, 0x30015, 0x04230015},
     {{4, 127, 0x95}, 0x13E, 0x0C095, 0x04F8C095},
 };
 
@@ -157,15 +154,9 @@ TEST(Uim342Identifier, CheatSheet) {
       EXPECT_EQ(row.reply_id != 0, forms->reply != Layout::none);
       EXPECT_EQ(row.set_reply_id, forms->set_ack == row.function ? 0u : *encode_can_id({5, 4, code(forms->set_ack)}));
     }
-    if (row.no_ack_id != 0) {
-      EXPECT_EQ(*encode_can_id({4, 5, control_word(row.function, false)}), row.no_ack_id);
-    }
-    if (row.ack_id != 0) {
-      EXPECT_EQ(*encode_can_id({4, 5, control_word(row.function, true)}), row.ack_id);
-    }
-    if (row.reply_id != 0) {
-      EXPECT_EQ(*encode_can_id({5, 4, code(row.function)}), row.reply_id);
-    }
+    if (row.no_ack_id != 0) { EXPECT_EQ(*encode_can_id({4, 5, control_word(row.function, false)}), row.no_ack_id); }
+    if (row.ack_id != 0) { EXPECT_EQ(*encode_can_id({4, 5, control_word(row.function, true)}), row.ack_id); }
+    if (row.reply_id != 0) { EXPECT_EQ(*encode_can_id({5, 4, code(row.function)}), row.reply_id); }
     if (row.global_ack_id != 0) {
       EXPECT_EQ(*encode_can_id({4, kGlobalId, control_word(row.function, true)}), row.global_ack_id);
     }

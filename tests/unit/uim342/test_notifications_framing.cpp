@@ -72,7 +72,8 @@ TEST(Uim342Notifications, GatingAndNegativePositions) {
 TEST(Uim342Notifications, RefusesWrongLengthsAndUnknownCodes) {
   // Trailing bytes: an input edge is exactly DL 1, an alarm DL 5, PTP finished DL 8.
   EXPECT_EQ(decode_notification(test::parse_row("05 5A 02 01 00").message).error(), CodecErrc::wrong_length);
-  EXPECT_EQ(decode_notification(test::parse_row("05 5A 06 00 1D 00 00 00 00").message).error(), CodecErrc::wrong_length);
+  EXPECT_EQ(decode_notification(test::parse_row("05 5A 06 00 1D 00 00 00 00").message).error(),
+            CodecErrc::wrong_length);
   EXPECT_EQ(decode_notification(test::parse_row("05 5A 04 29 00 00 00").message).error(), CodecErrc::wrong_length);
   EXPECT_EQ(decode_notification(test::parse_row("05 5A 00").message).error(), CodecErrc::wrong_length);
   EXPECT_EQ(decode_notification(test::parse_row("05 5A 01 07").message).error(), CodecErrc::unknown_notification);
@@ -97,7 +98,8 @@ TEST(Uim342ErrorReport, ManualExampleAndCategory) {
   EXPECT_EQ(classify_reply(request::driver_on(true), message), ReplyKind::unrelated);
   // An empty ER slot is "no error".
   EXPECT_FALSE(ErrorRecord{}.error());
-  for (const int code : {0x32, 0x33, 0x34, 0x3C, 0x3D, 0x3E, 0x3F, 0x41}) EXPECT_TRUE(is_known_drive_error(static_cast<std::uint8_t>(code)));
+  for (const int code : {0x32, 0x33, 0x34, 0x3C, 0x3D, 0x3E, 0x3F, 0x41})
+    EXPECT_TRUE(is_known_drive_error(static_cast<std::uint8_t>(code)));
   EXPECT_FALSE(is_known_drive_error(0x40));
 }
 
@@ -136,7 +138,8 @@ TEST(Uim342Decoding, RefusesForeignAndMalformedFrames) {
   EXPECT_EQ(decode_reply_frame(test::frame(0x05200095, "01")).error(), CodecErrc::ack_bit_in_reply);
   EXPECT_EQ(decode_reply_frame(test::frame(0x05200002, "")).error(), CodecErrc::unknown_function);
   // MS sub-index 2 does not exist.
-  EXPECT_EQ(decode_reply_frame(test::frame(0x05200011, "02 00 00 00 00 00 00 00")).error(), CodecErrc::unknown_sub_index);
+  EXPECT_EQ(decode_reply_frame(test::frame(0x05200011, "02 00 00 00 00 00 00 00")).error(),
+            CodecErrc::unknown_sub_index);
   // More than 8 bytes cannot become a message.
   const std::vector<std::uint8_t> nine(9, 0);
   EXPECT_EQ(Message::make(0x15, nine).error(), CodecErrc::length_out_of_range);
@@ -161,7 +164,10 @@ TEST(Uim342UiMessage, ComputedVectorsBothCoverages) {
   const UiExample examples[] = {
       {"AA 05 95 01 01 00 00 00 00 00 00 00 00 27 D7 CC", "AA 05 95 01 01 00 00 00 00 00 00 00 00 D8 95 CC", 5,
        request::driver_on(true)},
-      {"AA 05 15 01 01 00 00 00 00 00 00 00 00 8E 15 CC", "AA 05 15 01 01 00 00 00 00 00 00 00 00 71 57 CC", 5, {},
+      {"AA 05 15 01 01 00 00 00 00 00 00 00 00 8E 15 CC",
+       "AA 05 15 01 01 00 00 00 00 00 00 00 00 71 57 CC",
+       5,
+       {},
        "05 15 01 01"},
       {"AA 05 8B 00 00 00 00 00 00 00 00 00 00 1B AA CC", "AA 05 8B 00 00 00 00 00 00 00 00 00 00 E4 E8 CC", 5,
        request::get(FC::ML)},
@@ -193,9 +199,11 @@ TEST(Uim342UiMessage, ComputedVectorsBothCoverages) {
       ASSERT_TRUE(decoded.ok()) << decoded.error().message();
       EXPECT_EQ(decoded->message, ui);
     }
-    EXPECT_EQ(decode_ui_message(test::hex_bytes(ex.variant_a), CrcAcceptance::start_to_aux)->crc, CrcCoverage::start_to_aux);
+    EXPECT_EQ(decode_ui_message(test::hex_bytes(ex.variant_a), CrcAcceptance::start_to_aux)->crc,
+              CrcCoverage::start_to_aux);
     EXPECT_EQ(decode_ui_message(test::hex_bytes(ex.variant_b), CrcAcceptance::id_to_aux)->crc, CrcCoverage::id_to_aux);
-    EXPECT_EQ(decode_ui_message(test::hex_bytes(ex.variant_b), CrcAcceptance::start_to_aux).error(), CodecErrc::bad_crc);
+    EXPECT_EQ(decode_ui_message(test::hex_bytes(ex.variant_b), CrcAcceptance::start_to_aux).error(),
+              CodecErrc::bad_crc);
   }
 }
 

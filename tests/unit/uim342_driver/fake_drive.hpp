@@ -18,7 +18,8 @@ namespace motion::gateway::test {
 class FakeDrive {
  public:
   // Micro-steps as its EEPROM holds them at power-up (MT[0], QE[4] = x 200): the lab's 16.
-  explicit FakeDrive(std::uint8_t node, std::uint8_t group, std::uint16_t micro_steps = 16) : node_(node), group_(group), pending_group_(group) {
+  explicit FakeDrive(std::uint8_t node, std::uint8_t group, std::uint16_t micro_steps = 16)
+      : node_(node), group_(group), pending_group_(group) {
     words_[{uim342::FunctionCode::MT, 0}] = micro_steps;
     words_[{uim342::FunctionCode::QE, 4}] = static_cast<std::uint16_t>(micro_steps * 200);
   }
@@ -93,12 +94,14 @@ class FakeDrive {
           words_[{in.function, a->index}] = static_cast<std::uint16_t>(a->falling.byte() | (a->rising.byte() << 8));
         } else if (const auto* i = std::get_if<uim342::Index>(&in.body); i && i->index <= 2) {
           const auto w = word(FC::IL, i->index);
-          answer = uim342::Reply{FC::IL, uim342::InputActions{i->index, uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w & 0xFF)),
-                                                              uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w >> 8))}};
+          answer = uim342::Reply{
+              FC::IL, uim342::InputActions{i->index, uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w & 0xFF)),
+                                           uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w >> 8))}};
         }
         break;
       case FC::BG:
-        if (!enabled_) return {reply(uim342::error_report(uim342::DriveErrc::bg_while_driver_off, in.control_word(), 0))};
+        if (!enabled_)
+          return {reply(uim342::error_report(uim342::DriveErrc::bg_while_driver_off, in.control_word(), 0))};
         moving_ = true;
         in_position_ = false;
         break;
@@ -134,7 +137,8 @@ class FakeDrive {
     inputs = static_cast<std::uint8_t>(level ? (inputs | bit) : (inputs & ~bit));
     position_ = overshoot;
     moving_ = false;
-    return {*uim342::notification_frame(node_, uim342::InputEdgeNotification{port, level ? uim342::Edge::rising : uim342::Edge::falling})};
+    return {*uim342::notification_frame(
+        node_, uim342::InputEdgeNotification{port, level ? uim342::Edge::rising : uim342::Edge::falling})};
   }
   std::vector<can::Frame> alarm(uim342::AlarmCode code) {
     moving_ = false;
@@ -145,10 +149,12 @@ class FakeDrive {
  private:
   can::Frame reply(const uim342::Reply& r) const { return *uim342::reply_frame(node_, r); }
   [[nodiscard]] std::uint8_t io_status() const {
-    return static_cast<std::uint8_t>(1U | (enabled_ ? 0x04U : 0U) | ((inputs & 7U) << 3) | (outputs_ != 0 ? 0x40U : 0U));
+    return static_cast<std::uint8_t>(1U | (enabled_ ? 0x04U : 0U) | ((inputs & 7U) << 3) |
+                                     (outputs_ != 0 ? 0x40U : 0U));
   }
   [[nodiscard]] std::uint8_t flags() const {
-    return static_cast<std::uint8_t>((moving_ ? 0U : 0x01U) | (in_position_ ? 0x02U : 0U) | (stalled ? 0x08U : 0U) | (locked ? 0x20U : 0U));
+    return static_cast<std::uint8_t>((moving_ ? 0U : 0x01U) | (in_position_ ? 0x02U : 0U) | (stalled ? 0x08U : 0U) |
+                                     (locked ? 0x20U : 0U));
   }
 
   std::uint8_t node_;

@@ -157,11 +157,14 @@ class Uim342StackTest : public ::testing::Test {
     settle();
     return c.command_id;
   }
-  std::int64_t enable(std::vector<std::string> axes) { return execute(command(gateway_command_t::ENABLE, std::move(axes))); }
+  std::int64_t enable(std::vector<std::string> axes) {
+    return execute(command(gateway_command_t::ENABLE, std::move(axes)));
+  }
 
   std::vector<gateway_reply_t> replies_of(std::int64_t id) const {
     std::vector<gateway_reply_t> r;
-    std::copy_if(out.replies.begin(), out.replies.end(), std::back_inserter(r), [id](const auto& x) { return x.command_id == id; });
+    std::copy_if(out.replies.begin(), out.replies.end(), std::back_inserter(r),
+                 [id](const auto& x) { return x.command_id == id; });
     return r;
   }
   gateway_reply_t last_reply(std::int64_t id) const {
@@ -189,7 +192,8 @@ class Uim342StackTest : public ::testing::Test {
     return out_list;
   }
   bool has_event(std::int16_t kind, const std::string& axis = {}) const {
-    return std::any_of(out.events.begin(), out.events.end(), [&](const auto& e) { return e.second.kind == kind && (axis.empty() || e.first == axis); });
+    return std::any_of(out.events.begin(), out.events.end(),
+                       [&](const auto& e) { return e.second.kind == kind && (axis.empty() || e.first == axis); });
   }
   const DriveEvent* find_event(std::int16_t kind) const {
     for (const auto& e : out.events) {
@@ -309,13 +313,15 @@ TEST_F(Uim342StackTest, MicroStepsNotKeptOverTheRestartAreAnErrorNotALoop) {
 // so polls take at most 3/4 of the bus, and says so once at start.
 TEST_F(Uim342StackTest, PollingIsSlowedToWhatTheBusCarriesAndSaysSo) {
   std::string yaml = "buses:\n  - {name: can0, transport: \"simcan:can0\", bitrate: 1000000, poll_hz: 20}\ndrives:\n";
-  for (int node = 5; node < 125; ++node) yaml += fmt::format("  - {{name: d{0}, family: uim342, bus: can0, node_id: {0}}}\n", node);
+  for (int node = 5; node < 125; ++node)
+    yaml += fmt::format("  - {{name: d{0}, family: uim342, bus: can0, node_id: {0}}}\n", node);
   build(yaml.c_str());
   const auto cycle = [](std::size_t polled) {
     // One poll of a drive: two requests and two ACKs, the longest ACK 8 bytes (MS[1]).
     const auto request = uim342::instruction_frame(5, uim342::request::get(uim342::MotionStatusIndex::kinematics));
     const auto ack = uim342::reply_frame(5, uim342::Reply{FC::MS, uim342::MotionKinematics{-1, -1}});
-    return 2 * (can::frame_duration(*request, 1'000'000) + can::frame_duration(*ack, 1'000'000)) * static_cast<std::int64_t>(polled);
+    return 2 * (can::frame_duration(*request, 1'000'000) + can::frame_duration(*ack, 1'000'000)) *
+           static_cast<std::int64_t>(polled);
   };
   ASSERT_GT(cycle(120), milliseconds(37));  // more than 3/4 of the configured 50 ms period
   // 4/3 of the cycle, rounded up to the ms; node ids differ in stuff bits by a few per frame.
@@ -325,7 +331,8 @@ TEST_F(Uim342StackTest, PollingIsSlowedToWhatTheBusCarriesAndSaysSo) {
   const auto* warning = find_event(event_t::CONFIG_MISMATCH);
   ASSERT_NE(warning, nullptr);
   EXPECT_EQ(warning->severity, kWarning);
-  EXPECT_NE(warning->text.find("bus can0: polling 120 UIM342 drives at 20.0 Hz needs"), std::string::npos) << warning->text;
+  EXPECT_NE(warning->text.find("bus can0: polling 120 UIM342 drives at 20.0 Hz needs"), std::string::npos)
+      << warning->text;
   EXPECT_NE(warning->text.find("polls keep to 75% of the bus"), std::string::npos) << warning->text;
   EXPECT_EQ(std::count_if(out.events.begin(), out.events.end(), [](const auto& e) { return e.first.empty(); }), 1);
 
@@ -377,7 +384,8 @@ TEST_F(Uim342StackTest, SilentNodeIsOfflineRetriedWithBackOffAndRecovers) {
   EXPECT_FALSE(stack->ready());
   const auto* offline = find_event(event_t::OFFLINE);
   ASSERT_NE(offline, nullptr);
-  EXPECT_EQ(offline->text, "z-drive (node 7) offline: z-drive (node 7) did not answer ML after 3 tries; retrying in 500 ms");
+  EXPECT_EQ(offline->text,
+            "z-drive (node 7) offline: z-drive (node 7) did not answer ML after 3 tries; retrying in 500 ms");
   ASSERT_TRUE(stack->status("z").has_value());
   EXPECT_FALSE(stack->status("z")->online);
   motionlcm::bus_stats_t stats{};
@@ -394,7 +402,9 @@ TEST_F(Uim342StackTest, SilentNodeIsOfflineRetriedWithBackOffAndRecovers) {
   EXPECT_EQ(count_sent(7, FC::ML), 3u);
   run_for(milliseconds(600));
   EXPECT_EQ(count_sent(7, FC::ML), 6u);
-  EXPECT_EQ(std::count_if(out.events.begin(), out.events.end(), [](const auto& e) { return e.second.kind == event_t::OFFLINE; }), 1);
+  EXPECT_EQ(std::count_if(out.events.begin(), out.events.end(),
+                          [](const auto& e) { return e.second.kind == event_t::OFFLINE; }),
+            1);
 
   const auto refused = execute(command(gateway_command_t::ENABLE, {"z"}));
   EXPECT_EQ(last_reply(refused).error_code, error_code(ReplyError::kAxisOffline));
@@ -739,8 +749,10 @@ TEST_F(Uim342StackTest, DisarmEndsAnArmedMove) {
 TEST_F(Uim342StackTest, RefusesUnknownAxesBusyAxesAndEmptyCommands) {
   start_and_set_up();
   enable({"x"});
-  EXPECT_EQ(last_reply(execute(command(gateway_command_t::ENABLE, {"q"}))).error_code, error_code(ReplyError::kUnknownAxis));
-  EXPECT_EQ(last_reply(execute(command(gateway_command_t::ENABLE, {}))).error_code, error_code(ReplyError::kMalformedRequest));
+  EXPECT_EQ(last_reply(execute(command(gateway_command_t::ENABLE, {"q"}))).error_code,
+            error_code(ReplyError::kUnknownAxis));
+  EXPECT_EQ(last_reply(execute(command(gateway_command_t::ENABLE, {}))).error_code,
+            error_code(ReplyError::kMalformedRequest));
   const auto move = execute(command(gateway_command_t::ARM_MOVE, {"x"}, 9));
   EXPECT_EQ(last_reply(execute(command(gateway_command_t::JOG, {"x"}))).error_code, error_code(ReplyError::kAxisBusy));
   EXPECT_EQ(last_reply(execute(command(13 + 50, {"x"}))).error_code, error_code(ReplyError::kUnsupported));
@@ -804,12 +816,15 @@ std::string homing_lab() {
   std::string yaml = kLab;
   const std::string x_axis = "limits: {min: -10, max: 300, velocity: 50, acceleration: 400}}";
   yaml.replace(yaml.find(x_axis), x_axis.size(),
-               "limits: {min: -10, max: 300, velocity: 50, acceleration: 400}, homing: {method: switch, input: 2, velocity: -5}}");
+               "limits: {min: -10, max: 300, velocity: 50, acceleration: 400}, homing: {method: switch, input: 2, "
+               "velocity: -5}}");
   return yaml;
 }
 
 std::vector<uim342::Instruction> without_polls(std::vector<uim342::Instruction> list) {
-  std::erase_if(list, [](const uim342::Instruction& i) { return i.function == FC::MS && i.operation == uim342::Operation::get && std::get<uim342::Index>(i.body).index == 1; });
+  std::erase_if(list, [](const uim342::Instruction& i) {
+    return i.function == FC::MS && i.operation == uim342::Operation::get && std::get<uim342::Index>(i.body).index == 1;
+  });
   return list;
 }
 
@@ -819,7 +834,10 @@ TEST_F(Uim342StackTest, HomeOnASwitchArmsTheOriginActionJogsRestoresAndReturnsTo
   enable({"x"});
   drives.at(5).inputs = 0x02;  // IN2 high: off the switch
   // The drive's IL[1] before homing (§5.26 example bytes): restored afterwards.
-  drives.at(5).handle(*uim342::instruction_frame(5, uim342::request::set_input_logic(uim342::InputPort::in2, uim342::EdgeAction{uim342::InputAction::decelerate_stop, false}, uim342::EdgeAction{})));
+  drives.at(5).handle(*uim342::instruction_frame(
+      5, uim342::request::set_input_logic(uim342::InputPort::in2,
+                                          uim342::EdgeAction{uim342::InputAction::decelerate_stop, false},
+                                          uim342::EdgeAction{})));
   sent.clear();
   auto cmd = command(gateway_command_t::HOME, {"x"});
   cmd.axes[0].velocity = -3200;
@@ -832,15 +850,20 @@ TEST_F(Uim342StackTest, HomeOnASwitchArmsTheOriginActionJogsRestoresAndReturnsTo
   using uim342::EdgeAction;
   using uim342::InputAction;
   const EdgeAction origin{InputAction::origin_then_decelerate_stop, true};  // 0x86: FG = 1, action 0x06
-  const EdgeAction nothing{InputAction::none, true};                       // 0x80
+  const EdgeAction nothing{InputAction::none, true};                        // 0x80
   auto x = without_polls(sent_to(5));
-  const std::vector<uim342::Instruction> search{
-      rq::get(uim342::MotionStatusIndex::status), rq::get_input_logic(1),
-      rq::select_group(uim342::ParameterGroup::in2_falling), rq::set_deceleration(10000),
-      rq::set_input_logic(uim342::InputPort::in2, origin, nothing),
-      rq::set_jog_velocity(-3200), rq::set_acceleration(10000), rq::set_deceleration(10000), rq::begin()};
+  const std::vector<uim342::Instruction> search{rq::get(uim342::MotionStatusIndex::status),
+                                                rq::get_input_logic(1),
+                                                rq::select_group(uim342::ParameterGroup::in2_falling),
+                                                rq::set_deceleration(10000),
+                                                rq::set_input_logic(uim342::InputPort::in2, origin, nothing),
+                                                rq::set_jog_velocity(-3200),
+                                                rq::set_acceleration(10000),
+                                                rq::set_deceleration(10000),
+                                                rq::begin()};
   ASSERT_GE(x.size(), search.size());
-  EXPECT_EQ(std::vector<uim342::Instruction>(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(search.size())), search);
+  EXPECT_EQ(std::vector<uim342::Instruction>(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(search.size())),
+            search);
   EXPECT_EQ(count_sent(5, FC::OG), 0u);  // the origin comes from the switch, not from OG
 
   // The switch is reached: IN2 falls, the drive zeroes its counter there and stops 12 counts on.
@@ -874,7 +897,8 @@ TEST_F(Uim342StackTest, HomeStartingOnTheSwitchLeavesItTheOtherWay) {
   const auto x = sent_to(5);
   const uim342::EdgeAction origin{uim342::InputAction::origin_then_decelerate_stop, true};
   const uim342::EdgeAction nothing{uim342::InputAction::none, true};
-  EXPECT_NE(std::find(x.begin(), x.end(), uim342::request::set_input_logic(uim342::InputPort::in2, nothing, origin)), x.end());
+  EXPECT_NE(std::find(x.begin(), x.end(), uim342::request::set_input_logic(uim342::InputPort::in2, nothing, origin)),
+            x.end());
   EXPECT_NE(std::find(x.begin(), x.end(), uim342::request::set_jog_velocity(3200)), x.end());
   deliver(drives.at(5).origin_action(uim342::InputPort::in2, true, 5));
   run_for(milliseconds(100));

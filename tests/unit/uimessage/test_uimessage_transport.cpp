@@ -35,13 +35,17 @@ struct Vector {
   const char* variant_b;  // CRC over ID..d8
 };
 constexpr Vector kInstructions[] = {
-    {"04280095#01", "AA 05 95 01 01 00 00 00 00 00 00 00 00 27 D7 CC", "AA 05 95 01 01 00 00 00 00 00 00 00 00 D8 95 CC"},
+    {"04280095#01", "AA 05 95 01 01 00 00 00 00 00 00 00 00 27 D7 CC",
+     "AA 05 95 01 01 00 00 00 00 00 00 00 00 D8 95 CC"},
     {"0428008B#", "AA 05 8B 00 00 00 00 00 00 00 00 00 00 1B AA CC", "AA 05 8B 00 00 00 00 00 00 00 00 00 00 E4 E8 CC"},
     {"04280096#", "AA 05 96 00 00 00 00 00 00 00 00 00 00 74 C6 CC", "AA 05 96 00 00 00 00 00 00 00 00 00 00 8B 84 CC"},
     {"04000016#", "AA 00 16 00 00 00 00 00 00 00 00 00 00 D1 08 CC", "AA 00 16 00 00 00 00 00 00 00 00 00 00 2E 4A CC"},
-    {"0428009D#18FCFFFF", "AA 05 9D 04 18 FC FF FF 00 00 00 00 00 AE 26 CC", "AA 05 9D 04 18 FC FF FF 00 00 00 00 00 51 64 CC"},
-    {"04280081#0502", "AA 05 81 02 05 02 00 00 00 00 00 00 00 25 31 CC", "AA 05 81 02 05 02 00 00 00 00 00 00 00 DA 73 CC"},
-    {"04280091#00", "AA 05 91 01 00 00 00 00 00 00 00 00 00 3F 77 CC", "AA 05 91 01 00 00 00 00 00 00 00 00 00 C0 35 CC"},
+    {"0428009D#18FCFFFF", "AA 05 9D 04 18 FC FF FF 00 00 00 00 00 AE 26 CC",
+     "AA 05 9D 04 18 FC FF FF 00 00 00 00 00 51 64 CC"},
+    {"04280081#0502", "AA 05 81 02 05 02 00 00 00 00 00 00 00 25 31 CC",
+     "AA 05 81 02 05 02 00 00 00 00 00 00 00 DA 73 CC"},
+    {"04280091#00", "AA 05 91 01 00 00 00 00 00 00 00 00 00 3F 77 CC",
+     "AA 05 91 01 00 00 00 00 00 00 00 00 00 C0 35 CC"},
 };
 // Derived "MO ACK from node 5 (ON)" (§2.6, Appendix-1 CRC); the drive's frame to master 4 is
 // 0x05200000 | CW (§2.5).
@@ -77,7 +81,8 @@ TEST_F(UiMessageTransportTest, SendWritesTheSpecVectorsInBothCrcCoverages) {
     for (const auto& v : kInstructions) {
       SCOPED_TRACE(v.can);
       ASSERT_FALSE(transport->send(frame(v.can)));
-      EXPECT_EQ(hex(peer->read(uim342::kUiMessageSize)), coverage == uim342::CrcCoverage::start_to_aux ? v.variant_a : v.variant_b);
+      EXPECT_EQ(hex(peer->read(uim342::kUiMessageSize)),
+                coverage == uim342::CrcCoverage::start_to_aux ? v.variant_a : v.variant_b);
     }
     const auto stats = transport->statistics();
     EXPECT_EQ(stats.tx_frames, std::size(kInstructions));
@@ -241,7 +246,8 @@ TEST_F(UiMessageTransportTest, HungUpPortIsReportedAndOpenedAgainOnTheNextSend) 
 TEST_F(UiMessageTransportTest, FactoryOpensAUimessageBusWithItsConfiguredCrc) {
   const std::string yaml = "buses:\n  - {name: gw, transport: \"uimessage:" + peer->link() +
                            "\", baud: 57600, uimessage_crc: id_to_aux, uimessage_crc_strict: true}\n"
-                           "  - {name: gone, transport: \"uimessage:" + dir.file("missing.tty") + "\"}\n";
+                           "  - {name: gone, transport: \"uimessage:" +
+                           dir.file("missing.tty") + "\"}\n";
   const auto loaded = config::load_string(yaml, "gw.yaml");
   ASSERT_TRUE(loaded.ok()) << loaded.error_text();
   const auto& config = *loaded.config;

@@ -38,8 +38,12 @@ constexpr std::int8_t kFailed = gateway_reply_t::FAILED;
 
 class RecordingOutput final : public gateway::GatewayOutput {
  public:
-  void axis_status(const std::string& axis, const gateway::DriveStatus& status) override { statuses.emplace_back(axis, status); }
-  void axis_event(const std::string& axis, const gateway::DriveEvent& event) override { events.emplace_back(axis, event); }
+  void axis_status(const std::string& axis, const gateway::DriveStatus& status) override {
+    statuses.emplace_back(axis, status);
+  }
+  void axis_event(const std::string& axis, const gateway::DriveEvent& event) override {
+    events.emplace_back(axis, event);
+  }
   void command_reply(gateway_reply_t reply) override { replies.push_back(std::move(reply)); }
 
   std::vector<std::pair<std::string, gateway::DriveStatus>> statuses;
@@ -51,8 +55,10 @@ class RecordingOutput final : public gateway::GatewayOutput {
 class GatewayPeer {
  public:
   GatewayPeer(std::string link, uim342::CrcCoverage crc)
-      : pty_(std::move(link)), crc_(crc),
-        from_host_(crc == uim342::CrcCoverage::start_to_aux ? uim342::CrcAcceptance::start_to_aux : uim342::CrcAcceptance::id_to_aux) {}
+      : pty_(std::move(link)),
+        crc_(crc),
+        from_host_(crc == uim342::CrcCoverage::start_to_aux ? uim342::CrcAcceptance::start_to_aux
+                                                            : uim342::CrcAcceptance::id_to_aux) {}
 
   [[nodiscard]] const std::string& link() const { return pty_.link(); }
   void attach(sim::Uim342Drive& drive) { drive_ = &drive; }
@@ -100,8 +106,9 @@ class UiMessageUim342 : public ::testing::TestWithParam<uim342::CrcCoverage> {
     const bool manual = GetParam() == uim342::CrcCoverage::start_to_aux;
     const std::string yaml =
         "buses:\n"
-        "  - {name: gw, transport: \"uimessage:" + peer.link() + "\", baud: 115200, uimessage_crc: " +
-        (manual ? "start_to_aux" : "id_to_aux") + ", request_timeout_ms: 50, retries: 2, poll_hz: 20}\n"
+        "  - {name: gw, transport: \"uimessage:" +
+        peer.link() + "\", baud: 115200, uimessage_crc: " + (manual ? "start_to_aux" : "id_to_aux") +
+        ", request_timeout_ms: 50, retries: 2, poll_hz: 20}\n"
         "drives:\n"
         "  - {name: x-drive, family: uim342, bus: gw, node_id: 5, group_id: 20,\n"
         "     setup: {micro_steps: 16, current_a: 2.0, acceleration_unit: rate}}\n"
@@ -123,7 +130,8 @@ class UiMessageUim342 : public ::testing::TestWithParam<uim342::CrcCoverage> {
     drive_context.bus = drive.bus;
     drive_context.send = [this](const can::Frame& f) { peer.drive_sent(f); };
     drive_context.report = [](std::int8_t, std::int64_t, std::int64_t, std::int64_t) {};
-    drive_ = std::make_unique<sim::Uim342Drive>(drive, std::move(drive_context), sim::uim342_identity(drive, bus.bitrate));
+    drive_ =
+        std::make_unique<sim::Uim342Drive>(drive, std::move(drive_context), sim::uim342_identity(drive, bus.bitrate));
     peer.attach(*drive_);
     drive_->power_up(now);
 
@@ -246,7 +254,8 @@ TEST_P(UiMessageUim342, IdentifySetUpEnableAndMoveThroughTheSerialGateway) {
 INSTANTIATE_TEST_SUITE_P(CrcCoverages, UiMessageUim342,
                          ::testing::Values(uim342::CrcCoverage::start_to_aux, uim342::CrcCoverage::id_to_aux),
                          [](const auto& param_info) {
-                           return std::string(param_info.param == uim342::CrcCoverage::start_to_aux ? "StartToAux" : "IdToAux");
+                           return std::string(param_info.param == uim342::CrcCoverage::start_to_aux ? "StartToAux"
+                                                                                                    : "IdToAux");
                          });
 
 }  // namespace

@@ -16,8 +16,8 @@
 namespace motion::web {
 namespace {
 
-using nlohmann::json;
 using motionlcm::request_t;
+using nlohmann::json;
 using testing::lab;
 
 constexpr const char* kToken = "0123456789abcdef0123456789abcdef";
@@ -52,19 +52,20 @@ TEST(WebControls, AMoveOfTwoAxesBecomesOneRequestWithItsValuesAndScale) {
   EXPECT_EQ(r.values, (std::vector<double>{40.0, -2.5}));
   EXPECT_DOUBLE_EQ(r.velocity_scale, 0.5);
   EXPECT_DOUBLE_EQ(r.acceleration_scale, 0.0);  // absent: the coordinator's default
-  EXPECT_EQ(r.timeout_ms, 0);                    // the coordinator's default, not whatever was in memory
+  EXPECT_EQ(r.timeout_ms, 0);                   // the coordinator's default, not whatever was in memory
   EXPECT_EQ(r.output_mask, 0);
   auto parsed = parse_control(c.dump(), lab(), kToken);
   EXPECT_EQ(std::get<ControlRequest>(parsed).tag, 7);
 }
 
 TEST(WebControls, EveryPageKindIsAcceptedAndNoOtherKind) {
-  const std::set<std::int8_t> page{request_t::ENABLE, request_t::DISABLE, request_t::MOVE_ABSOLUTE, request_t::MOVE_RELATIVE,
-                                   request_t::JOG,    request_t::STOP,    request_t::ESTOP,         request_t::HOME,
-                                   request_t::FAULT_RESET};
+  const std::set<std::int8_t> page{request_t::ENABLE,        request_t::DISABLE, request_t::MOVE_ABSOLUTE,
+                                   request_t::MOVE_RELATIVE, request_t::JOG,     request_t::STOP,
+                                   request_t::ESTOP,         request_t::HOME,    request_t::FAULT_RESET};
   for (std::int8_t kind = 1; kind <= request_t::SET_POSITION; ++kind) {
     const std::string name = lcm::request_kind_name(kind);
-    const bool with_values = kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG;
+    const bool with_values =
+        kind == request_t::MOVE_ABSOLUTE || kind == request_t::MOVE_RELATIVE || kind == request_t::JOG;
     const auto c = command(name, {"z"}, with_values ? json{1.0} : json(nullptr));
     const std::string error = refused(c.dump());
     if (page.contains(kind)) {
@@ -87,7 +88,8 @@ TEST(WebControls, TheAccessTokenIsRequiredAndComparedWhole) {
   auto c = command("STOP", {"x"});
   c.erase("token");
   EXPECT_NE(refused(c.dump()).find("access token"), std::string::npos);
-  for (const std::string wrong : {"", "0123456789abcdef0123456789abcdeF", "0123456789abcdef0123456789abcde", "0123456789abcdef0123456789abcdef0"}) {
+  for (const std::string wrong : {"", "0123456789abcdef0123456789abcdeF", "0123456789abcdef0123456789abcde",
+                                  "0123456789abcdef0123456789abcdef0"}) {
     c["token"] = wrong;
     EXPECT_NE(refused(c.dump()).find("access token"), std::string::npos) << wrong;
   }
@@ -114,7 +116,8 @@ TEST(WebControls, MalformedCommandsAreRefusedNamingWhatWasWrong) {
   EXPECT_EQ(refused(c.dump()), "\"tag\" must be an integer");
   EXPECT_EQ(refused(command("MOVE_ABSOLUTE", {"w"}, {1.0}).dump()), "no axis 'w' in " + lab().file);
   EXPECT_EQ(refused(command("MOVE_ABSOLUTE", {"x", "x"}, {1.0, 2.0}).dump()), "axis 'x' named twice");
-  EXPECT_EQ(refused(command("MOVE_ABSOLUTE", {"x", "y"}, {1.0}).dump()), "\"values\" must hold one number per axis for MOVE_ABSOLUTE");
+  EXPECT_EQ(refused(command("MOVE_ABSOLUTE", {"x", "y"}, {1.0}).dump()),
+            "\"values\" must hold one number per axis for MOVE_ABSOLUTE");
   EXPECT_EQ(refused(command("JOG", {"x"}).dump()), "\"values\" must hold one number per axis for JOG");
   EXPECT_EQ(refused(command("MOVE_RELATIVE", {"x"}, {"1"}).dump()), "\"values\" must be finite numbers");
   EXPECT_EQ(refused(command("STOP", {"x"}, {1.0}).dump()), "STOP takes no values");

@@ -12,9 +12,9 @@
 namespace motion::web {
 namespace {
 
-using nlohmann::json;
 using motionlcm::reply_t;
 using motionlcm::request_t;
+using nlohmann::json;
 using testing::lab;
 
 std::vector<json> parsed(const std::vector<Outgoing>& out) {
@@ -59,8 +59,8 @@ request_t request(std::int8_t kind, std::vector<std::string> axes, std::vector<d
   return r;
 }
 
-reply_t reply(std::int8_t status, std::int64_t utime, std::vector<std::string> axes = {}, std::vector<double> targets = {},
-              std::int64_t id = 7) {
+reply_t reply(std::int8_t status, std::int64_t utime, std::vector<std::string> axes = {},
+              std::vector<double> targets = {}, std::int64_t id = 7) {
   reply_t r{};
   r.utime = utime;
   r.client_id = "cli";

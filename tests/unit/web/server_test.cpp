@@ -11,8 +11,8 @@
 #include <fstream>
 #include <memory>
 #include <mutex>
-#include <thread>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <boost/asio/connect.hpp>
@@ -43,7 +43,8 @@ class ServerTest : public ::testing::Test {
 
   ServerOptions options() const { return ServerOptions{{"127.0.0.1", 0}, dir_}; }
 
-  http::response<http::string_body> get(std::uint16_t port, const std::string& target, http::verb verb = http::verb::get) {
+  http::response<http::string_body> get(std::uint16_t port, const std::string& target,
+                                        http::verb verb = http::verb::get) {
     asio::io_context io;
     beast::tcp_stream stream(io);
     stream.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), port));
@@ -129,7 +130,8 @@ TEST_F(ServerTest, ABrowserGetsTheSnapshotThenWhatFollowsIt) {
 
   // The server has registered the browser once it sent the snapshot; the count follows.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (server.clients() == 0 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  while (server.clients() == 0 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   EXPECT_EQ(server.clients(), 1u);
   server.broadcast({2, "{\"n\":2}"});  // already in the snapshot
   server.broadcast({3, "{\"n\":3}"});
@@ -177,7 +179,8 @@ TEST_F(ServerTest, ABrowsersMessageReachesTheCommandHandlerAndTheAnswerOnlyThatB
   }
   // The watcher got no answer: the next thing it reads is the next broadcast.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (server.clients() < 2 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  while (server.clients() < 2 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   server.broadcast({2, "{\"n\":2}"});
   EXPECT_EQ(next(*watcher), "{\"n\":2}");
   EXPECT_EQ(next(*sender), "{\"n\":2}");
@@ -203,7 +206,8 @@ TEST_F(ServerTest, AnotherSitesPageCannotOpenTheWebSocket) {
     asio::io_context io;
     websocket::stream<beast::tcp_stream> ws(io);
     beast::get_lowest_layer(ws).connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), server.port()));
-    ws.set_option(websocket::stream_base::decorator([origin](websocket::request_type& req) { req.set(http::field::origin, origin); }));
+    ws.set_option(websocket::stream_base::decorator(
+        [origin](websocket::request_type& req) { req.set(http::field::origin, origin); }));
     beast::error_code ec;
     ws.handshake(host, "/ws", ec);
     return !ec;

@@ -19,7 +19,8 @@ struct Point {
 std::vector<std::string> all(const std::string& text, const std::string& pattern) {
   std::vector<std::string> out;
   const std::regex re(pattern);
-  for (auto it = std::sregex_iterator(text.begin(), text.end(), re); it != std::sregex_iterator(); ++it) out.push_back((*it)[1].str());
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), re); it != std::sregex_iterator(); ++it)
+    out.push_back((*it)[1].str());
   return out;
 }
 
@@ -75,12 +76,8 @@ TEST(SvgPlot, OnePanelPerAxisWithEverySampleInsideIt) {
       if (k > 0) {
         EXPECT_GT(pos[k].x, pos[k - 1].x);  // time goes right
         // SVG's y grows downwards: a rising position goes up, a falling one down.
-        if (axis.samples[k].position > axis.samples[k - 1].position) {
-          EXPECT_LT(pos[k].y, pos[k - 1].y);
-        }
-        if (axis.samples[k].position < axis.samples[k - 1].position) {
-          EXPECT_GT(pos[k].y, pos[k - 1].y);
-        }
+        if (axis.samples[k].position > axis.samples[k - 1].position) { EXPECT_LT(pos[k].y, pos[k - 1].y); }
+        if (axis.samples[k].position < axis.samples[k - 1].position) { EXPECT_GT(pos[k].y, pos[k - 1].y); }
       }
     }
   }

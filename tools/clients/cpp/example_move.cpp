@@ -29,14 +29,16 @@ constexpr int kExitUsage = 2;
 constexpr int kExitUnavailable = 4;
 
 int fail(const motionlcm::reply_t& r) {
-  std::fprintf(stderr, "example_move: %s (error %d): %s\n", motion::client::status_name(r.status), r.error_code, r.reason.c_str());
+  std::fprintf(stderr, "example_move: %s (error %d): %s\n", motion::client::status_name(r.status), r.error_code,
+               r.reason.c_str());
   return kExitFailure;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App cli{"Enables two axes, moves them together (one synchronized request) and prints their final positions", "example_move"};
+  CLI::App cli{"Enables two axes, moves them together (one synchronized request) and prints their final positions",
+               "example_move"};
   std::string url;
   std::string prefix = "MOTION_";
   std::vector<std::string> axes{"x", "y"};
@@ -46,7 +48,9 @@ int main(int argc, char** argv) {
   cli.add_option("--prefix", prefix, "Channel prefix (lcm.channel_prefix)")->capture_default_str();
   cli.add_option("--axes", axes, "The two axes")->expected(2)->capture_default_str();
   cli.add_option("--targets", targets, "Absolute targets in user units")->expected(2)->capture_default_str();
-  cli.add_option("--timeout", timeout_s, "Seconds to wait for each terminal reply")->check(CLI::PositiveNumber)->capture_default_str();
+  cli.add_option("--timeout", timeout_s, "Seconds to wait for each terminal reply")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -67,10 +71,11 @@ int main(int argc, char** argv) {
   std::printf("enabled %s %s\n", axes[0].c_str(), axes[1].c_str());
 
   const std::map<std::string, double> move{{axes[0], targets[0]}, {axes[1], targets[1]}};
-  r = client.call(motion::client::Client::make(motionlcm::request_t::MOVE_ABSOLUTE, move), timeout, [](const motionlcm::reply_t& p) {
-    std::printf("  %s %5.1f%%\n", motion::client::status_name(p.status), p.progress * 100);
-    std::fflush(stdout);
-  });
+  r = client.call(motion::client::Client::make(motionlcm::request_t::MOVE_ABSOLUTE, move), timeout,
+                  [](const motionlcm::reply_t& p) {
+                    std::printf("  %s %5.1f%%\n", motion::client::status_name(p.status), p.progress * 100);
+                    std::fflush(stdout);
+                  });
   if (r.status != motionlcm::reply_t::DONE) return fail(r);
   for (const auto& axis : axes) {
     double position = std::nan("");
@@ -79,6 +84,7 @@ int main(int argc, char** argv) {
     }
     std::printf("%s = %.6g\n", axis.c_str(), position);
   }
-  std::printf("measured start skew %.1f us (predicted arrival spread %.1f us)\n", r.measured_start_skew_us, r.predicted_skew_us);
+  std::printf("measured start skew %.1f us (predicted arrival spread %.1f us)\n", r.measured_start_skew_us,
+              r.predicted_skew_us);
   return kExitOk;
 }

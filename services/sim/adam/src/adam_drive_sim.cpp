@@ -24,7 +24,8 @@ constexpr std::uint16_t kHardwareVersion[] = {0x3731, 0x0030};
 constexpr std::uint16_t kFirmwareVersion[] = {0x3031, 0x0035};
 }  // namespace
 
-AdamDriveSim::AdamDriveSim(AdamTableVariants variants) : regs_(kAddressSpace, 0), variants_(variants), saved_(kAddressSpace, 0) {
+AdamDriveSim::AdamDriveSim(AdamTableVariants variants)
+    : regs_(kAddressSpace, 0), variants_(variants), saved_(kAddressSpace, 0) {
   power_cycle(TimePoint{});
 }
 
@@ -40,9 +41,9 @@ void AdamDriveSim::power_cycle(TimePoint now) {
   regs_[0x0001] = kHardwareVersion[1];
   regs_[0x0002] = kFirmwareVersion[0];
   regs_[0x0003] = kFirmwareVersion[1];
-  regs_[adam::address(Reg::rated_current)] = 100;       // 1.00 A (the §8.10 example)
+  regs_[adam::address(Reg::rated_current)] = 100;           // 1.00 A (the §8.10 example)
   regs_[adam::address(Reg::current_percentages)] = 0x1919;  // §8.11 example
-  regs_[adam::address(Reg::filter_frequency)] = 425;    // §7 default "425K" does not fit 16 bits
+  regs_[adam::address(Reg::filter_frequency)] = 425;        // §7 default "425K" does not fit 16 bits
   kinematics_ = Kinematics{};
   kinematics_.set_position(now, 0);
   target_ = 0;
@@ -66,7 +67,7 @@ adam::DriveStatus AdamDriveSim::status(TimePoint now) const {
     // cruise, 10 down).
     const double later = std::abs(kinematics_.at(now + std::chrono::milliseconds(1)).velocity);
     const double speed = std::abs(state.velocity);
-    s.phase = later > speed + 1e-9 ? adam::MotionPhase::accelerating
+    s.phase = later > speed + 1e-9   ? adam::MotionPhase::accelerating
               : later < speed - 1e-9 ? adam::MotionPhase::decelerating
                                      : adam::MotionPhase::cruising;
   }
@@ -83,7 +84,8 @@ void AdamDriveSim::refresh(TimePoint now) {
   regs_[adam::address(Reg::status)] = static_cast<std::uint16_t>(raw & 0xFFFFU);
   regs_[adam::address(Reg::status) + 1U] = static_cast<std::uint16_t>(raw >> 16);
   const double pps = kinematics_.at(now).velocity;
-  const double rpm = adam::pps_to_rpm(pps, std::max<std::uint32_t>(1, static_cast<std::uint32_t>(reg32(Reg::subdivision))));
+  const double rpm =
+      adam::pps_to_rpm(pps, std::max<std::uint32_t>(1, static_cast<std::uint32_t>(reg32(Reg::subdivision))));
   regs_[adam::address(Reg::speed_rpm)] = adam::encode16(static_cast<std::int16_t>(std::lround(rpm)));
   const auto centi = adam::encode32(static_cast<std::int32_t>(std::lround(rpm * 100)));
   regs_[adam::address(Reg::speed_centi_rpm)] = centi[0];
@@ -151,12 +153,14 @@ void AdamDriveSim::execute_table_entry(TimePoint now) {
   const auto& data = variants_.needs_save ? saved_ : regs_;
   const std::int32_t value = adam::decode32_signed(data[at], data[at + 1]);
   // The speed from the register motion reads (variant table_speed_register).
-  const double speed = variants_.speed == AdamTableVariants::Speed::target_00d8 ? reg32(Reg::target_speed) / 100.0
-                                                                                : static_cast<double>(reg(Reg::working_speed));
+  const double speed = variants_.speed == AdamTableVariants::Speed::target_00d8
+                           ? reg32(Reg::target_speed) / 100.0
+                           : static_cast<double>(reg(Reg::working_speed));
   const std::int64_t here = kinematics_.position_counts(now);
   move_to(command->kind == adam::TableEntryKind::absolute ? value : here + value, now, std::abs(speed));
   const int step = command->arithmetic == adam::PointerArithmetic::add ? command->step : -int{command->step};
-  regs_[adam::address(Reg::table_pointer)] = static_cast<std::uint16_t>(std::clamp(pointer + step, 0, int{adam::kMaxTablePointer}));
+  regs_[adam::address(Reg::table_pointer)] =
+      static_cast<std::uint16_t>(std::clamp(pointer + step, 0, int{adam::kMaxTablePointer}));
 }
 
 void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
@@ -164,8 +168,10 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
   const double speed_rpm = std::abs(reg32(Reg::target_speed)) / 100.0;
   const auto stop = [&](bool immediate) {
     homing_ = false;
-    if (immediate) kinematics_.halt(now);
-    else kinematics_.stop(now, profile(speed_rpm).deceleration, profile(speed_rpm).cut_in);
+    if (immediate)
+      kinematics_.halt(now);
+    else
+      kinematics_.stop(now, profile(speed_rpm).deceleration, profile(speed_rpm).cut_in);
   };
   switch (static_cast<Reg>(address)) {
     case Reg::working_speed:  // variant `shared` (§8.44, §8.64 do not say): 0x009A and 0x00D8 are one setpoint
@@ -178,12 +184,15 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
     }
     case Reg::target_speed:
       if (variants_.speed != AdamTableVariants::Speed::shared) break;
-      regs_[adam::address(Reg::working_speed)] = static_cast<std::uint16_t>(std::min<long>(std::lround(speed_rpm), 0xFFFF));
+      regs_[adam::address(Reg::working_speed)] =
+          static_cast<std::uint16_t>(std::min<long>(std::lround(speed_rpm), 0xFFFF));
       break;
     case Reg::velocity_command: {
       const auto word = reg(Reg::velocity_command);
-      if (word == static_cast<std::uint16_t>(adam::VelocityCommand::ramped_stop)) stop(false);
-      else if (word == static_cast<std::uint16_t>(adam::VelocityCommand::emergency_stop)) stop(true);
+      if (word == static_cast<std::uint16_t>(adam::VelocityCommand::ramped_stop))
+        stop(false);
+      else if (word == static_cast<std::uint16_t>(adam::VelocityCommand::emergency_stop))
+        stop(true);
       else if (may_move()) {
         Profile p = profile(reg(Reg::working_speed));
         if (word == static_cast<std::uint16_t>(adam::VelocityCommand::run_reverse)) p.velocity = -p.velocity;
@@ -213,7 +222,7 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       const adam::HomingCommand home = adam::decode_homing(reg(Reg::homing_command));
       homing_ = true;
       move_to(0, now, home.speed_rpm);  // assumed: the switch is where the drive powered up
-      if (!was_moving_) {  // already on the switch
+      if (!was_moving_) {               // already on the switch
         homing_ = false;
         at_home_ = true;
       }
@@ -250,7 +259,9 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       }
       break;
     }
-    case Reg::outputs_on: regs_[adam::address(Reg::output_state)] |= static_cast<std::uint16_t>(reg(Reg::outputs_on) & 0xFF); break;
+    case Reg::outputs_on:
+      regs_[adam::address(Reg::output_state)] |= static_cast<std::uint16_t>(reg(Reg::outputs_on) & 0xFF);
+      break;
     case Reg::outputs_off:
       regs_[adam::address(Reg::output_state)] &= static_cast<std::uint16_t>(~reg(Reg::outputs_off) & 0xFF);
       break;
@@ -262,7 +273,8 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       break;
     case Reg::save_command:
       if (reg(Reg::save_command) == static_cast<std::uint16_t>(adam::SaveCommand::restore_factory)) power_cycle(now);
-      if (reg(Reg::save_command) == static_cast<std::uint16_t>(adam::SaveCommand::save)) {  // §8.69: a flash erase, 0.1 s
+      if (reg(Reg::save_command) ==
+          static_cast<std::uint16_t>(adam::SaveCommand::save)) {  // §8.69: a flash erase, 0.1 s
         saved_ = regs_;
         ++saves_;
         busy_until_ = now + variants_.save_time;

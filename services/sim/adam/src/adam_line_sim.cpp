@@ -31,7 +31,7 @@ AdamLineSim::AdamLineSim(const config::Config& config, const config::Bus& bus, S
     drive->slave.unit = static_cast<std::uint8_t>(d.node_id);
     AdamTableVariants variants;
     const auto speed = config::sim_variant(config, d, "table_speed_register");
-    variants.speed = speed == "0x00D8" ? AdamTableVariants::Speed::target_00d8
+    variants.speed = speed == "0x00D8"   ? AdamTableVariants::Speed::target_00d8
                      : speed == "shared" ? AdamTableVariants::Speed::shared
                                          : AdamTableVariants::Speed::working_009a;
     variants.needs_save = config::sim_variant(config, d, "table_needs_save") == "true";
@@ -128,7 +128,9 @@ bool AdamLineSim::control(const motionlcm::sim_control_t& c, TimePoint now) {
     case motionlcm::sim_control_t::SILENCE: d.silent = c.value != 0; break;
     case motionlcm::sim_control_t::CRC_ERRORS: d.corrupt_replies = c.value != 0; break;
     case motionlcm::sim_control_t::REPLY_LATENCY: d.latency = std::chrono::microseconds(c.value); break;
-    case motionlcm::sim_control_t::SET_INPUT: d.sim.set_input(static_cast<unsigned>(c.value - 1), c.level != 0, now); break;
+    case motionlcm::sim_control_t::SET_INPUT:
+      d.sim.set_input(static_cast<unsigned>(c.value - 1), c.level != 0, now);
+      break;
     case motionlcm::sim_control_t::POWER_CYCLE:
       d.sim.power_cycle(now);
       report(d, motionlcm::sim_report_t::POWERED_UP, context_.utime_of(now), now);
@@ -139,14 +141,16 @@ bool AdamLineSim::control(const motionlcm::sim_control_t& c, TimePoint now) {
 }
 
 SerialDeviceFactory adam_line_factory() {
-  return [](const config::Config& config, const config::Bus& bus, SerialDeviceContext context) -> std::unique_ptr<SerialDeviceSim> {
+  return [](const config::Config& config, const config::Bus& bus,
+            SerialDeviceContext context) -> std::unique_ptr<SerialDeviceSim> {
     return std::make_unique<AdamLineSim>(config, bus, std::move(context));
   };
 }
 
 std::unique_ptr<SerialLineHost> open_adam_line(EventLoop& loop, const config::Config& config, const config::Bus& bus,
                                                SerialLineHost::Reporter reporter, std::error_code& error) {
-  return SerialLineHost::open(loop, config, bus, {{config::Family::kAdamModbus, adam_line_factory()}}, std::move(reporter), error);
+  return SerialLineHost::open(loop, config, bus, {{config::Family::kAdamModbus, adam_line_factory()}},
+                              std::move(reporter), error);
 }
 
 }  // namespace motion::sim

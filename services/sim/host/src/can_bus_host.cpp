@@ -20,8 +20,8 @@ CanBusHost::~CanBusHost() {
 }
 
 std::unique_ptr<CanBusHost> CanBusHost::open(EventLoop& loop, const config::Config& config, const config::Bus& bus,
-                                             const std::map<config::Family, CanDriveFactory>& factories, Reporter reporter,
-                                             std::error_code& error) {
+                                             const std::map<config::Family, CanDriveFactory>& factories,
+                                             Reporter reporter, std::error_code& error) {
   std::unique_ptr<CanBusHost> host(new CanBusHost(loop, config, bus, std::move(reporter)));
   std::string why;
   const auto access = config::sim_file_access(config, &why);
@@ -41,14 +41,16 @@ std::unique_ptr<CanBusHost> CanBusHost::open(EventLoop& loop, const config::Conf
   host->hub_ = simbus::Hub::open(loop, options, error);
   if (!host->hub_) return nullptr;
   simbus::Hub& hub = *host->hub_;
-  error = host->attach_drives(factories, [&hub](const config::Drive& drive, std::error_code&) -> std::unique_ptr<can::Transport> {
-    return hub.attach_local("sim:" + drive.name);
-  });
+  error = host->attach_drives(factories,
+                              [&hub](const config::Drive& drive, std::error_code&) -> std::unique_ptr<can::Transport> {
+                                return hub.attach_local("sim:" + drive.name);
+                              });
   if (error) return nullptr;
   return host;
 }
 
-std::unique_ptr<CanBusHost> CanBusHost::open_socketcan(EventLoop& loop, const config::Config& config, const config::Bus& bus,
+std::unique_ptr<CanBusHost> CanBusHost::open_socketcan(EventLoop& loop, const config::Config& config,
+                                                       const config::Bus& bus,
                                                        const std::map<config::Family, CanDriveFactory>& factories,
                                                        Reporter reporter, std::error_code& error) {
   // One socket per drive: like separate nodes on the wire, each drive receives the frames of
@@ -56,24 +58,26 @@ std::unique_ptr<CanBusHost> CanBusHost::open_socketcan(EventLoop& loop, const co
   // interface) but not its own (own echo off).
   const std::string interface = bus.target;
   const auto bitrate = static_cast<std::uint32_t>(bus.bitrate);
-  return open_with(loop, config, bus, factories, std::move(reporter),
-                   [interface, bitrate](const config::Drive& drive, std::error_code& ec) -> std::unique_ptr<can::Transport> {
-                     auto transport = std::make_unique<can::SocketCanTransport>();
-                     can::SocketCanOptions options;
-                     options.bitrate = bitrate;
-                     ec = transport->open(interface, options);
-                     if (ec) return nullptr;
-                     transport->on_bus_event([name = drive.name](const can::BusEvent& event) {
-                       spdlog::warn("sim: drive {}: {} {}", name, can::to_string(event.state), event.text);
-                     });
-                     return transport;
-                   },
-                   error);
+  return open_with(
+      loop, config, bus, factories, std::move(reporter),
+      [interface, bitrate](const config::Drive& drive, std::error_code& ec) -> std::unique_ptr<can::Transport> {
+        auto transport = std::make_unique<can::SocketCanTransport>();
+        can::SocketCanOptions options;
+        options.bitrate = bitrate;
+        ec = transport->open(interface, options);
+        if (ec) return nullptr;
+        transport->on_bus_event([name = drive.name](const can::BusEvent& event) {
+          spdlog::warn("sim: drive {}: {} {}", name, can::to_string(event.state), event.text);
+        });
+        return transport;
+      },
+      error);
 }
 
 std::unique_ptr<CanBusHost> CanBusHost::open_with(EventLoop& loop, const config::Config& config, const config::Bus& bus,
-                                                  const std::map<config::Family, CanDriveFactory>& factories, Reporter reporter,
-                                                  const EndpointFactory& endpoints, std::error_code& error) {
+                                                  const std::map<config::Family, CanDriveFactory>& factories,
+                                                  Reporter reporter, const EndpointFactory& endpoints,
+                                                  std::error_code& error) {
   std::unique_ptr<CanBusHost> host(new CanBusHost(loop, config, bus, std::move(reporter)));
   error = host->attach_drives(factories, endpoints);
   if (error) return nullptr;
@@ -140,8 +144,8 @@ void CanBusHost::create(Drive& d, const CanDriveFactory& factory) {
 void CanBusHost::transmit(Drive& d, const can::Frame& frame) {
   const std::error_code error = d.endpoint->send(frame);
   if (error && !d.send_failed) {
-    spdlog::warn("sim: drive {} cannot send on {}: {} (further send errors are not logged)", d.config->name, d.endpoint->name(),
-                 error.message());
+    spdlog::warn("sim: drive {} cannot send on {}: {} (further send errors are not logged)", d.config->name,
+                 d.endpoint->name(), error.message());
   }
   d.send_failed = d.send_failed || static_cast<bool>(error);
 }
@@ -178,15 +182,14 @@ bool CanBusHost::control(const motionlcm::sim_control_t& c) {
       d.silent = c.value != 0;
       spdlog::info("sim: drive {} {}", c.drive, d.silent ? "silenced" : "answers again");
       return true;
-    case motionlcm::sim_control_t::REPLY_LATENCY:
-      d.latency = std::chrono::microseconds(c.value);
-      return true;
+    case motionlcm::sim_control_t::REPLY_LATENCY: d.latency = std::chrono::microseconds(c.value); return true;
     case motionlcm::sim_control_t::CRC_ERRORS:
       // A frame failing the CAN CRC is discarded by every receiver (ISO 11898-1: CRC error, error frame) and
       // retransmitted; a node whose frames keep failing counts itself to error passive and then
       // bus-off. So the drive goes on executing what it receives, and nothing it sends arrives.
       d.corrupt = c.value != 0;
-      spdlog::info("sim: drive {} {}", c.drive, d.corrupt ? "sends frames that fail the CAN CRC" : "sends intact frames again");
+      spdlog::info("sim: drive {} {}", c.drive,
+                   d.corrupt ? "sends frames that fail the CAN CRC" : "sends intact frames again");
       return true;
     case motionlcm::sim_control_t::POWER_CYCLE:
       spdlog::info("sim: power-cycling drive {}", c.drive);

@@ -10,7 +10,9 @@ namespace {
 constexpr double kForever = std::numeric_limits<double>::infinity();
 
 double seconds(Duration d) { return std::chrono::duration<double>(d).count(); }
-TimePoint after(TimePoint t, double s) { return t + std::chrono::duration_cast<Duration>(std::chrono::duration<double>(s)); }
+TimePoint after(TimePoint t, double s) {
+  return t + std::chrono::duration_cast<Duration>(std::chrono::duration<double>(s));
+}
 double sign(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
 
 }  // namespace

@@ -33,7 +33,8 @@ std::optional<config::Family> SerialLineHost::family_for(const config::Config& c
   return std::nullopt;
 }
 
-SerialLineHost::SerialLineHost(EventLoop& loop, const config::Config& config, const config::Bus& bus, config::Family family)
+SerialLineHost::SerialLineHost(EventLoop& loop, const config::Config& config, const config::Bus& bus,
+                               config::Family family)
     : loop_(loop), bus_(bus), family_(family) {
   for (const auto& d : config.drives) {
     if (d.bus != bus.name) continue;
@@ -45,8 +46,9 @@ SerialLineHost::SerialLineHost(EventLoop& loop, const config::Config& config, co
   }
 }
 
-std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const config::Config& config, const config::Bus& bus,
-                                                     const Factories& factories, Reporter reporter, std::error_code& error) {
+std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const config::Config& config,
+                                                     const config::Bus& bus, const Factories& factories,
+                                                     Reporter reporter, std::error_code& error) {
   const auto family = family_for(config, bus, factories);
   if (!family) {
     error = std::make_error_code(std::errc::not_supported);
@@ -61,14 +63,14 @@ std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const conf
   }
   auto host = std::unique_ptr<SerialLineHost>(new SerialLineHost(loop, config, bus, *family));
   host->link_ = serial::PtyLink::create(serial::simserial_link_path(config::sim_runtime_dir(config), bus.name),
-                                       configured_line(bus), error, *access);
+                                        configured_line(bus), error, *access);
   if (!host->link_) return nullptr;
   SerialDeviceContext context;
   context.bus = bus.name;
   context.send = [h = host.get()](std::span<const std::uint8_t> bytes, Duration delay) { h->send(bytes, delay); };
   context.report = [reporter = std::move(reporter), bus_name = bus.name](const std::string& drive, std::int8_t kind,
-                                                                          std::int64_t frame_utime, std::int64_t position,
-                                                                          std::int64_t target) {
+                                                                         std::int64_t frame_utime,
+                                                                         std::int64_t position, std::int64_t target) {
     if (!reporter) return;
     motionlcm::sim_report_t r{};
     r.utime = wall_time_us();
@@ -84,7 +86,9 @@ std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const conf
   const auto steady_us = [](TimePoint t) {
     return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
   };
-  context.utime_of = [steady_us, offset = wall_time_us() - steady_us(loop.now())](TimePoint t) { return steady_us(t) + offset; };
+  context.utime_of = [steady_us, offset = wall_time_us() - steady_us(loop.now())](TimePoint t) {
+    return steady_us(t) + offset;
+  };
   host->device_ = factories.at(*family)(config, bus, std::move(context));
   loop.watch(host->link_->master_fd(), [h = host.get()] { h->on_readable(); });
   const TimePoint now = loop.now();
@@ -102,7 +106,8 @@ SerialLineHost::~SerialLineHost() {
 void SerialLineHost::send(std::span<const std::uint8_t> bytes, Duration delay) {
   std::vector<std::uint8_t> out(bytes.begin(), bytes.end());
   if (!noise_in_frame_.empty()) {
-    out.insert(out.begin() + static_cast<std::ptrdiff_t>(out.size() / 2), noise_in_frame_.begin(), noise_in_frame_.end());
+    out.insert(out.begin() + static_cast<std::ptrdiff_t>(out.size() / 2), noise_in_frame_.begin(),
+               noise_in_frame_.end());
     noise_in_frame_.clear();
   }
   outbox_.emplace(loop_.now() + delay, std::move(out));
@@ -148,7 +153,8 @@ bool SerialLineHost::control(const motionlcm::sim_control_t& control) {
   if (control.action == motionlcm::sim_control_t::LINE_NOISE) {
     if (!control.drive.empty() || control.bus != bus_.name || control.value <= 0) return false;
     auto bytes = noise(static_cast<std::size_t>(control.value));
-    spdlog::info("bus {}: {} noise bytes {}", bus_.name, bytes.size(), control.level != 0 ? "into the next frame" : "on the line");
+    spdlog::info("bus {}: {} noise bytes {}", bus_.name, bytes.size(),
+                 control.level != 0 ? "into the next frame" : "on the line");
     if (control.level != 0) {
       noise_in_frame_ = std::move(bytes);
     } else {
@@ -167,7 +173,8 @@ void SerialLineHost::flush(TimePoint now) {
   while (!outbox_.empty() && outbox_.begin()->first <= now) {
     const auto& bytes = outbox_.begin()->second;
     if (::write(link_->master_fd(), bytes.data(), bytes.size()) < 0)
-      spdlog::warn("bus {}: {} bytes not written: {}", bus_.name, bytes.size(), std::error_code(errno, std::generic_category()).message());
+      spdlog::warn("bus {}: {} bytes not written: {}", bus_.name, bytes.size(),
+                   std::error_code(errno, std::generic_category()).message());
     outbox_.erase(outbox_.begin());
   }
 }

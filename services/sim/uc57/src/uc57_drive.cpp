@@ -42,7 +42,6 @@ SdoAbortCode abort_code(od::AccessError error) {
 
 bool in_range(std::uint16_t index, std::uint16_t first, std::uint16_t last) { return index >= first && index <= last; }
 
-
 }  // namespace
 
 Uc57DriveSim::Uc57DriveSim(canopen::NodeId node, SimDriveContext context, Uc57SimOptions options)
@@ -141,7 +140,8 @@ void Uc57DriveSim::on_frame(const can::Frame& frame, TimePoint now) {
       on_sync();
     } else if (nmt_ == canopen::NmtState::kOperational) {
       for (unsigned n = 1; n <= 4; ++n) {
-        const auto cob = static_cast<std::uint32_t>(stored(static_cast<std::uint16_t>(idx::kRpdoCommunication + n - 1), 1));
+        const auto cob =
+            static_cast<std::uint32_t>(stored(static_cast<std::uint16_t>(idx::kRpdoCommunication + n - 1), 1));
         if ((cob & canopen::kPdoCobIdInvalid) == 0 && (cob & can::kMaxStandardId) == frame.id) {
           on_rpdo(n, frame.payload());
         }
@@ -187,8 +187,10 @@ bool Uc57DriveSim::control(const motionlcm::sim_control_t& control, TimePoint no
       const AlarmEmcy& alarm = kAlarms[code - 1];
       fault_bits_ = static_cast<std::uint16_t>(fault_bits_ | (1U << (code - 1)));
       const auto bit = static_cast<std::uint16_t>(1U << (code - 1));
-      fault({alarm.code, alarm.error_register,
-             {static_cast<std::uint8_t>(code), static_cast<std::uint8_t>(bit & 0xFF), static_cast<std::uint8_t>(bit >> 8), 0, 0}});
+      fault({alarm.code,
+             alarm.error_register,
+             {static_cast<std::uint8_t>(code), static_cast<std::uint8_t>(bit & 0xFF),
+              static_cast<std::uint8_t>(bit >> 8), 0, 0}});
       break;
     }
     case motionlcm::sim_control_t::SET_INPUT:
@@ -216,7 +218,9 @@ std::int64_t Uc57DriveSim::stored(std::uint16_t index, std::uint8_t sub) const {
   return it == objects_.end() ? 0 : it->second;
 }
 
-void Uc57DriveSim::store(std::uint16_t index, std::uint8_t sub, std::int64_t value) { objects_[key(index, sub)] = value; }
+void Uc57DriveSim::store(std::uint16_t index, std::uint8_t sub, std::int64_t value) {
+  objects_[key(index, sub)] = value;
+}
 
 std::int64_t Uc57DriveSim::current_value(const od::OdEntry& entry, TimePoint now) const {
   switch (entry.index) {
@@ -247,7 +251,8 @@ canopen::SdoReadResult Uc57DriveSim::sdo_read(canopen::ObjectAddress object) {
   // Stored values may exceed a narrower type only through a bug; encode the low bytes then.
   const std::int64_t value = current_value(entry, now_);
   if (!od::encode_value(entry.type, value, data)) {
-    for (std::size_t i = 0; i < data.size(); ++i) data[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(value) >> (8 * i));
+    for (std::size_t i = 0; i < data.size(); ++i)
+      data[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(value) >> (8 * i));
   }
   return {std::move(data), std::nullopt};
 }
@@ -256,12 +261,14 @@ std::optional<SdoAbortCode> Uc57DriveSim::sdo_write(const canopen::SdoWrite& wri
   const od::OdEntry* entry = od::find_entry(write.object.index, write.object.subindex);
   auto data = write.data;
   // Expedited without size (0x22): the object's type gives the length.
-  if (!write.size_indicated && entry != nullptr) data = data.first(std::min<std::size_t>(data.size(), od::size_bytes(entry->type)));
+  if (!write.size_indicated && entry != nullptr)
+    data = data.first(std::min<std::size_t>(data.size(), od::size_bytes(entry->type)));
   const od::Lookup lookup = od::check_write(write.object.index, write.object.subindex, data, policy_);
   if (lookup.error) return abort_code(*lookup.error);
   std::array<std::uint8_t, 4> raw{};
   std::copy_n(data.begin(), std::min<std::size_t>(data.size(), od::size_bytes(lookup.entry->type)), raw.begin());
-  const auto value = od::decode_value(lookup.entry->type, std::span<const std::uint8_t>(raw).first(od::size_bytes(lookup.entry->type)));
+  const auto value = od::decode_value(lookup.entry->type,
+                                      std::span<const std::uint8_t>(raw).first(od::size_bytes(lookup.entry->type)));
   if (const auto refused = check_pdo_parameter(*lookup.entry, *value)) return refused;
   apply_write(*lookup.entry, *value);
   return std::nullopt;
@@ -356,7 +363,8 @@ canopen::PdoMapping Uc57DriveSim::pdo_mapping(canopen::PdoDirection direction, u
 }
 
 void Uc57DriveSim::on_rpdo(unsigned number, std::span<const std::uint8_t> payload) {
-  const auto type = stored(static_cast<std::uint16_t>(idx::kRpdoCommunication + number - 1), canopen::kPdoTransmissionTypeSub);
+  const auto type =
+      stored(static_cast<std::uint16_t>(idx::kRpdoCommunication + number - 1), canopen::kPdoTransmissionTypeSub);
   if (type <= 240 && options_.rpdo_sync == RpdoSync::kHonoured) {
     rpdo_buffer_[number - 1] = std::vector<std::uint8_t>(payload.begin(), payload.end());  // latest wins
     return;
@@ -412,7 +420,8 @@ void Uc57DriveSim::on_sync() {
 
 std::optional<std::vector<std::uint8_t>> Uc57DriveSim::tpdo_payload(unsigned number) const {
   const auto comm = static_cast<std::uint16_t>(idx::kTpdoCommunication + number - 1);
-  if ((static_cast<std::uint32_t>(stored(comm, canopen::kPdoCobIdSub)) & canopen::kPdoCobIdInvalid) != 0) return std::nullopt;
+  if ((static_cast<std::uint32_t>(stored(comm, canopen::kPdoCobIdSub)) & canopen::kPdoCobIdInvalid) != 0)
+    return std::nullopt;
   const canopen::PdoMapping mapping = pdo_mapping(canopen::PdoDirection::kTransmit, number);
   if (mapping.empty()) return std::nullopt;
   std::vector<std::uint64_t> values;
@@ -443,7 +452,8 @@ void Uc57DriveSim::send_tpdo(unsigned number, std::vector<std::uint8_t> payload)
 void Uc57DriveSim::service_event_tpdos() {
   if (nmt_ != canopen::NmtState::kOperational) return;
   for (unsigned n = 1; n <= 4; ++n) {
-    const auto type = stored(static_cast<std::uint16_t>(idx::kTpdoCommunication + n - 1), canopen::kPdoTransmissionTypeSub);
+    const auto type =
+        stored(static_cast<std::uint16_t>(idx::kTpdoCommunication + n - 1), canopen::kPdoTransmissionTypeSub);
     if (type < 254) continue;
     auto payload = tpdo_payload(n);
     if (!payload) continue;

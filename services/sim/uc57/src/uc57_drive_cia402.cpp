@@ -97,7 +97,8 @@ Profile Uc57DriveSim::ramp_profile(double speed, std::uint16_t accel_index, std:
                                    double start_speed) const {
   const double magnitude = std::abs(speed);
   // A stop from the current speed ramps across that speed.
-  const double change = std::max(magnitude > 0 ? magnitude - start_speed : std::abs(kinematics_.at(now_).velocity), 0.0);
+  const double change =
+      std::max(magnitude > 0 ? magnitude - start_speed : std::abs(kinematics_.at(now_).velocity), 0.0);
   const auto rate = [&](std::uint16_t index) {
     const double a = od::ramp_acceleration(options_.ramp_unit, stored(index, 0), change, pulses_per_rev());
     return std::isfinite(a) && a > 0 ? a : kStepAcceleration;
@@ -189,7 +190,8 @@ void Uc57DriveSim::stop_motion(double deceleration) {
 // --- profile position (manual §4.2.4, §7 MC_MOVABS/MC_MOVREL) ---
 
 void Uc57DriveSim::accept_set_point(bool change_immediately) {
-  SetPoint set_point{stored(idx::kTargetPosition, 0), cia402::is_set(controlword_, ControlBit::kRelative), frame_utime_};
+  SetPoint set_point{stored(idx::kTargetPosition, 0), cia402::is_set(controlword_, ControlBit::kRelative),
+                     frame_utime_};
   if (activity_ == Activity::kProfilePosition && !change_immediately) {
     if (buffered_set_point_) return;  // one-deep buffer full: the edge is ignored
     buffered_set_point_ = set_point;
@@ -202,9 +204,12 @@ void Uc57DriveSim::accept_set_point(bool change_immediately) {
 void Uc57DriveSim::start_profile_position(const SetPoint& set_point) {
   frame_utime_ = set_point.utime;
   const std::int64_t target = set_point.relative ? position(now_) + set_point.target : set_point.target;
-  const double start_speed = od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kStartSpeed, 0)), pulses_per_rev());
-  const double speed = od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kProfileVelocity, 0)), pulses_per_rev());
-  run_profile(ramp_profile(speed, idx::kProfileAcceleration, idx::kProfileDeceleration, start_speed), idx::kProfileDeceleration, target);
+  const double start_speed =
+      od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kStartSpeed, 0)), pulses_per_rev());
+  const double speed =
+      od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kProfileVelocity, 0)), pulses_per_rev());
+  run_profile(ramp_profile(speed, idx::kProfileAcceleration, idx::kProfileDeceleration, start_speed),
+              idx::kProfileDeceleration, target);
   activity_ = Activity::kProfilePosition;
   target_reached_ = false;
   in_position_ = false;
@@ -218,16 +223,18 @@ void Uc57DriveSim::update_profile_velocity() {
   const bool runs = state_ == State::kOperationEnabled &&
                     mode() == static_cast<std::int8_t>(cia402::ModeOfOperation::kProfileVelocity) &&
                     !cia402::is_set(controlword_, ControlBit::kHalt);
-  const double velocity = od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kTargetVelocity, 0)), pulses_per_rev());
+  const double velocity =
+      od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kTargetVelocity, 0)), pulses_per_rev());
   if (!runs || velocity == 0) {
-    if (activity_ == Activity::kProfileVelocity) {
-      stop_motion(stop_deceleration(idx::kProfileDeceleration));
-    }
+    if (activity_ == Activity::kProfileVelocity) { stop_motion(stop_deceleration(idx::kProfileDeceleration)); }
     return;
   }
-  if (activity_ != Activity::kIdle && activity_ != Activity::kProfileVelocity && activity_ != Activity::kStopping) return;
-  const double start_speed = od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kStartSpeed, 0)), pulses_per_rev());
-  run_profile(ramp_profile(velocity, idx::kProfileAcceleration, idx::kProfileDeceleration, start_speed), idx::kProfileDeceleration, std::nullopt);
+  if (activity_ != Activity::kIdle && activity_ != Activity::kProfileVelocity && activity_ != Activity::kStopping)
+    return;
+  const double start_speed =
+      od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kStartSpeed, 0)), pulses_per_rev());
+  run_profile(ramp_profile(velocity, idx::kProfileAcceleration, idx::kProfileDeceleration, start_speed),
+              idx::kProfileDeceleration, std::nullopt);
   activity_ = Activity::kProfileVelocity;
   target_reached_ = false;
   begin_motion(velocity > 0 ? std::numeric_limits<std::int32_t>::max() : std::numeric_limits<std::int32_t>::min());
@@ -250,7 +257,7 @@ void Uc57DriveSim::start_homing() {
   const auto dir = static_cast<std::int64_t>(method->search_direction);
   const std::int64_t signal = method->home_signal == od::HomeSignal::kOrigin          ? options_.origin_position
                               : method->home_signal == od::HomeSignal::kPositiveLimit ? options_.positive_limit
-                                                                                       : options_.negative_limit;
+                                                                                      : options_.negative_limit;
   const std::int64_t limit = dir > 0 ? options_.positive_limit : options_.negative_limit;
   const auto physical = static_cast<std::int64_t>(std::llround(kinematics_.at(now_).position + position_shift_));
   // The switch is met at full speed; the drive then decelerates past it.
@@ -281,8 +288,10 @@ void Uc57DriveSim::start_homing() {
 void Uc57DriveSim::start_homing_leg() {
   const HomingLeg leg = homing_legs_.front();
   homing_legs_.pop_front();
-  const auto target = static_cast<std::int64_t>(std::llround(static_cast<double>(leg.physical_target) - position_shift_));
-  run_profile(ramp_profile(leg.speed, idx::kHomingAcceleration, idx::kHomingAcceleration, 0), idx::kHomingAcceleration, target);
+  const auto target =
+      static_cast<std::int64_t>(std::llround(static_cast<double>(leg.physical_target) - position_shift_));
+  run_profile(ramp_profile(leg.speed, idx::kHomingAcceleration, idx::kHomingAcceleration, 0), idx::kHomingAcceleration,
+              target);
 }
 
 void Uc57DriveSim::finish_homing(bool succeeded) {
@@ -322,7 +331,8 @@ void Uc57DriveSim::try_fault_reset() {
   if (fault_bits_ != 0) return;
   stalled_ = false;
   if (state_ == State::kFault) {
-    if (const auto t = cia402::find_command_transition(State::kFault, 0, cia402::controlword_for(cia402::Command::kFaultReset))) {
+    if (const auto t =
+            cia402::find_command_transition(State::kFault, 0, cia402::controlword_for(cia402::Command::kFaultReset))) {
       state_ = t->to;
     }
   }
@@ -332,7 +342,8 @@ void Uc57DriveSim::try_fault_reset() {
 std::uint8_t Uc57DriveSim::error_register() const {
   std::uint8_t reg = 0;
   for (unsigned code = 1; code <= kAlarms.size(); ++code) {
-    if ((fault_bits_ & (1U << (code - 1))) != 0) reg = static_cast<std::uint8_t>(reg | kAlarms[code - 1].error_register);
+    if ((fault_bits_ & (1U << (code - 1))) != 0)
+      reg = static_cast<std::uint8_t>(reg | kAlarms[code - 1].error_register);
   }
   if (stalled_) reg = static_cast<std::uint8_t>(reg | kStallErrorRegister);
   return reg;
@@ -364,7 +375,8 @@ std::uint16_t Uc57DriveSim::statusword(TimePoint now) const {
         set(StatusBit::kInPosition, in_position_);
         break;
       case static_cast<std::int8_t>(cia402::ModeOfOperation::kProfileVelocity): {
-        const double target = od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kTargetVelocity, 0)), pulses_per_rev());
+        const double target =
+            od::rpm_to_pulses_per_second(static_cast<double>(stored(idx::kTargetVelocity, 0)), pulses_per_rev());
         const bool halted = cia402::is_set(controlword_, ControlBit::kHalt);
         set(StatusBit::kTargetReached, halted ? !motion.moving : std::abs(motion.velocity - target) < 1e-6);
         set(cia402::kSpeedIsZero, !motion.moving);
@@ -383,8 +395,8 @@ std::uint16_t Uc57DriveSim::statusword(TimePoint now) const {
 std::uint8_t Uc57DriveSim::input_levels() const {
   const double physical = kinematics_.at(now_).position + position_shift_;
   const bool positive_limit = forced_inputs_[0] || physical >= static_cast<double>(options_.positive_limit);
-  const bool origin = forced_inputs_[1] ||
-                      std::abs(physical - static_cast<double>(options_.origin_position)) <= static_cast<double>(options_.origin_half_width);
+  const bool origin = forced_inputs_[1] || std::abs(physical - static_cast<double>(options_.origin_position)) <=
+                                               static_cast<double>(options_.origin_half_width);
   const bool negative_limit = forced_inputs_[2] || physical <= static_cast<double>(options_.negative_limit);
   return static_cast<std::uint8_t>((positive_limit ? 1 : 0) | (origin ? 2 : 0) | (negative_limit ? 4 : 0));
 }

@@ -27,7 +27,7 @@ constexpr std::array<AlarmEmcy, 6> kAlarms = {{
 }};
 // A stall has no UC57 alarm code; CiA 402 following error is the closest standard code.
 constexpr std::uint16_t kStallEmcyCode = 0x8611;
-constexpr std::uint8_t kStallErrorRegister = 0x21;  // generic + device profile
+constexpr std::uint8_t kStallErrorRegister = 0x21;     // generic + device profile
 constexpr std::uint16_t kPdoLengthErrorCode = 0x8210;  // PDO not processed: length error
 
 inline bool motor_energised(State state) {

@@ -44,8 +44,13 @@ std::int64_t steady_us(TimePoint t) {
 
 // Sensor action codes (EN/CN §8.4, §8.6) that the simulator carries out.
 enum Action : std::uint8_t {
-  kNoRtcn = 0x0, kDecelerate = 0x3, kEmergencyStop = 0x4, kResetPosition = 0x6,
-  kResetDecelerate = 0xB, kResetEmergencyStop = 0xC, kOff = 0xF,
+  kNoRtcn = 0x0,
+  kDecelerate = 0x3,
+  kEmergencyStop = 0x4,
+  kResetPosition = 0x6,
+  kResetDecelerate = 0xB,
+  kResetEmergencyStop = 0xC,
+  kOff = 0xF,
 };
 
 }  // namespace
@@ -108,10 +113,20 @@ class Uim242GatewaySim::Controller {
       case Mnemonic::Null: reply_desired(); break;
       case Mnemonic::ACR:
         if (set) acr_ = v;
-        if (set && v <= 1) { reply_desired(); } else { reply_value(acr_); }
+        if (set && v <= 1) {
+          reply_desired();
+        } else {
+          reply_value(acr_);
+        }
         break;
-      case Mnemonic::BLC: if (set) blc_ = v; reply_value(blc_); break;
-      case Mnemonic::CUR: current_ = v; reply_desired(); break;
+      case Mnemonic::BLC:
+        if (set) blc_ = v;
+        reply_value(blc_);
+        break;
+      case Mnemonic::CUR:
+        current_ = v;
+        reply_desired();
+        break;
       case Mnemonic::DOU:
         if (set) {
           s34con_ &= static_cast<std::uint16_t>(~kS34P4Bits);
@@ -129,7 +144,9 @@ class Uim242GatewaySim::Controller {
           reply_value(enable_timer_);
         }
         break;
-      case Mnemonic::FBK: if (acknowledge) out.push_back(uim242::make_status_frame(Header::status, node(), actual_status(now))); break;
+      case Mnemonic::FBK:
+        if (acknowledge) out.push_back(uim242::make_status_frame(Header::status, node(), actual_status(now)));
+        break;
       case Mnemonic::ICF:
         if (set) icfg_ = static_cast<std::uint16_t>(v & 0x000F);  // bits 15..4 read 0
         reply_value(icfg_);
@@ -139,13 +156,33 @@ class Uim242GatewaySim::Controller {
           awake_at_ = now + setup_.reboot;
         }
         break;
-      case Mnemonic::MAC: if (set) acceleration_ = v; reply(std::array<std::int64_t, 2>{(mcfg_ & kAm) ? 1 : 0, acceleration_}); break;
-      case Mnemonic::MDE: if (set) deceleration_ = v; reply(std::array<std::int64_t, 2>{(mcfg_ & kDm) ? 1 : 0, deceleration_}); break;
-      case Mnemonic::MCF: if (set) mcfg_ = static_cast<std::uint16_t>(v & ~kMcfgReadZero); reply_value(mcfg_); break;
-      case Mnemonic::MCS: micro_steps_ = v; reply_desired(); break;
-      case Mnemonic::MDL: reply(std::array<std::int64_t, 5>{0x18, 0x02, setup_.max_current_tenths, kModules, setup_.firmware}); break;
-      case Mnemonic::MMD: if (set) mmd_ = v; reply_value(mmd_); break;
-      case Mnemonic::MMS: if (set) mms_ = v; reply_value(mms_); break;
+      case Mnemonic::MAC:
+        if (set) acceleration_ = v;
+        reply(std::array<std::int64_t, 2>{(mcfg_ & kAm) ? 1 : 0, acceleration_});
+        break;
+      case Mnemonic::MDE:
+        if (set) deceleration_ = v;
+        reply(std::array<std::int64_t, 2>{(mcfg_ & kDm) ? 1 : 0, deceleration_});
+        break;
+      case Mnemonic::MCF:
+        if (set) mcfg_ = static_cast<std::uint16_t>(v & ~kMcfgReadZero);
+        reply_value(mcfg_);
+        break;
+      case Mnemonic::MCS:
+        micro_steps_ = v;
+        reply_desired();
+        break;
+      case Mnemonic::MDL:
+        reply(std::array<std::int64_t, 5>{0x18, 0x02, setup_.max_current_tenths, kModules, setup_.firmware});
+        break;
+      case Mnemonic::MMD:
+        if (set) mmd_ = v;
+        reply_value(mmd_);
+        break;
+      case Mnemonic::MMS:
+        if (set) mms_ = v;
+        reply_value(mms_);
+        break;
       case Mnemonic::OFF:
         enabled_ = false;
         halt(now);
@@ -165,8 +202,14 @@ class Uim242GatewaySim::Controller {
           reply_value(position(now));
         }
         break;
-      case Mnemonic::QER: if (set) encoder_lines_ = v; reply_value(encoder_lines_); break;
-      case Mnemonic::SQT: if (set) stall_tolerance_ = v; reply_value(stall_tolerance_); break;
+      case Mnemonic::QER:
+        if (set) encoder_lines_ = v;
+        reply_value(encoder_lines_);
+        break;
+      case Mnemonic::SQT:
+        if (set) stall_tolerance_ = v;
+        reply_value(stall_tolerance_);
+        break;
       case Mnemonic::SCF:
         if (set) write_sensor_register(*uim242::scf_write(in));
         reply(std::array<std::int64_t, 3>{(std::int64_t{s34con_} << 16) | s12con_, atconl_, atconh_});
@@ -202,9 +245,12 @@ class Uim242GatewaySim::Controller {
           set_target(now, position(now) + v, v);
         }
         break;
-      case Mnemonic::ADR: case Mnemonic::SET: case Mnemonic::BTR: case Mnemonic::BDR: case Mnemonic::ABC:
-      case Mnemonic::REG:
-        break;  // gateway instructions never reach a controller
+      case Mnemonic::ADR:
+      case Mnemonic::SET:
+      case Mnemonic::BTR:
+      case Mnemonic::BDR:
+      case Mnemonic::ABC:
+      case Mnemonic::REG: break;  // gateway instructions never reach a controller
     }
     return out;
   }
@@ -261,15 +307,23 @@ class Uim242GatewaySim::Controller {
 
  private:
   [[nodiscard]] uim242::Status desired_status() const {
-    return uim242::Status{acr_ != 0, enabled_, desired_positive_, static_cast<std::uint8_t>(micro_steps_),
-                          static_cast<std::uint8_t>(current_), static_cast<std::int16_t>(desired_speed_),
+    return uim242::Status{acr_ != 0,
+                          enabled_,
+                          desired_positive_,
+                          static_cast<std::uint8_t>(micro_steps_),
+                          static_cast<std::uint8_t>(current_),
+                          static_cast<std::int16_t>(desired_speed_),
                           static_cast<std::int32_t>(desired_displacement_)};
   }
   [[nodiscard]] uim242::Status actual_status(TimePoint now) const {
     const double velocity = kinematics_.at(now).velocity;
     const bool positive = velocity != 0 ? velocity > 0 : last_positive_;
-    return uim242::Status{acr_ != 0, enabled_, positive, static_cast<std::uint8_t>(micro_steps_),
-                          static_cast<std::uint8_t>(current_), static_cast<std::int16_t>(std::llround(velocity)),
+    return uim242::Status{acr_ != 0,
+                          enabled_,
+                          positive,
+                          static_cast<std::uint8_t>(micro_steps_),
+                          static_cast<std::uint8_t>(current_),
+                          static_cast<std::int16_t>(std::llround(velocity)),
                           static_cast<std::int32_t>(position(now) - displacement_origin_)};
   }
 
@@ -284,8 +338,8 @@ class Uim242GatewaySim::Controller {
   [[nodiscard]] Profile profile(TimePoint now, double speed) const {
     const double delta = std::abs(std::abs(speed) - std::abs(kinematics_.at(now).velocity));
     const double cut_in = (mcfg_ & kCm) ? static_cast<double>(mms_) : 0.0;
-    return Profile{speed, rate(acceleration_, (mcfg_ & kAm) != 0, delta), rate(deceleration_, (mcfg_ & kDm) != 0, delta),
-                   cut_in};
+    return Profile{speed, rate(acceleration_, (mcfg_ & kAm) != 0, delta),
+                   rate(deceleration_, (mcfg_ & kDm) != 0, delta), cut_in};
   }
 
   void started(TimePoint now, std::int64_t target) {
@@ -361,9 +415,19 @@ class Uim242GatewaySim::Controller {
   void sensor_action(std::uint8_t action, TimePoint now) {
     const bool reset = action == kResetPosition || action == kResetDecelerate || action == kResetEmergencyStop;
     switch (action) {
-      case kDecelerate: case kResetDecelerate: desired_speed_ = 0; velocity_mode_ = true; pt_target_.reset(); brake(now); break;
-      case kEmergencyStop: case kResetEmergencyStop: halt(now); break;
-      case kOff: enabled_ = false; halt(now); break;
+      case kDecelerate:
+      case kResetDecelerate:
+        desired_speed_ = 0;
+        velocity_mode_ = true;
+        pt_target_.reset();
+        brake(now);
+        break;
+      case kEmergencyStop:
+      case kResetEmergencyStop: halt(now); break;
+      case kOff:
+        enabled_ = false;
+        halt(now);
+        break;
       default: break;
     }
     if (reset) {
@@ -436,7 +500,8 @@ Uim242GatewaySim::Uim242GatewaySim(std::vector<Uim242ControllerSetup> controller
 
 Uim242GatewaySim::~Uim242GatewaySim() = default;
 
-std::vector<Uim242ControllerSetup> Uim242GatewaySim::controllers_of(const config::Config& config, const std::string& bus) {
+std::vector<Uim242ControllerSetup> Uim242GatewaySim::controllers_of(const config::Config& config,
+                                                                    const std::string& bus) {
   std::vector<Uim242ControllerSetup> out;
   for (const auto& d : config.drives) {
     if (d.bus != bus || d.family != config::Family::kUim242) continue;
@@ -450,7 +515,8 @@ std::vector<Uim242ControllerSetup> Uim242GatewaySim::controllers_of(const config
 }
 
 SerialDeviceFactory uim242_line_factory() {
-  return [](const config::Config& config, const config::Bus& bus, SerialDeviceContext line) -> std::unique_ptr<SerialDeviceSim> {
+  return [](const config::Config& config, const config::Bus& bus,
+            SerialDeviceContext line) -> std::unique_ptr<SerialDeviceSim> {
     const Duration latency = std::chrono::microseconds(config.simulation.reply_latency_us);
     Uim242SimContext context;
     context.bus = bus.name;
@@ -571,8 +637,8 @@ void Uim242GatewaySim::execute(const uim242::InstructionChunk& chunk, TimePoint 
 }
 
 void Uim242GatewaySim::execute_gateway(const Instruction& in, TimePoint now) {
-  const auto quantity = static_cast<std::uint8_t>(std::count_if(controllers_.begin(), controllers_.end(),
-                                                                [](const auto& c) { return !c->silent(); }));
+  const auto quantity = static_cast<std::uint8_t>(
+      std::count_if(controllers_.begin(), controllers_.end(), [](const auto& c) { return !c->silent(); }));
   const auto form = uim242::reply_form(in, options_.org_reply);
   if (in.global) {
     if (in.mnemonic == Mnemonic::REG) {

@@ -33,7 +33,9 @@ std::uint16_t* word_register(Uim342Drive::Parameters& p, FC f, std::uint8_t i) {
     case FC::QE: return i < p.encoder.size() ? &p.encoder[i] : nullptr;
     case FC::MT: return i < p.driver.size() ? &p.driver[i] : nullptr;
     case FC::TG: return i < p.trigger.size() ? &p.trigger[i] : nullptr;
-    case FC::IL: return (i == u::kInputLogicStallBehaviour || i == u::kInputLogicStallBehaviourAlias) ? &p.stall_behaviour : nullptr;
+    case FC::IL:
+      return (i == u::kInputLogicStallBehaviour || i == u::kInputLogicStallBehaviourAlias) ? &p.stall_behaviour
+                                                                                           : nullptr;
     default: return nullptr;
   }
 }
@@ -82,13 +84,19 @@ std::optional<std::size_t> history_slot(std::uint8_t index) {
 
 }  // namespace
 
-Uim342Drive::Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity, std::optional<Uim342HomeSwitch> home_switch,
-                         MicroStepsApply micro_steps_apply)
-    : context_(std::move(context)), identity_(identity), factory_(setup_parameters(drive, identity)),
-      persisted_(factory_), active_(factory_), home_switch_(home_switch), micro_steps_apply_(micro_steps_apply) {}
+Uim342Drive::Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity,
+                         std::optional<Uim342HomeSwitch> home_switch, MicroStepsApply micro_steps_apply)
+    : context_(std::move(context)),
+      identity_(identity),
+      factory_(setup_parameters(drive, identity)),
+      persisted_(factory_),
+      active_(factory_),
+      home_switch_(home_switch),
+      micro_steps_apply_(micro_steps_apply) {}
 
 double Uim342Drive::shaft_full_steps(TimePoint now) const {
-  return shaft_base_full_steps_ + static_cast<double>(kinematics_.position_counts(now) - counts_base_) / std::max<std::uint16_t>(applied_micro_steps_, 1);
+  return shaft_base_full_steps_ + static_cast<double>(kinematics_.position_counts(now) - counts_base_) /
+                                      std::max<std::uint16_t>(applied_micro_steps_, 1);
 }
 
 void Uim342Drive::apply_micro_steps(std::uint16_t micro_steps, TimePoint now) {
@@ -142,7 +150,8 @@ void Uim342Drive::handle(const Instruction& instruction, std::uint8_t host, std:
     return;
   }
   if (f == FC::SY) {  // never acknowledged (§5.8)
-    if (std::get<u::Index>(instruction.body).index == static_cast<std::uint8_t>(u::SystemOperation::restore_factory_defaults)) {
+    if (std::get<u::Index>(instruction.body).index ==
+        static_cast<std::uint8_t>(u::SystemOperation::restore_factory_defaults)) {
       // The configuration's set-up stands in for the factory values; the protocol parameters are
       // kept so that the drive stays reachable on the simulated bus.
       const Parameters protocol = persisted_;
@@ -156,18 +165,23 @@ void Uim342Drive::handle(const Instruction& instruction, std::uint8_t host, std:
   }
   u::Reply reply;
   switch (f) {
-    case FC::AC: case FC::DC: case FC::SP: case FC::PR: case FC::PA: case FC::JV: case FC::MF:
-      reply = motion_parameter(instruction, group, now);
-      break;
-    case FC::MO: case FC::BG: case FC::ST: case FC::OG: case FC::DI:
-      reply = motion_command(instruction, frame, now);
-      break;
-    case FC::ML: case FC::SN: case FC::MS: case FC::DV:
-      reply = status(instruction, now);
-      break;
-    default:
-      reply = configuration(instruction, now);
-      break;
+    case FC::AC:
+    case FC::DC:
+    case FC::SP:
+    case FC::PR:
+    case FC::PA:
+    case FC::JV:
+    case FC::MF: reply = motion_parameter(instruction, group, now); break;
+    case FC::MO:
+    case FC::BG:
+    case FC::ST:
+    case FC::OG:
+    case FC::DI: reply = motion_command(instruction, frame, now); break;
+    case FC::ML:
+    case FC::SN:
+    case FC::MS:
+    case FC::DV: reply = status(instruction, now); break;
+    default: reply = configuration(instruction, now); break;
   }
   // Gets without the ACK bit are not answered either.
   if (instruction.ack_requested) send(reply, host);
@@ -185,11 +199,14 @@ std::error_code Uim342Drive::state_error(const Instruction& instruction, std::ui
   if (f == FC::OG) return running ? make_error_code(E::og_while_running) : std::error_code{};
   if (instruction.operation != u::Operation::set) return {};
   switch (f) {
-    case FC::PP: case FC::IC: case FC::MT: case FC::QE:
-      return running ? make_error_code(E::not_allowed_while_running) : std::error_code{};
+    case FC::PP:
+    case FC::IC:
+    case FC::MT:
+    case FC::QE: return running ? make_error_code(E::not_allowed_while_running) : std::error_code{};
     case FC::JV:  // mode changes in motion
       return running && motion_.ptp ? make_error_code(E::not_allowed_while_running) : std::error_code{};
-    case FC::PR: case FC::PA:
+    case FC::PR:
+    case FC::PA:
       return group == 0 && running && !motion_.ptp ? make_error_code(E::not_allowed_while_running) : std::error_code{};
     case FC::SP:  // "#50": in PTP set PR/PA before SP (§5.19)
       return group == 0 && mode_ == u::MotionMode::jog ? make_error_code(E::syntax_error) : std::error_code{};
@@ -197,7 +214,8 @@ std::error_code Uim342Drive::state_error(const Instruction& instruction, std::ui
     case FC::DC: {
       if (acceleration_unit() != u::AccelerationUnit::pulses_per_s2) return {};  // a time is not comparable to SD
       const auto value = std::get<u::Unsigned>(instruction.body).value;
-      const bool too_small = f == FC::SD ? value < active_.groups[0].deceleration : (group == 0 && value > active_.stop_deceleration);
+      const bool too_small =
+          f == FC::SD ? value < active_.groups[0].deceleration : (group == 0 && value > active_.stop_deceleration);
       return too_small ? make_error_code(E::sd_less_than_dc) : std::error_code{};
     }
     default: return {};
@@ -225,7 +243,9 @@ u::Reply Uim342Drive::configuration(const Instruction& instruction, TimePoint no
     case FC::IL:
       if (i < active_.input_logic.size()) return {f, active_.input_logic[i]};
       return {f, u::IndexedWord{i, active_.stall_behaviour}};
-    case FC::SS: case FC::SD: case FC::BL: return {f, u::Unsigned{*unsigned_register(active_, f, 0)}};
+    case FC::SS:
+    case FC::SD:
+    case FC::BL: return {f, u::Unsigned{*unsigned_register(active_, f, 0)}};
     case FC::ER: {
       u::ErrorRecord record{};
       if (const auto slot = history_slot(i)) record = error_history_[*slot];
@@ -277,22 +297,19 @@ u::Reply Uim342Drive::motion_command(const Instruction& instruction, const can::
         auto_enable_at_ = kNever;
       }
       return {f, u::Byte{static_cast<std::uint8_t>(driver_on_ ? 1 : 0)}};
-    case FC::BG:
-      begin(now, frame.timestamp_us);
-      return {f, u::Empty{}};
+    case FC::BG: begin(now, frame.timestamp_us); return {f, u::Empty{}};
     case FC::ST:
       stop_with(now, static_cast<double>(active_.stop_deceleration), true, frame.timestamp_us);  // SD is always a rate
       return {f, u::Empty{}};
-    case FC::OG:
-      set_origin(now);
-      return {f, u::Empty{}};
+    case FC::OG: set_origin(now); return {f, u::Empty{}};
     default: {  // DI: d1 bit 0 enables the write of OP1
       if (set) {
         const auto& out = std::get<u::DigitalOutput>(instruction.body);
         if ((out.write_enable & 1U) != 0) output_ = (out.outputs & 1U) != 0;
       }
       std::uint8_t inputs = 0;
-      for (std::size_t port = 0; port < inputs_.size(); ++port) inputs = static_cast<std::uint8_t>(inputs | (inputs_[port] ? 1U << port : 0U));
+      for (std::size_t port = 0; port < inputs_.size(); ++port)
+        inputs = static_cast<std::uint8_t>(inputs | (inputs_[port] ? 1U << port : 0U));
       return {FC::DI, u::DigitalIo{inputs, static_cast<std::uint8_t>(output_ ? 1 : 0)}};
     }
   }
@@ -311,7 +328,8 @@ u::Reply Uim342Drive::status(const Instruction& instruction, TimePoint now) {
         relative_origin_ = position(now);
       }
       if (i == static_cast<std::uint8_t>(u::MotionStatusIndex::kinematics)) {
-        return {f, u::MotionKinematics{std::clamp(speed(now), u::kMs1SpeedMin, u::kMs1SpeedMax), wire32(position(now))}};
+        return {f,
+                u::MotionKinematics{std::clamp(speed(now), u::kMs1SpeedMin, u::kMs1SpeedMax), wire32(position(now))}};
       }
       return {f, u::MotionStatus{io_status(), status_flags(now), wire32(relative_position(now))}};
     }
@@ -348,10 +366,15 @@ void Uim342Drive::store(const Instruction& instruction, Parameters& target, std:
 
 bool Uim342Drive::persists(const Instruction& instruction, std::uint8_t group) const {
   switch (instruction.function) {
-    case FC::PP: case FC::IC: case FC::IE: case FC::BL: return true;  // FLASH (§5.1), IC/IE/BL too
-    case FC::JV: return false;                                         // RAM (§5.18)
-    case FC::SP: case FC::PR: case FC::PA: return group != 0 && !driver_on_;  // group 0: desired values, RAM
-    default: return !driver_on_;  // QE MT AC DC SS SD IL TG: EEPROM only while the driver is off
+    case FC::PP:
+    case FC::IC:
+    case FC::IE:
+    case FC::BL: return true;   // FLASH (§5.1), IC/IE/BL too
+    case FC::JV: return false;  // RAM (§5.18)
+    case FC::SP:
+    case FC::PR:
+    case FC::PA: return group != 0 && !driver_on_;  // group 0: desired values, RAM
+    default: return !driver_on_;                    // QE MT AC DC SS SD IL TG: EEPROM only while the driver is off
   }
 }
 
@@ -408,6 +431,8 @@ u::AccelerationUnit Uim342Drive::acceleration_unit() const {
   return static_cast<u::AccelerationUnit>(active_.initial_config[at(u::InitialConfig::acceleration_unit)] != 0 ? 1 : 0);
 }
 
-bool Uim342Drive::notification_enabled(u::InformationEnable which) const { return active_.information_enable[at(which)] != 0; }
+bool Uim342Drive::notification_enabled(u::InformationEnable which) const {
+  return active_.information_enable[at(which)] != 0;
+}
 
 }  // namespace motion::sim

@@ -83,7 +83,8 @@ TimePoint Uim342Drive::process(TimePoint now) {
     if (pending.due <= now) {
       pending.due = kNever;
       // Accepted only if the level held for the whole filter time (§4.2, §5.27 "filter"; assumed).
-      if (inputs_[port] == pending.level && accepted_inputs_[port] != pending.level) accept_input(port, pending.level, now, pending.utime);
+      if (inputs_[port] == pending.level && accepted_inputs_[port] != pending.level)
+        accept_input(port, pending.level, now, pending.utime);
     }
     next = std::min(next, pending.due);
   }
@@ -105,9 +106,7 @@ void Uim342Drive::sample_home_switch(TimePoint now) {
 bool Uim342Drive::control(const motionlcm::sim_control_t& control, TimePoint now) {
   process(now);
   switch (control.action) {
-    case motionlcm::sim_control_t::STALL:
-      stall(now, control.utime);
-      return true;
+    case motionlcm::sim_control_t::STALL: stall(now, control.utime); return true;
     case motionlcm::sim_control_t::ALARM:
       if (control.value <= 0 || control.value > 0xFF) return false;
       raise_alarm(static_cast<u::AlarmCode>(control.value), now, control.utime);
@@ -116,8 +115,7 @@ bool Uim342Drive::control(const motionlcm::sim_control_t& control, TimePoint now
       if (control.value < 1 || control.value > static_cast<int>(kInputCount)) return false;
       set_input(static_cast<std::size_t>(control.value - 1), control.level != 0, now, control.utime);
       return true;
-    default:
-      return false;  // the host handles the others (CRC_ERRORS: its frames are discarded on the wire)
+    default: return false;  // the host handles the others (CRC_ERRORS: its frames are discarded on the wire)
   }
 }
 
@@ -148,7 +146,8 @@ Profile Uim342Drive::profile(const MotionGroup& group, double velocity) const {
 
 std::int32_t Uim342Drive::speed(TimePoint now) const {
   const double v = std::round(motion_state(now).velocity);
-  return static_cast<std::int32_t>(std::clamp(v, double{std::numeric_limits<std::int32_t>::min()}, double{std::numeric_limits<std::int32_t>::max()}));
+  return static_cast<std::int32_t>(std::clamp(v, double{std::numeric_limits<std::int32_t>::min()},
+                                              double{std::numeric_limits<std::int32_t>::max()}));
 }
 
 void Uim342Drive::begin(TimePoint now, std::int64_t utime) {
@@ -230,9 +229,7 @@ void Uim342Drive::stall(TimePoint now, std::int64_t utime) {
 
 void Uim342Drive::raise_alarm(u::AlarmCode alarm, TimePoint now, std::int64_t utime) {
   switch (alarm) {
-    case u::AlarmCode::stall:
-      stall(now, utime);
-      return;
+    case u::AlarmCode::stall: stall(now, utime); return;
     case u::AlarmCode::emergency_stop_lock:  // locked until a reboot
       locked_ = true;
       stop_with(now, static_cast<double>(active_.stop_deceleration), true, utime);
@@ -241,8 +238,7 @@ void Uim342Drive::raise_alarm(u::AlarmCode alarm, TimePoint now, std::int64_t ut
     case u::AlarmCode::above_upper_limit:
       stop_with(now, static_cast<double>(active_.stop_deceleration), true, utime);
       break;
-    default:
-      break;  // speed, encoder, battery and unknown alarms: reported only
+    default: break;  // speed, encoder, battery and unknown alarms: reported only
   }
   notify(u::AlarmNotification{alarm});
 }
@@ -282,7 +278,8 @@ void Uim342Drive::input_emergency_stop(TimePoint now, std::int64_t utime) {
   }
 }
 
-void Uim342Drive::run_input_action(std::size_t port, u::Edge edge, u::InputAction action, TimePoint now, std::int64_t utime) {
+void Uim342Drive::run_input_action(std::size_t port, u::Edge edge, u::InputAction action, TimePoint now,
+                                   std::int64_t utime) {
   using A = u::InputAction;
   // Parameter group of this edge: 2 + 2 * port, +1 for the falling edge (§5.13).
   const MotionGroup group = active_.groups[2 + 2 * port + (edge == u::Edge::falling ? 1 : 0)];
@@ -291,7 +288,9 @@ void Uim342Drive::run_input_action(std::size_t port, u::Edge edge, u::InputActio
   const double reverse = velocity_now < 0 ? 1.0 : -1.0;
   const bool can_move = driver_on_ && !locked_;
   const auto relative_move = [&](double direction, std::int32_t distance) {
-    if (can_move) start_ptp(now, position(now) + static_cast<std::int64_t>(direction) * std::abs(std::int64_t{distance}), group, utime);
+    if (can_move)
+      start_ptp(now, position(now) + static_cast<std::int64_t>(direction) * std::abs(std::int64_t{distance}), group,
+                utime);
   };
   const auto decelerate = [&] { stop_with(now, ramp_rate(group.deceleration, velocity_now), false, utime); };
   switch (action) {

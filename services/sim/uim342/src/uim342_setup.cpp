@@ -18,7 +18,9 @@ namespace {
 namespace u = uim342;
 
 std::uint16_t word(double value) { return static_cast<std::uint16_t>(std::clamp(std::lround(value), 0L, 65535L)); }
-std::uint32_t dword(double value) { return static_cast<std::uint32_t>(std::clamp(std::llround(value), 0LL, 0xFFFFFFFFLL)); }
+std::uint32_t dword(double value) {
+  return static_cast<std::uint32_t>(std::clamp(std::llround(value), 0LL, 0xFFFFFFFFLL));
+}
 template <typename E>
 std::size_t at(E e) {
   return static_cast<std::size_t>(e);
@@ -37,22 +39,39 @@ constexpr SetupRule kRules[] = {
        // CPR follows the micro-steps (§3.5): QE[4] = micro-steps x 200.
        p.encoder[at(u::QuadratureEncoder::counts_per_revolution)] = word(v * u::kFullStepsPerRevolution);
      }},
-    {"current_a", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.driver[at(u::MotorDriver::working_current)] = word(v * 10.0); }},
-    {"idle_current_percent", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.driver[at(u::MotorDriver::idle_current_percent)] = word(v); }},
-    {"auto_enable", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.initial_config[at(u::InitialConfig::auto_driver_on)] = word(v); }},
-    {"direction", [](Uim342Drive::Parameters& p, double, std::string_view t) { p.initial_config[at(u::InitialConfig::positive_direction)] = t == "ccw" ? 1 : 0; }},
-    {"acceleration_unit", [](Uim342Drive::Parameters& p, double, std::string_view t) { p.initial_config[at(u::InitialConfig::acceleration_unit)] = t == "time" ? 1 : 0; }},
-    {"closed_loop", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.initial_config[at(u::InitialConfig::closed_loop)] = word(v); }},
-    {"software_limits", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.initial_config[at(u::InitialConfig::software_limits)] = word(v); }},
-    {"encoder_resolution", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.encoder[at(u::QuadratureEncoder::lines_per_revolution)] = word(v); }},
-    {"stall_tolerance", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.encoder[at(u::QuadratureEncoder::stall_tolerance)] = word(v); }},
+    {"current_a", [](Uim342Drive::Parameters& p, double v,
+                     std::string_view) { p.driver[at(u::MotorDriver::working_current)] = word(v * 10.0); }},
+    {"idle_current_percent", [](Uim342Drive::Parameters& p, double v,
+                                std::string_view) { p.driver[at(u::MotorDriver::idle_current_percent)] = word(v); }},
+    {"auto_enable", [](Uim342Drive::Parameters& p, double v,
+                       std::string_view) { p.initial_config[at(u::InitialConfig::auto_driver_on)] = word(v); }},
+    {"direction",
+     [](Uim342Drive::Parameters& p, double, std::string_view t) {
+       p.initial_config[at(u::InitialConfig::positive_direction)] = t == "ccw" ? 1 : 0;
+     }},
+    {"acceleration_unit",
+     [](Uim342Drive::Parameters& p, double, std::string_view t) {
+       p.initial_config[at(u::InitialConfig::acceleration_unit)] = t == "time" ? 1 : 0;
+     }},
+    {"closed_loop", [](Uim342Drive::Parameters& p, double v,
+                       std::string_view) { p.initial_config[at(u::InitialConfig::closed_loop)] = word(v); }},
+    {"software_limits", [](Uim342Drive::Parameters& p, double v,
+                           std::string_view) { p.initial_config[at(u::InitialConfig::software_limits)] = word(v); }},
+    {"encoder_resolution",
+     [](Uim342Drive::Parameters& p, double v, std::string_view) {
+       p.encoder[at(u::QuadratureEncoder::lines_per_revolution)] = word(v);
+     }},
+    {"stall_tolerance", [](Uim342Drive::Parameters& p, double v,
+                           std::string_view) { p.encoder[at(u::QuadratureEncoder::stall_tolerance)] = word(v); }},
     {"cut_in_speed", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.cut_in_speed = dword(v); }},
-    {"stop_deceleration", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.stop_deceleration = dword(v); }},
+    {"stop_deceleration",
+     [](Uim342Drive::Parameters& p, double v, std::string_view) { p.stop_deceleration = dword(v); }},
     {"backlash", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.backlash = dword(v); }},
 };
 
 // §5.4 model bytes of the UIM342C variants; d1 is the peak current in 0.1 A.
-constexpr std::array<std::array<std::uint8_t, 4>, 3> kCModels{{{0x22, 0x14, 0x13, 0x00}, {0x22, 0x28, 0x13, 0x00}, {0x22, 0x50, 0x13, 0x00}}};
+constexpr std::array<std::array<std::uint8_t, 4>, 3> kCModels{
+    {{0x22, 0x14, 0x13, 0x00}, {0x22, 0x28, 0x13, 0x00}, {0x22, 0x50, 0x13, 0x00}}};
 
 }  // namespace
 
@@ -87,7 +106,8 @@ Uim342Identity uim342_identity(const config::Drive& drive, int bus_bitrate) {
   // Distinct per node so that a bus scan can tell drives apart.
   identity.serial = 0x03420000U + static_cast<std::uint32_t>(drive.node_id);
   for (std::uint8_t code = 0; code <= static_cast<std::uint8_t>(u::BitRate::kbps_125); ++code) {
-    if (u::bits_per_second(static_cast<u::BitRate>(code)) == static_cast<std::uint32_t>(bus_bitrate)) identity.bit_rate_code = code;
+    if (u::bits_per_second(static_cast<u::BitRate>(code)) == static_cast<std::uint32_t>(bus_bitrate))
+      identity.bit_rate_code = code;
   }
   return identity;
 }
@@ -97,7 +117,8 @@ std::optional<Uim342HomeSwitch> uim342_home_switch(const config::Config& config,
   for (const auto& a : config.axes) {
     if (a.drive == drive.name) axis = &a;
   }
-  if (!axis || axis->homing.method != config::HomingMethod::kSwitch || axis->homing.input < 1 || axis->homing.input > 3) return std::nullopt;
+  if (!axis || axis->homing.method != config::HomingMethod::kSwitch || axis->homing.input < 1 || axis->homing.input > 3)
+    return std::nullopt;
   const double sign = axis->invert ? -1.0 : 1.0;
   // The coordinator's default search goes toward min (HOME velocity 0).
   const bool toward_min = axis->homing.velocity <= 0;
@@ -123,12 +144,15 @@ CanDriveFactory uim342_factory(const config::Config& config) {
     switches[d.name] = uim342_home_switch(config, d);
     variants[d.name] = config::sim_variant(config, d, "micro_steps_apply");
   }
-  return [bitrates, switches, variants](const config::Drive& drive, SimDriveContext context) -> std::unique_ptr<CanDriveSim> {
+  return [bitrates, switches, variants](const config::Drive& drive,
+                                        SimDriveContext context) -> std::unique_ptr<CanDriveSim> {
     const auto bus = bitrates.find(drive.bus);
     const auto identity = uim342_identity(drive, bus == bitrates.end() ? 0 : bus->second);
     const auto sw = switches.find(drive.name);
-    const auto apply = variants.at(drive.name) == "immediately" ? MicroStepsApply::immediately : MicroStepsApply::after_restart;
-    return std::make_unique<Uim342Drive>(drive, std::move(context), identity, sw == switches.end() ? std::nullopt : sw->second, apply);
+    const auto apply =
+        variants.at(drive.name) == "immediately" ? MicroStepsApply::immediately : MicroStepsApply::after_restart;
+    return std::make_unique<Uim342Drive>(drive, std::move(context), identity,
+                                         sw == switches.end() ? std::nullopt : sw->second, apply);
   };
 }
 

@@ -60,9 +60,9 @@
 #include "motion/config/config.hpp"
 #include "motion/coordinator/start_schedule.hpp"
 #include "motion/coordinator/stop_guard.hpp"
-#include "motion/planner/quantizer.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/lcm/reply_error.hpp"
+#include "motion/planner/quantizer.hpp"
 
 namespace motion::coordinator {
 
@@ -81,31 +81,32 @@ struct PlanInput {
 struct AxisPlan {
   std::string axis;
   std::int64_t target_counts = 0;
-  double velocity = 0;          // counts/s, as the drive will realize it
-  double acceleration = 0;      // counts/s^2
-  double deceleration = 0;      // counts/s^2
-  double duration_s = 0;        // realized duration of this axis's profile
+  double velocity = 0;      // counts/s, as the drive will realize it
+  double acceleration = 0;  // counts/s^2
+  double deceleration = 0;  // counts/s^2
+  double duration_s = 0;    // realized duration of this axis's profile
 };
 struct MovePlan {
   std::vector<AxisPlan> axes;
-  double duration_s = 0;          // the longest realized duration
-  double predicted_skew_us = 0;   // arrival spread after quantization
+  double duration_s = 0;         // the longest realized duration
+  double predicted_skew_us = 0;  // arrival spread after quantization
 };
-using MovePlanner = std::function<std::variant<MovePlan, std::string>(const std::vector<PlanInput>& inputs, double velocity_scale,
-                                                                       double acceleration_scale)>;
+using MovePlanner = std::function<std::variant<MovePlan, std::string>(
+    const std::vector<PlanInput>& inputs, double velocity_scale, double acceleration_scale)>;
 
 // Where the coordinator's messages go (one function per channel it publishes on).
 class CoordinatorOutput {
  public:
   virtual ~CoordinatorOutput() = default;
-  virtual void reply(const motionlcm::reply_t& reply) = 0;                                                 // REPLY
-  virtual void gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) = 0;  // GW_COMMAND_<bus>
-  virtual void sync_trigger(const motionlcm::sync_trigger_t& trigger) = 0;                               // SYNC_TRIGGER
+  virtual void reply(const motionlcm::reply_t& reply) = 0;  // REPLY
+  virtual void gateway_command(const std::string& bus,
+                               const motionlcm::gateway_command_t& command) = 0;  // GW_COMMAND_<bus>
+  virtual void sync_trigger(const motionlcm::sync_trigger_t& trigger) = 0;        // SYNC_TRIGGER
   // SYNC_TRIGGER2: the scheduled start (per-bus hand-over times), sent before SYNC_TRIGGER of the
   // same trigger id. Default: dropped.
   virtual void sync_trigger2(const motionlcm::sync_trigger2_t& /*trigger*/) {}
-  virtual void active_moves(const motionlcm::active_moves_t& moves) = 0;                                 // ACTIVE_MOVES
-  virtual void event(const motionlcm::event_t& event) = 0;                                               // EVENT
+  virtual void active_moves(const motionlcm::active_moves_t& moves) = 0;  // ACTIVE_MOVES
+  virtual void event(const motionlcm::event_t& event) = 0;                // EVENT
   // DRIVE_MODEL_REQUEST: asks the gateways for the drive models the core lacks. Default: dropped.
   virtual void drive_model_request(const motionlcm::drive_model_request_t& /*request*/) {}
 };
@@ -116,7 +117,8 @@ using WallClock = std::function<std::int64_t()>;
 class Coordinator {
  public:
   // `config` and `output` must outlive the core (the configuration is read, not copied).
-  Coordinator(const config::Config& config, MovePlanner planner, CoordinatorOutput& output, WallClock wall_clock = wall_time_us);
+  Coordinator(const config::Config& config, MovePlanner planner, CoordinatorOutput& output,
+              WallClock wall_clock = wall_time_us);
   Coordinator(const Coordinator&) = delete;
   Coordinator& operator=(const Coordinator&) = delete;
 
@@ -132,7 +134,8 @@ class Coordinator {
   // else happens. `answer_to`: the refused request when its ids are authentic (signed, fresh,
   // its signer's own client id): it also gets a REJECTED reply (kUnauthorized). Without it no
   // reply goes out, since ids that cannot be trusted may be somebody else's.
-  void on_refused_request(const std::optional<motionlcm::request_t>& answer_to, const std::string& reason, TimePoint now);
+  void on_refused_request(const std::optional<motionlcm::request_t>& answer_to, const std::string& reason,
+                          TimePoint now);
   void on_axis_state(const motionlcm::axis_state_t& state, TimePoint now);
   void on_gateway_reply(const motionlcm::gateway_reply_t& reply, TimePoint now);
   void on_event(const motionlcm::event_t& event, TimePoint now);
@@ -199,15 +202,15 @@ class Coordinator {
     std::uint64_t serial = 0;
     motionlcm::request_t msg{};
     Phase phase = Phase::kWaitingGateways;
-    std::vector<std::string> axes;                 // in request order
-    std::map<std::string, std::int64_t> targets;   // counts, moves only
-    std::map<std::string, double> target_units;    // the same in user units, before rounding
-    std::map<std::string, std::int64_t> starts;    // counts at planning
-    std::set<std::string> still;                   // moves: axes already at their target (no command)
+    std::vector<std::string> axes;                   // in request order
+    std::map<std::string, std::int64_t> targets;     // counts, moves only
+    std::map<std::string, double> target_units;      // the same in user units, before rounding
+    std::map<std::string, std::int64_t> starts;      // counts at planning
+    std::set<std::string> still;                     // moves: axes already at their target (no command)
     std::map<std::int64_t, PendingCommand> pending;  // by command id
     std::set<std::string> buses;
     // Moves: one ARM_MOVE per start mechanism (see start_move), all on one trigger id.
-    std::map<std::string, std::int64_t> axis_command;   // axis -> its ARM_MOVE command id
+    std::map<std::string, std::int64_t> axis_command;  // axis -> its ARM_MOVE command id
     std::size_t move_commands = 0;
     std::map<std::int64_t, std::int64_t> started_utime;  // command -> when its start frame went on the wire
     std::map<std::int64_t, double> start_spread_us;      // command -> its gateway's spread of its start frames
@@ -217,14 +220,14 @@ class Coordinator {
     std::vector<StartFrame> start_frames;  // moves: one per ARM_MOVE, with its wire time from the drive model
     MovePlan plan;
     motionlcm::param_t param_result{};
-    Outcome outcome;                               // kReleasing, kStopping: the terminal reply to send
-    std::set<std::string> stopping;                // kStopping: the axes whose stop must be confirmed
-    std::string unreached;                         // stops: axes whose gateway was offline
-    std::string gateway_failure;                   // stops: what a gateway said when its stop failed
-    TimePoint gateways_done{};                     // kConfirming: when the last gateway said DONE
-    int timeout_ms = 0;                            // the request's timeout in effect
-    TimePoint timeout_at = kNever;                 // FAILED (kTimeout) then, once
-    TimePoint next_progress = kNever;              // kTriggered: the next PROGRESS reply
+    Outcome outcome;                   // kReleasing, kStopping: the terminal reply to send
+    std::set<std::string> stopping;    // kStopping: the axes whose stop must be confirmed
+    std::string unreached;             // stops: axes whose gateway was offline
+    std::string gateway_failure;       // stops: what a gateway said when its stop failed
+    TimePoint gateways_done{};         // kConfirming: when the last gateway said DONE
+    int timeout_ms = 0;                // the request's timeout in effect
+    TimePoint timeout_at = kNever;     // FAILED (kTimeout) then, once
+    TimePoint next_progress = kNever;  // kTriggered: the next PROGRESS reply
     // kArming: the arm timeout; kReleasing: the end of the wait for DISARM replies; kConfirming:
     // the last look at the axis states. Once, and only in the phase that set it.
     TimePoint phase_deadline = kNever;
@@ -241,7 +244,8 @@ class Coordinator {
   void publish_active_moves();
 
   // Validation: an error (code, reason) or nothing.
-  std::optional<std::pair<ReplyError, std::string>> validate(const motionlcm::request_t& msg, std::vector<std::string>& axes);
+  std::optional<std::pair<ReplyError, std::string>> validate(const motionlcm::request_t& msg,
+                                                             std::vector<std::string>& axes);
   std::optional<std::pair<ReplyError, std::string>> check_axis_ready(const std::string& axis, bool need_enabled);
   // Where a move of `kind` by `value` (user units) ends on `a`: absolute, or relative to the last
   // commanded target while the axis stands there (else to its position).
@@ -254,9 +258,9 @@ class Coordinator {
   // to its group id), each other UIM342 axis, and per remaining family all its axes (UC57: one
   // SYNC; ADAM: one broadcast; UIM242: global instructions).
   // `kinds` (optional) gets each group's mechanism (drive_model_t::START_*).
-  [[nodiscard]] std::vector<std::vector<motionlcm::axis_command_t>> start_groups(const std::string& bus,
-                                                                                std::vector<motionlcm::axis_command_t> axes,
-                                                                                std::vector<std::int8_t>* kinds = nullptr) const;
+  [[nodiscard]] std::vector<std::vector<motionlcm::axis_command_t>> start_groups(
+      const std::string& bus, std::vector<motionlcm::axis_command_t> axes,
+      std::vector<std::int8_t>* kinds = nullptr) const;
   // The wire time of the start frame of a group of `kind` (its drive models'; 0 when none says).
   [[nodiscard]] double start_frame_wire_us(const std::vector<motionlcm::axis_command_t>& group, std::int8_t kind) const;
   void start_simple(Request& r);
@@ -272,7 +276,8 @@ class Coordinator {
   [[nodiscard]] std::optional<std::string> unconfirmed(const Request& r) const;
   void check_confirmed(Request& r, bool final_check);
 
-  std::int64_t send_command(Request& r, const std::string& bus, std::int8_t kind, std::vector<motionlcm::axis_command_t> axes);
+  std::int64_t send_command(Request& r, const std::string& bus, std::int8_t kind,
+                            std::vector<motionlcm::axis_command_t> axes);
   void send_stop(const std::vector<std::string>& axes, bool emergency, std::int64_t request_id);
   // Aborted requests wait in kStopping for their axes' stops (see StopGuard).
   void enter_stopping(Request& r, std::set<std::string> axes, Outcome outcome);
@@ -295,21 +300,21 @@ class Coordinator {
   MovePlanner planner_;
   CoordinatorOutput& out_;
   WallClock wall_clock_;
-  TimePoint now_{};                        // of the input or process() call running
+  TimePoint now_{};  // of the input or process() call running
   std::map<std::string, AxisLive> axes_;
   std::map<std::string, GatewayLive> gateways_;  // by bus
   std::map<std::uint64_t, std::unique_ptr<Request>> requests_;
   StopGuard stops_;
-  std::set<std::pair<std::string, std::int64_t>> active_ids_;  // (client_id, request_id)
+  std::set<std::pair<std::string, std::int64_t>> active_ids_;     // (client_id, request_id)
   std::set<std::pair<std::string, std::int64_t>> orphans_ended_;  // requests of a predecessor answered
   std::uint64_t next_serial_ = 1;
   std::int64_t next_command_id_ = 1;
   std::int64_t next_trigger_id_ = 1;
-  TimePoint next_active_moves_ = kNever;   // the ACTIVE_MOVES period, from the first `now` seen
-  TimePoint next_model_request_{};         // DRIVE_MODEL_REQUEST while models are missing
+  TimePoint next_active_moves_ = kNever;  // the ACTIVE_MOVES period, from the first `now` seen
+  TimePoint next_model_request_{};        // DRIVE_MODEL_REQUEST while models are missing
   // Axes of a live gateway that have no drive model yet (their buses, for the request).
   [[nodiscard]] std::set<std::string> buses_missing_models() const;
-  bool active_moves_published_ = false;    // the last ACTIVE_MOVES listed something
+  bool active_moves_published_ = false;  // the last ACTIVE_MOVES listed something
 };
 
 }  // namespace motion::coordinator

@@ -44,7 +44,8 @@ class CoordinatorService final : private CoordinatorOutput {
   };
 
   // `loop`, `node` and `config` must outlive the service. `security`: see load_security().
-  CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner, Security security = {});
+  CoordinatorService(EventLoop& loop, lcm::Node& node, const config::Config& config, MovePlanner planner,
+                     Security security = {});
 
   // The Security of `config.security`: a verifier over authorized_keys (its channel prefix,
   // window_ms, and now as the start) and a signer with key, each when configured; or what is
@@ -57,7 +58,9 @@ class CoordinatorService final : private CoordinatorOutput {
 
   [[nodiscard]] std::size_t active_requests() const { return core_.active_requests(); }
   // Buses whose gateway has not been heard within gateway_timeout_ms (see Coordinator).
-  [[nodiscard]] std::vector<std::string> buses_without_gateway() const { return core_.buses_without_gateway(loop_.now()); }
+  [[nodiscard]] std::vector<std::string> buses_without_gateway() const {
+    return core_.buses_without_gateway(loop_.now());
+  }
 
  private:
   // Runs the core at the loop's now and re-arms the timer at the deadline it returns.

@@ -42,7 +42,7 @@ struct BusStart {
 };
 
 struct StartSchedule {
-  std::vector<BusStart> buses;    // sorted by bus name
+  std::vector<BusStart> buses;  // sorted by bus name
   double max_lead_us = 0;
   double predicted_spread_us = 0;  // the largest span: what the schedule leaves between the first and last drive
 };

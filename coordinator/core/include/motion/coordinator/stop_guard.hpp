@@ -43,8 +43,8 @@ class StopGuard {
     Kind kind = Kind::kResolved;
     std::string axis;
     Outcome outcome = Outcome::kStopped;  // kResolved only
-    int attempt = 0;                       // the stop this action sends (2, 3) or ended with
-    std::string text;                      // for events and replies: what happened, in words
+    int attempt = 0;                      // the stop this action sends (2, 3) or ended with
+    std::string text;                     // for events and replies: what happened, in words
   };
 
   // Starts (or restarts, at attempt 1) watching `axis` after a stop was sent at `now`.

@@ -15,7 +15,7 @@ struct TrapezoidShape {
   double acceleration = 0.0;   // magnitude
   double deceleration = 0.0;   // magnitude
   double t_acc_s = 0.0;
-  double t_cruise_s = 0.0;     // 0 for a triangle
+  double t_cruise_s = 0.0;  // 0 for a triangle
   double t_dec_s = 0.0;
 
   [[nodiscard]] double duration_s() const { return t_acc_s + t_cruise_s + t_dec_s; }
@@ -29,14 +29,13 @@ struct TrapezoidShape {
 // deceleration caps (> 0): a trapezoid when the cruise speed is reachable, a triangle otherwise.
 // This is also the model of what a drive's own ramp generator does with the values it is given.
 // Inline: quantization evaluates it for every candidate setting.
-[[nodiscard]] inline TrapezoidShape time_optimal_shape(double distance, double max_velocity,
-                                                       double max_acceleration, double max_deceleration) {
+[[nodiscard]] inline TrapezoidShape time_optimal_shape(double distance, double max_velocity, double max_acceleration,
+                                                       double max_deceleration) {
   TrapezoidShape shape;
   if (!(distance > 0.0)) return shape;
   shape.acceleration = max_acceleration;
   shape.deceleration = max_deceleration;
-  const double ramps_distance =
-      0.5 * max_velocity * max_velocity * (1.0 / max_acceleration + 1.0 / max_deceleration);
+  const double ramps_distance = 0.5 * max_velocity * max_velocity * (1.0 / max_acceleration + 1.0 / max_deceleration);
   if (ramps_distance <= distance) {
     shape.peak_velocity = max_velocity;
     shape.t_cruise_s = (distance - ramps_distance) / max_velocity;
@@ -49,7 +48,6 @@ struct TrapezoidShape {
   shape.t_dec_s = shape.peak_velocity / max_deceleration;
   return shape;
 }
-
 
 struct MotionSample {
   double position_counts = 0.0;
@@ -73,8 +71,7 @@ struct AxisProfile {
 // Time-optimal profile of one axis for the given caps (counts/s, counts/s^2; all > 0 unless the
 // axis is still, in which case the caps are ignored and the duration is 0).
 [[nodiscard]] AxisProfile time_optimal_profile(std::int64_t start_counts, std::int64_t target_counts,
-                                               double max_velocity_counts_per_s,
-                                               double max_acceleration_counts_per_s2,
+                                               double max_velocity_counts_per_s, double max_acceleration_counts_per_s2,
                                                double max_deceleration_counts_per_s2);
 
 }  // namespace motion::planner

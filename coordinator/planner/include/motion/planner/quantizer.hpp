@@ -89,7 +89,9 @@ struct AccelerationGrid {
   std::int64_t max_steps = std::numeric_limits<std::int32_t>::max();
   double ramp_from = 0.0;  // ramp time only: the speed (counts/s, >= 0) the ramps start from / end at
 
-  [[nodiscard]] static AccelerationGrid rate(double counts_per_s2_per_step) { return {Kind::rate, counts_per_s2_per_step}; }
+  [[nodiscard]] static AccelerationGrid rate(double counts_per_s2_per_step) {
+    return {Kind::rate, counts_per_s2_per_step};
+  }
   [[nodiscard]] static AccelerationGrid ramp_time(double seconds_per_step, double from_counts_per_s = 0.0) {
     AccelerationGrid g{Kind::ramp_time, seconds_per_step};
     g.ramp_from = from_counts_per_s;
@@ -114,7 +116,8 @@ class GridQuantizer : public DriveQuantizer {
  public:
   GridQuantizer(std::string name, VelocityGrid velocity, AccelerationGrid acceleration);
   void candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const override;
-  void candidates_at_velocity(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const override;
+  void candidates_at_velocity(const DriveMotion& desired, int neighbours,
+                              std::vector<DriveSetting>& out) const override;
   [[nodiscard]] std::string_view name() const override { return name_; }
   [[nodiscard]] const VelocityGrid& velocity_grid() const { return velocity_; }
   [[nodiscard]] const AccelerationGrid& acceleration_grid() const { return acceleration_; }

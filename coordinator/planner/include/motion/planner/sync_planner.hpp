@@ -35,9 +35,9 @@ struct AxisLimits {
 };
 
 struct AxisRequest {
-  std::string name;            // for error messages only
-  double start_user = 0.0;     // current position, user units (may be outside the limits: coming back is allowed)
-  double target_user = 0.0;    // user units; must lie within the position limits
+  std::string name;          // for error messages only
+  double start_user = 0.0;   // current position, user units (may be outside the limits: coming back is allowed)
+  double target_user = 0.0;  // user units; must lie within the position limits
   // Drive counts per user unit; positions become counts as llround(position_user * counts_per_user).
   double counts_per_user = 0.0;
   AxisLimits limits;
@@ -74,7 +74,6 @@ struct SyncPlan {
 };
 
 // Validates every input (see PlanErrc) and plans. All-zero moves give a zero-duration plan.
-[[nodiscard]] Result<SyncPlan> plan_synchronized(std::span<const AxisRequest> axes,
-                                                 const PlanOptions& options = {});
+[[nodiscard]] Result<SyncPlan> plan_synchronized(std::span<const AxisRequest> axes, const PlanOptions& options = {});
 
 }  // namespace motion::planner

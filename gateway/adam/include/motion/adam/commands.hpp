@@ -18,9 +18,9 @@ namespace motion::adam {
 
 // 0x00C8 (§8.65①). Speed from 0x009A.
 enum class VelocityCommand : std::uint16_t {
-  ramped_stop = 0,        // decelerate over 0x0099 to the stop speed, then stop
+  ramped_stop = 0,  // decelerate over 0x0099 to the stop speed, then stop
   run_forward = 1,
-  emergency_stop = 256,   // speed to 0 at once
+  emergency_stop = 256,  // speed to 0 at once
   run_reverse = 257,
 };
 
@@ -39,8 +39,21 @@ enum class WorkingMode : std::uint16_t { twin_pulse = 1, pulse_direction = 2, io
 
 // 0x0009 (§8.6).
 enum class BaudCode : std::uint16_t {
-  b300 = 1, b600 = 2, b1200 = 3, b2400 = 4, b4800 = 5, b9600 = 6, b14400 = 7, b19200 = 8,
-  b38400 = 9, b56000 = 10, b57600 = 11, b115200 = 12, b230400 = 13, b460800 = 14, b921600 = 15,
+  b300 = 1,
+  b600 = 2,
+  b1200 = 3,
+  b2400 = 4,
+  b4800 = 5,
+  b9600 = 6,
+  b14400 = 7,
+  b19200 = 8,
+  b38400 = 9,
+  b56000 = 10,
+  b57600 = 11,
+  b115200 = 12,
+  b230400 = 13,
+  b460800 = 14,
+  b921600 = 15,
 };
 [[nodiscard]] std::optional<std::uint32_t> baud_rate(BaudCode code) noexcept;  // nullopt: not 1…15
 [[nodiscard]] std::optional<BaudCode> baud_code(std::uint32_t bits_per_second) noexcept;
@@ -55,8 +68,8 @@ enum class ProtectionBit : std::uint16_t {
   offline_brake_release_off = 1U << 5,
 };
 
-enum class Rotation : std::uint8_t { cw = 0, ccw = 1 };          // jog, secondary home
-enum class Travel : std::uint8_t { forward = 0, reverse = 1 };   // homing, torque
+enum class Rotation : std::uint8_t { cw = 0, ccw = 1 };         // jog, secondary home
+enum class Travel : std::uint8_t { forward = 0, reverse = 1 };  // homing, torque
 enum class StopMethod : std::uint8_t { decelerate = 0, immediate = 1 };
 
 // 0x00CA (§8.65②): bit 15 direction, 14…6 speed rpm (0…511), 5 stop method, 0 run.
@@ -64,7 +77,7 @@ struct JogCommand {
   Rotation direction = Rotation::cw;
   std::uint16_t speed_rpm = 0;  // 0…511
   StopMethod stop = StopMethod::decelerate;
-  bool run = false;             // false: stop with `stop`
+  bool run = false;  // false: stop with `stop`
   friend bool operator==(const JogCommand&, const JogCommand&) = default;
 };
 [[nodiscard]] Result<std::uint16_t> encode(const JogCommand& c);
@@ -74,9 +87,9 @@ struct JogCommand {
 // secondary-home speed in 5 rpm units (0 = no secondary pass).
 struct HomingCommand {
   Travel direction = Travel::forward;
-  std::uint16_t speed_rpm = 0;             // 0…511
+  std::uint16_t speed_rpm = 0;  // 0…511
   StopMethod stop = StopMethod::decelerate;
-  std::uint8_t secondary_speed_code = 0;   // 0…31, × 5 rpm
+  std::uint8_t secondary_speed_code = 0;  // 0…31, × 5 rpm
   friend bool operator==(const HomingCommand&, const HomingCommand&) = default;
 };
 inline constexpr std::uint16_t kSecondaryHomeRpmPerCode = 5;

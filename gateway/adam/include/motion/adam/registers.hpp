@@ -24,28 +24,28 @@ namespace motion::adam {
 // Protocol addresses as they appear in the PDU (no 40001 offset). 32-bit entries name their
 // first (low-word) address.
 enum class Reg : std::uint16_t {
-  hardware_version = 0x0000,        // §8.1, 2 regs
-  firmware_version = 0x0002,        // §8.2, 2 regs
-  position = 0x0004,                // §8.3, INT32
-  status = 0x0006,                  // §8.4, UINT32
-  serial_timeout = 0x0008,          // §8.5
-  baud_rate = 0x0009,               // §8.6
-  smoothing = 0x000A,               // §8.7
-  dynamic_error_alarm = 0x000B,     // §8.8
-  static_error_alarm = 0x000C,      // §8.9
-  rated_current = 0x000D,           // §8.10
-  current_percentages = 0x000E,     // §8.11
-  encoder_lines = 0x000F,           // §8.12
-  deviation_warning = 0x0010,       // §8.13
-  position_deviation = 0x0011,      // §8.14
-  protection_bits = 0x0012,         // §8.15
-  filter_frequency = 0x0013,        // §7 only
-  program_step = 0x0015,            // §8.16
-  peak_speed = 0x0016,              // §8.17
-  min_encoder_lines = 0x0017,       // §8.18
-  speed_rpm = 0x0019,               // §8.19
-  current_ma = 0x001A,              // §8.20
-  input_delay_x0 = 0x001B,          // §8.21 … §8.28 (X0…X7 at 0x001B…0x0022)
+  hardware_version = 0x0000,     // §8.1, 2 regs
+  firmware_version = 0x0002,     // §8.2, 2 regs
+  position = 0x0004,             // §8.3, INT32
+  status = 0x0006,               // §8.4, UINT32
+  serial_timeout = 0x0008,       // §8.5
+  baud_rate = 0x0009,            // §8.6
+  smoothing = 0x000A,            // §8.7
+  dynamic_error_alarm = 0x000B,  // §8.8
+  static_error_alarm = 0x000C,   // §8.9
+  rated_current = 0x000D,        // §8.10
+  current_percentages = 0x000E,  // §8.11
+  encoder_lines = 0x000F,        // §8.12
+  deviation_warning = 0x0010,    // §8.13
+  position_deviation = 0x0011,   // §8.14
+  protection_bits = 0x0012,      // §8.15
+  filter_frequency = 0x0013,     // §7 only
+  program_step = 0x0015,         // §8.16
+  peak_speed = 0x0016,           // §8.17
+  min_encoder_lines = 0x0017,    // §8.18
+  speed_rpm = 0x0019,            // §8.19
+  current_ma = 0x001A,           // §8.20
+  input_delay_x0 = 0x001B,       // §8.21 … §8.28 (X0…X7 at 0x001B…0x0022)
   input_delay_x1 = 0x001C,
   input_delay_x2 = 0x001D,
   input_delay_x3 = 0x001E,
@@ -65,73 +65,73 @@ enum class Reg : std::uint16_t {
   sw_speed_6 = 0x0031,
   sw_speed_7 = 0x0032,
   sw_speed_8 = 0x0033,
-  max_bus_voltage = 0x0044,         // §8.32
-  max_current = 0x0045,             // §8.33
-  max_lagging_pulses = 0x0046,      // §8.34
-  max_leading_pulses = 0x0047,      // §8.35
-  min_bus_voltage = 0x0048,         // §8.36
-  driver_id = 0x0066,               // §8.37
-  rotation_direction = 0x006B,      // §8.38
-  input_polarity = 0x006C,          // §8.39
-  negative_limit = 0x006E,          // §8.45, INT32
-  positive_limit = 0x0070,          // §8.46, INT32
-  start_speed = 0x0096,             // §8.40
-  stop_speed = 0x0097,              // §8.41
-  acceleration_time = 0x0098,       // §8.42
-  deceleration_time = 0x0099,       // §8.43
-  working_speed = 0x009A,           // §8.44
-  limit_inputs = 0x009B,            // §8.47
-  enable_home_inputs = 0x009C,      // §8.48
-  secondary_home = 0x009D,          // §8.48
-  torque_mode = 0x009E,             // §8.49
-  working_mode = 0x009F,            // §8.50
-  outputs_on = 0x00A0,              // §8.51
-  outputs_off = 0x00A1,             // §8.51
-  output_state = 0x00A2,            // §8.51
-  alarm = 0x00A3,                   // §8.52
-  clear_alarm = 0x00A4,             // §8.52
-  alarm_output = 0x00A5,            // §8.51
-  running_output = 0x00A6,          // §8.51
-  in_position_output = 0x00A7,      // §8.51
-  reminder_x11 = 0x00A8,            // §8.53, coded 32-bit
-  table_size = 0x00AA,              // §8.54
-  table_pointer = 0x00AB,           // §8.54
-  table_start = 0x00AC,             // §8.54
-  estop_config = 0x00AD,            // §8.55
-  home_done_output = 0x00AE,        // §8.48
-  speed_switch_1 = 0x00AF,          // §8.56
+  max_bus_voltage = 0x0044,     // §8.32
+  max_current = 0x0045,         // §8.33
+  max_lagging_pulses = 0x0046,  // §8.34
+  max_leading_pulses = 0x0047,  // §8.35
+  min_bus_voltage = 0x0048,     // §8.36
+  driver_id = 0x0066,           // §8.37
+  rotation_direction = 0x006B,  // §8.38
+  input_polarity = 0x006C,      // §8.39
+  negative_limit = 0x006E,      // §8.45, INT32
+  positive_limit = 0x0070,      // §8.46, INT32
+  start_speed = 0x0096,         // §8.40
+  stop_speed = 0x0097,          // §8.41
+  acceleration_time = 0x0098,   // §8.42
+  deceleration_time = 0x0099,   // §8.43
+  working_speed = 0x009A,       // §8.44
+  limit_inputs = 0x009B,        // §8.47
+  enable_home_inputs = 0x009C,  // §8.48
+  secondary_home = 0x009D,      // §8.48
+  torque_mode = 0x009E,         // §8.49
+  working_mode = 0x009F,        // §8.50
+  outputs_on = 0x00A0,          // §8.51
+  outputs_off = 0x00A1,         // §8.51
+  output_state = 0x00A2,        // §8.51
+  alarm = 0x00A3,               // §8.52
+  clear_alarm = 0x00A4,         // §8.52
+  alarm_output = 0x00A5,        // §8.51
+  running_output = 0x00A6,      // §8.51
+  in_position_output = 0x00A7,  // §8.51
+  reminder_x11 = 0x00A8,        // §8.53, coded 32-bit
+  table_size = 0x00AA,          // §8.54
+  table_pointer = 0x00AB,       // §8.54
+  table_start = 0x00AC,         // §8.54
+  estop_config = 0x00AD,        // §8.55
+  home_done_output = 0x00AE,    // §8.48
+  speed_switch_1 = 0x00AF,      // §8.56
   speed_switch_2 = 0x00B0,
   speed_switch_3 = 0x00B1,
   speed_switch_4 = 0x00B2,
   speed_switch_1_ext = 0x00B3,
   speed_switch_2_ext = 0x00B4,
   speed_switch_3_ext = 0x00B5,
-  dynamic_positioning = 0x00B6,     // §8.57, UINT32
+  dynamic_positioning = 0x00B6,  // §8.57, UINT32
   speed_switch_4_ext = 0x00B8,
-  io_velocity_run = 0x00BA,         // §8.58, UINT32
-  rotor_offset = 0x00BE,            // §8.59
-  position_loop_p = 0x00BF,         // §8.60
-  speed_loop_p = 0x00C0,            // §8.62
-  speed_loop_i = 0x00C1,            // §8.63a
-  reminder_x17 = 0x00C2,            // §8.53
+  io_velocity_run = 0x00BA,  // §8.58, UINT32
+  rotor_offset = 0x00BE,     // §8.59
+  position_loop_p = 0x00BF,  // §8.60
+  speed_loop_p = 0x00C0,     // §8.62
+  speed_loop_i = 0x00C1,     // §8.63a
+  reminder_x17 = 0x00C2,     // §8.53
   reminder_x18 = 0x00C4,
   reminder_x19 = 0x00C6,
-  velocity_command = 0x00C8,        // §8.65① VelocityCommand
-  homing_command = 0x00C9,          // §8.48   HomingCommand
-  jog_command = 0x00CA,             // §8.65② JogCommand
-  torque_command = 0x00CB,          // §8.49   TorqueCommand
-  timed_run = 0x00CC,               // §8.65③ INT32 ms
-  relative_move = 0x00CE,           // §8.65④ INT32 pulses, standstill only
-  absolute_move = 0x00D0,           // §8.65⑥ INT32 pulses, standstill only
-  preset_position = 0x00D2,         // §8.66   INT32 pulses
-  enable_command = 0x00D4,          // §8.67   EnableCommand
-  speed_centi_rpm = 0x00D6,         // §8.63b  INT32 0.01 rpm
-  target_speed = 0x00D8,            // §8.64   INT32 0.01 rpm
-  program_command = 0x00DB,         // §8.68   ProgramCommand
-  save_command = 0x00DC,            // §8.69   SaveCommand
-  table_execute = 0x00DD,           // §8.54   TableExecute
-  relative_move_preempt = 0x00DE,   // §8.65⑤ INT32 pulses
-  absolute_move_preempt = 0x00E8,   // §8.65⑦ INT32 pulses
+  velocity_command = 0x00C8,       // §8.65① VelocityCommand
+  homing_command = 0x00C9,         // §8.48   HomingCommand
+  jog_command = 0x00CA,            // §8.65② JogCommand
+  torque_command = 0x00CB,         // §8.49   TorqueCommand
+  timed_run = 0x00CC,              // §8.65③ INT32 ms
+  relative_move = 0x00CE,          // §8.65④ INT32 pulses, standstill only
+  absolute_move = 0x00D0,          // §8.65⑥ INT32 pulses, standstill only
+  preset_position = 0x00D2,        // §8.66   INT32 pulses
+  enable_command = 0x00D4,         // §8.67   EnableCommand
+  speed_centi_rpm = 0x00D6,        // §8.63b  INT32 0.01 rpm
+  target_speed = 0x00D8,           // §8.64   INT32 0.01 rpm
+  program_command = 0x00DB,        // §8.68   ProgramCommand
+  save_command = 0x00DC,           // §8.69   SaveCommand
+  table_execute = 0x00DD,          // §8.54   TableExecute
+  relative_move_preempt = 0x00DE,  // §8.65⑤ INT32 pulses
+  absolute_move_preempt = 0x00E8,  // §8.65⑦ INT32 pulses
 };
 [[nodiscard]] constexpr std::uint16_t address(Reg r) noexcept { return static_cast<std::uint16_t>(r); }
 
@@ -151,15 +151,15 @@ enum class Access : std::uint8_t { read_only, read_write, write_only };
 
 struct RegisterInfo {
   Reg reg;
-  std::string_view name;     // snake_case, unique; find_register(name)
+  std::string_view name;  // snake_case, unique; find_register(name)
   RegType type;
   Access access;
-  bool persistent;           // "memory value": kept over power cycles after Save (0x00DC = 1)
+  bool persistent;  // "memory value": kept over power cycles after Save (0x00DC = 1)
   std::string_view unit;
-  std::int64_t min;          // documented range of the value (signed types: signed range)
+  std::int64_t min;  // documented range of the value (signed types: signed range)
   std::int64_t max;
   std::optional<std::int64_t> default_value;  // nullopt: "-", per model, or measured
-  std::string_view meaning;  // one line, with the manual section and any [C]/[I] decision
+  std::string_view meaning;                   // one line, with the manual section and any [C]/[I] decision
 
   [[nodiscard]] constexpr std::uint16_t first() const noexcept { return address(reg); }
   [[nodiscard]] constexpr std::uint16_t count() const noexcept { return register_count(type); }
@@ -185,7 +185,7 @@ inline constexpr std::uint16_t kProgrammingAreaLast = 0xFFFF;
 // Frame size limits of the drive: "an instruction should not exceed 200 bytes" (§8.54).
 inline constexpr std::size_t kMaxDriveFrameBytes = 200;
 inline constexpr std::uint16_t kMaxDriveWriteRegisters = 95;  // (200 − 9) / 2
-inline constexpr std::uint16_t kMaxDriveReadRegisters = 97;   // assumed (§6 gives no limit): keeps the reply ≤ 200 bytes
+inline constexpr std::uint16_t kMaxDriveReadRegisters = 97;  // assumed (§6 gives no limit): keeps the reply ≤ 200 bytes
 
 // Node addresses (§5): 0 = broadcast, 1…64 = nodes.
 inline constexpr std::uint8_t kMaxNodeAddress = 64;
@@ -237,14 +237,14 @@ struct AccessRules {
 // FC 0x03: every address documented (or holes allowed), quantity ≤ 125. Reading a write-only
 // command register is allowed (it returns whatever the slave stores; the manual does not say).
 [[nodiscard]] std::optional<rtu::ExceptionCode> check_read(std::uint16_t start, std::uint16_t quantity,
-                                                            const AccessRules& rules = {}) noexcept;
+                                                           const AccessRules& rules = {}) noexcept;
 // FC 0x06 / 0x10: every address documented and writable (0x02), no split 32-bit entry (0x02),
 // quantity ≤ 95 (0x03), values within range (0x03).
 [[nodiscard]] std::optional<rtu::ExceptionCode> check_write(std::uint16_t start, std::span<const std::uint16_t> values,
-                                                             const AccessRules& rules = {}) noexcept;
+                                                            const AccessRules& rules = {}) noexcept;
 // Dispatches on the request's function.
 [[nodiscard]] std::optional<rtu::ExceptionCode> check_request(const rtu::RequestPdu& pdu,
-                                                               const AccessRules& rules = {}) noexcept;
+                                                              const AccessRules& rules = {}) noexcept;
 
 // Does the drive answer this request? No for broadcasts (§5) and for the restart command
 // 0x00D4 = 0x0100 even when addressed (§8.67).

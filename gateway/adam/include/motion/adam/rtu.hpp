@@ -84,11 +84,11 @@ enum class FrameErrc {
 // --- Limits -------------------------------------------------------------------------------------
 
 inline constexpr std::uint8_t kBroadcastUnit = 0;
-inline constexpr std::uint8_t kMaxUnit = 247;                 // Modbus; the drive uses 1…64 (§5)
+inline constexpr std::uint8_t kMaxUnit = 247;  // Modbus; the drive uses 1…64 (§5)
 inline constexpr std::size_t kMinFrameSize = 4;
-inline constexpr std::size_t kMaxFrameSize = 256;             // Modbus RTU ADU
-inline constexpr std::uint16_t kMaxReadQuantity = 125;        // Modbus FC 0x03
-inline constexpr std::uint16_t kMaxWriteQuantity = 123;       // Modbus FC 0x10
+inline constexpr std::size_t kMaxFrameSize = 256;        // Modbus RTU ADU
+inline constexpr std::uint16_t kMaxReadQuantity = 125;   // Modbus FC 0x03
+inline constexpr std::uint16_t kMaxWriteQuantity = 123;  // Modbus FC 0x10
 
 // --- CRC ----------------------------------------------------------------------------------------
 

@@ -43,18 +43,18 @@ struct SlaveConfig {
 
 // What serve() did, for simulator logs and tests.
 enum class ServeOutcome : std::uint8_t {
-  replied,           // normal response in `reply`
-  exception,         // exception response in `reply` (empty in silent mode)
-  executed_silently, // broadcast or restart: executed, no reply by protocol
-  rejected_silently, // broadcast request refused (exception suppressed by the broadcast rule)
-  not_addressed,     // another unit's frame
-  discarded,         // bad frame (frame_error says why)
+  replied,            // normal response in `reply`
+  exception,          // exception response in `reply` (empty in silent mode)
+  executed_silently,  // broadcast or restart: executed, no reply by protocol
+  rejected_silently,  // broadcast request refused (exception suppressed by the broadcast rule)
+  not_addressed,      // another unit's frame
+  discarded,          // bad frame (frame_error says why)
 };
 
 struct ServeResult {
   ServeOutcome outcome = ServeOutcome::discarded;
-  std::vector<std::uint8_t> reply;           // empty: send nothing
-  std::optional<rtu::Request> request;       // the decoded request, when there was one
+  std::vector<std::uint8_t> reply;      // empty: send nothing
+  std::optional<rtu::Request> request;  // the decoded request, when there was one
   std::optional<rtu::ExceptionCode> exception;
   std::optional<rtu::FrameErrc> frame_error;
 };

@@ -18,7 +18,7 @@ namespace motion::adam {
 enum class MotionPhase : std::uint8_t { idle = 0, accelerating = 1, decelerating = 2, cruising = 3 };
 
 struct DriveStatus {
-  std::uint8_t inputs = 0;  // bits 0…7: X0…X7 level (after polarity inversion)
+  std::uint8_t inputs = 0;                // bits 0…7: X0…X7 level (after polarity inversion)
   MotionPhase phase = MotionPhase::idle;  // bits 8–9
   bool deviation_exceeded = false;        // bit 10, X10: |deviation| > 0x0010
   bool reminder_x11 = false;              // bit 11, X11: reminder 0x00A8 holds
@@ -55,17 +55,17 @@ enum class AlarmCode : std::uint8_t {
   phase_a_open = 4,
   phase_b_open = 5,
   position_error = 6,
-  internal_24v_fault = 7,   // manual (§8.52): "internal 24V offset"; name assumed
-  phase_a_voltage = 8,      // manual (§8.52): "AI voltage error"; name assumed
-  phase_b_voltage = 9,      // manual (§8.52): "BI voltage error"; name assumed
+  internal_24v_fault = 7,  // manual (§8.52): "internal 24V offset"; name assumed
+  phase_a_voltage = 8,     // manual (§8.52): "AI voltage error"; name assumed
+  phase_b_voltage = 9,     // manual (§8.52): "BI voltage error"; name assumed
   encoder_error = 10,
 };
 // The manual's text for the code ("Over-current", …), "Unknown alarm" for 11…15.
 [[nodiscard]] std::string_view alarm_text(AlarmCode code) noexcept;
 
 struct AlarmState {
-  AlarmCode current = AlarmCode::none;            // bits 3…0
-  std::array<AlarmCode, 3> history{};             // bits 7…4 (most recent), 11…8, 15…12 (oldest)
+  AlarmCode current = AlarmCode::none;  // bits 3…0
+  std::array<AlarmCode, 3> history{};   // bits 7…4 (most recent), 11…8, 15…12 (oldest)
   [[nodiscard]] bool active() const noexcept { return current != AlarmCode::none; }
   friend bool operator==(const AlarmState&, const AlarmState&) = default;
 };

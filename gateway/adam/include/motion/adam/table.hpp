@@ -29,8 +29,8 @@
 namespace motion::adam {
 
 inline constexpr std::uint16_t kRegistersPerTableEntry = 2;
-inline constexpr std::uint16_t kMaxTableEntries = 2048;   // 0x00AA range
-inline constexpr std::uint16_t kMaxTablePointer = 4095;   // 0x00AB range
+inline constexpr std::uint16_t kMaxTableEntries = 2048;  // 0x00AA range
+inline constexpr std::uint16_t kMaxTablePointer = 4095;  // 0x00AB range
 
 // Register of table entry `index` for table start offset `start_offset` (0x00AC value).
 [[nodiscard]] constexpr std::uint32_t table_entry_address(std::uint16_t start_offset, std::uint16_t index) noexcept {
@@ -40,19 +40,18 @@ inline constexpr std::uint16_t kMaxTablePointer = 4095;   // 0x00AB range
 // FC 0x10 frames that store `entries` from entry 0 at `start_offset`, at most
 // `max_registers_per_frame` registers (even, ≤ 95) per frame. Errors: empty_table,
 // too_many_registers (frame limit or table past register 0xFFFF / 2048 entries).
-[[nodiscard]] Result<std::vector<rtu::Request>> table_data_writes(std::uint8_t unit, std::uint16_t start_offset,
-                                                                  std::span<const std::int32_t> entries,
-                                                                  std::uint16_t max_registers_per_frame =
-                                                                      kMaxDriveWriteRegisters - 1);
+[[nodiscard]] Result<std::vector<rtu::Request>> table_data_writes(
+    std::uint8_t unit, std::uint16_t start_offset, std::span<const std::int32_t> entries,
+    std::uint16_t max_registers_per_frame = kMaxDriveWriteRegisters - 1);
 
 // Motion profile preloaded per drive before a synchronized start (§8.40–§8.44, §8.64; assumed, not
 // stated: all moves use the working speed). Start/stop speeds rpm, ramp times ms, speed in 0.01 rpm.
 struct MotionProfile {
-  std::uint16_t start_speed_rpm = 50;        // 0x0096, 0…300
-  std::uint16_t stop_speed_rpm = 50;         // 0x0097, 0…1000
-  std::uint16_t acceleration_ms = 120;       // 0x0098
-  std::uint16_t deceleration_ms = 120;       // 0x0099
-  std::int32_t speed_centi_rpm = 30000;      // 0x00D8, 0…999999 (positive: direction comes from the target)
+  std::uint16_t start_speed_rpm = 50;    // 0x0096, 0…300
+  std::uint16_t stop_speed_rpm = 50;     // 0x0097, 0…1000
+  std::uint16_t acceleration_ms = 120;   // 0x0098
+  std::uint16_t deceleration_ms = 120;   // 0x0099
+  std::int32_t speed_centi_rpm = 30000;  // 0x00D8, 0…999999 (positive: direction comes from the target)
   friend bool operator==(const MotionProfile&, const MotionProfile&) = default;
 };
 // Two FC 0x10 frames: 0x0096…0x0099 (4 registers) and 0x00D8 (2 registers, low word first).
@@ -63,8 +62,8 @@ struct MotionProfile {
 // `start_offset`, table size 1, pointer 0, start offset — in that order, all unicast.
 struct SyncMovePreload {
   MotionProfile profile;
-  std::int32_t target_pulses = 0;     // absolute target (TableEntryKind::absolute)
-  std::uint16_t start_offset = 200;   // table at register 500, clear of a program at 300…499
+  std::int32_t target_pulses = 0;    // absolute target (TableEntryKind::absolute)
+  std::uint16_t start_offset = 200;  // table at register 500, clear of a program at 300…499
 };
 [[nodiscard]] Result<std::vector<rtu::Request>> sync_move_preload(std::uint8_t unit, const SyncMovePreload& preload);
 

@@ -26,18 +26,18 @@ struct Quantized {
 };
 
 // Register grids and ranges.
-inline constexpr std::uint32_t kMinSubdivision = 200;          // §8.29
+inline constexpr std::uint32_t kMinSubdivision = 200;  // §8.29
 inline constexpr std::uint32_t kMaxSubdivision = 1'000'000;
 inline constexpr std::uint32_t kDefaultSubdivision = 4000;
-inline constexpr double kWorkingSpeedRpmPerStep = 1.0;         // 0x009A
+inline constexpr double kWorkingSpeedRpmPerStep = 1.0;  // 0x009A
 inline constexpr std::uint16_t kMaxWorkingSpeedRpm = 1000;
-inline constexpr double kTargetSpeedRpmPerStep = 0.01;         // 0x00D8
+inline constexpr double kTargetSpeedRpmPerStep = 0.01;  // 0x00D8
 inline constexpr std::int32_t kMaxTargetSpeedCentiRpm = 999'999;
-inline constexpr std::uint16_t kMaxStartSpeedRpm = 300;        // 0x0096
-inline constexpr std::uint16_t kMaxStopSpeedRpm = 1000;        // 0x0097
-inline constexpr double kRampSecondsPerStep = 0.001;           // 0x0098 / 0x0099, ms
+inline constexpr std::uint16_t kMaxStartSpeedRpm = 300;  // 0x0096
+inline constexpr std::uint16_t kMaxStopSpeedRpm = 1000;  // 0x0097
+inline constexpr double kRampSecondsPerStep = 0.001;     // 0x0098 / 0x0099, ms
 inline constexpr std::uint16_t kMaxRampMs = 0xFFFF;
-inline constexpr std::uint16_t kMaxJogSpeedRpm = 511;          // 0x00CA / 0x00C9 bits 14…6
+inline constexpr std::uint16_t kMaxJogSpeedRpm = 511;  // 0x00CA / 0x00C9 bits 14…6
 
 [[nodiscard]] Result<std::uint32_t> check_subdivision(std::uint32_t pulses_per_rev);
 

@@ -75,12 +75,12 @@ namespace motion::adam_driver {
 
 // One drive of the line, from the configuration.
 struct DriveSettings {
-  std::string drive;                   // configuration name, e.g. "c-drive"
-  std::string axis;                    // the axis it carries ("" when none)
-  std::uint8_t unit = 1;               // Modbus slave id 1…64
+  std::string drive;      // configuration name, e.g. "c-drive"
+  std::string axis;       // the axis it carries ("" when none)
+  std::uint8_t unit = 1;  // Modbus slave id 1…64
   Duration request_timeout = std::chrono::milliseconds(100);
   int retries = 1;
-  int home_input = 1;                  // 1-based digital input of the home switch (axis homing)
+  int home_input = 1;  // 1-based digital input of the home switch (axis homing)
   config::HomingMethod homing_method = config::HomingMethod::kNone;
   // Save (0x00DC = 1) after loading a table entry, before it can be executed (setup table_save,
   // default true): the manual's §8.54 sequence saves the table data, whether the drive executes
@@ -92,7 +92,7 @@ struct DriveSettings {
 
 struct MasterSettings {
   std::string bus;
-  std::string transport;               // for bus_stats_t, e.g. "simserial:rs485"
+  std::string transport;  // for bus_stats_t, e.g. "simserial:rs485"
   adam::rtu::SerialFormat format;
   Duration poll_period = std::chrono::milliseconds(100);
   Duration broadcast_guard = std::chrono::milliseconds(5);  // not in the manual: assumed, a few ms after a broadcast
@@ -173,7 +173,7 @@ class MasterCore final : public gateway::SerialLineCore {
   // Ends the command: the ledger's one terminal reply (DONE with `param` when given; FAILED).
   void finish(std::int64_t command_id, std::int8_t status, const std::string& reason = {}, std::int32_t code = 0,
               std::optional<motionlcm::param_t> param = std::nullopt);
-  [[nodiscard]] Operation* operation(std::int64_t id);  // nullptr once it ended
+  [[nodiscard]] Operation* operation(std::int64_t id);       // nullptr once it ended
   [[nodiscard]] std::size_t index_of(const Drive& d) const;  // the drive's part key
   void fail_motion_of(const Drive& d, const std::string& reason, std::int32_t code);
   // A fresh position/status sample of `sampled` arrived: updates every drive of `op`.
@@ -196,7 +196,7 @@ class MasterCore final : public gateway::SerialLineCore {
   std::deque<Transaction> queue_;
   std::unique_ptr<Transaction> in_flight_;
   TimePoint reply_deadline_ = kNever;
-  TimePoint line_free_at_{};        // no frame before this (t3.5 after the last traffic)
+  TimePoint line_free_at_{};  // no frame before this (t3.5 after the last traffic)
   TimePoint next_poll_ = kNever;
   TimePoint reserved_at_ = kNever;  // reserve_line: a start frame goes out then
   // Each command's parts (one per drive: Loading -> Armed -> Started -> Done | Failed | Stopped)

@@ -41,17 +41,17 @@ struct SocketCanOptions {
 // What SocketCAN tells beyond can::Statistics.
 struct SocketCanCounters {
   std::uint64_t error_frames = 0;
-  std::uint64_t bus_errors = 0;           // CAN_ERR_PROT / CAN_ERR_BUSERROR
-  std::uint64_t ack_errors = 0;           // CAN_ERR_ACK: nobody acknowledged our frame
-  std::uint64_t arbitration_lost = 0;     // CAN_ERR_LOSTARB
-  std::uint64_t tx_timeouts = 0;          // CAN_ERR_TX_TIMEOUT
-  std::uint64_t controller_overflows = 0; // CAN_ERR_CRTL rx/tx buffer overflow
-  std::uint64_t transceiver_errors = 0;   // CAN_ERR_TRX
-  std::uint64_t restarts = 0;             // CAN_ERR_RESTARTED
-  std::uint64_t socket_drops = 0;         // frames the kernel dropped for this socket (SO_RXQ_OVFL)
-  std::uint64_t tx_queue_full = 0;        // send() refused with ENOBUFS/EAGAIN
-  std::uint64_t link_down = 0;            // interface went down or away
-  std::uint64_t reopens = 0;              // socket reopened after the interface came back
+  std::uint64_t bus_errors = 0;            // CAN_ERR_PROT / CAN_ERR_BUSERROR
+  std::uint64_t ack_errors = 0;            // CAN_ERR_ACK: nobody acknowledged our frame
+  std::uint64_t arbitration_lost = 0;      // CAN_ERR_LOSTARB
+  std::uint64_t tx_timeouts = 0;           // CAN_ERR_TX_TIMEOUT
+  std::uint64_t controller_overflows = 0;  // CAN_ERR_CRTL rx/tx buffer overflow
+  std::uint64_t transceiver_errors = 0;    // CAN_ERR_TRX
+  std::uint64_t restarts = 0;              // CAN_ERR_RESTARTED
+  std::uint64_t socket_drops = 0;          // frames the kernel dropped for this socket (SO_RXQ_OVFL)
+  std::uint64_t tx_queue_full = 0;         // send() refused with ENOBUFS/EAGAIN
+  std::uint64_t link_down = 0;             // interface went down or away
+  std::uint64_t reopens = 0;               // socket reopened after the interface came back
 };
 
 class SocketCanTransport final : public Transport {

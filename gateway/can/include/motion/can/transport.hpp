@@ -38,10 +38,10 @@ struct Statistics {
   std::uint64_t rx_frames = 0;
   std::uint64_t tx_bytes = 0;  // payload bytes
   std::uint64_t rx_bytes = 0;
-  std::uint64_t errors = 0;    // error frames / corrupted frames seen
+  std::uint64_t errors = 0;      // error frames / corrupted frames seen
   std::uint64_t tx_dropped = 0;  // send() failures (queue full, bus-off, disconnected)
   std::uint64_t bus_off_count = 0;
-  double bus_load = 0.0;       // 0..1, fraction of wire time used over the last second (where known)
+  double bus_load = 0.0;  // 0..1, fraction of wire time used over the last second (where known)
 };
 
 // Errors, warnings and state changes the transport learned about (error frames, bus-off,

@@ -21,8 +21,8 @@ enum class FunctionCode : std::uint8_t {
   kRpdo3 = 0x8,
   kTpdo4 = 0x9,
   kRpdo4 = 0xA,
-  kSdoTx = 0xB,  // server -> client (responses), 580h + n
-  kSdoRx = 0xC,  // client -> server (requests), 600h + n
+  kSdoTx = 0xB,      // server -> client (responses), 580h + n
+  kSdoRx = 0xC,      // client -> server (requests), 600h + n
   kHeartbeat = 0xE,  // heartbeat, boot-up and node guarding, 700h + n
 };
 
@@ -47,7 +47,15 @@ inline constexpr std::uint32_t kTimeCobId = 0x100;
 
 // What a received identifier is under the predefined connection set.
 enum class MessageKind : std::uint8_t {
-  kNmt, kSync, kTime, kEmcy, kTpdo, kRpdo, kSdoResponse, kSdoRequest, kHeartbeat,
+  kNmt,
+  kSync,
+  kTime,
+  kEmcy,
+  kTpdo,
+  kRpdo,
+  kSdoResponse,
+  kSdoRequest,
+  kHeartbeat,
 };
 
 struct CobIdInfo {

@@ -20,8 +20,8 @@
 namespace motion::canopen {
 
 struct Emergency {
-  std::uint16_t error_code = 0;      // bytes 0-1 (LE); 0000h = error reset / no error
-  std::uint8_t error_register = 0;   // byte 2, a copy of 1001h
+  std::uint16_t error_code = 0;                // bytes 0-1 (LE); 0000h = error reset / no error
+  std::uint8_t error_register = 0;             // byte 2, a copy of 1001h
   std::array<std::uint8_t, 5> manufacturer{};  // bytes 3-7
   friend constexpr bool operator==(const Emergency&, const Emergency&) = default;
 };

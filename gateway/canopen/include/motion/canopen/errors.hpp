@@ -60,10 +60,10 @@ enum class SdoAbortCode : std::uint32_t {
 [[nodiscard]] std::uint32_t to_abort_code(std::error_code error);
 
 enum class CanopenError : int {
-  kCancelled = 1,         // request dropped by cancel() before it completed
-  kMismatchedReply,       // SDO reply for another index/sub-index than requested
-  kReadBackMismatch,      // verification read returned another value than was written
-  kInvalidArgument,       // request the protocol cannot express (bad node-ID, oversized PDO mapping)
+  kCancelled = 1,     // request dropped by cancel() before it completed
+  kMismatchedReply,   // SDO reply for another index/sub-index than requested
+  kReadBackMismatch,  // verification read returned another value than was written
+  kInvalidArgument,   // request the protocol cannot express (bad node-ID, oversized PDO mapping)
 };
 
 [[nodiscard]] const std::error_category& canopen_category();

@@ -45,7 +45,7 @@ using PdoMapping = std::vector<PdoMappingEntry>;
 // the mapped length: short PDOs are not processed (CiA 301 EMCY 8210h), and this codec also
 // rejects longer ones (8220h) instead of silently ignoring the extra bytes.
 [[nodiscard]] std::optional<std::vector<std::uint64_t>> unpack_pdo(const PdoMapping& mapping,
-                                                                  std::span<const std::uint8_t> payload);
+                                                                   std::span<const std::uint8_t> payload);
 
 [[nodiscard]] constexpr std::int64_t sign_extend(std::uint64_t raw, unsigned bits) {
   if (bits == 0 || bits >= 64) return static_cast<std::int64_t>(raw);

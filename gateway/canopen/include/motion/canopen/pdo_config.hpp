@@ -40,7 +40,7 @@ struct SdoStep {
 };
 
 struct SdoSequenceResult {
-  std::error_code error;     // empty on success
+  std::error_code error;        // empty on success
   std::size_t failed_step = 0;  // index of the failing step (== step count on success)
 };
 using SdoSequenceCallback = std::function<void(const SdoSequenceResult&)>;

@@ -76,8 +76,8 @@ class SdoClient {
   // TimePoint::min() when a queued transfer waits for process(); else as process() returns.
   [[nodiscard]] TimePoint next_deadline() const;
 
-  [[nodiscard]] bool busy(NodeId node) const;              // a transfer is on the wire
-  [[nodiscard]] std::size_t pending(NodeId node) const;    // on the wire + queued
+  [[nodiscard]] bool busy(NodeId node) const;            // a transfer is on the wire
+  [[nodiscard]] std::size_t pending(NodeId node) const;  // on the wire + queued
 
  private:
   enum class Direction : std::uint8_t { kUpload, kDownload };
@@ -91,8 +91,8 @@ class SdoClient {
     SdoDownloadMode mode = SdoDownloadMode::kAuto;
     Phase phase = Phase::kInitiate;
     bool toggle = false;
-    std::size_t offset = 0;                  // download: bytes already sent
-    std::optional<std::uint32_t> expected;   // upload: size the server announced
+    std::size_t offset = 0;                 // download: bytes already sent
+    std::optional<std::uint32_t> expected;  // upload: size the server announced
     unsigned attempt = 0;
     TimePoint deadline = kNever;
   };
@@ -114,7 +114,8 @@ class SdoClient {
   [[nodiscard]] static bool is_late_answer(const Channel& channel, const SdoResponse& response);
   static void abandon(Channel& channel, ObjectAddress object);
   // Aborts on the wire (when `wire_code` is set) and completes the active transfer.
-  void fail(NodeId node, Channel& channel, std::error_code error, std::optional<std::uint32_t> wire_code, TimePoint now);
+  void fail(NodeId node, Channel& channel, std::error_code error, std::optional<std::uint32_t> wire_code,
+            TimePoint now);
   void succeed(NodeId node, Channel& channel, TimePoint now);
   void complete(NodeId node, Channel& channel, std::error_code error, TimePoint now);
   [[nodiscard]] const SdoClientConfig& config_of(const Channel& channel) const;

@@ -29,7 +29,7 @@ struct SyncMessage {
 [[nodiscard]] std::optional<SyncMessage> decode_sync(std::span<const std::uint8_t> payload);
 
 struct SyncProducerConfig {
-  Duration period{};                 // 1006h; zero = no periodic SYNC (trigger_now() only)
+  Duration period{};                  // 1006h; zero = no periodic SYNC (trigger_now() only)
   std::uint8_t counter_overflow = 0;  // 1019h; 0 or 2..240
   std::uint32_t cob_id = kSyncCobId;  // 1005h
 };

@@ -59,12 +59,12 @@ class NewSetPointHandshake {
  public:
   enum class Phase : std::uint8_t {
     kIdle,
-    kArming,          // bit 4 = 0 sent, waiting for ack = 0
-    kTriggered,       // bit 4 = 1 sent, waiting for ack = 1
-    kReleasing,       // ack seen, bit 4 = 0 sent, waiting for ack = 0
-    kMoving,          // set-point taken, waiting for target reached / in position
+    kArming,     // bit 4 = 0 sent, waiting for ack = 0
+    kTriggered,  // bit 4 = 1 sent, waiting for ack = 1
+    kReleasing,  // ack seen, bit 4 = 0 sent, waiting for ack = 0
+    kMoving,     // set-point taken, waiting for target reached / in position
     kTargetReached,
-    kTimedOut,        // an ack wait exceeded its deadline; the handshake stopped
+    kTimedOut,  // an ack wait exceeded its deadline; the handshake stopped
   };
   struct Output {
     Phase phase = Phase::kIdle;

@@ -50,7 +50,9 @@ class PowerController {
     std::optional<State> observed;  // the state decoded from the last statusword, if any
     std::uint8_t transition = 0;    // the transition now awaited (kInProgress)
 
-    [[nodiscard]] std::span<const std::uint16_t> controlwords() const { return {controlword_buffer.data(), controlword_count}; }
+    [[nodiscard]] std::span<const std::uint16_t> controlwords() const {
+      return {controlword_buffer.data(), controlword_count};
+    }
   };
 
   PowerController() : PowerController(Config{}) {}

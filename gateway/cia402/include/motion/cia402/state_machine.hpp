@@ -39,7 +39,7 @@ enum class State : std::uint8_t {
 
 // The states a statusword can show (every State but kStart), in CiA 402 order.
 inline constexpr State kDecodableStates[] = {
-    State::kNotReadyToSwitchOn, State::kSwitchOnDisabled, State::kReadyToSwitchOn, State::kSwitchedOn,
+    State::kNotReadyToSwitchOn, State::kSwitchOnDisabled, State::kReadyToSwitchOn,     State::kSwitchedOn,
     State::kOperationEnabled,   State::kQuickStopActive,  State::kFaultReactionActive, State::kFault,
 };
 
@@ -129,10 +129,10 @@ struct Transition {
 // Ready to switch on -> Operation enabled goes through Switch on (0x07) as in UC57 §4.2.2.
 struct PlanStep {
   enum class Kind : std::uint8_t {
-    kAtTarget,       // nothing to send
-    kSendCommand,    // send `command`; `transition` leads to `next`
-    kWaitForDrive,   // the drive leaves `current` by itself (transitions 1, 14); `transition`, `next`
-    kUnreachable,    // no command path (target kStart / Not ready / Fault reaction active / Fault)
+    kAtTarget,      // nothing to send
+    kSendCommand,   // send `command`; `transition` leads to `next`
+    kWaitForDrive,  // the drive leaves `current` by itself (transitions 1, 14); `transition`, `next`
+    kUnreachable,   // no command path (target kStart / Not ready / Fault reaction active / Fault)
   };
   Kind kind = Kind::kUnreachable;
   Command command = Command::kShutdown;

@@ -21,12 +21,12 @@ namespace motion::cia402::uc57 {
 
 // 6098h values the UC57 accepts (manual §4.2.6, §5.2).
 enum class HomingMethod : std::uint8_t {
-  kNegativeLimit = 17,               // "negative limit mode"
-  kPositiveLimit = 18,               // "positive limit mode"
-  kHomeSwitchPositive = 24,          // "forward origin mode"
-  kHomeSwitchNegative = 29,          // "reverse origin mode"
-  kHomeSwitchNegativeImmediate = 41, // origin in the negative direction, stop immediately
-  kHomeSwitchPositiveImmediate = 42, // origin in the positive direction, stop immediately
+  kNegativeLimit = 17,                // "negative limit mode"
+  kPositiveLimit = 18,                // "positive limit mode"
+  kHomeSwitchPositive = 24,           // "forward origin mode"
+  kHomeSwitchNegative = 29,           // "reverse origin mode"
+  kHomeSwitchNegativeImmediate = 41,  // origin in the negative direction, stop immediately
+  kHomeSwitchPositiveImmediate = 42,  // origin in the positive direction, stop immediately
 };
 
 enum class Direction : std::int8_t { kNegative = -1, kPositive = 1 };
@@ -44,12 +44,12 @@ enum class LimitReaction : std::uint8_t {
 struct HomingMethodInfo {
   HomingMethod method;
   std::string_view manual_name;
-  Direction search_direction;      // first (fast, 6099h:01) search
+  Direction search_direction;  // first (fast, 6099h:01) search
   HomeSignal home_signal;
   bool backs_off_and_locates_slowly;  // stop, back off, approach again at 6099h:02
-  Direction locate_direction;      // direction of the slow approach (= search direction here)
+  Direction locate_direction;         // direction of the slow approach (= search direction here)
   LimitReaction on_limit;
-  bool cia402_standard_number;     // 17/18/24/29 belong to CiA 402 families; 41/42 are UC57-specific
+  bool cia402_standard_number;  // 17/18/24/29 belong to CiA 402 families; 41/42 are UC57-specific
 };
 
 [[nodiscard]] std::span<const HomingMethodInfo> homing_methods();

@@ -45,16 +45,16 @@ enum class Access : std::uint8_t { kReadOnly, kReadWrite, kReadWriteStore, kWrit
 enum class Unit : std::uint8_t {
   kNone,
   kBitField,
-  kEnumerated,     // a code from a value list (see the description)
+  kEnumerated,  // a code from a value list (see the description)
   kCobId,
-  kMappingEntry,   // PDO mapping: index << 16 | subindex << 8 | length in bits
-  kPulses,         // microsteps at the 2006h resolution
+  kMappingEntry,  // PDO mapping: index << 16 | subindex << 8 | length in bits
+  kPulses,        // microsteps at the 2006h resolution
   kRpm,
-  kRampSetting,    // 6083h/6084h/609Ah: printed "rps/s", used as ms (see uc57_units.hpp)
+  kRampSetting,  // 6083h/6084h/609Ah: printed "rps/s", used as ms (see uc57_units.hpp)
   kMilliseconds,
   kHundredMicroseconds,  // PDO inhibit time
-  kDeciAmpereRms,  // 0.1 A RMS
-  kPerMille,       // 0.1 %
+  kDeciAmpereRms,        // 0.1 A RMS
+  kPerMille,             // 0.1 %
 };
 
 struct OdEntry {

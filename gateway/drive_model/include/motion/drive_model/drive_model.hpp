@@ -38,7 +38,8 @@ namespace motion::drive_model {
 [[nodiscard]] std::uint32_t assumed_pulses_per_revolution(const config::Drive& drive);
 
 // The model of `axis` (of `config`), given what its stack read from the drive. utime is left 0.
-[[nodiscard]] std::variant<motionlcm::drive_model_t, std::string> build(const config::Config& config, const config::Axis& axis,
-                                                                         const gateway::DriveFacts& facts = {});
+[[nodiscard]] std::variant<motionlcm::drive_model_t, std::string> build(const config::Config& config,
+                                                                        const config::Axis& axis,
+                                                                        const gateway::DriveFacts& facts = {});
 
 }  // namespace motion::drive_model

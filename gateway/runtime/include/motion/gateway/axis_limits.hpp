@@ -45,14 +45,16 @@ struct Refusal {
 // one whole count to run before the limit in its direction (jog_room); SET_POSITION target; HOME |velocity| and ramps. Other
 // kinds carry no motion values and pass. Non-finite values are malformed (code 1); values
 // outside the limits are code 3 (outside limits).
-[[nodiscard]] std::optional<Refusal> check_axis_command(std::int8_t kind, const motionlcm::axis_command_t& command, const CountLimits& limits,
+[[nodiscard]] std::optional<Refusal> check_axis_command(std::int8_t kind, const motionlcm::axis_command_t& command,
+                                                        const CountLimits& limits,
                                                         std::optional<std::int64_t> position_counts);
 
 // The whole counts a jog from `position_counts` with the sign of `velocity` may run before the
 // limit in its direction (signed like the velocity: floor toward the limit, so the last count
 // lies inside it), or nothing when less than one whole count is left (or the axis is at or beyond
 // that limit): such a jog is refused, by the gateway as by the coordinator.
-[[nodiscard]] std::optional<std::int64_t> jog_room(const CountLimits& limits, double velocity, std::int64_t position_counts);
+[[nodiscard]] std::optional<std::int64_t> jog_room(const CountLimits& limits, double velocity,
+                                                   std::int64_t position_counts);
 
 // A jog watched against the limit in its direction.
 struct JogWatch {
@@ -64,6 +66,7 @@ struct JogWatch {
 // distance left to the limit in the jog's direction is at or below the braking distance v^2/(2 a)
 // plus two status periods of travel (2 v / poll_hz) plus one count, where v is the larger of the
 // commanded and the reported speed and a the commanded deceleration, at most the axis's limit.
-[[nodiscard]] bool jog_must_stop(const JogWatch& jog, const CountLimits& limits, std::int64_t position_counts, double status_velocity, double poll_hz);
+[[nodiscard]] bool jog_must_stop(const JogWatch& jog, const CountLimits& limits, std::int64_t position_counts,
+                                 double status_velocity, double poll_hz);
 
 }  // namespace motion::gateway

@@ -21,9 +21,9 @@ namespace motion::gateway {
 
 // One axis's drive state, in drive counts.
 struct DriveStatus {
-  std::int64_t sample_utime = 0;     // when the drive reported it (wall clock, us)
+  std::int64_t sample_utime = 0;  // when the drive reported it (wall clock, us)
   std::int64_t position_counts = 0;
-  double velocity_counts = 0;        // counts/s
+  double velocity_counts = 0;  // counts/s
   std::int64_t target_counts = 0;
   bool online = false;
   bool enabled = false;
@@ -33,14 +33,14 @@ struct DriveStatus {
   bool fault = false;
   std::int32_t fault_code = 0;
   std::string fault_text;
-  std::int32_t inputs = 0;           // bit n = input n+1
+  std::int32_t inputs = 0;  // bit n = input n+1
   std::int32_t outputs = 0;
 };
 
 struct DriveEvent {
-  std::int16_t kind = 0;      // motionlcm::event_t kinds
-  std::int8_t severity = 0;   // motionlcm::event_t severities
-  std::int32_t code = 0;      // family-specific
+  std::int16_t kind = 0;     // motionlcm::event_t kinds
+  std::int8_t severity = 0;  // motionlcm::event_t severities
+  std::int32_t code = 0;     // family-specific
   std::string text;
 };
 
@@ -92,7 +92,9 @@ class BusDriver {
   // A fire is scheduled at `at` (steady clock): keep the bus free for its start frames then
   // (serial lines: no poll transaction that would still run). Default: nothing to do.
   virtual void prepare_fire(TimePoint /*at*/) {}
-  virtual void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& /*command_order*/) { fire(trigger_id); }
+  virtual void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& /*command_order*/) {
+    fire(trigger_id);
+  }
   // Health: statistics per bus, and whether all drives are online and set up.
   [[nodiscard]] virtual std::vector<motionlcm::bus_stats_t> statistics() const = 0;
   [[nodiscard]] virtual bool ready() const = 0;

@@ -23,10 +23,10 @@
 #include <vector>
 
 #include "motion/can/transport.hpp"
-#include "motion/gateway/command_ledger.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/core/precise_timer.hpp"
 #include "motion/gateway/bus_driver.hpp"
+#include "motion/gateway/command_ledger.hpp"
 #include "motion/gateway/tx_echo_tracker.hpp"
 
 namespace motion::gateway {
@@ -120,7 +120,7 @@ class CanBusDriver final : public BusDriver {
   std::vector<std::unique_ptr<CanStack>> stacks_;
   std::map<std::string, CanStack*> stack_of_axis_;
   CommandLedger<Pending> pending_;
-  CanStack* calling_ = nullptr;  // the stack being called (its replies are its part's)
+  CanStack* calling_ = nullptr;                                  // the stack being called (its replies are its part's)
   std::map<std::int64_t, std::vector<CanStack*>> armed_stacks_;  // ARM_MOVE command -> its stacks, until fired
   // The stacks' earliest deadline (SYNC periods, polls, timeouts): an absolute-time timer.
   PreciseTimer timer_;

@@ -42,7 +42,8 @@ enum class TransportError {
 // "bus can0 (simcan:can0): no simulated bus 'can0' at /tmp/x/motion-simbus-can0.sock: No such
 // file or directory (is motion-sim running with this configuration?)": the bus, its transport,
 // what failed and, when known, what to do.
-[[nodiscard]] std::string open_error_message(const config::Config& config, const config::Bus& bus, std::error_code error);
+[[nodiscard]] std::string open_error_message(const config::Config& config, const config::Bus& bus,
+                                             std::error_code error);
 
 }  // namespace motion::gateway
 

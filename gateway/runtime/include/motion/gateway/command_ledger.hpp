@@ -118,7 +118,9 @@ class ReplyBuilder {
   ReplyBuilder& error(ReplyError error) { return this->error(motion::error_code(error)); }
   // FAILED with a cause and why.
   ReplyBuilder& failed(std::int32_t code, std::string reason);
-  ReplyBuilder& failed(ReplyError error, std::string reason) { return failed(motion::error_code(error), std::move(reason)); }
+  ReplyBuilder& failed(ReplyError error, std::string reason) {
+    return failed(motion::error_code(error), std::move(reason));
+  }
   // STARTED's timing: when the start frame went out (wall us), how, and the predicted spread.
   ReplyBuilder& started(std::int64_t trigger_utime, std::string mechanism, double predicted_skew_us);
   ReplyBuilder& param(const motionlcm::param_t& param);
@@ -157,7 +159,7 @@ class CommandLedger {
     ReplyBuilder reply;
     Payload data{};
     std::int8_t reported = motionlcm::gateway_reply_t::ACCEPTED;  // last progress reply sent
-    bool ended = false;                                            // its terminal reply went out
+    bool ended = false;                                           // its terminal reply went out
 
     [[nodiscard]] std::optional<std::size_t> slot(std::size_t node) const {
       const auto it = std::find(nodes.begin(), nodes.end(), node);
@@ -171,7 +173,9 @@ class CommandLedger {
     [[nodiscard]] bool all(Lifecycle state) const {
       return std::all_of(parts.begin(), parts.end(), [state](Lifecycle p) { return p == state; });
     }
-    [[nodiscard]] bool any(Lifecycle state) const { return std::find(parts.begin(), parts.end(), state) != parts.end(); }
+    [[nodiscard]] bool any(Lifecycle state) const {
+      return std::find(parts.begin(), parts.end(), state) != parts.end();
+    }
     [[nodiscard]] bool all_terminal() const { return std::all_of(parts.begin(), parts.end(), is_terminal); }
   };
 
@@ -287,7 +291,8 @@ class CommandLedger {
   }
   // A progress reply of its own (e.g. ACCEPTED); terminal statuses go through advance/finish.
   void progress(std::int64_t id, std::int8_t status) {
-    if (Entry* e = find(id); e && !e->ended && status != motionlcm::gateway_reply_t::DONE && status != motionlcm::gateway_reply_t::FAILED) {
+    if (Entry* e = find(id);
+        e && !e->ended && status != motionlcm::gateway_reply_t::DONE && status != motionlcm::gateway_reply_t::FAILED) {
       sink_(ReplyBuilder(e->reply.peek()).status(status).build());
     }
   }

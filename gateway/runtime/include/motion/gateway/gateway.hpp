@@ -50,8 +50,8 @@
 #include "motion/gateway/axis_limits.hpp"
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/lcm/health.hpp"
-#include "motion/lcm/node.hpp"
 #include "motion/lcm/malformed_limiter.hpp"
+#include "motion/lcm/node.hpp"
 #include "motion/security/gateway_commands.hpp"
 #include "motion/security/signed_messages.hpp"
 
@@ -67,11 +67,13 @@ struct AxisScale {
 
 // The drive model of an axis given what its driver read from the drive, or why there is none
 // (the gateway app installs motion::drive_model::build).
-using ModelBuilder = std::function<std::variant<motionlcm::drive_model_t, std::string>(const config::Axis& axis, const DriveFacts& facts)>;
+using ModelBuilder = std::function<std::variant<motionlcm::drive_model_t, std::string>(const config::Axis& axis,
+                                                                                       const DriveFacts& facts)>;
 
 class Gateway final : public GatewayOutput {
  public:
-  Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config, std::string bus);
+  Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config,
+          std::string bus);
   ~Gateway() override;
 
   // Installs the driver and starts it (the driver reports through *this).
@@ -86,7 +88,8 @@ class Gateway final : public GatewayOutput {
   // of the gateway's node (the one the coordinator signs for).
   void set_coordinator_key(const std::optional<security::PublicKey>& coordinator);
   // security.coordinator_public_key of `config` (none when not set), or what is wrong with it.
-  [[nodiscard]] static security::Loaded<std::optional<security::PublicKey>> load_coordinator_key(const config::Config& config);
+  [[nodiscard]] static security::Loaded<std::optional<security::PublicKey>> load_coordinator_key(
+      const config::Config& config);
 
   // Without a builder no DRIVE_MODEL is published (and the coordinator refuses moves of the bus).
   void set_model_builder(ModelBuilder builder) { model_builder_ = std::move(builder); }
@@ -113,8 +116,8 @@ class Gateway final : public GatewayOutput {
   // under enforce.
   void subscribe_coordinator_messages();
   template <typename Msg>
-  void on_signed_message(std::optional<security::MessageVerifier>& verifier, const motionlcm::signed_message_t& envelope,
-                         void (Gateway::*handler)(const Msg&));
+  void on_signed_message(std::optional<security::MessageVerifier>& verifier,
+                         const motionlcm::signed_message_t& envelope, void (Gateway::*handler)(const Msg&));
   void on_trigger(const motionlcm::sync_trigger_t& trigger);
   void on_trigger2(const motionlcm::sync_trigger2_t& trigger);
   // Fires the driver for `trigger_id` at `send_utime` (wall clock), or now when that has passed.
@@ -142,18 +145,18 @@ class Gateway final : public GatewayOutput {
   std::string bus_;
   std::map<std::string, const config::Axis*> axes_;  // axes of this bus
   std::unique_ptr<BusDriver> driver_;
-  std::map<std::string, std::string> unsupported_;  // drive name -> family
-  std::int64_t started_utime_ = 0;                   // wall clock when this process's gateway started
+  std::map<std::string, std::string> unsupported_;            // drive name -> family
+  std::int64_t started_utime_ = 0;                            // wall clock when this process's gateway started
   std::set<std::pair<std::string, std::int64_t>> inherited_;  // (client, request) already stopped
-  std::int64_t next_own_command_ = -1;               // ids of the gateway's own commands (negative)
+  std::int64_t next_own_command_ = -1;                        // ids of the gateway's own commands (negative)
   std::string waiting_;
-  double poll_hz_ = 0;                                // status rate of this bus's drives
-  std::map<std::string, CountLimits> limits_;         // axis -> its limits in counts
-  std::map<std::string, DriveStatus> last_status_;    // axis -> its last reported status
+  double poll_hz_ = 0;                              // status rate of this bus's drives
+  std::map<std::string, CountLimits> limits_;       // axis -> its limits in counts
+  std::map<std::string, DriveStatus> last_status_;  // axis -> its last reported status
   ModelBuilder model_builder_;
-  std::map<std::string, DriveFacts> facts_;            // axis -> what its driver read from the drive
+  std::map<std::string, DriveFacts> facts_;                 // axis -> what its driver read from the drive
   std::map<std::string, motionlcm::drive_model_t> models_;  // axis -> its model as last published
-  std::map<std::string, JogWatch> jogs_;              // axes jogging under watch
+  std::map<std::string, JogWatch> jogs_;                    // axes jogging under watch
   // axis -> the latest motion command not answered yet (JOG: its watch; ARM_MOVE/HOME: none):
   // it replaces the watch once the driver has it (a move: once STARTED), a FAILED reply leaves the
   // watch as it was. STOP/ESTOP/DISABLE end the watch at once.
@@ -162,17 +165,18 @@ class Gateway final : public GatewayOutput {
     std::optional<JogWatch> jog;
   };
   std::map<std::string, PendingMotion> pending_motion_;
-  std::map<std::string, std::string> position_lost_;     // axis -> why its position is not the machine's
+  std::map<std::string, std::string> position_lost_;              // axis -> why its position is not the machine's
   std::map<std::int64_t, std::vector<std::string>> referencing_;  // HOME/SET_POSITION command id -> its axes
-  std::map<std::int64_t, std::string> stopped_at_limit_;  // jog command id -> why the watch stopped it (before its reply)
-  motionlcm::active_moves_t last_moves_{};             // this bus's rows of the latest ACTIVE_MOVES
-  std::string coordinator_;                             // host:pid of the coordinator heard last
+  std::map<std::int64_t, std::string>
+      stopped_at_limit_;                    // jog command id -> why the watch stopped it (before its reply)
+  motionlcm::active_moves_t last_moves_{};  // this bus's rows of the latest ACTIVE_MOVES
+  std::string coordinator_;                 // host:pid of the coordinator heard last
   std::int64_t coordinator_seen_utime_ = 0;
   EventLoop::TimerId health_timer_ = 0;
   std::map<std::int64_t, std::unique_ptr<PreciseTimer>> pending_fires_;  // trigger id -> its timer, until it fires
-  std::deque<std::int64_t> scheduled_v2_;                     // recent trigger ids scheduled by SYNC_TRIGGER2
-  std::deque<std::int64_t> fired_;                            // recent trigger ids fired
-  bool enforce_ = false;                              // security.mode enforce
+  std::deque<std::int64_t> scheduled_v2_;  // recent trigger ids scheduled by SYNC_TRIGGER2
+  std::deque<std::int64_t> fired_;         // recent trigger ids fired
+  bool enforce_ = false;                   // security.mode enforce
   std::optional<security::GatewayCommandVerifier> verifier_;
   std::optional<security::MessageVerifier> trigger_verifier_;   // SSYNC_TRIGGER
   std::optional<security::MessageVerifier> trigger2_verifier_;  // SSYNC_TRIGGER2

@@ -29,7 +29,8 @@ class PowerUpWatch {
   // A sample of the drive's counter and speed (counts/s) at `now`; `switched_off`: its power
   // stage went off without a command of the driver's. Why it shows a power-up, or nothing. The
   // sample becomes the one the next is compared with (after a power-up: none).
-  [[nodiscard]] std::optional<std::string> sample(std::int64_t counter, double speed, TimePoint now, bool switched_off) {
+  [[nodiscard]] std::optional<std::string> sample(std::int64_t counter, double speed, TimePoint now,
+                                                  bool switched_off) {
     std::optional<std::string> why;
     if (last_ && *last_ != 0 && counter == 0 && speed == 0) {
       const double dt = std::chrono::duration<double>(now - last_at_).count();
@@ -39,8 +40,8 @@ class PowerUpWatch {
       const bool jumped = std::abs(static_cast<double>(*last_)) > reach;
       // Switched off at rest, exactly at 0, from a counter beyond the slack: not a stop of ours.
       if (jumped || (switched_off && std::abs(static_cast<double>(*last_)) > kSlackCounts)) {
-        why = fmt::format("answers as freshly powered up: position counter {} -> 0 at rest within {:.0f} ms{}", *last_, dt * 1000.0,
-                          switched_off ? ", power stage off" : "");
+        why = fmt::format("answers as freshly powered up: position counter {} -> 0 at rest within {:.0f} ms{}", *last_,
+                          dt * 1000.0, switched_off ? ", power stage off" : "");
       }
     }
     if (why) {

@@ -34,7 +34,8 @@ class TxEchoTracker {
   // A received frame: true when it is the echo of one of ours (frames sent before it that never
   // came back are forgotten). `started` gets (command id, echo time in us) of every command whose
   // last marked start frame this echo completes; the time is the earliest echo of its frames.
-  bool on_receive(const can::Frame& frame, std::int64_t now_us, std::vector<std::pair<std::int64_t, std::int64_t>>& started);
+  bool on_receive(const can::Frame& frame, std::int64_t now_us,
+                  std::vector<std::pair<std::int64_t, std::int64_t>>& started);
 
   // Echoes have been seen: a STARTED reply may wait for one.
   [[nodiscard]] bool working() const { return echoes_ > 0 && !disabled_; }
@@ -50,7 +51,7 @@ class TxEchoTracker {
     std::vector<std::int64_t> starts;  // commands this frame starts
   };
   struct Start {
-    int frames = 0;                    // marked frames not yet echoed
+    int frames = 0;  // marked frames not yet echoed
     std::int64_t first_echo_us = 0;
   };
   std::deque<Entry> entries_;

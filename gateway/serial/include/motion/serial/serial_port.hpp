@@ -34,7 +34,8 @@ struct SerialSettings {
   [[nodiscard]] int bits_per_character() const { return 1 + data_bits + (parity == Parity::none ? 0 : 1) + stop_bits; }
   // Time `bytes` characters take on the wire at this baud rate.
   [[nodiscard]] std::chrono::nanoseconds wire_time(std::size_t bytes) const {
-    return std::chrono::nanoseconds(static_cast<std::int64_t>(bytes) * bits_per_character() * 1'000'000'000LL / std::max(baud, 1));
+    return std::chrono::nanoseconds(static_cast<std::int64_t>(bytes) * bits_per_character() * 1'000'000'000LL /
+                                    std::max(baud, 1));
   }
 };
 

@@ -44,7 +44,7 @@ struct NodeSettings {
   std::optional<std::uint16_t> subdivision_code;  // 2006h value to write
   std::optional<std::uint16_t> run_current;       // 2005h value to write (0.1 A)
   TpdoMode tpdo_mode = TpdoMode::kSync;
-  std::uint16_t heartbeat_ms = 0;                  // 1017h; 0 = heartbeat off (no loss detection)
+  std::uint16_t heartbeat_ms = 0;  // 1017h; 0 = heartbeat off (no loss detection)
   RpdoSyncAnswer rpdo_sync = RpdoSyncAnswer::kDetect;
 
   Duration sdo_timeout = std::chrono::milliseconds(50);

@@ -51,7 +51,7 @@ struct Tpdo1 {
   std::int8_t mode_display = 0;
 };
 struct Tpdo2 {
-  std::int32_t position = 0;  // 6064h pulses
+  std::int32_t position = 0;      // 6064h pulses
   std::int32_t velocity_rpm = 0;  // 606Ch
 };
 [[nodiscard]] canopen::PdoMapping tpdo1_mapping();

@@ -73,8 +73,8 @@ namespace motion::uc57_driver {
 class Uc57Stack final : public gateway::CanStack {
  public:
   struct Options {
-    Duration retry_initial = std::chrono::milliseconds(500);  // first re-probe of a silent node
-    Duration retry_max = std::chrono::seconds(10);            // back-off ceiling
+    Duration retry_initial = std::chrono::milliseconds(500);          // first re-probe of a silent node
+    Duration retry_max = std::chrono::seconds(10);                    // back-off ceiling
     Duration state_switch_timeout = std::chrono::milliseconds(1000);  // per CiA 402 transition
     Duration set_point_timeout = std::chrono::milliseconds(500);      // bit 12 handshake waits
     Duration stop_timeout = std::chrono::seconds(5);                  // halt / quick stop to standstill
@@ -85,10 +85,10 @@ class Uc57Stack final : public gateway::CanStack {
   };
 
   struct Counters {
-    std::int64_t sdo_timeouts = 0;  // transfers that failed after every retry
-    std::int64_t sdo_retries = 0;   // attempts repeated after a timeout
-    std::int64_t sdo_aborts = 0;    // transfers the drive aborted
-    std::int64_t emcy = 0;          // EMCY frames received (error resets included)
+    std::int64_t sdo_timeouts = 0;     // transfers that failed after every retry
+    std::int64_t sdo_retries = 0;      // attempts repeated after a timeout
+    std::int64_t sdo_aborts = 0;       // transfers the drive aborted
+    std::int64_t emcy = 0;             // EMCY frames received (error resets included)
     std::int64_t protocol_errors = 0;  // malformed PDOs, refused sends
   };
 
@@ -160,7 +160,7 @@ class Uc57Stack final : public gateway::CanStack {
   struct StartFacts {
     std::string mechanism;  // "sync": one SYNC; "rpdo": each node's RPDO1, back to back
     double skew_us = 0;
-    can::Frame frame;       // the command's first start frame
+    can::Frame frame;  // the command's first start frame
   };
   [[nodiscard]] StartFacts start_facts(const Job& job) const;
   // The bus budget of the synchronous TPDOs (fit_sync_period) and its warning.
@@ -173,7 +173,8 @@ class Uc57Stack final : public gateway::CanStack {
   void sdo_write(std::size_t n, canopen::ObjectAddress object, std::vector<std::uint8_t> data, SdoDone done,
                  unsigned attempt = 0);
   void count_sdo_result(std::error_code error);
-  [[nodiscard]] std::string sdo_failure(std::size_t n, bool write, canopen::ObjectAddress object, std::error_code error) const;
+  [[nodiscard]] std::string sdo_failure(std::size_t n, bool write, canopen::ObjectAddress object,
+                                        std::error_code error) const;
   // Runs writes in order; `done` gets the first failure's text.
   void sdo_write_all(std::size_t n, std::vector<std::pair<canopen::ObjectAddress, std::vector<std::uint8_t>>> writes,
                      Continue done);
@@ -212,10 +213,11 @@ class Uc57Stack final : public gateway::CanStack {
   void start_jog(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now);
   void start_home(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint now);
   void start_halt(std::size_t n, Job& job, bool idle, TimePoint now);  // idle: at_rest() before the STOP
-  [[nodiscard]] bool at_rest(std::size_t n);  // no task, nothing queued, the motor not running
+  [[nodiscard]] bool at_rest(std::size_t n);                           // no task, nothing queued, the motor not running
   // A reason (reply code, text) why `command` can never run for `axis` on node n, checked before
   // any part of the command starts.
-  [[nodiscard]] std::optional<std::pair<std::int32_t, std::string>> refuse(std::size_t n, const motionlcm::gateway_command_t& command,
+  [[nodiscard]] std::optional<std::pair<std::int32_t, std::string>> refuse(std::size_t n,
+                                                                           const motionlcm::gateway_command_t& command,
                                                                            const motionlcm::axis_command_t& axis) const;
   void start_quick_stop(std::size_t n, Job& job, TimePoint now);
   void start_outputs(std::size_t n, Job& job, const motionlcm::axis_command_t& axis);

@@ -41,10 +41,10 @@ enum class CodecErrc {
   bad_header,              // decode: frame does not start with AA, CC or EE
   bad_terminator,          // decode: frame does not end with FF or FE
   frame_too_short,
-  frame_too_long,          // framer: more than kMaxFrameBytes without a terminator
-  not_seven_bit,           // decode: a data byte with bit 7 set
-  wrong_length,            // decode: data length does not fit the expected layout
-  unexpected_frame,        // decode: header/message id is not the expected reply
+  frame_too_long,    // framer: more than kMaxFrameBytes without a terminator
+  not_seven_bit,     // decode: a data byte with bit 7 set
+  wrong_length,      // decode: data length does not fit the expected layout
+  unexpected_frame,  // decode: header/message id is not the expected reply
 };
 
 [[nodiscard]] const std::error_category& codec_category() noexcept;  // name() == "uim242-codec"

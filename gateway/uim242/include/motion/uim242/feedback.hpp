@@ -39,15 +39,15 @@ inline constexpr std::uint8_t kMoreFrames = 0xFE;  // terminator: more frames fo
 // Message ids of the Instruction Set Summary and EN/CN §4.1, §12.3. Replies and RTCNs share numbers
 // across headers.
 namespace message {
-inline constexpr std::uint8_t kEnableTimer = 0xA0;     // AA: ENA η
-inline constexpr std::uint8_t kGlobalAck = 0xAD;       // AA/CC: global g... (QTY in the id byte)
-inline constexpr std::uint8_t kMcf = 0xB0;             // AA: MCF; CC: ORG (CN)
+inline constexpr std::uint8_t kEnableTimer = 0xA0;  // AA: ENA η
+inline constexpr std::uint8_t kGlobalAck = 0xAD;    // AA/CC: global g... (QTY in the id byte)
+inline constexpr std::uint8_t kMcf = 0xB0;          // AA: MCF; CC: ORG (CN)
 inline constexpr std::uint8_t kOrgCn = 0xB0;
-inline constexpr std::uint8_t kMac = 0xB1;             // AA: MAC; CC: QEC;
+inline constexpr std::uint8_t kMac = 0xB1;  // AA: MAC; CC: QEC;
 inline constexpr std::uint8_t kEncoderPosition = 0xB1;
-inline constexpr std::uint8_t kMde = 0xB2;             // AA: MDE; CC: SPD;
+inline constexpr std::uint8_t kMde = 0xB2;  // AA: MDE; CC: SPD;
 inline constexpr std::uint8_t kCurrentSpeed = 0xB2;
-inline constexpr std::uint8_t kMms = 0xB3;             // AA: MMS; CC: STP;
+inline constexpr std::uint8_t kMms = 0xB3;  // AA: MMS; CC: STP;
 inline constexpr std::uint8_t kCurrentDisplacement = 0xB3;
 inline constexpr std::uint8_t kMmd = 0xB4;
 inline constexpr std::uint8_t kSpeed = 0xB5;
@@ -58,32 +58,33 @@ inline constexpr std::uint8_t kAcrRatio = 0xBA;
 inline constexpr std::uint8_t kBitRate = 0xBC;
 inline constexpr std::uint8_t kBaud = 0xBD;
 inline constexpr std::uint8_t kScf = 0xC0;
-inline constexpr std::uint8_t kDou = 0xC1;             // AA: DOU; CC: SFB
+inline constexpr std::uint8_t kDou = 0xC1;  // AA: DOU; CC: SFB
 inline constexpr std::uint8_t kSensors = 0xC1;
 inline constexpr std::uint8_t kQer = 0xC2;
 inline constexpr std::uint8_t kStg = 0xC9;
-inline constexpr std::uint8_t kSelect = 0xD0;          // AA: ADR; CC: gREG
+inline constexpr std::uint8_t kSelect = 0xD0;  // AA: ADR; CC: gREG
 inline constexpr std::uint8_t kRegister = 0xD0;
 inline constexpr std::uint8_t kSto = 0xD1;
 inline constexpr std::uint8_t kIcf = 0xDA;
 inline constexpr std::uint8_t kSetId = 0xDD;
-inline constexpr std::uint8_t kBlc = 0xDE;             // AA: BLC; CC: MDL
+inline constexpr std::uint8_t kBlc = 0xDE;  // AA: BLC; CC: MDL
 inline constexpr std::uint8_t kModel = 0xDE;
-inline constexpr std::uint8_t kGreeting = 0xAB;        // AA AB AC ... (EXT-2501)
-inline constexpr std::uint8_t kDefaultStall = 0xAA;    // not in the manuals (stall id undocumented): our choice
+inline constexpr std::uint8_t kGreeting = 0xAB;      // AA AB AC ... (EXT-2501)
+inline constexpr std::uint8_t kDefaultStall = 0xAA;  // not in the manuals (stall id undocumented): our choice
 }  // namespace message
 
 // A frame as split from the stream.
 struct Frame {
   Header header = Header::ack;
-  std::uint8_t node = 0;                    // controller id; QTY for global ACK / gREG; 0 for `EE code FF`
-  std::optional<std::uint8_t> message_id;   // none: basic ACK, FBK status, error
-  std::vector<std::uint8_t> data;           // between message id (or id) and terminator
-  bool more_follows = false;                // FE terminator
+  std::uint8_t node = 0;                   // controller id; QTY for global ACK / gREG; 0 for `EE code FF`
+  std::optional<std::uint8_t> message_id;  // none: basic ACK, FBK status, error
+  std::vector<std::uint8_t> data;          // between message id (or id) and terminator
+  bool more_follows = false;               // FE terminator
   friend bool operator==(const Frame&, const Frame&) = default;
 };
 
-inline constexpr std::size_t kMaxFrameBytes = 16;  // not in the manuals (13 bytes at most documented, §12.2): cap, then resync
+inline constexpr std::size_t kMaxFrameBytes =
+    16;  // not in the manuals (13 bytes at most documented, §12.2): cap, then resync
 
 // One complete frame (header .. terminator).
 [[nodiscard]] Result<Frame> parse_frame(std::span<const std::uint8_t> bytes);
@@ -92,18 +93,21 @@ inline constexpr std::size_t kMaxFrameBytes = 16;  // not in the manuals (13 byt
 // ---- Data layouts ------------------------------------------------------------------------------
 
 enum class Layout : std::uint8_t {
-  none,       // STO, ADR, SET, global ACKs, plain RTCN
-  status,     // ASB CUR s16 s32 (basic ACK, FBK)
-  byte,       // b (ACR ratio, DOU level)
-  u16, s16, u32, s32,
-  flag_u32,   // b + u32 (MAC/MDE: b = AM/DM)
-  flag_s32,   // b + s32 (CN A8 RTCN: closed-loop flag + position)
-  scf,        // u32 (S34CON:S12CON) u12 (ATCONL) u12 (ATCONH)
-  sensors,    // b b b u12 (S1 S2 S3 logic, analog)
-  stg,        // u16 u16 u16 (S1 S2 S3 intervals)
-  model,      // 18 02 b (max current x10) b (modules) u16 (firmware)
-  id_list,    // 8 raw ids (gREG)
-  raw,        // greeting: bytes as they are
+  none,    // STO, ADR, SET, global ACKs, plain RTCN
+  status,  // ASB CUR s16 s32 (basic ACK, FBK)
+  byte,    // b (ACR ratio, DOU level)
+  u16,
+  s16,
+  u32,
+  s32,
+  flag_u32,  // b + u32 (MAC/MDE: b = AM/DM)
+  flag_s32,  // b + s32 (CN A8 RTCN: closed-loop flag + position)
+  scf,       // u32 (S34CON:S12CON) u12 (ATCONL) u12 (ATCONH)
+  sensors,   // b b b u12 (S1 S2 S3 logic, analog)
+  stg,       // u16 u16 u16 (S1 S2 S3 intervals)
+  model,     // 18 02 b (max current x10) b (modules) u16 (firmware)
+  id_list,   // 8 raw ids (gREG)
+  raw,       // greeting: bytes as they are
 };
 [[nodiscard]] std::size_t data_length(Layout layout) noexcept;  // 0 for raw
 
@@ -121,9 +125,9 @@ struct Status {
   bool enabled = false;
   bool positive_direction = true;
   std::uint8_t micro_steps = 16;
-  std::uint8_t current_tenths = 0;   // CUR, 0.1 A
-  std::int16_t speed = 0;            // desired (ACK) or actual (FBK), pps
-  std::int32_t displacement = 0;     // desired STP (ACK) or displacement counter (FBK)
+  std::uint8_t current_tenths = 0;  // CUR, 0.1 A
+  std::int16_t speed = 0;           // desired (ACK) or actual (FBK), pps
+  std::int32_t displacement = 0;    // desired STP (ACK) or displacement counter (FBK)
   friend bool operator==(const Status&, const Status&) = default;
 };
 [[nodiscard]] Result<Status> decode_status(const Frame& frame);
@@ -139,7 +143,7 @@ struct ReplyForm {
   Header header = Header::ack;
   std::optional<std::uint8_t> message_id;  // none: basic status
   Layout layout = Layout::none;
-  bool node_is_quantity = false;           // global ACK / gREG: the id byte is a count
+  bool node_is_quantity = false;  // global ACK / gREG: the id byte is a count
 };
 [[nodiscard]] ReplyForm reply_form(const Instruction& instruction, OrgReplyStyle org = OrgReplyStyle::cn) noexcept;
 // True when `frame` is the reply to `sent` (either ORG style).
@@ -149,7 +153,7 @@ struct ReplyForm {
 
 // Error frames. nullopt when the frame is not an error frame.
 struct ErrorReply {
-  std::error_code code;            // category "uim242" (unknown codes keep their number)
+  std::error_code code;  // category "uim242" (unknown codes keep their number)
   std::optional<std::uint8_t> node;
 };
 [[nodiscard]] std::optional<ErrorReply> as_error(const Frame& frame) noexcept;
@@ -158,20 +162,27 @@ struct ErrorReply {
 // ---- Real-time change notifications (EN/CN §4.0-§4.2, Table 4-1) -------------------------------
 
 enum class Event : std::uint8_t {
-  s1_falling = 0xA0, s1_rising = 0xA1, s2_falling = 0xA2, s2_rising = 0xA3,
-  s3_falling = 0xA4, s3_rising = 0xA5, p4_high_to_low = 0xA6, p4_low_to_high = 0xA7,
-  displacement_complete = 0xA8, position_zero = 0xA9,
+  s1_falling = 0xA0,
+  s1_rising = 0xA1,
+  s2_falling = 0xA2,
+  s2_rising = 0xA3,
+  s3_falling = 0xA4,
+  s3_rising = 0xA5,
+  p4_high_to_low = 0xA6,
+  p4_low_to_high = 0xA7,
+  displacement_complete = 0xA8,
+  position_zero = 0xA9,
   stall = 0x00,  // its message id is a parameter (undocumented in EN/CN §5.4)
 };
 struct Notification {
   std::uint8_t node = 0;
   Event event = Event::s1_falling;
-  std::optional<bool> closed_loop;     // CN A8 only
+  std::optional<bool> closed_loop;  // CN A8 only
   std::optional<std::int32_t> position;
   friend bool operator==(const Notification&, const Notification&) = default;
 };
-[[nodiscard]] std::optional<Notification> as_notification(const Frame& frame,
-                                                          std::uint8_t stall_message_id = message::kDefaultStall) noexcept;
+[[nodiscard]] std::optional<Notification> as_notification(
+    const Frame& frame, std::uint8_t stall_message_id = message::kDefaultStall) noexcept;
 [[nodiscard]] Frame make_notification(const Notification& n, std::uint8_t stall_message_id = message::kDefaultStall);
 
 // ---- Gateway frames (EXT-2501) ------------------------------------------------------------------

@@ -42,8 +42,31 @@ namespace motion::uim242 {
 enum class Mnemonic : std::uint8_t {
   Null,  // `;` alone: query desired status (#1), also the macro's trailing ACK
   // Controller instructions, EN/CN §12.3 (alphabetical).
-  ACR, BLC, CUR, DOU, ENA, FBK, ICF, MAC, MCF, MCS, MDE, MDL, MMD, MMS, OFF, ORG, QEC, QER, SCF,
-  SFB, SPD, SQT, STG, STO, STP,
+  ACR,
+  BLC,
+  CUR,
+  DOU,
+  ENA,
+  FBK,
+  ICF,
+  MAC,
+  MCF,
+  MCS,
+  MDE,
+  MDL,
+  MMD,
+  MMS,
+  OFF,
+  ORG,
+  QEC,
+  QER,
+  SCF,
+  SFB,
+  SPD,
+  SQT,
+  STG,
+  STO,
+  STP,
   // Gateway instructions (Summary "network"; EXT-2501 §2-§3).
   ADR,  // select the target controller (sticky)
   SET,  // burn a node id into the single connected controller
@@ -58,15 +81,15 @@ enum class Target : std::uint8_t { controller, gateway };
 
 struct InstructionSpec {
   Mnemonic mnemonic;
-  std::string_view text;        // three letters
+  std::string_view text;  // three letters
   Target target;
-  bool bare_form;               // `INS;` exists (a query or a value-less action)
-  bool decimal_form;            // `INS η;` exists
-  bool is_signed;               // the sign gives a direction
-  std::int64_t min;             // decimal range, inclusive
+  bool bare_form;     // `INS;` exists (a query or a value-less action)
+  bool decimal_form;  // `INS η;` exists
+  bool is_signed;     // the sign gives a direction
+  std::int64_t min;   // decimal range, inclusive
   std::int64_t max;
-  std::uint8_t hex_bytes;       // `INSx ...;` byte count, 0 = no hex form
-  bool global_form;             // `gINS...;` exists
+  std::uint8_t hex_bytes;  // `INSx ...;` byte count, 0 = no hex form
+  bool global_form;        // `gINS...;` exists
   std::string_view meaning;
 };
 
@@ -78,9 +101,9 @@ struct InstructionSpec {
 
 struct Instruction {
   Mnemonic mnemonic = Mnemonic::Null;
-  bool global = false;                 // g... form: the gateway broadcasts it
-  std::optional<std::int64_t> value;   // none: the bare `INS;` form
-  bool hex = false;                    // value written as hex bytes, low byte first
+  bool global = false;                // g... form: the gateway broadcasts it
+  std::optional<std::int64_t> value;  // none: the bare `INS;` form
+  bool hex = false;                   // value written as hex bytes, low byte first
   friend bool operator==(const Instruction&, const Instruction&) = default;
 };
 

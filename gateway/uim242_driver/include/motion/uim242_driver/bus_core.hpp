@@ -140,7 +140,8 @@ class Uim242BusCore final : public gateway::SerialLineCore {
   // ---- commands
   Drive* drive_of_axis(const std::string& axis);
   [[nodiscard]] std::size_t index_of(const Drive& d) const;  // the drive's part key
-  bool for_each_axis(const motionlcm::gateway_command_t& command, const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f);
+  bool for_each_axis(const motionlcm::gateway_command_t& command,
+                     const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f);
   void arm(const motionlcm::gateway_command_t& command, TimePoint now);
   void start_move(Move& m, TimePoint now);
   void move_axis_arrived(Drive& d, TimePoint now);

@@ -93,7 +93,7 @@ class RequestChannel {
   ChannelSettings settings_;
   std::deque<Request> queue_;
   std::optional<InFlight> in_flight_;
-  int selected_ = 0;  // the gateway's current target; 0 = unknown
+  int selected_ = 0;        // the gateway's current target; 0 = unknown
   TimePoint hold_until_{};  // nothing is sent before (the pause after an STO)
   TimePoint reserved_at_ = kNever;
   ChannelStatistics stats_;

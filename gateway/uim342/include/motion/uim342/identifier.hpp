@@ -14,11 +14,11 @@
 
 namespace motion::uim342 {
 
-inline constexpr std::uint8_t kGlobalId = 0;    // every drive accepts it (§1.1)
-inline constexpr std::uint8_t kMasterId = 4;    // producer ID the host must use (§2.5)
-inline constexpr std::uint8_t kMinNodeId = 5;   // node and group IDs: 5..126 (PP table §5.1)
+inline constexpr std::uint8_t kGlobalId = 0;   // every drive accepts it (§1.1)
+inline constexpr std::uint8_t kMasterId = 4;   // producer ID the host must use (§2.5)
+inline constexpr std::uint8_t kMinNodeId = 5;  // node and group IDs: 5..126 (PP table §5.1)
 inline constexpr std::uint8_t kMaxNodeId = 126;
-inline constexpr std::uint8_t kMaxId = 127;     // largest value the 7-bit fields can carry
+inline constexpr std::uint8_t kMaxId = 127;  // largest value the 7-bit fields can carry
 
 // What an ID value can denote. Node and group IDs share one range, so the value alone cannot
 // tell them apart (PP[7] / PP[8] decide which a drive uses).
@@ -72,8 +72,8 @@ inline constexpr std::uint32_t kReservedMask = (1u << 18) | 0x3F00u;
   if (f.producer > kMaxId || f.consumer > kMaxId) return CodecErrc::id_out_of_range;
   const std::uint32_t p = f.producer;
   const std::uint32_t c = f.consumer;
-  return ((p & detail::kLowIdMask) << 24) | ((c & detail::kLowIdMask) << 19) |
-         ((p & detail::kHighIdMask) << 11) | ((c & detail::kHighIdMask) << 9) | f.control_word;
+  return ((p & detail::kLowIdMask) << 24) | ((c & detail::kLowIdMask) << 19) | ((p & detail::kHighIdMask) << 11) |
+         ((c & detail::kHighIdMask) << 9) | f.control_word;
 }
 
 // Fails on identifiers above 29 bits and on set reserved bits (18, 13..8): such a frame is not

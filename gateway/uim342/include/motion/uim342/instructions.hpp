@@ -39,10 +39,35 @@ namespace motion::uim342 {
 
 // CW bits 6..0 (manual "Instruction Set Summary" and §5 headers).
 enum class FunctionCode : std::uint8_t {
-  PP = 0x01, IC = 0x06, IE = 0x07, ML = 0x0B, SN = 0x0C, ER = 0x0F, MT = 0x10, MS = 0x11,
-  MO = 0x15, BG = 0x16, ST = 0x17, MF = 0x18, AC = 0x19, DC = 0x1A, SS = 0x1B, SD = 0x1C,
-  JV = 0x1D, SP = 0x1E, PR = 0x1F, PA = 0x20, OG = 0x21, BL = 0x2D, DV = 0x2E, IL = 0x34,
-  TG = 0x35, DI = 0x37, QE = 0x3D, RT = 0x5A, SY = 0x7E,
+  PP = 0x01,
+  IC = 0x06,
+  IE = 0x07,
+  ML = 0x0B,
+  SN = 0x0C,
+  ER = 0x0F,
+  MT = 0x10,
+  MS = 0x11,
+  MO = 0x15,
+  BG = 0x16,
+  ST = 0x17,
+  MF = 0x18,
+  AC = 0x19,
+  DC = 0x1A,
+  SS = 0x1B,
+  SD = 0x1C,
+  JV = 0x1D,
+  SP = 0x1E,
+  PR = 0x1F,
+  PA = 0x20,
+  OG = 0x21,
+  BL = 0x2D,
+  DV = 0x2E,
+  IL = 0x34,
+  TG = 0x35,
+  DI = 0x37,
+  QE = 0x3D,
+  RT = 0x5A,
+  SY = 0x7E,
 };
 [[nodiscard]] constexpr std::uint8_t code(FunctionCode f) noexcept { return static_cast<std::uint8_t>(f); }
 [[nodiscard]] constexpr std::uint8_t control_word(FunctionCode f, bool ack_requested) noexcept {
@@ -58,32 +83,37 @@ enum class BitRate : std::uint8_t { kbps_1000 = 0, kbps_800 = 1, kbps_500 = 2, k
 [[nodiscard]] std::optional<std::uint32_t> bits_per_second(BitRate rate) noexcept;
 
 enum class InitialConfig : std::uint8_t {  // IC §5.2; every value is 0/1
-  auto_driver_on = 0,        // 1 = switch the driver on after power-up
-  positive_direction = 1,    // 0 = CW, 1 = CCW (factory default)
+  auto_driver_on = 0,                      // 1 = switch the driver on after power-up
+  positive_direction = 1,                  // 0 = CW, 1 = CCW (factory default)
   run_user_program = 2,
-  lock_on_input_estop = 3,   // lock the system when an input-logic E-stop fires
-  acceleration_unit = 4,     // AccelerationUnit
-  encoder_type = 5,          // 0 = incremental, 1 = absolute
-  closed_loop = 6,           // 0 = open loop, 1 = closed loop
+  lock_on_input_estop = 3,  // lock the system when an input-logic E-stop fires
+  acceleration_unit = 4,    // AccelerationUnit
+  encoder_type = 5,         // 0 = incremental, 1 = absolute
+  closed_loop = 6,          // 0 = open loop, 1 = closed loop
   software_limits = 7,
 };
 enum class AccelerationUnit : std::uint8_t { pulses_per_s2 = 0, milliseconds = 1 };  // IC[4]
 
-enum class InformationEnable : std::uint8_t { in1_change = 0, in2_change = 1, in3_change = 2, position_reached = 8 };  // IE §5.3
+enum class InformationEnable : std::uint8_t {
+  in1_change = 0,
+  in2_change = 1,
+  in3_change = 2,
+  position_reached = 8
+};  // IE §5.3
 
 enum class QuadratureEncoder : std::uint8_t {  // QE §5.7
-  lines_per_revolution = 0,      // 1..65535
-  stall_tolerance = 1,           // 10..65535 counts
-  absolute_resolution_bits = 2,  // 17 or 20
-  battery_status = 3,            // 1 = OK, 0 = low
-  counts_per_revolution = 4,     // 200..25600 (micro-steps x 200)
+  lines_per_revolution = 0,                    // 1..65535
+  stall_tolerance = 1,                         // 10..65535 counts
+  absolute_resolution_bits = 2,                // 17 or 20
+  battery_status = 3,                          // 1 = OK, 0 = low
+  counts_per_revolution = 4,                   // 200..25600 (micro-steps x 200)
 };
 
 enum class MotorDriver : std::uint8_t {  // MT §5.9
-  microstepping = 0,         // 1, 2, 4, 8, 16, 32, 64
-  working_current = 1,       // 5..80 (0.1 A)
-  idle_current_percent = 2,  // 0..100
-  auto_enable_delay_ms = 3,  // 0..60000
+  microstepping = 0,                     // 1, 2, 4, 8, 16, 32, 64
+  working_current = 1,                   // 5..80 (0.1 A)
+  idle_current_percent = 2,              // 0..100
+  auto_enable_delay_ms = 3,              // 0..60000
 };
 
 enum class SystemOperation : std::uint8_t { reboot = 1, restore_factory_defaults = 2 };  // SY §5.8
@@ -95,22 +125,32 @@ inline constexpr std::uint8_t kErrorSlotHistoryFirst = 10;
 inline constexpr std::uint8_t kErrorSlotHistoryLast = 18;
 
 enum class ParameterGroup : std::uint8_t {  // MF §5.13: group = 2 + 2*port (+1 falling)
-  normal = 0, reserved = 1, in1_rising = 2, in1_falling = 3, in2_rising = 4, in2_falling = 5,
-  in3_rising = 6, in3_falling = 7,
+  normal = 0,
+  reserved = 1,
+  in1_rising = 2,
+  in1_falling = 3,
+  in2_rising = 4,
+  in2_falling = 5,
+  in3_rising = 6,
+  in3_falling = 7,
 };
 
 enum class MotionStatusIndex : std::uint8_t { status = 0, kinematics = 1 };  // MS §5.24
-enum class DesiredValue : std::uint8_t {  // DV §5.25
-  motion_mode = 0, motor_current = 1, speed = 2, relative_position = 3, absolute_position = 4,
+enum class DesiredValue : std::uint8_t {                                     // DV §5.25
+  motion_mode = 0,
+  motor_current = 1,
+  speed = 2,
+  relative_position = 3,
+  absolute_position = 4,
 };
 enum class MotionMode : std::uint8_t { jog = 0, ptp = 1 };
 
 enum class InputPort : std::uint8_t { in1 = 0, in2 = 1, in3 = 2 };  // IL[0..2], TG[0..2], IE[0..2]
-inline constexpr std::uint8_t kInputLogicStallBehaviour = 16;      // IL[16] (§1.5); manual table: 3
+inline constexpr std::uint8_t kInputLogicStallBehaviour = 16;       // IL[16] (§1.5); manual table: 3
 inline constexpr std::uint8_t kInputLogicStallBehaviourAlias = 3;
 enum class StallBehaviour : std::uint8_t { stop_and_hold = 0, driver_off = 1 };
 
-inline constexpr std::uint16_t kTriggerContinuous = 0;     // TG: 1..60000 = low-pass filter ms
+inline constexpr std::uint16_t kTriggerContinuous = 0;  // TG: 1..60000 = low-pass filter ms
 inline constexpr std::uint16_t kTriggerMaxFilterMs = 60000;
 inline constexpr std::uint16_t kTriggerOneTime = 60001;
 
@@ -118,8 +158,8 @@ inline constexpr std::uint16_t kTriggerOneTime = 60001;
 enum class InputAction : std::uint8_t {
   none = 0x00,
   driver_off = 0x01,
-  emergency_stop = 0x02,                  // SD
-  decelerate_stop = 0x03,                 // DC
+  emergency_stop = 0x02,   // SD
+  decelerate_stop = 0x03,  // DC
   origin_then_reverse_relative = 0x04,
   origin_then_emergency_stop = 0x05,
   origin_then_decelerate_stop = 0x06,
@@ -145,7 +185,13 @@ struct EdgeAction {
 
 // MS[0] d1 (status byte A) and d2 (status byte B), manual §3.7.
 enum class IoStatusBit : std::uint8_t { driver_on = 0x04, in1 = 0x08, in2 = 0x10, in3 = 0x20, op1 = 0x40 };
-enum class StatusFlag : std::uint8_t { stopped = 0x01, in_position = 0x02, stalled = 0x08, locked = 0x20, error = 0x80 };
+enum class StatusFlag : std::uint8_t {
+  stopped = 0x01,
+  in_position = 0x02,
+  stalled = 0x08,
+  locked = 0x20,
+  error = 0x80
+};
 
 // ---- Bodies: one type per wire layout ---------------------------------------------------------
 
@@ -202,7 +248,7 @@ struct DigitalIo {  // DI reply: d0 bit0..2 = IN1..IN3, d1 bit0 = OP1
   friend bool operator==(const DigitalIo&, const DigitalIo&) = default;
 };
 enum class Model : std::uint8_t { unknown, uim342xs, uim342s, uim342c02, uim342c04, uim342c08, uim342h08 };
-struct ModelInfo {  // ML reply, §5.4
+struct ModelInfo {                            // ML reply, §5.4
   std::array<std::uint8_t, 4> model_bytes{};  // d0..d3 (d3 factory use)
   std::uint16_t firmware = 0;                 // [d5:d4]
   std::uint16_t factory = 0;                  // [d7:d6], factory use
@@ -215,17 +261,19 @@ struct SerialNumber {  // SN reply, §5.5
   std::uint16_t vendor = 0;
   friend bool operator==(const SerialNumber&, const SerialNumber&) = default;
 };
-struct ErrorRecord {  // ER reply and error report (CW 0x0F, DL 6), §2.3 / §5.6
-  std::uint8_t index = 0;         // d0: ER slot (0 in spontaneous error reports)
-  std::uint8_t code = 0;          // d1: DriveErrc value, 0 = empty slot
-  std::uint8_t control_word = 0;  // d2: CW of the rejected instruction as received (bit 7 may be set)
-  std::uint8_t sub_index = 0;     // d3
+struct ErrorRecord {                      // ER reply and error report (CW 0x0F, DL 6), §2.3 / §5.6
+  std::uint8_t index = 0;                 // d0: ER slot (0 in spontaneous error reports)
+  std::uint8_t code = 0;                  // d1: DriveErrc value, 0 = empty slot
+  std::uint8_t control_word = 0;          // d2: CW of the rejected instruction as received (bit 7 may be set)
+  std::uint8_t sub_index = 0;             // d3
   std::array<std::uint8_t, 2> factory{};  // d4, d5: factory use
   [[nodiscard]] std::error_code error() const { return {code, drive_category()}; }
-  [[nodiscard]] FunctionCode failed_function() const { return static_cast<FunctionCode>(control_word & kFunctionCodeMask); }
+  [[nodiscard]] FunctionCode failed_function() const {
+    return static_cast<FunctionCode>(control_word & kFunctionCodeMask);
+  }
   friend bool operator==(const ErrorRecord&, const ErrorRecord&) = default;
 };
-struct MotionStatus {  // MS[0] reply: d1 status A, d2 status B, [d7..d4] relative position
+struct MotionStatus {          // MS[0] reply: d1 status A, d2 status B, [d7..d4] relative position
   std::uint8_t io_status = 0;  // d1: mode (bits 1:0) + IoStatusBit
   std::uint8_t flags = 0;      // d2: StatusFlag
   std::int32_t relative_position = 0;
@@ -240,9 +288,9 @@ struct MotionKinematics {  // MS[1] reply: [d3..d1] speed (s24), [d7..d4] absolu
   friend bool operator==(const MotionKinematics&, const MotionKinematics&) = default;
 };
 
-using Body = std::variant<Empty, Index, Byte, IndexedByte, IndexedWord, InputActions, Unsigned, Signed,
-                          IndexedSigned, DigitalOutput, DigitalIo, ModelInfo, SerialNumber, ErrorRecord,
-                          MotionStatus, MotionKinematics>;
+using Body =
+    std::variant<Empty, Index, Byte, IndexedByte, IndexedWord, InputActions, Unsigned, Signed, IndexedSigned,
+                 DigitalOutput, DigitalIo, ModelInfo, SerialNumber, ErrorRecord, MotionStatus, MotionKinematics>;
 
 enum class Operation : std::uint8_t { get, set };  // BG, ST, OG, SY, ER/MS clear are "set" forms
 
@@ -293,13 +341,13 @@ enum class AckForms : std::uint8_t { both, ack_only, no_ack_only };
 struct InstructionForms {
   FunctionCode function;
   std::string_view mnemonic;
-  Layout get;                 // instruction layout of the get form
-  Layout set;                 // instruction layout of the set form
-  Layout reply;               // layout of drive frames carrying this function code
+  Layout get;    // instruction layout of the get form
+  Layout set;    // instruction layout of the set form
+  Layout reply;  // layout of drive frames carrying this function code
   AckForms ack_forms;
-  FunctionCode set_ack;       // CW of the set ACK: the function itself, or DV for JV/SP/PR/PA
-  std::uint8_t set_ack_index; // DV sub-index of that ACK (0 when set_ack is the function itself)
-  bool set_accepts_short;     // decode sets from 1..4 bytes (§2.5 examples)
+  FunctionCode set_ack;        // CW of the set ACK: the function itself, or DV for JV/SP/PR/PA
+  std::uint8_t set_ack_index;  // DV sub-index of that ACK (0 when set_ack is the function itself)
+  bool set_accepts_short;      // decode sets from 1..4 bytes (§2.5 examples)
 };
 
 // All instructions of §5.1-§5.28 (RT is not an instruction: see notifications.hpp).
@@ -360,9 +408,9 @@ namespace request {
 [[nodiscard]] Instruction set_stall_behaviour(StallBehaviour behaviour);
 [[nodiscard]] Instruction set_trigger(InputPort port, std::uint16_t mode);
 [[nodiscard]] Instruction clear_error(std::uint8_t slot);
-[[nodiscard]] Instruction clear_motion_status();  // MS[0]=0
-[[nodiscard]] Instruction driver_on(bool on);     // MO=N
-[[nodiscard]] Instruction select_group(ParameterGroup group);  // MF=N
+[[nodiscard]] Instruction clear_motion_status();                       // MS[0]=0
+[[nodiscard]] Instruction driver_on(bool on);                          // MO=N
+[[nodiscard]] Instruction select_group(ParameterGroup group);          // MF=N
 [[nodiscard]] Instruction set_acceleration(std::uint32_t value);       // AC=N
 [[nodiscard]] Instruction set_deceleration(std::uint32_t value);       // DC=N
 [[nodiscard]] Instruction set_cut_in_speed(std::uint32_t pps);         // SS=N
@@ -373,10 +421,10 @@ namespace request {
 [[nodiscard]] Instruction set_relative_position(std::int32_t pulses);  // PR=N
 [[nodiscard]] Instruction set_absolute_position(std::int32_t pulses);  // PA=N
 [[nodiscard]] Instruction set_outputs(std::uint8_t outputs);           // DI=N
-[[nodiscard]] Instruction begin();       // BG
-[[nodiscard]] Instruction stop();        // ST
-[[nodiscard]] Instruction set_origin();  // OG
-[[nodiscard]] Instruction system(SystemOperation op);  // SY[i], never acknowledged
+[[nodiscard]] Instruction begin();                                     // BG
+[[nodiscard]] Instruction stop();                                      // ST
+[[nodiscard]] Instruction set_origin();                                // OG
+[[nodiscard]] Instruction system(SystemOperation op);                  // SY[i], never acknowledged
 // Same instruction with CW bit 7 cleared (no ACK; errors are still reported).
 [[nodiscard]] Instruction without_ack(Instruction instruction);
 }  // namespace request

@@ -27,7 +27,9 @@ struct Message {
   std::uint8_t length = 0;  // DL, 0..8
   std::array<std::uint8_t, kMaxDataLength> data{};
 
-  [[nodiscard]] std::span<const std::uint8_t> payload() const { return {data.data(), std::min<std::size_t>(length, kMaxDataLength)}; }
+  [[nodiscard]] std::span<const std::uint8_t> payload() const {
+    return {data.data(), std::min<std::size_t>(length, kMaxDataLength)};
+  }
   [[nodiscard]] std::uint8_t function_code() const { return control_word & kFunctionCodeMask; }
   [[nodiscard]] bool ack_requested() const { return (control_word & kAckRequestBit) != 0; }
 
@@ -46,10 +48,14 @@ struct CanAddress {
   std::uint8_t consumer = kGlobalId;
   friend bool operator==(const CanAddress&, const CanAddress&) = default;
 };
-[[nodiscard]] constexpr CanAddress host_to(std::uint8_t target, std::uint8_t host = kMasterId) noexcept { return {host, target}; }
+[[nodiscard]] constexpr CanAddress host_to(std::uint8_t target, std::uint8_t host = kMasterId) noexcept {
+  return {host, target};
+}
 // Replies go to the master ID (not stated in §2.5, assumed); hosts must not rely on the consumer of
 // drive frames.
-[[nodiscard]] constexpr CanAddress drive_to_host(std::uint8_t node, std::uint8_t host = kMasterId) noexcept { return {node, host}; }
+[[nodiscard]] constexpr CanAddress drive_to_host(std::uint8_t node, std::uint8_t host = kMasterId) noexcept {
+  return {node, host};
+}
 
 struct CanMessage {
   CanAddress address;

@@ -22,19 +22,22 @@ inline constexpr std::uint8_t kNotificationControlWord = 0x5A;
 // d0 of a notification.
 enum class NotificationCode : std::uint8_t {
   alarm = 0x00,
-  in1_falling = 0x01, in1_rising = 0x02,
-  in2_falling = 0x03, in2_rising = 0x04,
-  in3_falling = 0x05, in3_rising = 0x06,
+  in1_falling = 0x01,
+  in1_rising = 0x02,
+  in2_falling = 0x03,
+  in2_rising = 0x04,
+  in3_falling = 0x05,
+  in3_rising = 0x06,
   position_reached = 0x29,
 };
 
 // d1 of an alarm (§2.4).
 enum class AlarmCode : std::uint8_t {
-  emergency_stop_lock = 0x0A,   // system emergency stop and lock
+  emergency_stop_lock = 0x0A,  // system emergency stop and lock
   speed_over_limit = 0x19,
-  below_lower_limit = 0x1A,     // exceeded lower working (software) limit
-  above_upper_limit = 0x1B,     // exceeded upper working (software) limit
-  stall = 0x1D,                 // motor stall detected
+  below_lower_limit = 0x1A,  // exceeded lower working (software) limit
+  above_upper_limit = 0x1B,  // exceeded upper working (software) limit
+  stall = 0x1D,              // motor stall detected
   encoder_error = 0x1E,
   encoder_battery_low = 0x1F,
 };

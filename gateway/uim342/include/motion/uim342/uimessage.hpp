@@ -43,7 +43,8 @@ struct UiMessage {
 using UiFrame = std::array<std::uint8_t, kUiMessageSize>;
 
 // SM = 0xAA with the CRC over `coverage`. Fails only when DL exceeds 8.
-[[nodiscard]] Result<UiFrame> encode_ui_message(const UiMessage& message, CrcCoverage coverage = CrcCoverage::start_to_aux);
+[[nodiscard]] Result<UiFrame> encode_ui_message(const UiMessage& message,
+                                                CrcCoverage coverage = CrcCoverage::start_to_aux);
 // SM = 0xAD, R0 = R1 = 0 (not checked by the receiver).
 [[nodiscard]] Result<UiFrame> encode_ui_message_without_crc(const UiMessage& message);
 

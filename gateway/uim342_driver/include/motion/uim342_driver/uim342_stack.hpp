@@ -75,7 +75,7 @@ struct Uim342StackConfig {
   std::vector<Uim342NodeConfig> nodes;
   std::chrono::milliseconds offline_retry_first{500};  // back-off of a silent node, doubling
   std::chrono::milliseconds offline_retry_max{10'000};
-  std::chrono::milliseconds reboot_wait{1'000};        // after SY[1] (group id change)
+  std::chrono::milliseconds reboot_wait{1'000};  // after SY[1] (group id change)
 
   // The uim342 drives of `bus` with their axes, timeouts, retries and poll rate.
   [[nodiscard]] static Uim342StackConfig from(const config::Config& config, std::string_view bus);

@@ -60,10 +60,10 @@ enum class UiMessageErrc {
 [[nodiscard]] std::error_code make_error_code(UiMessageErrc error);
 
 struct UiMessageOptions {
-  uim342::CrcCoverage crc = uim342::CrcCoverage::start_to_aux;      // what send() writes
-  uim342::CrcAcceptance accept = uim342::CrcAcceptance::either;     // what receive() takes
-  std::uint8_t host_id = uim342::kMasterId;                         // the master the gateway stands for
-  std::chrono::milliseconds reopen_interval{1000};                  // between attempts after a hang-up
+  uim342::CrcCoverage crc = uim342::CrcCoverage::start_to_aux;   // what send() writes
+  uim342::CrcAcceptance accept = uim342::CrcAcceptance::either;  // what receive() takes
+  std::uint8_t host_id = uim342::kMasterId;                      // the master the gateway stands for
+  std::chrono::milliseconds reopen_interval{1000};               // between attempts after a hang-up
 };
 
 // The options a bus's configuration asks for (uimessage_crc, uimessage_crc_strict).
@@ -72,10 +72,10 @@ struct UiMessageOptions {
 // What the transport saw beyond can::Statistics.
 struct UiMessageCounters {
   uim342::UiMessageStream::Counters stream;  // frames, CRC errors, malformed, discarded bytes
-  std::uint64_t crc_start_to_aux = 0;  // received frames whose CRC covers SM..d8
-  std::uint64_t crc_id_to_aux = 0;     // ... ID..d8 (not both: the first that matches counts)
-  std::uint64_t without_crc = 0;       // SM = 0xAD
-  std::uint64_t unconvertible = 0;     // well-formed UIMessages with an ID above 127
+  std::uint64_t crc_start_to_aux = 0;        // received frames whose CRC covers SM..d8
+  std::uint64_t crc_id_to_aux = 0;           // ... ID..d8 (not both: the first that matches counts)
+  std::uint64_t without_crc = 0;             // SM = 0xAD
+  std::uint64_t unconvertible = 0;           // well-formed UIMessages with an ID above 127
   std::uint64_t disconnects = 0;
   std::uint64_t reopens = 0;
 };

@@ -16,10 +16,10 @@ inline constexpr std::uint32_t kMaxStandardId = 0x7FF;
 inline constexpr std::uint32_t kMaxExtendedId = 0x1FFFFFFF;
 
 struct Frame {
-  std::uint32_t id = 0;      // 11-bit (standard) or 29-bit (extended) identifier
-  bool extended = false;     // IDE
-  bool rtr = false;          // remote transmission request (no data bytes on the wire)
-  std::uint8_t dlc = 0;      // 0..8
+  std::uint32_t id = 0;   // 11-bit (standard) or 29-bit (extended) identifier
+  bool extended = false;  // IDE
+  bool rtr = false;       // remote transmission request (no data bytes on the wire)
+  std::uint8_t dlc = 0;   // 0..8
   std::array<std::uint8_t, 8> data{};
   // Receive time, microseconds since the Unix epoch: the end-of-frame time on the simulated bus,
   // the kernel timestamp on SocketCAN, 0 for frames not yet sent.

@@ -28,8 +28,8 @@
 #include <functional>
 #include <map>
 #include <optional>
-#include <string_view>
 #include <string>
+#include <string_view>
 
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/event_t.hpp>
@@ -73,11 +73,14 @@ class Client {
   // The default wait for a request's terminal reply (motionctl's --timeout default): long enough
   // for a move across an axis's whole travel or a homing run.
   static constexpr std::chrono::milliseconds kRequestTimeout{60000};
-  motionlcm::reply_t call(motionlcm::request_t request, std::chrono::milliseconds timeout, ReplyHandler on_progress = {});
+  motionlcm::reply_t call(motionlcm::request_t request, std::chrono::milliseconds timeout,
+                          ReplyHandler on_progress = {});
 
   // Latest state of every axis heard so far.
   [[nodiscard]] const std::map<std::string, motionlcm::axis_state_t>& axes() const { return axes_; }
-  void on_axis_state(std::function<void(const motionlcm::axis_state_t&)> handler) { state_handler_ = std::move(handler); }
+  void on_axis_state(std::function<void(const motionlcm::axis_state_t&)> handler) {
+    state_handler_ = std::move(handler);
+  }
   void on_event(std::function<void(const motionlcm::event_t&)> handler) { event_handler_ = std::move(handler); }
   // Pumps the loop until `done()` or the timeout; false on timeout.
   bool wait_until(const std::function<bool()>& done, std::chrono::milliseconds timeout);

@@ -57,7 +57,7 @@ struct ConfigError {
 };
 
 struct LcmSettings {
-  std::string url;                     // empty: LCM_DEFAULT_URL or LCM's default
+  std::string url;  // empty: LCM_DEFAULT_URL or LCM's default
   std::string channel_prefix = "MOTION_";
 };
 
@@ -81,14 +81,14 @@ struct Bus {
   std::string name;
   std::string transport;  // as written, e.g. "simcan:lab"
   TransportKind kind = TransportKind::kSimCan;
-  std::string target;     // the part after the scheme
-  int bitrate = 500000;   // CAN
-  bool bus_timing = true; // simulated CAN: bit-timing model on
-  int baud = 115200;      // serial
-  char parity = 'N';      // 'N', 'E', 'O'
+  std::string target;      // the part after the scheme
+  int bitrate = 500000;    // CAN
+  bool bus_timing = true;  // simulated CAN: bit-timing model on
+  int baud = 115200;       // serial
+  char parity = 'N';       // 'N', 'E', 'O'
   int stop_bits = 1;
   UiMessageCrc uimessage_crc = UiMessageCrc::kStartToAux;  // uimessage: the CRC coverage sent
-  bool uimessage_crc_strict = false;  // uimessage: receive only that coverage (default: either)
+  bool uimessage_crc_strict = false;                       // uimessage: receive only that coverage (default: either)
   int request_timeout_ms = 50;
   int retries = 2;
   double poll_hz = 20.0;  // status polling rate per drive
@@ -112,16 +112,22 @@ struct Drive {
   Family family = Family::kUim342;
   std::string bus;
   int node_id = 0;
-  int group_id = 0;  // UIM342 only; 0 = none
+  int group_id = 0;                       // UIM342 only; 0 = none
   std::optional<int> request_timeout_ms;  // overrides the bus's
   std::optional<int> retries;
   SetupMap setup;  // applied by the gateway at start-up
   KeyLocations where;
 
-  [[nodiscard]] std::optional<double> setup_number(std::string_view key) const { return config::setup_number(setup, key); }
-  [[nodiscard]] std::optional<long long> setup_integer(std::string_view key) const { return config::setup_integer(setup, key); }
+  [[nodiscard]] std::optional<double> setup_number(std::string_view key) const {
+    return config::setup_number(setup, key);
+  }
+  [[nodiscard]] std::optional<long long> setup_integer(std::string_view key) const {
+    return config::setup_integer(setup, key);
+  }
   [[nodiscard]] std::optional<bool> setup_flag(std::string_view key) const { return config::setup_flag(setup, key); }
-  [[nodiscard]] std::optional<std::string> setup_text(std::string_view key) const { return config::setup_text(setup, key); }
+  [[nodiscard]] std::optional<std::string> setup_text(std::string_view key) const {
+    return config::setup_text(setup, key);
+  }
 };
 
 struct Limits {
@@ -136,12 +142,12 @@ enum class HomingMethod { kNone, kSwitch, kCurrentPosition };
 enum class HomingEdge { kFalling, kRising };
 struct Homing {
   HomingMethod method = HomingMethod::kNone;
-  int input = 1;                // digital input of the home switch (1-based)
+  int input = 1;                           // digital input of the home switch (1-based)
   HomingEdge edge = HomingEdge::kFalling;  // `edge: falling|rising`; default falling (§5.26 example)
-  double velocity = 0;          // user units/s, sign = direction; 0 = 10 % of max velocity towards min
-  double offset = 0;            // position assigned at the switch, user units
-  std::string method_name;      // as written (validated per family at load: homing_methods())
-  KeyLocations where;           // of the homing keys
+  double velocity = 0;                     // user units/s, sign = direction; 0 = 10 % of max velocity towards min
+  double offset = 0;                       // position assigned at the switch, user units
+  std::string method_name;                 // as written (validated per family at load: homing_methods())
+  KeyLocations where;                      // of the homing keys
 };
 
 // The homing methods (configuration names) and inputs a family's gateway implements; load refuses
@@ -149,7 +155,7 @@ struct Homing {
 // uim342 (none, switch, current-position)".
 struct HomingSupport {
   std::vector<std::string_view> methods;
-  int max_input = 8;  // inputs 1..max_input
+  int max_input = 8;        // inputs 1..max_input
   std::string_view inputs;  // how the family names them, for the error text
 };
 [[nodiscard]] HomingSupport homing_support(Family family);
@@ -166,15 +172,15 @@ struct Axis {
 };
 
 struct CoordinatorSettings {
-  int default_timeout_ms = 60000;    // per request, when the client gives none
+  int default_timeout_ms = 60000;  // per request, when the client gives none
   int progress_period_ms = 200;
-  int trigger_lead_ms = 30;          // cross-bus trigger scheduled this far ahead of arming completion
-  int gateway_timeout_ms = 1500;     // heartbeat silence after which a gateway is lost
+  int trigger_lead_ms = 30;       // cross-bus trigger scheduled this far ahead of arming completion
+  int gateway_timeout_ms = 1500;  // heartbeat silence after which a gateway is lost
   int arm_timeout_ms = 2000;
   // Requests in progress at once (stops and e-stops always pass): beyond it a request is
   // REJECTED with kBusy ("retry later") instead of queueing without bound.
   int max_active_requests = 256;
-  double position_tolerance = 0.0;   // user units; 0 = one drive count
+  double position_tolerance = 0.0;  // user units; 0 = one drive count
 };
 
 // Who may command the coordinator (README "Security"). The files are read by the programs that
@@ -190,8 +196,9 @@ struct SecuritySettings {
   Mode mode = Mode::kOff;
   std::string authorized_keys;  // "<base64 public key> <name> <role>" per line; required by kEnforce
   std::string key;              // the coordinator's private key: it signs its gateway commands with it
-  std::string coordinator_public_key;  // the coordinator's public key (its .pub file): gateways verify its commands, triggers and ACTIVE_MOVES with it, clients its replies
-  int window_ms = 2000;         // a signed request's utime must be within this of the coordinator's clock
+  std::string
+      coordinator_public_key;  // the coordinator's public key (its .pub file): gateways verify its commands, triggers and ACTIVE_MOVES with it, clients its replies
+  int window_ms = 2000;        // a signed request's utime must be within this of the coordinator's clock
   KeyLocations where;
 };
 [[nodiscard]] const char* to_string(SecuritySettings::Mode mode);
@@ -230,7 +237,7 @@ struct Config {
 };
 
 struct LoadResult {
-  std::optional<Config> config;    // set only when errors is empty
+  std::optional<Config> config;  // set only when errors is empty
   std::vector<ConfigError> errors;
   [[nodiscard]] bool ok() const { return config.has_value(); }
   [[nodiscard]] std::string error_text() const;  // one line per error

@@ -16,10 +16,10 @@ enum class SetupType { kBool, kInt, kNumber, kChoice };
 struct SetupKey {
   std::string_view key;
   SetupType type;
-  double min = 0;                            // kInt/kNumber inclusive range
+  double min = 0;  // kInt/kNumber inclusive range
   double max = 0;
-  std::vector<long long> allowed_ints;       // kInt: when non-empty, the only values accepted
-  std::vector<std::string_view> choices;     // kChoice
+  std::vector<long long> allowed_ints;    // kInt: when non-empty, the only values accepted
+  std::vector<std::string_view> choices;  // kChoice
   std::string_view meaning;
 };
 

@@ -38,8 +38,7 @@ class ManualClock final : public ClockSource {
 // Microseconds since the Unix epoch (CLOCK_REALTIME): the `utime` of every LCM message, and the
 // common time base of gateways on different machines (NTP/PTP-synchronized in a real lab).
 [[nodiscard]] inline std::int64_t wall_time_us() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 

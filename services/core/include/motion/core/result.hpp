@@ -14,11 +14,11 @@ namespace motion {
 template <typename T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}    // NOLINT
+  Result(T value) : state_(std::in_place_index<0>, std::move(value)) {}     // NOLINT
   Result(std::error_code error) : state_(std::in_place_index<1>, error) {}  // NOLINT
   template <typename E>
-    requires std::is_error_code_enum_v<E>
-  Result(E error) : state_(std::in_place_index<1>, make_error_code(error)) {}  // NOLINT
+  requires std::is_error_code_enum_v<E> Result(E error)
+      : state_(std::in_place_index<1>, make_error_code(error)) {}  // NOLINT
 
   [[nodiscard]] bool ok() const noexcept { return state_.index() == 0; }
   explicit operator bool() const noexcept { return ok(); }

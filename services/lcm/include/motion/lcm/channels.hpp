@@ -7,17 +7,17 @@
 
 namespace motion::lcm::channels {
 
-inline constexpr std::string_view kRequest = "REQUEST";          // request_t, clients -> coordinator
-inline constexpr std::string_view kSignedRequest = "SREQUEST";   // signed_request_t, clients -> coordinator
-inline constexpr std::string_view kReply = "REPLY";              // reply_t, coordinator -> clients
-inline constexpr std::string_view kAxisState = "AXIS_STATE";     // axis_state_t, gateways
-inline constexpr std::string_view kEvent = "EVENT";              // event_t, gateways/coordinator
-inline constexpr std::string_view kHealth = "HEALTH";            // health_t, every process
-inline constexpr std::string_view kGatewayReply = "GW_REPLY";    // gateway_reply_t
-inline constexpr std::string_view kSyncTrigger = "SYNC_TRIGGER"; // sync_trigger_t (deprecated: SYNC_TRIGGER2)
+inline constexpr std::string_view kRequest = "REQUEST";           // request_t, clients -> coordinator
+inline constexpr std::string_view kSignedRequest = "SREQUEST";    // signed_request_t, clients -> coordinator
+inline constexpr std::string_view kReply = "REPLY";               // reply_t, coordinator -> clients
+inline constexpr std::string_view kAxisState = "AXIS_STATE";      // axis_state_t, gateways
+inline constexpr std::string_view kEvent = "EVENT";               // event_t, gateways/coordinator
+inline constexpr std::string_view kHealth = "HEALTH";             // health_t, every process
+inline constexpr std::string_view kGatewayReply = "GW_REPLY";     // gateway_reply_t
+inline constexpr std::string_view kSyncTrigger = "SYNC_TRIGGER";  // sync_trigger_t (deprecated: SYNC_TRIGGER2)
 // sync_trigger2_t, coordinator -> gateways: the scheduled start (per-bus hand-over times).
 inline constexpr std::string_view kSyncTrigger2 = "SYNC_TRIGGER2";
-inline constexpr std::string_view kActiveMoves = "ACTIVE_MOVES"; // active_moves_t, coordinator -> gateways, tools
+inline constexpr std::string_view kActiveMoves = "ACTIVE_MOVES";  // active_moves_t, coordinator -> gateways, tools
 // active_moves_t, gateways -> a new coordinator: the rows a gateway last had from a coordinator
 // that stopped heartbeating, so that its successor can end those requests.
 inline constexpr std::string_view kOrphanedMoves = "ORPHANED_MOVES";
@@ -25,8 +25,8 @@ inline constexpr std::string_view kOrphanedMoves = "ORPHANED_MOVES";
 inline constexpr std::string_view kDriveModel = "DRIVE_MODEL";
 // drive_model_request_t, anyone -> gateways: publish your DRIVE_MODEL now.
 inline constexpr std::string_view kDriveModelRequest = "DRIVE_MODEL_REQUEST";
-inline constexpr std::string_view kSimControl = "SIM_CONTROL";   // sim_control_t, tests -> motion-sim
-inline constexpr std::string_view kSimReport = "SIM_REPORT";     // sim_report_t, motion-sim -> tests
+inline constexpr std::string_view kSimControl = "SIM_CONTROL";  // sim_control_t, tests -> motion-sim
+inline constexpr std::string_view kSimReport = "SIM_REPORT";    // sim_report_t, motion-sim -> tests
 
 // gateway_command_t for one bus.
 inline std::string gateway_command(std::string_view bus) { return "GW_COMMAND_" + std::string(bus); }

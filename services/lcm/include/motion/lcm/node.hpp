@@ -87,8 +87,8 @@ class Node {
   void subscribe(std::string_view name, std::function<void(const Msg&, const std::string& channel)> handler,
                  RejectedHandler on_rejected = {}) {
     add_subscription(channel(name), Msg::getTypeName(),
-                     [handler = std::move(handler), on_rejected = std::move(on_rejected)](const void* data, int size,
-                                                                                          const std::string& ch) -> std::string {
+                     [handler = std::move(handler), on_rejected = std::move(on_rejected)](
+                         const void* data, int size, const std::string& ch) -> std::string {
                        Msg msg;
                        std::string why = wire::decode_bounded(data, static_cast<std::size_t>(size), msg);
                        if (why.empty()) {

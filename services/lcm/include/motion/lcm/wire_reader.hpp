@@ -87,8 +87,8 @@ struct CountField {
   bool string_length;  // the int32 length of a string rather than an array count
 };
 struct TypeInfo {
-  const char* name;         // package.type
-  const char* lcm_file;     // e.g. "request_t.lcm"
+  const char* name;      // package.type
+  const char* lcm_file;  // e.g. "request_t.lcm"
   std::string (*check)(const void* data, std::size_t size);
   // decode_bounded into a temporary of the type (what Node::subscribe does).
   std::string (*decode)(const void* data, std::size_t size);

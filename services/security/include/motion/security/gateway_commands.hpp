@@ -26,7 +26,8 @@ class GatewayCommandSigner {
  public:
   GatewayCommandSigner(KeyPair key, std::string channel_prefix);
   // Signed at `now_us` (µs since the epoch) with the next counter, max(last + 1, now_us).
-  [[nodiscard]] motionlcm::signed_gateway_command_t sign(const motionlcm::gateway_command_t& command, std::int64_t now_us);
+  [[nodiscard]] motionlcm::signed_gateway_command_t sign(const motionlcm::gateway_command_t& command,
+                                                         std::int64_t now_us);
   [[nodiscard]] const KeyPair& key() const { return key_; }
 
  private:
@@ -37,12 +38,13 @@ class GatewayCommandSigner {
 
 struct CommandVerdict {
   std::optional<motionlcm::gateway_command_t> command;  // set when accepted
-  std::string reason;                                    // else what was wrong
+  std::string reason;                                   // else what was wrong
 };
 
 class GatewayCommandVerifier {
  public:
-  GatewayCommandVerifier(PublicKey coordinator, std::string channel_prefix, std::chrono::milliseconds window, std::int64_t not_before_us);
+  GatewayCommandVerifier(PublicKey coordinator, std::string channel_prefix, std::chrono::milliseconds window,
+                         std::int64_t not_before_us);
   [[nodiscard]] CommandVerdict verify(const motionlcm::signed_gateway_command_t& envelope, std::int64_t now_us);
 
  private:

@@ -91,7 +91,8 @@ class KeyPair {
 // Writes <dir>/<name>.key (mode 0600) and <dir>/<name>.pub (the authorized_keys line with
 // `role`), creating `dir` (mode 0700) when missing; never overwrites a file. Returns what went
 // wrong, nothing on success.
-[[nodiscard]] std::optional<std::string> write_key_pair(const KeyPair& key, const std::string& dir, std::string_view role);
+[[nodiscard]] std::optional<std::string> write_key_pair(const KeyPair& key, const std::string& dir,
+                                                        std::string_view role);
 // Where write_key_pair puts the private and the public file of `name`.
 [[nodiscard]] std::string private_key_path(const std::string& dir, std::string_view name);
 [[nodiscard]] std::string public_key_path(const std::string& dir, std::string_view name);

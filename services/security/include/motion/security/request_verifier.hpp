@@ -42,15 +42,16 @@ struct Verdict {
   std::optional<motionlcm::request_t> request;
   bool accepted = false;
   bool answerable = false;
-  std::string reason;         // refused: what was wrong, naming the key
-  std::string signer;         // "<name> (<key id>)", or "<key id>" for an unknown key
+  std::string reason;  // refused: what was wrong, naming the key
+  std::string signer;  // "<name> (<key id>)", or "<key id>" for an unknown key
 };
 
 class RequestVerifier {
  public:
   // `channel_prefix` must be the one the signers signed for. `not_before_us`: the wall time the
   // verifier starts at (µs since the epoch).
-  RequestVerifier(AuthorizedKeys keys, std::string channel_prefix, std::chrono::milliseconds window, std::int64_t not_before_us);
+  RequestVerifier(AuthorizedKeys keys, std::string channel_prefix, std::chrono::milliseconds window,
+                  std::int64_t not_before_us);
 
   [[nodiscard]] Verdict verify(const motionlcm::signed_request_t& envelope, std::int64_t now_us);
 

@@ -40,7 +40,8 @@ class MessageSigner {
     message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
     return sign_bytes(channel, std::move(bytes), now_us);
   }
-  [[nodiscard]] motionlcm::signed_message_t sign_bytes(std::string_view channel, std::vector<std::uint8_t> message, std::int64_t now_us);
+  [[nodiscard]] motionlcm::signed_message_t sign_bytes(std::string_view channel, std::vector<std::uint8_t> message,
+                                                       std::int64_t now_us);
   [[nodiscard]] const KeyPair& key() const { return key_; }
 
  private:
@@ -58,12 +59,12 @@ struct Verified {
 class MessageVerifier {
  public:
   // `channel`: the plain channel (without prefix) this verifier accepts envelopes for.
-  MessageVerifier(PublicKey coordinator, std::string channel_prefix, std::string channel, std::chrono::milliseconds window,
-                  std::int64_t not_before_us);
+  MessageVerifier(PublicKey coordinator, std::string channel_prefix, std::string channel,
+                  std::chrono::milliseconds window, std::int64_t not_before_us);
 
   // The envelope's message bytes when accepted (nullopt and `reason` otherwise).
-  [[nodiscard]] std::optional<std::vector<std::uint8_t>> verify_bytes(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
-                                                                      std::string& reason);
+  [[nodiscard]] std::optional<std::vector<std::uint8_t>> verify_bytes(const motionlcm::signed_message_t& envelope,
+                                                                      std::int64_t now_us, std::string& reason);
   template <typename Msg>
   [[nodiscard]] Verified<Msg> verify(const motionlcm::signed_message_t& envelope, std::int64_t now_us) {
     Verified<Msg> v;

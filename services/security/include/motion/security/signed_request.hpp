@@ -19,7 +19,8 @@ namespace motion::security {
 // What the signature of `envelope` covers (the layout is in signed_request_t.lcm): a domain
 // string, the channel prefix (a request signed for one system is not valid on another sharing
 // the network), key id, counter, utime, payload size and payload.
-[[nodiscard]] std::vector<std::uint8_t> signed_bytes(std::string_view channel_prefix, const motionlcm::signed_request_t& envelope);
+[[nodiscard]] std::vector<std::uint8_t> signed_bytes(std::string_view channel_prefix,
+                                                     const motionlcm::signed_request_t& envelope);
 
 // Signs a client's requests with one key.
 class RequestSigner {

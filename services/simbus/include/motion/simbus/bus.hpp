@@ -44,7 +44,7 @@ struct BusConfig {
   std::uint32_t bitrate = 500'000;  // bit/s, > 0
   bool timing = true;               // false: no wire, deliver at submission time
   Duration load_window = std::chrono::seconds(1);
-  std::size_t max_queued = 4096;    // frames waiting for the wire; more and submit() fails
+  std::size_t max_queued = 4096;  // frames waiting for the wire; more and submit() fails
   // Frame::timestamp_us = epoch_offset_us + microseconds of the (steady) time points handed in.
   std::int64_t epoch_offset_us = 0;
 };
@@ -71,15 +71,15 @@ struct Fault {
 };
 
 struct BusStatistics {
-  std::uint64_t frames = 0;     // frames that went over the wire (corrupted ones included)
-  std::uint64_t bytes = 0;      // their payload bytes
-  std::uint64_t bits = 0;       // their wire bits: stuffing, trailer and interframe space included
-  std::uint64_t errors = 0;     // corrupted frames
-  std::uint64_t dropped = 0;    // frames removed by a drop fault
-  std::uint64_t rejected = 0;   // submissions refused (bus-off, queue full) or aborted by bus-off
-  std::uint64_t overruns = 0;   // deliveries a receiver could not take (filled in by the Hub)
-  std::size_t queued = 0;       // frames waiting for the wire now
-  double bus_load = 0.0;        // fraction of the last load_window the wire was busy, 0..1
+  std::uint64_t frames = 0;    // frames that went over the wire (corrupted ones included)
+  std::uint64_t bytes = 0;     // their payload bytes
+  std::uint64_t bits = 0;      // their wire bits: stuffing, trailer and interframe space included
+  std::uint64_t errors = 0;    // corrupted frames
+  std::uint64_t dropped = 0;   // frames removed by a drop fault
+  std::uint64_t rejected = 0;  // submissions refused (bus-off, queue full) or aborted by bus-off
+  std::uint64_t overruns = 0;  // deliveries a receiver could not take (filled in by the Hub)
+  std::size_t queued = 0;      // frames waiting for the wire now
+  double bus_load = 0.0;       // fraction of the last load_window the wire was busy, 0..1
 };
 
 struct EndpointInfo {

@@ -36,7 +36,7 @@ struct HubOptions {
   std::filesystem::path socket_dir;  // empty: default_socket_dir()
   bool listen = true;                // false: LocalEndpoints only, no socket
   BusConfig bus;                     // epoch_offset_us is set by the hub from the wall clock
-  FileAccess access;                 // the socket's mode: 0600, or 0660 with a group (frames can be injected through it)
+  FileAccess access;  // the socket's mode: 0600, or 0660 with a group (frames can be injected through it)
 };
 
 namespace detail {
@@ -127,10 +127,10 @@ class Hub {
   std::filesystem::path socket_path_;
   int listen_fd_ = -1;
   Bus bus_;
-  std::map<int, Connection> connections_;                             // by fd
-  std::map<EndpointId, int> connection_of_;                           // socket endpoints
-  std::map<EndpointId, std::shared_ptr<detail::LocalLink>> locals_;   // local endpoints
-  std::vector<int> failed_;                                           // connections to close after pump
+  std::map<int, Connection> connections_;                            // by fd
+  std::map<EndpointId, int> connection_of_;                          // socket endpoints
+  std::map<EndpointId, std::shared_ptr<detail::LocalLink>> locals_;  // local endpoints
+  std::vector<int> failed_;                                          // connections to close after pump
   std::uint64_t overruns_ = 0;
   std::optional<EventLoop::TimerId> timer_;
   TimePoint timer_deadline_ = kNever;

@@ -27,7 +27,14 @@ inline constexpr std::uint16_t kProtocolVersion = 1;
 inline constexpr std::size_t kMaxMessageSize = 256;
 inline constexpr std::size_t kMaxText = 200;
 
-enum class Type : std::uint8_t { kHello = 1, kWelcome = 2, kFrame = 3, kSetOwnEcho = 4, kBusEvent = 5, kTxRejected = 6 };
+enum class Type : std::uint8_t {
+  kHello = 1,
+  kWelcome = 2,
+  kFrame = 3,
+  kSetOwnEcho = 4,
+  kBusEvent = 5,
+  kTxRejected = 6
+};
 
 struct Hello {
   std::uint16_t version = kProtocolVersion;

@@ -39,7 +39,8 @@ struct ControlError {
   std::string error;
 };
 
-[[nodiscard]] std::variant<ControlRequest, ControlError> parse_control(std::string_view text, const config::Config& config,
+[[nodiscard]] std::variant<ControlRequest, ControlError> parse_control(std::string_view text,
+                                                                       const config::Config& config,
                                                                        std::string_view token);
 
 [[nodiscard]] std::string control_accepted(std::int64_t tag, std::string_view request_id);

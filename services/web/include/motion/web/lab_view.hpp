@@ -54,11 +54,11 @@
 namespace motion::web {
 
 struct LabViewLimits {
-  std::size_t events = 500;              // events kept for the snapshot (the oldest go first)
-  std::size_t moves = 30;                // moves kept for the snapshot, open ones included
-  std::size_t samples_per_axis = 20000;  // per move and axis; later samples of a longer move are dropped
-  std::size_t replies = 100;             // replies kept for the snapshot
-  std::size_t pending_requests = 256;    // requests heard whose first reply has not come
+  std::size_t events = 500;                     // events kept for the snapshot (the oldest go first)
+  std::size_t moves = 30;                       // moves kept for the snapshot, open ones included
+  std::size_t samples_per_axis = 20000;         // per move and axis; later samples of a longer move are dropped
+  std::size_t replies = 100;                    // replies kept for the snapshot
+  std::size_t pending_requests = 256;           // requests heard whose first reply has not come
   std::int64_t client_silence_us = 10'000'000;  // a client process (role "client") silent this long is forgotten
 };
 

@@ -46,6 +46,7 @@ inline constexpr int kSvgPlotTitle = 30;        // above the first panel
 inline constexpr int kSvgPlotPanelTop = 22;     // the panel's heading
 inline constexpr int kSvgPlotPanelBottom = 30;  // the time scale
 
-[[nodiscard]] std::string svg_plot(const std::vector<PlotAxis>& axes, const std::vector<PlotMark>& marks, const SvgPlotOptions& options);
+[[nodiscard]] std::string svg_plot(const std::vector<PlotAxis>& axes, const std::vector<PlotMark>& marks,
+                                   const SvgPlotOptions& options);
 
 }  // namespace motion::web

@@ -47,7 +47,8 @@ class ProcessGroup {
   // Starts a process; returns its pid (the test fails on exec errors).
   pid_t start(const ProcessSpec& spec);
   // Runs a command to completion (e.g. motionctl), capturing stdout+stderr. Returns exit code.
-  int run_to_completion(const ProcessSpec& spec, std::string* output, std::chrono::milliseconds timeout = std::chrono::seconds(30));
+  int run_to_completion(const ProcessSpec& spec, std::string* output,
+                        std::chrono::milliseconds timeout = std::chrono::seconds(30));
 
   // Pumps LCM until `process` heartbeats with state OK (or also DEGRADED when `accept_degraded`),
   // or the timeout. False on timeout (the test fails, and the logs are printed at teardown).
@@ -58,7 +59,7 @@ class ProcessGroup {
   // Pumps the loop until `done()` or the timeout.
   bool pump_until(const std::function<bool()>& done, std::chrono::milliseconds timeout);
 
-  void stop(pid_t pid);                      // SIGTERM, wait up to 3 s, then SIGKILL
+  void stop(pid_t pid);                                     // SIGTERM, wait up to 3 s, then SIGKILL
   [[nodiscard]] std::optional<int> exit_status(pid_t pid);  // nullopt while running
   [[nodiscard]] std::string log_of(const std::string& name) const;
   void print_logs() const;

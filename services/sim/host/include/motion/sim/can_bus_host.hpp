@@ -30,7 +30,8 @@ class CanBusHost {
  public:
   using Reporter = std::function<void(motionlcm::sim_report_t)>;
   // A new endpoint on the bus for `drive`; nullptr with `error` set when it cannot be opened.
-  using EndpointFactory = std::function<std::unique_ptr<can::Transport>(const config::Drive& drive, std::error_code& error)>;
+  using EndpointFactory =
+      std::function<std::unique_ptr<can::Transport>(const config::Drive& drive, std::error_code& error)>;
 
   // Opens the hub for the simcan: `bus` (socket in `socket_dir`) and creates the drives with
   // `factories` (by family). Drives of a family without a factory are listed in missing().
@@ -39,13 +40,15 @@ class CanBusHost {
                                           std::error_code& error);
   // The drives of the socketcan: `bus` on its interface, one SocketCanTransport each. Errors as
   // SocketCanTransport::open() (they name the interface).
-  static std::unique_ptr<CanBusHost> open_socketcan(EventLoop& loop, const config::Config& config, const config::Bus& bus,
+  static std::unique_ptr<CanBusHost> open_socketcan(EventLoop& loop, const config::Config& config,
+                                                    const config::Bus& bus,
                                                     const std::map<config::Family, CanDriveFactory>& factories,
                                                     Reporter reporter, std::error_code& error);
   // The drives of `bus`, each on the endpoint `endpoints` makes for it (no hub).
   static std::unique_ptr<CanBusHost> open_with(EventLoop& loop, const config::Config& config, const config::Bus& bus,
-                                               const std::map<config::Family, CanDriveFactory>& factories, Reporter reporter,
-                                               const EndpointFactory& endpoints, std::error_code& error);
+                                               const std::map<config::Family, CanDriveFactory>& factories,
+                                               Reporter reporter, const EndpointFactory& endpoints,
+                                               std::error_code& error);
   ~CanBusHost();
   CanBusHost(const CanBusHost&) = delete;
   CanBusHost& operator=(const CanBusHost&) = delete;
@@ -74,7 +77,8 @@ class CanBusHost {
   };
   CanBusHost(EventLoop& loop, const config::Config& config, const config::Bus& bus, Reporter reporter);
   // Creates every drive of the bus with a factory, each on endpoints(drive).
-  std::error_code attach_drives(const std::map<config::Family, CanDriveFactory>& factories, const EndpointFactory& endpoints);
+  std::error_code attach_drives(const std::map<config::Family, CanDriveFactory>& factories,
+                                const EndpointFactory& endpoints);
   void create(Drive& d, const CanDriveFactory& factory);
   void transmit(Drive& d, const can::Frame& frame);
   void on_readable(Drive& d);

@@ -42,6 +42,7 @@ class CanDriveSim {
   virtual bool control(const motionlcm::sim_control_t& control, TimePoint now) = 0;
 };
 
-using CanDriveFactory = std::function<std::unique_ptr<CanDriveSim>(const config::Drive& drive, SimDriveContext context)>;
+using CanDriveFactory =
+    std::function<std::unique_ptr<CanDriveSim>(const config::Drive& drive, SimDriveContext context)>;
 
 }  // namespace motion::sim

@@ -50,8 +50,8 @@ class Kinematics {
   void move_to(TimePoint now, std::int64_t target, const Profile& profile);
   void jog(TimePoint now, const Profile& profile);
   void stop(TimePoint now, double deceleration, double cut_in = 0);
-  void halt(TimePoint now);                                  // velocity 0 at once (driver off, stall)
-  void set_position(TimePoint now, std::int64_t position);   // origin / set position, at rest
+  void halt(TimePoint now);                                 // velocity 0 at once (driver off, stall)
+  void set_position(TimePoint now, std::int64_t position);  // origin / set position, at rest
 
  private:
   struct Segment {

@@ -48,7 +48,7 @@ class SerialDeviceSim {
 };
 
 // The device of one family serving `bus` (its drives of that family in the configuration).
-using SerialDeviceFactory =
-    std::function<std::unique_ptr<SerialDeviceSim>(const config::Config& config, const config::Bus& bus, SerialDeviceContext context)>;
+using SerialDeviceFactory = std::function<std::unique_ptr<SerialDeviceSim>(
+    const config::Config& config, const config::Bus& bus, SerialDeviceContext context)>;
 
 }  // namespace motion::sim

@@ -74,13 +74,13 @@ class SerialLineHost {
   std::unique_ptr<serial::PtyLink> link_;
   std::unique_ptr<SerialDeviceSim> device_;
   TimePoint device_deadline_ = kNever;
-  std::multimap<TimePoint, std::vector<std::uint8_t>> outbox_;  // due time -> bytes
+  std::multimap<TimePoint, std::vector<std::uint8_t>> outbox_;         // due time -> bytes
   std::deque<std::pair<TimePoint, std::vector<std::uint8_t>>> inbox_;  // arrival (end of wire time) -> bytes
-  TimePoint line_busy_until_{};                                   // when the last read ends on the wire
+  TimePoint line_busy_until_{};                                        // when the last read ends on the wire
   EventLoop::TimerId timer_ = 0;
   std::vector<std::string> missing_;
   std::size_t drive_count_ = 0;
-  std::minstd_rand noise_source_;              // default seed: one sequence for every run
+  std::minstd_rand noise_source_;             // default seed: one sequence for every run
   std::vector<std::uint8_t> noise_in_frame_;  // goes into the middle of the next frame sent
 };
 

@@ -64,11 +64,11 @@ struct Uc57SimOptions {
   bool check_range = true;
   RpdoSync rpdo_sync = RpdoSync::kHonoured;
   cia402::uc57::RampUnit ramp_unit = cia402::uc57::RampUnit::kMilliseconds;  // (C-02)
-  std::int64_t origin_position = 2000;     // IN2 active within +-origin_half_width
+  std::int64_t origin_position = 2000;                                       // IN2 active within +-origin_half_width
   std::int64_t origin_half_width = 100;
-  std::int64_t positive_limit = 200000;    // IN1 active at and beyond
-  std::int64_t negative_limit = -200000;   // IN3 active at and beyond
-  std::int64_t homing_backoff = 500;       // back-off distance before the slow approach
+  std::int64_t positive_limit = 200000;   // IN1 active at and beyond
+  std::int64_t negative_limit = -200000;  // IN3 active at and beyond
+  std::int64_t homing_backoff = 500;      // back-off distance before the slow approach
 };
 
 class Uc57DriveSim final : public CanDriveSim {
@@ -196,7 +196,7 @@ class Uc57DriveSim final : public CanDriveSim {
   struct RunningProfile {
     Profile profile;
     std::uint16_t decel_index = 0;
-  } running_;  // the profile last started (meaningful while activity_ is not kIdle)
+  } running_;                  // the profile last started (meaningful while activity_ is not kIdle)
   double position_shift_ = 0;  // physical = reported + shift
   Activity activity_ = Activity::kIdle;
   Motion motion_;

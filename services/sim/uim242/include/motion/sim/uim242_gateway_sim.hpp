@@ -55,7 +55,7 @@
 namespace motion::sim {
 
 struct Uim242ControllerSetup {
-  std::string drive;                  // drive name (reports, sim_control_t)
+  std::string drive;  // drive name (reports, sim_control_t)
   std::uint8_t node_id = 5;
   std::uint8_t max_current_tenths = 40;  // MDL: UIM24204
   std::uint16_t firmware = 1302;

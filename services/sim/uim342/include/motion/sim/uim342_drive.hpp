@@ -64,7 +64,8 @@ struct Uim342HomeSwitch {
 
 // The switch of `drive` from the configuration: its axis's `homing` (method switch: input, edge,
 // direction) and `simulation.home_switches` (edge position, or none). nullopt: no switch.
-[[nodiscard]] std::optional<Uim342HomeSwitch> uim342_home_switch(const config::Config& config, const config::Drive& drive);
+[[nodiscard]] std::optional<Uim342HomeSwitch> uim342_home_switch(const config::Config& config,
+                                                                 const config::Drive& drive);
 
 // When a written MT[0] micro-step resolution moves the motor (simulation.variants key
 // `micro_steps_apply`, docs/protocols.md). The manual (§5.9, §5.7) says the drive must be
@@ -96,7 +97,7 @@ class Uim342Drive final : public CanDriveSim {
   [[nodiscard]] std::uint16_t applied_micro_steps() const { return applied_micro_steps_; }
 
   // Parameters the drive keeps over a reboot (SY[1]); see store() for which sets persist.
-  struct MotionGroup {  // MF §5.13: 0 = normal, 2..7 = input edges
+  struct MotionGroup {                  // MF §5.13: 0 = normal, 2..7 = input edges
     std::uint32_t acceleration = 1000;  // AC
     std::uint32_t deceleration = 1000;  // DC
     std::int32_t speed = 0;             // SP (group 0: DV[2], shared with JV)
@@ -106,17 +107,17 @@ class Uim342Drive final : public CanDriveSim {
   struct Parameters {
     std::uint8_t bit_rate_code = 0;  // PP[5], PP[7], PP[8]: active after a reboot
     std::uint8_t node_id = 5;
-    std::uint8_t group_id = 0;       // 0: no group (the configuration gave none)
+    std::uint8_t group_id = 0;                                            // 0: no group (the configuration gave none)
     std::array<std::uint16_t, 8> initial_config{0, 1, 0, 0, 0, 0, 0, 0};  // IC; IC[1] = 1 factory (§3.1)
     std::array<std::uint16_t, 9> information_enable{};                    // IE[0..2], IE[8]
     std::array<std::uint16_t, 5> encoder{1000, 100, 17, 1, 3200};         // QE
-    std::array<std::uint16_t, 4> driver{16, 28, 50, 0};                    // MT
-    std::uint32_t cut_in_speed = 1000;           // SS (the manual's example value)
-    std::uint32_t stop_deceleration = 1'600'000;  // SD
-    std::uint32_t backlash = 0;                  // BL
-    std::array<uim342::InputActions, 3> input_logic{};  // IL[0..2]
-    std::uint16_t stall_behaviour = 0;           // IL[16] (alias IL[3])
-    std::array<std::uint16_t, 3> trigger{};      // TG[0..2]
+    std::array<std::uint16_t, 4> driver{16, 28, 50, 0};                   // MT
+    std::uint32_t cut_in_speed = 1000;                                    // SS (the manual's example value)
+    std::uint32_t stop_deceleration = 1'600'000;                          // SD
+    std::uint32_t backlash = 0;                                           // BL
+    std::array<uim342::InputActions, 3> input_logic{};                    // IL[0..2]
+    std::uint16_t stall_behaviour = 0;                                    // IL[16] (alias IL[3])
+    std::array<std::uint16_t, 3> trigger{};                               // TG[0..2]
     std::array<MotionGroup, 8> groups{};
   };
 
@@ -124,11 +125,11 @@ class Uim342Drive final : public CanDriveSim {
   struct Motion {
     bool active = false;
     bool ptp = false;
-    bool aborted = false;         // stopped before its target: no in-position
-    std::int64_t target = 0;      // PTP target, reported coordinates
+    bool aborted = false;             // stopped before its target: no in-position
+    std::int64_t target = 0;          // PTP target, reported coordinates
     std::int64_t ended_by_utime = 0;  // timestamp of the frame that stopped it (0: none)
   };
-  struct PendingInput {           // TG low-pass filter: a level waiting to be stable
+  struct PendingInput {  // TG low-pass filter: a level waiting to be stable
     bool level = false;
     TimePoint due = kNever;
     std::int64_t utime = 0;
@@ -170,7 +171,8 @@ class Uim342Drive final : public CanDriveSim {
   // Inputs and input logic (§4).
   void set_input(std::size_t port, bool level, TimePoint now, std::int64_t utime);
   void accept_input(std::size_t port, bool level, TimePoint now, std::int64_t utime);
-  void run_input_action(std::size_t port, uim342::Edge edge, uim342::InputAction action, TimePoint now, std::int64_t utime);
+  void run_input_action(std::size_t port, uim342::Edge edge, uim342::InputAction action, TimePoint now,
+                        std::int64_t utime);
   void input_emergency_stop(TimePoint now, std::int64_t utime);
 
   // The kinematics' state, at rest from the motion's end time on (the kinematics still report the
@@ -190,13 +192,13 @@ class Uim342Drive final : public CanDriveSim {
   Parameters persisted_;  // EEPROM/FLASH: what SY[1] reloads
   Parameters active_;     // RAM
 
-  std::uint8_t node_id_ = 5;   // active IDs (PP changes them at the next reboot)
+  std::uint8_t node_id_ = 5;  // active IDs (PP changes them at the next reboot)
   std::uint8_t group_id_ = 0;
   bool driver_on_ = false;
   TimePoint auto_enable_at_ = kNever;
   uim342::MotionMode mode_ = uim342::MotionMode::jog;  // DV[0]
-  bool ptp_relative_ = false;        // the last of PR/PA written decides what BG does
-  std::uint8_t selected_group_ = 0;  // MF: for the next AC/DC/SP/PR/PA only
+  bool ptp_relative_ = false;                          // the last of PR/PA written decides what BG does
+  std::uint8_t selected_group_ = 0;                    // MF: for the next AC/DC/SP/PR/PA only
   bool in_position_ = false;
   bool stalled_ = false;
   bool locked_ = false;
@@ -204,9 +206,9 @@ class Uim342Drive final : public CanDriveSim {
   bool emergency_stopping_ = false;  // an SD stop runs: BG is refused (0x3F)
   Kinematics kinematics_;
   Motion motion_;
-  std::int64_t origin_offset_ = 0;    // kinematics counts at the origin
-  std::int64_t relative_origin_ = 0;  // reported position where the relative counter is 0
-  std::array<bool, 3> inputs_{};      // pin levels
+  std::int64_t origin_offset_ = 0;         // kinematics counts at the origin
+  std::int64_t relative_origin_ = 0;       // reported position where the relative counter is 0
+  std::array<bool, 3> inputs_{};           // pin levels
   std::array<bool, 3> accepted_inputs_{};  // after the TG filter
   std::array<PendingInput, 3> pending_inputs_{};
   bool output_ = false;  // OP1
