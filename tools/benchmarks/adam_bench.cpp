@@ -1,4 +1,4 @@
-// ADAM Modbus RTU line benchmark: our RTU master (AdamBusDriver around MasterCore) polling N
+// ADAM Modbus RTU line benchmark: our RTU master (AdamBusDriver around AdamStack) polling N
 // simulated drives (AdamLineSim, slaves 1…N) over pseudo-terminals, both on ONE EventLoop in
 // this process, exactly as motion-gateway and motion-sim run them. One table; every figure sits
 // next to the wire-time bound of the same frames and their ratio. Nothing is asserted.

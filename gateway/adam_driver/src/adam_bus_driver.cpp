@@ -9,7 +9,7 @@ namespace motion::adam_driver {
 AdamBusDriver::AdamBusDriver(EventLoop& loop, MasterSettings settings, std::string device_path,
                              serial::SerialSettings line, gateway::GatewayOutput& out)
     : SerialBusDriver(loop, settings.bus, std::move(device_path), line, out, [&settings, &out](Write write) {
-        return std::make_unique<MasterCore>(std::move(settings), std::move(write), out);
+        return std::make_unique<AdamStack>(std::move(settings), std::move(write), out);
       }) {}
 
 std::unique_ptr<AdamBusDriver> AdamBusDriver::create(EventLoop& loop, const config::Config& config,

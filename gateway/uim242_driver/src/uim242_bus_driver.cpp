@@ -3,7 +3,7 @@
 #include <utility>
 
 #include "motion/gateway/serial_line.hpp"
-#include "motion/uim242_driver/bus_core.hpp"
+#include "motion/uim242_driver/uim242_stack.hpp"
 
 namespace motion::uim242_driver {
 
@@ -21,7 +21,7 @@ Uim242BusDriver::Uim242BusDriver(EventLoop& loop, const config::Config& config, 
             context.utime_of = [&loop](TimePoint t) {
               return wall_time_us() - std::chrono::duration_cast<std::chrono::microseconds>(loop.now() - t).count();
             };
-            return std::make_unique<Uim242BusCore>(config, bus.name, std::move(context));
+            return std::make_unique<Uim242Stack>(config, bus.name, std::move(context));
           }) {}
 
 std::unique_ptr<Uim242BusDriver> Uim242BusDriver::create(EventLoop& loop, const config::Config& config,

@@ -8,7 +8,7 @@
 #include <sstream>
 
 #include "motion/adam/registers.hpp"
-#include "motion/adam_driver/master_core.hpp"
+#include "motion/adam_driver/adam_stack.hpp"
 #include "motion/config/config.hpp"
 #include "motion/config/setup_schema.hpp"
 #include "motion/uc57_driver/node_settings.hpp"

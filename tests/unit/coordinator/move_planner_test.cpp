@@ -6,7 +6,7 @@
 
 #include "motion/adam/registers.hpp"
 #include "motion/adam/units.hpp"
-#include "motion/adam_driver/master_core.hpp"
+#include "motion/adam_driver/adam_stack.hpp"
 #include "motion/cia402/uc57_od.hpp"
 #include "motion/cia402/uc57_units.hpp"
 #include "motion/drive_model/drive_model.hpp"
@@ -105,15 +105,15 @@ void expect_relative(double actual, double expected, const std::string& what) {
   EXPECT_NEAR(actual, expected, std::abs(expected) * 1e-12) << what;
 }
 
-// ---- ADAM: master_core ARM_MOVE programs target_speed_from_pps and ramp_time_ms(0, rpm, rate) ----
+// ---- ADAM: adam_stack ARM_MOVE programs target_speed_from_pps and ramp_time_ms(0, rpm, rate) ----
 
-// What master_core.cpp writes for a realized motion (0x00D8, 0x0098, 0x0099) and what it realizes.
+// What adam_stack.cpp writes for a realized motion (0x00D8, 0x0098, 0x0099) and what it realizes.
 struct AdamProgrammed {
   planner::NativeMotion native;
   DriveMotion realized;
 };
 AdamProgrammed adam_programs(const DriveMotion& m, std::uint32_t ppr) {
-  // Whole rpm, as MasterCore::arm_move writes it to 0x009A and 0x00D8.
+  // Whole rpm, as AdamStack::arm_move writes it to 0x009A and 0x00D8.
   const long rpm_whole = std::lround(adam::pps_to_rpm(m.velocity_counts_per_s, ppr));
   const double rpm = static_cast<double>(rpm_whole);
   const auto accel = adam::ramp_time_ms(0, rpm, std::abs(adam::pps_to_rpm(m.acceleration_counts_per_s2, ppr)));
@@ -145,7 +145,7 @@ TEST(DriveQuantizers, AdamPulsesPerRevolutionFollowTheGatewaysSetupRule) {
   }
 }
 
-TEST(DriveQuantizers, AdamRealizedValuesAreWhatMasterCoreProgramsExactly) {
+TEST(DriveQuantizers, AdamRealizedValuesAreWhatAdamStackProgramsExactly) {
   for (const std::string name : {"cd", "dd", "ed"}) {
     const std::uint32_t ppr = assumed_pulses_per_revolution(lab(), drive(name));
     const auto q = quantizer(name);
@@ -228,7 +228,7 @@ TEST(DriveQuantizers, Uim242RealizedValuesAreIntegerSpdMacMdeTheControllerAccept
   ASSERT_GT(settings.size(), 20u);
   for (const auto& s : settings) {
     const std::string what = "v=" + std::to_string(s.realized.velocity_counts_per_s);
-    // What bus_core writes: SPD v (pulse/s), MAC a, MDE d (pulse/s^2, value mode).
+    // What uim242_stack writes: SPD v (pulse/s), MAC a, MDE d (pulse/s^2, value mode).
     EXPECT_EQ(s.native.velocity, static_cast<std::int64_t>(s.realized.velocity_counts_per_s)) << what;
     EXPECT_EQ(s.native.acceleration, static_cast<std::int64_t>(s.realized.acceleration_counts_per_s2)) << what;
     EXPECT_EQ(s.native.deceleration, static_cast<std::int64_t>(s.realized.deceleration_counts_per_s2)) << what;

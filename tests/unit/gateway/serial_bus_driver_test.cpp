@@ -24,7 +24,7 @@ namespace {
 
 using std::chrono::milliseconds;
 
-class ScriptedCore final : public SerialLineCore {
+class ScriptedCore final : public SerialStack {
  public:
   explicit ScriptedCore(SerialBusDriver::Write write) : write_(std::move(write)) {}
   void start(TimePoint) override { ++starts; }

@@ -1,4 +1,4 @@
-// Test bench of test_hardware_truth: a gateway's serial line core (SerialLineCore) and the
+// Test bench of test_hardware_truth: a gateway's serial line core (SerialStack) and the
 // simulated far end of its line (SerialDeviceSim) joined by a zero-latency wire, time advanced by
 // hand, the core's replies and events recorded, the simulator's reports kept as ground truth.
 // Thread contract: single-threaded test code.
@@ -20,7 +20,7 @@
 
 #include "motion/config/config.hpp"
 #include "motion/gateway/bus_driver.hpp"
-#include "motion/gateway/serial_line_core.hpp"
+#include "motion/gateway/serial_stack.hpp"
 #include "motion/sim/serial_device_sim.hpp"
 
 namespace motion::truth {
@@ -67,7 +67,7 @@ struct Report {
 class SerialBench {
  public:
   // `make_core` builds the core with the bench's send function and recorder.
-  using CoreFactory = std::function<std::unique_ptr<gateway::SerialLineCore>(
+  using CoreFactory = std::function<std::unique_ptr<gateway::SerialStack>(
       std::function<void(std::span<const std::uint8_t>)> send, gateway::GatewayOutput& out)>;
 
   SerialBench(const std::string& yaml, const std::string& bus, const sim::SerialDeviceFactory& sim_factory) {
@@ -173,7 +173,7 @@ class SerialBench {
   std::unique_ptr<config::Config> config;  // the core keeps pointers into it
   Recorder out;
   std::unique_ptr<sim::SerialDeviceSim> device;
-  std::unique_ptr<gateway::SerialLineCore> core;
+  std::unique_ptr<gateway::SerialStack> core;
   std::vector<Report> reports;
   std::deque<std::vector<std::uint8_t>> to_device;
   std::vector<TimePoint> sent_at;  // when the core wrote each piece

@@ -1,5 +1,5 @@
-// AdamBusDriver: the gateway's BusDriver for an RS485 line of ADAM Modbus RTU steppers: MasterCore
-// (master_core.hpp, which holds every protocol decision) in the serial poll-loop shell
+// AdamBusDriver: the gateway's BusDriver for an RS485 line of ADAM Modbus RTU steppers: AdamStack
+// (adam_stack.hpp, which holds every protocol decision) in the serial poll-loop shell
 // gateway::SerialBusDriver (port opening and reopening, fd watch, one timer at the core's next
 // deadline: timeouts, t3.5 silence, polls).
 //
@@ -13,7 +13,7 @@
 #include <memory>
 #include <string>
 
-#include "motion/adam_driver/master_core.hpp"
+#include "motion/adam_driver/adam_stack.hpp"
 #include "motion/gateway/serial_bus_driver.hpp"
 
 namespace motion::adam_driver {

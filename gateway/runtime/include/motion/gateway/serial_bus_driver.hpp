@@ -1,5 +1,5 @@
 // A serial line in the gateway (RS485 Modbus RTU, RS232 to a UIM2501/2502): the poll-loop shell
-// shared by the serial families, around one passive protocol core (SerialLineCore: bytes and
+// shared by the serial families, around one passive protocol core (SerialStack: bytes and
 // `now` in, bytes out through the Write it was built with, the next deadline out of process()):
 //  * opens the bus's serial port (serial:<device>, or the simserial link motion-sim publishes),
 //    non-blocking; while it cannot (motion-sim not up yet, adapter unplugged, no permission) it
@@ -26,7 +26,7 @@
 
 #include "motion/core/event_loop.hpp"
 #include "motion/gateway/bus_driver.hpp"
-#include "motion/gateway/serial_line_core.hpp"
+#include "motion/gateway/serial_stack.hpp"
 #include "motion/serial/serial_port.hpp"
 
 namespace motion::gateway {
@@ -35,7 +35,7 @@ class SerialBusDriver : public BusDriver {
  public:
   // How the core writes to the line: false when the port is closed or took less than the frame.
   using Write = std::function<bool(std::span<const std::uint8_t>)>;
-  using CoreFactory = std::function<std::unique_ptr<SerialLineCore>(Write write)>;
+  using CoreFactory = std::function<std::unique_ptr<SerialStack>(Write write)>;
 
   SerialBusDriver(EventLoop& loop, std::string bus, std::string device_path, serial::SerialSettings line,
                   GatewayOutput& out, const CoreFactory& make_core);
@@ -66,7 +66,7 @@ class SerialBusDriver : public BusDriver {
   std::string device_path_;
   serial::SerialSettings line_;
   GatewayOutput& out_;
-  std::unique_ptr<SerialLineCore> core_;
+  std::unique_ptr<SerialStack> core_;
   std::unique_ptr<serial::SerialPort> port_;
   EventLoop::TimerId timer_ = 0;
   EventLoop::TimerId reopen_timer_ = 0;

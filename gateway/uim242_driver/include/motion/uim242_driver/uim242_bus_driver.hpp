@@ -1,5 +1,5 @@
 // Uim242BusDriver: the gateway's BusDriver for an RS232 bus of UIM242 controllers behind a
-// UIM2501/2502 RS232-CAN gateway: Uim242BusCore (bus_core.hpp, which holds every protocol
+// UIM2501/2502 RS232-CAN gateway: Uim242Stack (uim242_stack.hpp, which holds every protocol
 // decision) in the serial poll-loop shell gateway::SerialBusDriver (port opening and reopening,
 // fd watch, one timer at the core's next deadline: reply timeouts, polls, re-identification).
 //

@@ -9,7 +9,7 @@
 
 #include "bench.hpp"
 #include "motion/sim/uim242_gateway_sim.hpp"
-#include "motion/uim242_driver/bus_core.hpp"
+#include "motion/uim242_driver/uim242_stack.hpp"
 
 namespace motion::truth {
 namespace {
@@ -40,7 +40,7 @@ SerialBench::CoreFactory uim242_core(SerialBench& bench) {
     uim242_driver::CoreContext context;
     context.send = std::move(send);
     context.out = &out;
-    return std::make_unique<uim242_driver::Uim242BusCore>(*bench.config, "rs232", context);
+    return std::make_unique<uim242_driver::Uim242Stack>(*bench.config, "rs232", context);
   };
 }
 

@@ -1,6 +1,6 @@
 // The UIM242 serial line in one process over a real pseudo-terminal: motion-sim's side
 // (sim::SerialLineHost with uim242_line_factory(): a simulated UIM2501 with two UIM242s, nodes 5
-// and 6) and the gateway's (Uim242BusDriver: Uim242BusCore in the serial poll-loop shell) on ONE
+// and 6) and the gateway's (Uim242BusDriver: Uim242Stack in the serial poll-loop shell) on ONE
 // EventLoop, byte for byte as between the processes. Covers what the shells add to the passive
 // cores: the pty rendezvous, the reply latency, the timers, and a hang-up of the line (every
 // running command fails naming the line, the drives go offline, and come back when it returns);

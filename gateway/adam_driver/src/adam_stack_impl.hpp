@@ -1,9 +1,9 @@
-// Private to MasterCore's sources (master_core.cpp: settings, the line, drives and polling;
-// master_core_commands.cpp: commands): the helpers and the drive, transaction and operation
+// Private to AdamStack's sources (adam_stack.cpp: settings, the line, drives and polling;
+// adam_stack_commands.cpp: commands): the helpers and the drive, transaction and operation
 // types they share. Not installed, not included elsewhere.
 #pragma once
 
-#include "motion/adam_driver/master_core.hpp"
+#include "motion/adam_driver/adam_stack.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -82,7 +82,7 @@ using namespace core_detail;  // the helpers above, unqualified in the core's so
 
 // ---- State --------------------------------------------------------------------------------------
 
-struct MasterCore::Drive {
+struct AdamStack::Drive {
   DriveSettings cfg;
   bool online = false;
   bool ever_answered = false;
@@ -106,7 +106,7 @@ struct MasterCore::Drive {
   gateway::PowerUpWatch power;    // its position samples (on_position_status)
 };
 
-struct MasterCore::Transaction {
+struct AdamStack::Transaction {
   Transaction(rtu::Request r, Drive* d, std::int64_t id = 0) : request(std::move(r)), drive(d), command_id(id) {}
   rtu::Request request;
   Drive* drive = nullptr;       // nullptr: broadcast
@@ -119,7 +119,7 @@ struct MasterCore::Transaction {
   TimePoint frame_end{};
 };
 
-struct MasterCore::Operation {
+struct AdamStack::Operation {
   motionlcm::gateway_command_t command;
   std::vector<Drive*> drives;  // aligned with command.axes
   std::size_t outstanding = 0;

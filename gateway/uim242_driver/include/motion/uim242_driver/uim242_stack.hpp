@@ -3,7 +3,7 @@
 // command semantics of motion::gateway::BusDriver in drive counts (pulses).
 //
 // Passive, fd-free: bytes and `now` in (on_bytes), bytes out (context.send), replies/status/events
-// out (context.out), next deadline out (process). A gateway::SerialLineCore: Uim242BusDriver
+// out (context.out), next deadline out (process). A gateway::SerialStack: Uim242BusDriver
 // (uim242_bus_driver.hpp) wraps it in the serial poll-loop shell, which on the fd readable calls
 // on_bytes(), on the timer process(), execute()/fire() as they come, and after EVERY call
 // process(now), re-arming its timer at the result.
@@ -72,7 +72,7 @@
 #include "motion/core/clock.hpp"
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/gateway/command_ledger.hpp"
-#include "motion/gateway/serial_line_core.hpp"
+#include "motion/gateway/serial_stack.hpp"
 #include "motion/uim242/feedback.hpp"
 #include "motion/uim242_driver/request_channel.hpp"
 
@@ -85,12 +85,12 @@ struct CoreContext {
   gateway::WallClock utime_of;
 };
 
-class Uim242BusCore final : public gateway::SerialLineCore {
+class Uim242Stack final : public gateway::SerialStack {
  public:
-  Uim242BusCore(const config::Config& config, const std::string& bus, CoreContext context);
-  ~Uim242BusCore() override;
-  Uim242BusCore(const Uim242BusCore&) = delete;
-  Uim242BusCore& operator=(const Uim242BusCore&) = delete;
+  Uim242Stack(const config::Config& config, const std::string& bus, CoreContext context);
+  ~Uim242Stack() override;
+  Uim242Stack(const Uim242Stack&) = delete;
+  Uim242Stack& operator=(const Uim242Stack&) = delete;
 
   void start(TimePoint now) override;
   void on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) override;

@@ -1,25 +1,25 @@
-// Uim242BusCore (bus_core.hpp): gateway commands: enable, stops, jogs, moves (arm, fire, watch),
+// Uim242Stack (uim242_stack.hpp): gateway commands: enable, stops, jogs, moves (arm, fire, watch),
 // settling, homing and parameters.
-#include "bus_core_impl.hpp"
+#include "uim242_stack_impl.hpp"
 
 namespace motion::uim242_driver {
 
 // ---- commands -------------------------------------------------------------------------------------
 
-Uim242BusCore::Drive* Uim242BusCore::drive_of_axis(const std::string& axis) {
+Uim242Stack::Drive* Uim242Stack::drive_of_axis(const std::string& axis) {
   for (auto& d : drives_) {
     if (d->axis_name == axis) return d.get();
   }
   return nullptr;
 }
 
-std::size_t Uim242BusCore::index_of(const Drive& d) const {
+std::size_t Uim242Stack::index_of(const Drive& d) const {
   const auto it = std::find_if(drives_.begin(), drives_.end(), [&d](const auto& owned) { return owned.get() == &d; });
   return static_cast<std::size_t>(it - drives_.begin());
 }
 
-bool Uim242BusCore::for_each_axis(const gateway_command_t& command,
-                                  const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f) {
+bool Uim242Stack::for_each_axis(const gateway_command_t& command,
+                                const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f) {
   for (const auto& a : command.axes) {
     Drive* d = drive_of_axis(a.axis);
     if (!d) {
@@ -36,7 +36,7 @@ bool Uim242BusCore::for_each_axis(const gateway_command_t& command,
   return true;
 }
 
-void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
+void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
   const std::int64_t id = command.command_id;
   // One part per drive named (axes of other buses fail below, in for_each_axis / arm).
   std::vector<std::size_t> parts;
@@ -215,7 +215,7 @@ void Uim242BusCore::execute(const gateway_command_t& command, TimePoint now) {
   }
 }
 
-void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
+void Uim242Stack::arm(const gateway_command_t& command, TimePoint now) {
   const std::int64_t id = command.command_id;
   auto move = std::make_unique<Move>();
   move->command_id = id;
@@ -281,9 +281,9 @@ void Uim242BusCore::arm(const gateway_command_t& command, TimePoint now) {
   (void)now;
 }
 
-void Uim242BusCore::reserve_line(TimePoint at, TimePoint /*now*/) { channel_.reserve(at); }
+void Uim242Stack::reserve_line(TimePoint at, TimePoint /*now*/) { channel_.reserve(at); }
 
-void Uim242BusCore::fire(std::int64_t trigger_id, TimePoint now) {
+void Uim242Stack::fire(std::int64_t trigger_id, TimePoint now) {
   channel_.reserve(kNever);
   // start_move() may end a move at once (every axis already at its target: DONE), and finish()
   // erases it from moves_: walk a list of the command ids, and look each one up again.
@@ -299,7 +299,7 @@ void Uim242BusCore::fire(std::int64_t trigger_id, TimePoint now) {
   }
 }
 
-void Uim242BusCore::start_move(Move& m, TimePoint now) {
+void Uim242Stack::start_move(Move& m, TimePoint now) {
   m.start_sent = true;
   const std::int64_t id = m.command_id;
   std::vector<Move::Axis*> to_start;
@@ -379,7 +379,7 @@ void Uim242BusCore::start_move(Move& m, TimePoint now) {
   }
 }
 
-void Uim242BusCore::move_axis_arrived(Drive& d, TimePoint now) {
+void Uim242Stack::move_axis_arrived(Drive& d, TimePoint now) {
   for (auto& m : moves_) {
     if (!m->start_sent) continue;
     for (auto& a : m->axes) {
@@ -401,7 +401,7 @@ void Uim242BusCore::move_axis_arrived(Drive& d, TimePoint now) {
   }
 }
 
-void Uim242BusCore::fail_moves_of(const Drive& d, const std::string& reason, std::int32_t code) {
+void Uim242Stack::fail_moves_of(const Drive& d, const std::string& reason, std::int32_t code) {
   std::vector<std::int64_t> failed;
   for (const auto& m : moves_) {
     if (std::any_of(m->axes.begin(), m->axes.end(), [&](const auto& a) { return a.drive == &d && !a.arrived; })) {
@@ -413,7 +413,7 @@ void Uim242BusCore::fail_moves_of(const Drive& d, const std::string& reason, std
   for (const auto id : failed) finish(id, false, reason, code);
 }
 
-void Uim242BusCore::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a) {
+void Uim242Stack::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a) {
   const std::int64_t id = c.command.command_id;
   const std::int64_t v = std::llround(a.velocity);
   if (v == 0) {
@@ -454,7 +454,7 @@ void Uim242BusCore::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a
       });
 }
 
-void Uim242BusCore::settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then) {
+void Uim242Stack::settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then) {
   submit(
       d, bare(Mnemonic::FBK), group,
       [this, &d, group, give_up, then = std::move(then)](const Frame& f, TimePoint t) mutable {
@@ -490,7 +490,7 @@ void Uim242BusCore::settle(Drive& d, std::int64_t group, TimePoint give_up, std:
       true);
 }
 
-void Uim242BusCore::homed(Drive& d, std::int64_t offset, TimePoint now) {
+void Uim242Stack::homed(Drive& d, std::int64_t offset, TimePoint now) {
   d.status.homed = true;
   d.status.position_counts = offset;
   d.status.moving = false;  // the drive took `ORG`: it refuses it while moving
@@ -499,7 +499,7 @@ void Uim242BusCore::homed(Drive& d, std::int64_t offset, TimePoint now) {
   publish(d, now);  // before DONE (see execute)
 }
 
-void Uim242BusCore::home(Command& c, Drive& d, const config::Axis& axis, const motionlcm::axis_command_t& a) {
+void Uim242Stack::home(Command& c, Drive& d, const config::Axis& axis, const motionlcm::axis_command_t& a) {
   const std::int64_t id = c.command.command_id;
   // Offset and velocity in counts as the coordinator computed them (with the axis's direction).
   const std::int64_t offset = a.target_counts;
@@ -543,7 +543,7 @@ void Uim242BusCore::home(Command& c, Drive& d, const config::Axis& axis, const m
   });
 }
 
-void Uim242BusCore::param(const gateway_command_t& command, Drive& d, bool write) {
+void Uim242Stack::param(const gateway_command_t& command, Drive& d, bool write) {
   const std::int64_t id = command.command_id;
   const auto& p = command.param;
   if (p.space != motionlcm::param_t::UIM242_INSTRUCTION) {

@@ -7,7 +7,7 @@
 //    and an unsupported function, and a broadcast (slave 0) table-execute that starts two drives
 //    on the one frame without any reply;
 //  * LibmodbusServer.*: a libmodbus RTU SERVER (modbus_receive/modbus_reply over a
-//    modbus_mapping_t, in a std::thread) answering our AdamBusDriver/MasterCore: set-up, status
+//    modbus_mapping_t, in a std::thread) answering our AdamBusDriver/AdamStack: set-up, status
 //    polling with a negative 32-bit position, 32-bit parameter write/read, an exception reply,
 //    and a move started by our broadcast (which libmodbus executes and does not answer).
 // libmodbus blocks its caller for a whole transaction, so it always runs on its own thread while

@@ -1,6 +1,6 @@
-// MasterCore (master_core.hpp): settings from the configuration, the line (one transaction at a
+// AdamStack (adam_stack.hpp): settings from the configuration, the line (one transaction at a
 // time, replies, timeouts, retries), drives and polling.
-#include "master_core_impl.hpp"
+#include "adam_stack_impl.hpp"
 
 namespace motion::adam_driver {
 
@@ -43,7 +43,7 @@ MasterSettings settings_from_config(const config::Config& config, const config::
   return s;
 }
 
-MasterCore::MasterCore(MasterSettings settings, Send send, gateway::GatewayOutput& out, WallClock wall_clock)
+AdamStack::AdamStack(MasterSettings settings, Send send, gateway::GatewayOutput& out, WallClock wall_clock)
     : settings_(std::move(settings)),
       send_(std::move(send)),
       out_(out),
@@ -58,7 +58,7 @@ MasterCore::MasterCore(MasterSettings settings, Send send, gateway::GatewayOutpu
   }
 }
 
-MasterCore::~MasterCore() = default;
+AdamStack::~AdamStack() = default;
 
 // ---- Line ---------------------------------------------------------------------------------------
 
@@ -72,7 +72,7 @@ bool is_save(const rtu::Request& r) {
 }
 }  // namespace
 
-void MasterCore::enqueue(Transaction t, bool urgent) {
+void AdamStack::enqueue(Transaction t, bool urgent) {
   if (t.drive && !t.is_poll) t.max_retries = is_save(t.request) ? 0 : t.drive->cfg.retries;
   if (urgent) {
     queue_.push_front(std::move(t));
@@ -86,7 +86,7 @@ void MasterCore::enqueue(Transaction t, bool urgent) {
   }
 }
 
-std::string MasterCore::describe(const Transaction& t) const {
+std::string AdamStack::describe(const Transaction& t) const {
   if (const auto* read = std::get_if<rtu::ReadRegisters>(&t.request.pdu)) {
     const std::uint32_t last = std::uint32_t{read->start} + read->quantity - 1;
     return "reading register " + hex16(read->start) + (last != read->start ? "…" + hex16(last) : "") +
@@ -98,7 +98,7 @@ std::string MasterCore::describe(const Transaction& t) const {
   return "writing register " + hex16(reg) + register_name(reg);
 }
 
-void MasterCore::send_next(TimePoint now) {
+void AdamStack::send_next(TimePoint now) {
   while (!in_flight_ && !queue_.empty() && now >= line_free_at_) {
     if (reserved_at_ != kNever && now < reserved_at_ + kReservationGrace && queue_.front().drive != nullptr) {
       // A scheduled start frame goes out at reserved_at_: nothing that would still run then (nor
@@ -155,14 +155,14 @@ void MasterCore::send_next(TimePoint now) {
   }
 }
 
-std::optional<std::size_t> MasterCore::expected_reply_size(std::span<const std::uint8_t> pending) const {
+std::optional<std::size_t> AdamStack::expected_reply_size(std::span<const std::uint8_t> pending) const {
   if (!in_flight_ || pending.size() < 2) return std::nullopt;
   if ((pending[1] & rtu::kExceptionFlag) != 0) return 5;  // unit, function|0x80, code, CRC
   if (const auto* read = std::get_if<rtu::ReadRegisters>(&in_flight_->request.pdu)) return 5U + 2U * read->quantity;
   return 8;  // FC 0x06 echo, FC 0x10 start + quantity
 }
 
-void MasterCore::on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) {
+void AdamStack::on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) {
   framer_.push(bytes, now);
   const auto pending = framer_.pending();
   // A pty delivers a frame at once; closing it at its known length saves the t3.5 wait. A frame
@@ -175,7 +175,7 @@ void MasterCore::on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) {
   }
 }
 
-void MasterCore::on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now) {
+void AdamStack::on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now) {
   ++rx_frames_;
   rx_bytes_ += static_cast<std::int64_t>(frame.size());
   busy_time_ += rtu::transmission_time(settings_.format, frame.size());
@@ -214,13 +214,13 @@ void MasterCore::on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now) 
   complete_in_flight(decoded.value(), now);
 }
 
-void MasterCore::complete_in_flight(const rtu::Response& response, TimePoint now) {
+void AdamStack::complete_in_flight(const rtu::Response& response, TimePoint now) {
   auto t = std::move(in_flight_);
   reply_deadline_ = kNever;
   if (t->on_reply) t->on_reply(response, now, t->frame_end);
 }
 
-void MasterCore::on_timeout(TimePoint now) {
+void AdamStack::on_timeout(TimePoint now) {
   ++timeouts_;
   Drive& d = *in_flight_->drive;
   const std::string what =
@@ -231,7 +231,7 @@ void MasterCore::on_timeout(TimePoint now) {
   retry_or_fail(what, error_code(ReplyError::kTimeout), now);
 }
 
-void MasterCore::retry_or_fail(const std::string& why, std::int32_t code, TimePoint now) {
+void AdamStack::retry_or_fail(const std::string& why, std::int32_t code, TimePoint now) {
   framer_.clear();
   reply_deadline_ = kNever;
   auto t = std::move(in_flight_);
@@ -248,12 +248,12 @@ void MasterCore::retry_or_fail(const std::string& why, std::int32_t code, TimePo
   if (t->on_fail) t->on_fail(reason, code);
 }
 
-bool MasterCore::reply_incomplete() const {
+bool AdamStack::reply_incomplete() const {
   const auto pending = framer_.pending();
   return in_flight_ && !pending.empty() && pending.size() < expected_reply_size(pending).value_or(kShortestReply);
 }
 
-TimePoint MasterCore::process(TimePoint now) {
+TimePoint AdamStack::process(TimePoint now) {
   if (in_flight_) {
     // Bytes short of the reply's known length are not a reply yet, whatever the silence after them:
     // a USB adapter or a loaded host delivers one reply in pieces with pauses longer than t3.5, and
@@ -284,9 +284,9 @@ TimePoint MasterCore::process(TimePoint now) {
   return next;
 }
 
-void MasterCore::reserve_line(TimePoint at, TimePoint /*now*/) { reserved_at_ = at; }
+void AdamStack::reserve_line(TimePoint at, TimePoint /*now*/) { reserved_at_ = at; }
 
-void MasterCore::line_lost(const std::string& why, TimePoint now) {
+void AdamStack::line_lost(const std::string& why, TimePoint now) {
   (void)now;
   line_open_ = false;
   event(nullptr, Event::OFFLINE, Event::ERROR, 0, "serial line of bus " + settings_.bus + " lost: " + why);
@@ -306,7 +306,7 @@ void MasterCore::line_lost(const std::string& why, TimePoint now) {
 
 // ---- Drives and polling -------------------------------------------------------------------------
 
-void MasterCore::start(TimePoint now) {
+void AdamStack::start(TimePoint now) {
   started_ = true;
   line_open_ = true;
   line_free_at_ = now;
@@ -315,7 +315,7 @@ void MasterCore::start(TimePoint now) {
   send_next(now);
 }
 
-void MasterCore::run_setup(Drive& d) {
+void AdamStack::run_setup(Drive& d) {
   Drive* drive = &d;
   drive->setup_running = true;
   const auto setup_failed = [this, drive](const std::string& reason, std::int32_t) {
@@ -353,7 +353,7 @@ void MasterCore::run_setup(Drive& d) {
   enqueue(std::move(subdivision));
 }
 
-void MasterCore::poll(TimePoint now) {
+void AdamStack::poll(TimePoint now) {
   (void)now;
   for (auto& d : drives_) {
     Drive* drive = d.get();
@@ -386,7 +386,7 @@ void MasterCore::poll(TimePoint now) {
   }
 }
 
-void MasterCore::on_position_status(Drive& d, std::span<const std::uint16_t> words, TimePoint now) {
+void AdamStack::on_position_status(Drive& d, std::span<const std::uint16_t> words, TimePoint now) {
   const std::int32_t position = adam::decode32_signed(words[0], words[1]);
   const adam::DriveStatus status = adam::decode_status(words[2], words[3]);
   if (d.position) {
@@ -435,7 +435,7 @@ void MasterCore::on_position_status(Drive& d, std::span<const std::uint16_t> wor
   for (Operation* op : watching) check_motion(*op, d, now);  // may finish (erase) ops: iterate a copy
 }
 
-void MasterCore::on_outputs_alarm(Drive& d, std::span<const std::uint16_t> words, TimePoint now) {
+void AdamStack::on_outputs_alarm(Drive& d, std::span<const std::uint16_t> words, TimePoint now) {
   (void)now;
   d.outputs = words[0];
   const adam::AlarmState alarm = adam::decode_alarms(words[1]);
@@ -450,7 +450,7 @@ void MasterCore::on_outputs_alarm(Drive& d, std::span<const std::uint16_t> words
   publish_status(d);
 }
 
-void MasterCore::publish_status(const Drive& d) const {
+void AdamStack::publish_status(const Drive& d) const {
   if (d.cfg.axis.empty()) return;
   gateway::DriveStatus s;
   s.sample_utime = d.sample_utime;
@@ -472,7 +472,7 @@ void MasterCore::publish_status(const Drive& d) const {
   out_.axis_status(d.cfg.axis, s);
 }
 
-void MasterCore::set_online(Drive& d, bool online, const std::string& why) {
+void AdamStack::set_online(Drive& d, bool online, const std::string& why) {
   if (online) d.ever_answered = true;
   if (d.online == online) return;
   d.online = online;
@@ -486,8 +486,8 @@ void MasterCore::set_online(Drive& d, bool online, const std::string& why) {
   publish_status(d);
 }
 
-void MasterCore::event(const Drive* d, std::int16_t kind, std::int8_t severity, std::int32_t code,
-                       const std::string& text) const {
+void AdamStack::event(const Drive* d, std::int16_t kind, std::int8_t severity, std::int32_t code,
+                      const std::string& text) const {
   gateway::DriveEvent e;
   e.kind = kind;
   e.severity = severity;
@@ -496,18 +496,18 @@ void MasterCore::event(const Drive* d, std::int16_t kind, std::int8_t severity, 
   out_.axis_event(d ? d->cfg.axis : std::string{}, e);
 }
 
-MasterCore::Drive* MasterCore::drive_of_axis(const std::string& axis) {
+AdamStack::Drive* AdamStack::drive_of_axis(const std::string& axis) {
   for (auto& d : drives_) {
     if (!axis.empty() && d->cfg.axis == axis) return d.get();
   }
   return nullptr;
 }
 
-double MasterCore::rpm_of(const Drive& d, double counts_per_s) const {
+double AdamStack::rpm_of(const Drive& d, double counts_per_s) const {
   return adam::pps_to_rpm(counts_per_s, d.pulses_per_rev);
 }
 
-motionlcm::bus_stats_t MasterCore::statistics() const {
+motionlcm::bus_stats_t AdamStack::statistics() const {
   motionlcm::bus_stats_t s{};
   s.name = settings_.bus;
   s.transport = settings_.transport;
@@ -529,7 +529,7 @@ motionlcm::bus_stats_t MasterCore::statistics() const {
   return s;
 }
 
-bool MasterCore::ready() const {
+bool AdamStack::ready() const {
   return started_ && line_open_ &&
          std::all_of(drives_.begin(), drives_.end(), [](const auto& d) { return d->online && d->set_up; });
 }

@@ -1,12 +1,12 @@
-// MasterCore (master_core.hpp): gateway commands: operations and their replies, enable, stops,
+// AdamStack (adam_stack.hpp): gateway commands: operations and their replies, enable, stops,
 // jogs, homing, outputs, parameters, arming, firing and watching moves.
-#include "master_core_impl.hpp"
+#include "adam_stack_impl.hpp"
 
 namespace motion::adam_driver {
 // ---- Commands -----------------------------------------------------------------------------------
 
-MasterCore::Operation& MasterCore::open_operation(const motionlcm::gateway_command_t& command,
-                                                  std::vector<Drive*> drives) {
+AdamStack::Operation& AdamStack::open_operation(const motionlcm::gateway_command_t& command,
+                                                std::vector<Drive*> drives) {
   auto op = std::make_unique<Operation>();
   op->command = command;
   op->drives = std::move(drives);
@@ -19,17 +19,17 @@ MasterCore::Operation& MasterCore::open_operation(const motionlcm::gateway_comma
   return ref;
 }
 
-MasterCore::Operation* MasterCore::operation(std::int64_t id) {
+AdamStack::Operation* AdamStack::operation(std::int64_t id) {
   auto* entry = operations_.find(id);
   return entry != nullptr ? entry->data.get() : nullptr;
 }
 
-std::size_t MasterCore::index_of(const Drive& d) const {
+std::size_t AdamStack::index_of(const Drive& d) const {
   const auto it = std::find_if(drives_.begin(), drives_.end(), [&d](const auto& owned) { return owned.get() == &d; });
   return static_cast<std::size_t>(it - drives_.begin());
 }
 
-void MasterCore::add_write(Operation& op, Drive& d, const rtu::Request& request, std::function<void(TimePoint)> after) {
+void AdamStack::add_write(Operation& op, Drive& d, const rtu::Request& request, std::function<void(TimePoint)> after) {
   ++op.outstanding;
   const std::int64_t id = op.command.command_id;
   Transaction t{request, &d, id};
@@ -44,12 +44,12 @@ void MasterCore::add_write(Operation& op, Drive& d, const rtu::Request& request,
   enqueue(std::move(t));
 }
 
-void MasterCore::when_transferred(Operation& op, std::function<void(TimePoint)> next) {
+void AdamStack::when_transferred(Operation& op, std::function<void(TimePoint)> next) {
   op.on_transferred = std::move(next);
 }
 
-void MasterCore::finish(std::int64_t command_id, std::int8_t status, const std::string& reason, std::int32_t code,
-                        std::optional<motionlcm::param_t> param) {
+void AdamStack::finish(std::int64_t command_id, std::int8_t status, const std::string& reason, std::int32_t code,
+                       std::optional<motionlcm::param_t> param) {
   auto* entry = operations_.find(command_id);
   if (entry == nullptr) return;  // already ended: exactly one terminal reply
   if (param) entry->reply.param(*param);
@@ -63,7 +63,7 @@ void MasterCore::finish(std::int64_t command_id, std::int8_t status, const std::
   }
 }
 
-void MasterCore::fail_motion_of(const Drive& d, const std::string& reason, std::int32_t code) {
+void AdamStack::fail_motion_of(const Drive& d, const std::string& reason, std::int32_t code) {
   if (d.motion_owner != 0) finish(d.motion_owner, Reply::FAILED, reason, code);
   // A jog or homing whose writes are still queued: they would start the motor after the stop.
   std::vector<std::int64_t> queued;
@@ -79,7 +79,7 @@ void MasterCore::fail_motion_of(const Drive& d, const std::string& reason, std::
   for (const auto id : queued) finish(id, Reply::FAILED, reason, code);
 }
 
-std::optional<std::string> MasterCore::busy_reason(const std::vector<Drive*>& drives) const {
+std::optional<std::string> AdamStack::busy_reason(const std::vector<Drive*>& drives) const {
   for (const Drive* d : drives) {
     if (d->motion_owner != 0) return "axis " + d->cfg.axis + " is busy with command " + std::to_string(d->motion_owner);
     if (d->alarm.active())
@@ -88,7 +88,7 @@ std::optional<std::string> MasterCore::busy_reason(const std::vector<Drive*>& dr
   return std::nullopt;
 }
 
-void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint now) {
+void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint now) {
   const auto refuse = [&](const std::string& reason, std::int32_t code) { operations_.reject(command, code, reason); };
   if (operations_.find(command.command_id) != nullptr)
     return refuse("duplicate command id", error_code(ReplyError::kMalformedRequest));
@@ -316,7 +316,7 @@ void MasterCore::execute(const motionlcm::gateway_command_t& command, TimePoint 
   send_next(now);
 }
 
-void MasterCore::arm_move(Operation& op, TimePoint now) {
+void AdamStack::arm_move(Operation& op, TimePoint now) {
   (void)now;
   const std::int64_t id = op.command.command_id;
   op.goal = Operation::Goal::reach_target;
@@ -396,14 +396,14 @@ void MasterCore::arm_move(Operation& op, TimePoint now) {
   });
 }
 
-bool MasterCore::neutral_for(const Drive& d, const Operation& firing) const {
+bool AdamStack::neutral_for(const Drive& d, const Operation& firing) const {
   if (std::find(firing.drives.begin(), firing.drives.end(), &d) != firing.drives.end()) return true;
   // Executing its table entry must move nothing: idle, entry = position, and no command of ours
   // pending on it. A drive that never answered cannot be vouched for.
   return d.motion_owner == 0 && d.status && !d.status->moving() && d.position && d.table_entry == d.position;
 }
 
-void MasterCore::fire(std::int64_t trigger_id, TimePoint now) {
+void AdamStack::fire(std::int64_t trigger_id, TimePoint now) {
   reserved_at_ = kNever;
   std::vector<std::int64_t> ids;
   for (const auto& [id, entry] : operations_.entries()) {
@@ -416,7 +416,7 @@ void MasterCore::fire(std::int64_t trigger_id, TimePoint now) {
   send_next(now);
 }
 
-void MasterCore::start_armed(Operation& op, TimePoint now) {
+void AdamStack::start_armed(Operation& op, TimePoint now) {
   const std::int64_t id = op.command.command_id;
   op.watching = true;  // no second fire
   for (Drive* d : op.drives) d->target = d->table_entry.value_or(0);
@@ -466,7 +466,7 @@ void MasterCore::start_armed(Operation& op, TimePoint now) {
   send_next(now);
 }
 
-void MasterCore::check_motion(Operation& op, const Drive& sampled, TimePoint now) {
+void AdamStack::check_motion(Operation& op, const Drive& sampled, TimePoint now) {
   (void)now;
   const std::int64_t id = op.command.command_id;
   for (Drive* d : op.drives) {
@@ -526,7 +526,7 @@ void MasterCore::check_motion(Operation& op, const Drive& sampled, TimePoint now
   finish(id, Reply::DONE);
 }
 
-void MasterCore::param(Operation& op, const motionlcm::param_t& p) {
+void AdamStack::param(Operation& op, const motionlcm::param_t& p) {
   const std::int64_t id = op.command.command_id;
   Drive& d = *op.drives[0];
   if (p.space != motionlcm::param_t::MODBUS_REGISTER)

@@ -1,7 +1,7 @@
 // The passive protocol core of one serial line, as gateway::SerialBusDriver (serial_bus_driver.hpp)
 // drives it: fd-free and clock-free (every call gets `now`); bytes go out through the write
-// function the core was built with. Implemented by adam_driver::MasterCore (Modbus RTU) and
-// uim242_driver::Uim242BusCore (UIM2501/2502 string protocol).
+// function the core was built with. Implemented by adam_driver::AdamStack (Modbus RTU) and
+// uim242_driver::Uim242Stack (UIM2501/2502 string protocol).
 // Thread contract: one thread (the gateway's loop); no call blocks.
 #pragma once
 
@@ -16,9 +16,9 @@
 
 namespace motion::gateway {
 
-class SerialLineCore {
+class SerialStack {
  public:
-  virtual ~SerialLineCore() = default;
+  virtual ~SerialStack() = default;
   // The port is open (again): identify and set up the drives, begin polling.
   virtual void start(TimePoint now) = 0;
   virtual void on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) = 0;

@@ -68,7 +68,7 @@
 #include "motion/core/clock.hpp"
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/gateway/command_ledger.hpp"
-#include "motion/gateway/serial_line_core.hpp"
+#include "motion/gateway/serial_stack.hpp"
 #include "motion/serial/silence_framer.hpp"
 
 namespace motion::adam_driver {
@@ -108,15 +108,15 @@ struct MasterSettings {
 
 // gateway_reply_t.error_code values: motion::ReplyError (motion/lcm/reply_error.hpp).
 
-class MasterCore final : public gateway::SerialLineCore {
+class AdamStack final : public gateway::SerialStack {
  public:
   using Send = std::function<bool(std::span<const std::uint8_t>)>;
   using WallClock = gateway::WallClock;  // µs since the epoch of a steady time (reply and sample utimes)
 
-  MasterCore(MasterSettings settings, Send send, gateway::GatewayOutput& out, WallClock wall_clock = {});
-  ~MasterCore() override;
-  MasterCore(const MasterCore&) = delete;
-  MasterCore& operator=(const MasterCore&) = delete;
+  AdamStack(MasterSettings settings, Send send, gateway::GatewayOutput& out, WallClock wall_clock = {});
+  ~AdamStack() override;
+  AdamStack(const AdamStack&) = delete;
+  AdamStack& operator=(const AdamStack&) = delete;
 
   // Start-up: per drive read 0x0012 (power-on enable state), apply the setup writes, read 0x0024
   // (pulses/rev, for rpm conversions); then polling begins.

@@ -1,10 +1,10 @@
-// Uim242BusCore (bus_core.hpp): construction, request plumbing, bytes and notifications in,
+// Uim242Stack (uim242_stack.hpp): construction, request plumbing, bytes and notifications in,
 // identification, set-up and polling.
-#include "bus_core_impl.hpp"
+#include "uim242_stack_impl.hpp"
 
 namespace motion::uim242_driver {
 
-Uim242BusCore::Uim242BusCore(const config::Config& config, const std::string& bus, CoreContext context)
+Uim242Stack::Uim242Stack(const config::Config& config, const std::string& bus, CoreContext context)
     : bus_(bus),
       context_(std::move(context)),
       poll_period_(std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / 10.0))),
@@ -33,9 +33,9 @@ Uim242BusCore::Uim242BusCore(const config::Config& config, const std::string& bu
   }
 }
 
-Uim242BusCore::~Uim242BusCore() = default;
+Uim242Stack::~Uim242Stack() = default;
 
-std::vector<std::string> Uim242BusCore::axes() const {
+std::vector<std::string> Uim242Stack::axes() const {
   std::vector<std::string> out;
   for (const auto& d : drives_) {
     if (!d->axis_name.empty()) out.push_back(d->axis_name);
@@ -43,11 +43,11 @@ std::vector<std::string> Uim242BusCore::axes() const {
   return out;
 }
 
-bool Uim242BusCore::ready() const {
+bool Uim242Stack::ready() const {
   return std::all_of(drives_.begin(), drives_.end(), [](const auto& d) { return d->status.online && d->set_up; });
 }
 
-motionlcm::bus_stats_t Uim242BusCore::statistics() const {
+motionlcm::bus_stats_t Uim242Stack::statistics() const {
   const auto& s = channel_.statistics();
   motionlcm::bus_stats_t out{};
   out.name = bus_;
@@ -68,8 +68,8 @@ motionlcm::bus_stats_t Uim242BusCore::statistics() const {
 
 // ---- plumbing ----------------------------------------------------------------------------------
 
-void Uim242BusCore::submit(Drive& d, Instruction in, std::int64_t group,
-                           std::function<void(const Frame&, TimePoint)> on_reply, bool front) {
+void Uim242Stack::submit(Drive& d, Instruction in, std::int64_t group,
+                         std::function<void(const Frame&, TimePoint)> on_reply, bool front) {
   Request r;
   r.drive = d.name;
   r.node = d.node;
@@ -88,8 +88,8 @@ void Uim242BusCore::submit(Drive& d, Instruction in, std::int64_t group,
   channel_.submit(std::move(r), front);
 }
 
-void Uim242BusCore::run_sequence(Command& c, Drive& d, std::vector<Instruction> steps,
-                                 std::function<void(TimePoint)> done) {
+void Uim242Stack::run_sequence(Command& c, Drive& d, std::vector<Instruction> steps,
+                               std::function<void(TimePoint)> done) {
   const std::int64_t id = c.command.command_id;
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const bool last = i + 1 == steps.size();
@@ -100,8 +100,8 @@ void Uim242BusCore::run_sequence(Command& c, Drive& d, std::vector<Instruction> 
   if (steps.empty()) done(TimePoint{});
 }
 
-void Uim242BusCore::finish(std::int64_t command_id, bool ok, const std::string& reason, std::int32_t error_code,
-                           std::optional<motionlcm::param_t> param) {
+void Uim242Stack::finish(std::int64_t command_id, bool ok, const std::string& reason, std::int32_t error_code,
+                         std::optional<motionlcm::param_t> param) {
   Command* c = commands_.find(command_id);
   if (c == nullptr) return;  // already ended: exactly one terminal reply
   if (param) c->reply.param(*param);
@@ -121,27 +121,27 @@ void Uim242BusCore::finish(std::int64_t command_id, bool ok, const std::string& 
   }
 }
 
-void Uim242BusCore::part_done(std::int64_t command_id) {
+void Uim242Stack::part_done(std::int64_t command_id) {
   Command* c = commands_.find(command_id);
   if (c == nullptr) return;
   if (c->data.outstanding > 0 && --c->data.outstanding > 0) return;
   finish(command_id, true);
 }
 
-void Uim242BusCore::event(const Drive& d, std::int16_t kind, std::int8_t severity, std::int32_t code,
-                          const std::string& text) {
+void Uim242Stack::event(const Drive& d, std::int16_t kind, std::int8_t severity, std::int32_t code,
+                        const std::string& text) {
   if (!context_.out) return;
   context_.out->axis_event(d.axis_name, gateway::DriveEvent{kind, severity, code, text});
 }
 
-void Uim242BusCore::publish(Drive& d, TimePoint now) {
+void Uim242Stack::publish(Drive& d, TimePoint now) {
   d.status.sample_utime = context_.utime_of ? context_.utime_of(now) : steady_us(now);
   if (context_.out && !d.axis_name.empty()) context_.out->axis_status(d.axis_name, d.status);
 }
 
 // ---- bytes in ------------------------------------------------------------------------------------
 
-void Uim242BusCore::on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) {
+void Uim242Stack::on_bytes(std::span<const std::uint8_t> bytes, TimePoint now) {
   channel_.count_received(bytes.size());
   const auto noise_before = framer_.noise_bytes() + framer_.oversize_frames();
   for (const auto& raw : framer_.push(bytes)) {
@@ -155,7 +155,7 @@ void Uim242BusCore::on_bytes(std::span<const std::uint8_t> bytes, TimePoint now)
   if (framer_.noise_bytes() + framer_.oversize_frames() != noise_before) ++protocol_errors_;
 }
 
-void Uim242BusCore::on_frame(const Frame& frame, TimePoint now) {
+void Uim242Stack::on_frame(const Frame& frame, TimePoint now) {
   if (const auto n = uim242::as_notification(frame)) {
     on_notification(*n, now);
     return;
@@ -164,7 +164,7 @@ void Uim242BusCore::on_frame(const Frame& frame, TimePoint now) {
   if (!channel_.on_frame(frame, now)) ++protocol_errors_;
 }
 
-void Uim242BusCore::on_notification(const uim242::Notification& n, TimePoint now) {
+void Uim242Stack::on_notification(const uim242::Notification& n, TimePoint now) {
   const auto it = std::find_if(drives_.begin(), drives_.end(), [&](const auto& d) { return d->node == n.node; });
   if (it == drives_.end()) {
     ++protocol_errors_;
@@ -220,14 +220,14 @@ void Uim242BusCore::on_notification(const uim242::Notification& n, TimePoint now
 
 // ---- start-up and polling -----------------------------------------------------------------------
 
-void Uim242BusCore::start(TimePoint now) {
+void Uim242Stack::start(TimePoint now) {
   started_ = true;
   next_poll_ = now + poll_period_;
   for (auto& d : drives_) identify(*d, now);
   next_identify_ = now + kIdentifyRetry;
 }
 
-void Uim242BusCore::line_lost(const std::string& why, TimePoint now) {
+void Uim242Stack::line_lost(const std::string& why, TimePoint now) {
   const std::string reason = fmt::format("serial line of bus {} lost: {}", bus_, why);
   started_ = false;
   if (context_.out) context_.out->axis_event({}, gateway::DriveEvent{event_t::OFFLINE, event_t::ERROR, 0, reason});
@@ -245,7 +245,7 @@ void Uim242BusCore::line_lost(const std::string& why, TimePoint now) {
   }
 }
 
-void Uim242BusCore::identify(Drive& d, TimePoint /*now*/) {
+void Uim242Stack::identify(Drive& d, TimePoint /*now*/) {
   if (d.identifying) return;
   d.identifying = true;
   Request r;
@@ -277,7 +277,7 @@ void Uim242BusCore::identify(Drive& d, TimePoint /*now*/) {
 // (bits 15..4 read 0); after the write the controller is asked again until it answers (within
 // kIcfRebootLimit), and the rest of the set-up follows only when the value reads back. A value
 // that does not read back is a CONFIG_MISMATCH and the drive stays not ready: never a second write.
-void Uim242BusCore::set_up(Drive& d) {
+void Uim242Stack::set_up(Drive& d) {
   const auto it = d.config->setup.find("icfg");
   if (it == d.config->setup.end() || !std::holds_alternative<long long>(it->second)) {
     set_up_steps(d);
@@ -321,7 +321,7 @@ void Uim242BusCore::set_up(Drive& d) {
   channel_.submit(std::move(r));
 }
 
-void Uim242BusCore::verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up, TimePoint /*now*/) {
+void Uim242Stack::verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up, TimePoint /*now*/) {
   Request r;
   r.drive = d.name;
   r.node = d.node;
@@ -350,11 +350,11 @@ void Uim242BusCore::verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up
   channel_.submit(std::move(r), true);
 }
 
-void Uim242BusCore::after(TimePoint due, std::function<void(TimePoint)> then) {
+void Uim242Stack::after(TimePoint due, std::function<void(TimePoint)> then) {
   timers_.push_back({due, std::move(then)});
 }
 
-void Uim242BusCore::set_up_steps(Drive& d) {
+void Uim242Stack::set_up_steps(Drive& d) {
   const auto& setup = d.config->setup;
   const auto integer = [&](const char* key) -> std::optional<std::int64_t> {
     const auto it = setup.find(key);
@@ -415,7 +415,7 @@ void Uim242BusCore::set_up_steps(Drive& d) {
   }
 }
 
-void Uim242BusCore::mark_offline(Drive& d, const std::string& reason, TimePoint now) {
+void Uim242Stack::mark_offline(Drive& d, const std::string& reason, TimePoint now) {
   d.set_up = false;
   if (!d.status.online) return;
   d.status.online = false;
@@ -424,7 +424,7 @@ void Uim242BusCore::mark_offline(Drive& d, const std::string& reason, TimePoint 
   publish(d, now);
 }
 
-void Uim242BusCore::poll(TimePoint now) {
+void Uim242Stack::poll(TimePoint now) {
   if (now >= next_identify_) {
     next_identify_ = now + kIdentifyRetry;
     for (auto& d : drives_) {
@@ -494,7 +494,7 @@ void Uim242BusCore::poll(TimePoint now) {
   }
 }
 
-TimePoint Uim242BusCore::process(TimePoint now) {
+TimePoint Uim242Stack::process(TimePoint now) {
   if (started_) poll(now);
   // Due rest checks leave the list before they ask again (settle() may add to it).
   const auto split = std::stable_partition(rest_checks_.begin(), rest_checks_.end(),

@@ -1,4 +1,4 @@
-// MasterCore (the ADAM Modbus RTU master, passive): every frame it sends is checked byte for byte,
+// AdamStack (the ADAM Modbus RTU master, passive): every frame it sends is checked byte for byte,
 // replies are scripted bytes or come from motion::adam::serve() over a fake register bank, and
 // time only moves when the test says so.
 #include <gtest/gtest.h>
@@ -13,7 +13,7 @@
 #include "motion/adam/commands.hpp"
 #include "motion/adam/slave.hpp"
 #include "motion/adam/status.hpp"
-#include "motion/adam_driver/master_core.hpp"
+#include "motion/adam_driver/adam_stack.hpp"
 
 namespace motion::adam_driver {
 namespace {
@@ -115,15 +115,15 @@ DriveSettings drive(const std::string& name, const std::string& axis, std::uint8
   return d;
 }
 
-class MasterCoreTest : public ::testing::Test {
+class AdamStackTest : public ::testing::Test {
  protected:
-  explicit MasterCoreTest(std::vector<DriveSettings> drives = {drive("c-drive", "c", 1)}) {
+  explicit AdamStackTest(std::vector<DriveSettings> drives = {drive("c-drive", "c", 1)}) {
     MasterSettings s;
     s.bus = "rs485";
     s.transport = "simserial:rs485";
     s.poll_period = 100ms;
     s.drives = std::move(drives);
-    core = std::make_unique<MasterCore>(
+    core = std::make_unique<AdamStack>(
         s,
         [this](std::span<const std::uint8_t> b) {
           sent.emplace_back(b.begin(), b.end());
@@ -193,10 +193,10 @@ class MasterCoreTest : public ::testing::Test {
   std::vector<Bytes> sent;
   std::size_t answered = 0;
   std::map<std::uint8_t, FakeDrive> banks;
-  std::unique_ptr<MasterCore> core;
+  std::unique_ptr<AdamStack> core;
 };
 
-TEST_F(MasterCoreTest, StartUpReadsPowerOnStateAndSubdivisionThenPollsPositionStatusAndAlarm) {
+TEST_F(AdamStackTest, StartUpReadsPowerOnStateAndSubdivisionThenPollsPositionStatusAndAlarm) {
   banks[1];
   core->start(now);
   run_for(20ms);
@@ -212,7 +212,7 @@ TEST_F(MasterCoreTest, StartUpReadsPowerOnStateAndSubdivisionThenPollsPositionSt
   EXPECT_TRUE(out.has_event(std::int16_t{motionlcm::event_t::ONLINE}));
 }
 
-TEST_F(MasterCoreTest, DriveThatNeverAnswersFailsWithDriveSlaveAndRegisterAfterRetries) {
+TEST_F(AdamStackTest, DriveThatNeverAnswersFailsWithDriveSlaveAndRegisterAfterRetries) {
   core->execute(command(1, std::int8_t{Command::ENABLE}, {"c"}), now);
   ASSERT_EQ(sent.size(), 1U);
   EXPECT_EQ(hex(sent[0]), "01 06 00 D4 00 00 C9 F2");  // enable (§8.67)
@@ -238,7 +238,7 @@ TEST_F(MasterCoreTest, DriveThatNeverAnswersFailsWithDriveSlaveAndRegisterAfterR
   EXPECT_EQ(core->process(now), kNever) << "nothing left to do: no timer";
 }
 
-TEST_F(MasterCoreTest, CrcErrorIsCountedReportedAndRetried) {
+TEST_F(AdamStackTest, CrcErrorIsCountedReportedAndRetried) {
   core->execute(command(2, std::int8_t{Command::ENABLE}, {"c"}), now);
   Bytes corrupted = sent[0];
   corrupted.back() ^= 0x01;
@@ -256,7 +256,7 @@ TEST_F(MasterCoreTest, CrcErrorIsCountedReportedAndRetried) {
   EXPECT_EQ(core->statistics().retries, 1);
 }
 
-TEST_F(MasterCoreTest, AReplyDeliveredInPiecesWithPausesLongerThanT35IsJoinedNotACrcError) {
+TEST_F(AdamStackTest, AReplyDeliveredInPiecesWithPausesLongerThanT35IsJoinedNotACrcError) {
   banks[1].set_position(-123456);
   // A read of 0x0004…0x0007 as the poll makes it: 13 reply bytes, delivered 5 + 4 + 4 with 10 ms
   // between pieces (a USB adapter's latency timer, or a loaded host), each pause > t3.5 (1.75 ms).
@@ -288,7 +288,7 @@ TEST_F(MasterCoreTest, AReplyDeliveredInPiecesWithPausesLongerThanT35IsJoinedNot
   EXPECT_EQ(out.statuses.back().second.position_counts, -123456);
 }
 
-TEST_F(MasterCoreTest, APieceOfAReplyThatNeverCompletesEndsAtTheReplyDeadlineAndIsRetried) {
+TEST_F(AdamStackTest, APieceOfAReplyThatNeverCompletesEndsAtTheReplyDeadlineAndIsRetried) {
   core->execute(command(6, std::int8_t{Command::ENABLE}, {"c"}), now);
   reply(Bytes(sent[0].begin(), sent[0].begin() + 3));  // 3 of the echo's 8 bytes, then nothing
   advance(50ms);
@@ -301,7 +301,7 @@ TEST_F(MasterCoreTest, APieceOfAReplyThatNeverCompletesEndsAtTheReplyDeadlineAnd
   EXPECT_EQ(core->statistics().retries, 1);
 }
 
-TEST_F(MasterCoreTest, ALateReplyJoinedToTheRetrysReplyIsOneReplyAndOneStrayFrameNotACrcError) {
+TEST_F(AdamStackTest, ALateReplyJoinedToTheRetrysReplyIsOneReplyAndOneStrayFrameNotACrcError) {
   core->execute(command(7, std::int8_t{Command::ENABLE}, {"c"}), now);
   advance(101ms);  // no answer within request_timeout: the retry goes out
   ASSERT_EQ(sent.size(), 2U);
@@ -319,7 +319,7 @@ TEST_F(MasterCoreTest, ALateReplyJoinedToTheRetrysReplyIsOneReplyAndOneStrayFram
   EXPECT_EQ(core->statistics().errors, 1) << "the stray second echo is counted, once";
 }
 
-TEST_F(MasterCoreTest, CrcErrorsOnEveryAttemptMarkTheDriveOfflineUntilAReplyDecodes) {
+TEST_F(AdamStackTest, CrcErrorsOnEveryAttemptMarkTheDriveOfflineUntilAReplyDecodes) {
   core->execute(command(2, std::int8_t{Command::ENABLE}, {"c"}), now);
   reply(sent.back());  // heard once: online
   ASSERT_EQ(out.terminal(2), 1);
@@ -352,7 +352,7 @@ TEST_F(MasterCoreTest, CrcErrorsOnEveryAttemptMarkTheDriveOfflineUntilAReplyDeco
   EXPECT_EQ(onlines(), 2);
 }
 
-TEST_F(MasterCoreTest, ExceptionReplyFailsAtOnceNamingTheException) {
+TEST_F(AdamStackTest, ExceptionReplyFailsAtOnceNamingTheException) {
   Command c = command(3, std::int8_t{Command::PARAM_WRITE}, {"c"});
   c.param.space = std::int8_t{motionlcm::param_t::MODBUS_REGISTER};
   c.param.index = 0x009A;
@@ -372,7 +372,7 @@ TEST_F(MasterCoreTest, ExceptionReplyFailsAtOnceNamingTheException) {
   EXPECT_TRUE(out.has_event(std::int16_t{motionlcm::event_t::ERROR_REPORT}));
 }
 
-TEST_F(MasterCoreTest, ParamReadDecodesThirtyTwoBitLowWordFirst) {
+TEST_F(AdamStackTest, ParamReadDecodesThirtyTwoBitLowWordFirst) {
   Command c = command(4, std::int8_t{Command::PARAM_READ}, {"c"});
   c.param.space = std::int8_t{motionlcm::param_t::MODBUS_REGISTER};
   c.param.index = 0x006E;  // negative software limit, INT32 (§8.45)
@@ -386,7 +386,7 @@ TEST_F(MasterCoreTest, ParamReadDecodesThirtyTwoBitLowWordFirst) {
   EXPECT_EQ(out.of(4).back().param.width, 2);
 }
 
-TEST_F(MasterCoreTest, UnsupportedParameterSpaceAndUnknownAxisFailWithReasons) {
+TEST_F(AdamStackTest, UnsupportedParameterSpaceAndUnknownAxisFailWithReasons) {
   Command c = command(5, std::int8_t{Command::PARAM_READ}, {"c"});
   c.param.space = std::int8_t{motionlcm::param_t::CANOPEN_OBJECT};
   core->execute(c, now);
@@ -398,9 +398,9 @@ TEST_F(MasterCoreTest, UnsupportedParameterSpaceAndUnknownAxisFailWithReasons) {
   EXPECT_TRUE(sent.empty());
 }
 
-class TwoDriveTest : public MasterCoreTest {
+class TwoDriveTest : public AdamStackTest {
  protected:
-  TwoDriveTest() : MasterCoreTest({drive("c-drive", "c", 1), drive("d-drive", "d", 2)}) {
+  TwoDriveTest() : AdamStackTest({drive("c-drive", "c", 1), drive("d-drive", "d", 2)}) {
     banks[1];
     banks[2];
     core->start(now);
@@ -555,11 +555,11 @@ TEST_F(TwoDriveTest, AlarmFailsTheMoveOfItsAxis) {
 // The line is half-duplex: after a broadcast start the drives' fresh samples come one by one.
 // A drive whose last sample predates the start must not be judged "stopped short" on that old
 // sample while the other drives' samples arrive (it used to be counted once per other drive).
-class FourDriveTest : public MasterCoreTest {
+class FourDriveTest : public AdamStackTest {
  protected:
   FourDriveTest()
-      : MasterCoreTest({drive("c1-drive", "c1", 1), drive("c2-drive", "c2", 2), drive("c3-drive", "c3", 3),
-                        drive("c4-drive", "c4", 4)}) {
+      : AdamStackTest({drive("c1-drive", "c1", 1), drive("c2-drive", "c2", 2), drive("c3-drive", "c3", 3),
+                       drive("c4-drive", "c4", 4)}) {
     for (std::uint8_t unit = 1; unit <= 4; ++unit) banks[unit].completes_moves = false;
     core->start(now);
     run_for(80ms);

@@ -1,9 +1,9 @@
-// Private to Uim242BusCore's sources (bus_core.cpp: construction, plumbing, bytes in, start-up
-// and polling; bus_core_commands.cpp: commands): the helpers and the drive, command and move
+// Private to Uim242Stack's sources (uim242_stack.cpp: construction, plumbing, bytes in, start-up
+// and polling; uim242_stack_commands.cpp: commands): the helpers and the drive, command and move
 // types they share. Not installed, not included elsewhere.
 #pragma once
 
-#include "motion/uim242_driver/bus_core.hpp"
+#include "motion/uim242_driver/uim242_stack.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -106,7 +106,7 @@ inline Duration trapezoid_duration(std::int64_t distance, std::int64_t speed, st
 
 using namespace core_detail;  // the helpers above, unqualified in the core's sources
 
-struct Uim242BusCore::Drive {
+struct Uim242Stack::Drive {
   const config::Drive* config = nullptr;
   const config::Axis* axis = nullptr;  // null when no axis uses the drive
   std::string name;
@@ -127,7 +127,7 @@ struct Uim242BusCore::Drive {
   std::int64_t jog_command = 0;
 };
 
-struct Uim242BusCore::Move {
+struct Uim242Stack::Move {
   struct Axis {
     Drive* drive = nullptr;
     std::int64_t target = 0;

@@ -10,7 +10,7 @@
 #include <ostream>
 
 #include "bench.hpp"
-#include "motion/adam_driver/master_core.hpp"
+#include "motion/adam_driver/adam_stack.hpp"
 #include "motion/sim/adam_line_sim.hpp"
 
 namespace motion::truth {
@@ -52,7 +52,7 @@ TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
   SerialBench bench(yaml, "rs485", sim::adam_line_factory());
   bench.attach([&bench](std::function<void(std::span<const std::uint8_t>)> send, gateway::GatewayOutput& out) {
     auto settings = adam_driver::settings_from_config(*bench.config, *bench.config->find_bus("rs485"));
-    return std::make_unique<adam_driver::MasterCore>(
+    return std::make_unique<adam_driver::AdamStack>(
         settings,
         [send = std::move(send)](std::span<const std::uint8_t> bytes) {
           send(bytes);
