@@ -23,7 +23,7 @@ int uim242_feedback(const std::uint8_t* data, std::size_t size) {
       (void)uim242::as_error(*frame);
       (void)uim242::as_notification(*frame);
       (void)uim242::as_greeting(*frame);
-      for (int layout = 0; layout <= static_cast<int>(uim242::Layout::raw); ++layout) {
+      for (int layout = 0; layout <= static_cast<int>(uim242::Layout::kRaw); ++layout) {
         (void)uim242::decode_fields(frame->data, static_cast<uim242::Layout>(layout));
       }
     }

@@ -255,7 +255,7 @@ void bench_command_latency(bool quick, const std::filesystem::path& dir) {
   bool armed = false;
   auto tap = std::make_unique<TapTransport>(host->hub().attach_local("gateway"), [&](const can::Frame& f) {
     if (!armed || first_mo) return;
-    if (const auto m = decode(f); m && is_function(*m, FC::MO)) first_mo = Clock::now();
+    if (const auto m = decode(f); m && is_function(*m, FC::kMO)) first_mo = Clock::now();
   });
   auto driver = std::make_unique<gateway::CanBusDriver>(loop, "can0", std::move(tap), gateway);
   auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver->context());
@@ -390,7 +390,7 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
     int bg_requests = 0;
     for (const auto& f : seen) {
       const auto msg = decode(f);
-      if (msg && is_function(*msg, FC::BG) && msg->address.producer == uim342::kMasterId) {
+      if (msg && is_function(*msg, FC::kBG) && msg->address.producer == uim342::kMasterId) {
         ++bg_requests;
         if (!bg_eof) bg_eof = f.timestamp_us;
         if (msg->address.consumer != kGroupId) result.group_bg = false;
@@ -408,9 +408,9 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
     for (const auto& f : seen) {
       const auto msg = decode(f);
       const bool move_frame =
-          msg && (is_function(*msg, FC::PA) || is_function(*msg, FC::SP) || is_function(*msg, FC::AC) ||
-                  is_function(*msg, FC::DC) || is_function(*msg, FC::BG));
-      if (msg && is_function(*msg, FC::BG) && msg->address.producer != uim342::kMasterId) {
+          msg && (is_function(*msg, FC::kPA) || is_function(*msg, FC::kSP) || is_function(*msg, FC::kAC) ||
+                  is_function(*msg, FC::kDC) || is_function(*msg, FC::kBG));
+      if (msg && is_function(*msg, FC::kBG) && msg->address.producer != uim342::kMasterId) {
         ++bg_acks;  // after the start: not part of the bound
         continue;
       }
@@ -475,7 +475,7 @@ void bench_status(int axes, bool quick, const std::filesystem::path& dir) {
     while (auto f = monitor->receive()) {
       if (!counting) continue;
       ++all_frames;
-      if (const auto m = decode(*f); m && is_function(*m, FC::MS)) {
+      if (const auto m = decode(*f); m && is_function(*m, FC::kMS)) {
         ++poll_frames;
         poll_bits += can::frame_bits(*f).total;
       }

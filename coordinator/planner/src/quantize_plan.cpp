@@ -216,7 +216,7 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
                                     const QuantizeOptions& options) {
   const std::size_t axis_count = plan.axes.size();
   if (quantizers.size() != axis_count || std::ranges::find(quantizers, nullptr) != quantizers.end()) {
-    return PlanFailure{PlanErrc::quantizer_count_mismatch,
+    return PlanFailure{PlanErrc::kQuantizerCountMismatch,
                        kNoAxis,
                        {},
                        static_cast<double>(quantizers.size()),
@@ -260,7 +260,7 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
       w.candidates.push_back(Candidate{duration_s, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k)});
     }
     if (w.candidates.size() == candidates_first) {
-      return PlanFailure{PlanErrc::quantization_impossible, i, plan.axis_names[i],
+      return PlanFailure{PlanErrc::kQuantizationImpossible, i, plan.axis_names[i],
                          desired_motion(planned.shape, caps).velocity_counts_per_s, caps.velocity};
     }
   }

@@ -67,7 +67,7 @@ void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& 
   neighbours = std::max(neighbours, 1);
   const double v_step = velocity_grid.counts_per_s_per_step;
   const double a_step = acceleration_grid.step;
-  const bool ramp_time = acceleration_grid.kind == AccelerationGrid::Kind::ramp_time;
+  const bool ramp_time = acceleration_grid.kind == AccelerationGrid::Kind::kRampTime;
 
   // A ramp-time drive has no ramp at or below its start speed: a slower wish is served by the
   // nearest speeds above it (long ramps then stretch the profile to the planned duration).
@@ -167,11 +167,11 @@ void DriveQuantizer::candidates_at_velocity(const DriveMotion& desired, int neig
 
 PpsRateQuantizer::PpsRateQuantizer(std::int64_t max_pps, std::int64_t max_pps_per_s)
     : GridQuantizer("pps+pps/s", VelocityGrid{1.0, 1, max_pps},
-                    AccelerationGrid{AccelerationGrid::Kind::rate, 1.0, 1, max_pps_per_s}) {}
+                    AccelerationGrid{AccelerationGrid::Kind::kRate, 1.0, 1, max_pps_per_s}) {}
 
 PpsRampTimeQuantizer::PpsRampTimeQuantizer(std::int64_t max_pps, std::int64_t max_ramp_ms)
     : GridQuantizer("pps+ramp ms", VelocityGrid{1.0, 1, max_pps},
-                    AccelerationGrid{AccelerationGrid::Kind::ramp_time, 0.001, 1, max_ramp_ms}) {}
+                    AccelerationGrid{AccelerationGrid::Kind::kRampTime, 0.001, 1, max_ramp_ms}) {}
 
 RpmQuantizer::RpmQuantizer(double counts_per_rev, double rpm_per_step, AccelerationGrid acceleration,
                            std::int64_t max_velocity_steps)

@@ -16,8 +16,8 @@ PlanFailure failure(PlanErrc code, std::size_t index, const AxisRequest* axis, d
 
 std::optional<PlanFailure> check_options(const PlanOptions& options) {
   for (const double scale : {options.velocity_scale, options.acceleration_scale}) {
-    if (!std::isfinite(scale)) return failure(PlanErrc::non_finite_input, kNoAxis, nullptr, scale);
-    if (!(scale > 0.0 && scale <= 1.0)) return failure(PlanErrc::invalid_speed_scale, kNoAxis, nullptr, scale, 1.0);
+    if (!std::isfinite(scale)) return failure(PlanErrc::kNonFiniteInput, kNoAxis, nullptr, scale);
+    if (!(scale > 0.0 && scale <= 1.0)) return failure(PlanErrc::kInvalidSpeedScale, kNoAxis, nullptr, scale, 1.0);
   }
   return std::nullopt;
 }
@@ -31,29 +31,29 @@ std::optional<PlanFailure> check_axis(std::size_t index, const AxisRequest& axis
   const double rates[] = {limits.max_velocity_user_per_s, limits.max_acceleration_user_per_s2,
                           deceleration_limit(limits)};
   for (const double finite : {axis.start_user, axis.target_user, axis.counts_per_user, rates[0], rates[1], rates[2]}) {
-    if (!std::isfinite(finite)) return failure(PlanErrc::non_finite_input, index, &axis, finite);
+    if (!std::isfinite(finite)) return failure(PlanErrc::kNonFiniteInput, index, &axis, finite);
   }
   // Position limits may be infinite (unbounded) but never NaN.
   for (const double bound : {limits.min_position_user, limits.max_position_user}) {
-    if (std::isnan(bound)) return failure(PlanErrc::non_finite_input, index, &axis, bound);
+    if (std::isnan(bound)) return failure(PlanErrc::kNonFiniteInput, index, &axis, bound);
   }
-  if (!(axis.counts_per_user > 0.0)) return failure(PlanErrc::non_positive_scale, index, &axis, axis.counts_per_user);
+  if (!(axis.counts_per_user > 0.0)) return failure(PlanErrc::kNonPositiveScale, index, &axis, axis.counts_per_user);
   for (const double rate : rates) {
-    if (!(rate > 0.0)) return failure(PlanErrc::non_positive_limit, index, &axis, rate);
+    if (!(rate > 0.0)) return failure(PlanErrc::kNonPositiveLimit, index, &axis, rate);
   }
   if (limits.min_position_user > limits.max_position_user) {
-    return failure(PlanErrc::invalid_position_range, index, &axis, limits.min_position_user, limits.max_position_user);
+    return failure(PlanErrc::kInvalidPositionRange, index, &axis, limits.min_position_user, limits.max_position_user);
   }
   if (axis.target_user < limits.min_position_user) {
-    return failure(PlanErrc::target_below_min, index, &axis, axis.target_user, limits.min_position_user);
+    return failure(PlanErrc::kTargetBelowMin, index, &axis, axis.target_user, limits.min_position_user);
   }
   if (axis.target_user > limits.max_position_user) {
-    return failure(PlanErrc::target_above_max, index, &axis, axis.target_user, limits.max_position_user);
+    return failure(PlanErrc::kTargetAboveMax, index, &axis, axis.target_user, limits.max_position_user);
   }
   for (const double position : {axis.start_user, axis.target_user}) {
     const double counts = position * axis.counts_per_user;
     if (!(std::abs(counts) <= kMaxExactCounts)) {
-      return failure(PlanErrc::counts_out_of_range, index, &axis, counts, kMaxExactCounts);
+      return failure(PlanErrc::kCountsOutOfRange, index, &axis, counts, kMaxExactCounts);
     }
   }
   return std::nullopt;
@@ -83,7 +83,7 @@ Eigen::VectorXd SyncPlan::velocities_counts_per_s_at(double t_s) const {
 }
 
 Result<SyncPlan> plan_synchronized(std::span<const AxisRequest> axes, const PlanOptions& options) {
-  if (axes.empty()) return failure(PlanErrc::no_axes, kNoAxis, nullptr);
+  if (axes.empty()) return failure(PlanErrc::kNoAxes, kNoAxis, nullptr);
   if (auto bad = check_options(options)) return *std::move(bad);
   for (std::size_t i = 0; i < axes.size(); ++i) {
     if (auto bad = check_axis(i, axes[i])) return *std::move(bad);

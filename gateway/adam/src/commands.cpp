@@ -45,21 +45,21 @@ constexpr std::uint32_t raw(E e) {
 }
 
 constexpr std::array<std::pair<BaudCode, std::uint32_t>, 15> kBaudRates{{
-    {BaudCode::b300, 300},
-    {BaudCode::b600, 600},
-    {BaudCode::b1200, 1200},
-    {BaudCode::b2400, 2400},
-    {BaudCode::b4800, 4800},
-    {BaudCode::b9600, 9600},
-    {BaudCode::b14400, 14400},
-    {BaudCode::b19200, 19200},
-    {BaudCode::b38400, 38400},
-    {BaudCode::b56000, 56000},
-    {BaudCode::b57600, 57600},
-    {BaudCode::b115200, 115200},
-    {BaudCode::b230400, 230400},
-    {BaudCode::b460800, 460800},
-    {BaudCode::b921600, 921600},
+    {BaudCode::kB300, 300},
+    {BaudCode::kB600, 600},
+    {BaudCode::kB1200, 1200},
+    {BaudCode::kB2400, 2400},
+    {BaudCode::kB4800, 4800},
+    {BaudCode::kB9600, 9600},
+    {BaudCode::kB14400, 14400},
+    {BaudCode::kB19200, 19200},
+    {BaudCode::kB38400, 38400},
+    {BaudCode::kB56000, 56000},
+    {BaudCode::kB57600, 57600},
+    {BaudCode::kB115200, 115200},
+    {BaudCode::kB230400, 230400},
+    {BaudCode::kB460800, 460800},
+    {BaudCode::kB921600, 921600},
 }};
 
 std::uint32_t encode_input(const InputAssignment& a) {
@@ -83,7 +83,7 @@ std::optional<BaudCode> baud_code(std::uint32_t bits_per_second) noexcept {
 }
 
 Result<std::uint16_t> encode(const JogCommand& c) {
-  if (!kSpeed.fits(c.speed_rpm)) return AdamErrc::value_out_of_range;
+  if (!kSpeed.fits(c.speed_rpm)) return AdamErrc::kValueOutOfRange;
   return word16(kDirection.put(raw(c.direction)) | kSpeed.put(c.speed_rpm) | kStopMethod.put(raw(c.stop)) |
                 kRunBit.put(c.run ? 1U : 0U));
 }
@@ -94,7 +94,7 @@ JogCommand decode_jog(std::uint16_t word) noexcept {
 }
 
 Result<std::uint16_t> encode(const HomingCommand& c) {
-  if (!kSpeed.fits(c.speed_rpm) || !kSecondarySpeed.fits(c.secondary_speed_code)) return AdamErrc::value_out_of_range;
+  if (!kSpeed.fits(c.speed_rpm) || !kSecondarySpeed.fits(c.secondary_speed_code)) return AdamErrc::kValueOutOfRange;
   return word16(kDirection.put(raw(c.direction)) | kSpeed.put(c.speed_rpm) | kStopMethod.put(raw(c.stop)) |
                 kSecondarySpeed.put(c.secondary_speed_code));
 }
@@ -105,7 +105,7 @@ HomingCommand decode_homing(std::uint16_t word) noexcept {
 }
 
 Result<std::uint16_t> encode(const TorqueCommand& c) {
-  if (!kTorqueOffset.fits(c.offset_pulses)) return AdamErrc::value_out_of_range;
+  if (!kTorqueOffset.fits(c.offset_pulses)) return AdamErrc::kValueOutOfRange;
   return word16(kDirection.put(raw(c.direction)) | kTorqueOffset.put(c.offset_pulses) | kRunBit.put(c.run ? 1U : 0U));
 }
 
@@ -115,7 +115,7 @@ TorqueCommand decode_torque(std::uint16_t word) noexcept {
 }
 
 Result<std::uint16_t> encode(const TableExecute& c) {
-  if (!kTableStep.fits(c.step)) return AdamErrc::value_out_of_range;
+  if (!kTableStep.fits(c.step)) return AdamErrc::kValueOutOfRange;
   return word16(kTableKind.put(raw(c.kind)) | kTableArithmetic.put(raw(c.arithmetic)) | kTableStep.put(c.step));
 }
 
@@ -127,7 +127,7 @@ std::optional<TableExecute> decode_table_execute(std::uint16_t word) noexcept {
 }
 
 Result<std::uint16_t> encode(const InputPair& c) {
-  if (!kInputPort.fits(c.high.input) || !kInputPort.fits(c.low.input)) return AdamErrc::value_out_of_range;
+  if (!kInputPort.fits(c.high.input) || !kInputPort.fits(c.low.input)) return AdamErrc::kValueOutOfRange;
   return word16((encode_input(c.high) << 8) | encode_input(c.low));
 }
 
@@ -136,7 +136,7 @@ InputPair decode_input_pair(std::uint16_t word) noexcept {
 }
 
 Result<std::uint32_t> encode(const PositionReminder& r) {
-  if (r.threshold < kReminderMin || r.threshold > kReminderMax) return AdamErrc::value_out_of_range;
+  if (r.threshold < kReminderMin || r.threshold > kReminderMax) return AdamErrc::kValueOutOfRange;
   return kReminderComparison.put(raw(r.comparison)) | kReminderThreshold.put(static_cast<std::uint32_t>(r.threshold));
 }
 
@@ -162,18 +162,18 @@ rtu::Request write32(std::uint8_t unit, Reg reg, std::int32_t value) {
 rtu::Request read(std::uint8_t unit, Reg reg) { return {unit, rtu::ReadRegisters{address(reg), info(reg).count()}}; }
 
 rtu::Request command(std::uint8_t unit, VelocityCommand c) {
-  return write16(unit, Reg::velocity_command, static_cast<std::uint16_t>(c));
+  return write16(unit, Reg::kVelocityCommand, static_cast<std::uint16_t>(c));
 }
 rtu::Request command(std::uint8_t unit, EnableCommand c) {
-  return write16(unit, Reg::enable_command, static_cast<std::uint16_t>(c));
+  return write16(unit, Reg::kEnableCommand, static_cast<std::uint16_t>(c));
 }
 rtu::Request command(std::uint8_t unit, ProgramCommand c) {
-  return write16(unit, Reg::program_command, static_cast<std::uint16_t>(c));
+  return write16(unit, Reg::kProgramCommand, static_cast<std::uint16_t>(c));
 }
 rtu::Request command(std::uint8_t unit, SaveCommand c) {
-  return write16(unit, Reg::save_command, static_cast<std::uint16_t>(c));
+  return write16(unit, Reg::kSaveCommand, static_cast<std::uint16_t>(c));
 }
-rtu::Request clear_alarm(std::uint8_t unit) { return write16(unit, Reg::clear_alarm, kClearAlarmValue); }
+rtu::Request clear_alarm(std::uint8_t unit) { return write16(unit, Reg::kClearAlarm, kClearAlarmValue); }
 
 rtu::Request move(std::uint8_t unit, MoveCommand kind, std::int32_t value) {
   return write32(unit, static_cast<Reg>(kind), value);

@@ -12,15 +12,15 @@ class ModbusCategory final : public std::error_category {
   [[nodiscard]] const char* name() const noexcept override { return "modbus"; }
   [[nodiscard]] std::string message(int code) const override {
     switch (static_cast<ExceptionCode>(code)) {
-      case ExceptionCode::illegal_function: return "illegal function";
-      case ExceptionCode::illegal_data_address: return "illegal data address";
-      case ExceptionCode::illegal_data_value: return "illegal data value";
-      case ExceptionCode::server_device_failure: return "server device failure";
-      case ExceptionCode::acknowledge: return "acknowledge";
-      case ExceptionCode::server_device_busy: return "server device busy";
-      case ExceptionCode::memory_parity_error: return "memory parity error";
-      case ExceptionCode::gateway_path_unavailable: return "gateway path unavailable";
-      case ExceptionCode::gateway_target_failed: return "gateway target device failed to respond";
+      case ExceptionCode::kIllegalFunction: return "illegal function";
+      case ExceptionCode::kIllegalDataAddress: return "illegal data address";
+      case ExceptionCode::kIllegalDataValue: return "illegal data value";
+      case ExceptionCode::kServerDeviceFailure: return "server device failure";
+      case ExceptionCode::kAcknowledge: return "acknowledge";
+      case ExceptionCode::kServerDeviceBusy: return "server device busy";
+      case ExceptionCode::kMemoryParityError: return "memory parity error";
+      case ExceptionCode::kGatewayPathUnavailable: return "gateway path unavailable";
+      case ExceptionCode::kGatewayTargetFailed: return "gateway target device failed to respond";
     }
     return "unknown modbus exception " + std::to_string(code);
   }
@@ -31,17 +31,17 @@ class FrameCategory final : public std::error_category {
   [[nodiscard]] const char* name() const noexcept override { return "modbus_rtu"; }
   [[nodiscard]] std::string message(int code) const override {
     switch (static_cast<FrameErrc>(code)) {
-      case FrameErrc::too_short: return "frame shorter than 4 bytes";
-      case FrameErrc::too_long: return "frame longer than 256 bytes";
-      case FrameErrc::bad_crc: return "CRC mismatch";
-      case FrameErrc::truncated: return "frame shorter than its function's layout";
-      case FrameErrc::trailing_bytes: return "bytes after the end of the function's layout";
-      case FrameErrc::unsupported_function: return "function code not used by the drive";
-      case FrameErrc::invalid_quantity: return "register quantity outside the Modbus limits";
-      case FrameErrc::byte_count_mismatch: return "byte count does not match the register quantity";
-      case FrameErrc::broadcast_read: return "read request addressed to broadcast (0)";
-      case FrameErrc::invalid_unit: return "unit address above 247";
-      case FrameErrc::unexpected_response: return "response does not match the request";
+      case FrameErrc::kTooShort: return "frame shorter than 4 bytes";
+      case FrameErrc::kTooLong: return "frame longer than 256 bytes";
+      case FrameErrc::kBadCrc: return "CRC mismatch";
+      case FrameErrc::kTruncated: return "frame shorter than its function's layout";
+      case FrameErrc::kTrailingBytes: return "bytes after the end of the function's layout";
+      case FrameErrc::kUnsupportedFunction: return "function code not used by the drive";
+      case FrameErrc::kInvalidQuantity: return "register quantity outside the Modbus limits";
+      case FrameErrc::kByteCountMismatch: return "byte count does not match the register quantity";
+      case FrameErrc::kBroadcastRead: return "read request addressed to broadcast (0)";
+      case FrameErrc::kInvalidUnit: return "unit address above 247";
+      case FrameErrc::kUnexpectedResponse: return "response does not match the request";
     }
     return "unknown frame error " + std::to_string(code);
   }
@@ -69,26 +69,26 @@ std::vector<std::uint16_t> get_words(std::span<const std::uint8_t> in, std::size
 
 // Frame checks shared by request and response decoding: size bounds and CRC.
 std::optional<FrameErrc> check_envelope(std::span<const std::uint8_t> frame) {
-  if (frame.size() < kMinFrameSize) return FrameErrc::too_short;
-  if (frame.size() > kMaxFrameSize) return FrameErrc::too_long;
-  if (!crc_ok(frame)) return FrameErrc::bad_crc;
+  if (frame.size() < kMinFrameSize) return FrameErrc::kTooShort;
+  if (frame.size() > kMaxFrameSize) return FrameErrc::kTooLong;
+  if (!crc_ok(frame)) return FrameErrc::kBadCrc;
   return std::nullopt;
 }
 
 // Compares the frame size with the size its layout asks for.
 std::optional<FrameErrc> check_size(std::size_t actual, std::size_t expected) {
-  if (actual < expected) return FrameErrc::truncated;
-  if (actual > expected) return FrameErrc::trailing_bytes;
+  if (actual < expected) return FrameErrc::kTruncated;
+  if (actual > expected) return FrameErrc::kTrailingBytes;
   return std::nullopt;
 }
 
 // unit + PDU, no CRC. Validation happens here so both encoders share it.
 Result<Bytes> encode_adu_body(const Request& request) {
-  if (request.unit > kMaxUnit) return FrameErrc::invalid_unit;
+  if (request.unit > kMaxUnit) return FrameErrc::kInvalidUnit;
   Bytes out{request.unit, fc_byte(function_of(request.pdu))};
   if (const auto* read = std::get_if<ReadRegisters>(&request.pdu)) {
-    if (request.unit == kBroadcastUnit) return FrameErrc::broadcast_read;
-    if (read->quantity == 0 || read->quantity > kMaxReadQuantity) return FrameErrc::invalid_quantity;
+    if (request.unit == kBroadcastUnit) return FrameErrc::kBroadcastRead;
+    if (read->quantity == 0 || read->quantity > kMaxReadQuantity) return FrameErrc::kInvalidQuantity;
     put_u16(out, read->start);
     put_u16(out, read->quantity);
   } else if (const auto* write = std::get_if<WriteRegister>(&request.pdu)) {
@@ -96,7 +96,7 @@ Result<Bytes> encode_adu_body(const Request& request) {
     put_u16(out, write->value);
   } else {
     const auto& writes = std::get<WriteRegisters>(request.pdu);
-    if (writes.values.empty() || writes.values.size() > kMaxWriteQuantity) return FrameErrc::invalid_quantity;
+    if (writes.values.empty() || writes.values.size() > kMaxWriteQuantity) return FrameErrc::kInvalidQuantity;
     put_u16(out, writes.start);
     put_u16(out, static_cast<std::uint16_t>(writes.values.size()));
     out.push_back(static_cast<std::uint8_t>(2 * writes.values.size()));
@@ -134,9 +134,9 @@ bool crc_ok(std::span<const std::uint8_t> frame) noexcept {
 
 FunctionCode function_of(const RequestPdu& pdu) noexcept {
   switch (pdu.index()) {
-    case 0: return FunctionCode::read_holding_registers;
-    case 1: return FunctionCode::write_single_register;
-    default: return FunctionCode::write_multiple_registers;
+    case 0: return FunctionCode::kReadHoldingRegisters;
+    case 1: return FunctionCode::kWriteSingleRegister;
+    default: return FunctionCode::kWriteMultipleRegisters;
   }
 }
 
@@ -165,21 +165,21 @@ Result<Response> decode_response(std::span<const std::uint8_t> frame) {
                                          static_cast<ExceptionCode>(frame[2])}};
   }
   switch (static_cast<FunctionCode>(function)) {
-    case FunctionCode::read_holding_registers: {
-      if (size < 5) return FrameErrc::truncated;
+    case FunctionCode::kReadHoldingRegisters: {
+      if (size < 5) return FrameErrc::kTruncated;
       const std::size_t byte_count = frame[2];
       if (const auto error = check_size(size, 5 + byte_count)) return *error;
-      if (byte_count == 0 || byte_count % 2 != 0) return FrameErrc::byte_count_mismatch;
+      if (byte_count == 0 || byte_count % 2 != 0) return FrameErrc::kByteCountMismatch;
       return Response{unit, ReadRegistersReply{get_words(frame, 3, byte_count / 2)}};
     }
-    case FunctionCode::write_single_register:
+    case FunctionCode::kWriteSingleRegister:
       if (const auto error = check_size(size, 8)) return *error;
       return Response{unit, WriteRegisterReply{get_u16(frame, 2), get_u16(frame, 4)}};
-    case FunctionCode::write_multiple_registers:
+    case FunctionCode::kWriteMultipleRegisters:
       if (const auto error = check_size(size, 8)) return *error;
       return Response{unit, WriteRegistersReply{get_u16(frame, 2), get_u16(frame, 4)}};
   }
-  return FrameErrc::unsupported_function;
+  return FrameErrc::kUnsupportedFunction;
 }
 
 Result<Response> decode_response(std::span<const std::uint8_t> frame, const Request& request) {
@@ -187,23 +187,23 @@ Result<Response> decode_response(std::span<const std::uint8_t> frame, const Requ
   if (!decoded) return decoded;
   const Response& response = decoded.value();
   const auto function = fc_byte(function_of(request.pdu));
-  if (response.unit != request.unit) return FrameErrc::unexpected_response;
+  if (response.unit != request.unit) return FrameErrc::kUnexpectedResponse;
   if (const auto* exception = std::get_if<ExceptionReply>(&response.pdu)) {
-    if (exception->function != function) return FrameErrc::unexpected_response;
+    if (exception->function != function) return FrameErrc::kUnexpectedResponse;
     return decoded;
   }
   if (const auto* read = std::get_if<ReadRegisters>(&request.pdu)) {
     const auto* reply = std::get_if<ReadRegistersReply>(&response.pdu);
-    if (reply == nullptr) return FrameErrc::unexpected_response;
-    if (reply->values.size() != read->quantity) return FrameErrc::byte_count_mismatch;
+    if (reply == nullptr) return FrameErrc::kUnexpectedResponse;
+    if (reply->values.size() != read->quantity) return FrameErrc::kByteCountMismatch;
   } else if (const auto* write = std::get_if<WriteRegister>(&request.pdu)) {
     const auto* reply = std::get_if<WriteRegisterReply>(&response.pdu);
-    if (reply == nullptr || *reply != *write) return FrameErrc::unexpected_response;
+    if (reply == nullptr || *reply != *write) return FrameErrc::kUnexpectedResponse;
   } else {
     const auto& writes = std::get<WriteRegisters>(request.pdu);
     const auto* reply = std::get_if<WriteRegistersReply>(&response.pdu);
     if (reply == nullptr || reply->start != writes.start || reply->quantity != writes.values.size())
-      return FrameErrc::unexpected_response;
+      return FrameErrc::kUnexpectedResponse;
   }
   return decoded;
 }
@@ -211,15 +211,15 @@ Result<Response> decode_response(std::span<const std::uint8_t> frame, const Requ
 std::vector<std::uint8_t> encode_response(const Response& response) {
   Bytes out{response.unit};
   if (const auto* read = std::get_if<ReadRegistersReply>(&response.pdu)) {
-    out.push_back(fc_byte(FunctionCode::read_holding_registers));
+    out.push_back(fc_byte(FunctionCode::kReadHoldingRegisters));
     out.push_back(static_cast<std::uint8_t>(2 * read->values.size()));
     for (const std::uint16_t v : read->values) put_u16(out, v);
   } else if (const auto* write = std::get_if<WriteRegisterReply>(&response.pdu)) {
-    out.push_back(fc_byte(FunctionCode::write_single_register));
+    out.push_back(fc_byte(FunctionCode::kWriteSingleRegister));
     put_u16(out, write->address);
     put_u16(out, write->value);
   } else if (const auto* writes = std::get_if<WriteRegistersReply>(&response.pdu)) {
-    out.push_back(fc_byte(FunctionCode::write_multiple_registers));
+    out.push_back(fc_byte(FunctionCode::kWriteMultipleRegisters));
     put_u16(out, writes->start);
     put_u16(out, writes->quantity);
   } else {
@@ -254,39 +254,39 @@ ParsedRequest decode_request(std::span<const std::uint8_t> frame) {
   const auto reject = [&](ExceptionCode code) { return RejectedRequest{unit, function, code}; };
 
   switch (static_cast<FunctionCode>(function)) {
-    case FunctionCode::read_holding_registers: {
+    case FunctionCode::kReadHoldingRegisters: {
       if (const auto error = check_size(size, 8)) return *error;
-      if (unit == kBroadcastUnit) return FrameErrc::broadcast_read;
+      if (unit == kBroadcastUnit) return FrameErrc::kBroadcastRead;
       const std::uint16_t start = get_u16(frame, 2);
       const std::uint16_t quantity = get_u16(frame, 4);
-      if (quantity == 0 || quantity > kMaxReadQuantity) return reject(ExceptionCode::illegal_data_value);
-      if (!fits_address_space(start, quantity)) return reject(ExceptionCode::illegal_data_address);
+      if (quantity == 0 || quantity > kMaxReadQuantity) return reject(ExceptionCode::kIllegalDataValue);
+      if (!fits_address_space(start, quantity)) return reject(ExceptionCode::kIllegalDataAddress);
       return Request{unit, ReadRegisters{start, quantity}};
     }
-    case FunctionCode::write_single_register:
+    case FunctionCode::kWriteSingleRegister:
       if (const auto error = check_size(size, 8)) return *error;
       return Request{unit, WriteRegister{get_u16(frame, 2), get_u16(frame, 4)}};
-    case FunctionCode::write_multiple_registers: {
-      if (size < 9) return FrameErrc::truncated;
+    case FunctionCode::kWriteMultipleRegisters: {
+      if (size < 9) return FrameErrc::kTruncated;
       const std::size_t byte_count = frame[6];
       if (const auto error = check_size(size, 9 + byte_count)) return *error;
       const std::uint16_t start = get_u16(frame, 2);
       const std::uint16_t quantity = get_u16(frame, 4);
       if (quantity == 0 || quantity > kMaxWriteQuantity || byte_count != 2U * quantity)
-        return reject(ExceptionCode::illegal_data_value);
-      if (!fits_address_space(start, quantity)) return reject(ExceptionCode::illegal_data_address);
+        return reject(ExceptionCode::kIllegalDataValue);
+      if (!fits_address_space(start, quantity)) return reject(ExceptionCode::kIllegalDataAddress);
       return Request{unit, WriteRegisters{start, get_words(frame, 7, quantity)}};
     }
   }
-  return reject(ExceptionCode::illegal_function);
+  return reject(ExceptionCode::kIllegalFunction);
 }
 
 std::optional<std::size_t> request_frame_size(std::span<const std::uint8_t> head) noexcept {
   if (head.size() < 2) return std::nullopt;
   switch (static_cast<FunctionCode>(head[1])) {
-    case FunctionCode::read_holding_registers:
-    case FunctionCode::write_single_register: return 8;
-    case FunctionCode::write_multiple_registers:
+    case FunctionCode::kReadHoldingRegisters:
+    case FunctionCode::kWriteSingleRegister: return 8;
+    case FunctionCode::kWriteMultipleRegisters:
       if (head.size() < 7) return std::nullopt;
       return 9 + std::size_t{head[6]};
   }
@@ -299,7 +299,7 @@ namespace {
 // Time of `half_characters` / 2 characters, rounded up so a wait of this length is never short.
 std::chrono::nanoseconds half_character_time(const SerialFormat& format, std::uint64_t half_characters) {
   const std::uint64_t bits_per_char =
-      1U + format.data_bits + (format.parity == Parity::none ? 0U : 1U) + format.stop_bits;
+      1U + format.data_bits + (format.parity == Parity::kNone ? 0U : 1U) + format.stop_bits;
   const std::uint64_t numerator = half_characters * bits_per_char * 1'000'000'000ULL;
   const std::uint64_t denominator = 2ULL * format.baud;
   return std::chrono::nanoseconds{static_cast<std::int64_t>((numerator + denominator - 1) / denominator)};

@@ -17,11 +17,11 @@ ServeResult refuse(std::uint8_t unit, std::uint8_t function, rtu::ExceptionCode 
   result.request = std::move(request);
   result.exception = code;
   if (unit == rtu::kBroadcastUnit) {
-    result.outcome = ServeOutcome::rejected_silently;
+    result.outcome = ServeOutcome::kRejectedSilently;
     return result;
   }
-  result.outcome = ServeOutcome::exception;
-  if (config.exceptions == ExceptionMode::standard) result.reply = rtu::encode_exception(unit, function, code);
+  result.outcome = ServeOutcome::kException;
+  if (config.exceptions == ExceptionMode::kStandard) result.reply = rtu::encode_exception(unit, function, code);
   return result;
 }
 
@@ -30,18 +30,18 @@ ServeResult refuse(std::uint8_t unit, std::uint8_t function, rtu::ExceptionCode 
 ServeResult serve(std::span<const std::uint8_t> frame, const SlaveConfig& config, RegisterBank& bank) {
   const rtu::ParsedRequest parsed = rtu::decode_request(frame);
   if (const auto* error = std::get_if<rtu::FrameErrc>(&parsed)) {
-    ServeResult result = outcome_only(ServeOutcome::discarded);
+    ServeResult result = outcome_only(ServeOutcome::kDiscarded);
     result.frame_error = *error;
     return result;
   }
   if (const auto* rejected = std::get_if<rtu::RejectedRequest>(&parsed)) {
     if (rejected->unit != config.unit && rejected->unit != rtu::kBroadcastUnit)
-      return outcome_only(ServeOutcome::not_addressed);
+      return outcome_only(ServeOutcome::kNotAddressed);
     return refuse(rejected->unit, rejected->function, rejected->code, config, std::nullopt);
   }
   const auto& request = std::get<rtu::Request>(parsed);
   if (request.unit != config.unit && request.unit != rtu::kBroadcastUnit)
-    return outcome_only(ServeOutcome::not_addressed);
+    return outcome_only(ServeOutcome::kNotAddressed);
   const auto function = static_cast<std::uint8_t>(rtu::function_of(request.pdu));
 
   if (const auto code = check_request(request.pdu, config.rules))
@@ -67,10 +67,10 @@ ServeResult serve(std::span<const std::uint8_t> frame, const SlaveConfig& config
   ServeResult result;
   result.request = request;
   if (!expects_reply(request)) {
-    result.outcome = ServeOutcome::executed_silently;
+    result.outcome = ServeOutcome::kExecutedSilently;
     return result;
   }
-  result.outcome = ServeOutcome::replied;
+  result.outcome = ServeOutcome::kReplied;
   result.reply = rtu::encode_response(*response);
   return result;
 }

@@ -7,12 +7,12 @@ namespace motion::adam {
 Result<std::vector<rtu::Request>> table_data_writes(std::uint8_t unit, std::uint16_t start_offset,
                                                     std::span<const std::int32_t> entries,
                                                     std::uint16_t max_registers_per_frame) {
-  if (entries.empty()) return AdamErrc::empty_table;
+  if (entries.empty()) return AdamErrc::kEmptyTable;
   if (max_registers_per_frame < kRegistersPerTableEntry || max_registers_per_frame > kMaxDriveWriteRegisters)
-    return AdamErrc::too_many_registers;
-  if (entries.size() > kMaxTableEntries) return AdamErrc::too_many_registers;
+    return AdamErrc::kTooManyRegisters;
+  if (entries.size() > kMaxTableEntries) return AdamErrc::kTooManyRegisters;
   const auto count = static_cast<std::uint16_t>(entries.size());
-  if (table_entry_address(start_offset, count) - 1 > 0xFFFF) return AdamErrc::too_many_registers;
+  if (table_entry_address(start_offset, count) - 1 > 0xFFFF) return AdamErrc::kTooManyRegisters;
 
   const std::size_t entries_per_frame = max_registers_per_frame / kRegistersPerTableEntry;
   std::vector<rtu::Request> frames;
@@ -31,20 +31,20 @@ Result<std::vector<rtu::Request>> table_data_writes(std::uint8_t unit, std::uint
 
 Result<std::vector<rtu::Request>> profile_writes(std::uint8_t unit, const MotionProfile& p) {
   const auto in_range = [](Reg reg, std::int64_t v) { return encode_value(info(reg), v).ok(); };
-  if (!in_range(Reg::start_speed, p.start_speed_rpm) || !in_range(Reg::stop_speed, p.stop_speed_rpm) ||
-      !in_range(Reg::target_speed, p.speed_centi_rpm) || p.speed_centi_rpm < 0)
-    return AdamErrc::value_out_of_range;
+  if (!in_range(Reg::kStartSpeed, p.start_speed_rpm) || !in_range(Reg::kStopSpeed, p.stop_speed_rpm) ||
+      !in_range(Reg::kTargetSpeed, p.speed_centi_rpm) || p.speed_centi_rpm < 0)
+    return AdamErrc::kValueOutOfRange;
   std::vector<rtu::Request> frames;
   frames.push_back(
-      {unit, rtu::WriteRegisters{address(Reg::start_speed),
+      {unit, rtu::WriteRegisters{address(Reg::kStartSpeed),
                                  {p.start_speed_rpm, p.stop_speed_rpm, p.acceleration_ms, p.deceleration_ms}}});
-  frames.push_back(write32(unit, Reg::target_speed, p.speed_centi_rpm));
+  frames.push_back(write32(unit, Reg::kTargetSpeed, p.speed_centi_rpm));
   return frames;
 }
 
 Result<std::vector<rtu::Request>> sync_move_preload(std::uint8_t unit, const SyncMovePreload& preload) {
-  if (unit == rtu::kBroadcastUnit || unit > kMaxNodeAddress) return AdamErrc::invalid_unit_address;
-  if (preload.start_offset > info(Reg::table_start).max) return AdamErrc::value_out_of_range;
+  if (unit == rtu::kBroadcastUnit || unit > kMaxNodeAddress) return AdamErrc::kInvalidUnitAddress;
+  if (preload.start_offset > info(Reg::kTableStart).max) return AdamErrc::kValueOutOfRange;
   auto frames = profile_writes(unit, preload.profile);
   if (!frames) return frames;
   const std::int32_t target[] = {preload.target_pulses};
@@ -52,16 +52,16 @@ Result<std::vector<rtu::Request>> sync_move_preload(std::uint8_t unit, const Syn
   if (!data) return data.error();
   auto& out = frames.value();
   out.insert(out.end(), data.value().begin(), data.value().end());
-  out.push_back(write16(unit, Reg::table_size, 1));
-  out.push_back(write16(unit, Reg::table_pointer, 0));
-  out.push_back(write16(unit, Reg::table_start, preload.start_offset));
+  out.push_back(write16(unit, Reg::kTableSize, 1));
+  out.push_back(write16(unit, Reg::kTablePointer, 0));
+  out.push_back(write16(unit, Reg::kTableStart, preload.start_offset));
   return frames;
 }
 
 Result<rtu::Request> table_execute_broadcast(const TableExecute& execute) {
   const auto word = encode(execute);
   if (!word) return word.error();
-  return write16(rtu::kBroadcastUnit, Reg::table_execute, word.value());
+  return write16(rtu::kBroadcastUnit, Reg::kTableExecute, word.value());
 }
 
 }  // namespace motion::adam

@@ -9,16 +9,16 @@ namespace {
 // Rounds `value / step` to the nearest integer within [min, max].
 template <typename T>
 Result<Quantized<T>> quantize(double value, double step, std::int64_t min, std::int64_t max) {
-  if (!std::isfinite(value)) return AdamErrc::non_finite;
+  if (!std::isfinite(value)) return AdamErrc::kNonFinite;
   const double steps = std::round(value / step);
-  if (steps < static_cast<double>(min) || steps > static_cast<double>(max)) return AdamErrc::value_out_of_range;
+  if (steps < static_cast<double>(min) || steps > static_cast<double>(max)) return AdamErrc::kValueOutOfRange;
   return Quantized<T>{static_cast<T>(steps), steps * step};
 }
 
 }  // namespace
 
 Result<std::uint32_t> check_subdivision(std::uint32_t pulses_per_rev) {
-  if (pulses_per_rev < kMinSubdivision || pulses_per_rev > kMaxSubdivision) return AdamErrc::invalid_subdivision;
+  if (pulses_per_rev < kMinSubdivision || pulses_per_rev > kMaxSubdivision) return AdamErrc::kInvalidSubdivision;
   return pulses_per_rev;
 }
 
@@ -55,8 +55,8 @@ double ramp_rate_rpm_per_s(double from_rpm, double to_rpm, std::uint16_t ms) noe
 }
 
 Result<Quantized<std::uint16_t>> ramp_time_ms(double from_rpm, double to_rpm, double rpm_per_s) {
-  if (!std::isfinite(from_rpm) || !std::isfinite(to_rpm) || !std::isfinite(rpm_per_s)) return AdamErrc::non_finite;
-  if (rpm_per_s <= 0.0) return AdamErrc::value_out_of_range;
+  if (!std::isfinite(from_rpm) || !std::isfinite(to_rpm) || !std::isfinite(rpm_per_s)) return AdamErrc::kNonFinite;
+  if (rpm_per_s <= 0.0) return AdamErrc::kValueOutOfRange;
   const double seconds = std::abs(to_rpm - from_rpm) / rpm_per_s;
   auto q = quantize<std::uint16_t>(seconds, kRampSecondsPerStep, 0, kMaxRampMs);
   if (!q) return q.error();

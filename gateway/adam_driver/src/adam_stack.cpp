@@ -9,7 +9,7 @@ MasterSettings settings_from_config(const config::Config& config, const config::
   s.bus = bus.name;
   s.transport = bus.transport;
   s.format.baud = static_cast<std::uint32_t>(bus.baud);
-  s.format.parity = bus.parity == 'E' ? rtu::Parity::even : bus.parity == 'O' ? rtu::Parity::odd : rtu::Parity::none;
+  s.format.parity = bus.parity == 'E' ? rtu::Parity::kEven : bus.parity == 'O' ? rtu::Parity::kOdd : rtu::Parity::kNone;
   s.format.stop_bits = static_cast<std::uint8_t>(bus.stop_bits);
   s.poll_period = std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(bus.poll_hz, 0.1)));
   for (const auto& d : config.drives) {
@@ -28,15 +28,15 @@ MasterSettings settings_from_config(const config::Config& config, const config::
     if (const auto pulses = adam::setup_pulses_per_revolution(d.setup_integer("pulses_per_revolution"),
                                                               d.setup_integer("subdivision"))) {
       const auto w = adam::encode32(static_cast<std::uint32_t>(*pulses));
-      ds.setup_writes.push_back({adam::address(Reg::subdivision), {w[0], w[1]}});
+      ds.setup_writes.push_back({adam::address(Reg::kSubdivision), {w[0], w[1]}});
     }
     if (const auto it = d.setup.find("current_a"); it != d.setup.end()) {
-      ds.setup_writes.push_back({adam::address(Reg::rated_current),
+      ds.setup_writes.push_back({adam::address(Reg::kRatedCurrent),
                                  {static_cast<std::uint16_t>(std::lround(setup_number(it->second) * 100))}});
     }
     ds.table_save = d.setup_flag("table_save").value_or(true);
     if (const auto it = d.setup.find("closed_loop"); it != d.setup.end() && setup_int(it->second) == 0) {
-      ds.setup_writes.push_back({adam::address(Reg::min_encoder_lines), {kForceOpenLoopLines}});
+      ds.setup_writes.push_back({adam::address(Reg::kMinEncoderLines), {kForceOpenLoopLines}});
     }
     s.drives.push_back(std::move(ds));
   }
@@ -67,8 +67,8 @@ namespace {
 // that much later, and it is never sent twice (a retry would erase again).
 bool is_save(const rtu::Request& r) {
   const auto* w = std::get_if<rtu::WriteRegister>(&r.pdu);
-  return w && w->address == adam::address(Reg::save_command) &&
-         w->value == static_cast<std::uint16_t>(adam::SaveCommand::save);
+  return w && w->address == adam::address(Reg::kSaveCommand) &&
+         w->value == static_cast<std::uint16_t>(adam::SaveCommand::kSave);
 }
 }  // namespace
 
@@ -192,7 +192,7 @@ void AdamStack::on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now) {
   const std::string who = "drive " + d.cfg.drive + " (slave " + std::to_string(d.cfg.unit) + ")";
   if (!decoded) {
     ++errors_;
-    const bool crc = decoded.error() == rtu::FrameErrc::bad_crc;
+    const bool crc = decoded.error() == rtu::FrameErrc::kBadCrc;
     const std::string what =
         (crc ? "CRC error in the reply of " : "malformed reply (" + decoded.error().message() + ") from ") + who + " " +
         describe(*in_flight_);
@@ -322,10 +322,10 @@ void AdamStack::run_setup(Drive& d) {
     drive->setup_running = false;
     event(drive, Event::CONFIG_MISMATCH, Event::ERROR, 0, "set-up of " + drive->cfg.drive + " failed: " + reason);
   };
-  Transaction power_on{adam::read(drive->cfg.unit, Reg::protection_bits), drive};
+  Transaction power_on{adam::read(drive->cfg.unit, Reg::kProtectionBits), drive};
   power_on.on_reply = [drive](const rtu::Response& r, TimePoint, TimePoint) {
     const auto& v = std::get<rtu::ReadRegistersReply>(r.pdu).values;
-    drive->enabled = (v.at(0) & static_cast<std::uint16_t>(adam::ProtectionBit::disabled_at_power_on)) == 0;
+    drive->enabled = (v.at(0) & static_cast<std::uint16_t>(adam::ProtectionBit::kDisabledAtPowerOn)) == 0;
   };
   power_on.on_fail = setup_failed;
   enqueue(std::move(power_on));
@@ -336,7 +336,7 @@ void AdamStack::run_setup(Drive& d) {
     write.on_fail = setup_failed;
     enqueue(std::move(write));
   }
-  Transaction subdivision{adam::read(drive->cfg.unit, Reg::subdivision), drive};
+  Transaction subdivision{adam::read(drive->cfg.unit, Reg::kSubdivision), drive};
   subdivision.on_reply = [this, drive](const rtu::Response& r, TimePoint, TimePoint) {
     const auto& v = std::get<rtu::ReadRegistersReply>(r.pdu).values;
     const std::uint32_t ppr = adam::decode32(v.at(0), v.at(1));
@@ -362,14 +362,14 @@ void AdamStack::poll(TimePoint now) {
     if (drive->online && !drive->set_up && !drive->setup_running) run_setup(*drive);
     if (!drive->online && drive->ever_answered && ++drive->poll_skips % kOfflinePollDivider != 0) continue;
     drive->poll_queued = true;
-    Transaction position{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::position), kPositionStatusWords}},
+    Transaction position{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::kPosition), kPositionStatusWords}},
                          drive};
     position.is_poll = true;
     position.on_reply = [this, drive](const rtu::Response& r, TimePoint at, TimePoint) {
       on_position_status(*drive, std::get<rtu::ReadRegistersReply>(r.pdu).values, at);
     };
     position.on_fail = [drive](const std::string&, std::int32_t) { drive->poll_queued = false; };
-    Transaction alarm{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::output_state), kOutputsAlarmWords}},
+    Transaction alarm{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::kOutputState), kOutputsAlarmWords}},
                       drive};
     alarm.is_poll = true;
     alarm.on_reply = [this, drive](const rtu::Response& r, TimePoint at, TimePoint) {

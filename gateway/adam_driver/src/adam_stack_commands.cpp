@@ -114,7 +114,7 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
           fail_motion_of(*d, "axis " + d->cfg.axis + " disabled by command " + id_text,
                          error_code(ReplyError::kStopped));
         add_write(op, *d,
-                  adam::command(d->cfg.unit, enable ? adam::EnableCommand::enable : adam::EnableCommand::release),
+                  adam::command(d->cfg.unit, enable ? adam::EnableCommand::kEnable : adam::EnableCommand::kRelease),
                   [this, d, enable](TimePoint) {
                     d->enabled = enable;
                     publish_status(*d);
@@ -130,15 +130,15 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
         fail_motion_of(*d, "axis " + d->cfg.axis + " stopped by command " + id_text, error_code(ReplyError::kStopped));
       }
       auto& op = open_operation(command, drives);
-      op.goal = Operation::Goal::stand_still;
+      op.goal = Operation::Goal::kStandStill;
       for (Drive* d : drives) {
         add_write(op, *d,
-                  adam::command(d->cfg.unit, emergency ? adam::VelocityCommand::emergency_stop
-                                                       : adam::VelocityCommand::ramped_stop));
+                  adam::command(d->cfg.unit, emergency ? adam::VelocityCommand::kEmergencyStop
+                                                       : adam::VelocityCommand::kRampedStop));
         // An e-stop leaves the motor released, as on every family (CiA 402 quick stop ends in
         // "switch on disabled").
         if (emergency) {
-          add_write(op, *d, adam::command(d->cfg.unit, adam::EnableCommand::release), [this, d](TimePoint) {
+          add_write(op, *d, adam::command(d->cfg.unit, adam::EnableCommand::kRelease), [this, d](TimePoint) {
             d->enabled = false;
             publish_status(*d);
           });
@@ -176,17 +176,17 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
             // jog's ramped stop took half a minute).
             const auto rpm_whole = static_cast<std::uint16_t>(std::lround(speed.value().realized));
             add_write(op, d,
-                      {d.cfg.unit, rtu::WriteRegisters{adam::address(Reg::start_speed),
+                      {d.cfg.unit, rtu::WriteRegisters{adam::address(Reg::kStartSpeed),
                                                        {0, 0, ramp.value().value, ramp.value().value, rpm_whole}}});
-            add_write(op, d, adam::write32(d.cfg.unit, Reg::target_speed, static_cast<std::int32_t>(rpm_whole) * 100));
+            add_write(op, d, adam::write32(d.cfg.unit, Reg::kTargetSpeed, static_cast<std::int32_t>(rpm_whole) * 100));
           }
         }
         adam::JogCommand jog;
-        jog.direction = a.velocity < 0 ? adam::Rotation::ccw : adam::Rotation::cw;
+        jog.direction = a.velocity < 0 ? adam::Rotation::kCcw : adam::Rotation::kCw;
         jog.speed_rpm = speed.value().value;
-        jog.stop = adam::StopMethod::decelerate;
+        jog.stop = adam::StopMethod::kDecelerate;
         jog.run = speed.value().value > 0;
-        add_write(op, d, adam::write16(d.cfg.unit, Reg::jog_command, adam::encode(jog).value()));
+        add_write(op, d, adam::write16(d.cfg.unit, Reg::kJogCommand, adam::encode(jog).value()));
       }
       when_transferred(op, [this, id = command.command_id](TimePoint) { finish(id, Reply::DONE); });
       break;
@@ -194,7 +194,7 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
     case motionlcm::gateway_command_t::HOME: {
       if (auto busy = busy_reason(drives)) return refuse(*busy, error_code(ReplyError::kAxisBusy));
       auto& op = open_operation(command, drives);
-      op.goal = Operation::Goal::reach_home;
+      op.goal = Operation::Goal::kReachHome;
       bool any_switch = false;
       for (std::size_t i = 0; i < drives.size(); ++i) {
         Drive& d = *drives[i];
@@ -207,7 +207,7 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
         if (d.cfg.homing_method == config::HomingMethod::kCurrentPosition) {
           add_write(
               op, d,
-              adam::move(d.cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(a.target_counts)),
+              adam::move(d.cfg.unit, adam::MoveCommand::kPresetPosition, static_cast<std::int32_t>(a.target_counts)),
               [&d](TimePoint) { d.homed = true; });
           op.arrived.insert(&d);
           continue;
@@ -215,16 +215,16 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
         any_switch = true;
         adam::InputPair inputs;  // high byte: enable input (off); low byte: home input (§8.48)
         inputs.low = {true, true, static_cast<std::uint8_t>(std::clamp(d.cfg.home_input - 1, 0, 15))};
-        add_write(op, d, adam::write16(d.cfg.unit, Reg::enable_home_inputs, adam::encode(inputs).value()));
+        add_write(op, d, adam::write16(d.cfg.unit, Reg::kEnableHomeInputs, adam::encode(inputs).value()));
         const double rpm = std::abs(rpm_of(d, a.velocity));
         adam::HomingCommand home;
-        home.direction = a.velocity < 0 ? adam::Travel::reverse : adam::Travel::forward;
+        home.direction = a.velocity < 0 ? adam::Travel::kReverse : adam::Travel::kForward;
         home.speed_rpm =
             a.velocity == 0 ? kDefaultHomingRpm
                             : static_cast<std::uint16_t>(std::clamp(std::lround(rpm), 1L, long{adam::kMaxJogSpeedRpm}));
-        home.stop = adam::StopMethod::immediate;  // stop ON the sensor: the position is zeroed there
+        home.stop = adam::StopMethod::kImmediate;  // stop ON the sensor: the position is zeroed there
         home.secondary_speed_code = 0;
-        add_write(op, d, adam::write16(d.cfg.unit, Reg::homing_command, adam::encode(home).value()));
+        add_write(op, d, adam::write16(d.cfg.unit, Reg::kHomingCommand, adam::encode(home).value()));
       }
       when_transferred(op, [this, id = command.command_id, any_switch](TimePoint) {
         if (!any_switch) return finish(id, Reply::DONE);
@@ -261,8 +261,8 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
         }
         const auto on = static_cast<std::uint16_t>(a.output_mask & a.output_value);
         const auto off = static_cast<std::uint16_t>(a.output_mask & ~a.output_value);
-        if (on != 0) add_write(op, *drives[i], adam::write16(drives[i]->cfg.unit, Reg::outputs_on, on));
-        if (off != 0) add_write(op, *drives[i], adam::write16(drives[i]->cfg.unit, Reg::outputs_off, off));
+        if (on != 0) add_write(op, *drives[i], adam::write16(drives[i]->cfg.unit, Reg::kOutputsOn, on));
+        if (off != 0) add_write(op, *drives[i], adam::write16(drives[i]->cfg.unit, Reg::kOutputsOff, off));
       }
       when_transferred(op, [this, id = command.command_id](TimePoint) { finish(id, Reply::DONE); });
       if (op.outstanding == 0) finish(command.command_id, Reply::DONE);
@@ -279,7 +279,7 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
         }
         add_write(
             op, *drives[i],
-            adam::move(drives[i]->cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(target)));
+            adam::move(drives[i]->cfg.unit, adam::MoveCommand::kPresetPosition, static_cast<std::int32_t>(target)));
       }
       when_transferred(op, [this, id = command.command_id](TimePoint) { finish(id, Reply::DONE); });
       break;
@@ -319,7 +319,7 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
 void AdamStack::arm_move(Operation& op, TimePoint now) {
   (void)now;
   const std::int64_t id = op.command.command_id;
-  op.goal = Operation::Goal::reach_target;
+  op.goal = Operation::Goal::kReachTarget;
   // Other drives of the line are made neutral (table entry 0 = where they stand), so that the
   // broadcast "execute table entry" moves only the armed ones. Queued first: done by ARMED.
   for (auto& other : drives_) {
@@ -331,10 +331,10 @@ void AdamStack::arm_move(Operation& op, TimePoint now) {
     const std::int32_t entry[] = {here};
     auto writes = adam::table_data_writes(d->cfg.unit, kTableStartOffset, entry);
     if (!writes) continue;
-    writes.value().push_back(adam::write16(d->cfg.unit, Reg::table_size, 1));
-    writes.value().push_back(adam::write16(d->cfg.unit, Reg::table_pointer, 0));
-    writes.value().push_back(adam::write16(d->cfg.unit, Reg::table_start, kTableStartOffset));
-    if (d->cfg.table_save) writes.value().push_back(adam::command(d->cfg.unit, adam::SaveCommand::save));
+    writes.value().push_back(adam::write16(d->cfg.unit, Reg::kTableSize, 1));
+    writes.value().push_back(adam::write16(d->cfg.unit, Reg::kTablePointer, 0));
+    writes.value().push_back(adam::write16(d->cfg.unit, Reg::kTableStart, kTableStartOffset));
+    if (d->cfg.table_save) writes.value().push_back(adam::command(d->cfg.unit, adam::SaveCommand::kSave));
     for (std::size_t i = 0; i < writes.value().size(); ++i) {
       Transaction t{writes.value()[i], d};
       if (i + 1 == writes.value().size())
@@ -376,10 +376,10 @@ void AdamStack::arm_move(Operation& op, TimePoint now) {
     auto writes = adam::sync_move_preload(d.cfg.unit, preload);
     if (!writes) return fail("cannot preload: " + writes.error().message());
     writes.value().insert(writes.value().begin(),
-                          adam::write16(d.cfg.unit, Reg::working_speed, static_cast<std::uint16_t>(rpm_whole)));
+                          adam::write16(d.cfg.unit, Reg::kWorkingSpeed, static_cast<std::uint16_t>(rpm_whole)));
     // §8.54: the table data is saved before it is executed (setup table_save); a Save erases
     // flash for 0.1 s (§8.69) and is never retried (see is_save()).
-    if (d.cfg.table_save) writes.value().push_back(adam::command(d.cfg.unit, adam::SaveCommand::save));
+    if (d.cfg.table_save) writes.value().push_back(adam::command(d.cfg.unit, adam::SaveCommand::kSave));
     d.motion_owner = id;
     for (std::size_t w = 0; w < writes.value().size(); ++w) {
       std::function<void(TimePoint)> after;
@@ -444,7 +444,7 @@ void AdamStack::start_armed(Operation& op, TimePoint now) {
     for (Drive* d : op.drives) {
       ++op.outstanding;
       Transaction t{
-          adam::move(d->cfg.unit, adam::MoveCommand::absolute_at_standstill, static_cast<std::int32_t>(d->target)), d,
+          adam::move(d->cfg.unit, adam::MoveCommand::kAbsoluteAtStandstill, static_cast<std::int32_t>(d->target)), d,
           id};
       t.max_retries = d->cfg.retries;
       t.on_reply = [this, id, skew_us](const rtu::Response&, TimePoint at, TimePoint frame_end) {
@@ -472,17 +472,17 @@ void AdamStack::check_motion(Operation& op, const Drive& sampled, TimePoint now)
   for (Drive* d : op.drives) {
     if (op.arrived.contains(d) || !d->status || !d->position) continue;
     const adam::DriveStatus& s = *d->status;
-    const bool idle = s.phase == adam::MotionPhase::idle;
+    const bool idle = s.phase == adam::MotionPhase::kIdle;
     if (!idle) {
       op.seen_moving.insert(d);
       continue;
     }
     bool reached = false;
     switch (op.goal) {
-      case Operation::Goal::reach_target: reached = s.in_position && *d->position == d->target; break;
-      case Operation::Goal::reach_home: reached = s.at_home; break;
-      case Operation::Goal::stand_still: reached = true; break;
-      case Operation::Goal::none: reached = true; break;
+      case Operation::Goal::kReachTarget: reached = s.in_position && *d->position == d->target; break;
+      case Operation::Goal::kReachHome: reached = s.at_home; break;
+      case Operation::Goal::kStandStill: reached = true; break;
+      case Operation::Goal::kNone: reached = true; break;
     }
     if (reached) {
       op.arrived.insert(d);
@@ -497,7 +497,7 @@ void AdamStack::check_motion(Operation& op, const Drive& sampled, TimePoint now)
       std::string reason;
       if (s.at_limit())
         reason = where + " on its " + (s.negative_limit ? "negative" : "positive") + " limit";
-      else if (op.goal == Operation::Goal::reach_home)
+      else if (op.goal == Operation::Goal::kReachHome)
         reason = where + " without finding the home switch";
       else
         reason = where + ", short of its target " + std::to_string(d->target);
@@ -506,18 +506,18 @@ void AdamStack::check_motion(Operation& op, const Drive& sampled, TimePoint now)
     }
   }
   if (op.arrived.size() < op.drives.size()) return;
-  if (op.goal == Operation::Goal::reach_home) {
+  if (op.goal == Operation::Goal::kReachHome) {
     for (std::size_t i = 0; i < op.drives.size(); ++i) op.drives[i]->homed = true;
     // Home is position 0 on the drive (assumed: §8.48 only says positions are relative to home); a
     // non-zero home position is preset after.
     op.watching = false;  // the presets are written, then DONE
-    op.goal = Operation::Goal::none;
+    op.goal = Operation::Goal::kNone;
     for (std::size_t i = 0; i < op.drives.size(); ++i) {
       const auto target = op.command.axes[i].target_counts;
       if (target != 0)
         add_write(
             op, *op.drives[i],
-            adam::move(op.drives[i]->cfg.unit, adam::MoveCommand::preset_position, static_cast<std::int32_t>(target)));
+            adam::move(op.drives[i]->cfg.unit, adam::MoveCommand::kPresetPosition, static_cast<std::int32_t>(target)));
     }
     if (op.outstanding == 0) return finish(id, Reply::DONE);
     when_transferred(op, [this, id](TimePoint) { finish(id, Reply::DONE); });
@@ -541,7 +541,7 @@ void AdamStack::param(Operation& op, const motionlcm::param_t& p) {
   if (width != 1 && width != 2)
     return finish(id, Reply::FAILED, "width must be 1 or 2 registers", error_code(ReplyError::kMalformedRequest));
   const bool is_signed =
-      p.is_signed || (info && (info->type == adam::RegType::i16 || info->type == adam::RegType::i32));
+      p.is_signed || (info && (info->type == adam::RegType::kI16 || info->type == adam::RegType::kI32));
   if (op.command.kind == motionlcm::gateway_command_t::PARAM_READ) {
     Transaction t{{d.cfg.unit, rtu::ReadRegisters{reg, static_cast<std::uint16_t>(width)}}, &d, id};
     t.on_reply = [this, id, p, width, is_signed](const rtu::Response& r, TimePoint, TimePoint) {

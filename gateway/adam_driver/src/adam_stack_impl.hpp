@@ -127,7 +127,7 @@ struct AdamStack::Operation {
   // Its drives' samples are checked against `goal` (check_motion): set once its writes are on
   // the drives (a stop, a jog) or its start went out (a move). Armed/started are the ledger's.
   bool watching = false;
-  enum class Goal { none, reach_target, reach_home, stand_still } goal = Goal::none;
+  enum class Goal { kNone, kReachTarget, kReachHome, kStandStill } goal = Goal::kNone;
   std::set<Drive*> arrived;
   std::map<Drive*, int> idle_polls;
   std::set<Drive*> seen_moving;

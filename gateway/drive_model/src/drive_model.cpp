@@ -58,9 +58,9 @@ void ramp_time(Model& m, double seconds_per_step, double from, std::int64_t min,
 std::optional<std::string> uim342(Model& m, const config::Drive& drive, const config::Bus& bus) {
   namespace u = uim342;
   const bool time = drive.setup_text("acceleration_unit").value_or("rate") == "time";
-  const auto unit = time ? u::AccelerationUnit::milliseconds : u::AccelerationUnit::pulses_per_s2;
-  const auto speed = u::value_range(u::FunctionCode::SP);
-  const auto ramp = u::value_range(u::FunctionCode::AC, 0, unit);
+  const auto unit = time ? u::AccelerationUnit::kMilliseconds : u::AccelerationUnit::kPulsesPerS2;
+  const auto speed = u::value_range(u::FunctionCode::kSP);
+  const auto ramp = u::value_range(u::FunctionCode::kAC, 0, unit);
   if (!speed || !ramp) return std::string("the UIM342 parameter table lacks SP/AC");
   m.grid = time ? "uim342 pps+ramp ms" : "uim342 pps+pps/s";
   // SP is 1 pulse/s per step (manual §5.19).
@@ -151,16 +151,16 @@ std::optional<std::string> adam(Model& m, const config::Drive& drive, const conf
 }
 
 std::optional<std::string> uim242(Model& m, const config::Bus& bus) {
-  const auto& speed = uim242::spec(uim242::Mnemonic::SPD);
-  const auto& acceleration = uim242::spec(uim242::Mnemonic::MAC);
-  const auto& deceleration = uim242::spec(uim242::Mnemonic::MDE);
+  const auto& speed = uim242::spec(uim242::Mnemonic::kSPD);
+  const auto& acceleration = uim242::spec(uim242::Mnemonic::kMAC);
+  const auto& deceleration = uim242::spec(uim242::Mnemonic::kMDE);
   m.grid = "uim242 pps+pps/s";
   m.velocity_step = 1.0;
   m.velocity_min = 1;
   m.velocity_max = speed.max;
   rate(m, 1.0, std::max(acceleration.min, deceleration.min), std::min(acceleration.max, deceleration.max));
-  const auto global = uim242::encode_global(uim242::Mnemonic::SPD, speed.max);
-  const auto single = uim242::encode_set(uim242::Mnemonic::SPD, speed.max);
+  const auto global = uim242::encode_global(uim242::Mnemonic::kSPD, speed.max);
+  const auto single = uim242::encode_set(uim242::Mnemonic::kSPD, speed.max);
   if (!global.ok() || !single.ok()) return std::string("no UIM242 SPD instruction");
   const auto line = gateway::serial_line_settings(bus);
   add_start(m, Model::START_UIM242_GLOBAL, 0, micros(line.wire_time(global->size())));

@@ -34,7 +34,7 @@ constexpr std::array kBaudConstants{
 SerialSettings line_settings(int baud, char parity, int stop_bits) {
   SerialSettings s;
   s.baud = baud;
-  s.parity = parity == 'E' ? Parity::even : parity == 'O' ? Parity::odd : Parity::none;
+  s.parity = parity == 'E' ? Parity::kEven : parity == 'O' ? Parity::kOdd : Parity::kNone;
   s.stop_bits = stop_bits;
   return s;
 }
@@ -80,8 +80,8 @@ std::error_code configure_tty(int fd, const SerialSettings& settings, bool& pari
   tio.c_cflag |= CLOCAL | CREAD;
   tio.c_cflag &= ~static_cast<tcflag_t>(CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS);
   tio.c_cflag |= CS8;
-  if (settings.parity != Parity::none) tio.c_cflag |= PARENB;
-  if (settings.parity == Parity::odd) tio.c_cflag |= PARODD;
+  if (settings.parity != Parity::kNone) tio.c_cflag |= PARENB;
+  if (settings.parity == Parity::kOdd) tio.c_cflag |= PARODD;
   if (settings.stop_bits == 2) tio.c_cflag |= CSTOPB;
   tio.c_cc[VMIN] = 0;  // reads return what is there (the fd is non-blocking anyway)
   tio.c_cc[VTIME] = 0;
@@ -89,7 +89,7 @@ std::error_code configure_tty(int fd, const SerialSettings& settings, bool& pari
   if (::tcsetattr(fd, TCSANOW, &tio) != 0) {
     const std::error_code refused = last_error();
     // A pty that refuses PARENB: the parity is modelled (counted in the character time), not set.
-    if (refused != std::errc::invalid_argument || settings.parity == Parity::none || !is_pty(fd)) return refused;
+    if (refused != std::errc::invalid_argument || settings.parity == Parity::kNone || !is_pty(fd)) return refused;
     tio.c_cflag &= ~static_cast<tcflag_t>(PARENB | PARODD);
     if (::tcsetattr(fd, TCSANOW, &tio) != 0) return last_error();
     parity_modelled = true;

@@ -36,7 +36,8 @@ void RequestChannel::reset() {
 
 void RequestChannel::transmit(InFlight& f, TimePoint now) {
   const uim242::Instruction instruction =
-      f.is_selection ? uim242::Instruction{uim242::Mnemonic::ADR, false, f.request.node, false} : f.request.instruction;
+      f.is_selection ? uim242::Instruction{uim242::Mnemonic::kADR, false, f.request.node, false}
+                     : f.request.instruction;
   const auto text = uim242::encode(instruction);
   ++f.attempts;
   f.deadline = now + settings_.timeout;
@@ -107,7 +108,7 @@ bool RequestChannel::on_frame(const uim242::Frame& frame, TimePoint now) {
   }
   if (in_flight_->is_selection) {
     // `AA η D0 FF` (EXT-2501 §3.3).
-    const uim242::Instruction adr{uim242::Mnemonic::ADR, false, in_flight_->request.node, false};
+    const uim242::Instruction adr{uim242::Mnemonic::kADR, false, in_flight_->request.node, false};
     if (!uim242::reply_matches(frame, adr) || frame.node != in_flight_->request.node) {
       ++stats_.unexpected;
       return false;
@@ -128,7 +129,7 @@ bool RequestChannel::on_frame(const uim242::Frame& frame, TimePoint now) {
   InFlight f = std::move(*in_flight_);
   in_flight_.reset();
   // STO (UIM242 manual #42): about 20 ms to execute, "wait 20ms before sending other instructions".
-  if (f.request.instruction.mnemonic == uim242::Mnemonic::STO) hold_until_ = now + kStoPause;
+  if (f.request.instruction.mnemonic == uim242::Mnemonic::kSTO) hold_until_ = now + kStoPause;
   if (!f.cancelled && f.request.on_reply) f.request.on_reply(frame, now);
   return true;
 }

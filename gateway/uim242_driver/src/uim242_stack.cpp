@@ -172,12 +172,12 @@ void Uim242Stack::on_notification(const uim242::Notification& n, TimePoint now) 
   }
   Drive& d = **it;
   switch (n.event) {
-    case uim242::Event::displacement_complete:
+    case uim242::Event::kDisplacementComplete:
       // The position is the arriving move's target (move_axis_arrived); a displacement that is not
       // a move's (a jog run onto its limit) leaves the position to the next poll.
       move_axis_arrived(d, now);
       return;
-    case uim242::Event::stall: {
+    case uim242::Event::kStall: {
       const std::string reason = fmt::format("{} (node {}): stall notification", d.name, d.node);
       d.status.fault = true;
       d.status.fault_code = static_cast<std::int32_t>(uim242::message::kDefaultStall);
@@ -187,9 +187,9 @@ void Uim242Stack::on_notification(const uim242::Notification& n, TimePoint now) 
       publish(d, now);
       return;
     }
-    case uim242::Event::position_zero:
-    case uim242::Event::p4_high_to_low:
-    case uim242::Event::p4_low_to_high:
+    case uim242::Event::kPositionZero:
+    case uim242::Event::kP4HighToLow:
+    case uim242::Event::kP4LowToHigh:
       event(d, event_t::INPUT_EDGE, event_t::INFO, static_cast<std::int32_t>(n.event),
             fmt::format("{} (node {}): notification 0x{:02X}", d.name, d.node, static_cast<int>(n.event)));
       return;
@@ -210,7 +210,7 @@ void Uim242Stack::on_notification(const uim242::Notification& n, TimePoint now) 
     Command* c = commands_.find(id);
     if (c == nullptr) return;
     const std::int64_t offset = d.homing_offset;
-    run_sequence(*c, d, {uim242::make_scf(d.homing_restore), set(Mnemonic::SPD, 0), set(Mnemonic::ORG, offset)},
+    run_sequence(*c, d, {uim242::make_scf(d.homing_restore), set(Mnemonic::kSPD, 0), set(Mnemonic::kORG, offset)},
                  [this, id, &d, offset](TimePoint t) {
                    homed(d, offset, t);
                    part_done(id);  // DONE when every axis of the command is home
@@ -251,10 +251,10 @@ void Uim242Stack::identify(Drive& d, TimePoint /*now*/) {
   Request r;
   r.drive = d.name;
   r.node = d.node;
-  r.instruction = set(Mnemonic::MDL, d.node);
+  r.instruction = set(Mnemonic::kMDL, d.node);
   r.on_reply = [this, &d](const Frame& f, TimePoint now) {
     d.identifying = false;
-    const auto fields = uim242::decode_fields(f.data, uim242::Layout::model);
+    const auto fields = uim242::decode_fields(f.data, uim242::Layout::kModel);
     if (!fields || (*fields)[0] != 0x18 || (*fields)[1] != 0x02) {
       event(d, event_t::CONFIG_MISMATCH, event_t::WARNING, 0,
             fmt::format("{} (node {}): 'MDL {};' reports a model other than UIM242 (18 02)", d.name, d.node, d.node));
@@ -285,12 +285,12 @@ void Uim242Stack::set_up(Drive& d) {
   }
   const std::int64_t wanted = std::get<long long>(it->second) & kIcfgBits;
   const auto read_icfg = [](const Frame& f) {
-    return field(f, uim242::reply_form(bare(Mnemonic::ICF)).layout, 0) & kIcfgBits;
+    return field(f, uim242::reply_form(bare(Mnemonic::kICF)).layout, 0) & kIcfgBits;
   };
   Request r;
   r.drive = d.name;
   r.node = d.node;
-  r.instruction = bare(Mnemonic::ICF);
+  r.instruction = bare(Mnemonic::kICF);
   r.on_reply = [this, &d, wanted, read_icfg](const Frame& f, TimePoint) {
     if (read_icfg(f) == wanted) {
       set_up_steps(d);
@@ -299,7 +299,7 @@ void Uim242Stack::set_up(Drive& d) {
     Request w;
     w.drive = d.name;
     w.node = d.node;
-    w.instruction = set(Mnemonic::ICF, wanted);
+    w.instruction = set(Mnemonic::kICF, wanted);
     w.on_reply = [this, &d, wanted, was = read_icfg(f)](const Frame&, TimePoint now) {
       ++icf_writes_;
       event(d, event_t::REBOOT, event_t::INFO, static_cast<std::int32_t>(wanted),
@@ -325,9 +325,9 @@ void Uim242Stack::verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up, 
   Request r;
   r.drive = d.name;
   r.node = d.node;
-  r.instruction = bare(Mnemonic::ICF);
+  r.instruction = bare(Mnemonic::kICF);
   r.on_reply = [this, &d, wanted](const Frame& f, TimePoint now) {
-    const std::int64_t read = field(f, uim242::reply_form(bare(Mnemonic::ICF)).layout, 0) & kIcfgBits;
+    const std::int64_t read = field(f, uim242::reply_form(bare(Mnemonic::kICF)).layout, 0) & kIcfgBits;
     if (read == wanted) {
       event(d, event_t::ONLINE, event_t::INFO, 0,
             fmt::format("{} (node {}): back after its reboot, ICFG reads 0x{:X}", d.name, d.node, read));
@@ -364,19 +364,19 @@ void Uim242Stack::set_up_steps(Drive& d) {
     return std::nullopt;
   };
   std::vector<Instruction> steps;
-  if (const auto m = integer("micro_steps")) steps.push_back(set(Mnemonic::MCS, *m));
+  if (const auto m = integer("micro_steps")) steps.push_back(set(Mnemonic::kMCS, *m));
   if (const auto it = setup.find("current_a"); it != setup.end()) {
     const double amps = std::holds_alternative<double>(it->second)
                             ? std::get<double>(it->second)
                             : static_cast<double>(std::get<long long>(it->second));
-    steps.push_back(set(Mnemonic::CUR, std::llround(amps * 10)));  // tenths of an ampere (#6)
+    steps.push_back(set(Mnemonic::kCUR, std::llround(amps * 10)));  // tenths of an ampere (#6)
   }
-  steps.push_back(set(Mnemonic::MCF, integer("mcfg").value_or(kDefaultMcfg)));
-  if (const auto v = integer("encoder_lines")) steps.push_back(set(Mnemonic::QER, *v));
-  if (const auto v = integer("stall_tolerance")) steps.push_back(set(Mnemonic::SQT, *v));
-  steps.push_back(set(Mnemonic::MMS, 0));  // no non-linear jumps: the planner's exact trapezoid
-  steps.push_back(set(Mnemonic::MMD, 0));
-  steps.push_back(set(Mnemonic::STP, 0));  // velocity mode, desired speed 0
+  steps.push_back(set(Mnemonic::kMCF, integer("mcfg").value_or(kDefaultMcfg)));
+  if (const auto v = integer("encoder_lines")) steps.push_back(set(Mnemonic::kQER, *v));
+  if (const auto v = integer("stall_tolerance")) steps.push_back(set(Mnemonic::kSQT, *v));
+  steps.push_back(set(Mnemonic::kMMS, 0));  // no non-linear jumps: the planner's exact trapezoid
+  steps.push_back(set(Mnemonic::kMMD, 0));
+  steps.push_back(set(Mnemonic::kSTP, 0));  // velocity mode, desired speed 0
   const auto submit_step = [this, &d](Instruction in, std::function<void(const Frame&, TimePoint)> on_reply,
                                       bool front) {
     Request r;
@@ -393,13 +393,13 @@ void Uim242Stack::set_up_steps(Drive& d) {
   // STLIE alone sends no stall notification: a STALL action of 0000 silences it. Keep a configured
   // action, else bind "notify only" (the sensor bits of S34CON stay as they are).
   submit_step(
-      bare(Mnemonic::SCF),
+      bare(Mnemonic::kSCF),
       [submit_step](const Frame& f, TimePoint) {
         const auto s34con =
-            static_cast<std::uint16_t>(static_cast<std::uint32_t>(field(f, uim242::Layout::scf, 0)) >> 16);
+            static_cast<std::uint16_t>(static_cast<std::uint32_t>(field(f, uim242::Layout::kScf, 0)) >> 16);
         if ((s34con & kStallField) != 0) return;
         submit_step(
-            uim242::make_scf({uim242::SensorRegister::S34CON, static_cast<std::uint16_t>(s34con | kStallNotifyOnly)}),
+            uim242::make_scf({uim242::SensorRegister::kS34CON, static_cast<std::uint16_t>(s34con | kStallNotifyOnly)}),
             {}, true);
       },
       false);
@@ -455,15 +455,15 @@ void Uim242Stack::poll(TimePoint now) {
       };
       channel_.submit(std::move(r));
     };
-    poll_request(bare(Mnemonic::FBK), [&d](const Frame& f, TimePoint) {
+    poll_request(bare(Mnemonic::kFBK), [&d](const Frame& f, TimePoint) {
       if (const auto s = uim242::decode_status(f)) {
         d.status.enabled = s->enabled;
         d.status.velocity_counts = s->speed;
         d.status.moving = s->speed != 0;
       }
     });
-    poll_request(bare(Mnemonic::QEC), [this, &d](const Frame& f, TimePoint t) {
-      const std::int64_t position = field(f, uim242::Layout::s32, 0);
+    poll_request(bare(Mnemonic::kQEC), [this, &d](const Frame& f, TimePoint t) {
+      const std::int64_t position = field(f, uim242::Layout::kS32, 0);
       const bool still = !d.status.moving && d.last_polled_position == position;
       d.status.position_counts = position;
       d.last_polled_position = position;

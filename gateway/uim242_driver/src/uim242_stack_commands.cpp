@@ -78,7 +78,7 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
       };
   switch (command.kind) {
     case gateway_command_t::ENABLE:
-      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::ENA)}; },
+      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::kENA)}; },
                [](Drive& d, const auto&) { d.status.enabled = true; });
       return;
     case gateway_command_t::DISABLE:
@@ -109,15 +109,15 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
           };
           channel_.submit(std::move(r), true);
         };
-        broadcast(Instruction{Mnemonic::OFF, true, std::nullopt, false}, [this, id, broadcast] {
+        broadcast(Instruction{Mnemonic::kOFF, true, std::nullopt, false}, [this, id, broadcast] {
           for (auto& d : drives_) d->status.enabled = false;
-          broadcast(Instruction{Mnemonic::SPD, true, 0, false}, [this, id] { finish(id, true); });
+          broadcast(Instruction{Mnemonic::kSPD, true, 0, false}, [this, id] { finish(id, true); });
         });
         return;
       }
       per_axis(
           [](Drive&, const auto&) {
-            return std::vector{bare(Mnemonic::OFF), set(Mnemonic::SPD, 0)};
+            return std::vector{bare(Mnemonic::kOFF), set(Mnemonic::kSPD, 0)};
           },
           [](Drive& d, const auto&) { d.status.enabled = false; });
       return;
@@ -130,7 +130,7 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
       }
       // Ramped stop, DONE at rest with the real position published (settle).
       for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t&) {
-        run_sequence(c, d, {set(Mnemonic::STP, 0)}, [this, id, &d](TimePoint t) {
+        run_sequence(c, d, {set(Mnemonic::kSTP, 0)}, [this, id, &d](TimePoint t) {
           settle(d, id, t + kRestLimit, [this, id](TimePoint) { part_done(id); });
         });
       });
@@ -148,7 +148,7 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
       for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) { jog(c, d, a); });
       return;
     case gateway_command_t::FAULT_RESET:
-      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::FBK)}; },
+      per_axis([](Drive&, const auto&) { return std::vector{bare(Mnemonic::kFBK)}; },
                [](Drive& d, const auto&) {
                  d.status.fault = false;
                  d.status.fault_code = 0;
@@ -166,7 +166,8 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
       }
       per_axis(
           [](Drive&, const motionlcm::axis_command_t& a) {
-            return a.output_mask & 1 ? std::vector{set(Mnemonic::DOU, a.output_value & 1)} : std::vector<Instruction>{};
+            return a.output_mask & 1 ? std::vector{set(Mnemonic::kDOU, a.output_value & 1)}
+                                     : std::vector<Instruction>{};
           },
           [](Drive& d, const motionlcm::axis_command_t& a) {
             if (a.output_mask & 1) d.status.outputs = a.output_value & 1;
@@ -174,7 +175,7 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
       return;
     case gateway_command_t::SET_POSITION:
       per_axis(
-          [](Drive&, const motionlcm::axis_command_t& a) { return std::vector{set(Mnemonic::ORG, a.target_counts)}; },
+          [](Drive&, const motionlcm::axis_command_t& a) { return std::vector{set(Mnemonic::kORG, a.target_counts)}; },
           [](Drive& d, const motionlcm::axis_command_t& a) { d.status.position_counts = a.target_counts; });
       return;
     case gateway_command_t::HOME:
@@ -208,7 +209,7 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
         finish(id, true);
         return;
       }
-      for (Drive* d : loaded) run_sequence(c, *d, {set(Mnemonic::STP, 0)}, [this, id](TimePoint) { part_done(id); });
+      for (Drive* d : loaded) run_sequence(c, *d, {set(Mnemonic::kSTP, 0)}, [this, id](TimePoint) { part_done(id); });
       return;
     }
     default: finish(id, false, fmt::format("unknown command kind {}", command.kind), kMalformed); return;
@@ -255,7 +256,7 @@ void Uim242Stack::arm(const gateway_command_t& command, TimePoint now) {
     // position the relative STP is computed from (settle: EN/CN #44 counts STP from the
     // position at its receipt, which must be the position read).
     run_sequence(
-        c, d, {set(Mnemonic::MAC, axis.acceleration), set(Mnemonic::MDE, axis.deceleration), set(Mnemonic::SPD, 0)},
+        c, d, {set(Mnemonic::kMAC, axis.acceleration), set(Mnemonic::kMDE, axis.deceleration), set(Mnemonic::kSPD, 0)},
         [this, &c, &d, &axis, loaded, id](TimePoint t0) {
           settle(d, id, t0 + kRestLimit, [this, &c, &d, &axis, loaded](TimePoint t) {
             const std::int64_t position = d.status.position_counts;
@@ -271,7 +272,7 @@ void Uim242Stack::arm(const gateway_command_t& command, TimePoint now) {
                      kOutsideLimits);
               return;
             }
-            run_sequence(c, d, {set(Mnemonic::STP, displacement)}, [&axis, &d, loaded](TimePoint t2) {
+            run_sequence(c, d, {set(Mnemonic::kSTP, displacement)}, [&axis, &d, loaded](TimePoint t2) {
               axis.loaded = true;
               loaded(d, t2);
             });
@@ -342,12 +343,12 @@ void Uim242Stack::start_move(Move& m, TimePoint now) {
     // Every controller is loaded with SPD 0 and its target: one global speed starts them all.
     Request r;
     r.drive = "gateway";
-    r.instruction = Instruction{Mnemonic::SPD, true, to_start.front()->speed, false};
+    r.instruction = Instruction{Mnemonic::kSPD, true, to_start.front()->speed, false};
     r.group = id;
     r.on_sent = on_sent;
     // The coordinator led this start by the drive model's wire time of the longest global form
     // (gSPD 65535;): a shorter one waits the difference, so that it ends when that one would.
-    const auto longest = uim242::encode_global(Mnemonic::SPD, uim242::spec(Mnemonic::SPD).max);
+    const auto longest = uim242::encode_global(Mnemonic::kSPD, uim242::spec(Mnemonic::kSPD).max);
     const auto actual = uim242::encode(r.instruction);
     if (longest.ok() && actual.ok() && longest->size() > actual->size()) {
       r.not_before = now + channel_.character_time() * static_cast<std::int64_t>(longest->size() - actual->size());
@@ -366,7 +367,7 @@ void Uim242Stack::start_move(Move& m, TimePoint now) {
     Request r;
     r.drive = a.drive->name;
     r.node = a.drive->node;
-    r.instruction = set(Mnemonic::SPD, a.speed);
+    r.instruction = set(Mnemonic::kSPD, a.speed);
     r.group = id;
     r.on_sent = on_sent;
     if (last) r.on_reply = [started](const Frame&, TimePoint) { started("sequential"); };
@@ -417,7 +418,7 @@ void Uim242Stack::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a) 
   const std::int64_t id = c.command.command_id;
   const std::int64_t v = std::llround(a.velocity);
   if (v == 0) {
-    run_sequence(c, d, {set(Mnemonic::STP, 0)}, [this, id](TimePoint) { part_done(id); });
+    run_sequence(c, d, {set(Mnemonic::kSTP, 0)}, [this, id](TimePoint) { part_done(id); });
     return;
   }
   // Leave PT (stops whatever ran), ramps, zero speed; then at rest the position the displacement
@@ -425,8 +426,8 @@ void Uim242Stack::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a) 
   d.jog_command = id;
   run_sequence(
       c, d,
-      {set(Mnemonic::STP, 0), set(Mnemonic::MAC, clamp_rate(a.acceleration)),
-       set(Mnemonic::MDE, clamp_rate(a.deceleration > 0 ? a.deceleration : a.acceleration)), set(Mnemonic::SPD, 0)},
+      {set(Mnemonic::kSTP, 0), set(Mnemonic::kMAC, clamp_rate(a.acceleration)),
+       set(Mnemonic::kMDE, clamp_rate(a.deceleration > 0 ? a.deceleration : a.acceleration)), set(Mnemonic::kSPD, 0)},
       [this, &c, &d, a, v, id](TimePoint t0) {
         settle(d, id, t0 + kRestLimit, [this, &c, &d, a, v, id](TimePoint) {
           const auto limits = gateway::CountLimits::of(*d.axis);
@@ -445,7 +446,7 @@ void Uim242Stack::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a) 
           // STP's range is a 32-bit count (EN/CN #44): a longer way is run in the part that fits.
           constexpr std::int64_t kStpMax = std::numeric_limits<std::int32_t>::max();
           const std::int64_t displacement = std::clamp(*room, -kStpMax, kStpMax);
-          run_sequence(c, d, {set(Mnemonic::STP, displacement), set(Mnemonic::SPD, std::abs(v))},
+          run_sequence(c, d, {set(Mnemonic::kSTP, displacement), set(Mnemonic::kSPD, std::abs(v))},
                        [this, &d, id](TimePoint) {
                          if (d.jog_command == id) d.jog_command = 0;
                          part_done(id);
@@ -456,7 +457,7 @@ void Uim242Stack::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a) 
 
 void Uim242Stack::settle(Drive& d, std::int64_t group, TimePoint give_up, std::function<void(TimePoint)> then) {
   submit(
-      d, bare(Mnemonic::FBK), group,
+      d, bare(Mnemonic::kFBK), group,
       [this, &d, group, give_up, then = std::move(then)](const Frame& f, TimePoint t) mutable {
         const auto s = uim242::decode_status(f);
         const std::int64_t speed = s ? s->speed : 0;
@@ -475,9 +476,9 @@ void Uim242Stack::settle(Drive& d, std::int64_t group, TimePoint give_up, std::f
         }
         // At rest: the real position, published not moving before anything plans from it.
         submit(
-            d, bare(Mnemonic::QEC), group,
+            d, bare(Mnemonic::kQEC), group,
             [this, &d, then = std::move(then)](const Frame& q, TimePoint t2) {
-              const std::int64_t position = field(q, uim242::Layout::s32, 0);
+              const std::int64_t position = field(q, uim242::Layout::kS32, 0);
               d.status.position_counts = position;
               d.last_polled_position = position;
               d.status.moving = false;
@@ -509,7 +510,7 @@ void Uim242Stack::home(Command& c, Drive& d, const config::Axis& axis, const mot
   }
   if (axis.homing.method == config::HomingMethod::kCurrentPosition) {
     // No switch: the current position becomes the home position (ORG, #28/#29).
-    run_sequence(c, d, {set(Mnemonic::ORG, offset)}, [this, id, &d, offset](TimePoint now) {
+    run_sequence(c, d, {set(Mnemonic::kORG, offset)}, [this, id, &d, offset](TimePoint now) {
       homed(d, offset, now);
       part_done(id);
     });
@@ -527,18 +528,18 @@ void Uim242Stack::home(Command& c, Drive& d, const config::Axis& axis, const mot
   // configured edge (falling by default: a hit switch outputs 0 V, EN §8.10), then run towards
   // it. S12CON = S2RACT S2FACT S1RACT S1FACT, S34CON's low byte S3RACT S3FACT (EN/CN §8.6, §8.7).
   const bool rising = axis.homing.edge == config::HomingEdge::kRising;
-  submit(d, bare(Mnemonic::SCF), id, [this, &c, &d, input, rising, speed, offset](const Frame& f, TimePoint) {
-    const auto s34_s12 = static_cast<std::uint32_t>(field(f, uim242::Layout::scf, 0));
+  submit(d, bare(Mnemonic::kSCF), id, [this, &c, &d, input, rising, speed, offset](const Frame& f, TimePoint) {
+    const auto s34_s12 = static_cast<std::uint32_t>(field(f, uim242::Layout::kScf, 0));
     const bool s3 = input == 3;
     const auto reg = static_cast<std::uint16_t>(s3 ? s34_s12 >> 16 : s34_s12 & 0xFFFF);
     const int shift = (input == 2 ? 8 : 0) + (rising ? 4 : 0);
     const auto bound = static_cast<std::uint16_t>((reg & ~(0xF << shift)) | (kResetAndEmergencyStop << shift));
-    const auto which = s3 ? uim242::SensorRegister::S34CON : uim242::SensorRegister::S12CON;
+    const auto which = s3 ? uim242::SensorRegister::kS34CON : uim242::SensorRegister::kS12CON;
     d.homing_restore = {which, reg};
     d.homing_edge = static_cast<uim242::Event>(0xA0 + 2 * (input - 1) + (rising ? 1 : 0));
     d.homing_offset = offset;
     d.homing_command = c.command.command_id;  // from here on, an end without the edge restores the register
-    run_sequence(c, d, {uim242::make_scf({which, bound}), set(Mnemonic::STP, 0), set(Mnemonic::SPD, speed)},
+    run_sequence(c, d, {uim242::make_scf({which, bound}), set(Mnemonic::kSTP, 0), set(Mnemonic::kSPD, speed)},
                  [](TimePoint) {});
   });
 }
@@ -552,7 +553,7 @@ void Uim242Stack::param(const gateway_command_t& command, Drive& d, bool write) 
   }
   const auto m =
       p.mnemonic.size() >= 3 ? uim242::parse_mnemonic(std::string_view(p.mnemonic).substr(0, 3)) : std::nullopt;
-  if (!m || uim242::spec(*m).target != uim242::Target::controller || *m == Mnemonic::Null) {
+  if (!m || uim242::spec(*m).target != uim242::Target::kController || *m == Mnemonic::kNull) {
     finish(id, false, fmt::format("'{}' is not a UIM242 controller instruction", p.mnemonic), kMalformed);
     return;
   }
@@ -565,11 +566,11 @@ void Uim242Stack::param(const gateway_command_t& command, Drive& d, bool write) 
              fmt::format("{} (node {}): value {} outside the range of {}", d.name, d.node, p.value, p.mnemonic),
              kOutsideLimits);
     };
-    const bool by_register = (*m == Mnemonic::SCF || *m == Mnemonic::STG) && p.subindex >= 0;
+    const bool by_register = (*m == Mnemonic::kSCF || *m == Mnemonic::kSTG) && p.subindex >= 0;
     if (by_register) {
       // One 16-bit register (SCF 0..3, STG port 0..2): check before narrowing, or 70000 would
       // go out as 4464.
-      const std::int32_t last = *m == Mnemonic::SCF ? 3 : 2;
+      const std::int32_t last = *m == Mnemonic::kSCF ? 3 : 2;
       if (p.subindex > last) {
         finish(id, false,
                fmt::format("{} (node {}): {} has no register {} (0..{})", d.name, d.node, p.mnemonic, p.subindex, last),
@@ -578,8 +579,8 @@ void Uim242Stack::param(const gateway_command_t& command, Drive& d, bool write) 
       }
       if (p.value < 0 || p.value > std::numeric_limits<std::uint16_t>::max()) return out_of_range();
       const auto value = static_cast<std::uint16_t>(p.value);
-      in = *m == Mnemonic::SCF ? uim242::make_scf({static_cast<uim242::SensorRegister>(p.subindex), value})
-                               : uim242::make_stg({static_cast<std::uint8_t>(p.subindex), value});
+      in = *m == Mnemonic::kSCF ? uim242::make_scf({static_cast<uim242::SensorRegister>(p.subindex), value})
+                                : uim242::make_stg({static_cast<std::uint8_t>(p.subindex), value});
     } else {
       in = set(*m, p.value);
     }
@@ -588,19 +589,19 @@ void Uim242Stack::param(const gateway_command_t& command, Drive& d, bool write) 
     value_of = [written](const Frame&) { return written; };
   } else {
     switch (*m) {
-      case Mnemonic::CUR:
-      case Mnemonic::MCS:
-        in = bare(Mnemonic::Null);  // their values come with the basic ACK (§2.4)
+      case Mnemonic::kCUR:
+      case Mnemonic::kMCS:
+        in = bare(Mnemonic::kNull);  // their values come with the basic ACK (§2.4)
         value_of = [mm = *m](const Frame& f) {
           const auto s = uim242::decode_status(f);
-          return s ? std::int64_t{mm == Mnemonic::CUR ? s->current_tenths : s->micro_steps} : 0;
+          return s ? std::int64_t{mm == Mnemonic::kCUR ? s->current_tenths : s->micro_steps} : 0;
         };
         break;
-      case Mnemonic::ENA: in = Instruction{Mnemonic::ENA, false, 0xFFFF, true}; break;
-      case Mnemonic::MDL: in = set(Mnemonic::MDL, d.node); break;
-      case Mnemonic::OFF:
-      case Mnemonic::ORG:
-      case Mnemonic::STO:
+      case Mnemonic::kENA: in = Instruction{Mnemonic::kENA, false, 0xFFFF, true}; break;
+      case Mnemonic::kMDL: in = set(Mnemonic::kMDL, d.node); break;
+      case Mnemonic::kOFF:
+      case Mnemonic::kORG:
+      case Mnemonic::kSTO:
         finish(id, false, fmt::format("{} has no read form (its bare form acts)", p.mnemonic), kUnsupported);
         return;
       default: break;
@@ -611,12 +612,12 @@ void Uim242Stack::param(const gateway_command_t& command, Drive& d, bool write) 
       value_of = [sent, sub, layout](const Frame& f) -> std::int64_t {
         const auto l = layout(sent);
         switch (l) {
-          case uim242::Layout::flag_u32: return field(f, l, 1);
-          case uim242::Layout::model: return field(f, l, 4);
-          case uim242::Layout::status: return field(f, l, 3);
-          case uim242::Layout::stg: return field(f, l, static_cast<std::size_t>(std::max(sub, 0)));
-          case uim242::Layout::sensors: return field(f, l, static_cast<std::size_t>(std::clamp(sub, 0, 3)));
-          case uim242::Layout::scf: {
+          case uim242::Layout::kFlagU32: return field(f, l, 1);
+          case uim242::Layout::kModel: return field(f, l, 4);
+          case uim242::Layout::kStatus: return field(f, l, 3);
+          case uim242::Layout::kStg: return field(f, l, static_cast<std::size_t>(std::max(sub, 0)));
+          case uim242::Layout::kSensors: return field(f, l, static_cast<std::size_t>(std::clamp(sub, 0, 3)));
+          case uim242::Layout::kScf: {
             const auto regs = field(f, l, 0);
             if (sub == 0) return regs & 0xFFFF;
             if (sub == 1) return (regs >> 16) & 0xFFFF;

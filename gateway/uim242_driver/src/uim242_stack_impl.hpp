@@ -119,7 +119,7 @@ struct Uim242Stack::Drive {
   int still_polls = 0;
   // Homing by switch: the command waiting for the edge, the register to restore, the offset.
   std::int64_t homing_command = 0;
-  uim242::Event homing_edge = uim242::Event::s1_falling;
+  uim242::Event homing_edge = uim242::Event::kS1Falling;
   uim242::ScfWrite homing_restore;
   std::int64_t homing_offset = 0;
   // The jog being started (its instructions queued or its rest awaited): a stop ends it, so

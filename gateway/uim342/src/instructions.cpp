@@ -18,34 +18,34 @@ using L = Layout;
 // row per instruction.
 constexpr std::array kTable{
     //               fn     mn    get         set               reply            ack forms             set ACK  i  short
-    InstructionForms{FC::PP, "PP", L::index, L::indexed_byte, L::indexed_byte, AckForms::both, FC::PP, 0, false},
-    InstructionForms{FC::IC, "IC", L::index, L::indexed_word, L::indexed_word, AckForms::both, FC::IC, 0, false},
-    InstructionForms{FC::IE, "IE", L::index, L::indexed_word, L::indexed_word, AckForms::both, FC::IE, 0, false},
-    InstructionForms{FC::ML, "ML", L::empty, L::none, L::model, AckForms::ack_only, FC::ML, 0, false},
-    InstructionForms{FC::SN, "SN", L::empty, L::none, L::serial, AckForms::both, FC::SN, 0, false},
-    InstructionForms{FC::ER, "ER", L::index, L::indexed_byte, L::error_record, AckForms::both, FC::ER, 0, false},
-    InstructionForms{FC::MT, "MT", L::index, L::indexed_word, L::indexed_word, AckForms::both, FC::MT, 0, false},
-    InstructionForms{FC::MS, "MS", L::index, L::indexed_byte, L::motion_status, AckForms::both, FC::MS, 0, false},
-    InstructionForms{FC::MO, "MO", L::empty, L::byte, L::byte, AckForms::both, FC::MO, 0, false},
-    InstructionForms{FC::BG, "BG", L::none, L::empty, L::zeros4, AckForms::both, FC::BG, 0, false},
-    InstructionForms{FC::ST, "ST", L::none, L::empty, L::empty, AckForms::both, FC::ST, 0, false},
-    InstructionForms{FC::MF, "MF", L::empty, L::byte, L::byte, AckForms::both, FC::MF, 0, false},
-    InstructionForms{FC::AC, "AC", L::empty, L::u32, L::u32, AckForms::both, FC::AC, 0, false},
-    InstructionForms{FC::DC, "DC", L::empty, L::u32, L::u32, AckForms::both, FC::DC, 0, false},
-    InstructionForms{FC::SS, "SS", L::empty, L::u32, L::u32, AckForms::both, FC::SS, 0, false},
-    InstructionForms{FC::SD, "SD", L::empty, L::u32, L::u32, AckForms::both, FC::SD, 0, false},
-    InstructionForms{FC::JV, "JV", L::empty, L::s32, L::s32, AckForms::both, FC::DV, 2, true},
-    InstructionForms{FC::SP, "SP", L::empty, L::s32, L::s32, AckForms::both, FC::DV, 2, true},
-    InstructionForms{FC::PR, "PR", L::empty, L::s32, L::s32, AckForms::both, FC::DV, 3, true},
-    InstructionForms{FC::PA, "PA", L::empty, L::s32, L::s32, AckForms::both, FC::DV, 4, true},
-    InstructionForms{FC::OG, "OG", L::none, L::empty, L::empty, AckForms::both, FC::OG, 0, false},
-    InstructionForms{FC::BL, "BL", L::empty, L::u32, L::u32, AckForms::both, FC::BL, 0, false},
-    InstructionForms{FC::DV, "DV", L::index, L::none, L::indexed_s32, AckForms::both, FC::DV, 0, false},
-    InstructionForms{FC::IL, "IL", L::index, L::input_logic, L::input_logic, AckForms::both, FC::IL, 0, false},
-    InstructionForms{FC::TG, "TG", L::index, L::indexed_word, L::indexed_word, AckForms::both, FC::TG, 0, false},
-    InstructionForms{FC::DI, "DI", L::empty, L::digital_output, L::digital_io, AckForms::both, FC::DI, 0, false},
-    InstructionForms{FC::QE, "QE", L::index, L::indexed_word, L::indexed_word, AckForms::both, FC::QE, 0, false},
-    InstructionForms{FC::SY, "SY", L::none, L::index, L::none, AckForms::no_ack_only, FC::SY, 0, false},
+    InstructionForms{FC::kPP, "PP", L::kIndex, L::kIndexedByte, L::kIndexedByte, AckForms::kBoth, FC::kPP, 0, false},
+    InstructionForms{FC::kIC, "IC", L::kIndex, L::kIndexedWord, L::kIndexedWord, AckForms::kBoth, FC::kIC, 0, false},
+    InstructionForms{FC::kIE, "IE", L::kIndex, L::kIndexedWord, L::kIndexedWord, AckForms::kBoth, FC::kIE, 0, false},
+    InstructionForms{FC::kML, "ML", L::kEmpty, L::kNone, L::kModel, AckForms::kAckOnly, FC::kML, 0, false},
+    InstructionForms{FC::kSN, "SN", L::kEmpty, L::kNone, L::kSerial, AckForms::kBoth, FC::kSN, 0, false},
+    InstructionForms{FC::kER, "ER", L::kIndex, L::kIndexedByte, L::kErrorRecord, AckForms::kBoth, FC::kER, 0, false},
+    InstructionForms{FC::kMT, "MT", L::kIndex, L::kIndexedWord, L::kIndexedWord, AckForms::kBoth, FC::kMT, 0, false},
+    InstructionForms{FC::kMS, "MS", L::kIndex, L::kIndexedByte, L::kMotionStatus, AckForms::kBoth, FC::kMS, 0, false},
+    InstructionForms{FC::kMO, "MO", L::kEmpty, L::kByte, L::kByte, AckForms::kBoth, FC::kMO, 0, false},
+    InstructionForms{FC::kBG, "BG", L::kNone, L::kEmpty, L::kZeros4, AckForms::kBoth, FC::kBG, 0, false},
+    InstructionForms{FC::kST, "ST", L::kNone, L::kEmpty, L::kEmpty, AckForms::kBoth, FC::kST, 0, false},
+    InstructionForms{FC::kMF, "MF", L::kEmpty, L::kByte, L::kByte, AckForms::kBoth, FC::kMF, 0, false},
+    InstructionForms{FC::kAC, "AC", L::kEmpty, L::kU32, L::kU32, AckForms::kBoth, FC::kAC, 0, false},
+    InstructionForms{FC::kDC, "DC", L::kEmpty, L::kU32, L::kU32, AckForms::kBoth, FC::kDC, 0, false},
+    InstructionForms{FC::kSS, "SS", L::kEmpty, L::kU32, L::kU32, AckForms::kBoth, FC::kSS, 0, false},
+    InstructionForms{FC::kSD, "SD", L::kEmpty, L::kU32, L::kU32, AckForms::kBoth, FC::kSD, 0, false},
+    InstructionForms{FC::kJV, "JV", L::kEmpty, L::kS32, L::kS32, AckForms::kBoth, FC::kDV, 2, true},
+    InstructionForms{FC::kSP, "SP", L::kEmpty, L::kS32, L::kS32, AckForms::kBoth, FC::kDV, 2, true},
+    InstructionForms{FC::kPR, "PR", L::kEmpty, L::kS32, L::kS32, AckForms::kBoth, FC::kDV, 3, true},
+    InstructionForms{FC::kPA, "PA", L::kEmpty, L::kS32, L::kS32, AckForms::kBoth, FC::kDV, 4, true},
+    InstructionForms{FC::kOG, "OG", L::kNone, L::kEmpty, L::kEmpty, AckForms::kBoth, FC::kOG, 0, false},
+    InstructionForms{FC::kBL, "BL", L::kEmpty, L::kU32, L::kU32, AckForms::kBoth, FC::kBL, 0, false},
+    InstructionForms{FC::kDV, "DV", L::kIndex, L::kNone, L::kIndexedS32, AckForms::kBoth, FC::kDV, 0, false},
+    InstructionForms{FC::kIL, "IL", L::kIndex, L::kInputLogic, L::kInputLogic, AckForms::kBoth, FC::kIL, 0, false},
+    InstructionForms{FC::kTG, "TG", L::kIndex, L::kIndexedWord, L::kIndexedWord, AckForms::kBoth, FC::kTG, 0, false},
+    InstructionForms{FC::kDI, "DI", L::kEmpty, L::kDigitalOutput, L::kDigitalIo, AckForms::kBoth, FC::kDI, 0, false},
+    InstructionForms{FC::kQE, "QE", L::kIndex, L::kIndexedWord, L::kIndexedWord, AckForms::kBoth, FC::kQE, 0, false},
+    InstructionForms{FC::kSY, "SY", L::kNone, L::kIndex, L::kNone, AckForms::kNoAckOnly, FC::kSY, 0, false},
 };
 
 constexpr std::uint8_t kModelTable[][3] = {
@@ -53,35 +53,35 @@ constexpr std::uint8_t kModelTable[][3] = {
     {0x22, 0x28, 0x13}, {0x22, 0x50, 0x13}, {0x22, 0x50, 0x19},
 };
 
-bool is_input_port(std::uint8_t index) { return index <= static_cast<std::uint8_t>(InputPort::in3); }
+bool is_input_port(std::uint8_t index) { return index <= static_cast<std::uint8_t>(InputPort::kIn3); }
 
 // Writes `body` in `layout` into d0..; fails with body_mismatch when the body has another layout.
 std::error_code write_body(Layout layout, const Body& body, std::span<std::uint8_t> d) {
-  const auto mismatch = make_error_code(CodecErrc::body_mismatch);
+  const auto mismatch = make_error_code(CodecErrc::kBodyMismatch);
   switch (layout) {
-    case L::none: return make_error_code(CodecErrc::form_not_supported);
-    case L::empty:
-    case L::zeros4: return std::holds_alternative<Empty>(body) ? std::error_code{} : mismatch;
-    case L::index:
+    case L::kNone: return make_error_code(CodecErrc::kFormNotSupported);
+    case L::kEmpty:
+    case L::kZeros4: return std::holds_alternative<Empty>(body) ? std::error_code{} : mismatch;
+    case L::kIndex:
       if (const auto* b = std::get_if<Index>(&body)) {
         d[0] = b->index;
         return {};
       }
       return mismatch;
-    case L::byte:
+    case L::kByte:
       if (const auto* b = std::get_if<Byte>(&body)) {
         d[0] = b->value;
         return {};
       }
       return mismatch;
-    case L::indexed_byte:
+    case L::kIndexedByte:
       if (const auto* b = std::get_if<IndexedByte>(&body)) {
         d[0] = b->index;
         d[1] = b->value;
         return {};
       }
       return mismatch;
-    case L::input_logic:
+    case L::kInputLogic:
       if (const auto* b = std::get_if<InputActions>(&body); b && is_input_port(b->index)) {
         d[0] = b->index;
         d[1] = b->falling.byte();
@@ -91,47 +91,47 @@ std::error_code write_body(Layout layout, const Body& body, std::span<std::uint8
       // Only the non-port sub-indices (stall behaviour) carry a plain word.
       if (const auto* b = std::get_if<IndexedWord>(&body); !b || is_input_port(b->index)) return mismatch;
       [[fallthrough]];
-    case L::indexed_word:
+    case L::kIndexedWord:
       if (const auto* b = std::get_if<IndexedWord>(&body)) {
         d[0] = b->index;
         bytes::write_le(d, 1, b->value);
         return {};
       }
       return mismatch;
-    case L::u32:
+    case L::kU32:
       if (const auto* b = std::get_if<Unsigned>(&body)) {
         bytes::write_le(d, 0, b->value);
         return {};
       }
       return mismatch;
-    case L::s32:
+    case L::kS32:
       if (const auto* b = std::get_if<Signed>(&body)) {
         bytes::write_le(d, 0, b->value);
         return {};
       }
       return mismatch;
-    case L::indexed_s32:
+    case L::kIndexedS32:
       if (const auto* b = std::get_if<IndexedSigned>(&body)) {
         d[0] = b->index;
         bytes::write_le(d, 1, b->value);
         return {};
       }
       return mismatch;
-    case L::digital_output:
+    case L::kDigitalOutput:
       if (const auto* b = std::get_if<DigitalOutput>(&body)) {
         d[0] = b->outputs;
         d[1] = b->write_enable;
         return {};
       }
       return mismatch;
-    case L::digital_io:
+    case L::kDigitalIo:
       if (const auto* b = std::get_if<DigitalIo>(&body)) {
         d[0] = b->inputs;
         d[1] = b->outputs;
         return {};
       }
       return mismatch;
-    case L::model:
+    case L::kModel:
       if (const auto* b = std::get_if<ModelInfo>(&body)) {
         std::copy(b->model_bytes.begin(), b->model_bytes.end(), d.begin());
         bytes::write_le(d, 4, b->firmware);
@@ -139,7 +139,7 @@ std::error_code write_body(Layout layout, const Body& body, std::span<std::uint8
         return {};
       }
       return mismatch;
-    case L::serial:
+    case L::kSerial:
       if (const auto* b = std::get_if<SerialNumber>(&body)) {
         bytes::write_le(d, 0, b->serial);
         bytes::write_le(d, 4, b->manufacturer);
@@ -147,7 +147,7 @@ std::error_code write_body(Layout layout, const Body& body, std::span<std::uint8
         return {};
       }
       return mismatch;
-    case L::error_record:
+    case L::kErrorRecord:
       if (const auto* b = std::get_if<ErrorRecord>(&body)) {
         d[0] = b->index;
         d[1] = b->code;
@@ -158,9 +158,9 @@ std::error_code write_body(Layout layout, const Body& body, std::span<std::uint8
         return {};
       }
       return mismatch;
-    case L::motion_status:
+    case L::kMotionStatus:
       if (const auto* b = std::get_if<MotionStatus>(&body)) {
-        d[0] = static_cast<std::uint8_t>(MotionStatusIndex::status);
+        d[0] = static_cast<std::uint8_t>(MotionStatusIndex::kStatus);
         d[1] = b->io_status;
         d[2] = b->flags;
         bytes::write_le(d, 4, b->relative_position);
@@ -168,8 +168,8 @@ std::error_code write_body(Layout layout, const Body& body, std::span<std::uint8
       }
       if (const auto* b = std::get_if<MotionKinematics>(&body)) {
         // The speed field is 24 bits wide: refuse rather than silently truncate.
-        if (b->speed < -0x800000 || b->speed > 0x7FFFFF) return make_error_code(CodecErrc::value_out_of_range);
-        d[0] = static_cast<std::uint8_t>(MotionStatusIndex::kinematics);
+        if (b->speed < -0x800000 || b->speed > 0x7FFFFF) return make_error_code(CodecErrc::kValueOutOfRange);
+        d[0] = static_cast<std::uint8_t>(MotionStatusIndex::kKinematics);
         bytes::write_le<std::int32_t, 3>(d, 1, b->speed);
         bytes::write_le(d, 4, b->absolute_position);
         return {};
@@ -185,33 +185,33 @@ Result<Body> read_body(Layout layout, std::span<const std::uint8_t> d) {
   const auto u32 = [d](std::size_t at) { return *bytes::read_le<std::uint32_t>(d, at); };
   const auto s32 = [d](std::size_t at) { return *bytes::read_le<std::int32_t>(d, at); };
   switch (layout) {
-    case L::none: return CodecErrc::form_not_supported;
-    case L::empty:
-    case L::zeros4: return Body{Empty{}};
-    case L::index: return Body{Index{d[0]}};
-    case L::byte: return Body{Byte{d[0]}};
-    case L::indexed_byte: return Body{IndexedByte{d[0], d[1]}};
-    case L::input_logic:
+    case L::kNone: return CodecErrc::kFormNotSupported;
+    case L::kEmpty:
+    case L::kZeros4: return Body{Empty{}};
+    case L::kIndex: return Body{Index{d[0]}};
+    case L::kByte: return Body{Byte{d[0]}};
+    case L::kIndexedByte: return Body{IndexedByte{d[0], d[1]}};
+    case L::kInputLogic:
       if (is_input_port(d[0]))
         return Body{InputActions{d[0], EdgeAction::from_byte(d[1]), EdgeAction::from_byte(d[2])}};
       return Body{IndexedWord{d[0], u16(1)}};
-    case L::indexed_word: return Body{IndexedWord{d[0], u16(1)}};
-    case L::u32: return Body{Unsigned{u32(0)}};
-    case L::s32: return Body{Signed{s32(0)}};
-    case L::indexed_s32: return Body{IndexedSigned{d[0], s32(1)}};
-    case L::digital_output: return Body{DigitalOutput{d[0], d[1]}};
-    case L::digital_io: return Body{DigitalIo{d[0], d[1]}};
-    case L::model: return Body{ModelInfo{{d[0], d[1], d[2], d[3]}, u16(4), u16(6)}};
-    case L::serial: return Body{SerialNumber{u32(0), u16(4), u16(6)}};
-    case L::error_record: return Body{ErrorRecord{d[0], d[1], d[2], d[3], {d[4], d[5]}}};
-    case L::motion_status:
-      if (d[0] == static_cast<std::uint8_t>(MotionStatusIndex::status)) return Body{MotionStatus{d[1], d[2], s32(4)}};
-      if (d[0] == static_cast<std::uint8_t>(MotionStatusIndex::kinematics)) {
+    case L::kIndexedWord: return Body{IndexedWord{d[0], u16(1)}};
+    case L::kU32: return Body{Unsigned{u32(0)}};
+    case L::kS32: return Body{Signed{s32(0)}};
+    case L::kIndexedS32: return Body{IndexedSigned{d[0], s32(1)}};
+    case L::kDigitalOutput: return Body{DigitalOutput{d[0], d[1]}};
+    case L::kDigitalIo: return Body{DigitalIo{d[0], d[1]}};
+    case L::kModel: return Body{ModelInfo{{d[0], d[1], d[2], d[3]}, u16(4), u16(6)}};
+    case L::kSerial: return Body{SerialNumber{u32(0), u16(4), u16(6)}};
+    case L::kErrorRecord: return Body{ErrorRecord{d[0], d[1], d[2], d[3], {d[4], d[5]}}};
+    case L::kMotionStatus:
+      if (d[0] == static_cast<std::uint8_t>(MotionStatusIndex::kStatus)) return Body{MotionStatus{d[1], d[2], s32(4)}};
+      if (d[0] == static_cast<std::uint8_t>(MotionStatusIndex::kKinematics)) {
         return Body{MotionKinematics{*bytes::read_le<std::int32_t, 3>(d, 1), s32(4)}};
       }
-      return CodecErrc::unknown_sub_index;
+      return CodecErrc::kUnknownSubIndex;
   }
-  return CodecErrc::form_not_supported;
+  return CodecErrc::kFormNotSupported;
 }
 
 Result<Message> encode_with(Layout layout, std::uint8_t control_word, const Body& body) {
@@ -278,25 +278,25 @@ std::string value_text(const Body& body) {
   return std::visit(Visitor{}, body);
 }
 
-Instruction make_get(FC f, Body body = Empty{}) { return {f, Operation::get, true, body}; }
-Instruction make_set(FC f, Body body) { return {f, Operation::set, true, body}; }
+Instruction make_get(FC f, Body body = Empty{}) { return {f, Operation::kGet, true, body}; }
+Instruction make_set(FC f, Body body) { return {f, Operation::kSet, true, body}; }
 std::uint8_t raw(auto e) { return static_cast<std::uint8_t>(e); }
 
 }  // namespace
 
 std::string_view mnemonic(FunctionCode f) noexcept {
-  if (f == FC::RT) return "RT";
+  if (f == FC::kRT) return "RT";
   const auto* forms = find_forms(f);
   return forms ? forms->mnemonic : std::string_view{"??"};
 }
 
 std::optional<std::uint32_t> bits_per_second(BitRate rate) noexcept {
   switch (rate) {
-    case BitRate::kbps_1000: return 1'000'000;
-    case BitRate::kbps_800: return 800'000;
-    case BitRate::kbps_500: return 500'000;
-    case BitRate::kbps_250: return 250'000;
-    case BitRate::kbps_125: return 125'000;
+    case BitRate::kKbps1000: return 1'000'000;
+    case BitRate::kKbps800: return 800'000;
+    case BitRate::kKbps500: return 500'000;
+    case BitRate::kKbps250: return 250'000;
+    case BitRate::kKbps125: return 125'000;
   }
   return std::nullopt;
 }
@@ -307,28 +307,28 @@ Model ModelInfo::model() const noexcept {
       return static_cast<Model>(i + 1);  // Model lists the rows of §5.4 in table order after `unknown`
     }
   }
-  return Model::unknown;
+  return Model::kUnknown;
 }
 
 std::uint8_t layout_length(Layout layout) noexcept {
   switch (layout) {
-    case L::none:
-    case L::empty: return 0;
-    case L::index:
-    case L::byte: return 1;
-    case L::indexed_byte: return 2;
-    case L::indexed_word:
-    case L::input_logic: return 3;
-    case L::zeros4:
-    case L::u32:
-    case L::s32:
-    case L::digital_output:
-    case L::digital_io: return 4;
-    case L::indexed_s32: return 5;
-    case L::error_record: return 6;
-    case L::model:
-    case L::serial:
-    case L::motion_status: return 8;
+    case L::kNone:
+    case L::kEmpty: return 0;
+    case L::kIndex:
+    case L::kByte: return 1;
+    case L::kIndexedByte: return 2;
+    case L::kIndexedWord:
+    case L::kInputLogic: return 3;
+    case L::kZeros4:
+    case L::kU32:
+    case L::kS32:
+    case L::kDigitalOutput:
+    case L::kDigitalIo: return 4;
+    case L::kIndexedS32: return 5;
+    case L::kErrorRecord: return 6;
+    case L::kModel:
+    case L::kSerial:
+    case L::kMotionStatus: return 8;
   }
   return 0;
 }
@@ -347,38 +347,38 @@ std::optional<std::uint8_t> Reply::sub_index() const { return index_of(body); }
 
 Result<Message> encode(const Instruction& instruction) {
   const auto* forms = find_forms(instruction.function);
-  if (!forms) return CodecErrc::unknown_function;
-  if ((forms->ack_forms == AckForms::ack_only && !instruction.ack_requested) ||
-      (forms->ack_forms == AckForms::no_ack_only && instruction.ack_requested)) {
-    return CodecErrc::ack_form_not_supported;
+  if (!forms) return CodecErrc::kUnknownFunction;
+  if ((forms->ack_forms == AckForms::kAckOnly && !instruction.ack_requested) ||
+      (forms->ack_forms == AckForms::kNoAckOnly && instruction.ack_requested)) {
+    return CodecErrc::kAckFormNotSupported;
   }
-  const Layout layout = instruction.operation == Operation::get ? forms->get : forms->set;
+  const Layout layout = instruction.operation == Operation::kGet ? forms->get : forms->set;
   return encode_with(layout, instruction.control_word(), instruction.body);
 }
 
 Result<Instruction> decode_instruction(const Message& message) {
   const auto* forms = find_forms(message.function_code());
-  if (!forms) return CodecErrc::unknown_function;
+  if (!forms) return CodecErrc::kUnknownFunction;
   // SY with bit 7 is executed like 0x7E (§5.8 lists no ACK form: assumed); ML without it does not
   // exist (§5.4).
-  if (forms->ack_forms == AckForms::ack_only && !message.ack_requested()) return CodecErrc::ack_form_not_supported;
-  if (message.length > kMaxDataLength) return CodecErrc::length_out_of_range;
+  if (forms->ack_forms == AckForms::kAckOnly && !message.ack_requested()) return CodecErrc::kAckFormNotSupported;
+  if (message.length > kMaxDataLength) return CodecErrc::kLengthOutOfRange;
 
-  Instruction out{forms->function, Operation::get, message.ack_requested(), Empty{}};
+  Instruction out{forms->function, Operation::kGet, message.ack_requested(), Empty{}};
   const auto data = message.payload();
-  Layout layout = L::none;
+  Layout layout = L::kNone;
   std::array<std::uint8_t, kMaxDataLength> extended{};
-  if (forms->get != L::none && message.length == layout_length(forms->get)) {
+  if (forms->get != L::kNone && message.length == layout_length(forms->get)) {
     layout = forms->get;
-  } else if (forms->set != L::none && message.length == layout_length(forms->set)) {
+  } else if (forms->set != L::kNone && message.length == layout_length(forms->set)) {
     layout = forms->set;
-    out.operation = Operation::set;
+    out.operation = Operation::kSet;
   } else if (forms->set_accepts_short && message.length >= 1 && message.length < layout_length(forms->set)) {
     layout = forms->set;  // §2.5 sends positive values in fewer bytes than §5.18-§5.21: zero-extended
-    out.operation = Operation::set;
+    out.operation = Operation::kSet;
     std::copy(data.begin(), data.end(), extended.begin());
   } else {
-    return CodecErrc::wrong_length;
+    return CodecErrc::kWrongLength;
   }
   const auto body =
       read_body(layout, message.length < layout_length(layout) ? std::span<const std::uint8_t>(extended) : data);
@@ -389,18 +389,18 @@ Result<Instruction> decode_instruction(const Message& message) {
 
 Result<Message> encode(const Reply& reply) {
   const auto* forms = find_forms(reply.function);
-  if (!forms) return CodecErrc::unknown_function;
+  if (!forms) return CodecErrc::kUnknownFunction;
   return encode_with(forms->reply, code(reply.function), reply.body);
 }
 
 Result<Reply> decode_reply(const Message& message) {
-  if (message.ack_requested()) return CodecErrc::ack_bit_in_reply;
-  if (message.function_code() == code(FC::RT)) return CodecErrc::form_not_supported;
+  if (message.ack_requested()) return CodecErrc::kAckBitInReply;
+  if (message.function_code() == code(FC::kRT)) return CodecErrc::kFormNotSupported;
   const auto* forms = find_forms(message.function_code());
-  if (!forms) return CodecErrc::unknown_function;
-  if (forms->reply == L::none) return CodecErrc::form_not_supported;
-  if (message.length > kMaxDataLength) return CodecErrc::length_out_of_range;
-  if (message.length != layout_length(forms->reply)) return CodecErrc::wrong_length;
+  if (!forms) return CodecErrc::kUnknownFunction;
+  if (forms->reply == L::kNone) return CodecErrc::kFormNotSupported;
+  if (message.length > kMaxDataLength) return CodecErrc::kLengthOutOfRange;
+  if (message.length != layout_length(forms->reply)) return CodecErrc::kWrongLength;
   const auto body = read_body(forms->reply, message.payload());
   if (!body) return body.error();
   return Reply{forms->function, *body};
@@ -436,10 +436,10 @@ Result<AddressedReply> decode_reply_frame(const can::Frame& frame) {
 
 std::string to_string(const Instruction& instruction) {
   std::string out = fmt::format("{}{}", mnemonic(instruction.function), index_text(instruction.body));
-  if (instruction.operation == Operation::set) {
+  if (instruction.operation == Operation::kSet) {
     if (auto value = value_text(instruction.body); !value.empty()) out += "=" + value;
   }
-  if (!instruction.ack_requested && instruction.function != FC::SY) out += " (no ACK)";
+  if (!instruction.ack_requested && instruction.function != FC::kSY) out += " (no ACK)";
   return out;
 }
 
@@ -451,49 +451,49 @@ std::string to_string(const Reply& reply) {
 
 namespace request {
 Instruction get(FunctionCode function) { return make_get(function); }
-Instruction get(ProtocolParameter p) { return make_get(FC::PP, Index{raw(p)}); }
-Instruction get(InitialConfig c) { return make_get(FC::IC, Index{raw(c)}); }
-Instruction get(InformationEnable e) { return make_get(FC::IE, Index{raw(e)}); }
-Instruction get(QuadratureEncoder q) { return make_get(FC::QE, Index{raw(q)}); }
-Instruction get(MotorDriver m) { return make_get(FC::MT, Index{raw(m)}); }
-Instruction get(MotionStatusIndex s) { return make_get(FC::MS, Index{raw(s)}); }
-Instruction get(DesiredValue d) { return make_get(FC::DV, Index{raw(d)}); }
-Instruction get_error(std::uint8_t slot) { return make_get(FC::ER, Index{slot}); }
-Instruction get_input_logic(std::uint8_t index) { return make_get(FC::IL, Index{index}); }
-Instruction get_trigger(InputPort port) { return make_get(FC::TG, Index{raw(port)}); }
+Instruction get(ProtocolParameter p) { return make_get(FC::kPP, Index{raw(p)}); }
+Instruction get(InitialConfig c) { return make_get(FC::kIC, Index{raw(c)}); }
+Instruction get(InformationEnable e) { return make_get(FC::kIE, Index{raw(e)}); }
+Instruction get(QuadratureEncoder q) { return make_get(FC::kQE, Index{raw(q)}); }
+Instruction get(MotorDriver m) { return make_get(FC::kMT, Index{raw(m)}); }
+Instruction get(MotionStatusIndex s) { return make_get(FC::kMS, Index{raw(s)}); }
+Instruction get(DesiredValue d) { return make_get(FC::kDV, Index{raw(d)}); }
+Instruction get_error(std::uint8_t slot) { return make_get(FC::kER, Index{slot}); }
+Instruction get_input_logic(std::uint8_t index) { return make_get(FC::kIL, Index{index}); }
+Instruction get_trigger(InputPort port) { return make_get(FC::kTG, Index{raw(port)}); }
 
-Instruction set(ProtocolParameter p, std::uint8_t value) { return make_set(FC::PP, IndexedByte{raw(p), value}); }
-Instruction set(InitialConfig c, std::uint16_t value) { return make_set(FC::IC, IndexedWord{raw(c), value}); }
+Instruction set(ProtocolParameter p, std::uint8_t value) { return make_set(FC::kPP, IndexedByte{raw(p), value}); }
+Instruction set(InitialConfig c, std::uint16_t value) { return make_set(FC::kIC, IndexedWord{raw(c), value}); }
 Instruction set(InformationEnable e, bool enabled) {
-  return make_set(FC::IE, IndexedWord{raw(e), static_cast<std::uint16_t>(enabled ? 1 : 0)});
+  return make_set(FC::kIE, IndexedWord{raw(e), static_cast<std::uint16_t>(enabled ? 1 : 0)});
 }
-Instruction set(QuadratureEncoder q, std::uint16_t value) { return make_set(FC::QE, IndexedWord{raw(q), value}); }
-Instruction set(MotorDriver m, std::uint16_t value) { return make_set(FC::MT, IndexedWord{raw(m), value}); }
+Instruction set(QuadratureEncoder q, std::uint16_t value) { return make_set(FC::kQE, IndexedWord{raw(q), value}); }
+Instruction set(MotorDriver m, std::uint16_t value) { return make_set(FC::kMT, IndexedWord{raw(m), value}); }
 Instruction set_input_logic(InputPort port, EdgeAction falling, EdgeAction rising) {
-  return make_set(FC::IL, InputActions{raw(port), falling, rising});
+  return make_set(FC::kIL, InputActions{raw(port), falling, rising});
 }
 Instruction set_stall_behaviour(StallBehaviour behaviour) {
-  return make_set(FC::IL, IndexedWord{kInputLogicStallBehaviour, raw(behaviour)});
+  return make_set(FC::kIL, IndexedWord{kInputLogicStallBehaviour, raw(behaviour)});
 }
-Instruction set_trigger(InputPort port, std::uint16_t mode) { return make_set(FC::TG, IndexedWord{raw(port), mode}); }
-Instruction clear_error(std::uint8_t slot) { return make_set(FC::ER, IndexedByte{slot, 0}); }
-Instruction clear_motion_status() { return make_set(FC::MS, IndexedByte{raw(MotionStatusIndex::status), 0}); }
-Instruction driver_on(bool on) { return make_set(FC::MO, Byte{static_cast<std::uint8_t>(on ? 1 : 0)}); }
-Instruction select_group(ParameterGroup group) { return make_set(FC::MF, Byte{raw(group)}); }
-Instruction set_acceleration(std::uint32_t value) { return make_set(FC::AC, Unsigned{value}); }
-Instruction set_deceleration(std::uint32_t value) { return make_set(FC::DC, Unsigned{value}); }
-Instruction set_cut_in_speed(std::uint32_t pps) { return make_set(FC::SS, Unsigned{pps}); }
-Instruction set_stop_deceleration(std::uint32_t pps2) { return make_set(FC::SD, Unsigned{pps2}); }
-Instruction set_backlash(std::uint32_t pulses) { return make_set(FC::BL, Unsigned{pulses}); }
-Instruction set_jog_velocity(std::int32_t pps) { return make_set(FC::JV, Signed{pps}); }
-Instruction set_ptp_speed(std::int32_t pps) { return make_set(FC::SP, Signed{pps}); }
-Instruction set_relative_position(std::int32_t pulses) { return make_set(FC::PR, Signed{pulses}); }
-Instruction set_absolute_position(std::int32_t pulses) { return make_set(FC::PA, Signed{pulses}); }
-Instruction set_outputs(std::uint8_t outputs) { return make_set(FC::DI, DigitalOutput{outputs, 1}); }
-Instruction begin() { return make_set(FC::BG, Empty{}); }
-Instruction stop() { return make_set(FC::ST, Empty{}); }
-Instruction set_origin() { return make_set(FC::OG, Empty{}); }
-Instruction system(SystemOperation op) { return {FC::SY, Operation::set, false, Index{raw(op)}}; }
+Instruction set_trigger(InputPort port, std::uint16_t mode) { return make_set(FC::kTG, IndexedWord{raw(port), mode}); }
+Instruction clear_error(std::uint8_t slot) { return make_set(FC::kER, IndexedByte{slot, 0}); }
+Instruction clear_motion_status() { return make_set(FC::kMS, IndexedByte{raw(MotionStatusIndex::kStatus), 0}); }
+Instruction driver_on(bool on) { return make_set(FC::kMO, Byte{static_cast<std::uint8_t>(on ? 1 : 0)}); }
+Instruction select_group(ParameterGroup group) { return make_set(FC::kMF, Byte{raw(group)}); }
+Instruction set_acceleration(std::uint32_t value) { return make_set(FC::kAC, Unsigned{value}); }
+Instruction set_deceleration(std::uint32_t value) { return make_set(FC::kDC, Unsigned{value}); }
+Instruction set_cut_in_speed(std::uint32_t pps) { return make_set(FC::kSS, Unsigned{pps}); }
+Instruction set_stop_deceleration(std::uint32_t pps2) { return make_set(FC::kSD, Unsigned{pps2}); }
+Instruction set_backlash(std::uint32_t pulses) { return make_set(FC::kBL, Unsigned{pulses}); }
+Instruction set_jog_velocity(std::int32_t pps) { return make_set(FC::kJV, Signed{pps}); }
+Instruction set_ptp_speed(std::int32_t pps) { return make_set(FC::kSP, Signed{pps}); }
+Instruction set_relative_position(std::int32_t pulses) { return make_set(FC::kPR, Signed{pulses}); }
+Instruction set_absolute_position(std::int32_t pulses) { return make_set(FC::kPA, Signed{pulses}); }
+Instruction set_outputs(std::uint8_t outputs) { return make_set(FC::kDI, DigitalOutput{outputs, 1}); }
+Instruction begin() { return make_set(FC::kBG, Empty{}); }
+Instruction stop() { return make_set(FC::kST, Empty{}); }
+Instruction set_origin() { return make_set(FC::kOG, Empty{}); }
+Instruction system(SystemOperation op) { return {FC::kSY, Operation::kSet, false, Index{raw(op)}}; }
 Instruction without_ack(Instruction instruction) {
   instruction.ack_requested = false;
   return instruction;
@@ -501,7 +501,7 @@ Instruction without_ack(Instruction instruction) {
 }  // namespace request
 
 std::optional<Reply> echo_ack(const Instruction& set) {
-  if (set.operation != Operation::set) return std::nullopt;
+  if (set.operation != Operation::kSet) return std::nullopt;
   const auto* forms = find_forms(set.function);
   if (!forms) return std::nullopt;
   if (forms->set_ack != forms->function) {
@@ -509,18 +509,18 @@ std::optional<Reply> echo_ack(const Instruction& set) {
     if (!value) return std::nullopt;
     return Reply{forms->set_ack, IndexedSigned{forms->set_ack_index, value->value}};
   }
-  if (set.function == FC::ER) {
+  if (set.function == FC::kER) {
     const auto* slot = std::get_if<IndexedByte>(&set.body);
     if (!slot) return std::nullopt;
-    return Reply{FC::ER, ErrorRecord{slot->index, 0, 0, 0, {}}};
+    return Reply{FC::kER, ErrorRecord{slot->index, 0, 0, 0, {}}};
   }
-  const bool same_layout = forms->set == forms->reply || (forms->set == L::empty && forms->reply == L::zeros4);
+  const bool same_layout = forms->set == forms->reply || (forms->set == L::kEmpty && forms->reply == L::kZeros4);
   if (!same_layout) return std::nullopt;
   return Reply{set.function, set.body};
 }
 
 Reply error_report(DriveErrc error, std::uint8_t received_control_word, std::uint8_t sub_index) {
-  return Reply{FC::ER,
+  return Reply{FC::kER,
                ErrorRecord{kErrorSlotLatest, static_cast<std::uint8_t>(error), received_control_word, sub_index, {}}};
 }
 

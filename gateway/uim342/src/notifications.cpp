@@ -13,13 +13,13 @@ constexpr std::uint8_t kPositionReachedLength = 8;
 
 std::string describe(AlarmCode alarm) {
   switch (alarm) {
-    case AlarmCode::emergency_stop_lock: return "system emergency stop and lock";
-    case AlarmCode::speed_over_limit: return "speed over limit";
-    case AlarmCode::below_lower_limit: return "exceeded lower working limit";
-    case AlarmCode::above_upper_limit: return "exceeded upper working limit";
-    case AlarmCode::stall: return "motor stall detected";
-    case AlarmCode::encoder_error: return "encoder error";
-    case AlarmCode::encoder_battery_low: return "encoder battery low";
+    case AlarmCode::kEmergencyStopLock: return "system emergency stop and lock";
+    case AlarmCode::kSpeedOverLimit: return "speed over limit";
+    case AlarmCode::kBelowLowerLimit: return "exceeded lower working limit";
+    case AlarmCode::kAboveUpperLimit: return "exceeded upper working limit";
+    case AlarmCode::kStall: return "motor stall detected";
+    case AlarmCode::kEncoderError: return "encoder error";
+    case AlarmCode::kEncoderBatteryLow: return "encoder battery low";
   }
   return fmt::format("unknown alarm 0x{:02X}", static_cast<unsigned>(alarm));
 }
@@ -29,42 +29,42 @@ Message encode(const Notification& notification) {
   m.control_word = kNotificationControlWord;
   if (const auto* alarm = std::get_if<AlarmNotification>(&notification)) {
     m.length = kAlarmLength;
-    m.data[0] = static_cast<std::uint8_t>(NotificationCode::alarm);
+    m.data[0] = static_cast<std::uint8_t>(NotificationCode::kAlarm);
     m.data[1] = static_cast<std::uint8_t>(alarm->alarm);
   } else if (const auto* edge = std::get_if<InputEdgeNotification>(&notification)) {
     m.length = kInputEdgeLength;
     m.data[0] = static_cast<std::uint8_t>(edge->code());
   } else if (const auto* reached = std::get_if<PositionReachedNotification>(&notification)) {
     m.length = kPositionReachedLength;
-    m.data[0] = static_cast<std::uint8_t>(NotificationCode::position_reached);
+    m.data[0] = static_cast<std::uint8_t>(NotificationCode::kPositionReached);
     bytes::write_le(std::span<std::uint8_t>(m.data), 4, reached->position);
   }
   return m;
 }
 
 Result<Notification> decode_notification(const Message& message) {
-  if (message.control_word != kNotificationControlWord) return CodecErrc::not_a_notification;
-  if (message.length == 0) return CodecErrc::wrong_length;
-  if (message.length > kMaxDataLength) return CodecErrc::length_out_of_range;
+  if (message.control_word != kNotificationControlWord) return CodecErrc::kNotANotification;
+  if (message.length == 0) return CodecErrc::kWrongLength;
+  if (message.length > kMaxDataLength) return CodecErrc::kLengthOutOfRange;
   const auto d = message.payload();
   const auto expect_length = [&message](std::uint8_t length) { return message.length == length; };
   const std::uint8_t code = d[0];
-  if (code == static_cast<std::uint8_t>(NotificationCode::alarm)) {
-    if (!expect_length(kAlarmLength)) return CodecErrc::wrong_length;
+  if (code == static_cast<std::uint8_t>(NotificationCode::kAlarm)) {
+    if (!expect_length(kAlarmLength)) return CodecErrc::kWrongLength;
     return Notification{AlarmNotification{static_cast<AlarmCode>(d[1])}};
   }
-  if (code >= static_cast<std::uint8_t>(NotificationCode::in1_falling) &&
-      code <= static_cast<std::uint8_t>(NotificationCode::in3_rising)) {
-    if (!expect_length(kInputEdgeLength)) return CodecErrc::wrong_length;
+  if (code >= static_cast<std::uint8_t>(NotificationCode::kIn1Falling) &&
+      code <= static_cast<std::uint8_t>(NotificationCode::kIn3Rising)) {
+    if (!expect_length(kInputEdgeLength)) return CodecErrc::kWrongLength;
     const auto zero_based = static_cast<unsigned>(code - 1);
     return Notification{InputEdgeNotification{static_cast<InputPort>(zero_based / 2),
-                                              zero_based % 2 == 0 ? Edge::falling : Edge::rising}};
+                                              zero_based % 2 == 0 ? Edge::kFalling : Edge::kRising}};
   }
-  if (code == static_cast<std::uint8_t>(NotificationCode::position_reached)) {
-    if (!expect_length(kPositionReachedLength)) return CodecErrc::wrong_length;
+  if (code == static_cast<std::uint8_t>(NotificationCode::kPositionReached)) {
+    if (!expect_length(kPositionReachedLength)) return CodecErrc::kWrongLength;
     return Notification{PositionReachedNotification{*bytes::read_le<std::int32_t>(d, 4)}};
   }
-  return CodecErrc::unknown_notification;
+  return CodecErrc::kUnknownNotification;
 }
 
 Result<can::Frame> notification_frame(std::uint8_t node, const Notification& notification, std::uint8_t host) {
@@ -75,7 +75,7 @@ std::optional<InformationEnable> enabled_by(const Notification& notification) {
   if (const auto* edge = std::get_if<InputEdgeNotification>(&notification)) {
     return static_cast<InformationEnable>(edge->port);  // IE[0..2] = IN1..IN3
   }
-  if (std::holds_alternative<PositionReachedNotification>(notification)) return InformationEnable::position_reached;
+  if (std::holds_alternative<PositionReachedNotification>(notification)) return InformationEnable::kPositionReached;
   return std::nullopt;
 }
 

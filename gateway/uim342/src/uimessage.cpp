@@ -16,21 +16,21 @@ constexpr std::size_t kCrcAt = 13;
 constexpr std::size_t kEndAt = 15;
 
 std::uint16_t crc_of(std::span<const std::uint8_t> frame, CrcCoverage coverage) {
-  const std::size_t first = coverage == CrcCoverage::start_to_aux ? 0 : kIdAt;
+  const std::size_t first = coverage == CrcCoverage::kStartToAux ? 0 : kIdAt;
   return crc16_modbus(frame.subspan(first, kCrcAt - first));
 }
 
 bool accepts(CrcAcceptance accept, CrcCoverage coverage) {
   switch (accept) {
-    case CrcAcceptance::start_to_aux: return coverage == CrcCoverage::start_to_aux;
-    case CrcAcceptance::id_to_aux: return coverage == CrcCoverage::id_to_aux;
-    case CrcAcceptance::either: return true;
+    case CrcAcceptance::kStartToAux: return coverage == CrcCoverage::kStartToAux;
+    case CrcAcceptance::kIdToAux: return coverage == CrcCoverage::kIdToAux;
+    case CrcAcceptance::kEither: return true;
   }
   return false;
 }
 
 Result<UiFrame> encode_body(const UiMessage& message, std::uint8_t start) {
-  if (message.message.length > kMaxDataLength) return CodecErrc::length_out_of_range;
+  if (message.message.length > kMaxDataLength) return CodecErrc::kLengthOutOfRange;
   UiFrame out{};
   out[0] = start;
   out[kIdAt] = message.id;
@@ -69,22 +69,22 @@ Result<UiFrame> encode_ui_message_without_crc(const UiMessage& message) {
 }
 
 Result<DecodedUiMessage> decode_ui_message(std::span<const std::uint8_t> frame, CrcAcceptance accept) {
-  if (frame.size() != kUiMessageSize) return CodecErrc::bad_frame_size;
-  if (frame[0] != kUiStartWithCrc && frame[0] != kUiStartWithoutCrc) return CodecErrc::bad_start_byte;
-  if (frame[kEndAt] != kUiEnd) return CodecErrc::bad_end_byte;
+  if (frame.size() != kUiMessageSize) return CodecErrc::kBadFrameSize;
+  if (frame[0] != kUiStartWithCrc && frame[0] != kUiStartWithoutCrc) return CodecErrc::kBadStartByte;
+  if (frame[kEndAt] != kUiEnd) return CodecErrc::kBadEndByte;
   const std::uint8_t length = frame[kLengthAt];
-  if (length > kMaxDataLength) return CodecErrc::length_out_of_range;
+  if (length > kMaxDataLength) return CodecErrc::kLengthOutOfRange;
 
   DecodedUiMessage out;
   if (frame[0] == kUiStartWithCrc) {
     const auto received = *bytes::read_le<std::uint16_t>(frame, kCrcAt);
-    for (const CrcCoverage coverage : {CrcCoverage::start_to_aux, CrcCoverage::id_to_aux}) {
+    for (const CrcCoverage coverage : {CrcCoverage::kStartToAux, CrcCoverage::kIdToAux}) {
       if (accepts(accept, coverage) && crc_of(frame, coverage) == received) {
         out.crc = coverage;
         break;
       }
     }
-    if (!out.crc) return CodecErrc::bad_crc;
+    if (!out.crc) return CodecErrc::kBadCrc;
   }
   const auto message = Message::make(frame[kControlWordAt], frame.subspan(kDataAt, length));
   if (!message) return message.error();
@@ -93,7 +93,7 @@ Result<DecodedUiMessage> decode_ui_message(std::span<const std::uint8_t> frame, 
 }
 
 Result<UiMessage> instruction_to_ui(const CanMessage& instruction, std::uint8_t host) {
-  if (instruction.address.producer != host) return CodecErrc::producer_not_host;
+  if (instruction.address.producer != host) return CodecErrc::kProducerNotHost;
   return UiMessage{instruction.address.consumer, instruction.message, 0};
 }
 

@@ -27,8 +27,8 @@ std::optional<DecodedUiMessage> UiMessageStream::next() {
       ++counters_.frames;
       return *decoded;
     }
-    if (decoded.error() == CodecErrc::bad_crc) ++counters_.crc_errors;
-    if (decoded.error() == CodecErrc::length_out_of_range) ++counters_.malformed;
+    if (decoded.error() == CodecErrc::kBadCrc) ++counters_.crc_errors;
+    if (decoded.error() == CodecErrc::kLengthOutOfRange) ++counters_.malformed;
     ++start_;  // not a frame here; one may start inside the candidate
     ++counters_.discarded_bytes;
   }

@@ -54,8 +54,8 @@ Uim342Stack::Impl::Impl(Uim342StackConfig c, CanStackContext ctx, WallClock wc, 
 // Wire time of one request and its ACK to `node`, for the longest of the poll's exchanges (the
 // MS[1] ACK carries 8 bytes); an upper bound for the ACK of any other instruction too.
 Duration Uim342Stack::Impl::poll_exchange_time(std::uint8_t node, std::uint32_t bitrate) {
-  const auto request = uim342::instruction_frame(node, rq::get(uim342::MotionStatusIndex::kinematics));
-  const auto ack = uim342::reply_frame(node, uim342::Reply{FunctionCode::MS, uim342::MotionKinematics{-1, -1}});
+  const auto request = uim342::instruction_frame(node, rq::get(uim342::MotionStatusIndex::kKinematics));
+  const auto ack = uim342::reply_frame(node, uim342::Reply{FunctionCode::kMS, uim342::MotionKinematics{-1, -1}});
   if (!request.ok() || !ack.ok()) return Duration::zero();
   return can::frame_duration(*request, bitrate) + can::frame_duration(*ack, bitrate);
 }
@@ -185,7 +185,7 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
     r.sent = true;
     r.deadline = deadline_of(n, now);
     const std::int64_t command_id = r.command_id;
-    const bool is_start = r.instruction.function == FunctionCode::BG;
+    const bool is_start = r.instruction.function == FunctionCode::kBG;
     if (!uim342::expected_reply(r.instruction)) {
       // SY (never answered): done once sent.
       const Request done = std::move(r);
@@ -217,7 +217,7 @@ void Uim342Stack::Impl::on_sent(std::int64_t command_id, std::uint8_t target, co
 // Set-up nodes are polled, except an armed one: it waits for its trigger with an empty queue so
 // the BG goes out without delay (and nothing changes on a drive that has not started).
 bool Uim342Stack::Impl::polled(const Node& n) const {
-  if (n.phase != Phase::ready && n.phase != Phase::setup_failed) return false;
+  if (n.phase != Phase::kReady && n.phase != Phase::kSetupFailed) return false;
   if (n.move == 0) return true;
   const auto* c = commands.find(n.move);
   return c == nullptr || !c->all(Lifecycle::kArmed);
@@ -227,8 +227,8 @@ void Uim342Stack::Impl::poll_if_due(std::size_t i, TimePoint now) {
   Node& n = nodes[i];
   if (!polled(n) || !n.queue.empty() || now < n.next_poll) return;
   n.next_poll = now + poll_period;
-  enqueue(i, rq::get(uim342::MotionStatusIndex::status), 0);
-  enqueue(i, rq::get(uim342::MotionStatusIndex::kinematics), 0);
+  enqueue(i, rq::get(uim342::MotionStatusIndex::kStatus), 0);
+  enqueue(i, rq::get(uim342::MotionStatusIndex::kKinematics), 0);
 }
 
 void Uim342Stack::Impl::go_offline(std::size_t i, const std::string& reason, TimePoint now) {
@@ -236,7 +236,7 @@ void Uim342Stack::Impl::go_offline(std::size_t i, const std::string& reason, Tim
   const bool was_online = n.status.online;
   const bool first_report = !n.offline_reported;
   n.offline_reported = true;
-  n.phase = Phase::offline;
+  n.phase = Phase::kOffline;
   n.status.online = false;
   n.status.moving = false;
   fail_commands_of(i, error_code(ReplyError::kAxisOffline), reason);
@@ -286,17 +286,17 @@ void Uim342Stack::Impl::on_reply(std::size_t i, const uim342::Message& message, 
                                  TimePoint now) {
   Node& n = nodes[i];
   const auto kind =
-      n.busy() ? uim342::classify_reply(n.queue.front().instruction, message) : uim342::ReplyKind::unrelated;
-  if (kind == uim342::ReplyKind::ack) {
+      n.busy() ? uim342::classify_reply(n.queue.front().instruction, message) : uim342::ReplyKind::kUnrelated;
+  if (kind == uim342::ReplyKind::kAck) {
     const Request r = std::move(n.queue.front());
     n.queue.pop_front();
     completed(i, r, reply, now);
     return;
   }
-  if (reply.function == FunctionCode::ER) {
+  if (reply.function == FunctionCode::kER) {
     ++counters.error_reports;
     const auto& record = std::get<uim342::ErrorRecord>(reply.body);
-    if (kind == uim342::ReplyKind::error_report) {
+    if (kind == uim342::ReplyKind::kErrorReport) {
       const Request r = std::move(n.queue.front());
       n.queue.pop_front();
       refused(i, r, record, now);
@@ -319,7 +319,7 @@ void Uim342Stack::Impl::refused(std::size_t i, const Request& r, const uim342::E
     fail(r.command_id, error_code(ReplyError::kDriveError), reason);
     return;
   }
-  if (n.phase == Phase::setting_up) {
+  if (n.phase == Phase::kSettingUp) {
     // A set-up value the drive does not take: the rest is applied, but ready() stays false.
     event(n, event_t::CONFIG_MISMATCH, event_t::ERROR, record.code, reason);
     n.setup_refused = true;
@@ -333,10 +333,10 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
     const auto code = static_cast<std::int32_t>(alarm->alarm);
     const auto text = fmt::format("{}: {} (alarm 0x{:02X})", n.name(), uim342::describe(alarm->alarm), code);
     std::int16_t kind = event_t::ALARM;
-    if (alarm->alarm == uim342::AlarmCode::stall) kind = event_t::STALL;
-    if (alarm->alarm == uim342::AlarmCode::below_lower_limit || alarm->alarm == uim342::AlarmCode::above_upper_limit)
+    if (alarm->alarm == uim342::AlarmCode::kStall) kind = event_t::STALL;
+    if (alarm->alarm == uim342::AlarmCode::kBelowLowerLimit || alarm->alarm == uim342::AlarmCode::kAboveUpperLimit)
       kind = event_t::LIMIT;
-    const bool warning_only = alarm->alarm == uim342::AlarmCode::encoder_battery_low;
+    const bool warning_only = alarm->alarm == uim342::AlarmCode::kEncoderBatteryLow;
     event(n, kind, warning_only ? event_t::WARNING : event_t::ERROR, code, text);
     if (!warning_only) {
       n.status.fault = true;
@@ -347,12 +347,12 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
     publish(n, now);
   } else if (const auto* edge = std::get_if<uim342::InputEdgeNotification>(&notification)) {
     const int bit = 1 << static_cast<int>(edge->port);
-    n.status.inputs = edge->edge == uim342::Edge::rising ? (n.status.inputs | bit) : (n.status.inputs & ~bit);
+    n.status.inputs = edge->edge == uim342::Edge::kRising ? (n.status.inputs | bit) : (n.status.inputs & ~bit);
     event(n, event_t::INPUT_EDGE, event_t::INFO, static_cast<std::int32_t>(edge->code()),
           fmt::format("{}: IN{} {} edge", n.name(), static_cast<int>(edge->port) + 1,
-                      edge->edge == uim342::Edge::rising ? "rising" : "falling"));
-    if (n.homing.step == Node::Homing::Step::searching && edge->port == n.homing.port &&
-        (edge->edge == uim342::Edge::rising) == n.homing.rising) {
+                      edge->edge == uim342::Edge::kRising ? "rising" : "falling"));
+    if (n.homing.step == Node::Homing::Step::kSearching && edge->port == n.homing.port &&
+        (edge->edge == uim342::Edge::kRising) == n.homing.rising) {
       n.homing.edge_seen = true;
     }
     publish(n, now);
@@ -374,14 +374,14 @@ TimePoint Uim342Stack::Impl::process(TimePoint now) {
   TimePoint next = kNever;
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     Node& n = nodes[i];
-    if ((n.phase == Phase::offline || n.phase == Phase::rebooting) && now >= n.retry_at) identify(i, now);
+    if ((n.phase == Phase::kOffline || n.phase == Phase::kRebooting) && now >= n.retry_at) identify(i, now);
     if (n.busy() && now >= n.queue.front().deadline) timed_out(i, now);
     if (n.homing.command != 0 && now >= n.homing.deadline) homing_not_found(i, now);
     next = std::min(next, n.homing.deadline);
     poll_if_due(i, now);
     pump(i, now);
     if (n.busy()) next = std::min(next, n.queue.front().deadline);
-    if (n.phase == Phase::offline || n.phase == Phase::rebooting) next = std::min(next, n.retry_at);
+    if (n.phase == Phase::kOffline || n.phase == Phase::kRebooting) next = std::min(next, n.retry_at);
     if (polled(n) && n.queue.empty()) next = std::min(next, n.next_poll);
     // A frame the transport refused is tried again soon.
     if (!n.queue.empty() && !n.queue.front().sent) next = std::min(next, now + n.cfg.request_timeout);
@@ -451,7 +451,7 @@ Duration Uim342Stack::poll_period() const { return impl_->poll_period; }
 
 bool Uim342Stack::ready() const {
   return impl_->started && std::all_of(impl_->nodes.begin(), impl_->nodes.end(),
-                                       [](const Impl::Node& n) { return n.phase == Impl::Phase::ready; });
+                                       [](const Impl::Node& n) { return n.phase == Impl::Phase::kReady; });
 }
 
 void Uim342Stack::add_statistics(motionlcm::bus_stats_t& stats) const {

@@ -112,7 +112,7 @@ void Uim342Stack::Impl::execute(const gateway_command_t& cmd, TimePoint now) {
   for (const auto i : parts) {
     const Node& n = nodes[i];
     // A stop naming an offline drive still stops the others (see load()).
-    if (needs_drive && n.phase == Phase::offline && !stops) {
+    if (needs_drive && n.phase == Phase::kOffline && !stops) {
       commands.reject(cmd, error_code(ReplyError::kAxisOffline), fmt::format("{} is offline", n.name()));
       return;
     }
@@ -179,7 +179,7 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
       const bool emergency = c.command.kind == gateway_command_t::ESTOP;
       for (const auto i : c.nodes) {
         Node& n = nodes[i];
-        if (n.phase == Phase::offline) {
+        if (n.phase == Phase::kOffline) {
           c.data.unreached += fmt::format("{}{} is offline", c.data.unreached.empty() ? "" : "; ", n.name());
           continue;
         }
@@ -340,35 +340,35 @@ std::optional<Instruction> Uim342Stack::Impl::param_instruction(const uim342::In
   const auto sub = static_cast<std::uint8_t>(std::max(p.subindex, 0));
   const bool has_sub = p.subindex >= 0;
   const auto v = p.value;
-  Instruction out{forms.function, write ? uim342::Operation::set : uim342::Operation::get, true, uim342::Empty{}};
+  Instruction out{forms.function, write ? uim342::Operation::kSet : uim342::Operation::kGet, true, uim342::Empty{}};
   switch (write ? forms.set : forms.get) {
-    case L::empty: break;
-    case L::index:
+    case L::kEmpty: break;
+    case L::kIndex:
       if (!has_sub) return std::nullopt;
       out.body = uim342::Index{sub};
       break;
-    case L::byte: out.body = uim342::Byte{saturate<std::uint8_t>(v)}; break;
-    case L::indexed_byte:
+    case L::kByte: out.body = uim342::Byte{saturate<std::uint8_t>(v)}; break;
+    case L::kIndexedByte:
       if (!has_sub) return std::nullopt;
       out.body = uim342::IndexedByte{sub, saturate<std::uint8_t>(v)};
       break;
-    case L::input_logic:
+    case L::kInputLogic:
       if (sub <= 2) {
         out.body = uim342::InputActions{sub, uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(v & 0xFF)),
                                         uim342::EdgeAction::from_byte(static_cast<std::uint8_t>((v >> 8) & 0xFF))};
         break;
       }
       [[fallthrough]];
-    case L::indexed_word:
+    case L::kIndexedWord:
       if (!has_sub) return std::nullopt;
       out.body = uim342::IndexedWord{sub, saturate<std::uint16_t>(v)};
       break;
-    case L::u32: out.body = uim342::Unsigned{saturate<std::uint32_t>(v)}; break;
-    case L::s32: out.body = uim342::Signed{saturate<std::int32_t>(v)}; break;
-    case L::digital_output: out.body = uim342::DigitalOutput{saturate<std::uint8_t>(v), 1}; break;
+    case L::kU32: out.body = uim342::Unsigned{saturate<std::uint32_t>(v)}; break;
+    case L::kS32: out.body = uim342::Signed{saturate<std::int32_t>(v)}; break;
+    case L::kDigitalOutput: out.body = uim342::DigitalOutput{saturate<std::uint8_t>(v), 1}; break;
     default: return std::nullopt;
   }
-  if (out.function == FunctionCode::SY) out.ack_requested = false;
+  if (out.function == FunctionCode::kSY) out.ack_requested = false;
   return out;
 }
 

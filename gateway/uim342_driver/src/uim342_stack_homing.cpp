@@ -28,7 +28,7 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_home(Command& c, std::size_t 
   }
   Node::Homing h;
   h.command = id;
-  h.step = Node::Homing::Step::reading;
+  h.step = Node::Homing::Step::kReading;
   h.port = static_cast<uim342::InputPort>(std::clamp(n.cfg.homing.input, 1, 3) - 1);
   h.rising = n.cfg.homing.edge == config::HomingEdge::kRising;
   h.velocity = a.velocity;
@@ -38,7 +38,7 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load_home(Command& c, std::size_t 
   n.homing = h;
   n.move = id;
   // The input's present level decides the search (MS[0] d1, §3.7); IL[i] is kept to restore.
-  enqueue(i, rq::get(uim342::MotionStatusIndex::status), id);
+  enqueue(i, rq::get(uim342::MotionStatusIndex::kStatus), id);
   enqueue(i, rq::get_input_logic(static_cast<std::uint8_t>(h.port)), id);
   return std::nullopt;
 }
@@ -49,7 +49,7 @@ void Uim342Stack::Impl::homing_step_loaded(std::size_t i, TimePoint now) {
   auto& h = n.homing;
   using Step = Node::Homing::Step;
   switch (h.step) {
-    case Step::reading: {
+    case Step::kReading: {
       const bool level = (n.status.inputs >> static_cast<int>(h.port) & 1) != 0;
       if (level == h.rising) {
         // Already on the switch: leave it the other way; its edge out is the same boundary.
@@ -61,7 +61,7 @@ void Uim342Stack::Impl::homing_step_loaded(std::size_t i, TimePoint now) {
       h.bound = std::chrono::duration_cast<Duration>(
           std::chrono::duration<double>(static_cast<double>(n.cfg.travel_counts) / speed + ramps + 2.0));
       h.deadline = now + h.bound;
-      h.step = Step::searching_load;
+      h.step = Step::kSearchingLoad;
       const auto id = h.command;
       const auto edge_group =
           static_cast<uim342::ParameterGroup>(2 + 2 * static_cast<int>(h.port) + (h.rising ? 0 : 1));
@@ -70,8 +70,8 @@ void Uim342Stack::Impl::homing_step_loaded(std::size_t i, TimePoint now) {
         enqueue(i, rq::select_group(edge_group), id);
         if (auto p = ramp(i, h.deceleration, speed, false, id)) return fail(id, p->second, p->first);
       }
-      const uim342::EdgeAction origin{uim342::InputAction::origin_then_decelerate_stop, true};
-      const uim342::EdgeAction nothing{uim342::InputAction::none, true};
+      const uim342::EdgeAction origin{uim342::InputAction::kOriginThenDecelerateStop, true};
+      const uim342::EdgeAction nothing{uim342::InputAction::kNone, true};
       enqueue(i, rq::set_input_logic(h.port, h.rising ? nothing : origin, h.rising ? origin : nothing), id);
       motionlcm::axis_command_t jog{};
       jog.velocity = h.velocity;
@@ -83,17 +83,17 @@ void Uim342Stack::Impl::homing_step_loaded(std::size_t i, TimePoint now) {
       pump(i, now);
       return;
     }
-    case Step::searching_load:
-      h.step = Step::searching;
+    case Step::kSearchingLoad:
+      h.step = Step::kSearching;
       h.seen_moving = false;
       return;
-    case Step::returning_load:
-      h.step = Step::returning;
+    case Step::kReturningLoad:
+      h.step = Step::kReturning;
       h.seen_moving = false;
       return;
-    case Step::none:
-    case Step::searching:
-    case Step::returning: return;
+    case Step::kNone:
+    case Step::kSearching:
+    case Step::kReturning: return;
   }
 }
 
@@ -102,7 +102,7 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
   Node& n = nodes[i];
   auto& h = n.homing;
   using Step = Node::Homing::Step;
-  if (h.step != Step::searching && h.step != Step::returning) return;
+  if (h.step != Step::kSearching && h.step != Step::kReturning) return;
   const auto id = h.command;
   if (n.status.fault)
     return fail(id, error_code(ReplyError::kAxisFault),
@@ -111,7 +111,7 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
     h.seen_moving = true;
     return;
   }
-  if (h.step == Step::searching) {
+  if (h.step == Step::kSearching) {
     const bool on_switch = ((n.status.inputs >> static_cast<int>(h.port) & 1) != 0) == h.rising;
     if (!(h.edge_seen || on_switch)) {
       if (h.seen_moving) {
@@ -121,7 +121,7 @@ void Uim342Stack::Impl::homing_observe(std::size_t i, TimePoint now) {
       return;
     }
     // Stopped by the origin action: IL[i] as it was, then back to the switch edge (PA = 0).
-    h.step = Step::returning_load;
+    h.step = Step::kReturningLoad;
     h.deadline = kNever;
     const auto pps = uim342::speed_to_pps(std::abs(h.velocity));
     const std::int32_t speed = pps ? *pps : 1;  // checked at load

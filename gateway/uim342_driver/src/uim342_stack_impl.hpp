@@ -43,7 +43,7 @@ T saturate(long long v) {
 using namespace uim342_stack_detail;  // the helpers above, unqualified in the stack's sources
 
 struct Uim342Stack::Impl {
-  enum class Phase { idle, identifying, setting_up, ready, setup_failed, offline, rebooting };
+  enum class Phase { kIdle, kIdentifying, kSettingUp, kReady, kSetupFailed, kOffline, kRebooting };
 
   // One shared BG frame for every member of a group start, sent once when all of them are free.
   struct GroupSend {
@@ -62,7 +62,7 @@ struct Uim342Stack::Impl {
 
   struct Node {
     Uim342NodeConfig cfg;
-    Phase phase = Phase::idle;
+    Phase phase = Phase::kIdle;
     std::deque<Request> queue;
     DriveStatus status;
     TimePoint next_poll{};
@@ -75,7 +75,7 @@ struct Uim342Stack::Impl {
     bool rebooted_for_group = false;
     bool restarted_for_micro_steps = false;  // MT[0]/QE[4] were stored and the drive restarted
     std::uint16_t read_micro_steps = 0;      // MT[0] as read at set-up
-    uim342::AccelerationUnit unit = uim342::AccelerationUnit::pulses_per_s2;
+    uim342::AccelerationUnit unit = uim342::AccelerationUnit::kPulsesPerS2;
     double cut_in_pps = 0;
     std::int64_t offset = 0;  // reported position = drive counter + offset (SET_POSITION)
     // Power-cycle detection (see on_kinematics()): the drive counter's samples, and whether the
@@ -87,10 +87,10 @@ struct Uim342Stack::Impl {
     bool seen_moving = false;  // since the active move's BG
     // A HOME with a switch search (§5.26), one step after the other; see load_home().
     struct Homing {
-      enum class Step { none, reading, searching_load, searching, returning_load, returning };
+      enum class Step { kNone, kReading, kSearchingLoad, kSearching, kReturningLoad, kReturning };
       std::int64_t command = 0;
-      Step step = Step::none;
-      uim342::InputPort port = uim342::InputPort::in1;
+      Step step = Step::kNone;
+      uim342::InputPort port = uim342::InputPort::kIn1;
       bool rising = false;      // the armed edge
       double velocity = 0;      // of the search, counts/s; the sign is the direction
       double acceleration = 0;  // counts/s^2 of the command (0: the drive's)

@@ -6,50 +6,50 @@ namespace motion::gateway {
 
 void Uim342Stack::Impl::identify(std::size_t i, TimePoint now) {
   Node& n = nodes[i];
-  n.phase = Phase::identifying;
+  n.phase = Phase::kIdentifying;
   n.queue.clear();
-  enqueue(i, rq::get(FunctionCode::ML), 0);
+  enqueue(i, rq::get(FunctionCode::kML), 0);
   pump(i, now);
 }
 
 void Uim342Stack::Impl::set_up(std::size_t i) {
   Node& n = nodes[i];
-  n.phase = Phase::setting_up;
+  n.phase = Phase::kSettingUp;
   const auto& s = n.cfg.setup;
   using uim342::InitialConfig;
   using uim342::MotorDriver;
   using uim342::QuadratureEncoder;
-  if (n.cfg.group_id != 0) enqueue(i, rq::get(uim342::ProtocolParameter::group_id), 0);
+  if (n.cfg.group_id != 0) enqueue(i, rq::get(uim342::ProtocolParameter::kGroupId), 0);
   if (config::setup_integer(s, "micro_steps")) {
     // §5.9, §5.7: MT[0] (with CPR QE[4]) takes effect only after it is stored with the driver
     // off and the drive restarted. Read first; a difference is written by
     // store_micro_steps_and_restart() once the QE[4] answer is in.
-    enqueue(i, rq::get(MotorDriver::microstepping), 0);
-    enqueue(i, rq::get(QuadratureEncoder::counts_per_revolution), 0);
+    enqueue(i, rq::get(MotorDriver::kMicrostepping), 0);
+    enqueue(i, rq::get(QuadratureEncoder::kCountsPerRevolution), 0);
   }
   if (const auto v = config::setup_number(s, "current_a")) {
     const auto tenths = uim342::current_to_wire(*v);
-    enqueue(i, rq::set(MotorDriver::working_current, tenths ? *tenths : saturate<std::uint16_t>(std::lround(*v * 10))),
+    enqueue(i, rq::set(MotorDriver::kWorkingCurrent, tenths ? *tenths : saturate<std::uint16_t>(std::lround(*v * 10))),
             0);
   }
   if (const auto v = config::setup_integer(s, "idle_current_percent"))
-    enqueue(i, rq::set(MotorDriver::idle_current_percent, saturate<std::uint16_t>(*v)), 0);
+    enqueue(i, rq::set(MotorDriver::kIdleCurrentPercent, saturate<std::uint16_t>(*v)), 0);
   if (const auto v = config::setup_flag(s, "auto_enable"))
-    enqueue(i, rq::set(InitialConfig::auto_driver_on, *v ? 1 : 0), 0);
+    enqueue(i, rq::set(InitialConfig::kAutoDriverOn, *v ? 1 : 0), 0);
   if (const auto v = config::setup_text(s, "direction"))
-    enqueue(i, rq::set(InitialConfig::positive_direction, *v == "ccw" ? 1 : 0), 0);
+    enqueue(i, rq::set(InitialConfig::kPositiveDirection, *v == "ccw" ? 1 : 0), 0);
   if (const auto v = config::setup_text(s, "acceleration_unit")) {
-    n.unit = *v == "time" ? uim342::AccelerationUnit::milliseconds : uim342::AccelerationUnit::pulses_per_s2;
-    enqueue(i, rq::set(InitialConfig::acceleration_unit, static_cast<std::uint16_t>(n.unit)), 0);
+    n.unit = *v == "time" ? uim342::AccelerationUnit::kMilliseconds : uim342::AccelerationUnit::kPulsesPerS2;
+    enqueue(i, rq::set(InitialConfig::kAccelerationUnit, static_cast<std::uint16_t>(n.unit)), 0);
   }
   if (const auto v = config::setup_flag(s, "closed_loop"))
-    enqueue(i, rq::set(InitialConfig::closed_loop, *v ? 1 : 0), 0);
+    enqueue(i, rq::set(InitialConfig::kClosedLoop, *v ? 1 : 0), 0);
   if (const auto v = config::setup_flag(s, "software_limits"))
-    enqueue(i, rq::set(InitialConfig::software_limits, *v ? 1 : 0), 0);
+    enqueue(i, rq::set(InitialConfig::kSoftwareLimits, *v ? 1 : 0), 0);
   if (const auto v = config::setup_integer(s, "encoder_resolution"))
-    enqueue(i, rq::set(QuadratureEncoder::lines_per_revolution, saturate<std::uint16_t>(*v)), 0);
+    enqueue(i, rq::set(QuadratureEncoder::kLinesPerRevolution, saturate<std::uint16_t>(*v)), 0);
   if (const auto v = config::setup_integer(s, "stall_tolerance"))
-    enqueue(i, rq::set(QuadratureEncoder::stall_tolerance, saturate<std::uint16_t>(*v)), 0);
+    enqueue(i, rq::set(QuadratureEncoder::kStallTolerance, saturate<std::uint16_t>(*v)), 0);
   if (const auto v = config::setup_integer(s, "cut_in_speed")) {
     n.cut_in_pps = static_cast<double>(*v);
     enqueue(i, rq::set_cut_in_speed(saturate<std::uint32_t>(*v)), 0);
@@ -59,25 +59,25 @@ void Uim342Stack::Impl::set_up(std::size_t i) {
   if (const auto v = config::setup_integer(s, "backlash")) enqueue(i, rq::set_backlash(saturate<std::uint32_t>(*v)), 0);
   // Notifications this stack relies on (§5.3): inputs for INPUT_EDGE, PTP finished for DONE.
   // Alarms (stall, limits) have no enable bit and are always sent.
-  for (const auto e : {uim342::InformationEnable::in1_change, uim342::InformationEnable::in2_change,
-                       uim342::InformationEnable::in3_change, uim342::InformationEnable::position_reached}) {
+  for (const auto e : {uim342::InformationEnable::kIn1Change, uim342::InformationEnable::kIn2Change,
+                       uim342::InformationEnable::kIn3Change, uim342::InformationEnable::kPositionReached}) {
     enqueue(i, rq::set(e, true), 0);
   }
   // The last setup request: its ACK makes the node ready (see completed()).
-  enqueue(i, rq::get(uim342::MotionStatusIndex::status), 0);
-  enqueue(i, rq::get(uim342::MotionStatusIndex::kinematics), 0);
+  enqueue(i, rq::get(uim342::MotionStatusIndex::kStatus), 0);
+  enqueue(i, rq::get(uim342::MotionStatusIndex::kKinematics), 0);
 }
 
 void Uim342Stack::Impl::completed(std::size_t i, const Request& r, const std::optional<uim342::Reply>& ack,
                                   TimePoint now) {
   Node& n = nodes[i];
   if (ack) apply_ack(i, r, *ack, now);
-  if (r.instruction.function == FunctionCode::SY) {
+  if (r.instruction.function == FunctionCode::kSY) {
     // The drive reboots without answering; identified and set up again after reboot_wait.
     n.power.forget();  // our own reboot: its counter restarts at 0 (not a lost power)
     fail_commands_of(i, error_code(ReplyError::kAxisOffline),
                      fmt::format("{} is rebooting to apply its set-up (PP[8], MT[0])", n.name()));
-    n.phase = Phase::rebooting;
+    n.phase = Phase::kRebooting;
     n.queue.clear();
     n.retry_at = now + config.reboot_wait;
     return;
@@ -99,7 +99,7 @@ void Uim342Stack::Impl::completed(std::size_t i, const Request& r, const std::op
     }
     return;
   }
-  if (n.phase == Phase::setting_up && n.queue.empty()) setup_finished(i, now);
+  if (n.phase == Phase::kSettingUp && n.queue.empty()) setup_finished(i, now);
 }
 
 // §5.9, §5.7: MT[0] and QE[4] as read at set-up against the configured micro-steps. Equal: the
@@ -126,15 +126,15 @@ void Uim342Stack::Impl::check_micro_steps(std::size_t i, std::uint16_t read_cpr)
   n.restarted_for_micro_steps = true;
   n.queue.erase(n.queue.begin() + (n.busy() ? 1 : 0), n.queue.end());
   enqueue(i, rq::driver_on(false), 0);
-  enqueue(i, rq::set(uim342::MotorDriver::microstepping, wanted), 0);
-  enqueue(i, rq::set(uim342::QuadratureEncoder::counts_per_revolution, wanted_cpr), 0);
-  enqueue(i, rq::system(uim342::SystemOperation::reboot), 0);
+  enqueue(i, rq::set(uim342::MotorDriver::kMicrostepping, wanted), 0);
+  enqueue(i, rq::set(uim342::QuadratureEncoder::kCountsPerRevolution, wanted_cpr), 0);
+  enqueue(i, rq::system(uim342::SystemOperation::kReboot), 0);
 }
 
 // The last set-up request was answered (or refused).
 void Uim342Stack::Impl::setup_finished(std::size_t i, TimePoint now) {
   Node& n = nodes[i];
-  n.phase = n.setup_refused ? Phase::setup_failed : Phase::ready;
+  n.phase = n.setup_refused ? Phase::kSetupFailed : Phase::kReady;
   n.backoff = std::chrono::milliseconds{0};
   n.next_poll = now + poll_period;
   if (n.setup_refused) return;          // CONFIG_MISMATCH already reported
@@ -148,7 +148,7 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
   Node& n = nodes[i];
   const auto& body = ack.body;
   switch (r.instruction.function) {
-    case FunctionCode::ML: {
+    case FunctionCode::kML: {
       const auto& model = std::get<uim342::ModelInfo>(body);
       n.status.online = true;
       n.offline_reported = false;
@@ -157,13 +157,13 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
             fmt::format("{} online: model {:02X} {:02X} {:02X}, firmware {}", n.name(), model.model_bytes[0],
                         model.model_bytes[1], model.model_bytes[2], model.firmware));
       n.ever_online = true;
-      if (n.phase == Phase::identifying) set_up(i);
+      if (n.phase == Phase::kIdentifying) set_up(i);
       break;
     }
-    case FunctionCode::PP: {
+    case FunctionCode::kPP: {
       const auto& pp = std::get<uim342::IndexedByte>(body);
-      if (pp.index != static_cast<std::uint8_t>(uim342::ProtocolParameter::group_id) ||
-          r.instruction.operation != uim342::Operation::get)
+      if (pp.index != static_cast<std::uint8_t>(uim342::ProtocolParameter::kGroupId) ||
+          r.instruction.operation != uim342::Operation::kGet)
         break;
       n.group_ok = pp.value == n.cfg.group_id;
       if (n.group_ok) break;
@@ -178,26 +178,26 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
             fmt::format("{}: group id {} -> {} (PP[8]), rebooting (SY[1])", n.name(), pp.value, n.cfg.group_id));
       n.rebooted_for_group = true;
       n.queue.erase(n.queue.begin() + (n.busy() ? 1 : 0), n.queue.end());
-      enqueue(i, rq::set(uim342::ProtocolParameter::group_id, n.cfg.group_id), 0);
-      enqueue(i, rq::system(uim342::SystemOperation::reboot), 0);
+      enqueue(i, rq::set(uim342::ProtocolParameter::kGroupId, n.cfg.group_id), 0);
+      enqueue(i, rq::system(uim342::SystemOperation::kReboot), 0);
       break;
     }
-    case FunctionCode::MT:
-      if (r.instruction.operation == uim342::Operation::get)
+    case FunctionCode::kMT:
+      if (r.instruction.operation == uim342::Operation::kGet)
         n.read_micro_steps = std::get<uim342::IndexedWord>(body).value;
       break;
-    case FunctionCode::QE:
-      if (r.instruction.operation == uim342::Operation::get && n.phase == Phase::setting_up) {
+    case FunctionCode::kQE:
+      if (r.instruction.operation == uim342::Operation::kGet && n.phase == Phase::kSettingUp) {
         check_micro_steps(i, std::get<uim342::IndexedWord>(body).value);
       }
       break;
-    case FunctionCode::MO: {
+    case FunctionCode::kMO: {
       n.status.enabled = std::get<uim342::Byte>(body).value != 0;
       if (!n.status.enabled) n.status.moving = false;
       publish(n, now);
       break;
     }
-    case FunctionCode::MS:
+    case FunctionCode::kMS:
       if (const auto* s = std::get_if<uim342::MotionStatus>(&body)) on_motion_status(i, *s, r, now);
       if (const auto* k = std::get_if<uim342::MotionKinematics>(&body)) {
         if (auto why = powered_up(n, *k, now)) {
@@ -209,7 +209,7 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
         publish(n, now);
       }
       break;
-    case FunctionCode::OG: {
+    case FunctionCode::kOG: {
       const auto* c = commands.find(r.command_id);
       if (c == nullptr) break;
       // SET_POSITION's value, or the homing offset: the position the origin gets.
@@ -220,25 +220,25 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
       publish(n, now);
       break;
     }
-    case FunctionCode::IL: {
+    case FunctionCode::kIL: {
       if (n.homing.command == 0 || r.command_id != n.homing.command) break;
       const auto* actions = std::get_if<uim342::InputActions>(&body);
       if (!actions) break;
-      if (r.instruction.operation == uim342::Operation::get) {
+      if (r.instruction.operation == uim342::Operation::kGet) {
         n.homing.previous = *actions;
       } else {
-        n.homing.armed = n.homing.step == Node::Homing::Step::searching_load;  // the restore's ACK disarms
+        n.homing.armed = n.homing.step == Node::Homing::Step::kSearchingLoad;  // the restore's ACK disarms
       }
       break;
     }
-    case FunctionCode::DI: {
+    case FunctionCode::kDI: {
       const auto& io = std::get<uim342::DigitalIo>(body);
       n.status.inputs = io.inputs & 0x07;
       n.status.outputs = io.outputs & 0x01;
       publish(n, now);
       break;
     }
-    case FunctionCode::BG:
+    case FunctionCode::kBG:
       if (n.move == r.command_id && r.command_id != 0) {
         n.bg_acked = true;
         n.seen_moving = false;
@@ -264,15 +264,15 @@ void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStat
   using uim342::StatusFlag;
   n.status.online = true;
   n.was_enabled = n.status.enabled;
-  n.status.enabled = s.has(IoStatusBit::driver_on);
-  n.status.moving = !s.has(StatusFlag::stopped);
-  n.status.in_position = s.has(StatusFlag::in_position);
+  n.status.enabled = s.has(IoStatusBit::kDriverOn);
+  n.status.moving = !s.has(StatusFlag::kStopped);
+  n.status.in_position = s.has(StatusFlag::kInPosition);
   n.status.inputs =
-      (s.has(IoStatusBit::in1) ? 1 : 0) | (s.has(IoStatusBit::in2) ? 2 : 0) | (s.has(IoStatusBit::in3) ? 4 : 0);
-  n.status.outputs = s.has(IoStatusBit::op1) ? 1 : 0;
-  const bool stalled = s.has(StatusFlag::stalled);
-  const bool locked = s.has(StatusFlag::locked);
-  if (stalled || locked || s.has(StatusFlag::error)) {
+      (s.has(IoStatusBit::kIn1) ? 1 : 0) | (s.has(IoStatusBit::kIn2) ? 2 : 0) | (s.has(IoStatusBit::kIn3) ? 4 : 0);
+  n.status.outputs = s.has(IoStatusBit::kOp1) ? 1 : 0;
+  const bool stalled = s.has(StatusFlag::kStalled);
+  const bool locked = s.has(StatusFlag::kLocked);
+  if (stalled || locked || s.has(StatusFlag::kError)) {
     n.status.fault = true;
     if (stalled) n.status.fault_text = "motor stall detected (TLIF)";
     if (locked) n.status.fault_text = "system locked down (LOCK): only a reboot or power cycle releases it";
@@ -315,7 +315,7 @@ void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStat
 // power loss; it names PP values as saved to flash, §5.1), at rest, with the driver off unless
 // IC auto-enable is set (§5.2). Not watched while it is identified or homed (the origin moves).
 std::optional<std::string> Uim342Stack::Impl::powered_up(Node& n, const uim342::MotionKinematics& k, TimePoint now) {
-  const bool watched = n.phase == Phase::ready || n.phase == Phase::setup_failed || n.phase == Phase::setting_up;
+  const bool watched = n.phase == Phase::kReady || n.phase == Phase::kSetupFailed || n.phase == Phase::kSettingUp;
   if (!watched || n.homing.command != 0) {
     n.power.forget();
     return std::nullopt;
@@ -339,7 +339,7 @@ void Uim342Stack::Impl::on_power_cycle(std::size_t i, const std::string& why, Ti
   n.status.homed = false;
   publish(n, now);
   if (!n.cfg.axis.empty()) context.out->position_lost(n.cfg.axis, why);
-  if (n.phase == Phase::setting_up) return;  // being set up already (it was offline)
+  if (n.phase == Phase::kSettingUp) return;  // being set up already (it was offline)
   identify(i, now);                          // commands arriving meanwhile queue behind its set-up
 }
 

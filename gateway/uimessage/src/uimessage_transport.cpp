@@ -20,15 +20,15 @@ class Category final : public std::error_category {
   [[nodiscard]] const char* name() const noexcept override { return "uimessage"; }
   [[nodiscard]] std::string message(int value) const override {
     switch (static_cast<UiMessageErrc>(value)) {
-      case UiMessageErrc::standard_frame:
+      case UiMessageErrc::kStandardFrame:
         return "11-bit CAN frame: a UIROBOT serial gateway (UIMessage) carries SimpleCAN 3.0 29-bit frames only "
                "(CANopen needs a CAN adapter: socketcan:)";
-      case UiMessageErrc::remote_frame: return "remote (RTR) frame: a UIMessage carries SimpleCAN data frames only";
-      case UiMessageErrc::not_simple_can:
+      case UiMessageErrc::kRemoteFrame: return "remote (RTR) frame: a UIMessage carries SimpleCAN data frames only";
+      case UiMessageErrc::kNotSimpleCan:
         return "29-bit frame that is not SimpleCAN 3.0 (reserved identifier bits set): a UIMessage cannot carry it";
-      case UiMessageErrc::foreign_producer:
+      case UiMessageErrc::kForeignProducer:
         return "producer is not the host: a UIMessage has no producer field, the gateway sends as the master (ID 4)";
-      case UiMessageErrc::disconnected: return "the serial port hung up and cannot be opened again yet";
+      case UiMessageErrc::kDisconnected: return "the serial port hung up and cannot be opened again yet";
     }
     return "unknown uimessage error " + std::to_string(value);
   }
@@ -46,12 +46,12 @@ std::error_code watch(int epoll_fd, int fd) {
 
 // The host's instruction as a UIMessage, or why it cannot be one.
 uim342::Result<uim342::UiMessage> to_ui(const can::Frame& frame, std::uint8_t host) {
-  if (!frame.extended) return make_error_code(UiMessageErrc::standard_frame);
-  if (frame.rtr) return make_error_code(UiMessageErrc::remote_frame);
+  if (!frame.extended) return make_error_code(UiMessageErrc::kStandardFrame);
+  if (frame.rtr) return make_error_code(UiMessageErrc::kRemoteFrame);
   const auto message = uim342::decode_can(frame);
-  if (!message) return make_error_code(UiMessageErrc::not_simple_can);
+  if (!message) return make_error_code(UiMessageErrc::kNotSimpleCan);
   const auto ui = uim342::instruction_to_ui(*message, host);
-  if (!ui) return make_error_code(UiMessageErrc::foreign_producer);
+  if (!ui) return make_error_code(UiMessageErrc::kForeignProducer);
   return *ui;
 }
 
@@ -66,11 +66,11 @@ std::error_code make_error_code(UiMessageErrc error) { return {static_cast<int>(
 
 UiMessageOptions options_from(const config::Bus& bus) {
   UiMessageOptions options;
-  options.crc = bus.uimessage_crc == config::UiMessageCrc::kIdToAux ? uim342::CrcCoverage::id_to_aux
-                                                                    : uim342::CrcCoverage::start_to_aux;
+  options.crc = bus.uimessage_crc == config::UiMessageCrc::kIdToAux ? uim342::CrcCoverage::kIdToAux
+                                                                    : uim342::CrcCoverage::kStartToAux;
   if (bus.uimessage_crc_strict) {
-    options.accept = options.crc == uim342::CrcCoverage::id_to_aux ? uim342::CrcAcceptance::id_to_aux
-                                                                   : uim342::CrcAcceptance::start_to_aux;
+    options.accept = options.crc == uim342::CrcCoverage::kIdToAux ? uim342::CrcAcceptance::kIdToAux
+                                                                  : uim342::CrcAcceptance::kStartToAux;
   }
   return options;
 }
@@ -150,7 +150,7 @@ std::error_code UiMessageTransport::send(const can::Frame& frame) {
   };
   const auto ui = to_ui(frame, options_.host_id);
   if (!ui) return refuse(ui.error());
-  if (!port_ && !try_reopen()) return refuse(make_error_code(UiMessageErrc::disconnected));
+  if (!port_ && !try_reopen()) return refuse(make_error_code(UiMessageErrc::kDisconnected));
   const auto bytes = uim342::encode_ui_message(*ui, options_.crc);  // DL <= 8: decode_can checked it
   if (!bytes) return refuse(bytes.error());
   if (const auto error = port_->write(*bytes)) {
@@ -189,7 +189,7 @@ std::optional<can::Frame> UiMessageTransport::next_echo() {
 std::optional<can::Frame> UiMessageTransport::to_frame(const uim342::DecodedUiMessage& decoded) {
   if (!decoded.crc) {
     ++counters_.without_crc;
-  } else if (*decoded.crc == uim342::CrcCoverage::start_to_aux) {
+  } else if (*decoded.crc == uim342::CrcCoverage::kStartToAux) {
     ++counters_.crc_start_to_aux;
   } else {
     ++counters_.crc_id_to_aux;

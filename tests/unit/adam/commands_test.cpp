@@ -10,18 +10,18 @@ namespace {
 using test::to_hex;
 
 TEST(AdamCommands, EnumValuesAreTheManualsCodes) {
-  EXPECT_EQ(static_cast<std::uint16_t>(VelocityCommand::ramped_stop), 0);
-  EXPECT_EQ(static_cast<std::uint16_t>(VelocityCommand::run_forward), 1);
-  EXPECT_EQ(static_cast<std::uint16_t>(VelocityCommand::emergency_stop), 256);
-  EXPECT_EQ(static_cast<std::uint16_t>(VelocityCommand::run_reverse), 257);
-  EXPECT_EQ(static_cast<std::uint16_t>(EnableCommand::enable), 0);
-  EXPECT_EQ(static_cast<std::uint16_t>(EnableCommand::release), 1);
-  EXPECT_EQ(static_cast<std::uint16_t>(EnableCommand::restart), 0x0100);
-  EXPECT_EQ(static_cast<std::uint16_t>(SaveCommand::save), 1);
-  EXPECT_EQ(static_cast<std::uint16_t>(SaveCommand::restore_factory), 0);
-  EXPECT_EQ(static_cast<std::uint16_t>(WorkingMode::io_control), 3);
-  EXPECT_EQ(static_cast<std::uint16_t>(MoveCommand::absolute_preempting), 0x00E8);
-  EXPECT_EQ(static_cast<std::uint16_t>(MoveCommand::relative_preempting), 0x00DE);
+  EXPECT_EQ(static_cast<std::uint16_t>(VelocityCommand::kRampedStop), 0);
+  EXPECT_EQ(static_cast<std::uint16_t>(VelocityCommand::kRunForward), 1);
+  EXPECT_EQ(static_cast<std::uint16_t>(VelocityCommand::kEmergencyStop), 256);
+  EXPECT_EQ(static_cast<std::uint16_t>(VelocityCommand::kRunReverse), 257);
+  EXPECT_EQ(static_cast<std::uint16_t>(EnableCommand::kEnable), 0);
+  EXPECT_EQ(static_cast<std::uint16_t>(EnableCommand::kRelease), 1);
+  EXPECT_EQ(static_cast<std::uint16_t>(EnableCommand::kRestart), 0x0100);
+  EXPECT_EQ(static_cast<std::uint16_t>(SaveCommand::kSave), 1);
+  EXPECT_EQ(static_cast<std::uint16_t>(SaveCommand::kRestoreFactory), 0);
+  EXPECT_EQ(static_cast<std::uint16_t>(WorkingMode::kIoControl), 3);
+  EXPECT_EQ(static_cast<std::uint16_t>(MoveCommand::kAbsolutePreempting), 0x00E8);
+  EXPECT_EQ(static_cast<std::uint16_t>(MoveCommand::kRelativePreempting), 0x00DE);
 }
 
 TEST(AdamCommands, JogWord) {
@@ -30,10 +30,10 @@ TEST(AdamCommands, JogWord) {
     std::uint16_t word;
   };
   const Case cases[] = {
-      {{Rotation::cw, 50, StopMethod::decelerate, true}, 0x0C81},   // §8.65② example
-      {{Rotation::cw, 50, StopMethod::decelerate, false}, 0x0C80},  // ramped stop (5.4)
-      {{Rotation::cw, 50, StopMethod::immediate, false}, 0x0CA0},   // immediate stop (5.4)
-      {{Rotation::ccw, 511, StopMethod::immediate, true}, 0xFFE1},
+      {{Rotation::kCw, 50, StopMethod::kDecelerate, true}, 0x0C81},   // §8.65② example
+      {{Rotation::kCw, 50, StopMethod::kDecelerate, false}, 0x0C80},  // ramped stop (5.4)
+      {{Rotation::kCw, 50, StopMethod::kImmediate, false}, 0x0CA0},   // immediate stop (5.4)
+      {{Rotation::kCcw, 511, StopMethod::kImmediate, true}, 0xFFE1},
   };
   for (const auto& c : cases) {
     const auto word = encode(c.command);
@@ -41,25 +41,25 @@ TEST(AdamCommands, JogWord) {
     EXPECT_EQ(word.value(), c.word);
     EXPECT_EQ(decode_jog(c.word), c.command);
   }
-  EXPECT_EQ(encode(JogCommand{Rotation::cw, 512, StopMethod::decelerate, true}).error(), AdamErrc::value_out_of_range);
+  EXPECT_EQ(encode(JogCommand{Rotation::kCw, 512, StopMethod::kDecelerate, true}).error(), AdamErrc::kValueOutOfRange);
 }
 
 TEST(AdamCommands, HomingWord) {
-  const HomingCommand example{Travel::reverse, 200, StopMethod::immediate, 10};  // §8.48: 0xB22A
+  const HomingCommand example{Travel::kReverse, 200, StopMethod::kImmediate, 10};  // §8.48: 0xB22A
   ASSERT_TRUE(encode(example).ok());
   EXPECT_EQ(encode(example).value(), 0xB22A);
   EXPECT_EQ(decode_homing(0xB22A), example);
   EXPECT_EQ(example.secondary_speed_code * kSecondaryHomeRpmPerCode, 50);
-  EXPECT_EQ(encode(HomingCommand{Travel::forward, 0, StopMethod::decelerate, 32}).error(),
-            AdamErrc::value_out_of_range);
+  EXPECT_EQ(encode(HomingCommand{Travel::kForward, 0, StopMethod::kDecelerate, 32}).error(),
+            AdamErrc::kValueOutOfRange);
 }
 
 TEST(AdamCommands, TorqueWord) {
-  const TorqueCommand example{Travel::forward, 500, true};  // §8.49: 0x03E9
+  const TorqueCommand example{Travel::kForward, 500, true};  // §8.49: 0x03E9
   ASSERT_TRUE(encode(example).ok());
   EXPECT_EQ(encode(example).value(), 0x03E9);
   EXPECT_EQ(decode_torque(0x03E9), example);
-  EXPECT_EQ(encode(TorqueCommand{Travel::forward, 16384, true}).error(), AdamErrc::value_out_of_range);
+  EXPECT_EQ(encode(TorqueCommand{Travel::kForward, 16384, true}).error(), AdamErrc::kValueOutOfRange);
 }
 
 TEST(AdamCommands, TableExecuteWord) {
@@ -68,9 +68,9 @@ TEST(AdamCommands, TableExecuteWord) {
     std::uint16_t word;
   };
   const Case cases[] = {
-      {{TableEntryKind::absolute, PointerArithmetic::subtract, 1}, 0x1001},  // §8.54 example
-      {{TableEntryKind::absolute, PointerArithmetic::add, 0}, 0x0000},       // broadcast recipe
-      {{TableEntryKind::relative, PointerArithmetic::add, 4095}, 0x8FFF},
+      {{TableEntryKind::kAbsolute, PointerArithmetic::kSubtract, 1}, 0x1001},  // §8.54 example
+      {{TableEntryKind::kAbsolute, PointerArithmetic::kAdd, 0}, 0x0000},       // broadcast recipe
+      {{TableEntryKind::kRelative, PointerArithmetic::kAdd, 4095}, 0x8FFF},
   };
   for (const auto& c : cases) {
     ASSERT_TRUE(encode(c.command).ok());
@@ -78,8 +78,8 @@ TEST(AdamCommands, TableExecuteWord) {
     EXPECT_EQ(decode_table_execute(c.word), c.command);
   }
   EXPECT_EQ(decode_table_execute(0x2000), std::nullopt);  // arithmetic 2: undefined
-  EXPECT_EQ(encode(TableExecute{TableEntryKind::absolute, PointerArithmetic::add, 4096}).error(),
-            AdamErrc::value_out_of_range);
+  EXPECT_EQ(encode(TableExecute{TableEntryKind::kAbsolute, PointerArithmetic::kAdd, 4096}).error(),
+            AdamErrc::kValueOutOfRange);
 }
 
 TEST(AdamCommands, InputPairs) {
@@ -90,7 +90,7 @@ TEST(AdamCommands, InputPairs) {
   EXPECT_EQ(encode(home).value(), 0x0032);
   EXPECT_EQ(decode_input_pair(0x3031), limits);
   EXPECT_EQ(decode_input_pair(0x0032), home);
-  EXPECT_EQ(encode(InputPair{{true, true, 16}, {}}).error(), AdamErrc::value_out_of_range);
+  EXPECT_EQ(encode(InputPair{{true, true, 16}, {}}).error(), AdamErrc::kValueOutOfRange);
 }
 
 TEST(AdamCommands, PositionReminders) {
@@ -99,39 +99,39 @@ TEST(AdamCommands, PositionReminders) {
     std::uint32_t raw;
   };
   const Case cases[] = {
-      {{ReminderComparison::at_or_above, -500}, 0x7FFFFE0C},        // §8.53 X11
-      {{ReminderComparison::below, 5000}, 0x80001388},              // §8.53 X17
-      {{ReminderComparison::at_or_above, 1073741823}, 0x3FFFFFFF},  // default X17…X19
-      {{ReminderComparison::below, -1073741824}, 0xC0000000},
+      {{ReminderComparison::kAtOrAbove, -500}, 0x7FFFFE0C},        // §8.53 X11
+      {{ReminderComparison::kBelow, 5000}, 0x80001388},            // §8.53 X17
+      {{ReminderComparison::kAtOrAbove, 1073741823}, 0x3FFFFFFF},  // default X17…X19
+      {{ReminderComparison::kBelow, -1073741824}, 0xC0000000},
   };
   for (const auto& c : cases) {
     ASSERT_TRUE(encode(c.reminder).ok());
     EXPECT_EQ(encode(c.reminder).value(), c.raw);
     EXPECT_EQ(decode_reminder(c.raw), c.reminder);
   }
-  EXPECT_EQ(encode(PositionReminder{ReminderComparison::below, 1073741824}).error(), AdamErrc::value_out_of_range);
+  EXPECT_EQ(encode(PositionReminder{ReminderComparison::kBelow, 1073741824}).error(), AdamErrc::kValueOutOfRange);
 }
 
 TEST(AdamCommands, BaudCodes) {
-  EXPECT_EQ(baud_rate(BaudCode::b115200), 115200U);
-  EXPECT_EQ(baud_rate(BaudCode::b56000), 56000U);
-  EXPECT_EQ(baud_rate(BaudCode::b57600), 57600U);
+  EXPECT_EQ(baud_rate(BaudCode::kB115200), 115200U);
+  EXPECT_EQ(baud_rate(BaudCode::kB56000), 56000U);
+  EXPECT_EQ(baud_rate(BaudCode::kB57600), 57600U);
   EXPECT_EQ(baud_rate(static_cast<BaudCode>(16)), std::nullopt);
-  EXPECT_EQ(baud_code(9600), BaudCode::b9600);
+  EXPECT_EQ(baud_code(9600), BaudCode::kB9600);
   EXPECT_EQ(static_cast<int>(*baud_code(9600)), 6);  // §8.6 example writes 6 for 9600
   EXPECT_EQ(baud_code(256000), std::nullopt);        // in the §2 table, but no code exists
 }
 
 TEST(AdamCommands, BuildersProduceTheManualsFrames) {
-  const auto jog = encode(JogCommand{Rotation::cw, 50, StopMethod::decelerate, true});
-  EXPECT_EQ(to_hex(rtu::encode_request(write16(1, Reg::jog_command, jog.value())).value()), "01 06 00 CA 0C 81 6C 94");
-  EXPECT_EQ(to_hex(rtu::encode_request(move(1, MoveCommand::timed_run_ms, -6400)).value()),
+  const auto jog = encode(JogCommand{Rotation::kCw, 50, StopMethod::kDecelerate, true});
+  EXPECT_EQ(to_hex(rtu::encode_request(write16(1, Reg::kJogCommand, jog.value())).value()), "01 06 00 CA 0C 81 6C 94");
+  EXPECT_EQ(to_hex(rtu::encode_request(move(1, MoveCommand::kTimedRunMs, -6400)).value()),
             "01 10 00 CC 00 02 04 E7 00 FF FF C8 AE");                                        // §8.65③
   EXPECT_EQ(to_hex(rtu::encode_request(clear_alarm(1)).value()), "01 06 00 A4 00 00 C8 29");  // §8.52 corrected
-  const auto reminder = encode(PositionReminder{ReminderComparison::below, 5000});
-  EXPECT_EQ(to_hex(rtu::encode_request(write32(1, Reg::reminder_x17, reminder.value())).value()),
+  const auto reminder = encode(PositionReminder{ReminderComparison::kBelow, 5000});
+  EXPECT_EQ(to_hex(rtu::encode_request(write32(1, Reg::kReminderX17, reminder.value())).value()),
             "01 10 00 C2 00 02 04 13 88 80 00 9B 48");  // §8.53
-  EXPECT_EQ(read(1, Reg::subdivision), (rtu::Request{1, rtu::ReadRegisters{0x0024, 2}}));
+  EXPECT_EQ(read(1, Reg::kSubdivision), (rtu::Request{1, rtu::ReadRegisters{0x0024, 2}}));
 }
 
 }  // namespace

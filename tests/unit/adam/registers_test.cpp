@@ -19,7 +19,7 @@ using test::to_hex;
 TEST(AdamRegisterMap, EveryDefaultIsWithinItsRangeAndFitsItsWidth) {
   for (const RegisterInfo& r : register_map()) {
     EXPECT_LE(r.min, r.max) << r.name;
-    const bool is_signed = r.type == RegType::i16 || r.type == RegType::i32;
+    const bool is_signed = r.type == RegType::kI16 || r.type == RegType::kI32;
     const std::int64_t lo = is_signed ? -(std::int64_t{1} << (bit_width(r.type) - 1)) : 0;
     const std::int64_t hi =
         is_signed ? (std::int64_t{1} << (bit_width(r.type) - 1)) - 1 : (std::int64_t{1} << bit_width(r.type)) - 1;
@@ -51,7 +51,7 @@ TEST(AdamRegisterMap, NamesUniqueAndLookupsRoundTrip) {
   EXPECT_EQ(register_map().size(), 108U);
   EXPECT_EQ(find_register("no_such_register"), nullptr);
   EXPECT_EQ(find_register(std::uint16_t{0x0005}), nullptr);  // high word of position: not a start
-  EXPECT_EQ(register_containing(0x0005)->reg, Reg::position);
+  EXPECT_EQ(register_containing(0x0005)->reg, Reg::kPosition);
 }
 
 TEST(AdamRegisterMap, UndocumentedHolesHaveNoEntry) {
@@ -83,38 +83,38 @@ struct Spot {
 
 TEST(AdamRegisterMap, SpotChecksAgainstTheManual) {
   const Spot spots[] = {
-      {0x0004, "position", RegType::i32, Access::read_only, std::nullopt, INT32_MIN, INT32_MAX},
-      {0x0006, "status", RegType::u32, Access::read_only, std::nullopt, 0, 0x1FFFFF},
-      {0x0008, "serial_timeout", RegType::u16, Access::read_write, 0, 0, 65535},
-      {0x0009, "baud_rate", RegType::u16, Access::read_write, 12, 1, 15},
-      {0x000A, "smoothing", RegType::u16, Access::read_write, 250, 1, 2500},
-      {0x000C, "static_error_alarm", RegType::u16, Access::read_write, 100, 0, 65535},
-      {0x0011, "position_deviation", RegType::i16, Access::read_only, std::nullopt, -32768, 32767},
-      {0x0019, "speed_rpm", RegType::i16, Access::read_only, std::nullopt, -32768, 32767},
-      {0x0024, "subdivision", RegType::u32, Access::read_write, 4000, 200, 1000000},
-      {0x006E, "negative_limit", RegType::i32, Access::read_write, INT32_MIN, INT32_MIN, INT32_MAX},
-      {0x0070, "positive_limit", RegType::i32, Access::read_write, INT32_MAX, INT32_MIN, INT32_MAX},
-      {0x0096, "start_speed", RegType::u16, Access::read_write, 50, 0, 300},
-      {0x0097, "stop_speed", RegType::u16, Access::read_write, 50, 0, 1000},
-      {0x0098, "acceleration_time", RegType::u16, Access::read_write, 120, 0, 65535},
-      {0x009A, "working_speed", RegType::u16, Access::read_write, 300, 0, 1000},
-      {0x009F, "working_mode", RegType::u16, Access::read_write, 3, 1, 3},
-      {0x00A5, "alarm_output", RegType::u16, Access::read_write, 257, 0, 65535},
-      {0x00A6, "running_output", RegType::u16, Access::read_write, 514, 0, 65535},
-      {0x00BE, "rotor_offset", RegType::i16, Access::read_write, 0, -80, 80},
-      {0x00C0, "speed_loop_p", RegType::u16, Access::read_write, 3200, 0, 65535},
-      {0x00C1, "speed_loop_i", RegType::u16, Access::read_write, 25, 0, 65535},
-      {0x00C2, "reminder_x17", RegType::i32, Access::read_write, 1073741823, INT32_MIN, INT32_MAX},
-      {0x00C8, "velocity_command", RegType::u16, Access::write_only, std::nullopt, 0, 257},
-      {0x00CC, "timed_run", RegType::i32, Access::write_only, std::nullopt, INT32_MIN, INT32_MAX},
-      {0x00D0, "absolute_move", RegType::i32, Access::write_only, std::nullopt, INT32_MIN, INT32_MAX},
-      {0x00D2, "preset_position", RegType::i32, Access::read_write, 0, INT32_MIN, INT32_MAX},
-      {0x00D4, "enable_command", RegType::u16, Access::write_only, std::nullopt, 0, 256},
-      {0x00D6, "speed_centi_rpm", RegType::i32, Access::read_only, 0, INT32_MIN, INT32_MAX},
-      {0x00D8, "target_speed", RegType::i32, Access::read_write, 30000, -999999, 999999},
-      {0x00DD, "table_execute", RegType::u16, Access::write_only, std::nullopt, 0, 65535},
-      {0x00DE, "relative_move_preempt", RegType::i32, Access::write_only, std::nullopt, INT32_MIN, INT32_MAX},
-      {0x00E8, "absolute_move_preempt", RegType::i32, Access::write_only, std::nullopt, INT32_MIN, INT32_MAX},
+      {0x0004, "position", RegType::kI32, Access::kReadOnly, std::nullopt, INT32_MIN, INT32_MAX},
+      {0x0006, "status", RegType::kU32, Access::kReadOnly, std::nullopt, 0, 0x1FFFFF},
+      {0x0008, "serial_timeout", RegType::kU16, Access::kReadWrite, 0, 0, 65535},
+      {0x0009, "baud_rate", RegType::kU16, Access::kReadWrite, 12, 1, 15},
+      {0x000A, "smoothing", RegType::kU16, Access::kReadWrite, 250, 1, 2500},
+      {0x000C, "static_error_alarm", RegType::kU16, Access::kReadWrite, 100, 0, 65535},
+      {0x0011, "position_deviation", RegType::kI16, Access::kReadOnly, std::nullopt, -32768, 32767},
+      {0x0019, "speed_rpm", RegType::kI16, Access::kReadOnly, std::nullopt, -32768, 32767},
+      {0x0024, "subdivision", RegType::kU32, Access::kReadWrite, 4000, 200, 1000000},
+      {0x006E, "negative_limit", RegType::kI32, Access::kReadWrite, INT32_MIN, INT32_MIN, INT32_MAX},
+      {0x0070, "positive_limit", RegType::kI32, Access::kReadWrite, INT32_MAX, INT32_MIN, INT32_MAX},
+      {0x0096, "start_speed", RegType::kU16, Access::kReadWrite, 50, 0, 300},
+      {0x0097, "stop_speed", RegType::kU16, Access::kReadWrite, 50, 0, 1000},
+      {0x0098, "acceleration_time", RegType::kU16, Access::kReadWrite, 120, 0, 65535},
+      {0x009A, "working_speed", RegType::kU16, Access::kReadWrite, 300, 0, 1000},
+      {0x009F, "working_mode", RegType::kU16, Access::kReadWrite, 3, 1, 3},
+      {0x00A5, "alarm_output", RegType::kU16, Access::kReadWrite, 257, 0, 65535},
+      {0x00A6, "running_output", RegType::kU16, Access::kReadWrite, 514, 0, 65535},
+      {0x00BE, "rotor_offset", RegType::kI16, Access::kReadWrite, 0, -80, 80},
+      {0x00C0, "speed_loop_p", RegType::kU16, Access::kReadWrite, 3200, 0, 65535},
+      {0x00C1, "speed_loop_i", RegType::kU16, Access::kReadWrite, 25, 0, 65535},
+      {0x00C2, "reminder_x17", RegType::kI32, Access::kReadWrite, 1073741823, INT32_MIN, INT32_MAX},
+      {0x00C8, "velocity_command", RegType::kU16, Access::kWriteOnly, std::nullopt, 0, 257},
+      {0x00CC, "timed_run", RegType::kI32, Access::kWriteOnly, std::nullopt, INT32_MIN, INT32_MAX},
+      {0x00D0, "absolute_move", RegType::kI32, Access::kWriteOnly, std::nullopt, INT32_MIN, INT32_MAX},
+      {0x00D2, "preset_position", RegType::kI32, Access::kReadWrite, 0, INT32_MIN, INT32_MAX},
+      {0x00D4, "enable_command", RegType::kU16, Access::kWriteOnly, std::nullopt, 0, 256},
+      {0x00D6, "speed_centi_rpm", RegType::kI32, Access::kReadOnly, 0, INT32_MIN, INT32_MAX},
+      {0x00D8, "target_speed", RegType::kI32, Access::kReadWrite, 30000, -999999, 999999},
+      {0x00DD, "table_execute", RegType::kU16, Access::kWriteOnly, std::nullopt, 0, 65535},
+      {0x00DE, "relative_move_preempt", RegType::kI32, Access::kWriteOnly, std::nullopt, INT32_MIN, INT32_MAX},
+      {0x00E8, "absolute_move_preempt", RegType::kI32, Access::kWriteOnly, std::nullopt, INT32_MIN, INT32_MAX},
   };
   for (const Spot& s : spots) {
     const RegisterInfo* r = find_register(s.address);
@@ -134,7 +134,7 @@ TEST(AdamWordOrder, LowWordAtLowerAddress) {
   EXPECT_EQ(encode32(std::uint32_t{0xAABBCCDD}), (std::array<std::uint16_t, 2>{0xCCDD, 0xAABB}));
   EXPECT_EQ(decode32(0xCCDD, 0xAABB), 0xAABBCCDDU);
   // On the wire (FC 0x10 data): CC DD AA BB — NOT libmodbus's AA BB CC DD.
-  const auto frame = rtu::encode_request(write32(1, Reg::subdivision, std::uint32_t{0xAABBCCDD}));
+  const auto frame = rtu::encode_request(write32(1, Reg::kSubdivision, std::uint32_t{0xAABBCCDD}));
   ASSERT_TRUE(frame.ok());
   EXPECT_EQ(to_hex(frame.value()).substr(0, 32), "01 10 00 24 00 02 04 CC DD AA BB");
 }
@@ -159,15 +159,15 @@ TEST(AdamWordOrder, RoundTrips) {
 }
 
 TEST(AdamWordOrder, EntryValuesEncodeAndDecodeByType) {
-  const auto target = encode_value(info(Reg::target_speed), -30000);
+  const auto target = encode_value(info(Reg::kTargetSpeed), -30000);
   ASSERT_TRUE(target.ok());
   EXPECT_EQ(target.value(), (std::array<std::uint16_t, 2>{0x8AD0, 0xFFFF}));
-  EXPECT_EQ(decode_value(info(Reg::target_speed), target.value()), -30000);
-  EXPECT_EQ(decode_value(info(Reg::rotor_offset), std::array<std::uint16_t, 1>{0xFFFB}), -5);
-  EXPECT_EQ(decode_value(info(Reg::subdivision), std::array<std::uint16_t, 2>{0x2710, 0}), 10000);
-  EXPECT_EQ(encode_value(info(Reg::target_speed), 1000000).error(), AdamErrc::value_out_of_range);
-  EXPECT_EQ(encode_value(info(Reg::rotor_offset), 81).error(), AdamErrc::value_out_of_range);
-  EXPECT_EQ(encode_value(info(Reg::subdivision), 199).error(), AdamErrc::value_out_of_range);
+  EXPECT_EQ(decode_value(info(Reg::kTargetSpeed), target.value()), -30000);
+  EXPECT_EQ(decode_value(info(Reg::kRotorOffset), std::array<std::uint16_t, 1>{0xFFFB}), -5);
+  EXPECT_EQ(decode_value(info(Reg::kSubdivision), std::array<std::uint16_t, 2>{0x2710, 0}), 10000);
+  EXPECT_EQ(encode_value(info(Reg::kTargetSpeed), 1000000).error(), AdamErrc::kValueOutOfRange);
+  EXPECT_EQ(encode_value(info(Reg::kRotorOffset), 81).error(), AdamErrc::kValueOutOfRange);
+  EXPECT_EQ(encode_value(info(Reg::kSubdivision), 199).error(), AdamErrc::kValueOutOfRange);
 }
 
 // ---- Access rules (simulated slave) --------------------------------------------------------------
@@ -189,47 +189,47 @@ TEST(AdamAccessRules, ReadsAndWritesAgainstTheMap) {
   const Case cases[] = {
       {"read position+status", rtu::ReadRegisters{0x0004, 4}, std::nullopt, {}},
       {"read high word alone", rtu::ReadRegisters{0x0005, 1}, std::nullopt, {}},
-      {"read hole 0x0014", rtu::ReadRegisters{0x0014, 1}, E::illegal_data_address, {}},
-      {"read across hole", rtu::ReadRegisters{0x0012, 3}, E::illegal_data_address, {}},
+      {"read hole 0x0014", rtu::ReadRegisters{0x0014, 1}, E::kIllegalDataAddress, {}},
+      {"read across hole", rtu::ReadRegisters{0x0012, 3}, E::kIllegalDataAddress, {}},
       {"read hole as zero", rtu::ReadRegisters{0x0012, 3}, std::nullopt, holes_as_zero},
       {"read WO command", rtu::ReadRegisters{0x00C8, 1}, std::nullopt, {}},
       {"read programming area", rtu::ReadRegisters{500, 48}, std::nullopt, {}},
-      {"write RO position", rtu::WriteRegisters{0x0004, {0, 0}}, E::illegal_data_address, {}},
-      {"write RO alarm", rtu::WriteRegister{0x00A3, 0}, E::illegal_data_address, {}},
-      {"write hole", rtu::WriteRegister{0x0014, 0}, E::illegal_data_address, {}},
-      {"fc06 to half of 32-bit", rtu::WriteRegister{0x00D0, 5}, E::illegal_data_address, {}},
-      {"fc10 to high half", rtu::WriteRegisters{0x00D1, {0, 1}}, E::illegal_data_address, {}},
+      {"write RO position", rtu::WriteRegisters{0x0004, {0, 0}}, E::kIllegalDataAddress, {}},
+      {"write RO alarm", rtu::WriteRegister{0x00A3, 0}, E::kIllegalDataAddress, {}},
+      {"write hole", rtu::WriteRegister{0x0014, 0}, E::kIllegalDataAddress, {}},
+      {"fc06 to half of 32-bit", rtu::WriteRegister{0x00D0, 5}, E::kIllegalDataAddress, {}},
+      {"fc10 to high half", rtu::WriteRegisters{0x00D1, {0, 1}}, E::kIllegalDataAddress, {}},
       {"fc06 to half allowed", rtu::WriteRegister{0x00D0, 5}, std::nullopt, partial_ok},
-      {"baud code 16", rtu::WriteRegister{0x0009, 16}, E::illegal_data_value, {}},
-      {"baud code 0", rtu::WriteRegister{0x0009, 0}, E::illegal_data_value, {}},
+      {"baud code 16", rtu::WriteRegister{0x0009, 16}, E::kIllegalDataValue, {}},
+      {"baud code 0", rtu::WriteRegister{0x0009, 0}, E::kIllegalDataValue, {}},
       {"baud 16 unchecked", rtu::WriteRegister{0x0009, 16}, std::nullopt, no_ranges},
-      {"working speed 1001", rtu::WriteRegister{0x009A, 1001}, E::illegal_data_value, {}},
-      {"rotor offset -81", rtu::WriteRegister{0x00BE, encode16(-81)}, E::illegal_data_value, {}},
+      {"working speed 1001", rtu::WriteRegister{0x009A, 1001}, E::kIllegalDataValue, {}},
+      {"rotor offset -81", rtu::WriteRegister{0x00BE, encode16(-81)}, E::kIllegalDataValue, {}},
       {"rotor offset -80", rtu::WriteRegister{0x00BE, encode16(-80)}, std::nullopt, {}},
-      {"subdivision 199", rtu::WriteRegisters{0x0024, {199, 0}}, E::illegal_data_value, {}},
-      {"target speed 1000000", rtu::WriteRegisters{0x00D8, {0x4240, 0x000F}}, E::illegal_data_value, {}},
+      {"subdivision 199", rtu::WriteRegisters{0x0024, {199, 0}}, E::kIllegalDataValue, {}},
+      {"target speed 1000000", rtu::WriteRegisters{0x00D8, {0x4240, 0x000F}}, E::kIllegalDataValue, {}},
       {"target speed -999999", rtu::WriteRegisters{0x00D8, {0xBDC1, 0xFFF0}}, std::nullopt, {}},
       {"profile block", rtu::WriteRegisters{0x0096, {0, 0, 200, 200, 600}}, std::nullopt, {}},
       {"95 registers", rtu::WriteRegisters{500, std::vector<std::uint16_t>(95, 0)}, std::nullopt, {}},
       {"96 registers (> 200 bytes)",
        rtu::WriteRegisters{500, std::vector<std::uint16_t>(96, 0)},
-       E::illegal_data_value,
+       E::kIllegalDataValue,
        {}},
-      {"value error in a block", rtu::WriteRegisters{0x0008, {0, 99, 250}}, E::illegal_data_value, {}},
+      {"value error in a block", rtu::WriteRegisters{0x0008, {0, 99, 250}}, E::kIllegalDataValue, {}},
       {"address error beats value error",
        rtu::WriteRegisters{0x0009, {99, 250, 200, 100, 100, 0, 1000, 20, 0}},
-       E::illegal_data_address,
+       E::kIllegalDataAddress,
        {}},
   };
   for (const auto& c : cases) EXPECT_EQ(check_request(c.pdu, c.rules), c.expected) << c.what;
 }
 
 TEST(AdamAccessRules, RepliesExpected) {
-  EXPECT_TRUE(expects_reply(command(1, EnableCommand::enable)));
-  EXPECT_FALSE(expects_reply(command(1, EnableCommand::restart)));
-  EXPECT_FALSE(expects_reply(command(0, EnableCommand::enable)));
-  EXPECT_FALSE(expects_reply(move(0, MoveCommand::absolute_preempting, 5)));
-  EXPECT_TRUE(expects_reply(read(64, Reg::status)));
+  EXPECT_TRUE(expects_reply(command(1, EnableCommand::kEnable)));
+  EXPECT_FALSE(expects_reply(command(1, EnableCommand::kRestart)));
+  EXPECT_FALSE(expects_reply(command(0, EnableCommand::kEnable)));
+  EXPECT_FALSE(expects_reply(move(0, MoveCommand::kAbsolutePreempting, 5)));
+  EXPECT_TRUE(expects_reply(read(64, Reg::kStatus)));
 }
 
 }  // namespace

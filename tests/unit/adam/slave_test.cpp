@@ -23,7 +23,7 @@ class FakeBank final : public RegisterBank {
     return std::nullopt;
   }
   std::optional<rtu::ExceptionCode> write(std::uint16_t start, std::span<const std::uint16_t> values) override {
-    if (busy) return rtu::ExceptionCode::server_device_busy;
+    if (busy) return rtu::ExceptionCode::kServerDeviceBusy;
     for (std::size_t i = 0; i < values.size(); ++i) words_[start + i] = values[i];
     ++writes;
     return std::nullopt;
@@ -56,7 +56,7 @@ TEST(AdamSlave, ReadsAndWritesReplyWithExactFrames) {
   };
   for (const auto& c : cases) {
     const ServeResult r = serve(hex(c.request), config, bank);
-    EXPECT_EQ(r.outcome, ServeOutcome::replied) << c.what;
+    EXPECT_EQ(r.outcome, ServeOutcome::kReplied) << c.what;
     EXPECT_EQ(to_hex(r.reply), c.reply) << c.what;
     ASSERT_TRUE(r.request.has_value()) << c.what;
   }
@@ -80,13 +80,13 @@ TEST(AdamSlave, ExceptionsForIllegalFunctionAddressAndValue) {
   const Case cases[] = {
       {"illegal function (FC 01)", fc01, "01 81 01 81 90"},
       {"read hole 0x0014", frame_of({1, rtu::ReadRegisters{0x0014, 1}}), "01 83 02 C0 F1"},
-      {"write read-only alarm", frame_of(write16(1, Reg::alarm, 0)), "01 86 02 C3 A1"},
-      {"baud code 99", frame_of(write16(1, Reg::baud_rate, 99)), "01 86 03 02 61"},
-      {"fc10 to read-only position", frame_of(write32(1, Reg::position, 5)), "01 90 02 CD C1"},
+      {"write read-only alarm", frame_of(write16(1, Reg::kAlarm, 0)), "01 86 02 C3 A1"},
+      {"baud code 99", frame_of(write16(1, Reg::kBaudRate, 99)), "01 86 03 02 61"},
+      {"fc10 to read-only position", frame_of(write32(1, Reg::kPosition, 5)), "01 90 02 CD C1"},
   };
   for (const auto& c : cases) {
     const ServeResult r = serve(c.request, config, bank);
-    EXPECT_EQ(r.outcome, ServeOutcome::exception) << c.what;
+    EXPECT_EQ(r.outcome, ServeOutcome::kException) << c.what;
     EXPECT_EQ(to_hex(r.reply), c.reply) << c.what;
   }
   EXPECT_EQ(bank.writes, 0);  // refused requests never reach the bank
@@ -95,10 +95,10 @@ TEST(AdamSlave, ExceptionsForIllegalFunctionAddressAndValue) {
 TEST(AdamSlave, BankErrorsBecomeExceptions) {
   FakeBank bank;
   bank.busy = true;
-  const ServeResult r = serve(frame_of(command(1, VelocityCommand::run_forward)), {}, bank);
-  EXPECT_EQ(r.outcome, ServeOutcome::exception);
-  EXPECT_EQ(r.exception, rtu::ExceptionCode::server_device_busy);
-  EXPECT_EQ(to_hex(r.reply), to_hex(rtu::encode_exception(1, 0x06, rtu::ExceptionCode::server_device_busy)));
+  const ServeResult r = serve(frame_of(command(1, VelocityCommand::kRunForward)), {}, bank);
+  EXPECT_EQ(r.outcome, ServeOutcome::kException);
+  EXPECT_EQ(r.exception, rtu::ExceptionCode::kServerDeviceBusy);
+  EXPECT_EQ(to_hex(r.reply), to_hex(rtu::encode_exception(1, 0x06, rtu::ExceptionCode::kServerDeviceBusy)));
 }
 
 TEST(AdamSlave, BroadcastsAndRestartAreExecutedWithoutReply) {
@@ -112,46 +112,46 @@ TEST(AdamSlave, BroadcastsAndRestartAreExecutedWithoutReply) {
   };
   for (const char* frame : silent) {
     const ServeResult r = serve(hex(frame), config, bank);
-    EXPECT_EQ(r.outcome, ServeOutcome::executed_silently) << frame;
+    EXPECT_EQ(r.outcome, ServeOutcome::kExecutedSilently) << frame;
     EXPECT_TRUE(r.reply.empty()) << frame;
   }
   EXPECT_EQ(bank.writes, 4);
   EXPECT_EQ(bank.at(0x00C8), 1);
   // A refused broadcast is not answered either.
-  const ServeResult refused = serve(frame_of(write16(0, Reg::baud_rate, 99)), config, bank);
-  EXPECT_EQ(refused.outcome, ServeOutcome::rejected_silently);
+  const ServeResult refused = serve(frame_of(write16(0, Reg::kBaudRate, 99)), config, bank);
+  EXPECT_EQ(refused.outcome, ServeOutcome::kRejectedSilently);
   EXPECT_TRUE(refused.reply.empty());
   // A broadcast read is discarded.
   auto read_all = hex("00 03 00 04 00 02");
   rtu::append_crc(read_all);
-  EXPECT_EQ(serve(read_all, config, bank).frame_error, rtu::FrameErrc::broadcast_read);
+  EXPECT_EQ(serve(read_all, config, bank).frame_error, rtu::FrameErrc::kBroadcastRead);
 }
 
 TEST(AdamSlave, OtherUnitsBadFramesAndSilentMode) {
   FakeBank bank;
   SlaveConfig config;
   config.unit = 2;
-  EXPECT_EQ(serve(hex("01 03 00 04 00 02 85 CA"), config, bank).outcome, ServeOutcome::not_addressed);
-  EXPECT_EQ(serve(hex("02 03 00 04 00 02 85 F9"), config, bank).outcome, ServeOutcome::replied);
+  EXPECT_EQ(serve(hex("01 03 00 04 00 02 85 CA"), config, bank).outcome, ServeOutcome::kNotAddressed);
+  EXPECT_EQ(serve(hex("02 03 00 04 00 02 85 F9"), config, bank).outcome, ServeOutcome::kReplied);
   const ServeResult bad = serve(hex("02 03 00 04 00 02 85 FA"), config, bank);
-  EXPECT_EQ(bad.outcome, ServeOutcome::discarded);
-  EXPECT_EQ(bad.frame_error, rtu::FrameErrc::bad_crc);
+  EXPECT_EQ(bad.outcome, ServeOutcome::kDiscarded);
+  EXPECT_EQ(bad.frame_error, rtu::FrameErrc::kBadCrc);
   EXPECT_TRUE(bad.reply.empty());
 
-  config.exceptions = ExceptionMode::silent;
+  config.exceptions = ExceptionMode::kSilent;
   const ServeResult quiet = serve(frame_of({2, rtu::ReadRegisters{0x0014, 1}}), config, bank);
-  EXPECT_EQ(quiet.outcome, ServeOutcome::exception);
-  EXPECT_EQ(quiet.exception, rtu::ExceptionCode::illegal_data_address);
+  EXPECT_EQ(quiet.outcome, ServeOutcome::kException);
+  EXPECT_EQ(quiet.exception, rtu::ExceptionCode::kIllegalDataAddress);
   EXPECT_TRUE(quiet.reply.empty());
 }
 
 TEST(AdamSlave, PartialWritesOfThirtyTwoBitRegistersFollowThePolicy) {
   FakeBank bank;
   SlaveConfig config;
-  const auto half = frame_of(write16(1, Reg::absolute_move, 5));
-  EXPECT_EQ(serve(half, config, bank).exception, rtu::ExceptionCode::illegal_data_address);
+  const auto half = frame_of(write16(1, Reg::kAbsoluteMove, 5));
+  EXPECT_EQ(serve(half, config, bank).exception, rtu::ExceptionCode::kIllegalDataAddress);
   config.rules.allow_partial_32bit_write = true;
-  EXPECT_EQ(serve(half, config, bank).outcome, ServeOutcome::replied);
+  EXPECT_EQ(serve(half, config, bank).outcome, ServeOutcome::kReplied);
 }
 
 }  // namespace

@@ -15,13 +15,13 @@ TEST(AdamStatus, DerivedStatusReplies) {
     std::uint8_t inputs;
   };
   const Case cases[] = {
-      {"idle in position", 0x00001000, MotionPhase::idle, true, false, false, 0},
-      {"cruising", 0x00000300, MotionPhase::cruising, false, true, false, 0},
-      {"accelerating", 0x00000100, MotionPhase::accelerating, false, true, false, 0},
-      {"decelerating", 0x00000200, MotionPhase::decelerating, false, true, false, 0},
-      {"X1 input, running", 0x00000302, MotionPhase::cruising, false, true, false, 0x02},
-      {"in position, X16 high", 0x00011000, MotionPhase::idle, true, false, true, 0},
-      {"idle but not in position", 0x00000000, MotionPhase::idle, false, true, false, 0},
+      {"idle in position", 0x00001000, MotionPhase::kIdle, true, false, false, 0},
+      {"cruising", 0x00000300, MotionPhase::kCruising, false, true, false, 0},
+      {"accelerating", 0x00000100, MotionPhase::kAccelerating, false, true, false, 0},
+      {"decelerating", 0x00000200, MotionPhase::kDecelerating, false, true, false, 0},
+      {"X1 input, running", 0x00000302, MotionPhase::kCruising, false, true, false, 0x02},
+      {"in position, X16 high", 0x00011000, MotionPhase::kIdle, true, false, true, 0},
+      {"idle but not in position", 0x00000000, MotionPhase::kIdle, false, true, false, 0},
   };
   for (const auto& c : cases) {
     const DriveStatus s = decode_status(c.raw);
@@ -60,29 +60,29 @@ TEST(AdamStatus, EveryFlagHasItsBit) {
 
 TEST(AdamAlarms, CodesHistoryAndManualTexts) {
   const AlarmState example = decode_alarms(0x0003);  // §8.52: under-voltage now, no history
-  EXPECT_EQ(example.current, AlarmCode::under_voltage);
+  EXPECT_EQ(example.current, AlarmCode::kUnderVoltage);
   EXPECT_TRUE(example.active());
   EXPECT_EQ(example.history, (std::array<AlarmCode, 3>{}));
 
   const AlarmState h = decode_alarms(0xA41C);
   EXPECT_EQ(h.current, static_cast<AlarmCode>(12));
   EXPECT_EQ(h.history,
-            (std::array<AlarmCode, 3>{AlarmCode::over_current, AlarmCode::phase_a_open, AlarmCode::encoder_error}));
+            (std::array<AlarmCode, 3>{AlarmCode::kOverCurrent, AlarmCode::kPhaseAOpen, AlarmCode::kEncoderError}));
   EXPECT_EQ(encode_alarms(h), 0xA41C);
   EXPECT_FALSE(decode_alarms(0xFFF0).active());
 
   const std::pair<AlarmCode, std::string_view> texts[] = {
-      {AlarmCode::none, "Normal"},
-      {AlarmCode::over_current, "Over-current"},
-      {AlarmCode::over_voltage, "Over-voltage"},
-      {AlarmCode::under_voltage, "Under-voltage"},
-      {AlarmCode::phase_a_open, "Phase A open circuit"},
-      {AlarmCode::phase_b_open, "Phase B open circuit"},
-      {AlarmCode::position_error, "offset pulses or others"},
-      {AlarmCode::internal_24v_fault, "internal 24V offset"},
-      {AlarmCode::phase_a_voltage, "AI voltage error"},
-      {AlarmCode::phase_b_voltage, "BI voltage error"},
-      {AlarmCode::encoder_error, "Encoder error"},
+      {AlarmCode::kNone, "Normal"},
+      {AlarmCode::kOverCurrent, "Over-current"},
+      {AlarmCode::kOverVoltage, "Over-voltage"},
+      {AlarmCode::kUnderVoltage, "Under-voltage"},
+      {AlarmCode::kPhaseAOpen, "Phase A open circuit"},
+      {AlarmCode::kPhaseBOpen, "Phase B open circuit"},
+      {AlarmCode::kPositionError, "offset pulses or others"},
+      {AlarmCode::kInternal24vFault, "internal 24V offset"},
+      {AlarmCode::kPhaseAVoltage, "AI voltage error"},
+      {AlarmCode::kPhaseBVoltage, "BI voltage error"},
+      {AlarmCode::kEncoderError, "Encoder error"},
       {static_cast<AlarmCode>(11), "Unknown alarm"},
   };
   for (const auto& [code, text] : texts) EXPECT_EQ(alarm_text(code), text);

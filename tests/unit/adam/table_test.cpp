@@ -66,9 +66,9 @@ TEST(AdamTable, ChunkingRespectsTheFrameLimit) {
     next += static_cast<std::uint32_t>(w.values.size());
   }
   EXPECT_EQ(next, kProgrammingAreaFirst + 200U);
-  EXPECT_EQ(table_data_writes(1, 0, {}).error(), AdamErrc::empty_table);
-  EXPECT_EQ(table_data_writes(1, 0, many, 96).error(), AdamErrc::too_many_registers);
-  EXPECT_EQ(table_data_writes(1, 0, std::vector<std::int32_t>(2049, 0)).error(), AdamErrc::too_many_registers);
+  EXPECT_EQ(table_data_writes(1, 0, {}).error(), AdamErrc::kEmptyTable);
+  EXPECT_EQ(table_data_writes(1, 0, many, 96).error(), AdamErrc::kTooManyRegisters);
+  EXPECT_EQ(table_data_writes(1, 0, std::vector<std::int32_t>(2049, 0)).error(), AdamErrc::kTooManyRegisters);
 }
 
 TEST(AdamTable, SynchronizedStartPreloadAndTrigger) {
@@ -91,12 +91,12 @@ TEST(AdamTable, SynchronizedStartPreloadAndTrigger) {
   EXPECT_EQ(to_hex(rtu::encode_request(trigger.value()).value()), "00 06 00 DD 00 00 18 21");
   EXPECT_FALSE(expects_reply(trigger.value()));
 
-  EXPECT_EQ(sync_move_preload(0, preload).error(), AdamErrc::invalid_unit_address);
-  EXPECT_EQ(sync_move_preload(65, preload).error(), AdamErrc::invalid_unit_address);
+  EXPECT_EQ(sync_move_preload(0, preload).error(), AdamErrc::kInvalidUnitAddress);
+  EXPECT_EQ(sync_move_preload(65, preload).error(), AdamErrc::kInvalidUnitAddress);
   preload.profile.start_speed_rpm = 301;
-  EXPECT_EQ(sync_move_preload(2, preload).error(), AdamErrc::value_out_of_range);
-  EXPECT_EQ(table_execute_broadcast({TableEntryKind::absolute, PointerArithmetic::add, 4096}).error(),
-            AdamErrc::value_out_of_range);
+  EXPECT_EQ(sync_move_preload(2, preload).error(), AdamErrc::kValueOutOfRange);
+  EXPECT_EQ(table_execute_broadcast({TableEntryKind::kAbsolute, PointerArithmetic::kAdd, 4096}).error(),
+            AdamErrc::kValueOutOfRange);
 }
 
 }  // namespace

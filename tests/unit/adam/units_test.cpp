@@ -39,21 +39,21 @@ TEST(AdamUnits, SpeedQuantization) {
     EXPECT_EQ(c.result.value().value, c.value) << c.what;
     EXPECT_NEAR(c.result.value().realized, c.realized, 1e-9) << c.what;
   }
-  EXPECT_EQ(target_speed(10000.0).error(), AdamErrc::value_out_of_range);
-  EXPECT_EQ(target_speed(std::nan("")).error(), AdamErrc::non_finite);
-  EXPECT_EQ(target_speed_from_pps(1000.0, 100).error(), AdamErrc::invalid_subdivision);
+  EXPECT_EQ(target_speed(10000.0).error(), AdamErrc::kValueOutOfRange);
+  EXPECT_EQ(target_speed(std::nan("")).error(), AdamErrc::kNonFinite);
+  EXPECT_EQ(target_speed_from_pps(1000.0, 100).error(), AdamErrc::kInvalidSubdivision);
 }
 
 TEST(AdamUnits, WholeRpmRegisters) {
   EXPECT_EQ(working_speed(600.4).value(), (Quantized<std::uint16_t>{600, 600.0}));
   EXPECT_EQ(working_speed(1000.0).value().value, 1000);
-  EXPECT_EQ(working_speed(1000.6).error(), AdamErrc::value_out_of_range);
-  EXPECT_EQ(working_speed(-1.0).error(), AdamErrc::value_out_of_range);
+  EXPECT_EQ(working_speed(1000.6).error(), AdamErrc::kValueOutOfRange);
+  EXPECT_EQ(working_speed(-1.0).error(), AdamErrc::kValueOutOfRange);
   EXPECT_EQ(start_speed(300.0).value().value, 300);
-  EXPECT_EQ(start_speed(301.0).error(), AdamErrc::value_out_of_range);
+  EXPECT_EQ(start_speed(301.0).error(), AdamErrc::kValueOutOfRange);
   EXPECT_EQ(stop_speed(1000.0).value().value, 1000);
   EXPECT_EQ(jog_speed(511.0).value().value, 511);
-  EXPECT_EQ(jog_speed(512.0).error(), AdamErrc::value_out_of_range);
+  EXPECT_EQ(jog_speed(512.0).error(), AdamErrc::kValueOutOfRange);
 }
 
 TEST(AdamUnits, RampTimes) {
@@ -70,9 +70,9 @@ TEST(AdamUnits, RampTimes) {
   // Deceleration is symmetric in the speeds.
   EXPECT_EQ(ramp_time_ms(300.0, 50.0, 700.0).value().value, 357);
   EXPECT_EQ(ramp_time_ms(100.0, 100.0, 5.0).value(), (Quantized<std::uint16_t>{0, 0.0}));
-  EXPECT_EQ(ramp_time_ms(0.0, 1000.0, 10.0).error(), AdamErrc::value_out_of_range);  // 100 s > 65.535 s
-  EXPECT_EQ(ramp_time_ms(0.0, 300.0, 0.0).error(), AdamErrc::value_out_of_range);
-  EXPECT_EQ(ramp_time_ms(0.0, std::numeric_limits<double>::infinity(), 1.0).error(), AdamErrc::non_finite);
+  EXPECT_EQ(ramp_time_ms(0.0, 1000.0, 10.0).error(), AdamErrc::kValueOutOfRange);  // 100 s > 65.535 s
+  EXPECT_EQ(ramp_time_ms(0.0, 300.0, 0.0).error(), AdamErrc::kValueOutOfRange);
+  EXPECT_EQ(ramp_time_ms(0.0, std::numeric_limits<double>::infinity(), 1.0).error(), AdamErrc::kNonFinite);
   EXPECT_DOUBLE_EQ(ramp_rate_rpm_per_s(0.0, 300.0, 120), 2500.0);  // defaults with start speed 0
 }
 
@@ -83,11 +83,11 @@ TEST(AdamUnits, PositionsAndSubdivision) {
   const auto quarter_step = pulses_from_revolutions(-0.00010, 4000);  // -0.4 pulse → 0
   EXPECT_EQ(quarter_step.value().value, 0);
   EXPECT_EQ(pulses_from_revolutions(-25.0, 4000).value().value, -100000);
-  EXPECT_EQ(pulses_from_revolutions(1e6, 4000).error(), AdamErrc::value_out_of_range);
-  EXPECT_EQ(check_subdivision(199).error(), AdamErrc::invalid_subdivision);
-  EXPECT_EQ(check_subdivision(1'000'001).error(), AdamErrc::invalid_subdivision);
+  EXPECT_EQ(pulses_from_revolutions(1e6, 4000).error(), AdamErrc::kValueOutOfRange);
+  EXPECT_EQ(check_subdivision(199).error(), AdamErrc::kInvalidSubdivision);
+  EXPECT_EQ(check_subdivision(1'000'001).error(), AdamErrc::kInvalidSubdivision);
   EXPECT_EQ(check_subdivision(200).value(), 200U);
-  const std::error_code ec = AdamErrc::invalid_subdivision;
+  const std::error_code ec = AdamErrc::kInvalidSubdivision;
   EXPECT_STREQ(ec.category().name(), "adam");
 }
 

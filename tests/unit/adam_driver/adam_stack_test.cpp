@@ -145,7 +145,7 @@ class AdamStackTest : public ::testing::Test {
     while (answered < sent.size()) {
       const Bytes frame = sent[answered++];
       for (auto& [unit, bank] : banks) {
-        const auto result = adam::serve(frame, adam::SlaveConfig{unit, {}, adam::ExceptionMode::standard}, bank);
+        const auto result = adam::serve(frame, adam::SlaveConfig{unit, {}, adam::ExceptionMode::kStandard}, bank);
         if (!result.reply.empty()) reply(result.reply);
       }
     }
@@ -269,7 +269,7 @@ TEST_F(AdamStackTest, AReplyDeliveredInPiecesWithPausesLongerThanT35IsJoinedNotA
   }
   ASSERT_TRUE(was_sent(hex(request)));
   ASSERT_EQ(hex(sent.back()), hex(request));
-  const auto served = adam::serve(sent.back(), adam::SlaveConfig{1, {}, adam::ExceptionMode::standard}, banks[1]);
+  const auto served = adam::serve(sent.back(), adam::SlaveConfig{1, {}, adam::ExceptionMode::kStandard}, banks[1]);
   ASSERT_EQ(served.reply.size(), 13U);
   answered = sent.size();
   const auto errors_before = core->statistics().errors;
@@ -571,7 +571,7 @@ class FourDriveTest : public AdamStackTest {
       if (answered < sent.size()) {
         const Bytes frame = sent[answered++];
         for (auto& [id, bank] : banks) {
-          const auto result = adam::serve(frame, adam::SlaveConfig{id, {}, adam::ExceptionMode::standard}, bank);
+          const auto result = adam::serve(frame, adam::SlaveConfig{id, {}, adam::ExceptionMode::kStandard}, bank);
           if (!result.reply.empty()) reply(result.reply);
         }
         if (hex(frame).substr(0, 17) == read) return;

@@ -53,10 +53,10 @@ std::vector<std::string> stack_errors(const Config& c) {
       // The master writes the set-up as registers; each must lie in the manual's range.
       const auto settings = adam_driver::settings_from_config(c, c.buses.at(0));
       for (const auto& [reg, words] : settings.drives.at(0).setup_writes) {
-        if (reg == adam::address(adam::Reg::rated_current) && (words.at(0) < 10 || words.at(0) > 650)) {
+        if (reg == adam::address(adam::Reg::kRatedCurrent) && (words.at(0) < 10 || words.at(0) > 650)) {
           errors.push_back("0x000D rated current " + std::to_string(words.at(0)) + " outside 10..650 (manual §8.10)");
         }
-        if (reg == adam::address(adam::Reg::subdivision)) {
+        if (reg == adam::address(adam::Reg::kSubdivision)) {
           const std::uint32_t pulses =
               static_cast<std::uint32_t>(words.at(0)) | (static_cast<std::uint32_t>(words.at(1)) << 16);
           if (pulses < 200 || pulses > 1000000)

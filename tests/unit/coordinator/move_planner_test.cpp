@@ -134,7 +134,7 @@ TEST(DriveQuantizers, AdamPulsesPerRevolutionFollowTheGatewaysSetupRule) {
   for (const auto& d : settings.drives) {
     std::optional<std::uint32_t> written;
     for (const auto& [reg, words] : d.setup_writes) {
-      if (reg == adam::address(adam::Reg::subdivision)) written = adam::decode32(words.at(0), words.at(1));
+      if (reg == adam::address(adam::Reg::kSubdivision)) written = adam::decode32(words.at(0), words.at(1));
     }
     if (d.drive == "ed") {
       EXPECT_FALSE(written) << "no set-up: the drive keeps its subdivision";
@@ -203,8 +203,8 @@ TEST(DriveQuantizers, Uim342RealizedValuesAreWhatTheStackProgramsExactly) {
     double cut_in;
   };
   for (const auto& c :
-       {Case{"xd", uim342::AccelerationUnit::pulses_per_s2, 0}, Case{"yd", uim342::AccelerationUnit::milliseconds, 0},
-        Case{"zd", uim342::AccelerationUnit::milliseconds, 300}}) {
+       {Case{"xd", uim342::AccelerationUnit::kPulsesPerS2, 0}, Case{"yd", uim342::AccelerationUnit::kMilliseconds, 0},
+        Case{"zd", uim342::AccelerationUnit::kMilliseconds, 300}}) {
     const auto settings = candidates_of(*quantizer(c.drive), 4000.0);
     ASSERT_GT(settings.size(), 20u) << c.drive;
     for (const auto& s : settings) {
@@ -232,9 +232,9 @@ TEST(DriveQuantizers, Uim242RealizedValuesAreIntegerSpdMacMdeTheControllerAccept
     EXPECT_EQ(s.native.velocity, static_cast<std::int64_t>(s.realized.velocity_counts_per_s)) << what;
     EXPECT_EQ(s.native.acceleration, static_cast<std::int64_t>(s.realized.acceleration_counts_per_s2)) << what;
     EXPECT_EQ(s.native.deceleration, static_cast<std::int64_t>(s.realized.deceleration_counts_per_s2)) << what;
-    EXPECT_FALSE(uim242::validate({uim242::Mnemonic::SPD, false, s.native.velocity, false})) << what;
-    EXPECT_FALSE(uim242::validate({uim242::Mnemonic::MAC, false, s.native.acceleration, false})) << what;
-    EXPECT_FALSE(uim242::validate({uim242::Mnemonic::MDE, false, s.native.deceleration, false})) << what;
+    EXPECT_FALSE(uim242::validate({uim242::Mnemonic::kSPD, false, s.native.velocity, false})) << what;
+    EXPECT_FALSE(uim242::validate({uim242::Mnemonic::kMAC, false, s.native.acceleration, false})) << what;
+    EXPECT_FALSE(uim242::validate({uim242::Mnemonic::kMDE, false, s.native.deceleration, false})) << what;
   }
   // Beyond SPD's 65535 pulse/s the grid stops at the controller's maximum.
   std::vector<DriveSetting> fast;

@@ -112,7 +112,7 @@ class SerialBusDriverTest : public ::testing::Test {
 
   EventLoop loop_;
   Recorder out_;
-  serial::SerialSettings line_{57600, serial::Parity::none, 8, 1};
+  serial::SerialSettings line_{57600, serial::Parity::kNone, 8, 1};
   std::filesystem::path dir_;
   std::string path_;
   std::unique_ptr<serial::PtyLink> link_;
@@ -208,8 +208,8 @@ TEST_F(SerialBusDriverTest, HangUpIsALostLineThenTheCoreStartsAgain) {
 // PARENB (tcsetattr EINVAL), so both ends open it with the parity modelled, counted in the
 // character time (1 start + 8 data + parity + stop = 11 bits at 8E1), and bytes still pass.
 TEST_F(SerialBusDriverTest, EvenAndOddParityOpenOnAPtyWithTheParityBitCounted) {
-  for (const auto parity : {serial::Parity::even, serial::Parity::odd}) {
-    SCOPED_TRACE(parity == serial::Parity::even ? "even" : "odd");
+  for (const auto parity : {serial::Parity::kEven, serial::Parity::kOdd}) {
+    SCOPED_TRACE(parity == serial::Parity::kEven ? "even" : "odd");
     const serial::SerialSettings line{19200, parity, 8, 1};
     EXPECT_EQ(line.bits_per_character(), 11);
     EXPECT_EQ(line.wire_time(192), milliseconds(110));  // 192 x 11 bits at 19200 bit/s
@@ -243,14 +243,14 @@ TEST(SerialLine, ConfiguredBusAsSerialValues) {
   bus.stop_bits = 2;
   const serial::SerialSettings line = serial_line_settings(bus);
   EXPECT_EQ(line.baud, 19200);
-  EXPECT_EQ(line.parity, serial::Parity::even);
+  EXPECT_EQ(line.parity, serial::Parity::kEven);
   EXPECT_EQ(line.data_bits, 8);
   EXPECT_EQ(line.stop_bits, 2);
   EXPECT_EQ(line.bits_per_character(), 12);
   bus.parity = 'O';
-  EXPECT_EQ(serial_line_settings(bus).parity, serial::Parity::odd);
+  EXPECT_EQ(serial_line_settings(bus).parity, serial::Parity::kOdd);
   bus.parity = 'N';
-  EXPECT_EQ(serial_line_settings(bus).parity, serial::Parity::none);
+  EXPECT_EQ(serial_line_settings(bus).parity, serial::Parity::kNone);
 
   bus.kind = config::TransportKind::kSimSerial;
   EXPECT_EQ(serial_device_path(config, bus), "/tmp/lab-sim/rs485.tty");

@@ -264,15 +264,15 @@ TEST(QuantizePlan, Errors) {
                                             .max_acceleration_user_per_s2 = 100.0})});
   const PpsRateQuantizer pps;
   const std::vector<const DriveQuantizer*> none;
-  EXPECT_EQ(quantize_plan(plan, none).error().code, PlanErrc::quantizer_count_mismatch);
+  EXPECT_EQ(quantize_plan(plan, none).error().code, PlanErrc::kQuantizerCountMismatch);
   const std::vector<const DriveQuantizer*> null_one{nullptr};
-  EXPECT_EQ(quantize_plan(plan, null_one).error().code, PlanErrc::quantizer_count_mismatch);
+  EXPECT_EQ(quantize_plan(plan, null_one).error().code, PlanErrc::kQuantizerCountMismatch);
   // 1 rpm of a 3200-count motor is 53.3 c/s: above the 10 c/s limit, nothing representable.
   const RpmQuantizer coarse(3200.0, 1.0, AccelerationGrid::ramp_time(0.001));
   const std::vector<const DriveQuantizer*> coarse_one{&coarse};
   const auto result = quantize_plan(plan, coarse_one);
   ASSERT_FALSE(result.ok());
-  EXPECT_EQ(result.error().code, PlanErrc::quantization_impossible);
+  EXPECT_EQ(result.error().code, PlanErrc::kQuantizationImpossible);
   EXPECT_EQ(result.error().axis_name, "slow");
   EXPECT_NE(result.error().message().find("axis 0 'slow'"), std::string::npos);
 }

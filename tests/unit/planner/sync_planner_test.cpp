@@ -160,8 +160,8 @@ TEST(SyncPlannerErrors, TargetOutsideLimitsNamesAxisAndLimit) {
   auto axes = two_axes();
   axes.push_back(make_axis({.name = "z", .target_user = 120.0, .min_position_user = 0.0, .max_position_user = 100.0}));
   const PlanFailure f = plan_error(axes);
-  EXPECT_EQ(f.code, PlanErrc::target_above_max);
-  EXPECT_EQ(f.error_code(), PlanErrc::target_above_max);
+  EXPECT_EQ(f.code, PlanErrc::kTargetAboveMax);
+  EXPECT_EQ(f.error_code(), PlanErrc::kTargetAboveMax);
   EXPECT_STREQ(f.error_code().category().name(), "planner");
   EXPECT_EQ(f.axis_index, 2u);
   EXPECT_EQ(f.axis_name, "z");
@@ -170,7 +170,7 @@ TEST(SyncPlannerErrors, TargetOutsideLimitsNamesAxisAndLimit) {
   EXPECT_NE(f.message().find("max_position 100"), std::string::npos) << f.message();
 
   axes.back().target_user = -0.5;
-  EXPECT_EQ(plan_error(axes).code, PlanErrc::target_below_min);
+  EXPECT_EQ(plan_error(axes).code, PlanErrc::kTargetBelowMin);
 }
 
 TEST(SyncPlannerErrors, EveryInvalidInputHasItsReason) {
@@ -181,43 +181,43 @@ TEST(SyncPlannerErrors, EveryInvalidInputHasItsReason) {
   };
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  EXPECT_EQ(with([&](AxisRequest& a) { a.target_user = nan; }).code, PlanErrc::non_finite_input);
-  EXPECT_EQ(with([&](AxisRequest& a) { a.start_user = inf; }).code, PlanErrc::non_finite_input);
-  EXPECT_EQ(with([&](AxisRequest& a) { a.limits.max_velocity_user_per_s = inf; }).code, PlanErrc::non_finite_input);
-  EXPECT_EQ(with([&](AxisRequest& a) { a.limits.min_position_user = nan; }).code, PlanErrc::non_finite_input);
-  EXPECT_EQ(with([&](AxisRequest& a) { a.counts_per_user = 0.0; }).code, PlanErrc::non_positive_scale);
-  EXPECT_EQ(with([&](AxisRequest& a) { a.counts_per_user = -2.0; }).code, PlanErrc::non_positive_scale);
-  EXPECT_EQ(with([&](AxisRequest& a) { a.limits.max_velocity_user_per_s = 0.0; }).code, PlanErrc::non_positive_limit);
+  EXPECT_EQ(with([&](AxisRequest& a) { a.target_user = nan; }).code, PlanErrc::kNonFiniteInput);
+  EXPECT_EQ(with([&](AxisRequest& a) { a.start_user = inf; }).code, PlanErrc::kNonFiniteInput);
+  EXPECT_EQ(with([&](AxisRequest& a) { a.limits.max_velocity_user_per_s = inf; }).code, PlanErrc::kNonFiniteInput);
+  EXPECT_EQ(with([&](AxisRequest& a) { a.limits.min_position_user = nan; }).code, PlanErrc::kNonFiniteInput);
+  EXPECT_EQ(with([&](AxisRequest& a) { a.counts_per_user = 0.0; }).code, PlanErrc::kNonPositiveScale);
+  EXPECT_EQ(with([&](AxisRequest& a) { a.counts_per_user = -2.0; }).code, PlanErrc::kNonPositiveScale);
+  EXPECT_EQ(with([&](AxisRequest& a) { a.limits.max_velocity_user_per_s = 0.0; }).code, PlanErrc::kNonPositiveLimit);
   EXPECT_EQ(with([&](AxisRequest& a) { a.limits.max_acceleration_user_per_s2 = -1.0; }).code,
-            PlanErrc::non_positive_limit);
+            PlanErrc::kNonPositiveLimit);
   EXPECT_EQ(with([&](AxisRequest& a) { a.limits.max_deceleration_user_per_s2 = 0.0; }).code,
-            PlanErrc::non_positive_limit);
+            PlanErrc::kNonPositiveLimit);
   EXPECT_EQ(with([&](AxisRequest& a) {
               a.limits.min_position_user = 5.0;
               a.limits.max_position_user = 4.0;
             }).code,
-            PlanErrc::invalid_position_range);
+            PlanErrc::kInvalidPositionRange);
   EXPECT_EQ(with([&](AxisRequest& a) {
               a.target_user = 1e16;
               a.limits.max_position_user = inf;
             }).code,
-            PlanErrc::counts_out_of_range);
+            PlanErrc::kCountsOutOfRange);
   const PlanFailure f = with([&](AxisRequest& a) { a.counts_per_user = 0.0; });
   EXPECT_EQ(f.axis_index, 1u);
   EXPECT_EQ(f.axis_name, "a");
 }
 
 TEST(SyncPlannerErrors, RequestLevelErrors) {
-  EXPECT_EQ(plan_error({}).code, PlanErrc::no_axes);
+  EXPECT_EQ(plan_error({}).code, PlanErrc::kNoAxes);
   const std::vector<AxisRequest> axes{make_axis({.target_user = 1.0})};
-  EXPECT_EQ(plan_error(axes, {.velocity_scale = 0.0}).code, PlanErrc::invalid_speed_scale);
-  EXPECT_EQ(plan_error(axes, {.acceleration_scale = 1.5}).code, PlanErrc::invalid_speed_scale);
-  EXPECT_EQ(plan_error(axes, {.velocity_scale = std::nan("")}).code, PlanErrc::non_finite_input);
+  EXPECT_EQ(plan_error(axes, {.velocity_scale = 0.0}).code, PlanErrc::kInvalidSpeedScale);
+  EXPECT_EQ(plan_error(axes, {.acceleration_scale = 1.5}).code, PlanErrc::kInvalidSpeedScale);
+  EXPECT_EQ(plan_error(axes, {.velocity_scale = std::nan("")}).code, PlanErrc::kNonFiniteInput);
   EXPECT_EQ(plan_error(axes, {.velocity_scale = -1.0}).axis_index, kNoAxis);
 }
 
 TEST(SyncPlannerErrors, CategoryMessages) {
-  EXPECT_EQ(std::error_code(PlanErrc::quantization_impossible).message(),
+  EXPECT_EQ(std::error_code(PlanErrc::kQuantizationImpossible).message(),
             "no drive-representable value within the axis limits");
   EXPECT_EQ(planner_category().message(9999), "unknown planner error");
 }

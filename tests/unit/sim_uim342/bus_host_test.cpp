@@ -95,7 +95,7 @@ TEST(SimUim342BusHost, GroupBgOverTheSimulatedBusStartsBothDrivesOnOneFrame) {
     replies.clear();
     send(target, instruction);
     ASSERT_TRUE(run_until(loop, [&] { return !replies.empty(); }));
-    EXPECT_NE(replies[0].reply.function, u::FunctionCode::ER) << u::to_string(replies[0].reply);
+    EXPECT_NE(replies[0].reply.function, u::FunctionCode::kER) << u::to_string(replies[0].reply);
   };
   for (const std::uint8_t node : {std::uint8_t{5}, std::uint8_t{6}}) {
     request(node, rq::set_acceleration(100'000));

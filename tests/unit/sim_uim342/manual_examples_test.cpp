@@ -68,7 +68,7 @@ TEST_F(ManualExamples, ProtocolParameters) {
 TEST_F(ManualExamples, InitialConfigurationAndInformationEnable) {
   expect_ack("05 86 01 00 00 00 00 00 00 00 00", "05 06 03 00 01 00 00 00 00 00 00");  // IC[0] = 1
   expect_ack("05 86 03 06 01 00 00 00 00 00 00", "05 06 03 06 01 00 00 00 00 00 00");  // IC[6]=1
-  run(rq::set(u::InformationEnable::in1_change, true));
+  run(rq::set(u::InformationEnable::kIn1Change, true));
   expect_ack("05 87 01 00 00 00 00 00 00 00 00", "05 07 03 00 01 00 00 00 00 00 00");  // IE[0] = 1
   expect_ack("05 87 03 01 01 00 00 00 00 00 00",
              "05 07 03 01 01 00 00 00 00 00 00");  // IE[1]=1 (§5.3: the byte, not the caption)
@@ -120,7 +120,7 @@ TEST_F(ManualExamples, ParameterFrameSelectsAGroupForOneInstruction) {
   expect_ack("05 99 04 88 13 00 00", "05 19 04 88 13 00 00");                          // AC=5000 into group 3
   expect_ack("05 98 00", "05 18 01 00");                                               // MF is back to 0
   expect_ack("05 99 00", "05 19 04 E8 03 00 00");                                      // group 0 untouched
-  run(rq::select_group(u::ParameterGroup::in1_falling));
+  run(rq::select_group(u::ParameterGroup::kIn1Falling));
   expect_ack("05 99 00", "05 19 04 88 13 00 00");
 }
 
@@ -200,7 +200,7 @@ TEST_F(ManualExamples, SystemRebootHasNoAck) {
 TEST_F(ManualExamples, RealTimeNotifications) {
   using C = motionlcm::sim_control_t;
   for (std::uint8_t i = 0; i <= 2; ++i) run(rq::set(static_cast<u::InformationEnable>(i), true));
-  run(rq::set(u::InformationEnable::position_reached, true));
+  run(rq::set(u::InformationEnable::kPositionReached, true));
   const auto expect_sent = [this](std::initializer_list<std::string_view> rows) {
     const auto sent = bench.take();
     ASSERT_EQ(sent.size(), rows.size());
@@ -230,10 +230,10 @@ TEST_F(ManualExamples, RealTimeNotifications) {
     expect_sent({row});
   }
   // PTP finished with the position 0x00000BB8 = 3000, after a reboot clears the lock of alarm 0x0A.
-  bench.send(rq::system(u::SystemOperation::reboot));
+  bench.send(rq::system(u::SystemOperation::kReboot));
   bench.send(rq::driver_on(true));
   for (std::uint8_t i = 0; i <= 2; ++i) run(rq::set(static_cast<u::InformationEnable>(i), false));
-  run(rq::set(u::InformationEnable::position_reached, true));
+  run(rq::set(u::InformationEnable::kPositionReached, true));
   ptp_to(1000);  // the helper takes the notification of this one away
   run(rq::set_absolute_position(3000));
   run(rq::set_ptp_speed(2000));

@@ -84,7 +84,7 @@ inline config::Drive uim342_drive(std::string name, int node_id, int group_id = 
 class Bench {
  public:
   explicit Bench(const config::Drive& drive, Uim342Identity identity = {},
-                 MicroStepsApply apply = MicroStepsApply::after_restart)
+                 MicroStepsApply apply = MicroStepsApply::kAfterRestart)
       : node(static_cast<std::uint8_t>(drive.node_id)) {
     SimDriveContext context;
     context.drive = drive.name;

@@ -75,8 +75,8 @@ class Uim342Bench {
       config::Drive stored = d;
       stored.setup["micro_steps"] = 8LL;  // what the drive's EEPROM holds at power-up
       const auto apply = config::sim_variant(config_, d, "micro_steps_apply") == "immediately"
-                             ? sim::MicroStepsApply::immediately
-                             : sim::MicroStepsApply::after_restart;
+                             ? sim::MicroStepsApply::kImmediately
+                             : sim::MicroStepsApply::kAfterRestart;
       sim::SimDriveContext context;
       context.drive = d.name;
       context.bus = d.bus;

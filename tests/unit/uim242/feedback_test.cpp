@@ -30,11 +30,11 @@ std::vector<std::int64_t> fields_of(const Frame& f, Layout layout) {
 
 TEST(Feedback, McfAckEN17CN17) {
   const Frame f = parsed("AA 05 B0 02 0E 33 FF");
-  EXPECT_EQ(f.header, Header::ack);
+  EXPECT_EQ(f.header, Header::kAck);
   EXPECT_EQ(f.node, 5);
   EXPECT_EQ(f.message_id, message::kMcf);
   EXPECT_TRUE(reply_matches(f, instruction("MCF34611")));
-  EXPECT_EQ(fields_of(f, Layout::u16), std::vector<std::int64_t>{0x8733});
+  EXPECT_EQ(fields_of(f, Layout::kU16), std::vector<std::int64_t>{0x8733});
   EXPECT_EQ(serialize(f), hex("AA 05 B0 02 0E 33 FF"));
 }
 
@@ -42,35 +42,35 @@ TEST(Feedback, S1FallingNotificationEN122) {
   const auto n = as_notification(parsed("CC 05 A0 FF"));
   ASSERT_TRUE(n.has_value());
   EXPECT_EQ(n->node, 5);
-  EXPECT_EQ(n->event, Event::s1_falling);
+  EXPECT_EQ(n->event, Event::kS1Falling);
   EXPECT_EQ(serialize(make_notification(*n)), hex("CC 05 A0 FF"));
 }
 
 TEST(Feedback, ValueErrorCN6) {
   const auto e = as_error(parsed("EE 66 FF"));
   ASSERT_TRUE(e.has_value());
-  EXPECT_EQ(e->code, make_error_code(ErrorCode::value_error));
+  EXPECT_EQ(e->code, make_error_code(ErrorCode::kValueError));
   EXPECT_FALSE(e->node.has_value());
-  EXPECT_EQ(serialize(make_error(ErrorCode::value_error)), hex("EE 66 FF"));
+  EXPECT_EQ(serialize(make_error(ErrorCode::kValueError)), hex("EE 66 FF"));
   // The form with an id, not in EN/CN §6.2, is accepted too.
   const auto with_id = as_error(parsed("EE 05 65 FF"));
   ASSERT_TRUE(with_id.has_value());
   EXPECT_EQ(with_id->node, 5);
-  EXPECT_EQ(with_id->code, make_error_code(ErrorCode::syntax_error));
+  EXPECT_EQ(with_id->code, make_error_code(ErrorCode::kSyntaxError));
 }
 
 TEST(Feedback, ModelReplyTemplateEN22) {
   // CC [ID] DE 18 02 [CUR] [asb] u16: 2.0 A, encoder + closed loop + advanced, 3 sensor ports, fw 1302.
   const Frame f = parsed("CC 05 DE 18 02 14 73 00 0A 16 FF");
   EXPECT_TRUE(reply_matches(f, instruction("MDL 5")));
-  EXPECT_EQ(fields_of(f, Layout::model), (std::vector<std::int64_t>{0x18, 0x02, 20, 0x73, 1302}));
+  EXPECT_EQ(fields_of(f, Layout::kModel), (std::vector<std::int64_t>{0x18, 0x02, 20, 0x73, 1302}));
 }
 
 TEST(Feedback, StoAckAndRtcnTemplates) {
   EXPECT_TRUE(reply_matches(parsed("AA 05 D1 FF"), instruction("STO 2")));
   EXPECT_TRUE(reply_matches(parsed("AA 05 D1 FF"), instruction("STO")));
   // CN 10-byte A8: closed-loop flag + position; EN 4-byte A8.
-  const Notification cn{5, Event::displacement_complete, true, -200};
+  const Notification cn{5, Event::kDisplacementComplete, true, -200};
   EXPECT_EQ(serialize(make_notification(cn)), hex("CC 05 A8 01 0F 7F 7F 7E 38 FF"));
   EXPECT_EQ(as_notification(parsed("CC 05 A8 01 0F 7F 7F 7E 38 FF")), cn);
   const auto en = as_notification(parsed("CC 05 A8 FF"));
@@ -136,7 +136,7 @@ TEST(Feedback, BasicAckOfTheMacroSpec63) {
   EXPECT_EQ(*s, (Status{false, true, true, 16, 20, 5000, 0}));
   EXPECT_TRUE(reply_matches(f, instruction("")));
   EXPECT_TRUE(reply_matches(f, instruction("ENA")));
-  EXPECT_EQ(serialize(make_status_frame(Header::ack, 5, *s)), hex("AA 05 3F 14 00 27 08 00 00 00 00 00 FF"));
+  EXPECT_EQ(serialize(make_status_frame(Header::kAck, 5, *s)), hex("AA 05 3F 14 00 27 08 00 00 00 00 00 FF"));
 }
 
 TEST(Feedback, FbkStatusSpec63) {
@@ -162,11 +162,11 @@ TEST(Feedback, GatewayFramesEXT2501) {
 }
 
 TEST(Feedback, MalformedFrames) {
-  EXPECT_EQ(parse_frame(hex("05 B0 FF")).error(), make_error_code(CodecErrc::bad_header));
-  EXPECT_EQ(parse_frame(hex("AA 05 B0")).error(), make_error_code(CodecErrc::bad_terminator));
-  EXPECT_EQ(parse_frame(hex("AA FF")).error(), make_error_code(CodecErrc::frame_too_short));
-  EXPECT_EQ(parse_frame(hex("AA 05 B0 02 8E 33 FF")).error(), make_error_code(CodecErrc::not_seven_bit));
-  EXPECT_EQ(decode_status(parsed("AA 05 3F 14 FF")).error(), make_error_code(CodecErrc::wrong_length));
+  EXPECT_EQ(parse_frame(hex("05 B0 FF")).error(), make_error_code(CodecErrc::kBadHeader));
+  EXPECT_EQ(parse_frame(hex("AA 05 B0")).error(), make_error_code(CodecErrc::kBadTerminator));
+  EXPECT_EQ(parse_frame(hex("AA FF")).error(), make_error_code(CodecErrc::kFrameTooShort));
+  EXPECT_EQ(parse_frame(hex("AA 05 B0 02 8E 33 FF")).error(), make_error_code(CodecErrc::kNotSevenBit));
+  EXPECT_EQ(decode_status(parsed("AA 05 3F 14 FF")).error(), make_error_code(CodecErrc::kWrongLength));
   EXPECT_FALSE(reply_matches(parsed("AA 05 B5 00 27 FF"), instruction("SPD 5000")));  // short data
 }
 
@@ -213,7 +213,7 @@ TEST(FeedbackFramer, StallIdEqualToAckHeaderIsNotAFrameStartG16) {
   FeedbackFramer framer;
   const auto frames = framer.push(hex("CC 05 AA FF"));
   ASSERT_EQ(frames.size(), 1u);
-  EXPECT_EQ(as_notification(*parse_frame(frames[0]))->event, Event::stall);
+  EXPECT_EQ(as_notification(*parse_frame(frames[0]))->event, Event::kStall);
 }
 
 TEST(FeedbackFramer, LostTerminatorResyncsAtTheNextHeader) {

@@ -18,26 +18,26 @@ struct PackingVector {
 
 // Derived from EN §6.2, §12.2 (the first row is the manual's own example, EN/CN #17).
 const PackingVector kVectors[] = {
-    {0x8733, Layout::u16, "02 0E 33"},
-    {5000, Layout::s16, "00 27 08"},
-    {1000, Layout::s16, "00 07 68"},
-    {-1000, Layout::s16, "03 78 18"},
-    {100, Layout::s16, "00 00 64"},
-    {32767, Layout::s16, "01 7F 7F"},
-    {-32768, Layout::s16, "02 00 00"},
-    {65535, Layout::u16, "03 7F 7F"},
-    {200, Layout::s32, "00 00 00 01 48"},
-    {-200, Layout::s32, "0F 7F 7F 7E 38"},
-    {500, Layout::s32, "00 00 00 03 74"},
-    {-200000, Layout::s32, "0F 7F 73 65 40"},
-    {2000000000, Layout::s32, "07 39 56 28 00"},
-    {-2000000000, Layout::s32, "08 46 29 58 00"},
-    {2147483647, Layout::s32, "07 7F 7F 7F 7F"},
-    {-2147483647, Layout::s32, "08 00 00 00 01"},
-    {65000000, Layout::u32, "00 1E 7F 24 40"},
-    {60000, Layout::u32, "00 00 03 54 60"},
-    {1302, Layout::u16, "00 0A 16"},
-    {1232, Layout::u16, "00 09 50"},
+    {0x8733, Layout::kU16, "02 0E 33"},
+    {5000, Layout::kS16, "00 27 08"},
+    {1000, Layout::kS16, "00 07 68"},
+    {-1000, Layout::kS16, "03 78 18"},
+    {100, Layout::kS16, "00 00 64"},
+    {32767, Layout::kS16, "01 7F 7F"},
+    {-32768, Layout::kS16, "02 00 00"},
+    {65535, Layout::kU16, "03 7F 7F"},
+    {200, Layout::kS32, "00 00 00 01 48"},
+    {-200, Layout::kS32, "0F 7F 7F 7E 38"},
+    {500, Layout::kS32, "00 00 00 03 74"},
+    {-200000, Layout::kS32, "0F 7F 73 65 40"},
+    {2000000000, Layout::kS32, "07 39 56 28 00"},
+    {-2000000000, Layout::kS32, "08 46 29 58 00"},
+    {2147483647, Layout::kS32, "07 7F 7F 7F 7F"},
+    {-2147483647, Layout::kS32, "08 00 00 00 01"},
+    {65000000, Layout::kU32, "00 1E 7F 24 40"},
+    {60000, Layout::kU32, "00 00 03 54 60"},
+    {1302, Layout::kU16, "00 0A 16"},
+    {1232, Layout::kU16, "00 09 50"},
 };
 
 TEST(Packing, SpecVectorsRoundTrip) {
@@ -62,7 +62,7 @@ TEST(Packing, TwelveBitThresholds) {
 TEST(Packing, WideSpeedEchoesLow16Bits) {
   // EN/CN #37: SPD accepts +-65535 but echoes a signed 16-bit field: +40000 reads back as -25536.
   const std::int64_t fields[] = {40000};
-  const auto decoded = decode_fields(encode_fields(Layout::s16, fields), Layout::s16);
+  const auto decoded = decode_fields(encode_fields(Layout::kS16, fields), Layout::kS16);
   EXPECT_EQ(decoded->front(), -25536);
 }
 

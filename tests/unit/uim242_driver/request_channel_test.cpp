@@ -21,7 +21,7 @@ struct Line {
 Request global_speed(std::int64_t speed) {
   Request r;
   r.drive = "gateway";
-  r.instruction = uim242::Instruction{uim242::Mnemonic::SPD, true, speed, false};
+  r.instruction = uim242::Instruction{uim242::Mnemonic::kSPD, true, speed, false};
   return r;
 }
 

@@ -111,35 +111,35 @@ struct CheatSheetRow {
 
 // Identifiers from the §2.5 formulas for every CW of the Instruction Set Summary (node 5, master 4).
 constexpr CheatSheetRow kCheatSheet[] = {
-    {FunctionCode::PP, 0x04280001, 0x04280081, 0x05200001, 0, 0x04000081},
-    {FunctionCode::IC, 0x04280006, 0x04280086, 0x05200006, 0, 0x04000086},
-    {FunctionCode::IE, 0x04280007, 0x04280087, 0x05200007, 0, 0x04000087},
-    {FunctionCode::ML, 0, 0x0428008B, 0x0520000B, 0, 0x0400008B},
-    {FunctionCode::SN, 0x0428000C, 0x0428008C, 0x0520000C, 0, 0x0400008C},
-    {FunctionCode::ER, 0x0428000F, 0x0428008F, 0x0520000F, 0, 0x0400008F},
-    {FunctionCode::MT, 0x04280010, 0x04280090, 0x05200010, 0, 0x04000090},
-    {FunctionCode::MS, 0x04280011, 0x04280091, 0x05200011, 0, 0x04000091},
-    {FunctionCode::MO, 0x04280015, 0x04280095, 0x05200015, 0, 0x04000095},
-    {FunctionCode::BG, 0x04280016, 0x04280096, 0x05200016, 0, 0x04000096},
-    {FunctionCode::ST, 0x04280017, 0x04280097, 0x05200017, 0, 0x04000097},
-    {FunctionCode::MF, 0x04280018, 0x04280098, 0x05200018, 0, 0x04000098},
-    {FunctionCode::AC, 0x04280019, 0x04280099, 0x05200019, 0, 0x04000099},
-    {FunctionCode::DC, 0x0428001A, 0x0428009A, 0x0520001A, 0, 0x0400009A},
-    {FunctionCode::SS, 0x0428001B, 0x0428009B, 0x0520001B, 0, 0x0400009B},
-    {FunctionCode::SD, 0x0428001C, 0x0428009C, 0x0520001C, 0, 0x0400009C},
-    {FunctionCode::JV, 0x0428001D, 0x0428009D, 0x0520001D, 0x0520002E, 0x0400009D},
-    {FunctionCode::SP, 0x0428001E, 0x0428009E, 0x0520001E, 0x0520002E, 0x0400009E},
-    {FunctionCode::PR, 0x0428001F, 0x0428009F, 0x0520001F, 0x0520002E, 0x0400009F},
-    {FunctionCode::PA, 0x04280020, 0x042800A0, 0x05200020, 0x0520002E, 0x040000A0},
-    {FunctionCode::OG, 0x04280021, 0x042800A1, 0x05200021, 0, 0x040000A1},
-    {FunctionCode::BL, 0x0428002D, 0x042800AD, 0x0520002D, 0, 0x040000AD},
-    {FunctionCode::DV, 0x0428002E, 0x042800AE, 0x0520002E, 0, 0x040000AE},
-    {FunctionCode::IL, 0x04280034, 0x042800B4, 0x05200034, 0, 0x040000B4},
-    {FunctionCode::TG, 0x04280035, 0x042800B5, 0x05200035, 0, 0x040000B5},
-    {FunctionCode::DI, 0x04280037, 0x042800B7, 0x05200037, 0, 0x040000B7},
-    {FunctionCode::QE, 0x0428003D, 0x042800BD, 0x0520003D, 0, 0x040000BD},
-    {FunctionCode::RT, 0, 0, 0x0520005A, 0, 0},
-    {FunctionCode::SY, 0x0428007E, 0, 0, 0, 0},
+    {FunctionCode::kPP, 0x04280001, 0x04280081, 0x05200001, 0, 0x04000081},
+    {FunctionCode::kIC, 0x04280006, 0x04280086, 0x05200006, 0, 0x04000086},
+    {FunctionCode::kIE, 0x04280007, 0x04280087, 0x05200007, 0, 0x04000087},
+    {FunctionCode::kML, 0, 0x0428008B, 0x0520000B, 0, 0x0400008B},
+    {FunctionCode::kSN, 0x0428000C, 0x0428008C, 0x0520000C, 0, 0x0400008C},
+    {FunctionCode::kER, 0x0428000F, 0x0428008F, 0x0520000F, 0, 0x0400008F},
+    {FunctionCode::kMT, 0x04280010, 0x04280090, 0x05200010, 0, 0x04000090},
+    {FunctionCode::kMS, 0x04280011, 0x04280091, 0x05200011, 0, 0x04000091},
+    {FunctionCode::kMO, 0x04280015, 0x04280095, 0x05200015, 0, 0x04000095},
+    {FunctionCode::kBG, 0x04280016, 0x04280096, 0x05200016, 0, 0x04000096},
+    {FunctionCode::kST, 0x04280017, 0x04280097, 0x05200017, 0, 0x04000097},
+    {FunctionCode::kMF, 0x04280018, 0x04280098, 0x05200018, 0, 0x04000098},
+    {FunctionCode::kAC, 0x04280019, 0x04280099, 0x05200019, 0, 0x04000099},
+    {FunctionCode::kDC, 0x0428001A, 0x0428009A, 0x0520001A, 0, 0x0400009A},
+    {FunctionCode::kSS, 0x0428001B, 0x0428009B, 0x0520001B, 0, 0x0400009B},
+    {FunctionCode::kSD, 0x0428001C, 0x0428009C, 0x0520001C, 0, 0x0400009C},
+    {FunctionCode::kJV, 0x0428001D, 0x0428009D, 0x0520001D, 0x0520002E, 0x0400009D},
+    {FunctionCode::kSP, 0x0428001E, 0x0428009E, 0x0520001E, 0x0520002E, 0x0400009E},
+    {FunctionCode::kPR, 0x0428001F, 0x0428009F, 0x0520001F, 0x0520002E, 0x0400009F},
+    {FunctionCode::kPA, 0x04280020, 0x042800A0, 0x05200020, 0x0520002E, 0x040000A0},
+    {FunctionCode::kOG, 0x04280021, 0x042800A1, 0x05200021, 0, 0x040000A1},
+    {FunctionCode::kBL, 0x0428002D, 0x042800AD, 0x0520002D, 0, 0x040000AD},
+    {FunctionCode::kDV, 0x0428002E, 0x042800AE, 0x0520002E, 0, 0x040000AE},
+    {FunctionCode::kIL, 0x04280034, 0x042800B4, 0x05200034, 0, 0x040000B4},
+    {FunctionCode::kTG, 0x04280035, 0x042800B5, 0x05200035, 0, 0x040000B5},
+    {FunctionCode::kDI, 0x04280037, 0x042800B7, 0x05200037, 0, 0x040000B7},
+    {FunctionCode::kQE, 0x0428003D, 0x042800BD, 0x0520003D, 0, 0x040000BD},
+    {FunctionCode::kRT, 0, 0, 0x0520005A, 0, 0},
+    {FunctionCode::kSY, 0x0428007E, 0, 0, 0, 0},
 };
 
 TEST(Uim342Identifier, CheatSheet) {
@@ -147,11 +147,11 @@ TEST(Uim342Identifier, CheatSheet) {
   for (const auto& row : kCheatSheet) {
     SCOPED_TRACE(std::string(mnemonic(row.function)));
     const auto* forms = find_forms(row.function);
-    if (row.function != FunctionCode::RT) {
+    if (row.function != FunctionCode::kRT) {
       ASSERT_NE(forms, nullptr);
-      EXPECT_EQ(row.no_ack_id != 0, forms->ack_forms != AckForms::ack_only);
-      EXPECT_EQ(row.ack_id != 0, forms->ack_forms != AckForms::no_ack_only);
-      EXPECT_EQ(row.reply_id != 0, forms->reply != Layout::none);
+      EXPECT_EQ(row.no_ack_id != 0, forms->ack_forms != AckForms::kAckOnly);
+      EXPECT_EQ(row.ack_id != 0, forms->ack_forms != AckForms::kNoAckOnly);
+      EXPECT_EQ(row.reply_id != 0, forms->reply != Layout::kNone);
       EXPECT_EQ(row.set_reply_id, forms->set_ack == row.function ? 0u : *encode_can_id({5, 4, code(forms->set_ack)}));
     }
     if (row.no_ack_id != 0) { EXPECT_EQ(*encode_can_id({4, 5, control_word(row.function, false)}), row.no_ack_id); }
@@ -164,13 +164,13 @@ TEST(Uim342Identifier, CheatSheet) {
 }
 
 TEST(Uim342Identifier, IdKinds) {
-  EXPECT_EQ(classify_id(0), IdKind::global);
-  EXPECT_EQ(classify_id(1), IdKind::master);
-  EXPECT_EQ(classify_id(kMasterId), IdKind::master);
-  EXPECT_EQ(classify_id(5), IdKind::node_or_group);
-  EXPECT_EQ(classify_id(126), IdKind::node_or_group);
-  EXPECT_EQ(classify_id(127), IdKind::unassignable);
-  EXPECT_EQ(classify_id(128), IdKind::out_of_range);
+  EXPECT_EQ(classify_id(0), IdKind::kGlobal);
+  EXPECT_EQ(classify_id(1), IdKind::kMaster);
+  EXPECT_EQ(classify_id(kMasterId), IdKind::kMaster);
+  EXPECT_EQ(classify_id(5), IdKind::kNodeOrGroup);
+  EXPECT_EQ(classify_id(126), IdKind::kNodeOrGroup);
+  EXPECT_EQ(classify_id(127), IdKind::kUnassignable);
+  EXPECT_EQ(classify_id(128), IdKind::kOutOfRange);
   EXPECT_FALSE(is_valid_node_id(4));
   EXPECT_TRUE(is_valid_node_id(5));
   EXPECT_TRUE(is_valid_node_id(126));
@@ -178,12 +178,12 @@ TEST(Uim342Identifier, IdKinds) {
 }
 
 TEST(Uim342Identifier, RejectsOutOfRangeIdsAndForeignIdentifiers) {
-  EXPECT_EQ(encode_can_id({128, 5, 0}).error(), CodecErrc::id_out_of_range);
-  EXPECT_EQ(encode_can_id({4, 200, 0}).error(), CodecErrc::id_out_of_range);
-  EXPECT_EQ(decode_can_id(0x20000000).error(), CodecErrc::identifier_out_of_range);
-  EXPECT_EQ(decode_can_id(0x04280095 | (1u << 18)).error(), CodecErrc::reserved_bits_set);
-  EXPECT_EQ(decode_can_id(0x04280095 | (1u << 8)).error(), CodecErrc::reserved_bits_set);
-  EXPECT_EQ(decode_can_id(0x04280095 | (1u << 13)).error(), CodecErrc::reserved_bits_set);
+  EXPECT_EQ(encode_can_id({128, 5, 0}).error(), CodecErrc::kIdOutOfRange);
+  EXPECT_EQ(encode_can_id({4, 200, 0}).error(), CodecErrc::kIdOutOfRange);
+  EXPECT_EQ(decode_can_id(0x20000000).error(), CodecErrc::kIdentifierOutOfRange);
+  EXPECT_EQ(decode_can_id(0x04280095 | (1u << 18)).error(), CodecErrc::kReservedBitsSet);
+  EXPECT_EQ(decode_can_id(0x04280095 | (1u << 8)).error(), CodecErrc::kReservedBitsSet);
+  EXPECT_EQ(decode_can_id(0x04280095 | (1u << 13)).error(), CodecErrc::kReservedBitsSet);
 }
 
 TEST(Uim342Identifier, CanCarriage) {
@@ -196,20 +196,20 @@ TEST(Uim342Identifier, CanCarriage) {
   can::Frame standard = test::frame(0x04280095, "01");
   standard.extended = false;
   standard.id = 0x123;
-  EXPECT_EQ(decode_can(standard).error(), CodecErrc::not_extended_frame);
+  EXPECT_EQ(decode_can(standard).error(), CodecErrc::kNotExtendedFrame);
   can::Frame remote = test::frame(0x04280095, "");
   remote.rtr = true;
-  EXPECT_EQ(decode_can(remote).error(), CodecErrc::remote_frame);
+  EXPECT_EQ(decode_can(remote).error(), CodecErrc::kRemoteFrame);
   can::Frame long_dlc = test::frame(0x04280095, "");
   long_dlc.dlc = 9;
-  EXPECT_EQ(decode_can(long_dlc).error(), CodecErrc::length_out_of_range);
+  EXPECT_EQ(decode_can(long_dlc).error(), CodecErrc::kLengthOutOfRange);
 
   Message too_long;
   too_long.length = 9;
-  EXPECT_EQ(encode_can({host_to(5), too_long}).error(), CodecErrc::length_out_of_range);
-  EXPECT_EQ(encode_can({host_to(128), Message{}}).error(), CodecErrc::id_out_of_range);
+  EXPECT_EQ(encode_can({host_to(5), too_long}).error(), CodecErrc::kLengthOutOfRange);
+  EXPECT_EQ(encode_can({host_to(128), Message{}}).error(), CodecErrc::kIdOutOfRange);
   const std::uint8_t nine[9] = {};
-  EXPECT_EQ(Message::make(0x95, nine).error(), CodecErrc::length_out_of_range);
+  EXPECT_EQ(Message::make(0x95, nine).error(), CodecErrc::kLengthOutOfRange);
 }
 
 }  // namespace

@@ -43,10 +43,10 @@ TEST(Uim342UiMessageStream, FramesSplitAnywhereComeOutWhole) {
     ASSERT_EQ(got.size(), 3u);
     EXPECT_EQ(got[0].message.id, 5);
     EXPECT_EQ(got[0].message.message.control_word, 0x15);
-    EXPECT_EQ(got[0].crc, CrcCoverage::start_to_aux);
+    EXPECT_EQ(got[0].crc, CrcCoverage::kStartToAux);
     EXPECT_EQ(got[1].message.message.control_word, 0x9D);
     EXPECT_EQ(got[1].message.message.length, 4);
-    EXPECT_EQ(got[2].crc, CrcCoverage::id_to_aux);
+    EXPECT_EQ(got[2].crc, CrcCoverage::kIdToAux);
     EXPECT_EQ(stream.counters().frames, 3u);
     EXPECT_EQ(stream.counters().discarded_bytes, 0u);
   }
@@ -75,7 +75,7 @@ TEST(Uim342UiMessageStream, CorruptCrcIsCountedAndAFrameStartingInsideItIsFound)
   stream.feed(test::hex_bytes(kAckB));
   const auto got = drain(stream);
   ASSERT_EQ(got.size(), 1u);
-  EXPECT_EQ(got[0].crc, CrcCoverage::id_to_aux);
+  EXPECT_EQ(got[0].crc, CrcCoverage::kIdToAux);
   EXPECT_EQ(stream.counters().crc_errors, 1u);
   EXPECT_EQ(stream.counters().discarded_bytes, kUiMessageSize);
 
@@ -93,12 +93,12 @@ TEST(Uim342UiMessageStream, CorruptCrcIsCountedAndAFrameStartingInsideItIsFound)
 }
 
 TEST(Uim342UiMessageStream, StrictAcceptanceAndMalformedLength) {
-  UiMessageStream strict(CrcAcceptance::start_to_aux);
+  UiMessageStream strict(CrcAcceptance::kStartToAux);
   strict.feed(test::hex_bytes(kAckB));
   strict.feed(test::hex_bytes(kAckA));
   const auto got = drain(strict);
   ASSERT_EQ(got.size(), 1u);
-  EXPECT_EQ(got[0].crc, CrcCoverage::start_to_aux);
+  EXPECT_EQ(got[0].crc, CrcCoverage::kStartToAux);
   EXPECT_EQ(strict.counters().crc_errors, 1u);
 
   UiMessageStream stream;
@@ -119,7 +119,7 @@ TEST(Uim342UiMessageMapping, TheIdIsTheDrivesSideOfTheExchange) {
   EXPECT_EQ(instruction_from_ui(*ui), mo);
   EXPECT_EQ(encode_can(instruction_from_ui(*ui))->id, 0x04280095u);
   // An instruction from another producer has no UIMessage form.
-  EXPECT_EQ(instruction_to_ui({{6, 5}, mo.message}).error(), CodecErrc::producer_not_host);
+  EXPECT_EQ(instruction_to_ui({{6, 5}, mo.message}).error(), CodecErrc::kProducerNotHost);
 
   // Drive frame: MO ACK from node 100 -> master 4 is 0x04230015 (derived from the §2.5 layout).
   const CanMessage ack{drive_to_host(100), *Message::make(0x15, std::vector<std::uint8_t>{1})};

@@ -20,8 +20,8 @@ class FakeDrive {
   // Micro-steps as its EEPROM holds them at power-up (MT[0], QE[4] = x 200): the lab's 16.
   explicit FakeDrive(std::uint8_t node, std::uint8_t group, std::uint16_t micro_steps = 16)
       : node_(node), group_(group), pending_group_(group) {
-    words_[{uim342::FunctionCode::MT, 0}] = micro_steps;
-    words_[{uim342::FunctionCode::QE, 4}] = static_cast<std::uint16_t>(micro_steps * 200);
+    words_[{uim342::FunctionCode::kMT, 0}] = micro_steps;
+    words_[{uim342::FunctionCode::kQE, 4}] = static_cast<std::uint16_t>(micro_steps * 200);
   }
   bool keeps_micro_steps = true;  // false: MT[0] reverts to `micro_steps` at every reboot
   int reboots = 0;
@@ -55,61 +55,61 @@ class FakeDrive {
     if (const auto it = refuse.find(in.function); it != refuse.end()) {
       return {reply(uim342::error_report(it->second, in.control_word(), in.sub_index().value_or(0)))};
     }
-    const bool set = in.operation == uim342::Operation::set;
+    const bool set = in.operation == uim342::Operation::kSet;
     std::optional<uim342::Reply> answer = set ? uim342::echo_ack(in) : std::nullopt;
     switch (in.function) {
-      case FC::ML: answer = uim342::Reply{FC::ML, uim342::ModelInfo{{0x20, 0x0A, 0x11, 0x00}, 0x0102, 0}}; break;
-      case FC::PP:
+      case FC::kML: answer = uim342::Reply{FC::kML, uim342::ModelInfo{{0x20, 0x0A, 0x11, 0x00}, 0x0102, 0}}; break;
+      case FC::kPP:
         if (set) {
           pending_group_ = std::get<uim342::IndexedByte>(in.body).value;
         } else {
-          answer = uim342::Reply{FC::PP, uim342::IndexedByte{std::get<uim342::Index>(in.body).index, group_}};
+          answer = uim342::Reply{FC::kPP, uim342::IndexedByte{std::get<uim342::Index>(in.body).index, group_}};
         }
         break;
-      case FC::SY:  // reboot: never answered
+      case FC::kSY:  // reboot: never answered
         group_ = pending_group_;
         ++reboots;
-        if (!keeps_micro_steps) words_[{FC::MT, 0}] = 0;
+        if (!keeps_micro_steps) words_[{FC::kMT, 0}] = 0;
         return {};
-      case FC::MO:
+      case FC::kMO:
         if (set) enabled_ = std::get<uim342::Byte>(in.body).value != 0;
-        answer = uim342::Reply{FC::MO, uim342::Byte{static_cast<std::uint8_t>(enabled_ ? 1 : 0)}};
+        answer = uim342::Reply{FC::kMO, uim342::Byte{static_cast<std::uint8_t>(enabled_ ? 1 : 0)}};
         break;
-      case FC::MS: {
+      case FC::kMS: {
         if (set) {
           in_position_ = false;
           stalled = false;
         }
         const auto index = set ? std::uint8_t{0} : std::get<uim342::Index>(in.body).index;
         if (index == 1) {
-          answer = uim342::Reply{FC::MS, uim342::MotionKinematics{moving_ ? 1000 : 0, position_}};
+          answer = uim342::Reply{FC::kMS, uim342::MotionKinematics{moving_ ? 1000 : 0, position_}};
         } else {
-          answer = uim342::Reply{FC::MS, uim342::MotionStatus{io_status(), flags(), 0}};
+          answer = uim342::Reply{FC::kMS, uim342::MotionStatus{io_status(), flags(), 0}};
         }
         break;
       }
-      case FC::PA: target_ = std::get<uim342::Signed>(in.body).value; break;
-      case FC::IL:  // ports 0..2: d1 falling-edge, d2 rising-edge action byte (§5.26)
+      case FC::kPA: target_ = std::get<uim342::Signed>(in.body).value; break;
+      case FC::kIL:  // ports 0..2: d1 falling-edge, d2 rising-edge action byte (§5.26)
         if (const auto* a = std::get_if<uim342::InputActions>(&in.body)) {
           words_[{in.function, a->index}] = static_cast<std::uint16_t>(a->falling.byte() | (a->rising.byte() << 8));
         } else if (const auto* i = std::get_if<uim342::Index>(&in.body); i && i->index <= 2) {
-          const auto w = word(FC::IL, i->index);
+          const auto w = word(FC::kIL, i->index);
           answer = uim342::Reply{
-              FC::IL, uim342::InputActions{i->index, uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w & 0xFF)),
-                                           uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w >> 8))}};
+              FC::kIL,
+              uim342::InputActions{i->index, uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w & 0xFF)),
+                                   uim342::EdgeAction::from_byte(static_cast<std::uint8_t>(w >> 8))}};
         }
         break;
-      case FC::BG:
-        if (!enabled_)
-          return {reply(uim342::error_report(uim342::DriveErrc::bg_while_driver_off, in.control_word(), 0))};
+      case FC::kBG:
+        if (!enabled_) return {reply(uim342::error_report(uim342::DriveErrc::kBgWhileDriverOff, in.control_word(), 0))};
         moving_ = true;
         in_position_ = false;
         break;
-      case FC::ST: moving_ = false; break;
-      case FC::OG: position_ = 0; break;
-      case FC::DI:
+      case FC::kST: moving_ = false; break;
+      case FC::kOG: position_ = 0; break;
+      case FC::kDI:
         if (set) outputs_ = std::get<uim342::DigitalOutput>(in.body).outputs & 1U;
-        answer = uim342::Reply{FC::DI, uim342::DigitalIo{inputs, outputs_}};
+        answer = uim342::Reply{FC::kDI, uim342::DigitalIo{inputs, outputs_}};
         break;
       default:
         if (const auto* w = std::get_if<uim342::IndexedWord>(&in.body)) words_[{in.function, w->index}] = w->value;
@@ -138,11 +138,11 @@ class FakeDrive {
     position_ = overshoot;
     moving_ = false;
     return {*uim342::notification_frame(
-        node_, uim342::InputEdgeNotification{port, level ? uim342::Edge::rising : uim342::Edge::falling})};
+        node_, uim342::InputEdgeNotification{port, level ? uim342::Edge::kRising : uim342::Edge::kFalling})};
   }
   std::vector<can::Frame> alarm(uim342::AlarmCode code) {
     moving_ = false;
-    if (code == uim342::AlarmCode::stall) stalled = true;
+    if (code == uim342::AlarmCode::kStall) stalled = true;
     return {*uim342::notification_frame(node_, uim342::AlarmNotification{code})};
   }
 

@@ -231,21 +231,21 @@ TEST_F(Uim342StackTest, StartIdentifiesAppliesSetupAndBecomesReady) {
   EXPECT_TRUE(stack->ready());
   const auto x = sent_to(5);
   ASSERT_FALSE(x.empty());
-  EXPECT_EQ(x.front(), uim342::request::get(FC::ML));  // §5.4 identification first
+  EXPECT_EQ(x.front(), uim342::request::get(FC::kML));  // §5.4 identification first
   const auto has = [&](const uim342::Instruction& i) { return std::find(x.begin(), x.end(), i) != x.end(); };
-  EXPECT_TRUE(has(uim342::request::get(uim342::ProtocolParameter::group_id)));
+  EXPECT_TRUE(has(uim342::request::get(uim342::ProtocolParameter::kGroupId)));
   // MT[0] / QE[4] already at the configured 16 / 3200: read, not rewritten (no restart).
-  EXPECT_TRUE(has(uim342::request::get(uim342::MotorDriver::microstepping)));
-  EXPECT_TRUE(has(uim342::request::get(uim342::QuadratureEncoder::counts_per_revolution)));
-  EXPECT_FALSE(has(uim342::request::set(uim342::MotorDriver::microstepping, 16)));
-  EXPECT_EQ(count_sent(5, FC::SY), 0u);
-  EXPECT_TRUE(has(uim342::request::set(uim342::MotorDriver::working_current, 20)));
-  EXPECT_TRUE(has(uim342::request::set(uim342::InitialConfig::acceleration_unit, 0)));
-  EXPECT_TRUE(has(uim342::request::set(uim342::InitialConfig::closed_loop, 0)));
-  EXPECT_TRUE(has(uim342::request::set(uim342::InformationEnable::position_reached, true)));
-  EXPECT_TRUE(has(uim342::request::set(uim342::InformationEnable::in1_change, true)));
-  EXPECT_EQ(drives.at(7).word(FC::MT, 1), 15);  // z: 1.5 A
-  EXPECT_EQ(count_sent(7, FC::PP), 0u);         // z has no group id
+  EXPECT_TRUE(has(uim342::request::get(uim342::MotorDriver::kMicrostepping)));
+  EXPECT_TRUE(has(uim342::request::get(uim342::QuadratureEncoder::kCountsPerRevolution)));
+  EXPECT_FALSE(has(uim342::request::set(uim342::MotorDriver::kMicrostepping, 16)));
+  EXPECT_EQ(count_sent(5, FC::kSY), 0u);
+  EXPECT_TRUE(has(uim342::request::set(uim342::MotorDriver::kWorkingCurrent, 20)));
+  EXPECT_TRUE(has(uim342::request::set(uim342::InitialConfig::kAccelerationUnit, 0)));
+  EXPECT_TRUE(has(uim342::request::set(uim342::InitialConfig::kClosedLoop, 0)));
+  EXPECT_TRUE(has(uim342::request::set(uim342::InformationEnable::kPositionReached, true)));
+  EXPECT_TRUE(has(uim342::request::set(uim342::InformationEnable::kIn1Change, true)));
+  EXPECT_EQ(drives.at(7).word(FC::kMT, 1), 15);  // z: 1.5 A
+  EXPECT_EQ(count_sent(7, FC::kPP), 0u);         // z has no group id
   EXPECT_TRUE(has_event(event_t::ONLINE, "x"));
 
   motionlcm::bus_stats_t stats{};
@@ -256,13 +256,13 @@ TEST_F(Uim342StackTest, StartIdentifiesAppliesSetupAndBecomesReady) {
   // Polling at the bus's poll rate (20 Hz): MS[0] and MS[1] per node, status published.
   clear_records();
   run_for(milliseconds(50));
-  EXPECT_EQ(count_sent(5, FC::MS), 2u);
-  EXPECT_EQ(count_sent(7, FC::MS), 2u);
+  EXPECT_EQ(count_sent(5, FC::kMS), 2u);
+  EXPECT_EQ(count_sent(7, FC::kMS), 2u);
   ASSERT_FALSE(out.statuses.empty());
   EXPECT_TRUE(out.statuses.back().second.online);
   EXPECT_EQ(out.statuses.back().second.sample_utime, kEpochUs + 10'050'000);
   run_for(milliseconds(100));
-  EXPECT_EQ(count_sent(5, FC::MS), 6u);
+  EXPECT_EQ(count_sent(5, FC::kMS), 6u);
 }
 
 // §5.9, §5.7: micro-steps apply only when stored with the driver off and the drive restarted.
@@ -277,9 +277,9 @@ TEST_F(Uim342StackTest, MicroStepsAreStoredWithTheDriverOffAndTheDriveRestartedB
   const auto x = sent_to(5);
   const auto index_of = [&](const uim342::Instruction& i) { return std::find(x.begin(), x.end(), i) - x.begin(); };
   const auto off = index_of(uim342::request::driver_on(false));
-  const auto mt = index_of(uim342::request::set(uim342::MotorDriver::microstepping, 16));
-  const auto qe = index_of(uim342::request::set(uim342::QuadratureEncoder::counts_per_revolution, 3200));
-  const auto sy = index_of(uim342::request::system(uim342::SystemOperation::reboot));
+  const auto mt = index_of(uim342::request::set(uim342::MotorDriver::kMicrostepping, 16));
+  const auto qe = index_of(uim342::request::set(uim342::QuadratureEncoder::kCountsPerRevolution, 3200));
+  const auto sy = index_of(uim342::request::system(uim342::SystemOperation::kReboot));
   ASSERT_LT(sy, static_cast<std::ptrdiff_t>(x.size()));
   EXPECT_LT(off, mt);
   EXPECT_LT(mt, qe);
@@ -288,7 +288,7 @@ TEST_F(Uim342StackTest, MicroStepsAreStoredWithTheDriverOffAndTheDriveRestartedB
   run_for(milliseconds(1100));  // reboot_wait, then identified, set up and read back
   EXPECT_TRUE(stack->ready());
   EXPECT_EQ(drives.at(5).reboots, 1);
-  EXPECT_EQ(drives.at(5).word(FC::MT, 0), 16);
+  EXPECT_EQ(drives.at(5).word(FC::kMT, 0), 16);
 }
 
 // A drive that does not keep MT[0] over the restart: CONFIG_MISMATCH naming drive and value,
@@ -318,8 +318,8 @@ TEST_F(Uim342StackTest, PollingIsSlowedToWhatTheBusCarriesAndSaysSo) {
   build(yaml.c_str());
   const auto cycle = [](std::size_t polled) {
     // One poll of a drive: two requests and two ACKs, the longest ACK 8 bytes (MS[1]).
-    const auto request = uim342::instruction_frame(5, uim342::request::get(uim342::MotionStatusIndex::kinematics));
-    const auto ack = uim342::reply_frame(5, uim342::Reply{FC::MS, uim342::MotionKinematics{-1, -1}});
+    const auto request = uim342::instruction_frame(5, uim342::request::get(uim342::MotionStatusIndex::kKinematics));
+    const auto ack = uim342::reply_frame(5, uim342::Reply{FC::kMS, uim342::MotionKinematics{-1, -1}});
     return 2 * (can::frame_duration(*request, 1'000'000) + can::frame_duration(*ack, 1'000'000)) *
            static_cast<std::int64_t>(polled);
   };
@@ -352,7 +352,7 @@ TEST_F(Uim342StackTest, RequestTimeoutAllowsForTheRequestsAheadOnTheWire) {
   start_and_set_up();
   for (auto& [id, d] : drives) d.silent = true;
   execute(command(gateway_command_t::ENABLE, {"x", "y", "z"}));
-  ASSERT_EQ(count_sent(5, FC::MO) + count_sent(6, FC::MO) + count_sent(7, FC::MO), 3u);
+  ASSERT_EQ(count_sent(5, FC::kMO) + count_sent(6, FC::kMO) + count_sent(7, FC::kMO), 3u);
   run_for(milliseconds(50) + std::chrono::microseconds(150));
   EXPECT_EQ(stack->counters().retries, 0);  // at exactly request_timeout_ms they would all be retried
   run_for(milliseconds(2));
@@ -367,12 +367,12 @@ TEST_F(Uim342StackTest, WrongGroupIdIsWrittenAndTheDriveRebooted) {
   stack->start(now);
   settle();
   EXPECT_FALSE(stack->ready());
-  EXPECT_EQ(count_sent(6, FC::SY), 1u);
+  EXPECT_EQ(count_sent(6, FC::kSY), 1u);
   EXPECT_TRUE(has_event(event_t::REBOOT, "y"));
   run_for(milliseconds(1001));  // reboot_wait, then identified and set up again
   EXPECT_EQ(drives.at(6).group(), 20);
   EXPECT_TRUE(stack->ready());
-  EXPECT_EQ(count_sent(6, FC::ML), 2u);
+  EXPECT_EQ(count_sent(6, FC::kML), 2u);
 }
 
 TEST_F(Uim342StackTest, SilentNodeIsOfflineRetriedWithBackOffAndRecovers) {
@@ -380,7 +380,7 @@ TEST_F(Uim342StackTest, SilentNodeIsOfflineRetriedWithBackOffAndRecovers) {
   stack->start(now);
   settle();
   run_for(milliseconds(160));  // 3 tries of 50 ms
-  EXPECT_EQ(count_sent(7, FC::ML), 3u);
+  EXPECT_EQ(count_sent(7, FC::kML), 3u);
   EXPECT_FALSE(stack->ready());
   const auto* offline = find_event(event_t::OFFLINE);
   ASSERT_NE(offline, nullptr);
@@ -397,11 +397,11 @@ TEST_F(Uim342StackTest, SilentNodeIsOfflineRetriedWithBackOffAndRecovers) {
   // Back-off: 500 ms, then 1000 ms; one OFFLINE event only.
   sent.clear();
   run_for(milliseconds(600));
-  EXPECT_EQ(count_sent(7, FC::ML), 3u);
+  EXPECT_EQ(count_sent(7, FC::kML), 3u);
   run_for(milliseconds(600));
-  EXPECT_EQ(count_sent(7, FC::ML), 3u);
+  EXPECT_EQ(count_sent(7, FC::kML), 3u);
   run_for(milliseconds(600));
-  EXPECT_EQ(count_sent(7, FC::ML), 6u);
+  EXPECT_EQ(count_sent(7, FC::kML), 6u);
   EXPECT_EQ(std::count_if(out.events.begin(), out.events.end(),
                           [](const auto& e) { return e.second.kind == event_t::OFFLINE; }),
             1);
@@ -451,13 +451,13 @@ TEST_F(Uim342StackTest, ArmedGroupMoveStartsWithOneBgToTheGroupId) {
   // Armed nodes are not polled (the trigger goes out at once), and no deadline is due for them.
   sent.clear();
   run_for(milliseconds(200));
-  EXPECT_EQ(count_sent(5, FC::MS), 0u);
-  EXPECT_EQ(count_sent(7, FC::MS), 8u);  // z is still polled
+  EXPECT_EQ(count_sent(5, FC::kMS), 0u);
+  EXPECT_EQ(count_sent(7, FC::kMS), 8u);  // z is still polled
   EXPECT_GT(stack->process(now), now);
   stack->fire(77, now);
   settle();
-  EXPECT_EQ(count_sent(20, FC::BG), 1u);
-  EXPECT_EQ(count_sent(5, FC::BG) + count_sent(6, FC::BG), 0u);
+  EXPECT_EQ(count_sent(20, FC::kBG), 1u);
+  EXPECT_EQ(count_sent(5, FC::kBG) + count_sent(6, FC::kBG), 0u);
   EXPECT_TRUE(drives.at(5).moving());
   EXPECT_TRUE(drives.at(6).moving());
   ASSERT_EQ(replies_of(id).size(), 2u);
@@ -486,8 +486,8 @@ TEST_F(Uim342StackTest, MoveOfAxesWithoutACommonGroupStartsSequentiallyAndEndsBy
   move.axes[1].target_counts = 200;
   const auto id = execute(move);
   EXPECT_EQ(statuses_of(id), (std::vector<std::int8_t>{kArmed, kStarted}));
-  EXPECT_EQ(count_sent(5, FC::BG), 1u);
-  EXPECT_EQ(count_sent(7, FC::BG), 1u);
+  EXPECT_EQ(count_sent(5, FC::kBG), 1u);
+  EXPECT_EQ(count_sent(7, FC::kBG), 1u);
   const auto started = replies_of(id)[1];
   EXPECT_EQ(started.start_mechanism, "sequential");
   const auto bg = *uim342::instruction_frame(5, uim342::request::begin());
@@ -505,8 +505,8 @@ TEST_F(Uim342StackTest, GroupIsNotUsedWhenAGroupMemberIsNotPartOfTheMove) {
   start_and_set_up();
   enable({"x"});
   const auto id = execute(command(gateway_command_t::ARM_MOVE, {"x"}));
-  EXPECT_EQ(count_sent(20, FC::BG), 0u);  // y is in group 20 too and must not start
-  EXPECT_EQ(count_sent(5, FC::BG), 1u);
+  EXPECT_EQ(count_sent(20, FC::kBG), 0u);  // y is in group 20 too and must not start
+  EXPECT_EQ(count_sent(5, FC::kBG), 1u);
   EXPECT_EQ(replies_of(id).at(1).start_mechanism, "sequential");
   EXPECT_EQ(replies_of(id).at(1).predicted_skew_us, 0.0);
   EXPECT_FALSE(drives.at(6).moving());
@@ -524,8 +524,8 @@ TEST_F(Uim342StackTest, TimeoutAfterTheLastRetryFailsWithTheDriveNodeAndInstruct
   EXPECT_EQ(r.status, kFailed);
   EXPECT_EQ(r.reason, "x-drive (node 5) did not answer PA after 3 tries");
   EXPECT_EQ(r.error_code, error_code(ReplyError::kTimeout));
-  EXPECT_EQ(count_sent(5, FC::PA), 3u);
-  EXPECT_EQ(count_sent(5, FC::SP), 0u);  // nothing else of the command went out
+  EXPECT_EQ(count_sent(5, FC::kPA), 3u);
+  EXPECT_EQ(count_sent(5, FC::kSP), 0u);  // nothing else of the command went out
   EXPECT_TRUE(has_event(event_t::TIMEOUT, "x"));
   EXPECT_TRUE(has_event(event_t::OFFLINE, "x"));
   EXPECT_EQ(stack->counters().retries, 2);
@@ -536,7 +536,7 @@ TEST_F(Uim342StackTest, TimeoutAfterTheLastRetryFailsWithTheDriveNodeAndInstruct
 TEST_F(Uim342StackTest, ErrorReportFailsTheCommandWithTheDriveError) {
   start_and_set_up();
   enable({"x"});
-  drives.at(5).refuse[FC::PA] = uim342::DriveErrc::data_error;
+  drives.at(5).refuse[FC::kPA] = uim342::DriveErrc::kDataError;
   const auto id = execute(command(gateway_command_t::ARM_MOVE, {"x"}));
   const auto r = last_reply(id);
   EXPECT_EQ(r.status, kFailed);
@@ -545,7 +545,7 @@ TEST_F(Uim342StackTest, ErrorReportFailsTheCommandWithTheDriveError) {
   const auto* e = find_event(event_t::ERROR_REPORT);
   ASSERT_NE(e, nullptr);
   EXPECT_EQ(e->code, 0x33);
-  EXPECT_EQ(count_sent(5, FC::SP), 0u);
+  EXPECT_EQ(count_sent(5, FC::kSP), 0u);
 }
 
 TEST_F(Uim342StackTest, BgWhileDriverOffIsReportedAsDriveError) {
@@ -560,7 +560,7 @@ TEST_F(Uim342StackTest, StallNotificationFailsTheMoveAndRaisesAStallEvent) {
   enable({"x", "y"});
   const auto id = execute(command(gateway_command_t::ARM_MOVE, {"x", "y"}));
   ASSERT_EQ(last_reply(id).status, kStarted);
-  deliver(drives.at(6).alarm(uim342::AlarmCode::stall));
+  deliver(drives.at(6).alarm(uim342::AlarmCode::kStall));
   const auto r = last_reply(id);
   EXPECT_EQ(r.status, kFailed);
   EXPECT_EQ(r.error_code, error_code(ReplyError::kAxisFault));
@@ -595,7 +595,7 @@ TEST_F(Uim342StackTest, StopEndsTheMoveAndSendsSt) {
   EXPECT_EQ(last_reply(move).status, kFailed);
   EXPECT_EQ(last_reply(move).error_code, error_code(ReplyError::kStopped));
   EXPECT_EQ(last_reply(stop).status, kDone);
-  EXPECT_EQ(count_sent(5, FC::ST), 1u);
+  EXPECT_EQ(count_sent(5, FC::kST), 1u);
   EXPECT_FALSE(drives.at(5).moving());
 }
 
@@ -614,7 +614,7 @@ TEST_F(Uim342StackTest, StopNamingAnOfflineDriveStillStopsTheOthers) {
     sent.clear();
     const auto stop = execute(command(kind, {"x", "z"}));
     run_for(milliseconds(60));
-    EXPECT_EQ(count_sent(5, FC::ST), 1u);
+    EXPECT_EQ(count_sent(5, FC::kST), 1u);
     EXPECT_FALSE(drives.at(5).moving());
     EXPECT_EQ(last_reply(move).status, kFailed);
     EXPECT_EQ(last_reply(stop).status, kFailed);
@@ -634,8 +634,8 @@ TEST_F(Uim342StackTest, EstopGoesAheadOfQueuedWorkAndFailsIt) {
   drives.at(5).silent = false;
   run_for(milliseconds(60));  // PA is retried, then ST goes out
   EXPECT_EQ(last_reply(estop).status, kDone);
-  EXPECT_EQ(count_sent(5, FC::SP), 0u);
-  EXPECT_EQ(count_sent(5, FC::ST), 1u);
+  EXPECT_EQ(count_sent(5, FC::kSP), 0u);
+  EXPECT_EQ(count_sent(5, FC::kST), 1u);
   // Like every family after an e-stop, the drive ends with its power stage off: ST, then MO=0.
   const auto x = sent_to(5);
   const auto st = std::find(x.begin(), x.end(), uim342::request::stop());
@@ -664,11 +664,11 @@ TEST_F(Uim342StackTest, HomeSetsTheOriginAndSetPositionKeepsAnOffset) {
   enable({"x"});
   const auto home = execute(command(gateway_command_t::HOME, {"x"}));
   EXPECT_EQ(last_reply(home).status, kDone);
-  EXPECT_EQ(count_sent(5, FC::OG), 1u);
+  EXPECT_EQ(count_sent(5, FC::kOG), 1u);
   EXPECT_TRUE(stack->status("x")->homed);
   // x has no `homing:`: zero in place, and the reply says that no switch was searched.
   EXPECT_NE(last_reply(home).reason.find("no switch search"), std::string::npos) << last_reply(home).reason;
-  EXPECT_EQ(count_sent(5, FC::JV), 0u);
+  EXPECT_EQ(count_sent(5, FC::kJV), 0u);
 
   auto set = command(gateway_command_t::SET_POSITION, {"x"});
   set.axes[0].target_counts = 1000;
@@ -743,7 +743,7 @@ TEST_F(Uim342StackTest, DisarmEndsAnArmedMove) {
   EXPECT_EQ(last_reply(disarm).status, kDone);
   stack->fire(5, now);
   settle();
-  EXPECT_EQ(count_sent(20, FC::BG), 0u);
+  EXPECT_EQ(count_sent(20, FC::kBG), 0u);
 }
 
 TEST_F(Uim342StackTest, RefusesUnknownAxesBusyAxesAndEmptyCommands) {
@@ -766,11 +766,11 @@ TEST_F(Uim342StackTest, MalformedForeignAndUnexpectedFramesAreIgnoredAndCounted)
   EXPECT_TRUE(stack->on_frame(*can::Frame::make(0x05200015, true, std::vector<std::uint8_t>{1, 0}), now));
   EXPECT_EQ(stack->counters().malformed, 1);
   // From node 99 (not configured) and a standard frame: left to other stacks.
-  EXPECT_FALSE(stack->on_frame(*uim342::reply_frame(99, {FC::MO, uim342::Byte{1}}), now));
+  EXPECT_FALSE(stack->on_frame(*uim342::reply_frame(99, {FC::kMO, uim342::Byte{1}}), now));
   EXPECT_EQ(stack->counters().foreign, 1);
   EXPECT_FALSE(stack->on_frame(*can::Frame::make(0x181, false, std::vector<std::uint8_t>{1}), now));
   // A well-formed ACK nobody waited for.
-  EXPECT_TRUE(stack->on_frame(*uim342::reply_frame(5, {FC::MO, uim342::Byte{1}}), now));
+  EXPECT_TRUE(stack->on_frame(*uim342::reply_frame(5, {FC::kMO, uim342::Byte{1}}), now));
   EXPECT_EQ(stack->counters().unexpected, 1);
   motionlcm::bus_stats_t stats{};
   stack->add_statistics(stats);
@@ -780,14 +780,15 @@ TEST_F(Uim342StackTest, MalformedForeignAndUnexpectedFramesAreIgnoredAndCounted)
 
 TEST_F(Uim342StackTest, InputEdgesAndAlarmsBecomeEvents) {
   start_and_set_up();
-  deliver(*uim342::notification_frame(5, uim342::InputEdgeNotification{uim342::InputPort::in2, uim342::Edge::rising}));
+  deliver(
+      *uim342::notification_frame(5, uim342::InputEdgeNotification{uim342::InputPort::kIn2, uim342::Edge::kRising}));
   const auto* edge = find_event(event_t::INPUT_EDGE);
   ASSERT_NE(edge, nullptr);
   EXPECT_EQ(edge->text, "x-drive (node 5): IN2 rising edge");
   EXPECT_EQ(stack->status("x")->inputs, 2);
-  deliver(*uim342::notification_frame(7, uim342::AlarmNotification{uim342::AlarmCode::above_upper_limit}));
+  deliver(*uim342::notification_frame(7, uim342::AlarmNotification{uim342::AlarmCode::kAboveUpperLimit}));
   EXPECT_TRUE(has_event(event_t::LIMIT, "z"));
-  deliver(*uim342::notification_frame(6, uim342::AlarmNotification{uim342::AlarmCode::encoder_battery_low}));
+  deliver(*uim342::notification_frame(6, uim342::AlarmNotification{uim342::AlarmCode::kEncoderBatteryLow}));
   const auto* battery = find_event(event_t::ALARM);
   ASSERT_NE(battery, nullptr);
   EXPECT_EQ(battery->severity, kWarning);
@@ -795,7 +796,7 @@ TEST_F(Uim342StackTest, InputEdgesAndAlarmsBecomeEvents) {
 }
 
 TEST_F(Uim342StackTest, RefusedSetupValueIsAConfigMismatchAndNotReady) {
-  drives.at(7).refuse[FC::MT] = uim342::DriveErrc::data_error;
+  drives.at(7).refuse[FC::kMT] = uim342::DriveErrc::kDataError;
   stack->start(now);
   settle();
   EXPECT_FALSE(stack->ready());
@@ -823,7 +824,8 @@ std::string homing_lab() {
 
 std::vector<uim342::Instruction> without_polls(std::vector<uim342::Instruction> list) {
   std::erase_if(list, [](const uim342::Instruction& i) {
-    return i.function == FC::MS && i.operation == uim342::Operation::get && std::get<uim342::Index>(i.body).index == 1;
+    return i.function == FC::kMS && i.operation == uim342::Operation::kGet &&
+           std::get<uim342::Index>(i.body).index == 1;
   });
   return list;
 }
@@ -835,8 +837,8 @@ TEST_F(Uim342StackTest, HomeOnASwitchArmsTheOriginActionJogsRestoresAndReturnsTo
   drives.at(5).inputs = 0x02;  // IN2 high: off the switch
   // The drive's IL[1] before homing (§5.26 example bytes): restored afterwards.
   drives.at(5).handle(*uim342::instruction_frame(
-      5, uim342::request::set_input_logic(uim342::InputPort::in2,
-                                          uim342::EdgeAction{uim342::InputAction::decelerate_stop, false},
+      5, uim342::request::set_input_logic(uim342::InputPort::kIn2,
+                                          uim342::EdgeAction{uim342::InputAction::kDecelerateStop, false},
                                           uim342::EdgeAction{})));
   sent.clear();
   auto cmd = command(gateway_command_t::HOME, {"x"});
@@ -849,14 +851,14 @@ TEST_F(Uim342StackTest, HomeOnASwitchArmsTheOriginActionJogsRestoresAndReturnsTo
   namespace rq = uim342::request;
   using uim342::EdgeAction;
   using uim342::InputAction;
-  const EdgeAction origin{InputAction::origin_then_decelerate_stop, true};  // 0x86: FG = 1, action 0x06
-  const EdgeAction nothing{InputAction::none, true};                        // 0x80
+  const EdgeAction origin{InputAction::kOriginThenDecelerateStop, true};  // 0x86: FG = 1, action 0x06
+  const EdgeAction nothing{InputAction::kNone, true};                     // 0x80
   auto x = without_polls(sent_to(5));
-  const std::vector<uim342::Instruction> search{rq::get(uim342::MotionStatusIndex::status),
+  const std::vector<uim342::Instruction> search{rq::get(uim342::MotionStatusIndex::kStatus),
                                                 rq::get_input_logic(1),
-                                                rq::select_group(uim342::ParameterGroup::in2_falling),
+                                                rq::select_group(uim342::ParameterGroup::kIn2Falling),
                                                 rq::set_deceleration(10000),
-                                                rq::set_input_logic(uim342::InputPort::in2, origin, nothing),
+                                                rq::set_input_logic(uim342::InputPort::kIn2, origin, nothing),
                                                 rq::set_jog_velocity(-3200),
                                                 rq::set_acceleration(10000),
                                                 rq::set_deceleration(10000),
@@ -864,16 +866,16 @@ TEST_F(Uim342StackTest, HomeOnASwitchArmsTheOriginActionJogsRestoresAndReturnsTo
   ASSERT_GE(x.size(), search.size());
   EXPECT_EQ(std::vector<uim342::Instruction>(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(search.size())),
             search);
-  EXPECT_EQ(count_sent(5, FC::OG), 0u);  // the origin comes from the switch, not from OG
+  EXPECT_EQ(count_sent(5, FC::kOG), 0u);  // the origin comes from the switch, not from OG
 
   // The switch is reached: IN2 falls, the drive zeroes its counter there and stops 12 counts on.
   sent.clear();
-  deliver(drives.at(5).origin_action(uim342::InputPort::in2, false, -12));
+  deliver(drives.at(5).origin_action(uim342::InputPort::kIn2, false, -12));
   run_for(milliseconds(100));  // the next MS[0] poll sees it stopped on the switch
   x = without_polls(sent_to(5));
-  std::erase_if(x, [](const uim342::Instruction& i) { return i.function == FC::MS; });
+  std::erase_if(x, [](const uim342::Instruction& i) { return i.function == FC::kMS; });
   const std::vector<uim342::Instruction> back{
-      rq::set_input_logic(uim342::InputPort::in2, EdgeAction{InputAction::decelerate_stop, false}, EdgeAction{}),
+      rq::set_input_logic(uim342::InputPort::kIn2, EdgeAction{InputAction::kDecelerateStop, false}, EdgeAction{}),
       rq::set_absolute_position(0), rq::set_ptp_speed(3200), rq::begin()};
   EXPECT_EQ(x, back);
   EXPECT_TRUE(statuses_of(home).empty());
@@ -895,12 +897,12 @@ TEST_F(Uim342StackTest, HomeStartingOnTheSwitchLeavesItTheOtherWay) {
   const auto home = execute(cmd);
   run_for(milliseconds(10));
   const auto x = sent_to(5);
-  const uim342::EdgeAction origin{uim342::InputAction::origin_then_decelerate_stop, true};
-  const uim342::EdgeAction nothing{uim342::InputAction::none, true};
-  EXPECT_NE(std::find(x.begin(), x.end(), uim342::request::set_input_logic(uim342::InputPort::in2, nothing, origin)),
+  const uim342::EdgeAction origin{uim342::InputAction::kOriginThenDecelerateStop, true};
+  const uim342::EdgeAction nothing{uim342::InputAction::kNone, true};
+  EXPECT_NE(std::find(x.begin(), x.end(), uim342::request::set_input_logic(uim342::InputPort::kIn2, nothing, origin)),
             x.end());
   EXPECT_NE(std::find(x.begin(), x.end(), uim342::request::set_jog_velocity(3200)), x.end());
-  deliver(drives.at(5).origin_action(uim342::InputPort::in2, true, 5));
+  deliver(drives.at(5).origin_action(uim342::InputPort::kIn2, true, 5));
   run_for(milliseconds(100));
   deliver(drives.at(5).finish_move());
   EXPECT_EQ(last_reply(home).status, kDone);
@@ -925,9 +927,9 @@ TEST_F(Uim342StackTest, HomeWithoutTheSwitchStopsAndFailsNamingTheInputWithinIts
   EXPECT_NE(reason.find("IN2"), std::string::npos) << reason;
   EXPECT_NE(reason.find("not found"), std::string::npos) << reason;
   EXPECT_FALSE(drives.at(5).moving());  // ST
-  EXPECT_EQ(count_sent(5, FC::ST), 1u);
+  EXPECT_EQ(count_sent(5, FC::kST), 1u);
   // IL[1] disarmed: the drive's earlier (factory) value again.
-  EXPECT_EQ(drives.at(5).word(FC::IL, 1), 0);
+  EXPECT_EQ(drives.at(5).word(FC::kIL, 1), 0);
   EXPECT_FALSE(stack->status("x")->homed);
 }
 
@@ -937,7 +939,7 @@ TEST_F(Uim342StackTest, HomeOnASwitchNeedsTheDriverOn) {
   const auto home = execute(command(gateway_command_t::HOME, {"x"}));
   EXPECT_EQ(last_reply(home).status, kFailed);
   EXPECT_NE(last_reply(home).reason.find("disabled"), std::string::npos);
-  EXPECT_EQ(count_sent(5, FC::IL), 0u);  // IL with the driver off would go to EEPROM (§5.26)
+  EXPECT_EQ(count_sent(5, FC::kIL), 0u);  // IL with the driver off would go to EEPROM (§5.26)
 }
 
 }  // namespace

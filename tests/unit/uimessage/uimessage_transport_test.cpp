@@ -71,7 +71,7 @@ class UiMessageTransportTest : public ::testing::Test {
 };
 
 TEST_F(UiMessageTransportTest, SendWritesTheSpecVectorsInBothCrcCoverages) {
-  for (const auto coverage : {uim342::CrcCoverage::start_to_aux, uim342::CrcCoverage::id_to_aux}) {
+  for (const auto coverage : {uim342::CrcCoverage::kStartToAux, uim342::CrcCoverage::kIdToAux}) {
     UiMessageOptions options;
     options.crc = coverage;
     auto transport = open(options);
@@ -82,7 +82,7 @@ TEST_F(UiMessageTransportTest, SendWritesTheSpecVectorsInBothCrcCoverages) {
       SCOPED_TRACE(v.can);
       ASSERT_FALSE(transport->send(frame(v.can)));
       EXPECT_EQ(hex(peer->read(uim342::kUiMessageSize)),
-                coverage == uim342::CrcCoverage::start_to_aux ? v.variant_a : v.variant_b);
+                coverage == uim342::CrcCoverage::kStartToAux ? v.variant_a : v.variant_b);
     }
     const auto stats = transport->statistics();
     EXPECT_EQ(stats.tx_frames, std::size(kInstructions));
@@ -122,8 +122,8 @@ TEST_F(UiMessageTransportTest, ReceivedUiMessagesBecomeTheDrivesFramesWhicheverT
 
 TEST_F(UiMessageTransportTest, StrictAcceptanceCountsTheOtherCoverageAsCrcErrors) {
   UiMessageOptions options;
-  options.crc = uim342::CrcCoverage::id_to_aux;
-  options.accept = uim342::CrcAcceptance::id_to_aux;
+  options.crc = uim342::CrcCoverage::kIdToAux;
+  options.accept = uim342::CrcAcceptance::kIdToAux;
   auto transport = open(options);
   ASSERT_TRUE(transport);
   peer->write(kMoAckA);  // the manual's coverage: refused here
@@ -177,14 +177,14 @@ TEST_F(UiMessageTransportTest, RefusesFramesAUiMessageCannotCarry) {
   auto transport = open();
   ASSERT_TRUE(transport);
   const auto standard = transport->send(frame("123#DEADBEEF"));
-  EXPECT_EQ(standard, make_error_code(UiMessageErrc::standard_frame));
+  EXPECT_EQ(standard, make_error_code(UiMessageErrc::kStandardFrame));
   EXPECT_NE(standard.message().find("11-bit CAN frame"), std::string::npos) << standard.message();
   EXPECT_NE(standard.message().find("29-bit"), std::string::npos) << standard.message();
-  EXPECT_EQ(transport->send(frame("04280095#R")), make_error_code(UiMessageErrc::remote_frame));
-  EXPECT_EQ(transport->send(frame("04280195#01")), make_error_code(UiMessageErrc::not_simple_can));  // bit 8 reserved
+  EXPECT_EQ(transport->send(frame("04280095#R")), make_error_code(UiMessageErrc::kRemoteFrame));
+  EXPECT_EQ(transport->send(frame("04280195#01")), make_error_code(UiMessageErrc::kNotSimpleCan));  // bit 8 reserved
   const auto from_node_6 = *uim342::encode_can_id({6, 5, 0x95});
   EXPECT_EQ(transport->send(*can::Frame::make(from_node_6, true, std::vector<std::uint8_t>{1})),
-            make_error_code(UiMessageErrc::foreign_producer));
+            make_error_code(UiMessageErrc::kForeignProducer));
   EXPECT_EQ(transport->statistics().tx_dropped, 4u);
   EXPECT_EQ(transport->statistics().tx_frames, 0u);
   // Nothing of them reached the line: the next bytes are the next good frame's.
@@ -224,7 +224,7 @@ TEST_F(UiMessageTransportTest, HungUpPortIsReportedAndOpenedAgainOnTheNextSend) 
   EXPECT_EQ(events[0].state, can::BusState::kDisconnected);
   EXPECT_NE(events[0].text.find("uimessage:"), std::string::npos) << events[0].text;
   // Still gone: sends fail at once, nothing crashes.
-  EXPECT_EQ(transport->send(frame("04280095#01")), make_error_code(UiMessageErrc::disconnected));
+  EXPECT_EQ(transport->send(frame("04280095#01")), make_error_code(UiMessageErrc::kDisconnected));
   EXPECT_EQ(transport->fd(), fd);
 
   peer = std::make_unique<PtyPeer>(dir.file("gateway.tty"));  // plugged in again

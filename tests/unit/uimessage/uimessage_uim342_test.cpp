@@ -57,8 +57,8 @@ class GatewayPeer {
   GatewayPeer(std::string link, uim342::CrcCoverage crc)
       : pty_(std::move(link)),
         crc_(crc),
-        from_host_(crc == uim342::CrcCoverage::start_to_aux ? uim342::CrcAcceptance::start_to_aux
-                                                            : uim342::CrcAcceptance::id_to_aux) {}
+        from_host_(crc == uim342::CrcCoverage::kStartToAux ? uim342::CrcAcceptance::kStartToAux
+                                                           : uim342::CrcAcceptance::kIdToAux) {}
 
   [[nodiscard]] const std::string& link() const { return pty_.link(); }
   void attach(sim::Uim342Drive& drive) { drive_ = &drive; }
@@ -103,7 +103,7 @@ class GatewayPeer {
 class UiMessageUim342 : public ::testing::TestWithParam<uim342::CrcCoverage> {
  protected:
   void SetUp() override {
-    const bool manual = GetParam() == uim342::CrcCoverage::start_to_aux;
+    const bool manual = GetParam() == uim342::CrcCoverage::kStartToAux;
     const std::string yaml =
         "buses:\n"
         "  - {name: gw, transport: \"uimessage:" +
@@ -252,10 +252,10 @@ TEST_P(UiMessageUim342, IdentifySetUpEnableAndMoveThroughTheSerialGateway) {
 }
 
 INSTANTIATE_TEST_SUITE_P(CrcCoverages, UiMessageUim342,
-                         ::testing::Values(uim342::CrcCoverage::start_to_aux, uim342::CrcCoverage::id_to_aux),
+                         ::testing::Values(uim342::CrcCoverage::kStartToAux, uim342::CrcCoverage::kIdToAux),
                          [](const auto& param_info) {
-                           return std::string(param_info.param == uim342::CrcCoverage::start_to_aux ? "StartToAux"
-                                                                                                    : "IdToAux");
+                           return std::string(param_info.param == uim342::CrcCoverage::kStartToAux ? "StartToAux"
+                                                                                                   : "IdToAux");
                          });
 
 }  // namespace

@@ -41,13 +41,13 @@ void AdamDriveSim::power_cycle(TimePoint now) {
   regs_[0x0001] = kHardwareVersion[1];
   regs_[0x0002] = kFirmwareVersion[0];
   regs_[0x0003] = kFirmwareVersion[1];
-  regs_[adam::address(Reg::rated_current)] = 100;           // 1.00 A (the §8.10 example)
-  regs_[adam::address(Reg::current_percentages)] = 0x1919;  // §8.11 example
-  regs_[adam::address(Reg::filter_frequency)] = 425;        // §7 default "425K" does not fit 16 bits
+  regs_[adam::address(Reg::kRatedCurrent)] = 100;           // 1.00 A (the §8.10 example)
+  regs_[adam::address(Reg::kCurrentPercentages)] = 0x1919;  // §8.11 example
+  regs_[adam::address(Reg::kFilterFrequency)] = 425;        // §7 default "425K" does not fit 16 bits
   kinematics_ = Kinematics{};
   kinematics_.set_position(now, 0);
   target_ = 0;
-  enabled_ = (reg(Reg::protection_bits) & static_cast<std::uint16_t>(adam::ProtectionBit::disabled_at_power_on)) == 0;
+  enabled_ = (reg(Reg::kProtectionBits) & static_cast<std::uint16_t>(adam::ProtectionBit::kDisabledAtPowerOn)) == 0;
   homing_ = false;
   at_home_ = true;
   alarm_ = {};
@@ -67,9 +67,9 @@ adam::DriveStatus AdamDriveSim::status(TimePoint now) const {
     // cruise, 10 down).
     const double later = std::abs(kinematics_.at(now + std::chrono::milliseconds(1)).velocity);
     const double speed = std::abs(state.velocity);
-    s.phase = later > speed + 1e-9   ? adam::MotionPhase::accelerating
-              : later < speed - 1e-9 ? adam::MotionPhase::decelerating
-                                     : adam::MotionPhase::cruising;
+    s.phase = later > speed + 1e-9   ? adam::MotionPhase::kAccelerating
+              : later < speed - 1e-9 ? adam::MotionPhase::kDecelerating
+                                     : adam::MotionPhase::kCruising;
   }
   s.in_position = !state.moving;
   s.at_home = at_home_ && !state.moving;
@@ -78,19 +78,19 @@ adam::DriveStatus AdamDriveSim::status(TimePoint now) const {
 
 void AdamDriveSim::refresh(TimePoint now) {
   const auto pos = adam::encode32(static_cast<std::int32_t>(kinematics_.position_counts(now)));
-  regs_[adam::address(Reg::position)] = pos[0];
-  regs_[adam::address(Reg::position) + 1U] = pos[1];
+  regs_[adam::address(Reg::kPosition)] = pos[0];
+  regs_[adam::address(Reg::kPosition) + 1U] = pos[1];
   const std::uint32_t raw = adam::encode_status(status(now));
-  regs_[adam::address(Reg::status)] = static_cast<std::uint16_t>(raw & 0xFFFFU);
-  regs_[adam::address(Reg::status) + 1U] = static_cast<std::uint16_t>(raw >> 16);
+  regs_[adam::address(Reg::kStatus)] = static_cast<std::uint16_t>(raw & 0xFFFFU);
+  regs_[adam::address(Reg::kStatus) + 1U] = static_cast<std::uint16_t>(raw >> 16);
   const double pps = kinematics_.at(now).velocity;
   const double rpm =
-      adam::pps_to_rpm(pps, std::max<std::uint32_t>(1, static_cast<std::uint32_t>(reg32(Reg::subdivision))));
-  regs_[adam::address(Reg::speed_rpm)] = adam::encode16(static_cast<std::int16_t>(std::lround(rpm)));
+      adam::pps_to_rpm(pps, std::max<std::uint32_t>(1, static_cast<std::uint32_t>(reg32(Reg::kSubdivision))));
+  regs_[adam::address(Reg::kSpeedRpm)] = adam::encode16(static_cast<std::int16_t>(std::lround(rpm)));
   const auto centi = adam::encode32(static_cast<std::int32_t>(std::lround(rpm * 100)));
-  regs_[adam::address(Reg::speed_centi_rpm)] = centi[0];
-  regs_[adam::address(Reg::speed_centi_rpm) + 1U] = centi[1];
-  regs_[adam::address(Reg::alarm)] = adam::encode_alarms(alarm_);
+  regs_[adam::address(Reg::kSpeedCentiRpm)] = centi[0];
+  regs_[adam::address(Reg::kSpeedCentiRpm) + 1U] = centi[1];
+  regs_[adam::address(Reg::kAlarm)] = adam::encode_alarms(alarm_);
 }
 
 std::optional<rtu::ExceptionCode> AdamDriveSim::read(std::uint16_t start, std::span<std::uint16_t> out) {
@@ -115,17 +115,17 @@ std::optional<rtu::ExceptionCode> AdamDriveSim::write(std::uint16_t start, std::
 bool AdamDriveSim::may_move() const { return enabled_ && !alarm_.active(); }
 
 double AdamDriveSim::pps_of_rpm(double rpm) const {
-  return adam::rpm_to_pps(rpm, static_cast<std::uint32_t>(std::max(reg32(Reg::subdivision), 1)));
+  return adam::rpm_to_pps(rpm, static_cast<std::uint32_t>(std::max(reg32(Reg::kSubdivision), 1)));
 }
 
 Profile AdamDriveSim::profile(double speed_rpm) const {
   // Ramps are TIMES from the start speed to the target speed (§8.42/§8.43), so the rates follow
   // from the speeds; if the target is below the start speed the drive runs at the start speed.
-  const double start_rpm = reg(Reg::start_speed);
+  const double start_rpm = reg(Reg::kStartSpeed);
   const double target_rpm = std::max(speed_rpm, start_rpm);
   const double rise = std::max(target_rpm - start_rpm, 0.0);
-  const double accel_ms = reg(Reg::acceleration_time);
-  const double decel_ms = reg(Reg::deceleration_time);
+  const double accel_ms = reg(Reg::kAccelerationTime);
+  const double decel_ms = reg(Reg::kDecelerationTime);
   Profile p;
   p.velocity = pps_of_rpm(target_rpm);
   p.cut_in = pps_of_rpm(start_rpm);
@@ -144,28 +144,28 @@ void AdamDriveSim::move_to(std::int64_t target, TimePoint now, double speed_rpm)
 }
 
 void AdamDriveSim::execute_table_entry(TimePoint now) {
-  const auto command = adam::decode_table_execute(reg(Reg::table_execute));
+  const auto command = adam::decode_table_execute(reg(Reg::kTableExecute));
   if (!command) return;
-  const std::uint16_t pointer = reg(Reg::table_pointer);
-  const std::uint32_t at = adam::table_entry_address(reg(Reg::table_start), pointer);
+  const std::uint16_t pointer = reg(Reg::kTablePointer);
+  const std::uint32_t at = adam::table_entry_address(reg(Reg::kTableStart), pointer);
   if (at + 1 >= kAddressSpace) return;
   // Table data from flash when the drive uses only saved data (variant table_needs_save).
   const auto& data = variants_.needs_save ? saved_ : regs_;
   const std::int32_t value = adam::decode32_signed(data[at], data[at + 1]);
   // The speed from the register motion reads (variant table_speed_register).
-  const double speed = variants_.speed == AdamTableVariants::Speed::target_00d8
-                           ? reg32(Reg::target_speed) / 100.0
-                           : static_cast<double>(reg(Reg::working_speed));
+  const double speed = variants_.speed == AdamTableVariants::Speed::kTarget00d8
+                           ? reg32(Reg::kTargetSpeed) / 100.0
+                           : static_cast<double>(reg(Reg::kWorkingSpeed));
   const std::int64_t here = kinematics_.position_counts(now);
-  move_to(command->kind == adam::TableEntryKind::absolute ? value : here + value, now, std::abs(speed));
-  const int step = command->arithmetic == adam::PointerArithmetic::add ? command->step : -int{command->step};
-  regs_[adam::address(Reg::table_pointer)] =
+  move_to(command->kind == adam::TableEntryKind::kAbsolute ? value : here + value, now, std::abs(speed));
+  const int step = command->arithmetic == adam::PointerArithmetic::kAdd ? command->step : -int{command->step};
+  regs_[adam::address(Reg::kTablePointer)] =
       static_cast<std::uint16_t>(std::clamp(pointer + step, 0, int{adam::kMaxTablePointer}));
 }
 
 void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
   const bool idle = !kinematics_.moving(now);
-  const double speed_rpm = std::abs(reg32(Reg::target_speed)) / 100.0;
+  const double speed_rpm = std::abs(reg32(Reg::kTargetSpeed)) / 100.0;
   const auto stop = [&](bool immediate) {
     homing_ = false;
     if (immediate)
@@ -174,28 +174,28 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       kinematics_.stop(now, profile(speed_rpm).deceleration, profile(speed_rpm).cut_in);
   };
   switch (static_cast<Reg>(address)) {
-    case Reg::working_speed:  // variant `shared` (§8.44, §8.64 do not say): 0x009A and 0x00D8 are one setpoint
+    case Reg::kWorkingSpeed:  // variant `shared` (§8.44, §8.64 do not say): 0x009A and 0x00D8 are one setpoint
     {
-      if (variants_.speed != AdamTableVariants::Speed::shared) break;
-      const auto centi = adam::encode32(static_cast<std::int32_t>(reg(Reg::working_speed)) * 100);
-      regs_[adam::address(Reg::target_speed)] = centi[0];
-      regs_[adam::address(Reg::target_speed) + 1U] = centi[1];
+      if (variants_.speed != AdamTableVariants::Speed::kShared) break;
+      const auto centi = adam::encode32(static_cast<std::int32_t>(reg(Reg::kWorkingSpeed)) * 100);
+      regs_[adam::address(Reg::kTargetSpeed)] = centi[0];
+      regs_[adam::address(Reg::kTargetSpeed) + 1U] = centi[1];
       break;
     }
-    case Reg::target_speed:
-      if (variants_.speed != AdamTableVariants::Speed::shared) break;
-      regs_[adam::address(Reg::working_speed)] =
+    case Reg::kTargetSpeed:
+      if (variants_.speed != AdamTableVariants::Speed::kShared) break;
+      regs_[adam::address(Reg::kWorkingSpeed)] =
           static_cast<std::uint16_t>(std::min<long>(std::lround(speed_rpm), 0xFFFF));
       break;
-    case Reg::velocity_command: {
-      const auto word = reg(Reg::velocity_command);
-      if (word == static_cast<std::uint16_t>(adam::VelocityCommand::ramped_stop))
+    case Reg::kVelocityCommand: {
+      const auto word = reg(Reg::kVelocityCommand);
+      if (word == static_cast<std::uint16_t>(adam::VelocityCommand::kRampedStop))
         stop(false);
-      else if (word == static_cast<std::uint16_t>(adam::VelocityCommand::emergency_stop))
+      else if (word == static_cast<std::uint16_t>(adam::VelocityCommand::kEmergencyStop))
         stop(true);
       else if (may_move()) {
-        Profile p = profile(reg(Reg::working_speed));
-        if (word == static_cast<std::uint16_t>(adam::VelocityCommand::run_reverse)) p.velocity = -p.velocity;
+        Profile p = profile(reg(Reg::kWorkingSpeed));
+        if (word == static_cast<std::uint16_t>(adam::VelocityCommand::kRunReverse)) p.velocity = -p.velocity;
         kinematics_.jog(now, p);
         at_home_ = false;
         motion_started_ = true;
@@ -203,13 +203,13 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       }
       break;
     }
-    case Reg::jog_command: {
-      const adam::JogCommand jog = adam::decode_jog(reg(Reg::jog_command));
+    case Reg::kJogCommand: {
+      const adam::JogCommand jog = adam::decode_jog(reg(Reg::kJogCommand));
       if (!jog.run) {
-        stop(jog.stop == adam::StopMethod::immediate);
+        stop(jog.stop == adam::StopMethod::kImmediate);
       } else if (may_move()) {
         Profile p = profile(jog.speed_rpm);
-        if (jog.direction == adam::Rotation::ccw) p.velocity = -p.velocity;
+        if (jog.direction == adam::Rotation::kCcw) p.velocity = -p.velocity;
         kinematics_.jog(now, p);
         at_home_ = false;
         motion_started_ = true;
@@ -217,9 +217,9 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       }
       break;
     }
-    case Reg::homing_command: {
+    case Reg::kHomingCommand: {
       if (!may_move() || !idle) break;
-      const adam::HomingCommand home = adam::decode_homing(reg(Reg::homing_command));
+      const adam::HomingCommand home = adam::decode_homing(reg(Reg::kHomingCommand));
       homing_ = true;
       move_to(0, now, home.speed_rpm);  // assumed: the switch is where the drive powered up
       if (!was_moving_) {               // already on the switch
@@ -228,53 +228,53 @@ void AdamDriveSim::act(std::uint16_t address, TimePoint now) {
       }
       break;
     }
-    case Reg::relative_move:
-      if (idle && may_move()) move_to(kinematics_.position_counts(now) + reg32(Reg::relative_move), now, speed_rpm);
+    case Reg::kRelativeMove:
+      if (idle && may_move()) move_to(kinematics_.position_counts(now) + reg32(Reg::kRelativeMove), now, speed_rpm);
       break;
-    case Reg::absolute_move:
-      if (idle && may_move()) move_to(reg32(Reg::absolute_move), now, speed_rpm);
+    case Reg::kAbsoluteMove:
+      if (idle && may_move()) move_to(reg32(Reg::kAbsoluteMove), now, speed_rpm);
       break;
-    case Reg::relative_move_preempt:
-      if (may_move()) move_to(kinematics_.position_counts(now) + reg32(Reg::relative_move_preempt), now, speed_rpm);
+    case Reg::kRelativeMovePreempt:
+      if (may_move()) move_to(kinematics_.position_counts(now) + reg32(Reg::kRelativeMovePreempt), now, speed_rpm);
       break;
-    case Reg::absolute_move_preempt:
-      if (may_move()) move_to(reg32(Reg::absolute_move_preempt), now, speed_rpm);
+    case Reg::kAbsoluteMovePreempt:
+      if (may_move()) move_to(reg32(Reg::kAbsoluteMovePreempt), now, speed_rpm);
       break;
-    case Reg::table_execute:
+    case Reg::kTableExecute:
       if (idle && may_move()) execute_table_entry(now);
       break;
-    case Reg::preset_position:
+    case Reg::kPresetPosition:
       if (idle) {
-        kinematics_.set_position(now, reg32(Reg::preset_position));
-        target_ = reg32(Reg::preset_position);
+        kinematics_.set_position(now, reg32(Reg::kPresetPosition));
+        target_ = reg32(Reg::kPresetPosition);
       }
       break;
-    case Reg::enable_command: {
-      const auto word = reg(Reg::enable_command);
-      if (word == static_cast<std::uint16_t>(adam::EnableCommand::restart)) {
+    case Reg::kEnableCommand: {
+      const auto word = reg(Reg::kEnableCommand);
+      if (word == static_cast<std::uint16_t>(adam::EnableCommand::kRestart)) {
         power_cycle(now);
       } else {
-        enabled_ = word == static_cast<std::uint16_t>(adam::EnableCommand::enable);
+        enabled_ = word == static_cast<std::uint16_t>(adam::EnableCommand::kEnable);
         if (!enabled_) kinematics_.halt(now);  // released: the motor is free
       }
       break;
     }
-    case Reg::outputs_on:
-      regs_[adam::address(Reg::output_state)] |= static_cast<std::uint16_t>(reg(Reg::outputs_on) & 0xFF);
+    case Reg::kOutputsOn:
+      regs_[adam::address(Reg::kOutputState)] |= static_cast<std::uint16_t>(reg(Reg::kOutputsOn) & 0xFF);
       break;
-    case Reg::outputs_off:
-      regs_[adam::address(Reg::output_state)] &= static_cast<std::uint16_t>(~reg(Reg::outputs_off) & 0xFF);
+    case Reg::kOutputsOff:
+      regs_[adam::address(Reg::kOutputState)] &= static_cast<std::uint16_t>(~reg(Reg::kOutputsOff) & 0xFF);
       break;
-    case Reg::clear_alarm:
+    case Reg::kClearAlarm:
       if (alarm_.active()) {  // the current alarm moves into the history (§8.52 fields; the shift is assumed)
         alarm_.history = {alarm_.current, alarm_.history[0], alarm_.history[1]};
-        alarm_.current = adam::AlarmCode::none;
+        alarm_.current = adam::AlarmCode::kNone;
       }
       break;
-    case Reg::save_command:
-      if (reg(Reg::save_command) == static_cast<std::uint16_t>(adam::SaveCommand::restore_factory)) power_cycle(now);
-      if (reg(Reg::save_command) ==
-          static_cast<std::uint16_t>(adam::SaveCommand::save)) {  // §8.69: a flash erase, 0.1 s
+    case Reg::kSaveCommand:
+      if (reg(Reg::kSaveCommand) == static_cast<std::uint16_t>(adam::SaveCommand::kRestoreFactory)) power_cycle(now);
+      if (reg(Reg::kSaveCommand) ==
+          static_cast<std::uint16_t>(adam::SaveCommand::kSave)) {  // §8.69: a flash erase, 0.1 s
         saved_ = regs_;
         ++saves_;
         busy_until_ = now + variants_.save_time;
@@ -307,7 +307,7 @@ void AdamDriveSim::set_input(unsigned index, bool level, TimePoint now) {
   const auto bit = static_cast<std::uint8_t>(1U << index);
   inputs_ = level ? static_cast<std::uint8_t>(inputs_ | bit) : static_cast<std::uint8_t>(inputs_ & ~bit);
   // The configured home input going active during homing is the switch (0x009C low byte).
-  const adam::InputPair assignment = adam::decode_input_pair(reg(Reg::enable_home_inputs));
+  const adam::InputPair assignment = adam::decode_input_pair(reg(Reg::kEnableHomeInputs));
   if (homing_ && level && assignment.low.enabled && assignment.low.input == index) {
     kinematics_.halt(now);
     settle(now);

@@ -15,7 +15,7 @@ namespace {
 Duration silence_of(const config::Bus& bus) {
   rtu::SerialFormat format;
   format.baud = static_cast<std::uint32_t>(bus.baud);
-  format.parity = bus.parity == 'N' ? rtu::Parity::none : bus.parity == 'E' ? rtu::Parity::even : rtu::Parity::odd;
+  format.parity = bus.parity == 'N' ? rtu::Parity::kNone : bus.parity == 'E' ? rtu::Parity::kEven : rtu::Parity::kOdd;
   format.stop_bits = static_cast<std::uint8_t>(bus.stop_bits);
   return rtu::frame_timing(format).t3_5;
 }
@@ -31,9 +31,9 @@ AdamLineSim::AdamLineSim(const config::Config& config, const config::Bus& bus, S
     drive->slave.unit = static_cast<std::uint8_t>(d.node_id);
     AdamTableVariants variants;
     const auto speed = config::sim_variant(config, d, "table_speed_register");
-    variants.speed = speed == "0x00D8"   ? AdamTableVariants::Speed::target_00d8
-                     : speed == "shared" ? AdamTableVariants::Speed::shared
-                                         : AdamTableVariants::Speed::working_009a;
+    variants.speed = speed == "0x00D8"   ? AdamTableVariants::Speed::kTarget00d8
+                     : speed == "shared" ? AdamTableVariants::Speed::kShared
+                                         : AdamTableVariants::Speed::kWorking009a;
     variants.needs_save = config::sim_variant(config, d, "table_needs_save") == "true";
     drive->sim = AdamDriveSim(variants);
     drive->latency = latency;
@@ -98,7 +98,7 @@ void AdamLineSim::serve_frame(const std::vector<std::uint8_t>& frame, TimePoint 
     d->sim.set_now(received);
     const int saves = d->sim.saves();
     const adam::ServeResult result = adam::serve(frame, d->slave, d->sim);
-    if (result.outcome == adam::ServeOutcome::discarded && name == drives_.begin()->first) {
+    if (result.outcome == adam::ServeOutcome::kDiscarded && name == drives_.begin()->first) {
       spdlog::debug("bus {}: discarded {}-byte frame ({})", context_.bus, frame.size(),
                     result.frame_error ? make_error_code(*result.frame_error).message() : "?");
     }
@@ -124,7 +124,7 @@ bool AdamLineSim::control(const motionlcm::sim_control_t& c, TimePoint now) {
   Drive& d = *it->second;
   switch (c.action) {
     case motionlcm::sim_control_t::ALARM: d.sim.inject_alarm(static_cast<adam::AlarmCode>(c.value & 0x0F), now); break;
-    case motionlcm::sim_control_t::STALL: d.sim.inject_alarm(adam::AlarmCode::position_error, now); break;
+    case motionlcm::sim_control_t::STALL: d.sim.inject_alarm(adam::AlarmCode::kPositionError, now); break;
     case motionlcm::sim_control_t::SILENCE: d.silent = c.value != 0; break;
     case motionlcm::sim_control_t::CRC_ERRORS: d.corrupt_replies = c.value != 0; break;
     case motionlcm::sim_control_t::REPLY_LATENCY: d.latency = std::chrono::microseconds(c.value); break;

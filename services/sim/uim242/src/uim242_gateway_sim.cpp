@@ -105,13 +105,13 @@ class Uim242GatewaySim::Controller {
     };
     const auto reply_value = [&](std::int64_t v) { reply(std::span<const std::int64_t>(&v, 1)); };
     const auto reply_desired = [&] {
-      if (acknowledge) out.push_back(uim242::make_status_frame(Header::ack, node(), desired_status()));
+      if (acknowledge) out.push_back(uim242::make_status_frame(Header::kAck, node(), desired_status()));
     };
     const bool set = in.value.has_value();
     const std::int64_t v = in.value.value_or(0);
     switch (in.mnemonic) {
-      case Mnemonic::Null: reply_desired(); break;
-      case Mnemonic::ACR:
+      case Mnemonic::kNull: reply_desired(); break;
+      case Mnemonic::kACR:
         if (set) acr_ = v;
         if (set && v <= 1) {
           reply_desired();
@@ -119,22 +119,22 @@ class Uim242GatewaySim::Controller {
           reply_value(acr_);
         }
         break;
-      case Mnemonic::BLC:
+      case Mnemonic::kBLC:
         if (set) blc_ = v;
         reply_value(blc_);
         break;
-      case Mnemonic::CUR:
+      case Mnemonic::kCUR:
         current_ = v;
         reply_desired();
         break;
-      case Mnemonic::DOU:
+      case Mnemonic::kDOU:
         if (set) {
           s34con_ &= static_cast<std::uint16_t>(~kS34P4Bits);
           set_p4(v != 0, out);
         }
         reply_value(p4_ ? 1 : 0);
         break;
-      case Mnemonic::ENA:
+      case Mnemonic::kENA:
         if (!set) {
           enabled_ = true;
           resume(now);
@@ -144,10 +144,10 @@ class Uim242GatewaySim::Controller {
           reply_value(enable_timer_);
         }
         break;
-      case Mnemonic::FBK:
-        if (acknowledge) out.push_back(uim242::make_status_frame(Header::status, node(), actual_status(now)));
+      case Mnemonic::kFBK:
+        if (acknowledge) out.push_back(uim242::make_status_frame(Header::kStatus, node(), actual_status(now)));
         break;
-      case Mnemonic::ICF:
+      case Mnemonic::kICF:
         if (set) icfg_ = static_cast<std::uint16_t>(v & 0x000F);  // bits 15..4 read 0
         reply_value(icfg_);
         if (set) {  // an ICFG write reboots the controller (EN/CN §5.1); the ACK goes first (assumed)
@@ -156,45 +156,45 @@ class Uim242GatewaySim::Controller {
           awake_at_ = now + setup_.reboot;
         }
         break;
-      case Mnemonic::MAC:
+      case Mnemonic::kMAC:
         if (set) acceleration_ = v;
         reply(std::array<std::int64_t, 2>{(mcfg_ & kAm) ? 1 : 0, acceleration_});
         break;
-      case Mnemonic::MDE:
+      case Mnemonic::kMDE:
         if (set) deceleration_ = v;
         reply(std::array<std::int64_t, 2>{(mcfg_ & kDm) ? 1 : 0, deceleration_});
         break;
-      case Mnemonic::MCF:
+      case Mnemonic::kMCF:
         if (set) mcfg_ = static_cast<std::uint16_t>(v & ~kMcfgReadZero);
         reply_value(mcfg_);
         break;
-      case Mnemonic::MCS:
+      case Mnemonic::kMCS:
         micro_steps_ = v;
         reply_desired();
         break;
-      case Mnemonic::MDL:
+      case Mnemonic::kMDL:
         reply(std::array<std::int64_t, 5>{0x18, 0x02, setup_.max_current_tenths, kModules, setup_.firmware});
         break;
-      case Mnemonic::MMD:
+      case Mnemonic::kMMD:
         if (set) mmd_ = v;
         reply_value(mmd_);
         break;
-      case Mnemonic::MMS:
+      case Mnemonic::kMMS:
         if (set) mms_ = v;
         reply_value(mms_);
         break;
-      case Mnemonic::OFF:
+      case Mnemonic::kOFF:
         enabled_ = false;
         halt(now);
         reply_desired();
         break;
-      case Mnemonic::ORG:
-        if (moving(now)) return {uim242::make_error(uim242::ErrorCode::value_error)};
+      case Mnemonic::kORG:
+        if (moving(now)) return {uim242::make_error(uim242::ErrorCode::kValueError)};
         kinematics_.set_position(now, v);
         displacement_origin_ = v;
         reply_value(v);
         break;
-      case Mnemonic::QEC:
+      case Mnemonic::kQEC:
         if (set) {
           reply_value(v);
           set_target(now, v, v - position(now));
@@ -202,20 +202,20 @@ class Uim242GatewaySim::Controller {
           reply_value(position(now));
         }
         break;
-      case Mnemonic::QER:
+      case Mnemonic::kQER:
         if (set) encoder_lines_ = v;
         reply_value(encoder_lines_);
         break;
-      case Mnemonic::SQT:
+      case Mnemonic::kSQT:
         if (set) stall_tolerance_ = v;
         reply_value(stall_tolerance_);
         break;
-      case Mnemonic::SCF:
+      case Mnemonic::kSCF:
         if (set) write_sensor_register(*uim242::scf_write(in));
         reply(std::array<std::int64_t, 3>{(std::int64_t{s34con_} << 16) | s12con_, atconl_, atconh_});
         break;
-      case Mnemonic::SFB: reply(std::array<std::int64_t, 4>{inputs_[0], inputs_[1], inputs_[2], 0}); break;
-      case Mnemonic::SPD:
+      case Mnemonic::kSFB: reply(std::array<std::int64_t, 4>{inputs_[0], inputs_[1], inputs_[2], 0}); break;
+      case Mnemonic::kSPD:
         if (!set) {
           reply_value(std::llround(kinematics_.at(now).velocity));
           break;
@@ -225,15 +225,15 @@ class Uim242GatewaySim::Controller {
         if (v != 0) desired_positive_ = v > 0;
         resume(now);
         break;
-      case Mnemonic::STG:
+      case Mnemonic::kSTG:
         if (set) {
           const auto stg = *uim242::stg_write(in);
           sampling_[static_cast<std::size_t>(stg.port)] = stg.interval;
         }
         reply(std::array<std::int64_t, 3>{sampling_[0], sampling_[1], sampling_[2]});
         break;
-      case Mnemonic::STO: reply({}); break;  // parameter groups are stored, not simulated
-      case Mnemonic::STP:
+      case Mnemonic::kSTO: reply({}); break;  // parameter groups are stored, not simulated
+      case Mnemonic::kSTP:
         if (!set) {
           reply_value(position(now) - displacement_origin_);
           break;
@@ -245,12 +245,12 @@ class Uim242GatewaySim::Controller {
           set_target(now, position(now) + v, v);
         }
         break;
-      case Mnemonic::ADR:
-      case Mnemonic::SET:
-      case Mnemonic::BTR:
-      case Mnemonic::BDR:
-      case Mnemonic::ABC:
-      case Mnemonic::REG: break;  // gateway instructions never reach a controller
+      case Mnemonic::kADR:
+      case Mnemonic::kSET:
+      case Mnemonic::kBTR:
+      case Mnemonic::kBDR:
+      case Mnemonic::kABC:
+      case Mnemonic::kREG: break;  // gateway instructions never reach a controller
     }
     return out;
   }
@@ -265,7 +265,7 @@ class Uim242GatewaySim::Controller {
     if (pt_target_ && at == *pt_target_ && enabled_) {
       pt_target_.reset();
       if (mcfg_ & kStpie) {
-        uim242::Notification n{node(), uim242::Event::displacement_complete, std::nullopt, std::nullopt};
+        uim242::Notification n{node(), uim242::Event::kDisplacementComplete, std::nullopt, std::nullopt};
         if (options_.cn_completion_format) {
           n.closed_loop = (mcfg_ & (1u << 11)) != 0;
           n.position = static_cast<std::int32_t>(at - displacement_origin_);
@@ -299,7 +299,7 @@ class Uim242GatewaySim::Controller {
     halt(now);  // a blocked rotor stops whatever the configured action
     sensor_action(action, now);
     if ((mcfg_ & kStlie) && action != 0) {
-      out.push_back(uim242::make_notification({node(), uim242::Event::stall, std::nullopt, std::nullopt},
+      out.push_back(uim242::make_notification({node(), uim242::Event::kStall, std::nullopt, std::nullopt},
                                               options_.stall_message_id));
     }
     return out;
@@ -405,10 +405,10 @@ class Uim242GatewaySim::Controller {
 
   void write_sensor_register(uim242::ScfWrite w) {
     switch (w.reg) {
-      case uim242::SensorRegister::S12CON: s12con_ = w.value; break;
-      case uim242::SensorRegister::S34CON: s34con_ = w.value; break;
-      case uim242::SensorRegister::ATCONL: atconl_ = w.value & 0x0FFF; break;
-      case uim242::SensorRegister::ATCONH: atconh_ = w.value & 0x0FFF; break;
+      case uim242::SensorRegister::kS12CON: s12con_ = w.value; break;
+      case uim242::SensorRegister::kS34CON: s34con_ = w.value; break;
+      case uim242::SensorRegister::kATCONL: atconl_ = w.value & 0x0FFF; break;
+      case uim242::SensorRegister::kATCONH: atconh_ = w.value & 0x0FFF; break;
     }
   }
 
@@ -447,7 +447,7 @@ class Uim242GatewaySim::Controller {
     if (p4_ == level) return;
     p4_ = level;
     if (mcfg_ & kP4ie) {
-      const auto event = level ? uim242::Event::p4_low_to_high : uim242::Event::p4_high_to_low;
+      const auto event = level ? uim242::Event::kP4LowToHigh : uim242::Event::kP4HighToLow;
       out.push_back(uim242::make_notification({node(), event, std::nullopt, std::nullopt}, options_.stall_message_id));
     }
   }
@@ -614,7 +614,7 @@ void Uim242GatewaySim::send(const Frame& frame) {
 void Uim242GatewaySim::execute(const uim242::InstructionChunk& chunk, TimePoint now) {
   // Errors are never silent, not even inside a macro (EN/CN §2.3 do not say: assumed).
   if (chunk.oversize) {
-    send(uim242::make_error(uim242::ErrorCode::syntax_error));
+    send(uim242::make_error(uim242::ErrorCode::kSyntaxError));
     return;
   }
   const auto parsed = uim242::parse_instruction(chunk.text);
@@ -623,16 +623,16 @@ void Uim242GatewaySim::execute(const uim242::InstructionChunk& chunk, TimePoint 
     return;
   }
   const Instruction& in = *parsed;
-  if (in.global || uim242::spec(in.mnemonic).target == uim242::Target::gateway) {
+  if (in.global || uim242::spec(in.mnemonic).target == uim242::Target::kGateway) {
     execute_gateway(in, now);
     return;
   }
   // MDL names its controller in the value (#22); everything else goes to the selected target.
-  const int node = in.mnemonic == Mnemonic::MDL && in.value ? static_cast<int>(*in.value) : selected_;
+  const int node = in.mnemonic == Mnemonic::kMDL && in.value ? static_cast<int>(*in.value) : selected_;
   Controller* c = find_node(node);
   if (!c || c->asleep(now)) return;  // nobody answers: the host times out
   for (const auto& f : c->execute(in, now, !chunk.silent)) {
-    if ((f.header == Header::error || !chunk.silent) && c->heard()) send(f);
+    if ((f.header == Header::kError || !chunk.silent) && c->heard()) send(f);
   }
 }
 
@@ -641,7 +641,7 @@ void Uim242GatewaySim::execute_gateway(const Instruction& in, TimePoint now) {
       std::count_if(controllers_.begin(), controllers_.end(), [](const auto& c) { return !c->silent(); }));
   const auto form = uim242::reply_form(in, options_.org_reply);
   if (in.global) {
-    if (in.mnemonic == Mnemonic::REG) {
+    if (in.mnemonic == Mnemonic::kREG) {
       std::array<std::int64_t, 8> ids{};
       std::size_t n = 0;
       for (const auto& c : controllers_) {
@@ -659,19 +659,19 @@ void Uim242GatewaySim::execute_gateway(const Instruction& in, TimePoint now) {
     return;
   }
   switch (in.mnemonic) {
-    case Mnemonic::ADR:
+    case Mnemonic::kADR:
       selected_ = static_cast<int>(*in.value);
       send(uim242::make_reply(form, static_cast<std::uint8_t>(selected_), {}));
       return;
-    case Mnemonic::SET:
+    case Mnemonic::kSET:
       // Only with a single controller wired (EN/CN §3.1); otherwise nobody answers.
       if (controllers_.size() != 1) return;
       controllers_.front()->set_node(static_cast<std::uint8_t>(*in.value));
       send(uim242::make_reply(form, controllers_.front()->node(), {}));
       return;
-    case Mnemonic::BTR: send(uim242::make_reply(form, static_cast<std::uint8_t>(in.value.value_or(0)), {})); return;
-    case Mnemonic::BDR: send(uim242::make_reply(form, 0, {})); return;
-    case Mnemonic::ABC: send(uim242::make_greeting(options_.version)); return;
+    case Mnemonic::kBTR: send(uim242::make_reply(form, static_cast<std::uint8_t>(in.value.value_or(0)), {})); return;
+    case Mnemonic::kBDR: send(uim242::make_reply(form, 0, {})); return;
+    case Mnemonic::kABC: send(uim242::make_greeting(options_.version)); return;
     default: return;
   }
 }

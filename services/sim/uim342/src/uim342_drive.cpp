@@ -23,17 +23,17 @@ constexpr std::size_t at(E e) {
 }
 
 // AC, DC, SP, PR, PA address the MF-selected parameter group, then MF returns to 0 (§5.13).
-bool uses_parameter_group(FC f) { return f == FC::AC || f == FC::DC || f == FC::SP || f == FC::PR || f == FC::PA; }
+bool uses_parameter_group(FC f) { return f == FC::kAC || f == FC::kDC || f == FC::kSP || f == FC::kPR || f == FC::kPA; }
 
 // The u16 register behind IC/IE/QE/MT/TG[i] and IL[16] (nullptr for other instructions).
 std::uint16_t* word_register(Uim342Drive::Parameters& p, FC f, std::uint8_t i) {
   switch (f) {
-    case FC::IC: return i < p.initial_config.size() ? &p.initial_config[i] : nullptr;
-    case FC::IE: return i < p.information_enable.size() ? &p.information_enable[i] : nullptr;
-    case FC::QE: return i < p.encoder.size() ? &p.encoder[i] : nullptr;
-    case FC::MT: return i < p.driver.size() ? &p.driver[i] : nullptr;
-    case FC::TG: return i < p.trigger.size() ? &p.trigger[i] : nullptr;
-    case FC::IL:
+    case FC::kIC: return i < p.initial_config.size() ? &p.initial_config[i] : nullptr;
+    case FC::kIE: return i < p.information_enable.size() ? &p.information_enable[i] : nullptr;
+    case FC::kQE: return i < p.encoder.size() ? &p.encoder[i] : nullptr;
+    case FC::kMT: return i < p.driver.size() ? &p.driver[i] : nullptr;
+    case FC::kTG: return i < p.trigger.size() ? &p.trigger[i] : nullptr;
+    case FC::kIL:
       return (i == u::kInputLogicStallBehaviour || i == u::kInputLogicStallBehaviourAlias) ? &p.stall_behaviour
                                                                                            : nullptr;
     default: return nullptr;
@@ -43,11 +43,11 @@ std::uint16_t* word_register(Uim342Drive::Parameters& p, FC f, std::uint8_t i) {
 // The u32 register behind SS/SD/BL and the group's AC/DC.
 std::uint32_t* unsigned_register(Uim342Drive::Parameters& p, FC f, std::uint8_t group) {
   switch (f) {
-    case FC::SS: return &p.cut_in_speed;
-    case FC::SD: return &p.stop_deceleration;
-    case FC::BL: return &p.backlash;
-    case FC::AC: return &p.groups[group].acceleration;
-    case FC::DC: return &p.groups[group].deceleration;
+    case FC::kSS: return &p.cut_in_speed;
+    case FC::kSD: return &p.stop_deceleration;
+    case FC::kBL: return &p.backlash;
+    case FC::kAC: return &p.groups[group].acceleration;
+    case FC::kDC: return &p.groups[group].deceleration;
     default: return nullptr;
   }
 }
@@ -55,19 +55,19 @@ std::uint32_t* unsigned_register(Uim342Drive::Parameters& p, FC f, std::uint8_t 
 // The s32 register behind the group's SP/PR/PA (group 0: the desired values DV[2..4]).
 std::int32_t* signed_register(Uim342Drive::Parameters& p, FC f, std::uint8_t group) {
   switch (f) {
-    case FC::JV:
-    case FC::SP: return &p.groups[group].speed;
-    case FC::PR: return &p.groups[group].relative;
-    case FC::PA: return &p.groups[group].absolute;
+    case FC::kJV:
+    case FC::kSP: return &p.groups[group].speed;
+    case FC::kPR: return &p.groups[group].relative;
+    case FC::kPA: return &p.groups[group].absolute;
     default: return nullptr;
   }
 }
 
 std::uint8_t* protocol_register(Uim342Drive::Parameters& p, std::uint8_t i) {
   switch (static_cast<u::ProtocolParameter>(i)) {
-    case u::ProtocolParameter::bit_rate: return &p.bit_rate_code;
-    case u::ProtocolParameter::node_id: return &p.node_id;
-    case u::ProtocolParameter::group_id: return &p.group_id;
+    case u::ProtocolParameter::kBitRate: return &p.bit_rate_code;
+    case u::ProtocolParameter::kNodeId: return &p.node_id;
+    case u::ProtocolParameter::kGroupId: return &p.group_id;
   }
   return nullptr;
 }
@@ -130,8 +130,8 @@ void Uim342Drive::on_frame(const can::Frame& frame, TimePoint now) {
   if (!instruction) {
     // ML without the ACK bit does not exist (§5.4): ignored. Everything else the codec
     // cannot read is an unknown function or a DL fitting no form: syntax error (0x32, §2.3; assumed).
-    if (instruction.error() != make_error_code(u::CodecErrc::ack_form_not_supported)) {
-      reject(u::DriveErrc::syntax_error, message.control_word, 0, address.producer);
+    if (instruction.error() != make_error_code(u::CodecErrc::kAckFormNotSupported)) {
+      reject(u::DriveErrc::kSyntaxError, message.control_word, 0, address.producer);
     }
     return;
   }
@@ -149,9 +149,9 @@ void Uim342Drive::handle(const Instruction& instruction, std::uint8_t host, std:
     reject(static_cast<u::DriveErrc>(error.value()), received_cw, instruction.sub_index().value_or(0), host);
     return;
   }
-  if (f == FC::SY) {  // never acknowledged (§5.8)
+  if (f == FC::kSY) {  // never acknowledged (§5.8)
     if (std::get<u::Index>(instruction.body).index ==
-        static_cast<std::uint8_t>(u::SystemOperation::restore_factory_defaults)) {
+        static_cast<std::uint8_t>(u::SystemOperation::kRestoreFactoryDefaults)) {
       // The configuration's set-up stands in for the factory values; the protocol parameters are
       // kept so that the drive stays reachable on the simulated bus.
       const Parameters protocol = persisted_;
@@ -165,22 +165,22 @@ void Uim342Drive::handle(const Instruction& instruction, std::uint8_t host, std:
   }
   u::Reply reply;
   switch (f) {
-    case FC::AC:
-    case FC::DC:
-    case FC::SP:
-    case FC::PR:
-    case FC::PA:
-    case FC::JV:
-    case FC::MF: reply = motion_parameter(instruction, group, now); break;
-    case FC::MO:
-    case FC::BG:
-    case FC::ST:
-    case FC::OG:
-    case FC::DI: reply = motion_command(instruction, frame, now); break;
-    case FC::ML:
-    case FC::SN:
-    case FC::MS:
-    case FC::DV: reply = status(instruction, now); break;
+    case FC::kAC:
+    case FC::kDC:
+    case FC::kSP:
+    case FC::kPR:
+    case FC::kPA:
+    case FC::kJV:
+    case FC::kMF: reply = motion_parameter(instruction, group, now); break;
+    case FC::kMO:
+    case FC::kBG:
+    case FC::kST:
+    case FC::kOG:
+    case FC::kDI: reply = motion_command(instruction, frame, now); break;
+    case FC::kML:
+    case FC::kSN:
+    case FC::kMS:
+    case FC::kDV: reply = status(instruction, now); break;
     default: reply = configuration(instruction, now); break;
   }
   // Gets without the ACK bit are not answered either.
@@ -191,32 +191,32 @@ std::error_code Uim342Drive::state_error(const Instruction& instruction, std::ui
   using E = u::DriveErrc;
   const FC f = instruction.function;
   const bool running = moving(now);
-  if (f == FC::BG) {
-    if (!driver_on_) return E::bg_while_driver_off;
-    if (emergency_stopping_ || locked_) return E::bg_during_emergency_stop;  // locked until reboot
+  if (f == FC::kBG) {
+    if (!driver_on_) return E::kBgWhileDriverOff;
+    if (emergency_stopping_ || locked_) return E::kBgDuringEmergencyStop;  // locked until reboot
     return {};
   }
-  if (f == FC::OG) return running ? make_error_code(E::og_while_running) : std::error_code{};
-  if (instruction.operation != u::Operation::set) return {};
+  if (f == FC::kOG) return running ? make_error_code(E::kOgWhileRunning) : std::error_code{};
+  if (instruction.operation != u::Operation::kSet) return {};
   switch (f) {
-    case FC::PP:
-    case FC::IC:
-    case FC::MT:
-    case FC::QE: return running ? make_error_code(E::not_allowed_while_running) : std::error_code{};
-    case FC::JV:  // mode changes in motion
-      return running && motion_.ptp ? make_error_code(E::not_allowed_while_running) : std::error_code{};
-    case FC::PR:
-    case FC::PA:
-      return group == 0 && running && !motion_.ptp ? make_error_code(E::not_allowed_while_running) : std::error_code{};
-    case FC::SP:  // "#50": in PTP set PR/PA before SP (§5.19)
-      return group == 0 && mode_ == u::MotionMode::jog ? make_error_code(E::syntax_error) : std::error_code{};
-    case FC::SD:
-    case FC::DC: {
-      if (acceleration_unit() != u::AccelerationUnit::pulses_per_s2) return {};  // a time is not comparable to SD
+    case FC::kPP:
+    case FC::kIC:
+    case FC::kMT:
+    case FC::kQE: return running ? make_error_code(E::kNotAllowedWhileRunning) : std::error_code{};
+    case FC::kJV:  // mode changes in motion
+      return running && motion_.ptp ? make_error_code(E::kNotAllowedWhileRunning) : std::error_code{};
+    case FC::kPR:
+    case FC::kPA:
+      return group == 0 && running && !motion_.ptp ? make_error_code(E::kNotAllowedWhileRunning) : std::error_code{};
+    case FC::kSP:  // "#50": in PTP set PR/PA before SP (§5.19)
+      return group == 0 && mode_ == u::MotionMode::kJog ? make_error_code(E::kSyntaxError) : std::error_code{};
+    case FC::kSD:
+    case FC::kDC: {
+      if (acceleration_unit() != u::AccelerationUnit::kPulsesPerS2) return {};  // a time is not comparable to SD
       const auto value = std::get<u::Unsigned>(instruction.body).value;
       const bool too_small =
-          f == FC::SD ? value < active_.groups[0].deceleration : (group == 0 && value > active_.stop_deceleration);
-      return too_small ? make_error_code(E::sd_less_than_dc) : std::error_code{};
+          f == FC::kSD ? value < active_.groups[0].deceleration : (group == 0 && value > active_.stop_deceleration);
+      return too_small ? make_error_code(E::kSdLessThanDc) : std::error_code{};
     }
     default: return {};
   }
@@ -225,28 +225,29 @@ std::error_code Uim342Drive::state_error(const Instruction& instruction, std::ui
 u::Reply Uim342Drive::configuration(const Instruction& instruction, TimePoint now) {
   const FC f = instruction.function;
   const std::uint8_t i = instruction.sub_index().value_or(0);
-  if (instruction.operation == u::Operation::set) {
-    if (f == FC::ER) {
+  if (instruction.operation == u::Operation::kSet) {
+    if (f == FC::kER) {
       if (const auto slot = history_slot(i)) error_history_[*slot] = {};
     } else {
       store(instruction, active_, 0);
       if (persists(instruction, 0)) store(instruction, persisted_, 0);
       // §5.9: "powered off and restarted to take effect" (variant micro_steps_apply).
-      if (f == FC::MT && i == at(u::MotorDriver::microstepping) && micro_steps_apply_ == MicroStepsApply::immediately) {
-        apply_micro_steps(active_.driver[at(u::MotorDriver::microstepping)], now);
+      if (f == FC::kMT && i == at(u::MotorDriver::kMicrostepping) &&
+          micro_steps_apply_ == MicroStepsApply::kImmediately) {
+        apply_micro_steps(active_.driver[at(u::MotorDriver::kMicrostepping)], now);
       }
     }
     return *u::echo_ack(instruction);
   }
   switch (f) {
-    case FC::PP: return {f, u::IndexedByte{i, *protocol_register(active_, i)}};
-    case FC::IL:
+    case FC::kPP: return {f, u::IndexedByte{i, *protocol_register(active_, i)}};
+    case FC::kIL:
       if (i < active_.input_logic.size()) return {f, active_.input_logic[i]};
       return {f, u::IndexedWord{i, active_.stall_behaviour}};
-    case FC::SS:
-    case FC::SD:
-    case FC::BL: return {f, u::Unsigned{*unsigned_register(active_, f, 0)}};
-    case FC::ER: {
+    case FC::kSS:
+    case FC::kSD:
+    case FC::kBL: return {f, u::Unsigned{*unsigned_register(active_, f, 0)}};
+    case FC::kER: {
       u::ErrorRecord record{};
       if (const auto slot = history_slot(i)) record = error_history_[*slot];
       record.index = i;
@@ -258,8 +259,8 @@ u::Reply Uim342Drive::configuration(const Instruction& instruction, TimePoint no
 
 u::Reply Uim342Drive::motion_parameter(const Instruction& instruction, std::uint8_t group, TimePoint now) {
   const FC f = instruction.function;
-  const bool set = instruction.operation == u::Operation::set;
-  if (f == FC::MF) {
+  const bool set = instruction.operation == u::Operation::kSet;
+  if (f == FC::kMF) {
     if (set) selected_group_ = std::get<u::Byte>(instruction.body).value;
     return {f, u::Byte{selected_group_}};
   }
@@ -268,28 +269,28 @@ u::Reply Uim342Drive::motion_parameter(const Instruction& instruction, std::uint
     if (persists(instruction, group)) store(instruction, persisted_, group);
     if (group == 0) {
       // JV selects JOG, PR/PA select PTP and which of them BG uses (§5.18-§5.21).
-      if (f == FC::JV) mode_ = u::MotionMode::jog;
-      if (f == FC::PR || f == FC::PA) {
-        mode_ = u::MotionMode::ptp;
-        ptp_relative_ = f == FC::PR;
+      if (f == FC::kJV) mode_ = u::MotionMode::kJog;
+      if (f == FC::kPR || f == FC::kPA) {
+        mode_ = u::MotionMode::kPtp;
+        ptp_relative_ = f == FC::kPR;
       }
     }
     return *u::echo_ack(instruction);
   }
-  if (f == FC::AC || f == FC::DC) return {f, u::Unsigned{*unsigned_register(active_, f, group)}};
+  if (f == FC::kAC || f == FC::kDC) return {f, u::Unsigned{*unsigned_register(active_, f, group)}};
   if (group != 0) return {f, u::Signed{*signed_register(active_, f, group)}};  // the stored group value
   switch (f) {
-    case FC::PR: return {f, u::Signed{wire32(relative_position(now))}};
-    case FC::PA: return {f, u::Signed{wire32(position(now))}};
+    case FC::kPR: return {f, u::Signed{wire32(relative_position(now))}};
+    case FC::kPA: return {f, u::Signed{wire32(position(now))}};
     default: return {f, u::Signed{speed(now)}};  // JV, SP: the actual speed
   }
 }
 
 u::Reply Uim342Drive::motion_command(const Instruction& instruction, const can::Frame& frame, TimePoint now) {
   const FC f = instruction.function;
-  const bool set = instruction.operation == u::Operation::set;
+  const bool set = instruction.operation == u::Operation::kSet;
   switch (f) {
-    case FC::MO:
+    case FC::kMO:
       if (set) {
         const bool on = std::get<u::Byte>(instruction.body).value != 0;
         if (!on) halt(now, frame.timestamp_us);  // the shaft freewheels, motion ends
@@ -297,11 +298,11 @@ u::Reply Uim342Drive::motion_command(const Instruction& instruction, const can::
         auto_enable_at_ = kNever;
       }
       return {f, u::Byte{static_cast<std::uint8_t>(driver_on_ ? 1 : 0)}};
-    case FC::BG: begin(now, frame.timestamp_us); return {f, u::Empty{}};
-    case FC::ST:
+    case FC::kBG: begin(now, frame.timestamp_us); return {f, u::Empty{}};
+    case FC::kST:
       stop_with(now, static_cast<double>(active_.stop_deceleration), true, frame.timestamp_us);  // SD is always a rate
       return {f, u::Empty{}};
-    case FC::OG: set_origin(now); return {f, u::Empty{}};
+    case FC::kOG: set_origin(now); return {f, u::Empty{}};
     default: {  // DI: d1 bit 0 enables the write of OP1
       if (set) {
         const auto& out = std::get<u::DigitalOutput>(instruction.body);
@@ -310,7 +311,7 @@ u::Reply Uim342Drive::motion_command(const Instruction& instruction, const can::
       std::uint8_t inputs = 0;
       for (std::size_t port = 0; port < inputs_.size(); ++port)
         inputs = static_cast<std::uint8_t>(inputs | (inputs_[port] ? 1U << port : 0U));
-      return {FC::DI, u::DigitalIo{inputs, static_cast<std::uint8_t>(output_ ? 1 : 0)}};
+      return {FC::kDI, u::DigitalIo{inputs, static_cast<std::uint8_t>(output_ ? 1 : 0)}};
     }
   }
 }
@@ -318,16 +319,16 @@ u::Reply Uim342Drive::motion_command(const Instruction& instruction, const can::
 u::Reply Uim342Drive::status(const Instruction& instruction, TimePoint now) {
   const FC f = instruction.function;
   switch (f) {
-    case FC::ML: return {f, u::ModelInfo{identity_.model_bytes, identity_.firmware, 0}};
-    case FC::SN: return {f, u::SerialNumber{identity_.serial, identity_.manufacturer, identity_.vendor}};
-    case FC::MS: {
+    case FC::kML: return {f, u::ModelInfo{identity_.model_bytes, identity_.firmware, 0}};
+    case FC::kSN: return {f, u::SerialNumber{identity_.serial, identity_.manufacturer, identity_.vendor}};
+    case FC::kMS: {
       const std::uint8_t i = instruction.sub_index().value_or(0);
-      if (instruction.operation == u::Operation::set) {
+      if (instruction.operation == u::Operation::kSet) {
         // MS[0]=0 clears PAIF, TLIF, ERR (§3.7) and the relative counter.
         in_position_ = stalled_ = error_ = false;
         relative_origin_ = position(now);
       }
-      if (i == static_cast<std::uint8_t>(u::MotionStatusIndex::kinematics)) {
+      if (i == static_cast<std::uint8_t>(u::MotionStatusIndex::kKinematics)) {
         return {f,
                 u::MotionKinematics{std::clamp(speed(now), u::kMs1SpeedMin, u::kMs1SpeedMax), wire32(position(now))}};
       }
@@ -337,11 +338,11 @@ u::Reply Uim342Drive::status(const Instruction& instruction, TimePoint now) {
       const auto i = static_cast<u::DesiredValue>(instruction.sub_index().value_or(0));
       std::int32_t value = 0;
       switch (i) {
-        case u::DesiredValue::motion_mode: value = static_cast<std::int32_t>(mode_); break;
-        case u::DesiredValue::motor_current: value = active_.driver[at(u::MotorDriver::working_current)]; break;
-        case u::DesiredValue::speed: value = active_.groups[0].speed; break;
-        case u::DesiredValue::relative_position: value = active_.groups[0].relative; break;
-        case u::DesiredValue::absolute_position: value = active_.groups[0].absolute; break;
+        case u::DesiredValue::kMotionMode: value = static_cast<std::int32_t>(mode_); break;
+        case u::DesiredValue::kMotorCurrent: value = active_.driver[at(u::MotorDriver::kWorkingCurrent)]; break;
+        case u::DesiredValue::kSpeed: value = active_.groups[0].speed; break;
+        case u::DesiredValue::kRelativePosition: value = active_.groups[0].relative; break;
+        case u::DesiredValue::kAbsolutePosition: value = active_.groups[0].absolute; break;
       }
       return {f, u::IndexedSigned{static_cast<std::uint8_t>(i), value}};
     }
@@ -351,7 +352,7 @@ u::Reply Uim342Drive::status(const Instruction& instruction, TimePoint now) {
 void Uim342Drive::store(const Instruction& instruction, Parameters& target, std::uint8_t group) const {
   const FC f = instruction.function;
   const auto& body = instruction.body;
-  if (const auto* b = std::get_if<u::IndexedByte>(&body); b && f == FC::PP) {
+  if (const auto* b = std::get_if<u::IndexedByte>(&body); b && f == FC::kPP) {
     *protocol_register(target, b->index) = b->value;
   } else if (const auto* w = std::get_if<u::IndexedWord>(&body)) {
     *word_register(target, f, w->index) = w->value;
@@ -366,15 +367,15 @@ void Uim342Drive::store(const Instruction& instruction, Parameters& target, std:
 
 bool Uim342Drive::persists(const Instruction& instruction, std::uint8_t group) const {
   switch (instruction.function) {
-    case FC::PP:
-    case FC::IC:
-    case FC::IE:
-    case FC::BL: return true;   // FLASH (§5.1), IC/IE/BL too
-    case FC::JV: return false;  // RAM (§5.18)
-    case FC::SP:
-    case FC::PR:
-    case FC::PA: return group != 0 && !driver_on_;  // group 0: desired values, RAM
-    default: return !driver_on_;                    // QE MT AC DC SS SD IL TG: EEPROM only while the driver is off
+    case FC::kPP:
+    case FC::kIC:
+    case FC::kIE:
+    case FC::kBL: return true;   // FLASH (§5.1), IC/IE/BL too
+    case FC::kJV: return false;  // RAM (§5.18)
+    case FC::kSP:
+    case FC::kPR:
+    case FC::kPA: return group != 0 && !driver_on_;  // group 0: desired values, RAM
+    default: return !driver_on_;                     // QE MT AC DC SS SD IL TG: EEPROM only while the driver is off
   }
 }
 
@@ -405,12 +406,12 @@ void Uim342Drive::reject(u::DriveErrc error, std::uint8_t received_cw, std::uint
 
 std::uint8_t Uim342Drive::io_status() const {
   unsigned bits = static_cast<unsigned>(mode_);
-  if (driver_on_) bits |= static_cast<unsigned>(u::IoStatusBit::driver_on);
-  constexpr u::IoStatusBit kInputBits[] = {u::IoStatusBit::in1, u::IoStatusBit::in2, u::IoStatusBit::in3};
+  if (driver_on_) bits |= static_cast<unsigned>(u::IoStatusBit::kDriverOn);
+  constexpr u::IoStatusBit kInputBits[] = {u::IoStatusBit::kIn1, u::IoStatusBit::kIn2, u::IoStatusBit::kIn3};
   for (std::size_t port = 0; port < inputs_.size(); ++port) {
     if (inputs_[port]) bits |= static_cast<unsigned>(kInputBits[port]);
   }
-  if (output_) bits |= static_cast<unsigned>(u::IoStatusBit::op1);
+  if (output_) bits |= static_cast<unsigned>(u::IoStatusBit::kOp1);
   return static_cast<std::uint8_t>(bits);
 }
 
@@ -419,16 +420,16 @@ std::uint8_t Uim342Drive::status_flags(TimePoint now) const {
   const auto set_if = [&flags](bool condition, u::StatusFlag flag) {
     if (condition) flags |= static_cast<unsigned>(flag);
   };
-  set_if(!moving(now), u::StatusFlag::stopped);
-  set_if(in_position_, u::StatusFlag::in_position);
-  set_if(stalled_, u::StatusFlag::stalled);
-  set_if(locked_, u::StatusFlag::locked);
-  set_if(error_, u::StatusFlag::error);
+  set_if(!moving(now), u::StatusFlag::kStopped);
+  set_if(in_position_, u::StatusFlag::kInPosition);
+  set_if(stalled_, u::StatusFlag::kStalled);
+  set_if(locked_, u::StatusFlag::kLocked);
+  set_if(error_, u::StatusFlag::kError);
   return static_cast<std::uint8_t>(flags);
 }
 
 u::AccelerationUnit Uim342Drive::acceleration_unit() const {
-  return static_cast<u::AccelerationUnit>(active_.initial_config[at(u::InitialConfig::acceleration_unit)] != 0 ? 1 : 0);
+  return static_cast<u::AccelerationUnit>(active_.initial_config[at(u::InitialConfig::kAccelerationUnit)] != 0 ? 1 : 0);
 }
 
 bool Uim342Drive::notification_enabled(u::InformationEnable which) const {

@@ -34,7 +34,7 @@ void Uim342Drive::reboot(TimePoint now) {
   active_ = persisted_;
   // The desired values DV[2..4] and the motion mode live in RAM only.
   active_.groups[0].speed = active_.groups[0].relative = active_.groups[0].absolute = 0;
-  mode_ = u::MotionMode::jog;
+  mode_ = u::MotionMode::kJog;
   ptp_relative_ = false;
   node_id_ = active_.node_id;  // PP changes take effect here (§5.1)
   group_id_ = active_.group_id;
@@ -45,7 +45,7 @@ void Uim342Drive::reboot(TimePoint now) {
   shaft_base_full_steps_ = shaft_full_steps(now);
   kinematics_ = Kinematics{};  // the position counter starts at 0
   counts_base_ = 0;
-  applied_micro_steps_ = std::max<std::uint16_t>(active_.driver[at(u::MotorDriver::microstepping)], 1);
+  applied_micro_steps_ = std::max<std::uint16_t>(active_.driver[at(u::MotorDriver::kMicrostepping)], 1);
   motion_ = Motion{};
   origin_offset_ = relative_origin_ = 0;
   output_ = false;
@@ -55,9 +55,9 @@ void Uim342Drive::reboot(TimePoint now) {
   context_.report(kind(motionlcm::sim_report_t::POWERED_UP), 0, 0, 0);
   driver_on_ = false;
   auto_enable_at_ = kNever;
-  if (active_.initial_config[at(u::InitialConfig::auto_driver_on)] != 0) {
+  if (active_.initial_config[at(u::InitialConfig::kAutoDriverOn)] != 0) {
     // IC[0] with the MT[3] delay (§5.2, §5.9).
-    auto_enable_at_ = now + std::chrono::milliseconds(active_.driver[at(u::MotorDriver::auto_enable_delay_ms)]);
+    auto_enable_at_ = now + std::chrono::milliseconds(active_.driver[at(u::MotorDriver::kAutoEnableDelayMs)]);
     if (auto_enable_at_ <= now) {
       driver_on_ = true;
       auto_enable_at_ = kNever;
@@ -68,7 +68,8 @@ void Uim342Drive::reboot(TimePoint now) {
     const auto& actions = active_.input_logic[port];
     const bool high = inputs_[port];
     const u::EdgeAction action = high ? actions.rising : actions.falling;
-    if (!action.wait_for_edge) run_input_action(port, high ? u::Edge::rising : u::Edge::falling, action.action, now, 0);
+    if (!action.wait_for_edge)
+      run_input_action(port, high ? u::Edge::kRising : u::Edge::kFalling, action.action, now, 0);
   }
 }
 
@@ -152,7 +153,7 @@ std::int32_t Uim342Drive::speed(TimePoint now) const {
 
 void Uim342Drive::begin(TimePoint now, std::int64_t utime) {
   const MotionGroup& desired = active_.groups[0];
-  if (mode_ == u::MotionMode::jog) {
+  if (mode_ == u::MotionMode::kJog) {
     start_jog(now, desired.speed, desired, utime);
   } else {
     // Relative targets count from the position at BG.
@@ -166,7 +167,7 @@ void Uim342Drive::start_ptp(TimePoint now, std::int64_t target, const MotionGrou
   const double speed_magnitude = std::abs(static_cast<double>(group.speed));
   if (speed_magnitude == 0 && target != position(now)) return;
   kinematics_.move_to(now, target + origin_offset_, profile(group, std::max(speed_magnitude, 1.0)));
-  mode_ = u::MotionMode::ptp;
+  mode_ = u::MotionMode::kPtp;
   motion_ = Motion{true, true, false, target, 0};
   in_position_ = emergency_stopping_ = false;
   relative_origin_ = position(now);
@@ -175,7 +176,7 @@ void Uim342Drive::start_ptp(TimePoint now, std::int64_t target, const MotionGrou
 
 void Uim342Drive::start_jog(TimePoint now, double velocity, const MotionGroup& group, std::int64_t utime) {
   kinematics_.jog(now, profile(group, velocity));
-  mode_ = u::MotionMode::jog;
+  mode_ = u::MotionMode::kJog;
   const std::int64_t here = position(now);
   motion_ = Motion{true, false, false, here, 0};
   in_position_ = emergency_stopping_ = false;
@@ -222,20 +223,20 @@ void Uim342Drive::finish_if_done(TimePoint now) {
 void Uim342Drive::stall(TimePoint now, std::int64_t utime) {
   // §1.5 / IL[16]: stop and hold the shaft, or switch the driver off.
   halt(now, utime);
-  if (active_.stall_behaviour == static_cast<std::uint16_t>(u::StallBehaviour::driver_off)) driver_on_ = false;
+  if (active_.stall_behaviour == static_cast<std::uint16_t>(u::StallBehaviour::kDriverOff)) driver_on_ = false;
   stalled_ = true;  // TLIF
-  notify(u::AlarmNotification{u::AlarmCode::stall});
+  notify(u::AlarmNotification{u::AlarmCode::kStall});
 }
 
 void Uim342Drive::raise_alarm(u::AlarmCode alarm, TimePoint now, std::int64_t utime) {
   switch (alarm) {
-    case u::AlarmCode::stall: stall(now, utime); return;
-    case u::AlarmCode::emergency_stop_lock:  // locked until a reboot
+    case u::AlarmCode::kStall: stall(now, utime); return;
+    case u::AlarmCode::kEmergencyStopLock:  // locked until a reboot
       locked_ = true;
       stop_with(now, static_cast<double>(active_.stop_deceleration), true, utime);
       break;
-    case u::AlarmCode::below_lower_limit:  // limit stops use SD (§5.17)
-    case u::AlarmCode::above_upper_limit:
+    case u::AlarmCode::kBelowLowerLimit:  // limit stops use SD (§5.17)
+    case u::AlarmCode::kAboveUpperLimit:
       stop_with(now, static_cast<double>(active_.stop_deceleration), true, utime);
       break;
     default: break;  // speed, encoder, battery and unknown alarms: reported only
@@ -260,21 +261,21 @@ void Uim342Drive::set_input(std::size_t port, bool level, TimePoint now, std::in
 
 void Uim342Drive::accept_input(std::size_t port, bool level, TimePoint now, std::int64_t utime) {
   accepted_inputs_[port] = level;
-  const u::Edge edge = level ? u::Edge::rising : u::Edge::falling;
+  const u::Edge edge = level ? u::Edge::kRising : u::Edge::kFalling;
   notify(u::InputEdgeNotification{static_cast<u::InputPort>(port), edge});  // IE[port]
   u::InputActions& actions = active_.input_logic[port];
   run_input_action(port, edge, (level ? actions.rising : actions.falling).action, now, utime);
   if (active_.trigger[port] == u::kTriggerOneTime) {
     // One-time mode: the port's actions are used up until IL[i] is written again (§4.2).
-    actions.rising.action = actions.falling.action = u::InputAction::none;
+    actions.rising.action = actions.falling.action = u::InputAction::kNone;
   }
 }
 
 void Uim342Drive::input_emergency_stop(TimePoint now, std::int64_t utime) {
   stop_with(now, static_cast<double>(active_.stop_deceleration), true, utime);
-  if (active_.initial_config[at(u::InitialConfig::lock_on_input_estop)] != 0) {  // IC[3]
+  if (active_.initial_config[at(u::InitialConfig::kLockOnInputEstop)] != 0) {  // IC[3]
     locked_ = true;
-    notify(u::AlarmNotification{u::AlarmCode::emergency_stop_lock});
+    notify(u::AlarmNotification{u::AlarmCode::kEmergencyStopLock});
   }
 }
 
@@ -282,7 +283,7 @@ void Uim342Drive::run_input_action(std::size_t port, u::Edge edge, u::InputActio
                                    std::int64_t utime) {
   using A = u::InputAction;
   // Parameter group of this edge: 2 + 2 * port, +1 for the falling edge (§5.13).
-  const MotionGroup group = active_.groups[2 + 2 * port + (edge == u::Edge::falling ? 1 : 0)];
+  const MotionGroup group = active_.groups[2 + 2 * port + (edge == u::Edge::kFalling ? 1 : 0)];
   const double velocity_now = motion_state(now).velocity;
   // "Reversed" actions go against the present motion, negative when at rest.
   const double reverse = velocity_now < 0 ? 1.0 : -1.0;
@@ -294,36 +295,36 @@ void Uim342Drive::run_input_action(std::size_t port, u::Edge edge, u::InputActio
   };
   const auto decelerate = [&] { stop_with(now, ramp_rate(group.deceleration, velocity_now), false, utime); };
   switch (action) {
-    case A::none: break;
-    case A::driver_off:
+    case A::kNone: break;
+    case A::kDriverOff:
       halt(now, utime);
       driver_on_ = false;
       break;
-    case A::emergency_stop: input_emergency_stop(now, utime); break;
-    case A::decelerate_stop: decelerate(); break;
-    case A::origin_then_reverse_relative:
+    case A::kEmergencyStop: input_emergency_stop(now, utime); break;
+    case A::kDecelerateStop: decelerate(); break;
+    case A::kOriginThenReverseRelative:
       set_origin(now);
       relative_move(reverse, group.relative);
       break;
-    case A::origin_then_emergency_stop:
+    case A::kOriginThenEmergencyStop:
       set_origin(now);
       input_emergency_stop(now, utime);
       break;
-    case A::origin_then_decelerate_stop:
+    case A::kOriginThenDecelerateStop:
       set_origin(now);
       decelerate();
       break;
-    case A::jog_reverse:
+    case A::kJogReverse:
       if (can_move) start_jog(now, reverse * std::abs(static_cast<double>(group.speed)), group, utime);
       break;
-    case A::jog:
+    case A::kJog:
       if (can_move) start_jog(now, group.speed, group, utime);
       break;
-    case A::reverse_relative: relative_move(reverse, group.relative); break;
-    case A::relative:
+    case A::kReverseRelative: relative_move(reverse, group.relative); break;
+    case A::kRelative:
       if (can_move) start_ptp(now, position(now) + group.relative, group, utime);
       break;
-    case A::absolute:
+    case A::kAbsolute:
       if (can_move) start_ptp(now, group.absolute, group, utime);
       break;
   }

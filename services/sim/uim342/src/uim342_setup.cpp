@@ -35,34 +35,34 @@ struct SetupRule {
 constexpr SetupRule kRules[] = {
     {"micro_steps",
      [](Uim342Drive::Parameters& p, double v, std::string_view) {
-       p.driver[at(u::MotorDriver::microstepping)] = word(v);
+       p.driver[at(u::MotorDriver::kMicrostepping)] = word(v);
        // CPR follows the micro-steps (§3.5): QE[4] = micro-steps x 200.
-       p.encoder[at(u::QuadratureEncoder::counts_per_revolution)] = word(v * u::kFullStepsPerRevolution);
+       p.encoder[at(u::QuadratureEncoder::kCountsPerRevolution)] = word(v * u::kFullStepsPerRevolution);
      }},
     {"current_a", [](Uim342Drive::Parameters& p, double v,
-                     std::string_view) { p.driver[at(u::MotorDriver::working_current)] = word(v * 10.0); }},
+                     std::string_view) { p.driver[at(u::MotorDriver::kWorkingCurrent)] = word(v * 10.0); }},
     {"idle_current_percent", [](Uim342Drive::Parameters& p, double v,
-                                std::string_view) { p.driver[at(u::MotorDriver::idle_current_percent)] = word(v); }},
+                                std::string_view) { p.driver[at(u::MotorDriver::kIdleCurrentPercent)] = word(v); }},
     {"auto_enable", [](Uim342Drive::Parameters& p, double v,
-                       std::string_view) { p.initial_config[at(u::InitialConfig::auto_driver_on)] = word(v); }},
+                       std::string_view) { p.initial_config[at(u::InitialConfig::kAutoDriverOn)] = word(v); }},
     {"direction",
      [](Uim342Drive::Parameters& p, double, std::string_view t) {
-       p.initial_config[at(u::InitialConfig::positive_direction)] = t == "ccw" ? 1 : 0;
+       p.initial_config[at(u::InitialConfig::kPositiveDirection)] = t == "ccw" ? 1 : 0;
      }},
     {"acceleration_unit",
      [](Uim342Drive::Parameters& p, double, std::string_view t) {
-       p.initial_config[at(u::InitialConfig::acceleration_unit)] = t == "time" ? 1 : 0;
+       p.initial_config[at(u::InitialConfig::kAccelerationUnit)] = t == "time" ? 1 : 0;
      }},
     {"closed_loop", [](Uim342Drive::Parameters& p, double v,
-                       std::string_view) { p.initial_config[at(u::InitialConfig::closed_loop)] = word(v); }},
+                       std::string_view) { p.initial_config[at(u::InitialConfig::kClosedLoop)] = word(v); }},
     {"software_limits", [](Uim342Drive::Parameters& p, double v,
-                           std::string_view) { p.initial_config[at(u::InitialConfig::software_limits)] = word(v); }},
+                           std::string_view) { p.initial_config[at(u::InitialConfig::kSoftwareLimits)] = word(v); }},
     {"encoder_resolution",
      [](Uim342Drive::Parameters& p, double v, std::string_view) {
-       p.encoder[at(u::QuadratureEncoder::lines_per_revolution)] = word(v);
+       p.encoder[at(u::QuadratureEncoder::kLinesPerRevolution)] = word(v);
      }},
     {"stall_tolerance", [](Uim342Drive::Parameters& p, double v,
-                           std::string_view) { p.encoder[at(u::QuadratureEncoder::stall_tolerance)] = word(v); }},
+                           std::string_view) { p.encoder[at(u::QuadratureEncoder::kStallTolerance)] = word(v); }},
     {"cut_in_speed", [](Uim342Drive::Parameters& p, double v, std::string_view) { p.cut_in_speed = dword(v); }},
     {"stop_deceleration",
      [](Uim342Drive::Parameters& p, double v, std::string_view) { p.stop_deceleration = dword(v); }},
@@ -105,7 +105,7 @@ Uim342Identity uim342_identity(const config::Drive& drive, int bus_bitrate) {
   }
   // Distinct per node so that a bus scan can tell drives apart.
   identity.serial = 0x03420000U + static_cast<std::uint32_t>(drive.node_id);
-  for (std::uint8_t code = 0; code <= static_cast<std::uint8_t>(u::BitRate::kbps_125); ++code) {
+  for (std::uint8_t code = 0; code <= static_cast<std::uint8_t>(u::BitRate::kKbps125); ++code) {
     if (u::bits_per_second(static_cast<u::BitRate>(code)) == static_cast<std::uint32_t>(bus_bitrate))
       identity.bit_rate_code = code;
   }
@@ -150,7 +150,7 @@ CanDriveFactory uim342_factory(const config::Config& config) {
     const auto identity = uim342_identity(drive, bus == bitrates.end() ? 0 : bus->second);
     const auto sw = switches.find(drive.name);
     const auto apply =
-        variants.at(drive.name) == "immediately" ? MicroStepsApply::immediately : MicroStepsApply::after_restart;
+        variants.at(drive.name) == "immediately" ? MicroStepsApply::kImmediately : MicroStepsApply::kAfterRestart;
     return std::make_unique<Uim342Drive>(drive, std::move(context), identity,
                                          sw == switches.end() ? std::nullopt : sw->second, apply);
   };

@@ -14,17 +14,17 @@
 namespace motion::planner {
 
 enum class PlanErrc {
-  no_axes = 1,               // an empty request
-  non_finite_input,          // NaN or infinity where a number is needed
-  non_positive_scale,        // counts per user unit <= 0
-  non_positive_limit,        // max velocity / acceleration / deceleration <= 0
-  invalid_position_range,    // min_position > max_position
-  invalid_speed_scale,       // global velocity/acceleration scale outside (0, 1]
-  target_below_min,          // target < min_position (user units)
-  target_above_max,          // target > max_position (user units)
-  counts_out_of_range,       // |position x scale| beyond 2^53 counts (no longer exact)
-  quantizer_count_mismatch,  // not exactly one quantizer per axis, or a null one
-  quantization_impossible,   // no value the drive can represent lies within the axis limits
+  kNoAxes = 1,              // an empty request
+  kNonFiniteInput,          // NaN or infinity where a number is needed
+  kNonPositiveScale,        // counts per user unit <= 0
+  kNonPositiveLimit,        // max velocity / acceleration / deceleration <= 0
+  kInvalidPositionRange,    // min_position > max_position
+  kInvalidSpeedScale,       // global velocity/acceleration scale outside (0, 1]
+  kTargetBelowMin,          // target < min_position (user units)
+  kTargetAboveMax,          // target > max_position (user units)
+  kCountsOutOfRange,        // |position x scale| beyond 2^53 counts (no longer exact)
+  kQuantizerCountMismatch,  // not exactly one quantizer per axis, or a null one
+  kQuantizationImpossible,  // no value the drive can represent lies within the axis limits
 };
 
 [[nodiscard]] const std::error_category& planner_category() noexcept;

@@ -82,18 +82,18 @@ struct VelocityGrid {
 //              an axis arrives up to ramp_from * ramp time / velocity early. A velocity at or below
 //              ramp_from has no ramp and is not offered.
 struct AccelerationGrid {
-  enum class Kind { rate, ramp_time };
-  Kind kind = Kind::rate;
+  enum class Kind { kRate, kRampTime };
+  Kind kind = Kind::kRate;
   double step = 1.0;  // counts/s^2 per n (rate) or seconds per n (ramp time)
   std::int64_t min_steps = 1;
   std::int64_t max_steps = std::numeric_limits<std::int32_t>::max();
   double ramp_from = 0.0;  // ramp time only: the speed (counts/s, >= 0) the ramps start from / end at
 
   [[nodiscard]] static AccelerationGrid rate(double counts_per_s2_per_step) {
-    return {Kind::rate, counts_per_s2_per_step};
+    return {Kind::kRate, counts_per_s2_per_step};
   }
   [[nodiscard]] static AccelerationGrid ramp_time(double seconds_per_step, double from_counts_per_s = 0.0) {
-    AccelerationGrid g{Kind::ramp_time, seconds_per_step};
+    AccelerationGrid g{Kind::kRampTime, seconds_per_step};
     g.ramp_from = from_counts_per_s;
     return g;
   }

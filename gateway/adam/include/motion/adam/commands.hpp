@@ -18,65 +18,65 @@ namespace motion::adam {
 
 // 0x00C8 (§8.65①). Speed from 0x009A.
 enum class VelocityCommand : std::uint16_t {
-  ramped_stop = 0,  // decelerate over 0x0099 to the stop speed, then stop
-  run_forward = 1,
-  emergency_stop = 256,  // speed to 0 at once
-  run_reverse = 257,
+  kRampedStop = 0,  // decelerate over 0x0099 to the stop speed, then stop
+  kRunForward = 1,
+  kEmergencyStop = 256,  // speed to 0 at once
+  kRunReverse = 257,
 };
 
 // 0x00D4 (§8.67). restart gets no reply, even when addressed to one node.
-enum class EnableCommand : std::uint16_t { enable = 0, release = 1, restart = 0x0100 };
+enum class EnableCommand : std::uint16_t { kEnable = 0, kRelease = 1, kRestart = 0x0100 };
 
 // 0x00DB (§8.68) and 0x00DC (§8.69).
-enum class ProgramCommand : std::uint16_t { stop = 0, run = 1 };
-enum class SaveCommand : std::uint16_t { restore_factory = 0, save = 1 };
+enum class ProgramCommand : std::uint16_t { kStop = 0, kRun = 1 };
+enum class SaveCommand : std::uint16_t { kRestoreFactory = 0, kSave = 1 };
 
 // 0x00A4 (§8.52): the only documented value.
 inline constexpr std::uint16_t kClearAlarmValue = 0;
 
 // 0x009F (§8.50).
-enum class WorkingMode : std::uint16_t { twin_pulse = 1, pulse_direction = 2, io_control = 3 };
+enum class WorkingMode : std::uint16_t { kTwinPulse = 1, kPulseDirection = 2, kIoControl = 3 };
 
 // 0x0009 (§8.6).
 enum class BaudCode : std::uint16_t {
-  b300 = 1,
-  b600 = 2,
-  b1200 = 3,
-  b2400 = 4,
-  b4800 = 5,
-  b9600 = 6,
-  b14400 = 7,
-  b19200 = 8,
-  b38400 = 9,
-  b56000 = 10,
-  b57600 = 11,
-  b115200 = 12,
-  b230400 = 13,
-  b460800 = 14,
-  b921600 = 15,
+  kB300 = 1,
+  kB600 = 2,
+  kB1200 = 3,
+  kB2400 = 4,
+  kB4800 = 5,
+  kB9600 = 6,
+  kB14400 = 7,
+  kB19200 = 8,
+  kB38400 = 9,
+  kB56000 = 10,
+  kB57600 = 11,
+  kB115200 = 12,
+  kB230400 = 13,
+  kB460800 = 14,
+  kB921600 = 15,
 };
 [[nodiscard]] std::optional<std::uint32_t> baud_rate(BaudCode code) noexcept;  // nullopt: not 1…15
 [[nodiscard]] std::optional<BaudCode> baud_code(std::uint32_t bits_per_second) noexcept;
 
 // 0x0012 (§8.15): 1 = prohibited / disabled.
 enum class ProtectionBit : std::uint16_t {
-  phase_open_alarm_off = 1U << 0,
-  under_voltage_alarm_off = 1U << 1,
-  under_voltage_reset_off = 1U << 2,
-  test_mode_off = 1U << 3,
-  disabled_at_power_on = 1U << 4,
-  offline_brake_release_off = 1U << 5,
+  kPhaseOpenAlarmOff = 1U << 0,
+  kUnderVoltageAlarmOff = 1U << 1,
+  kUnderVoltageResetOff = 1U << 2,
+  kTestModeOff = 1U << 3,
+  kDisabledAtPowerOn = 1U << 4,
+  kOfflineBrakeReleaseOff = 1U << 5,
 };
 
-enum class Rotation : std::uint8_t { cw = 0, ccw = 1 };         // jog, secondary home
-enum class Travel : std::uint8_t { forward = 0, reverse = 1 };  // homing, torque
-enum class StopMethod : std::uint8_t { decelerate = 0, immediate = 1 };
+enum class Rotation : std::uint8_t { kCw = 0, kCcw = 1 };         // jog, secondary home
+enum class Travel : std::uint8_t { kForward = 0, kReverse = 1 };  // homing, torque
+enum class StopMethod : std::uint8_t { kDecelerate = 0, kImmediate = 1 };
 
 // 0x00CA (§8.65②): bit 15 direction, 14…6 speed rpm (0…511), 5 stop method, 0 run.
 struct JogCommand {
-  Rotation direction = Rotation::cw;
+  Rotation direction = Rotation::kCw;
   std::uint16_t speed_rpm = 0;  // 0…511
-  StopMethod stop = StopMethod::decelerate;
+  StopMethod stop = StopMethod::kDecelerate;
   bool run = false;  // false: stop with `stop`
   friend bool operator==(const JogCommand&, const JogCommand&) = default;
 };
@@ -86,9 +86,9 @@ struct JogCommand {
 // 0x00C9 (§8.48): bit 15 direction, 14…6 speed rpm (0…511), 5 stop on home signal, 4…0
 // secondary-home speed in 5 rpm units (0 = no secondary pass).
 struct HomingCommand {
-  Travel direction = Travel::forward;
+  Travel direction = Travel::kForward;
   std::uint16_t speed_rpm = 0;  // 0…511
-  StopMethod stop = StopMethod::decelerate;
+  StopMethod stop = StopMethod::kDecelerate;
   std::uint8_t secondary_speed_code = 0;  // 0…31, × 5 rpm
   friend bool operator==(const HomingCommand&, const HomingCommand&) = default;
 };
@@ -98,7 +98,7 @@ inline constexpr std::uint16_t kSecondaryHomeRpmPerCode = 5;
 
 // 0x00CB (§8.49): bit 15 direction, 14…1 offset pulses (collision homing), 0 run.
 struct TorqueCommand {
-  Travel direction = Travel::forward;
+  Travel direction = Travel::kForward;
   std::uint16_t offset_pulses = 0;  // 0…16383
   bool run = false;
   friend bool operator==(const TorqueCommand&, const TorqueCommand&) = default;
@@ -108,11 +108,11 @@ struct TorqueCommand {
 
 // 0x00DD (§8.54): bit 15 absolute/relative, bits 14…12 pointer arithmetic (0 add, 1 subtract),
 // bits 11…0 pointer step. Executes the entry at the table pointer, then moves the pointer.
-enum class TableEntryKind : std::uint8_t { absolute = 0, relative = 1 };
-enum class PointerArithmetic : std::uint8_t { add = 0, subtract = 1 };
+enum class TableEntryKind : std::uint8_t { kAbsolute = 0, kRelative = 1 };
+enum class PointerArithmetic : std::uint8_t { kAdd = 0, kSubtract = 1 };
 struct TableExecute {
-  TableEntryKind kind = TableEntryKind::absolute;
-  PointerArithmetic arithmetic = PointerArithmetic::add;
+  TableEntryKind kind = TableEntryKind::kAbsolute;
+  PointerArithmetic arithmetic = PointerArithmetic::kAdd;
   std::uint16_t step = 0;  // 0…4095
   friend bool operator==(const TableExecute&, const TableExecute&) = default;
 };
@@ -139,9 +139,9 @@ struct InputPair {  // 0x009B: high = negative limit, low = positive limit; 0x00
 
 // Position reminders 0x00A8 (X11), 0x00C2/C4/C6 (X17…X19), §8.53: bit 31 = comparison,
 // bits 30…0 = threshold, 31-bit two's complement.
-enum class ReminderComparison : std::uint8_t { at_or_above = 0, below = 1 };
+enum class ReminderComparison : std::uint8_t { kAtOrAbove = 0, kBelow = 1 };
 struct PositionReminder {
-  ReminderComparison comparison = ReminderComparison::at_or_above;
+  ReminderComparison comparison = ReminderComparison::kAtOrAbove;
   std::int32_t threshold = 0;  // −2^30 … 2^30 − 1
   friend bool operator==(const PositionReminder&, const PositionReminder&) = default;
 };
@@ -166,12 +166,12 @@ struct PositionReminder {
 
 // 32-bit motion commands (§8.65③–⑦, §8.66).
 enum class MoveCommand : std::uint16_t {
-  timed_run_ms = address(Reg::timed_run),
-  relative_at_standstill = address(Reg::relative_move),
-  absolute_at_standstill = address(Reg::absolute_move),
-  relative_preempting = address(Reg::relative_move_preempt),
-  absolute_preempting = address(Reg::absolute_move_preempt),
-  preset_position = address(Reg::preset_position),
+  kTimedRunMs = address(Reg::kTimedRun),
+  kRelativeAtStandstill = address(Reg::kRelativeMove),
+  kAbsoluteAtStandstill = address(Reg::kAbsoluteMove),
+  kRelativePreempting = address(Reg::kRelativeMovePreempt),
+  kAbsolutePreempting = address(Reg::kAbsoluteMovePreempt),
+  kPresetPosition = address(Reg::kPresetPosition),
 };
 [[nodiscard]] rtu::Request move(std::uint8_t unit, MoveCommand kind, std::int32_t value);
 

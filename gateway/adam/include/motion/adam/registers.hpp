@@ -24,130 +24,130 @@ namespace motion::adam {
 // Protocol addresses as they appear in the PDU (no 40001 offset). 32-bit entries name their
 // first (low-word) address.
 enum class Reg : std::uint16_t {
-  hardware_version = 0x0000,     // §8.1, 2 regs
-  firmware_version = 0x0002,     // §8.2, 2 regs
-  position = 0x0004,             // §8.3, INT32
-  status = 0x0006,               // §8.4, UINT32
-  serial_timeout = 0x0008,       // §8.5
-  baud_rate = 0x0009,            // §8.6
-  smoothing = 0x000A,            // §8.7
-  dynamic_error_alarm = 0x000B,  // §8.8
-  static_error_alarm = 0x000C,   // §8.9
-  rated_current = 0x000D,        // §8.10
-  current_percentages = 0x000E,  // §8.11
-  encoder_lines = 0x000F,        // §8.12
-  deviation_warning = 0x0010,    // §8.13
-  position_deviation = 0x0011,   // §8.14
-  protection_bits = 0x0012,      // §8.15
-  filter_frequency = 0x0013,     // §7 only
-  program_step = 0x0015,         // §8.16
-  peak_speed = 0x0016,           // §8.17
-  min_encoder_lines = 0x0017,    // §8.18
-  speed_rpm = 0x0019,            // §8.19
-  current_ma = 0x001A,           // §8.20
-  input_delay_x0 = 0x001B,       // §8.21 … §8.28 (X0…X7 at 0x001B…0x0022)
-  input_delay_x1 = 0x001C,
-  input_delay_x2 = 0x001D,
-  input_delay_x3 = 0x001E,
-  input_delay_x4 = 0x001F,
-  input_delay_x5 = 0x0020,
-  input_delay_x6 = 0x0021,
-  input_delay_x7 = 0x0022,
-  subdivision = 0x0024,             // §8.29, UINT32
-  inductance = 0x0026,              // §8.30
-  resistance = 0x0027,              // §8.31
-  position_loop_integral = 0x0029,  // §8.61
-  sw_speed_1 = 0x002C,              // §7 only, 0x002C…0x0033
-  sw_speed_2 = 0x002D,
-  sw_speed_3 = 0x002E,
-  sw_speed_4 = 0x002F,
-  sw_speed_5 = 0x0030,
-  sw_speed_6 = 0x0031,
-  sw_speed_7 = 0x0032,
-  sw_speed_8 = 0x0033,
-  max_bus_voltage = 0x0044,     // §8.32
-  max_current = 0x0045,         // §8.33
-  max_lagging_pulses = 0x0046,  // §8.34
-  max_leading_pulses = 0x0047,  // §8.35
-  min_bus_voltage = 0x0048,     // §8.36
-  driver_id = 0x0066,           // §8.37
-  rotation_direction = 0x006B,  // §8.38
-  input_polarity = 0x006C,      // §8.39
-  negative_limit = 0x006E,      // §8.45, INT32
-  positive_limit = 0x0070,      // §8.46, INT32
-  start_speed = 0x0096,         // §8.40
-  stop_speed = 0x0097,          // §8.41
-  acceleration_time = 0x0098,   // §8.42
-  deceleration_time = 0x0099,   // §8.43
-  working_speed = 0x009A,       // §8.44
-  limit_inputs = 0x009B,        // §8.47
-  enable_home_inputs = 0x009C,  // §8.48
-  secondary_home = 0x009D,      // §8.48
-  torque_mode = 0x009E,         // §8.49
-  working_mode = 0x009F,        // §8.50
-  outputs_on = 0x00A0,          // §8.51
-  outputs_off = 0x00A1,         // §8.51
-  output_state = 0x00A2,        // §8.51
-  alarm = 0x00A3,               // §8.52
-  clear_alarm = 0x00A4,         // §8.52
-  alarm_output = 0x00A5,        // §8.51
-  running_output = 0x00A6,      // §8.51
-  in_position_output = 0x00A7,  // §8.51
-  reminder_x11 = 0x00A8,        // §8.53, coded 32-bit
-  table_size = 0x00AA,          // §8.54
-  table_pointer = 0x00AB,       // §8.54
-  table_start = 0x00AC,         // §8.54
-  estop_config = 0x00AD,        // §8.55
-  home_done_output = 0x00AE,    // §8.48
-  speed_switch_1 = 0x00AF,      // §8.56
-  speed_switch_2 = 0x00B0,
-  speed_switch_3 = 0x00B1,
-  speed_switch_4 = 0x00B2,
-  speed_switch_1_ext = 0x00B3,
-  speed_switch_2_ext = 0x00B4,
-  speed_switch_3_ext = 0x00B5,
-  dynamic_positioning = 0x00B6,  // §8.57, UINT32
-  speed_switch_4_ext = 0x00B8,
-  io_velocity_run = 0x00BA,  // §8.58, UINT32
-  rotor_offset = 0x00BE,     // §8.59
-  position_loop_p = 0x00BF,  // §8.60
-  speed_loop_p = 0x00C0,     // §8.62
-  speed_loop_i = 0x00C1,     // §8.63a
-  reminder_x17 = 0x00C2,     // §8.53
-  reminder_x18 = 0x00C4,
-  reminder_x19 = 0x00C6,
-  velocity_command = 0x00C8,       // §8.65① VelocityCommand
-  homing_command = 0x00C9,         // §8.48   HomingCommand
-  jog_command = 0x00CA,            // §8.65② JogCommand
-  torque_command = 0x00CB,         // §8.49   TorqueCommand
-  timed_run = 0x00CC,              // §8.65③ INT32 ms
-  relative_move = 0x00CE,          // §8.65④ INT32 pulses, standstill only
-  absolute_move = 0x00D0,          // §8.65⑥ INT32 pulses, standstill only
-  preset_position = 0x00D2,        // §8.66   INT32 pulses
-  enable_command = 0x00D4,         // §8.67   EnableCommand
-  speed_centi_rpm = 0x00D6,        // §8.63b  INT32 0.01 rpm
-  target_speed = 0x00D8,           // §8.64   INT32 0.01 rpm
-  program_command = 0x00DB,        // §8.68   ProgramCommand
-  save_command = 0x00DC,           // §8.69   SaveCommand
-  table_execute = 0x00DD,          // §8.54   TableExecute
-  relative_move_preempt = 0x00DE,  // §8.65⑤ INT32 pulses
-  absolute_move_preempt = 0x00E8,  // §8.65⑦ INT32 pulses
+  kHardwareVersion = 0x0000,     // §8.1, 2 regs
+  kFirmwareVersion = 0x0002,     // §8.2, 2 regs
+  kPosition = 0x0004,            // §8.3, INT32
+  kStatus = 0x0006,              // §8.4, UINT32
+  kSerialTimeout = 0x0008,       // §8.5
+  kBaudRate = 0x0009,            // §8.6
+  kSmoothing = 0x000A,           // §8.7
+  kDynamicErrorAlarm = 0x000B,   // §8.8
+  kStaticErrorAlarm = 0x000C,    // §8.9
+  kRatedCurrent = 0x000D,        // §8.10
+  kCurrentPercentages = 0x000E,  // §8.11
+  kEncoderLines = 0x000F,        // §8.12
+  kDeviationWarning = 0x0010,    // §8.13
+  kPositionDeviation = 0x0011,   // §8.14
+  kProtectionBits = 0x0012,      // §8.15
+  kFilterFrequency = 0x0013,     // §7 only
+  kProgramStep = 0x0015,         // §8.16
+  kPeakSpeed = 0x0016,           // §8.17
+  kMinEncoderLines = 0x0017,     // §8.18
+  kSpeedRpm = 0x0019,            // §8.19
+  kCurrentMa = 0x001A,           // §8.20
+  kInputDelayX0 = 0x001B,        // §8.21 … §8.28 (X0…X7 at 0x001B…0x0022)
+  kInputDelayX1 = 0x001C,
+  kInputDelayX2 = 0x001D,
+  kInputDelayX3 = 0x001E,
+  kInputDelayX4 = 0x001F,
+  kInputDelayX5 = 0x0020,
+  kInputDelayX6 = 0x0021,
+  kInputDelayX7 = 0x0022,
+  kSubdivision = 0x0024,           // §8.29, UINT32
+  kInductance = 0x0026,            // §8.30
+  kResistance = 0x0027,            // §8.31
+  kPositionLoopIntegral = 0x0029,  // §8.61
+  kSwSpeed1 = 0x002C,              // §7 only, 0x002C…0x0033
+  kSwSpeed2 = 0x002D,
+  kSwSpeed3 = 0x002E,
+  kSwSpeed4 = 0x002F,
+  kSwSpeed5 = 0x0030,
+  kSwSpeed6 = 0x0031,
+  kSwSpeed7 = 0x0032,
+  kSwSpeed8 = 0x0033,
+  kMaxBusVoltage = 0x0044,      // §8.32
+  kMaxCurrent = 0x0045,         // §8.33
+  kMaxLaggingPulses = 0x0046,   // §8.34
+  kMaxLeadingPulses = 0x0047,   // §8.35
+  kMinBusVoltage = 0x0048,      // §8.36
+  kDriverId = 0x0066,           // §8.37
+  kRotationDirection = 0x006B,  // §8.38
+  kInputPolarity = 0x006C,      // §8.39
+  kNegativeLimit = 0x006E,      // §8.45, INT32
+  kPositiveLimit = 0x0070,      // §8.46, INT32
+  kStartSpeed = 0x0096,         // §8.40
+  kStopSpeed = 0x0097,          // §8.41
+  kAccelerationTime = 0x0098,   // §8.42
+  kDecelerationTime = 0x0099,   // §8.43
+  kWorkingSpeed = 0x009A,       // §8.44
+  kLimitInputs = 0x009B,        // §8.47
+  kEnableHomeInputs = 0x009C,   // §8.48
+  kSecondaryHome = 0x009D,      // §8.48
+  kTorqueMode = 0x009E,         // §8.49
+  kWorkingMode = 0x009F,        // §8.50
+  kOutputsOn = 0x00A0,          // §8.51
+  kOutputsOff = 0x00A1,         // §8.51
+  kOutputState = 0x00A2,        // §8.51
+  kAlarm = 0x00A3,              // §8.52
+  kClearAlarm = 0x00A4,         // §8.52
+  kAlarmOutput = 0x00A5,        // §8.51
+  kRunningOutput = 0x00A6,      // §8.51
+  kInPositionOutput = 0x00A7,   // §8.51
+  kReminderX11 = 0x00A8,        // §8.53, coded 32-bit
+  kTableSize = 0x00AA,          // §8.54
+  kTablePointer = 0x00AB,       // §8.54
+  kTableStart = 0x00AC,         // §8.54
+  kEstopConfig = 0x00AD,        // §8.55
+  kHomeDoneOutput = 0x00AE,     // §8.48
+  kSpeedSwitch1 = 0x00AF,       // §8.56
+  kSpeedSwitch2 = 0x00B0,
+  kSpeedSwitch3 = 0x00B1,
+  kSpeedSwitch4 = 0x00B2,
+  kSpeedSwitch1Ext = 0x00B3,
+  kSpeedSwitch2Ext = 0x00B4,
+  kSpeedSwitch3Ext = 0x00B5,
+  kDynamicPositioning = 0x00B6,  // §8.57, UINT32
+  kSpeedSwitch4Ext = 0x00B8,
+  kIoVelocityRun = 0x00BA,  // §8.58, UINT32
+  kRotorOffset = 0x00BE,    // §8.59
+  kPositionLoopP = 0x00BF,  // §8.60
+  kSpeedLoopP = 0x00C0,     // §8.62
+  kSpeedLoopI = 0x00C1,     // §8.63a
+  kReminderX17 = 0x00C2,    // §8.53
+  kReminderX18 = 0x00C4,
+  kReminderX19 = 0x00C6,
+  kVelocityCommand = 0x00C8,      // §8.65① VelocityCommand
+  kHomingCommand = 0x00C9,        // §8.48   HomingCommand
+  kJogCommand = 0x00CA,           // §8.65② JogCommand
+  kTorqueCommand = 0x00CB,        // §8.49   TorqueCommand
+  kTimedRun = 0x00CC,             // §8.65③ INT32 ms
+  kRelativeMove = 0x00CE,         // §8.65④ INT32 pulses, standstill only
+  kAbsoluteMove = 0x00D0,         // §8.65⑥ INT32 pulses, standstill only
+  kPresetPosition = 0x00D2,       // §8.66   INT32 pulses
+  kEnableCommand = 0x00D4,        // §8.67   EnableCommand
+  kSpeedCentiRpm = 0x00D6,        // §8.63b  INT32 0.01 rpm
+  kTargetSpeed = 0x00D8,          // §8.64   INT32 0.01 rpm
+  kProgramCommand = 0x00DB,       // §8.68   ProgramCommand
+  kSaveCommand = 0x00DC,          // §8.69   SaveCommand
+  kTableExecute = 0x00DD,         // §8.54   TableExecute
+  kRelativeMovePreempt = 0x00DE,  // §8.65⑤ INT32 pulses
+  kAbsoluteMovePreempt = 0x00E8,  // §8.65⑦ INT32 pulses
 };
 [[nodiscard]] constexpr std::uint16_t address(Reg r) noexcept { return static_cast<std::uint16_t>(r); }
 
 enum class RegType : std::uint8_t {
-  u16,
-  i16,
-  u32,       // 2 registers, low word first
-  i32,       // 2 registers, low word first, two's complement
-  string32,  // 2 registers (version strings, §8.1/§8.2), see decode_version()
+  kU16,
+  kI16,
+  kU32,       // 2 registers, low word first
+  kI32,       // 2 registers, low word first, two's complement
+  kString32,  // 2 registers (version strings, §8.1/§8.2), see decode_version()
 };
 [[nodiscard]] constexpr std::uint16_t register_count(RegType t) noexcept {
-  return (t == RegType::u16 || t == RegType::i16) ? 1 : 2;
+  return (t == RegType::kU16 || t == RegType::kI16) ? 1 : 2;
 }
 [[nodiscard]] constexpr unsigned bit_width(RegType t) noexcept { return 16U * register_count(t); }
 
-enum class Access : std::uint8_t { read_only, read_write, write_only };
+enum class Access : std::uint8_t { kReadOnly, kReadWrite, kWriteOnly };
 
 struct RegisterInfo {
   Reg reg;
@@ -163,8 +163,8 @@ struct RegisterInfo {
 
   [[nodiscard]] constexpr std::uint16_t first() const noexcept { return address(reg); }
   [[nodiscard]] constexpr std::uint16_t count() const noexcept { return register_count(type); }
-  [[nodiscard]] constexpr bool readable() const noexcept { return access != Access::write_only; }
-  [[nodiscard]] constexpr bool writable() const noexcept { return access != Access::read_only; }
+  [[nodiscard]] constexpr bool readable() const noexcept { return access != Access::kWriteOnly; }
+  [[nodiscard]] constexpr bool writable() const noexcept { return access != Access::kReadOnly; }
 };
 
 // Every documented register, ordered by address.

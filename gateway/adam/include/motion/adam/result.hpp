@@ -14,12 +14,12 @@
 namespace motion::adam {
 
 enum class AdamErrc {
-  value_out_of_range = 1,  // a value outside the register's documented range (manual §7/§8)
-  non_finite,              // NaN or infinity given to a unit conversion
-  invalid_subdivision,     // pulses/rev outside 200…1000000 (§8.29)
-  invalid_unit_address,    // node address outside 1…64 (§5), or 0 where a reply is needed
-  too_many_registers,      // more registers than one frame of ≤ 200 bytes can carry (§8.54)
-  empty_table,             // no table entries to load
+  kValueOutOfRange = 1,  // a value outside the register's documented range (manual §7/§8)
+  kNonFinite,            // NaN or infinity given to a unit conversion
+  kInvalidSubdivision,   // pulses/rev outside 200…1000000 (§8.29)
+  kInvalidUnitAddress,   // node address outside 1…64 (§5), or 0 where a reply is needed
+  kTooManyRegisters,     // more registers than one frame of ≤ 200 bytes can carry (§8.54)
+  kEmptyTable,           // no table entries to load
 };
 
 [[nodiscard]] const std::error_category& adam_category() noexcept;

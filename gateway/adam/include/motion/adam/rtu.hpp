@@ -38,23 +38,23 @@ namespace motion::adam::rtu {
 // --- Function and exception codes --------------------------------------------------------------
 
 enum class FunctionCode : std::uint8_t {
-  read_holding_registers = 0x03,
-  write_single_register = 0x06,
-  write_multiple_registers = 0x10,
+  kReadHoldingRegisters = 0x03,
+  kWriteSingleRegister = 0x06,
+  kWriteMultipleRegisters = 0x10,
 };
 inline constexpr std::uint8_t kExceptionFlag = 0x80;
 
 // Modbus application protocol v1.1b3 §7. The drive's own use of them is undocumented.
 enum class ExceptionCode : std::uint8_t {
-  illegal_function = 0x01,
-  illegal_data_address = 0x02,
-  illegal_data_value = 0x03,
-  server_device_failure = 0x04,
-  acknowledge = 0x05,
-  server_device_busy = 0x06,
-  memory_parity_error = 0x08,
-  gateway_path_unavailable = 0x0A,
-  gateway_target_failed = 0x0B,
+  kIllegalFunction = 0x01,
+  kIllegalDataAddress = 0x02,
+  kIllegalDataValue = 0x03,
+  kServerDeviceFailure = 0x04,
+  kAcknowledge = 0x05,
+  kServerDeviceBusy = 0x06,
+  kMemoryParityError = 0x08,
+  kGatewayPathUnavailable = 0x0A,
+  kGatewayTargetFailed = 0x0B,
 };
 [[nodiscard]] const std::error_category& modbus_category() noexcept;  // name() == "modbus"
 [[nodiscard]] inline std::error_code make_error_code(ExceptionCode e) noexcept {
@@ -64,17 +64,17 @@ enum class ExceptionCode : std::uint8_t {
 // Why a frame could not be decoded or encoded (category "modbus_rtu"). A slave discards such
 // frames silently; a master treats them like a timeout.
 enum class FrameErrc {
-  too_short = 1,         // fewer than 4 bytes (address + function + CRC)
-  too_long,              // more than 256 bytes (Modbus RTU ADU limit)
-  bad_crc,               // CRC-16/MODBUS over the frame does not match its last two bytes
-  truncated,             // CRC fine but fewer bytes than the function's layout needs
-  trailing_bytes,        // CRC fine but more bytes than the function's layout uses
-  unsupported_function,  // response decoding: a function code the drive does not use
-  invalid_quantity,      // encoding: quantity outside the Modbus limits (1…125 read, 1…123 write)
-  byte_count_mismatch,   // response decoding: byte count ≠ 2 × registers (or ≠ the request's)
-  broadcast_read,        // a read addressed to 0: nobody can answer it
-  invalid_unit,          // encoding: unit address above 247
-  unexpected_response,   // response does not belong to the request (unit, function, echo, count)
+  kTooShort = 1,         // fewer than 4 bytes (address + function + CRC)
+  kTooLong,              // more than 256 bytes (Modbus RTU ADU limit)
+  kBadCrc,               // CRC-16/MODBUS over the frame does not match its last two bytes
+  kTruncated,            // CRC fine but fewer bytes than the function's layout needs
+  kTrailingBytes,        // CRC fine but more bytes than the function's layout uses
+  kUnsupportedFunction,  // response decoding: a function code the drive does not use
+  kInvalidQuantity,      // encoding: quantity outside the Modbus limits (1…125 read, 1…123 write)
+  kByteCountMismatch,    // response decoding: byte count ≠ 2 × registers (or ≠ the request's)
+  kBroadcastRead,        // a read addressed to 0: nobody can answer it
+  kInvalidUnit,          // encoding: unit address above 247
+  kUnexpectedResponse,   // response does not belong to the request (unit, function, echo, count)
 };
 [[nodiscard]] const std::error_category& frame_category() noexcept;  // name() == "modbus_rtu"
 [[nodiscard]] inline std::error_code make_error_code(FrameErrc e) noexcept {
@@ -147,7 +147,7 @@ struct WriteRegistersReply {               // FC 0x10 normal response
 };
 struct ExceptionReply {
   std::uint8_t function = 0;  // the request's function code, without the 0x80 flag
-  ExceptionCode code = ExceptionCode::illegal_function;
+  ExceptionCode code = ExceptionCode::kIllegalFunction;
   friend bool operator==(const ExceptionReply&, const ExceptionReply&) = default;
 };
 using ResponsePdu = std::variant<ReadRegistersReply, WriteRegisterReply, WriteRegistersReply, ExceptionReply>;
@@ -181,7 +181,7 @@ struct Response {
 struct RejectedRequest {
   std::uint8_t unit = 0;
   std::uint8_t function = 0;
-  ExceptionCode code = ExceptionCode::illegal_function;
+  ExceptionCode code = ExceptionCode::kIllegalFunction;
   friend bool operator==(const RejectedRequest&, const RejectedRequest&) = default;
 };
 // Request: serve it. RejectedRequest: answer with its exception (unless broadcast).
@@ -204,10 +204,10 @@ using ParsedRequest = std::variant<Request, RejectedRequest, FrameErrc>;
 
 // --- Inter-frame timing (Modbus over serial line v1.02 §2.5.1.1) -------------------------------
 
-enum class Parity : std::uint8_t { none, even, odd };
+enum class Parity : std::uint8_t { kNone, kEven, kOdd };
 struct SerialFormat {
   std::uint32_t baud = 115200;  // the drive's default (§4); 8N1, no parity register exists
-  Parity parity = Parity::none;
+  Parity parity = Parity::kNone;
   std::uint8_t data_bits = 8;
   std::uint8_t stop_bits = 1;
 };

@@ -7,7 +7,7 @@
 //   * the register map rules (registers.hpp check_request) → 0x02/0x03 before the bank is called;
 //   * broadcasts (unit 0) are executed but never answered (§5); the restart command
 //     0x00D4 = 0x0100 is never answered (§8.67);
-//   * ExceptionMode::silent makes the slave send no exception frames at all (the real drive's
+//   * ExceptionMode::kSilent makes the slave send no exception frames at all (the real drive's
 //     exception behaviour is not described in the manual's §6).
 //
 // Thread contract: serve() is reentrant; the RegisterBank is called on the caller's thread and
@@ -33,26 +33,26 @@ class RegisterBank {
   virtual std::optional<rtu::ExceptionCode> write(std::uint16_t start, std::span<const std::uint16_t> values) = 0;
 };
 
-enum class ExceptionMode : std::uint8_t { standard, silent };
+enum class ExceptionMode : std::uint8_t { kStandard, kSilent };
 
 struct SlaveConfig {
   std::uint8_t unit = 1;  // own address = 0x0066 + SW − 1 (§8.37), 1…247
   AccessRules rules{};
-  ExceptionMode exceptions = ExceptionMode::standard;
+  ExceptionMode exceptions = ExceptionMode::kStandard;
 };
 
 // What serve() did, for simulator logs and tests.
 enum class ServeOutcome : std::uint8_t {
-  replied,            // normal response in `reply`
-  exception,          // exception response in `reply` (empty in silent mode)
-  executed_silently,  // broadcast or restart: executed, no reply by protocol
-  rejected_silently,  // broadcast request refused (exception suppressed by the broadcast rule)
-  not_addressed,      // another unit's frame
-  discarded,          // bad frame (frame_error says why)
+  kReplied,           // normal response in `reply`
+  kException,         // exception response in `reply` (empty in silent mode)
+  kExecutedSilently,  // broadcast or restart: executed, no reply by protocol
+  kRejectedSilently,  // broadcast request refused (exception suppressed by the broadcast rule)
+  kNotAddressed,      // another unit's frame
+  kDiscarded,         // bad frame (frame_error says why)
 };
 
 struct ServeResult {
-  ServeOutcome outcome = ServeOutcome::discarded;
+  ServeOutcome outcome = ServeOutcome::kDiscarded;
   std::vector<std::uint8_t> reply;      // empty: send nothing
   std::optional<rtu::Request> request;  // the decoded request, when there was one
   std::optional<rtu::ExceptionCode> exception;

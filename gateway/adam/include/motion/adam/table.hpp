@@ -62,7 +62,7 @@ struct MotionProfile {
 // `start_offset`, table size 1, pointer 0, start offset — in that order, all unicast.
 struct SyncMovePreload {
   MotionProfile profile;
-  std::int32_t target_pulses = 0;    // absolute target (TableEntryKind::absolute)
+  std::int32_t target_pulses = 0;    // absolute target (TableEntryKind::kAbsolute)
   std::uint16_t start_offset = 200;  // table at register 500, clear of a program at 300…499
 };
 [[nodiscard]] Result<std::vector<rtu::Request>> sync_move_preload(std::uint8_t unit, const SyncMovePreload& preload);

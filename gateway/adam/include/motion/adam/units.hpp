@@ -4,7 +4,7 @@
 // stop speed (0x0099), positions in pulses of the subdivision (0x0024, pulses per revolution).
 //
 // Every quantizer returns the integer the drive accepts AND the value it realizes, or
-// AdamErrc::value_out_of_range / non_finite / invalid_subdivision. Rounding: nearest, ties away
+// AdamErrc::kValueOutOfRange / non_finite / invalid_subdivision. Rounding: nearest, ties away
 // from zero. Step rate = rpm × subdivision / 60 (not stated in the manual: assumed from §8.29,
 // §8.44).
 //

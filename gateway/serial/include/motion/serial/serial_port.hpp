@@ -23,15 +23,15 @@
 
 namespace motion::serial {
 
-enum class Parity : std::uint8_t { none, even, odd };
+enum class Parity : std::uint8_t { kNone, kEven, kOdd };
 
 struct SerialSettings {
   int baud = 115200;
-  Parity parity = Parity::none;
+  Parity parity = Parity::kNone;
   int data_bits = 8;  // the project's serial protocols all use 8 data bits
   int stop_bits = 1;  // 1 or 2
   // Bits on the wire per character: start + data + parity + stop.
-  [[nodiscard]] int bits_per_character() const { return 1 + data_bits + (parity == Parity::none ? 0 : 1) + stop_bits; }
+  [[nodiscard]] int bits_per_character() const { return 1 + data_bits + (parity == Parity::kNone ? 0 : 1) + stop_bits; }
   // Time `bytes` characters take on the wire at this baud rate.
   [[nodiscard]] std::chrono::nanoseconds wire_time(std::size_t bytes) const {
     return std::chrono::nanoseconds(static_cast<std::int64_t>(bytes) * bits_per_character() * 1'000'000'000LL /

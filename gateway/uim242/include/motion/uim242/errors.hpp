@@ -22,8 +22,8 @@ namespace motion::uim242 {
 
 // EN/CN §6.2, CN #6 (`CUR 81;` -> `EE 66 FF`). Values are the wire bytes.
 enum class ErrorCode : std::uint8_t {
-  syntax_error = 0x65,  // unknown mnemonic, malformed number, odd hex digit count, > 20 characters, non-ASCII
-  value_error = 0x66,   // value outside the instruction's documented set or range
+  kSyntaxError = 0x65,  // unknown mnemonic, malformed number, odd hex digit count, > 20 characters, non-ASCII
+  kValueError = 0x66,   // value outside the instruction's documented set or range
 };
 
 [[nodiscard]] const std::error_category& error_category() noexcept;  // name() == "uim242"
@@ -33,18 +33,18 @@ enum class ErrorCode : std::uint8_t {
 [[nodiscard]] bool is_known_error_code(std::uint8_t code) noexcept;
 
 enum class CodecErrc {
-  value_out_of_range = 1,  // encode: value outside the instruction's range (would earn EE 66)
-  value_required,          // encode: the instruction form needs a value
-  value_not_allowed,       // encode: the instruction has no value form
-  hex_not_allowed,         // encode: no hex form documented for this instruction (EN/CN §12.3)
-  not_global,              // encode: no g... form of this instruction
-  bad_header,              // decode: frame does not start with AA, CC or EE
-  bad_terminator,          // decode: frame does not end with FF or FE
-  frame_too_short,
-  frame_too_long,    // framer: more than kMaxFrameBytes without a terminator
-  not_seven_bit,     // decode: a data byte with bit 7 set
-  wrong_length,      // decode: data length does not fit the expected layout
-  unexpected_frame,  // decode: header/message id is not the expected reply
+  kValueOutOfRange = 1,  // encode: value outside the instruction's range (would earn EE 66)
+  kValueRequired,        // encode: the instruction form needs a value
+  kValueNotAllowed,      // encode: the instruction has no value form
+  kHexNotAllowed,        // encode: no hex form documented for this instruction (EN/CN §12.3)
+  kNotGlobal,            // encode: no g... form of this instruction
+  kBadHeader,            // decode: frame does not start with AA, CC or EE
+  kBadTerminator,        // decode: frame does not end with FF or FE
+  kFrameTooShort,
+  kFrameTooLong,     // framer: more than kMaxFrameBytes without a terminator
+  kNotSevenBit,      // decode: a data byte with bit 7 set
+  kWrongLength,      // decode: data length does not fit the expected layout
+  kUnexpectedFrame,  // decode: header/message id is not the expected reply
 };
 
 [[nodiscard]] const std::error_category& codec_category() noexcept;  // name() == "uim242-codec"

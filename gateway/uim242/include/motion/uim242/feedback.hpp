@@ -32,7 +32,7 @@
 
 namespace motion::uim242 {
 
-enum class Header : std::uint8_t { ack = 0xAA, status = 0xCC, error = 0xEE };
+enum class Header : std::uint8_t { kAck = 0xAA, kStatus = 0xCC, kError = 0xEE };
 inline constexpr std::uint8_t kLastFrame = 0xFF;   // terminator: nothing follows
 inline constexpr std::uint8_t kMoreFrames = 0xFE;  // terminator: more frames follow
 
@@ -75,7 +75,7 @@ inline constexpr std::uint8_t kDefaultStall = 0xAA;  // not in the manuals (stal
 
 // A frame as split from the stream.
 struct Frame {
-  Header header = Header::ack;
+  Header header = Header::kAck;
   std::uint8_t node = 0;                   // controller id; QTY for global ACK / gREG; 0 for `EE code FF`
   std::optional<std::uint8_t> message_id;  // none: basic ACK, FBK status, error
   std::vector<std::uint8_t> data;          // between message id (or id) and terminator
@@ -93,21 +93,21 @@ inline constexpr std::size_t kMaxFrameBytes =
 // ---- Data layouts ------------------------------------------------------------------------------
 
 enum class Layout : std::uint8_t {
-  none,    // STO, ADR, SET, global ACKs, plain RTCN
-  status,  // ASB CUR s16 s32 (basic ACK, FBK)
-  byte,    // b (ACR ratio, DOU level)
-  u16,
-  s16,
-  u32,
-  s32,
-  flag_u32,  // b + u32 (MAC/MDE: b = AM/DM)
-  flag_s32,  // b + s32 (CN A8 RTCN: closed-loop flag + position)
-  scf,       // u32 (S34CON:S12CON) u12 (ATCONL) u12 (ATCONH)
-  sensors,   // b b b u12 (S1 S2 S3 logic, analog)
-  stg,       // u16 u16 u16 (S1 S2 S3 intervals)
-  model,     // 18 02 b (max current x10) b (modules) u16 (firmware)
-  id_list,   // 8 raw ids (gREG)
-  raw,       // greeting: bytes as they are
+  kNone,    // STO, ADR, SET, global ACKs, plain RTCN
+  kStatus,  // ASB CUR s16 s32 (basic ACK, FBK)
+  kByte,    // b (ACR ratio, DOU level)
+  kU16,
+  kS16,
+  kU32,
+  kS32,
+  kFlagU32,  // b + u32 (MAC/MDE: b = AM/DM)
+  kFlagS32,  // b + s32 (CN A8 RTCN: closed-loop flag + position)
+  kScf,      // u32 (S34CON:S12CON) u12 (ATCONL) u12 (ATCONH)
+  kSensors,  // b b b u12 (S1 S2 S3 logic, analog)
+  kStg,      // u16 u16 u16 (S1 S2 S3 intervals)
+  kModel,    // 18 02 b (max current x10) b (modules) u16 (firmware)
+  kIdList,   // 8 raw ids (gREG)
+  kRaw,      // greeting: bytes as they are
 };
 [[nodiscard]] std::size_t data_length(Layout layout) noexcept;  // 0 for raw
 
@@ -136,16 +136,16 @@ struct Status {
 
 // ---- Replies ------------------------------------------------------------------------------------
 
-enum class OrgReplyStyle : std::uint8_t { cn, en };  // EN and CN #28/#29 differ
+enum class OrgReplyStyle : std::uint8_t { kCn, kEn };  // EN and CN #28/#29 differ
 
 // What a controller/gateway answers to an instruction (EN/CN §12.3, the Summary; EXT-2501 §2-§3).
 struct ReplyForm {
-  Header header = Header::ack;
+  Header header = Header::kAck;
   std::optional<std::uint8_t> message_id;  // none: basic status
-  Layout layout = Layout::none;
+  Layout layout = Layout::kNone;
   bool node_is_quantity = false;  // global ACK / gREG: the id byte is a count
 };
-[[nodiscard]] ReplyForm reply_form(const Instruction& instruction, OrgReplyStyle org = OrgReplyStyle::cn) noexcept;
+[[nodiscard]] ReplyForm reply_form(const Instruction& instruction, OrgReplyStyle org = OrgReplyStyle::kCn) noexcept;
 // True when `frame` is the reply to `sent` (either ORG style).
 [[nodiscard]] bool reply_matches(const Frame& frame, const Instruction& sent) noexcept;
 // The frame a controller (or the gateway) sends in reply; fields as for encode_fields.
@@ -162,21 +162,21 @@ struct ErrorReply {
 // ---- Real-time change notifications (EN/CN §4.0-§4.2, Table 4-1) -------------------------------
 
 enum class Event : std::uint8_t {
-  s1_falling = 0xA0,
-  s1_rising = 0xA1,
-  s2_falling = 0xA2,
-  s2_rising = 0xA3,
-  s3_falling = 0xA4,
-  s3_rising = 0xA5,
-  p4_high_to_low = 0xA6,
-  p4_low_to_high = 0xA7,
-  displacement_complete = 0xA8,
-  position_zero = 0xA9,
-  stall = 0x00,  // its message id is a parameter (undocumented in EN/CN §5.4)
+  kS1Falling = 0xA0,
+  kS1Rising = 0xA1,
+  kS2Falling = 0xA2,
+  kS2Rising = 0xA3,
+  kS3Falling = 0xA4,
+  kS3Rising = 0xA5,
+  kP4HighToLow = 0xA6,
+  kP4LowToHigh = 0xA7,
+  kDisplacementComplete = 0xA8,
+  kPositionZero = 0xA9,
+  kStall = 0x00,  // its message id is a parameter (undocumented in EN/CN §5.4)
 };
 struct Notification {
   std::uint8_t node = 0;
-  Event event = Event::s1_falling;
+  Event event = Event::kS1Falling;
   std::optional<bool> closed_loop;  // CN A8 only
   std::optional<std::int32_t> position;
   friend bool operator==(const Notification&, const Notification&) = default;

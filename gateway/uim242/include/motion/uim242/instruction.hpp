@@ -40,44 +40,44 @@
 namespace motion::uim242 {
 
 enum class Mnemonic : std::uint8_t {
-  Null,  // `;` alone: query desired status (#1), also the macro's trailing ACK
+  kNull,  // `;` alone: query desired status (#1), also the macro's trailing ACK
   // Controller instructions, EN/CN §12.3 (alphabetical).
-  ACR,
-  BLC,
-  CUR,
-  DOU,
-  ENA,
-  FBK,
-  ICF,
-  MAC,
-  MCF,
-  MCS,
-  MDE,
-  MDL,
-  MMD,
-  MMS,
-  OFF,
-  ORG,
-  QEC,
-  QER,
-  SCF,
-  SFB,
-  SPD,
-  SQT,
-  STG,
-  STO,
-  STP,
+  kACR,
+  kBLC,
+  kCUR,
+  kDOU,
+  kENA,
+  kFBK,
+  kICF,
+  kMAC,
+  kMCF,
+  kMCS,
+  kMDE,
+  kMDL,
+  kMMD,
+  kMMS,
+  kOFF,
+  kORG,
+  kQEC,
+  kQER,
+  kSCF,
+  kSFB,
+  kSPD,
+  kSQT,
+  kSTG,
+  kSTO,
+  kSTP,
   // Gateway instructions (Summary "network"; EXT-2501 §2-§3).
-  ADR,  // select the target controller (sticky)
-  SET,  // burn a node id into the single connected controller
-  BTR,  // CAN bit-rate index of the network
-  BDR,  // gateway RS232 baud
-  ABC,  // handshake: the gateway answers its greeting
-  REG,  // only as gREG: enumerate controllers
+  kADR,  // select the target controller (sticky)
+  kSET,  // burn a node id into the single connected controller
+  kBTR,  // CAN bit-rate index of the network
+  kBDR,  // gateway RS232 baud
+  kABC,  // handshake: the gateway answers its greeting
+  kREG,  // only as gREG: enumerate controllers
 };
 
 // Who executes an instruction.
-enum class Target : std::uint8_t { controller, gateway };
+enum class Target : std::uint8_t { kController, kGateway };
 
 struct InstructionSpec {
   Mnemonic mnemonic;
@@ -100,7 +100,7 @@ struct InstructionSpec {
 [[nodiscard]] std::optional<Mnemonic> parse_mnemonic(std::string_view three_letters) noexcept;
 
 struct Instruction {
-  Mnemonic mnemonic = Mnemonic::Null;
+  Mnemonic mnemonic = Mnemonic::kNull;
   bool global = false;                // g... form: the gateway broadcasts it
   std::optional<std::int64_t> value;  // none: the bare `INS;` form
   bool hex = false;                   // value written as hex bytes, low byte first
@@ -110,7 +110,7 @@ struct Instruction {
 inline constexpr std::size_t kMaxInstructionChars = 20;  // including the `;` (§12.1)
 
 // Checks form and range against the table: the error the controller would answer with
-// (ErrorCode::syntax_error / value_error), or success.
+// (ErrorCode::kSyntaxError / value_error), or success.
 [[nodiscard]] std::error_code validate(const Instruction& instruction) noexcept;
 
 // The instruction as sent, terminator included ("SPD -1000;", "MCFx 34 12;", "gSPD 500;").
@@ -132,9 +132,9 @@ inline constexpr std::size_t kMaxInstructionChars = 20;  // including the `;` (�
 // ---- Register-addressed instructions --------------------------------------------------------
 
 // SCF suffix / IDX (EN/CN §8.6-§8.8 and every worked example: 2 = ATCONL, 3 = ATCONH).
-enum class SensorRegister : std::uint8_t { S12CON = 0, S34CON = 1, ATCONL = 2, ATCONH = 3 };
+enum class SensorRegister : std::uint8_t { kS12CON = 0, kS34CON = 1, kATCONL = 2, kATCONH = 3 };
 struct ScfWrite {
-  SensorRegister reg = SensorRegister::S12CON;
+  SensorRegister reg = SensorRegister::kS12CON;
   std::uint16_t value = 0;
   friend bool operator==(const ScfWrite&, const ScfWrite&) = default;
 };

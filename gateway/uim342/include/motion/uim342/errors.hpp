@@ -22,14 +22,14 @@ namespace motion::uim342 {
 
 // Manual §2.3 "Error Code for UIM342". Values are the wire bytes.
 enum class DriveErrc : std::uint8_t {
-  syntax_error = 0x32,               // instruction syntax error (also "#50": SP before PR/PA)
-  data_error = 0x33,                 // instruction data error (value out of range / illegal)
-  sub_index_error = 0x34,            // instruction sub-index error
-  sd_less_than_dc = 0x3C,            // SD value is less than DC value
-  not_allowed_while_running = 0x3D,  // current instruction not allowed while the motor runs
-  bg_while_driver_off = 0x3E,        // BG not allowed while the motor driver is off
-  bg_during_emergency_stop = 0x3F,   // BG not allowed during an emergency stop
-  og_while_running = 0x41,           // OG not allowed while the motor runs
+  kSyntaxError = 0x32,             // instruction syntax error (also "#50": SP before PR/PA)
+  kDataError = 0x33,               // instruction data error (value out of range / illegal)
+  kSubIndexError = 0x34,           // instruction sub-index error
+  kSdLessThanDc = 0x3C,            // SD value is less than DC value
+  kNotAllowedWhileRunning = 0x3D,  // current instruction not allowed while the motor runs
+  kBgWhileDriverOff = 0x3E,        // BG not allowed while the motor driver is off
+  kBgDuringEmergencyStop = 0x3F,   // BG not allowed during an emergency stop
+  kOgWhileRunning = 0x41,          // OG not allowed while the motor runs
 };
 
 [[nodiscard]] const std::error_category& drive_category() noexcept;  // name() == "uim342"
@@ -40,27 +40,27 @@ enum class DriveErrc : std::uint8_t {
 [[nodiscard]] bool is_known_drive_error(std::uint8_t code) noexcept;
 
 enum class CodecErrc {
-  id_out_of_range = 1,      // a producer/consumer ID above 127 (7 bits)
-  not_extended_frame,       // SimpleCAN 3.0 uses 29-bit data frames only (manual §2.5)
-  remote_frame,             // RTR frames carry no SimpleCAN message
-  identifier_out_of_range,  // value above 29 bits
-  reserved_bits_set,        // identifier bit 18 or bits 13..8 not zero
-  length_out_of_range,      // DL / DLC above 8
-  unknown_function,         // no instruction has this function code
-  ack_form_not_supported,   // ML without ACK bit, SY with ACK bit, RT as an instruction
-  form_not_supported,       // e.g. a get of BG, a set of DV
-  wrong_length,             // DL fits no form of the instruction
-  body_mismatch,            // the typed body does not have the layout of the form
-  unknown_sub_index,        // a sub-index that selects the layout (MS) is undefined
-  unknown_notification,     // RT d0 not one of the §2.4 codes
-  bad_frame_size,           // UIMessage not exactly 16 bytes
-  bad_start_byte,           // UIMessage SM neither 0xAA nor 0xAD
-  bad_end_byte,             // UIMessage EM not 0xCC
-  bad_crc,                  // UIMessage CRC matches none of the accepted coverages
-  value_out_of_range,       // a unit conversion produced a value outside the wire type
-  ack_bit_in_reply,         // a drive frame with CW bit 7 set (replies always clear it, §2.1)
-  not_a_notification,       // CW is not 0x5A
-  producer_not_host,        // an instruction for a UIMessage gateway not sent as the host (it has no producer field)
+  kIdOutOfRange = 1,      // a producer/consumer ID above 127 (7 bits)
+  kNotExtendedFrame,      // SimpleCAN 3.0 uses 29-bit data frames only (manual §2.5)
+  kRemoteFrame,           // RTR frames carry no SimpleCAN message
+  kIdentifierOutOfRange,  // value above 29 bits
+  kReservedBitsSet,       // identifier bit 18 or bits 13..8 not zero
+  kLengthOutOfRange,      // DL / DLC above 8
+  kUnknownFunction,       // no instruction has this function code
+  kAckFormNotSupported,   // ML without ACK bit, SY with ACK bit, RT as an instruction
+  kFormNotSupported,      // e.g. a get of BG, a set of DV
+  kWrongLength,           // DL fits no form of the instruction
+  kBodyMismatch,          // the typed body does not have the layout of the form
+  kUnknownSubIndex,       // a sub-index that selects the layout (MS) is undefined
+  kUnknownNotification,   // RT d0 not one of the §2.4 codes
+  kBadFrameSize,          // UIMessage not exactly 16 bytes
+  kBadStartByte,          // UIMessage SM neither 0xAA nor 0xAD
+  kBadEndByte,            // UIMessage EM not 0xCC
+  kBadCrc,                // UIMessage CRC matches none of the accepted coverages
+  kValueOutOfRange,       // a unit conversion produced a value outside the wire type
+  kAckBitInReply,         // a drive frame with CW bit 7 set (replies always clear it, §2.1)
+  kNotANotification,      // CW is not 0x5A
+  kProducerNotHost,       // an instruction for a UIMessage gateway not sent as the host (it has no producer field)
 };
 
 [[nodiscard]] const std::error_category& codec_category() noexcept;  // name() == "uim342-codec"

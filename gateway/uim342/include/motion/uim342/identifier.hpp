@@ -23,19 +23,19 @@ inline constexpr std::uint8_t kMaxId = 127;  // largest value the 7-bit fields c
 // What an ID value can denote. Node and group IDs share one range, so the value alone cannot
 // tell them apart (PP[7] / PP[8] decide which a drive uses).
 enum class IdKind : std::uint8_t {
-  global,         // 0
-  master,         // 1..4: outside the node range; 4 is the host's producer ID (§2.5 example)
-  node_or_group,  // 5..126
-  unassignable,   // 127: encodable, but not a valid node/group ID
-  out_of_range,   // > 127: does not fit the 7-bit fields
+  kGlobal,        // 0
+  kMaster,        // 1..4: outside the node range; 4 is the host's producer ID (§2.5 example)
+  kNodeOrGroup,   // 5..126
+  kUnassignable,  // 127: encodable, but not a valid node/group ID
+  kOutOfRange,    // > 127: does not fit the 7-bit fields
 };
 
 [[nodiscard]] constexpr IdKind classify_id(unsigned id) noexcept {
-  if (id == kGlobalId) return IdKind::global;
-  if (id <= kMasterId) return IdKind::master;
-  if (id <= kMaxNodeId) return IdKind::node_or_group;
-  if (id == kMaxId) return IdKind::unassignable;
-  return IdKind::out_of_range;
+  if (id == kGlobalId) return IdKind::kGlobal;
+  if (id <= kMasterId) return IdKind::kMaster;
+  if (id <= kMaxNodeId) return IdKind::kNodeOrGroup;
+  if (id == kMaxId) return IdKind::kUnassignable;
+  return IdKind::kOutOfRange;
 }
 [[nodiscard]] constexpr bool is_valid_node_id(unsigned id) noexcept { return id >= kMinNodeId && id <= kMaxNodeId; }
 
@@ -67,9 +67,9 @@ inline constexpr std::uint32_t kReservedMask = (1u << 18) | 0x3F00u;
   return (std::uint32_t{parts.sid} << 18) | (parts.eid & 0x3FFFF);
 }
 
-// Fails with CodecErrc::id_out_of_range when an ID exceeds 127.
+// Fails with CodecErrc::kIdOutOfRange when an ID exceeds 127.
 [[nodiscard]] inline Result<std::uint32_t> encode_can_id(CanIdFields f) {
-  if (f.producer > kMaxId || f.consumer > kMaxId) return CodecErrc::id_out_of_range;
+  if (f.producer > kMaxId || f.consumer > kMaxId) return CodecErrc::kIdOutOfRange;
   const std::uint32_t p = f.producer;
   const std::uint32_t c = f.consumer;
   return ((p & detail::kLowIdMask) << 24) | ((c & detail::kLowIdMask) << 19) | ((p & detail::kHighIdMask) << 11) |
@@ -79,8 +79,8 @@ inline constexpr std::uint32_t kReservedMask = (1u << 18) | 0x3F00u;
 // Fails on identifiers above 29 bits and on set reserved bits (18, 13..8): such a frame is not
 // SimpleCAN 3.0 (e.g. another protocol on the same bus).
 [[nodiscard]] inline Result<CanIdFields> decode_can_id(std::uint32_t can_id) {
-  if (can_id > 0x1FFFFFFFu) return CodecErrc::identifier_out_of_range;
-  if ((can_id & detail::kReservedMask) != 0) return CodecErrc::reserved_bits_set;
+  if (can_id > 0x1FFFFFFFu) return CodecErrc::kIdentifierOutOfRange;
+  if ((can_id & detail::kReservedMask) != 0) return CodecErrc::kReservedBitsSet;
   const auto id_at = [can_id](unsigned low_shift, unsigned high_shift) {
     return static_cast<std::uint8_t>(((can_id >> low_shift) & detail::kLowIdMask) |
                                      ((can_id >> high_shift) & detail::kHighIdMask));

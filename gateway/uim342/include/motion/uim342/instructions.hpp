@@ -39,35 +39,35 @@ namespace motion::uim342 {
 
 // CW bits 6..0 (manual "Instruction Set Summary" and §5 headers).
 enum class FunctionCode : std::uint8_t {
-  PP = 0x01,
-  IC = 0x06,
-  IE = 0x07,
-  ML = 0x0B,
-  SN = 0x0C,
-  ER = 0x0F,
-  MT = 0x10,
-  MS = 0x11,
-  MO = 0x15,
-  BG = 0x16,
-  ST = 0x17,
-  MF = 0x18,
-  AC = 0x19,
-  DC = 0x1A,
-  SS = 0x1B,
-  SD = 0x1C,
-  JV = 0x1D,
-  SP = 0x1E,
-  PR = 0x1F,
-  PA = 0x20,
-  OG = 0x21,
-  BL = 0x2D,
-  DV = 0x2E,
-  IL = 0x34,
-  TG = 0x35,
-  DI = 0x37,
-  QE = 0x3D,
-  RT = 0x5A,
-  SY = 0x7E,
+  kPP = 0x01,
+  kIC = 0x06,
+  kIE = 0x07,
+  kML = 0x0B,
+  kSN = 0x0C,
+  kER = 0x0F,
+  kMT = 0x10,
+  kMS = 0x11,
+  kMO = 0x15,
+  kBG = 0x16,
+  kST = 0x17,
+  kMF = 0x18,
+  kAC = 0x19,
+  kDC = 0x1A,
+  kSS = 0x1B,
+  kSD = 0x1C,
+  kJV = 0x1D,
+  kSP = 0x1E,
+  kPR = 0x1F,
+  kPA = 0x20,
+  kOG = 0x21,
+  kBL = 0x2D,
+  kDV = 0x2E,
+  kIL = 0x34,
+  kTG = 0x35,
+  kDI = 0x37,
+  kQE = 0x3D,
+  kRT = 0x5A,
+  kSY = 0x7E,
 };
 [[nodiscard]] constexpr std::uint8_t code(FunctionCode f) noexcept { return static_cast<std::uint8_t>(f); }
 [[nodiscard]] constexpr std::uint8_t control_word(FunctionCode f, bool ack_requested) noexcept {
@@ -78,45 +78,45 @@ enum class FunctionCode : std::uint8_t {
 
 // ---- Sub-index and value enums (wire values) -------------------------------------------------
 
-enum class ProtocolParameter : std::uint8_t { bit_rate = 5, node_id = 7, group_id = 8 };  // PP §5.1
-enum class BitRate : std::uint8_t { kbps_1000 = 0, kbps_800 = 1, kbps_500 = 2, kbps_250 = 3, kbps_125 = 4 };
+enum class ProtocolParameter : std::uint8_t { kBitRate = 5, kNodeId = 7, kGroupId = 8 };  // PP §5.1
+enum class BitRate : std::uint8_t { kKbps1000 = 0, kKbps800 = 1, kKbps500 = 2, kKbps250 = 3, kKbps125 = 4 };
 [[nodiscard]] std::optional<std::uint32_t> bits_per_second(BitRate rate) noexcept;
 
 enum class InitialConfig : std::uint8_t {  // IC §5.2; every value is 0/1
-  auto_driver_on = 0,                      // 1 = switch the driver on after power-up
-  positive_direction = 1,                  // 0 = CW, 1 = CCW (factory default)
-  run_user_program = 2,
-  lock_on_input_estop = 3,  // lock the system when an input-logic E-stop fires
-  acceleration_unit = 4,    // AccelerationUnit
-  encoder_type = 5,         // 0 = incremental, 1 = absolute
-  closed_loop = 6,          // 0 = open loop, 1 = closed loop
-  software_limits = 7,
+  kAutoDriverOn = 0,                       // 1 = switch the driver on after power-up
+  kPositiveDirection = 1,                  // 0 = CW, 1 = CCW (factory default)
+  kRunUserProgram = 2,
+  kLockOnInputEstop = 3,  // lock the system when an input-logic E-stop fires
+  kAccelerationUnit = 4,  // AccelerationUnit
+  kEncoderType = 5,       // 0 = incremental, 1 = absolute
+  kClosedLoop = 6,        // 0 = open loop, 1 = closed loop
+  kSoftwareLimits = 7,
 };
-enum class AccelerationUnit : std::uint8_t { pulses_per_s2 = 0, milliseconds = 1 };  // IC[4]
+enum class AccelerationUnit : std::uint8_t { kPulsesPerS2 = 0, kMilliseconds = 1 };  // IC[4]
 
 enum class InformationEnable : std::uint8_t {
-  in1_change = 0,
-  in2_change = 1,
-  in3_change = 2,
-  position_reached = 8
+  kIn1Change = 0,
+  kIn2Change = 1,
+  kIn3Change = 2,
+  kPositionReached = 8
 };  // IE §5.3
 
 enum class QuadratureEncoder : std::uint8_t {  // QE §5.7
-  lines_per_revolution = 0,                    // 1..65535
-  stall_tolerance = 1,                         // 10..65535 counts
-  absolute_resolution_bits = 2,                // 17 or 20
-  battery_status = 3,                          // 1 = OK, 0 = low
-  counts_per_revolution = 4,                   // 200..25600 (micro-steps x 200)
+  kLinesPerRevolution = 0,                     // 1..65535
+  kStallTolerance = 1,                         // 10..65535 counts
+  kAbsoluteResolutionBits = 2,                 // 17 or 20
+  kBatteryStatus = 3,                          // 1 = OK, 0 = low
+  kCountsPerRevolution = 4,                    // 200..25600 (micro-steps x 200)
 };
 
 enum class MotorDriver : std::uint8_t {  // MT §5.9
-  microstepping = 0,                     // 1, 2, 4, 8, 16, 32, 64
-  working_current = 1,                   // 5..80 (0.1 A)
-  idle_current_percent = 2,              // 0..100
-  auto_enable_delay_ms = 3,              // 0..60000
+  kMicrostepping = 0,                    // 1, 2, 4, 8, 16, 32, 64
+  kWorkingCurrent = 1,                   // 5..80 (0.1 A)
+  kIdleCurrentPercent = 2,               // 0..100
+  kAutoEnableDelayMs = 3,                // 0..60000
 };
 
-enum class SystemOperation : std::uint8_t { reboot = 1, restore_factory_defaults = 2 };  // SY §5.8
+enum class SystemOperation : std::uint8_t { kReboot = 1, kRestoreFactoryDefaults = 2 };  // SY §5.8
 
 // ER §5.6: slot 0 = latest error, 6 = power-on error, 10..18 = history (10 = latest).
 inline constexpr std::uint8_t kErrorSlotLatest = 0;
@@ -125,30 +125,30 @@ inline constexpr std::uint8_t kErrorSlotHistoryFirst = 10;
 inline constexpr std::uint8_t kErrorSlotHistoryLast = 18;
 
 enum class ParameterGroup : std::uint8_t {  // MF §5.13: group = 2 + 2*port (+1 falling)
-  normal = 0,
-  reserved = 1,
-  in1_rising = 2,
-  in1_falling = 3,
-  in2_rising = 4,
-  in2_falling = 5,
-  in3_rising = 6,
-  in3_falling = 7,
+  kNormal = 0,
+  kReserved = 1,
+  kIn1Rising = 2,
+  kIn1Falling = 3,
+  kIn2Rising = 4,
+  kIn2Falling = 5,
+  kIn3Rising = 6,
+  kIn3Falling = 7,
 };
 
-enum class MotionStatusIndex : std::uint8_t { status = 0, kinematics = 1 };  // MS §5.24
-enum class DesiredValue : std::uint8_t {                                     // DV §5.25
-  motion_mode = 0,
-  motor_current = 1,
-  speed = 2,
-  relative_position = 3,
-  absolute_position = 4,
+enum class MotionStatusIndex : std::uint8_t { kStatus = 0, kKinematics = 1 };  // MS §5.24
+enum class DesiredValue : std::uint8_t {                                       // DV §5.25
+  kMotionMode = 0,
+  kMotorCurrent = 1,
+  kSpeed = 2,
+  kRelativePosition = 3,
+  kAbsolutePosition = 4,
 };
-enum class MotionMode : std::uint8_t { jog = 0, ptp = 1 };
+enum class MotionMode : std::uint8_t { kJog = 0, kPtp = 1 };
 
-enum class InputPort : std::uint8_t { in1 = 0, in2 = 1, in3 = 2 };  // IL[0..2], TG[0..2], IE[0..2]
-inline constexpr std::uint8_t kInputLogicStallBehaviour = 16;       // IL[16] (§1.5); manual table: 3
+enum class InputPort : std::uint8_t { kIn1 = 0, kIn2 = 1, kIn3 = 2 };  // IL[0..2], TG[0..2], IE[0..2]
+inline constexpr std::uint8_t kInputLogicStallBehaviour = 16;          // IL[16] (§1.5); manual table: 3
 inline constexpr std::uint8_t kInputLogicStallBehaviourAlias = 3;
-enum class StallBehaviour : std::uint8_t { stop_and_hold = 0, driver_off = 1 };
+enum class StallBehaviour : std::uint8_t { kStopAndHold = 0, kDriverOff = 1 };
 
 inline constexpr std::uint16_t kTriggerContinuous = 0;  // TG: 1..60000 = low-pass filter ms
 inline constexpr std::uint16_t kTriggerMaxFilterMs = 60000;
@@ -156,23 +156,23 @@ inline constexpr std::uint16_t kTriggerOneTime = 60001;
 
 // IL action codes (§4.3, §5.26), bits 6..0 of an action byte.
 enum class InputAction : std::uint8_t {
-  none = 0x00,
-  driver_off = 0x01,
-  emergency_stop = 0x02,   // SD
-  decelerate_stop = 0x03,  // DC
-  origin_then_reverse_relative = 0x04,
-  origin_then_emergency_stop = 0x05,
-  origin_then_decelerate_stop = 0x06,
-  jog_reverse = 0x07,
-  jog = 0x08,
-  reverse_relative = 0x09,
-  relative = 0x0A,
-  absolute = 0x0B,
+  kNone = 0x00,
+  kDriverOff = 0x01,
+  kEmergencyStop = 0x02,   // SD
+  kDecelerateStop = 0x03,  // DC
+  kOriginThenReverseRelative = 0x04,
+  kOriginThenEmergencyStop = 0x05,
+  kOriginThenDecelerateStop = 0x06,
+  kJogReverse = 0x07,
+  kJog = 0x08,
+  kReverseRelative = 0x09,
+  kRelative = 0x0A,
+  kAbsolute = 0x0B,
 };
 
 // One IL action byte: bit 7 = FG (1 = do not run at power-up, wait for a real edge).
 struct EdgeAction {
-  InputAction action = InputAction::none;
+  InputAction action = InputAction::kNone;
   bool wait_for_edge = true;  // FG
   [[nodiscard]] constexpr std::uint8_t byte() const noexcept {
     return static_cast<std::uint8_t>((wait_for_edge ? 0x80 : 0x00) | (static_cast<std::uint8_t>(action) & 0x7F));
@@ -184,13 +184,13 @@ struct EdgeAction {
 };
 
 // MS[0] d1 (status byte A) and d2 (status byte B), manual §3.7.
-enum class IoStatusBit : std::uint8_t { driver_on = 0x04, in1 = 0x08, in2 = 0x10, in3 = 0x20, op1 = 0x40 };
+enum class IoStatusBit : std::uint8_t { kDriverOn = 0x04, kIn1 = 0x08, kIn2 = 0x10, kIn3 = 0x20, kOp1 = 0x40 };
 enum class StatusFlag : std::uint8_t {
-  stopped = 0x01,
-  in_position = 0x02,
-  stalled = 0x08,
-  locked = 0x20,
-  error = 0x80
+  kStopped = 0x01,
+  kInPosition = 0x02,
+  kStalled = 0x08,
+  kLocked = 0x20,
+  kError = 0x80
 };
 
 // ---- Bodies: one type per wire layout ---------------------------------------------------------
@@ -247,7 +247,7 @@ struct DigitalIo {  // DI reply: d0 bit0..2 = IN1..IN3, d1 bit0 = OP1
   [[nodiscard]] bool op1() const { return (outputs & 1U) != 0; }
   friend bool operator==(const DigitalIo&, const DigitalIo&) = default;
 };
-enum class Model : std::uint8_t { unknown, uim342xs, uim342s, uim342c02, uim342c04, uim342c08, uim342h08 };
+enum class Model : std::uint8_t { kUnknown, kUim342xs, kUim342s, kUim342c02, kUim342c04, kUim342c08, kUim342h08 };
 struct ModelInfo {                            // ML reply, §5.4
   std::array<std::uint8_t, 4> model_bytes{};  // d0..d3 (d3 factory use)
   std::uint16_t firmware = 0;                 // [d5:d4]
@@ -292,11 +292,11 @@ using Body =
     std::variant<Empty, Index, Byte, IndexedByte, IndexedWord, InputActions, Unsigned, Signed, IndexedSigned,
                  DigitalOutput, DigitalIo, ModelInfo, SerialNumber, ErrorRecord, MotionStatus, MotionKinematics>;
 
-enum class Operation : std::uint8_t { get, set };  // BG, ST, OG, SY, ER/MS clear are "set" forms
+enum class Operation : std::uint8_t { kGet, kSet };  // BG, ST, OG, SY, ER/MS clear are "set" forms
 
 struct Instruction {
-  FunctionCode function = FunctionCode::MO;
-  Operation operation = Operation::get;
+  FunctionCode function = FunctionCode::kMO;
+  Operation operation = Operation::kGet;
   bool ack_requested = true;  // CW bit 7
   Body body = Empty{};
   [[nodiscard]] std::uint8_t control_word() const { return uim342::control_word(function, ack_requested); }
@@ -306,7 +306,7 @@ struct Instruction {
 };
 
 struct Reply {
-  FunctionCode function = FunctionCode::MO;  // CW of the reply (DV for the ACK of JV/SP/PR/PA sets)
+  FunctionCode function = FunctionCode::kMO;  // CW of the reply (DV for the ACK of JV/SP/PR/PA sets)
   Body body = Empty{};
   [[nodiscard]] std::optional<std::uint8_t> sub_index() const;
   friend bool operator==(const Reply&, const Reply&) = default;
@@ -316,27 +316,27 @@ struct Reply {
 
 // Wire layouts. A layout fixes DL and the body type.
 enum class Layout : std::uint8_t {
-  none,            // the form does not exist
-  empty,           // DL 0, Empty
-  zeros4,          // DL 4, Empty; d0..d3 don't care (BG ACK)
-  index,           // DL 1, Index
-  byte,            // DL 1, Byte
-  indexed_byte,    // DL 2, IndexedByte
-  indexed_word,    // DL 3, IndexedWord
-  input_logic,     // DL 3, InputActions for ports 0..2, IndexedWord otherwise
-  u32,             // DL 4, Unsigned
-  s32,             // DL 4, Signed
-  indexed_s32,     // DL 5, IndexedSigned
-  digital_output,  // DL 4, DigitalOutput
-  digital_io,      // DL 4, DigitalIo
-  model,           // DL 8, ModelInfo
-  serial,          // DL 8, SerialNumber
-  error_record,    // DL 6, ErrorRecord
-  motion_status,   // DL 8, MotionStatus (d0 = 0) or MotionKinematics (d0 = 1)
+  kNone,           // the form does not exist
+  kEmpty,          // DL 0, Empty
+  kZeros4,         // DL 4, Empty; d0..d3 don't care (BG ACK)
+  kIndex,          // DL 1, Index
+  kByte,           // DL 1, Byte
+  kIndexedByte,    // DL 2, IndexedByte
+  kIndexedWord,    // DL 3, IndexedWord
+  kInputLogic,     // DL 3, InputActions for ports 0..2, IndexedWord otherwise
+  kU32,            // DL 4, Unsigned
+  kS32,            // DL 4, Signed
+  kIndexedS32,     // DL 5, IndexedSigned
+  kDigitalOutput,  // DL 4, DigitalOutput
+  kDigitalIo,      // DL 4, DigitalIo
+  kModel,          // DL 8, ModelInfo
+  kSerial,         // DL 8, SerialNumber
+  kErrorRecord,    // DL 6, ErrorRecord
+  kMotionStatus,   // DL 8, MotionStatus (d0 = 0) or MotionKinematics (d0 = 1)
 };
 [[nodiscard]] std::uint8_t layout_length(Layout layout) noexcept;
 
-enum class AckForms : std::uint8_t { both, ack_only, no_ack_only };
+enum class AckForms : std::uint8_t { kBoth, kAckOnly, kNoAckOnly };
 
 struct InstructionForms {
   FunctionCode function;

@@ -29,10 +29,10 @@ struct ExpectedReply {
 [[nodiscard]] std::optional<ExpectedReply> expected_reply(const Instruction& request);
 
 enum class ReplyKind : std::uint8_t {
-  ack,           // the ACK of the pending request (only when it asked for one)
-  error_report,  // CW 0x0F whose d2 (bit 7 masked) is the request's function code
-  notification,  // CW 0x5A: unsolicited, may arrive between a request and its ACK
-  unrelated,     // anything else (another request's reply, a malformed frame, ...)
+  kAck,           // the ACK of the pending request (only when it asked for one)
+  kErrorReport,   // CW 0x0F whose d2 (bit 7 masked) is the request's function code
+  kNotification,  // CW 0x5A: unsolicited, may arrive between a request and its ACK
+  kUnrelated,     // anything else (another request's reply, a malformed frame, ...)
 };
 
 // Classifies a frame from the drive the request was sent to. For a pending ER[i] request, a CW 0x0F

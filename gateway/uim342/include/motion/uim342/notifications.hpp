@@ -21,40 +21,40 @@ inline constexpr std::uint8_t kNotificationControlWord = 0x5A;
 
 // d0 of a notification.
 enum class NotificationCode : std::uint8_t {
-  alarm = 0x00,
-  in1_falling = 0x01,
-  in1_rising = 0x02,
-  in2_falling = 0x03,
-  in2_rising = 0x04,
-  in3_falling = 0x05,
-  in3_rising = 0x06,
-  position_reached = 0x29,
+  kAlarm = 0x00,
+  kIn1Falling = 0x01,
+  kIn1Rising = 0x02,
+  kIn2Falling = 0x03,
+  kIn2Rising = 0x04,
+  kIn3Falling = 0x05,
+  kIn3Rising = 0x06,
+  kPositionReached = 0x29,
 };
 
 // d1 of an alarm (§2.4).
 enum class AlarmCode : std::uint8_t {
-  emergency_stop_lock = 0x0A,  // system emergency stop and lock
-  speed_over_limit = 0x19,
-  below_lower_limit = 0x1A,  // exceeded lower working (software) limit
-  above_upper_limit = 0x1B,  // exceeded upper working (software) limit
-  stall = 0x1D,              // motor stall detected
-  encoder_error = 0x1E,
-  encoder_battery_low = 0x1F,
+  kEmergencyStopLock = 0x0A,  // system emergency stop and lock
+  kSpeedOverLimit = 0x19,
+  kBelowLowerLimit = 0x1A,  // exceeded lower working (software) limit
+  kAboveUpperLimit = 0x1B,  // exceeded upper working (software) limit
+  kStall = 0x1D,            // motor stall detected
+  kEncoderError = 0x1E,
+  kEncoderBatteryLow = 0x1F,
 };
 [[nodiscard]] std::string describe(AlarmCode alarm);  // manual wording; "unknown alarm 0xNN" else
 
-enum class Edge : std::uint8_t { falling, rising };
+enum class Edge : std::uint8_t { kFalling, kRising };
 
 struct AlarmNotification {
   AlarmCode alarm{};
   friend bool operator==(const AlarmNotification&, const AlarmNotification&) = default;
 };
 struct InputEdgeNotification {
-  InputPort port = InputPort::in1;
-  Edge edge = Edge::falling;
+  InputPort port = InputPort::kIn1;
+  Edge edge = Edge::kFalling;
   // d0 = 2*port + 1, +1 for the rising edge.
   [[nodiscard]] NotificationCode code() const {
-    return static_cast<NotificationCode>(2 * static_cast<unsigned>(port) + 1 + (edge == Edge::rising ? 1 : 0));
+    return static_cast<NotificationCode>(2 * static_cast<unsigned>(port) + 1 + (edge == Edge::kRising ? 1 : 0));
   }
   friend bool operator==(const InputEdgeNotification&, const InputEdgeNotification&) = default;
 };

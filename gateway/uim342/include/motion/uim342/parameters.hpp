@@ -37,13 +37,13 @@ inline constexpr std::int32_t kMs1SpeedMax = 0x7FFFFF;
 // has no numeric set value or the index is undefined. MT[0] and QE[2] accept only some values of
 // their range (see check_instruction).
 [[nodiscard]] std::optional<ValueRange> value_range(FunctionCode function, std::uint8_t index = 0,
-                                                    AccelerationUnit unit = AccelerationUnit::pulses_per_s2) noexcept;
+                                                    AccelerationUnit unit = AccelerationUnit::kPulsesPerS2) noexcept;
 
 // What the drive would answer to this instruction's data, before any state check: {} when
-// acceptable, DriveErrc::sub_index_error for an undefined sub-index, DriveErrc::data_error for a
+// acceptable, DriveErrc::kSubIndexError for an undefined sub-index, DriveErrc::kDataError for a
 // value outside its range or enumeration. Assumes the instruction encodes (body matches the form).
 [[nodiscard]] std::error_code check_instruction(const Instruction& instruction,
-                                                AccelerationUnit unit = AccelerationUnit::pulses_per_s2);
+                                                AccelerationUnit unit = AccelerationUnit::kPulsesPerS2);
 
 // ---- Units -------------------------------------------------------------------------------------
 

@@ -25,10 +25,10 @@ inline constexpr std::uint8_t kUiStartWithoutCrc = 0xAD;
 inline constexpr std::uint8_t kUiEnd = 0xCC;
 
 enum class CrcCoverage : std::uint8_t {
-  start_to_aux,  // bytes 0..12, "0xAA ID CW ... d8, qty = 13" (manual; variant A)
-  id_to_aux,     // bytes 1..12 (UIROBOT SDK / gateway emulators; variant B)
+  kStartToAux,  // bytes 0..12, "0xAA ID CW ... d8, qty = 13" (manual; variant A)
+  kIdToAux,     // bytes 1..12 (UIROBOT SDK / gateway emulators; variant B)
 };
-enum class CrcAcceptance : std::uint8_t { start_to_aux, id_to_aux, either };
+enum class CrcAcceptance : std::uint8_t { kStartToAux, kIdToAux, kEither };
 
 // CRC-16/MODBUS; check value over "123456789" is 0x4B37.
 [[nodiscard]] std::uint16_t crc16_modbus(std::span<const std::uint8_t> bytes) noexcept;
@@ -44,7 +44,7 @@ using UiFrame = std::array<std::uint8_t, kUiMessageSize>;
 
 // SM = 0xAA with the CRC over `coverage`. Fails only when DL exceeds 8.
 [[nodiscard]] Result<UiFrame> encode_ui_message(const UiMessage& message,
-                                                CrcCoverage coverage = CrcCoverage::start_to_aux);
+                                                CrcCoverage coverage = CrcCoverage::kStartToAux);
 // SM = 0xAD, R0 = R1 = 0 (not checked by the receiver).
 [[nodiscard]] Result<UiFrame> encode_ui_message_without_crc(const UiMessage& message);
 
@@ -55,7 +55,7 @@ struct DecodedUiMessage {
 // Rejects sizes other than 16, bad SM/EM, DL > 8 and CRC mismatches (per `accept`). Data bytes
 // beyond DL are ignored (they are covered by the CRC, so they were checked).
 [[nodiscard]] Result<DecodedUiMessage> decode_ui_message(std::span<const std::uint8_t> frame,
-                                                         CrcAcceptance accept = CrcAcceptance::either);
+                                                         CrcAcceptance accept = CrcAcceptance::kEither);
 
 // The one ID byte of a UIMessage is the drive's side of the exchange (§2.6, §2.1): the consumer of
 // a host instruction, the producer of a drive frame (ACK, error report, notification). The host's

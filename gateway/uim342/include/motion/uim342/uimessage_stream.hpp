@@ -27,7 +27,7 @@ class UiMessageStream {
     std::uint64_t discarded_bytes = 0;  // bytes dropped while looking for a frame start
   };
 
-  explicit UiMessageStream(CrcAcceptance accept = CrcAcceptance::either) : accept_(accept) {}
+  explicit UiMessageStream(CrcAcceptance accept = CrcAcceptance::kEither) : accept_(accept) {}
 
   void feed(std::span<const std::uint8_t> bytes);
   // The next complete message; nullopt when the buffered bytes hold none (yet).

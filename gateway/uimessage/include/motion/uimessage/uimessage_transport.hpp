@@ -50,20 +50,20 @@ namespace motion::uimessage {
 
 // Why send() refused a frame (besides errno-style I/O errors of the port).
 enum class UiMessageErrc {
-  standard_frame = 1,  // 11-bit identifier
-  remote_frame,        // RTR
-  not_simple_can,      // 29-bit identifier that is not SimpleCAN 3.0 (reserved bits set)
-  foreign_producer,    // producer is not the host ID
-  disconnected,        // the port hung up and could not be opened again (yet)
+  kStandardFrame = 1,  // 11-bit identifier
+  kRemoteFrame,        // RTR
+  kNotSimpleCan,       // 29-bit identifier that is not SimpleCAN 3.0 (reserved bits set)
+  kForeignProducer,    // producer is not the host ID
+  kDisconnected,       // the port hung up and could not be opened again (yet)
 };
 [[nodiscard]] const std::error_category& uimessage_category();  // name() == "uimessage"
 [[nodiscard]] std::error_code make_error_code(UiMessageErrc error);
 
 struct UiMessageOptions {
-  uim342::CrcCoverage crc = uim342::CrcCoverage::start_to_aux;   // what send() writes
-  uim342::CrcAcceptance accept = uim342::CrcAcceptance::either;  // what receive() takes
-  std::uint8_t host_id = uim342::kMasterId;                      // the master the gateway stands for
-  std::chrono::milliseconds reopen_interval{1000};               // between attempts after a hang-up
+  uim342::CrcCoverage crc = uim342::CrcCoverage::kStartToAux;     // what send() writes
+  uim342::CrcAcceptance accept = uim342::CrcAcceptance::kEither;  // what receive() takes
+  std::uint8_t host_id = uim342::kMasterId;                       // the master the gateway stands for
+  std::chrono::milliseconds reopen_interval{1000};                // between attempts after a hang-up
 };
 
 // The options a bus's configuration asks for (uimessage_crc, uimessage_crc_strict).

@@ -39,8 +39,8 @@ namespace motion::sim {
 // only after a Save (§8.54 step 2 "after sending, it is necessary to send a save command"). A
 // Save (0x00DC = 1) erases flash for save_time (§8.69: 0.1 s); the drive answers after it.
 struct AdamTableVariants {
-  enum class Speed { working_009a, target_00d8, shared };
-  Speed speed = Speed::working_009a;
+  enum class Speed { kWorking009a, kTarget00d8, kShared };
+  Speed speed = Speed::kWorking009a;
   bool needs_save = true;
   Duration save_time = std::chrono::milliseconds(100);
 };

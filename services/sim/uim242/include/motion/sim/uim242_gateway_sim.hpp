@@ -65,7 +65,7 @@ struct Uim242ControllerSetup {
 };
 
 struct Uim242SimOptions {
-  uim242::OrgReplyStyle org_reply = uim242::OrgReplyStyle::cn;
+  uim242::OrgReplyStyle org_reply = uim242::OrgReplyStyle::kCn;
   bool cn_completion_format = true;  // A8 with closed-loop flag + position (CN) or 4 bytes (EN)
   std::uint8_t stall_message_id = uim242::message::kDefaultStall;
   uim242::Greeting version{1, 0};

@@ -72,13 +72,13 @@ struct Uim342HomeSwitch {
 // powered off and restarted for it to take effect: after_restart (the default) applies the
 // resolution stored in EEPROM at each (re)boot only, so a value written while the driver is on
 // (RAM only) reads back but never moves the motor; immediately applies any written value at once.
-enum class MicroStepsApply { after_restart, immediately };
+enum class MicroStepsApply { kAfterRestart, kImmediately };
 
 class Uim342Drive final : public CanDriveSim {
  public:
   Uim342Drive(const config::Drive& drive, SimDriveContext context, Uim342Identity identity = {},
               std::optional<Uim342HomeSwitch> home_switch = std::nullopt,
-              MicroStepsApply micro_steps_apply = MicroStepsApply::after_restart);
+              MicroStepsApply micro_steps_apply = MicroStepsApply::kAfterRestart);
 
   void power_up(TimePoint now) override;
   void on_frame(const can::Frame& frame, TimePoint now) override;
@@ -196,9 +196,9 @@ class Uim342Drive final : public CanDriveSim {
   std::uint8_t group_id_ = 0;
   bool driver_on_ = false;
   TimePoint auto_enable_at_ = kNever;
-  uim342::MotionMode mode_ = uim342::MotionMode::jog;  // DV[0]
-  bool ptp_relative_ = false;                          // the last of PR/PA written decides what BG does
-  std::uint8_t selected_group_ = 0;                    // MF: for the next AC/DC/SP/PR/PA only
+  uim342::MotionMode mode_ = uim342::MotionMode::kJog;  // DV[0]
+  bool ptp_relative_ = false;                           // the last of PR/PA written decides what BG does
+  std::uint8_t selected_group_ = 0;                     // MF: for the next AC/DC/SP/PR/PA only
   bool in_position_ = false;
   bool stalled_ = false;
   bool locked_ = false;
@@ -213,7 +213,7 @@ class Uim342Drive final : public CanDriveSim {
   std::array<PendingInput, 3> pending_inputs_{};
   bool output_ = false;  // OP1
   std::optional<Uim342HomeSwitch> home_switch_;
-  MicroStepsApply micro_steps_apply_ = MicroStepsApply::after_restart;
+  MicroStepsApply micro_steps_apply_ = MicroStepsApply::kAfterRestart;
   std::uint16_t applied_micro_steps_ = 16;  // the resolution the motor runs at
   double shaft_base_full_steps_ = 0;        // shaft position at counts_base_
   std::int64_t counts_base_ = 0;            // kinematics counts when applied_micro_steps_ last changed
