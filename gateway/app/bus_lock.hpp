@@ -9,6 +9,12 @@
 // set, else /run/lock (the system's lock directory, as serial tools use), else the temporary
 // directory. The file holds the owner's pid for the message.
 //
+// Its mode is set explicitly, not left to the umask: 0600, or 0640 and simulation.group for a
+// simulated bus when that group is configured (other gateway users of the group take the lock
+// through a read-only descriptor). A symbolic link or anything but a regular file in its place
+// is refused, never followed. A simulated lab's runtime folder that does not exist yet is made
+// 0700 (0710 with the group), as motion-sim makes it.
+//
 // Thread contract: none (called once at start-up, before the event loop runs).
 #pragma once
 
@@ -40,7 +46,8 @@ class BusLock {
 [[nodiscard]] std::string bus_lock_path(const config::Config& config, const config::Bus& bus);
 
 // Takes the bus, or says who holds it: "bus can0 (simcan:can0) is already served by process 4242
-// (lock /tmp/motion-sim-1000/gateway-simcan_can0.lock)".
+// (lock /tmp/motion-sim-1000/gateway-simcan_can0.lock)", or why it could not: "refusing the lock of
+// bus can0 (simcan:can0) at PATH: it is a symbolic link".
 [[nodiscard]] std::variant<BusLock, std::string> lock_bus(const config::Config& config, const config::Bus& bus);
 
 }  // namespace motion::gateway

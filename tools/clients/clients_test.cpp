@@ -297,8 +297,9 @@ class SignedClients : public ::testing::Test {
   // `r`'s check_signed against the lab: the signed move ends DONE at `target`; the unsigned, the
   // stranger's and the forged move (to target + 5) end REJECTED with code 19 and the coordinator's reason,
   // and the axis is still at `target` half a second later. The key comes from $MOTION_KEY or from
-  // --key (`key_option`).
-  void check_signed(const Runtime& r, double target, bool key_option) {
+  // --key (`key_option`). With `verify` the clients take only the coordinator's signed replies and
+  // SECURITY events (--coordinator-key coordinator.pub), so all of the above came signed by it.
+  void check_signed(const Runtime& r, double target, bool key_option, bool verify = false) {
     ASSERT_TRUE(r.missing.empty()) << r.language << ": " << r.missing;
     ASSERT_TRUE(*started_) << r.language;
     const std::string dir = group_->work_dir();
@@ -309,6 +310,7 @@ class SignedClients : public ::testing::Test {
     } else {
       runtime.env.push_back("MOTION_KEY=" + dir + "/op.key");
     }
+    if (verify) args.insert(args.end(), {"--coordinator-key", dir + "/coordinator.pub"});
     std::string out;
     const auto started = std::chrono::steady_clock::now();
     const int rc = group_->run_to_completion(runtime.spec("signed-" + r.language, program(r, "check_signed"), args),
@@ -316,6 +318,7 @@ class SignedClients : public ::testing::Test {
     const auto took = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - started);
     std::printf("check_signed (%s): %lld ms\n", r.language.c_str(), static_cast<long long>(took.count()));
     EXPECT_EQ(rc, 0) << out;
+    if (verify) EXPECT_TRUE(contains(out, "verifying the coordinator's replies")) << out;
     EXPECT_TRUE(contains(out, "signed: status=done error_code=0")) << out;
     EXPECT_TRUE(contains(
         out,
@@ -352,7 +355,7 @@ ProcessGroup* SignedClients::group_ = nullptr;
 std::string* SignedClients::stranger_id_ = nullptr;
 
 TEST_F(SignedClients, PythonSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(python(), 6.25, false); }
-TEST_F(SignedClients, JavaSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(java(), -2.5, true); }
+TEST_F(SignedClients, JavaSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(java(), -2.5, true, true); }
 TEST_F(SignedClients, LuaSignsAndUnsignedOrWronglySignedRequestsAreRefused) { check_signed(lua(), 4.125, false); }
 
 // loopback.py publishes a small (LC02) and a large (LC03) request_t; liblcm must decode both. This

@@ -9,6 +9,10 @@
 // what the page may do. A browser's command counts only with the access token motion-web prints
 // at start ("controls at http://...?token=..."): anyone else who reaches the port only watches.
 //
+// Replies (reply_gate.hpp): with security.mode enforce and security.coordinator_public_key the page
+// shows only the coordinator's signed replies that verify (SREPLY), and the page's own client
+// verifies its replies likewise; otherwise the plain REPLYs.
+//
 // Threads: LCM and the client on the process's EventLoop (the main thread); the HTTP/WebSocket
 // server on its own thread. One mutex guards the LabView between the two; commands from browsers
 // reach the main thread through a LoopMailbox.
@@ -34,13 +38,17 @@
 
 #include "motion/app/service.hpp"
 #include "motion/client/client.hpp"
+#include "motion/core/clock.hpp"
 #include "motion/core/log.hpp"
 #include "motion/core/loop_mailbox.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/wire_bounds.hpp"
+#include "motion/security/gateway_commands.hpp"
 #include "motion/security/keys.hpp"
+#include "motion/security/signed_messages.hpp"
 #include "motion/web/controls.hpp"
 #include "motion/web/lab_view.hpp"
+#include "motion/web/reply_gate.hpp"
 #include "motion/web/server.hpp"
 
 namespace motion::web {
@@ -98,6 +106,35 @@ class Bridge {
         });
   }
 
+  // Replies through `gate`: the plain ones, or (verifying) only the coordinator's signed ones that
+  // verify; the first 10 refused are logged.
+  void follow_replies(lcm::Node& node, ReplyGate gate) {
+    gate_.emplace(std::move(gate));
+    node.subscribe<motionlcm::reply_t>(lcm::channels::kReply,
+                                       [this](const motionlcm::reply_t& msg, const std::string&) {
+                                         std::vector<Outgoing> out;
+                                         {
+                                           const std::lock_guard lock(mutex_);
+                                           out = gate_->on_plain(view_, msg);
+                                         }
+                                         for (auto& message : out) server_.broadcast(std::move(message));
+                                       });
+    if (!gate_->verifies()) return;
+    node.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kReply),
+                                                [this](const motionlcm::signed_message_t& env, const std::string&) {
+                                                  std::vector<Outgoing> out;
+                                                  {
+                                                    const std::lock_guard lock(mutex_);
+                                                    const auto before = gate_->refused();
+                                                    out = gate_->on_signed(view_, env, wall_time_us());
+                                                    if (gate_->refused() != before && gate_->refused() <= 10) {
+                                                      spdlog::warn("web: a reply not shown: {}", gate_->last_refusal());
+                                                    }
+                                                  }
+                                                  for (auto& message : out) server_.broadcast(std::move(message));
+                                                });
+  }
+
   // Requests, plain and signed (signed_request_t on SREQUEST, unwrapped without verifying: they
   // only say which requests are moves, and of which kind, for the plots).
   void follow_requests(lcm::Node& node) {
@@ -119,6 +156,7 @@ class Bridge {
   std::mutex mutex_;
   LabView view_;
   Server server_;
+  std::optional<ReplyGate> gate_;
 };
 
 // The page's commands, on the main thread: checked (controls.hpp), then sent by the client.
@@ -128,6 +166,9 @@ class Controls {
       : config_(config), client_(loop, node, "web"), mailbox_(loop, 256), token_(std::move(token)) {}
 
   void sign_with(security::KeyPair key) { client_.sign_with(std::move(key)); }
+  void verify_with(const security::PublicKey& coordinator, std::chrono::milliseconds window) {
+    client_.verify_with(coordinator, window);
+  }
   [[nodiscard]] const std::string& token() const { return token_; }
 
   // On the server thread: hands the command to the main thread, or answers at once when 256 are
@@ -226,7 +267,13 @@ int main(int argc, char** argv) {
     bridge->forward(node, motion::lcm::channels::kAxisState, &web::LabView::on_axis_state);
     bridge->forward(node, motion::lcm::channels::kHealth, &web::LabView::on_health);
     bridge->forward(node, motion::lcm::channels::kEvent, &web::LabView::on_event);
-    bridge->forward(node, motion::lcm::channels::kReply, &web::LabView::on_reply);
+    auto gate = web::ReplyGate::from_config(*config, wall_time_us());
+    if (const auto* error = std::get_if<std::string>(&gate)) {
+      std::cerr << "motion-web: " << config->file << ": " << *error << "\n";
+      return app::kExitConfig;
+    }
+    const bool verifying = std::get<web::ReplyGate>(gate).verifies();
+    bridge->follow_replies(node, std::move(std::get<web::ReplyGate>(gate)));
     bridge->forward(node, motion::lcm::channels::kActiveMoves, &web::LabView::on_active_moves);
     // Under enforce the coordinator sends ACTIVE_MOVES signed only (otherwise plain too: taken once).
     if (config->security.mode == motion::config::SecuritySettings::Mode::kEnforce)
@@ -243,6 +290,13 @@ int main(int argc, char** argv) {
       }
       page_controls = std::make_unique<web::Controls>(*config, service.loop(), node, std::move(token));
       if (key) page_controls->sign_with(std::move(*key));
+      if (verifying) {
+        // The same key the gate loaded: only the coordinator's signed replies end the page's requests.
+        auto coordinator = security::load_public_key(config->security.coordinator_public_key);
+        if (const auto* k = std::get_if<security::PublicKey>(&coordinator)) {
+          page_controls->verify_with(*k, std::chrono::milliseconds(config->security.window_ms));
+        }
+      }
       server.on_command([c = page_controls.get()](std::string text, web::Server::Reply reply) {
         c->post(std::move(text), std::move(reply));
       });

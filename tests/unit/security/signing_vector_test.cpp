@@ -1,7 +1,9 @@
-// The cross-language test vector (tests/vectors/signed_request_v1.txt): a fixed key file and a
-// fixed request_t signed at a fixed time must give exactly the file's payload, signed bytes,
-// signature and encoded signed_request_t. The Python, Java and Lua clients check the same file, so
-// the four implementations of the signed layout agree byte for byte.
+// The cross-language test vectors: a fixed key file and a fixed request_t signed at a fixed time
+// must give exactly tests/vectors/signed_request_v1.txt's payload, signed bytes, signature and
+// encoded signed_request_t (the Python, Java and Lua clients check the same file, so the four
+// implementations of the signed layout agree byte for byte); a fixed reply_t signed by the
+// coordinator's MessageSigner gives exactly tests/vectors/signed_reply_v1.txt's envelope, which
+// the Java client verifies.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -12,7 +14,10 @@
 #include <map>
 #include <sstream>
 
+#include <motionlcm/reply_t.hpp>
+
 #include "motion/security/request_verifier.hpp"
+#include "motion/security/signed_messages.hpp"
 #include "motion/security/signed_request.hpp"
 
 namespace motion::security {
@@ -23,8 +28,8 @@ using motionlcm::signed_request_t;
 namespace fs = std::filesystem;
 
 // "name = value" lines of the vector file; # comments.
-std::map<std::string, std::string> read_vector() {
-  std::ifstream in(MOTION_SIGNING_VECTOR);
+std::map<std::string, std::string> read_vector(const char* path = MOTION_SIGNING_VECTOR) {
+  std::ifstream in(path);
   std::map<std::string, std::string> v;
   for (std::string line; std::getline(in, line);) {
     if (line.empty() || line[0] == '#') continue;
@@ -120,6 +125,51 @@ TEST_F(SignedRequestVector, TheCoordinatorsVerifierAcceptsTheVectorsEnvelope) {
   const Verdict refused = other.verify(e, at + 500);
   EXPECT_FALSE(refused.accepted);
   EXPECT_NE(refused.reason.find("bad signature"), std::string::npos) << refused.reason;
+}
+
+std::vector<std::uint8_t> from_hex(const std::string& text) {
+  std::vector<std::uint8_t> out;
+  for (std::size_t i = 0; i + 1 < text.size(); i += 2) {
+    out.push_back(static_cast<std::uint8_t>(std::stoi(text.substr(i, 2), nullptr, 16)));
+  }
+  return out;
+}
+
+// The coordinator's signed reply (signed_message_t on SREPLY) of the reply vector's reply_t.
+TEST(SignedReplyVector, TheCoordinatorsSignerProducesTheVectorsEnvelope) {
+  auto v = read_vector(MOTION_SIGNED_REPLY_VECTOR);
+  ASSERT_TRUE(v.contains("envelope_hex")) << "cannot read " << MOTION_SIGNED_REPLY_VECTOR;
+  const auto seed = from_hex("9d61b19deffd5a60ba844af492ec2cc44449c5697b326919703bac031cae7f60");
+  ASSERT_EQ(seed.size(), kSeedBytes);
+  const KeyPair key = KeyPair::from_seed(std::span<const std::uint8_t, kSeedBytes>(seed.data(), kSeedBytes), "vector");
+  EXPECT_EQ(hex(key.public_key()), v["public_key_hex"]);
+
+  motionlcm::reply_t r{};
+  r.utime = std::stoll(v["reply.utime"]);
+  r.client_id = v["reply.client_id"];
+  r.request_id = std::stoll(v["reply.request_id"]);
+  r.status = static_cast<std::int8_t>(std::stoi(v["reply.status"]));
+  r.reason = v["reply.reason"];
+  r.progress = std::stod(v["reply.progress"]);
+  r.axes = words(v["reply.axes"]);
+  r.num_axes = static_cast<std::int32_t>(r.axes.size());
+  for (const auto& w : words(v["reply.targets"])) r.targets.push_back(std::stod(w));
+  for (const auto& w : words(v["reply.positions"])) r.positions.push_back(std::stod(w));
+  for (const auto& w : words(v["reply.start_utime"])) r.start_utime.push_back(std::stoll(w));
+  r.predicted_duration_s = std::stod(v["reply.predicted_duration_s"]);
+
+  MessageSigner signer(key, v["prefix"]);
+  const auto e = signer.sign(v["channel"], r, std::stoll(v["utime"]));
+  EXPECT_EQ(std::to_string(e.counter), v["counter"]);
+  EXPECT_EQ(hex(e.message), v["message_hex"]);
+  EXPECT_EQ(hex(e.signature, kSignatureBytes), v["signature_hex"]);
+  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(e.getEncodedSize()));
+  ASSERT_EQ(e.encode(encoded.data(), 0, static_cast<int>(encoded.size())), static_cast<int>(encoded.size()));
+  EXPECT_EQ(hex(encoded), v["envelope_hex"]);
+  // What the signature covers, as the vector spells it out for other languages.
+  Signature signature{};
+  std::copy_n(e.signature, kSignatureBytes, signature.begin());
+  EXPECT_TRUE(verify(key.public_key(), from_hex(v["signed_bytes_hex"]), signature));
 }
 
 }  // namespace

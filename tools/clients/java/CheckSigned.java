@@ -5,9 +5,12 @@
 //   signed: status=done ...   x = 12.5   unsigned: status=rejected error_code=19 ...
 //   stranger: status=rejected error_code=19 ...   forged: status=rejected error_code=19 ...
 //   after: x = 12.5
+// With --coordinator-key (the coordinator's .pub file) every client verifies the coordinator's
+// replies and SECURITY events (verifyWith): the signed move's DONE is then the coordinator's signed
+// reply, and the refusals come from its signed SECURITY events.
 // Exit 0 when all came as expected, 1 otherwise, 2 bad command line or key file, 4 LCM unavailable.
 //   java -cp lcm.jar:motionlcm.jar:classes CheckSigned --lcm-url URL [--prefix MOTION_] [--key FILE]
-//        --stranger-key FILE --axis x --target 12.5          (--key defaults to $MOTION_KEY)
+//        --stranger-key FILE --axis x --target 12.5 [--coordinator-key FILE]   (--key defaults to $MOTION_KEY)
 import java.io.IOException;
 import java.security.GeneralSecurityException;
 import java.util.Map;
@@ -17,7 +20,7 @@ import motionlcm.reply_t;
 import motionlcm.request_t;
 
 public class CheckSigned {
-    static final String USAGE = "usage: CheckSigned --lcm-url URL [--prefix MOTION_] [--key FILE] --stranger-key FILE --axis A --target P";
+    static final String USAGE = "usage: CheckSigned --lcm-url URL [--prefix MOTION_] [--key FILE] --stranger-key FILE --axis A --target P [--coordinator-key FILE]";
 
     /** `key` whose signatures have one bit flipped: what an attacker altering a message gets. */
     static final class ForgedKey extends Signing.Key {
@@ -36,7 +39,7 @@ public class CheckSigned {
     }
 
     public static void main(String[] argv) throws Exception {
-        Args args = new Args(argv, Map.of("--lcm-url", 1, "--prefix", 1, "--key", 1, "--stranger-key", 1, "--axis", 1, "--target", 1), USAGE);
+        Args args = new Args(argv, Map.of("--lcm-url", 1, "--prefix", 1, "--key", 1, "--stranger-key", 1, "--axis", 1, "--target", 1, "--coordinator-key", 1), USAGE);
         String axis = args.get("--axis", "x");
         double target;
         try {
@@ -49,9 +52,12 @@ public class CheckSigned {
         if (keyPath == null) Args.fail("no key: --key FILE or $MOTION_KEY", USAGE);
         Signing.Key key;
         Signing.Key stranger;
+        byte[] coordinator = null;
         try {
             key = Signing.loadPrivateKey(keyPath);
             stranger = Signing.loadPrivateKey(args.get("--stranger-key", ""));
+            String coordinatorKey = args.get("--coordinator-key", null);
+            if (coordinatorKey != null) coordinator = Signing.loadPublicKey(coordinatorKey);
         } catch (Signing.KeyFileException e) {
             System.err.println("CheckSigned: " + e.getMessage());
             System.exit(2);
@@ -67,6 +73,10 @@ public class CheckSigned {
             signed.signWith(key);
             other.signWith(stranger);
             forger.signWith(new ForgedKey(key));
+            if (coordinator != null) {
+                for (MotionClient c : new MotionClient[] {signed, plain, other, forger}) c.verifyWith(coordinator);
+                System.out.println("verifying the coordinator's replies");
+            }
             reply_t r = signed.request(request_t.ENABLE, new String[] {axis}, null, 10000);
             if (r.status == reply_t.DONE) r = signed.request(request_t.MOVE_ABSOLUTE, new String[] {axis}, new double[] {target}, 20000);
             System.out.println(line("signed", r));

@@ -12,6 +12,13 @@
 // a pending request (unsigned, unknown key, bad signature...: the coordinator sends no reply) ends it
 // at once with a local REJECTED, code 19 (unauthorized).
 //
+// Verified replies: after verifyWith(coordinatorPublicKey) (Signing.loadPublicKey of
+// security.coordinator_public_key) only the coordinator's signed replies and SECURITY events count
+// (signed_message_t on SREPLY, SEVENT; MessageVerifier), as in the C++ and Python clients: a plain
+// REPLY is ignored (the coordinator's own come signed too), and a signed one that does not verify
+// (another key, altered, stale, replayed) is a forgery: the request goes on waiting and
+// forgedReplies() counts it.
+//
 // Thread contract: thread-safe. LCM delivers messages on its own receive thread: reply, axis-state,
 // event and health callbacks run there (keep them short); request() blocks the calling thread.
 // Run with -Djava.net.preferIPv4Stack=true (LCM multicast is IPv4).
@@ -38,6 +45,7 @@ import motionlcm.health_t;
 import motionlcm.param_t;
 import motionlcm.reply_t;
 import motionlcm.request_t;
+import motionlcm.signed_message_t;
 
 public class MotionClient implements AutoCloseable {
     static {
@@ -105,6 +113,9 @@ public class MotionClient implements AutoCloseable {
     private volatile Consumer<axis_state_t> stateHandler;
     private volatile Consumer<event_t> eventHandler;
     private volatile Consumer<health_t> healthHandler;
+    private volatile MessageVerifier replyVerifier;  // set by verifyWith
+    private volatile MessageVerifier eventVerifier;
+    private final AtomicLong forgedReplies = new AtomicLong();
 
     /** url: null or "" = $LCM_DEFAULT_URL, then LCM's default. prefix: lcm.channel_prefix ("MOTION_"). */
     public MotionClient(String url, String prefix, String clientId) throws IOException {
@@ -139,6 +150,27 @@ public class MotionClient implements AutoCloseable {
         id = s.ownClientId(id);
         signer = s;
     }
+
+    /** From now on only replies and SECURITY events signed by the coordinator count (see above);
+     *  coordinator: its raw public key (Signing.loadPublicKey); windowMs: security.window_ms. */
+    public void verifyWith(byte[] coordinator, long windowMs) throws GeneralSecurityException {
+        boolean subscribed = replyVerifier != null;
+        eventVerifier = new MessageVerifier(coordinator, prefix, "EVENT", windowMs);
+        replyVerifier = new MessageVerifier(coordinator, prefix, "REPLY", windowMs);
+        if (subscribed) return;
+        lcm.subscribe(channel("SREPLY"), new LCMSubscriber() {
+            public void messageReceived(LCM l, String ch, LCMDataInputStream ins) { onSignedReply(ins); }
+        });
+        lcm.subscribe(channel("SEVENT"), new LCMSubscriber() {
+            public void messageReceived(LCM l, String ch, LCMDataInputStream ins) { onSignedEvent(ins); }
+        });
+    }
+
+    public void verifyWith(byte[] coordinator) throws GeneralSecurityException { verifyWith(coordinator, 2000); }
+
+    /** Signed replies for a pending request of this client that did not verify (verifyWith). */
+    public long forgedReplies() { return forgedReplies.get(); }
+
     public String url() { return url.isEmpty() ? "the default LCM URL" : url; }
     public String channel(String name) { return prefix + name; }
 
@@ -303,12 +335,62 @@ public class MotionClient implements AutoCloseable {
     }
 
     private void onReply(LCMDataInputStream ins) {
-        reply_t r;
-        try { r = new reply_t(ins); } catch (IOException e) { return; }  // not a reply_t: ignore
+        if (replyVerifier != null) return;  // only the signed twin (SREPLY) counts
+        try { takeReply(new reply_t(ins)); } catch (IOException e) { return; }  // not a reply_t: ignore
+    }
+
+    private void takeReply(reply_t r) {
         if (!id.equals(r.client_id)) return;
         Consumer<reply_t> handler = isTerminal(r.status) ? pending.remove(r.request_id) : pending.get(r.request_id);
         if (isTerminal(r.status)) labels.remove(r.request_id);
         if (handler != null) handler.accept(r);
+    }
+
+    // A hostile message_size makes the decoder ask for up to 2 GiB at once: that one allocation
+    // fails (OutOfMemoryError) and the message is dropped, as a malformed one.
+    private static signed_message_t decodeSigned(LCMDataInputStream ins) {
+        try { return new signed_message_t(ins); } catch (IOException | RuntimeException | OutOfMemoryError ex) { return null; }
+    }
+
+    private void onSignedReply(LCMDataInputStream ins) {
+        signed_message_t e = decodeSigned(ins);
+        if (e == null) return;
+        MessageVerifier v = replyVerifier;
+        byte[] message = v.verify(e, System.currentTimeMillis() * 1000);
+        if (message != null) {
+            try { takeReply(new reply_t(message)); } catch (IOException ex) { return; }
+            return;
+        }
+        long requestId = claimedRequestId(e.message);
+        if (requestId < 0 || !pending.containsKey(requestId)) return;
+        if (forgedReplies.incrementAndGet() <= 10) {
+            System.err.println("MotionClient: ignored a reply to request " + requestId + ": " + v.reason());
+        }
+    }
+
+    // The request id an unverified reply_t claims when it names this client, else -1; reads only
+    // fingerprint, utime, client_id and request_id, within the bytes (nothing sized by them is allocated).
+    private long claimedRequestId(byte[] message) {
+        if (message == null) return -1;
+        java.nio.ByteBuffer b = java.nio.ByteBuffer.wrap(message);  // big-endian, as LCM
+        byte[] own = (id + "\0").getBytes(java.nio.charset.StandardCharsets.UTF_8);
+        if (b.remaining() < 20 || b.getLong() != reply_t.LCM_FINGERPRINT) return -1;
+        b.getLong();  // utime
+        int length = b.getInt();
+        if (length != own.length || b.remaining() < length + 8) return -1;
+        byte[] clientId = new byte[length];
+        b.get(clientId);
+        return java.util.Arrays.equals(clientId, own) ? b.getLong() : -1;
+    }
+
+    private void onSignedEvent(LCMDataInputStream ins) {
+        signed_message_t e = decodeSigned(ins);
+        if (e == null) return;
+        byte[] message = eventVerifier.verify(e, System.currentTimeMillis() * 1000);
+        if (message == null) return;
+        event_t event;
+        try { event = new event_t(message); } catch (IOException ex) { return; }
+        if (event.kind == event_t.SECURITY) onSecurityEvent(event);
     }
 
     // The coordinator refused a request of ours without a reply (its ids could not be trusted): end
@@ -339,7 +421,7 @@ public class MotionClient implements AutoCloseable {
     private void onEventMessage(LCMDataInputStream ins) {
         event_t e;
         try { e = new event_t(ins); } catch (IOException ex) { return; }
-        if (e.kind == event_t.SECURITY) onSecurityEvent(e);
+        if (e.kind == event_t.SECURITY && eventVerifier == null) onSecurityEvent(e);
         Consumer<event_t> h = eventHandler;
         if (h != null) h.accept(e);
     }

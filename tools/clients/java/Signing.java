@@ -7,6 +7,10 @@
 //   "motionbus signed_request_t v1" NUL, channel prefix, NUL, key_id (8 bytes),
 //   counter (int64 big-endian), utime (int64 big-endian), payload_size (int32 big-endian), payload.
 //
+// The coordinator's signed messages (signed_message_t, e.g. replies on SREPLY) cover
+//   "motionbus signed_message_t v1" NUL, prefix, NUL, channel, NUL, key_id, counter, utime,
+//   message_size, message (the same integers): messageSignedBytes; MessageVerifier checks them.
+//
 // Thread contract: Key and the static functions are thread-safe; RequestSigner.sign is synchronized.
 import java.io.ByteArrayOutputStream;
 import java.io.DataOutputStream;
@@ -22,10 +26,12 @@ import java.security.KeyFactory;
 import java.security.KeyPair;
 import java.security.KeyPairGenerator;
 import java.security.PrivateKey;
+import java.security.PublicKey;
 import java.security.SecureRandom;
 import java.security.Signature;
 import java.security.spec.NamedParameterSpec;
 import java.security.spec.PKCS8EncodedKeySpec;
+import java.security.spec.X509EncodedKeySpec;
 import java.util.Arrays;
 import java.util.Base64;
 import java.util.List;
@@ -36,6 +42,7 @@ import motionlcm.signed_request_t;
 
 public final class Signing {
     public static final String REQUEST_DOMAIN = "motionbus signed_request_t v1";
+    public static final String MESSAGE_DOMAIN = "motionbus signed_message_t v1";
     public static final String PRIVATE_TAG = "motionbus-ed25519-private-key";
     public static final int KEY_ID_BYTES = 8;
 
@@ -49,6 +56,9 @@ public final class Signing {
 
     // PKCS#8 of an Ed25519 private key (RFC 8410 §7) is this prefix and the 32-byte seed.
     private static final byte[] PKCS8_PREFIX = {0x30, 0x2e, 0x02, 0x01, 0x00, 0x30, 0x05, 0x06, 0x03, 0x2b, 0x65, 0x70, 0x04, 0x22, 0x04, 0x20};
+
+    // X.509 SubjectPublicKeyInfo of an Ed25519 public key (RFC 8410 §4) is this prefix and the 32 bytes.
+    private static final byte[] X509_PREFIX = {0x30, 0x2a, 0x30, 0x05, 0x06, 0x03, 0x2b, 0x65, 0x70, 0x03, 0x21, 0x00};
 
     // Hands the seed to the JDK's key pair generator, which takes the private key's 32 bytes from
     // its random source (the only way java.security derives the public key of a given seed).
@@ -164,12 +174,54 @@ public final class Signing {
 
     /** What the signature covers (the layout is in lcmtypes/signed_request_t.lcm). */
     public static byte[] signedBytes(String prefix, byte[] keyId, long counter, long utime, byte[] payload) {
-        byte[] domain = REQUEST_DOMAIN.getBytes(StandardCharsets.UTF_8);
-        byte[] pre = prefix.getBytes(StandardCharsets.UTF_8);
+        return covered(REQUEST_DOMAIN, prefix, keyId, counter, utime, payload);
+    }
+
+    /** What the signature of a signed_message_t for `channel` covers (lcmtypes/signed_message_t.lcm). */
+    public static byte[] messageSignedBytes(String prefix, String channel, byte[] keyId, long counter, long utime, byte[] message) {
+        return covered(MESSAGE_DOMAIN, prefix + "\0" + channel, keyId, counter, utime, message);
+    }
+
+    // domain NUL scope NUL key_id counter utime size bytes (integers big-endian).
+    private static byte[] covered(String domainText, String scope, byte[] keyId, long counter, long utime, byte[] payload) {
+        byte[] domain = domainText.getBytes(StandardCharsets.UTF_8);
+        byte[] pre = scope.getBytes(StandardCharsets.UTF_8);
         ByteBuffer b = ByteBuffer.allocate(domain.length + 1 + pre.length + 1 + KEY_ID_BYTES + 8 + 8 + 4 + payload.length);  // big-endian
         b.put(domain).put((byte) 0).put(pre).put((byte) 0).put(keyId, 0, KEY_ID_BYTES);
         b.putLong(counter).putLong(utime).putInt(payload.length).put(payload);
         return b.array();
+    }
+
+    /** The JDK's key of a raw 32-byte Ed25519 public key. */
+    public static PublicKey publicKey(byte[] raw) throws GeneralSecurityException {
+        if (raw.length != 32) throw new IllegalArgumentException("an Ed25519 public key has 32 bytes");
+        byte[] der = Arrays.copyOf(X509_PREFIX, X509_PREFIX.length + 32);
+        System.arraycopy(raw, 0, der, X509_PREFIX.length, 32);
+        return KeyFactory.getInstance("Ed25519").generatePublic(new X509EncodedKeySpec(der));
+    }
+
+    /** The 32-byte key of a public key file ("<base64 public key> <name> [<role>]", as motionctl keygen
+     *  writes <name>.pub), e.g. the coordinator's (security.coordinator_public_key). */
+    public static byte[] loadPublicKey(String file) throws KeyFileException {
+        List<String> lines;
+        try {
+            lines = Files.readAllLines(Paths.get(file), StandardCharsets.UTF_8);
+        } catch (IOException e) {
+            throw new KeyFileException("cannot read public key file " + file + ": " + e.getMessage());
+        }
+        for (int i = 0; i < lines.size(); i++) {
+            String[] f = lines.get(i).trim().split("\\s+");
+            if (f.length == 0 || f[0].isEmpty() || f[0].startsWith("#")) continue;
+            byte[] key;
+            try {
+                key = Base64.getDecoder().decode(f[0]);
+            } catch (IllegalArgumentException e) {
+                key = new byte[0];
+            }
+            if (key.length != 32) throw new KeyFileException(file + ":" + (i + 1) + ": expected '<base64 public key> <name> [<role>]' (is this a .pub file?)");
+            return key;
+        }
+        throw new KeyFileException("public key file " + file + " holds no key line");
     }
 
     /** A request_t as LCM encodes it (with its fingerprint). */

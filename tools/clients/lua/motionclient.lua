@@ -16,6 +16,13 @@ same. A SECURITY event of the coordinator naming a pending request (unsigned, un
 signature...: the coordinator sends no reply) ends it at once with a local REJECTED, code 19.
 motionsigning needs the native module motionsodium on LUA_CPATH; without signing it is not loaded.
 
+Verified replies: after c:verify_with(coordinator_public_key) (motionsigning.load_public_key of
+security.coordinator_public_key) only the coordinator's signed replies and SECURITY events count
+(signed_message_t on SREPLY, SEVENT), as in the C++, Python and Java clients: a plain REPLY is
+ignored (the coordinator's own come signed too), and a signed one that does not verify (another
+key, altered, stale, replayed) is a forgery: the request goes on waiting and c.forged_replies
+counts it.
+
 Thread contract: single-threaded. Callbacks run inside handle(), request() and wait_until(), which
 pump LCM. Timeouts are in seconds; Lua 5.2 has no sub-second wall clock, so they are measured with
 os.time() (whole seconds, at least the requested time) unless LuaSocket's socket.gettime exists.
@@ -122,6 +129,19 @@ end
 function Client:sign_with(key)
   self.signer = require("motionsigning").request_signer(key, self.prefix)
   self.id = self.signer:own_client_id(self.id)
+end
+
+-- From now on only replies and SECURITY events signed by the coordinator count (see above);
+-- coordinator: its 32-byte public key (a byte string); window_ms: security.window_ms (2000).
+function Client:verify_with(coordinator, window_ms)
+  local signing = require("motionsigning")
+  local subscribed = self.reply_verifier ~= nil
+  self.reply_verifier = signing.message_verifier(coordinator, self.prefix, "REPLY", window_ms)
+  self.event_verifier = signing.message_verifier(coordinator, self.prefix, "EVENT", window_ms)
+  self.forged_replies = self.forged_replies or 0
+  if subscribed then return end
+  self.lc:subscribe(self.prefix .. "SREPLY", function(_, data) self:_on_signed_reply(data) end)
+  self.lc:subscribe(self.prefix .. "SEVENT", function(_, data) self:_on_signed_event(data) end)
 end
 
 -- Publishes a request; every reply goes to on_reply(reply). fields: velocity_scale,
@@ -267,12 +287,45 @@ local function decode(t, data)
 end
 
 function Client:_on_reply(data)
-  local r = decode(reply_t, data)
+  if self.reply_verifier then return end  -- only the signed twin (SREPLY) counts
+  self:_take_reply(decode(reply_t, data))
+end
+
+function Client:_take_reply(r)
   if not r or r.client_id ~= self.id then return end
   local handler = self.pending[r.request_id]
   if handler == nil then return end
   if M.is_terminal(r.status) then self.pending[r.request_id], self.labels[r.request_id] = nil, nil end
   if handler then handler(r) end
+end
+
+local signed_message_t
+local function signed_message(data)
+  signed_message_t = signed_message_t or require("motionlcm.signed_message_t")
+  return decode(signed_message_t, data)
+end
+
+function Client:_on_signed_reply(data)
+  local e = signed_message(data)
+  if not e then return end
+  local signing = require("motionsigning")
+  local message, why = self.reply_verifier:verify(e, signing.now_us())
+  if message then return self:_take_reply(decode(reply_t, message)) end
+  local claimed = decode(reply_t, signing.bytes_of(e.message))
+  if claimed and claimed.client_id == self.id and self.pending[claimed.request_id] ~= nil then
+    self.forged_replies = self.forged_replies + 1
+    if self.forged_replies <= 10 then
+      io.stderr:write(string.format("motionclient: ignored a reply to request %.0f: %s\n", claimed.request_id, why))
+    end
+  end
+end
+
+function Client:_on_signed_event(data)
+  local e = signed_message(data)
+  if not e then return end
+  local message = self.event_verifier:verify(e, require("motionsigning").now_us())
+  local event = message and decode(event_t, message)
+  if event and event.kind == event_t.SECURITY then self:_on_security_event(event) end
 end
 
 -- The coordinator refused a request of ours without a reply (its ids could not be trusted): end
@@ -309,7 +362,7 @@ end
 function Client:_on_event(data)
   local e = decode(event_t, data)
   if not e then return end
-  if e.kind == event_t.SECURITY then self:_on_security_event(e) end
+  if e.kind == event_t.SECURITY and not self.event_verifier then self:_on_security_event(e) end
   if self.event_handler then self.event_handler(e) end
 end
 

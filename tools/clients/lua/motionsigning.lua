@@ -9,6 +9,11 @@ The signature covers, concatenated (lcmtypes/signed_request_t.lcm):
   "motionbus signed_request_t v1" NUL, channel prefix, NUL, key_id (8 bytes),
   counter (int64 big-endian), utime (int64 big-endian), payload_size (int32 big-endian), payload.
 
+The coordinator's signed messages (signed_message_t, e.g. replies on SREPLY) cover
+  "motionbus signed_message_t v1" NUL, prefix, NUL, channel, NUL, key_id, counter, utime,
+  message_size, message (the same integers): message_signed_bytes; message_verifier checks them
+  (as the C++ security::MessageVerifier), with motionsodium.verify (libsodium).
+
   local signing = require "motionsigning"
   local key = assert(signing.load_private_key(signing.key_path(opt_key)))   -- --key, else $MOTION_KEY
   client:sign_with(key)
@@ -22,10 +27,16 @@ local signed_request_t = require("motionlcm.signed_request_t")
 
 local M = {}
 M.REQUEST_DOMAIN = "motionbus signed_request_t v1"
+M.MESSAGE_DOMAIN = "motionbus signed_message_t v1"
 M.PRIVATE_TAG = "motionbus-ed25519-private-key"
 M.KEY_ID_BYTES = 8
 
-local function bytes_of(t) return string.char(unpack(t)) end  -- an LCM byte array (table) as a string
+-- An LCM byte array (table) as a string, in slices (unpack has a limit on its results).
+local function bytes_of(t)
+  local parts = {}
+  for i = 1, #t, 4096 do parts[#parts + 1] = string.char(unpack(t, i, math.min(i + 4095, #t))) end
+  return table.concat(parts)
+end
 local function table_of(s) return {s:byte(1, -1)} end
 
 function M.valid_name(name)
@@ -108,6 +119,78 @@ end
 function M.signed_bytes(prefix, key_id, counter, utime, payload)
   return M.REQUEST_DOMAIN .. "\0" .. prefix .. "\0" .. key_id .. lcm._pack.pack(">qqi", counter, utime, #payload) .. payload
 end
+
+-- What the signature of a signed_message_t for `channel` covers (lcmtypes/signed_message_t.lcm).
+function M.message_signed_bytes(prefix, channel, key_id, counter, utime, message)
+  return M.MESSAGE_DOMAIN .. "\0" .. prefix .. "\0" .. channel .. "\0" ..
+         key_id .. lcm._pack.pack(">qqi", counter, utime, #message) .. message
+end
+
+-- The 32-byte key (a byte string) of a public key file ("<base64 public key> <name> [<role>]", as
+-- motionctl keygen writes <name>.pub), e.g. the coordinator's; nil and why when it is not one.
+function M.load_public_key(path)
+  local f, err = io.open(path, "r")
+  if not f then return nil, "cannot read public key file " .. path .. ": " .. err end
+  local number = 0
+  for line in f:lines() do
+    number = number + 1
+    local first = line:match("^%s*(%S+)")
+    if first and first:sub(1, 1) ~= "#" then
+      f:close()
+      local key = sodium.base64_decode(first)
+      if not key or #key ~= 32 then
+        return nil, path .. ":" .. number .. ": expected '<base64 public key> <name> [<role>]' (is this a .pub file?)"
+      end
+      return key
+    end
+  end
+  f:close()
+  return nil, "public key file " .. path .. " holds no key line"
+end
+
+local Verifier = {}
+Verifier.__index = Verifier
+
+-- Takes a signed_message_t of `channel` (e.g. "REPLY") when, in this order, its channel is that
+-- one, its key id is the coordinator's, the signature verifies, utime is within window_ms of the
+-- receiver's clock and not before not_before_us (default: now), and the counter is above the last
+-- one taken (a replay otherwise). coordinator: its 32-byte public key (load_public_key).
+function M.message_verifier(coordinator, prefix, channel, window_ms, not_before_us)
+  return setmetatable({coordinator = coordinator, key_id = coordinator:sub(1, M.KEY_ID_BYTES), prefix = prefix,
+                       channel = channel, window_us = (window_ms or 2000) * 1000,
+                       not_before_us = not_before_us or sodium.now_us(), last_counter = 0}, Verifier)
+end
+
+-- The message's bytes (a string), or nil and why it was refused.
+function Verifier:verify(e, now_us)
+  local what = "signed " .. self.channel .. " refused: "
+  if e.channel ~= self.channel then return nil, what .. "it was signed for channel '" .. tostring(e.channel):sub(1, 64) .. "'" end
+  local key_id = bytes_of(e.key_id)
+  if key_id ~= self.key_id then
+    return nil, what .. "key " .. M.hex(key_id) .. " is not the coordinator's (" .. M.hex(self.key_id) .. ")"
+  end
+  local message = bytes_of(e.message)
+  local signature = bytes_of(e.signature)
+  if #message ~= e.message_size or #signature ~= 64 or
+      not sodium.verify(self.coordinator, M.message_signed_bytes(self.prefix, self.channel, key_id, e.counter, e.utime, message),
+                        signature) then
+    return nil, what .. "bad signature (forged or altered in transit)"
+  end
+  if e.utime < self.not_before_us then return nil, what .. "stale timestamp: signed before this client started (a replay?)" end
+  local age = math.abs(now_us - e.utime)
+  if age > self.window_us then
+    return nil, string.format("%sstale timestamp: signed %d ms %s, outside the window of %d ms (clocks out of sync, or a replay)",
+                              what, math.floor(age / 1000), now_us >= e.utime and "ago" or "in the future",
+                              math.floor(self.window_us / 1000))
+  end
+  if e.counter <= self.last_counter then
+    return nil, string.format("%sreplayed counter %.0f (last accepted %.0f)", what, e.counter, self.last_counter)
+  end
+  self.last_counter = e.counter
+  return message
+end
+
+function M.hex(s) return (s:gsub(".", function(c) return string.format("%02x", c:byte()) end)) end
 
 local Signer = {}
 Signer.__index = Signer
