@@ -318,7 +318,7 @@ class SignedClients : public ::testing::Test {
     const auto took = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - started);
     std::printf("check_signed (%s): %lld ms\n", r.language.c_str(), static_cast<long long>(took.count()));
     EXPECT_EQ(rc, 0) << out;
-    if (verify) EXPECT_TRUE(contains(out, "verifying the coordinator's replies")) << out;
+    if (verify) { EXPECT_TRUE(contains(out, "verifying the coordinator's replies")) << out; }
     EXPECT_TRUE(contains(out, "signed: status=done error_code=0")) << out;
     EXPECT_TRUE(contains(
         out,

@@ -254,8 +254,9 @@ std::optional<ExceptionCode> check_request(const rtu::RequestPdu& pdu, const Acc
     const std::uint16_t value = write->value;
     return check_write(write->address, std::span<const std::uint16_t>(&value, 1), rules);
   }
-  const auto& writes = std::get<rtu::WriteRegisters>(pdu);
-  return check_write(writes.start, writes.values, rules);
+  if (const auto* writes = std::get_if<rtu::WriteRegisters>(&pdu))
+    return check_write(writes->start, writes->values, rules);
+  return ExceptionCode::kIllegalFunction;  // no function this drive serves (§6)
 }
 
 bool expects_reply(const rtu::Request& request) noexcept {

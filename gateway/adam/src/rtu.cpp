@@ -272,7 +272,7 @@ ParsedRequest decode_request(std::span<const std::uint8_t> frame) {
       if (const auto error = check_size(size, 9 + byte_count)) return *error;
       const std::uint16_t start = get_u16(frame, 2);
       const std::uint16_t quantity = get_u16(frame, 4);
-      if (quantity == 0 || quantity > kMaxWriteQuantity || byte_count != 2U * quantity)
+      if (quantity == 0 || quantity > kMaxWriteQuantity || byte_count != std::size_t{2} * quantity)
         return reject(ExceptionCode::kIllegalDataValue);
       if (!fits_address_space(start, quantity)) return reject(ExceptionCode::kIllegalDataAddress);
       return Request{unit, WriteRegisters{start, get_words(frame, 7, quantity)}};

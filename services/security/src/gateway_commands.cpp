@@ -8,8 +8,8 @@
 
 namespace motion::security {
 
-GatewayCommandSigner::GatewayCommandSigner(KeyPair key, std::string channel_prefix)
-    : key_(std::move(key)), prefix_(std::move(channel_prefix)) {}
+GatewayCommandSigner::GatewayCommandSigner(const KeyPair& key, std::string channel_prefix)
+    : key_(key), prefix_(std::move(channel_prefix)) {}
 
 motionlcm::signed_gateway_command_t GatewayCommandSigner::sign(const motionlcm::gateway_command_t& command,
                                                                std::int64_t now_us) {

@@ -18,8 +18,8 @@ std::string scope(std::string_view prefix, std::string_view channel) {
 
 std::string signed_channel(std::string_view channel) { return "S" + std::string(channel); }
 
-MessageSigner::MessageSigner(KeyPair key, std::string channel_prefix)
-    : key_(std::move(key)), prefix_(std::move(channel_prefix)) {}
+MessageSigner::MessageSigner(const KeyPair& key, std::string channel_prefix)
+    : key_(key), prefix_(std::move(channel_prefix)) {}
 
 motionlcm::signed_message_t MessageSigner::sign_bytes(std::string_view channel, std::vector<std::uint8_t> message,
                                                       std::int64_t now_us) {

@@ -65,8 +65,8 @@ std::vector<std::uint8_t> signed_bytes(std::string_view channel_prefix, const mo
   return detail::covered_bytes(detail::kRequestDomain, channel_prefix, envelope);
 }
 
-RequestSigner::RequestSigner(KeyPair key, std::string channel_prefix)
-    : key_(std::move(key)), prefix_(std::move(channel_prefix)) {}
+RequestSigner::RequestSigner(const KeyPair& key, std::string channel_prefix)
+    : key_(key), prefix_(std::move(channel_prefix)) {}
 
 std::string RequestSigner::own_client_id(std::string_view client_id) const {
   if (name_owns_client_id(key_.name(), client_id)) return std::string(client_id);

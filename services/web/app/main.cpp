@@ -59,7 +59,7 @@ std::filesystem::path default_static_dir() {
   std::error_code ec;
   const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
   if (ec) return "web";
-  const auto beside = exe.parent_path() / "web";
+  auto beside = exe.parent_path() / "web";
   if (std::filesystem::exists(beside / "index.html")) return beside;
   return exe.parent_path().parent_path() / "share" / "motion" / "web";
 }
@@ -165,7 +165,7 @@ class Controls {
   Controls(const config::Config& config, EventLoop& loop, lcm::Node& node, std::string token)
       : config_(config), client_(loop, node, "web"), mailbox_(loop, 256), token_(std::move(token)) {}
 
-  void sign_with(security::KeyPair key) { client_.sign_with(std::move(key)); }
+  void sign_with(const security::KeyPair& key) { client_.sign_with(key); }
   void verify_with(const security::PublicKey& coordinator, std::chrono::milliseconds window) {
     client_.verify_with(coordinator, window);
   }
@@ -173,7 +173,7 @@ class Controls {
 
   // On the server thread: hands the command to the main thread, or answers at once when 256 are
   // already waiting.
-  void post(std::string text, Server::Reply reply) {
+  void post(const std::string& text, const Server::Reply& reply) {
     if (!mailbox_.post([this, text, reply] { handle(text, reply); })) {
       reply(control_refused({std::nullopt, "motion-web is busy (256 commands waiting): try again"}));
     }
@@ -201,7 +201,8 @@ class Controls {
 }  // namespace
 }  // namespace motion::web
 
-int main(int argc, char** argv) {
+// Only the fixed option set is built outside app::run, which turns every later exception into an exit code.
+int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   using namespace motion;
   CLI::App cli{"motion-web: a live web view of the lab (axes, processes, buses, events, a plot of every move)",
                "motion-web"};
@@ -289,7 +290,7 @@ int main(int argc, char** argv) {
         return app::kExitUnavailable;
       }
       page_controls = std::make_unique<web::Controls>(*config, service.loop(), node, std::move(token));
-      if (key) page_controls->sign_with(std::move(*key));
+      if (key) page_controls->sign_with(*key);
       if (verifying) {
         // The same key the gate loaded: only the coordinator's signed replies end the page's requests.
         auto coordinator = security::load_public_key(config->security.coordinator_public_key);

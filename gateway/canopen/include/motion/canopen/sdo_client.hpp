@@ -39,9 +39,9 @@
 namespace motion::canopen {
 
 struct SdoClientConfig {
-  Duration timeout = std::chrono::milliseconds(500);  // per request frame
-  unsigned max_retries = 1;                           // extra attempts after a timeout
-  std::size_t max_upload_size = 64 * 1024;            // larger uploads abort with 05040005h
+  Duration timeout = std::chrono::milliseconds(500);     // per request frame
+  unsigned max_retries = 1;                              // extra attempts after a timeout
+  std::size_t max_upload_size = std::size_t{64} * 1024;  // larger uploads abort with 05040005h
 };
 
 // Completion: error (empty on success) and, for uploads, the object's bytes.

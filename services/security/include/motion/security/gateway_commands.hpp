@@ -24,7 +24,7 @@ namespace motion::security {
 
 class GatewayCommandSigner {
  public:
-  GatewayCommandSigner(KeyPair key, std::string channel_prefix);
+  GatewayCommandSigner(const KeyPair& key, std::string channel_prefix);
   // Signed at `now_us` (µs since the epoch) with the next counter, max(last + 1, now_us).
   [[nodiscard]] motionlcm::signed_gateway_command_t sign(const motionlcm::gateway_command_t& command,
                                                          std::int64_t now_us);

@@ -31,7 +31,7 @@ namespace motion::security {
 
 class MessageSigner {
  public:
-  MessageSigner(KeyPair key, std::string channel_prefix);
+  MessageSigner(const KeyPair& key, std::string channel_prefix);
   // `message` (any LCM type) encoded and signed for `channel` (without prefix) at `now_us` (µs
   // since the epoch), with the next counter: max(last + 1, now_us). One counter for all channels.
   template <typename Msg>

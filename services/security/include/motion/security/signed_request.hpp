@@ -25,7 +25,7 @@ namespace motion::security {
 // Signs a client's requests with one key.
 class RequestSigner {
  public:
-  RequestSigner(KeyPair key, std::string channel_prefix);
+  RequestSigner(const KeyPair& key, std::string channel_prefix);
 
   // `client_id` as this key's own: unchanged when it is the key's name or starts with
   // "<name>/", else "<name>/<client_id>" (the coordinator refuses other ids from this key).

@@ -46,8 +46,8 @@ struct ListenAddress {
 struct ServerOptions {
   ListenAddress listen{"127.0.0.1", 8080};  // port 0: a free port (see Server::port())
   std::filesystem::path static_dir;
-  std::size_t max_queued = 20000;        // messages per browser not yet written
-  std::size_t max_incoming = 16 * 1024;  // bytes of one message from a browser
+  std::size_t max_queued = 20000;                     // messages per browser not yet written
+  std::size_t max_incoming = std::size_t{16} * 1024;  // bytes of one message from a browser
 };
 
 class Server {
