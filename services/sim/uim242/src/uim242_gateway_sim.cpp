@@ -37,6 +37,9 @@ constexpr std::uint8_t kModules = 0x73;
 // CN §7.8 factory group STO0: acceleration, deceleration, MMS, MMD (EN #43 gives other values).
 constexpr std::int64_t kFactoryRamp = 250;
 constexpr std::int64_t kFactoryJump = 1000;
+// The speed a position move loaded at desired speed 0 runs at under runs_at_last_speed when no
+// non-zero SPD was ever set (assumed).
+constexpr std::int64_t kAssumedLastSpeed = 1000;
 
 std::int64_t steady_us(TimePoint t) {
   return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
@@ -195,6 +198,7 @@ class Uim242GatewaySim::Controller {
         reply_value(v);
         break;
       case Mnemonic::kQEC:
+        if (set && refuses_target(v - position(now))) return {uim242::make_error(uim242::ErrorCode::kValueError)};
         if (set) {
           reply_value(v);
           set_target(now, v, v - position(now));
@@ -223,6 +227,7 @@ class Uim242GatewaySim::Controller {
         reply_value(v);
         desired_speed_ = v;
         if (v != 0) desired_positive_ = v > 0;
+        if (v != 0) last_speed_ = std::llabs(v);
         resume(now);
         break;
       case Mnemonic::kSTG:
@@ -238,6 +243,7 @@ class Uim242GatewaySim::Controller {
           reply_value(position(now) - displacement_origin_);
           break;
         }
+        if (refuses_target(v)) return {uim242::make_error(uim242::ErrorCode::kValueError)};
         reply_value(v);
         if (v == 0) {
           leave_position_mode(now);
@@ -353,8 +359,15 @@ class Uim242GatewaySim::Controller {
     kinematics_.stop(now, p.deceleration, p.cut_in);
   }
 
-  // Applies the desired speed / pending target to the motor (enable, SPD, STP, QEC).
-  void resume(TimePoint now) {
+  // The spd0_position_move variant refuses a displacement loaded at desired speed 0.
+  [[nodiscard]] bool refuses_target(std::int64_t displacement) const {
+    return setup_.spd0_position_move == Uim242ControllerSetup::Spd0Move::kRefused && displacement != 0 &&
+           desired_speed_ == 0;
+  }
+
+  // Applies the desired speed / pending target to the motor (enable, SPD, STP, QEC);
+  // `new_target`: a position instruction just set the target.
+  void resume(TimePoint now, bool new_target = false) {
     if (!enabled_) return;
     if (velocity_mode_) {
       if (desired_speed_ == 0) {
@@ -367,13 +380,17 @@ class Uim242GatewaySim::Controller {
       return;
     }
     if (!pt_target_) return;
-    if (desired_speed_ == 0) {  // PT with no speed: hold (pre-loaded move) or brake, keep the target
+    std::int64_t speed = std::llabs(desired_speed_);
+    if (speed == 0 && new_target && setup_.spd0_position_move == Uim242ControllerSetup::Spd0Move::kRunsAtLastSpeed) {
+      speed = last_speed_;
+    }
+    if (speed == 0) {  // PT with no speed: hold (pre-loaded move) or brake, keep the target
       if (moving(now)) brake(now);
       return;
     }
     last_positive_ = *pt_target_ >= position(now);
     started(now, *pt_target_);
-    kinematics_.move_to(now, *pt_target_, profile(now, std::abs(static_cast<double>(desired_speed_))));
+    kinematics_.move_to(now, *pt_target_, profile(now, static_cast<double>(speed)));
   }
 
   void set_target(TimePoint now, std::int64_t target, std::int64_t displacement) {
@@ -382,7 +399,7 @@ class Uim242GatewaySim::Controller {
     desired_displacement_ = displacement;
     desired_positive_ = displacement >= 0;
     pt_target_ = target;
-    resume(now);
+    resume(now, true);
   }
 
   void leave_position_mode(TimePoint now) {
@@ -481,6 +498,7 @@ class Uim242GatewaySim::Controller {
   bool enabled_ = false;
   bool velocity_mode_ = true;
   std::int64_t desired_speed_ = 0;
+  std::int64_t last_speed_ = kAssumedLastSpeed;  // the last non-zero |SPD| (runs_at_last_speed)
   std::int64_t desired_displacement_ = 0;
   bool desired_positive_ = true;
   bool last_positive_ = true;
@@ -509,6 +527,10 @@ std::vector<Uim242ControllerSetup> Uim242GatewaySim::controllers_of(const config
     setup.drive = d.name;
     setup.node_id = static_cast<std::uint8_t>(d.node_id);
     setup.reboot = std::chrono::milliseconds(config::sim_variant_int(config, d, "reboot_ms"));
+    const auto spd0 = config::sim_variant(config, d, "spd0_position_move");
+    setup.spd0_position_move = spd0 == "refused"              ? Uim242ControllerSetup::Spd0Move::kRefused
+                               : spd0 == "runs_at_last_speed" ? Uim242ControllerSetup::Spd0Move::kRunsAtLastSpeed
+                                                              : Uim242ControllerSetup::Spd0Move::kHolds;
     out.push_back(setup);
   }
   return out;

@@ -21,7 +21,8 @@
 // * PT: `STP η;` (relative) / `QEC η;` (absolute) set the target from the position at receipt and
 //   start when enabled with a non-zero desired speed; the position error gives the direction.
 //   `SPD 0;` then a target pre-loads a move that a later `SPD η;` / `gSPD η;` starts — the
-//   gateway-wide synchronized start the driver uses. `SPD 0;` during a PT move brakes and keeps
+//   gateway-wide synchronized start the driver uses (or, per Uim242ControllerSetup::
+//   spd0_position_move, runs at once or is refused). `SPD 0;` during a PT move brakes and keeps
 //   the target. `STP 0;` leaves PT: decelerate, no A8 (EN/CN §6.1; ramp and no A8 assumed).
 // * Arrival: A8 RTCN if MCFG.STPIE, CN 10-byte form by default (CN §4.1; EN: 4 bytes).
 // * `ORG[ η];` sets position and encoder counter at rest (EE 66 while moving: assumed, the manuals
@@ -62,6 +63,12 @@ struct Uim242ControllerSetup {
   // How long the controller is silent after an ICF write (manual §5.1: "will auto reboot", no
   // time given): simulation.variants key reboot_ms.
   Duration reboot = std::chrono::milliseconds(300);
+  // A position move (STP/QEC) loaded while the desired speed is 0 (§6.1, #37, #44: no example
+  // shows it; simulation.variants key spd0_position_move): held until a later `SPD η;` starts it
+  // (holds), run at once at the last non-zero desired speed (runs_at_last_speed; 1000 pps when
+  // none was set, assumed), or answered EE 66 and not loaded (refused).
+  enum class Spd0Move { kHolds, kRunsAtLastSpeed, kRefused };
+  Spd0Move spd0_position_move = Spd0Move::kHolds;
 };
 
 struct Uim242SimOptions {
