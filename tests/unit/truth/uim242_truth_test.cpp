@@ -27,8 +27,10 @@ drives:
   - {name: u2-drive, family: uim242, bus: rs232, node_id: 6, setup: {micro_steps: 16, current_a: 1.0, icfg: 1ANSWER}}
 axes:
   - {name: u1, drive: u1-drive, unit: mm, steps_per_unit: 160, limits: {min: -100, max: 100, velocity: 30, acceleration: 150}}
-  - {name: u2, drive: u2-drive, unit: mm, steps_per_unit: 160, limits: {min: -100, max: 100, velocity: 30, acceleration: 150}}
+  - {name: u2, drive: u2-drive, unit: mm, steps_per_unit: 160, limits: {min: -100, max: 100, velocity: 30, acceleration: 150},
+     homing: {method: switch, input: 1, velocity: -5, offset: -1}}
 simulation:
+  home_switches: {u2-drive: -1600}
   variants: {u1-drive: {reboot_ms: REBOOT, spd0_position_move: SPD0}, u2-drive: {reboot_ms: REBOOT, spd0_position_move: SPD0}}
 )";
 
@@ -51,6 +53,30 @@ SerialBench::CoreFactory uim242_core(SerialBench& bench) {
     context.out = &out;
     return std::make_unique<uim242_driver::Uim242Stack>(*bench.config, "rs232", context);
   };
+}
+
+// HOME u2 (S1 falling, toward min at 5 mm/s = 800 counts/s, offset -1 mm = -160 counts): the
+// axis runs from where it stands onto the simulated switch edge (-1600 counts from power-up),
+// stops there (sensor action reset + e-stop, sampled every millisecond: within one count past the
+// edge) and counts from the offset.
+void expect_homes_on_its_switch(SerialBench& bench, const std::string& label) {
+  auto& line = dynamic_cast<sim::Uim242GatewaySim&>(*bench.device);
+  const std::int64_t before = line.physical_position("u2-drive", bench.now);
+  ASSERT_GT(before, -1600) << "u2 starts on the switch";
+  const std::size_t starts_before = bench.reports_of("u2-drive", kStarted).size();
+  motionlcm::axis_command_t home = axis_move("u2", -160, -800, 0);
+  const auto id = bench.execute(command(gateway_command_t::HOME, "rs232", {home}));
+  const auto done = bench.finish(id);
+  ASSERT_EQ(done.status, kDone) << done.reason;
+  const std::int64_t after = line.physical_position("u2-drive", bench.now);
+  EXPECT_EQ(bench.reports_of("u2-drive", kStarted).size(), starts_before + 1) << "no search run";
+  EXPECT_LE(after, -1600) << "stopped before the switch edge";
+  EXPECT_GE(after, -1601) << "ran past the switch edge";
+  EXPECT_EQ(line.position("u2-drive", bench.now), -160) << "the offset is not where the switch is";
+  EXPECT_FALSE(line.moving("u2-drive", bench.now));
+  std::printf("%s: HOME u2 from %lld counts: stopped at %lld (switch edge -1600), counter %lld\n", label.c_str(),
+              static_cast<long long>(before), static_cast<long long>(after),
+              static_cast<long long>(line.position("u2-drive", bench.now)));
 }
 
 class Uim242Reboot : public ::testing::TestWithParam<std::string> {};
@@ -89,6 +115,7 @@ TEST_P(Uim242Reboot, IcfIsWrittenOnceTheRebootWaitedOutAndAMoveLands) {
   EXPECT_EQ(bench.mechanism_of(move), "broadcast");
   EXPECT_EQ(line.position("u1-drive", bench.now), 1600);
   EXPECT_EQ(line.position("u2-drive", bench.now), -800);
+  expect_homes_on_its_switch(bench, "reboot_ms " + GetParam());
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, Uim242Reboot, ::testing::Values("0", "500"),
@@ -189,6 +216,7 @@ TEST_P(Uim242Spd0, ArmedMovesHoldUntilTheTriggerAndLand) {
   EXPECT_GT(line.position("u1-drive", bench.now), 300) << "the jog did not run";
   EXPECT_FALSE(line.moving("u1-drive", bench.now));
   EXPECT_EQ(core.spd0_position_move("u1-drive"), param.answer.empty() ? param.variant : param.answer);
+  expect_homes_on_its_switch(bench, "spd0_position_move " + param.variant);
   EXPECT_EQ(core.spd0_position_move("u2-drive"), param.answer.empty() ? param.variant : param.answer);
 }
 

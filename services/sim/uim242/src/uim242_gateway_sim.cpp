@@ -78,6 +78,9 @@ class Uim242GatewaySim::Controller {
   [[nodiscard]] int icf_writes() const { return icf_writes_; }
   [[nodiscard]] bool enabled() const { return enabled_; }
   [[nodiscard]] std::int64_t position(TimePoint now) const { return kinematics_.position_counts(now); }
+  [[nodiscard]] std::int64_t physical_position(TimePoint now) const { return position(now) + physical_base_; }
+  // A home switch is sampled every millisecond while the motor moves.
+  [[nodiscard]] bool sampling() const { return in_motion_ && setup_.home_switch.has_value(); }
   // Kinematics counts the instant of arrival as moving; the controller has stopped by then.
   [[nodiscard]] bool moving(TimePoint now) const { return kinematics_.moving(now) && kinematics_.end_time() > now; }
   // The end of the current motion; "now" (the epoch) when it ended without a planned end (OFF, halt).
@@ -96,6 +99,7 @@ class Uim242GatewaySim::Controller {
     desired_speed_ = 0;
     velocity_mode_ = true;
     enabled_ = (icfg_ & kIcfgEna) != 0;  // auto-enable (the ENAtimer delay is not modelled)
+    if (const auto& sw = setup_.home_switch) inputs_[sw->port] = sw->level_at(physical_position(now)) ? 1 : 0;
     report(std::int8_t{motionlcm::sim_report_t::POWERED_UP}, now, position(now));
   }
 
@@ -193,7 +197,7 @@ class Uim242GatewaySim::Controller {
         break;
       case Mnemonic::kORG:
         if (moving(now)) return {uim242::make_error(uim242::ErrorCode::kValueError)};
-        kinematics_.set_position(now, v);
+        set_counter(now, v);
         displacement_origin_ = v;
         reply_value(v);
         break;
@@ -264,6 +268,10 @@ class Uim242GatewaySim::Controller {
   // Arrival and end-of-motion notifications due at `now`.
   std::vector<Frame> process(TimePoint now) {
     std::vector<Frame> out;
+    if (const auto& sw = setup_.home_switch; sw && in_motion_) {
+      const bool level = sw->level_at(physical_position(now));
+      if (level != (inputs_[sw->port] != 0)) out = set_input(static_cast<int>(sw->port) + 1, level, now);
+    }
     if (!in_motion_ || moving(now)) return out;
     in_motion_ = false;
     const std::int64_t at = position(now);
@@ -415,6 +423,12 @@ class Uim242GatewaySim::Controller {
     }
   }
 
+  // The position counter := `counts` where the shaft stands (ORG, a reset action).
+  void set_counter(TimePoint now, std::int64_t counts) {
+    physical_base_ += kinematics_.position_counts(now) - counts;
+    kinematics_.set_position(now, counts);
+  }
+
   void halt(TimePoint now) {
     kinematics_.halt(now);
     pt_target_.reset();
@@ -451,7 +465,7 @@ class Uim242GatewaySim::Controller {
       // Position (and encoder) counter := 0 where the motor is; a braking motor keeps counting
       // from there (approximation: the ramp is re-based at the reset point).
       const auto state = kinematics_.at(now);
-      kinematics_.set_position(now, 0);
+      set_counter(now, 0);
       displacement_origin_ = 0;
       if (state.moving && action == kResetDecelerate) {
         kinematics_.jog(now, Profile{state.velocity, kInstantRate, kInstantRate, 0});
@@ -504,7 +518,8 @@ class Uim242GatewaySim::Controller {
   bool last_positive_ = true;
   std::optional<std::int64_t> pt_target_;
   std::int64_t displacement_origin_ = 0;
-  bool in_motion_ = false;  // MOTION_STARTED reported, MOTION_FINISHED pending
+  bool in_motion_ = false;          // MOTION_STARTED reported, MOTION_FINISHED pending
+  std::int64_t physical_base_ = 0;  // shaft counts from power-up = counter + this
   Kinematics kinematics_;
 };
 
@@ -531,6 +546,7 @@ std::vector<Uim242ControllerSetup> Uim242GatewaySim::controllers_of(const config
     setup.spd0_position_move = spd0 == "refused"              ? Uim242ControllerSetup::Spd0Move::kRefused
                                : spd0 == "runs_at_last_speed" ? Uim242ControllerSetup::Spd0Move::kRunsAtLastSpeed
                                                               : Uim242ControllerSetup::Spd0Move::kHolds;
+    setup.home_switch = home_switch(config, d);
     out.push_back(setup);
   }
   return out;
@@ -574,6 +590,7 @@ TimePoint Uim242GatewaySim::process(TimePoint now) {
       if (c->heard()) send(f);
     }
     next = std::min(next, c->deadline());
+    if (c->sampling()) next = std::min(next, now + std::chrono::milliseconds(1));
   }
   return next;
 }
@@ -603,6 +620,10 @@ bool Uim242GatewaySim::control(const motionlcm::sim_control_t& control, TimePoin
 std::int64_t Uim242GatewaySim::position(const std::string& drive, TimePoint now) const {
   const Controller* c = find_drive(drive);
   return c ? c->position(now) : 0;
+}
+std::int64_t Uim242GatewaySim::physical_position(const std::string& drive, TimePoint now) const {
+  const Controller* c = find_drive(drive);
+  return c ? c->physical_position(now) : 0;
 }
 bool Uim242GatewaySim::moving(const std::string& drive, TimePoint now) const {
   const Controller* c = find_drive(drive);

@@ -27,6 +27,7 @@
 // * Arrival: A8 RTCN if MCFG.STPIE, CN 10-byte form by default (CN §4.1; EN: 4 bytes).
 // * `ORG[ η];` sets position and encoder counter at rest (EE 66 while moving: assumed, the manuals
 //   do not say).
+// * A home switch (Uim242ControllerSetup::home_switch) drives its input from the shaft position.
 // * Inputs (sim_control_t SET_INPUT 1..3): edge RTCNs A0..A5 per SxIE and a non-zero action code,
 //   actions 0011 decelerate, 0100 e-stop, 0110 reset position, 1011/1100 reset + stop, 1111 OFF;
 //   the motion-starting actions, analog inputs, sampling modes, P4 events, parameter groups, Elock
@@ -42,6 +43,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -50,6 +52,7 @@
 
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
+#include "motion/sim/home_switch.hpp"
 #include "motion/sim/serial_device_sim.hpp"
 #include "motion/uim242/feedback.hpp"
 
@@ -69,6 +72,9 @@ struct Uim242ControllerSetup {
   // none was set, assumed), or answered EE 66 and not loaded (refused).
   enum class Spd0Move { kHolds, kRunsAtLastSpeed, kRefused };
   Spd0Move spd0_position_move = Spd0Move::kHolds;
+  // The machine's home switch on one of S1..S3 (sampled every millisecond while the motor moves),
+  // from the axis's homing and simulation.home_switches; none: inputs change by SET_INPUT only.
+  std::optional<HomeSwitch> home_switch = std::nullopt;
 };
 
 struct Uim242SimOptions {
@@ -114,6 +120,8 @@ class Uim242GatewaySim final : public SerialDeviceSim {
 
   // Introspection for tests.
   [[nodiscard]] std::int64_t position(const std::string& drive, TimePoint now) const;
+  // Where the shaft is in counts from power-up (ORG and position resets do not move it).
+  [[nodiscard]] std::int64_t physical_position(const std::string& drive, TimePoint now) const;
   [[nodiscard]] bool moving(const std::string& drive, TimePoint now) const;
   [[nodiscard]] bool enabled(const std::string& drive) const;
   [[nodiscard]] int selected_node() const noexcept { return selected_; }
