@@ -40,10 +40,12 @@ void Uim242Stack::probe_spd0(Drive& d, std::int64_t group, std::function<void(Ti
                       answer == Drive::Spd0::kHolds ? "moves are preloaded and started by their speed"
                                                     : "moves start with a 1 pps crawl"));
   };
-  // Leaves PT mode (`STP 0;` stops a probe that ran), then goes on if the command still runs.
+  // Leaves PT mode (`STP 0;` stops a probe that ran), then goes on if the command still runs. The
+  // probe's own requests are in no command's group: a stop or e-stop of the move does not cancel
+  // them, so the drive never stays in PT mode with the probe's count held.
   const auto leave = [this, &d, group, then](TimePoint) {
     submit(
-        d, set(Mnemonic::kSTP, 0), group,
+        d, set(Mnemonic::kSTP, 0), 0,
         [this, group, then](const Frame&, TimePoint t) {
           if (commands_.find(group) != nullptr) then(t);
         },
@@ -53,26 +55,31 @@ void Uim242Stack::probe_spd0(Drive& d, std::int64_t group, std::function<void(Ti
   r.drive = d.name;
   r.node = d.node;
   r.instruction = set(Mnemonic::kSTP, 1);
-  r.group = group;
+  r.group = 0;  // see leave
   r.on_reply = [this, &d, group, before, found, leave](const Frame&, TimePoint now) {
-    after(now + kSpd0ProbeWait, [this, &d, group, before, found, leave](TimePoint) {
+    after(now + kSpd0ProbeWait, [this, &d, group, before, found, leave](TimePoint t) {
+      // The move ended meanwhile (a stop, an e-stop: the drive may be off): no finding, only
+      // leave PT mode; the next armed move probes again.
+      if (commands_.find(group) == nullptr) return leave(t);
       submit(
-          d, bare(Mnemonic::kFBK), group,
+          d, bare(Mnemonic::kFBK), 0,
           [this, &d, group, before, found, leave](const Frame& f, TimePoint) {
             const auto status = uim242::decode_status(f);
             const std::int64_t speed = status ? status->speed : 0;
             submit(
-                d, bare(Mnemonic::kQEC), group,
-                [before, speed, found, leave](const Frame& q, TimePoint t) {
+                d, bare(Mnemonic::kQEC), 0,
+                [this, group, before, speed, found, leave](const Frame& q, TimePoint at) {
                   const std::int64_t position = field(q, uim242::Layout::kS32, 0);
-                  if (speed != 0 || position != before) {
+                  if (commands_.find(group) == nullptr) {
+                    // Ended meanwhile: no finding.
+                  } else if (speed != 0 || position != before) {
                     found(Drive::Spd0::kRunsAtLastSpeed,
                           fmt::format("runs at once (`STP 1;` at speed 0: {} pps, {} count(s) moved)", speed,
                                       position - before));
                   } else {
                     found(Drive::Spd0::kHolds, "holds still (`STP 1;` at speed 0: no motion)");
                   }
-                  leave(t);
+                  leave(at);
                 },
                 true);
           },
