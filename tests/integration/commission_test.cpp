@@ -1,7 +1,12 @@
 // motionctl commission on the simulated UIM242 line (configs/uim242-two.yaml): every set-up value
 // the gateway applied reads back as configured (exit 0); a value changed behind the gateway's back
-// is named as a contradiction with what to do (exit 1). Nothing moves.
+// is named as a contradiction with what to do (exit 1). Nothing moves without --small-move.
 #include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include <motionlcm/param_t.hpp>
 
@@ -35,6 +40,57 @@ TEST(Commission, ReadsBackTheSetUpAndNamesAContradiction) {
   EXPECT_NE(printed.find("MCS micro-steps: 8 CONTRADICTS the configuration (16)"), std::string::npos) << printed;
   EXPECT_TRUE(lab.starts_of("u1-drive").empty()) << "commission moved an axis";
   EXPECT_TRUE(lab.starts_of("u2-drive").empty()) << "commission moved an axis";
+}
+
+// --small-move 1 (configs/uim242-two.yaml): each axis moves 1 % of its 200 mm travel (+2 mm = 320
+// counts at 160 counts/mm, toward the side with more room) out and back; the counts each drive
+// reports change by exactly that and come back (exit 0). Checked against a configuration that says
+// 320 counts/mm for u1 (as a wrong micro-stepping would make it), the same move is a contradiction
+// naming what to check (exit 1).
+TEST(Commission, SmallMoveOutAndBackChecksTheCountsEachDriveReports) {
+  SimLab lab(source_path("tests/integration/configs/uim242-two.yaml"));
+  ASSERT_TRUE(lab.start({"u1", "u2"}));
+  ASSERT_TRUE(lab.enable({"u1", "u2"}));
+  std::vector<std::string> args{"--config", lab.config_path(), "commission", "rs232", "--small-move", "1"};
+  std::string printed;
+  ASSERT_EQ(lab.group().run_to_completion({"commission", "motionctl", args, {}}, &printed, std::chrono::seconds(60)), 0)
+      << printed;
+  std::printf("%s", printed.c_str());
+  for (const auto* drive : {"u1-drive", "u2-drive"}) {
+    const auto at = printed.find(std::string(drive) + " (uim242");
+    ASSERT_NE(at, std::string::npos) << printed;
+    EXPECT_EQ(printed.find("small move: +2 mm = 320 counts out and back: the drive counted +320, back at +0 (as "
+                           "expected)",
+                           at),
+              printed.find("small move:", at))
+        << drive << "\n"
+        << printed;
+    EXPECT_EQ(lab.starts_of(drive).size(), 2u) << drive << ": out and back";
+  }
+  EXPECT_TRUE(lab.settled_at("u1", 0.0, 1e-9));
+  EXPECT_TRUE(lab.settled_at("u2", 0.0, 1e-9));
+
+  std::ifstream in(lab.config_path());
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string wrong = text.str();
+  const auto first = wrong.find("steps_per_unit: 160");
+  ASSERT_NE(first, std::string::npos);
+  wrong.replace(first, 19, "steps_per_unit: 320");
+  const auto wrong_path = std::filesystem::path(::testing::TempDir()) / "commission-wrong-steps.yaml";
+  std::ofstream(wrong_path) << wrong;
+  args[1] = wrong_path.string();
+  printed.clear();
+  EXPECT_EQ(lab.group().run_to_completion({"commission-2", "motionctl", args, {}}, &printed, std::chrono::seconds(60)),
+            1)
+      << printed;
+  std::printf("%s", printed.c_str());
+  EXPECT_NE(printed.find("small move: +2 mm = 640 counts out and back: the drive counted +320, back at +0 CONTRADICTS "
+                         "the configuration (640 and 0 at steps_per_unit 320): check steps_per_unit and the drive's "
+                         "micro-stepping (2 times the counts it made)"),
+            std::string::npos)
+      << printed;
+  std::filesystem::remove(wrong_path);
 }
 
 // UC57 rpdo_sync (configs/uc57-rpdo-variants.yaml): commission names the variant each simulated

@@ -3,8 +3,12 @@
 // about it, and which simulated variant stays unknowable from reads. Moves nothing. Exit 1 when
 // something the drive reports contradicts the configuration (the gateway's set-up has run, so a
 // difference did not take hold), 4 when a drive does not answer. UC57: which rpdo_sync variant
-// holds, from 1400h:02 and the start mechanism in the drive model (the gateway's acceptance test). Requests go through the coordinator (PARAM_READ), so the gateway of the
-// bus and the coordinator must run.
+// holds, from 1400h:02 and the start mechanism in the drive model (the gateway's acceptance test).
+// With --small-move PERCENT (0 = none, the default) each axis also moves that share of its travel
+// range out and back (toward the side with more room, never beyond a limit), and the counts its
+// drive reports must change by what the configuration implies (steps_per_unit, invert) and come
+// back: exit 1 otherwise. Requests go through the coordinator (PARAM_READ, MOVE_ABSOLUTE), so the
+// gateway of the bus and the coordinator must run.
 #include "motionctl.hpp"
 
 #include "motion/lcm/channels.hpp"
@@ -13,9 +17,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <iostream>
 #include <map>
 #include <optional>
+#include <sstream>
 
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
@@ -101,7 +107,9 @@ std::pair<std::vector<Check>, std::vector<std::string>> checks_of(const config::
                         "set-up writes ICF once and waits out the auto reboot"});
       checks.push_back({"MCS micro-steps", uim242("MCS"), d.setup_integer("micro_steps"), -1, "set-up writes MCS"});
       notes.push_back("reboot_ms: set-up waits for the controller to answer after an ICF write (up to 5 s)");
-      notes.push_back("move start (SPD 0; STP n; gSPD v): not checked without moving");
+      notes.push_back(
+          "move start (spd0_position_move): the gateway probes it at the drive's first armed move (--small-move "
+          "makes one)");
       break;
     }
     case config::Family::kAdamModbus: {
@@ -131,14 +139,96 @@ std::pair<std::vector<Check>, std::vector<std::string>> checks_of(const config::
   return {checks, notes};
 }
 
+// The small move of one axis: out by `percent` of its travel range and back. What the drive's
+// counter (the axis state's position_counts, as the gateway read it) did against the counts the
+// configuration implies.
+struct SmallMove {
+  bool checked = false;
+  bool contradiction = false;
+  std::string line;
+  nlohmann::json json;
+};
+
+SmallMove small_move(client::Client& client, const config::Axis& axis, double percent) {
+  SmallMove out;
+  const auto state = [&client, &axis]() -> const motionlcm::axis_state_t* {
+    const auto it = client.axes().find(axis.name);
+    return it == client.axes().end() ? nullptr : &it->second;
+  };
+  client.wait_until([&] { return state() != nullptr && !state()->moving; }, std::chrono::seconds(3));
+  const auto* s = state();
+  if (s == nullptr || !s->online || !s->enabled || s->moving) {
+    out.line = "not checked: the axis is " + std::string(s == nullptr  ? "not heard from"
+                                                         : !s->online  ? "offline"
+                                                         : !s->enabled ? "disabled"
+                                                                       : "moving");
+    out.json = {{"error", out.line}};
+    return out;
+  }
+  const double start = s->position;
+  const std::int64_t start_counts = s->position_counts;
+  const double range = axis.limits.max_position - axis.limits.min_position;
+  const double up = axis.limits.max_position - start;
+  const double down = start - axis.limits.min_position;
+  const double distance = std::min(range * percent / 100.0, std::max(up, down));
+  const double delta = up >= down ? distance : -distance;
+  const double counts_per_unit = axis.steps_per_unit * (axis.invert ? -1.0 : 1.0);
+  const std::int64_t expected = std::llround(delta * counts_per_unit);
+  std::ostringstream what;
+  what << (delta >= 0 ? "+" : "") << delta << " " << axis.unit << " = " << expected << " counts";
+  out.json = {{"distance", delta}, {"expected_counts", expected}};
+  if (expected == 0) {
+    out.line = "not checked: " + what.str() + " (less than one count)";
+    return out;
+  }
+  std::int64_t counted = 0;
+  std::int64_t back = 0;
+  for (const double target : {start + delta, start}) {
+    const auto reply = client.call(client::Client::make(std::int8_t{motionlcm::request_t::MOVE_ABSOLUTE},
+                                                        std::map<std::string, double>{{axis.name, target}}),
+                                   std::chrono::seconds(60));
+    if (reply.status != motionlcm::reply_t::DONE) {
+      out.line = "not checked: the move to " + std::to_string(target) + " " + axis.unit + " ended " + reply.reason;
+      out.json["error"] = out.line;
+      return out;
+    }
+    // The state the move led to came before its DONE.
+    (target == start ? back : counted) = state()->position_counts - start_counts;
+  }
+  out.checked = true;
+  out.json["counted"] = counted;
+  out.json["back"] = back;
+  std::ostringstream line;
+  line << what.str() << " out and back: the drive counted " << (counted >= 0 ? "+" : "") << counted << ", back at "
+       << (back >= 0 ? "+" : "") << back;
+  if (counted == expected && back == 0) {
+    line << " (as expected)";
+  } else {
+    out.contradiction = true;
+    out.json["contradiction"] = true;
+    line << " CONTRADICTS the configuration (" << expected << " and 0 at steps_per_unit " << axis.steps_per_unit
+         << (axis.invert ? ", inverted" : "") << "): check steps_per_unit and the drive's micro-stepping";
+    if (counted != 0 && expected % counted == 0) line << " (" << expected / counted << " times the counts it made)";
+  }
+  out.line = line.str();
+  return out;
+}
+
 }  // namespace
 
 void add_commission_command(CLI::App& cli, Context& ctx) {
   auto* cmd = cli.add_subcommand(
-      "commission", "Read back each drive's set-up on a bus and say what the manuals leave open (moves nothing)");
+      "commission",
+      "Read back each drive's set-up on a bus and say what the manuals leave open (moves nothing unless "
+      "--small-move)");
   auto bus = std::make_shared<std::string>();
   cmd->add_option("bus", *bus, "Bus name from the configuration")->required();
-  cmd->callback([&ctx, bus] {
+  auto percent = std::make_shared<double>(0.0);
+  cmd->add_option("--small-move", *percent,
+                  "Also move each axis this percent of its travel range out and back (never beyond a limit) and check "
+                  "the counts its drive reports (0: move nothing)")
+      ->check(CLI::Range(0.0, 50.0));
+  cmd->callback([&ctx, bus, percent] {
     ctx.result = ctx.with_node([&](app::Service& service) -> int {
       const auto& cfg = service.config();
       if (cfg.find_bus(*bus) == nullptr) {
@@ -231,6 +321,13 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
           }
           if (!ctx.json) std::cout << "  " << c.what << ": " << line << "\n";
           jd["checks"].push_back(jc);
+        }
+        if (*percent > 0) {
+          const auto moved = small_move(client, *axis, *percent);
+          if (!ctx.json) std::cout << "  small move: " << moved.line << "\n";
+          jd["small_move"] = moved.json;
+          if (moved.contradiction) result = std::max(result, int{app::kExitFailure});
+          if (!moved.checked) result = std::max(result, int{app::kExitUnavailable});
         }
         for (const auto& n : notes) {
           if (!ctx.json) std::cout << "  " << n << "\n";

@@ -23,6 +23,12 @@ Uim242Stack::Uim242Stack(const config::Config& config, const std::string& bus, C
     drive->config = &d;
     drive->name = d.name;
     drive->node = d.node_id;
+    if (const auto answer = d.setup_text("spd0_position_move")) {
+      drive->spd0 = *answer == "holds"                ? Drive::Spd0::kHolds
+                    : *answer == "runs_at_last_speed" ? Drive::Spd0::kRunsAtLastSpeed
+                    : *answer == "refused"            ? Drive::Spd0::kRefused
+                                                      : Drive::Spd0::kUnknown;
+    }
     for (const auto& a : config.axes) {
       if (a.drive == d.name) {
         drive->axis = &a;

@@ -255,27 +255,38 @@ void Uim242Stack::arm(const gateway_command_t& command, TimePoint now) {
     // Ramps and zero speed first (`SPD 0;` brakes a motor still running), then at rest the
     // position the relative STP is computed from (settle: EN/CN #44 counts STP from the
     // position at its receipt, which must be the position read).
+    // A drive not known to hold a displacement loaded at speed 0 is loaded with nothing: its
+    // start crawls into it (start_move); one whose answer is not known yet is probed first.
+    const auto load = [this, &c, &d, &axis, loaded](TimePoint t) {
+      const std::int64_t position = d.status.position_counts;
+      const std::int64_t displacement = axis.target - position;
+      if (displacement == 0) {  // already there: `STP 0;` would mean "leave PT", not "move 0"
+        axis.loaded = axis.arrived = true;
+        loaded(d, t);
+        return;
+      }
+      if (std::abs(displacement) > std::numeric_limits<std::int32_t>::max()) {
+        finish(c.command.command_id, false,
+               fmt::format("{} (node {}): displacement {} beyond STP's range", d.name, d.node, displacement),
+               kOutsideLimits);
+        return;
+      }
+      if (d.spd0 != Drive::Spd0::kHolds) {
+        axis.loaded = true;
+        loaded(d, t);
+        return;
+      }
+      run_sequence(c, d, {set(Mnemonic::kSTP, displacement)}, [&axis, &d, loaded](TimePoint t2) {
+        axis.loaded = axis.preloaded = true;
+        loaded(d, t2);
+      });
+    };
     run_sequence(
         c, d, {set(Mnemonic::kMAC, axis.acceleration), set(Mnemonic::kMDE, axis.deceleration), set(Mnemonic::kSPD, 0)},
-        [this, &c, &d, &axis, loaded, id](TimePoint t0) {
-          settle(d, id, t0 + kRestLimit, [this, &c, &d, &axis, loaded](TimePoint t) {
-            const std::int64_t position = d.status.position_counts;
-            const std::int64_t displacement = axis.target - position;
-            if (displacement == 0) {  // already there: `STP 0;` would mean "leave PT", not "move 0"
-              axis.loaded = axis.arrived = true;
-              loaded(d, t);
-              return;
-            }
-            if (std::abs(displacement) > std::numeric_limits<std::int32_t>::max()) {
-              finish(c.command.command_id, false,
-                     fmt::format("{} (node {}): displacement {} beyond STP's range", d.name, d.node, displacement),
-                     kOutsideLimits);
-              return;
-            }
-            run_sequence(c, d, {set(Mnemonic::kSTP, displacement)}, [&axis, &d, loaded](TimePoint t2) {
-              axis.loaded = true;
-              loaded(d, t2);
-            });
+        [this, &d, load, id](TimePoint t0) {
+          settle(d, id, t0 + kRestLimit, [this, &d, load, id](TimePoint t) {
+            if (d.spd0 != Drive::Spd0::kUnknown) return load(t);
+            probe_spd0(d, id, [this, &d, load, id](TimePoint t2) { settle(d, id, t2 + kRestLimit, load); });
           });
         });
   }
@@ -297,86 +308,6 @@ void Uim242Stack::fire(std::int64_t trigger_id, TimePoint now) {
   for (const auto id : ids) {
     const auto it = std::find_if(moves_.begin(), moves_.end(), [id](const auto& m) { return m->command_id == id; });
     if (it != moves_.end() && !(*it)->start_sent) start_move(**it, now);
-  }
-}
-
-void Uim242Stack::start_move(Move& m, TimePoint now) {
-  m.start_sent = true;
-  const std::int64_t id = m.command_id;
-  std::vector<Move::Axis*> to_start;
-  for (auto& a : m.axes) {
-    if (!a.arrived) to_start.push_back(&a);
-  }
-  const auto started = [this, id, &m](std::string mechanism) {
-    Command* c = commands_.find(id);
-    if (c == nullptr) return;
-    const TimePoint first = m.first_start.value_or(TimePoint{});
-    // Measured spread between the first and the last start instruction on the wire.
-    c->reply.started(context_.utime_of ? context_.utime_of(first) : steady_us(first), std::move(mechanism),
-                     std::chrono::duration<double, std::micro>(m.last_start - first).count());
-    commands_.advance_all(id, Lifecycle::kStarted);  // the ledger replies STARTED
-    if (std::all_of(m.axes.begin(), m.axes.end(), [](const auto& a) { return a.arrived; })) return finish(id, true);
-    for (const auto& a : m.axes) {
-      if (a.arrived) commands_.advance(id, index_of(*a.drive), Lifecycle::kDone);  // at its target before the start
-    }
-  };
-  const auto on_sent = [&m](TimePoint sent) {
-    if (!m.first_start) m.first_start = sent;
-    m.last_start = sent;
-  };
-  for (auto* a : to_start) {
-    a->planned =
-        trapezoid_duration(a->target - a->drive->status.position_counts, a->speed, a->acceleration, a->deceleration);
-    a->drive->status.target_counts = a->target;
-    a->drive->status.in_position = false;
-    a->drive->still_polls = 0;
-  }
-  if (to_start.empty()) {
-    m.first_start = m.last_start = TimePoint{};
-    started("none");
-    return;
-  }
-  const bool every_drive = to_start.size() == drives_.size();
-  const bool one_speed =
-      std::all_of(to_start.begin(), to_start.end(), [&](const auto* a) { return a->speed == to_start.front()->speed; });
-  if (every_drive && one_speed) {
-    // Every controller is loaded with SPD 0 and its target: one global speed starts them all.
-    Request r;
-    r.drive = "gateway";
-    r.instruction = Instruction{Mnemonic::kSPD, true, to_start.front()->speed, false};
-    r.group = id;
-    r.on_sent = on_sent;
-    // The coordinator led this start by the drive model's wire time of the longest global form
-    // (gSPD 65535;): a shorter one waits the difference, so that it ends when that one would.
-    const auto longest = uim242::encode_global(Mnemonic::kSPD, uim242::spec(Mnemonic::kSPD).max);
-    const auto actual = uim242::encode(r.instruction);
-    if (longest.ok() && actual.ok() && longest->size() > actual->size()) {
-      r.not_before = now + channel_.character_time() * static_cast<std::int64_t>(longest->size() - actual->size());
-    }
-    r.on_reply = [started](const Frame&, TimePoint) { started("broadcast"); };
-    r.on_failure = [this, id](const std::string& reason, bool timed_out, TimePoint) {
-      finish(id, false, reason, timed_out ? kTimeout : kDriveError);
-    };
-    channel_.submit(std::move(r), true);
-    return;
-  }
-  // Axis by axis, ahead of any queued poll (submitted in reverse: each goes to the front).
-  for (std::size_t i = to_start.size(); i-- > 0;) {
-    Move::Axis& a = *to_start[i];
-    const bool last = i + 1 == to_start.size();
-    Request r;
-    r.drive = a.drive->name;
-    r.node = a.drive->node;
-    r.instruction = set(Mnemonic::kSPD, a.speed);
-    r.group = id;
-    r.on_sent = on_sent;
-    if (last) r.on_reply = [started](const Frame&, TimePoint) { started("sequential"); };
-    Drive& d = *a.drive;
-    r.on_failure = [this, id, &d](const std::string& reason, bool timed_out, TimePoint t) {
-      if (timed_out) mark_offline(d, reason, t);
-      finish(id, false, reason, timed_out ? kTimeout : kDriveError);
-    };
-    channel_.submit(std::move(r), true);
   }
 }
 
@@ -446,11 +377,10 @@ void Uim242Stack::jog(Command& c, Drive& d, const motionlcm::axis_command_t& a) 
           // STP's range is a 32-bit count (EN/CN #44): a longer way is run in the part that fits.
           constexpr std::int64_t kStpMax = std::numeric_limits<std::int32_t>::max();
           const std::int64_t displacement = std::clamp(*room, -kStpMax, kStpMax);
-          run_sequence(c, d, {set(Mnemonic::kSTP, displacement), set(Mnemonic::kSPD, std::abs(v))},
-                       [this, &d, id](TimePoint) {
-                         if (d.jog_command == id) d.jog_command = 0;
-                         part_done(id);
-                       });
+          run_sequence(c, d, position_run(d, displacement, std::abs(v)), [this, &d, id](TimePoint) {
+            if (d.jog_command == id) d.jog_command = 0;
+            part_done(id);
+          });
         });
       });
 }

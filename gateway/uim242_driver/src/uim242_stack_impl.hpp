@@ -69,6 +69,10 @@ constexpr int kStillPollsBeforeFailure = 2;
 // how long a motor may take to come to rest.
 constexpr Duration kRestCheck = 10ms;
 constexpr Duration kRestLimit = 10s;
+// The spd0_position_move probe (docs/protocols.md, UIM242 #3): how long after `STP 1;` at speed 0
+// the `FBK;` looks for motion. The crawl that starts an axis not known to hold: 1 pps.
+constexpr Duration kSpd0ProbeWait = 20ms;
+constexpr std::int64_t kCrawlSpeed = 1;
 
 inline Instruction set(Mnemonic m, std::int64_t v) { return Instruction{m, false, v, false}; }
 inline Instruction bare(Mnemonic m) { return Instruction{m, false, std::nullopt, false}; }
@@ -125,6 +129,11 @@ struct Uim242Stack::Drive {
   // The jog being started (its instructions queued or its rest awaited): a stop ends it, so
   // nothing of it reaches the drive after the stop.
   std::int64_t jog_command = 0;
+  // What the controller does with a displacement (STP) loaded at desired speed 0
+  // (docs/protocols.md, UIM242 #3): the set-up key spd0_position_move, else found by the probe of
+  // the first armed move. Only kHolds is preloaded and started by its speed alone.
+  enum class Spd0 { kUnknown, kHolds, kRunsAtLastSpeed, kRefused };
+  Spd0 spd0 = Spd0::kUnknown;
 };
 
 struct Uim242Stack::Move {
@@ -134,9 +143,10 @@ struct Uim242Stack::Move {
     std::int64_t speed = 0;
     std::int64_t acceleration = 0;
     std::int64_t deceleration = 0;
-    bool loaded = false;   // armed (or already at the target): its part is Armed
-    bool arrived = false;  // its part is Done once the move is Started
-    Duration planned{};    // the trapezoid's duration from where the drive stood at the start
+    bool loaded = false;     // armed (or already at the target): its part is Armed
+    bool arrived = false;    // its part is Done once the move is Started
+    bool preloaded = false;  // `SPD 0; STP n;` loaded (a drive that holds it): its speed starts it
+    Duration planned{};      // the trapezoid's duration from where the drive stood at the start
   };
   // The lifecycle is the ledger's (parts Loading -> Armed -> Started -> Done); this only says
   // that the start instructions were handed to the line (fire() must not start it twice).

@@ -108,6 +108,14 @@ const std::vector<SetupKey> kUim242 = {
     {"mcfg", SetupType::kInt, 0, 65535, {}, {}, "MCFG motion configuration bits (RTCN enables)"},
     {"encoder_lines", SetupType::kInt, 0, 65535, {}, {}, "ENC encoder lines"},
     {"stall_tolerance", SetupType::kInt, 0, 65535, {}, {}, "STL stall tolerance"},
+    {"spd0_position_move",
+     SetupType::kChoice,
+     0,
+     0,
+     {},
+     {"detect", "holds", "runs_at_last_speed", "refused"},
+     "what the controller does with a position move (STP) loaded at desired speed 0; detect: the first move tests "
+     "it (one count); anything but holds: moves start with a 1 pps crawl (docs/protocols.md, UIM242 #3)"},
 };
 
 }  // namespace

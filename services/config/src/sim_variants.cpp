@@ -21,6 +21,14 @@ const std::vector<SimVariantKey> kUim342 = {
 // how long the reboot takes is not said. STO (#42) takes about 20 ms.
 const std::vector<SimVariantKey> kUim242 = {
     {"reboot_ms", {}, 0, 10000, "300", "how long the controller is silent after an ICF write (auto reboot)"},
+    // §6.1 (PT mode), #37 SPD, #44 STP: no example loads a displacement at desired speed 0.
+    {"spd0_position_move",
+     {"holds", "runs_at_last_speed", "refused"},
+     0,
+     0,
+     "holds",
+     "STP at desired speed 0: held until a later SPD starts it, run at once at the last non-zero speed, or refused "
+     "(EE 66)"},
 };
 
 // ADAM Modbus manual §8.44 (0x009A working speed), §8.64 (0x00D8 target speed), §8.65 (motion

@@ -3,7 +3,8 @@
 // every simulated variant — the table entry runs at 0x009A, at 0x00D8 or at one shared setpoint;
 // the drive executes only saved table data or any — a synchronized move (one broadcast "execute
 // table") lands both drives on their targets and runs at the planned speed (the simulator's
-// start/finish times), and each drive took exactly one Save per move.
+// start/finish times), and each drive took exactly one Save per move; a HOME then runs c1 onto its
+// simulated switch.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -25,7 +26,8 @@ drives:
   - {name: c1-drive, family: adam-modbus, bus: rs485, node_id: 1, setup: {subdivision: 16, current_a: 2.0}}
   - {name: c2-drive, family: adam-modbus, bus: rs485, node_id: 2, setup: {subdivision: 16, current_a: 2.0}}
 axes:
-  - {name: c1, drive: c1-drive, unit: mm, steps_per_unit: 320, limits: {min: -200, max: 200, velocity: 100, acceleration: 400}}
+  - {name: c1, drive: c1-drive, unit: mm, steps_per_unit: 320, limits: {min: -200, max: 200, velocity: 100, acceleration: 400},
+     homing: {method: switch, input: 3, velocity: -10}}
   - {name: c2, drive: c2-drive, unit: mm, steps_per_unit: 320, limits: {min: -200, max: 200, velocity: 100, acceleration: 400}}
 simulation:
   variants:
@@ -93,6 +95,25 @@ TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
     EXPECT_NEAR(seconds, planned, 0.01) << "ran at another speed than planned";
     EXPECT_EQ(line.saves(drive), 1) << "one Save per move, never a retried one";
   }
+
+  // HOME c1 (switch on input 3, toward min at 10 mm/s = 3200 counts/s = 60 rpm): the simulated
+  // switch is where the drive powered up (0x00C9 homing, §8.48: assumed). The drive runs from
+  // 32000 counts onto it, stops and counts 0 there.
+  const std::size_t starts_before = bench.reports_of("c1-drive", kStarted).size();
+  motionlcm::axis_command_t home = axis_move("c1", 0, -3200, 0);
+  const auto homed = bench.execute(command(gateway_command_t::HOME, "rs485", {home}));
+  const auto home_done = bench.finish(homed, std::chrono::seconds(30));
+  ASSERT_EQ(home_done.status, kDone) << home_done.reason;
+  const auto started = bench.reports_of("c1-drive", kStarted);
+  const auto finished = bench.reports_of("c1-drive", kFinished);
+  ASSERT_EQ(started.size(), starts_before + 1) << "no search run";
+  EXPECT_EQ(started.back().position, 32000) << "the search did not start where the move ended";
+  EXPECT_EQ(finished.back().position, 0) << "the search did not end on the switch";
+  const double seconds = static_cast<double>(finished.back().frame_utime - started.back().frame_utime) * 1e-6;
+  EXPECT_GT(seconds, 32000.0 / 3200 - 0.5) << "the search ran faster than its 60 rpm";
+  EXPECT_EQ(line.position("c1-drive", bench.now), 0);
+  std::printf("%s %s: HOME c1 from 32000 counts: %.2f s onto the switch at 0\n", GetParam().speed.c_str(),
+              GetParam().save.c_str(), seconds);
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, AdamTable,

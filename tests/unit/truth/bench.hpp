@@ -101,7 +101,9 @@ class SerialBench {
     settle();
   }
 
-  void settle() {
+  // Delivers what is on the wire at `now`, back and forth until nothing moves; whether anything did.
+  bool settle() {
+    bool any = false;
     for (int guard = 0; guard < 10000; ++guard) {
       bool moved = false;
       while (!to_device.empty()) {
@@ -117,16 +119,18 @@ class SerialBench {
         core->on_bytes(bytes, now);
         moved = true;
       }
-      if (!moved) return;
+      if (!moved) return any;
+      any = true;
     }
+    return any;
   }
 
   void run_for(Duration span) {
     const auto end = now + span;
     while (true) {
+      // Bytes written by a process() reach the far end at the same `now` (a zero-latency wire).
       TimePoint next = std::min(core->process(now), device->process(now));
-      settle();
-      next = std::min({next, core->process(now), device->process(now)});
+      for (int guard = 0; guard < 1000 && settle(); ++guard) next = std::min(core->process(now), device->process(now));
       if (!to_core.empty()) next = std::min(next, to_core.front().first);
       if (next > end) break;
       now = std::max(next, now + std::chrono::microseconds(10));

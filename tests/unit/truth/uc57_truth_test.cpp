@@ -45,7 +45,8 @@ drives:
   - {name: a-drive, family: uc57, bus: can0, node_id: 1, setup: {pulses_per_revolution: 3200, heartbeat_ms: 100}}
   - {name: b-drive, family: uc57, bus: can0, node_id: 2, setup: {pulses_per_revolution: 3200, heartbeat_ms: 100}}
 axes:
-  - {name: a, drive: a-drive, unit: rev, steps_per_unit: 3200, limits: {min: -100, max: 100, velocity: 10, acceleration: 100}}
+  - {name: a, drive: a-drive, unit: rev, steps_per_unit: 3200, limits: {min: -100, max: 100, velocity: 10, acceleration: 100},
+     homing: {method: switch, input: 2, velocity: -0.5}}
   - {name: b, drive: b-drive, unit: rev, steps_per_unit: 3200, limits: {min: -100, max: 100, velocity: 10, acceleration: 100}}
 simulation:
   variants:
@@ -283,6 +284,29 @@ void synchronized_move_under(const std::string& variant, sim::Uc57SimOptions sim
   std::printf("rpdo_sync %s: found \"%s\"; STARTED %s, predicted skew %.1f us, drives started %.0f us apart\n",
               variant.c_str(), bench.stack->rpdo_sync_finding("a-drive").c_str(), started->start_mechanism.c_str(),
               started->predicted_skew_us, spread_us);
+
+  // HOME a (origin switch IN2, searched toward min at 0.5 rev/s; CiA 402 homing, §4.2.6): the
+  // simulated switch is +2000 pulses (100 either side) from the power-up position. From 6400 the
+  // axis runs back onto the switch, and 0 is where it homed.
+  auto& a_drive = dynamic_cast<sim::Uc57DriveSim&>(*bench.drives[0]);
+  const std::size_t starts_before = bench.reports_of("a-drive", kMotionStarted).size();
+  gateway_command_t home{};
+  home.kind = gateway_command_t::HOME;
+  motionlcm::axis_command_t a{};
+  a.axis = "a";
+  a.velocity = -1600;
+  a.acceleration = a.deceleration = 16000;
+  home.axes = {a};
+  const auto homed = bench.execute(home);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(homed).has_value(); }, std::chrono::seconds(20)));
+  ASSERT_EQ(bench.terminal(homed)->status, kDone) << bench.terminal(homed)->reason;
+  bench.run_for(milliseconds(200));
+  EXPECT_GT(bench.reports_of("a-drive", kMotionStarted).size(), starts_before) << "no search run";
+  const std::int64_t physical = a_drive.physical_position(bench.now);
+  EXPECT_LE(std::abs(physical - 2000), 100) << "a homed off its switch, at " << physical;
+  EXPECT_EQ(a_drive.position(bench.now), 0) << "the home is not 0";
+  std::printf("rpdo_sync %s: HOME a from 6400 pulses: at %lld pulses from power-up (switch 1900..2100), reads %lld\n",
+              variant.c_str(), static_cast<long long>(physical), static_cast<long long>(a_drive.position(bench.now)));
 }
 
 TEST_P(Uc57RpdoSync, SetUpFindsTheVariantAndASynchronizedMoveReportsWhatTheDrivesDid) {

@@ -5,9 +5,12 @@
 // trigger) lands both controllers on their targets (simulator ground truth).
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <motionlcm/event_t.hpp>
 
 #include "bench.hpp"
+#include "motion/gateway/serial_line.hpp"
 #include "motion/sim/uim242_gateway_sim.hpp"
 #include "motion/uim242_driver/uim242_stack.hpp"
 
@@ -20,18 +23,26 @@ constexpr const char* kLine = R"(
 buses:
   - {name: rs232, transport: "simserial:rs232", baud: 57600, request_timeout_ms: 50, retries: 1, poll_hz: 20}
 drives:
-  - {name: u1-drive, family: uim242, bus: rs232, node_id: 5, setup: {micro_steps: 16, current_a: 1.0, icfg: 1}}
-  - {name: u2-drive, family: uim242, bus: rs232, node_id: 6, setup: {micro_steps: 16, current_a: 1.0, icfg: 1}}
+  - {name: u1-drive, family: uim242, bus: rs232, node_id: 5, setup: {micro_steps: 16, current_a: 1.0, icfg: 1ANSWER}}
+  - {name: u2-drive, family: uim242, bus: rs232, node_id: 6, setup: {micro_steps: 16, current_a: 1.0, icfg: 1ANSWER}}
 axes:
   - {name: u1, drive: u1-drive, unit: mm, steps_per_unit: 160, limits: {min: -100, max: 100, velocity: 30, acceleration: 150}}
-  - {name: u2, drive: u2-drive, unit: mm, steps_per_unit: 160, limits: {min: -100, max: 100, velocity: 30, acceleration: 150}}
+  - {name: u2, drive: u2-drive, unit: mm, steps_per_unit: 160, limits: {min: -100, max: 100, velocity: 30, acceleration: 150},
+     homing: {method: switch, input: 1, velocity: -5, offset: -1}}
 simulation:
-  variants: {u1-drive: {reboot_ms: REBOOT}, u2-drive: {reboot_ms: REBOOT}}
+  home_switches: {u2-drive: -1600}
+  variants: {u1-drive: {reboot_ms: REBOOT, spd0_position_move: SPD0}, u2-drive: {reboot_ms: REBOOT, spd0_position_move: SPD0}}
 )";
 
-std::string lab(const std::string& reboot_ms) {
+// `answer`: the set-up key spd0_position_move ("" = not configured: detected).
+std::string lab(const std::string& reboot_ms, const std::string& spd0 = "holds", const std::string& answer = "") {
   std::string yaml = kLine;
-  for (auto at = yaml.find("REBOOT"); at != std::string::npos; at = yaml.find("REBOOT")) yaml.replace(at, 6, reboot_ms);
+  const auto put = [&yaml](const std::string& key, const std::string& value) {
+    for (auto at = yaml.find(key); at != std::string::npos; at = yaml.find(key)) yaml.replace(at, key.size(), value);
+  };
+  put("REBOOT", reboot_ms);
+  put("SPD0", spd0);
+  put("ANSWER", answer.empty() ? "" : ", spd0_position_move: " + answer);
   return yaml;
 }
 
@@ -42,6 +53,30 @@ SerialBench::CoreFactory uim242_core(SerialBench& bench) {
     context.out = &out;
     return std::make_unique<uim242_driver::Uim242Stack>(*bench.config, "rs232", context);
   };
+}
+
+// HOME u2 (S1 falling, toward min at 5 mm/s = 800 counts/s, offset -1 mm = -160 counts): the
+// axis runs from where it stands onto the simulated switch edge (-1600 counts from power-up),
+// stops there (sensor action reset + e-stop, sampled every millisecond: within one count past the
+// edge) and counts from the offset.
+void expect_homes_on_its_switch(SerialBench& bench, const std::string& label) {
+  auto& line = dynamic_cast<sim::Uim242GatewaySim&>(*bench.device);
+  const std::int64_t before = line.physical_position("u2-drive", bench.now);
+  ASSERT_GT(before, -1600) << "u2 starts on the switch";
+  const std::size_t starts_before = bench.reports_of("u2-drive", kStarted).size();
+  motionlcm::axis_command_t home = axis_move("u2", -160, -800, 0);
+  const auto id = bench.execute(command(gateway_command_t::HOME, "rs232", {home}));
+  const auto done = bench.finish(id);
+  ASSERT_EQ(done.status, kDone) << done.reason;
+  const std::int64_t after = line.physical_position("u2-drive", bench.now);
+  EXPECT_EQ(bench.reports_of("u2-drive", kStarted).size(), starts_before + 1) << "no search run";
+  EXPECT_LE(after, -1600) << "stopped before the switch edge";
+  EXPECT_GE(after, -1601) << "ran past the switch edge";
+  EXPECT_EQ(line.position("u2-drive", bench.now), -160) << "the offset is not where the switch is";
+  EXPECT_FALSE(line.moving("u2-drive", bench.now));
+  std::printf("%s: HOME u2 from %lld counts: stopped at %lld (switch edge -1600), counter %lld\n", label.c_str(),
+              static_cast<long long>(before), static_cast<long long>(after),
+              static_cast<long long>(line.position("u2-drive", bench.now)));
 }
 
 class Uim242Reboot : public ::testing::TestWithParam<std::string> {};
@@ -80,10 +115,118 @@ TEST_P(Uim242Reboot, IcfIsWrittenOnceTheRebootWaitedOutAndAMoveLands) {
   EXPECT_EQ(bench.mechanism_of(move), "broadcast");
   EXPECT_EQ(line.position("u1-drive", bench.now), 1600);
   EXPECT_EQ(line.position("u2-drive", bench.now), -800);
+  expect_homes_on_its_switch(bench, "reboot_ms " + GetParam());
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, Uim242Reboot, ::testing::Values("0", "500"),
                          [](const ::testing::TestParamInfo<std::string>& p) { return "reboot_ms_" + p.param; });
+
+// Move start (docs/protocols.md, UIM242 #3): what a controller does with `STP n;` loaded at
+// desired speed 0 is not shown by the manuals. Under every simulated reading, found by the first
+// move's probe or configured, two armed moves (one speed: one global start; two speeds: axis by
+// axis) leave the shafts still until the trigger, land exactly, and STARTED's time, mechanism and
+// skew cover the simulated controllers' real start times.
+struct Spd0Case {
+  std::string variant;  // simulation.variants spd0_position_move
+  std::string answer;   // set-up spd0_position_move ("": detected)
+};
+
+class Uim242Spd0 : public ::testing::TestWithParam<Spd0Case> {};
+
+TEST_P(Uim242Spd0, ArmedMovesHoldUntilTheTriggerAndLand) {
+  const auto& param = GetParam();
+  SerialBench bench(lab("0", param.variant, param.answer), "rs232", sim::uim242_line_factory());
+  bench.attach(uim242_core(bench));
+  ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(10)));
+  auto& line = dynamic_cast<sim::Uim242GatewaySim&>(*bench.device);
+  auto& core = dynamic_cast<uim242_driver::Uim242Stack&>(*bench.core);
+  const auto enabled =
+      bench.execute(command(gateway_command_t::ENABLE, "rs232", {axis_move("u1", 0, 0, 0), axis_move("u2", 0, 0, 0)}));
+  ASSERT_EQ(bench.finish(enabled).status, kDone);
+  const bool holds = (param.answer.empty() ? param.variant : param.answer) == "holds";
+
+  struct Round {
+    std::int64_t u1, u2;
+    double v1, v2;
+    const char* mechanism;
+  };
+  for (const Round& round : {Round{1600, -800, 3200, 3200, "broadcast"}, Round{0, 0, 3200, 1600, "sequential"}}) {
+    const std::int64_t trigger = round.u1 != 0 ? 9 : 10;
+    const auto move = bench.execute(
+        command(gateway_command_t::ARM_MOVE, "rs232",
+                {axis_move("u1", round.u1, round.v1, 16000), axis_move("u2", round.u2, round.v2, 16000)}, trigger));
+    ASSERT_TRUE(bench.run_until(
+        [&] {
+          return std::any_of(bench.out.replies.begin(), bench.out.replies.end(), [&](const auto& r) {
+            return r.command_id == move && r.status == motionlcm::gateway_reply_t::ARMED;
+          });
+        },
+        std::chrono::seconds(2)))
+        << "never armed: " << (bench.out.terminal(move) ? bench.out.terminal(move)->reason : "");
+    // Armed: nothing moves until the trigger.
+    const std::int64_t u1_armed = line.position("u1-drive", bench.now);
+    const std::int64_t u2_armed = line.position("u2-drive", bench.now);
+    const std::size_t reports_armed = bench.reports.size();
+    bench.run_for(std::chrono::milliseconds(200));
+    EXPECT_EQ(line.position("u1-drive", bench.now), u1_armed) << "u1 moved before the trigger";
+    EXPECT_EQ(line.position("u2-drive", bench.now), u2_armed) << "u2 moved before the trigger";
+    EXPECT_EQ(bench.reports.size(), reports_armed) << "a controller started before the trigger";
+    const std::int64_t fired_us =
+        std::chrono::duration_cast<std::chrono::microseconds>(bench.now.time_since_epoch()).count();
+    bench.core->fire(trigger, bench.now);
+    const auto done = bench.finish(move);
+    ASSERT_EQ(done.status, kDone) << done.reason;
+    EXPECT_EQ(line.position("u1-drive", bench.now), round.u1);
+    EXPECT_EQ(line.position("u2-drive", bench.now), round.u2);
+    const auto started = std::find_if(bench.out.replies.begin(), bench.out.replies.end(), [&](const auto& r) {
+      return r.command_id == move && r.status == motionlcm::gateway_reply_t::STARTED;
+    });
+    ASSERT_NE(started, bench.out.replies.end());
+    EXPECT_EQ(started->start_mechanism, std::string(holds ? "" : "crawl_") + round.mechanism);
+    // The simulated controllers' starts (the `;` that set each shaft moving) lie within STARTED's
+    // span: from its time to its time + the predicted skew.
+    std::vector<std::int64_t> starts;
+    for (const auto& r : bench.reports) {
+      if (r.kind == kStarted && r.frame_utime >= fired_us) starts.push_back(r.frame_utime);
+    }
+    ASSERT_EQ(starts.size(), 2u);
+    const auto [first, last] = std::minmax_element(starts.begin(), starts.end());
+    // The bench's wire delivers an instruction as its first character leaves; the core times it
+    // at its last character's end: one instruction (at most 16 characters) earlier at most.
+    const auto instruction_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                                    gateway::serial_line_settings(*bench.config->find_bus("rs232")).wire_time(16))
+                                    .count();
+    EXPECT_GE(*first, started->trigger_utime - instruction_us);
+    EXPECT_LE(*last, started->trigger_utime + std::llround(started->predicted_skew_us));
+    EXPECT_GE(*first, fired_us);
+    std::printf(
+        "spd0_position_move %s (set-up %s): %s, STARTED %s at +%lld us, skew %.0f us; controllers started "
+        "at +%lld and +%lld us\n",
+        param.variant.c_str(), param.answer.empty() ? "detect" : param.answer.c_str(), round.mechanism,
+        started->start_mechanism.c_str(), static_cast<long long>(started->trigger_utime - fired_us),
+        started->predicted_skew_us, static_cast<long long>(*first - fired_us),
+        static_cast<long long>(*last - fired_us));
+  }
+  // A jog is a position move to the axis limit: it runs (and stops) under every reading too.
+  const auto jog = bench.execute(command(gateway_command_t::JOG, "rs232", {axis_move("u1", 0, 1600, 16000)}));
+  ASSERT_EQ(bench.finish(jog).status, kDone) << bench.finish(jog).reason;
+  bench.run_for(std::chrono::milliseconds(300));
+  const auto stop = bench.execute(command(gateway_command_t::STOP, "rs232", {axis_move("u1", 0, 0, 0)}));
+  ASSERT_EQ(bench.finish(stop).status, kDone) << bench.finish(stop).reason;
+  EXPECT_GT(line.position("u1-drive", bench.now), 300) << "the jog did not run";
+  EXPECT_FALSE(line.moving("u1-drive", bench.now));
+  EXPECT_EQ(core.spd0_position_move("u1-drive"), param.answer.empty() ? param.variant : param.answer);
+  expect_homes_on_its_switch(bench, "spd0_position_move " + param.variant);
+  EXPECT_EQ(core.spd0_position_move("u2-drive"), param.answer.empty() ? param.variant : param.answer);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Variants, Uim242Spd0,
+    ::testing::Values(Spd0Case{"holds", ""}, Spd0Case{"runs_at_last_speed", ""}, Spd0Case{"refused", ""},
+                      Spd0Case{"runs_at_last_speed", "runs_at_last_speed"}, Spd0Case{"refused", "refused"}),
+    [](const ::testing::TestParamInfo<Spd0Case>& p) {
+      return p.param.variant + (p.param.answer.empty() ? "_detected" : "_configured_" + p.param.answer);
+    });
 
 // STO (manual #42): "wait 20ms before sending other instructions" after it. A read queued right
 // behind the STO goes out only 20 ms after the STO's reply.

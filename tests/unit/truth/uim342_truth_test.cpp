@@ -2,7 +2,8 @@
 // configuration asks for 16 (640 counts/mm over a 5 mm lead). Under either simulated variant of
 // when a written MT[0] applies (after_restart: the manual's reading; immediately), the stack
 // stores it with the driver off, restarts the drive, reads it back, and a synchronized (group BG)
-// move to 10 mm turns the shaft 400 full steps (2 revolutions), the simulator's ground truth.
+// move to 10 mm turns the shaft 400 full steps (2 revolutions), the simulator's ground truth; a
+// HOME then searches the simulated switch and ends on its edge.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -37,9 +38,11 @@ drives:
   - {name: x-drive, family: uim342, bus: can0, node_id: 5, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
   - {name: y-drive, family: uim342, bus: can0, node_id: 6, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
 axes:
-  - {name: x, drive: x-drive, unit: mm, steps_per_unit: 640, limits: {min: -10, max: 300, velocity: 50, acceleration: 400}}
+  - {name: x, drive: x-drive, unit: mm, steps_per_unit: 640, limits: {min: -10, max: 300, velocity: 50, acceleration: 400},
+     homing: {method: switch, input: 1, velocity: -10}}
   - {name: y, drive: y-drive, unit: mm, steps_per_unit: 640, limits: {min: -10, max: 200, velocity: 50, acceleration: 400}}
 simulation:
+  home_switches: {x-drive: -3200}
   variants:
     x-drive: {micro_steps_apply: VARIANT}
     y-drive: {micro_steps_apply: VARIANT}
@@ -81,11 +84,14 @@ class Uim342Bench {
       context.drive = d.name;
       context.bus = d.bus;
       context.send = [this](const can::Frame& f) { to_stack.push_back(f); };
-      context.report = [this, name = d.name](std::int8_t kind, std::int64_t frame_utime, std::int64_t, std::int64_t) {
+      context.report = [this, name = d.name](std::int8_t kind, std::int64_t frame_utime, std::int64_t position,
+                                             std::int64_t) {
         if (kind == motionlcm::sim_report_t::POWERED_UP) ++boots[name];
         if (kind == motionlcm::sim_report_t::MOTION_STARTED) starts[name].push_back(frame_utime);
+        if (kind == motionlcm::sim_report_t::MOTION_FINISHED) finish_positions[name].push_back(position);
       };
-      drives.push_back(std::make_unique<sim::Uim342Drive>(stored, context, sim::Uim342Identity{}, std::nullopt, apply));
+      drives.push_back(std::make_unique<sim::Uim342Drive>(stored, context, sim::Uim342Identity{},
+                                                          sim::uim342_home_switch(config_, d), apply));
     }
     for (auto& d : drives) d->power_up(now);
   }
@@ -143,7 +149,8 @@ class Uim342Bench {
   std::unique_ptr<Uim342Stack> stack;
   std::vector<std::unique_ptr<sim::Uim342Drive>> drives;
   std::map<std::string, int> boots;
-  std::map<std::string, std::vector<std::int64_t>> starts;  // frame times of MOTION_STARTED
+  std::map<std::string, std::vector<std::int64_t>> starts;            // frame times of MOTION_STARTED
+  std::map<std::string, std::vector<std::int64_t>> finish_positions;  // drive counts at MOTION_FINISHED
   std::deque<can::Frame> to_drives, to_stack;
   TimePoint now = TimePoint{} + std::chrono::seconds(10);
   std::int64_t next_id = 0;
@@ -204,6 +211,35 @@ TEST_P(Uim342MicroSteps, SetUpRestartsOnceAndAMoveLandsOnThePhysicalTarget) {
   EXPECT_EQ(bench.starts["x-drive"][0], bench.starts["y-drive"][0]) << "not started by one frame";
   EXPECT_NEAR(bench.drives[0]->shaft_full_steps(bench.now), 400.0, 1e-9) << "x: 10 mm = 2 rev = 400 full steps";
   EXPECT_NEAR(bench.drives[1]->shaft_full_steps(bench.now), 200.0, 1e-9) << "y: 5 mm = 1 rev = 200 full steps";
+
+  // HOME x (IN1 falling, toward min at 10 mm/s; the simulated switch edge at -3200 counts = -5 mm
+  // = -200 full steps from power-up): the search runs from +400 full steps past the edge, the
+  // origin is set there and the axis returns onto it.
+  gateway_command_t home{};
+  home.kind = gateway_command_t::HOME;
+  motionlcm::axis_command_t x{};
+  x.axis = "x";
+  x.velocity = -6400;
+  x.acceleration = x.deceleration = 256000;
+  home.axes = {x};
+  const std::size_t finished_before = bench.finish_positions["x-drive"].size();
+  const auto homed = bench.execute(home);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(homed).has_value(); }, std::chrono::seconds(10)));
+  ASSERT_EQ(bench.terminal(homed)->status, kDone) << bench.terminal(homed)->reason;
+  const auto& finishes = bench.finish_positions["x-drive"];
+  ASSERT_GE(finishes.size(), finished_before + 2) << "no search and return";
+  EXPECT_LT(finishes[finished_before], 0) << "the search stopped short of the switch edge";
+  EXPECT_EQ(finishes.back(), 0) << "the return did not end on the new origin";
+  EXPECT_EQ(bench.drives[0]->position(bench.now), 0);
+  // At the edge within what the search runs between two samples of the input (1 ms at 6400
+  // counts/s: 6.4 counts = 0.4 full steps).
+  EXPECT_NEAR(bench.drives[0]->shaft_full_steps(bench.now), -200.0, 0.4) << "x is not at its switch edge";
+  EXPECT_LE(bench.drives[0]->shaft_full_steps(bench.now), -200.0) << "the origin was set before the edge";
+  std::printf(
+      "micro_steps_apply %s: HOME x from +400 full steps: search stopped at %lld counts past the edge, "
+      "shaft at %.1f full steps (switch edge -200)\n",
+      GetParam().c_str(), static_cast<long long>(finishes[finished_before]),
+      bench.drives[0]->shaft_full_steps(bench.now));
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, Uim342MicroSteps, ::testing::Values("after_restart", "immediately"),

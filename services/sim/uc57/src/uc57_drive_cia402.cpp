@@ -353,6 +353,9 @@ std::uint8_t Uc57DriveSim::error_register() const {
 // Status and I/O
 
 std::int64_t Uc57DriveSim::position(TimePoint now) const { return kinematics_.position_counts(now); }
+std::int64_t Uc57DriveSim::physical_position(TimePoint now) const {
+  return std::llround(kinematics_.at(now).position + position_shift_);
+}
 
 std::uint16_t Uc57DriveSim::statusword(TimePoint now) const {
   std::uint16_t bits = 0;

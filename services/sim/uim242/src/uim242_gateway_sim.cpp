@@ -37,6 +37,9 @@ constexpr std::uint8_t kModules = 0x73;
 // CN §7.8 factory group STO0: acceleration, deceleration, MMS, MMD (EN #43 gives other values).
 constexpr std::int64_t kFactoryRamp = 250;
 constexpr std::int64_t kFactoryJump = 1000;
+// The speed a position move loaded at desired speed 0 runs at under runs_at_last_speed when no
+// non-zero SPD was ever set (assumed).
+constexpr std::int64_t kAssumedLastSpeed = 1000;
 
 std::int64_t steady_us(TimePoint t) {
   return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
@@ -75,6 +78,9 @@ class Uim242GatewaySim::Controller {
   [[nodiscard]] int icf_writes() const { return icf_writes_; }
   [[nodiscard]] bool enabled() const { return enabled_; }
   [[nodiscard]] std::int64_t position(TimePoint now) const { return kinematics_.position_counts(now); }
+  [[nodiscard]] std::int64_t physical_position(TimePoint now) const { return position(now) + physical_base_; }
+  // A home switch is sampled every millisecond while the motor moves.
+  [[nodiscard]] bool sampling() const { return in_motion_ && setup_.home_switch.has_value(); }
   // Kinematics counts the instant of arrival as moving; the controller has stopped by then.
   [[nodiscard]] bool moving(TimePoint now) const { return kinematics_.moving(now) && kinematics_.end_time() > now; }
   // The end of the current motion; "now" (the epoch) when it ended without a planned end (OFF, halt).
@@ -93,6 +99,7 @@ class Uim242GatewaySim::Controller {
     desired_speed_ = 0;
     velocity_mode_ = true;
     enabled_ = (icfg_ & kIcfgEna) != 0;  // auto-enable (the ENAtimer delay is not modelled)
+    if (const auto& sw = setup_.home_switch) inputs_[sw->port] = sw->level_at(physical_position(now)) ? 1 : 0;
     report(std::int8_t{motionlcm::sim_report_t::POWERED_UP}, now, position(now));
   }
 
@@ -190,11 +197,12 @@ class Uim242GatewaySim::Controller {
         break;
       case Mnemonic::kORG:
         if (moving(now)) return {uim242::make_error(uim242::ErrorCode::kValueError)};
-        kinematics_.set_position(now, v);
+        set_counter(now, v);
         displacement_origin_ = v;
         reply_value(v);
         break;
       case Mnemonic::kQEC:
+        if (set && refuses_target(v - position(now))) return {uim242::make_error(uim242::ErrorCode::kValueError)};
         if (set) {
           reply_value(v);
           set_target(now, v, v - position(now));
@@ -223,6 +231,7 @@ class Uim242GatewaySim::Controller {
         reply_value(v);
         desired_speed_ = v;
         if (v != 0) desired_positive_ = v > 0;
+        if (v != 0) last_speed_ = std::llabs(v);
         resume(now);
         break;
       case Mnemonic::kSTG:
@@ -238,6 +247,7 @@ class Uim242GatewaySim::Controller {
           reply_value(position(now) - displacement_origin_);
           break;
         }
+        if (refuses_target(v)) return {uim242::make_error(uim242::ErrorCode::kValueError)};
         reply_value(v);
         if (v == 0) {
           leave_position_mode(now);
@@ -258,6 +268,10 @@ class Uim242GatewaySim::Controller {
   // Arrival and end-of-motion notifications due at `now`.
   std::vector<Frame> process(TimePoint now) {
     std::vector<Frame> out;
+    if (const auto& sw = setup_.home_switch; sw && in_motion_) {
+      const bool level = sw->level_at(physical_position(now));
+      if (level != (inputs_[sw->port] != 0)) out = set_input(static_cast<int>(sw->port) + 1, level, now);
+    }
     if (!in_motion_ || moving(now)) return out;
     in_motion_ = false;
     const std::int64_t at = position(now);
@@ -353,8 +367,15 @@ class Uim242GatewaySim::Controller {
     kinematics_.stop(now, p.deceleration, p.cut_in);
   }
 
-  // Applies the desired speed / pending target to the motor (enable, SPD, STP, QEC).
-  void resume(TimePoint now) {
+  // The spd0_position_move variant refuses a displacement loaded at desired speed 0.
+  [[nodiscard]] bool refuses_target(std::int64_t displacement) const {
+    return setup_.spd0_position_move == Uim242ControllerSetup::Spd0Move::kRefused && displacement != 0 &&
+           desired_speed_ == 0;
+  }
+
+  // Applies the desired speed / pending target to the motor (enable, SPD, STP, QEC);
+  // `new_target`: a position instruction just set the target.
+  void resume(TimePoint now, bool new_target = false) {
     if (!enabled_) return;
     if (velocity_mode_) {
       if (desired_speed_ == 0) {
@@ -367,13 +388,17 @@ class Uim242GatewaySim::Controller {
       return;
     }
     if (!pt_target_) return;
-    if (desired_speed_ == 0) {  // PT with no speed: hold (pre-loaded move) or brake, keep the target
+    std::int64_t speed = std::llabs(desired_speed_);
+    if (speed == 0 && new_target && setup_.spd0_position_move == Uim242ControllerSetup::Spd0Move::kRunsAtLastSpeed) {
+      speed = last_speed_;
+    }
+    if (speed == 0) {  // PT with no speed: hold (pre-loaded move) or brake, keep the target
       if (moving(now)) brake(now);
       return;
     }
     last_positive_ = *pt_target_ >= position(now);
     started(now, *pt_target_);
-    kinematics_.move_to(now, *pt_target_, profile(now, std::abs(static_cast<double>(desired_speed_))));
+    kinematics_.move_to(now, *pt_target_, profile(now, static_cast<double>(speed)));
   }
 
   void set_target(TimePoint now, std::int64_t target, std::int64_t displacement) {
@@ -382,7 +407,7 @@ class Uim242GatewaySim::Controller {
     desired_displacement_ = displacement;
     desired_positive_ = displacement >= 0;
     pt_target_ = target;
-    resume(now);
+    resume(now, true);
   }
 
   void leave_position_mode(TimePoint now) {
@@ -396,6 +421,12 @@ class Uim242GatewaySim::Controller {
         kinematics_.halt(now);
       }
     }
+  }
+
+  // The position counter := `counts` where the shaft stands (ORG, a reset action).
+  void set_counter(TimePoint now, std::int64_t counts) {
+    physical_base_ += kinematics_.position_counts(now) - counts;
+    kinematics_.set_position(now, counts);
   }
 
   void halt(TimePoint now) {
@@ -434,7 +465,7 @@ class Uim242GatewaySim::Controller {
       // Position (and encoder) counter := 0 where the motor is; a braking motor keeps counting
       // from there (approximation: the ramp is re-based at the reset point).
       const auto state = kinematics_.at(now);
-      kinematics_.set_position(now, 0);
+      set_counter(now, 0);
       displacement_origin_ = 0;
       if (state.moving && action == kResetDecelerate) {
         kinematics_.jog(now, Profile{state.velocity, kInstantRate, kInstantRate, 0});
@@ -481,12 +512,14 @@ class Uim242GatewaySim::Controller {
   bool enabled_ = false;
   bool velocity_mode_ = true;
   std::int64_t desired_speed_ = 0;
+  std::int64_t last_speed_ = kAssumedLastSpeed;  // the last non-zero |SPD| (runs_at_last_speed)
   std::int64_t desired_displacement_ = 0;
   bool desired_positive_ = true;
   bool last_positive_ = true;
   std::optional<std::int64_t> pt_target_;
   std::int64_t displacement_origin_ = 0;
-  bool in_motion_ = false;  // MOTION_STARTED reported, MOTION_FINISHED pending
+  bool in_motion_ = false;          // MOTION_STARTED reported, MOTION_FINISHED pending
+  std::int64_t physical_base_ = 0;  // shaft counts from power-up = counter + this
   Kinematics kinematics_;
 };
 
@@ -509,6 +542,11 @@ std::vector<Uim242ControllerSetup> Uim242GatewaySim::controllers_of(const config
     setup.drive = d.name;
     setup.node_id = static_cast<std::uint8_t>(d.node_id);
     setup.reboot = std::chrono::milliseconds(config::sim_variant_int(config, d, "reboot_ms"));
+    const auto spd0 = config::sim_variant(config, d, "spd0_position_move");
+    setup.spd0_position_move = spd0 == "refused"              ? Uim242ControllerSetup::Spd0Move::kRefused
+                               : spd0 == "runs_at_last_speed" ? Uim242ControllerSetup::Spd0Move::kRunsAtLastSpeed
+                                                              : Uim242ControllerSetup::Spd0Move::kHolds;
+    setup.home_switch = home_switch(config, d);
     out.push_back(setup);
   }
   return out;
@@ -552,6 +590,7 @@ TimePoint Uim242GatewaySim::process(TimePoint now) {
       if (c->heard()) send(f);
     }
     next = std::min(next, c->deadline());
+    if (c->sampling()) next = std::min(next, now + std::chrono::milliseconds(1));
   }
   return next;
 }
@@ -581,6 +620,10 @@ bool Uim242GatewaySim::control(const motionlcm::sim_control_t& control, TimePoin
 std::int64_t Uim242GatewaySim::position(const std::string& drive, TimePoint now) const {
   const Controller* c = find_drive(drive);
   return c ? c->position(now) : 0;
+}
+std::int64_t Uim242GatewaySim::physical_position(const std::string& drive, TimePoint now) const {
+  const Controller* c = find_drive(drive);
+  return c ? c->physical_position(now) : 0;
 }
 bool Uim242GatewaySim::moving(const std::string& drive, TimePoint now) const {
   const Controller* c = find_drive(drive);

@@ -25,14 +25,24 @@
 //   §6.1). STP is relative to the position at its receipt (EN/CN #44), so the position it is
 //   computed from is read with the motor at rest: a `QEC;` of a decelerating motor would leave the
 //   move off by the counts run meanwhile. ARMED when every axis is loaded.
+//   That a displacement loaded at speed 0 holds still is an inference (docs/protocols.md, UIM242
+//   #3): only a drive known to hold (set-up spd0_position_move: holds, or found by the probe of
+//   its first armed move: at rest `STP 1;`, `FBK;` 20 ms later, `STP 0;` — an EE 66 is
+//   "refused", motion "runs_at_last_speed") is preloaded. Any other axis is loaded with nothing
+//   and started by a crawl: `SPD ±1; STP n;` (PT at 1 pps, a fraction of a count before the
+//   start) and then its speed.
 // * "At rest" (settle): `FBK;` until the actual speed is 0 (re-asked every 10 ms, given up after
 //   10 s naming the drive and its speed), then `QEC;`: the real position goes out in the axis
 //   state, not moving, before whatever waited for it goes on.
 // * fire(trigger): when the armed axes are every controller of the bus and share one speed, one
 //   `gSPD v;` starts them all ("broadcast", skew 0); otherwise `SPD v_i;` axis by axis
 //   ("sequential", skew = the serial time of the other axes' starts). trigger 0 = at once.
+//   With a crawling axis the crawl instructions of every such axis go first ("crawl_broadcast" /
+//   "crawl_sequential"; STARTED's time is the first crawl instruction, its skew runs to the last
+//   start instruction).
 //   DONE when every axis reported A8 or was polled at its target at rest.
-// * JOG `STP 0; MAC; MDE; SPD 0;`, then at rest (settle) `STP n; SPD |v|;`: a position move
+// * JOG `STP 0; MAC; MDE; SPD 0;`, then at rest (settle) `STP n; SPD |v|;` (`SPD ±1;` first
+//   unless the drive is known to hold a displacement at speed 0): a position move
 //   (PT mode, EN/CN §6.1) to the last whole count inside the axis limit in the jog's direction, at
 //   the jog's speed. The drive itself decelerates onto the limit, so a stop that reaches it late
 //   over the serial line (the gateway's jog watch) cannot let it pass. Less than one whole count
@@ -105,6 +115,9 @@ class Uim242Stack final : public gateway::SerialStack {
   [[nodiscard]] std::vector<std::string> axes() const;
   // ICF writes sent and acknowledged since construction (each is an EEPROM write and a reboot).
   [[nodiscard]] std::int64_t icf_writes() const noexcept { return icf_writes_; }
+  // What `drive` does with a displacement loaded at desired speed 0, as configured or found:
+  // "holds", "runs_at_last_speed", "refused", or "" while unknown.
+  [[nodiscard]] std::string spd0_position_move(std::string_view drive) const;
 
  private:
   struct Drive;
@@ -144,6 +157,14 @@ class Uim242Stack final : public gateway::SerialStack {
                      const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f);
   void arm(const motionlcm::gateway_command_t& command, TimePoint now);
   void start_move(Move& m, TimePoint now);
+  // The first armed move of a drive whose spd0_position_move is unknown: at rest `STP 1;`, after
+  // kSpd0ProbeWait `FBK;` (moving: runs_at_last_speed; EE 66 to the STP: refused; else holds),
+  // `STP 0;`; then `then` (the drive may have moved one count: settle again).
+  void probe_spd0(Drive& d, std::int64_t group, std::function<void(TimePoint)> then);
+  // The instructions that run `d` by `displacement` at `speed` from rest: `STP n; SPD v;`, with a
+  // `SPD ±1;` crawl first unless `d` holds a displacement loaded at speed 0.
+  [[nodiscard]] std::vector<uim242::Instruction> position_run(const Drive& d, std::int64_t displacement,
+                                                              std::int64_t speed) const;
   void move_axis_arrived(Drive& d, TimePoint now);
   void fail_moves_of(const Drive& d, const std::string& reason, std::int32_t code);
   // Waits (for command `group`) until `d` is at rest, re-reads and publishes its position, then

@@ -87,6 +87,8 @@ class Uc57DriveSim final : public CanDriveSim {
   [[nodiscard]] cia402::State drive_state() const { return state_; }
   [[nodiscard]] std::uint16_t statusword(TimePoint now) const;
   [[nodiscard]] std::int64_t position(TimePoint now) const;
+  // Where the shaft is in pulses from power-up (homing shifts the reported position, not this).
+  [[nodiscard]] std::int64_t physical_position(TimePoint now) const;
 
  private:
   enum class Activity : std::uint8_t { kIdle, kProfilePosition, kProfileVelocity, kHoming, kStopping };

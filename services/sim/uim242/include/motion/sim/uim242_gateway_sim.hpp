@@ -21,11 +21,13 @@
 // * PT: `STP η;` (relative) / `QEC η;` (absolute) set the target from the position at receipt and
 //   start when enabled with a non-zero desired speed; the position error gives the direction.
 //   `SPD 0;` then a target pre-loads a move that a later `SPD η;` / `gSPD η;` starts — the
-//   gateway-wide synchronized start the driver uses. `SPD 0;` during a PT move brakes and keeps
+//   gateway-wide synchronized start the driver uses (or, per Uim242ControllerSetup::
+//   spd0_position_move, runs at once or is refused). `SPD 0;` during a PT move brakes and keeps
 //   the target. `STP 0;` leaves PT: decelerate, no A8 (EN/CN §6.1; ramp and no A8 assumed).
 // * Arrival: A8 RTCN if MCFG.STPIE, CN 10-byte form by default (CN §4.1; EN: 4 bytes).
 // * `ORG[ η];` sets position and encoder counter at rest (EE 66 while moving: assumed, the manuals
 //   do not say).
+// * A home switch (Uim242ControllerSetup::home_switch) drives its input from the shaft position.
 // * Inputs (sim_control_t SET_INPUT 1..3): edge RTCNs A0..A5 per SxIE and a non-zero action code,
 //   actions 0011 decelerate, 0100 e-stop, 0110 reset position, 1011/1100 reset + stop, 1111 OFF;
 //   the motion-starting actions, analog inputs, sampling modes, P4 events, parameter groups, Elock
@@ -41,6 +43,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -49,6 +52,7 @@
 
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
+#include "motion/sim/home_switch.hpp"
 #include "motion/sim/serial_device_sim.hpp"
 #include "motion/uim242/feedback.hpp"
 
@@ -62,6 +66,15 @@ struct Uim242ControllerSetup {
   // How long the controller is silent after an ICF write (manual §5.1: "will auto reboot", no
   // time given): simulation.variants key reboot_ms.
   Duration reboot = std::chrono::milliseconds(300);
+  // A position move (STP/QEC) loaded while the desired speed is 0 (§6.1, #37, #44: no example
+  // shows it; simulation.variants key spd0_position_move): held until a later `SPD η;` starts it
+  // (holds), run at once at the last non-zero desired speed (runs_at_last_speed; 1000 pps when
+  // none was set, assumed), or answered EE 66 and not loaded (refused).
+  enum class Spd0Move { kHolds, kRunsAtLastSpeed, kRefused };
+  Spd0Move spd0_position_move = Spd0Move::kHolds;
+  // The machine's home switch on one of S1..S3 (sampled every millisecond while the motor moves),
+  // from the axis's homing and simulation.home_switches; none: inputs change by SET_INPUT only.
+  std::optional<HomeSwitch> home_switch = std::nullopt;
 };
 
 struct Uim242SimOptions {
@@ -107,6 +120,8 @@ class Uim242GatewaySim final : public SerialDeviceSim {
 
   // Introspection for tests.
   [[nodiscard]] std::int64_t position(const std::string& drive, TimePoint now) const;
+  // Where the shaft is in counts from power-up (ORG and position resets do not move it).
+  [[nodiscard]] std::int64_t physical_position(const std::string& drive, TimePoint now) const;
   [[nodiscard]] bool moving(const std::string& drive, TimePoint now) const;
   [[nodiscard]] bool enabled(const std::string& drive) const;
   [[nodiscard]] int selected_node() const noexcept { return selected_; }

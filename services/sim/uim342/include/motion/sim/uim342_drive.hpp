@@ -29,6 +29,7 @@
 
 #include "motion/config/config.hpp"
 #include "motion/sim/can_drive.hpp"
+#include "motion/sim/home_switch.hpp"
 #include "motion/sim/kinematics.hpp"
 #include "motion/uim342/instructions.hpp"
 #include "motion/uim342/notifications.hpp"
@@ -50,17 +51,10 @@ struct Uim342Identity {
 // number derived from the node ID, and the bus's bit-rate code.
 [[nodiscard]] Uim342Identity uim342_identity(const config::Drive& drive, int bus_bitrate);
 
-// A home switch of the simulated machine (not part of the drive): input `port` (0 = IN1) is at
-// `active_level` while the axis's physical position (counts from power-up; set-origin does not
-// move it) is at or beyond `edge` on `side`, and at the other level elsewhere. The drive samples
-// it every millisecond while it moves (§1: control loops within 1 ms), so input logic (§4.3,
-// §5.26) acts on the edge during motion.
-struct Uim342HomeSwitch {
-  std::size_t port = 0;
-  std::int64_t edge = 0;
-  int side = -1;              // -1: active at and below edge; +1: at and above
-  bool active_level = false;  // the level after the axis's homing edge (falling: low)
-};
+// A home switch of the simulated machine (motion/sim/home_switch.hpp). The drive samples it every
+// millisecond while it moves (§1: control loops within 1 ms), so input logic (§4.3, §5.26) acts on
+// the edge during motion.
+using Uim342HomeSwitch = HomeSwitch;
 
 // The switch of `drive` from the configuration: its axis's `homing` (method switch: input, edge,
 // direction) and `simulation.home_switches` (edge position, or none). nullopt: no switch.
