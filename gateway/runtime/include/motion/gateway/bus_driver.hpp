@@ -53,6 +53,10 @@ struct DriveFacts {
   // false: the drive cannot join the family's one-frame start (e.g. a UC57 that applies RPDOs on
   // reception): its axis starts by its own frame (START_SINGLE). nullopt: as the family does.
   std::optional<bool> one_frame_start = std::nullopt;
+  // true: the homed flag of its status is the drive's own (e.g. UC57 status word bit 8), kept by
+  // the drive until it is powered up or reset, so a gateway that starts can trust it (and read a
+  // cleared one as a power-on marker, position_record.hpp). false: the driver's own bookkeeping.
+  bool drive_keeps_homed = false;
 };
 
 // Implemented by the Gateway; drivers report through it.
