@@ -97,6 +97,10 @@ class PositionRecord : public ::testing::Test {
 };
 
 TEST_F(PositionRecord, AGatewayRestartedWithoutAPowerCycleKeepsHomedAndValidPositions) {
+  // a away from 0 too: its first position after the restart is compared with the record.
+  const auto away = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", 90.0}}));
+  ASSERT_EQ(away.status, st(reply_t::DONE)) << away.reason;
+  ASSERT_TRUE(lab.settled_at("a", 90.0, tolerance("a")));
   ASSERT_TRUE(restart_gateways([] {}));
   for (const auto& axis : kAxes) {
     EXPECT_TRUE(lab.state(axis).homed) << axis;
@@ -106,6 +110,7 @@ TEST_F(PositionRecord, AGatewayRestartedWithoutAPowerCycleKeepsHomedAndValidPosi
   }
   EXPECT_NEAR(lab.position("z"), 12.0, tolerance("z"));
   EXPECT_NEAR(lab.position("c"), 20.0, tolerance("c"));
+  EXPECT_NEAR(lab.position("a"), 90.0, tolerance("a"));
   ASSERT_TRUE(lab.enable(kAxes));
   const Values targets{{"z", 5.0}, {"a", 30.0}, {"c", 10.0}};
   const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, targets));

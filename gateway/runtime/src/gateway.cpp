@@ -573,7 +573,9 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   last_status_[axis] = status;
   // Set up (online) for the first time: its model, before the status that says so.
   if (came_online && !models_.contains(axis)) publish_model(axis, false);
-  if (records_ && status.online && !record_checked_.contains(axis)) check_record(axis, status);
+  // The record is compared with, and kept from, positions read from the drive (a status published
+  // between identification and the first position read carries none).
+  if (records_ && status.online && status.position_read && !record_checked_.contains(axis)) check_record(axis, status);
   check_jog(axis);
   const config::Axis& a = *it->second;
   const config::Drive* d = config_.drive_of(a);
@@ -610,7 +612,8 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   }
   msg.inputs = status.inputs;
   msg.outputs = status.outputs;
-  if (records_ && status.online && record_checked_.contains(axis)) keep_record(axis, status, msg.homed);
+  if (records_ && status.online && status.position_read && record_checked_.contains(axis))
+    keep_record(axis, status, msg.homed);
   node_.publish(lcm::channels::kAxisState, msg);
 }
 

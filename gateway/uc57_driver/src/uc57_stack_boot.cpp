@@ -289,6 +289,7 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
   ops.push_back(
       read({od::kPositionActual, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
         nodes_[n]->status.position_counts = read_signed(data);
+        nodes_[n]->status.position_read = true;
         return std::nullopt;
       }));
   ops.push_back(read({od::kStatusword, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {

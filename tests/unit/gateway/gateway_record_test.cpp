@@ -83,9 +83,10 @@ struct GatewayRecord : ::testing::Test {
     while (!done() && loop.now() < deadline) loop.run_once(milliseconds(5));
   }
   // The driver reports x online, at rest at `counts`; waits for the state it makes.
-  const motionlcm::axis_state_t& report(Process& p, std::int64_t counts, bool homed) {
+  const motionlcm::axis_state_t& report(Process& p, std::int64_t counts, bool homed, bool read = true) {
     DriveStatus s;
     s.online = true;
+    s.position_read = read;
     s.enabled = true;
     s.position_counts = counts;
     s.target_counts = counts;
@@ -138,6 +139,8 @@ TEST_F(GatewayRecord, WithoutARecordNothingChanges) {
 TEST_F(GatewayRecord, ARestartWhereTheDriveStillIsKeepsItHomed) {
   report(*start(), 7680, true);
   auto second = start();
+  // Online before its position is read (0 is no reading): not compared.
+  EXPECT_NE(report(*second, 0, false, false).fault_code, motionlcm::axis_state_t::POSITION_LOST);
   const auto s = report(*second, 7680, false);  // the driver's own homed flag was forgotten
   EXPECT_TRUE(s.homed);
   EXPECT_NE(s.fault_code, motionlcm::axis_state_t::POSITION_LOST);

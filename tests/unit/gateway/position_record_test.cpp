@@ -70,6 +70,7 @@ TEST(PositionRecords, SavedPrivatelyAndLoadedBack) {
 DriveStatus at(std::int64_t counts, bool homed = false) {
   DriveStatus s;
   s.online = true;
+  s.position_read = true;
   s.position_counts = counts;
   s.homed = homed;
   return s;

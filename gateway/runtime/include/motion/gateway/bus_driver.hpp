@@ -23,6 +23,9 @@ namespace motion::gateway {
 struct DriveStatus {
   std::int64_t sample_utime = 0;  // when the drive reported it (wall clock, us)
   std::int64_t position_counts = 0;
+  // position_counts was read from the drive (false: not yet, e.g. just identified): what the
+  // gateway's position record is compared with and kept from (position_record.hpp).
+  bool position_read = false;
   double velocity_counts = 0;  // counts/s
   std::int64_t target_counts = 0;
   bool online = false;
