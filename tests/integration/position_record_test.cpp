@@ -1,9 +1,10 @@
 // A drive that lost power while no gateway ran (README "Safety and faults"): each gateway keeps a
 // position record of its axes (where they were, homed or not) and compares each drive's first
 // answer after it starts with it. On tests/integration/configs/position-record.yaml: a UIM342 (z)
-// and a UC57 (a) on one simulated CAN bus, an ADAM (c) on an RS485 line. The gateways are stopped
-// (SIGTERM), the simulated drives power-cycled (SIM_CONTROL) or not, and the gateways started
-// again; the simulated drives come back at their power-on position 0 with nothing said.
+// and a UC57 (a) on one simulated CAN bus, an ADAM (c) on an RS485 line, a UIM242 (u) on an RS232
+// line. The gateways are stopped (SIGTERM), the simulated drives power-cycled (SIM_CONTROL) or
+// not, and the gateways started again; the simulated z, a and c come back at their power-on
+// position 0 with nothing said; the UIM242 keeps its position counter (UIM242 manual §7.6).
 // No timed assertions: every wait is bounded generously.
 #include <gtest/gtest.h>
 
@@ -18,8 +19,9 @@ namespace motion::testing {
 namespace {
 
 using Axes = std::vector<std::string>;
-const Axes kAxes{"z", "a", "c"};
-const std::vector<std::string> kBuses{"can0", "rs485"};
+const Axes kAxes{"z", "a", "c", "u"};
+const Axes kLosing{"z", "a", "c"};  // their drives lose the position with the power
+const std::vector<std::string> kBuses{"can0", "rs485", "rs232"};
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
@@ -43,10 +45,11 @@ class PositionRecord : public ::testing::Test {
           lab.client().wait_until([&] { return lab.state(axis).homed && !lab.state(axis).moving; }, seconds(10)))
           << axis;
     }
-    const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"z", 12.0}, {"c", 20.0}}));
+    const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"z", 12.0}, {"c", 20.0}, {"u", 15.0}}));
     ASSERT_EQ(moved.status, st(reply_t::DONE)) << moved.reason;
     ASSERT_TRUE(lab.settled_at("z", 12.0, tolerance("z")));
     ASSERT_TRUE(lab.settled_at("c", 20.0, tolerance("c")));
+    ASSERT_TRUE(lab.settled_at("u", 15.0, tolerance("u")));
     ASSERT_TRUE(lab.settled_at("a", 0.0, tolerance("a")));
   }
   void TearDown() override {
@@ -111,8 +114,9 @@ TEST_F(PositionRecord, AGatewayRestartedWithoutAPowerCycleKeepsHomedAndValidPosi
   EXPECT_NEAR(lab.position("z"), 12.0, tolerance("z"));
   EXPECT_NEAR(lab.position("c"), 20.0, tolerance("c"));
   EXPECT_NEAR(lab.position("a"), 90.0, tolerance("a"));
+  EXPECT_NEAR(lab.position("u"), 15.0, tolerance("u"));
   ASSERT_TRUE(lab.enable(kAxes));
-  const Values targets{{"z", 5.0}, {"a", 30.0}, {"c", 10.0}};
+  const Values targets{{"z", 5.0}, {"a", 30.0}, {"c", 10.0}, {"u", 5.0}};
   const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, targets));
   ASSERT_EQ(moved.status, st(reply_t::DONE)) << moved.reason;
   for (const auto& [axis, target] : targets)
@@ -123,8 +127,13 @@ TEST_F(PositionRecord, DrivesPowerCycledWhileNoGatewayRanSayPositionLostUntilHom
   ASSERT_TRUE(restart_gateways([&] {
     for (const auto& axis : kAxes) lab.control(axis + "-drive", sim_control_t::POWER_CYCLE);
   }));
+  // The UIM242 kept its counter (UIM242 manual §7.6): where it was, still homed.
+  EXPECT_NE(lab.state("u").fault_code, motionlcm::axis_state_t::POSITION_LOST) << lab.state("u").fault_text;
+  EXPECT_TRUE(lab.state("u").homed);
+  EXPECT_NEAR(lab.position("u"), 15.0, tolerance("u"));
+  EXPECT_EQ(lost_event("u"), nullptr);
   // Said in the state and by a REBOOT event, as a power cycle seen by a running gateway is.
-  for (const auto& axis : kAxes) {
+  for (const auto& axis : kLosing) {
     const auto& s = lab.state(axis);
     EXPECT_EQ(s.fault_code, motionlcm::axis_state_t::POSITION_LOST) << axis << ": " << s.fault_text;
     EXPECT_FALSE(s.homed) << axis;
@@ -141,7 +150,7 @@ TEST_F(PositionRecord, DrivesPowerCycledWhileNoGatewayRanSayPositionLostUntilHom
   // Absolute moves are refused naming the lost position; nothing starts.
   ASSERT_TRUE(lab.enable(kAxes));
   lab.clear_reports();
-  for (const auto& axis : kAxes) {
+  for (const auto& axis : kLosing) {
     const auto refused = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{axis, 5.0}}));
     EXPECT_EQ(refused.status, st(reply_t::REJECTED)) << axis << ": " << refused.reason;
     EXPECT_EQ(refused.error_code, code(ReplyError::kPositionLost)) << axis << ": " << refused.reason;
@@ -151,7 +160,7 @@ TEST_F(PositionRecord, DrivesPowerCycledWhileNoGatewayRanSayPositionLostUntilHom
 
   // A lost position stays lost over a further restart (it is in the record too).
   ASSERT_TRUE(restart_gateways([] {}));
-  for (const auto& axis : kAxes) {
+  for (const auto& axis : kLosing) {
     EXPECT_EQ(lab.state(axis).fault_code, motionlcm::axis_state_t::POSITION_LOST) << axis;
     EXPECT_FALSE(lab.state(axis).homed) << axis;
   }
@@ -171,7 +180,7 @@ TEST_F(PositionRecord, DrivesPowerCycledWhileNoGatewayRanSayPositionLostUntilHom
   }
   EXPECT_TRUE(lab.state("z").homed);
   EXPECT_TRUE(lab.state("a").homed);
-  const Values targets{{"z", 5.0}, {"a", 30.0}, {"c", 10.0}};
+  const Values targets{{"z", 5.0}, {"a", 30.0}, {"c", 10.0}, {"u", 5.0}};
   const auto moved = lab.call(Client::make(request_t::MOVE_ABSOLUTE, targets));
   ASSERT_EQ(moved.status, st(reply_t::DONE)) << moved.reason;
   for (const auto& [axis, target] : targets)

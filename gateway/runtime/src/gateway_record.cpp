@@ -2,6 +2,8 @@
 // (position_record.hpp, README "Safety and faults").
 #include <spdlog/spdlog.h>
 
+#include <cstdlib>
+
 #include "motion/gateway/gateway.hpp"
 #include "motion/gateway/power_up_watch.hpp"
 
@@ -49,9 +51,16 @@ void Gateway::keep_record(const std::string& axis, const DriveStatus& status, bo
   next.target_counts = status.moving ? status.target_counts : status.position_counts;
   // Moving: where the move was seen starting stays the record's position (the drive is somewhere
   // between it and the target until the move ends), so a move writes the file twice, not per poll.
-  if (const AxisRecord* old = records_->find(axis);
-      old != nullptr && old->moving && next.moving && old->target_counts == next.target_counts) {
-    next.position_counts = old->position_counts;
+  // At rest, a few counts of jitter (a closed-loop drive holding its position) are not worth a
+  // write: far below what the comparison at start tolerates.
+  constexpr std::int64_t kRestJitter = 8;
+  if (const AxisRecord* old = records_->find(axis); old != nullptr) {
+    if (old->moving && next.moving && old->target_counts == next.target_counts) {
+      next.position_counts = old->position_counts;
+    } else if (!old->moving && !next.moving && std::abs(next.position_counts - old->position_counts) <= kRestJitter) {
+      next.position_counts = old->position_counts;
+      next.target_counts = old->target_counts;
+    }
   }
   if (!records_->update(axis, next)) return;
   std::string error = records_->save();
