@@ -64,6 +64,18 @@ std::string bus_lock_path(const config::Config& config, const config::Bus& bus) 
   return lock_dir(config, bus) + "/motionbus-gateway-" + sanitized(bus.transport) + ".lock";
 }
 
+std::string position_record_path(const config::Config& config, const config::Bus& bus) {
+  std::string dir = lock_dir(config, bus);
+  if (bus.transport.rfind("sim", 0) != 0) {
+    if (const char* env = std::getenv("MOTION_STATE_DIR"); env != nullptr && *env != '\0') {
+      dir = env;
+    } else if (writable_dir("/var/lib/motionbus")) {
+      dir = "/var/lib/motionbus";
+    }
+  }
+  return dir + "/motionbus-gateway-" + sanitized(bus.transport) + ".positions";
+}
+
 std::variant<BusLock, std::string> lock_bus(const config::Config& config, const config::Bus& bus) {
   const std::string path = bus_lock_path(config, bus);
   const std::string what = "bus " + bus.name + " (" + bus.transport + ")";

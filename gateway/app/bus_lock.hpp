@@ -45,6 +45,13 @@ class BusLock {
 // The lock file of `bus` (see above).
 [[nodiscard]] std::string bus_lock_path(const config::Config& config, const config::Bus& bus);
 
+// The position record of `bus` (motion/gateway/position_record.hpp), kept across the gateway's
+// restarts and the machine's: simulated transports in the lab's runtime directory (the simulated
+// drives live as long as motion-sim does); hardware transports in MOTION_STATE_DIR when set (the
+// systemd unit: /var/lib/motionbus, its StateDirectory), else /var/lib/motionbus when it is a
+// writable folder, else where the lock lives.
+[[nodiscard]] std::string position_record_path(const config::Config& config, const config::Bus& bus);
+
 // Takes the bus, or says who holds it: "bus can0 (simcan:can0) is already served by process 4242
 // (lock /tmp/motion-sim-1000/gateway-simcan_can0.lock)", or why it could not: "refusing the lock of
 // bus can0 (simcan:can0) at PATH: it is a symbolic link".

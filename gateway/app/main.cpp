@@ -45,6 +45,8 @@ int main(int argc, char** argv) {
     // 50 us timer slack of this (the loop's) thread.
     if (!minimal_timer_slack()) spdlog::warn("could not lower the timer slack (prctl PR_SET_TIMERSLACK)");
     gateway::Gateway gateway(service.loop(), service.node(), service.health(), *config, bus_name);
+    // Where the axes were, whether homed: a drive that lost power while no gateway ran is caught.
+    gateway.set_position_record(gateway::position_record_path(*config, *bus));
     gateway.set_coordinator_key(std::get<std::optional<security::PublicKey>>(verifier));
     gateway.set_model_builder([&config = *config](const config::Axis& axis, const gateway::DriveFacts& facts) {
       return drive_model::build(config, axis, facts);

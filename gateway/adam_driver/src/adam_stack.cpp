@@ -455,6 +455,7 @@ void AdamStack::publish_status(const Drive& d) const {
   gateway::DriveStatus s;
   s.sample_utime = d.sample_utime;
   s.position_counts = d.position.value_or(0);
+  s.position_read = d.position.has_value();
   s.velocity_counts = d.velocity;
   s.target_counts = d.target;
   // Online for the axis's users once its position and status are known (a set-up reply alone

@@ -144,6 +144,10 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
       command.kind == motionlcm::gateway_command_t::SET_POSITION) {
     auto& axes = referencing_[command.command_id];
     for (const auto& a : command.axes) axes.push_back(a.axis);
+    // A new homing moves the origin: homed is what it says from now on.
+    if (command.kind == motionlcm::gateway_command_t::HOME) {
+      for (const auto& a : command.axes) restored_homed_.erase(a.axis);
+    }
   }
   // Whoever sent it: nothing outside the configured limits reaches a drive.
   for (const auto& a : command.axes) {
@@ -569,6 +573,9 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   last_status_[axis] = status;
   // Set up (online) for the first time: its model, before the status that says so.
   if (came_online && !models_.contains(axis)) publish_model(axis, false);
+  // The record is compared with, and kept from, positions read from the drive (a status published
+  // between identification and the first position read carries none).
+  if (records_ && status.online && status.position_read && !record_checked_.contains(axis)) check_record(axis, status);
   check_jog(axis);
   const config::Axis& a = *it->second;
   const config::Drive* d = config_.drive_of(a);
@@ -592,7 +599,7 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   // unknown; the coordinator's stop watch counts an offline axis as unreachable, never as stopped.
   msg.moving = status.online && status.moving;
   msg.in_position = status.in_position;
-  msg.homed = status.homed;
+  msg.homed = status.homed || restored_homed_.contains(axis);
   msg.fault = status.fault;
   msg.fault_code = status.fault_code;
   msg.fault_text = status.fault_text;
@@ -605,12 +612,15 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   }
   msg.inputs = status.inputs;
   msg.outputs = status.outputs;
+  if (records_ && status.online && status.position_read && record_checked_.contains(axis))
+    keep_record(axis, status, msg.homed);
   node_.publish(lcm::channels::kAxisState, msg);
 }
 
 void Gateway::position_lost(const std::string& axis, const std::string& why) {
   if (!axes_.contains(axis)) return;
   position_lost_[axis] = why;
+  restored_homed_.erase(axis);
   DriveEvent e;
   e.kind = motionlcm::event_t::REBOOT;
   e.severity = motionlcm::event_t::ERROR;

@@ -193,6 +193,7 @@ TimePoint Uc57Stack::process(TimePoint now) {
         nodes_[n]->position_poll_in_flight = false;
         if (ec) return;
         nodes_[n]->status.position_counts = read_signed(data);
+        nodes_[n]->status.position_read = true;
         publish_status(n);
       });
     }
@@ -304,6 +305,7 @@ void Uc57Stack::on_pdo(std::size_t n, const can::Frame& frame, TimePoint now) {
       return;
     }
     node.status.position_counts = tpdo->position;
+    node.status.position_read = true;
     node.status.velocity_counts = cia402::uc57::rpm_to_pulses_per_second(tpdo->velocity_rpm, node.pulses_per_rev);
     node.status.sample_utime = frame.timestamp_us;
     // The task sees the statusword with this position (a DONE is followed by the state it reached).

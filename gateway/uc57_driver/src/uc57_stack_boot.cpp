@@ -289,6 +289,7 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
   ops.push_back(
       read({od::kPositionActual, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
         nodes_[n]->status.position_counts = read_signed(data);
+        nodes_[n]->status.position_read = true;
         return std::nullopt;
       }));
   ops.push_back(read({od::kStatusword, 0}, [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
@@ -344,6 +345,7 @@ void Uc57Stack::enter_operational(std::size_t n) {
     facts.counts_per_revolution = node.pulses_per_rev;
     facts.start_speed_rpm = node.start_speed * 60.0 / node.pulses_per_rev;
     facts.one_frame_start = node.rpdo_at_sync;  // false: no synchronous RPDO start (uc57_stack_rpdo.cpp)
+    facts.drive_keeps_homed = true;             // status word bit 8, homing attained (manual §4.2.6)
     context_.out->drive_facts(node.settings.axis, facts);
   }
   publish_status(n);

@@ -472,6 +472,7 @@ void Uim242Stack::poll(TimePoint now) {
       const std::int64_t position = field(f, uim242::Layout::kS32, 0);
       const bool still = !d.status.moving && d.last_polled_position == position;
       d.status.position_counts = position;
+      d.status.position_read = true;
       d.last_polled_position = position;
       // The move of this drive that is under way, and when its run should have ended.
       std::optional<TimePoint> due;

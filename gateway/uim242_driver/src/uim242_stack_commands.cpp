@@ -410,6 +410,7 @@ void Uim242Stack::settle(Drive& d, std::int64_t group, TimePoint give_up, std::f
             [this, &d, then = std::move(then)](const Frame& q, TimePoint t2) {
               const std::int64_t position = field(q, uim242::Layout::kS32, 0);
               d.status.position_counts = position;
+              d.status.position_read = true;
               d.last_polled_position = position;
               d.status.moving = false;
               d.status.velocity_counts = 0;

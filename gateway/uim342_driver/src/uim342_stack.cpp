@@ -358,6 +358,7 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
     publish(n, now);
   } else if (const auto* reached = std::get_if<uim342::PositionReachedNotification>(&notification)) {
     n.status.position_counts = reached->position + n.offset;
+    n.status.position_read = true;
     n.status.in_position = true;
     n.status.moving = false;
     n.status.velocity_counts = 0;

@@ -205,6 +205,7 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
           break;
         }
         n.status.position_counts = k->absolute_position + n.offset;
+        n.status.position_read = true;
         n.status.velocity_counts = k->speed;
         publish(n, now);
       }

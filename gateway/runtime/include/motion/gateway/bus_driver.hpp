@@ -23,6 +23,9 @@ namespace motion::gateway {
 struct DriveStatus {
   std::int64_t sample_utime = 0;  // when the drive reported it (wall clock, us)
   std::int64_t position_counts = 0;
+  // position_counts was read from the drive (false: not yet, e.g. just identified): what the
+  // gateway's position record is compared with and kept from (position_record.hpp).
+  bool position_read = false;
   double velocity_counts = 0;  // counts/s
   std::int64_t target_counts = 0;
   bool online = false;
@@ -53,6 +56,10 @@ struct DriveFacts {
   // false: the drive cannot join the family's one-frame start (e.g. a UC57 that applies RPDOs on
   // reception): its axis starts by its own frame (START_SINGLE). nullopt: as the family does.
   std::optional<bool> one_frame_start = std::nullopt;
+  // true: the homed flag of its status is the drive's own (e.g. UC57 status word bit 8), kept by
+  // the drive until it is powered up or reset, so a gateway that starts can trust it (and read a
+  // cleared one as a power-on marker, position_record.hpp). false: the driver's own bookkeeping.
+  bool drive_keeps_homed = false;
 };
 
 // Implemented by the Gateway; drivers report through it.

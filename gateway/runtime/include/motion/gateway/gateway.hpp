@@ -21,7 +21,10 @@
 //  - publishes AXIS_STATE, EVENT, GW_REPLY and the heartbeat's bus statistics;
 //  - publishes each axis's drive model (DRIVE_MODEL, drive_model_t, made by the ModelBuilder the
 //    process installs) when the axis first comes online and whenever what the driver read from the
-//    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus.
+//    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus;
+//  - keeps each axis's position record across its own restarts (set_position_record,
+//    position_record.hpp): a drive that lost power while no gateway ran is reported as having lost
+//    its position, exactly as one that loses it while the gateway runs.
 // Thread contract: loop thread only.
 #pragma once
 
@@ -49,6 +52,7 @@
 #include "motion/core/precise_timer.hpp"
 #include "motion/gateway/axis_limits.hpp"
 #include "motion/gateway/bus_driver.hpp"
+#include "motion/gateway/position_record.hpp"
 #include "motion/lcm/health.hpp"
 #include "motion/lcm/malformed_limiter.hpp"
 #include "motion/lcm/node.hpp"
@@ -90,6 +94,14 @@ class Gateway final : public GatewayOutput {
   // security.coordinator_public_key of `config` (none when not set), or what is wrong with it.
   [[nodiscard]] static security::Loaded<std::optional<security::PublicKey>> load_coordinator_key(
       const config::Config& config);
+
+  // Keeps the axes' record in the file `path` from now on (call before attach()): loads what the
+  // previous gateway process of the bus recorded (a file that cannot be read or parsed is logged
+  // and taken as no record), compares each axis's first online status with its record (evidence
+  // of a power cycle: position_lost(); a recorded lost position stays lost; a recorded homed
+  // state stays homed), and writes the record whenever an axis starts or ends a move, is homed,
+  // loses or regains its position.
+  void set_position_record(const std::string& path);
 
   // Without a builder no DRIVE_MODEL is published (and the coordinator refuses moves of the bus).
   void set_model_builder(ModelBuilder builder) { model_builder_ = std::move(builder); }
@@ -137,6 +149,10 @@ class Gateway final : public GatewayOutput {
   // Stops `axis` (its jog reaches its limit): a STOP of the gateway's own and a LIMIT event.
   void check_jog(const std::string& axis);
   void forget_jog(const std::string& axis);
+  // The position record (gateway_record.cpp): the first online status of `axis` against its record,
+  // and the record of a status as published (`homed` as reported).
+  void check_record(const std::string& axis, const DriveStatus& status);
+  void keep_record(const std::string& axis, const DriveStatus& status, bool homed);
 
   EventLoop& loop_;
   lcm::Node& node_;
@@ -165,7 +181,11 @@ class Gateway final : public GatewayOutput {
     std::optional<JogWatch> jog;
   };
   std::map<std::string, PendingMotion> pending_motion_;
-  std::map<std::string, std::string> position_lost_;              // axis -> why its position is not the machine's
+  std::map<std::string, std::string> position_lost_;  // axis -> why its position is not the machine's
+  std::optional<PositionRecords> records_;            // none: no record kept (set_position_record)
+  std::set<std::string> record_checked_;              // axes whose first online status was compared with the record
+  std::set<std::string> restored_homed_;  // axes homed by a previous gateway process (record), not since lost
+  std::string record_error_;              // the last failure to write the record (logged once)
   std::map<std::int64_t, std::vector<std::string>> referencing_;  // HOME/SET_POSITION command id -> its axes
   std::map<std::int64_t, std::string>
       stopped_at_limit_;                    // jog command id -> why the watch stopped it (before its reply)
