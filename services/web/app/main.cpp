@@ -173,8 +173,8 @@ class Controls {
 
   // On the server thread: hands the command to the main thread, or answers at once when 256 are
   // already waiting.
-  void post(const std::string& text, const Server::Reply& reply) {
-    if (!mailbox_.post([this, text, reply] { handle(text, reply); })) {
+  void post(std::string text, const Server::Reply& reply) {
+    if (!mailbox_.post([this, text = std::move(text), reply] { handle(text, reply); })) {
       reply(control_refused({std::nullopt, "motion-web is busy (256 commands waiting): try again"}));
     }
   }
@@ -298,8 +298,8 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
           page_controls->verify_with(*k, std::chrono::milliseconds(config->security.window_ms));
         }
       }
-      server.on_command([c = page_controls.get()](std::string text, web::Server::Reply reply) {
-        c->post(std::move(text), std::move(reply));
+      server.on_command([c = page_controls.get()](std::string text, const web::Server::Reply& reply) {
+        c->post(std::move(text), reply);
       });
     } else {
       server.on_command([](const std::string&, const web::Server::Reply& reply) {

@@ -238,7 +238,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       }
       if (request_.target() == "/ws") {
         stream_.expires_never();
-        std::make_shared<WsSession>(stream_.release_socket(), server_)->run(std::move(request_));
+        std::make_shared<WsSession>(stream_.release_socket(), server_)->run(request_);
         return;
       }
       respond(text_response(http::status::not_found, "no WebSocket here; the lab's messages are on /ws\n"));
