@@ -18,6 +18,7 @@
 #include "motion/security/gateway_commands.hpp"
 #include "motion/security/signed_messages.hpp"
 #include "motion/security/signed_request.hpp"
+#include "motion/testing/temp_dir.hpp"
 #include "sim_lab.hpp"
 
 namespace motion::testing {
@@ -34,23 +35,23 @@ bool contains(const std::string& text, const std::string& part) { return text.fi
 class Security : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new std::string(make_dir());
+    dir_ = new testing::TempDir("motion-security");
     keys_ = new Keys{security::KeyPair::generate("admin"), security::KeyPair::generate("op"),
                      security::KeyPair::generate("watch"), security::KeyPair::generate("stranger")};
     {
       std::ifstream base(source_path("tests/integration/configs/uim342-three-group.yaml"));
-      std::ofstream config(*dir_ + "/lab.yaml");
+      std::ofstream config(dir_->str() + "/lab.yaml");
       config << base.rdbuf()
              << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
              << "  coordinator_public_key: coordinator.pub\n  window_ms: 2000\n";
     }
-    std::ofstream(*dir_ + "/authorized_keys") << "# the test's principals\n"
-                                              << keys_->admin.authorized_line("admin") << "\n"
-                                              << keys_->op.authorized_line("operate") << "\n"
-                                              << keys_->watch.authorized_line("observe") << "\n";
-    ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("coordinator"), *dir_, "admin"), std::nullopt);
-    ASSERT_EQ(security::write_key_pair(keys_->op, *dir_, "operate"), std::nullopt);  // for motionctl --key
-    lab_ = new SimLab(*dir_ + "/lab.yaml");
+    std::ofstream(dir_->str() + "/authorized_keys") << "# the test's principals\n"
+                                                    << keys_->admin.authorized_line("admin") << "\n"
+                                                    << keys_->op.authorized_line("operate") << "\n"
+                                                    << keys_->watch.authorized_line("observe") << "\n";
+    ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("coordinator"), dir_->str(), "admin"), std::nullopt);
+    ASSERT_EQ(security::write_key_pair(keys_->op, dir_->str(), "operate"), std::nullopt);  // for motionctl --key
+    lab_ = new SimLab(dir_->str() + "/lab.yaml");
     clients_ = new std::vector<std::unique_ptr<Client>>;
     heard_ = new std::vector<signed_request_t>;
     // What an eavesdropper records.
@@ -66,7 +67,6 @@ class Security : public ::testing::Test {
     delete clients_;
     delete heard_;
     delete keys_;
-    if (dir_ != nullptr) fs::remove_all(*dir_);
     delete dir_;
   }
   void SetUp() override {
@@ -76,12 +76,6 @@ class Security : public ::testing::Test {
   }
   void TearDown() override {
     if (HasFailure()) lab_->group().print_logs();
-  }
-
-  static std::string make_dir() {
-    std::string pattern = (fs::temp_directory_path() / "motion-security-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    return pattern;
   }
 
   static request_t move_to(const std::string& axis, double target, std::int8_t kind = request_t::MOVE_ABSOLUTE) {
@@ -110,7 +104,7 @@ class Security : public ::testing::Test {
   struct Keys {
     security::KeyPair admin, op, watch, stranger;
   };
-  static std::string* dir_;
+  static testing::TempDir* dir_;  // removed with its contents on delete
   static Keys* keys_;
   static SimLab* lab_;
   static std::vector<std::unique_ptr<Client>>* clients_;
@@ -118,7 +112,7 @@ class Security : public ::testing::Test {
   std::map<std::string, double> before_;
 };
 
-std::string* Security::dir_ = nullptr;
+testing::TempDir* Security::dir_ = nullptr;
 Security::Keys* Security::keys_ = nullptr;
 SimLab* Security::lab_ = nullptr;
 std::vector<std::unique_ptr<Client>>* Security::clients_ = nullptr;
@@ -135,14 +129,14 @@ TEST_F(Security, SignedMoveOfAnOperateKeyEndsDoneAtItsTarget) {
 }
 
 TEST_F(Security, MotionctlSignsWithItsKeyAndRefusesWithoutOne) {
-  const std::string config = *dir_ + "/lab.yaml";
+  const std::string config = dir_->str() + "/lab.yaml";
   const std::string url = lab_->group().lcm_url();
   const double target = before_["w"] - 1.0;
   std::string out;
   const int rc = lab_->group().run_to_completion(
       {"motionctl",
        "motionctl",
-       {"--config", config, "--key", *dir_ + "/op.key", "move", "w=" + std::to_string(target), "--wait"},
+       {"--config", config, "--key", dir_->str() + "/op.key", "move", "w=" + std::to_string(target), "--wait"},
        {}},
       &out, seconds(20));
   EXPECT_EQ(rc, 0) << out;
@@ -271,7 +265,7 @@ TEST_F(Security, GatewayRefusesCommandsNotSignedByTheCoordinator) {
 
 TEST_F(Security, ForgedReplyForAPendingRequestDoesNotEndItWhenTheClientVerifies) {
   const auto op = client("verifying", &keys_->op);
-  const auto coordinator = security::load_public_key(*dir_ + "/coordinator.pub");
+  const auto coordinator = security::load_public_key(dir_->str() + "/coordinator.pub");
   ASSERT_TRUE(std::holds_alternative<security::PublicKey>(coordinator));
   op->verify_with(std::get<security::PublicKey>(coordinator), milliseconds(2000));
   const double target = before_["w"] + 2.0;

@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <string>
 
+#include "motion/testing/temp_dir.hpp"
+
 namespace motion {
 namespace {
 
@@ -17,21 +19,15 @@ namespace fs = std::filesystem;
 
 struct FileAccessTest : ::testing::Test {
   FileAccessTest() {
-    std::string pattern = (fs::temp_directory_path() / "motion-access-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    root = pattern;
     old_umask = ::umask(0);  // the most permissive umask: nothing may come from it
   }
-  ~FileAccessTest() override {
-    ::umask(old_umask);
-    std::error_code ignored;
-    fs::remove_all(root, ignored);
-  }
+  ~FileAccessTest() override { ::umask(old_umask); }
   static mode_t mode_of(const fs::path& p) {
     struct stat st {};
     return ::lstat(p.c_str(), &st) == 0 ? st.st_mode & 07777 : 0;
   }
-  fs::path root;
+  testing::TempDir tmp{"motion-access"};
+  fs::path root = tmp.path();
   mode_t old_umask = 0;
 };
 

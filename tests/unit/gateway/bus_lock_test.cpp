@@ -14,6 +14,8 @@
 #include <string>
 #include <variant>
 
+#include "motion/testing/temp_dir.hpp"
+
 namespace motion::gateway {
 namespace {
 
@@ -21,9 +23,6 @@ namespace fs = std::filesystem;
 
 struct BusLockTest : ::testing::Test {
   BusLockTest() {
-    std::string pattern = (fs::temp_directory_path() / "motion-buslock-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    root = pattern;
     old_umask = ::umask(0);  // the most permissive umask: nothing may come from it
     config.simulation.runtime_dir = (root / "lab").string();
     sim_bus.name = "can0";
@@ -34,14 +33,13 @@ struct BusLockTest : ::testing::Test {
   ~BusLockTest() override {
     ::umask(old_umask);
     ::unsetenv("MOTION_LOCK_DIR");
-    std::error_code ignored;
-    fs::remove_all(root, ignored);
   }
   static mode_t mode_of(const fs::path& p) {
     struct stat st {};
     return ::lstat(p.c_str(), &st) == 0 ? st.st_mode & 07777 : 0;
   }
-  fs::path root;
+  testing::TempDir tmp{"motion-buslock"};
+  fs::path root = tmp.path();
   mode_t old_umask = 0;
   config::Config config;
   config::Bus sim_bus;

@@ -14,6 +14,7 @@
 
 #include "motion/sim/can_bus_host.hpp"
 #include "motion/sim/uim342_drive.hpp"
+#include "motion/testing/temp_dir.hpp"
 #include "motion/uim342/instructions.hpp"
 
 namespace motion::sim {
@@ -22,24 +23,7 @@ namespace {
 namespace u = uim342;
 namespace rq = uim342::request;
 
-class TempDir {
- public:
-  TempDir() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "sim-uim342-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
+using TempDir = testing::TempDir;
 
 bool run_until(EventLoop& loop, const std::function<bool()>& done, Duration timeout = std::chrono::seconds(5)) {
   const TimePoint deadline = SteadyClock::now() + timeout;
@@ -67,7 +51,7 @@ simulation: {runtime_dir: ")" +
 }
 
 TEST(SimUim342BusHost, GroupBgOverTheSimulatedBusStartsBothDrivesOnOneFrame) {
-  TempDir dir;
+  TempDir dir{"sim-uim342"};
   const config::Config config = lab(dir.path());
   EventLoop loop;
   std::vector<motionlcm::sim_report_t> reports;

@@ -18,6 +18,7 @@
 
 #include "motion/can_frame/bit_timing.hpp"
 #include "motion/simbus/address.hpp"
+#include "motion/testing/temp_dir.hpp"
 
 namespace motion::simbus {
 namespace {
@@ -25,25 +26,8 @@ namespace {
 using std::chrono::microseconds;
 using std::chrono::milliseconds;
 
-// A private socket directory per test: no shared paths between tests or concurrent runs.
-class TempDir {
- public:
-  TempDir() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "simbus-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
+// A private socket directory per test.
+using TempDir = testing::TempDir;
 
 bool run_until(EventLoop& loop, const std::function<bool()>& done, Duration timeout = std::chrono::seconds(3)) {
   const TimePoint deadline = SteadyClock::now() + timeout;
@@ -105,7 +89,7 @@ class HubTest : public ::testing::Test {
   }
   EndpointId id_of(const std::string& label) const { return hub->find_endpoint(label).value_or(0); }
 
-  TempDir dir;
+  TempDir dir{"simbus"};
   EventLoop loop;
   std::unique_ptr<Hub> hub;
 };

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "motion/testing/temp_dir.hpp"
+
 #include "motion/security/keys.hpp"
 #include "shipped_lab.hpp"
 
@@ -56,17 +58,10 @@ Shown shown(const LabView& view) {
 
 struct ReplyGateTest : ::testing::Test {
   ReplyGateTest() {
-    std::string pattern = (fs::temp_directory_path() / "motion-web-gate-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    dir = pattern;
     if (auto error = security::write_key_pair(coordinator, dir.string(), "admin")) throw std::runtime_error(*error);
     config = testing::lab();
     config.security.mode = config::SecuritySettings::Mode::kEnforce;
     config.security.coordinator_public_key = security::public_key_path(dir.string(), "coordinator");
-  }
-  ~ReplyGateTest() override {
-    std::error_code ignored;
-    fs::remove_all(dir, ignored);
   }
   ReplyGate gate_of(const config::Config& c) {
     auto gate = ReplyGate::from_config(c, kStart);
@@ -86,7 +81,8 @@ struct ReplyGateTest : ::testing::Test {
     return view;
   }
 
-  fs::path dir;
+  motion::testing::TempDir tmp{"motion-web-gate"};
+  fs::path dir = tmp.path();
   security::KeyPair coordinator = security::KeyPair::generate("coordinator");
   config::Config config;
 };
