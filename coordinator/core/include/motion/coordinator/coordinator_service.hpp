@@ -61,6 +61,7 @@ class CoordinatorService final : private CoordinatorOutput {
   [[nodiscard]] std::vector<std::string> buses_without_gateway() const {
     return core_.buses_without_gateway(loop_.now());
   }
+  [[nodiscard]] std::vector<std::string> axes_never_heard() const { return core_.axes_never_heard(); }
 
  private:
   // Runs the core at the loop's now and re-arms the timer at the deadline it returns.
