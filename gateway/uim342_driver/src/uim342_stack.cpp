@@ -185,7 +185,7 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
       on_sent(r.command_id, group_target, group->members, now);
       return;
     }
-    if (r.background && !poll_may_go()) {
+    if (r.background && !poll_may_go(now)) {
       wait_for_poll_slot(i);
       return;
     }
@@ -197,6 +197,7 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
     // Without echoes, the poll is taken as on the wire once the requests in flight could have gone.
     if (r.background) {
       r.poll_seq = ++polls_handed;
+      r.answer_due = now + queued_wire_time() + kAnswerSlackExchanges * exchange_time;
       poll_slot = PollSlot{i, frame, echoes_seen ? r.deadline : now + queued_wire_time()};
     }
     const std::int64_t command_id = r.command_id;
@@ -252,15 +253,17 @@ void Uim342Stack::Impl::wait_for_poll_slot(std::size_t i) {
   poll_queue.push_back(i);
 }
 
-bool Uim342Stack::Impl::poll_may_go() const {
+bool Uim342Stack::Impl::poll_may_go(TimePoint now) const {
   if (poll_slot) return false;
-  return std::none_of(nodes.begin(), nodes.end(), [this](const Node& n) {
-    return n.busy() && n.queue.front().background && n.queue.front().poll_seq != polls_handed;
+  return std::none_of(nodes.begin(), nodes.end(), [this, now](const Node& n) {
+    if (!n.busy() || !n.queue.front().background) return false;
+    const Request& r = n.queue.front();
+    return now < r.answer_due && r.poll_seq + (kPollsInFlight - 1) <= polls_handed;
   });
 }
 
 void Uim342Stack::Impl::grant_polls(TimePoint now) {
-  while (!poll_queue.empty() && poll_may_go()) {
+  while (!poll_queue.empty() && poll_may_go(now)) {
     const auto j = poll_queue.front();
     poll_queue.pop_front();
     nodes[j].poll_waiting = false;
@@ -448,6 +451,12 @@ TimePoint Uim342Stack::Impl::process(TimePoint now) {
       next = std::min(next, now + n.cfg.request_timeout);
   }
   if (poll_slot) next = std::min(next, poll_slot->release_by);
+  if (!poll_queue.empty()) {  // waiting polls go once an unanswered one no longer holds them back
+    for (const Node& n : nodes) {
+      if (n.busy() && n.queue.front().background && n.queue.front().answer_due > now)
+        next = std::min(next, n.queue.front().answer_due);
+    }
+  }
   return next;
 }
 

@@ -58,6 +58,7 @@ struct Uim342Stack::Impl {
     // slot, behind every command request.
     bool background = false;
     std::uint64_t poll_seq = 0;  // a background request's place in the order they were handed over
+    TimePoint answer_due{};      // a background request: holds later polls back until then at most
     std::shared_ptr<GroupSend> group;
     int attempts = 0;
     bool sent = false;
@@ -141,12 +142,17 @@ struct Uim342Stack::Impl {
   // boundary. Polls thus take whatever the bus leaves idle, up to all of it. When N drives at
   // the configured rate need more than the bus carries, the waiting nodes take the slot in turn
   // (poll_queue, first come first served), and the configuration is told so at start().
-  // At most two polls wait for their answers, and a third goes only once the older of them is
-  // answered: the next poll is on its way while a drive answers (the wire stays busy), yet our
-  // polls (the host's identifier wins arbitration over most drives' answers, §2.5) never hold an
-  // answer back for long. Otherwise a drive whose identifier ranks low would see every newer
-  // answer overtake its own until its request timed out; and a command to a polled node waits
-  // for at most that node's one exchange (§2.1: one outstanding request per node).
+  // A poll goes only while every poll awaiting its answer is among the kPollsInFlight - 1 handed
+  // over last: the next polls are on their way while drives answer (the wire stays busy even when
+  // the gateway reacts a frame late), yet our polls (the host's identifier wins arbitration over
+  // most drives' answers, §2.5) never hold an answer back for long. Otherwise a drive whose
+  // identifier ranks low would see every newer answer overtake its own until its request timed
+  // out; and a command to a polled node waits for at most that node's one exchange (§2.1: one
+  // outstanding request per node). A poll still unanswered at its answer_due (the wire time of
+  // the requests ahead of it and a few exchanges more) holds nothing back: a silent drive does not
+  // stop the others' polls until its timeout.
+  static constexpr std::uint64_t kPollsInFlight = 3;
+  static constexpr int kAnswerSlackExchanges = 4;
   struct PollSlot {
     std::size_t node = 0;
     can::Frame frame;
@@ -155,8 +161,8 @@ struct Uim342Stack::Impl {
   void estimate_poll_period();
   // Node `i`'s next request is a poll and the slot is taken: it waits its turn.
   void wait_for_poll_slot(std::size_t i);
-  // The slot is free, and no poll (background request) awaits its answer but the latest one.
-  [[nodiscard]] bool poll_may_go() const;
+  // The slot is free, and no poll (background request) awaits its answer but the latest ones.
+  [[nodiscard]] bool poll_may_go(TimePoint now) const;
   // Hands waiting polls to the transport while poll_may_go().
   void grant_polls(TimePoint now);
   // The poll in the slot has been on the wire (or is taken as gone): the next waiting poll goes.
