@@ -185,7 +185,8 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
       on_sent(r.command_id, group_target, group->members, now);
       return;
     }
-    if (r.background && !poll_may_go(now)) {
+    // A node already waiting keeps its place in poll_queue (grant_polls() clears the flag first).
+    if (r.background && (n.poll_waiting || !poll_may_go(now))) {
       wait_for_poll_slot(i);
       return;
     }
@@ -431,6 +432,7 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
 
 TimePoint Uim342Stack::Impl::process(TimePoint now) {
   if (poll_slot && now >= poll_slot->release_by) release_poll_slot(now);
+  grant_polls(now);  // the waiting polls first, in their order
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     Node& n = nodes[i];
     if ((n.phase == Phase::kOffline || n.phase == Phase::kRebooting) && now >= n.retry_at) identify(i, now);
