@@ -59,7 +59,9 @@ void AdamStack::finish(std::int64_t command_id, std::int8_t status, const std::s
   auto ended = operations_.finish(command_id, terminal, code, reason);
   std::erase_if(queue_, [command_id](const Transaction& t) { return t.command_id == command_id; });
   for (Drive* d : ended->data->drives) {
-    if (d->motion_owner == command_id) d->motion_owner = 0;
+    if (d->motion_owner != command_id) continue;
+    d->motion_owner = 0;
+    d->power.travel_ended();
   }
 }
 
@@ -419,7 +421,12 @@ void AdamStack::fire(std::int64_t trigger_id, TimePoint now) {
 void AdamStack::start_armed(Operation& op, TimePoint now) {
   const std::int64_t id = op.command.command_id;
   op.watching = true;  // no second fire
-  for (Drive* d : op.drives) d->target = d->table_entry.value_or(0);
+  for (Drive* d : op.drives) {
+    d->target = d->table_entry.value_or(0);
+    // Polled slowly (a long line), the whole move may run between two samples: arriving at 0 is
+    // not a power-up (PowerUpWatch).
+    d->power.travel_started(d->target);
+  }
   const bool broadcast =
       std::all_of(drives_.begin(), drives_.end(), [&](const auto& d) { return neutral_for(*d, op); });
   if (broadcast) {
