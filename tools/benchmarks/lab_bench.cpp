@@ -459,7 +459,13 @@ int run(const Options& opt) {
 
 int main(int argc, char** argv) {
   motion::bench::Options opt;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  const char* const usage = "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N]\n";
+  for (int i = 1; i < argc; i += 2) {
+    // A flag without its value (e.g. --help) is refused, not ignored (it used to run the full lab).
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "%s", usage);
+      return 2;
+    }
     const std::string flag = argv[i];
     const double value = std::atof(argv[i + 1]);
     if (flag == "--scale" && value > 0 && value <= 1)
@@ -473,7 +479,7 @@ int main(int argc, char** argv) {
     else if (flag == "--per-bus")
       opt.per_bus = static_cast<int>(value);
     else {
-      std::fprintf(stderr, "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N]\n");
+      std::fprintf(stderr, "%s", usage);
       return 2;
     }
   }
