@@ -165,10 +165,6 @@ void print_models(const config::Config& c, const std::map<std::string, motionlcm
       std::printf("  start       %s (address %d), %.1f us on the wire\n", start_name(m.start_kinds[i]).c_str(),
                   m.start_addresses[i], m.start_wire_us[i]);
     }
-    if (m.arm_line_us > 0 || m.arm_bystander_us > 0) {
-      std::printf("  arming      %.1f ms on the line, %.1f ms per other drive of the bus\n", m.arm_line_us / 1000.0,
-                  m.arm_bystander_us / 1000.0);
-    }
   }
 }
 
@@ -202,9 +198,7 @@ nlohmann::json models_json(const std::map<std::string, motionlcm::drive_model_t>
         {"ramp_from", m.ramp_from},
         {"position_min", m.position_min},
         {"position_max", m.position_max},
-        {"starts", starts},
-        {"arm_line_us", m.arm_line_us},
-        {"arm_bystander_us", m.arm_bystander_us}};
+        {"starts", starts}};
   }
   return out;
 }
