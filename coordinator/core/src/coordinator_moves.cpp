@@ -105,10 +105,9 @@ Duration Coordinator::arming_line_time(
     double own_us = 0;
     double bystander_us = 0;
     for (const auto& c : cmds) {
-      const auto& model = axes_.at(c.axis).model;
-      if (!model) continue;
-      own_us += model->arm_line_us;
-      bystander_us = std::max(bystander_us, model->arm_bystander_us);
+      const auto& arming = axes_.at(c.axis).arming;
+      own_us += arming.arm_line_us;
+      bystander_us = std::max(bystander_us, arming.arm_bystander_us);
     }
     const auto on_bus = std::count_if(config_.drives.begin(), config_.drives.end(),
                                       [&](const config::Drive& d) { return d.bus == bus; });
