@@ -51,6 +51,8 @@ int main(int argc, char** argv) {
     gateway.set_model_builder([&config = *config](const config::Axis& axis, const gateway::DriveFacts& facts) {
       return drive_model::build(config, axis, facts);
     });
+    gateway.set_arming_builder(
+        [&config = *config](const config::Axis& axis) { return drive_model::arming(config, axis); });
 
     // The bus may not exist yet (motion-sim starting, adapter unplugged): keep trying, and say
     // why in the health meanwhile.

@@ -5,9 +5,12 @@
 //   1. bring-up: seconds until each bus's axes are online (or how many came online by the deadline);
 //   2. per process (motion-sim, each gateway, the coordinator): CPU (utime + stime from /proc over
 //      an idle window, as a fraction of one core) and RSS (VmRSS);
-//   3. per bus, while idle: AXIS_STATE updates per second against the configured poll rate times
-//      the drives online, and the bus load the gateway reports (bus_stats_t, a fraction of the
-//      bus's capacity);
+//   3. per bus, while idle: position samples per second (AXIS_STATE messages with a new
+//      sample_utime: a gateway may publish one sample more than once, ADAM after each of its two
+//      poll reads) against the configured poll rate times the drives online, or, on an ADAM line,
+//      what the line can carry when that is less (adam_polls_per_s: the wire time of one poll's two
+//      transactions and the master's silences, drives answering at once); and the bus load the gateway
+//      reports (bus_stats_t, a fraction of the bus's capacity);
 //   4. a synchronized move of up to `--per-bus` axes of every bus together: request -> STARTED
 //      against the raw LCM round trip of the same run, and the start skew from the simulated
 //      drives' ground truth (SIM_REPORT frame times) against the 200 us plus the spread the
@@ -35,6 +38,7 @@
 
 #include "bench_process.hpp"
 #include "bench_table.hpp"
+#include "motion/adam/rtu.hpp"
 #include "motion/client/client.hpp"
 #include "motion/config/config.hpp"
 #include "motion/core/clock.hpp"
@@ -85,6 +89,21 @@ std::vector<BusPlan> lab_buses(double scale) {
       {"rs485c", "serial", 19200, 10, "adam-modbus", 1, scaled(8), "", 1, 0, 0},
       {"rs232", "serial", 57600, 10, "uim242", 5, scaled(4), "", 1, 0, 0},
   };
+}
+
+// Drive polls per second an ADAM line of `b` can carry: the stack's poll of one drive is two reads
+// (0x0004…0x0007 position and status, 0x00A2…0x00A3 outputs and alarm; adam_stack.hpp), each the
+// request's and the reply's bytes on the wire and the t3.5 of silence the master keeps after a
+// reply, with a drive that answers at once (an upper bound). 8N1, as lab_yaml configures the lines.
+double adam_polls_per_s(const BusPlan& b) {
+  adam::rtu::SerialFormat format;
+  format.baud = static_cast<std::uint32_t>(b.rate);
+  const auto read = [&](std::uint16_t words) {
+    const std::size_t request = 8;              // unit, 0x03, start, quantity, CRC
+    const std::size_t reply = 5U + 2U * words;  // unit, 0x03, byte count, words, CRC
+    return adam::rtu::transmission_time(format, request + reply) + adam::rtu::frame_timing(format).t3_5;
+  };
+  return 1.0 / std::chrono::duration<double>(read(4) + read(2)).count();
 }
 
 std::string setup_of(const std::string& family) {
@@ -197,9 +216,13 @@ int run(const Options& opt) {
   std::map<std::string, motionlcm::health_t> health;
   node.subscribe<motionlcm::health_t>(lcm::channels::kHealth,
                                       [&](const motionlcm::health_t& h, const std::string&) { health[h.process] = h; });
-  std::map<std::string, long> state_count;  // per bus, AXIS_STATE messages
-  node.subscribe<motionlcm::axis_state_t>(
-      lcm::channels::kAxisState, [&](const motionlcm::axis_state_t& s, const std::string&) { ++state_count[s.bus]; });
+  std::map<std::string, long> state_count;          // per bus, position samples (a new sample_utime)
+  std::map<std::string, std::int64_t> last_sample;  // per axis
+  node.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
+                                          [&](const motionlcm::axis_state_t& s, const std::string&) {
+                                            if (std::exchange(last_sample[s.axis], s.sample_utime) != s.sample_utime)
+                                              ++state_count[s.bus];
+                                          });
   std::vector<motionlcm::sim_report_t> reports;
   node.subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport,
                                           [&](const motionlcm::sim_report_t& r, const std::string&) {
@@ -290,10 +313,14 @@ int run(const Options& opt) {
     for (const auto& b : buses) {
       const int online = online_on(b.name);
       const double per_s = static_cast<double>(state_count[b.name]) / window;
-      const double wanted = static_cast<double>(online * b.poll_hz);
-      rows.push_back({"status updates/s " + b.name, fmt("%.0f /s", per_s),
-                      fmt2("%.0f Hz x %.0f online", b.poll_hz, static_cast<double>(online)),
-                      wanted > 0 ? per_s / wanted : 0, ""});
+      const double asked = static_cast<double>(online * b.poll_hz);
+      const double line = b.family == "adam-modbus" ? adam_polls_per_s(b) : asked;
+      const double wanted = std::min(asked, line);
+      rows.push_back({"position samples/s " + b.name, fmt("%.0f /s", per_s),
+                      line < asked ? fmt("line carries %.0f polls/s", line)
+                                   : fmt2("%.0f Hz x %.0f online", b.poll_hz, static_cast<double>(online)),
+                      wanted > 0 ? per_s / wanted : 0,
+                      line < asked ? fmt("%.2f of the asked rate", per_s / asked) : ""});
       const auto h = health.find("gateway:" + b.name);
       if (h != health.end()) {
         for (const auto& s : h->second.buses) {
@@ -432,7 +459,13 @@ int run(const Options& opt) {
 
 int main(int argc, char** argv) {
   motion::bench::Options opt;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  const char* const usage = "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N]\n";
+  for (int i = 1; i < argc; i += 2) {
+    // A flag without its value (e.g. --help) is refused, not ignored (it used to run the full lab).
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "%s", usage);
+      return 2;
+    }
     const std::string flag = argv[i];
     const double value = std::atof(argv[i + 1]);
     if (flag == "--scale" && value > 0 && value <= 1)
@@ -446,7 +479,7 @@ int main(int argc, char** argv) {
     else if (flag == "--per-bus")
       opt.per_bus = static_cast<int>(value);
     else {
-      std::fprintf(stderr, "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N]\n");
+      std::fprintf(stderr, "%s", usage);
       return 2;
     }
   }

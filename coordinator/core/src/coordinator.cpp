@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "coordinator_kinds.hpp"
 #include "motion/coordinator/move_planner.hpp"
@@ -110,6 +111,19 @@ std::set<std::string> Coordinator::buses_missing_models() const {
 const motionlcm::drive_model_t* Coordinator::drive_model(const std::string& axis) const {
   const auto it = axes_.find(axis);
   return it == axes_.end() || !it->second.model ? nullptr : &*it->second.model;
+}
+
+void Coordinator::on_arm_timing(const motionlcm::arm_timing_t& timing, TimePoint now) {
+  begin(now);
+  const auto it = axes_.find(timing.axis);
+  if (it == axes_.end() || timing.bus != it->second.drive->bus) return;
+  if (!std::isfinite(timing.arm_line_us) || !std::isfinite(timing.arm_bystander_us) || timing.arm_line_us < 0 ||
+      timing.arm_bystander_us < 0) {
+    publish_event(timing.axis, motionlcm::event_t::WARNING, motionlcm::event_t::PROTOCOL_ERROR,
+                  "arming time of axis " + timing.axis + " ignored: not a finite, non-negative time");
+    return;
+  }
+  it->second.arming = timing;
 }
 
 void Coordinator::on_drive_model(const motionlcm::drive_model_t& model, TimePoint now) {

@@ -76,6 +76,9 @@ void Coordinator::start_move(Request& r) {
     c.deceleration = p.deceleration;
     per_bus[axes_.at(p.axis).drive->bus].push_back(c);
   }
+  // The arm timeout covers processes, LCM and the host; the line time of the frames arming needs
+  // comes on top (a long ADAM line readies every other drive for the broadcast start).
+  r.phase_deadline = now_ + std::chrono::milliseconds(config_.coordinator.arm_timeout_ms) + arming_line_time(per_bus);
   for (auto& [bus, cmds] : per_bus) {
     // One command per start mechanism, so that each gets its one-frame start (a gateway stack
     // starts a UIM342 group with one BG only when the command holds exactly that group) and its
@@ -93,7 +96,25 @@ void Coordinator::start_move(Request& r) {
       ++r.move_commands;
     }
   }
-  r.phase_deadline = now_ + std::chrono::milliseconds(config_.coordinator.arm_timeout_ms);  // the arm timeout
+}
+
+Duration Coordinator::arming_line_time(
+    const std::map<std::string, std::vector<motionlcm::axis_command_t>>& per_bus) const {
+  double slowest_us = 0;
+  for (const auto& [bus, cmds] : per_bus) {
+    double own_us = 0;
+    double bystander_us = 0;
+    for (const auto& c : cmds) {
+      const auto& arming = axes_.at(c.axis).arming;
+      own_us += arming.arm_line_us;
+      bystander_us = std::max(bystander_us, arming.arm_bystander_us);
+    }
+    const auto on_bus = std::count_if(config_.drives.begin(), config_.drives.end(),
+                                      [&](const config::Drive& d) { return d.bus == bus; });
+    const auto others = std::max<std::ptrdiff_t>(0, on_bus - static_cast<std::ptrdiff_t>(cmds.size()));
+    slowest_us = std::max(slowest_us, own_us + static_cast<double>(others) * bystander_us);
+  }
+  return std::chrono::duration_cast<Duration>(std::chrono::duration<double, std::micro>(slowest_us));
 }
 
 double Coordinator::start_frame_wire_us(const std::vector<motionlcm::axis_command_t>& group, std::int8_t kind) const {

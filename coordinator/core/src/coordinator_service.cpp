@@ -101,6 +101,11 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
                                               core_.on_drive_model(m, loop_.now());
                                               pump();
                                             });
+  node_.subscribe<motionlcm::arm_timing_t>(lcm::channels::kArmTiming,
+                                           [this](const motionlcm::arm_timing_t& m, const std::string&) {
+                                             core_.on_arm_timing(m, loop_.now());
+                                             pump();
+                                           });
   node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kOrphanedMoves,
                                              [this](const motionlcm::active_moves_t& m, const std::string&) {
                                                core_.on_orphaned_moves(m, loop_.now());

@@ -173,6 +173,11 @@ rtu::Request command(std::uint8_t unit, ProgramCommand c) {
 rtu::Request command(std::uint8_t unit, SaveCommand c) {
   return write16(unit, Reg::kSaveCommand, static_cast<std::uint16_t>(c));
 }
+bool is_save(const rtu::Request& request) noexcept {
+  const auto* w = std::get_if<rtu::WriteRegister>(&request.pdu);
+  return w != nullptr && w->address == address(Reg::kSaveCommand) &&
+         w->value == static_cast<std::uint16_t>(SaveCommand::kSave);
+}
 rtu::Request clear_alarm(std::uint8_t unit) { return write16(unit, Reg::kClearAlarm, kClearAlarmValue); }
 
 rtu::Request move(std::uint8_t unit, MoveCommand kind, std::int32_t value) {

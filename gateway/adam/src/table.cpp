@@ -47,15 +47,33 @@ Result<std::vector<rtu::Request>> sync_move_preload(std::uint8_t unit, const Syn
   if (preload.start_offset > info(Reg::kTableStart).max) return AdamErrc::kValueOutOfRange;
   auto frames = profile_writes(unit, preload.profile);
   if (!frames) return frames;
-  const std::int32_t target[] = {preload.target_pulses};
-  auto data = table_data_writes(unit, preload.start_offset, target);
-  if (!data) return data.error();
+  auto entry = single_entry_writes(unit, preload.start_offset, preload.target_pulses);
+  if (!entry) return entry.error();
   auto& out = frames.value();
-  out.insert(out.end(), data.value().begin(), data.value().end());
-  out.push_back(write16(unit, Reg::kTableSize, 1));
-  out.push_back(write16(unit, Reg::kTablePointer, 0));
-  out.push_back(write16(unit, Reg::kTableStart, preload.start_offset));
+  out.insert(out.end(), entry.value().begin(), entry.value().end());
   return frames;
+}
+
+Result<std::vector<rtu::Request>> single_entry_writes(std::uint8_t unit, std::uint16_t start_offset,
+                                                      std::int32_t target) {
+  const std::int32_t entries[] = {target};
+  auto out = table_data_writes(unit, start_offset, entries);
+  if (!out) return out;
+  out.value().push_back(write16(unit, Reg::kTableSize, 1));
+  out.value().push_back(write16(unit, Reg::kTablePointer, 0));
+  out.value().push_back(write16(unit, Reg::kTableStart, start_offset));
+  return out;
+}
+
+std::chrono::nanoseconds transaction_time(const rtu::SerialFormat& format, const rtu::Request& request) {
+  const auto frame = rtu::encode_request(request);
+  const std::size_t request_bytes = frame ? frame.value().size() : 8U;
+  const auto* read = std::get_if<rtu::ReadRegisters>(&request.pdu);
+  const std::size_t reply_bytes = read != nullptr ? 5U + 2U * read->quantity : 8U;  // §5: read / write replies
+  std::chrono::nanoseconds t = rtu::transmission_time(format, request_bytes) + kAssumedReplyLatency +
+                               rtu::transmission_time(format, reply_bytes) + 2 * rtu::frame_timing(format).t3_5;
+  if (is_save(request)) t += kSaveEraseTime;
+  return t;
 }
 
 Result<rtu::Request> table_execute_broadcast(const TableExecute& execute) {

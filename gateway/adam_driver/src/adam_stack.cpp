@@ -62,18 +62,9 @@ AdamStack::~AdamStack() = default;
 
 // ---- Line ---------------------------------------------------------------------------------------
 
-namespace {
-// A Save (0x00DC = 1) erases flash for 0.1 s, all outputs off (ADAM manual §8.69): its reply comes
-// that much later, and it is never sent twice (a retry would erase again).
-bool is_save(const rtu::Request& r) {
-  const auto* w = std::get_if<rtu::WriteRegister>(&r.pdu);
-  return w && w->address == adam::address(Reg::kSaveCommand) &&
-         w->value == static_cast<std::uint16_t>(adam::SaveCommand::kSave);
-}
-}  // namespace
-
 void AdamStack::enqueue(Transaction t, bool urgent) {
-  if (t.drive && !t.is_poll) t.max_retries = is_save(t.request) ? 0 : t.drive->cfg.retries;
+  // A Save is never sent twice (a retry would erase flash again, §8.69).
+  if (t.drive && !t.is_poll) t.max_retries = adam::is_save(t.request) ? 0 : t.drive->cfg.retries;
   if (urgent) {
     queue_.push_front(std::move(t));
   } else if (t.is_poll) {
@@ -103,14 +94,7 @@ void AdamStack::send_next(TimePoint now) {
     if (reserved_at_ != kNever && now < reserved_at_ + kReservationGrace && queue_.front().drive != nullptr) {
       // A scheduled start frame goes out at reserved_at_: nothing that would still run then (nor
       // after it, until the fire comes or the grace is over).
-      const Transaction& next = queue_.front();
-      const auto* read = std::get_if<rtu::ReadRegisters>(&next.request.pdu);
-      const std::size_t reply_bytes = read != nullptr ? 5U + 2U * read->quantity : 8U;  // §5: read / write replies
-      const auto request = rtu::encode_request(next.request);
-      const Duration hold = rtu::transmission_time(settings_.format, request ? request.value().size() : 8U) +
-                            rtu::transmission_time(settings_.format, reply_bytes) + kAssumedDriveLatency +
-                            2 * timing_.t3_5;
-      if (now + hold > reserved_at_) break;
+      if (now + adam::transaction_time(settings_.format, queue_.front().request) > reserved_at_) break;
     }
     Transaction t = std::move(queue_.front());
     queue_.pop_front();
@@ -150,7 +134,8 @@ void AdamStack::send_next(TimePoint now) {
       if (t.on_reply) t.on_reply(rtu::Response{}, now, t.frame_end);
       continue;
     }
-    reply_deadline_ = t.frame_end + t.drive->cfg.request_timeout + (is_save(t.request) ? kFlashErase : Duration{});
+    reply_deadline_ =
+        t.frame_end + t.drive->cfg.request_timeout + (adam::is_save(t.request) ? adam::kSaveEraseTime : Duration{});
     in_flight_ = std::make_unique<Transaction>(std::move(t));
   }
 }

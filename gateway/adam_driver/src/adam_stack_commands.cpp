@@ -59,7 +59,9 @@ void AdamStack::finish(std::int64_t command_id, std::int8_t status, const std::s
   auto ended = operations_.finish(command_id, terminal, code, reason);
   std::erase_if(queue_, [command_id](const Transaction& t) { return t.command_id == command_id; });
   for (Drive* d : ended->data->drives) {
-    if (d->motion_owner == command_id) d->motion_owner = 0;
+    if (d->motion_owner != command_id) continue;
+    d->motion_owner = 0;
+    d->power.travel_ended();
   }
 }
 
@@ -328,12 +330,8 @@ void AdamStack::arm_move(Operation& op, TimePoint now) {
     if (!d->online || !d->position || d->motion_owner != 0 || (d->status && d->status->moving())) continue;
     if (d->table_entry == d->position) continue;
     const std::int32_t here = *d->position;
-    const std::int32_t entry[] = {here};
-    auto writes = adam::table_data_writes(d->cfg.unit, kTableStartOffset, entry);
+    auto writes = adam::single_entry_writes(d->cfg.unit, kTableStartOffset, here);
     if (!writes) continue;
-    writes.value().push_back(adam::write16(d->cfg.unit, Reg::kTableSize, 1));
-    writes.value().push_back(adam::write16(d->cfg.unit, Reg::kTablePointer, 0));
-    writes.value().push_back(adam::write16(d->cfg.unit, Reg::kTableStart, kTableStartOffset));
     if (d->cfg.table_save) writes.value().push_back(adam::command(d->cfg.unit, adam::SaveCommand::kSave));
     for (std::size_t i = 0; i < writes.value().size(); ++i) {
       Transaction t{writes.value()[i], d};
@@ -419,7 +417,12 @@ void AdamStack::fire(std::int64_t trigger_id, TimePoint now) {
 void AdamStack::start_armed(Operation& op, TimePoint now) {
   const std::int64_t id = op.command.command_id;
   op.watching = true;  // no second fire
-  for (Drive* d : op.drives) d->target = d->table_entry.value_or(0);
+  for (Drive* d : op.drives) {
+    d->target = d->table_entry.value_or(0);
+    // Polled slowly (a long line), the whole move may run between two samples: arriving at 0 is
+    // not a power-up (PowerUpWatch).
+    d->power.travel_started(d->target);
+  }
   const bool broadcast =
       std::all_of(drives_.begin(), drives_.end(), [&](const auto& d) { return neutral_for(*d, op); });
   if (broadcast) {
@@ -436,7 +439,8 @@ void AdamStack::start_armed(Operation& op, TimePoint now) {
   } else {
     // One absolute move per axis (0x00D0, §8.65⑥), in order, each acknowledged.
     const Duration per_axis = rtu::transmission_time(settings_.format, 13) +
-                              rtu::transmission_time(settings_.format, 8) + 2 * timing_.t3_5 + kAssumedDriveLatency;
+                              rtu::transmission_time(settings_.format, 8) + 2 * timing_.t3_5 +
+                              adam::kAssumedReplyLatency;
     const double skew_us =
         std::chrono::duration<double, std::micro>(per_axis).count() * static_cast<double>(op.drives.size() - 1);
     op.outstanding = 0;

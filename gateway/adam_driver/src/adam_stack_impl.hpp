@@ -47,13 +47,9 @@ constexpr std::uint16_t kDefaultHomingRpm = 60;
 constexpr std::uint8_t kMaxOutputs = 8;  // Y0…Y7 (§8.51)
 // 0x0017 above any real encoder's lines forces open loop (§8.18).
 constexpr std::uint16_t kForceOpenLoopLines = 0xFFFF;
-// A Save's flash erase (ADAM manual §8.69: 0.1 s per erase, outputs off meanwhile).
-constexpr auto kFlashErase = std::chrono::milliseconds(100);
 // 0x009A working speed, whole rpm 0…1000 (§8.44): a table entry's speed is written here as well as
 // to 0x00D8 (§8.64, 0.01 rpm), so planned speeds are whole rpm (the drive model's grid).
 constexpr long kMaxWorkingSpeedRpm = 1000;
-// Reply latency assumed (the manual gives none) for the predicted skew of a sequential start.
-constexpr auto kAssumedDriveLatency = std::chrono::milliseconds(1);
 // A line reserved for a scheduled start frame (reserve_line) is released this long after the
 // start time when its fire never came.
 constexpr auto kReservationGrace = std::chrono::milliseconds(5);

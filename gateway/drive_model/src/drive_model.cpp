@@ -150,6 +150,36 @@ std::optional<std::string> adam(Model& m, const config::Drive& drive, const conf
   return std::nullopt;
 }
 
+// The line time of arming an ADAM axis as the stack does it (adam_stack.hpp, ARM_MOVE): the
+// working speed 0x009A, the preload (profile, table entry 0, §8.54) and, with setup table_save
+// (default true), a Save with its flash erase (§8.69); each other drive of the line gets its entry
+// 0 at its own position (and a Save) so that the broadcast start moves it nowhere. Frame lengths
+// do not depend on the values, so any valid ones stand in.
+std::optional<std::string> adam_arming(motionlcm::arm_timing_t& t, const config::Drive& drive, const config::Bus& bus) {
+  adam::rtu::SerialFormat format;
+  format.baud = static_cast<std::uint32_t>(bus.baud);
+  format.parity = bus.parity == 'E'   ? adam::rtu::Parity::kEven
+                  : bus.parity == 'O' ? adam::rtu::Parity::kOdd
+                                      : adam::rtu::Parity::kNone;
+  format.stop_bits = static_cast<std::uint8_t>(bus.stop_bits);
+  const auto unit = static_cast<std::uint8_t>(drive.node_id);
+  const bool save = drive.setup_flag("table_save").value_or(true);
+  const auto line_us = [&](std::vector<adam::rtu::Request> requests) {
+    if (save) requests.push_back(adam::command(unit, adam::SaveCommand::kSave));
+    double us = 0;
+    for (const auto& r : requests) us += micros(adam::transaction_time(format, r));
+    return us;
+  };
+  adam::SyncMovePreload preload;
+  auto own = adam::sync_move_preload(unit, preload);
+  auto bystander = adam::single_entry_writes(unit, preload.start_offset, 0);
+  if (!own || !bystander) return "drive " + drive.name + ": no ADAM preload frames";
+  own.value().push_back(adam::write16(unit, adam::Reg::kWorkingSpeed, 1));
+  t.arm_line_us = line_us(std::move(own.value()));
+  t.arm_bystander_us = line_us(std::move(bystander.value()));
+  return std::nullopt;
+}
+
 std::optional<std::string> uim242(Model& m, const config::Bus& bus) {
   const auto& speed = uim242::spec(uim242::Mnemonic::kSPD);
   const auto& acceleration = uim242::spec(uim242::Mnemonic::kMAC);
@@ -221,6 +251,21 @@ ModelOrError build(const config::Config& config, const config::Axis& axis, const
   if (why) return "axis " + axis.name + ": " + *why;
   if (m.grid.empty()) return "drive " + drive->name + ": unknown drive family";
   return m;
+}
+
+std::variant<motionlcm::arm_timing_t, std::string> arming(const config::Config& config, const config::Axis& axis) {
+  const config::Drive* drive = config.drive_of(axis);
+  if (drive == nullptr) return "axis " + axis.name + " has no drive";
+  const config::Bus* bus = config.find_bus(drive->bus);
+  if (bus == nullptr) return "drive " + drive->name + " is on no configured bus";
+  motionlcm::arm_timing_t t{};
+  t.bus = bus->name;
+  t.axis = axis.name;
+  t.drive = drive->name;
+  if (drive->family == config::Family::kAdamModbus) {
+    if (auto why = adam_arming(t, *drive, *bus)) return "axis " + axis.name + ": " + *why;
+  }
+  return t;
 }
 
 }  // namespace motion::drive_model

@@ -556,6 +556,15 @@ void Gateway::publish_model(const std::string& axis, bool always) {
   models_[axis] = model;
   model.utime = wall_time_us();
   node_.publish(lcm::channels::kDriveModel, model);
+  if (!arming_builder_) return;
+  auto arming = arming_builder_(cfg);
+  if (auto* why = std::get_if<std::string>(&arming)) {
+    spdlog::warn("bus {}: no arming time for axis {}: {}", bus_, axis, *why);
+    return;
+  }
+  auto& timing = std::get<motionlcm::arm_timing_t>(arming);
+  timing.utime = model.utime;
+  node_.publish(lcm::channels::kArmTiming, timing);
 }
 
 void Gateway::on_model_request(const motionlcm::drive_model_request_t& request) {

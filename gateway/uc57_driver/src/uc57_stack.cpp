@@ -180,9 +180,17 @@ TimePoint Uc57Stack::process(TimePoint now) {
   now_ = now;
   if (!started_) return kNever;
   TimePoint next = kNever;
+  std::size_t busy = configuring();
   for (std::size_t n = 0; n < nodes_.size(); ++n) {
     Node& node = *nodes_[n];
-    if (node.phase == Node::Phase::kOffline && now >= node.retry_at) begin_probe(n, now);
+    if (node.awaiting_slot && busy < configuration_window_) {
+      probe_now(n);
+      ++busy;
+    }
+    if (node.phase == Node::Phase::kOffline && now >= node.retry_at) {
+      begin_probe(n, now);
+      if (node.phase == Node::Phase::kConfiguring) ++busy;
+    }
     if (node.phase == Node::Phase::kStarting && now >= node.starting_deadline) {
       node.starting_deadline = kNever;
       configuration_failed(n, node.settings.label() + ": no Operational heartbeat after NMT start", true);

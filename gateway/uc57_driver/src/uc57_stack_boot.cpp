@@ -2,6 +2,10 @@
 // heartbeats and EMCY, and the stack's SDO helpers.
 #include "uc57_stack_impl.hpp"
 
+#include <array>
+
+#include "motion/can_frame/bit_timing.hpp"
+
 namespace motion::uc57_driver {
 
 // ---------------------------------------------------------------------------------------------
@@ -11,6 +15,7 @@ namespace motion::uc57_driver {
 void Uc57Stack::start(TimePoint now) {
   now_ = now;
   started_ = true;
+  set_configuration_window();
   if (!poll_warning_.empty() && context_.out != nullptr) {
     gateway::DriveEvent e;
     e.kind = Event::CONFIG_MISMATCH;
@@ -37,8 +42,44 @@ void Uc57Stack::start(TimePoint now) {
   master_.sync()->start(now);
 }
 
+// A node's configuration is a chain of SDO exchanges, one at a time. Configuring every node at
+// once puts one exchange per node on the bus together: with 127 nodes the last answers of each
+// round came after the 50 ms SDO timeout behind a loaded host (lab bench), and a remap step that
+// times out resets the node (boot-up, a heartbeat gap, its configuration again), which fed the
+// burst. So at most as many nodes are configured at once as their exchanges (request + response,
+// 8 data bytes each) fill an eighth of the shortest SDO timeout on the wire, at least one: 25 at
+// 1 Mbit/s and 50 ms, 3 at 125 kbit/s.
+void Uc57Stack::set_configuration_window() {
+  Duration timeout = std::chrono::hours(1);
+  for (const auto& node : nodes_) timeout = std::min(timeout, node->settings.sdo_timeout);
+  const std::array<std::uint8_t, 8> data{};
+  const auto sdo = can::Frame::make(canopen::sdo_request_cob_id(1), false, data);
+  const Duration exchange = sdo ? 2 * can::frame_duration(*sdo, bitrate_) : timeout;
+  configuration_window_ = std::max<std::size_t>(1, static_cast<std::size_t>((timeout / 8) / exchange));
+}
+
+std::size_t Uc57Stack::configuring() const {
+  return static_cast<std::size_t>(std::count_if(
+      nodes_.begin(), nodes_.end(), [](const auto& node) { return node->phase == Node::Phase::kConfiguring; }));
+}
+
 void Uc57Stack::begin_probe(std::size_t n, TimePoint /*now*/) {
   Node& node = *nodes_[n];
+  const bool self = node.phase == Node::Phase::kConfiguring;
+  if (configuring() - (self ? 1 : 0) >= configuration_window_) {
+    ++node.session;  // a configuration under way stops
+    master_.sdo().cancel(node.settings.node);
+    node.phase = Node::Phase::kOffline;
+    node.retry_at = kNever;
+    node.awaiting_slot = true;  // process() starts it when the window has room
+    return;
+  }
+  probe_now(n);
+}
+
+void Uc57Stack::probe_now(std::size_t n) {
+  Node& node = *nodes_[n];
+  node.awaiting_slot = false;
   node.retry_at = kNever;
   node.phase = Node::Phase::kConfiguring;
   ++node.session;

@@ -126,6 +126,7 @@ struct Uc57Stack::Node {
   Phase phase = Phase::kOffline;
   unsigned session = 0;  // bumped by every (re)configuration: stale callbacks are dropped
   TimePoint retry_at = kNever;
+  bool awaiting_slot = false;  // offline, to be configured once the window has room (begin_probe)
   Duration backoff{};
   TimePoint starting_deadline = kNever;
   bool offline_reported = false;  // an offline event went out since the node was last online

@@ -48,6 +48,8 @@ struct Recorder final : gateway::GatewayOutput {
   std::vector<std::pair<std::string, gateway::DriveStatus>> statuses;
   std::vector<gateway::DriveEvent> events;
   std::vector<Reply> replies;
+  std::vector<std::string> lost;  // position_lost: why
+  void position_lost(const std::string&, const std::string& why) override { lost.push_back(why); }
   void axis_status(const std::string& axis, const gateway::DriveStatus& s) override { statuses.emplace_back(axis, s); }
   void axis_event(const std::string&, const gateway::DriveEvent& e) override { events.push_back(e); }
   void command_reply(Reply r) override { replies.push_back(std::move(r)); }
@@ -472,6 +474,29 @@ TEST_F(TwoDriveTest, AReservedLineSendsTheBroadcastAtOnceWhereAPollRoundWouldHol
   // The polls held back go out after it.
   run_for(20ms);
   EXPECT_GT(sent.size(), before + 1);
+}
+
+TEST_F(TwoDriveTest, AMoveToZeroRunWholeBetweenTwoSamplesIsNotAPowerUp) {
+  // A long line polled slowly: the sample before the start reads 8000 at rest, the next one 0 at
+  // rest (the fake drive arrives at once). The counter at 0 is the move's target, not a power-up.
+  banks[1].set_position(8000);
+  run_for(250ms);
+  const auto last_of_c =
+      std::find_if(out.statuses.rbegin(), out.statuses.rend(), [](const auto& s) { return s.first == "c"; });
+  ASSERT_NE(last_of_c, out.statuses.rend());
+  ASSERT_EQ(last_of_c->second.position_counts, 8000);
+  core->execute(arm(15, 0, {{"c", 0}}), now);  // trigger 0: start at once
+  run_for(400ms);
+  ASSERT_EQ(out.terminal(15), 1);
+  EXPECT_EQ(out.of(15).back().status, kDone) << out.of(15).back().reason;
+  EXPECT_TRUE(out.lost.empty()) << out.lost.front();
+  // Once the move ended, a jump to 0 at rest is a power-up again.
+  banks[1].set_position(8000);
+  run_for(250ms);
+  banks[1].set_position(0);
+  run_for(250ms);
+  ASSERT_EQ(out.lost.size(), 1U);
+  EXPECT_NE(out.lost[0].find("answers as freshly powered up"), std::string::npos) << out.lost[0];
 }
 
 TEST_F(TwoDriveTest, MovingBystanderForcesASequentialStart) {

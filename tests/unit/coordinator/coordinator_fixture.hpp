@@ -219,6 +219,10 @@ struct FakeGateways {
       if (silent.contains(m.bus) || !publish_models) continue;
       loop_.send_to_cores([m](Coordinator& c, TimePoint now) { c.on_drive_model(m, now); });
     }
+    for (const auto& [name, t] : armings) {
+      if (silent.contains(t.bus)) continue;
+      loop_.send_to_cores([t](Coordinator& c, TimePoint now) { c.on_arm_timing(t, now); });
+    }
     for (auto& [name, s] : states) {
       if (silent.contains(s.bus)) continue;
       s.utime = s.sample_utime = loop_.wall_us();
@@ -247,6 +251,8 @@ struct FakeGateways {
   }
   void add_axis(const std::string& name, const std::string& bus, double scale, const std::string& family) {
     models[name] = test_model(name, bus, family);
+    armings[name].bus = bus;
+    armings[name].axis = name;
     motionlcm::axis_state_t s{};
     s.axis = name;
     s.bus = bus;
@@ -267,6 +273,7 @@ struct FakeGateways {
   std::map<std::string, motionlcm::axis_state_t> states;
   std::map<std::string, double> scales;
   std::map<std::string, motionlcm::drive_model_t> models;  // DRIVE_MODEL, every tick
+  std::map<std::string, motionlcm::arm_timing_t> armings;  // ARM_TIMING (zero unless a test sets it), every tick
   bool publish_models = true;
   std::vector<TimePoint> model_requests;  // when the coordinator sent DRIVE_MODEL_REQUEST
   std::map<std::string, std::int32_t> pid_of{{"can0", 100}, {"rs485", 200}};

@@ -223,6 +223,30 @@ TEST_F(CoordinatorTest, SilentGatewayDuringArmingFailsTheRequest) {
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kArmFailed));
 }
 
+TEST_F(CoordinatorTest, ArmingDeadlineAddsTheLineTimeOfArmingFromItsArmTiming) {
+  // A long serial line: arming c takes 1.5 s of frames (its ARM_TIMING says so), the arm timeout is
+  // 0.5 s. Its gateway answers ARMED after 1.2 s: in time, since the line time counts on top.
+  auto_execute_moves();
+  const auto answer = gateways.on_command;
+  gateways.on_command = [this, answer](const gateway_command_t& c) {
+    if (c.kind != gateway_command_t::ARM_MOVE || c.bus != "rs485") return answer(c);
+    loop.call_after(milliseconds(1200), [answer, c] { answer(c); });
+  };
+  gateways.armings["c"].arm_line_us = 1'500'000;
+  pump(milliseconds(100));  // the timings reach the coordinator
+  const auto made = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {1.0, 1.0}));
+  EXPECT_EQ(made.status, std::int8_t{reply_t::DONE}) << made.reason;
+  // Readying other drives of the bus counts per other drive: c has none on rs485, so the same
+  // 1.5 s given as a bystander's cost adds nothing and the 1.2 s answer is too late.
+  gateways.armings["c"].arm_line_us = 0;
+  gateways.armings["c"].arm_bystander_us = 1'500'000;
+  pump(milliseconds(100));
+  const auto late = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {2.0, 2.0}));
+  EXPECT_EQ(late.status, std::int8_t{reply_t::FAILED});
+  EXPECT_EQ(late.error_code, static_cast<int>(ReplyError::kArmFailed));
+  EXPECT_NE(late.reason.find("rs485"), std::string::npos) << late.reason;
+}
+
 TEST_F(CoordinatorTest, RequestTimeoutFailsAndStops) {
   auto_execute_moves(/*complete=*/false);
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x"}, {5.0}, /*timeout_ms=*/300);

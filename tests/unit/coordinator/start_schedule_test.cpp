@@ -79,6 +79,11 @@ axes:
     if (auto* why = std::get_if<std::string>(&m)) throw std::runtime_error(*why);
     return std::get<motionlcm::drive_model_t>(m);
   };
+  const auto arming = [&](const std::string& axis) {
+    auto t = drive_model::arming(cfg, *cfg.find_axis(axis));
+    if (auto* why = std::get_if<std::string>(&t)) throw std::runtime_error(*why);
+    return std::get<motionlcm::arm_timing_t>(t);
+  };
   using M = motionlcm::drive_model_t;
   const auto bg = start_wire_us(model("x"), M::START_UIM342_GROUP_BG);
   const auto sync = start_wire_us(model("a"), M::START_CANOPEN_SYNC);
@@ -95,6 +100,17 @@ axes:
   EXPECT_DOUBLE_EQ(bus(s, "rs485").lead_us, *broadcast);
   EXPECT_GT(*broadcast, 10 * *bg);  // the serial broadcast is the longest lead by far
   EXPECT_DOUBLE_EQ(s.max_lead_us, *broadcast);
+  // Arming's line time, ADAM only (the CAN families arm in a few frames): per transaction the
+  // request and reply bytes at 10 bits each (8N1, 520.8 us at 19200 baud), 1 ms assumed reply
+  // latency and t3.5 (3.5 characters) after each frame; a Save adds its 0.1 s flash erase (§8.69).
+  // The axis: 0x0096..99 and 0x00D8 profile, table entry 0, 0x00AA/AB/AC, 0x009A, Save: 147 bytes
+  // in 8 transactions. Another drive of the line: its entry 0, 0x00AA/AB/AC, Save: 85 bytes in 5.
+  EXPECT_EQ(arming("x").arm_line_us, 0.0);
+  EXPECT_EQ(arming("a").arm_bystander_us, 0.0);
+  const double byte_us = 1e6 * 10 / 19200;
+  const double gaps_us = 1000 + 2 * 3.5 * byte_us;
+  EXPECT_NEAR(arming("c").arm_line_us, 147 * byte_us + 8 * gaps_us + 100000, 1.0);
+  EXPECT_NEAR(arming("c").arm_bystander_us, 85 * byte_us + 5 * gaps_us + 100000, 1.0);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include <motionlcm/arm_timing_t.hpp>
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
@@ -247,6 +248,40 @@ namespace {
 
 // DRIVE_MODEL: published before the axis's first online status, again only when what the driver
 // read changes it, and for every set-up axis on a DRIVE_MODEL_REQUEST for this bus (or all buses).
+// ARM_TIMING goes out with each DRIVE_MODEL of the axis, from the arming builder, dated like it.
+TEST_F(Fixture, ArmTimingIsPublishedWithEachDriveModel) {
+  std::vector<motionlcm::drive_model_t> models;
+  std::vector<motionlcm::arm_timing_t> timings;
+  node.subscribe<motionlcm::drive_model_t>(
+      lcm::channels::kDriveModel, [&](const motionlcm::drive_model_t& m, const std::string&) { models.push_back(m); });
+  node.subscribe<motionlcm::arm_timing_t>(
+      lcm::channels::kArmTiming, [&](const motionlcm::arm_timing_t& t, const std::string&) { timings.push_back(t); });
+  gateway.set_model_builder(
+      [](const config::Axis& axis, const DriveFacts&) -> std::variant<motionlcm::drive_model_t, std::string> {
+        motionlcm::drive_model_t m{};
+        m.axis = axis.name;
+        return m;
+      });
+  gateway.set_arming_builder([](const config::Axis& axis) -> std::variant<motionlcm::arm_timing_t, std::string> {
+    motionlcm::arm_timing_t t{};
+    t.axis = axis.name;
+    t.arm_line_us = 1234.5;
+    t.arm_bystander_us = 67.0;
+    return t;
+  });
+  DriveStatus online;
+  online.online = true;
+  gateway.axis_status("x", online);
+  motionlcm::drive_model_request_t all{};
+  node.publish(lcm::channels::kDriveModelRequest, all);
+  pump_until([&] { return timings.size() >= 2 && models.size() >= 2; });
+  ASSERT_EQ(timings.size(), 2u);
+  EXPECT_EQ(timings[0].axis, "x");
+  EXPECT_DOUBLE_EQ(timings[0].arm_line_us, 1234.5);
+  EXPECT_DOUBLE_EQ(timings[0].arm_bystander_us, 67.0);
+  EXPECT_EQ(timings[0].utime, models[0].utime);
+}
+
 TEST_F(Fixture, DriveModelIsPublishedWhenSetUpOnChangeAndOnRequest) {
   std::vector<std::string> order;  // "model:<cpr>" / "state"
   std::vector<motionlcm::drive_model_t> models;

@@ -54,6 +54,31 @@ TEST(PowerUpWatch, TheDriversOwnOriginOrRebootIsNot) {
   EXPECT_FALSE(w.sample(0, 0, t0 + milliseconds(150), false));
 }
 
+TEST(PowerUpWatch, AMoveOfOursToZeroSeenOnlyAtItsEndsIsNot) {
+  // A long line polled slowly: the sample before the start at rest at 1280, the next at 0 at rest
+  // after the whole move ran between them (lab bench, 12 ADAM per line).
+  PowerUpWatch w;
+  const TimePoint t0{};
+  EXPECT_FALSE(w.sample(1280, 0, t0, false));
+  w.travel_started(0);
+  EXPECT_FALSE(w.sample(0, 0, t0 + milliseconds(1500), false));
+  w.travel_ended();
+  // A move to elsewhere explains no 0, and once the move ended a jump to 0 is a power-up again.
+  EXPECT_FALSE(w.sample(1280, 0, t0 + milliseconds(3000), false));
+  w.travel_started(5000);
+  EXPECT_TRUE(w.sample(0, 0, t0 + milliseconds(4500), false));
+  PowerUpWatch after;
+  after.travel_started(0);
+  after.travel_ended();
+  EXPECT_FALSE(after.sample(1280, 0, t0, false));
+  EXPECT_TRUE(after.sample(0, 0, t0 + milliseconds(1500), false));
+  // The power stage turned off by nobody still tells, even during a move to 0.
+  PowerUpWatch off;
+  EXPECT_FALSE(off.sample(1280, 0, t0, false));
+  off.travel_started(0);
+  EXPECT_TRUE(off.sample(0, 0, t0 + milliseconds(1500), true));
+}
+
 TEST(PowerUpWatch, AfterASilenceOnlyThePowerStageTurnedOffByNobodyTells) {
   PowerUpWatch w;
   const TimePoint t0{};

@@ -23,8 +23,10 @@
 
 #include <motionlcm/event_t.hpp>
 
+#include "motion/adam/rtu.hpp"
 #include "motion/adam_driver/adam_bus_driver.hpp"
 #include "motion/serial/pty_link.hpp"
+#include "motion/serial/serial_port.hpp"
 #include "motion/sim/adam_line_sim.hpp"
 
 extern char** environ;
@@ -251,6 +253,36 @@ StartSerialServer(context=ctx, framer=ModbusRtuFramer, port=sys.argv[1], baudrat
   EXPECT_EQ(stats.state, "open");
   loop_.unwatch(a->master_fd());
   loop_.unwatch(b->master_fd());
+}
+
+TEST_F(PtyInterop, AReplyCrossesTheSimulatedLineAtItsBaudRate) {
+  // At 9600 baud a read of 4 registers is 8 request and 13 reply bytes, 10 bits each: the reply
+  // cannot be complete before 21 characters' wire time (21.9 ms) after the request was written,
+  // however fast the host. Before, the simulated line delayed only the request (8.3 ms).
+  config_.buses[0].baud = 9600;
+  std::error_code error;
+  auto host = sim::open_adam_line(
+      loop_, config_, config_.buses[0], [](motionlcm::sim_report_t) {}, error);
+  ASSERT_TRUE(host) << error.message();
+  auto port = serial::SerialPort::open(host->link_path(), serial::line_settings(9600, 'N', 1), error);
+  ASSERT_TRUE(port) << error.message();
+  const auto request = adam::rtu::encode_request({1, adam::rtu::ReadRegisters{0x0004, 4}});
+  ASSERT_TRUE(request.ok());
+  const auto written = SteadyClock::now();
+  ASSERT_FALSE(port->write(request.value()));
+  std::vector<std::uint8_t> reply;
+  ASSERT_TRUE(pump_until(
+      [&] {
+        std::array<std::uint8_t, 64> buffer{};
+        const std::size_t n = port->read(buffer, error);
+        reply.insert(reply.end(), buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(n));
+        return reply.size() >= 13;
+      },
+      2s));
+  const auto took = SteadyClock::now() - written;
+  EXPECT_EQ(reply.size(), 13U);
+  const auto wire = serial::line_settings(9600, 'N', 1).wire_time(8 + 13);
+  EXPECT_GE(took, wire) << "the reply arrived faster than the line carries it";
 }
 
 TEST_F(PtyInterop, MasterAndSimulatorMoveEndToEnd) {

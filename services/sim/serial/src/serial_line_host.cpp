@@ -110,7 +110,11 @@ void SerialLineHost::send(std::span<const std::uint8_t> bytes, Duration delay) {
                noise_in_frame_.end());
     noise_in_frame_.clear();
   }
-  outbox_.emplace(loop_.now() + delay, std::move(out));
+  // The device's bytes cross the line too: written when their last character has, after the
+  // device's delay and after whatever is still on the line (before, a reply arrived at once, and a
+  // 19200-baud line carried more than its baud rate allows).
+  line_busy_until_ = std::max(line_busy_until_, loop_.now() + delay) + configured_line(bus_).wire_time(out.size());
+  outbox_.emplace(line_busy_until_, std::move(out));
 }
 
 std::vector<std::uint8_t> SerialLineHost::noise(std::size_t count) {

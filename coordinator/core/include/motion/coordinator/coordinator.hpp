@@ -45,6 +45,7 @@
 #include <vector>
 
 #include <motionlcm/active_moves_t.hpp>
+#include <motionlcm/arm_timing_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
@@ -150,6 +151,10 @@ class Coordinator {
   // configuration's is ignored with a PROTOCOL_ERROR event. While an axis whose gateway is alive
   // has no model, a DRIVE_MODEL_REQUEST goes out once a second.
   void on_drive_model(const motionlcm::drive_model_t& model, TimePoint now);
+  // ARM_TIMING: how long arming an axis's move takes on its bus, added to the arming deadline
+  // (arming_line_time). One for an axis that is not configured or not on that bus is ignored; an
+  // axis without one adds nothing (arm_timeout_ms alone).
+  void on_arm_timing(const motionlcm::arm_timing_t& timing, TimePoint now);
 
   // Runs everything due at `now`; returns the next deadline, kNever when nothing is scheduled.
   [[nodiscard]] TimePoint process(TimePoint now);
@@ -180,6 +185,7 @@ class Coordinator {
     std::optional<motionlcm::drive_model_t> model;
     std::shared_ptr<const planner::DriveQuantizer> quantizer;
     std::string model_error;
+    motionlcm::arm_timing_t arming{};  // from ARM_TIMING; zero until one arrives
   };
   struct GatewayLive {
     TimePoint last_heartbeat{};  // TimePoint{}: announced STOPPING (offline until it heartbeats)
@@ -266,6 +272,11 @@ class Coordinator {
       std::vector<std::int8_t>* kinds = nullptr) const;
   // The wire time of the start frame of a group of `kind` (its drive models'; 0 when none says).
   [[nodiscard]] double start_frame_wire_us(const std::vector<motionlcm::axis_command_t>& group, std::int8_t kind) const;
+  // The line time the gateways need to arm `per_bus` (axis commands per bus), from the drive
+  // ARM_TIMINGs (arm_line_us per axis armed, arm_bystander_us per other drive of its bus): the slowest
+  // bus's. Added to arm_timeout_ms for the arming deadline.
+  [[nodiscard]] Duration arming_line_time(
+      const std::map<std::string, std::vector<motionlcm::axis_command_t>>& per_bus) const;
   void start_simple(Request& r);
   void preempt(const motionlcm::request_t& stop);
   void fire(Request& r);

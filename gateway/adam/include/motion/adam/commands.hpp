@@ -7,6 +7,7 @@
 // Thread contract: pure functions and value types, thread-safe.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <optional>
 
@@ -162,6 +163,10 @@ struct PositionReminder {
 [[nodiscard]] rtu::Request command(std::uint8_t unit, EnableCommand c);
 [[nodiscard]] rtu::Request command(std::uint8_t unit, ProgramCommand c);
 [[nodiscard]] rtu::Request command(std::uint8_t unit, SaveCommand c);
+// A Save (0x00DC = 1) erases flash for 0.1 s, all outputs off meanwhile (§8.69): its reply comes
+// that much later.
+inline constexpr std::chrono::milliseconds kSaveEraseTime{100};
+[[nodiscard]] bool is_save(const rtu::Request& request) noexcept;
 [[nodiscard]] rtu::Request clear_alarm(std::uint8_t unit);
 
 // 32-bit motion commands (§8.65③–⑦, §8.66).

@@ -17,6 +17,7 @@
 // Thread contract: pure functions, thread-safe.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -43,6 +44,19 @@ inline constexpr std::uint16_t kMaxTablePointer = 4095;  // 0x00AB range
 [[nodiscard]] Result<std::vector<rtu::Request>> table_data_writes(
     std::uint8_t unit, std::uint16_t start_offset, std::span<const std::int32_t> entries,
     std::uint16_t max_registers_per_frame = kMaxDriveWriteRegisters - 1);
+
+// Table entry 0 = `target` loaded and selected: its data, then 0x00AA = 1, 0x00AB = 0 and 0x00AC =
+// `start_offset` (§8.54). Also what readies a drive that must not move on a broadcast start: its
+// entry 0 at its own position.
+[[nodiscard]] Result<std::vector<rtu::Request>> single_entry_writes(std::uint8_t unit, std::uint16_t start_offset,
+                                                                    std::int32_t target);
+
+// The drive's reply latency, assumed (the manual gives none).
+inline constexpr std::chrono::milliseconds kAssumedReplyLatency{1};
+// Line time of one addressed transaction as the master runs it: the request, kAssumedReplyLatency,
+// the reply (a read: 5 bytes + 2 per register; a write: 8), t3.5 after each frame, and a Save's
+// flash erase (kSaveEraseTime).
+[[nodiscard]] std::chrono::nanoseconds transaction_time(const rtu::SerialFormat& format, const rtu::Request& request);
 
 // Motion profile preloaded per drive before a synchronized start (§8.40–§8.44, §8.64; assumed, not
 // stated: all moves use the working speed). Start/stop speeds rpm, ramp times ms, speed in 0.01 rpm.

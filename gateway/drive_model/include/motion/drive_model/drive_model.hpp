@@ -26,6 +26,7 @@
 #include <string>
 #include <variant>
 
+#include <motionlcm/arm_timing_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
 
 #include "motion/config/config.hpp"
@@ -41,5 +42,11 @@ namespace motion::drive_model {
 [[nodiscard]] std::variant<motionlcm::drive_model_t, std::string> build(const config::Config& config,
                                                                         const config::Axis& axis,
                                                                         const gateway::DriveFacts& facts = {});
+
+// How long arming a move of `axis` takes on its bus (ARM_TIMING): ADAM from the frames its stack
+// sends (the preload, a Save and its flash erase; each other drive's neutral table entry); 0 for
+// the families whose arming is a few frames. utime is left 0.
+[[nodiscard]] std::variant<motionlcm::arm_timing_t, std::string> arming(const config::Config& config,
+                                                                        const config::Axis& axis);
 
 }  // namespace motion::drive_model

@@ -22,6 +22,7 @@
 //  - publishes each axis's drive model (DRIVE_MODEL, drive_model_t, made by the ModelBuilder the
 //    process installs) when the axis first comes online and whenever what the driver read from the
 //    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus;
+//    each with the axis's arming time (ARM_TIMING, arm_timing_t, made by the ArmingBuilder);
 //  - keeps each axis's position record across its own restarts (set_position_record,
 //    position_record.hpp): a drive that lost power while no gateway ran is reported as having lost
 //    its position, exactly as one that loses it while the gateway runs.
@@ -40,6 +41,7 @@
 #include <vector>
 
 #include <motionlcm/active_moves_t.hpp>
+#include <motionlcm/arm_timing_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
@@ -74,6 +76,10 @@ struct AxisScale {
 using ModelBuilder = std::function<std::variant<motionlcm::drive_model_t, std::string>(const config::Axis& axis,
                                                                                        const DriveFacts& facts)>;
 
+// How long arming a move of the axis takes on the bus, or why that is not known (the gateway app
+// installs motion::drive_model::arming).
+using ArmingBuilder = std::function<std::variant<motionlcm::arm_timing_t, std::string>(const config::Axis& axis)>;
+
 class Gateway final : public GatewayOutput {
  public:
   Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config,
@@ -105,6 +111,8 @@ class Gateway final : public GatewayOutput {
 
   // Without a builder no DRIVE_MODEL is published (and the coordinator refuses moves of the bus).
   void set_model_builder(ModelBuilder builder) { model_builder_ = std::move(builder); }
+  // Without one no ARM_TIMING is published (the coordinator then allows arm_timeout_ms alone).
+  void set_arming_builder(ArmingBuilder builder) { arming_builder_ = std::move(builder); }
 
   // GatewayOutput
   void drive_facts(const std::string& axis, const DriveFacts& facts) override;
@@ -170,6 +178,7 @@ class Gateway final : public GatewayOutput {
   std::map<std::string, CountLimits> limits_;       // axis -> its limits in counts
   std::map<std::string, DriveStatus> last_status_;  // axis -> its last reported status
   ModelBuilder model_builder_;
+  ArmingBuilder arming_builder_;
   std::map<std::string, DriveFacts> facts_;                 // axis -> what its driver read from the drive
   std::map<std::string, motionlcm::drive_model_t> models_;  // axis -> its model as last published
   std::map<std::string, JogWatch> jogs_;                    // axes jogging under watch

@@ -140,7 +140,11 @@ class Uc57Stack final : public gateway::CanStack {
   struct ConfigOp;
 
   // --- start-up ---
+  // Configures node n now, or once fewer than configuration_window_ nodes are being configured.
   void begin_probe(std::size_t n, TimePoint now);
+  void probe_now(std::size_t n);
+  [[nodiscard]] std::size_t configuring() const;  // nodes in Phase::kConfiguring
+  void set_configuration_window();
   std::vector<ConfigOp> configuration_ops(std::size_t n);
   void run_config(std::size_t n, unsigned session, std::shared_ptr<std::vector<ConfigOp>> ops, std::size_t step);
   void configuration_failed(std::size_t n, const std::string& reason, bool retry);
@@ -248,8 +252,9 @@ class Uc57Stack final : public gateway::CanStack {
   Counters counters_;
   bool started_ = false;
   std::uint32_t bitrate_ = 125000;
-  Duration wire_sent_{};      // wire time of every frame handed to the transport (start skew)
-  Duration last_sync_end_{};  // wire_sent_ after the last SYNC
+  std::size_t configuration_window_ = 1;  // nodes configured at once (set_configuration_window)
+  Duration wire_sent_{};                  // wire time of every frame handed to the transport (start skew)
+  Duration last_sync_end_{};              // wire_sent_ after the last SYNC
   std::vector<std::pair<std::uint64_t, std::function<void()>>> sync_waiters_;
   TimePoint now_{};  // the `now` of the entry point running (callbacks run inside one)
 };

@@ -23,6 +23,8 @@ inline constexpr std::string_view kActiveMoves = "ACTIVE_MOVES";  // active_move
 inline constexpr std::string_view kOrphanedMoves = "ORPHANED_MOVES";
 // drive_model_t, gateways -> coordinator, tools: what each axis's drive can execute.
 inline constexpr std::string_view kDriveModel = "DRIVE_MODEL";
+// arm_timing_t, gateways -> coordinator, tools: with each DRIVE_MODEL, how long arming takes.
+inline constexpr std::string_view kArmTiming = "ARM_TIMING";
 // drive_model_request_t, anyone -> gateways: publish your DRIVE_MODEL now.
 inline constexpr std::string_view kDriveModelRequest = "DRIVE_MODEL_REQUEST";
 inline constexpr std::string_view kSimControl = "SIM_CONTROL";  // sim_control_t, tests -> motion-sim

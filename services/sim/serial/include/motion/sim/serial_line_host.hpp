@@ -4,8 +4,9 @@
 // The host reads what the gateway writes and hands it to the device when it has crossed the
 // line: a pty moves bytes at once, so each read is delayed by its wire time at the bus's baud
 // rate, after whatever is still on the line (a drive sees a frame when its last character ends,
-// as on a real RS232/RS485 line). It writes the device's bytes when they are due, and keeps ONE
-// timer at the earliest of the device's next deadline, the next arrival and the next due write.
+// as on a real RS232/RS485 line). It writes the device's bytes once they have crossed the line the
+// same way (their wire time, after the device's delay and after what is on the line), and keeps
+// ONE timer at the earliest of the device's next deadline, the next arrival and the next due write.
 //
 // A serial line carries one family (its own framing), as in the gateway: the first family of the
 // bus's drives that has a factory is served; drives of other families are listed in missing().
