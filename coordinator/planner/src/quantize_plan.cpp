@@ -244,7 +244,12 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     const std::size_t candidates_first = w.candidates.size();
     axis_settings(plan, i, *quantizers[i], options, caps, w.settings);
     // The settings within the hard limits, each with the duration the drive's own trapezoid takes.
-    for (std::size_t k = settings_first; k < w.settings.size(); ++k) {
+    const std::size_t settings_end = w.settings.size();
+    w.candidates.resize(candidates_first + (settings_end - settings_first));
+    Candidate* next = w.candidates.data() + candidates_first;
+    const double planned_s = out.planned_duration_s;
+    double nearest = -1.0;
+    for (std::size_t k = settings_first; k < settings_end; ++k) {
       const DriveMotion& realized = w.settings[k].realized;
       if (!within(realized, caps)) continue;
       const TrapezoidShape shape =
@@ -253,12 +258,11 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
       const double duration_s = shape.duration_s();
       shortest = std::min(shortest, duration_s);
       longest = std::max(longest, duration_s);
-      double& nearest = w.nearest[i];
-      if (nearest < 0.0 || std::abs(duration_s - out.planned_duration_s) < std::abs(nearest - out.planned_duration_s)) {
-        nearest = duration_s;
-      }
-      w.candidates.push_back(Candidate{duration_s, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k)});
+      if (nearest < 0.0 || std::abs(duration_s - planned_s) < std::abs(nearest - planned_s)) nearest = duration_s;
+      *next++ = Candidate{duration_s, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k)};
     }
+    w.nearest[i] = nearest;
+    w.candidates.resize(static_cast<std::size_t>(next - w.candidates.data()));
     if (w.candidates.size() == candidates_first) {
       return PlanFailure{PlanErrc::kQuantizationImpossible, i, plan.axis_names[i],
                          desired_motion(planned.shape, caps).velocity_counts_per_s, caps.velocity};
