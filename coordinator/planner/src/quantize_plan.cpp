@@ -1,10 +1,12 @@
 #include "motion/planner/quantize_plan.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 
 namespace motion::planner {
 namespace {
@@ -16,8 +18,16 @@ constexpr double kSpreadTieSeconds = 1e-12;
 struct Candidate {
   double duration_s;
   std::uint32_t axis;
-  std::uint32_t setting;  // index into the workspace's settings (every axis's, in order)
+  // The setting: block index (in the workspace's blocks, every axis's in order), then the
+  // acceleration and deceleration within the block; increasing in the order settings were made.
+  std::uint32_t setting;
 };
+constexpr unsigned kRampBits = 4;
+constexpr std::uint32_t kRampMask = (1U << kRampBits) - 1;
+constexpr unsigned kBlockShift = 2 * kRampBits;
+constexpr std::size_t kMaxBlocks = std::size_t{1} << (32 - kBlockShift);
+constexpr std::size_t kMaxBlockRamps = kRampMask;  // 2 * neighbours + 1 ramps of each kind
+constexpr int kMaxBlockNeighbours = static_cast<int>(kMaxBlockRamps - 1) / 2;
 
 // By duration; equal durations in the order their settings were made (axis by axis, each axis's
 // quantizer order), so that a choice among them never depends on the sort.
@@ -147,7 +157,10 @@ void tight_candidates(const std::vector<Candidate>& candidates, double shortest,
 // Scratch buffers of one thread's plans, reused: planning allocates only for its result once they
 // have grown to the largest plan seen.
 struct Workspace {
-  std::vector<DriveSetting> settings;  // every moving axis's settings, axis after axis
+  std::vector<GridBlock> blocks;       // every moving axis's settings, axis after axis, in blocks
+  std::vector<GridRamp> ramps;         // the blocks' ramps
+  std::vector<DriveSetting> settings;  // a quantizer's settings before they become blocks
+  std::vector<double> velocities;      // an axis's first-round velocities
   std::vector<Candidate> candidates;
   std::vector<Candidate> sorted;         // the candidates in `earlier` order
   std::vector<BucketAxes> bucket_axes;   // tight_candidates' axes per bucket
@@ -166,37 +179,150 @@ Workspace& thread_workspace() {
 
 namespace {
 
+// The second round of QuantizeOptions::match_duration: for every velocity of the first round
+// (`velocities`, as offered), in increasing order and each once, the ramps that make the axis
+// arrive at the planned duration with it, passed to `round(desired)`.
+template <typename Round>
+void matching_round(const SyncPlan& plan, std::size_t axis, const DriveMotion& desired, const AxisCaps& caps,
+                    std::vector<double>& velocities, Round&& round) {
+  if (!std::ranges::is_sorted(velocities, std::ranges::less_equal{})) {
+    std::ranges::sort(velocities);
+    const auto [duplicates, end] = std::ranges::unique(velocities);
+    velocities.erase(duplicates, end);
+  }
+  const double distance = std::abs(static_cast<double>(plan.axes[axis].distance_counts()));
+  for (const double velocity : velocities) {
+    const auto matching = duration_matching(distance, plan.duration_s(), velocity, desired);
+    if (!matching) continue;
+    // The ramps were fitted to this velocity only; its neighbours are already in the first round.
+    round(DriveMotion{velocity, std::min(matching->acceleration_counts_per_s2, caps.acceleration),
+                      std::min(matching->deceleration_counts_per_s2, caps.deceleration)});
+  }
+}
+
 // append_axis_candidates() before the filter by the axis's hard limits.
 void axis_settings(const SyncPlan& plan, std::size_t axis, const DriveQuantizer& quantizer,
                    const QuantizeOptions& options, const AxisCaps& caps, std::vector<DriveSetting>& out) {
-  const AxisProfile& planned = plan.axes[axis];
-  const DriveMotion desired = desired_motion(planned.shape, caps);
+  const DriveMotion desired = desired_motion(plan.axes[axis].shape, caps);
   const std::size_t first = out.size();
   quantizer.candidates(desired, options.neighbours, out);
   if (!options.match_duration) return;
-  // One more round per representable velocity, around its duration-matching ramps: the velocities
-  // of the first round in increasing order, each once (a grid gives them grouped and in order).
+  // The velocities of the first round, each once (a grid gives them grouped and in order).
   thread_local std::vector<double> velocities;
   velocities.clear();
   for (std::size_t k = first; k < out.size(); ++k) {
     const double v = out[k].realized.velocity_counts_per_s;
     if (velocities.empty() || velocities.back() != v) velocities.push_back(v);
   }
-  if (!std::ranges::is_sorted(velocities, std::ranges::less_equal{})) {
-    std::ranges::sort(velocities);
-    const auto [duplicates, end] = std::ranges::unique(velocities);
-    velocities.erase(duplicates, end);
+  matching_round(plan, axis, desired, caps, velocities,
+                 [&](const DriveMotion& wanted) { quantizer.candidates_at_velocity(wanted, options.neighbours, out); });
+}
+
+// axis_settings() of a grid, as blocks: the same settings in the same order.
+void axis_blocks(const SyncPlan& plan, std::size_t axis, const GridQuantizer& grid, const QuantizeOptions& options,
+                 const AxisCaps& caps, Workspace& w) {
+  const DriveMotion desired = desired_motion(plan.axes[axis].shape, caps);
+  const std::size_t first = w.blocks.size();
+  grid.blocks(desired, options.neighbours, false, w.blocks, w.ramps);
+  if (!options.match_duration) return;
+  w.velocities.clear();
+  for (std::size_t k = first; k < w.blocks.size(); ++k) w.velocities.push_back(w.blocks[k].velocity_counts_per_s);
+  matching_round(plan, axis, desired, caps, w.velocities,
+                 [&](const DriveMotion& wanted) { grid.blocks(wanted, options.neighbours, true, w.blocks, w.ramps); });
+}
+
+// Any quantizer's settings (axis_settings()) as blocks of one setting each.
+void axis_setting_blocks(const SyncPlan& plan, std::size_t axis, const DriveQuantizer& quantizer,
+                         const QuantizeOptions& options, const AxisCaps& caps, Workspace& w) {
+  w.settings.clear();
+  axis_settings(plan, axis, quantizer, options, caps, w.settings);
+  for (const DriveSetting& s : w.settings) {
+    w.blocks.push_back(GridBlock{s.native.velocity, s.realized.velocity_counts_per_s,
+                                 static_cast<std::uint32_t>(w.ramps.size()), 1, 1});
+    w.ramps.push_back(GridRamp{s.native.acceleration, s.realized.acceleration_counts_per_s2});
+    w.ramps.push_back(GridRamp{s.native.deceleration, s.realized.deceleration_counts_per_s2});
   }
-  const double distance = std::abs(static_cast<double>(planned.distance_counts()));
-  for (const double velocity : velocities) {
-    const auto matching = duration_matching(distance, plan.duration_s(), velocity, desired);
-    if (!matching) continue;
-    // The ramps were fitted to this velocity only; its neighbours are already in the first round.
-    quantizer.candidates_at_velocity(
-        DriveMotion{velocity, std::min(matching->acceleration_counts_per_s2, caps.acceleration),
-                    std::min(matching->deceleration_counts_per_s2, caps.deceleration)},
-        options.neighbours, out);
+}
+
+// What the candidates of one axis's blocks have come to.
+struct AxisDurations {
+  double nearest = -1.0;  // the duration nearest the planned one, -1 when no setting is usable
+  double shortest = std::numeric_limits<double>::infinity();
+  double longest = 0.0;
+};
+
+// A ramp of a block, evaluated at the block's velocity: the terms of time_optimal_shape that
+// depend on it alone.
+struct RampTerms {
+  double rate;
+  double inverse;  // 1 / rate
+  double time;     // velocity / rate
+  bool usable;
+};
+
+std::size_t ramp_terms(const GridRamp* ramps, std::size_t count, double velocity, double limit, RampTerms* out) {
+  std::size_t usable_count = 0;
+  for (std::size_t j = 0; j < count; ++j) {
+    const double rate = ramps[j].counts_per_s2;
+    out[j].rate = rate;
+    out[j].usable = usable(rate, limit);
+    if (!out[j].usable) continue;
+    out[j].inverse = 1.0 / rate;
+    out[j].time = velocity / rate;
+    ++usable_count;
   }
+  return usable_count;
+}
+
+// Appends to w.candidates every setting of blocks [first, w.blocks.size()) within `caps`, with the
+// duration of the drive's own trapezoid over `distance`: time_optimal_shape(...).duration_s() bit
+// for bit (the same operations in the same order), but each ramp's reciprocal and ramp time
+// computed once per block rather than once per setting.
+AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axis, double distance,
+                              const AxisCaps& caps, double planned_s) {
+  AxisDurations out;
+  std::array<RampTerms, kMaxBlockRamps> accelerations{};
+  std::array<RampTerms, kMaxBlockRamps> decelerations{};
+  for (std::size_t k = first; k < w.blocks.size(); ++k) {
+    const GridBlock& block = w.blocks[k];
+    const double v = block.velocity_counts_per_s;
+    if (!usable(v, caps.velocity)) continue;
+    const GridRamp* ramps = w.ramps.data() + block.first_ramp;
+    if (ramp_terms(ramps, block.accelerations, v, caps.acceleration, accelerations.data()) == 0 ||
+        ramp_terms(ramps + block.accelerations, block.decelerations, v, caps.deceleration, decelerations.data()) == 0) {
+      continue;
+    }
+    const double half_v_squared = 0.5 * v * v;
+    const auto key = static_cast<std::uint32_t>(k << kBlockShift);
+    for (std::uint32_t ja = 0; ja < block.accelerations; ++ja) {
+      const RampTerms& a = accelerations[ja];
+      if (!a.usable) continue;
+      for (std::uint32_t jd = 0; jd < block.decelerations; ++jd) {
+        const RampTerms& d = decelerations[jd];
+        if (!d.usable) continue;
+        const double ramps_distance = half_v_squared * (a.inverse + d.inverse);
+        const double duration_s = ramps_distance <= distance
+                                      ? a.time + (distance - ramps_distance) / v + d.time
+                                      : time_optimal_shape(distance, v, a.rate, d.rate).duration_s();
+        out.shortest = std::min(out.shortest, duration_s);
+        out.longest = std::max(out.longest, duration_s);
+        if (out.nearest < 0.0 || std::abs(duration_s - planned_s) < std::abs(out.nearest - planned_s)) {
+          out.nearest = duration_s;
+        }
+        w.candidates.push_back(Candidate{duration_s, axis, key | (ja << kRampBits) | jd});
+      }
+    }
+  }
+  return out;
+}
+
+// The setting a candidate stands for.
+DriveSetting setting_of(const Workspace& w, const Candidate& c) {
+  const GridBlock& block = w.blocks[c.setting >> kBlockShift];
+  const GridRamp& a = w.ramps[block.first_ramp + ((c.setting >> kRampBits) & kRampMask)];
+  const GridRamp& d = w.ramps[block.first_ramp + block.accelerations + (c.setting & kRampMask)];
+  return DriveSetting{NativeMotion{block.velocity_native, a.native, d.native},
+                      DriveMotion{block.velocity_counts_per_s, a.counts_per_s2, d.counts_per_s2}};
 }
 
 }  // namespace
@@ -227,7 +353,8 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
   out.planned_duration_s = plan.duration_s();
   out.axes.resize(axis_count);
   Workspace& w = thread_workspace();
-  w.settings.clear();
+  w.blocks.clear();
+  w.ramps.clear();
   w.candidates.clear();
   w.nearest.assign(axis_count, -1.0);
   std::size_t moving_count = 0;
@@ -240,29 +367,21 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     ++moving_count;
     const double distance = std::abs(static_cast<double>(planned.distance_counts()));
     const AxisCaps caps = hard_limits(plan, static_cast<Eigen::Index>(i));
-    const std::size_t settings_first = w.settings.size();
     const std::size_t candidates_first = w.candidates.size();
-    axis_settings(plan, i, *quantizers[i], options, caps, w.settings);
-    // The settings within the hard limits, each with the duration the drive's own trapezoid takes.
-    const std::size_t settings_end = w.settings.size();
-    w.candidates.resize(candidates_first + (settings_end - settings_first));
-    Candidate* next = w.candidates.data() + candidates_first;
-    const double planned_s = out.planned_duration_s;
-    double nearest = -1.0;
-    for (std::size_t k = settings_first; k < settings_end; ++k) {
-      const DriveMotion& realized = w.settings[k].realized;
-      if (!within(realized, caps)) continue;
-      const TrapezoidShape shape =
-          time_optimal_shape(distance, realized.velocity_counts_per_s, realized.acceleration_counts_per_s2,
-                             realized.deceleration_counts_per_s2);
-      const double duration_s = shape.duration_s();
-      shortest = std::min(shortest, duration_s);
-      longest = std::max(longest, duration_s);
-      if (nearest < 0.0 || std::abs(duration_s - planned_s) < std::abs(nearest - planned_s)) nearest = duration_s;
-      *next++ = Candidate{duration_s, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k)};
+    const std::size_t blocks_first = w.blocks.size();
+    const auto* grid = dynamic_cast<const GridQuantizer*>(quantizers[i]);
+    if (grid != nullptr && options.neighbours <= kMaxBlockNeighbours) {
+      axis_blocks(plan, i, *grid, options, caps, w);
+    } else {
+      axis_setting_blocks(plan, i, *quantizers[i], options, caps, w);
     }
-    w.nearest[i] = nearest;
-    w.candidates.resize(static_cast<std::size_t>(next - w.candidates.data()));
+    if (w.blocks.size() > kMaxBlocks) throw std::length_error("quantize_plan: more than 2^24 candidate blocks");
+    // The settings within the hard limits, each with the duration the drive's own trapezoid takes.
+    const AxisDurations durations =
+        evaluate_blocks(w, blocks_first, static_cast<std::uint32_t>(i), distance, caps, out.planned_duration_s);
+    w.nearest[i] = durations.nearest;
+    shortest = std::min(shortest, durations.shortest);
+    longest = std::max(longest, durations.longest);
     if (w.candidates.size() == candidates_first) {
       return PlanFailure{PlanErrc::kQuantizationImpossible, i, plan.axis_names[i],
                          desired_motion(planned.shape, caps).velocity_counts_per_s, caps.velocity};
@@ -293,7 +412,7 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
   for (std::size_t i = 0; i < axis_count; ++i) {
     if (w.chosen[i] == nullptr) continue;
     RealizedAxis& axis = out.axes[i];
-    axis.setting = w.settings[w.chosen[i]->setting];
+    axis.setting = setting_of(w, *w.chosen[i]);
     const DriveMotion& realized = axis.setting->realized;
     axis.profile =
         time_optimal_profile(axis.profile.start_counts, axis.profile.target_counts, realized.velocity_counts_per_s,
