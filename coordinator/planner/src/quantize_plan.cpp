@@ -110,12 +110,13 @@ std::pair<std::size_t, std::size_t> tightest_window(const std::vector<Candidate>
 }
 
 // The candidates that can be part of the tightest window, in `earlier` order. A window of spread
-// at most `bound` (the spread of some covering choice, so at least the tightest one's) fits in two
-// adjacent buckets of that width, so only candidates in a bucket that, with a neighbour, holds every
-// moving axis are kept (per bucket, the axes present as a bit mask, axis index modulo 64: more
-// axes only keep more). The candidates kept are sorted; the window search over them finds what
-// it finds over all (every window within the tie margin of the tightest, and every candidate
-// inside it, is kept).
+// at most `bound` (the spread of some covering choice, so at least the tightest one's) holds a
+// candidate of every axis, so it lies within [that axis's shortest - bound, its longest + bound]
+// for every axis; and it fits in two adjacent buckets of that width, so only candidates in that
+// interval and in a bucket that, with a neighbour, holds every moving axis are kept (per bucket,
+// the axes present as a bit mask, axis index modulo 64: more axes only keep more). The candidates
+// kept are sorted; the window search over them finds what it finds over all (every window within
+// the tie margin of the tightest, and every candidate inside it, is kept).
 // The axes present in one duration bucket; `plan` tells whether it was written by this plan, so
 // that the buckets need no clearing between plans.
 struct BucketAxes {
@@ -123,10 +124,21 @@ struct BucketAxes {
   std::uint64_t axes = 0;
 };
 
-void tight_candidates(const std::vector<Candidate>& candidates, double shortest, double longest, double bound,
+// The durations of all candidates: over all axes, and the extremes of the axes' own ranges.
+struct DurationRange {
+  double shortest = std::numeric_limits<double>::infinity();
+  double longest = 0.0;
+  double latest_shortest = 0.0;                                       // the largest of the axes' shortest durations
+  double earliest_longest = std::numeric_limits<double>::infinity();  // the smallest of their longest
+};
+
+void tight_candidates(const std::vector<Candidate>& candidates, const DurationRange& durations, double bound,
                       std::uint64_t plan_stamp, std::vector<BucketAxes>& bucket_axes, std::vector<Candidate>& sorted) {
   // The width covers the tie margin and the rounding of the bucket index.
   const double width = (bound + 4.0 * kSpreadTieSeconds) * (1.0 + 1e-9) + 1e-300;
+  const double shortest = std::max(durations.shortest, durations.latest_shortest - width);
+  const double longest = std::min(durations.longest, durations.earliest_longest + width);
+  const auto inside = [&](const Candidate& c) { return c.duration_s >= shortest && c.duration_s <= longest; };
   const double range = longest - shortest;
   const std::size_t most = 16 * candidates.size() + 16;
   const double wanted = range / width + 1.0;
@@ -141,12 +153,14 @@ void tight_candidates(const std::vector<Candidate>& candidates, double shortest,
   for (const Candidate& c : candidates) {
     const std::uint64_t bit = std::uint64_t{1} << (c.axis % 64);
     every_axis |= bit;
+    if (!inside(c)) continue;
     BucketAxes& bucket = bucket_axes[bucket_of(c)];
     bucket.axes = (bucket.plan == plan_stamp ? bucket.axes : 0) | bit;
     bucket.plan = plan_stamp;
   }
   sorted.clear();
   for (const Candidate& c : candidates) {
+    if (!inside(c)) continue;
     const std::size_t b = bucket_of(c);
     const std::uint64_t here = bucket_axes[b].axes;
     if ((here | axes_in(b - 1)) == every_axis || (here | axes_in(b + 1)) == every_axis) sorted.push_back(c);
@@ -358,8 +372,7 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
   w.candidates.clear();
   w.nearest.assign(axis_count, -1.0);
   std::size_t moving_count = 0;
-  double shortest = std::numeric_limits<double>::infinity();
-  double longest = 0.0;
+  DurationRange range;
   for (std::size_t i = 0; i < axis_count; ++i) {
     const AxisProfile& planned = plan.axes[i];
     out.axes[i].profile = AxisProfile{planned.start_counts, planned.target_counts, {}};
@@ -380,8 +393,10 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     const AxisDurations durations =
         evaluate_blocks(w, blocks_first, static_cast<std::uint32_t>(i), distance, caps, out.planned_duration_s);
     w.nearest[i] = durations.nearest;
-    shortest = std::min(shortest, durations.shortest);
-    longest = std::max(longest, durations.longest);
+    range.shortest = std::min(range.shortest, durations.shortest);
+    range.longest = std::max(range.longest, durations.longest);
+    range.latest_shortest = std::max(range.latest_shortest, durations.shortest);
+    range.earliest_longest = std::min(range.earliest_longest, durations.longest);
     if (w.candidates.size() == candidates_first) {
       return PlanFailure{PlanErrc::kQuantizationImpossible, i, plan.axis_names[i],
                          desired_motion(planned.shape, caps).velocity_counts_per_s, caps.velocity};
@@ -397,8 +412,7 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     nearest_shortest = std::min(nearest_shortest, w.nearest[i]);
     nearest_longest = std::max(nearest_longest, w.nearest[i]);
   }
-  tight_candidates(w.candidates, shortest, longest, nearest_longest - nearest_shortest, ++w.plans, w.bucket_axes,
-                   w.sorted);
+  tight_candidates(w.candidates, range, nearest_longest - nearest_shortest, ++w.plans, w.bucket_axes, w.sorted);
   const std::vector<Candidate>& candidates = w.sorted;
   const auto [first, last] = tightest_window(candidates, axis_count, moving_count, out.planned_duration_s, w.in_window);
   // Every axis has a candidate in the window; within it, take the one nearest the window centre.
