@@ -55,14 +55,16 @@ struct Bracket {
   }
 };
 
-// The settings of GridQuantizer::candidates, velocity by velocity: `visit(v_native, velocity,
-// accelerations, decelerations)` with the representable ramps in order (none empty); with
+// The settings of GridQuantizer::candidates, velocity by velocity: the representable ramps are
+// appended to `ramps` (accelerations, then decelerations, in order), then `visit(v_native,
+// velocity, first, accelerations, decelerations)` is called with where they start and how many
+// there are (neither none: a velocity without is skipped and its ramps removed); with
 // `only_velocity`, only the velocity equal to it (the velocity loop runs as for candidates(), the
-// ramps only for that one). `scratch` holds the ramps during the call.
+// ramps only for that one).
 template <typename Visit>
 void grid_blocks(const VelocityGrid& velocity_grid, const AccelerationGrid& acceleration_grid,
-                 const DriveMotion& desired, int neighbours, const double* only_velocity,
-                 std::vector<GridRamp>& scratch, Visit&& visit) {
+                 const DriveMotion& desired, int neighbours, const double* only_velocity, std::vector<GridRamp>& ramps,
+                 Visit&& visit) {
   neighbours = std::max(neighbours, 1);
   const double v_step = velocity_grid.counts_per_s_per_step;
   const double a_step = acceleration_grid.step;
@@ -99,20 +101,22 @@ void grid_blocks(const VelocityGrid& velocity_grid, const AccelerationGrid& acce
                                        acceleration_grid.max_steps, realized_acceleration),
                      ramp_time ? 1 : -1, neighbours, acceleration_grid.min_steps, acceleration_grid.max_steps};
     };
-    scratch.clear();
-    const auto append = [&](const Bracket& ramps) {
-      const std::size_t before = scratch.size();
-      for (int j = 0; j < ramps.size(); ++j) {
-        const std::int64_t n = ramps.index(j);
-        if (n != 0) scratch.push_back(GridRamp{n, realized_acceleration(n)});
+    const std::size_t first = ramps.size();
+    const auto append = [&](const Bracket& offered) {
+      const std::size_t before = ramps.size();
+      for (int j = 0; j < offered.size(); ++j) {
+        const std::int64_t n = offered.index(j);
+        if (n != 0) ramps.push_back(GridRamp{n, realized_acceleration(n)});
       }
-      return scratch.size() - before;
+      return ramps.size() - before;
     };
     const std::size_t accelerations = append(bracket(desired.acceleration_counts_per_s2));
     const std::size_t decelerations = append(bracket(desired.deceleration_counts_per_s2));
-    if (accelerations == 0 || decelerations == 0) continue;
-    visit(v_native, velocity, std::span<const GridRamp>(scratch.data(), accelerations),
-          std::span<const GridRamp>(scratch.data() + accelerations, decelerations));
+    if (accelerations == 0 || decelerations == 0) {
+      ramps.resize(first);
+      continue;
+    }
+    visit(v_native, velocity, first, accelerations, decelerations);
   }
 }
 
@@ -120,16 +124,18 @@ void grid_blocks(const VelocityGrid& velocity_grid, const AccelerationGrid& acce
 void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& acceleration_grid,
                      const DriveMotion& desired, int neighbours, const double* only_velocity,
                      std::vector<DriveSetting>& out) {
-  thread_local std::vector<GridRamp> scratch;
-  grid_blocks(velocity_grid, acceleration_grid, desired, neighbours, only_velocity, scratch,
-              [&](std::int64_t v_native, double velocity, std::span<const GridRamp> accelerations,
-                  std::span<const GridRamp> decelerations) {
-                for (const GridRamp& a : accelerations) {
-                  for (const GridRamp& d : decelerations) {
+  thread_local std::vector<GridRamp> ramps;
+  grid_blocks(velocity_grid, acceleration_grid, desired, neighbours, only_velocity, ramps,
+              [&](std::int64_t v_native, double velocity, std::size_t first, std::size_t accelerations,
+                  std::size_t decelerations) {
+                const std::span<const GridRamp> block(ramps.data() + first, accelerations + decelerations);
+                for (const GridRamp& a : block.first(accelerations)) {
+                  for (const GridRamp& d : block.last(decelerations)) {
                     out.push_back(DriveSetting{NativeMotion{v_native, a.native, d.native},
                                                DriveMotion{velocity, a.counts_per_s2, d.counts_per_s2}});
                   }
                 }
+                ramps.clear();
               });
 }
 
@@ -164,16 +170,13 @@ void GridQuantizer::candidates_at_velocity(const DriveMotion& desired, int neigh
 
 void GridQuantizer::blocks(const DriveMotion& desired, int neighbours, bool at_velocity, std::vector<GridBlock>& blocks,
                            std::vector<GridRamp>& ramps) const {
-  thread_local std::vector<GridRamp> scratch;
   grid_blocks(velocity_, acceleration_, desired, neighbours, at_velocity ? &desired.velocity_counts_per_s : nullptr,
-              scratch,
-              [&](std::int64_t v_native, double velocity, std::span<const GridRamp> accelerations,
-                  std::span<const GridRamp> decelerations) {
-                blocks.push_back(GridBlock{v_native, velocity, static_cast<std::uint32_t>(ramps.size()),
-                                           static_cast<std::uint16_t>(accelerations.size()),
-                                           static_cast<std::uint16_t>(decelerations.size())});
-                ramps.insert(ramps.end(), accelerations.begin(), accelerations.end());
-                ramps.insert(ramps.end(), decelerations.begin(), decelerations.end());
+              ramps,
+              [&](std::int64_t v_native, double velocity, std::size_t first, std::size_t accelerations,
+                  std::size_t decelerations) {
+                blocks.push_back(GridBlock{v_native, velocity, static_cast<std::uint32_t>(first),
+                                           static_cast<std::uint32_t>(accelerations),
+                                           static_cast<std::uint32_t>(decelerations)});
               });
 }
 

@@ -123,8 +123,8 @@ struct GridBlock {
   std::int64_t velocity_native = 0;
   double velocity_counts_per_s = 0.0;
   std::uint32_t first_ramp = 0;
-  std::uint16_t accelerations = 0;
-  std::uint16_t decelerations = 0;
+  std::uint32_t accelerations = 0;
+  std::uint32_t decelerations = 0;
 };
 
 // The general integer-grid drive. Native velocity/acceleration/deceleration = the grid integers.
