@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -124,6 +125,41 @@ struct BucketAxes {
   std::uint64_t axes = 0;
 };
 
+// Sorts candidates into `earlier` order, `spare` as scratch. They come in setting order, so a
+// stable distribution by the leading bits of their durations (positive doubles order as their bit
+// patterns) leaves only neighbours with the same leading bits out of order, which an insertion
+// sort then settles in a few moves: no comparison sort's mispredicted branches per candidate.
+void sort_by_duration(std::vector<Candidate>& candidates, std::vector<Candidate>& spare) {
+  constexpr std::size_t kComparisonSortBelow = 32;
+  if (candidates.size() < kComparisonSortBelow) {
+    std::ranges::sort(candidates, earlier);
+    return;
+  }
+  const auto bits = [](const Candidate& c) { return std::bit_cast<std::uint64_t>(c.duration_s); };
+  std::uint64_t lowest = std::numeric_limits<std::uint64_t>::max();
+  std::uint64_t highest = 0;
+  for (const Candidate& c : candidates) {
+    lowest = std::min(lowest, bits(c));
+    highest = std::max(highest, bits(c));
+  }
+  constexpr int kDigitBits = 8;
+  constexpr std::size_t kDigits = std::size_t{1} << kDigitBits;
+  const int shift = std::max(0, static_cast<int>(std::bit_width(highest - lowest)) - kDigitBits);
+  const auto digit = [&](const Candidate& c) { return static_cast<std::size_t>((bits(c) - lowest) >> shift); };
+  std::array<std::uint32_t, kDigits + 1> start{};
+  for (const Candidate& c : candidates) ++start[digit(c) + 1];
+  for (std::size_t d = 1; d <= kDigits; ++d) start[d] += start[d - 1];
+  spare.resize(candidates.size());
+  for (const Candidate& c : candidates) spare[start[digit(c)]++] = c;
+  candidates.swap(spare);
+  for (std::size_t k = 1; k < candidates.size(); ++k) {
+    const Candidate c = candidates[k];
+    std::size_t j = k;
+    for (; j > 0 && earlier(c, candidates[j - 1]); --j) candidates[j] = candidates[j - 1];
+    candidates[j] = c;
+  }
+}
+
 // The durations of all candidates: over all axes, and the extremes of the axes' own ranges.
 struct DurationRange {
   double shortest = std::numeric_limits<double>::infinity();
@@ -133,7 +169,8 @@ struct DurationRange {
 };
 
 void tight_candidates(const std::vector<Candidate>& candidates, const DurationRange& durations, double bound,
-                      std::uint64_t plan_stamp, std::vector<BucketAxes>& bucket_axes, std::vector<Candidate>& sorted) {
+                      std::uint64_t plan_stamp, std::vector<BucketAxes>& bucket_axes, std::vector<Candidate>& sorted,
+                      std::vector<Candidate>& spare) {
   // The width covers the tie margin and the rounding of the bucket index.
   const double width = (bound + 4.0 * kSpreadTieSeconds) * (1.0 + 1e-9) + 1e-300;
   const double shortest = std::max(durations.shortest, durations.latest_shortest - width);
@@ -165,7 +202,7 @@ void tight_candidates(const std::vector<Candidate>& candidates, const DurationRa
     const std::uint64_t here = bucket_axes[b].axes;
     if ((here | axes_in(b - 1)) == every_axis || (here | axes_in(b + 1)) == every_axis) sorted.push_back(c);
   }
-  std::ranges::sort(sorted, earlier);
+  sort_by_duration(sorted, spare);
 }
 
 // Scratch buffers of one thread's plans, reused: planning allocates only for its result once they
@@ -177,6 +214,7 @@ struct Workspace {
   std::vector<double> velocities;      // an axis's first-round velocities
   std::vector<Candidate> candidates;
   std::vector<Candidate> sorted;         // the candidates in `earlier` order
+  std::vector<Candidate> spare;          // sort_by_duration's scratch
   std::vector<BucketAxes> bucket_axes;   // tight_candidates' axes per bucket
   std::uint64_t plans = 0;               // plans made with this workspace
   std::vector<std::size_t> in_window;    // tightest_window's per-axis counts
@@ -412,7 +450,8 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     nearest_shortest = std::min(nearest_shortest, w.nearest[i]);
     nearest_longest = std::max(nearest_longest, w.nearest[i]);
   }
-  tight_candidates(w.candidates, range, nearest_longest - nearest_shortest, ++w.plans, w.bucket_axes, w.sorted);
+  tight_candidates(w.candidates, range, nearest_longest - nearest_shortest, ++w.plans, w.bucket_axes, w.sorted,
+                   w.spare);
   const std::vector<Candidate>& candidates = w.sorted;
   const auto [first, last] = tightest_window(candidates, axis_count, moving_count, out.planned_duration_s, w.in_window);
   // Every axis has a candidate in the window; within it, take the one nearest the window centre.
