@@ -333,6 +333,14 @@ std::size_t ramp_terms(const GridRamp* ramps, std::size_t count, double velocity
 AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axis, double distance,
                               const AxisCaps& caps, double planned_s) {
   AxisDurations out;
+  // Written in place: room for every setting, cut back to those within the caps at the end.
+  const std::size_t before = w.candidates.size();
+  std::size_t most = before;
+  for (std::size_t k = first; k < w.blocks.size(); ++k) {
+    most += std::size_t{w.blocks[k].accelerations} * w.blocks[k].decelerations;
+  }
+  w.candidates.resize(most);
+  Candidate* next = w.candidates.data() + before;
   std::array<RampTerms, kMaxBlockRamps> accelerations{};
   std::array<RampTerms, kMaxBlockRamps> decelerations{};
   for (std::size_t k = first; k < w.blocks.size(); ++k) {
@@ -361,10 +369,11 @@ AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axi
         if (out.nearest < 0.0 || std::abs(duration_s - planned_s) < std::abs(out.nearest - planned_s)) {
           out.nearest = duration_s;
         }
-        w.candidates.push_back(Candidate{duration_s, axis, key | (ja << kRampBits) | jd});
+        *next++ = Candidate{duration_s, axis, key | (ja << kRampBits) | jd};
       }
     }
   }
+  w.candidates.resize(static_cast<std::size_t>(next - w.candidates.data()));
   return out;
 }
 
