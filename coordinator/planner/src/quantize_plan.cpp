@@ -401,6 +401,13 @@ void append_axis_candidates(const SyncPlan& plan, std::size_t axis, const DriveQ
 
 Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQuantizer* const> quantizers,
                                     const QuantizeOptions& options) {
+  QuantizedPlan out;
+  if (auto failure = quantize_plan_into(plan, quantizers, out, options)) return *std::move(failure);
+  return out;
+}
+
+std::optional<PlanFailure> quantize_plan_into(const SyncPlan& plan, std::span<const DriveQuantizer* const> quantizers,
+                                              QuantizedPlan& out, const QuantizeOptions& options) {
   const std::size_t axis_count = plan.axes.size();
   if (quantizers.size() != axis_count || std::ranges::find(quantizers, nullptr) != quantizers.end()) {
     return PlanFailure{PlanErrc::kQuantizerCountMismatch,
@@ -410,9 +417,10 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
                        static_cast<double>(axis_count)};
   }
 
-  QuantizedPlan out;
   out.planned_duration_s = plan.duration_s();
-  out.axes.resize(axis_count);
+  out.earliest_arrival_s = 0.0;
+  out.latest_arrival_s = 0.0;
+  out.axes.assign(axis_count, RealizedAxis{});
   Workspace& w = thread_workspace();
   w.blocks.clear();
   w.ramps.clear();
@@ -449,7 +457,7 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
                          desired_motion(planned.shape, caps).velocity_counts_per_s, caps.velocity};
     }
   }
-  if (moving_count == 0) return out;
+  if (moving_count == 0) return std::nullopt;
 
   // A first covering choice: per axis the candidate nearest the planned duration.
   double nearest_shortest = std::numeric_limits<double>::infinity();
@@ -487,7 +495,7 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     out.earliest_arrival_s = std::min(out.earliest_arrival_s, axis.duration_s());
     out.latest_arrival_s = std::max(out.latest_arrival_s, axis.duration_s());
   }
-  return out;
+  return std::nullopt;
 }
 
 }  // namespace motion::planner

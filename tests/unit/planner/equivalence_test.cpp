@@ -2,7 +2,8 @@
 // portable generator, fixed seed) are planned and quantized, and every output (counts, every
 // double's bits, the native integers, error codes) is hashed per case and compared with
 // quantize_golden.inc, recorded from the implementation before the hot-path optimization. Any
-// change of a result, however small, fails here, naming the case to replay.
+// change of a result, however small, fails here, naming the case to replay. quantize_plan_into()
+// into one result reused over all cases must give the same as quantize_plan().
 //
 // To re-record after an intended change of results (say why in the commit):
 //   MOTION_PLANNER_GOLDEN_OUT=$PWD/tests/unit/planner/quantize_golden.inc <test_planner binary>
@@ -230,11 +231,20 @@ CaseResult run_case(int index) {
   d.add(plan.value().time_law);
   for (const AxisProfile& p : plan.value().axes) d.add(p);
   const auto quantized = quantize_plan(plan.value(), quantizers, options);
+  // The same into a result reused from case to case (larger and smaller plans before it).
+  static QuantizedPlan reused;
+  const auto failure = quantize_plan_into(plan.value(), quantizers, reused, options);
+  EXPECT_EQ(failure.has_value(), !quantized.ok()) << "case " << index;
+  Digest into = d;
   if (!quantized.ok()) {
     d.add(quantized.error());
+    if (failure) into.add(*failure);
+    EXPECT_EQ(into.value(), d.value()) << "case " << index << ": quantize_plan_into failed otherwise";
     return {d.value(), Outcome::kQuantizationRefused};
   }
   add_quantized(d, quantized.value());
+  if (!failure) add_quantized(into, reused);
+  EXPECT_EQ(into.value(), d.value()) << "case " << index << ": quantize_plan_into differs";
   return {d.value(), Outcome::kQuantized};
 }
 
