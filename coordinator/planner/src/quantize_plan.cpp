@@ -182,8 +182,8 @@ struct DurationRange {
 };
 
 void tight_candidates(const std::vector<Candidate>& candidates, const DurationRange& durations, double bound,
-                      std::uint64_t plan_stamp, std::vector<BucketAxes>& bucket_axes, std::vector<Candidate>& sorted,
-                      std::vector<Candidate>& spare) {
+                      std::uint64_t every_axis, std::uint64_t plan_stamp, std::vector<BucketAxes>& bucket_axes,
+                      std::vector<Candidate>& sorted, std::vector<Candidate>& spare) {
   // The width covers the tie margin and the rounding of the bucket index.
   const double width = (bound + 4.0 * kSpreadTieSeconds) * (1.0 + 1e-9) + 1e-300;
   const double shortest = std::max(durations.shortest, durations.latest_shortest - width);
@@ -199,22 +199,28 @@ void tight_candidates(const std::vector<Candidate>& candidates, const DurationRa
   };
   if (bucket_axes.size() < buckets + 2) bucket_axes.resize(buckets + 2);  // one empty bucket on either side
   const auto axes_in = [&](std::size_t b) { return bucket_axes[b].plan == plan_stamp ? bucket_axes[b].axes : 0; };
-  std::uint64_t every_axis = 0;
+  // Those inside the interval, then those of them in a bucket that with a neighbour holds every
+  // axis, compacted without branches.
+  sorted.resize(candidates.size());
+  std::size_t count = 0;
   for (const Candidate& c : candidates) {
-    const std::uint64_t bit = std::uint64_t{1} << (c.axis % 64);
-    every_axis |= bit;
-    if (!inside(c)) continue;
+    sorted[count] = c;
+    count += inside(c) ? 1U : 0U;
+  }
+  sorted.resize(count);
+  for (const Candidate& c : sorted) {
     BucketAxes& bucket = bucket_axes[bucket_of(c)];
-    bucket.axes = (bucket.plan == plan_stamp ? bucket.axes : 0) | bit;
+    bucket.axes = (bucket.plan == plan_stamp ? bucket.axes : 0) | (std::uint64_t{1} << (c.axis % 64));
     bucket.plan = plan_stamp;
   }
-  sorted.clear();
-  for (const Candidate& c : candidates) {
-    if (!inside(c)) continue;
+  std::size_t kept = 0;
+  for (const Candidate& c : sorted) {
     const std::size_t b = bucket_of(c);
     const std::uint64_t here = bucket_axes[b].axes;
-    if ((here | axes_in(b - 1)) == every_axis || (here | axes_in(b + 1)) == every_axis) sorted.push_back(c);
+    sorted[kept] = c;
+    kept += (here | axes_in(b - 1)) == every_axis || (here | axes_in(b + 1)) == every_axis ? 1U : 0U;
   }
+  sorted.resize(kept);
   sort_by_duration(sorted, spare);
 }
 
@@ -346,6 +352,7 @@ std::size_t ramp_terms(const GridRamp* ramps, std::size_t count, double velocity
 AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axis, double distance,
                               const AxisCaps& caps, double planned_s) {
   AxisDurations out;
+  double nearest_offset = 0.0;  // |out.nearest - planned_s|
   // Written in place: room for every setting, cut back to those within the caps at the end.
   const std::size_t before = w.candidates.size();
   std::size_t most = before;
@@ -379,9 +386,10 @@ AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axi
                                       : time_optimal_shape(distance, v, a.rate, d.rate).duration_s();
         out.shortest = std::min(out.shortest, duration_s);
         out.longest = std::max(out.longest, duration_s);
-        if (out.nearest < 0.0 || std::abs(duration_s - planned_s) < std::abs(out.nearest - planned_s)) {
-          out.nearest = duration_s;
-        }
+        const double offset = std::abs(duration_s - planned_s);
+        const bool nearer = out.nearest < 0.0 || offset < nearest_offset;
+        out.nearest = nearer ? duration_s : out.nearest;
+        nearest_offset = nearer ? offset : nearest_offset;
         *next++ = Candidate{duration_s, axis, key | (ja << kRampBits) | jd};
       }
     }
@@ -440,12 +448,14 @@ std::optional<PlanFailure> quantize_plan_into(const SyncPlan& plan, std::span<co
   w.candidates.clear();
   w.nearest.assign(axis_count, -1.0);
   std::size_t moving_count = 0;
+  std::uint64_t every_axis = 0;  // the moving axes, index modulo 64 (tight_candidates' masks)
   DurationRange range;
   for (std::size_t i = 0; i < axis_count; ++i) {
     const AxisProfile& planned = plan.axes[i];
     out.axes[i].profile = AxisProfile{planned.start_counts, planned.target_counts, {}};
     if (planned.is_still()) continue;
     ++moving_count;
+    every_axis |= std::uint64_t{1} << (i % 64);
     const double distance = std::abs(static_cast<double>(planned.distance_counts()));
     const AxisCaps caps = hard_limits(plan, static_cast<Eigen::Index>(i));
     const std::size_t candidates_first = w.candidates.size();
@@ -480,8 +490,8 @@ std::optional<PlanFailure> quantize_plan_into(const SyncPlan& plan, std::span<co
     nearest_shortest = std::min(nearest_shortest, w.nearest[i]);
     nearest_longest = std::max(nearest_longest, w.nearest[i]);
   }
-  tight_candidates(w.candidates, range, nearest_longest - nearest_shortest, ++w.plans, w.bucket_axes, w.sorted,
-                   w.spare);
+  tight_candidates(w.candidates, range, nearest_longest - nearest_shortest, every_axis, ++w.plans, w.bucket_axes,
+                   w.sorted, w.spare);
   const std::vector<Candidate>& candidates = w.sorted;
   const auto [first, last] = tightest_window(candidates, axis_count, moving_count, out.planned_duration_s, w.in_window);
   // Every axis has a candidate in the window; within it, take the one nearest the window centre.
