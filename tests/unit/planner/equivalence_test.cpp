@@ -3,7 +3,8 @@
 // double's bits, the native integers, error codes) is hashed per case and compared with
 // quantize_golden.inc, recorded from the implementation before the hot-path optimization. Any
 // change of a result, however small, fails here, naming the case to replay. quantize_plan_into()
-// into one result reused over all cases must give the same as quantize_plan().
+// into one result reused over all cases must give the same as quantize_plan(), and
+// plan_synchronized_into() the same as plan_synchronized().
 //
 // To re-record after an intended change of results (say why in the commit):
 //   MOTION_PLANNER_GOLDEN_OUT=$PWD/tests/unit/planner/quantize_golden.inc <test_planner binary>
@@ -225,11 +226,27 @@ CaseResult run_case(int index) {
   Digest d;
   const auto plan = plan_synchronized(axes, plan_options);
   if (!plan.ok()) {
+    static SyncPlan refused;
+    const auto failure = plan_synchronized_into(axes, refused, plan_options);
+    EXPECT_TRUE(failure.has_value() && failure->code == plan.error().code) << "case " << index;
     d.add(plan.error());
     return {d.value(), Outcome::kPlanRefused};
   }
   d.add(plan.value().time_law);
   for (const AxisProfile& p : plan.value().axes) d.add(p);
+  // plan_synchronized_into a plan reused from case to case plans the same.
+  static SyncPlan reused_plan;
+  EXPECT_FALSE(plan_synchronized_into(axes, reused_plan, plan_options).has_value()) << "case " << index;
+  Digest into_plan;
+  into_plan.add(reused_plan.time_law);
+  for (const AxisProfile& p : reused_plan.axes) into_plan.add(p);
+  Digest from_plan;
+  from_plan.add(plan.value().time_law);
+  for (const AxisProfile& p : plan.value().axes) from_plan.add(p);
+  EXPECT_EQ(into_plan.value(), from_plan.value()) << "case " << index << ": plan_synchronized_into differs";
+  EXPECT_EQ(reused_plan.axis_names, plan.value().axis_names);
+  EXPECT_EQ(reused_plan.velocity_limit_counts_per_s, plan.value().velocity_limit_counts_per_s);
+  EXPECT_EQ(reused_plan.distance_counts, plan.value().distance_counts);
   const auto quantized = quantize_plan(plan.value(), quantizers, options);
   // The same into a result reused from case to case (larger and smaller plans before it).
   static QuantizedPlan reused;
