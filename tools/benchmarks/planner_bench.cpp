@@ -2,7 +2,8 @@
 // Axes are random but from a fixed seed, with a mix of all quantizer kinds. After the google
 // benchmark rows, a figure table: the fastest per-plan time over batches (the least disturbed by
 // the other processes of a shared machine) against the 5 us goal and against planning
-// without quantization, measured in the same run.
+// without quantization, measured in the same run; and the same into a plan and a result reused
+// from call to call (no allocation), as the coordinator calls it.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -87,6 +88,14 @@ void print_figures() {
     const double plan_us = fastest_us([&] { sink += plan_synchronized(w.axes).value().duration_s(); });
     const double quantized_us = fastest_us(
         [&] { sink += quantize_plan(plan_synchronized(w.axes).value(), w.quantizers).value().predicted_spread_s(); });
+    // The coordinator's way: into a plan and a result kept from move to move.
+    SyncPlan reused_plan;
+    QuantizedPlan reused;
+    const double into_us = fastest_us([&] {
+      const bool failed = plan_synchronized_into(w.axes, reused_plan).has_value() ||
+                          quantize_plan_into(reused_plan, w.quantizers, reused).has_value();
+      sink += failed ? 0.0 : reused.predicted_spread_s();
+    });
     const double scale = axes / 8.0;
     rows.push_back({bench::fmt("%.0f axes, plan + quantize (match_duration)", axes),
                     bench::fmt("%.2f us", quantized_us), bench::fmt("%.2f us goal", kGoalUs * scale),
@@ -94,6 +103,9 @@ void print_figures() {
     rows.push_back({bench::fmt("%.0f axes, plan + quantize (match_duration)", axes),
                     bench::fmt("%.2f us", quantized_us), bench::fmt("%.2f us plan alone", plan_us),
                     quantized_us / plan_us, "planning without quantization, same run"});
+    rows.push_back({bench::fmt("%.0f axes, the same into a reused plan and result", axes),
+                    bench::fmt("%.2f us", into_us), bench::fmt("%.2f us goal", kGoalUs * scale),
+                    into_us / (kGoalUs * scale), "plan_synchronized_into + quantize_plan_into (coordinator)"});
   }
   bench::print_rows(rows, "figure (fastest of 200 batches)", "bound");
   benchmark::DoNotOptimize(sink);

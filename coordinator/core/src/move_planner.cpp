@@ -56,15 +56,19 @@ MovePlanner make_move_planner() {
       if (!in.quantizer) return "axis " + in.axis + " has no drive model";
       per_axis.push_back(in.quantizer.get());
     }
-    auto plan = planner::plan_synchronized(requests, {velocity_scale, acceleration_scale});
-    if (!plan) return plan.error().message();
-    auto realized = planner::quantize_plan(plan.value(), per_axis);
-    if (!realized) return realized.error().message();
+    // Planned and quantized into this thread's plan and result, reused from move to move (no
+    // allocation there once they have grown).
+    thread_local planner::SyncPlan plan;
+    thread_local planner::QuantizedPlan realized;
+    if (auto failure = planner::plan_synchronized_into(requests, plan, {velocity_scale, acceleration_scale})) {
+      return failure->message();
+    }
+    if (auto failure = planner::quantize_plan_into(plan, per_axis, realized)) return failure->message();
     MovePlan out;
-    out.duration_s = realized.value().latest_arrival_s;
-    out.predicted_skew_us = realized.value().predicted_spread_s() * 1e6;
+    out.duration_s = realized.latest_arrival_s;
+    out.predicted_skew_us = realized.predicted_spread_s() * 1e6;
     for (std::size_t i = 0; i < inputs.size(); ++i) {
-      const auto& axis = realized.value().axes[i];
+      const auto& axis = realized.axes[i];
       AxisPlan p;
       p.axis = inputs[i].axis;
       p.target_counts = inputs[i].target_counts;

@@ -1,10 +1,13 @@
 #include "motion/planner/quantize_plan.hpp"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 
 namespace motion::planner {
 namespace {
@@ -16,8 +19,16 @@ constexpr double kSpreadTieSeconds = 1e-12;
 struct Candidate {
   double duration_s;
   std::uint32_t axis;
-  std::uint32_t setting;  // index into the workspace's settings (every axis's, in order)
+  // The setting: block index (in the workspace's blocks, every axis's in order), then the
+  // acceleration and deceleration within the block; increasing in the order settings were made.
+  std::uint32_t setting;
 };
+constexpr unsigned kRampBits = 4;
+constexpr std::uint32_t kRampMask = (1U << kRampBits) - 1;
+constexpr unsigned kBlockShift = 2 * kRampBits;
+constexpr std::size_t kMaxBlocks = std::size_t{1} << (32 - kBlockShift);
+constexpr std::size_t kMaxBlockRamps = kRampMask;  // 2 * neighbours + 1 ramps of each kind
+constexpr int kMaxBlockNeighbours = static_cast<int>(kMaxBlockRamps - 1) / 2;
 
 // By duration; equal durations in the order their settings were made (axis by axis, each axis's
 // quantizer order), so that a choice among them never depends on the sort.
@@ -100,12 +111,13 @@ std::pair<std::size_t, std::size_t> tightest_window(const std::vector<Candidate>
 }
 
 // The candidates that can be part of the tightest window, in `earlier` order. A window of spread
-// at most `bound` (the spread of some covering choice, so at least the tightest one's) fits in two
-// adjacent buckets of that width, so only candidates in a bucket that, with a neighbour, holds every
-// moving axis are kept (per bucket, the axes present as a bit mask, axis index modulo 64: more
-// axes only keep more). The candidates kept are sorted; the window search over them finds what
-// it finds over all (every window within the tie margin of the tightest, and every candidate
-// inside it, is kept).
+// at most `bound` (the spread of some covering choice, so at least the tightest one's) holds a
+// candidate of every axis, so it lies within [that axis's shortest - bound, its longest + bound]
+// for every axis; and it fits in two adjacent buckets of that width, so only candidates in that
+// interval and in a bucket that, with a neighbour, holds every moving axis are kept (per bucket,
+// the axes present as a bit mask, axis index modulo 64: more axes only keep more). The candidates
+// kept are sorted; the window search over them finds what it finds over all (every window within
+// the tie margin of the tightest, and every candidate inside it, is kept).
 // The axes present in one duration bucket; `plan` tells whether it was written by this plan, so
 // that the buckets need no clearing between plans.
 struct BucketAxes {
@@ -113,10 +125,70 @@ struct BucketAxes {
   std::uint64_t axes = 0;
 };
 
-void tight_candidates(const std::vector<Candidate>& candidates, double shortest, double longest, double bound,
-                      std::uint64_t plan_stamp, std::vector<BucketAxes>& bucket_axes, std::vector<Candidate>& sorted) {
+// Sorts candidates into `earlier` order, `spare` as scratch. They come in setting order, so a
+// stable distribution by the leading bits of their durations (positive doubles order as their bit
+// patterns) leaves only candidates with the same leading bits out of order, which are then sorted
+// among themselves (a few by insertion): fewer mispredicted comparisons than one sort of all.
+void sort_by_duration(std::vector<Candidate>& candidates, std::vector<Candidate>& spare) {
+  constexpr std::size_t kComparisonSortBelow = 32;
+  if (candidates.size() < kComparisonSortBelow) {
+    std::ranges::sort(candidates, earlier);
+    return;
+  }
+  const auto bits = [](const Candidate& c) { return std::bit_cast<std::uint64_t>(c.duration_s); };
+  std::uint64_t lowest = std::numeric_limits<std::uint64_t>::max();
+  std::uint64_t highest = 0;
+  for (const Candidate& c : candidates) {
+    lowest = std::min(lowest, bits(c));
+    highest = std::max(highest, bits(c));
+  }
+  constexpr int kDigitBits = 8;
+  constexpr std::size_t kDigits = std::size_t{1} << kDigitBits;
+  const int shift = std::max(0, static_cast<int>(std::bit_width(highest - lowest)) - kDigitBits);
+  const auto digit = [&](const Candidate& c) { return static_cast<std::size_t>((bits(c) - lowest) >> shift); };
+  std::array<std::uint32_t, kDigits + 1> start{};
+  for (const Candidate& c : candidates) ++start[digit(c) + 1];
+  for (std::size_t d = 1; d <= kDigits; ++d) start[d] += start[d - 1];
+  spare.resize(candidates.size());
+  for (const Candidate& c : candidates) spare[start[digit(c)]++] = c;
+  candidates.swap(spare);
+  // start[d] is now where digit d's candidates end. A few are put in order by insertion; a
+  // cluster (many durations within one digit) by a comparison sort.
+  constexpr std::size_t kInsertionUpTo = 8;
+  std::size_t begin = 0;
+  for (std::size_t d = 0; d < kDigits; ++d) {
+    const std::size_t end = start[d];
+    if (end - begin > kInsertionUpTo) {
+      std::sort(candidates.begin() + static_cast<std::ptrdiff_t>(begin),
+                candidates.begin() + static_cast<std::ptrdiff_t>(end), earlier);
+    } else {
+      for (std::size_t k = begin + 1; k < end; ++k) {
+        const Candidate c = candidates[k];
+        std::size_t j = k;
+        for (; j > begin && earlier(c, candidates[j - 1]); --j) candidates[j] = candidates[j - 1];
+        candidates[j] = c;
+      }
+    }
+    begin = end;
+  }
+}
+
+// The durations of all candidates: over all axes, and the extremes of the axes' own ranges.
+struct DurationRange {
+  double shortest = std::numeric_limits<double>::infinity();
+  double longest = 0.0;
+  double latest_shortest = 0.0;                                       // the largest of the axes' shortest durations
+  double earliest_longest = std::numeric_limits<double>::infinity();  // the smallest of their longest
+};
+
+void tight_candidates(const std::vector<Candidate>& candidates, const DurationRange& durations, double bound,
+                      std::uint64_t every_axis, std::uint64_t plan_stamp, std::vector<BucketAxes>& bucket_axes,
+                      std::vector<Candidate>& sorted, std::vector<Candidate>& spare) {
   // The width covers the tie margin and the rounding of the bucket index.
   const double width = (bound + 4.0 * kSpreadTieSeconds) * (1.0 + 1e-9) + 1e-300;
+  const double shortest = std::max(durations.shortest, durations.latest_shortest - width);
+  const double longest = std::min(durations.longest, durations.earliest_longest + width);
+  const auto inside = [&](const Candidate& c) { return c.duration_s >= shortest && c.duration_s <= longest; };
   const double range = longest - shortest;
   const std::size_t most = 16 * candidates.size() + 16;
   const double wanted = range / width + 1.0;
@@ -127,29 +199,41 @@ void tight_candidates(const std::vector<Candidate>& candidates, double shortest,
   };
   if (bucket_axes.size() < buckets + 2) bucket_axes.resize(buckets + 2);  // one empty bucket on either side
   const auto axes_in = [&](std::size_t b) { return bucket_axes[b].plan == plan_stamp ? bucket_axes[b].axes : 0; };
-  std::uint64_t every_axis = 0;
+  // Those inside the interval, then those of them in a bucket that with a neighbour holds every
+  // axis, compacted without branches.
+  sorted.resize(candidates.size());
+  std::size_t count = 0;
   for (const Candidate& c : candidates) {
-    const std::uint64_t bit = std::uint64_t{1} << (c.axis % 64);
-    every_axis |= bit;
+    sorted[count] = c;
+    count += inside(c) ? 1U : 0U;
+  }
+  sorted.resize(count);
+  for (const Candidate& c : sorted) {
     BucketAxes& bucket = bucket_axes[bucket_of(c)];
-    bucket.axes = (bucket.plan == plan_stamp ? bucket.axes : 0) | bit;
+    bucket.axes = (bucket.plan == plan_stamp ? bucket.axes : 0) | (std::uint64_t{1} << (c.axis % 64));
     bucket.plan = plan_stamp;
   }
-  sorted.clear();
-  for (const Candidate& c : candidates) {
+  std::size_t kept = 0;
+  for (const Candidate& c : sorted) {
     const std::size_t b = bucket_of(c);
     const std::uint64_t here = bucket_axes[b].axes;
-    if ((here | axes_in(b - 1)) == every_axis || (here | axes_in(b + 1)) == every_axis) sorted.push_back(c);
+    sorted[kept] = c;
+    kept += (here | axes_in(b - 1)) == every_axis || (here | axes_in(b + 1)) == every_axis ? 1U : 0U;
   }
-  std::ranges::sort(sorted, earlier);
+  sorted.resize(kept);
+  sort_by_duration(sorted, spare);
 }
 
 // Scratch buffers of one thread's plans, reused: planning allocates only for its result once they
 // have grown to the largest plan seen.
 struct Workspace {
-  std::vector<DriveSetting> settings;  // every moving axis's settings, axis after axis
+  std::vector<GridBlock> blocks;       // every moving axis's settings, axis after axis, in blocks
+  std::vector<GridRamp> ramps;         // the blocks' ramps
+  std::vector<DriveSetting> settings;  // a quantizer's settings before they become blocks
+  std::vector<double> velocities;      // an axis's first-round velocities
   std::vector<Candidate> candidates;
   std::vector<Candidate> sorted;         // the candidates in `earlier` order
+  std::vector<Candidate> spare;          // sort_by_duration's scratch
   std::vector<BucketAxes> bucket_axes;   // tight_candidates' axes per bucket
   std::uint64_t plans = 0;               // plans made with this workspace
   std::vector<std::size_t> in_window;    // tightest_window's per-axis counts
@@ -166,37 +250,161 @@ Workspace& thread_workspace() {
 
 namespace {
 
+// The second round of QuantizeOptions::match_duration: for every velocity of the first round
+// (`velocities`, as offered), in increasing order and each once, the ramps that make the axis
+// arrive at the planned duration with it, passed to `round(desired)`.
+template <typename Round>
+void matching_round(const SyncPlan& plan, std::size_t axis, const DriveMotion& desired, const AxisCaps& caps,
+                    std::vector<double>& velocities, Round&& round) {
+  if (!std::ranges::is_sorted(velocities, std::ranges::less_equal{})) {
+    std::ranges::sort(velocities);
+    const auto [duplicates, end] = std::ranges::unique(velocities);
+    velocities.erase(duplicates, end);
+  }
+  const double distance = std::abs(static_cast<double>(plan.axes[axis].distance_counts()));
+  for (const double velocity : velocities) {
+    const auto matching = duration_matching(distance, plan.duration_s(), velocity, desired);
+    if (!matching) continue;
+    // The ramps were fitted to this velocity only; its neighbours are already in the first round.
+    round(DriveMotion{velocity, std::min(matching->acceleration_counts_per_s2, caps.acceleration),
+                      std::min(matching->deceleration_counts_per_s2, caps.deceleration)});
+  }
+}
+
 // append_axis_candidates() before the filter by the axis's hard limits.
 void axis_settings(const SyncPlan& plan, std::size_t axis, const DriveQuantizer& quantizer,
                    const QuantizeOptions& options, const AxisCaps& caps, std::vector<DriveSetting>& out) {
-  const AxisProfile& planned = plan.axes[axis];
-  const DriveMotion desired = desired_motion(planned.shape, caps);
+  const DriveMotion desired = desired_motion(plan.axes[axis].shape, caps);
   const std::size_t first = out.size();
   quantizer.candidates(desired, options.neighbours, out);
   if (!options.match_duration) return;
-  // One more round per representable velocity, around its duration-matching ramps: the velocities
-  // of the first round in increasing order, each once (a grid gives them grouped and in order).
+  // The velocities of the first round, each once (a grid gives them grouped and in order).
   thread_local std::vector<double> velocities;
   velocities.clear();
   for (std::size_t k = first; k < out.size(); ++k) {
     const double v = out[k].realized.velocity_counts_per_s;
     if (velocities.empty() || velocities.back() != v) velocities.push_back(v);
   }
-  if (!std::ranges::is_sorted(velocities, std::ranges::less_equal{})) {
-    std::ranges::sort(velocities);
-    const auto [duplicates, end] = std::ranges::unique(velocities);
-    velocities.erase(duplicates, end);
+  matching_round(plan, axis, desired, caps, velocities,
+                 [&](const DriveMotion& wanted) { quantizer.candidates_at_velocity(wanted, options.neighbours, out); });
+}
+
+// axis_settings() of a grid, as blocks: the same settings in the same order.
+void axis_blocks(const SyncPlan& plan, std::size_t axis, const GridQuantizer& grid, const QuantizeOptions& options,
+                 const AxisCaps& caps, Workspace& w) {
+  const DriveMotion desired = desired_motion(plan.axes[axis].shape, caps);
+  const std::size_t first = w.blocks.size();
+  grid.blocks(desired, options.neighbours, false, w.blocks, w.ramps);
+  if (!options.match_duration) return;
+  w.velocities.clear();
+  for (std::size_t k = first; k < w.blocks.size(); ++k) w.velocities.push_back(w.blocks[k].velocity_counts_per_s);
+  matching_round(plan, axis, desired, caps, w.velocities,
+                 [&](const DriveMotion& wanted) { grid.blocks(wanted, options.neighbours, true, w.blocks, w.ramps); });
+}
+
+// Any quantizer's settings (axis_settings()) as blocks of one setting each.
+void axis_setting_blocks(const SyncPlan& plan, std::size_t axis, const DriveQuantizer& quantizer,
+                         const QuantizeOptions& options, const AxisCaps& caps, Workspace& w) {
+  w.settings.clear();
+  axis_settings(plan, axis, quantizer, options, caps, w.settings);
+  for (const DriveSetting& s : w.settings) {
+    w.blocks.push_back(GridBlock{s.native.velocity, s.realized.velocity_counts_per_s,
+                                 static_cast<std::uint32_t>(w.ramps.size()), 1, 1});
+    w.ramps.push_back(GridRamp{s.native.acceleration, s.realized.acceleration_counts_per_s2});
+    w.ramps.push_back(GridRamp{s.native.deceleration, s.realized.deceleration_counts_per_s2});
   }
-  const double distance = std::abs(static_cast<double>(planned.distance_counts()));
-  for (const double velocity : velocities) {
-    const auto matching = duration_matching(distance, plan.duration_s(), velocity, desired);
-    if (!matching) continue;
-    // The ramps were fitted to this velocity only; its neighbours are already in the first round.
-    quantizer.candidates_at_velocity(
-        DriveMotion{velocity, std::min(matching->acceleration_counts_per_s2, caps.acceleration),
-                    std::min(matching->deceleration_counts_per_s2, caps.deceleration)},
-        options.neighbours, out);
+}
+
+// What the candidates of one axis's blocks have come to.
+struct AxisDurations {
+  double nearest = -1.0;  // the duration nearest the planned one, -1 when no setting is usable
+  double shortest = std::numeric_limits<double>::infinity();
+  double longest = 0.0;
+};
+
+// A ramp of a block, evaluated at the block's velocity: the terms of time_optimal_shape that
+// depend on it alone.
+struct RampTerms {
+  double rate;
+  double inverse;  // 1 / rate
+  double time;     // velocity / rate
+  bool usable;
+};
+
+std::size_t ramp_terms(const GridRamp* ramps, std::size_t count, double velocity, double limit, RampTerms* out) {
+  std::size_t usable_count = 0;
+  for (std::size_t j = 0; j < count; ++j) {
+    const double rate = ramps[j].counts_per_s2;
+    out[j].rate = rate;
+    out[j].usable = usable(rate, limit);
+    if (!out[j].usable) continue;
+    out[j].inverse = 1.0 / rate;
+    out[j].time = velocity / rate;
+    ++usable_count;
   }
+  return usable_count;
+}
+
+// Appends to w.candidates every setting of blocks [first, w.blocks.size()) within `caps`, with the
+// duration of the drive's own trapezoid over `distance`: time_optimal_shape(...).duration_s() bit
+// for bit (the same operations in the same order), but each ramp's reciprocal and ramp time
+// computed once per block rather than once per setting.
+AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axis, double distance,
+                              const AxisCaps& caps, double planned_s) {
+  AxisDurations out;
+  double nearest_offset = 0.0;  // |out.nearest - planned_s|
+  // Written in place: room for every setting, cut back to those within the caps at the end.
+  const std::size_t before = w.candidates.size();
+  std::size_t most = before;
+  for (std::size_t k = first; k < w.blocks.size(); ++k) {
+    most += std::size_t{w.blocks[k].accelerations} * w.blocks[k].decelerations;
+  }
+  w.candidates.resize(most);
+  Candidate* next = w.candidates.data() + before;
+  std::array<RampTerms, kMaxBlockRamps> accelerations{};
+  std::array<RampTerms, kMaxBlockRamps> decelerations{};
+  for (std::size_t k = first; k < w.blocks.size(); ++k) {
+    const GridBlock& block = w.blocks[k];
+    const double v = block.velocity_counts_per_s;
+    if (!usable(v, caps.velocity)) continue;
+    const GridRamp* ramps = w.ramps.data() + block.first_ramp;
+    if (ramp_terms(ramps, block.accelerations, v, caps.acceleration, accelerations.data()) == 0 ||
+        ramp_terms(ramps + block.accelerations, block.decelerations, v, caps.deceleration, decelerations.data()) == 0) {
+      continue;
+    }
+    const double half_v_squared = 0.5 * v * v;
+    const auto key = static_cast<std::uint32_t>(k << kBlockShift);
+    for (std::uint32_t ja = 0; ja < block.accelerations; ++ja) {
+      const RampTerms& a = accelerations[ja];
+      if (!a.usable) continue;
+      for (std::uint32_t jd = 0; jd < block.decelerations; ++jd) {
+        const RampTerms& d = decelerations[jd];
+        if (!d.usable) continue;
+        const double ramps_distance = half_v_squared * (a.inverse + d.inverse);
+        const double duration_s = ramps_distance <= distance
+                                      ? a.time + (distance - ramps_distance) / v + d.time
+                                      : time_optimal_shape(distance, v, a.rate, d.rate).duration_s();
+        out.shortest = std::min(out.shortest, duration_s);
+        out.longest = std::max(out.longest, duration_s);
+        const double offset = std::abs(duration_s - planned_s);
+        const bool nearer = out.nearest < 0.0 || offset < nearest_offset;
+        out.nearest = nearer ? duration_s : out.nearest;
+        nearest_offset = nearer ? offset : nearest_offset;
+        *next++ = Candidate{duration_s, axis, key | (ja << kRampBits) | jd};
+      }
+    }
+  }
+  w.candidates.resize(static_cast<std::size_t>(next - w.candidates.data()));
+  return out;
+}
+
+// The setting a candidate stands for.
+DriveSetting setting_of(const Workspace& w, const Candidate& c) {
+  const GridBlock& block = w.blocks[c.setting >> kBlockShift];
+  const GridRamp& a = w.ramps[block.first_ramp + ((c.setting >> kRampBits) & kRampMask)];
+  const GridRamp& d = w.ramps[block.first_ramp + block.accelerations + (c.setting & kRampMask)];
+  return DriveSetting{NativeMotion{block.velocity_native, a.native, d.native},
+                      DriveMotion{block.velocity_counts_per_s, a.counts_per_s2, d.counts_per_s2}};
 }
 
 }  // namespace
@@ -214,6 +422,13 @@ void append_axis_candidates(const SyncPlan& plan, std::size_t axis, const DriveQ
 
 Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQuantizer* const> quantizers,
                                     const QuantizeOptions& options) {
+  QuantizedPlan out;
+  if (auto failure = quantize_plan_into(plan, quantizers, out, options)) return *std::move(failure);
+  return out;
+}
+
+std::optional<PlanFailure> quantize_plan_into(const SyncPlan& plan, std::span<const DriveQuantizer* const> quantizers,
+                                              QuantizedPlan& out, const QuantizeOptions& options) {
   const std::size_t axis_count = plan.axes.size();
   if (quantizers.size() != axis_count || std::ranges::find(quantizers, nullptr) != quantizers.end()) {
     return PlanFailure{PlanErrc::kQuantizerCountMismatch,
@@ -223,48 +438,49 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
                        static_cast<double>(axis_count)};
   }
 
-  QuantizedPlan out;
   out.planned_duration_s = plan.duration_s();
-  out.axes.resize(axis_count);
+  out.earliest_arrival_s = 0.0;
+  out.latest_arrival_s = 0.0;
+  out.axes.assign(axis_count, RealizedAxis{});
   Workspace& w = thread_workspace();
-  w.settings.clear();
+  w.blocks.clear();
+  w.ramps.clear();
   w.candidates.clear();
   w.nearest.assign(axis_count, -1.0);
   std::size_t moving_count = 0;
-  double shortest = std::numeric_limits<double>::infinity();
-  double longest = 0.0;
+  std::uint64_t every_axis = 0;  // the moving axes, index modulo 64 (tight_candidates' masks)
+  DurationRange range;
   for (std::size_t i = 0; i < axis_count; ++i) {
     const AxisProfile& planned = plan.axes[i];
     out.axes[i].profile = AxisProfile{planned.start_counts, planned.target_counts, {}};
     if (planned.is_still()) continue;
     ++moving_count;
+    every_axis |= std::uint64_t{1} << (i % 64);
     const double distance = std::abs(static_cast<double>(planned.distance_counts()));
     const AxisCaps caps = hard_limits(plan, static_cast<Eigen::Index>(i));
-    const std::size_t settings_first = w.settings.size();
     const std::size_t candidates_first = w.candidates.size();
-    axis_settings(plan, i, *quantizers[i], options, caps, w.settings);
-    // The settings within the hard limits, each with the duration the drive's own trapezoid takes.
-    for (std::size_t k = settings_first; k < w.settings.size(); ++k) {
-      const DriveMotion& realized = w.settings[k].realized;
-      if (!within(realized, caps)) continue;
-      const TrapezoidShape shape =
-          time_optimal_shape(distance, realized.velocity_counts_per_s, realized.acceleration_counts_per_s2,
-                             realized.deceleration_counts_per_s2);
-      const double duration_s = shape.duration_s();
-      shortest = std::min(shortest, duration_s);
-      longest = std::max(longest, duration_s);
-      double& nearest = w.nearest[i];
-      if (nearest < 0.0 || std::abs(duration_s - out.planned_duration_s) < std::abs(nearest - out.planned_duration_s)) {
-        nearest = duration_s;
-      }
-      w.candidates.push_back(Candidate{duration_s, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(k)});
+    const std::size_t blocks_first = w.blocks.size();
+    const auto* grid = dynamic_cast<const GridQuantizer*>(quantizers[i]);
+    if (grid != nullptr && options.neighbours <= kMaxBlockNeighbours) {
+      axis_blocks(plan, i, *grid, options, caps, w);
+    } else {
+      axis_setting_blocks(plan, i, *quantizers[i], options, caps, w);
     }
+    if (w.blocks.size() > kMaxBlocks) throw std::length_error("quantize_plan: more than 2^24 candidate blocks");
+    // The settings within the hard limits, each with the duration the drive's own trapezoid takes.
+    const AxisDurations durations =
+        evaluate_blocks(w, blocks_first, static_cast<std::uint32_t>(i), distance, caps, out.planned_duration_s);
+    w.nearest[i] = durations.nearest;
+    range.shortest = std::min(range.shortest, durations.shortest);
+    range.longest = std::max(range.longest, durations.longest);
+    range.latest_shortest = std::max(range.latest_shortest, durations.shortest);
+    range.earliest_longest = std::min(range.earliest_longest, durations.longest);
     if (w.candidates.size() == candidates_first) {
       return PlanFailure{PlanErrc::kQuantizationImpossible, i, plan.axis_names[i],
                          desired_motion(planned.shape, caps).velocity_counts_per_s, caps.velocity};
     }
   }
-  if (moving_count == 0) return out;
+  if (moving_count == 0) return std::nullopt;
 
   // A first covering choice: per axis the candidate nearest the planned duration.
   double nearest_shortest = std::numeric_limits<double>::infinity();
@@ -274,8 +490,8 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     nearest_shortest = std::min(nearest_shortest, w.nearest[i]);
     nearest_longest = std::max(nearest_longest, w.nearest[i]);
   }
-  tight_candidates(w.candidates, shortest, longest, nearest_longest - nearest_shortest, ++w.plans, w.bucket_axes,
-                   w.sorted);
+  tight_candidates(w.candidates, range, nearest_longest - nearest_shortest, every_axis, ++w.plans, w.bucket_axes,
+                   w.sorted, w.spare);
   const std::vector<Candidate>& candidates = w.sorted;
   const auto [first, last] = tightest_window(candidates, axis_count, moving_count, out.planned_duration_s, w.in_window);
   // Every axis has a candidate in the window; within it, take the one nearest the window centre.
@@ -289,7 +505,7 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
   for (std::size_t i = 0; i < axis_count; ++i) {
     if (w.chosen[i] == nullptr) continue;
     RealizedAxis& axis = out.axes[i];
-    axis.setting = w.settings[w.chosen[i]->setting];
+    axis.setting = setting_of(w, *w.chosen[i]);
     const DriveMotion& realized = axis.setting->realized;
     axis.profile =
         time_optimal_profile(axis.profile.start_counts, axis.profile.target_counts, realized.velocity_counts_per_s,
@@ -302,7 +518,7 @@ Result<QuantizedPlan> quantize_plan(const SyncPlan& plan, std::span<const DriveQ
     out.earliest_arrival_s = std::min(out.earliest_arrival_s, axis.duration_s());
     out.latest_arrival_s = std::max(out.latest_arrival_s, axis.duration_s());
   }
-  return out;
+  return std::nullopt;
 }
 
 }  // namespace motion::planner

@@ -1,8 +1,8 @@
 #include "motion/planner/quantizer.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
+#include <span>
 #include <stdexcept>
 #include <utility>
 
@@ -55,15 +55,16 @@ struct Bracket {
   }
 };
 
-// Realized accelerations cached per bracket position for the usual small `neighbours`; beyond, each
-// is computed where it is used.
-constexpr int kCachedBracket = 17;
-
-// The settings of GridQuantizer::candidates; with `only_velocity`, only those whose realized
-// velocity equals it (the velocity loop runs as for candidates(), the ramps only for that one).
-void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& acceleration_grid,
-                     const DriveMotion& desired, int neighbours, const double* only_velocity,
-                     std::vector<DriveSetting>& out) {
+// The settings of GridQuantizer::candidates, velocity by velocity: the representable ramps are
+// appended to `ramps` (accelerations, then decelerations, in order), then `visit(v_native,
+// velocity, first, accelerations, decelerations)` is called with where they start and how many
+// there are (neither none: a velocity without is skipped and its ramps removed); with
+// `only_velocity`, only the velocity equal to it (the velocity loop runs as for candidates(), the
+// ramps only for that one).
+template <typename Visit>
+void grid_blocks(const VelocityGrid& velocity_grid, const AccelerationGrid& acceleration_grid,
+                 const DriveMotion& desired, int neighbours, const double* only_velocity, std::vector<GridRamp>& ramps,
+                 Visit&& visit) {
   neighbours = std::max(neighbours, 1);
   const double v_step = velocity_grid.counts_per_s_per_step;
   const double a_step = acceleration_grid.step;
@@ -100,30 +101,42 @@ void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& 
                                        acceleration_grid.max_steps, realized_acceleration),
                      ramp_time ? 1 : -1, neighbours, acceleration_grid.min_steps, acceleration_grid.max_steps};
     };
-    const Bracket accelerations = bracket(desired.acceleration_counts_per_s2);
-    const Bracket decelerations = bracket(desired.deceleration_counts_per_s2);
-    std::array<double, kCachedBracket> cached_deceleration{};
-    const bool cache = decelerations.size() <= kCachedBracket;
-    if (cache) {
-      for (int jd = 0; jd < decelerations.size(); ++jd) {
-        const std::int64_t n = decelerations.index(jd);
-        if (n != 0) cached_deceleration[static_cast<std::size_t>(jd)] = realized_acceleration(n);
+    const std::size_t first = ramps.size();
+    const auto append = [&](const Bracket& offered) {
+      const std::size_t before = ramps.size();
+      for (int j = 0; j < offered.size(); ++j) {
+        const std::int64_t n = offered.index(j);
+        if (n != 0) ramps.push_back(GridRamp{n, realized_acceleration(n)});
       }
+      return ramps.size() - before;
+    };
+    const std::size_t accelerations = append(bracket(desired.acceleration_counts_per_s2));
+    const std::size_t decelerations = append(bracket(desired.deceleration_counts_per_s2));
+    if (accelerations == 0 || decelerations == 0) {
+      ramps.resize(first);
+      continue;
     }
-    for (int ja = 0; ja < accelerations.size(); ++ja) {
-      const std::int64_t a_native = accelerations.index(ja);
-      if (a_native == 0) continue;
-      const double acceleration = realized_acceleration(a_native);
-      for (int jd = 0; jd < decelerations.size(); ++jd) {
-        const std::int64_t d_native = decelerations.index(jd);
-        if (d_native == 0) continue;
-        const double deceleration =
-            cache ? cached_deceleration[static_cast<std::size_t>(jd)] : realized_acceleration(d_native);
-        out.push_back(DriveSetting{NativeMotion{v_native, a_native, d_native},
-                                   DriveMotion{velocity, acceleration, deceleration}});
-      }
-    }
+    visit(v_native, velocity, first, accelerations, decelerations);
   }
+}
+
+// grid_blocks() expanded into settings (acceleration-major).
+void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& acceleration_grid,
+                     const DriveMotion& desired, int neighbours, const double* only_velocity,
+                     std::vector<DriveSetting>& out) {
+  thread_local std::vector<GridRamp> ramps;
+  grid_blocks(velocity_grid, acceleration_grid, desired, neighbours, only_velocity, ramps,
+              [&](std::int64_t v_native, double velocity, std::size_t first, std::size_t accelerations,
+                  std::size_t decelerations) {
+                const std::span<const GridRamp> block(ramps.data() + first, accelerations + decelerations);
+                for (const GridRamp& a : block.first(accelerations)) {
+                  for (const GridRamp& d : block.last(decelerations)) {
+                    out.push_back(DriveSetting{NativeMotion{v_native, a.native, d.native},
+                                               DriveMotion{velocity, a.counts_per_s2, d.counts_per_s2}});
+                  }
+                }
+                ramps.clear();
+              });
 }
 
 }  // namespace
@@ -153,6 +166,18 @@ void GridQuantizer::candidates(const DriveMotion& desired, int neighbours, std::
 void GridQuantizer::candidates_at_velocity(const DriveMotion& desired, int neighbours,
                                            std::vector<DriveSetting>& out) const {
   grid_candidates(velocity_, acceleration_, desired, neighbours, &desired.velocity_counts_per_s, out);
+}
+
+void GridQuantizer::blocks(const DriveMotion& desired, int neighbours, bool at_velocity, std::vector<GridBlock>& blocks,
+                           std::vector<GridRamp>& ramps) const {
+  grid_blocks(velocity_, acceleration_, desired, neighbours, at_velocity ? &desired.velocity_counts_per_s : nullptr,
+              ramps,
+              [&](std::int64_t v_native, double velocity, std::size_t first, std::size_t accelerations,
+                  std::size_t decelerations) {
+                blocks.push_back(GridBlock{v_native, velocity, static_cast<std::uint32_t>(first),
+                                           static_cast<std::uint32_t>(accelerations),
+                                           static_cast<std::uint32_t>(decelerations)});
+              });
 }
 
 void DriveQuantizer::candidates_at_velocity(const DriveMotion& desired, int neighbours,

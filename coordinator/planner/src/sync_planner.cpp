@@ -62,7 +62,9 @@ std::optional<PlanFailure> check_axis(std::size_t index, const AxisRequest& axis
 std::int64_t to_counts(double user, double counts_per_user) { return std::llround(user * counts_per_user); }
 
 // min over moving axes of limit_i / |distance_i|: the cap of s(t) that keeps every axis in limits.
-double tightest_unit_cap(const Eigen::ArrayXd& limit_counts, const Eigen::ArrayXd& abs_distance) {
+template <typename Limits, typename Distances>
+double tightest_unit_cap(const Eigen::ArrayBase<Limits>& limit_counts,
+                         const Eigen::ArrayBase<Distances>& abs_distance) {
   return (abs_distance > 0.0).select(limit_counts / abs_distance, kInfinity).minCoeff();
 }
 
@@ -83,15 +85,22 @@ Eigen::VectorXd SyncPlan::velocities_counts_per_s_at(double t_s) const {
 }
 
 Result<SyncPlan> plan_synchronized(std::span<const AxisRequest> axes, const PlanOptions& options) {
+  SyncPlan plan;
+  if (auto bad = plan_synchronized_into(axes, plan, options)) return *std::move(bad);
+  return plan;
+}
+
+std::optional<PlanFailure> plan_synchronized_into(std::span<const AxisRequest> axes, SyncPlan& plan,
+                                                  const PlanOptions& options) {
   if (axes.empty()) return failure(PlanErrc::kNoAxes, kNoAxis, nullptr);
-  if (auto bad = check_options(options)) return *std::move(bad);
+  if (auto bad = check_options(options)) return bad;
   for (std::size_t i = 0; i < axes.size(); ++i) {
-    if (auto bad = check_axis(i, axes[i])) return *std::move(bad);
+    if (auto bad = check_axis(i, axes[i])) return bad;
   }
 
   const auto n = static_cast<Eigen::Index>(axes.size());
-  SyncPlan plan;
-  plan.axis_names.reserve(axes.size());
+  plan.time_law = TrapezoidShape{};
+  plan.axis_names.resize(axes.size());
   plan.start_counts.resize(n);
   plan.target_counts.resize(n);
   plan.velocity_limit_counts_per_s.resize(n);
@@ -99,7 +108,7 @@ Result<SyncPlan> plan_synchronized(std::span<const AxisRequest> axes, const Plan
   plan.deceleration_limit_counts_per_s2.resize(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     const AxisRequest& axis = axes[static_cast<std::size_t>(i)];
-    plan.axis_names.push_back(axis.name);
+    plan.axis_names[static_cast<std::size_t>(i)] = axis.name;
     plan.start_counts[i] = to_counts(axis.start_user, axis.counts_per_user);
     plan.target_counts[i] = to_counts(axis.target_user, axis.counts_per_user);
     plan.velocity_limit_counts_per_s[i] = axis.limits.max_velocity_user_per_s * axis.counts_per_user;
@@ -108,7 +117,7 @@ Result<SyncPlan> plan_synchronized(std::span<const AxisRequest> axes, const Plan
   }
   plan.distance_counts = (plan.target_counts - plan.start_counts).cast<double>();
 
-  const Eigen::ArrayXd abs_distance = plan.distance_counts.array().abs();
+  const auto abs_distance = plan.distance_counts.array().abs();  // an expression: nothing allocated
   if ((abs_distance > 0.0).any()) {
     const double unit_velocity =
         options.velocity_scale * tightest_unit_cap(plan.velocity_limit_counts_per_s.array(), abs_distance);
@@ -119,7 +128,7 @@ Result<SyncPlan> plan_synchronized(std::span<const AxisRequest> axes, const Plan
     plan.time_law = time_optimal_shape(1.0, unit_velocity, unit_acceleration, unit_deceleration);
   }
 
-  plan.axes.reserve(axes.size());
+  plan.axes.clear();
   for (Eigen::Index i = 0; i < n; ++i) {
     AxisProfile profile{plan.start_counts[i], plan.target_counts[i], plan.time_law};
     // Same phase times; rates scaled from "fraction of the move" to counts (zero for a still axis,
@@ -129,7 +138,7 @@ Result<SyncPlan> plan_synchronized(std::span<const AxisRequest> axes, const Plan
     profile.shape.deceleration *= abs_distance[i];
     plan.axes.push_back(profile);
   }
-  return plan;
+  return std::nullopt;
 }
 
 }  // namespace motion::planner

@@ -97,6 +97,62 @@ TEST(Quantizers, RpmWithRateInRpmPerSecond) {
   EXPECT_NEAR(it->realized.acceleration_counts_per_s2, 94.0 * 3200.0 / 60.0, 1e-9);
 }
 
+// GridQuantizer::blocks() expanded (every acceleration with every deceleration) is candidates()
+// (candidates_at_velocity() with at_velocity), setting by setting in the same order.
+TEST(Quantizers, GridBlocksAreTheCandidatesInOrder) {
+  const GridQuantizer grids[] = {
+      PpsRateQuantizer(),
+      PpsRampTimeQuantizer(),
+      RpmQuantizer(3200.0, 1.0, AccelerationGrid::rpm_per_s(3200.0, 1.0)),
+      GridQuantizer("ramp from", VelocityGrid{10.0, 1, 1000}, AccelerationGrid::ramp_time(0.01, 25.0).steps(2, 40)),
+  };
+  const DriveMotion wishes[] = {{1234.4, 5678.9, 4321.1}, {26.0, 0.5, 3.0e6}, {1e9, 1e9, 1e-9}, {5.0, 10.0, 10.0}};
+  int compared = 0;
+  for (const GridQuantizer& grid : grids) {
+    for (const DriveMotion& wish : wishes) {
+      for (const int neighbours : {1, 2, 7}) {
+        for (const bool at_velocity : {false, true}) {
+          std::vector<DriveSetting> expected;
+          DriveMotion desired = wish;
+          if (at_velocity) {  // a velocity the grid offers
+            const auto first_round = candidates_of(grid, wish, neighbours);
+            if (first_round.empty()) continue;
+            desired.velocity_counts_per_s = first_round.back().realized.velocity_counts_per_s;
+            grid.candidates_at_velocity(desired, neighbours, expected);
+          } else {
+            grid.candidates(desired, neighbours, expected);
+          }
+          std::vector<GridBlock> blocks;
+          std::vector<GridRamp> ramps;
+          grid.blocks(desired, neighbours, at_velocity, blocks, ramps);
+          std::vector<DriveSetting> expanded;
+          for (const GridBlock& b : blocks) {
+            ASSERT_GT(b.accelerations, 0U);
+            ASSERT_GT(b.decelerations, 0U);
+            for (std::uint32_t ja = 0; ja < b.accelerations; ++ja) {
+              for (std::uint32_t jd = 0; jd < b.decelerations; ++jd) {
+                const GridRamp& a = ramps[b.first_ramp + ja];
+                const GridRamp& d = ramps[b.first_ramp + b.accelerations + jd];
+                expanded.push_back({{b.velocity_native, a.native, d.native},
+                                    {b.velocity_counts_per_s, a.counts_per_s2, d.counts_per_s2}});
+              }
+            }
+          }
+          ASSERT_EQ(expanded.size(), expected.size()) << grid.name() << " neighbours " << neighbours;
+          for (std::size_t k = 0; k < expected.size(); ++k) {
+            EXPECT_EQ(expanded[k].native, expected[k].native) << k;
+            EXPECT_EQ(expanded[k].realized.velocity_counts_per_s, expected[k].realized.velocity_counts_per_s) << k;
+            EXPECT_EQ(expanded[k].realized.acceleration_counts_per_s2, expected[k].realized.acceleration_counts_per_s2);
+            EXPECT_EQ(expanded[k].realized.deceleration_counts_per_s2, expected[k].realized.deceleration_counts_per_s2);
+          }
+          compared += static_cast<int>(expected.size());
+        }
+      }
+    }
+  }
+  EXPECT_GT(compared, 1000);
+}
+
 TEST(Quantizers, IdentityPassesThrough) {
   const IdentityQuantizer q;
   const auto settings = candidates_of(q, {1.5, 2.5, 3.5}, 3);

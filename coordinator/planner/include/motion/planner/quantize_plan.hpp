@@ -12,7 +12,7 @@
 // Cost: linear in the candidates, no sort of them all: only those that can lie in the tightest
 // window (given the spread of the settings nearest the planned duration) are sorted. Scratch
 // buffers are per thread and reused, so once they have grown to a plan's size the only
-// allocation is the result's.
+// allocation is the result's, and none with quantize_plan_into() and a reused result.
 // Thread contract: quantize_plan is pure (its scratch is thread-local); thread-safe if the
 // quantizers are (ours are).
 #pragma once
@@ -63,5 +63,12 @@ void append_axis_candidates(const SyncPlan& plan, std::size_t axis, const DriveQ
 [[nodiscard]] Result<QuantizedPlan> quantize_plan(const SyncPlan& plan,
                                                   std::span<const DriveQuantizer* const> quantizers,
                                                   const QuantizeOptions& options = {});
+
+// The same into a caller's result, overwritten whole (its axes keep their storage): with a result
+// kept from plan to plan, quantization allocates nothing once the buffers have grown. nullopt on
+// success; on a failure `out` holds nothing meaningful.
+[[nodiscard]] std::optional<PlanFailure> quantize_plan_into(const SyncPlan& plan,
+                                                            std::span<const DriveQuantizer* const> quantizers,
+                                                            QuantizedPlan& out, const QuantizeOptions& options = {});
 
 }  // namespace motion::planner

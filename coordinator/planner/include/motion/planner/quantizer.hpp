@@ -110,14 +110,36 @@ struct AccelerationGrid {
   }
 };
 
+// One representable acceleration (or deceleration) of a grid: what to send, what the drive does.
+struct GridRamp {
+  std::int64_t native = 0;
+  double counts_per_s2 = 0.0;
+};
+
+// A grid's settings at one velocity: every acceleration with every deceleration, acceleration
+// first (the order candidates() lists them in). The ramps are ramps[first_ramp ...]: the
+// accelerations, then the decelerations.
+struct GridBlock {
+  std::int64_t velocity_native = 0;
+  double velocity_counts_per_s = 0.0;
+  std::uint32_t first_ramp = 0;
+  std::uint32_t accelerations = 0;
+  std::uint32_t decelerations = 0;
+};
+
 // The general integer-grid drive. Native velocity/acceleration/deceleration = the grid integers.
 // Throws std::invalid_argument on a non-positive step or an empty range.
+// candidates() and candidates_at_velocity() are final: the planner takes the same settings from
+// blocks() (in blocks, so that it evaluates each velocity and ramp once, not once per setting).
 class GridQuantizer : public DriveQuantizer {
  public:
   GridQuantizer(std::string name, VelocityGrid velocity, AccelerationGrid acceleration);
-  void candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const override;
-  void candidates_at_velocity(const DriveMotion& desired, int neighbours,
-                              std::vector<DriveSetting>& out) const override;
+  void candidates(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const final;
+  void candidates_at_velocity(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const final;
+  // The settings of candidates() (with `at_velocity`, of candidates_at_velocity()) as blocks,
+  // appended to `blocks` in the same order, their ramps appended to `ramps`. No block is empty.
+  void blocks(const DriveMotion& desired, int neighbours, bool at_velocity, std::vector<GridBlock>& blocks,
+              std::vector<GridRamp>& ramps) const;
   [[nodiscard]] std::string_view name() const override { return name_; }
   [[nodiscard]] const VelocityGrid& velocity_grid() const { return velocity_; }
   [[nodiscard]] const AccelerationGrid& acceleration_grid() const { return acceleration_; }

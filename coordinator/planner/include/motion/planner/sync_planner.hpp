@@ -76,4 +76,10 @@ struct SyncPlan {
 // Validates every input (see PlanErrc) and plans. All-zero moves give a zero-duration plan.
 [[nodiscard]] Result<SyncPlan> plan_synchronized(std::span<const AxisRequest> axes, const PlanOptions& options = {});
 
+// The same into a caller's plan, overwritten whole (its vectors keep their storage): with a plan
+// kept from move to move, planning allocates nothing once it has grown (names longer than the
+// small-string buffer aside). nullopt on success; on a failure `plan` holds nothing meaningful.
+[[nodiscard]] std::optional<PlanFailure> plan_synchronized_into(std::span<const AxisRequest> axes, SyncPlan& plan,
+                                                                const PlanOptions& options = {});
+
 }  // namespace motion::planner
