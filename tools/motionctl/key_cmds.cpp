@@ -63,7 +63,7 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
   cmd->add_option("--out", args->dir, "Folder of the key files (created with mode 0700)")->capture_default_str();
   cmd->add_option("--name", args->name, "The principal's name (1..64 of A-Z a-z 0-9 . _ -)")->capture_default_str();
   cmd->add_option("--role", args->role, "Role in the printed authorized_keys line")
-      ->check(CLI::IsMember({"observe", "operate", "configure", "admin"}))
+      ->check(CLI::IsMember({"observe", "operate", "configure", "admin", "gateway"}))
       ->capture_default_str();
   cmd->callback([&ctx, args] {
     if (!security::valid_name(args->name)) {
@@ -97,7 +97,7 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
               << security::public_key_path(args->dir, args->name) << "\n"
               << "key id " << security::to_hex(key.id())
               << "; an administrator adds this line to the coordinator's authorized_keys\n"
-              << "(role observe, operate, configure or admin):\n\n"
+              << "(role observe, operate, configure or admin; gateway for a gateway's key):\n\n"
               << key.authorized_line(args->role) << "\n\n"
               << "then sign with it: motionctl --key " << private_path << " ...  (or MOTION_KEY=" << private_path
               << ")\n";
