@@ -10,8 +10,10 @@
 #include <stdlib.h>
 #include <sys/stat.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <variant>
 
 #include <motionlcm/signed_request_t.hpp>
 
@@ -338,8 +340,8 @@ TEST_F(Security, GatewaysActOnNoTriggerOrActiveMovesNotSignedByTheCoordinator) {
 
 // What gateways publish is signed (security.gateway_key): axis states saying x1 is faulted and
 // offline, plain and signed with a key that is no gateway's, change nothing in the coordinator's
-// view. A move of x1 sent right behind them runs and ends DONE at its target; the signed forgery is
-// reported in a SECURITY event.
+// view, nor in that of a client verifying states with the gateway key. A move of x1 sent right
+// behind them runs and ends DONE at its target; the signed forgery is reported in a SECURITY event.
 TEST_F(Security, ForgedAxisStatesChangeNothingInTheCoordinatorsView) {
   const config::Axis* axis = lab_->config().find_axis("x1");
   ASSERT_NE(axis, nullptr);
@@ -349,6 +351,12 @@ TEST_F(Security, ForgedAxisStatesChangeNothingInTheCoordinatorsView) {
   forged.family = "uim342";
   forged.fault = true;
   forged.fault_text = "forged";
+  // A client that verifies axis states with the gateways' key (role gateway in authorized_keys).
+  Client* watcher = client("watcher", nullptr);
+  const auto gateway_key = security::load_public_key(dir_->str() + "/gateway.pub");
+  ASSERT_TRUE(std::holds_alternative<security::PublicKey>(gateway_key));
+  watcher->verify_states_with({std::get<security::PublicKey>(gateway_key)}, seconds(2));
+  ASSERT_TRUE(watcher->wait_until([&] { return watcher->axes().contains("x1"); }, seconds(3)));
   security::MessageSigner forger(keys_->stranger, lab_->group().node().prefix());
   for (int i = 0; i < 3; ++i) {
     forged.utime = forged.sample_utime = wall_time_us();
@@ -361,6 +369,11 @@ TEST_F(Security, ForgedAxisStatesChangeNothingInTheCoordinatorsView) {
   const reply_t done = op->call(move_to("x1", target), seconds(20));
   ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
   EXPECT_TRUE(lab_->settled_at("x1", target, kTolerance));
+  // The verifying client never took the forgery: its x1 is where the move put it, not faulted.
+  EXPECT_EQ(watcher->forged_states(), 3u);
+  ASSERT_TRUE(watcher->wait_until([&] { return std::abs(watcher->axes().at("x1").position - target) <= kTolerance; },
+                                  seconds(3)));
+  EXPECT_FALSE(watcher->axes().at("x1").fault);
   EXPECT_TRUE(lab_->client().wait_until(
       [&] {
         return lab_->has_event(event_t::SECURITY, "",

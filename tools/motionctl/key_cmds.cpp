@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "motion/security/authorized_keys.hpp"
 #include "motion/security/gateway_commands.hpp"
 #include "motionctl.hpp"
 
@@ -23,7 +24,25 @@ std::string default_key_name() {
 
 }  // namespace
 
+void Context::verify_states(client::Client& client, const config::Config& config) {
+  const auto& settings = config.security;
+  if (settings.mode != config::SecuritySettings::Mode::kEnforce || settings.authorized_keys.empty()) return;
+  auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
+  if (auto* error = std::get_if<std::string>(&keys)) {
+    std::cerr << "motionctl: axis states are shown unverified: security.authorized_keys: " << *error << "\n";
+    return;
+  }
+  auto gateways = std::get<security::AuthorizedKeys>(keys).keys_with_role(security::Role::kGateway);
+  if (gateways.empty()) {
+    std::cerr << "motionctl: axis states are shown unverified: " << settings.authorized_keys
+              << " has no key of role gateway\n";
+    return;
+  }
+  client.verify_states_with(std::move(gateways), std::chrono::milliseconds(settings.window_ms));
+}
+
 bool Context::sign_requests(client::Client& client, const config::Config& config) {
+  verify_states(client, config);
   // With security enforced and the coordinator's public key known, only its signed replies count.
   if (config.security.mode == config::SecuritySettings::Mode::kEnforce &&
       !config.security.coordinator_public_key.empty()) {
