@@ -29,17 +29,26 @@ int main(int argc, char** argv) {
     if (!service.ok()) return app::kExitUnavailable;
     coordinator::CoordinatorService coordinator(service.loop(), service.node(), *config,
                                                 coordinator::make_move_planner(), std::move(security));
-    // OK once every bus's gateway is heard: until then requests for its axes are refused.
+    // OK once every bus's gateway and every axis's state is heard: until then requests for those
+    // axes are refused.
     auto update_health = [&] {
       std::string missing;
       for (const auto& bus : coordinator.buses_without_gateway())
         missing += (missing.empty() ? "" : ", ") + ("gateway:" + bus);
-      if (missing.empty()) {
-        service.health().set_state(motionlcm::health_t::OK,
-                                   std::to_string(config->axes.size()) + " axes, every gateway heard");
-      } else {
+      if (!missing.empty()) {
         service.health().set_state(motionlcm::health_t::DEGRADED, "no heartbeat from " + missing);
+        return;
       }
+      const auto unheard = coordinator.axes_never_heard();
+      if (!unheard.empty()) {
+        std::string names;
+        for (std::size_t i = 0; i < unheard.size() && i < 5; ++i) names += (i == 0 ? "" : ", ") + unheard[i];
+        if (unheard.size() > 5) names += " and " + std::to_string(unheard.size() - 5) + " more";
+        service.health().set_state(motionlcm::health_t::DEGRADED, "no state yet from axis " + names);
+        return;
+      }
+      service.health().set_state(motionlcm::health_t::OK,
+                                 std::to_string(config->axes.size()) + " axes, every gateway and axis heard");
     };
     update_health();
     service.loop().call_every(std::chrono::milliseconds(100), update_health);

@@ -46,7 +46,7 @@ TEST(Commission, ReadsBackTheSetUpAndNamesAContradiction) {
 // counts at 160 counts/mm, toward the side with more room) out and back; the counts each drive
 // reports change by exactly that and come back (exit 0). Checked against a configuration that says
 // 320 counts/mm for u1 (as a wrong micro-stepping would make it), the same move is a contradiction
-// naming what to check (exit 1).
+// naming what to check (exit 1). The first run also reports how each drive's move start was probed.
 TEST(Commission, SmallMoveOutAndBackChecksTheCountsEachDriveReports) {
   SimLab lab(source_path("tests/integration/configs/uim242-two.yaml"));
   ASSERT_TRUE(lab.start({"u1", "u2"}));
@@ -66,6 +66,11 @@ TEST(Commission, SmallMoveOutAndBackChecksTheCountsEachDriveReports) {
         << drive << "\n"
         << printed;
     EXPECT_EQ(lab.starts_of(drive).size(), 2u) << drive << ": out and back";
+    // The first armed move since the gateway started probed the move start (the simulated drives
+    // hold a displacement loaded at speed 0, the default variant).
+    EXPECT_NE(printed.find("move start: probed: a displacement loaded at speed 0 holds still", at), std::string::npos)
+        << drive << "\n"
+        << printed;
   }
   EXPECT_TRUE(lab.settled_at("u1", 0.0, 1e-9));
   EXPECT_TRUE(lab.settled_at("u2", 0.0, 1e-9));
@@ -89,6 +94,9 @@ TEST(Commission, SmallMoveOutAndBackChecksTheCountsEachDriveReports) {
                          "the configuration (640 and 0 at steps_per_unit 320): check steps_per_unit and the drive's "
                          "micro-stepping (2 times the counts it made)"),
             std::string::npos)
+      << printed;
+  // The gateway probed both drives during the first run: nothing new to report, and it says why.
+  EXPECT_NE(printed.find("move start: not probed in this run: the gateway probes a drive once"), std::string::npos)
       << printed;
   std::filesystem::remove(wrong_path);
 }

@@ -60,6 +60,9 @@ const Row kRows[] = {
     // drops out mid-move is set up again only at rest: its set-up is refused while it moves).
     {"FramesDropped", "a", sim_control_t::BUS_DROP, 50, 0},
     {"FramesDroppedWithTheStop", "a", kDropWithStop, 20, 0},
+    // The gateway's CAN controller bus-off for 600 ms, then restarted (SocketCAN restart-ms): a
+    // BUS_OFF and a BUS_RECOVERED event of the bus; the move that was running ends once.
+    {"GatewayBusOff", "a", sim_control_t::BUS_OFF, 600, event_t::BUS_OFF},
     // Persistent CRC errors: the drive goes on executing, nothing it sends gets through (CAN: the
     // frames fail the CRC at every receiver; Modbus: the master discards the replies); held until
     // the move is over on the drive, so that it answers again at rest.
@@ -108,7 +111,12 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
   }
   bool event_since(std::int16_t kind, const std::string& axis) const {
     return std::any_of(events_.begin() + static_cast<std::ptrdiff_t>(first_event_), events_.end(),
-                       [&](const event_t& e) { return e.kind == kind && e.axis == axis; });
+                       [&](const event_t& e) {
+                         return e.kind == kind && (e.axis == axis || (e.axis.empty() && e.bus == bus_of(axis)));
+                       });
+  }
+  std::string bus_of(const std::string& axis) const {
+    return lab_->config().drive_of(*lab_->config().find_axis(axis))->bus;
   }
   std::string process_of(const std::string& axis) {
     return "gateway:" + lab().config().drive_of(axis_config(axis))->bus;
@@ -180,6 +188,7 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
         return [] {};
       case sim_control_t::LINE_NOISE: lab().control_bus(bus, sim_control_t::LINE_NOISE, row.value, 1); return [] {};
       case sim_control_t::BUS_DROP: lab().control_bus(bus, sim_control_t::BUS_DROP, row.value); return [] {};
+      case sim_control_t::BUS_OFF: lab().control_bus(bus, sim_control_t::BUS_OFF, row.value); return [] {};
       case sim_control_t::SILENCE:
       case sim_control_t::CRC_ERRORS:
       case sim_control_t::REPLY_LATENCY:
@@ -250,6 +259,10 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
   if (row.event != 0) {
     EXPECT_TRUE(lab().client().wait_until([&] { return event_since(row.event, axis); }, seconds(10)))
         << "no event of kind " << row.event << " naming " << axis;
+  }
+  if (row.fault == sim_control_t::BUS_OFF) {
+    EXPECT_TRUE(lab().client().wait_until([&] { return event_since(event_t::BUS_RECOVERED, axis); }, seconds(10)))
+        << "no BUS_RECOVERED event of bus " << bus_of(axis);
   }
   // 3. Every axis online, at rest, within its limits; DONE means at the target; every process OK.
   const bool settled = lab().client().wait_until(

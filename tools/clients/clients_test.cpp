@@ -431,7 +431,8 @@ TEST(Spy, TypeScannerFindsEveryMotionlcmType) {
 }
 
 // tools/spy under Xvfb against a live coordinator: loads our types and is still running after 15 s
-// (`timeout` then stops it: exit 124; xvfb-run stops its X server).
+// (`timeout` then stops the whole process group, xvfb-run and its X server included: exit 124,
+// whatever xvfb-run's own clean-up of its temporary folder then says).
 TEST(Spy, RunsUnderXvfbAgainstALiveCoordinator) {
   const Runtime r = java();
   ASSERT_TRUE(r.missing.empty()) << r.missing;
@@ -442,11 +443,11 @@ TEST(Spy, RunsUnderXvfbAgainstALiveCoordinator) {
   start_coordinator(group);
   if (HasFatalFailure()) return;
   std::string out;
-  // ProcessGroup appends --lcm-url URL, which xvfb-run and timeout pass on to tools/spy.
+  // ProcessGroup appends --lcm-url URL, which timeout and xvfb-run pass on to tools/spy.
   const int rc =
       group.run_to_completion({"spy",
-                               paths::kXvfbRun,
-                               {"-a", paths::kTimeout, "-k", "3", "15", paths::kSpy, "--jar", paths::kTypesJar},
+                               paths::kTimeout,
+                               {"-k", "3", "15", paths::kXvfbRun, "-a", paths::kSpy, "--jar", paths::kTypesJar},
                                {std::string("JAVA=") + paths::kJava, std::string("LCM_JAR=") + paths::kLcmJar}},
                               &out, seconds(60));
   EXPECT_EQ(rc, 124) << "lcm-spy was not running any more after 15 s (124 = stopped by timeout)\n" << out;

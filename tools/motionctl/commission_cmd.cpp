@@ -109,7 +109,7 @@ std::pair<std::vector<Check>, std::vector<std::string>> checks_of(const config::
       notes.push_back("reboot_ms: set-up waits for the controller to answer after an ICF write (up to 5 s)");
       notes.push_back(
           "move start (spd0_position_move): the gateway probes it at the drive's first armed move (--small-move "
-          "makes one)");
+          "makes one and reports what it found)");
       break;
     }
     case config::Family::kAdamModbus: {
@@ -214,6 +214,29 @@ SmallMove small_move(client::Client& client, const config::Axis& axis, double pe
   return out;
 }
 
+// UIM242's move start (docs/protocols.md, UIM242 #3) as the gateway's probe found it during this
+// run, or why there is no finding.
+struct MoveStart {
+  std::string line;
+  nlohmann::json json;
+};
+
+MoveStart move_start_of(const config::Drive& d, const std::vector<motionlcm::event_t>& findings) {
+  const std::string prefix = d.name + " (node " + std::to_string(d.node_id) + "): ";
+  for (const auto& e : findings) {
+    if (e.text.rfind(prefix, 0) != 0 || e.text.find("spd0_position_move") == std::string::npos) continue;
+    return {"probed: " + e.text.substr(prefix.size()), {{"probed", e.text.substr(prefix.size())}}};
+  }
+  if (const auto configured = d.setup_text("spd0_position_move"); configured && *configured != "detect") {
+    return {"spd0_position_move " + *configured + " from the configuration (not probed)",
+            {{"configured", *configured}}};
+  }
+  return {
+      "not probed in this run: the gateway probes a drive once, at its first armed move since the gateway "
+      "started (its CONFIG_MISMATCH event then says what it found)",
+      {{"probed", nullptr}}};
+}
+
 }  // namespace
 
 void add_commission_command(CLI::App& cli, Context& ctx) {
@@ -258,6 +281,12 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
               std::chrono::duration_cast<std::chrono::milliseconds>(deadline - service.loop().now()));
         }
       }
+      // What the gateway finds out at a drive's first armed move (UIM242's move-start probe: a
+      // CONFIG_MISMATCH INFO event of that drive), reported after the small move.
+      std::vector<motionlcm::event_t> findings;
+      client.on_event([&findings](const motionlcm::event_t& e) {
+        if (e.kind == motionlcm::event_t::CONFIG_MISMATCH) findings.push_back(e);
+      });
       int result = app::kExitOk;
       nlohmann::json out = nlohmann::json::array();
       for (const auto& d : cfg.drives) {
@@ -328,6 +357,11 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
           jd["small_move"] = moved.json;
           if (moved.contradiction) result = std::max(result, int{app::kExitFailure});
           if (!moved.checked) result = std::max(result, int{app::kExitUnavailable});
+          if (d.family == config::Family::kUim242) {
+            const auto start = move_start_of(d, findings);
+            if (!ctx.json) std::cout << "  move start: " << start.line << "\n";
+            jd["move_start"] = start.json;
+          }
         }
         for (const auto& n : notes) {
           if (!ctx.json) std::cout << "  " << n << "\n";

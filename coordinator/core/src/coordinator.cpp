@@ -322,6 +322,14 @@ std::vector<std::string> Coordinator::buses_without_gateway(TimePoint now) const
   return out;
 }
 
+std::vector<std::string> Coordinator::axes_never_heard() const {
+  std::vector<std::string> out;
+  for (const auto& [name, axis] : axes_) {
+    if (!axis.state) out.push_back(name);
+  }
+  return out;
+}
+
 bool Coordinator::gateway_alive_at(const std::string& bus, TimePoint now) const {
   auto it = gateways_.find(bus);
   if (it == gateways_.end() || !it->second.seen || it->second.last_heartbeat == TimePoint{}) return false;

@@ -66,9 +66,20 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::check_axis_ready(
   const AxisLive& a = axes_.at(axis);
   if (!gateway_alive(a.drive->bus))
     return std::pair{ReplyError::kGatewayOffline, "gateway of bus " + a.drive->bus + " (axis " + axis + ") is offline"};
-  const bool fresh = a.state && now_ - a.received < std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms);
-  if (!fresh || !a.state->online)
-    return std::pair{ReplyError::kAxisOffline, "axis " + axis + " has no live state (drive offline?)"};
+  if (!a.state) {
+    return std::pair{ReplyError::kAxisOffline, "axis " + axis + ": no state from the gateway of bus " + a.drive->bus +
+                                                   " yet since this coordinator started"};
+  }
+  const auto age = std::chrono::duration_cast<std::chrono::milliseconds>(now_ - a.received);
+  if (age.count() >= config_.coordinator.gateway_timeout_ms) {
+    return std::pair{ReplyError::kAxisOffline, "axis " + axis + ": its last state is " + std::to_string(age.count()) +
+                                                   " ms old (gateway_timeout_ms " +
+                                                   std::to_string(config_.coordinator.gateway_timeout_ms) + ")"};
+  }
+  if (!a.state->online) {
+    return std::pair{ReplyError::kAxisOffline,
+                     "axis " + axis + " is offline: the gateway of bus " + a.drive->bus + " cannot reach its drive"};
+  }
   if (a.state->fault) {
     return std::pair{
         ReplyError::kAxisFaulted,

@@ -104,7 +104,9 @@ void CanBusDriver::on_readable() {
     if (own_echo_ && echoes_.on_receive(*frame, wall_time_us(), started)) {
       for (const auto& [command_id, at] : started) release_started(command_id, at);
       started.clear();
-      continue;  // our own frame back: not news for the stacks
+      // Our own frame back: not a received frame, but news of the wire for stacks that pace by it.
+      for (auto& s : stacks_) call(s.get(), [&](CanStack& stack) { stack.on_transmitted(*frame, now); });
+      continue;
     }
     if (tap_) tap_(*frame, false);
     for (auto& s : stacks_) {

@@ -47,14 +47,16 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
   master_.configure_sync({sync_period_, 0, canopen::kSyncCobId});
 }
 
-// Polling within the bus budget, as the UIM342 stack keeps its polls (UIM342 manual §5.24): each
-// SYNC makes every node with synchronous TPDOs send TPDO1 and TPDO2 (UC57 manual §5 comm. table,
-// 1800h/1801h:02 = 1; CiA 301 §7.2.2). At the UC57's default 125 kbit/s (2009h = 2, manual §5.1)
+// Polling within a bus budget: each SYNC makes every node with synchronous TPDOs send TPDO1 and
+// TPDO2 (UC57 manual §5 comm. table, 1800h/1801h:02 = 1; CiA 301 §7.2.2). At the UC57's default 125 kbit/s (2009h = 2, manual §5.1)
 // 32 nodes at 20 Hz ask for 1,300 frames/s, more than the bus carries. The SYNC, and with it the
 // status rate, is slowed until the SYNC and those TPDOs, with the nodes' heartbeats (1017h, set up
 // here), take at most kPollBusShare of the wire; the rest stays for SDO, RPDOs and EMCY. Stuff
 // bits are counted for all-zero data (the most a 0-filled payload gets), so a real cycle is at
-// most a few bits shorter.
+// most a few bits shorter. Unlike the UIM342 stack's polls, which fill whatever the bus leaves
+// idle one frame at a time, the TPDOs answering one SYNC come from every node at once and outrank
+// SDO requests (600h + node) by arbitration: a command waits behind the rest of a burst, so the
+// idle time between bursts is kept (docs/protocols.md, UC57 row 2).
 void Uc57Stack::fit_sync_period(const config::Bus& bus) {
   Duration cycle = can::frame_duration(canopen::encode_sync({}), bitrate_);
   std::size_t synchronous = 0;

@@ -48,7 +48,7 @@ Uim342Stack::Impl::Impl(Uim342StackConfig c, CanStackContext ctx, WallClock wc, 
     nodes.push_back(std::move(node));
     exchange_time = std::max(exchange_time, poll_exchange_time(n.node_id, config.bitrate));
   }
-  fit_poll_period();
+  estimate_poll_period();
 }
 
 // Wire time of one request and its ACK to `node`, for the longest of the poll's exchanges (the
@@ -60,20 +60,19 @@ Duration Uim342Stack::Impl::poll_exchange_time(std::uint8_t node, std::uint32_t 
   return can::frame_duration(*request, bitrate) + can::frame_duration(*ack, bitrate);
 }
 
-void Uim342Stack::Impl::fit_poll_period() {
+// The poll period the bus allows: every drive polled once (two requests and their ACKs each)
+// back to back on an otherwise idle bus. Longer than the configured period: said at start().
+void Uim342Stack::Impl::estimate_poll_period() {
   poll_period = config.poll_period;
   const auto cycle = 2 * exchange_time * static_cast<std::int64_t>(nodes.size());  // one poll of every drive
-  const auto needed = std::chrono::duration_cast<Duration>(
-      std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / kPollBusShare));
-  if (needed <= poll_period) return;
-  poll_period = std::chrono::ceil<std::chrono::milliseconds>(needed);
+  if (cycle <= poll_period) return;
+  poll_period = cycle;
   poll_warning = fmt::format(
-      "bus {}: polling {} UIM342 drives at {:.1f} Hz needs {:.0f}% of {} bit/s; polling each at {:.1f} Hz instead "
-      "(polls keep to {:.0f}% "
-      "of the bus)",
+      "bus {}: polling {} UIM342 drives at {:.1f} Hz needs {:.0f}% of {} bit/s; each drive is polled at about "
+      "{:.1f} Hz instead (polls fill the bus, commands go first)",
       config.bus, nodes.size(), 1.0 / std::chrono::duration<double>(config.poll_period).count(),
       100.0 * std::chrono::duration<double>(cycle).count() / std::chrono::duration<double>(config.poll_period).count(),
-      config.bitrate, 1.0 / std::chrono::duration<double>(poll_period).count(), 100.0 * kPollBusShare);
+      config.bitrate, 1.0 / std::chrono::duration<double>(poll_period).count());
 }
 
 // How long a request just handed to the transport may wait for the wire: every other request
@@ -133,13 +132,17 @@ Uim342Stack::Impl::Request& Uim342Stack::Impl::enqueue(std::size_t i, Instructio
   Request r;
   r.instruction = std::move(instruction);
   r.command_id = command_id;
+  r.background = command_id == 0 && !front;  // identification, set-up, polls
   if (command_id != 0) {
     if (auto* c = commands.find(command_id)) c->data.waiting.insert(i);
   }
   auto& q = nodes[i].queue;
-  if (!front) return q.emplace_back(std::move(r));
   // Behind the outstanding request (one at a time per node), ahead of everything queued.
-  return *q.insert(q.begin() + (nodes[i].busy() ? 1 : 0), std::move(r));
+  if (front) return *q.insert(q.begin() + (nodes[i].busy() ? 1 : 0), std::move(r));
+  if (r.background) return q.emplace_back(std::move(r));
+  // A command's request goes ahead of the polls (and set-up) not yet handed to the transport.
+  const auto first_poll = std::find_if(q.begin(), q.end(), [](const Request& x) { return x.background && !x.sent; });
+  return *q.insert(first_poll, std::move(r));
 }
 
 void Uim342Stack::Impl::drop_requests(std::int64_t command_id) {
@@ -152,9 +155,11 @@ bool Uim342Stack::Impl::has_request_of(std::size_t i, std::int64_t command_id) c
                      [command_id](const Request& r) { return r.command_id == command_id; });
 }
 
-bool Uim342Stack::Impl::transmit(std::uint8_t target, const Instruction& instruction) {
+bool Uim342Stack::Impl::transmit(std::uint8_t target, const Instruction& instruction, can::Frame* sent) {
   const auto frame = uim342::instruction_frame(target, instruction);
-  return frame.ok() && context.send(*frame);
+  if (!frame.ok() || !context.send(*frame)) return false;
+  if (sent != nullptr) *sent = *frame;
+  return true;
 }
 
 void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
@@ -180,10 +185,22 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
       on_sent(r.command_id, group_target, group->members, now);
       return;
     }
-    if (!transmit(target, r.instruction)) return;  // transport refused: retried at the next process()
+    // A node already waiting keeps its place in poll_queue (grant_polls() clears the flag first).
+    if (r.background && (n.poll_waiting || !poll_may_go(now))) {
+      wait_for_poll_slot(i);
+      return;
+    }
+    can::Frame frame;
+    if (!transmit(target, r.instruction, &frame)) return;  // transport refused: retried at the next process()
     r.attempts = 1;
     r.sent = true;
     r.deadline = deadline_of(n, now);
+    // Without echoes, the poll is taken as on the wire once the requests in flight could have gone.
+    if (r.background) {
+      r.poll_seq = ++polls_handed;
+      r.answer_due = now + queued_wire_time() + kAnswerSlackExchanges * exchange_time;
+      poll_slot = PollSlot{i, frame, echoes_seen ? r.deadline : now + queued_wire_time()};
+    }
     const std::int64_t command_id = r.command_id;
     const bool is_start = r.instruction.function == FunctionCode::kBG;
     if (!uim342::expected_reply(r.instruction)) {
@@ -226,9 +243,49 @@ bool Uim342Stack::Impl::polled(const Node& n) const {
 void Uim342Stack::Impl::poll_if_due(std::size_t i, TimePoint now) {
   Node& n = nodes[i];
   if (!polled(n) || !n.queue.empty() || now < n.next_poll) return;
-  n.next_poll = now + poll_period;
+  n.next_poll = now + config.poll_period;  // the asked rate; the poll slot keeps it within the bus
   enqueue(i, rq::get(uim342::MotionStatusIndex::kStatus), 0);
   enqueue(i, rq::get(uim342::MotionStatusIndex::kKinematics), 0);
+}
+
+void Uim342Stack::Impl::wait_for_poll_slot(std::size_t i) {
+  if (nodes[i].poll_waiting) return;
+  nodes[i].poll_waiting = true;
+  poll_queue.push_back(i);
+}
+
+bool Uim342Stack::Impl::poll_may_go(TimePoint now) const {
+  if (poll_slot) return false;
+  return std::none_of(nodes.begin(), nodes.end(), [this, now](const Node& n) {
+    if (!n.busy() || !n.queue.front().background) return false;
+    const Request& r = n.queue.front();
+    return now < r.answer_due && r.poll_seq + (kPollsInFlight - 1) <= polls_handed;
+  });
+}
+
+void Uim342Stack::Impl::grant_polls(TimePoint now) {
+  while (!poll_queue.empty() && poll_may_go(now)) {
+    const auto j = poll_queue.front();
+    poll_queue.pop_front();
+    nodes[j].poll_waiting = false;
+    pump(j, now);  // takes the slot when its next request is still a poll
+  }
+}
+
+void Uim342Stack::Impl::release_poll_slot(TimePoint now) {
+  poll_slot.reset();
+  grant_polls(now);
+}
+
+void Uim342Stack::Impl::poll_answered(std::size_t i, TimePoint now) {
+  // An answered poll has been on the wire (its echo may still be on its way).
+  if (poll_slot && poll_slot->node == i) poll_slot.reset();
+  grant_polls(now);
+}
+
+void Uim342Stack::Impl::on_transmitted(const can::Frame& frame, TimePoint now) {
+  echoes_seen = true;
+  if (poll_slot && poll_slot->frame == frame) release_poll_slot(now);
 }
 
 void Uim342Stack::Impl::go_offline(std::size_t i, const std::string& reason, TimePoint now) {
@@ -290,6 +347,7 @@ void Uim342Stack::Impl::on_reply(std::size_t i, const uim342::Message& message, 
   if (kind == uim342::ReplyKind::kAck) {
     const Request r = std::move(n.queue.front());
     n.queue.pop_front();
+    if (r.background) poll_answered(i, now);
     completed(i, r, reply, now);
     return;
   }
@@ -299,6 +357,7 @@ void Uim342Stack::Impl::on_reply(std::size_t i, const uim342::Message& message, 
     if (kind == uim342::ReplyKind::kErrorReport) {
       const Request r = std::move(n.queue.front());
       n.queue.pop_front();
+      if (r.background) poll_answered(i, now);
       refused(i, r, record, now);
     } else {
       event(n, event_t::ERROR_REPORT, event_t::WARNING, record.code,
@@ -372,20 +431,33 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
 }
 
 TimePoint Uim342Stack::Impl::process(TimePoint now) {
-  TimePoint next = kNever;
+  if (poll_slot && now >= poll_slot->release_by) release_poll_slot(now);
+  grant_polls(now);  // the waiting polls first, in their order
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     Node& n = nodes[i];
     if ((n.phase == Phase::kOffline || n.phase == Phase::kRebooting) && now >= n.retry_at) identify(i, now);
     if (n.busy() && now >= n.queue.front().deadline) timed_out(i, now);
     if (n.homing.command != 0 && now >= n.homing.deadline) homing_not_found(i, now);
-    next = std::min(next, n.homing.deadline);
     poll_if_due(i, now);
     pump(i, now);
+  }
+  grant_polls(now);  // a timeout above may have freed a place for the waiting polls
+  TimePoint next = kNever;
+  for (const Node& n : nodes) {
+    next = std::min(next, n.homing.deadline);
     if (n.busy()) next = std::min(next, n.queue.front().deadline);
     if (n.phase == Phase::kOffline || n.phase == Phase::kRebooting) next = std::min(next, n.retry_at);
     if (polled(n) && n.queue.empty()) next = std::min(next, n.next_poll);
-    // A frame the transport refused is tried again soon.
-    if (!n.queue.empty() && !n.queue.front().sent) next = std::min(next, now + n.cfg.request_timeout);
+    // A frame the transport refused is tried again soon (a waiting poll goes when its turn comes).
+    if (!n.queue.empty() && !n.queue.front().sent && !n.poll_waiting)
+      next = std::min(next, now + n.cfg.request_timeout);
+  }
+  if (poll_slot) next = std::min(next, poll_slot->release_by);
+  if (!poll_queue.empty()) {  // waiting polls go once an unanswered one no longer holds them back
+    for (const Node& n : nodes) {
+      if (n.busy() && n.queue.front().background && n.queue.front().answer_due > now)
+        next = std::min(next, n.queue.front().answer_due);
+    }
   }
   return next;
 }
@@ -444,6 +516,7 @@ void Uim342Stack::start(TimePoint now) {
 }
 
 bool Uim342Stack::on_frame(const can::Frame& frame, TimePoint now) { return impl_->on_frame(frame, now); }
+void Uim342Stack::on_transmitted(const can::Frame& frame, TimePoint now) { impl_->on_transmitted(frame, now); }
 TimePoint Uim342Stack::process(TimePoint now) { return impl_->process(now); }
 void Uim342Stack::execute(const motionlcm::gateway_command_t& command, TimePoint now) { impl_->execute(command, now); }
 void Uim342Stack::fire(std::int64_t trigger_id, TimePoint now) { impl_->fire(trigger_id, now); }

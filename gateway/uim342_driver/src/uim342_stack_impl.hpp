@@ -54,6 +54,11 @@ struct Uim342Stack::Impl {
   struct Request {
     Instruction instruction;
     std::int64_t command_id = 0;  // 0: the stack's own (identify, setup, poll)
+    // The stack's own background work (identification, set-up, status polls): through the poll
+    // slot, behind every command request.
+    bool background = false;
+    std::uint64_t poll_seq = 0;  // a background request's place in the order they were handed over
+    TimePoint answer_due{};      // a background request: holds later polls back until then at most
     std::shared_ptr<GroupSend> group;
     int attempts = 0;
     bool sent = false;
@@ -66,6 +71,7 @@ struct Uim342Stack::Impl {
     std::deque<Request> queue;
     DriveStatus status;
     TimePoint next_poll{};
+    bool poll_waiting = false;  // in poll_queue
     TimePoint retry_at{};
     std::chrono::milliseconds backoff{0};
     bool ever_online = false;
@@ -125,12 +131,46 @@ struct Uim342Stack::Impl {
   // MS[1] ACK carries 8 bytes); an upper bound for the ACK of any other instruction too.
   static Duration poll_exchange_time(std::uint8_t node, std::uint32_t bitrate);
 
-  // §5.24 polling within the bus capacity: N drives x (MS[0] + MS[1]) x poll rate may not take
-  // more than kPollBusShare of the wire (the rest stays free for commands and notifications, and
-  // requests do not queue up into timeouts). Beyond it every drive is polled less often, and the
-  // configuration is told so at start().
-  static constexpr double kPollBusShare = 0.75;
-  void fit_poll_period();
+  // §5.24 polling that fills an idle bus. Each drive is polled (MS[0], MS[1]) at most every
+  // configured poll period. Poll frames (and the other background requests: identification and
+  // set-up) go to the transport one at a time, through the poll slot: the next only once the one
+  // before has been on the wire (its own echo, or the drive's answer; without echoes, after the
+  // wire time of the requests in flight). A command's requests are handed over at once and go
+  // ahead of a node's unsent polls (enqueue()), so a command frame waits in the transmit queue
+  // behind at most the one poll frame there, and every other
+  // sender (drive notifications, other stacks) wins the wire by arbitration at the next frame
+  // boundary. Polls thus take whatever the bus leaves idle, up to all of it. When N drives at
+  // the configured rate need more than the bus carries, the waiting nodes take the slot in turn
+  // (poll_queue, first come first served), and the configuration is told so at start().
+  // A poll goes only while every poll awaiting its answer is among the kPollsInFlight - 1 handed
+  // over last: the next polls are on their way while drives answer (the wire stays busy even when
+  // the gateway reacts a frame late), yet our polls (the host's identifier wins arbitration over
+  // most drives' answers, §2.5) never hold an answer back for long. Otherwise a drive whose
+  // identifier ranks low would see every newer answer overtake its own until its request timed
+  // out; and a command to a polled node waits for at most that node's one exchange (§2.1: one
+  // outstanding request per node). A poll still unanswered at its answer_due (the wire time of
+  // the requests ahead of it and a few exchanges more) holds nothing back: a silent drive does not
+  // stop the others' polls until its timeout.
+  static constexpr std::uint64_t kPollsInFlight = 3;
+  static constexpr int kAnswerSlackExchanges = 4;
+  struct PollSlot {
+    std::size_t node = 0;
+    can::Frame frame;
+    TimePoint release_by{};  // taken as gone by then without an echo or answer
+  };
+  void estimate_poll_period();
+  // Node `i`'s next request is a poll and the slot is taken: it waits its turn.
+  void wait_for_poll_slot(std::size_t i);
+  // The slot is free, and no poll (background request) awaits its answer but the latest ones.
+  [[nodiscard]] bool poll_may_go(TimePoint now) const;
+  // Hands waiting polls to the transport while poll_may_go().
+  void grant_polls(TimePoint now);
+  // The poll in the slot has been on the wire (or is taken as gone): the next waiting poll goes.
+  void release_poll_slot(TimePoint now);
+  // A poll of node `i` was answered (or refused).
+  void poll_answered(std::size_t i, TimePoint now);
+  // One of our frames was on the wire (CanStack::on_transmitted).
+  void on_transmitted(const can::Frame& frame, TimePoint now);
 
   // How long a request just handed to the transport may wait for the wire: every other request
   // in flight on this bus, and its ACK, may go first. Counted into its deadline so a long
@@ -145,9 +185,13 @@ struct Uim342Stack::Impl {
   WallClock wall;
   Counters& counters;
   std::vector<Node> nodes;
-  Duration exchange_time{};  // wire time of the longest request + ACK (poll_exchange_time)
-  Duration poll_period{};    // config.poll_period, or longer when the bus cannot carry it
-  std::string poll_warning;  // why poll_period is longer (reported at start)
+  Duration exchange_time{};            // wire time of the longest request + ACK (poll_exchange_time)
+  Duration poll_period{};              // config.poll_period, or the estimated bus-limited period when longer
+  std::string poll_warning;            // why poll_period is longer (reported at start)
+  std::optional<PollSlot> poll_slot;   // the poll frame handed to the transport, not yet seen on the wire
+  std::deque<std::size_t> poll_queue;  // nodes whose next request is a poll waiting for the slot
+  bool echoes_seen = false;            // the transport echoes our frames (on_transmitted)
+  std::uint64_t polls_handed = 0;      // background requests handed to the transport so far
   Ledger commands{[this](gateway_reply_t r) { context.out->command_reply(std::move(r)); }};
   bool started = false;
 
@@ -177,7 +221,8 @@ struct Uim342Stack::Impl {
 
   // ---- sending ----
 
-  bool transmit(std::uint8_t target, const Instruction& instruction);
+  // Hands the instruction's frame to the transport; `sent` gets the frame when not null.
+  bool transmit(std::uint8_t target, const Instruction& instruction, can::Frame* sent = nullptr);
 
   void pump(std::size_t i, TimePoint now);
 

@@ -170,6 +170,48 @@ TEST_F(CoordinatorTest, DisabledFaultedAndOfflineAxesAreRejected) {
             static_cast<int>(ReplyError::kGatewayOffline));
 }
 
+// An axis is refused as offline for one of three reasons, and the reply says which: no state
+// since the coordinator started (its health lists such axes), a state older than
+// gateway_timeout_ms while the gateway heartbeats, or a state saying the drive cannot be reached.
+struct CoordinatorMissingAState : CoordinatorTest {
+  void SetUp() override {
+    withheld = gateways.states.at("y");
+    gateways.states.erase("y");
+    CoordinatorTest::SetUp();
+  }
+  motionlcm::axis_state_t withheld{};
+};
+
+TEST_F(CoordinatorMissingAState, OfflineRefusalsNameWhyAndUnheardAxesAreListed) {
+  EXPECT_EQ(coordinator.axes_never_heard(), std::vector<std::string>{"y"});
+  const auto unheard = terminal(send(request_t::MOVE_ABSOLUTE, {"y"}, {1.0}));
+  EXPECT_EQ(unheard.error_code, static_cast<int>(ReplyError::kAxisOffline));
+  EXPECT_NE(unheard.reason.find("axis y: no state from the gateway of bus can0 yet"), std::string::npos)
+      << unheard.reason;
+
+  gateways.states["y"] = withheld;
+  pump(milliseconds(100));
+  EXPECT_TRUE(coordinator.axes_never_heard().empty());
+  auto_execute_moves();
+  EXPECT_EQ(run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"y"}, {1.0})).status, std::int8_t{reply_t::DONE});
+
+  gateways.states.erase("y");  // the gateway heartbeats on, y's states stop
+  pump(milliseconds(450));
+  const auto stale = terminal(send(request_t::MOVE_ABSOLUTE, {"y"}, {2.0}));
+  EXPECT_EQ(stale.error_code, static_cast<int>(ReplyError::kAxisOffline));
+  EXPECT_NE(stale.reason.find("axis y: its last state is"), std::string::npos) << stale.reason;
+  EXPECT_NE(stale.reason.find("(gateway_timeout_ms 400)"), std::string::npos) << stale.reason;
+  EXPECT_TRUE(coordinator.axes_never_heard().empty());  // heard once: stale, not unheard
+
+  gateways.states["y"] = withheld;
+  gateways.states["y"].online = false;
+  pump(milliseconds(100));
+  const auto offline = terminal(send(request_t::MOVE_ABSOLUTE, {"y"}, {2.0}));
+  EXPECT_EQ(offline.error_code, static_cast<int>(ReplyError::kAxisOffline));
+  EXPECT_NE(offline.reason.find("axis y is offline: the gateway of bus can0 cannot reach its drive"), std::string::npos)
+      << offline.reason;
+}
+
 // An axis whose drive lost power (fault_code POSITION_LOST, not faulted): moves and jogs are
 // refused with code 22 naming it and why; set-position (how it becomes valid again) is not.
 TEST_F(CoordinatorTest, AnAxisThatLostItsPositionIsRefusedMovesAndJogsButNotASetPosition) {

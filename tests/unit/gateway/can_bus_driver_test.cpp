@@ -71,6 +71,7 @@ class FakeStack : public CanStack {
     frames.push_back(f);
     return true;
   }
+  void on_transmitted(const can::Frame& f, TimePoint) override { transmitted.push_back(f); }
   TimePoint process(TimePoint now) override {
     ++process_calls;
     if (wake_at && now >= *wake_at) {
@@ -103,6 +104,7 @@ class FakeStack : public CanStack {
   int process_calls = 0;
   std::optional<TimePoint> wake_at;
   std::vector<can::Frame> frames;
+  std::vector<can::Frame> transmitted;  // echoes of our frames (on_transmitted)
   std::vector<motionlcm::gateway_command_t> commands;
   std::vector<std::int64_t> fired;
   std::vector<std::int8_t> replies_in_execute;  // sent from inside execute(), in this order
@@ -208,13 +210,18 @@ TEST_F(CanBusDriverTest, AStacksSecondTerminalReplyIsNotTheOtherStacks) {
 }
 
 // Own echo: a STARTED reply waits for the echo of the command's start frame and carries its time
-// (when the frame was on the wire), not the stack's hand-off time; echoes never reach the stacks.
+// (when the frame was on the wire), not the stack's hand-off time; echoes never reach the stacks
+// as received frames, but every stack hears of them through on_transmitted() (UIM342 polls are
+// paced by it).
 TEST_F(CanBusDriverTest, StartedIsDatedByTheEchoOfTheStartFrame) {
   transport->echo = true;
   transport->next_echo_us = 5'000;
   ASSERT_TRUE(uim->send(*can::parse_cansend("04280095#01")));  // a first echo: echoes work
   loop.run_once(milliseconds(10));
   EXPECT_TRUE(uim->frames.empty()) << "an echo went to the stack";
+  ASSERT_EQ(uim->transmitted.size(), 1u);
+  EXPECT_EQ(uim->transmitted[0], *can::parse_cansend("04280095#01"));
+  EXPECT_EQ(cop->transmitted.size(), 1u) << "every stack hears of every echo";
 
   driver->execute(command(6, {"x"}));
   uim->reply(6, gateway_reply_t::ARMED);

@@ -172,6 +172,16 @@ bool CanBusHost::control(const motionlcm::sim_control_t& c) {
       hub_->inject(simbus::Fault::drop(static_cast<std::uint64_t>(std::max(0, c.value))));
       return true;
     }
+    if (c.action == motionlcm::sim_control_t::BUS_OFF && hub_) {
+      const auto gateway = hub_->find_endpoint("gateway:" + bus_.name);
+      if (!gateway) {
+        spdlog::warn("sim: bus-off of bus {}: no gateway is attached to it", bus_.name);
+        return false;
+      }
+      if (c.value <= 0) return hub_->recover(*gateway);
+      spdlog::info("sim: the gateway of bus {} goes bus-off for {} ms", bus_.name, c.value);
+      return hub_->set_bus_off(*gateway, std::chrono::milliseconds(c.value));
+    }
     return false;
   }
   auto it = drives_.find(c.drive);

@@ -161,6 +161,9 @@ class Coordinator {
   // Buses whose gateway has not been heard within gateway_timeout_ms before `now` (requests for
   // their axes are rejected as offline): the coordinator's health lists them.
   [[nodiscard]] std::vector<std::string> buses_without_gateway(TimePoint now) const;
+  // Axes of which no AXIS_STATE has arrived since this coordinator started (requests for them are
+  // refused as offline): until it is empty the coordinator's health is DEGRADED.
+  [[nodiscard]] std::vector<std::string> axes_never_heard() const;
   // The latest drive model of `axis` (nullptr: none yet).
   [[nodiscard]] const motionlcm::drive_model_t* drive_model(const std::string& axis) const;
 

@@ -69,6 +69,7 @@ class CoordinatorService final : private CoordinatorOutput {
   [[nodiscard]] std::vector<std::string> buses_without_gateway() const {
     return core_.buses_without_gateway(loop_.now());
   }
+  [[nodiscard]] std::vector<std::string> axes_never_heard() const { return core_.axes_never_heard(); }
   // Gateway messages refused under enforce (plain, or signed but not verifying), reported or not.
   [[nodiscard]] std::uint64_t refused_gateway_messages() const { return gateway_refusals_.total(); }
 

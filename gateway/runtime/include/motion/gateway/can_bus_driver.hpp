@@ -10,8 +10,8 @@
 // frames, DONE when all are done, FAILED on the first failure, and never a second terminal reply.
 // A reply is the part of the stack the driver is calling when it comes (every stack call goes
 // through this driver). After the combined STARTED each stack's later replies pass on as they come. Own echo is turned on: a STARTED reply waits (at most kEchoWait) for the echo of the
-// command's start frames and carries their time on the wire as trigger_utime; echoes are not
-// handed to the stacks. The stacks' deadlines run on a PreciseTimer (timerfd, absolute time), so a
+// command's start frames and carries their time on the wire as trigger_utime; echoes go to the
+// stacks' on_transmitted(), never to on_frame(). The stacks' deadlines run on a PreciseTimer (timerfd, absolute time), so a
 // SYNC period or a scheduled start keeps to the kernel's timer slack, not the loop's.
 // Thread contract: the loop's thread only.
 #pragma once
@@ -40,6 +40,10 @@ class CanStack {
   virtual void start(TimePoint now) = 0;
   // A received frame; false when it is not this stack's (the next stack gets it).
   virtual bool on_frame(const can::Frame& frame, TimePoint now) = 0;
+  // A frame this bus's driver sent has been on the wire (its own echo, at its end of frame); every
+  // stack sees every echo. A stack that paces its frames by the wire (UIM342 polls) uses it to
+  // hand the next one. Transports without own echo never call it. Default: nothing.
+  virtual void on_transmitted(const can::Frame& /*frame*/, TimePoint /*now*/) {}
   // Timeouts, retries, polling; returns the next deadline or kNever.
   virtual TimePoint process(TimePoint now) = 0;
   // A command naming only this stack's axes; replies go through the stack's GatewayOutput.

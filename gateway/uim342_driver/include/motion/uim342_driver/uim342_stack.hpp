@@ -29,7 +29,8 @@
 //   search goes the other way and the origin is the edge leaving it. A search that does not find
 //   the switch within travel range / speed + ramps + 2 s is stopped (ST) and FAILS naming the input.
 //   A HOME needs the driver on: IL written while it is off would go to EEPROM (§5.26 note)),
-//   §5.23 BL, §5.24 MS[0]/MS[1] polling (within the bus capacity) and MS[0]=0 (FAULT_RESET),
+//   §5.23 BL, §5.24 MS[0]/MS[1] polling (fills the idle bus, one poll frame handed to the transport at a
+//   time, commands first) and MS[0]=0 (FAULT_RESET),
 //   §5.28 DI (OP1 output). A request's timeout starts when it is handed to the transport, plus
 //   the wire time of the requests ahead of it, so a busy bus is not taken for a silent drive.
 #pragma once
@@ -96,6 +97,7 @@ class Uim342Stack final : public CanStack {
   [[nodiscard]] std::vector<std::string> axes() const override;
   void start(TimePoint now) override;
   bool on_frame(const can::Frame& frame, TimePoint now) override;
+  void on_transmitted(const can::Frame& frame, TimePoint now) override;
   TimePoint process(TimePoint now) override;
   void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
   void fire(std::int64_t trigger_id, TimePoint now) override;
@@ -112,8 +114,9 @@ class Uim342Stack final : public CanStack {
     std::int64_t foreign = 0;        // extended frames not from a configured node (left to others)
   };
   [[nodiscard]] const Counters& counters() const { return counters_; }
-  // The status poll period in use: the configured one, or longer when polling every drive at
-  // that rate would take more than 3/4 of the bus (a CONFIG_MISMATCH warning says so at start).
+  // The period each drive is polled at: the configured one, or, when polling every drive at that
+  // rate needs more than the bus carries, the time one poll of every drive takes on an otherwise
+  // idle bus (an estimate; a CONFIG_MISMATCH warning says so at start).
   [[nodiscard]] Duration poll_period() const;
   [[nodiscard]] std::optional<DriveStatus> status(std::string_view axis) const;
 

@@ -1,0 +1,337 @@
+// Uim342Stack status polling on a bit-timed wire, on a simulated clock: the simulated bus's
+// passive core (simbus::Bus: frames serialized for their exact bit time, arbitration by
+// identifier, own echo at end of frame) between the stack and simulated UIM342 drives
+// (sim::Uim342Drive, answering at once). Every frame is counted on the wire, so the tests judge
+// what the bus carried, not what the stack meant to send:
+//   - asked for more than the bus carries, polls fill at least 90% of it, every drive in turn,
+//     without a timeout or retry;
+//   - a command handed to the transport during saturated polling has at most one poll frame of
+//     ours ahead of it on the wire;
+//   - when the bus is not the limit, each drive is polled at the asked rate, no faster;
+//   - a silent drive does not hold the others' polls back.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/config/config.hpp"
+#include "motion/sim/uim342_drive.hpp"
+#include "motion/simbus/bus.hpp"
+#include "motion/uim342/uim342.hpp"
+#include "motion/uim342_driver/uim342_stack.hpp"
+
+namespace motion::gateway {
+namespace {
+
+using motionlcm::gateway_command_t;
+using motionlcm::gateway_reply_t;
+using std::chrono::microseconds;
+using std::chrono::milliseconds;
+using FC = uim342::FunctionCode;
+
+constexpr std::uint32_t kBitrate = 1'000'000;
+// Copies of LCM constants (never ODR-use the generated in-class constants).
+constexpr std::int8_t kDone = gateway_reply_t::DONE;
+constexpr std::int8_t kFailed = gateway_reply_t::FAILED;
+constexpr std::int8_t kEnable = gateway_command_t::ENABLE;
+
+class Recorder final : public GatewayOutput {
+ public:
+  void axis_status(const std::string& axis, const DriveStatus&) override { ++updates[axis]; }
+  void axis_event(const std::string&, const DriveEvent&) override {}
+  void command_reply(gateway_reply_t reply) override { replies.push_back(std::move(reply)); }
+  [[nodiscard]] std::int64_t total_updates() const {
+    std::int64_t n = 0;
+    for (const auto& [axis, count] : updates) n += count;
+    return n;
+  }
+  std::map<std::string, std::int64_t> updates;
+  std::vector<gateway_reply_t> replies;
+};
+
+// A frame as it went over the wire.
+struct OnWire {
+  can::Frame frame;
+  TimePoint end_of_frame;
+  bool ours = false;  // sent by the stack
+  [[nodiscard]] bool is_poll() const {
+    const auto m = uim342::decode_can(frame);
+    return m && m->message.function_code() == uim342::code(FC::kMS);
+  }
+  [[nodiscard]] TimePoint start() const {
+    return end_of_frame - can::bits_duration(can::frame_bits(frame).to_end_of_frame(), kBitrate);
+  }
+};
+
+// The stack and `drives` simulated UIM342 (node ids 5...) on one bit-timed 1 Mbit/s wire.
+class WireRig final : public simbus::BusSink {
+ public:
+  WireRig(int drives, int poll_hz) : bus_(simbus::BusConfig{kBitrate, true, std::chrono::seconds(1), 4096, 0}) {
+    std::string yaml = fmt::format(
+        "buses:\n  - {{name: can0, transport: \"simcan:can0\", bitrate: {}, request_timeout_ms: 50, retries: 2, "
+        "poll_hz: {}}}\ndrives:\n",
+        kBitrate, poll_hz);
+    for (int n = 0; n < drives; ++n)
+      yaml += fmt::format("  - {{name: d{0}, family: uim342, bus: can0, node_id: {1}}}\n", n, 5 + n);
+    yaml += "axes:\n";
+    for (int n = 0; n < drives; ++n)
+      yaml += fmt::format(
+          "  - {{name: a{0}, drive: d{0}, unit: mm, steps_per_unit: 640, limits: {{min: -10, max: 10, velocity: 5, "
+          "acceleration: 50}}}}\n",
+          n);
+    auto loaded = config::load_string(yaml, "poll.yaml");
+    EXPECT_TRUE(loaded.ok()) << loaded.error_text();
+    config_ = *loaded.config;
+    gateway_ = bus_.attach("gateway", /*own_echo=*/true);
+    CanStackContext ctx;
+    ctx.out = &out;
+    ctx.send = [this](const can::Frame& f) {
+      handed.emplace_back(now, f);
+      return !bus_.submit(gateway_, f, now);
+    };
+    stack = std::make_unique<Uim342Stack>(config_, "can0", ctx);
+    const auto factory = sim::uim342_factory(config_);
+    for (const auto& d : config_.drives) {
+      const auto endpoint = bus_.attach(d.name);
+      sim::SimDriveContext context;
+      context.drive = d.name;
+      context.bus = d.bus;
+      context.send = [this, endpoint, name = d.name](const can::Frame& f) {
+        if (silent.contains(name)) return;
+        EXPECT_FALSE(bus_.submit(endpoint, f, now));
+      };
+      context.report = [](std::int8_t, std::int64_t, std::int64_t, std::int64_t) {};
+      drives_[endpoint] = factory(d, context);
+    }
+    for (auto& [id, d] : drives_) d->power_up(now);
+  }
+
+  void deliver(simbus::EndpointId to, const can::Frame& frame, bool own_echo) override {
+    inbox_.push_back({to, frame, own_echo});
+  }
+  void notify(simbus::EndpointId, const can::BusEvent&) override {}
+
+  // Runs the wire, the stack and the drives until `span` has passed.
+  void run_for(Duration span) {
+    const auto end = now + span;
+    for (int same_instant = 0; same_instant < 100'000; ++same_instant) {
+      bus_.advance(now, *this);
+      dispatch();
+      TimePoint next = std::min(stack->process(now), bus_.next_deadline());
+      for (auto& [id, d] : drives_) next = std::min(next, d->process(now));
+      next = std::min(next, bus_.next_deadline());  // what process() just submitted
+      if (next > end) {
+        now = end;
+        return;
+      }
+      if (next > now) same_instant = 0;
+      now = std::max(now, next);
+    }
+    ADD_FAILURE() << "the rig does not advance";
+  }
+  bool run_until(const std::function<bool()>& done, Duration limit) {
+    for (Duration spent{}; spent < limit; spent += milliseconds(1)) {
+      if (done()) return true;
+      run_for(milliseconds(1));
+    }
+    return done();
+  }
+  void start() {
+    stack->start(now);
+    ASSERT_TRUE(run_until([&] { return stack->ready(); }, std::chrono::seconds(10))) << "never ready";
+  }
+  std::int64_t execute(std::int8_t kind, const std::string& axis) {
+    gateway_command_t c{};
+    c.bus = "can0";
+    c.command_id = ++next_id_;
+    c.kind = kind;
+    motionlcm::axis_command_t a{};
+    a.axis = axis;
+    c.axes.push_back(a);
+    c.num_axes = 1;
+    stack->execute(c, now);
+    return c.command_id;
+  }
+  [[nodiscard]] std::optional<gateway_reply_t> terminal(std::int64_t id) const {
+    for (const auto& r : out.replies) {
+      if (r.command_id == id && (r.status == kDone || r.status == kFailed)) return r;
+    }
+    return std::nullopt;
+  }
+
+  Recorder out;
+  std::set<std::string> silent;  // drives whose frames never reach the wire
+  std::unique_ptr<Uim342Stack> stack;
+  std::vector<OnWire> wire;                              // every frame, in end-of-frame order
+  std::vector<std::pair<TimePoint, can::Frame>> handed;  // the stack's frames, when handed over
+  TimePoint now = TimePoint{} + std::chrono::seconds(10);
+
+ private:
+  struct Delivery {
+    simbus::EndpointId to;
+    can::Frame frame;
+    bool own_echo;
+  };
+  // Every frame reaches the gateway's endpoint once: its own as an echo, the drives' as received.
+  void dispatch() {
+    auto inbox = std::move(inbox_);
+    inbox_.clear();
+    for (const auto& d : inbox) {
+      if (d.to == gateway_) {
+        wire.push_back({d.frame, now, d.own_echo});
+        if (d.own_echo) {
+          stack->on_transmitted(d.frame, now);
+        } else {
+          stack->on_frame(d.frame, now);
+        }
+      } else {
+        drives_.at(d.to)->on_frame(d.frame, now);
+      }
+    }
+  }
+
+  config::Config config_;
+  simbus::Bus bus_;
+  simbus::EndpointId gateway_ = 0;
+  std::map<simbus::EndpointId, std::unique_ptr<sim::CanDriveSim>> drives_;
+  std::vector<Delivery> inbox_;
+  std::int64_t next_id_ = 0;
+};
+
+// Wire bits of the frames that ended within [from, to), all or the polls (MS requests and ACKs) only.
+std::uint64_t wire_bits(const std::vector<OnWire>& wire, TimePoint from, TimePoint to, bool polls_only) {
+  std::uint64_t bits = 0;
+  for (const auto& w : wire) {
+    if (w.end_of_frame >= from && w.end_of_frame < to && (!polls_only || w.is_poll()))
+      bits += can::frame_bits(w.frame).total;
+  }
+  return bits;
+}
+
+// 120 drives at 20 Hz ask for 2,400 polls/s (9,600 frames); 1 Mbit/s carries about 2,200. Polls
+// fill at least 90% of the bus (measured: every bit on the wire counted over one second), every
+// drive gets its turn, and no request times out.
+TEST(Uim342PollWire, PollsFillAtLeastNinetyPercentOfTheBusWhenAskedForMore) {
+  WireRig rig(120, 20);
+  rig.start();
+  rig.run_for(milliseconds(200));  // into the poll rhythm
+  const auto counters = rig.stack->counters();
+  const auto updates = rig.out.updates;
+  const TimePoint from = rig.now;
+  rig.run_for(std::chrono::seconds(1));
+  const double all = static_cast<double>(wire_bits(rig.wire, from, rig.now, false)) / kBitrate;
+  const double polls = static_cast<double>(wire_bits(rig.wire, from, rig.now, true)) / kBitrate;
+  EXPECT_GE(polls, 0.90) << "share of the bus the polls used";
+  EXPECT_LE(all, 1.001);  // frames ending in the window, counted whole
+  std::int64_t fewest = 1'000'000;
+  std::int64_t total = 0;
+  for (const auto& [axis, count] : rig.out.updates) {
+    const auto it = updates.find(axis);
+    const auto n = count - (it == updates.end() ? 0 : it->second);
+    fewest = std::min(fewest, n);
+    total += n;
+  }
+  EXPECT_GE(fewest, total / 120 * 9 / 10) << "every drive polled in turn";
+  EXPECT_LT(total, 120 * 20) << "the asked rate does not fit: the bus is the limit";
+  EXPECT_EQ(rig.stack->counters().timeouts - counters.timeouts, 0);
+  EXPECT_EQ(rig.stack->counters().retries - counters.retries, 0);
+  std::printf(
+      "120 drives at 20 Hz, 1 Mbit/s: polls %.1f%% of the bus (all frames %.1f%%), %lld updates/s, "
+      "fewest per drive %lld\n",
+      100 * polls, 100 * all, static_cast<long long>(total), static_cast<long long>(fewest));
+}
+
+// During saturated polling, commands (ENABLE: one MO frame) are executed at 60 instants spread
+// over a poll cycle. Each MO frame is handed to the transport ahead of every poll not yet handed
+// over, so at most one poll frame of ours ends on the wire between its hand-over and its own end.
+TEST(Uim342PollWire, ACommandFrameWaitsBehindAtMostOnePollFrame) {
+  WireRig rig(120, 20);
+  rig.start();
+  rig.run_for(milliseconds(100));
+  std::vector<double> waits_us;
+  std::vector<double> exec_us;
+  const auto poll_frame = can::frame_duration(
+      *uim342::instruction_frame(5, uim342::request::get(uim342::MotionStatusIndex::kKinematics)), kBitrate);
+  for (int k = 0; k < 60; ++k) {
+    rig.run_for(microseconds(977 + 37 * k));  // instants at every phase of the poll rhythm
+    const TimePoint executed = rig.now;
+    const auto axis = k % 120;
+    const auto handed_before = rig.handed.size();
+    const auto id = rig.execute(kEnable, fmt::format("a{}", axis));
+    ASSERT_TRUE(rig.run_until([&] { return rig.terminal(id).has_value(); }, milliseconds(200)));
+    EXPECT_EQ(rig.terminal(id)->status, kDone) << rig.terminal(id)->reason;
+    const auto mo = uim342::instruction_frame(static_cast<std::uint8_t>(5 + axis), uim342::request::driver_on(true));
+    ASSERT_TRUE(mo.ok());
+    // When the MO frame went to the transport, and when it ended on the wire.
+    const auto handed = std::find_if(rig.handed.begin() + static_cast<std::ptrdiff_t>(handed_before), rig.handed.end(),
+                                     [&](const auto& h) { return h.second == *mo; });
+    ASSERT_NE(handed, rig.handed.end());
+    const auto on_wire = std::find_if(rig.wire.begin(), rig.wire.end(), [&](const OnWire& w) {
+      return w.ours && w.frame == *mo && w.end_of_frame >= handed->first;
+    });
+    ASSERT_NE(on_wire, rig.wire.end());
+    const auto polls_ahead = std::count_if(rig.wire.begin(), on_wire, [&](const OnWire& w) {
+      return w.ours && w.is_poll() && w.end_of_frame > handed->first;
+    });
+    EXPECT_LE(polls_ahead, 1) << "command " << k << " waited behind " << polls_ahead << " poll frames";
+    waits_us.push_back(std::chrono::duration<double, std::micro>(on_wire->start() - handed->first).count());
+    exec_us.push_back(std::chrono::duration<double, std::micro>(on_wire->start() - executed).count());
+  }
+  std::sort(waits_us.begin(), waits_us.end());
+  std::sort(exec_us.begin(), exec_us.end());
+  EXPECT_EQ(rig.stack->counters().timeouts, 0);
+  std::printf(
+      "command frame: handed -> on the wire p50 %.0f / max %.0f us; execute -> on the wire p50 %.0f / max %.0f us; "
+      "one poll request frame %.0f us\n",
+      waits_us[waits_us.size() / 2], waits_us.back(), exec_us[exec_us.size() / 2], exec_us.back(),
+      std::chrono::duration<double, std::micro>(poll_frame).count());
+}
+
+// 8 drives at 20 Hz need about 7% of 1 Mbit/s: each is polled exactly at the asked rate, and the
+// rest of the bus stays idle.
+TEST(Uim342PollWire, PollsKeepToTheAskedRateWhenTheBusIsNotTheLimit) {
+  WireRig rig(8, 20);
+  rig.start();
+  rig.run_for(milliseconds(200));
+  const auto updates = rig.out.updates;
+  const TimePoint from = rig.now;
+  rig.run_for(std::chrono::seconds(1));
+  for (const auto& [axis, count] : rig.out.updates) {
+    const auto it = updates.find(axis);
+    const auto n = count - (it == updates.end() ? 0 : it->second);
+    EXPECT_GE(n, 19) << axis;
+    EXPECT_LE(n, 21) << axis;
+  }
+  const double all = static_cast<double>(wire_bits(rig.wire, from, rig.now, false)) / kBitrate;
+  EXPECT_LT(all, 0.10);
+}
+
+// One of 120 drives falls silent during saturated polling: its requests time out and it goes
+// offline (and is tried again after its back-off), while the others' polls still fill the bus:
+// an unanswered poll holds the later ones back only for a few exchanges, not until its timeout.
+TEST(Uim342PollWire, ASilentDriveDoesNotHoldTheOthersPollsBack) {
+  WireRig rig(120, 20);
+  rig.start();
+  rig.run_for(milliseconds(100));
+  const auto counters = rig.stack->counters();
+  rig.silent.insert("d60");
+  const TimePoint from = rig.now;
+  rig.run_for(std::chrono::seconds(1));
+  const double polls = static_cast<double>(wire_bits(rig.wire, from, rig.now, true)) / kBitrate;
+  EXPECT_GE(polls, 0.90) << "share of the bus the other drives' polls used";
+  EXPECT_FALSE(rig.stack->status("a60")->online);
+  EXPECT_GE(rig.stack->counters().timeouts - counters.timeouts, 1) << "d60 timed out";
+  EXPECT_LE(rig.stack->counters().timeouts - counters.timeouts, 3) << "only d60 timed out (each try once)";
+  std::printf("one of 120 drives silent: polls %.1f%% of the bus\n", 100 * polls);
+}
+
+}  // namespace
+}  // namespace motion::gateway
