@@ -89,10 +89,16 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
   // Under enforce gateways still send plain AXIS_STATE and DRIVE_MODEL for observers: not looked at.
   subscribe_gateway_channel(lcm::channels::kAxisState, &Coordinator::on_axis_state, security.gateway_keys, false);
   subscribe_gateway_channel(lcm::channels::kGatewayReply, &Coordinator::on_gateway_reply, security.gateway_keys, true);
-  node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& m, const std::string&) {
-    core_.on_event(m, loop_.now());
-    pump();
-  });
+  if (enforce_) {
+    // Gateways' events only signed with a gateway key (GW_EVENT on SGW_EVENT); plain EVENTs, sent
+    // too for observers, are not looked at.
+    subscribe_gateway_channel(lcm::channels::kGatewayEvent, &Coordinator::on_event, security.gateway_keys, false);
+  } else {
+    node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& m, const std::string&) {
+      core_.on_event(m, loop_.now());
+      pump();
+    });
+  }
   node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth,
                                        [this](const motionlcm::health_t& m, const std::string&) {
                                          core_.on_health(m, loop_.now());
@@ -120,7 +126,9 @@ std::string label(const motionlcm::gateway_reply_t& m) {
 }
 std::string label(const motionlcm::drive_model_t& m) { return "model of axis " + m.axis + " of bus " + m.bus; }
 std::string label(const motionlcm::active_moves_t& m) { return std::to_string(m.num_axes) + " rows"; }
+std::string label(const motionlcm::event_t& m) { return "event of " + m.source; }
 std::string stream(const motionlcm::axis_state_t& m) { return m.bus; }
+std::string stream(const motionlcm::event_t& m) { return m.bus; }
 std::string stream(const motionlcm::gateway_reply_t& m) { return m.bus; }
 std::string stream(const motionlcm::drive_model_t& m) { return m.bus; }
 std::string stream(const motionlcm::active_moves_t& m) { return m.buses.empty() ? std::string() : m.buses.front(); }

@@ -533,7 +533,7 @@ void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
   if (event.severity >= motionlcm::event_t::WARNING) {
     spdlog::warn("event on {}{}: {} (code {})", bus_, axis.empty() ? "" : "/" + axis, event.text, event.code);
   }
-  node_.publish(lcm::channels::kEvent, msg);
+  publish_event(msg);
 }
 
 void Gateway::command_reply(motionlcm::gateway_reply_t reply) {

@@ -145,6 +145,16 @@ void Gateway::publish_own(std::string_view channel, const Msg& message, bool pla
   if (!signer_ || !enforce_ || plain_under_enforce) node_.publish(channel, message);
 }
 
+void Gateway::publish_event(const motionlcm::event_t& event) {
+  // Signed as GW_EVENT on SGW_EVENT (not SEVENT: that is the coordinator's own), signed first; the
+  // plain EVENT always, for observers.
+  if (signer_) {
+    node_.publish(security::signed_channel(lcm::channels::kGatewayEvent),
+                  signer_->sign(lcm::channels::kGatewayEvent, event, wall_time_us()));
+  }
+  node_.publish(lcm::channels::kEvent, event);
+}
+
 template void Gateway::publish_own(std::string_view, const motionlcm::axis_state_t&, bool);
 template void Gateway::publish_own(std::string_view, const motionlcm::gateway_reply_t&, bool);
 template void Gateway::publish_own(std::string_view, const motionlcm::drive_model_t&, bool);

@@ -7,6 +7,7 @@
 
 #include <fstream>
 
+#include <motionlcm/event_t.hpp>
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/signed_gateway_command_t.hpp>
 #include <motionlcm/signed_message_t.hpp>
@@ -271,6 +272,37 @@ TEST_F(GatewaySigning, APlainOrForeignGatewayReplyDoesNotConfirmArmingAndAReplay
   ASSERT_TRUE(testing::pump_until(
       loop_, [&] { return ended(2); }, milliseconds(3000)));
   EXPECT_EQ(replies_[2].back().status, std::int8_t{reply_t::DONE}) << replies_[2].back().reason;
+}
+
+// A forged STALL event of the moving axis, plain or signed with a key of no gateway, aborts
+// nothing; the gateway's own, signed with its key (GW_EVENT on SGW_EVENT), does.
+TEST_F(GatewaySigning, AForgedStallEventAbortsNothing) {
+  move_x(3, 1.0);
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return has_status(3, reply_t::STARTED) || ended(3); }, milliseconds(3000)));
+  ASSERT_FALSE(ended(3)) << replies_[3].back().reason;
+  motionlcm::event_t stall{};
+  stall.utime = wall_time_us();
+  stall.source = "gateway:can0";
+  stall.axis = "x";
+  stall.bus = "can0";
+  stall.kind = motionlcm::event_t::STALL;
+  stall.severity = motionlcm::event_t::ERROR;
+  stall.text = "forged stall";
+  forger_.publish(lcm::channels::kEvent, stall);
+  security::MessageSigner stranger(security::KeyPair::generate("gateway"), std::string(kPrefix));
+  forger_.publish(security::signed_channel(lcm::channels::kGatewayEvent),
+                  stranger.sign(lcm::channels::kGatewayEvent, stall, wall_time_us()));
+  ASSERT_TRUE(refused(1)) << service_->refused_gateway_messages();
+  EXPECT_FALSE(ended(3)) << "a forged event aborted the move: " << replies_[3].back().reason;
+  EXPECT_TRUE(security_event_starts("signed GW_EVENT refused: key"));
+
+  stall.text = "stalled";
+  publish_signed(lcm::channels::kGatewayEvent, stall);
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return ended(3); }, milliseconds(3000)));
+  EXPECT_EQ(replies_[3].back().status, std::int8_t{reply_t::ABORTED}) << replies_[3].back().reason;
+  EXPECT_NE(replies_[3].back().reason.find("stalled"), std::string::npos) << replies_[3].back().reason;
 }
 
 // Under enforce a coordinator without a gateway key in authorized_keys does not start: it would

@@ -16,11 +16,12 @@
 // SREPLY, SEVENT); with mode enforce the plain triggers and ACTIVE_MOVES are not sent at all
 // (gateways would refuse them), plain REPLY and EVENT still are (for observers and clients that
 // do not verify). With mode enforce the coordinator takes what gateways publish (AXIS_STATE,
-// GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES) only from their signed copies (signed_message_t on
-// SAXIS_STATE, SGW_REPLY, SDRIVE_MODEL, SORPHANED_MOVES) that verify against a key of role gateway
-// in authorized_keys (counter per signer and bus); a signed one that does not verify, or a plain
-// GW_REPLY or ORPHANED_MOVES, is ignored and counted, with a SECURITY event (5 a second, then a
-// count); plain AXIS_STATE and DRIVE_MODEL (gateways send them for observers) are not looked at.
+// GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, EVENT) only from their signed copies (signed_message_t on
+// SAXIS_STATE, SGW_REPLY, SDRIVE_MODEL, SORPHANED_MOVES, and GW_EVENT on SGW_EVENT) that verify
+// against a key of role gateway in authorized_keys (counter per signer and bus); a signed one that
+// does not verify, or a plain GW_REPLY or ORPHANED_MOVES, is ignored and counted, with a SECURITY
+// event (5 a second, then a count); plain AXIS_STATE, DRIVE_MODEL and EVENT (gateways send them
+// for observers) are not looked at.
 //
 // Thread contract: loop thread only. Never blocks.
 #pragma once

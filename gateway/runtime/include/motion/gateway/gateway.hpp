@@ -22,7 +22,8 @@
 //    (set_gateway_key, config security.gateway_key) also AXIS_STATE, GW_REPLY, DRIVE_MODEL and
 //    ORPHANED_MOVES signed (signed_message_t on SAXIS_STATE, SGW_REPLY, SDRIVE_MODEL,
 //    SORPHANED_MOVES); with enforce GW_REPLY and ORPHANED_MOVES go out signed only (the
-//    coordinator acts on nothing else), AXIS_STATE and DRIVE_MODEL plain too, for observers;
+//    coordinator acts on nothing else), AXIS_STATE and DRIVE_MODEL plain too, for observers; its
+//    EVENTs plain and signed as GW_EVENT on SGW_EVENT;
 //  - publishes each axis's drive model (DRIVE_MODEL, drive_model_t, made by the ModelBuilder the
 //    process installs) when the axis first comes online and whenever what the driver read from the
 //    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus;
@@ -47,6 +48,7 @@
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
+#include <motionlcm/event_t.hpp>
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
@@ -139,6 +141,8 @@ class Gateway final : public GatewayOutput {
   // unless there is one, the mode is enforce and not `plain_under_enforce`.
   template <typename Msg>
   void publish_own(std::string_view channel, const Msg& message, bool plain_under_enforce);
+  // EVENT plain, and with a gateway key signed as GW_EVENT on SGW_EVENT.
+  void publish_event(const motionlcm::event_t& event);
   // Triggers and ACTIVE_MOVES: signed ones verified (set_coordinator_key), plain ones refused
   // under enforce.
   void subscribe_coordinator_messages();

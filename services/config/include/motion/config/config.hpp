@@ -201,7 +201,7 @@ struct SecuritySettings {
   std::string
       coordinator_public_key;  // the coordinator's public key (its .pub file): gateways verify its commands, triggers and ACTIVE_MOVES with it, clients its replies
   // A gateway's private key (role gateway in authorized_keys): it signs AXIS_STATE, GW_REPLY,
-  // DRIVE_MODEL and ORPHANED_MOVES with it. "{bus}" in the path is replaced by the gateway's bus,
+  // DRIVE_MODEL, ORPHANED_MOVES and its events with it. "{bus}" in the path is replaced by the gateway's bus,
   // for one key per bus.
   std::string gateway_key;
   int window_ms = 2000;  // a signed request's utime must be within this of the coordinator's clock

@@ -2,8 +2,8 @@
 // (what they publish, with a gateway key): any LCM message inside a signed_message_t
 // (lcmtypes/signed_message_t.lcm) on <prefix>S<channel>, e.g. SSYNC_TRIGGER2 for the
 // sync_trigger2_t of SYNC_TRIGGER2. Gateways verify triggers and ACTIVE_MOVES with them, clients
-// REPLY and EVENT; the coordinator verifies gateways' AXIS_STATE, GW_REPLY, DRIVE_MODEL and
-// ORPHANED_MOVES against the `gateway` keys of authorized_keys (README "Security").
+// REPLY and EVENT; the coordinator verifies gateways' AXIS_STATE, GW_REPLY, DRIVE_MODEL,
+// ORPHANED_MOVES and events (GW_EVENT on SGW_EVENT) against the `gateway` keys of authorized_keys (README "Security").
 //
 // A MessageVerifier listens for one channel. It accepts an envelope when, in this order, its
 // channel is that one, its key id is the coordinator's (or one of the signers'), the signature verifies, utime is within
