@@ -39,6 +39,11 @@ int main(int argc, char** argv) {
       spdlog::error("{}: {}", config->file, *error);
       return app::kExitConfig;
     }
+    auto gateway_key = gateway::Gateway::load_gateway_key(*config, bus_name);
+    if (auto* error = std::get_if<std::string>(&gateway_key)) {
+      spdlog::error("{}: {}", config->file, *error);
+      return app::kExitConfig;
+    }
     app::Service service(*config, options, "gateway:" + bus_name, "gateway");
     if (!service.ok()) return app::kExitUnavailable;
     // Scheduled starts and SYNC periods keep to microseconds (PreciseTimer), not to the default
@@ -48,6 +53,7 @@ int main(int argc, char** argv) {
     // Where the axes were, whether homed: a drive that lost power while no gateway ran is caught.
     gateway.set_position_record(gateway::position_record_path(*config, *bus));
     gateway.set_coordinator_key(std::get<std::optional<security::PublicKey>>(verifier));
+    gateway.set_gateway_key(std::get<std::optional<security::KeyPair>>(gateway_key));
     gateway.set_model_builder([&config = *config](const config::Axis& axis, const gateway::DriveFacts& facts) {
       return drive_model::build(config, axis, facts);
     });

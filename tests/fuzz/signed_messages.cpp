@@ -3,7 +3,8 @@
 // signed_message_t (told by its fingerprint) is checked by a MessageVerifier of the coordinator's
 // key for its own channel when that is one the system signs (SYNC_TRIGGER, SYNC_TRIGGER2,
 // ACTIVE_MOVES, REPLY, EVENT; else SYNC_TRIGGER2), and the message inside decoded as that
-// channel's type. Otherwise the first byte selects the type (even:
+// channel's type; one signed for a gateway channel (AXIS_STATE, GW_REPLY) by the coordinator's
+// verifier of gateway messages (any of two gateway keys, counter per key and bus). Otherwise the first byte selects the type (even:
 // signed_request_t, checked by a RequestVerifier against an authorized_keys of two keys; odd:
 // signed_gateway_command_t, checked by a GatewayCommandVerifier with the coordinator's public
 // key) and how far the verifier's clock is from the envelope's utime (its low bits, so that
@@ -19,7 +20,9 @@
 #include <limits>
 
 #include <motionlcm/active_moves_t.hpp>
+#include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/event_t.hpp>
+#include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/signed_gateway_command_t.hpp>
 #include <motionlcm/signed_message_t.hpp>
@@ -73,8 +76,21 @@ void verify_as(const motionlcm::signed_message_t& envelope, std::string_view cha
   (void)verifier.verify<Msg>(envelope, now_for(envelope.utime, selector));
 }
 
+// What gateways publish, as the coordinator verifies it (the gateway keys: seeds 4 and 5).
+template <typename Msg>
+void verify_gateway_message(const motionlcm::signed_message_t& envelope, std::string_view channel,
+                            std::uint8_t selector) {
+  security::MessageVerifier verifier({key_of(4, "gateway").public_key(), key_of(5, "gateway-b").public_key()},
+                                     "a gateway key", kPrefix, std::string(channel), kWindow, 0);
+  (void)verifier.verify<Msg>(envelope, now_for(envelope.utime, selector), [](const Msg& m) { return m.bus; });
+}
+
 void verify_message(const motionlcm::signed_message_t& envelope, std::uint8_t selector) {
   namespace ch = lcm::channels;
+  if (envelope.channel == ch::kAxisState)
+    return verify_gateway_message<motionlcm::axis_state_t>(envelope, ch::kAxisState, selector);
+  if (envelope.channel == ch::kGatewayReply)
+    return verify_gateway_message<motionlcm::gateway_reply_t>(envelope, ch::kGatewayReply, selector);
   if (envelope.channel == ch::kSyncTrigger)
     return verify_as<motionlcm::sync_trigger_t>(envelope, ch::kSyncTrigger, selector);
   if (envelope.channel == ch::kActiveMoves)

@@ -26,6 +26,7 @@
 
 #include "motion/config/config.hpp"
 #include "motion/security/keys.hpp"
+#include "motion/testing/lab_keys.hpp"
 #include "motion/testing/lcm_url.hpp"
 #include "motion/testing/process_group.hpp"
 
@@ -181,12 +182,9 @@ TEST_F(MultiHost, GatewaysCoordinatorAndClientOnThreeHostsCompleteASynchronizedM
   {
     std::ifstream base(config_path_);
     std::ofstream config(dir + "/lab.yaml");
-    config << base.rdbuf()
-           << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
-           << "  coordinator_public_key: coordinator.pub\n";
-    std::ofstream(dir + "/authorized_keys") << op.authorized_line("operate") << "\n";
+    config << base.rdbuf() << motion::testing::enforced_security();
   }
-  ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("coordinator"), dir, "admin"), std::nullopt);
+  ASSERT_EQ(motion::testing::write_lab_keys(dir, {op.authorized_line("operate")}), std::nullopt);
   ASSERT_EQ(security::write_key_pair(op, dir, "operate"), std::nullopt);
   config_path_ = dir + "/lab.yaml";
   const std::string key = dir + "/op.key";

@@ -10,14 +10,17 @@
 #include <stdlib.h>
 #include <sys/stat.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <variant>
 
 #include <motionlcm/signed_request_t.hpp>
 
 #include "motion/security/gateway_commands.hpp"
 #include "motion/security/signed_messages.hpp"
 #include "motion/security/signed_request.hpp"
+#include "motion/testing/lab_keys.hpp"
 #include "motion/testing/temp_dir.hpp"
 #include "sim_lab.hpp"
 
@@ -41,15 +44,12 @@ class Security : public ::testing::Test {
     {
       std::ifstream base(source_path("tests/integration/configs/uim342-three-group.yaml"));
       std::ofstream config(dir_->str() + "/lab.yaml");
-      config << base.rdbuf()
-             << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
-             << "  coordinator_public_key: coordinator.pub\n  window_ms: 2000\n";
+      config << base.rdbuf() << motion::testing::enforced_security(2000);
     }
-    std::ofstream(dir_->str() + "/authorized_keys") << "# the test's principals\n"
-                                                    << keys_->admin.authorized_line("admin") << "\n"
-                                                    << keys_->op.authorized_line("operate") << "\n"
-                                                    << keys_->watch.authorized_line("observe") << "\n";
-    ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("coordinator"), dir_->str(), "admin"), std::nullopt);
+    ASSERT_EQ(motion::testing::write_lab_keys(
+                  dir_->str(), {keys_->admin.authorized_line("admin"), keys_->op.authorized_line("operate"),
+                                keys_->watch.authorized_line("observe")}),
+              std::nullopt);
     ASSERT_EQ(security::write_key_pair(keys_->op, dir_->str(), "operate"), std::nullopt);  // for motionctl --key
     lab_ = new SimLab(dir_->str() + "/lab.yaml");
     clients_ = new std::vector<std::unique_ptr<Client>>;
@@ -336,6 +336,51 @@ TEST_F(Security, GatewaysActOnNoTriggerOrActiveMovesNotSignedByTheCoordinator) {
   lab_->pause(milliseconds(200));
   EXPECT_FALSE(lab_->has_event(event_t::GATEWAY_RESTARTED, "w", "op/ghost"));
   expect_nothing_moved();
+}
+
+// What gateways publish is signed (security.gateway_key): axis states saying x1 is faulted and
+// offline, plain and signed with a key that is no gateway's, change nothing in the coordinator's
+// view, nor in that of a client verifying states with the gateway key. A move of x1 sent right
+// behind them runs and ends DONE at its target; the signed forgery is reported in a SECURITY event.
+TEST_F(Security, ForgedAxisStatesChangeNothingInTheCoordinatorsView) {
+  const config::Axis* axis = lab_->config().find_axis("x1");
+  ASSERT_NE(axis, nullptr);
+  motionlcm::axis_state_t forged{};
+  forged.axis = "x1";
+  forged.bus = lab_->config().drive_of(*axis)->bus;
+  forged.family = "uim342";
+  forged.fault = true;
+  forged.fault_text = "forged";
+  // A client that verifies axis states with the gateways' key (role gateway in authorized_keys).
+  Client* watcher = client("watcher", nullptr);
+  const auto gateway_key = security::load_public_key(dir_->str() + "/gateway.pub");
+  ASSERT_TRUE(std::holds_alternative<security::PublicKey>(gateway_key));
+  watcher->verify_states_with({std::get<security::PublicKey>(gateway_key)}, seconds(2));
+  ASSERT_TRUE(watcher->wait_until([&] { return watcher->axes().contains("x1"); }, seconds(3)));
+  security::MessageSigner forger(keys_->stranger, lab_->group().node().prefix());
+  for (int i = 0; i < 3; ++i) {
+    forged.utime = forged.sample_utime = wall_time_us();
+    lab_->group().node().publish(lcm::channels::kAxisState, forged);
+    lab_->group().node().publish(security::signed_channel(lcm::channels::kAxisState),
+                                 forger.sign(lcm::channels::kAxisState, forged, wall_time_us()));
+  }
+  const auto op = client("after-forgery", &keys_->op);
+  const double target = before_["x1"] + 1.0;
+  const reply_t done = op->call(move_to("x1", target), seconds(20));
+  ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
+  EXPECT_TRUE(lab_->settled_at("x1", target, kTolerance));
+  // The verifying client never took the forgery: its x1 is where the move put it, not faulted.
+  EXPECT_EQ(watcher->forged_states(), 3u);
+  ASSERT_TRUE(watcher->wait_until([&] { return std::abs(watcher->axes().at("x1").position - target) <= kTolerance; },
+                                  seconds(3)));
+  EXPECT_FALSE(watcher->axes().at("x1").fault);
+  EXPECT_TRUE(lab_->client().wait_until(
+      [&] {
+        return lab_->has_event(event_t::SECURITY, "",
+                               "signed AXIS_STATE refused: key " + security::to_hex(keys_->stranger.id()) +
+                                   " is not a key of role gateway in authorized_keys");
+      },
+      seconds(3)));
 }
 
 TEST_F(Security, SimulatorsRuntimeFolderAndBusSocketAreItsOwnersAlone) {

@@ -78,17 +78,22 @@ class Lab:
         self.config = args.config
 
     def secure(self):
-        """Security enforced, as tools/demo runs the lab: the coordinator's key pair and the web
-        view's own key (role operate), which its page's commands are signed with."""
+        """Security enforced, as tools/demo runs the lab: the coordinator's key pair, the gateways'
+        key (role gateway) and the web view's own key (role operate), which its page's commands are
+        signed with."""
         keys = os.path.join(self.work, "keys")
-        for name, role in (("coordinator", "admin"), ("web", "operate")):
+        for name, role in (("coordinator", "admin"), ("gateway", "gateway"), ("web", "operate")):
             self.ctl("keygen", "--out", keys, "--name", name, "--role", role)
-        with open(os.path.join(keys, "web.pub")) as pub, open(os.path.join(keys, "authorized_keys"), "w") as out:
-            out.write(pub.read())
+        with open(os.path.join(keys, "authorized_keys"), "w") as out:
+            for name in ("web", "gateway"):
+                with open(os.path.join(keys, name + ".pub")) as pub:
+                    out.write(pub.read())
         self.config = os.path.join(self.work, "lab.yaml")
+        key = lambda name: os.path.join(keys, name)
         with open(self.args.config) as base, open(self.config, "w") as out:
-            out.write(base.read() + "\nsecurity:\n  mode: enforce\n  authorized_keys: %s\n  key: %s\n  coordinator_public_key: %s\n"
-                      % (os.path.join(keys, "authorized_keys"), os.path.join(keys, "coordinator.key"), os.path.join(keys, "coordinator.pub")))
+            out.write(base.read() + "\nsecurity:\n  mode: enforce\n  authorized_keys: %s\n  key: %s\n"
+                      "  coordinator_public_key: %s\n  gateway_key: %s\n"
+                      % (key("authorized_keys"), key("coordinator.key"), key("coordinator.pub"), key("gateway.key")))
         return os.path.join(keys, "web.key")
 
     def program(self, name):

@@ -37,6 +37,7 @@
 #include "motion/config/config.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/security/keys.hpp"
+#include "motion/testing/lab_keys.hpp"
 #include "motion/testing/process_group.hpp"
 
 namespace motion::testing {
@@ -271,15 +272,12 @@ class SignedClients : public ::testing::Test {
     {
       std::ifstream base(source_path("config/sim-lab.yaml"));
       std::ofstream config(dir + "/lab.yaml");
-      config << base.rdbuf()
-             << "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
-             << "  coordinator_public_key: coordinator.pub\n";
+      config << base.rdbuf() << motion::testing::enforced_security();
     }
     const auto op = security::KeyPair::generate("op");
-    std::ofstream(dir + "/authorized_keys") << op.authorized_line("operate") << "\n";
+    ASSERT_EQ(motion::testing::write_lab_keys(dir, {op.authorized_line("operate")}), std::nullopt);
     ASSERT_EQ(security::write_key_pair(op, dir, "operate"), std::nullopt);
     ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("stranger"), dir, "operate"), std::nullopt);
-    ASSERT_EQ(security::write_key_pair(security::KeyPair::generate("coordinator"), dir, "admin"), std::nullopt);
     stranger_id_ = new std::string(
         security::to_hex(std::get<security::KeyPair>(security::load_private_key(dir + "/stranger.key")).id()));
     started_ = new ::testing::AssertionResult(start_lab(*group_, dir + "/lab.yaml"));

@@ -388,6 +388,7 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
         return models.empty() ? app::kExitUnavailable : app::kExitOk;
       }
       client::Client client(service.loop(), service.node(), "motionctl-status");
+      Context::verify_states(client, cfg);
       client.wait_until([&] { return client.axes().size() >= cfg.axes.size(); },
                         std::chrono::milliseconds(static_cast<long long>(*listen * 1000)));
       if (ctx.json) {
@@ -404,6 +405,7 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
   watch->callback([&ctx, duration] {
     ctx.result = ctx.with_node([&](app::Service& service) -> int {
       client::Client client(service.loop(), service.node(), "motionctl-watch");
+      Context::verify_states(client, service.config());
       const bool tty = ::isatty(1) != 0 && !ctx.json;
       // On a terminal the table is redrawn four times a second with the latest events kept below
       // it; elsewhere (a pipe, a file, --json) every event is one line as it comes, and --json

@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "motion/security/authorized_keys.hpp"
 #include "motion/security/gateway_commands.hpp"
 #include "motionctl.hpp"
 
@@ -23,7 +24,25 @@ std::string default_key_name() {
 
 }  // namespace
 
+void Context::verify_states(client::Client& client, const config::Config& config) {
+  const auto& settings = config.security;
+  if (settings.mode != config::SecuritySettings::Mode::kEnforce || settings.authorized_keys.empty()) return;
+  auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
+  if (auto* error = std::get_if<std::string>(&keys)) {
+    std::cerr << "motionctl: axis states are shown unverified: security.authorized_keys: " << *error << "\n";
+    return;
+  }
+  auto gateways = std::get<security::AuthorizedKeys>(keys).keys_with_role(security::Role::kGateway);
+  if (gateways.empty()) {
+    std::cerr << "motionctl: axis states are shown unverified: " << settings.authorized_keys
+              << " has no key of role gateway\n";
+    return;
+  }
+  client.verify_states_with(std::move(gateways), std::chrono::milliseconds(settings.window_ms));
+}
+
 bool Context::sign_requests(client::Client& client, const config::Config& config) {
+  verify_states(client, config);
   // With security enforced and the coordinator's public key known, only its signed replies count.
   if (config.security.mode == config::SecuritySettings::Mode::kEnforce &&
       !config.security.coordinator_public_key.empty()) {
@@ -63,7 +82,7 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
   cmd->add_option("--out", args->dir, "Folder of the key files (created with mode 0700)")->capture_default_str();
   cmd->add_option("--name", args->name, "The principal's name (1..64 of A-Z a-z 0-9 . _ -)")->capture_default_str();
   cmd->add_option("--role", args->role, "Role in the printed authorized_keys line")
-      ->check(CLI::IsMember({"observe", "operate", "configure", "admin"}))
+      ->check(CLI::IsMember({"observe", "operate", "configure", "admin", "gateway"}))
       ->capture_default_str();
   cmd->callback([&ctx, args] {
     if (!security::valid_name(args->name)) {
@@ -97,7 +116,7 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
               << security::public_key_path(args->dir, args->name) << "\n"
               << "key id " << security::to_hex(key.id())
               << "; an administrator adds this line to the coordinator's authorized_keys\n"
-              << "(role observe, operate, configure or admin):\n\n"
+              << "(role observe, operate, configure or admin; gateway for a gateway's key):\n\n"
               << key.authorized_line(args->role) << "\n\n"
               << "then sign with it: motionctl --key " << private_path << " ...  (or MOTION_KEY=" << private_path
               << ")\n";

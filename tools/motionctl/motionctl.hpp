@@ -20,6 +20,10 @@ struct Context {
   // replies when `config` enforces security and names security.coordinator_public_key; false
   // (result set, error printed) when a key cannot be loaded.
   bool sign_requests(client::Client& client, const config::Config& config);
+  // Has `client` take only axis states signed by a gateway key when `config` enforces security
+  // and its authorized_keys can be read (its keys of role gateway); otherwise the states are shown
+  // as they come, with a note on stderr saying why they are not verified.
+  static void verify_states(client::Client& client, const config::Config& config);
 
   // Loads the configuration, opens LCM as a client process and runs `body` with it.
   int with_node(const std::function<int(app::Service&)>& body);

@@ -55,6 +55,12 @@ void Coordinator::on_refused_request(const std::optional<request_t>& answer_to, 
   }
 }
 
+void Coordinator::on_refused_message(const std::string& reason, TimePoint now) {
+  begin(now);
+  publish_event("", motionlcm::event_t::WARNING, motionlcm::event_t::SECURITY, reason);
+  spdlog::warn("gateway message refused: {}", reason);
+}
+
 std::optional<std::pair<ReplyError, std::string>> Coordinator::check_axis_ready(const std::string& axis,
                                                                                 bool need_enabled) {
   const AxisLive& a = axes_.at(axis);

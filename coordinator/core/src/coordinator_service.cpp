@@ -31,8 +31,16 @@ security::Loaded<CoordinatorService::Security> CoordinatorService::load_security
   if (!settings.authorized_keys.empty()) {
     auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
     if (auto* error = std::get_if<std::string>(&keys)) return "security.authorized_keys: " + *error;
-    out.verifier.emplace(std::move(std::get<security::AuthorizedKeys>(keys)), config.lcm.channel_prefix,
+    auto& authorized = std::get<security::AuthorizedKeys>(keys);
+    out.gateway_keys = authorized.keys_with_role(security::Role::kGateway);
+    out.verifier.emplace(std::move(authorized), config.lcm.channel_prefix,
                          std::chrono::milliseconds(settings.window_ms), wall_time_us());
+  }
+  if (settings.mode == config::SecuritySettings::Mode::kEnforce && out.gateway_keys.empty()) {
+    return "security.authorized_keys (" + settings.authorized_keys +
+           ") has no key with role gateway: under security.mode enforce every axis state and gateway reply would "
+           "be refused (add the public half of security.gateway_key, e.g. motionctl keygen --name gateway --role "
+           "gateway)";
   }
   return out;
 }
@@ -43,6 +51,7 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
       node_(node),
       core_(config, std::move(planner), *this),
       enforce_(config.security.mode == config::SecuritySettings::Mode::kEnforce),
+      window_ms_(config.security.window_ms),
       verifier_(std::move(security.verifier)),
       command_signer_(std::move(security.command_signer)),
       message_signer_(std::move(security.message_signer)) {
@@ -77,40 +86,29 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
         core_.on_refused_request(std::nullopt, "malformed signed request refused: " + why, loop_.now());
         pump();
       });
-  node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
-                                           [this](const motionlcm::axis_state_t& m, const std::string&) {
-                                             core_.on_axis_state(m, loop_.now());
-                                             pump();
-                                           });
-  node_.subscribe<motionlcm::gateway_reply_t>(lcm::channels::kGatewayReply,
-                                              [this](const motionlcm::gateway_reply_t& m, const std::string&) {
-                                                core_.on_gateway_reply(m, loop_.now());
-                                                pump();
-                                              });
-  node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& m, const std::string&) {
-    core_.on_event(m, loop_.now());
-    pump();
-  });
+  // Under enforce gateways still send plain AXIS_STATE, DRIVE_MODEL and ARM_TIMING for observers: not
+  // looked at.
+  subscribe_gateway_channel(lcm::channels::kAxisState, &Coordinator::on_axis_state, security.gateway_keys, false);
+  subscribe_gateway_channel(lcm::channels::kGatewayReply, &Coordinator::on_gateway_reply, security.gateway_keys, true);
+  if (enforce_) {
+    // Gateways' events only signed with a gateway key (GW_EVENT on SGW_EVENT); plain EVENTs, sent
+    // too for observers, are not looked at.
+    subscribe_gateway_channel(lcm::channels::kGatewayEvent, &Coordinator::on_event, security.gateway_keys, false);
+  } else {
+    node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& m, const std::string&) {
+      core_.on_event(m, loop_.now());
+      pump();
+    });
+  }
   node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth,
                                        [this](const motionlcm::health_t& m, const std::string&) {
                                          core_.on_health(m, loop_.now());
                                          pump();
                                        });
-  node_.subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel,
-                                            [this](const motionlcm::drive_model_t& m, const std::string&) {
-                                              core_.on_drive_model(m, loop_.now());
-                                              pump();
-                                            });
-  node_.subscribe<motionlcm::arm_timing_t>(lcm::channels::kArmTiming,
-                                           [this](const motionlcm::arm_timing_t& m, const std::string&) {
-                                             core_.on_arm_timing(m, loop_.now());
-                                             pump();
-                                           });
-  node_.subscribe<motionlcm::active_moves_t>(lcm::channels::kOrphanedMoves,
-                                             [this](const motionlcm::active_moves_t& m, const std::string&) {
-                                               core_.on_orphaned_moves(m, loop_.now());
-                                               pump();
-                                             });
+  subscribe_gateway_channel(lcm::channels::kDriveModel, &Coordinator::on_drive_model, security.gateway_keys, false);
+  subscribe_gateway_channel(lcm::channels::kArmTiming, &Coordinator::on_arm_timing, security.gateway_keys, false);
+  subscribe_gateway_channel(lcm::channels::kOrphanedMoves, &Coordinator::on_orphaned_moves, security.gateway_keys,
+                            true);
   // A malformed request cannot be answered (its ids are unreadable): say so loudly on EVENT.
   node_.on_malformed([this](const std::string& what) {
     spdlog::warn("{}", what);
@@ -118,6 +116,78 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
     pump();
   });
   pump();
+}
+
+namespace {
+
+// What a refusal says a gateway message claimed to be, and the stream its counter is kept in (its
+// bus: gateways of several buses may share one key, each signing with its own clock).
+std::string label(const motionlcm::axis_state_t& m) { return "axis " + m.axis + " of bus " + m.bus; }
+std::string label(const motionlcm::gateway_reply_t& m) {
+  return "reply to command " + std::to_string(m.command_id) + " of bus " + m.bus;
+}
+std::string label(const motionlcm::drive_model_t& m) { return "model of axis " + m.axis + " of bus " + m.bus; }
+std::string label(const motionlcm::arm_timing_t& m) { return "arming time of axis " + m.axis + " of bus " + m.bus; }
+std::string label(const motionlcm::active_moves_t& m) { return std::to_string(m.num_axes) + " rows"; }
+std::string label(const motionlcm::event_t& m) { return "event of " + m.source; }
+std::string stream(const motionlcm::axis_state_t& m) { return m.bus; }
+std::string stream(const motionlcm::event_t& m) { return m.bus; }
+std::string stream(const motionlcm::gateway_reply_t& m) { return m.bus; }
+std::string stream(const motionlcm::drive_model_t& m) { return m.bus; }
+std::string stream(const motionlcm::arm_timing_t& m) { return m.bus; }
+std::string stream(const motionlcm::active_moves_t& m) { return m.buses.empty() ? std::string() : m.buses.front(); }
+
+}  // namespace
+
+template <typename Msg>
+void CoordinatorService::subscribe_gateway_channel(std::string_view channel,
+                                                   void (Coordinator::*handler)(const Msg&, TimePoint),
+                                                   const std::vector<security::PublicKey>& gateway_keys,
+                                                   bool refuse_plain) {
+  if (enforce_ && !refuse_plain) {
+    // Sent plain too, for observers: not looked at (only the signed copy counts).
+  } else {
+    node_.subscribe<Msg>(channel, [this, channel, handler](const Msg& m, const std::string&) {
+      if (enforce_) {
+        refuse_gateway_message("unsigned " + std::string(channel) + " (" + label(m) +
+                               ") refused: security is enforced, it must be signed with a gateway key (" +
+                               node_.channel(security::signed_channel(channel)) + ")");
+      } else {
+        (core_.*handler)(m, loop_.now());
+      }
+      pump();
+    });
+  }
+  if (!enforce_) return;  // mode off: the plain copies count (gateways send both)
+  auto& verifier =
+      gateway_verifiers_.emplace_back(gateway_keys, "a key of role gateway in authorized_keys", node_.prefix(),
+                                      std::string(channel), std::chrono::milliseconds(window_ms_), wall_time_us());
+  node_.subscribe<motionlcm::signed_message_t>(
+      security::signed_channel(channel),
+      [this, &verifier, handler](const motionlcm::signed_message_t& envelope, const std::string&) {
+        auto verified = verifier.verify<Msg>(envelope, wall_time_us(), [](const Msg& m) { return stream(m); });
+        if (verified.message) {
+          (core_.*handler)(*verified.message, loop_.now());
+        } else {
+          refuse_gateway_message(verified.reason);
+        }
+        pump();
+      },
+      [this, channel](const void*, int, const std::string& why) {
+        refuse_gateway_message("malformed signed " + std::string(channel) + " refused: " + why);
+        pump();
+      });
+}
+
+void CoordinatorService::refuse_gateway_message(const std::string& reason) {
+  // A flood of forged states must not become a flood of events: 5 a second, then a count.
+  const TimePoint now = loop_.now();
+  const std::uint64_t suppressed = gateway_refusals_.take_summary(now);
+  if (!gateway_refusals_.admit(now)) return;
+  core_.on_refused_message(suppressed == 0 ? reason
+                                           : reason + " (and " + std::to_string(suppressed) +
+                                                 " more refusals not reported, at most 5 a second)",
+                           now);
 }
 
 void CoordinatorService::on_signed_request(const motionlcm::signed_request_t& envelope) {

@@ -17,13 +17,6 @@
 
 namespace motion::gateway {
 
-security::Loaded<std::optional<security::PublicKey>> Gateway::load_coordinator_key(const config::Config& config) {
-  if (config.security.coordinator_public_key.empty()) return std::optional<security::PublicKey>{};
-  auto key = security::load_public_key(config.security.coordinator_public_key);
-  if (auto* error = std::get_if<std::string>(&key)) return "security.coordinator_public_key: " + *error;
-  return std::optional<security::PublicKey>{std::get<security::PublicKey>(key)};
-}
-
 Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config,
                  std::string bus)
     : loop_(loop),
@@ -171,113 +164,6 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
   if (command.kind == motionlcm::gateway_command_t::JOG) {
     for (const auto& a : command.axes) check_jog(a.axis);  // a jog starting inside its braking zone
   }
-}
-
-void Gateway::on_signed_command(const motionlcm::signed_gateway_command_t& envelope) {
-  if (verifier_) {
-    auto verdict = verifier_->verify(envelope, wall_time_us());
-    if (!verdict.command) return refuse(verdict.reason);
-    return on_command(*verdict.command);
-  }
-  // No coordinator key configured (mode off): taken as a plain command would be.
-  motionlcm::gateway_command_t command;
-  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command);
-      !why.empty()) {
-    return refuse("signed command with a malformed payload refused: " + why);
-  }
-  on_command(command);
-}
-
-void Gateway::refuse(const std::string& reason) {
-  // A flood of forged messages must not become a flood of events: 5 a second, then a count.
-  const TimePoint now = loop_.now();
-  const std::uint64_t suppressed = security_events_.take_summary(now);
-  if (!security_events_.admit(now)) return;
-  DriveEvent e;
-  e.kind = motionlcm::event_t::SECURITY;
-  e.severity = motionlcm::event_t::WARNING;
-  e.text = suppressed == 0
-               ? reason
-               : reason + " (and " + std::to_string(suppressed) + " more refusals not reported, at most 5 a second)";
-  axis_event("", e);
-}
-
-void Gateway::set_coordinator_key(const std::optional<security::PublicKey>& coordinator) {
-  const std::int64_t now = wall_time_us();
-  const std::chrono::milliseconds window(config_.security.window_ms);
-  const std::string prefix = node_.prefix();  // what the coordinator signed for: the channels this gateway hears
-  auto verifier = [&](std::string_view channel) {
-    return coordinator ? std::optional<security::MessageVerifier>{std::in_place,        *coordinator, prefix,
-                                                                  std::string(channel), window,       now}
-                       : std::nullopt;
-  };
-  verifier_ = coordinator
-                  ? std::optional<security::GatewayCommandVerifier>{std::in_place, *coordinator, prefix, window, now}
-                  : std::nullopt;
-  trigger_verifier_ = verifier(lcm::channels::kSyncTrigger);
-  trigger2_verifier_ = verifier(lcm::channels::kSyncTrigger2);
-  moves_verifier_ = verifier(lcm::channels::kActiveMoves);
-}
-
-void Gateway::subscribe_coordinator_messages() {
-  const auto unsigned_refusal = [this](std::string_view channel, const std::string& what) {
-    refuse("unsigned " + std::string(channel) + " (" + what +
-           ") refused: security is enforced, it must be signed by the coordinator (" +
-           node_.channel(security::signed_channel(channel)) + ")");
-  };
-  node_.subscribe<motionlcm::sync_trigger_t>(
-      lcm::channels::kSyncTrigger, [this, unsigned_refusal](const motionlcm::sync_trigger_t& t, const std::string&) {
-        if (enforce_) return unsigned_refusal(lcm::channels::kSyncTrigger, "trigger " + std::to_string(t.trigger_id));
-        on_trigger(t);
-      });
-  node_.subscribe<motionlcm::sync_trigger2_t>(
-      lcm::channels::kSyncTrigger2, [this, unsigned_refusal](const motionlcm::sync_trigger2_t& t, const std::string&) {
-        if (enforce_) return unsigned_refusal(lcm::channels::kSyncTrigger2, "trigger " + std::to_string(t.trigger_id));
-        on_trigger2(t);
-      });
-  node_.subscribe<motionlcm::active_moves_t>(
-      lcm::channels::kActiveMoves, [this, unsigned_refusal](const motionlcm::active_moves_t& m, const std::string&) {
-        if (enforce_) return unsigned_refusal(lcm::channels::kActiveMoves, std::to_string(m.num_axes) + " rows");
-        on_active_moves(m);
-      });
-  const auto malformed = [this](const void*, int, const std::string& why) {
-    refuse("malformed signed message refused: " + why);
-  };
-  node_.subscribe<motionlcm::signed_message_t>(
-      security::signed_channel(lcm::channels::kSyncTrigger),
-      [this](const motionlcm::signed_message_t& m, const std::string&) {
-        on_signed_message(trigger_verifier_, m, &Gateway::on_trigger);
-      },
-      malformed);
-  node_.subscribe<motionlcm::signed_message_t>(
-      security::signed_channel(lcm::channels::kSyncTrigger2),
-      [this](const motionlcm::signed_message_t& m, const std::string&) {
-        on_signed_message(trigger2_verifier_, m, &Gateway::on_trigger2);
-      },
-      malformed);
-  node_.subscribe<motionlcm::signed_message_t>(
-      security::signed_channel(lcm::channels::kActiveMoves),
-      [this](const motionlcm::signed_message_t& m, const std::string&) {
-        on_signed_message(moves_verifier_, m, &Gateway::on_active_moves);
-      },
-      malformed);
-}
-
-template <typename Msg>
-void Gateway::on_signed_message(std::optional<security::MessageVerifier>& verifier,
-                                const motionlcm::signed_message_t& envelope, void (Gateway::*handler)(const Msg&)) {
-  if (verifier) {
-    auto verified = verifier->verify<Msg>(envelope, wall_time_us());
-    if (!verified.message) return refuse(verified.reason);
-    return (this->*handler)(*verified.message);
-  }
-  // No coordinator key configured (mode off): taken as the plain message would be.
-  Msg msg;
-  if (std::string why = lcm::wire::decode_bounded(envelope.message.data(), envelope.message.size(), msg);
-      !why.empty()) {
-    return refuse("signed " + envelope.channel.substr(0, 64) + " with a malformed message refused: " + why);
-  }
-  (this->*handler)(msg);
 }
 
 void Gateway::forget_jog(const std::string& axis) {
@@ -450,7 +336,7 @@ void Gateway::on_health(const motionlcm::health_t& health) {
       spdlog::warn("coordinator {} replaced by {}: handing it the {} active move row(s) of {} left behind",
                    coordinator_, id, last_moves_.num_axes, bus_);
       last_moves_.utime = now;
-      node_.publish(lcm::channels::kOrphanedMoves, last_moves_);
+      publish_own(lcm::channels::kOrphanedMoves, last_moves_, false);
       last_moves_ = {};
     }
     coordinator_ = id;
@@ -555,7 +441,7 @@ void Gateway::publish_model(const std::string& axis, bool always) {
   }
   models_[axis] = model;
   model.utime = wall_time_us();
-  node_.publish(lcm::channels::kDriveModel, model);
+  publish_own(lcm::channels::kDriveModel, model, true);
   if (!arming_builder_) return;
   auto arming = arming_builder_(cfg);
   if (auto* why = std::get_if<std::string>(&arming)) {
@@ -564,7 +450,7 @@ void Gateway::publish_model(const std::string& axis, bool always) {
   }
   auto& timing = std::get<motionlcm::arm_timing_t>(arming);
   timing.utime = model.utime;
-  node_.publish(lcm::channels::kArmTiming, timing);
+  publish_own(lcm::channels::kArmTiming, timing, true);
 }
 
 void Gateway::on_model_request(const motionlcm::drive_model_request_t& request) {
@@ -623,7 +509,7 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   msg.outputs = status.outputs;
   if (records_ && status.online && status.position_read && record_checked_.contains(axis))
     keep_record(axis, status, msg.homed);
-  node_.publish(lcm::channels::kAxisState, msg);
+  publish_own(lcm::channels::kAxisState, msg, true);
 }
 
 void Gateway::position_lost(const std::string& axis, const std::string& why) {
@@ -656,7 +542,7 @@ void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
   if (event.severity >= motionlcm::event_t::WARNING) {
     spdlog::warn("event on {}{}: {} (code {})", bus_, axis.empty() ? "" : "/" + axis, event.text, event.code);
   }
-  node_.publish(lcm::channels::kEvent, msg);
+  publish_event(msg);
 }
 
 void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
@@ -687,7 +573,7 @@ void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
   reply.bus = bus_;
   if (reply.status == motionlcm::gateway_reply_t::FAILED)
     spdlog::warn("command {} failed: {}", reply.command_id, reply.reason);
-  node_.publish(lcm::channels::kGatewayReply, reply);
+  publish_own(lcm::channels::kGatewayReply, reply, false);
 }
 
 }  // namespace motion::gateway

@@ -24,8 +24,8 @@ Client::Client(EventLoop& loop, lcm::Node& node, std::string client_id)
   });
   node_.subscribe<motionlcm::axis_state_t>(lcm::channels::kAxisState,
                                            [this](const motionlcm::axis_state_t& s, const std::string&) {
-                                             axes_[s.axis] = s;
-                                             if (state_handler_) state_handler_(s);
+                                             // While verifying states only the signed copies count.
+                                             if (!state_verifier_) take_state(s);
                                            });
   node_.subscribe<motionlcm::event_t>(lcm::channels::kEvent, [this](const motionlcm::event_t& e, const std::string&) {
     if (e.kind == motionlcm::event_t::SECURITY && !event_verifier_) on_security_event(e);
@@ -58,6 +58,27 @@ void Client::verify_with(const security::PublicKey& coordinator, std::chrono::mi
           on_security_event(*verified.message);
         }
       });
+}
+
+void Client::verify_states_with(std::vector<security::PublicKey> gateways, std::chrono::milliseconds window) {
+  const bool subscribed = state_verifier_.has_value();
+  state_verifier_.emplace(std::move(gateways), "a gateway key", node_.prefix(), std::string(lcm::channels::kAxisState),
+                          window, wall_time_us());
+  axes_.clear();  // what was taken unverified
+  if (subscribed) return;
+  node_.subscribe<motionlcm::signed_message_t>(
+      security::signed_channel(lcm::channels::kAxisState),
+      [this](const motionlcm::signed_message_t& m, const std::string&) {
+        auto verified = state_verifier_->verify<motionlcm::axis_state_t>(
+            m, wall_time_us(), [](const motionlcm::axis_state_t& s) { return s.bus; });
+        if (verified.message) return take_state(*verified.message);
+        if (++forged_states_ <= 10) spdlog::warn("SECURITY: an axis state is ignored: {}", verified.reason);
+      });
+}
+
+void Client::take_state(const motionlcm::axis_state_t& s) {
+  axes_[s.axis] = s;
+  if (state_handler_) state_handler_(s);
 }
 
 void Client::on_reply(const motionlcm::reply_t& r) {

@@ -341,7 +341,9 @@ std::string relative_to(const std::string& file, const std::string& path) {
 
 void read_security(Reader& r, const YAML::Node& node, const std::string& file, SecuritySettings& out) {
   const std::string path = "security";
-  if (!r.check_map(node, path, {"mode", "authorized_keys", "key", "coordinator_public_key", "window_ms"})) return;
+  if (!r.check_map(node, path,
+                   {"mode", "authorized_keys", "key", "coordinator_public_key", "gateway_key", "window_ms"}))
+    return;
   out.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "mode", false)) {
     if (*v == "off") {
@@ -356,6 +358,7 @@ void read_security(Reader& r, const YAML::Node& node, const std::string& file, S
   if (auto v = r.get<std::string>(node, path, "key", false)) out.key = relative_to(file, *v);
   if (auto v = r.get<std::string>(node, path, "coordinator_public_key", false))
     out.coordinator_public_key = relative_to(file, *v);
+  if (auto v = r.get<std::string>(node, path, "gateway_key", false)) out.gateway_key = relative_to(file, *v);
   if (auto v = r.get<int>(node, path, "window_ms", false)) {
     out.window_ms = *v;
     if (*v < 100 || *v > 600000)
@@ -370,6 +373,11 @@ void read_security(Reader& r, const YAML::Node& node, const std::string& file, S
     if (out.coordinator_public_key.empty()) {
       r.error(node, path + ".coordinator_public_key",
               "required when security.mode is enforce (gateways verify the coordinator's commands)");
+    }
+    if (out.gateway_key.empty()) {
+      r.error(node, path + ".gateway_key",
+              "required when security.mode is enforce (gateways sign their axis states and replies; its public "
+              "half goes in authorized_keys with role gateway)");
     }
   }
 }

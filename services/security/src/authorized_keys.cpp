@@ -12,11 +12,12 @@ namespace {
 
 using motionlcm::request_t;
 
-constexpr std::array<std::pair<Role, const char*>, 4> kRoles{{
+constexpr std::array<std::pair<Role, const char*>, 5> kRoles{{
     {Role::kObserve, "observe"},
     {Role::kOperate, "operate"},
     {Role::kConfigure, "configure"},
     {Role::kAdmin, "admin"},
+    {Role::kGateway, "gateway"},
 }};
 
 }  // namespace
@@ -52,6 +53,14 @@ Role required_role(std::int8_t kind) {
     case request_t::PARAM_WRITE: return Role::kConfigure;
     default: return Role::kAdmin;
   }
+}
+
+std::vector<PublicKey> AuthorizedKeys::keys_with_role(Role role) const {
+  std::vector<PublicKey> out;
+  for (const auto& p : principals_) {
+    if (p.role == role) out.push_back(p.key);
+  }
+  return out;
 }
 
 bool Principal::owns_client_id(std::string_view client_id) const { return name_owns_client_id(name, client_id); }
@@ -92,7 +101,7 @@ Loaded<AuthorizedKeys> AuthorizedKeys::parse(std::string_view text, const std::s
     }
     const auto role = parse_role(fields[2]);
     if (!role) {
-      fail("unknown role '" + fields[2] + "' (observe, operate, configure, admin)");
+      fail("unknown role '" + fields[2] + "' (observe, operate, configure, admin, gateway)");
       continue;
     }
     p.role = *role;

@@ -56,8 +56,11 @@ Verdict RequestVerifier::verify(const motionlcm::signed_request_t& envelope, std
     return v;
   }
   if (!allows(p->role, request.kind)) {
-    v.reason = "role too low: key " + v.signer + " has role " + to_string(p->role) + ", a " +
-               lcm::request_kind_words(request.kind) + " needs " + to_string(required_role(request.kind)) + claimed;
+    v.reason =
+        p->role == Role::kGateway
+            ? "key " + v.signer + " has role gateway: a gateway's key signs what gateways publish, no request" + claimed
+            : "role too low: key " + v.signer + " has role " + to_string(p->role) + ", a " +
+                  lcm::request_kind_words(request.kind) + " needs " + to_string(required_role(request.kind)) + claimed;
     v.answerable = true;
     v.request = std::move(request);
     return v;

@@ -1,5 +1,7 @@
 #include "motion/security/signed_messages.hpp"
 
+#include <algorithm>
+
 #include "envelope.hpp"
 
 namespace motion::security {
@@ -39,25 +41,33 @@ motionlcm::signed_message_t MessageSigner::sign_bytes(std::string_view channel, 
 
 MessageVerifier::MessageVerifier(PublicKey coordinator, std::string channel_prefix, std::string channel,
                                  std::chrono::milliseconds window, std::int64_t not_before_us)
-    : coordinator_(coordinator),
+    : MessageVerifier(std::vector<PublicKey>{coordinator}, "the coordinator's (" + to_hex(key_id(coordinator)) + ")",
+                      std::move(channel_prefix), std::move(channel), window, not_before_us) {}
+
+MessageVerifier::MessageVerifier(std::vector<PublicKey> signers, std::string signers_are, std::string channel_prefix,
+                                 std::string channel, std::chrono::milliseconds window, std::int64_t not_before_us)
+    : signers_(std::move(signers)),
+      signers_are_(std::move(signers_are)),
       prefix_(std::move(channel_prefix)),
       channel_(std::move(channel)),
       window_us_(std::chrono::duration_cast<std::chrono::microseconds>(window).count()),
       not_before_us_(not_before_us) {}
 
-std::optional<std::vector<std::uint8_t>> MessageVerifier::verify_bytes(const motionlcm::signed_message_t& envelope,
-                                                                       std::int64_t now_us, std::string& reason) {
+std::optional<KeyId> MessageVerifier::check(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
+                                            std::string& reason) const {
   const std::string what = "signed " + channel_ + " refused: ";
   if (envelope.channel != channel_) {
     reason = what + "it was signed for channel '" + envelope.channel.substr(0, 64) + "'";
     return std::nullopt;
   }
   const KeyId id = detail::key_id_of(envelope);
-  if (id != key_id(coordinator_)) {
-    reason = what + "key " + to_hex(id) + " is not the coordinator's (" + to_hex(key_id(coordinator_)) + ")";
+  const auto signer =
+      std::find_if(signers_.begin(), signers_.end(), [&](const PublicKey& k) { return key_id(k) == id; });
+  if (signer == signers_.end()) {
+    reason = what + "key " + to_hex(id) + " is not " + signers_are_;
     return std::nullopt;
   }
-  if (!security::verify(coordinator_, detail::covered_bytes(detail::kMessageDomain, scope(prefix_, channel_), envelope),
+  if (!security::verify(*signer, detail::covered_bytes(detail::kMessageDomain, scope(prefix_, channel_), envelope),
                         detail::signature_of(envelope))) {
     reason = what + "bad signature (forged or altered in transit)";
     return std::nullopt;
@@ -66,12 +76,25 @@ std::optional<std::vector<std::uint8_t>> MessageVerifier::verify_bytes(const mot
     reason = what + "stale timestamp: " + *why;
     return std::nullopt;
   }
-  if (envelope.counter <= last_counter_) {
-    reason = what + "replayed counter " + std::to_string(envelope.counter) + " (last accepted " +
-             std::to_string(last_counter_) + ")";
-    return std::nullopt;
+  return id;
+}
+
+bool MessageVerifier::take_counter(const KeyId& signer, const std::string& stream, std::int64_t counter,
+                                   std::string& reason) {
+  std::int64_t& last = last_counter_[{signer, stream}];
+  if (counter <= last) {
+    reason = "signed " + channel_ + " refused: replayed counter " + std::to_string(counter) + " (last accepted " +
+             std::to_string(last) + (stream.empty() ? "" : " for " + stream.substr(0, 64)) + ")";
+    return false;
   }
-  last_counter_ = envelope.counter;
+  last = counter;
+  return true;
+}
+
+std::optional<std::vector<std::uint8_t>> MessageVerifier::verify_bytes(const motionlcm::signed_message_t& envelope,
+                                                                       std::int64_t now_us, std::string& reason) {
+  const auto signer = check(envelope, now_us, reason);
+  if (!signer || !take_counter(*signer, std::string(), envelope.counter, reason)) return std::nullopt;
   return envelope.message;
 }
 

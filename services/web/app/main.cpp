@@ -11,13 +11,17 @@
 //
 // Replies (reply_gate.hpp): with security.mode enforce and security.coordinator_public_key the page
 // shows only the coordinator's signed replies that verify (SREPLY), and the page's own client
-// verifies its replies likewise; otherwise the plain REPLYs.
+// verifies its replies likewise; otherwise the plain REPLYs. Axis states: with security.mode
+// enforce and a readable security.authorized_keys with keys of role gateway, only the gateways'
+// signed states that verify (SAXIS_STATE); otherwise the plain AXIS_STATEs (a warning says why).
 //
 // Threads: LCM and the client on the process's EventLoop (the main thread); the HTTP/WebSocket
 // server on its own thread. One mutex guards the LabView between the two; commands from browsers
 // reach the main thread through a LoopMailbox.
 #include <unistd.h>
 
+#include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -25,6 +29,7 @@
 #include <optional>
 #include <string_view>
 #include <variant>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 #include <motionlcm/active_moves_t.hpp>
@@ -43,6 +48,7 @@
 #include "motion/core/loop_mailbox.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/wire_bounds.hpp"
+#include "motion/security/authorized_keys.hpp"
 #include "motion/security/gateway_commands.hpp"
 #include "motion/security/keys.hpp"
 #include "motion/security/signed_messages.hpp"
@@ -135,6 +141,32 @@ class Bridge {
                                                 });
   }
 
+  // Axis states only from their signed copies (SAXIS_STATE) that verify against `gateways` (the
+  // keys of role gateway in authorized_keys; counter per key and bus); the first 10 refused are
+  // logged.
+  void follow_verified_states(lcm::Node& node, std::vector<security::PublicKey> gateways,
+                              std::chrono::milliseconds window) {
+    state_verifier_.emplace(std::move(gateways), "a gateway key", node.prefix(), std::string(lcm::channels::kAxisState),
+                            window, wall_time_us());
+    node.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kAxisState),
+                                                [this](const motionlcm::signed_message_t& env, const std::string&) {
+                                                  auto verified = state_verifier_->verify<motionlcm::axis_state_t>(
+                                                      env, wall_time_us(),
+                                                      [](const motionlcm::axis_state_t& m) { return m.bus; });
+                                                  if (!verified.message) {
+                                                    if (++refused_states_ <= 10)
+                                                      spdlog::warn("web: an axis state not shown: {}", verified.reason);
+                                                    return;
+                                                  }
+                                                  std::vector<Outgoing> out;
+                                                  {
+                                                    const std::lock_guard lock(mutex_);
+                                                    out = view_.on_axis_state(*verified.message);
+                                                  }
+                                                  for (auto& message : out) server_.broadcast(std::move(message));
+                                                });
+  }
+
   // Requests, plain and signed (signed_request_t on SREQUEST, unwrapped without verifying: they
   // only say which requests are moves, and of which kind, for the plots).
   void follow_requests(lcm::Node& node) {
@@ -157,7 +189,27 @@ class Bridge {
   LabView view_;
   Server server_;
   std::optional<ReplyGate> gate_;
+  std::optional<security::MessageVerifier> state_verifier_;  // SAXIS_STATE (loop thread only)
+  std::uint64_t refused_states_ = 0;
 };
+
+// The gateway keys the page verifies axis states with: under enforce, the keys of role gateway in
+// a readable authorized_keys; none (plain states, and a warning saying why) otherwise.
+std::optional<std::vector<security::PublicKey>> gateway_keys(const config::Config& config) {
+  if (config.security.mode != config::SecuritySettings::Mode::kEnforce) return std::nullopt;
+  auto keys = security::AuthorizedKeys::load(config.security.authorized_keys);
+  if (const auto* error = std::get_if<std::string>(&keys)) {
+    spdlog::warn("web: axis states are shown unverified: security.authorized_keys: {}", *error);
+    return std::nullopt;
+  }
+  auto gateways = std::get<security::AuthorizedKeys>(keys).keys_with_role(security::Role::kGateway);
+  if (gateways.empty()) {
+    spdlog::warn("web: axis states are shown unverified: {} has no key of role gateway",
+                 config.security.authorized_keys);
+    return std::nullopt;
+  }
+  return gateways;
+}
 
 // The page's commands, on the main thread: checked (controls.hpp), then sent by the client.
 class Controls {
@@ -265,7 +317,11 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     app::Service service(*config, options, "web", "web");
     if (!service.ok()) return app::kExitUnavailable;
     auto& node = service.node();
-    bridge->forward(node, motion::lcm::channels::kAxisState, &web::LabView::on_axis_state);
+    if (auto gateways = web::gateway_keys(*config)) {
+      bridge->follow_verified_states(node, std::move(*gateways), std::chrono::milliseconds(config->security.window_ms));
+    } else {
+      bridge->forward(node, motion::lcm::channels::kAxisState, &web::LabView::on_axis_state);
+    }
     bridge->forward(node, motion::lcm::channels::kHealth, &web::LabView::on_health);
     bridge->forward(node, motion::lcm::channels::kEvent, &web::LabView::on_event);
     auto gate = web::ReplyGate::from_config(*config, wall_time_us());

@@ -14,6 +14,7 @@
 #include "motion/config/config.hpp"
 #include "motion/lcm/reply_error.hpp"
 #include "motion/lcm/request_kinds.hpp"
+#include "motion/testing/lab_keys.hpp"
 #include "random_lab.hpp"
 
 namespace motion::random_lab {
@@ -115,11 +116,7 @@ std::string LabSpec::yaml() const {
        "1500}\n"
        "simulation: {reply_latency_us: 200}\n";
   // The key files are the runner's, next to the configuration (paths relative to it).
-  if (security) {
-    y << "security:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n  "
-         "coordinator_public_key: coordinator.pub\n"
-         "  window_ms: 5000\n";
-  }
+  if (security) { y << motion::testing::enforced_security(5000); }
   return y.str();
 }
 

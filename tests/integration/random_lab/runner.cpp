@@ -20,6 +20,7 @@
 #include "motion/lcm/reply_error.hpp"
 #include "motion/lcm/request_kinds.hpp"
 #include "motion/security/keys.hpp"
+#include "motion/testing/lab_keys.hpp"
 #include "motion/testing/lcm_url.hpp"
 #include "motion/testing/process_group.hpp"
 #include "random_lab.hpp"
@@ -94,12 +95,10 @@ class Runner {
   void start() {
     const std::string path = group_.work_dir() + "/lab.yaml";
     if (lab_.security) {
-      if (const auto error =
-              security::write_key_pair(security::KeyPair::generate("coordinator"), group_.work_dir(), "admin")) {
-        fail("lab start-up: cannot write the coordinator's key pair: " + *error);
-      }
-      std::ofstream keys(group_.work_dir() + "/authorized_keys");
-      for (const auto& key : keys_) keys << key.authorized_line("admin") << "\n";
+      std::vector<std::string> principals;
+      for (const auto& key : keys_) principals.push_back(key.authorized_line("admin"));
+      if (const auto error = motion::testing::write_lab_keys(group_.work_dir(), principals))
+        fail("lab start-up: cannot write the lab's keys: " + *error);
     }
     std::ofstream(path) << lab_.yaml();
     std::set<std::string> buses;

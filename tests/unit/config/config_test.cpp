@@ -101,7 +101,7 @@ TEST(Config, SecurityIsOffByDefaultAndItsPathsAreFromTheFilesFolder) {
       load_string(kValid +
                       "security:\n  mode: enforce\n  authorized_keys: keys/authorized_keys\n"
                       "  key: /etc/motionbus/keys/coordinator.key\n  coordinator_public_key: keys/coordinator.pub\n"
-                      "  window_ms: 500\n",
+                      "  gateway_key: keys/gateway-{bus}.key\n  window_ms: 500\n",
                   "/etc/motionbus/lab.yaml");
   ASSERT_TRUE(secured.ok()) << secured.error_text();
   const auto& s = secured.config->security;
@@ -109,6 +109,7 @@ TEST(Config, SecurityIsOffByDefaultAndItsPathsAreFromTheFilesFolder) {
   EXPECT_EQ(s.authorized_keys, "/etc/motionbus/keys/authorized_keys");
   EXPECT_EQ(s.key, "/etc/motionbus/keys/coordinator.key");
   EXPECT_EQ(s.coordinator_public_key, "/etc/motionbus/keys/coordinator.pub");
+  EXPECT_EQ(s.gateway_key, "/etc/motionbus/keys/gateway-{bus}.key");
   EXPECT_EQ(s.window_ms, 500);
   EXPECT_STREQ(to_string(s.mode), "enforce");
 }
@@ -116,15 +117,22 @@ TEST(Config, SecurityIsOffByDefaultAndItsPathsAreFromTheFilesFolder) {
 TEST(Config, BadSecuritySettingsNameTheKey) {
   expect_single_error(kValid + "security:\n  mode: strict\n", 21, "security.mode",
                       "'strict' is not a security mode (off, enforce)");
-  const std::string keys = "  key: c.key\n  coordinator_public_key: c.pub\n";
+  const std::string keys = "  key: c.key\n  coordinator_public_key: c.pub\n  gateway_key: g.key\n";
   expect_single_error(kValid + "security:\n  mode: enforce\n" + keys, 21, "security.authorized_keys",
                       "required when security.mode is enforce");
-  expect_single_error(kValid + "security:\n  mode: enforce\n  authorized_keys: k\n  coordinator_public_key: c.pub\n",
+  expect_single_error(kValid +
+                          "security:\n  mode: enforce\n  authorized_keys: k\n  coordinator_public_key: c.pub\n"
+                          "  gateway_key: g.key\n",
                       21, "security.key",
                       "required when security.mode is enforce (the coordinator signs its gateway commands)");
-  expect_single_error(kValid + "security:\n  mode: enforce\n  authorized_keys: k\n  key: c.key\n", 21,
-                      "security.coordinator_public_key",
+  expect_single_error(kValid + "security:\n  mode: enforce\n  authorized_keys: k\n  key: c.key\n  gateway_key: g.key\n",
+                      21, "security.coordinator_public_key",
                       "required when security.mode is enforce (gateways verify the coordinator's commands)");
+  expect_single_error(kValid +
+                          "security:\n  mode: enforce\n  authorized_keys: k\n  key: c.key\n"
+                          "  coordinator_public_key: c.pub\n",
+                      21, "security.gateway_key",
+                      "required when security.mode is enforce (gateways sign their axis states and replies");
   expect_single_error(kValid + "security:\n  authorized_keys: k\n  window_ms: 50\n", 22, "security.window_ms",
                       "50 is outside 100..600000 ms");
   expect_single_error(kValid + "security:\n  keys: k\n", 21, "security.keys", "unknown key");

@@ -347,9 +347,10 @@ namespace {
 // anything else fires or stops nothing and is a SECURITY event (at most 5 a second).
 struct Enforced : Fixture {
   Enforced()
-      : Fixture(std::string(kConfig) +
-                "security: {mode: enforce, authorized_keys: ak, key: c.key, coordinator_public_key: c.pub, window_ms: "
-                "2000}\n") {
+      : Fixture(
+            std::string(kConfig) +
+            "security: {mode: enforce, authorized_keys: ak, key: c.key, coordinator_public_key: c.pub, gateway_key: "
+            "g.key, window_ms: 2000}\n") {
     gateway.set_coordinator_key(coordinator.public_key());
   }
   // A trigger of can0 whose send time is now: it would fire at once.
@@ -466,6 +467,53 @@ TEST_F(Enforced, AFloodOfForgedTriggersIsFiveEventsASecond) {
       std::count_if(events.begin(), events.end(), [](const auto& e) { return e.kind == motionlcm::event_t::SECURITY; });
   EXPECT_EQ(security_events, 5);
   EXPECT_TRUE(driver->fired.empty());
+}
+
+// With a gateway key (security.gateway_key) under enforce, the replies go out signed only and the
+// axis states signed and plain (for observers); the coordinator verifies them with the key's
+// public half (role gateway in authorized_keys).
+TEST_F(Enforced, RepliesGoOutSignedOnlyAndStatesSignedAndPlain) {
+  const auto key = security::KeyPair::generate("gateway");
+  gateway.set_gateway_key(key);
+  security::MessageVerifier replies_in({key.public_key()}, "the gateway's", "GT_",
+                                       std::string(lcm::channels::kGatewayReply), milliseconds(2000),
+                                       wall_time_us() - 1000);
+  security::MessageVerifier states_in({key.public_key()}, "the gateway's", "GT_",
+                                      std::string(lcm::channels::kAxisState), milliseconds(2000),
+                                      wall_time_us() - 1000);
+  std::vector<motionlcm::gateway_reply_t> signed_replies;
+  std::vector<motionlcm::axis_state_t> signed_states;
+  node.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kGatewayReply),
+                                              [&](const motionlcm::signed_message_t& e, const std::string&) {
+                                                auto v =
+                                                    replies_in.verify<motionlcm::gateway_reply_t>(e, wall_time_us());
+                                                ASSERT_TRUE(v.message) << v.reason;
+                                                signed_replies.push_back(*v.message);
+                                              });
+  node.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kAxisState),
+                                              [&](const motionlcm::signed_message_t& e, const std::string&) {
+                                                auto v = states_in.verify<motionlcm::axis_state_t>(e, wall_time_us());
+                                                ASSERT_TRUE(v.message) << v.reason;
+                                                signed_states.push_back(*v.message);
+                                              });
+  motionlcm::gateway_reply_t reply{};
+  reply.command_id = 31;
+  reply.status = motionlcm::gateway_reply_t::DONE;
+  gateway.command_reply(reply);
+  DriveStatus status;
+  status.online = true;
+  status.position_counts = -250;
+  gateway.axis_status("x", status);
+  pump_until([&] { return !signed_replies.empty() && !signed_states.empty() && !states.empty(); });
+  pump_for(milliseconds(50));
+  ASSERT_EQ(signed_replies.size(), 1u);
+  EXPECT_EQ(signed_replies[0].command_id, 31);
+  EXPECT_EQ(signed_replies[0].bus, "can0");
+  EXPECT_TRUE(replies.empty()) << "a plain GW_REPLY under enforce";
+  ASSERT_EQ(signed_states.size(), 1u);
+  EXPECT_DOUBLE_EQ(signed_states[0].position, 2.5);  // inverted, 100 counts a unit
+  ASSERT_EQ(states.size(), 1u);
+  EXPECT_DOUBLE_EQ(states[0].position, 2.5);
 }
 
 }  // namespace

@@ -47,8 +47,9 @@ TEST(AuthorizedKeys, EveryErrorNamesFileLineAndWhatWasWrong) {
   EXPECT_NE(e.find("/etc/motionbus/authorized_keys:3: expected '<base64 public key> <name> <role>', got 2 fields"),
             std::string::npos)
       << e;
-  EXPECT_NE(e.find("/etc/motionbus/authorized_keys:4: unknown role 'root' (observe, operate, configure, admin)"),
-            std::string::npos)
+  EXPECT_NE(
+      e.find("/etc/motionbus/authorized_keys:4: unknown role 'root' (observe, operate, configure, admin, gateway)"),
+      std::string::npos)
       << e;
   EXPECT_NE(e.find("/etc/motionbus/authorized_keys:5: key of 'alice' is already listed at line 1"), std::string::npos)
       << e;
@@ -80,6 +81,10 @@ TEST(Roles, EveryoneMayStopAndEachRoleAddsItsKinds) {
   }
   EXPECT_FALSE(allows(Role::kConfigure, 99));
   EXPECT_TRUE(allows(Role::kAdmin, 99));
+  // A gateway's key signs what gateways publish and no request, not even a stop.
+  EXPECT_EQ(parse_role("gateway"), Role::kGateway);
+  for (const std::int8_t kind : {request_t::STOP, request_t::ESTOP, request_t::MOVE_ABSOLUTE, std::int8_t{99}})
+    EXPECT_FALSE(allows(Role::kGateway, kind)) << int(kind);
   EXPECT_EQ(parse_role("configure"), Role::kConfigure);
   EXPECT_FALSE(parse_role("Admin"));
 }

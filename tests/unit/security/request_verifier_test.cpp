@@ -146,6 +146,27 @@ TEST_F(Verifier, RoleTooLowIsRefusedAndAnswerable) {
   EXPECT_TRUE(verifier_->verify(observe_signer_.sign(move("watch", 5, request_t::ESTOP), now_), now_).accepted);
 }
 
+// A gateway's key (role gateway) signs what gateways publish: a request from it, even a stop, is
+// refused (answerable: the ids are its own) and says why.
+TEST(GatewayKey, SendsNoRequest) {
+  const KeyPair gateway = KeyPair::generate("gateway");
+  RequestVerifier verifier(std::get<AuthorizedKeys>(AuthorizedKeys::parse(gateway.authorized_line("gateway"), "keys")),
+                           std::string(kPrefix), 2000ms, kStart);
+  RequestSigner signer(gateway, std::string(kPrefix));
+  request_t stop{};
+  stop.client_id = "gateway/x";
+  stop.request_id = 1;
+  stop.kind = request_t::STOP;
+  const Verdict v = verifier.verify(signer.sign(stop, kStart + 1000), kStart + 1000);
+  EXPECT_FALSE(v.accepted);
+  EXPECT_TRUE(v.answerable);
+  EXPECT_EQ(v.reason.rfind("key 'gateway' (" + to_hex(gateway.id()) +
+                               ") has role gateway: a gateway's key signs what gateways publish, no request",
+                           0),
+            0u)
+      << v.reason;
+}
+
 TEST_F(Verifier, AnotherKeysClientIdIsRefusedUnanswered) {
   // The operator signs a stop under the observer's client id: nothing may answer the observer.
   const Verdict v = verifier_->verify(op_signer_.sign(move("watch", 1, request_t::STOP), now_), now_);

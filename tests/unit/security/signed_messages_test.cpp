@@ -7,9 +7,12 @@
 #include <fstream>
 #include <iterator>
 
+#include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/reply_t.hpp>
+#include <motionlcm/request_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 
+#include "motion/security/authorized_keys.hpp"
 #include "motion/security/signed_messages.hpp"
 
 namespace motion::security {
@@ -106,6 +109,48 @@ TEST(SignedMessageLayout, AnEnvelopeSignedOutsideCppVerifies) {
   ASSERT_TRUE(v.message) << v.reason;
   EXPECT_EQ(v.message->trigger_id, 5);
   EXPECT_EQ(v.message->start_command_ids, std::vector<std::int64_t>{11});
+}
+
+// What gateways publish: any key of role gateway, the counter kept per signer and bus, so two
+// gateways sharing one key, each counting from its own clock, are not taken for replays of each
+// other; within one bus an older counter still is a replay.
+TEST(GatewayMessages, AnyGatewayKeyCountersPerKeyAndBus) {
+  const KeyPair gw = KeyPair::generate("gateway");
+  const KeyPair other = KeyPair::generate("gateway-b");
+  const KeyPair op = KeyPair::generate("op");
+  const auto keys = std::get<AuthorizedKeys>(AuthorizedKeys::parse(gw.authorized_line("gateway") + "\n" +
+                                                                       op.authorized_line("admin") + "\n" +
+                                                                       other.authorized_line("gateway") + "\n",
+                                                                   "keys"));
+  EXPECT_EQ(keys.keys_with_role(Role::kGateway), (std::vector<PublicKey>{gw.public_key(), other.public_key()}));
+  EXPECT_FALSE(allows(Role::kGateway, motionlcm::request_t::STOP));  // a gateway key sends no request
+  MessageVerifier states(keys.keys_with_role(Role::kGateway), "a gateway key", "MOTION_", "AXIS_STATE", 2000ms, kStart);
+  const auto bus = [](const motionlcm::axis_state_t& s) { return s.bus; };
+  const auto state = [](const std::string& b) {
+    motionlcm::axis_state_t s{};
+    s.axis = "x";
+    s.bus = b;
+    return s;
+  };
+  const std::int64_t now = kStart + 5'000'000;
+  MessageSigner can0(gw, "MOTION_");
+  MessageSigner can1(gw, "MOTION_");  // the same key in another process, its clock 1 ms behind
+  MessageSigner b(other, "MOTION_");
+  ASSERT_TRUE(states.verify<motionlcm::axis_state_t>(can0.sign("AXIS_STATE", state("can0"), now), now, bus).message);
+  const auto late = can1.sign("AXIS_STATE", state("can1"), now - 1000);
+  const auto on_can1 = states.verify<motionlcm::axis_state_t>(late, now, bus);
+  ASSERT_TRUE(on_can1.message) << on_can1.reason;
+  EXPECT_EQ(on_can1.message->bus, "can1");
+  EXPECT_TRUE(
+      states.verify<motionlcm::axis_state_t>(b.sign("AXIS_STATE", state("can1"), now - 2000), now, bus).message);
+  const auto old = can0.sign("AXIS_STATE", state("can0"), now - 5000);  // counter above can0's last
+  EXPECT_TRUE(states.verify<motionlcm::axis_state_t>(old, now, bus).message);
+  const auto replay = states.verify<motionlcm::axis_state_t>(late, now, bus);
+  EXPECT_EQ(replay.reason.rfind("signed AXIS_STATE refused: replayed counter", 0), 0u) << replay.reason;
+  EXPECT_NE(replay.reason.find("for can1"), std::string::npos) << replay.reason;
+  MessageSigner admin(op, "MOTION_");
+  EXPECT_EQ(states.verify<motionlcm::axis_state_t>(admin.sign("AXIS_STATE", state("can0"), now + 10), now, bus).reason,
+            "signed AXIS_STATE refused: key " + to_hex(op.id()) + " is not a gateway key");
 }
 
 }  // namespace

@@ -137,6 +137,9 @@ class Coordinator {
   // reply goes out, since ids that cannot be trusted may be somebody else's.
   void on_refused_request(const std::optional<motionlcm::request_t>& answer_to, const std::string& reason,
                           TimePoint now);
+  // A gateway message the security gate refused (CoordinatorService, mode enforce): a SECURITY
+  // event with `reason`; nothing else happens.
+  void on_refused_message(const std::string& reason, TimePoint now);
   void on_axis_state(const motionlcm::axis_state_t& state, TimePoint now);
   void on_gateway_reply(const motionlcm::gateway_reply_t& reply, TimePoint now);
   void on_event(const motionlcm::event_t& event, TimePoint now);

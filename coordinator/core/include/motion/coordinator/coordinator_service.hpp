@@ -15,17 +15,25 @@
 // and events also go out signed (signed_message_t on SSYNC_TRIGGER, SSYNC_TRIGGER2, SACTIVE_MOVES,
 // SREPLY, SEVENT); with mode enforce the plain triggers and ACTIVE_MOVES are not sent at all
 // (gateways would refuse them), plain REPLY and EVENT still are (for observers and clients that
-// do not verify).
+// do not verify). With mode enforce the coordinator takes what gateways publish (AXIS_STATE,
+// GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, EVENT) only from their signed copies (signed_message_t on
+// SAXIS_STATE, SGW_REPLY, SDRIVE_MODEL, SORPHANED_MOVES, and GW_EVENT on SGW_EVENT) that verify
+// against a key of role gateway in authorized_keys (counter per signer and bus); a signed one that
+// does not verify, or a plain GW_REPLY or ORPHANED_MOVES, is ignored and counted, with a SECURITY
+// event (5 a second, then a count); plain AXIS_STATE, DRIVE_MODEL and EVENT (gateways send them
+// for observers) are not looked at.
 //
 // Thread contract: loop thread only. Never blocks.
 #pragma once
 
+#include <deque>
 #include <string>
 #include <vector>
 
 #include "motion/config/config.hpp"
 #include "motion/coordinator/coordinator.hpp"
 #include "motion/core/event_loop.hpp"
+#include "motion/lcm/malformed_limiter.hpp"
 #include "motion/lcm/node.hpp"
 #include "motion/security/gateway_commands.hpp"
 #include "motion/security/request_verifier.hpp"
@@ -41,6 +49,7 @@ class CoordinatorService final : private CoordinatorOutput {
     std::optional<security::RequestVerifier> verifier;
     std::optional<security::GatewayCommandSigner> command_signer;
     std::optional<security::MessageSigner> message_signer;  // with command_signer: the same key
+    std::vector<security::PublicKey> gateway_keys;          // role gateway in authorized_keys
   };
 
   // `loop`, `node` and `config` must outlive the service. `security`: see load_security().
@@ -50,7 +59,7 @@ class CoordinatorService final : private CoordinatorOutput {
   // The Security of `config.security`: a verifier over authorized_keys (its channel prefix,
   // window_ms, and now as the start) and a signer with key, each when configured; or what is
   // wrong with a file (each error names the configuration key and file:line), including a key
-  // and coordinator_public_key that are not one pair.
+  // and coordinator_public_key that are not one pair, and mode enforce without a gateway key.
   [[nodiscard]] static security::Loaded<Security> load_security(const config::Config& config);
   ~CoordinatorService() override;
   CoordinatorService(const CoordinatorService&) = delete;
@@ -62,6 +71,8 @@ class CoordinatorService final : private CoordinatorOutput {
     return core_.buses_without_gateway(loop_.now());
   }
   [[nodiscard]] std::vector<std::string> axes_never_heard() const { return core_.axes_never_heard(); }
+  // Gateway messages refused under enforce (plain, or signed but not verifying), reported or not.
+  [[nodiscard]] std::uint64_t refused_gateway_messages() const { return gateway_refusals_.total(); }
 
  private:
   // Runs the core at the loop's now and re-arms the timer at the deadline it returns.
@@ -69,6 +80,14 @@ class CoordinatorService final : private CoordinatorOutput {
   void on_signed_request(const motionlcm::signed_request_t& envelope);
   // The reason a plain request is refused while security is enforced.
   [[nodiscard]] std::string unsigned_refusal(const std::string& what) const;
+  // What gateways publish on `channel`: the plain message to `handler` in mode off; under enforce
+  // only its signed copy that verifies against `gateway_keys`, and a plain one is refused when
+  // `refuse_plain` (gateways send none) or not looked at (they send it too, for observers).
+  template <typename Msg>
+  void subscribe_gateway_channel(std::string_view channel, void (Coordinator::*handler)(const Msg&, TimePoint),
+                                 const std::vector<security::PublicKey>& gateway_keys, bool refuse_plain);
+  // A gateway message refused under enforce: counted, and a SECURITY event (rate-limited).
+  void refuse_gateway_message(const std::string& reason);
 
   void reply(const motionlcm::reply_t& reply) override;
   void gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) override;
@@ -82,6 +101,7 @@ class CoordinatorService final : private CoordinatorOutput {
   lcm::Node& node_;
   Coordinator core_;
   bool enforce_ = false;
+  int window_ms_ = 2000;  // config security.window_ms
   std::optional<security::RequestVerifier> verifier_;
   std::optional<security::GatewayCommandSigner> command_signer_;
   std::optional<security::MessageSigner> message_signer_;
@@ -89,6 +109,8 @@ class CoordinatorService final : private CoordinatorOutput {
   // unless there is one, the mode is enforce and not `plain_under_enforce`.
   template <typename Msg>
   void publish_coordinator_message(std::string_view channel, const Msg& message, bool plain_under_enforce);
+  std::deque<security::MessageVerifier> gateway_verifiers_;  // one per gateway channel (enforce)
+  lcm::MalformedLimiter gateway_refusals_;                   // refused gateway messages (5 reported a second)
   EventLoop::TimerId timer_ = 0;
   TimePoint timer_deadline_ = kNever;
 };

@@ -18,7 +18,12 @@
 //  - watches jogging axes' statuses and stops one (its own STOP, negative command id, and a LIMIT
 //    event) before it crosses its limit;
 //  - converts DriveStatus (counts) to axis_state_t (user units, with invert and scale);
-//  - publishes AXIS_STATE, EVENT, GW_REPLY and the heartbeat's bus statistics;
+//  - publishes AXIS_STATE, EVENT, GW_REPLY and the heartbeat's bus statistics; with a gateway key
+//    (set_gateway_key, config security.gateway_key) also AXIS_STATE, GW_REPLY, DRIVE_MODEL and
+//    ORPHANED_MOVES signed (signed_message_t on SAXIS_STATE, SGW_REPLY, SDRIVE_MODEL,
+//    SORPHANED_MOVES); with enforce GW_REPLY and ORPHANED_MOVES go out signed only (the
+//    coordinator acts on nothing else), AXIS_STATE and DRIVE_MODEL plain too, for observers; its
+//    EVENTs plain and signed as GW_EVENT on SGW_EVENT;
 //  - publishes each axis's drive model (DRIVE_MODEL, drive_model_t, made by the ModelBuilder the
 //    process installs) when the axis first comes online and whenever what the driver read from the
 //    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus;
@@ -45,6 +50,7 @@
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
+#include <motionlcm/event_t.hpp>
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
@@ -100,6 +106,13 @@ class Gateway final : public GatewayOutput {
   // security.coordinator_public_key of `config` (none when not set), or what is wrong with it.
   [[nodiscard]] static security::Loaded<std::optional<security::PublicKey>> load_coordinator_key(
       const config::Config& config);
+  // Signs what the gateway publishes with `key` from now on (none: plain only), for the channel
+  // prefix of the gateway's node.
+  void set_gateway_key(const std::optional<security::KeyPair>& key);
+  // security.gateway_key of `config` with "{bus}" replaced by `bus` (none when not set), or what is
+  // wrong with it.
+  [[nodiscard]] static security::Loaded<std::optional<security::KeyPair>> load_gateway_key(const config::Config& config,
+                                                                                           const std::string& bus);
 
   // Keeps the axes' record in the file `path` from now on (call before attach()): loads what the
   // previous gateway process of the bus recorded (a file that cannot be read or parsed is logged
@@ -132,6 +145,12 @@ class Gateway final : public GatewayOutput {
   void on_signed_command(const motionlcm::signed_gateway_command_t& envelope);
   // A command refused by the security policy: a SECURITY event, no reply.
   void refuse(const std::string& reason);
+  // Publishes `message` signed on S<channel> when there is a gateway key, and plain on <channel>
+  // unless there is one, the mode is enforce and not `plain_under_enforce`.
+  template <typename Msg>
+  void publish_own(std::string_view channel, const Msg& message, bool plain_under_enforce);
+  // EVENT plain, and with a gateway key signed as GW_EVENT on SGW_EVENT.
+  void publish_event(const motionlcm::event_t& event);
   // Triggers and ACTIVE_MOVES: signed ones verified (set_coordinator_key), plain ones refused
   // under enforce.
   void subscribe_coordinator_messages();
@@ -211,6 +230,7 @@ class Gateway final : public GatewayOutput {
   std::optional<security::MessageVerifier> trigger2_verifier_;  // SSYNC_TRIGGER2
   std::optional<security::MessageVerifier> moves_verifier_;     // SACTIVE_MOVES
   lcm::MalformedLimiter security_events_;                       // refusals reported (5 a second)
+  std::optional<security::MessageSigner> signer_;               // the gateway key (security.gateway_key)
 };
 
 }  // namespace motion::gateway

@@ -19,6 +19,11 @@
 // (forged_replies()) and logged (the first 10). on_event() handlers still get the plain EVENTs
 // of every process.
 //
+// Axis states (README "Security"): after verify_states_with(the gateway keys of authorized_keys)
+// axes() and on_axis_state() take only states signed by a gateway key (signed_message_t on
+// SAXIS_STATE; counter per key and bus); plain AXIS_STATEs are ignored and signed ones that do not
+// verify are counted (forged_states()).
+//
 // Thread contract: owned by one thread with its EventLoop. `call()` pumps that loop until the
 // terminal reply (or the timeout), so callbacks keep running while it waits.
 #pragma once
@@ -30,6 +35,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/event_t.hpp>
@@ -63,6 +69,11 @@ class Client {
   [[nodiscard]] bool verifying() const { return reply_verifier_.has_value(); }
   // Signed replies for this client's pending requests that did not verify (see above).
   [[nodiscard]] std::uint64_t forged_replies() const { return forged_replies_; }
+  // From now on only axis states signed with one of `gateways` count (see above).
+  void verify_states_with(std::vector<security::PublicKey> gateways, std::chrono::milliseconds window);
+  [[nodiscard]] bool verifying_states() const { return state_verifier_.has_value(); }
+  // Signed axis states that did not verify (forged, altered, replayed, stale).
+  [[nodiscard]] std::uint64_t forged_states() const { return forged_states_; }
 
   // Fills utime/client_id/request_id/num_axes and publishes; replies go to `on_reply`.
   std::int64_t send(motionlcm::request_t request, ReplyHandler on_reply = {});
@@ -106,6 +117,7 @@ class Client {
   void on_reply(const motionlcm::reply_t& reply);
   // A reply for this client that is not the coordinator's (why): counted and logged, else ignored.
   void forged_reply(const motionlcm::reply_t& reply, const std::string& why);
+  void take_state(const motionlcm::axis_state_t& state);
   // The channel requests go out on.
   [[nodiscard]] std::string_view request_channel() const;
 
@@ -113,6 +125,8 @@ class Client {
   std::optional<security::MessageVerifier> reply_verifier_;  // SREPLY
   std::optional<security::MessageVerifier> event_verifier_;  // SEVENT
   std::uint64_t forged_replies_ = 0;
+  std::optional<security::MessageVerifier> state_verifier_;  // SAXIS_STATE (gateway keys)
+  std::uint64_t forged_states_ = 0;
   std::map<std::int64_t, Pending> pending_;
   std::map<std::string, motionlcm::axis_state_t> axes_;
   std::function<void(const motionlcm::axis_state_t&)> state_handler_;

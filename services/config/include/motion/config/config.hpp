@@ -192,13 +192,19 @@ struct SecuritySettings {
   // authorized_keys is set, else unwrapped); likewise gateway commands, plain or signed.
   // kEnforce: only signed requests that verify and whose key's role allows them; a plain request
   // moves nothing (a SECURITY event, no reply); gateways execute only commands signed with the
-  // coordinator's key (key, coordinator_public_key: both required).
+  // coordinator's key (key, coordinator_public_key: both required); gateways publish what they
+  // publish signed with gateway_key (required) and the coordinator acts only on what verifies
+  // against the `gateway` keys of authorized_keys.
   Mode mode = Mode::kOff;
   std::string authorized_keys;  // "<base64 public key> <name> <role>" per line; required by kEnforce
   std::string key;              // the coordinator's private key: it signs its gateway commands with it
   std::string
       coordinator_public_key;  // the coordinator's public key (its .pub file): gateways verify its commands, triggers and ACTIVE_MOVES with it, clients its replies
-  int window_ms = 2000;        // a signed request's utime must be within this of the coordinator's clock
+  // A gateway's private key (role gateway in authorized_keys): it signs AXIS_STATE, GW_REPLY,
+  // DRIVE_MODEL, ORPHANED_MOVES and its events with it. "{bus}" in the path is replaced by the gateway's bus,
+  // for one key per bus.
+  std::string gateway_key;
+  int window_ms = 2000;  // a signed request's utime must be within this of the coordinator's clock
   KeyLocations where;
 };
 [[nodiscard]] const char* to_string(SecuritySettings::Mode mode);

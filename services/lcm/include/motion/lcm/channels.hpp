@@ -7,11 +7,15 @@
 
 namespace motion::lcm::channels {
 
-inline constexpr std::string_view kRequest = "REQUEST";           // request_t, clients -> coordinator
-inline constexpr std::string_view kSignedRequest = "SREQUEST";    // signed_request_t, clients -> coordinator
-inline constexpr std::string_view kReply = "REPLY";               // reply_t, coordinator -> clients
-inline constexpr std::string_view kAxisState = "AXIS_STATE";      // axis_state_t, gateways
-inline constexpr std::string_view kEvent = "EVENT";               // event_t, gateways/coordinator
+inline constexpr std::string_view kRequest = "REQUEST";         // request_t, clients -> coordinator
+inline constexpr std::string_view kSignedRequest = "SREQUEST";  // signed_request_t, clients -> coordinator
+inline constexpr std::string_view kReply = "REPLY";             // reply_t, coordinator -> clients
+inline constexpr std::string_view kAxisState = "AXIS_STATE";    // axis_state_t, gateways
+inline constexpr std::string_view kEvent = "EVENT";             // event_t, gateways/coordinator
+// The channel name (no plain channel has it) under which gateways sign their event_t with their
+// gateway key, published on SGW_EVENT: apart from the coordinator's own signed events (SEVENT),
+// which clients verify with the coordinator's key.
+inline constexpr std::string_view kGatewayEvent = "GW_EVENT";
 inline constexpr std::string_view kHealth = "HEALTH";             // health_t, every process
 inline constexpr std::string_view kGatewayReply = "GW_REPLY";     // gateway_reply_t
 inline constexpr std::string_view kSyncTrigger = "SYNC_TRIGGER";  // sync_trigger_t (deprecated: SYNC_TRIGGER2)

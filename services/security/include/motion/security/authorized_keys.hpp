@@ -6,6 +6,8 @@
 //   operate    + moves (absolute, relative), jog, home, enable, disable, fault reset
 //   configure  + set-position, set outputs, parameter read and write
 //   admin      everything, including request kinds added later
+// and, outside that ladder, `gateway`: a gateway's key (config security.gateway_key). It signs what
+// gateways publish (AXIS_STATE, GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, their events) and sends no request at all.
 // Names are 1..64 of [A-Za-z0-9._-]; a signed request's client_id must be the name or start
 // with "<name>/" (so no key can speak under another key's client ids).
 //
@@ -22,13 +24,16 @@
 
 namespace motion::security {
 
-enum class Role : std::uint8_t { kObserve, kOperate, kConfigure, kAdmin };
+enum class Role : std::uint8_t { kObserve, kOperate, kConfigure, kAdmin, kGateway };
 
 [[nodiscard]] const char* to_string(Role role);
 [[nodiscard]] std::optional<Role> parse_role(std::string_view text);
 // The least role that may send a request_t of `kind` (kAdmin for a kind no role lists).
 [[nodiscard]] Role required_role(std::int8_t kind);
-[[nodiscard]] inline bool allows(Role role, std::int8_t kind) { return role >= required_role(kind); }
+// A gateway key may send no request (it is not on the ladder).
+[[nodiscard]] inline bool allows(Role role, std::int8_t kind) {
+  return role != Role::kGateway && role >= required_role(kind);
+}
 
 struct Principal {
   PublicKey key{};
@@ -48,6 +53,8 @@ class AuthorizedKeys {
 
   [[nodiscard]] const Principal* find(const KeyId& id) const;
   [[nodiscard]] const std::vector<Principal>& principals() const { return principals_; }
+  // The public keys of the principals with `role`, in file order.
+  [[nodiscard]] std::vector<PublicKey> keys_with_role(Role role) const;
 
  private:
   std::vector<Principal> principals_;

@@ -1,10 +1,12 @@
-// The coordinator's own messages signed with its key: any LCM message inside a signed_message_t
+// Messages signed in one envelope by the coordinator (its own, with its key) and by gateways
+// (what they publish, with a gateway key): any LCM message inside a signed_message_t
 // (lcmtypes/signed_message_t.lcm) on <prefix>S<channel>, e.g. SSYNC_TRIGGER2 for the
 // sync_trigger2_t of SYNC_TRIGGER2. Gateways verify triggers and ACTIVE_MOVES with them, clients
-// REPLY and EVENT (README "Security").
+// REPLY and EVENT; the coordinator verifies gateways' AXIS_STATE, GW_REPLY, DRIVE_MODEL,
+// ORPHANED_MOVES and events (GW_EVENT on SGW_EVENT) against the `gateway` keys of authorized_keys (README "Security").
 //
 // A MessageVerifier listens for one channel. It accepts an envelope when, in this order, its
-// channel is that one, its key id is the coordinator's, the signature verifies, utime is within
+// channel is that one, its key id is the coordinator's (or one of the signers'), the signature verifies, utime is within
 // `window` of the receiver's clock and not before the verifier was made, the counter is above the
 // last one it accepted (replay), and the message decodes (bounded) as the expected type. Every
 // refusal says which of these failed.
@@ -14,6 +16,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -61,32 +64,55 @@ class MessageVerifier {
   // `channel`: the plain channel (without prefix) this verifier accepts envelopes for.
   MessageVerifier(PublicKey coordinator, std::string channel_prefix, std::string channel,
                   std::chrono::milliseconds window, std::int64_t not_before_us);
+  // What several signers publish on one channel, e.g. gateways' AXIS_STATE: an envelope signed by
+  // any of `signers` (`signers_are` names them in a refusal, e.g. "a gateway key of
+  // authorized_keys"). The counter is kept per signer and per stream (see verify()).
+  MessageVerifier(std::vector<PublicKey> signers, std::string signers_are, std::string channel_prefix,
+                  std::string channel, std::chrono::milliseconds window, std::int64_t not_before_us);
 
   // The envelope's message bytes when accepted (nullopt and `reason` otherwise).
   [[nodiscard]] std::optional<std::vector<std::uint8_t>> verify_bytes(const motionlcm::signed_message_t& envelope,
                                                                       std::int64_t now_us, std::string& reason);
   template <typename Msg>
   [[nodiscard]] Verified<Msg> verify(const motionlcm::signed_message_t& envelope, std::int64_t now_us) {
+    return verify<Msg>(envelope, now_us, [](const Msg&) { return std::string(); });
+  }
+  // With the counter kept per (signer, stream_of(message)): processes that share one key and sign
+  // with their own clocks (gateways of several buses: stream_of gives the bus) do not take each
+  // other's counters for replays. The stream is read from the message once its signature verified.
+  template <typename Msg, typename StreamOf>
+  [[nodiscard]] Verified<Msg> verify(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
+                                     StreamOf stream_of) {
     Verified<Msg> v;
-    auto bytes = verify_bytes(envelope, now_us, v.reason);
-    if (!bytes) return v;
+    const auto signer = check(envelope, now_us, v.reason);
+    if (!signer) return v;
     Msg msg;
-    if (std::string why = lcm::wire::decode_bounded(bytes->data(), bytes->size(), msg); !why.empty()) {
+    if (std::string why = lcm::wire::decode_bounded(envelope.message.data(), envelope.message.size(), msg);
+        !why.empty()) {
       v.reason = "signed " + channel_ + " refused: malformed message: " + why;
       return v;
     }
+    if (!take_counter(*signer, stream_of(msg), envelope.counter, v.reason)) return v;
     v.message = std::move(msg);
     return v;
   }
   [[nodiscard]] const std::string& channel() const { return channel_; }
 
  private:
-  PublicKey coordinator_;
+  // Channel, signer, signature and freshness: the signer's key id when they pass.
+  [[nodiscard]] std::optional<KeyId> check(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
+                                           std::string& reason) const;
+  // Whether `counter` is above the last one accepted from `signer` on `stream` (then it is the last).
+  [[nodiscard]] bool take_counter(const KeyId& signer, const std::string& stream, std::int64_t counter,
+                                  std::string& reason);
+
+  std::vector<PublicKey> signers_;
+  std::string signers_are_;
   std::string prefix_;
   std::string channel_;
   std::int64_t window_us_;
   std::int64_t not_before_us_;
-  std::int64_t last_counter_ = 0;
+  std::map<std::pair<KeyId, std::string>, std::int64_t> last_counter_;
 };
 
 }  // namespace motion::security

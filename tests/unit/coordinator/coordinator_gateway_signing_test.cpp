@@ -1,0 +1,324 @@
+// What gateways publish, signed (README "Security"): with security.mode enforce the coordinator
+// acts only on AXIS_STATE, GW_REPLY, DRIVE_MODEL and ORPHANED_MOVES whose signed copies verify
+// against a key of role gateway in authorized_keys. A fake gateway of can0 signs with that key on
+// real multicast (the test's own LCM URL); a forger publishes plain messages, messages signed with
+// a key of no gateway, and replays of the gateway's own.
+#include "coordinator_fixture.hpp"
+
+#include <fstream>
+
+#include <motionlcm/event_t.hpp>
+#include <motionlcm/health_t.hpp>
+#include <motionlcm/signed_gateway_command_t.hpp>
+#include <motionlcm/signed_message_t.hpp>
+
+#include "motion/coordinator/coordinator_service.hpp"
+#include "motion/core/event_loop.hpp"
+#include "motion/lcm/channels.hpp"
+#include "motion/lcm/node.hpp"
+#include "motion/security/signed_messages.hpp"
+#include "motion/security/signed_request.hpp"
+#include "motion/testing/lcm_url.hpp"
+#include "motion/testing/pump.hpp"
+#include "motion/testing/temp_dir.hpp"
+
+namespace motion::coordinator::test_fixture {
+namespace {
+
+using motionlcm::signed_message_t;
+
+constexpr std::string_view kPrefix = "CGS_";
+
+template <typename Msg>
+Msg unwrap(const signed_message_t& envelope) {
+  Msg m{};
+  EXPECT_EQ(m.decode(envelope.message.data(), 0, envelope.message_size), envelope.message_size);
+  return m;
+}
+
+// The coordinator under enforce, an honest gateway of can0 (axis x) signing with the gateway key,
+// a client signing with an operate key, and a forger's node.
+class GatewaySigning : public ::testing::Test {
+ protected:
+  explicit GatewaySigning(int port = 23)
+      : url_(testing::unique_lcm_url(port)),
+        node_(loop_, {url_, std::string(kPrefix)}),
+        gateway_(loop_, {url_, std::string(kPrefix)}),
+        client_(loop_, {url_, std::string(kPrefix)}),
+        forger_(loop_, {url_, std::string(kPrefix)}),
+        gateway_signer_(gateway_key_, std::string(kPrefix)),
+        request_signer_(op_key_, std::string(kPrefix)) {}
+
+  void SetUp() override {
+    ASSERT_TRUE(node_.ok() && gateway_.ok() && client_.ok() && forger_.ok());
+    config_ = *config::load_string(kConfig).config;
+    config_.security.mode = config::SecuritySettings::Mode::kEnforce;
+    config_.coordinator.arm_timeout_ms = 5000;  // the test arms by hand
+    config_.coordinator.gateway_timeout_ms = 2000;
+    auto keys = std::get<security::AuthorizedKeys>(security::AuthorizedKeys::parse(
+        op_key_.authorized_line("operate") + "\n" + gateway_key_.authorized_line("gateway") + "\n", "keys"));
+    CoordinatorService::Security gate;
+    gate.gateway_keys = keys.keys_with_role(security::Role::kGateway);
+    gate.verifier.emplace(std::move(keys), std::string(kPrefix), milliseconds(2000), wall_time_us() - 1000);
+    gate.command_signer.emplace(coordinator_key_, std::string(kPrefix));
+    gate.message_signer.emplace(coordinator_key_, std::string(kPrefix));
+    service_ = std::make_unique<CoordinatorService>(loop_, node_, config_, simple_planner, std::move(gate));
+
+    x_.axis = "x";
+    x_.bus = "can0";
+    x_.online = x_.enabled = x_.in_position = true;
+    tick_ = loop_.call_every(milliseconds(50), [this] {
+      motionlcm::health_t h{};
+      h.process = "gateway:can0";
+      h.role = "gateway";
+      h.pid = 100;
+      h.state = motionlcm::health_t::OK;
+      h.uptime_s = 10;
+      gateway_.publish(lcm::channels::kHealth, h);
+      x_.utime = x_.sample_utime = wall_time_us();
+      publish_signed(lcm::channels::kAxisState, x_);
+    });
+    gateway_.subscribe<motionlcm::drive_model_request_t>(
+        lcm::channels::kDriveModelRequest, [this](const motionlcm::drive_model_request_t&, const std::string&) {
+          publish_signed(lcm::channels::kDriveModel, test_model("x", "can0", "uim342"));
+          ++models_sent_;
+        });
+    gateway_.subscribe<motionlcm::signed_gateway_command_t>(
+        lcm::channels::signed_gateway_command("can0"),
+        [this](const motionlcm::signed_gateway_command_t& e, const std::string&) {
+          gateway_command_t c{};
+          ASSERT_EQ(c.decode(e.command.data(), 0, e.command_size), e.command_size);
+          commands_.push_back(c);
+          if (c.kind == gateway_command_t::ARM_MOVE && arm_on_command_) answer(c, gateway_reply_t::ARMED);
+        });
+    gateway_.subscribe<signed_message_t>(
+        security::signed_channel(lcm::channels::kSyncTrigger), [this](const signed_message_t& e, const std::string&) {
+          const auto t = unwrap<motionlcm::sync_trigger_t>(e);
+          ++triggers_;
+          for (const auto& c : commands_) {
+            if (c.kind == gateway_command_t::ARM_MOVE && c.trigger_id == t.trigger_id) {
+              answer(c, gateway_reply_t::STARTED);
+              x_.in_position = false;  // moving, and it stays so until the test lets it arrive
+              x_.velocity = 1.0;
+            }
+          }
+        });
+    client_.subscribe<reply_t>(lcm::channels::kReply,
+                               [this](const reply_t& r, const std::string&) { replies_[r.request_id].push_back(r); });
+    client_.subscribe<motionlcm::event_t>(lcm::channels::kEvent,
+                                          [this](const motionlcm::event_t& e, const std::string&) {
+                                            if (e.kind == motionlcm::event_t::SECURITY) security_.push_back(e.text);
+                                          });
+    ASSERT_TRUE(testing::pump_until(
+        loop_, [&] { return models_sent_ > 0; }, milliseconds(3000)))
+        << "no DRIVE_MODEL_REQUEST";
+    // The signed model and states reach the coordinator: x is ready once a move of it is accepted.
+    testing::pump_until(
+        loop_, [] { return false; }, milliseconds(200));
+  }
+  void TearDown() override {
+    loop_.cancel(tick_);
+    service_.reset();
+  }
+
+  template <typename Msg>
+  void publish_signed(std::string_view channel, const Msg& m) {
+    const signed_message_t e = gateway_signer_.sign(channel, m, wall_time_us());
+    heard_[std::string(channel)].push_back(e);
+    gateway_.publish(security::signed_channel(channel), e);
+  }
+  static gateway_reply_t reply_to(const gateway_command_t& c, std::int8_t status) {
+    gateway_reply_t r{};
+    r.command_id = c.command_id;
+    r.bus = c.bus;
+    r.status = status;
+    r.trigger_utime = wall_time_us();
+    r.utime = wall_time_us();
+    return r;
+  }
+  void answer(const gateway_command_t& c, std::int8_t status) {
+    publish_signed(lcm::channels::kGatewayReply, reply_to(c, status));
+  }
+  void move_x(std::int64_t request_id, double to) {
+    request_t move{};
+    move.client_id = "op/test";
+    move.request_id = request_id;
+    move.kind = request_t::MOVE_ABSOLUTE;
+    move.axes = {"x"};
+    move.values = {to};
+    move.num_axes = 1;
+    client_.publish(lcm::channels::kSignedRequest, request_signer_.sign(move, wall_time_us()));
+  }
+  [[nodiscard]] bool ended(std::int64_t id) {
+    const auto& r = replies_[id];
+    return !r.empty() && r.back().status != reply_t::ACCEPTED && r.back().status != reply_t::STARTED &&
+           r.back().status != reply_t::PROGRESS;
+  }
+  [[nodiscard]] bool has_status(std::int64_t id, std::int8_t status) {
+    const auto& r = replies_[id];
+    return std::any_of(r.begin(), r.end(), [&](const reply_t& x) { return x.status == status; });
+  }
+  // Waits until the coordinator has refused `n` gateway messages in all, and a little more (the
+  // messages published before the refused ones have been taken by then).
+  [[nodiscard]] bool refused(std::uint64_t n) {
+    const bool reached = testing::pump_until(
+        loop_, [&] { return service_->refused_gateway_messages() >= n; }, milliseconds(3000));
+    testing::pump_until(
+        loop_, [] { return false; }, milliseconds(150));
+    return reached;
+  }
+  [[nodiscard]] bool security_event_starts(const std::string& text) const {
+    return std::any_of(security_.begin(), security_.end(), [&](const std::string& e) { return e.rfind(text, 0) == 0; });
+  }
+
+  const std::string url_;
+  EventLoop loop_;
+  lcm::Node node_, gateway_, client_, forger_;
+  const security::KeyPair coordinator_key_ = security::KeyPair::generate("coordinator");
+  const security::KeyPair gateway_key_ = security::KeyPair::generate("gateway");
+  const security::KeyPair op_key_ = security::KeyPair::generate("op");
+  security::MessageSigner gateway_signer_;
+  security::RequestSigner request_signer_;
+  config::Config config_;
+  std::unique_ptr<CoordinatorService> service_;
+  motionlcm::axis_state_t x_{};
+  EventLoop::TimerId tick_ = 0;
+  int models_sent_ = 0;
+  int triggers_ = 0;
+  bool arm_on_command_ = true;
+  std::vector<gateway_command_t> commands_;
+  std::map<std::int64_t, std::vector<reply_t>> replies_;
+  std::map<std::string, std::vector<signed_message_t>> heard_;  // what the gateway signed, per channel
+  std::vector<std::string> security_;                           // SECURITY events' texts
+};
+
+// A forger's AXIS_STATE saying the moving axis is at rest at its target, plain or signed with a
+// key that is no gateway's, and a replay of the gateway's own signed state, end nothing: the move
+// ends DONE only when the gateway's own state says so.
+TEST_F(GatewaySigning, AForgedAxisStateAtTheTargetDoesNotEndAMove) {
+  move_x(1, 1.0);
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return has_status(1, reply_t::STARTED) || ended(1); }, milliseconds(3000)));
+  ASSERT_FALSE(ended(1)) << replies_[1].back().reason;
+
+  motionlcm::axis_state_t forged = x_;
+  forged.position_counts = forged.target_counts = 100;
+  forged.position = 1.0;
+  forged.in_position = true;
+  forged.velocity = 0;
+  forged.utime = forged.sample_utime = wall_time_us();
+  forger_.publish(lcm::channels::kAxisState, forged);  // plain: not even looked at under enforce
+  const security::KeyPair stranger = security::KeyPair::generate("stranger");
+  security::MessageSigner stranger_signer(stranger, std::string(kPrefix));
+  forger_.publish(security::signed_channel(lcm::channels::kAxisState),
+                  stranger_signer.sign(lcm::channels::kAxisState, forged, wall_time_us()));
+  // The gateway's own state of a moment ago, published again (its counter is not new).
+  ASSERT_FALSE(heard_[std::string(lcm::channels::kAxisState)].empty());
+  forger_.publish(security::signed_channel(lcm::channels::kAxisState),
+                  heard_[std::string(lcm::channels::kAxisState)].front());
+  ASSERT_TRUE(refused(2)) << service_->refused_gateway_messages();
+  EXPECT_FALSE(ended(1)) << "a forged state ended the move: " << replies_[1].back().reason;
+  EXPECT_EQ(service_->active_requests(), 1u);
+  EXPECT_TRUE(security_event_starts("signed AXIS_STATE refused: key " + security::to_hex(stranger.id()) +
+                                    " is not a key of role gateway in authorized_keys"));
+  EXPECT_TRUE(security_event_starts("signed AXIS_STATE refused: replayed counter"));
+
+  // The gateway's own state at the target ends it.
+  x_.position_counts = x_.target_counts = 100;
+  x_.position = 1.0;
+  x_.in_position = true;
+  x_.velocity = 0;
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return ended(1); }, milliseconds(3000)));
+  EXPECT_EQ(replies_[1].back().status, std::int8_t{reply_t::DONE}) << replies_[1].back().reason;
+}
+
+// A plain GW_REPLY ARMED, or one signed with another key, does not arm a move (no trigger goes
+// out); the gateway's signed ARMED does; that signed reply sent again is refused as a replay.
+TEST_F(GatewaySigning, APlainOrForeignGatewayReplyDoesNotConfirmArmingAndAReplayIsRefused) {
+  arm_on_command_ = false;
+  move_x(2, 1.0);
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return !commands_.empty() || ended(2); }, milliseconds(3000)));
+  ASSERT_FALSE(commands_.empty()) << replies_[2].back().reason;
+  const gateway_command_t arm = commands_.front();
+  ASSERT_EQ(arm.kind, std::int8_t{gateway_command_t::ARM_MOVE});
+
+  forger_.publish(lcm::channels::kGatewayReply, reply_to(arm, gateway_reply_t::ARMED));
+  const security::KeyPair stranger = security::KeyPair::generate("gateway");  // a name is no key
+  security::MessageSigner stranger_signer(stranger, std::string(kPrefix));
+  forger_.publish(
+      security::signed_channel(lcm::channels::kGatewayReply),
+      stranger_signer.sign(lcm::channels::kGatewayReply, reply_to(arm, gateway_reply_t::ARMED), wall_time_us()));
+  ASSERT_TRUE(refused(2)) << service_->refused_gateway_messages();
+  EXPECT_EQ(triggers_, 0) << "a forged ARMED armed the move";
+  EXPECT_FALSE(ended(2));
+  EXPECT_TRUE(security_event_starts("unsigned GW_REPLY (reply to command " + std::to_string(arm.command_id) +
+                                    " of bus can0) refused: security is enforced"));
+
+  answer(arm, gateway_reply_t::ARMED);
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return triggers_ > 0; }, milliseconds(3000)));
+  const std::uint64_t before = service_->refused_gateway_messages();
+  forger_.publish(security::signed_channel(lcm::channels::kGatewayReply),
+                  heard_[std::string(lcm::channels::kGatewayReply)].front());
+  ASSERT_TRUE(refused(before + 1));
+  EXPECT_TRUE(security_event_starts("signed GW_REPLY refused: replayed counter"));
+
+  x_.position_counts = x_.target_counts = 100;
+  x_.position = 1.0;
+  x_.in_position = true;
+  x_.velocity = 0;
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return ended(2); }, milliseconds(3000)));
+  EXPECT_EQ(replies_[2].back().status, std::int8_t{reply_t::DONE}) << replies_[2].back().reason;
+}
+
+// A forged STALL event of the moving axis, plain or signed with a key of no gateway, aborts
+// nothing; the gateway's own, signed with its key (GW_EVENT on SGW_EVENT), does.
+TEST_F(GatewaySigning, AForgedStallEventAbortsNothing) {
+  move_x(3, 1.0);
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return has_status(3, reply_t::STARTED) || ended(3); }, milliseconds(3000)));
+  ASSERT_FALSE(ended(3)) << replies_[3].back().reason;
+  motionlcm::event_t stall{};
+  stall.utime = wall_time_us();
+  stall.source = "gateway:can0";
+  stall.axis = "x";
+  stall.bus = "can0";
+  stall.kind = motionlcm::event_t::STALL;
+  stall.severity = motionlcm::event_t::ERROR;
+  stall.text = "forged stall";
+  forger_.publish(lcm::channels::kEvent, stall);
+  security::MessageSigner stranger(security::KeyPair::generate("gateway"), std::string(kPrefix));
+  forger_.publish(security::signed_channel(lcm::channels::kGatewayEvent),
+                  stranger.sign(lcm::channels::kGatewayEvent, stall, wall_time_us()));
+  ASSERT_TRUE(refused(1)) << service_->refused_gateway_messages();
+  EXPECT_FALSE(ended(3)) << "a forged event aborted the move: " << replies_[3].back().reason;
+  EXPECT_TRUE(security_event_starts("signed GW_EVENT refused: key"));
+
+  stall.text = "stalled";
+  publish_signed(lcm::channels::kGatewayEvent, stall);
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return ended(3); }, milliseconds(3000)));
+  EXPECT_EQ(replies_[3].back().status, std::int8_t{reply_t::ABORTED}) << replies_[3].back().reason;
+  EXPECT_NE(replies_[3].back().reason.find("stalled"), std::string::npos) << replies_[3].back().reason;
+}
+
+// Under enforce a coordinator without a gateway key in authorized_keys does not start: it would
+// refuse every state.
+TEST(GatewaySigningConfig, EnforceWithoutAGatewayKeyIsAConfigurationError) {
+  const testing::TempDir dir("motion-gwsign");
+  config::Config config = *config::load_string(kConfig).config;
+  config.security.mode = config::SecuritySettings::Mode::kEnforce;
+  config.security.authorized_keys = dir.str() + "/authorized_keys";
+  std::ofstream(config.security.authorized_keys)
+      << security::KeyPair::generate("op").authorized_line("operate") << "\n";
+  const auto loaded = CoordinatorService::load_security(config);
+  ASSERT_TRUE(std::holds_alternative<std::string>(loaded));
+  EXPECT_NE(std::get<std::string>(loaded).find("has no key with role gateway"), std::string::npos)
+      << std::get<std::string>(loaded);
+}
+
+}  // namespace
+}  // namespace motion::coordinator::test_fixture
