@@ -1,0 +1,180 @@
+// Uc57Stack (uc57_stack.hpp): arming a move (its start image, preloaded where the drive applies
+// RPDO1 at the SYNC), disarming, and firing the armed moves.
+#include "uc57_stack_impl.hpp"
+
+namespace motion::uc57_driver {
+
+void Uc57Stack::start_arm(std::size_t n, Job& job, const motionlcm::axis_command_t& axis, TimePoint /*now*/) {
+  Node& node = *nodes_[n];
+  const std::int64_t id = job.command.command_id;
+  const std::string label = node.settings.label();
+  const auto* target_entry = cia402::uc57::find_entry(od::kTargetPosition, 0);
+  const auto target = cia402::uc57::quantize_position(*target_entry, static_cast<double>(axis.target_counts));
+  if (target.clamped) {
+    return part_failed(id, n, error_code(ReplyError::kOutsideLimits),
+                       label + ": target " + std::to_string(axis.target_counts) + " counts is outside 607Ah's range " +
+                           std::to_string(target_entry->min) + ".." + std::to_string(target_entry->max));
+  }
+  if (axis.velocity <= 0 || axis.acceleration <= 0 || axis.deceleration <= 0) {
+    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
+                       label + ": ARM_MOVE needs a positive velocity, acceleration and deceleration");
+  }
+  const auto speed = cia402::uc57::quantize_speed(*cia402::uc57::find_entry(od::kProfileVelocity, 0), axis.velocity,
+                                                  node.pulses_per_rev);
+  const double speed_change = std::max(0.0, speed.realized - node.start_speed);
+  const auto accel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileAcceleration, 0),
+                                                 axis.acceleration, speed_change, node.pulses_per_rev);
+  const auto decel = cia402::uc57::quantize_ramp(*cia402::uc57::find_entry(od::kProfileDeceleration, 0),
+                                                 axis.deceleration, speed_change, node.pulses_per_rev);
+  std::vector<std::pair<ObjectAddress, std::vector<std::uint8_t>>> writes = {
+      {{od::kProfileVelocity, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(speed.native))},
+      {{od::kProfileAcceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(accel.native))},
+      {{od::kProfileDeceleration, 0}, le<std::uint32_t>(static_cast<std::uint32_t>(decel.native))},
+  };
+  const auto target_counts = static_cast<std::int32_t>(target.native);
+  if (node.layout == RpdoLayout::kManualDefault) {
+    // No room for 607Ah in the default RPDO1: it goes by SDO now, the edge alone at the SYNC.
+    writes.push_back({{od::kTargetPosition, 0}, le<std::int32_t>(target_counts)});
+  }
+  start_task(n, TaskKind::kArming, id, kNever);
+  const unsigned session = node.session;
+  set_mode(
+      n, kModeProfilePosition,
+      [this, n, id, session, target_counts, writes = std::move(writes)](std::optional<std::string> failure) mutable {
+        if (failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *failure);
+        sdo_write_all(
+            n, std::move(writes), [this, n, id, session, target_counts](std::optional<std::string> write_failure) {
+              Node& nd = *nodes_[n];
+              if (write_failure) return part_failed(id, n, error_code(ReplyError::kArmFailed), *write_failure);
+              if (nd.session != session || nd.task_command != id || nd.task != TaskKind::kArming) return;
+              RpdoImage image = latest_image(n);
+              image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F: bit 4 = 0, halt off
+              image.target_position = target_counts;
+              image.target_velocity = 0;  // PP frames of the default RPDO1 (manual §5 comm. table) carry 60FFh = 0
+              image.mode = kModeProfilePosition;
+              queue_image(n, image);
+              nd.task_watching = true;
+              // A TPDO after the image's SYNC decides; set_point_timeout covers a drive stuck with bit 12.
+              nd.task_deadline = now_ + options_.set_point_timeout + 3 * cycle();
+            });
+      });
+}
+
+void Uc57Stack::preload(const Job& job) {
+  for (const std::size_t n : job.nodes) {
+    // A node applying RPDO1 on reception would start now: its start image waits for fire().
+    if (nodes_[n]->phase == Node::Phase::kOperational && nodes_[n]->task == TaskKind::kArmed && nodes_[n]->rpdo_at_sync)
+      send_preload(n);
+  }
+}
+
+void Uc57Stack::send_preload(std::size_t n) {
+  Node& node = *nodes_[n];
+  RpdoImage image = node.image;  // the armed image as sent: target, mode, bit 4 = 0
+  image.controlword = cia402::profile_position_controlword({}, true, false);  // 0x1F: absolute, new set-point
+  if (!context_.send || !context_.send(encode_rpdo1(node.settings.node, node.layout, image))) {
+    ++counters_.protocol_errors;
+    return;  // not in the drive: fire() sends it before the SYNC
+  }
+  node.preloaded = true;
+}
+
+void Uc57Stack::disarm(const Job& disarm_job) {
+  std::vector<std::int64_t> victims;
+  for (const auto& [id, job] : jobs_.entries()) {
+    if (job.command.kind != Command::ARM_MOVE || job.data.started) continue;
+    if (disarm_job.command.trigger_id != 0 && job.command.trigger_id != disarm_job.command.trigger_id) continue;
+    const bool shares_axis = std::any_of(job.nodes.begin(), job.nodes.end(), [&](std::size_t n) {
+      return std::find(disarm_job.nodes.begin(), disarm_job.nodes.end(), n) != disarm_job.nodes.end();
+    });
+    if (shares_axis) victims.push_back(id);
+  }
+  // Bit 4 is still 0 in every armed drive: forgetting the job is all it takes.
+  for (const auto id : victims) {
+    const Job* job = jobs_.find(id);
+    if (job == nullptr) continue;
+    part_failed(id, job->nodes.front(), error_code(ReplyError::kStopped),
+                "disarmed by command " + std::to_string(disarm_job.command.command_id));
+  }
+}
+
+void Uc57Stack::prepare_fire(TimePoint at, TimePoint now) {
+  now_ = now;
+  auto* sync = master_.sync();
+  if (sync == nullptr) return;
+  const TimePoint due = sync->next_deadline();
+  if (due == kNever || due < at - kQuietBeforeStart || due > at) return;
+  sync->start(at);  // next periodic SYNC one period after the start
+}
+
+void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
+  now_ = now;
+  std::vector<std::int64_t> ready_jobs;
+  std::vector<std::int64_t> early_jobs;
+  for (const auto& [id, job] : jobs_.entries()) {
+    if (job.command.kind != Command::ARM_MOVE || job.data.started || job.command.trigger_id != trigger_id ||
+        trigger_id == 0)
+      continue;
+    (job.all(Lifecycle::kArmed) ? ready_jobs : early_jobs).push_back(id);
+  }
+  for (const auto id : early_jobs) {
+    const Job* job = jobs_.find(id);
+    if (job == nullptr) continue;
+    part_failed(id, job->nodes.front(), error_code(ReplyError::kArmFailed),
+                "trigger " + std::to_string(trigger_id) + " arrived before every axis of command " +
+                    std::to_string(id) + " was armed");
+  }
+  if (!ready_jobs.empty()) fire_jobs(ready_jobs, now);
+}
+
+// The synchronized start: every armed node's RPDO1 with bit 4 = 1, then ONE SYNC applies them all.
+void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoint now) {
+  std::vector<bool> armed(nodes_.size(), false);
+  for (const auto id : command_ids) {
+    for (const std::size_t n : jobs_.find(id)->nodes) armed[n] = true;
+  }
+  const std::uint64_t applying_sync = master_.sync()->sent() + 1;
+  std::vector<std::size_t> started;  // preloaded start images: only the SYNC goes out for them
+  for (std::size_t n = 0; n < nodes_.size(); ++n) {
+    Node& node = *nodes_[n];
+    if (node.phase != Node::Phase::kOperational) continue;
+    if (armed[n]) {
+      RpdoImage image = latest_image(n);
+      image.controlword = cia402::profile_position_controlword({}, true, false);  // 0x1F: absolute, new set-point
+      node.rpdo_queue.clear();
+      node.power.note_controlword_sent(image.controlword);
+      if (node.preloaded) {
+        node.image = image;  // already in the drive since arming
+        started.push_back(n);
+      } else {
+        send_image(n, image);
+      }
+      node.task = TaskKind::kTriggered;
+      node.task_deadline = now + options_.set_point_timeout + 2 * cycle();
+    } else if (!node.rpdo_queue.empty()) {
+      // This SYNC applies whatever else is pending, as a periodic one would.
+      send_image(n, node.rpdo_queue.front());
+      node.rpdo_queue.pop_front();
+      node.preloaded = false;
+    } else {
+      continue;
+    }
+    node.image_sync = applying_sync;
+  }
+  for (const std::size_t n : started) nodes_[n]->preloaded = false;  // this SYNC applies them
+  // Any other node's start image waiting for its own trigger must not be applied by this SYNC.
+  masked_sync(now, [this, now] { master_.sync()->trigger_now(now); });
+  const std::int64_t trigger_utime = options_.wall_clock_us(now);  // the driver replaces it by the start frame's echo
+  for (const auto id : command_ids) {
+    Job* job = jobs_.find(id);
+    if (job == nullptr) continue;
+    const StartFacts how = start_facts(*job);  // SYNC, or RPDO1s back to back (uc57_stack_rpdo.cpp)
+    if (context_.start_frame) context_.start_frame(id, how.frame);
+    job->data.started = true;
+    // 0 skew for one SYNC: the nodes' SYNC latency is undocumented.
+    job->reply.started(trigger_utime, how.mechanism, how.skew_us);
+    jobs_.advance_all(id, Lifecycle::kStarted);  // the ledger replies STARTED
+  }
+}
+
+}  // namespace motion::uc57_driver
