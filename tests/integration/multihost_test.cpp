@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <memory>
 #include <regex>
 #include <sstream>
@@ -162,6 +163,31 @@ class MultiHost : public ::testing::Test {
         net_.in(host, "motionctl-" + host + "-" + std::to_string(++runs_), "motionctl", argv), out, timeout);
   }
 
+  // Security enforced, as a lab network should run: the coordinator's key pair (gateways verify
+  // its commands and triggers with the public half), and the operator key of host C's motionctl
+  // (`*key`). Host A: the simulated drives and one gateway per bus; host B: the coordinator, whose
+  // pid is returned. `*expect`: every process name that heartbeats.
+  pid_t start_enforced_lab(ProcessGroup& group, std::vector<std::string>* expect, std::string* key) {
+    const std::string dir = group.work_dir();
+    const auto op = security::KeyPair::generate("op");
+    {
+      std::ifstream base(config_path_);
+      std::ofstream config(dir + "/lab.yaml");
+      config << base.rdbuf() << motion::testing::enforced_security();
+    }
+    EXPECT_EQ(motion::testing::write_lab_keys(dir, {op.authorized_line("operate")}), std::nullopt);
+    EXPECT_EQ(security::write_key_pair(op, dir, "operate"), std::nullopt);
+    config_path_ = dir + "/lab.yaml";
+    *key = dir + "/op.key";
+    *expect = {"sim", "coordinator"};
+    group.start(net_.in("a", "sim", "motion-sim", {"--config", config_path_}));
+    for (const auto& bus : config_.buses) {
+      group.start(net_.in("a", "gateway:" + bus.name, "motion-gateway", {"--config", config_path_, "--bus", bus.name}));
+      expect->push_back("gateway:" + bus.name);
+    }
+    return group.start(net_.in("b", "coordinator", "motion-coordinator", {"--config", config_path_}));
+  }
+
   // Members are destroyed in reverse: the processes (group) before the namespaces (net_).
   NetnsLab net_{"motion-" + std::to_string(::getpid())};
   std::string config_path_;
@@ -174,29 +200,9 @@ TEST_F(MultiHost, GatewaysCoordinatorAndClientOnThreeHostsCompleteASynchronizedM
   ASSERT_TRUE(net_.up({"a", "b", "c"}));
   const double t_net = seconds_since(t0);
   ProcessGroup group(lab_url(1));
-
-  // Security enforced, as a lab network should run: the coordinator's key pair (gateways verify
-  // its commands and triggers with the public half), and the operator key of host C's motionctl.
-  const std::string dir = group.work_dir();
-  const auto op = security::KeyPair::generate("op");
-  {
-    std::ifstream base(config_path_);
-    std::ofstream config(dir + "/lab.yaml");
-    config << base.rdbuf() << motion::testing::enforced_security();
-  }
-  ASSERT_EQ(motion::testing::write_lab_keys(dir, {op.authorized_line("operate")}), std::nullopt);
-  ASSERT_EQ(security::write_key_pair(op, dir, "operate"), std::nullopt);
-  config_path_ = dir + "/lab.yaml";
-  const std::string key = dir + "/op.key";
-
-  // Host A: the simulated drives and one gateway per bus; host B: the coordinator.
-  std::vector<std::string> expect{"sim", "coordinator"};
-  group.start(net_.in("a", "sim", "motion-sim", {"--config", config_path_}));
-  for (const auto& bus : config_.buses) {
-    group.start(net_.in("a", "gateway:" + bus.name, "motion-gateway", {"--config", config_path_, "--bus", bus.name}));
-    expect.push_back("gateway:" + bus.name);
-  }
-  const pid_t coordinator = group.start(net_.in("b", "coordinator", "motion-coordinator", {"--config", config_path_}));
+  std::vector<std::string> expect;
+  std::string key;
+  const pid_t coordinator = start_enforced_lab(group, &expect, &key);
 
   // Host C hears every process's heartbeat over the bridge.
   std::vector<std::string> health{"--json", "health", "--listen", "30"};
@@ -254,6 +260,120 @@ TEST_F(MultiHost, GatewaysCoordinatorAndClientOnThreeHostsCompleteASynchronizedM
   // SIGTERM by the group's pid reaches the real coordinator in host B: it stops cleanly.
   group.stop(coordinator);
   EXPECT_EQ(group.exit_status(coordinator), 0) << group.log_of("coordinator");
+}
+
+// LCM loss: host B (the coordinator) loses 10 % of its UDP datagrams, incoming and outgoing, with
+// an nftables rule (`numgen random mod 100 < 10 drop`; this kernel has no netem), so every request,
+// reply, gateway command, gateway reply, trigger and axis state of the coordinator can be lost.
+// What the system guarantees then: every client request ends within its timeout with one result
+// (DONE, or a failure naming why: no reply heard, or the coordinator's FAILED/ABORTED), no axis is
+// left moving or outside its limits, and once the loss stops the same processes take a new move to
+// its exact target. The counts of each outcome are printed: loss is expected to fail some requests.
+TEST_F(MultiHost, TenPercentLcmLossAtTheCoordinatorLosesNoAxisAndTheLabRecovers) {
+  ASSERT_TRUE(net_.up({"a", "b", "c"}));
+  std::string out;
+  if (shell("command -v nft", &out) != 0) GTEST_SKIP() << "nftables' `nft` is not installed (tools/test installs it)";
+  ProcessGroup group(lab_url(1));
+  std::vector<std::string> expect;
+  std::string key;
+  start_enforced_lab(group, &expect, &key);
+  std::vector<std::string> health{"health", "--listen", "30"};
+  for (const auto& name : expect) {
+    health.push_back("--expect");
+    health.push_back(name);
+  }
+  ASSERT_EQ(motionctl(group, "c", health, &out), 0) << out;
+  int rc = -1;
+  const auto t_enable = Clock::now();
+  while (seconds_since(t_enable) < 30) {
+    rc = motionctl(group, "c", {"--key", key, "enable", "x", "y", "--timeout", "10"}, &out);
+    if (rc == 0) break;
+    group.pump_until([] { return false; }, std::chrono::milliseconds(500));
+  }
+  ASSERT_EQ(rc, 0) << "enable failed before any loss:\n" << out;
+
+  const std::string nft = "ip netns exec " + net_.ns("b") + " nft ";
+  ASSERT_EQ(shell(nft + "add table inet loss", &out), 0) << out;
+  for (const char* hook : {"input", "output"}) {
+    ASSERT_EQ(shell(nft + "'add chain inet loss " + hook + " { type filter hook " + hook + " priority 0; }'", &out), 0)
+        << out;
+    ASSERT_EQ(
+        shell(nft + "add rule inet loss " + hook + " meta l4proto udp numgen random mod 100 '<' 10 counter drop", &out),
+        0)
+        << out;
+  }
+
+  constexpr int kRequests = 12;
+  int done = 0;
+  std::map<std::string, int> failures;  // the first line of each failure, counted
+  const auto t_loss = Clock::now();
+  for (int i = 0; i < kRequests; ++i) {
+    const std::string x = std::to_string(i % 2 == 0 ? 10 : 0), y = std::to_string(i % 3);
+    rc = motionctl(group, "c", {"--key", key, "--json", "move", "x=" + x, "y=" + y, "--wait", "--timeout", "15"}, &out,
+                   seconds(40));
+    ASSERT_NE(rc, -1) << "request " << i << ": motionctl did not end within its own timeout:\n" << out;
+    const auto brace = out.find('{');
+    const auto result =
+        brace == std::string::npos ? nlohmann::json() : nlohmann::json::parse(out.substr(brace), nullptr, false);
+    if (rc == 0) {
+      ASSERT_TRUE(result.is_object()) << out;
+      EXPECT_EQ(result.at("status"), "done") << out;
+      EXPECT_NEAR(result.at("axes").at("x").at("position").get<double>(), std::stod(x), 1.0 / 640.0) << out;
+      ++done;
+    } else {
+      std::string first = out.substr(0, out.find('\n'));
+      EXPECT_FALSE(first.empty()) << "request " << i << " failed (exit " << rc << ") without saying why";
+      ++failures[first.substr(0, 120)];
+    }
+  }
+  const double loss_s = seconds_since(t_loss);
+  ASSERT_EQ(shell(nft + "list table inet loss", &out), 0) << out;
+  const std::string counters = out;
+  ASSERT_EQ(shell(nft + "delete table inet loss", &out), 0) << out;
+  long dropped = 0;
+  const std::regex packets(R"(counter packets ([0-9]+))");
+  for (auto it = std::sregex_iterator(counters.begin(), counters.end(), packets); it != std::sregex_iterator(); ++it)
+    dropped += std::stol((*it)[1]);
+  EXPECT_GT(dropped, 0) << "the loss rule dropped nothing:\n" << counters;
+
+  // No axis runs away: within a few seconds every axis is at rest, online and within its limits.
+  bool settled = false;
+  nlohmann::json status;
+  const auto t_settle = Clock::now();
+  while (!settled && seconds_since(t_settle) < 15) {
+    if (motionctl(group, "c", {"--json", "status"}, &out) == 0 && out.find('{') != std::string::npos) {
+      status = nlohmann::json::parse(out.substr(out.find('{')), nullptr, false);
+      settled = status.is_object();
+      for (const auto& a : config_.axes) {
+        const auto& s = status.is_object() && status.contains(a.name) ? status.at(a.name) : nlohmann::json();
+        if (!s.is_object() || s.value("moving", true) || !s.value("online", false)) {
+          settled = false;
+          continue;
+        }
+        const double pos = s.at("position").get<double>();
+        EXPECT_GE(pos, a.limits.min_position - 1e-9) << a.name;
+        EXPECT_LE(pos, a.limits.max_position + 1e-9) << a.name;
+      }
+    }
+    if (!settled) group.pump_until([] { return false; }, std::chrono::milliseconds(500));
+  }
+  EXPECT_TRUE(settled) << "axes still moving or offline 15 s after the loss ended:\n" << out;
+
+  // The same processes take a new move to its exact target.
+  rc = motionctl(group, "c", {"--key", key, "enable", "x", "y", "--timeout", "10"}, &out);
+  EXPECT_EQ(rc, 0) << out;
+  rc = motionctl(group, "c", {"--key", key, "--json", "move", "x=3", "y=2", "--wait", "--timeout", "20"}, &out);
+  ASSERT_EQ(rc, 0) << "a move after the loss failed:\n" << out;
+  const auto after = nlohmann::json::parse(out.substr(out.find('{')), nullptr, false);
+  ASSERT_TRUE(after.is_object()) << out;
+  EXPECT_NEAR(after.at("axes").at("x").at("position").get<double>(), 3.0, 1.0 / 640.0) << out;
+  EXPECT_NEAR(after.at("axes").at("y").at("position").get<double>(), 2.0, 1.0 / 640.0) << out;
+
+  std::printf(
+      "[ measured ] 10 %% LCM loss at the coordinator's host: %d requests in %.1f s, %d done, %ld datagrams "
+      "dropped; failures:\n",
+      kRequests, loss_s, done, dropped);
+  for (const auto& [text, n] : failures) std::printf("  %d x %s\n", n, text.c_str());
 }
 
 // The two set-up mistakes the documentation warns about, measured: TTL 0 keeps multicast on one

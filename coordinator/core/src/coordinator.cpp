@@ -170,6 +170,9 @@ void Coordinator::on_phase_deadline(Request& r) {
     }
     case Phase::kReleasing: end_with(r, r.outcome); break;
     case Phase::kConfirming: check_confirmed(r, true); break;
+    case Phase::kTriggered:
+      if (is_move(r.msg.kind)) move_overdue(r);
+      break;
     default: break;
   }
 }

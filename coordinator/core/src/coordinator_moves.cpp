@@ -207,18 +207,36 @@ void Coordinator::fire(Request& r) {
   r.fire_utime = t.fire_utime;
   out_.sync_trigger(t);
   r.next_progress = now_ + std::chrono::milliseconds(config_.coordinator.progress_period_ms);
+  // LCM delivers nothing for sure: a trigger or a STARTED reply lost on the way must not keep the
+  // axes busy until the request's timeout.
+  const auto ahead = std::chrono::microseconds(std::max<std::int64_t>(0, t2.act_utime - utime));
+  r.phase_deadline = now_ + ahead + std::chrono::microseconds(std::llround(r.plan.duration_s * 1e6)) +
+                     2 * std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms);
   publish_active_moves();
+}
+
+std::string Coordinator::short_of_target(const Request& r, std::vector<std::string>* moving) const {
+  std::string text;
+  for (const auto& name : r.axes) {
+    if (r.still.contains(name)) continue;
+    const AxisLive& a = axes_.at(name);
+    if (!a.state || a.state->sample_utime < r.fire_utime || a.state->moving) {
+      moving->push_back(name);
+      continue;
+    }
+    const std::int64_t target = r.targets.at(name);
+    if (std::abs(static_cast<double>(a.state->position_counts - target)) > tolerance_counts(a)) {
+      text += (text.empty() ? "" : "; ") + ("axis " + name + " rests at " + std::to_string(a.state->position_counts) +
+                                            " counts, its target is " + std::to_string(target));
+    }
+  }
+  return text;
 }
 
 void Coordinator::check_move_done(Request& r) {
   if (r.started_utime.size() < r.move_commands) return;  // not every start mechanism has fired yet
-  for (const auto& name : r.axes) {
-    if (r.still.contains(name)) continue;
-    const AxisLive& a = axes_.at(name);
-    if (!a.state || a.state->sample_utime < r.fire_utime) return;
-    if (a.state->moving) return;
-    if (std::abs(static_cast<double>(a.state->position_counts - r.targets.at(name))) > tolerance_counts(a)) return;
-  }
+  std::vector<std::string> moving;
+  if (!short_of_target(r, &moving).empty() || !moving.empty()) return;
   for (const auto& name : r.axes) {
     AxisLive& a = axes_.at(name);
     a.commanded_units = r.target_units.at(name);
@@ -226,6 +244,33 @@ void Coordinator::check_move_done(Request& r) {
   }
   reply(r, reply_t::DONE);
   finish(r.serial);
+}
+
+void Coordinator::move_overdue(Request& r) {
+  std::vector<std::string> moving;
+  const std::string short_of = short_of_target(r, &moving);
+  if (!moving.empty()) {
+    // Still on its way (or its state not heard since the trigger: the gateway watchdog handles a
+    // lost gateway): another look a gateway timeout later; the request's timeout bounds the wait.
+    r.phase_deadline = now_ + std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms);
+    return;
+  }
+  std::string unstarted;
+  for (const auto& [id, command] : r.pending) {
+    if (!r.started_utime.contains(id)) unstarted += (unstarted.empty() ? "" : ", ") + command.bus;
+  }
+  if (short_of.empty()) {
+    // Every axis arrived: only a STARTED reply was lost.
+    spdlog::warn("request {}/{}: every axis at its target, no STARTED heard from bus {}: done", r.msg.client_id,
+                 r.msg.request_id, unstarted);
+    for (const auto& [id, command] : r.pending) r.started_utime.try_emplace(id, r.fire_utime);
+    return check_move_done(r);
+  }
+  abort_group(r, reply_t::FAILED, ReplyError::kTimeout,
+              "the move did not arrive by its predicted end: " + short_of +
+                  (unstarted.empty()
+                       ? ""
+                       : " (bus " + unstarted + " reported no start: its trigger or its STARTED reply was lost)"));
 }
 
 void Coordinator::on_gateway_reply(const gateway_reply_t& g, TimePoint now) {

@@ -259,6 +259,50 @@ TEST_F(CoordinatorTest, RequestTimeoutFailsAndStops) {
   EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kTimeout));
 }
 
+// LCM loses datagrams. A STARTED reply lost on the way: the move ends DONE once its axes rest at
+// their targets, not at the request's timeout.
+TEST_F(CoordinatorTest, ALostStartedReplyEndsTheMoveDoneOnceItsAxesArrive) {
+  auto_execute_moves();
+  trigger_handler = [this](const motionlcm::sync_trigger_t& t) {
+    for (const auto& c : armed[t.trigger_id]) {
+      if (c.bus != "rs485") gateways.reply(c, gateway_reply_t::STARTED);  // the rs485 STARTED is lost
+      for (const auto& a : c.axes) gateways.put(a.axis, a.target_counts, false);
+    }
+  };
+  const auto t0 = loop.now();
+  const auto r = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {2.0, 3.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::DONE}) << r.reason;
+  // By the predicted end (the plan's 0.1 s and two gateway timeouts of 400 ms), far from the
+  // request's 60 s timeout.
+  EXPECT_LT(loop.now() - t0, milliseconds(1500));
+}
+
+// A trigger lost on the way to one gateway: its axes never start. The move fails at its predicted
+// end, naming the axis and the bus that reported no start; the group is stopped, and the axes take
+// the next move.
+TEST_F(CoordinatorTest, ALostTriggerFailsTheMoveAtItsPredictedEndAndFreesTheAxes) {
+  auto_execute_moves();
+  trigger_handler = [this](const motionlcm::sync_trigger_t& t) {
+    for (const auto& c : armed[t.trigger_id]) {
+      if (c.bus == "rs485") continue;  // never heard the trigger
+      gateways.reply(c, gateway_reply_t::STARTED);
+      for (const auto& a : c.axes) gateways.put(a.axis, a.target_counts, false);
+    }
+  };
+  const auto t0 = loop.now();
+  const auto r = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {2.0, 3.0}));
+  EXPECT_EQ(r.status, std::int8_t{reply_t::FAILED}) << r.reason;
+  EXPECT_EQ(r.error_code, static_cast<int>(ReplyError::kTimeout));
+  EXPECT_NE(r.reason.find("axis c rests at 0 counts, its target is 30"), std::string::npos) << r.reason;
+  EXPECT_NE(r.reason.find("bus rs485 reported no start"), std::string::npos) << r.reason;
+  EXPECT_LT(loop.now() - t0, milliseconds(1500));
+  EXPECT_TRUE(std::any_of(gateways.commands.begin(), gateways.commands.end(),
+                          [](const gateway_command_t& c) { return c.kind == gateway_command_t::STOP; }));
+  auto_execute_moves();
+  const auto next = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {1.0, 1.0}));
+  EXPECT_EQ(next.status, std::int8_t{reply_t::DONE}) << next.reason;
+}
+
 TEST_F(CoordinatorTest, GatewaysOwnErrorCodeReachesTheClient) {
   gateways.on_command = [this](const gateway_command_t& c) {
     gateway_reply_t r{};

@@ -283,7 +283,15 @@ class Coordinator {
   void start_simple(Request& r);
   void preempt(const motionlcm::request_t& stop);
   void fire(Request& r);
+  // DONE once every start mechanism reported STARTED and every moving axis rests at its target.
   void check_move_done(Request& r);
+  // The axes of a triggered move that have not arrived yet: moving (or not heard since the
+  // trigger) in `*moving`, at rest elsewhere in the returned text ("" when every axis arrived).
+  [[nodiscard]] std::string short_of_target(const Request& r, std::vector<std::string>* moving) const;
+  // A triggered move past its predicted end (fire(): the start, the planned duration and two
+  // gateway timeouts): a trigger or a STARTED reply lost on the way, or an axis that came to rest
+  // short of its target, ends it here instead of at the request's timeout.
+  void move_overdue(Request& r);
   void abort_group(Request& r, std::int8_t status, ReplyError error, const std::string& reason);
   // A move not yet triggered: DISARM what any gateway may hold, then the terminal reply (at the
   // latest after kReleaseTimeout).
