@@ -312,18 +312,22 @@ TEST_F(MultiHost, TenPercentLcmLossAtTheCoordinatorLosesNoAxisAndTheLabRecovers)
     rc = motionctl(group, "c", {"--key", key, "--json", "move", "x=" + x, "y=" + y, "--wait", "--timeout", "15"}, &out,
                    seconds(40));
     ASSERT_NE(rc, -1) << "request " << i << ": motionctl did not end within its own timeout:\n" << out;
-    const auto brace = out.find('{');
-    const auto result =
-        brace == std::string::npos ? nlohmann::json() : nlohmann::json::parse(out.substr(brace), nullptr, false);
+    // The JSON result, then (on a failure) motionctl's own line on stderr.
+    const auto brace = out.find('{'), end = out.rfind('}');
+    const auto result = brace == std::string::npos || end < brace
+                            ? nlohmann::json()
+                            : nlohmann::json::parse(out.substr(brace, end - brace + 1), nullptr, false);
     if (rc == 0) {
       ASSERT_TRUE(result.is_object()) << out;
       EXPECT_EQ(result.at("status"), "done") << out;
       EXPECT_NEAR(result.at("axes").at("x").at("position").get<double>(), std::stod(x), 1.0 / 640.0) << out;
       ++done;
     } else {
-      std::string first = out.substr(0, out.find('\n'));
-      EXPECT_FALSE(first.empty()) << "request " << i << " failed (exit " << rc << ") without saying why";
-      ++failures[first.substr(0, 120)];
+      std::string why = result.is_object()
+                            ? result.value("status", std::string()) + ": " + result.value("reason", std::string())
+                            : out.substr(0, out.find('\n'));
+      EXPECT_GT(why.size(), 2u) << "request " << i << " failed (exit " << rc << ") without saying why:\n" << out;
+      ++failures[why.substr(0, 160)];
     }
   }
   const double loss_s = seconds_since(t_loss);

@@ -288,7 +288,7 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
                            request.kind == request_t::HOME;
   std::optional<StartTruth> truth;
   if (moving_kind) truth.emplace(service, request);
-  client.send(request, [&](const motionlcm::reply_t& r) {
+  const std::int64_t id = client.send(request, [&](const motionlcm::reply_t& r) {
     answered = true;
     progress(r);
     if (client::is_terminal(r.status)) {
@@ -300,12 +300,15 @@ int run_request(Context& ctx, app::Service& service, request_t request, bool wai
       service.node().url() + ", channel " +
       service.node().channel(client.signing() ? lcm::channels::kSignedRequest : lcm::channels::kRequest);
   // The coordinator answers at once (ACCEPTED or REJECTED): silence means nobody listens.
-  if (!client.wait_until([&] { return answered; }, std::min(timeout, client::Client::kAcceptTimeout))) {
+  // Sent again while nothing is heard of it: a lost request or reply costs a fraction of a second.
+  if (!client.follow(
+          id, [&] { return answered; }, std::min(timeout, client::Client::kAcceptTimeout))) {
     std::cerr << "motionctl: no reply from the coordinator within " << client::Client::kAcceptTimeout.count()
               << " ms: is motion-coordinator running on " << where << "?\n";
     return app::kExitUnavailable;
   }
-  client.wait_until([&] { return finished || (!wait && moving_kind && started); }, timeout);
+  client.follow(
+      id, [&] { return finished || (!wait && moving_kind && started); }, timeout);
   if (tty && wait) std::printf("\n");
   if (!finished && !wait && started) {
     std::cout << "started (not waiting; use --wait to follow it to the end)\n";

@@ -65,6 +65,7 @@ TimePoint Coordinator::process(TimePoint now) {
   }
   check_gateways();
   check_stops();
+  next_resend_ = resend_unanswered();
   if (now >= next_model_request_) {
     if (const auto buses = buses_missing_models(); !buses.empty()) {
       // One request for every bus: a gateway answers with the models it has (one set up since).
@@ -91,6 +92,7 @@ TimePoint Coordinator::next_deadline() const {
     for (const auto& bus : r->buses) next = std::min(next, gateway_expiry(bus));
   }
   if (const auto guard = stops_.next_deadline()) next = std::min(next, *guard);
+  next = std::min(next, next_resend_);
   // A watched stop ends (unreachable) when its gateway is lost.
   for (const auto& [name, a] : axes_) {
     if (stops_.watching(name)) next = std::min(next, gateway_expiry(a.drive->bus));
@@ -175,6 +177,25 @@ void Coordinator::on_phase_deadline(Request& r) {
       break;
     default: break;
   }
+}
+
+TimePoint Coordinator::resend_unanswered() {
+  TimePoint next = kNever;
+  for (auto& [serial, r] : requests_) {
+    // Only a request waiting on its gateways; a stop's repeats are the StopGuard's.
+    if (r->phase != Phase::kArming && r->phase != Phase::kReleasing && r->phase != Phase::kWaitingGateways) continue;
+    for (auto& [id, p] : r->pending) {
+      if (p.heard || p.resend_at == kNever) continue;
+      if (p.resend_at <= now_) {
+        spdlog::info("request {}/{}: no reply from bus {} to command {} yet: sent again", r->msg.client_id,
+                     r->msg.request_id, p.bus, id);
+        out_.gateway_command(p.bus, p.command);
+        p.resend_at = now_ + kCommandResend;
+      }
+      next = std::min(next, p.resend_at);
+    }
+  }
+  return next;
 }
 
 bool Coordinator::active_moves_wanted() const {

@@ -278,6 +278,10 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g, TimePoint now) {
   Request* rp = find_by_command(g.command_id);
   if (rp == nullptr) return;
   Request& r = *rp;
+  if (auto p = r.pending.find(g.command_id); p != r.pending.end()) {
+    p->second.heard = true;
+    p->second.resend_at = kNever;
+  }
   if (r.phase == Phase::kReleasing) {
     if (g.status == gateway_reply_t::DONE || g.status == gateway_reply_t::FAILED) {
       r.pending.erase(g.command_id);
@@ -310,7 +314,7 @@ void Coordinator::on_gateway_reply(const gateway_reply_t& g, TimePoint now) {
   }
   if (is_move(r.msg.kind)) {
     if (g.status == gateway_reply_t::ARMED && r.phase == Phase::kArming) {
-      r.pending[g.command_id] = PendingCommand{g.bus, true};
+      r.pending[g.command_id].armed = true;
       const bool all_armed =
           std::all_of(r.pending.begin(), r.pending.end(), [](const auto& p) { return p.second.armed; });
       if (all_armed) fire(r);

@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <vector>
 
 #include "coordinator_kinds.hpp"
 
@@ -21,6 +22,8 @@ void Coordinator::reply_unknown(const request_t& msg, std::int8_t status, ReplyE
   out.reason = reason;
   out.error_code = static_cast<std::int32_t>(error);
   out_.reply(out);
+  // A refusal for the moment (its ids taken, the coordinator full) is decided anew when sent again.
+  if (error != ReplyError::kDuplicateRequest && error != ReplyError::kBusy) remember(msg, out);
   const char* ended = status == reply_t::REJECTED ? "rejected" : status == reply_t::ABORTED ? "aborted" : "failed";
   spdlog::info("request {}/{} ({}) {}: {}", msg.client_id, msg.request_id, kind_name(msg.kind), ended, reason);
 }
@@ -50,7 +53,7 @@ std::int64_t Coordinator::send_command(Request& r, const std::string& bus, std::
   c.axes = std::move(axes);
   c.num_axes = static_cast<std::int32_t>(c.axes.size());
   c.param = r.msg.param;
-  r.pending[c.command_id] = PendingCommand{bus, false};
+  r.pending[c.command_id] = PendingCommand{bus, false, c, false, now_ + kCommandResend};
   out_.gateway_command(bus, c);
   return c.command_id;
 }
@@ -102,7 +105,9 @@ void Coordinator::reply(Request& r, std::int8_t status, ReplyError error, const 
       status == reply_t::DONE ? 1.0 : (r.axes.empty() ? 0.0 : progress_sum / static_cast<double>(r.axes.size()));
   out.param = r.param_result;
   out_.reply(out);
+  r.last_reply = out;
   if (terminal(status)) {
+    remember(r.msg, out);
     r.phase = Phase::kDone;
     if (is_motion(r.msg.kind)) publish_active_moves();
   }
@@ -121,6 +126,47 @@ void Coordinator::finish(std::uint64_t serial) {
   }
   active_ids_.erase({r.msg.client_id, r.msg.request_id});
   requests_.erase(it);
+}
+
+namespace {
+
+// The same request apart from its send time: every field of its encoding.
+bool same_request(motionlcm::request_t a, motionlcm::request_t b) {
+  a.utime = b.utime = 0;
+  const int size = a.getEncodedSize();
+  if (size != b.getEncodedSize()) return false;
+  std::vector<std::uint8_t> x(static_cast<std::size_t>(size)), y(static_cast<std::size_t>(size));
+  return a.encode(x.data(), 0, size) == size && b.encode(y.data(), 0, size) == size && x == y;
+}
+
+}  // namespace
+
+bool Coordinator::answer_again(const request_t& msg) {
+  const std::pair key{msg.client_id, msg.request_id};
+  if (active_ids_.contains(key)) {
+    for (const auto& [serial, r] : requests_) {
+      if (r->msg.client_id != msg.client_id || r->msg.request_id != msg.request_id) continue;
+      if (!same_request(r->msg, msg)) return false;  // REJECTED 9 by validate()
+      if (r->last_reply) out_.reply(*r->last_reply);
+      spdlog::debug("request {}/{} sent again: its latest reply repeated", msg.client_id, msg.request_id);
+      return true;
+    }
+    return false;
+  }
+  const auto it = remembered_.find(key);
+  if (it == remembered_.end() || !same_request(it->second.msg, msg)) return false;
+  out_.reply(it->second.reply);
+  spdlog::info("request {}/{} sent again after it ended: its terminal reply repeated", msg.client_id, msg.request_id);
+  return true;
+}
+
+void Coordinator::remember(const request_t& msg, const reply_t& terminal) {
+  std::pair key{msg.client_id, msg.request_id};
+  if (remembered_.insert_or_assign(key, Answered{msg, terminal}).second) remembered_order_.push_back(std::move(key));
+  while (remembered_order_.size() > kRememberedReplies) {
+    remembered_.erase(remembered_order_.front());
+    remembered_order_.pop_front();
+  }
 }
 
 void Coordinator::publish_active_moves() {

@@ -232,6 +232,7 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
 
 void Coordinator::on_request(const request_t& msg, TimePoint now) {
   begin(now);
+  if (answer_again(msg)) return;
   std::vector<std::string> axes;
   if (auto err = validate(msg, axes)) {
     reply_unknown(msg, reply_t::REJECTED, err->first, err->second);

@@ -102,6 +102,12 @@ void Gateway::update_health() {
 }
 
 void Gateway::on_command(const motionlcm::gateway_command_t& command) {
+  if (std::optional<motionlcm::gateway_reply_t> latest; commands_seen_.repeated(command, &latest)) {
+    spdlog::info("command {} (request {}) sent again: {}", command.command_id, command.request_id,
+                 latest ? "its latest reply repeated" : "not answered yet");
+    if (latest) publish_own(lcm::channels::kGatewayReply, *latest, false);
+    return;
+  }
   auto fail = [&](const std::string& reason, std::int32_t code = 0) {
     command_reply(ReplyBuilder(command.command_id).failed(code, reason).build());
   };
@@ -573,6 +579,7 @@ void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
   reply.bus = bus_;
   if (reply.status == motionlcm::gateway_reply_t::FAILED)
     spdlog::warn("command {} failed: {}", reply.command_id, reply.reason);
+  commands_seen_.replied(reply);
   publish_own(lcm::channels::kGatewayReply, reply, false);
 }
 

@@ -85,6 +85,8 @@ void Client::on_reply(const motionlcm::reply_t& r) {
   if (r.client_id != id_) return;
   auto it = pending_.find(r.request_id);
   if (it == pending_.end()) return;
+  it->second.heard = true;
+  it->second.last_heard = loop_.now();
   auto handler = it->second.handler;  // copy: the handler may send further requests
   if (is_terminal(r.status)) pending_.erase(it);
   if (handler) handler(r);
@@ -131,18 +133,41 @@ void Client::on_security_event(const motionlcm::event_t& event) {
 }
 
 std::int64_t Client::send(motionlcm::request_t request, ReplyHandler on_reply) {
-  request.utime = wall_time_us();
   request.client_id = id_;
   request.request_id = next_request_id_++;
   request.num_axes = static_cast<std::int32_t>(request.axes.size());
   request.values.resize(request.axes.size(), 0.0);
-  pending_[request.request_id] = Pending{std::move(on_reply), lcm::request_label(request)};
+  const std::int64_t id = request.request_id;
+  std::string label = lcm::request_label(request);
+  Pending& p = pending_[id] = Pending{std::move(on_reply), std::move(label), std::move(request)};
+  publish(p);
+  return id;
+}
+
+void Client::publish(Pending& p) {
+  p.request.utime = wall_time_us();
+  p.last_heard = loop_.now();
   if (signer_) {
-    node_.publish(lcm::channels::kSignedRequest, signer_->sign(request, request.utime));
+    node_.publish(lcm::channels::kSignedRequest, signer_->sign(p.request, p.request.utime));
   } else {
-    node_.publish(lcm::channels::kRequest, request);
+    node_.publish(lcm::channels::kRequest, p.request);
   }
-  return request.request_id;
+}
+
+bool Client::follow(std::int64_t id, const std::function<bool()>& done, std::chrono::milliseconds timeout) {
+  const auto deadline = loop_.now() + timeout;
+  while (!done()) {
+    if (loop_.now() >= deadline || loop_.stopping()) return false;
+    loop_.run_once(std::chrono::milliseconds(20));
+    const auto it = pending_.find(id);
+    if (it == pending_.end()) continue;
+    Pending& p = it->second;
+    if (loop_.now() - p.last_heard >= (p.heard ? kQuietResend : kResendAfter)) {
+      ++resent_;
+      publish(p);
+    }
+  }
+  return true;
 }
 
 motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milliseconds timeout,
@@ -162,8 +187,10 @@ motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milli
   // The coordinator answers every request at once (ACCEPTED or REJECTED): silence means nobody
   // is listening, and the caller learns it within kAcceptTimeout rather than the whole timeout.
   const auto first_wait = std::min(timeout, kAcceptTimeout);
-  const bool heard = wait_until([&] { return answered; }, first_wait);
-  if (!heard || !wait_until([&] { return done; }, timeout - first_wait)) {
+  const bool heard = follow(
+      id, [&] { return answered; }, first_wait);
+  if (!heard || !follow(
+                    id, [&] { return done; }, timeout - first_wait)) {
     pending_.erase(id);
     result.client_id = id_;
     result.request_id = id;

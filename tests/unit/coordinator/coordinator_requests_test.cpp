@@ -257,5 +257,56 @@ TEST_F(CoordinatorTest, RefusedRequestIsASecurityEventAndAnsweredOnlyWhenItsIdsA
   EXPECT_EQ(coordinator.active_requests(), 0u);
 }
 
+// A request sent again unchanged (its reply or itself lost on the way): the latest reply goes out
+// again word for word and nothing runs twice; the same ids with other content are refused (9).
+TEST_F(CoordinatorTest, ARequestSentAgainGetsItsLatestReplyAgainAndRunsOnce) {
+  auto_execute_moves(/*complete=*/false);
+  request_t r{};
+  r.client_id = "test";
+  r.request_id = 900;
+  r.kind = request_t::MOVE_ABSOLUTE;
+  r.axes = {"x"};
+  r.values = {2.0};
+  r.num_axes = 1;
+  client.publish(r);
+  pump_until([&] {
+    pump_triggers();
+    return !gateways.triggers.empty();
+  });
+  pump(milliseconds(30));
+  const std::size_t heard = replies[900].size();
+  ASSERT_GT(heard, 0u);
+  r.utime += 500'000;  // sent again later: only its send time differs
+  client.publish(r);
+  pump(milliseconds(1));
+  ASSERT_EQ(replies[900].size(), heard + 1);
+  EXPECT_EQ(replies[900].back().status, replies[900][heard - 1].status);
+  EXPECT_EQ(replies[900].back().utime, replies[900][heard - 1].utime);  // the same reply
+  EXPECT_EQ(commands_of_kind(gateways.commands, gateway_command_t::ARM_MOVE).size(), 1u);
+  request_t other = r;
+  other.values = {3.0};
+  client.publish(other);
+  pump(milliseconds(1));
+  EXPECT_EQ(replies[900].back().error_code, static_cast<int>(ReplyError::kDuplicateRequest));
+  replies[900].pop_back();  // that refusal answered the other request, which shares the ids
+
+  gateways.put("x", 200, false);  // arrives
+  const auto done = terminal(900);
+  EXPECT_EQ(done.status, std::int8_t{reply_t::DONE}) << done.reason;
+  // Its DONE is lost on the way: the client sends the request again and hears the same DONE.
+  client.publish(r);
+  pump(milliseconds(1));
+  ASSERT_FALSE(replies[900].empty());
+  EXPECT_EQ(replies[900].back().status, std::int8_t{reply_t::DONE});
+  EXPECT_EQ(replies[900].back().utime, done.utime);
+  EXPECT_EQ(commands_of_kind(gateways.commands, gateway_command_t::ARM_MOVE).size(), 1u);
+  // A new request id is a new request.
+  auto_execute_moves();
+  r.request_id = 901;
+  r.values = {0.0};
+  client.publish(r);
+  EXPECT_EQ(run_to_terminal(901).status, std::int8_t{reply_t::DONE});
+}
+
 }  // namespace
 }  // namespace motion::coordinator::test_fixture

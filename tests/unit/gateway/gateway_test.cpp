@@ -124,6 +124,56 @@ TEST_F(Fixture, CommandForItsAxesReachesTheDriverAndTheReplyCarriesTheBus) {
   EXPECT_EQ(replies[0].status, std::int8_t{motionlcm::gateway_reply_t::ARMED});
 }
 
+// The coordinator sends a command again, word for word, when it heard no reply (LCM may lose
+// either): the drive gets it once, and the repeat gets the latest reply again. The same id with
+// other bytes (a restarted coordinator's ids start again at 1) is a new command.
+TEST_F(Fixture, ACommandSentAgainRunsOnceAndGetsItsLatestReplyAgain) {
+  auto command = command_for("can0", "x");
+  command.utime = 1'000'000;
+  node.publish(lcm::channels::gateway_command("can0"), command);
+  pump_until([&] { return !replies.empty(); });
+  node.publish(lcm::channels::gateway_command("can0"), command);
+  pump_until([&] { return replies.size() == 2; });
+  EXPECT_EQ(driver->commands.size(), 1u);
+  ASSERT_EQ(replies.size(), 2u);
+  EXPECT_EQ(replies[1].command_id, 77);
+  EXPECT_EQ(replies[1].status, std::int8_t{motionlcm::gateway_reply_t::ARMED});
+  EXPECT_EQ(replies[1].utime, replies[0].utime);  // the same reply, not a new one
+  command.utime = 2'000'000;
+  node.publish(lcm::channels::gateway_command("can0"), command);
+  pump_until([&] { return replies.size() == 3; });
+  EXPECT_EQ(driver->commands.size(), 2u);
+}
+
+TEST(CommandMemory, KeepsTheLatestReplyPerCommandAndForgetsTheOldest) {
+  CommandMemory memory;
+  motionlcm::gateway_command_t c{};
+  c.command_id = 1;
+  std::optional<motionlcm::gateway_reply_t> latest;
+  EXPECT_FALSE(memory.repeated(c, &latest));
+  EXPECT_TRUE(memory.repeated(c, &latest));
+  EXPECT_FALSE(latest.has_value());  // not answered yet
+  motionlcm::gateway_reply_t r{};
+  r.command_id = 1;
+  r.status = motionlcm::gateway_reply_t::ARMED;
+  memory.replied(r);
+  r.status = motionlcm::gateway_reply_t::STARTED;
+  memory.replied(r);
+  ASSERT_TRUE(memory.repeated(c, &latest));
+  ASSERT_TRUE(latest.has_value());
+  EXPECT_EQ(latest->status, std::int8_t{motionlcm::gateway_reply_t::STARTED});
+  for (std::int64_t id = 2; id <= static_cast<std::int64_t>(CommandMemory::kRemembered); ++id) {
+    motionlcm::gateway_command_t other{};
+    other.command_id = id;
+    EXPECT_FALSE(memory.repeated(other, &latest));
+  }
+  EXPECT_TRUE(memory.repeated(c, &latest));  // the 1024th most recent: still kept
+  motionlcm::gateway_command_t newest{};
+  newest.command_id = 5000;
+  EXPECT_FALSE(memory.repeated(newest, &latest));
+  EXPECT_FALSE(memory.repeated(c, &latest));  // now the oldest was forgotten
+}
+
 TEST_F(Fixture, AxisOfAnotherBusIsRefusedWithAReason) {
   node.publish(lcm::channels::gateway_command("can0"), command_for("can0", "y"));
   pump_until([&] { return !replies.empty(); });

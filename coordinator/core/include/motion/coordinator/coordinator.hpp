@@ -34,6 +34,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -124,6 +125,13 @@ class Coordinator {
   Coordinator& operator=(const Coordinator&) = delete;
 
   // ---- inputs (REQUEST, AXIS_STATE, GW_REPLY, EVENT, HEALTH)
+  // A request sent again unchanged (the same client id, request id and content; its send time
+  // aside) by a client that heard no reply to it, LCM having lost the request or the reply: its
+  // latest reply goes out again, word for word, and nothing else happens. That is the request's
+  // ACCEPTED/STARTED/PROGRESS while it runs, its terminal reply once it ended (the last
+  // kRememberedReplies terminal replies are kept). The same ids with other content while the first
+  // runs: REJECTED 9 as before.
+  static constexpr std::size_t kRememberedReplies = 1024;
   void on_request(const motionlcm::request_t& msg, TimePoint now);
   // A request that does not decode (its bytes, and why): REJECTED (code 1) when its client and
   // request ids are readable, else nothing (nobody to answer).
@@ -209,7 +217,17 @@ class Coordinator {
   struct PendingCommand {
     std::string bus;
     bool armed = false;  // ARM_MOVE: its gateway replied ARMED
+    // Sent again, word for word, while no reply to it is heard (resend_unanswered()).
+    motionlcm::gateway_command_t command{};
+    bool heard = false;
+    TimePoint resend_at = kNever;
   };
+  // A gateway command without any reply after this long is sent again (LCM may have lost it or
+  // its reply); a gateway answers a command it already has with its latest reply to it and runs
+  // nothing twice (README "Safety and faults").
+  static constexpr Duration kCommandResend = std::chrono::milliseconds(300);
+  // Sends again what is due; the earliest of the next re-sends.
+  TimePoint resend_unanswered();
   struct Request {
     std::uint64_t serial = 0;
     motionlcm::request_t msg{};
@@ -243,6 +261,7 @@ class Coordinator {
     // kArming: the arm timeout; kReleasing: the end of the wait for DISARM replies; kConfirming:
     // the last look at the axis states. Once, and only in the phase that set it.
     TimePoint phase_deadline = kNever;
+    std::optional<motionlcm::reply_t> last_reply;  // the latest reply sent (answer_again)
   };
 
   // Every input and process() start here: `now` becomes the core's time.
@@ -314,6 +333,10 @@ class Coordinator {
   void reply(Request& r, std::int8_t status, ReplyError error = ReplyError::kNone, const std::string& reason = {});
   void reply_unknown(const motionlcm::request_t& msg, std::int8_t status, ReplyError error, const std::string& reason);
   void finish(std::uint64_t serial);
+  // on_request(): answers a request sent again (see there); false when `msg` is not one.
+  bool answer_again(const motionlcm::request_t& msg);
+  // A terminal reply kept for answer_again(), with the request it answered.
+  void remember(const motionlcm::request_t& msg, const motionlcm::reply_t& terminal);
   [[nodiscard]] bool gateway_alive(const std::string& bus) const { return gateway_alive_at(bus, now_); }
   [[nodiscard]] bool gateway_alive_at(const std::string& bus, TimePoint now) const;
   // When the gateway of `bus` counts as lost unless it is heard again (kNever: not alive now).
@@ -332,6 +355,13 @@ class Coordinator {
   StopGuard stops_;
   std::set<std::pair<std::string, std::int64_t>> active_ids_;     // (client_id, request_id)
   std::set<std::pair<std::string, std::int64_t>> orphans_ended_;  // requests of a predecessor answered
+  struct Answered {
+    motionlcm::request_t msg;
+    motionlcm::reply_t reply;
+  };
+  std::map<std::pair<std::string, std::int64_t>, Answered> remembered_;  // the latest terminal replies
+  std::deque<std::pair<std::string, std::int64_t>> remembered_order_;    // oldest first
+  TimePoint next_resend_ = kNever;                                       // resend_unanswered()
   std::uint64_t next_serial_ = 1;
   std::int64_t next_command_id_ = 1;
   std::int64_t next_trigger_id_ = 1;

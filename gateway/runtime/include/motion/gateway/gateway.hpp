@@ -60,6 +60,7 @@
 #include "motion/core/precise_timer.hpp"
 #include "motion/gateway/axis_limits.hpp"
 #include "motion/gateway/bus_driver.hpp"
+#include "motion/gateway/command_memory.hpp"
 #include "motion/gateway/position_record.hpp"
 #include "motion/lcm/health.hpp"
 #include "motion/lcm/malformed_limiter.hpp"
@@ -214,6 +215,7 @@ class Gateway final : public GatewayOutput {
   std::set<std::string> record_checked_;              // axes whose first online status was compared with the record
   std::set<std::string> restored_homed_;  // axes homed by a previous gateway process (record), not since lost
   std::string record_error_;              // the last failure to write the record (logged once)
+  CommandMemory commands_seen_;           // a command sent again is answered, not run again
   std::map<std::int64_t, std::vector<std::string>> referencing_;  // HOME/SET_POSITION command id -> its axes
   std::map<std::int64_t, std::string>
       stopped_at_limit_;                    // jog command id -> why the watch stopped it (before its reply)

@@ -24,6 +24,14 @@
 // SAXIS_STATE; counter per key and bus); plain AXIS_STATEs are ignored and signed ones that do not
 // verify are counted (forged_states()).
 //
+// Lost datagrams (README "Safety and faults"): LCM delivers nothing for sure. While call() or
+// follow() waits on a request, the request is sent again, unchanged but for its send time (and
+// signature), whenever nothing has been heard of it for kResendAfter (before its first reply) or
+// kQuietResend (after): the coordinator answers a request sent again with its latest reply to it,
+// word for word (ACCEPTED/STARTED/PROGRESS while it runs, its terminal reply once it ended), and
+// runs nothing twice. So a lost request, a lost ACCEPTED or a lost terminal reply costs a
+// fraction of a second, not the whole timeout.
+//
 // Thread contract: owned by one thread with its EventLoop. `call()` pumps that loop until the
 // terminal reply (or the timeout), so callbacks keep running while it waits.
 #pragma once
@@ -95,6 +103,13 @@ class Client {
   void on_event(std::function<void(const motionlcm::event_t&)> handler) { event_handler_ = std::move(handler); }
   // Pumps the loop until `done()` or the timeout; false on timeout.
   bool wait_until(const std::function<bool()>& done, std::chrono::milliseconds timeout);
+  // wait_until(), sending request `id` (of send()) again while it is pending and nothing has been
+  // heard of it for a while (see "Lost datagrams" above).
+  static constexpr std::chrono::milliseconds kResendAfter{500};
+  static constexpr std::chrono::milliseconds kQuietResend{1000};
+  bool follow(std::int64_t id, const std::function<bool()>& done, std::chrono::milliseconds timeout);
+  // Requests sent again by follow() so far.
+  [[nodiscard]] std::uint64_t resent() const { return resent_; }
 
   [[nodiscard]] const std::string& id() const { return id_; }
 
@@ -110,7 +125,12 @@ class Client {
   struct Pending {
     ReplyHandler handler;
     std::string label;  // lcm::request_label: how a SECURITY event names it
+    motionlcm::request_t request;
+    TimePoint last_heard{};  // sent (again), or a reply heard
+    bool heard = false;      // a reply to it heard
   };
+  // Signs (when signing) and publishes `p.request`, stamped now.
+  void publish(Pending& p);
   // A SECURITY event naming pending requests of this client: their local REJECTED replies.
   void on_security_event(const motionlcm::event_t& event);
   // A reply taken as the coordinator's: to its pending request's handler.
@@ -127,6 +147,7 @@ class Client {
   std::uint64_t forged_replies_ = 0;
   std::optional<security::MessageVerifier> state_verifier_;  // SAXIS_STATE (gateway keys)
   std::uint64_t forged_states_ = 0;
+  std::uint64_t resent_ = 0;
   std::map<std::int64_t, Pending> pending_;
   std::map<std::string, motionlcm::axis_state_t> axes_;
   std::function<void(const motionlcm::axis_state_t&)> state_handler_;
