@@ -10,7 +10,8 @@
 // With `security: {mode: enforce}` (one lab for the three languages), each client's check_signed
 // program moves an axis with a signed request, and its unsigned and wrongly signed requests (a key
 // the coordinator does not know; the right key with the signature altered) end REJECTED with
-// code 19 and move nothing.
+// code 19 and move nothing; it reads the axis's position afterwards from axis states it takes only
+// signed by the lab's gateway key (--gateway-keys), none refused.
 //
 // A missing runtime (/usr/bin/python3, java/javac, lua5.2, xvfb-run) fails the test with that
 // reason. Every process is started through ProcessGroup, which kills it at the end of the test.
@@ -264,6 +265,13 @@ TEST(Clients, ExampleStopsWithTheCoordinatorsReasonWhenTheGatewayIsOffline) {
 // programs: config/sim-lab.yaml plus a security section, an authorized_keys file with the key "op"
 // (role operate), the coordinator's key pair; "op.key" is what the clients sign with and
 // "stranger.key" a key the coordinator does not know.
+// How often `part` occurs in `text`.
+int occurrences(const std::string& text, const std::string& part) {
+  int n = 0;
+  for (auto at = text.find(part); at != std::string::npos; at = text.find(part, at + part.size())) ++n;
+  return n;
+}
+
 class SignedClients : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -297,12 +305,17 @@ class SignedClients : public ::testing::Test {
   // and the axis is still at `target` half a second later. The key comes from $MOTION_KEY or from
   // --key (`key_option`). With `verify` the clients take only the coordinator's signed replies and
   // SECURITY events (--coordinator-key coordinator.pub), so all of the above came signed by it.
+  // Every client takes the axis's "after" state only signed by the lab's gateway key
+  // (--gateway-keys authorized_keys): the gateway's real signatures verify in each language. The
+  // only states it may refuse are ones signed before it began verifying (in flight then; a state
+  // signed before the verifier started is refused in every client, as in C++), each printed.
   void check_signed(const Runtime& r, double target, bool key_option, bool verify = false) {
     ASSERT_TRUE(r.missing.empty()) << r.language << ": " << r.missing;
     ASSERT_TRUE(*started_) << r.language;
     const std::string dir = group_->work_dir();
     Runtime runtime = r;
     std::vector<std::string> args{"--stranger-key", dir + "/stranger.key", "--axis", "x", "--target", number(target)};
+    args.insert(args.end(), {"--gateway-keys", dir + "/authorized_keys"});
     if (key_option) {
       args.insert(args.end(), {"--key", dir + "/op.key"});
     } else {
@@ -340,7 +353,16 @@ class SignedClients : public ::testing::Test {
     // Nothing of the refused moves (to target + 5) happened.
     const auto after = out.find("after: x = ");
     ASSERT_NE(after, std::string::npos) << out;
-    EXPECT_NEAR(std::strtod(out.c_str() + after + 11, nullptr), target, one_count("x")) << out;
+    char* end = nullptr;
+    EXPECT_NEAR(std::strtod(out.c_str() + after + 11, &end), target, one_count("x")) << out;
+    int refused = -1;
+    EXPECT_EQ(std::sscanf(end, " (signed by a gateway, %d refused)", &refused), 1) << out;
+    EXPECT_EQ(refused, occurrences(out, "an axis state is ignored: signed AXIS_STATE refused: "));
+    EXPECT_EQ(refused, occurrences(out,
+                                   "an axis state is ignored: signed AXIS_STATE refused: stale timestamp: signed "
+                                   "before this client started"))
+        << out;
+    EXPECT_LE(refused, 3) << out;
   }
 
   static ProcessGroup* group_;

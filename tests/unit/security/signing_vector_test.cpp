@@ -3,7 +3,8 @@
 // encoded signed_request_t (the Python, Java and Lua clients check the same file, so the four
 // implementations of the signed layout agree byte for byte); a fixed reply_t signed by the
 // coordinator's MessageSigner gives exactly tests/vectors/signed_reply_v1.txt's envelope, which
-// the Java client verifies.
+// the Java client verifies; a fixed axis_state_t signed by a gateway's MessageSigner gives exactly
+// tests/vectors/signed_state_v1.txt's envelope, which the Python, Java and Lua clients verify.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -14,6 +15,7 @@
 #include <map>
 #include <sstream>
 
+#include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/reply_t.hpp>
 
 #include "motion/security/request_verifier.hpp"
@@ -170,6 +172,63 @@ TEST(SignedReplyVector, TheCoordinatorsSignerProducesTheVectorsEnvelope) {
   Signature signature{};
   std::copy_n(e.signature, kSignatureBytes, signature.begin());
   EXPECT_TRUE(verify(key.public_key(), from_hex(v["signed_bytes_hex"]), signature));
+}
+
+// A gateway's signed axis state (signed_message_t on SAXIS_STATE) of the state vector's
+// axis_state_t, and the C++ client's verifier (Client::verify_states_with) takes it.
+TEST(SignedStateVector, TheGatewaysSignerProducesTheVectorsEnvelope) {
+  auto v = read_vector(MOTION_SIGNED_STATE_VECTOR);
+  ASSERT_TRUE(v.contains("envelope_hex")) << "cannot read " << MOTION_SIGNED_STATE_VECTOR;
+  const auto seed = from_hex("9d61b19deffd5a60ba844af492ec2cc44449c5697b326919703bac031cae7f60");
+  ASSERT_EQ(seed.size(), kSeedBytes);
+  const KeyPair key = KeyPair::from_seed(std::span<const std::uint8_t, kSeedBytes>(seed.data(), kSeedBytes), "vector");
+  EXPECT_EQ(hex(key.public_key()), v["public_key_hex"]);
+  EXPECT_EQ(key.authorized_line("gateway"), v["authorized_every_bus"]);
+
+  motionlcm::axis_state_t s{};
+  s.utime = std::stoll(v["state.utime"]);
+  s.sample_utime = std::stoll(v["state.sample_utime"]);
+  s.axis = v["state.axis"];
+  s.family = v["state.family"];
+  s.bus = v["state.bus"];
+  s.node_id = std::stoi(v["state.node_id"]);
+  s.group_id = std::stoi(v["state.group_id"]);
+  s.position = std::stod(v["state.position"]);
+  s.position_counts = std::stoll(v["state.position_counts"]);
+  s.velocity = std::stod(v["state.velocity"]);
+  s.target_counts = std::stoll(v["state.target_counts"]);
+  s.online = v["state.online"] == "1";
+  s.enabled = v["state.enabled"] == "1";
+  s.moving = v["state.moving"] == "1";
+  s.in_position = v["state.in_position"] == "1";
+  s.homed = v["state.homed"] == "1";
+  s.fault = v["state.fault"] == "1";
+  s.fault_code = std::stoi(v["state.fault_code"]);
+  s.inputs = std::stoi(v["state.inputs"]);
+  s.outputs = std::stoi(v["state.outputs"]);
+
+  const std::int64_t at = std::stoll(v["utime"]);
+  MessageSigner signer(key, v["prefix"]);
+  const auto e = signer.sign(v["channel"], s, at);
+  EXPECT_EQ(std::to_string(e.counter), v["counter"]);
+  EXPECT_EQ(hex(e.message), v["message_hex"]);
+  EXPECT_EQ(hex(e.signature, kSignatureBytes), v["signature_hex"]);
+  std::vector<std::uint8_t> encoded(static_cast<std::size_t>(e.getEncodedSize()));
+  ASSERT_EQ(e.encode(encoded.data(), 0, static_cast<int>(encoded.size())), static_cast<int>(encoded.size()));
+  EXPECT_EQ(hex(encoded), v["envelope_hex"]);
+  Signature signature{};
+  std::copy_n(e.signature, kSignatureBytes, signature.begin());
+  EXPECT_TRUE(verify(key.public_key(), from_hex(v["signed_bytes_hex"]), signature));
+
+  // As the C++ client verifies states: any gateway key, counter per key and bus.
+  MessageVerifier verifier({key.public_key()}, "a gateway key", v["prefix"], v["channel"],
+                           std::chrono::milliseconds(2000), at - 1000);
+  const auto bus = [](const motionlcm::axis_state_t& m) { return m.bus; };
+  const auto taken = verifier.verify<motionlcm::axis_state_t>(e, at + 500, bus);
+  ASSERT_TRUE(taken.message.has_value()) << taken.reason;
+  EXPECT_EQ(taken.message->axis, v["state.axis"]);
+  const auto replayed = verifier.verify<motionlcm::axis_state_t>(e, at + 600, bus);
+  EXPECT_EQ(replayed.reason, v["refused_replayed"]);
 }
 
 }  // namespace

@@ -7,10 +7,14 @@
 //   after: x = 12.5
 // With --coordinator-key (the coordinator's .pub file) every client verifies the coordinator's
 // replies and SECURITY events (verifyWith): the signed move's DONE is then the coordinator's signed
-// reply, and the refusals come from its signed SECURITY events.
+// reply, and the refusals come from its signed SECURITY events. The "after" line (the axis's
+// position from its axis state) ends in "(unverified)", or with --gateway-keys (an authorized_keys
+// file) in "(signed by a gateway, N refused)": the client then takes only axis states signed by
+// one of its keys of role gateway (verifyStatesWith).
 // Exit 0 when all came as expected, 1 otherwise, 2 bad command line or key file, 4 LCM unavailable.
 //   java -cp lcm.jar:motionlcm.jar:classes CheckSigned --lcm-url URL [--prefix MOTION_] [--key FILE]
-//        --stranger-key FILE --axis x --target 12.5 [--coordinator-key FILE]   (--key defaults to $MOTION_KEY)
+//        --stranger-key FILE --axis x --target 12.5 [--coordinator-key FILE] [--gateway-keys FILE]
+//        (--key defaults to $MOTION_KEY)
 import java.io.IOException;
 import java.security.GeneralSecurityException;
 import java.util.Map;
@@ -20,7 +24,7 @@ import motionlcm.reply_t;
 import motionlcm.request_t;
 
 public class CheckSigned {
-    static final String USAGE = "usage: CheckSigned --lcm-url URL [--prefix MOTION_] [--key FILE] --stranger-key FILE --axis A --target P [--coordinator-key FILE]";
+    static final String USAGE = "usage: CheckSigned --lcm-url URL [--prefix MOTION_] [--key FILE] --stranger-key FILE --axis A --target P [--coordinator-key FILE] [--gateway-keys FILE]";
 
     /** `key` whose signatures have one bit flipped: what an attacker altering a message gets. */
     static final class ForgedKey extends Signing.Key {
@@ -39,7 +43,7 @@ public class CheckSigned {
     }
 
     public static void main(String[] argv) throws Exception {
-        Args args = new Args(argv, Map.of("--lcm-url", 1, "--prefix", 1, "--key", 1, "--stranger-key", 1, "--axis", 1, "--target", 1, "--coordinator-key", 1), USAGE);
+        Args args = new Args(argv, Map.of("--lcm-url", 1, "--prefix", 1, "--key", 1, "--stranger-key", 1, "--axis", 1, "--target", 1, "--coordinator-key", 1, "--gateway-keys", 1), USAGE);
         String axis = args.get("--axis", "x");
         double target;
         try {
@@ -53,11 +57,14 @@ public class CheckSigned {
         Signing.Key key;
         Signing.Key stranger;
         byte[] coordinator = null;
+        java.util.List<GatewayKeys.Key> gateways = null;
         try {
             key = Signing.loadPrivateKey(keyPath);
             stranger = Signing.loadPrivateKey(args.get("--stranger-key", ""));
             String coordinatorKey = args.get("--coordinator-key", null);
             if (coordinatorKey != null) coordinator = Signing.loadPublicKey(coordinatorKey);
+            String gatewayKeys = args.get("--gateway-keys", null);
+            if (gatewayKeys != null) gateways = GatewayKeys.load(gatewayKeys);
         } catch (Signing.KeyFileException e) {
             System.err.println("CheckSigned: " + e.getMessage());
             System.exit(2);
@@ -77,6 +84,7 @@ public class CheckSigned {
                 for (MotionClient c : new MotionClient[] {signed, plain, other, forger}) c.verifyWith(coordinator);
                 System.out.println("verifying the coordinator's replies");
             }
+            if (gateways != null) signed.verifyStatesWith(gateways, 2000);
             reply_t r = signed.request(request_t.ENABLE, new String[] {axis}, null, 10000);
             if (r.status == reply_t.DONE) r = signed.request(request_t.MOVE_ABSOLUTE, new String[] {axis}, new double[] {target}, 20000);
             System.out.println(line("signed", r));
@@ -91,7 +99,8 @@ public class CheckSigned {
             }
             Thread.sleep(500);  // a move that had been executed would have the axis on its way by now
             axis_state_t s = signed.axisStates().get(axis);
-            System.out.println(s != null ? String.format("after: %s = %.6g", axis, s.position) : "after: no state of " + axis);
+            String verified = signed.statesVerified() ? "(signed by a gateway, " + signed.forgedStates() + " refused)" : "(unverified)";
+            System.out.println(s != null ? String.format("after: %s = %.6g %s", axis, s.position, verified) : "after: no state of " + axis);
         } catch (IOException e) {
             System.err.println("CheckSigned: LCM unavailable: " + e.getMessage());
             System.exit(4);

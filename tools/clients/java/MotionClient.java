@@ -19,6 +19,13 @@
 // (another key, altered, stale, replayed) is a forgery: the request goes on waiting and
 // forgedReplies() counts it.
 //
+// Verified axis states: after verifyStatesWith(GatewayKeys.load(authorized_keys)) axisStates() and
+// onAxisState() take only states signed by a key of role gateway (signed_message_t on SAXIS_STATE;
+// channel, key, signature, window, counter per key and bus, a key bound to buses only for those),
+// as in the C++ client: plain AXIS_STATEs are ignored and signed ones that do not verify are counted
+// (forgedStates()). Without it the plain states are taken, unverified (statesVerified() is false:
+// say so where they are shown).
+//
 // Thread contract: thread-safe. LCM delivers messages on its own receive thread: reply, axis-state,
 // event and health callbacks run there (keep them short); request() blocks the calling thread.
 // Run with -Djava.net.preferIPv4Stack=true (LCM multicast is IPv4).
@@ -116,6 +123,8 @@ public class MotionClient implements AutoCloseable {
     private volatile MessageVerifier replyVerifier;  // set by verifyWith
     private volatile MessageVerifier eventVerifier;
     private final AtomicLong forgedReplies = new AtomicLong();
+    private volatile MessageVerifier stateVerifier;  // set by verifyStatesWith
+    private final AtomicLong forgedStates = new AtomicLong();
 
     /** url: null or "" = $LCM_DEFAULT_URL, then LCM's default. prefix: lcm.channel_prefix ("MOTION_"). */
     public MotionClient(String url, String prefix, String clientId) throws IOException {
@@ -170,6 +179,25 @@ public class MotionClient implements AutoCloseable {
 
     /** Signed replies for a pending request of this client that did not verify (verifyWith). */
     public long forgedReplies() { return forgedReplies.get(); }
+
+    /** From now on only axis states signed by one of `gateways` (GatewayKeys.load of
+     *  security.authorized_keys) for a bus it may vouch for count (see above); windowMs:
+     *  security.window_ms. Forgets the states taken unverified so far. */
+    public void verifyStatesWith(java.util.List<GatewayKeys.Key> gateways, long windowMs) throws GeneralSecurityException {
+        boolean subscribed = stateVerifier != null;
+        stateVerifier = new MessageVerifier(gateways, "a gateway key", prefix, "AXIS_STATE", windowMs, System.currentTimeMillis() * 1000);
+        axes.clear();
+        if (subscribed) return;
+        lcm.subscribe(channel("SAXIS_STATE"), new LCMSubscriber() {
+            public void messageReceived(LCM l, String ch, LCMDataInputStream ins) { onSignedAxisState(ins); }
+        });
+    }
+
+    /** Whether axis states are taken only signed by a gateway key (verifyStatesWith). */
+    public boolean statesVerified() { return stateVerifier != null; }
+
+    /** Signed axis states that did not verify (forged, altered, replayed, stale, unknown key, wrong bus). */
+    public long forgedStates() { return forgedStates.get(); }
 
     public String url() { return url.isEmpty() ? "the default LCM URL" : url; }
     public String channel(String name) { return prefix + name; }
@@ -411,8 +439,25 @@ public class MotionClient implements AutoCloseable {
     }
 
     private void onAxisState(LCMDataInputStream ins) {
+        if (stateVerifier != null) return;  // only the signed copies (SAXIS_STATE) count
         axis_state_t s;
         try { s = new axis_state_t(ins); } catch (IOException e) { return; }
+        takeState(s);
+    }
+
+    private void onSignedAxisState(LCMDataInputStream ins) {
+        signed_message_t e = decodeSigned(ins);
+        if (e == null) return;
+        MessageVerifier v = stateVerifier;
+        axis_state_t s = v.verifyMessage(e, System.currentTimeMillis() * 1000, axis_state_t::new, m -> m.bus);
+        if (s != null) {
+            takeState(s);
+            return;
+        }
+        if (forgedStates.incrementAndGet() <= 10) System.err.println("MotionClient: SECURITY: an axis state is ignored: " + v.reason());
+    }
+
+    private void takeState(axis_state_t s) {
         axes.put(s.axis, s);
         Consumer<axis_state_t> h = stateHandler;
         if (h != null) h.accept(s);

@@ -5,17 +5,21 @@ with a key the coordinator does not know, and with the right key but its signatu
 (forged); one line each, as check_signed.py prints them:
   signed: status=done ...   x = 12.5   unsigned: status=rejected error_code=19 ...
   stranger: status=rejected error_code=19 ...   forged: status=rejected error_code=19 ...
-  after: x = 12.5
+  after: x = 12.5 (unverified)
+The "after" line (the axis's position from its axis state) ends in "(unverified)", or with
+--gateway-keys (an authorized_keys file) in "(signed by a gateway, N refused)": the client then takes
+only axis states signed by one of its keys of role gateway (verify_states_with).
 Exit 0 when all came as expected, 1 otherwise, 2 bad command line or key file, 4 LCM unavailable.
   lua5.2 check_signed.lua --lcm-url URL [--prefix MOTION_] [--key FILE] --stranger-key FILE --axis x --target 12.5
+                        [--gateway-keys FILE]
 (--key defaults to $MOTION_KEY; LUA_CPATH must find motionsodium.so, see motionsigning.lua)
 --]]
 local motionclient = require("motionclient")
 local signing = require("motionsigning")
 
-local usage = "usage: check_signed.lua --lcm-url URL [--prefix MOTION_] [--key FILE] --stranger-key FILE --axis A --target P"
+local usage = "usage: check_signed.lua --lcm-url URL [--prefix MOTION_] [--key FILE] --stranger-key FILE --axis A --target P [--gateway-keys FILE]"
 local args, err = motionclient.parse_args(arg, {["--lcm-url"] = 1, ["--prefix"] = 1, ["--key"] = 1, ["--stranger-key"] = 1,
-                                               ["--axis"] = 1, ["--target"] = 1})
+                                               ["--axis"] = 1, ["--target"] = 1, ["--gateway-keys"] = 1})
 local function first(name) return args and args[name] and args[name][1] end
 local target = tonumber(first("--target"))
 if not args or not target or not first("--stranger-key") then
@@ -34,6 +38,14 @@ if not key or not stranger then
   io.stderr:write("check_signed: " .. (key_err or stranger_err) .. "\n")
   os.exit(2)
 end
+local gateways, gateways_err
+if first("--gateway-keys") then
+  gateways, gateways_err = signing.load_gateway_keys(first("--gateway-keys"))
+  if not gateways then
+    io.stderr:write("check_signed: --gateway-keys: " .. gateways_err .. "\n")
+    os.exit(2)
+  end
+end
 
 local function client(id, k)
   local ok, c = pcall(motionclient.new, {url = first("--lcm-url"), prefix = first("--prefix") or "MOTION_", client_id = id, key = k})
@@ -44,6 +56,7 @@ local function client(id, k)
   return c
 end
 local signed = client("check_signed.lua", key)
+if gateways then signed:verify_states_with(gateways) end
 local plain = client("check_signed.lua-plain", nil)
 local other = client("check_signed.lua", stranger)
 -- `key` whose signatures have one bit flipped: what an attacker altering a message gets.
@@ -76,6 +89,7 @@ end
 local until_us = signing.now_us() + 500000
 while signing.now_us() < until_us do signed:handle(50) end
 local s = signed:axis_states()[axis]
-print(s and string.format("after: %s = %.6g", axis, s.position) or ("after: no state of " .. axis))
+local verified = signed:states_verified() and string.format("(signed by a gateway, %d refused)", signed.forged_states) or "(unverified)"
+print(s and string.format("after: %s = %.6g %s", axis, s.position, verified) or ("after: no state of " .. axis))
 io.stdout:flush()
 os.exit(ok and 0 or 1)

@@ -23,6 +23,13 @@ ignored (the coordinator's own come signed too), and a signed one that does not 
 key, altered, stale, replayed) is a forgery: the request goes on waiting and c.forged_replies
 counts it.
 
+Verified axis states: after c:verify_states_with(motionsigning.load_gateway_keys(authorized_keys))
+only states signed by a key of role gateway count (signed_message_t on SAXIS_STATE; channel, key,
+signature, window, counter per key and bus, a key bound to buses only for those), as in the C++
+client: plain AXIS_STATEs are ignored and signed ones that do not verify are counted
+(c.forged_states). Without it the plain states are taken, unverified (c:states_verified() is false:
+say so where they are shown).
+
 Thread contract: single-threaded. Callbacks run inside handle(), request() and wait_until(), which
 pump LCM. Timeouts are in seconds; Lua 5.2 has no sub-second wall clock, so they are measured with
 os.time() (whole seconds, at least the requested time) unless LuaSocket's socket.gettime exists.
@@ -143,6 +150,22 @@ function Client:verify_with(coordinator, window_ms)
   self.lc:subscribe(self.prefix .. "SREPLY", function(_, data) self:_on_signed_reply(data) end)
   self.lc:subscribe(self.prefix .. "SEVENT", function(_, data) self:_on_signed_event(data) end)
 end
+
+-- From now on axis_states() and on_axis_state() take only states signed by one of `gateways`
+-- (motionsigning.load_gateway_keys of security.authorized_keys) for a bus it may vouch for (see
+-- above); window_ms: security.window_ms (2000). Forgets the states taken unverified so far.
+function Client:verify_states_with(gateways, window_ms)
+  local signing = require("motionsigning")
+  local subscribed = self.state_verifier ~= nil
+  self.state_verifier = signing.message_verifier(gateways, self.prefix, "AXIS_STATE", window_ms, nil, "a gateway key")
+  self.forged_states = self.forged_states or 0
+  self.axes = {}
+  if subscribed then return end
+  self.lc:subscribe(self.prefix .. "SAXIS_STATE", function(_, data) self:_on_signed_axis_state(data) end)
+end
+
+-- Whether axis states are taken only signed by a gateway key (verify_states_with).
+function Client:states_verified() return self.state_verifier ~= nil end
 
 -- Publishes a request; every reply goes to on_reply(reply). fields: velocity_scale,
 -- acceleration_scale, timeout_ms, output_mask, output_value, param. Returns the request id.
@@ -353,8 +376,22 @@ function Client:_on_security_event(e)
 end
 
 function Client:_on_axis_state(data)
+  if self.state_verifier then return end  -- only the signed copies (SAXIS_STATE) count
   local s = decode(axis_state_t, data)
-  if not s then return end
+  if s then self:_take_state(s) end
+end
+
+function Client:_on_signed_axis_state(data)
+  local e = signed_message(data)
+  if not e then return end
+  local s, why = self.state_verifier:verify_message(e, require("motionsigning").now_us(), axis_state_t,
+                                                    function(m) return m.bus end)
+  if s then return self:_take_state(s) end
+  self.forged_states = self.forged_states + 1
+  if self.forged_states <= 10 then io.stderr:write("motionclient: SECURITY: an axis state is ignored: " .. why .. "\n") end
+end
+
+function Client:_take_state(s)
   self.axes[s.axis] = s
   if self.state_handler then self.state_handler(s) end
 end

@@ -12,7 +12,10 @@ The signature covers, concatenated (lcmtypes/signed_request_t.lcm):
 The coordinator's signed messages (signed_message_t, e.g. replies on SREPLY) cover
   "motionbus signed_message_t v1" NUL, prefix, NUL, channel, NUL, key_id, counter, utime,
   message_size, message (the same integers): message_signed_bytes; message_verifier checks them
-  (as the C++ security::MessageVerifier), with motionsodium.verify (libsodium).
+  (as the C++ security::MessageVerifier), with motionsodium.verify (libsodium). Gateways sign their
+  axis states the same way (SAXIS_STATE) with keys of role gateway: load_gateway_keys reads them
+  from authorized_keys (with the buses a line's buses= binds each to), and a message_verifier of
+  those keys checks the states (verify_message; Client:verify_states_with).
 
   local signing = require "motionsigning"
   local key = assert(signing.load_private_key(signing.key_path(opt_key)))   -- --key, else $MOTION_KEY
@@ -148,31 +151,119 @@ function M.load_public_key(path)
   return nil, "public key file " .. path .. " holds no key line"
 end
 
+M.ROLES = {"observe", "operate", "configure", "admin", "gateway"}
+M.BUSES_TOKEN = "buses="
+
+local function is_role(role)
+  for _, r in ipairs(M.ROLES) do if r == role then return true end end
+  return false
+end
+
+-- The principals of an authorized_keys file's text, as the C++ security::AuthorizedKeys reads it:
+-- "<base64 public key> <name> <role> [buses=<bus>,...]", blank lines and # comments ignored. A list
+-- of {public_key, name, role, buses (a list, or nil: every bus)}, or nil and every bad line
+-- ("file:line: what was wrong", one per line).
+function M.parse_authorized_keys(text, file_name)
+  local out, errors, key_lines, name_lines, number = {}, {}, {}, {}, 0
+  for line in (text .. "\n"):gmatch("([^\n]*)\n") do
+    number = number + 1
+    local f = {}
+    for w in line:gmatch("%S+") do f[#f + 1] = w end
+    if #f > 0 and f[1]:sub(1, 1) ~= "#" then
+      local where = file_name .. ":" .. number .. ": "
+      local key = sodium.base64_decode(f[1])
+      local buses
+      local fail
+      if #f ~= 3 and #f ~= 4 then
+        fail = string.format("expected '<base64 public key> <name> <role> [%s<bus>,...]', got %d field%s", M.BUSES_TOKEN, #f,
+                             #f == 1 and "" or "s")
+      elseif not key or #key ~= 32 then
+        fail = "'" .. f[1]:sub(1, 16) .. (#f[1] > 16 and "...'" or "'") .. " is not a base64 Ed25519 public key (32 bytes)"
+      elseif not M.valid_name(f[2]) then
+        fail = "name '" .. f[2] .. "' is not 1..64 of [A-Za-z0-9._-]"
+      elseif not is_role(f[3]) then
+        fail = "unknown role '" .. f[3] .. "' (" .. table.concat(M.ROLES, ", ") .. ")"
+      elseif #f == 4 then
+        buses = {}
+        for bus in (f[4]:sub(#M.BUSES_TOKEN + 1) .. ","):gmatch("([^,]*),") do buses[#buses + 1] = bus end
+        local empty = false
+        for _, bus in ipairs(buses) do empty = empty or bus == "" end
+        if f[4]:sub(1, #M.BUSES_TOKEN) ~= M.BUSES_TOKEN or empty then
+          fail = "expected '" .. M.BUSES_TOKEN .. "<bus>[,<bus>...]' after the role, got '" .. f[4]:sub(1, 64) .. "'"
+        elseif f[3] ~= "gateway" then
+          fail = M.BUSES_TOKEN .. " binds a key of role gateway to buses; '" .. f[2] .. "' has role " .. f[3]
+        end
+      end
+      if not fail then
+        local id = key:sub(1, M.KEY_ID_BYTES)  -- key ids are 8 bytes of the key
+        if key_lines[id] then
+          fail = string.format("key of '%s' is already listed at line %d (same key id %s)", f[2], key_lines[id], M.hex(id))
+        elseif name_lines[f[2]] then
+          fail = string.format("name '%s' is already used at line %d", f[2], name_lines[f[2]])
+        else
+          key_lines[id], name_lines[f[2]] = number, number
+          out[#out + 1] = {public_key = key, name = f[2], role = f[3], buses = buses}
+        end
+      end
+      if fail then errors[#errors + 1] = where .. fail end
+    end
+  end
+  if #errors > 0 then return nil, table.concat(errors, "\n") end
+  return out
+end
+
+-- The keys of role gateway of an authorized_keys file (security.authorized_keys), each
+-- {public_key, name, buses}: what gateways sign their axis states with (Client:verify_states_with).
+-- nil and why when the file cannot be read, has a bad line or no gateway key.
+function M.load_gateway_keys(path)
+  local f, err = io.open(path, "r")
+  if not f then return nil, "cannot read authorized keys file " .. path .. ": " .. err end
+  local text = f:read("*a")
+  f:close()
+  local principals, why = M.parse_authorized_keys(text, path)
+  if not principals then return nil, why end
+  local keys = {}
+  for _, p in ipairs(principals) do
+    if p.role == "gateway" then keys[#keys + 1] = p end
+  end
+  if #keys == 0 then return nil, "authorized keys file " .. path .. " has no key of role gateway" end
+  return keys
+end
+
 local Verifier = {}
 Verifier.__index = Verifier
 
 -- Takes a signed_message_t of `channel` (e.g. "REPLY") when, in this order, its channel is that
 -- one, its key id is the coordinator's, the signature verifies, utime is within window_ms of the
 -- receiver's clock and not before not_before_us (default: now), and the counter is above the last
--- one taken (a replay otherwise). coordinator: its 32-byte public key (load_public_key).
-function M.message_verifier(coordinator, prefix, channel, window_ms, not_before_us)
-  return setmetatable({coordinator = coordinator, key_id = coordinator:sub(1, M.KEY_ID_BYTES), prefix = prefix,
+-- one taken from that key (a replay otherwise). coordinator: its 32-byte public key
+-- (load_public_key); or a list of keys any of which may sign, e.g. load_gateway_keys(), with
+-- signers_are naming them in a refusal ("a gateway key").
+function M.message_verifier(coordinator, prefix, channel, window_ms, not_before_us, signers_are)
+  local signers = {}
+  if type(coordinator) == "string" then
+    signers[coordinator:sub(1, M.KEY_ID_BYTES)] = {public_key = coordinator}
+    signers_are = signers_are or ("the coordinator's (" .. M.hex(coordinator:sub(1, M.KEY_ID_BYTES)) .. ")")
+  else
+    for _, k in ipairs(coordinator) do signers[k.public_key:sub(1, M.KEY_ID_BYTES)] = k end
+  end
+  return setmetatable({signers = signers, signers_are = signers_are or "a key of the list", prefix = prefix,
                        channel = channel, window_us = (window_ms or 2000) * 1000,
-                       not_before_us = not_before_us or sodium.now_us(), last_counter = 0}, Verifier)
+                       not_before_us = not_before_us or sodium.now_us(), last_counter = {}}, Verifier)
 end
 
--- The message's bytes (a string), or nil and why it was refused.
-function Verifier:verify(e, now_us)
+-- Channel, signer, signature and freshness: the key id, the signer and the message's bytes when
+-- they pass, else nil and why.
+function Verifier:_check(e, now_us)
   local what = "signed " .. self.channel .. " refused: "
   if e.channel ~= self.channel then return nil, what .. "it was signed for channel '" .. tostring(e.channel):sub(1, 64) .. "'" end
   local key_id = bytes_of(e.key_id)
-  if key_id ~= self.key_id then
-    return nil, what .. "key " .. M.hex(key_id) .. " is not the coordinator's (" .. M.hex(self.key_id) .. ")"
-  end
+  local signer = self.signers[key_id]
+  if not signer then return nil, what .. "key " .. M.hex(key_id) .. " is not " .. self.signers_are end
   local message = bytes_of(e.message)
   local signature = bytes_of(e.signature)
   if #message ~= e.message_size or #signature ~= 64 or
-      not sodium.verify(self.coordinator, M.message_signed_bytes(self.prefix, self.channel, key_id, e.counter, e.utime, message),
+      not sodium.verify(signer.public_key, M.message_signed_bytes(self.prefix, self.channel, key_id, e.counter, e.utime, message),
                         signature) then
     return nil, what .. "bad signature (forged or altered in transit)"
   end
@@ -183,10 +274,50 @@ function Verifier:verify(e, now_us)
                               what, math.floor(age / 1000), now_us >= e.utime and "ago" or "in the future",
                               math.floor(self.window_us / 1000))
   end
-  if e.counter <= self.last_counter then
-    return nil, string.format("%sreplayed counter %.0f (last accepted %.0f)", what, e.counter, self.last_counter)
+  return key_id, signer, message
+end
+
+-- Whether `counter` is above the last one taken from `key_id` for `bus` (then it is the last); else false and why.
+function Verifier:_take_counter(key_id, bus, counter)
+  local stream = key_id .. "/" .. bus
+  local last = self.last_counter[stream] or 0
+  if counter <= last then
+    return false, string.format("signed %s refused: replayed counter %.0f (last accepted %.0f%s)", self.channel, counter, last,
+                                bus == "" and "" or (" for " .. bus:sub(1, 64)))
   end
-  self.last_counter = e.counter
+  self.last_counter[stream] = counter
+  return true
+end
+
+-- The message's bytes (a string), or nil and why it was refused.
+function Verifier:verify(e, now_us)
+  local key_id, signer, message = self:_check(e, now_us)
+  if not key_id then return nil, signer end
+  local ok, why = self:_take_counter(key_id, "", e.counter)
+  if not ok then return nil, why end
+  return message
+end
+
+-- The message decoded as `lcm_type` (e.g. motionlcm.axis_state_t), or nil and why. The counter is
+-- kept per key and bus_of(message), and a gateway key bound to buses (authorized_keys buses=)
+-- vouches only for a message of one of them (checked before the counter, which a refused message
+-- leaves as it was).
+function Verifier:verify_message(e, now_us, lcm_type, bus_of)
+  local key_id, signer, bytes = self:_check(e, now_us)
+  if not key_id then return nil, signer end
+  local decoded, message = pcall(lcm_type.decode, bytes)
+  if not decoded then return nil, "signed " .. self.channel .. " refused: malformed message: " .. tostring(message) end
+  local bus = bus_of(message)
+  if signer.buses then
+    local vouches = false
+    for _, b in ipairs(signer.buses) do vouches = vouches or b == bus end
+    if not vouches then
+      return nil, string.format("signed %s refused: key %s ('%s') may vouch only for bus %s, not for bus %s", self.channel,
+                                M.hex(key_id), signer.name, table.concat(signer.buses, ","), bus:sub(1, 64))
+    end
+  end
+  local ok, why = self:_take_counter(key_id, bus, e.counter)
+  if not ok then return nil, why end
   return message
 end
 

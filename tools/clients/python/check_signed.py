@@ -9,10 +9,14 @@ altered (forged), each printed as one line:
     stranger: status=rejected error_code=19 reason=...
     forged: status=rejected error_code=19 reason=...
     after: x = 12.5
-("after": where the axis is once the refused requests had time to move it). Exit 0 when every
-line came as expected, 1 otherwise, 2 bad command line or key file, 4 LCM unavailable.
+("after": where the axis is once the refused requests had time to move it, from its axis state,
+followed by "(unverified)", or with --gateway-keys by "(signed by a gateway, N refused)": the
+client then takes only axis states signed by a key of role gateway of that authorized_keys file).
+Exit 0 when every line came as expected, 1 otherwise, 2 bad command line or key file, 4 LCM
+unavailable.
 
     check_signed.py --lcm-url URL [--prefix MOTION_] [--key FILE] --stranger-key FILE --axis x --target 12.5
+                    [--gateway-keys AUTHORIZED_KEYS]
 --key defaults to $MOTION_KEY.
 """
 import argparse
@@ -22,7 +26,8 @@ import time
 import _paths
 
 _paths.add_lcmtypes()
-from motionclient import UNAUTHORIZED, Client, KeyFileError, SigningKey, key_path, load_private_key, status_name  # noqa: E402
+from motionclient import (UNAUTHORIZED, Client, KeyFileError, SigningKey, key_path, load_gateway_keys,  # noqa: E402
+                          load_private_key, status_name)
 from motionlcm import reply_t  # noqa: E402
 
 
@@ -46,6 +51,8 @@ def main() -> int:
     p.add_argument("--stranger-key", required=True, help="a key the coordinator does not know")
     p.add_argument("--axis", default="x")
     p.add_argument("--target", type=float, required=True)
+    p.add_argument("--gateway-keys", default=None,
+                   help="authorized_keys file: take only axis states signed by its keys of role gateway")
     args = p.parse_args()
     path = key_path(args.key)
     if path is None:
@@ -54,6 +61,7 @@ def main() -> int:
     try:
         key = load_private_key(path)
         stranger = load_private_key(args.stranger_key)
+        gateways = load_gateway_keys(args.gateway_keys) if args.gateway_keys else None
     except KeyFileError as e:
         print(f"check_signed: {e}", file=sys.stderr)
         return 2
@@ -66,6 +74,8 @@ def main() -> int:
     except OSError as e:
         print(f"check_signed: {e}", file=sys.stderr)
         return 4
+    if gateways is not None:
+        signed.verify_states_with(gateways)
     with signed, plain, other, forger:
         r = signed.enable([args.axis], timeout=10.0)
         if r.status == reply_t.DONE:
@@ -83,7 +93,8 @@ def main() -> int:
         while time.monotonic() < end:
             signed.handle(0.05)
         state = signed.axis_states().get(args.axis)
-        print(f"after: {args.axis} = {state.position:.6g}" if state else f"after: no state of {args.axis}")
+        verified = f"(signed by a gateway, {signed.forged_states} refused)" if signed.states_verified else "(unverified)"
+        print(f"after: {args.axis} = {state.position:.6g} {verified}" if state else f"after: no state of {args.axis}")
     sys.stdout.flush()
     return 0 if ok else 1
 

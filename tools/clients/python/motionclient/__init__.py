@@ -13,7 +13,8 @@ needs python3-nacl:
 """
 
 from .lcm_udp import LcmUdp, Reassembler, encode_datagrams, parse_url  # noqa: F401
-from .signing import KeyFileError, RequestSigner, SigningKey, key_path, load_private_key  # noqa: F401
+from .signing import (GatewayKey, KeyFileError, RequestSigner, SigningKey, key_path, load_gateway_keys,  # noqa: F401
+                      load_private_key)
 
 try:
     from .client import (Client, RequestFailed, UNAUTHORIZED, is_terminal, kind_value, status_name,  # noqa: F401

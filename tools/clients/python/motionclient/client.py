@@ -10,6 +10,12 @@ goes out signed on SREQUEST (motionclient.signing, byte-identical to the C++ cli
 event of the coordinator naming a pending request (unsigned, unknown key, bad signature...: the
 coordinator sends no reply) ends it at once with a local REJECTED, code 19 (unauthorized).
 
+Axis states: after ``verify_states_with(load_gateway_keys(authorized_keys))`` only states signed by a
+key of role gateway count (signed_message_t on SAXIS_STATE; channel, key, signature, window, counter
+per key and bus, a key bound to buses only for those), as in the C++ client; plain AXIS_STATEs are
+ignored and signed ones that do not verify are counted (``forged_states``). Without it the plain
+states are taken, unverified (``states_verified`` is False: say so where they are shown).
+
 Thread contract: single-threaded. Callbacks run inside ``handle()``, ``request()`` and
 ``wait_until()``, which pump the LCM socket.
 """
@@ -18,11 +24,12 @@ from __future__ import annotations
 
 import os
 import socket
+import sys
 import time
 from typing import Callable, Dict, Iterable, Mapping, Optional, Sequence, Union
 
 from .lcm_udp import LcmUdp
-from .signing import MessageVerifier, RequestSigner, SigningKey
+from .signing import GatewayKey, MessageVerifier, RequestSigner, SigningKey
 
 try:
     import motionlcm
@@ -101,6 +108,8 @@ class Client:
         self._reply_verifier: Optional[MessageVerifier] = None
         self._event_verifier: Optional[MessageVerifier] = None
         self.forged_replies = 0  # signed replies for pending requests that did not verify
+        self._state_verifier: Optional[MessageVerifier] = None
+        self.forged_states = 0  # signed axis states that did not verify (verify_states_with)
         if key is not None:
             self.sign_with(key)
 
@@ -136,6 +145,26 @@ class Client:
         if not subscribed:
             self.lcm.subscribe(self.channel("SREPLY"), self._on_signed_reply)
             self.lcm.subscribe(self.channel("SEVENT"), self._on_signed_event)
+
+    def verify_states_with(self, gateways: Sequence[GatewayKey], window_ms: int = 2000) -> None:
+        """From now on axis_states() and on_axis_state() take only states signed by one of `gateways`
+        (motionclient.signing.load_gateway_keys of security.authorized_keys) that verify: channel
+        AXIS_STATE, signature, utime within window_ms and not before now, counter above the last
+        one of that key and bus, and the state's bus one the key may vouch for. A plain AXIS_STATE
+        is ignored (gateways send plain copies for observers); a signed one that does not verify
+        is counted in forged_states (the first 10 are printed on stderr). Forgets the states taken
+        unverified so far."""
+        subscribed = self._state_verifier is not None
+        self._state_verifier = MessageVerifier(list(gateways), self.prefix, "AXIS_STATE", window_ms,
+                                               signers_are="a gateway key")
+        self._axes.clear()
+        if not subscribed:
+            self.lcm.subscribe(self.channel("SAXIS_STATE"), self._on_signed_axis_state)
+
+    @property
+    def states_verified(self) -> bool:
+        """Whether axis states are taken only signed by a gateway key (verify_states_with)."""
+        return self._state_verifier is not None
 
     # ------------------------------------------------------------------ requests
 
@@ -331,7 +360,22 @@ class Client:
                 handler(r)
 
     def _on_axis_state(self, _channel: str, payload: bytes) -> None:
-        s = self._decode(axis_state_t, payload)
+        if self._state_verifier is None:  # while verifying only the signed copies count
+            self._take_state(self._decode(axis_state_t, payload))
+
+    def _on_signed_axis_state(self, _channel: str, payload: bytes) -> None:
+        env = self._decode(signed_message_t, payload)
+        if env is None:
+            return
+        s, why = self._state_verifier.verify_message(env, int(time.time() * 1e6), axis_state_t, lambda m: m.bus)
+        if s is not None:
+            self._take_state(s)
+            return
+        self.forged_states += 1
+        if self.forged_states <= 10:
+            print(f"motionclient: SECURITY: an axis state is ignored: {why}", file=sys.stderr)
+
+    def _take_state(self, s) -> None:
         if s is None:
             return
         self._axes[s.axis] = s

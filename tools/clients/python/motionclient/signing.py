@@ -13,6 +13,11 @@ coordinator's public key (its .pub file, load_public_key), MessageSigner makes t
 signature covers b"motionbus signed_message_t v1" NUL, prefix, NUL, channel, NUL, key_id, counter,
 utime, message_size, message (the same layout).
 
+Gateways sign their axis states the same way (signed_message_t on <prefix>SAXIS_STATE) with a key
+of role ``gateway`` in authorized_keys: load_gateway_keys reads those keys (and the buses a line's
+``buses=`` binds each to), and a MessageVerifier of several signers checks the states against them,
+keeping the counter per key and bus (Client.verify_states_with).
+
 Thread contract: a RequestSigner, MessageSigner or MessageVerifier belongs to one thread; the
 functions are pure.
 """
@@ -22,7 +27,7 @@ from __future__ import annotations
 import os
 import stat
 import struct
-from typing import Optional
+from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 REQUEST_DOMAIN = b"motionbus signed_request_t v1"
 MESSAGE_DOMAIN = b"motionbus signed_message_t v1"
@@ -200,40 +205,177 @@ class MessageSigner:
         return env
 
 
-class MessageVerifier:
-    """Takes a signed_message_t of one channel when it is the coordinator's, fresh (utime within
-    window_ms of now and not before the verifier was made) and its counter is above the last one
-    taken (as the C++ security::MessageVerifier). verify() returns (message bytes, "") or (None, why)."""
+ROLES = ("observe", "operate", "configure", "admin", "gateway")
+BUSES_TOKEN = "buses="
 
-    def __init__(self, coordinator: bytes, prefix: str, channel: str, window_ms: int = 2000,
-                 not_before_us: Optional[int] = None):
+
+class GatewayKey:
+    """A key of role `gateway` in authorized_keys: its 32 bytes, its name and the buses it may vouch
+    for (the line's optional ``buses=can0,rs485a``; None: every bus)."""
+
+    def __init__(self, public_key: bytes, name: str, buses: Optional[Sequence[str]] = None):
+        self.public_key = bytes(public_key)
+        self.key_id = self.public_key[:KEY_ID_BYTES]
+        self.name = name
+        self.buses = tuple(buses) if buses is not None else None
+
+    def vouches_for(self, bus: str) -> bool:
+        return self.buses is None or bus in self.buses
+
+
+def parse_authorized_keys(text: str, file_name: str) -> List[Tuple[bytes, str, str, Optional[Tuple[str, ...]]]]:
+    """The principals of an authorized_keys file, (public key, name, role, buses) per line, as the
+    C++ security::AuthorizedKeys reads it: "<base64 public key> <name> <role> [buses=<bus>,...]",
+    blank lines and # comments ignored. Raises KeyFileError listing every bad line ("file:line: what")."""
+    import base64
+    import binascii
+    out, errors, key_lines, name_lines = [], [], {}, {}
+    for number, line in enumerate(text.splitlines(), 1):
+        fields = line.split()
+        if not fields or fields[0].startswith("#"):
+            continue
+        where = f"{file_name}:{number}: "
+        if len(fields) not in (3, 4):
+            errors.append(where + f"expected '<base64 public key> <name> <role> [{BUSES_TOKEN}<bus>,...]', got "
+                                  f"{len(fields)} field{'' if len(fields) == 1 else 's'}")
+            continue
+        try:
+            key = base64.b64decode(fields[0], validate=True)
+        except binascii.Error:
+            key = b""
+        if len(key) != 32:
+            errors.append(where + f"'{fields[0][:16]}{'...' if len(fields[0]) > 16 else ''}' is not a base64 Ed25519 "
+                                  "public key (32 bytes)")
+            continue
+        name, role = fields[1], fields[2]
+        if not valid_name(name):
+            errors.append(where + f"name '{name}' is not 1..64 of [A-Za-z0-9._-]")
+            continue
+        if role not in ROLES:
+            errors.append(where + f"unknown role '{role}' ({', '.join(ROLES)})")
+            continue
+        buses = None
+        if len(fields) == 4:
+            buses = tuple(fields[3][len(BUSES_TOKEN):].split(","))
+            if not fields[3].startswith(BUSES_TOKEN) or not all(buses):
+                errors.append(where + f"expected '{BUSES_TOKEN}<bus>[,<bus>...]' after the role, got '{fields[3][:64]}'")
+                continue
+            if role != "gateway":
+                errors.append(where + f"{BUSES_TOKEN} binds a key of role gateway to buses; '{name}' has role {role}")
+                continue
+        if key[:KEY_ID_BYTES] in key_lines:  # key ids are 8 bytes of the key
+            errors.append(where + f"key of '{name}' is already listed at line {key_lines[key[:KEY_ID_BYTES]]} "
+                                  f"(same key id {key[:KEY_ID_BYTES].hex()})")
+            continue
+        if name in name_lines:
+            errors.append(where + f"name '{name}' is already used at line {name_lines[name]}")
+            continue
+        key_lines[key[:KEY_ID_BYTES]] = number
+        name_lines[name] = number
+        out.append((key, name, role, buses))
+    if errors:
+        raise KeyFileError("\n".join(errors))
+    return out
+
+
+def load_gateway_keys(path: str) -> List[GatewayKey]:
+    """The keys of role `gateway` of an authorized_keys file (security.authorized_keys), with the
+    buses each may vouch for; what gateways sign their axis states with (Client.verify_states_with)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+    except OSError as e:
+        raise KeyFileError(f"cannot read authorized keys file {path}: {e.strerror}") from None
+    keys = [GatewayKey(key, name, buses) for key, name, role, buses in parse_authorized_keys(text, path)
+            if role == "gateway"]
+    if not keys:
+        raise KeyFileError(f"authorized keys file {path} has no key of role gateway")
+    return keys
+
+
+class MessageVerifier:
+    """Takes a signed_message_t of one channel when its signer is one of `signers`, its signature
+    verifies, it is fresh (utime within window_ms of now and not before the verifier was made) and
+    its counter is above the last one taken from that signer (for that bus), as the C++
+    security::MessageVerifier. `signers`: the coordinator's public key (bytes), or a list of keys
+    (bytes or GatewayKey) any of which may sign, e.g. load_gateway_keys(); `signers_are` names them
+    in a refusal. verify() returns (message bytes, "") or (None, why); verify_message() the decoded
+    message."""
+
+    def __init__(self, signers: Union[bytes, Sequence[Union[bytes, GatewayKey]]], prefix: str, channel: str,
+                 window_ms: int = 2000, not_before_us: Optional[int] = None, signers_are: Optional[str] = None):
         import time
-        self._key = _nacl_signing().VerifyKey(bytes(coordinator))
-        self.key_id = bytes(coordinator)[:KEY_ID_BYTES]
+        if isinstance(signers, (bytes, bytearray)):
+            signers = [bytes(signers)]
+            signers_are = signers_are or f"the coordinator's ({bytes(signers[0])[:KEY_ID_BYTES].hex()})"
+        self._signers = {}  # key id -> (VerifyKey, GatewayKey or None)
+        for s in signers:
+            public = s.public_key if isinstance(s, GatewayKey) else bytes(s)
+            self._signers[public[:KEY_ID_BYTES]] = (_nacl_signing().VerifyKey(public),
+                                                    s if isinstance(s, GatewayKey) else None)
+        self.signers_are = signers_are or "a key of the list"
         self.prefix = prefix
         self.channel = channel
         self.window_us = window_ms * 1000
         self.not_before_us = int(time.time() * 1e6) if not_before_us is None else not_before_us
-        self._last_counter = 0
+        self._last_counter: Dict[Tuple[bytes, str], int] = {}  # per (signer, bus)
 
-    def verify(self, env, now_us: int):
+    def _check(self, env, now_us: int):
+        """(key id, signer entry, "") when channel, signer, signature and freshness pass; else (None, None, why)."""
         what = f"signed {self.channel} refused: "
         if env.channel != self.channel:
-            return None, what + f"it was signed for channel '{env.channel[:64]}'"
-        if bytes(env.key_id) != self.key_id:
-            return None, what + f"key {bytes(env.key_id).hex()} is not the coordinator's ({self.key_id.hex()})"
+            return None, None, what + f"it was signed for channel '{env.channel[:64]}'"
+        key_id = bytes(env.key_id)
+        signer = self._signers.get(key_id)
+        if signer is None:
+            return None, None, what + f"key {key_id.hex()} is not {self.signers_are}"
         try:
-            self._key.verify(_message_bytes(self.prefix, self.channel, env), bytes(env.signature))
-        except Exception:  # nacl.exceptions.BadSignatureError
-            return None, what + "bad signature (forged or altered in transit)"
-        if env.utime < self.not_before_us or abs(now_us - env.utime) > self.window_us:
-            return None, what + "stale timestamp (outside the window, or signed before this client started)"
-        if env.counter <= self._last_counter:
-            return None, what + f"replayed counter {env.counter} (last accepted {self._last_counter})"
-        self._last_counter = env.counter
-        return bytes(env.message), ""
+            signer[0].verify(_message_bytes(self.prefix, self.channel, env), bytes(env.signature))
+        except Exception:  # nacl.exceptions.BadSignatureError, or a malformed signature
+            return None, None, what + "bad signature (forged or altered in transit)"
+        if env.utime < self.not_before_us:
+            return None, None, what + "stale timestamp: signed before this client started (a replay?)"
+        if abs(now_us - env.utime) > self.window_us:
+            return None, None, what + (f"stale timestamp: signed {abs(now_us - env.utime) // 1000} ms "
+                                       f"{'ago' if now_us >= env.utime else 'in the future'}, outside the window of "
+                                       f"{self.window_us // 1000} ms (clocks out of sync, or a replay)")
+        return key_id, signer, ""
+
+    def _take_counter(self, key_id: bytes, bus: str, counter: int) -> str:
+        last = self._last_counter.get((key_id, bus), 0)
+        if counter <= last:
+            return (f"signed {self.channel} refused: replayed counter {counter} (last accepted {last}"
+                    f"{' for ' + bus[:64] if bus else ''})")
+        self._last_counter[(key_id, bus)] = counter
+        return ""
+
+    def verify(self, env, now_us: int):
+        key_id, _signer, why = self._check(env, now_us)
+        if key_id is None:
+            return None, why
+        why = self._take_counter(key_id, "", env.counter)
+        return (None, why) if why else (bytes(env.message), "")
+
+    def verify_message(self, env, now_us: int, lcm_type, bus_of: Optional[Callable] = None):
+        """The message decoded as `lcm_type`, or (None, why). With `bus_of` (e.g. the axis_state_t's
+        bus) the counter is kept per signer and bus, and a GatewayKey bound to buses vouches only
+        for a message of one of them (checked before the counter, which a refused message leaves)."""
+        key_id, signer, why = self._check(env, now_us)
+        if key_id is None:
+            return None, why
+        try:
+            message = lcm_type.decode(bytes(env.message))
+        except Exception as e:  # wrong fingerprint or truncated
+            return None, f"signed {self.channel} refused: malformed message: {e}"
+        bus = bus_of(message) if bus_of else ""
+        gateway = signer[1]
+        if bus_of and gateway is not None and not gateway.vouches_for(bus):
+            return None, (f"signed {self.channel} refused: key {key_id.hex()} ('{gateway.name}') may vouch only for "
+                          f"bus {','.join(gateway.buses)}, not for bus {bus[:64]}")
+        why = self._take_counter(key_id, bus, env.counter)
+        return (None, why) if why else (message, "")
 
 
-__all__ = ["KeyFileError", "SigningKey", "RequestSigner", "MessageSigner", "MessageVerifier", "load_private_key",
-           "load_public_key", "key_path", "signed_bytes", "name_owns_client_id", "valid_name", "REQUEST_DOMAIN",
-           "MESSAGE_DOMAIN"]
+__all__ = ["KeyFileError", "SigningKey", "RequestSigner", "MessageSigner", "MessageVerifier", "GatewayKey",
+           "load_private_key", "load_public_key", "load_gateway_keys", "parse_authorized_keys", "key_path", "signed_bytes",
+           "name_owns_client_id", "valid_name", "REQUEST_DOMAIN", "MESSAGE_DOMAIN"]
