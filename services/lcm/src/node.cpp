@@ -61,8 +61,16 @@ Node::Node(EventLoop& loop, NodeOptions options)
   }
   const int fd = lcm_->getFileno();
   loop_.watch(fd, [this] {
-    // Non-blocking: the fd is readable, so one message is waiting.
-    if (lcm_->handleTimeout(0) < 0) spdlog::error("lcm: handle failed on {}", url_);
+    // Everything waiting, not only the one message that made the fd readable: after a stall (a
+    // loaded host) the backlog is handled before the loop's timers run, so no deadline is judged
+    // on old news while newer messages wait unread (a gateway's heartbeats queued behind one
+    // state, taken for a lost gateway). Bounded, so a flood cannot hold the timers off for long.
+    constexpr int kMostPerWake = 256;
+    for (int i = 0; i < kMostPerWake; ++i) {
+      const int handled = lcm_->handleTimeout(0);
+      if (handled < 0) spdlog::error("lcm: handle failed on {}", url_);
+      if (handled <= 0) break;
+    }
   });
 }
 

@@ -614,6 +614,12 @@ std::vector<Step> generate_steps(std::mt19937_64& rng, const LabSpec& lab, int c
       model.request(s.kind, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms, true);
     } else {
       model.request(s.stop_kind, s.axes, {}, 0, 0, 0, true);
+      // Where the stop caught the slow move, and where the second request left its axes, is not
+      // known here: the next moves' speeds must cover the whole travel (seed 9092: a move at 5 %
+      // speed from there would have taken 21.6 s, beyond its 20 s timeout).
+      for (const auto* names : {&s.axes, &s.second_axes}) {
+        for (const auto& name : *names) model.axis(name).at_target = false;
+      }
     }
     steps.push_back(std::move(s));
   }

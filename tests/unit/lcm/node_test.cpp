@@ -46,6 +46,29 @@ TEST(LcmNode, PublishSubscribeWithPrefix) {
   EXPECT_EQ(seen_channel, "T1_EVENT");
 }
 
+// A process that stalled (a loaded host) wakes with a backlog: every message waiting is handled
+// before the timers that fell due meanwhile run, so a deadline is not judged on old news (a
+// gateway's queued heartbeats behind one state were once taken for a lost gateway).
+TEST(LcmNode, ABacklogIsHandledWholeBeforeTheTimersDueMeanwhile) {
+  const std::string url = testing::unique_lcm_url(2);
+  EventLoop sender_loop;
+  EventLoop loop;
+  Node sender(sender_loop, {url, "T9_"});
+  Node node(loop, {url, "T9_"});
+  ASSERT_TRUE(sender.ok() && node.ok());
+  int received = 0;
+  node.subscribe<motionlcm::event_t>(channels::kEvent,
+                                     [&](const motionlcm::event_t&, const std::string&) { ++received; });
+  int seen_by_timer = -1;
+  loop.call_after(milliseconds(0), [&] { seen_by_timer = received; });
+  motionlcm::event_t e{};
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(sender.publish(channels::kEvent, e));
+  std::this_thread::sleep_for(milliseconds(200));  // "stalled": everything has arrived, nothing handled
+  loop.run_once(milliseconds(0));
+  EXPECT_EQ(seen_by_timer, 20);
+  EXPECT_EQ(received, 20);
+}
+
 TEST(LcmNode, MalformedMessageIsCountedAndNotDelivered) {
   EventLoop loop;
   Node node(loop, {testing::unique_lcm_url(2), "T2_"});
