@@ -65,6 +65,8 @@ class SimLab {
   }
 
   [[nodiscard]] const std::string& config_path() const { return config_path_; }
+  // Extra arguments of motion-sim (e.g. --simulate-uimessage), before start().
+  void add_sim_args(std::vector<std::string> args) { sim_args_.insert(sim_args_.end(), args.begin(), args.end()); }
   // The gateway of `bus` (also to restart one a test killed).
   pid_t start_gateway(const std::string& bus) {
     return group_.start({"gateway:" + bus, "motion-gateway", {"--config", config_path_, "--bus", bus}, {}});
@@ -73,7 +75,9 @@ class SimLab {
   // Starts every process and waits for their heartbeats (DEGRADED accepted: a family without a
   // driver yet) and for `axes` to be online.
   [[nodiscard]] ::testing::AssertionResult start(const std::vector<std::string>& axes) {
-    group_.start({"sim", "motion-sim", {"--config", config_path_}, {}});
+    std::vector<std::string> sim_args{"--config", config_path_};
+    sim_args.insert(sim_args.end(), sim_args_.begin(), sim_args_.end());
+    group_.start({"sim", "motion-sim", sim_args, {}});
     for (const auto& bus : config_.buses) start_gateway(bus.name);
     group_.start({"coordinator", "motion-coordinator", {"--config", config_path_}, {}});
     // The coordinator accepts requests for a bus once it has heard that bus's gateway.
@@ -201,6 +205,7 @@ class SimLab {
   }
 
   std::string config_path_;
+  std::vector<std::string> sim_args_;
   ProcessGroup group_;
   config::Config config_;
   client::Client client_;

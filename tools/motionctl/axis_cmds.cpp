@@ -125,6 +125,7 @@ std::string start_name(std::int8_t kind) {
     case M::START_CANOPEN_SYNC: return "SYNC";
     case M::START_ADAM_BROADCAST: return "broadcast";
     case M::START_UIM242_GLOBAL: return "global";
+    case M::START_UIM242_CRAWL: return "crawl (before its start)";
     default: return "kind " + std::to_string(kind);
   }
 }

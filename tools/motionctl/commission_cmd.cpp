@@ -8,7 +8,8 @@
 // range out and back (toward the side with more room, never beyond a limit), and the counts its
 // drive reports must change by what the configuration implies (steps_per_unit, invert) and come
 // back: exit 1 otherwise. Requests go through the coordinator (PARAM_READ, MOVE_ABSOLUTE), so the
-// gateway of the bus and the coordinator must run.
+// gateway of the bus and the coordinator must run. On a uimessage: bus it first prints the CRC
+// coverage the gateway uses and how it knows (configured, or detected from the gateway's frames).
 #include "motionctl.hpp"
 
 #include "motion/lcm/channels.hpp"
@@ -20,11 +21,13 @@
 #include <cmath>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <sstream>
 
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
+#include <motionlcm/health_t.hpp>
 #include <motionlcm/param_t.hpp>
 #include <motionlcm/reply_t.hpp>
 
@@ -237,6 +240,27 @@ MoveStart move_start_of(const config::Drive& d, const std::vector<motionlcm::eve
       {{"probed", nullptr}}};
 }
 
+// A uimessage: bus's CRC coverage (docs/protocols.md, UIMessage row 1) as its gateway uses it:
+// from the bus statistics of the gateway's heartbeat ("uimessage:DEV (CRC ID..d8 (12 bytes),
+// detected from the gateway's frames)"). Empty when no heartbeat said it within `wait`.
+std::string uimessage_crc_of(app::Service& service, const std::string& bus, std::chrono::milliseconds wait) {
+  // Shared: the subscription outlives this call (a node cannot unsubscribe).
+  auto found = std::make_shared<std::string>();
+  service.node().subscribe<motionlcm::health_t>(
+      lcm::channels::kHealth, [found, bus](const motionlcm::health_t& h, const std::string&) {
+        for (const auto& b : h.buses) {
+          const auto at = b.transport.find(" (CRC ");
+          if (b.name != bus || at == std::string::npos || b.transport.back() != ')') continue;
+          *found = b.transport.substr(at + 6, b.transport.size() - at - 7);  // without the parentheses
+        }
+      });
+  const auto deadline = service.loop().now() + wait;
+  while (found->empty() && service.loop().now() < deadline) {
+    service.loop().run_once(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - service.loop().now()));
+  }
+  return *found;
+}
+
 }  // namespace
 
 void add_commission_command(CLI::App& cli, Context& ctx) {
@@ -289,6 +313,13 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
       });
       int result = app::kExitOk;
       nlohmann::json out = nlohmann::json::array();
+      // A UIROBOT serial gateway: which bytes its CRC covers, as the gateway process found it.
+      std::string crc;
+      if (cfg.find_bus(*bus)->kind == config::TransportKind::kUiMessage) {
+        crc = uimessage_crc_of(service, *bus, std::chrono::seconds(3));
+        if (crc.empty()) crc = "unknown (no heartbeat from gateway:" + *bus + " said it)";
+        if (!ctx.json) std::cout << "bus " << *bus << ": UIMessage CRC " << crc << "\n";
+      }
       for (const auto& d : cfg.drives) {
         if (d.bus != *bus) continue;
         const config::Axis* axis = nullptr;
@@ -296,6 +327,7 @@ void add_commission_command(CLI::App& cli, Context& ctx) {
           if (a.drive == d.name) axis = &a;
         }
         nlohmann::json jd{{"drive", d.name}, {"family", config::to_string(d.family)}, {"node_id", d.node_id}};
+        if (!crc.empty()) jd["uimessage_crc"] = crc;
         if (!ctx.json) std::cout << d.name << " (" << config::to_string(d.family) << ", node " << d.node_id << ")\n";
         if (axis == nullptr) {
           if (!ctx.json) std::cout << "  no axis uses it: not checked\n";

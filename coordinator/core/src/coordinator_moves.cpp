@@ -90,8 +90,9 @@ void Coordinator::start_move(Request& r) {
       std::vector<std::string> names;
       for (const auto& c : group) names.push_back(c.axis);
       const double wire_us = start_frame_wire_us(group, kinds[g]);
+      const double lead_in_us = start_lead_in_us(group);
       const std::int64_t id = send_command(r, bus, gateway_command_t::ARM_MOVE, std::move(group));
-      r.start_frames.push_back({bus, id, wire_us});
+      r.start_frames.push_back({bus, id, wire_us, lead_in_us});
       for (const auto& n : names) r.axis_command[n] = id;
       ++r.move_commands;
     }
@@ -127,6 +128,19 @@ double Coordinator::start_frame_wire_us(const std::vector<motionlcm::axis_comman
     if (w) wire = std::max(wire, *w);
   }
   return wire;
+}
+
+// UIM242 axes that crawl into their moves (drive model START_UIM242_CRAWL, docs/protocols.md
+// UIM242 #3): their crawl instructions go out one axis after the other before the start frame,
+// and each axis starts moving with its own.
+double Coordinator::start_lead_in_us(const std::vector<motionlcm::axis_command_t>& group) const {
+  double lead_in = 0;
+  for (const auto& c : group) {
+    const auto& model = axes_.at(c.axis).model;
+    if (!model) continue;
+    lead_in += start_wire_us(*model, motionlcm::drive_model_t::START_UIM242_CRAWL).value_or(0.0);
+  }
+  return lead_in;
 }
 
 std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(

@@ -9,23 +9,30 @@ StartSchedule schedule_starts(std::vector<StartFrame> frames) {
   std::map<std::string, std::vector<StartFrame>> by_bus;
   for (auto& f : frames) {
     f.wire_us = std::max(0.0, f.wire_us);
+    f.lead_in_us = std::max(0.0, f.lead_in_us);
     by_bus[f.bus].push_back(std::move(f));
   }
   StartSchedule out;
   for (auto& [bus, list] : by_bus) {
     // Longest first; equal frames in command order (deterministic).
-    std::sort(list.begin(), list.end(), [](const StartFrame& a, const StartFrame& b) {
-      return a.wire_us != b.wire_us ? a.wire_us > b.wire_us : a.command_id < b.command_id;
+    const auto line_us = [](const StartFrame& f) { return f.lead_in_us + f.wire_us; };
+    std::sort(list.begin(), list.end(), [&](const StartFrame& a, const StartFrame& b) {
+      return line_us(a) != line_us(b) ? line_us(a) > line_us(b) : a.command_id < b.command_id;
     });
     BusStart s;
     s.bus = bus;
-    double rest = 0;
+    // Act instants from the first hand-over: frame i ends at `end`, its drives act over its
+    // lead-in up to there.
+    double end = 0;
+    double first_act = 0;
     for (std::size_t i = 0; i < list.size(); ++i) {
       s.command_ids.push_back(list[i].command_id);
-      if (i > 0) rest += list[i].wire_us;
+      end += line_us(list[i]);
+      const double act = end - list[i].lead_in_us;
+      first_act = i == 0 ? act : std::min(first_act, act);
     }
-    s.span_us = rest;
-    s.lead_us = list.front().wire_us + rest / 2.0;
+    s.span_us = end - first_act;
+    s.lead_us = first_act + s.span_us / 2.0;
     out.max_lead_us = std::max(out.max_lead_us, s.lead_us);
     out.predicted_spread_us = std::max(out.predicted_spread_us, s.span_us);
     out.buses.push_back(std::move(s));

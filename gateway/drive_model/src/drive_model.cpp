@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <vector>
 
 #include "motion/adam/rtu.hpp"
 #include "motion/adam/table.hpp"
@@ -15,6 +16,7 @@
 #include "motion/cia402/uc57_od.hpp"
 #include "motion/cia402/uc57_units.hpp"
 #include "motion/gateway/serial_line.hpp"
+#include "motion/uim242/feedback.hpp"
 #include "motion/uim242/instruction.hpp"
 #include "motion/uim342/instructions.hpp"
 #include "motion/uim342/parameters.hpp"
@@ -180,7 +182,29 @@ std::optional<std::string> adam_arming(motionlcm::arm_timing_t& t, const config:
   return std::nullopt;
 }
 
-std::optional<std::string> uim242(Model& m, const config::Bus& bus) {
+// The line time of a UIM242 crawl as Uim242Stack::start_move sends it: `ADR η;` (the axis is
+// another controller than the last one addressed), `SPD -1;` and `STP n;` at the longest n, each
+// with its answer (the request channel sends the next instruction after the answer).
+std::optional<double> uim242_crawl_us(const config::Drive& drive, const serial::SerialSettings& line) {
+  const std::int64_t node = drive.node_id;
+  const std::vector<uim242::Instruction> crawl{
+      {uim242::Mnemonic::kADR, false, node, false},
+      {uim242::Mnemonic::kSPD, false, -1, false},
+      {uim242::Mnemonic::kSTP, false, uim242::spec(uim242::Mnemonic::kSTP).min, false}};
+  double us = 0;
+  for (const auto& in : crawl) {
+    const auto bytes = uim242::encode(in);
+    if (!bytes.ok()) return std::nullopt;
+    const auto form = uim242::reply_form(in);
+    // header, id, [message id], data, terminator (EN/CN §12.2)
+    const std::size_t reply = 3 + (form.message_id ? 1 : 0) + uim242::data_length(form.layout);
+    us += micros(line.wire_time(bytes->size())) + micros(line.wire_time(reply));
+  }
+  return us;
+}
+
+std::optional<std::string> uim242(Model& m, const config::Drive& drive, const config::Bus& bus,
+                                  const gateway::DriveFacts& facts) {
   const auto& speed = uim242::spec(uim242::Mnemonic::kSPD);
   const auto& acceleration = uim242::spec(uim242::Mnemonic::kMAC);
   const auto& deceleration = uim242::spec(uim242::Mnemonic::kMDE);
@@ -195,6 +219,11 @@ std::optional<std::string> uim242(Model& m, const config::Bus& bus) {
   const auto line = gateway::serial_line_settings(bus);
   add_start(m, Model::START_UIM242_GLOBAL, 0, micros(line.wire_time(global->size())));
   add_start(m, Model::START_SINGLE, 0, micros(line.wire_time(single->size())));
+  if (facts.crawl_start) {
+    const auto crawl = uim242_crawl_us(drive, line);
+    if (!crawl) return std::string("no UIM242 crawl instructions");
+    add_start(m, Model::START_UIM242_CRAWL, drive.node_id, *crawl);
+  }
   return std::nullopt;
 }
 
@@ -246,7 +275,7 @@ ModelOrError build(const config::Config& config, const config::Axis& axis, const
     case config::Family::kUim342: why = uim342(m, *drive, *bus); break;
     case config::Family::kUc57: why = uc57(m, *drive, *bus, facts); break;
     case config::Family::kAdamModbus: why = adam(m, *drive, *bus); break;
-    case config::Family::kUim242: why = uim242(m, *bus); break;
+    case config::Family::kUim242: why = uim242(m, *drive, *bus, facts); break;
   }
   if (why) return "axis " + axis.name + ": " + *why;
   if (m.grid.empty()) return "drive " + drive->name + ": unknown drive family";

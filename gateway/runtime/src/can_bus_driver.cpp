@@ -6,6 +6,8 @@
 
 #include <motionlcm/event_t.hpp>
 
+#include "motion/uimessage/uimessage_transport.hpp"
+
 namespace motion::gateway {
 
 namespace {
@@ -54,6 +56,23 @@ CanBusDriver::CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can
     ev.severity = off ? motionlcm::event_t::ERROR : motionlcm::event_t::INFO;
     ev.code = static_cast<std::int32_t>(e.error_class);
     ev.text = "bus " + bus_ + " " + can::to_string(e.state) + (e.text.empty() ? "" : ": " + e.text);
+    out_.axis_event("", ev);
+  });
+  watch_uimessage_crc();
+}
+
+// A UIROBOT serial gateway's CRC coverage (docs/protocols.md, UIMessage row 1): what detection
+// found is a fact about the hardware the configuration did not state, said like the other
+// detected variants (INFO CONFIG_MISMATCH, bus-level).
+void CanBusDriver::watch_uimessage_crc() {
+  auto* ui = dynamic_cast<uimessage::UiMessageTransport*>(transport_.get());
+  if (ui == nullptr) return;
+  ui->on_crc_detected([this](const std::string& text) {
+    spdlog::info("bus {}: {}", bus_, text);
+    DriveEvent ev;
+    ev.kind = motionlcm::event_t::CONFIG_MISMATCH;
+    ev.severity = motionlcm::event_t::INFO;
+    ev.text = "bus " + bus_ + " (uimessage_crc: detect): " + text;
     out_.axis_event("", ev);
   });
 }
@@ -287,6 +306,8 @@ std::vector<motionlcm::bus_stats_t> CanBusDriver::statistics() const {
   const auto t = transport_->statistics();
   s.name = bus_;
   s.transport = transport_->name();
+  if (const auto* ui = dynamic_cast<const uimessage::UiMessageTransport*>(transport_.get()))
+    s.transport += " (CRC " + ui->crc_status() + ")";
   s.state = can::to_string(transport_->state());
   s.tx_frames = static_cast<std::int64_t>(t.tx_frames);
   s.rx_frames = static_cast<std::int64_t>(t.rx_frames);

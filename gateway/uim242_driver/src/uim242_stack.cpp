@@ -266,6 +266,7 @@ void Uim242Stack::identify(Drive& d, TimePoint /*now*/) {
             fmt::format("{} (node {}): 'MDL {};' reports a model other than UIM242 (18 02)", d.name, d.node, d.node));
     }
     d.status.online = true;
+    report_facts(d);  // before the first online status (DriveFacts)
     event(d, event_t::ONLINE, event_t::INFO, 0,
           fmt::format("{} (node {}): UIM242, firmware {}", d.name, d.node, fields ? (*fields)[4] : 0));
     set_up(d);

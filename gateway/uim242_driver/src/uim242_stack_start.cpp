@@ -17,6 +17,14 @@ std::string Uim242Stack::spd0_position_move(std::string_view drive) const {
   return {};
 }
 
+void Uim242Stack::report_facts(const Drive& d) {
+  if (context_.out == nullptr || d.axis_name.empty()) return;
+  gateway::DriveFacts facts;
+  // Not known yet: modelled as holding (the default); the probe reports again at the first move.
+  facts.crawl_start = d.spd0 == Drive::Spd0::kRunsAtLastSpeed || d.spd0 == Drive::Spd0::kRefused;
+  context_.out->drive_facts(d.axis_name, facts);
+}
+
 std::vector<Instruction> Uim242Stack::position_run(const Drive& d, std::int64_t displacement,
                                                    std::int64_t speed) const {
   std::vector<Instruction> steps;
@@ -34,6 +42,7 @@ void Uim242Stack::probe_spd0(Drive& d, std::int64_t group, std::function<void(Ti
   const std::int64_t before = d.status.position_counts;
   const auto found = [this, &d](Drive::Spd0 answer, const std::string& how) {
     d.spd0 = answer;
+    report_facts(d);
     event(d, event_t::CONFIG_MISMATCH, event_t::INFO, 0,
           fmt::format("{} (node {}): a displacement loaded at speed 0 {} (spd0_position_move {}); {}", d.name, d.node,
                       how, spd0_position_move(d.name),

@@ -68,6 +68,7 @@ UiMessageOptions options_from(const config::Bus& bus) {
   UiMessageOptions options;
   options.crc = bus.uimessage_crc == config::UiMessageCrc::kIdToAux ? uim342::CrcCoverage::kIdToAux
                                                                     : uim342::CrcCoverage::kStartToAux;
+  options.detect_crc = bus.uimessage_crc == config::UiMessageCrc::kDetect;
   if (bus.uimessage_crc_strict) {
     options.accept = options.crc == uim342::CrcCoverage::kIdToAux ? uim342::CrcAcceptance::kIdToAux
                                                                   : uim342::CrcAcceptance::kStartToAux;
@@ -77,7 +78,11 @@ UiMessageOptions options_from(const config::Bus& bus) {
 
 UiMessageTransport::UiMessageTransport(std::string device, const serial::SerialSettings& settings,
                                        UiMessageOptions options)
-    : device_(std::move(device)), settings_(settings), options_(options), stream_(options.accept) {}
+    : device_(std::move(device)),
+      settings_(settings),
+      options_(options),
+      stream_(options.accept),
+      crc_(options.crc, options.detect_crc) {}
 
 std::unique_ptr<UiMessageTransport> UiMessageTransport::open(std::string device, const serial::SerialSettings& settings,
                                                              UiMessageOptions options, std::error_code& error) {
@@ -151,7 +156,7 @@ std::error_code UiMessageTransport::send(const can::Frame& frame) {
   const auto ui = to_ui(frame, options_.host_id);
   if (!ui) return refuse(ui.error());
   if (!port_ && !try_reopen()) return refuse(make_error_code(UiMessageErrc::kDisconnected));
-  const auto bytes = uim342::encode_ui_message(*ui, options_.crc);  // DL <= 8: decode_can checked it
+  const auto bytes = uim342::encode_ui_message(*ui, crc_.next_send());  // DL <= 8: decode_can checked it
   if (!bytes) return refuse(bytes.error());
   if (const auto error = port_->write(*bytes)) {
     // EAGAIN: the tty buffer is full (a partial frame is resynchronized over by the gateway);
@@ -189,10 +194,11 @@ std::optional<can::Frame> UiMessageTransport::next_echo() {
 std::optional<can::Frame> UiMessageTransport::to_frame(const uim342::DecodedUiMessage& decoded) {
   if (!decoded.crc) {
     ++counters_.without_crc;
-  } else if (*decoded.crc == uim342::CrcCoverage::kStartToAux) {
-    ++counters_.crc_start_to_aux;
   } else {
-    ++counters_.crc_id_to_aux;
+    ++(*decoded.crc == uim342::CrcCoverage::kStartToAux ? counters_.crc_start_to_aux : counters_.crc_id_to_aux);
+    if (crc_.on_received(*decoded.crc) && crc_handler_) {
+      crc_handler_(name() + ": the gateway's CRC covers " + to_string(*decoded.crc) + "; sending the same from now on");
+    }
   }
   auto frame = uim342::encode_can(uim342::drive_message_from_ui(decoded.message, options_.host_id));
   if (!frame) {
@@ -255,6 +261,7 @@ can::Statistics UiMessageTransport::statistics() const {
 UiMessageCounters UiMessageTransport::counters() const {
   UiMessageCounters out = counters_;
   out.stream = stream_.counters();
+  out.crc_blind_switches = crc_.blind_switches();
   return out;
 }
 

@@ -125,17 +125,19 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
                   "drive '" + a.drive + "' already drives axis '" + it->second + "'");
   }
   if (c.buses.empty()) r.error(root, "buses", "at least one bus is required");
-  // Simulated variants name a drive of the configuration and a key of its family.
-  for (const auto& [drive, keys] : c.simulation.variants) {
-    const YAML::Node node = root["simulation"]["variants"][drive];
-    const Drive* d = c.find_drive(drive);
-    if (!d) {
-      r.error(node, "simulation.variants." + drive, "names no drive of the configuration");
+  // Simulated variants name a drive of the configuration and a key of its family, or a bus and
+  // a key of its transport (a uimessage: bus's serial gateway).
+  for (const auto& [name, keys] : c.simulation.variants) {
+    const YAML::Node node = root["simulation"]["variants"][name];
+    const Drive* d = c.find_drive(name);
+    const Bus* b = d ? nullptr : c.find_bus(name);
+    if (!d && !b) {
+      r.error(node, "simulation.variants." + name, "names no drive (or bus) of the configuration");
       continue;
     }
     for (const auto& [key, value] : keys) {
-      if (auto why = sim_variant_error(d->family, key, value); !why.empty())
-        r.error(node[key], "simulation.variants." + drive + "." + key, why);
+      const auto why = d ? sim_variant_error(d->family, key, value) : sim_bus_variant_error(b->kind, key, value);
+      if (!why.empty()) r.error(node[key], "simulation.variants." + name + "." + key, why);
     }
   }
 }

@@ -28,20 +28,26 @@ void read_uimessage_keys(Reader& r, const YAML::Node& node, const std::string& p
     }
   };
   if (auto v = r.get<std::string>(node, path, "uimessage_crc", false)) {
-    if (*v == "start_to_aux")
+    if (*v == "detect")
+      bus.uimessage_crc = UiMessageCrc::kDetect;
+    else if (*v == "start_to_aux" || *v == "13")
       bus.uimessage_crc = UiMessageCrc::kStartToAux;
-    else if (*v == "id_to_aux")
+    else if (*v == "id_to_aux" || *v == "12")
       bus.uimessage_crc = UiMessageCrc::kIdToAux;
     else
       r.error(node["uimessage_crc"], path + ".uimessage_crc",
-              "expected start_to_aux (CRC over SM..d8, the manual) or id_to_aux (over ID..d8, UIROBOT's gateway "
-              "software), got '" +
+              "expected detect (follow the gateway's replies), start_to_aux or 13 (CRC over the 13 bytes SM..d8, "
+              "the manual) or id_to_aux or 12 (over the 12 bytes ID..d8, UIROBOT's gateway software), got '" +
                   *v + "'");
     only_here("uimessage_crc");
   }
   if (auto v = r.get<bool>(node, path, "uimessage_crc_strict", false)) {
     bus.uimessage_crc_strict = *v;
     only_here("uimessage_crc_strict");
+    if (*v && bus.uimessage_crc == UiMessageCrc::kDetect) {
+      r.error(node["uimessage_crc_strict"], path + ".uimessage_crc_strict",
+              "needs a configured uimessage_crc (start_to_aux/13 or id_to_aux/12): detection takes either coverage");
+    }
   }
 }
 

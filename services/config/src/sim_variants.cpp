@@ -107,17 +107,13 @@ std::string quoted(std::string_view text) {
 }
 }  // namespace
 
-std::string sim_variant_error(Family family, std::string_view key, std::string_view value) {
-  const auto* k = find_sim_variant(family, key);
-  if (!k) {
+namespace {
+
+// Why `value` is not a value of `k` (empty when it is).
+std::string value_error(const SimVariantKey& k, std::string_view value) {
+  if (!k.choices.empty()) {
     std::string list;
-    for (const auto& s : sim_variant_schema(family)) list += (list.empty() ? "" : ", ") + std::string(s.key);
-    return quoted(key) + " is not a simulated variant of family " + std::string(to_string(family)) + " (" +
-           (list.empty() ? std::string("none") : list) + ")";
-  }
-  if (!k->choices.empty()) {
-    std::string list;
-    for (const auto c : k->choices) {
+    for (const auto c : k.choices) {
       if (c == value) return {};
       list += (list.empty() ? "" : ", ") + std::string(c);
     }
@@ -125,10 +121,68 @@ std::string sim_variant_error(Family family, std::string_view key, std::string_v
   }
   long long number = 0;
   const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), number);
-  if (ec != std::errc{} || end != value.data() + value.size() || number < k->min || number > k->max) {
-    return quoted(value) + " is not an integer in " + std::to_string(k->min) + ".." + std::to_string(k->max);
+  if (ec != std::errc{} || end != value.data() + value.size() || number < k.min || number > k.max) {
+    return quoted(value) + " is not an integer in " + std::to_string(k.min) + ".." + std::to_string(k.max);
   }
   return {};
+}
+
+std::string key_list(std::span<const SimVariantKey> schema) {
+  std::string list;
+  for (const auto& s : schema) list += (list.empty() ? "" : ", ") + std::string(s.key);
+  return list.empty() ? std::string("none") : list;
+}
+
+const SimVariantKey* find_in(std::span<const SimVariantKey> schema, std::string_view key) {
+  for (const auto& k : schema) {
+    if (k.key == key) return &k;
+  }
+  return nullptr;
+}
+
+// UIM342 manual §2.6 / Appendix-1: the CRC of a UIMessage covers "0xAA ID CW ... d8, qty = 13";
+// UIROBOT's own gateway software computes it over the 12 bytes ID..d8. The simulated UIM2513
+// computes and checks it over `crc_bytes` and drops a frame whose CRC is wrong.
+const std::vector<SimVariantKey> kUiMessageBus = {
+    {"crc_bytes",
+     {"13", "12"},
+     0,
+     0,
+     "13",
+     "the bytes the serial gateway's UIMessage CRC covers: 13 (SM..d8, the manual's text) or 12 (ID..d8)"},
+};
+
+}  // namespace
+
+std::string sim_variant_error(Family family, std::string_view key, std::string_view value) {
+  const auto* k = find_sim_variant(family, key);
+  if (!k) {
+    return quoted(key) + " is not a simulated variant of family " + std::string(to_string(family)) + " (" +
+           key_list(sim_variant_schema(family)) + ")";
+  }
+  return value_error(*k, value);
+}
+
+std::span<const SimVariantKey> sim_bus_variant_schema(TransportKind kind) {
+  if (kind == TransportKind::kUiMessage) return kUiMessageBus;
+  return {};
+}
+
+std::string sim_bus_variant(const Config& config, const Bus& bus, std::string_view key) {
+  if (const auto b = config.simulation.variants.find(bus.name); b != config.simulation.variants.end()) {
+    if (const auto v = b->second.find(key); v != b->second.end()) return v->second;
+  }
+  const auto* k = find_in(sim_bus_variant_schema(bus.kind), key);
+  return k ? std::string(k->default_value) : std::string{};
+}
+
+std::string sim_bus_variant_error(TransportKind kind, std::string_view key, std::string_view value) {
+  const auto* k = find_in(sim_bus_variant_schema(kind), key);
+  if (!k) {
+    return quoted(key) + " is not a simulated variant of this bus (" + key_list(sim_bus_variant_schema(kind)) +
+           "; only uimessage: buses have bus variants)";
+  }
+  return value_error(*k, value);
 }
 
 }  // namespace motion::config

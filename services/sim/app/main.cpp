@@ -2,11 +2,14 @@
 // bit-timed hub that gateways attach to by name; every simulated serial line a pty with the
 // device of its drives' family (ADAM RS485 slaves, a UIM2501 with UIM242s); every drive gets the
 // simulator of its family.
+// With --simulate-uimessage the UIROBOT serial gateway of each uimessage: bus is simulated too
+// (a pty linked at the bus's device path, a UIM2513 with the bus's UIM342s behind it).
 // With --simulate-socketcan the drives of socketcan: buses are simulated on their interface too
 // (a vcan in tests: the gateway then talks real SocketCAN to them).
 #include <spdlog/spdlog.h>
 
 #include "motion/app/service.hpp"
+#include "motion/config/sim_variants.hpp"
 #include "motion/core/log.hpp"
 #include "motion/core/precise_timer.hpp"
 #include "motion/lcm/channels.hpp"
@@ -16,6 +19,7 @@
 #include "motion/sim/uc57_drive.hpp"
 #include "motion/sim/uim242_gateway_sim.hpp"
 #include "motion/sim/uim342_drive.hpp"
+#include "motion/sim/uimessage_gateway_sim.hpp"
 
 int main(int argc, char** argv) {
   using namespace motion;
@@ -25,6 +29,10 @@ int main(int argc, char** argv) {
   bool simulate_socketcan = false;
   cli.add_flag("--simulate-socketcan", simulate_socketcan,
                "also simulate the drives of socketcan: buses, on their interface (e.g. a vcan; one socket per drive)");
+  bool simulate_uimessage = false;
+  cli.add_flag("--simulate-uimessage", simulate_uimessage,
+               "also simulate the UIROBOT serial gateways of uimessage: buses with their UIM342 drives: a pty linked "
+               "at the bus's device path (which must not be a real port)");
   return app::run(cli, argc, argv, [&]() -> int {
     if (!log::init("sim", options.log_level)) return app::kExitUsage;
     auto config = app::load_config(options);
@@ -43,6 +51,10 @@ int main(int argc, char** argv) {
     const sim::SerialLineHost::Factories serial_factories{
         {config::Family::kAdamModbus, sim::adam_line_factory()},
         {config::Family::kUim242, sim::uim242_line_factory()},
+    };
+    // A uimessage: bus is a serial line to a UIM2513/UIM2533 with UIM342s on its CAN side.
+    const sim::SerialLineHost::Factories uimessage_factories{
+        {config::Family::kUim342, sim::uimessage_gateway_factory(*config)},
     };
 
     auto report = [&service](motionlcm::sim_report_t r) {
@@ -75,6 +87,20 @@ int main(int argc, char** argv) {
         spdlog::info("simulated drives of CAN bus {} on SocketCAN {} ({} drives)", bus.name, bus.target,
                      host->drive_count());
         can_buses.push_back(std::move(host));
+      } else if (bus.kind == config::TransportKind::kUiMessage && simulate_uimessage) {
+        std::error_code error;
+        auto host =
+            sim::SerialLineHost::open(service.loop(), *config, bus, uimessage_factories, report, error, bus.target);
+        if (!host) {
+          spdlog::error("cannot simulate the serial gateway of bus {} at {}: {}", bus.name, bus.target,
+                        error.message());
+          return app::kExitUnavailable;
+        }
+        missing.insert(missing.end(), host->missing().begin(), host->missing().end());
+        spdlog::info("simulated UIMessage gateway {} ({} UIM342 drives, {} baud, CRC over {} bytes) at {}", bus.name,
+                     host->drive_count(), bus.baud, config::sim_bus_variant(*config, bus, "crc_bytes"),
+                     host->link_path());
+        serial_lines.push_back(std::move(host));
       } else if (bus.kind == config::TransportKind::kSimSerial &&
                  sim::SerialLineHost::family_for(*config, bus, serial_factories)) {
         std::error_code error;

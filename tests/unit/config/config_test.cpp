@@ -244,8 +244,31 @@ TEST(Config, UiMessageGatewayBus) {
   EXPECT_TRUE(is_can(bus.kind));
   EXPECT_EQ(bus.target, "/dev/ttyUSB0");
   EXPECT_EQ(bus.baud, 115200);
-  EXPECT_EQ(bus.uimessage_crc, UiMessageCrc::kStartToAux);  // the manual's reading
+  EXPECT_EQ(bus.uimessage_crc, UiMessageCrc::kDetect);  // follow the gateway's replies
   EXPECT_FALSE(bus.uimessage_crc_strict);
+  // The coverage in bytes, as the manual counts it.
+  for (const auto& [value, crc] : std::vector<std::pair<std::string, UiMessageCrc>>{
+           {"13", UiMessageCrc::kStartToAux}, {"12", UiMessageCrc::kIdToAux}, {"detect", UiMessageCrc::kDetect}}) {
+    const auto counted = load_string(replace(uim342_only, "bitrate: 500000", "uimessage_crc: " + value));
+    ASSERT_TRUE(counted.ok()) << counted.error_text();
+    EXPECT_EQ(counted.config->buses[0].uimessage_crc, crc) << value;
+  }
+  expect_single_error(replace(uim342_only, "bitrate: 500000", "uimessage_crc_strict: true"), 6,
+                      "buses[0].uimessage_crc_strict", "needs a configured uimessage_crc");
+  // The simulated gateway's CRC coverage is a variant of the bus.
+  const auto variant = load_string(uim342_only + "simulation: {variants: {can0: {crc_bytes: 12}}}\n");
+  ASSERT_TRUE(variant.ok()) << variant.error_text();
+  EXPECT_EQ(sim_bus_variant(*variant.config, variant.config->buses[0], "crc_bytes"), "12");
+  EXPECT_EQ(sim_bus_variant(*defaults.config, defaults.config->buses[0], "crc_bytes"), "13");  // the manual's text
+  const auto eleven = load_string(uim342_only + "simulation: {variants: {can0: {crc_bytes: 11}}}\n");
+  ASSERT_FALSE(eleven.ok());
+  EXPECT_NE(eleven.error_text().find("simulation.variants.can0.crc_bytes: '11' is not one of 13, 12"),
+            std::string::npos)
+      << eleven.error_text();
+  const auto not_uimessage = load_string(std::string(kValid) + "simulation: {variants: {can0: {crc_bytes: 12}}}\n");
+  ASSERT_FALSE(not_uimessage.ok());
+  EXPECT_NE(not_uimessage.error_text().find("only uimessage: buses have bus variants"), std::string::npos)
+      << not_uimessage.error_text();
 
   const auto keyed =
       load_string(replace(uim342_only, "    bitrate: 500000\n",
@@ -256,7 +279,7 @@ TEST(Config, UiMessageGatewayBus) {
   EXPECT_TRUE(keyed.config->buses[0].uimessage_crc_strict);
 
   expect_single_error(replace(uim342_only, "bitrate: 500000", "uimessage_crc: sm_to_d8"), 6, "buses[0].uimessage_crc",
-                      "expected start_to_aux (CRC over SM..d8, the manual) or id_to_aux");
+                      "expected detect (follow the gateway's replies), start_to_aux or 13");
   expect_single_error(replace(uim342_only, "bitrate: 500000", "baud: 12345"), 6, "buses[0].baud",
                       "unsupported baud rate");
   expect_single_error(replace(kValid, "bitrate: 500000", "uimessage_crc: id_to_aux"), 6, "buses[0].uimessage_crc",
@@ -360,7 +383,7 @@ TEST(Config, SimulatedVariantsAreCheckedAgainstTheDrivesFamily) {
             "after_restart");  // the default
   for (const auto& [extra, reason] : std::vector<std::pair<std::string, std::string>>{
            {"simulation: {variants: {nobody: {micro_steps_apply: immediately}}}\n",
-            "simulation.variants.nobody: names no drive"},
+            "simulation.variants.nobody: names no drive (or bus)"},
            {"simulation: {variants: {xd: {reboot_ms: 5}}}\n",
             "'reboot_ms' is not a simulated variant of family uim342"},
            {"simulation: {variants: {xd: {micro_steps_apply: sometimes}}}\n",

@@ -295,6 +295,17 @@ TEST(DriveModel, StartMechanismsAndTheirWireTimes) {
   EXPECT_EQ(u.start_kinds[0], std::int8_t{motionlcm::drive_model_t::START_UIM242_GLOBAL});
   EXPECT_EQ(u.start_kinds[1], std::int8_t{motionlcm::drive_model_t::START_SINGLE});
   EXPECT_GT(u.start_wire_us[0], u.start_wire_us[1]);
+  // A UIM242 that does not hold a move loaded at speed 0 crawls into it first (docs/protocols.md
+  // UIM242 #3): `ADR 5;`, `SPD -1;`, `STP -2147483647;` and their answers on the line.
+  gateway::DriveFacts crawling;
+  crawling.crawl_start = true;
+  const auto uc = model_of("u", crawling);
+  ASSERT_EQ(uc.num_starts, 3);
+  EXPECT_EQ(uc.start_kinds[2], std::int8_t{motionlcm::drive_model_t::START_UIM242_CRAWL});
+  EXPECT_EQ(uc.start_addresses[2], uc.node_id);
+  EXPECT_GT(uc.start_wire_us[2], 2 * uc.start_wire_us[0]) << "three instructions and three answers";
+  EXPECT_LT(uc.start_wire_us[2], 10000.0);
+  EXPECT_EQ(uc.start_wire_us[0], u.start_wire_us[0]) << "the start it joins is the same gSPD";
   // UIM342 without a group: BG to its node; an extended frame without data (67 bits and stuff
   // bits) at 500 kbit/s.
   const auto x = model_of("x");

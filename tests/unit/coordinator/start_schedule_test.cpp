@@ -53,6 +53,20 @@ TEST(StartSchedule, ASerialBusActsInTheMiddleOfTheCanBusSpan) {
   EXPECT_DOUBLE_EQ(s.predicted_spread_us, 50.0);
 }
 
+// A UIM242 command whose axes crawl into their moves (docs/protocols.md UIM242 #3): the crawl
+// instructions go out before its gSPD and each crawling axis starts with its own, so its drives act
+// over the lead-in up to the frame's end.
+TEST(StartSchedule, ALeadInIsOnTheLineBeforeTheFrameAndSpreadsItsActs) {
+  const auto s = schedule_starts({{"rs232", 1, 2083.0, 3000.0}});
+  const auto& r = bus(s, "rs232");
+  EXPECT_DOUBLE_EQ(r.span_us, 3000.0);
+  // Acts from 2083 to 5083 after the hand-over, centred: lead 3583.
+  EXPECT_DOUBLE_EQ(r.lead_us, 2083.0 + 1500.0);
+  EXPECT_DOUBLE_EQ(s.predicted_spread_us, 3000.0);
+  // Without a lead-in: one frame, no spread (as before).
+  EXPECT_DOUBLE_EQ(schedule_starts({{"rs232", 1, 2083.0}}).predicted_spread_us, 0.0);
+}
+
 TEST(StartSchedule, NegativeWireTimesCountAsZero) {
   const auto s = schedule_starts({{"can0", 1, -5.0}});
   EXPECT_DOUBLE_EQ(bus(s, "can0").lead_us, 0.0);

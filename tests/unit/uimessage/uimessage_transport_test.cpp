@@ -136,6 +136,49 @@ TEST_F(UiMessageTransportTest, StrictAcceptanceCountsTheOtherCoverageAsCrcErrors
   EXPECT_EQ(transport->counters().crc_id_to_aux, 1u);
 }
 
+// uimessage_crc: detect against a gateway that checks ID..d8 and drops everything else: the
+// first four frames (13 bytes, the manual's) go unanswered, the fifth goes out over 12 bytes, the
+// gateway's answer (over 12) settles it, it is reported once, and everything after uses 12.
+TEST_F(UiMessageTransportTest, DetectionSwitchesToTheCoverageOfTheGatewaysReplies) {
+  UiMessageOptions options;
+  options.detect_crc = true;
+  auto transport = open(options);
+  ASSERT_TRUE(transport);
+  std::vector<std::string> reports;
+  transport->on_crc_detected([&](const std::string& text) { reports.push_back(text); });
+  EXPECT_NE(transport->crc_status().find("not known yet"), std::string::npos) << transport->crc_status();
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_FALSE(transport->send(frame(kInstructions[0].can)));
+    EXPECT_EQ(hex(peer->read(uim342::kUiMessageSize)), kInstructions[0].variant_a) << i;  // dropped by the gateway
+  }
+  ASSERT_FALSE(transport->send(frame(kInstructions[0].can)));
+  EXPECT_EQ(hex(peer->read(uim342::kUiMessageSize)), kInstructions[0].variant_b) << "no switch after 4 unanswered";
+  peer->write(kMoAckB);  // the gateway took it and the drive answered
+  ASSERT_EQ(receive_frames(*transport, 1).size(), 1u);
+  ASSERT_EQ(reports.size(), 1u);
+  EXPECT_NE(reports[0].find("ID..d8 (12 bytes)"), std::string::npos) << reports[0];
+  EXPECT_EQ(transport->crc_status(), "ID..d8 (12 bytes), detected from the gateway's frames");
+  for (int i = 0; i < 6; ++i) {  // silence no longer changes anything
+    ASSERT_FALSE(transport->send(frame(kInstructions[1].can)));
+    EXPECT_EQ(hex(peer->read(uim342::kUiMessageSize)), kInstructions[1].variant_b) << i;
+  }
+  peer->write(kMoAckB);
+  ASSERT_EQ(receive_frames(*transport, 1).size(), 1u);
+  EXPECT_EQ(reports.size(), 1u) << "reported again without news";
+  EXPECT_EQ(transport->counters().crc_blind_switches, 1u);
+}
+
+// A configured coverage is trusted: no switch however many frames go unanswered.
+TEST_F(UiMessageTransportTest, AConfiguredCoverageIsNeverSwitched) {
+  auto transport = open();  // detect_crc false: the configured SM..d8
+  ASSERT_TRUE(transport);
+  for (int i = 0; i < 10; ++i) {
+    ASSERT_FALSE(transport->send(frame(kInstructions[0].can)));
+    EXPECT_EQ(hex(peer->read(uim342::kUiMessageSize)), kInstructions[0].variant_a) << i;
+  }
+  EXPECT_EQ(transport->crc_status(), "SM..d8 (13 bytes), configured (uimessage_crc)");
+}
+
 TEST_F(UiMessageTransportTest, ResynchronizesAfterGarbageAndTornFrames) {
   auto transport = open();
   ASSERT_TRUE(transport);

@@ -48,7 +48,8 @@ SerialLineHost::SerialLineHost(EventLoop& loop, const config::Config& config, co
 
 std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const config::Config& config,
                                                      const config::Bus& bus, const Factories& factories,
-                                                     Reporter reporter, std::error_code& error) {
+                                                     Reporter reporter, std::error_code& error,
+                                                     const std::string& link_path) {
   const auto family = family_for(config, bus, factories);
   if (!family) {
     error = std::make_error_code(std::errc::not_supported);
@@ -62,8 +63,9 @@ std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const conf
     return nullptr;
   }
   auto host = std::unique_ptr<SerialLineHost>(new SerialLineHost(loop, config, bus, *family));
-  host->link_ = serial::PtyLink::create(serial::simserial_link_path(config::sim_runtime_dir(config), bus.name),
-                                        configured_line(bus), error, *access);
+  host->link_ = serial::PtyLink::create(
+      link_path.empty() ? serial::simserial_link_path(config::sim_runtime_dir(config), bus.name) : link_path,
+      configured_line(bus), error, *access);
   if (!host->link_) return nullptr;
   SerialDeviceContext context;
   context.bus = bus.name;

@@ -294,6 +294,7 @@ class Coordinator {
       std::vector<std::int8_t>* kinds = nullptr) const;
   // The wire time of the start frame of a group of `kind` (its drive models'; 0 when none says).
   [[nodiscard]] double start_frame_wire_us(const std::vector<motionlcm::axis_command_t>& group, std::int8_t kind) const;
+  [[nodiscard]] double start_lead_in_us(const std::vector<motionlcm::axis_command_t>& group) const;
   // The line time the gateways need to arm `per_bus` (axis commands per bus), from the drive
   // ARM_TIMINGs (arm_line_us per axis armed, arm_bystander_us per other drive of its bus): the slowest
   // bus's. Added to arm_timeout_ms for the arming deadline.

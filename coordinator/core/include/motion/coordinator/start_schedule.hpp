@@ -12,6 +12,8 @@
 //  * those act instants are centred on the common act instant: the bus sends its first frame
 //    lead = e1 + (ek - e1) / 2 before it. Every bus's span is then centred on the same instant and
 //    the move's spread is the largest span, the least any schedule can give.
+// A frame with a lead-in (a UIM242 crawl before its gSPD) takes lead-in + wire time on the line,
+// and its drives act over the lead-in up to its end: the bus's span covers that too.
 // CAN arbitration behind a frame already on the wire (at most one frame) is not in the lead: it is
 // the remaining jitter, not a bias.
 //
@@ -32,6 +34,10 @@ struct StartFrame {
   std::string bus;
   std::int64_t command_id = 0;
   double wire_us = 0;  // the start frame's wire time on its bus (negative values count as 0)
+  // Instructions that go out before the start frame and already start some of its drives, one
+  // after the other (UIM242 crawls, drive model START_UIM242_CRAWL): on the line before the
+  // frame, and the command's drives act over this span up to the frame's end.
+  double lead_in_us = 0;
 };
 
 struct BusStart {

@@ -18,7 +18,10 @@
 //           0x00DD (ADAM manual §5, §8.54).
 //   UIM242  SPD integer pulse/s, MAC/MDE integer pulse/s^2 (value mode), ranges from the
 //           instruction table. Start: global gSPD through the RS232-CAN gateway, else SPD per
-//           controller (the wire time given is the longest global form, gSPD 65535;).
+//           controller (the wire time given is the longest global form, gSPD 65535;). A drive that
+//           does not hold a move loaded at speed 0 (DriveFacts::crawl_start) also lists
+//           START_UIM242_CRAWL: the line time of its crawl (ADR, SPD -1, STP n, with answers),
+//           which goes out before the start it joins.
 // Pure: values in, a message or the reason it cannot be made out. Thread-safe.
 #pragma once
 

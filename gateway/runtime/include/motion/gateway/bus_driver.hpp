@@ -56,6 +56,9 @@ struct DriveFacts {
   // false: the drive cannot join the family's one-frame start (e.g. a UC57 that applies RPDOs on
   // reception): its axis starts by its own frame (START_SINGLE). nullopt: as the family does.
   std::optional<bool> one_frame_start = std::nullopt;
+  // true: the drive's armed moves start with a crawl before the family's start (a UIM242 that does
+  // not hold a displacement loaded at speed 0, docs/protocols.md UIM242 #3): START_UIM242_CRAWL.
+  bool crawl_start = false;
   // true: the homed flag of its status is the drive's own (e.g. UC57 status word bit 8), kept by
   // the drive until it is powered up or reset, so a gateway that starts can trust it (and read a
   // cleared one as a power-on marker, position_record.hpp). false: the driver's own bookkeeping.

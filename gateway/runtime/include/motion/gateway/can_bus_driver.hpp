@@ -107,6 +107,7 @@ class CanBusDriver final : public BusDriver {
   [[nodiscard]] std::size_t part_of(const CanStack* s) const;
   void on_readable();
   void reschedule();
+  void watch_uimessage_crc();  // uimessage: buses: detected CRC coverage -> INFO CONFIG_MISMATCH
   void on_stack_reply(motionlcm::gateway_reply_t reply);
   // Sends a combined STARTED now, or holds it until its start frames' echoes are in.
   void emit_started(motionlcm::gateway_reply_t reply);

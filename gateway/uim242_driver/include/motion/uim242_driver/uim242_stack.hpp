@@ -140,6 +140,8 @@ class Uim242Stack final : public gateway::SerialStack {
   void part_done(std::int64_t command_id);
   void event(const Drive& d, std::int16_t kind, std::int8_t severity, std::int32_t code, const std::string& text);
   void publish(Drive& d, TimePoint now);
+  // The drive model's facts of `d` (DriveFacts::crawl_start once its move start is known).
+  void report_facts(const Drive& d);
 
   // ---- start-up and polling
   void identify(Drive& d, TimePoint now);

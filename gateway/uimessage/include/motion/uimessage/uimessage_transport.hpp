@@ -10,8 +10,10 @@
 //   receive()    bytes from the port go through uim342::UiMessageStream (resynchronizes on
 //                SM..EM, checks the CRC) and come out as the drive's frame: producer = the
 //                UIMessage ID, consumer = the host.
-// The CRC coverage sent is configurable (the manual's SM..d8 or ID..d8); receive accepts
-// either unless told to be strict. Garbage and corrupt frames are dropped and counted, never
+// The CRC coverage sent is configured (the manual's SM..d8 or ID..d8) or detected from the
+// gateway's frames (CrcDetector, crc_detector.hpp: the default of a uimessage: bus); receive
+// accepts either unless told to be strict. A detected coverage is told once through
+// on_crc_detected (the gateway makes it an INFO CONFIG_MISMATCH event) and again if it changes. Garbage and corrupt frames are dropped and counted, never
 // delivered.
 //
 // Threading/blocking: the can::Transport contract. One thread (the poll loop) owns the object;
@@ -33,6 +35,7 @@
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -45,6 +48,7 @@
 #include "motion/uim342/identifier.hpp"
 #include "motion/uim342/uimessage.hpp"
 #include "motion/uim342/uimessage_stream.hpp"
+#include "motion/uimessage/crc_detector.hpp"
 
 namespace motion::uimessage {
 
@@ -60,13 +64,14 @@ enum class UiMessageErrc {
 [[nodiscard]] std::error_code make_error_code(UiMessageErrc error);
 
 struct UiMessageOptions {
-  uim342::CrcCoverage crc = uim342::CrcCoverage::kStartToAux;     // what send() writes
+  uim342::CrcCoverage crc = uim342::CrcCoverage::kStartToAux;     // what send() writes (first)
+  bool detect_crc = false;                                        // follow the gateway's coverage
   uim342::CrcAcceptance accept = uim342::CrcAcceptance::kEither;  // what receive() takes
   std::uint8_t host_id = uim342::kMasterId;                       // the master the gateway stands for
   std::chrono::milliseconds reopen_interval{1000};                // between attempts after a hang-up
 };
 
-// The options a bus's configuration asks for (uimessage_crc, uimessage_crc_strict).
+// The options a bus's configuration asks for (uimessage_crc: detect | 13 | 12, uimessage_crc_strict).
 [[nodiscard]] UiMessageOptions options_from(const config::Bus& bus);
 
 // What the transport saw beyond can::Statistics.
@@ -74,6 +79,7 @@ struct UiMessageCounters {
   uim342::UiMessageStream::Counters stream;  // frames, CRC errors, malformed, discarded bytes
   std::uint64_t crc_start_to_aux = 0;        // received frames whose CRC covers SM..d8
   std::uint64_t crc_id_to_aux = 0;           // ... ID..d8 (not both: the first that matches counts)
+  std::uint64_t crc_blind_switches = 0;      // send-side switches while nothing had answered (detect)
   std::uint64_t without_crc = 0;             // SM = 0xAD
   std::uint64_t unconvertible = 0;           // well-formed UIMessages with an ID above 127
   std::uint64_t disconnects = 0;
@@ -100,6 +106,11 @@ class UiMessageTransport final : public can::Transport {
   [[nodiscard]] can::BusState state() const override { return state_; }
   [[nodiscard]] can::Statistics statistics() const override;
   [[nodiscard]] UiMessageCounters counters() const;
+  // The CRC coverage send() writes now, and how it was chosen (CrcDetector::describe()).
+  [[nodiscard]] uim342::CrcCoverage crc_sending() const { return crc_.sending(); }
+  [[nodiscard]] std::string crc_status() const { return crc_.describe(); }
+  // Called from receive() when detection decides or changes the coverage sent; `text` says which.
+  void on_crc_detected(std::function<void(const std::string& text)> handler) { crc_handler_ = std::move(handler); }
 
  private:
   UiMessageTransport(std::string device, const serial::SerialSettings& settings, UiMessageOptions options);
@@ -119,6 +130,8 @@ class UiMessageTransport final : public can::Transport {
   int echo_fd_ = -1;  // eventfd: own-echo frames waiting
   std::unique_ptr<serial::SerialPort> port_;
   uim342::UiMessageStream stream_;
+  CrcDetector crc_;
+  std::function<void(const std::string&)> crc_handler_;
   can::BusState state_ = can::BusState::kDisconnected;
   std::chrono::steady_clock::time_point last_open_attempt_{};
   std::vector<can::Filter> filters_;

@@ -74,8 +74,9 @@ enum class TransportKind {
 [[nodiscard]] bool is_can(TransportKind kind);
 
 // Which bytes the UIMessage CRC covers (UIM342 manual §2.6 / Appendix-1 say SM..d8; UIROBOT's
-// gateway software computes it over ID..d8): what a uimessage: bus sends.
-enum class UiMessageCrc { kStartToAux, kIdToAux };
+// gateway software computes it over ID..d8): what a uimessage: bus sends. kDetect (the default):
+// the transport starts with SM..d8 and follows the coverage of the gateway's replies.
+enum class UiMessageCrc { kDetect, kStartToAux, kIdToAux };
 
 struct Bus {
   std::string name;
@@ -87,8 +88,8 @@ struct Bus {
   int baud = 115200;       // serial
   char parity = 'N';       // 'N', 'E', 'O'
   int stop_bits = 1;
-  UiMessageCrc uimessage_crc = UiMessageCrc::kStartToAux;  // uimessage: the CRC coverage sent
-  bool uimessage_crc_strict = false;                       // uimessage: receive only that coverage (default: either)
+  UiMessageCrc uimessage_crc = UiMessageCrc::kDetect;  // uimessage: the CRC coverage sent
+  bool uimessage_crc_strict = false;                   // uimessage: receive only that coverage (default: either)
   int request_timeout_ms = 50;
   int retries = 2;
   double poll_hz = 20.0;  // status polling rate per drive

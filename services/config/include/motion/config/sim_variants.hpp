@@ -33,4 +33,12 @@ struct SimVariantKey {
 // Why `value` is not a value of `key` (empty when it is).
 [[nodiscard]] std::string sim_variant_error(Family family, std::string_view key, std::string_view value);
 
+// Variants of a simulated bus rather than of a drive (`simulation.variants: {BUS: {KEY: VALUE}}`):
+// the UIROBOT serial gateway of a uimessage: bus (crc_bytes). Empty for other transports.
+[[nodiscard]] std::span<const SimVariantKey> sim_bus_variant_schema(TransportKind kind);
+// The configured value of `key` for `bus`, else the default ("" for an unknown key).
+[[nodiscard]] std::string sim_bus_variant(const Config& config, const Bus& bus, std::string_view key);
+// Why `value` is not a value of the bus variant `key` of `kind` (empty when it is).
+[[nodiscard]] std::string sim_bus_variant_error(TransportKind kind, std::string_view key, std::string_view value);
+
 }  // namespace motion::config

@@ -43,9 +43,12 @@ class SerialLineHost {
   [[nodiscard]] static std::optional<config::Family> family_for(const config::Config& config, const config::Bus& bus,
                                                                 const Factories& factories);
   // Creates the pty and its link, the device, and powers it up. nullptr with `error` set when the
-  // pty or the link cannot be made, or no family of the bus has a factory (ENOTSUP).
+  // pty or the link cannot be made, or no family of the bus has a factory (ENOTSUP). The link is
+  // `link_path`, or <sim_runtime_dir>/<bus>.tty when empty (simserial:; a simulated uimessage:
+  // bus links its device path).
   static std::unique_ptr<SerialLineHost> open(EventLoop& loop, const config::Config& config, const config::Bus& bus,
-                                              const Factories& factories, Reporter reporter, std::error_code& error);
+                                              const Factories& factories, Reporter reporter, std::error_code& error,
+                                              const std::string& link_path = {});
   ~SerialLineHost();
   SerialLineHost(const SerialLineHost&) = delete;
   SerialLineHost& operator=(const SerialLineHost&) = delete;
