@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <span>
 #include <type_traits>
 
@@ -33,7 +34,7 @@ security::Loaded<CoordinatorService::Security> CoordinatorService::load_security
     auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
     if (auto* error = std::get_if<std::string>(&keys)) return "security.authorized_keys: " + *error;
     auto& authorized = std::get<security::AuthorizedKeys>(keys);
-    out.gateway_keys = authorized.keys_with_role(security::Role::kGateway);
+    out.gateway_keys = authorized.with_role(security::Role::kGateway);
     out.verifier.emplace(std::move(authorized), config.lcm.channel_prefix,
                          std::chrono::milliseconds(settings.window_ms), wall_time_us());
   }
@@ -148,6 +149,43 @@ std::string stream(const motionlcm::health_t& m) {
 }
 std::string stream(const motionlcm::active_moves_t& m) { return m.buses.empty() ? std::string() : m.buses.front(); }
 
+// The buses a gateway message speaks for, checked against the buses its key is bound to: the bus
+// it names, and the one this configuration gives the axis (or the command) it concerns, so that a
+// message naming its key's bus but another bus's axis is no way around the binding.
+void add(std::vector<std::string>& buses, const std::optional<std::string>& bus) {
+  if (bus && std::find(buses.begin(), buses.end(), *bus) == buses.end()) buses.push_back(*bus);
+}
+template <typename Msg>
+std::vector<std::string> axis_buses(const Coordinator& core, const Msg& m) {
+  std::vector<std::string> out{m.bus};
+  if (!m.axis.empty()) add(out, core.bus_of_axis(m.axis));
+  return out;
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::axis_state_t& m) {
+  return axis_buses(core, m);
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::drive_model_t& m) {
+  return axis_buses(core, m);
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::arm_timing_t& m) {
+  return axis_buses(core, m);
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::event_t& m) { return axis_buses(core, m); }
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::gateway_reply_t& m) {
+  std::vector<std::string> out{m.bus};
+  add(out, core.bus_of_command(m.command_id));
+  return out;
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::active_moves_t& m) {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < m.buses.size(); ++i) {
+    add(out, m.buses[i]);
+    if (i < m.axes.size()) add(out, core.bus_of_axis(m.axes[i]));
+  }
+  return out;
+}
+std::vector<std::string> buses(const Coordinator&, const motionlcm::health_t& m) { return {stream(m)}; }
+
 bool claims_gateway(const motionlcm::health_t& m) { return m.role == "gateway" || m.process.rfind("gateway:", 0) == 0; }
 // What a signed heartbeat claims before it is verified (one that does not decode is a gateway's to
 // refuse as malformed).
@@ -162,7 +200,7 @@ bool claims_gateway(const motionlcm::signed_message_t& envelope) {
 template <typename Msg>
 void CoordinatorService::subscribe_gateway_channel(std::string_view channel,
                                                    void (Coordinator::*handler)(const Msg&, TimePoint),
-                                                   const std::vector<security::PublicKey>& gateway_keys,
+                                                   const std::vector<security::Principal>& gateway_keys,
                                                    bool refuse_plain) {
   if (enforce_ && !refuse_plain) {
     // Sent plain too, for observers: not looked at (only the signed copy counts).
@@ -190,7 +228,9 @@ void CoordinatorService::subscribe_gateway_channel(std::string_view channel,
           // its key): only those claiming a gateway are a gateway's to verify.
           if (!claims_gateway(envelope)) return;
         }
-        auto verified = verifier.verify<Msg>(envelope, wall_time_us(), [](const Msg& m) { return stream(m); });
+        auto verified = verifier.verify<Msg>(
+            envelope, wall_time_us(), [](const Msg& m) { return stream(m); },
+            [this](const Msg& m) { return buses(core_, m); });
         if (verified.message) {
           (core_.*handler)(*verified.message, loop_.now());
         } else {
