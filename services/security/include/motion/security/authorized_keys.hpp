@@ -8,7 +8,8 @@
 //   configure  + set-position, set outputs, parameter read and write
 //   admin      everything, including request kinds added later
 // and, outside that ladder, `gateway`: a gateway's key (config security.gateway_key). It signs what
-// gateways publish (AXIS_STATE, GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, their events) and sends no request at all.
+// gateways publish (AXIS_STATE, GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, their events and heartbeats)
+// and sends no request at all.
 // Names are 1..64 of [A-Za-z0-9._-]; a signed request's client_id must be the name or start
 // with "<name>/" (so no key can speak under another key's client ids).
 //

@@ -3,7 +3,8 @@
 // (lcmtypes/signed_message_t.lcm) on <prefix>S<channel>, e.g. SSYNC_TRIGGER2 for the
 // sync_trigger2_t of SYNC_TRIGGER2. Gateways verify triggers and ACTIVE_MOVES with them, clients
 // REPLY and EVENT; the coordinator verifies gateways' AXIS_STATE, GW_REPLY, DRIVE_MODEL,
-// ORPHANED_MOVES and events (GW_EVENT on SGW_EVENT) against the `gateway` keys of authorized_keys (README "Security").
+// ORPHANED_MOVES, HEALTH and events (GW_EVENT on SGW_EVENT) against the `gateway` keys of
+// authorized_keys (README "Security").
 //
 // A MessageVerifier listens for one channel. It accepts an envelope when, in this order, its
 // channel is that one, its key id is the coordinator's (or one of the signers'), the signature verifies, utime is within
