@@ -52,6 +52,10 @@ int main(int argc, char** argv) {
     };
     update_health();
     service.loop().call_every(std::chrono::milliseconds(100), update_health);
-    return service.run();
+    // With security.key its heartbeats also go out signed (SHEALTH), the last STOPPING one included.
+    service.health().set_signed_copy([&coordinator](const motionlcm::health_t& h) { coordinator.sign_heartbeat(h); });
+    const int exit_code = service.run();
+    service.health().set_signed_copy({});
+    return exit_code;
   });
 }

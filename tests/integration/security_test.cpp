@@ -353,9 +353,9 @@ TEST_F(Security, ForgedAxisStatesChangeNothingInTheCoordinatorsView) {
   forged.fault_text = "forged";
   // A client that verifies axis states with the gateways' key (role gateway in authorized_keys).
   Client* watcher = client("watcher", nullptr);
-  const auto gateway_key = security::load_public_key(dir_->str() + "/gateway.pub");
-  ASSERT_TRUE(std::holds_alternative<security::PublicKey>(gateway_key));
-  watcher->verify_states_with({std::get<security::PublicKey>(gateway_key)}, seconds(2));
+  auto gateway_key = security::load_gateway_keys(dir_->str() + "/gateway.pub");
+  ASSERT_TRUE(std::holds_alternative<std::vector<security::Principal>>(gateway_key));
+  watcher->verify_states_with(std::move(std::get<std::vector<security::Principal>>(gateway_key)), seconds(2));
   ASSERT_TRUE(watcher->wait_until([&] { return watcher->axes().contains("x1"); }, seconds(3)));
   security::MessageSigner forger(keys_->stranger, lab_->group().node().prefix());
   for (int i = 0; i < 3; ++i) {
@@ -381,6 +381,44 @@ TEST_F(Security, ForgedAxisStatesChangeNothingInTheCoordinatorsView) {
                                    " is not a key of role gateway in authorized_keys");
       },
       seconds(3)));
+}
+
+// motionctl verifies axis states with security.gateway_public_keys when it is set (a file of public
+// keys only, in authorized_keys' format: here the gateways' .pub file), for an operator who cannot
+// read authorized_keys: with the gateways' key the states are shown and verified; with a file
+// holding another gateway key only, none is shown; without the setting, motionctl falls back to
+// authorized_keys and, unable to read it, shows the states unverified and says so.
+TEST_F(Security, MotionctlVerifiesStatesWithTheGatewayPublicKeysFile) {
+  {
+    std::ofstream(dir_->str() + "/other-gateway.pub")
+        << security::KeyPair::generate("gateway-elsewhere").authorized_line("gateway") << "\n";
+  }
+  const auto status = [&](const std::string& name, const std::string& gateway_public_keys, std::string& out) {
+    const std::string path = dir_->str() + "/" + name + ".yaml";
+    {
+      std::ifstream base(source_path("tests/integration/configs/uim342-three-group.yaml"));
+      std::ofstream config(path);
+      config << base.rdbuf()
+             << motion::testing::enforced_security(
+                    2000, "no-such-authorized_keys",
+                    gateway_public_keys.empty() ? "" : "  gateway_public_keys: " + gateway_public_keys + "\n");
+    }
+    return lab_->group().run_to_completion({name, "motionctl", {"--config", path, "status", "--listen", "1"}, {}}, &out,
+                                           seconds(20));
+  };
+  std::string verified, foreign, fallback;
+  EXPECT_EQ(status("ctl-gateway-keys", "gateway.pub", verified), 0) << verified;
+  EXPECT_FALSE(contains(verified, "unverified")) << verified;
+  const auto x1 = verified.find("\nx1 ");
+  ASSERT_NE(x1, std::string::npos) << verified;
+  EXPECT_FALSE(contains(verified.substr(x1 + 1, verified.find('\n', x1 + 1) - x1 - 1), "no state heard")) << verified;
+  EXPECT_EQ(status("ctl-other-keys", "other-gateway.pub", foreign), 4) << foreign;  // kExitUnavailable: no state
+  EXPECT_FALSE(contains(foreign, "unverified")) << foreign;
+  EXPECT_EQ(status("ctl-no-gateway-keys", "", fallback), 0) << fallback;
+  EXPECT_TRUE(contains(fallback,
+                       "motionctl: axis states are shown unverified: security.authorized_keys: cannot read "
+                       "authorized keys file"))
+      << fallback;
 }
 
 TEST_F(Security, SimulatorsRuntimeFolderAndBusSocketAreItsOwnersAlone) {

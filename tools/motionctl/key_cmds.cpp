@@ -26,19 +26,15 @@ std::string default_key_name() {
 
 void Context::verify_states(client::Client& client, const config::Config& config) {
   const auto& settings = config.security;
-  if (settings.mode != config::SecuritySettings::Mode::kEnforce || settings.authorized_keys.empty()) return;
-  auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
-  if (auto* error = std::get_if<std::string>(&keys)) {
-    std::cerr << "motionctl: axis states are shown unverified: security.authorized_keys: " << *error << "\n";
+  if (settings.mode != config::SecuritySettings::Mode::kEnforce || settings.gateway_keys_file().empty()) return;
+  auto gateways = security::load_gateway_keys(settings.gateway_keys_file());
+  if (auto* error = std::get_if<std::string>(&gateways)) {
+    std::cerr << "motionctl: axis states are shown unverified: " << settings.gateway_keys_setting() << ": " << *error
+              << "\n";
     return;
   }
-  auto gateways = std::get<security::AuthorizedKeys>(keys).keys_with_role(security::Role::kGateway);
-  if (gateways.empty()) {
-    std::cerr << "motionctl: axis states are shown unverified: " << settings.authorized_keys
-              << " has no key of role gateway\n";
-    return;
-  }
-  client.verify_states_with(std::move(gateways), std::chrono::milliseconds(settings.window_ms));
+  client.verify_states_with(std::move(std::get<std::vector<security::Principal>>(gateways)),
+                            std::chrono::milliseconds(settings.window_ms));
 }
 
 bool Context::sign_requests(client::Client& client, const config::Config& config) {
@@ -62,7 +58,7 @@ bool Context::sign_requests(client::Client& client, const config::Config& config
     result = app::kExitConfig;
     return false;
   }
-  client.sign_with(std::move(std::get<security::KeyPair>(key)));
+  client.sign_with(std::get<security::KeyPair>(key));
   return true;
 }
 
@@ -77,6 +73,7 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
     std::string dir = default_key_dir();
     std::string name = default_key_name();
     std::string role = "operate";
+    std::vector<std::string> buses;  // role gateway: the buses the key may speak for (none: every bus)
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--out", args->dir, "Folder of the key files (created with mode 0700)")->capture_default_str();
@@ -84,11 +81,27 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
   cmd->add_option("--role", args->role, "Role in the printed authorized_keys line")
       ->check(CLI::IsMember({"observe", "operate", "configure", "admin", "gateway"}))
       ->capture_default_str();
+  cmd->add_option("--bus", args->buses,
+                  "With --role gateway: a bus the key may speak for (repeat it, or can0,rs485a; default every bus)")
+      ->delimiter(',');
   cmd->callback([&ctx, args] {
     if (!security::valid_name(args->name)) {
       std::cerr << "motionctl keygen: --name '" << args->name << "' is not 1..64 of [A-Za-z0-9._-]\n";
       ctx.result = app::kExitUsage;
       return;
+    }
+    if (!args->buses.empty() && args->role != "gateway") {
+      std::cerr << "motionctl keygen: --bus binds a gateway's key to buses; it needs --role gateway (not " << args->role
+                << ")\n";
+      ctx.result = app::kExitUsage;
+      return;
+    }
+    for (const auto& bus : args->buses) {
+      if (!security::valid_name(bus)) {
+        std::cerr << "motionctl keygen: --bus '" << bus << "' is not 1..64 of [A-Za-z0-9._-]\n";
+        ctx.result = app::kExitUsage;
+        return;
+      }
     }
     if (!security::init()) {
       std::cerr << "motionctl keygen: libsodium cannot initialize (no random source?)\n";
@@ -96,7 +109,7 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
       return;
     }
     const auto key = security::KeyPair::generate(args->name);
-    if (auto error = security::write_key_pair(key, args->dir, args->role)) {
+    if (auto error = security::write_key_pair(key, args->dir, args->role, args->buses)) {
       std::cerr << "motionctl keygen: " << *error << "\n";
       ctx.result = app::kExitFailure;
       return;
@@ -107,7 +120,8 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
                                   {"public_key", security::public_key_path(args->dir, args->name)},
                                   {"key_id", security::to_hex(key.id())},
                                   {"role", args->role},
-                                  {"authorized_keys_line", key.authorized_line(args->role)}}
+                                  {"buses", args->buses},
+                                  {"authorized_keys_line", key.authorized_line(args->role, args->buses)}}
                        .dump(2)
                 << "\n";
       return;
@@ -117,7 +131,7 @@ void add_key_commands(CLI::App& cli, Context& ctx) {
               << "key id " << security::to_hex(key.id())
               << "; an administrator adds this line to the coordinator's authorized_keys\n"
               << "(role observe, operate, configure or admin; gateway for a gateway's key):\n\n"
-              << key.authorized_line(args->role) << "\n\n"
+              << key.authorized_line(args->role, args->buses) << "\n\n"
               << "then sign with it: motionctl --key " << private_path << " ...  (or MOTION_KEY=" << private_path
               << ")\n";
   });

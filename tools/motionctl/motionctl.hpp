@@ -21,7 +21,8 @@ struct Context {
   // (result set, error printed) when a key cannot be loaded.
   bool sign_requests(client::Client& client, const config::Config& config);
   // Has `client` take only axis states signed by a gateway key when `config` enforces security
-  // and its authorized_keys can be read (its keys of role gateway); otherwise the states are shown
+  // and its security.gateway_public_keys, else its authorized_keys, can be read (the keys of role
+  // gateway there, each for its buses= only when bound); otherwise the states are shown
   // as they come, with a note on stderr saying why they are not verified.
   static void verify_states(client::Client& client, const config::Config& config);
 

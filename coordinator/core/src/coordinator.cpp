@@ -285,6 +285,8 @@ void Coordinator::on_health(const motionlcm::health_t& health, TimePoint now) {
   const bool restarted = g.seen && g.pid != 0 && (health.pid != g.pid || health.uptime_s + 0.5 < g.uptime_s);
   g.seen = true;
   g.pid = health.pid;
+  g.host = health.host;
+  g.last_health = now_;
   g.uptime_s = health.uptime_s;
   g.last_heartbeat = health.state == motionlcm::health_t::STOPPING ? TimePoint{} : now_;
   if (restarted) publish_active_moves();  // what the new process was doing, before it is aborted
@@ -366,6 +368,28 @@ std::vector<std::string> Coordinator::axes_never_heard() const {
     if (!axis.state) out.push_back(name);
   }
   return out;
+}
+
+bool Coordinator::is_live_gateways_heartbeat(const motionlcm::health_t& health, TimePoint now) const {
+  if (health.process.rfind("gateway:", 0) != 0) return false;
+  const auto it = gateways_.find(health.process.substr(8));
+  if (it == gateways_.end() || it->second.last_health == TimePoint{}) return false;
+  const GatewayLive& g = it->second;
+  return g.pid == health.pid && g.host == health.host &&
+         now - g.last_health < std::chrono::milliseconds(config_.coordinator.gateway_timeout_ms);
+}
+
+std::optional<std::string> Coordinator::bus_of_axis(const std::string& axis) const {
+  const auto it = axes_.find(axis);
+  if (it == axes_.end()) return std::nullopt;
+  return it->second.drive->bus;
+}
+
+std::optional<std::string> Coordinator::bus_of_command(std::int64_t command_id) const {
+  for (const auto& [serial, r] : requests_) {
+    if (const auto it = r->pending.find(command_id); it != r->pending.end()) return it->second.bus;
+  }
+  return std::nullopt;
 }
 
 bool Coordinator::gateway_alive_at(const std::string& bus, TimePoint now) const {

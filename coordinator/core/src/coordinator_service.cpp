@@ -2,7 +2,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <span>
+#include <type_traits>
 
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/request_kinds.hpp"
@@ -32,7 +34,7 @@ security::Loaded<CoordinatorService::Security> CoordinatorService::load_security
     auto keys = security::AuthorizedKeys::load(settings.authorized_keys);
     if (auto* error = std::get_if<std::string>(&keys)) return "security.authorized_keys: " + *error;
     auto& authorized = std::get<security::AuthorizedKeys>(keys);
-    out.gateway_keys = authorized.keys_with_role(security::Role::kGateway);
+    out.gateway_keys = authorized.with_role(security::Role::kGateway);
     out.verifier.emplace(std::move(authorized), config.lcm.channel_prefix,
                          std::chrono::milliseconds(settings.window_ms), wall_time_us());
   }
@@ -102,9 +104,12 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
   }
   node_.subscribe<motionlcm::health_t>(lcm::channels::kHealth,
                                        [this](const motionlcm::health_t& m, const std::string&) {
-                                         core_.on_health(m, loop_.now());
+                                         on_plain_health(m);
                                          pump();
                                        });
+  // Under enforce a gateway's liveness comes from its signed heartbeats only (SHEALTH).
+  if (enforce_)
+    subscribe_gateway_channel(lcm::channels::kHealth, &Coordinator::on_health, security.gateway_keys, false);
   subscribe_gateway_channel(lcm::channels::kDriveModel, &Coordinator::on_drive_model, security.gateway_keys, false);
   subscribe_gateway_channel(lcm::channels::kArmTiming, &Coordinator::on_arm_timing, security.gateway_keys, false);
   subscribe_gateway_channel(lcm::channels::kOrphanedMoves, &Coordinator::on_orphaned_moves, security.gateway_keys,
@@ -130,19 +135,72 @@ std::string label(const motionlcm::drive_model_t& m) { return "model of axis " +
 std::string label(const motionlcm::arm_timing_t& m) { return "arming time of axis " + m.axis + " of bus " + m.bus; }
 std::string label(const motionlcm::active_moves_t& m) { return std::to_string(m.num_axes) + " rows"; }
 std::string label(const motionlcm::event_t& m) { return "event of " + m.source; }
+std::string label(const motionlcm::health_t& m) {
+  return "heartbeat of " + m.process + ", pid " + std::to_string(m.pid) + " on " + m.host;
+}
 std::string stream(const motionlcm::axis_state_t& m) { return m.bus; }
 std::string stream(const motionlcm::event_t& m) { return m.bus; }
 std::string stream(const motionlcm::gateway_reply_t& m) { return m.bus; }
 std::string stream(const motionlcm::drive_model_t& m) { return m.bus; }
 std::string stream(const motionlcm::arm_timing_t& m) { return m.bus; }
+// A gateway's heartbeat names its bus in its process name, "gateway:<bus>".
+std::string stream(const motionlcm::health_t& m) {
+  return m.process.rfind("gateway:", 0) == 0 ? m.process.substr(8) : m.process;
+}
 std::string stream(const motionlcm::active_moves_t& m) { return m.buses.empty() ? std::string() : m.buses.front(); }
+
+// The buses a gateway message speaks for, checked against the buses its key is bound to: the bus
+// it names, and the one this configuration gives the axis (or the command) it concerns, so that a
+// message naming its key's bus but another bus's axis is no way around the binding.
+void add(std::vector<std::string>& buses, const std::optional<std::string>& bus) {
+  if (bus && std::find(buses.begin(), buses.end(), *bus) == buses.end()) buses.push_back(*bus);
+}
+template <typename Msg>
+std::vector<std::string> axis_buses(const Coordinator& core, const Msg& m) {
+  std::vector<std::string> out{m.bus};
+  if (!m.axis.empty()) add(out, core.bus_of_axis(m.axis));
+  return out;
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::axis_state_t& m) {
+  return axis_buses(core, m);
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::drive_model_t& m) {
+  return axis_buses(core, m);
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::arm_timing_t& m) {
+  return axis_buses(core, m);
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::event_t& m) { return axis_buses(core, m); }
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::gateway_reply_t& m) {
+  std::vector<std::string> out{m.bus};
+  add(out, core.bus_of_command(m.command_id));
+  return out;
+}
+std::vector<std::string> buses(const Coordinator& core, const motionlcm::active_moves_t& m) {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < m.buses.size(); ++i) {
+    add(out, m.buses[i]);
+    if (i < m.axes.size()) add(out, core.bus_of_axis(m.axes[i]));
+  }
+  return out;
+}
+std::vector<std::string> buses(const Coordinator&, const motionlcm::health_t& m) { return {stream(m)}; }
+
+bool claims_gateway(const motionlcm::health_t& m) { return m.role == "gateway" || m.process.rfind("gateway:", 0) == 0; }
+// What a signed heartbeat claims before it is verified (one that does not decode is a gateway's to
+// refuse as malformed).
+bool claims_gateway(const motionlcm::signed_message_t& envelope) {
+  motionlcm::health_t claimed;
+  return !lcm::wire::decode_bounded(envelope.message.data(), envelope.message.size(), claimed).empty() ||
+         claims_gateway(claimed);
+}
 
 }  // namespace
 
 template <typename Msg>
 void CoordinatorService::subscribe_gateway_channel(std::string_view channel,
                                                    void (Coordinator::*handler)(const Msg&, TimePoint),
-                                                   const std::vector<security::PublicKey>& gateway_keys,
+                                                   const std::vector<security::Principal>& gateway_keys,
                                                    bool refuse_plain) {
   if (enforce_ && !refuse_plain) {
     // Sent plain too, for observers: not looked at (only the signed copy counts).
@@ -165,7 +223,14 @@ void CoordinatorService::subscribe_gateway_channel(std::string_view channel,
   node_.subscribe<motionlcm::signed_message_t>(
       security::signed_channel(channel),
       [this, &verifier, handler](const motionlcm::signed_message_t& envelope, const std::string&) {
-        auto verified = verifier.verify<Msg>(envelope, wall_time_us(), [](const Msg& m) { return stream(m); });
+        if constexpr (std::is_same_v<Msg, motionlcm::health_t>) {
+          // SHEALTH also carries the heartbeats other processes sign (this coordinator's own, with
+          // its key): only those claiming a gateway are a gateway's to verify.
+          if (!claims_gateway(envelope)) return;
+        }
+        auto verified = verifier.verify<Msg>(
+            envelope, wall_time_us(), [](const Msg& m) { return stream(m); },
+            [this](const Msg& m) { return buses(core_, m); });
         if (verified.message) {
           (core_.*handler)(*verified.message, loop_.now());
         } else {
@@ -177,6 +242,25 @@ void CoordinatorService::subscribe_gateway_channel(std::string_view channel,
         refuse_gateway_message("malformed signed " + std::string(channel) + " refused: " + why);
         pump();
       });
+}
+
+void CoordinatorService::on_plain_health(const motionlcm::health_t& health) {
+  if (!enforce_ || !claims_gateway(health)) return core_.on_health(health, loop_.now());
+  // The plain copy a live gateway sends beside its signed heartbeat, for observers, is not looked
+  // at; any other plain heartbeat claiming a gateway (one that stopped signing, or a forger keeping
+  // a dead gateway's bus "alive") is refused and reported.
+  if (core_.is_live_gateways_heartbeat(health, loop_.now())) return;
+  refuse_gateway_message("unsigned HEALTH (" + label(health) +
+                         ") refused: security is enforced, a gateway is alive only by its heartbeats signed with a "
+                         "gateway key (" +
+                         node_.channel(security::signed_channel(lcm::channels::kHealth)) + ")");
+}
+
+void CoordinatorService::sign_heartbeat(const motionlcm::health_t& health) {
+  if (message_signer_) {
+    node_.publish(security::signed_channel(lcm::channels::kHealth),
+                  message_signer_->sign(lcm::channels::kHealth, health, wall_time_us()));
+  }
 }
 
 void CoordinatorService::refuse_gateway_message(const std::string& reason) {

@@ -56,6 +56,7 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
 
 Gateway::~Gateway() {
   loop_.cancel(health_timer_);
+  health_.set_signed_copy({});
   pending_fires_.clear();
 }
 

@@ -134,7 +134,14 @@ void Gateway::on_signed_message(std::optional<security::MessageVerifier>& verifi
 
 void Gateway::set_gateway_key(const std::optional<security::KeyPair>& key) {
   signer_.reset();
-  if (key) signer_.emplace(*key, node_.prefix());
+  health_.set_signed_copy({});
+  if (!key) return;
+  signer_.emplace(*key, node_.prefix());
+  // Heartbeats too: under enforce the coordinator takes a gateway's liveness only from these.
+  health_.set_signed_copy([this](const motionlcm::health_t& health) {
+    node_.publish(security::signed_channel(lcm::channels::kHealth),
+                  signer_->sign(lcm::channels::kHealth, health, wall_time_us()));
+  });
 }
 
 template <typename Msg>

@@ -60,7 +60,7 @@ void Client::verify_with(const security::PublicKey& coordinator, std::chrono::mi
       });
 }
 
-void Client::verify_states_with(std::vector<security::PublicKey> gateways, std::chrono::milliseconds window) {
+void Client::verify_states_with(std::vector<security::Principal> gateways, std::chrono::milliseconds window) {
   const bool subscribed = state_verifier_.has_value();
   state_verifier_.emplace(std::move(gateways), "a gateway key", node_.prefix(), std::string(lcm::channels::kAxisState),
                           window, wall_time_us());
@@ -101,8 +101,8 @@ void Client::forged_reply(const motionlcm::reply_t& r, const std::string& why) {
   }
 }
 
-void Client::sign_with(security::KeyPair key) {
-  signer_.emplace(std::move(key), node_.prefix());
+void Client::sign_with(const security::KeyPair& key) {
+  signer_.emplace(key, node_.prefix());
   id_ = signer_->own_client_id(id_);
 }
 

@@ -348,7 +348,8 @@ std::string relative_to(const std::string& file, const std::string& path) {
 void read_security(Reader& r, const YAML::Node& node, const std::string& file, SecuritySettings& out) {
   const std::string path = "security";
   if (!r.check_map(node, path,
-                   {"mode", "authorized_keys", "key", "coordinator_public_key", "gateway_key", "window_ms"}))
+                   {"mode", "authorized_keys", "key", "coordinator_public_key", "gateway_key", "gateway_public_keys",
+                    "window_ms"}))
     return;
   out.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "mode", false)) {
@@ -365,6 +366,8 @@ void read_security(Reader& r, const YAML::Node& node, const std::string& file, S
   if (auto v = r.get<std::string>(node, path, "coordinator_public_key", false))
     out.coordinator_public_key = relative_to(file, *v);
   if (auto v = r.get<std::string>(node, path, "gateway_key", false)) out.gateway_key = relative_to(file, *v);
+  if (auto v = r.get<std::string>(node, path, "gateway_public_keys", false))
+    out.gateway_public_keys = relative_to(file, *v);
   if (auto v = r.get<int>(node, path, "window_ms", false)) {
     out.window_ms = *v;
     if (*v < 100 || *v > 600000)

@@ -54,6 +54,7 @@ void HealthPublisher::publish_now() {
   msg_.buses = bus_stats_ ? bus_stats_() : std::vector<motionlcm::bus_stats_t>{};
   msg_.num_buses = static_cast<std::int32_t>(msg_.buses.size());
   msg_.detail = detail_with_counters(detail_, node_.malformed_count(), node_.handler_errors());
+  if (signed_copy_) signed_copy_(msg_);
   node_.publish(channels::kHealth, msg_);
 }
 

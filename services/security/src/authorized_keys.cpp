@@ -1,5 +1,6 @@
 #include "motion/security/authorized_keys.hpp"
 
+#include <algorithm>
 #include <array>
 #include <fstream>
 #include <map>
@@ -63,7 +64,44 @@ std::vector<PublicKey> AuthorizedKeys::keys_with_role(Role role) const {
   return out;
 }
 
+std::vector<Principal> AuthorizedKeys::with_role(Role role) const {
+  std::vector<Principal> out;
+  for (const auto& p : principals_) {
+    if (p.role == role) out.push_back(p);
+  }
+  return out;
+}
+
 bool Principal::owns_client_id(std::string_view client_id) const { return name_owns_client_id(name, client_id); }
+
+bool Principal::may_speak_for(std::string_view bus) const {
+  return buses.empty() || std::find(buses.begin(), buses.end(), bus) != buses.end();
+}
+
+namespace {
+
+constexpr std::string_view kBusesToken = "buses=";
+
+// The buses of a "buses=can0,rs485a" token, or what is wrong with it.
+Loaded<std::vector<std::string>> parse_buses(const std::string& token) {
+  if (token.rfind(kBusesToken, 0) != 0) {
+    return "expected 'buses=<bus>[,<bus>...]' after the role, got '" + token.substr(0, 32) + "'";
+  }
+  const std::string list = token.substr(kBusesToken.size());
+  if (list.empty()) return std::string("'buses=' names no bus (leave the token out for a key of every bus)");
+  std::vector<std::string> buses;
+  std::istringstream in(list + ",");  // every name, the last one too, ends with a comma
+  for (std::string bus; std::getline(in, bus, ',');) {
+    if (!valid_name(bus)) return "'" + token.substr(0, 64) + "': bus name '" + bus + "' is not 1..64 of [A-Za-z0-9._-]";
+    if (std::find(buses.begin(), buses.end(), bus) != buses.end()) {
+      return "'" + token.substr(0, 64) + "' names bus '" + bus + "' twice";
+    }
+    buses.push_back(bus);
+  }
+  return buses;
+}
+
+}  // namespace
 
 Loaded<AuthorizedKeys> AuthorizedKeys::parse(std::string_view text, const std::string& file_name) {
   AuthorizedKeys out;
@@ -80,9 +118,9 @@ Loaded<AuthorizedKeys> AuthorizedKeys::parse(std::string_view text, const std::s
     if (fields.empty() || fields[0][0] == '#') continue;
     const std::string where = file_name + ":" + std::to_string(number) + ": ";
     auto fail = [&](const std::string& what) { errors += (errors.empty() ? "" : "\n") + where + what; };
-    if (fields.size() != 3) {
-      fail("expected '<base64 public key> <name> <role>', got " + std::to_string(fields.size()) + " field" +
-           (fields.size() == 1 ? "" : "s"));
+    if (fields.size() != 3 && fields.size() != 4) {
+      fail("expected '<base64 public key> <name> <role> [buses=<bus>,...]', got " + std::to_string(fields.size()) +
+           " field" + (fields.size() == 1 ? "" : "s"));
       continue;
     }
     Principal p;
@@ -105,6 +143,19 @@ Loaded<AuthorizedKeys> AuthorizedKeys::parse(std::string_view text, const std::s
       continue;
     }
     p.role = *role;
+    if (fields.size() == 4) {
+      if (p.role != Role::kGateway) {
+        fail("'" + fields[3].substr(0, 32) + "': only a key of role gateway is bound to buses, this one has role " +
+             fields[2]);
+        continue;
+      }
+      auto buses = parse_buses(fields[3]);
+      if (auto* error = std::get_if<std::string>(&buses)) {
+        fail(*error);
+        continue;
+      }
+      p.buses = std::move(std::get<std::vector<std::string>>(buses));
+    }
     // Key ids are 8 bytes of the key: two keys sharing them could not be told apart.
     if (auto [it, fresh] = key_lines.emplace(key_id(p.key), number); !fresh) {
       fail("key of '" + p.name + "' is already listed at line " + std::to_string(it->second) + " (same key id " +
@@ -127,6 +178,14 @@ Loaded<AuthorizedKeys> AuthorizedKeys::load(const std::string& path) {
   std::stringstream text;
   text << in.rdbuf();
   return parse(text.str(), path);
+}
+
+Loaded<std::vector<Principal>> load_gateway_keys(const std::string& path) {
+  auto keys = AuthorizedKeys::load(path);
+  if (auto* error = std::get_if<std::string>(&keys)) return *error;
+  auto gateways = std::get<AuthorizedKeys>(keys).with_role(Role::kGateway);
+  if (gateways.empty()) return path + " has no key of role gateway";
+  return gateways;
 }
 
 const Principal* AuthorizedKeys::find(const KeyId& id) const {

@@ -138,8 +138,10 @@ std::string KeyPair::private_file_text() const {
          " " + seed + " " + name_ + "\n";
 }
 
-std::string KeyPair::authorized_line(std::string_view role) const {
-  return base64_encode(public_) + " " + name_ + " " + std::string(role);
+std::string KeyPair::authorized_line(std::string_view role, const std::vector<std::string>& buses) const {
+  std::string line = base64_encode(public_) + " " + name_ + " " + std::string(role);
+  for (std::size_t i = 0; i < buses.size(); ++i) line += (i == 0 ? " buses=" : ",") + buses[i];
+  return line;
 }
 
 Loaded<KeyPair> load_private_key(const std::string& path) {
@@ -181,10 +183,11 @@ std::string public_key_path(const std::string& dir, std::string_view name) {
   return dir + "/" + std::string(name) + ".pub";
 }
 
-std::optional<std::string> write_key_pair(const KeyPair& key, const std::string& dir, std::string_view role) {
+std::optional<std::string> write_key_pair(const KeyPair& key, const std::string& dir, std::string_view role,
+                                          const std::vector<std::string>& buses) {
   if (::mkdir(dir.c_str(), 0700) != 0 && errno != EEXIST) return "cannot create " + dir + ": " + std::strerror(errno);
   if (auto err = write_new_file(private_key_path(dir, key.name()), key.private_file_text(), 0600)) return err;
-  return write_new_file(public_key_path(dir, key.name()), key.authorized_line(role) + "\n", 0644);
+  return write_new_file(public_key_path(dir, key.name()), key.authorized_line(role, buses) + "\n", 0644);
 }
 
 }  // namespace motion::security

@@ -39,12 +39,28 @@ motionlcm::signed_message_t MessageSigner::sign_bytes(std::string_view channel, 
   return e;
 }
 
+namespace {
+
+std::vector<Principal> of_every_bus(const std::vector<PublicKey>& keys) {
+  std::vector<Principal> out(keys.size());
+  for (std::size_t i = 0; i < keys.size(); ++i) out[i].key = keys[i];
+  return out;
+}
+
+}  // namespace
+
 MessageVerifier::MessageVerifier(PublicKey coordinator, std::string channel_prefix, std::string channel,
                                  std::chrono::milliseconds window, std::int64_t not_before_us)
     : MessageVerifier(std::vector<PublicKey>{coordinator}, "the coordinator's (" + to_hex(key_id(coordinator)) + ")",
                       std::move(channel_prefix), std::move(channel), window, not_before_us) {}
 
-MessageVerifier::MessageVerifier(std::vector<PublicKey> signers, std::string signers_are, std::string channel_prefix,
+MessageVerifier::MessageVerifier(const std::vector<PublicKey>& signers, std::string signers_are,
+                                 std::string channel_prefix, std::string channel, std::chrono::milliseconds window,
+                                 std::int64_t not_before_us)
+    : MessageVerifier(of_every_bus(signers), std::move(signers_are), std::move(channel_prefix), std::move(channel),
+                      window, not_before_us) {}
+
+MessageVerifier::MessageVerifier(std::vector<Principal> signers, std::string signers_are, std::string channel_prefix,
                                  std::string channel, std::chrono::milliseconds window, std::int64_t not_before_us)
     : signers_(std::move(signers)),
       signers_are_(std::move(signers_are)),
@@ -53,30 +69,45 @@ MessageVerifier::MessageVerifier(std::vector<PublicKey> signers, std::string sig
       window_us_(std::chrono::duration_cast<std::chrono::microseconds>(window).count()),
       not_before_us_(not_before_us) {}
 
-std::optional<KeyId> MessageVerifier::check(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
-                                            std::string& reason) const {
+const Principal* MessageVerifier::check(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
+                                        std::string& reason) const {
   const std::string what = "signed " + channel_ + " refused: ";
   if (envelope.channel != channel_) {
     reason = what + "it was signed for channel '" + envelope.channel.substr(0, 64) + "'";
-    return std::nullopt;
+    return nullptr;
   }
   const KeyId id = detail::key_id_of(envelope);
   const auto signer =
-      std::find_if(signers_.begin(), signers_.end(), [&](const PublicKey& k) { return key_id(k) == id; });
+      std::find_if(signers_.begin(), signers_.end(), [&](const Principal& p) { return key_id(p.key) == id; });
   if (signer == signers_.end()) {
     reason = what + "key " + to_hex(id) + " is not " + signers_are_;
-    return std::nullopt;
+    return nullptr;
   }
-  if (!security::verify(*signer, detail::covered_bytes(detail::kMessageDomain, scope(prefix_, channel_), envelope),
+  if (!security::verify(signer->key, detail::covered_bytes(detail::kMessageDomain, scope(prefix_, channel_), envelope),
                         detail::signature_of(envelope))) {
     reason = what + "bad signature (forged or altered in transit)";
-    return std::nullopt;
+    return nullptr;
   }
   if (auto why = detail::stale(envelope.utime, now_us, window_us_, not_before_us_, "receiver")) {
     reason = what + "stale timestamp: " + *why;
-    return std::nullopt;
+    return nullptr;
   }
-  return id;
+  return &*signer;
+}
+
+bool MessageVerifier::speaks_for(const Principal& signer, const std::vector<std::string>& buses,
+                                 std::string& reason) const {
+  for (const auto& bus : buses) {
+    if (signer.may_speak_for(bus)) continue;
+    std::string allowed;
+    for (const auto& b : signer.buses) allowed += (allowed.empty() ? "" : ",") + b;
+    reason = "signed " + channel_ + " refused: key '" + signer.name + "' (" + to_hex(key_id(signer.key)) +
+             ") may speak for " + (signer.buses.size() == 1 ? "bus " : "buses ") + allowed +
+             " only (buses= of its authorized_keys line " + std::to_string(signer.line) + "), not for bus '" +
+             bus.substr(0, 64) + "'";
+    return false;
+  }
+  return true;
 }
 
 bool MessageVerifier::take_counter(const KeyId& signer, const std::string& stream, std::int64_t counter,
@@ -93,8 +124,9 @@ bool MessageVerifier::take_counter(const KeyId& signer, const std::string& strea
 
 std::optional<std::vector<std::uint8_t>> MessageVerifier::verify_bytes(const motionlcm::signed_message_t& envelope,
                                                                        std::int64_t now_us, std::string& reason) {
-  const auto signer = check(envelope, now_us, reason);
-  if (!signer || !take_counter(*signer, std::string(), envelope.counter, reason)) return std::nullopt;
+  const Principal* signer = check(envelope, now_us, reason);
+  if (signer == nullptr || !take_counter(key_id(signer->key), std::string(), envelope.counter, reason))
+    return std::nullopt;
   return envelope.message;
 }
 

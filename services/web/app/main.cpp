@@ -144,7 +144,7 @@ class Bridge {
   // Axis states only from their signed copies (SAXIS_STATE) that verify against `gateways` (the
   // keys of role gateway in authorized_keys; counter per key and bus); the first 10 refused are
   // logged.
-  void follow_verified_states(lcm::Node& node, std::vector<security::PublicKey> gateways,
+  void follow_verified_states(lcm::Node& node, std::vector<security::Principal> gateways,
                               std::chrono::milliseconds window) {
     state_verifier_.emplace(std::move(gateways), "a gateway key", node.prefix(), std::string(lcm::channels::kAxisState),
                             window, wall_time_us());
@@ -194,21 +194,17 @@ class Bridge {
 };
 
 // The gateway keys the page verifies axis states with: under enforce, the keys of role gateway in
-// a readable authorized_keys; none (plain states, and a warning saying why) otherwise.
-std::optional<std::vector<security::PublicKey>> gateway_keys(const config::Config& config) {
-  if (config.security.mode != config::SecuritySettings::Mode::kEnforce) return std::nullopt;
-  auto keys = security::AuthorizedKeys::load(config.security.authorized_keys);
-  if (const auto* error = std::get_if<std::string>(&keys)) {
-    spdlog::warn("web: axis states are shown unverified: security.authorized_keys: {}", *error);
+// security.gateway_public_keys when set, else in authorized_keys, when readable; none (plain
+// states, and a warning saying why) otherwise.
+std::optional<std::vector<security::Principal>> gateway_keys(const config::Config& config) {
+  const auto& settings = config.security;
+  if (settings.mode != config::SecuritySettings::Mode::kEnforce) return std::nullopt;
+  auto gateways = security::load_gateway_keys(settings.gateway_keys_file());
+  if (const auto* error = std::get_if<std::string>(&gateways)) {
+    spdlog::warn("web: axis states are shown unverified: {}: {}", settings.gateway_keys_setting(), *error);
     return std::nullopt;
   }
-  auto gateways = std::get<security::AuthorizedKeys>(keys).keys_with_role(security::Role::kGateway);
-  if (gateways.empty()) {
-    spdlog::warn("web: axis states are shown unverified: {} has no key of role gateway",
-                 config.security.authorized_keys);
-    return std::nullopt;
-  }
-  return gateways;
+  return std::move(std::get<std::vector<security::Principal>>(gateways));
 }
 
 // The page's commands, on the main thread: checked (controls.hpp), then sent by the client.

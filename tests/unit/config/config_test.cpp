@@ -101,7 +101,8 @@ TEST(Config, SecurityIsOffByDefaultAndItsPathsAreFromTheFilesFolder) {
       load_string(kValid +
                       "security:\n  mode: enforce\n  authorized_keys: keys/authorized_keys\n"
                       "  key: /etc/motionbus/keys/coordinator.key\n  coordinator_public_key: keys/coordinator.pub\n"
-                      "  gateway_key: keys/gateway-{bus}.key\n  window_ms: 500\n",
+                      "  gateway_key: keys/gateway-{bus}.key\n  gateway_public_keys: keys/gateways.pub\n"
+                      "  window_ms: 500\n",
                   "/etc/motionbus/lab.yaml");
   ASSERT_TRUE(secured.ok()) << secured.error_text();
   const auto& s = secured.config->security;
@@ -112,6 +113,14 @@ TEST(Config, SecurityIsOffByDefaultAndItsPathsAreFromTheFilesFolder) {
   EXPECT_EQ(s.gateway_key, "/etc/motionbus/keys/gateway-{bus}.key");
   EXPECT_EQ(s.window_ms, 500);
   EXPECT_STREQ(to_string(s.mode), "enforce");
+  // Clients verify axis states with the gateway_public_keys file when it is set, else authorized_keys.
+  EXPECT_EQ(s.gateway_public_keys, "/etc/motionbus/keys/gateways.pub");
+  EXPECT_EQ(s.gateway_keys_file(), "/etc/motionbus/keys/gateways.pub");
+  EXPECT_STREQ(s.gateway_keys_setting(), "security.gateway_public_keys");
+  SecuritySettings without = s;
+  without.gateway_public_keys.clear();
+  EXPECT_EQ(without.gateway_keys_file(), "/etc/motionbus/keys/authorized_keys");
+  EXPECT_STREQ(without.gateway_keys_setting(), "security.authorized_keys");
 }
 
 TEST(Config, BadSecuritySettingsNameTheKey) {

@@ -18,6 +18,7 @@
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/coordinator/coordinator.hpp"
+#include "motion/core/event_loop.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/wire_bounds.hpp"
 
@@ -198,6 +199,31 @@ class SimLoop {
   bool stuck_ = false;
 };
 
+// The heartbeat of a fake gateway of `bus`, as every fake gateway here sends it.
+inline motionlcm::health_t gateway_heartbeat(const std::string& bus, std::int32_t pid = 100) {
+  motionlcm::health_t h{};
+  h.process = "gateway:" + bus;
+  h.role = "gateway";
+  h.host = "testhost";
+  h.pid = pid;
+  h.state = motionlcm::health_t::OK;
+  h.uptime_s = 10;
+  return h;
+}
+
+// The fake gateway of the tests of CoordinatorService on real multicast: every 50 ms its heartbeat
+// (to `heartbeat`: published plain, or signed too) and the state of its axis stamped now (to
+// `publish_state`). `state` must outlive the timer.
+template <typename Heartbeat, typename PublishState>
+EventLoop::TimerId start_gateway_ticks(EventLoop& loop, motionlcm::axis_state_t& state, Heartbeat heartbeat,
+                                       PublishState publish_state) {
+  return loop.call_every(milliseconds(50), [&state, heartbeat, publish_state] {
+    heartbeat(gateway_heartbeat(state.bus));
+    state.utime = state.sample_utime = wall_time_us();
+    publish_state(state);
+  });
+}
+
 // Gateways of both buses: heartbeat, axis states, and scripted replies to commands.
 struct FakeGateways {
   explicit FakeGateways(SimLoop& sim) : loop_(sim) {
@@ -207,12 +233,7 @@ struct FakeGateways {
   void tick() {
     for (const std::string bus : {"can0", "rs485"}) {
       if (silent.contains(bus) || !heartbeats) continue;
-      motionlcm::health_t h{};
-      h.process = "gateway:" + bus;
-      h.role = "gateway";
-      h.pid = pid_of[bus];
-      h.state = motionlcm::health_t::OK;
-      h.uptime_s = 10;
+      const motionlcm::health_t h = gateway_heartbeat(bus, pid_of[bus]);
       loop_.send_to_cores([h](Coordinator& c, TimePoint now) { c.on_health(h, now); });
     }
     for (const auto& [name, m] : models) {

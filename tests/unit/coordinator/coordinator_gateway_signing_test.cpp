@@ -1,5 +1,5 @@
 // What gateways publish, signed (README "Security"): with security.mode enforce the coordinator
-// acts only on AXIS_STATE, GW_REPLY, DRIVE_MODEL and ORPHANED_MOVES whose signed copies verify
+// acts only on AXIS_STATE, GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, events and heartbeats whose signed copies verify
 // against a key of role gateway in authorized_keys. A fake gateway of can0 signs with that key on
 // real multicast (the test's own LCM URL); a forger publishes plain messages, messages signed with
 // a key of no gateway, and replays of the gateway's own.
@@ -36,7 +36,8 @@ Msg unwrap(const signed_message_t& envelope) {
   return m;
 }
 
-// The coordinator under enforce, an honest gateway of can0 (axis x) signing with the gateway key,
+// The coordinator under enforce, an honest gateway of can0 (axis x) signing with the gateway key
+// (bound to can0: buses=can0),
 // a client signing with an operate key, and a forger's node.
 class GatewaySigning : public ::testing::Test {
  protected:
@@ -56,9 +57,9 @@ class GatewaySigning : public ::testing::Test {
     config_.coordinator.arm_timeout_ms = 5000;  // the test arms by hand
     config_.coordinator.gateway_timeout_ms = 2000;
     auto keys = std::get<security::AuthorizedKeys>(security::AuthorizedKeys::parse(
-        op_key_.authorized_line("operate") + "\n" + gateway_key_.authorized_line("gateway") + "\n", "keys"));
+        op_key_.authorized_line("operate") + "\n" + gateway_key_.authorized_line("gateway", {"can0"}) + "\n", "keys"));
     CoordinatorService::Security gate;
-    gate.gateway_keys = keys.keys_with_role(security::Role::kGateway);
+    gate.gateway_keys = keys.with_role(security::Role::kGateway);
     gate.verifier.emplace(std::move(keys), std::string(kPrefix), milliseconds(2000), wall_time_us() - 1000);
     gate.command_signer.emplace(coordinator_key_, std::string(kPrefix));
     gate.message_signer.emplace(coordinator_key_, std::string(kPrefix));
@@ -67,17 +68,14 @@ class GatewaySigning : public ::testing::Test {
     x_.axis = "x";
     x_.bus = "can0";
     x_.online = x_.enabled = x_.in_position = true;
-    tick_ = loop_.call_every(milliseconds(50), [this] {
-      motionlcm::health_t h{};
-      h.process = "gateway:can0";
-      h.role = "gateway";
-      h.pid = 100;
-      h.state = motionlcm::health_t::OK;
-      h.uptime_s = 10;
-      gateway_.publish(lcm::channels::kHealth, h);
-      x_.utime = x_.sample_utime = wall_time_us();
-      publish_signed(lcm::channels::kAxisState, x_);
-    });
+    // Like a gateway with a key: each heartbeat signed, then plain (for observers).
+    tick_ = start_gateway_ticks(
+        loop_, x_,
+        [this](const motionlcm::health_t& h) {
+          publish_signed(lcm::channels::kHealth, h);
+          gateway_.publish(lcm::channels::kHealth, h);
+        },
+        [this](const motionlcm::axis_state_t& s) { publish_signed(lcm::channels::kAxisState, s); });
     gateway_.subscribe<motionlcm::drive_model_request_t>(
         lcm::channels::kDriveModelRequest, [this](const motionlcm::drive_model_request_t&, const std::string&) {
           publish_signed(lcm::channels::kDriveModel, test_model("x", "can0", "uim342"));
@@ -139,12 +137,12 @@ class GatewaySigning : public ::testing::Test {
   void answer(const gateway_command_t& c, std::int8_t status) {
     publish_signed(lcm::channels::kGatewayReply, reply_to(c, status));
   }
-  void move_x(std::int64_t request_id, double to) {
+  void move_x(std::int64_t request_id, double to, const std::string& axis = "x") {
     request_t move{};
     move.client_id = "op/test";
     move.request_id = request_id;
     move.kind = request_t::MOVE_ABSOLUTE;
-    move.axes = {"x"};
+    move.axes = {axis};
     move.values = {to};
     move.num_axes = 1;
     client_.publish(lcm::channels::kSignedRequest, request_signer_.sign(move, wall_time_us()));
@@ -303,6 +301,61 @@ TEST_F(GatewaySigning, AForgedStallEventAbortsNothing) {
       loop_, [&] { return ended(3); }, milliseconds(3000)));
   EXPECT_EQ(replies_[3].back().status, std::int8_t{reply_t::ABORTED}) << replies_[3].back().reason;
   EXPECT_NE(replies_[3].back().reason.find("stalled"), std::string::npos) << replies_[3].back().reason;
+}
+
+// A gateway that falls silent is lost even while a forger publishes its plain heartbeats (its host
+// and pid copied): under enforce only heartbeats signed with a gateway key keep a bus alive, and
+// moves of its axes are refused as offline until its signed heartbeat is heard again.
+TEST_F(GatewaySigning, AForgedPlainHeartbeatKeepsNoSilentGatewayAlive) {
+  const auto lost = [&](std::vector<std::string> buses) {
+    return testing::pump_until(
+        loop_, [&] { return service_->buses_without_gateway() == buses; }, milliseconds(4000));
+  };
+  ASSERT_TRUE(lost({"rs485"})) << "the signed heartbeats do not keep can0 alive";
+  loop_.cancel(tick_);  // the gateway of can0 dies: no heartbeat, no state
+  tick_ = loop_.call_every(milliseconds(50),
+                           [this] { forger_.publish(lcm::channels::kHealth, gateway_heartbeat("can0")); });
+  ASSERT_TRUE(lost({"can0", "rs485"})) << "a forged plain heartbeat keeps the silent gateway of can0 alive";
+  move_x(4, 1.0);
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return ended(4); }, milliseconds(3000)));
+  EXPECT_EQ(replies_[4].back().status, std::int8_t{reply_t::REJECTED}) << replies_[4].back().reason;
+  EXPECT_NE(replies_[4].back().reason.find("gateway of bus can0 (axis x) is offline"), std::string::npos)
+      << replies_[4].back().reason;
+  ASSERT_TRUE(refused(1));
+  EXPECT_TRUE(security_event_starts(
+      "unsigned HEALTH (heartbeat of gateway:can0, pid 100 on testhost) refused: security is enforced"));
+
+  // Its heartbeat signed with the gateway key (and no axis state) brings it back.
+  publish_signed(lcm::channels::kHealth, gateway_heartbeat("can0"));
+  EXPECT_TRUE(lost({"rs485"})) << "a signed heartbeat does not revive can0";
+}
+
+// The gateway key is bound to can0: what it signs for rs485 (the heartbeat of its gateway, a state
+// of its axis c, even one that names can0 as its bus) is refused naming the key and the bus, and
+// changes nothing: rs485 stays without a gateway and a move of c is refused as offline.
+TEST_F(GatewaySigning, AKeyBoundToCan0SpeaksForNoOtherBus) {
+  publish_signed(lcm::channels::kHealth, gateway_heartbeat("rs485"));
+  motionlcm::axis_state_t c{};
+  c.axis = "c";
+  c.bus = "rs485";
+  c.online = c.enabled = c.in_position = true;
+  c.utime = c.sample_utime = wall_time_us();
+  publish_signed(lcm::channels::kAxisState, c);
+  c.bus = "can0";  // the key's own bus, an axis of another
+  publish_signed(lcm::channels::kAxisState, c);
+  ASSERT_TRUE(refused(3)) << service_->refused_gateway_messages();
+  EXPECT_EQ(service_->buses_without_gateway(), std::vector<std::string>{"rs485"});
+  const std::string bound = "key 'gateway' (" + security::to_hex(gateway_key_.id()) +
+                            ") may speak for bus can0 only (buses= of its authorized_keys line 2), not for bus 'rs485'";
+  EXPECT_TRUE(security_event_starts("signed HEALTH refused: " + bound));
+  EXPECT_TRUE(security_event_starts("signed AXIS_STATE refused: " + bound));
+  move_x(6, 1.0, "c");
+  ASSERT_TRUE(testing::pump_until(
+      loop_, [&] { return ended(6); }, milliseconds(3000)));
+  EXPECT_EQ(replies_[6].back().status, std::int8_t{reply_t::REJECTED}) << replies_[6].back().reason;
+  EXPECT_NE(replies_[6].back().reason.find("gateway of bus rs485 (axis c) is offline"), std::string::npos)
+      << replies_[6].back().reason;
 }
 
 // Under enforce a coordinator without a gateway key in authorized_keys does not start: it would

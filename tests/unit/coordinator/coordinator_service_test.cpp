@@ -30,17 +30,9 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
   x.axis = "x";
   x.bus = "can0";
   x.online = x.enabled = x.in_position = true;
-  const auto tick = loop.call_every(milliseconds(50), [&] {
-    motionlcm::health_t h{};
-    h.process = "gateway:can0";
-    h.role = "gateway";
-    h.pid = 100;
-    h.state = motionlcm::health_t::OK;
-    h.uptime_s = 10;
-    gateway.publish(lcm::channels::kHealth, h);
-    x.utime = x.sample_utime = wall_time_us();
-    gateway.publish(lcm::channels::kAxisState, x);
-  });
+  const auto tick = start_gateway_ticks(
+      loop, x, [&](const motionlcm::health_t& h) { gateway.publish(lcm::channels::kHealth, h); },
+      [&](const motionlcm::axis_state_t& s) { gateway.publish(lcm::channels::kAxisState, s); });
   // The gateway answers the coordinator's DRIVE_MODEL_REQUEST with the model of x.
   int model_requests = 0;
   gateway.subscribe<motionlcm::drive_model_request_t>(

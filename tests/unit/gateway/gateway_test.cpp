@@ -520,7 +520,7 @@ TEST_F(Enforced, AFloodOfForgedTriggersIsFiveEventsASecond) {
 }
 
 // With a gateway key (security.gateway_key) under enforce, the replies go out signed only and the
-// axis states signed and plain (for observers); the coordinator verifies them with the key's
+// axis states and heartbeats signed and plain (for observers); the coordinator verifies them with the key's
 // public half (role gateway in authorized_keys).
 TEST_F(Enforced, RepliesGoOutSignedOnlyAndStatesSignedAndPlain) {
   const auto key = security::KeyPair::generate("gateway");
@@ -531,8 +531,18 @@ TEST_F(Enforced, RepliesGoOutSignedOnlyAndStatesSignedAndPlain) {
   security::MessageVerifier states_in({key.public_key()}, "the gateway's", "GT_",
                                       std::string(lcm::channels::kAxisState), milliseconds(2000),
                                       wall_time_us() - 1000);
+  security::MessageVerifier heartbeats_in({key.public_key()}, "the gateway's", "GT_",
+                                          std::string(lcm::channels::kHealth), milliseconds(2000),
+                                          wall_time_us() - 1000);
   std::vector<motionlcm::gateway_reply_t> signed_replies;
   std::vector<motionlcm::axis_state_t> signed_states;
+  std::vector<motionlcm::health_t> signed_heartbeats;
+  node.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kHealth),
+                                              [&](const motionlcm::signed_message_t& e, const std::string&) {
+                                                auto v = heartbeats_in.verify<motionlcm::health_t>(e, wall_time_us());
+                                                ASSERT_TRUE(v.message) << v.reason;
+                                                signed_heartbeats.push_back(*v.message);
+                                              });
   node.subscribe<motionlcm::signed_message_t>(security::signed_channel(lcm::channels::kGatewayReply),
                                               [&](const motionlcm::signed_message_t& e, const std::string&) {
                                                 auto v =
@@ -564,6 +574,13 @@ TEST_F(Enforced, RepliesGoOutSignedOnlyAndStatesSignedAndPlain) {
   EXPECT_DOUBLE_EQ(signed_states[0].position, 2.5);  // inverted, 100 counts a unit
   ASSERT_EQ(states.size(), 1u);
   EXPECT_DOUBLE_EQ(states[0].position, 2.5);
+  // Heartbeats signed too (the coordinator under enforce takes a gateway's liveness only from
+  // these), the plain ones going on for observers.
+  health.publish_now();
+  pump_until([&] { return !signed_heartbeats.empty(); });
+  ASSERT_FALSE(signed_heartbeats.empty());
+  EXPECT_EQ(signed_heartbeats.back().process, "gateway:can0");
+  EXPECT_EQ(signed_heartbeats.back().role, "gateway");
 }
 
 }  // namespace

@@ -28,6 +28,64 @@ TEST(AuthorizedKeys, ParsesPrincipalsAndFindsThemByKeyId) {
   EXPECT_EQ(keys.find(KeyPair::generate("carol").id()), nullptr);
 }
 
+// A gateway key may be bound to buses by a fourth token, buses=<bus>[,<bus>...]; without it, it
+// speaks for every bus.
+TEST(AuthorizedKeys, AGatewayKeyIsBoundToTheBusesOfItsLine) {
+  const KeyPair can0 = KeyPair::generate("gateway-can0");
+  const KeyPair two = KeyPair::generate("gateway-two");
+  const KeyPair any = KeyPair::generate("gateway");
+  EXPECT_EQ(two.authorized_line("gateway", {"can0", "rs485a"}),
+            base64_encode(two.public_key()) + " gateway-two gateway buses=can0,rs485a");
+  const auto parsed = AuthorizedKeys::parse(can0.authorized_line("gateway", {"can0"}) + "\n" +
+                                                two.authorized_line("gateway", {"can0", "rs485a"}) + "\n" +
+                                                any.authorized_line("gateway") + "\n",
+                                            "keys");
+  ASSERT_TRUE(std::holds_alternative<AuthorizedKeys>(parsed)) << std::get<std::string>(parsed);
+  const auto& keys = std::get<AuthorizedKeys>(parsed);
+  EXPECT_EQ(keys.find(can0.id())->buses, std::vector<std::string>{"can0"});
+  EXPECT_EQ(keys.find(two.id())->buses, (std::vector<std::string>{"can0", "rs485a"}));
+  EXPECT_TRUE(keys.find(any.id())->buses.empty());
+  EXPECT_TRUE(keys.find(can0.id())->may_speak_for("can0"));
+  EXPECT_FALSE(keys.find(can0.id())->may_speak_for("rs485a"));
+  EXPECT_TRUE(keys.find(two.id())->may_speak_for("rs485a"));
+  EXPECT_TRUE(keys.find(any.id())->may_speak_for("anything"));
+  ASSERT_EQ(keys.with_role(Role::kGateway).size(), 3u);
+  EXPECT_EQ(keys.with_role(Role::kGateway)[1].name, "gateway-two");
+}
+
+// The buses token on another role, an empty list, an empty or bad name, a name twice, or another
+// token in its place: load errors naming file:line.
+TEST(AuthorizedKeys, ABadBusesTokenIsALoadError) {
+  int n = 0;
+  const auto line = [&n](const std::string& role, const std::string& token) {
+    return base64_encode(KeyPair::generate("k").public_key()) + " k" + std::to_string(++n) + " " + role + " " + token +
+           "\n";
+  };
+  const std::string text = line("operate", "buses=can0") +   // 1
+                           line("gateway", "buses=") +       // 2
+                           line("gateway", "buses=can0,") +  // 3
+                           line("gateway", "buses=can/0") +  // 4
+                           line("gateway", "buses=a,b,a") +  // 5
+                           line("gateway", "bus=can0") +     // 6
+                           line("gateway", "buses=can0") +   // 7 ok
+                           line("gateway", "buses=can0 x");  // 8 five fields
+  const auto parsed = AuthorizedKeys::parse(text, "keys");
+  ASSERT_TRUE(std::holds_alternative<std::string>(parsed));
+  const std::string& e = std::get<std::string>(parsed);
+  EXPECT_NE(e.find("keys:1: 'buses=can0': only a key of role gateway is bound to buses, this one has role operate"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("keys:2: 'buses=' names no bus"), std::string::npos) << e;
+  EXPECT_NE(e.find("keys:3: 'buses=can0,': bus name '' is not 1..64 of [A-Za-z0-9._-]"), std::string::npos) << e;
+  EXPECT_NE(e.find("keys:4: 'buses=can/0': bus name 'can/0' is not 1..64 of [A-Za-z0-9._-]"), std::string::npos) << e;
+  EXPECT_NE(e.find("keys:5: 'buses=a,b,a' names bus 'a' twice"), std::string::npos) << e;
+  EXPECT_NE(e.find("keys:6: expected 'buses=<bus>[,<bus>...]' after the role, got 'bus=can0'"), std::string::npos) << e;
+  EXPECT_EQ(e.find("keys:7:"), std::string::npos) << e;
+  EXPECT_NE(e.find("keys:8: expected '<base64 public key> <name> <role> [buses=<bus>,...]', got 5 fields"),
+            std::string::npos)
+      << e;
+}
+
 TEST(AuthorizedKeys, EveryErrorNamesFileLineAndWhatWasWrong) {
   const KeyPair alice = KeyPair::generate("alice");
   const KeyPair other = KeyPair::generate("alice");
@@ -44,7 +102,8 @@ TEST(AuthorizedKeys, EveryErrorNamesFileLineAndWhatWasWrong) {
   EXPECT_NE(e.find("/etc/motionbus/authorized_keys:2: 'AAAA' is not a base64 Ed25519 public key (32 bytes)"),
             std::string::npos)
       << e;
-  EXPECT_NE(e.find("/etc/motionbus/authorized_keys:3: expected '<base64 public key> <name> <role>', got 2 fields"),
+  EXPECT_NE(e.find("/etc/motionbus/authorized_keys:3: expected '<base64 public key> <name> <role> [buses=<bus>,...]', "
+                   "got 2 fields"),
             std::string::npos)
       << e;
   EXPECT_NE(

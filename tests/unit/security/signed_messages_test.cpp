@@ -153,5 +153,46 @@ TEST(GatewayMessages, AnyGatewayKeyCountersPerKeyAndBus) {
             "signed AXIS_STATE refused: key " + to_hex(op.id()) + " is not a gateway key");
 }
 
+// A gateway key bound to buses (buses=can0 in authorized_keys) speaks for those only: what it signs
+// for another bus, or naming another bus besides its own, is refused naming the key and the bus;
+// a key of every bus, and the bound key on its own bus, pass.
+TEST(GatewayMessages, AKeyBoundToABusSpeaksForThatBusOnly) {
+  const KeyPair can0 = KeyPair::generate("gateway-can0");
+  const KeyPair any = KeyPair::generate("gateway");
+  const auto keys = std::get<AuthorizedKeys>(AuthorizedKeys::parse(
+      can0.authorized_line("gateway", {"can0"}) + "\n" + any.authorized_line("gateway") + "\n", "keys"));
+  MessageVerifier states(keys.with_role(Role::kGateway), "a gateway key", "MOTION_", "AXIS_STATE", 2000ms, kStart);
+  // Its bus, and the bus of the axis it names (the receiver's configuration: here y is on rs485).
+  const auto buses = [](const motionlcm::axis_state_t& s) {
+    return std::vector<std::string>{s.bus, s.axis == "y" ? "rs485" : s.bus};
+  };
+  const auto bus = [](const motionlcm::axis_state_t& s) { return s.bus; };
+  const auto state = [](const std::string& axis, const std::string& b) {
+    motionlcm::axis_state_t s{};
+    s.axis = axis;
+    s.bus = b;
+    return s;
+  };
+  const std::int64_t now = kStart + 5'000'000;
+  MessageSigner bound(can0, "MOTION_");
+  MessageSigner free(any, "MOTION_");
+  const auto verify = [&](MessageSigner& by, const motionlcm::axis_state_t& s) {
+    return states.verify<motionlcm::axis_state_t>(by.sign("AXIS_STATE", s, now), now, bus, buses);
+  };
+  EXPECT_TRUE(verify(bound, state("x", "can0")).message);
+  const auto other_bus = verify(bound, state("c", "rs485"));
+  EXPECT_FALSE(other_bus.message);
+  EXPECT_EQ(other_bus.reason, "signed AXIS_STATE refused: key 'gateway-can0' (" + to_hex(can0.id()) +
+                                  ") may speak for bus can0 only (buses= of its authorized_keys line 1), not for "
+                                  "bus 'rs485'");
+  const auto lying = verify(bound, state("y", "can0"));  // y is on rs485 whatever the state says
+  EXPECT_FALSE(lying.message);
+  EXPECT_NE(lying.reason.find("not for bus 'rs485'"), std::string::npos) << lying.reason;
+  EXPECT_TRUE(verify(free, state("y", "rs485")).message);
+  // The 3-argument verify takes the stream for the bus.
+  EXPECT_FALSE(
+      states.verify<motionlcm::axis_state_t>(bound.sign("AXIS_STATE", state("c", "rs485"), now), now, bus).message);
+}
+
 }  // namespace
 }  // namespace motion::security

@@ -177,6 +177,14 @@ class Coordinator {
   // Axes of which no AXIS_STATE has arrived since this coordinator started (requests for them are
   // refused as offline): until it is empty the coordinator's health is DEGRADED.
   [[nodiscard]] std::vector<std::string> axes_never_heard() const;
+  // Whether `health` is a heartbeat of the process this core last took as the gateway of its bus
+  // (same host and pid) and that one was heard within gateway_timeout_ms before `now`: under
+  // enforce the plain copy of a live gateway's signed heartbeat, not looked at in silence
+  // (CoordinatorService); any other plain heartbeat claiming a gateway is a refusal to report.
+  [[nodiscard]] bool is_live_gateways_heartbeat(const motionlcm::health_t& health, TimePoint now) const;
+  // The bus of a configured axis, and of a gateway command awaiting its reply (nullopt: none).
+  [[nodiscard]] std::optional<std::string> bus_of_axis(const std::string& axis) const;
+  [[nodiscard]] std::optional<std::string> bus_of_command(std::int64_t command_id) const;
   // The latest drive model of `axis` (nullptr: none yet).
   [[nodiscard]] const motionlcm::drive_model_t* drive_model(const std::string& axis) const;
 
@@ -201,6 +209,8 @@ class Coordinator {
   struct GatewayLive {
     TimePoint last_heartbeat{};  // TimePoint{}: announced STOPPING (offline until it heartbeats)
     std::int32_t pid = 0;
+    std::string host;         // of its last heartbeat
+    TimePoint last_health{};  // its last heartbeat (axis states do not count here)
     double uptime_s = 0;
     bool seen = false;
   };

@@ -16,12 +16,16 @@
 // SREPLY, SEVENT); with mode enforce the plain triggers and ACTIVE_MOVES are not sent at all
 // (gateways would refuse them), plain REPLY and EVENT still are (for observers and clients that
 // do not verify). With mode enforce the coordinator takes what gateways publish (AXIS_STATE,
-// GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, EVENT) only from their signed copies (signed_message_t on
-// SAXIS_STATE, SGW_REPLY, SDRIVE_MODEL, SORPHANED_MOVES, and GW_EVENT on SGW_EVENT) that verify
-// against a key of role gateway in authorized_keys (counter per signer and bus); a signed one that
+// GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, EVENT, HEALTH) only from their signed copies (signed_message_t on
+// SAXIS_STATE, SGW_REPLY, SDRIVE_MODEL, SORPHANED_MOVES, SHEALTH, and GW_EVENT on SGW_EVENT) that verify
+// against a key of role gateway in authorized_keys (counter per signer and bus; a key bound to
+// buses speaks only for messages whose bus, and the configured bus of the axis or the command they
+// name, are among them); a signed one that
 // does not verify, or a plain GW_REPLY or ORPHANED_MOVES, is ignored and counted, with a SECURITY
 // event (5 a second, then a count); plain AXIS_STATE, DRIVE_MODEL and EVENT (gateways send them
-// for observers) are not looked at.
+// for observers) are not looked at, nor is the plain HEALTH of a live gateway (the copy of its
+// signed one: same host and pid); any other plain HEALTH claiming a gateway is refused like a plain
+// GW_REPLY, so a forged heartbeat keeps no dead gateway's bus alive.
 //
 // Thread contract: loop thread only. Never blocks.
 #pragma once
@@ -49,7 +53,7 @@ class CoordinatorService final : private CoordinatorOutput {
     std::optional<security::RequestVerifier> verifier;
     std::optional<security::GatewayCommandSigner> command_signer;
     std::optional<security::MessageSigner> message_signer;  // with command_signer: the same key
-    std::vector<security::PublicKey> gateway_keys;          // role gateway in authorized_keys
+    std::vector<security::Principal> gateway_keys;          // role gateway in authorized_keys
   };
 
   // `loop`, `node` and `config` must outlive the service. `security`: see load_security().
@@ -71,6 +75,9 @@ class CoordinatorService final : private CoordinatorOutput {
     return core_.buses_without_gateway(loop_.now());
   }
   [[nodiscard]] std::vector<std::string> axes_never_heard() const { return core_.axes_never_heard(); }
+  // The coordinator's own heartbeat signed with security.key (signed_message_t on SHEALTH), when
+  // it has one: the HealthPublisher's signed copy (coordinator/app/main.cpp).
+  void sign_heartbeat(const motionlcm::health_t& health);
   // Gateway messages refused under enforce (plain, or signed but not verifying), reported or not.
   [[nodiscard]] std::uint64_t refused_gateway_messages() const { return gateway_refusals_.total(); }
 
@@ -85,7 +92,10 @@ class CoordinatorService final : private CoordinatorOutput {
   // `refuse_plain` (gateways send none) or not looked at (they send it too, for observers).
   template <typename Msg>
   void subscribe_gateway_channel(std::string_view channel, void (Coordinator::*handler)(const Msg&, TimePoint),
-                                 const std::vector<security::PublicKey>& gateway_keys, bool refuse_plain);
+                                 const std::vector<security::Principal>& gateway_keys, bool refuse_plain);
+  // HEALTH: to the core, except under enforce a heartbeat claiming to be a gateway's (those count
+  // only signed, on SHEALTH): ignored, and refused unless it is the plain copy of a live gateway's.
+  void on_plain_health(const motionlcm::health_t& health);
   // A gateway message refused under enforce: counted, and a SECURITY event (rate-limited).
   void refuse_gateway_message(const std::string& reason);
 

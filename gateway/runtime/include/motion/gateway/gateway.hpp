@@ -23,7 +23,8 @@
 //    ORPHANED_MOVES signed (signed_message_t on SAXIS_STATE, SGW_REPLY, SDRIVE_MODEL,
 //    SORPHANED_MOVES); with enforce GW_REPLY and ORPHANED_MOVES go out signed only (the
 //    coordinator acts on nothing else), AXIS_STATE and DRIVE_MODEL plain too, for observers; its
-//    EVENTs plain and signed as GW_EVENT on SGW_EVENT;
+//    EVENTs plain and signed as GW_EVENT on SGW_EVENT; its heartbeats (the HealthPublisher it is
+//    given) plain and signed on SHEALTH;
 //  - publishes each axis's drive model (DRIVE_MODEL, drive_model_t, made by the ModelBuilder the
 //    process installs) when the axis first comes online and whenever what the driver read from the
 //    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus;
@@ -107,8 +108,8 @@ class Gateway final : public GatewayOutput {
   // security.coordinator_public_key of `config` (none when not set), or what is wrong with it.
   [[nodiscard]] static security::Loaded<std::optional<security::PublicKey>> load_coordinator_key(
       const config::Config& config);
-  // Signs what the gateway publishes with `key` from now on (none: plain only), for the channel
-  // prefix of the gateway's node.
+  // Signs what the gateway publishes with `key` from now on (none: plain only), its heartbeats
+  // included, for the channel prefix of the gateway's node.
   void set_gateway_key(const std::optional<security::KeyPair>& key);
   // security.gateway_key of `config` with "{bus}" replaced by `bus` (none when not set), or what is
   // wrong with it.

@@ -68,7 +68,7 @@ class Client {
 
   // From now on requests are signed with `key` and sent on SREQUEST; id() becomes the key's own
   // client id (RequestSigner::own_client_id). Call it before the first send().
-  void sign_with(security::KeyPair key);
+  void sign_with(const security::KeyPair& key);
   [[nodiscard]] bool signing() const { return signer_.has_value(); }
 
   // From now on only replies and SECURITY events signed with `coordinator` count (see above);
@@ -77,8 +77,10 @@ class Client {
   [[nodiscard]] bool verifying() const { return reply_verifier_.has_value(); }
   // Signed replies for this client's pending requests that did not verify (see above).
   [[nodiscard]] std::uint64_t forged_replies() const { return forged_replies_; }
-  // From now on only axis states signed with one of `gateways` count (see above).
-  void verify_states_with(std::vector<security::PublicKey> gateways, std::chrono::milliseconds window);
+  // From now on only axis states signed with one of `gateways` count (see above), a key bound to
+  // buses (Principal::buses) for states of those buses only.
+  // (security::load_gateway_keys reads them from authorized_keys or gateway_public_keys.)
+  void verify_states_with(std::vector<security::Principal> gateways, std::chrono::milliseconds window);
   [[nodiscard]] bool verifying_states() const { return state_verifier_.has_value(); }
   // Signed axis states that did not verify (forged, altered, replayed, stale).
   [[nodiscard]] std::uint64_t forged_states() const { return forged_states_; }

@@ -205,6 +205,18 @@ struct SecuritySettings {
   // DRIVE_MODEL, ORPHANED_MOVES and its events with it. "{bus}" in the path is replaced by the gateway's bus,
   // for one key per bus.
   std::string gateway_key;
+  // The gateways' public keys for clients that cannot read authorized_keys (motionctl, motion-web):
+  // a file in authorized_keys' format of which only the lines of role gateway are used; it holds
+  // no secret (world-readable is fine). Empty: those clients read authorized_keys.
+  std::string gateway_public_keys;
+  // Where a client finds the gateway keys it verifies axis states with: gateway_public_keys when
+  // set, else authorized_keys; and the name of that setting ("security.gateway_public_keys").
+  [[nodiscard]] const std::string& gateway_keys_file() const {
+    return gateway_public_keys.empty() ? authorized_keys : gateway_public_keys;
+  }
+  [[nodiscard]] const char* gateway_keys_setting() const {
+    return gateway_public_keys.empty() ? "security.authorized_keys" : "security.gateway_public_keys";
+  }
   int window_ms = 2000;  // a signed request's utime must be within this of the coordinator's clock
   KeyLocations where;
 };

@@ -1,6 +1,8 @@
 // Heartbeat publisher (health_t on <prefix>HEALTH every period) for every process. The detail
 // it publishes is the one set_state() gave, followed by the node's counters of malformed LCM
 // messages and handler errors when they are not zero ("...; 12 malformed LCM messages dropped").
+// A process with a signing key (gateways, the coordinator: README "Security") also publishes a
+// signed copy of every heartbeat through set_signed_copy(), just before the plain one.
 // Thread contract: loop thread only.
 #pragma once
 
@@ -27,6 +29,10 @@ class HealthPublisher {
 
   void set_state(std::int8_t state, std::string detail = {});
   void set_bus_stats(BusStatsProvider provider) { bus_stats_ = std::move(provider); }
+  // Called with every heartbeat just before the plain one goes out (empty: none): it publishes
+  // the signed copy (signed_message_t on SHEALTH). Whoever sets it clears it before it goes.
+  using SignedCopy = std::function<void(const motionlcm::health_t&)>;
+  void set_signed_copy(SignedCopy publish) { signed_copy_ = std::move(publish); }
   // Publishes at once (state changes, and the last STOPPING heartbeat on shutdown).
   void publish_now();
   // What set_state() last gave (the process's own status: systemd's STATUS= line mirrors it).
@@ -44,6 +50,7 @@ class HealthPublisher {
   TimePoint started_;
   EventLoop::TimerId timer_;
   BusStatsProvider bus_stats_;
+  SignedCopy signed_copy_;
 };
 
 }  // namespace motion::lcm

@@ -1,13 +1,15 @@
 // Who may do what: the authorized_keys file and the roles.
 //
-// One principal per line, "<base64 Ed25519 public key> <name> <role>"; blank lines and lines
-// starting with # are ignored. Roles, each including the ones before it:
+// One principal per line, "<base64 Ed25519 public key> <name> <role>", and for role gateway an
+// optional fourth token "buses=<bus>[,<bus>...]": the buses the key may speak for (without it,
+// every bus). Blank lines and lines starting with # are ignored. Roles, each including the ones before it:
 //   observe    STOP and ESTOP only (every principal may stop)
 //   operate    + moves (absolute, relative), jog, home, enable, disable, fault reset
 //   configure  + set-position, set outputs, parameter read and write
 //   admin      everything, including request kinds added later
 // and, outside that ladder, `gateway`: a gateway's key (config security.gateway_key). It signs what
-// gateways publish (AXIS_STATE, GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, their events) and sends no request at all.
+// gateways publish (AXIS_STATE, GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, their events and heartbeats)
+// and sends no request at all.
 // Names are 1..64 of [A-Za-z0-9._-]; a signed request's client_id must be the name or start
 // with "<name>/" (so no key can speak under another key's client ids).
 //
@@ -40,8 +42,12 @@ struct Principal {
   std::string name;
   Role role = Role::kObserve;
   int line = 0;  // in its file
+  // Role gateway: the buses it may speak for (its line's buses=...); empty: every bus.
+  std::vector<std::string> buses;
   // Whether `client_id` is this principal's: the name, or "<name>/..." .
   [[nodiscard]] bool owns_client_id(std::string_view client_id) const;
+  // Whether it may speak for `bus` (a gateway key bound to buses: one of them; else any).
+  [[nodiscard]] bool may_speak_for(std::string_view bus) const;
 };
 
 class AuthorizedKeys {
@@ -55,9 +61,17 @@ class AuthorizedKeys {
   [[nodiscard]] const std::vector<Principal>& principals() const { return principals_; }
   // The public keys of the principals with `role`, in file order.
   [[nodiscard]] std::vector<PublicKey> keys_with_role(Role role) const;
+  // The principals with `role` (their names and buses too), in file order.
+  [[nodiscard]] std::vector<Principal> with_role(Role role) const;
 
  private:
   std::vector<Principal> principals_;
 };
+
+// The gateway keys a client verifies what gateways publish with: the principals of role gateway
+// (with their buses) of a file in authorized_keys' format (authorized_keys itself, or config
+// security.gateway_public_keys), or what is wrong: the file cannot be read, a bad line
+// (file:line), or no key of role gateway in it.
+[[nodiscard]] Loaded<std::vector<Principal>> load_gateway_keys(const std::string& path);
 
 }  // namespace motion::security

@@ -72,9 +72,10 @@ class KeyPair {
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] Signature sign(std::span<const std::uint8_t> message) const;
 
-  // The private key file's text, and the authorized_keys line for `role` (no newline).
+  // The private key file's text, and the authorized_keys line for `role` (no newline), with
+  // "buses=<bus>,..." when `buses` names any (role gateway: the buses the key may speak for).
   [[nodiscard]] std::string private_file_text() const;
-  [[nodiscard]] std::string authorized_line(std::string_view role) const;
+  [[nodiscard]] std::string authorized_line(std::string_view role, const std::vector<std::string>& buses = {}) const;
 
  private:
   KeyPair() = default;
@@ -89,10 +90,11 @@ class KeyPair {
 [[nodiscard]] Loaded<KeyPair> load_private_key(const std::string& path);
 
 // Writes <dir>/<name>.key (mode 0600) and <dir>/<name>.pub (the authorized_keys line with
-// `role`), creating `dir` (mode 0700) when missing; never overwrites a file. Returns what went
+// `role`, and `buses`), creating `dir` (mode 0700) when missing; never overwrites a file. Returns what went
 // wrong, nothing on success.
 [[nodiscard]] std::optional<std::string> write_key_pair(const KeyPair& key, const std::string& dir,
-                                                        std::string_view role);
+                                                        std::string_view role,
+                                                        const std::vector<std::string>& buses = {});
 // Where write_key_pair puts the private and the public file of `name`.
 [[nodiscard]] std::string private_key_path(const std::string& dir, std::string_view name);
 [[nodiscard]] std::string public_key_path(const std::string& dir, std::string_view name);

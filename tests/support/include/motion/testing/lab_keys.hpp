@@ -29,10 +29,14 @@ namespace motion::testing {
   return std::nullopt;
 }
 
-[[nodiscard]] inline std::string enforced_security(int window_ms = 2000) {
-  return "\nsecurity:\n  mode: enforce\n  authorized_keys: authorized_keys\n  key: coordinator.key\n"
+// `authorized_keys`: the file's name; `more`: further lines of the section ("  key: value\n").
+[[nodiscard]] inline std::string enforced_security(int window_ms = 2000,
+                                                   const std::string& authorized_keys = "authorized_keys",
+                                                   const std::string& more = {}) {
+  return "\nsecurity:\n  mode: enforce\n  authorized_keys: " + authorized_keys +
+         "\n  key: coordinator.key\n"
          "  coordinator_public_key: coordinator.pub\n  gateway_key: gateway.key\n  window_ms: " +
-         std::to_string(window_ms) + "\n";
+         std::to_string(window_ms) + "\n" + more;
 }
 
 }  // namespace motion::testing
