@@ -272,24 +272,30 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
     ctx.result = ctx.with_node([&](app::Service& service) -> int {
       const auto& cfg = service.config();
       if (*model) {
-        // Ask every gateway (DRIVE_MODEL_REQUEST) and collect their answers.
-        std::map<std::string, motionlcm::drive_model_t> models;
+        // Ask every gateway (DRIVE_MODEL_REQUEST) and collect their answers: each model and, with
+        // it, the axis's arming time.
+        HeardModels heard;
+        auto& models = heard.models;
         service.node().subscribe<motionlcm::drive_model_t>(
             lcm::channels::kDriveModel,
             [&](const motionlcm::drive_model_t& m, const std::string&) { models[m.axis] = m; });
+        service.node().subscribe<motionlcm::arm_timing_t>(
+            lcm::channels::kArmTiming,
+            [&](const motionlcm::arm_timing_t& t, const std::string&) { heard.arming[t.axis] = t; });
         motionlcm::drive_model_request_t request{};
         request.utime = wall_time_us();
         request.requester = "motionctl";
         service.node().publish(lcm::channels::kDriveModelRequest, request);
         const auto deadline = service.loop().now() + std::chrono::milliseconds(static_cast<long long>(*listen * 1000));
-        while (models.size() < cfg.axes.size() && service.loop().now() < deadline) {
+        while ((models.size() < cfg.axes.size() || heard.arming.size() < cfg.axes.size()) &&
+               service.loop().now() < deadline) {
           service.loop().run_once(
               std::chrono::duration_cast<std::chrono::milliseconds>(deadline - service.loop().now()));
         }
         if (ctx.json) {
-          std::cout << models_json(models).dump(2) << "\n";
+          std::cout << models_json(cfg, heard).dump(2) << "\n";
         } else {
-          print_models(cfg, models);
+          print_models(cfg, heard);
         }
         return models.empty() ? app::kExitUnavailable : app::kExitOk;
       }

@@ -1,7 +1,9 @@
 // `motionctl status --model`: each axis's drive model as its gateway published it.
 #include "model_view.hpp"
 
+#include <algorithm>
 #include <cstdio>
+#include <vector>
 
 namespace motion::ctl {
 namespace {
@@ -26,9 +28,69 @@ std::string start_name(std::int8_t kind) {
   }
 }
 
+// One bus's arming on the line, from the ARM_TIMING of its axes, summed as the coordinator sums it
+// for its arming deadline (Coordinator::arming_line_time): the armed axes' arm_line_us, plus for
+// each other drive of the bus the largest arm_bystander_us of the armed axes.
+struct BusArming {
+  // The bus's axes with their ARM_TIMING (null: none heard).
+  std::vector<std::pair<std::string, const motionlcm::arm_timing_t*>> axes;
+  double all_armed_us = 0;      // every axis of the bus armed together
+  double one_armed_max_us = 0;  // the slowest axis armed alone
+  long drives = 0;              // drives of the bus in the configuration
+  [[nodiscard]] bool heard() const {
+    return std::any_of(axes.begin(), axes.end(), [](const auto& a) { return a.second != nullptr; });
+  }
+};
+
+std::map<std::string, BusArming> bus_arming(const config::Config& c, const HeardModels& heard) {
+  std::map<std::string, BusArming> out;
+  for (const auto& bus : c.buses) {
+    BusArming& b = out[bus.name];
+    b.drives =
+        std::count_if(c.drives.begin(), c.drives.end(), [&](const config::Drive& d) { return d.bus == bus.name; });
+    double line_us = 0;
+    double bystander_us = 0;
+    long armed = 0;
+    for (const auto& a : c.axes) {
+      if (c.drive_of(a)->bus != bus.name) continue;
+      const auto it = heard.arming.find(a.name);
+      const motionlcm::arm_timing_t* t = it == heard.arming.end() ? nullptr : &it->second;
+      b.axes.emplace_back(a.name, t);
+      if (t == nullptr) continue;
+      ++armed;
+      line_us += t->arm_line_us;
+      bystander_us = std::max(bystander_us, t->arm_bystander_us);
+      b.one_armed_max_us = std::max(
+          b.one_armed_max_us, t->arm_line_us + static_cast<double>(std::max(0L, b.drives - 1)) * t->arm_bystander_us);
+    }
+    b.all_armed_us = line_us + static_cast<double>(std::max(0L, b.drives - armed)) * bystander_us;
+  }
+  return out;
+}
+
+void print_arming(const config::Config& c, const HeardModels& heard) {
+  for (const auto& [bus, b] : bus_arming(c, heard)) {
+    std::printf("arming on %s (ARM_TIMING: line time of the frames arming sends; %ld drive%s on the bus)\n",
+                bus.c_str(), b.drives, b.drives == 1 ? "" : "s");
+    for (const auto& [axis, t] : b.axes) {
+      if (t == nullptr) {
+        std::printf("  %-11s no ARM_TIMING heard\n", axis.c_str());
+      } else {
+        std::printf("  %-11s %.1f us loading its move, %.1f us readying each other drive\n", axis.c_str(),
+                    t->arm_line_us, t->arm_bystander_us);
+      }
+    }
+    if (b.heard()) {
+      std::printf("  bus         %.1f us every axis armed together, at most %.1f us one axis armed alone\n",
+                  b.all_armed_us, b.one_armed_max_us);
+    }
+  }
+}
+
 }  // namespace
 
-void print_models(const config::Config& c, const std::map<std::string, motionlcm::drive_model_t>& models) {
+void print_models(const config::Config& c, const HeardModels& heard) {
+  const auto& models = heard.models;
   for (const auto& a : c.axes) {
     const auto it = models.find(a.name);
     if (it == models.end()) {
@@ -64,11 +126,13 @@ void print_models(const config::Config& c, const std::map<std::string, motionlcm
                   m.start_addresses[i], m.start_wire_us[i]);
     }
   }
+  print_arming(c, heard);
 }
 
-nlohmann::json models_json(const std::map<std::string, motionlcm::drive_model_t>& models) {
+nlohmann::json models_json(const config::Config& c, const HeardModels& heard) {
+  const auto buses = bus_arming(c, heard);
   nlohmann::json out = nlohmann::json::object();
-  for (const auto& [axis, m] : models) {
+  for (const auto& [axis, m] : heard.models) {
     nlohmann::json starts = nlohmann::json::array();
     for (std::size_t i = 0; i < m.start_kinds.size(); ++i) {
       starts.push_back(
@@ -96,8 +160,18 @@ nlohmann::json models_json(const std::map<std::string, motionlcm::drive_model_t>
         {"ramp_from", m.ramp_from},
         {"position_min", m.position_min},
         {"position_max", m.position_max},
-        {"starts", starts}};
+        {"starts", starts},
+        {"arm_timing", nullptr}};
+    const auto t = heard.arming.find(axis);
+    const auto b = buses.find(m.bus);
+    if (t != heard.arming.end() && b != buses.end()) {
+      out[axis]["arm_timing"] = {{"arm_line_us", t->second.arm_line_us},
+                                 {"arm_bystander_us", t->second.arm_bystander_us},
+                                 {"bus_all_armed_us", b->second.all_armed_us},
+                                 {"bus_one_armed_max_us", b->second.one_armed_max_us}};
+    }
   }
   return out;
 }
+
 }  // namespace motion::ctl
