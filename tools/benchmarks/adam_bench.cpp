@@ -326,8 +326,10 @@ int run(bool quick) {
       std::printf(
           "%4d %7d | %8.2f ms | %9.2f %6.2f | %9.2f %6.2f | %6.2f ms | %8.2f %6.2f | %8.2f %6.2f | %lld/%lld/%lld\n",
           drives, baud, bound, raw.cycle_ms, raw.cycle_ms / bound, wire.cycle_ms, wire.cycle_ms / bound, ms(command),
-          p50, p50 / ms(command), p99, p99 / ms(command), static_cast<long long>(raw.errors + wire.errors),
-          static_cast<long long>(raw.timeouts + wire.timeouts), static_cast<long long>(wire.failed_commands));
+          p50, p50 / ms(command), p99, p99 / ms(command),
+          static_cast<long long>(raw.errors) + static_cast<long long>(wire.errors),
+          static_cast<long long>(raw.timeouts) + static_cast<long long>(wire.timeouts),
+          static_cast<long long>(wire.failed_commands));
       std::fflush(stdout);
     }
   }

@@ -61,6 +61,7 @@ inline pid_t spawn(const std::string& binary, const std::vector<std::string>& ar
   std::vector<std::string> all{binary};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
+  argv.reserve(all.size() + 1);
   for (auto& a : all) argv.push_back(a.data());
   argv.push_back(nullptr);
   ::execv(argv[0], argv.data());

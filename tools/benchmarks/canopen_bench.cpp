@@ -144,7 +144,7 @@ class SdoRig {
           sent_.push_back(f);
           client_ep_->send(f);
         },
-        canopen::SdoClientConfig{2s, 0, 64 * 1024});
+        canopen::SdoClientConfig{2s, 0, std::size_t{64} * 1024});
     const auto server_send = [this](const can::Frame& f) {
       sent_.push_back(f);
       server_ep_->send(f);
@@ -419,8 +419,8 @@ void bench_boot(int nodes, const std::filesystem::path& dir) {
   Pump pump(nullptr);
   std::error_code error;
   auto host = sim::CanBusHost::open(
-      pump.loop(), config, bus, {{config::Family::kUc57, sim::uc57_drive_factory()}}, [](motionlcm::sim_report_t) {},
-      error);
+      pump.loop(), config, bus, {{config::Family::kUc57, sim::uc57_drive_factory()}},
+      [](const motionlcm::sim_report_t&) {}, error);
   if (!host) {
     std::fprintf(stderr, "bench_canopen: cannot open the simulated bus: %s\n", error.message().c_str());
     std::exit(2);

@@ -178,6 +178,7 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
   if (!pump.until([&] { return stack_view->ready(); }, 60s))
     die("the UIM342 drives were not set up (arm rig, N=" + std::to_string(axes) + ")");
   std::vector<std::string> names;
+  names.reserve(static_cast<std::size_t>(axes));
   for (int n = 0; n < axes; ++n) names.push_back("a" + std::to_string(n));
   {
     const auto enable = command(1, k(gateway_command_t::ENABLE), names);
@@ -194,7 +195,7 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
     c.trigger_id = id;
     for (int n = 0; n < axes; ++n) {
       auto& a = c.axes[static_cast<std::size_t>(n)];
-      a.target_counts = (m % 2 == 0 ? 1 : 0) * (1600 + 64 * n);  // out and back
+      a.target_counts = std::int64_t{m % 2 == 0 ? 1 : 0} * (1600 + 64 * n);  // out and back
       a.velocity = 64'000;
       a.acceleration = 256'000;
       a.deceleration = 256'000;

@@ -158,7 +158,7 @@ inline std::unique_ptr<sim::CanBusHost> open_host(EventLoop& loop, const config:
   std::error_code error;
   auto host = sim::CanBusHost::open(
       loop, config, config.buses.front(), {{config::Family::kUim342, sim::uim342_factory(config)}},
-      [](motionlcm::sim_report_t) {}, error);
+      [](const motionlcm::sim_report_t&) {}, error);
   if (!host) die("cannot open the simulated bus: " + error.message());
   return host;
 }

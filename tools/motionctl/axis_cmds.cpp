@@ -167,7 +167,7 @@ void print_move_summary(const motionlcm::reply_t& result, std::optional<double> 
 }
 
 // Sends `request` and reports its outcome; exit code 0 only on DONE (or STARTED without --wait).
-int run_request(Context& ctx, app::Service& service, request_t request, bool wait, double timeout_s) {
+int run_request(Context& ctx, app::Service& service, const request_t& request, bool wait, double timeout_s) {
   if (const auto unknown = unknown_axes(service.config(), request); !unknown.empty()) {
     for (const auto& line : unknown) std::cerr << "motionctl: " << line << "\n";
     return app::kExitUsage;

@@ -17,7 +17,8 @@
 #include "motion/sim/uim242_gateway_sim.hpp"
 #include "motion/sim/uim342_drive.hpp"
 
-int main(int argc, char** argv) {
+// Only the fixed option set is built outside app::run, which turns every later exception into an exit code.
+int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   using namespace motion;
   CLI::App cli{"motion-sim: simulated buses and drives that speak the real wire protocols", "motion-sim"};
   app::CommonOptions options;
@@ -45,7 +46,7 @@ int main(int argc, char** argv) {
         {config::Family::kUim242, sim::uim242_line_factory()},
     };
 
-    auto report = [&service](motionlcm::sim_report_t r) {
+    auto report = [&service](const motionlcm::sim_report_t& r) {
       service.node().publish(motion::lcm::channels::kSimReport, r);
     };
     std::vector<std::unique_ptr<sim::CanBusHost>> can_buses;

@@ -44,7 +44,7 @@ std::vector<Uim242ControllerSetup> Uim242GatewaySim::controllers_of(const config
 
 SerialDeviceFactory uim242_line_factory() {
   return [](const config::Config& config, const config::Bus& bus,
-            SerialDeviceContext line) -> std::unique_ptr<SerialDeviceSim> {
+            const SerialDeviceContext& line) -> std::unique_ptr<SerialDeviceSim> {
     const Duration latency = std::chrono::microseconds(config.simulation.reply_latency_us);
     Uim242SimContext context;
     context.bus = bus.name;
