@@ -84,12 +84,9 @@ void bench_command_latency(bool quick, const std::filesystem::path& dir) {
     if (const auto m = decode(f); m && is_function(*m, FC::kMO)) first_mo = Clock::now();
   });
   auto driver = std::make_unique<gateway::CanBusDriver>(loop, "can0", std::move(tap), gateway);
-  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver->context());
-  const gateway::Uim342Stack* stack_view = stack.get();
-  driver->add_stack(std::move(stack));
+  const gateway::Uim342Stack* stack_view = add_uim342_stack(*driver, config);
   gateway.attach(std::move(driver));
-  if (!pump.until([&] { return stack_view->ready(); }, 30s))
-    die("the UIM342 drives were not set up within 30 s (latency rig)");
+  await_set_up(pump, *stack_view, 30s, "latency rig");
 
   const int commands = quick ? 100 : 1000;
   std::vector<double> recv_to_frame;
@@ -125,20 +122,20 @@ void bench_command_latency(bool quick, const std::filesystem::path& dir) {
     publish_to_frame.push_back(us(*first_mo - t0));
     pump.until([] { return false; }, 200us);  // let the ACK and any poll settle
   }
-  const double raw50 = percentile(raw, 0.5);
-  const double raw99 = percentile(raw, 0.99);
+  const double raw50 = nearest_rank(raw, 0.5);
+  const double raw99 = nearest_rank(raw, 0.99);
   const std::string n = std::to_string(recv_to_frame.size()) + " commands" +
                         (failures ? ", " + std::to_string(failures) + " failed" : "");
-  g_rows.push_back({"1. LCM received -> first frame (timing off) p50", fmt("%.1f us", percentile(recv_to_frame, 0.5)),
-                    fmt("%.1f us raw LCM pub->recv p50", raw50), percentile(recv_to_frame, 0.5) / raw50,
+  g_rows.push_back({"1. LCM received -> first frame (timing off) p50", fmt("%.1f us", nearest_rank(recv_to_frame, 0.5)),
+                    fmt("%.1f us raw LCM pub->recv p50", raw50), nearest_rank(recv_to_frame, 0.5) / raw50,
                     n + "; ENABLE -> MO=1 to the transport; includes waiting for a poll reply in flight"});
-  g_rows.push_back({"   LCM received -> first frame p99", fmt("%.1f us", percentile(recv_to_frame, 0.99)),
-                    fmt("%.1f us raw LCM pub->recv p99", raw99), percentile(recv_to_frame, 0.99) / raw99, ""});
-  g_rows.push_back({"   LCM publish -> first frame p50", fmt("%.1f us", percentile(publish_to_frame, 0.5)),
-                    fmt("%.1f us raw LCM pub->recv p50", raw50), percentile(publish_to_frame, 0.5) / raw50,
+  g_rows.push_back({"   LCM received -> first frame p99", fmt("%.1f us", nearest_rank(recv_to_frame, 0.99)),
+                    fmt("%.1f us raw LCM pub->recv p99", raw99), nearest_rank(recv_to_frame, 0.99) / raw99, ""});
+  g_rows.push_back({"   LCM publish -> first frame p50", fmt("%.1f us", nearest_rank(publish_to_frame, 0.5)),
+                    fmt("%.1f us raw LCM pub->recv p50", raw50), nearest_rank(publish_to_frame, 0.5) / raw50,
                     "ideal ~1 + gateway share"});
-  g_rows.push_back({"   LCM publish -> first frame p99", fmt("%.1f us", percentile(publish_to_frame, 0.99)),
-                    fmt("%.1f us raw LCM pub->recv p99", raw99), percentile(publish_to_frame, 0.99) / raw99, ""});
+  g_rows.push_back({"   LCM publish -> first frame p99", fmt("%.1f us", nearest_rank(publish_to_frame, 0.99)),
+                    fmt("%.1f us raw LCM pub->recv p99", raw99), nearest_rank(publish_to_frame, 0.99) / raw99, ""});
 }
 
 // ---- 2. arm + trigger of N grouped axes (bus timing on) -----------------------------------------
@@ -171,12 +168,9 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
   });
   Capture out;
   gateway::CanBusDriver driver(loop, "can0", host->hub().attach_local("gateway"), out);
-  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver.context());
-  const gateway::Uim342Stack* stack_view = stack.get();
-  driver.add_stack(std::move(stack));
+  const gateway::Uim342Stack* stack_view = add_uim342_stack(driver, config);
   driver.start();
-  if (!pump.until([&] { return stack_view->ready(); }, 60s))
-    die("the UIM342 drives were not set up (arm rig, N=" + std::to_string(axes) + ")");
+  await_set_up(pump, *stack_view, 60s, "arm rig, N=" + std::to_string(axes));
   std::vector<std::string> names;
   names.reserve(static_cast<std::size_t>(axes));
   for (int n = 0; n < axes; ++n) names.push_back("a" + std::to_string(n));
@@ -265,14 +259,14 @@ void bench_arm(bool quick, const std::filesystem::path& dir) {
     for (const bool simulated : {false, true}) {
       const int moves = quick ? 6 : (simulated ? 20 : 40);
       const ArmResult r = run_arm(axes, simulated, moves, dir);
-      const double p50 = percentile(r.to_bg_us, 0.5);
-      const double p99 = percentile(r.to_bg_us, 0.99);
-      const double bound = percentile(r.bound_us, 0.5);
+      const double p50 = nearest_rank(r.to_bg_us, 0.5);
+      const double p99 = nearest_rank(r.to_bg_us, 0.99);
+      const double bound = nearest_rank(r.bound_us, 0.5);
       char note[200];
       std::snprintf(note, sizeof note,
                     "%s; %.0f frames/move (min %d); %.0f poll/other frames on the wire meanwhile%s%s",
-                    r.group_bg ? "one group BG per move" : "NOT one group BG", percentile(r.frames, 0.5), 9 * axes + 1,
-                    percentile(r.other_frames, 0.5), r.failures ? "; failures: " : "",
+                    r.group_bg ? "one group BG per move" : "NOT one group BG", nearest_rank(r.frames, 0.5),
+                    9 * axes + 1, nearest_rank(r.other_frames, 0.5), r.failures ? "; failures: " : "",
                     r.failures ? std::to_string(r.failures).c_str() : "");
       const std::string clock = simulated ? "sim " : "wall";
       g_rows.push_back({"2. arm+trigger N=" + std::to_string(axes) + " (" + clock + ") command -> BG p50",

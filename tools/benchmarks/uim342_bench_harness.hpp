@@ -59,13 +59,6 @@ inline std::int64_t steady_us(TimePoint t) {
   return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
 }
 
-inline double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const auto i = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(i, v.size() - 1)];
-}
-
 [[noreturn]] inline void die(const std::string& why) {
   std::fprintf(stderr, "bench_uim342: %s\n", why.c_str());
   std::exit(2);
@@ -78,6 +71,7 @@ inline std::int8_t k(std::int8_t v) { return v; }
 
 using bench::fmt;
 using bench::fmt2;
+using bench::nearest_rank;
 using bench::Row;
 inline std::vector<Row> g_rows;
 
@@ -169,6 +163,22 @@ inline std::optional<uim342::CanMessage> decode(const can::Frame& f) {
   return *m;
 }
 inline bool is_function(const uim342::CanMessage& m, FC f) { return m.message.function_code() == uim342::code(f); }
+
+// Puts a Uim342Stack for can0 on `driver`; the stack, to watch.
+inline const gateway::Uim342Stack* add_uim342_stack(gateway::CanBusDriver& driver, const config::Config& config) {
+  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver.context());
+  const gateway::Uim342Stack* view = stack.get();
+  driver.add_stack(std::move(stack));
+  return view;
+}
+
+// Runs the loop until `stack` has set its drives up; ends the benchmark when `within` passes first.
+inline void await_set_up(Pump& pump, const gateway::Uim342Stack& stack, Duration within, const std::string& rig) {
+  if (!pump.until([&] { return stack.ready(); }, within)) {
+    die("the UIM342 drives were not set up within " +
+        std::to_string(std::chrono::duration_cast<std::chrono::seconds>(within).count()) + " s (" + rig + ")");
+  }
+}
 
 inline gateway_command_t command(std::int64_t id, std::int8_t kind, const std::vector<std::string>& axes) {
   gateway_command_t c{};

@@ -57,8 +57,8 @@ void bench_command_wait(Pump& pump, gateway::CanBusDriver& driver, Capture& out,
                         (failures ? ", " + std::to_string(failures) + " failed" : std::string{});
   const std::string label = "   N=" + std::to_string(axes) + ", polls saturating: ";
   const auto row = [&](const std::string& what, const std::vector<double>& v, double p, const std::string& note) {
-    g_rows.push_back({label + what + (p < 0.9 ? " p50" : " p99"), fmt("%.0f us", percentile(v, p)),
-                      fmt("%.0f us one poll request frame", poll_frame_us), percentile(v, p) / poll_frame_us, note});
+    g_rows.push_back({label + what + (p < 0.9 ? " p50" : " p99"), fmt("%.0f us", nearest_rank(v, p)),
+                      fmt("%.0f us one poll request frame", poll_frame_us), nearest_rank(v, p) / poll_frame_us, note});
   };
   row("command -> MO on the wire", from_command, 0.5,
       n + "; includes the node's own poll exchange in flight (one request per node, manual §2.1)");
@@ -100,12 +100,9 @@ void bench_status(int axes, bool quick, const std::filesystem::path& dir) {
     if (const auto m = decode(f); m && is_function(*m, FC::kMO)) handed.emplace_back(steady_us(loop.now()), f);
   });
   gateway::CanBusDriver driver(loop, "can0", std::move(tap), out);
-  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver.context());
-  const gateway::Uim342Stack* stack_view = stack.get();
-  driver.add_stack(std::move(stack));
+  const gateway::Uim342Stack* stack_view = add_uim342_stack(driver, config);
   driver.start();
-  if (!pump.until([&] { return stack_view->ready(); }, 120s))
-    die("the UIM342 drives were not set up (status rig, N=" + std::to_string(axes) + ")");
+  await_set_up(pump, *stack_view, 120s, "status rig, N=" + std::to_string(axes));
   pump.until([] { return false; }, 500ms);  // settle into the poll rhythm
   const auto window = quick ? 1s : 4s;
   const std::uint64_t updates0 = out.status_updates;
