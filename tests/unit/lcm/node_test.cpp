@@ -159,12 +159,12 @@ TEST(LcmNode, BurstOf1000RequestsFromFourSendersIsReceivedWhole) {
     });
   }
   run_until(
-      loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(10000));
+      loop, [&] { return seen.size() >= std::size_t{kSenders} * kEach; }, milliseconds(10000));
   for (auto& t : senders) t.join();
   run_until(
-      loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(2000));
+      loop, [&] { return seen.size() >= std::size_t{kSenders} * kEach; }, milliseconds(2000));
   EXPECT_EQ(sent.load(), kSenders * kEach);
-  EXPECT_EQ(seen.size(), std::size_t{kSenders * kEach});
+  EXPECT_EQ(seen.size(), std::size_t{kSenders} * kEach);
   EXPECT_EQ(node.malformed_count(), 0u);
 }
 

@@ -134,7 +134,7 @@ class Uim342StackTest : public ::testing::Test {
     out.statuses.clear();
   }
 
-  gateway_command_t command(std::int8_t kind, std::vector<std::string> axes, std::int64_t trigger_id = 0) {
+  gateway_command_t command(std::int8_t kind, const std::vector<std::string>& axes, std::int64_t trigger_id = 0) {
     gateway_command_t c{};
     c.bus = "can0";
     c.command_id = ++next_id_;
@@ -157,8 +157,8 @@ class Uim342StackTest : public ::testing::Test {
     settle();
     return c.command_id;
   }
-  std::int64_t enable(std::vector<std::string> axes) {
-    return execute(command(gateway_command_t::ENABLE, std::move(axes)));
+  std::int64_t enable(const std::vector<std::string>& axes) {
+    return execute(command(gateway_command_t::ENABLE, axes));
   }
 
   std::vector<gateway_reply_t> replies_of(std::int64_t id) const {
