@@ -239,7 +239,7 @@ class Runner {
       want = Outcome{{reply_t::DONE, reply_t::ABORTED, reply_t::FAILED}, {error_code(ReplyError::kAxisFault)}};
     }
     const auto r = make(kind, axes, values, s);
-    const auto got = call(client, r);
+    auto got = call(client, r);  // not const: returned below, moved
     check_reply(got, want, r);
     if (got.status == reply_t::DONE ||
         (kind == request_t::JOG && (got.status == reply_t::ABORTED || got.status == reply_t::FAILED))) {

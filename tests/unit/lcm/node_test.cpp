@@ -144,6 +144,7 @@ TEST(LcmNode, BurstOf1000RequestsFromFourSendersIsReceivedWhole) {
   std::atomic<int> ready{0};
   std::atomic<int> sent{0};
   std::vector<std::thread> senders;
+  senders.reserve(std::size_t{kSenders});
   for (int s = 0; s < kSenders; ++s) {
     senders.emplace_back([&, s] {
       ::lcm::LCM lcm(url);
