@@ -9,7 +9,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
 
+#include <motionlcm/arm_timing_t.hpp>
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/health_t.hpp>
@@ -73,6 +76,66 @@ TEST_F(AdamLine, EnableReachesEveryDrive) {
   ASSERT_EQ(enabled.status, status(reply_t::DONE)) << enabled.reason;
   EXPECT_TRUE(lab.client().wait_until([&] { return lab.client().axes().at("c2").enabled; }, seconds(2)));
   std::printf("[ adam ] start-up to three enabled axes: %lld ms\n", startup_ms);
+}
+
+// `motionctl status --model` shows each axis's ARM_TIMING as its gateway published it and, per
+// bus, the line time the coordinator adds to its arming deadline: every axis armed together (the
+// three arm_line_us; no other drive to ready) and one axis alone (its arm_line_us and two
+// bystanders readied for the broadcast start). ADAM arming is long (a flash Save per drive).
+TEST_F(AdamLine, StatusModelShowsTheArmingLineTimePerBus) {
+  std::map<std::string, motionlcm::arm_timing_t> published;
+  lab.group().node().subscribe<motionlcm::arm_timing_t>(
+      lcm::channels::kArmTiming, [&](const motionlcm::arm_timing_t& t, const std::string&) { published[t.axis] = t; });
+  std::string printed;
+  ASSERT_EQ(lab.group().run_to_completion(
+                {"status-model", "motionctl", {"--config", lab.config_path(), "status", "--model"}, {}}, &printed,
+                seconds(20)),
+            0)
+      << printed;
+  ASSERT_TRUE(lab.client().wait_until([&] { return published.size() == kAxes.size(); }, seconds(5)))
+      << "ARM_TIMING of every axis (sent again with the models motionctl asked for)";
+  double all_us = 0;
+  double one_us = 0;
+  EXPECT_NE(printed.find("arming on rs485 (ARM_TIMING: line time of the frames arming sends; 3 drives on the bus)"),
+            std::string::npos)
+      << printed;
+  for (const auto& axis : kAxes) {
+    const auto& t = published.at(axis);
+    ASSERT_GT(t.arm_line_us, 0) << axis;
+    ASSERT_GT(t.arm_bystander_us, 0) << axis;
+    char line[160];
+    std::snprintf(line, sizeof line, "  %-11s %.1f us loading its move, %.1f us readying each other drive",
+                  axis.c_str(), t.arm_line_us, t.arm_bystander_us);
+    EXPECT_NE(printed.find(line), std::string::npos) << line << "\n" << printed;
+    all_us += t.arm_line_us;
+    one_us = std::max(one_us, t.arm_line_us + 2 * t.arm_bystander_us);
+  }
+  char bus_line[160];
+  std::snprintf(bus_line, sizeof bus_line,
+                "  bus         %.1f us every axis armed together, at most %.1f us one axis armed alone", all_us,
+                one_us);
+  EXPECT_NE(printed.find(bus_line), std::string::npos) << bus_line << "\n" << printed;
+  std::printf("[ adam ] status --model, arming on rs485:%s\n", bus_line + 11);
+
+  std::string json_text;
+  ASSERT_EQ(lab.group().run_to_completion(
+                {"status-model-json", "motionctl", {"--config", lab.config_path(), "--json", "status", "--model"}, {}},
+                &json_text, seconds(20)),
+            0)
+      << json_text;
+  const auto first = json_text.find('{');
+  const auto last = json_text.rfind('}');
+  ASSERT_TRUE(first != std::string::npos && last != std::string::npos) << json_text;
+  const auto doc = nlohmann::json::parse(json_text.substr(first, last - first + 1), nullptr, false);
+  ASSERT_TRUE(doc.is_object()) << json_text;
+  for (const auto& axis : kAxes) {
+    const auto& arming = doc[axis]["arm_timing"];
+    ASSERT_TRUE(arming.is_object()) << axis << ": " << json_text;
+    EXPECT_DOUBLE_EQ(arming["arm_line_us"].get<double>(), published.at(axis).arm_line_us) << axis;
+    EXPECT_DOUBLE_EQ(arming["arm_bystander_us"].get<double>(), published.at(axis).arm_bystander_us) << axis;
+    EXPECT_DOUBLE_EQ(arming["bus_all_armed_us"].get<double>(), all_us) << axis;
+    EXPECT_DOUBLE_EQ(arming["bus_one_armed_max_us"].get<double>(), one_us) << axis;
+  }
 }
 
 TEST_F(AdamLine, SynchronizedMoveStartsOnOneBroadcastFrameAndArrives) {

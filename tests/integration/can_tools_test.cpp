@@ -25,12 +25,11 @@ using std::chrono::seconds;
 
 // Bus name (the candump interface) differs from the simbus name, so the test sees which is used.
 constexpr const char* kBus = "can7";
-constexpr const char* kSimName = "simlab7";
 constexpr std::uint32_t kBitrate = 125'000;
 constexpr const char* kListening = "motionctl dump: listening on can7";
 
 std::string write_config(const ProcessGroup& group) {
-  const std::string path = group.work_dir() + "/can-tools.yaml";
+  std::string path = group.work_dir() + "/can-tools.yaml";
   std::ofstream(path) << "lcm:\n  channel_prefix: \"MOTION_\"\n"
                          "buses:\n"
                          "  - name: can7\n    transport: simcan:simlab7\n    bitrate: 125000\n    bus_timing: true\n"
@@ -50,6 +49,7 @@ std::vector<std::string> lines_of(const std::string& text) {
 
 std::vector<std::string> sorted_cansend(const std::vector<can::Frame>& frames) {
   std::vector<std::string> out;
+  out.reserve(frames.size());
   for (const auto& f : frames) out.push_back(can::to_cansend(f));
   std::sort(out.begin(), out.end());
   return out;

@@ -163,7 +163,7 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
         // A 20-byte message claiming a huge array count, and a 64 KiB one of garbage, on the
         // gateway's command channel and on the coordinator's request channel.
         std::vector<std::uint8_t> claim(20, 0xFF);
-        std::vector<std::uint8_t> garbage(64 * 1024, 0xA5);
+        std::vector<std::uint8_t> garbage(std::size_t{64} * 1024, 0xA5);
         for (const auto& channel : {lcm::channels::gateway_command(bus), std::string(lcm::channels::kRequest)}) {
           const std::string full = lab().config().lcm.channel_prefix + channel;
           EXPECT_TRUE(lab().group().node().publish_raw(full, claim));
@@ -193,7 +193,7 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
       case sim_control_t::CRC_ERRORS:
       case sim_control_t::REPLY_LATENCY:
         lab().control(drive, row.fault, row.value);
-        return [this, drive, fault = row.fault] { lab().control(drive, fault, 0); };
+        return [drive, fault = row.fault] { lab().control(drive, fault, 0); };
       default: lab().control(drive, row.fault, row.value); return [] {};
     }
   }

@@ -77,7 +77,7 @@ TEST_F(GatewayLimits, ArmMovePastTheCoordinatorBeyondTheLimitsFailsAndNothingMov
   lab.clear_reports();
 
   // x to 400 mm (limit 300) at 100 mm/s (limit 50): 640 counts/mm.
-  const auto x = arm_move_directly(kOwnIds + 1, {axis_command("x", 400 * 640, 100 * 640, 400 * 640)});
+  const auto x = arm_move_directly(kOwnIds + 1, {axis_command("x", std::int64_t{400} * 640, 100 * 640, 400 * 640)});
   ASSERT_TRUE(x.has_value()) << "no GW_REPLY from gateway:can0";
   EXPECT_EQ(x->status, st(gateway_reply_t::FAILED));
   EXPECT_EQ(x->error_code, code(ReplyError::kOutsideLimits));
@@ -87,7 +87,7 @@ TEST_F(GatewayLimits, ArmMovePastTheCoordinatorBeyondTheLimitsFailsAndNothingMov
   EXPECT_NE(x->reason.find("velocity 100 mm/s"), std::string::npos) << x->reason;  // every violation named
 
   // x within its positions but too fast: still refused.
-  const auto fast = arm_move_directly(kOwnIds + 2, {axis_command("x", 100 * 640, 100 * 640, 400 * 640)});
+  const auto fast = arm_move_directly(kOwnIds + 2, {axis_command("x", std::int64_t{100} * 640, 100 * 640, 400 * 640)});
   ASSERT_TRUE(fast.has_value());
   EXPECT_EQ(fast->status, st(gateway_reply_t::FAILED));
   EXPECT_EQ(fast->error_code, code(ReplyError::kOutsideLimits));

@@ -334,7 +334,7 @@ void write_log(const std::string& path, int count) {
   ASSERT_NE(log, nullptr);
   for (int i = 0; i < count; ++i) {
     axis_state_t s{};
-    s.utime = 1'700'000'000'000'000 + i * 50'000;
+    s.utime = 1'700'000'000'000'000 + std::int64_t{i} * 50'000;
     s.sample_utime = s.utime;
     s.axis = "x";
     s.family = "uim342";

@@ -200,7 +200,7 @@ TEST_F(SyncMove, StallOfOneAxisAbortsTheWholeGroupWithTheCause) {
   const reply_t last = wait_terminal(id);
   EXPECT_EQ(last.status, st(reply_t::ABORTED)) << last.reason;
   EXPECT_EQ(last.error_code, code(ReplyError::kAxisFault)) << last.reason;
-  EXPECT_NE(last.reason.find("a"), std::string::npos) << last.reason;
+  EXPECT_NE(last.reason.find('a'), std::string::npos) << last.reason;
   // The others were stopped short of their targets.
   for (const auto& a : std::vector<std::string>{"x", "b", "c"}) {
     EXPECT_TRUE(lab.client().wait_until([&] { return !moving(a); }, seconds(10))) << a << " still moving";

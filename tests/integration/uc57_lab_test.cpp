@@ -184,7 +184,7 @@ TEST_F(Uc57Lab, ThreeAxesStartOnOneSyncAndArrive) {
     const auto i = index_of(done, axis);
     ASSERT_LT(i, done.axes.size()) << axis;
     EXPECT_NEAR(done.positions[i], target, kTolerance) << axis;
-    EXPECT_TRUE(lab.client().wait_until([&] { return settled_at(axis, target); }, seconds(5)))
+    EXPECT_TRUE(lab.client().wait_until([&, &a = axis, &t = target] { return settled_at(a, t); }, seconds(5)))
         << axis << " at " << position(axis);
   }
   EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);

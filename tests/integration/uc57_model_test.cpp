@@ -77,6 +77,12 @@ TEST(Uc57Model, DriveResolutionReadBackDrivesThePlanAndTheMoveLandsOnTime) {
   EXPECT_NE(printed.find("resolution  3200 counts/rev (configuration implies 10000), read back"), std::string::npos)
       << printed;
   EXPECT_NE(printed.find("start       SYNC (address 128)"), std::string::npos) << printed;
+  // With the model, the axis's arming time (ARM_TIMING) per bus: a UC57 arms in a few frames.
+  EXPECT_NE(printed.find("arming on can0 (ARM_TIMING: line time of the frames arming sends; 1 drive on the bus)\n"
+                         "  a           0.0 us loading its move, 0.0 us readying each other drive\n"
+                         "  bus         0.0 us every axis armed together, at most 0.0 us one axis armed alone"),
+            std::string::npos)
+      << printed;
   ASSERT_TRUE(lab.client().wait_until([&] { return lab.client().axes().at("a").online; }, seconds(15)));
   const auto enabled = lab.call(Client::make(request_t::ENABLE, std::vector<std::string>{"a"}));
   ASSERT_EQ(enabled.status, st(reply_t::DONE)) << enabled.reason;

@@ -271,7 +271,7 @@ TEST_F(Uim342Lab, GroupBgStartsAllThreeAxesOnTheSameFrame) {
     const auto i = index_of(done, axis);
     ASSERT_LT(i, done.axes.size()) << axis;
     EXPECT_NEAR(done.positions[i], target, kTolerance) << axis;
-    EXPECT_TRUE(lab.client().wait_until([&] { return settled_at(axis, target); }, seconds(10)))
+    EXPECT_TRUE(lab.client().wait_until([&, &a = axis, &t = target] { return settled_at(a, t); }, seconds(10)))
         << axis << " at " << position(axis);
   }
   EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);
@@ -307,7 +307,7 @@ TEST_F(Uim342Lab, SilentDriveGoesOfflineWhileTheOthersKeepWorking) {
   const auto done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, targets));
   ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
   for (const auto& [axis, target] : targets) {
-    EXPECT_TRUE(lab.client().wait_until([&] { return settled_at(axis, target); }, seconds(10)))
+    EXPECT_TRUE(lab.client().wait_until([&, &a = axis, &t = target] { return settled_at(a, t); }, seconds(10)))
         << axis << " at " << position(axis);
   }
   EXPECT_EQ(lab.starts_of("x1-drive").size(), 1u);

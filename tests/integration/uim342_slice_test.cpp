@@ -83,7 +83,7 @@ TEST_F(Uim342Slice, StallAbortsTheWholeMoveWithTheReason) {
                                       seconds(10)));
   const reply_t& last = replies.back();
   EXPECT_EQ(last.status, status(reply_t::ABORTED)) << last.reason;
-  EXPECT_NE(last.reason.find("y"), std::string::npos) << last.reason;
+  EXPECT_NE(last.reason.find('y'), std::string::npos) << last.reason;
   EXPECT_NE(last.reason.find("stall"), std::string::npos) << last.reason;
   // x was stopped with y: it is nowhere near its target and not moving.
   EXPECT_TRUE(lab.client().wait_until([&] { return !lab.client().axes().at("x").moving; }, seconds(5)));
@@ -94,14 +94,14 @@ TEST_F(Uim342Slice, SilentDriveFailsTheMoveNamingTheDrive) {
   lab.control("z-drive", motionlcm::sim_control_t::SILENCE, 1);
   const auto done = lab.call(Client::make(request_t::MOVE_RELATIVE, Values{{"z", 1.0}}));
   EXPECT_TRUE(done.status == status(reply_t::FAILED) || done.status == status(reply_t::ABORTED)) << done.reason;
-  EXPECT_NE(done.reason.find("z"), std::string::npos) << done.reason;
+  EXPECT_NE(done.reason.find('z'), std::string::npos) << done.reason;
   EXPECT_TRUE(lab.starts_of("z-drive").empty());
 }
 
 TEST_F(Uim342Slice, TargetBeyondTheLimitIsRejectedAndNothingMoves) {
   const auto done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 301.0}, {"y", 1.0}}));
   EXPECT_EQ(done.status, status(reply_t::REJECTED));
-  EXPECT_NE(done.reason.find("x"), std::string::npos) << done.reason;
+  EXPECT_NE(done.reason.find('x'), std::string::npos) << done.reason;
   EXPECT_NE(done.reason.find("300"), std::string::npos) << done.reason;
   EXPECT_TRUE(lab.starts_of("x-drive").empty());
   EXPECT_TRUE(lab.starts_of("y-drive").empty());

@@ -225,7 +225,7 @@ class SocketCanE2e : public ::testing::Test {
     }
     for (const auto& [axis, target] : targets) {
       EXPECT_TRUE(lab_->client().wait_until(
-          [&] { return std::abs(lab_->position(axis) - target) <= lab_->tolerance(axis); }, seconds(5)))
+          [&, &a = axis, &t = target] { return std::abs(lab_->position(a) - t) <= lab_->tolerance(a); }, seconds(5)))
           << axis << " reports " << lab_->position(axis) << ", expected " << target;
     }
   }

@@ -39,6 +39,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench_table.hpp"
 #include "motion/adam/rtu.hpp"
 #include "motion/adam_driver/adam_bus_driver.hpp"
 #include "motion/config/config.hpp"
@@ -50,6 +51,8 @@
 
 namespace motion {
 namespace {
+
+using bench::nearest_rank;
 
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
@@ -274,14 +277,6 @@ LineResult run_line(int drives, int baud, bool paced, int commands, Duration win
   return result;
 }
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto index = static_cast<std::size_t>(
-      std::min<double>(static_cast<double>(v.size()) - 1, p * static_cast<double>(v.size() - 1) + 0.5));
-  return v[index];
-}
-
 int run(bool quick) {
   const int commands = quick ? 40 : 200;
   const Duration window = quick ? 300ms : 1s;
@@ -321,13 +316,15 @@ int run(bool quick) {
         all_ok = false;
         continue;
       }
-      const double p50 = percentile(wire.latencies_ms, 0.50);
-      const double p99 = percentile(wire.latencies_ms, 0.99);
+      const double p50 = nearest_rank(wire.latencies_ms, 0.50);
+      const double p99 = nearest_rank(wire.latencies_ms, 0.99);
       std::printf(
           "%4d %7d | %8.2f ms | %9.2f %6.2f | %9.2f %6.2f | %6.2f ms | %8.2f %6.2f | %8.2f %6.2f | %lld/%lld/%lld\n",
           drives, baud, bound, raw.cycle_ms, raw.cycle_ms / bound, wire.cycle_ms, wire.cycle_ms / bound, ms(command),
-          p50, p50 / ms(command), p99, p99 / ms(command), static_cast<long long>(raw.errors + wire.errors),
-          static_cast<long long>(raw.timeouts + wire.timeouts), static_cast<long long>(wire.failed_commands));
+          p50, p50 / ms(command), p99, p99 / ms(command),
+          static_cast<long long>(raw.errors) + static_cast<long long>(wire.errors),
+          static_cast<long long>(raw.timeouts) + static_cast<long long>(wire.timeouts),
+          static_cast<long long>(wire.failed_commands));
       std::fflush(stdout);
     }
   }

@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
@@ -61,6 +62,7 @@ inline pid_t spawn(const std::string& binary, const std::vector<std::string>& ar
   std::vector<std::string> all{binary};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
+  argv.reserve(all.size() + 1);
   for (auto& a : all) argv.push_back(a.data());
   argv.push_back(nullptr);
   ::execv(argv[0], argv.data());
@@ -88,6 +90,31 @@ inline void stop_all(std::vector<Child>& children) {
     }
   }
 }
+
+// The lab's programs as children: each started from `bin` with the common arguments (the
+// configuration, the LCM URL, warn logs), MOTION_SIM_DIR = `sim_dir`, its output in
+// <log_dir>/<name>.log. stop_all(children()) ends them.
+class LabPrograms {
+ public:
+  LabPrograms(std::string bin, const std::string& config_path, const std::string& url, std::string sim_dir,
+              std::string log_dir)
+      : bin_(std::move(bin)),
+        common_{"--config", config_path, "--lcm-url", url, "--log-level", "warn"},
+        sim_dir_(std::move(sim_dir)),
+        log_dir_(std::move(log_dir)) {}
+  void start(const std::string& name, const std::string& program, std::vector<std::string> extra) {
+    extra.insert(extra.begin(), common_.begin(), common_.end());
+    children_.push_back({name, spawn(bin_ + "/" + program, extra, sim_dir_, log_dir_ + "/" + name + ".log")});
+  }
+  std::vector<Child>& children() { return children_; }
+
+ private:
+  std::string bin_;
+  std::vector<std::string> common_;
+  std::string sim_dir_;
+  std::string log_dir_;
+  std::vector<Child> children_;
+};
 
 // ---- raw LCM echo peer ----
 

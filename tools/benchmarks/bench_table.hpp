@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -16,6 +17,15 @@ struct Row {
   double ratio = 0;
   std::string note;
 };
+
+// The q-quantile (q from 0 to 1) of `v` by nearest rank: the sorted sample at q x (n - 1), rounded;
+// NAN when there is none. (bench_process.hpp's percentile interpolates, p in percent.)
+inline double nearest_rank(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const auto i = static_cast<std::size_t>(std::lround(q * static_cast<double>(v.size() - 1)));
+  return v[std::min(i, v.size() - 1)];
+}
 
 // printf-style formatting of one or two numbers into a short cell.
 inline std::string fmt(const char* format, double a) {

@@ -89,13 +89,6 @@ constexpr std::size_t kDomainSize = 4096;
 double us(Duration d) { return std::chrono::duration<double, std::micro>(d).count(); }
 double ms(Duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto i = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(i, v.size() - 1)];
-}
-
 Duration wire(const can::Frame& f) { return can::frame_duration(f, kBitrate); }
 Duration to_end_of_frame(const can::Frame& f) {
   return can::bits_duration(can::frame_bits(f).to_end_of_frame(), kBitrate);
@@ -105,6 +98,7 @@ Duration to_end_of_frame(const can::Frame& f) {
 
 using bench::fmt;
 using bench::fmt2;
+using bench::nearest_rank;
 using bench::Row;
 std::vector<Row> g_rows;
 
@@ -144,7 +138,7 @@ class SdoRig {
           sent_.push_back(f);
           client_ep_->send(f);
         },
-        canopen::SdoClientConfig{2s, 0, 64 * 1024});
+        canopen::SdoClientConfig{2s, 0, std::size_t{64} * 1024});
     const auto server_send = [this](const can::Frame& f) {
       sent_.push_back(f);
       server_ep_->send(f);
@@ -269,10 +263,10 @@ void bench_sdo(bool quick) {
           rtt.push_back(us(r.elapsed));
           bound = r.bound;
         }
-        const double p50 = percentile(rtt, 0.5);
+        const double p50 = nearest_rank(rtt, 0.5);
         g_rows.push_back(
             {std::string("SDO expedited ") + (upload ? "upload 6064h" : "download 6081h") + " RTT [" + clock + "]",
-             fmt2("p50 %.0f us, p99 %.0f us", p50, percentile(rtt, 0.99)), fmt("%.0f us (2 frames)", us(bound)),
+             fmt2("p50 %.0f us, p99 %.0f us", p50, nearest_rank(rtt, 0.99)), fmt("%.0f us (2 frames)", us(bound)),
              p50 / us(bound),
              simulated ? "Uc57DriveSim, 1 us clock steps" : "Uc57DriveSim; hub delivery from loop timers"});
       }
@@ -302,8 +296,8 @@ void bench_sdo(bool quick) {
           frames = r.frames;
         }
         g_rows.push_back({std::string("SDO segmented ") + (upload ? "upload" : "download") + " 4 KiB [" + clock + "]",
-                          fmt("%.1f KiB/s", percentile(rate, 0.5)), fmt("%.1f KiB/s", bound_rate),
-                          percentile(ratio, 0.5),
+                          fmt("%.1f KiB/s", nearest_rank(rate, 0.5)), fmt("%.1f KiB/s", bound_rate),
+                          nearest_rank(ratio, 0.5),
                           std::to_string(frames) + " frames/transfer, median of " + std::to_string(segmented) +
                               (simulated ? "" : "; a loop wake-up per hop")});
       }
@@ -363,8 +357,8 @@ void bench_sync(bool quick, bool precise, bool fifo = false) {
   }
   const auto eight = can::Frame::make(0x181, false, std::vector<std::uint8_t>(8, 0x55));
   const double frame_us = us(wire(*eight));
-  const double p50 = percentile(jitter, 0.5);
-  const double p99 = percentile(jitter, 0.99);
+  const double p50 = nearest_rank(jitter, 0.5);
+  const double p99 = nearest_rank(jitter, 0.99);
   const double max = jitter.empty() ? 0 : *std::max_element(jitter.begin(), jitter.end());
   const std::string how = realtime  ? " [timerfd, slack 1 ns, FIFO]"
                           : precise ? " [timerfd abs, slack 1 ns]"
@@ -419,8 +413,8 @@ void bench_boot(int nodes, const std::filesystem::path& dir) {
   Pump pump(nullptr);
   std::error_code error;
   auto host = sim::CanBusHost::open(
-      pump.loop(), config, bus, {{config::Family::kUc57, sim::uc57_drive_factory()}}, [](motionlcm::sim_report_t) {},
-      error);
+      pump.loop(), config, bus, {{config::Family::kUc57, sim::uc57_drive_factory()}},
+      [](const motionlcm::sim_report_t&) {}, error);
   if (!host) {
     std::fprintf(stderr, "bench_canopen: cannot open the simulated bus: %s\n", error.message().c_str());
     std::exit(2);

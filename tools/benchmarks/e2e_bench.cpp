@@ -114,13 +114,8 @@ int run(bool quick, bool skew_only) {
       lcm::channels::kSyncTrigger2,
       [&](const motionlcm::sync_trigger2_t& t, const std::string&) { scheduled.push_back(t); });
 
-  std::vector<Child> children;
-  const std::vector<std::string> common{"--config", config_path, "--lcm-url", url, "--log-level", "warn"};
-  const auto start = [&](const std::string& name, const std::string& program, std::vector<std::string> extra) {
-    extra.insert(extra.begin(), common.begin(), common.end());
-    children.push_back({name, spawn(bin + "/" + program, extra, sim_dir, dir + "/" + name + ".log")});
-  };
-  start("sim", "motion-sim", {});
+  LabPrograms programs(bin, config_path, url, sim_dir, dir);
+  programs.start("sim", "motion-sim", {});
   const auto wait = [&](const std::function<bool()>& done, int seconds) {
     return client.wait_until(done, std::chrono::seconds(seconds));
   };
@@ -135,8 +130,8 @@ int run(bool quick, bool skew_only) {
       fail("no heartbeat from motion-sim");
       break;
     }
-    for (const auto& bus : cfg.buses) start("gateway:" + bus.name, "motion-gateway", {"--bus", bus.name});
-    start("coordinator", "motion-coordinator", {});
+    for (const auto& bus : cfg.buses) programs.start("gateway:" + bus.name, "motion-gateway", {"--bus", bus.name});
+    programs.start("coordinator", "motion-coordinator", {});
     const auto ok = [&](const std::string& p) {
       const auto it = health.find(p);
       return it != health.end() && it->second.state == motionlcm::health_t::OK;
@@ -322,7 +317,7 @@ int run(bool quick, bool skew_only) {
     skew_run({"x", "y", "a", "b", "c", "u"}, "three buses (+c rs485 +u rs232)", false);
   } while (false);
 
-  stop_all(children);
+  stop_all(programs.children());
   std::printf("end to end on the simulated lab (%s), binaries %s, LCM %s\n\n", config_path.c_str(), bin.c_str(),
               url.c_str());
   std::printf("%-62s %11s %11s   %-24s %8s\n", "measure", "p50 us", "p99 us", "bound (same run)", "ratio");

@@ -233,13 +233,7 @@ int run(const Options& opt) {
       lcm::channels::kSyncTrigger2,
       [&](const motionlcm::sync_trigger2_t& t, const std::string&) { scheduled.push_back(t); });
 
-  std::vector<Child> children;
-  const std::string bin = MOTION_LAB_BIN_DIR;
-  const std::vector<std::string> common{"--config", config_path, "--lcm-url", url, "--log-level", "warn"};
-  const auto start = [&](const std::string& name, const std::string& program, std::vector<std::string> extra) {
-    extra.insert(extra.begin(), common.begin(), common.end());
-    children.push_back({name, spawn(bin + "/" + program, extra, sim_dir, dir + "/" + name + ".log")});
-  };
+  LabPrograms programs(MOTION_LAB_BIN_DIR, config_path, url, sim_dir, dir);
   const auto wait = [&](const std::function<bool()>& done, double seconds) {
     return client.wait_until(done, std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
   };
@@ -255,7 +249,7 @@ int run(const Options& opt) {
   std::vector<std::string> findings;
   do {
     const auto t_sim = Steady::now();
-    start("sim", "motion-sim", {});
+    programs.start("sim", "motion-sim", {});
     if (!wait([&] { return health.contains("sim"); }, 60)) {
       findings.push_back("motion-sim sent no heartbeat within 60 s:\n" + tail_of(dir + "/sim.log", 8));
       rc = 1;
@@ -264,8 +258,8 @@ int run(const Options& opt) {
     rows.push_back(
         {"motion-sim up (first heartbeat)", fmt("%.1f s", us_between(t_sim, Steady::now()) / 1e6), "", 0, ""});
     const auto t0 = Steady::now();
-    for (const auto& b : buses) start("gateway:" + b.name, "motion-gateway", {"--bus", b.name});
-    start("coordinator", "motion-coordinator", {});
+    for (const auto& b : buses) programs.start("gateway:" + b.name, "motion-gateway", {"--bus", b.name});
+    programs.start("coordinator", "motion-coordinator", {});
     // 1. Bring-up, per bus.
     std::map<std::string, double> up_s;
     wait(
@@ -294,12 +288,12 @@ int run(const Options& opt) {
 
     // 2 and 3. An idle window: CPU and RSS per process, status updates and bus load per bus.
     std::map<pid_t, double> cpu_before;
-    for (const auto& c : children) cpu_before[c.pid] = cpu_seconds(c.pid).value_or(NAN);
+    for (const auto& c : programs.children()) cpu_before[c.pid] = cpu_seconds(c.pid).value_or(NAN);
     state_count.clear();
     const auto w0 = Steady::now();
     wait([] { return false; }, opt.window_s);
     const double window = us_between(w0, Steady::now()) / 1e6;
-    for (const auto& c : children) {
+    for (const auto& c : programs.children()) {
       const auto after = cpu_seconds(c.pid);
       if (!after) {
         rows.push_back({"CPU " + c.name, "exited", "", 0, "the process is gone"});
@@ -439,7 +433,7 @@ int run(const Options& opt) {
     }
   } while (false);
 
-  stop_all(children);
+  stop_all(programs.children());
   std::printf("lab-scale bench: %zu axes on %zu buses (scale %.2f), config %s, LCM %s\n", axis_bus.size(), buses.size(),
               opt.scale, config_path.c_str(), url.c_str());
   print_rows(rows, "figure", "bound (same run)");

@@ -42,187 +42,12 @@
 // Usage: bench_uim342 [--quick]   (--quick: fewer commands and moves, shorter status windows)
 #include <unistd.h>
 
-#include <algorithm>
-#include <chrono>
-#include <cmath>
-#include <cstdio>
-#include <cstdlib>
-#include <cstring>
-#include <filesystem>
-#include <functional>
-#include <map>
-#include <memory>
-#include <optional>
-#include <string>
-#include <system_error>
-#include <vector>
+#include "uim342_bench_harness.hpp"
 
-#include <motionlcm/gateway_command_t.hpp>
-#include <motionlcm/gateway_reply_t.hpp>
-#include <motionlcm/sim_report_t.hpp>
-
-#include "bench_pump.hpp"
-#include "bench_table.hpp"
-#include "motion/can/transport.hpp"
-#include "motion/can_frame/bit_timing.hpp"
-#include "motion/can_frame/frame.hpp"
-#include "motion/config/config.hpp"
-#include "motion/core/clock.hpp"
-#include "motion/core/event_loop.hpp"
-#include "motion/gateway/can_bus_driver.hpp"
-#include "motion/gateway/gateway.hpp"
-#include "motion/lcm/channels.hpp"
-#include "motion/lcm/health.hpp"
-#include "motion/lcm/node.hpp"
-#include "motion/sim/can_bus_host.hpp"
-#include "motion/sim/uim342_drive.hpp"
-#include "motion/simbus/hub.hpp"
-#include "motion/uim342/message.hpp"
-#include "motion/uim342_driver/uim342_stack.hpp"
-
-namespace motion {
+namespace motion::uim342_bench {
 namespace {
 
 using namespace std::chrono_literals;
-using motionlcm::gateway_command_t;
-using motionlcm::gateway_reply_t;
-using Clock = std::chrono::steady_clock;
-using FC = uim342::FunctionCode;
-
-constexpr std::uint32_t kBitrate = 1'000'000;
-constexpr int kPollHz = 20;
-constexpr int kGroupId = 126;  // node and group ids share 5..126 (§5.1): above every node id used here
-
-double us(Duration d) { return std::chrono::duration<double, std::micro>(d).count(); }
-std::int64_t steady_us(TimePoint t) {
-  return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const auto i = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(i, v.size() - 1)];
-}
-
-[[noreturn]] void die(const std::string& why) {
-  std::fprintf(stderr, "bench_uim342: %s\n", why.c_str());
-  std::exit(2);
-}
-
-// LCM in-class constants are never ODR-used: copies.
-std::int8_t k(std::int8_t v) { return v; }
-
-// ---- the table ---------------------------------------------------------------------------------
-
-using bench::fmt;
-using bench::fmt2;
-using bench::Row;
-std::vector<Row> g_rows;
-
-void print_table() { bench::print_rows(g_rows, "figure", "bound (same run)"); }
-
-// ---- infrastructure ----------------------------------------------------------------------------
-
-// Runs one EventLoop on the wall clock or on a manual clock advanced in 1 us steps.
-using bench::Pump;
-
-// The gateway's transport with a tap: the time of every send() (the frame goes to the wire).
-class TapTransport final : public can::Transport {
- public:
-  using Tap = std::function<void(const can::Frame&)>;
-  TapTransport(std::unique_ptr<can::Transport> inner, Tap tap) : inner_(std::move(inner)), tap_(std::move(tap)) {
-    inner_->on_bus_event([this](const can::BusEvent& e) { emit_bus_event(e); });
-  }
-  [[nodiscard]] std::string name() const override { return inner_->name(); }
-  [[nodiscard]] int fd() const override { return inner_->fd(); }
-  std::error_code send(const can::Frame& frame) override {
-    tap_(frame);
-    return inner_->send(frame);
-  }
-  std::optional<can::Frame> receive() override { return inner_->receive(); }
-  std::error_code set_filters(const std::vector<can::Filter>& filters) override { return inner_->set_filters(filters); }
-  std::error_code set_own_echo(bool enabled) override { return inner_->set_own_echo(enabled); }
-  [[nodiscard]] can::BusState state() const override { return inner_->state(); }
-  [[nodiscard]] can::Statistics statistics() const override { return inner_->statistics(); }
-
- private:
-  std::unique_ptr<can::Transport> inner_;
-  Tap tap_;
-};
-
-// Collects the stack's replies and counts status updates.
-struct Capture final : gateway::GatewayOutput {
-  void axis_status(const std::string&, const gateway::DriveStatus&) override { ++status_updates; }
-  void axis_event(const std::string&, const gateway::DriveEvent&) override {}
-  void command_reply(gateway_reply_t r) override { replies[r.command_id].push_back(r.status); }
-  [[nodiscard]] bool has(std::int64_t id, std::int8_t status) const {
-    const auto it = replies.find(id);
-    return it != replies.end() && std::find(it->second.begin(), it->second.end(), status) != it->second.end();
-  }
-  [[nodiscard]] bool failed(std::int64_t id) const { return has(id, k(gateway_reply_t::FAILED)); }
-  std::map<std::int64_t, std::vector<std::int8_t>> replies;
-  std::uint64_t status_updates = 0;
-};
-
-std::string lab_config(int drives, bool timing, int group_id, const std::string& url, const std::string& hub,
-                       const std::string& dir) {
-  std::string y = "lcm: {url: \"" + url + "\", channel_prefix: \"BENCH_\"}\n";
-  y += "buses:\n  - {name: can0, transport: \"simcan:" + hub + "\", bitrate: " + std::to_string(kBitrate) +
-       ", bus_timing: " + (timing ? "true" : "false") +
-       ", request_timeout_ms: 50, retries: 2, poll_hz: " + std::to_string(kPollHz) + "}\n";
-  y += "drives:\n";
-  for (int n = 0; n < drives; ++n) {
-    y += "  - {name: d" + std::to_string(n) +
-         ", family: uim342, bus: can0, node_id: " + std::to_string(uim342::kMinNodeId + n) +
-         (group_id != 0 ? ", group_id: " + std::to_string(group_id) : std::string{}) +
-         ", setup: {micro_steps: 16, current_a: 2.0, acceleration_unit: rate}}\n";
-  }
-  y += "axes:\n";
-  for (int n = 0; n < drives; ++n) {
-    y += "  - {name: a" + std::to_string(n) + ", drive: d" + std::to_string(n) +
-         ", unit: mm, steps_per_unit: 640, limits: {min: -300, max: 300, velocity: 100, acceleration: 400}}\n";
-  }
-  y += "simulation: {runtime_dir: \"" + dir + "\", reply_latency_us: 0}\n";
-  return y;
-}
-
-config::Config load(const std::string& yaml) {
-  const auto loaded = config::load_string(yaml, "uim342_bench");
-  if (!loaded.ok()) die("configuration refused: " + loaded.error_text());
-  return *loaded.config;
-}
-
-std::unique_ptr<sim::CanBusHost> open_host(EventLoop& loop, const config::Config& config) {
-  std::error_code error;
-  auto host = sim::CanBusHost::open(
-      loop, config, config.buses.front(), {{config::Family::kUim342, sim::uim342_factory(config)}},
-      [](motionlcm::sim_report_t) {}, error);
-  if (!host) die("cannot open the simulated bus: " + error.message());
-  return host;
-}
-
-std::optional<uim342::CanMessage> decode(const can::Frame& f) {
-  auto m = uim342::decode_can(f);
-  if (!m) return std::nullopt;
-  return *m;
-}
-bool is_function(const uim342::CanMessage& m, FC f) { return m.message.function_code() == uim342::code(f); }
-
-gateway_command_t command(std::int64_t id, std::int8_t kind, const std::vector<std::string>& axes) {
-  gateway_command_t c{};
-  c.utime = wall_time_us();
-  c.bus = "can0";
-  c.command_id = id;
-  c.kind = kind;
-  for (const auto& a : axes) {
-    motionlcm::axis_command_t ac{};
-    ac.axis = a;
-    c.axes.push_back(ac);
-  }
-  c.num_axes = static_cast<std::int32_t>(c.axes.size());
-  return c;
-}
 
 // ---- 1. LCM command -> first frame (bus timing off) ----------------------------------------------
 
@@ -259,12 +84,9 @@ void bench_command_latency(bool quick, const std::filesystem::path& dir) {
     if (const auto m = decode(f); m && is_function(*m, FC::kMO)) first_mo = Clock::now();
   });
   auto driver = std::make_unique<gateway::CanBusDriver>(loop, "can0", std::move(tap), gateway);
-  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver->context());
-  const gateway::Uim342Stack* stack_view = stack.get();
-  driver->add_stack(std::move(stack));
+  const gateway::Uim342Stack* stack_view = add_uim342_stack(*driver, config);
   gateway.attach(std::move(driver));
-  if (!pump.until([&] { return stack_view->ready(); }, 30s))
-    die("the UIM342 drives were not set up within 30 s (latency rig)");
+  await_set_up(pump, *stack_view, 30s, "latency rig");
 
   const int commands = quick ? 100 : 1000;
   std::vector<double> recv_to_frame;
@@ -300,20 +122,20 @@ void bench_command_latency(bool quick, const std::filesystem::path& dir) {
     publish_to_frame.push_back(us(*first_mo - t0));
     pump.until([] { return false; }, 200us);  // let the ACK and any poll settle
   }
-  const double raw50 = percentile(raw, 0.5);
-  const double raw99 = percentile(raw, 0.99);
+  const double raw50 = nearest_rank(raw, 0.5);
+  const double raw99 = nearest_rank(raw, 0.99);
   const std::string n = std::to_string(recv_to_frame.size()) + " commands" +
                         (failures ? ", " + std::to_string(failures) + " failed" : "");
-  g_rows.push_back({"1. LCM received -> first frame (timing off) p50", fmt("%.1f us", percentile(recv_to_frame, 0.5)),
-                    fmt("%.1f us raw LCM pub->recv p50", raw50), percentile(recv_to_frame, 0.5) / raw50,
+  g_rows.push_back({"1. LCM received -> first frame (timing off) p50", fmt("%.1f us", nearest_rank(recv_to_frame, 0.5)),
+                    fmt("%.1f us raw LCM pub->recv p50", raw50), nearest_rank(recv_to_frame, 0.5) / raw50,
                     n + "; ENABLE -> MO=1 to the transport; includes waiting for a poll reply in flight"});
-  g_rows.push_back({"   LCM received -> first frame p99", fmt("%.1f us", percentile(recv_to_frame, 0.99)),
-                    fmt("%.1f us raw LCM pub->recv p99", raw99), percentile(recv_to_frame, 0.99) / raw99, ""});
-  g_rows.push_back({"   LCM publish -> first frame p50", fmt("%.1f us", percentile(publish_to_frame, 0.5)),
-                    fmt("%.1f us raw LCM pub->recv p50", raw50), percentile(publish_to_frame, 0.5) / raw50,
+  g_rows.push_back({"   LCM received -> first frame p99", fmt("%.1f us", nearest_rank(recv_to_frame, 0.99)),
+                    fmt("%.1f us raw LCM pub->recv p99", raw99), nearest_rank(recv_to_frame, 0.99) / raw99, ""});
+  g_rows.push_back({"   LCM publish -> first frame p50", fmt("%.1f us", nearest_rank(publish_to_frame, 0.5)),
+                    fmt("%.1f us raw LCM pub->recv p50", raw50), nearest_rank(publish_to_frame, 0.5) / raw50,
                     "ideal ~1 + gateway share"});
-  g_rows.push_back({"   LCM publish -> first frame p99", fmt("%.1f us", percentile(publish_to_frame, 0.99)),
-                    fmt("%.1f us raw LCM pub->recv p99", raw99), percentile(publish_to_frame, 0.99) / raw99, ""});
+  g_rows.push_back({"   LCM publish -> first frame p99", fmt("%.1f us", nearest_rank(publish_to_frame, 0.99)),
+                    fmt("%.1f us raw LCM pub->recv p99", raw99), nearest_rank(publish_to_frame, 0.99) / raw99, ""});
 }
 
 // ---- 2. arm + trigger of N grouped axes (bus timing on) -----------------------------------------
@@ -346,13 +168,11 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
   });
   Capture out;
   gateway::CanBusDriver driver(loop, "can0", host->hub().attach_local("gateway"), out);
-  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver.context());
-  const gateway::Uim342Stack* stack_view = stack.get();
-  driver.add_stack(std::move(stack));
+  const gateway::Uim342Stack* stack_view = add_uim342_stack(driver, config);
   driver.start();
-  if (!pump.until([&] { return stack_view->ready(); }, 60s))
-    die("the UIM342 drives were not set up (arm rig, N=" + std::to_string(axes) + ")");
+  await_set_up(pump, *stack_view, 60s, "arm rig, N=" + std::to_string(axes));
   std::vector<std::string> names;
+  names.reserve(static_cast<std::size_t>(axes));
   for (int n = 0; n < axes; ++n) names.push_back("a" + std::to_string(n));
   {
     const auto enable = command(1, k(gateway_command_t::ENABLE), names);
@@ -369,7 +189,7 @@ ArmResult run_arm(int axes, bool simulated, int moves, const std::filesystem::pa
     c.trigger_id = id;
     for (int n = 0; n < axes; ++n) {
       auto& a = c.axes[static_cast<std::size_t>(n)];
-      a.target_counts = (m % 2 == 0 ? 1 : 0) * (1600 + 64 * n);  // out and back
+      a.target_counts = std::int64_t{m % 2 == 0 ? 1 : 0} * (1600 + 64 * n);  // out and back
       a.velocity = 64'000;
       a.acceleration = 256'000;
       a.deceleration = 256'000;
@@ -439,14 +259,14 @@ void bench_arm(bool quick, const std::filesystem::path& dir) {
     for (const bool simulated : {false, true}) {
       const int moves = quick ? 6 : (simulated ? 20 : 40);
       const ArmResult r = run_arm(axes, simulated, moves, dir);
-      const double p50 = percentile(r.to_bg_us, 0.5);
-      const double p99 = percentile(r.to_bg_us, 0.99);
-      const double bound = percentile(r.bound_us, 0.5);
+      const double p50 = nearest_rank(r.to_bg_us, 0.5);
+      const double p99 = nearest_rank(r.to_bg_us, 0.99);
+      const double bound = nearest_rank(r.bound_us, 0.5);
       char note[200];
       std::snprintf(note, sizeof note,
                     "%s; %.0f frames/move (min %d); %.0f poll/other frames on the wire meanwhile%s%s",
-                    r.group_bg ? "one group BG per move" : "NOT one group BG", percentile(r.frames, 0.5), 9 * axes + 1,
-                    percentile(r.other_frames, 0.5), r.failures ? "; failures: " : "",
+                    r.group_bg ? "one group BG per move" : "NOT one group BG", nearest_rank(r.frames, 0.5),
+                    9 * axes + 1, nearest_rank(r.other_frames, 0.5), r.failures ? "; failures: " : "",
                     r.failures ? std::to_string(r.failures).c_str() : "");
       const std::string clock = simulated ? "sim " : "wall";
       g_rows.push_back({"2. arm+trigger N=" + std::to_string(axes) + " (" + clock + ") command -> BG p50",
@@ -459,153 +279,8 @@ void bench_arm(bool quick, const std::filesystem::path& dir) {
   }
 }
 
-// ---- 3. status polling throughput (bus timing on) ------------------------------------------------
-
-// Commands during saturated polling: ENABLE of one axis (one MO frame) at spread instants; when the
-// MO frame started on the wire, from the command and from its hand-over, against one poll frame.
-void bench_command_wait(Pump& pump, gateway::CanBusDriver& driver, Capture& out, std::vector<can::Frame>& wire,
-                        bool& keeping, std::vector<std::pair<std::int64_t, can::Frame>>& handed, int axes, bool quick) {
-  EventLoop& loop = pump.loop();
-  const std::int64_t epoch_offset = wall_time_us() - steady_us(loop.now());  // loop time -> frame stamps
-  const double poll_frame_us = us(can::frame_duration(
-      *uim342::instruction_frame(uim342::kMinNodeId, uim342::request::get(uim342::MotionStatusIndex::kKinematics)),
-      kBitrate));
-  std::vector<double> from_command;
-  std::vector<double> from_handover;
-  long max_polls_ahead = 0;
-  int failures = 0;
-  const int commands = quick ? 20 : 100;
-  for (int c = 0; c < commands; ++c) {
-    pump.until([] { return false; }, std::chrono::microseconds(2000 + 173 * (c % 11)));
-    wire.clear();
-    handed.clear();
-    keeping = true;
-    const std::int64_t id = 5000 + c;
-    const std::int64_t t0 = steady_us(loop.now()) + epoch_offset;
-    driver.execute(command(id, k(gateway_command_t::ENABLE), {"a" + std::to_string((c * 7) % axes)}));
-    const bool ended = pump.until([&] { return out.has(id, k(gateway_reply_t::DONE)) || out.failed(id); }, 1s);
-    keeping = false;
-    if (!ended || out.failed(id) || handed.empty()) {
-      ++failures;
-      continue;
-    }
-    const std::int64_t given = handed.front().first + epoch_offset;
-    const auto mo =
-        std::find_if(wire.begin(), wire.end(), [&](const can::Frame& f) { return f == handed.front().second; });
-    if (mo == wire.end()) {
-      ++failures;
-      continue;
-    }
-    const double start = static_cast<double>(mo->timestamp_us) -
-                         us(can::bits_duration(can::frame_bits(*mo).to_end_of_frame(), kBitrate));
-    from_command.push_back(start - static_cast<double>(t0));
-    from_handover.push_back(start - static_cast<double>(given));
-    max_polls_ahead = std::max<long>(max_polls_ahead, std::count_if(wire.begin(), mo, [&](const can::Frame& f) {
-                                       const auto m = decode(f);
-                                       return m && is_function(*m, FC::kMS) &&
-                                              m->address.producer == uim342::kMasterId && f.timestamp_us > given;
-                                     }));
-  }
-  const std::string n = std::to_string(from_command.size()) + " commands" +
-                        (failures ? ", " + std::to_string(failures) + " failed" : std::string{});
-  const std::string label = "   N=" + std::to_string(axes) + ", polls saturating: ";
-  const auto row = [&](const std::string& what, const std::vector<double>& v, double p, const std::string& note) {
-    g_rows.push_back({label + what + (p < 0.9 ? " p50" : " p99"), fmt("%.0f us", percentile(v, p)),
-                      fmt("%.0f us one poll request frame", poll_frame_us), percentile(v, p) / poll_frame_us, note});
-  };
-  row("command -> MO on the wire", from_command, 0.5,
-      n + "; includes the node's own poll exchange in flight (one request per node, manual §2.1)");
-  row("command -> MO on the wire", from_command, 0.99, "");
-  row("MO handed over -> on the wire", from_handover, 0.5,
-      fmt("our poll frames ended between hand-over and MO: at most %.0f", static_cast<double>(max_polls_ahead)));
-  row("MO handed over -> on the wire", from_handover, 0.99, "a drive's answer already on the wire may go first");
-}
-
-void bench_status(int axes, bool quick, const std::filesystem::path& dir) {
-  const config::Config config =
-      load(lab_config(axes, true, 0, "udpm://239.255.76.67:7667?ttl=0", "u342st" + std::to_string(axes), dir.string()));
-  Pump pump(nullptr);
-  EventLoop& loop = pump.loop();
-  auto host = open_host(loop, config);
-  auto monitor = host->hub().attach_local("monitor");
-  std::uint64_t poll_frames = 0;
-  std::uint64_t poll_bits = 0;
-  std::uint64_t all_frames = 0;
-  bool counting = false;
-  std::vector<can::Frame> wire;  // every frame while commands are measured (end-of-frame stamps)
-  bool keeping = false;
-  loop.watch(monitor->fd(), [&] {
-    while (auto f = monitor->receive()) {
-      if (keeping) wire.push_back(*f);
-      if (!counting) continue;
-      ++all_frames;
-      if (const auto m = decode(*f); m && is_function(*m, FC::kMS)) {
-        ++poll_frames;
-        poll_bits += can::frame_bits(*f).total;
-      }
-    }
-  });
-  Capture out;
-  std::vector<std::pair<std::int64_t, can::Frame>> handed;  // MO frames handed over (steady us)
-  auto tap = std::make_unique<TapTransport>(host->hub().attach_local("gateway"), [&](const can::Frame& f) {
-    if (const auto m = decode(f); m && is_function(*m, FC::kMO)) handed.emplace_back(steady_us(loop.now()), f);
-  });
-  gateway::CanBusDriver driver(loop, "can0", std::move(tap), out);
-  auto stack = std::make_unique<gateway::Uim342Stack>(config, "can0", driver.context());
-  const gateway::Uim342Stack* stack_view = stack.get();
-  driver.add_stack(std::move(stack));
-  driver.start();
-  if (!pump.until([&] { return stack_view->ready(); }, 120s))
-    die("the UIM342 drives were not set up (status rig, N=" + std::to_string(axes) + ")");
-  pump.until([] { return false; }, 500ms);  // settle into the poll rhythm
-  const auto window = quick ? 1s : 4s;
-  const std::uint64_t updates0 = out.status_updates;
-  const auto before = stack_view->counters();
-  counting = true;
-  const auto t0 = Clock::now();
-  pump.until([] { return false; }, window);
-  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  counting = false;
-  const double load = host->hub().statistics().bus_load;
-
-  const double achieved = static_cast<double>(out.status_updates - updates0) / seconds;
-  const double asked = static_cast<double>(axes * kPollHz);
-  const double bits_per_frame = poll_frames ? static_cast<double>(poll_bits) / static_cast<double>(poll_frames) : NAN;
-  const double capacity_frames = static_cast<double>(kBitrate) / bits_per_frame;  // frames/s the bus can carry
-  constexpr double kFramesPerUpdate = 4;                                          // MS[0] and MS[1]: request + ACK each
-  const double needed_frames = asked * kFramesPerUpdate;
-  const double bus_updates = capacity_frames / kFramesPerUpdate;
-  const double bound = std::min(asked, bus_updates);
-  const auto& after = stack_view->counters();
-  char note[320];
-  const double polled_hz = 1.0 / std::chrono::duration<double>(stack_view->poll_period()).count();
-  std::snprintf(note, sizeof note,
-                "asked %.0f/s (%d Hz x %d); stack estimates %.1f Hz per drive; bus carries %.0f/s "
-                "(%.1f bits/poll frame); "
-                "bus load %.0f%%; %lld retries, %lld timeouts, %lld unexpected",
-                asked, kPollHz, axes, polled_hz, bus_updates, bits_per_frame, load * 100.0,
-                static_cast<long long>(after.retries - before.retries),
-                static_cast<long long>(after.timeouts - before.timeouts),
-                static_cast<long long>(after.unexpected - before.unexpected));
-  g_rows.push_back({"3. status N=" + std::to_string(axes) + ": axis state updates/s", fmt("%.0f /s", achieved),
-                    fmt("%.0f /s min(asked, bus)", bound), achieved / bound, note});
-  g_rows.push_back({"   N=" + std::to_string(axes) + ": frames/s the poll needs vs the bus carries",
-                    fmt("%.0f frames/s needed", needed_frames), fmt("%.0f frames/s capacity", capacity_frames),
-                    needed_frames / capacity_frames,
-                    fmt2("measured on the wire: %.0f poll frames/s, %.0f frames/s in all",
-                         static_cast<double>(poll_frames) / seconds, static_cast<double>(all_frames) / seconds)});
-  const double poll_share = static_cast<double>(poll_bits) / seconds / kBitrate;
-  const double asked_share = std::min(1.0, needed_frames / capacity_frames);
-  g_rows.push_back({"   N=" + std::to_string(axes) + ": share of the bus the polls took",
-                    fmt("%.1f %%", 100 * poll_share), fmt("%.1f %% min(asked, 100 %%)", 100 * asked_share),
-                    poll_share / asked_share,
-                    "poll frames' wire bits / bit rate; goal >= 90 % when asked for more than the bus carries"});
-  if (needed_frames > capacity_frames) bench_command_wait(pump, driver, out, wire, keeping, handed, axes, quick);
-  loop.unwatch(monitor->fd());
-}
-
 }  // namespace
-}  // namespace motion
+}  // namespace motion::uim342_bench
 
 int main(int argc, char** argv) {
   bool quick = false;
@@ -622,12 +297,12 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(dir, error);
   std::printf(
       "bench_uim342: command latency (timing off), arm+trigger N=2/8/32, status N=8/32/120; %u bit/s, poll %d Hz%s\n",
-      motion::kBitrate, motion::kPollHz, quick ? " (quick)" : "");
+      motion::uim342_bench::kBitrate, motion::uim342_bench::kPollHz, quick ? " (quick)" : "");
   std::fflush(stdout);
-  motion::bench_command_latency(quick, dir);
-  motion::bench_arm(quick, dir);
-  for (const int axes : {8, 32, 120}) motion::bench_status(axes, quick, dir);
+  motion::uim342_bench::bench_command_latency(quick, dir);
+  motion::uim342_bench::bench_arm(quick, dir);
+  for (const int axes : {8, 32, 120}) motion::uim342_bench::bench_status(axes, quick, dir);
   std::filesystem::remove_all(dir, error);
-  motion::print_table();
+  motion::uim342_bench::print_table();
   return 0;
 }

@@ -19,7 +19,8 @@ int Context::with_node(const std::function<int(app::Service&)>& body) {
 
 }  // namespace motion::ctl
 
-int main(int argc, char** argv) {
+// Only the fixed option set is built outside app::run, which turns every later exception into an exit code.
+int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   using namespace motion;
   CLI::App cli{"motionctl: command and watch the motion system", "motionctl"};
   ctl::Context ctx;

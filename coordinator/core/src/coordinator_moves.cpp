@@ -110,8 +110,9 @@ Duration Coordinator::arming_line_time(
       own_us += arming.arm_line_us;
       bystander_us = std::max(bystander_us, arming.arm_bystander_us);
     }
+    // An init-capture, not `bus` itself: clang 14 (clang-tidy) does not capture structured bindings.
     const auto on_bus = std::count_if(config_.drives.begin(), config_.drives.end(),
-                                      [&](const config::Drive& d) { return d.bus == bus; });
+                                      [&name = bus](const config::Drive& d) { return d.bus == name; });
     const auto others = std::max<std::ptrdiff_t>(0, on_bus - static_cast<std::ptrdiff_t>(cmds.size()));
     slowest_us = std::max(slowest_us, own_us + static_cast<double>(others) * bystander_us);
   }

@@ -258,8 +258,9 @@ void matching_round(const SyncPlan& plan, std::size_t axis, const DriveMotion& d
                     std::vector<double>& velocities, Round&& round) {
   if (!std::ranges::is_sorted(velocities, std::ranges::less_equal{})) {
     std::ranges::sort(velocities);
-    const auto [duplicates, end] = std::ranges::unique(velocities);
-    velocities.erase(duplicates, end);
+    // std::unique rather than std::ranges::unique: clang 14 (clang-tidy) cannot instantiate the
+    // subrange libstdc++ 12 returns from it.
+    velocities.erase(std::unique(velocities.begin(), velocities.end()), velocities.end());
   }
   const double distance = std::abs(static_cast<double>(plan.axes[axis].distance_counts()));
   for (const double velocity : velocities) {

@@ -485,7 +485,7 @@ void AdamStack::check_motion(Operation& op, const Drive& sampled, TimePoint now)
     switch (op.goal) {
       case Operation::Goal::kReachTarget: reached = s.in_position && *d->position == d->target; break;
       case Operation::Goal::kReachHome: reached = s.at_home; break;
-      case Operation::Goal::kStandStill: reached = true; break;
+      case Operation::Goal::kStandStill:
       case Operation::Goal::kNone: reached = true; break;
     }
     if (reached) {

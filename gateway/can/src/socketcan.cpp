@@ -370,7 +370,7 @@ void SocketCanTransport::refresh_link() {
   }
 }
 
-void SocketCanTransport::enter_state(BusState next, std::uint32_t error_class, std::string text) {
+void SocketCanTransport::enter_state(BusState next, std::uint32_t error_class, const std::string& text) {
   if (next == state_) return;
   if (next == BusState::kDisconnected) ++counters_.link_down;
   if (next == BusState::kBusOff) ++stats_.bus_off_count;

@@ -44,7 +44,8 @@ std::error_code SocketCanCyclic::setup(const Frame& frame, std::chrono::microsec
   if (fd_ < 0) return socketcan_error(interface_, EBADF);
   can_frame raw{};
   if (!detail::to_kernel_frame(frame, raw) || period.count() <= 0) return socketcan_error(interface_, EINVAL);
-  bcm_msg_head head{};
+  bcm_msg_head head;  // zeroed by hand: clang -Wpedantic flags `{}` on its zero-length frames[0]
+  std::memset(&head, 0, sizeof head);
   head.opcode = TX_SETUP;
   head.can_id = detail::kernel_id(frame.id, frame.extended);
   head.nframes = 1;
@@ -76,7 +77,8 @@ std::error_code SocketCanCyclic::update(const Frame& frame) {
 std::error_code SocketCanCyclic::stop(std::uint32_t id, bool extended) {
   if (jobs_.erase({id, extended}) == 0) return socketcan_error(interface_, ENOENT);
   if (fd_ < 0) return {};
-  bcm_msg_head head{};
+  bcm_msg_head head;  // zeroed by hand: clang -Wpedantic flags `{}` on its zero-length frames[0]
+  std::memset(&head, 0, sizeof head);
   head.opcode = TX_DELETE;
   head.can_id = detail::kernel_id(id, extended);
   if (::write(fd_, &head, sizeof head) < 0) return detail::last_error(interface_);

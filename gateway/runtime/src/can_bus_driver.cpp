@@ -167,6 +167,7 @@ void CanBusDriver::execute(const motionlcm::gateway_command_t& command) {
     part.num_axes = static_cast<std::int32_t>(part.axes.size());
   }
   std::vector<std::size_t> keys;
+  keys.reserve(parts.size());
   for (const auto& [stack, part] : parts) keys.push_back(part_of(stack));
   pending_.release(command.command_id);  // an id used again: the new command is the one combined
   pending_.add(command, std::move(keys));

@@ -82,7 +82,7 @@ void Gateway::update_health() {
   for (const auto& [drive, family] : unsupported_)
     unsupported += (unsupported.empty() ? "" : ", ") + drive + " (" + family + ")";
   if (!unsupported.empty()) unsupported = "no driver yet for " + unsupported;
-  auto join = [](std::string a, const std::string& b) { return b.empty() ? a : a.empty() ? b : a + "; " + b; };
+  auto join = [](const std::string& a, const std::string& b) { return b.empty() ? a : a.empty() ? b : a + "; " + b; };
   if (!driver_) {
     const std::string why = join(waiting_, unsupported);
     health_.set_state(why.empty() ? motionlcm::health_t::FAULT : motionlcm::health_t::DEGRADED,

@@ -38,7 +38,7 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
     node->power = cia402::PowerController({options_.state_switch_timeout});
     node_index_[node->settings.node] = nodes_.size();
     // Retries are ours (sdo_read/sdo_write) so that they can be counted.
-    master_.sdo().configure_node(node->settings.node, {node->settings.sdo_timeout, 0, 64 * 1024});
+    master_.sdo().configure_node(node->settings.node, {node->settings.sdo_timeout, 0, std::size_t{64} * 1024});
     nodes_.push_back(std::move(node));
   }
   master_.nmt().on_event([this](const canopen::NodeEvent& e) { on_node_event(e); });

@@ -87,10 +87,10 @@ void Uc57Stack::probe_now(std::size_t n) {
   node.rpdo_queue.clear();
   node.held_tpdo1.reset();
   auto ops = std::make_shared<std::vector<ConfigOp>>(configuration_ops(n));
-  run_config(n, node.session, std::move(ops), 0);
+  run_config(n, node.session, ops, 0);
 }
 
-void Uc57Stack::run_config(std::size_t n, unsigned session, std::shared_ptr<std::vector<ConfigOp>> ops,
+void Uc57Stack::run_config(std::size_t n, unsigned session, const std::shared_ptr<std::vector<ConfigOp>>& ops,
                            std::size_t step) {
   if (nodes_[n]->session != session || nodes_[n]->phase != Node::Phase::kConfiguring) return;
   if (step == ops->size()) {
@@ -114,16 +114,16 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
   std::vector<ConfigOp> ops;
 
   const auto read = [this, n](ObjectAddress object,
-                              std::function<std::optional<std::string>(std::span<const std::uint8_t>)> use) {
-    return ConfigOp{[this, n, object, use](Continue next) {
+                              const std::function<std::optional<std::string>(std::span<const std::uint8_t>)>& use) {
+    return ConfigOp{[this, n, object, use](const Continue& next) {
       sdo_read(n, object, [this, n, object, use, next](std::error_code ec, std::span<const std::uint8_t> data) {
         if (ec) return next(sdo_failure(n, false, object, ec));
         next(use(data));
       });
     }};
   };
-  const auto write = [this, n](ObjectAddress object, std::vector<std::uint8_t> data) {
-    return ConfigOp{[this, n, object, data](Continue next) {
+  const auto write = [this, n](ObjectAddress object, const std::vector<std::uint8_t>& data) {
+    return ConfigOp{[this, n, object, data](const Continue& next) {
       sdo_write(n, object, data, [this, n, object, next](std::error_code ec, std::span<const std::uint8_t>) {
         next(ec ? std::optional{sdo_failure(n, true, object, ec)} : std::nullopt);
       });
@@ -155,7 +155,7 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
     return std::nullopt;
   }));
   // 2. Pre-operational: PDOs stop while their parameters change (CiA 301 remap procedure).
-  ops.push_back({[this, n](Continue next) {
+  ops.push_back({[this, n](const Continue& next) {
     master_.nmt().send(canopen::NmtCommand::kEnterPreOperational, nodes_[n]->settings.node);
     next(std::nullopt);
   }});
@@ -196,7 +196,7 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
     return std::nullopt;
   }));
   // 5. RPDO1: remap to controlword + target (synchronous); fall back to the manual's default.
-  ops.push_back({[this, n](Continue next) {
+  ops.push_back({[this, n](const Continue& next) {
     Node& nd = *nodes_[n];
     if (nd.remap_refused) {
       nd.layout = RpdoLayout::kManualDefault;
@@ -338,7 +338,7 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
     return std::nullopt;
   }));
   // 8. Operational.
-  ops.push_back({[this, n](Continue next) {
+  ops.push_back({[this, n](const Continue& next) {
     Node& nd = *nodes_[n];
     const auto consumer = std::chrono::milliseconds(nd.settings.heartbeat_ms) * options_.heartbeat_loss_factor;
     master_.nmt().monitor(nd.settings.node, consumer);
@@ -545,7 +545,7 @@ void Uc57Stack::sdo_read(std::size_t n, ObjectAddress object, SdoDone done, unsi
                        });
 }
 
-void Uc57Stack::sdo_write(std::size_t n, ObjectAddress object, std::vector<std::uint8_t> data, SdoDone done,
+void Uc57Stack::sdo_write(std::size_t n, ObjectAddress object, const std::vector<std::uint8_t>& data, SdoDone done,
                           unsigned attempt) {
   const unsigned session = nodes_[n]->session;
   master_.sdo().download(nodes_[n]->settings.node, object, data,

@@ -587,7 +587,7 @@ void Uc57Stack::start_param(std::size_t n, Job& job) {
   std::vector<std::uint8_t> data(width);
   for (std::size_t i = 0; i < width; ++i)
     data[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(param.value) >> (8 * i));
-  sdo_write(n, object, std::move(data), [this, n, id, object](std::error_code ec, std::span<const std::uint8_t>) {
+  sdo_write(n, object, data, [this, n, id, object](std::error_code ec, std::span<const std::uint8_t>) {
     if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, true, object, ec));
     part_done(id, n);
   });

@@ -69,7 +69,7 @@ void Uc57Stack::rpdo_found(std::size_t n, bool at_sync, const std::string& findi
 }
 
 Uc57Stack::ConfigOp Uc57Stack::rpdo_acceptance_op(std::size_t n) {
-  return {[this, n](Continue next) {
+  return {[this, n](const Continue& next) {
     Node& node = *nodes_[n];
     if (node.sync_refused) {
       rpdo_found(n, false, "refused (transmission type 1 aborted; asynchronous, FFh)");
@@ -98,7 +98,7 @@ Uc57Stack::ConfigOp Uc57Stack::rpdo_acceptance_op(std::size_t n) {
   }};
 }
 
-void Uc57Stack::rpdo_test_attempt(std::size_t n, unsigned session, unsigned attempt, Continue next) {
+void Uc57Stack::rpdo_test_attempt(std::size_t n, unsigned session, unsigned attempt, const Continue& next) {
   Node& node = *nodes_[n];
   if (node.session != session || node.phase != Node::Phase::kConfiguring) return;
   const bool target_layout = node.layout == RpdoLayout::kControlwordTarget;

@@ -95,7 +95,7 @@ void Uim242Stack::submit(Drive& d, Instruction in, std::int64_t group,
 }
 
 void Uim242Stack::run_sequence(Command& c, Drive& d, std::vector<Instruction> steps,
-                               std::function<void(TimePoint)> done) {
+                               const std::function<void(TimePoint)>& done) {
   const std::int64_t id = c.command.command_id;
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const bool last = i + 1 == steps.size();
@@ -443,7 +443,7 @@ void Uim242Stack::poll(TimePoint now) {
   for (auto& dp : drives_) {
     Drive& d = *dp;
     if (!d.status.online || !d.set_up) continue;
-    const auto poll_request = [&](Instruction in, std::function<void(const Frame&, TimePoint)> on_reply) {
+    const auto poll_request = [&](Instruction in, const std::function<void(const Frame&, TimePoint)>& on_reply) {
       ++polls_outstanding_;
       Request r;
       r.drive = d.name;

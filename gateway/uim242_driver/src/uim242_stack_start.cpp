@@ -38,7 +38,7 @@ std::vector<Instruction> Uim242Stack::position_run(const Drive& d, std::int64_t 
 // The manuals show a displacement only after a speed (§6.1 PT: "After setting the desired speed,
 // user can enter desired positions"); whether `STP n;` at desired speed 0 waits for a later
 // `SPD v;` (#37, #44) is tested once per drive, at rest, by one count.
-void Uim242Stack::probe_spd0(Drive& d, std::int64_t group, std::function<void(TimePoint)> then) {
+void Uim242Stack::probe_spd0(Drive& d, std::int64_t group, const std::function<void(TimePoint)>& then) {
   const std::int64_t before = d.status.position_counts;
   const auto found = [this, &d](Drive::Spd0 answer, const std::string& how) {
     d.spd0 = answer;

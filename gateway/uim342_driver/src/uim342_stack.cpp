@@ -130,7 +130,7 @@ void Uim342Stack::Impl::fail_commands_of(std::size_t i, std::int32_t code, const
 Uim342Stack::Impl::Request& Uim342Stack::Impl::enqueue(std::size_t i, Instruction instruction, std::int64_t command_id,
                                                        bool front) {
   Request r;
-  r.instruction = std::move(instruction);
+  r.instruction = instruction;
   r.command_id = command_id;
   r.background = command_id == 0 && !front;  // identification, set-up, polls
   if (command_id != 0) {

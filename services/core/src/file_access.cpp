@@ -41,7 +41,9 @@ std::error_code make_private_dir(const std::string& path, const FileAccess& acce
   const int fd = ::open(path.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
   if (fd < 0) return errno == ELOOP ? std::make_error_code(std::errc::not_a_directory) : last_error();
   struct stat st {};
-  if (::fstat(fd, &st) != 0) {
+  // Steps in order, each only when the ones before succeeded: the same `last_error()` in several
+  // branches is not one branch repeated (bugprone-branch-clone).
+  if (::fstat(fd, &st) != 0) {  // NOLINT(bugprone-branch-clone)
     error = last_error();
   } else if (st.st_uid != ::geteuid()) {
     error = std::make_error_code(std::errc::permission_denied);

@@ -21,7 +21,8 @@
 #include "motion/sim/uim342_drive.hpp"
 #include "motion/sim/uimessage_gateway_sim.hpp"
 
-int main(int argc, char** argv) {
+// Only the fixed option set is built outside app::run, which turns every later exception into an exit code.
+int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   using namespace motion;
   CLI::App cli{"motion-sim: simulated buses and drives that speak the real wire protocols", "motion-sim"};
   app::CommonOptions options;
@@ -57,7 +58,7 @@ int main(int argc, char** argv) {
         {config::Family::kUim342, sim::uimessage_gateway_factory(*config)},
     };
 
-    auto report = [&service](motionlcm::sim_report_t r) {
+    auto report = [&service](const motionlcm::sim_report_t& r) {
       service.node().publish(motion::lcm::channels::kSimReport, r);
     };
     std::vector<std::unique_ptr<sim::CanBusHost>> can_buses;

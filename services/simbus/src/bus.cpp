@@ -138,8 +138,7 @@ void Bus::run_wire(TimePoint now) {
     if (fate.drop) continue;
     const can::FrameBits bits = can::frame_bits(winner.frame);
     occupy(bits.total, start);
-    on_wire_ = OnWire{std::move(winner), fate, bits.total,
-                      start + can::bits_duration(bits.to_end_of_frame(), config_.bitrate)};
+    on_wire_ = OnWire{winner, fate, bits.total, start + can::bits_duration(bits.to_end_of_frame(), config_.bitrate)};
   }
 }
 
@@ -159,7 +158,7 @@ Bus::Queued Bus::take_winner(TimePoint start) {
       best_key = key;
     }
   }
-  Queued winner = std::move(*best);
+  Queued winner = *best;
   queue_.erase(best);
   return winner;
 }
@@ -205,7 +204,7 @@ void Bus::complete(const Queued& q, const Fate& fate, std::uint32_t bits, TimePo
   FrameOut out{q.from, q.frame};
   const TimePoint received = end_of_frame + fate.delay;
   out.frame.timestamp_us = to_epoch_us(received);
-  schedule(received, std::move(out));
+  schedule(received, out);
 }
 
 void Bus::schedule(TimePoint at, Output output) {

@@ -10,7 +10,6 @@ namespace {
 constexpr std::uint8_t kFlagExtended = 0x01;
 constexpr std::uint8_t kFlagRtr = 0x02;
 constexpr std::uint8_t kFlagOwnEcho = 0x04;
-constexpr std::size_t kFrameHeader = 16;
 
 // Appends fields to a span; remembers when anything did not fit.
 class Writer {

@@ -110,10 +110,10 @@ class Runner {
     pids_["coordinator"] = group_.start({"coordinator", "motion-coordinator", log_args({"--config", path}), {}});
     for (const auto& [name, pid] : pids_) {
       const bool up = group_.pump_until(
-          [&] {
-            const auto h = group_.heartbeat(name);
+          [&, &process = name] {  // not `name`: clang 14 (clang-tidy) does not capture structured bindings
+            const auto h = group_.heartbeat(process);
             return h && (h->state == motionlcm::health_t::OK ||
-                         (name != "coordinator" && h->state == motionlcm::health_t::DEGRADED));
+                         (process != "coordinator" && h->state == motionlcm::health_t::DEGRADED));
           },
           seconds(20));
       if (!up) fail("lab start-up: no OK heartbeat from " + name + " within 20 s");
@@ -239,7 +239,7 @@ class Runner {
       want = Outcome{{reply_t::DONE, reply_t::ABORTED, reply_t::FAILED}, {error_code(ReplyError::kAxisFault)}};
     }
     const auto r = make(kind, axes, values, s);
-    const auto got = call(client, r);
+    auto got = call(client, r);  // not const: returned below, moved
     check_reply(got, want, r);
     if (got.status == reply_t::DONE ||
         (kind == request_t::JOG && (got.status == reply_t::ABORTED || got.status == reply_t::FAILED))) {
@@ -563,8 +563,8 @@ Shrunk shrink(const LabSpec& lab, const std::vector<Step>& steps, const RunResul
     return true;
   };
   // Steps after the failing one never matter.
-  if (first.failed_step >= 0 && static_cast<std::size_t>(first.failed_step + 1) < best.steps.size()) {
-    best.steps.resize(static_cast<std::size_t>(first.failed_step + 1));
+  if (first.failed_step >= 0 && static_cast<std::size_t>(first.failed_step) + 1 < best.steps.size()) {
+    best.steps.resize(static_cast<std::size_t>(first.failed_step) + 1);
   }
   // Delta debugging: drop chunks of n steps, halving n (the last step, the failing one, stays).
   for (std::size_t chunk = std::max<std::size_t>(1, best.steps.size() / 2); chunk >= 1; chunk /= 2) {

@@ -58,6 +58,7 @@ pid_t ProcessGroup::start(const ProcessSpec& spec) {
   argv_s.push_back("--lcm-url");
   argv_s.push_back(url_);
   std::vector<char*> argv;
+  argv.reserve(argv_s.size() + 1);
   for (auto& a : argv_s) argv.push_back(a.data());
   argv.push_back(nullptr);
   std::vector<std::string> env_s = spec.env;

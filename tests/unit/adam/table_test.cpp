@@ -21,6 +21,7 @@ constexpr std::uint16_t kManualStartOffset = 200;  // 0x00AC example: 500 − 30
 
 std::vector<std::string> frames_hex(const std::vector<rtu::Request>& requests) {
   std::vector<std::string> out;
+  out.reserve(requests.size());
   for (const auto& r : requests) out.push_back(to_hex(rtu::encode_request(r).value()));
   return out;
 }

@@ -163,7 +163,7 @@ class AdamStackTest : public ::testing::Test {
   [[nodiscard]] bool was_sent(const std::string& frame) const {
     return std::any_of(sent.begin(), sent.end(), [&](const Bytes& b) { return hex(b) == frame; });
   }
-  static Command command(std::int64_t id, std::int8_t kind, std::vector<std::string> axes) {
+  static Command command(std::int64_t id, std::int8_t kind, const std::vector<std::string>& axes) {
     Command c{};
     c.command_id = id;
     c.kind = kind;
@@ -178,6 +178,7 @@ class AdamStackTest : public ::testing::Test {
 
   static Command arm(std::int64_t id, std::int64_t trigger, std::vector<std::pair<std::string, std::int64_t>> targets) {
     std::vector<std::string> names;
+    names.reserve(targets.size());
     for (auto& [axis, target] : targets) names.push_back(axis);
     Command c = command(id, std::int8_t{Command::ARM_MOVE}, names);
     c.trigger_id = trigger;

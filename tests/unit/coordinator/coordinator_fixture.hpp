@@ -154,7 +154,7 @@ class SimLoop {
     TimePoint deadline;
   };
 
-  void every(TimePoint at, Duration period, std::shared_ptr<Action> action) {
+  void every(TimePoint at, Duration period, const std::shared_ptr<Action>& action) {
     scheduled_.emplace(at, [this, at, period, action] {
       (*action)();
       every(at + period, period, action);
@@ -238,16 +238,16 @@ struct FakeGateways {
     }
     for (const auto& [name, m] : models) {
       if (silent.contains(m.bus) || !publish_models) continue;
-      loop_.send_to_cores([m](Coordinator& c, TimePoint now) { c.on_drive_model(m, now); });
+      loop_.send_to_cores([model = m](Coordinator& c, TimePoint now) { c.on_drive_model(model, now); });
     }
     for (const auto& [name, t] : armings) {
       if (silent.contains(t.bus)) continue;
-      loop_.send_to_cores([t](Coordinator& c, TimePoint now) { c.on_arm_timing(t, now); });
+      loop_.send_to_cores([timing = t](Coordinator& c, TimePoint now) { c.on_arm_timing(timing, now); });
     }
     for (auto& [name, s] : states) {
       if (silent.contains(s.bus)) continue;
       s.utime = s.sample_utime = loop_.wall_us();
-      loop_.send_to_cores([s](Coordinator& c, TimePoint now) { c.on_axis_state(s, now); });
+      loop_.send_to_cores([state = s](Coordinator& c, TimePoint now) { c.on_axis_state(state, now); });
     }
   }
   // GW_COMMAND_<bus> as a gateway receives it.
@@ -429,7 +429,7 @@ struct CoordinatorTest : ::testing::Test {
   }
   // Answers ARM_MOVE with ARMED, and the trigger with STARTED; moves the fake axes to target.
   void auto_execute_moves(bool complete = true) {
-    gateways.on_command = [this, complete](const gateway_command_t& c) {
+    gateways.on_command = [this](const gateway_command_t& c) {
       if (c.kind == gateway_command_t::ARM_MOVE) {
         gateways.reply(c, gateway_reply_t::ARMED);
         armed[c.trigger_id].push_back(c);

@@ -319,7 +319,7 @@ TEST(DriveModel, StartMechanismsAndTheirWireTimes) {
 
 TEST(DriveModel, UnusableModelsAreRefusedWithTheReason) {
   const auto base = model_of("x");
-  auto why = [](motionlcm::drive_model_t m) {
+  auto why = [](const motionlcm::drive_model_t& m) {
     auto q = quantizer_from_model(m);
     return std::holds_alternative<std::string>(q) ? std::get<std::string>(q) : std::string("usable");
   };

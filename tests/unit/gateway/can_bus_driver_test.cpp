@@ -136,7 +136,7 @@ struct CanBusDriverTest : ::testing::Test {
     driver->add_stack(std::move(b));
     driver->start();
   }
-  motionlcm::gateway_command_t command(std::int64_t id, std::vector<std::string> axes) {
+  motionlcm::gateway_command_t command(std::int64_t id, const std::vector<std::string>& axes) {
     motionlcm::gateway_command_t c{};
     c.command_id = id;
     c.bus = "can0";

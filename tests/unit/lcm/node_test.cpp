@@ -167,6 +167,7 @@ TEST(LcmNode, BurstOf1000RequestsFromFourSendersIsReceivedWhole) {
   std::atomic<int> ready{0};
   std::atomic<int> sent{0};
   std::vector<std::thread> senders;
+  senders.reserve(std::size_t{kSenders});
   for (int s = 0; s < kSenders; ++s) {
     senders.emplace_back([&, s] {
       ::lcm::LCM lcm(url);
@@ -182,12 +183,12 @@ TEST(LcmNode, BurstOf1000RequestsFromFourSendersIsReceivedWhole) {
     });
   }
   run_until(
-      loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(10000));
+      loop, [&] { return seen.size() >= std::size_t{kSenders} * kEach; }, milliseconds(10000));
   for (auto& t : senders) t.join();
   run_until(
-      loop, [&] { return seen.size() >= std::size_t{kSenders * kEach}; }, milliseconds(2000));
+      loop, [&] { return seen.size() >= std::size_t{kSenders} * kEach; }, milliseconds(2000));
   EXPECT_EQ(sent.load(), kSenders * kEach);
-  EXPECT_EQ(seen.size(), std::size_t{kSenders * kEach});
+  EXPECT_EQ(seen.size(), std::size_t{kSenders} * kEach);
   EXPECT_EQ(node.malformed_count(), 0u);
 }
 

@@ -11,7 +11,6 @@
 namespace motion::planner {
 namespace {
 
-using testing::AxisSpec;
 using testing::make_axis;
 
 // X: 0 -> 10 mm at 100 counts/mm = 1000 counts, v 2 mm/s = 200 c/s, a 4 mm/s^2 = 400 c/s^2.

@@ -164,7 +164,7 @@ TEST_F(LibmodbusPeer, ClientReadsWritesAndGetsExceptionsFromSimulatedDrive) {
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
   auto host = sim::open_adam_line(
-      loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+      loop_, config_, config_.buses[0], [&](const motionlcm::sim_report_t& r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
 
   struct {
@@ -248,7 +248,7 @@ TEST_F(LibmodbusPeer, ClientBroadcastTableExecuteStartsBothDrivesWithoutReply) {
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
   auto host = sim::open_adam_line(
-      loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+      loop_, config_, config_.buses[0], [&](const motionlcm::sim_report_t& r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
 
   struct {

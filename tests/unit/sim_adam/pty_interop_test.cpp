@@ -98,6 +98,7 @@ class PtyInterop : public ::testing::Test {
     std::vector<std::string> argv_strings{kPython, "-c", script};
     argv_strings.insert(argv_strings.end(), args.begin(), args.end());
     std::vector<char*> argv;
+    argv.reserve(argv_strings.size() + 1);
     for (auto& a : argv_strings) argv.push_back(a.data());
     argv.push_back(nullptr);
     pid_t pid = -1;
@@ -151,7 +152,7 @@ TEST_F(PtyInterop, SimSlaveAnswersPymodbusClient) {
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
   auto host = sim::open_adam_line(
-      loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+      loop_, config_, config_.buses[0], [&](const motionlcm::sim_report_t& r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
   EXPECT_EQ(host->link_path(), (dir_ / "rs485.tty").string());
   const std::string script = R"PY(
@@ -262,7 +263,7 @@ TEST_F(PtyInterop, AReplyCrossesTheSimulatedLineAtItsBaudRate) {
   config_.buses[0].baud = 9600;
   std::error_code error;
   auto host = sim::open_adam_line(
-      loop_, config_, config_.buses[0], [](motionlcm::sim_report_t) {}, error);
+      loop_, config_, config_.buses[0], [](const motionlcm::sim_report_t&) {}, error);
   ASSERT_TRUE(host) << error.message();
   auto port = serial::SerialPort::open(host->link_path(), serial::line_settings(9600, 'N', 1), error);
   ASSERT_TRUE(port) << error.message();
@@ -289,7 +290,7 @@ TEST_F(PtyInterop, MasterAndSimulatorMoveEndToEnd) {
   std::vector<motionlcm::sim_report_t> reports;
   std::error_code error;
   auto host = sim::open_adam_line(
-      loop_, config_, config_.buses[0], [&](motionlcm::sim_report_t r) { reports.push_back(r); }, error);
+      loop_, config_, config_.buses[0], [&](const motionlcm::sim_report_t& r) { reports.push_back(r); }, error);
   ASSERT_TRUE(host) << error.message();
   Recorder out;
   auto driver = adam_driver::AdamBusDriver::create(loop_, config_, config_.buses[0], out);

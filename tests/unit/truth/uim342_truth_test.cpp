@@ -23,7 +23,6 @@
 namespace motion::gateway {
 namespace {
 
-using motionlcm::event_t;
 using motionlcm::gateway_command_t;
 using motionlcm::gateway_reply_t;
 using std::chrono::milliseconds;

@@ -23,8 +23,8 @@ std::vector<std::string> texts(const std::vector<can::Frame>& frames, std::size_
   return out;
 }
 
-void enable(Bench& bench, std::vector<std::string> axes) {
-  const auto c = bench.command(Cmd::ENABLE, std::move(axes));
+void enable(Bench& bench, const std::vector<std::string>& axes) {
+  const auto c = bench.command(Cmd::ENABLE, axes);
   bench.execute(c);
   bench.run_for(std::chrono::milliseconds(500));
   ASSERT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE))
@@ -49,6 +49,7 @@ std::optional<gateway::DriveStatus> last_status_before(const Bench& bench, const
 
 Cmd arm(Bench& bench, std::vector<std::pair<std::string, std::int64_t>> targets, std::int64_t trigger) {
   std::vector<std::string> names;
+  names.reserve(targets.size());
   for (auto& t : targets) names.push_back(t.first);
   auto c = bench.command(Cmd::ARM_MOVE, names, trigger);
   for (std::size_t i = 0; i < targets.size(); ++i) {
@@ -353,7 +354,7 @@ TEST(Uc57Commands, EveryCommandKindEndsInExactlyOneTerminalReply) {
   Bench bench;
   bench.start_ready();
   enable(bench, {"a", "b"});
-  const auto run = [&bench](Cmd c) {
+  const auto run = [&bench](const Cmd& c) {
     bench.execute(c);
     bench.run_for(std::chrono::milliseconds(600));
     EXPECT_EQ(bench.terminal_count(c.command_id), 1U) << "kind " << int{c.kind};

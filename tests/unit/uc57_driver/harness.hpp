@@ -110,7 +110,8 @@ class Bench : public gateway::GatewayOutput {
     ASSERT_TRUE(stack->ready());
   }
 
-  motionlcm::gateway_command_t command(std::int8_t kind, std::vector<std::string> axes, std::int64_t trigger_id = 0) {
+  motionlcm::gateway_command_t command(std::int8_t kind, const std::vector<std::string>& axes,
+                                       std::int64_t trigger_id = 0) {
     motionlcm::gateway_command_t c{};
     c.command_id = ++last_command_id;
     c.kind = kind;

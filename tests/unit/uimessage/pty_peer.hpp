@@ -78,7 +78,7 @@ inline bool wait_readable(int fd) {
 // The gateway's end of the cable: a pty master, the slave reachable at `link`.
 class PtyPeer {
  public:
-  explicit PtyPeer(std::string link) {
+  explicit PtyPeer(const std::string& link) {
     std::error_code error;
     pty_ = serial::PtyLink::create(link, serial::SerialSettings{}, error);
     EXPECT_TRUE(pty_ != nullptr) << error.message();

@@ -19,6 +19,7 @@ using testing::lab;
 
 std::vector<json> parsed(const std::vector<Outgoing>& out) {
   std::vector<json> messages;
+  messages.reserve(out.size());
   for (const auto& m : out) messages.push_back(json::parse(m.text));
   return messages;
 }

@@ -145,7 +145,7 @@ TEST_F(ServerTest, ABrowsersMessageReachesTheCommandHandlerAndTheAnswerOnlyThatB
   Server server(options(), [] { return Snapshot{1, {"{\"n\":1}"}}; });
   std::mutex mutex;
   std::vector<std::string> received;
-  server.on_command([&](std::string text, Server::Reply reply) {
+  server.on_command([&](const std::string& text, const Server::Reply& reply) {
     {
       const std::lock_guard lock(mutex);
       received.push_back(text);

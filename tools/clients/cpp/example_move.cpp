@@ -36,7 +36,7 @@ int fail(const motionlcm::reply_t& r) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char** argv) try {
   CLI::App cli{"Enables two axes, moves them together (one synchronized request) and prints their final positions",
                "example_move"};
   std::string url;
@@ -87,4 +87,7 @@ int main(int argc, char** argv) {
   std::printf("measured start skew %.1f us (predicted arrival spread %.1f us)\n", r.measured_start_skew_us,
               r.predicted_skew_us);
   return kExitOk;
+} catch (const std::exception& e) {  // LCM, memory: said, not an abort
+  std::fprintf(stderr, "example_move: %s\n", e.what());
+  return kExitFailure;
 }

@@ -20,9 +20,7 @@ using namespace uc57_detail;  // NOLINT(google-build-using-namespace): the sourc
 namespace od = cia402::uc57;
 namespace idx = cia402::uc57::index;
 using canopen::SdoAbortCode;
-using cia402::ControlBit;
 using cia402::State;
-using cia402::StatusBit;
 
 constexpr std::uint32_t key(std::uint16_t index, std::uint8_t sub) { return (std::uint32_t{index} << 8) | sub; }
 
@@ -308,8 +306,9 @@ std::optional<SdoAbortCode> Uc57DriveSim::check_pdo_parameter(const od::OdEntry&
   };
   if (entry.subindex == 0) {
     std::size_t bits = 0;
-    for (std::uint8_t sub = 1; sub <= value; ++sub) {
-      const auto mapping = static_cast<std::uint32_t>(stored(entry.index, sub));
+    // A wide counter: sub00 = 255 would wrap an 8-bit one round forever.
+    for (std::int64_t sub = 1; sub <= value; ++sub) {
+      const auto mapping = static_cast<std::uint32_t>(stored(entry.index, static_cast<std::uint8_t>(sub)));
       if (!valid_entry(mapping)) return SdoAbortCode::kObjectNotMappable;
       bits += canopen::decode_mapping_entry(mapping).bit_length;
     }

@@ -94,7 +94,8 @@ static int l_now_us(lua_State *L) {
   struct timespec ts;
   clock_gettime(CLOCK_REALTIME, &ts);
   /* About 2^51 today: exact in a Lua 5.2 number (a double). */
-  lua_pushnumber(L, (lua_Number)ts.tv_sec * 1e6 + (lua_Number)(ts.tv_nsec / 1000));
+  const long long us = (long long)ts.tv_sec * 1000000LL + ts.tv_nsec / 1000; /* whole microseconds */
+  lua_pushnumber(L, (lua_Number)us);
   return 1;
 }
 

@@ -96,7 +96,7 @@ class SocketCanTransport final : public Transport {
   std::error_code watch(int fd);  // adds to the epoll set behind fd()
   std::error_code apply_socket_options();
   void close_can_socket();
-  void enter_state(BusState next, std::uint32_t error_class, std::string text);
+  void enter_state(BusState next, std::uint32_t error_class, const std::string& text);
 
   std::string interface_;
   SocketCanOptions options_;

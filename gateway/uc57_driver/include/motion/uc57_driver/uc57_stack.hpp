@@ -146,7 +146,7 @@ class Uc57Stack final : public gateway::CanStack {
   [[nodiscard]] std::size_t configuring() const;  // nodes in Phase::kConfiguring
   void set_configuration_window();
   std::vector<ConfigOp> configuration_ops(std::size_t n);
-  void run_config(std::size_t n, unsigned session, std::shared_ptr<std::vector<ConfigOp>> ops, std::size_t step);
+  void run_config(std::size_t n, unsigned session, const std::shared_ptr<std::vector<ConfigOp>>& ops, std::size_t step);
   void configuration_failed(std::size_t n, const std::string& reason, bool retry);
   void enter_starting(std::size_t n);
   void enter_operational(std::size_t n);
@@ -156,7 +156,7 @@ class Uc57Stack final : public gateway::CanStack {
 
   // --- RPDO1 acceptance test (uc57_stack_rpdo.cpp) ---
   ConfigOp rpdo_acceptance_op(std::size_t n);
-  void rpdo_test_attempt(std::size_t n, unsigned session, unsigned attempt, Continue next);
+  void rpdo_test_attempt(std::size_t n, unsigned session, unsigned attempt, const Continue& next);
   void rpdo_found(std::size_t n, bool at_sync, const std::string& finding);
   // Runs `run` once the SYNC producer has sent more than `count` SYNCs (checked after each SYNC).
   void after_sync(std::uint64_t count, std::function<void()> run);
@@ -174,7 +174,7 @@ class Uc57Stack final : public gateway::CanStack {
   // --- SDO with retries and reasons ---
   using SdoDone = std::function<void(std::error_code, std::span<const std::uint8_t>)>;
   void sdo_read(std::size_t n, canopen::ObjectAddress object, SdoDone done, unsigned attempt = 0);
-  void sdo_write(std::size_t n, canopen::ObjectAddress object, std::vector<std::uint8_t> data, SdoDone done,
+  void sdo_write(std::size_t n, canopen::ObjectAddress object, const std::vector<std::uint8_t>& data, SdoDone done,
                  unsigned attempt = 0);
   void count_sdo_result(std::error_code error);
   [[nodiscard]] std::string sdo_failure(std::size_t n, bool write, canopen::ObjectAddress object,

@@ -132,7 +132,8 @@ class Uim242Stack final : public gateway::SerialStack {
   // ---- plumbing
   void submit(Drive& d, uim242::Instruction in, std::int64_t group,
               std::function<void(const uim242::Frame&, TimePoint)> on_reply, bool front = false);
-  void run_sequence(Command& c, Drive& d, std::vector<uim242::Instruction> steps, std::function<void(TimePoint)> done);
+  void run_sequence(Command& c, Drive& d, std::vector<uim242::Instruction> steps,
+                    const std::function<void(TimePoint)>& done);
   void on_frame(const uim242::Frame& frame, TimePoint now);
   void on_notification(const uim242::Notification& n, TimePoint now);
   void finish(std::int64_t command_id, bool ok, const std::string& reason = {}, std::int32_t error_code = 0,
@@ -162,7 +163,7 @@ class Uim242Stack final : public gateway::SerialStack {
   // The first armed move of a drive whose spd0_position_move is unknown: at rest `STP 1;`, after
   // kSpd0ProbeWait `FBK;` (moving: runs_at_last_speed; EE 66 to the STP: refused; else holds),
   // `STP 0;`; then `then` (the drive may have moved one count: settle again).
-  void probe_spd0(Drive& d, std::int64_t group, std::function<void(TimePoint)> then);
+  void probe_spd0(Drive& d, std::int64_t group, const std::function<void(TimePoint)>& then);
   // The instructions that run `d` by `displacement` at `speed` from rest: `STP n; SPD v;`, with a
   // `SPD ±1;` crawl first unless `d` holds a displacement loaded at speed 0.
   [[nodiscard]] std::vector<uim242::Instruction> position_run(const Drive& d, std::int64_t displacement,

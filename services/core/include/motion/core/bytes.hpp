@@ -40,11 +40,22 @@ template <std::integral T, std::size_t N = sizeof(T)>
   return static_cast<T>(raw);
 }
 
+// `value`'s bits as unsigned: through the unsigned type of the same width, so that a signed char
+// is not sign-extended first (the low bytes are the same either way).
+template <std::integral T>
+[[nodiscard]] constexpr std::uint64_t unsigned_bits(T value) {
+  if constexpr (std::is_signed_v<T>) {
+    return static_cast<std::make_unsigned_t<T>>(value);
+  } else {
+    return value;
+  }
+}
+
 // Writes the low N bytes of `value` little-endian at `offset`; false when it does not fit.
 template <std::integral T, std::size_t N = sizeof(T)>
 constexpr bool write_le(std::span<std::uint8_t> out, std::size_t offset, T value) {
   if (offset > out.size() || out.size() - offset < N) return false;
-  const auto raw = static_cast<std::uint64_t>(value);
+  const std::uint64_t raw = unsigned_bits(value);
   for (std::size_t i = 0; i < N; ++i) out[offset + i] = static_cast<std::uint8_t>(raw >> (8 * i));
   return true;
 }
@@ -52,7 +63,7 @@ constexpr bool write_le(std::span<std::uint8_t> out, std::size_t offset, T value
 template <std::integral T, std::size_t N = sizeof(T)>
 constexpr bool write_be(std::span<std::uint8_t> out, std::size_t offset, T value) {
   if (offset > out.size() || out.size() - offset < N) return false;
-  const auto raw = static_cast<std::uint64_t>(value);
+  const std::uint64_t raw = unsigned_bits(value);
   for (std::size_t i = 0; i < N; ++i) out[offset + i] = static_cast<std::uint8_t>(raw >> (8 * (N - 1 - i)));
   return true;
 }
