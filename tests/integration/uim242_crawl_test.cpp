@@ -33,8 +33,9 @@ std::string write_config(const TempDir& dir) {
     const auto at = yaml.find("setup: {micro_steps: 16", yaml.find(from));
     yaml.insert(at + 8, "spd0_position_move: runs_at_last_speed, ");
   }
-  yaml += "  variants:\n    u1-drive: {spd0_position_move: runs_at_last_speed}\n"
-          "    u2-drive: {spd0_position_move: runs_at_last_speed}\n";
+  yaml +=
+      "  variants:\n    u1-drive: {spd0_position_move: runs_at_last_speed}\n"
+      "    u2-drive: {spd0_position_move: runs_at_last_speed}\n";
   const std::string path = (dir.path() / "uim242-crawl.yaml").string();
   std::ofstream(path) << yaml;
   return path;
@@ -43,10 +44,8 @@ std::string write_config(const TempDir& dir) {
 class Uim242Crawl : public ::testing::Test {
  protected:
   Uim242Crawl() : lab(write_config(dir)) {
-    lab.group().node().subscribe<drive_model_t>(lcm::channels::kDriveModel,
-                                                [this](const drive_model_t& m, const std::string&) {
-                                                  models[m.axis] = m;
-                                                });
+    lab.group().node().subscribe<drive_model_t>(
+        lcm::channels::kDriveModel, [this](const drive_model_t& m, const std::string&) { models[m.axis] = m; });
     lab.group().node().subscribe<motionlcm::sync_trigger2_t>(
         lcm::channels::kSyncTrigger2,
         [this](const motionlcm::sync_trigger2_t& t, const std::string&) { triggers.push_back(t); });
@@ -102,9 +101,10 @@ TEST_F(Uim242Crawl, TheDriveModelCarriesTheCrawlAndThePredictedSpreadIncludesIt)
   EXPECT_DOUBLE_EQ(predicted_us, *crawl_us("u1") + *crawl_us("u2"));
   EXPECT_GT(actual_us, 0.0) << "the crawls start the axes one after the other";
   EXPECT_LE(actual_us, predicted_us);
-  std::printf("crawl start: simulated starts %.0f us apart; coordinator predicted %.0f us (crawls %.0f + %.0f us); "
-              "gateway STARTED skew %.0f us\n",
-              actual_us, predicted_us, *crawl_us("u1"), *crawl_us("u2"), started->predicted_skew_us);
+  std::printf(
+      "crawl start: simulated starts %.0f us apart; coordinator predicted %.0f us (crawls %.0f + %.0f us); "
+      "gateway STARTED skew %.0f us\n",
+      actual_us, predicted_us, *crawl_us("u1"), *crawl_us("u2"), started->predicted_skew_us);
 }
 
 }  // namespace
