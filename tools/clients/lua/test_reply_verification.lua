@@ -18,15 +18,11 @@ local param_t = require("motionlcm.param_t")
 local event_t = require("motionlcm.event_t")
 local signed_message_t = require("motionlcm.signed_message_t")
 
-local failures = 0
-local function check(what, actual, expected)
-  local ok = tostring(actual) == tostring(expected)
-  print((ok and "ok   " or "FAIL ") .. what .. (ok and "" or (": got " .. tostring(actual) .. ", expected " .. tostring(expected))))
-  if not ok then failures = failures + 1 end
-end
-local function unhex(s) return (s:gsub("%x%x", function(h) return string.char(tonumber(h, 16)) end)) end
-local function table_of(s) return {s:byte(1, -1)} end
-local function refused(message, why) return message and "accepted" or why end
+local kit = require("motiontestkit")
+local check = kit.check
+local unhex = kit.unhex
+local table_of = kit.table_of
+local refused = kit.refused
 
 local v = {}
 for line in io.lines(arg[1]) do
@@ -139,5 +135,4 @@ check("client: only the coordinator's signed replies end the request", table.con
 check("client: the terminal reply is the coordinator's", #seen > 0 and seen[#seen].reason or "", "moved")
 check("client: forged signed replies counted (another key, altered, replayed)", c.forged_replies, 3)
 
-print(failures == 0 and "reply verification ok" or (failures .. " checks FAILED"))
-os.exit(failures == 0 and 0 or 1)
+kit.finish("reply verification")

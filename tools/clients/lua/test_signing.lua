@@ -10,13 +10,9 @@ local sodium = require("motionsodium")
 local request_t = require("motionlcm.request_t")
 local param_t = require("motionlcm.param_t")
 
-local failures = 0
-local function check(what, actual, expected)
-  local ok = tostring(actual) == tostring(expected)
-  print((ok and "ok   " or "FAIL ") .. what .. (ok and "" or (": got " .. tostring(actual) .. ", expected " .. tostring(expected))))
-  if not ok then failures = failures + 1 end
-end
-local function hex(s) return (s:gsub(".", function(c) return string.format("%02x", c:byte()) end)) end
+local kit = require("motiontestkit")
+local check = kit.check
+local hex = kit.hex
 local function words(s)
   local out = {}
   for w in s:gmatch("%S+") do out[#out + 1] = w end
@@ -88,5 +84,4 @@ os.remove(key_file)
 check("key path: option first", signing.key_path("/option.key"), "/option.key")
 check("key path: else $MOTION_KEY", signing.key_path(nil), os.getenv("MOTION_KEY"))
 
-print(failures == 0 and "signing vector ok" or (failures .. " check(s) failed"))
-os.exit(failures == 0 and 0 or 1)
+kit.finish("signing vector")

@@ -18,15 +18,11 @@ local motionclient = require("motionclient")
 local axis_state_t = require("motionlcm.axis_state_t")
 local signed_message_t = require("motionlcm.signed_message_t")
 
-local failures = 0
-local function check(what, actual, expected)
-  local ok = tostring(actual) == tostring(expected)
-  print((ok and "ok   " or "FAIL ") .. what .. (ok and "" or (": got " .. tostring(actual) .. ", expected " .. tostring(expected))))
-  if not ok then failures = failures + 1 end
-end
-local function unhex(s) return (s:gsub("%x%x", function(h) return string.char(tonumber(h, 16)) end)) end
-local function table_of(s) return {s:byte(1, -1)} end
-local function refused(message, why) return message and "accepted" or why end
+local kit = require("motiontestkit")
+local check = kit.check
+local unhex = kit.unhex
+local table_of = kit.table_of
+local refused = kit.refused
 local function bus_of(m) return m.bus end
 
 local v = {}
@@ -174,5 +170,4 @@ check("client: forged signed states counted (stranger, tampered, replayed, anoth
 local x = c:axis_states().x
 check("client: the axis's state is the gateway's", x and string.format("%s:%g", x.bus, x.position) or "none", "can0:4")
 
-print(failures == 0 and "state verification ok" or (failures .. " checks FAILED"))
-os.exit(failures == 0 and 0 or 1)
+kit.finish("state verification")
