@@ -186,3 +186,69 @@ class ReplyVerification(unittest.TestCase):
                 f.write(base64.b64encode(self.coordinator.public_key).decode() + " coordinator admin\n")
             self.assertEqual(load_public_key(path), self.coordinator.public_key)
 
+
+
+class LossyCoordinator(FakeLcm):
+    """A coordinator behind a lossy network, scripted per request copy: each REQUEST published is
+    answered with the replies of `script` (one list per copy sent, in order); an empty list is a
+    request (or all its replies) lost."""
+
+    def __init__(self, script):
+        super().__init__()
+        self.script = list(script)
+        self.requests = []
+        self.queue = []
+
+    def publish(self, channel, payload):
+        super().publish(channel, payload)
+        if channel.endswith("REQUEST"):
+            r = request_t.decode(payload)
+            self.requests.append(r)
+            for status in (self.script.pop(0) if self.script else []):
+                reply = reply_t()
+                reply.client_id, reply.request_id, reply.status = r.client_id, r.request_id, status
+                reply.param = param_t()
+                self.queue.append(reply)
+
+    def handle(self, timeout):
+        if self.queue:
+            self.deliver(self.reply_channel, self.queue.pop(0).encode())
+            return True
+        time.sleep(min(timeout, 0.01))
+        return False
+
+
+class LostDatagrams(unittest.TestCase):
+    """request() sends a request again while nothing is heard of it, so a lost request or a lost
+    terminal reply costs a fraction of a second, not the whole timeout (README "Safety and faults")."""
+
+    def client_for(self, lcm):
+        client = Client(lcm=lcm, client_id="py-test")
+        lcm.reply_channel = client.channel("REPLY")
+        return client
+
+    def test_a_lost_request_is_sent_again_unchanged(self):
+        lcm = LossyCoordinator([[], [reply_t.ACCEPTED, reply_t.DONE]])
+        client = self.client_for(lcm)
+        reply = client.request("enable", ["x"], timeout=5.0)
+        self.assertEqual(reply.status, reply_t.DONE, reply.reason)
+        self.assertEqual(len(lcm.requests), 2)
+        first, again = lcm.requests
+        self.assertEqual((again.client_id, again.request_id, again.kind, again.axes),
+                         (first.client_id, first.request_id, first.kind, first.axes))
+        self.assertEqual(client.resent, 1)
+
+    def test_a_lost_terminal_reply_is_asked_for_again(self):
+        lcm = LossyCoordinator([[reply_t.ACCEPTED], [reply_t.DONE]])
+        client = self.client_for(lcm)
+        reply = client.request("enable", ["x"], timeout=5.0)
+        self.assertEqual(reply.status, reply_t.DONE, reply.reason)
+        self.assertEqual(len(lcm.requests), 2)
+
+    def test_silence_still_fails_within_the_accept_timeout(self):
+        lcm = LossyCoordinator([])
+        client = self.client_for(lcm)
+        reply = client.request("enable", ["x"], timeout=5.0)
+        self.assertEqual(reply.status, reply_t.FAILED)
+        self.assertIn("no reply from the coordinator within 2000 ms", reply.reason)
+        self.assertEqual(len(lcm.requests), 4)  # at 0, 0.5, 1.0 and 1.5 s

@@ -42,6 +42,12 @@ UNAUTHORIZED = 19  # reply error code (services/lcm reply_error.hpp: kUnauthoriz
 # The coordinator answers every request at once; no reply within this many seconds means no
 # coordinator is listening (the same bound as the C++ client's kAcceptTimeout).
 ACCEPT_TIMEOUT = 2.0
+# Lost datagrams (README "Safety and faults"): while request() waits, a request of which nothing
+# has been heard for RESEND_AFTER s (before its first reply) or QUIET_RESEND s (after) is sent
+# again, unchanged but for its send time and signature; the coordinator answers a repeat with its
+# latest reply to it, word for word, and runs nothing twice (as the C++ Client::follow).
+RESEND_AFTER = 0.5
+QUIET_RESEND = 1.0
 # Seconds a request waits for its terminal reply by default: the same in every client (C++
 # Client::kRequestTimeout, Java MotionClient.REQUEST_TIMEOUT_MS, Lua M.REQUEST_TIMEOUT).
 REQUEST_TIMEOUT = 60.0
@@ -94,6 +100,10 @@ class Client:
         # Request ids start at the wall clock so a restarted client never reuses a live id.
         self._next_request_id = int(time.time() * 1e6)
         self._pending: Dict[int, Optional[Callable]] = {}
+        self._sent: Dict[int, request_t] = {}         # pending requests as sent, to send again
+        self._last_heard: Dict[int, float] = {}       # request id -> time.monotonic() sent or answered
+        self._answered: set = set()                   # request ids with a reply heard
+        self.resent = 0                               # requests sent again so far
         self._labels: Dict[int, str] = {}  # " request <id> of client '<id>'": how SECURITY events name it
         self.signer: Optional[RequestSigner] = None
         self._axes: Dict[str, axis_state_t] = {}
@@ -189,11 +199,35 @@ class Client:
             setattr(msg, key, value)
         self._pending[msg.request_id] = on_reply
         self._labels[msg.request_id] = f" request {msg.request_id} of client '{msg.client_id}'"
+        self._sent[msg.request_id] = msg
+        self._publish(msg)
+        return msg.request_id
+
+    def _publish(self, msg) -> None:
+        msg.utime = int(time.time() * 1e6)
+        self._last_heard[msg.request_id] = time.monotonic()
         if self.signer is not None:
             self.lcm.publish(self.channel("SREQUEST"), self.signer.sign(msg, msg.utime).encode())
         else:
             self.lcm.publish(self.channel("REQUEST"), msg.encode())
-        return msg.request_id
+
+    def follow(self, request_id: int, done: Callable[[], bool], timeout: float) -> bool:
+        """wait_until(), sending request `request_id` again while it is pending and nothing has been
+        heard of it for RESEND_AFTER (before its first reply) or QUIET_RESEND seconds (after)."""
+        deadline = time.monotonic() + timeout
+        while not done():
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            self.lcm.handle(min(remaining, 0.05))
+            msg = self._sent.get(request_id)
+            if msg is None or done():
+                continue
+            quiet = QUIET_RESEND if request_id in self._answered else RESEND_AFTER
+            if time.monotonic() - self._last_heard[request_id] >= quiet:
+                self.resent += 1
+                self._publish(msg)
+        return True
 
     def request(self, kind: Union[int, str], axes: Sequence[str] = (), values: Optional[Sequence[float]] = None,
                 timeout: float = REQUEST_TIMEOUT, on_progress: Optional[Callable] = None, check: bool = False, **fields):
@@ -214,8 +248,8 @@ class Client:
         # The coordinator answers every request at once (ACCEPTED or REJECTED): silence within
         # ACCEPT_TIMEOUT means nobody listens, and the caller learns it then, not after `timeout`.
         first_wait = min(timeout, ACCEPT_TIMEOUT)
-        heard = self.wait_until(lambda: bool(answered), first_wait)
-        if not heard or not self.wait_until(lambda: bool(result), timeout - first_wait):
+        heard = self.follow(request_id, lambda: bool(answered), first_wait)
+        if not heard or not self.follow(request_id, lambda: bool(result), timeout - first_wait):
             self._forget(request_id)
             r = reply_t()
             r.utime = int(time.time() * 1e6)
@@ -306,6 +340,9 @@ class Client:
     def _forget(self, request_id: int) -> None:
         self._pending.pop(request_id, None)
         self._labels.pop(request_id, None)
+        self._sent.pop(request_id, None)
+        self._last_heard.pop(request_id, None)
+        self._answered.discard(request_id)
 
     def _on_reply(self, _channel: str, payload: bytes) -> None:
         if self._reply_verifier is None:
@@ -336,6 +373,8 @@ class Client:
         if r is None or r.client_id != self.id or r.request_id not in self._pending:
             return
         handler = self._pending[r.request_id]
+        self._answered.add(r.request_id)
+        self._last_heard[r.request_id] = time.monotonic()
         if is_terminal(r.status):
             self._forget(r.request_id)
         if handler:
