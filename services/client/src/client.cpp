@@ -155,19 +155,19 @@ void Client::publish(Pending& p) {
 }
 
 bool Client::follow(std::int64_t id, const std::function<bool()>& done, std::chrono::milliseconds timeout) {
-  const auto deadline = loop_.now() + timeout;
-  while (!done()) {
-    if (loop_.now() >= deadline || loop_.stopping()) return false;
-    loop_.run_once(std::chrono::milliseconds(20));
-    const auto it = pending_.find(id);
-    if (it == pending_.end()) continue;
-    Pending& p = it->second;
-    if (loop_.now() - p.last_heard >= (p.heard ? kQuietResend : kResendAfter)) {
-      ++resent_;
-      publish(p);
-    }
-  }
-  return true;
+  return wait_until(
+      [&] {
+        if (done()) return true;
+        if (const auto it = pending_.find(id); it != pending_.end()) {
+          Pending& p = it->second;
+          if (loop_.now() - p.last_heard >= (p.heard ? kQuietResend : kResendAfter)) {
+            ++resent_;
+            publish(p);
+          }
+        }
+        return false;
+      },
+      timeout);
 }
 
 motionlcm::reply_t Client::call(motionlcm::request_t request, std::chrono::milliseconds timeout,

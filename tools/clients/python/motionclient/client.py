@@ -214,20 +214,16 @@ class Client:
     def follow(self, request_id: int, done: Callable[[], bool], timeout: float) -> bool:
         """wait_until(), sending request `request_id` again while it is pending and nothing has been
         heard of it for RESEND_AFTER (before its first reply) or QUIET_RESEND seconds (after)."""
-        deadline = time.monotonic() + timeout
-        while not done():
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                return False
-            self.lcm.handle(min(remaining, 0.05))
+        def done_or_resend() -> bool:
+            if done():
+                return True
             msg = self._sent.get(request_id)
-            if msg is None or done():
-                continue
             quiet = QUIET_RESEND if request_id in self._answered else RESEND_AFTER
-            if time.monotonic() - self._last_heard[request_id] >= quiet:
+            if msg is not None and time.monotonic() - self._last_heard[request_id] >= quiet:
                 self.resent += 1
                 self._publish(msg)
-        return True
+            return False
+        return self.wait_until(done_or_resend, timeout)
 
     def request(self, kind: Union[int, str], axes: Sequence[str] = (), values: Optional[Sequence[float]] = None,
                 timeout: float = REQUEST_TIMEOUT, on_progress: Optional[Callable] = None, check: bool = False, **fields):
