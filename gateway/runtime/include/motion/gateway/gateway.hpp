@@ -57,6 +57,7 @@
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/config/config.hpp"
+#include "motion/core/durable_file.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/core/precise_timer.hpp"
 #include "motion/gateway/axis_limits.hpp"
@@ -211,9 +212,10 @@ class Gateway final : public GatewayOutput {
     std::optional<JogWatch> jog;
   };
   std::map<std::string, PendingMotion> pending_motion_;
-  std::map<std::string, std::string> position_lost_;  // axis -> why its position is not the machine's
-  std::optional<PositionRecords> records_;            // none: no record kept (set_position_record)
-  std::set<std::string> record_checked_;              // axes whose first online status was compared with the record
+  std::map<std::string, std::string> position_lost_;   // axis -> why its position is not the machine's
+  std::optional<PositionRecords> records_;             // none: no record kept (set_position_record)
+  std::optional<BackgroundFileWriter> record_writer_;  // writes records_ off the loop thread
+  std::set<std::string> record_checked_;               // axes whose first online status was compared with the record
   std::set<std::string> restored_homed_;  // axes homed by a previous gateway process (record), not since lost
   std::string record_error_;              // the last failure to write the record (logged once)
   CommandMemory commands_seen_;           // a command sent again is answered, not run again
