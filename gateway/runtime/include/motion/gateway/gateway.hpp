@@ -29,6 +29,9 @@
 //    process installs) when the axis first comes online and whenever what the driver read from the
 //    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus;
 //    each with the axis's arming time (ARM_TIMING, arm_timing_t, made by the ArmingBuilder);
+//  - publishes with every heartbeat the counters of its command ledger (LEDGER_STATS,
+//    ledger_stats_t: the driver's parts by lifecycle state, now and in total, and the commands sent
+//    again that it answered from its CommandMemory);
 //  - keeps each axis's position record across its own restarts (set_position_record,
 //    position_record.hpp): a drive that lost power while no gateway ran is reported as having lost
 //    its position, exactly as one that loses it while the gateway runs.
@@ -53,6 +56,7 @@
 #include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/health_t.hpp>
+#include <motionlcm/ledger_stats_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
@@ -142,6 +146,8 @@ class Gateway final : public GatewayOutput {
 
   [[nodiscard]] const std::string& bus() const { return bus_; }
   [[nodiscard]] std::string process_name() const { return "gateway:" + bus_; }
+  // The LEDGER_STATS message published with `health` (the heartbeat it goes out with).
+  [[nodiscard]] motionlcm::ledger_stats_t ledger_stats(const motionlcm::health_t& health) const;
 
  private:
   void on_command(const motionlcm::gateway_command_t& command);
@@ -219,6 +225,8 @@ class Gateway final : public GatewayOutput {
   std::set<std::string> restored_homed_;  // axes homed by a previous gateway process (record), not since lost
   std::string record_error_;              // the last failure to write the record (logged once)
   CommandMemory commands_seen_;           // a command sent again is answered, not run again
+  std::int64_t repeats_answered_ = 0;     // commands sent again, answered with their latest reply
+  std::int64_t repeats_unanswered_ = 0;   // commands sent again before any reply to them
   std::map<std::int64_t, std::vector<std::string>> referencing_;  // HOME/SET_POSITION command id -> its axes
   std::map<std::int64_t, std::string>
       stopped_at_limit_;                    // jog command id -> why the watch stopped it (before its reply)
