@@ -393,7 +393,8 @@ void AdamStack::on_position_status(Drive& d, std::span<const std::uint16_t> word
   if (presetting || !d.set_up) {
     d.power.forget();
   } else if (auto why = d.power.sample(position, d.velocity, now, false)) {
-    const std::string reason = d.cfg.drive + " (slave " + std::to_string(d.cfg.unit) + ") " + *why;
+    const std::string reason =
+        fmt::format("{} (slave {}) powered up, detected by its answers: {}", d.cfg.drive, d.cfg.unit, *why);
     fail_motion_of(d, reason, error_code(ReplyError::kAxisFault));
     d.homed = false;
     d.table_entry.reset();  // its registers are back at their defaults

@@ -497,7 +497,8 @@ TEST_F(TwoDriveTest, AMoveToZeroRunWholeBetweenTwoSamplesIsNotAPowerUp) {
   banks[1].set_position(0);
   run_for(250ms);
   ASSERT_EQ(out.lost.size(), 1U);
-  EXPECT_NE(out.lost[0].find("answers as freshly powered up"), std::string::npos) << out.lost[0];
+  EXPECT_NE(out.lost[0].find("powered up, detected by its answers: position counter"), std::string::npos)
+      << out.lost[0];
 }
 
 TEST_F(TwoDriveTest, MovingBystanderForcesASequentialStart) {
