@@ -222,6 +222,7 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
         n.status.position_read = true;
         n.status.velocity_counts = k->speed;
         publish(n, now);
+        arm_marker(i);
       }
       break;
     case FunctionCode::kOG: {
@@ -310,7 +311,6 @@ void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStat
   // Completion of an active move, from a status read sent after its BG was acknowledged. A
   // driver turned off by nobody may be a power cycle: the position read next decides (powered_up()).
   const bool switched_off = n.was_enabled && !n.status.enabled;
-  arm_marker(i);
   if (n.move != 0 && n.bg_acked && !(switched_off && r.command_id == 0)) {
     if (stalled) {
       fail(n.move, error_code(ReplyError::kAxisFault), fmt::format("{} stalled during the move (TLIF)", n.name()));
@@ -346,10 +346,15 @@ std::optional<std::string> Uim342Stack::Impl::powered_up(Node& n, const uim342::
 void Uim342Stack::Impl::arm_marker(std::size_t i) {
   Node& n = nodes[i];
   if (n.phase != Phase::kReady || !n.status.enabled || n.marker || !n.delay_read || marker_queued(n)) return;
+  // At rest, and nothing of a command queued or on its way: MT[i]=N is refused while the motor
+  // runs (§2.3 error 0x3D, which also raises ERR); queued first, no BG goes ahead of it.
+  const bool commanded =
+      std::any_of(n.queue.begin(), n.queue.end(), [](const Request& r) { return r.command_id != 0; });
+  if (n.status.moving || n.move != 0 || n.homing.command != 0 || commanded) return;
   // Any value but the one read (which is the EEPROM's after a power-up); MT[3] is 0...60000 ms.
   constexpr std::uint16_t kMaxDelay = 60000;
   const auto value = static_cast<std::uint16_t>(*n.delay_read < kMaxDelay ? *n.delay_read + 1 : *n.delay_read - 1);
-  enqueue(i, rq::set(uim342::MotorDriver::kAutoEnableDelayMs, value), 0);
+  enqueue(i, rq::set(uim342::MotorDriver::kAutoEnableDelayMs, value), 0, /*front=*/true);
 }
 
 void Uim342Stack::Impl::check_marker(std::size_t i, const uim342::MotionKinematics& k, bool switched_off,
