@@ -268,9 +268,10 @@ struct Uim342Stack::Impl {
 
   void on_motion_status(std::size_t i, const uim342::MotionStatus& s, const Request& r, TimePoint now);
 
-  // The UIM342 sends nothing when it powers up (no such notification in §5.3; §5.2 IC and §5.9
-  // MT[3] only say what it does at power-on), so a power cycle shows only in what it answers
-  // afterwards (PowerUpWatch): its position counter starts at 0 (the manual keeps no position over
+  // The UIM342 sends nothing when it powers up (no such notification in §2.4 or §5.3; §5.2 IC and
+  // §5.9 MT[3] only say what it does at power-on), so a power cycle shows in what it answers
+  // afterwards: the power-on marker (check_marker()) once its driver was on, and always
+  // PowerUpWatch: its position counter starts at 0 (the manual keeps no position over
   // power loss; it names PP values as saved to flash, §5.1), at rest, with the driver off unless
   // IC auto-enable is set (§5.2). Not watched while it is identified or homed (the origin moves).
   [[nodiscard]] std::optional<std::string> powered_up(Node& n, const uim342::MotionKinematics& k, TimePoint now);
@@ -278,7 +279,8 @@ struct Uim342Stack::Impl {
   // The power-on marker (manual §5.9 note): MT[3], the delay of the automatic enable after
   // power-on, written while the driver is on stays in RAM only and is lost at power-off, and it
   // acts at power-on only (read from EEPROM then), so a RAM value of ours changes nothing. Set-up
-  // reads MT[3]; once the driver is on, the stack writes a different value to RAM (arm_marker());
+  // reads MT[3]; once the driver is on and the drive rests with nothing commanded (MT writes are
+  // refused while the motor runs), the stack writes a different value to RAM (arm_marker());
   // a read that no longer finds it shows a power-up (marker_read()). Read at every set-up (after
   // the drive was offline), and while the counter reads 0 at rest (what a power-up leaves):
   // at once when that sample is new or the driver went off by nobody, else at most once a second.
