@@ -67,7 +67,7 @@ TEST_F(PowerAtRest, APowerCycledDriveAtItsOriginSaysPositionLostOnceByItsMarkerU
         << axis << ": " << lab.state(axis).fault_text;
     ASSERT_TRUE(lab.client().wait_until([&] { return lab.state(axis).online; }, seconds(15))) << axis;
   }
-  lab.pause(milliseconds(2000));  // set up again and polled: said once
+  lab.pause(milliseconds(2000));   // set up again and polled: said once
   ASSERT_TRUE(lab.enable(kAxes));  // a power-up turns a UIM342's driver off (§5.2 IC[0] unset)
   for (const auto& axis : kAxes) {
     EXPECT_EQ(lost_events(axis), 1) << axis;
