@@ -252,5 +252,60 @@ TEST(RandomLabRegression, Seed11Uim242OneCountCrawlIsNotAStop) {
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// A conflict step whose slow move has nothing to do: the generator aimed ax0 at its farther limit
+// from where its own model put it, but at run time ax0 already stood there (set there, and a
+// relative move since refused). The move is DONE at once, the second request and the stop find
+// nothing busy (the runner demanded a ~10 s move: seed 30082).
+TEST(RandomLabRegression, Seed30082AConflictMoveAlreadyAtItsTargetIsDoneAtOnce) {
+  LabSpec spec;
+  spec.can_bitrate = 125000;
+  spec.rs485_baud = 9600;
+  spec.rs232_baud = 9600;
+  spec.rs485_parity = "none";
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uim242", "rs232", 125, 0}, 160, -8, 12, 14, 108, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 30, 0}, 12.5, -250, 393, 225, 744, false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax2", DriveSpec{"adam-modbus", "rs485", 64, 0}, 1, -1385, 1891, 3206, 11902.5, false, 0, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kRequest,
+           0,
+           7 /* ENABLE */,
+           {"ax0", "ax1", "ax2"},
+           {0.0, 0.0, 0.0},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           {},
+           {},
+           0,
+           0},
+      Step{Op::kRequest, 2, 13 /* SET_POSITION */, {"ax0"}, {-8.0}, 0.0, 0.0, 0, 0, 0, 0, 0, 0, {}, {}, 0, 0},
+      Step{Op::kConflict,
+           0,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax0"},
+           {-8.0},
+           0.074999999999999997,
+           0.0,
+           120000,
+           0,
+           0,
+           1,
+           4 /* STOP */,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax0"},
+           {11.15375},
+           0,
+           0},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 }  // namespace
 }  // namespace motion::random_lab
