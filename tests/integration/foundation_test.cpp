@@ -183,9 +183,7 @@ TEST(Foundation, AGatewayAskedForRealtimeRunsItsLoopUnderSchedFifoOrSaysWhyNot) 
     EXPECT_EQ(param.sched_priority, 20);
   }
   for (const auto& [tid, policy] : policies) {
-    if (tid != gateway) {
-      EXPECT_EQ(policy, SCHED_OTHER) << "thread " << tid;
-    }
+    if (tid != gateway) { EXPECT_EQ(policy, SCHED_OTHER) << "thread " << tid; }
   }
   group.stop(gateway);
   EXPECT_EQ(group.exit_status(gateway), 0);
