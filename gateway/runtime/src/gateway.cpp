@@ -52,10 +52,12 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
       [this](const motionlcm::drive_model_request_t& r, const std::string&) { on_model_request(r); });
   health_.set_bus_stats([this] { return driver_ ? driver_->statistics() : std::vector<motionlcm::bus_stats_t>{}; });
   health_timer_ = loop_.call_every(std::chrono::milliseconds(200), [this] { update_health(); });
+  arm_watch_.set_expiry(arm_expiry(config_, {}));
 }
 
 Gateway::~Gateway() {
   loop_.cancel(health_timer_);
+  if (arm_timer_ != 0) loop_.cancel(arm_timer_);
   health_.set_signed_copy({});
   pending_fires_.clear();
 }
@@ -167,6 +169,7 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
   }
   if (!driver_) return fail("gateway of bus '" + bus_ + "' has no driver" + (waiting_.empty() ? "" : ": " + waiting_));
   track_jogs(command);
+  arm_watch_.on_command(command, loop_.now());  // before: the driver may answer ARMED at once
   driver_->execute(command);
   if (command.kind == motionlcm::gateway_command_t::JOG) {
     for (const auto& a : command.axes) check_jog(a.axis);  // a jog starting inside its braking zone
@@ -287,6 +290,10 @@ void Gateway::on_trigger(const motionlcm::sync_trigger_t& trigger) {
   if (recent(scheduled_v2_, trigger.trigger_id) || recent(fired_, trigger.trigger_id) ||
       pending_fires_.contains(trigger.trigger_id))
     return;
+  if (!arm_watch_.on_trigger(trigger.trigger_id)) {
+    spdlog::warn("trigger {} ignored: the moves it would start on {} were released unfired", trigger.trigger_id, bus_);
+    return;
+  }
   schedule_fire(trigger.trigger_id, trigger.fire_utime, {});
 }
 
@@ -296,6 +303,10 @@ void Gateway::on_trigger2(const motionlcm::sync_trigger2_t& trigger) {
   std::size_t i = 0;
   while (i < n && trigger.buses[i] != bus_) ++i;
   if (i == n || !driver_ || recent(scheduled_v2_, trigger.trigger_id) || recent(fired_, trigger.trigger_id)) return;
+  if (!arm_watch_.on_trigger(trigger.trigger_id)) {
+    spdlog::warn("trigger {} ignored: the moves it would start on {} were released unfired", trigger.trigger_id, bus_);
+    return;
+  }
   remember(scheduled_v2_, trigger.trigger_id);
   if (const auto it = pending_fires_.find(trigger.trigger_id); it != pending_fires_.end()) {
     pending_fires_.erase(it);  // its SYNC_TRIGGER came first: this one knows the lead
@@ -553,6 +564,8 @@ void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
 }
 
 void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
+  arm_watch_.on_reply(reply);  // a released move's FAILED says why
+  if (reply.status == motionlcm::gateway_reply_t::ARMED) rearm_expiry_timer();
   // A jog the limit watch stopped before the driver confirmed it fails for that reason, not as
   // "stopped by" the watch's own STOP.
   if (const auto it = stopped_at_limit_.find(reply.command_id); it != stopped_at_limit_.end()) {
