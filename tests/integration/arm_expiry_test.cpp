@@ -46,9 +46,7 @@ TEST(ArmExpiry, MovesArmedOnEveryBusAndNeverTriggeredAreReleasedAndTheLabMovesAg
     from_counts[axis] = lab.state(axis).position_counts;
     from[axis] = lab.position(axis);
   }
-  const auto tolerance = [&](const std::string& axis) {
-    return 1.5 / lab.config().find_axis(axis)->steps_per_unit;
-  };
+  const auto tolerance = [&](const std::string& axis) { return 1.5 / lab.config().find_axis(axis)->steps_per_unit; };
 
   // 1. A move through the coordinator: its ARM_MOVEs (one per bus and start mechanism).
   const auto there = lab.call(Client::make(request_t::MOVE_ABSOLUTE, kTargets));
@@ -90,8 +88,9 @@ TEST(ArmExpiry, MovesArmedOnEveryBusAndNeverTriggeredAreReleasedAndTheLabMovesAg
                   replies_to(id, gateway_reply_t::STARTED),
               1)
         << "command " << id;
-    const auto failed = std::find_if(lab.gateway_replies().begin(), lab.gateway_replies().end(),
-                                     [&](const gateway_reply_t& r) { return r.command_id == id && r.status == gateway_reply_t::FAILED; });
+    const auto failed = std::find_if(
+        lab.gateway_replies().begin(), lab.gateway_replies().end(),
+        [&](const gateway_reply_t& r) { return r.command_id == id && r.status == gateway_reply_t::FAILED; });
     ASSERT_NE(failed, lab.gateway_replies().end());
     EXPECT_EQ(failed->error_code, code(ReplyError::kTimeout)) << failed->reason;
     EXPECT_NE(failed->reason.find("never triggered within"), std::string::npos) << failed->reason;

@@ -184,6 +184,7 @@ void Gateway::forget_jog(const std::string& axis) {
 void Gateway::track_jogs(const motionlcm::gateway_command_t& command) {
   using C = motionlcm::gateway_command_t;
   for (const auto& a : command.axes) {
+    commanded_.insert(a.axis);
     switch (command.kind) {
       case C::STOP:
       case C::ESTOP:
@@ -409,7 +410,10 @@ void Gateway::on_active_moves(const motionlcm::active_moves_t& moves) {
       axis_event(moves.axes[i], e);
     }
     stop.num_axes = static_cast<std::int32_t>(stop.axes.size());
-    for (const auto& a : stop.axes) forget_jog(a.axis);
+    for (const auto& a : stop.axes) {
+      forget_jog(a.axis);
+      commanded_.insert(a.axis);  // stopped and said once
+    }
     if (driver_) driver_->execute(stop);
   }
 }
@@ -489,6 +493,7 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   // The record is compared with, and kept from, positions read from the drive (a status published
   // between identification and the first position read carries none).
   if (records_ && status.online && status.position_read && !record_checked_.contains(axis)) check_record(axis, status);
+  if (status.online && seen_online_.insert(axis).second) stop_if_found_moving(axis, status);
   check_jog(axis);
   const config::Axis& a = *it->second;
   const config::Drive* d = config_.drive_of(a);

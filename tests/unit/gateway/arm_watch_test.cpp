@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <iterator>
 
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
@@ -261,6 +262,28 @@ TEST_F(Released, AMoveTriggeredInTimeIsFiredAndNeverReleased) {
   EXPECT_TRUE(std::none_of(driver->commands.begin(), driver->commands.end(),
                            [](const Command& c) { return c.kind == Command::DISARM; }));
   EXPECT_EQ(replies_to(31).size(), 1u);  // ARMED only: the driver's STARTED is its own business here
+}
+
+// What a previous gateway process left moving (its request ended when the coordinator lost it) is
+// stopped by the new one when it first hears of the axis; an axis this process moves is not.
+TEST_F(Released, AnAxisFoundMovingWhenTheGatewayStartsIsStoppedOnce) {
+  DriveStatus moving;
+  moving.online = true;
+  moving.enabled = true;
+  moving.moving = true;
+  moving.position_read = true;
+  moving.position_counts = 250;
+  gateway.axis_status("x", moving);
+  gateway.axis_status("x", moving);  // the next poll: stopped once
+  const auto stops = std::count_if(driver->commands.begin(), driver->commands.end(), [](const Command& c) {
+    return c.kind == Command::STOP && c.command_id < 0 && c.axes.size() == 1 && c.axes[0].axis == "x";
+  });
+  EXPECT_EQ(stops, 1);
+  pump_until([&] { return !events.empty(); });
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, std::int16_t{motionlcm::event_t::GATEWAY_RESTARTED});
+  EXPECT_EQ(events[0].axis, "x");
+  EXPECT_NE(events[0].text.find("stopping it"), std::string::npos) << events[0].text;
 }
 
 }  // namespace

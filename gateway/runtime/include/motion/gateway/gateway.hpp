@@ -197,6 +197,11 @@ class Gateway final : public GatewayOutput {
   // and the record of a status as published (`homed` as reported).
   void check_record(const std::string& axis, const DriveStatus& status);
   void keep_record(const std::string& axis, const DriveStatus& status, bool homed);
+  // The first online status of `axis` in this process says it moves, and this process has sent
+  // nothing for it yet: a previous gateway process's move (its request ended when the coordinator lost
+  // that gateway, or its ACTIVE_MOVES row is gone). Stopped (a STOP of the gateway's own) with a
+  // GATEWAY_RESTARTED event, before anything else is done with it.
+  void stop_if_found_moving(const std::string& axis, const DriveStatus& status);
 
   EventLoop& loop_;
   lcm::Node& node_;
@@ -229,6 +234,8 @@ class Gateway final : public GatewayOutput {
   std::map<std::string, std::string> position_lost_;  // axis -> why its position is not the machine's
   std::optional<PositionRecords> records_;            // none: no record kept (set_position_record)
   std::set<std::string> record_checked_;              // axes whose first online status was compared with the record
+  std::set<std::string> seen_online_;                 // axes that reported online to this process
+  std::set<std::string> commanded_;                   // axes named by a command this process handed to its driver
   std::set<std::string> restored_homed_;  // axes homed by a previous gateway process (record), not since lost
   std::string record_error_;              // the last failure to write the record (logged once)
   CommandMemory commands_seen_;           // a command sent again is answered, not run again
