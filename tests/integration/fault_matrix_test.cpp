@@ -76,11 +76,17 @@ const Row kRows[] = {
     {"ReplyLatency", "a", sim_control_t::REPLY_LATENCY, 30000, 0, false, true},
     {"LineNoise", "c", sim_control_t::LINE_NOISE, 24, event_t::PROTOCOL_ERROR},
     {"GatewayKilledAndRestarted", "c", kKillGateway, 0, event_t::GATEWAY_RESTARTED},
-    // Restarted only 2.5 x gateway_timeout_ms (1500 ms) later: the request ended ABORTED 16 when the
-    // coordinator lost the gateway; the slow move (15 % speed, about 11 s) still runs on the drive
-    // when the new gateway finds it, which stops it (GATEWAY_RESTARTED) and sets it up.
+    // Restarted only 2.5 x gateway_timeout_ms (1500 ms) later, one row per family: the request ended
+    // ABORTED 16 when the coordinator lost the gateway; the slow move (15 % speed, 7-11 s) still runs
+    // on the drive when the new gateway finds it, which stops it (GATEWAY_RESTARTED) and sets it up.
     {"GatewayLostThenRestarted", "c", kKillGatewayUntilLost, 0, event_t::GATEWAY_RESTARTED, false, false, false, 3750,
      0.15},
+    {"GatewayLostThenRestartedUim342", "z", kKillGatewayUntilLost, 0, event_t::GATEWAY_RESTARTED, false, false, false,
+     3750, 0.15},
+    {"GatewayLostThenRestartedUc57", "a", kKillGatewayUntilLost, 0, event_t::GATEWAY_RESTARTED, false, false, false,
+     3750, 0.15},
+    // The UIM242's set-up ends its motion itself (STP 0, UIM242 manual #44): at rest when first heard, no event.
+    {"GatewayLostThenRestartedUim242", "u", kKillGatewayUntilLost, 0, 0, false, false, false, 3750, 0.15},
     {"MalformedMessages", "z", kMalformed, 0, 0, false, true},
     {"SecondGatewayOnTheBus", "z", kSecondGateway, 0, 0, false, true},
 };
