@@ -15,6 +15,7 @@
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/sim_report_t.hpp>
 
+#include "ledger_view.hpp"
 #include "model_view.hpp"
 #include "motion/client/client.hpp"
 #include "motion/core/clock.hpp"
@@ -271,9 +272,30 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
   status->add_option("--listen", *listen, "Seconds to collect axis states")->capture_default_str();
   auto model = std::make_shared<bool>(false);
   status->add_flag("--model", *model, "Each axis's drive model (DRIVE_MODEL) as its gateway published it");
-  status->callback([&ctx, listen, model] {
+  auto ledger = std::make_shared<bool>(false);
+  status->add_flag("--ledger", *ledger,
+                   "Each bus's command ledger counters (LEDGER_STATS) as its gateway published them");
+  status->callback([&ctx, listen, model, ledger] {
     ctx.result = ctx.with_node([&](app::Service& service) -> int {
       const auto& cfg = service.config();
+      if (*ledger) {
+        // The gateways publish them with every heartbeat: listen until every bus is heard.
+        HeardLedgers heard;
+        service.node().subscribe<motionlcm::ledger_stats_t>(
+            lcm::channels::kLedgerStats,
+            [&](const motionlcm::ledger_stats_t& m, const std::string&) { heard[m.bus] = m; });
+        const auto deadline = service.loop().now() + std::chrono::milliseconds(static_cast<long long>(*listen * 1000));
+        while (heard.size() < cfg.buses.size() && service.loop().now() < deadline) {
+          service.loop().run_once(
+              std::chrono::duration_cast<std::chrono::milliseconds>(deadline - service.loop().now()));
+        }
+        if (ctx.json) {
+          std::cout << ledgers_json(cfg, heard, wall_time_us()).dump(2) << "\n";
+        } else {
+          print_ledgers(cfg, heard);
+        }
+        return heard.empty() ? app::kExitUnavailable : app::kExitOk;
+      }
       if (*model) {
         // Ask every gateway (DRIVE_MODEL_REQUEST) and collect their answers: each model and, with
         // it, the axis's arming time.

@@ -5,7 +5,11 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
+#include <optional>
+#include <set>
 
 #include "coordinator_kinds.hpp"
 
@@ -144,44 +148,55 @@ double Coordinator::start_lead_in_us(const std::vector<motionlcm::axis_command_t
   return lead_in;
 }
 
+namespace {
+
+// The address a drive model gives for a start mechanism, or nullopt when it does not offer it.
+std::optional<std::int32_t> start_address(const motionlcm::drive_model_t& model, std::int8_t kind) {
+  for (std::size_t i = 0; i < model.start_kinds.size() && i < model.start_addresses.size(); ++i) {
+    if (model.start_kinds[i] == kind) return model.start_addresses[i];
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(
     const std::string& bus, std::vector<motionlcm::axis_command_t> axes, std::vector<std::int8_t>* kinds) const {
   using Model = motionlcm::drive_model_t;
-  std::map<std::string, std::size_t> moving;  // drive -> index in axes
-  for (std::size_t i = 0; i < axes.size(); ++i) moving[axes_.at(axes[i].axis).drive->name] = i;
-  std::vector<std::vector<motionlcm::axis_command_t>> out;
-  std::map<std::string, std::size_t> slot;  // key -> index in out
-  for (const auto& c : axes) {
-    const config::Drive& d = *axes_.at(c.axis).drive;
-    std::string key = std::string("family:") + std::to_string(static_cast<int>(d.family));
-    // (std::int8_t{...}: LCM's in-class constants are read, never bound to a reference.)
-    std::int8_t kind = d.family == config::Family::kUc57         ? std::int8_t{Model::START_CANOPEN_SYNC}
-                       : d.family == config::Family::kAdamModbus ? std::int8_t{Model::START_ADAM_BROADCAST}
-                       : d.family == config::Family::kUim242     ? std::int8_t{Model::START_UIM242_GLOBAL}
-                                                                 : std::int8_t{Model::START_SINGLE};
-    if (d.family == config::Family::kUc57) {
-      // A UC57 whose model offers no SYNC start (RPDO1 applies on reception) starts by its own RPDO1.
-      const auto& model = axes_.at(c.axis).model;
-      if (model && !start_wire_us(*model, Model::START_CANOPEN_SYNC)) {
-        key = "uc57 node " + d.name;
-        kind = std::int8_t{Model::START_SINGLE};
-      }
+  std::set<std::string> moving;  // axes of this move
+  for (const auto& c : axes) moving.insert(c.axis);
+  // A group BG starts every drive of the group: it may only start a move that holds the whole
+  // group. Members are the axes of this bus whose model offers BG to that group id, and (no model
+  // yet: offline) those the configuration puts in it.
+  const auto whole_group = [&](std::int32_t group) {
+    for (const auto& [name, live] : axes_) {
+      if (live.drive->bus != bus || moving.contains(name)) continue;
+      const bool member = live.model ? start_address(*live.model, Model::START_UIM342_GROUP_BG) == group
+                                     : live.drive->group_id == group;
+      if (member) return false;
     }
-    if (d.family == config::Family::kUim342) {
-      bool whole_group = d.group_id != 0;
-      for (const auto& other : config_.drives) {
-        if (whole_group && other.bus == bus && other.family == config::Family::kUim342 &&
-            other.group_id == d.group_id) {
-          whole_group = moving.contains(other.name);
-        }
-      }
-      key = whole_group ? "uim342 group " + std::to_string(d.group_id) : "uim342 node " + d.name;
-      kind = whole_group ? std::int8_t{Model::START_UIM342_GROUP_BG} : std::int8_t{Model::START_SINGLE};
+    return true;
+  };
+  // Each axis joins the first start its model offers, in this order: a whole group's BG, one
+  // CANopen SYNC, one ADAM broadcast, one UIM242 global start, else a start of its own. Axes that
+  // join the same start share one command.
+  static constexpr std::array<std::int8_t, 4> kShared{Model::START_UIM342_GROUP_BG, Model::START_CANOPEN_SYNC,
+                                                      Model::START_ADAM_BROADCAST, Model::START_UIM242_GLOBAL};
+  std::vector<std::vector<motionlcm::axis_command_t>> out;
+  std::map<std::pair<std::int8_t, std::string>, std::size_t> slot;  // (kind, address or axis) -> index in out
+  for (const auto& c : axes) {
+    const auto& model = axes_.at(c.axis).model;
+    std::pair<std::int8_t, std::string> key{Model::START_SINGLE, c.axis};
+    for (const std::int8_t kind : kShared) {
+      const auto address = model ? start_address(*model, kind) : std::nullopt;
+      if (!address || (kind == Model::START_UIM342_GROUP_BG && !whole_group(*address))) continue;
+      key = {kind, std::to_string(*address)};
+      break;
     }
     const auto [it, added] = slot.emplace(key, out.size());
     if (added) {
       out.emplace_back();
-      if (kinds != nullptr) kinds->push_back(kind);
+      if (kinds != nullptr) kinds->push_back(key.first);
     }
     out[it->second].push_back(c);
   }

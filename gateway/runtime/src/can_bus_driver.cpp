@@ -302,6 +302,17 @@ void CanBusDriver::fire_ordered(std::int64_t trigger_id, const std::vector<std::
   reschedule();
 }
 
+LedgerCounters CanBusDriver::ledger_counters() const {
+  LedgerCounters sum;
+  for (const auto& stack : stacks_) sum += stack->ledger_counters();
+  const auto& own = pending_.counters();
+  sum.released += own.released;
+  sum.refused_transitions += own.refused_transitions;
+  sum.refused_terminals += own.refused_terminals;
+  sum.refused_adds += own.refused_adds;
+  return sum;
+}
+
 std::vector<motionlcm::bus_stats_t> CanBusDriver::statistics() const {
   motionlcm::bus_stats_t s{};
   const auto t = transport_->statistics();

@@ -52,11 +52,14 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
       [this](const motionlcm::drive_model_request_t& r, const std::string&) { on_model_request(r); });
   health_.set_bus_stats([this] { return driver_ ? driver_->statistics() : std::vector<motionlcm::bus_stats_t>{}; });
   health_timer_ = loop_.call_every(std::chrono::milliseconds(200), [this] { update_health(); });
+  health_.set_companion(
+      [this](const motionlcm::health_t& h) { node_.publish(lcm::channels::kLedgerStats, ledger_stats(h)); });
   arm_watch_.set_expiry(arm_expiry(config_, {}));
 }
 
 Gateway::~Gateway() {
   loop_.cancel(health_timer_);
+  health_.set_companion({});
   if (arm_timer_ != 0) loop_.cancel(arm_timer_);
   health_.set_signed_copy({});
   pending_fires_.clear();
@@ -108,6 +111,7 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
   if (std::optional<motionlcm::gateway_reply_t> latest; commands_seen_.repeated(command, &latest)) {
     spdlog::info("command {} (request {}) sent again: {}", command.command_id, command.request_id,
                  latest ? "its latest reply repeated" : "not answered yet");
+    ++(latest ? repeats_answered_ : repeats_unanswered_);
     if (latest) publish_own(lcm::channels::kGatewayReply, *latest, false);
     return;
   }

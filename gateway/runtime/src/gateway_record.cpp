@@ -40,6 +40,7 @@ void Gateway::stop_if_found_moving(const std::string& axis, const DriveStatus& s
 
 void Gateway::set_position_record(const std::string& path) {
   records_.emplace(path);
+  record_writer_.emplace(path);
   if (std::string why = records_->load(); !why.empty()) {
     spdlog::warn("position record not used ({}): nothing is known of where the axes of bus {} were", why, bus_);
     return;
@@ -92,9 +93,12 @@ void Gateway::keep_record(const std::string& axis, const DriveStatus& status, bo
     }
   }
   if (!records_->update(axis, next)) return;
-  std::string error = records_->save();
+  // The outcome of the previous write (the writer's thread has finished it by now, or reports it
+  // with the next change): logged once per distinct failure.
+  std::string error = record_writer_->last_error();
   if (!error.empty() && error != record_error_) spdlog::warn("position record not written: {}", error);
   record_error_ = std::move(error);
+  record_writer_->write(records_->text());  // never waits for the disk (durable_file.hpp)
 }
 
 }  // namespace motion::gateway

@@ -1,9 +1,5 @@
 #include "motion/gateway/position_record.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -13,6 +9,8 @@
 #include <fstream>
 #include <sstream>
 #include <vector>
+
+#include "motion/core/durable_file.hpp"
 
 namespace motion::gateway {
 
@@ -111,31 +109,9 @@ bool PositionRecords::update(const std::string& axis, const AxisRecord& record) 
   return true;
 }
 
-std::string PositionRecords::save() const {
-  const std::string temporary = path_ + ".tmp";
-  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
-  if (fd < 0) return fmt::format("cannot write {}: {}", temporary, std::strerror(errno));
-  const std::string text = format(records_);
-  bool ok = ::fchmod(fd, 0600) == 0;  // whatever mode an old temporary file had
-  for (std::size_t done = 0; ok && done < text.size();) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    ok = n > 0;
-    if (ok) done += static_cast<std::size_t>(n);
-  }
-  const int error = errno;
-  ::close(fd);
-  if (!ok) {
-    ::unlink(temporary.c_str());
-    return fmt::format("cannot write {}: {}", temporary, std::strerror(error));
-  }
-  if (::rename(temporary.c_str(), path_.c_str()) != 0) {
-    const int rename_error = errno;
-    ::unlink(temporary.c_str());
-    return fmt::format("cannot rename {} to {}: {}", temporary, path_, std::strerror(rename_error));
-  }
-  return {};
-}
+std::string PositionRecords::text() const { return format(records_); }
+
+std::string PositionRecords::save() const { return write_file_durably(path_, text()); }
 
 std::optional<std::string> power_cycle_evidence(const AxisRecord& record, const DriveStatus& status,
                                                 bool drive_keeps_homed, std::int64_t tolerance,

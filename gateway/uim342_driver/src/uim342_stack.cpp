@@ -545,6 +545,8 @@ bool Uim342Stack::ready() const {
                                        [](const Impl::Node& n) { return n.phase == Impl::Phase::kReady; });
 }
 
+LedgerCounters Uim342Stack::ledger_counters() const { return impl_->commands.counters(); }
+
 void Uim342Stack::add_statistics(motionlcm::bus_stats_t& stats) const {
   stats.timeouts += counters_.timeouts;
   stats.retries += counters_.retries;

@@ -88,8 +88,13 @@ void EventLoop::dispatch_timers() {
     deadlines_.erase(deadlines_.begin());
   }
   for (TimerId id : due) {
+    if (timers_.find(id) == timers_.end()) continue;  // cancelled
+    if (now() - polled_at_ > kStaleNews) {
+      poll_fds(Duration::zero());  // fresh news first (header)
+      if (stopping_) return;
+    }
     auto it = timers_.find(id);
-    if (it == timers_.end()) continue;  // cancelled
+    if (it == timers_.end()) continue;  // cancelled by what was just read
     TimerCallback callback;
     if (it->second.period > Duration::zero()) {
       // Periodic: next deadline from the previous one (no drift), skipping missed periods.
@@ -106,13 +111,7 @@ void EventLoop::dispatch_timers() {
   }
 }
 
-void EventLoop::run_once(Duration max_wait) {
-  // Drop stale deadline entries of cancelled timers so they do not shorten the poll timeout.
-  while (!deadlines_.empty() && timers_.find(deadlines_.begin()->second) == timers_.end()) {
-    deadlines_.erase(deadlines_.begin());
-  }
-  Duration wait = max_wait;
-  if (!deadlines_.empty()) { wait = std::min(wait, std::max(Duration::zero(), deadlines_.begin()->first - now())); }
+void EventLoop::poll_fds(Duration wait) {
   std::vector<pollfd> pfds;
   pfds.reserve(fds_.size());
   for (const auto& [fd, cb] : fds_) pfds.push_back(pollfd{fd, POLLIN, 0});
@@ -123,17 +122,28 @@ void EventLoop::run_once(Duration max_wait) {
   const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(capped).count();
   const timespec timeout{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
   const int n = ::ppoll(pfds.data(), pfds.size(), &timeout, nullptr);
+  polled_at_ = now();
   if (n < 0 && errno != EINTR) { spdlog::error("event loop: poll failed: {}", std::strerror(errno)); }
-  if (n > 0) {
-    for (const auto& p : pfds) {
-      if (p.revents == 0) continue;
-      auto it = fds_.find(p.fd);
-      if (it == fds_.end()) continue;  // unwatched by an earlier callback this round
-      auto callback = it->second;      // keep alive even if the callback unwatches itself
-      guarded(*callback);
-      if (stopping_) return;
-    }
+  if (n <= 0) return;
+  for (const auto& p : pfds) {
+    if (p.revents == 0) continue;
+    auto it = fds_.find(p.fd);
+    if (it == fds_.end()) continue;  // unwatched by an earlier callback this round
+    auto callback = it->second;      // keep alive even if the callback unwatches itself
+    guarded(*callback);
+    if (stopping_) return;
   }
+}
+
+void EventLoop::run_once(Duration max_wait) {
+  // Drop stale deadline entries of cancelled timers so they do not shorten the poll timeout.
+  while (!deadlines_.empty() && timers_.find(deadlines_.begin()->second) == timers_.end()) {
+    deadlines_.erase(deadlines_.begin());
+  }
+  Duration wait = max_wait;
+  if (!deadlines_.empty()) { wait = std::min(wait, std::max(Duration::zero(), deadlines_.begin()->first - now())); }
+  poll_fds(wait);
+  if (stopping_) return;
   dispatch_timers();
 }
 

@@ -56,6 +56,7 @@ void HealthPublisher::publish_now() {
   msg_.detail = detail_with_counters(detail_, node_.malformed_count(), node_.handler_errors());
   if (signed_copy_) signed_copy_(msg_);
   node_.publish(channels::kHealth, msg_);
+  if (companion_) companion_(msg_);
 }
 
 }  // namespace motion::lcm

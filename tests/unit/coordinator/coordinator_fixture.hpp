@@ -58,8 +58,10 @@ inline std::variant<MovePlan, std::string> simple_planner(const std::vector<Plan
   return plan;
 }
 
-// A drive model as a gateway publishes it: velocity in 1 count/s, acceleration in 1 count/s^2.
-inline motionlcm::drive_model_t test_model(const std::string& axis, const std::string& bus, const std::string& family) {
+// A drive model as a gateway publishes it: velocity in 1 count/s, acceleration in 1 count/s^2; a
+// UIM342 in a group (group_id != 0) offers BG to its group id, each drive a start of its own.
+inline motionlcm::drive_model_t test_model(const std::string& axis, const std::string& bus, const std::string& family,
+                                           std::int32_t group_id = 0) {
   motionlcm::drive_model_t m{};
   m.bus = bus;
   m.axis = axis;
@@ -74,14 +76,14 @@ inline motionlcm::drive_model_t test_model(const std::string& axis, const std::s
   m.acceleration_max = 10'000'000;
   // Start mechanisms with made-up wire times (a 29-bit BG; an ADAM broadcast at 115200 baud).
   using M = motionlcm::drive_model_t;
-  const auto start = [&m](std::int8_t kind, double wire_us) {
+  const auto start = [&m](std::int8_t kind, double wire_us, std::int32_t address = 0) {
     m.start_kinds.push_back(kind);
-    m.start_addresses.push_back(0);
+    m.start_addresses.push_back(address);
     m.start_wire_us.push_back(wire_us);
     m.num_starts = static_cast<std::int32_t>(m.start_kinds.size());
   };
   if (family == "uim342") {
-    start(M::START_UIM342_GROUP_BG, 70.0);
+    if (group_id != 0) start(M::START_UIM342_GROUP_BG, 70.0, group_id);
     start(M::START_SINGLE, 72.0);
   } else if (family == "adam-modbus") {
     start(M::START_ADAM_BROADCAST, 694.0);
@@ -270,8 +272,9 @@ struct FakeGateways {
     r.trigger_utime = loop_.wall_us();
     publish(r);
   }
-  void add_axis(const std::string& name, const std::string& bus, double scale, const std::string& family) {
-    models[name] = test_model(name, bus, family);
+  void add_axis(const std::string& name, const std::string& bus, double scale, const std::string& family,
+                std::int32_t group_id = 0) {
+    models[name] = test_model(name, bus, family, group_id);
     armings[name].bus = bus;
     armings[name].axis = name;
     motionlcm::axis_state_t s{};
@@ -372,8 +375,8 @@ struct CoordinatorTest : ::testing::Test {
         wire(loop, gateways, client),
         coordinator(config, simple_planner, wire, wall_clock()) {
     loop.attach(coordinator);
-    gateways.add_axis("x", "can0", 100, "uim342");
-    gateways.add_axis("y", "can0", 100, "uim342");
+    gateways.add_axis("x", "can0", 100, "uim342", 20);
+    gateways.add_axis("y", "can0", 100, "uim342", 20);
     gateways.add_axis("c", "rs485", 10, "adam-modbus");
     gateways.add_axis("r", "can0", 8.888888888888889, "uim342");
     client.on_reply = [this](const reply_t& r) { replies[r.request_id].push_back(r); };

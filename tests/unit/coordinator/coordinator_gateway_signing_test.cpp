@@ -78,7 +78,7 @@ class GatewaySigning : public ::testing::Test {
         [this](const motionlcm::axis_state_t& s) { publish_signed(lcm::channels::kAxisState, s); });
     gateway_.subscribe<motionlcm::drive_model_request_t>(
         lcm::channels::kDriveModelRequest, [this](const motionlcm::drive_model_request_t&, const std::string&) {
-          publish_signed(lcm::channels::kDriveModel, test_model("x", "can0", "uim342"));
+          publish_signed(lcm::channels::kDriveModel, test_model("x", "can0", "uim342", 20));
           ++models_sent_;
         });
     gateway_.subscribe<motionlcm::signed_gateway_command_t>(

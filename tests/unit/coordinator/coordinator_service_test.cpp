@@ -39,7 +39,7 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
       lcm::channels::kDriveModelRequest, [&](const motionlcm::drive_model_request_t& r, const std::string&) {
         EXPECT_EQ(r.requester, "coordinator");
         ++model_requests;
-        gateway.publish(lcm::channels::kDriveModel, test_model("x", "can0", "uim342"));
+        gateway.publish(lcm::channels::kDriveModel, test_model("x", "can0", "uim342", 20));
       });
   std::vector<gateway_command_t> commands;
   const auto answer = [&](const gateway_command_t& c, std::int8_t status) {

@@ -5,6 +5,7 @@
 
 #include <csignal>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 namespace motion {
@@ -66,6 +67,69 @@ TEST(EventLoop, FdCallbackRunsWhenReadableAndCanUnwatchItself) {
   EXPECT_EQ(calls, 1);
   ::close(pipefd[0]);
   ::close(pipefd[1]);
+}
+
+// A pipe whose read end the loop watches: `arrived` counts the bytes it read.
+struct WatchedPipe {
+  explicit WatchedPipe(EventLoop& loop) {
+    EXPECT_EQ(::pipe(fd), 0);
+    loop.watch(fd[0], [this] {
+      char c;
+      if (::read(fd[0], &c, 1) == 1) ++arrived;
+    });
+  }
+  ~WatchedPipe() {
+    ::close(fd[0]);
+    ::close(fd[1]);
+  }
+  WatchedPipe(const WatchedPipe&) = delete;
+  WatchedPipe& operator=(const WatchedPipe&) = delete;
+  void send() const { EXPECT_EQ(::write(fd[1], "x", 1), 1); }
+  int fd[2]{-1, -1};
+  int arrived = 0;
+};
+
+// The gateway's heartbeat check ran 680 ms after the last heartbeat it had READ while three more
+// waited in its socket: an fd callback (a file write) had stalled the loop, and the round's
+// timers ran before the fds were polled again.
+TEST(EventLoop, ATimerDueAfterAStalledFdCallbackSeesWhatArrivedMeanwhile) {
+  EventLoop loop;
+  WatchedPipe news(loop);  // the heartbeats
+  int trigger[2];
+  ASSERT_EQ(::pipe(trigger), 0);
+  loop.watch(trigger[0], [&] {
+    char c;
+    ASSERT_EQ(::read(trigger[0], &c, 1), 1);
+    news.send();                                    // arrives during the stall
+    std::this_thread::sleep_for(milliseconds(20));  // the stall
+  });
+  int seen_by_timer = -1;
+  loop.call_after(milliseconds(5), [&] {  // due during the stall
+    seen_by_timer = news.arrived;
+    loop.stop();
+  });
+  ASSERT_EQ(::write(trigger[1], "t", 1), 1);
+  loop.run();
+  EXPECT_EQ(seen_by_timer, 1) << "the timer ran on old news";
+  ::close(trigger[0]);
+  ::close(trigger[1]);
+}
+
+TEST(EventLoop, ATimerAfterAStalledTimerSeesWhatArrivedMeanwhile) {
+  EventLoop loop;
+  WatchedPipe news(loop);
+  const TimePoint due = loop.now() + milliseconds(2);
+  loop.call_at(due, [&] {
+    news.send();
+    std::this_thread::sleep_for(milliseconds(20));
+  });
+  int seen_by_timer = -1;
+  loop.call_at(due, [&] {  // due in the same round, after the stalled one
+    seen_by_timer = news.arrived;
+    loop.stop();
+  });
+  loop.run();
+  EXPECT_EQ(seen_by_timer, 1) << "the timer ran on old news";
 }
 
 TEST(EventLoop, ThrowingCallbackIsContainedAndCounted) {

@@ -26,8 +26,16 @@
 // (forgedStates()). Without it the plain states are taken, unverified (statesVerified() is false:
 // say so where they are shown).
 //
+// Lost datagrams (README "Safety and faults"): LCM delivers nothing for sure. While request() or
+// follow() waits on a request, the request is sent again, unchanged but for its send time (and
+// signature), whenever nothing has been heard of it for RESEND_AFTER_MS (before its first reply) or
+// QUIET_RESEND_MS (after), as the C++ and Python clients do: the coordinator answers a request sent
+// again with its latest reply to it, word for word, and runs nothing twice. A reply heard again
+// after the terminal one is not passed on: each request ends in exactly one terminal reply.
+//
 // Thread contract: thread-safe. LCM delivers messages on its own receive thread: reply, axis-state,
-// event and health callbacks run there (keep them short); request() blocks the calling thread.
+// event and health callbacks run there (keep them short); request() and follow() block the calling
+// thread (which sends the request again).
 // Run with -Djava.net.preferIPv4Stack=true (LCM multicast is IPv4).
 import java.io.IOException;
 import java.security.GeneralSecurityException;
@@ -38,6 +46,7 @@ import java.util.Map;
 import java.util.concurrent.CompletableFuture;
 import java.util.concurrent.ConcurrentHashMap;
 import java.util.concurrent.ExecutionException;
+import java.util.concurrent.Future;
 import java.util.concurrent.TimeUnit;
 import java.util.concurrent.TimeoutException;
 import java.util.concurrent.atomic.AtomicLong;
@@ -107,14 +116,33 @@ public class MotionClient implements AutoCloseable {
     /** Milliseconds a request waits for its terminal reply unless told otherwise: the same in every
      *  client (C++ Client::kRequestTimeout, Python REQUEST_TIMEOUT, Lua REQUEST_TIMEOUT). */
     public static final long REQUEST_TIMEOUT_MS = 60000;
+    /** Lost datagrams: a pending request of which nothing has been heard for RESEND_AFTER_MS (before
+     *  its first reply) or QUIET_RESEND_MS (after) is sent again (C++ Client::kResendAfter,
+     *  kQuietResend; Python RESEND_AFTER, QUIET_RESEND; Lua RESEND_AFTER, QUIET_RESEND). */
+    public static final long RESEND_AFTER_MS = 500;
+    public static final long QUIET_RESEND_MS = 1000;
     private final String prefix;
     private volatile String id;
     private volatile Signing.RequestSigner signer;
-    // " request <id> of client '<id>'": how a SECURITY event names a pending request.
-    private final Map<Long, String> labels = new ConcurrentHashMap<>();
+    /** A request waiting for its terminal reply. */
+    private static final class Pending {
+        final Consumer<reply_t> handler;
+        final String label;  // " request <id> of client '<id>'": how a SECURITY event names it
+        final request_t request;  // as sent; only its utime changes when it is sent again
+        volatile boolean heard;  // a reply came
+        volatile long lastHeardNanos;  // System.nanoTime() when last sent or answered
+
+        Pending(Consumer<reply_t> handler, request_t request) {
+            this.handler = handler;
+            this.request = request;
+            this.label = " request " + request.request_id + " of client '" + request.client_id + "'";
+        }
+    }
+
     // Request ids start at the wall clock so a restarted client never reuses a live id.
     private final AtomicLong nextRequestId = new AtomicLong(System.currentTimeMillis() * 1000);
-    private final Map<Long, Consumer<reply_t>> pending = new ConcurrentHashMap<>();
+    private final Map<Long, Pending> pending = new ConcurrentHashMap<>();
+    private final AtomicLong resent = new AtomicLong();
     private final Map<String, axis_state_t> axes = new ConcurrentHashMap<>();
     private final Map<String, health_t> heartbeats = new HashMap<>();  // guarded by itself
     private volatile Consumer<axis_state_t> stateHandler;
@@ -232,27 +260,81 @@ public class MotionClient implements AutoCloseable {
         }
         if (request.param == null) request.param = new param_t();
         if (request.param.mnemonic == null) request.param.mnemonic = "";
-        pending.put(request.request_id, onReply != null ? onReply : r -> {});
-        labels.put(request.request_id, " request " + request.request_id + " of client '" + request.client_id + "'");
-        Signing.RequestSigner s = signer;
-        if (s == null) {
-            lcm.publish(channel("REQUEST"), request);
-            return request.request_id;
-        }
-        try {
-            lcm.publish(channel("SREQUEST"), s.sign(request, request.utime));
-        } catch (GeneralSecurityException e) {
-            forget(request.request_id);
-            throw new IllegalStateException("cannot sign with key '" + s.key.name + "': " + e.getMessage(), e);
-        }
+        Pending p = new Pending(onReply != null ? onReply : r -> {}, request);
+        pending.put(request.request_id, p);
+        publish(p);
         return request.request_id;
     }
 
-    /** Sends and waits for the terminal reply. When none comes within timeoutMs, returns a local
+    /** Requests sent again by request() and follow() so far. */
+    public long resent() { return resent.get(); }
+
+    // Publishes a pending request (again) with a new send time, signed when signing.
+    private void publish(Pending p) {
+        synchronized (p) {
+            request_t request = p.request;
+            request.utime = System.currentTimeMillis() * 1000;
+            p.lastHeardNanos = System.nanoTime();
+            Signing.RequestSigner s = signer;
+            if (s == null) {
+                lcm.publish(channel("REQUEST"), request);
+                return;
+            }
+            try {
+                lcm.publish(channel("SREQUEST"), s.sign(request, request.utime));
+            } catch (GeneralSecurityException e) {
+                forget(request.request_id);
+                throw new IllegalStateException("cannot sign with key '" + s.key.name + "': " + e.getMessage(), e);
+            }
+        }
+    }
+
+    /** Waits until `done` completes or timeoutMs pass (false then), sending request `requestId`
+     *  (of send()) again while it is pending and nothing has been heard of it (see above). */
+    public boolean follow(long requestId, Future<?> done, long timeoutMs) throws InterruptedException {
+        return followUntil(requestId, done, System.nanoTime() + TimeUnit.MILLISECONDS.toNanos(timeoutMs));
+    }
+
+    // follow() until the System.nanoTime() deadline. Never sends at or after it: a copy sent then
+    // could not be answered in time.
+    private boolean followUntil(long requestId, Future<?> done, long deadline) throws InterruptedException {
+        while (true) {
+            long now = System.nanoTime();
+            if (done.isDone()) return true;
+            if (now - deadline >= 0) return false;
+            long wait = deadline - now;
+            Pending p = pending.get(requestId);
+            if (p != null) {
+                // heard read first: takeReply sets lastHeardNanos before it.
+                long quiet = TimeUnit.MILLISECONDS.toNanos(p.heard ? QUIET_RESEND_MS : RESEND_AFTER_MS);
+                long due = p.lastHeardNanos + quiet;
+                if (now - due >= 0) {
+                    resent.incrementAndGet();
+                    publish(p);
+                    continue;
+                }
+                wait = Math.min(wait, due - now);
+            }
+            try {
+                done.get(wait, TimeUnit.NANOSECONDS);
+                return true;
+            } catch (TimeoutException e) {
+                // a reply may have come meanwhile (lastHeardNanos): look again
+            } catch (ExecutionException e) {
+                return true;  // completed, exceptionally
+            }
+        }
+    }
+
+    /** Sends and waits for the terminal reply, sending the request again while nothing is heard of
+     *  it (see "Lost datagrams" above). When none comes within timeoutMs, returns a local
      *  FAILED reply saying so (the coordinator may be down). onProgress runs on LCM's thread. */
     public reply_t request(request_t request, long timeoutMs, Consumer<reply_t> onProgress) {
         CompletableFuture<reply_t> terminal = new CompletableFuture<>();
         CompletableFuture<Boolean> answered = new CompletableFuture<>();
+        // Both waits are measured from before the first send, so silence ends after the sends of
+        // ACCEPT_TIMEOUT_MS / RESEND_AFTER_MS (4), not one more just before the end.
+        long start = System.nanoTime();
         long requestId = send(request, r -> {
             answered.complete(true);
             if (isTerminal(r.status)) terminal.complete(r);
@@ -263,20 +345,15 @@ public class MotionClient implements AutoCloseable {
         long firstWait = Math.min(timeoutMs, ACCEPT_TIMEOUT_MS);
         String where = url() + ", channel " + channel(signer != null ? "SREQUEST" : "REQUEST");
         try {
-            answered.get(firstWait, TimeUnit.MILLISECONDS);
-        } catch (TimeoutException | ExecutionException e) {
-            forget(requestId);
-            return localFailure(requestId, "no reply from the coordinator within " + firstWait + " ms: is motion-coordinator running on " + where + "?");
-        } catch (InterruptedException e) {
-            forget(requestId);
-            Thread.currentThread().interrupt();
-            return localFailure(requestId, "interrupted while waiting for the coordinator");
-        }
-        try {
-            return terminal.get(Math.max(0, timeoutMs - firstWait), TimeUnit.MILLISECONDS);
-        } catch (TimeoutException | ExecutionException e) {
-            forget(requestId);
-            return localFailure(requestId, "no terminal reply from the coordinator within " + timeoutMs + " ms (" + where + ")");
+            if (!followUntil(requestId, answered, start + TimeUnit.MILLISECONDS.toNanos(firstWait))) {
+                forget(requestId);
+                return localFailure(requestId, "no reply from the coordinator within " + firstWait + " ms: is motion-coordinator running on " + where + "?");
+            }
+            if (!followUntil(requestId, terminal, start + TimeUnit.MILLISECONDS.toNanos(timeoutMs))) {
+                forget(requestId);
+                return localFailure(requestId, "no terminal reply from the coordinator within " + timeoutMs + " ms (" + where + ")");
+            }
+            return terminal.join();
         } catch (InterruptedException e) {
             forget(requestId);
             Thread.currentThread().interrupt();
@@ -359,7 +436,6 @@ public class MotionClient implements AutoCloseable {
 
     private void forget(long requestId) {
         pending.remove(requestId);
-        labels.remove(requestId);
     }
 
     private void onReply(LCMDataInputStream ins) {
@@ -367,11 +443,15 @@ public class MotionClient implements AutoCloseable {
         try { takeReply(new reply_t(ins)); } catch (IOException e) { return; }  // not a reply_t: ignore
     }
 
+    // A reply for a request no longer pending (a repeat of its terminal reply, answering a copy sent
+    // again) is dropped: each request ends in exactly one terminal reply.
     private void takeReply(reply_t r) {
         if (!id.equals(r.client_id)) return;
-        Consumer<reply_t> handler = isTerminal(r.status) ? pending.remove(r.request_id) : pending.get(r.request_id);
-        if (isTerminal(r.status)) labels.remove(r.request_id);
-        if (handler != null) handler.accept(r);
+        Pending p = isTerminal(r.status) ? pending.remove(r.request_id) : pending.get(r.request_id);
+        if (p == null) return;
+        p.lastHeardNanos = System.nanoTime();
+        p.heard = true;
+        p.handler.accept(r);
     }
 
     // A hostile message_size makes the decoder ask for up to 2 GiB at once: that one allocation
@@ -424,17 +504,16 @@ public class MotionClient implements AutoCloseable {
     // The coordinator refused a request of ours without a reply (its ids could not be trusted): end
     // it now with a local REJECTED (code 19) carrying the event's text, as the C++ client does.
     private void onSecurityEvent(event_t e) {
-        for (Map.Entry<Long, String> entry : labels.entrySet()) {
-            if (!e.text.contains(entry.getValue())) continue;
+        for (Map.Entry<Long, Pending> entry : pending.entrySet()) {
+            if (!e.text.contains(entry.getValue().label)) continue;
             long requestId = entry.getKey();
-            Consumer<reply_t> handler = pending.remove(requestId);
-            labels.remove(requestId);
-            if (handler == null) continue;
+            Pending p = pending.remove(requestId);
+            if (p == null) continue;
             reply_t r = localFailure(requestId, "refused by the coordinator's security (SECURITY event, no reply): " + e.text);
             r.utime = e.utime;
             r.status = reply_t.REJECTED;
             r.error_code = UNAUTHORIZED;
-            handler.accept(r);
+            p.handler.accept(r);
         }
     }
 

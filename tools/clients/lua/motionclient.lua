@@ -30,9 +30,19 @@ client: plain AXIS_STATEs are ignored and signed ones that do not verify are cou
 (c.forged_states). Without it the plain states are taken, unverified (c:states_verified() is false:
 say so where they are shown).
 
-Thread contract: single-threaded. Callbacks run inside handle(), request() and wait_until(), which
-pump LCM. Timeouts are in seconds; Lua 5.2 has no sub-second wall clock, so they are measured with
-os.time() (whole seconds, at least the requested time) unless LuaSocket's socket.gettime exists.
+Lost datagrams (README "Safety and faults"): LCM delivers nothing for sure. While request() or
+follow() waits on a request, the request is sent again, unchanged but for its send time (and
+signature), whenever nothing has been heard of it for M.RESEND_AFTER seconds (before its first
+reply) or M.QUIET_RESEND (after), as the C++ and Python clients do: the coordinator answers a
+request sent again with its latest reply to it, word for word, and runs nothing twice. A reply
+heard again after the terminal one is not passed on: each request ends in exactly one terminal
+reply.
+
+Thread contract: single-threaded. Callbacks run inside handle(), request(), follow() and
+wait_until(), which pump LCM. Timeouts are in seconds, measured with the monotonic clock of the
+native module motionsodium when it is on LUA_CPATH, else LuaSocket's socket.gettime, else
+os.time() (Lua 5.2 has no finer clock of its own: whole seconds, at least the requested time, and
+a request is then sent again at most once a second).
 --]]
 
 local lcm = require("lcm")
@@ -45,14 +55,21 @@ local health_t = require("motionlcm.health_t")
 
 local M = {}
 
-local has_socket, socket = pcall(require, "socket")
+-- A clock in seconds with a fraction, if there is one (see "Thread contract" above).
+local function fine_clock()
+  local has_native, native = pcall(require, "motionsodium")
+  if has_native and native.monotonic then return native.monotonic end
+  local has_socket, socket = pcall(require, "socket")
+  if has_socket and socket.gettime then return socket.gettime end
+  return nil
+end
+local clock = fine_clock()
 local function now()
-  if has_socket and socket.gettime then return socket.gettime() end
-  return os.time()
+  return clock and clock() or os.time()
 end
 -- Deadline `timeout` seconds from now; with whole-second clocks, never earlier than asked.
 local function deadline_after(timeout)
-  if has_socket and socket.gettime then return now() + timeout end
+  if clock then return now() + timeout end
   return os.time() + math.ceil(timeout) + 1
 end
 
@@ -60,6 +77,11 @@ M.request_t, M.reply_t, M.axis_state_t, M.event_t, M.health_t = request_t, reply
 -- The coordinator answers every request at once; no reply within this many seconds means no
 -- coordinator is listening (the same bound as the C++ client's kAcceptTimeout).
 M.ACCEPT_TIMEOUT = 2.0
+-- Lost datagrams: a pending request of which nothing has been heard for RESEND_AFTER seconds
+-- (before its first reply) or QUIET_RESEND seconds (after) is sent again (C++ Client::kResendAfter,
+-- kQuietResend; Python RESEND_AFTER, QUIET_RESEND; Java RESEND_AFTER_MS, QUIET_RESEND_MS).
+M.RESEND_AFTER = 0.5
+M.QUIET_RESEND = 1.0
 -- Seconds a request waits for its terminal reply by default, the same in every client (C++
 -- Client::kRequestTimeout, Java MotionClient.REQUEST_TIMEOUT_MS, Python REQUEST_TIMEOUT).
 M.REQUEST_TIMEOUT = 60
@@ -119,8 +141,11 @@ function M.new(opts)
   -- Request ids start at the wall clock (microseconds; exact in a double) so a restarted client
   -- never reuses a live id.
   self.next_request_id = os.time() * 1000000
+  -- Pending requests by id: {handler = on_reply or false, label = " request <id> of client '<id>'"
+  -- (how a SECURITY event names it), msg = the request_t as sent, last_heard = now() when it was
+  -- last sent or answered, heard = a reply came}.
   self.pending = {}
-  self.labels = {}  -- " request <id> of client '<id>'": how a SECURITY event names a pending request
+  self.resent = 0  -- requests sent again so far (follow)
   self.axes = {}
   self.beats = {}
   self.lc:subscribe(self.prefix .. "REPLY", function(_, data) self:_on_reply(data) end)
@@ -191,16 +216,56 @@ function Client:send(kind, axes, values, on_reply, fields)
     end
     msg[k] = v
   end
-  self.pending[msg.request_id] = on_reply or false
-  self.labels[msg.request_id] = string.format(" request %.0f of client '%s'", msg.request_id, msg.client_id)
+  local p = {handler = on_reply or false, msg = msg, heard = false,
+             label = string.format(" request %.0f of client '%s'", msg.request_id, msg.client_id)}
+  self.pending[msg.request_id] = p
+  self:_publish(p)
+  return msg.request_id
+end
+
+-- Publishes a pending request (again) with a new send time, signed when signing.
+function Client:_publish(p)
+  local msg = p.msg
+  p.last_heard = now()
   if self.signer then
     -- os.time()'s whole seconds would repeat counters across runs within a second.
     msg.utime = require("motionsigning").now_us()
     self.lc:publish(self.prefix .. "SREQUEST", self.signer:sign(msg, msg.utime):encode())
   else
+    msg.utime = os.time() * 1000000
     self.lc:publish(self.prefix .. "REQUEST", msg:encode())
   end
-  return msg.request_id
+end
+
+-- Pumps LCM until done() or the deadline (a now() value); false then.
+function Client:_wait_until(done, deadline)
+  while not done() do
+    if now() >= deadline then return false end
+    self.lc:handle_timeout(50)
+  end
+  return true
+end
+
+-- _wait_until(), sending request `id` again while it is pending and nothing has been heard of it
+-- for M.RESEND_AFTER (before its first reply) or M.QUIET_RESEND seconds (after). Never at or after
+-- the deadline: a copy sent then could not be answered in time.
+function Client:_follow(id, done, deadline)
+  return self:_wait_until(function()
+    if done() then return true end
+    local p = self.pending[id]
+    local t = now()
+    if p and t < deadline and t - p.last_heard >= (p.heard and M.QUIET_RESEND or M.RESEND_AFTER) then
+      self.resent = self.resent + 1
+      self:_publish(p)
+    end
+    return false
+  end, deadline)
+end
+
+-- wait_until(), sending request `id` (of send()) again while nothing is heard of it (see "Lost
+-- datagrams" above). False on timeout.
+function Client:follow(id, done, timeout)
+  return self:_follow(id, done, deadline_after(timeout))
 end
 
 -- Sends and waits for the terminal reply (a motionlcm reply_t table). When none comes within
@@ -215,6 +280,9 @@ function Client:request(kind, axes, values, opts)
   end
   local result
   local answered = false
+  -- Both waits are measured from before the first send, so silence ends with the sends of
+  -- ACCEPT_TIMEOUT / RESEND_AFTER (4), not one more just before the end.
+  local start = now()
   local id = self:send(kind, axes, values, function(r)
     answered = true
     if M.is_terminal(r.status) then
@@ -226,9 +294,10 @@ function Client:request(kind, axes, values, opts)
   -- The coordinator answers every request at once (ACCEPTED or REJECTED): silence within
   -- M.ACCEPT_TIMEOUT means nobody listens, and the caller learns it then.
   local first_wait = math.min(timeout, M.ACCEPT_TIMEOUT)
-  local heard = self:wait_until(function() return answered end, first_wait)
-  if not heard or not self:wait_until(function() return result ~= nil end, timeout - first_wait) then
-    self.pending[id], self.labels[id] = nil, nil
+  local deadline = clock and start or os.time() + 1  -- whole seconds: never earlier than asked
+  local heard = self:_follow(id, function() return answered end, deadline + first_wait)
+  if not heard or not self:_follow(id, function() return result ~= nil end, deadline + timeout) then
+    self.pending[id] = nil
     result = reply_t:new()
     result.utime = os.time() * 1000000
     result.client_id = self.id
@@ -288,12 +357,7 @@ end
 
 -- Pumps LCM until done() or the timeout (seconds); false on timeout.
 function Client:wait_until(done, timeout)
-  local deadline = deadline_after(timeout)
-  while not done() do
-    if now() >= deadline then return false end
-    self.lc:handle_timeout(50)
-  end
-  return true
+  return self:_wait_until(done, deadline_after(timeout))
 end
 
 function Client:wait_for_heartbeat(process, timeout)
@@ -314,12 +378,15 @@ function Client:_on_reply(data)
   self:_take_reply(decode(reply_t, data))
 end
 
+-- A reply for a request no longer pending (a repeat of its terminal reply, answering a copy sent
+-- again) is dropped: each request ends in exactly one terminal reply.
 function Client:_take_reply(r)
   if not r or r.client_id ~= self.id then return end
-  local handler = self.pending[r.request_id]
-  if handler == nil then return end
-  if M.is_terminal(r.status) then self.pending[r.request_id], self.labels[r.request_id] = nil, nil end
-  if handler then handler(r) end
+  local p = self.pending[r.request_id]
+  if p == nil then return end
+  p.heard, p.last_heard = true, now()
+  if M.is_terminal(r.status) then self.pending[r.request_id] = nil end
+  if p.handler then p.handler(r) end
 end
 
 local signed_message_t
@@ -355,12 +422,12 @@ end
 -- it now with a local REJECTED (code 19) carrying the event's text, as the C++ client does.
 function Client:_on_security_event(e)
   local refused = {}
-  for id, label in pairs(self.labels) do
-    if e.text:find(label, 1, true) then refused[#refused + 1] = id end
+  for id, p in pairs(self.pending) do
+    if e.text:find(p.label, 1, true) then refused[#refused + 1] = id end
   end
   for _, id in ipairs(refused) do
-    local handler = self.pending[id]
-    self.pending[id], self.labels[id] = nil, nil
+    local handler = self.pending[id].handler
+    self.pending[id] = nil
     local r = reply_t:new()
     r.utime = e.utime
     r.client_id = self.id

@@ -14,7 +14,6 @@ local lcm = require("lcm")
 local signing = require("motionsigning")
 local motionclient = require("motionclient")
 local reply_t = require("motionlcm.reply_t")
-local param_t = require("motionlcm.param_t")
 local event_t = require("motionlcm.event_t")
 local signed_message_t = require("motionlcm.signed_message_t")
 
@@ -23,6 +22,7 @@ local check = kit.check
 local unhex = kit.unhex
 local table_of = kit.table_of
 local refused = kit.refused
+local reply = kit.reply
 
 local v = {}
 for line in io.lines(arg[1]) do
@@ -91,21 +91,7 @@ check("vector: another key", refused(strangers:verify(envelope, at)),
       "signed REPLY refused: key " .. v.public_key_hex:sub(1, 16) .. " is not the coordinator's (" .. signing.hex(stranger.key_id) .. ")")
 
 -- 2. A verifying client on its own LCM URL.
-local function reply(client_id, request_id, status, reason)
-  local x = reply_t:new()
-  x.utime = signing.now_us()
-  x.client_id, x.request_id, x.status, x.reason = client_id, request_id, status, reason
-  x.error_code, x.progress, x.num_axes = 0, 0, 0
-  x.axes, x.targets, x.positions, x.start_utime = {}, {}, {}, {}
-  x.predicted_duration_s, x.predicted_skew_us, x.measured_start_skew_us = 0, 0, 0
-  x.param = param_t:new()
-  x.param.space, x.param.index, x.param.subindex, x.param.width, x.param.is_signed, x.param.value = 0, 0, 0, 0, false, 0
-  x.param.mnemonic = ""
-  return x
-end
-
-local pid = tonumber(io.open("/proc/self/stat"):read("*l"):match("^(%d+)"))
-local url = string.format("udpm://239.255.76.67:%d?ttl=0", 20000 + (pid * 7 + 5) % 40000)  -- this test's own port
+local url = kit.own_url(5)
 local prefix = "MOTION_"
 local c = motionclient.new{url = url, prefix = prefix, client_id = "lua-test"}
 local wire = lcm.lcm.new(url)

@@ -133,8 +133,7 @@ end
 local gateways = assert(signing.load_gateway_keys(keys_file))
 os.remove(keys_file)
 check("keys: the file's keys", signing.hex(gateways[1].public_key .. gateways[2].public_key), signing.hex(can0.public_key .. rs485.public_key))
-local pid = tonumber(io.open("/proc/self/stat"):read("*l"):match("^(%d+)"))
-local url = string.format("udpm://239.255.76.67:%d?ttl=0", 20000 + (pid * 7 + 6) % 40000)  -- this test's own port
+local url = kit.own_url(6)
 local prefix = "MOTION_"
 local c = motionclient.new{url = url, prefix = prefix, client_id = "lua-test"}
 local wire = lcm.lcm.new(url)

@@ -11,6 +11,9 @@
  *   file_mode(path)           st_mode of stat(2) and whether it is a regular file, or nil, error
  *   now_us()                  the wall clock in µs since the epoch (Lua 5.2 has only whole seconds;
  *                             a signed request's utime and counter need better)
+ *   monotonic()               seconds (with a fraction) of CLOCK_MONOTONIC: the Lua client's
+ *                             timeouts and its sending again after 0.5 s of silence need better
+ *                             than os.time()'s whole seconds, and no steps of the wall clock
  * Strings are Lua byte strings. Thread contract: no state; each call is independent. */
 #include <errno.h>
 #include <string.h>
@@ -99,9 +102,17 @@ static int l_now_us(lua_State *L) {
   return 1;
 }
 
+static int l_monotonic(lua_State *L) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  lua_pushnumber(L, (lua_Number)ts.tv_sec + (lua_Number)ts.tv_nsec / 1e9);
+  return 1;
+}
+
 static const luaL_Reg kFunctions[] = {
     {"public_key", l_public_key}, {"sign", l_sign}, {"verify", l_verify},
     {"base64_decode", l_base64_decode}, {"file_mode", l_file_mode}, {"now_us", l_now_us},
+    {"monotonic", l_monotonic},
     {NULL, NULL},
 };
 

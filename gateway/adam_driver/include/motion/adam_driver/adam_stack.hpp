@@ -134,6 +134,7 @@ class AdamStack final : public gateway::SerialStack {
   void line_lost(const std::string& why, TimePoint now) override;
 
   [[nodiscard]] motionlcm::bus_stats_t statistics() const override;
+  [[nodiscard]] gateway::LedgerCounters ledger_counters() const override { return operations_.counters(); }
   [[nodiscard]] bool ready() const override;
   [[nodiscard]] const MasterSettings& settings() const { return settings_; }
 

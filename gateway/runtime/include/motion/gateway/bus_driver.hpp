@@ -16,6 +16,7 @@
 #include <motionlcm/gateway_reply_t.hpp>
 
 #include "motion/core/clock.hpp"
+#include "motion/gateway/command_ledger.hpp"
 
 namespace motion::gateway {
 
@@ -108,6 +109,8 @@ class BusDriver {
   // Health: statistics per bus, and whether all drives are online and set up.
   [[nodiscard]] virtual std::vector<motionlcm::bus_stats_t> statistics() const = 0;
   [[nodiscard]] virtual bool ready() const = 0;
+  // The counters of the bus's command ledgers, summed over its stacks (LEDGER_STATS). Default: none.
+  [[nodiscard]] virtual LedgerCounters ledger_counters() const { return {}; }
 };
 
 }  // namespace motion::gateway

@@ -55,6 +55,9 @@ class CanStack {
   [[nodiscard]] virtual bool ready() const = 0;
   // Adds this stack's counters (timeouts, retries, drives online/total) to the bus's.
   virtual void add_statistics(motionlcm::bus_stats_t& stats) const = 0;
+  // The command ledger's counters (its parts by lifecycle state, what it refused): LEDGER_STATS.
+  // Default: none.
+  [[nodiscard]] virtual LedgerCounters ledger_counters() const { return {}; }
 };
 
 // What a stack is built with: how to send, where to report.
@@ -85,6 +88,9 @@ class CanBusDriver final : public BusDriver {
   void prepare_fire(TimePoint at) override;
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const override;
   [[nodiscard]] bool ready() const override;
+  // The stacks' ledgers summed (one part per node/axis), with the releases and refusals of the
+  // driver's own combining ledger (its parts, one per stack, are not counted again).
+  [[nodiscard]] LedgerCounters ledger_counters() const override;
 
   // Frames sent and received, for the RAW_<bus> mirror (optional).
   void on_frame_traffic(std::function<void(const can::Frame&, bool transmitted)> tap) { tap_ = std::move(tap); }

@@ -20,6 +20,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -138,11 +139,66 @@ class ReplyBuilder {
 
 using ReplySink = std::function<void(motionlcm::gateway_reply_t)>;
 
-// Counters of what the ledger refused (each refusal is a bug upstream or a race it absorbed).
+inline constexpr std::size_t kLifecycleStates = 6;  // Loading .. Stopped, indexed by Lifecycle
+
+// The classes of a Failed part's error code (README "Reply error codes") the statistics keep apart
+// (ledger_stats_t on LEDGER_STATS).
+enum class FailureClass : std::uint8_t {
+  kRefused,  // not carried out: malformed, unknown axis, outside limits, disabled, busy, unsupported,
+             // position lost (1-4, 8, 17, 22)
+  kFault,    // the drive faulted, stalled or hit a limit (5, 15)
+  kOffline,  // the drive went offline (6)
+  kTimeout,  // (13)
+  kOther,    // every other code (arming failed 11, drive error 12, none 0, ...)
+};
+inline constexpr std::size_t kFailureClasses = 5;
+[[nodiscard]] constexpr FailureClass failure_class(std::int32_t code) {
+  switch (static_cast<ReplyError>(code)) {
+    case ReplyError::kMalformedRequest:
+    case ReplyError::kUnknownAxis:
+    case ReplyError::kOutsideLimits:
+    case ReplyError::kAxisDisabled:
+    case ReplyError::kAxisBusy:
+    case ReplyError::kUnsupported:
+    case ReplyError::kPositionLost: return FailureClass::kRefused;
+    case ReplyError::kAxisFaulted:
+    case ReplyError::kAxisFault: return FailureClass::kFault;
+    case ReplyError::kAxisOffline: return FailureClass::kOffline;
+    case ReplyError::kTimeout: return FailureClass::kTimeout;
+    default: return FailureClass::kOther;
+  }
+}
+
+// What a ledger counted since it was made: its parts by lifecycle state, and what it refused (each
+// refusal is a bug upstream or a race it absorbed). Summed over a gateway's stacks, the gateway
+// publishes them (LEDGER_STATS).
 struct LedgerCounters {
   std::int64_t refused_transitions = 0;  // not a table row (including leaving a terminal state)
   std::int64_t refused_terminals = 0;    // a second terminal for a part / an ended command
   std::int64_t refused_adds = 0;         // a command id already in the ledger
+  // Parts by state (index: Lifecycle): `parts` those of the commands in the ledger now (a part that
+  // ended stays counted until its command leaves the ledger), `entered` every part that ever
+  // entered the state (Loading: every part accepted).
+  std::array<std::int64_t, kLifecycleStates> parts{};
+  std::array<std::int64_t, kLifecycleStates> entered{};
+  std::array<std::int64_t, kFailureClasses> failed{};  // parts that entered Failed, by failure_class
+  std::int64_t released = 0;                           // commands let go of by release()
+
+  [[nodiscard]] std::int64_t now(Lifecycle s) const { return parts[static_cast<std::size_t>(s)]; }
+  [[nodiscard]] std::int64_t total(Lifecycle s) const { return entered[static_cast<std::size_t>(s)]; }
+  [[nodiscard]] std::int64_t failed_as(FailureClass c) const { return failed[static_cast<std::size_t>(c)]; }
+  LedgerCounters& operator+=(const LedgerCounters& o) {
+    refused_transitions += o.refused_transitions;
+    refused_terminals += o.refused_terminals;
+    refused_adds += o.refused_adds;
+    for (std::size_t i = 0; i < kLifecycleStates; ++i) {
+      parts[i] += o.parts[i];
+      entered[i] += o.entered[i];
+    }
+    for (std::size_t i = 0; i < kFailureClasses; ++i) failed[i] += o.failed[i];
+    released += o.released;
+    return *this;
+  }
 };
 
 // Parts keyed by a small index (a stack's node index, the CAN driver's stack index); `Payload` is
@@ -190,6 +246,8 @@ class CommandLedger {
     }
     Entry e{command, std::move(nodes), {}, ReplyBuilder(command), std::move(data)};
     e.parts.assign(e.nodes.size(), Lifecycle::kLoading);
+    counters_.parts[0] += static_cast<std::int64_t>(e.parts.size());
+    counters_.entered[0] += static_cast<std::int64_t>(e.parts.size());
     return &entries_.emplace(command.command_id, std::move(e)).first->second;
   }
 
@@ -229,7 +287,7 @@ class CommandLedger {
       ++(is_terminal(e->parts[*s]) && is_terminal(to) ? counters_.refused_terminals : counters_.refused_transitions);
       return false;
     }
-    e->parts[*s] = to;
+    move(e->parts[*s], to, code);
     settle(id, *e, to, code, std::move(reason));
     return true;
   }
@@ -243,7 +301,7 @@ class CommandLedger {
     bool moved = false;
     for (auto& p : e->parts) {
       if (!find_transition(p, to)) continue;
-      p = to;
+      move(p, to, code);
       moved = true;
     }
     if (!moved) {
@@ -265,9 +323,10 @@ class CommandLedger {
       return std::nullopt;
     }
     for (auto& p : it->second.parts) {
-      if (!is_terminal(p)) p = terminal;
+      if (!is_terminal(p)) move(p, terminal, code);
     }
     if (!it->second.ended) send_terminal(it->second, terminal, code, std::move(reason));
+    forget(it->second);
     Entry out = std::move(it->second);
     entries_.erase(it);
     return out;
@@ -276,13 +335,20 @@ class CommandLedger {
   std::optional<Entry> take_terminal(std::int64_t id) {
     const auto it = entries_.find(id);
     if (it == entries_.end() || !it->second.all_terminal()) return std::nullopt;
+    forget(it->second);
     Entry out = std::move(it->second);
     entries_.erase(it);
     return out;
   }
   // Lets go of a command whose remaining replies are not the ledger's to combine (the CAN driver
-  // after a combined STARTED: each stack's DONE passes on as it comes). No reply.
-  void release(std::int64_t id) { entries_.erase(id); }
+  // after a combined STARTED: each stack's DONE passes on as it comes). No reply; counted.
+  void release(std::int64_t id) {
+    const auto it = entries_.find(id);
+    if (it == entries_.end()) return;
+    ++counters_.released;
+    forget(it->second);
+    entries_.erase(it);
+  }
 
   // The one FAILED reply of a command that never entered the ledger (malformed, unknown axis,
   // busy axis, an id in use); the ledger is not touched.
@@ -311,7 +377,22 @@ class CommandLedger {
         }
       }
     }
-    if (e.all_terminal()) entries_.erase(id);
+    if (e.all_terminal()) {
+      forget(e);
+      entries_.erase(id);
+    }
+  }
+  // Every move of a part goes through here, so that the counters follow it.
+  void move(Lifecycle& part, Lifecycle to, std::int32_t code) {
+    --counters_.parts[static_cast<std::size_t>(part)];
+    ++counters_.parts[static_cast<std::size_t>(to)];
+    ++counters_.entered[static_cast<std::size_t>(to)];
+    if (to == Lifecycle::kFailed) ++counters_.failed[static_cast<std::size_t>(failure_class(code))];
+    part = to;
+  }
+  // A command leaving the ledger takes its parts out of the counts of parts now.
+  void forget(const Entry& e) {
+    for (const auto p : e.parts) --counters_.parts[static_cast<std::size_t>(p)];
   }
   void send_terminal(Entry& e, Lifecycle terminal, std::int32_t code, std::string reason) {
     e.ended = true;

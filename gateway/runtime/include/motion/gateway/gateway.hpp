@@ -29,6 +29,9 @@
 //    process installs) when the axis first comes online and whenever what the driver read from the
 //    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus;
 //    each with the axis's arming time (ARM_TIMING, arm_timing_t, made by the ArmingBuilder);
+//  - publishes with every heartbeat the counters of its command ledger (LEDGER_STATS,
+//    ledger_stats_t: the driver's parts by lifecycle state, now and in total, and the commands sent
+//    again that it answered from its CommandMemory);
 //  - releases a move armed for a trigger that no trigger starts within the arm expiry
 //    (arm_watch.hpp; config coordinator.arm_expiry_ms): its own DISARM to the driver, a TIMEOUT
 //    event per axis, the move's one FAILED reply saying "never triggered within N ms", and a
@@ -57,10 +60,12 @@
 #include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/health_t.hpp>
+#include <motionlcm/ledger_stats_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
 #include "motion/config/config.hpp"
+#include "motion/core/durable_file.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/core/precise_timer.hpp"
 #include "motion/gateway/arm_watch.hpp"
@@ -152,6 +157,8 @@ class Gateway final : public GatewayOutput {
 
   [[nodiscard]] const std::string& bus() const { return bus_; }
   [[nodiscard]] std::string process_name() const { return "gateway:" + bus_; }
+  // The LEDGER_STATS message published with `health` (the heartbeat it goes out with).
+  [[nodiscard]] motionlcm::ledger_stats_t ledger_stats(const motionlcm::health_t& health) const;
 
  private:
   void on_command(const motionlcm::gateway_command_t& command);
@@ -231,14 +238,17 @@ class Gateway final : public GatewayOutput {
     std::optional<JogWatch> jog;
   };
   std::map<std::string, PendingMotion> pending_motion_;
-  std::map<std::string, std::string> position_lost_;  // axis -> why its position is not the machine's
-  std::optional<PositionRecords> records_;            // none: no record kept (set_position_record)
-  std::set<std::string> record_checked_;              // axes whose first online status was compared with the record
-  std::set<std::string> seen_online_;                 // axes that reported online to this process
-  std::set<std::string> commanded_;                   // axes named by a command this process handed to its driver
+  std::map<std::string, std::string> position_lost_;   // axis -> why its position is not the machine's
+  std::optional<PositionRecords> records_;             // none: no record kept (set_position_record)
+  std::optional<BackgroundFileWriter> record_writer_;  // writes records_ off the loop thread
+  std::set<std::string> record_checked_;               // axes whose first online status was compared with the record
+  std::set<std::string> seen_online_;                  // axes that reported online to this process
+  std::set<std::string> commanded_;                    // axes named by a command this process handed to its driver
   std::set<std::string> restored_homed_;  // axes homed by a previous gateway process (record), not since lost
   std::string record_error_;              // the last failure to write the record (logged once)
   CommandMemory commands_seen_;           // a command sent again is answered, not run again
+  std::int64_t repeats_answered_ = 0;     // commands sent again, answered with their latest reply
+  std::int64_t repeats_unanswered_ = 0;   // commands sent again before any reply to them
   std::map<std::int64_t, std::vector<std::string>> referencing_;  // HOME/SET_POSITION command id -> its axes
   std::map<std::int64_t, std::string>
       stopped_at_limit_;                    // jog command id -> why the watch stopped it (before its reply)

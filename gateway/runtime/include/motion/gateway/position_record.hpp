@@ -6,11 +6,12 @@
 // what the record allows, or shows the family's power-on marker, lost its position while no
 // gateway watched.
 //
-// The record of one bus is one small text file, written whole to a temporary file beside it and
-// renamed over it (a reader or a crash sees the old record or the new one, never half of one),
-// mode 0600. No file (first start ever): nothing is known, nothing changes.
+// The record of one bus is one small text file, written whole and durably (core/durable_file.hpp:
+// temporary file, fsync, rename; a reader, a crash or a power cut sees the old record or the new
+// one, never half of one), mode 0600. No file (first start ever): nothing is known, nothing changes.
 //
-// Thread contract: none (the Gateway calls it on its loop thread).
+// Thread contract: none. The Gateway keeps the records on its loop thread and hands text() to a
+// BackgroundFileWriter, so the loop never waits on the disk; save() blocks (tests, tools).
 #pragma once
 
 #include <cstdint>
@@ -43,7 +44,9 @@ class PositionRecords {
   [[nodiscard]] const AxisRecord* find(const std::string& axis) const;
   // Replaces the record of `axis`; true when it changed (then save()).
   bool update(const std::string& axis, const AxisRecord& record);
-  // Writes every record (temporary file, then rename; mode 0600): empty, or what failed.
+  // The file's text for every record.
+  [[nodiscard]] std::string text() const;
+  // Writes every record now (write_file_durably, mode 0600): empty, or what failed. Blocks.
   [[nodiscard]] std::string save() const;
 
   // The text of the file and back (load() and save() use them; unit tests too). parse returns

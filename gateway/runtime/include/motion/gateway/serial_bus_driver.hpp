@@ -49,6 +49,7 @@ class SerialBusDriver : public BusDriver {
   void prepare_fire(TimePoint at) final;
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const final;
   [[nodiscard]] bool ready() const final;
+  [[nodiscard]] LedgerCounters ledger_counters() const final { return core_->ledger_counters(); }
 
   [[nodiscard]] bool port_open() const { return port_ != nullptr; }
   [[nodiscard]] const std::string& device_path() const { return device_path_; }

@@ -13,6 +13,7 @@
 #include <motionlcm/gateway_command_t.hpp>
 
 #include "motion/core/clock.hpp"
+#include "motion/gateway/command_ledger.hpp"
 
 namespace motion::gateway {
 
@@ -34,6 +35,9 @@ class SerialStack {
   virtual void line_lost(const std::string& why, TimePoint now) = 0;
   [[nodiscard]] virtual motionlcm::bus_stats_t statistics() const = 0;
   [[nodiscard]] virtual bool ready() const = 0;
+  // The command ledger's counters (its parts by lifecycle state, what it refused): LEDGER_STATS.
+  // Default: none.
+  [[nodiscard]] virtual LedgerCounters ledger_counters() const { return {}; }
 };
 
 }  // namespace motion::gateway

@@ -113,6 +113,7 @@ class Uc57Stack final : public gateway::CanStack {
   static constexpr Duration kQuietBeforeStart = std::chrono::milliseconds(3);
   [[nodiscard]] bool ready() const override;
   void add_statistics(motionlcm::bus_stats_t& stats) const override;
+  [[nodiscard]] gateway::LedgerCounters ledger_counters() const override { return jobs_.counters(); }
 
   [[nodiscard]] const Counters& counters() const { return counters_; }
   // The SYNC period in force: 1 / poll_hz, or longer when the nodes' synchronous TPDOs at that

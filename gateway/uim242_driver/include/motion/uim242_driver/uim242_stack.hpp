@@ -112,6 +112,7 @@ class Uim242Stack final : public gateway::SerialStack {
 
   [[nodiscard]] bool ready() const override;
   [[nodiscard]] motionlcm::bus_stats_t statistics() const override;
+  [[nodiscard]] gateway::LedgerCounters ledger_counters() const override { return commands_.counters(); }
   [[nodiscard]] std::vector<std::string> axes() const;
   // ICF writes sent and acknowledged since construction (each is an EEPROM write and a reboot).
   [[nodiscard]] std::int64_t icf_writes() const noexcept { return icf_writes_; }

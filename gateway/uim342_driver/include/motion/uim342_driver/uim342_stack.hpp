@@ -103,6 +103,7 @@ class Uim342Stack final : public CanStack {
   void fire(std::int64_t trigger_id, TimePoint now) override;
   [[nodiscard]] bool ready() const override;
   void add_statistics(motionlcm::bus_stats_t& stats) const override;
+  [[nodiscard]] LedgerCounters ledger_counters() const override;
 
   struct Counters {
     std::int64_t timeouts = 0;       // requests that got no answer after the last retry

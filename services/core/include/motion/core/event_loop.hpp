@@ -6,6 +6,12 @@
 // keep to the kernel's timer slack, not whole milliseconds): never a busy wait.
 // A callback that throws is caught and logged; the exception never leaves the loop (so it cannot
 // cross an LCM or C callback). Callbacks may add/remove fds and timers, including their own.
+//
+// Fresh news before deadlines: each round handles the readable fds, then the due timers. A timer
+// judged on news older than kStaleNews (a slow callback ran since the fds were last polled: a
+// file system stall, a burst) first gets one more zero-wait poll of the fds, so a timeout fires
+// only if what arrived meanwhile does not answer it (a heartbeat that waited in a socket is not
+// "lost").
 #pragma once
 
 #include <csignal>
@@ -64,7 +70,12 @@ class EventLoop {
     Duration period;  // zero = one-shot
     TimerCallback callback;
   };
+  // How old the fds' last poll may be when a timer runs before they are polled again.
+  static constexpr Duration kStaleNews = std::chrono::milliseconds(1);
+
   void dispatch_timers();
+  // ppoll(2) waiting at most `wait`, then the callbacks of the readable fds.
+  void poll_fds(Duration wait);
   template <typename F>
   void guarded(F&& f);
 
@@ -73,6 +84,7 @@ class EventLoop {
   std::unordered_map<int, std::shared_ptr<FdCallback>> fds_;
   std::map<TimerId, Timer> timers_;
   std::multimap<TimePoint, TimerId> deadlines_;
+  TimePoint polled_at_{};  // when poll_fds last returned from ppoll
   TimerId next_timer_id_ = 1;
   bool stopping_ = false;
   int signal_fd_ = -1;

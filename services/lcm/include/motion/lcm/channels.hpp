@@ -31,6 +31,8 @@ inline constexpr std::string_view kDriveModel = "DRIVE_MODEL";
 inline constexpr std::string_view kArmTiming = "ARM_TIMING";
 // drive_model_request_t, anyone -> gateways: publish your DRIVE_MODEL now.
 inline constexpr std::string_view kDriveModelRequest = "DRIVE_MODEL_REQUEST";
+// ledger_stats_t, gateways -> tools: with each heartbeat, the counters of the gateway's command ledger.
+inline constexpr std::string_view kLedgerStats = "LEDGER_STATS";
 inline constexpr std::string_view kSimControl = "SIM_CONTROL";  // sim_control_t, tests -> motion-sim
 inline constexpr std::string_view kSimReport = "SIM_REPORT";    // sim_report_t, motion-sim -> tests
 

@@ -33,6 +33,11 @@ class HealthPublisher {
   // the signed copy (signed_message_t on SHEALTH). Whoever sets it clears it before it goes.
   using SignedCopy = std::function<void(const motionlcm::health_t&)>;
   void set_signed_copy(SignedCopy publish) { signed_copy_ = std::move(publish); }
+  // Called with every heartbeat just after the plain one went out (empty: none): what a process
+  // publishes beside its heartbeat at the same rate (a gateway's LEDGER_STATS). Whoever sets it
+  // clears it before it goes.
+  using Companion = std::function<void(const motionlcm::health_t&)>;
+  void set_companion(Companion publish) { companion_ = std::move(publish); }
   // Publishes at once (state changes, and the last STOPPING heartbeat on shutdown).
   void publish_now();
   // What set_state() last gave (the process's own status: systemd's STATUS= line mirrors it).
@@ -51,6 +56,7 @@ class HealthPublisher {
   EventLoop::TimerId timer_;
   BusStatsProvider bus_stats_;
   SignedCopy signed_copy_;
+  Companion companion_;
 };
 
 }  // namespace motion::lcm

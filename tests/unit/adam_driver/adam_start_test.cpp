@@ -1,0 +1,201 @@
+// AdamStack with several drives on the line: arming and the broadcast start, stops, e-stops, disarm,
+// alarms, and judging each drive on its own samples after the start (adam_stack_fixture.hpp).
+#include <gtest/gtest.h>
+
+#include "adam_stack_fixture.hpp"
+
+namespace motion::adam_driver {
+namespace {
+
+using namespace test_fixture;
+
+TEST_F(TwoDriveTest, ArmThenFireStartsEveryAxisWithOneBroadcastExecuteTableFrame) {
+  ASSERT_TRUE(core->ready());
+  core->execute(arm(10, 77, {{"c", 100000}, {"d", -8000}}), now);
+  run_for(80ms);  // 12 acknowledged writes, each followed by t3.5 of silence
+  ASSERT_EQ(out.of(10).size(), 1U);
+  EXPECT_EQ(out.of(10)[0].status, kArmed);
+  // Table entry 0 at register 500 (0x01F4) per drive, low word first (§8.54).
+  EXPECT_TRUE(was_sent(hex(with_crc({0x01, 0x10, 0x01, 0xF4, 0x00, 0x02, 0x04, 0x86, 0xA0, 0x00, 0x01}))));
+  EXPECT_TRUE(was_sent(hex(with_crc({0x02, 0x10, 0x01, 0xF4, 0x00, 0x02, 0x04, 0xE0, 0xC0, 0xFF, 0xFF}))));
+  EXPECT_EQ(banks[1].position(), 0) << "nothing moves before the trigger";
+  const std::size_t before = sent.size();
+  core->fire(77, now);
+  ASSERT_GT(sent.size(), before);
+  EXPECT_EQ(hex(sent[before]), "00 06 00 DD 00 00 18 21");  // broadcast 0x00DD (§5, §8.54), the one start frame
+  ASSERT_EQ(out.of(10).size(), 2U);
+  EXPECT_EQ(out.of(10)[1].status, kStarted);
+  EXPECT_EQ(out.of(10)[1].start_mechanism, "broadcast");
+  EXPECT_EQ(out.of(10)[1].predicted_skew_us, 0.0);
+  EXPECT_GT(out.of(10)[1].trigger_utime, 0);
+  serve_pending();  // the broadcast is executed by both fake drives, answered by none
+  EXPECT_EQ(banks[1].position(), 100000);
+  EXPECT_EQ(banks[2].position(), -8000);
+  run_for(300ms);
+  ASSERT_EQ(out.terminal(10), 1);
+  EXPECT_EQ(out.of(10).back().status, kDone);
+  core->fire(77, now);  // a second fire of the same trigger does nothing
+  run_for(10ms);
+  EXPECT_EQ(out.of(10).size(), 3U);
+}
+
+TEST_F(TwoDriveTest, AReservedLineSendsTheBroadcastAtOnceWhereAPollRoundWouldHoldIt) {
+  ASSERT_TRUE(core->ready());
+  core->execute(arm(10, 77, {{"c", 100000}, {"d", -8000}}), now);
+  run_for(80ms);
+  ASSERT_EQ(out.of(10).size(), 1U);
+  ASSERT_EQ(out.of(10)[0].status, kArmed);
+  // When a poll round starts: its first read goes out as the round is due (the line is idle by
+  // then in the second round after arming), and the next one a poll period (100 ms) later.
+  const auto next_round = [&] {
+    const std::size_t mark = sent.size();
+    for (int i = 0; i < 200; ++i) {
+      serve_pending();
+      advance(1ms);
+      if (sent.size() > mark) return now;
+    }
+    return TimePoint{};
+  };
+  ASSERT_NE(next_round(), TimePoint{});
+  run_for(20ms);
+  const TimePoint round = next_round();
+  ASSERT_NE(round, TimePoint{});
+  // The start frame is due 1 ms into the next round, when its first read would hold the line.
+  const TimePoint start = round + 101ms;
+  core->reserve_line(start, now);
+  run_for(round + 95ms - now);       // this round ends
+  while (now < start) advance(1ms);  // nothing left to answer: time moves in whole steps
+  ASSERT_EQ(now, start);
+  const std::size_t before = sent.size();
+  core->fire(77, now);
+  ASSERT_EQ(sent.size(), before + 1) << "the broadcast waited behind a poll";
+  EXPECT_EQ(hex(sent[before]), "00 06 00 DD 00 00 18 21");
+  // The polls held back go out after it.
+  run_for(20ms);
+  EXPECT_GT(sent.size(), before + 1);
+}
+
+TEST_F(TwoDriveTest, AMoveToZeroRunWholeBetweenTwoSamplesIsNotAPowerUp) {
+  // A long line polled slowly: the sample before the start reads 8000 at rest, the next one 0 at
+  // rest (the fake drive arrives at once). The counter at 0 is the move's target, not a power-up.
+  banks[1].set_position(8000);
+  run_for(250ms);
+  const auto last_of_c =
+      std::find_if(out.statuses.rbegin(), out.statuses.rend(), [](const auto& s) { return s.first == "c"; });
+  ASSERT_NE(last_of_c, out.statuses.rend());
+  ASSERT_EQ(last_of_c->second.position_counts, 8000);
+  core->execute(arm(15, 0, {{"c", 0}}), now);  // trigger 0: start at once
+  run_for(400ms);
+  ASSERT_EQ(out.terminal(15), 1);
+  EXPECT_EQ(out.of(15).back().status, kDone) << out.of(15).back().reason;
+  EXPECT_TRUE(out.lost.empty()) << out.lost.front();
+  // Once the move ended, a jump to 0 at rest is a power-up again.
+  banks[1].set_position(8000);
+  run_for(250ms);
+  banks[1].set_position(0);
+  run_for(250ms);
+  ASSERT_EQ(out.lost.size(), 1U);
+  EXPECT_NE(out.lost[0].find("answers as freshly powered up"), std::string::npos) << out.lost[0];
+}
+
+TEST_F(TwoDriveTest, MovingBystanderForcesASequentialStart) {
+  banks[2].set_moving(true);  // d is jogging: a broadcast table execute could disturb it
+  run_for(150ms);
+  core->execute(arm(11, 0, {{"c", 4000}}), now);  // trigger 0: start at once
+  run_for(300ms);
+  const auto replies = out.of(11);
+  ASSERT_GE(replies.size(), 3U);
+  EXPECT_EQ(replies[0].status, kArmed);
+  EXPECT_EQ(replies[1].status, kStarted);
+  EXPECT_EQ(replies[1].start_mechanism, "sequential");
+  EXPECT_TRUE(was_sent("01 10 00 D0 00 02 04 0F A0 00 00 7D 8F") ||
+              was_sent(hex(with_crc({0x01, 0x10, 0x00, 0xD0, 0x00, 0x02, 0x04, 0x0F, 0xA0, 0x00, 0x00}))));
+  EXPECT_FALSE(was_sent("00 06 00 DD 00 00 18 21"));
+  EXPECT_EQ(out.terminal(11), 1);
+  EXPECT_EQ(replies.back().status, kDone);
+}
+
+TEST_F(TwoDriveTest, StopFailsTheRunningMoveAndEndsDoneWhenStill) {
+  banks[1].completes_moves = false;  // the move runs until stopped
+  core->execute(arm(12, 0, {{"c", 50000}}), now);
+  run_for(250ms);
+  EXPECT_EQ(out.terminal(12), 0);
+  core->execute(command(13, std::int8_t{Command::STOP}, {"c"}), now);
+  run_for(250ms);
+  ASSERT_EQ(out.terminal(12), 1);
+  EXPECT_EQ(out.of(12).back().status, kFailed);
+  EXPECT_EQ(out.of(12).back().error_code, error_code(ReplyError::kStopped));
+  EXPECT_TRUE(was_sent("01 06 00 C8 00 00 08 34"));  // ramped stop (§8.65①)
+  ASSERT_EQ(out.terminal(13), 1);
+  EXPECT_EQ(out.of(13).back().status, kDone);
+}
+
+TEST_F(TwoDriveTest, EstopStopsAtOnceAndReleasesTheMotorLikeEveryFamily) {
+  banks[1].completes_moves = false;
+  core->execute(arm(16, 0, {{"c", 50000}}), now);
+  run_for(250ms);
+  core->execute(command(17, std::int8_t{Command::ESTOP}, {"c"}), now);
+  run_for(250ms);
+  ASSERT_EQ(out.terminal(17), 1);
+  EXPECT_EQ(out.of(17).back().status, kDone);
+  // Emergency stop (0x00C8 = 0x0100), then release (0x00D4 = 1), §8.67.
+  EXPECT_TRUE(was_sent(hex(with_crc({0x01, 0x06, 0x00, 0xC8, 0x01, 0x00}))));
+  EXPECT_TRUE(was_sent(hex(with_crc({0x01, 0x06, 0x00, 0xD4, 0x00, 0x01}))));
+  const auto last =
+      std::find_if(out.statuses.rbegin(), out.statuses.rend(), [](const auto& s) { return s.first == "c"; });
+  ASSERT_NE(last, out.statuses.rend());
+  EXPECT_FALSE(last->second.enabled);
+}
+
+TEST_F(TwoDriveTest, DisarmEndsTheArmedMoveAndIsDone) {
+  core->execute(arm(14, 99, {{"c", 1000}, {"d", 2000}}), now);
+  run_for(80ms);
+  ASSERT_EQ(out.of(14).back().status, kArmed);
+  Command disarm = command(15, std::int8_t{Command::DISARM}, {});
+  disarm.trigger_id = 99;
+  core->execute(disarm, now);
+  ASSERT_EQ(out.terminal(14), 1);
+  EXPECT_EQ(out.of(14).back().status, kFailed);
+  ASSERT_EQ(out.terminal(15), 1);
+  EXPECT_EQ(out.of(15).back().status, kDone);
+  core->fire(99, now);
+  run_for(10ms);
+  EXPECT_FALSE(was_sent("00 06 00 DD 00 00 18 21"));
+}
+
+TEST_F(TwoDriveTest, AlarmFailsTheMoveOfItsAxis) {
+  banks[1].completes_moves = false;
+  core->execute(arm(16, 0, {{"c", 50000}}), now);
+  run_for(150ms);
+  banks[1].regs[0x00A3] = 0x0001;  // over-current (§8.52)
+  run_for(250ms);
+  ASSERT_EQ(out.terminal(16), 1);
+  EXPECT_EQ(out.of(16).back().status, kFailed);
+  EXPECT_EQ(out.of(16).back().error_code, error_code(ReplyError::kAxisFaulted));
+  EXPECT_NE(out.of(16).back().reason.find("Over-current"), std::string::npos) << out.of(16).back().reason;
+  EXPECT_TRUE(out.has_event(std::int16_t{motionlcm::event_t::ALARM}));
+}
+
+TEST_F(FourDriveTest, ADriveIsJudgedOnlyOnItsOwnSamplesTakenAfterTheStart) {
+  ASSERT_TRUE(core->ready());
+  core->execute(arm(20, 5, {{"c1", 4000}, {"c2", 4000}, {"c3", 4000}, {"c4", 4000}}), now);
+  run_for(150ms);
+  ASSERT_EQ(out.of(20).size(), 1U);
+  ASSERT_EQ(out.of(20)[0].status, kArmed);
+  step_until_position_read_of(4);  // c4 sampled idle at 0 just before the start
+  core->fire(5, now);
+  // c1..c3 are sampled moving before c4 is sampled again: no verdict on c4 meanwhile.
+  step_until_position_read_of(3);
+  EXPECT_EQ(out.terminal(20), 0) << out.of(20).back().reason;
+  // Every drive arrives: the move ends DONE.
+  for (std::uint8_t unit = 1; unit <= 4; ++unit) {
+    banks[unit].set_moving(false);
+    banks[unit].set_position(4000);
+  }
+  run_for(500ms);
+  ASSERT_EQ(out.terminal(20), 1);
+  EXPECT_EQ(out.of(20).back().status, kDone) << out.of(20).back().reason;
+}
+
+}  // namespace
+}  // namespace motion::adam_driver

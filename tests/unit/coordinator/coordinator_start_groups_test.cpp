@@ -1,0 +1,61 @@
+// Which start each axis of a synchronized move joins, decided from the drive models alone: one BG
+// for a UIM342 group moving whole, a start of its own for everything else in this fixture's lab
+// (x and y: UIM342 group 20; r: UIM342 without a group; c: ADAM, one broadcast).
+#include "coordinator_fixture.hpp"
+
+namespace motion::coordinator::test_fixture {
+namespace {
+
+// The ARM_MOVE commands of a move's trigger, as sets of axis names.
+std::vector<std::set<std::string>> commands_of(const std::vector<gateway_command_t>& arms) {
+  std::vector<std::set<std::string>> out;
+  for (const auto& c : arms) {
+    std::set<std::string> axes;
+    for (const auto& a : c.axes) axes.insert(a.axis);
+    out.push_back(axes);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST_F(CoordinatorTest, AGroupMovingWholeSharesOneStartAndAPartOfItStartsAxisByAxis) {
+  auto_execute_moves();
+  const auto whole = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "y", "r"}, {1.0, -2.0, 3.0}));
+  ASSERT_EQ(whole.status, std::int8_t{reply_t::DONE}) << whole.reason;
+  ASSERT_EQ(gateways.triggers.size(), 1u);
+  using Axes = std::set<std::string>;
+  EXPECT_EQ(commands_of(armed[gateways.triggers[0].trigger_id]), (std::vector<Axes>{{"r"}, {"x", "y"}}));
+
+  // x without y: a BG to group 20 would start y too, so x has a start of its own.
+  const auto part = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "r"}, {2.0, 4.0}));
+  ASSERT_EQ(part.status, std::int8_t{reply_t::DONE}) << part.reason;
+  ASSERT_EQ(gateways.triggers.size(), 2u);
+  EXPECT_EQ(commands_of(armed[gateways.triggers[1].trigger_id]), (std::vector<Axes>{{"r"}, {"x"}}));
+}
+
+TEST_F(CoordinatorTest, TheGroupAStartReachesIsTheOneTheDriveModelsSay) {
+  // r's gateway set its drive up in group 20 (the configuration names no group for it): a BG to
+  // group 20 now starts r as well, so x and y moving without r cannot share it.
+  using M = motionlcm::drive_model_t;
+  auto& r_model = gateways.models.at("r");
+  r_model.start_kinds.insert(r_model.start_kinds.begin(), std::int8_t{M::START_UIM342_GROUP_BG});
+  r_model.start_addresses.insert(r_model.start_addresses.begin(), 20);
+  r_model.start_wire_us.insert(r_model.start_wire_us.begin(), 70.0);
+  r_model.num_starts = static_cast<std::int32_t>(r_model.start_kinds.size());
+  pump(milliseconds(100));  // the models are published every tick
+  auto_execute_moves();
+  const auto done = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {1.0, -2.0}));
+  ASSERT_EQ(done.status, std::int8_t{reply_t::DONE}) << done.reason;
+  ASSERT_EQ(gateways.triggers.size(), 1u);
+  using Axes = std::set<std::string>;
+  EXPECT_EQ(commands_of(armed[gateways.triggers[0].trigger_id]), (std::vector<Axes>{{"x"}, {"y"}}));
+
+  // With r in the move, the three share the group's one BG.
+  const auto all = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "y", "r"}, {2.0, -1.0, 5.0}));
+  ASSERT_EQ(all.status, std::int8_t{reply_t::DONE}) << all.reason;
+  ASSERT_EQ(gateways.triggers.size(), 2u);
+  EXPECT_EQ(commands_of(armed[gateways.triggers[1].trigger_id]), (std::vector<Axes>{{"r", "x", "y"}}));
+}
+
+}  // namespace
+}  // namespace motion::coordinator::test_fixture
