@@ -2,6 +2,9 @@
 // wire protocol and LCM.
 #include <spdlog/spdlog.h>
 
+#include <cerrno>
+#include <cstring>
+
 #include "bus_assembly.hpp"
 #include "bus_lock.hpp"
 #include "motion/app/service.hpp"
@@ -50,6 +53,20 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     // Scheduled starts and SYNC periods keep to microseconds (PreciseTimer), not to the default
     // 50 us timer slack of this (the loop's) thread.
     if (!minimal_timer_slack()) spdlog::warn("could not lower the timer slack (prctl PR_SET_TIMERSLACK)");
+    // Optional: the loop (it blocks in ppoll between frames, so it cannot starve the CPU) ahead of
+    // every normal process, for SYNC periods and start frames that keep their time on a busy host.
+    if (const int priority = bus->realtime_priority; priority > 0) {
+      const bool granted = fifo_scheduling(priority);
+      const int error = errno;
+      if (granted) {
+        spdlog::info("bus {}: running under SCHED_FIFO at priority {}", bus_name, priority);
+      } else {
+        spdlog::warn(
+            "bus {}: realtime_priority {} refused ({}): running under normal scheduling (needs "
+            "CAP_SYS_NICE or an RLIMIT_RTPRIO of at least {}, e.g. LimitRTPRIO= in its systemd unit)",
+            bus_name, priority, std::strerror(error), priority);
+      }
+    }
     gateway::Gateway gateway(service.loop(), service.node(), service.health(), *config, bus_name);
     // Where the axes were, whether homed: a drive that lost power while no gateway ran is caught.
     gateway.set_position_record(gateway::position_record_path(*config, *bus));

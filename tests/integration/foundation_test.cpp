@@ -4,7 +4,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include <sched.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 
 #include "motion/config/config.hpp"
 #include "motion/testing/process_group.hpp"
@@ -124,6 +131,64 @@ TEST(Foundation, ProgramsAnswerHelpAndVersion) {
     EXPECT_EQ(group.run_to_completion({binary + "-help", binary, {"--help"}, {}}, &out), 0) << out;
     EXPECT_NE(out.find("--config"), std::string::npos) << binary << ": " << out;
   }
+}
+
+// Whether this host lets a process take SCHED_FIFO at `priority` (a child tries, so this test's
+// own thread keeps its scheduling).
+bool host_permits_fifo(int priority) {
+  const pid_t child = ::fork();
+  if (child == 0) {
+    sched_param param{};
+    param.sched_priority = priority;
+    ::_exit(::sched_setscheduler(0, SCHED_FIFO, &param) == 0 ? 0 : 1);
+  }
+  int status = 0;
+  return child > 0 && ::waitpid(child, &status, 0) == child && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
+// realtime_priority: the gateway's loop thread runs under SCHED_FIFO where the host permits it,
+// and says why not where it does not; its position-record writer, which waits on the disk, never
+// runs under it.
+TEST(Foundation, AGatewayAskedForRealtimeRunsItsLoopUnderSchedFifoOrSaysWhyNot) {
+  ProcessGroup group;
+  std::ifstream in(source_path("config/sim-lab.yaml"));
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string anchor = "    poll_hz: 20\n";  // the first bus, can0
+  ASSERT_NE(yaml.find(anchor), std::string::npos);
+  yaml.insert(yaml.find(anchor) + anchor.size(), "    realtime_priority: 20\n");
+  const std::string config = group.work_dir() + "/realtime.yaml";
+  std::ofstream(config) << yaml;
+
+  const bool permitted = host_permits_fifo(20);
+  const pid_t gateway = group.start({"gateway:can0", "motion-gateway", {"--config", config, "--bus", "can0"}, {}});
+  ASSERT_TRUE(group.wait_for_heartbeat("gateway:can0", seconds(15), true)) << group.log_of("gateway:can0");
+  const std::string said = permitted ? "running under SCHED_FIFO at priority 20" : "realtime_priority 20 refused";
+  EXPECT_TRUE(group.pump_until([&] { return group.log_of("gateway:can0").find(said) != std::string::npos; },
+                               std::chrono::milliseconds(5000)))
+      << group.log_of("gateway:can0");
+
+  // Every thread of the gateway: the loop (tid = pid) and the record writer.
+  std::map<pid_t, int> policies;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/" + std::to_string(gateway) + "/task")) {
+    const pid_t tid = std::stoi(task.path().filename().string());
+    policies[tid] = ::sched_getscheduler(tid);
+  }
+  ASSERT_GE(policies.size(), 2u) << "the loop and the position record's writer";
+  EXPECT_EQ(policies.at(gateway), permitted ? SCHED_FIFO : SCHED_OTHER);
+  if (permitted) {
+    sched_param param{};
+    ASSERT_EQ(::sched_getparam(gateway, &param), 0);
+    EXPECT_EQ(param.sched_priority, 20);
+  }
+  for (const auto& [tid, policy] : policies) {
+    if (tid != gateway) {
+      EXPECT_EQ(policy, SCHED_OTHER) << "thread " << tid;
+    }
+  }
+  group.stop(gateway);
+  EXPECT_EQ(group.exit_status(gateway), 0);
 }
 
 }  // namespace

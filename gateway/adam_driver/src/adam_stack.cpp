@@ -202,6 +202,8 @@ void AdamStack::on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now) {
 void AdamStack::complete_in_flight(const rtu::Response& response, TimePoint now) {
   auto t = std::move(in_flight_);
   reply_deadline_ = kNever;
+  // A Save (§8.69) stores every register, the power-on marker too: it is written anew.
+  if (t->drive != nullptr && adam::is_save(t->request)) t->drive->marker_saved = true;
   if (t->on_reply) t->on_reply(response, now, t->frame_end);
 }
 
@@ -336,6 +338,74 @@ void AdamStack::run_setup(Drive& d) {
   };
   subdivision.on_fail = setup_failed;
   enqueue(std::move(subdivision));
+  read_marker(d);
+}
+
+// ---- Power-on marker ----------------------------------------------------------------------------
+// The drive sends nothing when it powers up (a Modbus RTU slave only answers), but a register
+// written and not saved holds its value only until power-off: the drive powers up with what was
+// last saved (0x00DC, §8.69), or its default (§7 register table; §8.6 on the baud rate: "you need
+// to save parameters. Otherwise ... still the factory default"). The marker is position reminder
+// X19 (0x00C6, §8.53; default 1073741823, "≥ 1073741823"), which only sets status bit X19 (unused
+// here) when the position passes its threshold: this stack writes one of three thresholds just
+// below the default (never reached in practice) different from what it reads, and a read that no
+// longer finds it shows a power-up. A Save stores it too, so after every Save the next of the
+// three is written (a power cycle between the Save and that write is not caught by it). Read at
+// every set-up and while the position reads 0 at rest (what a power-up leaves): at once when that
+// sample is new, else at most once a second. Not caught: a power-up before it is first written.
+
+namespace {
+constexpr std::uint32_t kMarkerValues[] = {0x3FFFFFFE, 0x3FFFFFFD, 0x3FFFFFFC};
+constexpr Duration kMarkerRecheck = std::chrono::seconds(1);
+}  // namespace
+
+void AdamStack::read_marker(Drive& d) {
+  Drive* drive = &d;
+  drive->marker_busy = true;
+  Transaction t{{d.cfg.unit, rtu::ReadRegisters{adam::address(Reg::kReminderX19), 2}}, drive};
+  t.on_reply = [this, drive](const rtu::Response& r, TimePoint at, TimePoint) {
+    drive->marker_busy = false;
+    const auto& v = std::get<rtu::ReadRegistersReply>(r.pdu).values;
+    const std::uint32_t value = adam::decode32(v.at(0), v.at(1));
+    drive->marker_seen = value;
+    drive->marker_checked = at;
+    if (!drive->marker || value == *drive->marker) return;
+    powered_up(*drive,
+               fmt::format("{} (slave {}) powered up, detected by its power-on marker: position reminder X19 reads "
+                           "{:#010x}, not the unsaved {:#010x} written to it (lost at power-off, manual §8.53, §8.69)",
+                           drive->cfg.drive, drive->cfg.unit, value, *drive->marker));
+  };
+  t.on_fail = [drive](const std::string&, std::int32_t) { drive->marker_busy = false; };
+  enqueue(std::move(t));
+}
+
+void AdamStack::arm_marker(Drive& d) {
+  Drive* drive = &d;
+  const std::uint32_t after = d.marker.value_or(*d.marker_seen);
+  std::uint32_t value = kMarkerValues[0];
+  for (std::size_t k = 0; k + 1 < std::size(kMarkerValues); ++k) {
+    if (after == kMarkerValues[k]) value = kMarkerValues[k + 1];
+  }
+  drive->marker_busy = true;
+  Transaction t{adam::write32(d.cfg.unit, Reg::kReminderX19, value), drive};
+  t.on_reply = [drive, value](const rtu::Response&, TimePoint, TimePoint) {
+    drive->marker_busy = false;
+    drive->marker = value;
+    drive->marker_saved = false;
+  };
+  t.on_fail = [drive](const std::string&, std::int32_t) { drive->marker_busy = false; };
+  enqueue(std::move(t));
+}
+
+void AdamStack::powered_up(Drive& d, const std::string& why) {
+  fail_motion_of(d, why, error_code(ReplyError::kAxisFault));
+  d.homed = false;
+  d.table_entry.reset();  // its registers are back at their saved values or defaults
+  d.set_up = false;       // set up again at the next poll (poll())
+  d.marker.reset();
+  d.marker_saved = false;
+  d.power.forget();
+  if (!d.cfg.axis.empty()) out_.position_lost(d.cfg.axis, why);
 }
 
 void AdamStack::poll(TimePoint now) {
@@ -345,6 +415,9 @@ void AdamStack::poll(TimePoint now) {
     if (drive->poll_queued) continue;
     // A drive that was not there at start-up (or failed its set-up) is set up once it answers.
     if (drive->online && !drive->set_up && !drive->setup_running) run_setup(*drive);
+    if (drive->online && drive->set_up && !drive->marker_busy && drive->marker_seen &&
+        (!drive->marker || drive->marker_saved))
+      arm_marker(*drive);
     if (!drive->online && drive->ever_answered && ++drive->poll_skips % kOfflinePollDivider != 0) continue;
     drive->poll_queued = true;
     Transaction position{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::kPosition), kPositionStatusWords}},
@@ -393,12 +466,11 @@ void AdamStack::on_position_status(Drive& d, std::span<const std::uint16_t> word
   if (presetting || !d.set_up) {
     d.power.forget();
   } else if (auto why = d.power.sample(position, d.velocity, now, false)) {
-    const std::string reason = d.cfg.drive + " (slave " + std::to_string(d.cfg.unit) + ") " + *why;
-    fail_motion_of(d, reason, error_code(ReplyError::kAxisFault));
-    d.homed = false;
-    d.table_entry.reset();  // its registers are back at their defaults
-    d.set_up = false;       // set up again at the next poll (poll())
-    if (!d.cfg.axis.empty()) out_.position_lost(d.cfg.axis, reason);
+    powered_up(d, fmt::format("{} (slave {}) powered up, detected by its answers: {}", d.cfg.drive, d.cfg.unit, *why));
+  } else if (d.marker && !d.marker_busy && position == 0 && !status.moving() &&
+             (d.position != 0 || now - d.marker_checked >= kMarkerRecheck)) {
+    d.marker_checked = now;
+    read_marker(d);
   }
   const bool limit_before = d.status && d.status->at_limit();
   d.position = position;

@@ -100,6 +100,14 @@ struct AdamStack::Drive {
   int poll_skips = 0;
   std::int64_t motion_owner = 0;  // command holding the axis (armed or moving), 0 = none
   gateway::PowerUpWatch power;    // its position samples (on_position_status)
+  // Its power-on marker (read_marker()): X19 as written to it by this stack (nullopt: none), as
+  // last read, whether a Save went out since it was written (its flash holds it then), whether a
+  // read or write of it is queued, and when it was last read.
+  std::optional<std::uint32_t> marker;
+  std::optional<std::uint32_t> marker_seen;
+  bool marker_saved = false;
+  bool marker_busy = false;
+  TimePoint marker_checked{};
 };
 
 struct AdamStack::Transaction {

@@ -62,6 +62,10 @@ void Gateway::check_record(const std::string& axis, const DriveStatus& status) {
   // The same slack as the running gateway's watch of a drive that sends nothing at power-up.
   constexpr auto kTolerance = static_cast<std::int64_t>(PowerUpWatch::kSlackCounts);
   if (auto why = power_cycle_evidence(*record, status, drive_keeps_homed, kTolerance, drive)) {
+    // A UIM342's origin set to another value than 0 lives in its driver, not in the drive (OG
+    // zeroes the counter, UIM342 manual §5.22): a restart of the gateway alone shifts it too.
+    if (config_.drive_of(*axes_.at(axis))->family == config::Family::kUim342)
+      *why += ", or the origin offset (SET_POSITION or homing offset) the previous gateway process kept is gone";
     position_lost(axis, *why);
     return;
   }

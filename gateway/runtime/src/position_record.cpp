@@ -118,8 +118,8 @@ std::optional<std::string> power_cycle_evidence(const AxisRecord& record, const 
                                                 const std::string& drive) {
   if (drive_keeps_homed && record.homed && !record.moving && !status.homed) {
     return fmt::format(
-        "{} no longer reports homed, which it was when the previous gateway process stopped: powered up or reset "
-        "while no gateway ran",
+        "{} powered up or was reset while no gateway ran, detected by the position record: it no longer reports "
+        "homed, which it was when the previous gateway process stopped",
         drive);
   }
   const std::int64_t low =
@@ -129,13 +129,13 @@ std::optional<std::string> power_cycle_evidence(const AxisRecord& record, const 
   if (status.position_counts >= low && status.position_counts <= high) return std::nullopt;
   if (record.moving) {
     return fmt::format(
-        "{} answers at {} counts, outside the move from {} to {} counts it was making when the previous gateway "
-        "process stopped: powered up or reset while no gateway ran",
+        "{} powered up or was reset while no gateway ran, detected by the position record: it answers at {} counts, "
+        "outside the move from {} to {} counts it was making when the previous gateway process stopped",
         drive, status.position_counts, record.position_counts, record.target_counts);
   }
   return fmt::format(
-      "{} answers at {} counts, {} counts were recorded at rest when the previous gateway process stopped: powered up "
-      "or reset while no gateway ran",
+      "{} powered up or was reset while no gateway ran, detected by the position record: it answers at {} counts, {} "
+      "counts were recorded at rest when the previous gateway process stopped",
       drive, status.position_counts, record.position_counts);
 }
 

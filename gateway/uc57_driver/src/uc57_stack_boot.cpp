@@ -442,7 +442,9 @@ void Uc57Stack::on_node_event(const canopen::NodeEvent& e) {
       // position is. Whether the node went silent first (heartbeat lost) or not, once it had been
       // operational its position is lost.
       if (node.ever_operational && context_.out != nullptr && !node.settings.axis.empty()) {
-        context_.out->position_lost(node.settings.axis, label + " sent a boot-up message (power cycle or reset)");
+        context_.out->position_lost(
+            node.settings.axis,
+            label + " powered up or was reset, detected by its boot-up message (UC57 manual §4.1.2)");
       }
       if (node.phase == Node::Phase::kOperational || node.phase == Node::Phase::kStarting) {
         // It lost its PDO configuration and its CiA 402 state: everything starts again.

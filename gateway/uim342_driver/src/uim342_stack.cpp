@@ -392,6 +392,10 @@ void Uim342Stack::Impl::refused(std::size_t i, const Request& r, const uim342::E
     n.retry_at = now + config.reboot_wait;
     return;
   }
+  if (is_marker(r)) {  // no power-on marker on this drive: its answers alone show a power-up
+    if (n.phase == Phase::kSettingUp && n.queue.empty()) setup_finished(i, now);
+    return;
+  }
   if (n.phase == Phase::kSettingUp) {
     // A set-up value the drive does not take: the rest is applied, but ready() stays false.
     event(n, event_t::CONFIG_MISMATCH, event_t::ERROR, record.code, reason);

@@ -90,6 +90,11 @@ struct Uim342Stack::Impl {
     // driver was on before the latest MS[0].
     PowerUpWatch power;
     bool was_enabled = false;
+    // Power-on marker (see check_marker()): MT[3] as last read, and the value this stack wrote to
+    // the drive's RAM (nullopt: none there now).
+    std::optional<std::uint16_t> delay_read;
+    std::optional<std::uint16_t> marker;
+    TimePoint marker_checked{};
     std::int64_t move = 0;     // active ARM_MOVE command
     bool bg_acked = false;     // of the active move
     bool seen_moving = false;  // since the active move's BG
@@ -265,12 +270,28 @@ struct Uim342Stack::Impl {
 
   void on_motion_status(std::size_t i, const uim342::MotionStatus& s, const Request& r, TimePoint now);
 
-  // The UIM342 sends nothing when it powers up (no such notification in §5.3; §5.2 IC and §5.9
-  // MT[3] only say what it does at power-on), so a power cycle shows only in what it answers
-  // afterwards (PowerUpWatch): its position counter starts at 0 (the manual keeps no position over
+  // The UIM342 sends nothing when it powers up (no such notification in §2.4 or §5.3; §5.2 IC and
+  // §5.9 MT[3] only say what it does at power-on), so a power cycle shows in what it answers
+  // afterwards: the power-on marker (check_marker()) once its driver was on, and always
+  // PowerUpWatch: its position counter starts at 0 (the manual keeps no position over
   // power loss; it names PP values as saved to flash, §5.1), at rest, with the driver off unless
   // IC auto-enable is set (§5.2). Not watched while it is identified or homed (the origin moves).
   [[nodiscard]] std::optional<std::string> powered_up(Node& n, const uim342::MotionKinematics& k, TimePoint now);
+
+  // The power-on marker (manual §5.9 note): MT[3], the delay of the automatic enable after
+  // power-on, written while the driver is on stays in RAM only and is lost at power-off, and it
+  // acts at power-on only (read from EEPROM then), so a RAM value of ours changes nothing. Set-up
+  // reads MT[3]; once the driver is on and the drive rests with nothing commanded (MT writes are
+  // refused while the motor runs), the stack writes a different value to RAM (arm_marker());
+  // a read that no longer finds it shows a power-up (marker_read()). Read at every set-up (after
+  // the drive was offline), and while the counter reads 0 at rest (what a power-up leaves):
+  // at once when that sample is new or the driver went off by nobody, else at most once a second.
+  void arm_marker(std::size_t i);
+  void check_marker(std::size_t i, const uim342::MotionKinematics& k, bool switched_off, TimePoint now);
+  // MT[3] was read: true when it shows a power-up (then reported through on_power_cycle()).
+  bool marker_read(std::size_t i, std::uint16_t value, TimePoint now);
+  [[nodiscard]] static bool is_marker(const Request& r);  // a MT[3] request of the marker's
+  [[nodiscard]] bool marker_queued(const Node& n) const;
 
   // A power cycle seen in its answers: what it was doing ended, its position is lost, and its
   // RAM settings are gone, so it is identified and set up again (as after a reboot).

@@ -20,6 +20,7 @@ void Uim342Stack::Impl::set_up(std::size_t i) {
   using uim342::MotorDriver;
   using uim342::QuadratureEncoder;
   if (n.cfg.group_id != 0) enqueue(i, rq::get(uim342::ProtocolParameter::kGroupId), 0);
+  enqueue(i, rq::get(MotorDriver::kAutoEnableDelayMs), 0);  // the power-on marker (check_marker())
   if (config::setup_integer(s, "micro_steps")) {
     // §5.9, §5.7: MT[0] (with CPR QE[4]) takes effect only after it is stored with the driver
     // off and the drive restarted. Read first; a difference is written by
@@ -75,6 +76,7 @@ void Uim342Stack::Impl::completed(std::size_t i, const Request& r, const std::op
   if (r.instruction.function == FunctionCode::kSY) {
     // The drive reboots without answering; identified and set up again after reboot_wait.
     n.power.forget();  // our own reboot: its counter restarts at 0 (not a lost power)
+    n.marker.reset();  // and its RAM is cleared by our own doing
     fail_commands_of(i, error_code(ReplyError::kAxisOffline),
                      fmt::format("{} is rebooting to apply its set-up (PP[8], MT[0])", n.name()));
     n.phase = Phase::kRebooting;
@@ -182,10 +184,21 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
       enqueue(i, rq::system(uim342::SystemOperation::kReboot), 0);
       break;
     }
-    case FunctionCode::kMT:
-      if (r.instruction.operation == uim342::Operation::kGet)
-        n.read_micro_steps = std::get<uim342::IndexedWord>(body).value;
+    case FunctionCode::kMT: {
+      const auto& word = std::get<uim342::IndexedWord>(body);
+      const bool delay = word.index == static_cast<std::uint8_t>(uim342::MotorDriver::kAutoEnableDelayMs);
+      if (r.instruction.operation == uim342::Operation::kGet) {
+        if (delay && r.command_id == 0) {
+          marker_read(i, word.value, now);
+        } else if (word.index == static_cast<std::uint8_t>(uim342::MotorDriver::kMicrostepping)) {
+          n.read_micro_steps = word.value;
+        }
+      } else if (delay) {
+        // Ours: the marker is in its RAM now. A PARAM_WRITE of MT[3]: no marker of ours is there.
+        n.marker = r.command_id == 0 ? std::optional<std::uint16_t>{word.value} : std::nullopt;
+      }
       break;
+    }
     case FunctionCode::kQE:
       if (r.instruction.operation == uim342::Operation::kGet && n.phase == Phase::kSettingUp) {
         check_micro_steps(i, std::get<uim342::IndexedWord>(body).value);
@@ -204,10 +217,12 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
           on_power_cycle(i, *why, now);
           break;
         }
+        check_marker(i, *k, n.was_enabled && !n.status.enabled, now);
         n.status.position_counts = k->absolute_position + n.offset;
         n.status.position_read = true;
         n.status.velocity_counts = k->speed;
         publish(n, now);
+        arm_marker(i);
       }
       break;
     case FunctionCode::kOG: {
@@ -310,9 +325,10 @@ void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStat
   }
 }
 
-// The UIM342 sends nothing when it powers up (no such notification in §5.3; §5.2 IC and §5.9
-// MT[3] only say what it does at power-on), so a power cycle shows only in what it answers
-// afterwards (PowerUpWatch): its position counter starts at 0 (the manual keeps no position over
+// The UIM342 sends nothing when it powers up (no such notification in §2.4 or §5.3; §5.2 IC and
+// §5.9 MT[3] only say what it does at power-on), so a power cycle shows in what it answers
+// afterwards: the power-on marker (check_marker()) once its driver was on, and always
+// PowerUpWatch: its position counter starts at 0 (the manual keeps no position over
 // power loss; it names PP values as saved to flash, §5.1), at rest, with the driver off unless
 // IC auto-enable is set (§5.2). Not watched while it is identified or homed (the origin moves).
 std::optional<std::string> Uim342Stack::Impl::powered_up(Node& n, const uim342::MotionKinematics& k, TimePoint now) {
@@ -324,7 +340,55 @@ std::optional<std::string> Uim342Stack::Impl::powered_up(Node& n, const uim342::
   const bool switched_off = n.was_enabled && !n.status.enabled;
   auto why = n.power.sample(k.absolute_position, static_cast<double>(k.speed), now, switched_off);
   if (!why) return std::nullopt;
-  return n.name() + " " + *why;
+  return fmt::format("{} powered up, detected by its answers: {}", n.name(), *why);
+}
+
+void Uim342Stack::Impl::arm_marker(std::size_t i) {
+  Node& n = nodes[i];
+  if (n.phase != Phase::kReady || !n.status.enabled || n.marker || !n.delay_read || marker_queued(n)) return;
+  // At rest, and nothing of a command queued or on its way: MT[i]=N is refused while the motor
+  // runs (§2.3 error 0x3D, which also raises ERR); queued first, no BG goes ahead of it.
+  const bool commanded =
+      std::any_of(n.queue.begin(), n.queue.end(), [](const Request& r) { return r.command_id != 0; });
+  if (n.status.moving || n.move != 0 || n.homing.command != 0 || commanded) return;
+  // Any value but the one read (which is the EEPROM's after a power-up); MT[3] is 0...60000 ms.
+  constexpr std::uint16_t kMaxDelay = 60000;
+  const auto value = static_cast<std::uint16_t>(*n.delay_read < kMaxDelay ? *n.delay_read + 1 : *n.delay_read - 1);
+  enqueue(i, rq::set(uim342::MotorDriver::kAutoEnableDelayMs, value), 0, /*front=*/true);
+}
+
+void Uim342Stack::Impl::check_marker(std::size_t i, const uim342::MotionKinematics& k, bool switched_off,
+                                     TimePoint now) {
+  Node& n = nodes[i];
+  constexpr Duration kRecheck = std::chrono::seconds(1);
+  if (!n.marker || n.phase != Phase::kReady || n.homing.command != 0 || marker_queued(n)) return;
+  if (k.absolute_position != 0 || k.speed != 0) return;
+  const bool fresh = !n.status.position_read || n.status.position_counts != n.offset || switched_off;
+  if (!fresh && now - n.marker_checked < kRecheck) return;
+  n.marker_checked = now;
+  enqueue(i, rq::get(uim342::MotorDriver::kAutoEnableDelayMs), 0);
+}
+
+bool Uim342Stack::Impl::marker_read(std::size_t i, std::uint16_t value, TimePoint now) {
+  Node& n = nodes[i];
+  n.delay_read = value;
+  n.marker_checked = now;
+  if (!n.marker || value == *n.marker) return false;
+  const auto why = fmt::format(
+      "{} powered up, detected by its power-on marker: MT[3] reads {}, not the {} written to its RAM (lost at "
+      "power-off, manual §5.9)",
+      n.name(), value, *n.marker);
+  on_power_cycle(i, why, now);
+  return true;
+}
+
+bool Uim342Stack::Impl::is_marker(const Request& r) {
+  return r.command_id == 0 && r.instruction.function == FunctionCode::kMT &&
+         r.instruction.sub_index() == static_cast<std::uint8_t>(uim342::MotorDriver::kAutoEnableDelayMs);
+}
+
+bool Uim342Stack::Impl::marker_queued(const Node& n) const {
+  return std::any_of(n.queue.begin(), n.queue.end(), [](const Request& r) { return is_marker(r); });
 }
 
 // A power cycle seen in its answers: what it was doing ended, its position is lost, and its
@@ -332,6 +396,8 @@ std::optional<std::string> Uim342Stack::Impl::powered_up(Node& n, const uim342::
 void Uim342Stack::Impl::on_power_cycle(std::size_t i, const std::string& why, TimePoint now) {
   Node& n = nodes[i];
   fail_commands_of(i, error_code(ReplyError::kAxisFault), why);
+  n.marker.reset();  // gone with its RAM; armed again once set up and its driver is on
+  n.power.forget();
   n.offset = 0;
   n.status.position_counts = 0;
   n.status.velocity_counts = 0;

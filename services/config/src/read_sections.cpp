@@ -56,7 +56,7 @@ void read_uimessage_keys(Reader& r, const YAML::Node& node, const std::string& p
 void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& bus) {
   if (!r.check_map(node, path,
                    {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits", "uimessage_crc",
-                    "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz"}))
+                    "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz", "realtime_priority"}))
     return;
   bus.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "name", true)) bus.name = *v;
@@ -121,6 +121,12 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
   if (auto v = r.get<double>(node, path, "poll_hz", false)) {
     bus.poll_hz = *v;
     positive(r, node["poll_hz"], path + ".poll_hz", *v);
+  }
+  if (auto v = r.get<int>(node, path, "realtime_priority", false)) {
+    bus.realtime_priority = *v;
+    if (*v < 0 || *v > 99)
+      r.error(node["realtime_priority"], path + ".realtime_priority",
+              "expected 0 (normal scheduling) or a SCHED_FIFO priority 1..99, got " + std::to_string(*v));
   }
 }
 

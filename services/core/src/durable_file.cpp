@@ -11,6 +11,8 @@
 
 #include <fmt/format.h>
 
+#include "motion/core/precise_timer.hpp"
+
 namespace motion {
 
 namespace {
@@ -110,6 +112,7 @@ std::uint64_t BackgroundFileWriter::writes() const {
 }
 
 void BackgroundFileWriter::run() {
+  normal_scheduling();  // not a real-time owner's SCHED_FIFO: this thread waits on the disk
   std::unique_lock lock(mutex_);
   for (;;) {
     wake_.wait(lock, [&] { return pending_.has_value() || stopping_; });

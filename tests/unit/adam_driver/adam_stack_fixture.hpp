@@ -1,14 +1,15 @@
-// Test bench for AdamStack (the ADAM Modbus RTU master, passive): every frame it sends is checked byte
-// for byte, replies are scripted bytes or come from motion::adam::serve() over a fake register bank,
-// and time only moves when the test says so. The fixtures: one drive (AdamStackTest), two drives
-// (TwoDriveTest) and four drives (FourDriveTest) on one RS485 line.
-// Thread contract: single-threaded test code.
+// The bench of the AdamStack tests (adam_stack_test.cpp, adam_sync_test.cpp, adam_power_test.cpp):
+// AdamStack (the ADAM Modbus RTU master, passive) whose every frame is recorded, replies scripted
+// bytes or from motion::adam::serve() over fake register banks (or other banks, e.g. simulated
+// drives), and time that only moves when the test says so. Single-threaded test code.
 #pragma once
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -19,7 +20,7 @@
 #include "motion/adam/status.hpp"
 #include "motion/adam_driver/adam_stack.hpp"
 
-namespace motion::adam_driver::test_fixture {
+namespace motion::adam_driver::test {
 
 using namespace std::chrono_literals;
 using Bytes = std::vector<std::uint8_t>;
@@ -27,10 +28,10 @@ using Command = motionlcm::gateway_command_t;
 using Reply = motionlcm::gateway_reply_t;
 
 // LCM constants wrapped so that no test ODR-uses them.
-inline constexpr std::int8_t kDone = std::int8_t{Reply::DONE};
-inline constexpr std::int8_t kFailed = std::int8_t{Reply::FAILED};
-inline constexpr std::int8_t kArmed = std::int8_t{Reply::ARMED};
-inline constexpr std::int8_t kStarted = std::int8_t{Reply::STARTED};
+constexpr std::int8_t kDone = std::int8_t{Reply::DONE};
+constexpr std::int8_t kFailed = std::int8_t{Reply::FAILED};
+constexpr std::int8_t kArmed = std::int8_t{Reply::ARMED};
+constexpr std::int8_t kStarted = std::int8_t{Reply::STARTED};
 
 inline std::string hex(const Bytes& b) {
   std::string s;
@@ -153,6 +154,12 @@ class AdamStackTest : public ::testing::Test {
         const auto result = adam::serve(frame, adam::SlaveConfig{unit, {}, adam::ExceptionMode::kStandard}, bank);
         if (!result.reply.empty()) reply(result.reply);
       }
+      for (auto& [unit, bank] : other_banks) {
+        if (silent.contains(unit)) continue;
+        if (before_serving) before_serving();
+        const auto result = adam::serve(frame, adam::SlaveConfig{unit, {}, adam::ExceptionMode::kStandard}, *bank);
+        if (!result.reply.empty()) reply(result.reply);
+      }
     }
   }
   // Lets `total` pass in 1 ms steps, the fake drives answering everything.
@@ -199,48 +206,10 @@ class AdamStackTest : public ::testing::Test {
   std::vector<Bytes> sent;
   std::size_t answered = 0;
   std::map<std::uint8_t, FakeDrive> banks;
+  std::map<std::uint8_t, adam::RegisterBank*> other_banks;  // served too, unless their unit is silent
+  std::set<std::uint8_t> silent;
+  std::function<void()> before_serving;  // called before one of other_banks serves a frame
   std::unique_ptr<AdamStack> core;
 };
 
-class TwoDriveTest : public AdamStackTest {
- protected:
-  TwoDriveTest() : AdamStackTest({drive("c-drive", "c", 1), drive("d-drive", "d", 2)}) {
-    banks[1];
-    banks[2];
-    core->start(now);
-    run_for(50ms);
-  }
-};
-
-// The line is half-duplex: after a broadcast start the drives' fresh samples come one by one.
-// A drive whose last sample predates the start must not be judged "stopped short" on that old
-// sample while the other drives' samples arrive (it used to be counted once per other drive).
-class FourDriveTest : public AdamStackTest {
- protected:
-  FourDriveTest()
-      : AdamStackTest({drive("c1-drive", "c1", 1), drive("c2-drive", "c2", 2), drive("c3-drive", "c3", 3),
-                       drive("c4-drive", "c4", 4)}) {
-    for (std::uint8_t unit = 1; unit <= 4; ++unit) banks[unit].completes_moves = false;
-    core->start(now);
-    run_for(80ms);
-  }
-  // Answers the frames one at a time until the position/status read of `unit` is answered.
-  void step_until_position_read_of(std::uint8_t unit) {
-    const std::string read = hex(Bytes{unit, 0x03, 0x00, 0x04, 0x00, 0x04}).substr(0, 17);
-    for (int step = 0; step < 2000; ++step) {
-      if (answered < sent.size()) {
-        const Bytes frame = sent[answered++];
-        for (auto& [id, bank] : banks) {
-          const auto result = adam::serve(frame, adam::SlaveConfig{id, {}, adam::ExceptionMode::kStandard}, bank);
-          if (!result.reply.empty()) reply(result.reply);
-        }
-        if (hex(frame).substr(0, 17) == read) return;
-      } else {
-        advance(1ms);
-      }
-    }
-    FAIL() << "no position read of unit " << int{unit};
-  }
-};
-
-}  // namespace motion::adam_driver::test_fixture
+}  // namespace motion::adam_driver::test

@@ -1,23 +1,21 @@
-// AdamStack with one drive on the line: start-up, the line (timeouts, CRC errors, replies in pieces),
-// exception replies and parameters (adam_stack_fixture.hpp; several drives: adam_start_test.cpp).
-#include <gtest/gtest.h>
-
+// AdamStack (the ADAM Modbus RTU master, passive): every frame it sends is checked byte for byte,
+// replies are scripted bytes or come from motion::adam::serve() over a fake register bank, and
+// time only moves when the test says so (adam_stack_fixture.hpp).
 #include "adam_stack_fixture.hpp"
 
-namespace motion::adam_driver {
+namespace motion::adam_driver::test {
 namespace {
-
-using namespace test_fixture;
 
 TEST_F(AdamStackTest, StartUpReadsPowerOnStateAndSubdivisionThenPollsPositionStatusAndAlarm) {
   banks[1];
   core->start(now);
   run_for(20ms);
-  ASSERT_GE(sent.size(), 4U);
+  ASSERT_GE(sent.size(), 5U);
   EXPECT_EQ(hex(sent[0]), "01 03 00 12 00 01 24 0F");                            // 0x0012 (§8.15)
   EXPECT_EQ(hex(sent[1]), "01 03 00 24 00 02 84 00");                            // 0x0024 subdivision (§8.29)
-  EXPECT_EQ(hex(sent[2]), "01 03 00 04 00 04 05 C8");                            // position + status (§8.3, §8.4)
-  EXPECT_EQ(hex(sent[3]), hex(with_crc({0x01, 0x03, 0x00, 0xA2, 0x00, 0x02})));  // outputs + alarm
+  EXPECT_EQ(hex(sent[2]), hex(with_crc({0x01, 0x03, 0x00, 0xC6, 0x00, 0x02})));  // X19, the power-on marker
+  EXPECT_EQ(hex(sent[3]), "01 03 00 04 00 04 05 C8");                            // position + status (§8.3, §8.4)
+  EXPECT_EQ(hex(sent[4]), hex(with_crc({0x01, 0x03, 0x00, 0xA2, 0x00, 0x02})));  // outputs + alarm
   EXPECT_TRUE(core->ready());
   ASSERT_FALSE(out.statuses.empty());
   EXPECT_TRUE(out.statuses.back().second.online);
@@ -212,4 +210,4 @@ TEST_F(AdamStackTest, UnsupportedParameterSpaceAndUnknownAxisFailWithReasons) {
 }
 
 }  // namespace
-}  // namespace motion::adam_driver
+}  // namespace motion::adam_driver::test

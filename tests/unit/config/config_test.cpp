@@ -317,6 +317,19 @@ TEST(Config, MissingRequiredKeyIsRefused) {
                       "required key is missing");
 }
 
+TEST(Config, RealtimePriorityIsOffOrASchedFifoPriority) {
+  const auto with = [](const std::string& value) {
+    return replace(kValid, "    bitrate: 500000\n", "    bitrate: 500000\n    realtime_priority: " + value + "\n");
+  };
+  const auto result = load_string(with("80"), "lab.yaml");
+  ASSERT_TRUE(result.ok()) << result.error_text();
+  EXPECT_EQ(result.config->buses[0].realtime_priority, 80);
+  EXPECT_EQ(result.config->buses[1].realtime_priority, 0) << "normal scheduling unless asked";
+  ASSERT_TRUE(load_string(with("0"), "lab.yaml").ok());
+  expect_single_error(with("100"), 7, "buses[0].realtime_priority", "1..99, got 100");
+  expect_single_error(with("-1"), 7, "buses[0].realtime_priority", "1..99, got -1");
+}
+
 TEST(Config, UnknownTransportIsRefused) {
   expect_single_error(replace(kValid, "transport: simcan:can0", "transport: pcan:can0"), 5, "buses[0].transport",
                       "unknown transport");

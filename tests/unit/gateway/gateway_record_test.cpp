@@ -154,7 +154,14 @@ TEST_F(GatewayRecord, ADriveBackAtZeroLostItsPositionOverAnyNumberOfRestartsUnti
   const auto s = report(*second, 0, false);
   EXPECT_EQ(s.fault_code, motionlcm::axis_state_t::POSITION_LOST);
   EXPECT_FALSE(s.homed);
-  EXPECT_NE(s.fault_text.find("xd answers at 0 counts, 7680 counts were recorded at rest"), std::string::npos)
+  EXPECT_NE(
+      s.fault_text.find(
+          "xd powered up or was reset while no gateway ran, detected by the position record: it answers at 0 counts"),
+      std::string::npos)
+      << s.fault_text;
+  // A UIM342 (xd) keeps a set origin in its driver: the gateway's restart alone may explain it.
+  EXPECT_NE(s.fault_text.find("or the origin offset (SET_POSITION or homing offset) the previous gateway process kept"),
+            std::string::npos)
       << s.fault_text;
   EXPECT_TRUE(lost_event());
   const auto refused = move(*second);

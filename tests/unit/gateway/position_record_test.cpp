@@ -82,7 +82,10 @@ TEST(PowerCycleEvidence, AtRestAPositionBeyondTheToleranceIsOne) {
   EXPECT_FALSE(power_cycle_evidence(rest, at(7680 - 64), false, 64, "x-drive"));
   const auto why = power_cycle_evidence(rest, at(0), false, 64, "x-drive");
   ASSERT_TRUE(why);
-  EXPECT_TRUE(contains(*why, "x-drive answers at 0 counts, 7680 counts were recorded at rest")) << *why;
+  EXPECT_TRUE(contains(*why,
+                       "x-drive powered up or was reset while no gateway ran, detected by the position record: it "
+                       "answers at 0 counts, 7680 counts were recorded at rest"))
+      << *why;
 }
 
 TEST(PowerCycleEvidence, MovingAnywhereBetweenStartAndTargetIsNot) {
@@ -99,7 +102,10 @@ TEST(PowerCycleEvidence, ADriveThatKeepsHomedAndClearedItIsOneEvenAtTheSamePosit
   const AxisRecord homed{0, 0, false, true, ""};
   const auto why = power_cycle_evidence(homed, at(0, false), true, 64, "a-drive");
   ASSERT_TRUE(why);
-  EXPECT_TRUE(contains(*why, "a-drive no longer reports homed")) << *why;
+  EXPECT_TRUE(contains(*why,
+                       "a-drive powered up or was reset while no gateway ran, detected by the position record: it no "
+                       "longer reports homed"))
+      << *why;
   EXPECT_FALSE(power_cycle_evidence(homed, at(0, true), true, 64, "a-drive"));
   // Where homed is the driver's own bookkeeping (false after any restart), it says nothing.
   EXPECT_FALSE(power_cycle_evidence(homed, at(0, false), false, 64, "z-drive"));

@@ -160,6 +160,11 @@ class AdamStack final : public gateway::SerialStack {
   void run_setup(Drive& d);
   void poll(TimePoint now);
   void on_position_status(Drive& d, std::span<const std::uint16_t> words, TimePoint now);
+  // Its power-on marker (adam_stack.cpp): position reminder X19 read back, and written.
+  void read_marker(Drive& d);
+  void arm_marker(Drive& d);
+  // A power-up seen (`why`): its motion ends, its position is lost, it is set up again.
+  void powered_up(Drive& d, const std::string& why);
   void on_outputs_alarm(Drive& d, std::span<const std::uint16_t> words, TimePoint now);
   void publish_status(const Drive& d) const;
   void set_online(Drive& d, bool online, const std::string& why);

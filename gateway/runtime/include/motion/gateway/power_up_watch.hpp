@@ -44,8 +44,8 @@ class PowerUpWatch {
       const bool jumped = !travel_to_zero_ && std::abs(static_cast<double>(*last_)) > reach;
       // Switched off at rest, exactly at 0, from a counter beyond the slack: not a stop of ours.
       if (jumped || (switched_off && std::abs(static_cast<double>(*last_)) > kSlackCounts)) {
-        why = fmt::format("answers as freshly powered up: position counter {} -> 0 at rest within {:.0f} ms{}", *last_,
-                          dt * 1000.0, switched_off ? ", power stage off" : "");
+        why = fmt::format("position counter {} -> 0 at rest within {:.0f} ms{}", *last_, dt * 1000.0,
+                          switched_off ? ", power stage off" : "");
       }
     }
     if (why) {

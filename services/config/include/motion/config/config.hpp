@@ -92,7 +92,8 @@ struct Bus {
   bool uimessage_crc_strict = false;                   // uimessage: receive only that coverage (default: either)
   int request_timeout_ms = 50;
   int retries = 2;
-  double poll_hz = 20.0;  // status polling rate per drive
+  double poll_hz = 20.0;      // status polling rate per drive
+  int realtime_priority = 0;  // the gateway's loop thread under SCHED_FIFO at this priority (1..99); 0: not
   KeyLocations where;
 };
 

@@ -8,7 +8,8 @@
 // Those calls can wait on the file system's journal: a rename over an existing file on ext4 took
 // up to 400 ms on a development machine while other processes wrote heavily. A process that keeps
 // deadlines (heartbeats, handshakes) must not wait there, so BackgroundFileWriter does the writing
-// on a thread of its own.
+// on a thread of its own, under normal scheduling whatever its owner's (a SCHED_FIFO gateway loop
+// must not lend its priority to a thread that waits on the disk).
 //
 // Thread contract: write_file_durably() blocks (call it off any loop thread, or where blocking is
 // fine). BackgroundFileWriter's methods are called from ONE owner thread (typically the event

@@ -1,13 +1,19 @@
-// AdamStack with several drives on the line: arming and the broadcast start, stops, e-stops, disarm,
-// alarms, and judging each drive on its own samples after the start (adam_stack_fixture.hpp).
-#include <gtest/gtest.h>
-
+// AdamStack with two and four drives on the line (adam_stack_fixture.hpp): synchronized starts
+// by one broadcast frame, bystanders, stops, e-stops, alarms, and samples judged per drive.
 #include "adam_stack_fixture.hpp"
 
-namespace motion::adam_driver {
+namespace motion::adam_driver::test {
 namespace {
 
-using namespace test_fixture;
+class TwoDriveTest : public AdamStackTest {
+ protected:
+  TwoDriveTest() : AdamStackTest({drive("c-drive", "c", 1), drive("d-drive", "d", 2)}) {
+    banks[1];
+    banks[2];
+    core->start(now);
+    run_for(50ms);
+  }
+};
 
 TEST_F(TwoDriveTest, ArmThenFireStartsEveryAxisWithOneBroadcastExecuteTableFrame) {
   ASSERT_TRUE(core->ready());
@@ -95,7 +101,8 @@ TEST_F(TwoDriveTest, AMoveToZeroRunWholeBetweenTwoSamplesIsNotAPowerUp) {
   banks[1].set_position(0);
   run_for(250ms);
   ASSERT_EQ(out.lost.size(), 1U);
-  EXPECT_NE(out.lost[0].find("answers as freshly powered up"), std::string::npos) << out.lost[0];
+  EXPECT_NE(out.lost[0].find("powered up, detected by its answers: position counter"), std::string::npos)
+      << out.lost[0];
 }
 
 TEST_F(TwoDriveTest, MovingBystanderForcesASequentialStart) {
@@ -176,6 +183,37 @@ TEST_F(TwoDriveTest, AlarmFailsTheMoveOfItsAxis) {
   EXPECT_TRUE(out.has_event(std::int16_t{motionlcm::event_t::ALARM}));
 }
 
+// The line is half-duplex: after a broadcast start the drives' fresh samples come one by one.
+// A drive whose last sample predates the start must not be judged "stopped short" on that old
+// sample while the other drives' samples arrive (it used to be counted once per other drive).
+class FourDriveTest : public AdamStackTest {
+ protected:
+  FourDriveTest()
+      : AdamStackTest({drive("c1-drive", "c1", 1), drive("c2-drive", "c2", 2), drive("c3-drive", "c3", 3),
+                       drive("c4-drive", "c4", 4)}) {
+    for (std::uint8_t unit = 1; unit <= 4; ++unit) banks[unit].completes_moves = false;
+    core->start(now);
+    run_for(80ms);
+  }
+  // Answers the frames one at a time until the position/status read of `unit` is answered.
+  void step_until_position_read_of(std::uint8_t unit) {
+    const std::string read = hex(Bytes{unit, 0x03, 0x00, 0x04, 0x00, 0x04}).substr(0, 17);
+    for (int step = 0; step < 2000; ++step) {
+      if (answered < sent.size()) {
+        const Bytes frame = sent[answered++];
+        for (auto& [id, bank] : banks) {
+          const auto result = adam::serve(frame, adam::SlaveConfig{id, {}, adam::ExceptionMode::kStandard}, bank);
+          if (!result.reply.empty()) reply(result.reply);
+        }
+        if (hex(frame).substr(0, 17) == read) return;
+      } else {
+        advance(1ms);
+      }
+    }
+    FAIL() << "no position read of unit " << int{unit};
+  }
+};
+
 TEST_F(FourDriveTest, ADriveIsJudgedOnlyOnItsOwnSamplesTakenAfterTheStart) {
   ASSERT_TRUE(core->ready());
   core->execute(arm(20, 5, {{"c1", 4000}, {"c2", 4000}, {"c3", 4000}, {"c4", 4000}}), now);
@@ -198,4 +236,4 @@ TEST_F(FourDriveTest, ADriveIsJudgedOnlyOnItsOwnSamplesTakenAfterTheStart) {
 }
 
 }  // namespace
-}  // namespace motion::adam_driver
+}  // namespace motion::adam_driver::test
