@@ -82,7 +82,7 @@ TimePoint ArmWatch::next_deadline() const {
 std::string ArmWatch::reason(const Move& move) const {
   return fmt::format(
       "axis {} armed by command {} for trigger {} was never triggered within {} ms: released by the "
-      "gateway (drives at rest, loaded targets cleared)",
+      "gateway, as a DISARM would: its trigger starts nothing",
       fmt::join(move.axes, ", "), move.command_id, move.trigger_id,
       std::chrono::duration_cast<std::chrono::milliseconds>(expiry_).count());
 }
