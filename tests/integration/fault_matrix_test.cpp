@@ -32,6 +32,8 @@ constexpr std::int8_t kKillGateway = -1;    // SIGKILL the axis's gateway, start
 constexpr std::int8_t kMalformed = -2;      // malformed and oversized messages on its channels
 constexpr std::int8_t kSecondGateway = -3;  // a second gateway for the axis's bus
 constexpr std::int8_t kDropWithStop = -4;   // the bus drops frames, a STOP is sent into it
+// SIGKILL the axis's gateway, start it again after `hold_ms` (the coordinator has declared it lost)
+constexpr std::int8_t kKillGatewayUntilLost = -5;
 
 struct Row {
   const char* name;
@@ -43,6 +45,7 @@ struct Row {
   bool done = false;           // the move rides through the fault and ends DONE at its target
   bool offline = false;        // during the fault the axis goes offline and stops saying "moving"
   int hold_ms = 0;             // the fault lasts this long at least (0: until the terminal reply, 1.5 s at most)
+  double velocity_scale = 0;   // of the move the fault hits (0: full speed)
 };
 
 std::ostream& operator<<(std::ostream& os, const Row& r) { return os << r.name; }
@@ -73,6 +76,17 @@ const Row kRows[] = {
     {"ReplyLatency", "a", sim_control_t::REPLY_LATENCY, 30000, 0, false, true},
     {"LineNoise", "c", sim_control_t::LINE_NOISE, 24, event_t::PROTOCOL_ERROR},
     {"GatewayKilledAndRestarted", "c", kKillGateway, 0, event_t::GATEWAY_RESTARTED},
+    // Restarted only 2.5 x gateway_timeout_ms (1500 ms) later, one row per family: the request ended
+    // ABORTED 16 when the coordinator lost the gateway; the slow move (15 % speed, 7-11 s) still runs
+    // on the drive when the new gateway finds it, which stops it (GATEWAY_RESTARTED) and sets it up.
+    {"GatewayLostThenRestarted", "c", kKillGatewayUntilLost, 0, event_t::GATEWAY_RESTARTED, false, false, false, 3750,
+     0.15},
+    {"GatewayLostThenRestartedUim342", "z", kKillGatewayUntilLost, 0, event_t::GATEWAY_RESTARTED, false, false, false,
+     3750, 0.15},
+    {"GatewayLostThenRestartedUc57", "a", kKillGatewayUntilLost, 0, event_t::GATEWAY_RESTARTED, false, false, false,
+     3750, 0.15},
+    // The UIM242's set-up ends its motion itself (STP 0, UIM242 manual #44): at rest when first heard, no event.
+    {"GatewayLostThenRestartedUim242", "u", kKillGatewayUntilLost, 0, 0, false, false, false, 3750, 0.15},
     {"MalformedMessages", "z", kMalformed, 0, 0, false, true},
     {"SecondGatewayOnTheBus", "z", kSecondGateway, 0, 0, false, true},
 };
@@ -150,14 +164,22 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
     const std::string drive = axis_config(axis).drive;
     const std::string bus = lab().config().drive_of(axis_config(axis))->bus;
     switch (row.fault) {
-      case kKillGateway: {
+      case kKillGateway:
+      case kKillGatewayUntilLost: {
         const auto gateway = lab().group().heartbeat(process_of(axis));
         EXPECT_TRUE(gateway.has_value());
         if (!gateway) return [] {};
         EXPECT_EQ(::kill(static_cast<pid_t>(gateway->pid), SIGKILL), 0);
         lab().group().stop(static_cast<pid_t>(gateway->pid));  // reap it
-        EXPECT_GT(lab().start_gateway(bus), 0);
-        return [] {};
+        const auto restart = [this, bus] {
+          restarted_at_ = std::chrono::steady_clock::now();
+          EXPECT_GT(lab().start_gateway(bus), 0);
+        };
+        if (row.fault == kKillGateway) {
+          restart();
+          return [] {};
+        }
+        return restart;
       }
       case kMalformed: {
         // A 20-byte message claiming a huge array count, and a 64 KiB one of garbage, on the
@@ -203,6 +225,7 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
   static bool started_;
   std::size_t first_event_ = 0;
   std::int64_t stop_id_ = 0;
+  std::chrono::steady_clock::time_point restarted_at_{};
   std::optional<reply_t> stop_reply_;
 };
 
@@ -216,8 +239,9 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
   ASSERT_TRUE(recover());  // whatever the previous row left
   const double target = target_from(axis, 1.0);
   std::vector<reply_t> replies;
-  const auto id = lab().client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{axis, target}}),
-                                      [&](const reply_t& r) { replies.push_back(r); });
+  auto request = Client::make(request_t::MOVE_ABSOLUTE, Values{{axis, target}});
+  request.velocity_scale = row.velocity_scale;
+  const auto id = lab().client().send(request, [&](const reply_t& r) { replies.push_back(r); });
   ASSERT_NE(id, 0);
   const auto terminals = [&] {
     return std::count_if(replies.begin(), replies.end(),
@@ -239,7 +263,19 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
   } else {
     lab().client().wait_until([&] { return terminals() > 0; }, milliseconds(1500));
   }
+  const bool ended_during_fault = terminals() > 0;
   end_fault();
+  if (row.fault == kKillGatewayUntilLost) {
+    // The new gateway finds the drive still moving: stopped, set up, polled (a state sampled after).
+    const std::int64_t restart_utime = wall_time_us();
+    EXPECT_TRUE(lab().client().wait_until(
+        [&] { return state(axis).online && !state(axis).moving && state(axis).sample_utime > restart_utime; },
+        seconds(30)))
+        << axis << " not online and at rest after the gateway restarted";
+    std::cout << "[ row      ] " << row.name << ": " << axis << " online and at rest "
+              << std::chrono::duration_cast<milliseconds>(std::chrono::steady_clock::now() - restarted_at_).count()
+              << " ms after the gateway restarted\n";
+  }
 
   // 1. Exactly one terminal reply (a second one would come within a few status periods).
   ASSERT_TRUE(lab().client().wait_until([&] { return terminals() > 0; }, seconds(40))) << "no terminal reply";
@@ -250,6 +286,12 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
   std::cout << "[ row      ] " << row.name << ": " << client::status_name(end.status) << " code " << end.error_code
             << " (" << end.reason << ")\n";
   if (row.done) { EXPECT_EQ(end.status, st(reply_t::DONE)) << end.reason; }
+  if (row.fault == kKillGatewayUntilLost) {
+    EXPECT_TRUE(ended_during_fault) << "the coordinator had not ended the request when the gateway came back";
+    EXPECT_EQ(end.status, st(reply_t::ABORTED)) << end.reason;
+    EXPECT_EQ(end.error_code, code(ReplyError::kGatewayLost)) << end.reason;
+    EXPECT_NE(end.reason.find(bus_of(axis)), std::string::npos) << end.reason;
+  }
   if (row.fault == kDropWithStop) {
     EXPECT_NE(end.status, st(reply_t::DONE)) << "the stop did not take: " << end.reason;
     ASSERT_TRUE(lab().client().wait_until([&] { return stop_reply_.has_value(); }, seconds(30)))
@@ -274,6 +316,10 @@ TEST_P(FaultMatrix, OneTerminalReplyAxesAtRestWithinLimitsAndTheLabMovesAgain) {
       },
       seconds(30));
   EXPECT_TRUE(settled) << "not every axis online and at rest";
+  if (row.fault == kKillGatewayUntilLost) {
+    // Still moving when the new gateway found it: stopped there, not run on to the aborted target.
+    EXPECT_GT(std::abs(state(axis).position - target), 1.0) << axis << " ran on to the aborted move's target";
+  }
   for (const auto& a : all_axes()) {
     const auto& lim = axis_config(a).limits;
     EXPECT_GE(state(a).position, lim.min_position - 1e-6) << a;

@@ -187,6 +187,9 @@ class SimLab {
   // Every SIM_REPORT heard (starts, finishes, power-ups).
   [[nodiscard]] const std::vector<motionlcm::sim_report_t>& reports() const { return reports_; }
 
+  // Every GW_REPLY heard, in order.
+  [[nodiscard]] const std::vector<motionlcm::gateway_reply_t>& gateway_replies() const { return gateway_replies_; }
+
   client::Client& client() { return client_; }
   ProcessGroup& group() { return group_; }
   [[nodiscard]] const config::Config& config() const { return config_; }

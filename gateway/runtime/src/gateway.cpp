@@ -54,11 +54,13 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
   health_timer_ = loop_.call_every(std::chrono::milliseconds(200), [this] { update_health(); });
   health_.set_companion(
       [this](const motionlcm::health_t& h) { node_.publish(lcm::channels::kLedgerStats, ledger_stats(h)); });
+  arm_watch_.set_expiry(arm_expiry(config_, {}));
 }
 
 Gateway::~Gateway() {
   loop_.cancel(health_timer_);
   health_.set_companion({});
+  if (arm_timer_ != 0) loop_.cancel(arm_timer_);
   health_.set_signed_copy({});
   pending_fires_.clear();
 }
@@ -171,6 +173,7 @@ void Gateway::on_command(const motionlcm::gateway_command_t& command) {
   }
   if (!driver_) return fail("gateway of bus '" + bus_ + "' has no driver" + (waiting_.empty() ? "" : ": " + waiting_));
   track_jogs(command);
+  arm_watch_.on_command(command, loop_.now());  // before: the driver may answer ARMED at once
   driver_->execute(command);
   if (command.kind == motionlcm::gateway_command_t::JOG) {
     for (const auto& a : command.axes) check_jog(a.axis);  // a jog starting inside its braking zone
@@ -185,6 +188,7 @@ void Gateway::forget_jog(const std::string& axis) {
 void Gateway::track_jogs(const motionlcm::gateway_command_t& command) {
   using C = motionlcm::gateway_command_t;
   for (const auto& a : command.axes) {
+    commanded_.insert(a.axis);
     switch (command.kind) {
       case C::STOP:
       case C::ESTOP:
@@ -291,6 +295,10 @@ void Gateway::on_trigger(const motionlcm::sync_trigger_t& trigger) {
   if (recent(scheduled_v2_, trigger.trigger_id) || recent(fired_, trigger.trigger_id) ||
       pending_fires_.contains(trigger.trigger_id))
     return;
+  if (!arm_watch_.on_trigger(trigger.trigger_id)) {
+    spdlog::warn("trigger {} ignored: the moves it would start on {} were released unfired", trigger.trigger_id, bus_);
+    return;
+  }
   schedule_fire(trigger.trigger_id, trigger.fire_utime, {});
 }
 
@@ -300,6 +308,10 @@ void Gateway::on_trigger2(const motionlcm::sync_trigger2_t& trigger) {
   std::size_t i = 0;
   while (i < n && trigger.buses[i] != bus_) ++i;
   if (i == n || !driver_ || recent(scheduled_v2_, trigger.trigger_id) || recent(fired_, trigger.trigger_id)) return;
+  if (!arm_watch_.on_trigger(trigger.trigger_id)) {
+    spdlog::warn("trigger {} ignored: the moves it would start on {} were released unfired", trigger.trigger_id, bus_);
+    return;
+  }
   remember(scheduled_v2_, trigger.trigger_id);
   if (const auto it = pending_fires_.find(trigger.trigger_id); it != pending_fires_.end()) {
     pending_fires_.erase(it);  // its SYNC_TRIGGER came first: this one knows the lead
@@ -402,7 +414,10 @@ void Gateway::on_active_moves(const motionlcm::active_moves_t& moves) {
       axis_event(moves.axes[i], e);
     }
     stop.num_axes = static_cast<std::int32_t>(stop.axes.size());
-    for (const auto& a : stop.axes) forget_jog(a.axis);
+    for (const auto& a : stop.axes) {
+      forget_jog(a.axis);
+      commanded_.insert(a.axis);  // stopped and said once
+    }
     if (driver_) driver_->execute(stop);
   }
 }
@@ -482,6 +497,7 @@ void Gateway::axis_status(const std::string& axis, const DriveStatus& status) {
   // The record is compared with, and kept from, positions read from the drive (a status published
   // between identification and the first position read carries none).
   if (records_ && status.online && status.position_read && !record_checked_.contains(axis)) check_record(axis, status);
+  if (status.online && seen_online_.insert(axis).second) stop_if_found_moving(axis, status);
   check_jog(axis);
   const config::Axis& a = *it->second;
   const config::Drive* d = config_.drive_of(a);
@@ -557,6 +573,8 @@ void Gateway::axis_event(const std::string& axis, const DriveEvent& event) {
 }
 
 void Gateway::command_reply(motionlcm::gateway_reply_t reply) {
+  arm_watch_.on_reply(reply);  // a released move's FAILED says why
+  if (reply.status == motionlcm::gateway_reply_t::ARMED) rearm_expiry_timer();
   // A jog the limit watch stopped before the driver confirmed it fails for that reason, not as
   // "stopped by" the watch's own STOP.
   if (const auto it = stopped_at_limit_.find(reply.command_id); it != stopped_at_limit_.end()) {

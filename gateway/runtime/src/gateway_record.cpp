@@ -1,6 +1,10 @@
-// Gateway (gateway.hpp): the position record kept across the gateway's own restarts
-// (position_record.hpp, README "Safety and faults").
+// Gateway (gateway.hpp): what a previous gateway process of the bus left behind: the position
+// record kept across the gateway's own restarts (position_record.hpp), and drives it left moving
+// (README "Safety and faults").
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
+
+#include <motionlcm/event_t.hpp>
 
 #include <cstdlib>
 
@@ -8,6 +12,31 @@
 #include "motion/gateway/power_up_watch.hpp"
 
 namespace motion::gateway {
+
+void Gateway::stop_if_found_moving(const std::string& axis, const DriveStatus& status) {
+  if (!status.moving || commanded_.contains(axis)) return;
+  const config::Axis& cfg = *axes_.at(axis);
+  DriveEvent e;
+  e.kind = motionlcm::event_t::GATEWAY_RESTARTED;
+  e.severity = motionlcm::event_t::WARNING;
+  e.text = fmt::format(
+      "{} found axis {} moving (at {:.6g} {}, {} counts) when it first heard of it, before sending it anything "
+      "(a previous gateway process's move): {}",
+      process_name(), axis,
+      AxisScale{cfg.steps_per_unit, cfg.invert}.to_units(static_cast<double>(status.position_counts)), cfg.unit,
+      status.position_counts, driver_ ? "stopping it" : "no bus driver to stop it");
+  motionlcm::gateway_command_t stop{};
+  stop.utime = wall_time_us();
+  stop.command_id = next_own_command_--;
+  stop.bus = bus_;
+  stop.kind = motionlcm::gateway_command_t::STOP;
+  motionlcm::axis_command_t a{};
+  a.axis = axis;
+  stop.axes.push_back(a);
+  stop.num_axes = 1;
+  if (driver_) driver_->execute(stop);
+  axis_event(axis, e);
+}
 
 void Gateway::set_position_record(const std::string& path) {
   records_.emplace(path);

@@ -378,6 +378,20 @@ void Uim342Stack::Impl::refused(std::size_t i, const Request& r, const uim342::E
     fail(r.command_id, error_code(ReplyError::kDriveError), reason);
     return;
   }
+  if (n.phase == Phase::kSettingUp &&
+      record.code == static_cast<std::uint8_t>(uim342::DriveErrc::kNotAllowedWhileRunning)) {
+    // §2.3: the motor runs (a move of a previous gateway process, whose request has ended): the
+    // set-up would be refused value by value. Stopped first (ST, manual §5.12: at the stop deceleration SD), then
+    // identified and set up again; still running then: stopped again.
+    event(n, event_t::GATEWAY_RESTARTED, event_t::WARNING, record.code,
+          fmt::format("{} runs a move nothing of this gateway started ({}): stopping it, set-up again at rest",
+                      n.name(), reason));
+    n.queue.clear();
+    enqueue(i, rq::stop(), 0);
+    n.phase = Phase::kStoppingForSetup;
+    n.retry_at = now + config.reboot_wait;
+    return;
+  }
   if (is_marker(r)) {  // no power-on marker on this drive: its answers alone show a power-up
     if (n.phase == Phase::kSettingUp && n.queue.empty()) setup_finished(i, now);
     return;
@@ -439,7 +453,9 @@ TimePoint Uim342Stack::Impl::process(TimePoint now) {
   grant_polls(now);  // the waiting polls first, in their order
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     Node& n = nodes[i];
-    if ((n.phase == Phase::kOffline || n.phase == Phase::kRebooting) && now >= n.retry_at) identify(i, now);
+    if ((n.phase == Phase::kOffline || n.phase == Phase::kRebooting || n.phase == Phase::kStoppingForSetup) &&
+        now >= n.retry_at)
+      identify(i, now);
     if (n.busy() && now >= n.queue.front().deadline) timed_out(i, now);
     if (n.homing.command != 0 && now >= n.homing.deadline) homing_not_found(i, now);
     poll_if_due(i, now);
@@ -450,7 +466,8 @@ TimePoint Uim342Stack::Impl::process(TimePoint now) {
   for (const Node& n : nodes) {
     next = std::min(next, n.homing.deadline);
     if (n.busy()) next = std::min(next, n.queue.front().deadline);
-    if (n.phase == Phase::kOffline || n.phase == Phase::kRebooting) next = std::min(next, n.retry_at);
+    if (n.phase == Phase::kOffline || n.phase == Phase::kRebooting || n.phase == Phase::kStoppingForSetup)
+      next = std::min(next, n.retry_at);
     if (polled(n) && n.queue.empty()) next = std::min(next, n.next_poll);
     // A frame the transport refused is tried again soon (a waiting poll goes when its turn comes).
     if (!n.queue.empty() && !n.queue.front().sent && !n.poll_waiting)

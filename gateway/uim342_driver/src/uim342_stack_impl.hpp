@@ -43,7 +43,9 @@ T saturate(long long v) {
 using namespace uim342_stack_detail;  // the helpers above, unqualified in the stack's sources
 
 struct Uim342Stack::Impl {
-  enum class Phase { kIdle, kIdentifying, kSettingUp, kReady, kSetupFailed, kOffline, kRebooting };
+  // kStoppingForSetup: found running at set-up (a move no process of this gateway started), stopped
+  // (ST); identified and set up again at retry_at, once at rest.
+  enum class Phase { kIdle, kIdentifying, kSettingUp, kReady, kSetupFailed, kOffline, kRebooting, kStoppingForSetup };
 
   // One shared BG frame for every member of a group start, sent once when all of them are free.
   struct GroupSend {

@@ -320,7 +320,7 @@ void read_coordinator(Reader& r, const YAML::Node& node, CoordinatorSettings& ou
   const std::string path = "coordinator";
   if (!r.check_map(node, path,
                    {"default_timeout_ms", "progress_period_ms", "trigger_lead_ms", "gateway_timeout_ms",
-                    "arm_timeout_ms", "max_active_requests", "position_tolerance"}))
+                    "arm_timeout_ms", "arm_expiry_ms", "max_active_requests", "position_tolerance"}))
     return;
   auto positive_int = [&](const char* key, int& field) {
     if (auto v = r.get<int>(node, path, key, false)) {
@@ -333,6 +333,13 @@ void read_coordinator(Reader& r, const YAML::Node& node, CoordinatorSettings& ou
   positive_int("trigger_lead_ms", out.trigger_lead_ms);
   positive_int("gateway_timeout_ms", out.gateway_timeout_ms);
   positive_int("arm_timeout_ms", out.arm_timeout_ms);
+  positive_int("arm_expiry_ms", out.arm_expiry_ms);
+  if (out.arm_expiry_ms > 0 && out.arm_expiry_ms <= out.arm_timeout_ms + out.trigger_lead_ms) {
+    r.error(node["arm_expiry_ms"], path + ".arm_expiry_ms",
+            "must exceed arm_timeout_ms + trigger_lead_ms (" + std::to_string(out.arm_timeout_ms) + " + " +
+                std::to_string(out.trigger_lead_ms) +
+                " ms): a gateway would release moves the coordinator is still about to trigger");
+  }
   positive_int("max_active_requests", out.max_active_requests);
   if (auto v = r.get<double>(node, path, "position_tolerance", false)) {
     out.position_tolerance = *v;

@@ -202,5 +202,24 @@ TEST_F(Uim342StackTest, SilentNodeIsOfflineRetriedWithBackOffAndRecovers) {
   EXPECT_TRUE(stack->status("z")->online);
 }
 
+// A drive found running a move at set-up (a previous gateway process's, whose request ended when
+// the coordinator lost that gateway) refuses set-up values with §2.3 0x3D: it is stopped (ST,
+// §5.12) with a GATEWAY_RESTARTED event, then identified and set up again at rest, and ready.
+TEST_F(Uim342StackTest, ADriveFoundRunningAtSetUpIsStoppedThenSetUpAgain) {
+  drives.at(7).refuse[FC::kMT] = uim342::DriveErrc::kNotAllowedWhileRunning;
+  stack->start(now);
+  settle();
+  EXPECT_EQ(count_sent(7, FC::kST), 1u);
+  EXPECT_TRUE(has_event(event_t::GATEWAY_RESTARTED, "z"));
+  EXPECT_FALSE(has_event(event_t::CONFIG_MISMATCH, "z")) << "a running motor is not a wrong set-up value";
+  EXPECT_FALSE(stack->ready());
+  drives.at(7).refuse.clear();  // at rest now
+  run_for(milliseconds(1001));  // then identified and set up again
+  EXPECT_EQ(count_sent(7, FC::kML), 2u);
+  EXPECT_EQ(drives.at(7).word(FC::kMT, 1), 15);  // the set-up applied
+  EXPECT_TRUE(stack->ready());
+  EXPECT_TRUE(stack->status("z")->online);
+}
+
 }  // namespace
 }  // namespace motion::gateway::test

@@ -32,6 +32,10 @@
 //  - publishes with every heartbeat the counters of its command ledger (LEDGER_STATS,
 //    ledger_stats_t: the driver's parts by lifecycle state, now and in total, and the commands sent
 //    again that it answered from its CommandMemory);
+//  - releases a move armed for a trigger that no trigger starts within the arm expiry
+//    (arm_watch.hpp; config coordinator.arm_expiry_ms): its own DISARM to the driver, a TIMEOUT
+//    event per axis, the move's one FAILED reply saying "never triggered within N ms", and a
+//    trigger heard later for it fires nothing;
 //  - keeps each axis's position record across its own restarts (set_position_record,
 //    position_record.hpp): a drive that lost power while no gateway ran is reported as having lost
 //    its position, exactly as one that loses it while the gateway runs.
@@ -64,6 +68,7 @@
 #include "motion/core/durable_file.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/core/precise_timer.hpp"
+#include "motion/gateway/arm_watch.hpp"
 #include "motion/gateway/axis_limits.hpp"
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/gateway/command_memory.hpp"
@@ -132,7 +137,13 @@ class Gateway final : public GatewayOutput {
   // Without a builder no DRIVE_MODEL is published (and the coordinator refuses moves of the bus).
   void set_model_builder(ModelBuilder builder) { model_builder_ = std::move(builder); }
   // Without one no ARM_TIMING is published (the coordinator then allows arm_timeout_ms alone).
-  void set_arming_builder(ArmingBuilder builder) { arming_builder_ = std::move(builder); }
+  // It also decides the default arm expiry (the longest arming line time of any bus is added).
+  void set_arming_builder(ArmingBuilder builder);
+  // How long a move armed for a trigger stays armed without one: coordinator.arm_expiry_ms, or by
+  // default arm_timeout_ms + trigger_lead_ms + gateway_timeout_ms + the longest arming line time
+  // of any bus of `config` (every drive of that bus armed or readied; 0 without `arming`).
+  [[nodiscard]] static Duration arm_expiry(const config::Config& config, const ArmingBuilder& arming);
+  [[nodiscard]] Duration arm_expiry() const { return arm_watch_.expiry(); }
 
   // GatewayOutput
   void drive_facts(const std::string& axis, const DriveFacts& facts) override;
@@ -179,6 +190,10 @@ class Gateway final : public GatewayOutput {
   // Builds the model of `axis` and publishes it when it differs from the last one (or `always`).
   void publish_model(const std::string& axis, bool always);
   void update_health();
+  // Armed moves past their expiry (gateway_arm_expiry.cpp): released by a DISARM of the gateway's
+  // own; and the one timer at the next expiry.
+  void release_expired();
+  void rearm_expiry_timer();
   // Jog watch bookkeeping for a command about to go to the driver, and on its replies.
   void track_jogs(const motionlcm::gateway_command_t& command);
   void jog_reply(const motionlcm::gateway_reply_t& reply);
@@ -189,6 +204,11 @@ class Gateway final : public GatewayOutput {
   // and the record of a status as published (`homed` as reported).
   void check_record(const std::string& axis, const DriveStatus& status);
   void keep_record(const std::string& axis, const DriveStatus& status, bool homed);
+  // The first online status of `axis` in this process says it moves, and this process has sent
+  // nothing for it yet: a previous gateway process's move (its request ended when the coordinator lost
+  // that gateway, or its ACTIVE_MOVES row is gone). Stopped (a STOP of the gateway's own) with a
+  // GATEWAY_RESTARTED event, before anything else is done with it.
+  void stop_if_found_moving(const std::string& axis, const DriveStatus& status);
 
   EventLoop& loop_;
   lcm::Node& node_;
@@ -222,6 +242,8 @@ class Gateway final : public GatewayOutput {
   std::optional<PositionRecords> records_;             // none: no record kept (set_position_record)
   std::optional<BackgroundFileWriter> record_writer_;  // writes records_ off the loop thread
   std::set<std::string> record_checked_;               // axes whose first online status was compared with the record
+  std::set<std::string> seen_online_;                  // axes that reported online to this process
+  std::set<std::string> commanded_;                    // axes named by a command this process handed to its driver
   std::set<std::string> restored_homed_;  // axes homed by a previous gateway process (record), not since lost
   std::string record_error_;              // the last failure to write the record (logged once)
   CommandMemory commands_seen_;           // a command sent again is answered, not run again
@@ -234,6 +256,8 @@ class Gateway final : public GatewayOutput {
   std::string coordinator_;                 // host:pid of the coordinator heard last
   std::int64_t coordinator_seen_utime_ = 0;
   EventLoop::TimerId health_timer_ = 0;
+  ArmWatch arm_watch_{Duration::zero()};                                 // the expiry is set in the constructor
+  EventLoop::TimerId arm_timer_ = 0;                                     // at arm_watch_.next_deadline() (0: none)
   std::map<std::int64_t, std::unique_ptr<PreciseTimer>> pending_fires_;  // trigger id -> its timer, until it fires
   std::deque<std::int64_t> scheduled_v2_;  // recent trigger ids scheduled by SYNC_TRIGGER2
   std::deque<std::int64_t> fired_;         // recent trigger ids fired

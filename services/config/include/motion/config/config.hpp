@@ -179,6 +179,10 @@ struct CoordinatorSettings {
   int trigger_lead_ms = 30;       // cross-bus trigger scheduled this far ahead of arming completion
   int gateway_timeout_ms = 1500;  // heartbeat silence after which a gateway is lost
   int arm_timeout_ms = 2000;
+  // How long a gateway keeps a move armed that no trigger starts before it releases the move itself
+  // (README "Safety and faults"); 0: arm_timeout_ms + trigger_lead_ms + gateway_timeout_ms + the
+  // longest arming line time of any bus. Set: must exceed arm_timeout_ms + trigger_lead_ms.
+  int arm_expiry_ms = 0;
   // Requests in progress at once (stops and e-stops always pass): beyond it a request is
   // REJECTED with kBusy ("retry later") instead of queueing without bound.
   int max_active_requests = 256;
