@@ -186,7 +186,7 @@ std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(
   std::map<std::pair<std::int8_t, std::string>, std::size_t> slot;  // (kind, address or axis) -> index in out
   for (const auto& c : axes) {
     const auto& model = axes_.at(c.axis).model;
-    std::pair<std::int8_t, std::string> key{Model::START_SINGLE, c.axis};
+    std::pair<std::int8_t, std::string> key{std::int8_t{Model::START_SINGLE}, c.axis};
     for (const std::int8_t kind : kShared) {
       const auto address = model ? start_address(*model, kind) : std::nullopt;
       if (!address || (kind == Model::START_UIM342_GROUP_BG && !whole_group(*address))) continue;
