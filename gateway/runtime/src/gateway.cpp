@@ -65,6 +65,23 @@ Gateway::~Gateway() {
   pending_fires_.clear();
 }
 
+motionlcm::gateway_command_t Gateway::own_command(std::int8_t kind, const std::vector<std::string>& axes,
+                                                  std::int64_t trigger_id) {
+  motionlcm::gateway_command_t c{};
+  c.utime = wall_time_us();
+  c.command_id = next_own_command_--;
+  c.bus = bus_;
+  c.kind = kind;
+  c.trigger_id = trigger_id;
+  for (const auto& axis : axes) {
+    motionlcm::axis_command_t a{};
+    a.axis = axis;
+    c.axes.push_back(a);
+  }
+  c.num_axes = static_cast<std::int32_t>(c.axes.size());
+  return c;
+}
+
 void Gateway::attach(std::unique_ptr<BusDriver> driver) {
   driver_ = std::move(driver);
   driver_->start();

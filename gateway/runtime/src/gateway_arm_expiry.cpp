@@ -60,16 +60,8 @@ void Gateway::rearm_expiry_timer() {
 void Gateway::release_expired() {
   for (const auto& move : arm_watch_.due(loop_.now())) {
     const std::string why = arm_watch_.reason(move);
-    motionlcm::gateway_command_t disarm{};
-    disarm.utime = wall_time_us();
-    disarm.command_id = next_own_command_--;
-    disarm.bus = bus_;
-    disarm.kind = motionlcm::gateway_command_t::DISARM;
-    disarm.trigger_id = move.trigger_id;
+    const auto disarm = own_command(motionlcm::gateway_command_t::DISARM, move.axes, move.trigger_id);
     for (const auto& axis : move.axes) {
-      motionlcm::axis_command_t a{};
-      a.axis = axis;
-      disarm.axes.push_back(a);
       DriveEvent e;
       e.kind = motionlcm::event_t::TIMEOUT;
       e.severity = motionlcm::event_t::WARNING;
@@ -77,7 +69,6 @@ void Gateway::release_expired() {
       e.text = why;
       axis_event(axis, e);
     }
-    disarm.num_axes = static_cast<std::int32_t>(disarm.axes.size());
     spdlog::warn("bus {}: releasing command {} by DISARM {}: {}", bus_, move.command_id, disarm.command_id, why);
     if (driver_) driver_->execute(disarm);
   }

@@ -85,15 +85,7 @@ void Gateway::check_jog(const std::string& axis) {
   const std::int64_t unconfirmed =
       pending != pending_motion_.end() && pending->second.jog ? pending->second.command_id : 0;  // 0: none
   forget_jog(axis);
-  motionlcm::gateway_command_t stop{};
-  stop.utime = wall_time_us();
-  stop.command_id = next_own_command_--;
-  stop.bus = bus_;
-  stop.kind = motionlcm::gateway_command_t::STOP;
-  motionlcm::axis_command_t a{};
-  a.axis = axis;
-  stop.axes.push_back(a);
-  stop.num_axes = 1;
+  const auto stop = own_command(motionlcm::gateway_command_t::STOP, {axis});
   const config::Axis& cfg = *axes_.at(axis);
   DriveEvent e;
   e.kind = motionlcm::event_t::LIMIT;

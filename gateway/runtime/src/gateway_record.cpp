@@ -25,15 +25,7 @@ void Gateway::stop_if_found_moving(const std::string& axis, const DriveStatus& s
       process_name(), axis,
       AxisScale{cfg.steps_per_unit, cfg.invert}.to_units(static_cast<double>(status.position_counts)), cfg.unit,
       status.position_counts, driver_ ? "stopping it" : "no bus driver to stop it");
-  motionlcm::gateway_command_t stop{};
-  stop.utime = wall_time_us();
-  stop.command_id = next_own_command_--;
-  stop.bus = bus_;
-  stop.kind = motionlcm::gateway_command_t::STOP;
-  motionlcm::axis_command_t a{};
-  a.axis = axis;
-  stop.axes.push_back(a);
-  stop.num_axes = 1;
+  const auto stop = own_command(motionlcm::gateway_command_t::STOP, {axis});
   if (driver_) driver_->execute(stop);
   axis_event(axis, e);
 }

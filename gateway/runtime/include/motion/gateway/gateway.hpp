@@ -220,7 +220,11 @@ class Gateway final : public GatewayOutput {
   std::map<std::string, std::string> unsupported_;            // drive name -> family
   std::int64_t started_utime_ = 0;                            // wall clock when this process's gateway started
   std::set<std::pair<std::string, std::int64_t>> inherited_;  // (client, request) already stopped
-  std::int64_t next_own_command_ = -1;                        // ids of the gateway's own commands (negative)
+  // A command of the gateway's own (negative id: a jog stopped at its limit, an axis found moving,
+  // a move nobody triggered) for its driver: `kind` on `axes`.
+  motionlcm::gateway_command_t own_command(std::int8_t kind, const std::vector<std::string>& axes,
+                                           std::int64_t trigger_id = 0);
+  std::int64_t next_own_command_ = -1;  // ids of the gateway's own commands (negative)
   std::string waiting_;
   double poll_hz_ = 0;                              // status rate of this bus's drives
   std::map<std::string, CountLimits> limits_;       // axis -> its limits in counts
