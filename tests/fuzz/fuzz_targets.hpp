@@ -1,6 +1,8 @@
 // Fuzz targets: every decoder that reads bytes from outside the process (LCM messages, CAN
-// frames, serial streams, configuration files). Each is a function over arbitrary bytes that must
-// neither crash, nor leak, nor allocate more than its input justifies. signed_messages runs the
+// frames, serial streams, configuration files), and the coordinator's command handling fed message
+// sequences (coordinator_sequences: every request must end in exactly one terminal reply). Each
+// is a function over arbitrary bytes that must neither crash, nor leak, nor allocate more than
+// its input justifies. signed_messages runs the
 // verifier path of signed requests and gateway commands (decode, then verify against keys). libFuzzer runs one per
 // executable (libfuzzer_main.cpp, `tools/fuzz NAME`); test_fuzz_replay runs every target over
 // its seed corpus (corpus/<name>/) and its regression inputs (regressions/<name>/).
@@ -26,6 +28,7 @@ int config_yaml(const std::uint8_t* data, std::size_t size);
 int signed_messages(const std::uint8_t* data, std::size_t size);
 int uc57_pdo(const std::uint8_t* data, std::size_t size);
 int web_controls(const std::uint8_t* data, std::size_t size);
+int coordinator_sequences(const std::uint8_t* data, std::size_t size);
 
 struct Target {
   const char* name;
@@ -44,6 +47,7 @@ inline constexpr Target kTargets[] = {
     {"signed_messages", &signed_messages},
     {"uc57_pdo", &uc57_pdo},
     {"web_controls", &web_controls},
+    {"coordinator_sequences", &coordinator_sequences},
 };
 
 // Consumes the fuzzer's bytes front to back; reads past the end yield zeros / empty spans.
