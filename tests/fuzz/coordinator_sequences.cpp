@@ -24,6 +24,7 @@
 #include "motion/config/config.hpp"
 #include "motion/coordinator/coordinator.hpp"
 #include "motion/coordinator/move_planner.hpp"
+#include "motion/core/log.hpp"
 
 namespace motion::fuzz {
 namespace {
@@ -68,6 +69,9 @@ constexpr std::array<AxisInfo, 4> kAxes{{{"x", "can0", "uim342", 5, 20, 100},
 constexpr std::array<const char*, 2> kBuses{"can0", "rs485"};
 
 const config::Config& lab() {
+  // The core logs each request's outcome: quiet unless FUZZ_VERBOSE is set.
+  static const bool logging = motion::log::init("coordinator_sequences", std::getenv("FUZZ_VERBOSE") ? "info" : "off");
+  (void)logging;
   static const config::Config config = *config::load_string(kLab, "coordinator_sequences").config;
   return config;
 }
@@ -402,7 +406,8 @@ class Run final : public coordinator::CoordinatorOutput {
     const AxisInfo& a = kAxes[in.byte() % kAxes.size()];
     m.axes = {a.name};
     m.buses = {a.bus};
-    m.client_ids = {(in.byte() & 1) != 0 ? "fuzz-a" : "someone"};
+    // Requests of the coordinator that stopped: their clients' ids are not this run's.
+    m.client_ids = {(in.byte() & 1) != 0 ? "before-a" : "before-b"};
     m.request_ids = {static_cast<std::int64_t>(in.byte() % 8)};
     m.kinds = {static_cast<std::int8_t>(in.byte() % 14)};
     m.phases = {static_cast<std::int8_t>(1 + in.byte() % 2)};
