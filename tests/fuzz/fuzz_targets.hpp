@@ -29,6 +29,7 @@ int signed_messages(const std::uint8_t* data, std::size_t size);
 int uc57_pdo(const std::uint8_t* data, std::size_t size);
 int web_controls(const std::uint8_t* data, std::size_t size);
 int coordinator_sequences(const std::uint8_t* data, std::size_t size);
+int can_bus_sequences(const std::uint8_t* data, std::size_t size);
 
 struct Target {
   const char* name;
@@ -48,6 +49,7 @@ inline constexpr Target kTargets[] = {
     {"uc57_pdo", &uc57_pdo},
     {"web_controls", &web_controls},
     {"coordinator_sequences", &coordinator_sequences},
+    {"can_bus_sequences", &can_bus_sequences},
 };
 
 // Consumes the fuzzer's bytes front to back; reads past the end yield zeros / empty spans.
