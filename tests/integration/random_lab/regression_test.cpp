@@ -307,5 +307,40 @@ TEST(RandomLabRegression, Seed30082AConflictMoveAlreadyAtItsTargetIsDoneAtOnce) 
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// Chaos seed 50026: a BUS_DROP of 47 frames on a CAN bus whose only drive then went offline. The
+// gateway probes an offline drive with backed-off retries, so the 47 frames took minutes to pass
+// and the "1 s" fault outlasted the 30 s recovery; the runner now ends it after its second
+// (BUS_DROP 0), as it ends silence and CRC errors.
+TEST(RandomLabRegression, Seed50026ABusDropOnAQuietBusEndsWithItsSecond) {
+  LabSpec spec;
+  spec.can_bitrate = 250000;
+  spec.rs485_baud = 115200;
+  spec.rs232_baud = 19200;
+  spec.rs485_parity = "odd";
+  spec.axes.push_back(
+      AxisSpec{"ax1", DriveSpec{"uim342", "can0", 7, 30}, 33.333333333333336, -49, 207, 89, 622, false, 0, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kFault,
+           2,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax1"},
+           {46.5},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           0,
+           {"ax1"},
+           {},
+           8 /* BUS_DROP */,
+           47},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 }  // namespace
 }  // namespace motion::random_lab

@@ -299,7 +299,12 @@ class Runner {
     const std::string& target = s.second_axes.at(0);
     inject(s.fault, s.fault_value, target);
     c.wait_until([&] { return got.has_value(); }, seconds(1));
-    if (s.fault == sim_control_t::SILENCE || s.fault == sim_control_t::CRC_ERRORS) inject(s.fault, 0, target);
+    // The fault lasts 1 s: a bus that drops "the next N frames" may carry fewer than N in that
+    // time (a bus whose drives went offline carries only the gateway's backed-off probes).
+    if (s.fault == sim_control_t::SILENCE || s.fault == sim_control_t::CRC_ERRORS ||
+        s.fault == sim_control_t::BUS_DROP) {
+      inject(s.fault, 0, target);
+    }
     if (s.fault == sim_control_t::REPLY_LATENCY) inject(s.fault, kReplyLatencyUs, target);
     if (!c.wait_until([&] { return got.has_value(); }, wait_for(r.timeout_ms))) {
       fail("no terminal reply to " + describe_request(r) + " within its timeout + 3 s (" + fault_name(s.fault) +

@@ -135,5 +135,46 @@ TEST(SimUim342BusHost, GroupBgOverTheSimulatedBusStartsBothDrivesOnOneFrame) {
   loop.unwatch(gateway->fd());
 }
 
+// BUS_DROP N drops the bus's next N frames, however long they take to come; BUS_DROP 0 ends the
+// drops still pending (a fault meant to last a while on a quiet bus).
+TEST(SimUim342BusHost, ABusDropLastsItsFramesOrUntilABusDropOfZero) {
+  TempDir dir{"sim-uim342-drop"};
+  const config::Config config = lab(dir.path());
+  EventLoop loop;
+  std::error_code error;
+  auto host = CanBusHost::open(
+      loop, config, config.buses.front(), {{config::Family::kUim342, uim342_factory(config)}},
+      [](const motionlcm::sim_report_t&) {}, error);
+  ASSERT_TRUE(host) << error.message();
+  auto gateway = host->hub().attach_local("test-gateway");
+  int replies = 0;
+  loop.watch(gateway->fd(), [&] {
+    while (auto frame = gateway->receive()) replies += u::decode_reply_frame(*frame) ? 1 : 0;
+  });
+  const auto answered = [&] {
+    replies = 0;
+    EXPECT_FALSE(gateway->send(*u::instruction_frame(5, rq::set_acceleration(100'000))));
+    return run_until(
+        loop, [&] { return replies > 0; }, std::chrono::milliseconds(300));
+  };
+  ASSERT_TRUE(answered());
+  motionlcm::sim_control_t drop{};
+  drop.bus = "can0";
+  drop.action = motionlcm::sim_control_t::BUS_DROP;
+  drop.value = 3;
+  ASSERT_TRUE(host->control(drop));
+  EXPECT_FALSE(answered());  // 3 frames: this request, then the next two
+  EXPECT_FALSE(answered());
+  EXPECT_FALSE(answered());
+  EXPECT_TRUE(answered());  // spent
+  drop.value = 1000;
+  ASSERT_TRUE(host->control(drop));
+  EXPECT_FALSE(answered());
+  drop.value = 0;
+  ASSERT_TRUE(host->control(drop));
+  EXPECT_TRUE(answered());  // ended, 999 frames early
+  loop.unwatch(gateway->fd());
+}
+
 }  // namespace
 }  // namespace motion::sim

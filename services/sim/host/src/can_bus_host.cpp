@@ -169,7 +169,15 @@ bool CanBusHost::control(const motionlcm::sim_control_t& c) {
   if (c.drive.empty()) {
     if (c.bus != bus_.name) return false;
     if (c.action == motionlcm::sim_control_t::BUS_DROP && hub_) {
-      hub_->inject(simbus::Fault::drop(static_cast<std::uint64_t>(std::max(0, c.value))));
+      // value N > 0: the next N frames vanish; 0 (or less): frames are no longer dropped (what is
+      // left of every drop given before ends). On a bus where little is sent, N frames can take
+      // minutes to pass: a fault meant to last a while is ended with value 0.
+      if (c.value <= 0) {
+        for (const simbus::FaultId id : drops_) hub_->clear_fault(id);
+        drops_.clear();
+        return true;
+      }
+      drops_.push_back(hub_->inject(simbus::Fault::drop(static_cast<std::uint64_t>(c.value))));
       return true;
     }
     if (c.action == motionlcm::sim_control_t::BUS_OFF && hub_) {

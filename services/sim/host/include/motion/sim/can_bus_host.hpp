@@ -89,6 +89,7 @@ class CanBusHost {
   config::Bus bus_;
   Reporter reporter_;
   std::unique_ptr<simbus::Hub> hub_;
+  std::vector<simbus::FaultId> drops_;  // the BUS_DROP faults given (cleared by a BUS_DROP of 0)
   std::map<std::string, Drive> drives_;
   std::map<config::Family, CanDriveFactory> factories_;
   std::vector<std::string> missing_;
