@@ -266,7 +266,7 @@ class Bench final : public gateway::GatewayOutput {
   // Delivers what is on the wire and runs what is due, until nothing is.
   void settle() {
     for (int round = 0;; ++round) {
-      if (round == 100'000) violated("the bus never settles");
+      if (round == 100'000) violated("the bus never settles: " + busy_parties());
       bool busy = false;
       for (int n = 0; !wire_.empty() && n < 10'000; ++n) {
         const OnWire w = wire_.front();
@@ -306,6 +306,22 @@ class Bench final : public gateway::GatewayOutput {
     now_ = end;
     settle();
   }
+  // Who keeps the bus busy (for the violation's message).
+  std::string busy_parties() {
+    std::string out = std::to_string(wire_.size()) + " frames queued";
+    for (auto& s : stacks_) {
+      if (s->process(now_) <= now_) out += ", the " + s->family() + " stack stays due";
+    }
+    for (std::size_t i = 0; i < drives_.size(); ++i) {
+      if (drives_[i]->process(now_) <= now_) out += ", drive " + bus_config().drives[i].name + " stays due";
+    }
+    if (!wire_.empty()) {
+      const can::Frame& f = wire_.front().frame;
+      out += "; next frame id " + std::to_string(f.id) + " from " + std::to_string(wire_.front().from);
+    }
+    return out;
+  }
+
   // A transition the ledger's table does not have, or a command id added twice, is a stack asking
   // for a step its lifecycle has no row for. (A second terminal for an ended command is absorbed by
   // the ledger by design, counted, never sent: the replies above check what goes out.)
