@@ -213,7 +213,8 @@ TimePoint Uc57Stack::process(TimePoint now) {
   if (sync->next_deadline() <= now) run_sync_cycle(now);
   next = std::min(next, master_.process(now));
   for (const auto& node : nodes_) {
-    next = std::min({next, node->retry_at, node->starting_deadline, node->task_deadline, node->power.deadline()});
+    next = std::min({next, node->retry_at, node->starting_deadline, node->task_deadline});
+    if (node->task == TaskKind::kPower) next = std::min(next, node->power.deadline());  // as check_task_timeouts
     if (node->phase == Node::Phase::kOperational && !node->tpdo2_active)
       next = std::min(next, node->next_position_poll);
   }

@@ -48,6 +48,9 @@ void Uc57Stack::part_done(std::int64_t command_id, std::size_t n) {
 
 void Uc57Stack::part_failed(std::int64_t command_id, std::size_t n, std::int32_t code, const std::string& reason) {
   if (nodes_[n]->task_command == command_id) {
+    // A power task ended from outside (a STOP while ENABLE switches the drive on) also ends its
+    // power sequence: left running, its timer would stay due with no task to act on it.
+    if (nodes_[n]->task == TaskKind::kPower) nodes_[n]->power.cancel();
     nodes_[n]->task = TaskKind::kNone;
     nodes_[n]->task_deadline = kNever;
   }

@@ -145,6 +145,28 @@ TEST(Uc57Commands, StopOnANodeAtRestIsDoneAtOnceAndTheNextCommandRuns) {
   EXPECT_FALSE(bench.statuses["a"].moving);
 }
 
+// A STOP while ENABLE is still switching a drive on ends the ENABLE (FAILED, stopped) and its
+// power sequence with it: no timer of the ended sequence stays due (found by the fuzz target
+// can_bus_sequences: the stack returned a deadline of "now" for ever, a busy loop in the gateway).
+TEST(Uc57Commands, StopDuringEnableLeavesNoTimerDue) {
+  Bench bench;
+  bench.start_ready();
+  const auto enable_cmd = bench.command(Cmd::ENABLE, {"a"});
+  bench.stack->execute(enable_cmd, bench.now);  // no settle: the drive has not answered yet
+  const auto stop = bench.command(Cmd::STOP, {"a"});
+  bench.execute(stop);
+  ASSERT_EQ(bench.terminal_count(enable_cmd.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(enable_cmd.command_id).back().status, status(Reply::FAILED));
+  bench.run_for(std::chrono::seconds(2));
+  EXPECT_EQ(bench.terminal_count(stop.command_id), 1U);
+  EXPECT_GT(bench.stack->process(bench.now), bench.now) << "a deadline that is already due, for ever";
+  const auto again = bench.command(Cmd::ENABLE, {"a"});
+  bench.execute(again);
+  bench.run_for(std::chrono::seconds(1));
+  ASSERT_EQ(bench.terminal_count(again.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(again.command_id).back().status, status(Reply::DONE));
+}
+
 // A STOP while a JOG's SDO writes are still going out ends the jog there: neither the velocity
 // mode nor the jog's speed reaches the drive behind the halt.
 TEST(Uc57Commands, StopDuringAJogsSetUpEndsItsSdoChain) {
