@@ -102,7 +102,7 @@ void Uc57Stack::disarm(const Job& disarm_job) {
 // A released move leaves the drive nothing a SYNC or a new-set-point edge could start. An armed
 // drive holds the move's target in 607Ah, and where it applies RPDO1 at the SYNC its start image
 // (0x1F: new set-point, manual §4.2.4 "0x0F -> 0x1F") may wait in the drive for the next SYNC,
-// whoever sends it (manual §4.1.1 SYNC: "simultaneous actions of multiple devices"; CiA 301: a
+// whoever sends it (manual §4.1.2 SYNC: "simultaneous actions of multiple devices"; CiA 301: a
 // synchronous RPDO applies the last one received before the SYNC). The armed image, with 607Ah =
 // the position the drive reported (6064h) and bit 4 = 0, goes out at once and replaces it; with
 // the manual's default RPDO1 (607Ah not mapped) 607Ah is also written by SDO. A SYNC then applies
