@@ -3,7 +3,8 @@
 // when the coordinator dies between ARM_MOVE and SYNC_TRIGGER: each gateway releases them itself
 // after its arm expiry (README "Safety and faults"). The ARM_MOVEs are the coordinator's own from a
 // real move, published again on GW_COMMAND_<bus> with new ids, targets back where the axes came
-// from, and a trigger id nobody fires in time. No timed assertions; the times are printed.
+// from, and a trigger id nobody fires in time. No timed assertions; the times are printed. Also:
+// a released move leaves nothing a foreign start frame could run.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,6 +16,9 @@
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
+#include "motion/canopen/sync.hpp"
+#include "motion/simbus/endpoint.hpp"
+#include "motion/uim342/instructions.hpp"
 #include "sim_lab.hpp"
 
 namespace motion::testing {
@@ -148,6 +152,89 @@ TEST(ArmExpiry, MovesArmedOnEveryBusAndNeverTriggeredAreReleasedAndTheLabMovesAg
   const auto back = lab.call(Client::make(request_t::MOVE_ABSOLUTE, from));
   ASSERT_EQ(back.status, st(reply_t::DONE)) << back.reason;
   for (const auto& axis : kAxes) EXPECT_TRUE(lab.settled_at(axis, from.at(axis), tolerance(axis))) << axis;
+  if (HasFailure()) lab.group().print_logs();
+}
+
+// A released move leaves the drives nothing to start, whoever sends the start frame (README
+// "Safety and faults"): on can0, moves of x and y (UIM342, group 20) and of a and b (UC57,
+// preloaded for the SYNC) armed straight on GW_COMMAND_can0 and DISARMed there; then a group BG
+// and a SYNC from an endpoint of our own on the simulated bus. The simulators' ground truth
+// (SIM_REPORT) shows no drive moving anywhere; a move through the coordinator works after.
+TEST(ArmExpiry, ADisarmedMoveLeavesNothingAForeignBgOrSyncCouldStart) {
+  const std::vector<std::string> axes{"x", "y", "a", "b"};
+  SimLab lab;
+  ASSERT_TRUE(lab.start(axes));
+  ASSERT_TRUE(lab.enable(axes));
+  std::map<std::string, std::int64_t> from;
+  for (const auto& axis : axes) from[axis] = lab.state(axis).position_counts;
+  const auto arm = [&](std::int64_t id, const std::vector<std::string>& names, double velocity, double rate) {
+    gateway_command_t c{};
+    c.utime = wall_time_us();
+    c.command_id = id;
+    c.bus = "can0";
+    c.kind = gateway_command_t::ARM_MOVE;
+    c.trigger_id = kTrigger + 1;
+    for (const auto& name : names) {
+      motionlcm::axis_command_t a{};
+      a.axis = name;
+      a.target_counts = from.at(name) + 1600;
+      a.velocity = velocity;
+      a.acceleration = a.deceleration = rate;
+      c.axes.push_back(a);
+    }
+    c.num_axes = static_cast<std::int32_t>(c.axes.size());
+    lab.group().node().publish(lcm::channels::gateway_command("can0"), c);
+  };
+  const auto replied = [&](std::int64_t id, std::int8_t status) {
+    return std::any_of(lab.gateway_replies().begin(), lab.gateway_replies().end(),
+                       [&](const gateway_reply_t& r) { return r.command_id == id && r.status == status; });
+  };
+  arm(kIdOffset + 1, {"x", "y"}, 16000, 128000);
+  arm(kIdOffset + 2, {"a", "b"}, 1600, 6400);
+  ASSERT_TRUE(lab.client().wait_until(
+      [&] { return replied(kIdOffset + 1, gateway_reply_t::ARMED) && replied(kIdOffset + 2, gateway_reply_t::ARMED); },
+      seconds(10)))
+      << "not armed";
+  gateway_command_t disarm{};
+  disarm.utime = wall_time_us();
+  disarm.command_id = kIdOffset + 3;
+  disarm.bus = "can0";
+  disarm.kind = gateway_command_t::DISARM;
+  disarm.trigger_id = kTrigger + 1;
+  for (const auto& axis : axes) {
+    motionlcm::axis_command_t a{};
+    a.axis = axis;
+    disarm.axes.push_back(a);
+  }
+  disarm.num_axes = static_cast<std::int32_t>(disarm.axes.size());
+  lab.group().node().publish(lcm::channels::gateway_command("can0"), disarm);
+  ASSERT_TRUE(lab.client().wait_until([&] { return replied(kIdOffset + 3, gateway_reply_t::DONE); }, seconds(10)))
+      << "DISARM not done";
+  EXPECT_TRUE(replied(kIdOffset + 1, gateway_reply_t::FAILED));
+  EXPECT_TRUE(replied(kIdOffset + 2, gateway_reply_t::FAILED));
+
+  // Someone else's start frames: BG to group 20, a SYNC.
+  lab.clear_reports();
+  std::error_code ec;
+  auto can0 = simbus::SocketEndpoint::connect("can0", {lab.group().work_dir() + "/sim", "it-foreign", false}, ec);
+  ASSERT_TRUE(can0) << ec.message();
+  const auto bg = uim342::instruction_frame(20, uim342::request::begin());
+  ASSERT_TRUE(bg.ok());
+  ASSERT_FALSE(can0->send(*bg));
+  ASSERT_FALSE(can0->send(canopen::encode_sync({})));
+  lab.pause(milliseconds(1500));
+  for (const auto& r : lab.reports()) {
+    if (r.kind == st(motionlcm::sim_report_t::MOTION_STARTED)) {
+      EXPECT_EQ(r.target_counts, r.position_counts) << r.drive << " started the released move";
+    }
+  }
+  for (const auto& axis : axes) {
+    EXPECT_FALSE(lab.state(axis).moving) << axis;
+    EXPECT_EQ(lab.state(axis).position_counts, from.at(axis)) << axis << " moved";
+  }
+
+  const auto back = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x", 5.0}, {"a", 45.0}}));
+  ASSERT_EQ(back.status, st(reply_t::DONE)) << back.reason;
   if (HasFailure()) lab.group().print_logs();
 }
 

@@ -136,6 +136,7 @@ struct AdamStack::Operation {
   std::map<Drive*, int> idle_polls;
   std::set<Drive*> seen_moving;
   std::int64_t trigger_utime = 0;
+  std::string failure_note;  // added to the reason when one of its writes is never answered
 };
 
 }  // namespace motion::adam_driver

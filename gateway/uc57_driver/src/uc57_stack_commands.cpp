@@ -203,7 +203,9 @@ void Uc57Stack::execute(const Command& command, TimePoint now) {
     const std::size_t n = targets[i];
     const auto& axis = command.axes[i];
     if (stops && nodes_[n]->phase != Node::Phase::kOperational) {
-      live.data.unreached += (live.data.unreached.empty() ? "" : "; ") + offline_text(n);
+      const bool sent = send_blind_stop(n, kind == Command::ESTOP);
+      live.data.unreached += (live.data.unreached.empty() ? "" : "; ") + offline_text(n) +
+                             (sent ? " (its stop sent in RPDO1 all the same, not confirmed)" : "");
       live.data.unreached_code = error_code(ReplyError::kAxisOffline);
       part_done(id, n);
       continue;

@@ -1,5 +1,6 @@
 // Uc57Stack (uc57_stack.hpp): arming a move (its start image, preloaded where the drive applies
-// RPDO1 at the SYNC), disarming, and firing the armed moves.
+// RPDO1 at the SYNC), disarming (the drive left holding its own position), and firing the armed
+// moves.
 #include "uc57_stack_impl.hpp"
 
 namespace motion::uc57_driver {
@@ -89,13 +90,54 @@ void Uc57Stack::disarm(const Job& disarm_job) {
     });
     if (shares_axis) victims.push_back(id);
   }
-  // Bit 4 is still 0 in every armed drive: forgetting the job is all it takes.
   for (const auto id : victims) {
     const Job* job = jobs_.find(id);
     if (job == nullptr) continue;
+    for (const std::size_t n : job->nodes) neutralize(n);
     part_failed(id, job->nodes.front(), error_code(ReplyError::kStopped),
                 "disarmed by command " + std::to_string(disarm_job.command.command_id));
   }
+}
+
+// A released move leaves the drive nothing a SYNC or a new-set-point edge could start. An armed
+// drive holds the move's target in 607Ah, and where it applies RPDO1 at the SYNC its start image
+// (0x1F: new set-point, manual §4.2.4 "0x0F -> 0x1F") may wait in the drive for the next SYNC,
+// whoever sends it (manual §4.1.2 SYNC: "simultaneous actions of multiple devices"; CiA 301: a
+// synchronous RPDO applies the last one received before the SYNC). The armed image, with 607Ah =
+// the position the drive reported (6064h) and bit 4 = 0, goes out at once and replaces it; with
+// the manual's default RPDO1 (607Ah not mapped) 607Ah is also written by SDO. A SYNC then applies
+// "stay where you are", and even a later edge starts a move of zero pulses.
+void Uc57Stack::neutralize(std::size_t n) {
+  Node& node = *nodes_[n];
+  if (node.phase != Node::Phase::kOperational || !node.status.position_read) return;
+  const auto here = static_cast<std::int32_t>(node.status.position_counts);
+  RpdoImage image = latest_image(n);
+  image.controlword = cia402::profile_position_controlword({}, false, false);  // 0x0F: bit 4 = 0
+  image.target_position = here;
+  node.rpdo_queue.clear();
+  node.power.note_controlword_sent(image.controlword);
+  send_image(n, image);
+  node.preloaded = false;
+  if (node.layout == RpdoLayout::kManualDefault)
+    sdo_write_all(n, {{{od::kTargetPosition, 0}, le<std::int32_t>(here)}}, [](std::optional<std::string>) {});
+}
+
+// A node that does not answer (heartbeat lost, SDOs unanswered) may still hear: a STOP or ESTOP
+// naming it sends its halt (6040h bit 8, manual §4.2.4, 60FFh = 0) or quick stop in RPDO1 all the
+// same, applied by the next SYNC like any image. Only for a node that was operational (its RPDO1
+// layout is known). Nothing confirms it: the command's reply says so.
+bool Uc57Stack::send_blind_stop(std::size_t n, bool quick) {
+  Node& node = *nodes_[n];
+  if (!node.ever_operational) return false;
+  RpdoImage image = latest_image(n);
+  const std::uint16_t word = quick ? cia402::apply_command(image.controlword, cia402::Command::kQuickStop)
+                                   : cia402::with(image.controlword, ControlBit::kHalt, true);
+  image.controlword = cia402::with(word, ControlBit::kNewSetPoint, false);
+  image.target_velocity = 0;
+  node.rpdo_queue.clear();
+  node.preloaded = false;
+  send_image(n, image);
+  return true;
 }
 
 void Uc57Stack::prepare_fire(TimePoint at, TimePoint now) {

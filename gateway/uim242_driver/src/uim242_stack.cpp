@@ -131,6 +131,7 @@ void Uim242Stack::part_done(std::int64_t command_id) {
   Command* c = commands_.find(command_id);
   if (c == nullptr) return;
   if (c->data.outstanding > 0 && --c->data.outstanding > 0) return;
+  if (!c->data.unreached.empty()) return finish(command_id, false, c->data.unreached, kAxisOffline);
   finish(command_id, true);
 }
 
@@ -269,7 +270,7 @@ void Uim242Stack::identify(Drive& d, TimePoint /*now*/) {
     report_facts(d);  // before the first online status (DriveFacts)
     event(d, event_t::ONLINE, event_t::INFO, 0,
           fmt::format("{} (node {}): UIM242, firmware {}", d.name, d.node, fields ? (*fields)[4] : 0));
-    set_up(d);
+    stop_then_set_up(d);
     publish(d, now);
   };
   r.on_failure = [this, &d](const std::string& reason, bool, TimePoint now) {
@@ -277,6 +278,48 @@ void Uim242Stack::identify(Drive& d, TimePoint /*now*/) {
     mark_offline(d, reason, now);
   };
   channel_.submit(std::move(r));
+}
+
+// A drive first heard of while it moves (a previous gateway process's move, or a move nobody
+// stopped) is stopped before anything of its set-up is written: micro-steps, current and the
+// configuration registers are not changed under a running motor. `FBK;` (manual §6.3, #12) gives
+// its speed; a moving drive gets `STP 0;` (#44: "execute the current instruction and stop motor",
+// and the drive leaves PT for VT mode with the desired speed 0, §6.1), a GATEWAY_RESTARTED event,
+// and `FBK;` again every kRestCheck until it reports speed 0; only then the set-up. A drive still
+// moving kRestLimit after its stop is offline (identified, and so stopped, again later).
+void Uim242Stack::stop_then_set_up(Drive& d) {
+  submit(d, bare(Mnemonic::kFBK), 0, [this, &d](const Frame& f, TimePoint) {
+    const auto s = uim242::decode_status(f);
+    const std::int64_t speed = s ? s->speed : 0;
+    if (speed == 0) {
+      set_up(d);
+      return;
+    }
+    event(d, event_t::GATEWAY_RESTARTED, event_t::WARNING, 0,
+          fmt::format("{} (node {}): found moving at {} pps before its set-up (a previous gateway process's move, or "
+                      "one nobody stopped): stopping it (STP 0) before writing its set-up",
+                      d.name, d.node, speed));
+    submit(d, set(Mnemonic::kSTP, 0), 0, [this, &d](const Frame&, TimePoint t) { set_up_at_rest(d, t + kRestLimit); });
+  });
+}
+
+void Uim242Stack::set_up_at_rest(Drive& d, TimePoint give_up) {
+  submit(d, bare(Mnemonic::kFBK), 0, [this, &d, give_up](const Frame& f, TimePoint now) {
+    const auto s = uim242::decode_status(f);
+    const std::int64_t speed = s ? s->speed : 0;
+    if (speed == 0) {
+      set_up(d);
+      return;
+    }
+    if (now >= give_up) {
+      mark_offline(d,
+                   fmt::format("{} (node {}): still moving at {} pps {} s after its stop (STP 0); not set up", d.name,
+                               d.node, speed, std::chrono::duration_cast<std::chrono::seconds>(kRestLimit).count()),
+                   now);
+      return;
+    }
+    after(now + kRestCheck, [this, &d, give_up](TimePoint) { set_up_at_rest(d, give_up); });
+  });
 }
 
 // UIM242 manual §5.1: an ICF write is burned into EEPROM "and the controller will auto reboot"

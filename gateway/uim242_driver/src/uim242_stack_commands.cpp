@@ -19,21 +19,44 @@ std::size_t Uim242Stack::index_of(const Drive& d) const {
 }
 
 bool Uim242Stack::for_each_axis(const gateway_command_t& command,
-                                const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f) {
+                                const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f, bool stops) {
   for (const auto& a : command.axes) {
     Drive* d = drive_of_axis(a.axis);
     if (!d) {
       finish(command.command_id, false, fmt::format("axis '{}' is not on bus {}", a.axis, bus_), kUnknownAxis);
       return false;
     }
-    if (!d->status.online) {
+    if (!d->status.online && !stops) {
       finish(command.command_id, false, fmt::format("{} (node {}) of axis '{}' is offline", d->name, d->node, a.axis),
              kAxisOffline);
       return false;
     }
   }
-  for (const auto& a : command.axes) f(*drive_of_axis(a.axis), a);
+  for (const auto& a : command.axes) {
+    Drive* d = drive_of_axis(a.axis);
+    if (d->status.online) {
+      f(*d, a);
+    } else {
+      stop_unanswering(*d, command.kind == gateway_command_t::ESTOP, command.command_id);
+    }
+  }
   return true;
+}
+
+// A controller that does not answer may still hear: a STOP or ESTOP naming it sends its stop
+// (`STP 0;`, #44; an e-stop `OFF;` and `SPD 0;`) all the same, ahead of the queue and tied to no
+// command (its failure must not cancel the others' stops), and the command ends FAILED saying
+// the stop is not confirmed.
+void Uim242Stack::stop_unanswering(Drive& d, bool estop, std::int64_t command_id) {
+  const std::vector<Instruction> steps =
+      estop ? std::vector{bare(Mnemonic::kOFF), set(Mnemonic::kSPD, 0)} : std::vector{set(Mnemonic::kSTP, 0)};
+  for (auto it = steps.rbegin(); it != steps.rend(); ++it) submit(d, *it, 0, {}, true);  // front: last first
+  if (Command* c = commands_.find(command_id)) {
+    c->data.unreached +=
+        fmt::format("{}{} (node {}) is offline (not answering): {} sent all the same, not confirmed",
+                    c->data.unreached.empty() ? "" : "; ", d.name, d.node, estop ? "OFF and SPD 0" : "STP 0");
+  }
+  part_done(command_id);
 }
 
 void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
@@ -45,7 +68,7 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
     if (d != nullptr && std::find(parts.begin(), parts.end(), index_of(*d)) == parts.end())
       parts.push_back(index_of(*d));
   }
-  Command* added = commands_.add(command, std::move(parts), CommandData{command.axes.size()});
+  Command* added = commands_.add(command, std::move(parts), CommandData{command.axes.size(), {}});
   if (added == nullptr) {
     // As the CAN stacks and the ADAM master: a reused id is refused, the running command goes on.
     commands_.reject(command, kMalformed, fmt::format("command id {} is already in progress", id));
@@ -65,16 +88,19 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
   using After = std::function<void(Drive&, const motionlcm::axis_command_t&)>;
   const auto per_axis =
       [&](const std::function<std::vector<Instruction>(Drive&, const motionlcm::axis_command_t&)>& steps,
-          const After& after = {}) {
-        for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t& a) {
-          run_sequence(c, d, steps(d, a), [this, id, &d, after, a](TimePoint t) {
-            if (after) {
-              after(d, a);
-              if (t != TimePoint{}) publish(d, t);  // TimePoint{}: nothing was sent, nothing changed
-            }
-            part_done(id);
-          });
-        });
+          const After& after = {}, bool stops = false) {
+        for_each_axis(
+            command,
+            [&](Drive& d, const motionlcm::axis_command_t& a) {
+              run_sequence(c, d, steps(d, a), [this, id, &d, after, a](TimePoint t) {
+                if (after) {
+                  after(d, a);
+                  if (t != TimePoint{}) publish(d, t);  // TimePoint{}: nothing was sent, nothing changed
+                }
+                part_done(id);
+              });
+            },
+            stops);
       };
   switch (command.kind) {
     case gateway_command_t::ENABLE:
@@ -119,7 +145,7 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
           [](Drive&, const auto&) {
             return std::vector{bare(Mnemonic::kOFF), set(Mnemonic::kSPD, 0)};
           },
-          [](Drive& d, const auto&) { d.status.enabled = false; });
+          [](Drive& d, const auto&) { d.status.enabled = false; }, estop);
       return;
     }
     case gateway_command_t::STOP:
@@ -129,11 +155,14 @@ void Uim242Stack::execute(const gateway_command_t& command, TimePoint now) {
         }
       }
       // Ramped stop, DONE at rest with the real position published (settle).
-      for_each_axis(command, [&](Drive& d, const motionlcm::axis_command_t&) {
-        run_sequence(c, d, {set(Mnemonic::kSTP, 0)}, [this, id, &d](TimePoint t) {
-          settle(d, id, t + kRestLimit, [this, id](TimePoint) { part_done(id); });
-        });
-      });
+      for_each_axis(
+          command,
+          [&](Drive& d, const motionlcm::axis_command_t&) {
+            run_sequence(c, d, {set(Mnemonic::kSTP, 0)}, [this, id, &d](TimePoint t) {
+              settle(d, id, t + kRestLimit, [this, id](TimePoint) { part_done(id); });
+            });
+          },
+          true);
       return;
     case gateway_command_t::JOG:
       for (const auto& a : command.axes) {

@@ -180,7 +180,14 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
       for (const auto i : c.nodes) {
         Node& n = nodes[i];
         if (n.phase == Phase::kOffline) {
-          c.data.unreached += fmt::format("{}{} is offline", c.data.unreached.empty() ? "" : "; ", n.name());
+          // A drive that does not answer may still hear: its stop goes out all the same, without
+          // asking for an ACK (CW bit 7 clear, manual §2.1), and the reply says it is unconfirmed.
+          const bool sent = transmit(n.cfg.node_id, rq::without_ack(rq::stop())) &&
+                            (!emergency || transmit(n.cfg.node_id, rq::without_ack(rq::driver_on(false))));
+          c.data.unreached +=
+              fmt::format("{}{} is offline (not answering): {}", c.data.unreached.empty() ? "" : "; ", n.name(),
+                          sent ? (emergency ? "ST and MO=0 sent, stop not confirmed" : "ST sent, stop not confirmed")
+                               : "the stop could not be handed to the bus");
           continue;
         }
         const auto reason = fmt::format("{} stopped by {} command {}", n.name(), command_name(c.command.kind), id);
@@ -239,8 +246,20 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
           armed.insert(nodes[i].move);
         }
       }
+      // A released move must leave nothing a BG could start: the drive keeps the PA it was
+      // loaded with and a BG to its group or to the global id from anyone would run it (manual
+      // §5.11, §5.20-§5.21: "PR/PA will take effect after a following BG"). PR=0 ("desired relative
+      // position", added to the position at BG, §5.20) replaces it, so any later BG is a move of
+      // zero counts; the DISARM is DONE once every drive acknowledged it.
+      std::set<std::size_t> loaded;
+      for (const auto a : armed) {
+        if (const auto* move = commands.find(a)) loaded.insert(move->nodes.begin(), move->nodes.end());
+      }
       for (const auto a : armed)
         fail(a, error_code(ReplyError::kStopped), fmt::format("move disarmed by command {}", id));
+      for (const auto i : loaded) {
+        if (nodes[i].phase != Phase::kOffline) enqueue(i, rq::set_relative_position(0), id, /*front=*/true);
+      }
       return std::nullopt;
     }
     default:

@@ -4,13 +4,15 @@
 // the drive executes only saved table data or any — a synchronized move (one broadcast "execute
 // table") lands both drives on their targets and runs at the planned speed (the simulator's
 // start/finish times), and each drive took exactly one Save per move; a HOME then runs c1 onto its
-// simulated switch.
+// simulated switch. A disarmed move leaves nothing a foreign broadcast execute could start.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <ostream>
 
 #include "bench.hpp"
+#include "motion/adam/rtu.hpp"
+#include "motion/adam/table.hpp"
 #include "motion/adam_driver/adam_stack.hpp"
 #include "motion/sim/adam_line_sim.hpp"
 
@@ -43,6 +45,19 @@ void PrintTo(const Variant& v, std::ostream* os) {
   *os << "table_speed_register " << v.speed << ", table_needs_save " << v.save;
 }
 
+SerialBench::CoreFactory adam_core(SerialBench& bench) {
+  return [&bench](std::function<void(std::span<const std::uint8_t>)> send, gateway::GatewayOutput& out) {
+    auto settings = adam_driver::settings_from_config(*bench.config, *bench.config->find_bus("rs485"));
+    return std::make_unique<adam_driver::AdamStack>(
+        settings,
+        [send = std::move(send)](std::span<const std::uint8_t> bytes) {
+          send(bytes);
+          return true;
+        },
+        out, [](TimePoint) { return std::int64_t{1'700'000'000'000'000}; });
+  };
+}
+
 class AdamTable : public ::testing::TestWithParam<Variant> {};
 
 TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
@@ -52,16 +67,7 @@ TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
   for (auto at = yaml.find("SAVE"); at != std::string::npos; at = yaml.find("SAVE"))
     yaml.replace(at, 4, GetParam().save);
   SerialBench bench(yaml, "rs485", sim::adam_line_factory());
-  bench.attach([&bench](std::function<void(std::span<const std::uint8_t>)> send, gateway::GatewayOutput& out) {
-    auto settings = adam_driver::settings_from_config(*bench.config, *bench.config->find_bus("rs485"));
-    return std::make_unique<adam_driver::AdamStack>(
-        settings,
-        [send = std::move(send)](std::span<const std::uint8_t> bytes) {
-          send(bytes);
-          return true;
-        },
-        out, [](TimePoint) { return std::int64_t{1'700'000'000'000'000}; });
-  });
+  bench.attach(adam_core(bench));
   ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(5)));
   auto& line = dynamic_cast<sim::AdamLineSim&>(*bench.device);
 
@@ -114,6 +120,85 @@ TEST_P(AdamTable, SynchronizedMoveRunsAtThePlannedSpeedAndLands) {
   EXPECT_EQ(line.position("c1-drive", bench.now), 0);
   std::printf("%s %s: HOME c1 from 32000 counts: %.2f s onto the switch at 0\n", GetParam().speed.c_str(),
               GetParam().save.c_str(), seconds);
+}
+
+// A released move (DISARM: the coordinator's, or the gateway's own at its arm expiry) leaves the
+// drive nothing to start: table entry 0 held the move's target (saved), and a broadcast "execute
+// table data" (0x00DD to address 0, manual §8.54, §5) from anyone would run it. After the DISARM
+// such a broadcast moves neither drive; the next synchronized move runs as usual.
+TEST(AdamRelease, ADisarmedMoveLeavesNothingAForeignBroadcastExecuteCouldStart) {
+  std::string yaml = kLine;
+  for (auto at = yaml.find("SPEED"); at != std::string::npos; at = yaml.find("SPEED")) yaml.replace(at, 5, "0x009A");
+  for (auto at = yaml.find("SAVE"); at != std::string::npos; at = yaml.find("SAVE")) yaml.replace(at, 4, "true");
+  SerialBench bench(yaml, "rs485", sim::adam_line_factory());
+  bench.attach(adam_core(bench));
+  ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(5)));
+  auto& line = dynamic_cast<sim::AdamLineSim&>(*bench.device);
+  const auto arm = [&](std::int64_t trigger) {
+    return bench.execute(command(gateway_command_t::ARM_MOVE, "rs485",
+                                 {axis_move("c1", 32000, 24000, 96000), axis_move("c2", -16000, 24000, 96000)},
+                                 trigger));
+  };
+  const auto armed = arm(5);
+  bench.run_for(std::chrono::milliseconds(400));  // loaded and saved
+  const auto released = bench.execute(
+      command(gateway_command_t::DISARM, "rs485", {axis_move("c1", 0, 0, 0), axis_move("c2", 0, 0, 0)}, 5));
+  ASSERT_EQ(bench.finish(released).status, kDone);
+  ASSERT_EQ(bench.finish(armed).status, kFailed);
+  bench.run_for(std::chrono::milliseconds(400));  // the table entries set back and saved
+
+  // Someone else's broadcast "execute table data", the gateway's own start frame.
+  const auto execute = adam::table_execute_broadcast();
+  ASSERT_TRUE(execute);
+  const auto frame = adam::rtu::encode_request(execute.value());
+  ASSERT_TRUE(frame);
+  bench.device->receive(frame.value(), bench.now);
+  bench.run_for(std::chrono::seconds(2));
+  for (const auto* drive : {"c1-drive", "c2-drive"}) {
+    EXPECT_EQ(line.position(drive, bench.now), 0) << drive << " ran the released move";
+    for (const auto& r : bench.reports_of(drive, kStarted))
+      EXPECT_EQ(r.target, r.position) << drive << " started from " << r.position << " to " << r.target;
+  }
+
+  // The next move runs as usual.
+  const auto again = arm(6);
+  bench.run_for(std::chrono::milliseconds(400));
+  bench.core->fire(6, bench.now);
+  const auto done = bench.finish(again);
+  ASSERT_EQ(done.status, kDone) << done.reason;
+  EXPECT_EQ(line.position("c1-drive", bench.now), 32000);
+  EXPECT_EQ(line.position("c2-drive", bench.now), -16000);
+}
+
+// A drive that stops answering mid-move may still hear: a STOP naming it sends its ramped stop
+// all the same (every STOP does, answered or not), the drive stops (ground truth), and the STOP
+// ends FAILED saying the stop is not confirmed.
+TEST(AdamUnanswering, AStopStillReachesADriveThatHearsButDoesNotAnswer) {
+  std::string yaml = kLine;
+  for (auto at = yaml.find("SPEED"); at != std::string::npos; at = yaml.find("SPEED")) yaml.replace(at, 5, "0x009A");
+  for (auto at = yaml.find("SAVE"); at != std::string::npos; at = yaml.find("SAVE")) yaml.replace(at, 4, "true");
+  SerialBench bench(yaml, "rs485", sim::adam_line_factory());
+  bench.attach(adam_core(bench));
+  ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(5)));
+  auto& line = dynamic_cast<sim::AdamLineSim&>(*bench.device);
+  const auto move =
+      bench.execute(command(gateway_command_t::ARM_MOVE, "rs485", {axis_move("c1", 96000, 24000, 96000)}));
+  bench.run_for(std::chrono::milliseconds(800));
+  const std::int64_t before = line.position("c1-drive", bench.now);
+  ASSERT_GT(before, 0) << "the move did not start";
+  bench.mute = [](std::span<const std::uint8_t>) { return true; };
+  const auto stop = bench.execute(command(gateway_command_t::STOP, "rs485", {axis_move("c1", 0, 0, 0)}));
+  const auto stopped = bench.finish(stop);
+  EXPECT_EQ(stopped.status, kFailed);
+  EXPECT_NE(stopped.reason.find("not confirmed"), std::string::npos) << stopped.reason;
+  EXPECT_TRUE(bench.out.terminal(move).has_value());
+  bench.run_for(std::chrono::seconds(1));
+  const std::int64_t rested = line.position("c1-drive", bench.now);
+  bench.run_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(line.position("c1-drive", bench.now), rested) << "the drive did not get its stop";
+  EXPECT_LT(rested, 96000);
+  std::printf("c1 muted mid-move, STOP: \"%s\"; at rest at %lld pulses (target 96000)\n", stopped.reason.c_str(),
+              static_cast<long long>(rested));
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, AdamTable,

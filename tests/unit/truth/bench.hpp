@@ -77,6 +77,7 @@ class SerialBench {
     sim::SerialDeviceContext context;
     context.bus = bus;
     context.send = [this](std::span<const std::uint8_t> bytes, Duration delay) {
+      if (mute && mute(bytes)) return;  // a muted sender hears but is not heard
       to_core.push_back({now + delay, std::vector<std::uint8_t>(bytes.begin(), bytes.end())});
     };
     context.report = [this](const std::string& drive, std::int8_t kind, std::int64_t utime, std::int64_t position,
@@ -95,6 +96,7 @@ class SerialBench {
         [this](std::span<const std::uint8_t> bytes) {
           to_device.emplace_back(bytes.begin(), bytes.end());
           sent_at.push_back(now);
+          sent.insert(sent.end(), bytes.begin(), bytes.end());
         },
         out);
     core->start(now);
@@ -181,6 +183,9 @@ class SerialBench {
   std::vector<Report> reports;
   std::deque<std::vector<std::uint8_t>> to_device;
   std::vector<TimePoint> sent_at;  // when the core wrote each piece
+  std::vector<std::uint8_t> sent;  // every byte the core wrote, in order
+  // What the far end sends and the core never gets (empty: everything arrives).
+  std::function<bool(std::span<const std::uint8_t>)> mute;
   std::deque<std::pair<TimePoint, std::vector<std::uint8_t>>> to_core;
   TimePoint now = TimePoint{} + std::chrono::seconds(10);
   std::int64_t next_id = 0;

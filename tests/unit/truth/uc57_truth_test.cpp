@@ -4,7 +4,7 @@
 // (preloaded) synchronized move of two nodes ends at its targets, never starts before the trigger,
 // and STARTED names the mechanism and the skew that the simulated drives' own start times show.
 // Frames are stamped on a bit-timed wire (125 kbit/s, back to back), so a start node by node
-// shows its real spread. Also: the SYNC/TPDO polling of 32 nodes at 20 Hz keeps within the bus.
+// shows its real spread. A disarmed move leaves nothing a foreign SYNC could start. Also: the SYNC/TPDO polling of 32 nodes at 20 Hz keeps within the bus.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,14 +12,17 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
 #include <motionlcm/event_t.hpp>
 
 #include "motion/can_frame/bit_timing.hpp"
+#include "motion/canopen/sync.hpp"
 #include "motion/config/config.hpp"
 #include "motion/sim/uc57_drive.hpp"
+#include "motion/uc57_driver/process_data.hpp"
 #include "motion/uc57_driver/uc57_stack.hpp"
 
 namespace motion::gateway {
@@ -32,10 +35,12 @@ using std::chrono::milliseconds;
 
 // Copies of LCM constants (never ODR-use the generated in-class constants).
 constexpr std::int8_t kDone = gateway_reply_t::DONE;
+constexpr std::int8_t kFailed = gateway_reply_t::FAILED;
 constexpr std::int8_t kStarted = gateway_reply_t::STARTED;
 constexpr std::int8_t kMotionStarted = motionlcm::sim_report_t::MOTION_STARTED;
 constexpr std::int8_t kMotionFinished = motionlcm::sim_report_t::MOTION_FINISHED;
 constexpr std::int16_t kOffline = event_t::OFFLINE;
+constexpr std::int16_t kHeartbeatLost = event_t::HEARTBEAT_LOST;
 constexpr std::uint32_t kBitrate = 125000;
 
 constexpr const char* kLabTemplate = R"(
@@ -96,7 +101,8 @@ class Uc57Bench {
       sim::SimDriveContext context;
       context.drive = d.name;
       context.bus = d.bus;
-      context.send = [this](const can::Frame& f) {
+      context.send = [this, name = d.name](const can::Frame& f) {
+        if (muted.contains(name)) return;  // a muted drive hears but is not heard
         const can::Frame stamped = stamp(f);
         to_stack.push_back(stamped);
         to_peers.push_back(stamped);
@@ -186,6 +192,7 @@ class Uc57Bench {
   std::vector<std::unique_ptr<sim::CanDriveSim>> drives;
   std::map<std::string, std::vector<Report>> reports;
   std::deque<can::Frame> to_drives, to_stack, to_peers;
+  std::set<std::string> muted;  // drives whose frames never reach the wire
   TimePoint now = TimePoint{} + std::chrono::seconds(10);
   std::int64_t next_id = 0;
   std::int64_t frames = 0;  // every frame on the wire
@@ -352,6 +359,146 @@ TEST(Uc57RpdoSyncRestart, ASecondGatewayFindsHonouredAgain) {
   EXPECT_TRUE(bench.stack->rpdo_sync_finding("a-drive").starts_with("honoured"))
       << bench.stack->rpdo_sync_finding("a-drive");
 }
+
+// A released move (DISARM: the coordinator's, or the gateway's own at its arm expiry) leaves the
+// drives nothing to start. Armed for a trigger, a drive that applies RPDO1 at the SYNC holds the
+// start image (bit 4 = 1) ready for the next SYNC, whoever sends it, and 607Ah holds the target
+// (manual §4.2.4). After the DISARM a SYNC from someone else (with the manual's default RPDO1,
+// where 607Ah went by SDO, also a foreign new-set-point edge 0x0F -> 0x1F before it) moves neither
+// drive; the next move runs as usual.
+class Uc57Release : public ::testing::TestWithParam<bool> {};
+
+TEST_P(Uc57Release, ADisarmedMoveLeavesNothingAForeignSyncOrEdgeCouldStart) {
+  const bool default_rpdo = GetParam();
+  std::string yaml = kLabTemplate;
+  for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT"))
+    yaml.replace(at, 7, "honoured");
+  sim::Uc57SimOptions options;
+  options.pdo_configuration_writable = !default_rpdo;
+  Uc57Bench bench(yaml, options);
+  bench.stack->start(bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
+  gateway_command_t enable{};
+  enable.kind = gateway_command_t::ENABLE;
+  enable.axes = {axis_move("a", 0), axis_move("b", 0)};
+  const auto enabled = bench.execute(enable);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(enabled).has_value(); }, std::chrono::seconds(2)));
+  ASSERT_EQ(bench.terminal(enabled)->status, kDone) << bench.terminal(enabled)->reason;
+  const auto position = [&](std::size_t k) {
+    return dynamic_cast<const sim::Uc57DriveSim&>(*bench.drives[k]).position(bench.now);
+  };
+  const std::int64_t a_from = position(0);
+  const std::int64_t b_from = position(1);
+
+  gateway_command_t move{};
+  move.kind = gateway_command_t::ARM_MOVE;
+  move.trigger_id = 7;
+  move.axes = {axis_move("a", a_from + 6400), axis_move("b", b_from - 3200)};
+  const auto armed = bench.execute(move);
+  ASSERT_TRUE(
+      bench.run_until([&] { return bench.reply(armed, gateway_reply_t::ARMED).has_value(); }, std::chrono::seconds(2)));
+  gateway_command_t disarm{};
+  disarm.kind = gateway_command_t::DISARM;
+  disarm.trigger_id = 7;
+  disarm.axes = {axis_move("a", 0), axis_move("b", 0)};
+  const auto released = bench.execute(disarm);
+  ASSERT_TRUE(bench.terminal(armed).has_value());
+  EXPECT_EQ(bench.terminal(armed)->status, kFailed);
+
+  // Someone else's SYNC at once, before the gateway's own next one.
+  bench.to_drives.push_back(bench.stamp(canopen::encode_sync({})));
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(released).has_value(); }, std::chrono::seconds(1)));
+  EXPECT_EQ(bench.terminal(released)->status, kDone) << bench.terminal(released)->reason;
+  if (default_rpdo) {
+    bench.run_for(milliseconds(100));  // the SDO write of 607Ah
+    for (const std::uint8_t node : {std::uint8_t{1}, std::uint8_t{2}}) {
+      uc57_driver::RpdoImage edge;
+      edge.controlword = 0x1F;  // new set-point, absolute (manual §4.2.4)
+      edge.mode = 1;            // profile position
+      bench.to_drives.push_back(
+          bench.stamp(uc57_driver::encode_rpdo1(canopen::NodeId{node}, uc57_driver::RpdoLayout::kManualDefault, edge)));
+    }
+    bench.to_drives.push_back(bench.stamp(canopen::encode_sync({})));
+    bench.settle();
+  }
+  bench.run_for(milliseconds(500));
+  for (const auto& [drive, from] :
+       {std::pair{std::string("a-drive"), a_from}, std::pair{std::string("b-drive"), b_from}}) {
+    for (const auto& r : bench.reports_of(drive, kMotionStarted))
+      EXPECT_EQ(r.target, r.position) << drive << " started the released move from " << r.position << " to "
+                                      << r.target;
+  }
+  EXPECT_EQ(position(0), a_from) << "a ran the released move";
+  EXPECT_EQ(position(1), b_from) << "b ran the released move";
+
+  // The next move runs as usual.
+  move.trigger_id = 8;
+  const auto again = bench.execute(move);
+  ASSERT_TRUE(
+      bench.run_until([&] { return bench.reply(again, gateway_reply_t::ARMED).has_value(); }, std::chrono::seconds(2)));
+  bench.stack->fire(8, bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(again).has_value(); }, std::chrono::seconds(5)));
+  ASSERT_EQ(bench.terminal(again)->status, kDone) << bench.terminal(again)->reason;
+  EXPECT_EQ(position(0), a_from + 6400);
+  EXPECT_EQ(position(1), b_from - 3200);
+}
+
+// A node that stops answering mid-move (heartbeat and TPDOs gone) may still hear: once the stack
+// calls it offline, a STOP naming it still sends its halt in RPDO1 (applied by the next SYNC), the
+// drive stops (ground truth), and the STOP ends FAILED saying the stop is not confirmed.
+TEST(Uc57Unanswering, AStopStillReachesANodeThatHearsButDoesNotAnswer) {
+  std::string yaml = kLabTemplate;
+  for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT"))
+    yaml.replace(at, 7, "honoured");
+  Uc57Bench bench(yaml);
+  bench.stack->start(bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
+  gateway_command_t enable{};
+  enable.kind = gateway_command_t::ENABLE;
+  enable.axes = {axis_move("a", 0)};
+  const auto enabled = bench.execute(enable);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(enabled).has_value(); }, std::chrono::seconds(2)));
+  const auto position = [&] { return dynamic_cast<const sim::Uc57DriveSim&>(*bench.drives[0]).position(bench.now); };
+  gateway_command_t move{};
+  move.kind = gateway_command_t::ARM_MOVE;
+  move.axes = {axis_move("a", 64000)};  // 20 rev at 5 rev/s: 4 s
+  const auto moving = bench.execute(move);
+  bench.run_for(milliseconds(300));
+  ASSERT_GT(position(), 0) << "the move did not start";
+  bench.muted.insert("a-drive");
+  ASSERT_TRUE(bench.run_until(
+      [&] {
+        return std::any_of(bench.out.events.begin(), bench.out.events.end(),
+                           [](const auto& e) { return e.first == "a" && e.second.kind == kHeartbeatLost; });
+      },
+      std::chrono::seconds(2)))
+      << "never called offline";
+  ASSERT_TRUE(bench.terminal(moving).has_value()) << "the move did not end with its node offline";
+
+  gateway_command_t stop{};
+  stop.kind = gateway_command_t::STOP;
+  stop.axes = {axis_move("a", 0)};
+  const auto stopped = bench.execute(stop);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(stopped).has_value(); }, std::chrono::seconds(1)));
+  EXPECT_EQ(bench.terminal(stopped)->status, kFailed);
+  EXPECT_NE(bench.terminal(stopped)->reason.find("sent in RPDO1 all the same, not confirmed"), std::string::npos)
+      << bench.terminal(stopped)->reason;
+  bench.run_for(std::chrono::seconds(1));
+  const std::int64_t rested = position();
+  bench.run_for(milliseconds(200));
+  EXPECT_EQ(position(), rested) << "the drive did not get its halt";
+  EXPECT_LT(rested, 64000);
+  std::printf("a muted mid-move, STOP: \"%s\"; at rest at %lld pulses (target 64000)\n",
+              bench.terminal(stopped)->reason.c_str(), static_cast<long long>(rested));
+}
+
+INSTANTIATE_TEST_SUITE_P(Layouts, Uc57Release, ::testing::Bool(), [](const ::testing::TestParamInfo<bool>& p) {
+  return p.param ? "default_rpdo1" : "remapped";
+});
 
 INSTANTIATE_TEST_SUITE_P(Variants, Uc57RpdoSync, ::testing::Values("honoured", "on_reception", "refused"),
                          [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });

@@ -2,7 +2,8 @@
 // reboot", for a time not given). Under a simulated reboot of 0 ms and of 500 ms, set-up writes
 // ICF once per controller, waits the reboot out, reads the value back and becomes ready; a second
 // gateway start finds ICFG as configured and writes nothing. Then a synchronized move (one
-// trigger) lands both controllers on their targets (simulator ground truth).
+// trigger) lands both controllers on their targets (simulator ground truth). A controller found
+// moving by a starting gateway is stopped before its set-up is written.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +13,8 @@
 #include "bench.hpp"
 #include "motion/gateway/serial_line.hpp"
 #include "motion/sim/uim242_gateway_sim.hpp"
+#include "motion/uim242/feedback.hpp"
+#include "motion/uim242/instruction.hpp"
 #include "motion/uim242_driver/uim242_stack.hpp"
 
 namespace motion::truth {
@@ -227,6 +230,112 @@ INSTANTIATE_TEST_SUITE_P(
     [](const ::testing::TestParamInfo<Spd0Case>& p) {
       return p.param.variant + (p.param.answer.empty() ? "_detected" : "_configured_" + p.param.answer);
     });
+
+// A gateway that starts while a controller runs (its predecessor's move, README "Safety and
+// faults", slow restart) stops it before writing its set-up: on the line the controller gets
+// `FBK;`, then `STP 0;`, then `FBK;` until it reports speed 0, and only then its set-up writes
+// (micro-steps, current, MCFG ...: not changed under a running motor). It ends at rest short of the
+// old target, set up, with a GATEWAY_RESTARTED event, and moves again.
+TEST(Uim242Restart, AControllerFoundMovingIsStoppedAndAtRestBeforeItsSetUpIsWritten) {
+  SerialBench bench(lab("0"), "rs232", sim::uim242_line_factory());
+  bench.attach(uim242_core(bench));
+  ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(10)));
+  auto& line = dynamic_cast<sim::Uim242GatewaySim&>(*bench.device);
+  const auto enabled = bench.execute(command(gateway_command_t::ENABLE, "rs232", {axis_move("u1", 0, 0, 0)}));
+  ASSERT_EQ(bench.finish(enabled).status, kDone);
+  const auto move = bench.execute(command(gateway_command_t::ARM_MOVE, "rs232", {axis_move("u1", 16000, 3200, 16000)}));
+  bench.run_for(std::chrono::milliseconds(800));
+  ASSERT_TRUE(line.moving("u1-drive", bench.now))
+      << bench.out.terminal(move).value_or(motionlcm::gateway_reply_t{}).reason;
+
+  // The gateway process dies (nothing more from it) and another one starts: the controller runs on.
+  const std::size_t from = bench.sent.size();
+  bench.attach(uim242_core(bench));
+  ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(10)))
+      << bench.out.event_text(motionlcm::event_t::CONFIG_MISMATCH);
+  EXPECT_FALSE(line.moving("u1-drive", bench.now));
+  EXPECT_LT(line.position("u1-drive", bench.now), 16000) << "ran on to its old target";
+  EXPECT_NE(bench.out.event_text(motionlcm::event_t::GATEWAY_RESTARTED).find("u1-drive (node 5): found moving"),
+            std::string::npos)
+      << bench.out.event_text(motionlcm::event_t::GATEWAY_RESTARTED);
+
+  // What node 5 got on the line since the restart, in order.
+  uim242::InstructionSplitter splitter;
+  const std::span<const std::uint8_t> wire(bench.sent);
+  int selected = 0;
+  std::vector<uim242::Instruction> to_u1;
+  std::string listing;
+  for (const auto& chunk : splitter.push(wire.subspan(from))) {
+    const auto in = uim242::parse_instruction(chunk.text);
+    ASSERT_TRUE(in) << chunk.text;
+    if (in.value().mnemonic == uim242::Mnemonic::kADR && in.value().value) {
+      selected = static_cast<int>(*in.value().value);
+      continue;
+    }
+    if (selected != 5 || in.value().global) continue;
+    to_u1.push_back(in.value());
+    listing += chunk.text + ";";
+  }
+  const auto first = [&](auto&& pred) {
+    return static_cast<std::size_t>(std::find_if(to_u1.begin(), to_u1.end(), pred) - to_u1.begin());
+  };
+  const std::size_t stop =
+      first([](const uim242::Instruction& i) { return i.mnemonic == uim242::Mnemonic::kSTP && i.value == 0; });
+  const std::size_t setup = first([](const uim242::Instruction& i) {
+    return i.value && (i.mnemonic == uim242::Mnemonic::kMCS || i.mnemonic == uim242::Mnemonic::kCUR ||
+                       i.mnemonic == uim242::Mnemonic::kMCF || i.mnemonic == uim242::Mnemonic::kSCF ||
+                       i.mnemonic == uim242::Mnemonic::kICF || i.mnemonic == uim242::Mnemonic::kMMS);
+  });
+  ASSERT_LT(stop, to_u1.size()) << "never stopped: " << listing;
+  ASSERT_LT(setup, to_u1.size()) << "never set up: " << listing;
+  EXPECT_LT(stop, setup) << "set-up written before the stop: " << listing;
+  const auto checked = std::find_if(to_u1.begin() + static_cast<std::ptrdiff_t>(stop), to_u1.end(),
+                                    [](const uim242::Instruction& i) { return i.mnemonic == uim242::Mnemonic::kFBK; });
+  EXPECT_LT(checked - to_u1.begin(), static_cast<std::ptrdiff_t>(setup)) << "standstill not read: " << listing;
+  std::printf("restart while u1 runs, node 5's instructions: %s\n", listing.c_str());
+
+  // And it moves again.
+  const auto enabled_again = bench.execute(command(gateway_command_t::ENABLE, "rs232", {axis_move("u1", 0, 0, 0)}));
+  ASSERT_EQ(bench.finish(enabled_again).status, kDone);
+  const auto again = bench.execute(command(gateway_command_t::ARM_MOVE, "rs232", {axis_move("u1", 0, 3200, 16000)}));
+  ASSERT_EQ(bench.finish(again).status, kDone) << bench.finish(again).reason;
+  EXPECT_EQ(line.position("u1-drive", bench.now), 0);
+}
+
+// A controller that stops answering mid-move may still hear: once the stack calls it offline, a
+// STOP naming it still sends `STP 0;`, the controller stops (ground truth), and the STOP ends
+// FAILED saying the stop is not confirmed.
+TEST(Uim242Unanswering, AStopStillReachesAControllerThatHearsButDoesNotAnswer) {
+  SerialBench bench(lab("0"), "rs232", sim::uim242_line_factory());
+  bench.attach(uim242_core(bench));
+  ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(10)));
+  auto& line = dynamic_cast<sim::Uim242GatewaySim&>(*bench.device);
+  const auto enabled = bench.execute(command(gateway_command_t::ENABLE, "rs232", {axis_move("u1", 0, 0, 0)}));
+  ASSERT_EQ(bench.finish(enabled).status, kDone);
+  const auto move = bench.execute(command(gateway_command_t::ARM_MOVE, "rs232", {axis_move("u1", 16000, 3200, 16000)}));
+  bench.run_for(std::chrono::milliseconds(500));
+  ASSERT_TRUE(line.moving("u1-drive", bench.now));
+  // Controller 5 goes quiet; the UIM2501 gateway still answers its selection (ADR).
+  bench.mute = [](std::span<const std::uint8_t> bytes) {
+    const auto frame = uim242::parse_frame(bytes);
+    return frame && frame.value().node == 5 && frame.value().message_id != uim242::message::kSelect;
+  };
+  ASSERT_TRUE(
+      bench.run_until([&] { return bench.out.event_text(motionlcm::event_t::OFFLINE).find("u1") != std::string::npos; },
+                      std::chrono::seconds(3)))
+      << "never called offline";
+  ASSERT_TRUE(bench.out.terminal(move).has_value()) << "the move did not end with its drive offline";
+  ASSERT_TRUE(line.moving("u1-drive", bench.now)) << "stopped by something else";
+  const auto stop = bench.execute(command(gateway_command_t::STOP, "rs232", {axis_move("u1", 0, 0, 0)}));
+  const auto stopped = bench.finish(stop);
+  EXPECT_EQ(stopped.status, kFailed);
+  EXPECT_NE(stopped.reason.find("STP 0 sent all the same, not confirmed"), std::string::npos) << stopped.reason;
+  bench.run_for(std::chrono::seconds(2));
+  EXPECT_FALSE(line.moving("u1-drive", bench.now)) << "the controller did not get its stop";
+  EXPECT_LT(line.position("u1-drive", bench.now), 16000);
+  std::printf("u1 muted mid-move, STOP: \"%s\"; at rest at %lld counts (target 16000)\n", stopped.reason.c_str(),
+              static_cast<long long>(line.position("u1-drive", bench.now)));
+}
 
 // STO (manual #42): "wait 20ms before sending other instructions" after it. A read queued right
 // behind the STO goes out only 20 ms after the STO's reply.

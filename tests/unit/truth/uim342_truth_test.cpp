@@ -3,12 +3,14 @@
 // when a written MT[0] applies (after_restart: the manual's reading; immediately), the stack
 // stores it with the driver off, restarts the drive, reads it back, and a synchronized (group BG)
 // move to 10 mm turns the shaft 400 full steps (2 revolutions), the simulator's ground truth; a
-// HOME then searches the simulated switch and ends on its edge.
+// HOME then searches the simulated switch and ends on its edge. A move armed and then disarmed
+// leaves nothing a foreign group BG could start.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <deque>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,7 @@ using std::chrono::milliseconds;
 
 // Copies of LCM constants (never ODR-use the generated in-class constants).
 constexpr std::int8_t kDone = gateway_reply_t::DONE;
+constexpr std::int8_t kFailed = gateway_reply_t::FAILED;
 
 constexpr const char* kLabTemplate = R"(
 buses:
@@ -82,11 +85,16 @@ class Uim342Bench {
       sim::SimDriveContext context;
       context.drive = d.name;
       context.bus = d.bus;
-      context.send = [this](const can::Frame& f) { to_stack.push_back(f); };
+      context.send = [this, name = d.name](const can::Frame& f) {
+        if (!muted.contains(name)) to_stack.push_back(f);  // a muted drive hears but is not heard
+      };
       context.report = [this, name = d.name](std::int8_t kind, std::int64_t frame_utime, std::int64_t position,
-                                             std::int64_t) {
+                                             std::int64_t target) {
         if (kind == motionlcm::sim_report_t::POWERED_UP) ++boots[name];
-        if (kind == motionlcm::sim_report_t::MOTION_STARTED) starts[name].push_back(frame_utime);
+        if (kind == motionlcm::sim_report_t::MOTION_STARTED) {
+          starts[name].push_back(frame_utime);
+          start_distances[name].push_back(target - position);
+        }
         if (kind == motionlcm::sim_report_t::MOTION_FINISHED) finish_positions[name].push_back(position);
       };
       drives.push_back(std::make_unique<sim::Uim342Drive>(stored, context, sim::Uim342Identity{},
@@ -150,7 +158,9 @@ class Uim342Bench {
   std::map<std::string, int> boots;
   std::map<std::string, std::vector<std::int64_t>> starts;            // frame times of MOTION_STARTED
   std::map<std::string, std::vector<std::int64_t>> finish_positions;  // drive counts at MOTION_FINISHED
+  std::map<std::string, std::vector<std::int64_t>> start_distances;   // target - position at MOTION_STARTED
   std::deque<can::Frame> to_drives, to_stack;
+  std::set<std::string> muted;  // drives whose frames never reach the stack
   TimePoint now = TimePoint{} + std::chrono::seconds(10);
   std::int64_t next_id = 0;
 };
@@ -239,6 +249,109 @@ TEST_P(Uim342MicroSteps, SetUpRestartsOnceAndAMoveLandsOnThePhysicalTarget) {
       "shaft at %.1f full steps (switch edge -200)\n",
       GetParam().c_str(), static_cast<long long>(finishes[finished_before]),
       bench.drives[0]->shaft_full_steps(bench.now));
+}
+
+// A released move (DISARM: the coordinator's, or the gateway's own at its arm expiry) leaves the
+// drives nothing to start: a group BG from anyone else afterwards (manual §5.11: BG to the group
+// id starts every member's loaded PA/PR) moves neither drive; the next move runs as usual.
+TEST(Uim342Release, ADisarmedMoveLeavesNothingAForeignGroupBgCouldStart) {
+  Uim342Bench bench("after_restart");
+  bench.stack->start(bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
+  gateway_command_t enable{};
+  enable.kind = gateway_command_t::ENABLE;
+  enable.axes = {axis_move("x", 0), axis_move("y", 0)};
+  const auto enabled = bench.execute(enable);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(enabled).has_value(); }, std::chrono::seconds(1)));
+  ASSERT_EQ(bench.terminal(enabled)->status, kDone) << bench.terminal(enabled)->reason;
+
+  gateway_command_t arm{};
+  arm.kind = gateway_command_t::ARM_MOVE;
+  arm.trigger_id = 9;
+  arm.axes = {axis_move("x", 6400), axis_move("y", 3200)};
+  const auto armed = bench.execute(arm);
+  bench.run_for(milliseconds(50));
+  gateway_command_t disarm{};
+  disarm.kind = gateway_command_t::DISARM;
+  disarm.trigger_id = 9;
+  disarm.axes = {axis_move("x", 0), axis_move("y", 0)};
+  const auto released = bench.execute(disarm);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(released).has_value(); }, std::chrono::seconds(1)));
+  ASSERT_EQ(bench.terminal(released)->status, kDone) << bench.terminal(released)->reason;
+  ASSERT_TRUE(bench.terminal(armed).has_value());
+  EXPECT_EQ(bench.terminal(armed)->status, kFailed);
+
+  // Someone else's BG to group 20 (x and y), as another master or a stale frame would send it.
+  const auto bg = uim342::instruction_frame(20, uim342::request::begin());
+  ASSERT_TRUE(bg.ok());
+  bench.to_drives.push_back(*bg);
+  bench.settle();
+  bench.run_for(milliseconds(500));
+  for (std::size_t k = 0; k < 2; ++k) {
+    const std::string name = k == 0 ? "x-drive" : "y-drive";
+    EXPECT_EQ(bench.drives[k]->position(bench.now), 0) << name << " ran the released move";
+    for (const auto distance : bench.start_distances[name])
+      EXPECT_EQ(distance, 0) << name << " started a move of " << distance << " counts on the foreign BG";
+  }
+
+  // The next move runs as usual.
+  arm.trigger_id = 10;
+  const auto again = bench.execute(arm);
+  bench.run_for(milliseconds(50));
+  bench.stack->fire(10, bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(again).has_value(); }, std::chrono::seconds(5)));
+  ASSERT_EQ(bench.terminal(again)->status, kDone) << bench.terminal(again)->reason;
+  EXPECT_EQ(bench.drives[0]->position(bench.now), 6400);
+  EXPECT_EQ(bench.drives[1]->position(bench.now), 3200);
+}
+
+// A drive that stops answering mid-move may still hear (a broken transmit path, a bad
+// transceiver): once the stack calls it offline, a STOP naming it still sends its ST (without
+// ACK request), the drive stops (ground truth), and the STOP ends FAILED saying the stop is not
+// confirmed.
+TEST(Uim342Unanswering, AStopStillReachesADriveThatHearsButDoesNotAnswer) {
+  Uim342Bench bench("after_restart");
+  bench.stack->start(bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
+  gateway_command_t enable{};
+  enable.kind = gateway_command_t::ENABLE;
+  enable.axes = {axis_move("x", 0)};
+  const auto enabled = bench.execute(enable);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(enabled).has_value(); }, std::chrono::seconds(1)));
+  gateway_command_t move{};
+  move.kind = gateway_command_t::ARM_MOVE;
+  move.axes = {axis_move("x", 128000)};  // 200 mm at 50 mm/s: 4 s
+  const auto moving = bench.execute(move);
+  bench.run_for(milliseconds(300));
+  ASSERT_TRUE(bench.drives[0]->moving(bench.now));
+  bench.muted.insert("x-drive");
+  ASSERT_TRUE(bench.run_until(
+      [&] {
+        return std::any_of(bench.out.events.begin(), bench.out.events.end(), [](const auto& e) {
+          return e.first == "x" && e.second.kind == motionlcm::event_t::OFFLINE;
+        });
+      },
+      std::chrono::seconds(2)))
+      << "never called offline";
+  ASSERT_TRUE(bench.terminal(moving).has_value()) << "the move did not end with its drive offline";
+  ASSERT_TRUE(bench.drives[0]->moving(bench.now)) << "stopped by something else";
+
+  gateway_command_t stop{};
+  stop.kind = gateway_command_t::STOP;
+  stop.axes = {axis_move("x", 0)};
+  const auto stopped = bench.execute(stop);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(stopped).has_value(); }, std::chrono::seconds(1)));
+  EXPECT_EQ(bench.terminal(stopped)->status, kFailed);
+  EXPECT_NE(bench.terminal(stopped)->reason.find("ST sent, stop not confirmed"), std::string::npos)
+      << bench.terminal(stopped)->reason;
+  bench.run_for(std::chrono::seconds(1));
+  EXPECT_FALSE(bench.drives[0]->moving(bench.now)) << "the drive did not get its stop";
+  EXPECT_LT(bench.drives[0]->position(bench.now), 128000);
+  std::printf("x muted mid-move, STOP: \"%s\"; at rest at %lld counts (target 128000)\n",
+              bench.terminal(stopped)->reason.c_str(), static_cast<long long>(bench.drives[0]->position(bench.now)));
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, Uim342MicroSteps, ::testing::Values("after_restart", "immediately"),

@@ -178,7 +178,8 @@ TEST(Uc57Commands, PreloadedStartSurvivesPeriodicSyncsAndADisarmWithdrawsIt) {
   }
   EXPECT_GE(syncs, 2U);
   EXPECT_FALSE(bench.node(1).move_started_at_sync);
-  // DISARM: the next SYNC applies the armed image, so nothing starts.
+  // DISARM: the armed image goes out at once with the target set back to where the drive stands
+  // (0), so neither the next SYNC nor a later edge starts anything.
   const auto disarm = bench.command(Cmd::DISARM, {"a"}, 7);
   bench.execute(disarm);
   bench.run_for(std::chrono::milliseconds(500));
@@ -188,7 +189,7 @@ TEST(Uc57Commands, PreloadedStartSurvivesPeriodicSyncsAndADisarmWithdrawsIt) {
   const auto last =
       std::find_if(after.rbegin(), after.rend(), [](const std::string& f) { return f.rfind("201#", 0) == 0; });
   ASSERT_NE(last, after.rend());
-  EXPECT_EQ(*last, "201#0F0010270000");
+  EXPECT_EQ(*last, "201#0F0000000000");
 }
 
 TEST(Uc57Commands, NoPeriodicSyncJustBeforeAScheduledStart) {

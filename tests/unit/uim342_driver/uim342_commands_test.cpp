@@ -190,7 +190,8 @@ TEST_F(Uim342StackTest, StopEndsTheMoveAndSendsSt) {
 }
 
 // The coordinator aborts a group whose drive fell silent with one stop naming every axis: the
-// offline drive must not keep the others running; the reply fails naming it.
+// offline drive must not keep the others running; it still gets its ST (it may hear), and the
+// reply fails naming it and the stop as unconfirmed.
 TEST_F(Uim342StackTest, StopNamingAnOfflineDriveStillStopsTheOthers) {
   start_and_set_up();
   enable({"x"});
@@ -205,11 +206,15 @@ TEST_F(Uim342StackTest, StopNamingAnOfflineDriveStillStopsTheOthers) {
     const auto stop = execute(command(kind, {"x", "z"}));
     run_for(milliseconds(60));
     EXPECT_EQ(count_sent(5, FC::kST), 1u);
+    EXPECT_EQ(count_sent(7, FC::kST), 1u);
     EXPECT_FALSE(drives.at(5).moving());
     EXPECT_EQ(last_reply(move).status, kFailed);
     EXPECT_EQ(last_reply(stop).status, kFailed);
     EXPECT_EQ(last_reply(stop).error_code, error_code(ReplyError::kAxisOffline));
-    EXPECT_EQ(last_reply(stop).reason, "z-drive (node 7) is offline");
+    EXPECT_EQ(last_reply(stop).reason,
+              kind == gateway_command_t::STOP
+                  ? "z-drive (node 7) is offline (not answering): ST sent, stop not confirmed"
+                  : "z-drive (node 7) is offline (not answering): ST and MO=0 sent, stop not confirmed");
   }
 }
 

@@ -187,6 +187,9 @@ class AdamStack final : public gateway::SerialStack {
   void arm_move(Operation& op, TimePoint now);
   void start_armed(Operation& op, TimePoint now);
   void param(Operation& op, const motionlcm::param_t& param);
+  // Queues the writes that set `d`'s table entry 0 to its position (and a Save with table_save);
+  // false when the drive is offline, moving, owned by a command or its position is unknown.
+  bool neutralize(Drive& d);
   [[nodiscard]] bool neutral_for(const Drive& d, const Operation& firing) const;
   [[nodiscard]] std::optional<std::string> busy_reason(const std::vector<Drive*>& drives) const;
   [[nodiscard]] double rpm_of(const Drive& d, double counts_per_s) const;

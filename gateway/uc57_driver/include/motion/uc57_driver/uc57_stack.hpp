@@ -229,6 +229,11 @@ class Uc57Stack final : public gateway::CanStack {
   void start_set_position(std::size_t n, Job& job, const motionlcm::axis_command_t& axis);
   void start_param(std::size_t n, Job& job);
   void disarm(const Job& disarm_job);
+  // The target in node `n` set to where it stands, bit 4 = 0, sent at once (a released move).
+  void neutralize(std::size_t n);
+  // STOP/ESTOP of a node that does not answer: its halt / quick stop sent in RPDO1 anyway; false
+  // when its process data was never set up.
+  bool send_blind_stop(std::size_t n, bool quick);
   void fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoint now);
   void check_task_timeouts(TimePoint now);
   // Switches the mode by SDO (6060h) and keeps the RPDO image's mode byte consistent.

@@ -126,6 +126,7 @@ class Uim242Stack final : public gateway::SerialStack {
   // the instruction sequences still running for it (DONE when none is left).
   struct CommandData {
     std::size_t outstanding = 0;
+    std::string unreached;  // a stop's drives that do not answer: the command fails naming them
   };
   using Command = gateway::CommandLedger<CommandData>::Entry;
   struct Move;
@@ -147,6 +148,9 @@ class Uim242Stack final : public gateway::SerialStack {
 
   // ---- start-up and polling
   void identify(Drive& d, TimePoint now);
+  // FBK first: a drive found moving is stopped (STP 0) and seen at rest before set_up().
+  void stop_then_set_up(Drive& d);
+  void set_up_at_rest(Drive& d, TimePoint give_up);
   void set_up(Drive& d);
   void set_up_steps(Drive& d);  // everything after ICFG (see set_up)
   void verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up, TimePoint now);
@@ -157,8 +161,12 @@ class Uim242Stack final : public gateway::SerialStack {
   // ---- commands
   Drive* drive_of_axis(const std::string& axis);
   [[nodiscard]] std::size_t index_of(const Drive& d) const;  // the drive's part key
+  // Runs `f` for each axis's drive; false (the command failed) for an axis of no drive of this
+  // bus or, unless `stops`, of a drive offline. With `stops` an offline drive gets its stop all
+  // the same (stop_unanswering) and the command ends FAILED naming it.
   bool for_each_axis(const motionlcm::gateway_command_t& command,
-                     const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f);
+                     const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f, bool stops = false);
+  void stop_unanswering(Drive& d, bool estop, std::int64_t command_id);
   void arm(const motionlcm::gateway_command_t& command, TimePoint now);
   void start_move(Move& m, TimePoint now);
   // The first armed move of a drive whose spd0_position_move is unknown: at rest `STP 1;`, after
