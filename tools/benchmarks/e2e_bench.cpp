@@ -56,6 +56,7 @@
 #include <motionlcm/sim_report_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
+#include <motionlcm/trigger_heard_t.hpp>
 
 #include "bench_process.hpp"
 #include "motion/can_frame/bit_timing.hpp"
@@ -130,11 +131,25 @@ int run(bool quick, bool skew_only) {
                                           });
   std::vector<motionlcm::sync_trigger2_t> scheduled;
   std::map<std::string, motionlcm::arm_timing_t> arming;  // axis -> its ARM_TIMING
+  // TRIGGER_HEARD of triggers of several buses (gateways that publish it): how long each took to be
+  // heard, and how many were heard after their bus's send time (fired late).
+  std::map<std::int64_t, int> trigger_buses;  // trigger id -> its number of buses
+  std::vector<double> heard_delay;
+  int heard_late = 0;
+  node.subscribe<motionlcm::trigger_heard_t>(lcm::channels::kTriggerHeard,
+                                             [&](const motionlcm::trigger_heard_t& h, const std::string&) {
+                                               const auto it = trigger_buses.find(h.trigger_id);
+                                               if (it == trigger_buses.end() || it->second < 2) return;
+                                               heard_delay.push_back(static_cast<double>(h.utime - h.trigger_utime));
+                                               if (h.utime > h.send_utime) ++heard_late;
+                                             });
   node.subscribe<motionlcm::arm_timing_t>(
       lcm::channels::kArmTiming, [&](const motionlcm::arm_timing_t& t, const std::string&) { arming[t.axis] = t; });
-  node.subscribe<motionlcm::sync_trigger2_t>(
-      lcm::channels::kSyncTrigger2,
-      [&](const motionlcm::sync_trigger2_t& t, const std::string&) { scheduled.push_back(t); });
+  node.subscribe<motionlcm::sync_trigger2_t>(lcm::channels::kSyncTrigger2,
+                                             [&](const motionlcm::sync_trigger2_t& t, const std::string&) {
+                                               scheduled.push_back(t);
+                                               trigger_buses[t.trigger_id] = t.num_buses;
+                                             });
 
   LabPrograms programs(bin, config_path, url, sim_dir, dir);
   programs.start("sim", "motion-sim", {});
@@ -409,6 +424,11 @@ int run(bool quick, bool skew_only) {
     skew_run({"x", "y", "a", "b", "c", "u"}, "three buses (+c rs485 +u rs232)", false);
   } while (false);
 
+  if (!heard_delay.empty()) {
+    rows.push_back({"TRIGGER_HEARD delay, triggers of 2-3 buses (" + std::to_string(heard_delay.size()) +
+                        " hearings, " + std::to_string(heard_late) + " after their send time)",
+                    percentile(heard_delay, 50), percentile(heard_delay, 99), "", NAN});
+  }
   stop_all(programs.children());
   std::printf("end to end on the simulated lab (%s), binaries %s, LCM %s, load average %.2f\n\n", config_path.c_str(),
               bin.c_str(), url.c_str(), load_average());
