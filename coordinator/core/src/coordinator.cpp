@@ -16,7 +16,12 @@ using namespace detail;
 
 Coordinator::Coordinator(const config::Config& config, MovePlanner planner, CoordinatorOutput& output,
                          WallClock wall_clock)
-    : config_(config), planner_(std::move(planner)), out_(output), wall_clock_(std::move(wall_clock)) {
+    : config_(config),
+      planner_(std::move(planner)),
+      out_(output),
+      wall_clock_(std::move(wall_clock)),
+      trigger_lead_(TriggerLead::Settings{.max_us = config.coordinator.trigger_lead_ms * 1000LL,
+                                          .min_us = config.coordinator.trigger_lead_min_ms * 1000LL}) {
   for (const auto& axis : config_.axes)
     axes_[axis.name] =
         AxisLive{&axis, config_.drive_of(axis), std::nullopt, {}, 0, std::nullopt, 0, std::nullopt, nullptr, {}};
@@ -126,6 +131,19 @@ void Coordinator::on_arm_timing(const motionlcm::arm_timing_t& timing, TimePoint
     return;
   }
   it->second.arming = timing;
+}
+
+void Coordinator::on_trigger_heard(const motionlcm::trigger_heard_t& heard, TimePoint now) {
+  begin(now);
+  if (config_.find_bus(heard.bus) == nullptr) return;
+  if (!trigger_lead_.heard(heard.bus, heard.trigger_id, heard.utime)) return;
+  if (heard.utime > heard.send_utime && heard.send_utime > heard.trigger_utime) {
+    // Heard after its send time: the gateway fired at once, late; this sample raises the lead.
+    spdlog::warn(
+        "trigger {} reached bus {} {} us after its send time (heard {} us after it was sent): the "
+        "trigger lead is raised",
+        heard.trigger_id, heard.bus, heard.utime - heard.send_utime, heard.utime - heard.trigger_utime);
+  }
 }
 
 void Coordinator::on_drive_model(const motionlcm::drive_model_t& model, TimePoint now) {

@@ -208,11 +208,13 @@ void Coordinator::fire(Request& r) {
   r.phase = Phase::kTriggered;
   // The drives act together at act_utime: each bus hands its start frames to the wire early by
   // their wire time (start_schedule.hpp). One bus: its longest lead starts now. Several: the
-  // hand-overs start far enough ahead for every gateway to hear the trigger.
+  // hand-overs start far enough ahead for every gateway to hear the trigger, as long as the
+  // gateways of these buses took to hear the recent triggers (trigger_lead.hpp).
   const StartSchedule schedule = schedule_starts(r.start_frames);
   const std::int64_t utime = wall_clock_();
   const std::int64_t max_lead = static_cast<std::int64_t>(std::ceil(schedule.max_lead_us));
-  const std::int64_t earliest_send = utime + (r.buses.size() > 1 ? config_.coordinator.trigger_lead_ms * 1000 : 0);
+  const std::int64_t earliest_send = utime + (r.buses.size() > 1 ? trigger_lead_.lead_us(r.buses) : 0);
+  trigger_lead_.published(r.trigger_id, utime);
   motionlcm::sync_trigger2_t t2{};
   t2.utime = utime;
   t2.trigger_id = r.trigger_id;

@@ -10,6 +10,7 @@
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
+#include <motionlcm/trigger_heard_t.hpp>
 
 #include "motion/gateway/command_ledger.hpp"
 #include "motion/lcm/channels.hpp"
@@ -221,6 +222,7 @@ void Gateway::on_trigger(const motionlcm::sync_trigger_t& trigger) {
 }
 
 void Gateway::on_trigger2(const motionlcm::sync_trigger2_t& trigger) {
+  const std::int64_t heard_utime = wall_time_us();
   const auto n = std::min(
       {trigger.buses.size(), trigger.send_utime.size(), static_cast<std::size_t>(std::max(trigger.num_buses, 0))});
   std::size_t i = 0;
@@ -235,6 +237,15 @@ void Gateway::on_trigger2(const motionlcm::sync_trigger2_t& trigger) {
     pending_fires_.erase(it);  // its SYNC_TRIGGER came first: this one knows the lead
   }
   schedule_fire(trigger.trigger_id, trigger.send_utime[i], trigger.start_command_ids);
+  // When it was heard, once the start is scheduled (or, late, fired): the coordinator measures its
+  // trigger lead from these.
+  motionlcm::trigger_heard_t heard{};
+  heard.utime = heard_utime;
+  heard.bus = bus_;
+  heard.trigger_id = trigger.trigger_id;
+  heard.trigger_utime = trigger.utime;
+  heard.send_utime = trigger.send_utime[i];
+  publish_own(lcm::channels::kTriggerHeard, heard, true);
 }
 
 void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, std::vector<std::int64_t> order) {

@@ -318,9 +318,10 @@ void read_axis(Reader& r, const YAML::Node& node, const std::string& path, Axis&
 
 void read_coordinator(Reader& r, const YAML::Node& node, CoordinatorSettings& out) {
   const std::string path = "coordinator";
-  if (!r.check_map(node, path,
-                   {"default_timeout_ms", "progress_period_ms", "trigger_lead_ms", "gateway_timeout_ms",
-                    "arm_timeout_ms", "arm_expiry_ms", "max_active_requests", "position_tolerance"}))
+  if (!r.check_map(
+          node, path,
+          {"default_timeout_ms", "progress_period_ms", "trigger_lead_ms", "trigger_lead_min_ms", "gateway_timeout_ms",
+           "arm_timeout_ms", "arm_expiry_ms", "max_active_requests", "position_tolerance"}))
     return;
   auto positive_int = [&](const char* key, int& field) {
     if (auto v = r.get<int>(node, path, key, false)) {
@@ -331,6 +332,12 @@ void read_coordinator(Reader& r, const YAML::Node& node, CoordinatorSettings& ou
   positive_int("default_timeout_ms", out.default_timeout_ms);
   positive_int("progress_period_ms", out.progress_period_ms);
   positive_int("trigger_lead_ms", out.trigger_lead_ms);
+  positive_int("trigger_lead_min_ms", out.trigger_lead_min_ms);
+  if (node["trigger_lead_min_ms"] && out.trigger_lead_min_ms > out.trigger_lead_ms) {
+    r.error(node["trigger_lead_min_ms"], path + ".trigger_lead_min_ms",
+            "must not exceed trigger_lead_ms (" + std::to_string(out.trigger_lead_ms) +
+                " ms): it is the lower bound of the adaptive trigger lead, trigger_lead_ms the upper");
+  }
   positive_int("gateway_timeout_ms", out.gateway_timeout_ms);
   positive_int("arm_timeout_ms", out.arm_timeout_ms);
   positive_int("arm_expiry_ms", out.arm_expiry_ms);

@@ -147,6 +147,22 @@ TEST(Config, BadSecuritySettingsNameTheKey) {
   expect_single_error(kValid + "security:\n  keys: k\n", 21, "security.keys", "unknown key");
 }
 
+// The adaptive trigger lead's bounds: trigger_lead_min_ms defaults to 5, is positive and not above
+// trigger_lead_ms, and an error names its line.
+TEST(Config, TriggerLeadMinimumIsCheckedAgainstTheMaximum) {
+  const auto plain = load_string(kValid, "lab.yaml");
+  ASSERT_TRUE(plain.ok()) << plain.error_text();
+  EXPECT_EQ(plain.config->coordinator.trigger_lead_ms, 30);
+  EXPECT_EQ(plain.config->coordinator.trigger_lead_min_ms, 5);
+  const auto set = load_string(kValid + "coordinator:\n  trigger_lead_ms: 40\n  trigger_lead_min_ms: 3\n", "lab.yaml");
+  ASSERT_TRUE(set.ok()) << set.error_text();
+  EXPECT_EQ(set.config->coordinator.trigger_lead_min_ms, 3);
+  expect_single_error(kValid + "coordinator:\n  trigger_lead_ms: 20\n  trigger_lead_min_ms: 25\n", 22,
+                      "coordinator.trigger_lead_min_ms", "must not exceed trigger_lead_ms (20 ms)");
+  expect_single_error(kValid + "coordinator:\n  trigger_lead_min_ms: 0\n", 21, "coordinator.trigger_lead_min_ms",
+                      "must be greater than zero");
+}
+
 // simulation.group: who besides motion-sim's user may open the simulated buses' sockets and ptys.
 TEST(Config, SimulationGroupGivesTheAccessOfSimulatedBuses) {
   const auto plain = load_string(kValid, "lab.yaml");

@@ -16,6 +16,7 @@
 
 #include <motionlcm/active_moves_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
+#include <motionlcm/trigger_heard_t.hpp>
 
 #include "motion/coordinator/coordinator.hpp"
 #include "motion/core/event_loop.hpp"

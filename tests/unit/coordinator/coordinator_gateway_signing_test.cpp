@@ -1,5 +1,5 @@
 // What gateways publish, signed (README "Security"): with security.mode enforce the coordinator
-// acts only on AXIS_STATE, GW_REPLY, DRIVE_MODEL, ORPHANED_MOVES, events and heartbeats whose signed copies verify
+// acts only on AXIS_STATE, GW_REPLY, DRIVE_MODEL, TRIGGER_HEARD, ORPHANED_MOVES, events and heartbeats whose signed copies verify
 // against a key of role gateway in authorized_keys. A fake gateway of can0 signs with that key on
 // real multicast (the test's own LCM URL); a forger publishes plain messages, messages signed with
 // a key of no gateway, and replays of the gateway's own.
@@ -11,6 +11,7 @@
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/signed_gateway_command_t.hpp>
 #include <motionlcm/signed_message_t.hpp>
+#include <motionlcm/trigger_heard_t.hpp>
 
 #include "motion/coordinator/coordinator_service.hpp"
 #include "motion/core/event_loop.hpp"
@@ -356,6 +357,47 @@ TEST_F(GatewaySigning, AKeyBoundToCan0SpeaksForNoOtherBus) {
   EXPECT_EQ(replies_[6].back().status, std::int8_t{reply_t::REJECTED}) << replies_[6].back().reason;
   EXPECT_NE(replies_[6].back().reason.find("gateway of bus rs485 (axis c) is offline"), std::string::npos)
       << replies_[6].back().reason;
+}
+
+// Under enforce the trigger lead adapts to the gateway's signed TRIGGER_HEARD only: plain ones (a
+// forger's, 1 s late) are not looked at, and the lead falls from the configured 30 ms to the 5 ms
+// minimum once can0 has 8 signed samples.
+TEST_F(GatewaySigning, TheTriggerLeadAdaptsToSignedHearingsOnly) {
+  std::vector<motionlcm::sync_trigger2_t> triggers;
+  gateway_.subscribe<signed_message_t>(security::signed_channel(lcm::channels::kSyncTrigger2),
+                                       [&](const signed_message_t& e, const std::string&) {
+                                         triggers.push_back(unwrap<motionlcm::sync_trigger2_t>(e));
+                                       });
+  EXPECT_EQ(service_->trigger_lead_us({"can0"}), 30'000);
+  for (int i = 0; i < 8; ++i) {
+    const std::int64_t id = 100 + i;
+    const double to = i % 2 == 0 ? 1.0 : 0.0;
+    move_x(id, to);
+    ASSERT_TRUE(testing::pump_until(
+        loop_,
+        [&] {
+          return (triggers.size() == static_cast<std::size_t>(i + 1) && has_status(id, reply_t::STARTED)) || ended(id);
+        },
+        milliseconds(3000)));
+    ASSERT_FALSE(ended(id)) << replies_[id].back().reason;
+    motionlcm::trigger_heard_t heard{};
+    heard.bus = "can0";
+    heard.trigger_id = triggers.back().trigger_id;
+    heard.trigger_utime = triggers.back().utime;
+    heard.send_utime = triggers.back().send_utime.at(0);
+    heard.utime = heard.trigger_utime + 1'000'000;
+    forger_.publish(lcm::channels::kTriggerHeard, heard);
+    heard.utime = heard.trigger_utime + 300;
+    publish_signed(lcm::channels::kTriggerHeard, heard);
+    x_.position_counts = x_.target_counts = std::llround(to * 100);
+    x_.position = to;
+    x_.in_position = true;
+    x_.velocity = 0;
+    ASSERT_TRUE(testing::pump_until(
+        loop_, [&] { return ended(id); }, milliseconds(3000)));
+    ASSERT_EQ(replies_[id].back().status, std::int8_t{reply_t::DONE}) << replies_[id].back().reason;
+  }
+  EXPECT_EQ(service_->trigger_lead_us({"can0"}), 5'000);
 }
 
 // Under enforce a coordinator without a gateway key in authorized_keys does not start: it would

@@ -45,6 +45,78 @@ TEST_F(CoordinatorTest, SynchronizedMoveAcrossTwoBusesArmsTriggersAndCompletes) 
   EXPECT_TRUE(std::any_of(all.begin(), all.end(), [](const reply_t& x) { return x.status == reply_t::STARTED; }));
 }
 
+// The trigger lead of a move of two buses adapts to when the gateways heard the recent triggers
+// (TRIGGER_HEARD): the configured 30 ms until each bus has 8 samples, then the slower bus's p99 x
+// 1.5 + 2 ms; a trigger heard late raises it again, up to 30 ms.
+TEST_F(CoordinatorTest, TwoBusMoveSchedulesItsStartWithTheAdaptedTriggerLead) {
+  auto_execute_moves();
+  std::map<std::string, std::int64_t> delay_us{{"can0", 1'200}, {"rs485", 4'000}};
+  std::size_t heard = 0;
+  const auto hear = [&] {
+    for (; heard < gateways.triggers2.size(); ++heard) {
+      const auto& t = gateways.triggers2[heard];
+      for (std::size_t i = 0; i < t.buses.size(); ++i) {
+        motionlcm::trigger_heard_t h{};
+        h.bus = t.buses[i];
+        h.trigger_id = t.trigger_id;
+        h.trigger_utime = t.utime;
+        h.send_utime = t.send_utime[i];
+        h.utime = t.utime + delay_us.at(h.bus);
+        loop.send_to_cores([h](Coordinator& c, TimePoint now) { c.on_trigger_heard(h, now); });
+      }
+    }
+  };
+  // The lead in force: the first hand-over (the broadcast on rs485, the longest start frame)
+  // after the trigger's publication.
+  const auto lead_of = [](const motionlcm::sync_trigger2_t& t) {
+    return *std::min_element(t.send_utime.begin(), t.send_utime.end()) - t.utime;
+  };
+  const auto move = [&](double to) {
+    const auto id = send(request_t::MOVE_ABSOLUTE, {"x", "y", "c"}, {to, to, to});
+    EXPECT_TRUE(pump_until([&] {
+      pump_triggers();
+      hear();
+      for (const auto& r : replies[id])
+        if (is_terminal(r.status)) return true;
+      return false;
+    }));
+    EXPECT_EQ(terminal(id).status, std::int8_t{reply_t::DONE});
+    return gateways.triggers2.back();
+  };
+  for (int i = 0; i < 8; ++i) {
+    const auto t = move(i % 2 == 0 ? 1.0 : 0.0);
+    EXPECT_EQ(lead_of(t), 30'000) << "move " << i << ": fewer than 8 samples, the configured lead";
+    EXPECT_EQ(t.act_utime - t.utime, 30'000 + 694);
+  }
+  auto t = move(1.0);
+  EXPECT_EQ(lead_of(t), 4'000 * 3 / 2 + 2'000);  // rs485's p99 decides
+  EXPECT_EQ(t.act_utime - t.utime, 8'000 + 694);
+  EXPECT_EQ(coordinator.trigger_lead_us({"can0", "rs485"}), 8'000);
+  // A move of one bus still starts at once.
+  const auto one = send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {0.5, 0.5});
+  run_to_terminal(one);
+  EXPECT_EQ(lead_of(gateways.triggers2.back()), 0);
+  // rs485 hears the next trigger 12 ms after it was published, 4 ms after its send time: the lead grows
+  // to cover that (12 x 1.5 + 2), and to the configured 30 ms for a delay beyond it.
+  delay_us["rs485"] = 12'000;
+  move(0.0);
+  EXPECT_EQ(lead_of(move(1.0)), 20'000);
+  delay_us["rs485"] = 25'000;
+  move(0.0);
+  EXPECT_EQ(lead_of(move(1.0)), 30'000);
+  // A hearing of a trigger it never sent, or of an unknown bus, is no sample.
+  motionlcm::trigger_heard_t stray{};
+  stray.bus = "can9";
+  stray.trigger_id = t.trigger_id;
+  stray.utime = t.utime + 1'000'000;
+  loop.send_to_cores([stray](Coordinator& c, TimePoint now) { c.on_trigger_heard(stray, now); });
+  stray.bus = "can0";
+  stray.trigger_id = 999'999;
+  loop.send_to_cores([stray](Coordinator& c, TimePoint now) { c.on_trigger_heard(stray, now); });
+  pump(milliseconds(10));
+  EXPECT_EQ(coordinator.trigger_lead_us({"can0"}), 5'000);  // 1.2 ms x 1.5 + 2 ms, below the 5 ms minimum
+}
+
 TEST_F(CoordinatorTest, BusyAxisIsRejectedAndStopPreemptsTheMove) {
   auto_execute_moves(/*complete=*/false);
   const auto move = send(request_t::MOVE_ABSOLUTE, {"x", "y"}, {5.0, 5.0});

@@ -11,6 +11,7 @@
 #include <motionlcm/request_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
+#include <motionlcm/trigger_heard_t.hpp>
 
 #include "motion/lcm/channels.hpp"
 #include "motion/security/signed_messages.hpp"
@@ -215,6 +216,11 @@ TEST_F(Fixture, ScheduledTriggerFiresAtThisBusesSendTimeInItsOrderAndOnce) {
   t.num_buses = 2;
   t.start_command_ids = {12, 11, 13};
   t.num_starts = 3;
+  t.utime = wall_time_us();
+  std::vector<motionlcm::trigger_heard_t> heard;  // TRIGGER_HEARD: when it reached this gateway
+  node.subscribe<motionlcm::trigger_heard_t>(
+      lcm::channels::kTriggerHeard,
+      [&](const motionlcm::trigger_heard_t& h, const std::string&) { heard.push_back(h); });
   const TimePoint published = loop.now();
   node.publish(lcm::channels::kSyncTrigger2, t);
   // The deprecated trigger of the same id (fire_utime = the earliest send) must not fire again.
@@ -237,6 +243,23 @@ TEST_F(Fixture, ScheduledTriggerFiresAtThisBusesSendTimeInItsOrderAndOnce) {
   const auto later = loop.now() + milliseconds(100);
   pump_until([&] { return loop.now() >= later; });
   EXPECT_EQ(driver->fired.size(), 1u);
+  // Its hearing, once, with the trigger's own stamps; heard before this bus's send time.
+  ASSERT_EQ(heard.size(), 1u);
+  EXPECT_EQ(heard[0].bus, "can0");
+  EXPECT_EQ(heard[0].trigger_id, 3);
+  EXPECT_EQ(heard[0].trigger_utime, t.utime);
+  EXPECT_EQ(heard[0].send_utime, t.send_utime[0]);
+  EXPECT_GE(heard[0].utime, t.utime);
+  EXPECT_LT(heard[0].utime, t.send_utime[0]);
+  // One heard after its send time fires at once, and says so by its stamps.
+  t.trigger_id = 4;
+  t.utime = wall_time_us() - 5'000;
+  t.send_utime = {t.utime + 1'000, t.utime + 1'000};
+  node.publish(lcm::channels::kSyncTrigger2, t);
+  pump_until([&] { return driver->fired.size() == 2 && heard.size() == 2; });
+  ASSERT_EQ(heard.size(), 2u);
+  EXPECT_EQ(driver->fired[1].first, 4);
+  EXPECT_GT(heard[1].utime, heard[1].send_utime);
 }
 
 TEST_F(Fixture, StatusIsPublishedInUserUnitsWithInvertAndIdentity) {

@@ -58,10 +58,12 @@
 #include <motionlcm/request_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
+#include <motionlcm/trigger_heard_t.hpp>
 
 #include "motion/config/config.hpp"
 #include "motion/coordinator/start_schedule.hpp"
 #include "motion/coordinator/stop_guard.hpp"
+#include "motion/coordinator/trigger_lead.hpp"
 #include "motion/core/clock.hpp"
 #include "motion/lcm/reply_error.hpp"
 #include "motion/planner/quantizer.hpp"
@@ -166,6 +168,14 @@ class Coordinator {
   // (arming_line_time). One for an axis that is not configured or not on that bus is ignored; an
   // axis without one adds nothing (arm_timeout_ms alone).
   void on_arm_timing(const motionlcm::arm_timing_t& timing, TimePoint now);
+  // TRIGGER_HEARD: when the gateway of a bus heard a trigger of this coordinator: a sample of the
+  // adaptive trigger lead (trigger_lead.hpp). One of a bus that is not configured, or of a trigger
+  // this coordinator did not send lately, is ignored.
+  void on_trigger_heard(const motionlcm::trigger_heard_t& heard, TimePoint now);
+  // The lead a trigger of `buses` would get now (several buses; one bus starts at once), microseconds.
+  [[nodiscard]] std::int64_t trigger_lead_us(const std::set<std::string>& buses) const {
+    return trigger_lead_.lead_us(buses);
+  }
 
   // Runs everything due at `now`; returns the next deadline, kNever when nothing is scheduled.
   [[nodiscard]] TimePoint process(TimePoint now);
@@ -364,6 +374,7 @@ class Coordinator {
   std::map<std::string, GatewayLive> gateways_;  // by bus
   std::map<std::uint64_t, std::unique_ptr<Request>> requests_;
   StopGuard stops_;
+  TriggerLead trigger_lead_;  // how far ahead a trigger of several buses schedules the start
   std::set<std::pair<std::string, std::int64_t>> active_ids_;     // (client_id, request_id)
   std::set<std::pair<std::string, std::int64_t>> orphans_ended_;  // requests of a predecessor answered
   struct Answered {

@@ -70,6 +70,10 @@ class CoordinatorService final : private CoordinatorOutput {
   CoordinatorService& operator=(const CoordinatorService&) = delete;
 
   [[nodiscard]] std::size_t active_requests() const { return core_.active_requests(); }
+  // The trigger lead a move of `buses` would get now (Coordinator::trigger_lead_us).
+  [[nodiscard]] std::int64_t trigger_lead_us(const std::set<std::string>& buses) const {
+    return core_.trigger_lead_us(buses);
+  }
   // Buses whose gateway has not been heard within gateway_timeout_ms (see Coordinator).
   [[nodiscard]] std::vector<std::string> buses_without_gateway() const {
     return core_.buses_without_gateway(loop_.now());

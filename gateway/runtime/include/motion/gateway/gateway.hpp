@@ -29,6 +29,8 @@
 //    process installs) when the axis first comes online and whenever what the driver read from the
 //    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus;
 //    each with the axis's arming time (ARM_TIMING, arm_timing_t, made by the ArmingBuilder);
+//  - publishes, for every SYNC_TRIGGER2 it acts on, when it heard it (TRIGGER_HEARD,
+//    trigger_heard_t), once the start is scheduled: the coordinator's trigger lead adapts to these;
 //  - publishes with every heartbeat the counters of its command ledger (LEDGER_STATS,
 //    ledger_stats_t: the driver's parts by lifecycle state, now and in total, and the commands sent
 //    again that it answered from its CommandMemory);
@@ -63,6 +65,7 @@
 #include <motionlcm/ledger_stats_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
+#include <motionlcm/trigger_heard_t.hpp>
 
 #include "motion/config/config.hpp"
 #include "motion/core/durable_file.hpp"

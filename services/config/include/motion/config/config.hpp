@@ -176,7 +176,11 @@ struct Axis {
 struct CoordinatorSettings {
   int default_timeout_ms = 60000;  // per request, when the client gives none
   int progress_period_ms = 200;
-  int trigger_lead_ms = 30;       // cross-bus trigger scheduled this far ahead of arming completion
+  // A trigger of several buses schedules the start this far ahead at most (and until enough
+  // TRIGGER_HEARD samples exist); it adapts down to what the gateways take to hear triggers, not
+  // below trigger_lead_min_ms (README "Scheduled starts"). Equal: a fixed lead.
+  int trigger_lead_ms = 30;
+  int trigger_lead_min_ms = 5;
   int gateway_timeout_ms = 1500;  // heartbeat silence after which a gateway is lost
   int arm_timeout_ms = 2000;
   // How long a gateway keeps a move armed that no trigger starts before it releases the move itself
