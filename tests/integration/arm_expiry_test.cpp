@@ -2,8 +2,9 @@
 // SYNC on can0, ADAM broadcast on rs485, UIM242 global on rs232) that no trigger ever starts, as
 // when the coordinator dies between ARM_MOVE and SYNC_TRIGGER: each gateway releases them itself
 // after its arm expiry (README "Safety and faults"). The ARM_MOVEs are the coordinator's own from a
-// real move, published again on GW_COMMAND_<bus> with new ids, targets back where the axes came
-// from, and a trigger id nobody fires in time. No timed assertions; the times are printed.
+// real move (gateway_command2_t), published again on GW_COMMAND2_<bus> with new ids, targets back
+// where the axes came from, and a trigger id nobody fires in time. No timed assertions; the times
+// are printed.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,7 +12,7 @@
 #include <map>
 #include <set>
 
-#include <motionlcm/gateway_command_t.hpp>
+#include <motionlcm/gateway_command2_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 
@@ -20,7 +21,7 @@
 namespace motion::testing {
 namespace {
 
-using motionlcm::gateway_command_t;
+using gateway_command_t = motionlcm::gateway_command2_t;
 using motionlcm::gateway_reply_t;
 
 const std::vector<std::string> kAxes{"x", "y", "z", "a", "b", "c", "u"};
@@ -32,7 +33,7 @@ TEST(ArmExpiry, MovesArmedOnEveryBusAndNeverTriggeredAreReleasedAndTheLabMovesAg
   SimLab lab;
   std::map<std::int64_t, gateway_command_t> arms;  // the coordinator's ARM_MOVEs, by id (sent again: once)
   for (const auto& bus : lab.config().buses) {
-    lab.group().node().subscribe<gateway_command_t>(lcm::channels::gateway_command(bus.name),
+    lab.group().node().subscribe<gateway_command_t>(lcm::channels::gateway_command2(bus.name),
                                                     [&](const gateway_command_t& c, const std::string&) {
                                                       if (c.kind == gateway_command_t::ARM_MOVE && c.command_id > 0)
                                                         arms.emplace(c.command_id, c);
@@ -63,7 +64,7 @@ TEST(ArmExpiry, MovesArmedOnEveryBusAndNeverTriggeredAreReleasedAndTheLabMovesAg
     c.utime = wall_time_us();
     for (auto& a : c.axes) a.target_counts = from_counts.at(a.axis);
     ids.push_back(c.command_id);
-    lab.group().node().publish(lcm::channels::gateway_command(c.bus), c);
+    lab.group().node().publish(lcm::channels::gateway_command2(c.bus), c);
   }
   const auto replies_to = [&](std::int64_t id, std::int8_t status) {
     return std::count_if(lab.gateway_replies().begin(), lab.gateway_replies().end(),
