@@ -57,7 +57,7 @@ motionlcm::axis_command2_t Coordinator::grid_of(const motionlcm::drive_model_t& 
     if (model.acceleration_kind != M::ACCEL_RAMP_TIME)
       return on_grid(rate, model.acceleration_step, model.acceleration_min, model.acceleration_max);
     const double change = speed - model.ramp_from;
-    if (change <= 0) return model.acceleration_min;  // nothing to ramp over: the shortest ramp
+    if (change <= 0) return 0;  // at or below the ramps' start speed there is no ramp: the drive's own
     return on_grid(change / rate, model.acceleration_step, model.acceleration_min, model.acceleration_max, true);
   };
   g.acceleration = ramp(counts.acceleration);

@@ -32,23 +32,11 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
   }
   if (const config::Bus* b = config_.find_bus(bus_); b != nullptr) poll_hz_ = b->poll_hz;
   node_.subscribe<motionlcm::gateway_command_t>(
-      lcm::channels::gateway_command(bus_), [this](const motionlcm::gateway_command_t& c, const std::string&) {
-        if (enforce_) {
-          refuse("unsigned command " + std::to_string(c.command_id) + " (request " + std::to_string(c.request_id) +
-                 ") refused: security is enforced, commands must be signed by the coordinator");
-        } else {
-          on_command(c);
-        }
-      });
+      lcm::channels::gateway_command(bus_),
+      [this](const motionlcm::gateway_command_t& c, const std::string&) { on_plain(c, &Gateway::on_command); });
   node_.subscribe<motionlcm::gateway_command2_t>(
-      lcm::channels::gateway_command2(bus_), [this](const motionlcm::gateway_command2_t& c, const std::string&) {
-        if (enforce_) {
-          refuse("unsigned command " + std::to_string(c.command_id) + " (request " + std::to_string(c.request_id) +
-                 ") refused: security is enforced, commands must be signed by the coordinator");
-        } else {
-          on_command2(c);
-        }
-      });
+      lcm::channels::gateway_command2(bus_),
+      [this](const motionlcm::gateway_command2_t& c, const std::string&) { on_plain(c, &Gateway::on_command2); });
   node_.subscribe<motionlcm::signed_gateway_command_t>(
       lcm::channels::signed_gateway_command(bus_),
       [this](const motionlcm::signed_gateway_command_t& m, const std::string&) { on_signed_command(m); },

@@ -1,4 +1,5 @@
-// Gateway (gateway.hpp): gateway_command2_t, whose motion values are integers of the drive
+// Gateway (gateway.hpp): what both command types go through (the plain channels under enforce,
+// the command memory), and gateway_command2_t, whose motion values are integers of the drive
 // models' grids. Checked against the model this gateway published for each axis and turned into
 // the stacks' command exactly (grid_command.hpp); from there on it is a command like any other:
 // the same checks, ledger, replies and command memory (a repeat is answered, never run again).
@@ -13,6 +14,21 @@
 #include "motion/lcm/channels.hpp"
 
 namespace motion::gateway {
+
+template <typename Command>
+void Gateway::on_plain(const Command& command, void (Gateway::*handler)(const Command&)) {
+  if (enforce_) {
+    return refuse("unsigned command " + std::to_string(command.command_id) + " (request " +
+                  std::to_string(command.request_id) +
+                  ") refused: security is enforced, commands must be signed by the coordinator");
+  }
+  (this->*handler)(command);
+}
+
+template void Gateway::on_plain(const motionlcm::gateway_command_t&,
+                                void (Gateway::*)(const motionlcm::gateway_command_t&));
+template void Gateway::on_plain(const motionlcm::gateway_command2_t&,
+                                void (Gateway::*)(const motionlcm::gateway_command2_t&));
 
 template <typename Command>
 bool Gateway::answered_again(const Command& command) {

@@ -21,7 +21,7 @@ double grid_acceleration(const drive_model_t& model, std::int64_t n, double velo
   const double step = static_cast<double>(n) * model.acceleration_step;
   if (model.acceleration_kind != drive_model_t::ACCEL_RAMP_TIME) return step;
   const double change = std::abs(velocity) - model.ramp_from;
-  return (change > 0 ? change : model.velocity_step) / step;
+  return change > 0 ? change / step : 0.0;
 }
 
 namespace {

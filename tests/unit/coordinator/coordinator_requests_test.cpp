@@ -348,5 +348,26 @@ TEST_F(CoordinatorTest, CommandsGoOutAsGridIntegersOfTheModelTheyWerePlannedWith
   EXPECT_EQ(s.axes.at(0).model_utime, 0);
 }
 
+// A jog slower than a ramp-time model's ramp start speed has no ramp: its ramps go out as 0 (the
+// drive's own), not as the shortest ramp, whose slope the gateway's limits would refuse.
+TEST_F(CoordinatorTest, AJogBelowTheRampStartSpeedSendsNoRamp) {
+  auto& m = gateways.models["x"];
+  m.acceleration_kind = motionlcm::drive_model_t::ACCEL_RAMP_TIME;
+  m.acceleration_step = 0.001;  // ms
+  m.acceleration_max = 65535;
+  m.ramp_from = 300;  // counts/s
+  pump(milliseconds(100));
+  auto_execute_moves();
+  send(request_t::JOG, {"x"}, {-2.0});  // 200 counts/s
+  ASSERT_TRUE(pump_until([&] { return !gateways.commands2.empty(); })) << "no JOG sent";
+  EXPECT_EQ(gateways.commands2[0].axes.at(0).velocity, -200);
+  EXPECT_EQ(gateways.commands2[0].axes.at(0).acceleration, 0);
+  EXPECT_EQ(gateways.commands2[0].axes.at(0).deceleration, 0);
+  send(request_t::JOG, {"x"}, {4.0});  // 400 counts/s: 100 above, at 5000 counts/s^2 a 20 ms ramp
+  ASSERT_TRUE(pump_until([&] { return gateways.commands2.size() > 1; })) << "no second JOG sent";
+  EXPECT_EQ(gateways.commands2.back().axes.at(0).velocity, 400);
+  EXPECT_EQ(gateways.commands2.back().axes.at(0).acceleration, 20);
+}
+
 }  // namespace
 }  // namespace motion::coordinator::test_fixture

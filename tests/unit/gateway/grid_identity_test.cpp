@@ -161,5 +161,38 @@ TEST(GridIdentity, Adam) {
   EXPECT_GT(check_identity(m, stack), 6000);
 }
 
+// A jog slower than a ramp-time grid's ramp_from has no ramp (the drive jumps to the speed): the
+// stack gets 0, "the drive's own ramp", never a steep rate the gateway's limits would refuse
+// (random lab seed 11: a UC57 jog below its start speed failed with code 3).
+TEST(GridCommand, AJogAtOrBelowTheRampStartSpeedHasNoRamp) {
+  namespace od = cia402::uc57;
+  DriveFacts facts;
+  facts.counts_per_revolution = 10000;
+  facts.start_speed_rpm = 10.0;  // 1666.7 counts/s
+  const drive_model_t m = model_of("b", facts);
+  ASSERT_EQ(m.acceleration_kind, std::int8_t{drive_model_t::ACCEL_RAMP_TIME});
+  motionlcm::gateway_command2_t jog{};
+  jog.bus = "can0";
+  jog.kind = motionlcm::gateway_command_t::JOG;
+  jog.axes.resize(1);
+  jog.axes[0].axis = "b";
+  jog.axes[0].model_utime = m.utime;
+  jog.axes[0].velocity = -5;  // 5 rpm, below the start speed
+  jog.axes[0].acceleration = 0;
+  jog.axes[0].deceleration = m.acceleration_min;
+  jog.num_axes = 1;
+  const auto out = from_grid(jog, [&](const std::string&) { return &m; });
+  ASSERT_TRUE(std::holds_alternative<motionlcm::gateway_command_t>(out)) << std::get<GridRefusal>(out).reason;
+  const auto& a = std::get<motionlcm::gateway_command_t>(out).axes.at(0);
+  EXPECT_EQ(a.velocity, -5 * m.velocity_step);
+  EXPECT_EQ(a.acceleration, 0.0);
+  EXPECT_EQ(a.deceleration, 0.0);
+  // Above it, the ramp's slope.
+  jog.axes[0].velocity = -600;
+  const auto above = std::get<motionlcm::gateway_command_t>(from_grid(jog, [&](const std::string&) { return &m; }));
+  EXPECT_DOUBLE_EQ(above.axes[0].deceleration, (600 * m.velocity_step - m.ramp_from) /
+                                                   (static_cast<double>(m.acceleration_min) * m.acceleration_step));
+}
+
 }  // namespace
 }  // namespace motion::gateway

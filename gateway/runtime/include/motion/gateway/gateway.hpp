@@ -168,6 +168,10 @@ class Gateway final : public GatewayOutput {
   // GW_COMMAND2_<bus> (gateway_command2.cpp): its grid integers checked against the models this
   // gateway published and turned into the stacks' command (grid_command.hpp), or refused (FAILED).
   void on_command2(const motionlcm::gateway_command2_t& command);
+  // A command on GW_COMMAND_<bus> or GW_COMMAND2_<bus>: refused under enforce (unsigned), else
+  // handed to `handler`.
+  template <typename Command>
+  void on_plain(const Command& command, void (Gateway::*handler)(const Command&));
   // A command sent again (CommandMemory): its latest reply repeated, if any; true then.
   template <typename Command>
   bool answered_again(const Command& command);

@@ -24,8 +24,8 @@ namespace motion::gateway {
 [[nodiscard]] double grid_velocity(const motionlcm::drive_model_t& model, std::int64_t n);
 // Counts/s^2 of n on the model's acceleration grid for a motion at `velocity` counts/s:
 // ACCEL_RATE n * step; ACCEL_RAMP_TIME a ramp of n * step seconds from ramp_from to |velocity|.
-// A ramp-time grid has no ramp at or below ramp_from: there it is the rate of one velocity step
-// over the ramp (every stack then programs its shortest ramp, the drive jumps to the speed).
+// A ramp-time grid has no ramp at or below ramp_from (the drive jumps to the speed): there it is
+// 0, the stack's "the drive's own ramp" (a jog slower than a UC57's start speed).
 [[nodiscard]] double grid_acceleration(const motionlcm::drive_model_t& model, std::int64_t n, double velocity);
 
 struct GridRefusal {
