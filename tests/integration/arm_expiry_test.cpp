@@ -2,9 +2,9 @@
 // SYNC on can0, ADAM broadcast on rs485, UIM242 global on rs232) that no trigger ever starts, as
 // when the coordinator dies between ARM_MOVE and SYNC_TRIGGER: each gateway releases them itself
 // after its arm expiry (README "Safety and faults"). The ARM_MOVEs are the coordinator's own from a
-// real move, published again on GW_COMMAND_<bus> with new ids, targets back where the axes came
-// from, and a trigger id nobody fires in time. No timed assertions; the times are printed. Also:
-// a released move leaves nothing a foreign start frame could run.
+// real move (gateway_command2_t), published again on GW_COMMAND2_<bus> with new ids, targets back
+// where the axes came from, and a trigger id nobody fires in time. No timed assertions; the times
+// are printed. Also: a released move leaves nothing a foreign start frame could run.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,6 +12,7 @@
 #include <map>
 #include <set>
 
+#include <motionlcm/gateway_command2_t.hpp>
 #include <motionlcm/gateway_command_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
@@ -24,7 +25,7 @@
 namespace motion::testing {
 namespace {
 
-using motionlcm::gateway_command_t;
+using gateway_command_t = motionlcm::gateway_command2_t;
 using motionlcm::gateway_reply_t;
 
 const std::vector<std::string> kAxes{"x", "y", "z", "a", "b", "c", "u"};
@@ -36,7 +37,7 @@ TEST(ArmExpiry, MovesArmedOnEveryBusAndNeverTriggeredAreReleasedAndTheLabMovesAg
   SimLab lab;
   std::map<std::int64_t, gateway_command_t> arms;  // the coordinator's ARM_MOVEs, by id (sent again: once)
   for (const auto& bus : lab.config().buses) {
-    lab.group().node().subscribe<gateway_command_t>(lcm::channels::gateway_command(bus.name),
+    lab.group().node().subscribe<gateway_command_t>(lcm::channels::gateway_command2(bus.name),
                                                     [&](const gateway_command_t& c, const std::string&) {
                                                       if (c.kind == gateway_command_t::ARM_MOVE && c.command_id > 0)
                                                         arms.emplace(c.command_id, c);
@@ -67,7 +68,7 @@ TEST(ArmExpiry, MovesArmedOnEveryBusAndNeverTriggeredAreReleasedAndTheLabMovesAg
     c.utime = wall_time_us();
     for (auto& a : c.axes) a.target_counts = from_counts.at(a.axis);
     ids.push_back(c.command_id);
-    lab.group().node().publish(lcm::channels::gateway_command(c.bus), c);
+    lab.group().node().publish(lcm::channels::gateway_command2(c.bus), c);
   }
   const auto replies_to = [&](std::int64_t id, std::int8_t status) {
     return std::count_if(lab.gateway_replies().begin(), lab.gateway_replies().end(),
@@ -157,7 +158,8 @@ TEST(ArmExpiry, MovesArmedOnEveryBusAndNeverTriggeredAreReleasedAndTheLabMovesAg
 
 // A released move leaves the drives nothing to start, whoever sends the start frame (README
 // "Safety and faults"): on can0, moves of x and y (UIM342, group 20) and of a and b (UC57,
-// preloaded for the SYNC) armed straight on GW_COMMAND_can0 and DISARMed there; then a group BG
+// preloaded for the SYNC) armed straight on GW_COMMAND_can0 (gateway_command_t, as any sender
+// may) and DISARMed there; then a group BG
 // and a SYNC from an endpoint of our own on the simulated bus. The simulators' ground truth
 // (SIM_REPORT) shows no drive moving anywhere; a move through the coordinator works after.
 TEST(ArmExpiry, ADisarmedMoveLeavesNothingAForeignBgOrSyncCouldStart) {
@@ -168,11 +170,11 @@ TEST(ArmExpiry, ADisarmedMoveLeavesNothingAForeignBgOrSyncCouldStart) {
   std::map<std::string, std::int64_t> from;
   for (const auto& axis : axes) from[axis] = lab.state(axis).position_counts;
   const auto arm = [&](std::int64_t id, const std::vector<std::string>& names, double velocity, double rate) {
-    gateway_command_t c{};
+    motionlcm::gateway_command_t c{};  // the plain type other senders use
     c.utime = wall_time_us();
     c.command_id = id;
     c.bus = "can0";
-    c.kind = gateway_command_t::ARM_MOVE;
+    c.kind = motionlcm::gateway_command_t::ARM_MOVE;
     c.trigger_id = kTrigger + 1;
     for (const auto& name : names) {
       motionlcm::axis_command_t a{};
@@ -195,11 +197,11 @@ TEST(ArmExpiry, ADisarmedMoveLeavesNothingAForeignBgOrSyncCouldStart) {
       [&] { return replied(kIdOffset + 1, gateway_reply_t::ARMED) && replied(kIdOffset + 2, gateway_reply_t::ARMED); },
       seconds(10)))
       << "not armed";
-  gateway_command_t disarm{};
+  motionlcm::gateway_command_t disarm{};
   disarm.utime = wall_time_us();
   disarm.command_id = kIdOffset + 3;
   disarm.bus = "can0";
-  disarm.kind = gateway_command_t::DISARM;
+  disarm.kind = motionlcm::gateway_command_t::DISARM;
   disarm.trigger_id = kTrigger + 1;
   for (const auto& axis : axes) {
     motionlcm::axis_command_t a{};

@@ -186,7 +186,8 @@ class FaultMatrix : public ::testing::TestWithParam<Row> {
         // gateway's command channel and on the coordinator's request channel.
         std::vector<std::uint8_t> claim(20, 0xFF);
         std::vector<std::uint8_t> garbage(std::size_t{64} * 1024, 0xA5);
-        for (const auto& channel : {lcm::channels::gateway_command(bus), std::string(lcm::channels::kRequest)}) {
+        for (const auto& channel : {lcm::channels::gateway_command(bus), lcm::channels::gateway_command2(bus),
+                                    std::string(lcm::channels::kRequest)}) {
           const std::string full = lab().config().lcm.channel_prefix + channel;
           EXPECT_TRUE(lab().group().node().publish_raw(full, claim));
           EXPECT_TRUE(lab().group().node().publish_raw(full, garbage));

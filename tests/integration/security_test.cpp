@@ -13,10 +13,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <variant>
 
 #include <motionlcm/signed_request_t.hpp>
 
+#include "motion/lcm/gateway_commands.hpp"
 #include "motion/security/gateway_commands.hpp"
 #include "motion/security/signed_messages.hpp"
 #include "motion/security/signed_request.hpp"
@@ -430,6 +432,54 @@ TEST_F(Security, SimulatorsRuntimeFolderAndBusSocketAreItsOwnersAlone) {
   EXPECT_EQ(st.st_mode & 07777, 0700U);
   ASSERT_EQ(::stat((dir / "motion-simbus-can0.sock").c_str(), &st), 0);
   EXPECT_EQ(st.st_mode & 07777, 0600U);
+}
+
+// The coordinator signs gateway_command2_t (every signed move of this suite is one); a
+// gateway_command_t signed with the coordinator's key is still executed, and an unsigned
+// gateway_command2_t on GW_COMMAND2_<bus> is refused like an unsigned gateway_command_t. (Last:
+// its SECURITY event would count against the gateway's 5 a second of the tests before it.)
+TEST_F(Security, GatewayTakesEitherCommandVersionSignedByTheCoordinator) {
+  auto loaded = security::load_private_key(dir_->str() + "/coordinator.key");
+  ASSERT_TRUE(std::holds_alternative<security::KeyPair>(loaded)) << std::get<std::string>(loaded);
+  security::GatewayCommandSigner coordinator(std::get<security::KeyPair>(loaded), "MOTION_");
+  // Command id -> status, from SGW_REPLY (the subscription outlives the test: shared).
+  auto heard = std::make_shared<std::map<std::int64_t, std::int8_t>>();
+  lab_->group().node().subscribe<motionlcm::signed_message_t>(
+      security::signed_channel(lcm::channels::kGatewayReply),
+      [heard](const motionlcm::signed_message_t& m, const std::string&) {
+        motionlcm::gateway_reply_t r{};
+        if (r.decode(m.message.data(), 0, m.message_size) == m.message_size) (*heard)[r.command_id] = r.status;
+      });
+  auto& replied = *heard;
+  motionlcm::gateway_command_t enable{};  // the axes are enabled: an ENABLE moves nothing
+  enable.utime = wall_time_us();
+  enable.bus = "can0";
+  enable.command_id = 900101;
+  enable.kind = motionlcm::gateway_command_t::ENABLE;
+  enable.axes.resize(1);
+  enable.axes[0].axis = "w";
+  enable.num_axes = 1;
+  lab_->group().node().publish(lcm::channels::signed_gateway_command("can0"), coordinator.sign(enable, wall_time_us()));
+  motionlcm::gateway_command2_t enable2{};
+  lcm::copy_command_common(enable, enable2);
+  enable2.command_id = 900102;
+  lab_->group().node().publish(lcm::channels::gateway_command2("can0"), enable2);
+  EXPECT_TRUE(lab_->client().wait_until(
+      [&] {
+        return lab_->has_event(motionlcm::event_t::SECURITY, "",
+                               "unsigned command 900102 (request 0) refused: security is enforced");
+      },
+      seconds(3)));
+  enable2.command_id = 900103;
+  enable2.utime = wall_time_us();
+  lab_->group().node().publish(lcm::channels::signed_gateway_command("can0"),
+                               coordinator.sign(enable2, wall_time_us()));
+  EXPECT_TRUE(
+      lab_->client().wait_until([&] { return replied.contains(900101) && replied.contains(900103); }, seconds(3)));
+  EXPECT_EQ(replied[900101], st(motionlcm::gateway_reply_t::DONE));
+  EXPECT_EQ(replied[900103], st(motionlcm::gateway_reply_t::DONE));
+  EXPECT_FALSE(replied.contains(900102));
+  expect_nothing_moved();
 }
 
 }  // namespace

@@ -3,7 +3,8 @@
 // UIM2501) -> simulated drives, and back. The simulated drives' reports
 // (SIM_REPORT) are the ground truth for the start frames; every request's replies on REPLY are
 // counted by a listener of its own (the client stops listening after the terminal one), so a
-// second terminal reply would be seen. No timed assertions: waits are bounded, nothing asserts on
+// second terminal reply would be seen. Commands reach the gateways as gateway_command2_t (grid
+// integers of the axes' drive models, GW_COMMAND2_<bus>). No timed assertions: waits are bounded, nothing asserts on
 // how long anything took.
 #include <gtest/gtest.h>
 
@@ -12,8 +13,13 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <set>
 
+#include <motionlcm/drive_model_request_t.hpp>
+#include <motionlcm/drive_model_t.hpp>
+#include <motionlcm/gateway_command2_t.hpp>
+#include <motionlcm/gateway_command_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 
 #include "motion/core/event_loop.hpp"
@@ -91,11 +97,50 @@ class SyncMove : public ::testing::Test {
 };
 
 TEST_F(SyncMove, EveryFamilyArrivesAndEachBusStartsOnOneFramePerMechanism) {
+  // What goes to the gateways: gateway_command2_t on GW_COMMAND2_<bus>, never gateway_command_t;
+  // and the drive models in force (asked for again: an unchanged model keeps its utime).
+  struct Heard {
+    std::map<std::string, motionlcm::drive_model_t> models;
+    std::vector<motionlcm::gateway_command2_t> commands2;
+    std::size_t commands1 = 0;
+  };
+  auto heard = std::make_shared<Heard>();
+  auto& node = lab.group().node();
+  node.subscribe<motionlcm::drive_model_t>(
+      lcm::channels::kDriveModel,
+      [heard](const motionlcm::drive_model_t& m, const std::string&) { heard->models[m.axis] = m; });
+  for (const auto& bus : lab.config().buses) {
+    node.subscribe<motionlcm::gateway_command2_t>(
+        lcm::channels::gateway_command2(bus.name),
+        [heard](const motionlcm::gateway_command2_t& c, const std::string&) { heard->commands2.push_back(c); });
+    node.subscribe<motionlcm::gateway_command_t>(
+        lcm::channels::gateway_command(bus.name),
+        [heard](const motionlcm::gateway_command_t&, const std::string&) { ++heard->commands1; });
+  }
+  node.publish(lcm::channels::kDriveModelRequest, motionlcm::drive_model_request_t{});
+  ASSERT_TRUE(lab.client().wait_until([&] { return heard->models.size() >= axes.size(); }, seconds(5)));
+
   Values targets;
   for (const auto& a : axes) targets[a] = kTargets.at(a);
   const auto id = send(Client::make(request_t::MOVE_ABSOLUTE, targets));
   const reply_t done = wait_terminal(id, seconds(60));
   ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
+  // Every family's move went out as grid integers of its axis's model in force, within its ranges.
+  EXPECT_EQ(heard->commands1, 0u) << "a gateway_command_t was sent";
+  std::set<std::string> armed;
+  for (const auto& c : heard->commands2) {
+    if (c.kind != motionlcm::gateway_command2_t::ARM_MOVE) continue;
+    for (const auto& a : c.axes) {
+      armed.insert(a.axis);
+      const auto& m = heard->models.at(a.axis);
+      EXPECT_EQ(a.model_utime, m.utime) << a.axis;
+      EXPECT_GE(a.velocity, m.velocity_min) << a.axis;
+      EXPECT_LE(a.velocity, m.velocity_max) << a.axis;
+      EXPECT_GE(a.acceleration, m.acceleration_min) << a.axis;
+      EXPECT_LE(a.deceleration, m.acceleration_max) << a.axis;
+    }
+  }
+  EXPECT_EQ(armed.size(), axes.size()) << "not every axis was armed over GW_COMMAND2";
   EXPECT_TRUE(saw(id, reply_t::ACCEPTED));
   EXPECT_TRUE(saw(id, reply_t::STARTED));
 

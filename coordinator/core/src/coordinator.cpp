@@ -207,7 +207,7 @@ TimePoint Coordinator::resend_unanswered() {
       if (p.resend_at <= now_) {
         spdlog::info("request {}/{}: no reply from bus {} to command {} yet: sent again", r->msg.client_id,
                      r->msg.request_id, p.bus, id);
-        out_.gateway_command(p.bus, p.command);
+        out_.gateway_command(p.bus, p.command2, p.command);
         p.resend_at = now_ + kCommandResend;
       }
       next = std::min(next, p.resend_at);

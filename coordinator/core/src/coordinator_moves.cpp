@@ -39,6 +39,8 @@ void Coordinator::start_simple(Request& r) {
     }
     c.output_mask = r.msg.output_mask;
     c.output_value = r.msg.output_value;
+    if ((r.msg.kind == request_t::JOG || r.msg.kind == request_t::HOME) && a.model)
+      r.grid[c.axis] = grid_of(*a.model, c);
     per_bus[a.drive->bus].push_back(c);
   }
   r.phase = Phase::kWaitingGateways;
@@ -78,6 +80,11 @@ void Coordinator::start_move(Request& r) {
     c.velocity = p.velocity;
     c.acceleration = p.acceleration;
     c.deceleration = p.deceleration;
+    auto& grid = r.grid[p.axis];
+    grid.velocity = p.native.velocity;
+    grid.acceleration = p.native.acceleration;
+    grid.deceleration = p.native.deceleration;
+    grid.model_utime = p.model_utime;
     per_bus[axes_.at(p.axis).drive->bus].push_back(c);
   }
   // The arm timeout covers processes, LCM and the host; the line time of the frames arming needs

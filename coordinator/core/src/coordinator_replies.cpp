@@ -53,8 +53,9 @@ std::int64_t Coordinator::send_command(Request& r, const std::string& bus, std::
   c.axes = std::move(axes);
   c.num_axes = static_cast<std::int32_t>(c.axes.size());
   c.param = r.msg.param;
-  r.pending[c.command_id] = PendingCommand{bus, false, c, false, now_ + kCommandResend};
-  out_.gateway_command(bus, c);
+  auto c2 = to_grid(c, &r.grid);
+  out_.gateway_command(bus, c2, c);
+  r.pending[c.command_id] = PendingCommand{bus, false, c, std::move(c2), false, now_ + kCommandResend};
   return c.command_id;
 }
 

@@ -153,6 +153,12 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::validate(const re
       continue;
     }
     if (auto err = check_axis_ready(name, need_enabled)) return err;
+    // A jog's or homing run's speed and ramps go out as integers of the axis's drive model.
+    if ((msg.kind == request_t::JOG || msg.kind == request_t::HOME) && !a.model) {
+      return P{ReplyError::kNoDriveModel, "axis " + name + " has no drive model yet: the gateway of bus " +
+                                              a.drive->bus +
+                                              " has not published DRIVE_MODEL for it (drive not set up?)"};
+    }
     // Its drive lost power: the position it reports is not the machine's (the gateway refuses
     // these too, whoever sends them). Home and set-position are how it becomes valid again.
     if ((is_move(msg.kind) || msg.kind == request_t::JOG) &&
@@ -324,6 +330,7 @@ std::optional<std::pair<ReplyError, std::string>> Coordinator::plan_move(Request
     in.max_velocity = a.axis->limits.max_velocity * a.axis->steps_per_unit;
     in.max_acceleration = a.axis->limits.max_acceleration * a.axis->steps_per_unit;
     in.quantizer = a.quantizer;
+    in.model_utime = a.model ? a.model->utime : 0;
     r.starts[in.axis] = in.start_counts;
     r.targets[in.axis] = in.target_counts;
     r.target_units[in.axis] = target_units;

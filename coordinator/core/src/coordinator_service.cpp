@@ -336,11 +336,14 @@ void CoordinatorService::reply(const motionlcm::reply_t& reply) {
   publish_coordinator_message(lcm::channels::kReply, reply, true);
 }
 
-void CoordinatorService::gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) {
+// Every command goes out as gateway_command2_t (grid integers): on GW_COMMAND2_<bus>, or signed on
+// GW_SCOMMAND_<bus>.
+void CoordinatorService::gateway_command(const std::string& bus, const motionlcm::gateway_command2_t& command,
+                                         const motionlcm::gateway_command_t& /*counts*/) {
   if (command_signer_) {
     node_.publish(lcm::channels::signed_gateway_command(bus), command_signer_->sign(command, wall_time_us()));
   } else {
-    node_.publish(lcm::channels::gateway_command(bus), command);
+    node_.publish(lcm::channels::gateway_command2(bus), command);
   }
 }
 

@@ -76,7 +76,7 @@ void Coordinator::check_stops() {
         ac.axis = act.axis;
         c.axes.push_back(ac);
         c.num_axes = 1;
-        out_.gateway_command(c.bus, c);
+        out_.gateway_command(c.bus, to_grid(c, nullptr), c);
         break;
       }
       case StopGuard::Action::Kind::kResolved:
@@ -168,7 +168,7 @@ void Coordinator::send_stop(const std::vector<std::string>& axes, bool emergency
     for (const auto& a : cmds) stops_.watch(a.axis, emergency, now_, stop_allowance(axes_.at(a.axis)));
     c.axes = std::move(cmds);
     c.num_axes = static_cast<std::int32_t>(c.axes.size());
-    out_.gateway_command(bus, c);
+    out_.gateway_command(bus, to_grid(c, nullptr), c);
   }
 }
 

@@ -76,7 +76,9 @@ MovePlanner make_move_planner() {
         p.velocity = axis.setting->realized.velocity_counts_per_s;
         p.acceleration = axis.setting->realized.acceleration_counts_per_s2;
         p.deceleration = axis.setting->realized.deceleration_counts_per_s2;
+        p.native = axis.setting->native;
       }
+      p.model_utime = inputs[i].model_utime;
       p.duration_s = axis.duration_s();
       out.axes.push_back(p);
     }

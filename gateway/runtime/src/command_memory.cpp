@@ -5,8 +5,9 @@
 namespace motion::gateway {
 namespace {
 
-// FNV-1a, 64 bits, of the command's LCM encoding.
-std::uint64_t digest(const motionlcm::gateway_command_t& command) {
+// FNV-1a, 64 bits, of the command's LCM encoding (with its fingerprint).
+template <typename Command>
+std::uint64_t digest(const Command& command) {
   std::vector<std::uint8_t> bytes(static_cast<std::size_t>(command.getEncodedSize()));
   command.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
   std::uint64_t h = 14695981039346656037ULL;
@@ -21,13 +22,22 @@ std::uint64_t digest(const motionlcm::gateway_command_t& command) {
 
 bool CommandMemory::repeated(const motionlcm::gateway_command_t& command,
                              std::optional<motionlcm::gateway_reply_t>* latest) {
-  const std::uint64_t key = digest(command);
-  if (const auto it = seen_.find(key); it != seen_.end() && it->second.command_id == command.command_id) {
+  return repeated(digest(command), command.command_id, latest);
+}
+
+bool CommandMemory::repeated(const motionlcm::gateway_command2_t& command,
+                             std::optional<motionlcm::gateway_reply_t>* latest) {
+  return repeated(digest(command), command.command_id, latest);
+}
+
+bool CommandMemory::repeated(std::uint64_t key, std::int64_t command_id,
+                             std::optional<motionlcm::gateway_reply_t>* latest) {
+  if (const auto it = seen_.find(key); it != seen_.end() && it->second.command_id == command_id) {
     *latest = it->second.reply;
     return true;
   }
-  seen_[key] = Seen{command.command_id, std::nullopt};
-  by_id_[command.command_id] = key;
+  seen_[key] = Seen{command_id, std::nullopt};
+  by_id_[command_id] = key;
   order_.push_back(key);
   while (order_.size() > kRemembered) {
     const auto old = seen_.find(order_.front());

@@ -33,14 +33,11 @@ Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health,
   }
   if (const config::Bus* b = config_.find_bus(bus_); b != nullptr) poll_hz_ = b->poll_hz;
   node_.subscribe<motionlcm::gateway_command_t>(
-      lcm::channels::gateway_command(bus_), [this](const motionlcm::gateway_command_t& c, const std::string&) {
-        if (enforce_) {
-          refuse("unsigned command " + std::to_string(c.command_id) + " (request " + std::to_string(c.request_id) +
-                 ") refused: security is enforced, commands must be signed by the coordinator");
-        } else {
-          on_command(c);
-        }
-      });
+      lcm::channels::gateway_command(bus_),
+      [this](const motionlcm::gateway_command_t& c, const std::string&) { on_plain(c, &Gateway::on_command); });
+  node_.subscribe<motionlcm::gateway_command2_t>(
+      lcm::channels::gateway_command2(bus_),
+      [this](const motionlcm::gateway_command2_t& c, const std::string&) { on_plain(c, &Gateway::on_command2); });
   node_.subscribe<motionlcm::signed_gateway_command_t>(
       lcm::channels::signed_gateway_command(bus_),
       [this](const motionlcm::signed_gateway_command_t& m, const std::string&) { on_signed_command(m); },
@@ -126,13 +123,11 @@ void Gateway::update_health() {
 }
 
 void Gateway::on_command(const motionlcm::gateway_command_t& command) {
-  if (std::optional<motionlcm::gateway_reply_t> latest; commands_seen_.repeated(command, &latest)) {
-    spdlog::info("command {} (request {}) sent again: {}", command.command_id, command.request_id,
-                 latest ? "its latest reply repeated" : "not answered yet");
-    ++(latest ? repeats_answered_ : repeats_unanswered_);
-    if (latest) publish_own(lcm::channels::kGatewayReply, *latest, false);
-    return;
-  }
+  if (answered_again(command)) return;
+  execute_checked(command);
+}
+
+void Gateway::execute_checked(const motionlcm::gateway_command_t& command) {
   auto fail = [&](const std::string& reason, std::int32_t code = 0) {
     command_reply(ReplyBuilder(command.command_id).failed(code, reason).build());
   };
@@ -373,13 +368,10 @@ void Gateway::publish_model(const std::string& axis, bool always) {
   }
   auto& model = std::get<motionlcm::drive_model_t>(built);
   const auto last = models_.find(axis);
-  if (!always && last != models_.end()) {
-    std::vector<std::uint8_t> a(static_cast<std::size_t>(model.getEncodedSize()));
-    std::vector<std::uint8_t> b(static_cast<std::size_t>(last->second.getEncodedSize()));
-    model.encode(a.data(), 0, static_cast<int>(a.size()));
-    last->second.encode(b.data(), 0, static_cast<int>(b.size()));
-    if (a == b) return;  // utime is 0 in both: unchanged
-  }
+  // utime says since when the model is in force (gateway_command2_t's model_utime names it): an
+  // unchanged model keeps it, also when it is published again on request.
+  const bool unchanged = last != models_.end() && same_model(model, last->second);
+  if (unchanged && !always) return;
   if (model.resolution_source == motionlcm::drive_model_t::RESOLUTION_READ_BACK &&
       model.assumed_counts_per_revolution != 0 && model.counts_per_revolution != model.assumed_counts_per_revolution &&
       (last == models_.end() || last->second.counts_per_revolution != model.counts_per_revolution)) {
@@ -394,8 +386,9 @@ void Gateway::publish_model(const std::string& axis, bool always) {
         model.counts_per_revolution);
     axis_event(axis, e);
   }
+  model.utime =
+      unchanged ? last->second.utime : std::max(wall_time_us(), last == models_.end() ? 0 : last->second.utime + 1);
   models_[axis] = model;
-  model.utime = wall_time_us();
   publish_own(lcm::channels::kDriveModel, model, true);
   if (!arming_builder_) return;
   auto arming = arming_builder_(cfg);

@@ -3,6 +3,7 @@
 #include "motion/gateway/gateway.hpp"
 
 #include "motion/lcm/channels.hpp"
+#include "motion/lcm/gateway_commands.hpp"
 
 namespace motion::gateway {
 
@@ -45,16 +46,18 @@ void Gateway::set_coordinator_key(const std::optional<security::PublicKey>& coor
 void Gateway::on_signed_command(const motionlcm::signed_gateway_command_t& envelope) {
   if (verifier_) {
     auto verdict = verifier_->verify(envelope, wall_time_us());
+    if (verdict.command2) return on_command2(*verdict.command2);
     if (!verdict.command) return refuse(verdict.reason);
     return on_command(*verdict.command);
   }
-  // No coordinator key configured (mode off): taken as a plain command would be.
-  motionlcm::gateway_command_t command;
-  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command);
-      !why.empty()) {
-    return refuse("signed command with a malformed payload refused: " + why);
+  // No coordinator key configured (mode off): taken as a plain command would be (either type, told
+  // apart by its fingerprint).
+  auto decoded = lcm::decode_gateway_command(envelope.command);
+  if (auto* why = std::get_if<std::string>(&decoded)) {
+    return refuse("signed command with a malformed payload refused: " + *why);
   }
-  on_command(command);
+  if (auto* command2 = std::get_if<motionlcm::gateway_command2_t>(&decoded)) return on_command2(*command2);
+  on_command(std::get<motionlcm::gateway_command_t>(decoded));
 }
 
 void Gateway::refuse(const std::string& reason) {

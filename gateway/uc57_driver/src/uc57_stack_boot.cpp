@@ -381,14 +381,7 @@ void Uc57Stack::enter_operational(std::size_t n) {
           ", " + node.rpdo_finding + "; TPDOs " +
           (node.settings.tpdo_mode == TpdoMode::kSync ? "every SYNC" : "event-driven") + ")");
   // What was read at set-up (2006h, 200Eh; manual §5.1) makes the axis's drive model.
-  if (context_.out != nullptr && !node.settings.axis.empty()) {
-    gateway::DriveFacts facts;
-    facts.counts_per_revolution = node.pulses_per_rev;
-    facts.start_speed_rpm = node.start_speed * 60.0 / node.pulses_per_rev;
-    facts.one_frame_start = node.rpdo_at_sync;  // false: no synchronous RPDO start (uc57_stack_rpdo.cpp)
-    facts.drive_keeps_homed = true;             // status word bit 8, homing attained (manual §4.2.6)
-    context_.out->drive_facts(node.settings.axis, facts);
-  }
+  report_facts(n);
   publish_status(n);
 }
 

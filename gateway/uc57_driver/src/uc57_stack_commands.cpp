@@ -1,5 +1,6 @@
 // Uc57Stack (uc57_stack.hpp): gateway commands: bookkeeping of jobs and tasks, power, stops,
-// jogs, homing, outputs, set position, parameters (arming and firing: uc57_stack_start.cpp).
+// jogs, homing, outputs, set position (arming and firing: uc57_stack_start.cpp; parameters:
+// uc57_stack_params.cpp).
 #include "uc57_stack_impl.hpp"
 
 namespace motion::uc57_driver {
@@ -371,6 +372,7 @@ std::optional<std::pair<std::int32_t, std::string>> Uc57Stack::refuse(std::size_
       return std::pair{error_code(ReplyError::kOutsideLimits),
                        label + ": output mask " + hex(static_cast<std::uint32_t>(axis.output_mask), 2) +
                            " names outputs the UC57 does not have (OUT1, OUT2)"};
+    case Command::PARAM_WRITE: return refuse_model_write(n, command.param);
     default: return std::nullopt;
   }
 }
@@ -545,57 +547,6 @@ void Uc57Stack::start_set_position(std::size_t n, Job& job, const motionlcm::axi
                   nodes_[n]->status.position_counts = 0;
                   part_done(id, n);
                 });
-}
-
-void Uc57Stack::start_param(std::size_t n, Job& job) {
-  const std::int64_t id = job.command.command_id;
-  const motionlcm::param_t& param = job.command.param;
-  const std::string label = nodes_[n]->settings.label();
-  if (param.space != motionlcm::param_t::CANOPEN_OBJECT) {
-    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
-                       label + ": UC57 parameters are CANopen objects (param_t space CANOPEN_OBJECT)");
-  }
-  if (param.index < 0 || param.index > 0xFFFF || param.subindex < -1 || param.subindex > 0xFF) {
-    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
-                       label + ": object " + std::to_string(param.index) + ":" + std::to_string(param.subindex) +
-                           " is not a CANopen index (0..FFFFh) and sub-index (0..FFh)");
-  }
-  const ObjectAddress object{static_cast<std::uint16_t>(param.index),
-                             static_cast<std::uint8_t>(std::max(param.subindex, 0))};
-  const auto* entry = cia402::uc57::find_entry(object.index, object.subindex);
-  std::size_t width = static_cast<std::size_t>(std::max<std::int8_t>(param.width, 0));
-  bool is_signed = param.is_signed;
-  if (width == 0 && entry != nullptr) {
-    width = cia402::uc57::size_bytes(entry->type);
-    is_signed = cia402::uc57::is_signed(entry->type);
-  }
-  if (width != 0 && width != 1 && width != 2 && width != 4) {
-    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
-                       label + ": width " + std::to_string(width) + " (CANopen objects: 1, 2 or 4 bytes)");
-  }
-  if (job.command.kind == Command::PARAM_READ) {
-    return sdo_read(
-        n, object, [this, n, id, object, is_signed](std::error_code ec, std::span<const std::uint8_t> data) {
-          if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, false, object, ec));
-          if (Job* live = jobs_.find(id)) {
-            auto value = live->reply.peek().param;
-            value.value = is_signed ? read_signed(data) : static_cast<std::int64_t>(read_unsigned(data));
-            live->reply.param(value);
-          }
-          part_done(id, n);
-        });
-  }
-  if (width == 0) {
-    return part_failed(id, n, error_code(ReplyError::kMalformedRequest),
-                       label + ": object " + object_text(object) + " is not in the UC57 dictionary: give the width");
-  }
-  std::vector<std::uint8_t> data(width);
-  for (std::size_t i = 0; i < width; ++i)
-    data[i] = static_cast<std::uint8_t>(static_cast<std::uint64_t>(param.value) >> (8 * i));
-  sdo_write(n, object, data, [this, n, id, object](std::error_code ec, std::span<const std::uint8_t>) {
-    if (ec) return part_failed(id, n, error_code(ReplyError::kDriveError), sdo_failure(n, true, object, ec));
-    part_done(id, n);
-  });
 }
 
 }  // namespace motion::uc57_driver

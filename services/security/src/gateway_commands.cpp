@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "envelope.hpp"
-#include "motion/lcm/wire_bounds.hpp"
+#include "motion/lcm/gateway_commands.hpp"
 
 namespace motion::security {
 
@@ -12,6 +12,12 @@ GatewayCommandSigner::GatewayCommandSigner(const KeyPair& key, std::string chann
     : key_(key), prefix_(std::move(channel_prefix)) {}
 
 motionlcm::signed_gateway_command_t GatewayCommandSigner::sign(const motionlcm::gateway_command_t& command,
+                                                               std::int64_t now_us) {
+  return detail::seal<motionlcm::signed_gateway_command_t>(key_, detail::kGatewayCommandDomain, prefix_, last_counter_,
+                                                           command, now_us);
+}
+
+motionlcm::signed_gateway_command_t GatewayCommandSigner::sign(const motionlcm::gateway_command2_t& command,
                                                                std::int64_t now_us) {
   return detail::seal<motionlcm::signed_gateway_command_t>(key_, detail::kGatewayCommandDomain, prefix_, last_counter_,
                                                            command, now_us);
@@ -48,13 +54,14 @@ CommandVerdict GatewayCommandVerifier::verify(const motionlcm::signed_gateway_co
     return v;
   }
   last_counter_ = envelope.counter;
-  motionlcm::gateway_command_t command;
-  if (std::string why = lcm::wire::decode_bounded(envelope.command.data(), envelope.command.size(), command);
-      !why.empty()) {
-    v.reason = "signed command refused: malformed payload: " + why;
-    return v;
+  auto decoded = lcm::decode_gateway_command(envelope.command);
+  if (auto* why = std::get_if<std::string>(&decoded)) {
+    v.reason = "signed command refused: malformed payload: " + *why;
+  } else if (auto* command2 = std::get_if<motionlcm::gateway_command2_t>(&decoded)) {
+    v.command2 = std::move(*command2);
+  } else {
+    v.command = std::get<motionlcm::gateway_command_t>(std::move(decoded));
   }
-  v.command = std::move(command);
   return v;
 }
 

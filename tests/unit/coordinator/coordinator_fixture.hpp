@@ -53,7 +53,17 @@ inline std::variant<MovePlan, std::string> simple_planner(const std::vector<Plan
   MovePlan plan;
   for (const auto& i : in) {
     if (i.target_counts == 777) return std::string("refused: 777 counts");
-    plan.axes.push_back({i.axis, i.target_counts, i.max_velocity, i.max_acceleration, i.max_acceleration, 0.1});
+    // Natives as on the test models' 1 count/s and 1 count/s^2 grids.
+    const std::int64_t v = std::llround(i.max_velocity);
+    const std::int64_t a = std::llround(i.max_acceleration);
+    plan.axes.push_back({i.axis,
+                         i.target_counts,
+                         i.max_velocity,
+                         i.max_acceleration,
+                         i.max_acceleration,
+                         0.1,
+                         {v, a, a},
+                         i.model_utime});
   }
   plan.duration_s = 0.1;
   return plan;
@@ -254,8 +264,10 @@ struct FakeGateways {
     }
   }
   // GW_COMMAND_<bus> as a gateway receives it.
-  void receive(const gateway_command_t& c) {
+  // `c2` is what goes on the wire (GW_COMMAND2_<bus>), `c` the same in counts/s.
+  void receive(const gateway_command_t& c, const motionlcm::gateway_command2_t& c2) {
     commands.push_back(c);
+    commands2.push_back(c2);
     if (on_command) on_command(c);
   }
   void publish(const gateway_reply_t& r) {
@@ -305,6 +317,7 @@ struct FakeGateways {
   std::set<std::string> silent;
   bool heartbeats = true;  // false: axis states only (a coordinator that missed the heartbeats)
   std::vector<gateway_command_t> commands;
+  std::vector<motionlcm::gateway_command2_t> commands2;  // the same, as sent (grid integers)
   std::vector<motionlcm::sync_trigger_t> triggers;
   std::vector<motionlcm::sync_trigger2_t> triggers2;
   std::function<void(const gateway_command_t&)> on_command;
@@ -339,8 +352,9 @@ struct Wire final : CoordinatorOutput {
       if (client_.on_reply) client_.on_reply(r);
     });
   }
-  void gateway_command(const std::string&, const gateway_command_t& c) override {
-    loop_.send([this, c] { gateways_.receive(c); });
+  void gateway_command(const std::string&, const motionlcm::gateway_command2_t& c2,
+                       const gateway_command_t& c) override {
+    loop_.send([this, c, c2] { gateways_.receive(c, c2); });
   }
   void sync_trigger(const motionlcm::sync_trigger_t& t) override {
     loop_.send([this, t] { gateways_.triggers.push_back(t); });

@@ -85,7 +85,7 @@ class GatewaySigning : public ::testing::Test {
     gateway_.subscribe<motionlcm::signed_gateway_command_t>(
         lcm::channels::signed_gateway_command("can0"),
         [this](const motionlcm::signed_gateway_command_t& e, const std::string&) {
-          gateway_command_t c{};
+          motionlcm::gateway_command2_t c{};  // the coordinator signs gateway_command2_t
           ASSERT_EQ(c.decode(e.command.data(), 0, e.command_size), e.command_size);
           commands_.push_back(c);
           if (c.kind == gateway_command_t::ARM_MOVE && arm_on_command_) answer(c, gateway_reply_t::ARMED);
@@ -126,7 +126,7 @@ class GatewaySigning : public ::testing::Test {
     heard_[std::string(channel)].push_back(e);
     gateway_.publish(security::signed_channel(channel), e);
   }
-  static gateway_reply_t reply_to(const gateway_command_t& c, std::int8_t status) {
+  static gateway_reply_t reply_to(const motionlcm::gateway_command2_t& c, std::int8_t status) {
     gateway_reply_t r{};
     r.command_id = c.command_id;
     r.bus = c.bus;
@@ -135,7 +135,7 @@ class GatewaySigning : public ::testing::Test {
     r.utime = wall_time_us();
     return r;
   }
-  void answer(const gateway_command_t& c, std::int8_t status) {
+  void answer(const motionlcm::gateway_command2_t& c, std::int8_t status) {
     publish_signed(lcm::channels::kGatewayReply, reply_to(c, status));
   }
   void move_x(std::int64_t request_id, double to, const std::string& axis = "x") {
@@ -185,7 +185,7 @@ class GatewaySigning : public ::testing::Test {
   int models_sent_ = 0;
   int triggers_ = 0;
   bool arm_on_command_ = true;
-  std::vector<gateway_command_t> commands_;
+  std::vector<motionlcm::gateway_command2_t> commands_;
   std::map<std::int64_t, std::vector<reply_t>> replies_;
   std::map<std::string, std::vector<signed_message_t>> heard_;  // what the gateway signed, per channel
   std::vector<std::string> security_;                           // SECURITY events' texts
@@ -240,7 +240,7 @@ TEST_F(GatewaySigning, APlainOrForeignGatewayReplyDoesNotConfirmArmingAndAReplay
   ASSERT_TRUE(testing::pump_until(
       loop_, [&] { return !commands_.empty() || ended(2); }, milliseconds(3000)));
   ASSERT_FALSE(commands_.empty()) << replies_[2].back().reason;
-  const gateway_command_t arm = commands_.front();
+  const motionlcm::gateway_command2_t arm = commands_.front();
   ASSERT_EQ(arm.kind, std::int8_t{gateway_command_t::ARM_MOVE});
 
   forger_.publish(lcm::channels::kGatewayReply, reply_to(arm, gateway_reply_t::ARMED));

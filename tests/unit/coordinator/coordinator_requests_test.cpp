@@ -308,5 +308,66 @@ TEST_F(CoordinatorTest, ARequestSentAgainGetsItsLatestReplyAgainAndRunsOnce) {
   EXPECT_EQ(run_to_terminal(901).status, std::int8_t{reply_t::DONE});
 }
 
+// Every command goes out as gateway_command2_t: a move with its plan's grid integers and the utime
+// of the model it was planned with, a jog with its speed and ramps on the axis's model grids (not
+// faster or steeper than asked), a stop with no motion values.
+TEST_F(CoordinatorTest, CommandsGoOutAsGridIntegersOfTheModelTheyWerePlannedWith) {
+  gateways.models["x"].utime = 4242;
+  gateways.models["x"].velocity_step = 3.0;  // 200 counts/s is 66.67 steps: 66 goes out
+  pump(milliseconds(100));
+  auto_execute_moves();
+  const auto moved = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x"}, {2.0}));
+  ASSERT_EQ(moved.status, std::int8_t{reply_t::DONE}) << moved.reason;
+  ASSERT_EQ(gateways.commands2.size(), gateways.commands.size());
+  const auto& arm = gateways.commands2.at(0);
+  ASSERT_EQ(arm.kind, std::int8_t{gateway_command_t::ARM_MOVE});
+  EXPECT_EQ(arm.command_id, gateways.commands.at(0).command_id);
+  EXPECT_EQ(arm.trigger_id, gateways.commands.at(0).trigger_id);
+  ASSERT_EQ(arm.num_axes, 1);
+  EXPECT_EQ(arm.axes[0].axis, "x");
+  EXPECT_EQ(arm.axes[0].target_counts, 200);
+  EXPECT_EQ(arm.axes[0].velocity, 500);  // the (simple) planner's natives: 5 units/s x 100
+  EXPECT_EQ(arm.axes[0].acceleration, 5000);
+  EXPECT_EQ(arm.axes[0].deceleration, 5000);
+  EXPECT_EQ(arm.axes[0].model_utime, 4242);
+
+  const std::size_t before = gateways.commands2.size();
+  send(request_t::JOG, {"x"}, {-2.0});
+  ASSERT_TRUE(pump_until([&] { return gateways.commands2.size() > before; })) << "no JOG sent";
+  const auto& j = gateways.commands2.at(before);
+  ASSERT_EQ(j.kind, std::int8_t{gateway_command_t::JOG});
+  EXPECT_EQ(j.axes.at(0).velocity, -66);       // -200 counts/s on 3 counts/s steps, not faster
+  EXPECT_EQ(j.axes.at(0).acceleration, 5000);  // 50 units/s^2 x 100 on 1 count/s^2 steps
+  EXPECT_EQ(j.axes.at(0).model_utime, 4242);
+
+  const auto stop = run_to_terminal(send(request_t::STOP, {"x"}, {0.0}));
+  ASSERT_EQ(stop.status, std::int8_t{reply_t::DONE}) << stop.reason;
+  const auto& s = gateways.commands2.back();
+  ASSERT_EQ(s.kind, std::int8_t{gateway_command_t::STOP});
+  EXPECT_EQ(s.axes.at(0).velocity, 0);
+  EXPECT_EQ(s.axes.at(0).model_utime, 0);
+}
+
+// A jog slower than a ramp-time model's ramp start speed has no ramp: its ramps go out as 0 (the
+// drive's own), not as the shortest ramp, whose slope the gateway's limits would refuse.
+TEST_F(CoordinatorTest, AJogBelowTheRampStartSpeedSendsNoRamp) {
+  auto& m = gateways.models["x"];
+  m.acceleration_kind = motionlcm::drive_model_t::ACCEL_RAMP_TIME;
+  m.acceleration_step = 0.001;  // ms
+  m.acceleration_max = 65535;
+  m.ramp_from = 300;  // counts/s
+  pump(milliseconds(100));
+  auto_execute_moves();
+  send(request_t::JOG, {"x"}, {-2.0});  // 200 counts/s
+  ASSERT_TRUE(pump_until([&] { return !gateways.commands2.empty(); })) << "no JOG sent";
+  EXPECT_EQ(gateways.commands2[0].axes.at(0).velocity, -200);
+  EXPECT_EQ(gateways.commands2[0].axes.at(0).acceleration, 0);
+  EXPECT_EQ(gateways.commands2[0].axes.at(0).deceleration, 0);
+  send(request_t::JOG, {"x"}, {4.0});  // 400 counts/s: 100 above, at 5000 counts/s^2 a 20 ms ramp
+  ASSERT_TRUE(pump_until([&] { return gateways.commands2.size() > 1; })) << "no second JOG sent";
+  EXPECT_EQ(gateways.commands2.back().axes.at(0).velocity, 400);
+  EXPECT_EQ(gateways.commands2.back().axes.at(0).acceleration, 20);
+}
+
 }  // namespace
 }  // namespace motion::coordinator::test_fixture

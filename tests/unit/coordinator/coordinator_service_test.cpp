@@ -41,8 +41,8 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
         ++model_requests;
         gateway.publish(lcm::channels::kDriveModel, test_model("x", "can0", "uim342", 20));
       });
-  std::vector<gateway_command_t> commands;
-  const auto answer = [&](const gateway_command_t& c, std::int8_t status) {
+  std::vector<motionlcm::gateway_command2_t> commands;  // what goes out: GW_COMMAND2_<bus>
+  const auto answer = [&](const motionlcm::gateway_command2_t& c, std::int8_t status) {
     gateway_reply_t r{};
     r.command_id = c.command_id;
     r.bus = c.bus;
@@ -50,8 +50,8 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
     r.trigger_utime = wall_time_us();
     gateway.publish(lcm::channels::kGatewayReply, r);
   };
-  gateway.subscribe_raw("CT_GW_COMMAND_.*", [&](const void* data, int size, const std::string&) {
-    gateway_command_t c{};
+  gateway.subscribe_raw("CT_GW_COMMAND2_.*", [&](const void* data, int size, const std::string&) {
+    motionlcm::gateway_command2_t c{};
     if (c.decode(data, 0, size) != size) return;
     commands.push_back(c);
     answer(c, c.kind == gateway_command_t::ARM_MOVE ? gateway_reply_t::ARMED : gateway_reply_t::DONE);

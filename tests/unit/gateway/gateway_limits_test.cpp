@@ -7,6 +7,8 @@
 #include <cmath>
 
 #include <motionlcm/axis_state_t.hpp>
+#include <motionlcm/drive_model_request_t.hpp>
+#include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
 
 #include "motion/gateway/axis_limits.hpp"
@@ -99,14 +101,41 @@ struct Limits : ::testing::Test {
     c.axes = {a};
     c.num_axes = 1;
     node.publish(lcm::channels::gateway_command("can0"), c);
+    return await_reply(c.command_id);
+  }
+  // The same as a gateway_command2_t: grid integers of the axis's model of `model_utime`.
+  gateway_reply_t send2(const motionlcm::gateway_command2_t& c) {
+    node.publish(lcm::channels::gateway_command2("can0"), c);
+    return await_reply(c.command_id);
+  }
+  motionlcm::gateway_command2_t command2(std::int8_t kind, const std::string& axis, std::int64_t target,
+                                         std::int64_t velocity, std::int64_t acceleration, std::int64_t deceleration,
+                                         std::int64_t model_utime) {
+    motionlcm::gateway_command2_t c{};
+    c.bus = "can0";
+    c.command_id = next_id++;
+    c.kind = kind;
+    motionlcm::axis_command2_t a{};
+    a.axis = axis;
+    a.model_utime = model_utime;
+    a.target_counts = target;
+    a.velocity = velocity;
+    a.acceleration = acceleration;
+    a.deceleration = deceleration;
+    c.axes = {a};
+    c.num_axes = 1;
+    return c;
+  }
+  // The latest reply to command `id` (waits for the first).
+  gateway_reply_t await_reply(std::int64_t id) {
     const gateway_reply_t* reply = nullptr;
     pump_until([&] {
       for (const auto& r : replies) {
-        if (r.command_id == c.command_id) reply = &r;
+        if (r.command_id == id) reply = &r;
       }
       return reply != nullptr;
     });
-    EXPECT_NE(reply, nullptr) << "no reply to command " << c.command_id;
+    EXPECT_NE(reply, nullptr) << "no reply to command " << id;
     return reply != nullptr ? *reply : gateway_reply_t{};
   }
   void status(const std::string& axis, std::int64_t position, double velocity, bool moving = true) {
@@ -361,6 +390,89 @@ TEST_F(Limits, AnOfflineAxisIsNotReportedMoving) {
   ASSERT_FALSE(states.empty());
   EXPECT_FALSE(states.back().online);
   EXPECT_FALSE(states.back().moving);
+}
+
+// gateway_command2_t (GW_COMMAND2_<bus>): grid integers of the model the gateway published, for
+// axis j velocity in 0.5 counts/s steps 1..1000, acceleration in 2 counts/s^2 steps 1..150.
+struct Command2 : Limits {
+  Command2() {
+    node.subscribe<motionlcm::drive_model_t>(
+        lcm::channels::kDriveModel,
+        [this](const motionlcm::drive_model_t& m, const std::string&) { models.push_back(m); });
+    gateway.set_model_builder([](const config::Axis& axis, const DriveFacts&) {
+      motionlcm::drive_model_t m{};
+      m.bus = "can0";
+      m.axis = axis.name;
+      m.family = "uim342";
+      m.velocity_step = 0.5;
+      m.velocity_min = 1;
+      m.velocity_max = 1000;
+      m.acceleration_kind = motionlcm::drive_model_t::ACCEL_RATE;
+      m.acceleration_step = 2;
+      m.acceleration_min = 1;
+      m.acceleration_max = 150;
+      return std::variant<motionlcm::drive_model_t, std::string>(m);
+    });
+    status("j", 0, 0, false);  // online: its model goes out
+    pump_until([&] { return !models.empty(); });
+  }
+  std::vector<motionlcm::drive_model_t> models;
+};
+
+TEST_F(Command2, GridIntegersReachTheDriverAsExactValuesAndARepeatIsAnsweredNotRun) {
+  ASSERT_EQ(models.size(), 1u);
+  const std::int64_t utime = models[0].utime;
+  const auto move = command2(gateway_command_t::ARM_MOVE, "j", 700, 301, 150, 77, utime);
+  EXPECT_EQ(send2(move).status, k(gateway_reply_t::ARMED));
+  ASSERT_EQ(driver->commands.size(), 1u);
+  EXPECT_EQ(driver->commands[0].axes[0].velocity, 150.5);  // 301 * 0.5, exactly
+  EXPECT_EQ(driver->commands[0].axes[0].acceleration, 300.0);
+  EXPECT_EQ(driver->commands[0].axes[0].deceleration, 154.0);
+  EXPECT_EQ(driver->commands[0].axes[0].target_counts, 700);
+  // The same bytes again (a re-send): its latest reply again, nothing runs twice.
+  const std::size_t heard = replies.size();
+  node.publish(lcm::channels::gateway_command2("can0"), move);
+  pump_until([&] { return replies.size() > heard; });
+  EXPECT_EQ(replies.back().command_id, move.command_id);
+  EXPECT_EQ(replies.back().status, k(gateway_reply_t::ARMED));
+  EXPECT_EQ(driver->commands.size(), 1u);
+  // A model published again on request keeps its utime: a plan made before stays valid.
+  node.publish(lcm::channels::kDriveModelRequest, motionlcm::drive_model_request_t{});
+  pump_until([&] { return models.size() > 1; });
+  ASSERT_EQ(models.size(), 2u);
+  EXPECT_EQ(models[1].utime, utime);
+  const auto jog = command2(gateway_command_t::JOG, "j", 0, -400, 0, 0, utime);
+  EXPECT_EQ(send2(jog).status, k(gateway_reply_t::DONE));
+  ASSERT_EQ(driver->commands.size(), 2u);
+  EXPECT_EQ(driver->commands[1].axes[0].velocity, -200.0);
+}
+
+TEST_F(Command2, AStaleModelOrAValueOutsideItsRangeIsRefusedNamingIt) {
+  const std::int64_t utime = models.at(0).utime;
+  auto r = send2(command2(gateway_command_t::ARM_MOVE, "j", 700, 300, 100, 100, utime - 5));
+  EXPECT_EQ(r.status, k(gateway_reply_t::FAILED));
+  EXPECT_EQ(r.error_code, error_code(ReplyError::kPlanningFailed));
+  EXPECT_EQ(r.reason, "drive model of axis j changed since the move was planned (planned with " +
+                          std::to_string(utime - 5) + ", now " + std::to_string(utime) + "): plan again");
+  r = send2(command2(gateway_command_t::ARM_MOVE, "j", 700, 1001, 100, 100, utime));
+  expect_outside(r, "axis j: velocity 1001 is outside its drive model's range 1..1000");
+  r = send2(command2(gateway_command_t::ARM_MOVE, "j", 700, 300, 100, 151, utime));
+  expect_outside(r, "axis j: deceleration 151 is outside its drive model's range 1..150");
+  r = send2(command2(gateway_command_t::ARM_MOVE, "j", 700, 300, 0, 100, utime));
+  expect_outside(r, "axis j: acceleration 0 is outside its drive model's range 1..150");
+  r = send2(command2(gateway_command_t::JOG, "j", 0, -1001, 0, 0, utime));
+  expect_outside(r, "axis j: velocity 1001 is outside its drive model's range 1..1000 (or 0)");
+  // Within the model but beyond the configured limit (200 counts/s): the gateway's limits, as for
+  // gateway_command_t.
+  expect_outside(send2(command2(gateway_command_t::ARM_MOVE, "j", 700, 404, 100, 100, utime)),
+                 "velocity 2.02 mm/s (202 counts/s) exceeds the limit 2 mm/s");
+  // An axis without a model (n never came online).
+  r = send2(command2(gateway_command_t::ARM_MOVE, "n", 700, 300, 100, 100, utime));
+  EXPECT_EQ(r.status, k(gateway_reply_t::FAILED));
+  EXPECT_EQ(r.error_code, error_code(ReplyError::kNoDriveModel));
+  EXPECT_TRUE(driver->commands.empty());
+  // Kinds without motion values need no model.
+  EXPECT_EQ(send2(command2(gateway_command_t::STOP, "n", 0, 0, 0, 0, 0)).status, k(gateway_reply_t::DONE));
 }
 
 TEST(CountLimits, CheckedDirectly) {

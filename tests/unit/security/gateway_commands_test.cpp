@@ -61,6 +61,28 @@ TEST_F(GatewayCommands, OtherKeyAlteredPayloadStaleTimeAndRequestDomainAreRefuse
             "signed command refused: bad signature (forged or altered in transit)");
 }
 
+// A signed gateway_command2_t (grid integers) travels in the same envelope: the verifier tells it
+// from a gateway_command_t by its fingerprint and hands out the one it is.
+TEST_F(GatewayCommands, EitherCommandVersionIsAcceptedAsTheTypeItIs) {
+  motionlcm::gateway_command2_t c2{};
+  c2.bus = "can0";
+  c2.command_id = 9;
+  c2.kind = gateway_command_t::ARM_MOVE;
+  c2.axes.resize(1);
+  c2.axes[0].axis = "x";
+  c2.axes[0].velocity = 123;
+  c2.axes[0].model_utime = 42;
+  c2.num_axes = 1;
+  const auto v2 = verifier.verify(signer.sign(c2, now), now);
+  ASSERT_TRUE(v2.command2) << v2.reason;
+  EXPECT_FALSE(v2.command);
+  EXPECT_EQ(v2.command2->axes.at(0).velocity, 123);
+  EXPECT_EQ(v2.command2->axes.at(0).model_utime, 42);
+  const auto v1 = verifier.verify(signer.sign(arm(10), now), now);
+  ASSERT_TRUE(v1.command) << v1.reason;
+  EXPECT_FALSE(v1.command2);
+}
+
 TEST(PublicKeyFile, ReadsThePubFileAndNamesBadLines) {
   const auto dir = std::filesystem::temp_directory_path() / ("motion-pub-" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);

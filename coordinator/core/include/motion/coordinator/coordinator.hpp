@@ -51,6 +51,7 @@
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
+#include <motionlcm/gateway_command2_t.hpp>
 #include <motionlcm/gateway_command_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/health_t.hpp>
@@ -81,6 +82,7 @@ struct PlanInput {
   // What the axis's drive can execute, from its gateway's DRIVE_MODEL (never null when the core
   // calls the planner: an axis without a model is refused before planning).
   std::shared_ptr<const planner::DriveQuantizer> quantizer = nullptr;
+  std::int64_t model_utime = 0;  // utime of the drive model the quantizer was made from
 };
 struct AxisPlan {
   std::string axis;
@@ -89,6 +91,10 @@ struct AxisPlan {
   double acceleration = 0;  // counts/s^2
   double deceleration = 0;  // counts/s^2
   double duration_s = 0;    // realized duration of this axis's profile
+  // The same motion as integers of the drive model's grids (what gateway_command2_t carries), and
+  // the utime of that model.
+  planner::NativeMotion native;
+  std::int64_t model_utime = 0;
 };
 struct MovePlan {
   std::vector<AxisPlan> axes;
@@ -103,9 +109,11 @@ class CoordinatorOutput {
  public:
   virtual ~CoordinatorOutput() = default;
   virtual void reply(const motionlcm::reply_t& reply) = 0;  // REPLY
-  virtual void gateway_command(const std::string& bus,
-                               const motionlcm::gateway_command_t& command) = 0;  // GW_COMMAND_<bus>
-  virtual void sync_trigger(const motionlcm::sync_trigger_t& trigger) = 0;        // SYNC_TRIGGER
+  // GW_COMMAND2_<bus>: `command`, its motion values as integers of the axes' drive-model grids;
+  // `counts` is the same command with them in counts/s as the core computed them (logs, tests).
+  virtual void gateway_command(const std::string& bus, const motionlcm::gateway_command2_t& command,
+                               const motionlcm::gateway_command_t& counts) = 0;
+  virtual void sync_trigger(const motionlcm::sync_trigger_t& trigger) = 0;  // SYNC_TRIGGER
   // SYNC_TRIGGER2: the scheduled start (per-bus hand-over times), sent before SYNC_TRIGGER of the
   // same trigger id. Default: dropped.
   virtual void sync_trigger2(const motionlcm::sync_trigger2_t& /*trigger*/) {}
@@ -239,6 +247,7 @@ class Coordinator {
     bool armed = false;  // ARM_MOVE: its gateway replied ARMED
     // Sent again, word for word, while no reply to it is heard (resend_unanswered()).
     motionlcm::gateway_command_t command{};
+    motionlcm::gateway_command2_t command2{};  // what goes out (command with grid integers)
     bool heard = false;
     TimePoint resend_at = kNever;
   };
@@ -258,6 +267,9 @@ class Coordinator {
     std::map<std::string, std::int64_t> starts;      // counts at planning
     std::set<std::string> still;                     // moves: axes already at their target (no command)
     std::map<std::int64_t, PendingCommand> pending;  // by command id
+    // Moves, jogs, homing: per axis its motion as grid integers and its model's utime
+    // (gateway_command2_t; velocity, acceleration, deceleration and model_utime are used).
+    std::map<std::string, motionlcm::axis_command2_t> grid;
     std::set<std::string> buses;
     // Moves: one ARM_MOVE per start mechanism (see start_move), all on one trigger id.
     std::map<std::string, std::int64_t> axis_command;  // axis -> its ARM_MOVE command id
@@ -344,6 +356,14 @@ class Coordinator {
   std::int64_t send_command(Request& r, const std::string& bus, std::int8_t kind,
                             std::vector<motionlcm::axis_command_t> axes);
   void send_stop(const std::vector<std::string>& axes, bool emergency, std::int64_t request_id);
+  // `command` as it goes out (coordinator_grid.cpp): a gateway_command2_t with the grid integers
+  // of `grid` (r.grid; none for commands without motion values), and sent.
+  [[nodiscard]] static motionlcm::gateway_command2_t to_grid(
+      const motionlcm::gateway_command_t& command, const std::map<std::string, motionlcm::axis_command2_t>* grid);
+  // A jog's or homing run's motion on the axis's model grids (velocity signed, ramps by magnitude):
+  // the nearest values within the model's ranges that are not faster or steeper (0: the drive's own).
+  [[nodiscard]] static motionlcm::axis_command2_t grid_of(const motionlcm::drive_model_t& model,
+                                                          const motionlcm::axis_command_t& counts);
   // Aborted requests wait in kStopping for their axes' stops (see StopGuard).
   void enter_stopping(Request& r, std::set<std::string> axes, Outcome outcome);
   // Runs the StopGuard: sends what it escalates, reports it, and ends the requests it resolved.

@@ -104,7 +104,8 @@ class CoordinatorService final : private CoordinatorOutput {
   void refuse_gateway_message(const std::string& reason);
 
   void reply(const motionlcm::reply_t& reply) override;
-  void gateway_command(const std::string& bus, const motionlcm::gateway_command_t& command) override;
+  void gateway_command(const std::string& bus, const motionlcm::gateway_command2_t& command,
+                       const motionlcm::gateway_command_t& counts) override;
   void sync_trigger(const motionlcm::sync_trigger_t& trigger) override;
   void sync_trigger2(const motionlcm::sync_trigger2_t& trigger) override;
   void active_moves(const motionlcm::active_moves_t& moves) override;

@@ -6,7 +6,8 @@
 //
 // Commands are told apart by their whole encoding (the coordinator re-sends the same bytes, its
 // send time included), so a restarted coordinator's command ids, which start again at 1, are new
-// commands. The last kRemembered commands are kept.
+// commands; a gateway_command_t and a gateway_command2_t never match (the encoding begins with the
+// type's fingerprint). The last kRemembered commands are kept.
 //
 // Passive; thread contract: one thread (the gateway's loop).
 #pragma once
@@ -17,6 +18,7 @@
 #include <map>
 #include <optional>
 
+#include <motionlcm/gateway_command2_t.hpp>
 #include <motionlcm/gateway_command_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
 
@@ -29,10 +31,12 @@ class CommandMemory {
   // True when `command` arrived before; then `*latest` is its latest reply (nullopt: none yet).
   // Otherwise it is remembered from now on and false is returned.
   bool repeated(const motionlcm::gateway_command_t& command, std::optional<motionlcm::gateway_reply_t>* latest);
+  bool repeated(const motionlcm::gateway_command2_t& command, std::optional<motionlcm::gateway_reply_t>* latest);
   // A reply to a remembered command (by id: the latest command of that id).
   void replied(const motionlcm::gateway_reply_t& reply);
 
  private:
+  bool repeated(std::uint64_t digest, std::int64_t command_id, std::optional<motionlcm::gateway_reply_t>* latest);
   struct Seen {
     std::int64_t command_id = 0;
     std::optional<motionlcm::gateway_reply_t> reply;

@@ -1,5 +1,7 @@
 // The gateway process's core: LCM <-> one BusDriver.
-//  - subscribes to GW_COMMAND_<bus>, GW_SCOMMAND_<bus> (commands signed by the coordinator) and
+//  - subscribes to GW_COMMAND_<bus>, GW_COMMAND2_<bus> (gateway_command2_t: motion values as
+//    integers of the drive models' grids, checked against the models this gateway published,
+//    grid_command.hpp), GW_SCOMMAND_<bus> (either type signed by the coordinator) and
 //    SYNC_TRIGGER2 (and the deprecated SYNC_TRIGGER); validates that every axis of a command belongs to this bus (FAILED with a
 //    reason otherwise, never silence);
 //  - signed commands pass the coordinator's key (set_coordinator_key) when there is one; with
@@ -61,6 +63,7 @@
 #include <motionlcm/drive_model_request_t.hpp>
 #include <motionlcm/drive_model_t.hpp>
 #include <motionlcm/event_t.hpp>
+#include <motionlcm/gateway_command2_t.hpp>
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/ledger_stats_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
@@ -165,6 +168,20 @@ class Gateway final : public GatewayOutput {
 
  private:
   void on_command(const motionlcm::gateway_command_t& command);
+  // GW_COMMAND2_<bus> (gateway_command2.cpp): its grid integers checked against the models this
+  // gateway published and turned into the stacks' command (grid_command.hpp), or refused (FAILED).
+  void on_command2(const motionlcm::gateway_command2_t& command);
+  // A command on GW_COMMAND_<bus> or GW_COMMAND2_<bus>: refused under enforce (unsigned), else
+  // handed to `handler`.
+  template <typename Command>
+  void on_plain(const Command& command, void (Gateway::*handler)(const Command&));
+  // A command sent again (CommandMemory): its latest reply repeated, if any; true then.
+  template <typename Command>
+  bool answered_again(const Command& command);
+  // The checks every command passes (bus, axes, position lost, limits) and the driver.
+  void execute_checked(const motionlcm::gateway_command_t& command);
+  // Two models alike but for utime.
+  [[nodiscard]] static bool same_model(motionlcm::drive_model_t a, motionlcm::drive_model_t b);
   void on_signed_command(const motionlcm::signed_gateway_command_t& envelope);
   // A command refused by the security policy: a SECURITY event, no reply.
   void refuse(const std::string& reason);
@@ -234,9 +251,10 @@ class Gateway final : public GatewayOutput {
   std::map<std::string, DriveStatus> last_status_;  // axis -> its last reported status
   ModelBuilder model_builder_;
   ArmingBuilder arming_builder_;
-  std::map<std::string, DriveFacts> facts_;                 // axis -> what its driver read from the drive
-  std::map<std::string, motionlcm::drive_model_t> models_;  // axis -> its model as last published
-  std::map<std::string, JogWatch> jogs_;                    // axes jogging under watch
+  std::map<std::string, DriveFacts> facts_;  // axis -> what its driver read from the drive
+  std::map<std::string, motionlcm::drive_model_t>
+      models_;                            // axis -> its model as last published (utime: in force since)
+  std::map<std::string, JogWatch> jogs_;  // axes jogging under watch
   // axis -> the latest motion command not answered yet (JOG: its watch; ARM_MOVE/HOME: none):
   // it replaces the watch once the driver has it (a move: once STARTED), a FAILED reply leaves the
   // watch as it was. STOP/ESTOP/DISABLE end the watch at once.

@@ -228,6 +228,16 @@ class Uc57Stack final : public gateway::CanStack {
   void start_outputs(std::size_t n, Job& job, const motionlcm::axis_command_t& axis);
   void start_set_position(std::size_t n, Job& job, const motionlcm::axis_command_t& axis);
   void start_param(std::size_t n, Job& job);
+  // 2006h:00 and 200Eh:00, what the drive model is made of (uc57_stack_params.cpp).
+  [[nodiscard]] static bool is_model_object(canopen::ObjectAddress object);
+  // Why a PARAM_WRITE of `param` is refused on node n: one of those objects while a move is armed
+  // or moving (it was planned with the present value).
+  [[nodiscard]] std::optional<std::pair<std::int32_t, std::string>> refuse_model_write(
+      std::size_t n, const motionlcm::param_t& param) const;
+  // Reads 2006h and 200Eh again, takes them and reports the drive facts (after a PARAM_WRITE).
+  void reread_model_objects(std::size_t n, Continue done);
+  // Reports what was read (resolution, start speed, start mechanism) to the gateway (DriveFacts).
+  void report_facts(std::size_t n);
   void disarm(const Job& disarm_job);
   // The target in node `n` set to where it stands, bit 4 = 0, sent at once (a released move).
   void neutralize(std::size_t n);

@@ -41,6 +41,8 @@ inline constexpr std::string_view kSimReport = "SIM_REPORT";    // sim_report_t,
 
 // gateway_command_t for one bus.
 inline std::string gateway_command(std::string_view bus) { return "GW_COMMAND_" + std::string(bus); }
+// gateway_command2_t for one bus (motion values as integers of the drive models' grids).
+inline std::string gateway_command2(std::string_view bus) { return "GW_COMMAND2_" + std::string(bus); }
 // signed_gateway_command_t for one bus (the coordinator's commands signed with its key).
 inline std::string signed_gateway_command(std::string_view bus) { return "GW_SCOMMAND_" + std::string(bus); }
 // can_frame_t mirror of one bus.

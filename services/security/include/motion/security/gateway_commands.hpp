@@ -4,8 +4,8 @@
 //
 // A command is accepted when its key id is the coordinator's, the signature verifies, utime is
 // within `window` of the gateway's clock and not before the verifier was made, the counter is above
-// the last one accepted, and the payload decodes as a gateway_command_t. Every refusal says which
-// of these failed.
+// the last one accepted, and the payload decodes as a gateway_command_t or a gateway_command2_t
+// (told apart by its LCM fingerprint). Every refusal says which of these failed.
 //
 // Thread contract: each object belongs to one thread; no call blocks.
 #pragma once
@@ -15,6 +15,7 @@
 #include <optional>
 #include <string>
 
+#include <motionlcm/gateway_command2_t.hpp>
 #include <motionlcm/gateway_command_t.hpp>
 #include <motionlcm/signed_gateway_command_t.hpp>
 
@@ -28,6 +29,8 @@ class GatewayCommandSigner {
   // Signed at `now_us` (µs since the epoch) with the next counter, max(last + 1, now_us).
   [[nodiscard]] motionlcm::signed_gateway_command_t sign(const motionlcm::gateway_command_t& command,
                                                          std::int64_t now_us);
+  [[nodiscard]] motionlcm::signed_gateway_command_t sign(const motionlcm::gateway_command2_t& command,
+                                                         std::int64_t now_us);
   [[nodiscard]] const KeyPair& key() const { return key_; }
 
  private:
@@ -37,8 +40,10 @@ class GatewayCommandSigner {
 };
 
 struct CommandVerdict {
-  std::optional<motionlcm::gateway_command_t> command;  // set when accepted
-  std::string reason;                                   // else what was wrong
+  std::optional<motionlcm::gateway_command_t> command;    // set when accepted, the payload being one
+  std::optional<motionlcm::gateway_command2_t> command2;  // set when accepted, the payload being one
+  std::string reason;                                     // else what was wrong
+  [[nodiscard]] bool accepted() const { return command || command2; }
 };
 
 class GatewayCommandVerifier {
