@@ -2,7 +2,7 @@
 // a manual clock: client requests of every kind with edge values (zero, sub-count, at and beyond
 // the limits, NaN, unknown axes, repeats of earlier requests), gateway replies to the commands it
 // sent and to made-up ones, axis states, heartbeats, drive models (good and broken), events,
-// orphaned moves, silent gateways and time passing, in any order. Gateways may also be switched to
+// orphaned moves, trigger hearings, silent gateways and time passing, in any order. Gateways may also be switched to
 // answering like a working gateway, so that sequences reach triggered moves, progress and stops.
 //
 // Checked while it runs: a request's terminal replies (a repeat of the request is answered again)
@@ -176,7 +176,7 @@ class Run final : public coordinator::CoordinatorOutput {
     const std::uint8_t op = in.byte();
     if (verbose())
       std::fprintf(stderr, " t=%lld ms op %d\n", static_cast<long long>((wall_us() - kWallStartUs) / 1000), op % 12);
-    switch (op % 12) {
+    switch (op % 13) {
       case 0:
       case 1: request(in); break;
       case 2: resend(in); break;
@@ -188,6 +188,7 @@ class Run final : public coordinator::CoordinatorOutput {
       case 8: orphaned(in); break;
       case 9: working_ = (in.byte() & 1) != 0; break;
       case 10: silent_[in.byte() % kBuses.size()] ^= true; break;
+      case 12: trigger_heard(in); break;
       default: {
         static constexpr std::array<int, 8> kSteps{0, 1, 10, 50, 100, 500, 2000, 30000};
         const int ms = kSteps[in.byte() % kSteps.size()];
@@ -232,7 +233,8 @@ class Run final : public coordinator::CoordinatorOutput {
     }
     seen = {true, r.status, r.error_code};
   }
-  void gateway_command(const std::string& bus, const gateway_command_t& command) override {
+  void gateway_command(const std::string& bus, const motionlcm::gateway_command2_t& /*grid*/,
+                       const gateway_command_t& command) override {
     if (commands_.size() < kMaxCommands) commands_.push_back({bus, command});
     if (working_ && !silent_[bus_index(bus)]) pending_.push_back({bus, command});
   }
@@ -417,6 +419,18 @@ class Run final : public coordinator::CoordinatorOutput {
     m.fire_utime = {0};
     m.num_axes = 1;
     deliver([&](auto& c, auto now) { c.on_orphaned_moves(m, now); });
+  }
+
+  // A gateway says when it heard a trigger (TRIGGER_HEARD): on time, late, or for a trigger
+  // that was never sent.
+  void trigger_heard(Input& in) {
+    motionlcm::trigger_heard_t h{};
+    h.bus = kBuses[in.byte() % kBuses.size()];
+    h.trigger_id = in.byte() % 8;
+    h.trigger_utime = wall_us() - static_cast<std::int64_t>(in.u16()) * 10;
+    h.utime = wall_us();
+    h.send_utime = h.trigger_utime + static_cast<std::int64_t>(in.u16()) * 10;
+    deliver([&](auto& c, auto now) { c.on_trigger_heard(h, now); });
   }
 
   // A working gateway's answers: ARM_MOVE is ARMED (started by its trigger), a stop stops its
