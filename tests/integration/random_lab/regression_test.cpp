@@ -342,5 +342,133 @@ TEST(RandomLabRegression, Seed50026ABusDropOnAQuietBusEndsWithItsSecond) {
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// Chaos seed 50039: a move with a fault during it was REJECTED (an axis disabled by an e-stop),
+// and the runner's model then dropped the relative base of its axes as if they had moved: the
+// next relative move of ax2 was predicted from 602 counts instead of the last target, 0.94 units
+// (601.6 counts), one count off. A refused request leaves nothing behind, that base included.
+TEST(RandomLabRegression, Seed50039ARejectedFaultMoveKeepsTheRelativeBase) {
+  LabSpec spec;
+  spec.can_bitrate = 250000;
+  spec.rs485_baud = 19200;
+  spec.rs232_baud = 19200;
+  spec.rs485_parity = "none";
+  spec.security = true;
+  spec.axes.push_back(
+      AxisSpec{"ax0", DriveSpec{"uim342", "can0", 36, 0}, 12.5, -283, 313, 402.5, 1881, false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax1", DriveSpec{"adam-modbus", "rs485", 30, 0}, 320, -4, 15, 16.5, 63.5, true, 4.5, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"uim242", "rs232", 125, 0}, 640, -3, 4, 3.5, 25.5, false, 0, 0, 0});
+  spec.axes.push_back(
+      AxisSpec{"ax3", DriveSpec{"uc57", "can0", 1, 0}, 533.33333333333337, -8, 27, 14, 37, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax4", DriveSpec{"adam-modbus", "rs485", 64, 0}, 533.33333333333337, -23, 28, 23.5,
+                               114.5, false, 0, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kFault,
+           1,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax3", "ax4"},
+           {-3.9100000000000001, 3.4900000000000002},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {"ax4"},
+           {},
+           1 /* STALL */,
+           0},
+      Step{Op::kRequest,
+           1,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax4", "ax2", "ax1"},
+           {-0.0011249999999999999, 0.94000000000000006, 14.99},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+      Step{Op::kRequest,
+           1,
+           5 /* ESTOP */,
+           {},
+           {},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+      Step{Op::kFault,
+           1,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax3", "ax0", "ax2"},
+           {25.199999999999999, 15.460000000000001, -0.16},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {"ax3"},
+           {},
+           7 /* REPLY_LATENCY */,
+           30000},
+      Step{Op::kRequest,
+           2,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax4", "ax0"},
+           {23.010000000000002, -195.852},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+      Step{Op::kRequest,
+           2,
+           2 /* MOVE_RELATIVE */,
+           {"ax3", "ax2", "ax0"},
+           {0.0018749999999999999, 1.02, 340.23199999999997},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 }  // namespace
 }  // namespace motion::random_lab

@@ -316,7 +316,9 @@ class Runner {
     if (got->status == reply_t::DONE) {
       model_.request(request_t::MOVE_ABSOLUTE, s.axes, s.values, s.velocity_scale, s.acceleration_scale, s.timeout_ms,
                      true);
-    } else {
+    } else if (got->status != reply_t::REJECTED) {
+      // It may have moved part-way: the next relative move counts from where it stands. A refused
+      // move left nothing behind, the base of a relative move included.
       for (const auto& a : s.axes) model_.axis(a).at_target = false;
     }
     recover(std::string(fault_name(s.fault)) + " on " + target);
