@@ -63,6 +63,16 @@ Gateway::~Gateway() {
   pending_fires_.clear();
 }
 
+void Gateway::refusal_event(const std::string& axis, std::int64_t command_id, std::int64_t request_id,
+                            std::int32_t code, const std::string& reason) {
+  DriveEvent e;
+  e.kind = motionlcm::event_t::PROTOCOL_ERROR;
+  e.severity = motionlcm::event_t::WARNING;
+  e.code = code;
+  e.text = fmt::format("command {} (request {}) refused: {}", command_id, request_id, reason);
+  axis_event(axis, e);
+}
+
 motionlcm::gateway_command_t Gateway::own_command(std::int8_t kind, const std::vector<std::string>& axes,
                                                   std::int64_t trigger_id) {
   motionlcm::gateway_command_t c{};
@@ -175,13 +185,7 @@ void Gateway::execute_checked(const motionlcm::gateway_command_t& command) {
         check_axis_command(command.kind, a, limits_.at(a.axis),
                            status == last_status_.end() ? std::nullopt : std::optional{status->second.position_counts});
     if (!refusal) continue;
-    DriveEvent e;
-    e.kind = motionlcm::event_t::PROTOCOL_ERROR;
-    e.severity = motionlcm::event_t::WARNING;
-    e.code = refusal->error_code;
-    e.text =
-        fmt::format("command {} (request {}) refused: {}", command.command_id, command.request_id, refusal->reason);
-    axis_event(a.axis, e);
+    refusal_event(a.axis, command.command_id, command.request_id, refusal->error_code, refusal->reason);
     return fail(refusal->reason, refusal->error_code);
   }
   if (!driver_) return fail("gateway of bus '" + bus_ + "' has no driver" + (waiting_.empty() ? "" : ": " + waiting_));

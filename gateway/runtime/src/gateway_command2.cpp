@@ -51,13 +51,7 @@ void Gateway::on_command2(const motionlcm::gateway_command2_t& command) {
     return it == models_.end() ? nullptr : &it->second;
   });
   if (auto* refusal = std::get_if<GridRefusal>(&converted)) {
-    DriveEvent e;
-    e.kind = motionlcm::event_t::PROTOCOL_ERROR;
-    e.severity = motionlcm::event_t::WARNING;
-    e.code = refusal->error_code;
-    e.text =
-        fmt::format("command {} (request {}) refused: {}", command.command_id, command.request_id, refusal->reason);
-    axis_event({}, e);
+    refusal_event({}, command.command_id, command.request_id, refusal->error_code, refusal->reason);
     return command_reply(ReplyBuilder(command.command_id).failed(refusal->error_code, refusal->reason).build());
   }
   execute_checked(std::get<motionlcm::gateway_command_t>(converted));

@@ -242,6 +242,10 @@ class Gateway final : public GatewayOutput {
   std::set<std::pair<std::string, std::int64_t>> inherited_;  // (client, request) already stopped
   // A command of the gateway's own (negative id: a jog stopped at its limit, an axis found moving,
   // a move nobody triggered) for its driver: `kind` on `axes`.
+  // The PROTOCOL_ERROR event of a command refused before it reached the driver (limits, grid):
+  // "command N (request R) refused: <reason>", on `axis` (empty: the bus).
+  void refusal_event(const std::string& axis, std::int64_t command_id, std::int64_t request_id, std::int32_t code,
+                     const std::string& reason);
   motionlcm::gateway_command_t own_command(std::int8_t kind, const std::vector<std::string>& axes,
                                            std::int64_t trigger_id = 0);
   std::int64_t next_own_command_ = -1;  // ids of the gateway's own commands (negative)
