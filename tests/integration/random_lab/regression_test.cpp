@@ -470,5 +470,93 @@ TEST(RandomLabRegression, Seed50039ARejectedFaultMoveKeepsTheRelativeBase) {
   EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
 }
 
+// Chaos seed 50054: a UC57 that went silent during a move (its set-point acknowledged, bit 4
+// never released in profile position), then jogged and stopped, was asked for the next move: the
+// simulator still showed the old move's acknowledge in bit 12 and the gateway waited in vain ("not
+// ready for a set-point"). Profile position entered again has no set-point pending.
+TEST(RandomLabRegression, Seed50054AUc57BackInProfilePositionHasNoStaleAcknowledge) {
+  LabSpec spec;
+  spec.can_bitrate = 125000;
+  spec.rs485_baud = 115200;
+  spec.rs232_baud = 115200;
+  spec.rs485_parity = "none";
+  spec.axes.push_back(AxisSpec{"ax0", DriveSpec{"uim342", "can0", 112, 68}, 640, -6, 8, 13, 77.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax1", DriveSpec{"uc57", "can0", 79, 0}, 160, -10, 49, 49, 155.5, false, 0, 0, 0});
+  spec.axes.push_back(AxisSpec{"ax2", DriveSpec{"adam-modbus", "rs485", 1, 0}, 33.333333333333336, -92, 93, 127, 565.5,
+                               true, -47.25, 0, 0});
+  const std::vector<Step> steps = {
+      Step{Op::kFault,
+           2,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax0", "ax2", "ax1"},
+           {6.3500000000000005, 76.799999999999997, 0.35999999999999999},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {"ax0"},
+           {},
+           3 /* SILENCE */,
+           1},
+      Step{Op::kFault,
+           0,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax0", "ax1", "ax2"},
+           {-1.3200000000000001, 4.6799999999999997, 45.439999999999998},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {"ax1"},
+           {},
+           3 /* SILENCE */,
+           1},
+      Step{Op::kJogStop,
+           1,
+           3 /* JOG */,
+           {"ax1", "ax2"},
+           {-12.75, -17.300000000000001},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           2,
+           4 /* STOP */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+      Step{Op::kRequest,
+           1,
+           1 /* MOVE_ABSOLUTE */,
+           {"ax2", "ax1", "ax0"},
+           {-26.84, 21.703749999999999, -4.7400000000000002},
+           0.0,
+           0.0,
+           0,
+           0,
+           0,
+           0,
+           0 /* UNKNOWN */,
+           0 /* UNKNOWN */,
+           {},
+           {},
+           0 /* none */,
+           0},
+  };
+  const auto result = run_case(spec, steps);
+  EXPECT_TRUE(result.ok) << result.failure << "\n" << result.log;
+}
+
 }  // namespace
 }  // namespace motion::random_lab

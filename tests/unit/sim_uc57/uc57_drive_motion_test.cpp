@@ -158,6 +158,29 @@ TEST(Uc57Sim, ProfileVelocityV01ToV09) {
   EXPECT_EQ(drive.reports_of(kFinished).size(), 1u);
 }
 
+// A set-point acknowledged in profile position whose bit 4 falls only after a switch to profile
+// velocity (a jog after a move the master lost track of) is not pending when profile position is
+// entered again: bit 12 is the new mode's (chaos seed 50054: the gateway waited for it in vain).
+TEST(Uc57Sim, ProfilePositionEnteredAgainHasNoSetPointPending) {
+  Drive drive;
+  for (const char* request :
+       {"601: 2B 40 60 00 00 00 00 00", "601: 23 83 60 00 64 00 00 00", "601: 23 84 60 00 64 00 00 00",
+        "601: 23 81 60 00 3C 00 00 00", "601: 23 7A 60 00 88 13 00 00", "601: 2F 60 60 00 01 00 00 00",
+        "601: 2B 40 60 00 06 00 00 00", "601: 2B 40 60 00 07 00 00 00", "601: 2B 40 60 00 0F 00 00 00",
+        "601: 2B 40 60 00 5F 00 00 00"}) {  // bit 4 rises: acknowledged, bit 4 left set
+    drive.sdo_ok(request);
+  }
+  ASSERT_TRUE(bit(drive.statusword(), cia402::StatusBit::kSetPointAcknowledge));
+  drive.sdo_ok("601: 2F 60 60 00 03 00 00 00");  // profile velocity
+  drive.sdo_ok("601: 2B 40 60 00 0F 01 00 00");  // bit 4 falls here, with a halt
+  drive.advance_to(drive.now + 2s);
+  drive.sdo_ok("601: 2F 60 60 00 01 00 00 00");  // profile position again
+  EXPECT_FALSE(bit(drive.statusword(), cia402::StatusBit::kSetPointAcknowledge));
+  drive.sdo_ok("601: 2B 40 60 00 0F 00 00 00");
+  drive.sdo_ok("601: 2B 40 60 00 1F 00 00 00");  // the next set-point is taken and acknowledged
+  EXPECT_TRUE(bit(drive.statusword(), cia402::StatusBit::kSetPointAcknowledge));
+}
+
 // D-50: method 24 (forward origin), 120/60 RPM, ramp 100, offset 0.
 TEST(Uc57Sim, HomingMethod24FindsTheOrigin) {
   Drive drive;

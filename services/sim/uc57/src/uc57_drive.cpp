@@ -323,12 +323,21 @@ std::optional<SdoAbortCode> Uc57DriveSim::check_pdo_parameter(const od::OdEntry&
 }
 
 void Uc57DriveSim::apply_write(const od::OdEntry& entry, std::int64_t value) {
+  const std::int8_t mode_before = mode();
   store(entry.index, entry.subindex, value);
   switch (entry.index) {
     case idx::kControlword: on_controlword(static_cast<std::uint16_t>(value)); break;
     case idx::kModesOfOperation:
       // The UC57 switches at once; the display follows the request (manual §4.2.3).
       store(idx::kModesOfOperationDisplay, 0, value);
+      // Statusword bits 12 and 13 belong to the mode in force (§4.2.4-§4.2.6, CiA 402): profile
+      // position entered anew has no set-point pending, whatever bit 4 did in another mode (the
+      // manual is silent on this; assumed reading). RPDO1 writes 6060h with every frame: only a
+      // change of mode resets.
+      if (mode() != mode_before) {
+        set_point_acknowledged_ = false;
+        buffered_set_point_.reset();
+      }
       update_profile_velocity();
       break;
     case idx::kTargetVelocity: update_profile_velocity(); break;
