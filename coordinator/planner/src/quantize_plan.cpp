@@ -385,6 +385,9 @@ AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axi
         const double duration_s = ramps_distance <= distance
                                       ? a.time + (distance - ramps_distance) / v + d.time
                                       : time_optimal_shape(distance, v, a.rate, d.rate).duration_s();
+        // A setting too slow for its duration to be a number (a velocity scaled down to a
+        // denormal: the distance over it overflows) is no candidate.
+        if (!std::isfinite(duration_s)) continue;
         out.shortest = std::min(out.shortest, duration_s);
         out.longest = std::max(out.longest, duration_s);
         const double offset = std::abs(duration_s - planned_s);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "motion/adam/registers.hpp"
 #include "motion/adam/units.hpp"
@@ -355,6 +356,35 @@ TEST(MovePlanner, PlansWithTheResolutionOfTheModel) {
     ASSERT_TRUE(std::holds_alternative<MovePlan>(result)) << std::get<std::string>(result);
     const double rpm = std::get<MovePlan>(result).axes.at(0).velocity * 60.0 / ppr;
     EXPECT_NEAR(rpm, std::round(rpm), 1e-9) << ppr;
+  }
+}
+
+// A velocity scale the request validation lets through ((0, 1]) but far below any speed a drive
+// runs (found by the fuzz target coordinator_sequences: 4.9e-324 made durations infinite and the
+// planner's duration bucketing converted NaN to an index, undefined behaviour). The scale shapes
+// the plan; each drive realizes its nearest setting within its limits: a finite plan at the
+// drive's slowest speeds (or a refusal naming the axis), for every family.
+TEST(MovePlanner, AVelocityScaleBelowEveryDrivesSpeedGivesAFinitePlanWithinTheLimits) {
+  const auto planner = make_move_planner();
+  for (const double scale : {std::numeric_limits<double>::denorm_min(), 1e-300, 1e-12}) {
+    for (const PlanInput& one : with_models({{"x", config::Family::kUim342, 0, 64000, 50 * 640, 400 * 640},
+                                             {"a", config::Family::kUc57, 0, 3200, 3200, 12800},
+                                             {"c", config::Family::kAdamModbus, 0, 16000, 40 * 320, 200 * 320},
+                                             {"u", config::Family::kUim242, 0, 4000, 40 * 160, 200 * 160}})) {
+      auto result = planner({one}, scale, 1.0);
+      if (auto* why = std::get_if<std::string>(&result)) {
+        EXPECT_NE(why->find(one.axis), std::string::npos) << *why;
+        continue;
+      }
+      const auto& plan = std::get<MovePlan>(result);
+      ASSERT_EQ(plan.axes.size(), 1u);
+      const AxisPlan& a = plan.axes[0];
+      EXPECT_EQ(a.target_counts, one.target_counts);
+      EXPECT_TRUE(a.velocity > 0 && a.velocity <= one.max_velocity) << one.axis << " " << a.velocity;
+      EXPECT_TRUE(a.acceleration > 0 && a.acceleration <= one.max_acceleration) << one.axis << " " << a.acceleration;
+      EXPECT_TRUE(a.deceleration > 0 && a.deceleration <= one.max_acceleration) << one.axis << " " << a.deceleration;
+      EXPECT_TRUE(std::isfinite(plan.duration_s) && std::isfinite(plan.predicted_skew_us)) << one.axis;
+    }
   }
 }
 
