@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <vector>
 
 namespace motion::coordinator {
 
@@ -25,15 +24,17 @@ void TriggerLead::add(const std::string& bus, std::int64_t delay_us) {
   while (d.size() > std::max<std::size_t>(settings_.window, 1)) d.pop_front();
 }
 
-std::optional<std::int64_t> TriggerLead::p99_us(const std::string& bus) const {
+std::optional<std::int64_t> TriggerLead::envelope_us(const std::string& bus) const {
   const auto it = delays_.find(bus);
   if (it == delays_.end() || it->second.empty()) return std::nullopt;
-  std::vector<std::int64_t> sorted(it->second.begin(), it->second.end());
-  // Nearest rank: with up to 100 samples, the largest.
-  const auto rank = static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(sorted.size())));
-  const auto nth = sorted.begin() + static_cast<std::ptrdiff_t>(std::max<std::size_t>(rank, 1) - 1);
-  std::nth_element(sorted.begin(), nth, sorted.end());
-  return *nth;
+  const auto& d = it->second;
+  const double half_life = settings_.half_life > 0 ? settings_.half_life : 1.0;
+  double envelope = 0;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const auto age = static_cast<double>(d.size() - 1 - i);
+    envelope = std::max(envelope, static_cast<double>(d[i]) * std::exp2(-age / half_life));
+  }
+  return std::llround(envelope);
 }
 
 std::size_t TriggerLead::samples(const std::string& bus) const {
@@ -44,9 +45,9 @@ std::size_t TriggerLead::samples(const std::string& bus) const {
 std::int64_t TriggerLead::lead_us(const std::set<std::string>& buses) const {
   std::int64_t slowest = 0;
   for (const auto& bus : buses) {
-    const auto p99 = p99_us(bus);
-    if (!p99 || samples(bus) < settings_.enough) return settings_.max_us;
-    slowest = std::max(slowest, *p99);
+    const auto envelope = envelope_us(bus);
+    if (!envelope || samples(bus) < settings_.enough) return settings_.max_us;
+    slowest = std::max(slowest, *envelope);
   }
   const auto lead = std::llround(static_cast<double>(slowest) * settings_.margin) + settings_.floor_us;
   return std::clamp<std::int64_t>(lead, std::min(settings_.min_us, settings_.max_us), settings_.max_us);

@@ -1,5 +1,6 @@
 // The adaptive trigger lead (trigger_lead.hpp): the configured maximum until a bus has enough
-// samples, then the p99 of its recent delays x margin + floor, within [min, max].
+// samples, then the envelope of its recent delays (each halved every half_life samples after it)
+// x margin + floor, within [min, max].
 #include "motion/coordinator/trigger_lead.hpp"
 
 #include <gtest/gtest.h>
@@ -15,6 +16,7 @@ TriggerLead::Settings settings() {
   s.floor_us = 2'000;
   s.window = 64;
   s.enough = 8;
+  s.half_life = 8;
   return s;
 }
 
@@ -52,21 +54,41 @@ TEST(TriggerLead, FastSamplesShrinkTheLeadToTheFloorAndTheMinimum) {
   EXPECT_EQ(floor_only.lead_us({"can0"}), 2'000);
 }
 
-TEST(TriggerLead, ALateTriggerRaisesTheLeadUntilItLeavesTheWindow) {
+TEST(TriggerLead, ALateTriggerRaisesTheLeadAtOnceAndItsWeightHalvesEveryHalfLife) {
   TriggerLead lead(settings());
   for (int i = 0; i < 64; ++i) lead.add("can0", 1'000);
   EXPECT_EQ(lead.lead_us({"can0"}), 3'500);
   // A trigger published at 1 s for a send time 3500 us later, heard 9000 us after it: late.
   lead.published(7, 1'000'000);
   EXPECT_TRUE(lead.heard("can0", 7, 1'009'000));
-  EXPECT_EQ(lead.p99_us("can0"), 9'000);
+  EXPECT_EQ(lead.envelope_us("can0"), 9'000);
   EXPECT_EQ(lead.lead_us({"can0"}), 9'000 * 3 / 2 + 2'000);
   EXPECT_GT(lead.lead_us({"can0"}), 9'000);  // the next trigger is heard in time at that delay
-  // 63 more fast samples keep it; the 64th pushes it out of the window.
-  for (int i = 0; i < 63; ++i) lead.add("can0", 1'000);
-  EXPECT_EQ(lead.lead_us({"can0"}), 15'500);
+  // Eight fast samples later it weighs half, sixteen later a quarter.
+  for (int i = 0; i < 8; ++i) lead.add("can0", 1'000);
+  EXPECT_EQ(lead.envelope_us("can0"), 4'500);
+  EXPECT_EQ(lead.lead_us({"can0"}), 8'750);
+  for (int i = 0; i < 8; ++i) lead.add("can0", 1'000);
+  EXPECT_EQ(lead.envelope_us("can0"), 2'250);
+  // Once its weight is below the ordinary delays (9000 x 2^(-26/8) = 946), they decide again:
+  // 26 triggers after the late one, not 64.
+  for (int i = 0; i < 9; ++i) lead.add("can0", 1'000);
+  EXPECT_GT(lead.lead_us({"can0"}), 3'500);
   lead.add("can0", 1'000);
   EXPECT_EQ(lead.lead_us({"can0"}), 3'500);
+}
+
+TEST(TriggerLead, DelaysThatKeepComingBackKeepTheLeadUp) {
+  TriggerLead lead(settings());
+  for (int i = 0; i < 64; ++i) lead.add("can0", i % 8 == 0 ? 9'000 : 1'000);
+  // The newest long delay is 7 samples old: 9000 x 2^(-7/8) = 4907.
+  EXPECT_EQ(lead.envelope_us("can0"), 4'907);
+  for (int round = 0; round < 4; ++round) {
+    for (int i = 0; i < 8; ++i) {
+      lead.add("can0", i == 0 ? 9'000 : 1'000);
+      EXPECT_GE(lead.lead_us({"can0"}), 4'907 * 3 / 2 + 2'000);
+    }
+  }
 }
 
 TEST(TriggerLead, ClampedAtTheConfiguredMaximum) {
@@ -90,8 +112,8 @@ TEST(TriggerLead, OnlyTheFirstHearingOfARecentTriggerIsASample) {
   EXPECT_FALSE(lead.heard("can0", 1, 10'900));  // the same bus again (the plain and the signed copy)
   EXPECT_TRUE(lead.heard("rs485", 1, 10'700));
   EXPECT_EQ(lead.samples("can0"), 1u);
-  EXPECT_EQ(lead.p99_us("can0"), 400);
-  EXPECT_EQ(lead.p99_us("rs485"), 700);
+  EXPECT_EQ(lead.envelope_us("can0"), 400);
+  EXPECT_EQ(lead.envelope_us("rs485"), 700);
   // Only the last kRememberedTriggers triggers are known.
   for (std::int64_t id = 2; id < 2 + static_cast<std::int64_t>(TriggerLead::kRememberedTriggers); ++id)
     lead.published(id, 20'000);

@@ -5,13 +5,18 @@
 // Every gateway says when it heard each trigger (TRIGGER_HEARD, trigger_heard_t); the delay from
 // the trigger's publication to that moment is one sample of its bus (wall clocks: the delay of
 // LCM, the host, the signature check, and any offset between the two machines' clocks). Per bus
-// the last `window` samples are kept. The lead for a move is
-//     clamp(max over its buses of (p99 of the bus's samples) x margin + floor, min, max)
+// the last `window` samples are kept. A bus's envelope is the largest of its samples, each halved
+// for every `half_life` samples of the bus that came after it:
+//     envelope(bus) = max over its samples i of delay_i x 2^(-age_i / half_life)
+// (the newest sample has age 0). The lead for a move is
+//     clamp(max over its buses of envelope(bus) x margin + floor, min, max)
 // (max = coordinator.trigger_lead_ms, min = coordinator.trigger_lead_min_ms), and the configured
 // maximum while any of its buses has fewer than `enough` samples. A trigger heard late (after its
 // send time: the gateway fires at once, as it always did) took longer than the lead in force: its
-// sample raises the lead, up to the maximum. Single-bus triggers are samples too (their send time
-// is "now", so they are always late; the delay is what counts).
+// sample raises the lead at once, up to the maximum, and its weight then halves every `half_life`
+// triggers, so one wake-up of an overloaded host costs a few dozen moves a longer lead rather
+// than a whole window, while delays that keep coming back keep the lead up. Single-bus triggers
+// are samples too (their send time is "now", so they are always late; the delay is what counts).
 //
 // Passive: wall-clock microseconds in, no clock of its own.
 #pragma once
@@ -35,6 +40,7 @@ class TriggerLead {
     std::int64_t floor_us = 2'000;  // added after the margin
     std::size_t window = 64;        // samples kept per bus
     std::size_t enough = 8;         // samples a bus needs before its lead adapts
+    double half_life = 8;           // samples after which a delay weighs half (> 0)
   };
   static constexpr std::size_t kRememberedTriggers = 64;  // triggers whose hearing is taken as a sample
 
@@ -51,8 +57,8 @@ class TriggerLead {
 
   // The lead for a trigger of `buses`, microseconds.
   [[nodiscard]] std::int64_t lead_us(const std::set<std::string>& buses) const;
-  // The p99 of the samples of `bus` (nullopt: none).
-  [[nodiscard]] std::optional<std::int64_t> p99_us(const std::string& bus) const;
+  // The envelope of the samples of `bus` (nullopt: none), microseconds rounded to the nearest.
+  [[nodiscard]] std::optional<std::int64_t> envelope_us(const std::string& bus) const;
   [[nodiscard]] std::size_t samples(const std::string& bus) const;
   [[nodiscard]] const Settings& settings() const { return settings_; }
 
