@@ -67,7 +67,7 @@ NodeSettings make_node_settings(const config::Config& config, const config::Bus&
   apply_resolution(drive, out);
   apply_current(drive, out);
   if (const auto mode = drive.setup_text("tpdo_mode")) {
-    out.tpdo_mode = *mode == "event" ? TpdoMode::kEvent : TpdoMode::kSync;
+    out.tpdo_mode = *mode == "event" ? TpdoMode::kEvent : *mode == "staggered" ? TpdoMode::kStaggered : TpdoMode::kSync;
   }
   if (const auto answer = drive.setup_text("rpdo_sync")) {
     out.rpdo_sync = *answer == "honoured"       ? RpdoSyncAnswer::kHonoured

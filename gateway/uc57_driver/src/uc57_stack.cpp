@@ -22,12 +22,17 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
       sync_period_(
           std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(bus.poll_hz, 0.1)))),
       master_([this](const can::Frame& frame) {
+        const bool sync = frame.id == canopen::kSyncCobId && !frame.extended;
+        if (sync) ++syncs_handed_;
         if (!context_.send || !context_.send(frame)) {
           ++counters_.protocol_errors;
           return;
         }
         wire_sent_ += can::frame_duration(frame, bitrate_);
-        if (frame.id == canopen::kSyncCobId) last_sync_end_ = wire_sent_;
+        if (sync) {
+          last_sync_end_ = wire_sent_;
+          on_sync_handed();
+        }
       }) {
   bitrate_ = static_cast<std::uint32_t>(std::max(bus.bitrate, 1));
   options_.wall_clock_us = gateway::or_system_clock(std::move(options_.wall_clock_us));
@@ -43,51 +48,11 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
   }
   master_.nmt().on_event([this](const canopen::NodeEvent& e) { on_node_event(e); });
   master_.emcy().on_event([this](const canopen::EmcyEvent& e) { on_emcy(e); });
-  fit_sync_period(bus);
-  master_.configure_sync({sync_period_, 0, canopen::kSyncCobId});
-}
-
-// Polling within a bus budget: each SYNC makes every node with synchronous TPDOs send TPDO1 and
-// TPDO2 (UC57 manual §5 comm. table, 1800h/1801h:02 = 1; CiA 301 §7.2.2). At the UC57's default 125 kbit/s (2009h = 2, manual §5.1)
-// 32 nodes at 20 Hz ask for 1,300 frames/s, more than the bus carries. The SYNC, and with it the
-// status rate, is slowed until the SYNC and those TPDOs, with the nodes' heartbeats (1017h, set up
-// here), take at most kPollBusShare of the wire; the rest stays for SDO, RPDOs and EMCY. Stuff
-// bits are counted for all-zero data (the most a 0-filled payload gets), so a real cycle is at
-// most a few bits shorter. Unlike the UIM342 stack's polls, which fill whatever the bus leaves
-// idle one frame at a time, the TPDOs answering one SYNC come from every node at once and outrank
-// SDO requests (600h + node) by arbitration: a command waits behind the rest of a burst, so the
-// idle time between bursts is kept (docs/protocols.md, UC57 row 2).
-void Uc57Stack::fit_sync_period(const config::Bus& bus) {
-  Duration cycle = can::frame_duration(canopen::encode_sync({}), bitrate_);
-  std::size_t synchronous = 0;
-  double heartbeat_share = 0;  // of the wire, per second
-  for (const auto& node : nodes_) {
-    if (node->settings.heartbeat_ms > 0) {
-      const auto beat = canopen::encode_heartbeat(node->settings.node, canopen::NmtState::kOperational);
-      heartbeat_share += std::chrono::duration<double>(can::frame_duration(beat, bitrate_)).count() * 1000.0 /
-                         node->settings.heartbeat_ms;
-    }
-    if (node->settings.tpdo_mode != TpdoMode::kSync) continue;
-    ++synchronous;
-    cycle += can::frame_duration(encode_tpdo1(node->settings.node, {}), bitrate_) +
-             can::frame_duration(encode_tpdo2(node->settings.node, {}), bitrate_);
-  }
-  const auto configured = sync_period_;
-  const double share = std::max(kPollBusShare - heartbeat_share, kPollBusShare / 4);
-  const auto needed = std::chrono::duration_cast<Duration>(
-      std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / share));
-  if (needed <= configured) return;
-  sync_period_ = std::chrono::ceil<std::chrono::milliseconds>(needed);
-  const auto hz = [](Duration d) { return 1.0 / std::chrono::duration<double>(d).count(); };
-  char text[320];
-  std::snprintf(text, sizeof text,
-                "bus %s: %zu UC57 nodes with synchronous TPDOs at %.1f Hz need %.0f%% of %u bit/s; SYNC (and status) "
-                "at %.1f Hz instead "
-                "(polls and heartbeats keep to %.0f%% of the bus)",
-                bus.name.c_str(), synchronous, hz(configured),
-                100.0 * std::chrono::duration<double>(cycle).count() * hz(configured), bitrate_, hz(sync_period_),
-                100.0 * kPollBusShare);
-  poll_warning_ = text;
+  asked_period_ = sync_period_;
+  plan_stagger();
+  fit_sync_period();
+  // Staggered: the stack paces each SYNC itself (sync_due); the producer only sends on demand.
+  master_.configure_sync({stagger_g_ > 0 ? Duration::zero() : sync_period_, 0, canopen::kSyncCobId});
 }
 
 Uc57Stack::~Uc57Stack() = default;
@@ -151,6 +116,7 @@ void Uc57Stack::event(std::size_t n, std::int16_t kind, std::int8_t severity, st
 
 bool Uc57Stack::on_frame(const can::Frame& frame, TimePoint now) {
   now_ = now;
+  spend_wire(frame, now);  // staggered pacing: what the wire carried
   // 29-bit frames belong to the UIM342 stack; RTR frames are nothing this master consumes.
   if (frame.extended || frame.rtr) return false;
   const auto info = canopen::classify_cob_id(frame.id);
@@ -169,7 +135,10 @@ bool Uc57Stack::on_frame(const can::Frame& frame, TimePoint now) {
     case canopen::MessageKind::kSdoResponse:
     case canopen::MessageKind::kHeartbeat:
     case canopen::MessageKind::kEmcy: master_.on_frame(frame, now); return true;
-    case canopen::MessageKind::kTpdo: on_pdo(*n, frame, now); return true;
+    case canopen::MessageKind::kTpdo:
+      on_tpdo_seen(*n, info->pdo_number);
+      on_pdo(*n, frame, now);
+      return true;
     default:
       // Requests and RPDOs *to* our nodes come from another master: not ours.
       return false;
@@ -209,8 +178,12 @@ TimePoint Uc57Stack::process(TimePoint now) {
     }
   }
   check_task_timeouts(now);
-  auto* sync = master_.sync();
-  if (sync->next_deadline() <= now) run_sync_cycle(now);
+  if (stagger_g_ > 0) {
+    if (sync_due(now)) run_sync_cycle(now);
+    next = std::min(next, next_sync_check());
+  } else if (master_.sync()->next_deadline() <= now) {
+    run_sync_cycle(now);
+  }
   next = std::min(next, master_.process(now));
   for (const auto& node : nodes_) {
     next = std::min({next, node->retry_at, node->starting_deadline, node->task_deadline});
@@ -232,8 +205,15 @@ void Uc57Stack::run_sync_cycle(TimePoint now) {
     node.image_sync = applying_sync;
     node.preloaded = false;  // the queued image replaced the start image in the drive
   }
-  masked_sync(now, [this, now] { master_.sync()->process(now); });
+  masked_sync(now, [this, now] {
+    if (stagger_g_ > 0) {
+      master_.sync()->trigger_now(now);
+    } else {
+      master_.sync()->process(now);
+    }
+  });
   run_sync_waiters();
+  run_slot_waiters();
 }
 
 void Uc57Stack::masked_sync(TimePoint now, const std::function<void()>& sync) {
@@ -279,8 +259,11 @@ void Uc57Stack::queue_image(std::size_t n, const RpdoImage& image) {
 bool Uc57Stack::image_applied(std::size_t n) {
   // The SYNC that applied the image has gone, and one more: a TPDO now shows its effect whatever
   // order the drive uses between applying RPDOs and sampling TPDOs at one SYNC.
+  // Staggered: the node's last sample answered a later SYNC than the image's (its next sample may
+  // be G SYNCs away).
   const Node& node = *nodes_[n];
-  return node.rpdo_queue.empty() && master_.sync()->sent() > node.image_sync;
+  if (!node.rpdo_queue.empty()) return false;
+  return staggered(n) ? node.sample_sync > node.image_sync : master_.sync()->sent() > node.image_sync;
 }
 
 std::optional<State> Uc57Stack::drive_state(std::size_t n) const {
@@ -298,17 +281,19 @@ void Uc57Stack::on_pdo(std::size_t n, const can::Frame& frame, TimePoint now) {
       ++counters_.protocol_errors;
       return;
     }
-    if (node.settings.tpdo_mode == TpdoMode::kSync && node.tpdo2_active) {
+    if (node.settings.tpdo_mode != TpdoMode::kEvent && node.tpdo2_active) {
       // Both TPDOs sample one SYNC instant: the statusword waits for its position (TPDO2, next on
-      // the bus), or a "homed" / "stopped" would go out next to the previous SYNC's position.
-      if (node.held_tpdo1) take_tpdo1(n, *std::exchange(node.held_tpdo1, std::nullopt), now);  // its TPDO2 was lost
+      // the bus; staggered: at the next SYNC), or a "homed" / "stopped" would go out next to an
+      // older position.
+      if (node.held_tpdo1) take_tpdo1(n, *std::exchange(node.held_tpdo1, std::nullopt), now, node.held_sample);
       node.held_tpdo1 = *tpdo;
+      node.held_sample = sync_index();
       return;
     }
     // TPDO2 (position) publishes every sample; TPDO1 only when what it reports changed, so a
     // state change shows at once also with event-driven TPDOs, where TPDO2 may stay silent.
     node.status.sample_utime = frame.timestamp_us;
-    if (take_tpdo1(n, *tpdo, now) || !node.tpdo2_active) publish_status(n);
+    if (take_tpdo1(n, *tpdo, now, sync_index()) || !node.tpdo2_active) publish_status(n);
   } else if (info->pdo_number == 2 && node.tpdo2_active) {
     const auto tpdo = decode_tpdo2(frame.payload());
     if (!tpdo) {
@@ -320,13 +305,14 @@ void Uc57Stack::on_pdo(std::size_t n, const can::Frame& frame, TimePoint now) {
     node.status.velocity_counts = cia402::uc57::rpm_to_pulses_per_second(tpdo->velocity_rpm, node.pulses_per_rev);
     node.status.sample_utime = frame.timestamp_us;
     // The task sees the statusword with this position (a DONE is followed by the state it reached).
-    if (node.held_tpdo1) take_tpdo1(n, *std::exchange(node.held_tpdo1, std::nullopt), now);
+    if (node.held_tpdo1) take_tpdo1(n, *std::exchange(node.held_tpdo1, std::nullopt), now, node.held_sample);
     publish_status(n);
   }
 }
 
-bool Uc57Stack::take_tpdo1(std::size_t n, const Tpdo1& tpdo, TimePoint now) {
+bool Uc57Stack::take_tpdo1(std::size_t n, const Tpdo1& tpdo, TimePoint now, std::uint64_t sample) {
   Node& node = *nodes_[n];
+  node.sample_sync = sample;
   const std::int32_t inputs = inputs_from_60fd(tpdo.digital_inputs);
   const bool changed = node.statusword != tpdo.statusword || node.status.inputs != inputs;
   node.statusword = tpdo.statusword;

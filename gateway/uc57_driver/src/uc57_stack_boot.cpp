@@ -16,13 +16,8 @@ void Uc57Stack::start(TimePoint now) {
   now_ = now;
   started_ = true;
   set_configuration_window();
-  if (!poll_warning_.empty() && context_.out != nullptr) {
-    gateway::DriveEvent e;
-    e.kind = Event::CONFIG_MISMATCH;
-    e.severity = Event::WARNING;
-    e.text = poll_warning_;
-    context_.out->axis_event("", e);
-  }
+  warn_bus(poll_warning_);
+  next_sync_at_ = stagger_g_ > 0 ? now + sync_period_ : kNever;
   for (std::size_t n = 0; n < nodes_.size(); ++n) {
     Node& node = *nodes_[n];
     for (const auto& warning : node.settings.warnings) {
@@ -86,6 +81,8 @@ void Uc57Stack::probe_now(std::size_t n) {
   master_.sdo().cancel(node.settings.node);
   node.rpdo_queue.clear();
   node.held_tpdo1.reset();
+  node.slot = {};  // pre-operational from step 2: its TPDOs stop until started in their slots
+  release_sync(n);
   auto ops = std::make_shared<std::vector<ConfigOp>>(configuration_ops(n));
   run_config(n, node.session, ops, 0);
 }
@@ -289,11 +286,7 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
               });
   }});
   // 6. TPDO1 / TPDO2 transmission type (1800h/1801h:02, RW/S) and whether TPDO2 is mapped (C-09).
-  for (std::uint16_t tpdo = 1; tpdo <= 2; ++tpdo) {
-    ops.push_back(write(
-        {canopen::pdo_communication_index(canopen::PdoDirection::kTransmit, tpdo), canopen::kPdoTransmissionTypeSub},
-        le<std::uint8_t>(s.tpdo_transmission_type())));
-  }
+  ops.push_back(tpdo_type_op(n));  // staggered: type G (uc57_stack_stagger.cpp)
   ops.push_back(read({canopen::pdo_mapping_index(canopen::PdoDirection::kTransmit, 2), 0},
                      [this, n](std::span<const std::uint8_t> data) -> std::optional<std::string> {
                        Node& nd = *nodes_[n];
@@ -337,15 +330,8 @@ std::vector<Uc57Stack::ConfigOp> Uc57Stack::configuration_ops(std::size_t n) {
     nodes_[n]->statusword = static_cast<std::uint16_t>(read_unsigned(data));
     return std::nullopt;
   }));
-  // 8. Operational.
-  ops.push_back({[this, n](const Continue& next) {
-    Node& nd = *nodes_[n];
-    const auto consumer = std::chrono::milliseconds(nd.settings.heartbeat_ms) * options_.heartbeat_loss_factor;
-    master_.nmt().monitor(nd.settings.node, consumer);
-    master_.nmt().mark_configured(nd.settings.node);
-    master_.nmt().send(canopen::NmtCommand::kStart, nd.settings.node);
-    next(std::nullopt);
-  }});
+  // 8. Operational (staggered: in the node's slot, uc57_stack_stagger.cpp).
+  ops.push_back(nmt_start_op(n));
   // 9. Does RPDO1 apply at the SYNC, on reception, or was type 1 refused (uc57_stack_rpdo.cpp)?
   ops.push_back(rpdo_acceptance_op(n));
   return ops;
@@ -378,8 +364,7 @@ void Uc57Stack::enter_operational(std::size_t n) {
       n, Event::ONLINE, Event::INFO, node.settings.node,
       node.settings.label() + ": configured and operational (RPDO1 " +
           (node.layout == RpdoLayout::kControlwordTarget ? "controlword + target position" : "manual default mapping") +
-          ", " + node.rpdo_finding + "; TPDOs " +
-          (node.settings.tpdo_mode == TpdoMode::kSync ? "every SYNC" : "event-driven") + ")");
+          ", " + node.rpdo_finding + "; TPDOs " + tpdo_text(n) + ")");
   // What was read at set-up (2006h, 200Eh; manual §5.1) makes the axis's drive model.
   report_facts(n);
   publish_status(n);
@@ -410,6 +395,8 @@ void Uc57Stack::go_offline(std::size_t n, std::int16_t event_kind, const std::st
   node.starting_deadline = kNever;
   node.rpdo_queue.clear();
   node.held_tpdo1.reset();
+  node.slot = {};
+  release_sync(n);
   node.statusword.reset();
   node.status.online = false;
   node.offline_reason = reason;

@@ -156,8 +156,19 @@ struct Uc57Stack::Node {
 
   std::optional<std::uint16_t> statusword;
   std::int8_t mode_display = 0;
-  // Synchronous TPDOs: this SYNC's TPDO1, held until its TPDO2 so that both count as one sample.
+  // Synchronous TPDOs: this SYNC's TPDO1, held until its TPDO2 so that both count as one sample
+  // (staggered: the TPDO2 of the next SYNC, its slot follows TPDO1's).
   std::optional<Tpdo1> held_tpdo1;
+  std::uint64_t held_sample = 0;  // the SYNC index held_tpdo1 answered
+  std::uint64_t sample_sync = 0;  // the SYNC index of the last statusword taken
+
+  // Staggered TPDOs (uc57_stack_stagger.cpp): the node's place among the staggered nodes (-1: not
+  // staggered), its planned slots, the slots of TPDO1/TPDO2 as planned, then as observed (set
+  // once the TPDO's count is armed), and whether a slot other than planned was reported.
+  int stagger_index = -1;
+  bool stagger_refused = false;  // transmission type G aborted: type 1 (remembered)
+  std::array<std::optional<unsigned>, 2> slot;
+  bool slot_reported = false;
   gateway::DriveStatus status;
   bool fault_seen = false;  // a fault edge was handled (event, 603Fh read)
   TimePoint next_position_poll = kNever;

@@ -114,12 +114,15 @@ void Uc57Stack::rpdo_test_attempt(std::size_t n, unsigned session, unsigned atte
     nodes_[n]->image_sync = master_.sync()->sent() + 1;
   };
   const std::uint64_t before = master_.sync()->sent();
+  // A staggered bus's SYNC comes every few frames: none until the read is answered.
+  hold_sync(n, now_ + node.settings.sdo_timeout * (node.settings.sdo_retries + 1));
   send_image(n, test);
   node.image = original;  // what the drive holds once restored
   sdo_read(
       n, probe,
       [this, n, session, attempt, next, probe, before, test_value, restore](std::error_code ec,
                                                                             std::span<const std::uint8_t> data) {
+        release_sync(n);
         Node& nd = *nodes_[n];
         if (nd.session != session) return;
         if (ec) {

@@ -144,6 +144,10 @@ void Uc57Stack::prepare_fire(TimePoint at, TimePoint now) {
   now_ = now;
   auto* sync = master_.sync();
   if (sync == nullptr) return;
+  if (stagger_g_ > 0) {  // the stack paces the SYNC itself
+    if (next_sync_at_ >= at - kQuietBeforeStart && next_sync_at_ <= at) next_sync_at_ = at + sync_period_;
+    return;
+  }
   const TimePoint due = sync->next_deadline();
   if (due == kNever || due < at - kQuietBeforeStart || due > at) return;
   sync->start(at);  // next periodic SYNC one period after the start

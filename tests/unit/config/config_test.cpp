@@ -368,6 +368,24 @@ TEST(Config, DriveSetupIsValidatedPerFamily) {
   expect_single_error(with_setup("{closed_loop: maybe}"), 11, "drives[0].setup.closed_loop", "true or false");
 }
 
+// tpdo_mode of a UC57: sync (default), staggered (every G-th SYNC in a slot of the node's own) or
+// event; anything else names the three.
+TEST(Config, Uc57TpdoModeIsOneOfSyncStaggeredEvent) {
+  const auto with_mode = [&](const std::string& mode) {
+    return replace(kValid, "{name: ad, family: uc57, bus: can0, node_id: 5}",
+                   "{name: ad, family: uc57, bus: can0, node_id: 5, setup: {tpdo_mode: " + mode + "}}");
+  };
+  for (const auto* mode : {"sync", "staggered", "event"}) {
+    const auto result = load_string(with_mode(mode), "lab.yaml");
+    EXPECT_TRUE(result.ok()) << mode << ": " << result.error_text();
+  }
+  const auto bad = load_string(with_mode("stagger"), "lab.yaml");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error_text().find("drives[2].setup.tpdo_mode"), std::string::npos) << bad.error_text();
+  EXPECT_NE(bad.error_text().find("'stagger' is not one of sync, staggered, event"), std::string::npos)
+      << bad.error_text();
+}
+
 TEST(Config, EveryErrorIsReportedNotJustTheFirst) {
   std::string text = replace(kValid, "bitrate: 500000", "bitrate: 12345");
   text = replace(text, "node_id: 6,", "node_id: 200,");

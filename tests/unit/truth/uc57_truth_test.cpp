@@ -215,14 +215,33 @@ motionlcm::axis_command_t axis_move(const std::string& axis, std::int64_t target
 class Uc57RpdoSync : public ::testing::TestWithParam<std::string> {};
 
 // Set-up under `variant`, then a preloaded synchronized move of a and b judged by the drives.
-void synchronized_move_under(const std::string& variant, sim::Uc57SimOptions sim_options = {}) {
+// `staggered`: both nodes with tpdo_mode staggered (each TPDO every 4th SYNC in a slot of its own).
+void synchronized_move_under(const std::string& variant, sim::Uc57SimOptions sim_options = {}, bool staggered = false) {
   std::string yaml = kLabTemplate;
   for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT")) yaml.replace(at, 7, variant);
+  if (staggered) {
+    for (auto at = yaml.find("heartbeat_ms: 100}"); at != std::string::npos; at = yaml.find("heartbeat_ms: 100}"))
+      yaml.replace(at, 18, "heartbeat_ms: 100, tpdo_mode: staggered}");
+  }
   Uc57Bench bench(yaml, sim_options);
+  if (staggered) {
+    EXPECT_EQ(bench.stack->stagger_cycle(), 4U);
+    EXPECT_EQ(bench.stack->sync_period(), std::chrono::microseconds(12500))
+        << "20 Hz per node, the bus is not the limit";
+  }
   bench.stack->start(bench.now);
   bench.settle();
   ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
   const bool at_sync = variant == "honoured";
+  if (staggered) {
+    // Each TPDO in the slot planned for it: a-drive 0 and 1, b-drive 2 and 3.
+    const auto a = bench.stack->tpdo_slots("a-drive");
+    const auto b = bench.stack->tpdo_slots("b-drive");
+    EXPECT_EQ(a[0], std::optional<unsigned>(0));
+    EXPECT_EQ(a[1], std::optional<unsigned>(1));
+    EXPECT_EQ(b[0], std::optional<unsigned>(2));
+    EXPECT_EQ(b[1], std::optional<unsigned>(3));
+  }
   for (const auto& [axis, e] : bench.out.events) {
     EXPECT_NE(e.kind, kOffline) << "set-up went through an offline retry: " << e.text;  // refused: no reset loop
   }
@@ -319,6 +338,11 @@ void synchronized_move_under(const std::string& variant, sim::Uc57SimOptions sim
 TEST_P(Uc57RpdoSync, SetUpFindsTheVariantAndASynchronizedMoveReportsWhatTheDrivesDid) {
   synchronized_move_under(GetParam());
 }
+
+// The same with staggered TPDOs (tpdo_mode staggered: each node's TPDO1 and TPDO2 every 4th SYNC,
+// each in a slot of its own, the SYNC 4 times as fast): the set-up still finds the variant (the
+// acceptance test holds the SYNC while it reads), the move starts together and lands, HOME lands.
+TEST_P(Uc57RpdoSync, WithStaggeredTpdos) { synchronized_move_under(GetParam(), {}, true); }
 
 // The same with the manual's RO remap objects (§5 comm. table: 1400h:01, 1600h:00): the stack
 // keeps the default RPDO1 (6040h + 60FFh + 6060h), tests with 60FFh outside profile velocity, and

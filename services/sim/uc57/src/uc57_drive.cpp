@@ -99,7 +99,10 @@ void Uc57DriveSim::on_nmt(const can::Frame& frame) {
   if (!request || (request->node != canopen::kAllNodes && request->node != node_)) return;
   switch (request->command) {
     case canopen::NmtCommand::kStart:
-      if (nmt_ != canopen::NmtState::kOperational) tpdo_ = {};  // event TPDOs go out once started
+      if (nmt_ != canopen::NmtState::kOperational) {
+        tpdo_ = {};  // event TPDOs go out once started; synchronous ones count SYNCs from here
+        for (auto& tpdo : tpdo_) tpdo.sync_count = -static_cast<long>(options_.tpdo_sync_skew);
+      }
       nmt_ = canopen::NmtState::kOperational;
       break;
     case canopen::NmtCommand::kStop:
@@ -294,6 +297,7 @@ std::optional<SdoAbortCode> Uc57DriveSim::check_pdo_parameter(const od::OdEntry&
     if (!synchronous && !event_driven) return SdoAbortCode::kInvalidValue;
     // rpdo_sync: refused — a drive without synchronous RPDOs takes only the manual's FFh (and 254).
     if (rpdo_comm && synchronous && options_.rpdo_sync == RpdoSync::kRefused) return SdoAbortCode::kInvalidValue;
+    if (tpdo_comm && value >= 2 && value <= 240 && options_.tpdo_every_sync_only) return SdoAbortCode::kInvalidValue;
   }
   if (!rpdo_map && !tpdo_map) return std::nullopt;
   const bool receive = rpdo_map;
@@ -342,6 +346,15 @@ void Uc57DriveSim::apply_write(const od::OdEntry& entry, std::int64_t value) {
       break;
     case idx::kTargetVelocity: update_profile_velocity(); break;
     case idx::kProducerHeartbeatTime: restart_heartbeat(); break;
+    case idx::kTpdoCommunication:
+    case idx::kTpdoCommunication + 1:
+    case idx::kTpdoCommunication + 2:
+    case idx::kTpdoCommunication + 3:
+      // A written transmission type restarts the TPDO's SYNC count (CiA 301 leaves it to the
+      // device; CANopenNode does so): type n then sends at the n-th SYNC after the write.
+      if (entry.subindex == canopen::kPdoTransmissionTypeSub)
+        tpdo_[entry.index - idx::kTpdoCommunication].sync_count = -static_cast<long>(options_.tpdo_sync_skew);
+      break;
     case idx::kFaultResetCommand:
       if (value == 1) try_fault_reset();
       store(entry.index, entry.subindex, 0);
@@ -419,7 +432,7 @@ void Uc57DriveSim::on_sync() {
     TpdoRuntime& tpdo = tpdo_[n - 1];
     if (type == 0) {
       if (tpdo.last_sent != payload) send_tpdo(n, std::move(*payload));
-    } else if (++tpdo.sync_count >= static_cast<unsigned>(type)) {
+    } else if (++tpdo.sync_count >= static_cast<long>(type)) {
       tpdo.sync_count = 0;
       send_tpdo(n, std::move(*payload));
     }

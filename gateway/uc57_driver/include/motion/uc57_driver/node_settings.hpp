@@ -7,7 +7,8 @@
 //   pulses_per_revolution -> 2006h code for that many pulses/rev (wins over micro_steps)
 //                       (both: cia402::uc57::setup_subdivision, the rule the coordinator plans with)
 //   current_a        -> 2005h run current, 0.1 A RMS, 1..25 (§5.1; conflict C-19 in uc57_units.hpp)
-//   tpdo_mode        -> 1800h:02 / 1801h:02 transmission type: sync = 1 (every SYNC), event = 255
+//   tpdo_mode        -> 1800h:02 / 1801h:02 transmission type: sync = 1 (every SYNC), event = 255,
+//                       staggered = G (every G-th SYNC, each TPDO in a slot of its own; Uc57Stack)
 //   heartbeat_ms     -> 1017h producer heartbeat (§5 comm. table; no node guarding: 100Ch/100Dh absent)
 //   rpdo_sync        -> none: how RPDO1 applies (docs/protocols.md). detect (default): set-up tests it
 //                       (Uc57Stack); honoured / on_reception: the answer where the test cannot run
@@ -28,7 +29,7 @@
 
 namespace motion::uc57_driver {
 
-enum class TpdoMode : std::uint8_t { kSync, kEvent };
+enum class TpdoMode : std::uint8_t { kSync, kEvent, kStaggered };
 // The configured answer to "does the drive apply a synchronous RPDO at the SYNC?" (setup rpdo_sync).
 enum class RpdoSyncAnswer : std::uint8_t { kDetect, kHonoured, kOnReception };
 
@@ -56,8 +57,9 @@ struct NodeSettings {
   std::vector<std::string> errors;
   std::vector<std::string> warnings;
 
+  // 1 or 255; a staggered node's G is the stack's (Uc57Stack::stagger_cycle()).
   [[nodiscard]] std::uint8_t tpdo_transmission_type() const {
-    return tpdo_mode == TpdoMode::kSync ? kTransmissionSyncEveryCycle : kTransmissionEventDriven;
+    return tpdo_mode == TpdoMode::kEvent ? kTransmissionEventDriven : kTransmissionSyncEveryCycle;
   }
   // "a-drive (node 1)": the prefix of every reason and event text about this node.
   [[nodiscard]] std::string label() const;

@@ -19,6 +19,12 @@
 //    start; the RPDO1 acceptance test (applies at the SYNC or on reception? uc57_stack_rpdo.cpp,
 //    moves nothing); a SYNC producer at the bus poll rate, slowed so that SYNC, synchronous TPDOs
 //    and heartbeats keep to kPollBusShare of the bus (sync_period()). See process_data.hpp.
+//    tpdo_mode staggered (uc57_stack_stagger.cpp): TPDO1 and TPDO2 of each such node get
+//    transmission type G (every G-th SYNC, CiA 301 §7.5.2.35) and a slot of their own in the
+//    cycle of G SYNCs, so each SYNC is answered by one TPDO; the SYNC then runs G times faster,
+//    paced by the wire (the next one only once the last one and its answer are through), and
+//    polls fill up to kStaggeredBusShare of the bus while a command waits behind at most one
+//    TPDO.
 //    A node that does not answer, or boots again, is re-probed with exponential back-off.
 //  - SDO (CiA 301 §7.2.4): one transfer per node at a time (canopen::SdoClient), the bus/drive
 //    request timeout and retries; aborts reported with the abort code's CiA text and the object.
@@ -46,6 +52,7 @@
 // Every command ends in exactly one terminal reply (DONE or FAILED).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -115,11 +122,23 @@ class Uc57Stack final : public gateway::CanStack {
   void add_statistics(motionlcm::bus_stats_t& stats) const override;
   [[nodiscard]] gateway::LedgerCounters ledger_counters() const override { return jobs_.counters(); }
 
+  void on_transmitted(const can::Frame& frame, TimePoint now) override;
+
   [[nodiscard]] const Counters& counters() const { return counters_; }
   // The SYNC period in force: 1 / poll_hz, or longer when the nodes' synchronous TPDOs at that
   // rate would take more than kPollBusShare of the bus (fit_sync_period; said once at start()).
   [[nodiscard]] Duration sync_period() const { return sync_period_; }
   static constexpr double kPollBusShare = 0.75;
+  // Staggered TPDOs (tpdo_mode staggered): what SYNC + its one answer + heartbeats may take.
+  static constexpr double kStaggeredBusShare = 0.95;
+  // G, the SYNCs of one staggered poll cycle (2 per staggered node, 1 above 120 nodes); 0 when
+  // no node on the bus has tpdo_mode staggered.
+  [[nodiscard]] unsigned stagger_cycle() const { return stagger_g_; }
+  // The slots (SYNC index mod G) the TPDO1 and TPDO2 of `drive` answer in, as planned at its
+  // start and then as observed; nullopt for a slot not known yet or a node not staggered.
+  [[nodiscard]] std::array<std::optional<unsigned>, 2> tpdo_slots(std::string_view drive) const;
+  // True when `drive` was set up staggered but refused transmission type G (type 1 instead).
+  [[nodiscard]] bool stagger_refused(std::string_view drive) const;
   // What set-up found about RPDO1 of `drive` ("honoured (detected)", "on_reception (detected)",
   // "refused", "on_reception (configured)", ...); empty before the node is operational.
   [[nodiscard]] std::string rpdo_sync_finding(std::string_view drive) const;
@@ -169,8 +188,50 @@ class Uc57Stack final : public gateway::CanStack {
   };
   [[nodiscard]] StartFacts start_facts(const Job& job) const;
   // The bus budget of the synchronous TPDOs (fit_sync_period) and its warning.
-  void fit_sync_period(const config::Bus& bus);
+  void fit_sync_period();
+  void warn_bus(const std::string& text);
   std::string poll_warning_;
+
+  // --- staggered TPDOs (uc57_stack_stagger.cpp) ---
+  [[nodiscard]] bool staggered(std::size_t n) const;  // set up staggered and not refused
+  void plan_stagger();
+  // 1800h:02 / 1801h:02 at set-up; the NMT start (and TPDO2's type) at the node's slots.
+  ConfigOp tpdo_type_op(std::size_t n);
+  ConfigOp nmt_start_op(std::size_t n);
+  // Runs `run` right after the next periodic SYNC whose index is `slot` mod G.
+  void at_slot(unsigned slot, std::function<void()> run);
+  [[nodiscard]] bool sync_due(TimePoint now);
+  [[nodiscard]] TimePoint next_sync_check() const;
+  void on_sync_handed();
+  void on_tpdo_seen(std::size_t n, unsigned pdo);
+  // The index of the SYNC a TPDO received now answers (echoed SYNCs where the transport echoes).
+  [[nodiscard]] std::uint64_t sync_index() const { return echoes_ ? syncs_on_wire_ : syncs_handed_; }
+  void run_slot_waiters();
+  // No periodic SYNC for node n's sake until released or `until` (its set-up exchanges).
+  void hold_sync(std::size_t n, TimePoint until) { sync_holds_[n] = until; }
+  void release_sync(std::size_t n) { sync_holds_.erase(n); }
+  unsigned stagger_g_ = 0;
+  bool stagger_separate_ = true;               // TPDO1 and TPDO2 of a node in slots of their own (G = 2S)
+  std::uint64_t syncs_handed_ = 0;             // SYNCs handed to the transport (= the producer's sent())
+  std::deque<std::uint64_t> syncs_in_flight_;  // their indexes, awaiting their echo
+  Duration asked_period_{};                    // 1 / poll_hz
+  bool echoes_ = false;                        // the transport echoes our frames (on_transmitted)
+  std::uint64_t syncs_on_wire_ = 0;            // echoes of our SYNCs
+  bool sync_awaiting_echo_ = false;
+  TimePoint sync_handed_at_{};
+  TimePoint next_sync_at_ = kNever;  // staggered pacing: not before (one sync_period_ apart)
+  unsigned answers_left_ = 0;        // TPDOs still expected for the last SYNC
+  TimePoint answers_due_ = kNever;
+  std::map<std::size_t, TimePoint> sync_holds_;
+  // Staggered pacing by the wire: polls may use poll_share_ of it, less what every other frame
+  // seen on it took (commands, answers, other masters; not the heartbeats, whose share is kept
+  // apart): a credit of wire time that each frame seen spends; a SYNC needs it positive.
+  void spend_wire(const can::Frame& frame, TimePoint now);
+  [[nodiscard]] TimePoint credit_ready_at() const;  // when the credit is back to 0
+  double poll_share_ = kPollBusShare;
+  Duration poll_credit_{};
+  TimePoint credit_at_{};
+  std::vector<std::pair<unsigned, std::function<void()>>> slot_waiters_;
 
   // --- SDO with retries and reasons ---
   using SdoDone = std::function<void(std::error_code, std::span<const std::uint8_t>)>;
@@ -188,7 +249,8 @@ class Uc57Stack final : public gateway::CanStack {
   void on_pdo(std::size_t n, const can::Frame& frame, TimePoint now);
   void on_statusword(std::size_t n, TimePoint now);
   // Takes a TPDO1's statusword, inputs and mode and runs on_statusword; true when what it reports changed.
-  bool take_tpdo1(std::size_t n, const Tpdo1& tpdo, TimePoint now);
+  // `sample`: the SYNC index it answers (image_applied of a staggered node).
+  bool take_tpdo1(std::size_t n, const Tpdo1& tpdo, TimePoint now, std::uint64_t sample);
   void queue_image(std::size_t n, const RpdoImage& image);
   [[nodiscard]] RpdoImage latest_image(std::size_t n) const;
   void send_image(std::size_t n, const RpdoImage& image);
@@ -250,9 +312,11 @@ class Uc57Stack final : public gateway::CanStack {
   void set_mode(std::size_t n, std::int8_t mode, Continue done);
 
   [[nodiscard]] std::optional<cia402::State> drive_state(std::size_t n) const;
-  [[nodiscard]] Duration cycle() const { return sync_period_; }
+  // How often a node reports at most: one SYNC, or G of them (and one for the TPDO2 behind TPDO1).
+  [[nodiscard]] Duration cycle() const { return sync_period_ * (stagger_g_ > 0 ? stagger_g_ + 1 : 1); }
   void event(std::size_t n, std::int16_t kind, std::int8_t severity, std::int32_t code, const std::string& text);
   [[nodiscard]] std::string offline_text(std::size_t n) const;  // "<label> is offline: <why>"
+  [[nodiscard]] std::string tpdo_text(std::size_t n) const;     // "every SYNC", "event-driven", ...
 
   gateway::CanStackContext context_;
   Options options_;

@@ -69,6 +69,11 @@ struct Uc57SimOptions {
   std::int64_t positive_limit = 200000;   // IN1 active at and beyond
   std::int64_t negative_limit = -200000;  // IN3 active at and beyond
   std::int64_t homing_backoff = 500;      // back-off distance before the slow approach
+  // A drive that takes TPDO transmission type 1 only (2..240 aborted), and one that starts its
+  // TPDOs' SYNC count `tpdo_sync_skew` SYNCs later than at NMT start / a type write (a drive
+  // counting differently: staggered TPDOs then answer another slot).
+  bool tpdo_every_sync_only = false;
+  unsigned tpdo_sync_skew = 0;
 };
 
 class Uc57DriveSim final : public CanDriveSim {
@@ -109,7 +114,7 @@ class Uc57DriveSim final : public CanDriveSim {
   };
   struct TpdoRuntime {
     std::optional<std::vector<std::uint8_t>> last_sent;
-    unsigned sync_count = 0;
+    long sync_count = 0;  // SYNCs counted towards the next synchronous send (negative: skew)
     TimePoint inhibit_until{};
     TimePoint next_event = kNever;
   };

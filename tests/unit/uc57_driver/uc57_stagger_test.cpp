@@ -1,0 +1,233 @@
+// Staggered synchronous TPDOs (tpdo_mode staggered, uc57_stack_stagger.cpp) on a bit-timed wire,
+// on a simulated clock: the simulated bus (simbus::Bus: exact bit times, arbitration, own echo)
+// between the stack and simulated UC57 drives (uc57_wire_rig.hpp). Everything is counted on the
+// wire:
+//   - asked for more than the bus carries, the polls (SYNCs and TPDOs) fill at least 90% of it,
+//     every node reports at about the same rate; asked for less, each node reports at the asked rate;
+//   - each SYNC is answered by at most one TPDO;
+//   - a command's frame (an SDO read) handed over at any moment of the poll rhythm waits on the wire
+//     behind at most one TPDO (SYNCs counted apart);
+//   - a node that counts SYNCs from another moment is polled in the slot it answers in, reported once;
+//   - a node refusing transmission type G gets type 1, with a warning naming it.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+
+#include <motionlcm/event_t.hpp>
+#include <motionlcm/param_t.hpp>
+
+#include "uc57_wire_rig.hpp"
+
+namespace motion::uc57_driver::wire {
+namespace {
+
+using std::chrono::microseconds;
+using std::chrono::milliseconds;
+
+constexpr std::int16_t kConfigMismatch = motionlcm::event_t::CONFIG_MISMATCH;
+constexpr std::int16_t kHeartbeatLost = motionlcm::event_t::HEARTBEAT_LOST;
+constexpr std::int8_t kDone = gateway_reply_t::DONE;  // a copy: never ODR-use the generated constants
+
+RigOptions options(int nodes, double poll_hz, std::function<void(int, sim::Uc57SimOptions&)> sim = {}) {
+  RigOptions o;
+  o.nodes = nodes;
+  o.poll_hz = poll_hz;
+  o.sim = std::move(sim);
+  return o;
+}
+
+// Status updates per node over one second.
+std::map<std::string, std::int64_t> updates_over(WireRig& rig, Duration span) {
+  const auto before = rig.out.updates;
+  EXPECT_TRUE(rig.run_for(span));
+  std::map<std::string, std::int64_t> out;
+  for (const auto& [axis, count] : rig.out.updates) {
+    const auto it = before.find(axis);
+    out[axis] = count - (it == before.end() ? 0 : it->second);
+  }
+  return out;
+}
+
+// Most TPDOs between two consecutive SYNCs on the wire, from `from` on.
+std::size_t most_answers_per_sync(const WireRig& rig, TimePoint from) {
+  std::size_t most = 0;
+  std::size_t current = 0;
+  bool counting = false;
+  for (const auto& w : rig.wire) {
+    if (w.end_of_frame < from) continue;
+    if (w.is_sync()) {
+      if (counting) most = std::max(most, current);
+      counting = true;
+      current = 0;
+    } else if (w.is_poll() && counting) {
+      ++current;
+    }
+  }
+  return most;
+}
+
+std::vector<std::string> warnings_naming(const WireRig& rig, const std::string& text) {
+  std::vector<std::string> found;
+  for (const auto& [axis, e] : rig.out.events) {
+    if (e.kind == kConfigMismatch && e.text.find(text) != std::string::npos) found.push_back(e.text);
+  }
+  return found;
+}
+
+// 32 nodes at 20 Hz ask 125 kbit/s for 1,280 TPDOs/s: more than it carries. Staggered, the SYNCs
+// and their one TPDO each, with the heartbeats, fill at least 90% of the wire, every node gets
+// about the same share,
+// and each SYNC is answered by one TPDO at most. (With tpdo_mode sync the same bus is 70% busy:
+// Uc57PollBudget in test_hardware_truth.)
+TEST(Uc57StaggerWire, PollsFillAtLeastNinetyPercentOfTheBusOneTpdoPerSync) {
+  WireRig rig(options(32, 20));
+  EXPECT_EQ(rig.stack->stagger_cycle(), 64U);
+  ASSERT_TRUE(rig.start()) << "never ready";
+  ASSERT_TRUE(rig.run_for(milliseconds(300)));
+  const TimePoint from = rig.now;
+  const auto counters = rig.stack->counters();
+  const auto updates = updates_over(rig, std::chrono::seconds(1));
+  const double polls = rig.busy_share(from, rig.now, true);
+  const double all = rig.busy_share(from, rig.now, false);
+  // Heartbeats (32 x 10/s) take about 17% of 125 kbit/s and are kept apart: the rest is polls.
+  EXPECT_GE(all, 0.90) << "share of the bus in use";
+  EXPECT_GE(polls, 0.75) << "share of the bus the polls took";
+  EXPECT_LE(all, 1.001);
+  std::int64_t fewest = 1'000'000;
+  std::int64_t most = 0;
+  std::int64_t total = 0;
+  for (const auto& [axis, n] : updates) {
+    fewest = std::min(fewest, n);
+    most = std::max(most, n);
+    total += n;
+  }
+  EXPECT_EQ(updates.size(), 32U);
+  EXPECT_GE(fewest, most - 2) << "every node polled in turn";
+  EXPECT_LT(total, 32 * 20) << "the asked rate does not fit";
+  EXPECT_EQ(most_answers_per_sync(rig, from), 1U) << "TPDOs answering one SYNC";
+  EXPECT_EQ(rig.stack->counters().sdo_timeouts - counters.sdo_timeouts, 0);
+  EXPECT_TRUE(warnings_naming(rig, "answers the SYNCs of slot").empty()) << "every TPDO in its planned slot";
+  for (const auto& [axis, e] : rig.out.events)
+    EXPECT_NE(e.kind, kHeartbeatLost) << e.text << ": polls starved the heartbeats";
+  std::printf(
+      "32 staggered nodes at 20 Hz, 125 kbit/s: SYNC every %.0f us, polls %.1f%% of the bus (all %.1f%%), "
+      "%lld status updates/s (%lld..%lld per node)\n",
+      std::chrono::duration<double, std::micro>(rig.stack->sync_period()).count(), 100 * polls, 100 * all,
+      static_cast<long long>(total), static_cast<long long>(fewest), static_cast<long long>(most));
+}
+
+// 4 nodes at 20 Hz need a quarter of the bus: each reports at the asked rate, no faster.
+TEST(Uc57StaggerWire, EachNodeReportsAtTheAskedRateWhenTheBusIsNotTheLimit) {
+  WireRig rig(options(4, 20));
+  EXPECT_EQ(rig.stack->sync_period(), microseconds(6250));
+  ASSERT_TRUE(rig.start()) << "never ready";
+  ASSERT_TRUE(rig.run_for(milliseconds(300)));
+  const TimePoint from = rig.now;
+  for (const auto& [axis, n] : updates_over(rig, std::chrono::seconds(1))) {
+    EXPECT_GE(n, 19) << axis;
+    EXPECT_LE(n, 21) << axis;
+  }
+  // 4 x 20 x (SYNC + TPDO) + heartbeats: about 24% of 125 kbit/s.
+  EXPECT_LT(rig.busy_share(from, rig.now, false), 0.30);
+  EXPECT_EQ(most_answers_per_sync(rig, from), 1U);
+}
+
+// During saturated polling an SDO read (PARAM_READ 6064h) is executed at 60 instants spread over
+// the poll rhythm. Its request frame (600h + node) loses arbitration to a TPDO but is handed over
+// ahead of the next SYNC, so at most one TPDO ends on the wire between its hand-over and its own
+// end. SYNCs are counted apart: the one on the wire at hand-over can only be followed by its TPDO.
+TEST(Uc57StaggerWire, AnSdoRequestWaitsBehindAtMostOnePollFrame) {
+  WireRig rig(options(32, 20));
+  ASSERT_TRUE(rig.start()) << "never ready";
+  ASSERT_TRUE(rig.run_for(milliseconds(200)));
+  const auto tpdo_frame = can::frame_duration(encode_tpdo2(1, {}), rig.bitrate);
+  std::vector<double> waits;
+  std::size_t worst_polls = 0;
+  std::size_t worst_syncs = 0;
+  for (int k = 0; k < 60; ++k) {
+    ASSERT_TRUE(rig.run_for(microseconds(1013 + 97 * k)));  // instants at every phase of the rhythm
+    const int node = 1 + k % 32;
+    gateway_command_t read{};
+    read.kind = gateway_command_t::PARAM_READ;
+    motionlcm::axis_command_t axis{};
+    axis.axis = "a" + std::to_string(node);
+    read.axes = {axis};
+    read.param.space = motionlcm::param_t::CANOPEN_OBJECT;
+    read.param.index = 0x6064;
+    read.param.subindex = 0;
+    const auto handed_before = rig.handed.size();
+    const auto id = rig.execute(read);
+    ASSERT_TRUE(rig.run_until([&] { return rig.terminal(id).has_value(); }, milliseconds(200)));
+    ASSERT_EQ(rig.terminal(id)->status, kDone) << rig.terminal(id)->reason;
+    const auto request = canopen::sdo_request_cob_id(static_cast<canopen::NodeId>(node));
+    const auto handed = std::find_if(rig.handed.begin() + static_cast<std::ptrdiff_t>(handed_before), rig.handed.end(),
+                                     [&](const auto& h) { return h.second.id == request; });
+    ASSERT_NE(handed, rig.handed.end());
+    const auto on_wire = std::find_if(rig.wire.begin(), rig.wire.end(), [&](const OnWire& w) {
+      return w.ours && w.frame.id == request && w.end_of_frame > handed->first;
+    });
+    ASSERT_NE(on_wire, rig.wire.end());
+    const auto ahead = [&](bool syncs) {
+      return static_cast<std::size_t>(std::count_if(rig.wire.begin(), on_wire, [&](const OnWire& w) {
+        return (syncs ? w.is_sync() : w.is_poll()) && w.end_of_frame > handed->first;
+      }));
+    };
+    EXPECT_LE(ahead(false), 1U) << "SDO request " << k << " waited behind " << ahead(false) << " TPDOs";
+    worst_polls = std::max(worst_polls, ahead(false));
+    worst_syncs = std::max(worst_syncs, ahead(true));
+    waits.push_back(std::chrono::duration<double>(on_wire->start() - handed->first) / tpdo_frame);
+  }
+  std::sort(waits.begin(), waits.end());
+  std::printf(
+      "SDO request handed -> on the wire: p50 %.2f / max %.2f TPDO frames (%.0f us each); at most %zu TPDO "
+      "and %zu SYNC ahead\n",
+      waits[waits.size() / 2], waits.back(), std::chrono::duration<double, std::micro>(tpdo_frame).count(), worst_polls,
+      worst_syncs);
+}
+
+// Node 5 counts SYNCs from 3 SYNCs after where CANopenNode starts (a drive counting differently):
+// its TPDOs answer other slots than planned. The stack follows them there, says so once, and the
+// node reports as often as the others.
+TEST(Uc57StaggerWire, ANodeInAnotherSlotIsFollowedThereAndStillPolled) {
+  WireRig rig(options(8, 200, [](int node, sim::Uc57SimOptions& o) {
+    if (node == 5) o.tpdo_sync_skew = 3;
+  }));
+  ASSERT_TRUE(rig.start()) << "never ready";
+  ASSERT_TRUE(rig.run_for(milliseconds(300)));
+  const auto slots = rig.stack->tpdo_slots("d5");
+  EXPECT_EQ(slots[0], std::optional<unsigned>(8 + 3)) << "planned 8, counted 3 SYNCs later";
+  EXPECT_EQ(slots[1], std::optional<unsigned>(9 + 3));
+  EXPECT_EQ(rig.stack->tpdo_slots("d4")[0], std::optional<unsigned>(6));
+  const auto warned = warnings_naming(rig, "d5 (node 5): TPDO");
+  ASSERT_EQ(warned.size(), 1U) << "reported once";
+  EXPECT_NE(warned[0].find("not its planned slot 8"), std::string::npos) << warned[0];
+  const auto updates = updates_over(rig, std::chrono::seconds(1));
+  EXPECT_GE(updates.at("a5"), updates.at("a4") - 2) << "d5 polled where it answers";
+  EXPECT_GE(updates.at("a5"), 30);
+  EXPECT_EQ(warnings_naming(rig, "d5 (node 5): TPDO").size(), 1U) << "reported once";
+}
+
+// Node 3 aborts transmission types 2..240 for its TPDOs: it gets type 1 (every SYNC) with a warning
+// naming it, the bus's polls keep to the type-1 budget (75%), and every node still reports.
+TEST(Uc57StaggerWire, ANodeRefusingTypeGFallsBackToEverySync) {
+  WireRig rig(options(8, 20, [](int node, sim::Uc57SimOptions& o) {
+    if (node == 3) o.tpdo_every_sync_only = true;
+  }));
+  ASSERT_TRUE(rig.start()) << "never ready";
+  EXPECT_TRUE(rig.stack->stagger_refused("d3"));
+  EXPECT_FALSE(rig.stack->stagger_refused("d2"));
+  const auto warned = warnings_naming(rig, "d3 (node 3): SDO write 0x1800:02");
+  ASSERT_EQ(warned.size(), 1U);
+  EXPECT_NE(warned[0].find("answer every SYNC (type 1)"), std::string::npos) << warned[0];
+  ASSERT_TRUE(rig.run_for(milliseconds(300)));
+  const TimePoint from = rig.now;
+  const auto updates = updates_over(rig, std::chrono::seconds(1));
+  for (const auto& [axis, n] : updates) EXPECT_GE(n, 10) << axis;
+  EXPECT_GT(updates.at("a3"), updates.at("a2")) << "d3 answers every SYNC";
+  EXPECT_LE(rig.busy_share(from, rig.now, true), 0.76) << "the type-1 budget";
+  EXPECT_LE(most_answers_per_sync(rig, from), 3U) << "d3's two TPDOs and one staggered one";
+}
+
+}  // namespace
+}  // namespace motion::uc57_driver::wire

@@ -1,0 +1,226 @@
+// The wire rig of the Uc57Stack polling tests (uc57_stagger_test.cpp) and of bench_canopen's
+// --staggered mode: the simulated bus's passive core (simbus::Bus: frames serialized for their
+// exact bit time, arbitration by identifier, own echo at end of frame) between the stack and
+// simulated UC57 drives (sim::Uc57DriveSim, answering at once), on a simulated clock. Every frame
+// is recorded as it went over the wire, so tests judge what the bus carried.
+// Thread contract: single-threaded test code.
+#pragma once
+
+#include <algorithm>
+#include <cstdio>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <motionlcm/gateway_command_t.hpp>
+#include <motionlcm/gateway_reply_t.hpp>
+
+#include "motion/can_frame/bit_timing.hpp"
+#include "motion/canopen/cob_id.hpp"
+#include "motion/config/config.hpp"
+#include "motion/sim/uc57_drive.hpp"
+#include "motion/simbus/bus.hpp"
+#include "motion/uc57_driver/uc57_stack.hpp"
+
+namespace motion::uc57_driver::wire {
+
+using motionlcm::gateway_command_t;
+using motionlcm::gateway_reply_t;
+
+class Recorder final : public gateway::GatewayOutput {
+ public:
+  void axis_status(const std::string& axis, const gateway::DriveStatus&) override { ++updates[axis]; }
+  void axis_event(const std::string& axis, const gateway::DriveEvent& event) override {
+    events.emplace_back(axis, event);
+  }
+  void command_reply(gateway_reply_t reply) override { replies.push_back(std::move(reply)); }
+  std::map<std::string, std::int64_t> updates;
+  std::vector<gateway_reply_t> replies;
+  std::vector<std::pair<std::string, gateway::DriveEvent>> events;
+};
+
+// A frame as it went over the wire.
+struct OnWire {
+  can::Frame frame;
+  TimePoint end_of_frame;
+  bool ours = false;  // sent by the stack
+  std::uint32_t bitrate = 125000;
+  [[nodiscard]] bool is_sync() const { return !frame.extended && frame.id == canopen::kSyncCobId; }
+  [[nodiscard]] bool is_poll() const {  // a TPDO (status answer)
+    const auto info = canopen::classify_cob_id(frame.id);
+    return !frame.extended && info && info->kind == canopen::MessageKind::kTpdo;
+  }
+  [[nodiscard]] TimePoint start() const {
+    return end_of_frame - can::bits_duration(can::frame_bits(frame).to_end_of_frame(), bitrate);
+  }
+};
+
+struct RigOptions {
+  int nodes = 32;
+  double poll_hz = 20;
+  std::uint32_t bitrate = 125000;
+  std::string tpdo_mode = "staggered";
+  // Per node id: the simulated drive's options (a drive refusing type G, one counting differently).
+  std::function<void(int node, sim::Uc57SimOptions&)> sim;
+};
+
+// The stack and `nodes` simulated UC57 (node ids 1...) on one bit-timed wire.
+class WireRig final : public simbus::BusSink {
+ public:
+  explicit WireRig(const RigOptions& o)
+      : bitrate(o.bitrate), bus_(simbus::BusConfig{o.bitrate, true, std::chrono::seconds(1), 8192, 0}) {
+    std::string yaml = "buses:\n  - {name: can0, transport: \"simcan:can0\", bitrate: " + std::to_string(o.bitrate) +
+                       ", request_timeout_ms: 50, retries: 2, poll_hz: " + std::to_string(o.poll_hz) + "}\ndrives:\n";
+    for (int n = 1; n <= o.nodes; ++n)
+      yaml += "  - {name: d" + std::to_string(n) + ", family: uc57, bus: can0, node_id: " + std::to_string(n) +
+              ", setup: {heartbeat_ms: 100, tpdo_mode: " + o.tpdo_mode + "}}\n";
+    yaml += "axes:\n";
+    for (int n = 1; n <= o.nodes; ++n)
+      yaml += "  - {name: a" + std::to_string(n) + ", drive: d" + std::to_string(n) +
+              ", unit: rev, steps_per_unit: 3200, limits: {min: -100, max: 100, velocity: 10, acceleration: 100}}\n";
+    auto loaded = config::load_string(yaml, "stagger.yaml");
+    if (!loaded.ok()) throw std::runtime_error(loaded.error_text());
+    config_ = *loaded.config;
+    gateway_ = bus_.attach("gateway", /*own_echo=*/true);
+    gateway::CanStackContext ctx;
+    ctx.out = &out;
+    ctx.send = [this](const can::Frame& f) {
+      handed.emplace_back(now, f);
+      return !bus_.submit(gateway_, f, now);
+    };
+    Uc57Stack::Options options;
+    options.wall_clock_us = [](TimePoint t) {
+      return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+    };
+    stack = std::make_unique<Uc57Stack>(config_, *config_.find_bus("can0"), ctx, options);
+    for (const auto& d : config_.drives) {
+      const auto endpoint = bus_.attach(d.name);
+      sim::SimDriveContext context;
+      context.drive = d.name;
+      context.bus = d.bus;
+      context.send = [this, endpoint](const can::Frame& f) { (void)bus_.submit(endpoint, f, now); };
+      context.report = [](std::int8_t, std::int64_t, std::int64_t, std::int64_t) {};
+      sim::Uc57SimOptions sim_options;
+      if (o.sim) o.sim(d.node_id, sim_options);
+      drives_[endpoint] =
+          std::make_unique<sim::Uc57DriveSim>(static_cast<canopen::NodeId>(d.node_id), context, sim_options);
+    }
+    for (auto& [id, d] : drives_) d->power_up(now);
+  }
+
+  void deliver(simbus::EndpointId to, const can::Frame& frame, bool own_echo) override {
+    inbox_.push_back({to, frame, own_echo});
+  }
+  void notify(simbus::EndpointId, const can::BusEvent&) override {}
+
+  // Runs the wire, the stack and the drives until `span` has passed; false when stuck.
+  bool run_for(Duration span) {
+    const auto end = now + span;
+    for (int same_instant = 0; same_instant < 100'000; ++same_instant) {
+      bus_.advance(now, *this);
+      dispatch();
+      TimePoint next = std::min(stack->process(now), bus_.next_deadline());
+      for (auto& [id, d] : drives_) next = std::min(next, d->process(now));
+      next = std::min(next, bus_.next_deadline());  // what process() just submitted
+      if (next > end) {
+        now = end;
+        return true;
+      }
+      if (next > now) same_instant = 0;
+      now = std::max(now, next);
+    }
+    std::fprintf(
+        stderr, "stuck at %lld us: stack %lld bus %lld errors %lld handed %zu wire %zu\n",
+        static_cast<long long>(std::chrono::duration_cast<std::chrono::microseconds>(now.time_since_epoch()).count()),
+        static_cast<long long>(
+            std::chrono::duration_cast<std::chrono::microseconds>(stack->process(now).time_since_epoch()).count()),
+        static_cast<long long>(
+            std::chrono::duration_cast<std::chrono::microseconds>(bus_.next_deadline().time_since_epoch()).count()),
+        static_cast<long long>(stack->counters().protocol_errors), handed.size(), wire.size());
+    return false;
+  }
+  bool run_until(const std::function<bool()>& done, Duration limit) {
+    for (Duration spent{}; spent < limit; spent += std::chrono::milliseconds(1)) {
+      if (done()) return true;
+      if (!run_for(std::chrono::milliseconds(1))) return false;
+    }
+    return done();
+  }
+  bool start() {
+    stack->start(now);
+    if (run_until([&] { return stack->ready(); }, std::chrono::seconds(20))) return true;
+    for (const auto& [axis, e] : out.events) std::fprintf(stderr, "event %s: %s\n", axis.c_str(), e.text.c_str());
+    return false;
+  }
+  std::int64_t execute(gateway_command_t c) {
+    c.bus = "can0";
+    c.command_id = ++next_id_;
+    c.num_axes = static_cast<std::int32_t>(c.axes.size());
+    stack->execute(c, now);
+    return c.command_id;
+  }
+  [[nodiscard]] std::optional<gateway_reply_t> terminal(std::int64_t id) const {
+    for (const auto& r : out.replies) {
+      if (r.command_id == id && (r.status == gateway_reply_t::DONE || r.status == gateway_reply_t::FAILED)) return r;
+    }
+    return std::nullopt;
+  }
+  // Wire bits of the frames that ended within [from, to) (all, or the polls: SYNCs and TPDOs).
+  [[nodiscard]] double busy_share(TimePoint from, TimePoint to, bool polls_only) const {
+    std::uint64_t bits = 0;
+    for (const auto& w : wire) {
+      if (w.end_of_frame >= from && w.end_of_frame < to && (!polls_only || w.is_poll() || w.is_sync()))
+        bits += can::frame_bits(w.frame).total;
+    }
+    return static_cast<double>(bits) / bitrate / std::chrono::duration<double>(to - from).count();
+  }
+  [[nodiscard]] std::int64_t total_updates() const {
+    std::int64_t n = 0;
+    for (const auto& [axis, count] : out.updates) n += count;
+    return n;
+  }
+
+  std::uint32_t bitrate;
+  Recorder out;
+  std::unique_ptr<Uc57Stack> stack;
+  std::vector<OnWire> wire;                              // every frame, in end-of-frame order
+  std::vector<std::pair<TimePoint, can::Frame>> handed;  // the stack's frames, when handed over
+  TimePoint now = TimePoint{} + std::chrono::seconds(10);
+
+ private:
+  struct Delivery {
+    simbus::EndpointId to;
+    can::Frame frame;
+    bool own_echo;
+  };
+  // Every frame reaches the gateway's endpoint once: its own as an echo, the drives' as received.
+  void dispatch() {
+    auto inbox = std::move(inbox_);
+    inbox_.clear();
+    for (const auto& d : inbox) {
+      if (d.to == gateway_) {
+        wire.push_back({d.frame, now, d.own_echo, bitrate});
+        if (d.own_echo) {
+          stack->on_transmitted(d.frame, now);
+        } else {
+          stack->on_frame(d.frame, now);
+        }
+      } else {
+        drives_.at(d.to)->on_frame(d.frame, now);
+      }
+    }
+  }
+
+  config::Config config_;
+  simbus::Bus bus_;
+  simbus::EndpointId gateway_ = 0;
+  std::map<simbus::EndpointId, std::unique_ptr<sim::Uc57DriveSim>> drives_;
+  std::vector<Delivery> inbox_;
+  std::int64_t next_id_ = 0;
+};
+
+}  // namespace motion::uc57_driver::wire
