@@ -29,9 +29,11 @@ bool saw(const std::vector<reply_t>& replies, std::int8_t status) {
 }
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
-class Uc57Lab : public ::testing::Test {
+// Parameter: the lab's configuration, TPDOs at every SYNC (uc57-three.yaml) or staggered
+// (uc57-three-staggered.yaml, tpdo_mode: staggered).
+class Uc57Lab : public ::testing::TestWithParam<std::string> {
  protected:
-  Uc57Lab() : lab(source_path("tests/integration/configs/uc57-three.yaml")) {}
+  Uc57Lab() : lab(source_path("tests/integration/configs/" + GetParam() + ".yaml")) {}
 
   void SetUp() override {
     lab.client().on_event([this](const event_t& e) { events.push_back(e); });
@@ -74,7 +76,7 @@ class Uc57Lab : public ::testing::Test {
   std::vector<event_t> events;
 };
 
-TEST_F(Uc57Lab, ThreeNodesBootConfigureAndEnable) {
+TEST_P(Uc57Lab, ThreeNodesBootConfigureAndEnable) {
   for (const auto& axis : kAxes) {
     EXPECT_TRUE(lab.client().wait_until([&] { return state(axis).online && state(axis).enabled && !state(axis).fault; },
                                         seconds(5)))
@@ -93,7 +95,7 @@ TEST_F(Uc57Lab, ThreeNodesBootConfigureAndEnable) {
   }
 }
 
-TEST_F(Uc57Lab, AbsoluteAndRelativeProfilePositionMoves) {
+TEST_P(Uc57Lab, AbsoluteAndRelativeProfilePositionMoves) {
   std::vector<reply_t> replies;
   const auto absolute = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", 90.0}}), &replies);
   ASSERT_EQ(absolute.status, st(reply_t::DONE)) << absolute.reason;
@@ -114,7 +116,7 @@ TEST_F(Uc57Lab, AbsoluteAndRelativeProfilePositionMoves) {
   EXPECT_NEAR(position("c"), 0.0, kTolerance);
 }
 
-TEST_F(Uc57Lab, JogRunsInProfileVelocityUntilStopped) {
+TEST_P(Uc57Lab, JogRunsInProfileVelocityUntilStopped) {
   const auto jog = lab.call(Client::make(request_t::JOG, Values{{"b", 90.0}}));
   ASSERT_EQ(jog.status, st(reply_t::DONE)) << jog.reason;
   // Running forward: the position grows while jogging.
@@ -138,7 +140,7 @@ TEST_F(Uc57Lab, JogRunsInProfileVelocityUntilStopped) {
   EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("b", 0.0); }, seconds(5))) << position("b");
 }
 
-TEST_F(Uc57Lab, HomingFindsTheOriginSwitch) {
+TEST_P(Uc57Lab, HomingFindsTheOriginSwitch) {
   // Start away from zero so that the homed position (0 at the switch, offset 0) means something.
   const auto away = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", -45.0}}));
   ASSERT_EQ(away.status, st(reply_t::DONE)) << away.reason;
@@ -158,7 +160,7 @@ TEST_F(Uc57Lab, HomingFindsTheOriginSwitch) {
   EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("a", 30.0); }, seconds(5))) << position("a");
 }
 
-TEST_F(Uc57Lab, ThreeAxesStartOnOneSyncAndArrive) {
+TEST_P(Uc57Lab, ThreeAxesStartOnOneSyncAndArrive) {
   const Values targets{{"a", 180.0}, {"b", -120.0}, {"c", 270.0}};
   std::vector<reply_t> replies;
   const auto done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, targets), &replies);
@@ -190,7 +192,7 @@ TEST_F(Uc57Lab, ThreeAxesStartOnOneSyncAndArrive) {
   EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);
 }
 
-TEST_F(Uc57Lab, PowerCycledNodeIsDetectedReconfiguredAndMovesAgain) {
+TEST_P(Uc57Lab, PowerCycledNodeIsDetectedReconfiguredAndMovesAgain) {
   const auto first = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"b", 45.0}}));
   ASSERT_EQ(first.status, st(reply_t::DONE)) << first.reason;
 
@@ -264,7 +266,7 @@ TEST_F(Uc57Lab, PowerCycledNodeIsDetectedReconfiguredAndMovesAgain) {
   EXPECT_EQ(a[0].frame_utime, b[0].frame_utime);
 }
 
-TEST_F(Uc57Lab, SdoAbortSurfacesAsAFailureWithTheAbortTextAndCode) {
+TEST_P(Uc57Lab, SdoAbortSurfacesAsAFailureWithTheAbortTextAndCode) {
   // 1000h (device type) is read-only: abort 06010002h.
   const auto read_only = param(request_t::PARAM_WRITE, "a", 0x1000, 0, 5);
   EXPECT_EQ(read_only.status, st(reply_t::FAILED)) << read_only.reason;
@@ -304,7 +306,7 @@ TEST_F(Uc57Lab, SdoAbortSurfacesAsAFailureWithTheAbortTextAndCode) {
   EXPECT_TRUE(state("b").online && state("b").enabled);
 }
 
-TEST_F(Uc57Lab, HeartbeatLossRaisesAnEventAndAbortsTheGroupNamingTheAxis) {
+TEST_P(Uc57Lab, HeartbeatLossRaisesAnEventAndAbortsTheGroupNamingTheAxis) {
   // A long group move of a and c; c falls silent while it runs.
   std::vector<reply_t> replies;
   lab.client().send(Client::make(request_t::MOVE_ABSOLUTE, Values{{"a", 700.0}, {"c", 700.0}}),
@@ -343,6 +345,11 @@ TEST_F(Uc57Lab, HeartbeatLossRaisesAnEventAndAbortsTheGroupNamingTheAxis) {
   lab.control("c-drive", sim_control_t::SILENCE, 0);
   EXPECT_TRUE(lab.client().wait_until([&] { return state("c").online; }, seconds(20)));
 }
+
+INSTANTIATE_TEST_SUITE_P(TpdoModes, Uc57Lab, ::testing::Values("uc57-three", "uc57-three-staggered"),
+                         [](const ::testing::TestParamInfo<std::string>& p) {
+                           return p.param == "uc57-three" ? std::string("sync") : std::string("staggered");
+                         });
 
 }  // namespace
 }  // namespace motion::testing

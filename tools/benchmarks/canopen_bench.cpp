@@ -37,8 +37,10 @@
 // A plain main instead of Google Benchmark, as simbus_bench: fixed end-to-end workloads whose
 // meaning is the ratio to a bound from the same run.
 //
-// Usage: bench_canopen [--quick] [--sync-only]   (--quick: ~10x fewer transfers and SYNC periods;
-//        --sync-only: part 2 only)
+//   4. UC57 status polling, TPDOs at every SYNC against staggered TPDOs (canopen_poll_bench.cpp).
+//
+// Usage: bench_canopen [--quick] [--sync-only | --polls]   (--quick: ~10x fewer transfers and SYNC
+//        periods; --sync-only: part 2 only; --polls: part 4 only)
 #include <unistd.h>
 
 #include <algorithm>
@@ -76,6 +78,10 @@
 #include "motion/uc57_driver/uc57_stack.hpp"
 
 namespace motion {
+namespace bench {
+// Part 4 (canopen_poll_bench.cpp): UC57 polling, TPDOs at every SYNC against staggered.
+void bench_polls(bool quick, const std::filesystem::path& dir, std::vector<Row>& rows);
+}  // namespace bench
 namespace {
 
 using namespace std::chrono_literals;
@@ -471,13 +477,16 @@ void bench_boot(int nodes, const std::filesystem::path& dir) {
 int main(int argc, char** argv) {
   bool quick = false;
   bool sync_only = false;
+  bool polls_only = false;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
     } else if (std::strcmp(argv[i], "--sync-only") == 0) {
       sync_only = true;
+    } else if (std::strcmp(argv[i], "--polls") == 0) {
+      polls_only = true;
     } else {
-      std::fprintf(stderr, "usage: bench_canopen [--quick] [--sync-only]\n");
+      std::fprintf(stderr, "usage: bench_canopen [--quick] [--sync-only | --polls]\n");
       return 2;
     }
   }
@@ -487,13 +496,16 @@ int main(int argc, char** argv) {
   std::printf("bench_canopen: SDO (wall and simulated clock), SYNC jitter, boot + configure; bit rate %u bit/s%s\n",
               motion::kBitrate, quick ? " (quick)" : "");
   std::fflush(stdout);
-  if (!sync_only) motion::bench_sdo(quick);
-  motion::bench_sync(quick, false);
-  motion::bench_sync(quick, true);
-  motion::bench_sync(quick, true, true);
-  if (!sync_only) {
+  if (!sync_only && !polls_only) motion::bench_sdo(quick);
+  if (!polls_only) {
+    motion::bench_sync(quick, false);
+    motion::bench_sync(quick, true);
+    motion::bench_sync(quick, true, true);
+  }
+  if (!sync_only && !polls_only) {
     for (const int nodes : {1, 8, 32}) motion::bench_boot(nodes, dir);
   }
+  if (!sync_only) motion::bench::bench_polls(quick, dir, motion::g_rows);
   std::filesystem::remove_all(dir, error);
   motion::print_table();
   return 0;

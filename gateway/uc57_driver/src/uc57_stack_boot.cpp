@@ -82,6 +82,7 @@ void Uc57Stack::probe_now(std::size_t n) {
   node.rpdo_queue.clear();
   node.held_tpdo1.reset();
   node.slot = {};  // pre-operational from step 2: its TPDOs stop until started in their slots
+  node.slot_candidate = {};
   release_sync(n);
   auto ops = std::make_shared<std::vector<ConfigOp>>(configuration_ops(n));
   run_config(n, node.session, ops, 0);

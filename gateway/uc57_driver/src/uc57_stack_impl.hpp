@@ -168,6 +168,7 @@ struct Uc57Stack::Node {
   int stagger_index = -1;
   bool stagger_refused = false;  // transmission type G aborted: type 1 (remembered)
   std::array<std::optional<unsigned>, 2> slot;
+  std::array<std::optional<unsigned>, 2> slot_candidate;  // another slot seen once
   bool slot_reported = false;
   gateway::DriveStatus status;
   bool fault_seen = false;  // a fault edge was handled (event, 603Fh read)

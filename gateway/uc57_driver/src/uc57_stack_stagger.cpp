@@ -25,7 +25,7 @@
 //
 // Pacing. The SYNC is paced by the wire, as the UIM342 stack's polls are: the next one is handed
 // over no sooner than sync_period_ after the last, only once the last one was echoed (where the
-// transport echoes) and its answer(s) came in or had time to (their wire time, plus one frame).
+// transport echoes) and its answer(s) came in or had time to (their wire time, plus two frames).
 // A command handed over meanwhile waits behind at most the one TPDO answering the SYNC on the
 // wire, and goes ahead of the next SYNC (the transmit queue keeps our order). sync_period_ is
 // 1 / poll_hz / G, no shorter than SYNC + its mean answer + heartbeats taking kStaggeredBusShare of
@@ -327,7 +327,9 @@ void Uc57Stack::on_sync_handed() {
   }
   answers_left_ = answers;
   const Duration frame = can::frame_duration(encode_tpdo2(1, {}), bitrate_);
-  answers_due_ = now_ + can::frame_duration(canopen::encode_sync({}), bitrate_) + (answers + 1) * frame;
+  // Their wire time after the SYNC, and two frames more: one that took the wire at the SYNC's end
+  // (pending before the answers were) and stuff bits.
+  answers_due_ = now_ + can::frame_duration(canopen::encode_sync({}), bitrate_) + (answers + 2) * frame;
 }
 
 void Uc57Stack::on_transmitted(const can::Frame& frame, TimePoint now) {
@@ -343,19 +345,31 @@ void Uc57Stack::on_transmitted(const can::Frame& frame, TimePoint now) {
   }
   if (stagger_g_ == 0) return;
   sync_awaiting_echo_ = !syncs_in_flight_.empty();
-  answers_due_ = now + (answers_left_ + 1) * can::frame_duration(encode_tpdo2(1, {}), bitrate_);
+  answers_due_ = now + (answers_left_ + 2) * can::frame_duration(encode_tpdo2(1, {}), bitrate_);
 }
 
 void Uc57Stack::on_tpdo_seen(std::size_t n, unsigned pdo) {
   Node& node = *nodes_[n];
   if (node.settings.tpdo_mode == TpdoMode::kEvent) return;
-  if (answers_left_ > 0) --answers_left_;
+  // Only an answer to the last SYNC handed over counts for it (a late one to the SYNC before does not).
+  const std::uint64_t index = sync_index();
+  if (answers_left_ > 0 && index == syncs_handed_) --answers_left_;
   if (!staggered(n) || pdo < 1 || pdo > 2) return;
   auto& slot = node.slot[pdo - 1];
-  const std::uint64_t index = sync_index();
   if (!slot || index == 0) return;  // its count is not armed yet
   const auto seen = static_cast<unsigned>(index % stagger_g_);
-  if (*slot == seen) return;
+  auto& candidate = node.slot_candidate[pdo - 1];
+  if (*slot == seen) {
+    candidate.reset();
+    return;
+  }
+  // Moved only when seen there twice running: one answer overtaken by the next SYNC (it waited
+  // behind other frames past its time) does not move it.
+  if (candidate != seen) {
+    candidate = seen;
+    return;
+  }
+  candidate.reset();
   if (!node.slot_reported) {
     node.slot_reported = true;
     event(n, Event::CONFIG_MISMATCH, Event::WARNING, static_cast<std::int32_t>(seen),

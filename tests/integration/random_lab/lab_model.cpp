@@ -61,6 +61,13 @@ const AxisSpec* LabSpec::find(const std::string& axis) const {
 // Timeouts are generous (CAN requests 100 ms, serial 250 ms, UC57 heartbeat 250 ms, lost after
 // three): the test checks behaviour, and a loaded 2-core machine (parallel builds and tests) can
 // hold a simulator or gateway for a few hundred milliseconds.
+// The UC57s' tpdo_mode: sync, or RANDOM_LAB_UC57_TPDO_MODE (staggered: the same seeds with
+// staggered TPDOs; any other value is the configuration's to refuse).
+static std::string uc57_tpdo_mode() {
+  const char* mode = std::getenv("RANDOM_LAB_UC57_TPDO_MODE");
+  return mode != nullptr && *mode != '\0' ? mode : "sync";
+}
+
 std::string LabSpec::yaml() const {
   std::set<std::string> buses;
   for (const auto& a : axes) buses.insert(a.drive.bus);
@@ -84,7 +91,8 @@ std::string LabSpec::yaml() const {
     y << "  - {name: " << a.name << "-drive, family: " << d.family << ", bus: " << d.bus << ", node_id: " << d.node_id;
     if (d.group_id != 0) y << ", group_id: " << d.group_id;
     if (d.family == "uim342") y << ", setup: {micro_steps: 16, current_a: 1.5, acceleration_unit: rate}";
-    if (d.family == "uc57") y << ", setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: sync, heartbeat_ms: 250}";
+    if (d.family == "uc57")
+      y << ", setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: " << uc57_tpdo_mode() << ", heartbeat_ms: 250}";
     if (d.family == "adam-modbus") y << ", setup: {subdivision: 16, current_a: 2.0}";
     if (d.family == "uim242") y << ", setup: {micro_steps: 16, current_a: 1.0}";
     y << "}\n";

@@ -18,6 +18,7 @@
 
 #include <motionlcm/gateway_command_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
+#include <motionlcm/param_t.hpp>
 
 #include "motion/can_frame/bit_timing.hpp"
 #include "motion/canopen/cob_id.hpp"
@@ -178,6 +179,48 @@ class WireRig final : public simbus::BusSink {
     }
     return static_cast<double>(bits) / bitrate / std::chrono::duration<double>(to - from).count();
   }
+  // A PARAM_READ of 6064h on node `node` executed now, run to its reply: how long its SDO request
+  // (600h + node) waited from its hand-over to the start of its frame on the wire, and the TPDOs
+  // and SYNCs that ended on the wire in between (ok false: no reply, or the frame not found).
+  struct CommandWait {
+    bool ok = false;
+    bool done = false;  // the reply was DONE
+    Duration wait{};
+    std::size_t polls_ahead = 0;
+    std::size_t syncs_ahead = 0;
+  };
+  CommandWait sdo_read_wait(int node) {
+    gateway_command_t read{};
+    read.kind = gateway_command_t::PARAM_READ;
+    motionlcm::axis_command_t axis{};
+    axis.axis = "a" + std::to_string(node);
+    read.axes = {axis};
+    read.param.space = motionlcm::param_t::CANOPEN_OBJECT;
+    read.param.index = 0x6064;
+    read.param.subindex = 0;
+    const auto handed_before = handed.size();
+    const auto id = execute(read);
+    CommandWait r;
+    if (!run_until([&] { return terminal(id).has_value(); }, std::chrono::milliseconds(500))) return r;
+    r.done = terminal(id)->status == gateway_reply_t::DONE;
+    const auto request = canopen::sdo_request_cob_id(static_cast<canopen::NodeId>(node));
+    const auto from = std::find_if(handed.begin() + static_cast<std::ptrdiff_t>(handed_before), handed.end(),
+                                   [&](const auto& h) { return h.second.id == request; });
+    if (from == handed.end()) return r;
+    const auto on_wire = std::find_if(wire.begin(), wire.end(), [&](const OnWire& w) {
+      return w.ours && w.frame.id == request && w.end_of_frame > from->first;
+    });
+    if (on_wire == wire.end()) return r;
+    for (auto it = wire.begin(); it != on_wire; ++it) {
+      if (it->end_of_frame <= from->first) continue;
+      r.polls_ahead += it->is_poll() ? 1U : 0U;
+      r.syncs_ahead += it->is_sync() ? 1U : 0U;
+    }
+    r.wait = on_wire->start() - from->first;
+    r.ok = true;
+    return r;
+  }
+
   [[nodiscard]] std::int64_t total_updates() const {
     std::int64_t n = 0;
     for (const auto& [axis, count] : out.updates) n += count;
