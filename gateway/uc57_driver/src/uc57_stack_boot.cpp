@@ -449,8 +449,17 @@ void Uc57Stack::on_node_event(const canopen::NodeEvent& e) {
         // Someone else's NMT command (or a node-side error): PDOs stopped; put it back.
         event(n, Event::PROTOCOL_ERROR, Event::WARNING, static_cast<std::int32_t>(*e.state),
               label + ": left Operational (NMT state " + std::string(canopen::to_string(*e.state)) +
-                  "); sending NMT start");
-        master_.nmt().send(canopen::NmtCommand::kStart, node.settings.node);
+                  "); sending NMT start" + (staggered(n) ? " in its TPDO slots" : ""));
+        if (!staggered(n)) {
+          master_.nmt().send(canopen::NmtCommand::kStart, node.settings.node);
+        } else {
+          const unsigned session = node.session;
+          start_in_slots(
+              n, [this, n, session] { return nodes_[n]->session == session; },
+              [this, n](const std::optional<std::string>& failure) {
+                if (failure) event(n, Event::PROTOCOL_ERROR, Event::WARNING, 0, *failure);
+              });
+        }
       } else if (node.phase == Node::Phase::kOffline && e.kind == canopen::NodeEventKind::kHeartbeatRecovered) {
         begin_probe(n, e.at);
       }

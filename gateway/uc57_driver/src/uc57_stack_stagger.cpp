@@ -213,36 +213,44 @@ Uc57Stack::ConfigOp Uc57Stack::nmt_start_op(std::size_t n) {
       return next(std::nullopt);
     }
     const unsigned session = node.session;
-    const auto index = static_cast<unsigned>(node.stagger_index);
-    const unsigned first = stagger_separate_ ? 2 * index : index;
-    const auto current = [this, n, session] {
-      return nodes_[n]->session == session && nodes_[n]->phase == Node::Phase::kConfiguring;
-    };
-    at_slot(first, [this, n, first, current, next] {
-      if (!current()) return;
-      Node& started = *nodes_[n];
-      master_.nmt().send(canopen::NmtCommand::kStart, started.settings.node);
-      started.slot[0] = first;
-      if (!stagger_separate_) {
-        started.slot[1] = first;
-        return next(std::nullopt);
-      }
-      at_slot(first + 1, [this, n, first, current, next] {
-        if (!current()) return;
-        Node& armed = *nodes_[n];
-        // TPDO2 counts from this write: no periodic SYNC until the drive has taken it.
-        hold_sync(n, now_ + armed.settings.sdo_timeout * (armed.settings.sdo_retries + 1));
-        sdo_write(n, transmission_type(2), le<std::uint8_t>(static_cast<std::uint8_t>(stagger_g_)),
-                  [this, n, first, current, next](std::error_code ec, std::span<const std::uint8_t>) {
-                    release_sync(n);
-                    if (!current()) return;
-                    if (ec) return next(sdo_failure(n, true, transmission_type(2), ec));
-                    nodes_[n]->slot[1] = first + 1;
-                    next(std::nullopt);
-                  });
-      });
-    });
+    start_in_slots(
+        n,
+        [this, n, session] { return nodes_[n]->session == session && nodes_[n]->phase == Node::Phase::kConfiguring; },
+        next);
   }};
+}
+
+void Uc57Stack::start_in_slots(std::size_t n, const std::function<bool()>& current, const Continue& done) {
+  const auto index = static_cast<unsigned>(nodes_[n]->stagger_index);
+  const unsigned first = stagger_separate_ ? 2 * index : index;
+  at_slot(first, [this, n, first, current, done] {
+    if (!current()) return;
+    Node& started = *nodes_[n];
+    master_.nmt().send(canopen::NmtCommand::kStart, started.settings.node);
+    started.slot[0] = first;
+    started.slot_candidate = {};
+    if (!stagger_separate_) {
+      started.slot[1] = first;
+      return done(std::nullopt);
+    }
+    // Both counts start here (Operational entered): TPDO2 keeps quiet in the stack's eyes until its
+    // own slot's write moves it.
+    started.slot[1].reset();
+    at_slot(first + 1, [this, n, first, current, done] {
+      if (!current()) return;
+      Node& armed = *nodes_[n];
+      // TPDO2 counts from this write: no periodic SYNC until the drive has taken it.
+      hold_sync(n, now_ + armed.settings.sdo_timeout * (armed.settings.sdo_retries + 1));
+      sdo_write(n, transmission_type(2), le<std::uint8_t>(static_cast<std::uint8_t>(stagger_g_)),
+                [this, n, first, current, done](std::error_code ec, std::span<const std::uint8_t>) {
+                  release_sync(n);
+                  if (!current()) return;
+                  if (ec) return done(sdo_failure(n, true, transmission_type(2), ec));
+                  nodes_[n]->slot[1] = first + 1;
+                  done(std::nullopt);
+                });
+    });
+  });
 }
 
 void Uc57Stack::at_slot(unsigned slot, std::function<void()> run) {

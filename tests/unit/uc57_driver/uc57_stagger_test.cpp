@@ -65,10 +65,11 @@ std::size_t most_answers_per_sync(const WireRig& rig, TimePoint from) {
   return most;
 }
 
-std::vector<std::string> warnings_naming(const WireRig& rig, const std::string& text) {
+// The texts of the events (CONFIG_MISMATCH only, or of every kind) that contain `text`.
+std::vector<std::string> warnings_naming(const WireRig& rig, const std::string& text, bool any_kind = false) {
   std::vector<std::string> found;
   for (const auto& [axis, e] : rig.out.events) {
-    if (e.kind == kConfigMismatch && e.text.find(text) != std::string::npos) found.push_back(e.text);
+    if ((any_kind || e.kind == kConfigMismatch) && e.text.find(text) != std::string::npos) found.push_back(e.text);
   }
   return found;
 }
@@ -193,6 +194,25 @@ TEST(Uc57StaggerWire, ANodeInAnotherSlotIsFollowedThereAndStillPolled) {
   EXPECT_GE(updates.at("a5"), updates.at("a4") - 2) << "d5 polled where it answers";
   EXPECT_GE(updates.at("a5"), 30);
   EXPECT_EQ(warnings_naming(rig, "d5 (node 5): TPDO").size(), 1U) << "reported once";
+}
+
+// Another master puts node 4 back to pre-operational: its TPDOs stop, and restarted they would
+// both count from the NMT start. The stack starts it again in its slots (NMT start after the SYNC
+// of TPDO1's slot, TPDO2's type rewritten after its own), so no TPDO is found in another slot.
+TEST(Uc57StaggerWire, ANodePutBackToPreOperationalIsStartedAgainInItsSlots) {
+  WireRig rig(options(8, 200));
+  ASSERT_TRUE(rig.start()) << "never ready";
+  ASSERT_TRUE(rig.run_for(milliseconds(200)));
+  rig.inject(canopen::encode_nmt({canopen::NmtCommand::kEnterPreOperational, 4}));
+  ASSERT_TRUE(rig.run_for(milliseconds(500)));
+  EXPECT_EQ(warnings_naming(rig, "d4 (node 4): left Operational", true).size(), 1U);
+  const TimePoint from = rig.now;
+  const auto updates = updates_over(rig, std::chrono::seconds(1));
+  EXPECT_GE(updates.at("a4"), updates.at("a3") - 2) << "d4 polled again";
+  EXPECT_EQ(rig.stack->tpdo_slots("d4")[0], std::optional<unsigned>(6));
+  EXPECT_EQ(rig.stack->tpdo_slots("d4")[1], std::optional<unsigned>(7));
+  EXPECT_TRUE(warnings_naming(rig, "answers the SYNCs of slot").empty());
+  EXPECT_EQ(most_answers_per_sync(rig, from), 1U);
 }
 
 // Node 3 aborts transmission types 2..240 for its TPDOs: it gets type 1 (every SYNC) with a warning

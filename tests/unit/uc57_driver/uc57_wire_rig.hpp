@@ -22,6 +22,7 @@
 
 #include "motion/can_frame/bit_timing.hpp"
 #include "motion/canopen/cob_id.hpp"
+#include "motion/canopen/nmt.hpp"
 #include "motion/config/config.hpp"
 #include "motion/sim/uc57_drive.hpp"
 #include "motion/simbus/bus.hpp"
@@ -111,7 +112,11 @@ class WireRig final : public simbus::BusSink {
           std::make_unique<sim::Uc57DriveSim>(static_cast<canopen::NodeId>(d.node_id), context, sim_options);
     }
     for (auto& [id, d] : drives_) d->power_up(now);
+    other_ = bus_.attach("other-master");
   }
+
+  // A frame from another master on the bus (e.g. an NMT command).
+  void inject(const can::Frame& frame) { (void)bus_.submit(other_, frame, now); }
 
   void deliver(simbus::EndpointId to, const can::Frame& frame, bool own_echo) override {
     inbox_.push_back({to, frame, own_echo});
@@ -245,6 +250,7 @@ class WireRig final : public simbus::BusSink {
     auto inbox = std::move(inbox_);
     inbox_.clear();
     for (const auto& d : inbox) {
+      if (d.to == other_) continue;
       if (d.to == gateway_) {
         wire.push_back({d.frame, now, d.own_echo, bitrate});
         if (d.own_echo) {
@@ -261,6 +267,7 @@ class WireRig final : public simbus::BusSink {
   config::Config config_;
   simbus::Bus bus_;
   simbus::EndpointId gateway_ = 0;
+  simbus::EndpointId other_ = 0;
   std::map<simbus::EndpointId, std::unique_ptr<sim::Uc57DriveSim>> drives_;
   std::vector<Delivery> inbox_;
   std::int64_t next_id_ = 0;

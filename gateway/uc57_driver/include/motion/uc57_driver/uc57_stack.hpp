@@ -198,6 +198,9 @@ class Uc57Stack final : public gateway::CanStack {
   // 1800h:02 / 1801h:02 at set-up; the NMT start (and TPDO2's type) at the node's slots.
   ConfigOp tpdo_type_op(std::size_t n);
   ConfigOp nmt_start_op(std::size_t n);
+  // NMT start right after the SYNC of TPDO1's slot, TPDO2's type written right after its own;
+  // `current` false drops the rest (a new session), `done` gets a failure text.
+  void start_in_slots(std::size_t n, const std::function<bool()>& current, const Continue& done);
   // Runs `run` right after the next periodic SYNC whose index is `slot` mod G.
   void at_slot(unsigned slot, std::function<void()> run);
   [[nodiscard]] bool sync_due(TimePoint now);
