@@ -46,6 +46,7 @@ struct Figures {
   double wait_p99 = 0;
   std::size_t ahead = 0;  // most TPDOs ahead of a request (sim only)
   bool ok = false;
+  std::string why = "the rig did not come up";  // when not ok
 };
 
 Duration tpdo_pair(std::uint32_t bitrate) {  // TPDO1 + TPDO2 on the wire
@@ -74,7 +75,10 @@ Figures on_simulated_wire(int nodes, std::uint32_t bitrate, const std::string& m
   for (int k = 0; k < reads; ++k) {
     if (!rig.run_for(std::chrono::microseconds(1013 + 97 * k))) return f;
     const auto r = rig.sdo_read_wait(1 + k % nodes);
-    if (!r.ok) return f;
+    if (!r.ok) {
+      f.why = "SDO read " + std::to_string(k) + " not answered";
+      return f;
+    }
     waits.push_back(frames_of(r.wait, frame));
     f.ahead = std::max(f.ahead, r.polls_ahead);
   }
@@ -145,6 +149,7 @@ Figures on_wall_clock(int nodes, std::uint32_t bitrate, const std::string& mode,
   driver.start();
   if (!pump.until([&] { return driver.ready(); }, std::chrono::seconds(60))) {
     pump.loop().unwatch(monitor->fd());
+    f.why = "not ready within 60 s";
     return f;
   }
   pump.until([] { return false; }, milliseconds(300));
@@ -178,11 +183,14 @@ Figures on_wall_clock(int nodes, std::uint32_t bitrate, const std::string& mode,
         return r.command_id == read.command_id && r.status == motionlcm::gateway_reply_t::DONE;
       });
     };
-    if (!pump.until(answered, std::chrono::seconds(2))) break;
+    if (!pump.until(answered, std::chrono::seconds(2))) {
+      f.why = "SDO read " + std::to_string(k) + " not answered within 2 s";
+      break;
+    }
     trips.push_back(frames_of(std::chrono::duration_cast<Duration>(SteadyClock::now() - sent), frame));
   }
   pump.loop().unwatch(monitor->fd());
-  if (trips.empty()) return f;
+  if (trips.size() < static_cast<std::size_t>(reads)) return f;
   f.wait_p50 = nearest_rank(trips, 0.5);
   f.wait_p99 = nearest_rank(trips, 0.99);
   f.ok = true;
@@ -205,7 +213,7 @@ void bench_polls(bool quick, const std::filesystem::path& dir, std::vector<Row>&
         const std::string what = "4. UC57 polls N=" + std::to_string(nodes) + (bitrate == 125'000 ? " 125k " : " ") +
                                  mode + " (" + (wall ? "wall" : "sim") + "): ";
         if (!f.ok) {
-          rows.push_back({what + "FAILED", "-", "-", 0, "the rig did not come up or a read got no answer"});
+          rows.push_back({what + "FAILED", "-", "-", 0, f.why});
           continue;
         }
         rows.push_back({what + "status updates/s", fmt("%.0f /s", f.updates), fmt("%.0f /s TPDO pairs alone", carried),

@@ -23,7 +23,11 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
           std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(bus.poll_hz, 0.1)))),
       master_([this](const can::Frame& frame) {
         const bool sync = frame.id == canopen::kSyncCobId && !frame.extended;
-        if (sync) ++syncs_handed_;
+        if (sync) {
+          ++syncs_handed_;
+          // Staggered pacing: the next one a period on, whether or not the transport took this one.
+          if (stagger_g_ > 0) next_sync_at_ = now_ + sync_period_;
+        }
         if (!context_.send || !context_.send(frame)) {
           ++counters_.protocol_errors;
           return;

@@ -318,7 +318,6 @@ TimePoint Uc57Stack::next_sync_check() const {
 void Uc57Stack::on_sync_handed() {
   if (echoes_) syncs_in_flight_.push_back(syncs_handed_);
   if (stagger_g_ == 0) return;
-  next_sync_at_ = now_ + sync_period_;
   sync_handed_at_ = now_;
   sync_awaiting_echo_ = true;
   // The answers this SYNC asks for: the staggered TPDOs of its slot, every type-1 node's TPDOs.
