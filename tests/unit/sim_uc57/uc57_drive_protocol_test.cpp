@@ -272,5 +272,34 @@ TEST(Uc57Sim, SynchronousTpdoEverySync) {
   EXPECT_EQ(drive.deliver("080:"), Texts{"181: 40 00 00 00 00 00 00"});
 }
 
+// Type n sends at every n-th SYNC counted from the entry into Operational, and a written type
+// restarts the count (as CANopenNode does; CiA 301 leaves it to the device): what staggered TPDOs
+// set each node's slot with.
+TEST(Uc57Sim, SynchronousTpdoCountsFromTheStartAndFromATypeWrite) {
+  Drive drive;
+  drive.take();
+  drive.sdo_ok("601: 2F 00 18 02 03 00 00 00");  // TPDO1 every 3rd SYNC
+  drive.deliver("080:");                         // pre-operational: not counted
+  drive.deliver("000: 01 00");
+  drive.take();
+  EXPECT_TRUE(drive.deliver("080:").empty());
+  EXPECT_TRUE(drive.deliver("080:").empty());
+  EXPECT_EQ(drive.deliver("080:").size(), 1u) << "the 3rd SYNC after the NMT start";
+  EXPECT_TRUE(drive.deliver("080:").empty());
+  drive.sdo_ok("601: 2F 00 18 02 03 00 00 00");  // the same type again: the count restarts here
+  EXPECT_TRUE(drive.deliver("080:").empty());
+  EXPECT_TRUE(drive.deliver("080:").empty());
+  EXPECT_EQ(drive.deliver("080:").size(), 1u) << "the 3rd SYNC after the write, not after the last send";
+  // Types 241..253 (reserved, RTR-only) are refused; 0 (acyclic synchronous) and 254/255 are taken.
+  for (const char* type : {"F1", "FB", "FC", "FD"}) {
+    const std::string request = std::string("601: 2F 00 18 02 ") + type + " 00 00 00";
+    const auto answer = drive.deliver(request.c_str());
+    ASSERT_EQ(answer.size(), 1u);
+    EXPECT_EQ(answer[0].substr(0, 8), "581: 80 ") << type;
+  }
+  drive.sdo_ok("601: 2F 00 18 02 00 00 00 00");
+  drive.sdo_ok("601: 2F 00 18 02 FE 00 00 00");
+}
+
 }  // namespace
 }  // namespace motion::sim::uc57_test
