@@ -443,6 +443,13 @@ int run(const Options& opt) {
         truth.push_back(*hi - *lo);
         const double median = percentile(starts, 50);
         for (const auto& r : reports) bus_offset[r.bus].push_back(static_cast<double>(r.frame_utime) - median);
+        if (std::getenv("BENCH_LAB_VERBOSE") != nullptr) {  // each drive's start, for a look at one move
+          std::printf("move %d: predicted spread %.0f us, starts from the median:", i,
+                      scheduled.empty() ? 0.0 : scheduled.back().predicted_spread_us);
+          for (const auto& r : reports)
+            std::printf(" %s %+.0f", r.drive.c_str(), static_cast<double>(r.frame_utime) - median);
+          std::printf("\n");
+        }
       }
       predicted.push_back(scheduled.empty() ? 0.0 : scheduled.back().predicted_spread_us);
     }
