@@ -39,7 +39,8 @@ class SyncStack final : public CanStack {
   SyncStack(CanStackContext context, Duration period)
       : context_(std::move(context)), producer_([this](const can::Frame& f) { context_.send(f); }, {period, 0}) {
     producer_.use_cyclic_sender({[this](const can::Frame& f, Duration p) { return context_.start_cyclic(f, p); },
-                                 [this] { context_.stop_cyclic(canopen::encode_sync({})); }});
+                                 [this] { context_.stop_cyclic(canopen::encode_sync({})); },
+                                 [this](Duration i) { return context_.retime_cyclic(canopen::encode_sync({}), i); }});
   }
   [[nodiscard]] std::string family() const override { return "sync"; }
   [[nodiscard]] std::vector<std::string> axes() const override { return {}; }
@@ -130,7 +131,6 @@ axes:
   ASSERT_EQ(uc57->sync_period(), 20ms);
   driver->add_stack(std::move(stack));
   driver->start();
-  EXPECT_FALSE(uc57->kernel_sync_running()) << "the first deadline starts the kernel's job";
   run_for(1500ms);
   EXPECT_TRUE(uc57->kernel_sync_running());
   expect_periodic(wire, 20'000);
@@ -191,6 +191,35 @@ TEST_F(KernelSyncVm, TriggerNowSendsOneSyncAndRestartsThePeriodStopSilencesTheBu
   // Before and after the trigger the kernel keeps the period.
   expect_periodic(std::vector<std::int64_t>(wire.begin(), first_after), period_us);
   expect_periodic(std::vector<std::int64_t>(first_after, wire.end()), period_us);
+}
+
+// The kernel's timer re-arms from when it ran: its SYNCs come late by its wake-up latency each
+// period. After a window of SYNCs the producer shortens the job's interval by the mean lateness
+// (SETTIMER without STARTTIMER: no extra frame, the phase kept).
+TEST_F(KernelSyncVm, TheKernelsLatenessIsTakenOutOfTheInterval) {
+  constexpr auto kPeriod = 5ms;
+  auto owned = std::make_unique<SyncStack>(driver->context(), kPeriod);
+  SyncStack* stack = owned.get();
+  driver->add_stack(std::move(owned));
+  std::int64_t retimed_us = 0;
+  stack->on_sync = [&](std::uint64_t) {
+    if (retimed_us == 0 && stack->producer().cyclic_interval() != Duration::zero()) retimed_us = wall_time_us();
+  };
+  driver->start();
+  run_for(kPeriod * (3 * canopen::SyncProducer::kDriftWindow + 20));
+  stack->producer().stop();
+  run_for(50ms);
+  ASSERT_NE(retimed_us, 0) << "no interval change after " << wire.size() << " SYNCs";
+  EXPECT_LT(stack->producer().cyclic_interval(), kPeriod) << "the kernel is never early";
+  EXPECT_GE(stack->producer().cyclic_interval(), kPeriod / 2);
+  EXPECT_EQ(stack->producer().sent(), wire.size());
+  // No frame of its own at the change: the SYNCs around it keep the period.
+  const auto at = std::find_if(wire.begin(), wire.end(), [&](std::int64_t t) { return t >= retimed_us; });
+  ASSERT_NE(at, wire.end());
+  ASSERT_NE(at, wire.begin());
+  const std::int64_t period_us = std::chrono::duration_cast<std::chrono::microseconds>(kPeriod).count();
+  EXPECT_GE(*at - *(at - 1), period_us / 2) << "the change sent no frame of its own";
+  expect_periodic(std::vector<std::int64_t>(wire.begin(), wire.end()), period_us);
 }
 
 }  // namespace

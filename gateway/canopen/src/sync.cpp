@@ -81,12 +81,32 @@ void SyncProducer::use_cyclic_sender(SyncCyclicSender sender) {
   if (cyclic_running_) hold_cyclic(true, last_cyclic_);  // the job stops, the loop goes on
   sender_ = std::move(sender);
   held_ = held;
+  cyclic_interval_ = Duration::zero();
 }
 
 void SyncProducer::on_cyclic_sync(TimePoint now) {
   ++sent_;
   last_cyclic_ = now;
-  if (running_ && cyclic_running_) cycle_due_ = now;
+  if (!running_ || !cyclic_running_) return;
+  cycle_due_ = now;
+  correct_drift(now);
+}
+
+void SyncProducer::correct_drift(TimePoint now) {
+  if (!sender_.retime) return;
+  if (window_start_ == kNever) {
+    window_start_ = now;
+    window_syncs_ = 0;
+    return;
+  }
+  if (++window_syncs_ < kDriftWindow) return;
+  const Duration mean = (now - window_start_) / kDriftWindow;
+  window_start_ = now;
+  window_syncs_ = 0;
+  const Duration current = cyclic_interval_ > Duration::zero() ? cyclic_interval_ : config_.period;
+  const Duration next = std::clamp(current - (mean - config_.period), config_.period / 2, config_.period);
+  if (std::chrono::abs(next - current) < std::chrono::microseconds(1)) return;
+  if (sender_.retime(next)) cyclic_interval_ = next;
 }
 
 void SyncProducer::hold_cyclic(bool hold, TimePoint now) {
@@ -101,7 +121,9 @@ void SyncProducer::hold_cyclic(bool hold, TimePoint now) {
 }
 
 bool SyncProducer::start_cyclic(TimePoint now) {
-  if (!sender_.start(encode_sync({}, config_.cob_id), config_.period)) {
+  window_start_ = kNever;  // the first SYNC seen opens the drift window
+  const Duration interval = cyclic_interval_ > Duration::zero() ? cyclic_interval_ : config_.period;
+  if (!sender_.start(encode_sync({}, config_.cob_id), interval)) {
     stop_cyclic();  // a refused replacement may have left the previous job running
     return false;
   }

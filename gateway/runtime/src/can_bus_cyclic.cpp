@@ -44,6 +44,13 @@ void CanBusDriver::stop_cyclic(const can::Frame& frame) {
   job->stopped_us = wall_time_us();
 }
 
+bool CanBusDriver::retime_cyclic(const can::Frame& frame, Duration interval) {
+  const CyclicJob* job = cyclic_job(frame);
+  if (!cyclic_ || job == nullptr || !job->running) return false;
+  return !cyclic_->set_period(frame.id, frame.extended,
+                              std::chrono::duration_cast<std::chrono::microseconds>(interval));
+}
+
 bool CanBusDriver::take_cyclic(const can::Frame& frame, TimePoint now) {
   CyclicJob* job = nullptr;
   for (auto& j : cyclic_jobs_) {

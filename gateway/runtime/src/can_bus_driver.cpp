@@ -107,6 +107,7 @@ CanStackContext CanBusDriver::context() {
   if (cyclic_) {
     ctx.start_cyclic = [this](const can::Frame& frame, Duration period) { return start_cyclic(frame, period); };
     ctx.stop_cyclic = [this](const can::Frame& frame) { stop_cyclic(frame); };
+    ctx.retime_cyclic = [this](const can::Frame& frame, Duration interval) { return retime_cyclic(frame, interval); };
   }
   return ctx;
 }

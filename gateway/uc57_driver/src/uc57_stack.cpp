@@ -55,7 +55,11 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
            last_sync_end_ = wire_sent_;
            return true;
          },
-         [this] { context_.stop_cyclic(canopen::encode_sync({}, canopen::kSyncCobId)); }});
+         [this] { context_.stop_cyclic(canopen::encode_sync({}, canopen::kSyncCobId)); },
+         [this](Duration interval) {
+           return context_.retime_cyclic &&
+                  context_.retime_cyclic(canopen::encode_sync({}, canopen::kSyncCobId), interval);
+         }});
   }
 }
 

@@ -26,7 +26,13 @@ struct Recorder {
                               " ms");
               return !refuse;
             },
-            [this] { calls.push_back("stop"); }};
+            [this] { calls.push_back("stop"); },
+            [this](Duration interval) {
+              calls.push_back("retime " +
+                              std::to_string(std::chrono::duration_cast<std::chrono::microseconds>(interval).count()) +
+                              " us");
+              return !refuse;
+            }};
   }
   FrameSink sink() {
     return [this](const can::Frame& frame) { calls.push_back("loop " + test::to_text(frame)); };
@@ -65,7 +71,35 @@ TEST_F(CyclicSync, StartsTheSenderAtTheFirstDeadlineAndCountsTheSyncsSeen) {
   for (int k = 1; k <= 250; ++k) producer.on_cyclic_sync(t0 + 10ms + k * 10'020us);
   EXPECT_EQ(producer.sent(), 251U);
   EXPECT_EQ(producer.skipped(), 0U) << "the kernel never skips";
-  EXPECT_TRUE(rec.take().empty()) << "the loop sends nothing while the sender runs";
+  for (const auto& call : rec.take()) EXPECT_EQ(call.rfind("retime", 0), 0U) << call << ": the loop sends nothing";
+}
+
+TEST_F(CyclicSync, TheSendersMeanLatenessIsTakenOutOfItsInterval) {
+  producer.start(t0);
+  producer.process(t0 + 10ms);
+  rec.take();
+  // The kernel's SYNCs come 300 us late each period (its timer re-arms from when it ran).
+  TimePoint seen = t0 + 10ms;
+  const auto see = [&](int n, Duration gap) {
+    for (int k = 0; k < n; ++k) {
+      seen += gap;
+      producer.on_cyclic_sync(seen);
+    }
+  };
+  see(SyncProducer::kDriftWindow, 10'300us);
+  EXPECT_TRUE(rec.take().empty()) << "a whole window first";
+  see(1, 10'300us);
+  EXPECT_EQ(rec.take(), (Calls{"retime 9700 us"}));
+  EXPECT_EQ(producer.cyclic_interval(), 9700us);
+  // On period now: nothing to change.
+  see(SyncProducer::kDriftWindow, 10ms);
+  EXPECT_TRUE(rec.take().empty());
+  // A restart (trigger_now) keeps the learned interval; a huge lateness is clamped to half the period.
+  producer.trigger_now(seen);
+  EXPECT_EQ(rec.take(), (Calls{"start 080: every 9 ms"})) << "9.7 ms, printed in whole ms";
+  see(SyncProducer::kDriftWindow + 1, 30ms);
+  EXPECT_EQ(rec.take(), (Calls{"retime 5000 us"}));
+  EXPECT_EQ(producer.sent(), 3U * SyncProducer::kDriftWindow + 2U);
 }
 
 TEST_F(CyclicSync, TriggerNowRestartsTheSenderWithOneSyncNow) {

@@ -44,6 +44,9 @@ struct SyncCyclicSender {
   std::function<bool(const can::Frame& frame, Duration period)> start;
   // Stops the job at once (nothing more goes out after the call returns).
   std::function<void()> stop;
+  // Optional: the running job's interval from its next timer run on (nothing sent now, phase
+  // kept); false: refused. Without it the producer does not correct the sender's drift.
+  std::function<bool(Duration interval)> retime;
 };
 
 // Emits SYNC every `period` from start() on, and on demand. Fixed-rate: deadlines advance by
@@ -64,6 +67,9 @@ struct SyncCyclicSender {
 // on that). A SYNC is counted when seen, so sent() may lag the wire by the loop's latency, never
 // lead it. The loop's cycle work (the next RPDO images) then runs just after each SYNC: the
 // images have the whole period to get out before the next one.
+// Drift: every kDriftWindow SYNCs seen, the producer compares their mean interval with the period
+// and shortens the sender's interval by the difference (retime; between half the period and the
+// period): the kernel's mean lateness is taken out of the mean period, its variation stays.
 // hold_cyclic(true) hands the periodic SYNC back to the loop (the sender stops at once) while a
 // SYNC must be preceded by frames of the loop's (the UC57 stack's masked start images);
 // hold_cyclic(false) gives it to the sender again at the next deadline.
@@ -102,6 +108,9 @@ class SyncProducer {
   void on_cyclic_sync(TimePoint now);
   void hold_cyclic(bool hold, TimePoint now);
   [[nodiscard]] bool cyclic_held() const { return held_; }
+  // The interval the sender runs with (the period less the lateness learned), zero before any.
+  [[nodiscard]] Duration cyclic_interval() const { return cyclic_interval_; }
+  static constexpr std::uint32_t kDriftWindow = 100;
 
   [[nodiscard]] const SyncProducerConfig& config() const { return config_; }
   [[nodiscard]] std::uint64_t sent() const { return sent_; }
@@ -112,6 +121,7 @@ class SyncProducer {
   // The sender's first SYNC now; false: refused (the loop sent it).
   bool start_cyclic(TimePoint now);
   void stop_cyclic();
+  void correct_drift(TimePoint now);
 
   FrameSink sink_;
   SyncProducerConfig config_;
@@ -119,9 +129,12 @@ class SyncProducer {
   bool running_ = false;
   bool cyclic_running_ = false;
   bool held_ = false;
-  TimePoint deadline_ = kNever;     // loop mode: the next SYNC; cyclic: kNever while the sender runs
-  TimePoint cycle_due_ = kNever;    // cyclic: a seen SYNC whose cycle work process() has not run
-  TimePoint last_cyclic_ = kNever;  // cyclic: the latest SYNC the sender sent (its start or a seen one)
+  TimePoint deadline_ = kNever;      // loop mode: the next SYNC; cyclic: kNever while the sender runs
+  TimePoint cycle_due_ = kNever;     // cyclic: a seen SYNC whose cycle work process() has not run
+  TimePoint last_cyclic_ = kNever;   // cyclic: the latest SYNC the sender sent (its start or a seen one)
+  Duration cyclic_interval_{};       // cyclic: what the sender was given (zero: the period)
+  TimePoint window_start_ = kNever;  // cyclic: the first SYNC seen of the drift window
+  std::uint32_t window_syncs_ = 0;   // cyclic: SYNCs seen since window_start_
   std::uint8_t counter_ = 1;
   std::uint64_t sent_ = 0;
   std::uint64_t skipped_ = 0;

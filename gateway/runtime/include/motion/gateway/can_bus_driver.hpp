@@ -89,6 +89,8 @@ struct CanStackContext {
   // CanStack::on_cyclic_sent. Empty on other buses.
   std::function<bool(const can::Frame& frame, Duration period)> start_cyclic;
   std::function<void(const can::Frame& frame)> stop_cyclic;
+  // The running job's interval from its next timer run on (nothing sent now); false: refused.
+  std::function<bool(const can::Frame& frame, Duration interval)> retime_cyclic;
 };
 
 class CanBusDriver final : public BusDriver {
@@ -157,6 +159,7 @@ class CanBusDriver final : public BusDriver {
   };
   bool start_cyclic(const can::Frame& frame, Duration period);
   void stop_cyclic(const can::Frame& frame);
+  bool retime_cyclic(const can::Frame& frame, Duration interval);
   CyclicJob* cyclic_job(const can::Frame& frame);
   // A received frame of one of the jobs: handed to the stacks (true), else false.
   bool take_cyclic(const can::Frame& frame, TimePoint now);
