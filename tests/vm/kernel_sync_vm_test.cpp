@@ -30,7 +30,8 @@ constexpr const char* kBus = "vcan0";
 struct NullOutput : GatewayOutput {
   void axis_status(const std::string&, const DriveStatus&) override {}
   void axis_event(const std::string&, const DriveEvent&) override {}
-  void command_reply(motionlcm::gateway_reply_t) override {}
+  void command_reply(motionlcm::gateway_reply_t reply) override { replies.push_back(std::move(reply)); }
+  std::vector<motionlcm::gateway_reply_t> replies;
 };
 
 // A stack that is only a SYNC producer, wired to its context as the UC57 stack wires its own.
@@ -43,7 +44,7 @@ class SyncStack final : public CanStack {
                                  [this](Duration i) { return context_.retime_cyclic(canopen::encode_sync({}), i); }});
   }
   [[nodiscard]] std::string family() const override { return "sync"; }
-  [[nodiscard]] std::vector<std::string> axes() const override { return {}; }
+  [[nodiscard]] std::vector<std::string> axes() const override { return {"s"}; }
   void start(TimePoint now) override { producer_.start(now); }
   bool on_frame(const can::Frame&, TimePoint) override { return false; }
   void on_cyclic_sent(const can::Frame& frame, TimePoint now) override {
@@ -51,8 +52,17 @@ class SyncStack final : public CanStack {
     if (on_sync) on_sync(producer_.sent());
   }
   TimePoint process(TimePoint now) override { return producer_.process(now); }
-  void execute(const motionlcm::gateway_command_t&, TimePoint) override {}
-  void fire(std::int64_t, TimePoint) override {}
+  // ARM_MOVE: ARMED at once; its trigger: one SYNC (trigger_now), the command's start frame, then
+  // STARTED dated at the hand-off (the driver replaces the date by the SYNC's time on the wire).
+  void execute(const motionlcm::gateway_command_t& command, TimePoint) override {
+    armed_ = command.command_id;
+    reply(motionlcm::gateway_reply_t::ARMED, 0);
+  }
+  void fire(std::int64_t, TimePoint now) override {
+    producer_.trigger_now(now);
+    context_.start_frame(armed_, canopen::encode_sync({}));
+    reply(motionlcm::gateway_reply_t::STARTED, wall_time_us());
+  }
   [[nodiscard]] bool ready() const override { return true; }
   void add_statistics(motionlcm::bus_stats_t&) const override {}
 
@@ -60,6 +70,15 @@ class SyncStack final : public CanStack {
   std::function<void(std::uint64_t sent)> on_sync;
 
  private:
+  void reply(std::int8_t status, std::int64_t trigger_utime) {
+    motionlcm::gateway_reply_t r{};
+    r.command_id = armed_;
+    r.status = status;
+    r.trigger_utime = trigger_utime;
+    r.start_mechanism = "sync";
+    context_.out->command_reply(r);
+  }
+  std::int64_t armed_ = 0;
   CanStackContext context_;
   canopen::SyncProducer producer_;
 };
@@ -191,6 +210,32 @@ TEST_F(KernelSyncVm, TriggerNowSendsOneSyncAndRestartsThePeriodStopSilencesTheBu
   // Before and after the trigger the kernel keeps the period.
   expect_periodic(std::vector<std::int64_t>(wire.begin(), first_after), period_us);
   expect_periodic(std::vector<std::int64_t>(first_after, wire.end()), period_us);
+}
+
+// A start whose SYNC the kernel's restarted job sent: STARTED carries that frame's time on the wire.
+TEST_F(KernelSyncVm, StartedCarriesTheTimeOfTheKernelsStartSync) {
+  auto owned = std::make_unique<SyncStack>(driver->context(), 20ms);
+  driver->add_stack(std::move(owned));
+  driver->start();
+  run_for(100ms);  // the kernel's job runs
+  motionlcm::gateway_command_t arm{};
+  arm.command_id = 42;
+  arm.bus = "can0";
+  arm.kind = motionlcm::gateway_command_t::ARM_MOVE;
+  arm.trigger_id = 7;
+  arm.axes.resize(1);
+  arm.axes[0].axis = "s";
+  arm.num_axes = 1;
+  driver->execute(arm);
+  const std::int64_t before_us = wall_time_us();
+  driver->fire(7);
+  run_for(100ms);
+  const auto started = std::find_if(out.replies.begin(), out.replies.end(),
+                                    [](const auto& r) { return r.status == motionlcm::gateway_reply_t::STARTED; });
+  ASSERT_NE(started, out.replies.end());
+  const auto start_sync = std::find_if(wire.begin(), wire.end(), [&](std::int64_t t) { return t >= before_us; });
+  ASSERT_NE(start_sync, wire.end());
+  EXPECT_EQ(started->trigger_utime, *start_sync) << "the kernel's receive time of the start SYNC";
 }
 
 // The kernel's timer re-arms from when it ran: its SYNCs come late by its wake-up latency each
