@@ -267,5 +267,63 @@ TEST_F(KernelSyncVm, TheKernelsLatenessIsTakenOutOfTheInterval) {
   expect_periodic(std::vector<std::int64_t>(wire.begin(), wire.end()), period_us);
 }
 
+// A gateway that ends leaves no kernel job behind: closing the BCM socket deletes its jobs.
+TEST_F(KernelSyncVm, NoSyncOnceTheDriverIsGone) {
+  driver->add_stack(std::make_unique<SyncStack>(driver->context(), 10ms));
+  driver->start();
+  run_for(200ms);
+  ASSERT_GE(wire.size(), 5U);
+  driver.reset();
+  run_for(50ms);  // one may have been in flight
+  const std::size_t after_close = wire.size();
+  run_for(300ms);
+  EXPECT_EQ(wire.size(), after_close) << "a SYNC after the driver was gone";
+}
+
+// An interface removed and created again (an adapter replugged): the BCM socket is opened again on
+// the new one and the job goes on there.
+TEST(KernelSyncReplug, TheJobGoesOnOnTheRecreatedInterface) {
+  if (std::getenv("MOTION_IN_VM") == nullptr) GTEST_SKIP() << "runs in the VM only (tools/vm/socketcan-vm)";
+  const auto shell = [](const std::string& command) { ASSERT_EQ(std::system(command.c_str()), 0) << command; };
+  shell("ip link add dev vcan1 type vcan && ip link set up dev vcan1");
+  EventLoop loop;
+  NullOutput out;
+  const auto run_for = [&](Duration d) {
+    const TimePoint end = loop.now() + d;
+    while (loop.now() < end) loop.run_once(end - loop.now());
+  };
+  {
+    auto transport = std::make_unique<can::SocketCanTransport>();
+    ASSERT_FALSE(transport->open("vcan1"));
+    CanBusDriver driver(loop, "can1", std::move(transport), out);
+    auto cyclic = std::make_unique<can::SocketCanCyclic>();
+    ASSERT_FALSE(cyclic->open("vcan1"));
+    driver.use_cyclic(std::move(cyclic));
+    auto owned = std::make_unique<SyncStack>(driver.context(), 20ms);
+    SyncStack* stack = owned.get();
+    driver.add_stack(std::move(owned));
+    driver.start();
+    run_for(200ms);
+    ASSERT_TRUE(stack->producer().cyclic());
+    shell("ip link del dev vcan1");
+    run_for(100ms);
+    shell("ip link add dev vcan1 type vcan && ip link set up dev vcan1");
+    can::SocketCanTransport watcher;
+    ASSERT_FALSE(watcher.open("vcan1"));
+    std::vector<std::int64_t> seen;
+    loop.watch(watcher.fd(), [&] {
+      while (auto f = watcher.receive()) {
+        if (f->id == canopen::kSyncCobId) seen.push_back(f->timestamp_us);
+      }
+    });
+    const std::uint64_t sent_before = stack->producer().sent();
+    run_for(500ms);
+    loop.unwatch(watcher.fd());
+    EXPECT_GE(seen.size(), 10U) << "about 25 SYNCs on the new vcan1";
+    EXPECT_GE(stack->producer().sent() - sent_before, 10U) << "and the driver saw them";
+  }
+  shell("ip link del dev vcan1");
+}
+
 }  // namespace
 }  // namespace motion::gateway
