@@ -136,19 +136,17 @@ struct BucketAxes {
 // stable distribution by the leading bits of their durations (positive doubles order as their bit
 // patterns) leaves only candidates with the same leading bits out of order, which are then sorted
 // among themselves (a few by insertion): fewer mispredicted comparisons than one sort of all.
-void sort_by_duration(std::vector<Candidate>& candidates, std::vector<Candidate>& spare) {
+// Every duration lies within [shortest_s, longest_s] (both >= 0).
+void sort_by_duration(std::vector<Candidate>& candidates, std::vector<Candidate>& spare, double shortest_s,
+                      double longest_s) {
   constexpr std::size_t kComparisonSortBelow = 32;
   if (candidates.size() < kComparisonSortBelow) {
     std::ranges::sort(candidates, earlier);
     return;
   }
   const auto bits = [](const Candidate& c) { return std::bit_cast<std::uint64_t>(c.duration_s); };
-  std::uint64_t lowest = std::numeric_limits<std::uint64_t>::max();
-  std::uint64_t highest = 0;
-  for (const Candidate& c : candidates) {
-    lowest = std::min(lowest, bits(c));
-    highest = std::max(highest, bits(c));
-  }
+  const auto lowest = std::bit_cast<std::uint64_t>(shortest_s);
+  const auto highest = std::bit_cast<std::uint64_t>(longest_s);
   // About one digit per two candidates: few per digit, and few digits to clear and visit.
   constexpr int kMostDigitBits = 11;
   const int digit_bits = std::clamp(static_cast<int>(std::bit_width(candidates.size())) - 1, 4, kMostDigitBits);
@@ -218,6 +216,12 @@ void tight_candidates(const std::vector<Candidate>& candidates, const DurationRa
     count += inside(c) ? 1U : 0U;
   }
   sorted.resize(count);
+  // Over three buckets at most, the passes below would drop few if any: skipped (the window search
+  // finds the same window with or without the candidates they drop).
+  if (buckets <= 3) {
+    sort_by_duration(sorted, spare, shortest, longest);
+    return;
+  }
   for (const Candidate& c : sorted) {
     BucketAxes& bucket = bucket_axes[bucket_of(c)];
     bucket.axes = (bucket.plan == plan_stamp ? bucket.axes : 0) | (std::uint64_t{1} << (c.axis % 64));
@@ -231,7 +235,7 @@ void tight_candidates(const std::vector<Candidate>& candidates, const DurationRa
     kept += (here | axes_in(b - 1)) == every_axis || (here | axes_in(b + 1)) == every_axis ? 1U : 0U;
   }
   sorted.resize(kept);
-  sort_by_duration(sorted, spare);
+  sort_by_duration(sorted, spare, shortest, longest);
 }
 
 // Scratch buffers of one thread's plans, reused: planning allocates only for its result once they
@@ -383,8 +387,9 @@ AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axi
   }
   w.candidates.resize(most);
   Candidate* next = w.candidates.data() + before;
-  std::array<RampTerms, kMaxBlockRamps> accelerations{};
-  std::array<RampTerms, kMaxBlockRamps> decelerations{};
+  // Not cleared: ramp_terms() writes a block's before any is read.
+  std::array<RampTerms, kMaxBlockRamps> accelerations;  // NOLINT(cppcoreguidelines-pro-type-member-init)
+  std::array<RampTerms, kMaxBlockRamps> decelerations;  // NOLINT(cppcoreguidelines-pro-type-member-init)
   // The terms above are those of the ramps at w.ramps[terms_of ...]; a block that shares them
   // (same first ramp: a rate grid's) recomputes only the ramp times.
   std::uint32_t terms_of = std::numeric_limits<std::uint32_t>::max();
@@ -424,7 +429,8 @@ AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axi
         shortest = std::min(shortest, duration_s);
         longest = std::max(longest, duration_s);
         const double offset = std::abs(duration_s - planned_s);
-        const bool nearer = nearest < 0.0 || offset < nearest_offset;
+        // Both compared (no short circuit): a select, not a branch the data decides.
+        const bool nearer = (nearest < 0.0) | (offset < nearest_offset);
         nearest = nearer ? duration_s : nearest;
         nearest_offset = nearer ? offset : nearest_offset;
         *next++ = Candidate{duration_s, axis, key | (ja << kRampBits) | jd};

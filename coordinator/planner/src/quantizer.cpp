@@ -29,7 +29,10 @@ std::int64_t at_or_below_index(double desired, double guess, bool increasing, st
   const auto lowest = min_steps - 1;
   const auto highest = max_steps + 1;
   const double clamped = std::clamp(guess, static_cast<double>(lowest), static_cast<double>(highest));
-  auto at_or_below = static_cast<std::int64_t>(increasing ? std::floor(clamped) : std::ceil(clamped));
+  // clamped >= lowest >= 0: truncation is the floor, and the ceiling one above it when not exact
+  // (cheaper than std::floor / std::ceil without SSE4.1).
+  auto at_or_below = static_cast<std::int64_t>(clamped);
+  if (!increasing && static_cast<double>(at_or_below) < clamped) ++at_or_below;
   const std::int64_t toward_lower_value = increasing ? -1 : +1;
   const auto inside = [&](std::int64_t n) { return n >= lowest && n <= highest; };
   while (inside(at_or_below + toward_lower_value) && value_of(at_or_below) > desired) at_or_below += toward_lower_value;
