@@ -157,6 +157,9 @@ void sort_by_duration(std::vector<Candidate>& candidates, std::vector<Candidate>
   std::fill_n(start.begin(), digits + 1, 0U);
   for (const Candidate& c : candidates) ++start[digit(c) + 1];
   for (std::size_t d = 1; d <= digits; ++d) start[d] += start[d - 1];
+  // As much room as `candidates` has: they are swapped below, and the caller's next plan must find
+  // room in either (else one of them would grow again, allocating, plan after plan until both had).
+  spare.reserve(candidates.capacity());
   spare.resize(candidates.size());
   for (const Candidate& c : candidates) spare[start[digit(c)]++] = c;
   candidates.swap(spare);
