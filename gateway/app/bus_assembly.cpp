@@ -1,5 +1,7 @@
 #include "bus_assembly.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include <functional>
 #include <map>
 
@@ -53,6 +55,13 @@ BusAssembly assemble_can_bus(EventLoop& loop, const config::Config& config, cons
     return result;
   }
   auto driver = std::make_unique<CanBusDriver>(loop, bus.name, std::move(transport), out);
+  std::error_code cyclic_error;
+  if (auto cyclic = open_cyclic_sender(bus, cyclic_error)) {
+    driver->use_cyclic(std::move(cyclic));
+  } else if (cyclic_error) {
+    spdlog::warn("bus {}: kernel_sync: no CAN_BCM socket ({}); the gateway's loop sends the periodic SYNC", bus.name,
+                 cyclic_error.message());
+  }
   for (const auto& [family, drives] : drives_by_family(config, bus)) {
     const auto factory = can_stack_factories().find(family);
     if (factory == can_stack_factories().end()) {

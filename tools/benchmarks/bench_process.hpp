@@ -5,6 +5,7 @@
 #pragma once
 
 #include <fcntl.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
@@ -47,11 +48,19 @@ struct Child {
   pid_t pid = -1;
 };
 
+// `fifo_priority` > 0: the child (and every thread it creates) runs under SCHED_FIFO at that
+// priority where the host permits it, else under normal scheduling (a note in its log).
 inline pid_t spawn(const std::string& binary, const std::vector<std::string>& args, const std::string& sim_dir,
-                   const std::string& log) {
+                   const std::string& log, int fifo_priority = 0) {
   const pid_t pid = ::fork();
   if (pid != 0) return pid;
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  const bool fifo_refused = [&] {
+    if (fifo_priority <= 0) return false;
+    sched_param param{};
+    param.sched_priority = fifo_priority;
+    return ::sched_setscheduler(0, SCHED_FIFO, &param) != 0;
+  }();
   ::setenv("MOTION_SIM_DIR", sim_dir.c_str(), 1);
   const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   if (fd >= 0) {
@@ -59,6 +68,7 @@ inline pid_t spawn(const std::string& binary, const std::vector<std::string>& ar
     ::dup2(fd, 2);
     ::close(fd);
   }
+  if (fifo_refused) std::fprintf(stderr, "bench: SCHED_FIFO %d refused: normal scheduling\n", fifo_priority);
   std::vector<std::string> all{binary};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
@@ -102,9 +112,11 @@ class LabPrograms {
         common_{"--config", config_path, "--lcm-url", url, "--log-level", "warn"},
         sim_dir_(std::move(sim_dir)),
         log_dir_(std::move(log_dir)) {}
-  void start(const std::string& name, const std::string& program, std::vector<std::string> extra) {
+  void start(const std::string& name, const std::string& program, std::vector<std::string> extra,
+             int fifo_priority = 0) {
     extra.insert(extra.begin(), common_.begin(), common_.end());
-    children_.push_back({name, spawn(bin_ + "/" + program, extra, sim_dir_, log_dir_ + "/" + name + ".log")});
+    children_.push_back(
+        {name, spawn(bin_ + "/" + program, extra, sim_dir_, log_dir_ + "/" + name + ".log", fifo_priority)});
   }
   std::vector<Child>& children() { return children_; }
 

@@ -52,8 +52,10 @@ inline void print_rows(const std::vector<Row>& rows, const std::string& what_hea
               bound_header.c_str(), "ratio", "note");
   std::printf("%s\n", std::string(what_w + measured_w + bound_w + 24, '-').c_str());
   for (const auto& r : rows) {
-    std::printf("%-*s %-*s %-*s %7.2fx  %s\n", w(what_w), r.what.c_str(), w(measured_w), r.measured.c_str(), w(bound_w),
-                r.bound.c_str(), r.ratio, r.note.c_str());
+    // A row without a bound (NAN or no bound text) has no ratio either.
+    const std::string ratio = std::isnan(r.ratio) || r.bound.empty() ? "" : fmt("%.2fx", r.ratio);
+    std::printf("%-*s %-*s %-*s %8s  %s\n", w(what_w), r.what.c_str(), w(measured_w), r.measured.c_str(), w(bound_w),
+                r.bound.c_str(), ratio.c_str(), r.note.c_str());
   }
 }
 

@@ -12,14 +12,22 @@
 //      transactions and the master's silences, drives answering at once); and the bus load the gateway
 //      reports (bus_stats_t, a fraction of the bus's capacity);
 //   4. a synchronized move of up to `--per-bus` axes of every bus together: request -> STARTED
-//      against the raw LCM round trip of the same run, and the start skew from the simulated
-//      drives' ground truth (SIM_REPORT frame times) against the issue's 200 us plus the spread the
-//      coordinator's schedule predicts (SYNC_TRIGGER2).
+//      against the raw LCM round trip of the same run and against the issue's 1.5 x (wire time of
+//      the move's frames + the trigger lead in force), per move: a bus's wire time is the line time
+//      of arming its axes (ARM_TIMING arm_line_us each; on the first move also arm_bystander_us for
+//      every other drive of the bus, which that move readies) plus its start frames (SYNC_TRIGGER2
+//      lead_us), the slowest bus decides; the lead in force is the trigger's first send_utime minus
+//      its utime. And the start skew from the simulated drives' ground truth (SIM_REPORT frame
+//      times) against the issue's 200 us plus the spread the coordinator's schedule predicts
+//      (SYNC_TRIGGER2), with each bus's start offset from the move's median start.
 // A bus that does not come up is reported as such (with what its gateway logged) and left out of
 // the move; nothing is estimated. Not part of ctest: `tools/bench lab`.
 //
-// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N]
+// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P]
 //   --scale F: every bus's drive count times F (0 < F <= 1; 1 is the full lab)
+//   --realtime P: every bus gets `realtime_priority: P` (its gateway's loop under SCHED_FIFO) and
+//     motion-sim runs under SCHED_FIFO P - 10 (the simulated wires date the frames, so their
+//     wake-ups must not lag either); 0, the default, is normal scheduling for all
 #include <sys/stat.h>
 
 #include <cstring>
@@ -30,6 +38,7 @@
 #include <set>
 #include <sstream>
 
+#include <motionlcm/arm_timing_t.hpp>
 #include <motionlcm/axis_state_t.hpp>
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/sim_report_t.hpp>
@@ -58,6 +67,7 @@ struct Options {
   int window_s = 10;
   int moves = 6;
   int per_bus = 4;
+  int realtime = 0;  // 0 or 11..99
 };
 
 // One bus of the generated lab: its drives are `count` of `family` from node id `first_id`, and
@@ -114,7 +124,7 @@ std::string setup_of(const std::string& family) {
 }
 
 // The lab's YAML; `axis_bus` gets every axis's bus.
-std::string lab_yaml(const std::vector<BusPlan>& buses, std::map<std::string, std::string>& axis_bus) {
+std::string lab_yaml(const std::vector<BusPlan>& buses, int realtime, std::map<std::string, std::string>& axis_bus) {
   std::ostringstream buses_out;
   std::ostringstream drives;
   std::ostringstream axes;
@@ -123,7 +133,7 @@ std::string lab_yaml(const std::vector<BusPlan>& buses, std::map<std::string, st
               << ", " << (b.kind == "can" ? "bitrate: " : "baud: ") << b.rate
               << (b.kind == "can" ? ", bus_timing: true" : "")
               << ", request_timeout_ms: " << (b.kind == "can" ? 50 : 100) << ", retries: 2, poll_hz: " << b.poll_hz
-              << "}\n";
+              << (realtime > 0 ? ", realtime_priority: " + std::to_string(realtime) : "") << "}\n";
     const auto add = [&](const std::string& family, int first, int count, int group) {
       for (int k = 0; k < count; ++k) {
         const int id = first + k;
@@ -194,7 +204,7 @@ int run(const Options& opt) {
   const std::string config_path = dir + "/lab.yaml";
   const auto buses = lab_buses(opt.scale);
   std::map<std::string, std::string> axis_bus;
-  std::ofstream(config_path) << lab_yaml(buses, axis_bus);
+  std::ofstream(config_path) << lab_yaml(buses, opt.realtime, axis_bus);
   auto loaded = config::load_file(config_path);
   if (!loaded.ok()) {
     std::fprintf(stderr, "bench_lab: the generated configuration is refused:\n%s\n", loaded.error_text().c_str());
@@ -228,6 +238,9 @@ int run(const Options& opt) {
                                           [&](const motionlcm::sim_report_t& r, const std::string&) {
                                             if (r.kind == motionlcm::sim_report_t::MOTION_STARTED) reports.push_back(r);
                                           });
+  std::map<std::string, motionlcm::arm_timing_t> arming;  // axis -> its ARM_TIMING
+  node.subscribe<motionlcm::arm_timing_t>(
+      lcm::channels::kArmTiming, [&](const motionlcm::arm_timing_t& t, const std::string&) { arming[t.axis] = t; });
   std::vector<motionlcm::sync_trigger2_t> scheduled;
   node.subscribe<motionlcm::sync_trigger2_t>(
       lcm::channels::kSyncTrigger2,
@@ -249,7 +262,7 @@ int run(const Options& opt) {
   std::vector<std::string> findings;
   do {
     const auto t_sim = Steady::now();
-    programs.start("sim", "motion-sim", {});
+    programs.start("sim", "motion-sim", {}, opt.realtime > 0 ? opt.realtime - 10 : 0);
     if (!wait([&] { return health.contains("sim"); }, 60)) {
       findings.push_back("motion-sim sent no heartbeat within 60 s:\n" + tail_of(dir + "/sim.log", 8));
       rc = 1;
@@ -378,8 +391,10 @@ int run(const Options& opt) {
       break;
     }
     std::vector<double> latency;
+    std::vector<double> latency_ratio;  // request -> STARTED over 1.5 x (wire + lead in force)
     std::vector<double> truth;
     std::vector<double> predicted;
+    std::map<std::string, std::vector<double>> bus_offset;  // per bus, each drive's start - the move's median
     for (int i = 0; i < opt.moves; ++i) {
       std::map<std::string, double> targets;
       for (const auto& a : group) targets[a] = i % 2 == 0 ? 2.0 : 0.0;
@@ -405,15 +420,36 @@ int run(const Options& opt) {
         rc = 1;
         break;
       }
+      if (started && !scheduled.empty()) {
+        const auto& t2 = scheduled.back();
+        std::map<std::string, double> wire_us;
+        for (const auto& a : group) {
+          if (!arming.contains(a)) continue;
+          wire_us[axis_bus[a]] += arming.at(a).arm_line_us;
+          if (i == 0) wire_us[axis_bus[a]] += arming.at(a).arm_bystander_us * (bus_axes[axis_bus[a]] - opt.per_bus);
+        }
+        double slowest = 0;
+        for (std::size_t b = 0; b < t2.buses.size(); ++b)
+          slowest = std::max(slowest, wire_us[t2.buses[b]] + t2.lead_us[b]);
+        const double lead_us =
+            static_cast<double>(*std::min_element(t2.send_utime.begin(), t2.send_utime.end()) - t2.utime);
+        latency_ratio.push_back(latency.back() / (1.5 * (slowest + lead_us)));
+      }
       wait([&] { return reports.size() >= group.size(); }, 2);
       if (reports.size() >= group.size()) {
-        std::int64_t lo = reports.front().frame_utime;
-        std::int64_t hi = lo;
-        for (const auto& s : reports) {
-          lo = std::min(lo, s.frame_utime);
-          hi = std::max(hi, s.frame_utime);
+        std::vector<double> starts;
+        for (const auto& r : reports) starts.push_back(static_cast<double>(r.frame_utime));
+        const auto [lo, hi] = std::minmax_element(starts.begin(), starts.end());
+        truth.push_back(*hi - *lo);
+        const double median = percentile(starts, 50);
+        for (const auto& r : reports) bus_offset[r.bus].push_back(static_cast<double>(r.frame_utime) - median);
+        if (std::getenv("BENCH_LAB_VERBOSE") != nullptr) {  // each drive's start, for a look at one move
+          std::printf("move %d: predicted spread %.0f us, starts from the median:", i,
+                      scheduled.empty() ? 0.0 : scheduled.back().predicted_spread_us);
+          for (const auto& r : reports)
+            std::printf(" %s %+.0f", r.drive.c_str(), static_cast<double>(r.frame_utime) - median);
+          std::printf("\n");
         }
-        truth.push_back(static_cast<double>(hi - lo));
       }
       predicted.push_back(scheduled.empty() ? 0.0 : scheduled.back().predicted_spread_us);
     }
@@ -423,11 +459,22 @@ int run(const Options& opt) {
                       fmt("%.0f us LCM RTT p50", percentile(rtt, 50)), percentile(latency, 50) / percentile(rtt, 50),
                       fmt("p99 %.0f us", percentile(latency, 99))});
     }
+    if (!latency_ratio.empty()) {
+      rows.push_back({"request -> STARTED / 1.5 x (wire + lead), per move",
+                      fmt("p50 %.2f", percentile(latency_ratio, 50)), "issue 17 goal <= 1",
+                      percentile(latency_ratio, 50),
+                      fmt("p99 %.2f; the first move readies the lines' other drives", percentile(latency_ratio, 99))});
+    }
     if (!truth.empty()) {
       const double bound = 200.0 + percentile(predicted, 50);
       rows.push_back({"start skew p50 (ground truth), " + move, fmt("%.0f us", percentile(truth, 50)),
                       fmt("%.0f us = 200 + predicted", bound), percentile(truth, 50) / bound,
                       fmt2("p99 %.0f us (%.2fx)", percentile(truth, 99), percentile(truth, 99) / bound)});
+      for (auto& [bus, offsets] : bus_offset) {
+        const auto [lo, hi] = std::minmax_element(offsets.begin(), offsets.end());
+        rows.push_back({"  start - move's median start, " + bus, fmt("%+.0f us", percentile(offsets, 50)), "", NAN,
+                        fmt2("min %+.0f, max %+.0f us", *lo, *hi)});
+      }
     } else {
       findings.push_back("no SIM_REPORT ground truth for the moves");
     }
@@ -436,6 +483,9 @@ int run(const Options& opt) {
   stop_all(programs.children());
   std::printf("lab-scale bench: %zu axes on %zu buses (scale %.2f), config %s, LCM %s\n", axis_bus.size(), buses.size(),
               opt.scale, config_path.c_str(), url.c_str());
+  if (opt.realtime > 0)
+    std::printf("realtime: gateways' loops SCHED_FIFO %d, motion-sim SCHED_FIFO %d (refusals are in their logs)\n",
+                opt.realtime, opt.realtime - 10);
   print_rows(rows, "figure", "bound (same run)");
   if (!findings.empty()) {
     std::printf("\nfindings:\n");
@@ -453,7 +503,8 @@ int run(const Options& opt) {
 
 int main(int argc, char** argv) {
   motion::bench::Options opt;
-  const char* const usage = "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N]\n";
+  const char* const usage =
+      "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P]\n";
   for (int i = 1; i < argc; i += 2) {
     // A flag without its value (e.g. --help) is refused, not ignored (it used to run the full lab).
     if (i + 1 >= argc) {
@@ -472,6 +523,8 @@ int main(int argc, char** argv) {
       opt.moves = static_cast<int>(value);
     else if (flag == "--per-bus")
       opt.per_bus = static_cast<int>(value);
+    else if (flag == "--realtime" && (value == 0 || (value >= 11 && value <= 99)))
+      opt.realtime = static_cast<int>(value);
     else {
       std::fprintf(stderr, "%s", usage);
       return 2;

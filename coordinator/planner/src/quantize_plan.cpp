@@ -16,7 +16,11 @@ namespace {
 constexpr double kSpreadTieSeconds = 1e-12;
 
 // Kept small (16 bytes; the setting stays in the workspace): hundreds of them are sorted per plan.
+// Default construction leaves it uninitialized: buffers of them are resized, then written.
 struct Candidate {
+  Candidate() {}  // NOLINT(modernize-use-equals-default): "= default" would zero them in resize()
+  Candidate(double duration, std::uint32_t axis_index, std::uint32_t setting_key)
+      : duration_s(duration), axis(axis_index), setting(setting_key) {}
   double duration_s;
   std::uint32_t axis;
   // The setting: block index (in the workspace's blocks, every axis's in order), then the
@@ -61,14 +65,17 @@ DriveMotion desired_motion(const TrapezoidShape& shape, const AxisCaps& caps) {
           std::min(shape.deceleration, caps.deceleration)};
 }
 
+// Ramp time per unit velocity at scale 1: (1/a + 1/d) / 2; scaling both ramps by `lambda`
+// divides it by lambda.
+double half_inverse_ramps(const DriveMotion& planned) {
+  return 0.5 * (1.0 / planned.acceleration_counts_per_s2 + 1.0 / planned.deceleration_counts_per_s2);
+}
+
 // The acceleration/deceleration (in the planned ratio) with which a drive cruising at `velocity`
 // covers `distance` in exactly `duration_s`; nullopt when even infinite ramps would be too slow.
+// `half_inverse_ramps` is half_inverse_ramps(planned).
 std::optional<DriveMotion> duration_matching(double distance, double duration_s, double velocity,
-                                             const DriveMotion& planned) {
-  // Ramp time per unit velocity at scale 1: (1/a + 1/d) / 2; scaling both ramps by `lambda`
-  // divides it by lambda.
-  const double half_inverse_ramps =
-      0.5 * (1.0 / planned.acceleration_counts_per_s2 + 1.0 / planned.deceleration_counts_per_s2);
+                                             const DriveMotion& planned, double half_inverse_ramps) {
   const double cruise_only_s = distance / velocity;
   if (!(duration_s > cruise_only_s)) return std::nullopt;
   // Trapezoid: distance/v + v * k / lambda = T.
@@ -129,26 +136,30 @@ struct BucketAxes {
 // stable distribution by the leading bits of their durations (positive doubles order as their bit
 // patterns) leaves only candidates with the same leading bits out of order, which are then sorted
 // among themselves (a few by insertion): fewer mispredicted comparisons than one sort of all.
-void sort_by_duration(std::vector<Candidate>& candidates, std::vector<Candidate>& spare) {
+// Every duration lies within [shortest_s, longest_s] (both >= 0).
+void sort_by_duration(std::vector<Candidate>& candidates, std::vector<Candidate>& spare, double shortest_s,
+                      double longest_s) {
   constexpr std::size_t kComparisonSortBelow = 32;
   if (candidates.size() < kComparisonSortBelow) {
     std::ranges::sort(candidates, earlier);
     return;
   }
   const auto bits = [](const Candidate& c) { return std::bit_cast<std::uint64_t>(c.duration_s); };
-  std::uint64_t lowest = std::numeric_limits<std::uint64_t>::max();
-  std::uint64_t highest = 0;
-  for (const Candidate& c : candidates) {
-    lowest = std::min(lowest, bits(c));
-    highest = std::max(highest, bits(c));
-  }
-  constexpr int kDigitBits = 8;
-  constexpr std::size_t kDigits = std::size_t{1} << kDigitBits;
-  const int shift = std::max(0, static_cast<int>(std::bit_width(highest - lowest)) - kDigitBits);
+  const auto lowest = std::bit_cast<std::uint64_t>(shortest_s);
+  const auto highest = std::bit_cast<std::uint64_t>(longest_s);
+  // About one digit per two candidates: few per digit, and few digits to clear and visit.
+  constexpr int kMostDigitBits = 11;
+  const int digit_bits = std::clamp(static_cast<int>(std::bit_width(candidates.size())) - 1, 4, kMostDigitBits);
+  const std::size_t digits = std::size_t{1} << digit_bits;
+  const int shift = std::max(0, static_cast<int>(std::bit_width(highest - lowest)) - digit_bits);
   const auto digit = [&](const Candidate& c) { return static_cast<std::size_t>((bits(c) - lowest) >> shift); };
-  std::array<std::uint32_t, kDigits + 1> start{};
+  std::array<std::uint32_t, (std::size_t{1} << kMostDigitBits) + 1> start;  // NOLINT: the first digits + 1 cleared
+  std::fill_n(start.begin(), digits + 1, 0U);
   for (const Candidate& c : candidates) ++start[digit(c) + 1];
-  for (std::size_t d = 1; d <= kDigits; ++d) start[d] += start[d - 1];
+  for (std::size_t d = 1; d <= digits; ++d) start[d] += start[d - 1];
+  // As much room as `candidates` has: they are swapped below, and the caller's next plan must find
+  // room in either (else one of them would grow again, allocating, plan after plan until both had).
+  spare.reserve(candidates.capacity());
   spare.resize(candidates.size());
   for (const Candidate& c : candidates) spare[start[digit(c)]++] = c;
   candidates.swap(spare);
@@ -156,7 +167,7 @@ void sort_by_duration(std::vector<Candidate>& candidates, std::vector<Candidate>
   // cluster (many durations within one digit) by a comparison sort.
   constexpr std::size_t kInsertionUpTo = 8;
   std::size_t begin = 0;
-  for (std::size_t d = 0; d < kDigits; ++d) {
+  for (std::size_t d = 0; d < digits; ++d) {
     const std::size_t end = start[d];
     if (end - begin > kInsertionUpTo) {
       std::sort(candidates.begin() + static_cast<std::ptrdiff_t>(begin),
@@ -208,6 +219,12 @@ void tight_candidates(const std::vector<Candidate>& candidates, const DurationRa
     count += inside(c) ? 1U : 0U;
   }
   sorted.resize(count);
+  // Over three buckets at most, the passes below would drop few if any: skipped (the window search
+  // finds the same window with or without the candidates they drop).
+  if (buckets <= 3) {
+    sort_by_duration(sorted, spare, shortest, longest);
+    return;
+  }
   for (const Candidate& c : sorted) {
     BucketAxes& bucket = bucket_axes[bucket_of(c)];
     bucket.axes = (bucket.plan == plan_stamp ? bucket.axes : 0) | (std::uint64_t{1} << (c.axis % 64));
@@ -221,7 +238,7 @@ void tight_candidates(const std::vector<Candidate>& candidates, const DurationRa
     kept += (here | axes_in(b - 1)) == every_axis || (here | axes_in(b + 1)) == every_axis ? 1U : 0U;
   }
   sorted.resize(kept);
-  sort_by_duration(sorted, spare);
+  sort_by_duration(sorted, spare, shortest, longest);
 }
 
 // Scratch buffers of one thread's plans, reused: planning allocates only for its result once they
@@ -263,8 +280,9 @@ void matching_round(const SyncPlan& plan, std::size_t axis, const DriveMotion& d
     velocities.erase(std::unique(velocities.begin(), velocities.end()), velocities.end());
   }
   const double distance = std::abs(static_cast<double>(plan.axes[axis].distance_counts()));
+  const double ramp_time_per_velocity = half_inverse_ramps(desired);
   for (const double velocity : velocities) {
-    const auto matching = duration_matching(distance, plan.duration_s(), velocity, desired);
+    const auto matching = duration_matching(distance, plan.duration_s(), velocity, desired, ramp_time_per_velocity);
     if (!matching) continue;
     // The ramps were fitted to this velocity only; its neighbours are already in the first round.
     round(DriveMotion{velocity, std::min(matching->acceleration_counts_per_s2, caps.acceleration),
@@ -346,14 +364,24 @@ std::size_t ramp_terms(const GridRamp* ramps, std::size_t count, double velocity
   return usable_count;
 }
 
+// The same terms at another velocity (ramps shared by the blocks of a rate grid).
+void ramp_times(std::size_t count, double velocity, RampTerms* terms) {
+  for (std::size_t j = 0; j < count; ++j) {
+    if (terms[j].usable) terms[j].time = velocity / terms[j].rate;
+  }
+}
+
 // Appends to w.candidates every setting of blocks [first, w.blocks.size()) within `caps`, with the
 // duration of the drive's own trapezoid over `distance`: time_optimal_shape(...).duration_s() bit
 // for bit (the same operations in the same order), but each ramp's reciprocal and ramp time
 // computed once per block rather than once per setting.
 AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axis, double distance,
                               const AxisCaps& caps, double planned_s) {
-  AxisDurations out;
-  double nearest_offset = 0.0;  // |out.nearest - planned_s|
+  // Kept in locals (registers), not in the result: they are updated for every setting.
+  double nearest = -1.0;
+  double shortest = std::numeric_limits<double>::infinity();
+  double longest = 0.0;
+  double nearest_offset = 0.0;  // |nearest - planned_s|
   // Written in place: room for every setting, cut back to those within the caps at the end.
   const std::size_t before = w.candidates.size();
   std::size_t most = before;
@@ -362,17 +390,30 @@ AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axi
   }
   w.candidates.resize(most);
   Candidate* next = w.candidates.data() + before;
-  std::array<RampTerms, kMaxBlockRamps> accelerations{};
-  std::array<RampTerms, kMaxBlockRamps> decelerations{};
+  // Not cleared: ramp_terms() writes a block's before any is read.
+  std::array<RampTerms, kMaxBlockRamps> accelerations;  // NOLINT(cppcoreguidelines-pro-type-member-init)
+  std::array<RampTerms, kMaxBlockRamps> decelerations;  // NOLINT(cppcoreguidelines-pro-type-member-init)
+  // The terms above are those of the ramps at w.ramps[terms_of ...]; a block that shares them
+  // (same first ramp: a rate grid's) recomputes only the ramp times.
+  std::uint32_t terms_of = std::numeric_limits<std::uint32_t>::max();
+  std::size_t usable_accelerations = 0;
+  std::size_t usable_decelerations = 0;
   for (std::size_t k = first; k < w.blocks.size(); ++k) {
     const GridBlock& block = w.blocks[k];
     const double v = block.velocity_counts_per_s;
     if (!usable(v, caps.velocity)) continue;
-    const GridRamp* ramps = w.ramps.data() + block.first_ramp;
-    if (ramp_terms(ramps, block.accelerations, v, caps.acceleration, accelerations.data()) == 0 ||
-        ramp_terms(ramps + block.accelerations, block.decelerations, v, caps.deceleration, decelerations.data()) == 0) {
-      continue;
+    if (block.first_ramp != terms_of) {
+      terms_of = block.first_ramp;
+      const GridRamp* ramps = w.ramps.data() + block.first_ramp;
+      usable_accelerations = ramp_terms(ramps, block.accelerations, v, caps.acceleration, accelerations.data());
+      usable_decelerations = usable_accelerations == 0 ? 0
+                                                       : ramp_terms(ramps + block.accelerations, block.decelerations, v,
+                                                                    caps.deceleration, decelerations.data());
+    } else if (usable_accelerations != 0 && usable_decelerations != 0) {
+      ramp_times(block.accelerations, v, accelerations.data());
+      ramp_times(block.decelerations, v, decelerations.data());
     }
+    if (usable_accelerations == 0 || usable_decelerations == 0) continue;
     const double half_v_squared = 0.5 * v * v;
     const auto key = static_cast<std::uint32_t>(k << kBlockShift);
     for (std::uint32_t ja = 0; ja < block.accelerations; ++ja) {
@@ -388,18 +429,19 @@ AxisDurations evaluate_blocks(Workspace& w, std::size_t first, std::uint32_t axi
         // A setting too slow for its duration to be a number (a velocity scaled down to a
         // denormal: the distance over it overflows) is no candidate.
         if (!std::isfinite(duration_s)) continue;
-        out.shortest = std::min(out.shortest, duration_s);
-        out.longest = std::max(out.longest, duration_s);
+        shortest = std::min(shortest, duration_s);
+        longest = std::max(longest, duration_s);
         const double offset = std::abs(duration_s - planned_s);
-        const bool nearer = out.nearest < 0.0 || offset < nearest_offset;
-        out.nearest = nearer ? duration_s : out.nearest;
+        // Both compared (no short circuit): a select, not a branch the data decides.
+        const bool nearer = (nearest < 0.0) | (offset < nearest_offset);
+        nearest = nearer ? duration_s : nearest;
         nearest_offset = nearer ? offset : nearest_offset;
         *next++ = Candidate{duration_s, axis, key | (ja << kRampBits) | jd};
       }
     }
   }
   w.candidates.resize(static_cast<std::size_t>(next - w.candidates.data()));
-  return out;
+  return {nearest, shortest, longest};
 }
 
 // The setting a candidate stands for.
@@ -464,7 +506,7 @@ std::optional<PlanFailure> quantize_plan_into(const SyncPlan& plan, std::span<co
     const AxisCaps caps = hard_limits(plan, static_cast<Eigen::Index>(i));
     const std::size_t candidates_first = w.candidates.size();
     const std::size_t blocks_first = w.blocks.size();
-    const auto* grid = dynamic_cast<const GridQuantizer*>(quantizers[i]);
+    const GridQuantizer* grid = quantizers[i]->as_grid();
     if (grid != nullptr && options.neighbours <= kMaxBlockNeighbours) {
       axis_blocks(plan, i, *grid, options, caps, w);
     } else {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <utility>
@@ -28,7 +29,10 @@ std::int64_t at_or_below_index(double desired, double guess, bool increasing, st
   const auto lowest = min_steps - 1;
   const auto highest = max_steps + 1;
   const double clamped = std::clamp(guess, static_cast<double>(lowest), static_cast<double>(highest));
-  auto at_or_below = static_cast<std::int64_t>(increasing ? std::floor(clamped) : std::ceil(clamped));
+  // clamped >= lowest >= 0: truncation is the floor, and the ceiling one above it when not exact
+  // (cheaper than std::floor / std::ceil without SSE4.1).
+  auto at_or_below = static_cast<std::int64_t>(clamped);
+  if (!increasing && static_cast<double>(at_or_below) < clamped) ++at_or_below;
   const std::int64_t toward_lower_value = increasing ? -1 : +1;
   const auto inside = [&](std::int64_t n) { return n >= lowest && n <= highest; };
   while (inside(at_or_below + toward_lower_value) && value_of(at_or_below) > desired) at_or_below += toward_lower_value;
@@ -60,11 +64,13 @@ struct Bracket {
 // velocity, first, accelerations, decelerations)` is called with where they start and how many
 // there are (neither none: a velocity without is skipped and its ramps removed); with
 // `only_velocity`, only the velocity equal to it (the velocity loop runs as for candidates(), the
-// ramps only for that one).
+// ramps only for that one). With `share_rates`, the velocities of a rate grid (whose ramps do not
+// depend on the velocity) are all visited with the ramps appended for the first: `ramps` must then
+// keep them from visit to visit.
 template <typename Visit>
 void grid_blocks(const VelocityGrid& velocity_grid, const AccelerationGrid& acceleration_grid,
-                 const DriveMotion& desired, int neighbours, const double* only_velocity, std::vector<GridRamp>& ramps,
-                 Visit&& visit) {
+                 const DriveMotion& desired, int neighbours, const double* only_velocity, bool share_rates,
+                 std::vector<GridRamp>& ramps, Visit&& visit) {
   neighbours = std::max(neighbours, 1);
   const double v_step = velocity_grid.counts_per_s_per_step;
   const double a_step = acceleration_grid.step;
@@ -82,11 +88,18 @@ void grid_blocks(const VelocityGrid& velocity_grid, const AccelerationGrid& acce
                                              velocity_grid.max_steps, velocity_of),
                            -1, neighbours, velocity_grid.min_steps, velocity_grid.max_steps};
 
+  std::optional<std::size_t> shared_first;  // share_rates: where the first velocity's ramps start
+  std::size_t shared_accelerations = 0;
+  std::size_t shared_decelerations = 0;
   for (int jv = 0; jv < velocities.size(); ++jv) {
     const std::int64_t v_native = velocities.index(jv);
     if (v_native == 0) continue;
     const double velocity = velocity_of(v_native);
     if (only_velocity != nullptr && velocity != *only_velocity) continue;
+    if (shared_first) {
+      visit(v_native, velocity, *shared_first, shared_accelerations, shared_decelerations);
+      continue;
+    }
     // The speed change a ramp covers (ramp time only).
     const double ramp_span = velocity - acceleration_grid.ramp_from;
     // No ramp (the drive steps to this speed); the relative margin absorbs the rounding of a grid
@@ -114,7 +127,14 @@ void grid_blocks(const VelocityGrid& velocity_grid, const AccelerationGrid& acce
     const std::size_t decelerations = append(bracket(desired.deceleration_counts_per_s2));
     if (accelerations == 0 || decelerations == 0) {
       ramps.resize(first);
+      // A rate grid's other velocities have the same ramps: none.
+      if (share_rates && !ramp_time) return;
       continue;
+    }
+    if (share_rates && !ramp_time) {
+      shared_first = first;
+      shared_accelerations = accelerations;
+      shared_decelerations = decelerations;
     }
     visit(v_native, velocity, first, accelerations, decelerations);
   }
@@ -125,7 +145,7 @@ void grid_candidates(const VelocityGrid& velocity_grid, const AccelerationGrid& 
                      const DriveMotion& desired, int neighbours, const double* only_velocity,
                      std::vector<DriveSetting>& out) {
   thread_local std::vector<GridRamp> ramps;
-  grid_blocks(velocity_grid, acceleration_grid, desired, neighbours, only_velocity, ramps,
+  grid_blocks(velocity_grid, acceleration_grid, desired, neighbours, only_velocity, false, ramps,
               [&](std::int64_t v_native, double velocity, std::size_t first, std::size_t accelerations,
                   std::size_t decelerations) {
                 const std::span<const GridRamp> block(ramps.data() + first, accelerations + decelerations);
@@ -171,7 +191,7 @@ void GridQuantizer::candidates_at_velocity(const DriveMotion& desired, int neigh
 void GridQuantizer::blocks(const DriveMotion& desired, int neighbours, bool at_velocity, std::vector<GridBlock>& blocks,
                            std::vector<GridRamp>& ramps) const {
   grid_blocks(velocity_, acceleration_, desired, neighbours, at_velocity ? &desired.velocity_counts_per_s : nullptr,
-              ramps,
+              true, ramps,
               [&](std::int64_t v_native, double velocity, std::size_t first, std::size_t accelerations,
                   std::size_t decelerations) {
                 blocks.push_back(GridBlock{v_native, velocity, static_cast<std::uint32_t>(first),

@@ -59,7 +59,20 @@ std::optional<PlanFailure> check_axis(std::size_t index, const AxisRequest& axis
   return std::nullopt;
 }
 
-std::int64_t to_counts(double user, double counts_per_user) { return std::llround(user * counts_per_user); }
+// std::llround(user * counts_per_user) bit for bit, without the library call: check_axis() keeps
+// the counts within 2^53, where truncation and the fraction it leaves are exact, so rounding half
+// away from zero by hand is exact too.
+std::int64_t to_counts(double user, double counts_per_user) {
+  const double counts = user * counts_per_user;
+  auto whole = static_cast<std::int64_t>(counts);
+  const double fraction = counts - static_cast<double>(whole);
+  if (fraction >= 0.5) {
+    ++whole;
+  } else if (fraction <= -0.5) {
+    --whole;
+  }
+  return whole;
+}
 
 // min over moving axes of limit_i / |distance_i|: the cap of s(t) that keeps every axis in limits.
 template <typename Limits, typename Distances>

@@ -40,7 +40,7 @@ std::error_code SocketCanCyclic::open(std::string_view interface) {
 
 void SocketCanCyclic::close() { detail::UniqueFd(std::exchange(fd_, -1)).reset(); }
 
-std::error_code SocketCanCyclic::setup(const Frame& frame, std::chrono::microseconds period, bool restart_timer) {
+std::error_code SocketCanCyclic::setup(const Frame& frame, std::chrono::microseconds period, Timer timer) {
   if (fd_ < 0) return socketcan_error(interface_, EBADF);
   can_frame raw{};
   if (!detail::to_kernel_frame(frame, raw) || period.count() <= 0) return socketcan_error(interface_, EINVAL);
@@ -49,9 +49,13 @@ std::error_code SocketCanCyclic::setup(const Frame& frame, std::chrono::microsec
   head.opcode = TX_SETUP;
   head.can_id = detail::kernel_id(frame.id, frame.extended);
   head.nframes = 1;
-  if (restart_timer) {
+  if (timer == Timer::kRestart) {
     // count 0: ival2 from the start; TX_ANNOUNCE: first frame right away.
     head.flags = SETTIMER | STARTTIMER | TX_ANNOUNCE;
+    head.ival2 = to_bcm_timeval(period);
+  } else if (timer == Timer::kSet) {
+    // A new ival2 without STARTTIMER: the running timer re-arms with it at its next run.
+    head.flags = SETTIMER;
     head.ival2 = to_bcm_timeval(period);
   }
   BcmMessage message(head);
@@ -61,15 +65,23 @@ std::error_code SocketCanCyclic::setup(const Frame& frame, std::chrono::microsec
 }
 
 std::error_code SocketCanCyclic::start(const Frame& frame, std::chrono::microseconds period) {
-  if (auto ec = setup(frame, period, true)) return ec;
+  if (auto ec = setup(frame, period, Timer::kRestart)) return ec;
   jobs_[{frame.id, frame.extended}] = Job{frame, period};
+  return {};
+}
+
+std::error_code SocketCanCyclic::set_period(std::uint32_t id, bool extended, std::chrono::microseconds period) {
+  const auto job = jobs_.find({id, extended});
+  if (job == jobs_.end()) return socketcan_error(interface_, ENOENT);
+  if (auto ec = setup(job->second.frame, period, Timer::kSet)) return ec;
+  job->second.period = period;
   return {};
 }
 
 std::error_code SocketCanCyclic::update(const Frame& frame) {
   const auto job = jobs_.find({frame.id, frame.extended});
   if (job == jobs_.end()) return socketcan_error(interface_, ENOENT);
-  if (auto ec = setup(frame, job->second.period, false)) return ec;
+  if (auto ec = setup(frame, job->second.period, Timer::kKeep)) return ec;
   job->second.frame = frame;
   return {};
 }
@@ -92,7 +104,7 @@ std::error_code SocketCanCyclic::reopen() {
   if (auto ec = detail::open_can_socket(interface_, CAN_BCM, fd, ifindex)) return ec;
   fd_ = fd.release();
   for (const auto& [key, job] : jobs_) {
-    if (auto ec = setup(job.frame, job.period, true)) return ec;
+    if (auto ec = setup(job.frame, job.period, Timer::kRestart)) return ec;
   }
   return {};
 }

@@ -76,12 +76,18 @@ std::optional<std::string> uim342(Model& m, const config::Drive& drive, const co
   } else {
     rate(m, u::acceleration_from_wire(1, unit), ramp->min, ramp->max);
   }
-  const int target = drive.group_id != 0 ? drive.group_id : drive.node_id;
-  const auto frame = u::instruction_frame(static_cast<std::uint8_t>(target), u::request::begin());
-  if (!frame.ok()) return "no BG frame to " + std::to_string(target);
-  const double wire = micros(can::frame_duration(*frame, static_cast<std::uint32_t>(bus.bitrate)));
-  add_start(m, drive.group_id != 0 ? Model::START_UIM342_GROUP_BG : Model::START_SINGLE, target, wire);
-  return std::nullopt;
+  // BG (manual §5.11) to the group id, which every member accepts (§1, CAN IDs), and to the drive
+  // alone: a move that holds only part of the group starts its members one BG each.
+  const auto bg = [&](int target, std::int8_t kind) -> std::optional<std::string> {
+    const auto frame = u::instruction_frame(static_cast<std::uint8_t>(target), u::request::begin());
+    if (!frame.ok()) return "no BG frame to " + std::to_string(target);
+    add_start(m, kind, target, micros(can::frame_duration(*frame, static_cast<std::uint32_t>(bus.bitrate))));
+    return std::nullopt;
+  };
+  if (drive.group_id != 0) {
+    if (auto why = bg(drive.group_id, Model::START_UIM342_GROUP_BG)) return why;
+  }
+  return bg(drive.node_id, Model::START_SINGLE);
 }
 
 std::optional<std::string> uc57(Model& m, const config::Drive& drive, const config::Bus& bus,

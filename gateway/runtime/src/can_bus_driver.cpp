@@ -97,8 +97,18 @@ CanStackContext CanBusDriver::context() {
     return true;
   };
   ctx.start_frame = [this](std::int64_t command_id, const can::Frame& frame) {
+    if (CyclicJob* job = cyclic_job(frame); job != nullptr && job->running && job->first_pending) {
+      job->start_commands.push_back(command_id);  // the job's first frame, sent by the kernel
+      cyclic_starts_.insert(command_id);
+      return;
+    }
     if (own_echo_) echoes_.mark_start(command_id, frame);
   };
+  if (cyclic_) {
+    ctx.start_cyclic = [this](const can::Frame& frame, Duration period) { return start_cyclic(frame, period); };
+    ctx.stop_cyclic = [this](const can::Frame& frame) { stop_cyclic(frame); };
+    ctx.retime_cyclic = [this](const can::Frame& frame, Duration interval) { return retime_cyclic(frame, interval); };
+  }
   return ctx;
 }
 
@@ -120,6 +130,7 @@ void CanBusDriver::on_readable() {
   const int fd_before = transport_->fd();
   std::vector<std::pair<std::int64_t, std::int64_t>> started;
   while (auto frame = transport_->receive()) {
+    if (!cyclic_jobs_.empty() && take_cyclic(*frame, now)) continue;
     if (own_echo_ && echoes_.on_receive(*frame, wall_time_us(), started)) {
       for (const auto& [command_id, at] : started) release_started(command_id, at);
       started.clear();
@@ -138,6 +149,7 @@ void CanBusDriver::on_readable() {
     loop_.unwatch(fd_before);
     if (transport_->fd() >= 0) loop_.watch(transport_->fd(), [this] { on_readable(); });
   }
+  reopen_cyclic_if_recreated();
   reschedule();
 }
 
@@ -248,7 +260,7 @@ void CanBusDriver::emit_started(motionlcm::gateway_reply_t reply) {
     out_.command_reply(std::move(reply));
     return;
   }
-  if (!echoes_.working() || !echoes_.awaiting(id)) {
+  if ((!echoes_.working() || !echoes_.awaiting(id)) && !cyclic_starts_.contains(id)) {
     echoes_.forget(id);
     out_.command_reply(std::move(reply));  // no echo to wait for: dated at the hand-off
     return;
@@ -257,6 +269,7 @@ void CanBusDriver::emit_started(motionlcm::gateway_reply_t reply) {
   held.reply = std::move(reply);
   held.fallback = loop_.call_after(kEchoWait, [this, id] {
     echoes_.forget(id);
+    cyclic_starts_.erase(id);
     release_started(id, 0);
   });
 }

@@ -73,6 +73,15 @@ std::unique_ptr<can::Transport> open_can_transport(const config::Config& config,
   return nullptr;
 }
 
+std::unique_ptr<can::SocketCanCyclic> open_cyclic_sender(const config::Bus& bus, std::error_code& error) {
+  error.clear();
+  if (bus.kind != config::TransportKind::kSocketCan || !bus.kernel_sync) return nullptr;
+  auto cyclic = std::make_unique<can::SocketCanCyclic>();
+  error = cyclic->open(bus.target);
+  if (error) return nullptr;
+  return cyclic;
+}
+
 std::string open_error_message(const config::Config& config, const config::Bus& bus, std::error_code error) {
   std::string out = "bus " + bus.name + " (" + bus.transport + "): ";
   if (bus.kind == config::TransportKind::kSimCan) {

@@ -55,8 +55,25 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
   asked_period_ = sync_period_;
   plan_stagger();
   fit_sync_period();
-  // Staggered: the stack paces each SYNC itself (sync_due); the producer only sends on demand.
+  // Staggered: the stack paces each SYNC itself (sync_due); the producer only sends on demand,
+  // and the kernel's periodic job (kernel_sync), which cannot wait for the wire, is not used.
   master_.configure_sync({stagger_g_ > 0 ? Duration::zero() : sync_period_, 0, canopen::kSyncCobId});
+  if (context_.start_cyclic && context_.stop_cyclic && stagger_g_ == 0) {
+    // kernel_sync: the kernel sends the periodic SYNC; the producer keeps its schedule and
+    // counts the SYNCs seen on the wire (on_cyclic_sent).
+    master_.sync()->use_cyclic_sender(
+        {[this](const can::Frame& frame, Duration period) {
+           if (!context_.start_cyclic(frame, period)) return false;
+           wire_sent_ += can::frame_duration(frame, bitrate_);  // its first SYNC goes out now
+           last_sync_end_ = wire_sent_;
+           return true;
+         },
+         [this] { context_.stop_cyclic(canopen::encode_sync({}, canopen::kSyncCobId)); },
+         [this](Duration interval) {
+           return context_.retime_cyclic &&
+                  context_.retime_cyclic(canopen::encode_sync({}, canopen::kSyncCobId), interval);
+         }});
+  }
 }
 
 Uc57Stack::~Uc57Stack() = default;
@@ -149,6 +166,11 @@ bool Uc57Stack::on_frame(const can::Frame& frame, TimePoint now) {
   }
 }
 
+void Uc57Stack::on_cyclic_sent(const can::Frame& frame, TimePoint now) {
+  now_ = now;
+  if (!frame.extended && frame.id == canopen::kSyncCobId) master_.sync()->on_cyclic_sync(now);
+}
+
 TimePoint Uc57Stack::process(TimePoint now) {
   now_ = now;
   if (!started_) return kNever;
@@ -232,6 +254,9 @@ void Uc57Stack::masked_sync(TimePoint now, const std::function<void()>& sync) {
     node.preloaded = false;
     if (node.phase == Node::Phase::kOperational && node.task == TaskKind::kArmed) keep.push_back(n);
   }
+  // Start images going back into drives after this SYNC: the loop sends the periodic SYNCs (each
+  // masked like this one) until none waits; otherwise the kernel's job may send them.
+  master_.sync()->hold_cyclic(!keep.empty(), now);
   sync();
   for (const std::size_t n : keep) send_preload(n);
 }

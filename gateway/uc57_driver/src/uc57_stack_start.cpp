@@ -73,6 +73,9 @@ void Uc57Stack::send_preload(std::size_t n) {
   Node& node = *nodes_[n];
   RpdoImage image = node.image;  // the armed image as sent: target, mode, bit 4 = 0
   image.controlword = cia402::profile_position_controlword({}, true, false);  // 0x1F: absolute, new set-point
+  // A SYNC applies it: the kernel's periodic SYNC (kernel_sync) stops before it goes out; the
+  // loop's SYNCs are masked (masked_sync) until the trigger.
+  master_.sync()->hold_cyclic(true, now_);
   if (!context_.send || !context_.send(encode_rpdo1(node.settings.node, node.layout, image))) {
     ++counters_.protocol_errors;
     return;  // not in the drive: fire() sends it before the SYNC

@@ -104,7 +104,10 @@ void Uim342Stack::Impl::finish(std::int64_t id, Lifecycle terminal, std::int32_t
   if (!c) return;  // ended before (its one terminal reply went out then)
   for (const auto i : c->nodes) {
     Node& n = nodes[i];
-    if (n.move == id) n.move = 0;
+    if (n.move == id) {
+      n.move = 0;
+      n.power.travel_ended();
+    }
     // Queued (unsent) requests of this command are dropped; an outstanding one runs out.
     std::erase_if(n.queue, [id](const Request& r) { return r.command_id == id && !r.sent; });
     if (n.homing.command == id) {
@@ -434,6 +437,12 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
     }
     publish(n, now);
   } else if (const auto* reached = std::get_if<uim342::PositionReachedNotification>(&notification)) {
+    // The drive's own counter at rest: a sample like a poll's, judged while its move is still the
+    // current one, so a move to 0 that ran whole between two polls arrives (PowerUpWatch).
+    if (auto why = powered_up(n, uim342::MotionKinematics{0, reached->position}, now)) {
+      on_power_cycle(i, *why, now);
+      return;
+    }
     n.status.position_counts = reached->position + n.offset;
     n.status.position_read = true;
     n.status.in_position = true;

@@ -170,6 +170,9 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
         nodes[i].move = id;
         nodes[i].bg_acked = false;
         nodes[i].status.target_counts = c.data.targets.at(i);
+        // Polled slowly (many drives, a busy bus), the whole move may run between two samples:
+        // arriving at counter 0 is then not a power-up (PowerUpWatch).
+        nodes[i].power.travel_started(c.data.targets.at(i) - nodes[i].offset);
       }
       return std::nullopt;
     case gateway_command_t::JOG:

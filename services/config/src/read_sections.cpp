@@ -54,9 +54,10 @@ void read_uimessage_keys(Reader& r, const YAML::Node& node, const std::string& p
 }  // namespace
 
 void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& bus) {
-  if (!r.check_map(node, path,
-                   {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits", "uimessage_crc",
-                    "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz", "realtime_priority"}))
+  if (!r.check_map(
+          node, path,
+          {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits", "uimessage_crc",
+           "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz", "realtime_priority", "kernel_sync"}))
     return;
   bus.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "name", true)) bus.name = *v;
@@ -127,6 +128,14 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
     if (*v < 0 || *v > 99)
       r.error(node["realtime_priority"], path + ".realtime_priority",
               "expected 0 (normal scheduling) or a SCHED_FIFO priority 1..99, got " + std::to_string(*v));
+  }
+  if (auto v = r.get<bool>(node, path, "kernel_sync", false)) {
+    bus.kernel_sync = *v;
+    if (bus.kind != TransportKind::kSocketCan && !bus.transport.empty()) {
+      r.error(
+          node["kernel_sync"], path + ".kernel_sync",
+          "only for socketcan: buses (the kernel's CAN_BCM sends the periodic SYNC), but this bus is " + bus.transport);
+    }
   }
 }
 

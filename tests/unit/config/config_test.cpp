@@ -346,6 +346,21 @@ TEST(Config, RealtimePriorityIsOffOrASchedFifoPriority) {
   expect_single_error(with("-1"), 7, "buses[0].realtime_priority", "1..99, got -1");
 }
 
+TEST(Config, KernelSyncIsOnForSocketCanBusesAndOnlyForThem) {
+  const std::string socketcan = replace(kValid, "transport: simcan:can0", "transport: socketcan:can0");
+  const auto plain = load_string(socketcan, "lab.yaml");
+  ASSERT_TRUE(plain.ok()) << plain.error_text();
+  EXPECT_TRUE(plain.config->buses[0].kernel_sync) << "the kernel sends the SYNC unless told not to";
+  const auto with = [](const std::string& yaml, const std::string& value) {
+    return replace(yaml, "    bitrate: 500000\n", "    bitrate: 500000\n    kernel_sync: " + value + "\n");
+  };
+  const auto off = load_string(with(socketcan, "false"), "lab.yaml");
+  ASSERT_TRUE(off.ok()) << off.error_text();
+  EXPECT_FALSE(off.config->buses[0].kernel_sync);
+  expect_single_error(with(kValid, "true"), 7, "buses[0].kernel_sync", "only for socketcan: buses");
+  expect_single_error(with(socketcan, "sometimes"), 7, "buses[0].kernel_sync", "");
+}
+
 TEST(Config, UnknownTransportIsRefused) {
   expect_single_error(replace(kValid, "transport: simcan:can0", "transport: pcan:can0"), 5, "buses[0].transport",
                       "unknown transport");

@@ -100,6 +100,14 @@ axes:
   };
   using M = motionlcm::drive_model_t;
   const auto bg = start_wire_us(model("x"), M::START_UIM342_GROUP_BG);
+  // A member of a group also offers a BG of its own (to its node id), which a move holding only
+  // part of its group uses: the same frame length.
+  const auto own_bg = start_wire_us(model("x"), M::START_SINGLE);
+  ASSERT_TRUE(own_bg);
+  EXPECT_GT(*own_bg, 0.0);
+  EXPECT_DOUBLE_EQ(*own_bg, *bg);
+  const auto& x = model("x");
+  EXPECT_EQ(x.start_addresses, (std::vector<std::int32_t>{20, 5}));
   const auto sync = start_wire_us(model("a"), M::START_CANOPEN_SYNC);
   const auto broadcast = start_wire_us(model("c"), M::START_ADAM_BROADCAST);
   ASSERT_TRUE(bg && sync && broadcast);

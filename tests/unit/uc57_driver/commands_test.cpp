@@ -192,6 +192,51 @@ TEST(Uc57Commands, PreloadedStartSurvivesPeriodicSyncsAndADisarmWithdrawsIt) {
   EXPECT_EQ(*last, "201#0F0000000000");
 }
 
+// kernel_sync: the kernel's job sends the periodic SYNC; it stops before a start image goes into a
+// drive (the loop's masked SYNCs take over) and the trigger's SYNC starts it again.
+TEST(Uc57Commands, KernelSyncStopsWhileAStartImageWaitsAndItsTriggerSyncStartsTheMove) {
+  Bench bench(kLabYaml, {}, true);
+  bench.start_ready();
+  EXPECT_TRUE(bench.stack->kernel_sync_running());
+  const auto count = [&](const std::string& text, std::size_t from) {
+    return static_cast<std::size_t>(
+        std::count(bench.wire_log.begin() + static_cast<std::ptrdiff_t>(from), bench.wire_log.end(), text));
+  };
+  EXPECT_EQ(count("080#", 0), 0U) << "no SYNC of the loop's while the kernel's job runs";
+  EXPECT_GE(count("BCM 080#", 0), 10U);
+  enable(bench, {"a", "b"});
+  const std::size_t before_arm = bench.wire_log.size();
+  const auto c = arm(bench, {{"a", 10000}, {"b", -3200}}, 7);
+  bench.run_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(bench.replies_of(c.command_id).size(), 1U);  // ARMED
+  const auto from_arm = [&](const std::string& text) {
+    return std::find(bench.wire_log.begin() + static_cast<std::ptrdiff_t>(before_arm), bench.wire_log.end(), text);
+  };
+  ASSERT_NE(from_arm("201#1F0010270000"), bench.wire_log.end()) << "node 1's start image";
+  EXPECT_LT(from_arm("BCM stop"), from_arm("201#1F0010270000")) << "the kernel's job stops before it goes out";
+  EXPECT_EQ(std::find(from_arm("BCM stop"), bench.wire_log.end(), "BCM 080#"), bench.wire_log.end());
+  EXPECT_FALSE(bench.stack->kernel_sync_running());
+  EXPECT_GE(count("080#", before_arm), 2U) << "the loop's (masked) periodic SYNCs";
+  EXPECT_FALSE(bench.node(1).move_started_at_sync);
+
+  // The trigger: the start's SYNC is the kernel's restarted job (the period from it on).
+  const std::size_t before_fire = bench.wire_log.size();
+  bench.stack->fire(7, bench.now);
+  EXPECT_EQ(
+      std::vector<std::string>(bench.wire_log.begin() + static_cast<std::ptrdiff_t>(before_fire), bench.wire_log.end()),
+      (std::vector<std::string>{"BCM start", "BCM 080#"}));
+  bench.settle();
+  ASSERT_TRUE(bench.node(1).move_started_at_sync);
+  EXPECT_EQ(bench.node(1).move_started_at_sync, bench.node(2).move_started_at_sync);
+  bench.run_for(std::chrono::milliseconds(600));
+  EXPECT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE));
+  EXPECT_EQ(bench.node(1).value(0x6064), 10000);
+  EXPECT_EQ(bench.node(2).value(0x6064), -3200);
+  EXPECT_TRUE(bench.stack->kernel_sync_running());
+  // Every SYNC on the wire, the kernel's and the loop's, was counted.
+  EXPECT_EQ(bench.stack->syncs_sent(), count("080#", 0) + count("BCM 080#", 0));
+}
+
 TEST(Uc57Commands, NoPeriodicSyncJustBeforeAScheduledStart) {
   Bench bench;
   bench.start_ready();

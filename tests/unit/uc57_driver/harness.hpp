@@ -7,6 +7,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -44,7 +45,9 @@ class Bench : public gateway::GatewayOutput {
  public:
   // `edit` changes the loaded configuration before the stack is built (e.g. a set-up value the
   // loader would refuse, to test the stack's own check).
-  explicit Bench(const std::string& yaml = kLabYaml, const std::function<void(config::Config&)>& edit = {}) {
+  // `kernel_sync`: the context offers a cyclic sender (start_cyclic...), simulated below.
+  explicit Bench(const std::string& yaml = kLabYaml, const std::function<void(config::Config&)>& edit = {},
+                 bool kernel_sync = false) {
     auto loaded = config::load_string(yaml, "bench.yaml");
     if (!loaded.ok()) throw std::runtime_error(loaded.error_text());
     config_ = *loaded.config;
@@ -56,8 +59,26 @@ class Bench : public gateway::GatewayOutput {
     context.send = [this](const can::Frame& frame) {
       sent.push_back(frame);
       wire.push_back(frame);
+      wire_log.push_back(can::to_cansend(frame));
       return true;
     };
+    if (kernel_sync) {
+      context.start_cyclic = [this](const can::Frame& frame, Duration interval) {
+        kernel_job = KernelJob{frame, interval, now + interval};
+        wire_log.emplace_back("BCM start");
+        kernel_send(frame);  // TX_ANNOUNCE: the first frame at once
+        return true;
+      };
+      context.stop_cyclic = [this](const can::Frame&) {
+        kernel_job.reset();
+        wire_log.emplace_back("BCM stop");
+      };
+      context.retime_cyclic = [this](const can::Frame&, Duration interval) {
+        if (!kernel_job) return false;
+        kernel_job->interval = interval;
+        return true;
+      };
+    }
     Uc57Stack::Options options;
     options.wall_clock_us = [](TimePoint t) {
       return kWallOffsetUs + std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
@@ -75,10 +96,16 @@ class Bench : public gateway::GatewayOutput {
   }
 
   void settle() {
-    while (!wire.empty()) {
-      const can::Frame frame = wire.front();
-      wire.pop_front();
-      for (auto& fake : nodes) deliver(fake->on_frame(frame, now));
+    while (!wire.empty() || !kernel_echoes.empty()) {
+      if (!wire.empty()) {
+        const can::Frame frame = wire.front();
+        wire.pop_front();
+        for (auto& fake : nodes) deliver(fake->on_frame(frame, now));
+        continue;
+      }
+      const can::Frame echo = kernel_echoes.front();
+      kernel_echoes.pop_front();
+      stack->on_cyclic_sent(echo, now);
     }
   }
 
@@ -86,6 +113,10 @@ class Bench : public gateway::GatewayOutput {
   void run_for(Duration span) {
     const TimePoint end = now + span;
     for (;;) {
+      if (kernel_job && kernel_job->next <= now) {
+        kernel_send(kernel_job->frame);
+        kernel_job->next += kernel_job->interval;
+      }
       settle();
       TimePoint next = stack->process(now);
       settle();
@@ -94,6 +125,7 @@ class Bench : public gateway::GatewayOutput {
         next = std::min(next, fake->next_tick());
       }
       settle();
+      if (kernel_job) next = std::min(next, kernel_job->next);
       if (now >= end) break;
       next = std::min(std::max(next, now + std::chrono::microseconds(100)), end);
       now = next;
@@ -160,6 +192,25 @@ class Bench : public gateway::GatewayOutput {
     replies.push_back(std::move(reply));
     replied_after.push_back(status_log.size());
   }
+
+  // The kernel's cyclic job (kernel_sync benches): a CAN_BCM job without latency. Its frames go
+  // on the wire and come back to the stack (on_cyclic_sent) as the kernel loops them back.
+  struct KernelJob {
+    can::Frame frame;
+    Duration interval{};
+    TimePoint next = kNever;
+  };
+  void kernel_send(const can::Frame& frame) {
+    sent.push_back(frame);
+    wire.push_back(frame);
+    kernel_echoes.push_back(frame);
+    wire_log.push_back("BCM " + can::to_cansend(frame));
+  }
+  std::optional<KernelJob> kernel_job;
+  std::deque<can::Frame> kernel_echoes;
+  // Every frame sent, in order, as cansend text; the kernel's as "BCM 080#", with "BCM start" /
+  // "BCM stop" where its job started and stopped.
+  std::vector<std::string> wire_log;
 
   config::Config config_;
   std::vector<std::unique_ptr<FakeUc57>> nodes;

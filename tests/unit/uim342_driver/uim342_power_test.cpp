@@ -3,7 +3,9 @@
 //     SET_POSITION), which its answers alone cannot show: its power-on marker (MT[3] in RAM,
 //     manual §5.9) is gone, so its position is reported lost once, saying how it was found;
 //   - a drive that goes silent and answers again, or sits at 0 for a long time, keeps its marker:
-//     no power-up is reported.
+//     no power-up is reported;
+//   - a move to counter 0 that runs whole between two samples (a drive polled slowly) is that move
+//     arriving, not a power-up; once the move has ended, such a jump is one again.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -74,6 +76,36 @@ TEST_F(PowerRig, APowerCycleAfterSetPositionIsReportedToo) {
   rig.run_for(seconds(5));
   ASSERT_EQ(rig.out.lost.size(), 1U);
   EXPECT_TRUE(contains(rig.out.lost[0].second, "detected by its power-on marker")) << rig.out.lost[0].second;
+}
+
+// An ARM_MOVE of a0 to `counts`, started at once (trigger 0), run until its terminal reply.
+gateway_reply_t move_to(WireRig& rig, std::int64_t id, std::int64_t counts) {
+  gateway_command_t c{};
+  c.bus = "can0";
+  c.command_id = id;
+  c.kind = gateway_command_t::ARM_MOVE;
+  motionlcm::axis_command_t a{};
+  a.axis = "a0";
+  a.target_counts = counts;
+  a.velocity = 3200;  // 5 mm/s: 1280 counts in about 0.4 s
+  a.acceleration = 32000;
+  a.deceleration = 32000;
+  c.axes.push_back(a);
+  c.num_axes = 1;
+  rig.stack->execute(c, rig.now);
+  EXPECT_TRUE(rig.run_until([&] { return rig.terminal(id).has_value(); }, seconds(5)));
+  return rig.terminal(id).value_or(gateway_reply_t{});
+}
+
+TEST_F(PowerRig, AMoveToZeroRunWholeBetweenTwoSamplesIsNotAPowerUp) {
+  ASSERT_EQ(move_to(rig, 81, 1280).status, kDone);
+  rig.run_for(seconds(2));  // at rest at 1280, sampled
+  // Polled once a second: the move back to 0 (about 0.4 s) runs between two samples, which read
+  // 1280 at rest and then 0 at rest.
+  const auto back = move_to(rig, 82, 0);
+  EXPECT_EQ(back.status, kDone) << back.reason;
+  rig.run_for(seconds(3));
+  EXPECT_TRUE(rig.out.lost.empty()) << rig.out.lost.front().second;
 }
 
 // MT[3] reads the stack sent from `from` on.

@@ -38,6 +38,8 @@ struct DriveSetting {
   DriveMotion realized;
 };
 
+class GridQuantizer;
+
 class DriveQuantizer {
  public:
   virtual ~DriveQuantizer() = default;
@@ -51,6 +53,9 @@ class DriveQuantizer {
   // to `out` in the same order. The default filters candidates(); grids compute only those.
   virtual void candidates_at_velocity(const DriveMotion& desired, int neighbours, std::vector<DriveSetting>& out) const;
   [[nodiscard]] virtual std::string_view name() const = 0;
+  // This quantizer as a GridQuantizer, or null: the planner takes a grid's settings in blocks
+  // (a virtual call, cheaper than a dynamic_cast per axis and plan).
+  [[nodiscard]] virtual const GridQuantizer* as_grid() const { return nullptr; }
 
  protected:
   DriveQuantizer() = default;
@@ -118,7 +123,8 @@ struct GridRamp {
 
 // A grid's settings at one velocity: every acceleration with every deceleration, acceleration
 // first (the order candidates() lists them in). The ramps are ramps[first_ramp ...]: the
-// accelerations, then the decelerations.
+// accelerations, then the decelerations. The blocks of a rate grid (AccelerationGrid::Kind::kRate)
+// from one blocks() call share their ramps, which do not depend on the velocity.
 struct GridBlock {
   std::int64_t velocity_native = 0;
   double velocity_counts_per_s = 0.0;
@@ -141,6 +147,7 @@ class GridQuantizer : public DriveQuantizer {
   void blocks(const DriveMotion& desired, int neighbours, bool at_velocity, std::vector<GridBlock>& blocks,
               std::vector<GridRamp>& ramps) const;
   [[nodiscard]] std::string_view name() const override { return name_; }
+  [[nodiscard]] const GridQuantizer* as_grid() const final { return this; }
   [[nodiscard]] const VelocityGrid& velocity_grid() const { return velocity_; }
   [[nodiscard]] const AccelerationGrid& acceleration_grid() const { return acceleration_; }
 

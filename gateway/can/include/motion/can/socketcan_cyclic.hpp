@@ -41,6 +41,9 @@ class SocketCanCyclic {
   // no_such_file_or_directory when no job has this frame's identifier.
   std::error_code update(const Frame& frame);
   std::error_code stop(std::uint32_t id, bool extended);
+  // New interval (> 0) for a running job from its next timer run on: nothing sent now, the
+  // phase kept. no_such_file_or_directory when no job has this identifier.
+  std::error_code set_period(std::uint32_t id, bool extended, std::chrono::microseconds period);
   // Reopens the socket on the interface (after it was recreated) and restarts every job.
   std::error_code reopen();
 
@@ -53,7 +56,8 @@ class SocketCanCyclic {
   };
   using JobKey = std::pair<std::uint32_t, bool>;  // id, extended
 
-  std::error_code setup(const Frame& frame, std::chrono::microseconds period, bool restart_timer);
+  enum class Timer : std::uint8_t { kKeep, kSet, kRestart };  // payload only / new interval / restart now
+  std::error_code setup(const Frame& frame, std::chrono::microseconds period, Timer timer);
 
   std::string interface_;
   int fd_ = -1;

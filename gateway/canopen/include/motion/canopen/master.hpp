@@ -31,6 +31,7 @@ class Master {
   [[nodiscard]] EmcyConsumer& emcy() { return emcy_; }
   // nullptr until configure_sync().
   [[nodiscard]] SyncProducer* sync() { return sync_ ? &*sync_ : nullptr; }
+  [[nodiscard]] const SyncProducer* sync() const { return sync_ ? &*sync_ : nullptr; }
   // Replaces the SYNC producer (stopped; call sync()->start(now)).
   void configure_sync(const SyncProducerConfig& config);
 

@@ -13,6 +13,16 @@
 // command's start frames and carries their time on the wire as trigger_utime; echoes go to the
 // stacks' on_transmitted(), never to on_frame(). The stacks' deadlines run on a PreciseTimer (timerfd, absolute time), so a
 // SYNC period or a scheduled start keeps to the kernel's timer slack, not the loop's.
+// On a SocketCAN bus (use_cyclic()) the stacks may also hand periodic frames to the kernel's
+// broadcast manager (CAN_BCM; CanStackContext::start_cyclic): the kernel sends them, their period
+// owes nothing to the loop's wake-ups. The kernel loops each one back to the bus's CAN_RAW socket
+// (as it does every frame of the host's other sockets); a received frame equal to a job's frame,
+// while the job runs or stamped before its stop, is that job's: it goes to the stacks'
+// on_cyclic_sent(), never to on_frame() (a SYNC producer counts its SYNCs by them). A command
+// whose start frame is a job's first frame (the start SYNC) gets that frame's time as
+// trigger_utime, as with own echo. The jobs end with the driver (closing the BCM socket deletes
+// them, also when the process dies); after the interface was recreated the BCM socket is opened
+// again on it and its jobs restarted.
 // Thread contract: the loop's thread only.
 #pragma once
 
@@ -22,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "motion/can/socketcan_cyclic.hpp"
 #include "motion/can/transport.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/core/precise_timer.hpp"
@@ -44,6 +55,9 @@ class CanStack {
   // stack sees every echo. A stack that paces its frames by the wire (UIM342 polls) uses it to
   // hand the next one. Transports without own echo never call it. Default: nothing.
   virtual void on_transmitted(const can::Frame& /*frame*/, TimePoint /*now*/) {}
+  // A frame of a cyclic job (CanStackContext::start_cyclic) was on the wire: every stack sees
+  // each one. Default: nothing.
+  virtual void on_cyclic_sent(const can::Frame& /*frame*/, TimePoint /*now*/) {}
   // Timeouts, retries, polling; returns the next deadline or kNever.
   virtual TimePoint process(TimePoint now) = 0;
   // A command naming only this stack's axes; replies go through the stack's GatewayOutput.
@@ -68,6 +82,15 @@ struct CanStackContext {
   // the SYNC of synchronous RPDOs). The driver then dates the command's STARTED reply by the
   // frame's echo, i.e. when it was on the wire (TxEchoTracker), not when it was handed over.
   std::function<void(std::int64_t command_id, const can::Frame& frame)> start_frame;
+  // Optional (SocketCAN buses with kernel_sync on): periodic frames the kernel sends (CAN_BCM).
+  // start_cyclic sends `frame` now, then every `period` until stop_cyclic, replacing the job of
+  // the same identifier (new phase); false when refused (then no job of that identifier runs
+  // once stop_cyclic was called). Every frame of a job seen on the wire reaches
+  // CanStack::on_cyclic_sent. Empty on other buses.
+  std::function<bool(const can::Frame& frame, Duration period)> start_cyclic;
+  std::function<void(const can::Frame& frame)> stop_cyclic;
+  // The running job's interval from its next timer run on (nothing sent now); false: refused.
+  std::function<bool(const can::Frame& frame, Duration interval)> retime_cyclic;
 };
 
 class CanBusDriver final : public BusDriver {
@@ -75,6 +98,9 @@ class CanBusDriver final : public BusDriver {
   CanBusDriver(EventLoop& loop, std::string bus, std::unique_ptr<can::Transport> transport, GatewayOutput& out);
   ~CanBusDriver() override;
 
+  // The kernel's cyclic sender on this bus's interface (SocketCAN): the contexts given out after
+  // this call offer start_cyclic/stop_cyclic.
+  void use_cyclic(std::unique_ptr<can::SocketCanCyclic> cyclic);
   // The context a stack of this bus is constructed with (its replies are combined here).
   CanStackContext context();
   void add_stack(std::unique_ptr<CanStack> stack);
@@ -122,6 +148,22 @@ class CanBusDriver final : public BusDriver {
     motionlcm::gateway_reply_t reply;
     EventLoop::TimerId fallback = 0;
   };
+  // A kernel job (by its frame's identifier) and what tells its frames among those received.
+  struct CyclicJob {
+    can::Frame frame;
+    bool running = false;
+    std::int64_t started_us = 0;               // wall time just before its (re)start: its first frame is stamped after
+    std::int64_t stopped_us = 0;               // wall time just after its stop: frames stamped before are its own
+    bool first_pending = false;                // its first frame since the (re)start not seen yet
+    std::vector<std::int64_t> start_commands;  // commands that frame starts (their STARTED waits for it)
+  };
+  bool start_cyclic(const can::Frame& frame, Duration period);
+  void stop_cyclic(const can::Frame& frame);
+  bool retime_cyclic(const can::Frame& frame, Duration interval);
+  CyclicJob* cyclic_job(const can::Frame& frame);
+  // A received frame of one of the jobs: handed to the stacks (true), else false.
+  bool take_cyclic(const can::Frame& frame, TimePoint now);
+  void reopen_cyclic_if_recreated();
 
   EventLoop& loop_;
   std::string bus_;
@@ -141,6 +183,10 @@ class CanBusDriver final : public BusDriver {
   TxEchoTracker echoes_;
   std::map<std::int64_t, std::int64_t> echoed_starts_;  // command -> echo time, before its STARTED
   std::map<std::int64_t, Held> held_;                   // STARTED replies waiting for their echo
+  std::unique_ptr<can::SocketCanCyclic> cyclic_;        // SocketCAN: the BCM socket (nullptr: none)
+  std::vector<CyclicJob> cyclic_jobs_;
+  std::set<std::int64_t> cyclic_starts_;  // commands whose STARTED waits for a job's first frame
+  std::uint64_t seen_reopens_ = 0;        // the SocketCAN transport's reopens handled
 };
 
 }  // namespace motion::gateway

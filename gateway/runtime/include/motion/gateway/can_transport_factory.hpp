@@ -18,6 +18,7 @@
 #include <string>
 #include <system_error>
 
+#include "motion/can/socketcan_cyclic.hpp"
 #include "motion/can/transport.hpp"
 #include "motion/config/config.hpp"
 
@@ -38,6 +39,11 @@ enum class TransportError {
 // open_error_message() turns that into a line for users.
 [[nodiscard]] std::unique_ptr<can::Transport> open_can_transport(const config::Config& config, const config::Bus& bus,
                                                                  std::string label, std::error_code& error);
+
+// The kernel's cyclic sender (CAN_BCM) for a socketcan: bus with kernel_sync on (the default);
+// nullptr for other buses, with kernel_sync off, or when the BCM socket cannot be opened
+// (`error` set: e.g. a kernel without the can-bcm module; the loop then sends the periodic frames).
+[[nodiscard]] std::unique_ptr<can::SocketCanCyclic> open_cyclic_sender(const config::Bus& bus, std::error_code& error);
 
 // "bus can0 (simcan:can0): no simulated bus 'can0' at /tmp/x/motion-simbus-can0.sock: No such
 // file or directory (is motion-sim running with this configuration?)": the bus, its transport,

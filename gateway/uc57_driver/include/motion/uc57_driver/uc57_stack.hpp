@@ -110,6 +110,8 @@ class Uc57Stack final : public gateway::CanStack {
   [[nodiscard]] std::vector<std::string> axes() const override;
   void start(TimePoint now) override;
   bool on_frame(const can::Frame& frame, TimePoint now) override;
+  // A SYNC of the kernel's cyclic job (kernel_sync) was on the wire: counted (canopen::SyncProducer).
+  void on_cyclic_sent(const can::Frame& frame, TimePoint now) override;
   TimePoint process(TimePoint now) override;
   void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
   void fire(std::int64_t trigger_id, TimePoint now) override;
@@ -128,6 +130,11 @@ class Uc57Stack final : public gateway::CanStack {
   // The SYNC period in force: 1 / poll_hz, or longer when the nodes' synchronous TPDOs at that
   // rate would take more than kPollBusShare of the bus (fit_sync_period; said once at start()).
   [[nodiscard]] Duration sync_period() const { return sync_period_; }
+  // SYNCs put on the wire so far (by the loop, or seen from the kernel's cyclic job), and
+  // whether that job sends the periodic ones now (a socketcan: bus with kernel_sync on: the
+  // context's start_cyclic; handed back to the loop while a start image waits in a drive).
+  [[nodiscard]] std::uint64_t syncs_sent() const { return master_.sync()->sent(); }
+  [[nodiscard]] bool kernel_sync_running() const { return master_.sync()->cyclic(); }
   static constexpr double kPollBusShare = 0.75;
   // Staggered TPDOs (tpdo_mode staggered): what SYNC + its one answer + heartbeats may take.
   static constexpr double kStaggeredBusShare = 0.95;
