@@ -316,8 +316,8 @@ TimePoint Uc57Stack::next_sync_check() const {
 }
 
 void Uc57Stack::on_sync_handed() {
+  if (stagger_g_ == 0) return;  // type 1 / event only: the timer's SYNC, nothing to pace
   if (echoes_) syncs_in_flight_.push_back(syncs_handed_);
-  if (stagger_g_ == 0) return;
   sync_handed_at_ = now_;
   sync_awaiting_echo_ = true;
   // The answers this SYNC asks for: the staggered TPDOs of its slot, every type-1 node's TPDOs.
@@ -340,6 +340,7 @@ void Uc57Stack::on_sync_handed() {
 }
 
 void Uc57Stack::on_transmitted(const can::Frame& frame, TimePoint now) {
+  if (stagger_g_ == 0) return;
   now_ = now;
   echoes_ = true;
   spend_wire(frame, now);
@@ -350,7 +351,6 @@ void Uc57Stack::on_transmitted(const can::Frame& frame, TimePoint now) {
     syncs_on_wire_ = syncs_in_flight_.front();
     syncs_in_flight_.pop_front();
   }
-  if (stagger_g_ == 0) return;
   sync_awaiting_echo_ = !syncs_in_flight_.empty();
   answers_due_ = now + (answers_left_ + 2) * can::frame_duration(encode_tpdo2(1, {}), bitrate_);
 }
