@@ -1,6 +1,5 @@
 // The wire rig of the Uc57Stack polling tests (uc57_stagger_test.cpp) and of bench_canopen's
-// --staggered mode: the simulated bus's passive core (simbus::Bus: frames serialized for their
-// exact bit time, arbitration by identifier, own echo at end of frame) between the stack and
+// --staggered mode: the shared bit-timed loop (../common/can_wire_loop.hpp) between the stack and
 // simulated UC57 drives (sim::Uc57DriveSim, answering at once), on a simulated clock. Every frame
 // is recorded as it went over the wire, so tests judge what the bus carried.
 // Thread contract: single-threaded test code.
@@ -20,6 +19,7 @@
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/param_t.hpp>
 
+#include "../common/can_wire_loop.hpp"
 #include "motion/can_frame/bit_timing.hpp"
 #include "motion/canopen/cob_id.hpp"
 #include "motion/canopen/nmt.hpp"
@@ -71,10 +71,9 @@ struct RigOptions {
 };
 
 // The stack and `nodes` simulated UC57 (node ids 1...) on one bit-timed wire.
-class WireRig final : public simbus::BusSink {
+class WireRig final : public motion::testing::CanWireLoop<Uc57Stack, OnWire> {
  public:
-  explicit WireRig(const RigOptions& o)
-      : bitrate(o.bitrate), bus_(simbus::BusConfig{o.bitrate, true, std::chrono::seconds(1), 8192, 0}) {
+  explicit WireRig(const RigOptions& o) : CanWireLoop(o.bitrate, 8192), bitrate(o.bitrate) {
     std::string yaml = "buses:\n  - {name: can0, transport: \"simcan:can0\", bitrate: " + std::to_string(o.bitrate) +
                        ", request_timeout_ms: 50, retries: 2, poll_hz: " + std::to_string(o.poll_hz) + "}\ndrives:\n";
     for (int n = 1; n <= o.nodes; ++n)
@@ -87,75 +86,33 @@ class WireRig final : public simbus::BusSink {
     auto loaded = config::load_string(yaml, "stagger.yaml");
     if (!loaded.ok()) throw std::runtime_error(loaded.error_text());
     config_ = *loaded.config;
-    gateway_ = bus_.attach("gateway", /*own_echo=*/true);
     gateway::CanStackContext ctx;
     ctx.out = &out;
-    ctx.send = [this](const can::Frame& f) {
-      handed.emplace_back(now, f);
-      return !bus_.submit(gateway_, f, now);
-    };
+    ctx.send = [this](const can::Frame& f) { return send(f); };
     Uc57Stack::Options options;
     options.wall_clock_us = [](TimePoint t) {
       return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
     };
     stack = std::make_unique<Uc57Stack>(config_, *config_.find_bus("can0"), ctx, options);
     for (const auto& d : config_.drives) {
-      const auto endpoint = bus_.attach(d.name);
-      sim::SimDriveContext context;
-      context.drive = d.name;
-      context.bus = d.bus;
-      context.send = [this, endpoint](const can::Frame& f) { (void)bus_.submit(endpoint, f, now); };
-      context.report = [](std::int8_t, std::int64_t, std::int64_t, std::int64_t) {};
-      sim::Uc57SimOptions sim_options;
-      if (o.sim) o.sim(d.node_id, sim_options);
-      drives_[endpoint] =
-          std::make_unique<sim::Uc57DriveSim>(static_cast<canopen::NodeId>(d.node_id), context, sim_options);
+      attach_drive(d.name, [&](simbus::EndpointId endpoint) {
+        sim::SimDriveContext context;
+        context.drive = d.name;
+        context.bus = d.bus;
+        context.send = [this, endpoint](const can::Frame& f) { (void)bus_.submit(endpoint, f, now); };
+        context.report = [](std::int8_t, std::int64_t, std::int64_t, std::int64_t) {};
+        sim::Uc57SimOptions sim_options;
+        if (o.sim) o.sim(d.node_id, sim_options);
+        return std::make_unique<sim::Uc57DriveSim>(static_cast<canopen::NodeId>(d.node_id), context, sim_options);
+      });
     }
-    for (auto& [id, d] : drives_) d->power_up(now);
+    power_up_drives();
     other_ = bus_.attach("other-master");
   }
 
   // A frame from another master on the bus (e.g. an NMT command).
   void inject(const can::Frame& frame) { (void)bus_.submit(other_, frame, now); }
 
-  void deliver(simbus::EndpointId to, const can::Frame& frame, bool own_echo) override {
-    inbox_.push_back({to, frame, own_echo});
-  }
-  void notify(simbus::EndpointId, const can::BusEvent&) override {}
-
-  // Runs the wire, the stack and the drives until `span` has passed; false when stuck.
-  bool run_for(Duration span) {
-    const auto end = now + span;
-    for (int same_instant = 0; same_instant < 100'000; ++same_instant) {
-      bus_.advance(now, *this);
-      dispatch();
-      TimePoint next = std::min(stack->process(now), bus_.next_deadline());
-      for (auto& [id, d] : drives_) next = std::min(next, d->process(now));
-      next = std::min(next, bus_.next_deadline());  // what process() just submitted
-      if (next > end) {
-        now = end;
-        return true;
-      }
-      if (next > now) same_instant = 0;
-      now = std::max(now, next);
-    }
-    std::fprintf(
-        stderr, "stuck at %lld us: stack %lld bus %lld errors %lld handed %zu wire %zu\n",
-        static_cast<long long>(std::chrono::duration_cast<std::chrono::microseconds>(now.time_since_epoch()).count()),
-        static_cast<long long>(
-            std::chrono::duration_cast<std::chrono::microseconds>(stack->process(now).time_since_epoch()).count()),
-        static_cast<long long>(
-            std::chrono::duration_cast<std::chrono::microseconds>(bus_.next_deadline().time_since_epoch()).count()),
-        static_cast<long long>(stack->counters().protocol_errors), handed.size(), wire.size());
-    return false;
-  }
-  bool run_until(const std::function<bool()>& done, Duration limit) {
-    for (Duration spent{}; spent < limit; spent += std::chrono::milliseconds(1)) {
-      if (done()) return true;
-      if (!run_for(std::chrono::milliseconds(1))) return false;
-    }
-    return done();
-  }
   bool start() {
     stack->start(now);
     if (run_until([&] { return stack->ready(); }, std::chrono::seconds(20))) return true;
@@ -234,42 +191,22 @@ class WireRig final : public simbus::BusSink {
 
   std::uint32_t bitrate;
   Recorder out;
-  std::unique_ptr<Uc57Stack> stack;
-  std::vector<OnWire> wire;                              // every frame, in end-of-frame order
-  std::vector<std::pair<TimePoint, can::Frame>> handed;  // the stack's frames, when handed over
-  TimePoint now = TimePoint{} + std::chrono::seconds(10);
 
  private:
-  struct Delivery {
-    simbus::EndpointId to;
-    can::Frame frame;
-    bool own_echo;
-  };
-  // Every frame reaches the gateway's endpoint once: its own as an echo, the drives' as received.
-  void dispatch() {
-    auto inbox = std::move(inbox_);
-    inbox_.clear();
-    for (const auto& d : inbox) {
-      if (d.to == other_) continue;
-      if (d.to == gateway_) {
-        wire.push_back({d.frame, now, d.own_echo, bitrate});
-        if (d.own_echo) {
-          stack->on_transmitted(d.frame, now);
-        } else {
-          stack->on_frame(d.frame, now);
-        }
-      } else {
-        drives_.at(d.to)->on_frame(d.frame, now);
-      }
-    }
+  // What the stack and the wire were waiting for.
+  void stuck() override {
+    std::fprintf(
+        stderr, "stuck at %lld us: stack %lld bus %lld errors %lld handed %zu wire %zu\n",
+        static_cast<long long>(std::chrono::duration_cast<std::chrono::microseconds>(now.time_since_epoch()).count()),
+        static_cast<long long>(
+            std::chrono::duration_cast<std::chrono::microseconds>(stack->process(now).time_since_epoch()).count()),
+        static_cast<long long>(
+            std::chrono::duration_cast<std::chrono::microseconds>(bus_.next_deadline().time_since_epoch()).count()),
+        static_cast<long long>(stack->counters().protocol_errors), handed.size(), wire.size());
   }
 
   config::Config config_;
-  simbus::Bus bus_;
-  simbus::EndpointId gateway_ = 0;
   simbus::EndpointId other_ = 0;
-  std::map<simbus::EndpointId, std::unique_ptr<sim::Uc57DriveSim>> drives_;
-  std::vector<Delivery> inbox_;
   std::int64_t next_id_ = 0;
 };
 

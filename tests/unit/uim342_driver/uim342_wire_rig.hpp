@@ -1,7 +1,6 @@
 // The wire rig of the Uim342Stack tests on a bit-timed wire (uim342_poll_test.cpp,
-// uim342_power_test.cpp): the simulated bus's passive core (simbus::Bus: frames serialized for
-// their exact bit time, arbitration by identifier, own echo at end of frame) between the stack
-// and simulated UIM342 drives (sim::Uim342Drive, answering at once), on a simulated clock.
+// uim342_power_test.cpp): the shared bit-timed loop (../common/can_wire_loop.hpp) between the
+// stack and simulated UIM342 drives (sim::Uim342Drive, answering at once), on a simulated clock.
 // Thread contract: single-threaded test code.
 #pragma once
 
@@ -19,6 +18,7 @@
 
 #include <fmt/format.h>
 
+#include "../common/can_wire_loop.hpp"
 #include "motion/can_frame/bit_timing.hpp"
 #include "motion/config/config.hpp"
 #include "motion/sim/uim342_drive.hpp"
@@ -62,19 +62,20 @@ struct OnWire {
   can::Frame frame;
   TimePoint end_of_frame;
   bool ours = false;  // sent by the stack
+  std::uint32_t bitrate = kBitrate;
   [[nodiscard]] bool is_poll() const {
     const auto m = uim342::decode_can(frame);
     return m && m->message.function_code() == uim342::code(FC::kMS);
   }
   [[nodiscard]] TimePoint start() const {
-    return end_of_frame - can::bits_duration(can::frame_bits(frame).to_end_of_frame(), kBitrate);
+    return end_of_frame - can::bits_duration(can::frame_bits(frame).to_end_of_frame(), bitrate);
   }
 };
 
 // The stack and `drives` simulated UIM342 (node ids 5...) on one bit-timed 1 Mbit/s wire.
-class WireRig final : public simbus::BusSink {
+class WireRig final : public motion::testing::CanWireLoop<Uim342Stack, OnWire> {
  public:
-  WireRig(int drives, int poll_hz) : bus_(simbus::BusConfig{kBitrate, true, std::chrono::seconds(1), 4096, 0}) {
+  WireRig(int drives, int poll_hz) : CanWireLoop(kBitrate, 4096) {
     std::string yaml = fmt::format(
         "buses:\n  - {{name: can0, transport: \"simcan:can0\", bitrate: {}, request_timeout_ms: 50, retries: 2, "
         "poll_hz: {}}}\ndrives:\n",
@@ -90,61 +91,27 @@ class WireRig final : public simbus::BusSink {
     auto loaded = config::load_string(yaml, "poll.yaml");
     EXPECT_TRUE(loaded.ok()) << loaded.error_text();
     config_ = *loaded.config;
-    gateway_ = bus_.attach("gateway", /*own_echo=*/true);
     CanStackContext ctx;
     ctx.out = &out;
-    ctx.send = [this](const can::Frame& f) {
-      handed.emplace_back(now, f);
-      return !bus_.submit(gateway_, f, now);
-    };
+    ctx.send = [this](const can::Frame& f) { return send(f); };
     stack = std::make_unique<Uim342Stack>(config_, "can0", ctx);
     const auto factory = sim::uim342_factory(config_);
     for (const auto& d : config_.drives) {
-      const auto endpoint = bus_.attach(d.name);
-      sim::SimDriveContext context;
-      context.drive = d.name;
-      context.bus = d.bus;
-      context.send = [this, endpoint, name = d.name](const can::Frame& f) {
-        if (silent.contains(name)) return;
-        EXPECT_FALSE(bus_.submit(endpoint, f, now));
-      };
-      context.report = [](std::int8_t, std::int64_t, std::int64_t, std::int64_t) {};
-      drives_[endpoint] = factory(d, context);
-      endpoints_[d.node_id] = endpoint;
+      endpoints_[d.node_id] = attach_drive(d.name, [&](simbus::EndpointId endpoint) {
+        sim::SimDriveContext context;
+        context.drive = d.name;
+        context.bus = d.bus;
+        context.send = [this, endpoint, name = d.name](const can::Frame& f) {
+          if (silent.contains(name)) return;
+          EXPECT_FALSE(bus_.submit(endpoint, f, now));
+        };
+        context.report = [](std::int8_t, std::int64_t, std::int64_t, std::int64_t) {};
+        return factory(d, context);
+      });
     }
-    for (auto& [id, d] : drives_) d->power_up(now);
+    power_up_drives();
   }
 
-  void deliver(simbus::EndpointId to, const can::Frame& frame, bool own_echo) override {
-    inbox_.push_back({to, frame, own_echo});
-  }
-  void notify(simbus::EndpointId, const can::BusEvent&) override {}
-
-  // Runs the wire, the stack and the drives until `span` has passed.
-  void run_for(Duration span) {
-    const auto end = now + span;
-    for (int same_instant = 0; same_instant < 100'000; ++same_instant) {
-      bus_.advance(now, *this);
-      dispatch();
-      TimePoint next = std::min(stack->process(now), bus_.next_deadline());
-      for (auto& [id, d] : drives_) next = std::min(next, d->process(now));
-      next = std::min(next, bus_.next_deadline());  // what process() just submitted
-      if (next > end) {
-        now = end;
-        return;
-      }
-      if (next > now) same_instant = 0;
-      now = std::max(now, next);
-    }
-    ADD_FAILURE() << "the rig does not advance";
-  }
-  bool run_until(const std::function<bool()>& done, Duration limit) {
-    for (Duration spent{}; spent < limit; spent += milliseconds(1)) {
-      if (done()) return true;
-      run_for(milliseconds(1));
-    }
-    return done();
-  }
   void start() {
     stack->start(now);
     ASSERT_TRUE(run_until([&] { return stack->ready(); }, std::chrono::seconds(10))) << "never ready";
@@ -174,41 +141,11 @@ class WireRig final : public simbus::BusSink {
 
   Recorder out;
   std::set<std::string> silent;  // drives whose frames never reach the wire
-  std::unique_ptr<Uim342Stack> stack;
-  std::vector<OnWire> wire;                              // every frame, in end-of-frame order
-  std::vector<std::pair<TimePoint, can::Frame>> handed;  // the stack's frames, when handed over
-  TimePoint now = TimePoint{} + std::chrono::seconds(10);
 
  private:
-  struct Delivery {
-    simbus::EndpointId to;
-    can::Frame frame;
-    bool own_echo;
-  };
-  // Every frame reaches the gateway's endpoint once: its own as an echo, the drives' as received.
-  void dispatch() {
-    auto inbox = std::move(inbox_);
-    inbox_.clear();
-    for (const auto& d : inbox) {
-      if (d.to == gateway_) {
-        wire.push_back({d.frame, now, d.own_echo});
-        if (d.own_echo) {
-          stack->on_transmitted(d.frame, now);
-        } else {
-          stack->on_frame(d.frame, now);
-        }
-      } else {
-        drives_.at(d.to)->on_frame(d.frame, now);
-      }
-    }
-  }
-
+  void stuck() override { ADD_FAILURE() << "the rig does not advance"; }
   config::Config config_;
-  simbus::Bus bus_;
-  simbus::EndpointId gateway_ = 0;
-  std::map<simbus::EndpointId, std::unique_ptr<sim::CanDriveSim>> drives_;
   std::map<int, simbus::EndpointId> endpoints_;  // by node id
-  std::vector<Delivery> inbox_;
   std::int64_t next_id_ = 0;
 };
 
