@@ -46,8 +46,6 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
     node->settings = make_node_settings(config, bus, drive, options_.default_heartbeat_ms);
     node->power = cia402::PowerController({options_.state_switch_timeout});
     node_index_[node->settings.node] = nodes_.size();
-    // Retries are ours (sdo_read/sdo_write) so that they can be counted.
-    master_.sdo().configure_node(node->settings.node, {node->settings.sdo_timeout, 0, std::size_t{64} * 1024});
     nodes_.push_back(std::move(node));
   }
   master_.nmt().on_event([this](const canopen::NodeEvent& e) { on_node_event(e); });
@@ -55,6 +53,10 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
   asked_period_ = sync_period_;
   plan_stagger();
   fit_sync_period();
+  for (const auto& node : nodes_) {
+    // Retries are ours (sdo_read/sdo_write) so that they can be counted.
+    master_.sdo().configure_node(node->settings.node, {sdo_timeout(*node), 0, std::size_t{64} * 1024});
+  }
   // Staggered: the stack paces each SYNC itself (sync_due); the producer only sends on demand,
   // and the kernel's periodic job (kernel_sync), which cannot wait for the wire, is not used.
   master_.configure_sync({stagger_g_ > 0 ? Duration::zero() : sync_period_, 0, canopen::kSyncCobId});

@@ -503,11 +503,13 @@ void Uc57Stack::count_sdo_result(std::error_code error) {
   }
 }
 
+Duration Uc57Stack::sdo_timeout(const Node& node) const { return node.settings.sdo_timeout + sdo_allowance_; }
+
 std::string Uc57Stack::sdo_failure(std::size_t n, bool write, ObjectAddress object, std::error_code error) const {
   const NodeSettings& s = nodes_[n]->settings;
   std::string text = s.label() + ": SDO " + (write ? "write " : "read ") + object_text(object);
   if (error == canopen::SdoAbortCode::kTimeout) {
-    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(s.sdo_timeout).count();
+    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(sdo_timeout(*nodes_[n])).count();
     return text + " timed out (no answer within " + std::to_string(ms) + " ms, " + std::to_string(s.sdo_retries + 1) +
            " attempts)";
   }

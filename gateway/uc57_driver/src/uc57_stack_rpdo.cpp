@@ -115,7 +115,7 @@ void Uc57Stack::rpdo_test_attempt(std::size_t n, unsigned session, unsigned atte
   };
   const std::uint64_t before = master_.sync()->sent();
   // A staggered bus's SYNC comes every few frames: none until the read is answered.
-  hold_sync(n, now_ + node.settings.sdo_timeout * (node.settings.sdo_retries + 1));
+  hold_sync(n, now_ + sdo_timeout(node) * (node.settings.sdo_retries + 1));
   send_image(n, test);
   node.image = original;  // what the drive holds once restored
   sdo_read(

@@ -136,6 +136,11 @@ void Uc57Stack::fit_sync_period() {
   }
   const unsigned g = std::max(stagger_g_, 1U);
   const Duration cycle = sync + every + spread / g;
+  // An SDO request (600h + node) and its answer (580h + node) each lose arbitration to every TPDO
+  // answering a SYNC (180h/280h + node): each may wait behind one SYNC's answers. At 125 kbit/s,
+  // 32 nodes of type 1 answer each SYNC with 64 ms of frames, more than a 50 ms timeout; without
+  // this a node configured while the others poll timed out again and again.
+  sdo_allowance_ = 2 * (sync + every + (stagger_g_ > 0 ? spread / g : Duration{}));
   const double budget = stagger_g_ > 0 && every_nodes == 0 ? kStaggeredBusShare : kPollBusShare;
   const double share = std::max(budget - heartbeat_share, budget / 4);
   const auto needed = std::chrono::duration_cast<Duration>(
@@ -205,7 +210,10 @@ Uc57Stack::ConfigOp Uc57Stack::tpdo_type_op(std::size_t n) {
 Uc57Stack::ConfigOp Uc57Stack::nmt_start_op(std::size_t n) {
   return {[this, n](const Continue& next) {
     Node& node = *nodes_[n];
-    const auto consumer = std::chrono::milliseconds(node.settings.heartbeat_ms) * options_.heartbeat_loss_factor;
+    // A heartbeat (700h + node, the lowest priority) waits behind whatever else is on the wire,
+    // a SYNC's answers included: the consumer time counts that wait too (sdo_allowance_).
+    const auto consumer =
+        std::chrono::milliseconds(node.settings.heartbeat_ms) * options_.heartbeat_loss_factor + sdo_allowance_;
     master_.nmt().monitor(node.settings.node, consumer);
     master_.nmt().mark_configured(node.settings.node);
     if (!staggered(n)) {
@@ -240,7 +248,7 @@ void Uc57Stack::start_in_slots(std::size_t n, const std::function<bool()>& curre
       if (!current()) return;
       Node& armed = *nodes_[n];
       // TPDO2 counts from this write: no periodic SYNC until the drive has taken it.
-      hold_sync(n, now_ + armed.settings.sdo_timeout * (armed.settings.sdo_retries + 1));
+      hold_sync(n, now_ + sdo_timeout(armed) * (armed.settings.sdo_retries + 1));
       sdo_write(n, transmission_type(2), le<std::uint8_t>(static_cast<std::uint8_t>(stagger_g_)),
                 [this, n, first, current, done](std::error_code ec, std::span<const std::uint8_t>) {
                   release_sync(n);

@@ -225,8 +225,11 @@ class Uc57Stack final : public gateway::CanStack {
   std::uint64_t syncs_handed_ = 0;             // SYNCs handed to the transport (= the producer's sent())
   std::deque<std::uint64_t> syncs_in_flight_;  // their indexes, awaiting their echo
   Duration asked_period_{};                    // 1 / poll_hz
-  bool echoes_ = false;                        // the transport echoes our frames (on_transmitted)
-  std::uint64_t syncs_on_wire_ = 0;            // echoes of our SYNCs
+  // What an SDO exchange may wait on the wire behind the TPDOs answering one SYNC, on top of the
+  // configured timeout (fit_sync_period()).
+  Duration sdo_allowance_{};
+  bool echoes_ = false;              // the transport echoes our frames (on_transmitted)
+  std::uint64_t syncs_on_wire_ = 0;  // echoes of our SYNCs
   bool sync_awaiting_echo_ = false;
   TimePoint sync_handed_at_{};
   TimePoint next_sync_at_ = kNever;  // staggered pacing: not before (one sync_period_ apart)
@@ -249,6 +252,8 @@ class Uc57Stack final : public gateway::CanStack {
   void sdo_write(std::size_t n, canopen::ObjectAddress object, const std::vector<std::uint8_t>& data, SdoDone done,
                  unsigned attempt = 0);
   void count_sdo_result(std::error_code error);
+  // The node's SDO timeout on this bus: the configured one and sdo_allowance_.
+  [[nodiscard]] Duration sdo_timeout(const Node& node) const;
   [[nodiscard]] std::string sdo_failure(std::size_t n, bool write, canopen::ObjectAddress object,
                                         std::error_code error) const;
   // Runs writes in order; `done` gets the first failure's text.
