@@ -72,6 +72,10 @@ void Client::verify_states_with(std::vector<security::Principal> gateways, std::
         auto verified = state_verifier_->verify<motionlcm::axis_state_t>(
             m, wall_time_us(), [](const motionlcm::axis_state_t& s) { return s.bus; });
         if (verified.message) return take_state(*verified.message);
+        if (verified.authentic) {
+          if (++stale_states_ <= 10) spdlog::info("an authentic axis state is ignored: {}", verified.reason);
+          return;
+        }
         if (++forged_states_ <= 10) spdlog::warn("SECURITY: an axis state is ignored: {}", verified.reason);
       });
 }

@@ -69,8 +69,7 @@ MessageVerifier::MessageVerifier(std::vector<Principal> signers, std::string sig
       window_us_(std::chrono::duration_cast<std::chrono::microseconds>(window).count()),
       not_before_us_(not_before_us) {}
 
-const Principal* MessageVerifier::check(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
-                                        std::string& reason) const {
+const Principal* MessageVerifier::authenticate(const motionlcm::signed_message_t& envelope, std::string& reason) const {
   const std::string what = "signed " + channel_ + " refused: ";
   if (envelope.channel != channel_) {
     reason = what + "it was signed for channel '" + envelope.channel.substr(0, 64) + "'";
@@ -88,11 +87,16 @@ const Principal* MessageVerifier::check(const motionlcm::signed_message_t& envel
     reason = what + "bad signature (forged or altered in transit)";
     return nullptr;
   }
-  if (auto why = detail::stale(envelope.utime, now_us, window_us_, not_before_us_, "receiver")) {
-    reason = what + "stale timestamp: " + *why;
-    return nullptr;
-  }
   return &*signer;
+}
+
+bool MessageVerifier::fresh(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
+                            std::string& reason) const {
+  if (auto why = detail::stale(envelope.utime, now_us, window_us_, not_before_us_, "receiver")) {
+    reason = "signed " + channel_ + " refused: stale timestamp: " + *why;
+    return false;
+  }
+  return true;
 }
 
 bool MessageVerifier::speaks_for(const Principal& signer, const std::vector<std::string>& buses,
@@ -124,8 +128,9 @@ bool MessageVerifier::take_counter(const KeyId& signer, const std::string& strea
 
 std::optional<std::vector<std::uint8_t>> MessageVerifier::verify_bytes(const motionlcm::signed_message_t& envelope,
                                                                        std::int64_t now_us, std::string& reason) {
-  const Principal* signer = check(envelope, now_us, reason);
-  if (signer == nullptr || !take_counter(key_id(signer->key), std::string(), envelope.counter, reason))
+  const Principal* signer = authenticate(envelope, reason);
+  if (signer == nullptr || !fresh(envelope, now_us, reason) ||
+      !take_counter(key_id(signer->key), std::string(), envelope.counter, reason))
     return std::nullopt;
   return envelope.message;
 }

@@ -86,6 +86,11 @@ TEST_F(SignedMessages, OtherKeyAlteredOtherChannelOtherPrefixStaleAndWrongTypeAr
   const auto before =
       triggers.verify<sync_trigger2_t>(signer.sign("SYNC_TRIGGER2", trigger(2), kStart - 1000), kStart + 1000);
   EXPECT_NE(before.reason.find("before the receiver started"), std::string::npos) << before.reason;
+  // Refused for freshness, but authentic (in flight when the receiver started, say): not a forgery.
+  EXPECT_TRUE(before.authentic);
+  EXPECT_TRUE(old.authentic);
+  EXPECT_FALSE(triggers.verify<sync_trigger2_t>(altered, now).authentic);
+  EXPECT_FALSE(triggers.verify<sync_trigger2_t>(impostor.sign("SYNC_TRIGGER2", trigger(3), now), now).authentic);
   // Authentic, but not a sync_trigger2_t inside.
   reply_t r{};
   r.client_id = "x";

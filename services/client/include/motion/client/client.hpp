@@ -21,8 +21,10 @@
 //
 // Axis states (README "Security"): after verify_states_with(the gateway keys of authorized_keys)
 // axes() and on_axis_state() take only states signed by a gateway key (signed_message_t on
-// SAXIS_STATE; counter per key and bus); plain AXIS_STATEs are ignored and signed ones that do not
-// verify are counted (forged_states()).
+// SAXIS_STATE; counter per key and bus); plain AXIS_STATEs are ignored, signed ones whose key or
+// signature does not verify are counted (forged_states()), and authentic ones refused for their
+// freshness are counted apart (stale_states(): a state in flight when verification began, signed
+// before it, is one of them).
 //
 // Lost datagrams (README "Safety and faults"): LCM delivers nothing for sure. While call() or
 // follow() waits on a request, the request is sent again, unchanged but for its send time (and
@@ -82,8 +84,11 @@ class Client {
   // (security::load_gateway_keys reads them from authorized_keys or gateway_public_keys.)
   void verify_states_with(std::vector<security::Principal> gateways, std::chrono::milliseconds window);
   [[nodiscard]] bool verifying_states() const { return state_verifier_.has_value(); }
-  // Signed axis states that did not verify (forged, altered, replayed, stale).
+  // Signed axis states whose key is no gateway's or whose signature does not verify.
   [[nodiscard]] std::uint64_t forged_states() const { return forged_states_; }
+  // Authentic axis states refused all the same: signed before verification began or outside the
+  // window, replayed, undecodable, or of a bus their key may not speak for.
+  [[nodiscard]] std::uint64_t stale_states() const { return stale_states_; }
 
   // Fills utime/client_id/request_id/num_axes and publishes; replies go to `on_reply`.
   std::int64_t send(motionlcm::request_t request, ReplyHandler on_reply = {});
@@ -149,6 +154,7 @@ class Client {
   std::uint64_t forged_replies_ = 0;
   std::optional<security::MessageVerifier> state_verifier_;  // SAXIS_STATE (gateway keys)
   std::uint64_t forged_states_ = 0;
+  std::uint64_t stale_states_ = 0;
   std::uint64_t resent_ = 0;
   std::map<std::int64_t, Pending> pending_;
   std::map<std::string, motionlcm::axis_state_t> axes_;

@@ -60,6 +60,10 @@ template <typename Msg>
 struct Verified {
   std::optional<Msg> message;  // set when accepted
   std::string reason;          // else what was wrong
+  // Whether the key is one of the signers' and the signature verified: a refusal with `authentic`
+  // set is one of freshness (signed before the verifier was made, e.g. in flight when it was;
+  // outside the window; a replayed counter), of decoding or of bus binding, not a forgery.
+  bool authentic = false;
 };
 
 class MessageVerifier {
@@ -103,8 +107,10 @@ class MessageVerifier {
   [[nodiscard]] Verified<Msg> verify(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
                                      StreamOf stream_of, BusesOf buses_of) {
     Verified<Msg> v;
-    const Principal* signer = check(envelope, now_us, v.reason);
+    const Principal* signer = authenticate(envelope, v.reason);
     if (signer == nullptr) return v;
+    v.authentic = true;
+    if (!fresh(envelope, now_us, v.reason)) return v;
     Msg msg;
     if (std::string why = lcm::wire::decode_bounded(envelope.message.data(), envelope.message.size(), msg);
         !why.empty()) {
@@ -119,9 +125,10 @@ class MessageVerifier {
   [[nodiscard]] const std::string& channel() const { return channel_; }
 
  private:
-  // Channel, signer, signature and freshness: the signer when they pass.
-  [[nodiscard]] const Principal* check(const motionlcm::signed_message_t& envelope, std::int64_t now_us,
-                                       std::string& reason) const;
+  // Channel, signer and signature: the signer when they pass.
+  [[nodiscard]] const Principal* authenticate(const motionlcm::signed_message_t& envelope, std::string& reason) const;
+  // Whether utime is within the window and not before the verifier was made.
+  [[nodiscard]] bool fresh(const motionlcm::signed_message_t& envelope, std::int64_t now_us, std::string& reason) const;
   // Whether `signer` may speak for every one of `buses` (else `reason` names the key and the bus).
   [[nodiscard]] bool speaks_for(const Principal& signer, const std::vector<std::string>& buses,
                                 std::string& reason) const;
