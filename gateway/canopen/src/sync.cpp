@@ -42,6 +42,20 @@ void SyncProducer::stop() {
   cycle_due_ = kNever;
 }
 
+void SyncProducer::set_period(Duration period, TimePoint now) {
+  if (period <= Duration::zero() || config_.period <= Duration::zero())
+    throw std::invalid_argument("SYNC period: only a periodic producer's period changes, to a positive one");
+  if (period == config_.period) return;
+  TimePoint last = deadline_ == kNever ? now : deadline_ - config_.period;
+  if (cyclic_running_) {
+    stop_cyclic();
+    last = last_cyclic_;
+  }
+  config_.period = period;
+  cyclic_interval_ = Duration::zero();
+  if (running_) deadline_ = std::max(last + period, now);
+}
+
 TimePoint SyncProducer::next_deadline() const { return running_ ? std::min(deadline_, cycle_due_) : kNever; }
 
 TimePoint SyncProducer::trigger_now(TimePoint now) {

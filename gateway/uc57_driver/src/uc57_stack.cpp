@@ -206,6 +206,7 @@ TimePoint Uc57Stack::process(TimePoint now) {
     }
   }
   check_task_timeouts(now);
+  ease_polls_while_configuring(now);
   if (stagger_g_ > 0) {
     if (sync_due(now)) run_sync_cycle(now);
     next = std::min(next, next_sync_check());

@@ -435,10 +435,12 @@ void Uc57Stack::on_node_event(const canopen::NodeEvent& e) {
       return;
     case canopen::NodeEventKind::kHeartbeatLost:
       if (node.phase == Node::Phase::kOperational || node.phase == Node::Phase::kStarting) {
-        go_offline(n, Event::HEARTBEAT_LOST,
-                   label + ": heartbeat lost (none for " +
-                       std::to_string(node.settings.heartbeat_ms * options_.heartbeat_loss_factor) + " ms)",
-                   e.at);
+        go_offline(
+            n, Event::HEARTBEAT_LOST,
+            label + ": heartbeat lost (none for " +
+                std::to_string(std::chrono::ceil<std::chrono::milliseconds>(heartbeat_consumer_time(node)).count()) +
+                " ms)",
+            e.at);
       }
       return;
     case canopen::NodeEventKind::kHeartbeatRecovered:

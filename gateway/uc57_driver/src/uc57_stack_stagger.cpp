@@ -142,6 +142,8 @@ void Uc57Stack::fit_sync_period() {
   // this a node configured while the others poll timed out again and again.
   sdo_allowance_ = 2 * (sync + every + (stagger_g_ > 0 ? spread / g : Duration{}));
   const double budget = stagger_g_ > 0 && every_nodes == 0 ? kStaggeredBusShare : kPollBusShare;
+  poll_cycle_ = cycle;
+  heartbeat_share_ = heartbeat_share;
   const double share = std::max(budget - heartbeat_share, budget / 4);
   const auto needed = std::chrono::duration_cast<Duration>(
       std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / share));
@@ -171,6 +173,30 @@ void Uc57Stack::fit_sync_period() {
                   hz(sync_period_), hz(sync_period_ * g), 100.0 * budget);
   }
   poll_warning_ = text;
+}
+
+Duration Uc57Stack::heartbeat_consumer_time(const Node& node) const {
+  return std::chrono::milliseconds(node.settings.heartbeat_ms) * options_.heartbeat_loss_factor + sdo_allowance_;
+}
+
+Duration Uc57Stack::period_within(double budget) const {
+  const double share = std::max(budget - heartbeat_share_, budget / 4);
+  const auto needed = std::chrono::ceil<std::chrono::milliseconds>(
+      std::chrono::duration<double, std::nano>(static_cast<double>(poll_cycle_.count()) / share));
+  return std::max<Duration>(needed, asked_period_);
+}
+
+// A node is configured by SDO exchanges (600h/580h + node), which lose arbitration to every TPDO
+// answering a SYNC, and its heartbeat consumer is armed early: on a bus whose polls take 75 %,
+// what is left was too little for the set-up traffic and the heartbeats of 32 nodes at 125 kbit/s
+// (heartbeats missed, an RPDO acceptance test with no answer within a SYNC period). The SYNC,
+// and with it every node's status, slows while the set-up runs.
+void Uc57Stack::ease_polls_while_configuring(TimePoint now) {
+  if (stagger_g_ > 0 || !master_.sync()->running()) return;
+  const bool ease = configuring() > 0 && period_within(kConfiguringPollBusShare) > sync_period_;
+  if (ease == polls_eased_) return;
+  polls_eased_ = ease;
+  master_.sync()->set_period(ease ? period_within(kConfiguringPollBusShare) : sync_period_, now);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -212,9 +238,7 @@ Uc57Stack::ConfigOp Uc57Stack::nmt_start_op(std::size_t n) {
     Node& node = *nodes_[n];
     // A heartbeat (700h + node, the lowest priority) waits behind whatever else is on the wire,
     // a SYNC's answers included: the consumer time counts that wait too (sdo_allowance_).
-    const auto consumer =
-        std::chrono::milliseconds(node.settings.heartbeat_ms) * options_.heartbeat_loss_factor + sdo_allowance_;
-    master_.nmt().monitor(node.settings.node, consumer);
+    master_.nmt().monitor(node.settings.node, heartbeat_consumer_time(node));
     master_.nmt().mark_configured(node.settings.node);
     if (!staggered(n)) {
       master_.nmt().send(canopen::NmtCommand::kStart, node.settings.node);

@@ -157,6 +157,26 @@ TEST(SyncProducer, FixedRateWithCounterAndSkipsMissedPeriods) {
   EXPECT_EQ(producer.process(t0 + 200ms), kNever);
 }
 
+// In loop mode a new period counts from the last SYNC; a deadline already past sends at once.
+TEST(SyncProducer, ANewPeriodCountsFromTheLastSync) {
+  using namespace std::chrono_literals;
+  std::vector<can::Frame> sent;
+  SyncProducer producer([&](const can::Frame& f) { sent.push_back(f); }, {10ms, 0, kSyncCobId});
+  const TimePoint t0{};
+  producer.start(t0);
+  EXPECT_EQ(producer.process(t0 + 10ms), t0 + 20ms);
+  producer.set_period(30ms, t0 + 12ms);
+  EXPECT_EQ(producer.next_deadline(), t0 + 40ms);
+  EXPECT_EQ(producer.process(t0 + 20ms), t0 + 40ms);
+  EXPECT_EQ(sent.size(), 1U) << "no SYNC at the old period's deadline";
+  EXPECT_EQ(producer.process(t0 + 40ms), t0 + 70ms);
+  producer.set_period(10ms, t0 + 55ms);
+  EXPECT_EQ(producer.next_deadline(), t0 + 55ms) << "40 + 10 is past: now";
+  EXPECT_EQ(producer.process(t0 + 55ms), t0 + 65ms);
+  EXPECT_EQ(sent.size(), 3U);
+  EXPECT_EQ(producer.skipped(), 0U);
+}
+
 TEST(SyncProducer, AperiodicProducerOnlyTriggers) {
   std::vector<can::Frame> sent;
   SyncProducer producer([&](const can::Frame& f) { sent.push_back(f); }, {});

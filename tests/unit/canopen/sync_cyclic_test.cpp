@@ -2,6 +2,7 @@
 // kernel's CAN_BCM in the gateway) on a manual clock, and sent() counting the SYNCs seen.
 #include <gtest/gtest.h>
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -166,6 +167,30 @@ TEST_F(CyclicSync, HoldHandsThePeriodToTheLoopAndBack) {
   producer.hold_cyclic(true, t0 + 60ms);
   EXPECT_EQ(rec.take(), (Calls{"stop"}));
   EXPECT_EQ(producer.next_deadline(), t0 + 70ms);
+}
+
+TEST_F(CyclicSync, ANewPeriodRestartsTheSenderAPeriodAfterItsLastSync) {
+  producer.start(t0);
+  producer.process(t0 + 10ms);
+  producer.on_cyclic_sync(t0 + 10ms);
+  producer.process(t0 + 10ms);
+  rec.take();
+  // Longer: the sender stops now; the loop starts it again 40 ms after the last SYNC seen.
+  producer.set_period(40ms, t0 + 12ms);
+  EXPECT_EQ(rec.take(), (Calls{"stop"}));
+  EXPECT_EQ(producer.next_deadline(), t0 + 50ms);
+  EXPECT_EQ(producer.process(t0 + 49ms), t0 + 50ms);
+  EXPECT_TRUE(rec.take().empty());
+  EXPECT_EQ(producer.process(t0 + 50ms), kNever);
+  EXPECT_EQ(rec.take(), (Calls{"start 080: every 40 ms"}));
+  producer.on_cyclic_sync(t0 + 50ms);
+  producer.process(t0 + 50ms);
+  // Shorter, with the new period already past since the last SYNC: at once.
+  producer.set_period(5ms, t0 + 60ms);
+  EXPECT_EQ(rec.take(), (Calls{"stop"}));
+  EXPECT_EQ(producer.process(t0 + 60ms), kNever);
+  EXPECT_EQ(rec.take(), (Calls{"start 080: every 5 ms"}));
+  EXPECT_THROW(producer.set_period(0ms, t0 + 61ms), std::invalid_argument);
 }
 
 TEST_F(CyclicSync, RefusedStartFallsBackToTheLoopAndTriesAgain) {

@@ -83,6 +83,11 @@ class SyncProducer {
   TimePoint start(TimePoint now);
   // In cyclic mode the sender stops at once.
   void stop();
+  // A new period (1006h; > 0, for a periodic producer) from the next SYNC on: it goes out one new
+  // period after the last one, or at the next process() when that is past. In cyclic mode the
+  // sender stops and the loop starts it again, with the new period, at that deadline (the
+  // interval learned for the old period is forgotten).
+  void set_period(Duration period, TimePoint now);
   [[nodiscard]] bool running() const { return running_; }
 
   // Sends one SYNC now (e.g. the single SYNC that starts several axes together). While running,

@@ -129,6 +129,7 @@ class Uc57Stack final : public gateway::CanStack {
   [[nodiscard]] const Counters& counters() const { return counters_; }
   // The SYNC period in force: 1 / poll_hz, or longer when the nodes' synchronous TPDOs at that
   // rate would take more than kPollBusShare of the bus (fit_sync_period; said once at start()).
+  // Type 1: longer still while nodes are being configured on such a bus (kConfiguringPollBusShare).
   [[nodiscard]] Duration sync_period() const { return sync_period_; }
   // SYNCs put on the wire so far (by the loop, or seen from the kernel's cyclic job), and
   // whether that job sends the periodic ones now (a socketcan: bus with kernel_sync on: the
@@ -136,6 +137,10 @@ class Uc57Stack final : public gateway::CanStack {
   [[nodiscard]] std::uint64_t syncs_sent() const { return master_.sync()->sent(); }
   [[nodiscard]] bool kernel_sync_running() const { return master_.sync()->cyclic(); }
   static constexpr double kPollBusShare = 0.75;
+  // Type 1, while nodes are being configured: what SYNC + answers + heartbeats may take, so that
+  // the set-up's SDO exchanges and the heartbeats (700h + node, the lowest priority) keep half
+  // the bus (ease_polls_while_configuring).
+  static constexpr double kConfiguringPollBusShare = 0.5;
   // Staggered TPDOs (tpdo_mode staggered): what SYNC + its one answer + heartbeats may take.
   static constexpr double kStaggeredBusShare = 0.95;
   // G, the SYNCs of one staggered poll cycle (2 per staggered node, 1 above 120 nodes); 0 when
@@ -196,6 +201,15 @@ class Uc57Stack final : public gateway::CanStack {
   [[nodiscard]] StartFacts start_facts(const Job& job) const;
   // The bus budget of the synchronous TPDOs (fit_sync_period) and its warning.
   void fit_sync_period();
+  // The SYNC period that keeps SYNC + its answers + heartbeats within `budget` of the bus (the
+  // asked period when that is longer); fit_sync_period() sets what it reads.
+  [[nodiscard]] Duration period_within(double budget) const;
+  // Type 1 on a bus whose polls take more than kConfiguringPollBusShare: the SYNC slows to that
+  // share while any node is being configured, and is back at sync_period_ once none is.
+  void ease_polls_while_configuring(TimePoint now);
+  Duration poll_cycle_{};       // SYNC + the answers to one SYNC (staggered: one G-th of theirs)
+  double heartbeat_share_ = 0;  // of the wire
+  bool polls_eased_ = false;
   void warn_bus(const std::string& text);
   std::string poll_warning_;
 
@@ -252,6 +266,8 @@ class Uc57Stack final : public gateway::CanStack {
   void sdo_write(std::size_t n, canopen::ObjectAddress object, const std::vector<std::uint8_t>& data, SdoDone done,
                  unsigned attempt = 0);
   void count_sdo_result(std::error_code error);
+  // How long the node's heartbeat may be missing: heartbeat_loss_factor periods and sdo_allowance_.
+  [[nodiscard]] Duration heartbeat_consumer_time(const Node& node) const;
   // The node's SDO timeout on this bus: the configured one and sdo_allowance_.
   [[nodiscard]] Duration sdo_timeout(const Node& node) const;
   [[nodiscard]] std::string sdo_failure(std::size_t n, bool write, canopen::ObjectAddress object,
