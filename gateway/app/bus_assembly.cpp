@@ -55,6 +55,7 @@ BusAssembly assemble_can_bus(EventLoop& loop, const config::Config& config, cons
     return result;
   }
   auto driver = std::make_unique<CanBusDriver>(loop, bus.name, std::move(transport), out);
+  driver->set_timer_spin(std::chrono::microseconds(bus.timer_spin_us));
   std::error_code cyclic_error;
   if (auto cyclic = open_cyclic_sender(bus, cyclic_error)) {
     driver->use_cyclic(std::move(cyclic));

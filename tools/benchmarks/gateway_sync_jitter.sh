@@ -4,15 +4,17 @@
 # poll_hz 1000, so the bus's only periodic frame is the gateway's SYNC at 1 kHz; `motionctl dump`
 # records the SYNCs' end-of-frame times for S seconds. Jitter = |interval - 1 ms|: p50, p99, max,
 # and the intervals over 1.5 ms (a period missed), p99 over the 50 us goal. Run once with the bus's
-# realtime_priority 0 (normal scheduling) and once with P (SCHED_FIFO). motion-sim runs under
+# realtime_priority 0 (normal scheduling), once with P (SCHED_FIFO), and once with P and the bus's
+# timer_spin_us SPIN (the loop woken SPIN early, the rest waited busy). motion-sim runs under
 # SCHED_FIFO 40 when permitted, so that the simulated wire's own wake-ups (it dates the frames) stay
 # out of the gateway's figure. Everything runs in a temporary folder on its own LCM port; the
 # processes are stopped by pid.
-#   tools/benchmarks/gateway_sync_jitter.sh [BIN_DIR] [SECONDS] [PRIORITY]   (build/bin, 8, 50)
+#   tools/benchmarks/gateway_sync_jitter.sh [BIN_DIR] [SECONDS] [PRIORITY] [SPIN]   (build/bin, 8, 50, 100)
 set -euo pipefail
 BIN=${1:-$(cd "$(dirname "$0")/../.." && pwd)/build/bin}
 SECS=${2:-8}
 PRIO=${3:-50}
+SPIN=${4:-100}
 DIR=$(mktemp -d /tmp/motion-sync-jitter-XXXXXX)
 PIDS=()
 cleanup() {
@@ -23,14 +25,14 @@ trap cleanup EXIT
 SIM_CHRT=()
 if chrt -f 40 true 2>/dev/null; then SIM_CHRT=(chrt -f 40); fi
 
-run() {  # run RT: prints one line of figures
-  local rt=$1 d="$DIR/rt$1" port=$((20000 + (RANDOM % 30000)))
+run() {  # run RT SPIN: prints one line of figures
+  local rt=$1 spin=$2 d="$DIR/rt$1-spin$2" port=$((20000 + (RANDOM % 30000)))
   local url="udpm://239.255.76.67:$port?ttl=0"
   mkdir -p "$d/sim"
   cat >"$d/lab.yaml" <<YAML
 lcm: {url: "$url", channel_prefix: "SJ_"}
 buses:
-  - {name: can9, transport: simcan:can9, bitrate: 1000000, bus_timing: true, poll_hz: 1000, realtime_priority: $rt}
+  - {name: can9, transport: simcan:can9, bitrate: 1000000, bus_timing: true, poll_hz: 1000, realtime_priority: $rt, timer_spin_us: $spin}
 drives:
   - {name: a-drive, family: uc57, bus: can9, node_id: 1, setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: event}}
 axes:
@@ -52,6 +54,7 @@ YAML
   if [ "$rt" -gt 0 ]; then
     sched="realtime_priority $rt ($(grep -q "SCHED_FIFO at priority" "$d/gateway.log" && echo SCHED_FIFO || echo refused: normal))"
   fi
+  if [ "$spin" -gt 0 ]; then sched="$sched, timer_spin_us $spin"; fi
   /usr/bin/python3 - "$d/dump.txt" "$sched" <<'PY'
 import re, sys
 stamps = []
@@ -72,6 +75,7 @@ PY
 }
 
 echo "load average $(cut -d' ' -f1-3 /proc/loadavg); motion-sim ${SIM_CHRT[*]:-under normal scheduling (chrt -f refused)}"
-run 0
-run "$PRIO"
-rm -rf "$DIR"
+run 0 0
+run "$PRIO" 0
+run "$PRIO" "$SPIN"
+[ -n "${KEEP:-}" ] && echo "kept $DIR" || rm -rf "$DIR"

@@ -264,6 +264,7 @@ void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, st
   driver_->prepare_fire(at);
   auto& timer = pending_fires_[trigger_id];
   timer = std::make_unique<PreciseTimer>(loop_);
+  if (const config::Bus* bus = config_.find_bus(bus_)) timer->set_spin(std::chrono::microseconds(bus->timer_spin_us));
   timer->arm(at, [this, trigger_id, fire] {
     fire();
     // Destroyed after this callback (the loop holds no reference to it once it has run).

@@ -54,10 +54,10 @@ void read_uimessage_keys(Reader& r, const YAML::Node& node, const std::string& p
 }  // namespace
 
 void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& bus) {
-  if (!r.check_map(
-          node, path,
-          {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits", "uimessage_crc",
-           "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz", "realtime_priority", "kernel_sync"}))
+  if (!r.check_map(node, path,
+                   {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits", "uimessage_crc",
+                    "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz", "realtime_priority",
+                    "timer_spin_us", "kernel_sync"}))
     return;
   bus.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "name", true)) bus.name = *v;
@@ -128,6 +128,13 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
     if (*v < 0 || *v > 99)
       r.error(node["realtime_priority"], path + ".realtime_priority",
               "expected 0 (normal scheduling) or a SCHED_FIFO priority 1..99, got " + std::to_string(*v));
+  }
+  if (auto v = r.get<int>(node, path, "timer_spin_us", false)) {
+    bus.timer_spin_us = *v;
+    if (*v < 0 || *v > 500)
+      r.error(node["timer_spin_us"], path + ".timer_spin_us",
+              "expected 0 (sleep to each deadline) .. 500 (wake 500 us early and wait the rest busy), got " +
+                  std::to_string(*v));
   }
   if (auto v = r.get<bool>(node, path, "kernel_sync", false)) {
     bus.kernel_sync = *v;

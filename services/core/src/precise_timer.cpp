@@ -55,7 +55,9 @@ void PreciseTimer::arm(TimePoint deadline, std::function<void()> callback) {
     });
     return;
   }
-  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(deadline.time_since_epoch()).count();
+  deadline_ = deadline;
+  const auto wake = spin_ > Duration::zero() ? deadline - spin_ : deadline;
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wake.time_since_epoch()).count();
   itimerspec spec{};
   // 0 would disarm: a deadline at or before the epoch is "now".
   spec.it_value.tv_sec = static_cast<time_t>(ns / 1'000'000'000);
@@ -82,6 +84,14 @@ void PreciseTimer::on_expired() {
   if (::read(fd_, &expirations, sizeof expirations) != static_cast<ssize_t>(sizeof expirations))
     return;  // EAGAIN: cancelled meanwhile
   if (!armed_) return;
+  if (spin_ > Duration::zero()) {
+    // The steady clock is the timerfd's (see the constructor).
+    while (SteadyClock::now() < deadline_) {
+#if defined(__x86_64__) || defined(__i386__)
+      __builtin_ia32_pause();
+#endif
+    }
+  }
   armed_ = false;
   auto cb = std::move(callback_);
   callback_ = nullptr;

@@ -346,6 +346,19 @@ TEST(Config, RealtimePriorityIsOffOrASchedFifoPriority) {
   expect_single_error(with("-1"), 7, "buses[0].realtime_priority", "1..99, got -1");
 }
 
+TEST(Config, TimerSpinIsOffOrUpTo500Microseconds) {
+  const auto with = [](const std::string& value) {
+    return replace(kValid, "    bitrate: 500000\n", "    bitrate: 500000\n    timer_spin_us: " + value + "\n");
+  };
+  const auto result = load_string(with("80"), "lab.yaml");
+  ASSERT_TRUE(result.ok()) << result.error_text();
+  EXPECT_EQ(result.config->buses[0].timer_spin_us, 80);
+  EXPECT_EQ(result.config->buses[1].timer_spin_us, 0) << "sleeps to each deadline unless asked";
+  ASSERT_TRUE(load_string(with("500"), "lab.yaml").ok());
+  expect_single_error(with("501"), 7, "buses[0].timer_spin_us", "0 (sleep to each deadline) .. 500");
+  expect_single_error(with("-1"), 7, "buses[0].timer_spin_us", "got -1");
+}
+
 TEST(Config, KernelSyncIsOnForSocketCanBusesAndOnlyForThem) {
   const std::string socketcan = replace(kValid, "transport: simcan:can0", "transport: socketcan:can0");
   const auto plain = load_string(socketcan, "lab.yaml");

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
 #include <vector>
 
 namespace motion {
@@ -57,6 +58,35 @@ TEST(PreciseTimer, OnAManualClockItFallsBackToTheLoopsTimers) {
   clock.advance(milliseconds(10));
   loop.run_once(Duration::zero());
   EXPECT_TRUE(ran);
+}
+
+// With a spin the loop wakes early and waits for the deadline busy: the callback never runs
+// before its deadline, and a loop timer due inside the spin runs after it (the loop was held).
+TEST(PreciseTimer, ASpinWakesEarlyButNeverRunsTheCallbackBeforeItsDeadline) {
+  EventLoop loop;
+  PreciseTimer timer(loop);
+  timer.set_spin(milliseconds(100));
+  std::vector<std::string> order;
+  TimePoint ran_at{};
+  const TimePoint deadline = loop.now() + milliseconds(200);
+  timer.arm(deadline, [&] {
+    ran_at = SteadyClock::now();
+    order.emplace_back("precise");
+  });
+  loop.call_at(deadline - milliseconds(50), [&] { order.emplace_back("loop timer"); });
+  loop.call_after(milliseconds(400), [&] { loop.stop(); });
+  loop.run();
+  EXPECT_GE(ran_at, deadline);
+  EXPECT_EQ(order, (std::vector<std::string>{"precise", "loop timer"}));
+  // Replaced while armed: the new deadline is the one waited for.
+  std::vector<TimePoint> fired;
+  const TimePoint second = loop.now() + milliseconds(150);
+  timer.arm(loop.now() + milliseconds(120), [&] { fired.push_back(TimePoint{}); });
+  timer.arm(second, [&] { fired.push_back(SteadyClock::now()); });
+  loop.call_after(milliseconds(300), [&] { loop.stop(); });
+  loop.run();
+  ASSERT_EQ(fired.size(), 1U);
+  EXPECT_GE(fired[0], second);
 }
 
 TEST(PreciseTimer, TimerSlackCanBeLowered) { EXPECT_TRUE(minimal_timer_slack()); }

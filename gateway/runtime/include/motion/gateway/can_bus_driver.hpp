@@ -104,6 +104,9 @@ class CanBusDriver final : public BusDriver {
   // The context a stack of this bus is constructed with (its replies are combined here).
   CanStackContext context();
   void add_stack(std::unique_ptr<CanStack> stack);
+  // The stacks' deadlines (SYNC periods, start frames) wake the loop `spin` early and are waited
+  // for busy (PreciseTimer::set_spin; the bus key timer_spin_us).
+  void set_timer_spin(Duration spin) { timer_.set_spin(spin); }
 
   void start() override;
   void execute(const motionlcm::gateway_command_t& command) override;

@@ -94,6 +94,7 @@ struct Bus {
   int retries = 2;
   double poll_hz = 20.0;      // status polling rate per drive
   int realtime_priority = 0;  // the gateway's loop thread under SCHED_FIFO at this priority (1..99); 0: not
+  int timer_spin_us = 0;      // the gateway's precise deadlines: woken this early, the rest waited busy (0..500)
   bool kernel_sync = true;    // socketcan: the periodic CANopen SYNC sent by the kernel (CAN_BCM), not the loop
   KeyLocations where;
 };

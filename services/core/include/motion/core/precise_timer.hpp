@@ -12,6 +12,11 @@
 // false when the kernel refused it.
 // fifo_scheduling(): optional SCHED_FIFO for the same purpose, where permitted.
 //
+// set_spin(d): the timerfd wakes the loop `d` before each deadline and the callback waits for the
+// deadline on the clock, busy: what is left of the wake-up latency then is the time from the
+// clock read to the callback, not the scheduler's. For a thread under SCHED_FIFO (elsewhere it can
+// be preempted inside the wait as well as before it); it costs up to `d` of CPU per deadline.
+//
 // Thread contract: the loop's thread only (as EventLoop). The callback may re-arm or cancel.
 #pragma once
 
@@ -44,6 +49,9 @@ class PreciseTimer {
   [[nodiscard]] bool armed() const { return armed_; }
   // true: a timerfd on CLOCK_MONOTONIC; false: the loop's timers.
   [[nodiscard]] bool absolute() const { return fd_ >= 0; }
+  // Wake up `spin` early and wait the rest busy (see above); zero (the default): not. Only on a
+  // timerfd (absolute()); from the next arm() on.
+  void set_spin(Duration spin) { spin_ = spin; }
 
  private:
   void on_expired();
@@ -53,6 +61,8 @@ class PreciseTimer {
   EventLoop::TimerId fallback_ = 0;
   std::function<void()> callback_;
   bool armed_ = false;
+  Duration spin_{};
+  TimePoint deadline_{};
 };
 
 }  // namespace motion
