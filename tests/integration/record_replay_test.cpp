@@ -137,8 +137,8 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
   const double t_recorded = seconds_since(t0);
 
   // motionctl move on the simulated lab puts the simulated drives' own start times (SIM_REPORT)
-  // beside the coordinator's measured skew: x and y start on one group BG frame, so the ground
-  // truth is 0 µs.
+  // beside the coordinator's measured skew, in all and per axis: x and y start on one group BG
+  // frame, so the ground truth is 0 µs.
   {
     std::string moved_out;
     ASSERT_EQ(group.run_to_completion(
@@ -154,6 +154,10 @@ TEST(RecordReplay, LoggedMoveIsReadByMotionctlLogAndReplayedByLogplayer) {
     ASSERT_TRUE(j.is_object()) << moved_out;
     ASSERT_TRUE(j["ground_truth_start_skew_us"].is_number()) << moved_out;
     EXPECT_EQ(j["ground_truth_start_skew_us"].get<double>(), 0.0) << moved_out;
+    // And each axis's own: the same instant for both (the text's SIM START column).
+    ASSERT_TRUE(j["axes"]["x"]["ground_truth_start_utime"].is_number()) << moved_out;
+    EXPECT_GT(j["axes"]["x"]["ground_truth_start_utime"].get<std::int64_t>(), 0) << moved_out;
+    EXPECT_EQ(j["axes"]["x"]["ground_truth_start_utime"], j["axes"]["y"]["ground_truth_start_utime"]) << moved_out;
   }
 
   const std::string prefix = lab.config().lcm.channel_prefix;

@@ -118,7 +118,9 @@ class StartTruth {
   StartTruth(app::Service& service, const request_t& request) {
     for (const auto& name : request.axes) {
       const auto* axis = service.config().find_axis(name);
-      if (axis != nullptr) drives_.insert(axis->drive);
+      if (axis == nullptr) continue;
+      drives_.insert(axis->drive);
+      drive_of_[name] = axis->drive;
     }
     service.node().subscribe<motionlcm::sim_report_t>(lcm::channels::kSimReport,
                                                       [this](const motionlcm::sim_report_t& r, const std::string&) {
@@ -135,27 +137,45 @@ class StartTruth {
                                               [](const auto& a, const auto& b) { return a.second < b.second; });
     return static_cast<double>(hi->second - lo->second);
   }
+  // When the drive of `axis` acted on its start frame (µs since the epoch), if it reported.
+  [[nodiscard]] std::optional<std::int64_t> start_of(const std::string& axis) const {
+    const auto drive = drive_of_.find(axis);
+    if (drive == drive_of_.end()) return std::nullopt;
+    const auto it = started_.find(drive->second);
+    if (it == started_.end()) return std::nullopt;
+    return it->second;
+  }
 
  private:
   std::set<std::string> drives_;
+  std::map<std::string, std::string> drive_of_;
   std::map<std::string, std::int64_t> started_;
 };
 
-// Per axis: target, final position, when it started relative to the first axis; then the
-// measured duration and start skew beside the planner's predictions and, on the simulated lab,
-// the simulated drives' own start times.
-void print_move_summary(const motionlcm::reply_t& result, std::optional<double> truth_skew_us) {
+// Per axis: target, final position, when it started relative to the first axis (as the gateways
+// measured it and, on the simulated lab, as the simulated drive acted: SIM START); then the
+// measured duration and start skew beside the planner's predictions and the simulated drives'.
+void print_move_summary(const motionlcm::reply_t& result, const StartTruth& truth) {
   std::int64_t first_start = 0;
   for (const std::int64_t t : result.start_utime) {
     if (t != 0 && (first_start == 0 || t < first_start)) first_start = t;
   }
+  std::int64_t first_truth = 0;
+  for (const auto& axis : result.axes) {
+    if (const auto t = truth.start_of(axis); t && (first_truth == 0 || *t < first_truth)) first_truth = *t;
+  }
+  const auto offset = [](std::int64_t t, std::int64_t first) {
+    return t == 0 ? std::string("-") : "+" + std::to_string(t - first) + " us";
+  };
   std::printf("\n  %-8s %12s %12s %12s %10s", "AXIS", "TARGET", "FINAL", "ERROR", "START");
+  if (first_truth != 0) std::printf(" %10s", "SIM START");
   for (std::size_t i = 0; i < result.axes.size(); ++i) {
     const std::int64_t start = i < result.start_utime.size() ? result.start_utime[i] : 0;
-    const std::string start_text = start == 0 ? std::string("-") : "+" + std::to_string(start - first_start) + " us";
     std::printf("\n  %-8s %12.4f %12.4f %12.4f %10s", result.axes[i].c_str(), result.targets[i], result.positions[i],
-                result.positions[i] - result.targets[i], start_text.c_str());
+                result.positions[i] - result.targets[i], offset(start, first_start).c_str());
+    if (first_truth != 0) std::printf(" %10s", offset(truth.start_of(result.axes[i]).value_or(0), first_truth).c_str());
   }
+  const std::optional<double> truth_skew_us = truth.skew_us();
   if (first_start != 0) {
     std::printf("\n  duration %.3f s (predicted %.3f s)", static_cast<double>(result.utime - first_start) / 1e6,
                 result.predicted_duration_s);
@@ -239,13 +259,17 @@ int run_request(Context& ctx, app::Service& service, const request_t& request, b
     for (std::size_t i = 0; i < result.axes.size(); ++i) {
       j["axes"][result.axes[i]] = {
           {"target", result.targets[i]}, {"position", result.positions[i]}, {"start_utime", result.start_utime[i]}};
+      if (truth) {
+        const auto t = truth->start_of(result.axes[i]);
+        j["axes"][result.axes[i]]["ground_truth_start_utime"] = t ? nlohmann::json(*t) : nlohmann::json(nullptr);
+      }
     }
     if (result.param.space != motionlcm::param_t::NONE) j["value"] = result.param.value;
     std::cout << j.dump(2) << "\n";
   } else if (result.status == motionlcm::reply_t::DONE) {
     std::cout << "done";
     if (result.param.space != motionlcm::param_t::NONE) std::cout << ": value " << result.param.value;
-    if (moving_kind) print_move_summary(result, truth->skew_us());
+    if (moving_kind) print_move_summary(result, *truth);
     std::cout << "\n";
   }
   if (result.status != motionlcm::reply_t::DONE) {
