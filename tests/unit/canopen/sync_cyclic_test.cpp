@@ -50,6 +50,14 @@ class CyclicSync : public ::testing::Test {
   const TimePoint t0 = TimePoint{} + 1h;
 
   void SetUp() override { producer.use_cyclic_sender(rec.sender()); }
+  // Started at t0; the sender took over at t0 + 10 ms and its first SYNC was seen then.
+  void sender_running_with_one_sync_seen() {
+    producer.start(t0);
+    producer.process(t0 + 10ms);
+    producer.on_cyclic_sync(t0 + 10ms);
+    producer.process(t0 + 10ms);
+    rec.take();
+  }
 };
 
 TEST_F(CyclicSync, StartsTheSenderAtTheFirstDeadlineAndCountsTheSyncsSeen) {
@@ -144,11 +152,7 @@ TEST_F(CyclicSync, StopStopsTheSenderAtOnceAndStartResumesAPeriodLater) {
 }
 
 TEST_F(CyclicSync, HoldHandsThePeriodToTheLoopAndBack) {
-  producer.start(t0);
-  producer.process(t0 + 10ms);
-  producer.on_cyclic_sync(t0 + 10ms);
-  producer.process(t0 + 10ms);
-  rec.take();
+  sender_running_with_one_sync_seen();
   // Held (a start image waits in a drive): the sender stops now; the loop sends the next SYNC a
   // period after the last one seen, and keeps the period.
   producer.hold_cyclic(true, t0 + 13ms);
@@ -170,11 +174,7 @@ TEST_F(CyclicSync, HoldHandsThePeriodToTheLoopAndBack) {
 }
 
 TEST_F(CyclicSync, ANewPeriodRestartsTheSenderAPeriodAfterItsLastSync) {
-  producer.start(t0);
-  producer.process(t0 + 10ms);
-  producer.on_cyclic_sync(t0 + 10ms);
-  producer.process(t0 + 10ms);
-  rec.take();
+  sender_running_with_one_sync_seen();
   // Longer: the sender stops now; the loop starts it again 40 ms after the last SYNC seen.
   producer.set_period(40ms, t0 + 12ms);
   EXPECT_EQ(rec.take(), (Calls{"stop"}));
