@@ -52,6 +52,7 @@
 // Every command ends in exactly one terminal reply (DONE or FAILED).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <deque>
@@ -344,7 +345,12 @@ class Uc57Stack final : public gateway::CanStack {
 
   [[nodiscard]] std::optional<cia402::State> drive_state(std::size_t n) const;
   // How often a node reports at most: one SYNC, or G of them (and one for the TPDO2 behind TPDO1).
-  [[nodiscard]] Duration cycle() const { return sync_period_ * (stagger_g_ > 0 ? stagger_g_ + 1 : 1); }
+  // Type 1: the longest period the SYNC may run at, the one of a set-up (ease_polls_while_configuring),
+  // so that a deadline counted in cycles holds while another node is being configured.
+  [[nodiscard]] Duration cycle() const {
+    if (stagger_g_ > 0) return sync_period_ * (stagger_g_ + 1);
+    return std::max(sync_period_, period_within(kConfiguringPollBusShare));
+  }
   void event(std::size_t n, std::int16_t kind, std::int8_t severity, std::int32_t code, const std::string& text);
   [[nodiscard]] std::string offline_text(std::size_t n) const;  // "<label> is offline: <why>"
   [[nodiscard]] std::string tpdo_text(std::size_t n) const;     // "every SYNC", "event-driven", ...
