@@ -68,6 +68,8 @@ struct RigOptions {
   std::string tpdo_mode = "staggered";
   // Per node id: the simulated drive's options (a drive refusing type G, one counting differently).
   std::function<void(int node, sim::Uc57SimOptions&)> sim;
+  // The stack's options beyond the configuration (its timeouts).
+  std::function<void(Uc57Stack::Options&)> stack;
 };
 
 // The stack and `nodes` simulated UC57 (node ids 1...) on one bit-timed wire.
@@ -93,6 +95,7 @@ class WireRig final : public motion::testing::CanWireLoop<Uc57Stack, OnWire> {
     options.wall_clock_us = [](TimePoint t) {
       return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
     };
+    if (o.stack) o.stack(options);
     stack = std::make_unique<Uc57Stack>(config_, *config_.find_bus("can0"), ctx, options);
     for (const auto& d : config_.drives) {
       attach_drive(d.name, [&](simbus::EndpointId endpoint) {
