@@ -12,6 +12,7 @@ MasterSettings settings_from_config(const config::Config& config, const config::
   s.format.parity = bus.parity == 'E' ? rtu::Parity::kEven : bus.parity == 'O' ? rtu::Parity::kOdd : rtu::Parity::kNone;
   s.format.stop_bits = static_cast<std::uint8_t>(bus.stop_bits);
   s.poll_period = std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(bus.poll_hz, 0.1)));
+  s.egress_latency = std::chrono::microseconds(bus.egress_latency_us);
   for (const auto& d : config.drives) {
     if (d.bus != bus.name || d.family != config::Family::kAdamModbus) continue;
     DriveSettings ds;
@@ -94,7 +95,9 @@ void AdamStack::send_next(TimePoint now) {
     if (reserved_at_ != kNever && now < reserved_at_ + kReservationGrace && queue_.front().drive != nullptr) {
       // A scheduled start frame goes out at reserved_at_: nothing that would still run then (nor
       // after it, until the fire comes or the grace is over).
-      if (now + adam::transaction_time(settings_.format, queue_.front().request) > reserved_at_) break;
+      if (now + settings_.egress_latency + adam::transaction_time(settings_.format, queue_.front().request) >
+          reserved_at_)
+        break;
     }
     Transaction t = std::move(queue_.front());
     queue_.pop_front();
@@ -119,7 +122,7 @@ void AdamStack::send_next(TimePoint now) {
     busy_time_ += on_wire;
     if (first_activity_ == kNever) first_activity_ = now;
     last_activity_ = now;
-    t.frame_end = now + on_wire;
+    t.frame_end = now + settings_.egress_latency + on_wire;
     ++t.attempts;
     framer_.clear();  // anything before our request is not its reply
     if (t.drive == nullptr) {

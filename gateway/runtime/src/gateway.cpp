@@ -249,7 +249,11 @@ void Gateway::on_trigger2(const motionlcm::sync_trigger2_t& trigger) {
 
 void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, std::vector<std::int64_t> order) {
   // The send time is wall-clock (common to every machine); the loop's timers are steady-clock.
-  const auto delay = std::chrono::microseconds(send_utime - wall_time_us());
+  // It is when the first start frame is to begin on the wire: a bus whose frames take a while from
+  // the hand-over to the wire (egress_latency_us: a USB adapter) is handed them that much earlier.
+  const config::Bus* bus = config_.find_bus(bus_);
+  const auto egress = std::chrono::microseconds(bus != nullptr ? bus->egress_latency_us : 0);
+  const auto delay = std::chrono::microseconds(send_utime - wall_time_us()) - egress;
   const auto fire = [this, trigger_id, order = std::move(order)] {
     remember(fired_, trigger_id);
     if (driver_) driver_->fire_ordered(trigger_id, order);
@@ -264,7 +268,7 @@ void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, st
   driver_->prepare_fire(at);
   auto& timer = pending_fires_[trigger_id];
   timer = std::make_unique<PreciseTimer>(loop_);
-  if (const config::Bus* bus = config_.find_bus(bus_)) timer->set_spin(std::chrono::microseconds(bus->timer_spin_us));
+  if (bus != nullptr) timer->set_spin(std::chrono::microseconds(bus->timer_spin_us));
   timer->arm(at, [this, trigger_id, fire] {
     fire();
     // Destroyed after this callback (the loop holds no reference to it once it has run).

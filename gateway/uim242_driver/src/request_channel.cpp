@@ -46,7 +46,8 @@ void RequestChannel::transmit(InFlight& f, TimePoint now) {
   ++stats_.tx_frames;
   stats_.tx_bytes += static_cast<std::int64_t>(text->size());
   // The controller acts when the last character has arrived.
-  const TimePoint on_wire = now + settings_.character_time * static_cast<std::int64_t>(text->size());
+  const TimePoint on_wire =
+      now + settings_.egress_latency + settings_.character_time * static_cast<std::int64_t>(text->size());
   f.deadline = on_wire + settings_.timeout;
   if (!f.is_selection && f.request.on_sent && !f.cancelled) f.request.on_sent(on_wire);
 }

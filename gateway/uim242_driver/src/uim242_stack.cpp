@@ -15,7 +15,8 @@ Uim242Stack::Uim242Stack(const config::Config& config, const std::string& bus, C
     poll_period_ = std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(b->poll_hz, 0.1)));
     channel_ = RequestChannel([this](std::span<const std::uint8_t> bytes) { context_.send(bytes); },
                               ChannelSettings{std::chrono::milliseconds(b->request_timeout_ms), b->retries,
-                                              gateway::serial_line_settings(*b).wire_time(1)});
+                                              gateway::serial_line_settings(*b).wire_time(1),
+                                              std::chrono::microseconds(b->egress_latency_us)});
   }
   for (const auto& d : config.drives) {
     if (d.bus != bus || d.family != config::Family::kUim242) continue;

@@ -46,6 +46,15 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
     const Bus& b = c.buses[i];
     if (!b.name.empty() && !buses.emplace(b.name, &b).second)
       where_error(b.where.of("name"), "buses[" + std::to_string(i) + "].name", "duplicate bus name '" + b.name + "'");
+    // A gateway hands its start frames over this much before the send time a trigger names: the
+    // trigger must reach it earlier still, and the coordinator sends triggers at least
+    // trigger_lead_min_ms ahead.
+    if (b.egress_latency_us > 0 && b.egress_latency_us <= 20000 &&
+        b.egress_latency_us >= c.coordinator.trigger_lead_min_ms * 1000)
+      where_error(b.where.of("egress_latency_us"), "buses[" + std::to_string(i) + "].egress_latency_us",
+                  "must be below coordinator.trigger_lead_min_ms (" +
+                      std::to_string(c.coordinator.trigger_lead_min_ms) +
+                      " ms): the start frames are handed over this much before the trigger's send time");
   }
   std::set<std::string> drive_names;
   // (bus, address space) -> node id -> drive. UIM342 (29-bit) and CANopen (11-bit) frames do not

@@ -123,11 +123,13 @@ inline DriveSettings drive(const std::string& name, const std::string& axis, std
 
 class AdamStackTest : public ::testing::Test {
  protected:
-  explicit AdamStackTest(std::vector<DriveSettings> drives = {drive("c-drive", "c", 1)}) {
+  // `egress`: the line's egress latency (bus key egress_latency_us).
+  explicit AdamStackTest(std::vector<DriveSettings> drives = {drive("c-drive", "c", 1)}, Duration egress = {}) {
     MasterSettings s;
     s.bus = "rs485";
     s.transport = "simserial:rs485";
     s.poll_period = 100ms;
+    s.egress_latency = egress;
     s.drives = std::move(drives);
     core = std::make_unique<AdamStack>(
         s,
@@ -135,7 +137,9 @@ class AdamStackTest : public ::testing::Test {
           sent.emplace_back(b.begin(), b.end());
           return true;
         },
-        out, [](TimePoint) { return std::int64_t{1'000'000}; });
+        out, [](TimePoint t) {  // wall clock = the steady time's microseconds
+          return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+        });
   }
   void advance(Duration dt) {
     now += dt;

@@ -33,7 +33,11 @@ TEST_F(TwoDriveTest, ArmThenFireStartsEveryAxisWithOneBroadcastExecuteTableFrame
   EXPECT_EQ(out.of(10)[1].status, kStarted);
   EXPECT_EQ(out.of(10)[1].start_mechanism, "broadcast");
   EXPECT_EQ(out.of(10)[1].predicted_skew_us, 0.0);
-  EXPECT_GT(out.of(10)[1].trigger_utime, 0);
+  // The drives act at the end of the 8-byte frame, 8 x 10 bits at 115200 baud after its write.
+  const auto us = [](TimePoint t) {
+    return std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+  };
+  EXPECT_EQ(out.of(10)[1].trigger_utime, us(now) + 694);
   serve_pending();  // the broadcast is executed by both fake drives, answered by none
   EXPECT_EQ(banks[1].position(), 100000);
   EXPECT_EQ(banks[2].position(), -8000);
@@ -43,6 +47,32 @@ TEST_F(TwoDriveTest, ArmThenFireStartsEveryAxisWithOneBroadcastExecuteTableFrame
   core->fire(77, now);  // a second fire of the same trigger does nothing
   run_for(10ms);
   EXPECT_EQ(out.of(10).size(), 3U);
+}
+
+// A line whose adapter takes 400 us from the write to the first character on the wire (bus key
+// egress_latency_us): the drives act, and the start is dated, that much later than without it.
+class LatentLineTest : public AdamStackTest {
+ protected:
+  LatentLineTest() : AdamStackTest({drive("c-drive", "c", 1), drive("d-drive", "d", 2)}, 400us) {
+    banks[1];
+    banks[2];
+    core->start(now);
+    run_for(50ms);
+  }
+};
+
+TEST_F(LatentLineTest, TheStartIsDatedAfterTheEgressLatencyAndItsWireTime) {
+  ASSERT_TRUE(core->ready());
+  core->execute(arm(10, 77, {{"c", 1000}, {"d", -800}}), now);
+  run_for(80ms);
+  ASSERT_EQ(out.of(10).size(), 1U);
+  ASSERT_EQ(out.of(10)[0].status, kArmed);
+  const std::size_t before = sent.size();
+  core->fire(77, now);
+  ASSERT_EQ(sent.size(), before + 1);
+  ASSERT_EQ(out.of(10).size(), 2U);
+  const auto written = std::chrono::duration_cast<std::chrono::microseconds>(now.time_since_epoch()).count();
+  EXPECT_EQ(out.of(10)[1].trigger_utime, written + 400 + 694);
 }
 
 TEST_F(TwoDriveTest, AReservedLineSendsTheBroadcastAtOnceWhereAPollRoundWouldHoldIt) {

@@ -333,30 +333,47 @@ TEST(Config, MissingRequiredKeyIsRefused) {
                       "required key is missing");
 }
 
-TEST(Config, RealtimePriorityIsOffOrASchedFifoPriority) {
-  const auto with = [](const std::string& value) {
-    return replace(kValid, "    bitrate: 500000\n", "    bitrate: 500000\n    realtime_priority: " + value + "\n");
+// An integer bus key with a range, set on the first bus of kValid (line 7): `inside` loads into
+// `field` of that bus while the second keeps `unset`; `edge` loads too; each of `outside` is refused
+// with one error naming the key and containing its text.
+void expect_bounded_bus_key(const std::string& key, int Bus::*field, int inside, int unset, int edge,
+                            const std::vector<std::pair<int, std::string>>& outside) {
+  const auto with = [&](int value) {
+    return replace(kValid, "    bitrate: 500000\n",
+                   "    bitrate: 500000\n    " + key + ": " + std::to_string(value) + "\n");
   };
-  const auto result = load_string(with("80"), "lab.yaml");
+  const auto result = load_string(with(inside), "lab.yaml");
   ASSERT_TRUE(result.ok()) << result.error_text();
-  EXPECT_EQ(result.config->buses[0].realtime_priority, 80);
-  EXPECT_EQ(result.config->buses[1].realtime_priority, 0) << "normal scheduling unless asked";
-  ASSERT_TRUE(load_string(with("0"), "lab.yaml").ok());
-  expect_single_error(with("100"), 7, "buses[0].realtime_priority", "1..99, got 100");
-  expect_single_error(with("-1"), 7, "buses[0].realtime_priority", "1..99, got -1");
+  EXPECT_EQ(result.config->buses[0].*field, inside) << key;
+  EXPECT_EQ(result.config->buses[1].*field, unset) << key << " unless asked";
+  EXPECT_TRUE(load_string(with(edge), "lab.yaml").ok()) << key << ": " << edge;
+  for (const auto& [value, text] : outside) expect_single_error(with(value), 7, "buses[0]." + key, text);
+}
+
+TEST(Config, RealtimePriorityIsOffOrASchedFifoPriority) {
+  expect_bounded_bus_key("realtime_priority", &Bus::realtime_priority, 80, 0, 0,
+                         {{100, "1..99, got 100"}, {-1, "1..99, got -1"}});
 }
 
 TEST(Config, TimerSpinIsOffOrUpTo500Microseconds) {
-  const auto with = [](const std::string& value) {
-    return replace(kValid, "    bitrate: 500000\n", "    bitrate: 500000\n    timer_spin_us: " + value + "\n");
+  expect_bounded_bus_key("timer_spin_us", &Bus::timer_spin_us, 80, 0, 500,
+                         {{501, "0 (sleep to each deadline) .. 500"}, {-1, "got -1"}});
+}
+
+// The time from a write to the first bit on the wire (a USB adapter): none unless configured, at
+// most 20 ms, and below the least trigger lead (the trigger must reach the gateway before it hands
+// its start over).
+TEST(Config, EgressLatencyIsNoneOrUpTo20MillisecondsAndBelowTheLeastTriggerLead) {
+  expect_bounded_bus_key(
+      "egress_latency_us", &Bus::egress_latency_us, 350, 0, 4999,
+      {{20001, "0 (frames reach the wire when handed over) .. 20000 us, got 20001"}, {-1, "got -1"}});
+  const auto with = [](const std::string& latency, const std::string& least_lead) {
+    return replace(kValid, "    bitrate: 500000\n", "    bitrate: 500000\n    egress_latency_us: " + latency + "\n") +
+           "coordinator:\n  trigger_lead_ms: 30\n  trigger_lead_min_ms: " + least_lead + "\n";
   };
-  const auto result = load_string(with("80"), "lab.yaml");
-  ASSERT_TRUE(result.ok()) << result.error_text();
-  EXPECT_EQ(result.config->buses[0].timer_spin_us, 80);
-  EXPECT_EQ(result.config->buses[1].timer_spin_us, 0) << "sleeps to each deadline unless asked";
-  ASSERT_TRUE(load_string(with("500"), "lab.yaml").ok());
-  expect_single_error(with("501"), 7, "buses[0].timer_spin_us", "0 (sleep to each deadline) .. 500");
-  expect_single_error(with("-1"), 7, "buses[0].timer_spin_us", "got -1");
+  EXPECT_TRUE(load_string(with("20000", "21"), "lab.yaml").ok());
+  expect_single_error(with("5000", "5"), 7, "buses[0].egress_latency_us",
+                      "must be below coordinator.trigger_lead_min_ms (5 ms)");
 }
 
 TEST(Config, KernelSyncIsOnForSocketCanBusesAndOnlyForThem) {

@@ -262,6 +262,37 @@ TEST_F(Fixture, ScheduledTriggerFiresAtThisBusesSendTimeInItsOrderAndOnce) {
   EXPECT_GT(heard[1].utime, heard[1].send_utime);
 }
 
+// can0 writes through an adapter that takes 15 ms from the hand-over to the wire (egress_latency_us):
+// the start frames are handed over 15 ms before the send time the trigger names, so that they begin
+// on the wire at it.
+struct LatentBus : Fixture {
+  LatentBus()
+      : Fixture(std::string(kConfig).replace(std::string(kConfig).find("transport: simcan:can0}"), 23,
+                                             "transport: simcan:can0, egress_latency_us: 15000}") +
+                "coordinator: {trigger_lead_ms: 30, trigger_lead_min_ms: 20}\n") {}
+};
+
+TEST_F(LatentBus, TheStartIsHandedOverItsEgressLatencyBeforeTheSendTime) {
+  ASSERT_EQ(config.find_bus("can0")->egress_latency_us, 15000);
+  motionlcm::sync_trigger2_t t{};
+  t.trigger_id = 3;
+  t.utime = wall_time_us();
+  t.act_utime = t.utime + 60'000;
+  t.buses = {"can0"};
+  t.send_utime = {t.act_utime - 100};
+  t.lead_us = {100.0};
+  t.num_buses = 1;
+  const std::int64_t published_utime = wall_time_us();
+  const TimePoint published = loop.now();
+  node.publish(lcm::channels::kSyncTrigger2, t);
+  pump_until([&] { return !driver->fired.empty(); });
+  ASSERT_EQ(driver->fired.size(), 1u);
+  const auto fired_after = std::chrono::duration_cast<std::chrono::microseconds>(driver->fired[0].second - published);
+  const auto hand_over = std::chrono::microseconds(t.send_utime[0] - 15'000 - published_utime);
+  EXPECT_GE(fired_after, hand_over) << "not before its hand-over time";
+  EXPECT_LT(fired_after, hand_over + milliseconds(10)) << "15 ms before the send time, not at it";
+}
+
 TEST_F(Fixture, StatusIsPublishedInUserUnitsWithInvertAndIdentity) {
   DriveStatus s;
   s.position_counts = 250;

@@ -2,6 +2,7 @@
 // not_before, and a line reserved for a start frame.
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,9 +14,11 @@ namespace {
 using namespace std::chrono_literals;
 
 struct Line {
+  explicit Line(Duration egress = {}) : egress_latency(egress) {}
+  Duration egress_latency;
   std::vector<std::string> sent;
   RequestChannel channel{[this](std::span<const std::uint8_t> b) { sent.emplace_back(b.begin(), b.end()); },
-                         ChannelSettings{100ms, 0, std::chrono::microseconds(174)}};  // 57600 baud
+                         ChannelSettings{100ms, 0, std::chrono::microseconds(174), egress_latency}};  // 57600 baud
 };
 
 Request global_speed(std::int64_t speed) {
@@ -23,6 +26,23 @@ Request global_speed(std::int64_t speed) {
   r.drive = "gateway";
   r.instruction = uim242::Instruction{uim242::Mnemonic::kSPD, true, speed, false};
   return r;
+}
+
+// The controllers act when the instruction's last character has arrived: its characters after the
+// write, and after the line's egress latency (bus key egress_latency_us) when it has one.
+TEST(RequestChannel, AnInstructionIsOnTheWireAfterTheEgressLatencyAndItsCharacters) {
+  for (const Duration egress : {Duration{}, Duration{900us}}) {
+    Line line(egress);
+    const TimePoint t0 = TimePoint{} + 10s;
+    Request r = global_speed(4800);
+    std::optional<TimePoint> on_wire;
+    r.on_sent = [&](TimePoint t) { on_wire = t; };
+    line.channel.submit(std::move(r), true);
+    line.channel.process(t0);
+    ASSERT_EQ(line.sent.size(), 1U);
+    ASSERT_TRUE(on_wire);
+    EXPECT_EQ(*on_wire, t0 + egress + 10 * 174us) << "gSPD 4800; is 10 characters";
+  }
 }
 
 TEST(RequestChannel, ARequestIsNotHandedToTheLineBeforeItsNotBefore) {

@@ -96,6 +96,9 @@ struct MasterSettings {
   adam::rtu::SerialFormat format;
   Duration poll_period = std::chrono::milliseconds(100);
   Duration broadcast_guard = std::chrono::milliseconds(5);  // not in the manual: assumed, a few ms after a broadcast
+  // From a write to the port to the frame's first character on the line (bus key
+  // egress_latency_us): a frame's end, and with it a broadcast start's time, is dated after it.
+  Duration egress_latency{};
   std::vector<DriveSettings> drives;
 };
 

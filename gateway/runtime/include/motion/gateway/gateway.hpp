@@ -199,7 +199,8 @@ class Gateway final : public GatewayOutput {
                          const motionlcm::signed_message_t& envelope, void (Gateway::*handler)(const Msg&));
   void on_trigger(const motionlcm::sync_trigger_t& trigger);
   void on_trigger2(const motionlcm::sync_trigger2_t& trigger);
-  // Fires the driver for `trigger_id` at `send_utime` (wall clock), or now when that has passed.
+  // Fires the driver for `trigger_id` at `send_utime` (wall clock; when the first start frame is to
+  // begin on the wire) less the bus's egress_latency_us, or now when that has passed.
   void schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, std::vector<std::int64_t> order);
   // The coordinator's desired state: a request of this bus triggered before this process started
   // was the previous gateway process's; its axes are stopped and a GATEWAY_RESTARTED event says

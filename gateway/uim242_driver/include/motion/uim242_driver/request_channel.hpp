@@ -41,6 +41,7 @@ struct ChannelSettings {
   Duration timeout = std::chrono::milliseconds(100);  // from the end of the instruction on the wire
   int retries = 1;
   Duration character_time{};  // one character at the line's baud rate (0: instant, as a pty alone)
+  Duration egress_latency{};  // from a write to the port to the first character on the line (bus key)
 };
 
 struct ChannelStatistics {

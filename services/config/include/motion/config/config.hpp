@@ -95,7 +95,12 @@ struct Bus {
   double poll_hz = 20.0;      // status polling rate per drive
   int realtime_priority = 0;  // the gateway's loop thread under SCHED_FIFO at this priority (1..99); 0: not
   int timer_spin_us = 0;      // the gateway's precise deadlines: woken this early, the rest waited busy (0..500)
-  bool kernel_sync = true;    // socketcan: the periodic CANopen SYNC sent by the kernel (CAN_BCM), not the loop
+  // From the gateway's hand-over of a frame (write, send) to its first bit on the wire: a USB
+  // adapter's transfer, a driver's queue (0..20000 us, below coordinator.trigger_lead_min_ms; 0: none
+  // known). Start frames are handed over this much before a trigger's send time, and a serial line
+  // dates its frames by it.
+  int egress_latency_us = 0;
+  bool kernel_sync = true;  // socketcan: the periodic CANopen SYNC sent by the kernel (CAN_BCM), not the loop
   KeyLocations where;
 };
 
