@@ -211,12 +211,13 @@ int main(int argc, char** argv) {
       const double pty = nearest_rank(hops.pty_us, q);
       const double socket = nearest_rank(hops.socket_us, q);
       const std::string p = q == 0.5 ? "p50" : "p99";
-      rows.push_back({"write -> read, pty vs socket, " + p + ", " + when, fmt("%.1f us", pty),
-                      fmt("%.1f us", socket), pty / socket, fmt("pty later by %.1f us", pty - socket)});
+      rows.push_back({"write -> read, pty vs socket, " + p + ", " + when, fmt("%.1f us", pty), fmt("%.1f us", socket),
+                      pty / socket, fmt("pty later by %.1f us", pty - socket)});
     }
-    rows.push_back({"  (" + when + ": frames per link)", fmt2("%.0f / %.0f", static_cast<double>(hops.pty_us.size()),
-                                                              static_cast<double>(hops.socket_us.size())),
-                    "", NAN, ""});
+    rows.push_back(
+        {"  (" + when + ": frames per link)",
+         fmt2("%.0f / %.0f", static_cast<double>(hops.pty_us.size()), static_cast<double>(hops.socket_us.size())), "",
+         NAN, ""});
   }
   bench::print_rows(rows, "figure", "socket hop");
   return 0;

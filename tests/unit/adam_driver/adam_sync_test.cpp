@@ -7,11 +7,21 @@ namespace {
 
 class TwoDriveTest : public AdamStackTest {
  protected:
-  TwoDriveTest() : AdamStackTest({drive("c-drive", "c", 1), drive("d-drive", "d", 2)}) {
+  // `egress`: the line's egress latency (bus key egress_latency_us).
+  explicit TwoDriveTest(Duration egress = {})
+      : AdamStackTest({drive("c-drive", "c", 1), drive("d-drive", "d", 2)}, egress) {
     banks[1];
     banks[2];
     core->start(now);
     run_for(50ms);
+  }
+  // Command 10 arms c and d for trigger 77 (their table entries written and acknowledged).
+  void arm_both(std::int64_t c, std::int64_t d) {
+    ASSERT_TRUE(core->ready());
+    core->execute(arm(10, 77, {{"c", c}, {"d", d}}), now);
+    run_for(80ms);  // 12 acknowledged writes, each followed by t3.5 of silence
+    ASSERT_EQ(out.of(10).size(), 1U);
+    ASSERT_EQ(out.of(10)[0].status, kArmed);
   }
 };
 
@@ -51,22 +61,13 @@ TEST_F(TwoDriveTest, ArmThenFireStartsEveryAxisWithOneBroadcastExecuteTableFrame
 
 // A line whose adapter takes 400 us from the write to the first character on the wire (bus key
 // egress_latency_us): the drives act, and the start is dated, that much later than without it.
-class LatentLineTest : public AdamStackTest {
+class LatentLineTest : public TwoDriveTest {
  protected:
-  LatentLineTest() : AdamStackTest({drive("c-drive", "c", 1), drive("d-drive", "d", 2)}, 400us) {
-    banks[1];
-    banks[2];
-    core->start(now);
-    run_for(50ms);
-  }
+  LatentLineTest() : TwoDriveTest(400us) {}
 };
 
 TEST_F(LatentLineTest, TheStartIsDatedAfterTheEgressLatencyAndItsWireTime) {
-  ASSERT_TRUE(core->ready());
-  core->execute(arm(10, 77, {{"c", 1000}, {"d", -800}}), now);
-  run_for(80ms);
-  ASSERT_EQ(out.of(10).size(), 1U);
-  ASSERT_EQ(out.of(10)[0].status, kArmed);
+  ASSERT_NO_FATAL_FAILURE(arm_both(1000, -800));
   const std::size_t before = sent.size();
   core->fire(77, now);
   ASSERT_EQ(sent.size(), before + 1);
@@ -76,11 +77,7 @@ TEST_F(LatentLineTest, TheStartIsDatedAfterTheEgressLatencyAndItsWireTime) {
 }
 
 TEST_F(TwoDriveTest, AReservedLineSendsTheBroadcastAtOnceWhereAPollRoundWouldHoldIt) {
-  ASSERT_TRUE(core->ready());
-  core->execute(arm(10, 77, {{"c", 100000}, {"d", -8000}}), now);
-  run_for(80ms);
-  ASSERT_EQ(out.of(10).size(), 1U);
-  ASSERT_EQ(out.of(10)[0].status, kArmed);
+  ASSERT_NO_FATAL_FAILURE(arm_both(100000, -8000));
   // When a poll round starts: its first read goes out as the round is due (the line is idle by
   // then in the second round after arming), and the next one a poll period (100 ms) later.
   const auto next_round = [&] {
