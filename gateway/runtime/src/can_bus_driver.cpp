@@ -311,7 +311,9 @@ void CanBusDriver::fire_ordered(std::int64_t trigger_id, const std::vector<std::
   for (auto& s : stacks_) {
     if (std::find(order.begin(), order.end(), s.get()) == order.end()) order.push_back(s.get());
   }
+  out_.hold();
   for (CanStack* s : order) call(s, [&](CanStack& stack) { stack.fire(trigger_id, now); });
+  out_.release();
   reschedule();
 }
 

@@ -102,7 +102,10 @@ std::error_code Bus::submit(EndpointId from, const can::Frame& frame, TimePoint 
   Queued q{next_seq_++, from, frame, now};
   q.frame.timestamp_us = 0;
   if (config_.timing) {
-    queue_.push_back(q);
+    // In time order: a frame read late (queued at its send time) goes before those queued after it.
+    const auto at = std::upper_bound(queue_.begin(), queue_.end(), now,
+                                     [](TimePoint t, const Queued& other) { return t < other.queued_at; });
+    queue_.insert(at, q);
     return {};
   }
   // No wire: the frame is complete the moment it is sent.
@@ -130,7 +133,7 @@ void Bus::run_wire(TimePoint now) {
       continue;
     }
     if (queue_.empty()) return;
-    // Queue is in submission order, so its front waited longest.
+    // Queue is in time order, so its front waited longest.
     const TimePoint start = std::max(wire_free_at_, queue_.front().queued_at);
     if (start > now) return;
     Queued winner = take_winner(start);

@@ -4,7 +4,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
+#include <chrono>
 #include <cstring>
 #include <deque>
 #include <functional>
@@ -12,6 +14,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "motion/core/clock.hpp"
 #include "motion/simbus/address.hpp"
 #include "motion/simbus/wire.hpp"
 #include "unix_socket.hpp"
@@ -21,6 +24,8 @@ namespace motion::simbus {
 namespace {
 // Datagrams read from one connection per wake-up, so one chatty endpoint cannot starve the loop.
 constexpr int kReadBudget = 64;
+// The oldest a socket frame's send time may be when the hub reads it (older stamps count as this).
+constexpr std::chrono::nanoseconds kLongestReadDelay = std::chrono::milliseconds(10);
 // Items a LocalEndpoint may have waiting before further deliveries count as overruns.
 constexpr std::size_t kLocalQueueLimit = 4096;
 // Room for a burst towards a slow reader (the kernel caps it at net.core.wmem_max).
@@ -249,6 +254,7 @@ void Hub::accept_connections() {
       return;
     }
     ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &kSendBuffer, sizeof kSendBuffer);
+    detail::stamp_receptions(fd);
     connections_.emplace(fd, Connection{fd, 0});
     loop_.watch(fd, [this, fd] { read_connection(fd); });
   }
@@ -260,7 +266,8 @@ void Hub::read_connection(int fd) {
   for (int i = 0; i < kReadBudget; ++i) {
     const auto it = connections_.find(fd);
     if (it == connections_.end()) return;
-    const ssize_t n = ::recv(fd, buffer.data(), buffer.size(), MSG_DONTWAIT);
+    std::int64_t sent_wall_ns = 0;
+    const ssize_t n = detail::receive_stamped(fd, buffer, sent_wall_ns);
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
     if (n <= 0) {
@@ -272,13 +279,24 @@ void Hub::read_connection(int fd) {
       spdlog::warn("simbus {}: ignoring a malformed message ({} bytes)", options_.bus_name, n);
       continue;
     }
-    handle(it->second, *message);
+    handle(it->second, *message, sent_at(sent_wall_ns));
   }
   if (failed) failed_.push_back(fd);
   pump();
 }
 
-void Hub::handle(Connection& connection, const wire::Message& message) {
+TimePoint Hub::sent_at(std::int64_t sent_wall_ns) const {
+  const TimePoint now = loop_.now();
+  // The stamp's age is real time: it dates a frame on a loop that runs on the steady clock only.
+  if (sent_wall_ns <= 0 || dynamic_cast<const SystemSteadyClock*>(&loop_.clock()) == nullptr) return now;
+  const std::int64_t wall_now_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  // At most kLongestReadDelay old (a stepped wall clock must not date a frame far back).
+  const auto age = std::clamp<std::int64_t>(wall_now_ns - sent_wall_ns, 0, kLongestReadDelay.count());
+  return now - std::chrono::nanoseconds(age);
+}
+
+void Hub::handle(Connection& connection, const wire::Message& message, TimePoint sent) {
   if (const auto* hello = std::get_if<wire::Hello>(&message)) {
     if (connection.id != 0) return;
     if (hello->version != wire::kProtocolVersion) {
@@ -298,7 +316,7 @@ void Hub::handle(Connection& connection, const wire::Message& message) {
   }
   if (connection.id == 0) return;  // nothing but Hello before Hello
   if (const auto* fm = std::get_if<wire::FrameMessage>(&message)) {
-    if (bus_.submit(connection.id, fm->frame, loop_.now())) {
+    if (bus_.submit(connection.id, fm->frame, sent)) {
       (void)detail::send_message(connection.fd, wire::TxRejected{fm->frame.id, fm->frame.extended});
     }
   } else if (const auto* echo = std::get_if<wire::SetOwnEcho>(&message)) {

@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include <time.h>
+
 #include <array>
 #include <cstring>
 
@@ -43,6 +45,31 @@ std::error_code send_message(int fd, const wire::Message& message) {
   if (size == 0) return std::make_error_code(std::errc::invalid_argument);
   if (::send(fd, buffer.data(), size, MSG_DONTWAIT | MSG_NOSIGNAL) < 0) return last_error();
   return {};
+}
+
+void stamp_receptions(int fd) {
+  const int on = 1;
+  ::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on);
+}
+
+ssize_t receive_stamped(int fd, std::span<std::uint8_t> buffer, std::int64_t& sent_wall_ns) {
+  sent_wall_ns = 0;
+  iovec io{buffer.data(), buffer.size()};
+  alignas(cmsghdr) std::array<char, CMSG_SPACE(sizeof(timespec))> control{};
+  msghdr message{};
+  message.msg_iov = &io;
+  message.msg_iovlen = 1;
+  message.msg_control = control.data();
+  message.msg_controllen = control.size();
+  const ssize_t n = ::recvmsg(fd, &message, MSG_DONTWAIT);
+  if (n < 0) return n;
+  for (cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr; c = CMSG_NXTHDR(&message, c)) {
+    if (c->cmsg_level != SOL_SOCKET || c->cmsg_type != SCM_TIMESTAMPNS) continue;
+    timespec stamp{};
+    std::memcpy(&stamp, CMSG_DATA(c), sizeof stamp);
+    sent_wall_ns = static_cast<std::int64_t>(stamp.tv_sec) * 1'000'000'000LL + stamp.tv_nsec;
+  }
+  return n;
 }
 
 }  // namespace motion::simbus::detail

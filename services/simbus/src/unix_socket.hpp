@@ -5,6 +5,7 @@
 #include <sys/un.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <span>
@@ -24,5 +25,14 @@ namespace motion::simbus::detail {
 
 // Sends one message without blocking; an error code (EAGAIN as resource_unavailable_try_again).
 std::error_code send_message(int fd, const wire::Message& message);
+
+// Asks the kernel to stamp what `fd` receives (SO_TIMESTAMPNS): an AF_UNIX datagram is stamped
+// when the sender's send() queues it, not when it is read.
+void stamp_receptions(int fd);
+
+// Receives one message without blocking into `buffer`: its size, or -1 with errno set (EAGAIN:
+// nothing waiting). `sent_wall_ns`: its send time on the wall clock (CLOCK_REALTIME, ns), or 0
+// when the kernel gave no stamp.
+ssize_t receive_stamped(int fd, std::span<std::uint8_t> buffer, std::int64_t& sent_wall_ns);
 
 }  // namespace motion::simbus::detail

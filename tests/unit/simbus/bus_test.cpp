@@ -180,6 +180,29 @@ TEST_F(BusTest, AFrameOnTheWireIsNotPreemptedByALowerId) {
   EXPECT_EQ(sink.frames_to(b).front().id, 0x700u);
 }
 
+// A frame the hub read late is submitted at its sender's send time, which the bus has already run
+// past: it is queued at that time, takes the wire when it was free then (right behind the frame
+// that was on it), and goes before a frame queued later but submitted earlier.
+TEST_F(BusTest, AFrameSubmittedInTheBusPastTakesTheWireWhenItWasFreeThen) {
+  const can::Frame first = frame(0x100, {1, 2, 3, 4, 5, 6, 7, 8});
+  const Duration first_time = can::frame_duration(first, 500000);
+  ASSERT_FALSE(bus.submit(a, first, kStart));
+  bus.advance(kStart, sink);
+  // The bus runs well past the end of the first frame before a's second frame and c's frame
+  // are read; c's was sent later than a's but read first.
+  const TimePoint later = kStart + first_time + microseconds(400);
+  bus.advance(later, sink);
+  ASSERT_FALSE(bus.submit(c, frame(0x050), kStart + first_time + microseconds(300)));
+  ASSERT_FALSE(bus.submit(a, frame(0x200), kStart + microseconds(50)));  // sent while the first was on the wire
+  drain(later);
+  const auto to_b = sink.frames_to(b);
+  ASSERT_EQ(to_b.size(), 3u);
+  EXPECT_EQ(to_b[1].id, 0x200u) << "the one sent first goes first, though its identifier loses arbitration";
+  // Back to back behind the first frame: its end plus its own bits, not the time it was read.
+  EXPECT_EQ(microseconds(to_b[1].timestamp_us - to_b[0].timestamp_us), can::frame_duration(frame(0x200), 500000));
+  EXPECT_EQ(to_b[2].id, 0x050u);
+}
+
 TEST(BusTiming, TimingOffDeliversAtSubmission) {
   BusConfig config;
   config.timing = false;

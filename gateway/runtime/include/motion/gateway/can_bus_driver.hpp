@@ -38,6 +38,7 @@
 #include "motion/core/precise_timer.hpp"
 #include "motion/gateway/bus_driver.hpp"
 #include "motion/gateway/command_ledger.hpp"
+#include "motion/gateway/held_output.hpp"
 #include "motion/gateway/tx_echo_tracker.hpp"
 
 namespace motion::gateway {
@@ -112,7 +113,8 @@ class CanBusDriver final : public BusDriver {
   void execute(const motionlcm::gateway_command_t& command) override;
   void fire(std::int64_t trigger_id) override;
   // The stacks fire in the order of the first of their commands in `command_order` (the others
-  // after them): each stack's start frames go out back to back, in that order, in one call.
+  // after them): each stack's start frames go out back to back, in that order, in one call, and
+  // what the stacks publish meanwhile (replies, statuses) goes out after every stack has fired.
   void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) override;
   void prepare_fire(TimePoint at) override;
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const override;
@@ -171,7 +173,7 @@ class CanBusDriver final : public BusDriver {
   EventLoop& loop_;
   std::string bus_;
   std::unique_ptr<can::Transport> transport_;
-  GatewayOutput& out_;
+  HeldOutput out_;  // held while the stacks fire: start frames first, publications after
   std::unique_ptr<Combiner> combiner_;
   std::vector<std::unique_ptr<CanStack>> stacks_;
   std::map<std::string, CanStack*> stack_of_axis_;

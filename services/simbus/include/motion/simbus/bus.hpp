@@ -10,7 +10,9 @@
 // submitted. Like vcan, every frame reaches every other attached endpoint; an endpoint receives
 // its own frames only with own echo on. Frames are sent once (no automatic retransmission).
 //
-// Thread contract: single-threaded. Times passed in must not go backwards.
+// Thread contract: single-threaded. Times passed to advance() must not go backwards; a frame may
+// be submitted at a time the bus has already run past (its sender's send time, read late): it is
+// queued at that time and takes the wire when the wire was free then, as it would have.
 #pragma once
 
 #include <cstdint>
@@ -116,7 +118,8 @@ class Bus {
   [[nodiscard]] std::optional<EndpointId> find(std::string_view label) const;
   [[nodiscard]] std::vector<EndpointInfo> endpoints() const;
 
-  // Queues `frame` from `from` at `now`. Errors: invalid_argument (bad frame), not_connected
+  // Queues `frame` from `from` at `now` (which may lie before the last advance(), see above).
+  // Errors: invalid_argument (bad frame), not_connected
   // (unknown endpoint), network_down (endpoint is bus-off), no_buffer_space (queue full).
   std::error_code submit(EndpointId from, const can::Frame& frame, TimePoint now);
   // Runs the wire up to `now` and hands everything due by then to `sink`, in time order.
@@ -183,7 +186,7 @@ class Bus {
   BusConfig config_;
   std::map<EndpointId, Endpoint> endpoints_;
   EndpointId next_endpoint_ = 1;
-  std::vector<Queued> queue_;  // submission order
+  std::vector<Queued> queue_;  // by queued_at, equal times in submission order
   std::optional<OnWire> on_wire_;
   TimePoint wire_free_at_{TimePoint::min()};
   std::multimap<std::pair<TimePoint, std::uint64_t>, Output> outputs_;

@@ -1,8 +1,11 @@
 // The hub of one simulated CAN bus, living on a process's EventLoop (motion-sim hosts them).
 //
 // It owns the Bus (bus.hpp), listens on the bus's Unix socket (address.hpp) for SocketEndpoints
-// of other processes and hands out LocalEndpoints for same-process users. Frames are read when
-// their socket polls readable and submitted at the loop's now(); deliveries are scheduled with
+// of other processes and hands out LocalEndpoints for same-process users. A socket endpoint's frame
+// is submitted at the time its sender sent it (the kernel's stamp of the datagram, SO_TIMESTAMPNS),
+// not when the hub got to read it: a hub whose loop was busy with the frames before would otherwise
+// put it on the wire late, later than a CAN controller would (Bus::submit takes such a time in its
+// past). Local endpoints submit at the loop's now(). Deliveries are scheduled with
 // one EventLoop timer at the bus's next deadline (never a busy wait). A frame reaches its
 // receivers within the loop's timer slack (tens of microseconds) after its simulated end of
 // frame; its timestamp is the exact simulated time.
@@ -113,7 +116,9 @@ class Hub {
   std::error_code listen();
   void accept_connections();
   void read_connection(int fd);
-  void handle(Connection& connection, const wire::Message& message);
+  // The time a message stamped `sent_wall_ns` (0: not stamped: now) was sent, on the loop's clock.
+  [[nodiscard]] TimePoint sent_at(std::int64_t sent_wall_ns) const;
+  void handle(Connection& connection, const wire::Message& message, TimePoint sent);
   void close_connection(int fd);
   std::error_code submit(EndpointId from, const can::Frame& frame);
   // Runs the bus up to now, delivers, closes connections that failed, re-arms the timer.
