@@ -12,8 +12,12 @@ namespace {
 
 struct Log final : GatewayOutput {
   void axis_status(const std::string& axis, const DriveStatus&) override { calls.push_back("status " + axis); }
-  void axis_event(const std::string& axis, const DriveEvent& e) override { calls.push_back("event " + axis + " " + e.text); }
-  void command_reply(motionlcm::gateway_reply_t r) override { calls.push_back("reply " + std::to_string(r.command_id)); }
+  void axis_event(const std::string& axis, const DriveEvent& e) override {
+    calls.push_back("event " + axis + " " + e.text);
+  }
+  void command_reply(motionlcm::gateway_reply_t r) override {
+    calls.push_back("reply " + std::to_string(r.command_id));
+  }
   void drive_facts(const std::string& axis, const DriveFacts&) override { calls.push_back("facts " + axis); }
   void position_lost(const std::string& axis, const std::string& why) override {
     calls.push_back("lost " + axis + " " + why);
@@ -51,7 +55,8 @@ TEST(HeldOutput, WhatIsHeldGoesOnAtTheOutermostReleaseInOrder) {
   out.position_lost("x", "power cycle");
   out.release();
   EXPECT_FALSE(out.held());
-  EXPECT_EQ(log.calls, (std::vector<std::string>{"status x", "event y late", "reply 3", "facts z", "lost x power cycle"}));
+  EXPECT_EQ(log.calls,
+            (std::vector<std::string>{"status x", "event y late", "reply 3", "facts z", "lost x power cycle"}));
   out.release();  // one too many: nothing happens
   out.axis_status("y", {});
   EXPECT_EQ(log.calls.back(), "status y");
