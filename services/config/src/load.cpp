@@ -49,7 +49,7 @@ void check_references(Reader& r, const YAML::Node& root, Config& c) {
     // A gateway hands its start frames over this much before the send time a trigger names: the
     // trigger must reach it earlier still, and the coordinator sends triggers at least
     // trigger_lead_min_ms ahead.
-    if (b.egress_latency_us > 0 && b.egress_latency_us <= 20000 &&
+    if (b.egress_latency_us > 0 && b.egress_latency_us <= kMaxEgressLatencyUs &&
         b.egress_latency_us >= c.coordinator.trigger_lead_min_ms * 1000)
       where_error(b.where.of("egress_latency_us"), "buses[" + std::to_string(i) + "].egress_latency_us",
                   "must be below coordinator.trigger_lead_min_ms (" +

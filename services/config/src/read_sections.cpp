@@ -138,9 +138,10 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
   }
   if (auto v = r.get<int>(node, path, "egress_latency_us", false)) {
     bus.egress_latency_us = *v;
-    if (*v < 0 || *v > 20000)
+    if (*v < 0 || *v > kMaxEgressLatencyUs)
       r.error(node["egress_latency_us"], path + ".egress_latency_us",
-              "expected 0 (frames reach the wire when handed over) .. 20000 us, got " + std::to_string(*v));
+              "expected 0 (frames reach the wire when handed over) .. " + std::to_string(kMaxEgressLatencyUs) +
+                  " us, got " + std::to_string(*v));
   }
   if (auto v = r.get<bool>(node, path, "kernel_sync", false)) {
     bus.kernel_sync = *v;

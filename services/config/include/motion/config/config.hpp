@@ -78,6 +78,9 @@ enum class TransportKind {
 // the transport starts with SM..d8 and follows the coverage of the gateway's replies.
 enum class UiMessageCrc { kDetect, kStartToAux, kIdToAux };
 
+// The longest egress latency a bus may state (Bus::egress_latency_us), microseconds.
+inline constexpr int kMaxEgressLatencyUs = 20000;
+
 struct Bus {
   std::string name;
   std::string transport;  // as written, e.g. "simcan:lab"
@@ -99,8 +102,8 @@ struct Bus {
   // adapter's transfer, a driver's queue (0..20000 us, below coordinator.trigger_lead_min_ms; 0: none
   // known). Start frames are handed over this much before a trigger's send time, and a serial line
   // dates its frames by it.
-  int egress_latency_us = 0;
-  bool kernel_sync = true;  // socketcan: the periodic CANopen SYNC sent by the kernel (CAN_BCM), not the loop
+  int egress_latency_us = 0;  // 0..kMaxEgressLatencyUs
+  bool kernel_sync = true;    // socketcan: the periodic CANopen SYNC sent by the kernel (CAN_BCM), not the loop
   KeyLocations where;
 };
 
