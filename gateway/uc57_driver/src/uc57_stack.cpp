@@ -25,6 +25,7 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
         const bool sync = frame.id == canopen::kSyncCobId && !frame.extended;
         if (sync) {
           ++syncs_handed_;
+          last_sync_at_ = now_;
           // Staggered pacing: the next one a period on, whether or not the transport took this one.
           if (stagger_g_ > 0) next_sync_at_ = now_ + sync_period_;
         }
@@ -170,7 +171,9 @@ bool Uc57Stack::on_frame(const can::Frame& frame, TimePoint now) {
 
 void Uc57Stack::on_cyclic_sent(const can::Frame& frame, TimePoint now) {
   now_ = now;
-  if (!frame.extended && frame.id == canopen::kSyncCobId) master_.sync()->on_cyclic_sync(now);
+  if (frame.extended || frame.id != canopen::kSyncCobId) return;
+  master_.sync()->on_cyclic_sync(now);
+  last_sync_at_ = now;
 }
 
 TimePoint Uc57Stack::process(TimePoint now) {
@@ -206,6 +209,10 @@ TimePoint Uc57Stack::process(TimePoint now) {
     }
   }
   check_task_timeouts(now);
+  if (!at_once_.empty()) {
+    const bool periodic_due = stagger_g_ > 0 ? next_sync_check() <= now : master_.sync()->next_deadline() <= now;
+    if (periodic_due || now >= at_once_due_) fire_deferred_at_once(now, periodic_due);
+  }
   ease_polls_while_configuring(now);
   if (stagger_g_ > 0) {
     if (sync_due(now)) run_sync_cycle(now);
@@ -214,6 +221,7 @@ TimePoint Uc57Stack::process(TimePoint now) {
     run_sync_cycle(now);
   }
   next = std::min(next, master_.process(now));
+  if (!at_once_.empty()) next = std::min(next, at_once_due_);
   for (const auto& node : nodes_) {
     next = std::min({next, node->retry_at, node->starting_deadline, node->task_deadline});
     if (node->task == TaskKind::kPower) next = std::min(next, node->power.deadline());  // as check_task_timeouts

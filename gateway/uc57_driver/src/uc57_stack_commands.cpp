@@ -77,7 +77,7 @@ void Uc57Stack::part_armed(std::int64_t command_id, std::size_t n, TimePoint now
   Job* job = jobs_.find(command_id);
   if (job == nullptr || !job->all(Lifecycle::kArmed)) return;
   if (job->command.trigger_id == 0) {
-    fire_jobs({command_id}, now);  // "0 = at once"
+    fire_at_once(command_id, now);  // "0 = at once"
   } else {
     preload(*job);
   }

@@ -149,6 +149,7 @@ void Uc57Stack::fit_sync_period() {
       std::chrono::duration<double, std::nano>(static_cast<double>(cycle.count()) / share));
   const Duration asked = asked_period_ / g;
   poll_share_ = share;
+  budget_gap_ = stagger_g_ > 0 ? needed : std::chrono::ceil<std::chrono::milliseconds>(needed);
   sync_period_ = asked;
   poll_warning_.clear();
   if (needed <= asked) return;
@@ -372,6 +373,7 @@ void Uc57Stack::on_sync_handed() {
 }
 
 void Uc57Stack::on_transmitted(const can::Frame& frame, TimePoint now) {
+  if (!frame.extended && !frame.rtr && frame.id == canopen::kSyncCobId) last_sync_at_ = now;
   if (stagger_g_ == 0) return;
   now_ = now;
   echoes_ = true;

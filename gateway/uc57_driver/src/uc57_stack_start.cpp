@@ -176,6 +176,34 @@ void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
   if (!ready_jobs.empty()) fire_jobs(ready_jobs, now);
 }
 
+Duration Uc57Stack::start_sync_gap() const {
+  return polls_eased_ ? period_within(kConfiguringPollBusShare) : budget_gap_;
+}
+
+void Uc57Stack::fire_at_once(std::int64_t command_id, TimePoint now) {
+  at_once_.push_back(command_id);
+  fire_deferred_at_once(now, false);
+}
+
+void Uc57Stack::fire_deferred_at_once(TimePoint now, bool periodic_due) {
+  if (!periodic_due && last_sync_at_ != kNever && now < last_sync_at_ + start_sync_gap()) {
+    at_once_due_ = last_sync_at_ + start_sync_gap();
+    return;
+  }
+  std::vector<std::int64_t> ready;
+  for (const auto id : at_once_) {
+    // Stopped, disarmed or failed meanwhile: its terminal reply went out, nothing to start.
+    const Job* job = jobs_.find(id);
+    if (job != nullptr && !job->data.started && job->all(Lifecycle::kArmed)) ready.push_back(id);
+  }
+  at_once_.clear();
+  at_once_due_ = kNever;
+  if (ready.empty()) return;
+  fire_jobs(ready, now);  // its SYNC restarts the period; what waited for the periodic one runs
+  run_sync_waiters();
+  run_slot_waiters();
+}
+
 // The synchronized start: every armed node's RPDO1 with bit 4 = 1, then ONE SYNC applies them all.
 void Uc57Stack::fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoint now) {
   std::vector<bool> armed(nodes_.size(), false);

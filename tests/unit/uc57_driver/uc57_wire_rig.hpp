@@ -26,6 +26,7 @@
 #include "motion/config/config.hpp"
 #include "motion/sim/uc57_drive.hpp"
 #include "motion/simbus/bus.hpp"
+#include "motion/uc57_driver/process_data.hpp"
 #include "motion/uc57_driver/uc57_stack.hpp"
 
 namespace motion::uc57_driver::wire {
@@ -35,12 +36,16 @@ using motionlcm::gateway_reply_t;
 
 class Recorder final : public gateway::GatewayOutput {
  public:
-  void axis_status(const std::string& axis, const gateway::DriveStatus&) override { ++updates[axis]; }
+  void axis_status(const std::string& axis, const gateway::DriveStatus& status) override {
+    ++updates[axis];
+    positions[axis] = status.position_counts;
+  }
   void axis_event(const std::string& axis, const gateway::DriveEvent& event) override {
     events.emplace_back(axis, event);
   }
   void command_reply(gateway_reply_t reply) override { replies.push_back(std::move(reply)); }
   std::map<std::string, std::int64_t> updates;
+  std::map<std::string, std::int64_t> positions;  // the last status of each axis
   std::vector<gateway_reply_t> replies;
   std::vector<std::pair<std::string, gateway::DriveEvent>> events;
 };

@@ -339,6 +339,27 @@ class Uc57Stack final : public gateway::CanStack {
   // when its process data was never set up.
   bool send_blind_stop(std::size_t n, bool quick);
   void fire_jobs(const std::vector<std::int64_t>& command_ids, TimePoint now);
+  // A move "at once" (trigger 0) whose last node is armed. Its start SYNC is one more SYNC than
+  // the periodic ones, and every synchronous node answers it (type 1: TPDO1 + TPDO2 each, which
+  // outrank SDO traffic; heartbeats, 700h + node, come last). So a start SYNC keeps the SYNC's bus
+  // budget: it goes no sooner after the previous SYNC than start_sync_gap(), and the moves armed
+  // meanwhile share it. Where the SYNC period was lengthened to fit that budget, the gap is the
+  // period: a start then comes when the periodic SYNC would have (and restarts the period).
+  // Sent at once instead, on 32 type-1 nodes at 125 kbit/s, ten moves armed within one burst of
+  // answers sent six SYNCs within 15 ms: the bus was saturated for about 350 ms, an SDO answer
+  // waited 240 ms (timed out, retried) and heartbeats were missed.
+  void fire_at_once(std::int64_t command_id, TimePoint now);
+  // Fires the waiting moves once the gap has passed, or now when the periodic SYNC is due (the
+  // start SYNC takes its place: the periodic one, handed over earlier than the echo the gap is
+  // counted from, would otherwise come first every time).
+  void fire_deferred_at_once(TimePoint now, bool periodic_due);
+  // The shortest gap between SYNCs that keeps SYNC + answers + heartbeats within the bus budget in
+  // force (kPollBusShare; kConfiguringPollBusShare while nodes are configured on a type-1 bus).
+  [[nodiscard]] Duration start_sync_gap() const;
+  std::vector<std::int64_t> at_once_;  // armed moves "at once" waiting for their SYNC
+  TimePoint at_once_due_ = kNever;
+  Duration budget_gap_{};            // start_sync_gap() outside set-up (fit_sync_period)
+  TimePoint last_sync_at_ = kNever;  // the last SYNC: handed over, then its echo (or seen, kernel_sync)
   void check_task_timeouts(TimePoint now);
   // Switches the mode by SDO (6060h) and keeps the RPDO image's mode byte consistent.
   void set_mode(std::size_t n, std::int8_t mode, Continue done);
