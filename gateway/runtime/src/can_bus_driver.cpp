@@ -87,12 +87,13 @@ CanStackContext CanBusDriver::context() {
   CanStackContext ctx;
   ctx.out = combiner_.get();
   ctx.send = [this](const can::Frame& frame) {
-    const auto ec = transport_->send(frame);
-    if (ec) {
-      spdlog::debug("bus {}: send {} failed: {}", bus_, can::to_cansend(frame), ec.message());
-      return false;
+    if (keeping_) {
+      // Taken: its echo is awaited from now on, as if handed over (start_frame may name it).
+      kept_.push_back(frame);
+      if (own_echo_) echoes_.sent(frame);
+      return true;
     }
-    if (tap_) tap_(frame, true);
+    if (!hand_over(frame)) return false;
     if (own_echo_) echoes_.sent(frame);
     return true;
   };
@@ -110,6 +111,27 @@ CanStackContext CanBusDriver::context() {
     ctx.retime_cyclic = [this](const can::Frame& frame, Duration interval) { return retime_cyclic(frame, interval); };
   }
   return ctx;
+}
+
+bool CanBusDriver::hand_over(const can::Frame& frame) {
+  const auto ec = transport_->send(frame);
+  if (ec) {
+    spdlog::debug("bus {}: send {} failed: {}", bus_, can::to_cansend(frame), ec.message());
+    return false;
+  }
+  if (tap_) tap_(frame, true);
+  return true;
+}
+
+void CanBusDriver::flush_kept() {
+  std::vector<can::Frame> kept = std::move(kept_);
+  kept_.clear();
+  for (const auto& frame : kept) {
+    if (hand_over(frame)) continue;
+    // The stack was told it was taken: said here. A start frame's STARTED still comes, after the
+    // echo wait; the stack's own timeouts follow the answers that do not come.
+    spdlog::warn("bus {}: the transport refused {}, sent by a stack while it fired", bus_, can::to_cansend(frame));
+  }
 }
 
 void CanBusDriver::add_stack(std::unique_ptr<CanStack> stack) {
@@ -312,7 +334,10 @@ void CanBusDriver::fire_ordered(std::int64_t trigger_id, const std::vector<std::
     if (std::find(order.begin(), order.end(), s.get()) == order.end()) order.push_back(s.get());
   }
   out_.hold();
+  keeping_ = cyclic_ == nullptr;
   for (CanStack* s : order) call(s, [&](CanStack& stack) { stack.fire(trigger_id, now); });
+  keeping_ = false;
+  flush_kept();
   out_.release();
   reschedule();
 }

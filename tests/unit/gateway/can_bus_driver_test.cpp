@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <deque>
+#include <functional>
 
 #include <motionlcm/event_t.hpp>
 
@@ -84,7 +85,10 @@ class FakeStack : public CanStack {
     commands.push_back(c);
     for (const auto status : replies_in_execute) reply(c.command_id, status);
   }
-  void fire(std::int64_t id, TimePoint) override { fired.push_back(id); }
+  void fire(std::int64_t id, TimePoint) override {
+    fired.push_back(id);
+    if (on_fire) on_fire(id);
+  }
   bool ready() const override { return is_ready; }
   void add_statistics(motionlcm::bus_stats_t& s) const override { s.timeouts += 3; }
   void reply(std::int64_t id, std::int8_t status, std::int64_t trigger_utime = 0, const std::string& mechanism = {}) {
@@ -107,7 +111,8 @@ class FakeStack : public CanStack {
   std::vector<can::Frame> transmitted;  // echoes of our frames (on_transmitted)
   std::vector<motionlcm::gateway_command_t> commands;
   std::vector<std::int64_t> fired;
-  std::vector<std::int8_t> replies_in_execute;  // sent from inside execute(), in this order
+  std::vector<std::int8_t> replies_in_execute;           // sent from inside execute(), in this order
+  std::function<void(std::int64_t trigger_id)> on_fire;  // runs inside fire()
 
  private:
   CanStackContext ctx_;
@@ -237,6 +242,54 @@ TEST_F(CanBusDriverTest, StartedIsDatedByTheEchoOfTheStartFrame) {
   EXPECT_EQ(out.replies[1].status, std::int8_t{gateway_reply_t::STARTED});
   EXPECT_EQ(out.replies[1].trigger_utime, 7'777);
   EXPECT_TRUE(uim->frames.empty());
+}
+
+// The stacks' frames of one fire reach the transport back to back, after every stack has fired:
+// nothing a stack does after its start frames (its replies, its bookkeeping) comes between them
+// and the next stack's. The STARTED replies still carry their start frames' echoes.
+TEST_F(CanBusDriverTest, StartFramesOfAllStacksAreHandedOverTogetherAfterTheyFired) {
+  transport->echo = true;
+  transport->next_echo_us = 5'000;
+  ASSERT_TRUE(uim->send(*can::parse_cansend("04280095#01")));  // a first echo: echoes work
+  loop.run_once(milliseconds(10));
+  const std::size_t before = transport->sent.size();
+  driver->execute(command(8, {"x", "a"}));
+  uim->reply(8, gateway_reply_t::ARMED);
+  cop->reply(8, gateway_reply_t::ARMED);
+  const auto bg = *can::parse_cansend("00A80014#");
+  const auto image = *can::parse_cansend("201#1F00");
+  const auto sync = *can::parse_cansend("080#");
+  std::vector<std::size_t> handed_at_fire;  // frames the transport had when each stack fired
+  uim->on_fire = [&](std::int64_t) {
+    handed_at_fire.push_back(transport->sent.size() - before);
+    EXPECT_TRUE(uim->send(bg));
+    uim->mark_start(8, bg);
+    uim->reply(8, gateway_reply_t::STARTED, 1000, "group-bg");
+  };
+  cop->on_fire = [&](std::int64_t) {
+    handed_at_fire.push_back(transport->sent.size() - before);
+    EXPECT_TRUE(cop->send(image));
+    EXPECT_TRUE(cop->send(sync));
+    cop->mark_start(8, sync);
+    cop->reply(8, gateway_reply_t::STARTED, 1100, "sync");
+  };
+  driver->fire_ordered(3, {8});
+  EXPECT_EQ(handed_at_fire, (std::vector<std::size_t>{0, 0}))
+      << "a stack's frames were handed over before the other fired";
+  // Each stack's frames in its order, the stacks one after the other.
+  const std::vector<can::Frame> handed(transport->sent.begin() + static_cast<std::ptrdiff_t>(before),
+                                       transport->sent.end());
+  EXPECT_TRUE(handed == (std::vector<can::Frame>{bg, image, sync}) ||
+              handed == (std::vector<can::Frame>{image, sync, bg}))
+      << handed.size() << " frames";
+  EXPECT_EQ(out.replies.size(), 1u) << "STARTED went out before its start frames' echoes";
+  loop.run_once(milliseconds(10));
+  ASSERT_EQ(out.replies.size(), 2u);
+  EXPECT_EQ(out.replies[1].status, std::int8_t{gateway_reply_t::STARTED});
+  EXPECT_EQ(out.replies[1].trigger_utime, 5'000);
+  // Outside a fire a frame goes to the transport at once.
+  EXPECT_TRUE(uim->send(bg));
+  EXPECT_EQ(transport->sent.size(), before + 4);
 }
 
 // A start frame whose echo never comes (lost, bus off): the reply goes out after 50 ms anyway,

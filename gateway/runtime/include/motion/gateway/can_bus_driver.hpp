@@ -113,8 +113,11 @@ class CanBusDriver final : public BusDriver {
   void execute(const motionlcm::gateway_command_t& command) override;
   void fire(std::int64_t trigger_id) override;
   // The stacks fire in the order of the first of their commands in `command_order` (the others
-  // after them): each stack's start frames go out back to back, in that order, in one call, and
-  // what the stacks publish meanwhile (replies, statuses) goes out after every stack has fired.
+  // after them). What they send meanwhile is kept, in order, and handed to the transport back to
+  // back once every stack has fired, so that no stack's work after its start frames (its replies,
+  // its bookkeeping) comes between them and the next stack's; what the stacks publish meanwhile
+  // (replies, statuses) goes out after that. Not on a bus whose stacks use the kernel's cyclic
+  // sender: a job started there sends its first frame at once, ahead of any kept frame.
   void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) override;
   void prepare_fire(TimePoint at) override;
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const override;
@@ -169,6 +172,10 @@ class CanBusDriver final : public BusDriver {
   // A received frame of one of the jobs: handed to the stacks (true), else false.
   bool take_cyclic(const can::Frame& frame, TimePoint now);
   void reopen_cyclic_if_recreated();
+  // Hands `frame` to the transport (and the tap): false when it refused it.
+  bool hand_over(const can::Frame& frame);
+  // While the stacks fire (fire_ordered) their frames are kept here, in order, for flush_kept().
+  void flush_kept();
 
   EventLoop& loop_;
   std::string bus_;
@@ -192,6 +199,8 @@ class CanBusDriver final : public BusDriver {
   std::vector<CyclicJob> cyclic_jobs_;
   std::set<std::int64_t> cyclic_starts_;  // commands whose STARTED waits for a job's first frame
   std::uint64_t seen_reopens_ = 0;        // the SocketCAN transport's reopens handled
+  bool keeping_ = false;                  // the stacks are firing: their frames are kept
+  std::vector<can::Frame> kept_;
 };
 
 }  // namespace motion::gateway
