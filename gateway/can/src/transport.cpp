@@ -11,6 +11,14 @@ bool passes(const std::vector<Filter>& filters, const Frame& frame) {
   return false;
 }
 
+std::size_t Transport::send_batch(std::span<const Frame> frames, std::error_code& error) {
+  error = {};
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    if ((error = send(frames[i]))) return i;
+  }
+  return frames.size();
+}
+
 const char* to_string(BusState state) {
   switch (state) {
     case BusState::kErrorActive: return "error-active";

@@ -124,13 +124,22 @@ bool CanBusDriver::hand_over(const can::Frame& frame) {
 }
 
 void CanBusDriver::flush_kept() {
-  std::vector<can::Frame> kept = std::move(kept_);
+  const std::vector<can::Frame> kept = std::move(kept_);
   kept_.clear();
-  for (const auto& frame : kept) {
-    if (hand_over(frame)) continue;
+  std::size_t done = 0;
+  while (done < kept.size()) {
+    std::error_code error;
+    const std::size_t taken = transport_->send_batch(std::span(kept).subspan(done), error);
+    if (tap_) {
+      for (std::size_t i = done; i < done + taken; ++i) tap_(kept[i], true);
+    }
+    done += taken;
+    if (!error) break;
     // The stack was told it was taken: said here. A start frame's STARTED still comes, after the
-    // echo wait; the stack's own timeouts follow the answers that do not come.
-    spdlog::warn("bus {}: the transport refused {}, sent by a stack while it fired", bus_, can::to_cansend(frame));
+    // echo wait; the stack's own timeouts follow the answers that do not come. The rest still go.
+    spdlog::warn("bus {}: the transport refused {}, sent by a stack while it fired: {}", bus_,
+                 can::to_cansend(kept[done]), error.message());
+    ++done;
   }
 }
 

@@ -133,6 +133,43 @@ std::error_code SocketEndpoint::send(const can::Frame& frame) {
   return count_send(frame, error);
 }
 
+std::size_t SocketEndpoint::send_batch(std::span<const can::Frame> frames, std::error_code& error) {
+  error = {};
+  constexpr std::size_t kAtOnce = 32;
+  std::size_t done = 0;
+  while (done < frames.size()) {
+    std::array<std::array<std::uint8_t, wire::kMaxMessageSize>, kAtOnce> buffers{};
+    std::array<iovec, kAtOnce> io{};
+    std::array<mmsghdr, kAtOnce> messages{};
+    unsigned ready = 0;
+    const bool open = fd_ >= 0 && state_ != can::BusState::kBusOff;
+    for (; open && ready < kAtOnce && done + ready < frames.size(); ++ready) {
+      const can::Frame& frame = frames[done + ready];
+      if (check_sendable(frame)) break;
+      const std::size_t size = wire::encode(wire::FrameMessage{frame, false}, buffers[ready]);
+      if (size == 0) break;
+      io[ready] = {buffers[ready].data(), size};
+      messages[ready].msg_hdr.msg_iov = &io[ready];
+      messages[ready].msg_hdr.msg_iovlen = 1;
+    }
+    int sent = 0;
+    if (ready > 0) {
+      do {
+        sent = ::sendmmsg(fd_, messages.data(), ready, MSG_DONTWAIT | MSG_NOSIGNAL);
+      } while (sent < 0 && errno == EINTR);
+    }
+    if (sent <= 0) {
+      // Nothing taken: the single send says why (and counts it), or takes it after all.
+      if ((error = send(frames[done]))) return done;
+      ++done;
+      continue;
+    }
+    for (int i = 0; i < sent; ++i) count_send(frames[done + static_cast<std::size_t>(i)], {});
+    done += static_cast<std::size_t>(sent);
+  }
+  return done;
+}
+
 std::optional<can::Frame> SocketEndpoint::receive() {
   std::array<std::uint8_t, wire::kMaxMessageSize> buffer{};
   while (fd_ >= 0) {

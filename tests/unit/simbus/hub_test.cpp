@@ -190,6 +190,29 @@ TEST_P(HubBitrate, BackToBackFramesAreStampedOneFrameTimeApart) {
   EXPECT_EQ(rx->bitrate(), GetParam());
 }
 
+// A batch (one sendmmsg) reaches the bus in order, frame by frame, each counted as sent; a frame
+// the bus cannot carry stops it there with send()'s error, the frames before it sent.
+TEST_F(HubTest, ABatchOfFramesGoesOutInOrderAndStopsAtARefusal) {
+  open_with_pair();
+  const Receiver& received = *heard;
+  std::vector<can::Frame> frames;
+  for (std::uint32_t i = 0; i < 40; ++i) frames.push_back(frame(0x100 + i, {static_cast<std::uint8_t>(i)}));
+  std::error_code error;
+  ASSERT_EQ(sender->send_batch(frames, error), frames.size()) << error.message();
+  ASSERT_TRUE(run_until(loop, [&] { return received.frames.size() == frames.size(); }));
+  for (std::size_t i = 0; i < frames.size(); ++i) EXPECT_EQ(received.frames[i].id, frames[i].id) << "frame " << i;
+  EXPECT_EQ(sender->statistics().tx_frames, frames.size());
+
+  can::Frame too_long = frame(0x7FF);
+  too_long.id = 0x800;  // beyond 11 bits
+  const std::vector<can::Frame> refused{frame(0x201), too_long, frame(0x202)};
+  EXPECT_EQ(sender->send_batch(refused, error), 1u);
+  EXPECT_EQ(error, std::make_error_code(std::errc::invalid_argument));
+  ASSERT_TRUE(run_until(loop, [&] { return received.frames.size() == frames.size() + 1; }));
+  EXPECT_EQ(received.frames.back().id, 0x201u);
+  EXPECT_EQ(sender->statistics().tx_dropped, 1u);
+}
+
 // A frame is on the wire from when its sender sent it, not from when the hub got to read it: the
 // kernel stamps the datagram at the send (SO_TIMESTAMPNS). The hub's loop is kept away for 5 ms
 // here (as when motion-sim is busy with the frames before); the frame ends one frame time after

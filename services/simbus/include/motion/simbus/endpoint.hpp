@@ -76,6 +76,8 @@ class SocketEndpoint final : public EndpointTransport {
 
   [[nodiscard]] int fd() const override { return fd_; }
   std::error_code send(const can::Frame& frame) override;
+  // One sendmmsg() for the frames the hub can take at once (a refusal: send()'s error for it).
+  std::size_t send_batch(std::span<const can::Frame> frames, std::error_code& error) override;
   std::optional<can::Frame> receive() override;
   std::error_code set_own_echo(bool enabled) override;
   [[nodiscard]] can::BusState state() const override { return state_; }
