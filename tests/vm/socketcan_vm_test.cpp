@@ -189,6 +189,33 @@ TEST_F(SocketCanVm, FramesTravelBetweenTwoTransports) {
   EXPECT_EQ(rx.errors, 0U);
 }
 
+// A batch (one sendmmsg) arrives in order and is counted like single sends; a frame the kernel
+// cannot take stops it there with send()'s error, the frames before it sent.
+TEST_F(SocketCanVm, ABatchGoesOutInOrderAndStopsAtARefusal) {
+  Endpoint a;
+  Endpoint b;
+  std::vector<Frame> sent;
+  for (std::uint32_t i = 0; i < 40; ++i) sent.push_back(make_frame(0x100 + i, false, {static_cast<std::uint8_t>(i)}));
+  std::error_code error;
+  ASSERT_EQ(a.transport.send_batch(sent, error), sent.size()) << error.message();
+  for (const auto& frame : sent) {
+    const auto received = b.next_frame();
+    ASSERT_TRUE(received) << "missing " << to_cansend(frame);
+    EXPECT_EQ(*received, frame) << to_cansend(*received) << " != " << to_cansend(frame);
+  }
+  Frame invalid;
+  invalid.id = 0x800;  // too big for an 11-bit identifier
+  const std::vector<Frame> refused = {make_frame(0x201, false, {}), invalid, make_frame(0x202, false, {})};
+  EXPECT_EQ(a.transport.send_batch(refused, error), 1U);
+  EXPECT_EQ(error, std::errc::invalid_argument);
+  const auto first = b.next_frame();
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->id, 0x201U);
+  EXPECT_TRUE(b.silent_for(100ms)) << "a frame after the refusal was sent";
+  EXPECT_EQ(a.transport.statistics().tx_frames, sent.size() + 1);
+  EXPECT_EQ(a.transport.statistics().tx_dropped, 1U);
+}
+
 TEST_F(SocketCanVm, KernelFiltersAgreeWithPasses) {
   Endpoint a;
   Endpoint b;

@@ -73,6 +73,8 @@ class SocketCanTransport final : public Transport {
   [[nodiscard]] std::string name() const override { return interface_; }
   [[nodiscard]] int fd() const override { return epoll_fd_; }
   std::error_code send(const Frame& frame) override;
+  // One sendmmsg() for the frames the kernel takes at once (a refusal: send()'s error for it).
+  std::size_t send_batch(std::span<const Frame> frames, std::error_code& error) override;
   std::optional<Frame> receive() override;
   std::error_code set_filters(const std::vector<Filter>& filters) override;
   std::error_code set_own_echo(bool enabled) override;
