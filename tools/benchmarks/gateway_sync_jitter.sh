@@ -9,6 +9,10 @@
 # SCHED_FIFO 40 when permitted, so that the simulated wire's own wake-ups (it dates the frames) stay
 # out of the gateway's figure. Everything runs in a temporary folder on its own LCM port; the
 # processes are stopped by pid.
+# The bound of the same run: the host's own wake-up latency (cyclictest, rt-tests: a bare thread
+# under SCHED_FIFO P woken every 1 ms for S seconds, nothing else). A wake-up L late makes a period
+# of 1 ms + L, so its "over 1.5 ms" counts wake-ups more than 500 us late: on a virtual machine
+# those come from the hypervisor, and no gateway setting takes them out.
 #   tools/benchmarks/gateway_sync_jitter.sh [BIN_DIR] [SECONDS] [PRIORITY] [SPIN]   (build/bin, 8, 50, 100)
 set -euo pipefail
 BIN=${1:-$(cd "$(dirname "$0")/../.." && pwd)/build/bin}
@@ -74,8 +78,41 @@ print(f"gateway SYNC 1 kHz, {sys.argv[2]}: {len(intervals)} periods, jitter p50 
 PY
 }
 
+floor() {  # the host's timer wake-up latency under SCHED_FIFO PRIO, as one line of figures
+  if ! command -v cyclictest >/dev/null; then
+    echo "host floor: cyclictest not installed (Debian package rt-tests)"
+    return
+  fi
+  local steal_before steal_after
+  steal_before=$(awk '/^cpu /{print $9}' /proc/stat)
+  if ! cyclictest -m -p "$PRIO" -i 1000 -l $((SECS * 1000)) -q -h 20000 >"$DIR/cyclictest.txt" 2>"$DIR/cyclictest.err"; then
+    echo "host floor: cyclictest failed: $(head -1 "$DIR/cyclictest.err")"
+    return
+  fi
+  steal_after=$(awk '/^cpu /{print $9}' /proc/stat)
+  /usr/bin/python3 - "$DIR/cyclictest.txt" "$PRIO" "$((steal_after - steal_before))" <<'PY'
+import sys
+late = []
+for line in open(sys.argv[1]):
+    if line.startswith("#") or not line.strip():
+        continue
+    us, count = line.split()[:2]
+    late += [int(us)] * int(count)
+late.sort()
+if not late:
+    sys.exit("host floor: cyclictest gave no histogram")
+def nearest_rank(q):
+    return late[max(0, -(-len(late) * q // 100) - 1)]
+print(f"host floor (cyclictest, SCHED_FIFO {sys.argv[2]}, 1 ms): {len(late)} wake-ups, late p50 {nearest_rank(50)} us, "
+      f"p99 {nearest_rank(99)} us, max {late[-1]} us, {sum(1 for x in late if x > 500)} over 500 us "
+      f"(periods over 1.5 ms); steal {sys.argv[3]} jiffies meanwhile")
+PY
+}
+
 echo "load average $(cut -d' ' -f1-3 /proc/loadavg); motion-sim ${SIM_CHRT[*]:-under normal scheduling (chrt -f refused)}"
+floor
 run 0 0
 run "$PRIO" 0
 run "$PRIO" "$SPIN"
+floor
 [ -n "${KEEP:-}" ] && echo "kept $DIR" || rm -rf "$DIR"
