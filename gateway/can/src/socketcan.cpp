@@ -11,11 +11,11 @@
 #include <sys/time.h>
 #include <time.h>
 
-#include <array>
 #include <cerrno>
 #include <cstring>
 #include <utility>
 
+#include "motion/can/batched_send.hpp"
 #include "motion/can/socketcan_error.hpp"
 #include "socketcan_detail.hpp"
 
@@ -226,40 +226,21 @@ std::error_code SocketCanTransport::send(const Frame& frame) {
 }
 
 std::size_t SocketCanTransport::send_batch(std::span<const Frame> frames, std::error_code& error) {
-  error = {};
-  constexpr std::size_t kAtOnce = 32;
-  std::size_t done = 0;
-  while (done < frames.size()) {
-    std::array<can_frame, kAtOnce> raw{};
-    std::array<iovec, kAtOnce> io{};
-    std::array<mmsghdr, kAtOnce> messages{};
-    unsigned ready = 0;
-    const bool open = is_open() && can_fd_ >= 0;
-    for (; open && ready < kAtOnce && done + ready < frames.size(); ++ready) {
-      if (!detail::to_kernel_frame(frames[done + ready], raw[ready])) break;
-      io[ready] = {&raw[ready], sizeof(can_frame)};
-      messages[ready].msg_hdr.msg_iov = &io[ready];
-      messages[ready].msg_hdr.msg_iovlen = 1;
-    }
-    int sent = 0;
-    if (ready > 0) {
-      do { sent = ::sendmmsg(can_fd_, messages.data(), ready, MSG_DONTWAIT); } while (sent < 0 && errno == EINTR);
-    }
-    if (sent <= 0) {
-      // Nothing taken: the single send says why (and counts it), or takes it after all.
-      if ((error = send(frames[done]))) return done;
-      ++done;
-      continue;
-    }
-    for (int i = 0; i < sent; ++i) {
-      const Frame& frame = frames[done + static_cast<std::size_t>(i)];
-      ++stats_.tx_frames;
-      stats_.tx_bytes += frame.rtr ? 0U : frame.dlc;
-      load_.add(frame, SteadyClock::now());
-    }
-    done += static_cast<std::size_t>(sent);
-  }
-  return done;
+  BatchedSend how;
+  how.fd = is_open() ? can_fd_ : -1;
+  how.encode = [](const Frame& frame, std::span<std::uint8_t, kMaxBatchedMessage> out) -> std::size_t {
+    can_frame raw{};
+    if (!detail::to_kernel_frame(frame, raw)) return 0;
+    std::memcpy(out.data(), &raw, sizeof raw);
+    return sizeof raw;
+  };
+  how.single = [this](const Frame& frame) { return send(frame); };
+  how.taken = [this](const Frame& frame) {
+    ++stats_.tx_frames;
+    stats_.tx_bytes += frame.rtr ? 0U : frame.dlc;
+    load_.add(frame, SteadyClock::now());
+  };
+  return send_batched(how, frames, error);
 }
 
 std::optional<Frame> SocketCanTransport::receive() {

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <variant>
 
+#include "motion/can/batched_send.hpp"
 #include "motion/simbus/address.hpp"
 #include "motion/simbus/wire.hpp"
 #include "unix_socket.hpp"
@@ -134,40 +135,17 @@ std::error_code SocketEndpoint::send(const can::Frame& frame) {
 }
 
 std::size_t SocketEndpoint::send_batch(std::span<const can::Frame> frames, std::error_code& error) {
-  error = {};
-  constexpr std::size_t kAtOnce = 32;
-  std::size_t done = 0;
-  while (done < frames.size()) {
-    std::array<std::array<std::uint8_t, wire::kMaxMessageSize>, kAtOnce> buffers{};
-    std::array<iovec, kAtOnce> io{};
-    std::array<mmsghdr, kAtOnce> messages{};
-    unsigned ready = 0;
-    const bool open = fd_ >= 0 && state_ != can::BusState::kBusOff;
-    for (; open && ready < kAtOnce && done + ready < frames.size(); ++ready) {
-      const can::Frame& frame = frames[done + ready];
-      if (check_sendable(frame)) break;
-      const std::size_t size = wire::encode(wire::FrameMessage{frame, false}, buffers[ready]);
-      if (size == 0) break;
-      io[ready] = {buffers[ready].data(), size};
-      messages[ready].msg_hdr.msg_iov = &io[ready];
-      messages[ready].msg_hdr.msg_iovlen = 1;
-    }
-    int sent = 0;
-    if (ready > 0) {
-      do {
-        sent = ::sendmmsg(fd_, messages.data(), ready, MSG_DONTWAIT | MSG_NOSIGNAL);
-      } while (sent < 0 && errno == EINTR);
-    }
-    if (sent <= 0) {
-      // Nothing taken: the single send says why (and counts it), or takes it after all.
-      if ((error = send(frames[done]))) return done;
-      ++done;
-      continue;
-    }
-    for (int i = 0; i < sent; ++i) count_send(frames[done + static_cast<std::size_t>(i)], {});
-    done += static_cast<std::size_t>(sent);
-  }
-  return done;
+  static_assert(wire::kMaxMessageSize <= can::kMaxBatchedMessage);
+  can::BatchedSend how;
+  how.fd = state_ == can::BusState::kBusOff ? -1 : fd_;
+  how.flags = MSG_NOSIGNAL;
+  how.encode = [this](const can::Frame& frame, std::span<std::uint8_t, can::kMaxBatchedMessage> out) -> std::size_t {
+    if (check_sendable(frame)) return 0;
+    return wire::encode(wire::FrameMessage{frame, false}, out);
+  };
+  how.single = [this](const can::Frame& frame) { return send(frame); };
+  how.taken = [this](const can::Frame& frame) { count_send(frame, {}); };
+  return can::send_batched(how, frames, error);
 }
 
 std::optional<can::Frame> SocketEndpoint::receive() {
