@@ -99,11 +99,14 @@ std::error_code Bus::submit(EndpointId from, const can::Frame& frame, TimePoint 
     ++stats_.rejected;
     return std::make_error_code(std::errc::no_buffer_space);
   }
-  Queued q{next_seq_++, from, frame, now};
+  // Not before the sender's previous frame: send times taken from different clocks (a batch's
+  // one hand-over stamp converted again for each frame) must not reorder an endpoint's frames.
+  sender->last_queued = std::max(sender->last_queued, now);
+  Queued q{next_seq_++, from, frame, sender->last_queued};
   q.frame.timestamp_us = 0;
   if (config_.timing) {
     // In time order: a frame read late (queued at its send time) goes before those queued after it.
-    const auto at = std::upper_bound(queue_.begin(), queue_.end(), now,
+    const auto at = std::upper_bound(queue_.begin(), queue_.end(), q.queued_at,
                                      [](TimePoint t, const Queued& other) { return t < other.queued_at; });
     queue_.insert(at, q);
     return {};

@@ -9,7 +9,6 @@
 #include <cstring>
 #include <variant>
 
-#include "motion/can/batched_send.hpp"
 #include "motion/simbus/address.hpp"
 #include "motion/simbus/wire.hpp"
 #include "unix_socket.hpp"
@@ -120,32 +119,48 @@ void SocketEndpoint::lose_connection(const std::string& reason) {
   apply(can::BusEvent{can::BusState::kDisconnected, 0, "simulated bus " + bus_name() + ": " + reason}, state_);
 }
 
-std::error_code SocketEndpoint::send(const can::Frame& frame) {
-  if (auto invalid = check_sendable(frame)) return count_send(frame, invalid);
-  if (fd_ < 0) return count_send(frame, std::make_error_code(std::errc::not_connected));
-  if (state_ == can::BusState::kBusOff) return count_send(frame, std::make_error_code(std::errc::network_down));
-  std::error_code error = detail::send_message(fd_, wire::FrameMessage{frame, false});
+std::error_code SocketEndpoint::deliver(const wire::Message& message) {
+  std::error_code error = detail::send_message(fd_, message);
   if (error == std::errc::resource_unavailable_try_again) {
     error = std::make_error_code(std::errc::no_buffer_space);  // like a full SocketCAN tx queue
   } else if (error) {
     lose_connection(error.message());
     error = std::make_error_code(std::errc::not_connected);
   }
-  return count_send(frame, error);
+  return error;
+}
+
+std::error_code SocketEndpoint::send(const can::Frame& frame) {
+  if (auto invalid = check_sendable(frame)) return count_send(frame, invalid);
+  if (fd_ < 0) return count_send(frame, std::make_error_code(std::errc::not_connected));
+  if (state_ == can::BusState::kBusOff) return count_send(frame, std::make_error_code(std::errc::network_down));
+  return count_send(frame, deliver(wire::FrameMessage{frame, false}));
 }
 
 std::size_t SocketEndpoint::send_batch(std::span<const can::Frame> frames, std::error_code& error) {
-  static_assert(wire::kMaxMessageSize <= can::kMaxBatchedMessage);
-  can::BatchedSend how;
-  how.fd = state_ == can::BusState::kBusOff ? -1 : fd_;
-  how.flags = MSG_NOSIGNAL;
-  how.encode = [this](const can::Frame& frame, std::span<std::uint8_t, can::kMaxBatchedMessage> out) -> std::size_t {
-    if (check_sendable(frame)) return 0;
-    return wire::encode(wire::FrameMessage{frame, false}, out);
-  };
-  how.single = [this](const can::Frame& frame) { return send(frame); };
-  how.taken = [this](const can::Frame& frame) { count_send(frame, {}); };
-  return can::send_batched(how, frames, error);
+  error = {};
+  std::size_t done = 0;
+  while (done < frames.size()) {
+    wire::FrameBatch batch;
+    while (batch.count < wire::kMaxBatchFrames && done + batch.count < frames.size() &&
+           !check_sendable(frames[done + batch.count])) {
+      batch.frames[batch.count] = frames[done + batch.count];
+      ++batch.count;
+    }
+    if (batch.count <= 1 || fd_ < 0 || state_ == can::BusState::kBusOff) {
+      // A lone frame, or one send() refuses: send() takes it or says why (and counts it).
+      if ((error = send(frames[done]))) return done;
+      ++done;
+      continue;
+    }
+    if ((error = deliver(batch))) {
+      (void)count_send(frames[done], error);  // counted as send() counts a refused frame
+      return done;
+    }
+    for (const can::Frame& frame : batch.view()) (void)count_send(frame, {});
+    done += batch.count;
+  }
+  return done;
 }
 
 std::optional<can::Frame> SocketEndpoint::receive() {

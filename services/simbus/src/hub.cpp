@@ -315,10 +315,15 @@ void Hub::handle(Connection& connection, const wire::Message& message, TimePoint
     return;
   }
   if (connection.id == 0) return;  // nothing but Hello before Hello
-  if (const auto* fm = std::get_if<wire::FrameMessage>(&message)) {
-    if (bus_.submit(connection.id, fm->frame, sent)) {
-      (void)detail::send_message(connection.fd, wire::TxRejected{fm->frame.id, fm->frame.extended});
+  const auto submit_from_connection = [&](const can::Frame& frame) {
+    if (bus_.submit(connection.id, frame, sent)) {
+      (void)detail::send_message(connection.fd, wire::TxRejected{frame.id, frame.extended});
     }
+  };
+  if (const auto* fm = std::get_if<wire::FrameMessage>(&message)) {
+    submit_from_connection(fm->frame);
+  } else if (const auto* batch = std::get_if<wire::FrameBatch>(&message)) {
+    for (const can::Frame& frame : batch->view()) submit_from_connection(frame);
   } else if (const auto* echo = std::get_if<wire::SetOwnEcho>(&message)) {
     bus_.set_own_echo(connection.id, echo->enabled);
   }

@@ -63,6 +63,15 @@ class Reader {
     pos_ += n;
     return s;
   }
+  // The next `out.size()` bytes.
+  void raw(std::span<std::uint8_t> out) {
+    if (!ok_ || pos_ + out.size() > in_.size()) {
+      ok_ = false;
+      return;
+    }
+    std::copy_n(in_.begin() + static_cast<std::ptrdiff_t>(pos_), out.size(), out.begin());
+    pos_ += out.size();
+  }
   [[nodiscard]] std::span<const std::uint8_t> rest() const {
     return pos_ <= in_.size() ? in_.subspan(pos_) : std::span<const std::uint8_t>{};
   }
@@ -117,6 +126,16 @@ struct Encoder {
     w.le(m.event.error_class);
     w.text(m.event.text);
   }
+  void operator()(const FrameBatch& m) {
+    w.u8(static_cast<std::uint8_t>(Type::kFrameBatch));
+    w.u8(static_cast<std::uint8_t>(m.count));
+    for (const can::Frame& f : m.view()) {
+      w.u8(static_cast<std::uint8_t>((f.extended ? kFlagExtended : 0) | (f.rtr ? kFlagRtr : 0)));
+      w.u8(f.dlc);
+      w.le(f.id);
+      w.raw({f.data.data(), on_wire_data_bytes(f)});
+    }
+  }
   void operator()(const TxRejected& m) {
     w.u8(static_cast<std::uint8_t>(Type::kTxRejected));
     w.u8(m.extended ? kFlagExtended : 0);
@@ -148,10 +167,36 @@ std::optional<Message> decode_frame(Reader& r) {
   return m;
 }
 
+std::optional<Message> decode_batch(Reader& r) {
+  FrameBatch m;
+  m.count = r.u8();
+  if (m.count == 0 || m.count > kMaxBatchFrames) return std::nullopt;
+  for (can::Frame& f : std::span(m.frames).first(m.count)) {
+    const std::uint8_t flags = r.u8();
+    f.dlc = r.u8();
+    f.id = r.le<std::uint32_t>();
+    if ((flags & ~(kFlagExtended | kFlagRtr)) != 0) return std::nullopt;
+    f.extended = (flags & kFlagExtended) != 0;
+    f.rtr = (flags & kFlagRtr) != 0;
+    if (!valid(f)) return std::nullopt;
+    r.raw(std::span(f.data).first(on_wire_data_bytes(f)));
+  }
+  if (!r.complete()) return std::nullopt;
+  return m;
+}
+
+bool encodable(const Message& message) {
+  if (const auto* fm = std::get_if<FrameMessage>(&message)) return valid(fm->frame);
+  if (const auto* batch = std::get_if<FrameBatch>(&message)) {
+    return batch->count > 0 && batch->count <= kMaxBatchFrames && std::ranges::all_of(batch->view(), valid);
+  }
+  return true;
+}
+
 }  // namespace
 
 std::size_t encode(const Message& message, std::span<std::uint8_t> out) {
-  if (const auto* fm = std::get_if<FrameMessage>(&message); fm != nullptr && !valid(fm->frame)) return 0;
+  if (!encodable(message)) return 0;
   Writer w(out);
   std::visit(Encoder{w}, message);
   return w.finish();
@@ -183,6 +228,7 @@ std::optional<Message> decode(std::span<const std::uint8_t> in) {
       break;
     }
     case Type::kFrame: return decode_frame(r);
+    case Type::kFrameBatch: return decode_batch(r);
     case Type::kSetOwnEcho: {
       const auto enabled = decode_bool(r.u8());
       if (!enabled) return std::nullopt;

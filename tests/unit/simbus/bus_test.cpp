@@ -203,6 +203,23 @@ TEST_F(BusTest, AFrameSubmittedInTheBusPastTakesTheWireWhenItWasFreeThen) {
   EXPECT_EQ(to_b[2].id, 0x050u);
 }
 
+// An endpoint's frames keep their sending order even when a later one is submitted with an
+// earlier send time (the hub converts each datagram's wall-clock stamp to its loop clock on its
+// own, so one batch's stamp may come out a microsecond apart): it is queued with the one before.
+TEST_F(BusTest, AnEndpointsFrameSubmittedWithAnEarlierTimeStaysBehindItsPreviousOne) {
+  ASSERT_FALSE(bus.submit(c, frame(0x300), kStart + microseconds(2)));  // keeps the wire busy
+  ASSERT_FALSE(bus.submit(a, frame(0x200), kStart + microseconds(10)));
+  ASSERT_FALSE(bus.submit(a, frame(0x100), kStart + microseconds(9)));
+  ASSERT_FALSE(bus.submit(c, frame(0x150), kStart + microseconds(9)));
+  drain(kStart + microseconds(10));
+  const auto to_b = sink.frames_to(b);
+  ASSERT_EQ(to_b.size(), 4u);
+  EXPECT_EQ(to_b[0].id, 0x300u);
+  EXPECT_EQ(to_b[1].id, 0x150u) << "a's head is 0x200, which loses arbitration to c's 0x150";
+  EXPECT_EQ(to_b[2].id, 0x200u);
+  EXPECT_EQ(to_b[3].id, 0x100u) << "a's second frame overtook its first";
+}
+
 TEST(BusTiming, TimingOffDeliversAtSubmission) {
   BusConfig config;
   config.timing = false;

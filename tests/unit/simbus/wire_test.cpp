@@ -20,6 +20,20 @@ can::Frame sample_frame() {
   return f;
 }
 
+// A batch of both formats, an RTR frame among them, and every data length.
+FrameBatch sample_batch() {
+  FrameBatch b;
+  b.frames[0] = sample_frame();
+  b.frames[0].timestamp_us = 0;  // a batch carries none
+  b.frames[1] = *can::Frame::make(0x080, false, {});
+  b.frames[2] = *can::Frame::make(0x7FF, false, std::vector<std::uint8_t>{1, 2, 3, 4, 5, 6, 7, 8});
+  b.frames[3] = *can::Frame::make(0x123, false, {});
+  b.frames[3].rtr = true;
+  b.frames[3].dlc = 4;
+  b.count = 4;
+  return b;
+}
+
 TEST(Wire, EveryMessageRoundTrips) {
   can::Frame rtr = *can::Frame::make(0x123, false, {});
   rtr.rtr = true;
@@ -32,6 +46,7 @@ TEST(Wire, EveryMessageRoundTrips) {
       SetOwnEcho{true},
       BusEventMessage{can::BusEvent{can::BusState::kBusOff, 0x40, "bus-off"}},
       TxRejected{0x1FFFFFFF, true},
+      sample_batch(),
   };
   for (const Message& m : messages) {
     const auto bytes = encoded(m);
@@ -59,25 +74,72 @@ TEST(Wire, FrameLayoutIsFixed) {
   EXPECT_EQ(encoded(FrameMessage{rtr, false}).size(), 16u);
 }
 
+// `bytes` with the byte at `at` set to `value`.
+std::vector<std::uint8_t> with_byte(std::vector<std::uint8_t> bytes, std::size_t at, std::uint8_t value) {
+  bytes.at(at) = value;
+  return bytes;
+}
+
+// A datagram cut short by one byte, or longer by one, is no message.
+void expect_exact_length_only(std::vector<std::uint8_t> bytes) {
+  EXPECT_FALSE(decode({bytes.data(), bytes.size() - 1}).has_value());
+  bytes.push_back(0);
+  EXPECT_FALSE(decode(bytes).has_value());
+}
+
 TEST(Wire, MalformedDatagramsAreRejected) {
-  auto bytes = encoded(FrameMessage{sample_frame(), false});
+  const auto bytes = encoded(FrameMessage{sample_frame(), false});
   EXPECT_FALSE(decode({}).has_value());
-  EXPECT_FALSE(decode(std::vector<std::uint8_t>{0x7F}).has_value());   // unknown type
-  EXPECT_FALSE(decode({bytes.data(), bytes.size() - 1}).has_value());  // short data
-  auto longer = bytes;
-  longer.push_back(0);
-  EXPECT_FALSE(decode(longer).has_value());  // trailing byte
-  auto bad_dlc = bytes;
-  bad_dlc[2] = 9;
-  EXPECT_FALSE(decode(bad_dlc).has_value());
-  auto bad_flags = bytes;
-  bad_flags[1] = 0x80;
-  EXPECT_FALSE(decode(bad_flags).has_value());
-  auto bad_id = bytes;
-  bad_id[1] = 0;  // standard, but the id has 29 bits
-  EXPECT_FALSE(decode(bad_id).has_value());
+  EXPECT_FALSE(decode(std::vector<std::uint8_t>{0x7F}).has_value());  // unknown type
+  expect_exact_length_only(bytes);
+  EXPECT_FALSE(decode(with_byte(bytes, 2, 9)).has_value());                          // dlc 9
+  EXPECT_FALSE(decode(with_byte(bytes, 1, 0x80)).has_value());                       // unknown flag
+  EXPECT_FALSE(decode(with_byte(bytes, 1, 0)).has_value());                          // standard, but 29 bits
   EXPECT_FALSE(decode(std::vector<std::uint8_t>{4, 2}).has_value());                 // echo flag 2
   EXPECT_FALSE(decode(std::vector<std::uint8_t>{5, 9, 0, 0, 0, 0, 0}).has_value());  // state 9
+}
+
+TEST(Wire, ABatchHasAFixedLayoutAndUpTo16Frames) {
+  // type 7, count, then per frame: flags, dlc, id LE, data (none for RTR).
+  const auto bytes = encoded(sample_batch());
+  ASSERT_EQ(bytes.size(), 2u + (6 + 3) + (6 + 0) + (6 + 8) + (6 + 0));
+  EXPECT_EQ(bytes[0], 7);
+  EXPECT_EQ(bytes[1], 4);
+  EXPECT_EQ(bytes[2], 0x01);  // extended
+  EXPECT_EQ(bytes[3], 3);
+  EXPECT_EQ(bytes[4], 0x95);
+  EXPECT_EQ(bytes[8], 0x01);   // first data byte
+  EXPECT_EQ(bytes[31], 0x02);  // the RTR frame's flags
+  EXPECT_EQ(bytes[32], 4);     // its dlc, no data bytes
+  // 16 frames of 8 bytes and 29 bits fit a message; 17 or none are no batch.
+  FrameBatch full;
+  for (auto& f : full.frames) f = *can::Frame::make(0x1FFFFFFF, true, std::vector<std::uint8_t>(8, 0xAA));
+  full.count = kMaxBatchFrames;
+  const auto full_bytes = encoded(full);
+  EXPECT_EQ(full_bytes.size(), 2u + 16 * 14);
+  EXPECT_LE(full_bytes.size(), kMaxMessageSize);
+  EXPECT_EQ(std::get<FrameBatch>(*decode(full_bytes)), full);
+  FrameBatch none;
+  EXPECT_TRUE(encoded(none).empty());
+  auto too_many = full_bytes;
+  too_many[1] = 17;
+  EXPECT_FALSE(decode(too_many).has_value());
+  auto zero = full_bytes;
+  zero[1] = 0;
+  EXPECT_FALSE(decode(zero).has_value());
+}
+
+TEST(Wire, MalformedBatchesAreRejected) {
+  const auto bytes = encoded(sample_batch());
+  expect_exact_length_only(bytes);
+  EXPECT_FALSE(decode(with_byte(bytes, 1, 5)).has_value());            // a frame announced that is not there
+  EXPECT_FALSE(decode(with_byte(bytes, 2, 0x01 | 0x04)).has_value());  // own echo: hub -> endpoint only
+  EXPECT_FALSE(decode(with_byte(bytes, 3, 9)).has_value());            // dlc 9
+  EXPECT_FALSE(decode(with_byte(bytes, 2, 0)).has_value());            // standard, but 29 bits
+  FrameBatch invalid = sample_batch();
+  invalid.frames[2].dlc = 9;
+  std::array<std::uint8_t, kMaxMessageSize> buffer{};
+  EXPECT_EQ(encode(invalid, buffer), 0u);
 }
 
 TEST(Wire, EncodeRefusesInvalidFramesAndSmallBuffers) {

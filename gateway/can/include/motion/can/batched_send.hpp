@@ -1,5 +1,5 @@
-// The loop Transport::send_batch implementations share: frames to a datagram socket in sendmmsg()
-// calls of up to kFramesPerCall, each frame one message of at most kMaxBatchedMessage bytes.
+// Transport::send_batch over a datagram socket where each frame is one message (SocketCAN):
+// sendmmsg() calls of up to kFramesPerCall messages of at most kMaxBatchedMessage bytes.
 // Thread contract: the caller's (the transport's) thread.
 #pragma once
 

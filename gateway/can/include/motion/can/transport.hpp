@@ -63,10 +63,11 @@ class Transport {
   [[nodiscard]] virtual int fd() const = 0;
 
   virtual std::error_code send(const Frame& frame) = 0;
-  // Sends `frames` in order, in one system call where the transport can (a reader on the other
-  // side then wakes once, after the frames are all queued, instead of after the first: on a busy
-  // host that wake-up may take the sender's CPU between two frames). Returns how many were taken;
-  // on a refusal `error` says why and the frames after it are not sent. Default: send() each.
+  // Sends `frames` in order, all at once where the transport can: one system call (SocketCAN:
+  // sendmmsg), one message (the simulated bus). Between separate sends a reader woken by the
+  // first frame may take the sender's CPU on a busy host, and the wire idles meanwhile. Returns
+  // how many were taken; on a refusal `error` says why and the frames after it are not sent.
+  // Default: send() each.
   virtual std::size_t send_batch(std::span<const Frame> frames, std::error_code& error);
   // Next received frame, or nullopt when none is waiting. Never blocks.
   virtual std::optional<Frame> receive() = 0;

@@ -168,6 +168,7 @@ class Bus {
   struct Endpoint {
     EndpointInfo info;
     TimePoint recover_at = kNever;
+    TimePoint last_queued{};  // an endpoint's frames are queued in its sending order (see submit)
   };
 
   void run_wire(TimePoint now);

@@ -21,6 +21,7 @@
 #include "motion/can/transport.hpp"
 #include "motion/can_frame/load_meter.hpp"
 #include "motion/simbus/bus.hpp"
+#include "motion/simbus/wire.hpp"
 
 namespace motion::simbus {
 
@@ -76,7 +77,8 @@ class SocketEndpoint final : public EndpointTransport {
 
   [[nodiscard]] int fd() const override { return fd_; }
   std::error_code send(const can::Frame& frame) override;
-  // One sendmmsg() for the frames the hub can take at once (a refusal: send()'s error for it).
+  // The frames in messages of up to wire::kMaxBatchFrames each: the hub takes each message's
+  // frames together. An invalid frame stops the batch there with send()'s error for it.
   std::size_t send_batch(std::span<const can::Frame> frames, std::error_code& error) override;
   std::optional<can::Frame> receive() override;
   std::error_code set_own_echo(bool enabled) override;
@@ -92,6 +94,9 @@ class SocketEndpoint final : public EndpointTransport {
   SocketEndpoint(std::string bus_name, EndpointOptions options);
   std::error_code open_connection();
   void lose_connection(const std::string& reason);
+  // Sends one message to the hub; a refusal as send() reports it (the connection lost on a
+  // broken socket).
+  std::error_code deliver(const wire::Message& message);
 
   EndpointOptions options_;
   int fd_ = -1;

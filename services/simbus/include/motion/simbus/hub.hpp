@@ -5,7 +5,8 @@
 // is submitted at the time its sender sent it (the kernel's stamp of the datagram, SO_TIMESTAMPNS),
 // not when the hub got to read it: a hub whose loop was busy with the frames before would otherwise
 // put it on the wire late, later than a CAN controller would (Bus::submit takes such a time in its
-// past). Local endpoints submit at the loop's now(). Deliveries are scheduled with
+// past). The frames of a socket endpoint's batch (one message) are submitted together, at its
+// stamp. Local endpoints submit at the loop's now(). Deliveries are scheduled with
 // one EventLoop timer at the bus's next deadline (never a busy wait). A frame reaches its
 // receivers within the loop's timer slack (tens of microseconds) after its simulated end of
 // frame; its timestamp is the exact simulated time.

@@ -8,8 +8,15 @@
 //   SetOwnEcho endpoint -> hub.
 //   BusEvent   hub -> endpoint: state, error class (kError* of bus.hpp), text.
 //   TxRejected hub -> endpoint: a frame the hub refused (bus-off), for the sender's counters.
+//   FrameBatch endpoint -> hub: frames handed over at once (can::Transport::send_batch), up to
+//              kMaxBatchFrames: count, then per frame flags (extended, rtr), dlc, id, data. The
+//              hub takes them together, as a CAN controller given them at once takes them: a
+//              sender preempted between datagrams (the hub's own wake-up on the first one does
+//              it on a small host) cannot leave a gap between them that the wire would not.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -22,7 +29,7 @@
 
 namespace motion::simbus::wire {
 
-inline constexpr std::uint16_t kProtocolVersion = 1;
+inline constexpr std::uint16_t kProtocolVersion = 2;
 // Every message fits (texts are truncated to kMaxText); receivers read with a buffer this size.
 inline constexpr std::size_t kMaxMessageSize = 256;
 inline constexpr std::size_t kMaxText = 200;
@@ -33,7 +40,8 @@ enum class Type : std::uint8_t {
   kFrame = 3,
   kSetOwnEcho = 4,
   kBusEvent = 5,
-  kTxRejected = 6
+  kTxRejected = 6,
+  kFrameBatch = 7
 };
 
 struct Hello {
@@ -72,10 +80,19 @@ struct TxRejected {
   friend bool operator==(const TxRejected&, const TxRejected&) = default;
 };
 
-using Message = std::variant<Hello, Welcome, FrameMessage, SetOwnEcho, BusEventMessage, TxRejected>;
+// 2 + 16 x 14 bytes: within kMaxMessageSize.
+inline constexpr std::size_t kMaxBatchFrames = 16;
+struct FrameBatch {
+  std::array<can::Frame, kMaxBatchFrames> frames{};
+  std::size_t count = 0;  // 1..kMaxBatchFrames
+  [[nodiscard]] std::span<const can::Frame> view() const { return {frames.data(), count}; }
+  friend bool operator==(const FrameBatch& a, const FrameBatch& b) { return std::ranges::equal(a.view(), b.view()); }
+};
 
-// Writes `message` into `out`; returns the encoded size, 0 when `out` is too small or the frame
-// is invalid (dlc > 8, id out of range). Texts longer than kMaxText are truncated.
+using Message = std::variant<Hello, Welcome, FrameMessage, SetOwnEcho, BusEventMessage, TxRejected, FrameBatch>;
+
+// Writes `message` into `out`; returns the encoded size, 0 when `out` is too small, a frame is
+// invalid (dlc > 8, id out of range) or a batch's count is outside 1..kMaxBatchFrames. Texts longer than kMaxText are truncated.
 [[nodiscard]] std::size_t encode(const Message& message, std::span<std::uint8_t> out);
 // Parses one datagram; nullopt for an unknown type, a wrong length or invalid field values.
 [[nodiscard]] std::optional<Message> decode(std::span<const std::uint8_t> in);
