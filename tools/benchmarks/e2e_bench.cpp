@@ -23,7 +23,8 @@
 //      the BG, can::frame_duration at the bus's bit rate); across buses, the 200 us goal
 //      plus the spread the coordinator's schedule predicts (SYNC_TRIGGER2, 0 when absent).
 //      MOTION_BIN_DIR=<another build>/bin runs the same measurement against other binaries (e.g.
-//      main's, for a before/after in one sitting).
+//      main's, for a before/after in one sitting); BENCH_E2E_CONFIG=<file> against a variant of
+//      the lab's configuration (the same buses, drives and axis names; e.g. other bus keys).
 //
 // The processes run on their own LCM URL and simulation directory and are killed at the end (also
 // when this process dies: PR_SET_PDEATHSIG). A plain main, not Google Benchmark: fixed end-to-end
@@ -97,7 +98,8 @@ double load_average() {
 }
 
 int run(bool quick, bool skew_only) {
-  const std::string config_path = MOTION_E2E_CONFIG;
+  std::string config_path = MOTION_E2E_CONFIG;
+  if (const char* env = std::getenv("BENCH_E2E_CONFIG")) config_path = env;
   auto loaded = config::load_file(config_path);
   if (!loaded.ok()) {
     std::fprintf(stderr, "%s\n", loaded.error_text().c_str());
