@@ -1,5 +1,7 @@
 #include "motion/sim/serial_line_host.hpp"
 
+#include <poll.h>
+#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -92,16 +94,32 @@ std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const conf
     return steady_us(t) + offset;
   };
   host->device_ = factories.at(*family)(config, bus, std::move(context));
-  loop.watch(host->link_->master_fd(), [h = host.get()] { h->on_readable(); });
+  if (dynamic_cast<const SystemSteadyClock*>(&loop.clock()) != nullptr) {
+    host->mailbox_ = std::make_unique<LoopMailbox>(loop);
+    host->stop_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+  }
+  if (host->mailbox_ && host->mailbox_->ok() && host->stop_fd_ >= 0) {
+    host->reader_ = std::thread([h = host.get()] { h->read_in_thread(); });
+  } else {
+    loop.watch(host->link_->master_fd(), [h = host.get()] { h->on_readable(); });
+  }
   const TimePoint now = loop.now();
-  host->device_->power_up(now);
+  host->device_->power_up(host->device_time(now));
   host->device_deadline_ = host->device_->process(now);
   host->reschedule();
   return host;
 }
 
 SerialLineHost::~SerialLineHost() {
-  if (link_) loop_.unwatch(link_->master_fd());
+  if (reader_.joinable()) {
+    const std::uint64_t one = 1;
+    (void)!::write(stop_fd_, &one, sizeof one);
+    reader_.join();
+  } else if (link_) {
+    loop_.unwatch(link_->master_fd());
+  }
+  if (stop_fd_ >= 0) ::close(stop_fd_);
+  mailbox_.reset();  // reads still queued are dropped
   if (timer_ != 0) loop_.cancel(timer_);
 }
 
@@ -131,17 +149,56 @@ void SerialLineHost::on_readable() {
   for (;;) {
     const ssize_t n = ::read(link_->master_fd(), buffer.data(), buffer.size());
     if (n <= 0) break;  // EAGAIN: drained (the slave fd PtyLink keeps open means no EIO)
-    const auto count = static_cast<std::size_t>(n);
-    line_busy_until_ = std::max(line_busy_until_, now) + configured_line(bus_).wire_time(count);
-    inbox_.emplace_back(line_busy_until_, std::vector<std::uint8_t>(buffer.begin(), buffer.begin() + n));
+    on_bytes({buffer.data(), static_cast<std::size_t>(n)}, now);
   }
   reschedule();
+}
+
+void SerialLineHost::on_bytes(std::span<const std::uint8_t> bytes, TimePoint read_at) {
+  line_busy_until_ = std::max(line_busy_until_, read_at) + configured_line(bus_).wire_time(bytes.size());
+  inbox_.emplace_back(line_busy_until_, std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
+}
+
+void SerialLineHost::read_in_thread() {
+  std::array<std::uint8_t, 512> buffer{};
+  for (;;) {
+    std::array<pollfd, 2> fds{{{link_->master_fd(), POLLIN, 0}, {stop_fd_, POLLIN, 0}}};
+    if (::poll(fds.data(), fds.size(), -1) < 0) {
+      if (errno == EINTR) continue;
+      spdlog::error("bus {}: the simulated line's reader stops: {}", bus_.name,
+                    std::error_code(errno, std::generic_category()).message());
+      return;
+    }
+    if (fds[1].revents != 0) return;
+    const TimePoint read_at = loop_.clock().now();
+    std::vector<std::uint8_t> bytes;
+    for (;;) {
+      const ssize_t n = ::read(link_->master_fd(), buffer.data(), buffer.size());
+      if (n <= 0) break;
+      bytes.insert(bytes.end(), buffer.begin(), buffer.begin() + n);
+    }
+    if (bytes.empty()) {
+      // Readable without bytes (a hang-up the kept slave fd should prevent): do not spin on it.
+      if ((fds[0].revents & (POLLHUP | POLLERR)) != 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      continue;
+    }
+    const bool queued = mailbox_->post([this, bytes = std::move(bytes), read_at] {
+      on_bytes(bytes, read_at);
+      reschedule();
+    });
+    if (!queued) spdlog::warn("bus {}: the loop is behind; bytes the gateway wrote were dropped", bus_.name);
+  }
+}
+
+TimePoint SerialLineHost::device_time(TimePoint now) {
+  device_now_ = std::max(device_now_, now);
+  return device_now_;
 }
 
 void SerialLineHost::deliver(TimePoint now) {
   while (!inbox_.empty() && inbox_.front().first <= now) {
     const auto& [arrival, bytes] = inbox_.front();
-    device_deadline_ = device_->receive(bytes, arrival);
+    device_deadline_ = device_->receive(bytes, device_time(arrival));
     inbox_.pop_front();
   }
 }
@@ -150,7 +207,7 @@ void SerialLineHost::on_timer() {
   timer_ = 0;
   const TimePoint now = loop_.now();
   deliver(now);
-  device_deadline_ = device_->process(now);
+  device_deadline_ = device_->process(device_time(now));
   reschedule();
 }
 
@@ -169,7 +226,7 @@ bool SerialLineHost::control(const motionlcm::sim_control_t& control) {
     }
     return true;
   }
-  if (!device_->control(control, now)) return false;
+  if (!device_->control(control, device_time(now))) return false;
   device_deadline_ = device_->process(now);
   reschedule();
   return true;

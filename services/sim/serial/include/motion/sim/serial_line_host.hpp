@@ -13,7 +13,15 @@
 // Line noise (sim_control_t LINE_NOISE for the bus, whatever the family): `value` bytes of a
 // fixed pseudo-random sequence (the same in every run), written at once (between frames) or into
 // the middle of the next frame the device sends.
-// Thread contract: the loop's thread only; no call blocks (the master fd is non-blocking).
+// The host reads the pty in a thread of its own when the loop runs on the steady clock: it dates
+// each read by when the bytes came (the pty's hand-over), not by when the loop got to them, since
+// a loop busy with the other buses of motion-sim dated the gateway's frames, and with them the
+// drives' ground truth (SIM_REPORT), milliseconds late. The reads reach the loop through a
+// LoopMailbox, in order; a time never goes back for the device (a read dated before what the
+// device has already been advanced to arrives then). On another clock (a test's) the loop reads.
+// Thread contract: the loop's thread only (construction, every call, destruction); the reader
+// thread touches the master fd and the mailbox only. No call blocks (the master fd is
+// non-blocking).
 #pragma once
 
 #include <cstdint>
@@ -23,12 +31,15 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <span>
 #include <string>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 #include "motion/config/config.hpp"
 #include "motion/core/event_loop.hpp"
+#include "motion/core/loop_mailbox.hpp"
 #include "motion/serial/pty_link.hpp"
 #include "motion/sim/serial_device_sim.hpp"
 
@@ -67,6 +78,11 @@ class SerialLineHost {
   void send(std::span<const std::uint8_t> bytes, Duration delay);
   std::vector<std::uint8_t> noise(std::size_t count);
   void on_readable();
+  // Bytes the gateway wrote, read at `read_at`: queued to arrive after their wire time.
+  void on_bytes(std::span<const std::uint8_t> bytes, TimePoint read_at);
+  void read_in_thread();
+  // The device is advanced to `now` (or kept at a later time it already has): what it is given.
+  TimePoint device_time(TimePoint now);
   void on_timer();
   void flush(TimePoint now);
   void deliver(TimePoint now);
@@ -86,6 +102,10 @@ class SerialLineHost {
   std::size_t drive_count_ = 0;
   std::minstd_rand noise_source_;             // default seed: one sequence for every run
   std::vector<std::uint8_t> noise_in_frame_;  // goes into the middle of the next frame sent
+  TimePoint device_now_{};                    // the latest time the device was given
+  std::unique_ptr<LoopMailbox> mailbox_;      // reads of the reader thread, to the loop
+  int stop_fd_ = -1;                          // eventfd: ends the reader thread
+  std::thread reader_;
 };
 
 }  // namespace motion::sim
