@@ -102,6 +102,8 @@ void Uim342Stack::Impl::event(const Node& n, std::int16_t kind, std::int8_t seve
 void Uim342Stack::Impl::finish(std::int64_t id, Lifecycle terminal, std::int32_t code, std::string reason) {
   auto c = commands.finish(id, terminal, code, std::move(reason));
   if (!c) return;  // ended before (its one terminal reply went out then)
+  for (const auto b : c->data.holding) release_hold(b, std::nullopt);
+  for (const auto b : c->data.held) release_hold(b, std::nullopt);
   for (const auto i : c->nodes) {
     Node& n = nodes[i];
     if (n.move == id) {
@@ -172,20 +174,23 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
     std::uint8_t target = n.cfg.node_id;
     if (r.group) {
       const auto group = r.group;  // keep alive while members are marked
-      const bool all_free = std::all_of(group->members.begin(), group->members.end(), [&](std::size_t m) {
+      const auto free = [&](std::size_t m) {
         const auto& q = nodes[m].queue;
         return !q.empty() && q.front().group == group && !q.front().sent;
-      });
-      if (!all_free) return;  // the last member to become free sends it
+      };
+      if (!std::all_of(group->members.begin(), group->members.end(), free) ||
+          !std::all_of(group->bystanders.begin(), group->bystanders.end(), free))
+        return;  // the last member to become free sends it
       if (!transmit(group->group_id, r.instruction)) return;
-      const std::uint8_t group_target = group->group_id;
-      for (const auto m : group->members) {
-        Request& mr = nodes[m].queue.front();
-        mr.sent = true;
-        mr.attempts = 1;
-        mr.deadline = deadline_of(nodes[m], now);
+      for (const auto& list : {group->members, group->bystanders}) {
+        for (const auto m : list) {
+          Request& mr = nodes[m].queue.front();
+          mr.sent = true;
+          mr.attempts = 1;
+          mr.deadline = deadline_of(nodes[m], now);
+        }
       }
-      on_sent(r.command_id, group_target, group->members, now);
+      on_sent(group->command_id, group->group_id, group->members, now);
       return;
     }
     // A node already waiting keeps its place in poll_queue (grant_polls() clears the flag first).
@@ -238,6 +243,7 @@ void Uim342Stack::Impl::on_sent(std::int64_t command_id, std::uint8_t target, co
 // the BG goes out without delay (and nothing changes on a drive that has not started).
 bool Uim342Stack::Impl::polled(const Node& n) const {
   if (n.phase != Phase::kReady && n.phase != Phase::kSetupFailed) return false;
+  if (n.held_for != 0) return false;
   if (n.move == 0) return true;
   const auto* c = commands.find(n.move);
   return c == nullptr || !c->all(Lifecycle::kArmed);
@@ -293,6 +299,7 @@ void Uim342Stack::Impl::on_transmitted(const can::Frame& frame, TimePoint now) {
 
 void Uim342Stack::Impl::go_offline(std::size_t i, const std::string& reason, TimePoint now) {
   Node& n = nodes[i];
+  release_hold(i, now);
   const bool was_online = n.status.online;
   const bool first_report = !n.offline_reported;
   n.offline_reported = true;
@@ -377,6 +384,10 @@ void Uim342Stack::Impl::refused(std::size_t i, const Request& r, const uim342::E
   const auto reason =
       fmt::format("{} refused {}: {}", n.name(), uim342::to_string(r.instruction), record.error().message());
   event(n, event_t::ERROR_REPORT, event_t::WARNING, record.code, reason);
+  if (r.hold_for != 0) {  // the drive does not hold: the move starts drive by drive
+    if (n.held_for == r.hold_for) release_hold(i, now);
+    return;
+  }
   if (r.command_id != 0) {
     fail(r.command_id, error_code(ReplyError::kDriveError), reason);
     return;

@@ -57,15 +57,24 @@ void Uim342Stack::Impl::stage_done(Command& c, TimePoint now) {
 }
 
 void Uim342Stack::Impl::start_move(Command& c, TimePoint now) {
+  const auto id = c.command.command_id;
   const std::uint8_t group = nodes[c.nodes.front()].cfg.group_id;
-  // One BG to the group id starts every drive of the group, so it is used only when the group
-  // is exactly this command's axes (a drive of the group outside the command would start too).
+  // One BG to the group id starts every drive of the group (§5.11), so it is used only when the
+  // group's drives outside this command hold PR=0 for it (a move of zero counts, §5.20), are
+  // still ready and free to take the BG now; with none outside, when the group is the command.
   bool one_frame = group != 0;
   for (const auto i : c.nodes) one_frame = one_frame && nodes[i].cfg.group_id == group && nodes[i].group_ok;
+  std::vector<std::size_t> bystanders;
   for (std::size_t i = 0; i < nodes.size() && one_frame; ++i) {
-    if (nodes[i].cfg.group_id == group && std::find(c.nodes.begin(), c.nodes.end(), i) == c.nodes.end())
-      one_frame = false;
+    const Node& b = nodes[i];
+    if (b.cfg.group_id != group || std::find(c.nodes.begin(), c.nodes.end(), i) != c.nodes.end()) continue;
+    one_frame = c.data.held.contains(i) && b.held_for == id && b.phase == Phase::kReady && !b.busy();
+    bystanders.push_back(i);
   }
+  // The holds end here: with the group BG queued ahead of anything else to the drive, or unused.
+  std::set<std::size_t> holds = c.data.held;
+  holds.insert(c.data.holding.begin(), c.data.holding.end());
+  for (const auto b : holds) release_hold(b, std::nullopt);
   const auto bg_frame = uim342::instruction_frame(one_frame ? group : nodes[c.nodes.front()].cfg.node_id, rq::begin());
   const auto frame_us =
       std::chrono::duration<double, std::micro>(can::frame_duration(*bg_frame, config.bitrate)).count();
@@ -73,9 +82,81 @@ void Uim342Stack::Impl::start_move(Command& c, TimePoint now) {
   c.reply.started(0, one_frame ? "group-bg" : "sequential",
                   one_frame ? 0.0 : frame_us * static_cast<double>(c.nodes.size() - 1));
   std::shared_ptr<GroupSend> shared;
-  if (one_frame) shared = std::make_shared<GroupSend>(GroupSend{group, c.nodes});
-  for (const auto i : c.nodes) enqueue(i, rq::begin(), c.command.command_id, /*front=*/true).group = shared;
+  if (one_frame) shared = std::make_shared<GroupSend>(GroupSend{group, id, c.nodes, bystanders});
+  for (const auto i : c.nodes) enqueue(i, rq::begin(), id, /*front=*/true).group = shared;
+  // A bystander's BG is the stack's own: its ACK is awaited like any other, and a timeout fails
+  // nothing but takes the drive offline.
+  if (one_frame) {
+    for (const auto b : bystanders) enqueue(b, rq::begin(), 0, /*front=*/true).group = shared;
+  }
   for (const auto i : c.nodes) pump(i, now);
+}
+
+bool Uim342Stack::Impl::may_hold(std::size_t i) const {
+  const Node& n = nodes[i];
+  if (n.phase != Phase::kReady || !n.group_ok || n.move != 0 || n.held_for != 0 || n.homing.command != 0) return false;
+  // At rest by a status read after its last BG (a jog's goes on after the JOG is DONE): PR=0
+  // would make a group BG stop a running motor. Driver on: §5.10's note asks for MO=1 before PR
+  // and BG are sent ("otherwise, unexpected movement will happen" when it is switched on).
+  if (!n.status.online || !n.status.enabled || n.status.moving || n.status.fault || n.started_since_status)
+    return false;
+  return std::none_of(n.queue.begin(), n.queue.end(), [](const Request& r) { return r.command_id != 0; });
+}
+
+void Uim342Stack::Impl::hold_bystanders(Command& c) {
+  const std::uint8_t group = nodes[c.nodes.front()].cfg.group_id;
+  if (group == 0 || c.nodes.size() < 2) return;
+  for (const auto i : c.nodes) {
+    if (nodes[i].cfg.group_id != group || !nodes[i].group_ok) return;
+  }
+  std::vector<std::size_t> outside;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (nodes[i].cfg.group_id != group || std::find(c.nodes.begin(), c.nodes.end(), i) != c.nodes.end()) continue;
+    if (!may_hold(i)) return;
+    outside.push_back(i);
+  }
+  // At most one PR=0 exchange per drive of the move: arming takes at most that much longer.
+  if (outside.empty() || outside.size() > c.nodes.size()) return;
+  const auto id = c.command.command_id;
+  for (const auto b : outside) {
+    enqueue(b, rq::set_relative_position(0), 0, /*front=*/true).hold_for = id;
+    nodes[b].held_for = id;
+    c.data.holding.insert(b);
+  }
+}
+
+void Uim342Stack::Impl::armed_if_loaded(Command& c, TimePoint now) {
+  if (!c.data.waiting.empty() || !c.data.holding.empty()) return;
+  const auto id = c.command.command_id;
+  const auto parts = c.nodes;
+  bool loading = false;
+  for (const auto i : parts) {
+    const auto* entry = commands.find(id);
+    if (entry == nullptr || entry->state_of(i) != Lifecycle::kLoading) continue;
+    loading = true;
+    commands.advance(id, i, Lifecycle::kArmed);  // the ledger replies ARMED with the last part
+  }
+  if (auto* armed = commands.find(id); armed != nullptr && loading) stage_done(*armed, now);
+}
+
+void Uim342Stack::Impl::hold_loaded(std::size_t i, std::int64_t command_id, TimePoint now) {
+  Command* c = commands.find(command_id);
+  if (c == nullptr || nodes[i].held_for != command_id || c->data.holding.erase(i) == 0) return;
+  c->data.held.insert(i);
+  armed_if_loaded(*c, now);
+}
+
+void Uim342Stack::Impl::release_hold(std::size_t i, std::optional<TimePoint> now) {
+  Node& n = nodes[i];
+  const auto id = n.held_for;
+  if (id == 0) return;
+  n.held_for = 0;
+  std::erase_if(n.queue, [id](const Request& r) { return r.hold_for == id && !r.sent; });
+  Command* c = commands.find(id);
+  if (c == nullptr) return;
+  c->data.holding.erase(i);
+  c->data.held.erase(i);
+  if (now) armed_if_loaded(*c, *now);
 }
 
 std::optional<std::size_t> Uim342Stack::Impl::node_of_axis(const std::string& axis) const {
@@ -132,13 +213,25 @@ void Uim342Stack::Impl::execute(const gateway_command_t& cmd, TimePoint now) {
   }
   stored->reply.bus(config.bus);
   const auto id = cmd.command_id;
+  // A drive held at rest for another move's group start is now this command's: that move starts
+  // drive by drive.
+  const auto named = stored->nodes;
+  for (const auto i : named) release_hold(i, now);
+  stored = commands.find(id);
+  if (stored == nullptr) return;
   if (const auto problem = load(*stored)) {
     // Nothing of it stays behind: no part, no queued request, no node bound to it.
     fail(id, problem->second, problem->first);
     drop_requests(id);
     return;
   }
-  if (auto* c = commands.find(id); c != nullptr && c->data.waiting.empty()) stage_done(*c, now);
+  if (auto* c = commands.find(id); c != nullptr) {
+    if (c->command.kind == gateway_command_t::ARM_MOVE) {
+      armed_if_loaded(*c, now);
+    } else if (c->data.waiting.empty()) {
+      stage_done(*c, now);
+    }
+  }
   for (std::size_t i = 0; i < nodes.size(); ++i) pump(i, now);
 }
 
@@ -174,6 +267,7 @@ Uim342Stack::Impl::Problem Uim342Stack::Impl::load(Command& c) {
         // arriving at counter 0 is then not a power-up (PowerUpWatch).
         nodes[i].power.travel_started(c.data.targets.at(i) - nodes[i].offset);
       }
+      hold_bystanders(c);
       return std::nullopt;
     case gateway_command_t::JOG:
       return each([&](std::size_t i, const motionlcm::axis_command_t& a) { return load_jog(c, i, a); });

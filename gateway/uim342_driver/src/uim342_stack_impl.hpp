@@ -48,9 +48,13 @@ struct Uim342Stack::Impl {
   enum class Phase { kIdle, kIdentifying, kSettingUp, kReady, kSetupFailed, kOffline, kRebooting, kStoppingForSetup };
 
   // One shared BG frame for every member of a group start, sent once when all of them are free.
+  // `members` are the command's parts; `bystanders` the drives of the group outside it, each
+  // holding PR=0 (hold_bystanders()), for which the same BG is a move of zero counts.
   struct GroupSend {
     std::uint8_t group_id = 0;
+    std::int64_t command_id = 0;
     std::vector<std::size_t> members;
+    std::vector<std::size_t> bystanders;
   };
 
   struct Request {
@@ -62,6 +66,7 @@ struct Uim342Stack::Impl {
     std::uint64_t poll_seq = 0;  // a background request's place in the order they were handed over
     TimePoint answer_due{};      // a background request: holds later polls back until then at most
     std::shared_ptr<GroupSend> group;
+    std::int64_t hold_for = 0;  // a PR=0 holding a bystander of this ARM_MOVE's group start
     int attempts = 0;
     bool sent = false;
     TimePoint deadline{};
@@ -95,9 +100,14 @@ struct Uim342Stack::Impl {
     std::optional<std::uint16_t> delay_read;
     std::optional<std::uint16_t> marker;
     TimePoint marker_checked{};
-    std::int64_t move = 0;     // active ARM_MOVE command
+    std::int64_t move = 0;  // active ARM_MOVE command
+    // The ARM_MOVE whose group BG this drive, at rest outside the move, joins holding PR=0
+    // (hold_bystanders()); 0: none. Not polled meanwhile, like an armed drive.
+    std::int64_t held_for = 0;
     bool bg_acked = false;     // of the active move
     bool seen_moving = false;  // since the active move's BG
+    // A BG was acknowledged after the last status read: it may run whatever that read said.
+    bool started_since_status = false;
     // A HOME with a switch search (§5.26), one step after the other; see load_home().
     struct Homing {
       enum class Step { kNone, kReading, kSearchingLoad, kSearching, kReturningLoad, kReturning };
@@ -128,6 +138,11 @@ struct Uim342Stack::Impl {
     std::map<std::size_t, std::int64_t> targets;
     std::string unreached;           // a stop's offline nodes: the others are still stopped, then it fails
     std::vector<std::string> notes;  // the DONE reply's reason (what a HOME did, per axis)
+    // An ARM_MOVE of part of a UIM342 group: the group's other drives whose PR=0 is not yet
+    // acknowledged, and those holding it. One released meanwhile is in neither: the start is
+    // then one BG per drive.
+    std::set<std::size_t> holding;
+    std::set<std::size_t> held;
   };
   using Ledger = CommandLedger<CommandData>;
   using Command = Ledger::Entry;  // parts per node: Loading -> Armed -> Started -> Done | Failed | Stopped
@@ -304,6 +319,22 @@ struct Uim342Stack::Impl {
   // ---- synchronized start (§5.11, §3.2) ----
 
   void start_move(Command& c, TimePoint now);
+
+  // A move of part of a group (at least two drives, and at least half of the group) starts with
+  // one BG to the group id when every other drive of the group rests with nothing to do: each is
+  // given PR=0 (§5.20: a relative move, counted from where the drive stands at BG) before the move
+  // is ARMED, and is held (not polled, Node::held_for) until the start. Otherwise nothing is held
+  // and the move starts with one BG per drive.
+  void hold_bystanders(Command& c);
+  [[nodiscard]] bool may_hold(std::size_t i) const;
+  // The move's requests and its bystanders' PR=0 are all answered: every part Armed (the ledger
+  // replies ARMED with the last), and stage_done().
+  void armed_if_loaded(Command& c, TimePoint now);
+  // A bystander's PR=0 was acknowledged.
+  void hold_loaded(std::size_t i, std::int64_t command_id, TimePoint now);
+  // Node `i` is no longer held (a command of its own, refused or unanswered PR=0, offline, power
+  // cycle): its move starts drive by drive. `now` nullopt: no ARMED/start follows from it here.
+  void release_hold(std::size_t i, std::optional<TimePoint> now);
 
   // ---- commands ----
 

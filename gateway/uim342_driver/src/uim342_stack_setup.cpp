@@ -73,6 +73,10 @@ void Uim342Stack::Impl::completed(std::size_t i, const Request& r, const std::op
                                   TimePoint now) {
   Node& n = nodes[i];
   if (ack) apply_ack(i, r, *ack, now);
+  if (r.hold_for != 0) {
+    hold_loaded(i, r.hold_for, now);
+    return;
+  }
   if (r.instruction.function == FunctionCode::kSY) {
     // The drive reboots without answering; identified and set up again after reboot_wait.
     n.power.forget();  // our own reboot: its counter restarts at 0 (not a lost power)
@@ -92,12 +96,12 @@ void Uim342Stack::Impl::completed(std::size_t i, const Request& r, const std::op
     Command* c = commands.find(r.command_id);
     if (c != nullptr && !has_request_of(i, r.command_id)) {
       c->data.waiting.erase(i);
-      // An ARM_MOVE part is loaded: Armed (the ledger replies ARMED with the last part).
-      if (c->command.kind == gateway_command_t::ARM_MOVE && c->state_of(i) == Lifecycle::kLoading) {
-        commands.advance(r.command_id, i, Lifecycle::kArmed);
-        c = commands.find(r.command_id);
+      // An ARM_MOVE is Armed once every part is loaded and every bystander holds.
+      if (c->command.kind == gateway_command_t::ARM_MOVE) {
+        armed_if_loaded(*c, now);
+      } else if (c->data.waiting.empty()) {
+        stage_done(*c, now);
       }
-      if (c != nullptr && c->data.waiting.empty()) stage_done(*c, now);
     }
     return;
   }
@@ -255,6 +259,7 @@ void Uim342Stack::Impl::apply_ack(std::size_t i, const Request& r, const uim342:
       break;
     }
     case FunctionCode::kBG:
+      n.started_since_status = true;
       if (n.move == r.command_id && r.command_id != 0) {
         n.bg_acked = true;
         n.seen_moving = false;
@@ -279,6 +284,7 @@ void Uim342Stack::Impl::on_motion_status(std::size_t i, const uim342::MotionStat
   using uim342::IoStatusBit;
   using uim342::StatusFlag;
   n.status.online = true;
+  n.started_since_status = false;  // asked after the last BG's ACK (one request at a time per drive)
   n.was_enabled = n.status.enabled;
   n.status.enabled = s.has(IoStatusBit::kDriverOn);
   n.status.moving = !s.has(StatusFlag::kStopped);
@@ -395,6 +401,7 @@ bool Uim342Stack::Impl::marker_queued(const Node& n) const {
 // RAM settings are gone, so it is identified and set up again (as after a reboot).
 void Uim342Stack::Impl::on_power_cycle(std::size_t i, const std::string& why, TimePoint now) {
   Node& n = nodes[i];
+  release_hold(i, now);
   fail_commands_of(i, error_code(ReplyError::kAxisFault), why);
   n.marker.reset();  // gone with its RAM; armed again once set up and its driver is on
   n.power.forget();

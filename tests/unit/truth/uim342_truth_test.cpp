@@ -62,8 +62,8 @@ class Recorder final : public GatewayOutput {
 // The stack and two simulated drives on one zero-latency wire, time advanced by hand.
 class Uim342Bench {
  public:
-  explicit Uim342Bench(const std::string& variant) {
-    std::string yaml = kLabTemplate;
+  explicit Uim342Bench(const std::string& variant, const char* lab = kLabTemplate) {
+    std::string yaml = lab;
     for (auto at = yaml.find("VARIANT"); at != std::string::npos; at = yaml.find("VARIANT"))
       yaml.replace(at, 7, variant);
     auto loaded = config::load_string(yaml, "truth.yaml");
@@ -73,6 +73,7 @@ class Uim342Bench {
     ctx.out = &out;
     ctx.send = [this](const can::Frame& f) {
       to_drives.push_back(f);
+      from_stack.push_back(f);
       return true;
     };
     stack = std::make_unique<Uim342Stack>(config_, "can0", ctx);
@@ -160,7 +161,8 @@ class Uim342Bench {
   std::map<std::string, std::vector<std::int64_t>> finish_positions;  // drive counts at MOTION_FINISHED
   std::map<std::string, std::vector<std::int64_t>> start_distances;   // target - position at MOTION_STARTED
   std::deque<can::Frame> to_drives, to_stack;
-  std::set<std::string> muted;  // drives whose frames never reach the stack
+  std::vector<can::Frame> from_stack;  // every frame the stack sent, in order
+  std::set<std::string> muted;         // drives whose frames never reach the stack
   TimePoint now = TimePoint{} + std::chrono::seconds(10);
   std::int64_t next_id = 0;
 };
@@ -305,6 +307,227 @@ TEST(Uim342Release, ADisarmedMoveLeavesNothingAForeignGroupBgCouldStart) {
   ASSERT_EQ(bench.terminal(again)->status, kDone) << bench.terminal(again)->reason;
   EXPECT_EQ(bench.drives[0]->position(bench.now), 6400);
   EXPECT_EQ(bench.drives[1]->position(bench.now), 3200);
+}
+
+// Three drives in group 20: a move of two of them is part of the group.
+constexpr const char* kGroupOfThree = R"(
+buses:
+  - {name: can0, transport: "simcan:can0", bitrate: 1000000, request_timeout_ms: 50, retries: 2, poll_hz: 20}
+drives:
+  - {name: x-drive, family: uim342, bus: can0, node_id: 5, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
+  - {name: y-drive, family: uim342, bus: can0, node_id: 6, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
+  - {name: z-drive, family: uim342, bus: can0, node_id: 7, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
+axes:
+  - {name: x, drive: x-drive, unit: mm, steps_per_unit: 640, limits: {min: -100, max: 300, velocity: 50, acceleration: 400}}
+  - {name: y, drive: y-drive, unit: mm, steps_per_unit: 640, limits: {min: -100, max: 200, velocity: 50, acceleration: 400}}
+  - {name: z, drive: z-drive, unit: mm, steps_per_unit: 640, limits: {min: -100, max: 200, velocity: 50, acceleration: 400}}
+simulation:
+  variants:
+    x-drive: {micro_steps_apply: VARIANT}
+    y-drive: {micro_steps_apply: VARIANT}
+    z-drive: {micro_steps_apply: VARIANT}
+)";
+
+// The BG frames the stack sent from `from` on, by addressee (node or group id).
+std::vector<int> bg_targets(const std::vector<can::Frame>& frames, std::size_t from = 0) {
+  std::vector<int> out;
+  for (std::size_t k = from; k < frames.size(); ++k) {
+    const auto decoded = uim342::decode_instruction_frame(frames[k]);
+    if (decoded.ok() && decoded->instruction.function == uim342::FunctionCode::kBG)
+      out.push_back(decoded->address.consumer);
+  }
+  return out;
+}
+
+// Whether the stack sent PR=0 to `node` from `from` on.
+bool pr0_sent(const std::vector<can::Frame>& frames, std::uint8_t node, std::size_t from = 0) {
+  const auto pr0 = uim342::instruction_frame(node, uim342::request::set_relative_position(0));
+  return std::any_of(frames.begin() + static_cast<std::ptrdiff_t>(from), frames.end(),
+                     [&](const can::Frame& f) { return pr0.ok() && f == *pr0; });
+}
+
+// Ready, every axis enabled; z jogged and stopped, so that its drive is in jog mode (§5.16: a BG
+// would run its jog again) and at rest.
+void ready_with_z_jogged(Uim342Bench& bench) {
+  bench.stack->start(bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
+  gateway_command_t enable{};
+  enable.kind = gateway_command_t::ENABLE;
+  enable.axes = {axis_move("x", 0), axis_move("y", 0), axis_move("z", 0)};
+  const auto enabled = bench.execute(enable);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(enabled).has_value(); }, std::chrono::seconds(1)));
+  ASSERT_EQ(bench.terminal(enabled)->status, kDone) << bench.terminal(enabled)->reason;
+  gateway_command_t jog{};
+  jog.kind = gateway_command_t::JOG;
+  jog.axes = {axis_move("z", 0)};
+  jog.axes[0].velocity = 3200;
+  const auto jogged = bench.execute(jog);
+  bench.run_for(milliseconds(200));
+  ASSERT_TRUE(bench.terminal(jogged).has_value());
+  ASSERT_TRUE(bench.drives[2]->moving(bench.now)) << "z does not jog";
+  gateway_command_t stop{};
+  stop.kind = gateway_command_t::STOP;
+  stop.axes = {axis_move("z", 0)};
+  const auto stopped = bench.execute(stop);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(stopped).has_value(); }, std::chrono::seconds(2)));
+  bench.run_for(milliseconds(500));  // at rest, and polled since
+  ASSERT_FALSE(bench.drives[2]->moving(bench.now));
+}
+
+std::string mechanism_of(const Uim342Bench& bench, std::int64_t id) {
+  for (const auto& r : bench.out.replies) {
+    if (r.command_id == id && r.status == gateway_reply_t::STARTED) return r.start_mechanism;
+  }
+  return "(no STARTED)";
+}
+
+// A move of two drives of a group of three starts with one BG to the group id (manual §5.11): the
+// third, at rest, is given PR=0 while the move is armed (§5.20: relative to where it stands at
+// BG), so the group BG moves it zero counts, though its drive was left in jog mode, where a BG
+// alone would run the jog again.
+TEST(Uim342PartialGroup, TwoOfThreeStartWithOneGroupBgAndTheThirdStaysPut) {
+  Uim342Bench bench("after_restart", kGroupOfThree);
+  ready_with_z_jogged(bench);
+  const auto z_at = bench.drives[2]->position(bench.now);
+  const auto z_starts = bench.start_distances["z-drive"].size();
+
+  const auto from = bench.from_stack.size();
+  gateway_command_t arm{};
+  arm.kind = gateway_command_t::ARM_MOVE;
+  arm.trigger_id = 7;
+  arm.axes = {axis_move("x", 6400), axis_move("y", -3200)};
+  const auto armed = bench.execute(arm);
+  bench.run_for(milliseconds(50));
+  EXPECT_TRUE(pr0_sent(bench.from_stack, 7, from)) << "z was not given PR=0";
+  const auto at_fire = bench.from_stack.size();
+  bench.stack->fire(7, bench.now);
+  bench.settle();
+  EXPECT_EQ(bg_targets(bench.from_stack, at_fire), std::vector<int>{20}) << "not one BG to group 20";
+  EXPECT_EQ(mechanism_of(bench, armed), "group-bg");
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(armed).has_value(); }, std::chrono::seconds(5)));
+  ASSERT_EQ(bench.terminal(armed)->status, kDone) << bench.terminal(armed)->reason;
+  EXPECT_EQ(bench.drives[0]->position(bench.now), 6400);
+  EXPECT_EQ(bench.drives[1]->position(bench.now), -3200);
+  EXPECT_EQ(bench.drives[2]->position(bench.now), z_at) << "the group BG moved z";
+  ASSERT_EQ(bench.start_distances["z-drive"].size(), z_starts + 1) << "z did not hear the group BG";
+  EXPECT_EQ(bench.start_distances["z-drive"].back(), 0);
+  // x and y started on the same frame (the simulator dates a start by its frame).
+  ASSERT_FALSE(bench.starts["x-drive"].empty());
+  ASSERT_FALSE(bench.starts["y-drive"].empty());
+  EXPECT_EQ(bench.starts["x-drive"].back(), bench.starts["y-drive"].back());
+
+  // z, polled again, takes a move of its own.
+  gateway_command_t move_z{};
+  move_z.kind = gateway_command_t::ARM_MOVE;
+  move_z.axes = {axis_move("z", z_at + 1600)};
+  const auto z_moved = bench.execute(move_z);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(z_moved).has_value(); }, std::chrono::seconds(5)));
+  ASSERT_EQ(bench.terminal(z_moved)->status, kDone) << bench.terminal(z_moved)->reason;
+  EXPECT_EQ(bench.drives[2]->position(bench.now), z_at + 1600);
+}
+
+// A held drive taken by a command of its own before the trigger (here a move armed for another
+// trigger) is not held any more: the first move starts drive by drive, and neither BG runs z's
+// own move, which starts on its own trigger.
+TEST(Uim342PartialGroup, ABystanderCommandedBeforeTheTriggerLeavesTheMoveToStartDriveByDrive) {
+  Uim342Bench bench("after_restart", kGroupOfThree);
+  ready_with_z_jogged(bench);
+  const auto z_at = bench.drives[2]->position(bench.now);
+  gateway_command_t arm{};
+  arm.kind = gateway_command_t::ARM_MOVE;
+  arm.trigger_id = 7;
+  arm.axes = {axis_move("x", 6400), axis_move("y", 3200)};
+  const auto first = bench.execute(arm);
+  bench.run_for(milliseconds(50));
+  gateway_command_t arm_z{};
+  arm_z.kind = gateway_command_t::ARM_MOVE;
+  arm_z.trigger_id = 8;
+  arm_z.axes = {axis_move("z", z_at + 1600)};
+  const auto second = bench.execute(arm_z);
+  bench.run_for(milliseconds(50));
+  const auto at_fire = bench.from_stack.size();
+  bench.stack->fire(7, bench.now);
+  bench.settle();
+  EXPECT_EQ(bg_targets(bench.from_stack, at_fire), (std::vector<int>{5, 6}));
+  EXPECT_EQ(mechanism_of(bench, first), "sequential");
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(first).has_value(); }, std::chrono::seconds(5)));
+  ASSERT_EQ(bench.terminal(first)->status, kDone) << bench.terminal(first)->reason;
+  EXPECT_EQ(bench.drives[2]->position(bench.now), z_at) << "z's move ran on the first move's start";
+  EXPECT_FALSE(bench.terminal(second).has_value());
+  bench.stack->fire(8, bench.now);
+  bench.settle();
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(second).has_value(); }, std::chrono::seconds(5)));
+  ASSERT_EQ(bench.terminal(second)->status, kDone) << bench.terminal(second)->reason;
+  EXPECT_EQ(bench.drives[2]->position(bench.now), z_at + 1600);
+}
+
+// A drive of the group that runs (a jog goes on after its JOG is DONE) is not held: PR=0 and a
+// group BG would end its jog. The move starts drive by drive and z jogs on, untouched.
+TEST(Uim342PartialGroup, ARunningDriveOfTheGroupIsNotHeld) {
+  Uim342Bench bench("after_restart", kGroupOfThree);
+  ready_with_z_jogged(bench);
+  gateway_command_t jog{};
+  jog.kind = gateway_command_t::JOG;
+  jog.axes = {axis_move("z", 0)};
+  jog.axes[0].velocity = 3200;
+  const auto jogged = bench.execute(jog);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(jogged).has_value(); }, std::chrono::seconds(1)));
+  const auto z_starts = bench.start_distances["z-drive"].size();
+  // At once, before a status read shows z running.
+  const auto from = bench.from_stack.size();
+  gateway_command_t arm{};
+  arm.kind = gateway_command_t::ARM_MOVE;
+  arm.trigger_id = 7;
+  arm.axes = {axis_move("x", 6400), axis_move("y", 3200)};
+  const auto armed = bench.execute(arm);
+  bench.run_for(milliseconds(50));
+  EXPECT_FALSE(pr0_sent(bench.from_stack, 7, from)) << "a jogging z was given PR=0";
+  const auto at_fire = bench.from_stack.size();
+  bench.stack->fire(7, bench.now);
+  bench.settle();
+  EXPECT_EQ(bg_targets(bench.from_stack, at_fire), (std::vector<int>{5, 6}));
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(armed).has_value(); }, std::chrono::seconds(5)));
+  ASSERT_EQ(bench.terminal(armed)->status, kDone) << bench.terminal(armed)->reason;
+  EXPECT_TRUE(bench.drives[2]->moving(bench.now)) << "z's jog ended";
+  EXPECT_EQ(bench.start_distances["z-drive"].size(), z_starts) << "z was started again";
+}
+
+// A partial-group move disarmed: x and y get PR=0 as any released move, z holds its PR=0, so a
+// foreign group BG moves nobody; z is polled again and takes its own move.
+TEST(Uim342PartialGroup, ADisarmedPartialMoveLeavesNothingAGroupBgCouldStart) {
+  Uim342Bench bench("after_restart", kGroupOfThree);
+  ready_with_z_jogged(bench);
+  std::vector<std::int64_t> at;
+  for (const auto& d : bench.drives) at.push_back(d->position(bench.now));
+  gateway_command_t arm{};
+  arm.kind = gateway_command_t::ARM_MOVE;
+  arm.trigger_id = 7;
+  arm.axes = {axis_move("x", 6400), axis_move("y", 3200)};
+  const auto armed = bench.execute(arm);
+  bench.run_for(milliseconds(50));
+  gateway_command_t disarm{};
+  disarm.kind = gateway_command_t::DISARM;
+  disarm.trigger_id = 7;
+  disarm.axes = {axis_move("x", 0), axis_move("y", 0)};
+  const auto released = bench.execute(disarm);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(released).has_value(); }, std::chrono::seconds(1)));
+  ASSERT_TRUE(bench.terminal(armed).has_value());
+  EXPECT_EQ(bench.terminal(armed)->status, kFailed);
+  const auto bg = uim342::instruction_frame(20, uim342::request::begin());
+  ASSERT_TRUE(bg.ok());
+  bench.to_drives.push_back(*bg);
+  bench.settle();
+  bench.run_for(milliseconds(300));
+  for (std::size_t k = 0; k < bench.drives.size(); ++k)
+    EXPECT_EQ(bench.drives[k]->position(bench.now), at[k]) << "drive " << k << " moved on a foreign group BG";
+  gateway_command_t move_z{};
+  move_z.kind = gateway_command_t::ARM_MOVE;
+  move_z.axes = {axis_move("z", at[2] - 800)};
+  const auto z_moved = bench.execute(move_z);
+  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(z_moved).has_value(); }, std::chrono::seconds(5)));
+  ASSERT_EQ(bench.terminal(z_moved)->status, kDone) << bench.terminal(z_moved)->reason;
+  EXPECT_EQ(bench.drives[2]->position(bench.now), at[2] - 800);
 }
 
 // A drive that stops answering mid-move may still hear (a broken transmit path, a bad

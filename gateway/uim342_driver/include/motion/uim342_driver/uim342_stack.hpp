@@ -15,7 +15,8 @@
 //   §5.1 PP[8] group id (written, then SY[1] reboot: PP values act only after a reboot);
 //   §5.2 IC, §5.3 IE[0..2,8] (input and in-position notifications), §5.4 ML identification,
 //   §5.7 QE, §5.9 MT (micro-steps, current), §5.10 MO, §5.11 BG (to the group id for a one-frame
-//   start), §5.12 ST (stops at SD: the manual's only host stop, used for STOP and ESTOP),
+//   start; a move of part of a group holds the group's other drives, at rest, with §5.20 PR=0
+//   until that BG, docs/protocols.md UIM342 row 8), §5.12 ST (stops at SD: the manual's only host stop, used for STOP and ESTOP),
 //   §5.14-5.17 AC/DC/SS/SD, §5.18 JV, §5.19 SP (after PA: "#50" ordering rule), §5.21 PA,
 //   §5.22 OG (SET_POSITION, and HOME with `homing.method: none | current-position`: the origin
 //   is set where the axis stands, no switch search, and the DONE reason says so; SET_POSITION and
