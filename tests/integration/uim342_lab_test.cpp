@@ -280,6 +280,49 @@ TEST_F(Uim342Lab, GroupBgStartsAllThreeAxesOnTheSameFrame) {
   EXPECT_EQ(done.start_utime[index_of(done, "x1")], x1[0].frame_utime);
 }
 
+// Two of the group's three move: one BG to group 20 starts both (equal end-of-frame times), and
+// x3, at rest with nothing to do, is held by its gateway at PR=0 (a relative move of zero
+// counts) until that BG, though its drive was left in jog mode, where a BG alone runs the jog.
+TEST_F(Uim342Lab, TwoOfTheGroupStartOnItsBgWhileTheThirdIsHeldAtRest) {
+  const auto jog = lab.call(Client::make(request_t::JOG, Values{{"x3", 10.0}}));
+  ASSERT_EQ(jog.status, st(reply_t::DONE)) << jog.reason;
+  ASSERT_TRUE(lab.client().wait_until([&] { return state("x3").moving; }, seconds(10)));
+  const auto stop = lab.call(Client::make(request_t::STOP, Axes{"x3"}));
+  ASSERT_EQ(stop.status, st(reply_t::DONE)) << stop.reason;
+  ASSERT_TRUE(lab.client().wait_until([&] { return !state("x3").moving; }, seconds(10)));
+  pause(std::chrono::milliseconds(300));  // polled at rest since
+  const double x3_at = position("x3");
+  lab.clear_reports();
+
+  const Values targets{{"x1", 12.0}, {"x2", -7.5}};
+  const auto done = lab.call(Client::make(request_t::MOVE_ABSOLUTE, targets));
+  ASSERT_EQ(done.status, st(reply_t::DONE)) << done.reason;
+  const auto x1 = lab.starts_of("x1-drive");
+  const auto x2 = lab.starts_of("x2-drive");
+  const auto x3 = lab.starts_of("x3-drive");
+  ASSERT_EQ(x1.size(), 1u);
+  ASSERT_EQ(x2.size(), 1u);
+  EXPECT_EQ(x1[0].frame_utime, x2[0].frame_utime) << "x1 and x2 did not start on the same frame";
+  // x3 heard the same BG and ran a move of zero counts.
+  ASSERT_EQ(x3.size(), 1u) << "x3 did not hear the group BG";
+  EXPECT_EQ(x3[0].frame_utime, x1[0].frame_utime);
+  EXPECT_EQ(x3[0].target_counts, std::llround(x3_at * kStepsPerMm));
+  EXPECT_NEAR(done.measured_start_skew_us, 0.0, 1.0);
+  EXPECT_NEAR(done.predicted_skew_us, 0.0, 1.0);
+  for (const auto& [axis, target] : targets) {
+    EXPECT_TRUE(lab.client().wait_until([&, &a = axis, &t = target] { return settled_at(a, t); }, seconds(10)))
+        << axis << " at " << position(axis);
+  }
+  pause(std::chrono::milliseconds(300));
+  EXPECT_NEAR(position("x3"), x3_at, kTolerance) << "the group BG moved x3";
+  EXPECT_FALSE(state("x3").moving);
+
+  // x3 takes moves of its own again.
+  const auto own = lab.call(Client::make(request_t::MOVE_ABSOLUTE, Values{{"x3", x3_at + 2.0}}));
+  ASSERT_EQ(own.status, st(reply_t::DONE)) << own.reason;
+  EXPECT_TRUE(lab.client().wait_until([&] { return settled_at("x3", x3_at + 2.0); }, seconds(10))) << position("x3");
+}
+
 TEST_F(Uim342Lab, SilentDriveGoesOfflineWhileTheOthersKeepWorking) {
   lab.control("x3-drive", sim_control_t::SILENCE, 1);
   // Its status polls run out of retries: TIMEOUT and OFFLINE events naming the drive.

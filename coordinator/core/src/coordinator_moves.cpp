@@ -91,9 +91,10 @@ void Coordinator::start_move(Request& r) {
   // comes on top (a long ADAM line readies every other drive for the broadcast start).
   r.phase_deadline = now_ + std::chrono::milliseconds(config_.coordinator.arm_timeout_ms) + arming_line_time(per_bus);
   for (auto& [bus, cmds] : per_bus) {
-    // One command per start mechanism, so that each gets its one-frame start (a gateway stack
-    // starts a UIM342 group with one BG only when the command holds exactly that group) and its
-    // own measured start time; the common trigger id starts them together.
+    // One command per start mechanism, so that each gets its one-frame start (a UIM342 stack
+    // starts a command with one group BG only when it holds the group, or part of it with the
+    // rest held at rest) and its own measured start time; the common trigger id starts them
+    // together.
     std::vector<std::int8_t> kinds;
     auto groups = start_groups(bus, std::move(cmds), &kinds);
     for (std::size_t g = 0; g < groups.size(); ++g) {
@@ -172,17 +173,30 @@ std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(
   using Model = motionlcm::drive_model_t;
   std::set<std::string> moving;  // axes of this move
   for (const auto& c : axes) moving.insert(c.axis);
-  // A group BG starts every drive of the group: it may only start a move that holds the whole
-  // group. Members are the axes of this bus whose model offers BG to that group id, and (no model
-  // yet: offline) those the configuration puts in it.
-  const auto whole_group = [&](std::int32_t group) {
+  // A group BG starts every drive of the group (UIM342 manual §5.11). It starts a move that holds
+  // the whole group, or at least two and at least half of its drives while each other one rests
+  // with nothing to do: the gateway holds those at PR=0 until the BG, by the same rule
+  // (docs/protocols.md, UIM342 row 8), and starts drive by drive when it finds one that is not
+  // free after all. Members are the axes of this bus whose model offers BG to that group id, and
+  // (no model yet: offline) those the configuration puts in it.
+  const auto shares_group_bg = [&](std::int32_t group) {
+    std::size_t in_move = 0;
+    std::size_t others = 0;
+    bool others_free = true;
     for (const auto& [name, live] : axes_) {
-      if (live.drive->bus != bus || moving.contains(name)) continue;
+      if (live.drive->bus != bus) continue;
       const bool member = live.model ? start_address(*live.model, Model::START_UIM342_GROUP_BG) == group
                                      : live.drive->group_id == group;
-      if (member) return false;
+      if (!member) continue;
+      if (moving.contains(name)) {
+        ++in_move;
+        continue;
+      }
+      ++others;
+      const auto& s = live.state;
+      others_free = others_free && live.busy_with == 0 && s && s->online && s->enabled && !s->moving && !s->fault;
     }
-    return true;
+    return others == 0 || (in_move >= 2 && others <= in_move && others_free);
   };
   // Each axis joins the first start its model offers, in this order: a whole group's BG, one
   // CANopen SYNC, one ADAM broadcast, one UIM242 global start, else a start of its own. Axes that
@@ -196,7 +210,7 @@ std::vector<std::vector<motionlcm::axis_command_t>> Coordinator::start_groups(
     std::pair<std::int8_t, std::string> key{std::int8_t{Model::START_SINGLE}, c.axis};
     for (const std::int8_t kind : kShared) {
       const auto address = model ? start_address(*model, kind) : std::nullopt;
-      if (!address || (kind == Model::START_UIM342_GROUP_BG && !whole_group(*address))) continue;
+      if (!address || (kind == Model::START_UIM342_GROUP_BG && !shares_group_bg(*address))) continue;
       key = {kind, std::to_string(*address)};
       break;
     }

@@ -317,9 +317,11 @@ class Coordinator {
   std::optional<std::pair<ReplyError, std::string>> plan_move(Request& r);
 
   void start_move(Request& r);
-  // The axes of a move on `bus`, split by start mechanism, from the drive models alone: a group
-  // BG when the move holds the whole group, one SYNC, one ADAM broadcast, one UIM242 global start
-  // (each shared by the axes that offer it at the same address), else each axis on its own.
+  // The axes of a move on `bus`, split by start mechanism, from the drive models: a group BG when
+  // the move holds the whole group, or at least two and at least half of it while the group's
+  // other axes are free and at rest (their axis states), one SYNC, one ADAM broadcast, one UIM242
+  // global start (each shared by the axes that offer it at the same address), else each axis on
+  // its own.
   // `kinds` (optional) gets each group's mechanism (drive_model_t::START_*).
   [[nodiscard]] std::vector<std::vector<motionlcm::axis_command_t>> start_groups(
       const std::string& bus, std::vector<motionlcm::axis_command_t> axes,
