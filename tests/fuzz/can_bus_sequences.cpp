@@ -1,6 +1,6 @@
 // The gateway's command handling on a CAN bus fed command sequences: the UIM342 and UC57 stacks
 // (their execute(), fire(), frames and timers) with simulated drives on one bus, on a manual
-// clock. Each command passes the gateway's own check against the axis limits first
+// clock; the three UIM342 share group 20, so moves of two of them hold the third at PR=0. Each command passes the gateway's own check against the axis limits first
 // (check_axis_command), as in the gateway; then commands of every kind with edge values (zero,
 // one count, beyond the limits, huge), triggers, DISARMs, stops, and faults of the wire (frames
 // lost, a drive that falls silent for a while), in any order.
@@ -43,11 +43,13 @@ buses:
 drives:
   - {name: xd, family: uim342, bus: can0, node_id: 5, group_id: 20}
   - {name: yd, family: uim342, bus: can0, node_id: 6, group_id: 20}
+  - {name: zd, family: uim342, bus: can0, node_id: 7, group_id: 20}
   - {name: ad, family: uc57, bus: can0, node_id: 1, setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: sync}}
 axes:
   - {name: x, drive: xd, steps_per_unit: 100, limits: {min: -100, max: 100, velocity: 50, acceleration: 500},
      homing: {method: switch, input: 1, velocity: 5}}
   - {name: y, drive: yd, steps_per_unit: 100, limits: {min: -100, max: 100, velocity: 50, acceleration: 500}}
+  - {name: z, drive: zd, steps_per_unit: 100, limits: {min: -100, max: 100, velocity: 50, acceleration: 500}}
   - {name: a, drive: ad, unit: deg, steps_per_unit: 8.888888888888889,
      limits: {min: -720, max: 720, velocity: 360, acceleration: 1440}, homing: {method: switch, input: 2, velocity: 20}}
 simulation:
