@@ -19,6 +19,17 @@ std::vector<std::set<std::string>> commands_of(const std::vector<gateway_command
   return out;
 }
 
+// r's gateway set its drive up in group 20 (the configuration names no group for it): its drive
+// model offers BG to group 20 first.
+void put_r_in_group_20(FakeGateways& gateways) {
+  using M = motionlcm::drive_model_t;
+  auto& r_model = gateways.models.at("r");
+  r_model.start_kinds.insert(r_model.start_kinds.begin(), std::int8_t{M::START_UIM342_GROUP_BG});
+  r_model.start_addresses.insert(r_model.start_addresses.begin(), 20);
+  r_model.start_wire_us.insert(r_model.start_wire_us.begin(), 70.0);
+  r_model.num_starts = static_cast<std::int32_t>(r_model.start_kinds.size());
+}
+
 TEST_F(CoordinatorTest, AGroupMovingWholeSharesOneStartAndAPartOfItStartsAxisByAxis) {
   auto_execute_moves();
   const auto whole = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "y", "r"}, {1.0, -2.0, 3.0}));
@@ -35,14 +46,8 @@ TEST_F(CoordinatorTest, AGroupMovingWholeSharesOneStartAndAPartOfItStartsAxisByA
 }
 
 TEST_F(CoordinatorTest, TheGroupAStartReachesIsTheOneTheDriveModelsSay) {
-  // r's gateway set its drive up in group 20 (the configuration names no group for it): a BG to
-  // group 20 now starts r as well, so x and y moving without r cannot share it.
-  using M = motionlcm::drive_model_t;
-  auto& r_model = gateways.models.at("r");
-  r_model.start_kinds.insert(r_model.start_kinds.begin(), std::int8_t{M::START_UIM342_GROUP_BG});
-  r_model.start_addresses.insert(r_model.start_addresses.begin(), 20);
-  r_model.start_wire_us.insert(r_model.start_wire_us.begin(), 70.0);
-  r_model.num_starts = static_cast<std::int32_t>(r_model.start_kinds.size());
+  // A BG to group 20 now starts r as well.
+  put_r_in_group_20(gateways);
   pump(milliseconds(100));  // the models are published every tick
   auto_execute_moves();
   // r's driver is off: a BG to group 20 cannot leave it be (its gateway holds only a drive that is
@@ -73,12 +78,7 @@ TEST_F(CoordinatorTest, TheGroupAStartReachesIsTheOneTheDriveModelsSay) {
 // Part of a group shares its BG only while each of the group's other axes is free and at rest,
 // and only when the move holds at least two and at least half of the group.
 TEST_F(CoordinatorTest, PartOfAGroupSharesItsBgOnlyWhileTheOthersAreFreeAndAtRest) {
-  using M = motionlcm::drive_model_t;
-  auto& r_model = gateways.models.at("r");
-  r_model.start_kinds.insert(r_model.start_kinds.begin(), std::int8_t{M::START_UIM342_GROUP_BG});
-  r_model.start_addresses.insert(r_model.start_addresses.begin(), 20);
-  r_model.start_wire_us.insert(r_model.start_wire_us.begin(), 70.0);
-  r_model.num_starts = static_cast<std::int32_t>(r_model.start_kinds.size());
+  put_r_in_group_20(gateways);
   using Axes = std::set<std::string>;
   // r moving (someone else's jog, as its state says): no hold.
   gateways.states["r"].moving = true;

@@ -59,7 +59,17 @@ class Recorder final : public GatewayOutput {
   std::vector<gateway_reply_t> replies;
 };
 
-// The stack and two simulated drives on one zero-latency wire, time advanced by hand.
+motionlcm::axis_command_t axis_move(const std::string& axis, std::int64_t target) {
+  motionlcm::axis_command_t a{};
+  a.axis = axis;
+  a.target_counts = target;
+  a.velocity = 32000;  // 50 mm/s
+  a.acceleration = 256000;
+  a.deceleration = 256000;
+  return a;
+}
+
+// The stack and its simulated drives on one zero-latency wire, time advanced by hand.
 class Uim342Bench {
  public:
   explicit Uim342Bench(const std::string& variant, const char* lab = kLabTemplate) {
@@ -145,6 +155,30 @@ class Uim342Bench {
     settle();
     return c.command_id;
   }
+  // A command of `kind` naming `axes`, for `trigger` (ARM_MOVE, DISARM).
+  std::int64_t command(std::int8_t kind, std::vector<motionlcm::axis_command_t> axes, std::int64_t trigger = 0) {
+    gateway_command_t c{};
+    c.kind = kind;
+    c.trigger_id = trigger;
+    c.axes = std::move(axes);
+    return execute(c);
+  }
+  // Someone else's BG to `group`, as another master or a stale frame would send it; then `span`.
+  void foreign_bg(std::uint8_t group, Duration span) {
+    const auto bg = uim342::instruction_frame(group, uim342::request::begin());
+    ASSERT_TRUE(bg.ok());
+    to_drives.push_back(*bg);
+    settle();
+    run_for(span);
+  }
+  // Command `id` ends DONE within `limit`; else what it ended with, or that it never did.
+  ::testing::AssertionResult done(std::int64_t id, Duration limit = std::chrono::seconds(5)) {
+    run_until([&] { return terminal(id).has_value(); }, limit);
+    const auto r = terminal(id);
+    if (!r) return ::testing::AssertionFailure() << "command " << id << " never ended";
+    if (r->status != kDone) return ::testing::AssertionFailure() << "command " << id << " FAILED: " << r->reason;
+    return ::testing::AssertionSuccess();
+  }
   [[nodiscard]] std::optional<gateway_reply_t> terminal(std::int64_t id) const {
     for (const auto& r : out.replies) {
       if (r.command_id == id && (r.status == gateway_reply_t::DONE || r.status == gateway_reply_t::FAILED)) return r;
@@ -166,16 +200,6 @@ class Uim342Bench {
   TimePoint now = TimePoint{} + std::chrono::seconds(10);
   std::int64_t next_id = 0;
 };
-
-motionlcm::axis_command_t axis_move(const std::string& axis, std::int64_t target) {
-  motionlcm::axis_command_t a{};
-  a.axis = axis;
-  a.target_counts = target;
-  a.velocity = 32000;  // 50 mm/s
-  a.acceleration = 256000;
-  a.deceleration = 256000;
-  return a;
-}
 
 class Uim342MicroSteps : public ::testing::TestWithParam<std::string> {};
 
@@ -278,18 +302,12 @@ TEST(Uim342Release, ADisarmedMoveLeavesNothingAForeignGroupBgCouldStart) {
   disarm.kind = gateway_command_t::DISARM;
   disarm.trigger_id = 9;
   disarm.axes = {axis_move("x", 0), axis_move("y", 0)};
-  const auto released = bench.execute(disarm);
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(released).has_value(); }, std::chrono::seconds(1)));
-  ASSERT_EQ(bench.terminal(released)->status, kDone) << bench.terminal(released)->reason;
+  ASSERT_TRUE(bench.done(bench.execute(disarm), std::chrono::seconds(1)));
   ASSERT_TRUE(bench.terminal(armed).has_value());
   EXPECT_EQ(bench.terminal(armed)->status, kFailed);
 
-  // Someone else's BG to group 20 (x and y), as another master or a stale frame would send it.
-  const auto bg = uim342::instruction_frame(20, uim342::request::begin());
-  ASSERT_TRUE(bg.ok());
-  bench.to_drives.push_back(*bg);
-  bench.settle();
-  bench.run_for(milliseconds(500));
+  // Someone else's BG to group 20 (x and y).
+  bench.foreign_bg(20, milliseconds(500));
   for (std::size_t k = 0; k < 2; ++k) {
     const std::string name = k == 0 ? "x-drive" : "y-drive";
     EXPECT_EQ(bench.drives[k]->position(bench.now), 0) << name << " ran the released move";
@@ -352,25 +370,14 @@ void ready_with_z_jogged(Uim342Bench& bench) {
   bench.stack->start(bench.now);
   bench.settle();
   ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5))) << "never ready";
-  gateway_command_t enable{};
-  enable.kind = gateway_command_t::ENABLE;
-  enable.axes = {axis_move("x", 0), axis_move("y", 0), axis_move("z", 0)};
-  const auto enabled = bench.execute(enable);
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(enabled).has_value(); }, std::chrono::seconds(1)));
-  ASSERT_EQ(bench.terminal(enabled)->status, kDone) << bench.terminal(enabled)->reason;
-  gateway_command_t jog{};
-  jog.kind = gateway_command_t::JOG;
-  jog.axes = {axis_move("z", 0)};
-  jog.axes[0].velocity = 3200;
-  const auto jogged = bench.execute(jog);
+  ASSERT_TRUE(
+      bench.done(bench.command(gateway_command_t::ENABLE, {axis_move("x", 0), axis_move("y", 0), axis_move("z", 0)})));
+  auto jog = axis_move("z", 0);
+  jog.velocity = 3200;
+  ASSERT_TRUE(bench.done(bench.command(gateway_command_t::JOG, {jog})));
   bench.run_for(milliseconds(200));
-  ASSERT_TRUE(bench.terminal(jogged).has_value());
   ASSERT_TRUE(bench.drives[2]->moving(bench.now)) << "z does not jog";
-  gateway_command_t stop{};
-  stop.kind = gateway_command_t::STOP;
-  stop.axes = {axis_move("z", 0)};
-  const auto stopped = bench.execute(stop);
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(stopped).has_value(); }, std::chrono::seconds(2)));
+  ASSERT_TRUE(bench.done(bench.command(gateway_command_t::STOP, {axis_move("z", 0)}), std::chrono::seconds(2)));
   bench.run_for(milliseconds(500));  // at rest, and polled since
   ASSERT_FALSE(bench.drives[2]->moving(bench.now));
 }
@@ -380,6 +387,14 @@ std::string mechanism_of(const Uim342Bench& bench, std::int64_t id) {
     if (r.command_id == id && r.status == gateway_reply_t::STARTED) return r.start_mechanism;
   }
   return "(no STARTED)";
+}
+
+// Fires `trigger`; the BG frames that went out for it, by addressee.
+std::vector<int> fire(Uim342Bench& bench, std::int64_t trigger) {
+  const auto from = bench.from_stack.size();
+  bench.stack->fire(trigger, bench.now);
+  bench.settle();
+  return bg_targets(bench.from_stack, from);
 }
 
 // A move of two drives of a group of three starts with one BG to the group id (manual §5.11): the
@@ -393,20 +408,12 @@ TEST(Uim342PartialGroup, TwoOfThreeStartWithOneGroupBgAndTheThirdStaysPut) {
   const auto z_starts = bench.start_distances["z-drive"].size();
 
   const auto from = bench.from_stack.size();
-  gateway_command_t arm{};
-  arm.kind = gateway_command_t::ARM_MOVE;
-  arm.trigger_id = 7;
-  arm.axes = {axis_move("x", 6400), axis_move("y", -3200)};
-  const auto armed = bench.execute(arm);
+  const auto armed = bench.command(gateway_command_t::ARM_MOVE, {axis_move("x", 6400), axis_move("y", -3200)}, 7);
   bench.run_for(milliseconds(50));
   EXPECT_TRUE(pr0_sent(bench.from_stack, 7, from)) << "z was not given PR=0";
-  const auto at_fire = bench.from_stack.size();
-  bench.stack->fire(7, bench.now);
-  bench.settle();
-  EXPECT_EQ(bg_targets(bench.from_stack, at_fire), std::vector<int>{20}) << "not one BG to group 20";
+  EXPECT_EQ(fire(bench, 7), std::vector<int>{20}) << "not one BG to group 20";
   EXPECT_EQ(mechanism_of(bench, armed), "group-bg");
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(armed).has_value(); }, std::chrono::seconds(5)));
-  ASSERT_EQ(bench.terminal(armed)->status, kDone) << bench.terminal(armed)->reason;
+  ASSERT_TRUE(bench.done(armed));
   EXPECT_EQ(bench.drives[0]->position(bench.now), 6400);
   EXPECT_EQ(bench.drives[1]->position(bench.now), -3200);
   EXPECT_EQ(bench.drives[2]->position(bench.now), z_at) << "the group BG moved z";
@@ -418,12 +425,7 @@ TEST(Uim342PartialGroup, TwoOfThreeStartWithOneGroupBgAndTheThirdStaysPut) {
   EXPECT_EQ(bench.starts["x-drive"].back(), bench.starts["y-drive"].back());
 
   // z, polled again, takes a move of its own.
-  gateway_command_t move_z{};
-  move_z.kind = gateway_command_t::ARM_MOVE;
-  move_z.axes = {axis_move("z", z_at + 1600)};
-  const auto z_moved = bench.execute(move_z);
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(z_moved).has_value(); }, std::chrono::seconds(5)));
-  ASSERT_EQ(bench.terminal(z_moved)->status, kDone) << bench.terminal(z_moved)->reason;
+  ASSERT_TRUE(bench.done(bench.command(gateway_command_t::ARM_MOVE, {axis_move("z", z_at + 1600)})));
   EXPECT_EQ(bench.drives[2]->position(bench.now), z_at + 1600);
 }
 
@@ -434,31 +436,17 @@ TEST(Uim342PartialGroup, ABystanderCommandedBeforeTheTriggerLeavesTheMoveToStart
   Uim342Bench bench("after_restart", kGroupOfThree);
   ready_with_z_jogged(bench);
   const auto z_at = bench.drives[2]->position(bench.now);
-  gateway_command_t arm{};
-  arm.kind = gateway_command_t::ARM_MOVE;
-  arm.trigger_id = 7;
-  arm.axes = {axis_move("x", 6400), axis_move("y", 3200)};
-  const auto first = bench.execute(arm);
+  const auto first = bench.command(gateway_command_t::ARM_MOVE, {axis_move("x", 6400), axis_move("y", 3200)}, 7);
   bench.run_for(milliseconds(50));
-  gateway_command_t arm_z{};
-  arm_z.kind = gateway_command_t::ARM_MOVE;
-  arm_z.trigger_id = 8;
-  arm_z.axes = {axis_move("z", z_at + 1600)};
-  const auto second = bench.execute(arm_z);
+  const auto second = bench.command(gateway_command_t::ARM_MOVE, {axis_move("z", z_at + 1600)}, 8);
   bench.run_for(milliseconds(50));
-  const auto at_fire = bench.from_stack.size();
-  bench.stack->fire(7, bench.now);
-  bench.settle();
-  EXPECT_EQ(bg_targets(bench.from_stack, at_fire), (std::vector<int>{5, 6}));
+  EXPECT_EQ(fire(bench, 7), (std::vector<int>{5, 6}));
   EXPECT_EQ(mechanism_of(bench, first), "sequential");
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(first).has_value(); }, std::chrono::seconds(5)));
-  ASSERT_EQ(bench.terminal(first)->status, kDone) << bench.terminal(first)->reason;
+  ASSERT_TRUE(bench.done(first));
   EXPECT_EQ(bench.drives[2]->position(bench.now), z_at) << "z's move ran on the first move's start";
   EXPECT_FALSE(bench.terminal(second).has_value());
-  bench.stack->fire(8, bench.now);
-  bench.settle();
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(second).has_value(); }, std::chrono::seconds(5)));
-  ASSERT_EQ(bench.terminal(second)->status, kDone) << bench.terminal(second)->reason;
+  EXPECT_EQ(fire(bench, 8), std::vector<int>{7});
+  ASSERT_TRUE(bench.done(second));
   EXPECT_EQ(bench.drives[2]->position(bench.now), z_at + 1600);
 }
 
@@ -467,28 +455,17 @@ TEST(Uim342PartialGroup, ABystanderCommandedBeforeTheTriggerLeavesTheMoveToStart
 TEST(Uim342PartialGroup, ARunningDriveOfTheGroupIsNotHeld) {
   Uim342Bench bench("after_restart", kGroupOfThree);
   ready_with_z_jogged(bench);
-  gateway_command_t jog{};
-  jog.kind = gateway_command_t::JOG;
-  jog.axes = {axis_move("z", 0)};
-  jog.axes[0].velocity = 3200;
-  const auto jogged = bench.execute(jog);
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(jogged).has_value(); }, std::chrono::seconds(1)));
+  auto jog = axis_move("z", 0);
+  jog.velocity = 3200;
+  ASSERT_TRUE(bench.done(bench.command(gateway_command_t::JOG, {jog}), std::chrono::seconds(1)));
   const auto z_starts = bench.start_distances["z-drive"].size();
   // At once, before a status read shows z running.
   const auto from = bench.from_stack.size();
-  gateway_command_t arm{};
-  arm.kind = gateway_command_t::ARM_MOVE;
-  arm.trigger_id = 7;
-  arm.axes = {axis_move("x", 6400), axis_move("y", 3200)};
-  const auto armed = bench.execute(arm);
+  const auto armed = bench.command(gateway_command_t::ARM_MOVE, {axis_move("x", 6400), axis_move("y", 3200)}, 7);
   bench.run_for(milliseconds(50));
   EXPECT_FALSE(pr0_sent(bench.from_stack, 7, from)) << "a jogging z was given PR=0";
-  const auto at_fire = bench.from_stack.size();
-  bench.stack->fire(7, bench.now);
-  bench.settle();
-  EXPECT_EQ(bg_targets(bench.from_stack, at_fire), (std::vector<int>{5, 6}));
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(armed).has_value(); }, std::chrono::seconds(5)));
-  ASSERT_EQ(bench.terminal(armed)->status, kDone) << bench.terminal(armed)->reason;
+  EXPECT_EQ(fire(bench, 7), (std::vector<int>{5, 6}));
+  ASSERT_TRUE(bench.done(armed));
   EXPECT_TRUE(bench.drives[2]->moving(bench.now)) << "z's jog ended";
   EXPECT_EQ(bench.start_distances["z-drive"].size(), z_starts) << "z was started again";
 }
@@ -500,33 +477,15 @@ TEST(Uim342PartialGroup, ADisarmedPartialMoveLeavesNothingAGroupBgCouldStart) {
   ready_with_z_jogged(bench);
   std::vector<std::int64_t> at;
   for (const auto& d : bench.drives) at.push_back(d->position(bench.now));
-  gateway_command_t arm{};
-  arm.kind = gateway_command_t::ARM_MOVE;
-  arm.trigger_id = 7;
-  arm.axes = {axis_move("x", 6400), axis_move("y", 3200)};
-  const auto armed = bench.execute(arm);
+  const auto armed = bench.command(gateway_command_t::ARM_MOVE, {axis_move("x", 6400), axis_move("y", 3200)}, 7);
   bench.run_for(milliseconds(50));
-  gateway_command_t disarm{};
-  disarm.kind = gateway_command_t::DISARM;
-  disarm.trigger_id = 7;
-  disarm.axes = {axis_move("x", 0), axis_move("y", 0)};
-  const auto released = bench.execute(disarm);
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(released).has_value(); }, std::chrono::seconds(1)));
+  ASSERT_TRUE(bench.done(bench.command(gateway_command_t::DISARM, {axis_move("x", 0), axis_move("y", 0)}, 7)));
   ASSERT_TRUE(bench.terminal(armed).has_value());
   EXPECT_EQ(bench.terminal(armed)->status, kFailed);
-  const auto bg = uim342::instruction_frame(20, uim342::request::begin());
-  ASSERT_TRUE(bg.ok());
-  bench.to_drives.push_back(*bg);
-  bench.settle();
-  bench.run_for(milliseconds(300));
+  bench.foreign_bg(20, milliseconds(300));
   for (std::size_t k = 0; k < bench.drives.size(); ++k)
     EXPECT_EQ(bench.drives[k]->position(bench.now), at[k]) << "drive " << k << " moved on a foreign group BG";
-  gateway_command_t move_z{};
-  move_z.kind = gateway_command_t::ARM_MOVE;
-  move_z.axes = {axis_move("z", at[2] - 800)};
-  const auto z_moved = bench.execute(move_z);
-  ASSERT_TRUE(bench.run_until([&] { return bench.terminal(z_moved).has_value(); }, std::chrono::seconds(5)));
-  ASSERT_EQ(bench.terminal(z_moved)->status, kDone) << bench.terminal(z_moved)->reason;
+  ASSERT_TRUE(bench.done(bench.command(gateway_command_t::ARM_MOVE, {axis_move("z", at[2] - 800)})));
   EXPECT_EQ(bench.drives[2]->position(bench.now), at[2] - 800);
 }
 
