@@ -23,11 +23,15 @@
 // A bus that does not come up is reported as such (with what its gateway logged) and left out of
 // the move; nothing is estimated. Not part of ctest: `tools/bench lab`.
 //
-// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P]
+// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] [--enable-all 0|1]
 //   --scale F: every bus's drive count times F (0 < F <= 1; 1 is the full lab)
 //   --realtime P: every bus gets `realtime_priority: P` (its gateway's loop under SCHED_FIFO) and
 //     motion-sim runs under SCHED_FIFO P - 10 (the simulated wires date the frames, so their
 //     wake-ups must not lag either); 0, the default, is normal scheduling for all
+// MOTION_BIN_DIR=<another build>/bin runs the lab's programs from there (a before/after in one sitting).
+//   --enable-all 1: every online axis is enabled, not only the move's (as in a lab whose idle
+//     axes hold their position): the UIM342 drives of a group outside the move are then at rest
+//     and enabled, so a move of part of the group starts on the group's BG (they hold PR=0)
 #include <sys/stat.h>
 
 #include <cstring>
@@ -68,6 +72,7 @@ struct Options {
   int moves = 6;
   int per_bus = 4;
   int realtime = 0;  // 0 or 11..99
+  bool enable_all = false;
 };
 
 // One bus of the generated lab: its drives are `count` of `family` from node id `first_id`, and
@@ -246,7 +251,9 @@ int run(const Options& opt) {
       lcm::channels::kSyncTrigger2,
       [&](const motionlcm::sync_trigger2_t& t, const std::string&) { scheduled.push_back(t); });
 
-  LabPrograms programs(MOTION_LAB_BIN_DIR, config_path, url, sim_dir, dir);
+  std::string bin = MOTION_LAB_BIN_DIR;
+  if (const char* env = std::getenv("MOTION_BIN_DIR")) bin = env;  // other binaries, e.g. main's
+  LabPrograms programs(bin, config_path, url, sim_dir, dir);
   const auto wait = [&](const std::function<bool()>& done, double seconds) {
     return client.wait_until(done, std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
   };
@@ -367,20 +374,21 @@ int run(const Options& opt) {
       group.clear();
       group_buses.clear();
       std::map<std::string, int> taken;
+      std::vector<std::string> to_enable;
       for (const auto& [axis, s] : client.axes()) {
-        if (!s.online || s.fault || s.fault_code != 0 || left_out.contains(axis) || !axis_bus.contains(axis) ||
-            taken[axis_bus[axis]] >= opt.per_bus) {
-          continue;
-        }
+        if (!s.online || s.fault || s.fault_code != 0 || left_out.contains(axis) || !axis_bus.contains(axis)) continue;
+        if (opt.enable_all) to_enable.push_back(axis);
+        if (taken[axis_bus[axis]] >= opt.per_bus) continue;
         ++taken[axis_bus[axis]];
         group.push_back(axis);
         group_buses.insert(axis_bus[axis]);
       }
       if (group.empty()) break;
-      const auto reply = client.call(client::Client::make(request_t::ENABLE, group), std::chrono::seconds(60));
+      if (!opt.enable_all) to_enable = group;
+      const auto reply = client.call(client::Client::make(request_t::ENABLE, to_enable), std::chrono::seconds(60));
       enabled = reply.status == reply_t::DONE;
       if (!enabled) {
-        findings.push_back("enable of " + std::to_string(group.size()) + " axes: " + reply.reason);
+        findings.push_back("enable of " + std::to_string(to_enable.size()) + " axes: " + reply.reason);
         for (const auto& [axis, s] : client.axes()) {
           if (reply.reason.find(axis + "-drive") != std::string::npos || !s.online) left_out.insert(axis);
         }
@@ -504,7 +512,8 @@ int run(const Options& opt) {
 int main(int argc, char** argv) {
   motion::bench::Options opt;
   const char* const usage =
-      "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P]\n";
+      "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] "
+      "[--enable-all 0|1]\n";
   for (int i = 1; i < argc; i += 2) {
     // A flag without its value (e.g. --help) is refused, not ignored (it used to run the full lab).
     if (i + 1 >= argc) {
@@ -523,6 +532,8 @@ int main(int argc, char** argv) {
       opt.moves = static_cast<int>(value);
     else if (flag == "--per-bus")
       opt.per_bus = static_cast<int>(value);
+    else if (flag == "--enable-all" && (value == 0 || value == 1))
+      opt.enable_all = value == 1;
     else if (flag == "--realtime" && (value == 0 || (value >= 11 && value <= 99)))
       opt.realtime = static_cast<int>(value);
     else {
