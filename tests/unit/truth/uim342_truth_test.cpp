@@ -8,8 +8,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <deque>
 #include <memory>
+#include <random>
 #include <set>
 #include <string>
 #include <vector>
@@ -327,24 +329,25 @@ TEST(Uim342Release, ADisarmedMoveLeavesNothingAForeignGroupBgCouldStart) {
   EXPECT_EQ(bench.drives[1]->position(bench.now), 3200);
 }
 
-// Three drives in group 20: a move of two of them is part of the group.
-constexpr const char* kGroupOfThree = R"(
-buses:
-  - {name: can0, transport: "simcan:can0", bitrate: 1000000, request_timeout_ms: 50, retries: 2, poll_hz: 20}
-drives:
-  - {name: x-drive, family: uim342, bus: can0, node_id: 5, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
-  - {name: y-drive, family: uim342, bus: can0, node_id: 6, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
-  - {name: z-drive, family: uim342, bus: can0, node_id: 7, group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}
-axes:
-  - {name: x, drive: x-drive, unit: mm, steps_per_unit: 640, limits: {min: -100, max: 300, velocity: 50, acceleration: 400}}
-  - {name: y, drive: y-drive, unit: mm, steps_per_unit: 640, limits: {min: -100, max: 200, velocity: 50, acceleration: 400}}
-  - {name: z, drive: z-drive, unit: mm, steps_per_unit: 640, limits: {min: -100, max: 200, velocity: 50, acceleration: 400}}
-simulation:
-  variants:
-    x-drive: {micro_steps_apply: VARIANT}
-    y-drive: {micro_steps_apply: VARIANT}
-    z-drive: {micro_steps_apply: VARIANT}
-)";
+// `n` drives (x, y, z, w on nodes 5, 6, 7, 8) in group 20: a move of some of them is part of the
+// group.
+std::string group_lab(int n) {
+  std::string drives;
+  std::string axes;
+  std::string variants;
+  for (int k = 0; k < n; ++k) {
+    const std::string a(1, "xyzw"[k]);
+    drives += "  - {name: " + a + "-drive, family: uim342, bus: can0, node_id: " + std::to_string(5 + k) +
+              ", group_id: 20, setup: {micro_steps: 16, acceleration_unit: rate}}\n";
+    axes += "  - {name: " + a + ", drive: " + a +
+            "-drive, unit: mm, steps_per_unit: 640, limits: {min: -100, max: 200, velocity: 50, acceleration: 400}}\n";
+    variants += "    " + a + "-drive: {micro_steps_apply: VARIANT}\n";
+  }
+  return "buses:\n  - {name: can0, transport: \"simcan:can0\", bitrate: 1000000, request_timeout_ms: 50, retries: 2, "
+         "poll_hz: 20}\ndrives:\n" +
+         drives + "axes:\n" + axes + "simulation:\n  variants:\n" + variants;
+}
+const std::string kGroupOfThree = group_lab(3);
 
 // The BG frames the stack sent from `from` on, by addressee (node or group id).
 std::vector<int> bg_targets(const std::vector<can::Frame>& frames, std::size_t from = 0) {
@@ -402,7 +405,7 @@ std::vector<int> fire(Uim342Bench& bench, std::int64_t trigger) {
 // BG), so the group BG moves it zero counts, though its drive was left in jog mode, where a BG
 // alone would run the jog again.
 TEST(Uim342PartialGroup, TwoOfThreeStartWithOneGroupBgAndTheThirdStaysPut) {
-  Uim342Bench bench("after_restart", kGroupOfThree);
+  Uim342Bench bench("after_restart", kGroupOfThree.c_str());
   ready_with_z_jogged(bench);
   const auto z_at = bench.drives[2]->position(bench.now);
   const auto z_starts = bench.start_distances["z-drive"].size();
@@ -433,7 +436,7 @@ TEST(Uim342PartialGroup, TwoOfThreeStartWithOneGroupBgAndTheThirdStaysPut) {
 // trigger) is not held any more: the first move starts drive by drive, and neither BG runs z's
 // own move, which starts on its own trigger.
 TEST(Uim342PartialGroup, ABystanderCommandedBeforeTheTriggerLeavesTheMoveToStartDriveByDrive) {
-  Uim342Bench bench("after_restart", kGroupOfThree);
+  Uim342Bench bench("after_restart", kGroupOfThree.c_str());
   ready_with_z_jogged(bench);
   const auto z_at = bench.drives[2]->position(bench.now);
   const auto first = bench.command(gateway_command_t::ARM_MOVE, {axis_move("x", 6400), axis_move("y", 3200)}, 7);
@@ -453,7 +456,7 @@ TEST(Uim342PartialGroup, ABystanderCommandedBeforeTheTriggerLeavesTheMoveToStart
 // A drive of the group that runs (a jog goes on after its JOG is DONE) is not held: PR=0 and a
 // group BG would end its jog. The move starts drive by drive and z jogs on, untouched.
 TEST(Uim342PartialGroup, ARunningDriveOfTheGroupIsNotHeld) {
-  Uim342Bench bench("after_restart", kGroupOfThree);
+  Uim342Bench bench("after_restart", kGroupOfThree.c_str());
   ready_with_z_jogged(bench);
   auto jog = axis_move("z", 0);
   jog.velocity = 3200;
@@ -473,7 +476,7 @@ TEST(Uim342PartialGroup, ARunningDriveOfTheGroupIsNotHeld) {
 // A partial-group move disarmed: x and y get PR=0 as any released move, z holds its PR=0, so a
 // foreign group BG moves nobody; z is polled again and takes its own move.
 TEST(Uim342PartialGroup, ADisarmedPartialMoveLeavesNothingAGroupBgCouldStart) {
-  Uim342Bench bench("after_restart", kGroupOfThree);
+  Uim342Bench bench("after_restart", kGroupOfThree.c_str());
   ready_with_z_jogged(bench);
   std::vector<std::int64_t> at;
   for (const auto& d : bench.drives) at.push_back(d->position(bench.now));
@@ -487,6 +490,90 @@ TEST(Uim342PartialGroup, ADisarmedPartialMoveLeavesNothingAGroupBgCouldStart) {
     EXPECT_EQ(bench.drives[k]->position(bench.now), at[k]) << "drive " << k << " moved on a foreign group BG";
   ASSERT_TRUE(bench.done(bench.command(gateway_command_t::ARM_MOVE, {axis_move("z", at[2] - 800)})));
   EXPECT_EQ(bench.drives[2]->position(bench.now), at[2] - 800);
+}
+
+// Randomized against a reference rule, seeded: a group of four, moves of random parts of it to
+// random targets, and before the trigger, sometimes a command of its own for a drive of the group
+// outside the move (a move armed for another trigger, a jog, an ENABLE). The rule: a move of the
+// whole group, or of at least two and at least half of it with nothing else commanded, starts
+// on one group BG; any other starts drive by drive. Ground truth after each step: every drive of
+// the move at its target, every other drive where its own commands left it (a jogging drive
+// still jogging when the move starts), nothing moving once all is stopped.
+TEST(Uim342PartialGroup, RandomPartsOfTheGroupMoveExactlyTheirDrives) {
+  const std::string lab = group_lab(4);
+  const std::array<std::string, 4> names{"x", "y", "z", "w"};
+  for (unsigned seed = 1; seed <= 12; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    std::mt19937 rng(seed);
+    const auto pick = [&rng](std::uint32_t n) { return static_cast<std::uint32_t>(rng() % n); };
+    Uim342Bench bench("after_restart", lab.c_str());
+    bench.stack->start(bench.now);
+    bench.settle();
+    ASSERT_TRUE(bench.run_until([&] { return bench.stack->ready(); }, std::chrono::seconds(5)));
+    std::vector<motionlcm::axis_command_t> all;
+    for (const auto& n : names) all.push_back(axis_move(n, 0));
+    ASSERT_TRUE(bench.done(bench.command(gateway_command_t::ENABLE, all)));
+    std::array<std::int64_t, 4> expected{};
+    std::int64_t trigger = 100;
+    for (int step = 0; step < 8; ++step) {
+      const std::uint32_t mask = 1 + pick(15);
+      std::vector<motionlcm::axis_command_t> axes;
+      std::vector<std::size_t> inside;
+      std::vector<std::size_t> outside;
+      for (std::size_t k = 0; k < 4; ++k) {
+        if ((mask & (1U << k)) == 0) {
+          outside.push_back(k);
+          continue;
+        }
+        inside.push_back(k);
+        axes.push_back(axis_move(names[k], std::int64_t{pick(12801)} - 6400));
+      }
+      // 0: nothing else; 1: a move of its own for another trigger; 2: a jog; 3: an ENABLE.
+      const std::uint32_t other = outside.empty() ? 0 : pick(4);
+      const std::size_t b = outside.empty() ? 0 : outside[pick(static_cast<std::uint32_t>(outside.size()))];
+      const std::string what = "step " + std::to_string(step) + ": mask " + std::to_string(mask) + ", other " +
+                               std::to_string(other) + " on " + names[b];
+      SCOPED_TRACE(what);
+      const auto move = bench.command(gateway_command_t::ARM_MOVE, axes, ++trigger);
+      bench.run_for(milliseconds(pick(30)));
+      std::int64_t own = 0;
+      auto own_target = axis_move(names[b], std::int64_t{pick(12801)} - 6400);
+      if (other == 1) own = bench.command(gateway_command_t::ARM_MOVE, {own_target}, trigger + 1000);
+      if (other == 2) {
+        auto jog = axis_move(names[b], 0);
+        jog.velocity = pick(2) == 0 ? 1600 : -1600;
+        own = bench.command(gateway_command_t::JOG, {jog});
+      }
+      if (other == 3) own = bench.command(gateway_command_t::ENABLE, {axis_move(names[b], 0)});
+      bench.run_for(milliseconds(30));
+      const bool one_bg = outside.empty() || (other == 0 && axes.size() >= 2 && outside.size() <= axes.size());
+      const auto bgs = fire(bench, trigger);
+      EXPECT_EQ(bgs.size(), one_bg ? 1U : axes.size()) << "BG frames";
+      if (one_bg && !bgs.empty()) { EXPECT_EQ(bgs.front(), 20); }
+      EXPECT_EQ(mechanism_of(bench, move), one_bg ? "group-bg" : "sequential");
+      if (other == 2) { EXPECT_TRUE(bench.drives[b]->moving(bench.now)) << names[b] << "'s jog was stopped"; }
+      ASSERT_TRUE(bench.done(move));
+      for (std::size_t j = 0; j < inside.size(); ++j) expected[inside[j]] = axes[j].target_counts;
+      if (other == 1) {
+        EXPECT_EQ(bench.drives[b]->position(bench.now), expected[b]) << names[b] << " ran its move on another start";
+        EXPECT_EQ(fire(bench, trigger + 1000), std::vector<int>{static_cast<int>(5 + b)});
+        ASSERT_TRUE(bench.done(own));
+        expected[b] = own_target.target_counts;
+      }
+      if (other == 2) {
+        ASSERT_TRUE(bench.done(bench.command(gateway_command_t::STOP, {axis_move(names[b], 0)})));
+        bench.run_for(milliseconds(300));
+        expected[b] = bench.drives[b]->position(bench.now);
+      }
+      if (other == 3) { ASSERT_TRUE(bench.done(own)); }
+      bench.run_for(milliseconds(300));  // at rest, and polled since
+      for (std::size_t k = 0; k < 4; ++k) {
+        EXPECT_FALSE(bench.drives[k]->moving(bench.now)) << names[k] << " still moves";
+        EXPECT_EQ(bench.drives[k]->position(bench.now), expected[k]) << names[k];
+      }
+      if (HasFailure()) return;
+    }
+  }
 }
 
 // A drive that stops answering mid-move may still hear (a broken transmit path, a bad
