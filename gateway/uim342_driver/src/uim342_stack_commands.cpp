@@ -56,21 +56,32 @@ void Uim342Stack::Impl::stage_done(Command& c, TimePoint now) {
   if (c.all(Lifecycle::kArmed) && c.command.trigger_id == 0) start_move(c, now);
 }
 
+std::optional<std::vector<std::size_t>> Uim342Stack::Impl::group_outside(const Command& c) const {
+  const std::uint8_t group = nodes[c.nodes.front()].cfg.group_id;
+  if (group == 0) return std::nullopt;
+  for (const auto i : c.nodes) {
+    if (nodes[i].cfg.group_id != group || !nodes[i].group_ok) return std::nullopt;
+  }
+  std::vector<std::size_t> outside;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (nodes[i].cfg.group_id == group && std::find(c.nodes.begin(), c.nodes.end(), i) == c.nodes.end())
+      outside.push_back(i);
+  }
+  return outside;
+}
+
 void Uim342Stack::Impl::start_move(Command& c, TimePoint now) {
   const auto id = c.command.command_id;
   const std::uint8_t group = nodes[c.nodes.front()].cfg.group_id;
   // One BG to the group id starts every drive of the group (§5.11), so it is used only when the
   // group's drives outside this command hold PR=0 for it (a move of zero counts, §5.20), are
   // still ready and free to take the BG now; with none outside, when the group is the command.
-  bool one_frame = group != 0;
-  for (const auto i : c.nodes) one_frame = one_frame && nodes[i].cfg.group_id == group && nodes[i].group_ok;
-  std::vector<std::size_t> bystanders;
-  for (std::size_t i = 0; i < nodes.size() && one_frame; ++i) {
-    const Node& b = nodes[i];
-    if (b.cfg.group_id != group || std::find(c.nodes.begin(), c.nodes.end(), i) != c.nodes.end()) continue;
-    one_frame = c.data.held.contains(i) && b.held_for == id && b.phase == Phase::kReady && !b.busy();
-    bystanders.push_back(i);
-  }
+  const auto outside = group_outside(c);
+  const bool one_frame = outside && std::all_of(outside->begin(), outside->end(), [&](std::size_t i) {
+                           const Node& b = nodes[i];
+                           return c.data.held.contains(i) && b.held_for == id && b.phase == Phase::kReady && !b.busy();
+                         });
+  const std::vector<std::size_t> bystanders = one_frame ? *outside : std::vector<std::size_t>{};
   // The holds end here: with the group BG queued ahead of anything else to the drive, or unused.
   std::set<std::size_t> holds = c.data.held;
   holds.insert(c.data.holding.begin(), c.data.holding.end());
@@ -104,17 +115,11 @@ bool Uim342Stack::Impl::may_hold(std::size_t i) const {
 }
 
 void Uim342Stack::Impl::hold_bystanders(Command& c) {
-  const std::uint8_t group = nodes[c.nodes.front()].cfg.group_id;
-  if (group == 0 || c.nodes.size() < 2) return;
-  for (const auto i : c.nodes) {
-    if (nodes[i].cfg.group_id != group || !nodes[i].group_ok) return;
-  }
-  std::vector<std::size_t> outside;
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    if (nodes[i].cfg.group_id != group || std::find(c.nodes.begin(), c.nodes.end(), i) != c.nodes.end()) continue;
-    if (!may_hold(i)) return;
-    outside.push_back(i);
-  }
+  if (c.nodes.size() < 2) return;
+  const auto found = group_outside(c);
+  if (!found) return;
+  const std::vector<std::size_t>& outside = *found;
+  if (!std::all_of(outside.begin(), outside.end(), [this](std::size_t i) { return may_hold(i); })) return;
   // At most one PR=0 exchange per drive of the move: arming takes at most that much longer.
   if (outside.empty() || outside.size() > c.nodes.size()) return;
   const auto id = c.command.command_id;

@@ -320,6 +320,10 @@ struct Uim342Stack::Impl {
 
   void start_move(Command& c, TimePoint now);
 
+  // The drives of the command's group outside the command (none: the command is the group);
+  // nullopt when its drives are not all in one group whose id each confirmed.
+  [[nodiscard]] std::optional<std::vector<std::size_t>> group_outside(const Command& c) const;
+
   // A move of part of a group (at least two drives, and at least half of the group) starts with
   // one BG to the group id when every other drive of the group rests with nothing to do: each is
   // given PR=0 (§5.20: a relative move, counted from where the drive stands at BG) before the move
