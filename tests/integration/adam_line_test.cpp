@@ -11,11 +11,13 @@
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include <motionlcm/arm_timing_t.hpp>
 #include <motionlcm/event_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/health_t.hpp>
+#include <motionlcm/line_timing_t.hpp>
 
 #include "sim_lab.hpp"
 
@@ -81,11 +83,15 @@ TEST_F(AdamLine, EnableReachesEveryDrive) {
 // `motionctl status --model` shows each axis's ARM_TIMING as its gateway published it and, per
 // bus, the line time the coordinator adds to its arming deadline: every axis armed together (the
 // three arm_line_us; no other drive to ready) and one axis alone (its arm_line_us and two
-// bystanders readied for the broadcast start). ADAM arming is long (a flash Save per drive).
+// bystanders readied for the broadcast start). ADAM arming is long (a flash Save per drive). And
+// the bus's start wait (LINE_TIMING): its longest poll read.
 TEST_F(AdamLine, StatusModelShowsTheArmingLineTimePerBus) {
   std::map<std::string, motionlcm::arm_timing_t> published;
   lab.group().node().subscribe<motionlcm::arm_timing_t>(
       lcm::channels::kArmTiming, [&](const motionlcm::arm_timing_t& t, const std::string&) { published[t.axis] = t; });
+  std::optional<motionlcm::line_timing_t> line_timing;
+  lab.group().node().subscribe<motionlcm::line_timing_t>(
+      lcm::channels::kLineTiming, [&](const motionlcm::line_timing_t& t, const std::string&) { line_timing = t; });
   std::string printed;
   ASSERT_EQ(lab.group().run_to_completion(
                 {"status-model", "motionctl", {"--config", lab.config_path(), "status", "--model"}, {}}, &printed,
@@ -116,6 +122,12 @@ TEST_F(AdamLine, StatusModelShowsTheArmingLineTimePerBus) {
                 one_us);
   EXPECT_NE(printed.find(bus_line), std::string::npos) << bus_line << "\n" << printed;
   std::printf("[ adam ] status --model, arming on rs485:%s\n", bus_line + 11);
+  ASSERT_TRUE(lab.client().wait_until([&] { return line_timing.has_value(); }, seconds(5))) << "LINE_TIMING of rs485";
+  EXPECT_EQ(line_timing->bus, "rs485");
+  EXPECT_GT(line_timing->start_wait_us, 1000.0) << "a poll read and its reply on the line";
+  char wait_line[160];
+  std::snprintf(wait_line, sizeof wait_line, "  start wait  %.1f us (LINE_TIMING", line_timing->start_wait_us);
+  EXPECT_NE(printed.find(wait_line), std::string::npos) << wait_line << "\n" << printed;
 
   std::string json_text;
   ASSERT_EQ(lab.group().run_to_completion(
@@ -135,6 +147,8 @@ TEST_F(AdamLine, StatusModelShowsTheArmingLineTimePerBus) {
     EXPECT_DOUBLE_EQ(arming["arm_bystander_us"].get<double>(), published.at(axis).arm_bystander_us) << axis;
     EXPECT_DOUBLE_EQ(arming["bus_all_armed_us"].get<double>(), all_us) << axis;
     EXPECT_DOUBLE_EQ(arming["bus_one_armed_max_us"].get<double>(), one_us) << axis;
+    ASSERT_TRUE(doc[axis]["start_wait_us"].is_number()) << axis << ": " << json_text;
+    EXPECT_DOUBLE_EQ(doc[axis]["start_wait_us"].get<double>(), line_timing->start_wait_us) << axis;
   }
 }
 

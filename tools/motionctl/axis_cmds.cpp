@@ -331,6 +331,9 @@ void add_axis_commands(CLI::App& cli, Context& ctx) {
         service.node().subscribe<motionlcm::arm_timing_t>(
             lcm::channels::kArmTiming,
             [&](const motionlcm::arm_timing_t& t, const std::string&) { heard.arming[t.axis] = t; });
+        service.node().subscribe<motionlcm::line_timing_t>(
+            lcm::channels::kLineTiming,
+            [&](const motionlcm::line_timing_t& t, const std::string&) { heard.lines[t.bus] = t; });
         motionlcm::drive_model_request_t request{};
         request.utime = wall_time_us();
         request.requester = "motionctl";

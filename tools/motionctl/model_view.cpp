@@ -85,6 +85,13 @@ void print_arming(const config::Config& c, const HeardModels& heard) {
       std::printf("  bus         %.1f us every axis armed together, at most %.1f us one axis armed alone\n",
                   b.all_armed_us, b.one_armed_max_us);
     }
+    const auto line = heard.lines.find(bus);
+    if (line == heard.lines.end()) {
+      std::printf("  start wait  no LINE_TIMING heard\n");
+    } else {
+      std::printf("  start wait  %.1f us (LINE_TIMING: the longest exchange a start frame may find under way)\n",
+                  line->second.start_wait_us);
+    }
   }
 }
 
@@ -162,7 +169,10 @@ nlohmann::json models_json(const config::Config& c, const HeardModels& heard) {
         {"position_min", m.position_min},
         {"position_max", m.position_max},
         {"starts", starts},
-        {"arm_timing", nullptr}};
+        {"arm_timing", nullptr},
+        {"start_wait_us", nullptr}};
+    if (const auto line = heard.lines.find(m.bus); line != heard.lines.end())
+      out[axis]["start_wait_us"] = line->second.start_wait_us;
     const auto t = heard.arming.find(axis);
     const auto b = buses.find(m.bus);
     if (t != heard.arming.end() && b != buses.end()) {

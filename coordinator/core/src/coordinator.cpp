@@ -120,6 +120,19 @@ const motionlcm::drive_model_t* Coordinator::drive_model(const std::string& axis
   return it == axes_.end() || !it->second.model ? nullptr : &*it->second.model;
 }
 
+void Coordinator::on_line_timing(const motionlcm::line_timing_t& timing, TimePoint now) {
+  begin(now);
+  if (config_.find_bus(timing.bus) == nullptr) return;
+  constexpr double kLongestWaitUs = 1e6;  // no serial exchange of a poll takes a second
+  if (!std::isfinite(timing.start_wait_us) || timing.start_wait_us < 0 || timing.start_wait_us > kLongestWaitUs) {
+    publish_event("", motionlcm::event_t::WARNING, motionlcm::event_t::PROTOCOL_ERROR,
+                  "line timing of bus " + timing.bus + " ignored: start_wait_us " +
+                      std::to_string(timing.start_wait_us) + " is not a time from 0 to 1 s");
+    return;
+  }
+  start_wait_us_[timing.bus] = timing.start_wait_us;
+}
+
 void Coordinator::on_arm_timing(const motionlcm::arm_timing_t& timing, TimePoint now) {
   begin(now);
   const auto it = axes_.find(timing.axis);

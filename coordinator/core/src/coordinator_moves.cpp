@@ -104,7 +104,8 @@ void Coordinator::start_move(Request& r) {
       const double wire_us = start_frame_wire_us(group, kinds[g]);
       const double lead_in_us = start_lead_in_us(group);
       const std::int64_t id = send_command(r, bus, gateway_command_t::ARM_MOVE, std::move(group));
-      r.start_frames.push_back({bus, id, wire_us, lead_in_us});
+      const auto wait = start_wait_us_.find(bus);
+      r.start_frames.push_back({bus, id, wire_us, lead_in_us, wait == start_wait_us_.end() ? 0.0 : wait->second});
       for (const auto& n : names) r.axis_command[n] = id;
       ++r.move_commands;
     }
@@ -228,18 +229,21 @@ void Coordinator::fire(Request& r) {
   r.phase_deadline = kNever;
   r.phase = Phase::kTriggered;
   // The drives act together at act_utime: each bus hands its start frames to the wire early by
-  // their wire time (start_schedule.hpp). One bus: its longest lead starts now. Several: the
-  // hand-overs start far enough ahead for every gateway to hear the trigger, as long as the
-  // gateways of these buses took to hear the recent triggers (trigger_lead.hpp).
+  // their wire time (start_schedule.hpp). One bus: its longest lead starts now (its frames may
+  // wait for an exchange under way: they still start together). Several: the hand-overs start far
+  // enough ahead for every gateway to hear the trigger, as long as the gateways of these buses
+  // took to hear the recent triggers (trigger_lead.hpp), and each serial line's start wait before
+  // its own send time.
   const StartSchedule schedule = schedule_starts(r.start_frames);
   const std::int64_t utime = wall_clock_();
-  const std::int64_t max_lead = static_cast<std::int64_t>(std::ceil(schedule.max_lead_us));
+  const std::int64_t act_after =
+      static_cast<std::int64_t>(std::ceil(r.buses.size() > 1 ? schedule.max_ahead_us : schedule.max_lead_us));
   const std::int64_t earliest_send = utime + (r.buses.size() > 1 ? trigger_lead_.lead_us(r.buses) : 0);
   trigger_lead_.published(r.trigger_id, utime);
   motionlcm::sync_trigger2_t t2{};
   t2.utime = utime;
   t2.trigger_id = r.trigger_id;
-  t2.act_utime = earliest_send + max_lead;
+  t2.act_utime = earliest_send + act_after;
   t2.predicted_spread_us = schedule.predicted_spread_us;
   for (const auto& b : schedule.buses) {
     t2.buses.push_back(b.bus);

@@ -112,6 +112,7 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
     subscribe_gateway_channel(lcm::channels::kHealth, &Coordinator::on_health, security.gateway_keys, false);
   subscribe_gateway_channel(lcm::channels::kDriveModel, &Coordinator::on_drive_model, security.gateway_keys, false);
   subscribe_gateway_channel(lcm::channels::kArmTiming, &Coordinator::on_arm_timing, security.gateway_keys, false);
+  subscribe_gateway_channel(lcm::channels::kLineTiming, &Coordinator::on_line_timing, security.gateway_keys, false);
   subscribe_gateway_channel(lcm::channels::kTriggerHeard, &Coordinator::on_trigger_heard, security.gateway_keys, false);
   subscribe_gateway_channel(lcm::channels::kOrphanedMoves, &Coordinator::on_orphaned_moves, security.gateway_keys,
                             true);
@@ -134,6 +135,7 @@ std::string label(const motionlcm::gateway_reply_t& m) {
 }
 std::string label(const motionlcm::drive_model_t& m) { return "model of axis " + m.axis + " of bus " + m.bus; }
 std::string label(const motionlcm::arm_timing_t& m) { return "arming time of axis " + m.axis + " of bus " + m.bus; }
+std::string label(const motionlcm::line_timing_t& m) { return "line timing of bus " + m.bus; }
 std::string label(const motionlcm::trigger_heard_t& m) {
   return "hearing of trigger " + std::to_string(m.trigger_id) + " on bus " + m.bus;
 }
@@ -148,6 +150,7 @@ std::string stream(const motionlcm::gateway_reply_t& m) { return m.bus; }
 std::string stream(const motionlcm::drive_model_t& m) { return m.bus; }
 std::string stream(const motionlcm::arm_timing_t& m) { return m.bus; }
 std::string stream(const motionlcm::trigger_heard_t& m) { return m.bus; }
+std::string stream(const motionlcm::line_timing_t& m) { return m.bus; }
 // A gateway's heartbeat names its bus in its process name, "gateway:<bus>".
 std::string stream(const motionlcm::health_t& m) {
   return m.process.rfind("gateway:", 0) == 0 ? m.process.substr(8) : m.process;
@@ -176,6 +179,7 @@ std::vector<std::string> buses(const Coordinator& core, const motionlcm::arm_tim
   return axis_buses(core, m);
 }
 std::vector<std::string> buses(const Coordinator&, const motionlcm::trigger_heard_t& m) { return {m.bus}; }
+std::vector<std::string> buses(const Coordinator&, const motionlcm::line_timing_t& m) { return {m.bus}; }
 std::vector<std::string> buses(const Coordinator& core, const motionlcm::event_t& m) { return axis_buses(core, m); }
 std::vector<std::string> buses(const Coordinator& core, const motionlcm::gateway_reply_t& m) {
   std::vector<std::string> out{m.bus};

@@ -10,6 +10,7 @@ StartSchedule schedule_starts(std::vector<StartFrame> frames) {
   for (auto& f : frames) {
     f.wire_us = std::max(0.0, f.wire_us);
     f.lead_in_us = std::max(0.0, f.lead_in_us);
+    f.start_wait_us = std::max(0.0, f.start_wait_us);
     by_bus[f.bus].push_back(std::move(f));
   }
   StartSchedule out;
@@ -27,6 +28,7 @@ StartSchedule schedule_starts(std::vector<StartFrame> frames) {
     double first_act = 0;
     for (std::size_t i = 0; i < list.size(); ++i) {
       s.command_ids.push_back(list[i].command_id);
+      s.start_wait_us = std::max(s.start_wait_us, list[i].start_wait_us);
       end += line_us(list[i]);
       const double act = end - list[i].lead_in_us;
       first_act = i == 0 ? act : std::min(first_act, act);
@@ -34,6 +36,7 @@ StartSchedule schedule_starts(std::vector<StartFrame> frames) {
     s.span_us = end - first_act;
     s.lead_us = first_act + s.span_us / 2.0;
     out.max_lead_us = std::max(out.max_lead_us, s.lead_us);
+    out.max_ahead_us = std::max(out.max_ahead_us, s.lead_us + s.start_wait_us);
     out.predicted_spread_us = std::max(out.predicted_spread_us, s.span_us);
     out.buses.push_back(std::move(s));
   }

@@ -276,6 +276,13 @@ TimePoint AdamStack::process(TimePoint now) {
 
 void AdamStack::reserve_line(TimePoint at, TimePoint /*now*/) { reserved_at_ = at; }
 
+Duration AdamStack::start_wait() const {
+  Duration longest{};
+  for (const auto& read : {position_status_read(1), outputs_alarm_read(1)})
+    longest = std::max(longest, settings_.egress_latency + adam::transaction_time(settings_.format, read));
+  return longest;
+}
+
 void AdamStack::line_lost(const std::string& why, TimePoint now) {
   (void)now;
   line_open_ = false;
@@ -423,15 +430,13 @@ void AdamStack::poll(TimePoint now) {
       arm_marker(*drive);
     if (!drive->online && drive->ever_answered && ++drive->poll_skips % kOfflinePollDivider != 0) continue;
     drive->poll_queued = true;
-    Transaction position{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::kPosition), kPositionStatusWords}},
-                         drive};
+    Transaction position{position_status_read(drive->cfg.unit), drive};
     position.is_poll = true;
     position.on_reply = [this, drive](const rtu::Response& r, TimePoint at, TimePoint) {
       on_position_status(*drive, std::get<rtu::ReadRegistersReply>(r.pdu).values, at);
     };
     position.on_fail = [drive](const std::string&, std::int32_t) { drive->poll_queued = false; };
-    Transaction alarm{{drive->cfg.unit, rtu::ReadRegisters{adam::address(Reg::kOutputState), kOutputsAlarmWords}},
-                      drive};
+    Transaction alarm{outputs_alarm_read(drive->cfg.unit), drive};
     alarm.is_poll = true;
     alarm.on_reply = [this, drive](const rtu::Response& r, TimePoint at, TimePoint) {
       drive->poll_queued = false;

@@ -34,6 +34,12 @@ namespace core_detail {
 // alarm in another.
 constexpr std::uint16_t kPositionStatusWords = 4;
 constexpr std::uint16_t kOutputsAlarmWords = 2;
+inline rtu::Request position_status_read(std::uint8_t unit) {
+  return {unit, rtu::ReadRegisters{adam::address(Reg::kPosition), kPositionStatusWords}};
+}
+inline rtu::Request outputs_alarm_read(std::uint8_t unit) {
+  return {unit, rtu::ReadRegisters{adam::address(Reg::kOutputState), kOutputsAlarmWords}};
+}
 // Where the driver keeps each drive's one-entry table: register 300 + 200 = 500, clear of a stored
 // program at 300…499 (the manual's own §8.54 layout).
 constexpr std::uint16_t kTableStartOffset = 200;

@@ -399,6 +399,7 @@ void Gateway::publish_model(const std::string& axis, bool always) {
       unchanged ? last->second.utime : std::max(wall_time_us(), last == models_.end() ? 0 : last->second.utime + 1);
   models_[axis] = model;
   publish_own(lcm::channels::kDriveModel, model, true);
+  publish_line_timing();
   if (!arming_builder_) return;
   auto arming = arming_builder_(cfg);
   if (auto* why = std::get_if<std::string>(&arming)) {
@@ -408,6 +409,15 @@ void Gateway::publish_model(const std::string& axis, bool always) {
   auto& timing = std::get<motionlcm::arm_timing_t>(arming);
   timing.utime = model.utime;
   publish_own(lcm::channels::kArmTiming, timing, true);
+}
+
+void Gateway::publish_line_timing() {
+  if (!driver_) return;
+  motionlcm::line_timing_t timing{};
+  timing.utime = wall_time_us();
+  timing.bus = bus_;
+  timing.start_wait_us = std::chrono::duration<double, std::micro>(driver_->start_wait()).count();
+  publish_own(lcm::channels::kLineTiming, timing, true);
 }
 
 void Gateway::on_model_request(const motionlcm::drive_model_request_t& request) {

@@ -169,6 +169,7 @@ template void Gateway::publish_own(std::string_view, const motionlcm::axis_state
 template void Gateway::publish_own(std::string_view, const motionlcm::gateway_reply_t&, bool);
 template void Gateway::publish_own(std::string_view, const motionlcm::drive_model_t&, bool);
 template void Gateway::publish_own(std::string_view, const motionlcm::arm_timing_t&, bool);
+template void Gateway::publish_own(std::string_view, const motionlcm::line_timing_t&, bool);
 template void Gateway::publish_own(std::string_view, const motionlcm::trigger_heard_t&, bool);
 template void Gateway::publish_own(std::string_view, const motionlcm::active_moves_t&, bool);
 

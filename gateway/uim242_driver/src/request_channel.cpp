@@ -34,6 +34,16 @@ void RequestChannel::reset() {
   selected_ = 0;
 }
 
+Duration RequestChannel::exchange_time(const uim242::Instruction& instruction, int select_node) const {
+  const auto characters = [](const uim242::Instruction& in) {
+    const auto text = uim242::encode(in);
+    return static_cast<std::int64_t>(text ? text->size() : 16U) + kReplyCharacters;
+  };
+  std::int64_t chars = characters(instruction);
+  if (select_node != 0) chars += characters(uim242::Instruction{uim242::Mnemonic::kADR, false, select_node, false});
+  return settings_.egress_latency + settings_.character_time * chars + kReplyAllowance;
+}
+
 void RequestChannel::transmit(InFlight& f, TimePoint now) {
   const uim242::Instruction instruction =
       f.is_selection ? uim242::Instruction{uim242::Mnemonic::kADR, false, f.request.node, false}
@@ -72,13 +82,10 @@ TimePoint RequestChannel::process(TimePoint now) {
   while (!in_flight_ && !queue_.empty()) {
     if (now < hold_until_) return hold_until_;  // the pause after an STO
     if (queue_.front().not_before > now) return queue_.front().not_before;
-    if (reserved_at_ != kNever && now < reserved_at_ + 5 * kReplyAllowance) {
-      const auto text = uim242::encode(queue_.front().instruction);
-      const std::int64_t chars =
-          static_cast<std::int64_t>(text ? text->size() : 16U) + 24 + (queue_.front().node != selected_ ? 8 : 0);
-      if (now + settings_.character_time * chars + kReplyAllowance > reserved_at_)
-        return reserved_at_ + 5 * kReplyAllowance;
-    }
+    if (reserved_at_ != kNever && now < reserved_at_ + 5 * kReplyAllowance &&
+        now + exchange_time(queue_.front().instruction, queue_.front().node != selected_ ? queue_.front().node : 0) >
+            reserved_at_)
+      return reserved_at_ + 5 * kReplyAllowance;
     InFlight f{std::move(queue_.front()), false, 0, now, false};
     queue_.pop_front();
     f.is_selection = f.request.node != 0 && f.request.node != selected_;

@@ -324,6 +324,17 @@ void Uim242Stack::arm(const gateway_command_t& command, TimePoint now) {
 
 void Uim242Stack::reserve_line(TimePoint at, TimePoint /*now*/) { channel_.reserve(at); }
 
+Duration Uim242Stack::start_wait() const {
+  // With several controllers on the line each poll selects its own first (`ADR η;`, counted at
+  // the longest node id); with one, the selection is made once.
+  constexpr int kLongestNode = 125;
+  const int select = drives_.size() > 1 ? kLongestNode : 0;
+  Duration longest{};
+  for (const auto& in : {bare(Mnemonic::kFBK), bare(Mnemonic::kQEC)})
+    longest = std::max(longest, channel_.exchange_time(in, select));
+  return longest;
+}
+
 void Uim242Stack::fire(std::int64_t trigger_id, TimePoint now) {
   channel_.reserve(kNever);
   // start_move() may end a move at once (every axis already at its target: DONE), and finish()

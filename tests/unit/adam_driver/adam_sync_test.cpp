@@ -108,6 +108,91 @@ TEST_F(TwoDriveTest, AReservedLineSendsTheBroadcastAtOnceWhereAPollRoundWouldHol
   EXPECT_GT(sent.size(), before + 1);
 }
 
+// The line's start wait (LINE_TIMING) is its longest poll read as a reservation counts it: the
+// request (8 bytes), the drive's assumed reply latency (1 ms), the position-and-status reply (4
+// registers: 13 bytes), and t3.5 after each frame, 1.75 ms above 19200 baud (Modbus over serial
+// line §2.5.1.1); 10 bits per character at 115200 baud, 8N1.
+TEST_F(TwoDriveTest, TheStartWaitIsTheLongestPollReadOfTheLine) {
+  const double expected_us = (8 + 13) * 10 * 1e6 / 115200 + 1000 + 2 * 1750;
+  const double wait_us = std::chrono::duration<double, std::micro>(core->start_wait()).count();
+  EXPECT_NEAR(wait_us, expected_us, 0.5);
+}
+
+// A start reserved the start wait before its broadcast finds the line free wherever a poll read
+// was when the reservation came: as the read was written, during the drive's answer, in the
+// silence after it. Each reply comes whole, at the baud rate, the assumed 1 ms after its request
+// crossed the line. Reserved as it goes out, the broadcast is left behind the read.
+TEST_F(TwoDriveTest, AStartReservedItsStartWaitAheadFindsThePollReadDone) {
+  ASSERT_NO_FATAL_FAILURE(arm_both(100000, -8000));
+  const Duration character = std::chrono::nanoseconds(1'000'000'000LL * 10 / 115200);
+  const Duration wait = core->start_wait();
+  // Time runs in steps of at most 50 us, every frame answered at its wire time.
+  std::vector<TimePoint> written;  // when each frame of `sent` was written
+  const auto note_writes = [&] {
+    while (written.size() < sent.size()) written.push_back(now);
+  };
+  std::multimap<TimePoint, Bytes> due;  // replies, at the end of their frames
+  const auto answer = [&] {
+    for (; answered < sent.size(); ++answered) {
+      const Bytes frame = sent[answered];
+      for (auto& [unit, bank] : banks) {
+        const auto result = adam::serve(frame, adam::SlaveConfig{unit, {}, adam::ExceptionMode::kStandard}, bank);
+        if (result.reply.empty()) continue;
+        const auto bytes = static_cast<std::int64_t>(frame.size() + result.reply.size());
+        due.emplace(written[answered] + character * bytes + 1ms, result.reply);
+      }
+    }
+  };
+  const auto step_to = [&](TimePoint until) {
+    while (now < until) {
+      const TimePoint next = std::min({now + 50us, until, due.empty() ? until : due.begin()->first});
+      now = next;
+      while (!due.empty() && due.begin()->first <= now) {
+        core->on_bytes(due.begin()->second, now);
+        due.erase(due.begin());
+      }
+      core->process(now);
+      note_writes();
+      answer();
+    }
+  };
+  note_writes();
+  answer();
+  int checked = 0;
+  int late_unreserved = 0;
+  for (const Duration phase : {0us, 300us, 700us, 1200us, 1700us, 2300us, 2900us, 3500us, 4200us}) {
+    for (const bool reserved : {true, false}) {
+      // The next poll read to be written, then `phase` into its exchange.
+      const std::size_t mark = sent.size();
+      for (int i = 0; i < 200000 && sent.size() == mark; ++i) step_to(now + 50us);
+      ASSERT_GT(sent.size(), mark) << "no poll read";
+      ASSERT_EQ(sent[mark][1], 0x03) << "a poll read (function 3)";
+      step_to(now + phase);
+      const TimePoint at = now + (reserved ? wait : Duration{});
+      if (reserved) core->reserve_line(at, now);
+      step_to(at);
+      const std::size_t before = sent.size();
+      core->fire(77, now);
+      const bool on_time = sent.size() == before + 1 && hex(sent[before]) == "00 06 00 DD 00 00 18 21";
+      if (reserved) {
+        EXPECT_TRUE(on_time) << "reserved " << phase.count() / 1000 << " us into a poll read";
+        ++checked;
+      } else {
+        late_unreserved += on_time ? 0 : 1;
+      }
+      step_to(now + 400ms);  // the move (started on time or late) runs to its end
+      // Arm again for the next start.
+      const std::int64_t id = 10 + 2 * checked + (reserved ? 0 : 1);
+      core->execute(arm(id, 77, {{"c", id * 10}, {"d", -id * 10}}), now);
+      step_to(now + 150ms);
+      ASSERT_FALSE(out.of(id).empty());
+      ASSERT_EQ(out.of(id).back().status, kArmed);
+    }
+  }
+  EXPECT_EQ(checked, 9);
+  EXPECT_GT(late_unreserved, 0) << "an unreserved start never met a poll read: the test would not see a short wait";
+}
+
 TEST_F(TwoDriveTest, AMoveToZeroRunWholeBetweenTwoSamplesIsNotAPowerUp) {
   // A long line polled slowly: the sample before the start reads 8000 at rest, the next one 0 at
   // rest (the fake drive arrives at once). The counter at 0 is the move's target, not a power-up.

@@ -257,6 +257,10 @@ struct FakeGateways {
       if (silent.contains(t.bus)) continue;
       loop_.send_to_cores([timing = t](Coordinator& c, TimePoint now) { c.on_arm_timing(timing, now); });
     }
+    for (const auto& [bus, t] : lines) {
+      if (silent.contains(bus)) continue;
+      loop_.send_to_cores([timing = t](Coordinator& c, TimePoint now) { c.on_line_timing(timing, now); });
+    }
     for (auto& [name, s] : states) {
       if (silent.contains(s.bus)) continue;
       s.utime = s.sample_utime = loop_.wall_us();
@@ -311,6 +315,8 @@ struct FakeGateways {
   std::map<std::string, double> scales;
   std::map<std::string, motionlcm::drive_model_t> models;  // DRIVE_MODEL, every tick
   std::map<std::string, motionlcm::arm_timing_t> armings;  // ARM_TIMING (zero unless a test sets it), every tick
+  std::map<std::string, motionlcm::line_timing_t>
+      lines;  // LINE_TIMING per bus (none unless a test sets it), every tick
   bool publish_models = true;
   std::vector<TimePoint> model_requests;  // when the coordinator sent DRIVE_MODEL_REQUEST
   std::map<std::string, std::int32_t> pid_of{{"can0", 100}, {"rs485", 200}};

@@ -45,6 +45,50 @@ TEST_F(CoordinatorTest, SynchronizedMoveAcrossTwoBusesArmsTriggersAndCompletes) 
   EXPECT_TRUE(std::any_of(all.begin(), all.end(), [](const reply_t& x) { return x.status == reply_t::STARTED; }));
 }
 
+// A serial line's LINE_TIMING (its longest poll exchange, which may be under way when the gateway
+// hears the trigger) makes a start of several buses ask for the trigger that much earlier before
+// that bus's hand-over; the act instant moves, the leads (and so the acts' order) do not. A start
+// of one bus is not delayed: its frames wait for the line together.
+TEST_F(CoordinatorTest, ASerialLinesStartWaitIsHeardBeforeItsHandOver) {
+  auto_execute_moves();
+  std::vector<motionlcm::event_t> events;
+  client.on_event = [&](const motionlcm::event_t& e) { events.push_back(e); };
+  const auto two_bus = [&](double at) {
+    const auto made = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"x", "c"}, {at, at}));
+    EXPECT_EQ(made.status, std::int8_t{reply_t::DONE}) << made.reason;
+    return gateways.triggers2.back();
+  };
+  const auto before = two_bus(1.0);
+  ASSERT_EQ(before.buses, (std::vector<std::string>{"can0", "rs485"}));
+  const std::int64_t lead = before.act_utime - before.utime - 694;  // the trigger lead in force
+  EXPECT_EQ(before.send_utime[1] - before.utime, lead);
+  gateways.lines["rs485"].bus = "rs485";
+  gateways.lines["rs485"].start_wait_us = 20'000.0;
+  pump(milliseconds(100));
+  const auto after = two_bus(2.0);
+  EXPECT_EQ(after.lead_us, before.lead_us);
+  EXPECT_DOUBLE_EQ(after.lead_us[1], 694.0);
+  EXPECT_EQ(after.send_utime[1], after.act_utime - 694);
+  EXPECT_EQ(after.send_utime[1] - after.utime, lead + 20'000) << "rs485 hears it its start wait earlier";
+  EXPECT_EQ(after.predicted_spread_us, before.predicted_spread_us);
+  // One bus: the act instant is its lead after the trigger, wait or not.
+  const auto one = run_to_terminal(send(request_t::MOVE_ABSOLUTE, {"c"}, {3.0}));
+  EXPECT_EQ(one.status, std::int8_t{reply_t::DONE}) << one.reason;
+  EXPECT_EQ(gateways.triggers2.back().act_utime - gateways.triggers2.back().utime, 694);
+  // A wait that is not a time from 0 to 1 s is refused with an event naming it, and the last good
+  // one stays.
+  for (const double bad : {-1.0, 2e6, std::nan("")}) {
+    gateways.lines["rs485"].start_wait_us = bad;
+    pump(milliseconds(100));
+    ASSERT_FALSE(events.empty());
+    EXPECT_EQ(events.back().kind, motionlcm::event_t::PROTOCOL_ERROR);
+    EXPECT_NE(events.back().text.find("line timing of bus rs485 ignored: start_wait_us"), std::string::npos)
+        << events.back().text;
+  }
+  const auto kept = two_bus(4.0);
+  EXPECT_EQ(kept.send_utime[1] - kept.utime, lead + 20'000);
+}
+
 // The trigger lead of a move of two buses adapts to when the gateways heard the recent triggers
 // (TRIGGER_HEARD): the configured 30 ms until each bus has 8 samples, then the slower bus's p99 x
 // 1.5 + 2 ms; a trigger heard late raises it again, up to 30 ms.

@@ -68,8 +68,42 @@ TEST(StartSchedule, ALeadInIsOnTheLineBeforeTheFrameAndSpreadsItsActs) {
 }
 
 TEST(StartSchedule, NegativeWireTimesCountAsZero) {
-  const auto s = schedule_starts({{"can0", 1, -5.0}});
+  const auto s = schedule_starts({{"can0", 1, -5.0}, {"rs485", 2, 694.0, 0.0, -40.0}});
   EXPECT_DOUBLE_EQ(bus(s, "can0").lead_us, 0.0);
+  EXPECT_DOUBLE_EQ(bus(s, "rs485").start_wait_us, 0.0);
+  EXPECT_DOUBLE_EQ(s.max_ahead_us, 694.0);
+}
+
+// A serial line's start wait (LINE_TIMING: the longest poll exchange that may be under way when
+// the gateway hears the trigger) asks for the trigger that much earlier, and moves nothing else:
+// the leads, the wire order and the spread are those without it.
+TEST(StartSchedule, AStartWaitAsksForTheTriggerEarlierAndMovesNoAct) {
+  const std::vector<StartFrame> without{
+      {"can0", 1, 70.0}, {"can0", 2, 50.0}, {"rs485", 3, 694.0}, {"rs232", 4, 2604.2}};
+  std::vector<StartFrame> with = without;
+  with[2].start_wait_us = 3600.0;   // rs485: a poll read at 115200 baud
+  with[3].start_wait_us = 16600.0;  // rs232: `FBK;` and its reply at 19200 baud
+  const auto a = schedule_starts(without);
+  const auto b = schedule_starts(with);
+  ASSERT_EQ(a.buses.size(), b.buses.size());
+  for (std::size_t i = 0; i < a.buses.size(); ++i) {
+    EXPECT_DOUBLE_EQ(a.buses[i].lead_us, b.buses[i].lead_us) << a.buses[i].bus;
+    EXPECT_DOUBLE_EQ(a.buses[i].span_us, b.buses[i].span_us) << a.buses[i].bus;
+    EXPECT_EQ(a.buses[i].command_ids, b.buses[i].command_ids) << a.buses[i].bus;
+  }
+  EXPECT_DOUBLE_EQ(a.predicted_spread_us, b.predicted_spread_us);
+  EXPECT_DOUBLE_EQ(a.max_lead_us, b.max_lead_us);
+  // Without waits the first hand-over is the longest lead after the hearing; with them, rs232's
+  // lead and wait: it hears the trigger 16.6 ms before its own hand-over.
+  EXPECT_DOUBLE_EQ(a.max_ahead_us, 2604.2);
+  EXPECT_DOUBLE_EQ(b.max_ahead_us, 2604.2 + 16600.0);
+  EXPECT_DOUBLE_EQ(bus(b, "rs232").start_wait_us, 16600.0);
+  EXPECT_DOUBLE_EQ(bus(b, "can0").start_wait_us, 0.0);
+  // A wait shorter than the difference of leads asks for nothing more: rs485's 694 + 1000 is
+  // inside rs232's 2604.
+  with[2].start_wait_us = 1000.0;
+  with[3].start_wait_us = 0.0;
+  EXPECT_DOUBLE_EQ(schedule_starts(with).max_ahead_us, 2604.2);
 }
 
 TEST(StartSchedule, WireTimesComeFromTheDriveModels) {

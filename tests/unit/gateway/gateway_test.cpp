@@ -51,6 +51,7 @@ class FakeDriver : public BusDriver {
     orders.push_back(order);
   }
   void prepare_fire(TimePoint at) override { prepared.push_back(at); }
+  Duration start_wait() const override { return wait; }
   std::vector<motionlcm::bus_stats_t> statistics() const override {
     motionlcm::bus_stats_t s{};
     s.name = "can0";
@@ -63,6 +64,7 @@ class FakeDriver : public BusDriver {
   std::vector<std::pair<std::int64_t, TimePoint>> fired;
   std::vector<std::vector<std::int64_t>> orders;
   std::vector<TimePoint> prepared;
+  Duration wait{};  // start_wait()
 
  private:
   GatewayOutput& out_;
@@ -349,6 +351,38 @@ TEST_F(Fixture, DriveWithoutADriverFailsItsCommandsAndShowsInTheHealth) {
 
 namespace motion::gateway {
 namespace {
+
+// LINE_TIMING goes out with each DRIVE_MODEL, for the bus: the driver's start wait, in us.
+TEST_F(Fixture, LineTimingIsPublishedWithEachDriveModelFromTheDriversStartWait) {
+  std::vector<motionlcm::line_timing_t> lines;
+  node.subscribe<motionlcm::line_timing_t>(
+      lcm::channels::kLineTiming, [&](const motionlcm::line_timing_t& t, const std::string&) { lines.push_back(t); });
+  std::size_t models = 0;
+  node.subscribe<motionlcm::drive_model_t>(lcm::channels::kDriveModel,
+                                           [&](const motionlcm::drive_model_t&, const std::string&) { ++models; });
+  gateway.set_model_builder(
+      [](const config::Axis& axis, const DriveFacts&) -> std::variant<motionlcm::drive_model_t, std::string> {
+        motionlcm::drive_model_t m{};
+        m.axis = axis.name;
+        return m;
+      });
+  driver->wait = std::chrono::microseconds(16'625);
+  DriveStatus online;
+  online.online = true;
+  gateway.axis_status("x", online);
+  pump_until([&] { return !lines.empty(); });
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0].bus, "can0");
+  EXPECT_DOUBLE_EQ(lines[0].start_wait_us, 16'625.0);
+  // Again on a DRIVE_MODEL_REQUEST, with what the driver says now.
+  driver->wait = std::chrono::microseconds(7'000);
+  motionlcm::drive_model_request_t all{};
+  node.publish(lcm::channels::kDriveModelRequest, all);
+  pump_until([&] { return lines.size() >= 2; });
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_DOUBLE_EQ(lines[1].start_wait_us, 7'000.0);
+  EXPECT_EQ(models, lines.size());
+}
 
 // DRIVE_MODEL: published before the axis's first online status, again only when what the driver
 // read changes it, and for every set-up axis on a DRIVE_MODEL_REQUEST for this bus (or all buses).

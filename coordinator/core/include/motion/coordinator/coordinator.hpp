@@ -55,6 +55,7 @@
 #include <motionlcm/gateway_command_t.hpp>
 #include <motionlcm/gateway_reply_t.hpp>
 #include <motionlcm/health_t.hpp>
+#include <motionlcm/line_timing_t.hpp>
 #include <motionlcm/reply_t.hpp>
 #include <motionlcm/request_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
@@ -176,6 +177,12 @@ class Coordinator {
   // (arming_line_time). One for an axis that is not configured or not on that bus is ignored; an
   // axis without one adds nothing (arm_timeout_ms alone).
   void on_arm_timing(const motionlcm::arm_timing_t& timing, TimePoint now);
+  // LINE_TIMING: what a start frame may wait behind on a bus (a serial line's exchange under way
+  // when its gateway hears the trigger). A start of several buses is scheduled so that each bus
+  // hears its trigger at least that long before its send time (start_schedule.hpp). One of a bus
+  // that is not configured is ignored; one that is not a time from 0 to 1 s is ignored with a
+  // PROTOCOL_ERROR event; a bus without one waits 0.
+  void on_line_timing(const motionlcm::line_timing_t& timing, TimePoint now);
   // TRIGGER_HEARD: when the gateway of a bus heard a trigger of this coordinator: a sample of the
   // adaptive trigger lead (trigger_lead.hpp). One of a bus that is not configured, or of a trigger
   // this coordinator did not send lately, is ignored.
@@ -396,7 +403,8 @@ class Coordinator {
   std::map<std::string, GatewayLive> gateways_;  // by bus
   std::map<std::uint64_t, std::unique_ptr<Request>> requests_;
   StopGuard stops_;
-  TriggerLead trigger_lead_;  // how far ahead a trigger of several buses schedules the start
+  std::map<std::string, double> start_wait_us_;  // bus -> LINE_TIMING start_wait_us
+  TriggerLead trigger_lead_;                     // how far ahead a trigger of several buses schedules the start
   std::set<std::pair<std::string, std::int64_t>> active_ids_;     // (client_id, request_id)
   std::set<std::pair<std::string, std::int64_t>> orphans_ended_;  // requests of a predecessor answered
   struct Answered {

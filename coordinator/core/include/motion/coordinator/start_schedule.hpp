@@ -16,6 +16,12 @@
 // and its drives act over the lead-in up to its end: the bus's span covers that too.
 // CAN arbitration behind a frame already on the wire (at most one frame) is not in the lead: it is
 // the remaining jitter, not a bias.
+// A serial line may be in the middle of an exchange (a poll) when its gateway hears the trigger;
+// from then on it begins none that would still run at the send time, so the line is free then if
+// the trigger is heard at least the line's start wait (LINE_TIMING) before the bus's send time.
+// That is not part of the lead (the frame does not wait once the line is free): it makes the
+// schedule's first hand-over `ahead_us` = max over buses of (lead + start wait) from the trigger's
+// hearing instead of max lead.
 //
 // Pure: thread-safe, no I/O.
 #pragma once
@@ -38,18 +44,23 @@ struct StartFrame {
   // after the other (UIM242 crawls, drive model START_UIM242_CRAWL): on the line before the
   // frame, and the command's drives act over this span up to the frame's end.
   double lead_in_us = 0;
+  // How long before its bus's send time the trigger must be heard for the line to be free
+  // (LINE_TIMING start_wait_us; the largest of the bus's frames counts).
+  double start_wait_us = 0;
 };
 
 struct BusStart {
   std::string bus;
   double lead_us = 0;                     // first frame handed to the wire this long before the act instant
   double span_us = 0;                     // spread of this bus's act instants (0: one frame)
+  double start_wait_us = 0;               // heard at least this long before its first hand-over
   std::vector<std::int64_t> command_ids;  // wire order
 };
 
 struct StartSchedule {
   std::vector<BusStart> buses;  // sorted by bus name
   double max_lead_us = 0;
+  double max_ahead_us = 0;         // the largest lead + start wait: the act instant after the trigger is heard
   double predicted_spread_us = 0;  // the largest span: what the schedule leaves between the first and last drive
 };
 

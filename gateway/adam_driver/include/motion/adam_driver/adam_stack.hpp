@@ -133,6 +133,10 @@ class AdamStack final : public gateway::SerialStack {
   // register count gives it, the drive's assumed latency and t3.5) starts before `at`, nor any
   // from `at` until fire() or kReservationGrace after `at`.
   void reserve_line(TimePoint at, TimePoint now) override;
+  // The longest exchange the stack begins on its own: a poll read (position and status, or outputs
+  // and alarm) as the reservation judges it. A drive's set-up, and the Save of its power-up
+  // marker, are not counted: they run when a drive comes online, not between moves.
+  [[nodiscard]] Duration start_wait() const override;
   // A transport failure (hang-up): every command ends FAILED and the line is "closed".
   void line_lost(const std::string& why, TimePoint now) override;
 

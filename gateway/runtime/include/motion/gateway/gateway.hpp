@@ -30,7 +30,9 @@
 //  - publishes each axis's drive model (DRIVE_MODEL, drive_model_t, made by the ModelBuilder the
 //    process installs) when the axis first comes online and whenever what the driver read from the
 //    drive (DriveFacts) changes it, and every model it has on a DRIVE_MODEL_REQUEST for its bus;
-//    each with the axis's arming time (ARM_TIMING, arm_timing_t, made by the ArmingBuilder);
+//    each with the axis's arming time (ARM_TIMING, arm_timing_t, made by the ArmingBuilder) and
+//    what a start frame may wait behind on the bus (LINE_TIMING, line_timing_t: the driver's
+//    start_wait(), the longest exchange a serial line may have under way);
 //  - publishes, for every SYNC_TRIGGER2 it acts on, when it heard it (TRIGGER_HEARD,
 //    trigger_heard_t), once the start is scheduled: the coordinator's trigger lead adapts to these;
 //  - publishes with every heartbeat the counters of its command ledger (LEDGER_STATS,
@@ -66,6 +68,7 @@
 #include <motionlcm/gateway_command2_t.hpp>
 #include <motionlcm/health_t.hpp>
 #include <motionlcm/ledger_stats_t.hpp>
+#include <motionlcm/line_timing_t.hpp>
 #include <motionlcm/sync_trigger2_t.hpp>
 #include <motionlcm/sync_trigger_t.hpp>
 #include <motionlcm/trigger_heard_t.hpp>
@@ -210,6 +213,7 @@ class Gateway final : public GatewayOutput {
   void on_model_request(const motionlcm::drive_model_request_t& request);
   // Builds the model of `axis` and publishes it when it differs from the last one (or `always`).
   void publish_model(const std::string& axis, bool always);
+  void publish_line_timing();
   void update_health();
   // Armed moves past their expiry (gateway_arm_expiry.cpp): released by a DISARM of the gateway's
   // own; and the one timer at the next expiry.

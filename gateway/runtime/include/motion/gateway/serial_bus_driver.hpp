@@ -47,6 +47,7 @@ class SerialBusDriver : public BusDriver {
   void execute(const motionlcm::gateway_command_t& command) final;
   void fire(std::int64_t trigger_id) final;
   void prepare_fire(TimePoint at) final;
+  [[nodiscard]] Duration start_wait() const final { return core_->start_wait(); }
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const final;
   [[nodiscard]] bool ready() const final;
   [[nodiscard]] LedgerCounters ledger_counters() const final { return core_->ledger_counters(); }

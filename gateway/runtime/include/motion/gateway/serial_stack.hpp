@@ -31,6 +31,9 @@ class SerialStack {
   // would still hold the line then, so the start frame is not queued behind a poll. The
   // reservation ends with the next fire() or a few milliseconds after `at`. Default: ignored.
   virtual void reserve_line(TimePoint /*at*/, TimePoint /*now*/) {}
+  // The longest exchange the core begins on its own (a poll) as reserve_line() judges it: a start
+  // reserved at least this long before `at` finds the line free then (LINE_TIMING). Default: 0.
+  [[nodiscard]] virtual Duration start_wait() const { return Duration::zero(); }
   // The port hung up: every running command ends FAILED, the drives are offline until start().
   virtual void line_lost(const std::string& why, TimePoint now) = 0;
   [[nodiscard]] virtual motionlcm::bus_stats_t statistics() const = 0;

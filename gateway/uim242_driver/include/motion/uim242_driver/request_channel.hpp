@@ -65,6 +65,13 @@ class RequestChannel {
   // reserve(kNever) (the start) or by itself 5 kReplyAllowance after `at`.
   void reserve(TimePoint at) { reserved_at_ = at; }
   static constexpr Duration kReplyAllowance = std::chrono::milliseconds(2);
+  // A reply is counted this long in characters: longer than any frame the manuals document (13
+  // bytes, EN/CN §12.2), so that a notification may come in between.
+  static constexpr std::int64_t kReplyCharacters = 24;
+  // How long the line is held by an exchange of `instruction` handed over now, as a reservation
+  // judges it: the egress latency, `ADR select_node;` and its reply first (select_node 0: none),
+  // the instruction, a reply of kReplyCharacters, and kReplyAllowance.
+  [[nodiscard]] Duration exchange_time(const uim242::Instruction& instruction, int select_node) const;
   // Drops queued requests of `group` (the one in flight still completes, its callbacks are not called).
   void cancel(std::int64_t group);
   // Drops every request, queued and in flight, without calling back (the line is gone); the

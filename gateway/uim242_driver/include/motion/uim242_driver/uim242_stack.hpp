@@ -108,6 +108,11 @@ class Uim242Stack final : public gateway::SerialStack {
   void execute(const motionlcm::gateway_command_t& command, TimePoint now) override;
   void fire(std::int64_t trigger_id, TimePoint now) override;
   void reserve_line(TimePoint at, TimePoint now) override;
+  // The longest exchange the stack begins on its own between moves, a poll (`FBK;`, `QEC;`, with
+  // a selection first when the line has several controllers), as the reservation judges it
+  // (RequestChannel::exchange_time). Not counted: an exchange with a controller that does not
+  // answer (an offline drive's identification) holds the line until its timeout.
+  [[nodiscard]] Duration start_wait() const override;
   void line_lost(const std::string& why, TimePoint now) override;
 
   [[nodiscard]] bool ready() const override;
