@@ -328,6 +328,12 @@ void CanBusDriver::prepare_fire(TimePoint at) {
   reschedule();
 }
 
+Duration CanBusDriver::start_wait() const {
+  Duration longest{};
+  for (const auto& s : stacks_) longest = std::max(longest, s->start_wait());
+  return longest;
+}
+
 void CanBusDriver::fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) {
   const TimePoint now = loop_.now();
   std::vector<CanStack*> order;

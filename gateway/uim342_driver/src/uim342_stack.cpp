@@ -265,6 +265,8 @@ void Uim342Stack::Impl::wait_for_poll_slot(std::size_t i) {
 
 bool Uim342Stack::Impl::poll_may_go(TimePoint now) const {
   if (poll_slot) return false;
+  if (reserved_at != kNever && now < reserved_at + kReservationGrace && now + poll_horizon() > reserved_at)
+    return false;
   return std::none_of(nodes.begin(), nodes.end(), [this, now](const Node& n) {
     if (!n.busy() || !n.queue.front().background) return false;
     const Request& r = n.queue.front();
@@ -469,6 +471,7 @@ void Uim342Stack::Impl::on_notification(std::size_t i, const uim342::Notificatio
 }
 
 TimePoint Uim342Stack::Impl::process(TimePoint now) {
+  if (reserved_at != kNever && now >= reserved_at + kReservationGrace) reserved_at = kNever;  // no fire came
   if (poll_slot && now >= poll_slot->release_by) release_poll_slot(now);
   grant_polls(now);  // the waiting polls first, in their order
   for (std::size_t i = 0; i < nodes.size(); ++i) {
@@ -494,6 +497,7 @@ TimePoint Uim342Stack::Impl::process(TimePoint now) {
       next = std::min(next, now + n.cfg.request_timeout);
   }
   if (poll_slot) next = std::min(next, poll_slot->release_by);
+  if (reserved_at != kNever && !poll_queue.empty()) next = std::min(next, reserved_at + kReservationGrace);
   if (!poll_queue.empty()) {  // waiting polls go once an unanswered one no longer holds them back
     for (const Node& n : nodes) {
       if (n.busy() && n.queue.front().background && n.queue.front().answer_due > now)
@@ -560,7 +564,17 @@ bool Uim342Stack::on_frame(const can::Frame& frame, TimePoint now) { return impl
 void Uim342Stack::on_transmitted(const can::Frame& frame, TimePoint now) { impl_->on_transmitted(frame, now); }
 TimePoint Uim342Stack::process(TimePoint now) { return impl_->process(now); }
 void Uim342Stack::execute(const motionlcm::gateway_command_t& command, TimePoint now) { impl_->execute(command, now); }
-void Uim342Stack::fire(std::int64_t trigger_id, TimePoint now) { impl_->fire(trigger_id, now); }
+void Uim342Stack::fire(std::int64_t trigger_id, TimePoint now) {
+  impl_->reserved_at = kNever;
+  impl_->fire(trigger_id, now);
+}
+
+void Uim342Stack::prepare_fire(TimePoint at, TimePoint /*now*/) { impl_->reserved_at = at; }
+
+Duration Uim342Stack::start_wait() const {
+  // The poll's own request, the polls that may be in flight ahead of it, and the answer slack.
+  return (1 + static_cast<std::int64_t>(Impl::kPollsInFlight) + Impl::kAnswerSlackExchanges) * impl_->exchange_time;
+}
 
 Duration Uim342Stack::poll_period() const { return impl_->poll_period; }
 

@@ -183,8 +183,16 @@ struct Uim342Stack::Impl {
   void estimate_poll_period();
   // Node `i`'s next request is a poll and the slot is taken: it waits its turn.
   void wait_for_poll_slot(std::size_t i);
-  // The slot is free, and no poll (background request) awaits its answer but the latest ones.
+  // The slot is free, no poll (background request) awaits its answer but the latest ones, and the
+  // poll's answer would be through before a reserved start (reserved_at).
   [[nodiscard]] bool poll_may_go(TimePoint now) const;
+  // How long after its hand-over a poll's answer may still be on the wire: the requests in flight
+  // ahead of it, and kAnswerSlackExchanges exchanges (answer_due).
+  [[nodiscard]] Duration poll_horizon() const { return queued_wire_time() + kAnswerSlackExchanges * exchange_time; }
+  // A start frame goes out at reserved_at (prepare_fire): no poll whose answer could still be on the
+  // wire then is handed over, until fire() or kReservationGrace after it.
+  TimePoint reserved_at = kNever;
+  static constexpr Duration kReservationGrace = std::chrono::milliseconds(10);
   // Hands waiting polls to the transport while poll_may_go().
   void grant_polls(TimePoint now);
   // The poll in the slot has been on the wire (or is taken as gone): the next waiting poll goes.

@@ -111,6 +111,55 @@ TEST(Uim342PollWire, ACommandFrameWaitsBehindAtMostOnePollFrame) {
       std::chrono::duration<double, std::micro>(poll_frame).count());
 }
 
+// A start reserved start_wait() ahead (prepare_fire, as the gateway does when it hears a trigger)
+// finds the bus quiet: while polls fill it (120 drives asked 20 Hz), the stack hands over no poll
+// whose answer could still be on the wire at the reserved instant, so a frame handed over then
+// starts on the wire at once. Without the reservation, the same frame waits behind a poll exchange
+// at most phases of the poll rhythm.
+TEST(Uim342PollWire, AReservedStartFindsTheBusQuiet) {
+  WireRig rig(120, 20);
+  rig.start();
+  rig.run_for(milliseconds(100));
+  const Duration wait = rig.stack->start_wait();
+  ASSERT_GT(wait, Duration::zero());
+  int reserved_quiet = 0;
+  int unreserved_waited = 0;
+  for (int k = 0; k < 40; ++k) {
+    rig.run_for(microseconds(977 + 37 * k));  // every phase of the poll rhythm
+    const bool reserve = k % 2 == 0;
+    const TimePoint at = rig.now + wait;
+    if (reserve) rig.stack->prepare_fire(at, rig.now);
+    ASSERT_TRUE(rig.run_for(at - rig.now));
+    ASSERT_EQ(rig.now, at);
+    const auto handed_before = rig.handed.size();
+    const auto axis = (7 * k) % 120;
+    const auto id = rig.execute(kEnable, fmt::format("a{}", axis));
+    const auto mo = uim342::instruction_frame(static_cast<std::uint8_t>(5 + axis), uim342::request::driver_on(true));
+    ASSERT_TRUE(mo.ok());
+    ASSERT_TRUE(rig.run_until([&] { return rig.terminal(id).has_value(); }, milliseconds(200)));
+    const auto handed = std::find_if(rig.handed.begin() + static_cast<std::ptrdiff_t>(handed_before), rig.handed.end(),
+                                     [&](const auto& h) { return h.second == *mo; });
+    ASSERT_NE(handed, rig.handed.end());
+    ASSERT_EQ(handed->first, at);
+    const auto on_wire = std::find_if(rig.wire.begin(), rig.wire.end(), [&](const OnWire& w) {
+      return w.ours && w.frame == *mo && w.end_of_frame >= at;
+    });
+    ASSERT_NE(on_wire, rig.wire.end());
+    const bool at_once = on_wire->start() - at < microseconds(2);  // within a bit time
+    if (reserve) {
+      EXPECT_TRUE(at_once) << "reserved start " << k << " waited "
+                           << std::chrono::duration<double, std::micro>(on_wire->start() - at).count() << " us";
+      reserved_quiet += at_once ? 1 : 0;
+    } else {
+      unreserved_waited += at_once ? 0 : 1;
+    }
+    rig.stack->fire(0, rig.now);  // ends the reservation (trigger 0 starts nothing)
+  }
+  EXPECT_EQ(reserved_quiet, 20);
+  EXPECT_GT(unreserved_waited, 10) << "without a reservation the frames should mostly meet a poll";
+  EXPECT_EQ(rig.stack->counters().timeouts, 0);
+}
+
 // 8 drives at 20 Hz need about 7% of 1 Mbit/s: each is polled exactly at the asked rate, and the
 // rest of the bus stays idle.
 TEST(Uim342PollWire, PollsKeepToTheAskedRateWhenTheBusIsNotTheLimit) {

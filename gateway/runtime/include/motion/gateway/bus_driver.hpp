@@ -103,9 +103,9 @@ class BusDriver {
   // A fire is scheduled at `at` (steady clock): keep the bus free for its start frames then
   // (serial lines: no poll transaction that would still run). Default: nothing to do.
   virtual void prepare_fire(TimePoint /*at*/) {}
-  // How long before `at` prepare_fire() must come for the bus to be free at `at`: the longest
-  // exchange a serial line may have under way (LINE_TIMING). Default 0 (a CAN bus: a start frame
-  // waits at most for the frame on the wire).
+  // How long before `at` prepare_fire() must come for the bus to be free of the driver's own
+  // traffic at `at` (LINE_TIMING): the longest exchange a serial line may have under way, the
+  // answer horizon of a CAN bus's polls or its SYNC's quiet time. Default 0.
   [[nodiscard]] virtual Duration start_wait() const { return Duration::zero(); }
   virtual void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& /*command_order*/) {
     fire(trigger_id);

@@ -67,6 +67,9 @@ class CanStack {
   // A fire is scheduled at `at`: keep the bus quiet around it where the stack can (e.g. no
   // periodic SYNC whose answers would still be on the wire). Default: nothing.
   virtual void prepare_fire(TimePoint /*at*/, TimePoint /*now*/) {}
+  // How long before `at` prepare_fire() must come for it to keep the bus quiet (LINE_TIMING: the
+  // bus's start wait is the largest of its stacks'). Default 0.
+  [[nodiscard]] virtual Duration start_wait() const { return Duration::zero(); }
   [[nodiscard]] virtual bool ready() const = 0;
   // Adds this stack's counters (timeouts, retries, drives online/total) to the bus's.
   virtual void add_statistics(motionlcm::bus_stats_t& stats) const = 0;
@@ -120,6 +123,7 @@ class CanBusDriver final : public BusDriver {
   // sender: a job started there sends its first frame at once, ahead of any kept frame.
   void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) override;
   void prepare_fire(TimePoint at) override;
+  [[nodiscard]] Duration start_wait() const override;
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const override;
   [[nodiscard]] bool ready() const override;
   // The stacks' ledgers summed (one part per node/axis), with the releases and refusals of the

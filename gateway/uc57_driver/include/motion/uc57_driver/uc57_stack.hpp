@@ -121,6 +121,7 @@ class Uc57Stack final : public gateway::CanStack {
   // The period restarts from `at` (the start SYNC restarts it again).
   void prepare_fire(TimePoint at, TimePoint now) override;
   static constexpr Duration kQuietBeforeStart = std::chrono::milliseconds(3);
+  [[nodiscard]] Duration start_wait() const override { return kQuietBeforeStart; }
   [[nodiscard]] bool ready() const override;
   void add_statistics(motionlcm::bus_stats_t& stats) const override;
   [[nodiscard]] gateway::LedgerCounters ledger_counters() const override { return jobs_.counters(); }

@@ -29,8 +29,8 @@ inline constexpr std::string_view kOrphanedMoves = "ORPHANED_MOVES";
 inline constexpr std::string_view kDriveModel = "DRIVE_MODEL";
 // arm_timing_t, gateways -> coordinator, tools: with each DRIVE_MODEL, how long arming takes.
 inline constexpr std::string_view kArmTiming = "ARM_TIMING";
-// line_timing_t, gateways -> coordinator, tools: with each DRIVE_MODEL, what a start frame may wait
-// behind on the bus (a serial line's exchange under way).
+// line_timing_t, gateways -> coordinator, tools: with each DRIVE_MODEL, how long the gateway's own
+// traffic (a serial line's exchange, a CAN bus's poll answers or SYNC) may hold the bus at a start.
 inline constexpr std::string_view kLineTiming = "LINE_TIMING";
 // trigger_heard_t, gateways -> coordinator, tools: when a gateway heard a SYNC_TRIGGER2 (the
 // coordinator's adaptive trigger lead is measured from it).
