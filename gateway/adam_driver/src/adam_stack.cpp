@@ -92,6 +92,11 @@ std::string AdamStack::describe(const Transaction& t) const {
 
 void AdamStack::send_next(TimePoint now) {
   while (!in_flight_ && !queue_.empty() && now >= line_free_at_) {
+    if (Drive* d = queue_.front().drive; queue_.front().is_poll && d != nullptr && !d->online && awaiting_trigger()) {
+      d->poll_queued = false;  // a read queued before the move was armed: tried again after the start
+      queue_.pop_front();
+      continue;
+    }
     if (reserved_at_ != kNever && now < reserved_at_ + kReservationGrace && queue_.front().drive != nullptr) {
       // A scheduled start frame goes out at reserved_at_: nothing that would still run then (nor
       // after it, until the fire comes or the grace is over).
@@ -420,9 +425,11 @@ void AdamStack::powered_up(Drive& d, const std::string& why) {
 
 void AdamStack::poll(TimePoint now) {
   (void)now;
+  const bool armed = awaiting_trigger();
   for (auto& d : drives_) {
     Drive* drive = d.get();
     if (drive->poll_queued) continue;
+    if (!drive->online && armed) continue;
     // A drive that was not there at start-up (or failed its set-up) is set up once it answers.
     if (drive->online && !drive->set_up && !drive->setup_running) run_setup(*drive);
     if (drive->online && drive->set_up && !drive->marker_busy && drive->marker_seen &&

@@ -94,6 +94,13 @@ bool AdamStack::neutral_for(const Drive& d, const Operation& firing) const {
   return d.motion_owner == 0 && d.status && !d.status->moving() && d.position && d.table_entry == d.position;
 }
 
+bool AdamStack::awaiting_trigger() const {
+  return std::any_of(operations_.entries().begin(), operations_.entries().end(), [](const auto& e) {
+    const auto& [id, entry] = e;
+    return !entry.data->watching && entry.all(gateway::Lifecycle::kArmed) && entry.data->command.trigger_id != 0;
+  });
+}
+
 void AdamStack::fire(std::int64_t trigger_id, TimePoint now) {
   reserved_at_ = kNever;
   std::vector<std::int64_t> ids;

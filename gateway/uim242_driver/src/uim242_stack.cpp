@@ -476,7 +476,7 @@ void Uim242Stack::mark_offline(Drive& d, const std::string& reason, TimePoint no
 }
 
 void Uim242Stack::poll(TimePoint now) {
-  if (now >= next_identify_) {
+  if (now >= next_identify_ && !awaiting_trigger()) {
     next_identify_ = now + kIdentifyRetry;
     for (auto& d : drives_) {
       if (!d->status.online) identify(*d, now);

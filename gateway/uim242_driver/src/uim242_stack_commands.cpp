@@ -324,6 +324,13 @@ void Uim242Stack::arm(const gateway_command_t& command, TimePoint now) {
 
 void Uim242Stack::reserve_line(TimePoint at, TimePoint /*now*/) { channel_.reserve(at); }
 
+bool Uim242Stack::awaiting_trigger() const {
+  return std::any_of(moves_.begin(), moves_.end(), [this](const auto& m) {
+    const Command* c = commands_.find(m->command_id);
+    return !m->start_sent && m->trigger_id != 0 && c != nullptr && c->all(Lifecycle::kArmed);
+  });
+}
+
 Duration Uim242Stack::start_wait() const {
   // With several controllers on the line each poll selects its own first (`ADR η;`, counted at
   // the longest node id); with one, the selection is made once.

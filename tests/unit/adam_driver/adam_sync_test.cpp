@@ -193,6 +193,39 @@ TEST_F(TwoDriveTest, AStartReservedItsStartWaitAheadFindsThePollReadDone) {
   EXPECT_GT(late_unreserved, 0) << "an unreserved start never met a poll read: the test would not see a short wait";
 }
 
+// A drive of the line that does not answer (unit 2: no fake drive) is not polled while a move of
+// the line awaits its trigger: a read to it holds the line until its timeout, far beyond the
+// start wait the line announces. After the start it is polled again (one try per tenth round).
+class SilentDriveTest : public AdamStackTest {
+ protected:
+  SilentDriveTest() : AdamStackTest({drive("c-drive", "c", 1), drive("d-drive", "d", 2)}) {
+    banks[1];
+    core->start(now);
+    run_for(3s);  // d's reads time out: offline
+  }
+  [[nodiscard]] std::size_t frames_to_d(std::size_t from) const {
+    return static_cast<std::size_t>(std::count_if(sent.begin() + static_cast<std::ptrdiff_t>(from), sent.end(),
+                                                  [](const Bytes& b) { return !b.empty() && b[0] == 2; }));
+  }
+};
+
+TEST_F(SilentDriveTest, ASilentDriveIsNotPolledWhileAMoveAwaitsItsTrigger) {
+  const std::size_t before_arm = sent.size();
+  run_for(3s);
+  ASSERT_GT(frames_to_d(before_arm), 0U) << "an offline drive is tried now and then";
+  core->execute(arm(10, 77, {{"c", 1000}}), now);
+  run_for(1s);
+  ASSERT_FALSE(out.of(10).empty());
+  ASSERT_EQ(out.of(10).back().status, kArmed) << out.of(10).back().reason;
+  const std::size_t armed_at = sent.size();
+  run_for(3s);
+  EXPECT_EQ(frames_to_d(armed_at), 0U) << "d was polled while the move awaited its trigger";
+  core->fire(77, now);
+  const std::size_t fired_at = sent.size();
+  run_for(3s);
+  EXPECT_GT(frames_to_d(fired_at), 0U) << "d is tried again after the start";
+}
+
 TEST_F(TwoDriveTest, AMoveToZeroRunWholeBetweenTwoSamplesIsNotAPowerUp) {
   // A long line polled slowly: the sample before the start reads 8000 at rest, the next one 0 at
   // rest (the fake drive arrives at once). The counter at 0 is the move's target, not a power-up.

@@ -205,6 +205,32 @@ TEST_F(Uim242Line, DrivesComeOnlineOverThePtyAndOneGlobalSpeedStartsBoth) {
       run_until([&] { return out_.status["u1"].position_counts == 800 && out_.status["u2"].position_counts == -800; }));
 }
 
+// A controller that stops answering goes offline and is tried again each second (`MDL η;`, one
+// timeout each time). While a move of the line awaits its trigger it is not tried: the exchange
+// would hold the line until its timeout, far beyond the start wait the line announces. After the
+// start it is tried again.
+TEST_F(Uim242Line, ASilentControllerIsNotTriedWhileAMoveAwaitsItsTrigger) {
+  ASSERT_NO_FATAL_FAILURE(enable("u1", 1));
+  ASSERT_TRUE(sim_control("u2-drive", motionlcm::sim_control_t::SILENCE, 1));
+  ASSERT_TRUE(run_until([&] { return !out_.online("u2"); }, milliseconds(3000)));
+  const auto timeouts = [&] { return driver_->statistics().at(0).timeouts; };
+  const auto before = timeouts();
+  ASSERT_TRUE(run_until([&] { return timeouts() > before; }, milliseconds(3000))) << "u2 tried again";
+  constexpr std::int64_t kTrigger = 41;
+  driver_->execute(command(2, gateway_command_t::ARM_MOVE, {axis("u1", 320)}, kTrigger));
+  ASSERT_TRUE(run_until([&] { return out_.find(2, gateway_reply_t::ARMED) != nullptr || ended(2); }));
+  ASSERT_NE(out_.find(2, gateway_reply_t::ARMED), nullptr) << out_.replies.back().reason;
+  run_until([] { return false; }, milliseconds(300));  // an identification under way ends
+  const auto armed = timeouts();
+  run_until([] { return false; }, milliseconds(2500));
+  EXPECT_EQ(timeouts(), armed) << "u2 was tried while the move awaited its trigger";
+  driver_->fire(kTrigger);
+  ASSERT_TRUE(run_until([&] { return ended(2); }));
+  EXPECT_NE(out_.find(2, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  const auto fired = timeouts();
+  EXPECT_TRUE(run_until([&] { return timeouts() > fired; }, milliseconds(3000))) << "u2 tried again after the start";
+}
+
 TEST_F(Uim242Line, HangUpFailsTheArmedMoveTakesTheDrivesOfflineAndTheyReturn) {
   driver_->execute(command(1, gateway_command_t::ENABLE, {axis("u1")}));
   ASSERT_TRUE(run_until([&] { return ended(1); }));

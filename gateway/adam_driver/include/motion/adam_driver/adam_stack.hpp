@@ -135,7 +135,8 @@ class AdamStack final : public gateway::SerialStack {
   void reserve_line(TimePoint at, TimePoint now) override;
   // The longest exchange the stack begins on its own: a poll read (position and status, or outputs
   // and alarm) as the reservation judges it. A drive's set-up, and the Save of its power-up
-  // marker, are not counted: they run when a drive comes online, not between moves.
+  // marker, are not counted: they run when a drive comes online, not between moves. A drive that
+  // is not online is not polled while a move awaits its trigger (awaiting_trigger()).
   [[nodiscard]] Duration start_wait() const override;
   // A transport failure (hang-up): every command ends FAILED and the line is "closed".
   void line_lost(const std::string& why, TimePoint now) override;
@@ -166,6 +167,10 @@ class AdamStack final : public gateway::SerialStack {
   // Drives and polling.
   void run_setup(Drive& d);
   void poll(TimePoint now);
+  // A move of the line is armed for a trigger that has not come: drives that are not online are
+  // not polled meanwhile (a read to a silent drive holds the line until its timeout, far longer
+  // than the start wait the line announces).
+  [[nodiscard]] bool awaiting_trigger() const;
   void on_position_status(Drive& d, std::span<const std::uint16_t> words, TimePoint now);
   // Its power-on marker (adam_stack.cpp): position reminder X19 read back, and written.
   void read_marker(Drive& d);

@@ -272,6 +272,7 @@ class CommandLedger {
   [[nodiscard]] const LedgerCounters& counters() const { return counters_; }
   // Every live command (to iterate; do not add or remove while iterating).
   [[nodiscard]] std::map<std::int64_t, Entry>& entries() { return entries_; }
+  [[nodiscard]] const std::map<std::int64_t, Entry>& entries() const { return entries_; }
 
   // Moves the part of `node` in command `id` to `to`; replies for the command when this completes
   // a stage (see the file comment). False (counted, nothing changed, nothing sent) when there is

@@ -110,8 +110,8 @@ class Uim242Stack final : public gateway::SerialStack {
   void reserve_line(TimePoint at, TimePoint now) override;
   // The longest exchange the stack begins on its own between moves, a poll (`FBK;`, `QEC;`, with
   // a selection first when the line has several controllers), as the reservation judges it
-  // (RequestChannel::exchange_time). Not counted: an exchange with a controller that does not
-  // answer (an offline drive's identification) holds the line until its timeout.
+  // (RequestChannel::exchange_time). An offline controller's identification, which would hold the
+  // line until its timeout, is not tried while a move awaits its trigger (awaiting_trigger()).
   [[nodiscard]] Duration start_wait() const override;
   void line_lost(const std::string& why, TimePoint now) override;
 
@@ -161,6 +161,10 @@ class Uim242Stack final : public gateway::SerialStack {
   void verify_icfg(Drive& d, std::int64_t wanted, TimePoint give_up, TimePoint now);
   void after(TimePoint due, std::function<void(TimePoint)> then);
   void poll(TimePoint now);
+  // A move of the line is armed for a trigger that has not come: the drives that do not answer
+  // are not tried meanwhile (an exchange with a silent controller holds the line until its
+  // timeout, far longer than the start wait the line announces).
+  [[nodiscard]] bool awaiting_trigger() const;
   void mark_offline(Drive& d, const std::string& reason, TimePoint now);
 
   // ---- commands
