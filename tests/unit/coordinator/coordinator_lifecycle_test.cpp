@@ -81,7 +81,7 @@ TEST_F(CoordinatorTest, ASerialLinesStartWaitIsHeardBeforeItsHandOver) {
     gateways.lines["rs485"].start_wait_us = bad;
     pump(milliseconds(100));
     ASSERT_FALSE(events.empty());
-    EXPECT_EQ(events.back().kind, motionlcm::event_t::PROTOCOL_ERROR);
+    EXPECT_EQ(events.back().kind, std::int16_t{motionlcm::event_t::PROTOCOL_ERROR});
     EXPECT_NE(events.back().text.find("line timing of bus rs485 ignored: start_wait_us"), std::string::npos)
         << events.back().text;
   }
