@@ -100,9 +100,7 @@ void AdamStack::send_next(TimePoint now) {
     if (reserved_at_ != kNever && now < reserved_at_ + kReservationGrace && queue_.front().drive != nullptr) {
       // A scheduled start frame goes out at reserved_at_: nothing that would still run then (nor
       // after it, until the fire comes or the grace is over).
-      if (now + settings_.egress_latency + adam::transaction_time(settings_.format, queue_.front().request) >
-          reserved_at_)
-        break;
+      if (now + line_time(queue_.front().request) > reserved_at_) break;
     }
     Transaction t = std::move(queue_.front());
     queue_.pop_front();
@@ -281,10 +279,14 @@ TimePoint AdamStack::process(TimePoint now) {
 
 void AdamStack::reserve_line(TimePoint at, TimePoint /*now*/) { reserved_at_ = at; }
 
+Duration AdamStack::line_time(const rtu::Request& request) const {
+  return settings_.egress_latency + adam::transaction_time(settings_.format, request);
+}
+
 Duration AdamStack::start_wait() const {
   Duration longest{};
   for (const auto& read : {position_status_read(1), outputs_alarm_read(1)})
-    longest = std::max(longest, settings_.egress_latency + adam::transaction_time(settings_.format, read));
+    longest = std::max(longest, line_time(read));
   return longest;
 }
 

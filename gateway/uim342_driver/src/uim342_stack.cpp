@@ -206,7 +206,7 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
     // Without echoes, the poll is taken as on the wire once the requests in flight could have gone.
     if (r.background) {
       r.poll_seq = ++polls_handed;
-      r.answer_due = now + queued_wire_time() + kAnswerSlackExchanges * exchange_time;
+      r.answer_due = now + poll_horizon();
       poll_slot = PollSlot{i, frame, echoes_seen ? r.deadline : now + queued_wire_time()};
     }
     const std::int64_t command_id = r.command_id;

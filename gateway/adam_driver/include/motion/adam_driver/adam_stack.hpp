@@ -171,6 +171,9 @@ class AdamStack final : public gateway::SerialStack {
   // not polled meanwhile (a read to a silent drive holds the line until its timeout, far longer
   // than the start wait the line announces).
   [[nodiscard]] bool awaiting_trigger() const;
+  // How long a transaction handed over now holds the line, as a reservation judges it: the
+  // egress latency and adam::transaction_time.
+  [[nodiscard]] Duration line_time(const adam::rtu::Request& request) const;
   void on_position_status(Drive& d, std::span<const std::uint16_t> words, TimePoint now);
   // Its power-on marker (adam_stack.cpp): position reminder X19 read back, and written.
   void read_marker(Drive& d);
