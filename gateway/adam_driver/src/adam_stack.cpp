@@ -67,6 +67,7 @@ void AdamStack::enqueue(Transaction t, bool urgent) {
   // A Save is never sent twice (a retry would erase flash again, §8.69).
   if (t.drive && !t.is_poll) t.max_retries = adam::is_save(t.request) ? 0 : t.drive->cfg.retries;
   if (urgent) {
+    t.urgent = true;
     queue_.push_front(std::move(t));
   } else if (t.is_poll) {
     queue_.push_back(std::move(t));
@@ -90,20 +91,38 @@ std::string AdamStack::describe(const Transaction& t) const {
   return "writing register " + hex16(reg) + register_name(reg);
 }
 
-void AdamStack::send_next(TimePoint now) {
-  while (!in_flight_ && !queue_.empty() && now >= line_free_at_) {
-    if (Drive* d = queue_.front().drive; queue_.front().is_poll && d != nullptr && !d->online && awaiting_trigger()) {
+std::deque<AdamStack::Transaction>::iterator AdamStack::next_to_send() {
+  if (!awaiting_trigger()) return queue_.begin();
+  const Duration longest = start_wait();
+  std::vector<const Drive*> held;  // drives whose next transaction is too long to begin now
+  for (auto it = queue_.begin(); it != queue_.end();) {
+    Drive* d = it->drive;
+    if (d == nullptr) return held.empty() ? it : queue_.end();  // a broadcast passes nothing
+    if (it->is_poll && !d->online) {
       d->poll_queued = false;  // a read queued before the move was armed: tried again after the start
-      queue_.pop_front();
+      it = queue_.erase(it);
       continue;
     }
-    if (reserved_at_ != kNever && now < reserved_at_ + kReservationGrace && queue_.front().drive != nullptr) {
+    if (std::find(held.begin(), held.end(), d) == held.end()) {
+      if (it->urgent || line_time(it->request) <= longest) return it;
+      held.push_back(d);
+    }
+    ++it;
+  }
+  return queue_.end();
+}
+
+void AdamStack::send_next(TimePoint now) {
+  while (!in_flight_ && !queue_.empty() && now >= line_free_at_) {
+    const auto next = next_to_send();
+    if (next == queue_.end()) break;
+    if (reserved_at_ != kNever && now < reserved_at_ + kReservationGrace && next->drive != nullptr) {
       // A scheduled start frame goes out at reserved_at_: nothing that would still run then (nor
       // after it, until the fire comes or the grace is over).
-      if (now + line_time(queue_.front().request) > reserved_at_) break;
+      if (now + line_time(next->request) > reserved_at_) break;
     }
-    Transaction t = std::move(queue_.front());
-    queue_.pop_front();
+    Transaction t = std::move(*next);
+    queue_.erase(next);
     auto frame = rtu::encode_request(t.request);
     if (!frame) {  // only a programming error gets here (the builders validate)
       if (t.on_fail)
@@ -270,7 +289,7 @@ TimePoint AdamStack::process(TimePoint now) {
   TimePoint next = started_ ? next_poll_ : kNever;
   if (in_flight_)
     next = std::min({next, reply_deadline_, reply_incomplete() ? kNever : framer_.deadline()});
-  else if (!queue_.empty())
+  else if (next_to_send() != queue_.end())  // none while what is queued waits for a start
     next = std::min(next,
                     reserved_at_ != kNever && now >= line_free_at_ ? reserved_at_ + kReservationGrace : line_free_at_);
   if (!in_flight_ && !framer_.pending().empty()) next = std::min(next, framer_.deadline());

@@ -165,7 +165,7 @@ void AdamStack::start_armed(Operation& op, TimePoint now) {
       t.on_fail = [this, id](const std::string& reason, std::int32_t code) { finish(id, Reply::FAILED, reason, code); };
       starts.push_back(std::move(t));
     }
-    for (auto it = starts.rbegin(); it != starts.rend(); ++it) queue_.push_front(std::move(*it));
+    for (auto it = starts.rbegin(); it != starts.rend(); ++it) enqueue(std::move(*it), /*urgent=*/true);
   }
   send_next(now);
 }

@@ -155,6 +155,7 @@ void AdamStack::execute(const motionlcm::gateway_command_t& command, TimePoint n
       // Urgent: a stop goes before queued polls and set-up (but after the frame on the line).
       std::stable_partition(queue_.begin(), queue_.end(),
                             [id = command.command_id](const Transaction& t) { return t.command_id == id; });
+      for (auto& t : queue_) t.urgent = t.urgent || t.command_id == command.command_id;
       when_transferred(op, [this, id = command.command_id](TimePoint) {
         if (Operation* stopping = operation(id)) stopping->watching = true;
       });

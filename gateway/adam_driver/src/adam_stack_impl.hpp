@@ -126,6 +126,7 @@ struct AdamStack::Transaction {
   int attempts = 0;
   int max_retries = 0;
   bool is_poll = false;
+  bool urgent = false;  // a start or a stop: ahead of the queue, never held for a start (next_to_send)
   TimePoint frame_end{};
 };
 

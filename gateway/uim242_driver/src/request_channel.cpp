@@ -1,5 +1,8 @@
 #include "motion/uim242_driver/request_channel.hpp"
 
+#include <algorithm>
+#include <vector>
+
 #include <fmt/format.h>
 
 namespace motion::uim242_driver {
@@ -15,6 +18,7 @@ std::string RequestChannel::describe(const Request& r) {
 
 void RequestChannel::submit(Request request, bool front) {
   if (front) {
+    request.urgent = true;
     queue_.push_front(std::move(request));
   } else {
     queue_.push_back(std::move(request));
@@ -81,18 +85,32 @@ TimePoint RequestChannel::process(TimePoint now) {
     reserved_at_ = kNever;  // its start never came
   while (!in_flight_ && !queue_.empty()) {
     if (now < hold_until_) return hold_until_;  // the pause after an STO
-    if (queue_.front().not_before > now) return queue_.front().not_before;
+    const auto next = next_to_send();
+    if (next == queue_.end()) return kNever;  // what is queued waits for the start (limit())
+    if (next->not_before > now) return next->not_before;
     if (reserved_at_ != kNever && now < reserved_at_ + 5 * kReplyAllowance &&
-        now + exchange_time(queue_.front().instruction, queue_.front().node != selected_ ? queue_.front().node : 0) >
-            reserved_at_)
+        now + exchange_time(next->instruction, next->node != selected_ ? next->node : 0) > reserved_at_)
       return reserved_at_ + 5 * kReplyAllowance;
-    InFlight f{std::move(queue_.front()), false, 0, now, false};
-    queue_.pop_front();
+    InFlight f{std::move(*next), false, 0, now, false};
+    queue_.erase(next);
     f.is_selection = f.request.node != 0 && f.request.node != selected_;
     in_flight_ = std::move(f);
     transmit(*in_flight_, now);
   }
   return in_flight_ ? in_flight_->deadline : kNever;
+}
+
+std::deque<Request>::iterator RequestChannel::next_to_send() {
+  if (limit_ == Duration::max()) return queue_.begin();
+  std::vector<int> held;  // nodes whose next request is too long to begin now
+  for (auto it = queue_.begin(); it != queue_.end(); ++it) {
+    const bool fits = it->urgent || exchange_time(it->instruction, it->node != selected_ ? it->node : 0) <= limit_;
+    if (it->node == 0) return held.empty() && fits ? it : queue_.end();
+    if (std::find(held.begin(), held.end(), it->node) != held.end()) continue;
+    if (fits) return it;
+    held.push_back(it->node);
+  }
+  return queue_.end();
 }
 
 void RequestChannel::finish_failure(const std::string& reason, bool timed_out, TimePoint now) {

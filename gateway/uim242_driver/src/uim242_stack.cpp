@@ -559,6 +559,8 @@ TimePoint Uim242Stack::process(TimePoint now) {
   std::vector<Timer> due_timers(std::make_move_iterator(timers_split), std::make_move_iterator(timers_.end()));
   timers_.erase(timers_split, timers_.end());
   for (auto& t : due_timers) t.then(now);
+  // While a move awaits its trigger no exchange longer than the announced start wait begins.
+  channel_.limit(awaiting_trigger() ? start_wait() : Duration::max());
   const TimePoint channel_deadline = channel_.process(now);
   if (!started_) return channel_deadline;
   TimePoint next = std::min(channel_deadline, next_poll_);

@@ -1,6 +1,7 @@
 // AdamStack with two and four drives on the line (adam_stack_fixture.hpp): synchronized starts
 // by one broadcast frame, bystanders, stops, e-stops, alarms, and samples judged per drive.
 #include "adam_stack_fixture.hpp"
+#include "motion/adam/table.hpp"
 
 namespace motion::adam_driver::test {
 namespace {
@@ -224,6 +225,50 @@ TEST_F(SilentDriveTest, ASilentDriveIsNotPolledWhileAMoveAwaitsItsTrigger) {
   const std::size_t fired_at = sent.size();
   run_for(3s);
   EXPECT_GT(frames_to_d(fired_at), 0U) << "d is tried again after the start";
+}
+
+// The line's start wait bounds every exchange the gateway begins while a move of the line awaits
+// its trigger, not only its polls: a second move armed meanwhile (d, for another trigger) loads its
+// table entry, but its Save, a 0.1 s flash erase (§8.69), waits for the first move's start. The
+// other drive's polls go on; after the start the Save goes out and the second move is ARMED.
+TEST_F(TwoDriveTest, NoExchangeLongerThanTheStartWaitBeginsWhileAMoveAwaitsItsTrigger) {
+  ASSERT_TRUE(core->ready());
+  core->execute(arm(10, 77, {{"c", 1000}}), now);
+  run_for(400ms);  // with d's neutral table entry and its Save
+  ASSERT_FALSE(out.of(10).empty());
+  ASSERT_EQ(out.of(10).back().status, kArmed) << out.of(10).back().reason;
+  const std::size_t armed_at = sent.size();
+  core->execute(arm(11, 78, {{"d", -500}}), now);
+  run_for(1s);
+  const auto is_save_to = [](const Bytes& b, std::uint8_t unit) {
+    return hex(b) == hex(with_crc({unit, 0x06, 0x00, 0xDC, 0x00, 0x01}));  // 0x00DC = 1 (§8.69)
+  };
+  const Duration wait = core->start_wait();
+  std::size_t to_c = 0;
+  std::size_t to_d = 0;
+  for (std::size_t i = armed_at; i < sent.size(); ++i) {
+    EXPECT_FALSE(is_save_to(sent[i], 2)) << "d's Save went out while c's move awaited its trigger";
+    const auto parsed = adam::rtu::decode_request(sent[i]);
+    ASSERT_TRUE(std::holds_alternative<adam::rtu::Request>(parsed)) << hex(sent[i]);
+    EXPECT_LE(adam::transaction_time({}, std::get<adam::rtu::Request>(parsed)), wait) << hex(sent[i]);
+    to_c += sent[i][0] == 1 ? 1U : 0U;
+    to_d += sent[i][0] == 2 ? 1U : 0U;
+  }
+  EXPECT_GT(to_c, 5U) << "c is polled meanwhile";
+  EXPECT_GT(to_d, 0U) << "d's table entry is loaded meanwhile";
+  EXPECT_TRUE(out.of(11).empty()) << "the second move reported before its Save";
+  const std::size_t fired_at = sent.size();
+  core->fire(77, now);
+  run_for(500ms);
+  EXPECT_TRUE(std::any_of(sent.begin() + static_cast<std::ptrdiff_t>(fired_at), sent.end(), [&](const Bytes& b) {
+    return is_save_to(b, 2);
+  })) << "d's Save goes out after the start";
+  ASSERT_FALSE(out.of(11).empty());
+  EXPECT_EQ(out.of(11).back().status, kArmed) << out.of(11).back().reason;
+  ASSERT_EQ(out.terminal(10), 1);
+  EXPECT_EQ(out.of(10).back().status, kDone) << out.of(10).back().reason;
+  EXPECT_EQ(banks[1].position(), 1000);
+  EXPECT_EQ(banks[2].position(), 0) << "d waits for its own trigger";
 }
 
 TEST_F(TwoDriveTest, AMoveToZeroRunWholeBetweenTwoSamplesIsNotAPowerUp) {

@@ -82,6 +82,56 @@ TEST(RequestChannel, AReservedLineHoldsRequestsUntilTheStartComes) {
   EXPECT_EQ(line.sent.size(), 1U);
 }
 
+// While a move of the line awaits its trigger the line is limited to its start wait: a longer
+// exchange (a speed for node 5, with its selection) does not begin, nor node 5's poll behind it;
+// node 6's poll goes by; a start submitted at the front goes at once. With the limit lifted node
+// 5's requests go, in their order.
+TEST(RequestChannel, ALimitedLineBeginsNoLongerExchangeButLetsOtherNodesAndStartsBy) {
+  Line line;
+  const uim242::Instruction fbk{uim242::Mnemonic::kFBK, false, std::nullopt, false};
+  const uim242::Instruction spd{uim242::Mnemonic::kSPD, false, 12000, false};
+  const auto request = [](int node, const uim242::Instruction& in) {
+    Request r;
+    r.drive = "u" + std::to_string(node);
+    r.node = node;
+    r.instruction = in;
+    return r;
+  };
+  const Duration wait = line.channel.exchange_time(fbk, 125);  // a poll of the line, selection included
+  ASSERT_GT(line.channel.exchange_time(spd, 5), wait);
+  line.channel.limit(wait);
+  line.channel.submit(request(5, spd));
+  line.channel.submit(request(5, fbk));
+  line.channel.submit(request(6, fbk));
+  line.now = TimePoint{} + 10s;
+  line.channel.process(line.now);
+  ASSERT_EQ(line.sent, (std::vector<std::string>{"ADR 6;"}));
+  line.now += 5ms;
+  ASSERT_TRUE(line.channel.on_frame(
+      uim242::make_reply(uim242::reply_form({uim242::Mnemonic::kADR, false, 6, false}), 6, {}), line.now));
+  ASSERT_EQ(line.sent, (std::vector<std::string>{"ADR 6;", "FBK;"}));
+  line.now += 5ms;
+  ASSERT_TRUE(line.channel.on_frame(uim242::make_status_frame(uim242::Header::kStatus, 6, uim242::Status{}), line.now));
+  EXPECT_EQ(line.channel.process(line.now), kNever) << "node 5's requests wait for the start";
+  EXPECT_EQ(line.sent.size(), 2U);
+  line.channel.submit(global_speed(2559), true);  // the start
+  line.channel.process(line.now);
+  ASSERT_EQ(line.sent.size(), 3U);
+  EXPECT_EQ(line.sent.back(), "gSPD 2559;");
+  line.now += 200ms;  // gSPD is not answered here: it times out
+  line.channel.process(line.now);
+  EXPECT_EQ(line.sent.size(), 3U);
+  line.channel.limit(Duration::max());
+  line.channel.process(line.now);
+  ASSERT_EQ(line.sent.size(), 4U);
+  EXPECT_EQ(line.sent.back(), "ADR 5;");
+  line.now += 5ms;
+  ASSERT_TRUE(line.channel.on_frame(
+      uim242::make_reply(uim242::reply_form({uim242::Mnemonic::kADR, false, 5, false}), 5, {}), line.now));
+  ASSERT_EQ(line.sent.size(), 5U);
+  EXPECT_EQ(line.sent.back(), "SPD 12000;");
+}
+
 // How long a reservation counts an exchange: the egress latency, the characters of the instruction
 // and a reply of kReplyCharacters, those of an `ADR η;` and its reply first when it selects, and
 // kReplyAllowance.

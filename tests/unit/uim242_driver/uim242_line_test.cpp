@@ -231,6 +231,31 @@ TEST_F(Uim242Line, ASilentControllerIsNotTriedWhileAMoveAwaitsItsTrigger) {
   EXPECT_TRUE(run_until([&] { return timeouts() > fired; }, milliseconds(3000))) << "u2 tried again after the start";
 }
 
+// No exchange longer than the line's start wait begins while a move of the line awaits its
+// trigger: a second move armed meanwhile (u2, for another trigger) is loaded after the first one
+// started, and then both run to their targets.
+TEST_F(Uim242Line, ASecondMoveIsLoadedOnlyOnceTheMoveAwaitingItsTriggerStarted) {
+  ASSERT_NO_FATAL_FAILURE(enable("u1", 1));
+  ASSERT_NO_FATAL_FAILURE(enable("u2", 2));
+  driver_->execute(command(3, gateway_command_t::ARM_MOVE, {axis("u1", 320)}, 41));
+  ASSERT_TRUE(run_until([&] { return out_.find(3, gateway_reply_t::ARMED) != nullptr || ended(3); }));
+  ASSERT_NE(out_.find(3, gateway_reply_t::ARMED), nullptr) << out_.replies.back().reason;
+  driver_->execute(command(4, gateway_command_t::ARM_MOVE, {axis("u2", -320)}, 42));
+  run_until([] { return false; }, milliseconds(500));
+  EXPECT_EQ(out_.find(4, gateway_reply_t::ARMED), nullptr) << "u2 was loaded while u1's move awaited its trigger";
+  EXPECT_FALSE(ended(4)) << out_.replies.back().reason;
+  driver_->fire(41);
+  ASSERT_TRUE(run_until([&] { return out_.find(4, gateway_reply_t::ARMED) != nullptr || ended(4); }));
+  ASSERT_NE(out_.find(4, gateway_reply_t::ARMED), nullptr) << out_.replies.back().reason;
+  ASSERT_TRUE(run_until([&] { return ended(3); }));
+  EXPECT_NE(out_.find(3, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  driver_->fire(42);
+  ASSERT_TRUE(run_until([&] { return ended(4); }));
+  EXPECT_NE(out_.find(4, gateway_reply_t::DONE), nullptr) << out_.replies.back().reason;
+  ASSERT_TRUE(
+      run_until([&] { return out_.status["u1"].position_counts == 320 && out_.status["u2"].position_counts == -320; }));
+}
+
 TEST_F(Uim242Line, HangUpFailsTheArmedMoveTakesTheDrivesOfflineAndTheyReturn) {
   driver_->execute(command(1, gateway_command_t::ENABLE, {axis("u1")}));
   ASSERT_TRUE(run_until([&] { return ended(1); }));

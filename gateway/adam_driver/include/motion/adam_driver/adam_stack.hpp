@@ -134,9 +134,9 @@ class AdamStack final : public gateway::SerialStack {
   // from `at` until fire() or kReservationGrace after `at`.
   void reserve_line(TimePoint at, TimePoint now) override;
   // The longest exchange the stack begins on its own: a poll read (position and status, or outputs
-  // and alarm) as the reservation judges it. A drive's set-up, and the Save of its power-up
-  // marker, are not counted: they run when a drive comes online, not between moves. A drive that
-  // is not online is not polled while a move awaits its trigger (awaiting_trigger()).
+  // and alarm) as the reservation judges it. It bounds every exchange: while a move awaits its
+  // trigger no longer one begins (a Save, a long write), and a drive that is not online is not
+  // polled (next_to_send()).
   [[nodiscard]] Duration start_wait() const override;
   // A transport failure (hang-up): every command ends FAILED and the line is "closed".
   void line_lost(const std::string& why, TimePoint now) override;
@@ -154,6 +154,13 @@ class AdamStack final : public gateway::SerialStack {
   // Line.
   void enqueue(Transaction t, bool urgent = false);
   void send_next(TimePoint now);
+  // The queued transaction that may begin next (queue_.end(): none). While a move of the line
+  // awaits its trigger, no exchange longer than start_wait() begins (a Save and its flash erase,
+  // a long write of another command): the line announced that none of its own holds it longer
+  // (LINE_TIMING). Such a transaction, and those after it for the same drive, wait for the start
+  // or the move's release; other drives' go by it, a broadcast goes by none. Starts and stops
+  // (queued urgent) are never held. Reads of drives that are not online are dropped meanwhile.
+  [[nodiscard]] std::deque<Transaction>::iterator next_to_send();
   void on_reply_frame(std::vector<std::uint8_t> frame, TimePoint now);
   void on_timeout(TimePoint now);
   void retry_or_fail(const std::string& why, std::int32_t code, TimePoint now);

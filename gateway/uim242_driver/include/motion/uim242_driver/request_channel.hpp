@@ -31,6 +31,7 @@ struct Request {
   std::function<void(const std::string& reason, bool timed_out, TimePoint now)> on_failure;
   std::function<void(TimePoint sent)> on_sent;  // each time its bytes have crossed the wire (last character's end)
   TimePoint not_before{};  // not handed to the line before this (a start timed to the end of a longer frame)
+  bool urgent = false;     // set by submit(front): a start or a stop, never held by limit()
 };
 
 // After an STO's reply the line stays quiet this long (UIM242 manual #42: "wait 20ms before
@@ -64,6 +65,11 @@ class RequestChannel {
   // kReplyAllowance), nor any from `at` on, so the start is not queued behind a poll. Ends with
   // reserve(kNever) (the start) or by itself 5 kReplyAllowance after `at`.
   void reserve(TimePoint at) { reserved_at_ = at; }
+  // While a move of the line awaits its trigger the stack announces how long an exchange of its
+  // own may hold the line (its start wait): no request whose exchange_time() is longer begins,
+  // nor a later one of the same node, until limit(Duration::max()). Other nodes' requests go by
+  // it; a request to the gateway itself (node 0) goes by none; urgent ones are never held.
+  void limit(Duration longest) { limit_ = longest; }
   static constexpr Duration kReplyAllowance = std::chrono::milliseconds(2);
   // A reply is counted this long in characters: longer than any frame the manuals document (13
   // bytes, EN/CN §12.2), so that a notification may come in between.
@@ -95,6 +101,8 @@ class RequestChannel {
     bool cancelled = false;
   };
   void transmit(InFlight& f, TimePoint now);
+  // The queued request that may go next under limit_ (queue_.end(): none).
+  [[nodiscard]] std::deque<Request>::iterator next_to_send();
   void finish_failure(const std::string& reason, bool timed_out, TimePoint now);
 
   std::function<void(std::span<const std::uint8_t>)> send_;
@@ -104,6 +112,7 @@ class RequestChannel {
   int selected_ = 0;        // the gateway's current target; 0 = unknown
   TimePoint hold_until_{};  // nothing is sent before (the pause after an STO)
   TimePoint reserved_at_ = kNever;
+  Duration limit_ = Duration::max();
   ChannelStatistics stats_;
 };
 

@@ -110,8 +110,10 @@ class Uim242Stack final : public gateway::SerialStack {
   void reserve_line(TimePoint at, TimePoint now) override;
   // The longest exchange the stack begins on its own between moves, a poll (`FBK;`, `QEC;`, with
   // a selection first when the line has several controllers), as the reservation judges it
-  // (RequestChannel::exchange_time). An offline controller's identification, which would hold the
-  // line until its timeout, is not tried while a move awaits its trigger (awaiting_trigger()).
+  // (RequestChannel::exchange_time). It bounds every exchange while a move awaits its trigger
+  // (awaiting_trigger()): no longer one begins but starts and stops (RequestChannel::limit), and
+  // an offline controller's identification, which would hold the line until its timeout, is not
+  // tried.
   [[nodiscard]] Duration start_wait() const override;
   void line_lost(const std::string& why, TimePoint now) override;
 
