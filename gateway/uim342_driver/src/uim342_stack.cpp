@@ -193,6 +193,7 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
       on_sent(group->command_id, group->group_id, group->members, now);
       return;
     }
+    if (!r.background && held_for_start(r, now)) return;
     // A node already waiting keeps its place in poll_queue (grant_polls() clears the flag first).
     if (r.background && (n.poll_waiting || !poll_may_go(now))) {
       wait_for_poll_slot(i);
@@ -268,10 +269,21 @@ bool Uim342Stack::Impl::poll_may_go(TimePoint now) const {
   if (reserved_at != kNever && now < reserved_at + kReservationGrace && now + poll_horizon() > reserved_at)
     return false;
   return std::none_of(nodes.begin(), nodes.end(), [this, now](const Node& n) {
-    if (!n.busy() || !n.queue.front().background) return false;
+    if (!n.busy()) return false;
+    // A command's answer arbitrates against the polls' frames: a drive of a high node id (a high
+    // identifier, UIM342 manual §2.5) would lose to them for as long as they fill the bus.
+    if (!n.queue.front().background) return true;
     const Request& r = n.queue.front();
     return now < r.answer_due && r.poll_seq + (kPollsInFlight - 1) <= polls_handed;
   });
+}
+
+bool Uim342Stack::Impl::held_for_start(const Request& r, TimePoint now) const {
+  if (reserved_at == kNever || now >= reserved_at + kReservationGrace || now + poll_horizon() <= reserved_at)
+    return false;
+  if (r.instruction.function == FunctionCode::kBG) return false;
+  const Command* c = commands.find(r.command_id);
+  return c != nullptr && c->command.kind != gateway_command_t::STOP && c->command.kind != gateway_command_t::ESTOP;
 }
 
 void Uim342Stack::Impl::grant_polls(TimePoint now) {
@@ -497,7 +509,7 @@ TimePoint Uim342Stack::Impl::process(TimePoint now) {
       next = std::min(next, now + n.cfg.request_timeout);
   }
   if (poll_slot) next = std::min(next, poll_slot->release_by);
-  if (reserved_at != kNever && !poll_queue.empty()) next = std::min(next, reserved_at + kReservationGrace);
+  if (reserved_at != kNever) next = std::min(next, reserved_at + kReservationGrace);  // what waits for it
   if (!poll_queue.empty()) {  // waiting polls go once an unanswered one no longer holds them back
     for (const Node& n : nodes) {
       if (n.busy() && n.queue.front().background && n.queue.front().answer_due > now)

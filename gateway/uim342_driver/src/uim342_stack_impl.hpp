@@ -186,11 +186,15 @@ struct Uim342Stack::Impl {
   // The slot is free, no poll (background request) awaits its answer but the latest ones, and the
   // poll's answer would be through before a reserved start (reserved_at).
   [[nodiscard]] bool poll_may_go(TimePoint now) const;
+  // A command's request that waits for a reserved start, as a poll would (its answer could still
+  // be on the wire at reserved_at). Starts (BG) and stops are never held.
+  [[nodiscard]] bool held_for_start(const Request& r, TimePoint now) const;
   // How long after its hand-over a poll's answer may still be on the wire: the requests in flight
   // ahead of it, and kAnswerSlackExchanges exchanges (answer_due).
   [[nodiscard]] Duration poll_horizon() const { return queued_wire_time() + kAnswerSlackExchanges * exchange_time; }
   // A start frame goes out at reserved_at (prepare_fire): no poll whose answer could still be on the
-  // wire then is handed over, until fire() or kReservationGrace after it.
+  // wire then is handed over, until fire() or kReservationGrace after it, nor a command's request
+  // (held_for_start).
   TimePoint reserved_at = kNever;
   static constexpr Duration kReservationGrace = std::chrono::milliseconds(10);
   // Hands waiting polls to the transport while poll_may_go().

@@ -22,6 +22,8 @@ namespace {
 
 using namespace test;  // NOLINT(google-build-using-namespace): the rig's types
 
+constexpr std::int8_t kStop = gateway_command_t::STOP;
+
 // Wire bits of the frames that ended within [from, to), all or the polls (MS requests and ACKs) only.
 std::uint64_t wire_bits(const std::vector<OnWire>& wire, TimePoint from, TimePoint to, bool polls_only) {
   std::uint64_t bits = 0;
@@ -131,6 +133,7 @@ TEST(Uim342PollWire, AReservedStartFindsTheBusQuiet) {
     if (reserve) rig.stack->prepare_fire(at, rig.now);
     ASSERT_TRUE(rig.run_for(at - rig.now));
     ASSERT_EQ(rig.now, at);
+    rig.stack->fire(0, rig.now);  // ends the reservation, as the start does (trigger 0 starts nothing)
     const auto handed_before = rig.handed.size();
     const auto axis = (7 * k) % 120;
     const auto id = rig.execute(kEnable, fmt::format("a{}", axis));
@@ -153,11 +156,99 @@ TEST(Uim342PollWire, AReservedStartFindsTheBusQuiet) {
     } else {
       unreserved_waited += at_once ? 0 : 1;
     }
-    rig.stack->fire(0, rig.now);  // ends the reservation (trigger 0 starts nothing)
   }
   EXPECT_EQ(reserved_quiet, 20);
   EXPECT_GT(unreserved_waited, 10) << "without a reservation the frames should mostly meet a poll";
   EXPECT_EQ(rig.stack->counters().timeouts, 0);
+}
+
+// Commands heard while a start is reserved wait for it as polls do: 16 drives are enabled when the
+// gateway hears the trigger (start_wait() before the send time), at several phases of the poll
+// rhythm. An MO frame whose answer could still be on the wire at the send time is not handed over
+// before it, a frame handed over at the start begins on the wire at once, and every ENABLE ends
+// DONE. Without the reservation the 16 exchanges (about 3.5 ms of frames at 1 Mbit/s, against a
+// start wait of 1.8 ms) are still on the wire then. A stop is never held.
+TEST(Uim342PollWire, CommandsHeardDuringAReservedStartWaitForItButStopsDoNot) {
+  WireRig rig(120, 20);
+  rig.start();
+  rig.run_for(milliseconds(100));
+  const Duration wait = rig.stack->start_wait();
+  int unreserved_waited = 0;
+  for (int k = 0; k < 16; ++k) {
+    const bool reserve = k % 2 == 0;
+    rig.run_for(microseconds(977 + 137 * k));
+    const TimePoint at = rig.now + wait;
+    if (reserve) rig.stack->prepare_fire(at, rig.now);
+    const auto handed_before = rig.handed.size();
+    std::vector<std::int64_t> ids;
+    std::vector<can::Frame> mo_frames;
+    for (int j = 0; j < 16; ++j) {
+      const int axis = (16 * k + j + 1) % 120;
+      ids.push_back(rig.execute(kEnable, fmt::format("a{}", axis)));
+      mo_frames.push_back(
+          *uim342::instruction_frame(static_cast<std::uint8_t>(5 + axis), uim342::request::driver_on(true)));
+    }
+    const int stopped = (16 * k + 40) % 120;
+    rig.execute(kStop, fmt::format("a{}", stopped));
+    const auto st = *uim342::instruction_frame(static_cast<std::uint8_t>(5 + stopped), uim342::request::stop());
+    ASSERT_TRUE(rig.run_for(at - rig.now));
+    std::size_t mo_before = 0;
+    bool stop_went = false;
+    for (auto h = rig.handed.begin() + static_cast<std::ptrdiff_t>(handed_before); h != rig.handed.end(); ++h) {
+      mo_before += std::find(mo_frames.begin(), mo_frames.end(), h->second) != mo_frames.end() ? 1U : 0U;
+      stop_went = stop_went || h->second == st;
+    }
+    EXPECT_TRUE(stop_went) << "the stop was held";
+    if (reserve) { EXPECT_LT(mo_before, 16U) << "no MO frame waited for the start"; }
+    rig.stack->fire(0, rig.now);  // the start (trigger 0 starts nothing) ends the reservation
+    const auto start_handed = rig.handed.size();
+    const auto stand_in = rig.execute(kEnable, "a0");
+    const auto mo = *uim342::instruction_frame(5, uim342::request::driver_on(true));
+    ASSERT_TRUE(rig.run_until([&] { return rig.terminal(stand_in).has_value(); }, milliseconds(200)));
+    ASSERT_GT(rig.handed.size(), start_handed);
+    EXPECT_EQ(rig.handed[start_handed].second, mo);
+    const auto on_wire = std::find_if(rig.wire.begin(), rig.wire.end(),
+                                      [&](const OnWire& w) { return w.ours && w.frame == mo && w.end_of_frame >= at; });
+    ASSERT_NE(on_wire, rig.wire.end());
+    const bool at_once = on_wire->start() - at < microseconds(2);  // within a bit time
+    if (reserve) {
+      EXPECT_TRUE(at_once) << "reserved start " << k << " waited "
+                           << std::chrono::duration<double, std::micro>(on_wire->start() - at).count() << " us";
+    } else {
+      unreserved_waited += at_once ? 0 : 1;
+    }
+    for (const auto id : ids) {
+      ASSERT_TRUE(rig.run_until([&] { return rig.terminal(id).has_value(); }, milliseconds(200)));
+      EXPECT_EQ(rig.terminal(id)->status, kDone) << rig.terminal(id)->reason;
+    }
+  }
+  EXPECT_EQ(unreserved_waited, 8) << "without a reservation the commands' exchanges hold the start frame back";
+  EXPECT_EQ(rig.stack->counters().timeouts, 0);
+}
+
+// A command's answer arbitrates against the polls' frames on the wire: from the drives of the
+// highest node ids (the highest identifiers, UIM342 manual §2.5) it loses to every poll request and
+// to every lower drive's answer. While polls fill the bus (120 drives asked 20 Hz), an ENABLE of
+// each of the 30 highest drives, at 240 phases of the poll rhythm, ends DONE within a few poll
+// exchanges: no poll is handed over while a command awaits its answer.
+TEST(Uim342PollWire, ACommandsAnswerFromTheHighestNodeIsNotStarvedByPolls) {
+  WireRig rig(120, 20);
+  rig.start();
+  rig.run_for(milliseconds(100));
+  Duration longest{};
+  for (int k = 0; k < 240; ++k) {
+    rig.run_for(microseconds(977 + 37 * k));
+    const TimePoint executed = rig.now;
+    const auto id = rig.execute(kEnable, fmt::format("a{}", 119 - k % 30));
+    ASSERT_TRUE(rig.run_until([&] { return rig.terminal(id).has_value(); }, milliseconds(500)));
+    EXPECT_EQ(rig.terminal(id)->status, kDone) << rig.terminal(id)->reason;
+    longest = std::max(longest, rig.now - executed);
+  }
+  EXPECT_LE(longest, milliseconds(5)) << "the polls in flight and the ENABLE's own exchange: about 1 ms";
+  EXPECT_EQ(rig.stack->counters().timeouts, 0);
+  EXPECT_EQ(rig.stack->counters().retries, 0);
+  std::printf("ENABLE of the 30 highest drives under saturated polls: execute -> DONE at most %.0f us\n",
+              std::chrono::duration<double, std::micro>(longest).count());
 }
 
 // 8 drives at 20 Hz need about 7% of 1 Mbit/s: each is polled exactly at the asked rate, and the
