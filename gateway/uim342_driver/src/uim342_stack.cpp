@@ -188,6 +188,7 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
           mr.sent = true;
           mr.attempts = 1;
           mr.deadline = deadline_of(nodes[m], now);
+          mr.answer_due = now + kCommandAnswerWindow;
         }
       }
       on_sent(group->command_id, group->group_id, group->members, now);
@@ -209,6 +210,8 @@ void Uim342Stack::Impl::pump(std::size_t i, TimePoint now) {
       r.poll_seq = ++polls_handed;
       r.answer_due = now + poll_horizon();
       poll_slot = PollSlot{i, frame, echoes_seen ? r.deadline : now + queued_wire_time()};
+    } else {
+      r.answer_due = now + kCommandAnswerWindow;
     }
     const std::int64_t command_id = r.command_id;
     const bool is_start = r.instruction.function == FunctionCode::kBG;
@@ -270,10 +273,10 @@ bool Uim342Stack::Impl::poll_may_go(TimePoint now) const {
     return false;
   return std::none_of(nodes.begin(), nodes.end(), [this, now](const Node& n) {
     if (!n.busy()) return false;
+    const Request& r = n.queue.front();
     // A command's answer arbitrates against the polls' frames: a drive of a high node id (a high
     // identifier, UIM342 manual §2.5) would lose to them for as long as they fill the bus.
-    if (!n.queue.front().background) return true;
-    const Request& r = n.queue.front();
+    if (!r.background) return now < r.answer_due;
     return now < r.answer_due && r.poll_seq + (kPollsInFlight - 1) <= polls_handed;
   });
 }
@@ -512,8 +515,7 @@ TimePoint Uim342Stack::Impl::process(TimePoint now) {
   if (reserved_at != kNever) next = std::min(next, reserved_at + kReservationGrace);  // what waits for it
   if (!poll_queue.empty()) {  // waiting polls go once an unanswered one no longer holds them back
     for (const Node& n : nodes) {
-      if (n.busy() && n.queue.front().background && n.queue.front().answer_due > now)
-        next = std::min(next, n.queue.front().answer_due);
+      if (n.busy() && n.queue.front().answer_due > now) next = std::min(next, n.queue.front().answer_due);
     }
   }
   return next;
@@ -530,6 +532,7 @@ void Uim342Stack::Impl::timed_out(std::size_t i, TimePoint now) {
       ++r.attempts;
       ++counters.retries;
       r.deadline = deadline_of(n, now);
+      if (!r.background) r.answer_due = now + kCommandAnswerWindow;
       return;
     }
   }

@@ -64,7 +64,7 @@ struct Uim342Stack::Impl {
     // slot, behind every command request.
     bool background = false;
     std::uint64_t poll_seq = 0;  // a background request's place in the order they were handed over
-    TimePoint answer_due{};      // a background request: holds later polls back until then at most
+    TimePoint answer_due{};      // holds polls back until then at most (poll_may_go)
     std::shared_ptr<GroupSend> group;
     std::int64_t hold_for = 0;  // a PR=0 holding a bystander of this ARM_MOVE's group start
     int attempts = 0;
@@ -173,6 +173,11 @@ struct Uim342Stack::Impl {
   // outstanding request per node). A poll still unanswered at its answer_due (the wire time of
   // the requests ahead of it and a few exchanges more) holds nothing back: a silent drive does not
   // stop the others' polls until its timeout.
+  // No poll is handed over while a command's request awaits its answer, for at most this long
+  // after each try of it: its answer, lower in priority than most of the polls' frames on a full
+  // bus, would wait for as long as they fill it; a drive that does not answer holds the polls back
+  // no longer than this per try.
+  static constexpr Duration kCommandAnswerWindow = std::chrono::milliseconds(10);
   static constexpr std::uint64_t kPollsInFlight = 3;
   static constexpr int kAnswerSlackExchanges = 4;
   struct PollSlot {

@@ -289,5 +289,26 @@ TEST(Uim342PollWire, ASilentDriveDoesNotHoldTheOthersPollsBack) {
   std::printf("one of 120 drives silent: polls %.1f%% of the bus\n", 100 * polls);
 }
 
+// A command to a drive that has gone silent holds the polls back for kCommandAnswerWindow (10 ms)
+// after each of its tries, not until its timeout: while its three tries run out (50 ms each), the
+// other drives' polls still fill most of the bus.
+TEST(Uim342PollWire, ACommandToASilentDriveHoldsThePollsBackOnlyBriefly) {
+  WireRig rig(120, 20);
+  rig.start();
+  rig.run_for(milliseconds(100));
+  rig.silent.insert("d60");
+  const TimePoint from = rig.now;
+  const auto id = rig.execute(kEnable, "a60");
+  ASSERT_TRUE(rig.run_until([&] { return rig.terminal(id).has_value(); }, milliseconds(500)));
+  EXPECT_EQ(rig.terminal(id)->status, kFailed);
+  const Duration tries = rig.now - from;
+  EXPECT_GE(tries, milliseconds(150)) << "three tries of 50 ms";
+  const double polls = static_cast<double>(wire_bits(rig.wire, from, rig.now, true)) /
+                       (kBitrate * std::chrono::duration<double>(tries).count());
+  EXPECT_GE(polls, 0.70) << "share of the bus the polls used while the ENABLE went unanswered";
+  std::printf("ENABLE of a silent drive, %.0f ms of tries: polls %.1f%% of the bus meanwhile\n",
+              std::chrono::duration<double, std::milli>(tries).count(), 100 * polls);
+}
+
 }  // namespace
 }  // namespace motion::gateway
