@@ -209,6 +209,7 @@ TimePoint Uc57Stack::process(TimePoint now) {
     }
   }
   check_task_timeouts(now);
+  keep_sync_off_start(now);  // before any SYNC below comes due
   if (!at_once_.empty()) {
     const bool periodic_due = stagger_g_ > 0 ? next_sync_check() <= now : master_.sync()->next_deadline() <= now;
     if (periodic_due || now >= at_once_due_) fire_deferred_at_once(now, periodic_due);
@@ -222,6 +223,10 @@ TimePoint Uc57Stack::process(TimePoint now) {
   }
   next = std::min(next, master_.process(now));
   if (!at_once_.empty()) next = std::min(next, at_once_due_);
+  // A kernel's cyclic SYNC goes out without the loop: judged before the quiet time begins.
+  if (start_at_ != kNever)
+    next =
+        std::min(next, now < start_at_ - kQuietBeforeStart ? start_at_ - kQuietBeforeStart : start_at_ + kStartGrace);
   for (const auto& node : nodes_) {
     next = std::min({next, node->retry_at, node->starting_deadline, node->task_deadline});
     if (node->task == TaskKind::kPower) next = std::min(next, node->power.deadline());  // as check_task_timeouts

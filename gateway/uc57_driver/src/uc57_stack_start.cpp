@@ -145,19 +145,30 @@ bool Uc57Stack::send_blind_stop(std::size_t n, bool quick) {
 
 void Uc57Stack::prepare_fire(TimePoint at, TimePoint now) {
   now_ = now;
-  auto* sync = master_.sync();
-  if (sync == nullptr) return;
-  if (stagger_g_ > 0) {  // the stack paces the SYNC itself
-    if (next_sync_at_ >= at - kQuietBeforeStart && next_sync_at_ <= at) next_sync_at_ = at + sync_period_;
+  start_at_ = at;
+  keep_sync_off_start(now);
+}
+
+void Uc57Stack::keep_sync_off_start(TimePoint now) {
+  if (start_at_ == kNever) return;
+  if (now >= start_at_ + kStartGrace) {  // the start never came
+    start_at_ = kNever;
     return;
   }
-  const TimePoint due = sync->next_deadline();
-  if (due == kNever || due < at - kQuietBeforeStart || due > at) return;
-  sync->start(at);  // next periodic SYNC one period after the start
+  const auto in_quiet = [this](TimePoint t) {
+    return t != kNever && t >= start_at_ - kQuietBeforeStart && t <= start_at_;
+  };
+  if (stagger_g_ > 0) {  // the stack paces the SYNC itself
+    if (in_quiet(next_sync_at_)) next_sync_at_ = start_at_ + sync_period_;
+    return;
+  }
+  auto* sync = master_.sync();
+  if (sync != nullptr && in_quiet(sync->next_deadline())) sync->start(start_at_);  // one period after the start
 }
 
 void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
   now_ = now;
+  start_at_ = kNever;
   std::vector<std::int64_t> ready_jobs;
   std::vector<std::int64_t> early_jobs;
   for (const auto& [id, job] : jobs_.entries()) {

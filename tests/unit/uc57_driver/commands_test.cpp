@@ -237,30 +237,54 @@ TEST(Uc57Commands, KernelSyncStopsWhileAStartImageWaitsAndItsTriggerSyncStartsTh
   EXPECT_EQ(bench.stack->syncs_sent(), count("080#", 0) + count("BCM 080#", 0));
 }
 
-TEST(Uc57Commands, NoPeriodicSyncJustBeforeAScheduledStart) {
-  Bench bench;
+// SYNC frames sent from `from` on.
+std::size_t syncs_since(const Bench& bench, std::size_t from) {
+  const auto all = texts(bench.sent, from);
+  return static_cast<std::size_t>(std::count(all.begin(), all.end(), std::string("080#")));
+}
+
+// a and b armed for trigger 7, the time just after a periodic SYNC (the next one a period, 50 ms at
+// poll_hz 20, away). `after_sync` later a start `start_in` ahead is prepared (as when the gateway
+// hears its trigger): no SYNC goes out within the quiet time before the start, the start sends
+// one, and the periodic SYNC resumes. Returns the SYNCs sent from the preparation until 10 ms
+// before the start.
+std::size_t prepared_start_keeps_the_sync_off(Bench& bench, Duration after_sync, Duration start_in) {
   bench.start_ready();
   enable(bench, {"a", "b"});
   const auto c = arm(bench, {{"a", 10000}, {"b", -3200}}, 7);
   bench.run_for(std::chrono::milliseconds(300));
-  ASSERT_EQ(bench.replies_of(c.command_id).size(), 1U);  // ARMED
-  // The SYNC phase: the next periodic SYNC comes one period (50 ms at poll_hz 20) after this one.
-  const auto count_syncs = [&](std::size_t from) {
-    const auto all = texts(bench.sent, from);
-    return static_cast<std::size_t>(std::count(all.begin(), all.end(), std::string("080#")));
-  };
+  EXPECT_EQ(bench.replies_of(c.command_id).size(), 1U);  // ARMED
   std::size_t mark = bench.sent.size();
-  for (int i = 0; i < 100 && count_syncs(mark) == 0; ++i) bench.run_for(std::chrono::milliseconds(1));
-  ASSERT_EQ(count_syncs(mark), 1U);
-  const TimePoint start = bench.now + std::chrono::milliseconds(51);  // 1 ms after the next periodic SYNC
+  for (int i = 0; i < 100 && syncs_since(bench, mark) == 0; ++i) bench.run_for(std::chrono::milliseconds(1));
+  EXPECT_EQ(syncs_since(bench, mark), 1U);
+  bench.run_for(after_sync);
+  const TimePoint start = bench.now + start_in;
   bench.stack->prepare_fire(start, bench.now);
   mark = bench.sent.size();
+  bench.run_for(start - std::chrono::milliseconds(10) - bench.now);
+  const std::size_t before_quiet = syncs_since(bench, mark);
   bench.run_for(start - bench.now);
-  EXPECT_EQ(count_syncs(mark), 0U) << "a periodic SYNC went out 1 ms before the start";
+  EXPECT_EQ(syncs_since(bench, mark), before_quiet) << "a periodic SYNC went out 1 ms before the start";
   bench.stack->fire(7, bench.now);
-  EXPECT_EQ(count_syncs(mark), 1U);
+  EXPECT_EQ(syncs_since(bench, mark), before_quiet + 1);
   bench.run_for(std::chrono::milliseconds(120));
-  EXPECT_GE(count_syncs(mark), 3U) << "the periodic SYNC resumes after the start";
+  EXPECT_GE(syncs_since(bench, mark), before_quiet + 3) << "the periodic SYNC resumes after the start";
+  return before_quiet;
+}
+
+TEST(Uc57Commands, NoPeriodicSyncJustBeforeAScheduledStart) {
+  Bench bench;
+  // Heard 51 ms ahead: the next periodic SYNC would go out 1 ms before the start.
+  EXPECT_EQ(prepared_start_keeps_the_sync_off(bench, {}, std::chrono::milliseconds(51)), 0U);
+}
+
+// A start heard more than a SYNC period ahead (a serial line's start wait lengthens the time
+// between hearing and the start): the periodic SYNC that comes due first is not in the quiet time
+// and goes out; the next one, due 1 ms before the start, is judged when it comes due and moved.
+TEST(Uc57Commands, NoPeriodicSyncJustBeforeAStartHeardMoreThanAPeriodAhead) {
+  Bench bench;
+  EXPECT_EQ(prepared_start_keeps_the_sync_off(bench, std::chrono::milliseconds(20), std::chrono::milliseconds(81)), 1U)
+      << "the SYNC outside the quiet time goes out";
 }
 
 TEST(Uc57Commands, FaultDuringAMoveFailsItNamingAxisAndErrorCode) {

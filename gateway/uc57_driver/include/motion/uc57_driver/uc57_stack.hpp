@@ -118,8 +118,12 @@ class Uc57Stack final : public gateway::CanStack {
   void fire(std::int64_t trigger_id, TimePoint now) override;
   // No periodic SYNC within kQuietBeforeStart of a scheduled start at `at` (nor up to it): the
   // nodes' synchronous TPDOs answering it would still be on the wire and delay the start frames.
-  // The period restarts from `at` (the start SYNC restarts it again).
+  // The SYNC that would fall there is moved, the period restarting from `at` (the start SYNC
+  // restarts it again); those before it go out. The start may be heard more than a period ahead
+  // (a line's start wait), so every SYNC is judged as it comes due, until fire() or
+  // kStartGrace after `at`.
   void prepare_fire(TimePoint at, TimePoint now) override;
+  static constexpr Duration kStartGrace = std::chrono::milliseconds(10);
   static constexpr Duration kQuietBeforeStart = std::chrono::milliseconds(3);
   [[nodiscard]] Duration start_wait() const override { return kQuietBeforeStart; }
   [[nodiscard]] bool ready() const override;
@@ -249,7 +253,10 @@ class Uc57Stack final : public gateway::CanStack {
   bool sync_awaiting_echo_ = false;
   TimePoint sync_handed_at_{};
   TimePoint next_sync_at_ = kNever;  // staggered pacing: not before (one sync_period_ apart)
-  unsigned answers_left_ = 0;        // TPDOs still expected for the last SYNC
+  TimePoint start_at_ = kNever;      // a scheduled start (prepare_fire), until fire()
+  // A periodic SYNC due within kQuietBeforeStart before start_at_ is moved after it.
+  void keep_sync_off_start(TimePoint now);
+  unsigned answers_left_ = 0;  // TPDOs still expected for the last SYNC
   TimePoint answers_due_ = kNever;
   std::map<std::size_t, TimePoint> sync_holds_;
   // Staggered pacing by the wire: polls may use poll_share_ of it, less what every other frame
