@@ -254,9 +254,7 @@ class Uc57Stack final : public gateway::CanStack {
   TimePoint sync_handed_at_{};
   TimePoint next_sync_at_ = kNever;  // staggered pacing: not before (one sync_period_ apart)
   TimePoint start_at_ = kNever;      // a scheduled start (prepare_fire), until fire()
-  // A periodic SYNC due within kQuietBeforeStart before start_at_ is moved after it.
-  void keep_sync_off_start(TimePoint now);
-  unsigned answers_left_ = 0;  // TPDOs still expected for the last SYNC
+  unsigned answers_left_ = 0;        // TPDOs still expected for the last SYNC
   TimePoint answers_due_ = kNever;
   std::map<std::size_t, TimePoint> sync_holds_;
   // Staggered pacing by the wire: polls may use poll_share_ of it, less what every other frame
@@ -295,6 +293,8 @@ class Uc57Stack final : public gateway::CanStack {
   [[nodiscard]] RpdoImage latest_image(std::size_t n) const;
   void send_image(std::size_t n, const RpdoImage& image);
   void run_sync_cycle(TimePoint now);
+  // A periodic SYNC due within kQuietBeforeStart before start_at_ is moved after it.
+  void keep_sync_off_start(TimePoint now);
   // Preloading (scheduled starts): once every node of an ARM_MOVE waiting for a trigger is armed,
   // each node's start image (bit 4 = 1) goes out at once in its synchronous RPDO1 (transmission
   // type 1: applied at the next SYNC, UC57 manual §5 "RPDO communication parameters", CiA 301
