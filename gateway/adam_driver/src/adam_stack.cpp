@@ -57,6 +57,7 @@ AdamStack::AdamStack(MasterSettings settings, Send send, gateway::GatewayOutput&
     drive->cfg = d;
     drives_.push_back(std::move(drive));
   }
+  start_wait_ = longest_poll_read();
 }
 
 AdamStack::~AdamStack() = default;
@@ -93,7 +94,6 @@ std::string AdamStack::describe(const Transaction& t) const {
 
 std::deque<AdamStack::Transaction>::iterator AdamStack::next_to_send() {
   if (!awaiting_trigger()) return queue_.begin();
-  const Duration longest = start_wait();
   std::vector<const Drive*> held;  // drives whose next transaction is too long to begin now
   for (auto it = queue_.begin(); it != queue_.end();) {
     Drive* d = it->drive;
@@ -104,7 +104,7 @@ std::deque<AdamStack::Transaction>::iterator AdamStack::next_to_send() {
       continue;
     }
     if (std::find(held.begin(), held.end(), d) == held.end()) {
-      if (it->urgent || line_time(it->request) <= longest) return it;
+      if (it->urgent || line_time(it->request) <= start_wait_) return it;
       held.push_back(d);
     }
     ++it;
@@ -302,7 +302,7 @@ Duration AdamStack::line_time(const rtu::Request& request) const {
   return settings_.egress_latency + adam::transaction_time(settings_.format, request);
 }
 
-Duration AdamStack::start_wait() const {
+Duration AdamStack::longest_poll_read() const {
   Duration longest{};
   for (const auto& read : {position_status_read(1), outputs_alarm_read(1)})
     longest = std::max(longest, line_time(read));

@@ -48,6 +48,10 @@ Duration RequestChannel::exchange_time(const uim242::Instruction& instruction, i
   return settings_.egress_latency + settings_.character_time * chars + kReplyAllowance;
 }
 
+Duration RequestChannel::exchange_time(const Request& r) const {
+  return exchange_time(r.instruction, r.node != selected_ ? r.node : 0);
+}
+
 void RequestChannel::transmit(InFlight& f, TimePoint now) {
   const uim242::Instruction instruction =
       f.is_selection ? uim242::Instruction{uim242::Mnemonic::kADR, false, f.request.node, false}
@@ -88,8 +92,7 @@ TimePoint RequestChannel::process(TimePoint now) {
     const auto next = next_to_send();
     if (next == queue_.end()) return kNever;  // what is queued waits for the start (limit())
     if (next->not_before > now) return next->not_before;
-    if (reserved_at_ != kNever && now < reserved_at_ + 5 * kReplyAllowance &&
-        now + exchange_time(next->instruction, next->node != selected_ ? next->node : 0) > reserved_at_)
+    if (reserved_at_ != kNever && now < reserved_at_ + 5 * kReplyAllowance && now + exchange_time(*next) > reserved_at_)
       return reserved_at_ + 5 * kReplyAllowance;
     InFlight f{std::move(*next), false, 0, now, false};
     queue_.erase(next);
@@ -104,7 +107,7 @@ std::deque<Request>::iterator RequestChannel::next_to_send() {
   if (limit_ == Duration::max()) return queue_.begin();
   std::vector<int> held;  // nodes whose next request is too long to begin now
   for (auto it = queue_.begin(); it != queue_.end(); ++it) {
-    const bool fits = it->urgent || exchange_time(it->instruction, it->node != selected_ ? it->node : 0) <= limit_;
+    const bool fits = it->urgent || exchange_time(*it) <= limit_;
     if (it->node == 0) return held.empty() && fits ? it : queue_.end();
     if (std::find(held.begin(), held.end(), it->node) != held.end()) continue;
     if (fits) return it;

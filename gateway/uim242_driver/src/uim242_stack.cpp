@@ -38,6 +38,7 @@ Uim242Stack::Uim242Stack(const config::Config& config, const std::string& bus, C
     }
     drives_.push_back(std::move(drive));
   }
+  start_wait_ = longest_poll_exchange();
 }
 
 Uim242Stack::~Uim242Stack() = default;

@@ -331,7 +331,7 @@ bool Uim242Stack::awaiting_trigger() const {
   });
 }
 
-Duration Uim242Stack::start_wait() const {
+Duration Uim242Stack::longest_poll_exchange() const {
   // With several controllers on the line each poll selects its own first (`ADR η;`, counted at
   // the longest node id); with one, the selection is made once.
   constexpr int kLongestNode = 125;

@@ -269,8 +269,7 @@ void Uim342Stack::Impl::wait_for_poll_slot(std::size_t i) {
 
 bool Uim342Stack::Impl::poll_may_go(TimePoint now) const {
   if (poll_slot) return false;
-  if (reserved_at != kNever && now < reserved_at + kReservationGrace && now + poll_horizon() > reserved_at)
-    return false;
+  if (start_reserved(now)) return false;
   return std::none_of(nodes.begin(), nodes.end(), [this, now](const Node& n) {
     if (!n.busy()) return false;
     const Request& r = n.queue.front();
@@ -281,10 +280,12 @@ bool Uim342Stack::Impl::poll_may_go(TimePoint now) const {
   });
 }
 
+bool Uim342Stack::Impl::start_reserved(TimePoint now) const {
+  return reserved_at != kNever && now < reserved_at + kReservationGrace && now + poll_horizon() > reserved_at;
+}
+
 bool Uim342Stack::Impl::held_for_start(const Request& r, TimePoint now) const {
-  if (reserved_at == kNever || now >= reserved_at + kReservationGrace || now + poll_horizon() <= reserved_at)
-    return false;
-  if (r.instruction.function == FunctionCode::kBG) return false;
+  if (!start_reserved(now) || r.instruction.function == FunctionCode::kBG) return false;
   const Command* c = commands.find(r.command_id);
   return c != nullptr && c->command.kind != gateway_command_t::STOP && c->command.kind != gateway_command_t::ESTOP;
 }

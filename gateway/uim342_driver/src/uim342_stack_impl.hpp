@@ -194,6 +194,8 @@ struct Uim342Stack::Impl {
   // A command's request that waits for a reserved start, as a poll would (its answer could still
   // be on the wire at reserved_at). Starts (BG) and stops are never held.
   [[nodiscard]] bool held_for_start(const Request& r, TimePoint now) const;
+  // A frame handed over now could still be answered on the wire at reserved_at (before fire()).
+  [[nodiscard]] bool start_reserved(TimePoint now) const;
   // How long after its hand-over a poll's answer may still be on the wire: the requests in flight
   // ahead of it, and kAnswerSlackExchanges exchanges (answer_due).
   [[nodiscard]] Duration poll_horizon() const { return queued_wire_time() + kAnswerSlackExchanges * exchange_time; }

@@ -137,7 +137,7 @@ class AdamStack final : public gateway::SerialStack {
   // and alarm) as the reservation judges it. It bounds every exchange: while a move awaits its
   // trigger no longer one begins (a Save, a long write), and a drive that is not online is not
   // polled (next_to_send()).
-  [[nodiscard]] Duration start_wait() const override;
+  [[nodiscard]] Duration start_wait() const override { return start_wait_; }
   // A transport failure (hang-up): every command ends FAILED and the line is "closed".
   void line_lost(const std::string& why, TimePoint now) override;
 
@@ -181,6 +181,9 @@ class AdamStack final : public gateway::SerialStack {
   // How long a transaction handed over now holds the line, as a reservation judges it: the
   // egress latency and adam::transaction_time.
   [[nodiscard]] Duration line_time(const adam::rtu::Request& request) const;
+  // start_wait(), computed once: the line's format and egress latency do not change.
+  [[nodiscard]] Duration longest_poll_read() const;
+  Duration start_wait_{};
   void on_position_status(Drive& d, std::span<const std::uint16_t> words, TimePoint now);
   // Its power-on marker (adam_stack.cpp): position reminder X19 read back, and written.
   void read_marker(Drive& d);

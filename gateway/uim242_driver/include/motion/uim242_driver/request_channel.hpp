@@ -101,6 +101,8 @@ class RequestChannel {
     bool cancelled = false;
   };
   void transmit(InFlight& f, TimePoint now);
+  // exchange_time() of `r` handed over now: with its selection when the gateway targets another node.
+  [[nodiscard]] Duration exchange_time(const Request& r) const;
   // The queued request that may go next under limit_ (queue_.end(): none).
   [[nodiscard]] std::deque<Request>::iterator next_to_send();
   void finish_failure(const std::string& reason, bool timed_out, TimePoint now);

@@ -114,7 +114,7 @@ class Uim242Stack final : public gateway::SerialStack {
   // (awaiting_trigger()): no longer one begins but starts and stops (RequestChannel::limit), and
   // an offline controller's identification, which would hold the line until its timeout, is not
   // tried.
-  [[nodiscard]] Duration start_wait() const override;
+  [[nodiscard]] Duration start_wait() const override { return start_wait_; }
   void line_lost(const std::string& why, TimePoint now) override;
 
   [[nodiscard]] bool ready() const override;
@@ -202,6 +202,9 @@ class Uim242Stack final : public gateway::SerialStack {
   std::string transport_;
   CoreContext context_;
   Duration poll_period_;
+  // start_wait(), computed once the drives and the channel are set up (neither changes after).
+  [[nodiscard]] Duration longest_poll_exchange() const;
+  Duration start_wait_{};
   RequestChannel channel_;
   uim242::FeedbackFramer framer_;
   std::vector<std::unique_ptr<Drive>> drives_;
