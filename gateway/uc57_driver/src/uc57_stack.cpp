@@ -21,24 +21,7 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
       bus_(bus.name),
       sync_period_(
           std::chrono::duration_cast<Duration>(std::chrono::duration<double>(1.0 / std::max(bus.poll_hz, 0.1)))),
-      master_([this](const can::Frame& frame) {
-        const bool sync = frame.id == canopen::kSyncCobId && !frame.extended;
-        if (sync) {
-          ++syncs_handed_;
-          last_sync_at_ = now_;
-          // Staggered pacing: the next one a period on, whether or not the transport took this one.
-          if (stagger_g_ > 0) next_sync_at_ = now_ + sync_period_;
-        }
-        if (!context_.send || !context_.send(frame)) {
-          ++counters_.protocol_errors;
-          return;
-        }
-        wire_sent_ += can::frame_duration(frame, bitrate_);
-        if (sync) {
-          last_sync_end_ = wire_sent_;
-          on_sync_handed();
-        }
-      }) {
+      master_([this](const can::Frame& frame) { send_master_frame(frame); }) {
   bitrate_ = static_cast<std::uint32_t>(std::max(bus.bitrate, 1));
   options_.wall_clock_us = gateway::or_system_clock(std::move(options_.wall_clock_us));
   for (const auto& drive : config.drives) {
@@ -80,6 +63,37 @@ Uc57Stack::Uc57Stack(const config::Config& config, const config::Bus& bus, gatew
 }
 
 Uc57Stack::~Uc57Stack() = default;
+
+void Uc57Stack::send_master_frame(const can::Frame& frame) {
+  const bool sync = frame.id == canopen::kSyncCobId && !frame.extended;
+  if (!sync && holding_for_start()) {
+    held_for_start_.push_back(frame);
+    return;
+  }
+  if (sync) {
+    ++syncs_handed_;
+    last_sync_at_ = now_;
+    // Staggered pacing: the next one a period on, whether or not the transport took this one.
+    if (stagger_g_ > 0) next_sync_at_ = now_ + sync_period_;
+  }
+  if (!context_.send || !context_.send(frame)) {
+    ++counters_.protocol_errors;
+    return;
+  }
+  wire_sent_ += can::frame_duration(frame, bitrate_);
+  if (sync) {
+    last_sync_end_ = wire_sent_;
+    on_sync_handed();
+  }
+}
+
+bool Uc57Stack::holding_for_start() const {
+  return start_at_ != kNever && now_ >= start_at_ - kQuietBeforeStart && now_ < start_at_ + kStartGrace;
+}
+
+void Uc57Stack::release_held_frames() {
+  for (const can::Frame& frame : std::exchange(held_for_start_, {})) send_master_frame(frame);
+}
 
 std::vector<std::string> Uc57Stack::axes() const {
   std::vector<std::string> out;

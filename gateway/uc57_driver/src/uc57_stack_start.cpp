@@ -153,6 +153,7 @@ void Uc57Stack::keep_sync_off_start(TimePoint now) {
   if (start_at_ == kNever) return;
   if (now >= start_at_ + kStartGrace) {  // the start never came
     start_at_ = kNever;
+    release_held_frames();
     return;
   }
   const auto in_quiet = [this](TimePoint t) {
@@ -185,6 +186,7 @@ void Uc57Stack::fire(std::int64_t trigger_id, TimePoint now) {
                     std::to_string(id) + " was armed");
   }
   if (!ready_jobs.empty()) fire_jobs(ready_jobs, now);
+  release_held_frames();  // behind the start frames
 }
 
 Duration Uc57Stack::start_sync_gap() const {

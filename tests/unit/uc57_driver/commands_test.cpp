@@ -287,6 +287,84 @@ TEST(Uc57Commands, NoPeriodicSyncJustBeforeAStartHeardMoreThanAPeriodAhead) {
       << "the SYNC outside the quiet time goes out";
 }
 
+// An SDO request handed over within the quiet time before a scheduled start (a PARAM_READ, a
+// position poll) would put its frame and the drive's answer ahead of the start frames: it waits
+// and goes out right behind the start's SYNC, and the transfer still completes. One handed over
+// before the quiet time goes at once.
+TEST(Uc57Commands, SdoRequestsWithinTheQuietTimeGoRightBehindTheStart) {
+  Bench bench;
+  bench.start_ready();
+  enable(bench, {"a", "b"});
+  const auto move = arm(bench, {{"a", 10000}, {"b", -3200}}, 7);
+  bench.run_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(bench.replies_of(move.command_id).size(), 1U);  // ARMED
+  bench.node(1).set_value(0x607A, 0, 10000);
+  bench.node(2).set_value(0x6081, 0, 1234);
+  const auto read = [&bench](const std::string& axis, std::uint16_t index) {
+    auto c = bench.command(Cmd::PARAM_READ, {axis});
+    c.param.space = motionlcm::param_t::CANOPEN_OBJECT;
+    c.param.index = index;
+    c.param.subindex = 0;
+    bench.execute(c);
+    return c.command_id;
+  };
+  const auto sdo_requests = [&bench](std::size_t from) {
+    std::size_t count = 0;
+    for (std::size_t i = from; i < bench.sent.size(); ++i) {
+      if (!bench.sent[i].extended && bench.sent[i].id >= 0x601 && bench.sent[i].id <= 0x67F) ++count;
+    }
+    return count;
+  };
+  const TimePoint start = bench.now + std::chrono::milliseconds(20);
+  bench.stack->prepare_fire(start, bench.now);
+  bench.run_for(start - Uc57Stack::kQuietBeforeStart - std::chrono::microseconds(500) - bench.now);
+  std::size_t mark = bench.sent.size();
+  const auto early = read("a", 0x607A);  // before the quiet time: goes at once
+  bench.run_for(Duration::zero());
+  EXPECT_EQ(sdo_requests(mark), 1U);
+  bench.run_for(std::chrono::milliseconds(1));
+  EXPECT_EQ(bench.replies_of(early).back().status, status(Reply::DONE));
+
+  mark = bench.sent.size();
+  const auto held_a = read("a", 0x607A);
+  bench.run_for(std::chrono::milliseconds(1));
+  const auto held_b = read("b", 0x6081);
+  bench.run_for(start - bench.now);
+  EXPECT_EQ(sdo_requests(mark), 0U) << "an SDO request went out within the quiet time before the start";
+  EXPECT_EQ(bench.terminal_count(held_a), 0U);
+  const std::size_t before_fire = bench.sent.size();
+  bench.stack->fire(7, bench.now);
+  const auto fired = texts(bench.sent, before_fire);
+  ASSERT_EQ(fired.size(), 3U) << ::testing::PrintToString(fired);
+  EXPECT_EQ(fired[0], "080#") << "the start's SYNC goes first";
+  EXPECT_EQ(fired[1].substr(0, 4), "601#");
+  EXPECT_EQ(fired[2].substr(0, 4), "602#");
+  bench.run_for(std::chrono::milliseconds(20));
+  ASSERT_EQ(bench.replies_of(held_a).back().status, status(Reply::DONE)) << bench.replies_of(held_a).back().reason;
+  EXPECT_EQ(bench.replies_of(held_a).back().param.value, 10000);
+  ASSERT_EQ(bench.replies_of(held_b).back().status, status(Reply::DONE)) << bench.replies_of(held_b).back().reason;
+  EXPECT_EQ(bench.replies_of(held_b).back().param.value, 1234);
+  EXPECT_EQ(bench.replies_of(move.command_id)[1].status, status(Reply::STARTED));
+}
+
+// A start that never comes (its trigger lost): the held requests go kStartGrace after it.
+TEST(Uc57Commands, SdoRequestsHeldForAStartThatNeverComesGoAfterTheGrace) {
+  Bench bench;
+  bench.start_ready();
+  auto c = bench.command(Cmd::PARAM_READ, {"a"});
+  c.param.space = motionlcm::param_t::CANOPEN_OBJECT;
+  c.param.index = 0x6081;
+  c.param.subindex = 0;
+  const TimePoint start = bench.now + std::chrono::milliseconds(2);
+  bench.stack->prepare_fire(start, bench.now);
+  bench.execute(c);
+  bench.run_for(start + Uc57Stack::kStartGrace - std::chrono::microseconds(200) - bench.now);
+  EXPECT_EQ(bench.terminal_count(c.command_id), 0U);
+  bench.run_for(std::chrono::milliseconds(5));
+  ASSERT_EQ(bench.terminal_count(c.command_id), 1U);
+  EXPECT_EQ(bench.replies_of(c.command_id).back().status, status(Reply::DONE));
+}
+
 TEST(Uc57Commands, FaultDuringAMoveFailsItNamingAxisAndErrorCode) {
   Bench bench;
   bench.start_ready();

@@ -121,7 +121,11 @@ class Uc57Stack final : public gateway::CanStack {
   // The SYNC that would fall there is moved, the period restarting from `at` (the start SYNC
   // restarts it again); those before it go out. The start may be heard more than a period ahead
   // (a line's start wait), so every SYNC is judged as it comes due, until fire() or
-  // kStartGrace after `at`.
+  // kStartGrace after `at`. Nor does any other frame of the master (SDO requests, NMT) go out
+  // within kQuietBeforeStart before the start: the answer of an SDO request could still be on
+  // the wire at the start. They wait, in their order, and go out right behind the start frames
+  // (or when the start has not come kStartGrace after `at`). RPDOs are not held: a stop's image
+  // goes out with the next SYNC, and the start's SYNC applies it.
   void prepare_fire(TimePoint at, TimePoint now) override;
   static constexpr Duration kStartGrace = std::chrono::milliseconds(10);
   static constexpr Duration kQuietBeforeStart = std::chrono::milliseconds(3);
@@ -295,6 +299,11 @@ class Uc57Stack final : public gateway::CanStack {
   void run_sync_cycle(TimePoint now);
   // A periodic SYNC due within kQuietBeforeStart before start_at_ is moved after it.
   void keep_sync_off_start(TimePoint now);
+  // Every frame of the master (SYNC, SDO, NMT) goes through here: counted, or held for a start.
+  void send_master_frame(const can::Frame& frame);
+  [[nodiscard]] bool holding_for_start() const;  // within the quiet time of start_at_
+  void release_held_frames();
+  std::vector<can::Frame> held_for_start_;
   // Preloading (scheduled starts): once every node of an ARM_MOVE waiting for a trigger is armed,
   // each node's start image (bit 4 = 1) goes out at once in its synchronous RPDO1 (transmission
   // type 1: applied at the next SYNC, UC57 manual §5 "RPDO communication parameters", CiA 301
