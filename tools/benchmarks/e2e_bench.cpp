@@ -70,6 +70,7 @@
 #include <motionlcm/trigger_heard_t.hpp>
 
 #include "bench_process.hpp"
+#include "host_stalls.hpp"
 #include "motion/can_frame/bit_timing.hpp"
 #include "motion/canopen/sync.hpp"
 #include "motion/client/client.hpp"
@@ -448,10 +449,12 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
     // 3. Start skew, one bus and two buses.
     const double sync_us =
         std::chrono::duration<double, std::micro>(can::frame_duration(canopen::encode_sync({}), bitrate)).count();
+    const HostStallWatch host;  // the host's own stalls, to tell them from the programs' lateness
     const auto skew_run = [&](const std::vector<std::string>& group, const std::string& label, bool one_bus) {
       std::vector<double> measured;
       std::vector<double> truth;
       std::vector<double> predicted;
+      std::vector<std::int64_t> stall;                    // per move: the longest host stall in its start window (µs)
       std::map<std::string, std::vector<double>> offset;  // drive -> start minus the first CAN start (x-drive)
       const int n = skew_moves > 0 ? skew_moves : quick ? 4 : skew_only ? 30 : 12;
       for (int i = 0; i < n && rc == 0; ++i) {
@@ -477,6 +480,12 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
             hi = std::max(hi, s.frame_utime);
           }
           truth.push_back(static_cast<double>(hi - lo));
+          // The start window: from 1 ms before the first bus's send time to the last start.
+          std::int64_t first_send = lo;
+          if (!scheduled.empty() && !scheduled.back().send_utime.empty())
+            first_send = std::min(
+                first_send, *std::min_element(scheduled.back().send_utime.begin(), scheduled.back().send_utime.end()));
+          stall.push_back(host.worst_in(first_send - 1000, hi));
           const auto x = std::find_if(reports.begin(), reports.end(),
                                       [](const motionlcm::sim_report_t& s) { return s.drive == "x-drive"; });
           if (x != reports.end()) {
@@ -487,7 +496,9 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
               if (verbose)
                 std::fprintf(stderr, " %s %+lld", s.drive.c_str(), static_cast<long long>(offset[s.drive].back()));
             }
-            if (verbose) std::fprintf(stderr, " (measured %.0f us)\n", r.measured_start_skew_us);
+            if (verbose)
+              std::fprintf(stderr, " (measured %.0f us; host stall %lld us)\n", r.measured_start_skew_us,
+                           static_cast<long long>(stall.back()));
           }
         }
         predicted.push_back(scheduled.empty() ? 0.0 : scheduled.back().predicted_spread_us);
@@ -502,10 +513,30 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
         const double bound = 200.0 + percentile(predicted, 50);
         rows.push_back({"  same, against 200 us + predicted spread", percentile(truth, 50), percentile(truth, 99),
                         "goal + SYNC_TRIGGER2 spread", bound, true});
-        const auto over = std::count_if(truth.begin(), truth.end(), [&](double t) { return t > bound; });
+        std::size_t over = 0;
+        std::size_t over_stalled = 0;
+        std::size_t within_stalled = 0;
+        double longest = 0;
+        for (std::size_t m = 0; m < truth.size() && m < stall.size(); ++m) {
+          const bool stalled = stall[m] > 0;
+          if (truth[m] > bound) {
+            ++over;
+            over_stalled += stalled ? 1 : 0;
+            longest = std::max(longest, static_cast<double>(stall[m]));
+          } else {
+            within_stalled += stalled ? 1 : 0;
+          }
+        }
         rows.push_back({"  moves over it: " + std::to_string(over) + " of " + std::to_string(truth.size()) +
                             "; the worst move (as p50 and p99)",
                         percentile(truth, 100), percentile(truth, 100), "", NAN});
+        // A late move is the host's when the watch itself was held back in its start window.
+        rows.push_back({"  of them with a host stall > " + std::to_string(host.late().count()) +
+                            " us in the start window: " + std::to_string(over_stalled) + " (moves within: " +
+                            std::to_string(within_stalled) + " of " + std::to_string(truth.size() - over) +
+                            "); watch " + (host.realtime() ? "SCHED_FIFO" : "not real-time") + ", " +
+                            std::to_string(host.count()) + " stalls in all; the longest in a move over",
+                        longest, longest, "", NAN});
       }
       rows.push_back({"start skew " + label + ", coordinator measured", percentile(measured, 50),
                       percentile(measured, 99), "ground truth p50", percentile(truth, 50)});

@@ -51,6 +51,7 @@
 
 #include "bench_process.hpp"
 #include "bench_table.hpp"
+#include "host_stalls.hpp"
 #include "motion/adam/rtu.hpp"
 #include "motion/client/client.hpp"
 #include "motion/config/config.hpp"
@@ -403,6 +404,9 @@ int run(const Options& opt) {
     std::vector<double> truth;
     std::vector<double> predicted;
     std::map<std::string, std::vector<double>> bus_offset;  // per bus, each drive's start - the move's median
+    const HostStallWatch host;       // the host's own stalls, to tell them from the programs' lateness
+    std::vector<double> calm_truth;  // the skew of moves without a host stall in their start window
+    std::size_t stalled_moves = 0;
     for (int i = 0; i < opt.moves; ++i) {
       std::map<std::string, double> targets;
       for (const auto& a : group) targets[a] = i % 2 == 0 ? 2.0 : 0.0;
@@ -449,6 +453,16 @@ int run(const Options& opt) {
         for (const auto& r : reports) starts.push_back(static_cast<double>(r.frame_utime));
         const auto [lo, hi] = std::minmax_element(starts.begin(), starts.end());
         truth.push_back(*hi - *lo);
+        // The start window: from 1 ms before the first bus's send time to the last start.
+        double first_send = *lo;
+        if (!scheduled.empty() && !scheduled.back().send_utime.empty())
+          first_send = std::min(first_send, static_cast<double>(*std::min_element(scheduled.back().send_utime.begin(),
+                                                                                  scheduled.back().send_utime.end())));
+        if (host.worst_in(static_cast<std::int64_t>(first_send) - 1000, static_cast<std::int64_t>(*hi)) > 0) {
+          ++stalled_moves;
+        } else {
+          calm_truth.push_back(truth.back());
+        }
         const double median = percentile(starts, 50);
         for (const auto& r : reports) bus_offset[r.bus].push_back(static_cast<double>(r.frame_utime) - median);
         if (std::getenv("BENCH_LAB_VERBOSE") != nullptr) {  // each drive's start, for a look at one move
@@ -478,6 +492,11 @@ int run(const Options& opt) {
       rows.push_back({"start skew p50 (ground truth), " + move, fmt("%.0f us", percentile(truth, 50)),
                       fmt("%.0f us = 200 + predicted", bound), percentile(truth, 50) / bound,
                       fmt2("p99 %.0f us (%.2fx)", percentile(truth, 99), percentile(truth, 99) / bound)});
+      rows.push_back(
+          {"  moves with a host stall > " + std::to_string(host.late().count()) + " us in their start window",
+           fmt("%.0f", static_cast<double>(stalled_moves)), fmt("of %.0f", static_cast<double>(truth.size())), NAN,
+           std::string("watch ") + (host.realtime() ? "SCHED_FIFO" : "not real-time") +
+               fmt("; p99 of the others %.0f us", percentile(calm_truth, 99))});
       for (auto& [bus, offsets] : bus_offset) {
         const auto [lo, hi] = std::minmax_element(offsets.begin(), offsets.end());
         rows.push_back({"  start - move's median start, " + bus, fmt("%+.0f us", percentile(offsets, 50)), "", NAN,

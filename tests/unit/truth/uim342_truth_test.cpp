@@ -473,6 +473,32 @@ TEST(Uim342PartialGroup, ARunningDriveOfTheGroupIsNotHeld) {
   EXPECT_EQ(bench.start_distances["z-drive"].size(), z_starts) << "z was started again";
 }
 
+// A drive of the group with its driver off is not held (manual §5.10: the driver on before PR or
+// BG is sent, or residual actions move the motor once it is turned on): no PR=0 and no BG reaches
+// it, the move starts drive by drive, and turning z's driver on later moves nothing.
+TEST(Uim342PartialGroup, ADriveOfTheGroupWithItsDriverOffIsNotHeld) {
+  Uim342Bench bench("after_restart", kGroupOfThree.c_str());
+  ready_with_z_jogged(bench);
+  ASSERT_TRUE(bench.done(bench.command(gateway_command_t::DISABLE, {axis_move("z", 0)})));
+  bench.run_for(milliseconds(500));  // polled since
+  const auto z_at = bench.drives[2]->position(bench.now);
+  const auto z_starts = bench.start_distances["z-drive"].size();
+  const auto from = bench.from_stack.size();
+  const auto armed = bench.command(gateway_command_t::ARM_MOVE, {axis_move("x", 6400), axis_move("y", 3200)}, 7);
+  bench.run_for(milliseconds(50));
+  EXPECT_FALSE(pr0_sent(bench.from_stack, 7, from)) << "z, its driver off, was given PR=0";
+  EXPECT_EQ(fire(bench, 7), (std::vector<int>{5, 6}));
+  EXPECT_EQ(mechanism_of(bench, armed), "sequential");
+  ASSERT_TRUE(bench.done(armed));
+  EXPECT_EQ(bench.drives[0]->position(bench.now), 6400);
+  EXPECT_EQ(bench.drives[1]->position(bench.now), 3200);
+  EXPECT_EQ(bench.start_distances["z-drive"].size(), z_starts) << "a BG reached z";
+  ASSERT_TRUE(bench.done(bench.command(gateway_command_t::ENABLE, {axis_move("z", 0)})));
+  bench.run_for(milliseconds(300));
+  EXPECT_FALSE(bench.drives[2]->moving(bench.now));
+  EXPECT_EQ(bench.drives[2]->position(bench.now), z_at) << "z moved once its driver was turned on";
+}
+
 // A partial-group move disarmed: x and y get PR=0 as any released move, z holds its PR=0, so a
 // foreign group BG moves nobody; z is polled again and takes its own move.
 TEST(Uim342PartialGroup, ADisarmedPartialMoveLeavesNothingAGroupBgCouldStart) {
