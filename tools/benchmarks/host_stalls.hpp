@@ -72,8 +72,7 @@ class HostStallWatch {
         next.tv_nsec -= 1'000'000'000;
         ++next.tv_sec;
       }
-      while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) != 0) {
-      }
+      while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) != 0) {}
       timespec woke{};
       timespec wall{};
       clock_gettime(CLOCK_MONOTONIC, &woke);

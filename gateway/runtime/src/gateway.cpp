@@ -18,6 +18,11 @@
 
 namespace motion::gateway {
 
+namespace {
+// A scheduled start handed over later than this is said in the log (the skew goal is 200 µs).
+constexpr auto kLateFireNote = std::chrono::microseconds(100);
+}  // namespace
+
 Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config,
                  std::string bus)
     : loop_(loop),
@@ -269,7 +274,12 @@ void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, st
   auto& timer = pending_fires_[trigger_id];
   timer = std::make_unique<PreciseTimer>(loop_);
   if (bus != nullptr) timer->set_spin(std::chrono::microseconds(bus->timer_spin_us));
-  timer->arm(at, [this, trigger_id, fire] {
+  timer->arm(at, [this, trigger_id, fire, at] {
+    // A start handed over late starts its drives that much late: said, with how late.
+    const auto late = std::chrono::duration_cast<std::chrono::microseconds>(loop_.now() - at);
+    if (late > kLateFireNote)
+      spdlog::info("trigger {}: its start frames handed over {} us late on {} (the loop busy or not scheduled)",
+                   trigger_id, late.count(), bus_);
     fire();
     // Destroyed after this callback (the loop holds no reference to it once it has run).
     loop_.call_after(Duration::zero(), [this, trigger_id] {
