@@ -55,6 +55,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -450,6 +451,19 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
     const double sync_us =
         std::chrono::duration<double, std::micro>(can::frame_duration(canopen::encode_sync({}), bitrate)).count();
     const HostStallWatch host;  // the host's own stalls, to tell them from the programs' lateness
+    // BENCH_E2E_VERBOSE: can0's frames, to show what was on the wire before a late start.
+    const bool verbose = std::getenv("BENCH_E2E_VERBOSE") != nullptr;
+    std::unique_ptr<simbus::SocketEndpoint> tap;
+    if (verbose) {
+      std::error_code ec;
+      tap = simbus::SocketEndpoint::connect("can0", {sim_dir, "bench-e2e-tap", false}, ec);
+    }
+    const auto drain_tap = [&tap] {
+      std::vector<can::Frame> out;
+      if (tap)
+        while (auto f = tap->receive()) out.push_back(*f);
+      return out;
+    };
     const auto skew_run = [&](const std::vector<std::string>& group, const std::string& label, bool one_bus) {
       std::vector<double> measured;
       std::vector<double> truth;
@@ -465,6 +479,7 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
         }
         reports.clear();
         scheduled.clear();
+        drain_tap();
         const auto r = client.call(client::Client::make(request_t::MOVE_ABSOLUTE, targets), std::chrono::seconds(30));
         if (r.status != reply_t::DONE) {
           fail(label + " move did not end DONE: " + r.reason);
@@ -489,7 +504,6 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
           const auto x = std::find_if(reports.begin(), reports.end(),
                                       [](const motionlcm::sim_report_t& s) { return s.drive == "x-drive"; });
           if (x != reports.end()) {
-            const bool verbose = std::getenv("BENCH_E2E_VERBOSE") != nullptr;  // each move's starts
             if (verbose) std::fprintf(stderr, "%s move %d:", label.c_str(), i);
             for (const auto& s : reports) {
               offset[s.drive].push_back(static_cast<double>(s.frame_utime - x->frame_utime));
@@ -499,6 +513,15 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
             if (verbose)
               std::fprintf(stderr, " (measured %.0f us; host stall %lld us)\n", r.measured_start_skew_us,
                            static_cast<long long>(stall.back()));
+            if (verbose && !one_bus && !scheduled.empty() &&
+                truth.back() > 200.0 + scheduled.back().predicted_spread_us) {
+              // Over the bound: can0's frames from 3 ms before the first send time to the last start.
+              for (const auto& f : drain_tap()) {
+                if (f.timestamp_us < first_send - 3000 || f.timestamp_us > hi) continue;
+                std::fprintf(stderr, "    can0 %+lld us: %s\n", static_cast<long long>(f.timestamp_us - x->frame_utime),
+                             can::to_cansend(f).c_str());
+              }
+            }
           }
         }
         predicted.push_back(scheduled.empty() ? 0.0 : scheduled.back().predicted_spread_us);

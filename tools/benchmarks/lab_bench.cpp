@@ -518,7 +518,7 @@ int run(const Options& opt) {
     std::printf("\nfindings:\n");
     for (const auto& f : findings) std::printf("  - %s\n", f.c_str());
   }
-  if (rc == 0)
+  if (rc == 0 && std::getenv("BENCH_LAB_VERBOSE") == nullptr)
     std::filesystem::remove_all(dir);
   else
     std::printf("\nlogs kept in %s\n", dir.c_str());
