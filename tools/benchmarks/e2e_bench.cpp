@@ -515,7 +515,17 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
                            static_cast<long long>(stall.back()));
             if (verbose && !one_bus && !scheduled.empty() &&
                 truth.back() > 200.0 + scheduled.back().predicted_spread_us) {
-              // Over the bound: can0's frames from 3 ms before the first send time to the last start.
+              // Over the bound: each drive's start after its bus's send time (its start frame's
+              // wire time when on time), then can0's frames from 3 ms before the first send time
+              // to the last start.
+              const auto& t2 = scheduled.back();
+              for (const auto& rep : reports) {
+                for (std::size_t b = 0; b < t2.buses.size() && b < t2.send_utime.size(); ++b) {
+                  if (t2.buses[b] == rep.bus)
+                    std::fprintf(stderr, "    %s: %lld us after %s's send time\n", rep.drive.c_str(),
+                                 static_cast<long long>(rep.frame_utime - t2.send_utime[b]), rep.bus.c_str());
+                }
+              }
               for (const auto& f : drain_tap()) {
                 if (f.timestamp_us < first_send - 3000 || f.timestamp_us > hi) continue;
                 std::fprintf(stderr, "    can0 %+lld us: %s\n", static_cast<long long>(f.timestamp_us - x->frame_utime),

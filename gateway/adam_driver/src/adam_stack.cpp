@@ -92,6 +92,16 @@ std::string AdamStack::describe(const Transaction& t) const {
   return "writing register " + hex16(reg) + register_name(reg);
 }
 
+std::string AdamStack::exchange_under_way(TimePoint now) const {
+  if (!in_flight_) return {};
+  const Transaction& t = *in_flight_;
+  const std::string who = t.drive == nullptr
+                              ? "broadcast"
+                              : "drive " + t.drive->cfg.drive + " (slave " + std::to_string(t.drive->cfg.unit) + ")";
+  return who + " " + describe(t) + ", its request ended " +
+         std::to_string(std::chrono::duration_cast<std::chrono::microseconds>(now - t.frame_end).count()) + " us ago";
+}
+
 std::deque<AdamStack::Transaction>::iterator AdamStack::next_to_send() {
   if (!awaiting_trigger()) return queue_.begin();
   std::vector<const Drive*> held;  // drives whose next transaction is too long to begin now

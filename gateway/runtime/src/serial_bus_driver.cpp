@@ -107,6 +107,8 @@ void SerialBusDriver::execute(const motionlcm::gateway_command_t& command) {
 }
 
 void SerialBusDriver::fire(std::int64_t trigger_id) {
+  if (const std::string busy = core_->exchange_under_way(loop_.now()); !busy.empty())
+    spdlog::info("bus {}: trigger {}: its start waits for the exchange under way, {}", bus_, trigger_id, busy);
   core_->fire(trigger_id, loop_.now());
   pump();
 }

@@ -38,6 +38,13 @@ void RequestChannel::reset() {
   selected_ = 0;
 }
 
+std::string RequestChannel::under_way(TimePoint now) const {
+  if (!in_flight_) return {};
+  return describe(in_flight_->request) + (in_flight_->is_selection ? " (its ADR selection)" : "") +
+         fmt::format(", on the wire {} us ago",
+                     std::chrono::duration_cast<std::chrono::microseconds>(now - in_flight_->on_wire).count());
+}
+
 Duration RequestChannel::exchange_time(const uim242::Instruction& instruction, int select_node) const {
   const auto characters = [](const uim242::Instruction& in) {
     const auto text = uim242::encode(in);
@@ -67,6 +74,7 @@ void RequestChannel::transmit(InFlight& f, TimePoint now) {
   const TimePoint on_wire =
       now + settings_.egress_latency + settings_.character_time * static_cast<std::int64_t>(text->size());
   f.deadline = on_wire + settings_.timeout;
+  f.on_wire = on_wire;
   if (!f.is_selection && f.request.on_sent && !f.cancelled) f.request.on_sent(on_wire);
 }
 
@@ -94,7 +102,7 @@ TimePoint RequestChannel::process(TimePoint now) {
     if (next->not_before > now) return next->not_before;
     if (reserved_at_ != kNever && now < reserved_at_ + 5 * kReplyAllowance && now + exchange_time(*next) > reserved_at_)
       return reserved_at_ + 5 * kReplyAllowance;
-    InFlight f{std::move(*next), false, 0, now, false};
+    InFlight f{std::move(*next), false, 0, now, false, {}};
     queue_.erase(next);
     f.is_selection = f.request.node != 0 && f.request.node != selected_;
     in_flight_ = std::move(f);

@@ -109,6 +109,24 @@ TEST_F(TwoDriveTest, AReservedLineSendsTheBroadcastAtOnceWhereAPollRoundWouldHol
   EXPECT_GT(sent.size(), before + 1);
 }
 
+// What holds the line when a start comes is said (the gateway logs it): the poll read awaiting
+// its reply, the drive it addresses, and how long ago its request ended; nothing once answered.
+TEST_F(TwoDriveTest, TheExchangeUnderWayIsNamedWithItsAge) {
+  ASSERT_NO_FATAL_FAILURE(arm_both(100000, -8000));
+  run_for(20ms);
+  ASSERT_EQ(core->exchange_under_way(now), "");
+  const std::size_t mark = sent.size();
+  for (int i = 0; i < 200 && sent.size() == mark; ++i) advance(1ms);
+  ASSERT_GT(sent.size(), mark) << "no poll went out";
+  const std::string busy = core->exchange_under_way(now + 5ms);
+  EXPECT_NE(busy.find("(slave "), std::string::npos) << busy;
+  EXPECT_NE(busy.find("reading register"), std::string::npos) << busy;
+  EXPECT_NE(busy.find("its request ended"), std::string::npos) << busy;
+  serve_pending();
+  run_for(2ms);
+  EXPECT_EQ(core->exchange_under_way(now), "") << "answered, the line is free";
+}
+
 // The line's start wait (LINE_TIMING) is its longest poll read as a reservation counts it: the
 // request (8 bytes), the drive's assumed reply latency (1 ms), the position-and-status reply (4
 // registers: 13 bytes), and t3.5 after each frame, 1.75 ms above 19200 baud (Modbus over serial

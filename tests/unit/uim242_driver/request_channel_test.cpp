@@ -56,6 +56,24 @@ TEST(RequestChannel, AnInstructionIsOnTheWireAfterTheEgressLatencyAndItsCharacte
   }
 }
 
+// What holds the line when a start comes is said (the gateway logs it): the request awaiting its
+// reply, and how long ago it went on the wire; nothing once the reply is in.
+TEST(RequestChannel, TheExchangeUnderWayIsNamedWithItsAge) {
+  Line line;
+  const TimePoint t0 = TimePoint{} + 10s;
+  EXPECT_EQ(line.channel.under_way(t0), "");
+  Request r;
+  r.drive = "u-drive";
+  r.node = 5;
+  r.instruction = uim242::Instruction{uim242::Mnemonic::kSPD, false, 1000, false};
+  line.channel.submit(std::move(r));
+  line.channel.process(t0);
+  ASSERT_EQ(line.sent.size(), 1U);
+  EXPECT_EQ(line.sent[0], "ADR 5;") << "the gateway selects node 5 first";
+  EXPECT_EQ(line.channel.under_way(t0 + 6 * 174us + 250us),
+            "u-drive (node 5): 'SPD 1000;' (its ADR selection), on the wire 250 us ago");
+}
+
 TEST(RequestChannel, ARequestIsNotHandedToTheLineBeforeItsNotBefore) {
   Line line;
   const TimePoint t0 = TimePoint{} + 10s;

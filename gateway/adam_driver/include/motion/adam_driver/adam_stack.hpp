@@ -138,6 +138,7 @@ class AdamStack final : public gateway::SerialStack {
   // trigger no longer one begins (a Save, a long write), and a drive that is not online is not
   // polled (next_to_send()).
   [[nodiscard]] Duration start_wait() const override { return start_wait_; }
+  [[nodiscard]] std::string exchange_under_way(TimePoint now) const override;
   // A transport failure (hang-up): every command ends FAILED and the line is "closed".
   void line_lost(const std::string& why, TimePoint now) override;
 

@@ -34,6 +34,10 @@ class SerialStack {
   // The longest exchange the core begins on its own (a poll) as reserve_line() judges it: a start
   // reserved at least this long before `at` finds the line free then (LINE_TIMING). Default: 0.
   [[nodiscard]] virtual Duration start_wait() const { return Duration::zero(); }
+  // The exchange holding the line at `now`, as the core's reasons name it and how long ago its
+  // request ended; empty when the line is free. A start fired meanwhile waits for its end: the
+  // driver says so in the log. Default: empty.
+  [[nodiscard]] virtual std::string exchange_under_way(TimePoint /*now*/) const { return {}; }
   // The port hung up: every running command ends FAILED, the drives are offline until start().
   virtual void line_lost(const std::string& why, TimePoint now) = 0;
   [[nodiscard]] virtual motionlcm::bus_stats_t statistics() const = 0;

@@ -84,6 +84,9 @@ class RequestChannel {
   // gateway's target is unknown afterwards.
   void reset();
   [[nodiscard]] bool idle() const noexcept { return !in_flight_ && queue_.empty(); }
+  // The request awaiting its reply, described, and how long ago it went on the wire; empty when
+  // none does (SerialStack::exchange_under_way).
+  [[nodiscard]] std::string under_way(TimePoint now) const;
   [[nodiscard]] const ChannelStatistics& statistics() const noexcept { return stats_; }
   [[nodiscard]] Duration character_time() const noexcept { return settings_.character_time; }
   void count_received(std::size_t bytes) noexcept { stats_.rx_bytes += static_cast<std::int64_t>(bytes); }
@@ -99,6 +102,7 @@ class RequestChannel {
     int attempts = 0;
     TimePoint deadline;
     bool cancelled = false;
+    TimePoint on_wire{};  // its last character on the wire (the last attempt)
   };
   void transmit(InFlight& f, TimePoint now);
   // exchange_time() of `r` handed over now: with its selection when the gateway targets another node.

@@ -115,6 +115,7 @@ class Uim242Stack final : public gateway::SerialStack {
   // an offline controller's identification, which would hold the line until its timeout, is not
   // tried.
   [[nodiscard]] Duration start_wait() const override { return start_wait_; }
+  [[nodiscard]] std::string exchange_under_way(TimePoint now) const override { return channel_.under_way(now); }
   void line_lost(const std::string& why, TimePoint now) override;
 
   [[nodiscard]] bool ready() const override;
