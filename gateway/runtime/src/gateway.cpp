@@ -269,8 +269,9 @@ void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, st
     fire();
     return;
   }
-  const TimePoint at = loop_.now() + delay;
-  driver_->prepare_fire(at);
+  const TimePoint send_at = loop_.now() + delay;
+  driver_->prepare_fire(send_at);
+  const TimePoint at = send_at + driver_->start_delay(trigger_id);
   auto& timer = pending_fires_[trigger_id];
   timer = std::make_unique<PreciseTimer>(loop_);
   if (bus != nullptr) timer->set_spin(std::chrono::microseconds(bus->timer_spin_us));

@@ -322,7 +322,19 @@ void Uim242Stack::arm(const gateway_command_t& command, TimePoint now) {
   (void)now;
 }
 
-void Uim242Stack::reserve_line(TimePoint at, TimePoint /*now*/) { channel_.reserve(at); }
+void Uim242Stack::reserve_line(TimePoint at, TimePoint /*now*/) {
+  reserved_at_ = at;
+  channel_.reserve(at);
+}
+
+Duration Uim242Stack::start_delay(std::int64_t trigger_id) const {
+  for (const auto& m : moves_) {
+    const Command* c = commands_.find(m->command_id);
+    if (!m->start_sent && m->trigger_id == trigger_id && c != nullptr && c->all(Lifecycle::kArmed))
+      return global_start_shortfall(*m);
+  }
+  return Duration::zero();
+}
 
 bool Uim242Stack::awaiting_trigger() const {
   return std::any_of(moves_.begin(), moves_.end(), [this](const auto& m) {
@@ -344,6 +356,8 @@ Duration Uim242Stack::longest_poll_exchange() const {
 
 void Uim242Stack::fire(std::int64_t trigger_id, TimePoint now) {
   channel_.reserve(kNever);
+  const TimePoint scheduled = reserved_at_ != kNever && reserved_at_ <= now ? reserved_at_ : now;
+  reserved_at_ = kNever;
   // start_move() may end a move at once (every axis already at its target: DONE), and finish()
   // erases it from moves_: walk a list of the command ids, and look each one up again.
   std::vector<std::int64_t> ids;
@@ -354,7 +368,7 @@ void Uim242Stack::fire(std::int64_t trigger_id, TimePoint now) {
   }
   for (const auto id : ids) {
     const auto it = std::find_if(moves_.begin(), moves_.end(), [id](const auto& m) { return m->command_id == id; });
-    if (it != moves_.end() && !(*it)->start_sent) start_move(**it, now);
+    if (it != moves_.end() && !(*it)->start_sent) start_move(**it, scheduled);
   }
 }
 

@@ -107,7 +107,23 @@ void Uim242Stack::probe_spd0(Drive& d, std::int64_t group, const std::function<v
   channel_.submit(std::move(r), true);
 }
 
-void Uim242Stack::start_move(Move& m, TimePoint now) {
+Duration Uim242Stack::global_start_shortfall(const Move& m) const {
+  std::size_t starting = 0;
+  std::optional<std::int64_t> speed;
+  for (const auto& a : m.axes) {
+    if (a.arrived) continue;
+    if (!a.preloaded || (speed && *speed != a.speed)) return Duration::zero();  // crawls, or drive by drive
+    speed = a.speed;
+    ++starting;
+  }
+  if (!speed || starting != drives_.size()) return Duration::zero();
+  const auto longest = uim242::encode_global(Mnemonic::kSPD, uim242::spec(Mnemonic::kSPD).max);
+  const auto actual = uim242::encode(Instruction{Mnemonic::kSPD, true, *speed, false});
+  if (!longest.ok() || !actual.ok() || longest->size() <= actual->size()) return Duration::zero();
+  return channel_.character_time() * static_cast<std::int64_t>(longest->size() - actual->size());
+}
+
+void Uim242Stack::start_move(Move& m, TimePoint scheduled) {
   m.start_sent = true;
   const std::int64_t id = m.command_id;
   std::vector<Move::Axis*> to_start;
@@ -182,12 +198,10 @@ void Uim242Stack::start_move(Move& m, TimePoint now) {
     r.group = id;
     r.on_sent = on_sent;
     // The coordinator led this start by the drive model's wire time of the longest global form
-    // (gSPD 65535;): a shorter one waits the difference, so that it ends when that one would.
-    const auto longest = uim242::encode_global(Mnemonic::kSPD, uim242::spec(Mnemonic::kSPD).max);
-    const auto actual = uim242::encode(r.instruction);
-    if (!crawl && longest.ok() && actual.ok() && longest->size() > actual->size()) {
-      r.not_before = now + channel_.character_time() * static_cast<std::int64_t>(longest->size() - actual->size());
-    }
+    // (gSPD 65535;): a shorter one waits the difference after the scheduled time, so that it
+    // ends when that one would (the gateway fires it then: start_delay()).
+    const Duration shortfall = global_start_shortfall(m);
+    if (shortfall > Duration::zero()) r.not_before = scheduled + shortfall;
     r.on_reply = [started, kind](const Frame&, TimePoint) { started(kind + "broadcast"); };
     r.on_failure = failure(nullptr);
     out.push_back(std::move(r));

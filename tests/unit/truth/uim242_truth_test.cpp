@@ -231,6 +231,53 @@ INSTANTIATE_TEST_SUITE_P(
       return p.param.variant + (p.param.answer.empty() ? "_detected" : "_configured_" + p.param.answer);
     });
 
+// A global start shorter than the longest form the coordinator's schedule counts (`gSPD 65535;`)
+// ends when that one would. The gateway fires it start_delay() after its reserved time and it
+// goes at once, with no second wake-up of the loop; fired at the reserved time, it waits the
+// difference itself. Either way its last character ends at the same instant.
+TEST(Uim242StartDelay, AShorterGlobalSpeedIsFiredItsShortfallLateAndGoesAtOnce) {
+  for (const bool fired_late : {true, false}) {
+    SCOPED_TRACE(fired_late ? "fired at the start delay" : "fired at the reserved time");
+    SerialBench bench(lab("0"), "rs232", sim::uim242_line_factory());
+    bench.attach(uim242_core(bench));
+    ASSERT_TRUE(bench.run_until([&] { return bench.core->ready(); }, std::chrono::seconds(10)));
+    const auto enabled = bench.execute(
+        command(gateway_command_t::ENABLE, "rs232", {axis_move("u1", 0, 0, 0), axis_move("u2", 0, 0, 0)}));
+    ASSERT_EQ(bench.finish(enabled).status, kDone);
+    const auto move =
+        bench.execute(command(gateway_command_t::ARM_MOVE, "rs232",
+                              {axis_move("u1", 1600, 3200, 16000), axis_move("u2", -800, 3200, 16000)}, 9));
+    ASSERT_TRUE(bench.run_until(
+        [&] {
+          return std::any_of(bench.out.replies.begin(), bench.out.replies.end(), [&](const auto& r) {
+            return r.command_id == move && r.status == motionlcm::gateway_reply_t::ARMED;
+          });
+        },
+        std::chrono::seconds(2)));
+    const TimePoint at = bench.now + std::chrono::milliseconds(50);
+    bench.core->reserve_line(at, bench.now);
+    const Duration character = gateway::serial_line_settings(*bench.config->find_bus("rs232")).wire_time(1);
+    const Duration delay = bench.core->start_delay(9);
+    EXPECT_EQ(delay, character) << "gSPD 3200; is one character shorter than gSPD 65535;";
+    EXPECT_EQ(bench.core->start_delay(10), Duration::zero()) << "no move is armed with trigger 10";
+    bench.run_for(at + (fired_late ? delay : Duration::zero()) - bench.now);
+    const std::size_t mark = bench.sent.size();
+    const std::size_t writes = bench.sent_at.size();
+    bench.core->fire(9, bench.now);
+    const TimePoint next = bench.core->process(bench.now);
+    if (!fired_late) {
+      EXPECT_EQ(bench.sent.size(), mark) << "a shorter form went before its time";
+      EXPECT_EQ(next, at + delay);
+      bench.run_for(next - bench.now);
+      bench.core->process(bench.now);
+    }
+    ASSERT_GT(bench.sent_at.size(), writes);
+    EXPECT_EQ(std::string(bench.sent.begin() + static_cast<std::ptrdiff_t>(mark), bench.sent.end()), "gSPD 3200;");
+    EXPECT_EQ(bench.sent_at[writes], at + delay) << "written at once when fired then";
+    ASSERT_EQ(bench.finish(move).status, kDone);
+  }
+}
+
 // A gateway that starts while a controller runs (its predecessor's move, README "Safety and
 // faults", slow restart) stops it before writing its set-up: on the line the controller gets
 // `FBK;`, then `STP 0;`, then `FBK;` until it reports speed 0, and only then its set-up writes

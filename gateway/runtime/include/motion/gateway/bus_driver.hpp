@@ -107,6 +107,11 @@ class BusDriver {
   // traffic at `at` (LINE_TIMING): the longest exchange a serial line may have under way, the
   // answer horizon of a CAN bus's polls or its SYNC's quiet time. Default 0.
   [[nodiscard]] virtual Duration start_wait() const { return Duration::zero(); }
+  // How long after its send time the start frame of the moves armed with `trigger_id` is to be
+  // handed over: a frame shorter than the one the coordinator's schedule counted waits the
+  // difference, so that it ends when that one would. Fired then, it goes out at once, with no
+  // second wake-up of the loop in between. Default 0.
+  [[nodiscard]] virtual Duration start_delay(std::int64_t /*trigger_id*/) const { return Duration::zero(); }
   virtual void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& /*command_order*/) {
     fire(trigger_id);
   }

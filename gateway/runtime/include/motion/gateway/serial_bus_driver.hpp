@@ -48,6 +48,7 @@ class SerialBusDriver : public BusDriver {
   void fire(std::int64_t trigger_id) final;
   void prepare_fire(TimePoint at) final;
   [[nodiscard]] Duration start_wait() const final { return core_->start_wait(); }
+  [[nodiscard]] Duration start_delay(std::int64_t trigger_id) const final { return core_->start_delay(trigger_id); }
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const final;
   [[nodiscard]] bool ready() const final;
   [[nodiscard]] LedgerCounters ledger_counters() const final { return core_->ledger_counters(); }

@@ -34,6 +34,9 @@ class SerialStack {
   // The longest exchange the core begins on its own (a poll) as reserve_line() judges it: a start
   // reserved at least this long before `at` finds the line free then (LINE_TIMING). Default: 0.
   [[nodiscard]] virtual Duration start_wait() const { return Duration::zero(); }
+  // BusDriver::start_delay: fired that long after the reserved time, the start frame of
+  // `trigger_id` goes out at once. Default: 0.
+  [[nodiscard]] virtual Duration start_delay(std::int64_t /*trigger_id*/) const { return Duration::zero(); }
   // The exchange holding the line at `now`, as the core's reasons name it and how long ago its
   // request ended; empty when the line is free. A start fired meanwhile waits for its end: the
   // driver says so in the log. Default: empty.

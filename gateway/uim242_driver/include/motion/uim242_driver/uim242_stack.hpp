@@ -115,6 +115,9 @@ class Uim242Stack final : public gateway::SerialStack {
   // an offline controller's identification, which would hold the line until its timeout, is not
   // tried.
   [[nodiscard]] Duration start_wait() const override { return start_wait_; }
+  // A move started by one global `SPD` shorter than the longest form the coordinator's schedule
+  // counted (`gSPD 65535;`): the characters it lacks, at the line's character time.
+  [[nodiscard]] Duration start_delay(std::int64_t trigger_id) const override;
   [[nodiscard]] std::string exchange_under_way(TimePoint now) const override { return channel_.under_way(now); }
   void line_lost(const std::string& why, TimePoint now) override;
 
@@ -180,7 +183,14 @@ class Uim242Stack final : public gateway::SerialStack {
                      const std::function<void(Drive&, const motionlcm::axis_command_t&)>& f, bool stops = false);
   void stop_unanswering(Drive& d, bool estop, std::int64_t command_id);
   void arm(const motionlcm::gateway_command_t& command, TimePoint now);
-  void start_move(Move& m, TimePoint now);
+  // `scheduled`: when the start was reserved for (reserve_line), the time of the fire without a
+  // reservation; a global speed shorter than the longest form goes no sooner than
+  // global_start_shortfall() after it.
+  void start_move(Move& m, TimePoint scheduled);
+  // What the global speed starting the move's axes not at their target yet lacks to the longest
+  // form's wire time (zero when the move starts drive by drive or crawls).
+  [[nodiscard]] Duration global_start_shortfall(const Move& m) const;
+  TimePoint reserved_at_ = kNever;  // reserve_line: the start time, until fire()
   // The first armed move of a drive whose spd0_position_move is unknown: at rest `STP 1;`, after
   // kSpd0ProbeWait `FBK;` (moving: runs_at_last_speed; EE 66 to the STP: refused; else holds),
   // `STP 0;`; then `then` (the drive may have moved one count: settle again).
