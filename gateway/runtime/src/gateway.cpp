@@ -276,12 +276,15 @@ void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, st
   timer = std::make_unique<PreciseTimer>(loop_);
   if (bus != nullptr) timer->set_spin(std::chrono::microseconds(bus->timer_spin_us));
   timer->arm(at, [this, trigger_id, fire, at] {
-    // A start handed over late starts its drives that much late: said, with how late.
-    const auto late = std::chrono::duration_cast<std::chrono::microseconds>(loop_.now() - at);
-    if (late > kLateFireNote)
-      spdlog::info("trigger {}: its start frames handed over {} us late on {} (the loop busy or not scheduled)",
-                   trigger_id, late.count(), bus_);
+    // A start handed over late starts its drives that much late: said, with how late the loop
+    // woke and how late the frames were handed over (the process preempted in between, or a
+    // serial line still busy).
+    const auto late = [this, at] { return std::chrono::duration_cast<std::chrono::microseconds>(loop_.now() - at); };
+    const auto woke = late();
     fire();
+    if (const auto handed = late(); handed > kLateFireNote)
+      spdlog::info("trigger {}: its start frames handed over by {} us late on {} (the loop woke {} us late)",
+                   trigger_id, handed.count(), bus_, woke.count());
     // Destroyed after this callback (the loop holds no reference to it once it has run).
     loop_.call_after(Duration::zero(), [this, trigger_id] {
       if (const auto it = pending_fires_.find(trigger_id); it != pending_fires_.end() && !it->second->armed())
