@@ -93,7 +93,12 @@ std::string AdamStack::describe(const Transaction& t) const {
 }
 
 std::string AdamStack::exchange_under_way(TimePoint now) const {
-  if (!in_flight_) return {};
+  if (!in_flight_) {
+    if (now >= line_free_at_) return {};
+    return "the silent interval after the last frame (Modbus over serial line §2.5.1.1), " +
+           std::to_string(std::chrono::duration_cast<std::chrono::microseconds>(line_free_at_ - now).count()) +
+           " us more";
+  }
   const Transaction& t = *in_flight_;
   const std::string who = t.drive == nullptr
                               ? "broadcast"

@@ -110,7 +110,8 @@ TEST_F(TwoDriveTest, AReservedLineSendsTheBroadcastAtOnceWhereAPollRoundWouldHol
 }
 
 // What holds the line when a start comes is said (the gateway logs it): the poll read awaiting
-// its reply, the drive it addresses, and how long ago its request ended; nothing once answered.
+// its reply, the drive it addresses, and how long ago its request ended; then the silence the
+// line keeps after the reply (t3.5); nothing once the round is over.
 TEST_F(TwoDriveTest, TheExchangeUnderWayIsNamedWithItsAge) {
   ASSERT_NO_FATAL_FAILURE(arm_both(100000, -8000));
   run_for(20ms);
@@ -123,7 +124,9 @@ TEST_F(TwoDriveTest, TheExchangeUnderWayIsNamedWithItsAge) {
   EXPECT_NE(busy.find("reading register"), std::string::npos) << busy;
   EXPECT_NE(busy.find("its request ended"), std::string::npos) << busy;
   serve_pending();
-  run_for(2ms);
+  const std::string silence = core->exchange_under_way(now);
+  EXPECT_NE(silence.find("the silent interval after the last frame"), std::string::npos) << silence;
+  run_for(60ms);  // the poll round over
   EXPECT_EQ(core->exchange_under_way(now), "") << "answered, the line is free";
 }
 

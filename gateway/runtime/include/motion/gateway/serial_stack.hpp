@@ -38,7 +38,7 @@ class SerialStack {
   // `trigger_id` goes out at once. Default: 0.
   [[nodiscard]] virtual Duration start_delay(std::int64_t /*trigger_id*/) const { return Duration::zero(); }
   // The exchange holding the line at `now`, as the core's reasons name it and how long ago its
-  // request ended; empty when the line is free. A start fired meanwhile waits for its end: the
+  // request ended (or the silence the line keeps after it); empty when the line is free. A start fired meanwhile waits for its end: the
   // driver says so in the log. Default: empty.
   [[nodiscard]] virtual std::string exchange_under_way(TimePoint /*now*/) const { return {}; }
   // The port hung up: every running command ends FAILED, the drives are offline until start().
