@@ -102,14 +102,21 @@ inline void stop_all(std::vector<Child>& children) {
 }
 
 // The lab's programs as children: each started from `bin` with the common arguments (the
-// configuration, the LCM URL, warn logs), MOTION_SIM_DIR = `sim_dir`, its output in
-// <log_dir>/<name>.log. stop_all(children()) ends them.
+// configuration, the LCM URL, warn logs; info logs with BENCH_E2E_VERBOSE or BENCH_LAB_VERBOSE,
+// e.g. a gateway's late starts), MOTION_SIM_DIR = `sim_dir`, its output in <log_dir>/<name>.log.
+// stop_all(children()) ends them.
 class LabPrograms {
  public:
   LabPrograms(std::string bin, const std::string& config_path, const std::string& url, std::string sim_dir,
               std::string log_dir)
       : bin_(std::move(bin)),
-        common_{"--config", config_path, "--lcm-url", url, "--log-level", "warn"},
+        common_{"--config",
+                config_path,
+                "--lcm-url",
+                url,
+                "--log-level",
+                std::getenv("BENCH_E2E_VERBOSE") != nullptr || std::getenv("BENCH_LAB_VERBOSE") != nullptr ? "info"
+                                                                                                           : "warn"},
         sim_dir_(std::move(sim_dir)),
         log_dir_(std::move(log_dir)) {}
   void start(const std::string& name, const std::string& program, std::vector<std::string> extra,
