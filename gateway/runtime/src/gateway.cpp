@@ -277,14 +277,14 @@ void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, st
   if (bus != nullptr) timer->set_spin(std::chrono::microseconds(bus->timer_spin_us));
   timer->arm(at, [this, trigger_id, fire, at] {
     // A start handed over late starts its drives that much late: said, with how late the loop
-    // woke and how late the frames were handed over (the process preempted in between, or a
-    // serial line still busy).
+    // woke and how late the fire was done (its start frames handed over in between, then its
+    // replies published; a process preempted meanwhile shows as the difference).
     const auto late = [this, at] { return std::chrono::duration_cast<std::chrono::microseconds>(loop_.now() - at); };
     const auto woke = late();
     fire();
-    if (const auto handed = late(); handed > kLateFireNote)
-      spdlog::info("trigger {}: its start frames handed over by {} us late on {} (the loop woke {} us late)",
-                   trigger_id, handed.count(), bus_, woke.count());
+    if (const auto done = late(); done > kLateFireNote)
+      spdlog::info("trigger {}: its start fired {} us late on {}, done {} us late (its frames handed over in between)",
+                   trigger_id, woke.count(), bus_, done.count());
     // Destroyed after this callback (the loop holds no reference to it once it has run).
     loop_.call_after(Duration::zero(), [this, trigger_id] {
       if (const auto it = pending_fires_.find(trigger_id); it != pending_fires_.end() && !it->second->armed())
