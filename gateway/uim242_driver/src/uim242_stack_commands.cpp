@@ -356,7 +356,10 @@ Duration Uim242Stack::longest_poll_exchange() const {
 
 void Uim242Stack::fire(std::int64_t trigger_id, TimePoint now) {
   channel_.reserve(kNever);
-  const TimePoint scheduled = reserved_at_ != kNever && reserved_at_ <= now ? reserved_at_ : now;
+  // The reservation this fire was scheduled for; one left by a start that never came is stale.
+  const bool reserved =
+      reserved_at_ != kNever && reserved_at_ <= now && now - reserved_at_ < 5 * RequestChannel::kReplyAllowance;
+  const TimePoint scheduled = reserved ? reserved_at_ : now;
   reserved_at_ = kNever;
   // start_move() may end a move at once (every axis already at its target: DONE), and finish()
   // erases it from moves_: walk a list of the command ids, and look each one up again.
