@@ -4,10 +4,12 @@
 
 #include <cerrno>
 #include <cstring>
+#include <optional>
 
 #include "bus_assembly.hpp"
 #include "bus_lock.hpp"
 #include "motion/app/service.hpp"
+#include "motion/core/cpu_latency.hpp"
 #include "motion/core/log.hpp"
 #include "motion/core/precise_timer.hpp"
 #include "motion/drive_model/drive_model.hpp"
@@ -65,6 +67,21 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
             "bus {}: realtime_priority {} refused ({}): running under normal scheduling (needs "
             "CAP_SYS_NICE or an RLIMIT_RTPRIO of at least {}, e.g. LimitRTPRIO= in its systemd unit)",
             bus_name, priority, std::strerror(error), priority);
+      }
+    }
+    // Optional: no CPU of the host slower to wake from idle than cpu_latency_us while this process
+    // runs (in a virtual machine, waking a halted virtual CPU costs tens of microseconds more).
+    std::optional<CpuLatencyRequest> cpu_latency;
+    if (bus->cpu_latency_us >= 0) {
+      cpu_latency.emplace(std::chrono::microseconds(bus->cpu_latency_us));
+      if (cpu_latency->held()) {
+        spdlog::info("bus {}: the host's CPUs wake from idle within {} us while this gateway runs", bus_name,
+                     bus->cpu_latency_us);
+      } else {
+        spdlog::warn(
+            "bus {}: cpu_latency_us {} refused ({}): the host's own idle states stay (needs write access to "
+            "/dev/cpu_dma_latency: root, or a udev rule granting the gateway's group)",
+            bus_name, bus->cpu_latency_us, cpu_latency->error().message());
       }
     }
     gateway::Gateway gateway(service.loop(), service.node(), service.health(), *config, bus_name);

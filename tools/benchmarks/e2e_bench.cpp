@@ -31,13 +31,16 @@
 //      moves the p99 is interpolated between the two worst of every hundred, so a p99 goal holds
 //      when fewer than N / 100 moves exceed it (--moves 300 gives a p99 that one host hiccup does
 //      not decide). BENCH_E2E_VERBOSE=1 prints each move's starts against x's
-//      and keeps the programs' logs.
+//      and keeps the programs' logs. --realtime P: every bus gets `realtime_priority: P` (its
+//      gateway's loop under SCHED_FIFO) and motion-sim runs under SCHED_FIFO P - 10 (its reading
+//      threads date the simulated drives' starts, the ground truth); 0, the default, is normal
+//      scheduling for all.
 //
 // The processes run on their own LCM URL and simulation directory and are killed at the end (also
 // when this process dies: PR_SET_PDEATHSIG). A plain main, not Google Benchmark: fixed end-to-end
 // workloads whose meaning is the ratio to bounds from the same run.
 //
-// Usage: bench_e2e [--quick] [--skew-only] [--moves N] [--set BUS.KEY=VALUE ...]
+// Usage: bench_e2e [--quick] [--skew-only] [--moves N] [--realtime P] [--set BUS.KEY=VALUE ...]
 //        (--quick: 10 moves instead of 50, 4 skew moves instead of 12; --skew-only: part 3 only,
 //        30 skew moves per group unless --quick; --moves N: N skew moves per group)
 #include <fcntl.h>
@@ -60,6 +63,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
@@ -161,7 +165,7 @@ std::string set_bus_key(std::string& yaml, const std::string& spec) {
   return {};
 }
 
-int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::string>& sets) {
+int run(bool quick, bool skew_only, int skew_moves, int realtime, std::vector<std::string> sets) {
   std::string config_path = MOTION_E2E_CONFIG;
   if (const char* env = std::getenv("BENCH_E2E_CONFIG")) config_path = env;
   std::string yaml;
@@ -174,6 +178,17 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
       return 3;
     }
     yaml = text.str();
+  }
+  if (realtime > 0) {  // every bus of the configuration, before any --set of the command line
+    auto plain = config::load_string(yaml, config_path);
+    if (!plain.ok()) {
+      std::fprintf(stderr, "%s\n", plain.error_text().c_str());
+      return 3;
+    }
+    std::vector<std::string> rt;
+    for (const auto& bus : plain.config->buses)
+      rt.push_back(bus.name + ".realtime_priority=" + std::to_string(realtime));
+    sets.insert(sets.begin(), rt.begin(), rt.end());
   }
   for (const auto& spec : sets) {
     if (const auto why = set_bus_key(yaml, spec); !why.empty()) {
@@ -239,7 +254,7 @@ int run(bool quick, bool skew_only, int skew_moves, const std::vector<std::strin
                                              });
 
   LabPrograms programs(bin, config_path, url, sim_dir, dir);
-  programs.start("sim", "motion-sim", {});
+  programs.start("sim", "motion-sim", {}, realtime > 0 ? realtime - 10 : 0);
   const auto wait = [&](const std::function<bool()>& done, int seconds) {
     return client.wait_until(done, std::chrono::seconds(seconds));
   };
@@ -615,6 +630,7 @@ int main(int argc, char** argv) {
   bool quick = false;
   bool skew_only = false;
   int skew_moves = 0;
+  int realtime = 0;
   std::vector<std::string> sets;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
@@ -627,15 +643,21 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "bench_e2e: --moves wants a count of at least 1, got '%s'\n", argv[i]);
         return 2;
       }
+    } else if (std::strcmp(argv[i], "--realtime") == 0 && i + 1 < argc) {
+      realtime = std::atoi(argv[++i]);
+      if (realtime != 0 && (realtime < 11 || realtime > 99)) {
+        std::fprintf(stderr, "bench_e2e: --realtime wants 0 or a priority of 11 to 99, got '%s'\n", argv[i]);
+        return 2;
+      }
     } else if (std::strcmp(argv[i], "--set") == 0 && i + 1 < argc) {
       sets.emplace_back(argv[++i]);
     } else {
       std::fprintf(stderr,
-                   "usage: bench_e2e [--quick] [--skew-only] [--moves N] [--set BUS.KEY=VALUE ...]\n"
+                   "usage: bench_e2e [--quick] [--skew-only] [--moves N] [--realtime P] [--set BUS.KEY=VALUE ...]\n"
                    "unknown or incomplete argument: %s\n",
                    argv[i]);
       return 2;
     }
   }
-  return motion::bench::run(quick, skew_only, skew_moves, sets);
+  return motion::bench::run(quick, skew_only, skew_moves, realtime, std::move(sets));
 }

@@ -57,7 +57,7 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
   if (!r.check_map(node, path,
                    {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits", "uimessage_crc",
                     "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz", "realtime_priority",
-                    "timer_spin_us", "egress_latency_us", "kernel_sync"}))
+                    "timer_spin_us", "cpu_latency_us", "egress_latency_us", "kernel_sync"}))
     return;
   bus.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "name", true)) bus.name = *v;
@@ -135,6 +135,13 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
       r.error(node["timer_spin_us"], path + ".timer_spin_us",
               "expected 0 (sleep to each deadline) .. 500 (wake 500 us early and wait the rest busy), got " +
                   std::to_string(*v));
+  }
+  if (auto v = r.get<int>(node, path, "cpu_latency_us", false)) {
+    bus.cpu_latency_us = *v;
+    if (*v < 0 || *v > kMaxCpuLatencyUs)
+      r.error(node["cpu_latency_us"], path + ".cpu_latency_us",
+              "expected 0 (idle CPUs poll) .. " + std::to_string(kMaxCpuLatencyUs) +
+                  " us (the longest wake-up from idle the gateway accepts), got " + std::to_string(*v));
   }
   if (auto v = r.get<int>(node, path, "egress_latency_us", false)) {
     bus.egress_latency_us = *v;

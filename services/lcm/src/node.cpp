@@ -75,6 +75,7 @@ Node::Node(EventLoop& loop, NodeOptions options)
 }
 
 Node::~Node() {
+  end_quiet();
   for (const auto& sub : subscriptions_) {
     if (sub->summary_timer != 0) loop_.cancel(sub->summary_timer);
   }
@@ -108,6 +109,37 @@ int Node::default_receive_buffer() {
 
 bool Node::publish_raw(const std::string& full_channel, const std::vector<std::uint8_t>& data) {
   if (!ok_) return false;
+  if (quiet_timer_ != 0) {
+    if (quiet_queue_.size() < kQuietQueueLimit) {
+      quiet_queue_.emplace_back(full_channel, data);
+      return true;
+    }
+    spdlog::debug("lcm: {} publications wait in a quiet interval: published now", quiet_queue_.size());
+    end_quiet();
+  }
+  return send(full_channel, data);
+}
+
+void Node::quiet_until(TimePoint until) {
+  if (!ok_ || until <= loop_.now() || (quiet_timer_ != 0 && until <= quiet_until_)) return;
+  if (quiet_timer_ != 0) loop_.cancel(quiet_timer_);
+  quiet_until_ = until;
+  quiet_timer_ = loop_.call_at(until, [this] {
+    quiet_timer_ = 0;
+    end_quiet();
+  });
+}
+
+void Node::end_quiet() {
+  if (quiet_timer_ != 0) loop_.cancel(quiet_timer_);
+  quiet_timer_ = 0;
+  // A publication's own path may publish again: it goes straight out now.
+  auto queued = std::move(quiet_queue_);
+  quiet_queue_.clear();
+  for (const auto& [channel, data] : queued) send(channel, data);
+}
+
+bool Node::send(const std::string& full_channel, const std::vector<std::uint8_t>& data) {
   const int rc = lcm_->publish(full_channel, data.data(), static_cast<unsigned int>(data.size()));
   if (rc != 0) {
     spdlog::warn("lcm: publish on {} failed", full_channel);

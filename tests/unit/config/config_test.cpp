@@ -360,6 +360,13 @@ TEST(Config, TimerSpinIsOffOrUpTo500Microseconds) {
                          {{501, "0 (sleep to each deadline) .. 500"}, {-1, "got -1"}});
 }
 
+// How long a CPU may take to wake from idle while the gateway runs: the host's own setting unless
+// asked (-1), else 0 (idle CPUs poll) .. 10 ms.
+TEST(Config, CpuLatencyIsTheHostsOwnOrUpTo10Milliseconds) {
+  expect_bounded_bus_key("cpu_latency_us", &Bus::cpu_latency_us, 0, -1, 10000,
+                         {{10001, "0 (idle CPUs poll) .. 10000 us"}, {-1, "got -1"}});
+}
+
 // The time from a write to the first bit on the wire (a USB adapter): none unless configured, at
 // most 20 ms, and below the least trigger lead (the trigger must reach the gateway before it hands
 // its start over).

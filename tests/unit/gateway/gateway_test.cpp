@@ -45,7 +45,15 @@ class FakeDriver : public BusDriver {
     r.status = motionlcm::gateway_reply_t::ARMED;
     out_.command_reply(r);
   }
-  void fire(std::int64_t trigger_id) override { fired.emplace_back(trigger_id, loop_.now()); }
+  void fire(std::int64_t trigger_id) override {
+    fired.emplace_back(trigger_id, loop_.now());
+    if (reply_on_fire) {
+      motionlcm::gateway_reply_t r{};
+      r.command_id = 77;
+      r.status = motionlcm::gateway_reply_t::STARTED;
+      out_.command_reply(r);
+    }
+  }
   void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& order) override {
     fire(trigger_id);
     orders.push_back(order);
@@ -64,7 +72,8 @@ class FakeDriver : public BusDriver {
   std::vector<std::pair<std::int64_t, TimePoint>> fired;
   std::vector<std::vector<std::int64_t>> orders;
   std::vector<TimePoint> prepared;
-  Duration wait{};  // start_wait()
+  Duration wait{};             // start_wait()
+  bool reply_on_fire = false;  // a STARTED reply for command 77 from each fire
 
  private:
   GatewayOutput& out_;
@@ -262,6 +271,70 @@ TEST_F(Fixture, ScheduledTriggerFiresAtThisBusesSendTimeInItsOrderAndOnce) {
   ASSERT_EQ(heard.size(), 2u);
   EXPECT_EQ(driver->fired[1].first, 4);
   EXPECT_GT(heard[1].utime, heard[1].send_utime);
+}
+
+// Around a start across buses the gateway publishes nothing (every publication wakes every
+// process of the LCM group, which delays the other buses' fires): from 0.5 ms before the first
+// bus's send time until 0.5 ms after the act time its replies and states wait, then go out in
+// their order. Never longer than 10 ms.
+TEST_F(Fixture, NothingIsPublishedFromJustBeforeTheFirstSendUntilJustAfterTheActTime) {
+  driver->reply_on_fire = true;
+  std::vector<std::pair<motionlcm::gateway_reply_t, std::int64_t>> seen;  // reply, wall time heard
+  node.subscribe<motionlcm::gateway_reply_t>(
+      lcm::channels::kGatewayReply,
+      [&](const motionlcm::gateway_reply_t& r, const std::string&) { seen.emplace_back(r, wall_time_us()); });
+  std::vector<std::int64_t> state_heard;
+  node.subscribe<motionlcm::axis_state_t>(
+      lcm::channels::kAxisState,
+      [&](const motionlcm::axis_state_t&, const std::string&) { state_heard.push_back(wall_time_us()); });
+  motionlcm::sync_trigger2_t t{};
+  t.trigger_id = 5;
+  t.utime = wall_time_us();
+  t.act_utime = t.utime + 80'000;
+  t.buses = {"can1", "can0"};
+  t.send_utime = {t.act_utime - 6'000, t.act_utime - 100};  // can1 sends first; can0 fires 5.9 ms later
+  t.lead_us = {6'000.0, 100.0};
+  t.num_buses = 2;
+  node.publish(lcm::channels::kSyncTrigger2, t);
+  // A state published between can1's send time and can0's is held as well.
+  std::int64_t state_published = 0;
+  loop.call_after(milliseconds(77), [&] {
+    state_published = wall_time_us();
+    DriveStatus s;
+    s.position_counts = 5;
+    gateway.axis_status("x", s);
+  });
+  pump_until([&] { return !seen.empty() && !state_heard.empty(); });
+  ASSERT_EQ(driver->fired.size(), 1u);
+  ASSERT_EQ(seen.size(), 1u);
+  EXPECT_EQ(seen[0].first.status, std::int8_t{motionlcm::gateway_reply_t::STARTED});
+  EXPECT_GE(seen[0].second, t.act_utime + 500) << "the STARTED reply went out inside the quiet interval";
+  ASSERT_GT(state_published, t.send_utime[0] - 500);
+  ASSERT_LT(state_published, t.act_utime);
+  ASSERT_EQ(state_heard.size(), 1u);
+  EXPECT_GE(state_heard[0], t.act_utime + 500) << "the state went out inside the quiet interval";
+  EXPECT_FALSE(node.quiet());
+  // A trigger whose first bus leads by 250 ms keeps quiet for the last 10 ms only: a state
+  // published 150 ms before the act time goes out at once.
+  t.trigger_id = 6;
+  t.utime = wall_time_us();
+  t.act_utime = t.utime + 300'000;
+  t.send_utime = {t.act_utime - 250'000, t.act_utime - 100};
+  node.publish(lcm::channels::kSyncTrigger2, t);
+  const std::size_t states_then = states.size();
+  loop.call_after(milliseconds(150), [&] {
+    DriveStatus s;
+    s.position_counts = 6;
+    gateway.axis_status("x", s);
+  });
+  std::size_t fired_when_heard = 99;
+  pump_until([&] {
+    if (states.size() > states_then && fired_when_heard == 99) fired_when_heard = driver->fired.size();
+    return driver->fired.size() == 2;
+  });
+  EXPECT_EQ(fired_when_heard, 1u) << "the state waited for the start 150 ms later";
+  pump_until([&] { return !node.quiet(); });
+  EXPECT_FALSE(node.quiet());
 }
 
 // can0 writes through an adapter that takes 15 ms from the hand-over to the wire (egress_latency_us):

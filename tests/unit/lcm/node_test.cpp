@@ -11,6 +11,7 @@
 #include <set>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/health.hpp"
@@ -67,6 +68,75 @@ TEST(LcmNode, ABacklogIsHandledWholeBeforeTheTimersDueMeanwhile) {
   loop.run_once(milliseconds(0));
   EXPECT_EQ(seen_by_timer, 20);
   EXPECT_EQ(received, 20);
+}
+
+// A quiet interval (around a scheduled start): what is published meanwhile waits, in order, and
+// goes out when the interval ends; a later end extends it, an earlier one does not shorten it.
+TEST(LcmNode, PublicationsInAQuietIntervalGoOutInOrderAtItsEnd) {
+  const std::string url = testing::unique_lcm_url(3);
+  EventLoop sender_loop;
+  EventLoop loop;
+  Node sender(sender_loop, {url, "T10_"});
+  Node node(loop, {url, "T10_"});
+  ASSERT_TRUE(sender.ok() && node.ok());
+  std::vector<std::string> received;
+  node.subscribe<motionlcm::event_t>(
+      channels::kEvent, [&](const motionlcm::event_t& e, const std::string&) { received.push_back(e.text); });
+  const TimePoint end = sender_loop.now() + milliseconds(150);
+  sender.quiet_until(end);
+  sender.quiet_until(end - milliseconds(100));  // does not shorten it
+  EXPECT_TRUE(sender.quiet());
+  motionlcm::event_t e{};
+  for (const char* text : {"one", "two", "three"}) {
+    e.text = text;
+    EXPECT_TRUE(sender.publish(channels::kEvent, e));
+  }
+  run_until(
+      loop, [] { return false; }, milliseconds(100));
+  EXPECT_TRUE(received.empty()) << "published inside the quiet interval";
+  while (sender_loop.now() < end + milliseconds(20)) sender_loop.run_once(milliseconds(5));
+  EXPECT_FALSE(sender.quiet());
+  run_until(loop, [&] { return received.size() == 3; });
+  EXPECT_EQ(received, (std::vector<std::string>{"one", "two", "three"}));
+  // Once it is over, publications go straight out.
+  e.text = "four";
+  EXPECT_TRUE(sender.publish(channels::kEvent, e));
+  run_until(loop, [&] { return received.size() == 4; });
+  EXPECT_EQ(received.back(), "four");
+  sender.quiet_until(sender_loop.now() - milliseconds(1));  // already past: nothing
+  EXPECT_FALSE(sender.quiet());
+}
+
+// A quiet interval never loses a publication: past the queue's limit everything waiting goes out
+// and the interval ends; what waits when the node is destroyed goes out then.
+TEST(LcmNode, AQuietIntervalCutShortByItsLimitOrItsEndLosesNothing) {
+  const std::string url = testing::unique_lcm_url(4);
+  EventLoop loop;
+  Node node(loop, {url, "T11_"});
+  ASSERT_TRUE(node.ok());
+  int received = 0;
+  node.subscribe<motionlcm::event_t>(channels::kEvent,
+                                     [&](const motionlcm::event_t&, const std::string&) { ++received; });
+  {
+    EventLoop sender_loop;
+    Node sender(sender_loop, {url, "T11_"});
+    ASSERT_TRUE(sender.ok());
+    sender.quiet_until(sender_loop.now() + std::chrono::seconds(60));
+    motionlcm::event_t e{};
+    for (std::size_t i = 0; i < Node::kQuietQueueLimit; ++i) ASSERT_TRUE(sender.publish(channels::kEvent, e));
+    EXPECT_TRUE(sender.quiet());
+    run_until(
+        loop, [] { return false; }, milliseconds(50));
+    EXPECT_EQ(received, 0);
+    ASSERT_TRUE(sender.publish(channels::kEvent, e));  // one over the limit: all go out now
+    EXPECT_FALSE(sender.quiet());
+    run_until(loop, [&] { return received == static_cast<int>(Node::kQuietQueueLimit) + 1; });
+    EXPECT_EQ(received, static_cast<int>(Node::kQuietQueueLimit) + 1);
+    sender.quiet_until(sender_loop.now() + std::chrono::seconds(60));
+    ASSERT_TRUE(sender.publish(channels::kEvent, e));
+  }  // destroyed inside its quiet interval
+  run_until(loop, [&] { return received == static_cast<int>(Node::kQuietQueueLimit) + 2; });
+  EXPECT_EQ(received, static_cast<int>(Node::kQuietQueueLimit) + 2);
 }
 
 TEST(LcmNode, MalformedMessageIsCountedAndNotDelivered) {

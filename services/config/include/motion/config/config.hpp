@@ -80,6 +80,8 @@ enum class UiMessageCrc { kDetect, kStartToAux, kIdToAux };
 
 // The longest egress latency a bus may state (Bus::egress_latency_us), microseconds.
 inline constexpr int kMaxEgressLatencyUs = 20000;
+// bus cpu_latency_us: the most a wake-up from idle may take, when limited at all.
+inline constexpr int kMaxCpuLatencyUs = 10000;
 
 struct Bus {
   std::string name;
@@ -98,6 +100,9 @@ struct Bus {
   double poll_hz = 20.0;      // status polling rate per drive
   int realtime_priority = 0;  // the gateway's loop thread under SCHED_FIFO at this priority (1..99); 0: not
   int timer_spin_us = 0;      // the gateway's precise deadlines: woken this early, the rest waited busy (0..500)
+  // While the gateway runs, no CPU of the host takes longer than this to wake from idle (the
+  // kernel's PM QoS CPU latency request; 0: idle CPUs poll); -1, the default: the host's own setting.
+  int cpu_latency_us = -1;
   // From the gateway's hand-over of a frame (write, send) to its first bit on the wire: a USB
   // adapter's transfer, a driver's queue (0..20000 us, below coordinator.trigger_lead_min_ms; 0: none
   // known). Start frames are handed over this much before a trigger's send time, and a serial line

@@ -25,6 +25,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
@@ -77,6 +78,20 @@ class Node {
     return publish_raw(full_channel, buffer);
   }
   bool publish_raw(const std::string& full_channel, const std::vector<std::uint8_t>& data);
+
+  // A quiet interval: publications from now until `until` are queued, in their order, and go out
+  // at `until` (from a loop timer). Every LCM publication on a multicast group wakes every process
+  // of the group, each on a CPU: around the instants a scheduled start goes out on several buses,
+  // those wake-ups delay the other gateways' fires. A later `until` extends the interval, an
+  // earlier one does not shorten it; one already past does nothing. publish*() returns true for a
+  // queued message. At most kQuietQueueLimit messages wait: the next one publishes them all and
+  // ends the interval (nothing is lost, the interval is cut short). The destructor publishes
+  // what still waits.
+  static constexpr std::size_t kQuietQueueLimit = 1024;
+  void quiet_until(TimePoint until);
+  [[nodiscard]] bool quiet() const { return quiet_timer_ != 0; }
+  // Publishes what waits and ends the quiet interval.
+  void end_quiet();
 
   // Subscribes to <prefix><name> (LCM regex allowed, e.g. "GW_COMMAND_.*"). Only messages that
   // pass the bounded check and decode exactly reach `handler`.
@@ -138,6 +153,10 @@ class Node {
   std::function<void(const std::string&)> malformed_handler_;
   std::uint64_t malformed_count_ = 0;
   std::uint64_t handler_errors_ = 0;
+  bool send(const std::string& full_channel, const std::vector<std::uint8_t>& data);
+  TimePoint quiet_until_{};
+  EventLoop::TimerId quiet_timer_ = 0;
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> quiet_queue_;
 };
 
 }  // namespace motion::lcm
