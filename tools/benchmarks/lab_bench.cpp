@@ -23,8 +23,11 @@
 // A bus that does not come up is reported as such (with what its gateway logged) and left out of
 // the move; nothing is estimated. Not part of ctest: `tools/bench lab`.
 //
-// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] [--enable-all 0|1]
+// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] [--cpu-latency US] [--enable-all 0|1]
 //   --scale F: every bus's drive count times F (0 < F <= 1; 1 is the full lab)
+//   --cpu-latency US: the first bus gets `cpu_latency_us: US` (its gateway asks the kernel that no
+//     CPU take longer to wake from idle, for the whole host; 0: idle CPUs poll); -1, the default:
+//     the host's own idle states
 //   --realtime P: every bus gets `realtime_priority: P` (its gateway's loop under SCHED_FIFO) and
 //     motion-sim runs under SCHED_FIFO P - 10 (the simulated wires date the frames, so their
 //     wake-ups must not lag either); 0, the default, is normal scheduling for all
@@ -72,7 +75,8 @@ struct Options {
   int window_s = 10;
   int moves = 6;
   int per_bus = 4;
-  int realtime = 0;  // 0 or 11..99
+  int realtime = 0;      // 0 or 11..99
+  int cpu_latency = -1;  // -1 or 0..10000 us
   bool enable_all = false;
 };
 
@@ -130,7 +134,8 @@ std::string setup_of(const std::string& family) {
 }
 
 // The lab's YAML; `axis_bus` gets every axis's bus.
-std::string lab_yaml(const std::vector<BusPlan>& buses, int realtime, std::map<std::string, std::string>& axis_bus) {
+std::string lab_yaml(const std::vector<BusPlan>& buses, int realtime, int cpu_latency,
+                     std::map<std::string, std::string>& axis_bus) {
   std::ostringstream buses_out;
   std::ostringstream drives;
   std::ostringstream axes;
@@ -139,7 +144,9 @@ std::string lab_yaml(const std::vector<BusPlan>& buses, int realtime, std::map<s
               << ", " << (b.kind == "can" ? "bitrate: " : "baud: ") << b.rate
               << (b.kind == "can" ? ", bus_timing: true" : "")
               << ", request_timeout_ms: " << (b.kind == "can" ? 50 : 100) << ", retries: 2, poll_hz: " << b.poll_hz
-              << (realtime > 0 ? ", realtime_priority: " + std::to_string(realtime) : "") << "}\n";
+              << (realtime > 0 ? ", realtime_priority: " + std::to_string(realtime) : "")
+              << (cpu_latency >= 0 && &b == &buses.front() ? ", cpu_latency_us: " + std::to_string(cpu_latency) : "")
+              << "}\n";
     const auto add = [&](const std::string& family, int first, int count, int group) {
       for (int k = 0; k < count; ++k) {
         const int id = first + k;
@@ -210,7 +217,7 @@ int run(const Options& opt) {
   const std::string config_path = dir + "/lab.yaml";
   const auto buses = lab_buses(opt.scale);
   std::map<std::string, std::string> axis_bus;
-  std::ofstream(config_path) << lab_yaml(buses, opt.realtime, axis_bus);
+  std::ofstream(config_path) << lab_yaml(buses, opt.realtime, opt.cpu_latency, axis_bus);
   auto loaded = config::load_file(config_path);
   if (!loaded.ok()) {
     std::fprintf(stderr, "bench_lab: the generated configuration is refused:\n%s\n", loaded.error_text().c_str());
@@ -513,6 +520,9 @@ int run(const Options& opt) {
   if (opt.realtime > 0)
     std::printf("realtime: gateways' loops SCHED_FIFO %d, motion-sim SCHED_FIFO %d (refusals are in their logs)\n",
                 opt.realtime, opt.realtime - 10);
+  if (opt.cpu_latency >= 0)
+    std::printf("cpu latency: %d us from idle, asked by %s's gateway (a refusal is in its log)\n", opt.cpu_latency,
+                buses.front().name.c_str());
   print_rows(rows, "figure", "bound (same run)");
   if (!findings.empty()) {
     std::printf("\nfindings:\n");
@@ -532,7 +542,7 @@ int main(int argc, char** argv) {
   motion::bench::Options opt;
   const char* const usage =
       "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] "
-      "[--enable-all 0|1]\n";
+      "[--cpu-latency US] [--enable-all 0|1]\n";
   for (int i = 1; i < argc; i += 2) {
     // A flag without its value (e.g. --help) is refused, not ignored (it used to run the full lab).
     if (i + 1 >= argc) {
@@ -555,6 +565,8 @@ int main(int argc, char** argv) {
       opt.enable_all = value == 1;
     else if (flag == "--realtime" && (value == 0 || (value >= 11 && value <= 99)))
       opt.realtime = static_cast<int>(value);
+    else if (flag == "--cpu-latency" && value >= -1 && value <= 10000)
+      opt.cpu_latency = static_cast<int>(value);
     else {
       std::fprintf(stderr, "%s", usage);
       return 2;
