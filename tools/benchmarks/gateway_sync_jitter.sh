@@ -5,7 +5,9 @@
 # records the SYNCs' end-of-frame times for S seconds. Jitter = |interval - 1 ms|: p50, p99, max,
 # and the intervals over 1.5 ms (a period missed), p99 over the 50 us goal. Run once with the bus's
 # realtime_priority 0 (normal scheduling), once with P (SCHED_FIFO), and once with P and the bus's
-# timer_spin_us SPIN (the loop woken SPIN early, the rest waited busy). motion-sim runs under
+# timer_spin_us SPIN (the loop woken SPIN early, the rest waited busy); then normal scheduling and
+# SCHED_FIFO again with the bus's cpu_latency_us 0 (idle CPUs poll, as cyclictest has them while
+# it measures the floor below). motion-sim runs under
 # SCHED_FIFO 40 when permitted, so that the simulated wire's own wake-ups (it dates the frames) stay
 # out of the gateway's figure. Everything runs in a temporary folder on its own LCM port; the
 # processes are stopped by pid.
@@ -29,14 +31,16 @@ trap cleanup EXIT
 SIM_CHRT=()
 if chrt -f 40 true 2>/dev/null; then SIM_CHRT=(chrt -f 40); fi
 
-run() {  # run RT SPIN: prints one line of figures
-  local rt=$1 spin=$2 d="$DIR/rt$1-spin$2" port=$((20000 + (RANDOM % 30000)))
+run() {  # run RT SPIN [CPU_LATENCY]: prints one line of figures
+  local rt=$1 spin=$2 lat=${3:--1} d="$DIR/rt$1-spin$2-lat${3:-host}" port=$((20000 + (RANDOM % 30000)))
+  local lat_key=""
+  if [ "$lat" -ge 0 ]; then lat_key=", cpu_latency_us: $lat"; fi
   local url="udpm://239.255.76.67:$port?ttl=0"
   mkdir -p "$d/sim"
   cat >"$d/lab.yaml" <<YAML
 lcm: {url: "$url", channel_prefix: "SJ_"}
 buses:
-  - {name: can9, transport: simcan:can9, bitrate: 1000000, bus_timing: true, poll_hz: 1000, realtime_priority: $rt, timer_spin_us: $spin}
+  - {name: can9, transport: simcan:can9, bitrate: 1000000, bus_timing: true, poll_hz: 1000, realtime_priority: $rt, timer_spin_us: $spin$lat_key}
 drives:
   - {name: a-drive, family: uc57, bus: can9, node_id: 1, setup: {micro_steps: 16, current_a: 2.0, tpdo_mode: event}}
 axes:
@@ -59,6 +63,9 @@ YAML
     sched="realtime_priority $rt ($(grep -q "SCHED_FIFO at priority" "$d/gateway.log" && echo SCHED_FIFO || echo refused: normal))"
   fi
   if [ "$spin" -gt 0 ]; then sched="$sched, timer_spin_us $spin"; fi
+  if [ "$lat" -ge 0 ]; then
+    sched="$sched, cpu_latency_us $lat ($(grep -q "wake from idle within" "$d/gateway.log" && echo held || echo refused))"
+  fi
   /usr/bin/python3 - "$d/dump.txt" "$sched" <<'PY'
 import re, sys
 stamps = []
@@ -114,5 +121,7 @@ floor
 run 0 0
 run "$PRIO" 0
 run "$PRIO" "$SPIN"
+run 0 0 0
+run "$PRIO" 0 0
 floor
 [ -n "${KEEP:-}" ] && echo "kept $DIR" || rm -rf "$DIR"
