@@ -28,6 +28,9 @@ constexpr auto kQuietAfter = std::chrono::microseconds(500);
 // At most this long (a slow line's long lead): the quiet interval then begins this long before
 // its end, and replies never wait longer.
 constexpr auto kQuietLongest = std::chrono::microseconds(10000);
+constexpr std::size_t kMostQuietTimers = 64;
+// Starts waiting for their send time, at most.
+constexpr std::size_t kMostPendingFires = 256;
 }  // namespace
 
 Gateway::Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config,
@@ -277,6 +280,11 @@ void Gateway::keep_quiet(std::int64_t trigger_id, std::int64_t from_utime, std::
     return;
   }
   if (const auto old = quiet_timers_.find(trigger_id); old != quiet_timers_.end()) loop_.cancel(old->second);
+  // Bounded, whatever a sender names (a flood of triggers far ahead): the oldest trigger's is dropped.
+  if (quiet_timers_.size() >= kMostQuietTimers && !quiet_timers_.contains(trigger_id)) {
+    loop_.cancel(quiet_timers_.begin()->second);
+    quiet_timers_.erase(quiet_timers_.begin());
+  }
   quiet_timers_[trigger_id] = loop_.call_at(from, [this, trigger_id, until] {
     quiet_timers_.erase(trigger_id);
     node_.quiet_until(until);
@@ -298,6 +306,14 @@ void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, st
     if (delay < -std::chrono::milliseconds(1))
       spdlog::warn("trigger {} arrived {} us after its send time; firing now", trigger_id, -delay.count());
     fire();
+    return;
+  }
+  if (pending_fires_.size() >= kMostPendingFires && !pending_fires_.contains(trigger_id)) {
+    // Bounded, whatever a sender names (each start waiting holds a timer's descriptor): a lab has
+    // a handful waiting; a move of a trigger refused here is released unfired when it expires.
+    if (refused_fires_++ % 1000 == 0)
+      spdlog::warn("trigger {} not scheduled on {}: {} starts wait already ({} refused so far)", trigger_id, bus_,
+                   pending_fires_.size(), refused_fires_);
     return;
   }
   const TimePoint send_at = loop_.now() + delay;

@@ -337,6 +337,28 @@ TEST_F(Fixture, NothingIsPublishedFromJustBeforeTheFirstSendUntilJustAfterTheAct
   EXPECT_FALSE(node.quiet());
 }
 
+// Whatever a sender names, the starts waiting for their send time are bounded (each holds a
+// timer): past 256, a trigger for later is not scheduled and fires nothing; those already waiting
+// still fire.
+TEST_F(Fixture, AFloodOfTriggersForLaterSchedulesAtMost256Starts) {
+  motionlcm::sync_trigger2_t t{};
+  t.buses = {"can0"};
+  t.num_buses = 1;
+  t.lead_us = {100.0};
+  t.utime = wall_time_us();
+  for (int id = 1000; id < 1300; ++id) {
+    t.trigger_id = id;
+    t.act_utime = t.utime + 400'000 + (id - 1000) * 100;
+    t.send_utime = {t.act_utime - 100};
+    node.publish(lcm::channels::kSyncTrigger2, t);
+  }
+  const TimePoint after_all = loop.now() + milliseconds(800);  // every send time has passed
+  pump_until([&] { return loop.now() >= after_all; });
+  ASSERT_EQ(driver->fired.size(), 256u);
+  EXPECT_EQ(driver->fired.front().first, 1000);
+  EXPECT_EQ(driver->fired.back().first, 1255);
+}
+
 // can0 writes through an adapter that takes 15 ms from the hand-over to the wire (egress_latency_us):
 // the start frames are handed over 15 ms before the send time the trigger names, so that they begin
 // on the wire at it.

@@ -299,6 +299,7 @@ class Gateway final : public GatewayOutput {
   EventLoop::TimerId arm_timer_ = 0;                                     // at arm_watch_.next_deadline() (0: none)
   std::map<std::int64_t, std::unique_ptr<PreciseTimer>> pending_fires_;  // trigger id -> its timer, until it fires
   std::map<std::int64_t, EventLoop::TimerId> quiet_timers_;              // trigger id -> start of its quiet interval
+  std::uint64_t refused_fires_ = 0;        // triggers not scheduled: too many starts waiting already
   std::deque<std::int64_t> scheduled_v2_;  // recent trigger ids scheduled by SYNC_TRIGGER2
   std::deque<std::int64_t> fired_;         // recent trigger ids fired
   bool enforce_ = false;                   // security.mode enforce
