@@ -291,6 +291,7 @@ TEST_F(SocketCanVm, ReceiveTimestampsAreKernelTimeMonotonicAndPlausible) {
   // first measured frame 52 ms late, at its read).
   ASSERT_FALSE(a.transport.send(make_frame(0x200, false, {0xFF})));
   ASSERT_TRUE(b.next_frame());
+  std::string last_wrong = " the wall clock stepped";
   for (int attempt = 0; attempt < 5; ++attempt) {
     const std::int64_t offset_before = wall_offset_us();
     std::vector<Sent> sent;
@@ -313,17 +314,26 @@ TEST_F(SocketCanVm, ReceiveTimestampsAreKernelTimeMonotonicAndPlausible) {
                   attempt);
       continue;
     }
-    EXPECT_TRUE(std::is_sorted(stamps.begin(), stamps.end()));
     // Stamped when the frame was sent (vcan loops it back at once), not when it was read: each stamp
-    // lies within its own send call, and the 5 ms gaps show.
+    // lies within its own send call, and the 5 ms gaps show. A stamp taken at the read would fail
+    // every attempt (the frames are read after all are sent); the emulated guest now and then
+    // stamps one frame tens of milliseconds late (its softirq deferred), so one clean attempt of
+    // five is asked.
+    std::string wrong;
+    if (!std::is_sorted(stamps.begin(), stamps.end())) wrong += " stamps out of order;";
     for (std::size_t i = 0; i < stamps.size(); ++i) {
-      EXPECT_GE(stamps[i], sent[i].before) << "frame " << i;
-      EXPECT_LE(stamps[i], sent[i].after) << "frame " << i;
+      if (stamps[i] < sent[i].before || stamps[i] > sent[i].after)
+        wrong += " frame " + std::to_string(i) + " stamped " + std::to_string(stamps[i] - sent[i].before) +
+                 " us after its send began (the send took " + std::to_string(sent[i].after - sent[i].before) + " us);";
     }
-    EXPECT_GE(stamps.back() - stamps.front(), (kFrames - 1) * 5000 * 9 / 10);
-    return;
+    if (stamps.back() - stamps.front() < (kFrames - 1) * 5000 * 9 / 10)
+      wrong += " stamps span " + std::to_string(stamps.back() - stamps.front()) + " us, not the sends' 5 ms gaps;";
+    if (wrong.empty()) return;
+    last_wrong = wrong;
+    std::printf("attempt %d:%s measuring again\n", attempt, wrong.c_str());
   }
-  FAIL() << "the wall clock stepped during every one of 5 attempts";
+  FAIL() << "no attempt of 5 had every frame stamped within its send (or the wall clock stepped); the last:"
+         << last_wrong;
 }
 
 TEST_F(SocketCanVm, ErrorFramesBecomeCountersAndBusEvents) {
