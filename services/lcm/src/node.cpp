@@ -133,7 +133,7 @@ void Node::quiet_until(TimePoint until) {
 void Node::end_quiet() {
   if (quiet_timer_ != 0) loop_.cancel(quiet_timer_);
   quiet_timer_ = 0;
-  // A publication's own path may publish again: it goes straight out now.
+  // Sent from a moved-out queue: the interval is over before the first one goes.
   auto queued = std::move(quiet_queue_);
   quiet_queue_.clear();
   for (const auto& [channel, data] : queued) send(channel, data);
