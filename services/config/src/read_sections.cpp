@@ -19,6 +19,16 @@ void positive(Reader& r, const YAML::Node& at, const std::string& key, double va
   if (!(value > 0)) r.error(at, key, "must be greater than zero, got " + std::to_string(value));
 }
 
+// An integer key within lo..hi, read into `field`; outside, one error: "expected <expected>, got N".
+void bounded_int(Reader& r, const YAML::Node& node, const std::string& path, const char* key, int lo, int hi,
+                 const std::string& expected, int& field) {
+  if (auto v = r.get<int>(node, path, key, false)) {
+    field = *v;
+    if (*v < lo || *v > hi)
+      r.error(node[key], path + "." + key, "expected " + expected + ", got " + std::to_string(*v));
+  }
+}
+
 // The UIMessage CRC keys: values, and only on uimessage: buses (elsewhere they would be ignored).
 void read_uimessage_keys(Reader& r, const YAML::Node& node, const std::string& path, Bus& bus) {
   const auto only_here = [&](const char* key) {
@@ -123,33 +133,17 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
     bus.poll_hz = *v;
     positive(r, node["poll_hz"], path + ".poll_hz", *v);
   }
-  if (auto v = r.get<int>(node, path, "realtime_priority", false)) {
-    bus.realtime_priority = *v;
-    if (*v < 0 || *v > 99)
-      r.error(node["realtime_priority"], path + ".realtime_priority",
-              "expected 0 (normal scheduling) or a SCHED_FIFO priority 1..99, got " + std::to_string(*v));
-  }
-  if (auto v = r.get<int>(node, path, "timer_spin_us", false)) {
-    bus.timer_spin_us = *v;
-    if (*v < 0 || *v > 500)
-      r.error(node["timer_spin_us"], path + ".timer_spin_us",
-              "expected 0 (sleep to each deadline) .. 500 (wake 500 us early and wait the rest busy), got " +
-                  std::to_string(*v));
-  }
-  if (auto v = r.get<int>(node, path, "cpu_latency_us", false)) {
-    bus.cpu_latency_us = *v;
-    if (*v < 0 || *v > kMaxCpuLatencyUs)
-      r.error(node["cpu_latency_us"], path + ".cpu_latency_us",
-              "expected 0 (idle CPUs poll) .. " + std::to_string(kMaxCpuLatencyUs) +
-                  " us (the longest wake-up from idle the gateway accepts), got " + std::to_string(*v));
-  }
-  if (auto v = r.get<int>(node, path, "egress_latency_us", false)) {
-    bus.egress_latency_us = *v;
-    if (*v < 0 || *v > kMaxEgressLatencyUs)
-      r.error(node["egress_latency_us"], path + ".egress_latency_us",
-              "expected 0 (frames reach the wire when handed over) .. " + std::to_string(kMaxEgressLatencyUs) +
-                  " us, got " + std::to_string(*v));
-  }
+  bounded_int(r, node, path, "realtime_priority", 0, 99, "0 (normal scheduling) or a SCHED_FIFO priority 1..99",
+              bus.realtime_priority);
+  bounded_int(r, node, path, "timer_spin_us", 0, 500,
+              "0 (sleep to each deadline) .. 500 (wake 500 us early and wait the rest busy)", bus.timer_spin_us);
+  bounded_int(r, node, path, "cpu_latency_us", 0, kMaxCpuLatencyUs,
+              "0 (idle CPUs poll) .. " + std::to_string(kMaxCpuLatencyUs) +
+                  " us (the longest wake-up from idle the gateway accepts)",
+              bus.cpu_latency_us);
+  bounded_int(r, node, path, "egress_latency_us", 0, kMaxEgressLatencyUs,
+              "0 (frames reach the wire when handed over) .. " + std::to_string(kMaxEgressLatencyUs) + " us",
+              bus.egress_latency_us);
   if (auto v = r.get<bool>(node, path, "kernel_sync", false)) {
     bus.kernel_sync = *v;
     if (bus.kind != TransportKind::kSocketCan && !bus.transport.empty()) {
