@@ -58,6 +58,15 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
       command_signer_(std::move(security.command_signer)),
       message_signer_(std::move(security.message_signer)) {
   using motionlcm::request_t;
+  // What must reach the gateways on time is never held by a quiet interval (start_quiet_).
+  for (const std::string& commands : {lcm::channels::gateway_command(""), lcm::channels::gateway_command2(""),
+                                      lcm::channels::signed_gateway_command("")}) {
+    node_.publish_at_once(commands);
+  }
+  for (const std::string_view trigger : {lcm::channels::kSyncTrigger, lcm::channels::kSyncTrigger2}) {
+    node_.publish_at_once(trigger);
+    node_.publish_at_once(security::signed_channel(trigger));
+  }
   node_.subscribe<request_t>(
       lcm::channels::kRequest,
       [this](const request_t& m, const std::string&) {
@@ -356,6 +365,7 @@ void CoordinatorService::sync_trigger(const motionlcm::sync_trigger_t& trigger) 
 }
 void CoordinatorService::sync_trigger2(const motionlcm::sync_trigger2_t& trigger) {
   publish_coordinator_message(lcm::channels::kSyncTrigger2, trigger, false);
+  start_quiet_.keep(trigger);
 }
 
 void CoordinatorService::active_moves(const motionlcm::active_moves_t& moves) {

@@ -21,14 +21,6 @@ namespace motion::gateway {
 namespace {
 // A scheduled start handed over later than this is said in the log (the skew goal is 200 µs).
 constexpr auto kLateFireNote = std::chrono::microseconds(100);
-// Around a scheduled start, this gateway publishes nothing from kQuietBefore before the first
-// bus's send time until kQuietAfter after the act time (see Gateway::keep_quiet).
-constexpr auto kQuietBefore = std::chrono::microseconds(500);
-constexpr auto kQuietAfter = std::chrono::microseconds(500);
-// At most this long (a slow line's long lead): the quiet interval then begins this long before
-// its end, and replies never wait longer.
-constexpr auto kQuietLongest = std::chrono::microseconds(10000);
-constexpr std::size_t kMostQuietTimers = 64;
 // Starts waiting for their send time, at most.
 constexpr std::size_t kMostPendingFires = 256;
 }  // namespace
@@ -76,7 +68,6 @@ Gateway::~Gateway() {
   if (arm_timer_ != 0) loop_.cancel(arm_timer_);
   health_.set_signed_copy({});
   pending_fires_.clear();
-  for (const auto& [id, timer] : quiet_timers_) loop_.cancel(timer);
 }
 
 void Gateway::refusal_event(const std::string& axis, std::int64_t command_id, std::int64_t request_id,
@@ -261,34 +252,9 @@ void Gateway::on_trigger2(const motionlcm::sync_trigger2_t& trigger) {
   heard.trigger_utime = trigger.utime;
   heard.send_utime = trigger.send_utime[i];
   publish_own(lcm::channels::kTriggerHeard, heard, true);
-  const auto first_send =
-      *std::min_element(trigger.send_utime.begin(), trigger.send_utime.begin() + static_cast<std::ptrdiff_t>(n));
-  const std::int64_t until = std::max(trigger.act_utime, first_send) + kQuietAfter.count();
-  keep_quiet(trigger.trigger_id, std::max(first_send - kQuietBefore.count(), until - kQuietLongest.count()), until);
-}
-
-void Gateway::keep_quiet(std::int64_t trigger_id, std::int64_t from_utime, std::int64_t until_utime) {
-  // Every publication wakes every process of the LCM group; on a host with few CPUs those
-  // wake-ups delay the fires of the other buses' gateways. Wall clock in, loop clock out.
-  const auto to_loop = [this](std::int64_t utime) {
-    return loop_.now() + std::chrono::microseconds(utime - wall_time_us());
-  };
-  const TimePoint until = to_loop(until_utime);
-  const TimePoint from = to_loop(from_utime);
-  if (from <= loop_.now()) {
-    node_.quiet_until(until);
-    return;
-  }
-  if (const auto old = quiet_timers_.find(trigger_id); old != quiet_timers_.end()) loop_.cancel(old->second);
-  // Bounded, whatever a sender names (a flood of triggers far ahead): the oldest trigger's is dropped.
-  if (quiet_timers_.size() >= kMostQuietTimers && !quiet_timers_.contains(trigger_id)) {
-    loop_.cancel(quiet_timers_.begin()->second);
-    quiet_timers_.erase(quiet_timers_.begin());
-  }
-  quiet_timers_[trigger_id] = loop_.call_at(from, [this, trigger_id, until] {
-    quiet_timers_.erase(trigger_id);
-    node_.quiet_until(until);
-  });
+  // Around the start this gateway says nothing (lcm/start_quiet.hpp): its STARTED reply goes out
+  // just after the act time.
+  start_quiet_.keep(trigger);
 }
 
 void Gateway::schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, std::vector<std::int64_t> order) {

@@ -109,7 +109,11 @@ int Node::default_receive_buffer() {
 
 bool Node::publish_raw(const std::string& full_channel, const std::vector<std::uint8_t>& data) {
   if (!ok_) return false;
-  if (quiet_timer_ != 0) {
+  const auto at_once = [&] {
+    return std::any_of(at_once_.begin(), at_once_.end(),
+                       [&](const std::string& prefix) { return full_channel.starts_with(prefix); });
+  };
+  if (quiet_timer_ != 0 && !at_once()) {
     if (quiet_queue_.size() < kQuietQueueLimit) {
       quiet_queue_.emplace_back(full_channel, data);
       return true;

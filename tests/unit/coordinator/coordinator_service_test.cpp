@@ -5,6 +5,7 @@
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/channels.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/lcm/start_quiet.hpp"
 #include "motion/security/signed_request.hpp"
 #include "motion/testing/lcm_url.hpp"
 #include "motion/testing/pump.hpp"
@@ -119,6 +120,134 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
   EXPECT_EQ(replies[2].back().error_code, static_cast<int>(ReplyError::kMalformedRequest));
   EXPECT_EQ(service.active_requests(), 0u);
   loop.cancel(tick);
+}
+
+// Around a start across buses the coordinator keeps quiet like the gateways: a reply due from
+// just before the first bus's send time until just after the act time goes out at its end, while
+// a gateway command sent meanwhile (a stop) goes out at once.
+TEST(CoordinatorServiceOverLcm, AroundAStartRepliesWaitWhileCommandsGoOutAtOnce) {
+  const config::Config config = *config::load_string(kConfig).config;
+  EventLoop loop;
+  const std::string url = testing::unique_lcm_url(24);
+  lcm::Node node(loop, {url, "CQ_"});
+  lcm::Node gateway(loop, {url, "CQ_"});
+  lcm::Node client(loop, {url, "CQ_"});
+  lcm::Node observer(loop, {url, "CQ_"});  // one socket: the order things went out in
+  ASSERT_TRUE(node.ok() && gateway.ok() && client.ok() && observer.ok());
+  CoordinatorService service(loop, node, config, simple_planner);
+
+  motionlcm::axis_state_t x{};
+  x.axis = "x";
+  x.bus = "can0";
+  x.online = x.enabled = x.in_position = true;
+  motionlcm::axis_state_t c = x;
+  c.axis = "c";
+  c.bus = "rs485";
+  const auto publish_health = [&](const motionlcm::health_t& h) { gateway.publish(lcm::channels::kHealth, h); };
+  const auto publish_state = [&](const motionlcm::axis_state_t& st) { gateway.publish(lcm::channels::kAxisState, st); };
+  const auto tick_x = start_gateway_ticks(loop, x, publish_health, publish_state);
+  const auto tick_c = start_gateway_ticks(loop, c, publish_health, publish_state);
+  gateway.subscribe<motionlcm::drive_model_request_t>(
+      lcm::channels::kDriveModelRequest, [&](const motionlcm::drive_model_request_t&, const std::string&) {
+        gateway.publish(lcm::channels::kDriveModel, test_model("x", "can0", "uim342", 20));
+        auto slow = test_model("c", "rs485", "adam-modbus");
+        slow.start_wire_us.at(0) = 8'000.0;  // a slow line: the quiet interval begins 8.5 ms ahead
+        gateway.publish(lcm::channels::kDriveModel, slow);
+      });
+  std::vector<motionlcm::gateway_command2_t> commands;
+  const auto answer = [&](const motionlcm::gateway_command2_t& cmd, std::int8_t status) {
+    gateway_reply_t r{};
+    r.command_id = cmd.command_id;
+    r.bus = cmd.bus;
+    r.status = status;
+    r.trigger_utime = wall_time_us();
+    gateway.publish(lcm::channels::kGatewayReply, r);
+  };
+  gateway.subscribe_raw("CQ_GW_COMMAND2_.*", [&](const void* data, int size, const std::string&) {
+    motionlcm::gateway_command2_t cmd{};
+    if (cmd.decode(data, 0, size) != size) return;
+    commands.push_back(cmd);
+    answer(cmd, cmd.kind == gateway_command_t::ARM_MOVE ? gateway_reply_t::ARMED : gateway_reply_t::DONE);
+  });
+  // Inside the interval, 1 ms after the slow line's send time: both buses report STARTED and the
+  // client asks to stop x.
+  std::optional<motionlcm::sync_trigger2_t> t2;
+  std::optional<lcm::QuietInterval> quiet;
+  gateway.subscribe<motionlcm::sync_trigger2_t>(
+      lcm::channels::kSyncTrigger2, [&](const motionlcm::sync_trigger2_t& t, const std::string&) {
+        t2 = t;
+        quiet = lcm::StartQuiet::interval_of(t);
+        const std::int64_t inside = quiet->from_utime + 1'500;
+        loop.call_after(std::chrono::microseconds(inside - wall_time_us()), [&] {
+          for (const auto& cmd : commands) {
+            if (cmd.kind == gateway_command_t::ARM_MOVE && cmd.trigger_id == t2->trigger_id) {
+              answer(cmd, gateway_reply_t::STARTED);
+            }
+          }
+          request_t stop{};
+          stop.client_id = "test";
+          stop.request_id = 2;
+          stop.kind = request_t::STOP;
+          stop.axes = {"x"};
+          stop.values = {0.0};
+          stop.num_axes = 1;
+          client.publish(lcm::channels::kRequest, stop);
+        });
+      });
+  struct Heard {
+    std::string what;
+    std::int64_t utime = 0;
+  };
+  std::vector<Heard> heard;  // replies and commands, in the order the observer heard them
+  observer.subscribe<reply_t>(lcm::channels::kReply, [&](const reply_t& r, const std::string&) {
+    heard.push_back({"reply " + std::to_string(r.request_id) + "/" + std::to_string(r.status), wall_time_us()});
+  });
+  observer.subscribe_raw("CQ_GW_COMMAND2_.*", [&](const void* data, int size, const std::string&) {
+    motionlcm::gateway_command2_t cmd{};
+    if (cmd.decode(data, 0, size) != size) return;
+    heard.push_back({"command " + std::to_string(cmd.kind), wall_time_us()});
+  });
+  std::map<std::int64_t, std::vector<reply_t>> replies;
+  client.subscribe<reply_t>(lcm::channels::kReply,
+                            [&](const reply_t& r, const std::string&) { replies[r.request_id].push_back(r); });
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return service.buses_without_gateway().empty(); }, milliseconds(3000)));
+  testing::pump_until(
+      loop, [] { return false; }, milliseconds(200));  // the drive models reach the coordinator
+  request_t move{};
+  move.client_id = "test";
+  move.request_id = 1;
+  move.kind = request_t::MOVE_ABSOLUTE;
+  move.axes = {"x", "c"};
+  move.values = {1.0, 1.0};
+  move.num_axes = 2;
+  client.publish(lcm::channels::kRequest, move);
+  const auto ended = [&](std::int64_t id) {
+    return !replies[id].empty() && replies[id].back().status != reply_t::ACCEPTED &&
+           replies[id].back().status != reply_t::STARTED && replies[id].back().status != reply_t::PROGRESS;
+  };
+  ASSERT_TRUE(testing::pump_until(
+      loop, [&] { return ended(1) && ended(2); }, milliseconds(5000)));
+  loop.cancel(tick_x);
+  loop.cancel(tick_c);
+  ASSERT_TRUE(t2 && quiet);
+  EXPECT_EQ(quiet->until_utime, t2->act_utime + 500);
+  EXPECT_GE(quiet->until_utime - quiet->from_utime, 8'500);
+  std::string order;
+  for (const auto& h : heard) {
+    EXPECT_FALSE(h.what.starts_with("reply") && h.utime > quiet->from_utime && h.utime < quiet->until_utime)
+        << h.what << " heard " << (h.utime - quiet->from_utime) << " us into the quiet interval";
+    order += h.what + "; ";
+  }
+  // The stop went out at once, ahead of the replies held meanwhile (the STARTED of the move, the
+  // ACCEPTED of the stop).
+  const auto at = [&](const std::string& what) { return order.find(what + ";"); };
+  ASSERT_NE(at("command 5"), std::string::npos) << order;
+  ASSERT_NE(at("reply 1/" + std::to_string(reply_t::STARTED)), std::string::npos) << order;
+  ASSERT_NE(at("reply 2/" + std::to_string(reply_t::ACCEPTED)), std::string::npos) << order;
+  EXPECT_LT(at("command 5"), at("reply 1/" + std::to_string(reply_t::STARTED))) << order;
+  EXPECT_LT(at("command 5"), at("reply 2/" + std::to_string(reply_t::ACCEPTED))) << order;
+  EXPECT_FALSE(node.quiet());
 }
 
 // The shell with security enforced: what reaches the core from REQUEST and SREQUEST.

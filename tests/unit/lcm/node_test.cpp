@@ -107,6 +107,39 @@ TEST(LcmNode, PublicationsInAQuietIntervalGoOutInOrderAtItsEnd) {
   EXPECT_FALSE(sender.quiet());
 }
 
+// Channels published at once (a coordinator's commands and triggers) pass a quiet interval in
+// their order while everything else waits for its end.
+TEST(LcmNode, ChannelsPublishedAtOnceAreNeverHeld) {
+  const std::string url = testing::unique_lcm_url(9);
+  EventLoop sender_loop;
+  EventLoop loop;
+  Node sender(sender_loop, {url, "T12_"});
+  Node node(loop, {url, "T12_"});
+  ASSERT_TRUE(sender.ok() && node.ok());
+  sender.publish_at_once(channels::gateway_command2(""));
+  std::vector<std::string> received;  // channel:text, in the order heard (one socket)
+  node.subscribe<motionlcm::event_t>(
+      "(EVENT|GW_COMMAND2_.*|GW_COMMAND_.*)",
+      [&](const motionlcm::event_t& e, const std::string& channel) { received.push_back(channel + ":" + e.text); });
+  sender.quiet_until(sender_loop.now() + std::chrono::seconds(60));
+  motionlcm::event_t e{};
+  for (const char* text : {"a", "b"}) {
+    e.text = text;
+    EXPECT_TRUE(sender.publish(channels::kEvent, e));
+    EXPECT_TRUE(sender.publish(channels::gateway_command2("can0"), e));
+    EXPECT_TRUE(sender.publish(channels::gateway_command("can0"), e));  // not named: held
+  }
+  run_until(loop, [&] { return received.size() == 2; });
+  run_until(
+      loop, [] { return false; }, milliseconds(50));
+  EXPECT_EQ(received, (std::vector<std::string>{"T12_GW_COMMAND2_can0:a", "T12_GW_COMMAND2_can0:b"}));
+  EXPECT_TRUE(sender.quiet());
+  sender.end_quiet();
+  run_until(loop, [&] { return received.size() == 6; });
+  EXPECT_EQ(received, (std::vector<std::string>{"T12_GW_COMMAND2_can0:a", "T12_GW_COMMAND2_can0:b", "T12_EVENT:a",
+                                                "T12_GW_COMMAND_can0:a", "T12_EVENT:b", "T12_GW_COMMAND_can0:b"}));
+}
+
 // A quiet interval never loses a publication: past the queue's limit everything waiting goes out
 // and the interval ends; what waits when the node is destroyed goes out then.
 TEST(LcmNode, AQuietIntervalCutShortByItsLimitOrItsEndLosesNothing) {

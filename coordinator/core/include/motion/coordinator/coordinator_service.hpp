@@ -27,6 +27,12 @@
 // signed one: same host and pid); any other plain HEALTH claiming a gateway is refused like a plain
 // GW_REPLY, so a forged heartbeat keeps no dead gateway's bus alive.
 //
+// Around each start it schedules (SYNC_TRIGGER2) the coordinator keeps quiet like the gateways
+// (lcm/start_quiet.hpp): its replies, ACTIVE_MOVES, events and heartbeat published from just
+// before the first bus's send time until just after the act time go out at its end. Gateway
+// commands and triggers (GW_COMMAND*, GW_SCOMMAND_*, SYNC_TRIGGER*, SSYNC_TRIGGER*) are never
+// held: a stop or the next move's trigger goes out at once.
+//
 // Thread contract: loop thread only. Never blocks.
 #pragma once
 
@@ -39,6 +45,7 @@
 #include "motion/core/event_loop.hpp"
 #include "motion/lcm/malformed_limiter.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/lcm/start_quiet.hpp"
 #include "motion/security/gateway_commands.hpp"
 #include "motion/security/request_verifier.hpp"
 #include "motion/security/signed_messages.hpp"
@@ -128,6 +135,7 @@ class CoordinatorService final : private CoordinatorOutput {
   lcm::MalformedLimiter gateway_refusals_;                   // refused gateway messages (5 reported a second)
   EventLoop::TimerId timer_ = 0;
   TimePoint timer_deadline_ = kNever;
+  lcm::StartQuiet start_quiet_{loop_, node_};  // around each start it schedules
 };
 
 }  // namespace motion::coordinator

@@ -85,6 +85,7 @@
 #include "motion/lcm/health.hpp"
 #include "motion/lcm/malformed_limiter.hpp"
 #include "motion/lcm/node.hpp"
+#include "motion/lcm/start_quiet.hpp"
 #include "motion/security/gateway_commands.hpp"
 #include "motion/security/signed_messages.hpp"
 
@@ -205,11 +206,6 @@ class Gateway final : public GatewayOutput {
   // Fires the driver for `trigger_id` at `send_utime` (wall clock; when the first start frame is to
   // begin on the wire) less the bus's egress_latency_us, or now when that has passed.
   void schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, std::vector<std::int64_t> order);
-  // From `from_utime` until `until_utime` (wall clock; from the first bus's send time, less a
-  // margin, until the act time, plus one; 10 ms at most) this gateway's LCM publications wait
-  // (lcm::Node::quiet_until): a start across buses goes out on a host whose processes are not
-  // woken by our statuses and replies meanwhile. A STARTED reply goes out at the interval's end.
-  void keep_quiet(std::int64_t trigger_id, std::int64_t from_utime, std::int64_t until_utime);
   // The coordinator's desired state: a request of this bus triggered before this process started
   // was the previous gateway process's; its axes are stopped and a GATEWAY_RESTARTED event says
   // what they were doing.
@@ -298,7 +294,7 @@ class Gateway final : public GatewayOutput {
   ArmWatch arm_watch_{Duration::zero()};                                 // the expiry is set in the constructor
   EventLoop::TimerId arm_timer_ = 0;                                     // at arm_watch_.next_deadline() (0: none)
   std::map<std::int64_t, std::unique_ptr<PreciseTimer>> pending_fires_;  // trigger id -> its timer, until it fires
-  std::map<std::int64_t, EventLoop::TimerId> quiet_timers_;              // trigger id -> start of its quiet interval
+  lcm::StartQuiet start_quiet_{loop_, node_};                            // around each start it schedules
   std::uint64_t refused_fires_ = 0;        // triggers not scheduled: too many starts waiting already
   std::deque<std::int64_t> scheduled_v2_;  // recent trigger ids scheduled by SYNC_TRIGGER2
   std::deque<std::int64_t> fired_;         // recent trigger ids fired

@@ -92,6 +92,10 @@ class Node {
   [[nodiscard]] bool quiet() const { return quiet_timer_ != 0; }
   // Publishes what waits and ends the quiet interval.
   void end_quiet();
+  // Publications on channels beginning with <prefix><name_prefix> are never held by a quiet
+  // interval (commands and triggers that must reach their receivers on time); their own order is
+  // kept, since none of them ever waits.
+  void publish_at_once(std::string_view name_prefix) { at_once_.push_back(channel(name_prefix)); }
 
   // Subscribes to <prefix><name> (LCM regex allowed, e.g. "GW_COMMAND_.*"). Only messages that
   // pass the bounded check and decode exactly reach `handler`.
@@ -157,6 +161,7 @@ class Node {
   TimePoint quiet_until_{};
   EventLoop::TimerId quiet_timer_ = 0;
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> quiet_queue_;
+  std::vector<std::string> at_once_;  // full channel prefixes never held (publish_at_once)
 };
 
 }  // namespace motion::lcm
