@@ -31,7 +31,11 @@ struct Received {
 
 class RecordingDevice final : public SerialDeviceSim {
  public:
-  explicit RecordingDevice(std::vector<Received>& got) : got_(got) {}
+  RecordingDevice(std::vector<Received>& got, bool full_duplex, SerialDeviceContext context)
+      : got_(got), full_duplex_(full_duplex), context_(std::move(context)) {}
+  // Bytes onto the line now (a reply, a notification).
+  void say(const std::vector<std::uint8_t>& bytes) { context_.send(bytes, Duration::zero()); }
+  [[nodiscard]] bool full_duplex() const override { return full_duplex_; }
   void power_up(TimePoint /*now*/) override {}
   TimePoint receive(std::span<const std::uint8_t> bytes, TimePoint now) override {
     got_.push_back({now, {bytes.begin(), bytes.end()}});
@@ -42,11 +46,17 @@ class RecordingDevice final : public SerialDeviceSim {
 
  private:
   std::vector<Received>& got_;
+  bool full_duplex_;
+  SerialDeviceContext context_;
 };
 
 class SerialLineHostTest : public ::testing::Test {
  protected:
-  void SetUp() override {
+  void SetUp() override { open_line(false); }
+  void open_line(bool full_duplex) {
+    if (port_ >= 0) ::close(port_);
+    port_ = -1;
+    host_.reset();
     const std::string yaml =
         "buses:\n"
         "  - {name: rs485, transport: 'simserial:rs485', baud: 115200, parity: none}\n"
@@ -61,8 +71,11 @@ class SerialLineHostTest : public ::testing::Test {
     ASSERT_TRUE(loaded.ok()) << loaded.error_text();
     config_ = *loaded.config;
     std::error_code error;
-    const SerialDeviceFactory factory = [this](const config::Config&, const config::Bus&, SerialDeviceContext) {
-      return std::make_unique<RecordingDevice>(got_);
+    const SerialDeviceFactory factory = [this, full_duplex](const config::Config&, const config::Bus&,
+                                                            SerialDeviceContext context) {
+      auto device = std::make_unique<RecordingDevice>(got_, full_duplex, std::move(context));
+      device_ = device.get();
+      return device;
     };
     host_ = SerialLineHost::open(loop_, config_, config_.buses[0], {{config::Family::kAdamModbus, factory}}, {}, error);
     ASSERT_TRUE(host_) << error.message();
@@ -100,6 +113,7 @@ class SerialLineHostTest : public ::testing::Test {
   config::Config config_;
   std::vector<Received> got_;
   std::unique_ptr<SerialLineHost> host_;
+  RecordingDevice* device_ = nullptr;  // host_'s
   int port_ = -1;
 };
 
@@ -131,6 +145,34 @@ TEST_F(SerialLineHostTest, WritesArriveInOrderAndTheDevicesTimeNeverGoesBack) {
   }
   EXPECT_EQ(received(all.size()), all);
   for (std::size_t i = 1; i < got_.size(); ++i) EXPECT_GE(got_[i].arrival, got_[i - 1].arrival) << "read " << i;
+}
+
+// While the device sends (a reply, a notification), what the gateway writes crosses a
+// full-duplex line (RS232) at once, and on a half-duplex one (RS485) only after the device's
+// bytes: one pair of wires carries one direction at a time.
+TEST_F(SerialLineHostTest, AWriteWaitsForTheDevicesBytesOnAHalfDuplexLineOnly) {
+  const std::vector<std::uint8_t> notification(1000, 0x55);  // 87 ms at 115200 baud
+  const std::vector<std::uint8_t> frame{0x01, 0x06, 0x00, 0x10, 0x00, 0x01, 0x49, 0xCF};
+  for (const bool full_duplex : {true, false}) {
+    SCOPED_TRACE(full_duplex ? "full duplex" : "half duplex");
+    open_line(full_duplex);
+    ASSERT_NE(device_, nullptr);
+    got_.clear();
+    const TimePoint said = loop_.now();
+    device_->say(notification);
+    const TimePoint written = loop_.now();
+    ASSERT_EQ(::write(port_, frame.data(), frame.size()), static_cast<ssize_t>(frame.size()));
+    EXPECT_EQ(received(frame.size()), frame);
+    ASSERT_FALSE(got_.empty());
+    if (full_duplex) {
+      const Duration late = got_.back().arrival - written - wire_time(frame.size());
+      EXPECT_GE(late, Duration::zero()) << "before its wire time";
+      EXPECT_LT(late, wire_time(notification.size()) / 2) << "waited for the device's bytes";
+    } else {
+      EXPECT_GE(got_.back().arrival - said, wire_time(notification.size()) + wire_time(frame.size()))
+          << "crossed the line while the device's bytes were on it";
+    }
+  }
 }
 
 }  // namespace

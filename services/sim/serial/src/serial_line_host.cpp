@@ -133,8 +133,10 @@ void SerialLineHost::send(std::span<const std::uint8_t> bytes, Duration delay) {
   // The device's bytes cross the line too: written when their last character has, after the
   // device's delay and after whatever is still on the line (before, a reply arrived at once, and a
   // 19200-baud line carried more than its baud rate allows).
-  line_busy_until_ = std::max(line_busy_until_, loop_.now() + delay) + configured_line(bus_).wire_time(out.size());
-  outbox_.emplace(line_busy_until_, std::move(out));
+  TimePoint begin = std::max(from_device_until_, loop_.now() + delay);
+  if (!device_->full_duplex()) begin = std::max(begin, to_device_until_);
+  from_device_until_ = begin + configured_line(bus_).wire_time(out.size());
+  outbox_.emplace(from_device_until_, std::move(out));
 }
 
 std::vector<std::uint8_t> SerialLineHost::noise(std::size_t count) {
@@ -155,8 +157,17 @@ void SerialLineHost::on_readable() {
 }
 
 void SerialLineHost::on_bytes(std::span<const std::uint8_t> bytes, TimePoint read_at) {
-  line_busy_until_ = std::max(line_busy_until_, read_at) + configured_line(bus_).wire_time(bytes.size());
-  inbox_.emplace_back(line_busy_until_, std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
+  TimePoint begin = std::max(to_device_until_, read_at);
+  if (!device_->full_duplex() && from_device_until_ > read_at) {
+    // One exchange at a time on a half-duplex line: a gateway that writes while a drive still
+    // sends would garble both on a real one. Said, since the frame is then dated that much late.
+    spdlog::warn("bus {}: the gateway wrote {} bytes while a drive was still sending for {} us; they follow it",
+                 bus_.name, bytes.size(),
+                 std::chrono::duration_cast<std::chrono::microseconds>(from_device_until_ - read_at).count());
+    begin = std::max(begin, from_device_until_);
+  }
+  to_device_until_ = begin + configured_line(bus_).wire_time(bytes.size());
+  inbox_.emplace_back(to_device_until_, std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
 }
 
 void SerialLineHost::read_in_thread() {

@@ -45,6 +45,10 @@ class SerialDeviceSim {
   // Fault injection for one of the device's drives (one line serves them all, so SILENCE,
   // POWER_CYCLE and REPLY_LATENCY are the device's too). False when not its drive or unsupported.
   virtual bool control(const motionlcm::sim_control_t& control, TimePoint now) = 0;
+  // Whether the line has wires of its own for each direction (RS232): the gateway's bytes then
+  // never wait on the line for the device's, nor the device's for the gateway's. Default: one pair
+  // for both (RS485, half duplex), each direction waiting for the line.
+  [[nodiscard]] virtual bool full_duplex() const { return false; }
 };
 
 // The device of one family serving `bus` (its drives of that family in the configuration).

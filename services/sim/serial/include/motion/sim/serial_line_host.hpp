@@ -5,7 +5,9 @@
 // line: a pty moves bytes at once, so each read is delayed by its wire time at the bus's baud
 // rate, after whatever is still on the line (a drive sees a frame when its last character ends,
 // as on a real RS232/RS485 line). It writes the device's bytes once they have crossed the line the
-// same way (their wire time, after the device's delay and after what is on the line), and keeps
+// same way (their wire time, after the device's delay and after what is on the line). On a
+// half-duplex line (RS485) both directions share the wire; a full-duplex one (RS232) has a wire
+// each way, so the gateway's bytes never wait for a reply or a notification coming back. It keeps
 // ONE timer at the earliest of the device's next deadline, the next arrival and the next due write.
 //
 // A serial line carries one family (its own framing), as in the gateway: the first family of the
@@ -96,7 +98,10 @@ class SerialLineHost {
   TimePoint device_deadline_ = kNever;
   std::multimap<TimePoint, std::vector<std::uint8_t>> outbox_;         // due time -> bytes
   std::deque<std::pair<TimePoint, std::vector<std::uint8_t>>> inbox_;  // arrival (end of wire time) -> bytes
-  TimePoint line_busy_until_{};                                        // when the last read ends on the wire
+  // When the gateway's last bytes (read from the pty) and the device's last bytes end on the wire.
+  // A half-duplex line (SerialDeviceSim::full_duplex) carries one direction at a time.
+  TimePoint to_device_until_{};
+  TimePoint from_device_until_{};
   EventLoop::TimerId timer_ = 0;
   std::vector<std::string> missing_;
   std::size_t drive_count_ = 0;

@@ -117,6 +117,9 @@ class Uim242GatewaySim final : public SerialDeviceSim {
   // STALL, SET_INPUT, SILENCE, POWER_CYCLE for `control.drive`; false when unsupported/unknown.
   // Call process(now) afterwards for the next deadline.
   bool control(const motionlcm::sim_control_t& control, TimePoint now) override;
+  // RS232 to the UIM2501/2502 (EN §2, string messages over RS232): a transmit and a receive line,
+  // so an instruction written while an RTCN (EN §1.1) or a reply comes back goes out at once.
+  [[nodiscard]] bool full_duplex() const override { return true; }
 
   // Introspection for tests.
   [[nodiscard]] std::int64_t position(const std::string& drive, TimePoint now) const;
