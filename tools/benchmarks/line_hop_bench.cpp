@@ -17,7 +17,15 @@
 // (the lab's gateways and simulator keep a 2-core host about that busy). Figures: p50 / p99 of
 // the hop; the bound is the socket hop of the same sitting, the ratio pty / socket.
 //
+// A third sitting models the lab under `--realtime`: the writer and the reader under SCHED_FIFO 50
+// (the gateways), one thread per CPU under SCHED_FIFO 40 busy 1.5 ms out of every 2.5 ms (motion-sim
+// and its bursts). The socket's reader is woken by the write itself; the pty's flip buffer waits
+// for its kernel worker, a normal-priority thread that runs only when no real-time thread does.
+// Skipped, and said, where SCHED_FIFO is not permitted.
+//
 // Usage: bench_line_hop [--quick]   (--quick: fewer frames, for a smoke run)
+#include <pthread.h>
+#include <sched.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -54,6 +62,23 @@ std::int64_t monotonic_ns() {
 }
 
 constexpr std::int64_t kEnd = -1;  // the stamp that ends a sitting (sent on the socket)
+
+// What runs beside the links in a sitting.
+struct Load {
+  unsigned spinners = 0;  // busy threads
+  int spinner_fifo = 0;   // their SCHED_FIFO priority (0: normal scheduling, busy all the time)
+  int io_fifo = 0;        // the writer's and the reader's SCHED_FIFO priority (0: normal)
+};
+// Busy this long out of every kSpinOn + kSpinOff when the spinners are real-time.
+constexpr auto kSpinOn = std::chrono::microseconds(1500);
+constexpr auto kSpinOff = std::chrono::microseconds(1000);
+
+// The calling thread under SCHED_FIFO `priority` (0: SCHED_OTHER); false when refused.
+bool set_fifo(int priority) {
+  sched_param param{};
+  param.sched_priority = priority;
+  return ::pthread_setschedparam(::pthread_self(), priority > 0 ? SCHED_FIFO : SCHED_OTHER, &param) == 0;
+}
 
 struct Hops {
   std::vector<double> pty_us;
@@ -117,8 +142,8 @@ bool read_all(int fd, void* data, std::size_t size) {
   return true;
 }
 
-// One sitting: `frames` stamps, alternating the links, with `spinners` busy threads beside.
-bool sitting(int frames, unsigned spinners, Hops& hops) {
+// One sitting: `frames` stamps, alternating the links, with `load` beside.
+bool sitting(int frames, const Load& load, Hops& hops) {
   const auto dir = std::filesystem::temp_directory_path() / ("motion-line-hop-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   std::error_code error;
@@ -138,6 +163,7 @@ bool sitting(int frames, unsigned spinners, Hops& hops) {
   const pid_t child = ::fork();
   if (child == 0) {
     ::close(pipe_fds[0]);
+    if (load.io_fifo > 0) (void)set_fifo(load.io_fifo);
     reader(link->master_fd(), sockets[1], pipe_fds[1]);
   }
   ::close(pipe_fds[1]);
@@ -145,13 +171,22 @@ bool sitting(int frames, unsigned spinners, Hops& hops) {
 
   std::atomic<bool> stop{false};
   std::vector<std::thread> busy;
-  for (unsigned i = 0; i < spinners; ++i) {
-    busy.emplace_back([&stop] {
+  for (unsigned i = 0; i < load.spinners; ++i) {
+    busy.emplace_back([&stop, fifo = load.spinner_fifo] {
       std::uint64_t x = 1;
-      while (!stop.load(std::memory_order_relaxed)) x = x * 6364136223846793005ULL + 1;
+      if (fifo > 0 && !set_fifo(fifo)) return;
+      while (!stop.load(std::memory_order_relaxed)) {
+        const auto until = std::chrono::steady_clock::now() + kSpinOn;
+        while (std::chrono::steady_clock::now() < until || fifo == 0) {
+          x = x * 6364136223846793005ULL + 1;
+          if (fifo == 0 && stop.load(std::memory_order_relaxed)) break;
+        }
+        if (fifo > 0) std::this_thread::sleep_for(kSpinOff);
+      }
       if (x == 0) std::printf(" ");
     });
   }
+  if (load.io_fifo > 0) (void)set_fifo(load.io_fifo);
   std::mt19937 random(7);
   std::uniform_int_distribution<int> gap_us(300, 1500);
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the reader is in epoll_wait
@@ -171,6 +206,7 @@ bool sitting(int frames, unsigned spinners, Hops& hops) {
   (void)!::write(sockets[0], &end, sizeof end);
   stop = true;
   for (auto& t : busy) t.join();
+  (void)set_fifo(0);
 
   bool ok = true;
   for (auto* h : {&hops.pty_us, &hops.socket_us}) {
@@ -200,13 +236,27 @@ int main(int argc, char** argv) {
   const unsigned cpus = std::max(1U, std::thread::hardware_concurrency());
   std::printf("line hop benchmark: %u CPUs; %d frames per sitting, half on each link\n", cpus, frames);
   std::vector<bench::Row> rows;
-  for (const unsigned spinners : {0U, cpus}) {
+  const bool fifo_permitted = [] {
+    std::thread probe_thread;
+    bool ok = false;
+    probe_thread = std::thread([&ok] { ok = set_fifo(1); });
+    probe_thread.join();
+    return ok;
+  }();
+  const std::vector<std::pair<std::string, Load>> sittings{
+      {"host as it is", {}},
+      {"one busy thread per CPU", {cpus, 0, 0}},
+      {"real-time: links FIFO 50, a FIFO 40 thread per CPU busy 60 %", {cpus, 40, 50}}};
+  for (const auto& [when, load] : sittings) {
+    if (load.io_fifo > 0 && !fifo_permitted) {
+      std::printf("real-time sitting skipped: SCHED_FIFO is not permitted here\n");
+      continue;
+    }
     Hops hops;
-    if (!sitting(frames, spinners, hops)) {
+    if (!sitting(frames, load, hops)) {
       std::printf("FAILED: a sitting lost frames or could not open its links\n");
       return 1;
     }
-    const std::string when = spinners == 0 ? "host as it is" : "one busy thread per CPU";
     for (const double q : {0.5, 0.99}) {
       const double pty = nearest_rank(hops.pty_us, q);
       const double socket = nearest_rank(hops.socket_us, q);
