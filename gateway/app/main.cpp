@@ -57,16 +57,33 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     if (!minimal_timer_slack()) spdlog::warn("could not lower the timer slack (prctl PR_SET_TIMERSLACK)");
     // Optional: the loop (it blocks in ppoll between frames, so it cannot starve the CPU) ahead of
     // every normal process, for SYNC periods and start frames that keep their time on a busy host.
+    bool fifo = false;
     if (const int priority = bus->realtime_priority; priority > 0) {
-      const bool granted = fifo_scheduling(priority);
+      fifo = fifo_scheduling(priority);
       const int error = errno;
-      if (granted) {
+      if (fifo) {
         spdlog::info("bus {}: running under SCHED_FIFO at priority {}", bus_name, priority);
       } else {
         spdlog::warn(
             "bus {}: realtime_priority {} refused ({}): running under normal scheduling (needs "
             "CAP_SYS_NICE or an RLIMIT_RTPRIO of at least {}, e.g. LimitRTPRIO= in its systemd unit)",
             bus_name, priority, std::strerror(error), priority);
+      }
+    }
+    // Optional, under normal scheduling: short turns, so that the loop woken for a start or a SYNC
+    // preempts a busy process at once instead of waiting out that one's slice (up to milliseconds);
+    // a loop whose bursts are longer than its slice is preempted inside them (README).
+    if (!fifo && bus->sched_slice_us > 0) {
+      const auto slice = fair_slice(std::chrono::microseconds(bus->sched_slice_us));
+      const int error = errno;
+      if (!slice) {
+        spdlog::warn("bus {}: sched_slice_us {} refused ({}): the kernel's default slice stays", bus_name,
+                     bus->sched_slice_us, std::strerror(error));
+      } else if (*slice == Duration::zero()) {
+        spdlog::info("bus {}: this kernel takes no slice of a thread's own (Linux 6.12 and later do)", bus_name);
+      } else {
+        spdlog::info("bus {}: the loop's slice is {} us", bus_name,
+                     std::chrono::duration_cast<std::chrono::microseconds>(*slice).count());
       }
     }
     // Optional: no CPU of the host slower to wake from idle than cpu_latency_us while this process

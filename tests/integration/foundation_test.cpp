@@ -5,9 +5,14 @@
 #include <nlohmann/json.hpp>
 
 #include <sched.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
+#include <cerrno>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -146,20 +151,28 @@ bool host_permits_fifo(int priority) {
   return child > 0 && ::waitpid(child, &status, 0) == child && WIFEXITED(status) && WEXITSTATUS(status) == 0;
 }
 
-// realtime_priority: the gateway's loop thread runs under SCHED_FIFO where the host permits it,
-// and says why not where it does not; its position-record writer, which waits on the disk, never
-// runs under it.
-TEST(Foundation, AGatewayAskedForRealtimeRunsItsLoopUnderSchedFifoOrSaysWhyNot) {
-  ProcessGroup group;
+// The simulated lab's configuration with `line` (a key of the first bus, can0) added, written in
+// the group's folder as `name`: its path ("" when the lab file has no such bus).
+std::string lab_with_can0_key(ProcessGroup& group, const std::string& line, const std::string& name) {
   std::ifstream in(source_path("config/sim-lab.yaml"));
   std::stringstream text;
   text << in.rdbuf();
   std::string yaml = text.str();
   const std::string anchor = "    poll_hz: 20\n";  // the first bus, can0
-  ASSERT_NE(yaml.find(anchor), std::string::npos);
-  yaml.insert(yaml.find(anchor) + anchor.size(), "    realtime_priority: 20\n");
-  const std::string config = group.work_dir() + "/realtime.yaml";
+  if (yaml.find(anchor) == std::string::npos) return "";
+  yaml.insert(yaml.find(anchor) + anchor.size(), line);
+  const std::string config = group.work_dir() + "/" + name;
   std::ofstream(config) << yaml;
+  return config;
+}
+
+// realtime_priority: the gateway's loop thread runs under SCHED_FIFO where the host permits it,
+// and says why not where it does not; its position-record writer, which waits on the disk, never
+// runs under it.
+TEST(Foundation, AGatewayAskedForRealtimeRunsItsLoopUnderSchedFifoOrSaysWhyNot) {
+  ProcessGroup group;
+  const std::string config = lab_with_can0_key(group, "    realtime_priority: 20\n", "realtime.yaml");
+  ASSERT_FALSE(config.empty());
 
   const bool permitted = host_permits_fifo(20);
   const pid_t gateway = group.start({"gateway:can0", "motion-gateway", {"--config", config, "--bus", "can0"}, {}});
@@ -185,6 +198,37 @@ TEST(Foundation, AGatewayAskedForRealtimeRunsItsLoopUnderSchedFifoOrSaysWhyNot) 
   for (const auto& [tid, policy] : policies) {
     if (tid != gateway) { EXPECT_EQ(policy, SCHED_OTHER) << "thread " << tid; }
   }
+  group.stop(gateway);
+  EXPECT_EQ(group.exit_status(gateway), 0);
+}
+
+// sched_slice_us: under normal scheduling the gateway's loop runs with the slice it asked for,
+// where the kernel takes one (Linux 6.12 and later); an older kernel's refusal is said.
+TEST(Foundation, AGatewayAskedForASliceRunsItsLoopWithItOrSaysTheKernelTakesNone) {
+  ProcessGroup group;
+  const std::string config = lab_with_can0_key(group, "    sched_slice_us: 500\n", "slice.yaml");
+  ASSERT_FALSE(config.empty());
+  const pid_t gateway = group.start({"gateway:can0", "motion-gateway", {"--config", config, "--bus", "can0"}, {}});
+  ASSERT_TRUE(group.wait_for_heartbeat("gateway:can0", seconds(15), true)) << group.log_of("gateway:can0");
+  const std::string taken = "the loop's slice is 500 us";
+  const std::string none = "this kernel takes no slice of a thread's own";
+  ASSERT_TRUE(group.pump_until(
+      [&] {
+        const std::string log = group.log_of("gateway:can0");
+        return log.find(taken) != std::string::npos || log.find(none) != std::string::npos;
+      },
+      std::chrono::milliseconds(5000)))
+      << group.log_of("gateway:can0");
+  // The loop thread's sched_attr (tid = pid), its first version: sched_runtime at bytes 24..31.
+  std::array<std::uint64_t, 6> attr{};
+  ASSERT_EQ(::syscall(SYS_sched_getattr, gateway, attr.data(), sizeof attr, 0), 0) << std::strerror(errno);
+  const std::uint64_t runtime_ns = attr[3];
+  if (group.log_of("gateway:can0").find(taken) != std::string::npos) {
+    EXPECT_EQ(runtime_ns, 500'000u);
+  } else {
+    EXPECT_EQ(runtime_ns, 0u);
+  }
+  EXPECT_EQ(::sched_getscheduler(gateway), SCHED_OTHER);
   group.stop(gateway);
   EXPECT_EQ(group.exit_status(gateway), 0);
 }

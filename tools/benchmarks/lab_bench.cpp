@@ -23,8 +23,10 @@
 // A bus that does not come up is reported as such (with what its gateway logged) and left out of
 // the move; nothing is estimated. Not part of ctest: `tools/bench lab`.
 //
-// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] [--cpu-latency US] [--enable-all 0|1]
+// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] [--cpu-latency US] [--sched-slice US] [--enable-all 0|1]
 //   --scale F: every bus's drive count times F (0 < F <= 1; 1 is the full lab)
+//   --sched-slice US: every bus gets `sched_slice_us: US` (0: the kernel's default slice for the
+//     gateways under normal scheduling; without it, the gateways' own default)
 //   --cpu-latency US: the first bus gets `cpu_latency_us: US` (its gateway asks the kernel that no
 //     CPU take longer to wake from idle, for the whole host; 0: idle CPUs poll); -1, the default:
 //     the host's own idle states
@@ -78,6 +80,7 @@ struct Options {
   int per_bus = 4;
   int realtime = 0;      // 0 or 1..99
   int cpu_latency = -1;  // -1 or 0..10000 us
+  int sched_slice = -1;  // -1 (the gateways' default) or 0..100000 us
   bool enable_all = false;
 };
 
@@ -135,8 +138,10 @@ std::string setup_of(const std::string& family) {
 }
 
 // The lab's YAML; `axis_bus` gets every axis's bus.
-std::string lab_yaml(const std::vector<BusPlan>& buses, int realtime, int cpu_latency,
+std::string lab_yaml(const std::vector<BusPlan>& buses, const Options& opt,
                      std::map<std::string, std::string>& axis_bus) {
+  const int realtime = opt.realtime;
+  const int cpu_latency = opt.cpu_latency;
   std::ostringstream buses_out;
   std::ostringstream drives;
   std::ostringstream axes;
@@ -147,7 +152,7 @@ std::string lab_yaml(const std::vector<BusPlan>& buses, int realtime, int cpu_la
               << ", request_timeout_ms: " << (b.kind == "can" ? 50 : 100) << ", retries: 2, poll_hz: " << b.poll_hz
               << (realtime > 0 ? ", realtime_priority: " + std::to_string(realtime) : "")
               << (cpu_latency >= 0 && &b == &buses.front() ? ", cpu_latency_us: " + std::to_string(cpu_latency) : "")
-              << "}\n";
+              << (opt.sched_slice >= 0 ? ", sched_slice_us: " + std::to_string(opt.sched_slice) : "") << "}\n";
     const auto add = [&](const std::string& family, int first, int count, int group) {
       for (int k = 0; k < count; ++k) {
         const int id = first + k;
@@ -218,7 +223,7 @@ int run(const Options& opt) {
   const std::string config_path = dir + "/lab.yaml";
   const auto buses = lab_buses(opt.scale);
   std::map<std::string, std::string> axis_bus;
-  std::ofstream(config_path) << lab_yaml(buses, opt.realtime, opt.cpu_latency, axis_bus);
+  std::ofstream(config_path) << lab_yaml(buses, opt, axis_bus);
   auto loaded = config::load_file(config_path);
   if (!loaded.ok()) {
     std::fprintf(stderr, "bench_lab: the generated configuration is refused:\n%s\n", loaded.error_text().c_str());
@@ -521,6 +526,8 @@ int run(const Options& opt) {
   if (opt.realtime > 0)
     std::printf("realtime: gateways' loops SCHED_FIFO %d, motion-sim normal (refusals are in their logs)\n",
                 opt.realtime);
+  if (opt.sched_slice >= 0)
+    std::printf("gateways' slice under normal scheduling: sched_slice_us %d\n", opt.sched_slice);
   if (opt.cpu_latency >= 0)
     std::printf("cpu latency: %d us from idle, asked by %s's gateway (a refusal is in its log)\n", opt.cpu_latency,
                 buses.front().name.c_str());
@@ -543,7 +550,7 @@ int main(int argc, char** argv) {
   motion::bench::Options opt;
   const char* const usage =
       "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] "
-      "[--cpu-latency US] [--enable-all 0|1]\n";
+      "[--cpu-latency US] [--sched-slice US] [--enable-all 0|1]\n";
   for (int i = 1; i < argc; i += 2) {
     // A flag without its value (e.g. --help) is refused, not ignored (it used to run the full lab).
     if (i + 1 >= argc) {
@@ -568,6 +575,8 @@ int main(int argc, char** argv) {
       opt.realtime = static_cast<int>(value);
     else if (flag == "--cpu-latency" && value >= -1 && value <= 10000)
       opt.cpu_latency = static_cast<int>(value);
+    else if (flag == "--sched-slice" && (value == 0 || (value >= 100 && value <= 100000)))
+      opt.sched_slice = static_cast<int>(value);
     else {
       std::fprintf(stderr, "%s", usage);
       return 2;

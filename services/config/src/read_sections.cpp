@@ -67,7 +67,7 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
   if (!r.check_map(node, path,
                    {"name", "transport", "bitrate", "bus_timing", "baud", "parity", "stop_bits", "uimessage_crc",
                     "uimessage_crc_strict", "request_timeout_ms", "retries", "poll_hz", "realtime_priority",
-                    "timer_spin_us", "cpu_latency_us", "egress_latency_us", "kernel_sync"}))
+                    "sched_slice_us", "timer_spin_us", "cpu_latency_us", "egress_latency_us", "kernel_sync"}))
     return;
   bus.where = r.locations(node);
   if (auto v = r.get<std::string>(node, path, "name", true)) bus.name = *v;
@@ -137,6 +137,12 @@ void read_bus(Reader& r, const YAML::Node& node, const std::string& path, Bus& b
               bus.realtime_priority);
   bounded_int(r, node, path, "timer_spin_us", 0, 500,
               "0 (sleep to each deadline) .. 500 (wake 500 us early and wait the rest busy)", bus.timer_spin_us);
+  const std::string slices = "0 (the kernel's default slice) or " + std::to_string(kMinSchedSliceUs) + ".." +
+                             std::to_string(kMaxSchedSliceUs) + " us";
+  bounded_int(r, node, path, "sched_slice_us", 0, kMaxSchedSliceUs, slices, bus.sched_slice_us);
+  if (bus.sched_slice_us > 0 && bus.sched_slice_us < kMinSchedSliceUs)
+    r.error(node["sched_slice_us"], path + ".sched_slice_us",
+            "expected " + slices + ", got " + std::to_string(bus.sched_slice_us));
   bounded_int(r, node, path, "cpu_latency_us", 0, kMaxCpuLatencyUs,
               "0 (idle CPUs poll) .. " + std::to_string(kMaxCpuLatencyUs) +
                   " us (the longest wake-up from idle the gateway accepts)",

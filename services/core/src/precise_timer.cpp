@@ -2,6 +2,7 @@
 
 #include <sched.h>
 #include <sys/prctl.h>
+#include <sys/syscall.h>
 #include <sys/timerfd.h>
 #include <unistd.h>
 
@@ -23,6 +24,39 @@ void normal_scheduling() {
   sched_param param{};
   param.sched_priority = 0;
   ::sched_setscheduler(0, SCHED_OTHER, &param);
+}
+
+namespace {
+// The kernel's struct sched_attr, its first version (SCHED_ATTR_SIZE_VER0, 48 bytes; sched(7)):
+// glibc has no wrapper for sched_getattr/sched_setattr, and <linux/sched/types.h> clashes with
+// <sched.h>.
+struct SchedAttr {
+  std::uint32_t size = sizeof(SchedAttr);
+  std::uint32_t sched_policy = 0;
+  std::uint64_t sched_flags = 0;
+  std::int32_t sched_nice = 0;
+  std::uint32_t sched_priority = 0;
+  std::uint64_t sched_runtime = 0;
+  std::uint64_t sched_deadline = 0;
+  std::uint64_t sched_period = 0;
+};
+static_assert(sizeof(SchedAttr) == 48);
+}  // namespace
+
+std::optional<Duration> fair_slice(Duration slice) {
+  SchedAttr attr{};
+  if (::syscall(SYS_sched_getattr, 0, &attr, sizeof attr, 0) != 0) return std::nullopt;
+  if (attr.sched_policy != SCHED_OTHER) {
+    errno = EPERM;  // a real-time or other policy stays as it is
+    return std::nullopt;
+  }
+  attr.size = sizeof attr;
+  attr.sched_flags = 0;
+  attr.sched_runtime = static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(slice).count());
+  if (::syscall(SYS_sched_setattr, 0, &attr, 0) != 0) return std::nullopt;
+  SchedAttr now{};
+  if (::syscall(SYS_sched_getattr, 0, &now, sizeof now, 0) != 0) return std::nullopt;
+  return std::chrono::duration_cast<Duration>(std::chrono::nanoseconds(now.sched_runtime));
 }
 
 PreciseTimer::PreciseTimer(EventLoop& loop) : loop_(loop) {

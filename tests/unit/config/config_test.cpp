@@ -360,6 +360,16 @@ TEST(Config, TimerSpinIsOffOrUpTo500Microseconds) {
                          {{501, "0 (sleep to each deadline) .. 500"}, {-1, "got -1"}});
 }
 
+// The slice a gateway's loop asks for under normal scheduling: the kernel's default (0) unless
+// configured, else the 100 us .. 100 ms the kernel takes.
+TEST(Config, SchedSliceIsTheKernelsDefaultOr100MicrosecondsTo100Milliseconds) {
+  expect_bounded_bus_key("sched_slice_us", &Bus::sched_slice_us, 500, 0, 100,
+                         {{100001, "0 (the kernel's default slice) or 100..100000 us, got 100001"},
+                          {99, "got 99"},
+                          {1, "got 1"},
+                          {-1, "got -1"}});
+}
+
 // How long a CPU may take to wake from idle while the gateway runs: the host's own setting unless
 // asked (-1), else 0 (idle CPUs poll) .. 10 ms.
 TEST(Config, CpuLatencyIsTheHostsOwnOrUpTo10Milliseconds) {

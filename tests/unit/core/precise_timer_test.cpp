@@ -2,7 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cerrno>
+#include <cstring>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace motion {
@@ -90,6 +94,33 @@ TEST(PreciseTimer, ASpinWakesEarlyButNeverRunsTheCallbackBeforeItsDeadline) {
 }
 
 TEST(PreciseTimer, TimerSlackCanBeLowered) { EXPECT_TRUE(minimal_timer_slack()); }
+
+// A thread under normal scheduling gets the slice it asks for where the kernel has custom slices
+// (6.12 and later), and the kernel's default back with 0; an older kernel ignores the request.
+TEST(FairSlice, TheThreadsSliceIsTheOneItAskedForOrTheKernelsDefault) {
+  std::optional<Duration> asked;
+  std::optional<Duration> back;
+  std::optional<Duration> fifo;
+  int fifo_error = 0;
+  std::thread([&] {  // a thread of its own: the test's main thread keeps its slice
+    asked = fair_slice(std::chrono::microseconds(100));
+    back = fair_slice(Duration::zero());
+    if (fifo_scheduling(10)) {
+      fifo = fair_slice(std::chrono::microseconds(100));
+      fifo_error = errno;
+    } else {
+      fifo_error = EPERM;  // not permitted here: what fair_slice would say
+    }
+  })
+      .join();
+  ASSERT_TRUE(asked) << std::strerror(errno);
+  ASSERT_TRUE(back);
+  EXPECT_FALSE(fifo) << "a SCHED_FIFO thread was put back under normal scheduling";
+  EXPECT_EQ(fifo_error, EPERM);
+  if (*asked == Duration::zero()) GTEST_SKIP() << "this kernel has no custom slices (before Linux 6.12)";
+  EXPECT_EQ(*asked, std::chrono::microseconds(100));
+  EXPECT_GT(*back, std::chrono::microseconds(100)) << "the kernel's default slice";
+}
 
 }  // namespace
 }  // namespace motion

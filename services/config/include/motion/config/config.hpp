@@ -82,6 +82,9 @@ enum class UiMessageCrc { kDetect, kStartToAux, kIdToAux };
 inline constexpr int kMaxEgressLatencyUs = 20000;
 // bus cpu_latency_us: the most a wake-up from idle may take, when limited at all.
 inline constexpr int kMaxCpuLatencyUs = 10000;
+// bus sched_slice_us: the slices the kernel takes (it clamps sched_attr::sched_runtime to these).
+inline constexpr int kMinSchedSliceUs = 100;
+inline constexpr int kMaxSchedSliceUs = 100000;
 
 struct Bus {
   std::string name;
@@ -100,6 +103,9 @@ struct Bus {
   double poll_hz = 20.0;      // status polling rate per drive
   int realtime_priority = 0;  // the gateway's loop thread under SCHED_FIFO at this priority (1..99); 0: not
   int timer_spin_us = 0;      // the gateway's precise deadlines: woken this early, the rest waited busy (0..500)
+  // Under normal scheduling, the slice the gateway's loop thread asks of the kernel (EEVDF, Linux
+  // 6.12+): a woken loop preempts a thread with a longer one at once. 0, the default: the kernel's.
+  int sched_slice_us = 0;  // 0 or kMinSchedSliceUs..kMaxSchedSliceUs
   // While the gateway runs, no CPU of the host takes longer than this to wake from idle (the
   // kernel's PM QoS CPU latency request; 0: idle CPUs poll); -1, the default: the host's own setting.
   int cpu_latency_us = -1;

@@ -11,6 +11,7 @@
 // default is 50 us, by which the kernel may defer any timed wake-up, ppoll's included). Returns
 // false when the kernel refused it.
 // fifo_scheduling(): optional SCHED_FIFO for the same purpose, where permitted.
+// fair_slice(): under normal scheduling, a short slice for the same purpose, unprivileged.
 //
 // set_spin(d): the timerfd wakes the loop `d` before each deadline and the callback waits for the
 // deadline on the clock, busy: what is left of the wake-up latency then is the time from the
@@ -21,6 +22,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 
 #include "motion/core/clock.hpp"
 #include "motion/core/event_loop.hpp"
@@ -34,6 +36,14 @@ bool minimal_timer_slack();
 bool fifo_scheduling(int priority);
 // Back to SCHED_OTHER (nice 0).
 void normal_scheduling();
+// The calling thread's slice under normal scheduling (Linux 6.12 and later, EEVDF: the
+// sched_runtime of a SCHED_OTHER thread's sched_attr, which the kernel clamps to 100 us .. 100 ms;
+// 0: the kernel's default). A waking thread whose slice is shorter than the running one's
+// preempts it at once instead of waiting, up to that one's slice, for it to give the CPU up. No
+// privilege is needed and the nice value stays. Returns the slice the kernel reports afterwards
+// (0 from a kernel without custom slices, which ignores the request), or nullopt with errno set
+// when refused. Only for a thread under normal scheduling (it would end SCHED_FIFO).
+std::optional<Duration> fair_slice(Duration slice);
 
 class PreciseTimer {
  public:
