@@ -69,6 +69,19 @@ inline std::variant<MovePlan, std::string> simple_planner(const std::vector<Plan
   return plan;
 }
 
+// A request of client "test": `kind` of `axes` with `values` (one per axis).
+inline request_t test_request(std::int64_t id, std::int8_t kind, std::vector<std::string> axes,
+                              std::vector<double> values) {
+  request_t r{};
+  r.client_id = "test";
+  r.request_id = id;
+  r.kind = kind;
+  r.axes = std::move(axes);
+  r.values = std::move(values);
+  r.num_axes = static_cast<std::int32_t>(r.axes.size());
+  return r;
+}
+
 // A drive model as a gateway publishes it: velocity in 1 count/s, acceleration in 1 count/s^2; a
 // UIM342 in a group (group_id != 0) offers BG to its group id, each drive a start of its own.
 inline motionlcm::drive_model_t test_model(const std::string& axis, const std::string& bus, const std::string& family,
@@ -417,13 +430,7 @@ struct CoordinatorTest : ::testing::Test {
     return loop.run_until(loop.now() + limit, done);
   }
   std::int64_t send(std::int8_t kind, std::vector<std::string> axes, std::vector<double> values, int timeout_ms = 0) {
-    request_t r{};
-    r.client_id = "test";
-    r.request_id = next_id++;
-    r.kind = kind;
-    r.axes = std::move(axes);
-    r.values = std::move(values);
-    r.num_axes = static_cast<std::int32_t>(r.axes.size());
+    request_t r = test_request(next_id++, kind, std::move(axes), std::move(values));
     r.timeout_ms = timeout_ms;
     client.publish(r);
     return r.request_id;

@@ -13,6 +13,32 @@
 namespace motion::coordinator::test_fixture {
 namespace {
 
+// A stand-in gateway's answers over LCM on `node`: every GW_COMMAND2_<bus> of `prefix` is kept in
+// `commands` and answered at once, ARMED for an ARM_MOVE, DONE for any other; answer() sends any
+// reply. Lives where it was made (its subscription refers to it).
+struct GatewayAnswers {
+  GatewayAnswers(lcm::Node& gateway, const std::string& prefix) : node(gateway) {
+    node.subscribe_raw(prefix + "GW_COMMAND2_.*", [this](const void* data, int size, const std::string&) {
+      motionlcm::gateway_command2_t c{};
+      if (c.decode(data, 0, size) != size) return;
+      commands.push_back(c);
+      answer(c, c.kind == gateway_command_t::ARM_MOVE ? gateway_reply_t::ARMED : gateway_reply_t::DONE);
+    });
+  }
+  GatewayAnswers(const GatewayAnswers&) = delete;
+  GatewayAnswers& operator=(const GatewayAnswers&) = delete;
+  void answer(const motionlcm::gateway_command2_t& c, std::int8_t status) {
+    gateway_reply_t r{};
+    r.command_id = c.command_id;
+    r.bus = c.bus;
+    r.status = status;
+    r.trigger_utime = wall_time_us();
+    node.publish(lcm::channels::kGatewayReply, r);
+  }
+  lcm::Node& node;
+  std::vector<motionlcm::gateway_command2_t> commands;
+};
+
 // The shell on the wire: the same core behind the LCM subscriptions and publications, driven by
 // one loop timer at the deadlines it returns.
 TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
@@ -42,28 +68,15 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
         ++model_requests;
         gateway.publish(lcm::channels::kDriveModel, test_model("x", "can0", "uim342", 20));
       });
-  std::vector<motionlcm::gateway_command2_t> commands;  // what goes out: GW_COMMAND2_<bus>
-  const auto answer = [&](const motionlcm::gateway_command2_t& c, std::int8_t status) {
-    gateway_reply_t r{};
-    r.command_id = c.command_id;
-    r.bus = c.bus;
-    r.status = status;
-    r.trigger_utime = wall_time_us();
-    gateway.publish(lcm::channels::kGatewayReply, r);
-  };
-  gateway.subscribe_raw("CT_GW_COMMAND2_.*", [&](const void* data, int size, const std::string&) {
-    motionlcm::gateway_command2_t c{};
-    if (c.decode(data, 0, size) != size) return;
-    commands.push_back(c);
-    answer(c, c.kind == gateway_command_t::ARM_MOVE ? gateway_reply_t::ARMED : gateway_reply_t::DONE);
-  });
+  GatewayAnswers answers(gateway, "CT_");  // what goes out: GW_COMMAND2_<bus>
+  const auto& commands = answers.commands;
   std::vector<motionlcm::sync_trigger_t> triggers;
   gateway.subscribe<motionlcm::sync_trigger_t>(
       lcm::channels::kSyncTrigger, [&](const motionlcm::sync_trigger_t& t, const std::string&) {
         triggers.push_back(t);
         for (const auto& c : commands) {
           if (c.kind != gateway_command_t::ARM_MOVE || c.trigger_id != t.trigger_id) continue;
-          answer(c, gateway_reply_t::STARTED);
+          answers.answer(c, gateway_reply_t::STARTED);
           x.position_counts = c.axes.at(0).target_counts;
           x.position = static_cast<double>(x.position_counts) / 100.0;
         }
@@ -87,13 +100,7 @@ TEST(CoordinatorServiceOverLcm, ARequestTravelsOverLcmToTheGatewayAndBack) {
       << "no DRIVE_MODEL_REQUEST";
   testing::pump_until(
       loop, [] { return false; }, milliseconds(100));  // the model reaches the coordinator
-  request_t move{};
-  move.client_id = "test";
-  move.request_id = 1;
-  move.kind = request_t::MOVE_ABSOLUTE;
-  move.axes = {"x"};
-  move.values = {1.0};
-  move.num_axes = 1;
+  request_t move = test_request(1, request_t::MOVE_ABSOLUTE, {"x"}, {1.0});
   client.publish(lcm::channels::kRequest, move);
   ASSERT_TRUE(testing::pump_until(
       loop, [&] { return ended(1); }, milliseconds(3000)));
@@ -154,21 +161,7 @@ TEST(CoordinatorServiceOverLcm, AroundAStartRepliesWaitWhileCommandsGoOutAtOnce)
         slow.start_wire_us.at(0) = 8'000.0;  // a slow line: the quiet interval begins 8.5 ms ahead
         gateway.publish(lcm::channels::kDriveModel, slow);
       });
-  std::vector<motionlcm::gateway_command2_t> commands;
-  const auto answer = [&](const motionlcm::gateway_command2_t& cmd, std::int8_t status) {
-    gateway_reply_t r{};
-    r.command_id = cmd.command_id;
-    r.bus = cmd.bus;
-    r.status = status;
-    r.trigger_utime = wall_time_us();
-    gateway.publish(lcm::channels::kGatewayReply, r);
-  };
-  gateway.subscribe_raw("CQ_GW_COMMAND2_.*", [&](const void* data, int size, const std::string&) {
-    motionlcm::gateway_command2_t cmd{};
-    if (cmd.decode(data, 0, size) != size) return;
-    commands.push_back(cmd);
-    answer(cmd, cmd.kind == gateway_command_t::ARM_MOVE ? gateway_reply_t::ARMED : gateway_reply_t::DONE);
-  });
+  GatewayAnswers answers(gateway, "CQ_");
   // Inside the interval, 1 ms after the slow line's send time: both buses report STARTED and the
   // client asks to stop x.
   std::optional<motionlcm::sync_trigger2_t> t2;
@@ -179,19 +172,12 @@ TEST(CoordinatorServiceOverLcm, AroundAStartRepliesWaitWhileCommandsGoOutAtOnce)
         quiet = lcm::StartQuiet::interval_of(t);
         const std::int64_t inside = quiet->from_utime + 1'500;
         loop.call_after(std::chrono::microseconds(inside - wall_time_us()), [&] {
-          for (const auto& cmd : commands) {
+          for (const auto& cmd : answers.commands) {
             if (cmd.kind == gateway_command_t::ARM_MOVE && cmd.trigger_id == t2->trigger_id) {
-              answer(cmd, gateway_reply_t::STARTED);
+              answers.answer(cmd, gateway_reply_t::STARTED);
             }
           }
-          request_t stop{};
-          stop.client_id = "test";
-          stop.request_id = 2;
-          stop.kind = request_t::STOP;
-          stop.axes = {"x"};
-          stop.values = {0.0};
-          stop.num_axes = 1;
-          client.publish(lcm::channels::kRequest, stop);
+          client.publish(lcm::channels::kRequest, test_request(2, request_t::STOP, {"x"}, {0.0}));
         });
       });
   struct Heard {
@@ -214,14 +200,7 @@ TEST(CoordinatorServiceOverLcm, AroundAStartRepliesWaitWhileCommandsGoOutAtOnce)
       loop, [&] { return service.buses_without_gateway().empty(); }, milliseconds(3000)));
   testing::pump_until(
       loop, [] { return false; }, milliseconds(200));  // the drive models reach the coordinator
-  request_t move{};
-  move.client_id = "test";
-  move.request_id = 1;
-  move.kind = request_t::MOVE_ABSOLUTE;
-  move.axes = {"x", "c"};
-  move.values = {1.0, 1.0};
-  move.num_axes = 2;
-  client.publish(lcm::channels::kRequest, move);
+  client.publish(lcm::channels::kRequest, test_request(1, request_t::MOVE_ABSOLUTE, {"x", "c"}, {1.0, 1.0}));
   const auto ended = [&](std::int64_t id) {
     return !replies[id].empty() && replies[id].back().status != reply_t::ACCEPTED &&
            replies[id].back().status != reply_t::STARTED && replies[id].back().status != reply_t::PROGRESS;
