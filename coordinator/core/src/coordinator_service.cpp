@@ -63,10 +63,9 @@ CoordinatorService::CoordinatorService(EventLoop& loop, lcm::Node& node, const c
                                       lcm::channels::signed_gateway_command("")}) {
     node_.publish_at_once(commands);
   }
-  for (const std::string_view trigger : {lcm::channels::kSyncTrigger, lcm::channels::kSyncTrigger2}) {
-    node_.publish_at_once(trigger);
-    node_.publish_at_once(security::signed_channel(trigger));
-  }
+  // A prefix: SYNC_TRIGGER covers SYNC_TRIGGER2 too, SSYNC_TRIGGER its signed channels.
+  node_.publish_at_once(lcm::channels::kSyncTrigger);
+  node_.publish_at_once(security::signed_channel(lcm::channels::kSyncTrigger));
   node_.subscribe<request_t>(
       lcm::channels::kRequest,
       [this](const request_t& m, const std::string&) {
