@@ -45,7 +45,10 @@ void SerialBusDriver::try_open() {
   }
   last_open_error_.clear();
   closed_because_.clear();
-  if (port_->parity_modelled()) {
+  if (port_->is_socket()) {
+    spdlog::info("bus {}: {} is a simulated line's socket (no termios; any parity bit counted in the character time)",
+                 bus_, device_path_);
+  } else if (port_->parity_modelled()) {
     spdlog::info(
         "bus {}: {} is a pseudo-terminal that refuses parity: opened 8N{}, the parity bit counted in the character "
         "time",

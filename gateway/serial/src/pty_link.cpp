@@ -57,4 +57,18 @@ PtyLink::~PtyLink() {
   if (slave_ >= 0) ::close(slave_);
 }
 
+std::size_t PtyLink::read(std::span<std::uint8_t> buffer, std::int64_t& sent_wall_ns) {
+  sent_wall_ns = 0;
+  const ssize_t n = ::read(master_, buffer.data(), buffer.size());
+  return n > 0 ? static_cast<std::size_t>(n) : 0;  // EAGAIN: nothing (the kept slave fd means no EIO)
+}
+
+std::error_code PtyLink::write(std::span<const std::uint8_t> bytes) {
+  const ssize_t n = ::write(master_, bytes.data(), bytes.size());
+  if (n < 0) return {errno, std::generic_category()};
+  if (static_cast<std::size_t>(n) != bytes.size())
+    return std::make_error_code(std::errc::resource_unavailable_try_again);
+  return {};
+}
+
 }  // namespace motion::serial

@@ -3,14 +3,18 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/ioctl.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <utility>
+
+#include "motion/core/unix_socket.hpp"
 
 namespace motion::serial {
 namespace {
@@ -100,6 +104,19 @@ std::error_code configure_tty(int fd, const SerialSettings& settings, bool& pari
 
 std::unique_ptr<SerialPort> SerialPort::open(const std::string& path, const SerialSettings& settings,
                                              std::error_code& error) {
+  if (struct stat st{}; ::stat(path.c_str(), &st) == 0 && S_ISSOCK(st.st_mode)) {
+    // A simulated line's socket: the same settings are refused as on a tty, none is applied.
+    unsigned speed = 0;
+    if (!termios_speed(settings.baud, speed) || settings.data_bits != 8 ||
+        (settings.stop_bits != 1 && settings.stop_bits != 2)) {
+      error = std::make_error_code(std::errc::invalid_argument);
+      return nullptr;
+    }
+    const int fd = unix_socket::connect_seqpacket(path, error);
+    if (fd < 0) return nullptr;
+    return std::unique_ptr<SerialPort>(
+        new SerialPort(fd, path, settings, settings.parity != Parity::kNone, /*socket=*/true));
+  }
   const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) {
     error = last_error();
@@ -116,18 +133,34 @@ std::unique_ptr<SerialPort> SerialPort::open(const std::string& path, const Seri
     return nullptr;
   }
   error.clear();
-  return std::unique_ptr<SerialPort>(new SerialPort(fd, path, settings, parity_modelled));
+  return std::unique_ptr<SerialPort>(new SerialPort(fd, path, settings, parity_modelled, /*socket=*/false));
 }
 
-SerialPort::SerialPort(int fd, std::string path, SerialSettings settings, bool parity_modelled)
-    : fd_(fd), path_(std::move(path)), settings_(settings), parity_modelled_(parity_modelled) {}
+SerialPort::SerialPort(int fd, std::string path, SerialSettings settings, bool parity_modelled, bool socket)
+    : fd_(fd), path_(std::move(path)), settings_(settings), parity_modelled_(parity_modelled), socket_(socket) {}
 
 SerialPort::~SerialPort() {
   if (fd_ >= 0) ::close(fd_);
 }
 
+std::size_t SerialPort::read_socket(std::span<std::uint8_t> buffer, std::error_code& error) {
+  if (pending_.empty()) {
+    std::array<std::uint8_t, kSimLinkMessage> message{};
+    const ssize_t n = ::recv(fd_, message.data(), message.size(), MSG_DONTWAIT);
+    if (n == 0) error = std::make_error_code(std::errc::io_error);  // motion-sim closed the line
+    if (n < 0 && errno != EAGAIN && errno != EINTR) error = last_error();
+    if (n <= 0) return 0;
+    pending_.assign(message.begin(), message.begin() + n);
+  }
+  const std::size_t n = std::min(buffer.size(), pending_.size());
+  std::copy_n(pending_.begin(), n, buffer.begin());
+  pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(n));
+  return n;
+}
+
 std::size_t SerialPort::read(std::span<std::uint8_t> buffer, std::error_code& error) {
   error.clear();
+  if (socket_) return read_socket(buffer, error);
   const ssize_t n = ::read(fd_, buffer.data(), buffer.size());
   if (n > 0) return static_cast<std::size_t>(n);
   if (n == 0) {
@@ -144,6 +177,14 @@ std::size_t SerialPort::read(std::span<std::uint8_t> buffer, std::error_code& er
 }
 
 std::error_code SerialPort::write(std::span<const std::uint8_t> frame) {
+  if (socket_) {
+    for (std::size_t at = 0; at < frame.size(); at += kSimLinkMessage) {
+      const auto part = frame.subspan(at, std::min(kSimLinkMessage, frame.size() - at));
+      const ssize_t n = ::send(fd_, part.data(), part.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+      if (n < 0) return at == 0 ? last_error() : std::make_error_code(std::errc::resource_unavailable_try_again);
+    }
+    return {};
+  }
   const ssize_t n = ::write(fd_, frame.data(), frame.size());
   if (n < 0) return last_error();
   if (static_cast<std::size_t>(n) != frame.size())

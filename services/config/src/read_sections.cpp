@@ -442,7 +442,8 @@ void read_security(Reader& r, const YAML::Node& node, const std::string& file, S
 }
 
 void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out) {
-  if (!r.check_map(node, "simulation", {"runtime_dir", "group", "reply_latency_us", "home_switches", "variants"}))
+  if (!r.check_map(node, "simulation",
+                   {"runtime_dir", "group", "reply_latency_us", "serial_link", "home_switches", "variants"}))
     return;
   if (const YAML::Node switches = node["home_switches"]) {
     if (!switches.IsMap()) {
@@ -489,6 +490,15 @@ void read_simulation(Reader& r, const YAML::Node& node, SimulationSettings& out)
   }
   if (auto v = r.get<std::string>(node, "simulation", "runtime_dir", false)) out.runtime_dir = *v;
   if (auto v = r.get<std::string>(node, "simulation", "group", false)) out.group = *v;
+  if (auto v = r.get<std::string>(node, "simulation", "serial_link", false)) {
+    if (*v == "pty") {
+      out.serial_link = SimulationSettings::SerialLink::kPty;
+    } else if (*v == "socket") {
+      out.serial_link = SimulationSettings::SerialLink::kSocket;
+    } else {
+      r.error(node["serial_link"], "simulation.serial_link", "expected pty or socket, got '" + *v + "'");
+    }
+  }
   if (auto v = r.get<int>(node, "simulation", "reply_latency_us", false)) {
     out.reply_latency_us = *v;
     if (*v < 0) r.error(node["reply_latency_us"], "simulation.reply_latency_us", "must not be negative");

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <variant>
 
+#include "motion/core/unix_socket.hpp"
 #include "motion/simbus/address.hpp"
 #include "motion/simbus/wire.hpp"
 #include "unix_socket.hpp"
@@ -84,7 +85,7 @@ SocketEndpoint::~SocketEndpoint() {
 
 std::error_code SocketEndpoint::open_connection() {
   std::error_code error;
-  const int fd = detail::connect_seqpacket(socket_path(bus_name(), options_.socket_dir), error);
+  const int fd = unix_socket::connect_seqpacket(socket_path(bus_name(), options_.socket_dir), error);
   if (fd < 0) return error;
   error = detail::send_message(fd, wire::Hello{wire::kProtocolVersion, options_.own_echo, options_.label});
   if (error) {

@@ -15,6 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "motion/core/clock.hpp"
+#include "motion/core/unix_socket.hpp"
 #include "motion/simbus/address.hpp"
 #include "motion/simbus/wire.hpp"
 #include "unix_socket.hpp"
@@ -189,32 +190,9 @@ std::unique_ptr<Hub> Hub::open(EventLoop& loop, HubOptions options, std::error_c
 
 std::error_code Hub::listen() {
   socket_path_ = simbus::socket_path(options_.bus_name, options_.socket_dir);
-  const auto address = detail::unix_address(socket_path_);
-  if (!address) return std::make_error_code(std::errc::filename_too_long);
-  std::error_code probe;
-  if (const int fd = detail::connect_seqpacket(socket_path_, probe); fd >= 0) {
-    ::close(fd);
-    return std::make_error_code(std::errc::address_in_use);
-  }
-  if (probe == std::errc::connection_refused) ::unlink(socket_path_.c_str());  // left by a dead hub
-
-  const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (fd < 0) return detail::last_error();
-  // NOLINTNEXTLINE(cppcoreguidelines-pro-type-reinterpret-cast): the sockets API
-  if (::bind(fd, reinterpret_cast<const sockaddr*>(&*address), sizeof(*address)) != 0) {
-    const std::error_code error = detail::last_error();
-    ::close(fd);
-    return error;
-  }
-  // Restricted before listen(): until then a connect is refused, so no other user gets in between.
-  std::error_code error = restrict_access(socket_path_, options_.access);
-  if (!error && ::listen(fd, 64) != 0) error = detail::last_error();
-  if (error) {
-    ::close(fd);
-    ::unlink(socket_path_.c_str());
-    return error;
-  }
-  listen_fd_ = fd;
+  std::error_code error;
+  listen_fd_ = unix_socket::listen_seqpacket(socket_path_, options_.access, error);
+  if (listen_fd_ < 0) return error;
   loop_.watch(listen_fd_, [this] { accept_connections(); });
   return {};
 }
@@ -254,7 +232,7 @@ void Hub::accept_connections() {
       return;
     }
     ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &kSendBuffer, sizeof kSendBuffer);
-    detail::stamp_receptions(fd);
+    unix_socket::stamp_receptions(fd);
     connections_.emplace(fd, Connection{fd, 0});
     loop_.watch(fd, [this, fd] { read_connection(fd); });
   }
@@ -267,7 +245,7 @@ void Hub::read_connection(int fd) {
     const auto it = connections_.find(fd);
     if (it == connections_.end()) return;
     std::int64_t sent_wall_ns = 0;
-    const ssize_t n = detail::receive_stamped(fd, buffer, sent_wall_ns);
+    const ssize_t n = unix_socket::receive_stamped(fd, buffer, sent_wall_ns);
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
     if (n <= 0) {
@@ -286,14 +264,9 @@ void Hub::read_connection(int fd) {
 }
 
 TimePoint Hub::sent_at(std::int64_t sent_wall_ns) const {
-  const TimePoint now = loop_.now();
   // The stamp's age is real time: it dates a frame on a loop that runs on the steady clock only.
-  if (sent_wall_ns <= 0 || dynamic_cast<const SystemSteadyClock*>(&loop_.clock()) == nullptr) return now;
-  const std::int64_t wall_now_ns =
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
-  // At most kLongestReadDelay old (a stepped wall clock must not date a frame far back).
-  const auto age = std::clamp<std::int64_t>(wall_now_ns - sent_wall_ns, 0, kLongestReadDelay.count());
-  return now - std::chrono::nanoseconds(age);
+  if (dynamic_cast<const SystemSteadyClock*>(&loop_.clock()) == nullptr) return loop_.now();
+  return unix_socket::sent_time(loop_.now(), sent_wall_ns, kLongestReadDelay);
 }
 
 void Hub::handle(Connection& connection, const wire::Message& message, TimePoint sent) {

@@ -113,7 +113,8 @@ std::string LabSpec::yaml() const {
   }
   y << "coordinator: {default_timeout_ms: 20000, progress_period_ms: 200, trigger_lead_ms: 30, gateway_timeout_ms: "
        "1500}\n"
-       "simulation: {reply_latency_us: 200}\n";
+       "simulation: {reply_latency_us: 200, serial_link: "
+    << serial_link << "}\n";
   // The key files are the runner's, next to the configuration (paths relative to it).
   if (security) { y << motion::testing::enforced_security(5000); }
   return y.str();

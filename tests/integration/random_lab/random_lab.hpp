@@ -54,6 +54,8 @@ struct LabSpec {
   // security: {mode: enforce}: the coordinator accepts signed requests only, its gateway commands
   // are signed; the runner's clients sign with admin keys of their own.
   bool security = false;
+  // simulation.serial_link: what motion-sim makes the serial lines, "pty" or "socket".
+  std::string serial_link = "pty";
   std::vector<AxisSpec> axes;
   [[nodiscard]] std::string yaml() const;
   [[nodiscard]] const AxisSpec* find(const std::string& axis) const;

@@ -39,6 +39,9 @@ Case make_case(std::uint64_t seed, int steps, bool chaos = false) {
   // Every other seed runs the lab under security (signed requests and gateway commands); set
   // apart from the generator, so that a seed's lab and steps stay what they were.
   c.lab.security = seed % 2 == 1;
+  // Every other pair of seeds has its serial lines as sockets instead of ptys (so both kinds meet
+  // both security modes).
+  c.lab.serial_link = (seed / 2) % 2 == 1 ? "socket" : "pty";
   c.steps = generate_steps(rng, c.lab, steps, options.chaos);
   return c;
 }
@@ -64,8 +67,8 @@ struct Totals {
 // reproduction. True when the seed passed.
 bool run_seed(std::uint64_t seed, int steps, std::chrono::seconds shrink_budget, Totals& totals, bool chaos = false) {
   const Case c = make_case(seed, steps, chaos);
-  std::printf("seed %llu: %zu drives, %zu steps%s\n", static_cast<unsigned long long>(seed), c.lab.axes.size(),
-              c.steps.size(), c.lab.security ? ", security enforce" : "");
+  std::printf("seed %llu: %zu drives, %zu steps%s, serial lines: %s\n", static_cast<unsigned long long>(seed),
+              c.lab.axes.size(), c.steps.size(), c.lab.security ? ", security enforce" : "", c.lab.serial_link.c_str());
   std::fflush(stdout);
   RunOptions options;
   options.verbose = env_u64("RANDOM_LAB_VERBOSE", 0) != 0;

@@ -86,6 +86,7 @@ std::string reproduction(const LabSpec& lab, const std::vector<Step>& steps, con
   out << "  LabSpec spec;\n  spec.can_bitrate = " << lab.can_bitrate << ";\n  spec.rs485_baud = " << lab.rs485_baud
       << ";\n  spec.rs232_baud = " << lab.rs232_baud << ";\n  spec.rs485_parity = \"" << lab.rs485_parity << "\";\n";
   if (lab.security) out << "  spec.security = true;\n";
+  if (lab.serial_link != "pty") out << "  spec.serial_link = \"" << lab.serial_link << "\";\n";
   for (const auto& a : lab.axes) {
     char buf[512];
     std::snprintf(buf, sizeof buf,

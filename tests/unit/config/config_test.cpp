@@ -183,6 +183,22 @@ TEST(Config, SimulationGroupGivesTheAccessOfSimulatedBuses) {
   EXPECT_EQ(why, "simulation.group: no group 'no-such-group-here' on this machine");
 }
 
+// simulation.serial_link: what motion-sim makes a simserial: line, a pty (default) or a socket.
+TEST(Config, SimulatedSerialLinesArePtysUnlessSockets) {
+  using Link = SimulationSettings::SerialLink;
+  const auto plain = load_string(kValid, "lab.yaml");
+  ASSERT_TRUE(plain.ok()) << plain.error_text();
+  EXPECT_EQ(plain.config->simulation.serial_link, Link::kPty);
+  for (const auto& [text, link] : {std::pair{"pty", Link::kPty}, std::pair{"socket", Link::kSocket}}) {
+    const auto set = load_string(kValid + "simulation:\n  serial_link: " + text + "\n", "lab.yaml");
+    ASSERT_TRUE(set.ok()) << set.error_text();
+    EXPECT_EQ(set.config->simulation.serial_link, link) << text;
+  }
+  const int line = static_cast<int>(std::count(kValid.begin(), kValid.end(), '\n')) + 2;
+  expect_single_error(kValid + "simulation:\n  serial_link: tcp\n", line, "simulation.serial_link",
+                      "expected pty or socket, got 'tcp'");
+}
+
 TEST(Config, YamlSyntaxErrorHasLine) {
   const auto result = load_string("buses:\n  - name: [unclosed\n", "bad.yaml");
   ASSERT_FALSE(result.ok());

@@ -10,6 +10,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "motion/core/unix_socket.hpp"
 #include "motion/serial/serial_port.hpp"
 
 namespace motion::sim {
@@ -65,8 +66,11 @@ std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const conf
     return nullptr;
   }
   auto host = std::unique_ptr<SerialLineHost>(new SerialLineHost(loop, config, bus, *family));
-  host->link_ = serial::PtyLink::create(
-      link_path.empty() ? serial::simserial_link_path(config::sim_runtime_dir(config), bus.name) : link_path,
+  const auto link_kind = config.simulation.serial_link == config::SimulationSettings::SerialLink::kSocket
+                             ? serial::SimLinkKind::kSocket
+                             : serial::SimLinkKind::kPty;
+  host->link_ = serial::create_sim_link(
+      link_kind, link_path.empty() ? serial::simserial_link_path(config::sim_runtime_dir(config), bus.name) : link_path,
       configured_line(bus), error, *access);
   if (!host->link_) return nullptr;
   SerialDeviceContext context;
@@ -101,7 +105,7 @@ std::unique_ptr<SerialLineHost> SerialLineHost::open(EventLoop& loop, const conf
   if (host->mailbox_ && host->mailbox_->ok() && host->stop_fd_ >= 0) {
     host->reader_ = std::thread([h = host.get()] { h->read_in_thread(); });
   } else {
-    loop.watch(host->link_->master_fd(), [h = host.get()] { h->on_readable(); });
+    loop.watch(host->link_->fd(), [h = host.get()] { h->on_readable(); });
   }
   const TimePoint now = loop.now();
   host->device_->power_up(host->device_time(now));
@@ -116,7 +120,7 @@ SerialLineHost::~SerialLineHost() {
     (void)!::write(stop_fd_, &one, sizeof one);
     reader_.join();
   } else if (link_) {
-    loop_.unwatch(link_->master_fd());
+    loop_.unwatch(link_->fd());
   }
   if (stop_fd_ >= 0) ::close(stop_fd_);
   mailbox_.reset();  // reads still queued are dropped
@@ -149,9 +153,10 @@ void SerialLineHost::on_readable() {
   std::array<std::uint8_t, 512> buffer{};
   const TimePoint now = loop_.now();
   for (;;) {
-    const ssize_t n = ::read(link_->master_fd(), buffer.data(), buffer.size());
-    if (n <= 0) break;  // EAGAIN: drained (the slave fd PtyLink keeps open means no EIO)
-    on_bytes({buffer.data(), static_cast<std::size_t>(n)}, now);
+    std::int64_t sent_wall_ns = 0;  // not used: the loop's clock is not the real one here
+    const std::size_t n = link_->read(buffer, sent_wall_ns);
+    if (n == 0) break;
+    on_bytes({buffer.data(), n}, now);
   }
   reschedule();
 }
@@ -171,9 +176,20 @@ void SerialLineHost::on_bytes(std::span<const std::uint8_t> bytes, TimePoint rea
 }
 
 void SerialLineHost::read_in_thread() {
+  // A socket's stamp dates the bytes by the gateway's send, at most this far back.
+  constexpr Duration kLongestReadDelay = std::chrono::milliseconds(10);
   std::array<std::uint8_t, 512> buffer{};
+  const auto post = [this](std::vector<std::uint8_t>& bytes, TimePoint sent) {
+    if (bytes.empty()) return;
+    const bool queued = mailbox_->post([this, bytes = std::move(bytes), sent] {
+      on_bytes(bytes, sent);
+      reschedule();
+    });
+    bytes.clear();
+    if (!queued) spdlog::warn("bus {}: the loop is behind; bytes the gateway wrote were dropped", bus_.name);
+  };
   for (;;) {
-    std::array<pollfd, 2> fds{{{link_->master_fd(), POLLIN, 0}, {stop_fd_, POLLIN, 0}}};
+    std::array<pollfd, 2> fds{{{link_->fd(), POLLIN, 0}, {stop_fd_, POLLIN, 0}}};
     if (::poll(fds.data(), fds.size(), -1) < 0) {
       if (errno == EINTR) continue;
       spdlog::error("bus {}: the simulated line's reader stops: {}", bus_.name,
@@ -182,22 +198,25 @@ void SerialLineHost::read_in_thread() {
     }
     if (fds[1].revents != 0) return;
     const TimePoint read_at = loop_.clock().now();
+    // Reads dated alike (all of a pty's) go to the device together; a socket's messages each
+    // carry the time of their own send.
     std::vector<std::uint8_t> bytes;
+    TimePoint bytes_sent = read_at;
+    bool any = false;
     for (;;) {
-      const ssize_t n = ::read(link_->master_fd(), buffer.data(), buffer.size());
-      if (n <= 0) break;
-      bytes.insert(bytes.end(), buffer.begin(), buffer.begin() + n);
+      std::int64_t sent_wall_ns = 0;
+      const std::size_t n = link_->read(buffer, sent_wall_ns);
+      if (n == 0) break;
+      any = true;
+      const TimePoint sent = unix_socket::sent_time(read_at, sent_wall_ns, kLongestReadDelay);
+      if (sent != bytes_sent) post(bytes, bytes_sent);
+      bytes_sent = sent;
+      bytes.insert(bytes.end(), buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(n));
     }
-    if (bytes.empty()) {
-      // Readable without bytes (a hang-up the kept slave fd should prevent): do not spin on it.
-      if ((fds[0].revents & (POLLHUP | POLLERR)) != 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-      continue;
-    }
-    const bool queued = mailbox_->post([this, bytes = std::move(bytes), read_at] {
-      on_bytes(bytes, read_at);
-      reschedule();
-    });
-    if (!queued) spdlog::warn("bus {}: the loop is behind; bytes the gateway wrote were dropped", bus_.name);
+    post(bytes, bytes_sent);
+    // Readable without bytes (a pty hang-up the kept slave fd should prevent; a socket whose
+    // connections came or went, handled by the read): do not spin on a hang-up.
+    if (!any && (fds[0].revents & (POLLHUP | POLLERR)) != 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
 }
 
@@ -246,9 +265,8 @@ bool SerialLineHost::control(const motionlcm::sim_control_t& control) {
 void SerialLineHost::flush(TimePoint now) {
   while (!outbox_.empty() && outbox_.begin()->first <= now) {
     const auto& bytes = outbox_.begin()->second;
-    if (::write(link_->master_fd(), bytes.data(), bytes.size()) < 0)
-      spdlog::warn("bus {}: {} bytes not written: {}", bus_.name, bytes.size(),
-                   std::error_code(errno, std::generic_category()).message());
+    if (const auto error = link_->write(bytes))
+      spdlog::warn("bus {}: {} bytes not written: {}", bus_.name, bytes.size(), error.message());
     outbox_.erase(outbox_.begin());
   }
 }

@@ -5,7 +5,10 @@
 // Where a bus's port is: `serial:/dev/ttyUSB0` → that device; `simserial:<name>` → the pty that
 // motion-sim created for the bus, published as the symlink <sim_runtime_dir>/<bus>.tty
 // (simserial_link_path). Both paths are opened the same way: a pty slave is a real tty, so the
-// termios settings are exercised in tests too.
+// termios settings are exercised in tests too. When motion-sim made the line a Unix socket
+// (`simulation.serial_link: socket`, sim_link.hpp), the link path is a socket and the port
+// connects to it: no termios, the parity counted as on a pty that refuses it, each write() one
+// message that motion-sim dates by its kernel send stamp.
 //
 // Thread contract: a SerialPort is used from one thread (the loop's). No call blocks: reads and
 // writes return what the kernel took at once (EAGAIN is reported as "would block", not waited for).
@@ -20,10 +23,15 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <vector>
 
 namespace motion::serial {
 
 enum class Parity : std::uint8_t { kNone, kEven, kOdd };
+
+// The largest message on a socket line (sim_link.hpp) in either direction: a frame is at most
+// this long, and a SerialPort keeps what a caller's shorter read buffer could not take.
+inline constexpr std::size_t kSimLinkMessage = 256;
 
 struct SerialSettings {
   int baud = 115200;
@@ -73,8 +81,10 @@ class SerialPort {
   [[nodiscard]] const std::string& path() const { return path_; }
   // The configured settings (with their parity: the character time counts the parity bit).
   [[nodiscard]] const SerialSettings& settings() const { return settings_; }
-  // True when the parity is counted but not set on the tty (a pty that refuses PARENB).
+  // True when the parity is counted but not set on the tty (a pty that refuses PARENB, a socket).
   [[nodiscard]] bool parity_modelled() const { return parity_modelled_; }
+  // True when the path was a simulated line's socket rather than a tty.
+  [[nodiscard]] bool is_socket() const { return socket_; }
 
   // Reads what is available into `buffer`. Returns bytes read (0: nothing available right now);
   // `error` set on a real error or a hang-up (EIO; e.g. the pty's master side closed: a hung-up
@@ -85,11 +95,14 @@ class SerialPort {
   std::error_code write(std::span<const std::uint8_t> frame);
 
  private:
-  SerialPort(int fd, std::string path, SerialSettings settings, bool parity_modelled);
+  SerialPort(int fd, std::string path, SerialSettings settings, bool parity_modelled, bool socket);
+  std::size_t read_socket(std::span<std::uint8_t> buffer, std::error_code& error);
   int fd_ = -1;
   std::string path_;
   SerialSettings settings_;
   bool parity_modelled_ = false;
+  bool socket_ = false;
+  std::vector<std::uint8_t> pending_;  // the rest of a socket message a short read buffer left
 };
 
 }  // namespace motion::serial

@@ -10,6 +10,7 @@
 // Thread contract: the loaded Config is an immutable value; load functions are reentrant.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -258,6 +259,11 @@ struct SimulationSettings {
   // name (mode 0660), or empty: nobody (0600).
   std::string group;
   int reply_latency_us = 200;
+  // What a simserial: line is at <runtime_dir>/<bus>.tty (`serial_link: pty | socket`): a pty
+  // (default; the gateway's termios code runs, any serial tool can open it) or a Unix socket whose
+  // kernel send stamps date the gateway's bytes (no pty hop: motion/serial/sim_link.hpp).
+  enum class SerialLink : std::uint8_t { kPty, kSocket };
+  SerialLink serial_link = SerialLink::kPty;
   // Simulated home switches (`home_switches: {DRIVE: COUNTS | none}`): where the switch edge of a
   // drive whose axis homes on a switch is, in drive counts from the power-up position; `none`: no
   // switch. Drives not named get one half way from the power-up position to the travel limit in

@@ -1,8 +1,8 @@
-// One `simserial:` line in motion-sim: a pty pair whose slave path is published as
-// <sim_runtime_dir>/<bus>.tty (motion::serial::PtyLink; the gateway, or any serial tool, opens it
-// like a real port), with the simulated device of the line's drive family on the master side.
+// One `simserial:` line in motion-sim: its end at <sim_runtime_dir>/<bus>.tty (a pty, or a Unix
+// socket with `simulation.serial_link: socket`: motion::serial::SimLink; the gateway opens it like
+// a real port), with the simulated device of the line's drive family on motion-sim's end.
 // The host reads what the gateway writes and hands it to the device when it has crossed the
-// line: a pty moves bytes at once, so each read is delayed by its wire time at the bus's baud
+// line: the link moves bytes at once, so each read is delayed by its wire time at the bus's baud
 // rate, after whatever is still on the line (a drive sees a frame when its last character ends,
 // as on a real RS232/RS485 line). It writes the device's bytes once they have crossed the line the
 // same way (their wire time, after the device's delay and after what is on the line). On a
@@ -15,15 +15,15 @@
 // Line noise (sim_control_t LINE_NOISE for the bus, whatever the family): `value` bytes of a
 // fixed pseudo-random sequence (the same in every run), written at once (between frames) or into
 // the middle of the next frame the device sends.
-// The host reads the pty in a thread of its own when the loop runs on the steady clock: it dates
-// each read by when the bytes came (the pty's hand-over), not by when the loop got to them, since
-// a loop busy with the other buses of motion-sim dated the gateway's frames, and with them the
-// drives' ground truth (SIM_REPORT), milliseconds late. The reads reach the loop through a
+// The host reads the link in a thread of its own when the loop runs on the steady clock: it dates
+// each read by when the bytes came (a pty: its hand-over to the reader; a socket: the kernel's
+// stamp of the gateway's send, at most 10 ms back), not by when the loop got to them, since a loop
+// busy with the other buses of motion-sim dated the gateway's frames, and with them the drives'
+// ground truth (SIM_REPORT), milliseconds late. The reads reach the loop through a
 // LoopMailbox, in order; a time never goes back for the device (a read dated before what the
 // device has already been advanced to arrives then). On another clock (a test's) the loop reads.
 // Thread contract: the loop's thread only (construction, every call, destruction); the reader
-// thread touches the master fd and the mailbox only. No call blocks (the master fd is
-// non-blocking).
+// thread touches the link's read side and the mailbox only. No call blocks.
 #pragma once
 
 #include <cstdint>
@@ -42,7 +42,7 @@
 #include "motion/config/config.hpp"
 #include "motion/core/event_loop.hpp"
 #include "motion/core/loop_mailbox.hpp"
-#include "motion/serial/pty_link.hpp"
+#include "motion/serial/sim_link.hpp"
 #include "motion/sim/serial_device_sim.hpp"
 
 namespace motion::sim {
@@ -55,8 +55,8 @@ class SerialLineHost {
   // The family that would serve `bus` with `factories`; nullopt when none of its drives has one.
   [[nodiscard]] static std::optional<config::Family> family_for(const config::Config& config, const config::Bus& bus,
                                                                 const Factories& factories);
-  // Creates the pty and its link, the device, and powers it up. nullptr with `error` set when the
-  // pty or the link cannot be made, or no family of the bus has a factory (ENOTSUP). The link is
+  // Creates the line's end (simulation.serial_link), the device, and powers it up. nullptr with
+  // `error` set when the line's end cannot be made, or no family of the bus has a factory (ENOTSUP). The link is
   // `link_path`, or <sim_runtime_dir>/<bus>.tty when empty (simserial:; a simulated uimessage:
   // bus links its device path).
   static std::unique_ptr<SerialLineHost> open(EventLoop& loop, const config::Config& config, const config::Bus& bus,
@@ -93,12 +93,12 @@ class SerialLineHost {
   EventLoop& loop_;
   config::Bus bus_;
   config::Family family_;
-  std::unique_ptr<serial::PtyLink> link_;
+  std::unique_ptr<serial::SimLink> link_;
   std::unique_ptr<SerialDeviceSim> device_;
   TimePoint device_deadline_ = kNever;
   std::multimap<TimePoint, std::vector<std::uint8_t>> outbox_;         // due time -> bytes
   std::deque<std::pair<TimePoint, std::vector<std::uint8_t>>> inbox_;  // arrival (end of wire time) -> bytes
-  // When the gateway's last bytes (read from the pty) and the device's last bytes end on the wire.
+  // When the gateway's last bytes (read from the link) and the device's last bytes end on the wire.
   // A half-duplex line (SerialDeviceSim::full_duplex) carries one direction at a time.
   TimePoint to_device_until_{};
   TimePoint from_device_until_{};
