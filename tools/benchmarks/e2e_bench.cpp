@@ -115,6 +115,31 @@ double load_average() {
   return load;
 }
 
+// Sets KEY: VALUE under the configuration's top-level `simulation:` map (block style, as in
+// config/sim-lab.yaml), replacing the key's line when it has one; a new section when there is none.
+void set_simulation_key(std::string& yaml, const std::string& key, const std::string& value) {
+  std::vector<std::string> lines;
+  std::istringstream in(yaml);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  const std::string line = "  " + key + ": " + value;
+  const auto section = std::find(lines.begin(), lines.end(), "simulation:");
+  if (section == lines.end()) {
+    lines.emplace_back("simulation:");
+    lines.push_back(line);
+  } else {
+    auto at = section + 1;
+    for (; at != lines.end() && at->rfind("  ", 0) == 0; ++at) {
+      if (at->rfind("  " + key + ":", 0) == 0) break;
+    }
+    if (at != lines.end() && at->rfind("  " + key + ":", 0) == 0)
+      *at = line;
+    else
+      lines.insert(section + 1, line);
+  }
+  yaml.clear();
+  for (const auto& l : lines) yaml += l + "\n";
+}
+
 // Sets KEY: VALUE in the entry of `buses:` whose `- name:` is BUS, in the configuration's text
 // (`spec` is BUS.KEY=VALUE): the key's line when the entry has one, else a new line after the
 // name. Returns what was wrong with `spec`, empty when it applied.
@@ -167,7 +192,9 @@ std::string set_bus_key(std::string& yaml, const std::string& spec) {
   return {};
 }
 
-int run(bool quick, bool skew_only, int skew_moves, int realtime, std::vector<std::string> sets) {
+// `serial_link`: simulation.serial_link for the run (empty: the configuration's).
+int run(bool quick, bool skew_only, int skew_moves, int realtime, std::vector<std::string> sets,
+        const std::string& serial_link) {
   std::string config_path = MOTION_E2E_CONFIG;
   if (const char* env = std::getenv("BENCH_E2E_CONFIG")) config_path = env;
   std::string yaml;
@@ -198,6 +225,8 @@ int run(bool quick, bool skew_only, int skew_moves, int realtime, std::vector<st
       return 2;
     }
   }
+  const bool changed = !sets.empty() || !serial_link.empty();
+  if (!serial_link.empty()) set_simulation_key(yaml, "serial_link", serial_link);
   auto loaded = config::load_string(yaml, config_path);
   if (!loaded.ok()) {
     std::fprintf(stderr, "%s\n", loaded.error_text().c_str());
@@ -211,7 +240,7 @@ int run(bool quick, bool skew_only, int skew_moves, int realtime, std::vector<st
   if (made == nullptr) return 1;
   const std::string dir = made;
   const std::string sim_dir = dir + "/sim";
-  if (!sets.empty()) {  // the programs read the changed configuration from the run's directory
+  if (changed) {  // the programs read the changed configuration from the run's directory
     config_path = dir + "/lab.yaml";
     std::ofstream(config_path) << yaml;
   }
@@ -607,7 +636,9 @@ int run(bool quick, bool skew_only, int skew_moves, int realtime, std::vector<st
                     percentile(heard_delay, 50), percentile(heard_delay, 99), "", NAN});
   }
   stop_all(programs.children());
-  std::printf("end to end on the simulated lab (%s), binaries %s, LCM %s, load average %.2f\n\n", config_path.c_str(),
+  std::printf("end to end on the simulated lab (%s, serial lines: %s), binaries %s, LCM %s, load average %.2f\n\n",
+              config_path.c_str(),
+              cfg.simulation.serial_link == config::SimulationSettings::SerialLink::kSocket ? "socket" : "pty",
               bin.c_str(), url.c_str(), load_average());
   std::printf("%-62s %11s %11s   %-24s %8s\n", "measure", "p50 us", "p99 us", "bound (same run)", "ratio");
   for (const auto& r : rows) {
@@ -634,6 +665,7 @@ int main(int argc, char** argv) {
   int skew_moves = 0;
   int realtime = 0;
   std::vector<std::string> sets;
+  std::string serial_link;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
@@ -653,13 +685,20 @@ int main(int argc, char** argv) {
       }
     } else if (std::strcmp(argv[i], "--set") == 0 && i + 1 < argc) {
       sets.emplace_back(argv[++i]);
+    } else if (std::strcmp(argv[i], "--serial-link") == 0 && i + 1 < argc) {
+      serial_link = argv[++i];
+      if (serial_link != "pty" && serial_link != "socket") {
+        std::fprintf(stderr, "bench_e2e: --serial-link wants pty or socket, got '%s'\n", argv[i]);
+        return 2;
+      }
     } else {
       std::fprintf(stderr,
-                   "usage: bench_e2e [--quick] [--skew-only] [--moves N] [--realtime P] [--set BUS.KEY=VALUE ...]\n"
+                   "usage: bench_e2e [--quick] [--skew-only] [--moves N] [--realtime P] [--set BUS.KEY=VALUE ...] "
+                   "[--serial-link pty|socket]\n"
                    "unknown or incomplete argument: %s\n",
                    argv[i]);
       return 2;
     }
   }
-  return motion::bench::run(quick, skew_only, skew_moves, realtime, std::move(sets));
+  return motion::bench::run(quick, skew_only, skew_moves, realtime, std::move(sets), serial_link);
 }

@@ -23,7 +23,9 @@
 // A bus that does not come up is reported as such (with what its gateway logged) and left out of
 // the move; nothing is estimated. Not part of ctest: `tools/bench lab`.
 //
-// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] [--cpu-latency US] [--sched-slice US] [--enable-all 0|1]
+// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] [--cpu-latency US] [--sched-slice US] [--enable-all 0|1] [--serial-link pty|socket]
+//   --serial-link socket: motion-sim makes the serial lines Unix sockets (`simulation.serial_link`),
+//     which date the gateways' bytes by their send, not by the pty's hand-over; pty, the default
 //   --scale F: every bus's drive count times F (0 < F <= 1; 1 is the full lab)
 //   --sched-slice US: every bus gets `sched_slice_us: US` (0: the kernel's default slice for the
 //     gateways under normal scheduling; without it, the gateways' own default)
@@ -82,6 +84,7 @@ struct Options {
   int cpu_latency = -1;  // -1 or 0..10000 us
   int sched_slice = -1;  // -1 (the gateways' default) or 0..100000 us
   bool enable_all = false;
+  std::string serial_link = "pty";  // simulation.serial_link
 };
 
 // One bus of the generated lab: its drives are `count` of `family` from node id `first_id`, and
@@ -172,7 +175,8 @@ std::string lab_yaml(const std::vector<BusPlan>& buses, const Options& opt,
     if (b.extra_count > 0) add(b.extra_family, b.extra_first_id, b.extra_count, 0);
   }
   return "lcm: {channel_prefix: \"MOTION_\"}\nbuses:\n" + buses_out.str() + "drives:\n" + drives.str() + "axes:\n" +
-         axes.str() + "coordinator: {default_timeout_ms: 60000, progress_period_ms: 500}\n";
+         axes.str() + "coordinator: {default_timeout_ms: 60000, progress_period_ms: 500}\n" +
+         "simulation: {serial_link: " + opt.serial_link + "}\n";
 }
 
 // CPU seconds (utime + stime) of `pid`, from /proc/PID/stat; nullopt when it is gone.
@@ -528,6 +532,7 @@ int run(const Options& opt) {
                 opt.realtime);
   if (opt.sched_slice >= 0)
     std::printf("gateways' slice under normal scheduling: sched_slice_us %d\n", opt.sched_slice);
+  std::printf("simulated serial lines: %s\n", opt.serial_link.c_str());
   if (opt.cpu_latency >= 0)
     std::printf("cpu latency: %d us from idle, asked by %s's gateway (a refusal is in its log)\n", opt.cpu_latency,
                 buses.front().name.c_str());
@@ -550,7 +555,7 @@ int main(int argc, char** argv) {
   motion::bench::Options opt;
   const char* const usage =
       "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] "
-      "[--cpu-latency US] [--sched-slice US] [--enable-all 0|1]\n";
+      "[--cpu-latency US] [--sched-slice US] [--enable-all 0|1] [--serial-link pty|socket]\n";
   for (int i = 1; i < argc; i += 2) {
     // A flag without its value (e.g. --help) is refused, not ignored (it used to run the full lab).
     if (i + 1 >= argc) {
@@ -559,7 +564,9 @@ int main(int argc, char** argv) {
     }
     const std::string flag = argv[i];
     const double value = std::atof(argv[i + 1]);
-    if (flag == "--scale" && value > 0 && value <= 1)
+    if (flag == "--serial-link" && (std::strcmp(argv[i + 1], "pty") == 0 || std::strcmp(argv[i + 1], "socket") == 0))
+      opt.serial_link = argv[i + 1];
+    else if (flag == "--scale" && value > 0 && value <= 1)
       opt.scale = value;
     else if (flag == "--bring-up-s")
       opt.bring_up_s = static_cast<int>(value);

@@ -184,8 +184,18 @@ void CanBusDriver::on_readable() {
   reschedule();
 }
 
+void CanBusDriver::hold_traffic(TimePoint from, TimePoint until) {
+  hold_from_ = from;
+  hold_until_ = until;
+}
+
 void CanBusDriver::reschedule() {
   const TimePoint now = loop_.now();
+  if (now >= hold_from_ && now < hold_until_) {
+    // The fire ends the hold and comes at hold_until_; this wakes the stacks only if it did not.
+    timer_.arm(hold_until_ + std::chrono::milliseconds(1), [this] { reschedule(); });
+    return;
+  }
   TimePoint next = kNever;
   for (auto& s : stacks_) call(s.get(), [&](CanStack& stack) { next = std::min(next, stack.process(now)); });
   timer_.arm(next, [this] { reschedule(); });
@@ -220,6 +230,7 @@ void CanBusDriver::execute(const motionlcm::gateway_command_t& command) {
     if (armed_stacks_.size() > 256) armed_stacks_.erase(armed_stacks_.begin());  // never fired (disarmed, failed)
   }
   const TimePoint now = loop_.now();
+  hold_until_ = TimePoint{};  // a command (a stop, above all) never waits for a start's hold
   for (auto& [stack, part] : parts) call(stack, [&, &cmd = part](CanStack& s) { s.execute(cmd, now); });
   reschedule();
 }
@@ -336,6 +347,7 @@ Duration CanBusDriver::start_wait() const {
 
 void CanBusDriver::fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) {
   const TimePoint now = loop_.now();
+  hold_until_ = TimePoint{};
   std::vector<CanStack*> order;
   for (const auto id : command_order) {
     const auto it = armed_stacks_.find(id);

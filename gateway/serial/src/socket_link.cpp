@@ -95,7 +95,7 @@ std::size_t SocketLink::read(std::span<std::uint8_t> buffer, std::int64_t& sent_
       continue;
     }
     const ssize_t n = unix_socket::receive_stamped(fd, buffer, sent_wall_ns);
-    if (n > 0) return static_cast<std::size_t>(n);  // the other ready ones stay ready (level-triggered)
+    if (n > 0) return static_cast<std::size_t>(n);                // the other ready ones stay ready (level-triggered)
     if (n == 0 || (errno != EAGAIN && errno != EINTR)) drop(fd);  // closed by its end
   }
   sent_wall_ns = 0;

@@ -335,6 +335,45 @@ TEST_F(CanBusDriverTest, StackDeadlineWakesTheDriver) {
   EXPECT_TRUE(uim->woke);
 }
 
+// Over a start's traffic hold the stacks are not asked for their own traffic (process(): polls,
+// SYNCs, timeouts), though the frames that arrive are still handed to them; their deadlines are
+// kept for after it. The fire ends the hold, and so does a command (a stop must not wait for it).
+TEST_F(CanBusDriverTest, AHoldBeforeAStartKeepsTheStacksOwnTrafficUntilTheFireOrACommand) {
+  for (const bool end_by_command : {false, true}) {
+    SCOPED_TRACE(end_by_command ? "ended by a command" : "ended by the fire");
+    const TimePoint now = loop.now();
+    driver->hold_traffic(now, now + milliseconds(500));
+    const int calls = uim->process_calls;
+    uim->wake_at = now + milliseconds(5);  // a poll due inside the hold
+    transport->push(*can::parse_cansend("04280095#01"));
+    const auto until = now + milliseconds(40);
+    while (loop.now() < until) loop.run_once(milliseconds(5));
+    EXPECT_FALSE(uim->frames.empty()) << "a frame that arrived was not read";
+    uim->frames.clear();
+    EXPECT_EQ(uim->process_calls, calls) << "the stack was asked for its traffic inside the hold";
+    EXPECT_FALSE(uim->woke);
+    if (end_by_command) {
+      driver->execute(command(40, {"x"}));
+    } else {
+      driver->fire(41);
+    }
+    EXPECT_GT(uim->process_calls, calls);
+    EXPECT_TRUE(uim->woke) << "the deadline due inside the hold is done at its end";
+    uim->woke = false;
+  }
+  // A hold whose fire never comes ends by itself, shortly after its end.
+  const TimePoint now = loop.now();
+  driver->hold_traffic(now, now + milliseconds(20));
+  uim->wake_at = now + milliseconds(1);
+  transport->push(*can::parse_cansend("04280095#01"));
+  loop.run_once(milliseconds(5));
+  EXPECT_FALSE(uim->woke);
+  const auto deadline = now + milliseconds(500);
+  while (!uim->woke && loop.now() < deadline) loop.run_once(milliseconds(5));
+  EXPECT_TRUE(uim->woke);
+  EXPECT_GE(loop.now() - now, milliseconds(20));
+}
+
 TEST_F(CanBusDriverTest, BusOffBecomesAnEventAndNotReady) {
   EXPECT_TRUE(driver->ready());
   transport->raise(can::BusState::kBusOff);

@@ -59,6 +59,7 @@ class FakeDriver : public BusDriver {
     orders.push_back(order);
   }
   void prepare_fire(TimePoint at) override { prepared.push_back(at); }
+  void hold_traffic(TimePoint from, TimePoint until) override { holds.emplace_back(from, until); }
   Duration start_wait() const override { return wait; }
   std::vector<motionlcm::bus_stats_t> statistics() const override {
     motionlcm::bus_stats_t s{};
@@ -72,8 +73,9 @@ class FakeDriver : public BusDriver {
   std::vector<std::pair<std::int64_t, TimePoint>> fired;
   std::vector<std::vector<std::int64_t>> orders;
   std::vector<TimePoint> prepared;
-  Duration wait{};             // start_wait()
-  bool reply_on_fire = false;  // a STARTED reply for command 77 from each fire
+  std::vector<std::pair<TimePoint, TimePoint>> holds;  // hold_traffic()
+  Duration wait{};                                     // start_wait()
+  bool reply_on_fire = false;                          // a STARTED reply for command 77 from each fire
 
  private:
   GatewayOutput& out_;
@@ -216,6 +218,30 @@ TEST_F(Fixture, TriggerFiresAtItsWallClockTimeOnlyOnListedBuses) {
   EXPECT_GE(driver->fired[0].second - published, milliseconds(49));  // not early
 }
 
+// A gateway holds its bus's own traffic (polls, SYNCs) from 1 ms before the start's quiet interval
+// (0.5 ms before the first bus's send time) until its own fire, so that no gateway of the start is
+// busy with its polls when another one's fire is due; a trigger of this bus alone holds 1 ms.
+TEST_F(Fixture, ATriggerHoldsTheBusesOwnTrafficFromJustBeforeTheStartsQuietIntervalUntilItFires) {
+  motionlcm::sync_trigger2_t t{};
+  t.trigger_id = 4;
+  t.act_utime = wall_time_us() + 60'000;
+  t.buses = {"can0", "can1"};
+  t.send_utime = {t.act_utime - 3'000, t.act_utime - 6'000};  // can1 (a slow line) sends first
+  t.lead_us = {3'000.0, 6'000.0};
+  t.num_buses = 2;
+  t.utime = wall_time_us();
+  node.publish(lcm::channels::kSyncTrigger2, t);
+  pump_until([&] { return !driver->fired.empty(); });
+  ASSERT_EQ(driver->holds.size(), 1u);
+  const auto [from, until] = driver->holds[0];
+  // Wall-clock send times on the steady clock: the two clocks are read a few µs apart.
+  const double held_us = std::chrono::duration<double, std::micro>(until - from).count();
+  EXPECT_NEAR(held_us, 6000.0 + 500.0 + 1000.0 - 3000.0, 10.0)
+      << "from 1 ms before the quiet interval (can1's send - 0.5 ms) to can0's fire";
+  ASSERT_EQ(driver->fired.size(), 1u);
+  EXPECT_LE(until, driver->fired[0].second);
+}
+
 TEST_F(Fixture, ScheduledTriggerFiresAtThisBusesSendTimeInItsOrderAndOnce) {
   motionlcm::sync_trigger2_t t{};
   t.trigger_id = 3;
@@ -250,6 +276,14 @@ TEST_F(Fixture, ScheduledTriggerFiresAtThisBusesSendTimeInItsOrderAndOnce) {
   EXPECT_EQ(driver->orders[0], (std::vector<std::int64_t>{12, 11, 13}));
   ASSERT_EQ(driver->prepared.size(), 1u);  // the bus was told ahead
   EXPECT_LE(driver->prepared[0], driver->fired[0].second);
+  // Its own traffic held until it fires, from 1 ms before the start's quiet interval; that
+  // interval (at most 10 ms, up to 0.5 ms after the act time) begins long after can0's send time
+  // here, so the hold is the shortest: 1 ms.
+  ASSERT_EQ(driver->holds.size(), 1u);
+  const auto [hold_from, hold_until] = driver->holds[0];
+  EXPECT_LE(hold_until, driver->fired[0].second);
+  EXPECT_GE(hold_until, driver->fired[0].second - milliseconds(2));
+  EXPECT_EQ(hold_until - hold_from, Gateway::kTrafficHoldBefore);
   // Nothing more comes for it.
   const auto later = loop.now() + milliseconds(100);
   pump_until([&] { return loop.now() >= later; });

@@ -107,6 +107,13 @@ class BusDriver {
   // traffic at `at` (LINE_TIMING): the longest exchange a serial line may have under way, the
   // answer horizon of a CAN bus's polls or its SYNC's quiet time. Default 0.
   [[nodiscard]] virtual Duration start_wait() const { return Duration::zero(); }
+  // Over [from, until) (steady clock; until: this bus's fire) start no traffic of the driver's own
+  // (polls, a periodic SYNC, retries), so that the host's CPUs are free when the gateways of a
+  // start wake to hand their frames over: what arrives meanwhile is still read, and what is due is
+  // done at `until`. A command executed, or the fire, ends the hold. Default: nothing (a serial
+  // line already begins no exchange that would run into its start, and its polls cost the host
+  // little).
+  virtual void hold_traffic(TimePoint /*from*/, TimePoint /*until*/) {}
   // How long after its send time the start frame of the moves armed with `trigger_id` is to be
   // handed over: a frame shorter than the one the coordinator's schedule counted waits the
   // difference, so that it ends when that one would. Fired then, it goes out at once, with no

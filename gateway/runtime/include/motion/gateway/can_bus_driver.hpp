@@ -124,6 +124,9 @@ class CanBusDriver final : public BusDriver {
   void fire_ordered(std::int64_t trigger_id, const std::vector<std::int64_t>& command_order) override;
   void prepare_fire(TimePoint at) override;
   [[nodiscard]] Duration start_wait() const override;
+  // The stacks' process() (their polls, SYNCs, timeouts) is not called over the hold; their
+  // received frames are.
+  void hold_traffic(TimePoint from, TimePoint until) override;
   [[nodiscard]] std::vector<motionlcm::bus_stats_t> statistics() const override;
   [[nodiscard]] bool ready() const override;
   // The stacks' ledgers summed (one part per node/axis), with the releases and refusals of the
@@ -205,6 +208,8 @@ class CanBusDriver final : public BusDriver {
   std::uint64_t seen_reopens_ = 0;        // the SocketCAN transport's reopens handled
   bool keeping_ = false;                  // the stacks are firing: their frames are kept
   std::vector<can::Frame> kept_;
+  TimePoint hold_from_{};  // hold_traffic(): [hold_from_, hold_until_), empty when not held
+  TimePoint hold_until_{};
 };
 
 }  // namespace motion::gateway

@@ -110,6 +110,11 @@ using ArmingBuilder = std::function<std::variant<motionlcm::arm_timing_t, std::s
 
 class Gateway final : public GatewayOutput {
  public:
+  // A start's traffic hold (schedule_fire, BusDriver::hold_traffic): from this long before the
+  // start's quiet interval, and at least this long before the bus's fire; never longer than
+  // kLongestTrafficHold.
+  static constexpr auto kTrafficHoldBefore = std::chrono::milliseconds(1);
+  static constexpr auto kLongestTrafficHold = std::chrono::milliseconds(15);
   Gateway(EventLoop& loop, lcm::Node& node, lcm::HealthPublisher& health, const config::Config& config,
           std::string bus);
   ~Gateway() override;
@@ -204,8 +209,12 @@ class Gateway final : public GatewayOutput {
   void on_trigger(const motionlcm::sync_trigger_t& trigger);
   void on_trigger2(const motionlcm::sync_trigger2_t& trigger);
   // Fires the driver for `trigger_id` at `send_utime` (wall clock; when the first start frame is to
-  // begin on the wire) less the bus's egress_latency_us, or now when that has passed.
-  void schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, std::vector<std::int64_t> order);
+  // begin on the wire) less the bus's egress_latency_us, or now when that has passed. The driver
+  // holds its own traffic from kTrafficHoldBefore before `quiet_from_utime` (the start's quiet
+  // interval, lcm/start_quiet.hpp; 0: this bus's fire) until the fire: at least kTrafficHoldBefore,
+  // at most kLongestTrafficHold.
+  void schedule_fire(std::int64_t trigger_id, std::int64_t send_utime, std::vector<std::int64_t> order,
+                     std::int64_t quiet_from_utime = 0);
   // The coordinator's desired state: a request of this bus triggered before this process started
   // was the previous gateway process's; its axes are stopped and a GATEWAY_RESTARTED event says
   // what they were doing.

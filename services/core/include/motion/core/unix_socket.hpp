@@ -33,8 +33,7 @@ namespace motion::unix_socket {
 // (`error` set). A socket file left there by a dead process is replaced; one that a live process
 // listens on is not: address_in_use. The access is set before listen(), so nobody else connects
 // in between.
-[[nodiscard]] int listen_seqpacket(const std::filesystem::path& path, const FileAccess& access,
-                                   std::error_code& error);
+[[nodiscard]] int listen_seqpacket(const std::filesystem::path& path, const FileAccess& access, std::error_code& error);
 
 // Asks the kernel to stamp what `fd` receives (SO_TIMESTAMPNS): an AF_UNIX message is stamped
 // when the sender's send() queues it, not when it is read.
