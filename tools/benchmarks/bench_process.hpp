@@ -8,6 +8,7 @@
 #include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -50,11 +51,13 @@ struct Child {
 
 // `fifo_priority` > 0: the child (and every thread it creates) runs under SCHED_FIFO at that
 // priority where the host permits it, else under normal scheduling (a note in its log).
+// `nice_value`: the child's (and its threads') nice value under normal scheduling.
 inline pid_t spawn(const std::string& binary, const std::vector<std::string>& args, const std::string& sim_dir,
-                   const std::string& log, int fifo_priority = 0) {
+                   const std::string& log, int fifo_priority = 0, int nice_value = 0) {
   const pid_t pid = ::fork();
   if (pid != 0) return pid;
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (nice_value != 0) (void)::setpriority(PRIO_PROCESS, 0, nice_value);
   const bool fifo_refused = [&] {
     if (fifo_priority <= 0) return false;
     sched_param param{};
@@ -119,11 +122,11 @@ class LabPrograms {
                                                                                                            : "warn"},
         sim_dir_(std::move(sim_dir)),
         log_dir_(std::move(log_dir)) {}
-  void start(const std::string& name, const std::string& program, std::vector<std::string> extra,
-             int fifo_priority = 0) {
+  void start(const std::string& name, const std::string& program, std::vector<std::string> extra, int fifo_priority = 0,
+             int nice_value = 0) {
     extra.insert(extra.begin(), common_.begin(), common_.end());
-    children_.push_back(
-        {name, spawn(bin_ + "/" + program, extra, sim_dir_, log_dir_ + "/" + name + ".log", fifo_priority)});
+    children_.push_back({name, spawn(bin_ + "/" + program, extra, sim_dir_, log_dir_ + "/" + name + ".log",
+                                     fifo_priority, nice_value)});
   }
   std::vector<Child>& children() { return children_; }
 

@@ -136,8 +136,11 @@ void SerialLineHost::send(std::span<const std::uint8_t> bytes, Duration delay) {
   }
   // The device's bytes cross the line too: written when their last character has, after the
   // device's delay and after whatever is still on the line (before, a reply arrived at once, and a
-  // 19200-baud line carried more than its baud rate allows).
-  TimePoint begin = std::max(from_device_until_, loop_.now() + delay);
+  // 19200-baud line carried more than its baud rate allows). The delay counts from the device's
+  // own present (the arrival of the request it answers), not from when motion-sim got to run it:
+  // a reply dated by a loop that was held up kept a half-duplex line busy past the gateway's next
+  // frame, which then reached its drives that much late.
+  TimePoint begin = std::max(from_device_until_, device_now_ + delay);
   if (!device_->full_duplex()) begin = std::max(begin, to_device_until_);
   from_device_until_ = begin + configured_line(bus_).wire_time(out.size());
   outbox_.emplace(from_device_until_, std::move(out));
