@@ -23,12 +23,14 @@
 // A bus that does not come up is reported as such (with what its gateway logged) and left out of
 // the move; nothing is estimated. Not part of ctest: `tools/bench lab`.
 //
-// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] [--cpu-latency US] [--sched-slice US] [--enable-all 0|1] [--serial-link pty|socket] [--sim-nice N]
+// Usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] [--cpu-latency US] [--sched-slice US] [--enable-all 0|1] [--serial-link pty|socket] [--sim-nice N] [--sim-realtime P]
 //   --serial-link socket: motion-sim makes the serial lines Unix sockets (`simulation.serial_link`),
 //     which date the gateways' bytes by their send, not by the pty's hand-over; pty, the default
 //   --sim-nice N: motion-sim runs at nice N (0..19; 0, the default): the simulated drives, which on
 //     a real lab take no CPU from the gateways' host, then yield it to them; their ground truth
 //     is dated by the kernel's send stamps (CAN, and serial lines with --serial-link socket)
+//   --sim-realtime P: motion-sim under SCHED_FIFO P (below the gateways' --realtime, so that they
+//     preempt it; with --serial-link pty its lines' kernel worker is then held back, see above)
 //   --scale F: every bus's drive count times F (0 < F <= 1; 1 is the full lab)
 //   --sched-slice US: every bus gets `sched_slice_us: US` (0: the kernel's default slice for the
 //     gateways under normal scheduling; without it, the gateways' own default)
@@ -89,6 +91,7 @@ struct Options {
   bool enable_all = false;
   std::string serial_link = "pty";  // simulation.serial_link
   int sim_nice = 0;                 // motion-sim's nice value
+  int sim_realtime = 0;             // motion-sim's SCHED_FIFO priority (0: normal scheduling)
 };
 
 // One bus of the generated lab: its drives are `count` of `family` from node id `first_id`, and
@@ -291,8 +294,9 @@ int run(const Options& opt) {
   std::vector<std::string> findings;
   do {
     const auto t_sim = Steady::now();
-    // Normal scheduling even with --realtime (see the top); --sim-nice lowers its weight.
-    programs.start("sim", "motion-sim", {}, 0, opt.sim_nice);
+    // Normal scheduling even with --realtime (see the top) unless --sim-realtime; --sim-nice
+    // lowers its weight.
+    programs.start("sim", "motion-sim", {}, opt.sim_realtime, opt.sim_nice);
     if (!wait([&] { return health.contains("sim"); }, 60)) {
       findings.push_back("motion-sim sent no heartbeat within 60 s:\n" + tail_of(dir + "/sim.log", 8));
       rc = 1;
@@ -537,7 +541,8 @@ int run(const Options& opt) {
                 opt.realtime);
   if (opt.sched_slice >= 0)
     std::printf("gateways' slice under normal scheduling: sched_slice_us %d\n", opt.sched_slice);
-  std::printf("simulated serial lines: %s; motion-sim at nice %d\n", opt.serial_link.c_str(), opt.sim_nice);
+  std::printf("simulated serial lines: %s; motion-sim at nice %d, SCHED_FIFO %d (0: normal scheduling)\n",
+              opt.serial_link.c_str(), opt.sim_nice, opt.sim_realtime);
   if (opt.cpu_latency >= 0)
     std::printf("cpu latency: %d us from idle, asked by %s's gateway (a refusal is in its log)\n", opt.cpu_latency,
                 buses.front().name.c_str());
@@ -560,7 +565,8 @@ int main(int argc, char** argv) {
   motion::bench::Options opt;
   const char* const usage =
       "usage: bench_lab [--scale F] [--bring-up-s N] [--window-s N] [--moves N] [--per-bus N] [--realtime P] "
-      "[--cpu-latency US] [--sched-slice US] [--enable-all 0|1] [--serial-link pty|socket] [--sim-nice N]\n";
+      "[--cpu-latency US] [--sched-slice US] [--enable-all 0|1] [--serial-link pty|socket] [--sim-nice N] "
+      "[--sim-realtime P]\n";
   for (int i = 1; i < argc; i += 2) {
     // A flag without its value (e.g. --help) is refused, not ignored (it used to run the full lab).
     if (i + 1 >= argc) {
@@ -573,6 +579,8 @@ int main(int argc, char** argv) {
       opt.serial_link = argv[i + 1];
     else if (flag == "--sim-nice" && value >= 0 && value <= 19)
       opt.sim_nice = static_cast<int>(value);
+    else if (flag == "--sim-realtime" && value >= 0 && value <= 99)
+      opt.sim_realtime = static_cast<int>(value);
     else if (flag == "--scale" && value > 0 && value <= 1)
       opt.scale = value;
     else if (flag == "--bring-up-s")
