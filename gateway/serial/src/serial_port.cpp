@@ -72,12 +72,21 @@ bool is_pty(int fd) {
   return m >= kFirstPtySlaveMajor && m <= kLastPtySlaveMajor;
 }
 
+namespace {
+
+// What a port refuses on a tty and a simulated line's socket alike: a baud rate without a termios
+// constant, other than 8 data bits, other than 1 or 2 stop bits.
+bool supported(const SerialSettings& settings, unsigned& speed) {
+  return termios_speed(settings.baud, speed) && settings.data_bits == 8 &&
+         (settings.stop_bits == 1 || settings.stop_bits == 2);
+}
+
+}  // namespace
+
 std::error_code configure_tty(int fd, const SerialSettings& settings, bool& parity_modelled) {
   parity_modelled = false;
   unsigned speed = 0;
-  if (!termios_speed(settings.baud, speed)) return std::make_error_code(std::errc::invalid_argument);
-  if (settings.data_bits != 8 || (settings.stop_bits != 1 && settings.stop_bits != 2))
-    return std::make_error_code(std::errc::invalid_argument);
+  if (!supported(settings, speed)) return std::make_error_code(std::errc::invalid_argument);
   termios tio{};
   if (::tcgetattr(fd, &tio) != 0) return last_error();
   ::cfmakeraw(&tio);  // no echo, no line editing, no CR/LF translation: binary frames
@@ -107,8 +116,7 @@ std::unique_ptr<SerialPort> SerialPort::open(const std::string& path, const Seri
   if (struct stat st{}; ::stat(path.c_str(), &st) == 0 && S_ISSOCK(st.st_mode)) {
     // A simulated line's socket: the same settings are refused as on a tty, none is applied.
     unsigned speed = 0;
-    if (!termios_speed(settings.baud, speed) || settings.data_bits != 8 ||
-        (settings.stop_bits != 1 && settings.stop_bits != 2)) {
+    if (!supported(settings, speed)) {
       error = std::make_error_code(std::errc::invalid_argument);
       return nullptr;
     }
